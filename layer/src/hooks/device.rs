@@ -1,0 +1,64 @@
+//! Device-level hooks: device-level dispatch and device destruction.
+
+use std::ffi::c_char;
+
+use ash::vk;
+
+use super::command_name;
+use crate::boundary::{guarded, EntryPoint};
+use crate::state::{DispatchKey, DEVICES};
+
+static GET_DEVICE_PROC_ADDR: EntryPoint = EntryPoint::new("vkGetDeviceProcAddr");
+static DESTROY_DEVICE: EntryPoint = EntryPoint::new("vkDestroyDevice");
+
+/// `vkGetDeviceProcAddr`: revz's device hooks first, the next layer for everything else.
+///
+/// # Safety
+/// Called by the loader or the application with the arguments the Vulkan spec allows.
+pub unsafe extern "system" fn get_device_proc_addr(
+    device: vk::Device,
+    p_name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    guarded(
+        &GET_DEVICE_PROC_ADDR,
+        || {
+            // SAFETY: the spec requires a NUL-terminated name; null is tolerated.
+            let name = unsafe { command_name(p_name) }?;
+            if device == vk::Device::null() {
+                return None;
+            }
+            // SAFETY: a non-null device passed to vkGetDeviceProcAddr is live.
+            let state = DEVICES.get(unsafe { DispatchKey::of(device) })?;
+            // SAFETY: calling down the chain with the caller's arguments.
+            let next = unsafe { (state.next_get_device_proc_addr)(device, p_name) };
+            // A hook is only handed out for a command the device below provides.
+            next.and_then(|_| super::device_command(name)).or(next)
+        },
+        || None,
+    )
+}
+
+/// `vkDestroyDevice`.
+///
+/// # Safety
+/// Called by the application with the arguments the Vulkan spec allows.
+pub unsafe extern "system" fn destroy_device(
+    device: vk::Device,
+    p_allocator: *const vk::AllocationCallbacks,
+) {
+    guarded(
+        &DESTROY_DEVICE,
+        || {
+            if device == vk::Device::null() {
+                return;
+            }
+            // SAFETY: a non-null device being destroyed is still live.
+            match DEVICES.remove(unsafe { DispatchKey::of(device) }) {
+                // SAFETY: calling down with the application's arguments.
+                Some(state) => unsafe { (state.next.fp_v1_0().destroy_device)(device, p_allocator) },
+                None => log::error!("vkDestroyDevice: unknown device {device:?}; cannot pass it down"),
+            }
+        },
+        || (),
+    )
+}

@@ -1,0 +1,271 @@
+//! Instance-level hooks: instance and device creation, and instance-level dispatch.
+
+use std::ffi::c_char;
+
+use ash::vk;
+
+use super::command_name;
+use crate::boundary::{guarded, EntryPoint};
+use crate::config::Config;
+use crate::ffi;
+use crate::state::{DeviceState, DispatchKey, InstanceState, DEVICES, INSTANCES};
+use crate::{logging, LAYER_NAME, VERSION};
+
+static GET_INSTANCE_PROC_ADDR: EntryPoint = EntryPoint::new("vkGetInstanceProcAddr");
+static CREATE_INSTANCE: EntryPoint = EntryPoint::new("vkCreateInstance");
+static DESTROY_INSTANCE: EntryPoint = EntryPoint::new("vkDestroyInstance");
+static CREATE_DEVICE: EntryPoint = EntryPoint::new("vkCreateDevice");
+static READ_CONFIG: EntryPoint = EntryPoint::new("reading the configuration");
+
+/// `vkGetInstanceProcAddr`: revz's hooks first, the next layer for everything else.
+///
+/// # Safety
+/// Called by the loader or the application with the arguments the Vulkan spec allows.
+pub unsafe extern "system" fn get_instance_proc_addr(
+    instance: vk::Instance,
+    p_name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    guarded(
+        &GET_INSTANCE_PROC_ADDR,
+        || {
+            // SAFETY: the spec requires a NUL-terminated name; null is tolerated.
+            let name = unsafe { command_name(p_name) }?;
+            if let Some(hook) = super::instance_command(name).or_else(|| super::device_command(name))
+            {
+                return Some(hook);
+            }
+            if instance == vk::Instance::null() {
+                return None;
+            }
+            // SAFETY: a non-null instance passed to vkGetInstanceProcAddr is live.
+            let state = INSTANCES.get(unsafe { DispatchKey::of(instance) })?;
+            // SAFETY: calling down the chain with the caller's arguments.
+            unsafe { (state.next_get_instance_proc_addr)(instance, p_name) }
+        },
+        || None,
+    )
+}
+
+/// `vkCreateInstance`: takes revz's link out of the loader chain, creates the instance below,
+/// and records its dispatch and configuration.
+///
+/// # Safety
+/// Called by the loader with the arguments the loader-layer interface specifies.
+pub unsafe extern "system" fn create_instance(
+    p_create_info: *const vk::InstanceCreateInfo,
+    p_allocator: *const vk::AllocationCallbacks,
+    p_instance: *mut vk::Instance,
+) -> vk::Result {
+    logging::init();
+    guarded(
+        &CREATE_INSTANCE,
+        || {
+            // SAFETY: the loader passes a valid create info (null is tolerated).
+            let Some(create_info) = (unsafe { p_create_info.as_ref() }) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the loader's create info carries its layer chain.
+            let Some(link) = (unsafe { ffi::take_instance_link(create_info) }) else {
+                log::error!("vkCreateInstance: no loader link info; was revz loaded as a layer?");
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let gipa = link.get_instance_proc_addr;
+            // SAFETY: querying a global command from the next layer.
+            let Some(next_create) = (unsafe { gipa(vk::Instance::null(), c"vkCreateInstance".as_ptr()) })
+            else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's vkCreateInstance has this signature.
+            let next_create: vk::PFN_vkCreateInstance = unsafe { std::mem::transmute(next_create) };
+            // SAFETY: calling down with the application's arguments.
+            let result = unsafe { next_create(p_create_info, p_allocator, p_instance) };
+            if result != vk::Result::SUCCESS {
+                return result;
+            }
+            // SAFETY: on success the next layer wrote a live instance.
+            let instance = unsafe { *p_instance };
+            let config = read_config();
+            // SAFETY: loading the next layer's instance commands for this instance.
+            let next = unsafe {
+                ash::Instance::load_with(
+                    |name| std::mem::transmute(gipa(instance, name.as_ptr())),
+                    instance,
+                )
+            };
+            // SAFETY: `instance` is live.
+            let key = unsafe { DispatchKey::of(instance) };
+            INSTANCES.insert(
+                key,
+                InstanceState {
+                    handle: instance,
+                    next_get_instance_proc_addr: gipa,
+                    next,
+                    config,
+                },
+            );
+            result
+        },
+        || vk::Result::ERROR_INITIALIZATION_FAILED,
+    )
+}
+
+/// Reads the configuration and logs the load line. Any failure here degrades to `off`.
+fn read_config() -> Config {
+    guarded(
+        &READ_CONFIG,
+        || {
+            let (config, warnings) = Config::from_env();
+            for warning in warnings {
+                log::warn!("{warning}");
+            }
+            let mode = config.mode;
+            let note = if mode.is_implemented() {
+                ""
+            } else {
+                " (not implemented in this build: passing everything through)"
+            };
+            log::info!("revz {VERSION} loaded as {LAYER_NAME}: mode {mode}{note}");
+            config
+        },
+        || Config {
+            mode: crate::config::Mode::Off,
+        },
+    )
+}
+
+/// `vkDestroyInstance`.
+///
+/// # Safety
+/// Called by the application with the arguments the Vulkan spec allows.
+pub unsafe extern "system" fn destroy_instance(
+    instance: vk::Instance,
+    p_allocator: *const vk::AllocationCallbacks,
+) {
+    guarded(
+        &DESTROY_INSTANCE,
+        || {
+            if instance == vk::Instance::null() {
+                return;
+            }
+            // SAFETY: a non-null instance being destroyed is still live.
+            let key = unsafe { DispatchKey::of(instance) };
+            match INSTANCES.remove(key) {
+                // SAFETY: calling down with the application's arguments.
+                Some(state) => unsafe { (state.next.fp_v1_0().destroy_instance)(instance, p_allocator) },
+                None => log::error!("vkDestroyInstance: unknown instance {instance:?}; cannot pass it down"),
+            }
+        },
+        || (),
+    )
+}
+
+/// `vkCreateDevice`: takes revz's link out of the loader chain, creates the device below, and
+/// records its dispatch.
+///
+/// # Safety
+/// Called by the loader with the arguments the loader-layer interface specifies.
+pub unsafe extern "system" fn create_device(
+    physical_device: vk::PhysicalDevice,
+    p_create_info: *const vk::DeviceCreateInfo,
+    p_allocator: *const vk::AllocationCallbacks,
+    p_device: *mut vk::Device,
+) -> vk::Result {
+    guarded(
+        &CREATE_DEVICE,
+        || {
+            // SAFETY: the loader passes a valid create info (null is tolerated).
+            let Some(create_info) = (unsafe { p_create_info.as_ref() }) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // A physical device shares its instance's dispatch key; fall back to the only
+            // instance if a loader ever breaks that.
+            // SAFETY: `physical_device` is live.
+            let instance = INSTANCES
+                .get(unsafe { DispatchKey::of(physical_device) })
+                .or_else(|| INSTANCES.sole());
+            let Some(instance) = instance else {
+                log::error!("vkCreateDevice: the physical device's instance is unknown");
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the loader's create info carries its layer chain.
+            let Some(link) = (unsafe { ffi::take_device_link(create_info) }) else {
+                log::error!("vkCreateDevice: no loader link info; was revz loaded as a layer?");
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let gipa = link.get_instance_proc_addr;
+            // SAFETY: querying an instance command from the next layer.
+            let Some(next_create) = (unsafe { gipa(instance.handle, c"vkCreateDevice".as_ptr()) })
+            else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's vkCreateDevice has this signature.
+            let next_create: vk::PFN_vkCreateDevice = unsafe { std::mem::transmute(next_create) };
+            // SAFETY: calling down with the application's arguments.
+            let result = unsafe { next_create(physical_device, p_create_info, p_allocator, p_device) };
+            if result != vk::Result::SUCCESS {
+                return result;
+            }
+            // SAFETY: on success the next layer wrote a live device.
+            let device = unsafe { *p_device };
+            let gdpa = link.get_device_proc_addr;
+            // SAFETY: loading the next layer's device commands for this device.
+            let next = unsafe {
+                ash::Device::load_with(
+                    |name| std::mem::transmute(gdpa(device, name.as_ptr())),
+                    device,
+                )
+            };
+            // SAFETY: `device` is live.
+            let key = unsafe { DispatchKey::of(device) };
+            DEVICES.insert(
+                key,
+                DeviceState {
+                    handle: device,
+                    next_get_device_proc_addr: gdpa,
+                    next,
+                    config: instance.config,
+                },
+            );
+            log::debug!("device {device:?} created, mode {}", instance.config.mode);
+            result
+        },
+        || vk::Result::ERROR_INITIALIZATION_FAILED,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn create_instance_without_a_loader_chain_fails_cleanly() {
+        let info = vk::InstanceCreateInfo::default();
+        let mut instance = vk::Instance::null();
+        // SAFETY: valid pointers; the chain simply lacks the loader's link info.
+        let result = unsafe { create_instance(&info, std::ptr::null(), &mut instance) };
+        assert_eq!(result, vk::Result::ERROR_INITIALIZATION_FAILED);
+        assert_eq!(instance, vk::Instance::null());
+        // SAFETY: null create info is tolerated.
+        let result = unsafe { create_instance(std::ptr::null(), std::ptr::null(), &mut instance) };
+        assert_eq!(result, vk::Result::ERROR_INITIALIZATION_FAILED);
+    }
+
+    #[test]
+    fn get_instance_proc_addr_tolerates_nulls() {
+        // SAFETY: null name and null instance are tolerated.
+        unsafe {
+            assert!(get_instance_proc_addr(vk::Instance::null(), std::ptr::null()).is_none());
+            assert!(get_instance_proc_addr(vk::Instance::null(), c"vkCmdDraw".as_ptr()).is_none());
+            assert!(
+                get_instance_proc_addr(vk::Instance::null(), c"vkCreateInstance".as_ptr())
+                    .is_some()
+            );
+        }
+    }
+
+    #[test]
+    fn destroying_a_null_instance_is_a_no_op() {
+        // SAFETY: null is allowed by the spec.
+        unsafe { destroy_instance(vk::Instance::null(), std::ptr::null()) };
+    }
+}

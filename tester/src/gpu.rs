@@ -1,0 +1,543 @@
+//! Vulkan bring-up and teardown: the loader entry, the instance (optionally with the Khronos
+//! validation layer and a `VK_EXT_debug_utils` messenger that counts what it reports), physical
+//! device selection, the logical device and its graphics queue, the memory-type helper and
+//! host-visible buffers.
+//!
+//! Everything created here is destroyed by `Drop`, in reverse order of creation, so that the
+//! validation layer has nothing to report as leaked at `vkDestroyDevice` / `vkDestroyInstance`.
+
+use std::ffi::{c_void, CStr};
+use std::fmt;
+use std::io::Write as _;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
+
+use anyhow::{anyhow, bail, Context, Result};
+use ash::vk;
+
+/// The Khronos validation layer, enabled through `ppEnabledLayerNames` by `--validation`.
+pub const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Counts the validation messages that make a run fail, shared with the debug messenger
+/// callback through its `pUserData`.
+#[derive(Debug, Default)]
+pub struct ValidationLog {
+    counted: AtomicU32,
+}
+
+impl ValidationLog {
+    /// Number of counted messages so far: every ERROR, and every WARNING of type VALIDATION or
+    /// PERFORMANCE.
+    pub fn count(&self) -> u32 {
+        self.counted.load(Ordering::SeqCst)
+    }
+}
+
+/// The debug-utils callback: counts ERROR messages (any type) and WARNING messages of type
+/// VALIDATION or PERFORMANCE, printing each counted one to stderr; everything else is ignored.
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut c_void,
+) -> vk::Bool32 {
+    let counted = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        Some("ERROR")
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING)
+        && types.intersects(
+            vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+    {
+        Some("WARNING")
+    } else {
+        None
+    };
+    let Some(severity_name) = counted else {
+        return vk::FALSE;
+    };
+    if !user_data.is_null() {
+        // SAFETY: `user_data` is `Arc::as_ptr` of the `ValidationLog` that `InstanceCtx` keeps
+        // alive until after the instance (and with it every messenger) is destroyed.
+        let log = unsafe { &*(user_data as *const ValidationLog) };
+        log.counted.fetch_add(1, Ordering::SeqCst);
+    }
+    // SAFETY: the implementation passes a valid callback-data structure (or null) for the
+    // duration of the call; its strings are null or NUL-terminated.
+    let (id_name, message) = unsafe {
+        match data.as_ref() {
+            Some(data) => (
+                data.message_id_name_as_c_str()
+                    .map_or_else(|| "(no id)".into(), CStr::to_string_lossy),
+                data.message_as_c_str()
+                    .map_or_else(|| "(no message)".into(), CStr::to_string_lossy),
+            ),
+            None => ("(no id)".into(), "(no message)".into()),
+        }
+    };
+    // Never panic inside a callback called from C: ignore a failed write to stderr.
+    let _ = writeln!(std::io::stderr(), "validation: {severity_name} {id_name}: {message}");
+    vk::FALSE
+}
+
+/// What the tester prints and records about the physical device it renders on.
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    /// `VkPhysicalDeviceProperties::deviceName`.
+    pub name: String,
+    /// `VkPhysicalDeviceDriverProperties::driverName` ("unknown" before Vulkan 1.2).
+    pub driver_name: String,
+    /// `VkPhysicalDeviceDriverProperties::driverInfo`.
+    pub driver_info: String,
+    /// `VkPhysicalDeviceProperties::apiVersion`.
+    pub api_version: u32,
+}
+
+impl DeviceInfo {
+    /// `<driverName> <driverInfo>`.
+    pub fn driver(&self) -> String {
+        if self.driver_info.is_empty() {
+            self.driver_name.clone()
+        } else {
+            format!("{} {}", self.driver_name, self.driver_info)
+        }
+    }
+
+    /// The device's Vulkan version as `major.minor.patch`.
+    pub fn api_version_string(&self) -> String {
+        let v = self.api_version;
+        format!(
+            "{}.{}.{}",
+            vk::api_version_major(v),
+            vk::api_version_minor(v),
+            vk::api_version_patch(v)
+        )
+    }
+}
+
+/// How to bring the GPU up.
+#[derive(Clone, Debug, Default)]
+pub struct GpuOptions {
+    /// Case-insensitive substring of the device name; `None` prefers lavapipe ("llvmpipe").
+    pub device: Option<String>,
+    /// Enable `VK_LAYER_KHRONOS_validation` and count its messages.
+    pub validation: bool,
+}
+
+/// Loader entry, instance and (optional) debug messenger; destroyed after the device.
+struct InstanceCtx {
+    // Field order matters only for the reader: `Drop` below destroys explicitly, and `entry`
+    // (which keeps libvulkan loaded) and `log` (the messenger's user data) are dropped after.
+    entry: ash::Entry,
+    instance: ash::Instance,
+    api_version: u32,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    log: Arc<ValidationLog>,
+}
+
+impl Drop for InstanceCtx {
+    fn drop(&mut self) {
+        if let Some((loader, messenger)) = self.debug.take() {
+            // SAFETY: the messenger was created from this instance and is destroyed once.
+            unsafe { loader.destroy_debug_utils_messenger(messenger, None) };
+        }
+        // SAFETY: every child object (the device, the messenger) is already destroyed.
+        unsafe { self.instance.destroy_instance(None) };
+    }
+}
+
+fn debug_messenger_info(log: &Arc<ValidationLog>) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
+    vk::DebugUtilsMessengerCreateInfoEXT::default()
+        .message_severity(
+            vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+        )
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+        .pfn_user_callback(Some(debug_callback))
+        .user_data(Arc::as_ptr(log) as *mut c_void)
+}
+
+impl InstanceCtx {
+    fn new(validation: bool) -> Result<Self> {
+        // SAFETY: loading libvulkan.so.1 runs its initialisers; the loader is a well-behaved
+        // shared library and `Entry` keeps it loaded for as long as it lives.
+        let entry = unsafe { ash::Entry::load() }
+            .context("cannot load the Vulkan loader libvulkan.so.1 (apt-get install libvulkan1)")?;
+
+        // SAFETY: plain global query.
+        let instance_version = unsafe { entry.try_enumerate_instance_version() }
+            .context("vkEnumerateInstanceVersion failed")?
+            .unwrap_or(vk::API_VERSION_1_0);
+        let api_version = if instance_version >= vk::API_VERSION_1_3 {
+            vk::API_VERSION_1_3
+        } else {
+            vk::API_VERSION_1_2
+        };
+
+        let log = Arc::new(ValidationLog::default());
+        let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
+        let mut extensions: Vec<*const std::ffi::c_char> = Vec::new();
+        if validation {
+            // SAFETY: plain global query.
+            let available = unsafe { entry.enumerate_instance_layer_properties() }
+                .context("vkEnumerateInstanceLayerProperties failed")?;
+            let found = available
+                .iter()
+                .any(|layer| layer.layer_name_as_c_str() == Ok(VALIDATION_LAYER));
+            if !found {
+                bail!(
+                    "VK_LAYER_KHRONOS_validation not found: install vulkan-validationlayers \
+                     (apt-get install vulkan-validationlayers)"
+                );
+            }
+            layers.push(VALIDATION_LAYER.as_ptr());
+
+            let debug_utils = ash::ext::debug_utils::NAME;
+            // SAFETY: plain global queries (the loader's own extensions and the layer's).
+            let has_debug_utils = unsafe {
+                let global = entry.enumerate_instance_extension_properties(None);
+                let layer = entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER));
+                global
+                    .into_iter()
+                    .chain(layer)
+                    .flatten()
+                    .any(|ext| ext.extension_name_as_c_str() == Ok(debug_utils))
+            };
+            if !has_debug_utils {
+                bail!("VK_EXT_debug_utils is not available: cannot count validation messages");
+            }
+            extensions.push(debug_utils.as_ptr());
+        }
+
+        let app_info = vk::ApplicationInfo::default()
+            .application_name(c"revz-tester")
+            .application_version(vk::make_api_version(0, 0, 1, 0))
+            .engine_name(c"revz-tester")
+            .engine_version(vk::make_api_version(0, 0, 1, 0))
+            .api_version(api_version);
+        // Chained so that vkCreateInstance / vkDestroyInstance are covered too.
+        let mut chained_messenger = debug_messenger_info(&log);
+        let mut create_info = vk::InstanceCreateInfo::default()
+            .application_info(&app_info)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
+        if validation {
+            create_info = create_info.push_next(&mut chained_messenger);
+        }
+        // SAFETY: every pointer in `create_info` refers to locals that outlive the call.
+        let instance = unsafe { entry.create_instance(&create_info, None) }
+            .context("vkCreateInstance failed")?;
+
+        let mut ctx = InstanceCtx {
+            entry,
+            instance,
+            api_version,
+            debug: None,
+            log,
+        };
+        if validation {
+            let loader = ash::ext::debug_utils::Instance::new(&ctx.entry, &ctx.instance);
+            let info = debug_messenger_info(&ctx.log);
+            // SAFETY: valid instance with VK_EXT_debug_utils enabled; `info` is fully valid.
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
+                .context("vkCreateDebugUtilsMessengerEXT failed")?;
+            ctx.debug = Some((loader, messenger));
+        }
+        Ok(ctx)
+    }
+}
+
+/// The instance, the chosen physical device, the logical device and its graphics queue.
+pub struct Gpu {
+    /// The logical device (no features, no extensions).
+    pub device: ash::Device,
+    /// A queue of `queue_family` that supports graphics (and therefore transfer).
+    pub queue: vk::Queue,
+    /// The queue family index of `queue`.
+    pub queue_family: u32,
+    /// The chosen physical device.
+    pub physical_device: vk::PhysicalDevice,
+    /// What the tester reports about the device.
+    pub info: DeviceInfo,
+    memory_properties: vk::PhysicalDeviceMemoryProperties,
+    // Dropped after `Drop::drop` has destroyed the device.
+    instance: InstanceCtx,
+}
+
+impl fmt::Debug for Gpu {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Gpu")
+            .field("device", &self.device.handle())
+            .field("queue", &self.queue)
+            .field("queue_family", &self.queue_family)
+            .field("physical_device", &self.physical_device)
+            .field("info", &self.info)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        // SAFETY: the device is idle-waited before destruction; every object created from it
+        // borrows `Gpu` and is therefore already dropped.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_device(None);
+        }
+    }
+}
+
+fn c_chars_to_string(chars: Result<&CStr, std::ffi::FromBytesUntilNulError>) -> String {
+    chars.map_or_else(|_| "(invalid)".to_owned(), |s| s.to_string_lossy().into_owned())
+}
+
+fn device_info(instance: &InstanceCtx, physical_device: vk::PhysicalDevice) -> DeviceInfo {
+    // SAFETY: `physical_device` was enumerated from this instance.
+    let properties = unsafe {
+        instance
+            .instance
+            .get_physical_device_properties(physical_device)
+    };
+    let mut info = DeviceInfo {
+        name: c_chars_to_string(properties.device_name_as_c_str()),
+        driver_name: "unknown".to_owned(),
+        driver_info: String::new(),
+        api_version: properties.api_version,
+    };
+    // VkPhysicalDeviceDriverProperties is core in Vulkan 1.2, for both the instance (requested
+    // >= 1.2) and the device.
+    if properties.api_version >= vk::API_VERSION_1_2 && instance.api_version >= vk::API_VERSION_1_2
+    {
+        let mut driver = vk::PhysicalDeviceDriverProperties::default();
+        let mut properties2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+        // SAFETY: core 1.1 entry point, the chain holds a valid driver-properties structure.
+        unsafe {
+            instance
+                .instance
+                .get_physical_device_properties2(physical_device, &mut properties2)
+        };
+        info.driver_name = c_chars_to_string(driver.driver_name_as_c_str());
+        info.driver_info = c_chars_to_string(driver.driver_info_as_c_str());
+    }
+    info
+}
+
+impl Gpu {
+    /// Creates the instance, picks the physical device, creates the device and its queue.
+    pub fn new(options: &GpuOptions) -> Result<Self> {
+        let instance = InstanceCtx::new(options.validation)?;
+
+        // SAFETY: valid instance.
+        let physical_devices = unsafe { instance.instance.enumerate_physical_devices() }
+            .context("vkEnumeratePhysicalDevices failed")?;
+        if physical_devices.is_empty() {
+            bail!("no Vulkan physical device found (is mesa-vulkan-drivers installed?)");
+        }
+        let candidates: Vec<(vk::PhysicalDevice, DeviceInfo)> = physical_devices
+            .iter()
+            .map(|&pd| (pd, device_info(&instance, pd)))
+            .collect();
+        let chosen = match &options.device {
+            Some(wanted) => {
+                let wanted_lower = wanted.to_lowercase();
+                candidates
+                    .iter()
+                    .find(|(_, info)| info.name.to_lowercase().contains(&wanted_lower))
+                    .ok_or_else(|| {
+                        let names: Vec<String> =
+                            candidates.iter().map(|(_, i)| format!("'{}'", i.name)).collect();
+                        anyhow!(
+                            "no Vulkan device name contains '{wanted}'; available: {}",
+                            names.join(", ")
+                        )
+                    })?
+            }
+            None => candidates
+                .iter()
+                .find(|(_, info)| info.name.contains("llvmpipe"))
+                .unwrap_or(&candidates[0]),
+        };
+        let (physical_device, info) = chosen.clone();
+
+        // SAFETY: `physical_device` belongs to this instance.
+        let families = unsafe {
+            instance
+                .instance
+                .get_physical_device_queue_family_properties(physical_device)
+        };
+        let queue_family = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS) && f.queue_count > 0)
+            .ok_or_else(|| anyhow!("device '{}' has no graphics queue", info.name))?;
+        let queue_family = u32::try_from(queue_family).context("queue family index")?;
+
+        let priorities = [1.0f32];
+        let queue_infos = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        // No features, no extensions: the tester needs nothing beyond core.
+        let device_create_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_infos);
+        // SAFETY: valid physical device and create info referring to live locals.
+        let device = unsafe {
+            instance
+                .instance
+                .create_device(physical_device, &device_create_info, None)
+        }
+        .with_context(|| format!("vkCreateDevice failed on '{}'", info.name))?;
+        // SAFETY: queue 0 of a family requested at device creation.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        // SAFETY: valid physical device.
+        let memory_properties = unsafe {
+            instance
+                .instance
+                .get_physical_device_memory_properties(physical_device)
+        };
+
+        Ok(Gpu {
+            device,
+            queue,
+            queue_family,
+            physical_device,
+            info,
+            memory_properties,
+            instance,
+        })
+    }
+
+    /// The Vulkan instance.
+    pub fn instance(&self) -> &ash::Instance {
+        &self.instance.instance
+    }
+
+    /// The counter of validation messages (shared: still readable after `Gpu` is dropped,
+    /// which is when the messages about leaks would come).
+    pub fn validation_log(&self) -> Arc<ValidationLog> {
+        Arc::clone(&self.instance.log)
+    }
+
+    /// Index of a memory type allowed by `type_bits` that has all of `flags`.
+    pub fn memory_type(&self, type_bits: u32, flags: vk::MemoryPropertyFlags) -> Option<u32> {
+        let props = &self.memory_properties;
+        (0..props.memory_type_count).find(|&i| {
+            type_bits & (1 << i) != 0
+                && props.memory_types[i as usize]
+                    .property_flags
+                    .contains(flags)
+        })
+    }
+
+    /// Allocates memory for `requirements`, preferring `preferred` property flags and
+    /// requiring `required` ones.
+    pub fn allocate(
+        &self,
+        requirements: vk::MemoryRequirements,
+        required: vk::MemoryPropertyFlags,
+        preferred: vk::MemoryPropertyFlags,
+    ) -> Result<vk::DeviceMemory> {
+        let type_index = self
+            .memory_type(requirements.memory_type_bits, required | preferred)
+            .or_else(|| self.memory_type(requirements.memory_type_bits, required))
+            .ok_or_else(|| {
+                anyhow!(
+                    "no memory type with {required:?} among types {:#b}",
+                    requirements.memory_type_bits
+                )
+            })?;
+        let info = vk::MemoryAllocateInfo::default()
+            .allocation_size(requirements.size)
+            .memory_type_index(type_index);
+        // SAFETY: valid device, a memory type index reported by the device.
+        unsafe { self.device.allocate_memory(&info, None) }
+            .with_context(|| format!("vkAllocateMemory of {} bytes failed", requirements.size))
+    }
+}
+
+/// A buffer in host-visible, host-coherent memory, persistently mapped.
+pub struct HostBuffer<'a> {
+    device: &'a ash::Device,
+    /// The buffer handle.
+    pub buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    mapped: *mut u8,
+    size: usize,
+}
+
+impl fmt::Debug for HostBuffer<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("HostBuffer")
+            .field("buffer", &self.buffer)
+            .field("size", &self.size)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Drop for HostBuffer<'_> {
+    fn drop(&mut self) {
+        // SAFETY: the handles are null or were created from `device`, which outlives `self`;
+        // the GPU is done with them (every submission is fenced before resources drop).
+        // Destroying null handles is a no-op; freeing memory unmaps it.
+        unsafe {
+            self.device.destroy_buffer(self.buffer, None);
+            self.device.free_memory(self.memory, None);
+        }
+    }
+}
+
+impl<'a> HostBuffer<'a> {
+    /// Creates a mapped host-visible coherent buffer of `size` bytes.
+    pub fn new(gpu: &'a Gpu, size: usize, usage: vk::BufferUsageFlags) -> Result<Self> {
+        let mut this = HostBuffer {
+            device: &gpu.device,
+            buffer: vk::Buffer::null(),
+            memory: vk::DeviceMemory::null(),
+            mapped: std::ptr::null_mut(),
+            size,
+        };
+        let info = vk::BufferCreateInfo::default()
+            .size(size as vk::DeviceSize)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid device and create info.
+        this.buffer = unsafe { gpu.device.create_buffer(&info, None) }
+            .with_context(|| format!("vkCreateBuffer ({size} bytes, {usage:?}) failed"))?;
+        // SAFETY: valid buffer.
+        let requirements = unsafe { gpu.device.get_buffer_memory_requirements(this.buffer) };
+        this.memory = gpu.allocate(
+            requirements,
+            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+            vk::MemoryPropertyFlags::empty(),
+        )?;
+        // SAFETY: fresh buffer and memory of a compatible type and sufficient size.
+        unsafe { gpu.device.bind_buffer_memory(this.buffer, this.memory, 0) }
+            .context("vkBindBufferMemory failed")?;
+        // SAFETY: host-visible memory, not mapped yet; mapped for the buffer's lifetime.
+        let mapped = unsafe {
+            gpu.device
+                .map_memory(this.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+        }
+        .context("vkMapMemory failed")?;
+        this.mapped = mapped.cast();
+        Ok(this)
+    }
+
+    /// Copies `bytes` to the start of the buffer (visible to the device at the next submit:
+    /// the memory is coherent).
+    pub fn write(&mut self, bytes: &[u8]) {
+        assert!(bytes.len() <= self.size, "write past the end of a host buffer");
+        // SAFETY: `mapped` points to at least `size` mapped bytes; no GPU work uses the buffer
+        // while the host writes (writes happen before the submit).
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), self.mapped, bytes.len()) };
+    }
+
+    /// The buffer's contents (coherent memory: valid once the writing submission's fence has
+    /// signalled and a TRANSFER -> HOST barrier was recorded).
+    pub fn contents(&self) -> &[u8] {
+        // SAFETY: `mapped` points to `size` mapped bytes that live as long as `self`; callers
+        // read only after the GPU work writing them has completed.
+        unsafe { std::slice::from_raw_parts(self.mapped, self.size) }
+    }
+}

@@ -1,0 +1,198 @@
+//! Harness for the end-to-end tests: runs `revz-tester` as a child process on lavapipe, with
+//! the Khronos validation layer, with or without the revz layer, and reads back what it wrote.
+//!
+//! The binaries and manifests come from `cargo xtask build` (which `cargo xtask test` runs
+//! first): the harness finds them next to the test executable, in the same profile directory.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The layer's name, as the manifests declare it.
+pub const LAYER_NAME: &str = "VK_LAYER_REVZ_reverse_z";
+/// The line the layer logs at `info` when an instance loads it.
+pub const LOADED_LINE: &str = "loaded as VK_LAYER_REVZ_reverse_z: mode ";
+
+/// Every depth format the tester accepts, by its command-line name.
+pub const DEPTH_FORMATS: [&str; 5] = ["d16", "x8-d24", "d24-s8", "d32", "d32-s8"];
+/// Every `REVZ_MODE` value.
+pub const MODES: [&str; 4] = ["off", "flip", "complementary", "infinite"];
+
+/// Environment variables that would change what a child sees if inherited from the caller.
+const SCRUBBED_ENV: &[&str] = &[
+    "REVZ_MODE",
+    "REVZ_LOG",
+    "REVZ_LOG_FILE",
+    "ENABLE_REVZ",
+    "DISABLE_REVZ",
+    "VK_INSTANCE_LAYERS",
+    "VK_LOADER_LAYERS_ENABLE",
+    "VK_LOADER_LAYERS_DISABLE",
+    "VK_ADD_LAYER_PATH",
+    "VK_LAYER_PATH",
+];
+
+/// Paths to what `cargo xtask build` produced.
+#[derive(Debug, Clone)]
+pub struct Harness {
+    pub tester: PathBuf,
+    pub library: PathBuf,
+    pub explicit_manifest_dir: PathBuf,
+    pub implicit_manifest_dir: PathBuf,
+    pub scratch: PathBuf,
+}
+
+impl Harness {
+    /// Finds the build output; panics with what to run when it is missing.
+    pub fn locate() -> Harness {
+        let exe = std::env::current_exe().expect("test executable path");
+        // target/<profile>/deps/e2e-<hash>
+        let profile_dir = exe
+            .parent()
+            .and_then(Path::parent)
+            .expect("test executable lives in target/<profile>/deps");
+        let harness = Harness {
+            tester: profile_dir.join("revz-tester"),
+            library: profile_dir.join("libVkLayer_revz.so"),
+            explicit_manifest_dir: profile_dir.join("manifests/explicit"),
+            implicit_manifest_dir: profile_dir.join("manifests/implicit"),
+            scratch: profile_dir.join("revz-e2e"),
+        };
+        for needed in [
+            &harness.tester,
+            &harness.library,
+            &harness.explicit_manifest_dir.join("VkLayer_revz.json"),
+        ] {
+            assert!(
+                needed.exists(),
+                "{} is missing: run the tests with `cargo xtask test`, which builds the layer, \
+                 the tester and the manifests first",
+                needed.display()
+            );
+        }
+        harness
+    }
+
+    /// A fresh, empty directory for one test's files.
+    pub fn scratch_dir(&self, name: &str) -> PathBuf {
+        let dir = self.scratch.join(name);
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("create scratch dir");
+        dir
+    }
+
+    /// A tester command on lavapipe with validation, writing into `out`, with a clean
+    /// environment (no inherited layer or revz variables).
+    pub fn tester(&self, depth_format: &str, out: &Path) -> Command {
+        let mut command = Command::new(&self.tester);
+        command
+            .args(["--validation", "--device", "llvmpipe", "--depth-format", depth_format])
+            .arg("--out")
+            .arg(out);
+        for name in SCRUBBED_ENV {
+            command.env_remove(name);
+        }
+        command
+    }
+
+    /// Adds the explicit revz layer (above validation) to `command`.
+    pub fn with_layer<'a>(&self, command: &'a mut Command) -> &'a mut Command {
+        command
+            .env("VK_ADD_LAYER_PATH", &self.explicit_manifest_dir)
+            .env("VK_INSTANCE_LAYERS", LAYER_NAME)
+    }
+
+    /// Runs the tester and returns its render; panics with its output if it failed.
+    pub fn render(&self, mut command: Command, out: &Path) -> Render {
+        let output = command.output().expect("start revz-tester");
+        let render = Render {
+            dir: out.to_path_buf(),
+            output,
+        };
+        render.assert_clean();
+        render
+    }
+}
+
+/// One finished tester run.
+#[derive(Debug)]
+pub struct Render {
+    pub dir: PathBuf,
+    pub output: Output,
+}
+
+impl Render {
+    pub fn stdout(&self) -> String {
+        String::from_utf8_lossy(&self.output.stdout).into_owned()
+    }
+
+    pub fn stderr(&self) -> String {
+        String::from_utf8_lossy(&self.output.stderr).into_owned()
+    }
+
+    /// Fails with a diagnosis unless the tester succeeded with zero validation messages.
+    pub fn assert_clean(&self) {
+        let (stdout, stderr) = (self.stdout(), self.stderr());
+        let context = format!("--- stdout\n{stdout}\n--- stderr\n{stderr}");
+        if stderr.contains("VK_LAYER_KHRONOS_validation not found") {
+            panic!("the Khronos validation layer is missing: apt-get install vulkan-validationlayers\n{context}");
+        }
+        if stderr.contains("no device") || stderr.contains("No Vulkan") {
+            panic!("lavapipe is missing: apt-get install mesa-vulkan-drivers libvulkan1\n{context}");
+        }
+        match self.output.status.code() {
+            Some(0) => {}
+            Some(2) => panic!("validation messages were reported\n{context}"),
+            _ => panic!("revz-tester failed ({})\n{context}", self.output.status),
+        }
+        assert!(
+            stdout.contains("device: llvmpipe"),
+            "the render did not run on lavapipe\n{context}"
+        );
+        let json = self.json();
+        assert_eq!(json["validation_messages"], 0, "{context}");
+    }
+
+    /// The mode named by the layer's load line, if the layer logged one.
+    pub fn loaded_mode(&self) -> Option<String> {
+        let stderr = self.stderr();
+        let line = stderr.lines().find(|line| line.contains(LOADED_LINE))?;
+        let rest = &line[line.find(LOADED_LINE)? + LOADED_LINE.len()..];
+        Some(rest.split_whitespace().next()?.to_owned())
+    }
+
+    pub fn json(&self) -> serde_json::Value {
+        let text = std::fs::read_to_string(self.dir.join("render.json")).expect("render.json");
+        serde_json::from_str(&text).expect("render.json parses")
+    }
+
+    /// The color image as decoded RGBA8 pixels.
+    pub fn color(&self) -> image::RgbaImage {
+        image::open(self.dir.join("color.png"))
+            .expect("color.png")
+            .to_rgba8()
+    }
+
+    /// The decoded depth values, exactly as the tester read them back.
+    pub fn depth(&self) -> Vec<f32> {
+        let bytes = std::fs::read(self.dir.join("depth.f32")).expect("depth.f32");
+        bytes
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect()
+    }
+}
+
+/// Counts positions where two images differ, for a readable failure message.
+pub fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count()
+}
+
+/// Counts depth values that are not bit-identical.
+pub fn differing_depths(a: &[f32], b: &[f32]) -> usize {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count()
+}

@@ -1,0 +1,175 @@
+//! `cargo xtask`: the one driver for building, demonstrating and testing revz.
+//!
+//! - `setup`: install the system packages revz needs (Vulkan loader, lavapipe, validation).
+//! - `build`: build the layer and the tester, and render the layer manifests next to them.
+//! - `demo`: render the first scene without and with the layer; print where the images are.
+//! - `test`: everything `build` does, then the whole test suite.
+
+mod manifest;
+mod system;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(about = "Build, demo and test driver for revz")]
+struct Cli {
+    #[command(subcommand)]
+    task: Task,
+}
+
+#[derive(Subcommand, Debug)]
+enum Task {
+    /// Install the system packages revz needs (apt-get; prints the command if it cannot).
+    Setup,
+    /// Build the layer and the tester and write the layer manifests.
+    Build {
+        #[arg(long)]
+        release: bool,
+    },
+    /// Render the first scene on lavapipe without and with the layer.
+    Demo {
+        /// REVZ_MODE for the render with the layer.
+        #[arg(long, default_value = "complementary")]
+        mode: String,
+        /// Depth format (d16, x8-d24, d24-s8, d32, d32-s8).
+        #[arg(long, default_value = "d32")]
+        depth_format: String,
+    },
+    /// Build, then run the whole test suite (extra arguments go to `cargo test`).
+    Test {
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        cargo_test_args: Vec<String>,
+    },
+}
+
+/// Where things are in the workspace and its build output.
+struct Paths {
+    root: PathBuf,
+    profile_dir: PathBuf,
+}
+
+impl Paths {
+    fn new(release: bool) -> Paths {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .parent()
+            .expect("xtask lives in the workspace")
+            .to_path_buf();
+        let target = std::env::var_os("CARGO_TARGET_DIR")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| root.join("target"));
+        let profile_dir = target.join(if release { "release" } else { "debug" });
+        Paths { root, profile_dir }
+    }
+
+    fn library(&self) -> PathBuf {
+        self.profile_dir.join("libVkLayer_revz.so")
+    }
+
+    fn tester(&self) -> PathBuf {
+        self.profile_dir.join("revz-tester")
+    }
+
+    fn manifests(&self) -> PathBuf {
+        self.profile_dir.join("manifests")
+    }
+}
+
+fn cargo() -> Command {
+    Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
+}
+
+fn run_checked(mut command: Command) -> Result<()> {
+    let status = command.status().with_context(|| format!("starting {command:?}"))?;
+    if !status.success() {
+        bail!("{command:?} failed ({status})");
+    }
+    Ok(())
+}
+
+/// Builds the layer and tester and writes the manifests; returns the explicit manifest's dir.
+fn build(paths: &Paths, release: bool) -> Result<PathBuf> {
+    let mut command = cargo();
+    command
+        .current_dir(&paths.root)
+        .args(["build", "-p", "revz-layer", "-p", "revz-tester"]);
+    if release {
+        command.arg("--release");
+    }
+    run_checked(command)?;
+    let explicit = manifest::write_all(
+        &paths.root.join("manifests"),
+        &paths.library(),
+        env!("CARGO_PKG_VERSION"),
+        &paths.manifests(),
+    )?;
+    eprintln!("xtask: layer {}", paths.library().display());
+    eprintln!("xtask: manifests in {}", paths.manifests().display());
+    Ok(explicit)
+}
+
+fn demo(mode: &str, depth_format: &str) -> Result<()> {
+    system::ensure_packages()?;
+    let paths = Paths::new(false);
+    let explicit = build(&paths, false)?;
+    let out = paths.root.join("target").join("revz-demo");
+    let native = out.join("native");
+    let layered = out.join(format!("revz-{mode}"));
+
+    let tester = |dir: &Path| {
+        let mut command = Command::new(paths.tester());
+        command.args(["--validation", "--depth-format", depth_format, "--out"]);
+        command.arg(dir);
+        command
+    };
+    println!("== without the layer");
+    run_checked(tester(&native))?;
+    println!("== with revz (REVZ_MODE={mode})");
+    let mut with_layer = tester(&layered);
+    with_layer
+        .env("VK_ADD_LAYER_PATH", &explicit)
+        .env("VK_INSTANCE_LAYERS", "VK_LAYER_REVZ_reverse_z")
+        .env("REVZ_MODE", mode)
+        .env("REVZ_LOG", "info");
+    run_checked(with_layer)?;
+
+    println!("== results");
+    for (name, dir) in [("without the layer", &native), ("with revz", &layered)] {
+        println!(
+            "{name:>18}: {}  {}",
+            dir.join("color.png").display(),
+            dir.join("depth.png").display()
+        );
+    }
+    for file in ["color.png", "depth.f32"] {
+        let a = std::fs::read(native.join(file))?;
+        let b = std::fs::read(layered.join(file))?;
+        let verdict = if a == b { "identical" } else { "different" };
+        println!("{file:>18}: {verdict}");
+    }
+    Ok(())
+}
+
+fn test(extra: &[String]) -> Result<()> {
+    system::ensure_packages()?;
+    let paths = Paths::new(false);
+    build(&paths, false)?;
+    let mut command = cargo();
+    command
+        .current_dir(&paths.root)
+        .args(["test", "--workspace"])
+        .args(extra);
+    run_checked(command)
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().task {
+        Task::Setup => system::ensure_packages(),
+        Task::Build { release } => build(&Paths::new(release), release).map(drop),
+        Task::Demo { mode, depth_format } => demo(&mode, &depth_format),
+        Task::Test { cargo_test_args } => test(&cargo_test_args),
+    }
+}
