@@ -7,6 +7,9 @@
 pub mod device;
 pub mod instance;
 
+#[cfg(test)]
+mod chain_tests;
+
 use std::ffi::CStr;
 
 use ash::vk;

@@ -1,0 +1,191 @@
+//! The hooks driven through a fake loader chain: a fake next layer of `extern "system"` stubs
+//! stands below revz, so the chain walk, the state registration and the pass-through of
+//! commands revz does not intercept are checked without a GPU or a loader.
+
+use std::ffi::{c_char, CStr};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use ash::vk::{self, Handle};
+
+use super::{device, instance};
+use crate::ffi;
+use crate::state::{DispatchKey, DEVICES, INSTANCES};
+
+static DESTROYED_INSTANCES: AtomicUsize = AtomicUsize::new(0);
+static DESTROYED_DEVICES: AtomicUsize = AtomicUsize::new(0);
+
+/// A dispatchable object as the loader lays it out: its first word is the dispatch table.
+fn dispatchable(table: &'static u8) -> *mut usize {
+    Box::into_raw(Box::new(table as *const u8 as usize))
+}
+
+static INSTANCE_TABLE: u8 = 0;
+static DEVICE_TABLE: u8 = 0;
+
+unsafe extern "system" fn fake_command() {}
+
+unsafe extern "system" fn fake_create_instance(
+    _: *const vk::InstanceCreateInfo,
+    _: *const vk::AllocationCallbacks,
+    p_instance: *mut vk::Instance,
+) -> vk::Result {
+    // SAFETY: revz passes the application's output pointer through.
+    unsafe { *p_instance = vk::Instance::from_raw(dispatchable(&INSTANCE_TABLE) as u64) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn fake_destroy_instance(_: vk::Instance, _: *const vk::AllocationCallbacks) {
+    DESTROYED_INSTANCES.fetch_add(1, Ordering::SeqCst);
+}
+
+unsafe extern "system" fn fake_create_device(
+    _: vk::PhysicalDevice,
+    _: *const vk::DeviceCreateInfo,
+    _: *const vk::AllocationCallbacks,
+    p_device: *mut vk::Device,
+) -> vk::Result {
+    // SAFETY: revz passes the application's output pointer through.
+    unsafe { *p_device = vk::Device::from_raw(dispatchable(&DEVICE_TABLE) as u64) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn fake_destroy_device(_: vk::Device, _: *const vk::AllocationCallbacks) {
+    DESTROYED_DEVICES.fetch_add(1, Ordering::SeqCst);
+}
+
+unsafe extern "system" fn fake_get_instance_proc_addr(
+    _: vk::Instance,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    // SAFETY: revz only asks for NUL-terminated names.
+    let name = unsafe { CStr::from_ptr(name) };
+    // SAFETY (all transmutes): function pointers of one ABI, cast back by name.
+    unsafe {
+        match name.to_bytes() {
+            b"vkCreateInstance" => Some(std::mem::transmute::<vk::PFN_vkCreateInstance, _>(
+                fake_create_instance,
+            )),
+            b"vkDestroyInstance" => Some(std::mem::transmute::<vk::PFN_vkDestroyInstance, _>(
+                fake_destroy_instance,
+            )),
+            b"vkCreateDevice" => Some(std::mem::transmute::<vk::PFN_vkCreateDevice, _>(
+                fake_create_device,
+            )),
+            b"vkFakeInstanceCommand" => Some(fake_command as unsafe extern "system" fn()),
+            _ => None,
+        }
+    }
+}
+
+unsafe extern "system" fn fake_get_device_proc_addr(
+    _: vk::Device,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    // SAFETY: revz only asks for NUL-terminated names.
+    let name = unsafe { CStr::from_ptr(name) };
+    match name.to_bytes() {
+        // SAFETY: a function pointer of one ABI, cast back by name.
+        b"vkDestroyDevice" => Some(unsafe {
+            std::mem::transmute::<vk::PFN_vkDestroyDevice, unsafe extern "system" fn()>(
+                fake_destroy_device,
+            )
+        }),
+        b"vkFakeDeviceCommand" => Some(fake_command as unsafe extern "system" fn()),
+        _ => None,
+    }
+}
+
+#[test]
+fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
+    // --- instance
+    let mut instance_link = ffi::LayerInstanceLink {
+        p_next: std::ptr::null_mut(),
+        pfn_next_get_instance_proc_addr: fake_get_instance_proc_addr,
+        pfn_next_get_physical_device_proc_addr: None,
+    };
+    let mut instance_chain = ffi::LayerInstanceCreateInfo {
+        s_type: ffi::STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO,
+        p_next: std::ptr::null(),
+        function: ffi::LAYER_LINK_INFO,
+        p_layer_info: &mut instance_link,
+    };
+    let create_info = vk::InstanceCreateInfo {
+        p_next: (&mut instance_chain as *mut ffi::LayerInstanceCreateInfo).cast(),
+        ..Default::default()
+    };
+    let mut handle = vk::Instance::null();
+    // SAFETY: a well-formed loader chain over the fake layer.
+    let result = unsafe { instance::create_instance(&create_info, std::ptr::null(), &mut handle) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    assert_ne!(handle, vk::Instance::null());
+    assert!(
+        instance_chain.p_layer_info.is_null(),
+        "revz must advance the chain to the next link"
+    );
+    // SAFETY: `handle` is the fake's live object.
+    let instance_key = unsafe { DispatchKey::of(handle) };
+    assert!(INSTANCES.get(instance_key).is_some());
+
+    // SAFETY: valid names and a live instance.
+    unsafe {
+        let passed = instance::get_instance_proc_addr(handle, c"vkFakeInstanceCommand".as_ptr());
+        assert_eq!(passed.map(|f| f as usize), Some(fake_command as usize));
+        let hooked = instance::get_instance_proc_addr(handle, c"vkCreateDevice".as_ptr());
+        assert_ne!(hooked.map(|f| f as usize), None);
+        assert_ne!(hooked.map(|f| f as usize), Some(fake_create_device as usize));
+        assert!(instance::get_instance_proc_addr(handle, c"vkNoSuchCommand".as_ptr()).is_none());
+    }
+
+    // --- device: the physical device shares the instance's dispatch table.
+    let physical = vk::PhysicalDevice::from_raw(dispatchable(&INSTANCE_TABLE) as u64);
+    let mut device_link = ffi::LayerDeviceLink {
+        p_next: std::ptr::null_mut(),
+        pfn_next_get_instance_proc_addr: fake_get_instance_proc_addr,
+        pfn_next_get_device_proc_addr: fake_get_device_proc_addr,
+    };
+    let mut device_chain = ffi::LayerDeviceCreateInfo {
+        s_type: ffi::STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO,
+        p_next: std::ptr::null(),
+        function: ffi::LAYER_LINK_INFO,
+        p_layer_info: &mut device_link,
+    };
+    let device_info = vk::DeviceCreateInfo {
+        p_next: (&mut device_chain as *mut ffi::LayerDeviceCreateInfo).cast(),
+        ..Default::default()
+    };
+    let mut device_handle = vk::Device::null();
+    // SAFETY: a well-formed loader chain over the fake layer.
+    let result = unsafe {
+        instance::create_device(physical, &device_info, std::ptr::null(), &mut device_handle)
+    };
+    assert_eq!(result, vk::Result::SUCCESS);
+    assert!(device_chain.p_layer_info.is_null());
+    // SAFETY: the fake's live object.
+    let device_key = unsafe { DispatchKey::of(device_handle) };
+    assert_eq!(DEVICES.get(device_key).map(|d| d.handle), Some(device_handle));
+
+    // SAFETY: valid names and a live device.
+    unsafe {
+        let passed = device::get_device_proc_addr(device_handle, c"vkFakeDeviceCommand".as_ptr());
+        assert_eq!(passed.map(|f| f as usize), Some(fake_command as usize));
+        let hooked = device::get_device_proc_addr(device_handle, c"vkDestroyDevice".as_ptr());
+        assert!(hooked.is_some());
+        assert_ne!(hooked.map(|f| f as usize), Some(fake_destroy_device as usize));
+        assert!(device::get_device_proc_addr(device_handle, c"vkNoSuchCommand".as_ptr()).is_none());
+
+        device::destroy_device(device_handle, std::ptr::null());
+    }
+    assert_eq!(DESTROYED_DEVICES.load(Ordering::SeqCst), 1);
+    assert!(DEVICES.get(device_key).is_none());
+
+    // SAFETY: a live instance.
+    unsafe { instance::destroy_instance(handle, std::ptr::null()) };
+    assert_eq!(DESTROYED_INSTANCES.load(Ordering::SeqCst), 1);
+    assert!(INSTANCES.get(instance_key).is_none());
+
+    // The fake objects were leaked boxes; reclaim them.
+    for raw in [handle.as_raw(), physical.as_raw(), device_handle.as_raw()] {
+        // SAFETY: each was made by `dispatchable` and is no longer used.
+        drop(unsafe { Box::from_raw(raw as *mut usize) });
+    }
+}
