@@ -13,9 +13,11 @@ use naga::front::glsl;
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 fn main() {
-    let manifest_dir = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
+    let manifest_dir =
+        PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
     let out_dir = PathBuf::from(env::var_os("OUT_DIR").expect("OUT_DIR"));
     let shader_dir = manifest_dir.join("..").join("shaders");
+    let shader_dir = shader_dir.canonicalize().unwrap_or(shader_dir);
     println!("cargo:rerun-if-changed={}", shader_dir.display());
 
     let mut sources: Vec<PathBuf> = fs::read_dir(&shader_dir)
@@ -36,10 +38,12 @@ fn main() {
         }
     }
     if !failures.is_empty() {
+        // Cargo shows a failed build script's stderr: the file names and naga's diagnostics.
         for message in &failures {
             eprintln!("{message}");
         }
-        panic!("{} shader(s) failed to compile:\n{}", failures.len(), failures.join("\n"));
+        eprintln!("{} shader(s) failed to compile", failures.len());
+        std::process::exit(1);
     }
 }
 
@@ -61,11 +65,21 @@ fn compile(path: &Path, out_dir: &Path) -> Result<(), String> {
 
     let module = glsl::Frontend::default()
         .parse(&glsl::Options::from(stage), &source)
-        .map_err(|e| format!("{display}: GLSL parse error:\n{}", e.emit_to_string_with_path(&source, &display)))?;
+        .map_err(|e| {
+            format!(
+                "{display}: GLSL parse error:\n{}",
+                e.emit_to_string_with_path(&source, &display)
+            )
+        })?;
 
     let info = Validator::new(ValidationFlags::all(), Capabilities::IMMEDIATES)
         .validate(&module)
-        .map_err(|e| format!("{display}: validation error:\n{}", e.emit_to_string_with_path(&source, &display)))?;
+        .map_err(|e| {
+            format!(
+                "{display}: validation error:\n{}",
+                e.emit_to_string_with_path(&source, &display)
+            )
+        })?;
 
     let options = spv::Options {
         lang_version: (1, 0),
@@ -85,6 +99,7 @@ fn compile(path: &Path, out_dir: &Path) -> Result<(), String> {
         .ok_or_else(|| format!("{display}: file name is not UTF-8"))?;
     let out_path = out_dir.join(format!("{stem}.{suffix}.spv"));
     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-    fs::write(&out_path, bytes).map_err(|e| format!("{}: cannot write: {e}", out_path.display()))?;
+    fs::write(&out_path, bytes)
+        .map_err(|e| format!("{}: cannot write: {e}", out_path.display()))?;
     Ok(())
 }

@@ -139,11 +139,9 @@ mod tests {
         assert_eq!(config.mode, Mode::Off);
         assert_eq!(
             warnings,
-            vec![
-                "REVZ_MODE: 'reverse' is not a valid mode \
+            vec!["REVZ_MODE: 'reverse' is not a valid mode \
                  (expected one of: off, flip, complementary, infinite); using off"
-                    .to_owned()
-            ]
+                .to_owned()]
         );
     }
 

@@ -127,7 +127,10 @@ pub struct NextDeviceLink {
 pub unsafe fn take_instance_link(create_info: &vk::InstanceCreateInfo) -> Option<NextInstanceLink> {
     // SAFETY: the caller guarantees a valid chain; loader structures have the declared layout.
     let info: *mut LayerInstanceCreateInfo = unsafe {
-        find_link_info(create_info.p_next, STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO)
+        find_link_info(
+            create_info.p_next,
+            STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO,
+        )
     };
     // SAFETY: non-null pointers from `find_link_info` point at a live loader structure, which
     // the loader gives us to modify (advancing it is the documented protocol).
@@ -168,9 +171,15 @@ mod tests {
         // sType (4) + padding (4) + pNext (8) + function (4) + padding (4) + union (8);
         // the negotiate struct is sType, pNext, version (+ padding) and three pointers.
         assert_eq!(std::mem::offset_of!(LayerInstanceCreateInfo, function), 16);
-        assert_eq!(std::mem::offset_of!(LayerInstanceCreateInfo, p_layer_info), 24);
+        assert_eq!(
+            std::mem::offset_of!(LayerInstanceCreateInfo, p_layer_info),
+            24
+        );
         assert_eq!(std::mem::offset_of!(LayerDeviceCreateInfo, function), 16);
-        assert_eq!(std::mem::offset_of!(LayerDeviceCreateInfo, p_layer_info), 24);
+        assert_eq!(
+            std::mem::offset_of!(LayerDeviceCreateInfo, p_layer_info),
+            24
+        );
         assert_eq!(std::mem::size_of::<NegotiateLayerInterface>(), 48);
     }
 

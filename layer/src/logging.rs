@@ -46,16 +46,18 @@ pub fn init() {
         }
 
         let mut builder = env_logger::Builder::new();
-        builder.filter_level(filter).format(|out, record| {
-            writeln!(out, "[revz {}] {}", record.level(), record.args())
-        });
+        builder
+            .filter_level(filter)
+            .format(|out, record| writeln!(out, "[revz {}] {}", record.level(), record.args()));
         let mut file_problem = None;
         if let Ok(path) = std::env::var(FILE_VAR) {
             match OpenOptions::new().create(true).append(true).open(&path) {
                 Ok(file) => {
                     builder.target(env_logger::Target::Pipe(Box::new(file)));
                 }
-                Err(err) => file_problem = Some(format!("{FILE_VAR}='{path}': {err}; logging to stderr")),
+                Err(err) => {
+                    file_problem = Some(format!("{FILE_VAR}='{path}': {err}; logging to stderr"))
+                }
             }
         }
         // Another logger cannot already be installed in this library's own `log`, but do not

@@ -76,7 +76,10 @@ unsafe extern "system" fn debug_callback(
         }
     };
     // Never panic inside a callback called from C: ignore a failed write to stderr.
-    let _ = writeln!(std::io::stderr(), "validation: {severity_name} {id_name}: {message}");
+    let _ = writeln!(
+        std::io::stderr(),
+        "validation: {severity_name} {id_name}: {message}"
+    );
     vk::FALSE
 }
 
@@ -126,8 +129,8 @@ pub struct GpuOptions {
 
 /// Loader entry, instance and (optional) debug messenger; destroyed after the device.
 struct InstanceCtx {
-    // Field order matters only for the reader: `Drop` below destroys explicitly, and `entry`
-    // (which keeps libvulkan loaded) and `log` (the messenger's user data) are dropped after.
+    // `Drop` below destroys the messenger and the instance explicitly; `entry` (which keeps
+    // libvulkan loaded) and `log` (the messengers' user data) are dropped only after that.
     entry: ash::Entry,
     instance: ash::Instance,
     api_version: u32,
@@ -229,8 +232,14 @@ impl InstanceCtx {
             create_info = create_info.push_next(&mut chained_messenger);
         }
         // SAFETY: every pointer in `create_info` refers to locals that outlive the call.
-        let instance = unsafe { entry.create_instance(&create_info, None) }
-            .context("vkCreateInstance failed")?;
+        let instance = match unsafe { entry.create_instance(&create_info, None) } {
+            Ok(instance) => instance,
+            Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => bail!(
+                "no device found: vkCreateInstance found no Vulkan driver \
+                 (ERROR_INCOMPATIBLE_DRIVER; apt-get install mesa-vulkan-drivers for lavapipe)"
+            ),
+            Err(e) => bail!("vkCreateInstance failed: {e}"),
+        };
 
         let mut ctx = InstanceCtx {
             entry,
@@ -292,7 +301,10 @@ impl Drop for Gpu {
 }
 
 fn c_chars_to_string(chars: Result<&CStr, std::ffi::FromBytesUntilNulError>) -> String {
-    chars.map_or_else(|_| "(invalid)".to_owned(), |s| s.to_string_lossy().into_owned())
+    chars.map_or_else(
+        |_| "(invalid)".to_owned(),
+        |s| s.to_string_lossy().into_owned(),
+    )
 }
 
 fn device_info(instance: &InstanceCtx, physical_device: vk::PhysicalDevice) -> DeviceInfo {
@@ -335,7 +347,10 @@ impl Gpu {
         let physical_devices = unsafe { instance.instance.enumerate_physical_devices() }
             .context("vkEnumeratePhysicalDevices failed")?;
         if physical_devices.is_empty() {
-            bail!("no Vulkan physical device found (is mesa-vulkan-drivers installed?)");
+            bail!(
+                "no device found: the Vulkan loader lists no physical device \
+                 (apt-get install mesa-vulkan-drivers for lavapipe)"
+            );
         }
         let candidates: Vec<(vk::PhysicalDevice, DeviceInfo)> = physical_devices
             .iter()
@@ -348,10 +363,13 @@ impl Gpu {
                     .iter()
                     .find(|(_, info)| info.name.to_lowercase().contains(&wanted_lower))
                     .ok_or_else(|| {
-                        let names: Vec<String> =
-                            candidates.iter().map(|(_, i)| format!("'{}'", i.name)).collect();
+                        let names: Vec<String> = candidates
+                            .iter()
+                            .map(|(_, i)| format!("'{}'", i.name))
+                            .collect();
                         anyhow!(
-                            "no Vulkan device name contains '{wanted}'; available: {}",
+                            "no device name contains '{wanted}' (case-insensitive); \
+                             available devices: {}",
                             names.join(", ")
                         )
                     })?
@@ -527,7 +545,10 @@ impl<'a> HostBuffer<'a> {
     /// Copies `bytes` to the start of the buffer (visible to the device at the next submit:
     /// the memory is coherent).
     pub fn write(&mut self, bytes: &[u8]) {
-        assert!(bytes.len() <= self.size, "write past the end of a host buffer");
+        assert!(
+            bytes.len() <= self.size,
+            "write past the end of a host buffer"
+        );
         // SAFETY: `mapped` points to at least `size` mapped bytes; no GPU work uses the buffer
         // while the host writes (writes happen before the submit).
         unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), self.mapped, bytes.len()) };

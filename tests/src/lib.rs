@@ -85,7 +85,13 @@ impl Harness {
     pub fn tester(&self, depth_format: &str, out: &Path) -> Command {
         let mut command = Command::new(&self.tester);
         command
-            .args(["--validation", "--device", "llvmpipe", "--depth-format", depth_format])
+            .args([
+                "--validation",
+                "--device",
+                "llvmpipe",
+                "--depth-format",
+                depth_format,
+            ])
             .arg("--out")
             .arg(out);
         for name in SCRUBBED_ENV {
@@ -137,7 +143,9 @@ impl Render {
             panic!("the Khronos validation layer is missing: apt-get install vulkan-validationlayers\n{context}");
         }
         if stderr.contains("no device") || stderr.contains("No Vulkan") {
-            panic!("lavapipe is missing: apt-get install mesa-vulkan-drivers libvulkan1\n{context}");
+            panic!(
+                "lavapipe is missing: apt-get install mesa-vulkan-drivers libvulkan1\n{context}"
+            );
         }
         match self.output.status.code() {
             Some(0) => {}

@@ -11,7 +11,11 @@ fn passthrough_is_bit_identical(format: &str) {
     let harness = Harness::locate();
     let native_dir = harness.scratch_dir(&format!("{format}-native"));
     let native = harness.render(harness.tester(format, &native_dir), &native_dir);
-    assert_eq!(native.loaded_mode(), None, "the layer was loaded without being asked for");
+    assert_eq!(
+        native.loaded_mode(),
+        None,
+        "the layer was loaded without being asked for"
+    );
     let json = native.json();
     let covered = json["covered_pixels"].as_u64().unwrap();
     assert!(covered > 1000, "the scene barely covers the image: {json}");
@@ -97,7 +101,10 @@ fn unknown_mode_warns_naming_the_valid_modes_and_falls_back_to_off() {
         .with_layer(&mut command)
         .env("REVZ_MODE", "upside-down")
         .env("REVZ_LOG", "info");
-    assert_eq!(harness.render(command, &dir).loaded_mode().as_deref(), Some("off"));
+    assert_eq!(
+        harness.render(command, &dir).loaded_mode().as_deref(),
+        Some("off")
+    );
 }
 
 #[test]
@@ -141,7 +148,10 @@ fn vulkaninfo_lists_the_layer_and_creates_the_lavapipe_device() {
     assert!(output.status.success(), "{stdout}\n{stderr}");
     assert!(stdout.contains(LAYER_NAME), "{stdout}");
     assert!(stdout.contains("llvmpipe"), "{stdout}");
-    assert!(stderr.contains("loaded as VK_LAYER_REVZ_reverse_z"), "{stderr}");
+    assert!(
+        stderr.contains("loaded as VK_LAYER_REVZ_reverse_z"),
+        "{stderr}"
+    );
     assert!(!stderr.contains("ERROR"), "{stderr}");
 }
 
@@ -162,7 +172,11 @@ fn the_implicit_layer_follows_enable_and_disable_variables() {
     let cases: [(&str, &[(&str, &str)], bool); 3] = [
         ("implicit-default", &[], false),
         ("implicit-enabled", &[("ENABLE_REVZ", "1")], true),
-        ("implicit-disabled", &[("ENABLE_REVZ", "1"), ("DISABLE_REVZ", "1")], false),
+        (
+            "implicit-disabled",
+            &[("ENABLE_REVZ", "1"), ("DISABLE_REVZ", "1")],
+            false,
+        ),
     ];
     for (name, env, loaded) in cases {
         let dir = harness.scratch_dir(name);

@@ -50,7 +50,10 @@ pub fn render(template: &str, library: &Path, version: &str) -> String {
     let escaped = serde_json::to_string(&library.to_string_lossy()).expect("a string serializes");
     template
         .replace("@LIBRARY_PATH@", &escaped[1..escaped.len() - 1])
-        .replace("@IMPLEMENTATION_VERSION@", &implementation_version(version).to_string())
+        .replace(
+            "@IMPLEMENTATION_VERSION@",
+            &implementation_version(version).to_string(),
+        )
         .replace("@VERSION@", version)
 }
 
@@ -89,8 +92,14 @@ mod tests {
             assert_eq!(layer["library_path"], "/opt/re\"vz/libVkLayer_revz.so");
             assert_eq!(layer["implementation_version"], "4202499");
             let implicit = kind == Kind::Implicit;
-            assert_eq!(layer["enable_environment"]["ENABLE_REVZ"].as_str() == Some("1"), implicit);
-            assert_eq!(layer["disable_environment"]["DISABLE_REVZ"].as_str() == Some("1"), implicit);
+            assert_eq!(
+                layer["enable_environment"]["ENABLE_REVZ"].as_str() == Some("1"),
+                implicit
+            );
+            assert_eq!(
+                layer["disable_environment"]["DISABLE_REVZ"].as_str() == Some("1"),
+                implicit
+            );
         }
     }
 }

@@ -10,8 +10,14 @@ use anyhow::{bail, Result};
 /// Debian package names, with what each provides.
 pub const PACKAGES: &[(&str, &str)] = &[
     ("libvulkan1", "the Vulkan loader"),
-    ("mesa-vulkan-drivers", "lavapipe, the CPU Vulkan driver the tests render on"),
-    ("vulkan-validationlayers", "the Khronos validation layer every test render runs under"),
+    (
+        "mesa-vulkan-drivers",
+        "lavapipe, the CPU Vulkan driver the tests render on",
+    ),
+    (
+        "vulkan-validationlayers",
+        "the Khronos validation layer every test render runs under",
+    ),
     ("vulkan-tools", "vulkaninfo"),
     ("spirv-tools", "spirv-val, which checks the tester's SPIR-V"),
 ];
@@ -51,10 +57,18 @@ fn run(program: &str, args: &[&str]) -> Result<()> {
 
 /// Makes sure every package in [`PACKAGES`] is installed.
 pub fn ensure_packages() -> Result<()> {
-    if Command::new("dpkg-query").arg("--version").output().is_err() {
+    if Command::new("dpkg-query")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
         eprintln!(
             "xtask: not a Debian-based system; make sure these are installed: {}",
-            PACKAGES.iter().map(|(_, what)| *what).collect::<Vec<_>>().join("; ")
+            PACKAGES
+                .iter()
+                .map(|(_, what)| *what)
+                .collect::<Vec<_>>()
+                .join("; ")
         );
         return Ok(());
     }

@@ -34,7 +34,10 @@ unsafe extern "system" fn fake_create_instance(
     vk::Result::SUCCESS
 }
 
-unsafe extern "system" fn fake_destroy_instance(_: vk::Instance, _: *const vk::AllocationCallbacks) {
+unsafe extern "system" fn fake_destroy_instance(
+    _: vk::Instance,
+    _: *const vk::AllocationCallbacks,
+) {
     DESTROYED_INSTANCES.fetch_add(1, Ordering::SeqCst);
 }
 
@@ -132,7 +135,10 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
         assert_eq!(passed.map(|f| f as usize), Some(fake_command as usize));
         let hooked = instance::get_instance_proc_addr(handle, c"vkCreateDevice".as_ptr());
         assert_ne!(hooked.map(|f| f as usize), None);
-        assert_ne!(hooked.map(|f| f as usize), Some(fake_create_device as usize));
+        assert_ne!(
+            hooked.map(|f| f as usize),
+            Some(fake_create_device as usize)
+        );
         assert!(instance::get_instance_proc_addr(handle, c"vkNoSuchCommand".as_ptr()).is_none());
     }
 
@@ -162,7 +168,10 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
     assert!(device_chain.p_layer_info.is_null());
     // SAFETY: the fake's live object.
     let device_key = unsafe { DispatchKey::of(device_handle) };
-    assert_eq!(DEVICES.get(device_key).map(|d| d.handle), Some(device_handle));
+    assert_eq!(
+        DEVICES.get(device_key).map(|d| d.handle),
+        Some(device_handle)
+    );
 
     // SAFETY: valid names and a live device.
     unsafe {
@@ -170,7 +179,10 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
         assert_eq!(passed.map(|f| f as usize), Some(fake_command as usize));
         let hooked = device::get_device_proc_addr(device_handle, c"vkDestroyDevice".as_ptr());
         assert!(hooked.is_some());
-        assert_ne!(hooked.map(|f| f as usize), Some(fake_destroy_device as usize));
+        assert_ne!(
+            hooked.map(|f| f as usize),
+            Some(fake_destroy_device as usize)
+        );
         assert!(device::get_device_proc_addr(device_handle, c"vkNoSuchCommand".as_ptr()).is_none());
 
         device::destroy_device(device_handle, std::ptr::null());

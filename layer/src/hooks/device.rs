@@ -55,8 +55,12 @@ pub unsafe extern "system" fn destroy_device(
             // SAFETY: a non-null device being destroyed is still live.
             match DEVICES.remove(unsafe { DispatchKey::of(device) }) {
                 // SAFETY: calling down with the application's arguments.
-                Some(state) => unsafe { (state.next.fp_v1_0().destroy_device)(device, p_allocator) },
-                None => log::error!("vkDestroyDevice: unknown device {device:?}; cannot pass it down"),
+                Some(state) => unsafe {
+                    (state.next.fp_v1_0().destroy_device)(device, p_allocator)
+                },
+                None => {
+                    log::error!("vkDestroyDevice: unknown device {device:?}; cannot pass it down")
+                }
             }
         },
         || (),

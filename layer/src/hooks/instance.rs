@@ -30,7 +30,8 @@ pub unsafe extern "system" fn get_instance_proc_addr(
         || {
             // SAFETY: the spec requires a NUL-terminated name; null is tolerated.
             let name = unsafe { command_name(p_name) }?;
-            if let Some(hook) = super::instance_command(name).or_else(|| super::device_command(name))
+            if let Some(hook) =
+                super::instance_command(name).or_else(|| super::device_command(name))
             {
                 return Some(hook);
             }
@@ -71,7 +72,8 @@ pub unsafe extern "system" fn create_instance(
             };
             let gipa = link.get_instance_proc_addr;
             // SAFETY: querying a global command from the next layer.
-            let Some(next_create) = (unsafe { gipa(vk::Instance::null(), c"vkCreateInstance".as_ptr()) })
+            let Some(next_create) =
+                (unsafe { gipa(vk::Instance::null(), c"vkCreateInstance".as_ptr()) })
             else {
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
@@ -151,8 +153,12 @@ pub unsafe extern "system" fn destroy_instance(
             let key = unsafe { DispatchKey::of(instance) };
             match INSTANCES.remove(key) {
                 // SAFETY: calling down with the application's arguments.
-                Some(state) => unsafe { (state.next.fp_v1_0().destroy_instance)(instance, p_allocator) },
-                None => log::error!("vkDestroyInstance: unknown instance {instance:?}; cannot pass it down"),
+                Some(state) => unsafe {
+                    (state.next.fp_v1_0().destroy_instance)(instance, p_allocator)
+                },
+                None => log::error!(
+                    "vkDestroyInstance: unknown instance {instance:?}; cannot pass it down"
+                ),
             }
         },
         || (),
@@ -201,7 +207,8 @@ pub unsafe extern "system" fn create_device(
             // SAFETY: the next layer's vkCreateDevice has this signature.
             let next_create: vk::PFN_vkCreateDevice = unsafe { std::mem::transmute(next_create) };
             // SAFETY: calling down with the application's arguments.
-            let result = unsafe { next_create(physical_device, p_create_info, p_allocator, p_device) };
+            let result =
+                unsafe { next_create(physical_device, p_create_info, p_allocator, p_device) };
             if result != vk::Result::SUCCESS {
                 return result;
             }

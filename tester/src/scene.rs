@@ -1,0 +1,572 @@
+//! Scenes as pure data (no Vulkan): a camera, generated meshes, model matrices and colors, and
+//! what the renderer derives from them (the shared vertex/index arrays, the draw ranges and the
+//! per-object push constants).
+//!
+//! Conventions: right-handed world, y up; Vulkan clip space with depth in [0, 1] (standard,
+//! not reversed: near = 0, far = 1, compare LESS) and y pointing down, obtained by flipping
+//! the y row of glam's right-handed [0, 1]-depth perspective (the former
+//! `DMat4::perspective_rh`, `glam::dcamera::rh::proj::directx::perspective` since glam 0.34);
+//! the viewport height stays positive. Every matrix is
+//! computed in f64; each object's precomposed MVP = P * V * M is rounded once to f32, which is
+//! what most applications push.
+//!
+//! Adding a scene: add a variant to [`SceneId`] and a builder function returning a [`Scene`].
+
+use clap::ValueEnum;
+use glam::dcamera::rh::{proj, view};
+use glam::{DMat4, DVec3, DVec4};
+
+/// The scenes the tester can render (`--scene`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, ValueEnum)]
+pub enum SceneId {
+    /// Three cubes overlapping on screen at different depths, a tilted slab cutting through
+    /// the middle one, and a ground plane.
+    Overlap,
+}
+
+impl SceneId {
+    /// The CLI / report name of the scene.
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneId::Overlap => "overlap",
+        }
+    }
+
+    /// Builds the scene.
+    pub fn build(self) -> Scene {
+        match self {
+            SceneId::Overlap => overlap(),
+        }
+    }
+}
+
+/// A perspective camera.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position (world).
+    pub eye: DVec3,
+    /// Point looked at (world).
+    pub target: DVec3,
+    /// Up direction (world).
+    pub up: DVec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f64,
+    /// Near plane distance (> 0).
+    pub near: f64,
+    /// Far plane distance (> near).
+    pub far: f64,
+}
+
+/// Negates clip-space y: glam's projections are y-up, Vulkan's framebuffer y points down.
+pub fn vulkan_y_flip() -> DMat4 {
+    DMat4::from_diagonal(DVec4::new(1.0, -1.0, 1.0, 1.0))
+}
+
+impl Camera {
+    /// World -> view (right-handed, looking down -z).
+    pub fn view(&self) -> DMat4 {
+        view::look_at_mat4(self.eye, self.target, self.up)
+    }
+
+    /// View -> Vulkan clip space, standard depth: z_ndc = 0 at `near`, 1 at `far`.
+    pub fn projection(&self, aspect: f64) -> DMat4 {
+        vulkan_y_flip() * proj::directx::perspective(self.fov_y, aspect, self.near, self.far)
+    }
+
+    /// Unit view direction (world).
+    pub fn forward(&self) -> DVec3 {
+        (self.target - self.eye).normalize()
+    }
+}
+
+/// Generated geometry: f32 positions and u32 triangle-list indices into them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Vertex positions (model space).
+    pub positions: Vec<[f32; 3]>,
+    /// Triangle list, indices into `positions`.
+    pub indices: Vec<u32>,
+}
+
+impl Mesh {
+    /// Appends a quad `center ± u ± v`, wound counter-clockwise around `u × v`.
+    fn push_quad(&mut self, center: DVec3, u: DVec3, v: DVec3) {
+        let base = u32::try_from(self.positions.len()).expect("mesh too large");
+        for corner in [
+            center - u - v,
+            center + u - v,
+            center + u + v,
+            center - u + v,
+        ] {
+            self.positions.push(corner.as_vec3().to_array());
+        }
+        self.indices
+            .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+
+    /// An axis-aligned box centered on the origin: 6 faces of 4 vertices each (so later
+    /// scenes can give faces their own attributes), counter-clockwise seen from outside.
+    pub fn cuboid(half_extents: DVec3) -> Mesh {
+        let (x, y, z) = (
+            DVec3::X * half_extents.x,
+            DVec3::Y * half_extents.y,
+            DVec3::Z * half_extents.z,
+        );
+        let mut mesh = Mesh::default();
+        // (face center, u, v) with u × v along the outward normal.
+        for (center, u, v) in [
+            (x, y, z),
+            (-x, z, y),
+            (y, z, x),
+            (-y, x, z),
+            (z, x, y),
+            (-z, y, x),
+        ] {
+            mesh.push_quad(center, u, v);
+        }
+        mesh
+    }
+
+    /// A rectangle in the xz plane (y = 0) centered on the origin, facing +y.
+    pub fn quad(half_width: f64, half_depth: f64) -> Mesh {
+        let mut mesh = Mesh::default();
+        mesh.push_quad(DVec3::ZERO, DVec3::Z * half_depth, DVec3::X * half_width);
+        mesh
+    }
+
+    /// The positions as f64 (exactly the f32 values the GPU gets).
+    pub fn positions_f64(&self) -> impl Iterator<Item = DVec3> + '_ {
+        self.positions
+            .iter()
+            .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
+    }
+
+    /// The triangles, as f64 model-space corners.
+    #[cfg(test)]
+    pub fn triangles(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        let p = |i: u32| {
+            let q = self.positions[i as usize];
+            DVec3::new(f64::from(q[0]), f64::from(q[1]), f64::from(q[2]))
+        };
+        self.indices
+            .chunks_exact(3)
+            .map(move |t| [p(t[0]), p(t[1]), p(t[2])])
+    }
+
+    /// Center of the axis-aligned bounding box (model space).
+    pub fn bounds_center(&self) -> DVec3 {
+        let mut min = DVec3::splat(f64::INFINITY);
+        let mut max = DVec3::splat(f64::NEG_INFINITY);
+        for p in self.positions_f64() {
+            min = min.min(p);
+            max = max.max(p);
+        }
+        if self.positions.is_empty() {
+            DVec3::ZERO
+        } else {
+            (min + max) * 0.5
+        }
+    }
+}
+
+/// One drawn object.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Object {
+    /// A short name for reports and tests.
+    pub name: &'static str,
+    /// Model-space geometry.
+    pub mesh: Mesh,
+    /// Model -> world.
+    pub model: DMat4,
+    /// Flat RGBA color (values k/255, so the UNORM color attachment stores them exactly).
+    pub color: [f32; 4],
+}
+
+impl Object {
+    /// World-space center of the mesh's bounding box.
+    pub fn world_center(&self) -> DVec3 {
+        self.model.transform_point3(self.mesh.bounds_center())
+    }
+}
+
+/// An opaque color from 8-bit components (exactly representable in R8G8B8A8_UNORM).
+pub fn rgb8(r: u8, g: u8, b: u8) -> [f32; 4] {
+    [
+        f32::from(r) / 255.0,
+        f32::from(g) / 255.0,
+        f32::from(b) / 255.0,
+        1.0,
+    ]
+}
+
+/// Where one object's indices lie in the shared index buffer (arguments of vkCmdDrawIndexed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DrawRange {
+    /// First index in the shared index buffer.
+    pub first_index: u32,
+    /// Number of indices.
+    pub index_count: u32,
+    /// Added to each index: the object's first vertex in the shared vertex buffer.
+    pub vertex_offset: i32,
+}
+
+/// Every object's geometry packed into one vertex array and one index array.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Geometry {
+    /// All positions.
+    pub positions: Vec<[f32; 3]>,
+    /// All indices (relative to each object's `vertex_offset`).
+    pub indices: Vec<u32>,
+    /// One range per object, in draw order.
+    pub draws: Vec<DrawRange>,
+}
+
+impl Geometry {
+    /// The positions as little-endian bytes (12 bytes per vertex).
+    pub fn position_bytes(&self) -> Vec<u8> {
+        self.positions
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
+    }
+
+    /// The indices as little-endian bytes.
+    pub fn index_bytes(&self) -> Vec<u8> {
+        self.indices.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+}
+
+/// Size in bytes of the push-constant block shared by `scene.vert` and `scene.frag`:
+/// `mat4 mvp` (column-major) at offset 0, `vec4 color` at offset 64.
+pub const PUSH_CONSTANT_SIZE: u32 = 80;
+
+/// A camera and objects, in draw order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The scene's name (as on the CLI).
+    pub name: &'static str,
+    /// The camera.
+    pub camera: Camera,
+    /// The objects, nearest first (see [`Scene::new`]).
+    pub objects: Vec<Object>,
+}
+
+impl Scene {
+    /// A scene whose objects are sorted nearest first (by the view depth of their centers):
+    /// drawing front to back means the depth test, not the draw order, decides visibility.
+    pub fn new(name: &'static str, camera: Camera, mut objects: Vec<Object>) -> Scene {
+        let mut scene = Scene {
+            name,
+            camera,
+            objects: Vec::new(),
+        };
+        objects.sort_by(|a, b| scene.view_depth(a).total_cmp(&scene.view_depth(b)));
+        scene.objects = objects;
+        scene
+    }
+
+    /// Distance of the object's center in front of the eye, along the view direction.
+    pub fn view_depth(&self, object: &Object) -> f64 {
+        (object.world_center() - self.camera.eye).dot(self.camera.forward())
+    }
+
+    /// P * V (f64).
+    pub fn view_projection(&self, aspect: f64) -> DMat4 {
+        self.camera.projection(aspect) * self.camera.view()
+    }
+
+    /// The object's P * V * M in f64.
+    pub fn mvp(&self, object: &Object, aspect: f64) -> DMat4 {
+        self.view_projection(aspect) * object.model
+    }
+
+    /// The 80 bytes of push constants for `object`: the MVP rounded once to f32,
+    /// column-major, then the RGBA color.
+    pub fn push_constants(
+        &self,
+        object: &Object,
+        aspect: f64,
+    ) -> [u8; PUSH_CONSTANT_SIZE as usize] {
+        let mvp = self.mvp(object, aspect).as_mat4().to_cols_array();
+        let mut bytes = [0u8; PUSH_CONSTANT_SIZE as usize];
+        for (chunk, value) in bytes
+            .chunks_exact_mut(4)
+            .zip(mvp.iter().chain(object.color.iter()))
+        {
+            chunk.copy_from_slice(&value.to_le_bytes());
+        }
+        bytes
+    }
+
+    /// Packs every object's mesh into shared arrays, in draw order.
+    pub fn geometry(&self) -> Geometry {
+        let mut geometry = Geometry::default();
+        for object in &self.objects {
+            let range = DrawRange {
+                first_index: u32::try_from(geometry.indices.len()).expect("too many indices"),
+                index_count: u32::try_from(object.mesh.indices.len()).expect("too many indices"),
+                vertex_offset: i32::try_from(geometry.positions.len()).expect("too many vertices"),
+            };
+            geometry.positions.extend_from_slice(&object.mesh.positions);
+            geometry.indices.extend_from_slice(&object.mesh.indices);
+            geometry.draws.push(range);
+        }
+        geometry
+    }
+}
+
+/// A cube resting on the ground, sunk 0.05 into it (so no face is coplanar with the ground),
+/// turned by `yaw` radians about the vertical.
+fn grounded_cube(
+    name: &'static str,
+    half: f64,
+    x: f64,
+    z: f64,
+    yaw: f64,
+    color: [f32; 4],
+) -> Object {
+    Object {
+        name,
+        mesh: Mesh::cuboid(DVec3::splat(half)),
+        model: DMat4::from_translation(DVec3::new(x, half - 0.05, z)) * DMat4::from_rotation_y(yaw),
+        color,
+    }
+}
+
+/// The `overlap` scene: three cubes of different sizes at different depths overlapping on
+/// screen, a thin tilted slab cutting through the middle cube, and a 20 x 20 ground quad.
+pub fn overlap() -> Scene {
+    let camera = Camera {
+        eye: DVec3::new(0.0, 2.0, 6.0),
+        target: DVec3::ZERO,
+        up: DVec3::Y,
+        fov_y: 45f64.to_radians(),
+        near: 0.1,
+        far: 100.0,
+    };
+    let near_cube = grounded_cube("near cube", 0.5, -0.75, 1.9, 0.35, rgb8(230, 30, 30));
+    let middle_cube = grounded_cube("middle cube", 0.75, 0.35, -0.2, -0.45, rgb8(30, 200, 40));
+    let far_cube = grounded_cube("far cube", 1.2, -0.55, -3.4, 0.2, rgb8(40, 80, 240));
+    let slab = Object {
+        name: "slab",
+        mesh: Mesh::cuboid(DVec3::new(1.5, 0.06, 0.9)),
+        // Centered inside the middle cube, tilted about z and x so that it cuts through two
+        // of the cube's visible faces along slanted lines.
+        model: DMat4::from_translation(DVec3::new(0.35, 0.8, -0.2))
+            * DMat4::from_rotation_z(28f64.to_radians())
+            * DMat4::from_rotation_x(25f64.to_radians()),
+        color: rgb8(250, 210, 20),
+    };
+    // The ground extends 20 x 20, from z = -14 (far) to z = 6 (below the eye), so that all of
+    // it lies in front of the near plane.
+    let ground = Object {
+        name: "ground",
+        mesh: Mesh::quad(10.0, 10.0),
+        model: DMat4::from_translation(DVec3::new(0.0, 0.0, -4.0)),
+        color: rgb8(150, 60, 170),
+    };
+    Scene::new(
+        "overlap",
+        camera,
+        vec![ground, far_cube, slab, middle_cube, near_cube],
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ASPECT: f64 = 1.0;
+
+    fn ndc(mvp: &DMat4, p: DVec3) -> DVec3 {
+        let clip = *mvp * p.extend(1.0);
+        assert!(clip.w > 0.0, "vertex behind the eye: {p} -> {clip}");
+        clip.truncate() / clip.w
+    }
+
+    /// NDC bounding rectangle (x, y) of an object.
+    fn screen_bounds(scene: &Scene, object: &Object) -> (DVec3, DVec3) {
+        let mvp = scene.mvp(object, ASPECT);
+        let mut min = DVec3::splat(f64::INFINITY);
+        let mut max = DVec3::splat(f64::NEG_INFINITY);
+        for p in object.mesh.positions_f64() {
+            let q = ndc(&mvp, p);
+            min = min.min(q);
+            max = max.max(q);
+        }
+        (min, max)
+    }
+
+    fn object<'a>(scene: &'a Scene, name: &str) -> &'a Object {
+        scene
+            .objects
+            .iter()
+            .find(|o| o.name == name)
+            .unwrap_or_else(|| panic!("no object {name}"))
+    }
+
+    fn overlaps_on_screen(scene: &Scene, a: &str, b: &str) -> bool {
+        let (amin, amax) = screen_bounds(scene, object(scene, a));
+        let (bmin, bmax) = screen_bounds(scene, object(scene, b));
+        amin.x < bmax.x && bmin.x < amax.x && amin.y < bmax.y && bmin.y < amax.y
+    }
+
+    #[test]
+    fn every_vertex_is_between_near_and_far() {
+        for id in SceneId::value_variants() {
+            let scene = id.build();
+            for object in &scene.objects {
+                let mvp = scene.mvp(object, ASPECT);
+                for p in object.mesh.positions_f64() {
+                    let z = ndc(&mvp, p).z;
+                    assert!(
+                        (0.0..=1.0).contains(&z),
+                        "{}: {p} has depth {z}",
+                        object.name
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn draw_order_is_nearest_first() {
+        for id in SceneId::value_variants() {
+            let scene = id.build();
+            let depths: Vec<f64> = scene.objects.iter().map(|o| scene.view_depth(o)).collect();
+            assert!(
+                depths.windows(2).all(|w| w[0] <= w[1]),
+                "{}: view depths not increasing: {depths:?}",
+                scene.name
+            );
+        }
+        let scene = overlap();
+        assert_eq!(scene.objects.first().unwrap().name, "near cube");
+        assert_eq!(scene.objects.last().unwrap().name, "ground");
+    }
+
+    #[test]
+    fn overlap_cubes_overlap_on_screen_and_fill_it() {
+        let scene = overlap();
+        assert!(overlaps_on_screen(&scene, "near cube", "middle cube"));
+        assert!(overlaps_on_screen(&scene, "middle cube", "far cube"));
+        assert!(overlaps_on_screen(&scene, "slab", "middle cube"));
+        // Everything but the ground spans most of the image, and stays inside it.
+        let mut min = DVec3::splat(f64::INFINITY);
+        let mut max = DVec3::splat(f64::NEG_INFINITY);
+        for o in scene.objects.iter().filter(|o| o.name != "ground") {
+            let (lo, hi) = screen_bounds(&scene, o);
+            min = min.min(lo);
+            max = max.max(hi);
+        }
+        assert!(max.x - min.x > 1.0 && max.y - min.y > 1.0, "{min} {max}");
+        assert!(
+            min.x > -1.0 && min.y > -1.0 && max.x < 1.0 && max.y < 1.0,
+            "{min} {max}"
+        );
+    }
+
+    #[test]
+    fn slab_cuts_through_the_middle_cube() {
+        let scene = overlap();
+        let cube = object(&scene, "middle cube");
+        let slab = object(&scene, "slab");
+        let to_cube = cube.model.inverse() * slab.model;
+        let half = 0.75;
+        let inside = |p: DVec3| p.abs().max_element() < half;
+        let corners: Vec<DVec3> = slab
+            .mesh
+            .positions_f64()
+            .map(|p| to_cube.transform_point3(p))
+            .collect();
+        assert!(inside(to_cube.transform_point3(DVec3::ZERO)));
+        assert!(
+            corners.iter().all(|&p| !inside(p)),
+            "the slab sticks out on every side"
+        );
+        // Tilted: its corners are at several heights in the cube's frame.
+        let heights: Vec<f64> = corners.iter().map(|p| p.y).collect();
+        let spread = heights.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+            - heights.iter().cloned().fold(f64::INFINITY, f64::min);
+        assert!(spread > 0.5, "slab not tilted: {heights:?}");
+    }
+
+    #[test]
+    fn projection_is_vulkan_standard_depth_with_y_down() {
+        let camera = overlap().camera;
+        let p = camera.projection(ASPECT);
+        let at = |z: f64| {
+            let c = p * DVec4::new(0.0, 0.0, -z, 1.0);
+            c.z / c.w
+        };
+        assert!(at(camera.near).abs() < 1e-12);
+        assert!((at(camera.far) - 1.0).abs() < 1e-12);
+        // A point above the view axis lands in the upper half: negative y in Vulkan NDC.
+        let c = p * DVec4::new(0.0, 1.0, -5.0, 1.0);
+        assert!(c.y / c.w < 0.0);
+        // The same as glam's own Vulkan-convention projection.
+        let vulkan = proj::vulkan::perspective(camera.fov_y, ASPECT, camera.near, camera.far);
+        assert_eq!(p, vulkan);
+    }
+
+    #[test]
+    fn colors_are_distinct() {
+        let scene = overlap();
+        for (i, a) in scene.objects.iter().enumerate() {
+            for b in &scene.objects[i + 1..] {
+                assert_ne!(a.color, b.color, "{} and {}", a.name, b.name);
+            }
+        }
+    }
+
+    #[test]
+    fn push_constants_are_rounded_mvp_then_color() {
+        let scene = overlap();
+        let object = &scene.objects[1];
+        let bytes = scene.push_constants(object, ASPECT);
+        let floats: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        let mvp = scene.mvp(object, ASPECT);
+        for col in 0..4 {
+            for row in 0..4 {
+                assert_eq!(floats[col * 4 + row], mvp.col(col)[row] as f32);
+            }
+        }
+        assert_eq!(&floats[16..], &object.color);
+    }
+
+    #[test]
+    fn geometry_ranges_are_consistent() {
+        let scene = overlap();
+        let geometry = scene.geometry();
+        assert_eq!(geometry.draws.len(), scene.objects.len());
+        for (draw, object) in geometry.draws.iter().zip(&scene.objects) {
+            let first = draw.first_index as usize;
+            let indices = &geometry.indices[first..first + draw.index_count as usize];
+            assert_eq!(indices, &object.mesh.indices[..]);
+            for &i in indices {
+                let v = geometry.positions[draw.vertex_offset as usize + i as usize];
+                assert!(object.mesh.positions.contains(&v));
+            }
+        }
+        assert_eq!(
+            geometry.position_bytes().len(),
+            geometry.positions.len() * 12
+        );
+    }
+
+    #[test]
+    fn cuboid_faces_wind_outward() {
+        let mesh = Mesh::cuboid(DVec3::new(1.0, 2.0, 3.0));
+        assert_eq!(mesh.positions.len(), 24);
+        assert_eq!(mesh.indices.len(), 36);
+        for [a, b, c] in mesh.triangles() {
+            let normal = (b - a).cross(c - a);
+            let centroid = (a + b + c) / 3.0;
+            assert!(normal.dot(centroid) > 0.0, "inward triangle {a} {b} {c}");
+        }
+    }
+}
