@@ -169,7 +169,8 @@ fn the_implicit_layer_follows_enable_and_disable_variables() {
     )
     .unwrap();
 
-    let cases: [(&str, &[(&str, &str)], bool); 3] = [
+    type Case<'a> = (&'a str, &'a [(&'a str, &'a str)], bool);
+    let cases: [Case; 3] = [
         ("implicit-default", &[], false),
         ("implicit-enabled", &[("ENABLE_REVZ", "1")], true),
         (

@@ -11,6 +11,8 @@ use super::{device, instance};
 use crate::ffi;
 use crate::state::{DispatchKey, DEVICES, INSTANCES};
 
+type VoidFn = unsafe extern "system" fn();
+
 static DESTROYED_INSTANCES: AtomicUsize = AtomicUsize::new(0);
 static DESTROYED_DEVICES: AtomicUsize = AtomicUsize::new(0);
 
@@ -62,21 +64,12 @@ unsafe extern "system" fn fake_get_instance_proc_addr(
 ) -> vk::PFN_vkVoidFunction {
     // SAFETY: revz only asks for NUL-terminated names.
     let name = unsafe { CStr::from_ptr(name) };
-    // SAFETY (all transmutes): function pointers of one ABI, cast back by name.
-    unsafe {
-        match name.to_bytes() {
-            b"vkCreateInstance" => Some(std::mem::transmute::<vk::PFN_vkCreateInstance, _>(
-                fake_create_instance,
-            )),
-            b"vkDestroyInstance" => Some(std::mem::transmute::<vk::PFN_vkDestroyInstance, _>(
-                fake_destroy_instance,
-            )),
-            b"vkCreateDevice" => Some(std::mem::transmute::<vk::PFN_vkCreateDevice, _>(
-                fake_create_device,
-            )),
-            b"vkFakeInstanceCommand" => Some(fake_command as unsafe extern "system" fn()),
-            _ => None,
-        }
+    match name.to_bytes() {
+        b"vkCreateInstance" => void_fn!(vk::PFN_vkCreateInstance, fake_create_instance),
+        b"vkDestroyInstance" => void_fn!(vk::PFN_vkDestroyInstance, fake_destroy_instance),
+        b"vkCreateDevice" => void_fn!(vk::PFN_vkCreateDevice, fake_create_device),
+        b"vkFakeInstanceCommand" => Some(fake_command),
+        _ => None,
     }
 }
 
@@ -87,13 +80,8 @@ unsafe extern "system" fn fake_get_device_proc_addr(
     // SAFETY: revz only asks for NUL-terminated names.
     let name = unsafe { CStr::from_ptr(name) };
     match name.to_bytes() {
-        // SAFETY: a function pointer of one ABI, cast back by name.
-        b"vkDestroyDevice" => Some(unsafe {
-            std::mem::transmute::<vk::PFN_vkDestroyDevice, unsafe extern "system" fn()>(
-                fake_destroy_device,
-            )
-        }),
-        b"vkFakeDeviceCommand" => Some(fake_command as unsafe extern "system" fn()),
+        b"vkDestroyDevice" => void_fn!(vk::PFN_vkDestroyDevice, fake_destroy_device),
+        b"vkFakeDeviceCommand" => Some(fake_command),
         _ => None,
     }
 }
@@ -132,12 +120,15 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
     // SAFETY: valid names and a live instance.
     unsafe {
         let passed = instance::get_instance_proc_addr(handle, c"vkFakeInstanceCommand".as_ptr());
-        assert_eq!(passed.map(|f| f as usize), Some(fake_command as usize));
+        assert_eq!(
+            passed.map(|f| f as usize),
+            Some(fake_command as VoidFn as usize)
+        );
         let hooked = instance::get_instance_proc_addr(handle, c"vkCreateDevice".as_ptr());
         assert_ne!(hooked.map(|f| f as usize), None);
         assert_ne!(
             hooked.map(|f| f as usize),
-            Some(fake_create_device as usize)
+            Some(fake_create_device as vk::PFN_vkCreateDevice as usize)
         );
         assert!(instance::get_instance_proc_addr(handle, c"vkNoSuchCommand".as_ptr()).is_none());
     }
@@ -176,12 +167,15 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
     // SAFETY: valid names and a live device.
     unsafe {
         let passed = device::get_device_proc_addr(device_handle, c"vkFakeDeviceCommand".as_ptr());
-        assert_eq!(passed.map(|f| f as usize), Some(fake_command as usize));
+        assert_eq!(
+            passed.map(|f| f as usize),
+            Some(fake_command as VoidFn as usize)
+        );
         let hooked = device::get_device_proc_addr(device_handle, c"vkDestroyDevice".as_ptr());
         assert!(hooked.is_some());
         assert_ne!(
             hooked.map(|f| f as usize),
-            Some(fake_destroy_device as usize)
+            Some(fake_destroy_device as vk::PFN_vkDestroyDevice as usize)
         );
         assert!(device::get_device_proc_addr(device_handle, c"vkNoSuchCommand".as_ptr()).is_none());
 

@@ -4,16 +4,6 @@
 //! with the next layer's function for everything else, so a command revz does not intercept
 //! costs nothing.
 
-pub mod device;
-pub mod instance;
-
-#[cfg(test)]
-mod chain_tests;
-
-use std::ffi::CStr;
-
-use ash::vk;
-
 /// Erases a typed Vulkan function pointer to `PFN_vkVoidFunction`.
 macro_rules! void_fn {
     ($pfn:ty, $f:expr) => {{
@@ -23,6 +13,16 @@ macro_rules! void_fn {
         Some(unsafe { std::mem::transmute::<$pfn, unsafe extern "system" fn()>(typed) })
     }};
 }
+
+pub mod device;
+pub mod instance;
+
+#[cfg(test)]
+mod chain_tests;
+
+use std::ffi::CStr;
+
+use ash::vk;
 
 /// The hook for an instance-level command, if revz intercepts it.
 pub fn instance_command(name: &CStr) -> vk::PFN_vkVoidFunction {
