@@ -11,7 +11,7 @@ use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError};
 
 use ash::vk::{self, Handle};
 
-use crate::config::Config;
+use crate::config::Settings;
 
 /// The loader's dispatch table pointer of a dispatchable handle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -36,14 +36,14 @@ pub struct InstanceState {
     pub next_get_instance_proc_addr: vk::PFN_vkGetInstanceProcAddr,
     /// The next layer's instance commands.
     pub next: ash::Instance,
-    pub config: Config,
+    pub settings: Arc<Settings>,
 }
 
 impl std::fmt::Debug for InstanceState {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("InstanceState")
             .field("handle", &self.handle)
-            .field("config", &self.config)
+            .field("settings", &self.settings)
             .finish_non_exhaustive()
     }
 }
@@ -55,14 +55,14 @@ pub struct DeviceState {
     pub next_get_device_proc_addr: vk::PFN_vkGetDeviceProcAddr,
     /// The next layer's device commands.
     pub next: ash::Device,
-    pub config: Config,
+    pub settings: Arc<Settings>,
 }
 
 impl std::fmt::Debug for DeviceState {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("DeviceState")
             .field("handle", &self.handle)
-            .field("config", &self.config)
+            .field("settings", &self.settings)
             .finish_non_exhaustive()
     }
 }

@@ -165,7 +165,8 @@ impl Render {
         let stderr = self.stderr();
         let line = stderr.lines().find(|line| line.contains(LOADED_LINE))?;
         let rest = &line[line.find(LOADED_LINE)? + LOADED_LINE.len()..];
-        Some(rest.split_whitespace().next()?.to_owned())
+        let mode: String = rest.chars().take_while(char::is_ascii_alphabetic).collect();
+        Some(mode)
     }
 
     pub fn json(&self) -> serde_json::Value {

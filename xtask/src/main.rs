@@ -102,12 +102,7 @@ fn build(paths: &Paths, release: bool) -> Result<PathBuf> {
         command.arg("--release");
     }
     run_checked(command)?;
-    let explicit = manifest::write_all(
-        &paths.root.join("manifests"),
-        &paths.library(),
-        env!("CARGO_PKG_VERSION"),
-        &paths.manifests(),
-    )?;
+    let explicit = manifest::write_all(&paths.root, &paths.library(), &paths.manifests())?;
     eprintln!("xtask: layer {}", paths.library().display());
     eprintln!("xtask: manifests in {}", paths.manifests().display());
     Ok(explicit)

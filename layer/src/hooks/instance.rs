@@ -1,12 +1,14 @@
 //! Instance-level hooks: instance and device creation, and instance-level dispatch.
 
-use std::ffi::c_char;
+use std::ffi::{c_char, CStr};
+use std::path::Path;
+use std::sync::Arc;
 
 use ash::vk;
 
 use super::command_name;
 use crate::boundary::{guarded, EntryPoint};
-use crate::config::Config;
+use crate::config::{self, layer_settings, AppIdentity, Mode, Settings, Sources};
 use crate::ffi;
 use crate::state::{DeviceState, DispatchKey, InstanceState, DEVICES, INSTANCES};
 use crate::{logging, LAYER_NAME, VERSION};
@@ -57,7 +59,6 @@ pub unsafe extern "system" fn create_instance(
     p_allocator: *const vk::AllocationCallbacks,
     p_instance: *mut vk::Instance,
 ) -> vk::Result {
-    logging::init();
     guarded(
         &CREATE_INSTANCE,
         || {
@@ -70,6 +71,7 @@ pub unsafe extern "system" fn create_instance(
                 log::error!("vkCreateInstance: no loader link info; was revz loaded as a layer?");
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
+            let settings = read_settings(create_info);
             let gipa = link.get_instance_proc_addr;
             // SAFETY: querying a global command from the next layer.
             let Some(next_create) =
@@ -86,7 +88,6 @@ pub unsafe extern "system" fn create_instance(
             }
             // SAFETY: on success the next layer wrote a live instance.
             let instance = unsafe { *p_instance };
-            let config = read_config();
             // SAFETY: loading the next layer's instance commands for this instance.
             let next = unsafe {
                 ash::Instance::load_with(
@@ -102,7 +103,7 @@ pub unsafe extern "system" fn create_instance(
                     handle: instance,
                     next_get_instance_proc_addr: gipa,
                     next,
-                    config,
+                    settings,
                 },
             );
             result
@@ -111,28 +112,67 @@ pub unsafe extern "system" fn create_instance(
     )
 }
 
-/// Reads the configuration and logs the load line. Any failure here degrades to `off`.
-fn read_config() -> Config {
-    guarded(
+/// What identifies this process to per-application config sections.
+fn app_identity(create_info: &vk::InstanceCreateInfo) -> AppIdentity {
+    let executable = std::env::current_exe()
+        .ok()
+        .and_then(|path| Some(path.file_name()?.to_string_lossy().into_owned()));
+    // SAFETY: `pApplicationInfo` is null or valid, and its names null or NUL-terminated.
+    let info = unsafe { create_info.p_application_info.as_ref() };
+    let name = |ptr: *const c_char| {
+        // SAFETY: as above.
+        (!ptr.is_null()).then(|| unsafe { CStr::from_ptr(ptr) }.to_string_lossy().into_owned())
+    };
+    AppIdentity {
+        executable,
+        application_name: info.and_then(|i| name(i.p_application_name)),
+        engine_name: info.and_then(|i| name(i.p_engine_name)),
+    }
+}
+
+/// Resolves this instance's settings, installs the logger (first instance only), and logs the
+/// warnings and the load line. Any failure here degrades to `off`.
+fn read_settings(create_info: &vk::InstanceCreateInfo) -> Arc<Settings> {
+    let settings = guarded(
         &READ_CONFIG,
         || {
-            let (config, warnings) = Config::from_env();
-            for warning in warnings {
+            let env = |name: &str| std::env::var(name).ok();
+            let read_file = |path: &Path| config::file::read(path);
+            let resolved = config::resolve(&Sources {
+                env: &env,
+                read_file: &read_file,
+                app: app_identity(create_info),
+                // SAFETY: the application's chain is valid per the spec.
+                layer_settings: unsafe { layer_settings::read(create_info.p_next) },
+            });
+            let settings = resolved.settings;
+            let log_problem = logging::init(settings.log_level, settings.log_file.as_deref());
+            for warning in resolved.warnings.iter().chain(&log_problem) {
                 log::warn!("{warning}");
             }
-            let mode = config.mode;
+            let mode = settings.mode;
             let note = if mode.is_implemented() {
                 ""
             } else {
                 " (not implemented in this build: passing everything through)"
             };
-            log::info!("revz {VERSION} loaded as {LAYER_NAME}: mode {mode}{note}");
-            config
+            let sources = if resolved.notes.is_empty() {
+                String::new()
+            } else {
+                format!("; from {}", resolved.notes.join(", "))
+            };
+            log::info!(
+                "revz {VERSION} loaded as {LAYER_NAME}: mode {mode}{note}; {}{sources}",
+                settings.summary()
+            );
+            settings
         },
-        || Config {
-            mode: crate::config::Mode::Off,
+        || Settings {
+            mode: Mode::Off,
+            ..Settings::default()
         },
-    )
+    );
+    Arc::new(settings)
 }
 
 /// `vkDestroyInstance`.
@@ -230,10 +270,10 @@ pub unsafe extern "system" fn create_device(
                     handle: device,
                     next_get_device_proc_addr: gdpa,
                     next,
-                    config: instance.config,
+                    settings: Arc::clone(&instance.settings),
                 },
             );
-            log::debug!("device {device:?} created, mode {}", instance.config.mode);
+            log::debug!("device {device:?} created, mode {}", instance.settings.mode);
             result
         },
         || vk::Result::ERROR_INITIALIZATION_FAILED,

@@ -1,0 +1,434 @@
+//! Layer settings: what they are, where they come from, and which source wins.
+//!
+//! Sources, highest precedence first:
+//! 1. `VK_EXT_layer_settings` structures the application chains into `VkInstanceCreateInfo`
+//!    ([`layer_settings`]);
+//! 2. environment variables, one per setting (`REVZ_MODE`, ...);
+//! 3. the config file ([`file`]): its top-level keys, then every `[[application]]` section that
+//!    matches this process (by executable name or `VkApplicationInfo` names), in file order.
+//!
+//! A value that cannot be read produces one warning naming where it came from and what is
+//! accepted, and the setting keeps what the lower sources gave it. The one exception is
+//! `mode`: an unreadable mode means `off`, so that a typo never turns on a rewrite nobody asked
+//! for. Resolution is pure (no Vulkan, no process state): [`resolve`] gets everything it reads
+//! through [`Sources`].
+
+pub mod file;
+pub mod layer_settings;
+
+use std::fmt;
+use std::path::PathBuf;
+
+use log::LevelFilter;
+
+/// How the layer treats depth.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    /// Pass everything through untouched.
+    Off,
+    /// Reverse depth by flipping the viewport depth range (no projection rewrite).
+    Flip,
+    /// Rewrite projections to complementary (finite reversed) Z.
+    #[default]
+    Complementary,
+    /// Rewrite projections to infinite reversed Z.
+    Infinite,
+}
+
+impl Mode {
+    /// Every mode, in the order the documentation lists them.
+    pub const ALL: [Mode; 4] = [Mode::Off, Mode::Flip, Mode::Complementary, Mode::Infinite];
+    const NAMES: &'static [&'static str] = &["off", "flip", "complementary", "infinite"];
+
+    /// The spelling used in settings and in log lines.
+    pub fn name(self) -> &'static str {
+        Mode::NAMES[self as usize]
+    }
+
+    /// Parses a mode name (case-insensitive, surrounding blanks ignored).
+    pub fn parse(text: &str) -> Option<Mode> {
+        Mode::ALL
+            .into_iter()
+            .find(|mode| mode.name().eq_ignore_ascii_case(text.trim()))
+    }
+
+    /// Whether this build of the layer acts on the mode yet. Modes it does not implement
+    /// pass everything through, and the load line says so.
+    pub fn is_implemented(self) -> bool {
+        self == Mode::Off
+    }
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Whether infinite reversed-Z keeps the application's far plane (seed 001's clear-value
+/// trick) or removes it, as infinite projections do.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FarClip {
+    #[default]
+    Remove,
+    Keep,
+}
+
+impl FarClip {
+    const NAMES: &'static [&'static str] = &["remove", "keep"];
+
+    pub fn name(self) -> &'static str {
+        FarClip::NAMES[self as usize]
+    }
+
+    pub fn parse(text: &str) -> Option<FarClip> {
+        [FarClip::Remove, FarClip::Keep]
+            .into_iter()
+            .find(|v| v.name().eq_ignore_ascii_case(text.trim()))
+    }
+}
+
+/// The settings one instance runs with.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Settings {
+    pub mode: Mode,
+    pub far_clip: FarClip,
+    /// Reverse depth images the application can observe (sampled, copied from, ...), which
+    /// would hand reversed values to its shaders or to the CPU.
+    pub reverse_observable: bool,
+    /// Promote D16/D24 depth attachments to D32_SFLOAT (not implemented yet: no effect).
+    pub promote_depth_formats: bool,
+    /// The log level (per process: the first instance's settings install the logger).
+    pub log_level: LevelFilter,
+    /// Append the log to this file instead of stderr.
+    pub log_file: Option<PathBuf>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            mode: Mode::default(),
+            far_clip: FarClip::default(),
+            reverse_observable: false,
+            promote_depth_formats: false,
+            log_level: LevelFilter::Off,
+            log_file: None,
+        }
+    }
+}
+
+/// Identifies one setting.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Key {
+    Mode,
+    FarClip,
+    ReverseObservable,
+    PromoteDepthFormats,
+    Log,
+    LogFile,
+}
+
+/// What values a setting takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// One of a list of names (case-insensitive).
+    Choice(&'static [&'static str]),
+    /// `true` or `false` (also `1`/`0`, `on`/`off`, `yes`/`no` in text sources).
+    Bool,
+    /// A file path.
+    Path,
+}
+
+/// The description of one setting: its name in every source, its values and default. This
+/// table is the single list of settings; the manifests' settings and the README follow it
+/// (a test checks the manifests).
+#[derive(Debug)]
+pub struct SettingSpec {
+    pub key: Key,
+    /// The name in the config file and in `VK_EXT_layer_settings`.
+    pub name: &'static str,
+    /// The environment variable.
+    pub env: &'static str,
+    pub kind: Kind,
+    /// The default, as text.
+    pub default: &'static str,
+    pub description: &'static str,
+}
+
+/// Every setting.
+pub const SETTINGS: &[SettingSpec] = &[
+    SettingSpec {
+        key: Key::Mode,
+        name: "mode",
+        env: "REVZ_MODE",
+        kind: Kind::Choice(Mode::NAMES),
+        default: "complementary",
+        description: "Depth policy: off passes everything through; flip reverses depth by \
+                      flipping the viewport depth range; complementary and infinite rewrite \
+                      projection matrices to finite or infinite reversed-Z.",
+    },
+    SettingSpec {
+        key: Key::FarClip,
+        name: "far_clip",
+        env: "REVZ_FAR_CLIP",
+        kind: Kind::Choice(FarClip::NAMES),
+        default: "remove",
+        description: "In infinite mode: remove the far plane, or keep far clipping by clearing \
+                      depth to n/f.",
+    },
+    SettingSpec {
+        key: Key::ReverseObservable,
+        name: "reverse_observable",
+        env: "REVZ_REVERSE_OBSERVABLE",
+        kind: Kind::Bool,
+        default: "false",
+        description: "Also reverse depth images the application can read back (sampled, \
+                      copied from, input attachments), which then hold reversed values.",
+    },
+    SettingSpec {
+        key: Key::PromoteDepthFormats,
+        name: "promote_depth_formats",
+        env: "REVZ_PROMOTE_DEPTH_FORMATS",
+        kind: Kind::Bool,
+        default: "false",
+        description: "Promote D16/D24 depth attachments to D32_SFLOAT. Not implemented yet: \
+                      has no effect.",
+    },
+    SettingSpec {
+        key: Key::Log,
+        name: "log",
+        env: "REVZ_LOG",
+        kind: Kind::Choice(crate::logging::LEVEL_NAMES),
+        default: "off",
+        description: "Log level of the layer's messages.",
+    },
+    SettingSpec {
+        key: Key::LogFile,
+        name: "log_file",
+        env: "REVZ_LOG_FILE",
+        kind: Kind::Path,
+        default: "",
+        description: "Append the log to this file instead of stderr.",
+    },
+];
+
+impl SettingSpec {
+    /// The setting called `name` in files and layer settings.
+    pub fn named(name: &str) -> Option<&'static SettingSpec> {
+        SETTINGS.iter().find(|spec| spec.name == name)
+    }
+
+    /// What the setting accepts, for warnings.
+    pub fn accepted(&self) -> String {
+        match self.kind {
+            Kind::Choice(names) => format!("one of: {}", names.join(", ")),
+            Kind::Bool => "true or false".to_owned(),
+            Kind::Path => "a file path".to_owned(),
+        }
+    }
+}
+
+/// A setting's value as a source gives it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Value {
+    Text(String),
+    Bool(bool),
+}
+
+impl fmt::Display for Value {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Value::Text(text) => write!(f, "'{text}'"),
+            Value::Bool(value) => write!(f, "{value}"),
+        }
+    }
+}
+
+fn parse_bool(text: &str) -> Option<bool> {
+    match text.trim().to_ascii_lowercase().as_str() {
+        "true" | "1" | "on" | "yes" => Some(true),
+        "false" | "0" | "off" | "no" => Some(false),
+        _ => None,
+    }
+}
+
+impl Settings {
+    /// Sets one setting from `value`. On a value it cannot use, returns the warning text
+    /// (without its origin) and leaves the setting as it was, except `mode`, which becomes
+    /// `off`.
+    pub fn apply(&mut self, spec: &SettingSpec, value: &Value) -> Result<(), String> {
+        let text = match value {
+            Value::Text(text) => Some(text.as_str()),
+            Value::Bool(_) => None,
+        };
+        let as_bool = match value {
+            Value::Bool(b) => Some(*b),
+            Value::Text(text) => parse_bool(text),
+        };
+        let applied = match spec.key {
+            Key::Mode => text.and_then(Mode::parse).map(|m| self.mode = m),
+            Key::FarClip => text.and_then(FarClip::parse).map(|v| self.far_clip = v),
+            Key::ReverseObservable => as_bool.map(|b| self.reverse_observable = b),
+            Key::PromoteDepthFormats => as_bool.map(|b| self.promote_depth_formats = b),
+            Key::Log => text
+                .and_then(crate::logging::parse_level)
+                .map(|l| self.log_level = l),
+            Key::LogFile => text
+                .filter(|t| !t.trim().is_empty())
+                .map(|t| self.log_file = Some(PathBuf::from(t))),
+        };
+        if applied.is_some() {
+            return Ok(());
+        }
+        let fallback = if spec.key == Key::Mode {
+            // A typo must not silently enable a rewriting mode.
+            self.mode = Mode::Off;
+            "using off".to_owned()
+        } else {
+            format!("using {}", self.describe(spec.key))
+        };
+        Err(format!(
+            "{value} is not a valid {} (expected {}); {fallback}",
+            spec.name,
+            spec.accepted()
+        ))
+    }
+
+    /// The current value of a setting, as text.
+    pub fn describe(&self, key: Key) -> String {
+        match key {
+            Key::Mode => self.mode.name().to_owned(),
+            Key::FarClip => self.far_clip.name().to_owned(),
+            Key::ReverseObservable => self.reverse_observable.to_string(),
+            Key::PromoteDepthFormats => self.promote_depth_formats.to_string(),
+            Key::Log => self.log_level.to_string().to_lowercase(),
+            Key::LogFile => self
+                .log_file
+                .as_ref()
+                .map_or("stderr".to_owned(), |p| p.display().to_string()),
+        }
+    }
+
+    /// One line with every setting, for the load log line.
+    pub fn summary(&self) -> String {
+        SETTINGS
+            .iter()
+            .map(|spec| format!("{}={}", spec.name, self.describe(spec.key)))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// What identifies the process to per-application config sections.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct AppIdentity {
+    /// The executable's file name (`vkcube`, not its path).
+    pub executable: Option<String>,
+    /// `VkApplicationInfo::pApplicationName`.
+    pub application_name: Option<String>,
+    /// `VkApplicationInfo::pEngineName`.
+    pub engine_name: Option<String>,
+}
+
+/// Everything resolution reads.
+pub struct Sources<'a> {
+    /// Environment lookup (the process environment in production).
+    pub env: &'a dyn Fn(&str) -> Option<String>,
+    /// Reads a config file (the file system in production).
+    pub read_file: &'a dyn Fn(&std::path::Path) -> std::io::Result<String>,
+    pub app: AppIdentity,
+    /// Settings from `VK_EXT_layer_settings`, already extracted, in the order given.
+    pub layer_settings: Vec<layer_settings::LayerSetting>,
+}
+
+impl fmt::Debug for Sources<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Sources")
+            .field("app", &self.app)
+            .field("layer_settings", &self.layer_settings)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The outcome of [`resolve`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Resolved {
+    pub settings: Settings,
+    /// One line per problem, each naming its origin.
+    pub warnings: Vec<String>,
+    /// Where the settings came from, for the load line (`config file ...`).
+    pub notes: Vec<String>,
+}
+
+/// Resolves the settings from every source, in precedence order.
+pub fn resolve(sources: &Sources<'_>) -> Resolved {
+    let mut resolved = Resolved {
+        settings: Settings::default(),
+        warnings: Vec::new(),
+        notes: Vec::new(),
+    };
+
+    // 3. The config file.
+    if let Some((path, explicit)) = file::locate(sources.env) {
+        match (sources.read_file)(&path) {
+            Ok(text) => file::apply(&path, &text, &sources.app, &mut resolved),
+            // The default location is optional; a file the user named must exist.
+            Err(err) if explicit || err.kind() != std::io::ErrorKind::NotFound => {
+                resolved.warnings.push(format!(
+                    "{}: cannot read the config file ({err}); using the defaults",
+                    path.display()
+                ));
+            }
+            Err(_) => {}
+        }
+    }
+
+    // 2. Environment variables.
+    for spec in SETTINGS {
+        if let Some(text) = (sources.env)(spec.env).filter(|v| !v.trim().is_empty()) {
+            if let Err(problem) = resolved.settings.apply(spec, &Value::Text(text)) {
+                resolved.warnings.push(format!("{}: {problem}", spec.env));
+            }
+        }
+    }
+
+    // 1. VK_EXT_layer_settings.
+    for setting in &sources.layer_settings {
+        let origin = format!("VK_EXT_layer_settings '{}'", setting.name);
+        let Some(spec) = SettingSpec::named(&setting.name) else {
+            resolved
+                .warnings
+                .push(format!("{origin}: unknown setting (known: {})", setting_names()));
+            continue;
+        };
+        match &setting.value {
+            Ok(value) => {
+                if let Err(problem) = resolved.settings.apply(spec, value) {
+                    resolved.warnings.push(format!("{origin}: {problem}"));
+                }
+            }
+            Err(problem) => resolved
+                .warnings
+                .push(format!("{origin}: {problem}; ignored")),
+        }
+    }
+
+    if resolved.settings.promote_depth_formats {
+        resolved
+            .warnings
+            .push("promote_depth_formats is not implemented yet and has no effect".to_owned());
+    }
+    resolved
+}
+
+/// The names of every setting, for warnings.
+pub fn setting_names() -> String {
+    SETTINGS
+        .iter()
+        .map(|spec| spec.name)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+#[cfg(test)]
+mod tests;
