@@ -4,7 +4,7 @@
 //! `LoaderLayerInterface.md`). Only what revz uses is declared; the layouts must match the C
 //! header exactly because the loader hands us pointers to them.
 
-use std::ffi::{c_char, c_void};
+use std::ffi::{c_char, c_void, CStr};
 
 use ash::vk;
 
@@ -78,6 +78,15 @@ pub struct LayerDeviceCreateInfo {
     pub p_next: *const c_void,
     pub function: u32,
     pub p_layer_info: *mut LayerDeviceLink,
+}
+
+/// Reads a C string the application passed; `None` for a null pointer.
+///
+/// # Safety
+/// `ptr` must be null or a NUL-terminated string that outlives `'a`.
+pub unsafe fn c_str<'a>(ptr: *const c_char) -> Option<&'a CStr> {
+    // SAFETY: the caller guarantees a NUL-terminated string when non-null.
+    (!ptr.is_null()).then(|| unsafe { CStr::from_ptr(ptr) })
 }
 
 /// Walks a `pNext` chain and returns the first loader link info of type `s_type`.

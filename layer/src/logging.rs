@@ -38,9 +38,9 @@ pub fn init(level: LevelFilter, file: Option<&Path>) -> Option<String> {
             return;
         }
         let mut builder = env_logger::Builder::new();
-        builder.filter_level(level).format(|out, record| {
-            writeln!(out, "[revz {}] {}", record.level(), record.args())
-        });
+        builder
+            .filter_level(level)
+            .format(|out, record| writeln!(out, "[revz {}] {}", record.level(), record.args()));
         if let Some(path) = file {
             match OpenOptions::new().create(true).append(true).open(path) {
                 Ok(file) => {

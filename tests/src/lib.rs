@@ -29,12 +29,19 @@ const SCRUBBED_ENV: &[&str] = &[
     "VK_LOADER_LAYERS_DISABLE",
     "VK_ADD_LAYER_PATH",
     "VK_LAYER_PATH",
+    "REVZ_CONFIG",
+    "REVZ_FAR_CLIP",
+    "REVZ_REVERSE_OBSERVABLE",
+    "REVZ_PROMOTE_DEPTH_FORMATS",
+    "XDG_CONFIG_HOME",
+    "XDG_DATA_HOME",
 ];
 
 /// Paths to what `cargo xtask build` produced.
 #[derive(Debug, Clone)]
 pub struct Harness {
     pub tester: PathBuf,
+    pub xtask: PathBuf,
     pub library: PathBuf,
     pub explicit_manifest_dir: PathBuf,
     pub implicit_manifest_dir: PathBuf,
@@ -52,6 +59,7 @@ impl Harness {
             .expect("test executable lives in target/<profile>/deps");
         let harness = Harness {
             tester: profile_dir.join("revz-tester"),
+            xtask: profile_dir.join("xtask"),
             library: profile_dir.join("libVkLayer_revz.so"),
             explicit_manifest_dir: profile_dir.join("manifests/explicit"),
             implicit_manifest_dir: profile_dir.join("manifests/implicit"),
@@ -59,6 +67,7 @@ impl Harness {
         };
         for needed in [
             &harness.tester,
+            &harness.xtask,
             &harness.library,
             &harness.explicit_manifest_dir.join("VkLayer_revz.json"),
         ] {
@@ -83,21 +92,30 @@ impl Harness {
     /// A tester command on lavapipe with validation, writing into `out`, with a clean
     /// environment (no inherited layer or revz variables).
     pub fn tester(&self, depth_format: &str, out: &Path) -> Command {
-        let mut command = Command::new(&self.tester);
+        let mut command = clean_command(&self.tester);
+        command.args(self.tester_args(depth_format, out));
         command
-            .args([
-                "--validation",
-                "--device",
-                "llvmpipe",
-                "--depth-format",
-                depth_format,
-            ])
-            .arg("--out")
-            .arg(out);
-        for name in SCRUBBED_ENV {
-            command.env_remove(name);
-        }
-        command
+    }
+
+    /// The arguments of [`Harness::tester`], for running the tester through another program.
+    pub fn tester_args(&self, depth_format: &str, out: &Path) -> Vec<std::ffi::OsString> {
+        let mut args: Vec<std::ffi::OsString> = [
+            "--validation",
+            "--device",
+            "llvmpipe",
+            "--depth-format",
+            depth_format,
+        ]
+        .map(Into::into)
+        .to_vec();
+        args.push("--out".into());
+        args.push(out.into());
+        args
+    }
+
+    /// An `xtask` command (the already-built binary: no nested cargo) with a clean environment.
+    pub fn xtask(&self) -> Command {
+        clean_command(&self.xtask)
     }
 
     /// Adds the explicit revz layer (above validation) to `command`.
@@ -117,6 +135,15 @@ impl Harness {
         render.assert_clean();
         render
     }
+}
+
+/// A command for `program` without the inherited variables that would change what it does.
+pub fn clean_command(program: &Path) -> Command {
+    let mut command = Command::new(program);
+    for name in SCRUBBED_ENV {
+        command.env_remove(name);
+    }
+    command
 }
 
 /// One finished tester run.

@@ -155,43 +155,198 @@ fn vulkaninfo_lists_the_layer_and_creates_the_lavapipe_device() {
     assert!(!stderr.contains("ERROR"), "{stderr}");
 }
 
-/// The implicit manifest, installed where the loader looks for a user's implicit layers:
-/// off unless `ENABLE_REVZ=1`, and `DISABLE_REVZ=1` wins.
+/// `cargo xtask install` installs the implicit layer for the user: off unless `ENABLE_REVZ=1`,
+/// `DISABLE_REVZ=1` wins, and `cargo xtask uninstall` removes it.
 #[test]
-fn the_implicit_layer_follows_enable_and_disable_variables() {
+fn install_enable_disable_uninstall() {
     let harness = Harness::locate();
-    let data_home = harness.scratch_dir("implicit-data-home");
-    let layer_dir = data_home.join("vulkan/implicit_layer.d");
-    std::fs::create_dir_all(&layer_dir).unwrap();
-    std::fs::copy(
-        harness.implicit_manifest_dir.join("VkLayer_revz.json"),
-        layer_dir.join("VkLayer_revz.json"),
-    )
-    .unwrap();
+    let data_home = harness.scratch_dir("install-data-home");
+    let xtask = |task: &str| {
+        let args: &[&str] = match task {
+            "install" => &["install", "--debug", "--no-build"],
+            _ => &[task],
+        };
+        let output = harness
+            .xtask()
+            .args(args)
+            .env("XDG_DATA_HOME", &data_home)
+            .output()
+            .expect("run xtask");
+        let text = String::from_utf8_lossy(&output.stdout).into_owned()
+            + &String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "xtask {task}: {text}");
+        text
+    };
+    let manifest = data_home.join("vulkan/implicit_layer.d/VkLayer_revz.json");
+    let library = data_home.join("revz/libVkLayer_revz.so");
+    xtask("install");
+    assert!(manifest.exists() && library.exists());
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&manifest).unwrap()).unwrap();
+    assert_eq!(json["layer"]["library_path"], library.to_str().unwrap());
 
-    type Case<'a> = (&'a str, &'a [(&'a str, &'a str)], bool);
-    let cases: [Case; 3] = [
-        ("implicit-default", &[], false),
-        ("implicit-enabled", &[("ENABLE_REVZ", "1")], true),
-        (
-            "implicit-disabled",
-            &[("ENABLE_REVZ", "1"), ("DISABLE_REVZ", "1")],
-            false,
-        ),
-    ];
-    for (name, env, loaded) in cases {
-        let dir = harness.scratch_dir(name);
-        let mut command = harness.tester("d32", &dir);
-        command
+    let vulkaninfo = |env: &[(&str, &str)]| {
+        let output = revz_tests::clean_command("vulkaninfo".as_ref())
+            .arg("--summary")
             .env("XDG_DATA_HOME", &data_home)
             .env("REVZ_LOG", "info")
-            .envs(env.iter().copied());
-        let render = harness.render(command, &dir);
+            .envs(env.iter().copied())
+            .output()
+            .expect("vulkaninfo is missing: apt-get install vulkan-tools");
+        assert!(output.status.success());
+        (
+            String::from_utf8_lossy(&output.stdout).into_owned(),
+            String::from_utf8_lossy(&output.stderr).into_owned(),
+        )
+    };
+    let (stdout, stderr) = vulkaninfo(&[("ENABLE_REVZ", "1")]);
+    assert!(stdout.contains(LAYER_NAME), "{stdout}");
+    assert!(
+        stderr.contains("loaded as VK_LAYER_REVZ_reverse_z"),
+        "{stderr}"
+    );
+    let (_, stderr) = vulkaninfo(&[]);
+    assert!(
+        !stderr.contains("loaded as"),
+        "active without ENABLE_REVZ: {stderr}"
+    );
+    let (_, stderr) = vulkaninfo(&[("ENABLE_REVZ", "1"), ("DISABLE_REVZ", "1")]);
+    assert!(
+        !stderr.contains("loaded as"),
+        "DISABLE_REVZ did not win: {stderr}"
+    );
+
+    // A render through the installed layer is still clean.
+    let dir = harness.scratch_dir("installed-render");
+    let mut command = harness.tester("d32", &dir);
+    command
+        .env("XDG_DATA_HOME", &data_home)
+        .env("ENABLE_REVZ", "1")
+        .env("REVZ_LOG", "info");
+    assert!(harness.render(command, &dir).loaded_mode().is_some());
+
+    let text = xtask("uninstall");
+    assert!(!manifest.exists() && !library.exists(), "{text}");
+    assert!(xtask("uninstall").contains("was not installed"));
+}
+
+/// `cargo xtask run --mode M -- PROGRAM` injects revz into one program, nothing installed.
+#[test]
+fn run_injects_the_layer_with_the_chosen_mode() {
+    let harness = Harness::locate();
+    let dir = harness.scratch_dir("xtask-run");
+    let mut command = harness.xtask();
+    command
+        .args([
+            "run",
+            "--debug",
+            "--no-build",
+            "--mode",
+            "infinite",
+            "--log",
+            "info",
+            "--",
+        ])
+        .arg(&harness.tester)
+        .args(harness.tester_args("d32", &dir));
+    let render = harness.render(command, &dir);
+    assert_eq!(render.loaded_mode().as_deref(), Some("infinite"));
+}
+
+/// A config file with a per-application section for the tester (matched by executable name,
+/// and by `VkApplicationInfo` name) sets the mode; the environment still wins over it.
+#[test]
+fn config_file_sections_match_the_application() {
+    let harness = Harness::locate();
+    let dir = harness.scratch_dir("config-file");
+    let config = dir.join("revz.toml");
+    let cases = [
+        ("executable = \"revz-tester\"", None, "infinite"),
+        ("application_name = \"revz-tester\"", None, "infinite"),
+        ("engine_name = \"another-engine\"", None, "flip"),
+        ("executable = \"revz-tester\"", Some("off"), "off"),
+    ];
+    for (matcher, env_mode, expected) in cases {
+        std::fs::write(
+            &config,
+            format!("mode = \"flip\"\n\n[[application]]\n{matcher}\nmode = \"infinite\"\n"),
+        )
+        .unwrap();
+        let out = dir.join("render");
+        let mut command = harness.tester("d32", &out);
+        harness
+            .with_layer(&mut command)
+            .env("REVZ_CONFIG", &config)
+            .env("REVZ_LOG", "info");
+        if let Some(mode) = env_mode {
+            command.env("REVZ_MODE", mode);
+        }
+        let render = harness.render(command, &out);
         assert_eq!(
-            render.loaded_mode().is_some(),
-            loaded,
-            "{name}: {}",
+            render.loaded_mode().as_deref(),
+            Some(expected),
+            "{matcher} / {env_mode:?}: {}",
             render.stderr()
         );
     }
+}
+
+/// A broken config file: one warning with the file and line, and the layer keeps running with
+/// the defaults for what it could not read.
+#[test]
+fn bad_config_files_warn_with_file_and_line_and_the_layer_carries_on() {
+    let harness = Harness::locate();
+    let dir = harness.scratch_dir("bad-config");
+    let config = dir.join("revz.toml");
+    let path = config.display().to_string();
+    let cases = [
+        (
+            "far_clip = \"keep\"\nmode = [\n",
+            format!("{path}:2: not valid TOML ("),
+            "complementary",
+        ),
+        (
+            "mode = \"flip\"\ncolour = \"red\"\n",
+            format!("{path}:2: unknown key 'colour' (settings: mode, far_clip,"),
+            "flip",
+        ),
+        (
+            "mode = \"sideways\"\n",
+            format!(
+                "{path}:1: 'sideways' is not a valid mode \
+                 (expected one of: off, flip, complementary, infinite); using off"
+            ),
+            "off",
+        ),
+    ];
+    for (text, warning, mode) in cases {
+        std::fs::write(&config, text).unwrap();
+        let out = dir.join("render");
+        let mut command = harness.tester("d32", &out);
+        harness
+            .with_layer(&mut command)
+            .env("REVZ_CONFIG", &config)
+            .env("REVZ_LOG", "info");
+        let render = harness.render(command, &out);
+        let stderr = render.stderr();
+        assert_eq!(stderr.matches("[revz WARN]").count(), 1, "{stderr}");
+        assert!(
+            stderr.contains(&warning),
+            "expected {warning:?} in\n{stderr}"
+        );
+        assert_eq!(render.loaded_mode().as_deref(), Some(mode), "{stderr}");
+    }
+
+    // A config file that cannot be read.
+    let out = dir.join("render");
+    let mut command = harness.tester("d32", &out);
+    harness
+        .with_layer(&mut command)
+        .env("REVZ_CONFIG", &dir)
+        .env("REVZ_LOG", "warn");
+    let stderr = harness.render(command, &out).stderr();
+    assert!(
+        stderr.contains(&format!("{}: cannot read the config file (", dir.display())),
+        "{stderr}"
+    );
 }

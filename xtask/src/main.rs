@@ -4,7 +4,10 @@
 //! - `build`: build the layer and the tester, and render the layer manifests next to them.
 //! - `demo`: render the first scene without and with the layer; print where the images are.
 //! - `test`: everything `build` does, then the whole test suite.
+//! - `install` / `uninstall`: the implicit layer for the current user.
+//! - `run`: any program with revz injected, nothing installed.
 
+mod install;
 mod manifest;
 mod system;
 
@@ -44,16 +47,24 @@ enum Task {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         cargo_test_args: Vec<String>,
     },
+    /// Install revz as an implicit layer for the current user (active with ENABLE_REVZ=1).
+    Install(install::BuildChoice),
+    /// Remove what `install` installed.
+    Uninstall,
+    /// Run a program with revz injected, without installing anything:
+    /// `cargo xtask run --mode infinite -- vkcube`.
+    Run(install::RunArgs),
 }
 
 /// Where things are in the workspace and its build output.
-struct Paths {
+#[derive(Debug)]
+pub struct Paths {
     root: PathBuf,
     profile_dir: PathBuf,
 }
 
 impl Paths {
-    fn new(release: bool) -> Paths {
+    pub fn new(release: bool) -> Paths {
         let root = Path::new(env!("CARGO_MANIFEST_DIR"))
             .parent()
             .expect("xtask lives in the workspace")
@@ -65,7 +76,7 @@ impl Paths {
         Paths { root, profile_dir }
     }
 
-    fn library(&self) -> PathBuf {
+    pub fn library(&self) -> PathBuf {
         self.profile_dir.join("libVkLayer_revz.so")
     }
 
@@ -73,7 +84,7 @@ impl Paths {
         self.profile_dir.join("revz-tester")
     }
 
-    fn manifests(&self) -> PathBuf {
+    pub fn manifests(&self) -> PathBuf {
         self.profile_dir.join("manifests")
     }
 }
@@ -93,7 +104,7 @@ fn run_checked(mut command: Command) -> Result<()> {
 }
 
 /// Builds the layer and tester and writes the manifests; returns the explicit manifest's dir.
-fn build(paths: &Paths, release: bool) -> Result<PathBuf> {
+pub fn build(paths: &Paths, release: bool) -> Result<PathBuf> {
     let mut command = cargo();
     command
         .current_dir(&paths.root)
@@ -168,5 +179,8 @@ fn main() -> Result<()> {
         Task::Build { release } => build(&Paths::new(release), release).map(drop),
         Task::Demo { mode, depth_format } => demo(&mode, &depth_format),
         Task::Test { cargo_test_args } => test(&cargo_test_args),
+        Task::Install(choice) => install::install(&choice),
+        Task::Uninstall => install::uninstall(),
+        Task::Run(args) => install::run(&args),
     }
 }

@@ -62,7 +62,11 @@ pub fn read(path: &Path) -> std::io::Result<String> {
 /// 1-based line of a byte offset.
 fn line_of(text: &str, offset: usize) -> usize {
     let end = offset.min(text.len());
-    text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+    text.as_bytes()[..end]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 struct Reader<'a> {
@@ -103,7 +107,10 @@ impl Reader<'_> {
                 };
                 self.warn_at(
                     span,
-                    format!("unknown key '{key}' (settings: {}{sections})", setting_names()),
+                    format!(
+                        "unknown key '{key}' (settings: {}{sections})",
+                        setting_names()
+                    ),
                 );
                 continue;
             };
@@ -184,7 +191,9 @@ pub fn apply(path: &Path, text: &str, app: &AppIdentity, resolved: &mut Resolved
     };
     let root = document.as_table();
     reader.apply_table(root, &mut resolved.settings, false);
-    resolved.notes.push(format!("config file {}", path.display()));
+    resolved
+        .notes
+        .push(format!("config file {}", path.display()));
 
     match root.get(APPLICATION_SECTION) {
         None => {}

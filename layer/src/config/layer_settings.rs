@@ -5,7 +5,7 @@
 //! untouched for the layers below. Strings (`VK_LAYER_SETTING_TYPE_STRING_EXT`) are accepted for
 //! every setting and `BOOL32` for boolean ones; anything else is reported, not guessed at.
 
-use std::ffi::{c_char, c_void, CStr};
+use std::ffi::{c_char, c_void};
 
 use ash::vk;
 
@@ -90,11 +90,8 @@ unsafe fn read_one(setting: &vk::LayerSettingEXT<'_>) -> Option<LayerSetting> {
 /// # Safety
 /// `ptr` must be null or a NUL-terminated string.
 unsafe fn c_str<'a>(ptr: *const c_char) -> Option<&'a str> {
-    if ptr.is_null() {
-        return None;
-    }
     // SAFETY: the caller guarantees NUL termination.
-    unsafe { CStr::from_ptr(ptr) }.to_str().ok()
+    unsafe { crate::ffi::c_str(ptr) }?.to_str().ok()
 }
 
 #[cfg(test)]

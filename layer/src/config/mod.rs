@@ -396,9 +396,10 @@ pub fn resolve(sources: &Sources<'_>) -> Resolved {
     for setting in &sources.layer_settings {
         let origin = format!("VK_EXT_layer_settings '{}'", setting.name);
         let Some(spec) = SettingSpec::named(&setting.name) else {
-            resolved
-                .warnings
-                .push(format!("{origin}: unknown setting (known: {})", setting_names()));
+            resolved.warnings.push(format!(
+                "{origin}: unknown setting (known: {})",
+                setting_names()
+            ));
             continue;
         };
         match &setting.value {

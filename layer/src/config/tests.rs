@@ -97,9 +97,17 @@ fn layer_settings_beat_the_environment_which_beats_the_file() {
     world.env.insert("REVZ_LOG", "warn".into());
     world.layer_settings = vec![layer_setting("mode", Value::Text("off".into()))];
     let settings = world.resolve().settings;
-    assert_eq!(settings.mode, Mode::Off, "layer setting wins over env and file");
+    assert_eq!(
+        settings.mode,
+        Mode::Off,
+        "layer setting wins over env and file"
+    );
     assert_eq!(settings.log_level, LevelFilter::Warn, "env wins over file");
-    assert_eq!(settings.far_clip, FarClip::Keep, "file wins over the default");
+    assert_eq!(
+        settings.far_clip,
+        FarClip::Keep,
+        "file wins over the default"
+    );
 }
 
 #[test]
@@ -158,7 +166,11 @@ far_clip = "keep"
 #[test]
 fn application_sections_match_by_executable_or_application_info() {
     let mut world = World::with_config(PER_APP);
-    assert_eq!(world.resolve().settings.mode, Mode::Flip, "no section matches");
+    assert_eq!(
+        world.resolve().settings.mode,
+        Mode::Flip,
+        "no section matches"
+    );
 
     world.app.executable = Some("vkcube".into());
     let resolved = world.resolve();
@@ -293,15 +305,17 @@ fn bad_environment_values_warn_and_keep_the_file_value() {
 
 #[test]
 fn bad_layer_settings_are_reported() {
-    let mut world = World::default();
-    world.layer_settings = vec![
-        layer_setting("color", Value::Text("red".into())),
-        layer_setting("mode", Value::Bool(true)),
-        LayerSetting {
-            name: "log".into(),
-            value: Err("no value given".into()),
-        },
-    ];
+    let world = World {
+        layer_settings: vec![
+            layer_setting("color", Value::Text("red".into())),
+            layer_setting("mode", Value::Bool(true)),
+            LayerSetting {
+                name: "log".into(),
+                value: Err("no value given".into()),
+            },
+        ],
+        ..World::default()
+    };
     assert_eq!(
         world.resolve().warnings,
         vec![

@@ -3,7 +3,7 @@
 //! commands revz does not intercept are checked without a GPU or a loader.
 
 use std::ffi::{c_char, CStr};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use ash::vk::{self, Handle};
 
@@ -15,6 +15,7 @@ type VoidFn = unsafe extern "system" fn();
 
 static DESTROYED_INSTANCES: AtomicUsize = AtomicUsize::new(0);
 static DESTROYED_DEVICES: AtomicUsize = AtomicUsize::new(0);
+static SETTINGS_PASSED_DOWN: AtomicBool = AtomicBool::new(false);
 
 /// A dispatchable object as the loader lays it out: its first word is the dispatch table.
 fn dispatchable(table: &'static u8) -> *mut usize {
@@ -27,10 +28,15 @@ static DEVICE_TABLE: u8 = 0;
 unsafe extern "system" fn fake_command() {}
 
 unsafe extern "system" fn fake_create_instance(
-    _: *const vk::InstanceCreateInfo,
+    create_info: *const vk::InstanceCreateInfo,
     _: *const vk::AllocationCallbacks,
     p_instance: *mut vk::Instance,
 ) -> vk::Result {
+    // SAFETY: revz passes the application's create info through.
+    let first = unsafe { (*create_info).p_next.cast::<vk::BaseInStructure>().as_ref() };
+    if first.map(|s| s.s_type) == Some(vk::StructureType::LAYER_SETTINGS_CREATE_INFO_EXT) {
+        SETTINGS_PASSED_DOWN.store(true, Ordering::SeqCst);
+    }
     // SAFETY: revz passes the application's output pointer through.
     unsafe { *p_instance = vk::Instance::from_raw(dispatchable(&INSTANCE_TABLE) as u64) };
     vk::Result::SUCCESS
@@ -100,8 +106,20 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
         function: ffi::LAYER_LINK_INFO,
         p_layer_info: &mut instance_link,
     };
+    // The application asks for flip mode through VK_EXT_layer_settings.
+    let flip = [c"flip".as_ptr()];
+    let settings = [vk::LayerSettingEXT {
+        p_layer_name: c"VK_LAYER_REVZ_reverse_z".as_ptr(),
+        p_setting_name: c"mode".as_ptr(),
+        ty: vk::LayerSettingTypeEXT::STRING,
+        value_count: 1,
+        p_values: flip.as_ptr().cast(),
+        ..Default::default()
+    }];
+    let mut layer_settings = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
+    layer_settings.p_next = (&mut instance_chain as *mut ffi::LayerInstanceCreateInfo).cast();
     let create_info = vk::InstanceCreateInfo {
-        p_next: (&mut instance_chain as *mut ffi::LayerInstanceCreateInfo).cast(),
+        p_next: (&layer_settings as *const vk::LayerSettingsCreateInfoEXT).cast(),
         ..Default::default()
     };
     let mut handle = vk::Instance::null();
@@ -115,7 +133,14 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
     );
     // SAFETY: `handle` is the fake's live object.
     let instance_key = unsafe { DispatchKey::of(handle) };
-    assert!(INSTANCES.get(instance_key).is_some());
+    let state = INSTANCES
+        .get(instance_key)
+        .expect("the instance is registered");
+    assert_eq!(state.settings.mode, crate::config::Mode::Flip);
+    assert!(
+        SETTINGS_PASSED_DOWN.load(Ordering::SeqCst),
+        "the application's chain must reach the next layer untouched"
+    );
 
     // SAFETY: valid names and a live instance.
     unsafe {

@@ -4,8 +4,8 @@ use std::ffi::c_char;
 
 use ash::vk;
 
-use super::command_name;
 use crate::boundary::{guarded, EntryPoint};
+use crate::ffi;
 use crate::state::{DispatchKey, DEVICES};
 
 static GET_DEVICE_PROC_ADDR: EntryPoint = EntryPoint::new("vkGetDeviceProcAddr");
@@ -23,7 +23,7 @@ pub unsafe extern "system" fn get_device_proc_addr(
         &GET_DEVICE_PROC_ADDR,
         || {
             // SAFETY: the spec requires a NUL-terminated name; null is tolerated.
-            let name = unsafe { command_name(p_name) }?;
+            let name = unsafe { ffi::c_str(p_name) }?;
             if device == vk::Device::null() {
                 return None;
             }

@@ -1,12 +1,11 @@
 //! Instance-level hooks: instance and device creation, and instance-level dispatch.
 
-use std::ffi::{c_char, CStr};
+use std::ffi::c_char;
 use std::path::Path;
 use std::sync::Arc;
 
 use ash::vk;
 
-use super::command_name;
 use crate::boundary::{guarded, EntryPoint};
 use crate::config::{self, layer_settings, AppIdentity, Mode, Settings, Sources};
 use crate::ffi;
@@ -31,7 +30,7 @@ pub unsafe extern "system" fn get_instance_proc_addr(
         &GET_INSTANCE_PROC_ADDR,
         || {
             // SAFETY: the spec requires a NUL-terminated name; null is tolerated.
-            let name = unsafe { command_name(p_name) }?;
+            let name = unsafe { ffi::c_str(p_name) }?;
             if let Some(hook) =
                 super::instance_command(name).or_else(|| super::device_command(name))
             {
@@ -119,10 +118,8 @@ fn app_identity(create_info: &vk::InstanceCreateInfo) -> AppIdentity {
         .and_then(|path| Some(path.file_name()?.to_string_lossy().into_owned()));
     // SAFETY: `pApplicationInfo` is null or valid, and its names null or NUL-terminated.
     let info = unsafe { create_info.p_application_info.as_ref() };
-    let name = |ptr: *const c_char| {
-        // SAFETY: as above.
-        (!ptr.is_null()).then(|| unsafe { CStr::from_ptr(ptr) }.to_string_lossy().into_owned())
-    };
+    // SAFETY: as above.
+    let name = |ptr| unsafe { ffi::c_str(ptr) }.map(|name| name.to_string_lossy().into_owned());
     AppIdentity {
         executable,
         application_name: info.and_then(|i| name(i.p_application_name)),

@@ -49,15 +49,6 @@ pub fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     }
 }
 
-/// Reads a command name passed by the application; `None` for a null pointer.
-///
-/// # Safety
-/// `name` must be null or a NUL-terminated string.
-unsafe fn command_name<'a>(name: *const std::ffi::c_char) -> Option<&'a CStr> {
-    // SAFETY: the caller guarantees a NUL-terminated string when non-null.
-    (!name.is_null()).then(|| unsafe { CStr::from_ptr(name) })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
