@@ -35,6 +35,7 @@ const SCRUBBED_ENV: &[&str] = &[
     "REVZ_PROMOTE_DEPTH_FORMATS",
     "XDG_CONFIG_HOME",
     "XDG_DATA_HOME",
+    "VK_LAYER_SETTINGS_PATH",
 ];
 
 /// Paths to what `cargo xtask build` produced.

@@ -4,7 +4,8 @@
 //! 1. `VK_EXT_layer_settings` structures the application chains into `VkInstanceCreateInfo`
 //!    ([`layer_settings`]);
 //! 2. environment variables, one per setting (`REVZ_MODE`, ...);
-//! 3. the config file ([`file`]): its top-level keys, then every `[[application]]` section that
+//! 3. `vk_layer_settings.txt`, which Vulkan Configurator writes ([`vk_layer_settings`]);
+//! 4. the config file ([`file`]): its top-level keys, then every `[[application]]` section that
 //!    matches this process (by executable name or `VkApplicationInfo` names), in file order.
 //!
 //! A value that cannot be read produces one warning naming where it came from and what is
@@ -15,6 +16,7 @@
 
 pub mod file;
 pub mod layer_settings;
+pub mod vk_layer_settings;
 
 use std::fmt;
 use std::path::PathBuf;
@@ -336,6 +338,8 @@ pub struct Sources<'a> {
     pub env: &'a dyn Fn(&str) -> Option<String>,
     /// Reads a config file (the file system in production).
     pub read_file: &'a dyn Fn(&std::path::Path) -> std::io::Result<String>,
+    /// Tells whether a path is a directory (the file system in production).
+    pub is_dir: &'a dyn Fn(&std::path::Path) -> bool,
     pub app: AppIdentity,
     /// Settings from `VK_EXT_layer_settings`, already extracted, in the order given.
     pub layer_settings: Vec<layer_settings::LayerSetting>,
@@ -368,19 +372,17 @@ pub fn resolve(sources: &Sources<'_>) -> Resolved {
         notes: Vec::new(),
     };
 
-    // 3. The config file.
+    // 4. The config file.
     if let Some((path, explicit)) = file::locate(sources.env) {
-        match (sources.read_file)(&path) {
-            Ok(text) => file::apply(&path, &text, &sources.app, &mut resolved),
-            // The default location is optional; a file the user named must exist.
-            Err(err) if explicit || err.kind() != std::io::ErrorKind::NotFound => {
-                resolved.warnings.push(format!(
-                    "{}: cannot read the config file ({err}); using the defaults",
-                    path.display()
-                ));
-            }
-            Err(_) => {}
+        if let Some(text) = read_optional(sources, &path, explicit, &mut resolved) {
+            file::apply(&path, &text, &sources.app, &mut resolved);
         }
+    }
+
+    // 3. Vulkan Configurator's settings file.
+    let (path, explicit) = vk_layer_settings::locate(sources.env, sources.is_dir);
+    if let Some(text) = read_optional(sources, &path, explicit, &mut resolved) {
+        vk_layer_settings::apply(&path, &text, &mut resolved);
     }
 
     // 2. Environment variables.
@@ -420,6 +422,27 @@ pub fn resolve(sources: &Sources<'_>) -> Resolved {
             .push("promote_depth_formats is not implemented yet and has no effect".to_owned());
     }
     resolved
+}
+
+/// Reads a settings file. A file at a default location may be absent; one the user named must
+/// be readable, and a failure is a warning.
+fn read_optional(
+    sources: &Sources<'_>,
+    path: &std::path::Path,
+    explicit: bool,
+    resolved: &mut Resolved,
+) -> Option<String> {
+    match (sources.read_file)(path) {
+        Ok(text) => Some(text),
+        Err(err) if explicit || err.kind() != std::io::ErrorKind::NotFound => {
+            resolved.warnings.push(format!(
+                "{}: cannot read the config file ({err}); using the defaults",
+                path.display()
+            ));
+            None
+        }
+        Err(_) => None,
+    }
 }
 
 /// The names of every setting, for warnings.

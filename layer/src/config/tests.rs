@@ -37,9 +37,11 @@ impl World {
                 .cloned()
                 .ok_or_else(|| std::io::Error::from(std::io::ErrorKind::NotFound))
         };
+        let is_dir = |path: &Path| path == Path::new("/vkconfig");
         resolve(&Sources {
             env: &env,
             read_file: &read_file,
+            is_dir: &is_dir,
             app: self.app.clone(),
             layer_settings: self.layer_settings.clone(),
         })
@@ -108,6 +110,56 @@ fn layer_settings_beat_the_environment_which_beats_the_file() {
         FarClip::Keep,
         "file wins over the default"
     );
+}
+
+#[test]
+fn vulkan_configurator_settings_sit_between_the_environment_and_the_config_file() {
+    let mut world = World::with_config("mode = \"flip\"\nfar_clip = \"keep\"\nlog = \"warn\"\n");
+    world
+        .env
+        .insert("VK_LAYER_SETTINGS_PATH", "/vkconfig".into());
+    world.files.insert(
+        "/vkconfig/vk_layer_settings.txt",
+        "# written by vkconfig\nkhronos_validation.mode = whatever\n\
+         revz_reverse_z.mode = infinite\nrevz_reverse_z.log = info\n\
+         revz_reverse_z.colour = red\nrevz_reverse_z.far_clip\n"
+            .into(),
+    );
+    world.env.insert("REVZ_LOG", "debug".into());
+    let resolved = world.resolve();
+    assert_eq!(
+        resolved.settings.mode,
+        Mode::Infinite,
+        "beats the config file"
+    );
+    assert_eq!(
+        resolved.settings.far_clip,
+        FarClip::Keep,
+        "the file still applies"
+    );
+    assert_eq!(
+        resolved.settings.log_level,
+        LevelFilter::Debug,
+        "the environment wins"
+    );
+    assert_eq!(
+        resolved.warnings,
+        vec![
+            "/vkconfig/vk_layer_settings.txt:5: unknown setting 'colour' (settings: mode, \
+             far_clip, reverse_observable, promote_depth_formats, log, log_file)",
+            "/vkconfig/vk_layer_settings.txt:6: expected 'revz_reverse_z.<setting> = <value>'; \
+             line ignored",
+        ]
+    );
+
+    // VK_LAYER_SETTINGS_PATH may also name the file itself.
+    world
+        .env
+        .insert("VK_LAYER_SETTINGS_PATH", "/elsewhere.txt".into());
+    world
+        .files
+        .insert("/elsewhere.txt", "revz_reverse_z.mode = off\n".into());
+    assert_eq!(world.resolve().settings.mode, Mode::Off);
 }
 
 #[test]

@@ -135,9 +135,11 @@ fn read_settings(create_info: &vk::InstanceCreateInfo) -> Arc<Settings> {
         || {
             let env = |name: &str| std::env::var(name).ok();
             let read_file = |path: &Path| config::file::read(path);
+            let is_dir = |path: &Path| path.is_dir();
             let resolved = config::resolve(&Sources {
                 env: &env,
                 read_file: &read_file,
+                is_dir: &is_dir,
                 app: app_identity(create_info),
                 // SAFETY: the application's chain is valid per the spec.
                 layer_settings: unsafe { layer_settings::read(create_info.p_next) },
