@@ -14,10 +14,13 @@
 #![allow(non_snake_case)]
 
 pub mod boundary;
+pub mod command_state;
 pub mod config;
+pub mod conv;
 pub mod ffi;
 pub mod hooks;
 pub mod logging;
+pub mod policy;
 pub mod state;
 
 use std::ffi::c_char;

@@ -90,14 +90,53 @@ impl FarClip {
     }
 }
 
+/// Which depth images the application can observe revz may still reverse.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Observable {
+    /// None: an image read by shaders or copied from keeps standard depth.
+    #[default]
+    None,
+    /// Images read only by copies (screenshots, picking, test readback) are reversed; images
+    /// shaders read (sampled, storage, input attachments) stay native.
+    Copies,
+    /// Every depth image is reversed, whoever reads it.
+    All,
+}
+
+impl Observable {
+    const NAMES: &'static [&'static str] = &["none", "copies", "all"];
+
+    pub fn name(self) -> &'static str {
+        Observable::NAMES[self as usize]
+    }
+
+    /// Parses a name; `true` and `false` are read as `all` and `none`.
+    pub fn parse(text: &str) -> Option<Observable> {
+        let all = [Observable::None, Observable::Copies, Observable::All];
+        all.into_iter()
+            .find(|v| v.name().eq_ignore_ascii_case(text.trim()))
+            .or_else(|| parse_bool(text).map(Observable::from))
+    }
+}
+
+impl From<bool> for Observable {
+    fn from(reverse: bool) -> Self {
+        if reverse {
+            Observable::All
+        } else {
+            Observable::None
+        }
+    }
+}
+
 /// The settings one instance runs with.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Settings {
     pub mode: Mode,
     pub far_clip: FarClip,
-    /// Reverse depth images the application can observe (sampled, copied from, ...), which
-    /// would hand reversed values to its shaders or to the CPU.
-    pub reverse_observable: bool,
+    /// Which depth images the application can observe (sampled, copied from, ...) are still
+    /// reversed; those hand reversed values to the shaders or the CPU that read them.
+    pub reverse_observable: Observable,
     /// Promote D16/D24 depth attachments to D32_SFLOAT (not implemented yet: no effect).
     pub promote_depth_formats: bool,
     /// The log level (per process: the first instance's settings install the logger).
@@ -111,7 +150,7 @@ impl Default for Settings {
         Settings {
             mode: Mode::default(),
             far_clip: FarClip::default(),
-            reverse_observable: false,
+            reverse_observable: Observable::None,
             promote_depth_formats: false,
             log_level: LevelFilter::Off,
             log_file: None,
@@ -182,10 +221,11 @@ pub const SETTINGS: &[SettingSpec] = &[
         key: Key::ReverseObservable,
         name: "reverse_observable",
         env: "REVZ_REVERSE_OBSERVABLE",
-        kind: Kind::Bool,
-        default: "false",
-        description: "Also reverse depth images the application can read back (sampled, \
-                      copied from, input attachments), which then hold reversed values.",
+        kind: Kind::Choice(Observable::NAMES),
+        default: "none",
+        description: "Which depth images the application can read back are reversed anyway: \
+                      none; copies (images only copied from, not read by shaders); all. \
+                      true and false mean all and none.",
     },
     SettingSpec {
         key: Key::PromoteDepthFormats,
@@ -270,7 +310,11 @@ impl Settings {
         let applied = match spec.key {
             Key::Mode => text.and_then(Mode::parse).map(|m| self.mode = m),
             Key::FarClip => text.and_then(FarClip::parse).map(|v| self.far_clip = v),
-            Key::ReverseObservable => as_bool.map(|b| self.reverse_observable = b),
+            Key::ReverseObservable => match value {
+                Value::Bool(b) => Some(Observable::from(*b)),
+                Value::Text(text) => Observable::parse(text),
+            }
+            .map(|v| self.reverse_observable = v),
             Key::PromoteDepthFormats => as_bool.map(|b| self.promote_depth_formats = b),
             Key::Log => text
                 .and_then(crate::logging::parse_level)
@@ -301,7 +345,7 @@ impl Settings {
         match key {
             Key::Mode => self.mode.name().to_owned(),
             Key::FarClip => self.far_clip.name().to_owned(),
-            Key::ReverseObservable => self.reverse_observable.to_string(),
+            Key::ReverseObservable => self.reverse_observable.name().to_owned(),
             Key::PromoteDepthFormats => self.promote_depth_formats.to_string(),
             Key::Log => self.log_level.to_string().to_lowercase(),
             Key::LogFile => self

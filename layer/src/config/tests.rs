@@ -83,7 +83,7 @@ fn every_setting_can_be_set_by_its_environment_variable() {
         Settings {
             mode: Mode::Infinite,
             far_clip: FarClip::Keep,
-            reverse_observable: true,
+            reverse_observable: Observable::All,
             promote_depth_formats: false,
             log_level: LevelFilter::Debug,
             log_file: Some("/tmp/revz.log".into()),
@@ -292,7 +292,7 @@ fn wrong_values_name_the_accepted_ones_and_keep_the_lower_source() {
             "/home/u/revz.toml:1: 'sometimes' is not a valid far_clip \
              (expected one of: remove, keep); using remove",
             "/home/u/revz.toml:2: 'maybe' is not a valid reverse_observable \
-             (expected true or false); using false",
+             (expected one of: none, copies, all); using none",
             "/home/u/revz.toml:3: log must be a string or a boolean \
              (expected one of: off, error, warn, info, debug, trace); using off",
             "/home/u/revz.toml:4: 'reverse' is not a valid mode \
@@ -378,6 +378,20 @@ fn bad_layer_settings_are_reported() {
             "VK_EXT_layer_settings 'log': no value given; ignored",
         ]
     );
+}
+
+#[test]
+fn reverse_observable_takes_names_and_booleans() {
+    for (text, expected) in [
+        ("reverse_observable = \"copies\"", Observable::Copies),
+        ("reverse_observable = true", Observable::All),
+        ("reverse_observable = \"false\"", Observable::None),
+        ("reverse_observable = \"ALL\"", Observable::All),
+    ] {
+        let resolved = World::with_config(text).resolve();
+        assert_eq!(resolved.settings.reverse_observable, expected, "{text}");
+        assert!(resolved.warnings.is_empty());
+    }
 }
 
 #[test]

@@ -1,0 +1,481 @@
+//! The depth state of one command buffer, and what must be sent down before a draw.
+//!
+//! The application's depth-related state (viewports, compare op, depth bias, depth bounds)
+//! reaches the driver only at draw time: its `vkCmdSet*` calls are recorded here, the pipeline
+//! it binds brings its static values (for the states revz made dynamic), and before a draw
+//! whose state changed, [`CommandState::before_draw`] emits the values for the current depth
+//! attachment: flipped when it is reversed, as the application gave them otherwise. A draw
+//! with nothing changed costs one flag check. No Vulkan calls are made here: emission goes
+//! through a [`StateSink`], so the logic is tested without a device.
+
+use ash::vk;
+
+use crate::conv::{flip_compare_op, flip_depth_bounds, flip_viewport, DepthBias};
+
+/// A set of depth-related dynamic states.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct States(u8);
+
+impl States {
+    pub const NONE: States = States(0);
+    pub const VIEWPORT: States = States(1);
+    pub const VIEWPORT_WITH_COUNT: States = States(2);
+    pub const COMPARE_OP: States = States(4);
+    pub const BIAS: States = States(8);
+    pub const BOUNDS: States = States(16);
+    pub const ALL: States = States(31);
+
+    pub fn contains(self, other: States) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    pub fn intersects(self, other: States) -> bool {
+        self.0 & other.0 != 0
+    }
+
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The depth-related state a Vulkan dynamic state names, if any.
+    pub fn of_dynamic(state: vk::DynamicState) -> States {
+        match state {
+            vk::DynamicState::VIEWPORT => States::VIEWPORT,
+            vk::DynamicState::VIEWPORT_WITH_COUNT => States::VIEWPORT_WITH_COUNT,
+            vk::DynamicState::DEPTH_COMPARE_OP => States::COMPARE_OP,
+            vk::DynamicState::DEPTH_BIAS => States::BIAS,
+            vk::DynamicState::DEPTH_BOUNDS => States::BOUNDS,
+            _ => States::NONE,
+        }
+    }
+}
+
+impl std::ops::BitOr for States {
+    type Output = States;
+    fn bitor(self, rhs: States) -> States {
+        States(self.0 | rhs.0)
+    }
+}
+
+impl std::ops::BitOrAssign for States {
+    fn bitor_assign(&mut self, rhs: States) {
+        self.0 |= rhs.0;
+    }
+}
+
+impl std::ops::BitAnd for States {
+    type Output = States;
+    fn bitand(self, rhs: States) -> States {
+        States(self.0 & rhs.0)
+    }
+}
+
+/// The most viewports revz tracks (`maxViewports` is 16 on every current driver).
+pub const MAX_VIEWPORTS: usize = 16;
+
+/// A pipeline's contribution to depth state.
+#[derive(Clone, Debug, Default)]
+pub struct PipelineDepth {
+    /// States the application made dynamic: their values come from `vkCmdSet*`.
+    pub app_dynamic: States,
+    /// States revz made dynamic: their values are the application's static ones below.
+    pub injected: States,
+    pub viewports: Vec<vk::Viewport>,
+    pub compare_op: vk::CompareOp,
+    pub bias: DepthBias,
+    pub bounds: (f32, f32),
+}
+
+/// The depth attachment draws currently go to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Target {
+    /// Outside a render pass, or an attachment without depth.
+    #[default]
+    None,
+    Native,
+    Reversed,
+}
+
+/// Where [`CommandState::before_draw`] sends state (the next layer, in production).
+pub trait StateSink {
+    fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]);
+    fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]);
+    fn set_compare_op(&mut self, op: vk::CompareOp);
+    fn set_bias(&mut self, bias: DepthBias);
+    fn set_bounds(&mut self, min: f32, max: f32);
+}
+
+/// Depth state of one command buffer while it records.
+#[derive(Clone, Debug)]
+pub struct CommandState {
+    /// The bound graphics pipeline's depth state; `None` when none is bound or it is not
+    /// tracked (then every state the application set is emitted as dynamic).
+    pipeline: Option<std::sync::Arc<PipelineDepth>>,
+    target: Target,
+    viewports: [vk::Viewport; MAX_VIEWPORTS],
+    /// Which of `viewports` the application set with `vkCmdSetViewport`.
+    viewports_set: u16,
+    /// The count of `vkCmdSetViewportWithCount`, if the application used it.
+    viewport_count: Option<u32>,
+    compare_op: vk::CompareOp,
+    bias: DepthBias,
+    bounds: (f32, f32),
+    /// Which states the application set with `vkCmdSet*`.
+    app_set: States,
+    dirty: bool,
+}
+
+impl Default for CommandState {
+    fn default() -> Self {
+        CommandState {
+            pipeline: None,
+            target: Target::None,
+            viewports: [vk::Viewport::default(); MAX_VIEWPORTS],
+            viewports_set: 0,
+            viewport_count: None,
+            compare_op: vk::CompareOp::NEVER,
+            bias: DepthBias::default(),
+            bounds: (0.0, 1.0),
+            app_set: States::NONE,
+            dirty: true,
+        }
+    }
+}
+
+impl CommandState {
+    /// Starts recording (`vkBeginCommandBuffer`): all state is undefined again.
+    pub fn begin(&mut self, target: Target) {
+        *self = CommandState {
+            target,
+            ..CommandState::default()
+        };
+    }
+
+    pub fn target(&self) -> Target {
+        self.target
+    }
+
+    /// The depth attachment changed (render pass begin, next subpass, end, ...).
+    pub fn set_target(&mut self, target: Target) {
+        if self.target != target {
+            self.target = target;
+            self.dirty = true;
+        }
+    }
+
+    /// `vkCmdBindPipeline` with a graphics pipeline.
+    pub fn bind_pipeline(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {
+        self.pipeline = pipeline;
+        self.dirty = true;
+    }
+
+    /// `vkCmdExecuteCommands`: the secondaries leave the state undefined.
+    pub fn invalidate(&mut self) {
+        self.dirty = true;
+    }
+
+    /// `vkCmdSetViewport`. Viewports beyond [`MAX_VIEWPORTS`] are ignored.
+    pub fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
+        for (index, viewport) in (first as usize..).zip(viewports) {
+            if index < MAX_VIEWPORTS {
+                self.viewports[index] = *viewport;
+                self.viewports_set |= 1 << index;
+            }
+        }
+        self.app_set |= States::VIEWPORT;
+        self.dirty = true;
+    }
+
+    /// `vkCmdSetViewportWithCount`.
+    pub fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
+        let count = viewports.len().min(MAX_VIEWPORTS);
+        self.viewports[..count].copy_from_slice(&viewports[..count]);
+        self.viewport_count = Some(count as u32);
+        self.app_set |= States::VIEWPORT_WITH_COUNT;
+        self.dirty = true;
+    }
+
+    pub fn set_compare_op(&mut self, op: vk::CompareOp) {
+        self.compare_op = op;
+        self.app_set |= States::COMPARE_OP;
+        self.dirty = true;
+    }
+
+    pub fn set_bias(&mut self, bias: DepthBias) {
+        self.bias = bias;
+        self.app_set |= States::BIAS;
+        self.dirty = true;
+    }
+
+    pub fn set_bounds(&mut self, min: f32, max: f32) {
+        self.bounds = (min, max);
+        self.app_set |= States::BOUNDS;
+        self.dirty = true;
+    }
+
+    /// Before a draw: emits the depth state if anything changed since the last draw.
+    #[inline]
+    pub fn before_draw(&mut self, sink: &mut impl StateSink) {
+        if self.dirty {
+            self.emit(sink);
+            self.dirty = false;
+        }
+    }
+
+    fn emit(&self, sink: &mut impl StateSink) {
+        let reversed = self.target == Target::Reversed;
+        let (from_app, injected, pipeline) = match &self.pipeline {
+            Some(p) => (self.app_set & p.app_dynamic, p.injected, Some(&**p)),
+            None => (self.app_set, States::NONE, None),
+        };
+
+        let viewport = |v: &vk::Viewport| if reversed { flip_viewport(*v) } else { *v };
+        if from_app.contains(States::VIEWPORT_WITH_COUNT) {
+            let count = self.viewport_count.unwrap_or(0) as usize;
+            let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
+            for (o, v) in out.iter_mut().zip(&self.viewports[..count]) {
+                *o = viewport(v);
+            }
+            sink.set_viewports_with_count(&out[..count]);
+        } else if from_app.contains(States::VIEWPORT) {
+            // Emit each contiguous run of viewports the application set.
+            let mut index = 0;
+            while index < MAX_VIEWPORTS {
+                if self.viewports_set & (1 << index) == 0 {
+                    index += 1;
+                    continue;
+                }
+                let start = index;
+                let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
+                while index < MAX_VIEWPORTS && self.viewports_set & (1 << index) != 0 {
+                    out[index - start] = viewport(&self.viewports[index]);
+                    index += 1;
+                }
+                sink.set_viewports(start as u32, &out[..index - start]);
+            }
+        } else if let Some(p) = pipeline.filter(|p| p.injected.contains(States::VIEWPORT)) {
+            let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
+            let count = p.viewports.len().min(MAX_VIEWPORTS);
+            for (o, v) in out.iter_mut().zip(&p.viewports[..count]) {
+                *o = viewport(v);
+            }
+            sink.set_viewports(0, &out[..count]);
+        }
+
+        let pick = |state: States| {
+            if from_app.contains(state) {
+                Some(true)
+            } else if injected.contains(state) {
+                Some(false)
+            } else {
+                None
+            }
+        };
+        if let Some(app) = pick(States::COMPARE_OP) {
+            let op = if app {
+                self.compare_op
+            } else {
+                pipeline.map_or(self.compare_op, |p| p.compare_op)
+            };
+            sink.set_compare_op(if reversed { flip_compare_op(op) } else { op });
+        }
+        if let Some(app) = pick(States::BIAS) {
+            let bias = if app {
+                self.bias
+            } else {
+                pipeline.map_or(self.bias, |p| p.bias)
+            };
+            sink.set_bias(if reversed { bias.flipped() } else { bias });
+        }
+        if let Some(app) = pick(States::BOUNDS) {
+            let (min, max) = if app {
+                self.bounds
+            } else {
+                pipeline.map_or(self.bounds, |p| p.bounds)
+            };
+            let (min, max) = if reversed {
+                flip_depth_bounds(min, max)
+            } else {
+                (min, max)
+            };
+            sink.set_bounds(min, max);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+
+    #[derive(Debug, Default, PartialEq)]
+    struct Recorded {
+        viewports: Vec<(u32, Vec<(f32, f32)>)>,
+        with_count: Vec<Vec<(f32, f32)>>,
+        compare_ops: Vec<vk::CompareOp>,
+        biases: Vec<DepthBias>,
+        bounds: Vec<(f32, f32)>,
+    }
+
+    impl StateSink for Recorded {
+        fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
+            let depths = viewports
+                .iter()
+                .map(|v| (v.min_depth, v.max_depth))
+                .collect();
+            self.viewports.push((first, depths));
+        }
+        fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
+            let depths = viewports
+                .iter()
+                .map(|v| (v.min_depth, v.max_depth))
+                .collect();
+            self.with_count.push(depths);
+        }
+        fn set_compare_op(&mut self, op: vk::CompareOp) {
+            self.compare_ops.push(op);
+        }
+        fn set_bias(&mut self, bias: DepthBias) {
+            self.biases.push(bias);
+        }
+        fn set_bounds(&mut self, min: f32, max: f32) {
+            self.bounds.push((min, max));
+        }
+    }
+
+    fn viewport(min_depth: f32, max_depth: f32) -> vk::Viewport {
+        vk::Viewport {
+            width: 256.0,
+            height: 256.0,
+            min_depth,
+            max_depth,
+            ..Default::default()
+        }
+    }
+
+    /// A pipeline whose viewport and compare op were static and made dynamic by revz.
+    fn static_pipeline() -> Arc<PipelineDepth> {
+        Arc::new(PipelineDepth {
+            app_dynamic: States::NONE,
+            injected: States::VIEWPORT | States::COMPARE_OP | States::BIAS,
+            viewports: vec![viewport(0.0, 1.0)],
+            compare_op: vk::CompareOp::LESS,
+            bias: DepthBias {
+                constant: -1.0,
+                clamp: 0.0,
+                slope: -2.0,
+            },
+            bounds: (0.0, 1.0),
+        })
+    }
+
+    #[test]
+    fn static_state_is_emitted_flipped_for_a_reversed_target_once() {
+        let mut state = CommandState::default();
+        state.begin(Target::Reversed);
+        state.bind_pipeline(Some(static_pipeline()));
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        state.before_draw(&mut sink);
+        assert_eq!(
+            sink,
+            Recorded {
+                viewports: vec![(0, vec![(1.0, 0.0)])],
+                compare_ops: vec![vk::CompareOp::GREATER],
+                biases: vec![DepthBias {
+                    constant: 1.0,
+                    clamp: -0.0,
+                    slope: 2.0
+                }],
+                ..Default::default()
+            }
+        );
+    }
+
+    #[test]
+    fn native_targets_get_the_application_values_unchanged() {
+        let mut state = CommandState::default();
+        state.begin(Target::Native);
+        state.bind_pipeline(Some(static_pipeline()));
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
+        assert_eq!(sink.compare_ops, vec![vk::CompareOp::LESS]);
+        assert_eq!(sink.biases[0].constant, -1.0);
+    }
+
+    #[test]
+    fn application_dynamic_state_is_flipped_and_reemitted_when_the_target_changes() {
+        let mut state = CommandState::default();
+        state.begin(Target::None);
+        state.bind_pipeline(Some(Arc::new(PipelineDepth {
+            app_dynamic: States::VIEWPORT | States::COMPARE_OP | States::BOUNDS,
+            ..PipelineDepth::default()
+        })));
+        state.set_viewports(0, &[viewport(0.0, 0.5), viewport(0.5, 1.0)]);
+        state.set_compare_op(vk::CompareOp::LESS_OR_EQUAL);
+        state.set_bounds(0.0, 0.75);
+        state.set_target(Target::Reversed);
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.5), (0.5, 0.0)])]);
+        assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER_OR_EQUAL]);
+        assert_eq!(sink.bounds, vec![(0.25, 1.0)]);
+
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::LESS_OR_EQUAL));
+        assert_eq!(
+            sink.viewports.last(),
+            Some(&(0, vec![(0.0, 0.5), (0.5, 1.0)]))
+        );
+    }
+
+    #[test]
+    fn only_viewports_the_application_set_are_emitted() {
+        let mut state = CommandState::default();
+        state.begin(Target::Reversed);
+        state.set_viewports(2, &[viewport(0.0, 0.1)]);
+        state.set_viewports(4, &[viewport(0.0, 1.0), viewport(0.25, 0.5)]);
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(
+            sink.viewports,
+            vec![(2, vec![(1.0, 0.9)]), (4, vec![(1.0, 0.0), (0.75, 0.5)])]
+        );
+    }
+
+    #[test]
+    fn states_the_pipeline_keeps_static_are_not_emitted() {
+        let mut state = CommandState::default();
+        state.begin(Target::Reversed);
+        state.set_compare_op(vk::CompareOp::LESS);
+        state.set_viewports_with_count(&[viewport(0.0, 1.0)]);
+        state.bind_pipeline(Some(Arc::new(PipelineDepth {
+            app_dynamic: States::VIEWPORT_WITH_COUNT,
+            ..PipelineDepth::default()
+        })));
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(sink.with_count, vec![vec![(1.0, 0.0)]]);
+        assert!(sink.compare_ops.is_empty() && sink.viewports.is_empty());
+    }
+
+    #[test]
+    fn without_a_tracked_pipeline_every_set_state_is_emitted() {
+        // Shader objects, or a pipeline revz could not read: the application's dynamic state
+        // must still reach the driver.
+        let mut state = CommandState::default();
+        state.begin(Target::Native);
+        state.set_compare_op(vk::CompareOp::GREATER);
+        state.set_bias(DepthBias {
+            constant: 3.0,
+            ..Default::default()
+        });
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
+        assert_eq!(sink.biases.len(), 1);
+    }
+}
