@@ -18,8 +18,9 @@ pub mod command_state;
 pub mod config;
 pub mod conv;
 pub mod ffi;
-pub mod hooks;
+mod hooks;
 pub mod logging;
+pub mod objects;
 pub mod policy;
 pub mod state;
 

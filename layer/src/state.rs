@@ -12,6 +12,8 @@ use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError};
 use ash::vk::{self, Handle};
 
 use crate::config::Settings;
+use crate::objects::DeviceObjects;
+use crate::policy::DevicePolicy;
 
 /// The loader's dispatch table pointer of a dispatchable handle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -32,6 +34,9 @@ impl DispatchKey {
 /// What the layer keeps for one `VkInstance`.
 pub struct InstanceState {
     pub handle: vk::Instance,
+    /// The API version the application asked for (`VkApplicationInfo::apiVersion`, 1.0 if
+    /// none): core commands of later versions are not available to it.
+    pub api_version: u32,
     /// The next layer's `vkGetInstanceProcAddr`, for everything revz does not intercept.
     pub next_get_instance_proc_addr: vk::PFN_vkGetInstanceProcAddr,
     /// The next layer's instance commands.
@@ -55,7 +60,70 @@ pub struct DeviceState {
     pub next_get_device_proc_addr: vk::PFN_vkGetDeviceProcAddr,
     /// The next layer's device commands.
     pub next: ash::Device,
+    /// Commands ash's core tables do not cover, or that may come from an extension.
+    pub commands: DeviceCommands,
     pub settings: Arc<Settings>,
+    pub policy: DevicePolicy,
+    pub objects: DeviceObjects,
+}
+
+/// Next-layer commands that exist under a core or an extension name, whichever the device has.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DeviceCommands {
+    pub set_depth_compare_op: Option<vk::PFN_vkCmdSetDepthCompareOp>,
+    pub set_viewport_with_count: Option<vk::PFN_vkCmdSetViewportWithCount>,
+    pub begin_render_pass2: Option<vk::PFN_vkCmdBeginRenderPass2>,
+    pub next_subpass2: Option<vk::PFN_vkCmdNextSubpass2>,
+    pub end_render_pass2: Option<vk::PFN_vkCmdEndRenderPass2>,
+    pub create_render_pass2: Option<vk::PFN_vkCreateRenderPass2>,
+    pub begin_rendering: Option<vk::PFN_vkCmdBeginRendering>,
+    pub end_rendering: Option<vk::PFN_vkCmdEndRendering>,
+    pub draw_indirect_count: Option<vk::PFN_vkCmdDrawIndirectCount>,
+    pub draw_indexed_indirect_count: Option<vk::PFN_vkCmdDrawIndexedIndirectCount>,
+}
+
+impl DeviceCommands {
+    /// Loads every command under the first of its names the device answers for.
+    ///
+    /// # Safety
+    /// `gdpa` must be the next layer's `vkGetDeviceProcAddr` and `device` live.
+    pub unsafe fn load(gdpa: vk::PFN_vkGetDeviceProcAddr, device: vk::Device) -> DeviceCommands {
+        let find = |names: &[&std::ffi::CStr]| {
+            names
+                .iter()
+                // SAFETY: the caller guarantees a live device and the next layer's GDPA.
+                .find_map(|name| unsafe { gdpa(device, name.as_ptr()) })
+        };
+        macro_rules! load {
+            ($($name:expr),+) => {
+                // SAFETY: the loader returns a function of the type the name implies.
+                find(&[$($name),+]).map(|f| unsafe { std::mem::transmute(f) })
+            };
+        }
+        DeviceCommands {
+            set_depth_compare_op: load!(c"vkCmdSetDepthCompareOp", c"vkCmdSetDepthCompareOpEXT"),
+            set_viewport_with_count: load!(
+                c"vkCmdSetViewportWithCount",
+                c"vkCmdSetViewportWithCountEXT"
+            ),
+            begin_render_pass2: load!(c"vkCmdBeginRenderPass2", c"vkCmdBeginRenderPass2KHR"),
+            next_subpass2: load!(c"vkCmdNextSubpass2", c"vkCmdNextSubpass2KHR"),
+            end_render_pass2: load!(c"vkCmdEndRenderPass2", c"vkCmdEndRenderPass2KHR"),
+            create_render_pass2: load!(c"vkCreateRenderPass2", c"vkCreateRenderPass2KHR"),
+            begin_rendering: load!(c"vkCmdBeginRendering", c"vkCmdBeginRenderingKHR"),
+            end_rendering: load!(c"vkCmdEndRendering", c"vkCmdEndRenderingKHR"),
+            draw_indirect_count: load!(
+                c"vkCmdDrawIndirectCount",
+                c"vkCmdDrawIndirectCountKHR",
+                c"vkCmdDrawIndirectCountAMD"
+            ),
+            draw_indexed_indirect_count: load!(
+                c"vkCmdDrawIndexedIndirectCount",
+                c"vkCmdDrawIndexedIndirectCountKHR",
+                c"vkCmdDrawIndexedIndirectCountAMD"
+            ),
+        }
+    }
 }
 
 impl std::fmt::Debug for DeviceState {
@@ -63,6 +131,7 @@ impl std::fmt::Debug for DeviceState {
         f.debug_struct("DeviceState")
             .field("handle", &self.handle)
             .field("settings", &self.settings)
+            .field("policy", &self.policy)
             .finish_non_exhaustive()
     }
 }

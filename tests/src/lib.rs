@@ -225,6 +225,29 @@ pub fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
     a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count()
 }
 
+/// The resolution bound within which a flip-path depth equals 1 - the native depth, per
+/// format: the rasterizer computes the flipped value from vertex depths that carry the
+/// standard mapping's float32 rounding near 1 (about 6e-8), and fixed-point formats round
+/// D and 1 - D to their grid independently.
+pub fn flip_tolerance(depth_format: &str) -> f32 {
+    match depth_format {
+        "d16" => 2.0 / 65535.0,
+        "x8-d24" | "d24-s8" => 3.0 / 16_777_215.0,
+        _ => 3e-7,
+    }
+}
+
+/// The most color pixels a flip-path render may differ from the native one, per format.
+/// D16's grid is coarse enough (1.5e-5) that surfaces closer than one step (the intersection
+/// lines of the overlap scene) resolve differently when D and 1 - D round to it; every other
+/// format must match exactly.
+pub fn flip_color_tolerance(depth_format: &str) -> usize {
+    match depth_format {
+        "d16" => 64,
+        _ => 0,
+    }
+}
+
 /// Counts depth values that are not bit-identical.
 pub fn differing_depths(a: &[f32], b: &[f32]) -> usize {
     assert_eq!(a.len(), b.len());

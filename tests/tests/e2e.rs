@@ -3,10 +3,15 @@
 
 use std::process::Command;
 
-use revz_tests::{differing_depths, differing_pixels, Harness, LAYER_NAME, MODES};
+use revz_tests::{
+    differing_depths, differing_pixels, flip_color_tolerance, flip_tolerance, Harness, LAYER_NAME,
+    MODES,
+};
 
 /// Renders `format` natively, then through the layer in every mode, and requires the layer's
-/// renders to be bit-identical: every mode passes everything through in this build.
+/// renders to be bit-identical: the tester reads its depth image back (TRANSFER_SRC), so by
+/// default that image stays native in every mode, and its draws must be left exactly as they
+/// are.
 fn passthrough_is_bit_identical(format: &str) {
     let harness = Harness::locate();
     let native_dir = harness.scratch_dir(&format!("{format}-native"));
@@ -47,6 +52,72 @@ fn passthrough_is_bit_identical(format: &str) {
             "{format}, mode {mode}: depth differs from the native render"
         );
     }
+}
+
+/// Flip mode with depth readback allowed (`reverse_observable=copies`): the color matches the
+/// native render and the depth read back is 1 - the native depth within the format's
+/// resolution.
+fn flip_reverses_depth_and_keeps_color(format: &str) {
+    let harness = Harness::locate();
+    let native_dir = harness.scratch_dir(&format!("flip-{format}-native"));
+    let native = harness.render(harness.tester(format, &native_dir), &native_dir);
+    let dir = harness.scratch_dir(&format!("flip-{format}"));
+    let mut command = harness.tester(format, &dir);
+    harness
+        .with_layer(&mut command)
+        .env("REVZ_MODE", "flip")
+        .env("REVZ_REVERSE_OBSERVABLE", "copies")
+        .env("REVZ_LOG", "info");
+    let flipped = harness.render(command, &dir);
+    let stderr = flipped.stderr();
+    assert!(stderr.contains("): reversed"), "{stderr}");
+
+    let differing = differing_pixels(&native.color(), &flipped.color());
+    assert!(
+        differing <= flip_color_tolerance(format),
+        "{format}: {differing} color pixels differ from the native render"
+    );
+    let tolerance = flip_tolerance(format);
+    let (a, b) = (native.depth(), flipped.depth());
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(n, f)| ((1.0 - f64::from(*n)) - f64::from(*f)).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= f64::from(tolerance),
+        "{format}: depth differs from 1 - native by up to {worst:e} (bound {tolerance:e})"
+    );
+    // The clear value was flipped too: the background reads 0, not 1.
+    assert!(
+        b.iter().any(|&d| d == 0.0),
+        "{format}: no pixel holds the flipped clear"
+    );
+}
+
+#[test]
+fn flip_d16() {
+    flip_reverses_depth_and_keeps_color("d16");
+}
+
+#[test]
+fn flip_x8_d24() {
+    flip_reverses_depth_and_keeps_color("x8-d24");
+}
+
+#[test]
+fn flip_d24_s8() {
+    flip_reverses_depth_and_keeps_color("d24-s8");
+}
+
+#[test]
+fn flip_d32() {
+    flip_reverses_depth_and_keeps_color("d32");
+}
+
+#[test]
+fn flip_d32_s8() {
+    flip_reverses_depth_and_keeps_color("d32-s8");
 }
 
 #[test]

@@ -57,7 +57,7 @@ impl Mode {
     /// Whether this build of the layer acts on the mode yet. Modes it does not implement
     /// pass everything through, and the load line says so.
     pub fn is_implemented(self) -> bool {
-        self == Mode::Off
+        matches!(self, Mode::Off | Mode::Flip)
     }
 }
 
@@ -355,10 +355,11 @@ impl Settings {
         }
     }
 
-    /// One line with every setting, for the load log line.
+    /// One line with every setting but the mode, for the load log line.
     pub fn summary(&self) -> String {
         SETTINGS
             .iter()
+            .filter(|spec| spec.key != Key::Mode)
             .map(|spec| format!("{}={}", spec.name, self.describe(spec.key)))
             .collect::<Vec<_>>()
             .join(" ")

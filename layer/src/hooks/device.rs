@@ -31,8 +31,18 @@ pub unsafe extern "system" fn get_device_proc_addr(
             let state = DEVICES.get(unsafe { DispatchKey::of(device) })?;
             // SAFETY: calling down the chain with the caller's arguments.
             let next = unsafe { (state.next_get_device_proc_addr)(device, p_name) };
-            // A hook is only handed out for a command the device below provides.
-            next.and_then(|_| super::device_command(name)).or(next)
+            // A hook is only handed out for a command the device below provides, and the depth
+            // path's hooks only where the policy acts.
+            let hook = next.and_then(|_| {
+                super::device_command(name).or_else(|| {
+                    state
+                        .policy
+                        .is_active()
+                        .then(|| super::depth_path_command(name))
+                        .flatten()
+                })
+            });
+            hook.or(next)
         },
         || None,
     )

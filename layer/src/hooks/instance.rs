@@ -9,7 +9,9 @@ use ash::vk;
 use crate::boundary::{guarded, EntryPoint};
 use crate::config::{self, layer_settings, AppIdentity, Mode, Settings, Sources};
 use crate::ffi;
-use crate::state::{DeviceState, DispatchKey, InstanceState, DEVICES, INSTANCES};
+use crate::objects::DeviceObjects;
+use crate::policy::DevicePolicy;
+use crate::state::{DeviceCommands, DeviceState, DispatchKey, InstanceState, DEVICES, INSTANCES};
 use crate::{logging, LAYER_NAME, VERSION};
 
 static GET_INSTANCE_PROC_ADDR: EntryPoint = EntryPoint::new("vkGetInstanceProcAddr");
@@ -100,6 +102,7 @@ pub unsafe extern "system" fn create_instance(
                 key,
                 InstanceState {
                     handle: instance,
+                    api_version: requested_api_version(create_info),
                     next_get_instance_proc_addr: gipa,
                     next,
                     settings,
@@ -109,6 +112,69 @@ pub unsafe extern "system" fn create_instance(
         },
         || vk::Result::ERROR_INITIALIZATION_FAILED,
     )
+}
+
+/// The API version the application asked for; 1.0 when it gave none.
+fn requested_api_version(create_info: &vk::InstanceCreateInfo) -> u32 {
+    // SAFETY: `pApplicationInfo` is null or valid.
+    let info = unsafe { create_info.p_application_info.as_ref() };
+    match info.map_or(0, |i| i.api_version) {
+        0 => vk::API_VERSION_1_0,
+        version => version,
+    }
+}
+
+/// The physical device's API version (1.0 if the next layer cannot say). Looked up by name
+/// rather than through `ash`'s table, whose stand-in for a missing command aborts.
+///
+/// # Safety
+/// `physical_device` must be a live physical device of `instance`.
+unsafe fn device_api_version(instance: &InstanceState, physical_device: vk::PhysicalDevice) -> u32 {
+    // SAFETY: querying the next layer for an instance command.
+    let found = unsafe {
+        (instance.next_get_instance_proc_addr)(
+            instance.handle,
+            c"vkGetPhysicalDeviceProperties".as_ptr(),
+        )
+    };
+    let Some(found) = found else {
+        return vk::API_VERSION_1_0;
+    };
+    // SAFETY: the command has this type.
+    let get: vk::PFN_vkGetPhysicalDeviceProperties = unsafe { std::mem::transmute(found) };
+    let mut properties = vk::PhysicalDeviceProperties::default();
+    // SAFETY: a live physical device and a valid output.
+    unsafe { get(physical_device, &mut properties) };
+    properties.api_version
+}
+
+/// Whether the application enabled `VK_EXT_extended_dynamic_state` and its feature.
+fn extended_dynamic_state_enabled(create_info: &vk::DeviceCreateInfo) -> bool {
+    // SAFETY: `enabledExtensionCount` NUL-terminated names.
+    let names = unsafe {
+        super::resources::slice(
+            create_info.pp_enabled_extension_names,
+            create_info.enabled_extension_count,
+        )
+    };
+    let extension = names.iter().any(|&name| {
+        // SAFETY: as above.
+        let name = unsafe { ffi::c_str(name) };
+        name == Some(c"VK_EXT_extended_dynamic_state")
+    });
+    let mut next = create_info.p_next.cast::<vk::BaseInStructure>();
+    let mut feature = false;
+    // SAFETY: a valid pNext chain (the application's contract).
+    while let Some(base) = unsafe { next.as_ref() } {
+        if base.s_type == vk::StructureType::PHYSICAL_DEVICE_EXTENDED_DYNAMIC_STATE_FEATURES_EXT {
+            // SAFETY: the sType identifies the structure.
+            let features =
+                unsafe { &*next.cast::<vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT<'_>>() };
+            feature |= features.extended_dynamic_state == vk::TRUE;
+        }
+        next = base.p_next;
+    }
+    extension && feature
 }
 
 /// What identifies this process to per-application config sections.
@@ -261,6 +327,32 @@ pub unsafe extern "system" fn create_device(
                     device,
                 )
             };
+            // SAFETY: the next layer's GDPA and a live device.
+            let commands = unsafe { DeviceCommands::load(gdpa, device) };
+            let api = instance
+                .api_version
+                // SAFETY: a live physical device of this instance.
+                .min(unsafe { device_api_version(&instance, physical_device) });
+            let core = vk::api_version_major(api) > 1 || vk::api_version_minor(api) >= 3;
+            let dynamic_compare_op = commands.set_depth_compare_op.is_some()
+                && (core || extended_dynamic_state_enabled(create_info));
+            let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op);
+            if instance.settings.mode != Mode::Off && !dynamic_compare_op {
+                log::warn!(
+                    "device {device:?}: depth stays native: the application uses neither Vulkan \
+                     1.3 nor VK_EXT_extended_dynamic_state, which revz needs to make the depth \
+                     compare op dynamic"
+                );
+            }
+            log::debug!(
+                "device {device:?} created, mode {}, depth path {}",
+                instance.settings.mode,
+                if policy.is_active() {
+                    "active"
+                } else {
+                    "inactive"
+                }
+            );
             // SAFETY: `device` is live.
             let key = unsafe { DispatchKey::of(device) };
             DEVICES.insert(
@@ -269,10 +361,12 @@ pub unsafe extern "system" fn create_device(
                     handle: device,
                     next_get_device_proc_addr: gdpa,
                     next,
+                    commands,
                     settings: Arc::clone(&instance.settings),
+                    policy,
+                    objects: DeviceObjects::default(),
                 },
             );
-            log::debug!("device {device:?} created, mode {}", instance.settings.mode);
             result
         },
         || vk::Result::ERROR_INITIALIZATION_FAILED,

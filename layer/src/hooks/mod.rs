@@ -14,15 +14,30 @@ macro_rules! void_fn {
     }};
 }
 
+pub mod command;
 pub mod device;
 pub mod instance;
+pub mod pipeline;
+pub mod resources;
 
 #[cfg(test)]
 mod chain_tests;
 
 use std::ffi::CStr;
+use std::sync::Arc;
 
 use ash::vk;
+
+use crate::state::{DeviceState, DispatchKey, DEVICES};
+
+/// The state of a device revz created (device-level object hooks; not per draw).
+///
+/// # Safety
+/// `device` must be a live device handle.
+unsafe fn device_state(device: vk::Device) -> Option<Arc<DeviceState>> {
+    // SAFETY: the caller guarantees a live handle.
+    DEVICES.get(unsafe { DispatchKey::of(device) })
+}
 
 /// The hook for an instance-level command, if revz intercepts it.
 pub fn instance_command(name: &CStr) -> vk::PFN_vkVoidFunction {
@@ -38,13 +53,118 @@ pub fn instance_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     }
 }
 
-/// The hook for a device-level command, if revz intercepts it.
+/// The hook for a device-level command that revz always intercepts.
 pub fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     match name.to_bytes() {
         b"vkGetDeviceProcAddr" => {
             void_fn!(vk::PFN_vkGetDeviceProcAddr, device::get_device_proc_addr)
         }
         b"vkDestroyDevice" => void_fn!(vk::PFN_vkDestroyDevice, device::destroy_device),
+        _ => None,
+    }
+}
+
+/// The hook for a device-level command of the depth path (only for devices where the policy
+/// is active: elsewhere these commands go straight to the next layer). Aliases (core, KHR,
+/// EXT names) share one hook, which calls down through whichever name the device has.
+pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
+    use command as c;
+    use resources as r;
+    match name.to_bytes() {
+        b"vkCreateImage" => void_fn!(vk::PFN_vkCreateImage, r::create_image),
+        b"vkDestroyImage" => void_fn!(vk::PFN_vkDestroyImage, r::destroy_image),
+        b"vkCreateImageView" => void_fn!(vk::PFN_vkCreateImageView, r::create_image_view),
+        b"vkDestroyImageView" => void_fn!(vk::PFN_vkDestroyImageView, r::destroy_image_view),
+        b"vkCreateRenderPass" => void_fn!(vk::PFN_vkCreateRenderPass, r::create_render_pass),
+        b"vkCreateRenderPass2" | b"vkCreateRenderPass2KHR" => {
+            void_fn!(vk::PFN_vkCreateRenderPass2, r::create_render_pass2)
+        }
+        b"vkDestroyRenderPass" => void_fn!(vk::PFN_vkDestroyRenderPass, r::destroy_render_pass),
+        b"vkCreateFramebuffer" => void_fn!(vk::PFN_vkCreateFramebuffer, r::create_framebuffer),
+        b"vkDestroyFramebuffer" => {
+            void_fn!(vk::PFN_vkDestroyFramebuffer, r::destroy_framebuffer)
+        }
+        b"vkAllocateCommandBuffers" => {
+            void_fn!(
+                vk::PFN_vkAllocateCommandBuffers,
+                r::allocate_command_buffers
+            )
+        }
+        b"vkFreeCommandBuffers" => {
+            void_fn!(vk::PFN_vkFreeCommandBuffers, r::free_command_buffers)
+        }
+        b"vkDestroyCommandPool" => {
+            void_fn!(vk::PFN_vkDestroyCommandPool, r::destroy_command_pool)
+        }
+        b"vkCreateGraphicsPipelines" => void_fn!(
+            vk::PFN_vkCreateGraphicsPipelines,
+            pipeline::create_graphics_pipelines
+        ),
+        b"vkDestroyPipeline" => void_fn!(vk::PFN_vkDestroyPipeline, pipeline::destroy_pipeline),
+        b"vkBeginCommandBuffer" => {
+            void_fn!(vk::PFN_vkBeginCommandBuffer, c::begin_command_buffer)
+        }
+        b"vkCmdBeginRenderPass" => {
+            void_fn!(vk::PFN_vkCmdBeginRenderPass, c::cmd_begin_render_pass)
+        }
+        b"vkCmdBeginRenderPass2" | b"vkCmdBeginRenderPass2KHR" => {
+            void_fn!(vk::PFN_vkCmdBeginRenderPass2, c::cmd_begin_render_pass2)
+        }
+        b"vkCmdNextSubpass" => void_fn!(vk::PFN_vkCmdNextSubpass, c::cmd_next_subpass),
+        b"vkCmdNextSubpass2" | b"vkCmdNextSubpass2KHR" => {
+            void_fn!(vk::PFN_vkCmdNextSubpass2, c::cmd_next_subpass2)
+        }
+        b"vkCmdEndRenderPass" => void_fn!(vk::PFN_vkCmdEndRenderPass, c::cmd_end_render_pass),
+        b"vkCmdEndRenderPass2" | b"vkCmdEndRenderPass2KHR" => {
+            void_fn!(vk::PFN_vkCmdEndRenderPass2, c::cmd_end_render_pass2)
+        }
+        b"vkCmdBeginRendering" | b"vkCmdBeginRenderingKHR" => {
+            void_fn!(vk::PFN_vkCmdBeginRendering, c::cmd_begin_rendering)
+        }
+        b"vkCmdEndRendering" | b"vkCmdEndRenderingKHR" => {
+            void_fn!(vk::PFN_vkCmdEndRendering, c::cmd_end_rendering)
+        }
+        b"vkCmdBindPipeline" => void_fn!(vk::PFN_vkCmdBindPipeline, c::cmd_bind_pipeline),
+        b"vkCmdSetViewport" => void_fn!(vk::PFN_vkCmdSetViewport, c::cmd_set_viewport),
+        b"vkCmdSetViewportWithCount" | b"vkCmdSetViewportWithCountEXT" => {
+            void_fn!(
+                vk::PFN_vkCmdSetViewportWithCount,
+                c::cmd_set_viewport_with_count
+            )
+        }
+        b"vkCmdSetDepthCompareOp" | b"vkCmdSetDepthCompareOpEXT" => {
+            void_fn!(vk::PFN_vkCmdSetDepthCompareOp, c::cmd_set_depth_compare_op)
+        }
+        b"vkCmdSetDepthBias" => void_fn!(vk::PFN_vkCmdSetDepthBias, c::cmd_set_depth_bias),
+        b"vkCmdSetDepthBounds" => void_fn!(vk::PFN_vkCmdSetDepthBounds, c::cmd_set_depth_bounds),
+        b"vkCmdClearAttachments" => {
+            void_fn!(vk::PFN_vkCmdClearAttachments, c::cmd_clear_attachments)
+        }
+        b"vkCmdClearDepthStencilImage" => void_fn!(
+            vk::PFN_vkCmdClearDepthStencilImage,
+            c::cmd_clear_depth_stencil_image
+        ),
+        b"vkCmdExecuteCommands" => {
+            void_fn!(vk::PFN_vkCmdExecuteCommands, c::cmd_execute_commands)
+        }
+        b"vkCmdDraw" => void_fn!(vk::PFN_vkCmdDraw, c::cmd_draw),
+        b"vkCmdDrawIndexed" => void_fn!(vk::PFN_vkCmdDrawIndexed, c::cmd_draw_indexed),
+        b"vkCmdDrawIndirect" => void_fn!(vk::PFN_vkCmdDrawIndirect, c::cmd_draw_indirect),
+        b"vkCmdDrawIndexedIndirect" => {
+            void_fn!(
+                vk::PFN_vkCmdDrawIndexedIndirect,
+                c::cmd_draw_indexed_indirect
+            )
+        }
+        b"vkCmdDrawIndirectCount" | b"vkCmdDrawIndirectCountKHR" | b"vkCmdDrawIndirectCountAMD" => {
+            void_fn!(vk::PFN_vkCmdDrawIndirectCount, c::cmd_draw_indirect_count)
+        }
+        b"vkCmdDrawIndexedIndirectCount"
+        | b"vkCmdDrawIndexedIndirectCountKHR"
+        | b"vkCmdDrawIndexedIndirectCountAMD" => void_fn!(
+            vk::PFN_vkCmdDrawIndexedIndirectCount,
+            c::cmd_draw_indexed_indirect_count
+        ),
         _ => None,
     }
 }

@@ -1,0 +1,678 @@
+//! Command recording hooks: where a draw's depth target is known, the application's depth
+//! state is collected, clear values are flipped, and state is emitted before draws.
+//!
+//! Every hook looks up its command buffer (a thread-local cache hit in the common case); an
+//! unknown command buffer is passed down untouched through its device's table.
+
+use std::sync::{Arc, OnceLock};
+
+use ash::vk;
+
+use super::resources::slice;
+use crate::boundary::{guarded, EntryPoint};
+use crate::command_state::{StateSink, Target};
+use crate::conv::{flip_depth, flip_resolve_mode, DepthBias};
+use crate::objects::{self, CommandBufferEntry, PassScope};
+use crate::state::{DeviceState, DispatchKey, DEVICES};
+
+/// The device of a command buffer revz does not track (slow path: the global registry).
+fn untracked_device(buffer: vk::CommandBuffer) -> Option<Arc<DeviceState>> {
+    // SAFETY: a live command buffer's first word is its device's dispatch table.
+    DEVICES.get(unsafe { DispatchKey::of(buffer) })
+}
+
+/// Sends emitted state to the next layer.
+struct NextLayer<'a> {
+    device: &'a DeviceState,
+    buffer: vk::CommandBuffer,
+}
+
+impl StateSink for NextLayer<'_> {
+    fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
+        // SAFETY: a recording command buffer of this device.
+        unsafe {
+            (self.device.next.fp_v1_0().cmd_set_viewport)(
+                self.buffer,
+                first,
+                viewports.len() as u32,
+                viewports.as_ptr(),
+            )
+        }
+    }
+
+    fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
+        if let Some(set) = self.device.commands.set_viewport_with_count {
+            // SAFETY: as above.
+            unsafe { set(self.buffer, viewports.len() as u32, viewports.as_ptr()) }
+        }
+    }
+
+    fn set_compare_op(&mut self, op: vk::CompareOp) {
+        if let Some(set) = self.device.commands.set_depth_compare_op {
+            // SAFETY: as above.
+            unsafe { set(self.buffer, op) }
+        }
+    }
+
+    fn set_bias(&mut self, bias: DepthBias) {
+        // SAFETY: as above.
+        unsafe {
+            (self.device.next.fp_v1_0().cmd_set_depth_bias)(
+                self.buffer,
+                bias.constant,
+                bias.clamp,
+                bias.slope,
+            )
+        }
+    }
+
+    fn set_bounds(&mut self, min: f32, max: f32) {
+        // SAFETY: as above.
+        unsafe { (self.device.next.fp_v1_0().cmd_set_depth_bounds)(self.buffer, min, max) }
+    }
+}
+
+/// Emits pending depth state before a draw.
+#[inline]
+fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
+    let mut sink = NextLayer {
+        device: &entry.device,
+        buffer,
+    };
+    entry.state().before_draw(&mut sink);
+}
+
+/// Defines a draw hook: emit pending state, then call down.
+macro_rules! draw_hook {
+    ($(#[$doc:meta])* $name:ident, $entry:literal, $($arg:ident: $ty:ty),* => |$device:ident| $next:expr) => {
+        $(#[$doc])*
+        pub unsafe extern "system" fn $name(buffer: vk::CommandBuffer, $($arg: $ty),*) {
+            static ENTRY: EntryPoint = EntryPoint::new($entry);
+            let device = match objects::command_buffer(buffer) {
+                Some(entry) => {
+                    guarded(&ENTRY, || before_draw(&entry, buffer), || ());
+                    Arc::clone(&entry.device)
+                }
+                None => match untracked_device(buffer) {
+                    Some(device) => device,
+                    None => return,
+                },
+            };
+            let $device = &*device;
+            let next = $next;
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, $($arg),*) }
+        }
+    };
+}
+
+draw_hook!(cmd_draw, "vkCmdDraw", a: u32, b: u32, c: u32, d: u32
+    => |device| device.next.fp_v1_0().cmd_draw);
+draw_hook!(cmd_draw_indexed, "vkCmdDrawIndexed", a: u32, b: u32, c: u32, d: i32, e: u32
+    => |device| device.next.fp_v1_0().cmd_draw_indexed);
+draw_hook!(cmd_draw_indirect, "vkCmdDrawIndirect", a: vk::Buffer, b: vk::DeviceSize, c: u32, d: u32
+    => |device| device.next.fp_v1_0().cmd_draw_indirect);
+draw_hook!(cmd_draw_indexed_indirect, "vkCmdDrawIndexedIndirect",
+    a: vk::Buffer, b: vk::DeviceSize, c: u32, d: u32
+    => |device| device.next.fp_v1_0().cmd_draw_indexed_indirect);
+draw_hook!(cmd_draw_indirect_count, "vkCmdDrawIndirectCount",
+    a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_indirect_count { Some(f) => f, None => return });
+draw_hook!(cmd_draw_indexed_indirect_count, "vkCmdDrawIndexedIndirectCount",
+    a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_indexed_indirect_count { Some(f) => f, None => return });
+
+/// Looks up a command buffer for a state-recording hook; returns the device to call down to.
+fn with_entry(
+    buffer: vk::CommandBuffer,
+    entry_point: &'static EntryPoint,
+    record: impl FnOnce(&CommandBufferEntry),
+) -> Option<Arc<DeviceState>> {
+    match objects::command_buffer(buffer) {
+        Some(entry) => {
+            guarded(entry_point, || record(&entry), || ());
+            Some(Arc::clone(&entry.device))
+        }
+        None => untracked_device(buffer),
+    }
+}
+
+/// Whether the command buffer's state machine took the call (then it is emitted at draw time
+/// and must not go down now).
+fn recorded(
+    buffer: vk::CommandBuffer,
+    entry_point: &'static EntryPoint,
+    record: impl FnOnce(&CommandBufferEntry),
+) -> Result<(), Option<Arc<DeviceState>>> {
+    match objects::command_buffer(buffer) {
+        Some(entry) => {
+            let ok = guarded(
+                entry_point,
+                || {
+                    record(&entry);
+                    true
+                },
+                || false,
+            );
+            if ok {
+                Ok(())
+            } else {
+                Err(Some(Arc::clone(&entry.device)))
+            }
+        }
+        None => Err(untracked_device(buffer)),
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_viewport(
+    buffer: vk::CommandBuffer,
+    first: u32,
+    count: u32,
+    p_viewports: *const vk::Viewport,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetViewport");
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        // SAFETY: `count` viewports.
+        entry
+            .state()
+            .set_viewports(first, unsafe { slice(p_viewports, count) });
+    });
+    if let Err(Some(device)) = taken {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_set_viewport)(buffer, first, count, p_viewports) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_viewport_with_count(
+    buffer: vk::CommandBuffer,
+    count: u32,
+    p_viewports: *const vk::Viewport,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetViewportWithCount");
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        // SAFETY: `count` viewports.
+        entry
+            .state()
+            .set_viewports_with_count(unsafe { slice(p_viewports, count) });
+    });
+    if let Err(Some(device)) = taken {
+        if let Some(next) = device.commands.set_viewport_with_count {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, count, p_viewports) }
+        }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_depth_compare_op(
+    buffer: vk::CommandBuffer,
+    op: vk::CompareOp,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthCompareOp");
+    let taken = recorded(buffer, &ENTRY, |entry| entry.state().set_compare_op(op));
+    if let Err(Some(device)) = taken {
+        if let Some(next) = device.commands.set_depth_compare_op {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, op) }
+        }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_depth_bias(
+    buffer: vk::CommandBuffer,
+    constant: f32,
+    clamp: f32,
+    slope: f32,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthBias");
+    let bias = DepthBias {
+        constant,
+        clamp,
+        slope,
+    };
+    let taken = recorded(buffer, &ENTRY, |entry| entry.state().set_bias(bias));
+    if let Err(Some(device)) = taken {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_set_depth_bias)(buffer, constant, clamp, slope) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_depth_bounds(buffer: vk::CommandBuffer, min: f32, max: f32) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthBounds");
+    let taken = recorded(buffer, &ENTRY, |entry| entry.state().set_bounds(min, max));
+    if let Err(Some(device)) = taken {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_set_depth_bounds)(buffer, min, max) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_bind_pipeline(
+    buffer: vk::CommandBuffer,
+    bind_point: vk::PipelineBindPoint,
+    pipeline: vk::Pipeline,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindPipeline");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        if bind_point == vk::PipelineBindPoint::GRAPHICS {
+            let depth = entry.device.objects.pipelines.get(&pipeline);
+            entry.state().bind_pipeline(depth);
+        }
+    });
+    if let Some(device) = device {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, pipeline) }
+    }
+}
+
+/// The depth target of each attachment of a render pass instance.
+fn attachment_targets(
+    device: &DeviceState,
+    framebuffer: vk::Framebuffer,
+    begin_next: *const std::ffi::c_void,
+) -> Vec<Target> {
+    let views = device.objects.framebuffers.get(&framebuffer);
+    let mut imageless: &[vk::ImageView] = &[];
+    if views.as_ref().is_none_or(|v| v.is_empty()) {
+        // Imageless framebuffer: the views come with the begin info.
+        let mut next = begin_next.cast::<vk::BaseInStructure>();
+        // SAFETY: a valid pNext chain (the application's contract).
+        while let Some(base) = unsafe { next.as_ref() } {
+            if base.s_type == vk::StructureType::RENDER_PASS_ATTACHMENT_BEGIN_INFO {
+                // SAFETY: the sType identifies the structure; `attachmentCount` views.
+                let info = unsafe { &*next.cast::<vk::RenderPassAttachmentBeginInfo<'_>>() };
+                // SAFETY: as above.
+                imageless = unsafe { slice(info.p_attachments, info.attachment_count) };
+            }
+            next = base.p_next;
+        }
+    }
+    let views: &[vk::ImageView] = match &views {
+        Some(v) if !v.is_empty() => v,
+        _ => imageless,
+    };
+    views
+        .iter()
+        .map(|&view| device.objects.view_target(view))
+        .collect()
+}
+
+/// Begins a render pass instance: flips the clear values of reversed depth attachments and
+/// records the scope. Returns the begin info to pass down (with its own clear value array).
+fn begin_pass(
+    entry: &CommandBufferEntry,
+    begin: &vk::RenderPassBeginInfo<'_>,
+    clears: &mut Vec<vk::ClearValue>,
+) -> bool {
+    let device = &entry.device;
+    let pass = device.objects.render_passes.get(&begin.render_pass);
+    let targets = attachment_targets(device, begin.framebuffer, begin.p_next);
+    let mut changed = false;
+    if let Some(pass) = &pass {
+        // SAFETY: `clearValueCount` values.
+        clears.extend_from_slice(unsafe { slice(begin.p_clear_values, begin.clear_value_count) });
+        for (index, clear) in clears.iter_mut().enumerate() {
+            let cleared = pass.depth_cleared.get(index).copied().unwrap_or(false);
+            if cleared && targets.get(index) == Some(&Target::Reversed) {
+                // SAFETY: a depth attachment's clear value is the depthStencil member.
+                unsafe { clear.depth_stencil.depth = flip_depth(clear.depth_stencil.depth) };
+                changed = true;
+            }
+        }
+    }
+    let scope = PassScope {
+        render_pass: pass,
+        attachment_targets: targets,
+        subpass: 0,
+    };
+    entry.state().set_target(scope.target());
+    *entry.scope() = scope;
+    changed
+}
+
+pub unsafe extern "system" fn cmd_begin_render_pass(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::RenderPassBeginInfo<'_>,
+    contents: vk::SubpassContents,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRenderPass");
+    let mut clears = Vec::new();
+    let mut changed = false;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid begin info (the application's contract).
+        changed = begin_pass(entry, unsafe { &*p_begin }, &mut clears);
+    });
+    let Some(device) = device else { return };
+    // SAFETY: valid; the copy differs only in its clear value array.
+    let begin = unsafe { *p_begin };
+    let flipped = vk::RenderPassBeginInfo {
+        p_clear_values: clears.as_ptr(),
+        ..begin
+    };
+    let p_begin = if changed { &flipped } else { p_begin };
+    // SAFETY: calling down with the application's arguments (clear values flipped).
+    unsafe { (device.next.fp_v1_0().cmd_begin_render_pass)(buffer, p_begin, contents) }
+}
+
+pub unsafe extern "system" fn cmd_begin_render_pass2(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::RenderPassBeginInfo<'_>,
+    p_subpass_begin: *const vk::SubpassBeginInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRenderPass2");
+    let mut clears = Vec::new();
+    let mut changed = false;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid begin info (the application's contract).
+        changed = begin_pass(entry, unsafe { &*p_begin }, &mut clears);
+    });
+    let Some(next) = device.and_then(|d| d.commands.begin_render_pass2) else {
+        return;
+    };
+    // SAFETY: valid; the copy differs only in its clear value array.
+    let begin = unsafe { *p_begin };
+    let flipped = vk::RenderPassBeginInfo {
+        p_clear_values: clears.as_ptr(),
+        ..begin
+    };
+    let p_begin = if changed { &flipped } else { p_begin };
+    // SAFETY: calling down with the application's arguments (clear values flipped).
+    unsafe { next(buffer, p_begin, p_subpass_begin) }
+}
+
+fn next_subpass(entry: &CommandBufferEntry) {
+    let mut scope = entry.scope();
+    scope.subpass += 1;
+    entry.state().set_target(scope.target());
+}
+
+fn end_pass(entry: &CommandBufferEntry) {
+    *entry.scope() = PassScope::default();
+    entry.state().set_target(Target::None);
+}
+
+pub unsafe extern "system" fn cmd_next_subpass(
+    buffer: vk::CommandBuffer,
+    contents: vk::SubpassContents,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdNextSubpass");
+    if let Some(device) = with_entry(buffer, &ENTRY, next_subpass) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_next_subpass)(buffer, contents) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_next_subpass2(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::SubpassBeginInfo<'_>,
+    p_end: *const vk::SubpassEndInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdNextSubpass2");
+    if let Some(next) =
+        with_entry(buffer, &ENTRY, next_subpass).and_then(|d| d.commands.next_subpass2)
+    {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_begin, p_end) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_end_render_pass(buffer: vk::CommandBuffer) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRenderPass");
+    if let Some(device) = with_entry(buffer, &ENTRY, end_pass) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_end_render_pass)(buffer) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_end_render_pass2(
+    buffer: vk::CommandBuffer,
+    p_end: *const vk::SubpassEndInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRenderPass2");
+    if let Some(next) =
+        with_entry(buffer, &ENTRY, end_pass).and_then(|d| d.commands.end_render_pass2)
+    {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_end) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_begin_rendering(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::RenderingInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRendering");
+    // SAFETY: a valid rendering info (the application's contract).
+    let info = unsafe { *p_info };
+    let mut depth_copy: Option<vk::RenderingAttachmentInfo<'_>> = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: null or valid.
+        let depth = unsafe { info.p_depth_attachment.as_ref() };
+        let target = depth.map_or(Target::None, |d| {
+            entry.device.objects.view_target(d.image_view)
+        });
+        if let (Some(depth), Target::Reversed) = (depth, target) {
+            let mut copy = *depth;
+            if copy.load_op == vk::AttachmentLoadOp::CLEAR {
+                // SAFETY: a depth attachment's clear value is the depthStencil member.
+                unsafe {
+                    copy.clear_value.depth_stencil.depth =
+                        flip_depth(copy.clear_value.depth_stencil.depth)
+                };
+            }
+            copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
+            depth_copy = Some(copy);
+        }
+        entry.state().set_target(target);
+    });
+    let Some(next) = device.and_then(|d| d.commands.begin_rendering) else {
+        return;
+    };
+    let flipped;
+    let p_info = match &depth_copy {
+        Some(depth) => {
+            flipped = vk::RenderingInfo {
+                p_depth_attachment: depth,
+                ..info
+            };
+            &flipped
+        }
+        None => p_info,
+    };
+    // SAFETY: calling down with the application's arguments (depth clear flipped).
+    unsafe { next(buffer, p_info) }
+}
+
+pub unsafe extern "system" fn cmd_end_rendering(buffer: vk::CommandBuffer) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRendering");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        entry.state().set_target(Target::None)
+    });
+    if let Some(next) = device.and_then(|d| d.commands.end_rendering) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_clear_attachments(
+    buffer: vk::CommandBuffer,
+    count: u32,
+    p_attachments: *const vk::ClearAttachment,
+    rect_count: u32,
+    p_rects: *const vk::ClearRect,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdClearAttachments");
+    let mut copies = Vec::new();
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        if entry.state().target() != Target::Reversed {
+            return;
+        }
+        // SAFETY: `count` attachments.
+        copies.extend_from_slice(unsafe { slice(p_attachments, count) });
+        for clear in &mut copies {
+            if clear.aspect_mask.contains(vk::ImageAspectFlags::DEPTH) {
+                // SAFETY: a depth clear's value is the depthStencil member.
+                unsafe {
+                    clear.clear_value.depth_stencil.depth =
+                        flip_depth(clear.clear_value.depth_stencil.depth)
+                };
+            }
+        }
+    });
+    let Some(device) = device else { return };
+    let p_attachments = if copies.is_empty() {
+        p_attachments
+    } else {
+        copies.as_ptr()
+    };
+    // SAFETY: calling down with the application's arguments (depth values flipped).
+    unsafe {
+        (device.next.fp_v1_0().cmd_clear_attachments)(
+            buffer,
+            count,
+            p_attachments,
+            rect_count,
+            p_rects,
+        )
+    }
+}
+
+pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
+    buffer: vk::CommandBuffer,
+    image: vk::Image,
+    layout: vk::ImageLayout,
+    p_value: *const vk::ClearDepthStencilValue,
+    range_count: u32,
+    p_ranges: *const vk::ImageSubresourceRange,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdClearDepthStencilImage");
+    let mut flipped: Option<vk::ClearDepthStencilValue> = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        if entry.device.objects.image_reversed(image) {
+            // SAFETY: a valid value (the application's contract).
+            let mut value = unsafe { *p_value };
+            value.depth = flip_depth(value.depth);
+            flipped = Some(value);
+        }
+    });
+    let Some(device) = device else { return };
+    let p_value = flipped.as_ref().map_or(p_value, |v| v as *const _);
+    // SAFETY: calling down with the application's arguments (depth value flipped).
+    unsafe {
+        (device.next.fp_v1_0().cmd_clear_depth_stencil_image)(
+            buffer,
+            image,
+            layout,
+            p_value,
+            range_count,
+            p_ranges,
+        )
+    }
+}
+
+pub unsafe extern "system" fn begin_command_buffer(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::CommandBufferBeginInfo<'_>,
+) -> vk::Result {
+    static ENTRY: EntryPoint = EntryPoint::new("vkBeginCommandBuffer");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid begin info (the application's contract).
+        let begin = unsafe { &*p_begin };
+        let target = if begin
+            .flags
+            .contains(vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE)
+        {
+            // SAFETY: null or valid; only read for secondaries continuing a render pass.
+            unsafe { begin.p_inheritance_info.as_ref() }
+                .map_or(Target::None, |i| inherited_target(entry, i))
+        } else {
+            Target::None
+        };
+        *entry.scope() = PassScope::default();
+        entry.state().begin(target);
+    });
+    match device {
+        // SAFETY: calling down with the application's arguments.
+        Some(device) => unsafe { (device.next.fp_v1_0().begin_command_buffer)(buffer, p_begin) },
+        None => vk::Result::ERROR_INITIALIZATION_FAILED,
+    }
+}
+
+/// The depth target a secondary command buffer continues: from the inherited framebuffer when
+/// there is one; otherwise from what the device's depth images of that format are.
+fn inherited_target(
+    entry: &CommandBufferEntry,
+    inheritance: &vk::CommandBufferInheritanceInfo<'_>,
+) -> Target {
+    let device = &entry.device;
+    if inheritance.render_pass != vk::RenderPass::null() {
+        let pass = device.objects.render_passes.get(&inheritance.render_pass);
+        if inheritance.framebuffer != vk::Framebuffer::null() {
+            let scope = PassScope {
+                render_pass: pass,
+                attachment_targets: attachment_targets(
+                    device,
+                    inheritance.framebuffer,
+                    std::ptr::null(),
+                ),
+                subpass: inheritance.subpass as usize,
+            };
+            return scope.target();
+        }
+        let format = pass.and_then(|p| {
+            let index = p
+                .subpass_depth
+                .get(inheritance.subpass as usize)
+                .copied()
+                .flatten()?;
+            p.attachments.get(index as usize).copied()
+        });
+        return format.map_or(Target::None, |f| format_target(device, f));
+    }
+    // Dynamic rendering inheritance names only the formats.
+    let mut next = inheritance.p_next.cast::<vk::BaseInStructure>();
+    // SAFETY: a valid pNext chain (the application's contract).
+    while let Some(base) = unsafe { next.as_ref() } {
+        if base.s_type == vk::StructureType::COMMAND_BUFFER_INHERITANCE_RENDERING_INFO {
+            // SAFETY: the sType identifies the structure.
+            let info = unsafe { &*next.cast::<vk::CommandBufferInheritanceRenderingInfo<'_>>() };
+            if info.depth_attachment_format != vk::Format::UNDEFINED {
+                return format_target(device, info.depth_attachment_format);
+            }
+        }
+        next = base.p_next;
+    }
+    Target::None
+}
+
+/// Without a framebuffer, a secondary only knows its depth format: it follows the device's
+/// live depth images of that format (logged once when they disagree; reversed then wins,
+/// since non-observable attachments, the ones secondaries usually draw into, are reversed).
+fn format_target(device: &DeviceState, format: vk::Format) -> Target {
+    static MIXED: OnceLock<()> = OnceLock::new();
+    let (reversed, native) = device.objects.count_images(format);
+    match (reversed, native) {
+        (0, 0) => Target::None,
+        (_, 0) => Target::Reversed,
+        (0, _) => Target::Native,
+        _ => {
+            MIXED.get_or_init(|| {
+                log::warn!(
+                    "a secondary command buffer without a framebuffer draws into {format:?}, \
+                     which has both reversed and native images: assuming reversed"
+                )
+            });
+            Target::Reversed
+        }
+    }
+}
+
+pub unsafe extern "system" fn cmd_execute_commands(
+    buffer: vk::CommandBuffer,
+    count: u32,
+    p_buffers: *const vk::CommandBuffer,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdExecuteCommands");
+    if let Some(device) = with_entry(buffer, &ENTRY, |entry| entry.state().invalidate()) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_execute_commands)(buffer, count, p_buffers) }
+    }
+}

@@ -1,0 +1,242 @@
+//! Graphics pipeline creation: the depth-related state revz must set per draw becomes dynamic.
+//!
+//! A pipeline can draw into reversed and native attachments alike, so its compare op, viewport,
+//! depth bias and depth bounds are made dynamic (when the application left them static) and
+//! their static values are recorded; [`crate::command_state`] emits the right values at draw
+//! time. Pipeline libraries are passed through untouched (and their draws into reversed
+//! attachments are not corrected: logged once).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::device_state;
+use super::resources::slice;
+use crate::boundary::{guarded, EntryPoint};
+use crate::command_state::{PipelineDepth, States};
+use crate::conv::DepthBias;
+
+static CREATE_GRAPHICS_PIPELINES: EntryPoint = EntryPoint::new("vkCreateGraphicsPipelines");
+static DESTROY_PIPELINE: EntryPoint = EntryPoint::new("vkDestroyPipeline");
+static LIBRARY_LOGGED: AtomicBool = AtomicBool::new(false);
+
+/// Whether a create info builds or links pipeline libraries.
+fn uses_libraries(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    if info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR) {
+        return true;
+    }
+    let mut next = info.p_next.cast::<vk::BaseInStructure>();
+    // SAFETY: a valid pNext chain (the application's contract).
+    while let Some(base) = unsafe { next.as_ref() } {
+        if matches!(
+            base.s_type,
+            vk::StructureType::PIPELINE_LIBRARY_CREATE_INFO_KHR
+                | vk::StructureType::GRAPHICS_PIPELINE_LIBRARY_CREATE_INFO_EXT
+        ) {
+            return true;
+        }
+        next = base.p_next;
+    }
+    false
+}
+
+/// What revz changes in one create info: the dynamic states to add, and the pipeline's depth
+/// state for draw time. `None` when the pipeline has no depth state to follow.
+fn plan(
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> Option<(Vec<vk::DynamicState>, PipelineDepth)> {
+    // SAFETY: the state pointers are null or valid (the application's contract).
+    let (depth, raster, viewport, dynamic) = unsafe {
+        (
+            info.p_depth_stencil_state.as_ref()?,
+            info.p_rasterization_state.as_ref(),
+            info.p_viewport_state.as_ref(),
+            info.p_dynamic_state.as_ref(),
+        )
+    };
+    if raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE) {
+        return None;
+    }
+    // SAFETY: `dynamicStateCount` entries.
+    let app_states = dynamic.map_or(&[][..], |d| unsafe {
+        slice(d.p_dynamic_states, d.dynamic_state_count)
+    });
+    let has = |state: vk::DynamicState| app_states.contains(&state);
+    let mut app_dynamic = States::NONE;
+    for &state in app_states {
+        app_dynamic |= States::of_dynamic(state);
+    }
+
+    let mut pipeline = PipelineDepth {
+        app_dynamic,
+        compare_op: depth.depth_compare_op,
+        bounds: (depth.min_depth_bounds, depth.max_depth_bounds),
+        ..PipelineDepth::default()
+    };
+    let mut added = Vec::new();
+    let depth_test =
+        depth.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
+    if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
+        added.push(vk::DynamicState::DEPTH_COMPARE_OP);
+        pipeline.injected |= States::COMPARE_OP;
+    }
+    let viewport_dynamic =
+        has(vk::DynamicState::VIEWPORT) || has(vk::DynamicState::VIEWPORT_WITH_COUNT);
+    if let Some(viewport) = viewport.filter(|_| !viewport_dynamic) {
+        // SAFETY: `viewportCount` viewports when static.
+        pipeline.viewports =
+            unsafe { slice(viewport.p_viewports, viewport.viewport_count) }.to_vec();
+        if !pipeline.viewports.is_empty() {
+            added.push(vk::DynamicState::VIEWPORT);
+            pipeline.injected |= States::VIEWPORT;
+        }
+    }
+    if let Some(raster) = raster {
+        let bias = raster.depth_bias_enable == vk::TRUE || has(vk::DynamicState::DEPTH_BIAS_ENABLE);
+        pipeline.bias = DepthBias {
+            constant: raster.depth_bias_constant_factor,
+            clamp: raster.depth_bias_clamp,
+            slope: raster.depth_bias_slope_factor,
+        };
+        if bias && !has(vk::DynamicState::DEPTH_BIAS) {
+            added.push(vk::DynamicState::DEPTH_BIAS);
+            pipeline.injected |= States::BIAS;
+        }
+    }
+    let bounds = depth.depth_bounds_test_enable == vk::TRUE
+        || has(vk::DynamicState::DEPTH_BOUNDS_TEST_ENABLE);
+    if bounds && !has(vk::DynamicState::DEPTH_BOUNDS) {
+        added.push(vk::DynamicState::DEPTH_BOUNDS);
+        pipeline.injected |= States::BOUNDS;
+    }
+    let mut states = app_states.to_vec();
+    states.extend(added);
+    Some((states, pipeline))
+}
+
+pub unsafe extern "system" fn create_graphics_pipelines(
+    device: vk::Device,
+    cache: vk::PipelineCache,
+    count: u32,
+    p_create_infos: *const vk::GraphicsPipelineCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_pipelines: *mut vk::Pipeline,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    let next = state.next.fp_v1_0().create_graphics_pipelines;
+    // SAFETY: `count` create infos.
+    let infos = unsafe { slice(p_create_infos, count) };
+    let plans = guarded(
+        &CREATE_GRAPHICS_PIPELINES,
+        || {
+            infos
+                .iter()
+                .map(|info| {
+                    if uses_libraries(info) {
+                        if !LIBRARY_LOGGED.swap(true, Ordering::Relaxed) {
+                            log::warn!(
+                                "graphics pipeline libraries are passed through: their draws \
+                                 into reversed attachments are not corrected"
+                            );
+                        }
+                        return None;
+                    }
+                    plan(info)
+                })
+                .collect::<Vec<_>>()
+        },
+        Vec::new,
+    );
+    if plans.iter().all(Option::is_none) {
+        // SAFETY: calling down with the application's arguments.
+        return unsafe {
+            next(
+                device,
+                cache,
+                count,
+                p_create_infos,
+                p_allocator,
+                p_pipelines,
+            )
+        };
+    }
+
+    // The application's create infos with the extra dynamic states; the arrays they point to
+    // live until the call returns.
+    let dynamic_infos: Vec<Option<vk::PipelineDynamicStateCreateInfo<'_>>> = plans
+        .iter()
+        .zip(infos)
+        .map(|(plan, info)| {
+            let (states, _) = plan.as_ref()?;
+            // SAFETY: null or valid (the application's contract).
+            let base = unsafe { info.p_dynamic_state.as_ref() }
+                .copied()
+                .unwrap_or_default();
+            Some(vk::PipelineDynamicStateCreateInfo {
+                dynamic_state_count: states.len() as u32,
+                p_dynamic_states: states.as_ptr(),
+                ..base
+            })
+        })
+        .collect();
+    let modified: Vec<vk::GraphicsPipelineCreateInfo<'_>> = infos
+        .iter()
+        .zip(&dynamic_infos)
+        .map(|(info, dynamic)| match dynamic {
+            Some(dynamic) => vk::GraphicsPipelineCreateInfo {
+                p_dynamic_state: dynamic,
+                ..*info
+            },
+            None => *info,
+        })
+        .collect();
+    // SAFETY: the application's create infos, with only the dynamic state list extended.
+    let result = unsafe {
+        next(
+            device,
+            cache,
+            count,
+            modified.as_ptr(),
+            p_allocator,
+            p_pipelines,
+        )
+    };
+    guarded(
+        &CREATE_GRAPHICS_PIPELINES,
+        || {
+            // SAFETY: `count` handles were written (null where creation failed).
+            let pipelines = unsafe { slice(p_pipelines, count) };
+            for (pipeline, plan) in pipelines.iter().zip(plans) {
+                if let (false, Some((_, depth))) = (*pipeline == vk::Pipeline::null(), plan) {
+                    state.objects.pipelines.insert(*pipeline, Arc::new(depth));
+                }
+            }
+        },
+        || (),
+    );
+    result
+}
+
+pub unsafe extern "system" fn destroy_pipeline(
+    device: vk::Device,
+    pipeline: vk::Pipeline,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return;
+    };
+    guarded(
+        &DESTROY_PIPELINE,
+        || {
+            state.objects.pipelines.remove(&pipeline);
+        },
+        || (),
+    );
+    // SAFETY: calling down with the application's arguments.
+    unsafe { (state.next.fp_v1_0().destroy_pipeline)(device, pipeline, p_allocator) };
+}

@@ -1,0 +1,214 @@
+//! The Vulkan objects revz tracks per device, and the command buffers it tracks per process.
+//!
+//! Depth images carry their policy decision for life; views, framebuffers and render passes
+//! only say which image a depth attachment is. These tables are written at object creation and
+//! destruction and read when a render pass or rendering scope begins (not per draw). Command
+//! buffers are looked up on every recorded command: a thread-local cache answers repeated
+//! lookups from the thread that records (the usual case) without touching the shared table.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError, RwLock};
+
+use ash::vk;
+
+use crate::command_state::{CommandState, PipelineDepth, Target};
+use crate::policy::ImageDepth;
+use crate::state::DeviceState;
+
+/// A tracked depth image.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageInfo {
+    pub format: vk::Format,
+    pub depth: ImageDepth,
+}
+
+/// A render pass: each attachment's format and whether its depth is cleared at load, and each
+/// subpass's depth attachment.
+#[derive(Clone, Debug, Default)]
+pub struct RenderPassInfo {
+    pub attachments: Vec<vk::Format>,
+    pub depth_cleared: Vec<bool>,
+    pub subpass_depth: Vec<Option<u32>>,
+}
+
+/// A map behind a read-write lock that tolerates poisoning (a panic caught at the boundary
+/// leaves every map consistent: each operation is one insert, remove or read).
+#[derive(Debug)]
+pub struct Table<K, V>(RwLock<HashMap<K, V>>);
+
+impl<K: std::hash::Hash + Eq, V: Clone> Table<K, V> {
+    pub fn new() -> Self {
+        Table(RwLock::new(HashMap::new()))
+    }
+
+    pub fn insert(&self, key: K, value: V) {
+        self.0
+            .write()
+            .unwrap_or_else(PoisonError::into_inner)
+            .insert(key, value);
+    }
+
+    pub fn remove(&self, key: &K) -> Option<V> {
+        self.0
+            .write()
+            .unwrap_or_else(PoisonError::into_inner)
+            .remove(key)
+    }
+
+    pub fn get(&self, key: &K) -> Option<V> {
+        self.0
+            .read()
+            .unwrap_or_else(PoisonError::into_inner)
+            .get(key)
+            .cloned()
+    }
+}
+
+impl<K: std::hash::Hash + Eq, V: Clone> Default for Table<K, V> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Every object of one device that revz tracks.
+#[derive(Debug, Default)]
+pub struct DeviceObjects {
+    pub images: Table<vk::Image, ImageInfo>,
+    /// Views of tracked depth images, with the image they show.
+    pub views: Table<vk::ImageView, vk::Image>,
+    pub render_passes: Table<vk::RenderPass, Arc<RenderPassInfo>>,
+    /// Each framebuffer's attachments (empty for an imageless framebuffer).
+    pub framebuffers: Table<vk::Framebuffer, Arc<[vk::ImageView]>>,
+    pub pipelines: Table<vk::Pipeline, Arc<PipelineDepth>>,
+    /// Each pool's command buffers, to forget them when the pool is destroyed.
+    pub pools: Table<vk::CommandPool, Arc<Mutex<Vec<vk::CommandBuffer>>>>,
+}
+
+impl DeviceObjects {
+    /// The depth target a view is: reversed, native, or not a tracked depth view.
+    pub fn view_target(&self, view: vk::ImageView) -> Target {
+        let Some(image) = self.views.get(&view) else {
+            return Target::None;
+        };
+        match self.images.get(&image).map(|info| info.depth) {
+            Some(ImageDepth::Reversed) => Target::Reversed,
+            Some(ImageDepth::Native(_)) => Target::Native,
+            None => Target::None,
+        }
+    }
+
+    /// How many live depth images of `format` are reversed and native.
+    pub fn count_images(&self, format: vk::Format) -> (usize, usize) {
+        let images = self.images.0.read().unwrap_or_else(PoisonError::into_inner);
+        images
+            .values()
+            .filter(|info| info.format == format)
+            .fold((0, 0), |(r, n), info| match info.depth {
+                ImageDepth::Reversed => (r + 1, n),
+                ImageDepth::Native(_) => (r, n + 1),
+            })
+    }
+
+    /// Whether an image is a reversed depth image.
+    pub fn image_reversed(&self, image: vk::Image) -> bool {
+        matches!(
+            self.images.get(&image).map(|i| i.depth),
+            Some(ImageDepth::Reversed)
+        )
+    }
+}
+
+/// The render pass instance a primary command buffer is inside, to follow `vkCmdNextSubpass`.
+#[derive(Clone, Debug, Default)]
+pub struct PassScope {
+    pub render_pass: Option<Arc<RenderPassInfo>>,
+    /// The depth target of each attachment of the current framebuffer.
+    pub attachment_targets: Vec<Target>,
+    pub subpass: usize,
+}
+
+impl PassScope {
+    pub fn target(&self) -> Target {
+        let Some(pass) = &self.render_pass else {
+            return Target::None;
+        };
+        pass.subpass_depth
+            .get(self.subpass)
+            .copied()
+            .flatten()
+            .and_then(|index| self.attachment_targets.get(index as usize).copied())
+            .unwrap_or(Target::None)
+    }
+}
+
+/// What revz keeps for one command buffer.
+#[derive(Debug)]
+pub struct CommandBufferEntry {
+    pub device: Arc<DeviceState>,
+    pub state: Mutex<CommandState>,
+    pub scope: Mutex<PassScope>,
+}
+
+impl CommandBufferEntry {
+    pub fn state(&self) -> MutexGuard<'_, CommandState> {
+        self.state.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    pub fn scope(&self) -> MutexGuard<'_, PassScope> {
+        self.scope.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+static COMMAND_BUFFERS: LazyLock<Table<vk::CommandBuffer, Arc<CommandBufferEntry>>> =
+    LazyLock::new(Table::new);
+
+/// Bumped whenever a command buffer is forgotten, so thread-local caches never answer with a
+/// freed command buffer whose handle was reused.
+static GENERATION: AtomicU64 = AtomicU64::new(0);
+
+type CacheSlot = Option<(vk::CommandBuffer, u64, Arc<CommandBufferEntry>)>;
+
+thread_local! {
+    static CACHE: RefCell<CacheSlot> = const { RefCell::new(None) };
+}
+
+/// Starts tracking command buffers allocated on `device`.
+pub fn track_command_buffers(device: &Arc<DeviceState>, buffers: &[vk::CommandBuffer]) {
+    for &buffer in buffers {
+        COMMAND_BUFFERS.insert(
+            buffer,
+            Arc::new(CommandBufferEntry {
+                device: Arc::clone(device),
+                state: Mutex::new(CommandState::default()),
+                scope: Mutex::new(PassScope::default()),
+            }),
+        );
+    }
+}
+
+/// Stops tracking command buffers (freed, or their pool destroyed).
+pub fn forget_command_buffers(buffers: &[vk::CommandBuffer]) {
+    GENERATION.fetch_add(1, Ordering::Release);
+    for buffer in buffers {
+        COMMAND_BUFFERS.remove(buffer);
+    }
+}
+
+/// The entry of a command buffer, if revz tracks it.
+#[inline]
+pub fn command_buffer(buffer: vk::CommandBuffer) -> Option<Arc<CommandBufferEntry>> {
+    let generation = GENERATION.load(Ordering::Acquire);
+    CACHE.with(|cache| {
+        let mut slot = cache.borrow_mut();
+        if let Some((cached, cached_generation, entry)) = slot.as_ref() {
+            if *cached == buffer && *cached_generation == generation {
+                return Some(Arc::clone(entry));
+            }
+        }
+        let entry = COMMAND_BUFFERS.get(&buffer)?;
+        *slot = Some((buffer, generation, Arc::clone(&entry)));
+        Some(entry)
+    })
+}
