@@ -196,6 +196,26 @@ pub fn forget_command_buffers(buffers: &[vk::CommandBuffer]) {
     }
 }
 
+/// Runs `f` with the entry of a command buffer, if revz tracks it, without taking a reference
+/// count on a cache hit (the per-draw path).
+#[inline]
+pub fn with_command_buffer<R>(
+    buffer: vk::CommandBuffer,
+    f: impl FnOnce(&CommandBufferEntry) -> R,
+) -> Option<R> {
+    let generation = GENERATION.load(Ordering::Acquire);
+    CACHE.with(|cache| {
+        if let Some((cached, cached_generation, entry)) = cache.borrow().as_ref() {
+            if *cached == buffer && *cached_generation == generation {
+                return Some(f(entry));
+            }
+        }
+        let entry = COMMAND_BUFFERS.get(&buffer)?;
+        *cache.borrow_mut() = Some((buffer, generation, Arc::clone(&entry)));
+        Some(f(&entry))
+    })
+}
+
 /// The entry of a command buffer, if revz tracks it.
 #[inline]
 pub fn command_buffer(buffer: vk::CommandBuffer) -> Option<Arc<CommandBufferEntry>> {

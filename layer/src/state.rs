@@ -83,41 +83,56 @@ pub struct DeviceCommands {
 }
 
 impl DeviceCommands {
-    /// Loads every command under the first of its names the device answers for.
+    /// Loads every command under its core name when the application's API version `api` has
+    /// it, else under its extension names: the validation layer holds an application to the
+    /// version it asked for, so revz must not use core names beyond it either.
     ///
     /// # Safety
     /// `gdpa` must be the next layer's `vkGetDeviceProcAddr` and `device` live.
-    pub unsafe fn load(gdpa: vk::PFN_vkGetDeviceProcAddr, device: vk::Device) -> DeviceCommands {
-        let find = |names: &[&std::ffi::CStr]| {
-            names
-                .iter()
+    pub unsafe fn load(
+        gdpa: vk::PFN_vkGetDeviceProcAddr,
+        device: vk::Device,
+        api: u32,
+    ) -> DeviceCommands {
+        let find = |core_since: u32, core: &std::ffi::CStr, extensions: &[&std::ffi::CStr]| {
+            let core = (api >= core_since).then_some(core);
+            core.into_iter()
+                .chain(extensions.iter().copied())
                 // SAFETY: the caller guarantees a live device and the next layer's GDPA.
                 .find_map(|name| unsafe { gdpa(device, name.as_ptr()) })
         };
         macro_rules! load {
-            ($($name:expr),+) => {
+            ($since:expr, $core:expr $(, $ext:expr)*) => {
                 // SAFETY: the loader returns a function of the type the name implies.
-                find(&[$($name),+]).map(|f| unsafe { std::mem::transmute(f) })
+                find($since, $core, &[$($ext),*]).map(|f| unsafe { std::mem::transmute(f) })
             };
         }
+        use vk::{API_VERSION_1_2 as V12, API_VERSION_1_3 as V13};
         DeviceCommands {
-            set_depth_compare_op: load!(c"vkCmdSetDepthCompareOp", c"vkCmdSetDepthCompareOpEXT"),
+            set_depth_compare_op: load!(
+                V13,
+                c"vkCmdSetDepthCompareOp",
+                c"vkCmdSetDepthCompareOpEXT"
+            ),
             set_viewport_with_count: load!(
+                V13,
                 c"vkCmdSetViewportWithCount",
                 c"vkCmdSetViewportWithCountEXT"
             ),
-            begin_render_pass2: load!(c"vkCmdBeginRenderPass2", c"vkCmdBeginRenderPass2KHR"),
-            next_subpass2: load!(c"vkCmdNextSubpass2", c"vkCmdNextSubpass2KHR"),
-            end_render_pass2: load!(c"vkCmdEndRenderPass2", c"vkCmdEndRenderPass2KHR"),
-            create_render_pass2: load!(c"vkCreateRenderPass2", c"vkCreateRenderPass2KHR"),
-            begin_rendering: load!(c"vkCmdBeginRendering", c"vkCmdBeginRenderingKHR"),
-            end_rendering: load!(c"vkCmdEndRendering", c"vkCmdEndRenderingKHR"),
+            begin_render_pass2: load!(V12, c"vkCmdBeginRenderPass2", c"vkCmdBeginRenderPass2KHR"),
+            next_subpass2: load!(V12, c"vkCmdNextSubpass2", c"vkCmdNextSubpass2KHR"),
+            end_render_pass2: load!(V12, c"vkCmdEndRenderPass2", c"vkCmdEndRenderPass2KHR"),
+            create_render_pass2: load!(V12, c"vkCreateRenderPass2", c"vkCreateRenderPass2KHR"),
+            begin_rendering: load!(V13, c"vkCmdBeginRendering", c"vkCmdBeginRenderingKHR"),
+            end_rendering: load!(V13, c"vkCmdEndRendering", c"vkCmdEndRenderingKHR"),
             draw_indirect_count: load!(
+                V12,
                 c"vkCmdDrawIndirectCount",
                 c"vkCmdDrawIndirectCountKHR",
                 c"vkCmdDrawIndirectCountAMD"
             ),
             draw_indexed_indirect_count: load!(
+                V12,
                 c"vkCmdDrawIndexedIndirectCount",
                 c"vkCmdDrawIndexedIndirectCountKHR",
                 c"vkCmdDrawIndexedIndirectCountAMD"

@@ -82,26 +82,30 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
     entry.state().before_draw(&mut sink);
 }
 
-/// Defines a draw hook: emit pending state, then call down.
+/// Defines a draw hook: emit pending state, then call down. A draw with no state change costs
+/// a thread-local lookup, an uncontended lock and a flag check.
 macro_rules! draw_hook {
-    ($(#[$doc:meta])* $name:ident, $entry:literal, $($arg:ident: $ty:ty),* => |$device:ident| $next:expr) => {
-        $(#[$doc])*
+    ($name:ident, $entry:literal, $($arg:ident: $ty:ty),* => |$device:ident| $next:expr) => {
+        #[doc = concat!("`", $entry, "`.")]
+        ///
+        /// # Safety
+        /// Called by the application with the arguments the Vulkan spec allows.
         pub unsafe extern "system" fn $name(buffer: vk::CommandBuffer, $($arg: $ty),*) {
             static ENTRY: EntryPoint = EntryPoint::new($entry);
-            let device = match objects::command_buffer(buffer) {
-                Some(entry) => {
-                    guarded(&ENTRY, || before_draw(&entry, buffer), || ());
-                    Arc::clone(&entry.device)
-                }
-                None => match untracked_device(buffer) {
-                    Some(device) => device,
-                    None => return,
-                },
+            let call = |$device: &DeviceState| {
+                let next = $next;
+                // SAFETY: calling down with the application's arguments.
+                unsafe { next(buffer, $($arg),*) }
             };
-            let $device = &*device;
-            let next = $next;
-            // SAFETY: calling down with the application's arguments.
-            unsafe { next(buffer, $($arg),*) }
+            let tracked = objects::with_command_buffer(buffer, |entry| {
+                guarded(&ENTRY, || before_draw(entry, buffer), || ());
+                call(&entry.device);
+            });
+            if tracked.is_none() {
+                if let Some(device) = untracked_device(buffer) {
+                    call(&device);
+                }
+            }
         }
     };
 }

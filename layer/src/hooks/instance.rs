@@ -148,8 +148,105 @@ unsafe fn device_api_version(instance: &InstanceState, physical_device: vk::Phys
     properties.api_version
 }
 
-/// Whether the application enabled `VK_EXT_extended_dynamic_state` and its feature.
-fn extended_dynamic_state_enabled(create_info: &vk::DeviceCreateInfo) -> bool {
+const EXTENDED_DYNAMIC_STATE: &std::ffi::CStr = c"VK_EXT_extended_dynamic_state";
+
+/// Where a device's `vkCmdSetDepthCompareOp` comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CompareOpSource {
+    /// Vulkan 1.3, which the application asked for and the device has.
+    Core,
+    /// `VK_EXT_extended_dynamic_state`, which the application enabled itself.
+    ApplicationExtension,
+    /// `VK_EXT_extended_dynamic_state`, which revz adds to the device's creation.
+    AddedExtension,
+    Unavailable,
+}
+
+/// Decides how the device will provide a dynamic compare op.
+///
+/// # Safety
+/// `physical_device` must be a live physical device of `instance`.
+unsafe fn compare_op_source(
+    instance: &InstanceState,
+    physical_device: vk::PhysicalDevice,
+    create_info: &vk::DeviceCreateInfo,
+    api: u32,
+) -> CompareOpSource {
+    if api >= vk::API_VERSION_1_3 {
+        return CompareOpSource::Core;
+    }
+    let (extension, feature_struct, feature) = extended_dynamic_state_requested(create_info);
+    if extension && feature {
+        return CompareOpSource::ApplicationExtension;
+    }
+    // The application's own feature structure (with the feature off) cannot be changed in
+    // place, and a second one would be invalid: leave such a device alone.
+    if instance.settings.mode == Mode::Off || feature_struct {
+        return CompareOpSource::Unavailable;
+    }
+    // SAFETY: the caller's contract.
+    if unsafe { device_has_extension(instance, physical_device, EXTENDED_DYNAMIC_STATE) } {
+        CompareOpSource::AddedExtension
+    } else {
+        CompareOpSource::Unavailable
+    }
+}
+
+/// Whether a device extension is offered, asked of the layers below.
+///
+/// # Safety
+/// `physical_device` must be a live physical device of `instance`.
+unsafe fn device_has_extension(
+    instance: &InstanceState,
+    physical_device: vk::PhysicalDevice,
+    wanted: &std::ffi::CStr,
+) -> bool {
+    // SAFETY: querying the next layer for an instance command.
+    let found = unsafe {
+        (instance.next_get_instance_proc_addr)(
+            instance.handle,
+            c"vkEnumerateDeviceExtensionProperties".as_ptr(),
+        )
+    };
+    let Some(found) = found else { return false };
+    // SAFETY: the command has this type.
+    let enumerate: vk::PFN_vkEnumerateDeviceExtensionProperties =
+        unsafe { std::mem::transmute(found) };
+    let mut count = 0;
+    // SAFETY: the count query.
+    let result = unsafe {
+        enumerate(
+            physical_device,
+            std::ptr::null(),
+            &mut count,
+            std::ptr::null_mut(),
+        )
+    };
+    if result != vk::Result::SUCCESS {
+        return false;
+    }
+    let mut properties = vec![vk::ExtensionProperties::default(); count as usize];
+    // SAFETY: room for `count` properties.
+    let result = unsafe {
+        enumerate(
+            physical_device,
+            std::ptr::null(),
+            &mut count,
+            properties.as_mut_ptr(),
+        )
+    };
+    if result != vk::Result::SUCCESS && result != vk::Result::INCOMPLETE {
+        return false;
+    }
+    properties
+        .iter()
+        .take(count as usize)
+        .any(|p| p.extension_name_as_c_str() == Ok(wanted))
+}
+
+/// Whether the application enables `VK_EXT_extended_dynamic_state`, chains its feature
+/// structure, and turns the feature on.
+fn extended_dynamic_state_requested(create_info: &vk::DeviceCreateInfo) -> (bool, bool, bool) {
     // SAFETY: `enabledExtensionCount` NUL-terminated names.
     let names = unsafe {
         super::resources::slice(
@@ -160,13 +257,14 @@ fn extended_dynamic_state_enabled(create_info: &vk::DeviceCreateInfo) -> bool {
     let extension = names.iter().any(|&name| {
         // SAFETY: as above.
         let name = unsafe { ffi::c_str(name) };
-        name == Some(c"VK_EXT_extended_dynamic_state")
+        name == Some(EXTENDED_DYNAMIC_STATE)
     });
     let mut next = create_info.p_next.cast::<vk::BaseInStructure>();
-    let mut feature = false;
+    let (mut feature_struct, mut feature) = (false, false);
     // SAFETY: a valid pNext chain (the application's contract).
     while let Some(base) = unsafe { next.as_ref() } {
         if base.s_type == vk::StructureType::PHYSICAL_DEVICE_EXTENDED_DYNAMIC_STATE_FEATURES_EXT {
+            feature_struct = true;
             // SAFETY: the sType identifies the structure.
             let features =
                 unsafe { &*next.cast::<vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT<'_>>() };
@@ -174,7 +272,7 @@ fn extended_dynamic_state_enabled(create_info: &vk::DeviceCreateInfo) -> bool {
         }
         next = base.p_next;
     }
-    extension && feature
+    (extension, feature_struct, feature)
 }
 
 /// What identifies this process to per-application config sections.
@@ -311,7 +409,40 @@ pub unsafe extern "system" fn create_device(
             };
             // SAFETY: the next layer's vkCreateDevice has this signature.
             let next_create: vk::PFN_vkCreateDevice = unsafe { std::mem::transmute(next_create) };
-            // SAFETY: calling down with the application's arguments.
+            let api = instance
+                .api_version
+                // SAFETY: a live physical device of this instance.
+                .min(unsafe { device_api_version(&instance, physical_device) });
+            // SAFETY: a live physical device of this instance; the application's create info.
+            let source = unsafe { compare_op_source(&instance, physical_device, create_info, api) };
+            // Enabling VK_EXT_extended_dynamic_state for the application when revz needs it:
+            // the application's extensions plus one, and the feature chained in front.
+            let mut extensions = Vec::new();
+            let mut features = vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT::default();
+            let mut with_extension = *create_info;
+            if source == CompareOpSource::AddedExtension {
+                // SAFETY: `enabledExtensionCount` names.
+                extensions.extend_from_slice(unsafe {
+                    super::resources::slice(
+                        create_info.pp_enabled_extension_names,
+                        create_info.enabled_extension_count,
+                    )
+                });
+                extensions.push(EXTENDED_DYNAMIC_STATE.as_ptr());
+                features.extended_dynamic_state = vk::TRUE;
+                features.p_next = create_info.p_next.cast_mut();
+                with_extension.p_next =
+                    (&features as *const vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT).cast();
+                with_extension.enabled_extension_count = extensions.len() as u32;
+                with_extension.pp_enabled_extension_names = extensions.as_ptr();
+            }
+            let p_create_info = if source == CompareOpSource::AddedExtension {
+                &with_extension
+            } else {
+                p_create_info
+            };
+            // SAFETY: calling down with the application's arguments (plus, where revz needs
+            // it, one extension and its feature).
             let result =
                 unsafe { next_create(physical_device, p_create_info, p_allocator, p_device) };
             if result != vk::Result::SUCCESS {
@@ -328,21 +459,22 @@ pub unsafe extern "system" fn create_device(
                 )
             };
             // SAFETY: the next layer's GDPA and a live device.
-            let commands = unsafe { DeviceCommands::load(gdpa, device) };
-            let api = instance
-                .api_version
-                // SAFETY: a live physical device of this instance.
-                .min(unsafe { device_api_version(&instance, physical_device) });
-            let core = vk::api_version_major(api) > 1 || vk::api_version_minor(api) >= 3;
-            let dynamic_compare_op = commands.set_depth_compare_op.is_some()
-                && (core || extended_dynamic_state_enabled(create_info));
+            let commands = unsafe { DeviceCommands::load(gdpa, device, api) };
+            let dynamic_compare_op =
+                commands.set_depth_compare_op.is_some() && source != CompareOpSource::Unavailable;
             let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op);
-            if instance.settings.mode != Mode::Off && !dynamic_compare_op {
-                log::warn!(
-                    "device {device:?}: depth stays native: the application uses neither Vulkan \
-                     1.3 nor VK_EXT_extended_dynamic_state, which revz needs to make the depth \
+            match source {
+                _ if instance.settings.mode == Mode::Off => {}
+                CompareOpSource::AddedExtension => log::info!(
+                    "device {device:?}: enabled VK_EXT_extended_dynamic_state to make the depth \
                      compare op dynamic"
-                );
+                ),
+                CompareOpSource::Unavailable => log::warn!(
+                    "device {device:?}: depth stays native: the device offers neither Vulkan \
+                     1.3 to this application nor VK_EXT_extended_dynamic_state, which revz \
+                     needs to make the depth compare op dynamic"
+                ),
+                _ => {}
             }
             log::debug!(
                 "device {device:?} created, mode {}, depth path {}",
