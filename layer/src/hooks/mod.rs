@@ -14,6 +14,27 @@ macro_rules! void_fn {
     }};
 }
 
+/// Defines a destruction hook: forget the object, then call down.
+macro_rules! destroy_hook {
+    ($name:ident, $entry:ident, $handle:ty, $table:ident, $next:ident) => {
+        pub unsafe extern "system" fn $name(
+            device: vk::Device,
+            handle: $handle,
+            p_allocator: *const vk::AllocationCallbacks<'_>,
+        ) {
+            // SAFETY: `device` is live.
+            let Some(state) = (unsafe { $crate::hooks::device_state(device) }) else {
+                return;
+            };
+            $crate::hooks::record(&$entry, || {
+                state.objects.$table.remove(&handle);
+            });
+            // SAFETY: calling down with the application's arguments.
+            unsafe { (state.next.fp_v1_0().$next)(device, handle, p_allocator) };
+        }
+    };
+}
+
 pub mod command;
 pub mod device;
 pub mod instance;
@@ -28,13 +49,20 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::boundary::{guarded, EntryPoint};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
+
+/// Runs `record` (bookkeeping after a successful call down) so that a panic in it is logged
+/// and swallowed: the object exists below either way, and the call must not be repeated.
+pub(crate) fn record(entry: &'static EntryPoint, record: impl FnOnce()) {
+    guarded(entry, record, || ());
+}
 
 /// The state of a device revz created (device-level object hooks; not per draw).
 ///
 /// # Safety
 /// `device` must be a live device handle.
-unsafe fn device_state(device: vk::Device) -> Option<Arc<DeviceState>> {
+pub(crate) unsafe fn device_state(device: vk::Device) -> Option<Arc<DeviceState>> {
     // SAFETY: the caller guarantees a live handle.
     DEVICES.get(unsafe { DispatchKey::of(device) })
 }

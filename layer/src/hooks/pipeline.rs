@@ -221,22 +221,10 @@ pub unsafe extern "system" fn create_graphics_pipelines(
     result
 }
 
-pub unsafe extern "system" fn destroy_pipeline(
-    device: vk::Device,
-    pipeline: vk::Pipeline,
-    p_allocator: *const vk::AllocationCallbacks<'_>,
-) {
-    // SAFETY: `device` is live.
-    let Some(state) = (unsafe { device_state(device) }) else {
-        return;
-    };
-    guarded(
-        &DESTROY_PIPELINE,
-        || {
-            state.objects.pipelines.remove(&pipeline);
-        },
-        || (),
-    );
-    // SAFETY: calling down with the application's arguments.
-    unsafe { (state.next.fp_v1_0().destroy_pipeline)(device, pipeline, p_allocator) };
-}
+destroy_hook!(
+    destroy_pipeline,
+    DESTROY_PIPELINE,
+    vk::Pipeline,
+    pipelines,
+    destroy_pipeline
+);

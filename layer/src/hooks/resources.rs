@@ -6,8 +6,8 @@ use std::sync::{Arc, Mutex};
 
 use ash::vk;
 
-use super::device_state;
-use crate::boundary::{guarded, EntryPoint};
+use super::{device_state, record};
+use crate::boundary::EntryPoint;
 use crate::conv::has_depth;
 use crate::objects::{self, ImageInfo, RenderPassInfo};
 use crate::policy::ImageDepth;
@@ -24,12 +24,6 @@ static DESTROY_FRAMEBUFFER: EntryPoint = EntryPoint::new("vkDestroyFramebuffer")
 static ALLOCATE_COMMAND_BUFFERS: EntryPoint = EntryPoint::new("vkAllocateCommandBuffers");
 static FREE_COMMAND_BUFFERS: EntryPoint = EntryPoint::new("vkFreeCommandBuffers");
 static DESTROY_COMMAND_POOL: EntryPoint = EntryPoint::new("vkDestroyCommandPool");
-
-/// Runs `record` (bookkeeping after a successful call down) so that a panic in it is logged
-/// and swallowed: the object exists below either way, and the call must not be repeated.
-fn record(entry: &'static EntryPoint, record: impl FnOnce()) {
-    guarded(entry, record, || ());
-}
 
 pub unsafe extern "system" fn create_image(
     device: vk::Device,
@@ -77,22 +71,6 @@ pub unsafe extern "system" fn create_image(
     result
 }
 
-pub unsafe extern "system" fn destroy_image(
-    device: vk::Device,
-    image: vk::Image,
-    p_allocator: *const vk::AllocationCallbacks<'_>,
-) {
-    // SAFETY: `device` is live.
-    let Some(state) = (unsafe { device_state(device) }) else {
-        return;
-    };
-    record(&DESTROY_IMAGE, || {
-        state.objects.images.remove(&image);
-    });
-    // SAFETY: calling down with the application's arguments.
-    unsafe { (state.next.fp_v1_0().destroy_image)(device, image, p_allocator) };
-}
-
 pub unsafe extern "system" fn create_image_view(
     device: vk::Device,
     p_create_info: *const vk::ImageViewCreateInfo<'_>,
@@ -117,22 +95,6 @@ pub unsafe extern "system" fn create_image_view(
         });
     }
     result
-}
-
-pub unsafe extern "system" fn destroy_image_view(
-    device: vk::Device,
-    view: vk::ImageView,
-    p_allocator: *const vk::AllocationCallbacks<'_>,
-) {
-    // SAFETY: `device` is live.
-    let Some(state) = (unsafe { device_state(device) }) else {
-        return;
-    };
-    record(&DESTROY_IMAGE_VIEW, || {
-        state.objects.views.remove(&view);
-    });
-    // SAFETY: calling down with the application's arguments.
-    unsafe { (state.next.fp_v1_0().destroy_image_view)(device, view, p_allocator) };
 }
 
 /// Builds a [`RenderPassInfo`] from attachment formats and load ops and subpass depth refs.
@@ -165,100 +127,94 @@ pub(crate) unsafe fn slice<'a, T>(ptr: *const T, count: u32) -> &'a [T] {
     }
 }
 
-pub unsafe extern "system" fn create_render_pass(
-    device: vk::Device,
-    p_create_info: *const vk::RenderPassCreateInfo<'_>,
-    p_allocator: *const vk::AllocationCallbacks<'_>,
-    p_render_pass: *mut vk::RenderPass,
-) -> vk::Result {
-    // SAFETY: `device` is live.
-    let Some(state) = (unsafe { device_state(device) }) else {
-        return vk::Result::ERROR_INITIALIZATION_FAILED;
+/// Defines a render pass creation hook (`vkCreateRenderPass` and `vkCreateRenderPass2` read
+/// the same fields from different structures).
+macro_rules! create_render_pass_hook {
+    ($name:ident, $entry:ident, $info:ty, |$state:ident| $next:expr) => {
+        pub unsafe extern "system" fn $name(
+            device: vk::Device,
+            p_create_info: *const $info,
+            p_allocator: *const vk::AllocationCallbacks<'_>,
+            p_render_pass: *mut vk::RenderPass,
+        ) -> vk::Result {
+            // SAFETY: `device` is live.
+            let Some($state) = (unsafe { device_state(device) }) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let Some(next) = $next else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: calling down with the application's arguments.
+            let result = unsafe { next(device, p_create_info, p_allocator, p_render_pass) };
+            if result == vk::Result::SUCCESS {
+                record(&$entry, || {
+                    // SAFETY: valid on success; arrays sized by their counts.
+                    let info = unsafe { &*p_create_info };
+                    // SAFETY: as above.
+                    let (attachments, subpasses) = unsafe {
+                        (
+                            slice(info.p_attachments, info.attachment_count),
+                            slice(info.p_subpasses, info.subpass_count),
+                        )
+                    };
+                    let pass = render_pass_info(
+                        attachments.iter().map(|a| (a.format, a.load_op)),
+                        subpasses.iter().map(|s| {
+                            // SAFETY: null or one valid reference.
+                            unsafe { s.p_depth_stencil_attachment.as_ref() }.map(|r| r.attachment)
+                        }),
+                    );
+                    // SAFETY: valid on success.
+                    let handle = unsafe { *p_render_pass };
+                    $state.objects.render_passes.insert(handle, Arc::new(pass));
+                });
+            }
+            result
+        }
     };
-    // SAFETY: calling down with the application's arguments.
-    let result = unsafe {
-        (state.next.fp_v1_0().create_render_pass)(device, p_create_info, p_allocator, p_render_pass)
-    };
-    if result == vk::Result::SUCCESS {
-        record(&CREATE_RENDER_PASS, || {
-            // SAFETY: valid on success; arrays sized by their counts.
-            let info = unsafe { &*p_create_info };
-            // SAFETY: as above.
-            let attachments = unsafe { slice(info.p_attachments, info.attachment_count) };
-            // SAFETY: as above.
-            let subpasses = unsafe { slice(info.p_subpasses, info.subpass_count) };
-            let pass = render_pass_info(
-                attachments.iter().map(|a| (a.format, a.load_op)),
-                subpasses.iter().map(|s| {
-                    // SAFETY: null or one valid reference.
-                    unsafe { s.p_depth_stencil_attachment.as_ref() }.map(|r| r.attachment)
-                }),
-            );
-            // SAFETY: valid on success.
-            state
-                .objects
-                .render_passes
-                .insert(unsafe { *p_render_pass }, Arc::new(pass));
-        });
-    }
-    result
 }
 
-pub unsafe extern "system" fn create_render_pass2(
-    device: vk::Device,
-    p_create_info: *const vk::RenderPassCreateInfo2<'_>,
-    p_allocator: *const vk::AllocationCallbacks<'_>,
-    p_render_pass: *mut vk::RenderPass,
-) -> vk::Result {
-    // SAFETY: `device` is live.
-    let Some(state) = (unsafe { device_state(device) }) else {
-        return vk::Result::ERROR_INITIALIZATION_FAILED;
-    };
-    let Some(next) = state.commands.create_render_pass2 else {
-        return vk::Result::ERROR_INITIALIZATION_FAILED;
-    };
-    // SAFETY: calling down with the application's arguments.
-    let result = unsafe { next(device, p_create_info, p_allocator, p_render_pass) };
-    if result == vk::Result::SUCCESS {
-        record(&CREATE_RENDER_PASS2, || {
-            // SAFETY: valid on success; arrays sized by their counts.
-            let info = unsafe { &*p_create_info };
-            // SAFETY: as above.
-            let attachments = unsafe { slice(info.p_attachments, info.attachment_count) };
-            // SAFETY: as above.
-            let subpasses = unsafe { slice(info.p_subpasses, info.subpass_count) };
-            let pass = render_pass_info(
-                attachments.iter().map(|a| (a.format, a.load_op)),
-                subpasses.iter().map(|s| {
-                    // SAFETY: null or one valid reference.
-                    unsafe { s.p_depth_stencil_attachment.as_ref() }.map(|r| r.attachment)
-                }),
-            );
-            // SAFETY: valid on success.
-            state
-                .objects
-                .render_passes
-                .insert(unsafe { *p_render_pass }, Arc::new(pass));
-        });
-    }
-    result
-}
+create_render_pass_hook!(
+    create_render_pass,
+    CREATE_RENDER_PASS,
+    vk::RenderPassCreateInfo<'_>,
+    |state| Some(state.next.fp_v1_0().create_render_pass)
+);
+create_render_pass_hook!(
+    create_render_pass2,
+    CREATE_RENDER_PASS2,
+    vk::RenderPassCreateInfo2<'_>,
+    |state| state.commands.create_render_pass2
+);
 
-pub unsafe extern "system" fn destroy_render_pass(
-    device: vk::Device,
-    render_pass: vk::RenderPass,
-    p_allocator: *const vk::AllocationCallbacks<'_>,
-) {
-    // SAFETY: `device` is live.
-    let Some(state) = (unsafe { device_state(device) }) else {
-        return;
-    };
-    record(&DESTROY_RENDER_PASS, || {
-        state.objects.render_passes.remove(&render_pass);
-    });
-    // SAFETY: calling down with the application's arguments.
-    unsafe { (state.next.fp_v1_0().destroy_render_pass)(device, render_pass, p_allocator) };
-}
+destroy_hook!(
+    destroy_image,
+    DESTROY_IMAGE,
+    vk::Image,
+    images,
+    destroy_image
+);
+destroy_hook!(
+    destroy_image_view,
+    DESTROY_IMAGE_VIEW,
+    vk::ImageView,
+    views,
+    destroy_image_view
+);
+destroy_hook!(
+    destroy_render_pass,
+    DESTROY_RENDER_PASS,
+    vk::RenderPass,
+    render_passes,
+    destroy_render_pass
+);
+destroy_hook!(
+    destroy_framebuffer,
+    DESTROY_FRAMEBUFFER,
+    vk::Framebuffer,
+    framebuffers,
+    destroy_framebuffer
+);
 
 pub unsafe extern "system" fn create_framebuffer(
     device: vk::Device,
@@ -293,22 +249,6 @@ pub unsafe extern "system" fn create_framebuffer(
         });
     }
     result
-}
-
-pub unsafe extern "system" fn destroy_framebuffer(
-    device: vk::Device,
-    framebuffer: vk::Framebuffer,
-    p_allocator: *const vk::AllocationCallbacks<'_>,
-) {
-    // SAFETY: `device` is live.
-    let Some(state) = (unsafe { device_state(device) }) else {
-        return;
-    };
-    record(&DESTROY_FRAMEBUFFER, || {
-        state.objects.framebuffers.remove(&framebuffer);
-    });
-    // SAFETY: calling down with the application's arguments.
-    unsafe { (state.next.fp_v1_0().destroy_framebuffer)(device, framebuffer, p_allocator) };
 }
 
 pub unsafe extern "system" fn allocate_command_buffers(
