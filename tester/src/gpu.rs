@@ -1,6 +1,7 @@
 //! Vulkan bring-up and teardown: the loader entry, the instance (optionally with the Khronos
 //! validation layer and a `VK_EXT_debug_utils` messenger that counts what it reports), physical
-//! device selection, the logical device and its graphics queue, the memory-type helper and
+//! device selection, the logical device (with the optional features a scene needs and the
+//! device has) and its graphics queue, the memory-type helper and
 //! host-visible buffers.
 //!
 //! Everything created here is destroyed by `Drop`, in reverse order of creation, so that the
@@ -125,6 +126,42 @@ pub struct GpuOptions {
     pub device: Option<String>,
     /// Enable `VK_LAYER_KHRONOS_validation` and count its messages.
     pub validation: bool,
+    /// Optional features to enable where the device has them.
+    pub features: Features,
+}
+
+/// The optional device features the tester may enable (everything else stays off).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    /// Vulkan 1.3 `dynamicRendering`.
+    pub dynamic_rendering: bool,
+    /// `depthBounds`.
+    pub depth_bounds: bool,
+    /// `depthBiasClamp`.
+    pub depth_bias_clamp: bool,
+}
+
+impl Features {
+    /// The Vulkan names of the features that are set, for reports.
+    pub fn names(self) -> Vec<&'static str> {
+        [
+            (self.dynamic_rendering, "dynamicRendering"),
+            (self.depth_bounds, "depthBounds"),
+            (self.depth_bias_clamp, "depthBiasClamp"),
+        ]
+        .into_iter()
+        .filter_map(|(on, name)| on.then_some(name))
+        .collect()
+    }
+
+    /// The features set in both.
+    pub fn and(self, other: Features) -> Features {
+        Features {
+            dynamic_rendering: self.dynamic_rendering && other.dynamic_rendering,
+            depth_bounds: self.depth_bounds && other.depth_bounds,
+            depth_bias_clamp: self.depth_bias_clamp && other.depth_bias_clamp,
+        }
+    }
 }
 
 /// Loader entry, instance and (optional) debug messenger; destroyed after the device.
@@ -262,7 +299,7 @@ impl InstanceCtx {
 
 /// The instance, the chosen physical device, the logical device and its graphics queue.
 pub struct Gpu {
-    /// The logical device (no features, no extensions).
+    /// The logical device (no extensions; only the optional features in `enabled`).
     pub device: ash::Device,
     /// A queue of `queue_family` that supports graphics (and therefore transfer).
     pub queue: vk::Queue,
@@ -272,6 +309,12 @@ pub struct Gpu {
     pub physical_device: vk::PhysicalDevice,
     /// What the tester reports about the device.
     pub info: DeviceInfo,
+    /// The optional features the device has.
+    pub supported: Features,
+    /// The optional features enabled at device creation (requested and supported).
+    pub enabled: Features,
+    /// Vulkan 1.3 commands are available (instance and device both at 1.3 or later).
+    pub vulkan_1_3: bool,
     memory_properties: vk::PhysicalDeviceMemoryProperties,
     // Dropped after `Drop::drop` has destroyed the device.
     instance: InstanceCtx,
@@ -338,6 +381,38 @@ fn device_info(instance: &InstanceCtx, physical_device: vk::PhysicalDevice) -> D
     info
 }
 
+/// The optional features `physical_device` has (`dynamicRendering` only with Vulkan 1.3).
+fn supported_features(
+    instance: &InstanceCtx,
+    physical_device: vk::PhysicalDevice,
+    vulkan_1_3: bool,
+) -> Features {
+    // SAFETY: `physical_device` was enumerated from this instance.
+    let core = unsafe {
+        instance
+            .instance
+            .get_physical_device_features(physical_device)
+    };
+    let mut dynamic_rendering = false;
+    if vulkan_1_3 {
+        let mut features13 = vk::PhysicalDeviceVulkan13Features::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features13);
+        // SAFETY: core 1.1 entry point (instance and device are at 1.3); the chain holds a
+        // valid Vulkan 1.3 features structure.
+        unsafe {
+            instance
+                .instance
+                .get_physical_device_features2(physical_device, &mut features2)
+        };
+        dynamic_rendering = features13.dynamic_rendering == vk::TRUE;
+    }
+    Features {
+        dynamic_rendering,
+        depth_bounds: core.depth_bounds == vk::TRUE,
+        depth_bias_clamp: core.depth_bias_clamp == vk::TRUE,
+    }
+}
+
 impl Gpu {
     /// Creates the instance, picks the physical device, creates the device and its queue.
     pub fn new(options: &GpuOptions) -> Result<Self> {
@@ -393,12 +468,27 @@ impl Gpu {
             .ok_or_else(|| anyhow!("device '{}' has no graphics queue", info.name))?;
         let queue_family = u32::try_from(queue_family).context("queue family index")?;
 
+        let vulkan_1_3 =
+            info.api_version >= vk::API_VERSION_1_3 && instance.api_version >= vk::API_VERSION_1_3;
+        let supported = supported_features(&instance, physical_device, vulkan_1_3);
+        let enabled = options.features.and(supported);
+
         let priorities = [1.0f32];
         let queue_infos = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        // No features, no extensions: the tester needs nothing beyond core.
-        let device_create_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_infos);
+        // No extensions; only the optional features the scene asked for and the device has.
+        let core_features = vk::PhysicalDeviceFeatures::default()
+            .depth_bounds(enabled.depth_bounds)
+            .depth_bias_clamp(enabled.depth_bias_clamp);
+        let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(enabled.dynamic_rendering);
+        let mut device_create_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_infos)
+            .enabled_features(&core_features);
+        if enabled.dynamic_rendering {
+            device_create_info = device_create_info.push_next(&mut features13);
+        }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {
             instance
@@ -421,6 +511,9 @@ impl Gpu {
             queue_family,
             physical_device,
             info,
+            supported,
+            enabled,
+            vulkan_1_3,
             memory_properties,
             instance,
         })
@@ -560,5 +653,30 @@ impl<'a> HostBuffer<'a> {
         // SAFETY: `mapped` points to `size` mapped bytes that live as long as `self`; callers
         // read only after the GPU work writing them has completed.
         unsafe { std::slice::from_raw_parts(self.mapped, self.size) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn feature_names_are_vulkan_names_of_the_set_features() {
+        let all = Features {
+            dynamic_rendering: true,
+            depth_bounds: true,
+            depth_bias_clamp: true,
+        };
+        assert_eq!(
+            all.names(),
+            ["dynamicRendering", "depthBounds", "depthBiasClamp"]
+        );
+        let some = Features {
+            depth_bias_clamp: true,
+            ..Features::default()
+        };
+        assert_eq!(all.and(some), some);
+        assert_eq!(some.names(), ["depthBiasClamp"]);
+        assert!(Features::default().names().is_empty());
     }
 }

@@ -1,6 +1,9 @@
 //! `revz-tester`: an ordinary headless Vulkan application that renders a known scene offscreen
-//! (standard depth: clear 1.0, compare LESS) and writes what it rendered to files. It knows
-//! nothing of the revz layer; the layer, when injected, changes what it renders.
+//! (standard depth: near 0, far 1) and writes what it rendered to files. It knows nothing of
+//! the revz layer; the layer, when injected, changes what it renders. Each scene (`scenes`)
+//! exercises depth state a reversed-depth layer must handle: compare ops, clear values, depth
+//! bias and bounds, viewport depth ranges, stencil, secondaries, subpasses, dynamic rendering
+//! and a sampled shadow map.
 //!
 //! This file owns the command line and the orchestration only; see the modules for the rest.
 //!
@@ -8,26 +11,29 @@
 //! written) but the validation layer reported messages.
 
 mod gpu;
+mod pipeline;
+mod plan;
 mod readback;
 mod render;
 mod scene;
+mod scenes;
 mod shaders;
 mod target;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Parser;
 
-use crate::gpu::{Gpu, GpuOptions};
+use crate::gpu::{Features, Gpu, GpuOptions};
 use crate::readback::{DepthStats, Readback, RenderReport};
-use crate::render::{Renderer, SceneBuffers, CLEAR_DEPTH};
+use crate::render::{Renderer, SceneBuffers};
 use crate::scene::SceneId;
-use crate::target::{DepthFormat, Targets};
+use crate::target::{DepthFormat, TargetOptions, Targets};
 
 /// Renders a known scene offscreen with Vulkan and writes color.png, depth.png, depth.f32 and
-/// render.json.
+/// render.json (see `--scene` for the scenes).
 #[derive(Debug, Parser)]
 #[command(name = "revz-tester", version)]
 struct Cli {
@@ -55,6 +61,11 @@ struct Cli {
     /// Enable VK_LAYER_KHRONOS_validation and count its messages (exit code 2 if any).
     #[arg(long)]
     validation: bool,
+
+    /// Do not read the depth image back: it is created without TRANSFER_SRC usage, and
+    /// depth.png / depth.f32 are not written (render.json says "depth_readback": false).
+    #[arg(long)]
+    no_depth_readback: bool,
 
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR")]
@@ -90,13 +101,26 @@ fn main() -> ExitCode {
 
 /// Renders and writes the outputs; returns the number of counted validation messages.
 fn run(cli: &Cli) -> Result<u32> {
+    let scene = cli.scene.build();
+    let needs = scene.plan.needs();
+    if needs.stencil && !cli.depth_format.has_stencil() {
+        bail!(
+            "scene '{}' needs a depth format with a stencil aspect (d24-s8 or d32-s8), not {}",
+            scene.name,
+            cli.depth_format.vk_name()
+        );
+    }
     std::fs::create_dir_all(&cli.out)
         .with_context(|| format!("cannot create output directory {}", cli.out.display()))?;
-    let scene = cli.scene.build();
 
     let gpu = Gpu::new(&GpuOptions {
         device: cli.device.clone(),
         validation: cli.validation,
+        features: Features {
+            dynamic_rendering: needs.dynamic_rendering,
+            depth_bounds: needs.depth_bounds,
+            depth_bias_clamp: needs.depth_bias_clamp,
+        },
     })?;
     say(&format!(
         "device: {} ({}, Vulkan {})",
@@ -105,18 +129,36 @@ fn run(cli: &Cli) -> Result<u32> {
         gpu.info.api_version_string()
     ));
     let device_info = gpu.info.clone();
+    let lacks = |what: &str| format!("scene '{}': device lacks {what}", scene.name);
+    if needs.vulkan_1_3 && !gpu.vulkan_1_3 {
+        bail!(lacks("Vulkan 1.3"));
+    }
+    if needs.dynamic_rendering && !gpu.supported.dynamic_rendering {
+        bail!(lacks("dynamicRendering"));
+    }
+    if needs.depth_bounds && !gpu.supported.depth_bounds {
+        bail!(lacks("depthBounds"));
+    }
+    let features = gpu.enabled.names();
 
     // Every Vulkan object lives inside this block and is destroyed when it ends (in reverse
     // order of creation); only host data leaves it.
+    let depth_readback = !cli.no_depth_readback;
     let frame = {
-        let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format)?;
+        let options = TargetOptions {
+            depth_readback,
+            clear_depth_image: needs.clear_depth_image,
+            shadow_map: needs.shadow_map,
+        };
+        let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;
-        let readback = Readback::new(&gpu, &targets)?;
-        let renderer = Renderer::new(&gpu, &targets)?;
+        let readback = Readback::new(&gpu, &targets, depth_readback)?;
+        let renderer = Renderer::new(&gpu, &targets, &scene)?;
         renderer.render(&gpu, &scene, &buffers, &targets, &readback)?;
         readback.frame()?
     };
-    for path in readback::write_images(&cli.out, &frame)? {
+    let clear_depth = scene.plan.main_clear_depth();
+    for path in readback::write_images(&cli.out, &frame, clear_depth)? {
         print_wrote(&path);
     }
 
@@ -126,7 +168,10 @@ fn run(cli: &Cli) -> Result<u32> {
     drop(gpu);
     let messages = log.count();
 
-    let stats = DepthStats::of(&frame.depth, CLEAR_DEPTH);
+    let stats = frame
+        .depth
+        .as_ref()
+        .map(|depth| DepthStats::of(depth, clear_depth));
     let report = RenderReport {
         device: device_info.name.clone(),
         driver: device_info.driver(),
@@ -135,9 +180,13 @@ fn run(cli: &Cli) -> Result<u32> {
         width: frame.width,
         height: frame.height,
         validation_messages: messages,
-        depth_min: stats.min,
-        depth_max: stats.max,
-        covered_pixels: stats.covered,
+        features,
+        depth_readback,
+        stencil_readback: false,
+        clear_depth,
+        depth_min: stats.and_then(|s| s.min),
+        depth_max: stats.and_then(|s| s.max),
+        covered_pixels: stats.map(|s| s.covered),
     };
     print_wrote(&readback::write_report(&cli.out, &report)?);
     Ok(messages)

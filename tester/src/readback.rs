@@ -1,7 +1,9 @@
 //! Getting the rendered images back and writing them out: the host-visible read-back buffers,
 //! the barriers and copies recorded after the render pass, decoding of the depth aspect to
 //! f32 for every depth format, and the output files (`color.png`, `depth.png`, `depth.f32`,
-//! `render.json`).
+//! `render.json`). With `--no-depth-readback` only the color image is read back (the depth
+//! image then has no TRANSFER_SRC usage), and `depth.png` / `depth.f32` are not written. The
+//! stencil aspect is never read back.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -12,14 +14,14 @@ use image::{ImageBuffer, Luma, Rgba};
 use serde::Serialize;
 
 use crate::gpu::{Gpu, HostBuffer};
-use crate::render::CLEAR_DEPTH;
 use crate::target::{full_range, DepthFormat, Targets};
 
 /// Host-visible buffers receiving the color image and the depth aspect of the depth image.
 #[derive(Debug)]
 pub struct Readback<'a> {
     color: HostBuffer<'a>,
-    depth: HostBuffer<'a>,
+    /// None with `--no-depth-readback`.
+    depth: Option<HostBuffer<'a>>,
     extent: vk::Extent2D,
     depth_format: DepthFormat,
 }
@@ -35,22 +37,28 @@ pub struct Frame {
     pub depth_format: DepthFormat,
     /// RGBA8, row-major, top row first.
     pub rgba: Vec<u8>,
-    /// Decoded depth per pixel, row-major, top row first.
-    pub depth: Vec<f32>,
+    /// Decoded depth per pixel, row-major, top row first (None if not read back).
+    pub depth: Option<Vec<f32>>,
 }
 
 impl<'a> Readback<'a> {
-    /// Creates the read-back buffers for `targets`.
-    pub fn new(gpu: &'a Gpu, targets: &Targets<'_>) -> Result<Self> {
+    /// Creates the read-back buffers for `targets` (none for depth unless `depth`).
+    pub fn new(gpu: &'a Gpu, targets: &Targets<'_>, depth: bool) -> Result<Self> {
         let pixels = targets.pixel_count();
         let color = HostBuffer::new(gpu, pixels * 4, vk::BufferUsageFlags::TRANSFER_DST)
             .context("color read-back buffer")?;
-        let depth = HostBuffer::new(
-            gpu,
-            pixels * targets.depth_format.depth_copy_texel_size(),
-            vk::BufferUsageFlags::TRANSFER_DST,
-        )
-        .context("depth read-back buffer")?;
+        let depth = if depth {
+            Some(
+                HostBuffer::new(
+                    gpu,
+                    pixels * targets.depth_format.depth_copy_texel_size(),
+                    vk::BufferUsageFlags::TRANSFER_DST,
+                )
+                .context("depth read-back buffer")?,
+            )
+        } else {
+            None
+        };
         Ok(Readback {
             color,
             depth,
@@ -61,30 +69,32 @@ impl<'a> Readback<'a> {
 
     /// Records, after the render pass: attachment layouts -> TRANSFER_SRC_OPTIMAL (waiting for
     /// the attachment writes, including the store ops), the copies of the color image and of
-    /// the DEPTH aspect, and a TRANSFER -> HOST barrier so the host can read the buffers once
-    /// the submission's fence has signalled.
+    /// the DEPTH aspect (if read back), and a TRANSFER -> HOST barrier so the host can read the
+    /// buffers once the submission's fence has signalled.
     pub fn record(&self, device: &ash::Device, cmd: vk::CommandBuffer, targets: &Targets<'_>) {
-        let to_transfer = [
-            vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
-                .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(targets.color.image)
-                .subresource_range(full_range(vk::ImageAspectFlags::COLOR)),
+        let mut to_transfer = vec![vk::ImageMemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE)
+            .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
+            .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(targets.color.image)
+            .subresource_range(full_range(vk::ImageAspectFlags::COLOR))];
+        if self.depth.is_some() {
             // A layout transition of a depth/stencil image names all of its aspects.
-            vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
-                .old_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-                .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(targets.depth.image)
-                .subresource_range(full_range(targets.depth_format.aspects())),
-        ];
+            to_transfer.push(
+                vk::ImageMemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)
+                    .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
+                    .old_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+                    .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(targets.depth.image)
+                    .subresource_range(full_range(targets.depth_format.aspects())),
+            );
+        }
         let extent = vk::Extent3D {
             width: self.extent.width,
             height: self.extent.height,
@@ -103,18 +113,22 @@ impl<'a> Readback<'a> {
             image_offset: vk::Offset3D { x: 0, y: 0, z: 0 },
             image_extent: extent,
         };
-        let to_host = [self.color.buffer, self.depth.buffer].map(|buffer| {
-            vk::BufferMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .buffer(buffer)
-                .offset(0)
-                .size(vk::WHOLE_SIZE)
-        });
+        let to_host: Vec<vk::BufferMemoryBarrier<'_>> = std::iter::once(&self.color)
+            .chain(self.depth.as_ref())
+            .map(|buffer| {
+                vk::BufferMemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .buffer(buffer.buffer)
+                    .offset(0)
+                    .size(vk::WHOLE_SIZE)
+            })
+            .collect();
         // SAFETY: `cmd` is recording outside a render pass; the images and buffers are valid,
-        // the buffers are large enough for tightly packed copies of the whole images.
+        // the buffers are large enough for tightly packed copies of the whole images, and the
+        // depth image has TRANSFER_SRC usage whenever a depth buffer exists.
         unsafe {
             device.cmd_pipeline_barrier(
                 cmd,
@@ -134,13 +148,15 @@ impl<'a> Readback<'a> {
                 self.color.buffer,
                 &[region(vk::ImageAspectFlags::COLOR)],
             );
-            device.cmd_copy_image_to_buffer(
-                cmd,
-                targets.depth.image,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                self.depth.buffer,
-                &[region(vk::ImageAspectFlags::DEPTH)],
-            );
+            if let Some(depth) = &self.depth {
+                device.cmd_copy_image_to_buffer(
+                    cmd,
+                    targets.depth.image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    depth.buffer,
+                    &[region(vk::ImageAspectFlags::DEPTH)],
+                );
+            }
             device.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TRANSFER,
@@ -157,7 +173,10 @@ impl<'a> Readback<'a> {
     pub fn frame(&self) -> Result<Frame> {
         let pixels = self.extent.width as usize * self.extent.height as usize;
         let rgba = self.color.contents()[..pixels * 4].to_vec();
-        let depth = decode_depth(self.depth_format, self.depth.contents(), pixels)?;
+        let depth = match &self.depth {
+            Some(depth) => Some(decode_depth(self.depth_format, depth.contents(), pixels)?),
+            None => None,
+        };
         Ok(Frame {
             width: self.extent.width,
             height: self.extent.height,
@@ -271,16 +290,26 @@ pub struct RenderReport {
     pub height: u32,
     /// Counted validation messages (0 without `--validation`).
     pub validation_messages: u32,
-    /// Smallest covered depth (null if nothing was covered).
+    /// The optional device features enabled for the scene (Vulkan names).
+    pub features: Vec<&'static str>,
+    /// Whether the depth image was read back (false with `--no-depth-readback`).
+    pub depth_readback: bool,
+    /// Whether the stencil aspect was read back (never: stencil results show in color).
+    pub stencil_readback: bool,
+    /// The depth of the pixels nothing was drawn on (the scene's first depth clear), from
+    /// which covered pixels are told apart.
+    pub clear_depth: f32,
+    /// Smallest covered depth (null if nothing was covered or depth was not read back).
     pub depth_min: Option<f32>,
-    /// Largest covered depth (null if nothing was covered).
+    /// Largest covered depth (null if nothing was covered or depth was not read back).
     pub depth_max: Option<f32>,
-    /// Pixels whose depth differs from the clear value.
-    pub covered_pixels: usize,
+    /// Pixels whose depth differs from the clear value (null if depth was not read back).
+    pub covered_pixels: Option<usize>,
 }
 
-/// Writes `color.png`, `depth.png` and `depth.f32` into `dir`; returns the paths written.
-pub fn write_images(dir: &Path, frame: &Frame) -> Result<Vec<PathBuf>> {
+/// Writes `color.png`, and `depth.png` and `depth.f32` if depth was read back (`clear`: the
+/// depth of uncovered pixels), into `dir`; returns the paths written.
+pub fn write_images(dir: &Path, frame: &Frame, clear: f32) -> Result<Vec<PathBuf>> {
     let (w, h) = (frame.width, frame.height);
     let color_path = dir.join("color.png");
     let color = ImageBuffer::<Rgba<u8>, _>::from_raw(w, h, frame.rgba.clone())
@@ -289,15 +318,17 @@ pub fn write_images(dir: &Path, frame: &Frame) -> Result<Vec<PathBuf>> {
         .save_with_format(&color_path, image::ImageFormat::Png)
         .with_context(|| format!("cannot write {}", color_path.display()))?;
 
+    let Some(depth) = &frame.depth else {
+        return Ok(vec![color_path]);
+    };
     let depth_png_path = dir.join("depth.png");
-    let grey =
-        ImageBuffer::<Luma<u16>, _>::from_raw(w, h, depth_visualisation(&frame.depth, CLEAR_DEPTH))
-            .context("depth read-back has the wrong size")?;
+    let grey = ImageBuffer::<Luma<u16>, _>::from_raw(w, h, depth_visualisation(depth, clear))
+        .context("depth read-back has the wrong size")?;
     grey.save_with_format(&depth_png_path, image::ImageFormat::Png)
         .with_context(|| format!("cannot write {}", depth_png_path.display()))?;
 
     let raw_path = dir.join("depth.f32");
-    let raw: Vec<u8> = frame.depth.iter().flat_map(|d| d.to_le_bytes()).collect();
+    let raw: Vec<u8> = depth.iter().flat_map(|d| d.to_le_bytes()).collect();
     fs::write(&raw_path, raw).with_context(|| format!("cannot write {}", raw_path.display()))?;
 
     Ok(vec![color_path, depth_png_path, raw_path])

@@ -1,7 +1,8 @@
-//! Drawing a scene: the scene's vertex and index buffers, the render pass and framebuffer over
-//! the offscreen targets, the graphics pipeline (static state: depth test LESS with writes,
-//! no culling), recording of one primary command buffer (draws, then the read-back copies),
-//! and the single fenced submit.
+//! Drawing a scene: the scene's vertex and index buffers, the Vulkan objects its [`Plan`]
+//! names (render passes and framebuffers, pipelines, the shadow map's sampler, uniform buffer
+//! and descriptor set), recording of one primary command buffer (and any secondaries) by
+//! interpreting the plan's steps one by one, then the read-back copies, and the single fenced
+//! submit.
 
 use std::fmt;
 
@@ -9,19 +10,23 @@ use anyhow::{anyhow, bail, Context, Result};
 use ash::vk;
 
 use crate::gpu::{Gpu, HostBuffer};
+use crate::pipeline::{
+    create_pipeline, create_render_pass, full_viewport, map_color_load, map_compare, MainFormats,
+    PipelineTarget,
+};
+use crate::plan::{DepthBias, DepthLoad, PassKind, Plan, Program, Step, Target};
 use crate::readback::Readback;
-use crate::scene::{DrawRange, Scene, PUSH_CONSTANT_SIZE};
-use crate::shaders;
-use crate::target::Targets;
+use crate::scene::{DrawRange, Scene, View, PUSH_CONSTANT_SIZE};
+use crate::target::{full_range, Targets, SHADOW_MAP_SIZE};
 
 /// The color the color attachment is cleared to: dark grey (25/255, exact in UNORM8).
 pub const CLEAR_COLOR: [f32; 4] = [25.0 / 255.0, 25.0 / 255.0, 25.0 / 255.0, 1.0];
-/// The depth clear value (standard depth: the far plane).
-pub const CLEAR_DEPTH: f32 = 1.0;
 /// The stencil clear value.
 pub const CLEAR_STENCIL: u32 = 0;
 /// How long to wait for the GPU before giving up (lavapipe renders this in milliseconds).
 const FENCE_TIMEOUT_NS: u64 = 60_000_000_000;
+/// The light MVPs `shadow_receiver.vert` can index (its uniform array size).
+const MAX_LIGHT_MVPS: usize = 16;
 
 /// The scene's geometry in host-visible vertex and index buffers.
 #[derive(Debug)]
@@ -56,24 +61,43 @@ impl<'a> SceneBuffers<'a> {
     }
 }
 
-/// Render pass, framebuffer, pipeline, command buffer and fence for one render of the targets.
+/// What `shadow_receiver` pipelines bind: the light MVPs, the shadow map and its comparison
+/// sampler, in one descriptor set.
+struct ShadowBindings<'a> {
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    sampler: vk::Sampler,
+    light: HostBuffer<'a>,
+}
+
+/// Everything the plan names, for one render of the targets.
 pub struct Renderer<'a> {
     device: &'a ash::Device,
-    render_pass: vk::RenderPass,
-    framebuffer: vk::Framebuffer,
-    pipeline_layout: vk::PipelineLayout,
-    pipeline: vk::Pipeline,
+    /// One per plan pass (null for dynamic rendering).
+    render_passes: Vec<vk::RenderPass>,
+    /// One per plan pass (null for dynamic rendering).
+    framebuffers: Vec<vk::Framebuffer>,
+    /// Push constants only.
+    plain_layout: vk::PipelineLayout,
+    /// Push constants and the shadow descriptor set (null without a shadow map).
+    shadow_layout: vk::PipelineLayout,
+    shadow: Option<ShadowBindings<'a>>,
+    /// One per plan pipeline.
+    pipelines: Vec<vk::Pipeline>,
     command_pool: vk::CommandPool,
     command_buffer: vk::CommandBuffer,
+    secondaries: Vec<vk::CommandBuffer>,
     fence: vk::Fence,
     extent: vk::Extent2D,
+    bias_clamp: bool,
 }
 
 impl fmt::Debug for Renderer<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Renderer")
-            .field("render_pass", &self.render_pass)
-            .field("pipeline", &self.pipeline)
+            .field("render_passes", &self.render_passes)
+            .field("pipelines", &self.pipelines)
             .field("extent", &self.extent)
             .finish_non_exhaustive()
     }
@@ -84,65 +108,127 @@ impl Drop for Renderer<'_> {
         // SAFETY: every handle is null or was created from `device`, which outlives `self`.
         // Waiting for idle first makes sure no submitted work still uses them (it matters only
         // on error paths: a normal render has already waited on its fence). Destroying null
-        // handles is a no-op; destroying the pool frees its command buffer.
+        // handles is a no-op; destroying the pools frees their command buffers and set.
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_fence(self.fence, None);
             self.device.destroy_command_pool(self.command_pool, None);
-            self.device.destroy_pipeline(self.pipeline, None);
+            for &pipeline in &self.pipelines {
+                self.device.destroy_pipeline(pipeline, None);
+            }
             self.device
-                .destroy_pipeline_layout(self.pipeline_layout, None);
-            self.device.destroy_framebuffer(self.framebuffer, None);
-            self.device.destroy_render_pass(self.render_pass, None);
+                .destroy_pipeline_layout(self.shadow_layout, None);
+            self.device.destroy_pipeline_layout(self.plain_layout, None);
+            if let Some(shadow) = &self.shadow {
+                self.device.destroy_descriptor_pool(shadow.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(shadow.set_layout, None);
+                self.device.destroy_sampler(shadow.sampler, None);
+            }
+            for &framebuffer in &self.framebuffers {
+                self.device.destroy_framebuffer(framebuffer, None);
+            }
+            for &render_pass in &self.render_passes {
+                self.device.destroy_render_pass(render_pass, None);
+            }
         }
     }
 }
 
+/// The push-constant range shared by every pipeline.
+const PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
+    stage_flags: vk::ShaderStageFlags::from_raw(
+        vk::ShaderStageFlags::VERTEX.as_raw() | vk::ShaderStageFlags::FRAGMENT.as_raw(),
+    ),
+    offset: 0,
+    size: PUSH_CONSTANT_SIZE,
+}];
+
 impl<'a> Renderer<'a> {
-    /// Creates everything needed to render into `targets`.
-    pub fn new(gpu: &'a Gpu, targets: &Targets<'_>) -> Result<Self> {
+    /// Creates everything `scene`'s plan needs to render into `targets`.
+    pub fn new(gpu: &'a Gpu, targets: &Targets<'_>, scene: &Scene) -> Result<Self> {
         let device = &gpu.device;
+        let plan = &scene.plan;
+        let needs = plan.needs();
         let mut this = Renderer {
             device,
-            render_pass: vk::RenderPass::null(),
-            framebuffer: vk::Framebuffer::null(),
-            pipeline_layout: vk::PipelineLayout::null(),
-            pipeline: vk::Pipeline::null(),
+            render_passes: Vec::new(),
+            framebuffers: Vec::new(),
+            plain_layout: vk::PipelineLayout::null(),
+            shadow_layout: vk::PipelineLayout::null(),
+            shadow: None,
+            pipelines: Vec::new(),
             command_pool: vk::CommandPool::null(),
             command_buffer: vk::CommandBuffer::null(),
+            secondaries: Vec::new(),
             fence: vk::Fence::null(),
             extent: targets.extent,
+            bias_clamp: gpu.enabled.depth_bias_clamp,
         };
-        this.render_pass = create_render_pass(device, targets)?;
+        let main = MainFormats {
+            depth: targets.depth.format,
+            stencil: targets.depth_format.has_stencil(),
+        };
+        for pass in &plan.passes {
+            if pass.kind == PassKind::DynamicRendering {
+                this.render_passes.push(vk::RenderPass::null());
+                this.framebuffers.push(vk::Framebuffer::null());
+                continue;
+            }
+            let render_pass = create_render_pass(device, pass, main)?;
+            this.render_passes.push(render_pass);
+            let (views, extent) = match pass.target {
+                Target::Main => (vec![targets.color.view, targets.depth.view], targets.extent),
+                Target::Shadow => (
+                    vec![shadow_view(targets)?],
+                    vk::Extent2D {
+                        width: SHADOW_MAP_SIZE,
+                        height: SHADOW_MAP_SIZE,
+                    },
+                ),
+            };
+            let info = vk::FramebufferCreateInfo::default()
+                .render_pass(render_pass)
+                .attachments(&views)
+                .width(extent.width)
+                .height(extent.height)
+                .layers(1);
+            // SAFETY: valid render pass and views compatible with it.
+            let framebuffer = unsafe { device.create_framebuffer(&info, None) }
+                .context("vkCreateFramebuffer failed")?;
+            this.framebuffers.push(framebuffer);
+        }
 
-        let attachments = [targets.color.view, targets.depth.view];
-        let framebuffer_info = vk::FramebufferCreateInfo::default()
-            .render_pass(this.render_pass)
-            .attachments(&attachments)
-            .width(targets.extent.width)
-            .height(targets.extent.height)
-            .layers(1);
-        // SAFETY: valid render pass and views compatible with it.
-        this.framebuffer = unsafe { device.create_framebuffer(&framebuffer_info, None) }
-            .context("vkCreateFramebuffer failed")?;
-
-        let push_constant_ranges = [vk::PushConstantRange {
-            stage_flags: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-            offset: 0,
-            size: PUSH_CONSTANT_SIZE,
-        }];
         let layout_info =
-            vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&push_constant_ranges);
+            vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&PUSH_CONSTANT_RANGES);
         // SAFETY: valid device and create info.
-        this.pipeline_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+        this.plain_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
             .context("vkCreatePipelineLayout failed")?;
+        if needs.shadow_map {
+            this.create_shadow_bindings(gpu, targets, scene)?;
+        }
 
-        this.pipeline = create_pipeline(
-            device,
-            this.render_pass,
-            this.pipeline_layout,
-            targets.extent,
-        )?;
+        for spec in &plan.pipelines {
+            let pass = &plan.passes[spec.pass];
+            let layout = if spec.program == Program::ShadowReceiver {
+                this.shadow_layout
+            } else {
+                this.plain_layout
+            };
+            let pipeline = create_pipeline(
+                device,
+                spec,
+                PipelineTarget {
+                    pass,
+                    render_pass: this.render_passes[spec.pass],
+                    layout,
+                    extent: target_extent(pass.target, targets.extent),
+                    main,
+                    bias_clamp: this.bias_clamp,
+                },
+            )?;
+            this.pipelines.push(pipeline);
+        }
 
         let pool_info = vk::CommandPoolCreateInfo::default()
             .flags(vk::CommandPoolCreateFlags::TRANSIENT)
@@ -150,16 +236,23 @@ impl<'a> Renderer<'a> {
         // SAFETY: valid device, queue family of the device's queue.
         this.command_pool = unsafe { device.create_command_pool(&pool_info, None) }
             .context("vkCreateCommandPool failed")?;
-        let allocate_info = vk::CommandBufferAllocateInfo::default()
-            .command_pool(this.command_pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        // SAFETY: valid pool.
-        this.command_buffer = unsafe { device.allocate_command_buffers(&allocate_info) }
-            .context("vkAllocateCommandBuffers failed")?
+        let allocate = |level, count| {
+            let info = vk::CommandBufferAllocateInfo::default()
+                .command_pool(this.command_pool)
+                .level(level)
+                .command_buffer_count(count);
+            // SAFETY: valid pool.
+            unsafe { device.allocate_command_buffers(&info) }
+                .context("vkAllocateCommandBuffers failed")
+        };
+        this.command_buffer = allocate(vk::CommandBufferLevel::PRIMARY, 1)?
             .into_iter()
             .next()
             .ok_or_else(|| anyhow!("vkAllocateCommandBuffers returned no command buffer"))?;
+        if needs.secondaries > 0 {
+            let count = u32::try_from(needs.secondaries).context("secondary count")?;
+            this.secondaries = allocate(vk::CommandBufferLevel::SECONDARY, count)?;
+        }
 
         // SAFETY: valid device, default (unsignalled) fence.
         this.fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
@@ -167,8 +260,152 @@ impl<'a> Renderer<'a> {
         Ok(this)
     }
 
-    /// Records the scene's draws and the read-back copies into one command buffer, submits it
-    /// and waits for it to complete. The read-back buffers are ready when this returns.
+    /// Creates the shadow receiver's descriptor set (light MVPs, shadow map, comparison
+    /// sampler) and pipeline layout.
+    fn create_shadow_bindings(
+        &mut self,
+        gpu: &'a Gpu,
+        targets: &Targets<'_>,
+        scene: &Scene,
+    ) -> Result<()> {
+        let device = self.device;
+        let mvps = scene.light_mvps();
+        if mvps.len() > MAX_LIGHT_MVPS {
+            bail!(
+                "scene '{}' has more than {MAX_LIGHT_MVPS} objects",
+                scene.name
+            );
+        }
+        let mut bytes = vec![0u8; MAX_LIGHT_MVPS * 64];
+        for (chunk, value) in bytes.chunks_exact_mut(4).zip(mvps.iter().flatten()) {
+            chunk.copy_from_slice(&value.to_le_bytes());
+        }
+        let mut light = HostBuffer::new(gpu, bytes.len(), vk::BufferUsageFlags::UNIFORM_BUFFER)
+            .context("light uniform buffer")?;
+        light.write(&bytes);
+
+        let sampler_info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::NEAREST)
+            .min_filter(vk::Filter::NEAREST)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            // Outside the map: depth 1.0, the far plane: lit.
+            .border_color(vk::BorderColor::FLOAT_OPAQUE_WHITE)
+            .compare_enable(true)
+            .compare_op(map_compare(crate::plan::Compare::LessOrEqual))
+            .min_lod(0.0)
+            .max_lod(0.0);
+        // SAFETY: valid device and create info.
+        let sampler = unsafe { device.create_sampler(&sampler_info, None) }
+            .context("vkCreateSampler failed")?;
+        // Stored at once (null handles filled in below) so that `Drop` destroys whatever was
+        // made, even if a later step fails.
+        let shadow = self.shadow.insert(ShadowBindings {
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            sampler,
+            light,
+        });
+        let bindings = [
+            (
+                0,
+                vk::DescriptorType::UNIFORM_BUFFER,
+                vk::ShaderStageFlags::VERTEX,
+            ),
+            (
+                1,
+                vk::DescriptorType::SAMPLED_IMAGE,
+                vk::ShaderStageFlags::FRAGMENT,
+            ),
+            (
+                2,
+                vk::DescriptorType::SAMPLER,
+                vk::ShaderStageFlags::FRAGMENT,
+            ),
+        ]
+        .map(|(binding, kind, stages)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(binding)
+                .descriptor_type(kind)
+                .descriptor_count(1)
+                .stage_flags(stages)
+        });
+        let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid device and create info.
+        shadow.set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
+            .context("vkCreateDescriptorSetLayout failed")?;
+        let sizes = bindings.map(|b| vk::DescriptorPoolSize {
+            ty: b.descriptor_type,
+            descriptor_count: 1,
+        });
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: valid device and create info.
+        shadow.pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+            .context("vkCreateDescriptorPool failed")?;
+        let set_layouts = [shadow.set_layout];
+        let allocate_info = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(shadow.pool)
+            .set_layouts(&set_layouts);
+        // SAFETY: valid pool with room for one set of this layout.
+        let set = unsafe { device.allocate_descriptor_sets(&allocate_info) }
+            .context("vkAllocateDescriptorSets failed")?
+            .into_iter()
+            .next()
+            .ok_or_else(|| anyhow!("vkAllocateDescriptorSets returned no set"))?;
+        shadow.set = set;
+        let light_buffer = shadow.light.buffer;
+
+        let buffer_info = [vk::DescriptorBufferInfo {
+            buffer: light_buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let image_info = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: shadow_view(targets)?,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }];
+        let sampler_info = [vk::DescriptorImageInfo {
+            sampler,
+            image_view: vk::ImageView::null(),
+            image_layout: vk::ImageLayout::UNDEFINED,
+        }];
+        let writes = [
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+                .buffer_info(&buffer_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(1)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&image_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(2)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&sampler_info),
+        ];
+        // SAFETY: valid set, buffer, view and sampler; the infos match the binding types.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&PUSH_CONSTANT_RANGES);
+        // SAFETY: valid device and create info.
+        self.shadow_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (shadow receiver) failed")?;
+        Ok(())
+    }
+
+    /// Records the plan's steps and the read-back copies, submits them and waits for them to
+    /// complete. The read-back buffers are ready when this returns.
     pub fn render(
         &self,
         gpu: &Gpu,
@@ -179,67 +416,33 @@ impl<'a> Renderer<'a> {
     ) -> Result<()> {
         let device = self.device;
         let cmd = self.command_buffer;
-        let aspect = f64::from(self.extent.width) / f64::from(self.extent.height);
         if scene.objects.len() != buffers.draws.len() {
             bail!("scene buffers were uploaded for another scene");
         }
+        scene
+            .plan
+            .check(scene.objects.len(), scene.light.is_some())
+            .with_context(|| format!("scene '{}' has a malformed plan", scene.name))?;
 
         let begin_info = vk::CommandBufferBeginInfo::default()
             .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         // SAFETY: fresh command buffer from a pool of this device, not in use.
         unsafe { device.begin_command_buffer(cmd, &begin_info) }
             .context("vkBeginCommandBuffer failed")?;
-
-        let clear_values = [
-            vk::ClearValue {
-                color: vk::ClearColorValue {
-                    float32: CLEAR_COLOR,
-                },
-            },
-            vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue {
-                    depth: CLEAR_DEPTH,
-                    stencil: CLEAR_STENCIL,
-                },
-            },
-        ];
-        let pass_begin = vk::RenderPassBeginInfo::default()
-            .render_pass(self.render_pass)
-            .framebuffer(self.framebuffer)
-            .render_area(vk::Rect2D {
-                offset: vk::Offset2D { x: 0, y: 0 },
-                extent: self.extent,
-            })
-            .clear_values(&clear_values);
-        // SAFETY: the command buffer is recording; every handle is valid and compatible (the
-        // framebuffer was made for this render pass, the pipeline for its subpass 0, the
-        // buffers hold the geometry the draw ranges index, and the push constants match the
-        // layout's single 80-byte VERTEX|FRAGMENT range).
-        unsafe {
-            device.cmd_begin_render_pass(cmd, &pass_begin, vk::SubpassContents::INLINE);
-            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline);
-            device.cmd_bind_vertex_buffers(cmd, 0, &[buffers.vertices.buffer], &[0]);
-            device.cmd_bind_index_buffer(cmd, buffers.indices.buffer, 0, vk::IndexType::UINT32);
-            for (object, draw) in scene.objects.iter().zip(&buffers.draws) {
-                let constants = scene.push_constants(object, aspect);
-                device.cmd_push_constants(
-                    cmd,
-                    self.pipeline_layout,
-                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                    0,
-                    &constants,
-                );
-                device.cmd_draw_indexed(
-                    cmd,
-                    draw.index_count,
-                    1,
-                    draw.first_index,
-                    draw.vertex_offset,
-                    0,
-                );
-            }
-            device.cmd_end_render_pass(cmd);
-        }
+        let mut recorder = Recorder {
+            renderer: self,
+            scene,
+            plan: &scene.plan,
+            buffers,
+            targets,
+            aspect: f64::from(self.extent.width) / f64::from(self.extent.height),
+            pass: None,
+            subpass: 0,
+            pipeline: None,
+            next_secondary: 0,
+        };
+        recorder.bind_geometry(cmd);
+        recorder.record(cmd, &scene.plan.steps)?;
 
         readback.record(device, cmd, targets);
 
@@ -249,7 +452,7 @@ impl<'a> Renderer<'a> {
         let command_buffers = [cmd];
         let submit = vk::SubmitInfo::default().command_buffers(&command_buffers);
         // SAFETY: executable command buffer, unsignalled fence, queue of this device; the
-        // host wrote the vertex/index buffers before the submit (implicitly visible).
+        // host wrote the vertex/index/uniform buffers before the submit (implicitly visible).
         unsafe { device.queue_submit(gpu.queue, &[submit], self.fence) }
             .context("vkQueueSubmit failed")?;
         // SAFETY: the fence was submitted above.
@@ -264,197 +467,505 @@ impl<'a> Renderer<'a> {
     }
 }
 
-/// One subpass writing the color and depth attachments. Both are cleared on load and stored;
-/// they end in their attachment layouts and `Readback::record` transitions them for copying.
-fn create_render_pass(device: &ash::Device, targets: &Targets<'_>) -> Result<vk::RenderPass> {
-    let stencil = targets.depth_format.has_stencil();
-    let attachments = [
-        vk::AttachmentDescription::default()
-            .format(targets.color.format)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
-            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
-            .initial_layout(vk::ImageLayout::UNDEFINED)
-            .final_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
-        vk::AttachmentDescription::default()
-            .format(targets.depth.format)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .stencil_load_op(if stencil {
-                vk::AttachmentLoadOp::CLEAR
-            } else {
-                vk::AttachmentLoadOp::DONT_CARE
-            })
-            .stencil_store_op(if stencil {
-                vk::AttachmentStoreOp::STORE
-            } else {
-                vk::AttachmentStoreOp::DONT_CARE
-            })
-            .initial_layout(vk::ImageLayout::UNDEFINED)
-            .final_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
-    ];
-    let color_refs = [vk::AttachmentReference {
-        attachment: 0,
-        layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-    }];
-    let depth_ref = vk::AttachmentReference {
-        attachment: 1,
-        layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-    };
-    let subpasses = [vk::SubpassDescription::default()
-        .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
-        .color_attachments(&color_refs)
-        .depth_stencil_attachment(&depth_ref)];
-    // Before the pass: nothing to wait for (fresh images, UNDEFINED layout), but the clears
-    // and the attachment writes must not start before the layout transition.
-    let dependencies = [vk::SubpassDependency {
-        src_subpass: vk::SUBPASS_EXTERNAL,
-        dst_subpass: 0,
-        src_stage_mask: vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
-            | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
-            | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS,
-        dst_stage_mask: vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
-            | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
-            | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS,
-        src_access_mask: vk::AccessFlags::empty(),
-        dst_access_mask: vk::AccessFlags::COLOR_ATTACHMENT_WRITE
-            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
-            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
-        dependency_flags: vk::DependencyFlags::empty(),
-    }];
-    let info = vk::RenderPassCreateInfo::default()
-        .attachments(&attachments)
-        .subpasses(&subpasses)
-        .dependencies(&dependencies);
-    // SAFETY: valid device; the create info refers to live locals.
-    unsafe { device.create_render_pass(&info, None) }.context("vkCreateRenderPass failed")
+/// The shadow map's view (the plan checks guarantee one exists when asked for).
+fn shadow_view(targets: &Targets<'_>) -> Result<vk::ImageView> {
+    targets
+        .shadow
+        .as_ref()
+        .map(|shadow| shadow.view)
+        .ok_or_else(|| anyhow!("the scene has a shadow pass but no shadow map was created"))
 }
 
-/// A shader module destroyed when dropped (shader modules are only needed while the pipeline
-/// is created).
-struct ShaderModule<'a> {
-    device: &'a ash::Device,
-    module: vk::ShaderModule,
-}
-
-impl Drop for ShaderModule<'_> {
-    fn drop(&mut self) {
-        // SAFETY: created from `device`; only referenced during pipeline creation.
-        unsafe { self.device.destroy_shader_module(self.module, None) };
+/// The size of a pass's target.
+fn target_extent(target: Target, main: vk::Extent2D) -> vk::Extent2D {
+    match target {
+        Target::Main => main,
+        Target::Shadow => vk::Extent2D {
+            width: SHADOW_MAP_SIZE,
+            height: SHADOW_MAP_SIZE,
+        },
     }
 }
 
-impl<'a> ShaderModule<'a> {
-    fn new(device: &'a ash::Device, source: &shaders::ShaderSource) -> Result<Self> {
-        let words = source.words()?;
-        let info = vk::ShaderModuleCreateInfo::default().code(&words);
-        // SAFETY: valid device; `words` is SPIR-V validated at build time (naga) and in tests
-        // (spirv-val).
-        let module = unsafe { device.create_shader_module(&info, None) }
-            .with_context(|| format!("vkCreateShaderModule ({}) failed", source.name))?;
-        Ok(ShaderModule { device, module })
-    }
+/// Turns plan steps into commands, tracking what the commands depend on.
+struct Recorder<'r> {
+    renderer: &'r Renderer<'r>,
+    scene: &'r Scene,
+    plan: &'r Plan,
+    buffers: &'r SceneBuffers<'r>,
+    targets: &'r Targets<'r>,
+    aspect: f64,
+    /// The current pass.
+    pass: Option<usize>,
+    /// The current subpass.
+    subpass: u32,
+    /// The bound pipeline.
+    pipeline: Option<usize>,
+    /// The next unused secondary command buffer.
+    next_secondary: usize,
 }
 
-/// The scene pipeline: vec3 positions, triangle lists, static viewport (0, 0, w, h) with
-/// depth range [0, 1], no culling, depth test LESS with depth writes, no blending, no dynamic
-/// state.
-fn create_pipeline(
-    device: &ash::Device,
-    render_pass: vk::RenderPass,
-    layout: vk::PipelineLayout,
-    extent: vk::Extent2D,
-) -> Result<vk::Pipeline> {
-    let vert = ShaderModule::new(device, &shaders::SCENE_VERT)?;
-    let frag = ShaderModule::new(device, &shaders::SCENE_FRAG)?;
-    let stages = [
-        vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::VERTEX)
-            .module(vert.module)
-            .name(c"main"),
-        vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::FRAGMENT)
-            .module(frag.module)
-            .name(c"main"),
-    ];
-    let bindings = [vk::VertexInputBindingDescription {
-        binding: 0,
-        stride: 12,
-        input_rate: vk::VertexInputRate::VERTEX,
-    }];
-    let attributes = [vk::VertexInputAttributeDescription {
-        location: 0,
-        binding: 0,
-        format: vk::Format::R32G32B32_SFLOAT,
-        offset: 0,
-    }];
-    let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
-        .vertex_binding_descriptions(&bindings)
-        .vertex_attribute_descriptions(&attributes);
-    let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-    let viewports = [vk::Viewport {
-        x: 0.0,
-        y: 0.0,
-        width: extent.width as f32,
-        height: extent.height as f32,
-        min_depth: 0.0,
-        max_depth: 1.0,
-    }];
-    let scissors = [vk::Rect2D {
-        offset: vk::Offset2D { x: 0, y: 0 },
-        extent,
-    }];
-    let viewport_state = vk::PipelineViewportStateCreateInfo::default()
-        .viewports(&viewports)
-        .scissors(&scissors);
-    let rasterization = vk::PipelineRasterizationStateCreateInfo::default()
-        .polygon_mode(vk::PolygonMode::FILL)
-        .cull_mode(vk::CullModeFlags::NONE)
-        .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
-        .line_width(1.0);
-    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-    let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
-        .depth_test_enable(true)
-        .depth_write_enable(true)
-        .depth_compare_op(vk::CompareOp::LESS)
-        .depth_bounds_test_enable(false)
-        .stencil_test_enable(false)
-        .min_depth_bounds(0.0)
-        .max_depth_bounds(1.0);
-    let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
-        .blend_enable(false)
-        .color_write_mask(vk::ColorComponentFlags::RGBA)];
-    let color_blend =
-        vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
-    let info = vk::GraphicsPipelineCreateInfo::default()
-        .stages(&stages)
-        .vertex_input_state(&vertex_input)
-        .input_assembly_state(&input_assembly)
-        .viewport_state(&viewport_state)
-        .rasterization_state(&rasterization)
-        .multisample_state(&multisample)
-        .depth_stencil_state(&depth_stencil)
-        .color_blend_state(&color_blend)
-        .layout(layout)
-        .render_pass(render_pass)
-        .subpass(0);
-    // SAFETY: valid device; every state structure and module referenced is alive for the call.
-    let pipelines =
-        unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
-            .map_err(|(pipelines, e)| {
-                for pipeline in pipelines {
-                    // SAFETY: pipelines returned by the failed call; null ones are ignored.
-                    unsafe { device.destroy_pipeline(pipeline, None) };
+impl Recorder<'_> {
+    fn device(&self) -> &ash::Device {
+        self.renderer.device
+    }
+
+    /// Binds the shared vertex and index buffers (once per command buffer).
+    fn bind_geometry(&self, cmd: vk::CommandBuffer) {
+        // SAFETY: `cmd` is recording; the buffers are valid vertex and index buffers.
+        unsafe {
+            self.device()
+                .cmd_bind_vertex_buffers(cmd, 0, &[self.buffers.vertices.buffer], &[0]);
+            self.device().cmd_bind_index_buffer(
+                cmd,
+                self.buffers.indices.buffer,
+                0,
+                vk::IndexType::UINT32,
+            );
+        }
+    }
+
+    /// Records `steps` into `cmd`.
+    fn record(&mut self, cmd: vk::CommandBuffer, steps: &[Step]) -> Result<()> {
+        for (index, step) in steps.iter().enumerate() {
+            // A subpass recorded in secondaries is begun with SECONDARY_COMMAND_BUFFERS
+            // contents (the plan check makes that its only kind of step).
+            let contents = match steps.get(index + 1) {
+                Some(Step::ExecuteSecondaries(_)) => vk::SubpassContents::SECONDARY_COMMAND_BUFFERS,
+                _ => vk::SubpassContents::INLINE,
+            };
+            match step {
+                Step::ClearDepthImage { depth } => self.clear_depth_image(cmd, *depth),
+                Step::BeginPass(n) => self.begin_pass(cmd, *n, contents),
+                Step::NextSubpass => {
+                    self.subpass += 1;
+                    // SAFETY: `cmd` is inside a render pass with another subpass (plan check).
+                    unsafe { self.device().cmd_next_subpass(cmd, contents) };
                 }
-                anyhow!("vkCreateGraphicsPipelines failed: {e}")
-            })?;
-    pipelines
-        .into_iter()
-        .next()
-        .ok_or_else(|| anyhow!("vkCreateGraphicsPipelines returned no pipeline"))
+                Step::EndPass => self.end_pass(cmd),
+                Step::Bind(n) => self.bind(cmd, *n),
+                Step::Draw(n) => self.draw(cmd, *n)?,
+                Step::SetDepthCompareOp(op) => {
+                    // SAFETY: `cmd` is recording with a bound pipeline whose compare op is
+                    // dynamic; the device is Vulkan 1.3 (checked before rendering).
+                    unsafe {
+                        self.device()
+                            .cmd_set_depth_compare_op(cmd, map_compare(*op))
+                    };
+                }
+                Step::SetDepthBias(bias) => self.set_depth_bias(cmd, *bias),
+                Step::SetDepthBounds { min, max } => {
+                    // SAFETY: `cmd` is recording; the bound pipeline's bounds are dynamic and
+                    // the depthBounds feature is enabled (checked before rendering).
+                    unsafe { self.device().cmd_set_depth_bounds(cmd, *min, *max) };
+                }
+                Step::SetViewport {
+                    min_depth,
+                    max_depth,
+                } => {
+                    let extent = self.current_extent();
+                    // SAFETY: `cmd` is recording; the bound pipeline's viewport is dynamic.
+                    unsafe {
+                        self.device().cmd_set_viewport(
+                            cmd,
+                            0,
+                            &[full_viewport(extent, *min_depth, *max_depth)],
+                        )
+                    };
+                }
+                Step::ClearDepthRect { rect, depth } => self.clear_depth_rect(cmd, *rect, *depth),
+                Step::ExecuteSecondaries(lists) => self.execute_secondaries(cmd, lists)?,
+            }
+        }
+        Ok(())
+    }
+
+    fn current_extent(&self) -> vk::Extent2D {
+        let target = self
+            .pass
+            .map_or(Target::Main, |n| self.plan.passes[n].target);
+        target_extent(target, self.targets.extent)
+    }
+
+    /// `vkCmdClearDepthStencilImage` of the main depth image, with the transitions to
+    /// TRANSFER_DST_OPTIMAL (from nothing: the image is not used before) and back to the
+    /// attachment layout the next pass loads from.
+    fn clear_depth_image(&self, cmd: vk::CommandBuffer, depth: f32) {
+        let image = self.targets.depth.image;
+        let range = full_range(self.targets.depth_format.aspects());
+        let barrier = |old, new, src_access, dst_access| {
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(src_access)
+                .dst_access_mask(dst_access)
+                .old_layout(old)
+                .new_layout(new)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(image)
+                .subresource_range(range)
+        };
+        let value = vk::ClearDepthStencilValue {
+            depth,
+            stencil: CLEAR_STENCIL,
+        };
+        // SAFETY: `cmd` is recording outside a render pass; the image has TRANSFER_DST usage
+        // (the plan's needs asked for it) and the barriers name its whole range.
+        unsafe {
+            self.device().cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier(
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::AccessFlags::empty(),
+                    vk::AccessFlags::TRANSFER_WRITE,
+                )],
+            );
+            self.device().cmd_clear_depth_stencil_image(
+                cmd,
+                image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &value,
+                &[range],
+            );
+            self.device().cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier(
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+                        | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                )],
+            );
+        }
+    }
+
+    fn begin_pass(&mut self, cmd: vk::CommandBuffer, n: usize, contents: vk::SubpassContents) {
+        self.pass = Some(n);
+        self.subpass = 0;
+        self.pipeline = None;
+        let pass = &self.plan.passes[n];
+        let depth = match pass.depth {
+            DepthLoad::Clear(depth) => depth,
+            DepthLoad::Load => 1.0,
+        };
+        let depth_clear = vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth,
+                stencil: CLEAR_STENCIL,
+            },
+        };
+        let color_clear = vk::ClearValue {
+            color: vk::ClearColorValue {
+                float32: CLEAR_COLOR,
+            },
+        };
+        if pass.kind == PassKind::DynamicRendering {
+            self.begin_rendering(cmd, n, color_clear, depth_clear);
+            return;
+        }
+        let clear_values = match pass.target {
+            Target::Main => vec![color_clear, depth_clear],
+            Target::Shadow => vec![depth_clear],
+        };
+        let begin = vk::RenderPassBeginInfo::default()
+            .render_pass(self.renderer.render_passes[n])
+            .framebuffer(self.renderer.framebuffers[n])
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: target_extent(pass.target, self.targets.extent),
+            })
+            .clear_values(&clear_values);
+        // SAFETY: `cmd` is a recording primary outside any pass; the framebuffer was made for
+        // this render pass, with one clear value per attachment.
+        unsafe { self.device().cmd_begin_render_pass(cmd, &begin, contents) };
+    }
+
+    /// `vkCmdBeginRendering` over the main target, after a barrier that puts both attachments
+    /// in their attachment layouts (from nothing when cleared, keeping them when loaded) and
+    /// orders earlier attachment writes before this rendering's load ops.
+    fn begin_rendering(
+        &self,
+        cmd: vk::CommandBuffer,
+        n: usize,
+        color_clear: vk::ClearValue,
+        depth_clear: vk::ClearValue,
+    ) {
+        let pass = &self.plan.passes[n];
+        let targets = self.targets;
+        let depth_load = match pass.depth {
+            DepthLoad::Clear(_) => vk::AttachmentLoadOp::CLEAR,
+            DepthLoad::Load => vk::AttachmentLoadOp::LOAD,
+        };
+        let color_load = map_color_load(pass.load_color);
+        let color_layout = vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL;
+        let depth_layout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+        let old = |load, layout| {
+            if load == vk::AttachmentLoadOp::LOAD {
+                layout
+            } else {
+                vk::ImageLayout::UNDEFINED
+            }
+        };
+        let barriers = [
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE)
+                .dst_access_mask(
+                    vk::AccessFlags::COLOR_ATTACHMENT_READ
+                        | vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+                )
+                .old_layout(old(color_load, color_layout))
+                .new_layout(color_layout)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(targets.color.image)
+                .subresource_range(full_range(vk::ImageAspectFlags::COLOR)),
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)
+                .dst_access_mask(
+                    vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+                        | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                )
+                .old_layout(old(depth_load, depth_layout))
+                .new_layout(depth_layout)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(targets.depth.image)
+                .subresource_range(full_range(targets.depth_format.aspects())),
+        ];
+        let stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+            | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+            | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+        let color_attachments = [vk::RenderingAttachmentInfo::default()
+            .image_view(targets.color.view)
+            .image_layout(color_layout)
+            .load_op(color_load)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(color_clear)];
+        let depth_attachment = vk::RenderingAttachmentInfo::default()
+            .image_view(targets.depth.view)
+            .image_layout(depth_layout)
+            .load_op(depth_load)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(depth_clear);
+        let mut info = vk::RenderingInfo::default()
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: targets.extent,
+            })
+            .layer_count(1)
+            .color_attachments(&color_attachments)
+            .depth_attachment(&depth_attachment);
+        if targets.depth_format.has_stencil() {
+            // The same view and clear value; the stencil is cleared to 0 or loaded with depth.
+            info = info.stencil_attachment(&depth_attachment);
+        }
+        // SAFETY: `cmd` is a recording primary outside any pass; the device has
+        // dynamicRendering enabled (checked before rendering); the views cover the images
+        // transitioned by the barrier.
+        unsafe {
+            self.device().cmd_pipeline_barrier(
+                cmd,
+                stages,
+                stages,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &barriers,
+            );
+            self.device().cmd_begin_rendering(cmd, &info);
+        }
+    }
+
+    fn end_pass(&mut self, cmd: vk::CommandBuffer) {
+        let Some(n) = self.pass.take() else { return };
+        self.pipeline = None;
+        // SAFETY: `cmd` is inside the pass begun by the matching BeginPass.
+        unsafe {
+            if self.plan.passes[n].kind == PassKind::DynamicRendering {
+                self.device().cmd_end_rendering(cmd);
+            } else {
+                self.device().cmd_end_render_pass(cmd);
+            }
+        }
+    }
+
+    fn bind(&mut self, cmd: vk::CommandBuffer, n: usize) {
+        self.pipeline = Some(n);
+        let renderer = self.renderer;
+        // SAFETY: `cmd` is inside a pass compatible with the pipeline (plan check); the
+        // descriptor set matches the shadow layout's only set.
+        unsafe {
+            self.device().cmd_bind_pipeline(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                renderer.pipelines[n],
+            );
+            if self.plan.pipelines[n].program == Program::ShadowReceiver {
+                if let Some(shadow) = &renderer.shadow {
+                    self.device().cmd_bind_descriptor_sets(
+                        cmd,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        renderer.shadow_layout,
+                        0,
+                        &[shadow.set],
+                        &[],
+                    );
+                }
+            }
+        }
+    }
+
+    fn draw(&self, cmd: vk::CommandBuffer, n: usize) -> Result<()> {
+        let pipeline = self
+            .pipeline
+            .ok_or_else(|| anyhow!("draw without a bound pipeline"))?;
+        let receiver = self.plan.pipelines[pipeline].program == Program::ShadowReceiver;
+        let layout = if receiver {
+            self.renderer.shadow_layout
+        } else {
+            self.renderer.plain_layout
+        };
+        let view = match self.pass.map(|p| self.plan.passes[p].target) {
+            Some(Target::Shadow) => View::Light,
+            _ => View::Camera,
+        };
+        let constants = self
+            .scene
+            .push_constants_in(view, &self.scene.objects[n], self.aspect);
+        let range = self.buffers.draws[n];
+        // The shadow receiver indexes its light MVPs with the instance index.
+        let first_instance = if receiver {
+            u32::try_from(n).context("object index")?
+        } else {
+            0
+        };
+        // SAFETY: `cmd` is recording inside a pass with a bound pipeline whose layout has this
+        // 80-byte VERTEX|FRAGMENT push-constant range; the draw range indexes the bound
+        // buffers.
+        unsafe {
+            self.device().cmd_push_constants(
+                cmd,
+                layout,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                0,
+                &constants,
+            );
+            self.device().cmd_draw_indexed(
+                cmd,
+                range.index_count,
+                1,
+                range.first_index,
+                range.vertex_offset,
+                first_instance,
+            );
+        }
+        Ok(())
+    }
+
+    fn set_depth_bias(&self, cmd: vk::CommandBuffer, bias: DepthBias) {
+        let clamp = if self.renderer.bias_clamp {
+            bias.clamp
+        } else {
+            0.0
+        };
+        // SAFETY: `cmd` is recording; the bound pipeline's bias is dynamic; the clamp is 0
+        // unless the depthBiasClamp feature is enabled.
+        unsafe {
+            self.device()
+                .cmd_set_depth_bias(cmd, bias.constant, clamp, bias.slope)
+        };
+    }
+
+    /// `vkCmdClearAttachments` of the depth aspect over a fraction of the target.
+    fn clear_depth_rect(&self, cmd: vk::CommandBuffer, [x0, y0, x1, y1]: [f32; 4], depth: f32) {
+        let extent = self.targets.extent;
+        let px = |f: f32, size: u32| (f * size as f32).round() as u32;
+        let (left, top) = (px(x0, extent.width), px(y0, extent.height));
+        let (right, bottom) = (px(x1, extent.width), px(y1, extent.height));
+        let rect = vk::ClearRect {
+            rect: vk::Rect2D {
+                offset: vk::Offset2D {
+                    x: left as i32,
+                    y: top as i32,
+                },
+                extent: vk::Extent2D {
+                    width: right.saturating_sub(left).max(1),
+                    height: bottom.saturating_sub(top).max(1),
+                },
+            },
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let attachment = vk::ClearAttachment {
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            color_attachment: 0,
+            clear_value: vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth,
+                    stencil: CLEAR_STENCIL,
+                },
+            },
+        };
+        // SAFETY: `cmd` is inside a main-target pass with a depth attachment; the rectangle
+        // lies within the render area.
+        unsafe {
+            self.device()
+                .cmd_clear_attachments(cmd, &[attachment], &[rect])
+        };
+    }
+
+    /// Records each list into the next secondary command buffer and executes them.
+    fn execute_secondaries(&mut self, cmd: vk::CommandBuffer, lists: &[Vec<Step>]) -> Result<()> {
+        let n = self
+            .pass
+            .ok_or_else(|| anyhow!("secondaries outside a pass"))?;
+        let mut recorded = Vec::with_capacity(lists.len());
+        for list in lists {
+            let secondary = *self
+                .renderer
+                .secondaries
+                .get(self.next_secondary)
+                .ok_or_else(|| anyhow!("not enough secondary command buffers"))?;
+            self.next_secondary += 1;
+            let inheritance = vk::CommandBufferInheritanceInfo::default()
+                .render_pass(self.renderer.render_passes[n])
+                .subpass(self.subpass)
+                .framebuffer(self.renderer.framebuffers[n]);
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(
+                    vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
+                        | vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT,
+                )
+                .inheritance_info(&inheritance);
+            // SAFETY: a fresh secondary of this device's pool; the inheritance names the
+            // current render pass, subpass and framebuffer.
+            unsafe { self.device().begin_command_buffer(secondary, &begin) }
+                .context("vkBeginCommandBuffer (secondary) failed")?;
+            // Secondaries inherit no bound state: geometry and pipeline are bound again.
+            self.pipeline = None;
+            self.bind_geometry(secondary);
+            self.record(secondary, list)?;
+            // SAFETY: the secondary is recording.
+            unsafe { self.device().end_command_buffer(secondary) }
+                .context("vkEndCommandBuffer (secondary) failed")?;
+            recorded.push(secondary);
+        }
+        self.pipeline = None;
+        // SAFETY: `cmd` is a primary inside a subpass begun with SECONDARY_COMMAND_BUFFERS
+        // contents; the secondaries were recorded for it.
+        unsafe { self.device().cmd_execute_commands(cmd, &recorded) };
+        Ok(())
+    }
 }

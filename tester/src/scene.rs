@@ -1,4 +1,5 @@
-//! Scenes as pure data (no Vulkan): a camera, generated meshes, model matrices and colors, and
+//! Scenes as pure data (no Vulkan): a camera (and, for shadow maps, a light), generated
+//! meshes, model matrices and colors, the scene's [`Plan`] (passes, pipelines and steps), and
 //! what the renderer derives from them (the shared vertex/index arrays, the draw ranges and the
 //! per-object push constants).
 //!
@@ -10,33 +11,65 @@
 //! computed in f64; each object's precomposed MVP = P * V * M is rounded once to f32, which is
 //! what most applications push.
 //!
-//! Adding a scene: add a variant to [`SceneId`] and a builder function returning a [`Scene`].
+//! Adding a scene: add a variant to [`SceneId`] and a row to [`crate::scenes::CATALOG`] naming
+//! a builder function that returns a [`Scene`].
 
 use clap::ValueEnum;
 use glam::dcamera::rh::{proj, view};
 use glam::{DMat4, DVec3, DVec4};
 
-/// The scenes the tester can render (`--scene`).
+use crate::plan::Plan;
+
+/// The scenes the tester can render (`--scene`); each variant's documentation is on its
+/// builder in [`crate::scenes`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, ValueEnum)]
 pub enum SceneId {
     /// Three cubes overlapping on screen at different depths, a tilted slab cutting through
     /// the middle one, and a ground plane.
     Overlap,
+    /// Static compare ops: depth pre-pass (LESS), EQUAL color pass, LESS_OR_EQUAL coplanar
+    /// overlay, GREATER, ALWAYS and NEVER objects.
+    CompareOps,
+    /// The same with `vkCmdSetDepthCompareOp` between draws of one pipeline.
+    CompareOpsDynamic,
+    /// Depth cleared to 0.985 by the render pass.
+    ClearRenderPass,
+    /// `vkCmdClearAttachments` of a depth rectangle to 0.98 between draws.
+    ClearAttachments,
+    /// `vkCmdClearDepthStencilImage` to 0.98, then a render pass that loads depth.
+    ClearImage,
+    /// Coplanar decals pulled forward by a static depth bias (with clamp).
+    DepthBias,
+    /// The same with `vkCmdSetDepthBias`, a different bias per decal.
+    DepthBiasDynamic,
+    /// Depth bounds [0, 0.975], static and dynamic (needs the `depthBounds` feature).
+    DepthBounds,
+    /// A sky quad drawn at viewport depth [1, 1] with LESS_OR_EQUAL behind everything.
+    ViewportSky,
+    /// A first-person weapon at viewport depth [0, 0.1], the world at [0.1, 1], one dynamic
+    /// viewport at [0.5, 1].
+    ViewportSplit,
+    /// Stencil mask (ref 1) and objects drawn with stencil EQUAL / NOT_EQUAL 1.
+    Stencil,
+    /// The overlap scene recorded into two secondary command buffers.
+    Secondary,
+    /// The overlap scene as a depth pre-pass subpass and an EQUAL color subpass.
+    Subpasses,
+    /// The overlap scene with dynamic rendering, then a second loading pass drawing more.
+    DynamicRendering,
+    /// A shadow map (native D32, sampled with a comparison sampler) darkening the ground.
+    ShadowMap,
 }
 
 impl SceneId {
     /// The CLI / report name of the scene.
     pub fn name(self) -> &'static str {
-        match self {
-            SceneId::Overlap => "overlap",
-        }
+        crate::scenes::entry(self).name
     }
 
     /// Builds the scene.
     pub fn build(self) -> Scene {
-        match self {
-            SceneId::Overlap => overlap(),
-        }
+        (crate::scenes::entry(self).build)()
     }
 }
 
@@ -77,6 +110,43 @@ impl Camera {
     pub fn forward(&self) -> DVec3 {
         (self.target - self.eye).normalize()
     }
+}
+
+/// An orthographic light "camera" (shadow maps): standard [0, 1] depth, y down like
+/// [`Camera::projection`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    /// Light position (world).
+    pub eye: DVec3,
+    /// Point looked at (world).
+    pub target: DVec3,
+    /// Up direction (world; not parallel to the view direction).
+    pub up: DVec3,
+    /// Half the width and height of the orthographic box.
+    pub half_extent: f64,
+    /// Near plane distance.
+    pub near: f64,
+    /// Far plane distance (> near).
+    pub far: f64,
+}
+
+impl Light {
+    /// World -> light clip space: orthographic, z = 0 at `near`, 1 at `far`.
+    pub fn view_projection(&self) -> DMat4 {
+        let h = self.half_extent;
+        vulkan_y_flip()
+            * proj::directx::orthographic(-h, h, -h, h, self.near, self.far)
+            * view::look_at_mat4(self.eye, self.target, self.up)
+    }
+}
+
+/// Which view-projection a draw uses: the pass's target decides.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    /// The camera's perspective (main passes).
+    Camera,
+    /// The light's orthographic projection (shadow passes).
+    Light,
 }
 
 /// Generated geometry: f32 positions and u32 triangle-list indices into them.
@@ -134,6 +204,52 @@ impl Mesh {
         mesh
     }
 
+    /// A rectangle in the xy plane (z = 0) centered on (x, y), facing +z: walls, decals,
+    /// portals.
+    pub fn rect_xy(x: f64, y: f64, half_width: f64, half_height: f64) -> Mesh {
+        let mut mesh = Mesh::default();
+        mesh.push_quad(
+            DVec3::new(x, y, 0.0),
+            DVec3::X * half_width,
+            DVec3::Y * half_height,
+        );
+        mesh
+    }
+
+    /// A full-screen quad for a [`Space::Clip`] object: clip x, y in [-1, 1] at clip depth
+    /// `z` (w = 1).
+    pub fn clip_quad(z: f64) -> Mesh {
+        let mut mesh = Mesh::default();
+        mesh.push_quad(DVec3::new(0.0, 0.0, z), DVec3::X, DVec3::Y);
+        mesh
+    }
+
+    /// The tiles `(i, j)` (for which `keep` is true) of an n x n grid over the rectangle of
+    /// [`Mesh::quad`], each tile with its own 4 vertices: two grids built with different
+    /// `keep` share the exact vertex positions and triangles of the tiles they both keep, so
+    /// those tiles rasterize to identical depths (coplanar overlays).
+    pub fn grid(half_width: f64, half_depth: f64, n: u32, keep: impl Fn(u32, u32) -> bool) -> Mesh {
+        let mut mesh = Mesh::default();
+        let (tile_w, tile_d) = (
+            2.0 * half_width / f64::from(n),
+            2.0 * half_depth / f64::from(n),
+        );
+        for i in 0..n {
+            for j in 0..n {
+                if !keep(i, j) {
+                    continue;
+                }
+                let center = DVec3::new(
+                    -half_width + (f64::from(i) + 0.5) * tile_w,
+                    0.0,
+                    -half_depth + (f64::from(j) + 0.5) * tile_d,
+                );
+                mesh.push_quad(center, DVec3::Z * tile_d * 0.5, DVec3::X * tile_w * 0.5);
+            }
+        }
+        mesh
+    }
+
     /// The positions as f64 (exactly the f32 values the GPU gets).
     pub fn positions_f64(&self) -> impl Iterator<Item = DVec3> + '_ {
         self.positions
@@ -180,9 +296,44 @@ pub struct Object {
     pub model: DMat4,
     /// Flat RGBA color (values k/255, so the UNORM color attachment stores them exactly).
     pub color: [f32; 4],
+    /// Whether `model` maps to world space (then the view's projection applies) or directly
+    /// to clip space.
+    pub space: Space,
+}
+
+/// The space an object's model matrix maps to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Space {
+    /// World space: MVP = P * V * model.
+    World,
+    /// Clip space: MVP = model, whatever the view (full-screen passes, a hard-coded clip z).
+    Clip,
 }
 
 impl Object {
+    /// A world-space object.
+    pub fn world(name: &'static str, mesh: Mesh, model: DMat4, color: [f32; 4]) -> Object {
+        Object {
+            name,
+            mesh,
+            model,
+            color,
+            space: Space::World,
+        }
+    }
+
+    /// A full-screen clip-space quad at clip depth 0.5 (its depth comes from the viewport or
+    /// is ignored by the pipeline).
+    pub fn full_screen(name: &'static str, color: [f32; 4]) -> Object {
+        Object {
+            name,
+            mesh: Mesh::clip_quad(0.5),
+            model: DMat4::IDENTITY,
+            color,
+            space: Space::Clip,
+        }
+    }
+
     /// World-space center of the mesh's bounding box.
     pub fn world_center(&self) -> DVec3 {
         self.model.transform_point3(self.mesh.bounds_center())
@@ -241,27 +392,35 @@ impl Geometry {
 /// `mat4 mvp` (column-major) at offset 0, `vec4 color` at offset 64.
 pub const PUSH_CONSTANT_SIZE: u32 = 80;
 
-/// A camera and objects, in draw order.
+/// A camera (and optionally a light), objects, and the plan that records them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
     /// The scene's name (as on the CLI).
     pub name: &'static str,
     /// The camera.
     pub camera: Camera,
-    /// The objects, nearest first (see [`Scene::new`]).
+    /// The light of shadow passes, if any.
+    pub light: Option<Light>,
+    /// The objects; [`crate::plan::Step::Draw`] names them by index.
     pub objects: Vec<Object>,
+    /// What is recorded.
+    pub plan: Plan,
 }
 
 impl Scene {
-    /// A scene whose objects are sorted nearest first (by the view depth of their centers):
-    /// drawing front to back means the depth test, not the draw order, decides visibility.
+    /// A scene whose objects are sorted nearest first (by the view depth of their centers),
+    /// drawn in that order in one render pass with the standard pipeline: drawing front to
+    /// back means the depth test, not the draw order, decides visibility.
     pub fn new(name: &'static str, camera: Camera, mut objects: Vec<Object>) -> Scene {
         let mut scene = Scene {
             name,
             camera,
+            light: None,
             objects: Vec::new(),
+            plan: Plan::single_pass(0),
         };
         objects.sort_by(|a, b| scene.view_depth(a).total_cmp(&scene.view_depth(b)));
+        scene.plan = Plan::single_pass(objects.len());
         scene.objects = objects;
         scene
     }
@@ -276,19 +435,41 @@ impl Scene {
         self.camera.projection(aspect) * self.camera.view()
     }
 
-    /// The object's P * V * M in f64.
+    /// The object's camera MVP in f64: P * V * M (or M for a clip-space object).
+    #[cfg(test)]
     pub fn mvp(&self, object: &Object, aspect: f64) -> DMat4 {
-        self.view_projection(aspect) * object.model
+        self.mvp_in(View::Camera, object, aspect)
     }
 
-    /// The 80 bytes of push constants for `object`: the MVP rounded once to f32,
-    /// column-major, then the RGBA color.
+    /// The object's MVP for `view` in f64 (a scene without a light uses its camera for
+    /// [`View::Light`]; [`Plan::check`] keeps that from happening).
+    pub fn mvp_in(&self, view: View, object: &Object, aspect: f64) -> DMat4 {
+        match (object.space, view, &self.light) {
+            (Space::Clip, _, _) => object.model,
+            (Space::World, View::Light, Some(light)) => light.view_projection() * object.model,
+            (Space::World, _, _) => self.view_projection(aspect) * object.model,
+        }
+    }
+
+    /// The 80 bytes of push constants for `object` seen by the camera: the MVP rounded once
+    /// to f32, column-major, then the RGBA color.
+    #[cfg(test)]
     pub fn push_constants(
         &self,
         object: &Object,
         aspect: f64,
     ) -> [u8; PUSH_CONSTANT_SIZE as usize] {
-        let mvp = self.mvp(object, aspect).as_mat4().to_cols_array();
+        self.push_constants_in(View::Camera, object, aspect)
+    }
+
+    /// The 80 bytes of push constants for `object` in `view`.
+    pub fn push_constants_in(
+        &self,
+        view: View,
+        object: &Object,
+        aspect: f64,
+    ) -> [u8; PUSH_CONSTANT_SIZE as usize] {
+        let mvp = self.mvp_in(view, object, aspect).as_mat4().to_cols_array();
         let mut bytes = [0u8; PUSH_CONSTANT_SIZE as usize];
         for (chunk, value) in bytes
             .chunks_exact_mut(4)
@@ -297,6 +478,18 @@ impl Scene {
             chunk.copy_from_slice(&value.to_le_bytes());
         }
         bytes
+    }
+
+    /// Every object's light MVP (f32, column-major), in object order: the uniform buffer
+    /// `shadow_receiver.vert` indexes with the draw's firstInstance. Empty without a light.
+    pub fn light_mvps(&self) -> Vec<[f32; 16]> {
+        if self.light.is_none() {
+            return Vec::new();
+        }
+        self.objects
+            .iter()
+            .map(|o| self.mvp_in(View::Light, o, 1.0).as_mat4().to_cols_array())
+            .collect()
     }
 
     /// Packs every object's mesh into shared arrays, in draw order.
@@ -318,7 +511,7 @@ impl Scene {
 
 /// A cube resting on the ground, sunk 0.05 into it (so no face is coplanar with the ground),
 /// turned by `yaw` radians about the vertical.
-fn grounded_cube(
+pub fn grounded_cube(
     name: &'static str,
     half: f64,
     x: f64,
@@ -331,20 +524,31 @@ fn grounded_cube(
         mesh: Mesh::cuboid(DVec3::splat(half)),
         model: DMat4::from_translation(DVec3::new(x, half - 0.05, z)) * DMat4::from_rotation_y(yaw),
         color,
+        space: Space::World,
     }
 }
 
 /// The `overlap` scene: three cubes of different sizes at different depths overlapping on
 /// screen, a thin tilted slab cutting through the middle cube, and a 20 x 20 ground quad.
 pub fn overlap() -> Scene {
-    let camera = Camera {
+    Scene::new("overlap", overlap_camera(), overlap_objects())
+}
+
+/// The camera of the `overlap` scene (and of most others): eye (0, 2, 6) looking at the
+/// origin, 45 degrees vertical field of view, near 0.1, far 100.
+pub fn overlap_camera() -> Camera {
+    Camera {
         eye: DVec3::new(0.0, 2.0, 6.0),
         target: DVec3::ZERO,
         up: DVec3::Y,
         fov_y: 45f64.to_radians(),
         near: 0.1,
         far: 100.0,
-    };
+    }
+}
+
+/// The objects of the `overlap` scene, unsorted.
+pub fn overlap_objects() -> Vec<Object> {
     let near_cube = grounded_cube("near cube", 0.5, -0.75, 1.9, 0.35, rgb8(230, 30, 30));
     let middle_cube = grounded_cube("middle cube", 0.75, 0.35, -0.2, -0.45, rgb8(30, 200, 40));
     let far_cube = grounded_cube("far cube", 1.2, -0.55, -3.4, 0.2, rgb8(40, 80, 240));
@@ -357,6 +561,7 @@ pub fn overlap() -> Scene {
             * DMat4::from_rotation_z(28f64.to_radians())
             * DMat4::from_rotation_x(25f64.to_radians()),
         color: rgb8(250, 210, 20),
+        space: Space::World,
     };
     // The ground extends 20 x 20, from z = -14 (far) to z = 6 (below the eye), so that all of
     // it lies in front of the near plane.
@@ -365,12 +570,9 @@ pub fn overlap() -> Scene {
         mesh: Mesh::quad(10.0, 10.0),
         model: DMat4::from_translation(DVec3::new(0.0, 0.0, -4.0)),
         color: rgb8(150, 60, 170),
+        space: Space::World,
     };
-    Scene::new(
-        "overlap",
-        camera,
-        vec![ground, far_cube, slab, middle_cube, near_cube],
-    )
+    vec![ground, far_cube, slab, middle_cube, near_cube]
 }
 
 #[cfg(test)]
@@ -432,16 +634,13 @@ mod tests {
 
     #[test]
     fn draw_order_is_nearest_first() {
-        for id in SceneId::value_variants() {
-            let scene = id.build();
-            let depths: Vec<f64> = scene.objects.iter().map(|o| scene.view_depth(o)).collect();
-            assert!(
-                depths.windows(2).all(|w| w[0] <= w[1]),
-                "{}: view depths not increasing: {depths:?}",
-                scene.name
-            );
-        }
+        // The other scenes order their draws deliberately (see `scenes`).
         let scene = overlap();
+        let depths: Vec<f64> = scene.objects.iter().map(|o| scene.view_depth(o)).collect();
+        assert!(
+            depths.windows(2).all(|w| w[0] <= w[1]),
+            "view depths not increasing: {depths:?}"
+        );
         assert_eq!(scene.objects.first().unwrap().name, "near cube");
         assert_eq!(scene.objects.last().unwrap().name, "ground");
     }

@@ -36,9 +36,21 @@ pub const SCENE_VERT: ShaderSource = shader!("scene.vert");
 /// `scene.frag`: writes `pc.color`.
 pub const SCENE_FRAG: ShaderSource = shader!("scene.frag");
 
+/// `shadow_receiver.vert`: `scene.vert` plus the light-space position (a uniform-buffer light
+/// MVP indexed by `gl_InstanceIndex`).
+pub const SHADOW_RECEIVER_VERT: ShaderSource = shader!("shadow_receiver.vert");
+/// `shadow_receiver.frag`: `pc.color` darkened where a comparison sample of the shadow map
+/// says the fragment is shadowed.
+pub const SHADOW_RECEIVER_FRAG: ShaderSource = shader!("shadow_receiver.frag");
+
 /// Every embedded module.
 #[cfg(test)]
-pub const ALL: &[ShaderSource] = &[SCENE_VERT, SCENE_FRAG];
+pub const ALL: &[ShaderSource] = &[
+    SCENE_VERT,
+    SCENE_FRAG,
+    SHADOW_RECEIVER_VERT,
+    SHADOW_RECEIVER_FRAG,
+];
 
 #[cfg(test)]
 mod tests {

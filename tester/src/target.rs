@@ -1,6 +1,9 @@
 //! The offscreen render target: the depth-format choice (`--depth-format`) and the two
 //! attachments (an R8G8B8A8_UNORM color image and a depth image of the chosen format), each in
-//! device-local memory with its image view, both usable as transfer sources for read-back.
+//! device-local memory with its image view, the color image usable as a transfer source for
+//! read-back, the depth image too unless `--no-depth-readback` (and a transfer destination
+//! only for scenes that clear it with `vkCmdClearDepthStencilImage`); plus, for shadow-map
+//! scenes, a D32_SFLOAT shadow map with SAMPLED usage (never read back, never transferred).
 
 use std::fmt;
 
@@ -142,7 +145,9 @@ impl Drop for Attachment<'_> {
 }
 
 impl<'a> Attachment<'a> {
-    fn new(
+    /// Creates a 2D single-sample image of `format` with `usage`, its memory and a view of
+    /// `aspects`.
+    pub fn new(
         gpu: &'a Gpu,
         format: vk::Format,
         aspects: vk::ImageAspectFlags,
@@ -207,7 +212,23 @@ pub fn full_range(aspects: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
     }
 }
 
-/// The offscreen color and depth attachments.
+/// The size of the shadow map (square).
+pub const SHADOW_MAP_SIZE: u32 = 512;
+/// The shadow map's format.
+pub const SHADOW_MAP_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+
+/// What the targets must support besides rendering.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TargetOptions {
+    /// The depth image is read back (TRANSFER_SRC usage).
+    pub depth_readback: bool,
+    /// The depth image is cleared with `vkCmdClearDepthStencilImage` (TRANSFER_DST usage).
+    pub clear_depth_image: bool,
+    /// A shadow map is needed.
+    pub shadow_map: bool,
+}
+
+/// The offscreen color and depth attachments (and the shadow map, if any).
 #[derive(Debug)]
 pub struct Targets<'a> {
     /// Size in pixels.
@@ -216,13 +237,22 @@ pub struct Targets<'a> {
     pub depth_format: DepthFormat,
     /// R8G8B8A8_UNORM, COLOR_ATTACHMENT | TRANSFER_SRC.
     pub color: Attachment<'a>,
-    /// The chosen depth format, DEPTH_STENCIL_ATTACHMENT | TRANSFER_SRC.
+    /// The chosen depth format, DEPTH_STENCIL_ATTACHMENT, plus TRANSFER_SRC when read back and
+    /// TRANSFER_DST when cleared as an image.
     pub depth: Attachment<'a>,
+    /// D32_SFLOAT, [`SHADOW_MAP_SIZE`] square, DEPTH_STENCIL_ATTACHMENT | SAMPLED.
+    pub shadow: Option<Attachment<'a>>,
 }
 
 impl<'a> Targets<'a> {
-    /// Checks format support and creates both attachments.
-    pub fn new(gpu: &'a Gpu, width: u32, height: u32, depth_format: DepthFormat) -> Result<Self> {
+    /// Checks format support and creates the attachments.
+    pub fn new(
+        gpu: &'a Gpu,
+        width: u32,
+        height: u32,
+        depth_format: DepthFormat,
+        options: TargetOptions,
+    ) -> Result<Self> {
         if width == 0 || height == 0 {
             bail!("the render size must not be empty (got {width}x{height})");
         }
@@ -233,11 +263,21 @@ impl<'a> Targets<'a> {
             vk::FormatFeatureFlags::COLOR_ATTACHMENT | vk::FormatFeatureFlags::TRANSFER_SRC,
             "a color attachment",
         )?;
+        let mut depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+        let mut depth_features = vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT;
+        if options.depth_readback {
+            depth_usage |= vk::ImageUsageFlags::TRANSFER_SRC;
+            depth_features |= vk::FormatFeatureFlags::TRANSFER_SRC;
+        }
+        if options.clear_depth_image {
+            depth_usage |= vk::ImageUsageFlags::TRANSFER_DST;
+            depth_features |= vk::FormatFeatureFlags::TRANSFER_DST;
+        }
         require_format(
             gpu,
             depth_format.vk_format(),
             depth_format.vk_name(),
-            vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT | vk::FormatFeatureFlags::TRANSFER_SRC,
+            depth_features,
             "a depth attachment",
         )?;
         let extent = vk::Extent2D { width, height };
@@ -252,14 +292,37 @@ impl<'a> Targets<'a> {
             gpu,
             depth_format.vk_format(),
             depth_format.aspects(),
-            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+            depth_usage,
             extent,
         )?;
+        let shadow = if options.shadow_map {
+            require_format(
+                gpu,
+                SHADOW_MAP_FORMAT,
+                "D32_SFLOAT",
+                vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::FormatFeatureFlags::SAMPLED_IMAGE,
+                "a sampled shadow map",
+            )?;
+            Some(Attachment::new(
+                gpu,
+                SHADOW_MAP_FORMAT,
+                vk::ImageAspectFlags::DEPTH,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+                vk::Extent2D {
+                    width: SHADOW_MAP_SIZE,
+                    height: SHADOW_MAP_SIZE,
+                },
+            )?)
+        } else {
+            None
+        };
         Ok(Targets {
             extent,
             depth_format,
             color,
             depth,
+            shadow,
         })
     }
 

@@ -4,8 +4,8 @@
 use std::process::Command;
 
 use revz_tests::{
-    differing_depths, differing_pixels, flip_color_tolerance, flip_tolerance, Harness, LAYER_NAME,
-    MODES,
+    differing_depths, differing_pixels, flip_color_tolerance, flip_tolerance, Harness,
+    DEPTH_FORMATS, LAYER_NAME, MODES,
 };
 
 /// Renders `format` natively, then through the layer in every mode, and requires the layer's
@@ -58,11 +58,20 @@ fn passthrough_is_bit_identical(format: &str) {
 /// native render and the depth read back is 1 - the native depth within the format's
 /// resolution.
 fn flip_reverses_depth_and_keeps_color(format: &str) {
+    flip_scene("overlap", format);
+}
+
+/// Renders `scene` natively and in flip mode (depth readback allowed) and compares them;
+/// returns the flip render's log.
+fn flip_scene(scene: &str, format: &str) -> String {
     let harness = Harness::locate();
-    let native_dir = harness.scratch_dir(&format!("flip-{format}-native"));
-    let native = harness.render(harness.tester(format, &native_dir), &native_dir);
-    let dir = harness.scratch_dir(&format!("flip-{format}"));
+    let native_dir = harness.scratch_dir(&format!("flip-{scene}-{format}-native"));
+    let mut command = harness.tester(format, &native_dir);
+    command.args(["--scene", scene]);
+    let native = harness.render(command, &native_dir);
+    let dir = harness.scratch_dir(&format!("flip-{scene}-{format}"));
     let mut command = harness.tester(format, &dir);
+    command.args(["--scene", scene]);
     harness
         .with_layer(&mut command)
         .env("REVZ_MODE", "flip")
@@ -70,12 +79,12 @@ fn flip_reverses_depth_and_keeps_color(format: &str) {
         .env("REVZ_LOG", "info");
     let flipped = harness.render(command, &dir);
     let stderr = flipped.stderr();
-    assert!(stderr.contains("): reversed"), "{stderr}");
+    assert!(stderr.contains("): reversed"), "{scene} {format}: {stderr}");
 
     let differing = differing_pixels(&native.color(), &flipped.color());
     assert!(
         differing <= flip_color_tolerance(format),
-        "{format}: {differing} color pixels differ from the native render"
+        "{scene} {format}: {differing} color pixels differ from the native render"
     );
     let tolerance = flip_tolerance(format);
     let (a, b) = (native.depth(), flipped.depth());
@@ -86,13 +95,98 @@ fn flip_reverses_depth_and_keeps_color(format: &str) {
         .fold(0.0, f64::max);
     assert!(
         worst <= f64::from(tolerance),
-        "{format}: depth differs from 1 - native by up to {worst:e} (bound {tolerance:e})"
+        "{scene} {format}: depth differs from 1 - native by up to {worst:e} \
+         (bound {tolerance:e})"
     );
-    // The clear value was flipped too: the background reads 0, not 1.
-    assert!(
-        b.contains(&0.0),
-        "{format}: no pixel holds the flipped clear"
-    );
+    stderr
+}
+
+/// One test per scene of the flip path, over every depth format the scene supports.
+macro_rules! flip_scene_tests {
+    ($($test:ident: $scene:literal, $formats:expr;)*) => {$(
+        #[test]
+        fn $test() {
+            for format in $formats {
+                flip_scene($scene, format);
+            }
+        }
+    )*};
+}
+
+const STENCIL_FORMATS: [&str; 2] = ["d24-s8", "d32-s8"];
+
+flip_scene_tests! {
+    flip_compare_ops: "compare-ops", DEPTH_FORMATS;
+    flip_compare_ops_dynamic: "compare-ops-dynamic", DEPTH_FORMATS;
+    flip_clear_render_pass: "clear-render-pass", DEPTH_FORMATS;
+    flip_clear_attachments: "clear-attachments", DEPTH_FORMATS;
+    flip_clear_image: "clear-image", DEPTH_FORMATS;
+    flip_depth_bias: "depth-bias", DEPTH_FORMATS;
+    flip_depth_bias_dynamic: "depth-bias-dynamic", DEPTH_FORMATS;
+    flip_viewport_sky: "viewport-sky", DEPTH_FORMATS;
+    flip_viewport_split: "viewport-split", DEPTH_FORMATS;
+    flip_stencil: "stencil", STENCIL_FORMATS;
+    flip_secondary: "secondary", DEPTH_FORMATS;
+    flip_subpasses: "subpasses", DEPTH_FORMATS;
+    flip_dynamic_rendering: "dynamic-rendering", DEPTH_FORMATS;
+}
+
+/// The shadow map is sampled: it stays native while the main pass is reversed, and the shadows
+/// land where they do without the layer.
+#[test]
+fn flip_shadow_map_keeps_the_sampled_map_native() {
+    for format in DEPTH_FORMATS {
+        let log = flip_scene("shadow-map", format);
+        assert!(
+            log.contains("D32_SFLOAT, 512x512): native, because shaders read it (SAMPLED)"),
+            "{format}: {log}"
+        );
+    }
+}
+
+/// Without depth readback the main attachment is not observable: the default policy reverses
+/// it, and the color still matches the native render.
+#[test]
+fn unobservable_attachments_are_reversed_by_default() {
+    let harness = Harness::locate();
+    for scene in ["overlap", "shadow-map", "secondary"] {
+        let native_dir = harness.scratch_dir(&format!("unobserved-{scene}-native"));
+        let mut command = harness.tester("d32", &native_dir);
+        command.args(["--scene", scene, "--no-depth-readback"]);
+        let native = harness.render(command, &native_dir);
+        let dir = harness.scratch_dir(&format!("unobserved-{scene}"));
+        let mut command = harness.tester("d32", &dir);
+        command.args(["--scene", scene, "--no-depth-readback"]);
+        harness
+            .with_layer(&mut command)
+            .env("REVZ_MODE", "flip")
+            .env("REVZ_LOG", "info");
+        let flipped = harness.render(command, &dir);
+        let log = flipped.stderr();
+        assert!(
+            log.contains("(D32_SFLOAT, 256x256): reversed"),
+            "{scene}: {log}"
+        );
+        assert_eq!(
+            differing_pixels(&native.color(), &flipped.color()),
+            0,
+            "{scene}"
+        );
+    }
+}
+
+/// lavapipe has no `depthBounds`: the scene refuses to run there (the state item is covered by
+/// the command-state unit tests, and runs on devices that have the feature).
+#[test]
+fn depth_bounds_scene_needs_the_feature() {
+    let harness = Harness::locate();
+    let dir = harness.scratch_dir("depth-bounds");
+    let mut command = harness.tester("d32", &dir);
+    command.args(["--scene", "depth-bounds"]);
+    let output = command.output().expect("run the tester");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("device lacks depthBounds"), "{stderr}");
 }
 
 #[test]

@@ -1,0 +1,502 @@
+//! Vulkan objects made from a scene's [`Plan`] data: render passes (one or two subpasses, main
+//! target or shadow map) and graphics pipelines (their depth, stencil, bias, bounds and
+//! viewport state, static or dynamic; made for a render pass or for dynamic rendering), and
+//! the pure maps from the plan's enums to Vulkan's.
+
+use anyhow::{anyhow, Context, Result};
+use ash::vk;
+
+use crate::plan::{
+    Bias, Bounds, Compare, DepthLoad, DepthTest, PassKind, PassSpec, PipelineSpec, Program,
+    StencilTest, StencilWrite, Target, Viewport,
+};
+use crate::shaders::{self, ShaderSource};
+use crate::target::{COLOR_FORMAT, SHADOW_MAP_FORMAT};
+
+/// `VkCompareOp` of a [`Compare`].
+pub fn map_compare(op: Compare) -> vk::CompareOp {
+    match op {
+        Compare::Never => vk::CompareOp::NEVER,
+        Compare::Less => vk::CompareOp::LESS,
+        Compare::Equal => vk::CompareOp::EQUAL,
+        Compare::LessOrEqual => vk::CompareOp::LESS_OR_EQUAL,
+        Compare::Greater => vk::CompareOp::GREATER,
+        Compare::NotEqual => vk::CompareOp::NOT_EQUAL,
+        Compare::GreaterOrEqual => vk::CompareOp::GREATER_OR_EQUAL,
+        Compare::Always => vk::CompareOp::ALWAYS,
+    }
+}
+
+/// `VkAttachmentLoadOp` of a depth load.
+fn map_depth_load(load: DepthLoad) -> vk::AttachmentLoadOp {
+    match load {
+        DepthLoad::Clear(_) => vk::AttachmentLoadOp::CLEAR,
+        DepthLoad::Load => vk::AttachmentLoadOp::LOAD,
+    }
+}
+
+/// `VkAttachmentLoadOp` of the color attachment.
+pub fn map_color_load(load_color: bool) -> vk::AttachmentLoadOp {
+    if load_color {
+        vk::AttachmentLoadOp::LOAD
+    } else {
+        vk::AttachmentLoadOp::CLEAR
+    }
+}
+
+/// The layout an attachment must be in before a pass: anything (UNDEFINED) when it is
+/// cleared, its attachment layout (where the previous pass or clear left it) when loaded.
+fn initial_layout(
+    load: vk::AttachmentLoadOp,
+    attachment_layout: vk::ImageLayout,
+) -> vk::ImageLayout {
+    if load == vk::AttachmentLoadOp::LOAD {
+        attachment_layout
+    } else {
+        vk::ImageLayout::UNDEFINED
+    }
+}
+
+/// The static depth-stencil state of `spec` (the dynamic parts get placeholder values).
+fn depth_stencil_state(spec: &PipelineSpec) -> vk::PipelineDepthStencilStateCreateInfo<'static> {
+    let (test, op) = match spec.depth_test {
+        DepthTest::Off => (false, vk::CompareOp::ALWAYS),
+        DepthTest::Static(op) => (true, map_compare(op)),
+        DepthTest::Dynamic => (true, vk::CompareOp::ALWAYS),
+    };
+    let (bounds_test, min, max) = match spec.bounds {
+        Bounds::Off | Bounds::Dynamic => (spec.bounds == Bounds::Dynamic, 0.0, 1.0),
+        Bounds::Static { min, max } => (true, min, max),
+    };
+    let stencil_op = |test: StencilTest| {
+        vk::StencilOpState::default()
+            .fail_op(vk::StencilOp::KEEP)
+            .depth_fail_op(vk::StencilOp::KEEP)
+            .pass_op(match test.on_pass {
+                StencilWrite::Keep => vk::StencilOp::KEEP,
+                StencilWrite::Replace => vk::StencilOp::REPLACE,
+            })
+            .compare_op(map_compare(test.compare))
+            .compare_mask(0xff)
+            .write_mask(0xff)
+            .reference(test.reference)
+    };
+    let mut state = vk::PipelineDepthStencilStateCreateInfo::default()
+        .depth_test_enable(test)
+        .depth_write_enable(spec.depth_write)
+        .depth_compare_op(op)
+        .depth_bounds_test_enable(bounds_test)
+        .min_depth_bounds(min)
+        .max_depth_bounds(max)
+        .stencil_test_enable(spec.stencil.is_some());
+    if let Some(test) = spec.stencil {
+        state = state.front(stencil_op(test)).back(stencil_op(test));
+    }
+    state
+}
+
+/// The dynamic states of `spec`.
+fn dynamic_states(spec: &PipelineSpec) -> Vec<vk::DynamicState> {
+    [
+        (
+            spec.depth_test == DepthTest::Dynamic,
+            vk::DynamicState::DEPTH_COMPARE_OP,
+        ),
+        (spec.bias == Bias::Dynamic, vk::DynamicState::DEPTH_BIAS),
+        (
+            spec.bounds == Bounds::Dynamic,
+            vk::DynamicState::DEPTH_BOUNDS,
+        ),
+        (
+            spec.viewport == Viewport::Dynamic,
+            vk::DynamicState::VIEWPORT,
+        ),
+    ]
+    .into_iter()
+    .filter_map(|(on, state)| on.then_some(state))
+    .collect()
+}
+
+/// The attachment formats of the main target, for render passes and dynamic rendering.
+#[derive(Clone, Copy, Debug)]
+pub struct MainFormats {
+    /// The depth (or depth-stencil) format.
+    pub depth: vk::Format,
+    /// Whether it has a stencil aspect.
+    pub stencil: bool,
+}
+
+/// Creates the render pass of `pass` (not for [`PassKind::DynamicRendering`]).
+///
+/// Main target: attachment 0 color, attachment 1 depth(-stencil); the stencil is cleared or
+/// loaded with the depth. Every attachment is stored and ends in its attachment layout (the
+/// read-back transitions it). Shadow map: one D32 attachment ending in
+/// SHADER_READ_ONLY_OPTIMAL, with an outgoing dependency making its writes visible to the
+/// fragment shaders of later passes.
+pub fn create_render_pass(
+    device: &ash::Device,
+    pass: &PassSpec,
+    main: MainFormats,
+) -> Result<vk::RenderPass> {
+    let depth_load = map_depth_load(pass.depth);
+    let ds_layout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    let color_layout = vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL;
+    let mut attachments = Vec::new();
+    let depth_index;
+    match pass.target {
+        Target::Main => {
+            let color_load = map_color_load(pass.load_color);
+            attachments.push(
+                vk::AttachmentDescription::default()
+                    .format(COLOR_FORMAT)
+                    .samples(vk::SampleCountFlags::TYPE_1)
+                    .load_op(color_load)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+                    .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+                    .initial_layout(initial_layout(color_load, color_layout))
+                    .final_layout(color_layout),
+            );
+            depth_index = 1;
+            attachments.push(
+                vk::AttachmentDescription::default()
+                    .format(main.depth)
+                    .samples(vk::SampleCountFlags::TYPE_1)
+                    .load_op(depth_load)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .stencil_load_op(if main.stencil {
+                        depth_load
+                    } else {
+                        vk::AttachmentLoadOp::DONT_CARE
+                    })
+                    .stencil_store_op(if main.stencil {
+                        vk::AttachmentStoreOp::STORE
+                    } else {
+                        vk::AttachmentStoreOp::DONT_CARE
+                    })
+                    .initial_layout(initial_layout(depth_load, ds_layout))
+                    .final_layout(ds_layout),
+            );
+        }
+        Target::Shadow => {
+            depth_index = 0;
+            attachments.push(
+                vk::AttachmentDescription::default()
+                    .format(SHADOW_MAP_FORMAT)
+                    .samples(vk::SampleCountFlags::TYPE_1)
+                    .load_op(depth_load)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+                    .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+                    .initial_layout(initial_layout(depth_load, ds_layout))
+                    .final_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+            );
+        }
+    }
+    let color_refs = [vk::AttachmentReference {
+        attachment: 0,
+        layout: color_layout,
+    }];
+    let depth_ref = vk::AttachmentReference {
+        attachment: depth_index,
+        layout: ds_layout,
+    };
+    let subpass = |color: bool| {
+        let description = vk::SubpassDescription::default()
+            .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+            .depth_stencil_attachment(&depth_ref);
+        if color {
+            description.color_attachments(&color_refs)
+        } else {
+            description
+        }
+    };
+    let subpasses: Vec<vk::SubpassDescription<'_>> = (0..pass.kind.subpass_count())
+        .map(|n| subpass(pass.has_color(n)))
+        .collect();
+
+    let attachment_stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+        | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+        | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+    let depth_stages =
+        vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+    let depth_access = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+        | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
+    // Before the pass: the attachment writes of earlier passes (or nothing, for fresh images)
+    // come before this pass's load ops (reads for LOAD, writes for CLEAR) and layout changes.
+    let mut dependencies = vec![vk::SubpassDependency {
+        src_subpass: vk::SUBPASS_EXTERNAL,
+        dst_subpass: 0,
+        src_stage_mask: attachment_stages,
+        dst_stage_mask: attachment_stages,
+        src_access_mask: vk::AccessFlags::COLOR_ATTACHMENT_WRITE
+            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+        dst_access_mask: vk::AccessFlags::COLOR_ATTACHMENT_READ
+            | vk::AccessFlags::COLOR_ATTACHMENT_WRITE
+            | depth_access,
+        dependency_flags: vk::DependencyFlags::empty(),
+    }];
+    if pass.kind == PassKind::DepthPrepassSubpasses {
+        // Subpass 0's depth writes before subpass 1's depth tests (same pixel: by region).
+        dependencies.push(vk::SubpassDependency {
+            src_subpass: 0,
+            dst_subpass: 1,
+            src_stage_mask: depth_stages,
+            dst_stage_mask: depth_stages,
+            src_access_mask: vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+            dst_access_mask: depth_access,
+            dependency_flags: vk::DependencyFlags::BY_REGION,
+        });
+    }
+    if pass.target == Target::Shadow {
+        dependencies.push(vk::SubpassDependency {
+            src_subpass: 0,
+            dst_subpass: vk::SUBPASS_EXTERNAL,
+            src_stage_mask: depth_stages,
+            dst_stage_mask: vk::PipelineStageFlags::FRAGMENT_SHADER,
+            src_access_mask: vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+            dst_access_mask: vk::AccessFlags::SHADER_READ,
+            dependency_flags: vk::DependencyFlags::empty(),
+        });
+    }
+    let info = vk::RenderPassCreateInfo::default()
+        .attachments(&attachments)
+        .subpasses(&subpasses)
+        .dependencies(&dependencies);
+    // SAFETY: valid device; the create info refers to live locals.
+    unsafe { device.create_render_pass(&info, None) }.context("vkCreateRenderPass failed")
+}
+
+/// A shader module destroyed when dropped (shader modules are only needed while the pipeline
+/// is created).
+struct ShaderModule<'a> {
+    device: &'a ash::Device,
+    module: vk::ShaderModule,
+}
+
+impl Drop for ShaderModule<'_> {
+    fn drop(&mut self) {
+        // SAFETY: created from `device`; only referenced during pipeline creation.
+        unsafe { self.device.destroy_shader_module(self.module, None) };
+    }
+}
+
+impl<'a> ShaderModule<'a> {
+    fn new(device: &'a ash::Device, source: &ShaderSource) -> Result<Self> {
+        let words = source.words()?;
+        let info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: valid device; `words` is SPIR-V validated at build time (naga) and in tests
+        // (spirv-val).
+        let module = unsafe { device.create_shader_module(&info, None) }
+            .with_context(|| format!("vkCreateShaderModule ({}) failed", source.name))?;
+        Ok(ShaderModule { device, module })
+    }
+}
+
+/// Everything a pipeline is made against besides its spec.
+#[derive(Clone, Copy, Debug)]
+pub struct PipelineTarget<'p> {
+    /// The pass the pipeline is made for.
+    pub pass: &'p PassSpec,
+    /// Its render pass (null for dynamic rendering).
+    pub render_pass: vk::RenderPass,
+    /// The pipeline layout.
+    pub layout: vk::PipelineLayout,
+    /// The size of the pass's target (the viewport and scissor).
+    pub extent: vk::Extent2D,
+    /// The main target's formats (dynamic rendering).
+    pub main: MainFormats,
+    /// Whether the `depthBiasClamp` feature is enabled (else the clamp is 0).
+    pub bias_clamp: bool,
+}
+
+/// Creates the pipeline of `spec`: vec3 positions, triangle lists, no culling, the viewport
+/// covering the target, and the spec's depth, stencil, bias, bounds and dynamic state.
+pub fn create_pipeline(
+    device: &ash::Device,
+    spec: &PipelineSpec,
+    target: PipelineTarget<'_>,
+) -> Result<vk::Pipeline> {
+    let (vertex, fragment) = match spec.program {
+        Program::Flat => (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG)),
+        Program::DepthOnly => (shaders::SCENE_VERT, None),
+        Program::ShadowReceiver => (
+            shaders::SHADOW_RECEIVER_VERT,
+            Some(shaders::SHADOW_RECEIVER_FRAG),
+        ),
+    };
+    let vert = ShaderModule::new(device, &vertex)?;
+    let frag = fragment
+        .map(|source| ShaderModule::new(device, &source))
+        .transpose()?;
+    let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
+        .stage(vk::ShaderStageFlags::VERTEX)
+        .module(vert.module)
+        .name(c"main")];
+    if let Some(frag) = &frag {
+        stages.push(
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(frag.module)
+                .name(c"main"),
+        );
+    }
+    let bindings = [vk::VertexInputBindingDescription {
+        binding: 0,
+        stride: 12,
+        input_rate: vk::VertexInputRate::VERTEX,
+    }];
+    let attributes = [vk::VertexInputAttributeDescription {
+        location: 0,
+        binding: 0,
+        format: vk::Format::R32G32B32_SFLOAT,
+        offset: 0,
+    }];
+    let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
+        .vertex_binding_descriptions(&bindings)
+        .vertex_attribute_descriptions(&attributes);
+    let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let (min_depth, max_depth) = match spec.viewport {
+        Viewport::Static {
+            min_depth,
+            max_depth,
+        } => (min_depth, max_depth),
+        Viewport::Dynamic => (0.0, 1.0),
+    };
+    let viewports = [full_viewport(target.extent, min_depth, max_depth)];
+    let scissors = [vk::Rect2D {
+        offset: vk::Offset2D { x: 0, y: 0 },
+        extent: target.extent,
+    }];
+    let viewport_state = vk::PipelineViewportStateCreateInfo::default()
+        .viewports(&viewports)
+        .scissors(&scissors);
+    let mut rasterization = vk::PipelineRasterizationStateCreateInfo::default()
+        .polygon_mode(vk::PolygonMode::FILL)
+        .cull_mode(vk::CullModeFlags::NONE)
+        .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+        .line_width(1.0);
+    match spec.bias {
+        Bias::Off => {}
+        Bias::Dynamic => rasterization = rasterization.depth_bias_enable(true),
+        Bias::Static(bias) => {
+            rasterization = rasterization
+                .depth_bias_enable(true)
+                .depth_bias_constant_factor(bias.constant)
+                .depth_bias_slope_factor(bias.slope)
+                .depth_bias_clamp(if target.bias_clamp { bias.clamp } else { 0.0 });
+        }
+    }
+    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let depth_stencil = depth_stencil_state(spec);
+    let blend_attachments: Vec<vk::PipelineColorBlendAttachmentState> =
+        if target.pass.has_color(spec.subpass) {
+            vec![vk::PipelineColorBlendAttachmentState::default()
+                .blend_enable(false)
+                .color_write_mask(if spec.color_write {
+                    vk::ColorComponentFlags::RGBA
+                } else {
+                    vk::ColorComponentFlags::empty()
+                })]
+        } else {
+            Vec::new()
+        };
+    let color_blend =
+        vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+    let dynamic = dynamic_states(spec);
+    let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
+
+    let color_formats = [COLOR_FORMAT];
+    let mut rendering = vk::PipelineRenderingCreateInfo::default()
+        .color_attachment_formats(&color_formats)
+        .depth_attachment_format(target.main.depth)
+        .stencil_attachment_format(if target.main.stencil {
+            target.main.depth
+        } else {
+            vk::Format::UNDEFINED
+        });
+    let mut info = vk::GraphicsPipelineCreateInfo::default()
+        .stages(&stages)
+        .vertex_input_state(&vertex_input)
+        .input_assembly_state(&input_assembly)
+        .viewport_state(&viewport_state)
+        .rasterization_state(&rasterization)
+        .multisample_state(&multisample)
+        .depth_stencil_state(&depth_stencil)
+        .color_blend_state(&color_blend)
+        .dynamic_state(&dynamic_state)
+        .layout(target.layout);
+    if target.pass.kind == PassKind::DynamicRendering {
+        info = info.push_next(&mut rendering);
+    } else {
+        info = info.render_pass(target.render_pass).subpass(spec.subpass);
+    }
+    // SAFETY: valid device; every state structure and module referenced is alive for the call.
+    let pipelines =
+        unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
+            .map_err(|(pipelines, e)| {
+                for pipeline in pipelines {
+                    // SAFETY: pipelines returned by the failed call; null ones are ignored.
+                    unsafe { device.destroy_pipeline(pipeline, None) };
+                }
+                anyhow!("vkCreateGraphicsPipelines ({}) failed: {e}", spec.name)
+            })?;
+    pipelines
+        .into_iter()
+        .next()
+        .ok_or_else(|| anyhow!("vkCreateGraphicsPipelines returned no pipeline"))
+}
+
+/// The viewport covering `extent` with depth range [min_depth, max_depth].
+pub fn full_viewport(extent: vk::Extent2D, min_depth: f32, max_depth: f32) -> vk::Viewport {
+    vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: extent.width as f32,
+        height: extent.height as f32,
+        min_depth,
+        max_depth,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compare_ops_map_to_their_vulkan_values() {
+        // VkCompareOp values are 0..7 in the order of the enum.
+        let ops = [
+            Compare::Never,
+            Compare::Less,
+            Compare::Equal,
+            Compare::LessOrEqual,
+            Compare::Greater,
+            Compare::NotEqual,
+            Compare::GreaterOrEqual,
+            Compare::Always,
+        ];
+        for (value, op) in ops.into_iter().enumerate() {
+            assert_eq!(map_compare(op).as_raw(), value as i32, "{op:?}");
+        }
+    }
+
+    #[test]
+    fn only_dynamic_parts_become_dynamic_states() {
+        let standard = PipelineSpec::standard("s", 0);
+        assert!(dynamic_states(&standard).is_empty());
+        let all = PipelineSpec {
+            depth_test: DepthTest::Dynamic,
+            bias: Bias::Dynamic,
+            bounds: Bounds::Dynamic,
+            viewport: Viewport::Dynamic,
+            ..standard
+        };
+        assert_eq!(dynamic_states(&all).len(), 4);
+        let state = depth_stencil_state(&all);
+        assert_eq!(state.depth_test_enable, vk::TRUE);
+        assert_eq!(state.depth_bounds_test_enable, vk::TRUE);
+    }
+}

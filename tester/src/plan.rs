@@ -1,0 +1,881 @@
+//! What a scene records, as data (no Vulkan): the passes it renders (render passes with one or
+//! two subpasses, dynamic rendering, a shadow-map pass), the pipelines it creates (their depth,
+//! stencil, bias, bounds and viewport state, static or dynamic) and the ordered list of steps
+//! the renderer turns into commands (`render.rs` interprets them one by one).
+//!
+//! Design: a scene is data plus this small command language, so that adding a scene never
+//! touches the renderer unless it needs a new kind of command. [`Plan::check`] states every
+//! rule the renderer relies on (indices in range, passes balanced, pipelines used only in the
+//! pass and subpass they were made for, dynamic state set before the draws that need it), so a
+//! malformed plan is an error before any Vulkan call, and every scene is checked in the unit
+//! tests. What a plan needs from the device ([`Needs`]) is derived from it, never declared
+//! separately.
+
+use std::fmt;
+
+/// A depth or stencil comparison, as `VkCompareOp` (ours, so that scene data stays free of
+/// Vulkan and tests can evaluate it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Compare {
+    /// Never passes.
+    Never,
+    /// reference < stored.
+    Less,
+    /// reference == stored.
+    Equal,
+    /// reference <= stored.
+    LessOrEqual,
+    /// reference > stored.
+    Greater,
+    /// reference != stored.
+    NotEqual,
+    /// reference >= stored (no scene draws with it; kept for the complete `VkCompareOp` set).
+    #[allow(dead_code)]
+    GreaterOrEqual,
+    /// Always passes.
+    Always,
+}
+
+impl Compare {
+    /// Whether a fragment (or stencil reference) `reference` passes against `stored`.
+    #[cfg(test)]
+    pub fn passes<T: PartialOrd>(self, reference: T, stored: T) -> bool {
+        match self {
+            Compare::Never => false,
+            Compare::Less => reference < stored,
+            Compare::Equal => reference == stored,
+            Compare::LessOrEqual => reference <= stored,
+            Compare::Greater => reference > stored,
+            Compare::NotEqual => reference != stored,
+            Compare::GreaterOrEqual => reference >= stored,
+            Compare::Always => true,
+        }
+    }
+}
+
+/// Rasterization depth bias, as `vkCmdSetDepthBias` takes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthBias {
+    /// `depthBiasConstantFactor`, in units of the format's minimum resolvable difference.
+    pub constant: f32,
+    /// `depthBiasSlopeFactor`, times the primitive's maximum depth slope.
+    pub slope: f32,
+    /// `depthBiasClamp` (0 = no clamp). Used only when the device's `depthBiasClamp` feature
+    /// is enabled; 0 otherwise (as Vulkan requires).
+    pub clamp: f32,
+}
+
+/// The depth test of a pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthTest {
+    /// `depthTestEnable = FALSE`.
+    Off,
+    /// Enabled with a compare op baked into the pipeline.
+    Static(Compare),
+    /// Enabled; the compare op is `VK_DYNAMIC_STATE_DEPTH_COMPARE_OP` (Vulkan 1.3), set with
+    /// [`Step::SetDepthCompareOp`].
+    Dynamic,
+}
+
+/// The depth bias of a pipeline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bias {
+    /// `depthBiasEnable = FALSE`.
+    Off,
+    /// Enabled with static factors.
+    Static(DepthBias),
+    /// Enabled; `VK_DYNAMIC_STATE_DEPTH_BIAS`, set with [`Step::SetDepthBias`].
+    Dynamic,
+}
+
+/// The depth bounds test of a pipeline (needs the `depthBounds` feature unless `Off`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bounds {
+    /// `depthBoundsTestEnable = FALSE`.
+    Off,
+    /// Enabled with static bounds: fragments whose *stored* depth lies outside [min, max] are
+    /// discarded.
+    Static {
+        /// `minDepthBounds`.
+        min: f32,
+        /// `maxDepthBounds`.
+        max: f32,
+    },
+    /// Enabled; `VK_DYNAMIC_STATE_DEPTH_BOUNDS`, set with [`Step::SetDepthBounds`].
+    Dynamic,
+}
+
+/// The viewport of a pipeline: always the whole target; only the depth range varies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Viewport {
+    /// Static viewport with depth range [min_depth, max_depth].
+    Static {
+        /// `minDepth`.
+        min_depth: f32,
+        /// `maxDepth`.
+        max_depth: f32,
+    },
+    /// `VK_DYNAMIC_STATE_VIEWPORT`, set with [`Step::SetViewport`].
+    Dynamic,
+}
+
+impl Viewport {
+    /// The standard static [0, 1] viewport.
+    pub const FULL: Viewport = Viewport::Static {
+        min_depth: 0.0,
+        max_depth: 1.0,
+    };
+}
+
+/// What a passing fragment does to the stencil value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StencilWrite {
+    /// `passOp = KEEP`.
+    Keep,
+    /// `passOp = REPLACE` with the reference.
+    Replace,
+}
+
+/// A stencil test (the same for front and back faces; fail and depth-fail keep the value).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StencilTest {
+    /// Compare op: `reference <op> stored`.
+    pub compare: Compare,
+    /// The reference value (compare and write masks are 0xff).
+    pub reference: u32,
+    /// What passing fragments write.
+    pub on_pass: StencilWrite,
+}
+
+/// The shaders of a pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Program {
+    /// `scene.vert` + `scene.frag`: push-constant MVP, flat push-constant color.
+    Flat,
+    /// `scene.vert` only (no fragment shader): depth-only passes and subpasses.
+    DepthOnly,
+    /// `shadow_receiver.vert|frag`: the flat color darkened where the shadow map says the
+    /// surface is shadowed (needs a [`Target::Shadow`] pass before it).
+    ShadowReceiver,
+}
+
+/// One graphics pipeline.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PipelineSpec {
+    /// A short name for messages.
+    pub name: &'static str,
+    /// The pass it is made for (a render pass compatible with that pass's, or its
+    /// dynamic-rendering formats); usable in every pass of the same target and kind.
+    pub pass: usize,
+    /// The subpass it is made for.
+    pub subpass: u32,
+    /// Its shaders.
+    pub program: Program,
+    /// Depth test.
+    pub depth_test: DepthTest,
+    /// `depthWriteEnable`.
+    pub depth_write: bool,
+    /// Color write mask RGBA (true) or none (false).
+    pub color_write: bool,
+    /// Depth bias.
+    pub bias: Bias,
+    /// Depth bounds test.
+    pub bounds: Bounds,
+    /// Stencil test (None: disabled).
+    pub stencil: Option<StencilTest>,
+    /// Viewport depth range.
+    pub viewport: Viewport,
+}
+
+impl PipelineSpec {
+    /// The standard pipeline of `pass` subpass 0: flat color, depth test LESS with writes,
+    /// full [0, 1] viewport, nothing else (what the `overlap` scene uses).
+    pub fn standard(name: &'static str, pass: usize) -> PipelineSpec {
+        PipelineSpec {
+            name,
+            pass,
+            subpass: 0,
+            program: Program::Flat,
+            depth_test: DepthTest::Static(Compare::Less),
+            depth_write: true,
+            color_write: true,
+            bias: Bias::Off,
+            bounds: Bounds::Off,
+            stencil: None,
+            viewport: Viewport::FULL,
+        }
+    }
+}
+
+/// Which image a pass renders into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// The color attachment and the depth attachment of the chosen format (read back).
+    Main,
+    /// A D32_SFLOAT shadow map with SAMPLED usage, no color (sampled by
+    /// [`Program::ShadowReceiver`]); drawn with the scene's light.
+    Shadow,
+}
+
+/// How a pass is begun.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassKind {
+    /// `vkCmdBeginRenderPass`, one subpass.
+    RenderPass,
+    /// `vkCmdBeginRenderPass`, two subpasses sharing the depth attachment: subpass 0 has no
+    /// color attachment (depth pre-pass), subpass 1 has both; a subpass dependency orders
+    /// subpass 0's depth writes before subpass 1's depth tests.
+    DepthPrepassSubpasses,
+    /// `vkCmdBeginRendering` (Vulkan 1.3 `dynamicRendering`).
+    DynamicRendering,
+}
+
+impl PassKind {
+    /// Number of subpasses.
+    pub fn subpass_count(self) -> u32 {
+        match self {
+            PassKind::DepthPrepassSubpasses => 2,
+            PassKind::RenderPass | PassKind::DynamicRendering => 1,
+        }
+    }
+}
+
+/// What a pass does with an attachment's previous contents.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DepthLoad {
+    /// LOAD_OP_CLEAR to this depth (and the stencil, where there is one, to 0).
+    Clear(f32),
+    /// LOAD_OP_LOAD (depth and stencil).
+    Load,
+}
+
+/// One pass over a target.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassSpec {
+    /// The image it renders into.
+    pub target: Target,
+    /// How it is begun.
+    pub kind: PassKind,
+    /// Depth (and stencil) load op.
+    pub depth: DepthLoad,
+    /// Color load op (Main only): `true` loads, `false` clears to the clear color.
+    pub load_color: bool,
+}
+
+impl PassSpec {
+    /// A one-subpass render pass over the main target clearing color and depth to `depth`.
+    pub fn clear(depth: f32) -> PassSpec {
+        PassSpec {
+            target: Target::Main,
+            kind: PassKind::RenderPass,
+            depth: DepthLoad::Clear(depth),
+            load_color: false,
+        }
+    }
+
+    /// Whether `subpass` of this pass has a color attachment.
+    pub fn has_color(&self, subpass: u32) -> bool {
+        self.target == Target::Main
+            && !(self.kind == PassKind::DepthPrepassSubpasses && subpass == 0)
+    }
+
+    /// Whether a pipeline made for `other` can be used in this pass (same attachments and
+    /// subpass structure; load ops do not matter).
+    pub fn compatible(&self, other: &PassSpec) -> bool {
+        self.target == other.target && self.kind == other.kind
+    }
+}
+
+/// One recorded command (or group of commands).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Step {
+    /// `vkCmdClearDepthStencilImage` of the main depth image (outside any pass) to `depth`
+    /// (stencil 0 where there is one), with the layout transitions around it. The depth image
+    /// gets TRANSFER_DST usage.
+    ClearDepthImage {
+        /// The depth clear value.
+        depth: f32,
+    },
+    /// Begins pass `n`.
+    BeginPass(usize),
+    /// `vkCmdNextSubpass`.
+    NextSubpass,
+    /// Ends the current pass.
+    EndPass,
+    /// Binds pipeline `n`.
+    Bind(usize),
+    /// Pushes object `n`'s constants (its MVP for the current pass's view, its color) and
+    /// draws it.
+    Draw(usize),
+    /// `vkCmdSetDepthCompareOp`.
+    SetDepthCompareOp(Compare),
+    /// `vkCmdSetDepthBias`.
+    SetDepthBias(DepthBias),
+    /// `vkCmdSetDepthBounds`.
+    SetDepthBounds {
+        /// Minimum.
+        min: f32,
+        /// Maximum.
+        max: f32,
+    },
+    /// `vkCmdSetViewport`: the whole target with this depth range.
+    SetViewport {
+        /// `minDepth`.
+        min_depth: f32,
+        /// `maxDepth`.
+        max_depth: f32,
+    },
+    /// `vkCmdClearAttachments` of the depth aspect (only) inside the current pass, over the
+    /// rectangle `[x0, y0, x1, y1]` given as fractions of the target size.
+    ClearDepthRect {
+        /// `[x0, y0, x1, y1]`, each in [0, 1], x0 < x1, y0 < y1.
+        rect: [f32; 4],
+        /// The depth clear value.
+        depth: f32,
+    },
+    /// Records each list into its own secondary command buffer (RENDER_PASS_CONTINUE,
+    /// inheriting the current render pass, subpass and framebuffer) and executes them all with
+    /// one `vkCmdExecuteCommands`. It must be the only kind of step in its subpass.
+    ExecuteSecondaries(Vec<Vec<Step>>),
+}
+
+/// The passes, pipelines and steps of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// The passes, begun by [`Step::BeginPass`].
+    pub passes: Vec<PassSpec>,
+    /// The pipelines, bound by [`Step::Bind`].
+    pub pipelines: Vec<PipelineSpec>,
+    /// What is recorded, in order.
+    pub steps: Vec<Step>,
+}
+
+/// What a plan needs from the device and the targets, derived from the plan itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Needs {
+    /// A depth format with a stencil aspect.
+    pub stencil: bool,
+    /// The `depthBounds` feature.
+    pub depth_bounds: bool,
+    /// The `dynamicRendering` feature (Vulkan 1.3).
+    pub dynamic_rendering: bool,
+    /// Vulkan 1.3 core commands (dynamic compare op, dynamic rendering).
+    pub vulkan_1_3: bool,
+    /// The `depthBiasClamp` feature would be used (optional: clamp 0 without it).
+    pub depth_bias_clamp: bool,
+    /// TRANSFER_DST usage on the depth image.
+    pub clear_depth_image: bool,
+    /// The shadow-map target.
+    pub shadow_map: bool,
+    /// Number of secondary command buffers.
+    pub secondaries: usize,
+}
+
+/// Why a plan is malformed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PlanError(pub String);
+
+impl fmt::Display for PlanError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for PlanError {}
+
+macro_rules! ensure {
+    ($cond:expr, $($arg:tt)+) => {
+        if !$cond {
+            return Err(PlanError(format!($($arg)+)));
+        }
+    };
+}
+
+/// Recording state tracked by [`Plan::check`]: what the Vulkan validity rules depend on.
+#[derive(Clone, Debug, Default)]
+struct CheckState {
+    /// The current pass and subpass.
+    pass: Option<(usize, u32)>,
+    /// The bound pipeline (in this command buffer).
+    pipeline: Option<usize>,
+    /// Dynamic states set since that pipeline was bound: compare op, bias, bounds, viewport.
+    set: [bool; 4],
+    /// The current subpass records secondaries (`Some(true)`) or inline commands.
+    secondary_subpass: Option<bool>,
+}
+
+impl Plan {
+    /// One render pass clearing depth to 1.0, the standard pipeline, every object drawn in
+    /// order: the plan of the `overlap` scene.
+    pub fn single_pass(objects: usize) -> Plan {
+        let mut steps = vec![Step::BeginPass(0), Step::Bind(0)];
+        steps.extend((0..objects).map(Step::Draw));
+        steps.push(Step::EndPass);
+        Plan {
+            passes: vec![PassSpec::clear(1.0)],
+            pipelines: vec![PipelineSpec::standard("standard", 0)],
+            steps,
+        }
+    }
+
+    /// Every step, with the steps inside secondaries, in recording order.
+    pub fn all_steps(&self) -> Vec<&Step> {
+        fn walk<'a>(steps: &'a [Step], out: &mut Vec<&'a Step>) {
+            for step in steps {
+                out.push(step);
+                if let Step::ExecuteSecondaries(lists) = step {
+                    for list in lists {
+                        walk(list, out);
+                    }
+                }
+            }
+        }
+        let mut out = Vec::new();
+        walk(&self.steps, &mut out);
+        out
+    }
+
+    /// What the plan needs from the device and the targets.
+    pub fn needs(&self) -> Needs {
+        let mut needs = Needs::default();
+        for pass in &self.passes {
+            needs.shadow_map |= pass.target == Target::Shadow;
+            if pass.kind == PassKind::DynamicRendering {
+                needs.dynamic_rendering = true;
+                needs.vulkan_1_3 = true;
+            }
+        }
+        for pipeline in &self.pipelines {
+            needs.stencil |= pipeline.stencil.is_some();
+            needs.depth_bounds |= pipeline.bounds != Bounds::Off;
+            needs.vulkan_1_3 |= pipeline.depth_test == DepthTest::Dynamic;
+            if let Bias::Static(bias) = pipeline.bias {
+                needs.depth_bias_clamp |= bias.clamp != 0.0;
+            }
+        }
+        for step in self.all_steps() {
+            match step {
+                Step::ClearDepthImage { .. } => needs.clear_depth_image = true,
+                Step::SetDepthBias(bias) => needs.depth_bias_clamp |= bias.clamp != 0.0,
+                Step::ExecuteSecondaries(lists) => needs.secondaries += lists.len(),
+                _ => {}
+            }
+        }
+        needs
+    }
+
+    /// The depth the main depth image holds where nothing was drawn: the value of the first
+    /// depth clear of the main target (render pass or image clear), 1.0 if there is none.
+    pub fn main_clear_depth(&self) -> f32 {
+        for step in &self.steps {
+            match step {
+                Step::ClearDepthImage { depth } => return *depth,
+                Step::BeginPass(n) => {
+                    if let Some(pass) = self.passes.get(*n) {
+                        if pass.target == Target::Main {
+                            if let DepthLoad::Clear(depth) = pass.depth {
+                                return depth;
+                            }
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        1.0
+    }
+
+    /// Checks every rule the renderer relies on; `objects` is the scene's object count and
+    /// `has_light` whether it has a light (needed by shadow passes).
+    pub fn check(&self, objects: usize, has_light: bool) -> Result<(), PlanError> {
+        for (i, pipeline) in self.pipelines.iter().enumerate() {
+            let name = pipeline.name;
+            let pass = self.passes.get(pipeline.pass).ok_or_else(|| {
+                PlanError(format!(
+                    "pipeline {i} ({name}) names pass {}",
+                    pipeline.pass
+                ))
+            })?;
+            ensure!(
+                pipeline.subpass < pass.kind.subpass_count(),
+                "pipeline {name}: subpass {} of a pass with {}",
+                pipeline.subpass,
+                pass.kind.subpass_count()
+            );
+            let has_color = pass.has_color(pipeline.subpass);
+            ensure!(
+                has_color == (pipeline.program != Program::DepthOnly),
+                "pipeline {name}: a depth-only program where there is a color attachment, or \
+                 a fragment shader where there is none"
+            );
+            ensure!(
+                pipeline.color_write || pipeline.program != Program::ShadowReceiver,
+                "pipeline {name}: a shadow receiver without color writes"
+            );
+            ensure!(
+                pipeline.program != Program::DepthOnly || !pipeline.color_write,
+                "pipeline {name}: depth-only with color writes"
+            );
+            ensure!(
+                pipeline.program != Program::ShadowReceiver || pass.target == Target::Main,
+                "pipeline {name}: a shadow receiver drawing into the shadow map"
+            );
+            ensure!(
+                pass.target == Target::Main || pipeline.stencil.is_none(),
+                "pipeline {name}: stencil test on the shadow map (it has no stencil)"
+            );
+            if let Viewport::Static {
+                min_depth,
+                max_depth,
+            } = pipeline.viewport
+            {
+                ensure!(
+                    (0.0..=1.0).contains(&min_depth) && (0.0..=1.0).contains(&max_depth),
+                    "pipeline {name}: viewport depth range outside [0, 1]"
+                );
+            }
+            if let Bounds::Static { min, max } = pipeline.bounds {
+                ensure!(
+                    0.0 <= min && min <= max && max <= 1.0,
+                    "pipeline {name}: bad depth bounds"
+                );
+            }
+        }
+        let shadow_receivers = self
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::ShadowReceiver);
+        let shadow_passes = self.passes.iter().any(|p| p.target == Target::Shadow);
+        ensure!(
+            !shadow_passes || has_light,
+            "a shadow pass in a scene without a light"
+        );
+
+        let mut state = CheckState::default();
+        let mut shadow_drawn = false;
+        let mut used_passes = vec![false; self.passes.len()];
+        let mut used_pipelines = vec![false; self.pipelines.len()];
+        for (index, step) in self.steps.iter().enumerate() {
+            let at = |message: String| PlanError(format!("step {index} ({step:?}): {message}"));
+            match step {
+                Step::ClearDepthImage { depth } => {
+                    ensure!(
+                        state.pass.is_none(),
+                        "step {index}: image clear inside a pass"
+                    );
+                    ensure!(
+                        (0.0..=1.0).contains(depth),
+                        "step {index}: depth outside [0, 1]"
+                    );
+                }
+                Step::BeginPass(n) => {
+                    ensure!(state.pass.is_none(), "step {index}: nested pass");
+                    let pass = self
+                        .passes
+                        .get(*n)
+                        .ok_or_else(|| at(format!("no pass {n}")))?;
+                    if pass.target == Target::Main && shadow_receivers {
+                        ensure!(
+                            shadow_drawn,
+                            "step {index}: the main pass samples a shadow map not drawn yet"
+                        );
+                    }
+                    ensure!(
+                        pass.target == Target::Main || !pass.load_color,
+                        "step {index}: the shadow map has no color to load"
+                    );
+                    used_passes[*n] = true;
+                    state.pass = Some((*n, 0));
+                    state.secondary_subpass = None;
+                }
+                Step::NextSubpass => {
+                    let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
+                    ensure!(
+                        subpass + 1 < self.passes[n].kind.subpass_count(),
+                        "step {index}: no next subpass"
+                    );
+                    ensure!(
+                        self.passes[n].kind != PassKind::DynamicRendering,
+                        "step {index}: dynamic rendering has no subpasses"
+                    );
+                    state.pass = Some((n, subpass + 1));
+                    state.secondary_subpass = None;
+                }
+                Step::EndPass => {
+                    let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
+                    ensure!(
+                        subpass + 1 == self.passes[n].kind.subpass_count(),
+                        "step {index}: the pass ends before its last subpass"
+                    );
+                    shadow_drawn |= self.passes[n].target == Target::Shadow;
+                    state.pass = None;
+                }
+                Step::ExecuteSecondaries(lists) => {
+                    let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
+                    ensure!(
+                        self.passes[n].kind != PassKind::DynamicRendering,
+                        "step {index}: secondaries are only recorded inside render passes"
+                    );
+                    ensure!(
+                        state.secondary_subpass != Some(false),
+                        "step {index}: inline commands and secondaries in one subpass"
+                    );
+                    ensure!(!lists.is_empty(), "step {index}: no secondary");
+                    state.secondary_subpass = Some(true);
+                    for list in lists {
+                        // Secondaries inherit nothing but the pass: their own binds and state.
+                        let mut inner = CheckState {
+                            pass: Some((n, subpass)),
+                            ..CheckState::default()
+                        };
+                        for step in list {
+                            ensure!(
+                                !matches!(
+                                    step,
+                                    Step::BeginPass(_)
+                                        | Step::EndPass
+                                        | Step::NextSubpass
+                                        | Step::ClearDepthImage { .. }
+                                        | Step::ExecuteSecondaries(_)
+                                ),
+                                "step {index}: {step:?} inside a secondary"
+                            );
+                            self.check_inline(
+                                step,
+                                &mut inner,
+                                objects,
+                                &mut used_pipelines,
+                                index,
+                            )?;
+                        }
+                    }
+                    // The primary's bound pipeline and dynamic state are undefined afterwards.
+                    state.pipeline = None;
+                }
+                _ => {
+                    ensure!(
+                        state.secondary_subpass != Some(true),
+                        "step {index}: inline commands and secondaries in one subpass"
+                    );
+                    state.secondary_subpass = Some(false);
+                    self.check_inline(step, &mut state, objects, &mut used_pipelines, index)?;
+                }
+            }
+        }
+        ensure!(state.pass.is_none(), "the last pass is not ended");
+        if let Some(n) = used_passes.iter().position(|used| !used) {
+            return Err(PlanError(format!("pass {n} is never begun")));
+        }
+        if let Some(n) = used_pipelines.iter().position(|used| !used) {
+            return Err(PlanError(format!(
+                "pipeline {n} ({}) is never bound",
+                self.pipelines[n].name
+            )));
+        }
+        Ok(())
+    }
+
+    /// Checks one step recorded inside a pass (in the primary or a secondary).
+    fn check_inline(
+        &self,
+        step: &Step,
+        state: &mut CheckState,
+        objects: usize,
+        used_pipelines: &mut [bool],
+        index: usize,
+    ) -> Result<(), PlanError> {
+        let at = |message: &str| PlanError(format!("step {index} ({step:?}): {message}"));
+        let (pass_index, subpass) = state.pass.ok_or_else(|| at("outside a pass"))?;
+        let pass = &self.passes[pass_index];
+        let bound = |state: &CheckState| -> Result<&PipelineSpec, PlanError> {
+            state
+                .pipeline
+                .map(|n| &self.pipelines[n])
+                .ok_or_else(|| at("no pipeline bound"))
+        };
+        match step {
+            Step::Bind(n) => {
+                let pipeline = self
+                    .pipelines
+                    .get(*n)
+                    .ok_or_else(|| at("no such pipeline"))?;
+                ensure!(
+                    pass.compatible(&self.passes[pipeline.pass]) && pipeline.subpass == subpass,
+                    "step {index}: pipeline {} is made for another pass or subpass",
+                    pipeline.name
+                );
+                used_pipelines[*n] = true;
+                state.pipeline = Some(*n);
+                state.set = [false; 4];
+            }
+            Step::Draw(n) => {
+                ensure!(*n < objects, "step {index}: no object {n}");
+                let pipeline = bound(state)?;
+                let needed = [
+                    pipeline.depth_test == DepthTest::Dynamic,
+                    pipeline.bias == Bias::Dynamic,
+                    pipeline.bounds == Bounds::Dynamic,
+                    pipeline.viewport == Viewport::Dynamic,
+                ];
+                for (what, (needed, set)) in
+                    ["compare op", "depth bias", "depth bounds", "viewport"]
+                        .iter()
+                        .zip(needed.iter().zip(state.set))
+                {
+                    ensure!(
+                        !needed || set,
+                        "step {index}: dynamic {what} of {} not set before the draw",
+                        pipeline.name
+                    );
+                }
+            }
+            Step::SetDepthCompareOp(_) => {
+                ensure!(
+                    bound(state)?.depth_test == DepthTest::Dynamic,
+                    "step {index}: the compare op is not dynamic"
+                );
+                state.set[0] = true;
+            }
+            Step::SetDepthBias(_) => {
+                ensure!(
+                    bound(state)?.bias == Bias::Dynamic,
+                    "step {index}: the depth bias is not dynamic"
+                );
+                state.set[1] = true;
+            }
+            Step::SetDepthBounds { min, max } => {
+                ensure!(
+                    bound(state)?.bounds == Bounds::Dynamic,
+                    "step {index}: the depth bounds are not dynamic"
+                );
+                ensure!(
+                    0.0 <= *min && min <= max && *max <= 1.0,
+                    "step {index}: bad depth bounds"
+                );
+                state.set[2] = true;
+            }
+            Step::SetViewport {
+                min_depth,
+                max_depth,
+            } => {
+                ensure!(
+                    bound(state)?.viewport == Viewport::Dynamic,
+                    "step {index}: the viewport is not dynamic"
+                );
+                ensure!(
+                    (0.0..=1.0).contains(min_depth) && (0.0..=1.0).contains(max_depth),
+                    "step {index}: viewport depth range outside [0, 1]"
+                );
+                state.set[3] = true;
+            }
+            Step::ClearDepthRect { rect, depth } => {
+                ensure!(
+                    pass.target == Target::Main,
+                    "step {index}: rectangle clears are for the main target"
+                );
+                let [x0, y0, x1, y1] = *rect;
+                ensure!(
+                    0.0 <= x0 && x0 < x1 && x1 <= 1.0 && 0.0 <= y0 && y0 < y1 && y1 <= 1.0,
+                    "step {index}: bad rectangle"
+                );
+                ensure!(
+                    (0.0..=1.0).contains(depth),
+                    "step {index}: depth outside [0, 1]"
+                );
+            }
+            Step::ClearDepthImage { .. }
+            | Step::BeginPass(_)
+            | Step::NextSubpass
+            | Step::EndPass
+            | Step::ExecuteSecondaries(_) => unreachable!("handled by Plan::check"),
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compare_ops_evaluate_like_vulkan() {
+        let ops = [
+            (Compare::Never, [false, false, false]),
+            (Compare::Less, [true, false, false]),
+            (Compare::Equal, [false, true, false]),
+            (Compare::LessOrEqual, [true, true, false]),
+            (Compare::Greater, [false, false, true]),
+            (Compare::NotEqual, [true, false, true]),
+            (Compare::GreaterOrEqual, [false, true, true]),
+            (Compare::Always, [true, true, true]),
+        ];
+        for (op, expected) in ops {
+            // reference below, equal to, above the stored 0.5
+            let got = [0.25, 0.5, 0.75].map(|reference| op.passes(reference, 0.5));
+            assert_eq!(got, expected, "{op:?}");
+        }
+    }
+
+    #[test]
+    fn the_single_pass_plan_is_valid() {
+        let plan = Plan::single_pass(3);
+        plan.check(3, false).unwrap();
+        assert_eq!(plan.needs(), Needs::default());
+        assert_eq!(plan.main_clear_depth(), 1.0);
+        assert!(
+            plan.check(2, false).is_err(),
+            "draws an object that does not exist"
+        );
+    }
+
+    #[test]
+    fn check_rejects_malformed_plans() {
+        let base = Plan::single_pass(1);
+        let with_steps = |steps: Vec<Step>| Plan {
+            steps,
+            ..base.clone()
+        };
+        // A draw before any bind.
+        let plan = with_steps(vec![
+            Step::BeginPass(0),
+            Step::Draw(0),
+            Step::Bind(0),
+            Step::EndPass,
+        ]);
+        assert!(plan.check(1, false).is_err());
+        // A pass never ended.
+        let plan = with_steps(vec![Step::BeginPass(0), Step::Bind(0), Step::Draw(0)]);
+        assert!(plan.check(1, false).is_err());
+        // Dynamic state on a static pipeline.
+        let plan = with_steps(vec![
+            Step::BeginPass(0),
+            Step::Bind(0),
+            Step::SetDepthCompareOp(Compare::Less),
+            Step::Draw(0),
+            Step::EndPass,
+        ]);
+        assert!(plan.check(1, false).is_err());
+        // Inline commands and secondaries mixed in one subpass.
+        let plan = with_steps(vec![
+            Step::BeginPass(0),
+            Step::Bind(0),
+            Step::ExecuteSecondaries(vec![vec![Step::Bind(0), Step::Draw(0)]]),
+            Step::EndPass,
+        ]);
+        assert!(plan.check(1, false).is_err());
+        // A secondary that draws without binding its own pipeline.
+        let plan = with_steps(vec![
+            Step::BeginPass(0),
+            Step::ExecuteSecondaries(vec![vec![Step::Draw(0)]]),
+            Step::EndPass,
+        ]);
+        assert!(plan.check(1, false).is_err());
+        // A dynamic compare op never set before the draw.
+        let mut plan = base.clone();
+        plan.pipelines[0].depth_test = DepthTest::Dynamic;
+        assert!(plan.check(1, false).is_err());
+        plan.steps.insert(2, Step::SetDepthCompareOp(Compare::Less));
+        plan.check(1, false).unwrap();
+        assert!(plan.needs().vulkan_1_3);
+    }
+}

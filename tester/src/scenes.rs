@@ -1,0 +1,1341 @@
+//! The scene catalog: one builder per `--scene`, each returning a [`Scene`] (objects plus the
+//! [`Plan`] that records them).
+//!
+//! Every scene but `overlap` exists to exercise one thing a reversed-depth layer must change
+//! (see DESIGN.md section 2) and is built so that the color image would be visibly wrong if
+//! the layer forgot it. Each builder's documentation says which item and how. The tester
+//! itself knows nothing of the layer: these are ordinary standard-depth renders (clear 1.0,
+//! LESS), and the claims about depth values (which object lies on which side of a clear value
+//! or bound, with margins far above any format's resolution, so that no pixel sits on a tie)
+//! are checked in the unit tests below.
+//!
+//! Depths quoted below are for the `overlap` camera (eye (0, 2, 6) looking at the origin, near
+//! 0.1, far 100): a surface at view distance z gets depth 1.001 * (1 - 0.1 / z), so z = 3 ->
+//! 0.967, 4 -> 0.976, 4.77 -> 0.98, 6.27 -> 0.985, 10 -> 0.991.
+
+use glam::{DMat4, DVec3};
+
+use crate::plan::{
+    Bias, Bounds, Compare, DepthBias, DepthLoad, DepthTest, PassKind, PassSpec, PipelineSpec, Plan,
+    Program, StencilTest, StencilWrite, Step, Target, Viewport,
+};
+use crate::scene::{
+    grounded_cube, overlap, overlap_camera, overlap_objects, rgb8, Camera, Light, Mesh, Object,
+    Scene, SceneId, Space,
+};
+
+/// One row of the catalog.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    /// The scene.
+    pub id: SceneId,
+    /// Its CLI / report name.
+    pub name: &'static str,
+    /// Its builder.
+    pub build: fn() -> Scene,
+}
+
+/// Every scene, in CLI order.
+pub const CATALOG: &[Entry] = &[
+    entry_row(SceneId::Overlap, "overlap", overlap),
+    entry_row(SceneId::CompareOps, "compare-ops", compare_ops),
+    entry_row(
+        SceneId::CompareOpsDynamic,
+        "compare-ops-dynamic",
+        compare_ops_dynamic,
+    ),
+    entry_row(
+        SceneId::ClearRenderPass,
+        "clear-render-pass",
+        clear_render_pass,
+    ),
+    entry_row(
+        SceneId::ClearAttachments,
+        "clear-attachments",
+        clear_attachments,
+    ),
+    entry_row(SceneId::ClearImage, "clear-image", clear_image),
+    entry_row(SceneId::DepthBias, "depth-bias", depth_bias),
+    entry_row(
+        SceneId::DepthBiasDynamic,
+        "depth-bias-dynamic",
+        depth_bias_dynamic,
+    ),
+    entry_row(SceneId::DepthBounds, "depth-bounds", depth_bounds),
+    entry_row(SceneId::ViewportSky, "viewport-sky", viewport_sky),
+    entry_row(SceneId::ViewportSplit, "viewport-split", viewport_split),
+    entry_row(SceneId::Stencil, "stencil", stencil),
+    entry_row(SceneId::Secondary, "secondary", secondary),
+    entry_row(SceneId::Subpasses, "subpasses", subpasses),
+    entry_row(
+        SceneId::DynamicRendering,
+        "dynamic-rendering",
+        dynamic_rendering,
+    ),
+    entry_row(SceneId::ShadowMap, "shadow-map", shadow_map),
+];
+
+const fn entry_row(id: SceneId, name: &'static str, build: fn() -> Scene) -> Entry {
+    Entry { id, name, build }
+}
+
+/// The catalog row of `id`.
+pub fn entry(id: SceneId) -> &'static Entry {
+    CATALOG
+        .iter()
+        .find(|e| e.id == id)
+        .expect("every SceneId has a catalog row (checked by a unit test)")
+}
+
+/// Collects objects, passes, pipelines and steps, handing out the indices steps refer to.
+#[derive(Debug, Default)]
+struct Builder {
+    objects: Vec<Object>,
+    passes: Vec<PassSpec>,
+    pipelines: Vec<PipelineSpec>,
+    steps: Vec<Step>,
+}
+
+impl Builder {
+    fn object(&mut self, object: Object) -> usize {
+        self.objects.push(object);
+        self.objects.len() - 1
+    }
+
+    /// Adds `objects` sorted nearest first for `camera`; returns their indices in that order.
+    fn nearest_first(&mut self, camera: &Camera, mut objects: Vec<Object>) -> Vec<usize> {
+        let depth = |o: &Object| (o.world_center() - camera.eye).dot(camera.forward());
+        objects.sort_by(|a, b| depth(a).total_cmp(&depth(b)));
+        objects.into_iter().map(|o| self.object(o)).collect()
+    }
+
+    fn pass(&mut self, pass: PassSpec) -> usize {
+        self.passes.push(pass);
+        self.passes.len() - 1
+    }
+
+    fn pipeline(&mut self, pipeline: PipelineSpec) -> usize {
+        self.pipelines.push(pipeline);
+        self.pipelines.len() - 1
+    }
+
+    fn step(&mut self, step: Step) {
+        self.steps.push(step);
+    }
+
+    fn draw(&mut self, objects: &[usize]) {
+        self.steps.extend(objects.iter().map(|&n| Step::Draw(n)));
+    }
+
+    fn finish(self, name: &'static str, camera: Camera, light: Option<Light>) -> Scene {
+        Scene {
+            name,
+            camera,
+            light,
+            objects: self.objects,
+            plan: Plan {
+                passes: self.passes,
+                pipelines: self.pipelines,
+                steps: self.steps,
+            },
+        }
+    }
+}
+
+/// A pipeline of pass 0 like the standard one but with another depth test and no depth
+/// writes (color passes over a depth pre-pass, overlays).
+fn test_only(name: &'static str, depth_test: DepthTest) -> PipelineSpec {
+    PipelineSpec {
+        depth_test,
+        depth_write: false,
+        ..PipelineSpec::standard(name, 0)
+    }
+}
+
+/// The overlap objects with the ground split into an 8 x 8 grid of tiles (same plane, same
+/// size), plus the checkerboard of half of those tiles drawn as a coplanar overlay.
+fn tiled_overlap_objects() -> (Vec<Object>, Object) {
+    let mut objects = overlap_objects();
+    let ground = objects
+        .iter_mut()
+        .find(|o| o.name == "ground")
+        .expect("overlap has a ground");
+    ground.mesh = Mesh::grid(10.0, 10.0, 8, |_, _| true);
+    let checker = Object {
+        name: "checker overlay",
+        mesh: Mesh::grid(10.0, 10.0, 8, |i, j| (i + j) % 2 == 0),
+        color: rgb8(240, 150, 200),
+        ..ground.clone()
+    };
+    (objects, checker)
+}
+
+/// The extra objects of the compare-ops scenes: (GREATER silhouette, ALWAYS x-ray, NEVER).
+fn compare_extras() -> [Object; 3] {
+    [
+        // Partly behind the near cube: GREATER draws only its occluded part, over the near
+        // cube.
+        grounded_cube("greater cube", 0.3, -0.3, 1.1, 0.6, rgb8(255, 140, 0)),
+        // Entirely behind the middle cube: ALWAYS draws it over the middle cube.
+        grounded_cube("always cube", 0.3, 0.45, -1.45, 0.3, rgb8(0, 230, 230)),
+        // In front of everything, on the ground: NEVER must not show.
+        grounded_cube("never cube", 0.3, 0.75, 3.3, 0.1, rgb8(255, 255, 255)),
+    ]
+}
+
+/// `compare-ops`: static compare ops. A depth pre-pass (LESS, color writes off) of the
+/// overlap objects (ground split into tiles), then a color pass with EQUAL over the same
+/// geometry (drawn farthest first, so that ties show what a single LESS pass would), a checkerboard overlay made of the very same ground tiles drawn with
+/// LESS_OR_EQUAL (visible on the ground, hidden behind the cubes), a cube drawn with GREATER
+/// (only its part hidden behind the near cube shows, painted over it), one with ALWAYS (shows
+/// through the middle cube) and one with NEVER in front of everything (must not show).
+///
+/// Layer item: compare-op swap in pipelines (LESS<->GREATER, LESS_OR_EQUAL<->GREATER_OR_EQUAL,
+/// EQUAL, ALWAYS and NEVER kept). Without the swap the pre-pass LESS fails against the
+/// reversed clear (nothing is written, so the EQUAL pass draws nothing: only the ALWAYS cube
+/// on the background); an unswapped LESS_OR_EQUAL paints the checkerboard over the cubes; an
+/// unswapped GREATER shows the visible part of its cube instead of the hidden one; NEVER or
+/// ALWAYS mapped to anything else makes the white cube appear or the cyan one vanish.
+pub fn compare_ops() -> Scene {
+    compare_ops_scene("compare-ops", false)
+}
+
+/// `compare-ops-dynamic`: the `compare-ops` image made with `VK_DYNAMIC_STATE_DEPTH_COMPARE_OP`:
+/// a pre-pass pipeline and one color pipeline whose op is set with `vkCmdSetDepthCompareOp`
+/// (Vulkan 1.3 core) between draws: LESS for the pre-pass, then EQUAL, LESS_OR_EQUAL,
+/// GREATER, ALWAYS and NEVER in the color pipeline.
+///
+/// Layer item: compare-op swap of the dynamic state (`vkCmdSetDepthCompareOp`), not just of
+/// pipelines; the image is wrong in the same ways as `compare-ops` if it is missed.
+pub fn compare_ops_dynamic() -> Scene {
+    compare_ops_scene("compare-ops-dynamic", true)
+}
+
+fn compare_ops_scene(name: &'static str, dynamic: bool) -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let (objects, checker) = tiled_overlap_objects();
+    let opaque = b.nearest_first(&camera, objects);
+    let checker = b.object(checker);
+    let [greater, always, never] = compare_extras().map(|o| b.object(o));
+    b.pass(PassSpec::clear(1.0));
+
+    let prepass = PipelineSpec {
+        color_write: false,
+        depth_test: if dynamic {
+            DepthTest::Dynamic
+        } else {
+            DepthTest::Static(Compare::Less)
+        },
+        ..PipelineSpec::standard("pre-pass", 0)
+    };
+    let prepass = b.pipeline(prepass);
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(prepass));
+    if dynamic {
+        b.step(Step::SetDepthCompareOp(Compare::Less));
+    }
+    b.draw(&opaque);
+
+    // Farthest first: where surfaces tie, the one the LESS pre-pass kept (the nearest-first
+    // draw order's first) is drawn last, as a single LESS pass would show it.
+    let reversed: Vec<usize> = opaque.iter().rev().copied().collect();
+    let color_draws: [(Compare, &[usize]); 5] = [
+        (Compare::Equal, &reversed),
+        (Compare::LessOrEqual, &[checker]),
+        (Compare::Greater, &[greater]),
+        (Compare::Always, &[always]),
+        (Compare::Never, &[never]),
+    ];
+    if dynamic {
+        let color = b.pipeline(test_only("color (dynamic op)", DepthTest::Dynamic));
+        b.step(Step::Bind(color));
+        for (op, objects) in color_draws {
+            b.step(Step::SetDepthCompareOp(op));
+            b.draw(objects);
+        }
+    } else {
+        for (op, objects) in color_draws {
+            let pipeline = b.pipeline(test_only("color", DepthTest::Static(op)));
+            b.step(Step::Bind(pipeline));
+            b.draw(objects);
+        }
+    }
+    b.step(Step::EndPass);
+    b.finish(name, camera, None)
+}
+
+/// The objects of the clear-value scenes, by distance: a near floor strip and two cubes
+/// (depth < 0.9785), a middle cube (0.981 to 0.9842), a far floor and two far cubes
+/// (> 0.987). Nothing lies between 0.9785 and 0.981 or between 0.9842 and 0.987, so the
+/// clear values 0.98 and 0.985 never tie with a surface.
+fn threshold_objects() -> Vec<Object> {
+    vec![
+        Object::world(
+            "near floor",
+            Mesh::quad(6.0, 2.0),
+            DMat4::from_translation(DVec3::new(0.0, 0.0, 4.0)),
+            rgb8(150, 60, 170),
+        ),
+        grounded_cube("near cube", 0.4, -0.9, 3.2, 0.4, rgb8(230, 30, 30)),
+        grounded_cube("near cube 2", 0.35, 1.0, 2.6, -0.3, rgb8(30, 200, 40)),
+        grounded_cube("middle cube", 0.3, 0.2, 0.85, 0.5, rgb8(250, 210, 20)),
+        Object::world(
+            "far floor",
+            Mesh::quad(10.0, 6.5),
+            DMat4::from_translation(DVec3::new(0.0, 0.0, -7.5)),
+            rgb8(90, 90, 200),
+        ),
+        grounded_cube("far cube", 1.0, -0.8, -3.0, 0.2, rgb8(40, 80, 240)),
+        grounded_cube("far cube 2", 0.8, 1.5, -6.0, -0.4, rgb8(200, 100, 40)),
+    ]
+}
+
+/// `clear-render-pass`: the render pass clears depth to 0.985 (not 1.0); the near floor, the
+/// near cubes and the middle cube (all nearer than 0.985) draw, the far floor and far cubes
+/// (all beyond it) do not: the background shows where they would be.
+///
+/// Layer item: the depth clear value of `vkCmdBeginRenderPass` (d -> 1 - d). If it were not
+/// flipped while the compare op is, the reversed test `1 - D > 0.985` would pass only for
+/// depths below 0.015: nothing would draw.
+pub fn clear_render_pass() -> Scene {
+    threshold_scene("clear-render-pass", false)
+}
+
+/// `clear-image`: `vkCmdClearDepthStencilImage` clears the depth image (TRANSFER_DST usage)
+/// to 0.98 outside any render pass (stencil to 0 where there is one), then a render pass
+/// loads it (LOAD_OP_LOAD) and draws the `clear-render-pass` objects: only the near floor and
+/// the near cubes (nearer than 0.98) show; the middle cube, which does show in
+/// `clear-render-pass`, does not.
+///
+/// Layer item: the clear value of `vkCmdClearDepthStencilImage`. Unflipped, the reversed test
+/// passes only below depth 0.02: nothing draws.
+pub fn clear_image() -> Scene {
+    threshold_scene("clear-image", true)
+}
+
+fn threshold_scene(name: &'static str, clear_image: bool) -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, threshold_objects());
+    if clear_image {
+        b.step(Step::ClearDepthImage { depth: 0.98 });
+        b.pass(PassSpec {
+            depth: DepthLoad::Load,
+            ..PassSpec::clear(1.0)
+        });
+    } else {
+        b.pass(PassSpec::clear(0.985));
+    }
+    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&objects);
+    b.step(Step::EndPass);
+    b.finish(name, camera, None)
+}
+
+/// The depth rectangle cleared by `clear-attachments`, as fractions of the image.
+pub const CLEAR_RECT: [f32; 4] = [0.3, 0.3, 0.7, 0.7];
+
+/// `clear-attachments`: first the ground and a low wall (nearer than 0.98) are drawn; then
+/// `vkCmdClearAttachments` sets the depth of the middle rectangle (30%..70% of the image) to
+/// 0.98; then a bar behind the wall (nearer than 0.98) and a wide far block (beyond 0.98) are
+/// drawn. Outside the rectangle the wall hides the bar and the far block shows; inside it the
+/// bar shows over the wall (its depth was cleared) and the far block is cut out, leaving a
+/// rectangular notch.
+///
+/// Layer item: the clear value of `vkCmdClearAttachments`. Unflipped, the rectangle would hold
+/// 0.98 in reversed depth where only fragments nearer than depth 0.02 pass: the bar would not
+/// show inside it.
+pub fn clear_attachments() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let before = b.nearest_first(
+        &camera,
+        vec![
+            Object::world(
+                "ground",
+                Mesh::quad(10.0, 10.0),
+                DMat4::from_translation(DVec3::new(0.0, 0.0, -4.0)),
+                rgb8(150, 60, 170),
+            ),
+            Object::world(
+                "wall",
+                Mesh::cuboid(DVec3::new(0.8, 0.55, 0.05)),
+                DMat4::from_translation(DVec3::new(0.0, 0.52, 3.2)),
+                rgb8(230, 120, 30),
+            ),
+        ],
+    );
+    let after = b.nearest_first(
+        &camera,
+        vec![
+            Object::world(
+                "bar behind the wall",
+                Mesh::cuboid(DVec3::new(1.0, 0.2, 0.15)),
+                DMat4::from_translation(DVec3::new(0.0, 0.25, 2.1)),
+                rgb8(30, 200, 40),
+            ),
+            Object::world(
+                "far block",
+                Mesh::cuboid(DVec3::new(2.0, 1.0, 0.5)),
+                DMat4::from_translation(DVec3::new(0.0, 0.95, -2.0)),
+                rgb8(40, 80, 240),
+            ),
+        ],
+    );
+    b.pass(PassSpec::clear(1.0));
+    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&before);
+    b.step(Step::ClearDepthRect {
+        rect: CLEAR_RECT,
+        depth: 0.98,
+    });
+    b.draw(&after);
+    b.step(Step::EndPass);
+    b.finish("clear-attachments", camera, None)
+}
+
+/// The model matrix of the wall that faces the camera in the depth-bias scenes.
+fn facing_wall_model() -> DMat4 {
+    // The camera looks down by atan(2 / 6); tilting the wall back by that much makes its
+    // normal point straight at the camera, so its depth is constant (no slope).
+    DMat4::from_translation(DVec3::new(0.6, 1.05, -1.0))
+        * DMat4::from_rotation_x(-(2.0f64 / 6.0).atan())
+}
+
+/// The model matrix of the slanted wall (seen at a grazing angle: a steep depth slope).
+fn slanted_wall_model() -> DMat4 {
+    DMat4::from_translation(DVec3::new(-1.05, 0.95, 1.2))
+        * DMat4::from_rotation_y(62f64.to_radians())
+}
+
+/// The depth-bias scenes' objects: (walls and ground, decals with their wall's model).
+/// The decals are rectangles in their wall's plane (local z = 0, same model matrix): exactly
+/// coplanar, so without bias they z-fight or vanish under LESS. A rod 0.1 in front of the
+/// slanted wall crosses its lower decal.
+fn bias_objects() -> (Vec<Object>, Vec<Object>) {
+    let facing = facing_wall_model();
+    let slanted = slanted_wall_model();
+    let walls = vec![
+        Object::world(
+            "ground",
+            Mesh::quad(10.0, 10.0),
+            DMat4::from_translation(DVec3::new(0.0, 0.0, -4.0)),
+            rgb8(150, 60, 170),
+        ),
+        Object::world(
+            "facing wall",
+            Mesh::rect_xy(0.0, 0.0, 1.6, 1.0),
+            facing,
+            rgb8(200, 200, 190),
+        ),
+        Object::world(
+            "slanted wall",
+            Mesh::rect_xy(0.0, 0.0, 1.2, 0.9),
+            slanted,
+            rgb8(170, 170, 200),
+        ),
+        Object::world(
+            "rod",
+            Mesh::cuboid(DVec3::new(1.3, 0.04, 0.04)),
+            slanted * DMat4::from_translation(DVec3::new(0.0, -0.35, 0.1)),
+            rgb8(60, 60, 60),
+        ),
+    ];
+    let decals = vec![
+        Object::world(
+            "facing decal 1",
+            Mesh::rect_xy(-0.75, 0.35, 0.45, 0.3),
+            facing,
+            rgb8(230, 30, 30),
+        ),
+        Object::world(
+            "facing decal 2",
+            Mesh::rect_xy(0.7, -0.35, 0.5, 0.35),
+            facing,
+            rgb8(30, 160, 40),
+        ),
+        Object::world(
+            "slanted decal 1",
+            Mesh::rect_xy(0.1, 0.4, 0.7, 0.25),
+            slanted,
+            rgb8(40, 80, 240),
+        ),
+        Object::world(
+            "slanted decal under the rod",
+            Mesh::rect_xy(0.1, -0.35, 0.7, 0.25),
+            slanted,
+            rgb8(250, 190, 20),
+        ),
+    ];
+    (walls, decals)
+}
+
+/// The static bias of `depth-bias` (standard depth: negative pulls toward the camera).
+pub const DECAL_BIAS: DepthBias = DepthBias {
+    constant: -8.0,
+    slope: -12.0,
+    clamp: -1.0e-4,
+};
+
+/// The per-decal biases of `depth-bias-dynamic`, in decal order.
+pub const DECAL_BIASES: [DepthBias; 4] = [
+    DepthBias {
+        constant: -4.0,
+        slope: -1.0,
+        clamp: -1.0e-4,
+    },
+    DepthBias {
+        constant: -16.0,
+        slope: -2.0,
+        clamp: -2.0e-4,
+    },
+    DepthBias {
+        constant: -8.0,
+        slope: -4.0,
+        clamp: -1.0e-4,
+    },
+    DepthBias {
+        constant: -2.0,
+        slope: -20.0,
+        clamp: -1.0e-4,
+    },
+];
+
+/// `depth-bias`: decals coplanar with two walls (one facing the camera: constant depth, the
+/// constant factor does the work; one slanted: the slope factor does), drawn after the walls
+/// with LESS, no depth writes and a static bias pulling them toward the camera (constant -8,
+/// slope -12, clamp -1e-4 when the device has `depthBiasClamp`). All four decals show as clean
+/// rectangles. A dark rod just in front of the slanted wall crosses the lower decal: with the
+/// clamp the bias stays far below the rod's distance and the rod hides the decal; without
+/// the clamp (device lacking the feature) the slope term alone pulls the decal over the rod.
+///
+/// Layer item: depth-bias negation (constant, slope and clamp). Unnegated, the bias pushes
+/// the decals away from the camera in reversed depth and they vanish behind their walls; an
+/// unnegated clamp with negated factors no longer limits the bias, and the lower decal jumps
+/// over the rod.
+pub fn depth_bias() -> Scene {
+    depth_bias_scene("depth-bias", false)
+}
+
+/// `depth-bias-dynamic`: the `depth-bias` scene with `VK_DYNAMIC_STATE_DEPTH_BIAS` and one
+/// `vkCmdSetDepthBias` per decal, each decal with its own factors ([`DECAL_BIASES`]).
+///
+/// Layer item: depth-bias negation of the dynamic state; the image is wrong as in
+/// `depth-bias` if it is missed.
+pub fn depth_bias_dynamic() -> Scene {
+    depth_bias_scene("depth-bias-dynamic", true)
+}
+
+fn depth_bias_scene(name: &'static str, dynamic: bool) -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let (walls, decals) = bias_objects();
+    let walls = b.nearest_first(&camera, walls);
+    let decals: Vec<usize> = decals.into_iter().map(|o| b.object(o)).collect();
+    b.pass(PassSpec::clear(1.0));
+    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    let decal = b.pipeline(PipelineSpec {
+        bias: if dynamic {
+            Bias::Dynamic
+        } else {
+            Bias::Static(DECAL_BIAS)
+        },
+        ..test_only("decal", DepthTest::Static(Compare::Less))
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&walls);
+    b.step(Step::Bind(decal));
+    for (&object, bias) in decals.iter().zip(DECAL_BIASES) {
+        if dynamic {
+            b.step(Step::SetDepthBias(bias));
+        }
+        b.step(Step::Draw(object));
+    }
+    b.step(Step::EndPass);
+    b.finish(name, camera, None)
+}
+
+/// The depth bound of `depth-bounds`.
+pub const BOUNDS_MAX: f32 = 0.975;
+
+/// A clip-space rectangle `[x0, x1] x [y0, y1]` (Vulkan NDC, y down) at clip depth 0.5.
+fn clip_rect(name: &'static str, [x0, y0, x1, y1]: [f64; 4], color: [f32; 4]) -> Object {
+    Object {
+        name,
+        mesh: Mesh::rect_xy(
+            (x0 + x1) / 2.0,
+            (y0 + y1) / 2.0,
+            (x1 - x0) / 2.0,
+            (y1 - y0) / 2.0,
+        ),
+        model: DMat4::from_translation(DVec3::new(0.0, 0.0, 0.5)),
+        color,
+        space: Space::Clip,
+    }
+}
+
+/// `depth-bounds` (needs the `depthBounds` feature; lavapipe lacks it): the overlap scene,
+/// then full-height overlays with the depth test off and the depth bounds test on, which
+/// paint only the pixels whose *stored* depth lies within the bounds: the left half with a
+/// static [0, 0.975] pipeline (pale yellow: the near cube and the near ground, nothing far,
+/// not the background), the right half with a pipeline whose bounds are dynamic
+/// (`vkCmdSetDepthBounds`): [0, 0.975] on the top half (pale cyan), [0.97, 0.975] on the
+/// bottom half (pink band on the ground).
+///
+/// Layer item: depth bounds [lo, hi] -> [1 - hi, 1 - lo], static and dynamic. Unmapped, the
+/// reversed stored depths of far surfaces and of the background (0) fall inside [0, 0.975]
+/// and the overlays paint the far half of the image instead of the near one.
+pub fn depth_bounds() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let world = b.nearest_first(&camera, overlap_objects());
+    let left = b.object(clip_rect(
+        "static bounds overlay",
+        [-1.0, -1.0, 0.0, 1.0],
+        rgb8(255, 240, 150),
+    ));
+    let right_top = b.object(clip_rect(
+        "dynamic bounds overlay",
+        [0.0, -1.0, 1.0, 0.0],
+        rgb8(150, 240, 255),
+    ));
+    let right_bottom = b.object(clip_rect(
+        "dynamic bounds band",
+        [0.0, 0.0, 1.0, 1.0],
+        rgb8(255, 150, 220),
+    ));
+    b.pass(PassSpec::clear(1.0));
+    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    let overlay = |name, bounds| PipelineSpec {
+        bounds,
+        ..test_only(name, DepthTest::Off)
+    };
+    let fixed = b.pipeline(overlay(
+        "static bounds",
+        Bounds::Static {
+            min: 0.0,
+            max: BOUNDS_MAX,
+        },
+    ));
+    let dynamic = b.pipeline(overlay("dynamic bounds", Bounds::Dynamic));
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&world);
+    b.step(Step::Bind(fixed));
+    b.step(Step::Draw(left));
+    b.step(Step::Bind(dynamic));
+    b.step(Step::SetDepthBounds {
+        min: 0.0,
+        max: BOUNDS_MAX,
+    });
+    b.step(Step::Draw(right_top));
+    b.step(Step::SetDepthBounds {
+        min: 0.97,
+        max: BOUNDS_MAX,
+    });
+    b.step(Step::Draw(right_bottom));
+    b.step(Step::EndPass);
+    b.finish("depth-bounds", camera, None)
+}
+
+/// `viewport-sky`: the overlap scene, then a full-screen sky quad (clip-space, identity MVP)
+/// drawn with viewport depth range [1, 1] and LESS_OR_EQUAL without depth writes: the sky
+/// fills only the background (above the ground's far edge), never over the objects.
+///
+/// Layer item: the viewport depth flip on the flip path (a hard-coded clip z no matrix
+/// rewrite reaches), with the LESS_OR_EQUAL swap. Unflipped, the sky lands at reversed depth
+/// 1, the nearest possible, and covers the whole image.
+pub fn viewport_sky() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let world = b.nearest_first(&camera, overlap_objects());
+    let sky = b.object(Object::full_screen("sky", rgb8(120, 180, 240)));
+    b.pass(PassSpec::clear(1.0));
+    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    let sky_pipeline = b.pipeline(PipelineSpec {
+        viewport: Viewport::Static {
+            min_depth: 1.0,
+            max_depth: 1.0,
+        },
+        ..test_only("sky", DepthTest::Static(Compare::LessOrEqual))
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&world);
+    b.step(Step::Bind(sky_pipeline));
+    b.step(Step::Draw(sky));
+    b.step(Step::EndPass);
+    b.finish("viewport-sky", camera, None)
+}
+
+/// The viewport depth ranges of `viewport-split`: (weapon, world, dynamic).
+pub const SPLIT_RANGES: [[f32; 2]; 3] = [[0.0, 0.1], [0.1, 1.0], [0.5, 1.0]];
+
+/// `viewport-split`: a first-person "weapon" (a long box in view space at the lower right,
+/// 0.5 to 1.2 in front of the eye) drawn with viewport depth range [0, 0.1], the world
+/// with [0.1, 1]: a lamp post 0.7 in front of the eye crosses the weapon on screen and, although
+/// physically in front of most of it, is hidden by it. One floating cube (in front of the far
+/// cube, against the sky) is drawn with a dynamic viewport (`vkCmdSetViewport`) of range
+/// [0.5, 1]: squeezed toward the far plane, it ends up behind the far cube (which hides its
+/// lower left) although it is physically in front.
+///
+/// Layer item: the viewport depth flip of static and dynamic viewports with partial ranges
+/// ([a, b] -> [1 - a, 1 - b] on the flip path, [1 - b, 1 - a] with a rewritten projection).
+/// Unflipped, the weapon's range becomes the far end of the reversed buffer (the post and the
+/// world cover it) and the dynamic cube jumps in front of the far cube and the ground.
+pub fn viewport_split() -> Scene {
+    let camera = overlap_camera();
+    let eye_to_world = camera.view().inverse();
+    let mut b = Builder::default();
+    let weapon = b.object(Object::world(
+        "weapon",
+        Mesh::cuboid(DVec3::new(0.035, 0.03, 0.35)),
+        eye_to_world
+            * DMat4::from_translation(DVec3::new(0.07, -0.09, -0.85))
+            * DMat4::from_rotation_y(8f64.to_radians()),
+        rgb8(60, 60, 70),
+    ));
+    // The post passes through the view-space point (0.1, -0.09, -0.7), vertical in the world.
+    let post_point = eye_to_world.transform_point3(DVec3::new(0.1, -0.09, -0.7));
+    let mut world_objects = overlap_objects();
+    world_objects.push(Object::world(
+        "lamp post",
+        Mesh::cuboid(DVec3::new(0.02, 1.5, 0.02)),
+        DMat4::from_translation(DVec3::new(post_point.x, 1.5, post_point.z)),
+        rgb8(250, 250, 250),
+    ));
+    let world = b.nearest_first(&camera, world_objects);
+    let squeezed = b.object(Object::world(
+        "squeezed cube",
+        Mesh::cuboid(DVec3::splat(0.35)),
+        DMat4::from_translation(DVec3::new(-1.7, 1.95, -1.9)) * DMat4::from_rotation_y(0.5),
+        rgb8(0, 230, 230),
+    ));
+    b.pass(PassSpec::clear(1.0));
+    let ranged = |name, [min_depth, max_depth]: [f32; 2]| PipelineSpec {
+        viewport: Viewport::Static {
+            min_depth,
+            max_depth,
+        },
+        ..PipelineSpec::standard(name, 0)
+    };
+    let weapon_pipeline = b.pipeline(ranged("weapon", SPLIT_RANGES[0]));
+    let world_pipeline = b.pipeline(ranged("world", SPLIT_RANGES[1]));
+    let dynamic = b.pipeline(PipelineSpec {
+        viewport: Viewport::Dynamic,
+        ..PipelineSpec::standard("dynamic viewport", 0)
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(weapon_pipeline));
+    b.step(Step::Draw(weapon));
+    b.step(Step::Bind(world_pipeline));
+    b.draw(&world);
+    b.step(Step::Bind(dynamic));
+    let [min_depth, max_depth] = SPLIT_RANGES[2];
+    b.step(Step::SetViewport {
+        min_depth,
+        max_depth,
+    });
+    b.step(Step::Draw(squeezed));
+    b.step(Step::EndPass);
+    b.finish("viewport-split", camera, None)
+}
+
+/// `stencil` (d24-s8 and d32-s8 only): the render pass clears stencil to 0 (and depth to
+/// 1.0). The ground and two cubes are drawn; then a portal rectangle standing behind the near
+/// cube writes stencil 1 where it passes the depth test (LESS; no color, no depth writes), so
+/// not where the near cube hides it; then a full-screen quad with stencil EQUAL 1 paints the
+/// portal cyan, a cube behind the portal with EQUAL 1 shows only through it, and a long bar
+/// with NOT_EQUAL 1 shows everywhere but through it (interrupted by the portal).
+///
+/// Layer item: the stencil part of the render-pass clear must stay untouched while the depth
+/// part is flipped (and the mask's LESS swapped). A clear that touched the stencil (or a
+/// stencil value written as 1 - 0) would paint the whole image cyan and hide the bar; an
+/// unswapped LESS on the mask writes no stencil: no portal at all.
+pub fn stencil() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let world: Vec<Object> = overlap_objects()
+        .into_iter()
+        .filter(|o| matches!(o.name, "ground" | "near cube" | "far cube"))
+        .collect();
+    let world = b.nearest_first(&camera, world);
+    let portal = b.object(Object::world(
+        "portal",
+        Mesh::rect_xy(0.0, 0.0, 1.0, 0.85),
+        DMat4::from_translation(DVec3::new(0.1, 1.05, 0.6)),
+        rgb8(255, 255, 255),
+    ));
+    let inside = b.object(Object::full_screen("portal interior", rgb8(0, 200, 220)));
+    let inside_cube = b.object(grounded_cube(
+        "cube behind the portal",
+        0.45,
+        0.5,
+        -0.6,
+        0.5,
+        rgb8(250, 210, 20),
+    ));
+    let bar = b.object(Object::world(
+        "bar",
+        Mesh::cuboid(DVec3::new(2.6, 0.12, 0.12)),
+        DMat4::from_translation(DVec3::new(0.0, 1.2, 0.0)),
+        rgb8(30, 200, 40),
+    ));
+    b.pass(PassSpec::clear(1.0));
+    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    let stencil_test = |compare, on_pass| {
+        Some(StencilTest {
+            compare,
+            reference: 1,
+            on_pass,
+        })
+    };
+    let mask = b.pipeline(PipelineSpec {
+        color_write: false,
+        stencil: stencil_test(Compare::Always, StencilWrite::Replace),
+        ..test_only("stencil mask", DepthTest::Static(Compare::Less))
+    });
+    let fill_inside = b.pipeline(PipelineSpec {
+        stencil: stencil_test(Compare::Equal, StencilWrite::Keep),
+        ..test_only("inside fill", DepthTest::Off)
+    });
+    let inside_only = b.pipeline(PipelineSpec {
+        stencil: stencil_test(Compare::Equal, StencilWrite::Keep),
+        ..PipelineSpec::standard("inside only", 0)
+    });
+    let outside_only = b.pipeline(PipelineSpec {
+        stencil: stencil_test(Compare::NotEqual, StencilWrite::Keep),
+        ..PipelineSpec::standard("outside only", 0)
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&world);
+    for (pipeline, object) in [
+        (mask, portal),
+        (fill_inside, inside),
+        (inside_only, inside_cube),
+        (outside_only, bar),
+    ] {
+        b.step(Step::Bind(pipeline));
+        b.step(Step::Draw(object));
+    }
+    b.step(Step::EndPass);
+    b.finish("stencil", camera, None)
+}
+
+/// `secondary`: the overlap scene's draws recorded into two secondary command buffers
+/// (RENDER_PASS_CONTINUE, inheritance naming the render pass, subpass 0 and the framebuffer;
+/// each binds the pipeline itself), executed with one `vkCmdExecuteCommands` in a pass begun
+/// with SECONDARY_COMMAND_BUFFERS contents. The image is exactly the overlap image.
+///
+/// Layer item: per-command-buffer state in secondaries (DESIGN.md pitfall 9): pipelines
+/// bound and push constants written inside secondary command buffers must be handled like
+/// primary ones. Missed, the secondaries' draws keep standard depth against a reversed clear
+/// and compare: the occlusion order inverts (far cubes over near ones) or nothing draws.
+pub fn secondary() -> Scene {
+    let mut scene = overlap();
+    scene.name = "secondary";
+    let draws: Vec<Step> = (0..scene.objects.len()).map(Step::Draw).collect();
+    let (first, second) = draws.split_at(2);
+    let record = |draws: &[Step]| {
+        let mut steps = vec![Step::Bind(0)];
+        steps.extend_from_slice(draws);
+        steps
+    };
+    scene.plan.steps = vec![
+        Step::BeginPass(0),
+        Step::ExecuteSecondaries(vec![record(first), record(second)]),
+        Step::EndPass,
+    ];
+    scene
+}
+
+/// `subpasses`: the overlap objects in one render pass with two subpasses sharing the depth
+/// attachment: subpass 0 (no color attachment) is a depth-only pre-pass with LESS, subpass 1
+/// draws the same objects in color with EQUAL (depth read-write layout, writes off); a
+/// subpass dependency orders subpass 0's depth writes before subpass 1's tests. Subpass 1
+/// draws farthest first, so that where two surfaces tie the pre-pass's choice wins: the image
+/// is exactly the overlap image.
+///
+/// Layer item: compare ops and clear values in a multi-subpass render pass (the depth
+/// attachment is reversed for both subpasses). A layer that handled only subpass 0, or only
+/// single-subpass passes, leaves EQUAL comparing against unmatched values: nothing draws.
+pub fn subpasses() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    b.pass(PassSpec {
+        kind: PassKind::DepthPrepassSubpasses,
+        ..PassSpec::clear(1.0)
+    });
+    let prepass = b.pipeline(PipelineSpec {
+        program: Program::DepthOnly,
+        color_write: false,
+        ..PipelineSpec::standard("depth pre-pass", 0)
+    });
+    let color = b.pipeline(PipelineSpec {
+        subpass: 1,
+        ..test_only("equal", DepthTest::Static(Compare::Equal))
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(prepass));
+    b.draw(&objects);
+    b.step(Step::NextSubpass);
+    b.step(Step::Bind(color));
+    // Farthest first: where surfaces tie exactly, the one the LESS pre-pass kept is drawn
+    // last, so the image is exactly the overlap image.
+    let reversed: Vec<usize> = objects.iter().rev().copied().collect();
+    b.draw(&reversed);
+    b.step(Step::EndPass);
+    b.finish("subpasses", camera, None)
+}
+
+/// `dynamic-rendering`: the overlap scene drawn with `vkCmdBeginRendering` (depth cleared to
+/// 1.0 through `VkRenderingAttachmentInfo`, pipelines made with `VkPipelineRenderingCreateInfo`),
+/// then a second `vkCmdBeginRendering` that loads color and depth and draws an orange cube
+/// partly hidden by the near cube and a cyan pillar partly hidden by the slab.
+///
+/// Layer item: the clear value of dynamic rendering's attachment info. Unflipped, the first
+/// rendering's reversed test passes nowhere: nothing draws in either rendering.
+pub fn dynamic_rendering() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let first = b.nearest_first(&camera, overlap_objects());
+    let second = b.nearest_first(
+        &camera,
+        vec![
+            grounded_cube("orange cube", 0.35, -0.2, 1.0, 0.7, rgb8(255, 140, 0)),
+            Object::world(
+                "pillar",
+                Mesh::cuboid(DVec3::new(0.18, 1.4, 0.18)),
+                DMat4::from_translation(DVec3::new(1.6, 1.35, -1.6)),
+                rgb8(0, 230, 230),
+            ),
+        ],
+    );
+    let dynamic = |depth, load_color| PassSpec {
+        target: Target::Main,
+        kind: PassKind::DynamicRendering,
+        depth,
+        load_color,
+    };
+    let clear = b.pass(dynamic(DepthLoad::Clear(1.0), false));
+    let load = b.pass(dynamic(DepthLoad::Load, true));
+    let standard = b.pipeline(PipelineSpec::standard("standard", clear));
+    b.step(Step::BeginPass(clear));
+    b.step(Step::Bind(standard));
+    b.draw(&first);
+    b.step(Step::EndPass);
+    b.step(Step::BeginPass(load));
+    b.step(Step::Bind(standard));
+    b.draw(&second);
+    b.step(Step::EndPass);
+    b.finish("dynamic-rendering", camera, None)
+}
+
+/// The light of `shadow-map`: above the scene, behind it to the left, looking down at it
+/// (shadows fall toward the camera and to the right).
+pub fn shadow_light() -> Light {
+    Light {
+        eye: DVec3::new(-5.0, 10.0, -6.0),
+        target: DVec3::new(0.0, 0.0, 0.0),
+        up: DVec3::Y,
+        half_extent: 8.0,
+        near: 2.0,
+        far: 25.0,
+    }
+}
+
+/// The light-space depth bias of the shadow pass (standard, positive: away from the light).
+pub const SHADOW_BIAS: DepthBias = DepthBias {
+    constant: 1.25,
+    slope: 1.75,
+    clamp: 0.0,
+};
+
+/// `shadow-map`: an orthographic shadow pass (light above, looking down) renders the cubes,
+/// a pillar and the ground into a separate D32_SFLOAT shadow map (DEPTH_STENCIL_ATTACHMENT |
+/// SAMPLED, cleared to 1.0, LESS, a standard positive depth bias), then the main pass (the
+/// chosen depth format, perspective camera, LESS) draws the same objects with
+/// `shadow_receiver.frag`, which samples the map through a comparison sampler
+/// (`compareEnable`, LESS_OR_EQUAL) and darkens shadowed surfaces: long shadows fall on the
+/// ground away from the light.
+///
+/// Layer item: observable depth images stay native. The shadow map is SAMPLED, so its clear
+/// value, compare op, depth bias and viewport must be left alone while the main pass is
+/// reversed. Reversing it hands the shader reversed stored depths: the LESS_OR_EQUAL compare
+/// against standard references then shadows everything (or nothing); negating its bias
+/// brings back shadow acne (dark stripes on lit surfaces).
+pub fn shadow_map() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let mut objects = overlap_objects();
+    objects.retain(|o| o.name != "slab");
+    objects.push(Object::world(
+        "pillar",
+        Mesh::cuboid(DVec3::new(0.15, 0.9, 0.15)),
+        DMat4::from_translation(DVec3::new(-1.55, 0.85, 2.2)),
+        rgb8(250, 210, 20),
+    ));
+    let objects = b.nearest_first(&camera, objects);
+    let shadow = b.pass(PassSpec {
+        target: Target::Shadow,
+        ..PassSpec::clear(1.0)
+    });
+    let main = b.pass(PassSpec::clear(1.0));
+    let caster = b.pipeline(PipelineSpec {
+        program: Program::DepthOnly,
+        color_write: false,
+        bias: Bias::Static(SHADOW_BIAS),
+        ..PipelineSpec::standard("shadow caster", shadow)
+    });
+    let receiver = b.pipeline(PipelineSpec {
+        program: Program::ShadowReceiver,
+        ..PipelineSpec::standard("shadow receiver", main)
+    });
+    for (pass, pipeline) in [(shadow, caster), (main, receiver)] {
+        b.step(Step::BeginPass(pass));
+        b.step(Step::Bind(pipeline));
+        b.draw(&objects);
+        b.step(Step::EndPass);
+    }
+    b.finish("shadow-map", camera, Some(shadow_light()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::View;
+    use clap::ValueEnum;
+    use glam::DVec4;
+
+    const ASPECT: f64 = 1.0;
+
+    fn all() -> Vec<Scene> {
+        SceneId::value_variants()
+            .iter()
+            .map(|id| id.build())
+            .collect()
+    }
+
+    fn find(scene: &Scene, name: &str) -> usize {
+        scene
+            .objects
+            .iter()
+            .position(|o| o.name == name)
+            .unwrap_or_else(|| panic!("{}: no object {name}", scene.name))
+    }
+
+    fn clip(scene: &Scene, view: View, object: usize) -> Vec<DVec4> {
+        let o = &scene.objects[object];
+        let mvp = scene.mvp_in(view, o, ASPECT);
+        o.mesh
+            .positions_f64()
+            .map(|p| mvp * p.extend(1.0))
+            .collect()
+    }
+
+    /// (min, max) of the object's NDC depth (its vertices: planar faces reach their extremes
+    /// there, and depth is monotonic in view distance).
+    fn depth_range(scene: &Scene, object: usize) -> (f64, f64) {
+        clip(scene, View::Camera, object)
+            .iter()
+            .map(|c| c.z / c.w)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
+                (lo.min(z), hi.max(z))
+            })
+    }
+
+    fn depth_range_of(scene: &Scene, name: &str) -> (f64, f64) {
+        depth_range(scene, find(scene, name))
+    }
+
+    /// NDC (x, y) bounding box: (min, max).
+    fn screen_box(scene: &Scene, name: &str) -> ([f64; 2], [f64; 2]) {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for c in clip(scene, View::Camera, find(scene, name)) {
+            for (axis, v) in [c.x / c.w, c.y / c.w].into_iter().enumerate() {
+                lo[axis] = lo[axis].min(v);
+                hi[axis] = hi[axis].max(v);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Which objects a plan draws in passes of `target`.
+    fn drawn_in(scene: &Scene, target: Target) -> Vec<usize> {
+        let mut current = None;
+        let mut drawn = Vec::new();
+        for step in scene.plan.all_steps() {
+            match step {
+                Step::BeginPass(n) => current = Some(scene.plan.passes[*n].target),
+                Step::Draw(n) if current == Some(target) => drawn.push(*n),
+                _ => {}
+            }
+        }
+        drawn
+    }
+
+    /// A margin well above the depth resolution of every format (D16: 1.5e-5).
+    const MARGIN: f64 = 4e-4;
+
+    #[test]
+    fn the_catalog_matches_the_cli() {
+        let ids = SceneId::value_variants();
+        assert_eq!(CATALOG.len(), ids.len());
+        for (entry, id) in CATALOG.iter().zip(ids) {
+            assert_eq!(entry.id, *id);
+            assert_eq!(id.to_possible_value().unwrap().get_name(), entry.name);
+            assert_eq!((entry.build)().name, entry.name);
+        }
+    }
+
+    #[test]
+    fn every_plan_is_valid_and_draws_every_object() {
+        for scene in all() {
+            scene
+                .plan
+                .check(scene.objects.len(), scene.light.is_some())
+                .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+            let mut drawn: Vec<usize> = drawn_in(&scene, Target::Main);
+            drawn.extend(drawn_in(&scene, Target::Shadow));
+            for n in 0..scene.objects.len() {
+                assert!(
+                    drawn.contains(&n),
+                    "{}: {} is never drawn",
+                    scene.name,
+                    scene.objects[n].name
+                );
+            }
+            assert!(
+                scene.objects.len() <= 16,
+                "{}: too many objects",
+                scene.name
+            );
+        }
+    }
+
+    #[test]
+    fn every_vertex_is_within_the_depth_range_of_its_views() {
+        for scene in all() {
+            for (target, view) in [(Target::Main, View::Camera), (Target::Shadow, View::Light)] {
+                for n in drawn_in(&scene, target) {
+                    for c in clip(&scene, view, n) {
+                        let name = scene.objects[n].name;
+                        assert!(c.w > 0.0, "{}: {name} behind the eye", scene.name);
+                        let z = c.z / c.w;
+                        assert!(
+                            (0.0..=1.0).contains(&z),
+                            "{}: {name} has depth {z} in {view:?}",
+                            scene.name
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn needs_follow_from_the_plans() {
+        let needs = |id: SceneId| id.build().plan.needs();
+        assert!(needs(SceneId::Stencil).stencil);
+        assert!(needs(SceneId::DepthBounds).depth_bounds);
+        assert!(needs(SceneId::DynamicRendering).dynamic_rendering);
+        assert!(needs(SceneId::CompareOpsDynamic).vulkan_1_3);
+        assert!(needs(SceneId::DepthBias).depth_bias_clamp);
+        assert!(needs(SceneId::DepthBiasDynamic).depth_bias_clamp);
+        assert!(needs(SceneId::ClearImage).clear_depth_image);
+        assert!(needs(SceneId::ShadowMap).shadow_map);
+        assert_eq!(needs(SceneId::Secondary).secondaries, 2);
+        assert_eq!(needs(SceneId::Overlap), crate::plan::Needs::default());
+        for scene in all() {
+            let needs = scene.plan.needs();
+            if scene.name != "stencil" {
+                assert!(!needs.stencil, "{}", scene.name);
+            }
+            if scene.name != "depth-bounds" {
+                assert!(!needs.depth_bounds, "{}", scene.name);
+            }
+        }
+    }
+
+    #[test]
+    fn overlap_based_scenes_keep_the_overlap_geometry() {
+        let overlap = overlap();
+        for id in [SceneId::Secondary, SceneId::Subpasses] {
+            let scene = id.build();
+            let mut names: Vec<&str> = scene.objects.iter().map(|o| o.name).collect();
+            let mut expected: Vec<&str> = overlap.objects.iter().map(|o| o.name).collect();
+            names.sort_unstable();
+            expected.sort_unstable();
+            assert_eq!(names, expected, "{}", scene.name);
+        }
+        assert_eq!(secondary().objects, overlap.objects);
+    }
+
+    #[test]
+    fn compare_ops_overlay_tiles_are_ground_tiles() {
+        for scene in [compare_ops(), compare_ops_dynamic()] {
+            let ground = &scene.objects[find(&scene, "ground")];
+            let checker = &scene.objects[find(&scene, "checker overlay")];
+            assert_eq!(ground.model, checker.model);
+            assert_eq!(
+                checker.mesh.positions.len() * 2,
+                ground.mesh.positions.len()
+            );
+            // Every overlay tile is a ground tile: the same 4 vertices, the same triangles.
+            for tile in checker.mesh.positions.chunks_exact(4) {
+                assert!(
+                    ground.mesh.positions.chunks_exact(4).any(|t| t == tile),
+                    "{}: overlay tile {tile:?} is not a ground tile",
+                    scene.name
+                );
+            }
+            assert_eq!(
+                &checker.mesh.indices[..6],
+                &ground.mesh.indices[..6],
+                "same triangulation"
+            );
+        }
+    }
+
+    #[test]
+    fn compare_ops_extras_sit_where_their_op_shows_them() {
+        let scene = compare_ops();
+        // The ALWAYS cube is behind the middle cube, and inside its screen box.
+        let (always, middle) = (
+            depth_range_of(&scene, "always cube"),
+            depth_range_of(&scene, "middle cube"),
+        );
+        assert!(always.0 > middle.0);
+        let (alo, ahi) = screen_box(&scene, "always cube");
+        let (mlo, mhi) = screen_box(&scene, "middle cube");
+        assert!(alo[0] > mlo[0] && ahi[0] < mhi[0] && alo[1] > mlo[1] && ahi[1] < mhi[1]);
+        // The GREATER cube is behind the near cube and overlaps it on screen.
+        assert!(depth_range_of(&scene, "greater cube").0 > depth_range_of(&scene, "near cube").0);
+        let (glo, ghi) = screen_box(&scene, "greater cube");
+        let (nlo, nhi) = screen_box(&scene, "near cube");
+        assert!(glo[0] < nhi[0] && nlo[0] < ghi[0] && glo[1] < nhi[1] && nlo[1] < ghi[1]);
+        // The NEVER cube would be in plain view: inside the image, over the ground only.
+        let (lo, hi) = screen_box(&scene, "never cube");
+        assert!(lo[0] > -1.0 && hi[0] < 1.0 && lo[1] > -1.0 && hi[1] < 1.0);
+        for other in ["near cube", "middle cube", "far cube", "slab"] {
+            let (olo, ohi) = screen_box(&scene, other);
+            assert!(ohi[0] < lo[0] || hi[0] < olo[0] || ohi[1] < lo[1] || hi[1] < olo[1]);
+        }
+    }
+
+    #[test]
+    fn clear_values_never_tie_with_a_surface() {
+        let near = ["near floor", "near cube", "near cube 2"];
+        let far = ["far floor", "far cube", "far cube 2"];
+        for (scene, clear) in [(clear_render_pass(), 0.985), (clear_image(), 0.98)] {
+            assert_eq!(scene.plan.main_clear_depth(), clear as f32);
+            for name in near {
+                assert!(depth_range_of(&scene, name).1 < 0.98 - MARGIN, "{name}");
+            }
+            for name in far {
+                assert!(depth_range_of(&scene, name).0 > 0.985 + MARGIN, "{name}");
+            }
+            // The middle cube draws with 0.985, not with 0.98.
+            let (lo, hi) = depth_range_of(&scene, "middle cube");
+            assert!(lo > 0.98 + MARGIN && hi < 0.985 - MARGIN, "{lo} {hi}");
+        }
+    }
+
+    #[test]
+    fn clear_attachments_geometry_straddles_the_cleared_depth() {
+        let scene = clear_attachments();
+        let rect_ndc = CLEAR_RECT.map(|f| f64::from(f) * 2.0 - 1.0);
+        let wall = depth_range_of(&scene, "wall");
+        let bar = depth_range_of(&scene, "bar behind the wall");
+        let block = depth_range_of(&scene, "far block");
+        assert!(wall.1 < bar.0, "the bar is behind the wall");
+        assert!(
+            bar.1 < 0.98 - MARGIN,
+            "the bar is nearer than the cleared depth"
+        );
+        assert!(block.0 > 0.98 + MARGIN, "the far block is beyond it");
+        // The wall hides the bar on screen, the bar crosses the rectangle's sides, the block
+        // overlaps the rectangle's top and sticks out of it.
+        let (wlo, whi) = screen_box(&scene, "wall");
+        let (blo, bhi) = screen_box(&scene, "bar behind the wall");
+        assert!(wlo[0] < blo[0] && bhi[0] < whi[0] && wlo[1] < blo[1] && bhi[1] < whi[1]);
+        assert!(blo[0] < rect_ndc[0] && bhi[0] > rect_ndc[2]);
+        assert!(blo[1] > rect_ndc[1] && bhi[1] < rect_ndc[3]);
+        let (klo, khi) = screen_box(&scene, "far block");
+        assert!(klo[0] < rect_ndc[0] && khi[0] > rect_ndc[2]);
+        assert!(klo[1] < rect_ndc[1] && khi[1] > rect_ndc[1]);
+    }
+
+    #[test]
+    fn decals_are_coplanar_with_their_walls() {
+        let scene = depth_bias();
+        for (decal, wall) in [
+            ("facing decal 1", "facing wall"),
+            ("facing decal 2", "facing wall"),
+            ("slanted decal 1", "slanted wall"),
+            ("slanted decal under the rod", "slanted wall"),
+        ] {
+            let (d, w) = (
+                &scene.objects[find(&scene, decal)],
+                &scene.objects[find(&scene, wall)],
+            );
+            assert_eq!(d.model, w.model);
+            assert!(d.mesh.positions.iter().all(|p| p[2] == 0.0));
+            assert!(w.mesh.positions.iter().all(|p| p[2] == 0.0));
+        }
+        // The facing wall's depth is constant (its slope is zero): only the constant factor
+        // separates its decals.
+        let (lo, hi) = depth_range_of(&scene, "facing wall");
+        assert!(hi - lo < 1e-6, "{lo} {hi}");
+        // The rod is in front of the slanted wall by far more than the clamp.
+        let rod = depth_range_of(&scene, "rod");
+        let wall = depth_range_of(&scene, "slanted wall");
+        assert!(rod.0 > wall.0 && rod.1 < wall.1);
+    }
+
+    #[test]
+    fn viewport_split_ranges_separate_the_weapon_from_the_world() {
+        let scene = viewport_split();
+        let map = |[a, b]: [f32; 2], d: f64| f64::from(a) + (f64::from(b) - f64::from(a)) * d;
+        let weapon = depth_range_of(&scene, "weapon");
+        let post = depth_range_of(&scene, "lamp post");
+        assert!(map(SPLIT_RANGES[0], weapon.1) + MARGIN < map(SPLIT_RANGES[1], 0.0));
+        // The post is physically in front of the weapon's far end.
+        assert!(post.0 < weapon.1);
+        // The squeezed cube is physically in front of the far cube but lands behind it.
+        let cube = depth_range_of(&scene, "squeezed cube");
+        let far = depth_range_of(&scene, "far cube");
+        assert!(cube.1 < far.1);
+        assert!(map(SPLIT_RANGES[2], cube.0) > map(SPLIT_RANGES[1], far.1) + MARGIN);
+        let (clo, chi) = screen_box(&scene, "squeezed cube");
+        let (flo, fhi) = screen_box(&scene, "far cube");
+        assert!(
+            clo[0] < flo[0] && flo[0] < chi[0],
+            "the cube crosses the far cube's edge"
+        );
+        assert!(clo[1] > -1.0 && chi[1] < flo[1] + 0.5 * (fhi[1] - flo[1]));
+    }
+
+    #[test]
+    fn shadow_casters_fit_in_the_light_box() {
+        let scene = shadow_map();
+        for (n, object) in scene.objects.iter().enumerate() {
+            if object.name == "ground" {
+                continue;
+            }
+            for c in clip(&scene, View::Light, n) {
+                assert!(c.x.abs() < 1.0 && c.y.abs() < 1.0, "{} at {c}", object.name);
+            }
+        }
+        assert_eq!(scene.light_mvps().len(), scene.objects.len());
+    }
+}
