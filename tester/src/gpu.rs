@@ -128,6 +128,8 @@ pub struct GpuOptions {
     pub validation: bool,
     /// Optional features to enable where the device has them.
     pub features: Features,
+    /// The highest Vulkan version to ask for (default: 1.3 where the loader has it, else 1.2).
+    pub max_api_version: Option<u32>,
 }
 
 /// The optional device features the tester may enable (everything else stays off).
@@ -202,7 +204,7 @@ fn debug_messenger_info(log: &Arc<ValidationLog>) -> vk::DebugUtilsMessengerCrea
 }
 
 impl InstanceCtx {
-    fn new(validation: bool) -> Result<Self> {
+    fn new(validation: bool, max_api_version: Option<u32>) -> Result<Self> {
         // SAFETY: loading libvulkan.so.1 runs its initialisers; the loader is a well-behaved
         // shared library and `Entry` keeps it loaded for as long as it lives.
         let entry = unsafe { ash::Entry::load() }
@@ -216,7 +218,8 @@ impl InstanceCtx {
             vk::API_VERSION_1_3
         } else {
             vk::API_VERSION_1_2
-        };
+        }
+        .min(max_api_version.unwrap_or(vk::API_VERSION_1_3));
 
         let log = Arc::new(ValidationLog::default());
         let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
@@ -416,7 +419,7 @@ fn supported_features(
 impl Gpu {
     /// Creates the instance, picks the physical device, creates the device and its queue.
     pub fn new(options: &GpuOptions) -> Result<Self> {
-        let instance = InstanceCtx::new(options.validation)?;
+        let instance = InstanceCtx::new(options.validation, options.max_api_version)?;
 
         // SAFETY: valid instance.
         let physical_devices = unsafe { instance.instance.enumerate_physical_devices() }

@@ -67,6 +67,10 @@ struct Cli {
     #[arg(long)]
     no_depth_readback: bool,
 
+    /// Ask for at most this Vulkan version (`1.2` or `1.3`), as an older application would.
+    #[arg(long, value_name = "VERSION", value_parser = ["1.2", "1.3"])]
+    vulkan: Option<String>,
+
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
@@ -116,6 +120,10 @@ fn run(cli: &Cli) -> Result<u32> {
     let gpu = Gpu::new(&GpuOptions {
         device: cli.device.clone(),
         validation: cli.validation,
+        max_api_version: cli.vulkan.as_deref().map(|v| match v {
+            "1.2" => ash::vk::API_VERSION_1_2,
+            _ => ash::vk::API_VERSION_1_3,
+        }),
         features: Features {
             dynamic_rendering: needs.dynamic_rendering,
             depth_bounds: needs.depth_bounds,

@@ -61,17 +61,21 @@ fn flip_reverses_depth_and_keeps_color(format: &str) {
     flip_scene("overlap", format);
 }
 
-/// Renders `scene` natively and in flip mode (depth readback allowed) and compares them;
-/// returns the flip render's log.
 fn flip_scene(scene: &str, format: &str) -> String {
+    flip_scene_with(scene, format, &[])
+}
+
+/// Renders `scene` natively and in flip mode (depth readback allowed), both with the tester
+/// arguments `extra`, and compares them; returns the flip render's log.
+fn flip_scene_with(scene: &str, format: &str, extra: &[&str]) -> String {
     let harness = Harness::locate();
     let native_dir = harness.scratch_dir(&format!("flip-{scene}-{format}-native"));
     let mut command = harness.tester(format, &native_dir);
-    command.args(["--scene", scene]);
+    command.args(["--scene", scene]).args(extra);
     let native = harness.render(command, &native_dir);
-    let dir = harness.scratch_dir(&format!("flip-{scene}-{format}"));
+    let dir = harness.scratch_dir(&format!("flip-{scene}-{format}{}", extra.join("")));
     let mut command = harness.tester(format, &dir);
-    command.args(["--scene", scene]);
+    command.args(["--scene", scene]).args(extra);
     harness
         .with_layer(&mut command)
         .env("REVZ_MODE", "flip")
@@ -140,6 +144,20 @@ fn flip_shadow_map_keeps_the_sampled_map_native() {
         assert!(
             log.contains("D32_SFLOAT, 512x512): native, because shaders read it (SAMPLED)"),
             "{format}: {log}"
+        );
+    }
+}
+
+/// An application that asks for Vulkan 1.2 has no core dynamic compare op: revz enables
+/// `VK_EXT_extended_dynamic_state` for it, and the flip path works the same (validation would
+/// report the extension's commands if the extension were not enabled).
+#[test]
+fn applications_below_vulkan_1_3_get_extended_dynamic_state() {
+    for scene in ["overlap", "compare-ops", "viewport-split"] {
+        let log = flip_scene_with(scene, "d32", &["--vulkan", "1.2"]);
+        assert!(
+            log.contains("enabled VK_EXT_extended_dynamic_state"),
+            "{scene}: {log}"
         );
     }
 }
