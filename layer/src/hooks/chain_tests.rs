@@ -64,6 +64,19 @@ unsafe extern "system" fn fake_destroy_device(_: vk::Device, _: *const vk::Alloc
     DESTROYED_DEVICES.fetch_add(1, Ordering::SeqCst);
 }
 
+/// A Vulkan 1.3 device: the application below also asks for 1.3, so the flip path is active.
+unsafe extern "system" fn fake_get_physical_device_properties(
+    _: vk::PhysicalDevice,
+    properties: *mut vk::PhysicalDeviceProperties,
+) {
+    // SAFETY: revz passes a valid output.
+    unsafe { (*properties).api_version = vk::API_VERSION_1_3 };
+}
+
+unsafe extern "system" fn fake_cmd_draw(_: vk::CommandBuffer, _: u32, _: u32, _: u32, _: u32) {}
+
+unsafe extern "system" fn fake_cmd_set_depth_compare_op(_: vk::CommandBuffer, _: vk::CompareOp) {}
+
 unsafe extern "system" fn fake_get_instance_proc_addr(
     _: vk::Instance,
     name: *const c_char,
@@ -74,6 +87,10 @@ unsafe extern "system" fn fake_get_instance_proc_addr(
         b"vkCreateInstance" => void_fn!(vk::PFN_vkCreateInstance, fake_create_instance),
         b"vkDestroyInstance" => void_fn!(vk::PFN_vkDestroyInstance, fake_destroy_instance),
         b"vkCreateDevice" => void_fn!(vk::PFN_vkCreateDevice, fake_create_device),
+        b"vkGetPhysicalDeviceProperties" => void_fn!(
+            vk::PFN_vkGetPhysicalDeviceProperties,
+            fake_get_physical_device_properties
+        ),
         b"vkFakeInstanceCommand" => Some(fake_command),
         _ => None,
     }
@@ -88,6 +105,13 @@ unsafe extern "system" fn fake_get_device_proc_addr(
     match name.to_bytes() {
         b"vkDestroyDevice" => void_fn!(vk::PFN_vkDestroyDevice, fake_destroy_device),
         b"vkFakeDeviceCommand" => Some(fake_command),
+        b"vkCmdDraw" => void_fn!(vk::PFN_vkCmdDraw, fake_cmd_draw),
+        b"vkCmdSetDepthCompareOp" => {
+            void_fn!(
+                vk::PFN_vkCmdSetDepthCompareOp,
+                fake_cmd_set_depth_compare_op
+            )
+        }
         _ => None,
     }
 }
@@ -118,8 +142,10 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
     }];
     let mut layer_settings = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
     layer_settings.p_next = (&mut instance_chain as *mut ffi::LayerInstanceCreateInfo).cast();
+    let app_info = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
     let create_info = vk::InstanceCreateInfo {
         p_next: (&layer_settings as *const vk::LayerSettingsCreateInfoEXT).cast(),
+        p_application_info: &app_info,
         ..Default::default()
     };
     let mut handle = vk::Instance::null();
@@ -184,10 +210,9 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
     assert!(device_chain.p_layer_info.is_null());
     // SAFETY: the fake's live object.
     let device_key = unsafe { DispatchKey::of(device_handle) };
-    assert_eq!(
-        DEVICES.get(device_key).map(|d| d.handle),
-        Some(device_handle)
-    );
+    let device_state = DEVICES.get(device_key).expect("the device is registered");
+    assert_eq!(device_state.handle, device_handle);
+    assert_eq!(device_state.settings.mode, crate::config::Mode::Flip);
 
     // SAFETY: valid names and a live device.
     unsafe {
@@ -203,6 +228,18 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
             Some(fake_destroy_device as vk::PFN_vkDestroyDevice as usize)
         );
         assert!(device::get_device_proc_addr(device_handle, c"vkNoSuchCommand".as_ptr()).is_none());
+        // The flip path is active on this device: draws go through revz's hook.
+        assert!(device_state.policy.is_active());
+        let draw = device::get_device_proc_addr(device_handle, c"vkCmdDraw".as_ptr());
+        assert!(draw.is_some());
+        assert_ne!(
+            draw.map(|f| f as usize),
+            Some(fake_cmd_draw as vk::PFN_vkCmdDraw as usize)
+        );
+        // A depth-path command the device below does not have is not handed out.
+        assert!(
+            device::get_device_proc_addr(device_handle, c"vkCmdBeginRendering".as_ptr()).is_none()
+        );
 
         device::destroy_device(device_handle, std::ptr::null());
     }

@@ -228,3 +228,120 @@ destroy_hook!(
     pipelines,
     destroy_pipeline
 );
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn depth_state(test: bool, bounds: bool) -> vk::PipelineDepthStencilStateCreateInfo<'static> {
+        vk::PipelineDepthStencilStateCreateInfo {
+            depth_test_enable: test.into(),
+            depth_write_enable: vk::TRUE,
+            depth_compare_op: vk::CompareOp::LESS_OR_EQUAL,
+            depth_bounds_test_enable: bounds.into(),
+            min_depth_bounds: 0.0,
+            max_depth_bounds: 0.75,
+            ..Default::default()
+        }
+    }
+
+    fn raster(bias: bool, discard: bool) -> vk::PipelineRasterizationStateCreateInfo<'static> {
+        vk::PipelineRasterizationStateCreateInfo {
+            depth_bias_enable: bias.into(),
+            depth_bias_constant_factor: -4.0,
+            depth_bias_slope_factor: -2.0,
+            rasterizer_discard_enable: discard.into(),
+            ..Default::default()
+        }
+    }
+
+    const VIEWPORT: [vk::Viewport; 1] = [vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: 64.0,
+        height: 64.0,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    }];
+
+    #[test]
+    fn static_depth_state_becomes_dynamic_and_is_recorded() {
+        let depth = depth_state(true, true);
+        let raster = raster(true, false);
+        let viewport = vk::PipelineViewportStateCreateInfo::default().viewports(&VIEWPORT);
+        let app_states = [vk::DynamicState::SCISSOR];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&app_states);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .depth_stencil_state(&depth)
+            .rasterization_state(&raster)
+            .viewport_state(&viewport)
+            .dynamic_state(&dynamic);
+        let (states, pipeline) = plan(&info).expect("a pipeline with depth state");
+        assert_eq!(
+            states,
+            [
+                vk::DynamicState::SCISSOR,
+                vk::DynamicState::DEPTH_COMPARE_OP,
+                vk::DynamicState::VIEWPORT,
+                vk::DynamicState::DEPTH_BIAS,
+                vk::DynamicState::DEPTH_BOUNDS,
+            ]
+        );
+        assert_eq!(pipeline.app_dynamic, States::NONE);
+        assert_eq!(
+            pipeline.injected,
+            States::COMPARE_OP | States::VIEWPORT | States::BIAS | States::BOUNDS
+        );
+        assert_eq!(pipeline.compare_op, vk::CompareOp::LESS_OR_EQUAL);
+        assert_eq!(pipeline.bias.constant, -4.0);
+        assert_eq!(pipeline.bounds, (0.0, 0.75));
+        assert_eq!(pipeline.viewports.len(), 1);
+    }
+
+    #[test]
+    fn state_the_application_made_dynamic_is_left_to_it() {
+        let depth = depth_state(true, false);
+        let raster = raster(false, false);
+        let app_states = [
+            vk::DynamicState::VIEWPORT_WITH_COUNT,
+            vk::DynamicState::DEPTH_COMPARE_OP,
+        ];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&app_states);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .depth_stencil_state(&depth)
+            .rasterization_state(&raster)
+            .dynamic_state(&dynamic);
+        let (states, pipeline) = plan(&info).expect("a pipeline with depth state");
+        assert_eq!(states, app_states);
+        assert_eq!(
+            pipeline.app_dynamic,
+            States::VIEWPORT_WITH_COUNT | States::COMPARE_OP
+        );
+        assert!(pipeline.injected.is_empty());
+    }
+
+    #[test]
+    fn pipelines_without_depth_or_rasterization_are_not_touched() {
+        let raster_on = raster(false, false);
+        let info = vk::GraphicsPipelineCreateInfo::default().rasterization_state(&raster_on);
+        assert!(plan(&info).is_none(), "no depth-stencil state");
+
+        let depth = depth_state(true, false);
+        let discard = raster(false, true);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .depth_stencil_state(&depth)
+            .rasterization_state(&discard);
+        assert!(plan(&info).is_none(), "rasterizer discard");
+    }
+
+    #[test]
+    fn pipeline_libraries_are_recognized() {
+        let library =
+            vk::GraphicsPipelineCreateInfo::default().flags(vk::PipelineCreateFlags::LIBRARY_KHR);
+        assert!(uses_libraries(&library));
+        let mut link = vk::PipelineLibraryCreateInfoKHR::default();
+        let linked = vk::GraphicsPipelineCreateInfo::default().push_next(&mut link);
+        assert!(uses_libraries(&linked));
+        assert!(!uses_libraries(&vk::GraphicsPipelineCreateInfo::default()));
+    }
+}
