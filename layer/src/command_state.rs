@@ -84,6 +84,8 @@ pub struct PipelineDepth {
     pub compare_op: vk::CompareOp,
     pub bias: DepthBias,
     pub bounds: (f32, f32),
+    /// The fragment stage writes `FragDepth`, which the flip path cannot reverse.
+    pub writes_frag_depth: bool,
 }
 
 /// The depth attachment draws currently go to.
@@ -224,6 +226,15 @@ impl CommandState {
 
     fn emit(&self, sink: &mut impl StateSink) {
         let reversed = self.target == Target::Reversed;
+        if reversed && self.pipeline.as_ref().is_some_and(|p| p.writes_frag_depth) {
+            static WARNED: std::sync::Once = std::sync::Once::new();
+            WARNED.call_once(|| {
+                log::warn!(
+                    "a pipeline that writes FragDepth draws into a reversed depth attachment: \
+                     its fragments keep standard depth (not handled yet)"
+                )
+            });
+        }
         let (from_app, injected, pipeline) = match &self.pipeline {
             Some(p) => (self.app_set & p.app_dynamic, p.injected, Some(&**p)),
             None => (self.app_set, States::NONE, None),
@@ -367,6 +378,7 @@ mod tests {
                 slope: -2.0,
             },
             bounds: (0.0, 1.0),
+            writes_frag_depth: false,
         })
     }
 

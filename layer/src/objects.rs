@@ -82,6 +82,8 @@ pub struct DeviceObjects {
     /// Each framebuffer's attachments (empty for an imageless framebuffer).
     pub framebuffers: Table<vk::Framebuffer, Arc<[vk::ImageView]>>,
     pub pipelines: Table<vk::Pipeline, Arc<PipelineDepth>>,
+    /// Shader modules that write `FragDepth`.
+    pub frag_depth_modules: Table<vk::ShaderModule, ()>,
     /// Each pool's command buffers, to forget them when the pool is destroyed.
     pub pools: Table<vk::CommandPool, Arc<Mutex<Vec<vk::CommandBuffer>>>>,
 }

@@ -129,6 +129,15 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             pipeline::create_graphics_pipelines
         ),
         b"vkDestroyPipeline" => void_fn!(vk::PFN_vkDestroyPipeline, pipeline::destroy_pipeline),
+        b"vkCreateShaderModule" => {
+            void_fn!(vk::PFN_vkCreateShaderModule, pipeline::create_shader_module)
+        }
+        b"vkDestroyShaderModule" => {
+            void_fn!(
+                vk::PFN_vkDestroyShaderModule,
+                pipeline::destroy_shader_module
+            )
+        }
         b"vkBeginCommandBuffer" => {
             void_fn!(vk::PFN_vkBeginCommandBuffer, c::begin_command_buffer)
         }

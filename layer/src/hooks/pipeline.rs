@@ -19,6 +19,8 @@ use crate::conv::DepthBias;
 
 static CREATE_GRAPHICS_PIPELINES: EntryPoint = EntryPoint::new("vkCreateGraphicsPipelines");
 static DESTROY_PIPELINE: EntryPoint = EntryPoint::new("vkDestroyPipeline");
+static CREATE_SHADER_MODULE: EntryPoint = EntryPoint::new("vkCreateShaderModule");
+static DESTROY_SHADER_MODULE: EntryPoint = EntryPoint::new("vkDestroyShaderModule");
 static LIBRARY_LOGGED: AtomicBool = AtomicBool::new(false);
 
 /// Whether a create info builds or links pipeline libraries.
@@ -39,6 +41,37 @@ fn uses_libraries(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
         next = base.p_next;
     }
     false
+}
+
+/// Whether the fragment stage of a create info writes `FragDepth`, from its module (looked up
+/// with `module_writes`) or from SPIR-V chained inline into the stage.
+fn writes_frag_depth(
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+    module_writes: &dyn Fn(vk::ShaderModule) -> bool,
+) -> bool {
+    // SAFETY: `stageCount` stages (the application's contract).
+    let stages = unsafe { slice(info.p_stages, info.stage_count) };
+    stages
+        .iter()
+        .filter(|stage| stage.stage == vk::ShaderStageFlags::FRAGMENT)
+        .any(|stage| {
+            if stage.module != vk::ShaderModule::null() {
+                return module_writes(stage.module);
+            }
+            let mut next = stage.p_next.cast::<vk::BaseInStructure>();
+            // SAFETY: a valid pNext chain.
+            while let Some(base) = unsafe { next.as_ref() } {
+                if base.s_type == vk::StructureType::SHADER_MODULE_CREATE_INFO {
+                    // SAFETY: the sType identifies the structure; `codeSize` bytes of code.
+                    let inline = unsafe { &*next.cast::<vk::ShaderModuleCreateInfo<'_>>() };
+                    // SAFETY: as above.
+                    let words = unsafe { slice(inline.p_code, (inline.code_size / 4) as u32) };
+                    return crate::spirv_scan::writes_frag_depth(words);
+                }
+                next = base.p_next;
+            }
+            false
+        })
 }
 
 /// What revz changes in one create info: the dynamic states to add, and the pipeline's depth
@@ -145,7 +178,12 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         }
                         return None;
                     }
-                    plan(info)
+                    plan(info).map(|(states, mut depth)| {
+                        depth.writes_frag_depth = writes_frag_depth(info, &|module| {
+                            state.objects.frag_depth_modules.get(&module).is_some()
+                        });
+                        (states, depth)
+                    })
                 })
                 .collect::<Vec<_>>()
         },
@@ -220,6 +258,46 @@ pub unsafe extern "system" fn create_graphics_pipelines(
     );
     result
 }
+
+pub unsafe extern "system" fn create_shader_module(
+    device: vk::Device,
+    p_create_info: *const vk::ShaderModuleCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_module: *mut vk::ShaderModule,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_shader_module)(device, p_create_info, p_allocator, p_module)
+    };
+    if result == vk::Result::SUCCESS {
+        super::record(&CREATE_SHADER_MODULE, || {
+            // SAFETY: valid on success; `codeSize` bytes of code.
+            let info = unsafe { &*p_create_info };
+            // SAFETY: as above.
+            let words = unsafe { slice(info.p_code, (info.code_size / 4) as u32) };
+            if crate::spirv_scan::writes_frag_depth(words) {
+                // SAFETY: valid on success.
+                state
+                    .objects
+                    .frag_depth_modules
+                    .insert(unsafe { *p_module }, ());
+            }
+        });
+    }
+    result
+}
+
+destroy_hook!(
+    destroy_shader_module,
+    DESTROY_SHADER_MODULE,
+    vk::ShaderModule,
+    frag_depth_modules,
+    destroy_shader_module
+);
 
 destroy_hook!(
     destroy_pipeline,
