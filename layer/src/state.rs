@@ -80,6 +80,14 @@ pub struct DeviceCommands {
     pub end_rendering: Option<vk::PFN_vkCmdEndRendering>,
     pub draw_indirect_count: Option<vk::PFN_vkCmdDrawIndirectCount>,
     pub draw_indexed_indirect_count: Option<vk::PFN_vkCmdDrawIndexedIndirectCount>,
+    pub draw_mesh_tasks_ext: Option<vk::PFN_vkCmdDrawMeshTasksEXT>,
+    pub draw_mesh_tasks_indirect_ext: Option<vk::PFN_vkCmdDrawMeshTasksIndirectEXT>,
+    pub draw_mesh_tasks_indirect_count_ext: Option<vk::PFN_vkCmdDrawMeshTasksIndirectCountEXT>,
+    pub draw_mesh_tasks_nv: Option<vk::PFN_vkCmdDrawMeshTasksNV>,
+    pub draw_mesh_tasks_indirect_nv: Option<vk::PFN_vkCmdDrawMeshTasksIndirectNV>,
+    pub draw_multi_ext: Option<vk::PFN_vkCmdDrawMultiEXT>,
+    pub draw_multi_indexed_ext: Option<vk::PFN_vkCmdDrawMultiIndexedEXT>,
+    pub draw_indirect_byte_count_ext: Option<vk::PFN_vkCmdDrawIndirectByteCountEXT>,
 }
 
 impl DeviceCommands {
@@ -137,6 +145,15 @@ impl DeviceCommands {
                 c"vkCmdDrawIndexedIndirectCountKHR",
                 c"vkCmdDrawIndexedIndirectCountAMD"
             ),
+            // Extension-only draws: their one name is always allowed (version 0).
+            draw_mesh_tasks_ext: load!(0, c"vkCmdDrawMeshTasksEXT"),
+            draw_mesh_tasks_indirect_ext: load!(0, c"vkCmdDrawMeshTasksIndirectEXT"),
+            draw_mesh_tasks_indirect_count_ext: load!(0, c"vkCmdDrawMeshTasksIndirectCountEXT"),
+            draw_mesh_tasks_nv: load!(0, c"vkCmdDrawMeshTasksNV"),
+            draw_mesh_tasks_indirect_nv: load!(0, c"vkCmdDrawMeshTasksIndirectNV"),
+            draw_multi_ext: load!(0, c"vkCmdDrawMultiEXT"),
+            draw_multi_indexed_ext: load!(0, c"vkCmdDrawMultiIndexedEXT"),
+            draw_indirect_byte_count_ext: load!(0, c"vkCmdDrawIndirectByteCountEXT"),
         }
     }
 }

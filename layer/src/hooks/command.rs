@@ -126,6 +126,30 @@ draw_hook!(cmd_draw_indexed_indirect_count, "vkCmdDrawIndexedIndirectCount",
     a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
     => |device| match device.commands.draw_indexed_indirect_count { Some(f) => f, None => return });
 
+// Extension draws: the device has them only when the application enabled the extension.
+draw_hook!(cmd_draw_mesh_tasks_ext, "vkCmdDrawMeshTasksEXT", a: u32, b: u32, c: u32
+    => |device| match device.commands.draw_mesh_tasks_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_mesh_tasks_indirect_ext, "vkCmdDrawMeshTasksIndirectEXT",
+    a: vk::Buffer, b: vk::DeviceSize, c: u32, d: u32
+    => |device| match device.commands.draw_mesh_tasks_indirect_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_mesh_tasks_indirect_count_ext, "vkCmdDrawMeshTasksIndirectCountEXT",
+    a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_mesh_tasks_indirect_count_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_mesh_tasks_nv, "vkCmdDrawMeshTasksNV", a: u32, b: u32
+    => |device| match device.commands.draw_mesh_tasks_nv { Some(f) => f, None => return });
+draw_hook!(cmd_draw_mesh_tasks_indirect_nv, "vkCmdDrawMeshTasksIndirectNV",
+    a: vk::Buffer, b: vk::DeviceSize, c: u32, d: u32
+    => |device| match device.commands.draw_mesh_tasks_indirect_nv { Some(f) => f, None => return });
+draw_hook!(cmd_draw_multi_ext, "vkCmdDrawMultiEXT",
+    a: u32, b: *const vk::MultiDrawInfoEXT, c: u32, d: u32, e: u32
+    => |device| match device.commands.draw_multi_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_multi_indexed_ext, "vkCmdDrawMultiIndexedEXT",
+    a: u32, b: *const vk::MultiDrawIndexedInfoEXT, c: u32, d: u32, e: u32, f: *const i32
+    => |device| match device.commands.draw_multi_indexed_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_indirect_byte_count_ext, "vkCmdDrawIndirectByteCountEXT",
+    a: u32, b: u32, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_indirect_byte_count_ext { Some(f) => f, None => return });
+
 /// Looks up a command buffer for a state-recording hook; returns the device to call down to.
 fn with_entry(
     buffer: vk::CommandBuffer,

@@ -202,6 +202,35 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             vk::PFN_vkCmdDrawIndexedIndirectCount,
             c::cmd_draw_indexed_indirect_count
         ),
+        b"vkCmdDrawMeshTasksEXT" => {
+            void_fn!(vk::PFN_vkCmdDrawMeshTasksEXT, c::cmd_draw_mesh_tasks_ext)
+        }
+        b"vkCmdDrawMeshTasksIndirectEXT" => void_fn!(
+            vk::PFN_vkCmdDrawMeshTasksIndirectEXT,
+            c::cmd_draw_mesh_tasks_indirect_ext
+        ),
+        b"vkCmdDrawMeshTasksIndirectCountEXT" => void_fn!(
+            vk::PFN_vkCmdDrawMeshTasksIndirectCountEXT,
+            c::cmd_draw_mesh_tasks_indirect_count_ext
+        ),
+        b"vkCmdDrawMeshTasksNV" => {
+            void_fn!(vk::PFN_vkCmdDrawMeshTasksNV, c::cmd_draw_mesh_tasks_nv)
+        }
+        b"vkCmdDrawMeshTasksIndirectNV" => void_fn!(
+            vk::PFN_vkCmdDrawMeshTasksIndirectNV,
+            c::cmd_draw_mesh_tasks_indirect_nv
+        ),
+        b"vkCmdDrawMultiEXT" => void_fn!(vk::PFN_vkCmdDrawMultiEXT, c::cmd_draw_multi_ext),
+        b"vkCmdDrawMultiIndexedEXT" => {
+            void_fn!(
+                vk::PFN_vkCmdDrawMultiIndexedEXT,
+                c::cmd_draw_multi_indexed_ext
+            )
+        }
+        b"vkCmdDrawIndirectByteCountEXT" => void_fn!(
+            vk::PFN_vkCmdDrawIndirectByteCountEXT,
+            c::cmd_draw_indirect_byte_count_ext
+        ),
         _ => None,
     }
 }
