@@ -114,6 +114,8 @@ pub struct CommandState {
     /// tracked (then every state the application set is emitted as dynamic).
     pipeline: Option<std::sync::Arc<PipelineDepth>>,
     target: Target,
+    /// The target a secondary command buffer assumed at its begin.
+    inherited: Target,
     viewports: [vk::Viewport; MAX_VIEWPORTS],
     /// Which of `viewports` the application set with `vkCmdSetViewport`.
     viewports_set: u16,
@@ -132,6 +134,7 @@ impl Default for CommandState {
         CommandState {
             pipeline: None,
             target: Target::None,
+            inherited: Target::None,
             viewports: [vk::Viewport::default(); MAX_VIEWPORTS],
             viewports_set: 0,
             viewport_count: None,
@@ -149,12 +152,18 @@ impl CommandState {
     pub fn begin(&mut self, target: Target) {
         *self = CommandState {
             target,
+            inherited: target,
             ..CommandState::default()
         };
     }
 
     pub fn target(&self) -> Target {
         self.target
+    }
+
+    /// The target this command buffer was begun with (what a secondary assumed).
+    pub fn inherited(&self) -> Target {
+        self.inherited
     }
 
     /// The depth attachment changed (render pass begin, next subpass, end, ...).

@@ -149,6 +149,8 @@ impl PassScope {
 #[derive(Debug)]
 pub struct CommandBufferEntry {
     pub device: Arc<DeviceState>,
+    /// Secondary command buffers may inherit a render pass; primaries never do.
+    pub secondary: bool,
     pub state: Mutex<CommandState>,
     pub scope: Mutex<PassScope>,
 }
@@ -176,25 +178,52 @@ thread_local! {
     static CACHE: RefCell<CacheSlot> = const { RefCell::new(None) };
 }
 
-/// Starts tracking command buffers allocated on `device`.
-pub fn track_command_buffers(device: &Arc<DeviceState>, buffers: &[vk::CommandBuffer]) {
+/// Starts tracking command buffers allocated on `device` at `level`.
+pub fn track_command_buffers(
+    device: &Arc<DeviceState>,
+    buffers: &[vk::CommandBuffer],
+    level: vk::CommandBufferLevel,
+) {
     for &buffer in buffers {
         COMMAND_BUFFERS.insert(
             buffer,
             Arc::new(CommandBufferEntry {
                 device: Arc::clone(device),
+                secondary: level == vk::CommandBufferLevel::SECONDARY,
                 state: Mutex::new(CommandState::default()),
                 scope: Mutex::new(PassScope::default()),
             }),
         );
     }
+    // A handle can come back for a new command buffer (even of another device, when an
+    // application destroyed a device with live pools): no cache may keep the old entry.
+    GENERATION.fetch_add(1, Ordering::Release);
 }
 
 /// Stops tracking command buffers (freed, or their pool destroyed).
 pub fn forget_command_buffers(buffers: &[vk::CommandBuffer]) {
-    GENERATION.fetch_add(1, Ordering::Release);
     for buffer in buffers {
         COMMAND_BUFFERS.remove(buffer);
+    }
+    // After the removal, so that a racing lookup cannot cache a removed entry under the new
+    // generation.
+    GENERATION.fetch_add(1, Ordering::Release);
+}
+
+/// Stops tracking every command buffer of a device (at `vkDestroyDevice`, for applications
+/// that leave pools alive).
+pub fn forget_device_command_buffers(objects: &DeviceObjects) {
+    let pools: Vec<_> = objects
+        .pools
+        .0
+        .read()
+        .unwrap_or_else(PoisonError::into_inner)
+        .values()
+        .cloned()
+        .collect();
+    for pool in pools {
+        let buffers = pool.lock().unwrap_or_else(PoisonError::into_inner);
+        forget_command_buffers(&buffers);
     }
 }
 

@@ -88,6 +88,11 @@ pub struct DeviceCommands {
     pub draw_multi_ext: Option<vk::PFN_vkCmdDrawMultiEXT>,
     pub draw_multi_indexed_ext: Option<vk::PFN_vkCmdDrawMultiIndexedEXT>,
     pub draw_indirect_byte_count_ext: Option<vk::PFN_vkCmdDrawIndirectByteCountEXT>,
+    pub draw_mesh_tasks_indirect_count_nv: Option<vk::PFN_vkCmdDrawMeshTasksIndirectCountNV>,
+    pub draw_cluster_huawei: Option<vk::PFN_vkCmdDrawClusterHUAWEI>,
+    pub draw_cluster_indirect_huawei: Option<vk::PFN_vkCmdDrawClusterIndirectHUAWEI>,
+    pub execute_generated_commands_nv: Option<vk::PFN_vkCmdExecuteGeneratedCommandsNV>,
+    pub bind_shaders_ext: Option<vk::PFN_vkCmdBindShadersEXT>,
 }
 
 impl DeviceCommands {
@@ -154,6 +159,11 @@ impl DeviceCommands {
             draw_multi_ext: load!(0, c"vkCmdDrawMultiEXT"),
             draw_multi_indexed_ext: load!(0, c"vkCmdDrawMultiIndexedEXT"),
             draw_indirect_byte_count_ext: load!(0, c"vkCmdDrawIndirectByteCountEXT"),
+            draw_mesh_tasks_indirect_count_nv: load!(0, c"vkCmdDrawMeshTasksIndirectCountNV"),
+            draw_cluster_huawei: load!(0, c"vkCmdDrawClusterHUAWEI"),
+            draw_cluster_indirect_huawei: load!(0, c"vkCmdDrawClusterIndirectHUAWEI"),
+            execute_generated_commands_nv: load!(0, c"vkCmdExecuteGeneratedCommandsNV"),
+            bind_shaders_ext: load!(0, c"vkCmdBindShadersEXT"),
         }
     }
 }

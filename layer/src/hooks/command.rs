@@ -150,6 +150,18 @@ draw_hook!(cmd_draw_indirect_byte_count_ext, "vkCmdDrawIndirectByteCountEXT",
     a: u32, b: u32, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
     => |device| match device.commands.draw_indirect_byte_count_ext { Some(f) => f, None => return });
 
+draw_hook!(cmd_draw_mesh_tasks_indirect_count_nv, "vkCmdDrawMeshTasksIndirectCountNV",
+    a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_mesh_tasks_indirect_count_nv { Some(f) => f, None => return });
+draw_hook!(cmd_draw_cluster_huawei, "vkCmdDrawClusterHUAWEI", a: u32, b: u32, c: u32
+    => |device| match device.commands.draw_cluster_huawei { Some(f) => f, None => return });
+draw_hook!(cmd_draw_cluster_indirect_huawei, "vkCmdDrawClusterIndirectHUAWEI",
+    a: vk::Buffer, b: vk::DeviceSize
+    => |device| match device.commands.draw_cluster_indirect_huawei { Some(f) => f, None => return });
+draw_hook!(cmd_execute_generated_commands_nv, "vkCmdExecuteGeneratedCommandsNV",
+    a: vk::Bool32, b: *const vk::GeneratedCommandsInfoNV<'_>
+    => |device| match device.commands.execute_generated_commands_nv { Some(f) => f, None => return });
+
 /// Looks up a command buffer for a state-recording hook; returns the device to call down to.
 fn with_entry(
     buffer: vk::CommandBuffer,
@@ -288,6 +300,22 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
     if let Some(device) = device {
         // SAFETY: calling down with the application's arguments.
         unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, pipeline) }
+    }
+}
+
+/// `vkCmdBindShadersEXT`: with shader objects every piece of state is dynamic, so revz emits
+/// whatever the application set.
+pub unsafe extern "system" fn cmd_bind_shaders_ext(
+    buffer: vk::CommandBuffer,
+    count: u32,
+    p_stages: *const vk::ShaderStageFlags,
+    p_shaders: *const vk::ShaderEXT,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindShadersEXT");
+    let device = with_entry(buffer, &ENTRY, |entry| entry.state().bind_pipeline(None));
+    if let Some(next) = device.and_then(|d| d.commands.bind_shaders_ext) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, count, p_stages, p_shaders) }
     }
 }
 
@@ -486,7 +514,27 @@ pub unsafe extern "system" fn cmd_begin_rendering(
                         flip_depth(copy.clear_value.depth_stencil.depth)
                 };
             }
-            copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
+            // MIN/MAX pick the other sample on reversed depth. A stencil resolve of the same
+            // attachment must keep its mode equal to the depth one on devices without
+            // independentResolve, so then the depth mode stays (and the resolved depth is the
+            // other extreme: logged once).
+            // SAFETY: null or valid.
+            let stencil_resolves = unsafe { info.p_stencil_attachment.as_ref() }
+                .is_some_and(|s| s.resolve_mode != vk::ResolveModeFlags::NONE);
+            if !stencil_resolves {
+                copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
+            } else if matches!(
+                copy.resolve_mode,
+                vk::ResolveModeFlags::MIN | vk::ResolveModeFlags::MAX
+            ) {
+                static LOGGED: std::sync::Once = std::sync::Once::new();
+                LOGGED.call_once(|| {
+                    log::warn!(
+                        "a MIN/MAX depth resolve with a stencil resolve on a reversed \
+                         attachment keeps its mode: the resolved depth is the other extreme"
+                    )
+                });
+            }
             depth_copy = Some(copy);
         }
         entry.state().set_target(target);
@@ -604,9 +652,11 @@ pub unsafe extern "system" fn begin_command_buffer(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid begin info (the application's contract).
         let begin = unsafe { &*p_begin };
-        let target = if begin
-            .flags
-            .contains(vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE)
+        // The inheritance info is ignored (and may be garbage) for primaries.
+        let target = if entry.secondary
+            && begin
+                .flags
+                .contains(vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE)
         {
             // SAFETY: null or valid; only read for secondaries continuing a render pass.
             unsafe { begin.p_inheritance_info.as_ref() }
@@ -633,14 +683,12 @@ fn inherited_target(
     let device = &entry.device;
     if inheritance.render_pass != vk::RenderPass::null() {
         let pass = device.objects.render_passes.get(&inheritance.render_pass);
-        if inheritance.framebuffer != vk::Framebuffer::null() {
+        // An imageless framebuffer names no views: the format decides, as without one.
+        let targets = attachment_targets(device, inheritance.framebuffer, std::ptr::null());
+        if !targets.is_empty() {
             let scope = PassScope {
                 render_pass: pass,
-                attachment_targets: attachment_targets(
-                    device,
-                    inheritance.framebuffer,
-                    std::ptr::null(),
-                ),
+                attachment_targets: targets,
                 subpass: inheritance.subpass as usize,
             };
             return scope.target();
@@ -699,7 +747,29 @@ pub unsafe extern "system" fn cmd_execute_commands(
     p_buffers: *const vk::CommandBuffer,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdExecuteCommands");
-    if let Some(device) = with_entry(buffer, &ENTRY, |entry| entry.state().invalidate()) {
+    static MISMATCH: std::sync::Once = std::sync::Once::new();
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let mut state = entry.state();
+        let target = state.target();
+        // A secondary decided its depth target at its begin; it can only be checked here.
+        // SAFETY: `count` command buffers.
+        for &secondary in unsafe { slice(p_buffers, count) } {
+            let assumed = objects::command_buffer(secondary).map(|s| s.state().inherited());
+            if matches!(assumed, Some(a) if a != target && a != Target::None && target != Target::None)
+            {
+                MISMATCH.call_once(|| {
+                    log::warn!(
+                        "a secondary command buffer recorded for a {:?} depth attachment runs \
+                         where the depth attachment is {target:?}: its depth state does not \
+                         match (give secondaries their framebuffer in the inheritance info)",
+                        assumed.unwrap_or_default()
+                    )
+                });
+            }
+        }
+        state.invalidate();
+    });
+    if let Some(device) = device {
         // SAFETY: calling down with the application's arguments.
         unsafe { (device.next.fp_v1_0().cmd_execute_commands)(buffer, count, p_buffers) }
     }

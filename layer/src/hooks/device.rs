@@ -63,7 +63,11 @@ pub unsafe extern "system" fn destroy_device(
                 return;
             }
             // SAFETY: a non-null device being destroyed is still live.
-            match DEVICES.remove(unsafe { DispatchKey::of(device) }) {
+            let removed = DEVICES.remove(unsafe { DispatchKey::of(device) });
+            if let Some(state) = &removed {
+                crate::objects::forget_device_command_buffers(&state.objects);
+            }
+            match removed {
                 // SAFETY: calling down with the application's arguments.
                 Some(state) => unsafe {
                     (state.next.fp_v1_0().destroy_device)(device, p_allocator)

@@ -227,6 +227,22 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
                 c::cmd_draw_multi_indexed_ext
             )
         }
+        b"vkCmdDrawMeshTasksIndirectCountNV" => void_fn!(
+            vk::PFN_vkCmdDrawMeshTasksIndirectCountNV,
+            c::cmd_draw_mesh_tasks_indirect_count_nv
+        ),
+        b"vkCmdDrawClusterHUAWEI" => {
+            void_fn!(vk::PFN_vkCmdDrawClusterHUAWEI, c::cmd_draw_cluster_huawei)
+        }
+        b"vkCmdDrawClusterIndirectHUAWEI" => void_fn!(
+            vk::PFN_vkCmdDrawClusterIndirectHUAWEI,
+            c::cmd_draw_cluster_indirect_huawei
+        ),
+        b"vkCmdExecuteGeneratedCommandsNV" => void_fn!(
+            vk::PFN_vkCmdExecuteGeneratedCommandsNV,
+            c::cmd_execute_generated_commands_nv
+        ),
+        b"vkCmdBindShadersEXT" => void_fn!(vk::PFN_vkCmdBindShadersEXT, c::cmd_bind_shaders_ext),
         b"vkCmdDrawIndirectByteCountEXT" => void_fn!(
             vk::PFN_vkCmdDrawIndirectByteCountEXT,
             c::cmd_draw_indirect_byte_count_ext

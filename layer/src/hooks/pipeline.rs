@@ -16,6 +16,7 @@ use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::DepthBias;
+use crate::state::DeviceState;
 
 static CREATE_GRAPHICS_PIPELINES: EntryPoint = EntryPoint::new("vkCreateGraphicsPipelines");
 static DESTROY_PIPELINE: EntryPoint = EntryPoint::new("vkDestroyPipeline");
@@ -74,78 +75,186 @@ fn writes_frag_depth(
         })
 }
 
-/// What revz changes in one create info: the dynamic states to add, and the pipeline's depth
-/// state for draw time. `None` when the pipeline has no depth state to follow.
-fn plan(
-    info: &vk::GraphicsPipelineCreateInfo<'_>,
-) -> Option<(Vec<vk::DynamicState>, PipelineDepth)> {
-    // SAFETY: the state pointers are null or valid (the application's contract).
-    let (depth, raster, viewport, dynamic) = unsafe {
-        (
-            info.p_depth_stencil_state.as_ref()?,
-            info.p_rasterization_state.as_ref(),
-            info.p_viewport_state.as_ref(),
-            info.p_dynamic_state.as_ref(),
-        )
-    };
-    if raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE) {
-        return None;
+/// What revz does with one create info: the pipeline's depth state for draw time, and the
+/// complete dynamic state list to create it with when revz adds states (`None`: unchanged).
+#[derive(Debug)]
+struct Plan {
+    dynamic_states: Option<Vec<vk::DynamicState>>,
+    depth: PipelineDepth,
+}
+
+/// What [`plan`] needs to know beyond the create info.
+struct PlanContext {
+    /// Whether the pipeline renders into a depth attachment; the spec makes
+    /// `pDepthStencilState` ignored (possibly dangling) otherwise.
+    has_depth_attachment: bool,
+    /// Dynamic states the pipeline gets from the libraries it links.
+    library_dynamic: States,
+    /// The pipeline builds or links libraries: recorded, never changed.
+    uses_libraries: bool,
+}
+
+/// Whether a `pNext` chain holds a structure of type `s_type`.
+fn chain_has(mut next: *const vk::BaseInStructure<'_>, s_type: vk::StructureType) -> bool {
+    // SAFETY: a valid pNext chain (the application's contract).
+    while let Some(base) = unsafe { next.as_ref() } {
+        if base.s_type == s_type {
+            return true;
+        }
+        next = base.p_next;
     }
+    false
+}
+
+/// Plans one create info. Every graphics pipeline gets a [`PipelineDepth`] (at least the
+/// states the application made dynamic, so that draw time never sends state a pipeline keeps
+/// static); depth-related static state becomes dynamic only for pipelines that render depth
+/// and do not involve libraries.
+fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Plan {
+    // SAFETY: null or valid (the application's contract).
+    let dynamic = unsafe { info.p_dynamic_state.as_ref() };
     // SAFETY: `dynamicStateCount` entries.
     let app_states = dynamic.map_or(&[][..], |d| unsafe {
         slice(d.p_dynamic_states, d.dynamic_state_count)
     });
     let has = |state: vk::DynamicState| app_states.contains(&state);
-    let mut app_dynamic = States::NONE;
-    for &state in app_states {
-        app_dynamic |= States::of_dynamic(state);
-    }
-
-    let mut pipeline = PipelineDepth {
-        app_dynamic,
-        compare_op: depth.depth_compare_op,
-        bounds: (depth.min_depth_bounds, depth.max_depth_bounds),
+    let mut depth = PipelineDepth {
+        app_dynamic: context.library_dynamic,
         ..PipelineDepth::default()
     };
+    for &state in app_states {
+        depth.app_dynamic |= States::of_dynamic(state);
+    }
+    let unchanged = |depth| Plan {
+        dynamic_states: None,
+        depth,
+    };
+    if context.uses_libraries || !context.has_depth_attachment {
+        return unchanged(depth);
+    }
+    // SAFETY: the state pointers are null or valid (the application's contract; the depth
+    // state is read only when the pipeline has a depth attachment).
+    let (depth_stencil, raster, viewport) = unsafe {
+        (
+            info.p_depth_stencil_state.as_ref(),
+            info.p_rasterization_state.as_ref(),
+            info.p_viewport_state.as_ref(),
+        )
+    };
+    let Some(depth_stencil) = depth_stencil else {
+        return unchanged(depth);
+    };
+    if raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE)
+        && !has(vk::DynamicState::RASTERIZER_DISCARD_ENABLE)
+    {
+        return unchanged(depth);
+    }
+    depth.compare_op = depth_stencil.depth_compare_op;
+    depth.bounds = (
+        depth_stencil.min_depth_bounds,
+        depth_stencil.max_depth_bounds,
+    );
     let mut added = Vec::new();
     let depth_test =
-        depth.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
+        depth_stencil.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
     if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
         added.push(vk::DynamicState::DEPTH_COMPARE_OP);
-        pipeline.injected |= States::COMPARE_OP;
+        depth.injected |= States::COMPARE_OP;
     }
     let viewport_dynamic =
         has(vk::DynamicState::VIEWPORT) || has(vk::DynamicState::VIEWPORT_WITH_COUNT);
     if let Some(viewport) = viewport.filter(|_| !viewport_dynamic) {
         // SAFETY: `viewportCount` viewports when static.
-        pipeline.viewports =
-            unsafe { slice(viewport.p_viewports, viewport.viewport_count) }.to_vec();
-        if !pipeline.viewports.is_empty() {
+        depth.viewports = unsafe { slice(viewport.p_viewports, viewport.viewport_count) }.to_vec();
+        if !depth.viewports.is_empty() {
             added.push(vk::DynamicState::VIEWPORT);
-            pipeline.injected |= States::VIEWPORT;
+            depth.injected |= States::VIEWPORT;
         }
     }
     if let Some(raster) = raster {
         let bias = raster.depth_bias_enable == vk::TRUE || has(vk::DynamicState::DEPTH_BIAS_ENABLE);
-        pipeline.bias = DepthBias {
+        depth.bias = DepthBias {
             constant: raster.depth_bias_constant_factor,
             clamp: raster.depth_bias_clamp,
             slope: raster.depth_bias_slope_factor,
         };
-        if bias && !has(vk::DynamicState::DEPTH_BIAS) {
+        // A bias with an explicit representation (VK_EXT_depth_bias_control) cannot be re-sent
+        // with vkCmdSetDepthBias without losing it: such pipelines keep their static bias.
+        let represented = chain_has(
+            raster.p_next.cast(),
+            vk::StructureType::DEPTH_BIAS_REPRESENTATION_INFO_EXT,
+        );
+        if bias && !represented && !has(vk::DynamicState::DEPTH_BIAS) {
             added.push(vk::DynamicState::DEPTH_BIAS);
-            pipeline.injected |= States::BIAS;
+            depth.injected |= States::BIAS;
         }
     }
-    let bounds = depth.depth_bounds_test_enable == vk::TRUE
+    let bounds = depth_stencil.depth_bounds_test_enable == vk::TRUE
         || has(vk::DynamicState::DEPTH_BOUNDS_TEST_ENABLE);
     if bounds && !has(vk::DynamicState::DEPTH_BOUNDS) {
         added.push(vk::DynamicState::DEPTH_BOUNDS);
-        pipeline.injected |= States::BOUNDS;
+        depth.injected |= States::BOUNDS;
+    }
+    if added.is_empty() {
+        return unchanged(depth);
     }
     let mut states = app_states.to_vec();
     states.extend(added);
-    Some((states, pipeline))
+    Plan {
+        dynamic_states: Some(states),
+        depth,
+    }
+}
+
+/// What a create info needs from the device's tracked objects to be planned.
+fn context(state: &DeviceState, info: &vk::GraphicsPipelineCreateInfo<'_>) -> PlanContext {
+    let has_depth_attachment = if info.render_pass != vk::RenderPass::null() {
+        state
+            .objects
+            .render_passes
+            .get(&info.render_pass)
+            .and_then(|pass| {
+                pass.subpass_depth
+                    .get(info.subpass as usize)
+                    .copied()
+                    .flatten()
+            })
+            .is_some()
+    } else {
+        let mut next = info.p_next.cast::<vk::BaseInStructure>();
+        let mut format = vk::Format::UNDEFINED;
+        // SAFETY: a valid pNext chain (the application's contract).
+        while let Some(base) = unsafe { next.as_ref() } {
+            if base.s_type == vk::StructureType::PIPELINE_RENDERING_CREATE_INFO {
+                // SAFETY: the sType identifies the structure.
+                let rendering = unsafe { &*next.cast::<vk::PipelineRenderingCreateInfo<'_>>() };
+                format = rendering.depth_attachment_format;
+            }
+            next = base.p_next;
+        }
+        format != vk::Format::UNDEFINED
+    };
+    let mut library_dynamic = States::NONE;
+    let mut next = info.p_next.cast::<vk::BaseInStructure>();
+    // SAFETY: a valid pNext chain (the application's contract).
+    while let Some(base) = unsafe { next.as_ref() } {
+        if base.s_type == vk::StructureType::PIPELINE_LIBRARY_CREATE_INFO_KHR {
+            // SAFETY: the sType identifies the structure; `libraryCount` pipelines.
+            let libraries = unsafe { &*next.cast::<vk::PipelineLibraryCreateInfoKHR<'_>>() };
+            // SAFETY: as above.
+            for library in unsafe { slice(libraries.p_libraries, libraries.library_count) } {
+                if let Some(depth) = state.objects.pipelines.get(library) {
+                    library_dynamic |= depth.app_dynamic;
+                }
+            }
+        }
+        next = base.p_next;
+    }
+    PlanContext {
+        has_depth_attachment,
+        library_dynamic,
+        uses_libraries: uses_libraries(info),
+    }
 }
 
 pub unsafe extern "system" fn create_graphics_pipelines(
@@ -169,47 +278,31 @@ pub unsafe extern "system" fn create_graphics_pipelines(
             infos
                 .iter()
                 .map(|info| {
-                    if uses_libraries(info) {
-                        if !LIBRARY_LOGGED.swap(true, Ordering::Relaxed) {
-                            log::warn!(
-                                "graphics pipeline libraries are passed through: their draws \
-                                 into reversed attachments are not corrected"
-                            );
-                        }
-                        return None;
+                    let context = context(&state, info);
+                    if context.uses_libraries && !LIBRARY_LOGGED.swap(true, Ordering::Relaxed) {
+                        log::warn!(
+                            "graphics pipeline libraries are passed through: their draws into \
+                             reversed attachments are not corrected"
+                        );
                     }
-                    plan(info).map(|(states, mut depth)| {
-                        depth.writes_frag_depth = writes_frag_depth(info, &|module| {
-                            state.objects.frag_depth_modules.get(&module).is_some()
-                        });
-                        (states, depth)
-                    })
+                    let mut plan = plan(info, &context);
+                    plan.depth.writes_frag_depth = writes_frag_depth(info, &|module| {
+                        state.objects.frag_depth_modules.get(&module).is_some()
+                    });
+                    Some(plan)
                 })
                 .collect::<Vec<_>>()
         },
         Vec::new,
     );
-    if plans.iter().all(Option::is_none) {
-        // SAFETY: calling down with the application's arguments.
-        return unsafe {
-            next(
-                device,
-                cache,
-                count,
-                p_create_infos,
-                p_allocator,
-                p_pipelines,
-            )
-        };
-    }
 
-    // The application's create infos with the extra dynamic states; the arrays they point to
-    // live until the call returns.
+    // The application's create infos, with the dynamic state lists revz extends; the arrays
+    // they point to live until the call returns.
     let dynamic_infos: Vec<Option<vk::PipelineDynamicStateCreateInfo<'_>>> = plans
         .iter()
         .zip(infos)
         .map(|(plan, info)| {
-            let (states, _) = plan.as_ref()?;
+            let states = plan.as_ref()?.dynamic_states.as_ref()?;
             // SAFETY: null or valid (the application's contract).
             let base = unsafe { info.p_dynamic_state.as_ref() }
                 .copied()
@@ -221,36 +314,53 @@ pub unsafe extern "system" fn create_graphics_pipelines(
             })
         })
         .collect();
-    let modified: Vec<vk::GraphicsPipelineCreateInfo<'_>> = infos
-        .iter()
-        .zip(&dynamic_infos)
-        .map(|(info, dynamic)| match dynamic {
-            Some(dynamic) => vk::GraphicsPipelineCreateInfo {
-                p_dynamic_state: dynamic,
-                ..*info
-            },
-            None => *info,
-        })
-        .collect();
-    // SAFETY: the application's create infos, with only the dynamic state list extended.
-    let result = unsafe {
-        next(
-            device,
-            cache,
-            count,
-            modified.as_ptr(),
-            p_allocator,
-            p_pipelines,
-        )
+    let result = if dynamic_infos.iter().all(Option::is_none) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe {
+            next(
+                device,
+                cache,
+                count,
+                p_create_infos,
+                p_allocator,
+                p_pipelines,
+            )
+        }
+    } else {
+        let modified: Vec<vk::GraphicsPipelineCreateInfo<'_>> = infos
+            .iter()
+            .zip(&dynamic_infos)
+            .map(|(info, dynamic)| match dynamic {
+                Some(dynamic) => vk::GraphicsPipelineCreateInfo {
+                    p_dynamic_state: dynamic,
+                    ..*info
+                },
+                None => *info,
+            })
+            .collect();
+        // SAFETY: the application's create infos, with only dynamic state lists extended.
+        unsafe {
+            next(
+                device,
+                cache,
+                count,
+                modified.as_ptr(),
+                p_allocator,
+                p_pipelines,
+            )
+        }
     };
     guarded(
         &CREATE_GRAPHICS_PIPELINES,
         || {
             // SAFETY: `count` handles were written (null where creation failed).
             let pipelines = unsafe { slice(p_pipelines, count) };
-            for (pipeline, plan) in pipelines.iter().zip(plans) {
-                if let (false, Some((_, depth))) = (*pipeline == vk::Pipeline::null(), plan) {
-                    state.objects.pipelines.insert(*pipeline, Arc::new(depth));
+            for (&pipeline, plan) in pipelines.iter().zip(plans) {
+                if let Some(plan) = plan.filter(|_| pipeline != vk::Pipeline::null()) {
+                    state
+                        .objects
+                        .pipelines
+                        .insert(pipeline, Arc::new(plan.depth));
                 }
             }
         },
@@ -333,6 +443,12 @@ mod tests {
         }
     }
 
+    const RENDERS_DEPTH: PlanContext = PlanContext {
+        has_depth_attachment: true,
+        library_dynamic: States::NONE,
+        uses_libraries: false,
+    };
+
     const VIEWPORT: [vk::Viewport; 1] = [vk::Viewport {
         x: 0.0,
         y: 0.0,
@@ -354,9 +470,12 @@ mod tests {
             .rasterization_state(&raster)
             .viewport_state(&viewport)
             .dynamic_state(&dynamic);
-        let (states, pipeline) = plan(&info).expect("a pipeline with depth state");
+        let Plan {
+            dynamic_states,
+            depth: pipeline,
+        } = plan(&info, &RENDERS_DEPTH);
         assert_eq!(
-            states,
+            dynamic_states.expect("states were added"),
             [
                 vk::DynamicState::SCISSOR,
                 vk::DynamicState::DEPTH_COMPARE_OP,
@@ -389,8 +508,11 @@ mod tests {
             .depth_stencil_state(&depth)
             .rasterization_state(&raster)
             .dynamic_state(&dynamic);
-        let (states, pipeline) = plan(&info).expect("a pipeline with depth state");
-        assert_eq!(states, app_states);
+        let Plan {
+            dynamic_states,
+            depth: pipeline,
+        } = plan(&info, &RENDERS_DEPTH);
+        assert!(dynamic_states.is_none(), "nothing to add");
         assert_eq!(
             pipeline.app_dynamic,
             States::VIEWPORT_WITH_COUNT | States::COMPARE_OP
@@ -399,17 +521,67 @@ mod tests {
     }
 
     #[test]
-    fn pipelines_without_depth_or_rasterization_are_not_touched() {
+    fn pipelines_without_depth_are_recorded_but_not_changed() {
+        let app_states = [vk::DynamicState::VIEWPORT];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&app_states);
         let raster_on = raster(false, false);
-        let info = vk::GraphicsPipelineCreateInfo::default().rasterization_state(&raster_on);
-        assert!(plan(&info).is_none(), "no depth-stencil state");
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .rasterization_state(&raster_on)
+            .dynamic_state(&dynamic);
+        let plan_without = plan(&info, &RENDERS_DEPTH);
+        assert!(
+            plan_without.dynamic_states.is_none(),
+            "no depth-stencil state"
+        );
+        assert_eq!(plan_without.depth.app_dynamic, States::VIEWPORT);
+
+        // A depth state the spec says to ignore (no depth attachment) is never read.
+        let dangling = 0x10 as *const vk::PipelineDepthStencilStateCreateInfo<'static>;
+        let info = vk::GraphicsPipelineCreateInfo {
+            p_depth_stencil_state: dangling,
+            ..info
+        };
+        let no_attachment = PlanContext {
+            has_depth_attachment: false,
+            ..RENDERS_DEPTH
+        };
+        assert!(plan(&info, &no_attachment).dynamic_states.is_none());
 
         let depth = depth_state(true, false);
         let discard = raster(false, true);
         let info = vk::GraphicsPipelineCreateInfo::default()
             .depth_stencil_state(&depth)
             .rasterization_state(&discard);
-        assert!(plan(&info).is_none(), "rasterizer discard");
+        assert!(
+            plan(&info, &RENDERS_DEPTH).dynamic_states.is_none(),
+            "rasterizer discard"
+        );
+    }
+
+    #[test]
+    fn linked_pipelines_inherit_their_libraries_dynamic_states_and_are_not_changed() {
+        let depth = depth_state(true, false);
+        let info = vk::GraphicsPipelineCreateInfo::default().depth_stencil_state(&depth);
+        let linked = PlanContext {
+            library_dynamic: States::VIEWPORT | States::BIAS,
+            uses_libraries: true,
+            ..RENDERS_DEPTH
+        };
+        let plan = plan(&info, &linked);
+        assert!(plan.dynamic_states.is_none());
+        assert_eq!(plan.depth.app_dynamic, States::VIEWPORT | States::BIAS);
+    }
+
+    #[test]
+    fn an_explicit_bias_representation_keeps_the_bias_static() {
+        let depth = depth_state(true, false);
+        let mut representation = vk::DepthBiasRepresentationInfoEXT::default();
+        let raster = raster(true, false).push_next(&mut representation);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .depth_stencil_state(&depth)
+            .rasterization_state(&raster);
+        let plan = plan(&info, &RENDERS_DEPTH);
+        assert_eq!(plan.depth.injected, States::COMPARE_OP);
     }
 
     #[test]

@@ -270,7 +270,7 @@ pub unsafe extern "system" fn allocate_command_buffers(
             let info = unsafe { &*p_allocate_info };
             // SAFETY: as above.
             let buffers = unsafe { slice(p_command_buffers, info.command_buffer_count) };
-            objects::track_command_buffers(&state, buffers);
+            objects::track_command_buffers(&state, buffers, info.level);
             let pool = state
                 .objects
                 .pools
