@@ -227,6 +227,20 @@ pub fn forget_device_command_buffers(objects: &DeviceObjects) {
     }
 }
 
+/// Caches `entry` for this thread, unless the cache is in use further up this thread's stack
+/// (a hook that called down, and something below called back into revz): then the lookup
+/// simply stays uncached, never a double borrow.
+fn remember(
+    cache: &RefCell<CacheSlot>,
+    buffer: vk::CommandBuffer,
+    generation: u64,
+    entry: &Arc<CommandBufferEntry>,
+) {
+    if let Ok(mut slot) = cache.try_borrow_mut() {
+        *slot = Some((buffer, generation, Arc::clone(entry)));
+    }
+}
+
 /// Runs `f` with the entry of a command buffer, if revz tracks it, without taking a reference
 /// count on a cache hit (the per-draw path).
 #[inline]
@@ -236,13 +250,15 @@ pub fn with_command_buffer<R>(
 ) -> Option<R> {
     let generation = GENERATION.load(Ordering::Acquire);
     CACHE.with(|cache| {
-        if let Some((cached, cached_generation, entry)) = cache.borrow().as_ref() {
-            if *cached == buffer && *cached_generation == generation {
-                return Some(f(entry));
+        if let Ok(slot) = cache.try_borrow() {
+            if let Some((cached, cached_generation, entry)) = slot.as_ref() {
+                if *cached == buffer && *cached_generation == generation {
+                    return Some(f(entry));
+                }
             }
         }
         let entry = COMMAND_BUFFERS.get(&buffer)?;
-        *cache.borrow_mut() = Some((buffer, generation, Arc::clone(&entry)));
+        remember(cache, buffer, generation, &entry);
         Some(f(&entry))
     })
 }
@@ -252,14 +268,15 @@ pub fn with_command_buffer<R>(
 pub fn command_buffer(buffer: vk::CommandBuffer) -> Option<Arc<CommandBufferEntry>> {
     let generation = GENERATION.load(Ordering::Acquire);
     CACHE.with(|cache| {
-        let mut slot = cache.borrow_mut();
-        if let Some((cached, cached_generation, entry)) = slot.as_ref() {
-            if *cached == buffer && *cached_generation == generation {
-                return Some(Arc::clone(entry));
+        if let Ok(slot) = cache.try_borrow() {
+            if let Some((cached, cached_generation, entry)) = slot.as_ref() {
+                if *cached == buffer && *cached_generation == generation {
+                    return Some(Arc::clone(entry));
+                }
             }
         }
         let entry = COMMAND_BUFFERS.get(&buffer)?;
-        *slot = Some((buffer, generation, Arc::clone(&entry)));
+        remember(cache, buffer, generation, &entry);
         Some(entry)
     })
 }

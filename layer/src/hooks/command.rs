@@ -162,18 +162,37 @@ draw_hook!(cmd_execute_generated_commands_nv, "vkCmdExecuteGeneratedCommandsNV",
     a: vk::Bool32, b: *const vk::GeneratedCommandsInfoNV<'_>
     => |device| match device.commands.execute_generated_commands_nv { Some(f) => f, None => return });
 
+/// The device a hook calls down to. For a tracked command buffer it is reached through the
+/// command buffer's entry, whose reference count only the recording thread touches; cloning
+/// the device's own `Arc` on every command would make all recording threads contend on it.
+enum Down {
+    Tracked(Arc<CommandBufferEntry>),
+    Untracked(Arc<DeviceState>),
+}
+
+impl std::ops::Deref for Down {
+    type Target = DeviceState;
+
+    fn deref(&self) -> &DeviceState {
+        match self {
+            Down::Tracked(entry) => &entry.device,
+            Down::Untracked(device) => device,
+        }
+    }
+}
+
 /// Looks up a command buffer for a state-recording hook; returns the device to call down to.
 fn with_entry(
     buffer: vk::CommandBuffer,
     entry_point: &'static EntryPoint,
     record: impl FnOnce(&CommandBufferEntry),
-) -> Option<Arc<DeviceState>> {
+) -> Option<Down> {
     match objects::command_buffer(buffer) {
         Some(entry) => {
             guarded(entry_point, || record(&entry), || ());
-            Some(Arc::clone(&entry.device))
+            Some(Down::Tracked(entry))
         }
-        None => untracked_device(buffer),
+        None => untracked_device(buffer).map(Down::Untracked),
     }
 }
 
@@ -183,10 +202,10 @@ fn recorded(
     buffer: vk::CommandBuffer,
     entry_point: &'static EntryPoint,
     record: impl FnOnce(&CommandBufferEntry),
-) -> Result<(), Option<Arc<DeviceState>>> {
+) -> Result<(), Option<Down>> {
     match objects::command_buffer(buffer) {
         Some(entry) => {
-            let ok = guarded(
+            let taken = guarded(
                 entry_point,
                 || {
                     record(&entry);
@@ -194,13 +213,13 @@ fn recorded(
                 },
                 || false,
             );
-            if ok {
+            if taken {
                 Ok(())
             } else {
-                Err(Some(Arc::clone(&entry.device)))
+                Err(Some(Down::Tracked(entry)))
             }
         }
-        None => Err(untracked_device(buffer)),
+        None => Err(untracked_device(buffer).map(Down::Untracked)),
     }
 }
 
