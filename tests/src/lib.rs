@@ -238,12 +238,12 @@ pub fn flip_tolerance(depth_format: &str) -> f32 {
 }
 
 /// The most color pixels a flip-path render may differ from the native one, per format.
-/// D16's grid is coarse enough (1.5e-5) that surfaces closer than one step (the intersection
-/// lines of the overlap scene) resolve differently when D and 1 - D round to it; every other
-/// format must match exactly.
+/// D16's grid is coarse enough (1.5e-5) that surfaces closer than one step (intersection lines)
+/// resolve differently when D and 1 - D round to it: at most 3 pixels per scene were seen on
+/// lavapipe (21 over all scenes); every other format must match exactly.
 pub fn flip_color_tolerance(depth_format: &str) -> usize {
     match depth_format {
-        "d16" => 64,
+        "d16" => 8,
         _ => 0,
     }
 }
