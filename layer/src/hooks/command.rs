@@ -663,6 +663,80 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
     }
 }
 
+/// Warns once when a transfer writes into a reversed depth image: the values it writes keep
+/// the standard convention (not converted yet).
+fn check_transfer_destination(entry: &CommandBufferEntry, image: vk::Image) {
+    static WARNED: std::sync::Once = std::sync::Once::new();
+    if entry.device.objects.image_reversed(image) {
+        WARNED.call_once(|| {
+            log::warn!(
+                "a copy or blit writes into reversed depth image {image:?}: the values it writes \
+                 keep standard depth (not converted yet)"
+            )
+        });
+    }
+}
+
+pub unsafe extern "system" fn cmd_copy_buffer_to_image(
+    buffer: vk::CommandBuffer,
+    src: vk::Buffer,
+    dst: vk::Image,
+    layout: vk::ImageLayout,
+    count: u32,
+    p_regions: *const vk::BufferImageCopy,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyBufferToImage");
+    if let Some(device) = with_entry(buffer, &ENTRY, |e| check_transfer_destination(e, dst)) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe {
+            (device.next.fp_v1_0().cmd_copy_buffer_to_image)(
+                buffer, src, dst, layout, count, p_regions,
+            )
+        }
+    }
+}
+
+pub unsafe extern "system" fn cmd_copy_image(
+    buffer: vk::CommandBuffer,
+    src: vk::Image,
+    src_layout: vk::ImageLayout,
+    dst: vk::Image,
+    dst_layout: vk::ImageLayout,
+    count: u32,
+    p_regions: *const vk::ImageCopy,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyImage");
+    if let Some(device) = with_entry(buffer, &ENTRY, |e| check_transfer_destination(e, dst)) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe {
+            (device.next.fp_v1_0().cmd_copy_image)(
+                buffer, src, src_layout, dst, dst_layout, count, p_regions,
+            )
+        }
+    }
+}
+
+pub unsafe extern "system" fn cmd_blit_image(
+    buffer: vk::CommandBuffer,
+    src: vk::Image,
+    src_layout: vk::ImageLayout,
+    dst: vk::Image,
+    dst_layout: vk::ImageLayout,
+    count: u32,
+    p_regions: *const vk::ImageBlit,
+    filter: vk::Filter,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBlitImage");
+    if let Some(device) = with_entry(buffer, &ENTRY, |e| check_transfer_destination(e, dst)) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe {
+            (device.next.fp_v1_0().cmd_blit_image)(
+                buffer, src, src_layout, dst, dst_layout, count, p_regions, filter,
+            )
+        }
+    }
+}
+
 pub unsafe extern "system" fn begin_command_buffer(
     buffer: vk::CommandBuffer,
     p_begin: *const vk::CommandBufferBeginInfo<'_>,

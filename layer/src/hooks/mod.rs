@@ -181,6 +181,11 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             vk::PFN_vkCmdClearDepthStencilImage,
             c::cmd_clear_depth_stencil_image
         ),
+        b"vkCmdCopyBufferToImage" => {
+            void_fn!(vk::PFN_vkCmdCopyBufferToImage, c::cmd_copy_buffer_to_image)
+        }
+        b"vkCmdCopyImage" => void_fn!(vk::PFN_vkCmdCopyImage, c::cmd_copy_image),
+        b"vkCmdBlitImage" => void_fn!(vk::PFN_vkCmdBlitImage, c::cmd_blit_image),
         b"vkCmdExecuteCommands" => {
             void_fn!(vk::PFN_vkCmdExecuteCommands, c::cmd_execute_commands)
         }
