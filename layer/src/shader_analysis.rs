@@ -54,10 +54,8 @@ use naga::{
     Module, ShaderStage, Statement, TypeInner,
 };
 
-/// The SPIR-V magic number (first word of every module).
-const MAGIC: u32 = 0x0723_0203;
-/// Words in a module header.
-const HEADER_WORDS: usize = 5;
+use crate::spirv_scan::{instructions, Instruction};
+
 /// `OpVariable`.
 const OP_VARIABLE: u32 = 59;
 /// `StorageClass PushConstant`.
@@ -117,21 +115,17 @@ pub fn has_push_constants(words: &[u32]) -> bool {
 /// The pre-filter proper: `Err` when the words are not a well-formed instruction stream up to
 /// the first push-constant variable (or the end).
 fn scan_push_constants(words: &[u32]) -> Result<bool, String> {
-    if words.len() < HEADER_WORDS || words[0] != MAGIC {
-        return Err("not a SPIR-V module (bad header)".to_owned());
-    }
-    let mut at = HEADER_WORDS;
-    while at < words.len() {
-        let instruction = words[at];
-        let count = (instruction >> 16) as usize;
-        let opcode = instruction & 0xffff;
-        if count == 0 || at + count > words.len() {
-            return Err(format!("malformed instruction at word {at}"));
-        }
-        if opcode == OP_VARIABLE && count >= 4 && words[at + 3] == STORAGE_CLASS_PUSH_CONSTANT {
+    let instructions =
+        instructions(words).ok_or_else(|| "not a SPIR-V module (bad header)".to_owned())?;
+    for instruction in instructions {
+        let Instruction { opcode, operands } =
+            instruction.map_err(|at| format!("malformed instruction at word {at}"))?;
+        if opcode == OP_VARIABLE
+            && operands.len() >= 3
+            && operands[2] == STORAGE_CLASS_PUSH_CONSTANT
+        {
             return Ok(true);
         }
-        at += count;
     }
     Ok(false)
 }
@@ -160,14 +154,8 @@ impl SpirvLayout {
     fn scan(words: &[u32]) -> Self {
         let mut layout = Self::default();
         let mut push_pointer_types = Vec::new();
-        let mut at = HEADER_WORDS;
-        while at < words.len() {
-            let count = (words[at] >> 16) as usize;
-            let opcode = words[at] & 0xffff;
-            if count == 0 || at + count > words.len() {
-                break;
-            }
-            let operands = &words[at + 1..at + count];
+        let all = instructions(words).into_iter().flatten();
+        for Instruction { opcode, operands } in all.map_while(Result::ok) {
             match opcode {
                 OP_VARIABLE
                     if operands.len() >= 3 && operands[2] == STORAGE_CLASS_PUSH_CONSTANT =>
@@ -197,7 +185,6 @@ impl SpirvLayout {
                 }
                 _ => {}
             }
-            at += count;
         }
         layout.push_constants = push_pointer_types
             .iter()
@@ -949,6 +936,7 @@ fn collect_calls(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spirv_scan::{HEADER_WORDS, MAGIC};
 
     /// Compiles a GLSL vertex shader to SPIR-V with naga (no coordinate-space adjustment).
     fn compile(source: &str) -> Vec<u32> {

@@ -11,34 +11,66 @@ const DECORATION_BUILT_IN: u32 = 11;
 /// `BuiltIn FragDepth`.
 const BUILT_IN_FRAG_DEPTH: u32 = 22;
 /// The SPIR-V magic number (first word of every module).
-const MAGIC: u32 = 0x0723_0203;
+pub const MAGIC: u32 = 0x0723_0203;
 /// Words in a module header.
-const HEADER_WORDS: usize = 5;
+pub const HEADER_WORDS: usize = 5;
+
+/// One instruction of a module: its opcode and the words after the opcode word.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Instruction<'a> {
+    pub opcode: u32,
+    pub operands: &'a [u32],
+}
+
+/// The instructions of a module after its header, in order. Yields `Err(word index)` once, at
+/// the first malformed instruction (a zero word count, or one running past the end), and
+/// then stops: a scan never reads past the end of the words.
+#[derive(Clone, Debug)]
+pub struct Instructions<'a> {
+    words: &'a [u32],
+    at: usize,
+}
+
+/// Walks the instructions of `words`; `None` when the words do not start with a SPIR-V
+/// header.
+pub fn instructions(words: &[u32]) -> Option<Instructions<'_>> {
+    (words.len() >= HEADER_WORDS && words[0] == MAGIC).then_some(Instructions {
+        words,
+        at: HEADER_WORDS,
+    })
+}
+
+impl<'a> Iterator for Instructions<'a> {
+    type Item = Result<Instruction<'a>, usize>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let at = self.at;
+        let first = *self.words.get(at)?;
+        let count = (first >> 16) as usize;
+        if count == 0 || at + count > self.words.len() {
+            self.at = self.words.len();
+            return Some(Err(at));
+        }
+        self.at += count;
+        Some(Ok(Instruction {
+            opcode: first & 0xffff,
+            operands: &self.words[at + 1..at + count],
+        }))
+    }
+}
 
 /// Whether a module decorates a variable as `BuiltIn FragDepth`. A module that is not SPIR-V
-/// (bad magic, truncated instruction) answers `false`: the scan never reads past the end.
+/// (bad magic, truncated instruction) answers `false`.
 pub fn writes_frag_depth(words: &[u32]) -> bool {
-    if words.len() < HEADER_WORDS || words[0] != MAGIC {
+    let Some(instructions) = instructions(words) else {
         return false;
-    }
-    let mut at = HEADER_WORDS;
-    while at < words.len() {
-        let instruction = words[at];
-        let count = (instruction >> 16) as usize;
-        let opcode = instruction & 0xffff;
-        if count == 0 || at + count > words.len() {
-            return false;
-        }
-        if opcode == OP_DECORATE
-            && count == 4
-            && words[at + 2] == DECORATION_BUILT_IN
-            && words[at + 3] == BUILT_IN_FRAG_DEPTH
-        {
-            return true;
-        }
-        at += count;
-    }
-    false
+    };
+    instructions.map_while(Result::ok).any(|i| {
+        i.opcode == OP_DECORATE
+            && i.operands.len() == 3
+            && i.operands[1] == DECORATION_BUILT_IN
+            && i.operands[2] == BUILT_IN_FRAG_DEPTH
+    })
 }
 
 #[cfg(test)]
