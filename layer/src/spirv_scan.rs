@@ -1,4 +1,5 @@
-//! Cheap facts read straight from SPIR-V words, without parsing the module.
+//! Cheap facts read straight from SPIR-V words, without parsing the module, and the one
+//! instruction walker ([`instructions`]) every word scan in the layer uses.
 //!
 //! A fragment shader that writes `FragDepth` computes its own depth: the viewport flip cannot
 //! reach it, so its draws into a reversed attachment would mix conventions. Finding the
