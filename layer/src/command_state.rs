@@ -7,10 +7,17 @@
 //! attachment: flipped when it is reversed, as the application gave them otherwise. A draw
 //! with nothing changed costs one flag check. No Vulkan calls are made here: emission goes
 //! through a [`StateSink`], so the logic is tested without a device.
+//!
+//! The draw's path (`shared/DESIGN.md` section 2) is decided here too: a draw into a reversed
+//! attachment whose pipeline reads its projection from push constants, and whose pushed value
+//! was rewritten ([`crate::precise`]), takes the precise path (viewport [a, b] -> [1-b, 1-a]);
+//! every other draw into a reversed attachment takes the flip path.
 
 use ash::vk;
+use revz_math::Target as RewriteTarget;
 
-use crate::conv::{flip_compare_op, flip_depth_bounds, flip_viewport, DepthBias};
+use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
+use crate::precise::{Outcome, ProjectionUse, PushConstants, PushSink};
 
 /// A set of depth-related dynamic states.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -86,6 +93,8 @@ pub struct PipelineDepth {
     pub bounds: (f32, f32),
     /// The fragment stage writes `FragDepth`, which the flip path cannot reverse.
     pub writes_frag_depth: bool,
+    /// Where the vertex stage's projection is in the push constants, if it comes from there.
+    pub projection: Option<ProjectionUse>,
 }
 
 /// The depth attachment draws currently go to.
@@ -98,8 +107,36 @@ pub enum Target {
     Reversed,
 }
 
+/// Which path the last emitted state was for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DrawPath {
+    /// Not into a reversed attachment: the application's state as it is.
+    #[default]
+    Native,
+    Flip,
+    Precise,
+}
+
+/// How a command buffer's reversed draws are made: the device's mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reversing {
+    /// The projection rewrite (complementary and infinite modes); `None` in flip mode.
+    pub rewrite: Option<RewriteTarget>,
+    /// The map of standard depth onto the attachment, for the state the rewrite cannot reach.
+    pub reversal: Reversal,
+}
+
+impl Default for Reversing {
+    fn default() -> Self {
+        Reversing {
+            rewrite: None,
+            reversal: Reversal::Complementary,
+        }
+    }
+}
+
 /// Where [`CommandState::before_draw`] sends state (the next layer, in production).
-pub trait StateSink {
+pub trait StateSink: PushSink {
     fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]);
     fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]);
     fn set_compare_op(&mut self, op: vk::CompareOp);
@@ -126,6 +163,10 @@ pub struct CommandState {
     bounds: (f32, f32),
     /// Which states the application set with `vkCmdSet*`.
     app_set: States,
+    reversing: Reversing,
+    push: PushConstants,
+    /// The path the emitted state is for.
+    path: DrawPath,
     dirty: bool,
 }
 
@@ -142,19 +183,95 @@ impl Default for CommandState {
             bias: DepthBias::default(),
             bounds: (0.0, 1.0),
             app_set: States::NONE,
+            reversing: Reversing::default(),
+            push: PushConstants::default(),
+            path: DrawPath::Native,
             dirty: true,
         }
     }
 }
 
 impl CommandState {
-    /// Starts recording (`vkBeginCommandBuffer`): all state is undefined again.
-    pub fn begin(&mut self, target: Target) {
+    /// A command buffer of a device reversing as `reversing` says.
+    pub fn new(reversing: Reversing) -> CommandState {
+        CommandState {
+            reversing,
+            ..CommandState::default()
+        }
+    }
+
+    /// Starts recording (`vkBeginCommandBuffer`): all state is undefined again. `reversal`
+    /// is the device's current map (infinite mode learns n / f from the projections it sees).
+    pub fn begin(&mut self, target: Target, reversal: Reversal) {
         *self = CommandState {
             target,
             inherited: target,
+            reversing: Reversing {
+                reversal,
+                ..self.reversing
+            },
             ..CommandState::default()
         };
+    }
+
+    /// The map of standard depth onto this command buffer's reversed attachments.
+    pub fn reversal(&self) -> Reversal {
+        self.reversing.reversal
+    }
+
+    /// The path the last draw took.
+    pub fn path(&self) -> DrawPath {
+        self.path
+    }
+
+    /// The projection the bound pipeline's draws would rewrite now, if any.
+    fn precise_use(&self) -> Option<(&ProjectionUse, RewriteTarget)> {
+        if self.target != Target::Reversed {
+            return None;
+        }
+        let projection = self.pipeline.as_ref()?.projection.as_ref()?;
+        Some((projection, self.reversing.rewrite?))
+    }
+
+    /// `vkCmdPushConstants` of `data` (the copy passed down) at `offset`: rewrites the bound
+    /// pipeline's projection in place when it can. Returns the outcome of a classification, if
+    /// one was made (the caller reports already reversed projections).
+    pub fn push_constants(
+        &mut self,
+        layout: vk::PipelineLayout,
+        offset: u32,
+        data: &mut [u8],
+    ) -> Option<Outcome> {
+        let bound = self.precise_use().map(|(p, t)| (*p, t));
+        let outcome = self
+            .push
+            .push(layout, offset, data, bound.as_ref().map(|(p, t)| (p, *t)));
+        match outcome {
+            Some(outcome) => {
+                let path = match outcome {
+                    Outcome::Rewritten { .. } => DrawPath::Precise,
+                    _ => DrawPath::Flip,
+                };
+                self.learn(&outcome);
+                if path != self.path {
+                    self.dirty = true;
+                }
+            }
+            None => self.dirty = true,
+        }
+        outcome
+    }
+
+    /// Infinite mode: a rewritten projection tells n / f, which flip-path state follows.
+    fn learn(&mut self, outcome: &Outcome) {
+        if let (Outcome::Rewritten { near_over_far, .. }, Reversal::Infinite { near_over_far: r }) =
+            (outcome, &mut self.reversing.reversal)
+        {
+            if *r != *near_over_far {
+                *r = *near_over_far;
+                self.dirty = true;
+            }
+        }
     }
 
     pub fn target(&self) -> Target {
@@ -182,6 +299,7 @@ impl CommandState {
 
     /// `vkCmdExecuteCommands`: the secondaries leave the state undefined.
     pub fn invalidate(&mut self) {
+        self.push.invalidate();
         self.dirty = true;
     }
 
@@ -224,17 +342,33 @@ impl CommandState {
         self.dirty = true;
     }
 
-    /// Before a draw: emits the depth state if anything changed since the last draw.
+    /// Before a draw: emits the depth state if anything changed since the last draw. Returns
+    /// the outcome of a classification made for it, if any.
     #[inline]
-    pub fn before_draw(&mut self, sink: &mut impl StateSink) {
-        if self.dirty {
-            self.emit(sink);
-            self.dirty = false;
+    pub fn before_draw(&mut self, sink: &mut impl StateSink) -> Option<Outcome> {
+        if !self.dirty {
+            return None;
         }
+        let bound = self.precise_use().map(|(p, t)| (*p, t));
+        let outcome = self
+            .push
+            .resolve(bound.as_ref().map(|(p, t)| (p, *t)), sink);
+        if let Some(outcome) = &outcome {
+            self.learn(outcome);
+        }
+        self.path = match (self.target, outcome) {
+            (Target::Reversed, Some(Outcome::Rewritten { .. })) => DrawPath::Precise,
+            (Target::Reversed, _) => DrawPath::Flip,
+            _ => DrawPath::Native,
+        };
+        self.emit(sink);
+        self.dirty = false;
+        outcome
     }
 
     fn emit(&self, sink: &mut impl StateSink) {
         let reversed = self.target == Target::Reversed;
+        let reversal = self.reversing.reversal;
         if reversed && self.pipeline.as_ref().is_some_and(|p| p.writes_frag_depth) {
             static WARNED: std::sync::Once = std::sync::Once::new();
             WARNED.call_once(|| {
@@ -249,7 +383,11 @@ impl CommandState {
             None => (self.app_set, States::NONE, None),
         };
 
-        let viewport = |v: &vk::Viewport| if reversed { flip_viewport(*v) } else { *v };
+        let viewport = |v: &vk::Viewport| match self.path {
+            DrawPath::Native => *v,
+            DrawPath::Flip => reversal.viewport(*v),
+            DrawPath::Precise => precise_viewport(*v),
+        };
         if from_app.contains(States::VIEWPORT_WITH_COUNT) {
             let count = self.viewport_count.unwrap_or(0) as usize;
             let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
@@ -314,7 +452,7 @@ impl CommandState {
                 pipeline.map_or(self.bounds, |p| p.bounds)
             };
             let (min, max) = if reversed {
-                flip_depth_bounds(min, max)
+                reversal.bounds(min, max)
             } else {
                 (min, max)
             };
@@ -336,6 +474,19 @@ mod tests {
         compare_ops: Vec<vk::CompareOp>,
         biases: Vec<DepthBias>,
         bounds: Vec<(f32, f32)>,
+        pushes: Vec<(u32, usize)>,
+    }
+
+    impl PushSink for Recorded {
+        fn push_constants(
+            &mut self,
+            _: vk::PipelineLayout,
+            _: vk::ShaderStageFlags,
+            offset: u32,
+            bytes: &[u8],
+        ) {
+            self.pushes.push((offset, bytes.len()));
+        }
     }
 
     impl StateSink for Recorded {
@@ -388,13 +539,14 @@ mod tests {
             },
             bounds: (0.0, 1.0),
             writes_frag_depth: false,
+            projection: None,
         })
     }
 
     #[test]
     fn static_state_is_emitted_flipped_for_a_reversed_target_once() {
         let mut state = CommandState::default();
-        state.begin(Target::Reversed);
+        state.begin(Target::Reversed, Reversal::Complementary);
         state.bind_pipeline(Some(static_pipeline()));
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -417,7 +569,7 @@ mod tests {
     #[test]
     fn native_targets_get_the_application_values_unchanged() {
         let mut state = CommandState::default();
-        state.begin(Target::Native);
+        state.begin(Target::Native, Reversal::Complementary);
         state.bind_pipeline(Some(static_pipeline()));
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -429,7 +581,7 @@ mod tests {
     #[test]
     fn application_dynamic_state_is_flipped_and_reemitted_when_the_target_changes() {
         let mut state = CommandState::default();
-        state.begin(Target::None);
+        state.begin(Target::None, Reversal::Complementary);
         state.bind_pipeline(Some(Arc::new(PipelineDepth {
             app_dynamic: States::VIEWPORT | States::COMPARE_OP | States::BOUNDS,
             ..PipelineDepth::default()
@@ -456,7 +608,7 @@ mod tests {
     #[test]
     fn only_viewports_the_application_set_are_emitted() {
         let mut state = CommandState::default();
-        state.begin(Target::Reversed);
+        state.begin(Target::Reversed, Reversal::Complementary);
         state.set_viewports(2, &[viewport(0.0, 0.1)]);
         state.set_viewports(4, &[viewport(0.0, 1.0), viewport(0.25, 0.5)]);
         let mut sink = Recorded::default();
@@ -470,7 +622,7 @@ mod tests {
     #[test]
     fn states_the_pipeline_keeps_static_are_not_emitted() {
         let mut state = CommandState::default();
-        state.begin(Target::Reversed);
+        state.begin(Target::Reversed, Reversal::Complementary);
         state.set_compare_op(vk::CompareOp::LESS);
         state.set_viewports_with_count(&[viewport(0.0, 1.0)]);
         state.bind_pipeline(Some(Arc::new(PipelineDepth {
@@ -488,7 +640,7 @@ mod tests {
         // Shader objects, or a pipeline revz could not read: the application's dynamic state
         // must still reach the driver.
         let mut state = CommandState::default();
-        state.begin(Target::Native);
+        state.begin(Target::Native, Reversal::Complementary);
         state.set_compare_op(vk::CompareOp::GREATER);
         state.set_bias(DepthBias {
             constant: 3.0,

@@ -34,6 +34,55 @@ pub fn flip_viewport(viewport: vk::Viewport) -> vk::Viewport {
     }
 }
 
+/// The precise path's viewport: depth range [a, b] -> [1 - b, 1 - a]. The rewritten projection
+/// already produces reversed depth z' (1 - D, or n / w), and the application's range must still
+/// be honoured: `(1 - b) + z' (b - a)` is `1 - (a + D (b - a))` for z' = 1 - D.
+pub fn precise_viewport(viewport: vk::Viewport) -> vk::Viewport {
+    vk::Viewport {
+        min_depth: flip_depth(viewport.max_depth),
+        max_depth: flip_depth(viewport.min_depth),
+        ..viewport
+    }
+}
+
+/// How a standard depth value maps onto a reversed attachment, for the state the projection
+/// rewrite cannot reach (flip-path viewports, clear values, depth bounds).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reversal {
+    /// d -> 1 - d: the flip and complementary modes (complementary Z stores exactly 1 - D).
+    Complementary,
+    /// d -> 1 - (1 - r) d with r = n / f: infinite mode. A precise draw stores n / w, and for
+    /// the standard D(w) = f (w - n) / (w (f - n)) of the same camera, n / w = 1 - (1 - n/f) D:
+    /// an affine map, so flip-path draws, clears and bounds land on the same scale. r = 0 (an
+    /// infinite far plane, or none seen yet) is the plain flip.
+    Infinite { near_over_far: f32 },
+}
+
+impl Reversal {
+    pub fn depth(self, depth: f32) -> f32 {
+        match self {
+            Reversal::Complementary => flip_depth(depth),
+            Reversal::Infinite { near_over_far } => {
+                (1.0 - (1.0 - f64::from(near_over_far)) * f64::from(depth)) as f32
+            }
+        }
+    }
+
+    /// The flip path's viewport: [a, b] -> [map(a), map(b)], so the rasterizer writes map(D).
+    pub fn viewport(self, viewport: vk::Viewport) -> vk::Viewport {
+        vk::Viewport {
+            min_depth: self.depth(viewport.min_depth),
+            max_depth: self.depth(viewport.max_depth),
+            ..viewport
+        }
+    }
+
+    /// Depth bounds [lo, hi] -> [map(hi), map(lo)].
+    pub fn bounds(self, min: f32, max: f32) -> (f32, f32) {
+        (self.depth(max), self.depth(min))
+    }
+}
+
 /// Depth bias pushes toward the camera with negative values in standard depth; on reversed
 /// depth the same push needs the opposite sign (constant, slope and clamp).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -147,6 +196,39 @@ mod tests {
             (1.0, 2.0, 3.0, 4.0)
         );
         assert_eq!(flip_depth_bounds(0.0, 0.75), (0.25, 1.0));
+    }
+
+    #[test]
+    fn the_infinite_reversal_maps_standard_depth_to_near_over_w() {
+        let (n, f) = (0.5f64, 200.0f64);
+        let reversal = Reversal::Infinite {
+            near_over_far: (n / f) as f32,
+        };
+        for w in [0.5, 1.0, 7.0, 150.0, 200.0] {
+            let standard = f * (w - n) / (w * (f - n));
+            let mapped = f64::from(reversal.depth(standard as f32));
+            assert!(
+                (mapped - n / w).abs() < 1e-6,
+                "w = {w}: {mapped} vs {}",
+                n / w
+            );
+        }
+        assert_eq!(reversal.depth(0.0), 1.0);
+        let plain = Reversal::Infinite { near_over_far: 0.0 };
+        assert_eq!(plain.depth(0.25), Reversal::Complementary.depth(0.25));
+        let viewport = vk::Viewport {
+            min_depth: 0.0,
+            max_depth: 1.0,
+            ..Default::default()
+        };
+        let precise = precise_viewport(vk::Viewport {
+            min_depth: 0.25,
+            max_depth: 1.0,
+            ..viewport
+        });
+        assert_eq!((precise.min_depth, precise.max_depth), (0.0, 0.75));
+        let flip = Reversal::Complementary.viewport(viewport);
+        assert_eq!((flip.min_depth, flip.max_depth), (1.0, 0.0));
     }
 
     #[test]

@@ -22,6 +22,7 @@ mod hooks;
 pub mod logging;
 pub mod objects;
 pub mod policy;
+pub mod precise;
 pub mod shader_analysis;
 pub mod spirv_scan;
 pub mod state;

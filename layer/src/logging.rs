@@ -39,7 +39,10 @@ pub fn init(level: LevelFilter, file: Option<&Path>) -> Option<String> {
         }
         let mut builder = env_logger::Builder::new();
         builder
-            .filter_level(level)
+            // Only revz's own records: naga (which revz runs on application shaders) logs
+            // its own diagnostics through the same `log` facade.
+            .filter_level(LevelFilter::Off)
+            .filter_module(module_path!().split("::").next().unwrap_or_default(), level)
             .format(|out, record| writeln!(out, "[revz {}] {}", record.level(), record.args()));
         if let Some(path) = file {
             match OpenOptions::new().create(true).append(true).open(path) {

@@ -15,6 +15,11 @@ use ash::vk;
 
 use crate::command_state::{CommandState, PipelineDepth, Target};
 use crate::policy::ImageDepth;
+use crate::shader_analysis::Analysis;
+
+/// The shader analysis of one module: each vertex entry point's result, or why naga could not
+/// read it.
+pub type ModuleAnalysis = Result<Vec<(String, Analysis)>, String>;
 use crate::state::DeviceState;
 
 /// A tracked depth image.
@@ -84,6 +89,11 @@ pub struct DeviceObjects {
     pub pipelines: Table<vk::Pipeline, Arc<PipelineDepth>>,
     /// Shader modules that write `FragDepth`.
     pub frag_depth_modules: Table<vk::ShaderModule, ()>,
+    /// What the shader analysis found in each vertex module (precise modes only): per entry
+    /// point, or why the module could not be read.
+    pub vertex_modules: Table<vk::ShaderModule, Arc<ModuleAnalysis>>,
+    /// Each pipeline layout's push-constant ranges (precise modes only).
+    pub pipeline_layouts: Table<vk::PipelineLayout, Arc<[vk::PushConstantRange]>>,
     /// Each pool's command buffers, to forget them when the pool is destroyed.
     pub pools: Table<vk::CommandPool, Arc<Mutex<Vec<vk::CommandBuffer>>>>,
 }
@@ -190,7 +200,7 @@ pub fn track_command_buffers(
             Arc::new(CommandBufferEntry {
                 device: Arc::clone(device),
                 secondary: level == vk::CommandBufferLevel::SECONDARY,
-                state: Mutex::new(CommandState::default()),
+                state: Mutex::new(CommandState::new(device.reversing())),
                 scope: Mutex::new(PassScope::default()),
             }),
         );

@@ -6,11 +6,14 @@
 //! readers (shadow-map compares, SSAO, picking, screenshots) expect standard values.
 
 use std::fmt;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use ash::vk;
+use revz_math::Target as RewriteTarget;
 
-use crate::config::{Mode, Observable, Settings};
-use crate::conv::has_depth;
+use crate::command_state::{Reversing, Target};
+use crate::config::{FarClip, Mode, Observable, Settings};
+use crate::conv::{flip_depth, has_depth, Reversal};
 
 /// Why a depth image keeps standard depth.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,6 +60,7 @@ pub enum ImageDepth {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DevicePolicy {
     pub mode: Mode,
+    pub far_clip: FarClip,
     pub observable: Observable,
     /// Whether `vkCmdSetDepthCompareOp` (core 1.3 or the EXT) can be used.
     pub dynamic_compare_op: bool,
@@ -66,6 +70,7 @@ impl DevicePolicy {
     pub fn new(settings: &Settings, dynamic_compare_op: bool) -> DevicePolicy {
         DevicePolicy {
             mode: settings.mode,
+            far_clip: settings.far_clip,
             observable: settings.reverse_observable,
             dynamic_compare_op,
         }
@@ -74,6 +79,44 @@ impl DevicePolicy {
     /// Whether the layer acts on this device's depth at all.
     pub fn is_active(&self) -> bool {
         self.mode != Mode::Off && self.dynamic_compare_op
+    }
+
+    /// The projection rewrite of the mode, if it has one (flip mode only flips).
+    pub fn rewrite(&self) -> Option<RewriteTarget> {
+        match self.mode {
+            Mode::Complementary => Some(RewriteTarget::Complementary),
+            Mode::Infinite => Some(RewriteTarget::Infinite),
+            Mode::Off | Mode::Flip => None,
+        }
+    }
+
+    /// How draws into reversed attachments are made, given the n / f seen last (infinite mode).
+    pub fn reversing(&self, observed: &Observed) -> Reversing {
+        Reversing {
+            rewrite: self.rewrite(),
+            reversal: self.reversal(observed),
+        }
+    }
+
+    fn reversal(&self, observed: &Observed) -> Reversal {
+        match self.mode {
+            Mode::Infinite => Reversal::Infinite {
+                near_over_far: observed.near_over_far(),
+            },
+            _ => Reversal::Complementary,
+        }
+    }
+
+    /// A depth clear value on a reversed attachment. Infinite reversed-Z puts the far plane at
+    /// infinity (0) unless `far_clip = keep`, which clears to n / f instead so that fragments
+    /// beyond the far plane lose against the clear (seed 001); a clear is recorded before the
+    /// projections of its pass are pushed, so n / f is the last one seen.
+    pub fn reversed_clear(&self, depth: f32, observed: &Observed) -> f32 {
+        match self.mode {
+            Mode::Infinite if depth == 1.0 && self.far_clip == FarClip::Remove => 0.0,
+            Mode::Infinite => self.reversal(observed).depth(depth),
+            _ => flip_depth(depth),
+        }
     }
 
     /// Decides a depth image; `None` for images without a depth aspect (never touched).
@@ -111,6 +154,56 @@ impl DevicePolicy {
     }
 }
 
+/// What revz learns about a device's application while it records: whether it already uses
+/// reversed depth, and (infinite mode) n / f of the projections it pushes. Shared by every
+/// recording thread: read where a command buffer or render pass begins, written only when a
+/// value changes.
+#[derive(Debug, Default)]
+pub struct Observed {
+    app_reversed: AtomicBool,
+    near_over_far: AtomicU32,
+}
+
+impl Observed {
+    /// Whether the application was seen using reversed depth itself.
+    pub fn app_reversed(&self) -> bool {
+        self.app_reversed.load(Ordering::Relaxed)
+    }
+
+    /// Evidence that the application already renders reversed depth (a depth clear to 0, a
+    /// pushed projection with B > 0): revz leaves its depth alone from then on (pitfall 7 of
+    /// `shared/DESIGN.md`). Logged once.
+    pub fn note_app_reversed(&self, evidence: &str) {
+        if !self.app_reversed.swap(true, Ordering::Relaxed) {
+            log::info!(
+                "the application already uses reversed depth ({evidence}): revz leaves its depth \
+                 alone from now on"
+            );
+        }
+    }
+
+    /// The depth target revz acts on for an attachment whose image is `target`.
+    pub fn effective(&self, target: Target) -> Target {
+        match target {
+            Target::Reversed if self.app_reversed() => Target::Native,
+            other => other,
+        }
+    }
+
+    /// n / f of the last projection rewritten (0 before any).
+    pub fn near_over_far(&self) -> f32 {
+        f32::from_bits(self.near_over_far.load(Ordering::Relaxed))
+    }
+
+    pub fn note_near_over_far(&self, near_over_far: f32) {
+        let bits = near_over_far.to_bits();
+        // Load first: the common case (unchanged) must not write the shared cache line.
+        if self.near_over_far.load(Ordering::Relaxed) != bits {
+            self.near_over_far.store(bits, Ordering::Relaxed);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -118,9 +211,42 @@ mod tests {
     fn policy(mode: Mode, observable: Observable) -> DevicePolicy {
         DevicePolicy {
             mode,
+            far_clip: FarClip::Remove,
             observable,
             dynamic_compare_op: true,
         }
+    }
+
+    #[test]
+    fn infinite_clears_put_the_far_plane_at_infinity_or_at_near_over_far() {
+        let observed = Observed::default();
+        observed.note_near_over_far(0.001);
+        let remove = policy(Mode::Infinite, Observable::None);
+        let keep = DevicePolicy {
+            far_clip: FarClip::Keep,
+            ..remove
+        };
+        assert_eq!(remove.reversed_clear(1.0, &observed), 0.0);
+        assert_eq!(keep.reversed_clear(1.0, &observed), 0.001);
+        assert_eq!(keep.reversed_clear(0.0, &observed), 1.0);
+        let complementary = policy(Mode::Complementary, Observable::None);
+        assert_eq!(complementary.reversed_clear(0.25, &observed), 0.75);
+        assert_eq!(
+            remove.reversing(&observed).reversal,
+            Reversal::Infinite {
+                near_over_far: 0.001
+            }
+        );
+        assert_eq!(policy(Mode::Flip, Observable::None).rewrite(), None);
+    }
+
+    #[test]
+    fn evidence_of_reversed_depth_makes_reversed_targets_native() {
+        let observed = Observed::default();
+        assert_eq!(observed.effective(Target::Reversed), Target::Reversed);
+        observed.note_app_reversed("test");
+        assert_eq!(observed.effective(Target::Reversed), Target::Native);
+        assert_eq!(observed.effective(Target::None), Target::None);
     }
 
     const ATTACHMENT: vk::ImageUsageFlags = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;

@@ -232,6 +232,30 @@ pub fn analyze(words: &[u32], entry_point: &str, stage: ShaderStage) -> Analysis
     }
 }
 
+/// [`analyze`] for every vertex entry point of a module, parsing it once (at shader module
+/// creation, when the pipeline that will name an entry point is not known yet). A module
+/// without push constants answers an empty list without being parsed; `Err` says why naga
+/// could not read it. Never panics.
+pub fn analyze_vertex_entry_points(words: &[u32]) -> Result<Vec<(String, Analysis)>, String> {
+    if !scan_push_constants(words)? {
+        return Ok(Vec::new());
+    }
+    let module = parse(words)?;
+    catch_unwind(AssertUnwindSafe(|| {
+        let layout = SpirvLayout::scan(words);
+        module
+            .entry_points
+            .iter()
+            .filter(|ep| ep.stage == ShaderStage::Vertex)
+            .map(|ep| {
+                let analysis = analyze_module(&module, &layout, &ep.name, ShaderStage::Vertex);
+                (ep.name.clone(), analysis)
+            })
+            .collect()
+    }))
+    .map_err(|_| "the analysis panicked on naga's IR".to_owned())
+}
+
 /// Parses the module with naga's `spv-in`, turning errors and panics into a message.
 fn parse(words: &[u32]) -> Result<Module, String> {
     let options = naga::front::spv::Options {

@@ -11,9 +11,10 @@ use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError};
 
 use ash::vk::{self, Handle};
 
+use crate::command_state::{Reversing, Target};
 use crate::config::Settings;
 use crate::objects::DeviceObjects;
-use crate::policy::DevicePolicy;
+use crate::policy::{DevicePolicy, Observed};
 
 /// The loader's dispatch table pointer of a dispatchable handle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -64,7 +65,26 @@ pub struct DeviceState {
     pub commands: DeviceCommands,
     pub settings: Arc<Settings>,
     pub policy: DevicePolicy,
+    /// What revz learned about the application while it records.
+    pub observed: Observed,
     pub objects: DeviceObjects,
+}
+
+impl DeviceState {
+    /// The depth target revz acts on when `view` is the depth attachment.
+    pub fn view_target(&self, view: vk::ImageView) -> Target {
+        self.observed.effective(self.objects.view_target(view))
+    }
+
+    /// How this device's command buffers reverse their draws now.
+    pub fn reversing(&self) -> Reversing {
+        self.policy.reversing(&self.observed)
+    }
+
+    /// A depth clear value on a reversed attachment.
+    pub fn reversed_clear(&self, depth: f32) -> f32 {
+        self.policy.reversed_clear(depth, &self.observed)
+    }
 }
 
 /// Next-layer commands that exist under a core or an extension name, whichever the device has.
@@ -93,6 +113,7 @@ pub struct DeviceCommands {
     pub draw_cluster_indirect_huawei: Option<vk::PFN_vkCmdDrawClusterIndirectHUAWEI>,
     pub execute_generated_commands_nv: Option<vk::PFN_vkCmdExecuteGeneratedCommandsNV>,
     pub bind_shaders_ext: Option<vk::PFN_vkCmdBindShadersEXT>,
+    pub push_constants2: Option<vk::PFN_vkCmdPushConstants2KHR>,
 }
 
 impl DeviceCommands {
@@ -164,6 +185,7 @@ impl DeviceCommands {
             draw_cluster_indirect_huawei: load!(0, c"vkCmdDrawClusterIndirectHUAWEI"),
             execute_generated_commands_nv: load!(0, c"vkCmdExecuteGeneratedCommandsNV"),
             bind_shaders_ext: load!(0, c"vkCmdBindShadersEXT"),
+            push_constants2: load!(0, c"vkCmdPushConstants2KHR"),
         }
     }
 }

@@ -53,12 +53,6 @@ impl Mode {
             .into_iter()
             .find(|mode| mode.name().eq_ignore_ascii_case(text.trim()))
     }
-
-    /// Whether this build of the layer acts on the mode yet. Modes it does not implement
-    /// pass everything through, and the load line says so.
-    pub fn is_implemented(self) -> bool {
-        matches!(self, Mode::Off | Mode::Flip)
-    }
 }
 
 impl fmt::Display for Mode {

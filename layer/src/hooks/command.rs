@@ -11,8 +11,9 @@ use ash::vk;
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::command_state::{StateSink, Target};
-use crate::conv::{flip_depth, flip_resolve_mode, DepthBias};
+use crate::conv::{flip_resolve_mode, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope};
+use crate::precise::{Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
 /// The device of a command buffer revz does not track (slow path: the global registry).
@@ -25,6 +26,29 @@ fn untracked_device(buffer: vk::CommandBuffer) -> Option<Arc<DeviceState>> {
 struct NextLayer<'a> {
     device: &'a DeviceState,
     buffer: vk::CommandBuffer,
+}
+
+impl PushSink for NextLayer<'_> {
+    fn push_constants(
+        &mut self,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        bytes: &[u8],
+    ) {
+        // SAFETY: a recording command buffer of this device; `layout` is the one the
+        // application last pushed with, and `stages` cover exactly these bytes.
+        unsafe {
+            (self.device.next.fp_v1_0().cmd_push_constants)(
+                self.buffer,
+                layout,
+                stages,
+                offset,
+                bytes.len() as u32,
+                bytes.as_ptr().cast(),
+            )
+        }
+    }
 }
 
 impl StateSink for NextLayer<'_> {
@@ -79,7 +103,108 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
         device: &entry.device,
         buffer,
     };
-    entry.state().before_draw(&mut sink);
+    let outcome = entry.state().before_draw(&mut sink);
+    if let Some(outcome) = outcome {
+        observe(&entry.device, &outcome);
+    }
+}
+
+/// What a classified projection tells about the application.
+fn observe(device: &DeviceState, outcome: &Outcome) {
+    match outcome {
+        Outcome::Rewritten { near_over_far, .. } => {
+            device.observed.note_near_over_far(*near_over_far)
+        }
+        Outcome::AlreadyReversed => device
+            .observed
+            .note_app_reversed("it pushes a reversed projection"),
+        Outcome::Unchanged => {}
+    }
+}
+
+/// `vkCmdPushConstants`: the values go into the command buffer's shadow copy, and the bound
+/// pipeline's projection is rewritten in the bytes passed down when its draws take the precise
+/// path (`crate::precise`).
+pub unsafe extern "system" fn cmd_push_constants(
+    buffer: vk::CommandBuffer,
+    layout: vk::PipelineLayout,
+    stages: vk::ShaderStageFlags,
+    offset: u32,
+    size: u32,
+    p_values: *const std::ffi::c_void,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants");
+    // The copy passed down: on the stack for every size a current driver allows.
+    let mut local = [0u8; PUSH_CONSTANT_BYTES];
+    let mut large = Vec::new();
+    let mut modified = false;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: `size` bytes of values (the application's contract).
+        let values = unsafe { slice(p_values.cast::<u8>(), size) };
+        let data = if values.len() <= PUSH_CONSTANT_BYTES {
+            &mut local[..values.len()]
+        } else {
+            large = values.to_vec();
+            &mut large[..]
+        };
+        data.copy_from_slice(values);
+        let outcome = entry.state().push_constants(layout, offset, data);
+        if let Some(outcome) = outcome {
+            modified = matches!(outcome, Outcome::Rewritten { .. });
+            observe(&entry.device, &outcome);
+        }
+    });
+    let Some(device) = device else { return };
+    let p_values = match (modified, large.is_empty()) {
+        (false, _) => p_values,
+        (true, true) => local.as_ptr().cast(),
+        (true, false) => large.as_ptr().cast(),
+    };
+    // SAFETY: calling down with the application's arguments (a projection rewritten).
+    unsafe {
+        (device.next.fp_v1_0().cmd_push_constants)(buffer, layout, stages, offset, size, p_values)
+    }
+}
+
+/// `vkCmdPushConstants2KHR`: followed like `vkCmdPushConstants` when it names a layout.
+pub unsafe extern "system" fn cmd_push_constants2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::PushConstantsInfoKHR<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants2KHR");
+    // SAFETY: a valid info (the application's contract).
+    let info = unsafe { *p_info };
+    let mut local = [0u8; PUSH_CONSTANT_BYTES];
+    let mut modified = false;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: `size` bytes of values.
+        let values = unsafe { slice(info.p_values.cast::<u8>(), info.size) };
+        let mut state = entry.state();
+        if info.layout == vk::PipelineLayout::null() || values.len() > PUSH_CONSTANT_BYTES {
+            // A layout given through pNext, or an unusually large push: not followed; the
+            // state is forgotten so that no rewrite is assumed to survive it.
+            state.invalidate();
+            return;
+        }
+        let data = &mut local[..values.len()];
+        data.copy_from_slice(values);
+        let outcome = state.push_constants(info.layout, info.offset, data);
+        drop(state);
+        if let Some(outcome) = outcome {
+            modified = matches!(outcome, Outcome::Rewritten { .. });
+            observe(&entry.device, &outcome);
+        }
+    });
+    let Some(next) = device.as_ref().and_then(|d| d.commands.push_constants2) else {
+        return;
+    };
+    let rewritten = vk::PushConstantsInfoKHR {
+        p_values: local.as_ptr().cast(),
+        ..info
+    };
+    let p_info = if modified { &rewritten } else { p_info };
+    // SAFETY: calling down with the application's arguments (a projection rewritten).
+    unsafe { next(buffer, p_info) }
 }
 
 /// Defines a draw hook: emit pending state, then call down. A draw with no state change costs
@@ -364,10 +489,7 @@ fn attachment_targets(
         Some(v) if !v.is_empty() => v,
         _ => imageless,
     };
-    views
-        .iter()
-        .map(|&view| device.objects.view_target(view))
-        .collect()
+    views.iter().map(|&view| device.view_target(view)).collect()
 }
 
 /// Begins a render pass instance: flips the clear values of reversed depth attachments and
@@ -379,16 +501,31 @@ fn begin_pass(
 ) -> bool {
     let device = &entry.device;
     let pass = device.objects.render_passes.get(&begin.render_pass);
-    let targets = attachment_targets(device, begin.framebuffer, begin.p_next);
+    let mut targets = attachment_targets(device, begin.framebuffer, begin.p_next);
     let mut changed = false;
     if let Some(pass) = &pass {
         // SAFETY: `clearValueCount` values.
         clears.extend_from_slice(unsafe { slice(begin.p_clear_values, begin.clear_value_count) });
+        let reversed_clears = || {
+            clears.iter().enumerate().filter(|(index, _)| {
+                pass.depth_cleared.get(*index).copied().unwrap_or(false)
+                    && targets.get(*index) == Some(&Target::Reversed)
+            })
+        };
+        // SAFETY: a depth attachment's clear value is the depthStencil member.
+        if reversed_clears().any(|(_, clear)| unsafe { clear.depth_stencil.depth } == 0.0) {
+            device
+                .observed
+                .note_app_reversed("a depth attachment is cleared to 0");
+            targets = attachment_targets(device, begin.framebuffer, begin.p_next);
+        }
         for (index, clear) in clears.iter_mut().enumerate() {
             let cleared = pass.depth_cleared.get(index).copied().unwrap_or(false);
             if cleared && targets.get(index) == Some(&Target::Reversed) {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
-                unsafe { clear.depth_stencil.depth = flip_depth(clear.depth_stencil.depth) };
+                unsafe {
+                    clear.depth_stencil.depth = device.reversed_clear(clear.depth_stencil.depth)
+                };
                 changed = true;
             }
         }
@@ -521,16 +658,26 @@ pub unsafe extern "system" fn cmd_begin_rendering(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: null or valid.
         let depth = unsafe { info.p_depth_attachment.as_ref() };
-        let target = depth.map_or(Target::None, |d| {
-            entry.device.objects.view_target(d.image_view)
-        });
+        let device = &entry.device;
+        let mut target = depth.map_or(Target::None, |d| device.view_target(d.image_view));
+        // SAFETY: a depth attachment's clear value is the depthStencil member.
+        let clear_depth = depth.map(|d| unsafe { d.clear_value.depth_stencil.depth });
+        if target == Target::Reversed
+            && depth.is_some_and(|d| d.load_op == vk::AttachmentLoadOp::CLEAR)
+            && clear_depth == Some(0.0)
+        {
+            device
+                .observed
+                .note_app_reversed("a depth attachment is cleared to 0");
+            target = device.observed.effective(target);
+        }
         if let (Some(depth), Target::Reversed) = (depth, target) {
             let mut copy = *depth;
             if copy.load_op == vk::AttachmentLoadOp::CLEAR {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
                 unsafe {
                     copy.clear_value.depth_stencil.depth =
-                        flip_depth(copy.clear_value.depth_stencil.depth)
+                        device.reversed_clear(copy.clear_value.depth_stencil.depth)
                 };
             }
             // MIN/MAX pick the other sample on reversed depth. A stencil resolve of the same
@@ -606,8 +753,9 @@ pub unsafe extern "system" fn cmd_clear_attachments(
             if clear.aspect_mask.contains(vk::ImageAspectFlags::DEPTH) {
                 // SAFETY: a depth clear's value is the depthStencil member.
                 unsafe {
-                    clear.clear_value.depth_stencil.depth =
-                        flip_depth(clear.clear_value.depth_stencil.depth)
+                    clear.clear_value.depth_stencil.depth = entry
+                        .device
+                        .reversed_clear(clear.clear_value.depth_stencil.depth)
                 };
             }
         }
@@ -641,11 +789,19 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdClearDepthStencilImage");
     let mut flipped: Option<vk::ClearDepthStencilValue> = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
-        if entry.device.objects.image_reversed(image) {
+        let device = &entry.device;
+        if device.objects.image_reversed(image) {
             // SAFETY: a valid value (the application's contract).
             let mut value = unsafe { *p_value };
-            value.depth = flip_depth(value.depth);
-            flipped = Some(value);
+            if value.depth == 0.0 {
+                device
+                    .observed
+                    .note_app_reversed("a depth image is cleared to 0");
+            }
+            if !device.observed.app_reversed() {
+                value.depth = device.reversed_clear(value.depth);
+                flipped = Some(value);
+            }
         }
     });
     let Some(device) = device else { return };
@@ -758,7 +914,9 @@ pub unsafe extern "system" fn begin_command_buffer(
             Target::None
         };
         *entry.scope() = PassScope::default();
-        entry.state().begin(target);
+        entry
+            .state()
+            .begin(target, entry.device.reversing().reversal);
     });
     match device {
         // SAFETY: calling down with the application's arguments.
@@ -818,6 +976,13 @@ fn inherited_target(
 fn format_target(device: &DeviceState, format: vk::Format) -> Target {
     static MIXED: OnceLock<()> = OnceLock::new();
     let (reversed, native) = device.objects.count_images(format);
+    if device.observed.app_reversed() {
+        return if reversed + native == 0 {
+            Target::None
+        } else {
+            Target::Native
+        };
+    }
     match (reversed, native) {
         (0, 0) => Target::None,
         (_, 0) => Target::Reversed,

@@ -35,11 +35,15 @@ pub unsafe extern "system" fn get_device_proc_addr(
             // path's hooks only where the policy acts.
             let hook = next.and_then(|_| {
                 super::device_command(name).or_else(|| {
-                    state
-                        .policy
-                        .is_active()
-                        .then(|| super::depth_path_command(name))
-                        .flatten()
+                    let policy = &state.policy;
+                    if !policy.is_active() {
+                        return None;
+                    }
+                    super::depth_path_command(name).or_else(|| {
+                        policy
+                            .rewrite()
+                            .and_then(|_| super::precise_path_command(name))
+                    })
                 })
             });
             hook.or(next)

@@ -314,18 +314,13 @@ fn read_settings(create_info: &vk::InstanceCreateInfo) -> Arc<Settings> {
                 log::warn!("{warning}");
             }
             let mode = settings.mode;
-            let note = if mode.is_implemented() {
-                ""
-            } else {
-                " (not implemented in this build: passing everything through)"
-            };
             let sources = if resolved.notes.is_empty() {
                 String::new()
             } else {
                 format!("; from {}", resolved.notes.join(", "))
             };
             log::info!(
-                "revz {VERSION} loaded as {LAYER_NAME}: mode {mode}{note}; {}{sources}",
+                "revz {VERSION} loaded as {LAYER_NAME}: mode {mode}; {}{sources}",
                 settings.summary()
             );
             settings
@@ -496,6 +491,7 @@ pub unsafe extern "system" fn create_device(
                     commands,
                     settings: Arc::clone(&instance.settings),
                     policy,
+                    observed: Default::default(),
                     objects: DeviceObjects::default(),
                 },
             );

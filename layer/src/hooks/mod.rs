@@ -16,7 +16,7 @@ macro_rules! void_fn {
 
 /// Defines a destruction hook: forget the object, then call down.
 macro_rules! destroy_hook {
-    ($name:ident, $entry:ident, $handle:ty, $table:ident, $next:ident) => {
+    ($name:ident, $entry:ident, $handle:ty, $($table:ident)|+, $next:ident) => {
         pub unsafe extern "system" fn $name(
             device: vk::Device,
             handle: $handle,
@@ -27,7 +27,7 @@ macro_rules! destroy_hook {
                 return;
             };
             $crate::hooks::record(&$entry, || {
-                state.objects.$table.remove(&handle);
+                $(state.objects.$table.remove(&handle);)+
             });
             // SAFETY: calling down with the application's arguments.
             unsafe { (state.next.fp_v1_0().$next)(device, handle, p_allocator) };
@@ -256,6 +256,26 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     }
 }
 
+/// The hook for a command only the precise path needs (complementary and infinite modes):
+/// push constants, and the pipeline layouts that say how to push them.
+pub fn precise_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkCmdPushConstants" => void_fn!(vk::PFN_vkCmdPushConstants, command::cmd_push_constants),
+        b"vkCmdPushConstants2KHR" => {
+            void_fn!(vk::PFN_vkCmdPushConstants2KHR, command::cmd_push_constants2)
+        }
+        b"vkCreatePipelineLayout" => void_fn!(
+            vk::PFN_vkCreatePipelineLayout,
+            pipeline::create_pipeline_layout
+        ),
+        b"vkDestroyPipelineLayout" => void_fn!(
+            vk::PFN_vkDestroyPipelineLayout,
+            pipeline::destroy_pipeline_layout
+        ),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -274,6 +294,8 @@ mod tests {
         for name in [c"vkGetDeviceProcAddr", c"vkDestroyDevice"] {
             assert!(device_command(name).is_some(), "{name:?}");
         }
+        assert!(precise_path_command(c"vkCmdPushConstants").is_some());
+        assert!(depth_path_command(c"vkCmdPushConstants").is_none());
         assert!(instance_command(c"vkCmdDraw").is_none());
         assert!(device_command(c"vkCmdDraw").is_none());
     }

@@ -16,12 +16,18 @@ use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::DepthBias;
+use crate::objects::ModuleAnalysis;
+use crate::precise::ProjectionUse;
+use crate::shader_analysis::{self, Analysis};
 use crate::state::DeviceState;
+use revz_math::DepthConvention;
 
 static CREATE_GRAPHICS_PIPELINES: EntryPoint = EntryPoint::new("vkCreateGraphicsPipelines");
 static DESTROY_PIPELINE: EntryPoint = EntryPoint::new("vkDestroyPipeline");
 static CREATE_SHADER_MODULE: EntryPoint = EntryPoint::new("vkCreateShaderModule");
 static DESTROY_SHADER_MODULE: EntryPoint = EntryPoint::new("vkDestroyShaderModule");
+static CREATE_PIPELINE_LAYOUT: EntryPoint = EntryPoint::new("vkCreatePipelineLayout");
+static DESTROY_PIPELINE_LAYOUT: EntryPoint = EntryPoint::new("vkDestroyPipelineLayout");
 static LIBRARY_LOGGED: AtomicBool = AtomicBool::new(false);
 
 /// Whether a create info builds or links pipeline libraries.
@@ -75,12 +81,130 @@ fn writes_frag_depth(
         })
 }
 
+/// The shader analysis of a module (at its creation, or of SPIR-V chained into a pipeline
+/// stage): a module naga cannot read is logged once, and its draws take the flip path.
+fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> ModuleAnalysis {
+    let analysis = shader_analysis::analyze_vertex_entry_points(words);
+    if let Err(reason) = &analysis {
+        log::warn!(
+            "shader module {module:?} cannot be analyzed ({reason}): its draws into reversed \
+             attachments take the flip path"
+        );
+    }
+    analysis
+}
+
+/// The SPIR-V chained into a stage instead of a module (`VkShaderModuleCreateInfo` in its
+/// `pNext`), if any.
+fn inline_code<'a>(stage: &'a vk::PipelineShaderStageCreateInfo<'_>) -> Option<&'a [u32]> {
+    let mut next = stage.p_next.cast::<vk::BaseInStructure>();
+    // SAFETY: a valid pNext chain (the application's contract).
+    while let Some(base) = unsafe { next.as_ref() } {
+        if base.s_type == vk::StructureType::SHADER_MODULE_CREATE_INFO {
+            // SAFETY: the sType identifies the structure; `codeSize` bytes of code.
+            let inline = unsafe { &*next.cast::<vk::ShaderModuleCreateInfo<'_>>() };
+            // SAFETY: as above.
+            return Some(unsafe { slice(inline.p_code, (inline.code_size / 4) as u32) });
+        }
+        next = base.p_next;
+    }
+    None
+}
+
+/// The clip-space depth convention of a pipeline (`VK_EXT_depth_clip_control`); `None` when
+/// it is dynamic, so unknown when the projection is pushed.
+fn depth_convention(
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+    dynamic: &[vk::DynamicState],
+) -> Option<DepthConvention> {
+    if dynamic.contains(&vk::DynamicState::DEPTH_CLIP_NEGATIVE_ONE_TO_ONE_EXT) {
+        return None;
+    }
+    // SAFETY: null or valid (the application's contract).
+    let Some(viewport) = (unsafe { info.p_viewport_state.as_ref() }) else {
+        return Some(DepthConvention::ZeroToOne);
+    };
+    let mut next = viewport.p_next.cast::<vk::BaseInStructure>();
+    // SAFETY: a valid pNext chain.
+    while let Some(base) = unsafe { next.as_ref() } {
+        if base.s_type == vk::StructureType::PIPELINE_VIEWPORT_DEPTH_CLIP_CONTROL_CREATE_INFO_EXT {
+            // SAFETY: the sType identifies the structure.
+            let control =
+                unsafe { &*next.cast::<vk::PipelineViewportDepthClipControlCreateInfoEXT<'_>>() };
+            if control.negative_one_to_one == vk::TRUE {
+                return Some(DepthConvention::NegativeOneToOne);
+            }
+        }
+        next = base.p_next;
+    }
+    Some(DepthConvention::ZeroToOne)
+}
+
+/// Where a pipeline's projection is in its push constants (the precise path), or why its draws
+/// take the flip path.
+fn projection_of(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> Result<ProjectionUse, String> {
+    // SAFETY: `stageCount` stages (the application's contract).
+    let stages = unsafe { slice(info.p_stages, info.stage_count) };
+    let later = vk::ShaderStageFlags::GEOMETRY
+        | vk::ShaderStageFlags::TESSELLATION_EVALUATION
+        | vk::ShaderStageFlags::MESH_EXT;
+    if stages.iter().any(|s| s.stage.intersects(later)) {
+        return Err("its last pre-rasterization stage is not a vertex shader".into());
+    }
+    let vertex = stages
+        .iter()
+        .find(|s| s.stage == vk::ShaderStageFlags::VERTEX)
+        .ok_or("it has no vertex stage")?;
+    // SAFETY: null or valid (the application's contract).
+    let dynamic = unsafe { info.p_dynamic_state.as_ref() }.map_or(&[][..], |d| unsafe {
+        // SAFETY: `dynamicStateCount` entries.
+        slice(d.p_dynamic_states, d.dynamic_state_count)
+    });
+    let convention =
+        depth_convention(info, dynamic).ok_or("its depth clip convention is dynamic")?;
+    let analysis = if vertex.module != vk::ShaderModule::null() {
+        state
+            .objects
+            .vertex_modules
+            .get(&vertex.module)
+            .ok_or("its vertex module is unknown")?
+    } else {
+        let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
+        Arc::new(analyze_vertex_module(vertex.module, words))
+    };
+    let entries = analysis
+        .as_ref()
+        .as_ref()
+        .map_err(|_| "naga cannot read its vertex module")?;
+    // SAFETY: a NUL-terminated entry point name (the application's contract).
+    let name = unsafe { crate::ffi::c_str(vertex.p_name) }.ok_or("no entry point name")?;
+    let slot = match entries
+        .iter()
+        .find(|(entry, _)| entry.as_bytes() == name.to_bytes())
+    {
+        Some((_, Analysis::Projection(slot))) => slot,
+        Some((_, Analysis::Unreadable(reason))) => return Err(reason.clone()),
+        _ => return Err("Position does not come from a push-constant matrix".into()),
+    };
+    let ranges = state
+        .objects
+        .pipeline_layouts
+        .get(&info.layout)
+        .ok_or("its pipeline layout is unknown")?;
+    ProjectionUse::new(slot, convention, &ranges).map_err(|e| e.to_string())
+}
+
 /// What revz does with one create info: the pipeline's depth state for draw time, and the
 /// complete dynamic state list to create it with when revz adds states (`None`: unchanged).
 #[derive(Debug)]
 struct Plan {
     dynamic_states: Option<Vec<vk::DynamicState>>,
     depth: PipelineDepth,
+    /// Why the pipeline's draws take the flip path (precise modes).
+    flip_reason: Option<String>,
 }
 
 /// What [`plan`] needs to know beyond the create info.
@@ -128,6 +252,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     let unchanged = |depth| Plan {
         dynamic_states: None,
         depth,
+        flip_reason: None,
     };
     if context.uses_libraries || !context.has_depth_attachment {
         return unchanged(depth);
@@ -203,6 +328,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     Plan {
         dynamic_states: Some(states),
         depth,
+        flip_reason: None,
     }
 }
 
@@ -289,6 +415,15 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     plan.depth.writes_frag_depth = writes_frag_depth(info, &|module| {
                         state.objects.frag_depth_modules.get(&module).is_some()
                     });
+                    let precise = state.policy.rewrite().is_some()
+                        && context.has_depth_attachment
+                        && !context.uses_libraries;
+                    if precise {
+                        match projection_of(&state, info) {
+                            Ok(projection) => plan.depth.projection = Some(projection),
+                            Err(reason) => plan.flip_reason = Some(reason),
+                        }
+                    }
                     Some(plan)
                 })
                 .collect::<Vec<_>>()
@@ -357,6 +492,20 @@ pub unsafe extern "system" fn create_graphics_pipelines(
             let pipelines = unsafe { slice(p_pipelines, count) };
             for (&pipeline, plan) in pipelines.iter().zip(plans) {
                 if let Some(plan) = plan.filter(|_| pipeline != vk::Pipeline::null()) {
+                    match (&plan.depth.projection, &plan.flip_reason) {
+                        (Some(p), _) => log::debug!(
+                            "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
+                             ({:?}, {:?}): precise path",
+                            p.offset,
+                            p.end(),
+                            p.storage,
+                            p.convention
+                        ),
+                        (None, Some(reason)) => {
+                            log::debug!("pipeline {pipeline:?}: flip path ({reason})")
+                        }
+                        (None, None) => {}
+                    }
                     state
                         .objects
                         .pipelines
@@ -389,12 +538,17 @@ pub unsafe extern "system" fn create_shader_module(
             let info = unsafe { &*p_create_info };
             // SAFETY: as above.
             let words = unsafe { slice(info.p_code, (info.code_size / 4) as u32) };
+            // SAFETY: valid on success.
+            let module = unsafe { *p_module };
             if crate::spirv_scan::writes_frag_depth(words) {
-                // SAFETY: valid on success.
+                state.objects.frag_depth_modules.insert(module, ());
+            }
+            if state.policy.rewrite().is_some() {
+                let analysis = analyze_vertex_module(module, words);
                 state
                     .objects
-                    .frag_depth_modules
-                    .insert(unsafe { *p_module }, ());
+                    .vertex_modules
+                    .insert(module, Arc::new(analysis));
             }
         });
     }
@@ -405,8 +559,45 @@ destroy_hook!(
     destroy_shader_module,
     DESTROY_SHADER_MODULE,
     vk::ShaderModule,
-    frag_depth_modules,
+    frag_depth_modules | vertex_modules,
     destroy_shader_module
+);
+
+pub unsafe extern "system" fn create_pipeline_layout(
+    device: vk::Device,
+    p_create_info: *const vk::PipelineLayoutCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_layout: *mut vk::PipelineLayout,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_pipeline_layout)(device, p_create_info, p_allocator, p_layout)
+    };
+    if result == vk::Result::SUCCESS {
+        super::record(&CREATE_PIPELINE_LAYOUT, || {
+            // SAFETY: valid on success.
+            let info = unsafe { &*p_create_info };
+            // SAFETY: `pushConstantRangeCount` ranges.
+            let ranges =
+                unsafe { slice(info.p_push_constant_ranges, info.push_constant_range_count) };
+            // SAFETY: valid on success.
+            let layout = unsafe { *p_layout };
+            state.objects.pipeline_layouts.insert(layout, ranges.into());
+        });
+    }
+    result
+}
+
+destroy_hook!(
+    destroy_pipeline_layout,
+    DESTROY_PIPELINE_LAYOUT,
+    vk::PipelineLayout,
+    pipeline_layouts,
+    destroy_pipeline_layout
 );
 
 destroy_hook!(
@@ -473,6 +664,7 @@ mod tests {
         let Plan {
             dynamic_states,
             depth: pipeline,
+            ..
         } = plan(&info, &RENDERS_DEPTH);
         assert_eq!(
             dynamic_states.expect("states were added"),
@@ -511,6 +703,7 @@ mod tests {
         let Plan {
             dynamic_states,
             depth: pipeline,
+            ..
         } = plan(&info, &RENDERS_DEPTH);
         assert!(dynamic_states.is_none(), "nothing to add");
         assert_eq!(
