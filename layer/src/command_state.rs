@@ -465,6 +465,8 @@ impl CommandState {
 mod tests {
     use std::sync::Arc;
 
+    use ash::vk::Handle;
+
     use super::*;
 
     #[derive(Debug, Default, PartialEq)]
@@ -650,5 +652,123 @@ mod tests {
         state.before_draw(&mut sink);
         assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
         assert_eq!(sink.biases.len(), 1);
+    }
+
+    fn perspective_bytes() -> Vec<u8> {
+        let projection = glam::dcamera::rh::proj::vulkan::perspective(1.0, 1.5, 0.5, 50.0);
+        projection
+            .as_mat4()
+            .to_cols_array()
+            .iter()
+            .flat_map(|v| v.to_ne_bytes())
+            .collect()
+    }
+
+    /// A pipeline reading its projection from push-constant bytes 0..64.
+    fn projection_pipeline() -> Arc<PipelineDepth> {
+        Arc::new(PipelineDepth {
+            projection: Some(ProjectionUse {
+                offset: 0,
+                stride: 16,
+                storage: revz_math::Storage::ColumnMajor,
+                convention: revz_math::DepthConvention::ZeroToOne,
+                stages: vk::ShaderStageFlags::VERTEX,
+            }),
+            ..(*static_pipeline()).clone()
+        })
+    }
+
+    fn precise(target: RewriteTarget) -> CommandState {
+        let reversal = match target {
+            RewriteTarget::Complementary => Reversal::Complementary,
+            RewriteTarget::Infinite => Reversal::Infinite { near_over_far: 0.0 },
+        };
+        CommandState::new(Reversing {
+            rewrite: Some(target),
+            reversal,
+        })
+    }
+
+    #[test]
+    fn a_rewritten_projection_takes_the_precise_path() {
+        let mut state = precise(RewriteTarget::Complementary);
+        state.begin(Target::Reversed, Reversal::Complementary);
+        state.bind_pipeline(Some(projection_pipeline()));
+        let mut data = perspective_bytes();
+        let outcome = state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
+        assert!(matches!(outcome, Some(Outcome::Rewritten { .. })));
+        assert_ne!(data, perspective_bytes(), "rewritten in place");
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        // [0, 1] -> [1 - 1, 1 - 0]: the rewritten projection already reverses.
+        assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
+        assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
+        assert!(sink.pushes.is_empty(), "nothing left to push");
+
+        // The next object's matrix, pushed the same way: no state to re-emit at its draw.
+        let mut data = perspective_bytes();
+        state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.viewports.len(), 1);
+    }
+
+    #[test]
+    fn draws_without_a_push_constant_projection_take_the_flip_path() {
+        let mut state = precise(RewriteTarget::Complementary);
+        state.begin(Target::Reversed, Reversal::Complementary);
+        state.bind_pipeline(Some(static_pipeline()));
+        let mut data = perspective_bytes();
+        assert_eq!(
+            state.push_constants(vk::PipelineLayout::null(), 0, &mut data),
+            None
+        );
+        assert_eq!(data, perspective_bytes(), "not this pipeline's projection");
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip);
+        assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.0)])]);
+    }
+
+    #[test]
+    fn a_projection_pushed_outside_the_render_pass_is_rewritten_at_the_draw() {
+        let mut state = precise(RewriteTarget::Infinite);
+        state.begin(Target::None, Reversal::Infinite { near_over_far: 0.0 });
+        state.bind_pipeline(Some(projection_pipeline()));
+        let layout = vk::PipelineLayout::from_raw(3);
+        let mut data = perspective_bytes();
+        state.push_constants(layout, 0, &mut data);
+        assert_eq!(data, perspective_bytes());
+        state.set_target(Target::Reversed);
+        let mut sink = Recorded::default();
+        let outcome = state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert_eq!(sink.pushes, vec![(0, 64)]);
+        // Infinite mode learned n / f = 0.01 from it, for the flip path's state.
+        let Some(Outcome::Rewritten { near_over_far, .. }) = outcome else {
+            panic!("{outcome:?}");
+        };
+        assert!((near_over_far - 0.01).abs() < 1e-6);
+        assert_eq!(state.reversal(), Reversal::Infinite { near_over_far });
+
+        // A flip-path pipeline in the same pass: the application's bytes go back, and its
+        // viewport maps standard depth to n / w: [0, 1] -> [1, n / f].
+        state.bind_pipeline(Some(static_pipeline()));
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip);
+        assert_eq!(sink.pushes, vec![(0, 64), (0, 64)]);
+        assert_eq!(
+            sink.viewports.last(),
+            Some(&(0, vec![(1.0, near_over_far)]))
+        );
+
+        // Native attachments never see a rewritten byte or a flipped state.
+        state.bind_pipeline(Some(projection_pipeline()));
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Native);
+        assert_eq!(sink.pushes.len(), 2);
+        assert_eq!(sink.viewports.last(), Some(&(0, vec![(0.0, 1.0)])));
+        assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::LESS));
     }
 }

@@ -240,6 +240,8 @@ pub fn analyze_vertex_entry_points(words: &[u32]) -> Result<Vec<(String, Analysi
     if !scan_push_constants(words)? {
         return Ok(Vec::new());
     }
+    let stripped = crate::spirv_scan::for_analysis(words);
+    let words = stripped.as_deref().unwrap_or(words);
     let module = parse(words)?;
     catch_unwind(AssertUnwindSafe(|| {
         let layout = SpirvLayout::scan(words);
@@ -1297,5 +1299,44 @@ mod tests {
             }
             let _ = analyze(&corrupted, "main", ShaderStage::Vertex);
         }
+    }
+
+    /// A string operand: UTF-8, NUL-terminated, padded to whole words.
+    fn string_words(text: &str) -> Vec<u32> {
+        let mut bytes = text.as_bytes().to_vec();
+        bytes.resize((bytes.len() / 4 + 1) * 4, 0);
+        bytes
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect()
+    }
+
+    #[test]
+    fn what_naga_rejects_but_the_analysis_does_not_need_is_removed_first() {
+        // The scene shader with a Slang/DXC-style preamble naga refuses: a capability it does
+        // not list, an extension it does not know, and a non-semantic instruction set.
+        let mut words = compile(include_str!("../../shaders/scene.vert"));
+        let bound = words[3];
+        words[3] = bound + 1;
+        let mut preamble = vec![(2 << 16) | 17, 4427]; // OpCapability DrawParameters
+        let extension = string_words("SPV_KHR_shader_draw_parameters");
+        preamble.push(((extension.len() as u32 + 1) << 16) | 10);
+        preamble.extend(extension);
+        let set = string_words("NonSemantic.DebugPrintf");
+        preamble.push(((set.len() as u32 + 2) << 16) | 11);
+        preamble.push(bound);
+        preamble.extend(set);
+        words.splice(HEADER_WORDS..HEADER_WORDS, preamble);
+
+        assert!(
+            matches!(parse(&words), Err(_)),
+            "naga alone rejects the module"
+        );
+        let entries = analyze_vertex_entry_points(&words).expect("readable once stripped");
+        assert_eq!(entries, vec![("main".to_owned(), column_major_mat4(0))]);
+        // Stripping keeps a module naga already reads as it is.
+        let plain = compile(include_str!("../../shaders/scene.vert"));
+        let stripped = crate::spirv_scan::for_analysis(&plain);
+        assert!(stripped.is_none_or(|words| parse(&words).is_ok()));
     }
 }

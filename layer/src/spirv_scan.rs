@@ -11,6 +11,13 @@ const OP_DECORATE: u32 = 71;
 const DECORATION_BUILT_IN: u32 = 11;
 /// `BuiltIn FragDepth`.
 const BUILT_IN_FRAG_DEPTH: u32 = 22;
+/// `OpExtension`, `OpExtInstImport`, `OpExtInst`, `OpCapability`.
+const OP_EXTENSION: u32 = 10;
+const OP_EXT_INST_IMPORT: u32 = 11;
+const OP_EXT_INST: u32 = 12;
+const OP_CAPABILITY: u32 = 17;
+/// `Capability Shader`.
+const CAPABILITY_SHADER: u32 = 1;
 /// The SPIR-V magic number (first word of every module).
 pub const MAGIC: u32 = 0x0723_0203;
 /// Words in a module header.
@@ -107,4 +114,49 @@ mod tests {
         assert!(!writes_frag_depth(&module(&[(9 << 16) | OP_DECORATE, 7])));
         assert!(!writes_frag_depth(&module(&[0])));
     }
+}
+
+/// A copy of a module with what the shader analysis never needs removed, so that naga reads
+/// modules it would otherwise reject (`shared/DESIGN.md` section 2: Slang's `DrawParameters`,
+/// `NonSemantic.DebugPrintf`, extensions naga does not list): every `OpCapability` but
+/// `Shader`, every `OpExtension`, and the non-semantic instruction sets with their
+/// `OpExtInst`s (non-semantic results are never operands of semantic instructions). The data
+/// flow into `Position` is untouched. `None` when there is nothing to remove or the words are
+/// not well-formed (the analysis then sees the module as it is). The module the driver gets is
+/// never changed.
+pub fn for_analysis(words: &[u32]) -> Option<Vec<u32>> {
+    let mut non_semantic = Vec::new();
+    let mut removed = false;
+    let mut out = words.get(..HEADER_WORDS)?.to_vec();
+    for instruction in instructions(words)? {
+        let Instruction { opcode, operands } = instruction.ok()?;
+        let remove = match opcode {
+            OP_CAPABILITY => operands.first() != Some(&CAPABILITY_SHADER),
+            OP_EXTENSION => true,
+            OP_EXT_INST_IMPORT => {
+                let name: Vec<u8> = operands
+                    .iter()
+                    .skip(1)
+                    .flat_map(|w| w.to_le_bytes())
+                    .take_while(|&b| b != 0)
+                    .collect();
+                let is_non_semantic = name.starts_with(b"NonSemantic.");
+                if is_non_semantic {
+                    non_semantic.extend(operands.first().copied());
+                }
+                is_non_semantic
+            }
+            OP_EXT_INST => operands
+                .get(2)
+                .is_some_and(|set| non_semantic.contains(set)),
+            _ => false,
+        };
+        if remove {
+            removed = true;
+        } else {
+            out.push(((operands.len() as u32 + 1) << 16) | opcode);
+            out.extend_from_slice(operands);
+        }
+    }
+    removed.then_some(out)
 }
