@@ -81,41 +81,6 @@ pub fn writes_frag_depth(words: &[u32]) -> bool {
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn module(body: &[u32]) -> Vec<u32> {
-        let mut words = vec![MAGIC, 0x0001_0000, 0, 100, 0];
-        words.extend_from_slice(body);
-        words
-    }
-
-    #[test]
-    fn finds_the_frag_depth_decoration() {
-        let frag_depth = [
-            (4 << 16) | OP_DECORATE,
-            7,
-            DECORATION_BUILT_IN,
-            BUILT_IN_FRAG_DEPTH,
-        ];
-        let position = [(4 << 16) | OP_DECORATE, 8, DECORATION_BUILT_IN, 0];
-        assert!(writes_frag_depth(&module(&frag_depth)));
-        assert!(!writes_frag_depth(&module(&position)));
-        // An OpName whose operand happens to hold the same numbers is not a decoration.
-        let name = [(5 << 16) | 5, 7, 11, 22, 0];
-        assert!(!writes_frag_depth(&module(&name)));
-    }
-
-    #[test]
-    fn malformed_modules_are_not_read_past_their_end() {
-        assert!(!writes_frag_depth(&[]));
-        assert!(!writes_frag_depth(&[1, 2, 3, 4, 5, 6]));
-        assert!(!writes_frag_depth(&module(&[(9 << 16) | OP_DECORATE, 7])));
-        assert!(!writes_frag_depth(&module(&[0])));
-    }
-}
-
 /// A copy of a module with what the shader analysis never needs removed, so that naga reads
 /// modules it would otherwise reject (`shared/DESIGN.md` section 2: Slang's `DrawParameters`,
 /// `NonSemantic.DebugPrintf`, extensions naga does not list): every `OpCapability` but
@@ -159,4 +124,39 @@ pub fn for_analysis(words: &[u32]) -> Option<Vec<u32>> {
         }
     }
     removed.then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn module(body: &[u32]) -> Vec<u32> {
+        let mut words = vec![MAGIC, 0x0001_0000, 0, 100, 0];
+        words.extend_from_slice(body);
+        words
+    }
+
+    #[test]
+    fn finds_the_frag_depth_decoration() {
+        let frag_depth = [
+            (4 << 16) | OP_DECORATE,
+            7,
+            DECORATION_BUILT_IN,
+            BUILT_IN_FRAG_DEPTH,
+        ];
+        let position = [(4 << 16) | OP_DECORATE, 8, DECORATION_BUILT_IN, 0];
+        assert!(writes_frag_depth(&module(&frag_depth)));
+        assert!(!writes_frag_depth(&module(&position)));
+        // An OpName whose operand happens to hold the same numbers is not a decoration.
+        let name = [(5 << 16) | 5, 7, 11, 22, 0];
+        assert!(!writes_frag_depth(&module(&name)));
+    }
+
+    #[test]
+    fn malformed_modules_are_not_read_past_their_end() {
+        assert!(!writes_frag_depth(&[]));
+        assert!(!writes_frag_depth(&[1, 2, 3, 4, 5, 6]));
+        assert!(!writes_frag_depth(&module(&[(9 << 16) | OP_DECORATE, 7])));
+        assert!(!writes_frag_depth(&module(&[0])));
+    }
 }
