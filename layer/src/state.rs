@@ -114,6 +114,10 @@ pub struct DeviceCommands {
     pub execute_generated_commands_nv: Option<vk::PFN_vkCmdExecuteGeneratedCommandsNV>,
     pub bind_shaders_ext: Option<vk::PFN_vkCmdBindShadersEXT>,
     pub push_constants2: Option<vk::PFN_vkCmdPushConstants2KHR>,
+    pub copy_buffer_to_image2: Option<vk::PFN_vkCmdCopyBufferToImage2>,
+    pub copy_image2: Option<vk::PFN_vkCmdCopyImage2>,
+    pub blit_image2: Option<vk::PFN_vkCmdBlitImage2>,
+    pub set_depth_bias2: Option<vk::PFN_vkCmdSetDepthBias2EXT>,
 }
 
 impl DeviceCommands {
@@ -186,6 +190,14 @@ impl DeviceCommands {
             execute_generated_commands_nv: load!(0, c"vkCmdExecuteGeneratedCommandsNV"),
             bind_shaders_ext: load!(0, c"vkCmdBindShadersEXT"),
             push_constants2: load!(0, c"vkCmdPushConstants2KHR"),
+            copy_buffer_to_image2: load!(
+                V13,
+                c"vkCmdCopyBufferToImage2",
+                c"vkCmdCopyBufferToImage2KHR"
+            ),
+            copy_image2: load!(V13, c"vkCmdCopyImage2", c"vkCmdCopyImage2KHR"),
+            blit_image2: load!(V13, c"vkCmdBlitImage2", c"vkCmdBlitImage2KHR"),
+            set_depth_bias2: load!(0, c"vkCmdSetDepthBias2EXT"),
         }
     }
 }

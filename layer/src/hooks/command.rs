@@ -893,6 +893,99 @@ pub unsafe extern "system" fn cmd_blit_image(
     }
 }
 
+/// Defines a hook for a `*2` transfer command: warn when it writes into a reversed image, then
+/// call down through whichever name the device has.
+macro_rules! transfer2_hook {
+    ($name:ident, $entry:literal, $info:ty, $command:ident) => {
+        #[doc = concat!("`", $entry, "`.")]
+        ///
+        /// # Safety
+        /// Called by the application with the arguments the Vulkan spec allows.
+        pub unsafe extern "system" fn $name(buffer: vk::CommandBuffer, p_info: *const $info) {
+            static ENTRY: EntryPoint = EntryPoint::new($entry);
+            let device = with_entry(buffer, &ENTRY, |entry| {
+                // SAFETY: a valid info (the application's contract).
+                check_transfer_destination(entry, unsafe { (*p_info).dst_image })
+            });
+            if let Some(next) = device.and_then(|d| d.commands.$command) {
+                // SAFETY: calling down with the application's arguments.
+                unsafe { next(buffer, p_info) }
+            }
+        }
+    };
+}
+
+transfer2_hook!(
+    cmd_copy_buffer_to_image2,
+    "vkCmdCopyBufferToImage2",
+    vk::CopyBufferToImageInfo2<'_>,
+    copy_buffer_to_image2
+);
+transfer2_hook!(
+    cmd_copy_image2,
+    "vkCmdCopyImage2",
+    vk::CopyImageInfo2<'_>,
+    copy_image2
+);
+transfer2_hook!(
+    cmd_blit_image2,
+    "vkCmdBlitImage2",
+    vk::BlitImageInfo2<'_>,
+    blit_image2
+);
+
+/// `vkCmdSetDepthBias2EXT` (`VK_EXT_depth_bias_control`). Without a representation in its
+/// `pNext` it is `vkCmdSetDepthBias` and goes through the state machine. With one, revz cannot
+/// re-send it as `vkCmdSetDepthBias`: it goes down at once, negated when the current target is
+/// reversed (a target that changes before the draw is not followed: logged once).
+pub unsafe extern "system" fn cmd_set_depth_bias2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::DepthBiasInfoEXT<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthBias2EXT");
+    static REPRESENTED: std::sync::Once = std::sync::Once::new();
+    // SAFETY: a valid info (the application's contract).
+    let info = unsafe { *p_info };
+    let bias = DepthBias {
+        constant: info.depth_bias_constant_factor,
+        clamp: info.depth_bias_clamp,
+        slope: info.depth_bias_slope_factor,
+    };
+    let mut flipped = None;
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        let mut state = entry.state();
+        if info.p_next.is_null() {
+            state.set_bias(bias);
+            return;
+        }
+        if state.target() == Target::Reversed {
+            let negated = bias.flipped();
+            flipped = Some(vk::DepthBiasInfoEXT {
+                depth_bias_constant_factor: negated.constant,
+                depth_bias_clamp: negated.clamp,
+                depth_bias_slope_factor: negated.slope,
+                ..info
+            });
+        }
+        REPRESENTED.call_once(|| {
+            log::info!(
+                "vkCmdSetDepthBias2EXT with a bias representation is negated where it is \
+                 recorded, not per draw"
+            )
+        });
+    });
+    let down = match taken {
+        Ok(()) if info.p_next.is_null() => return,
+        Ok(()) => objects::command_buffer(buffer).map(Down::Tracked),
+        Err(down) => down,
+    };
+    if let Some(next) = down.and_then(|d| d.commands.set_depth_bias2) {
+        let p_info = flipped.as_ref().map_or(p_info, |f| f as *const _);
+        // SAFETY: calling down with the application's arguments (the bias negated).
+        unsafe { next(buffer, p_info) }
+    }
+}
+
 pub unsafe extern "system" fn begin_command_buffer(
     buffer: vk::CommandBuffer,
     p_begin: *const vk::CommandBufferBeginInfo<'_>,

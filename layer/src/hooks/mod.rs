@@ -186,6 +186,17 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         }
         b"vkCmdCopyImage" => void_fn!(vk::PFN_vkCmdCopyImage, c::cmd_copy_image),
         b"vkCmdBlitImage" => void_fn!(vk::PFN_vkCmdBlitImage, c::cmd_blit_image),
+        b"vkCmdCopyBufferToImage2" | b"vkCmdCopyBufferToImage2KHR" => void_fn!(
+            vk::PFN_vkCmdCopyBufferToImage2,
+            c::cmd_copy_buffer_to_image2
+        ),
+        b"vkCmdCopyImage2" | b"vkCmdCopyImage2KHR" => {
+            void_fn!(vk::PFN_vkCmdCopyImage2, c::cmd_copy_image2)
+        }
+        b"vkCmdBlitImage2" | b"vkCmdBlitImage2KHR" => {
+            void_fn!(vk::PFN_vkCmdBlitImage2, c::cmd_blit_image2)
+        }
+        b"vkCmdSetDepthBias2EXT" => void_fn!(vk::PFN_vkCmdSetDepthBias2EXT, c::cmd_set_depth_bias2),
         b"vkCmdExecuteCommands" => {
             void_fn!(vk::PFN_vkCmdExecuteCommands, c::cmd_execute_commands)
         }
