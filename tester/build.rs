@@ -4,6 +4,13 @@
 //! coordinate-space adjustment of naga's SPIR-V writer (a y negation of `gl_Position`) is off,
 //! so the shaders do exactly what their GLSL says. Any naga error fails the build and names
 //! the file.
+//!
+//! One thing naga cannot express: a `RowMajor` matrix (its IR has no matrix layouts, and its
+//! GLSL front end rejects `layout(row_major)`). A source line
+//! `// revz-build: RowMajor <Struct>.<member>` asks for it: the `ColMajor` decoration naga
+//! writes on that member of that struct becomes `RowMajor` (the same one-word instruction, so
+//! nothing else moves). The member's memory then holds the matrix's rows, which is what HLSL
+//! compilers emit; the shader's arithmetic is unchanged.
 
 use std::path::{Path, PathBuf};
 use std::{env, fs};
@@ -90,8 +97,18 @@ fn compile(path: &Path, out_dir: &Path) -> Result<(), String> {
         debug_info: None,
         ..spv::Options::default()
     };
-    let words = spv::write_vec(&module, &info, &options, None)
+    let mut words = spv::write_vec(&module, &info, &options, None)
         .map_err(|e| format!("{display}: SPIR-V writer error: {e}"))?;
+    for line in source.lines() {
+        if let Some(target) = line.trim().strip_prefix(ROW_MAJOR_DIRECTIVE) {
+            let (structure, member) = target
+                .trim()
+                .split_once('.')
+                .ok_or_else(|| format!("{display}: '{line}': expected <Struct>.<member>"))?;
+            make_row_major(&mut words, structure, member)
+                .map_err(|e| format!("{display}: '{line}': {e}"))?;
+        }
+    }
 
     let stem = path
         .file_stem()
@@ -101,5 +118,92 @@ fn compile(path: &Path, out_dir: &Path) -> Result<(), String> {
     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
     fs::write(&out_path, bytes)
         .map_err(|e| format!("{}: cannot write: {e}", out_path.display()))?;
+    Ok(())
+}
+
+/// The source directive that makes a matrix member `RowMajor`.
+const ROW_MAJOR_DIRECTIVE: &str = "// revz-build: RowMajor ";
+
+/// SPIR-V opcodes and decorations used by [`make_row_major`].
+const OP_NAME: u32 = 5;
+const OP_MEMBER_NAME: u32 = 6;
+const OP_MEMBER_DECORATE: u32 = 72;
+const DECORATION_ROW_MAJOR: u32 = 4;
+const DECORATION_COL_MAJOR: u32 = 5;
+
+/// The literal string starting at `words[0]` (nul-terminated UTF-8, packed little-endian).
+fn literal_string(words: &[u32]) -> String {
+    let bytes: Vec<u8> = words
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .take_while(|&b| b != 0)
+        .collect();
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
+/// One instruction of a module.
+struct Instruction<'a> {
+    /// Its first word's index in the module.
+    at: usize,
+    opcode: u32,
+    operands: &'a [u32],
+}
+
+/// The instructions of a module, after the 5-word header.
+fn instructions(words: &[u32]) -> Result<Vec<Instruction<'_>>, String> {
+    let mut at = 5;
+    let mut out = Vec::new();
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        if count == 0 || at + count > words.len() {
+            return Err(format!("malformed instruction at word {at}"));
+        }
+        out.push(Instruction {
+            at,
+            opcode: words[at] & 0xffff,
+            operands: &words[at + 1..at + count],
+        });
+        at += count;
+    }
+    Ok(out)
+}
+
+/// Changes the `ColMajor` decoration of `structure.member` (found through the debug names
+/// naga writes) to `RowMajor`.
+fn make_row_major(words: &mut [u32], structure: &str, member: &str) -> Result<(), String> {
+    let decoration_at = {
+        let instructions = instructions(words)?;
+        let struct_id = instructions
+            .iter()
+            .find(|i| {
+                i.opcode == OP_NAME
+                    && i.operands.len() > 1
+                    && literal_string(&i.operands[1..]) == structure
+            })
+            .map(|i| i.operands[0])
+            .ok_or_else(|| format!("no struct named {structure}"))?;
+        let member_index = instructions
+            .iter()
+            .find(|i| {
+                i.opcode == OP_MEMBER_NAME
+                    && i.operands.len() > 2
+                    && i.operands[0] == struct_id
+                    && literal_string(&i.operands[2..]) == member
+            })
+            .map(|i| i.operands[1])
+            .ok_or_else(|| format!("{structure} has no member named {member}"))?;
+        instructions
+            .iter()
+            .find(|i| {
+                i.opcode == OP_MEMBER_DECORATE
+                    && i.operands == [struct_id, member_index, DECORATION_COL_MAJOR]
+            })
+            // The decoration operand: after the opcode word, the struct id and the member.
+            .map(|i| i.at + 3)
+            .ok_or_else(|| {
+                format!("{structure}.{member} has no ColMajor decoration (not a matrix?)")
+            })?
+    };
+    words[decoration_at] = DECORATION_ROW_MAJOR;
     Ok(())
 }

@@ -1,8 +1,8 @@
 //! Vulkan bring-up and teardown: the loader entry, the instance (optionally with the Khronos
 //! validation layer and a `VK_EXT_debug_utils` messenger that counts what it reports), physical
 //! device selection, the logical device (with the optional features a scene needs and the
-//! device has) and its graphics queue, the memory-type helper and
-//! host-visible buffers.
+//! device has, and `VK_EXT_depth_clip_control` when a scene asks for it) and its graphics
+//! queue, the memory-type helper and host-visible buffers.
 //!
 //! Everything created here is destroyed by `Drop`, in reverse order of creation, so that the
 //! validation layer has nothing to report as leaked at `vkDestroyDevice` / `vkDestroyInstance`.
@@ -141,6 +141,8 @@ pub struct Features {
     pub depth_bounds: bool,
     /// `depthBiasClamp`.
     pub depth_bias_clamp: bool,
+    /// `VK_EXT_depth_clip_control`'s `depthClipControl` (the extension is enabled with it).
+    pub depth_clip_control: bool,
 }
 
 impl Features {
@@ -150,6 +152,7 @@ impl Features {
             (self.dynamic_rendering, "dynamicRendering"),
             (self.depth_bounds, "depthBounds"),
             (self.depth_bias_clamp, "depthBiasClamp"),
+            (self.depth_clip_control, "depthClipControl"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -162,6 +165,7 @@ impl Features {
             dynamic_rendering: self.dynamic_rendering && other.dynamic_rendering,
             depth_bounds: self.depth_bounds && other.depth_bounds,
             depth_bias_clamp: self.depth_bias_clamp && other.depth_bias_clamp,
+            depth_clip_control: self.depth_clip_control && other.depth_clip_control,
         }
     }
 }
@@ -302,7 +306,8 @@ impl InstanceCtx {
 
 /// The instance, the chosen physical device, the logical device and its graphics queue.
 pub struct Gpu {
-    /// The logical device (no extensions; only the optional features in `enabled`).
+    /// The logical device (only the optional features in `enabled`, and the extension of
+    /// `depthClipControl` when that is one of them).
     pub device: ash::Device,
     /// A queue of `queue_family` that supports graphics (and therefore transfer).
     pub queue: vk::Queue,
@@ -384,7 +389,8 @@ fn device_info(instance: &InstanceCtx, physical_device: vk::PhysicalDevice) -> D
     info
 }
 
-/// The optional features `physical_device` has (`dynamicRendering` only with Vulkan 1.3).
+/// The optional features `physical_device` has (`dynamicRendering` only with Vulkan 1.3,
+/// `depthClipControl` only with its extension).
 fn supported_features(
     instance: &InstanceCtx,
     physical_device: vk::PhysicalDevice,
@@ -409,10 +415,34 @@ fn supported_features(
         };
         dynamic_rendering = features13.dynamic_rendering == vk::TRUE;
     }
+    // SAFETY: `physical_device` was enumerated from this instance.
+    let extensions = unsafe {
+        instance
+            .instance
+            .enumerate_device_extension_properties(physical_device)
+    }
+    .unwrap_or_default();
+    let has_clip_control = extensions
+        .iter()
+        .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::depth_clip_control::NAME));
+    let mut depth_clip_control = false;
+    if has_clip_control {
+        let mut clip = vk::PhysicalDeviceDepthClipControlFeaturesEXT::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut clip);
+        // SAFETY: core 1.1 entry point (the instance asks for 1.2 or later); the device has
+        // the extension whose features structure is chained.
+        unsafe {
+            instance
+                .instance
+                .get_physical_device_features2(physical_device, &mut features2)
+        };
+        depth_clip_control = clip.depth_clip_control == vk::TRUE;
+    }
     Features {
         dynamic_rendering,
         depth_bounds: core.depth_bounds == vk::TRUE,
         depth_bias_clamp: core.depth_bias_clamp == vk::TRUE,
+        depth_clip_control,
     }
 }
 
@@ -480,17 +510,26 @@ impl Gpu {
         let queue_infos = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        // No extensions; only the optional features the scene asked for and the device has.
+        // Only the optional features the scene asked for and the device has, and no extension
+        // but VK_EXT_depth_clip_control for the scenes that need it.
         let core_features = vk::PhysicalDeviceFeatures::default()
             .depth_bounds(enabled.depth_bounds)
             .depth_bias_clamp(enabled.depth_bias_clamp);
         let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(enabled.dynamic_rendering);
+        let mut clip_control =
+            vk::PhysicalDeviceDepthClipControlFeaturesEXT::default().depth_clip_control(true);
+        let extensions = [ash::ext::depth_clip_control::NAME.as_ptr()];
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_features(&core_features);
         if enabled.dynamic_rendering {
             device_create_info = device_create_info.push_next(&mut features13);
+        }
+        if enabled.depth_clip_control {
+            device_create_info = device_create_info
+                .enabled_extension_names(&extensions)
+                .push_next(&mut clip_control);
         }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {
@@ -525,6 +564,16 @@ impl Gpu {
     /// The Vulkan instance.
     pub fn instance(&self) -> &ash::Instance {
         &self.instance.instance
+    }
+
+    /// The device's limits.
+    pub fn limits(&self) -> vk::PhysicalDeviceLimits {
+        // SAFETY: the physical device belongs to this instance.
+        unsafe {
+            self.instance()
+                .get_physical_device_properties(self.physical_device)
+        }
+        .limits
     }
 
     /// The counter of validation messages (shared: still readable after `Gpu` is dropped,
@@ -579,6 +628,14 @@ pub struct HostBuffer<'a> {
     mapped: *mut u8,
     size: usize,
 }
+
+// SAFETY: `mapped` is owned by the buffer like a boxed byte slice: written only through
+// `&mut self` (`write`) and read through `&self` (`contents`), so the usual borrow rules
+// keep a writer from racing readers on other threads. The Vulkan handles are plain values;
+// the memory stays mapped until `Drop`.
+unsafe impl Send for HostBuffer<'_> {}
+// SAFETY: as above: shared access only reads.
+unsafe impl Sync for HostBuffer<'_> {}
 
 impl fmt::Debug for HostBuffer<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -669,10 +726,16 @@ mod tests {
             dynamic_rendering: true,
             depth_bounds: true,
             depth_bias_clamp: true,
+            depth_clip_control: true,
         };
         assert_eq!(
             all.names(),
-            ["dynamicRendering", "depthBounds", "depthBiasClamp"]
+            [
+                "dynamicRendering",
+                "depthBounds",
+                "depthBiasClamp",
+                "depthClipControl"
+            ]
         );
         let some = Features {
             depth_bias_clamp: true,

@@ -2,8 +2,10 @@
 //! (standard depth: near 0, far 1) and writes what it rendered to files. It knows nothing of
 //! the revz layer; the layer, when injected, changes what it renders. Each scene (`scenes`)
 //! exercises depth state a reversed-depth layer must handle: compare ops, clear values, depth
-//! bias and bounds, viewport depth ranges, stencil, secondaries, subpasses, dynamic rendering
-//! and a sampled shadow map.
+//! bias and bounds, viewport depth ranges, stencil, secondaries, subpasses, dynamic rendering,
+//! a sampled shadow map, and the ways applications hand their projection to the shader (push
+//! constant layouts, partial updates, OpenGL depth, already reversed, threads). Where the
+//! nearest surface wins, it also writes the computed ground truth (`ground_truth`).
 //!
 //! This file owns the command line and the orchestration only; see the modules for the rest.
 //!
@@ -11,6 +13,7 @@
 //! written) but the validation layer reported messages.
 
 mod gpu;
+mod ground_truth;
 mod pipeline;
 mod plan;
 mod readback;
@@ -33,7 +36,8 @@ use crate::scene::SceneId;
 use crate::target::{DepthFormat, TargetOptions, Targets};
 
 /// Renders a known scene offscreen with Vulkan and writes color.png, depth.png, depth.f32 and
-/// render.json (see `--scene` for the scenes).
+/// render.json (see `--scene` for the scenes), and for scenes where the nearest surface wins
+/// the computed ground truth, expected-w.f64 and expected-id.u16.
 #[derive(Debug, Parser)]
 #[command(name = "revz-tester", version)]
 struct Cli {
@@ -128,6 +132,7 @@ fn run(cli: &Cli) -> Result<u32> {
             dynamic_rendering: needs.dynamic_rendering,
             depth_bounds: needs.depth_bounds,
             depth_bias_clamp: needs.depth_bias_clamp,
+            depth_clip_control: needs.depth_clip_control,
         },
     })?;
     say(&format!(
@@ -146,6 +151,9 @@ fn run(cli: &Cli) -> Result<u32> {
     }
     if needs.depth_bounds && !gpu.supported.depth_bounds {
         bail!(lacks("depthBounds"));
+    }
+    if needs.depth_clip_control && !gpu.supported.depth_clip_control {
+        bail!(lacks("depthClipControl (VK_EXT_depth_clip_control)"));
     }
     let features = gpu.enabled.names();
 
@@ -169,6 +177,23 @@ fn run(cli: &Cli) -> Result<u32> {
     for path in readback::write_images(&cli.out, &frame, clear_depth)? {
         print_wrote(&path);
     }
+    // Pure computation, no Vulkan: scenes where something else than the nearest surface
+    // decides what shows have none.
+    let ground_truth = match ground_truth::compute(&scene, frame.width, frame.height) {
+        Ok((truth, report)) => {
+            for (name, bytes) in [
+                (ground_truth::W_FILE, truth.w_bytes()),
+                (ground_truth::ID_FILE, truth.id_bytes()),
+            ] {
+                let path = cli.out.join(name);
+                std::fs::write(&path, bytes)
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+                print_wrote(&path);
+            }
+            Some(report)
+        }
+        Err(_) => None,
+    };
 
     // Destroy the device and the instance before counting, so that what validation reports
     // at vkDestroyDevice / vkDestroyInstance (leaks) is counted too.
@@ -195,6 +220,7 @@ fn run(cli: &Cli) -> Result<u32> {
         depth_min: stats.and_then(|s| s.min),
         depth_max: stats.and_then(|s| s.max),
         covered_pixels: stats.map(|s| s.covered),
+        ground_truth,
     };
     print_wrote(&readback::write_report(&cli.out, &report)?);
     Ok(messages)

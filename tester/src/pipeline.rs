@@ -324,6 +324,9 @@ pub fn create_pipeline(
             shaders::SHADOW_RECEIVER_VERT,
             Some(shaders::SHADOW_RECEIVER_FRAG),
         ),
+        Program::RowMajor => (shaders::ROW_MAJOR_VERT, Some(shaders::SCENE_FRAG)),
+        Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
+        Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),
     };
     let vert = ShaderModule::new(device, &vertex)?;
     let frag = fragment
@@ -369,9 +372,16 @@ pub fn create_pipeline(
         offset: vk::Offset2D { x: 0, y: 0 },
         extent: target.extent,
     }];
-    let viewport_state = vk::PipelineViewportStateCreateInfo::default()
+    // OpenGL-convention clip depth ([-w, w]); the device has VK_EXT_depth_clip_control enabled
+    // whenever a pipeline asks for it (the plan's needs, checked before rendering).
+    let mut depth_clip_control =
+        vk::PipelineViewportDepthClipControlCreateInfoEXT::default().negative_one_to_one(true);
+    let mut viewport_state = vk::PipelineViewportStateCreateInfo::default()
         .viewports(&viewports)
         .scissors(&scissors);
+    if spec.negative_one_to_one {
+        viewport_state = viewport_state.push_next(&mut depth_clip_control);
+    }
     let mut rasterization = vk::PipelineRasterizationStateCreateInfo::default()
         .polygon_mode(vk::PolygonMode::FILL)
         .cull_mode(vk::CullModeFlags::NONE)

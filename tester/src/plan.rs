@@ -157,6 +157,33 @@ pub enum Program {
     /// `shadow_receiver.vert|frag`: the flat color darkened where the shadow map says the
     /// surface is shadowed (needs a [`Target::Shadow`] pass before it).
     ShadowReceiver,
+    /// `row_major.vert` + `scene.frag`: the MVP in a `RowMajor` push-constant member (its rows
+    /// in memory, as HLSL compilers lay it out), flat push-constant color.
+    RowMajor,
+    /// `row_vector.vert` + `scene.frag`: `position * M` (HLSL's `mul(v, M)`); the same bytes as
+    /// [`Program::RowMajor`].
+    RowVector,
+    /// `mvp_pair.vert|frag`: push constants `{ mat4 model; mat4 view_proj }` (128 bytes, the
+    /// guaranteed maximum), `view_proj * (model * position)`; the flat color comes from a
+    /// uniform buffer indexed by the object.
+    MvpPair,
+}
+
+impl Program {
+    /// Bytes of push constants the program's shaders declare, all of which a
+    /// [`Step::Draw`] pushes: 80 (`mat4` + `vec4 color`) or 128 (two `mat4`s). Pipelines of
+    /// programs with the same size share push-constant state (their layouts have the same
+    /// push-constant range).
+    pub fn push_constant_size(self) -> u32 {
+        match self {
+            Program::MvpPair => 128,
+            Program::Flat
+            | Program::DepthOnly
+            | Program::ShadowReceiver
+            | Program::RowMajor
+            | Program::RowVector => 80,
+        }
+    }
 }
 
 /// One graphics pipeline.
@@ -185,6 +212,9 @@ pub struct PipelineSpec {
     pub stencil: Option<StencilTest>,
     /// Viewport depth range.
     pub viewport: Viewport,
+    /// `VkPipelineViewportDepthClipControlCreateInfoEXT::negativeOneToOne`: clip-space depth
+    /// in [-w, w] (OpenGL's convention) instead of [0, w] (needs `VK_EXT_depth_clip_control`).
+    pub negative_one_to_one: bool,
 }
 
 impl PipelineSpec {
@@ -203,6 +233,7 @@ impl PipelineSpec {
             bounds: Bounds::Off,
             stencil: None,
             viewport: Viewport::FULL,
+            negative_one_to_one: false,
         }
     }
 }
@@ -304,9 +335,24 @@ pub enum Step {
     EndPass,
     /// Binds pipeline `n`.
     Bind(usize),
-    /// Pushes object `n`'s constants (its MVP for the current pass's view, its color) and
-    /// draws it.
+    /// Pushes object `n`'s constants (all of them, in the bound program's layout: its MVP
+    /// for the current pass's view, its color) and draws it.
     Draw(usize),
+    /// Pushes only bytes `offset..offset + size` of object `n`'s constants (in the bound
+    /// program's layout), as an application updating part of its push constants does.
+    Push {
+        /// The object whose constants are pushed.
+        object: usize,
+        /// First byte (a multiple of 4).
+        offset: u32,
+        /// Number of bytes (a multiple of 4, > 0).
+        size: u32,
+    },
+    /// Draws object `n` with the push constants as they are (no push): whatever earlier
+    /// [`Step::Draw`]s and [`Step::Push`]es left there. Every byte the program declares must
+    /// have been pushed since the command buffer began (or since a pipeline with another
+    /// push-constant size was bound).
+    DrawPushed(usize),
     /// `vkCmdSetDepthCompareOp`.
     SetDepthCompareOp(Compare),
     /// `vkCmdSetDepthBias`.
@@ -336,7 +382,17 @@ pub enum Step {
     /// Records each list into its own secondary command buffer (RENDER_PASS_CONTINUE,
     /// inheriting the current render pass, subpass and framebuffer) and executes them all with
     /// one `vkCmdExecuteCommands`. It must be the only kind of step in its subpass.
-    ExecuteSecondaries(Vec<Vec<Step>>),
+    ExecuteSecondaries(Vec<Vec<Step>>, Recording),
+}
+
+/// How the secondaries of a [`Step::ExecuteSecondaries`] are recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Recording {
+    /// One after the other on the main thread, from the main command pool.
+    MainThread,
+    /// All at once, each on its own thread (`std::thread::scope`) with its own command pool
+    /// created on that thread: multi-threaded recording as engines do it.
+    ThreadPerSecondary,
 }
 
 /// The passes, pipelines and steps of a scene.
@@ -367,8 +423,12 @@ pub struct Needs {
     pub clear_depth_image: bool,
     /// The shadow-map target.
     pub shadow_map: bool,
-    /// Number of secondary command buffers.
+    /// Number of secondary command buffers recorded on the main thread (from the main pool;
+    /// threaded ones come from their threads' own pools).
     pub secondaries: usize,
+    /// `VK_EXT_depth_clip_control` with `depthClipControl` (a pipeline clips depth to
+    /// [-w, w]).
+    pub depth_clip_control: bool,
 }
 
 /// Why a plan is malformed.
@@ -402,6 +462,9 @@ struct CheckState {
     set: [bool; 4],
     /// The current subpass records secondaries (`Some(true)`) or inline commands.
     secondary_subpass: Option<bool>,
+    /// Which 4-byte words of push constants have been written in this command buffer, and
+    /// for which push-constant size (binding a pipeline of another size forgets them).
+    pushed: (u32, u32),
 }
 
 impl Plan {
@@ -423,7 +486,7 @@ impl Plan {
         fn walk<'a>(steps: &'a [Step], out: &mut Vec<&'a Step>) {
             for step in steps {
                 out.push(step);
-                if let Step::ExecuteSecondaries(lists) = step {
+                if let Step::ExecuteSecondaries(lists, _) = step {
                     for list in lists {
                         walk(list, out);
                     }
@@ -449,6 +512,7 @@ impl Plan {
             needs.stencil |= pipeline.stencil.is_some();
             needs.depth_bounds |= pipeline.bounds != Bounds::Off;
             needs.vulkan_1_3 |= pipeline.depth_test == DepthTest::Dynamic;
+            needs.depth_clip_control |= pipeline.negative_one_to_one;
             if let Bias::Static(bias) = pipeline.bias {
                 needs.depth_bias_clamp |= bias.clamp != 0.0;
             }
@@ -457,7 +521,9 @@ impl Plan {
             match step {
                 Step::ClearDepthImage { .. } => needs.clear_depth_image = true,
                 Step::SetDepthBias(bias) => needs.depth_bias_clamp |= bias.clamp != 0.0,
-                Step::ExecuteSecondaries(lists) => needs.secondaries += lists.len(),
+                Step::ExecuteSecondaries(lists, Recording::MainThread) => {
+                    needs.secondaries += lists.len();
+                }
                 _ => {}
             }
         }
@@ -610,7 +676,7 @@ impl Plan {
                     shadow_drawn |= self.passes[n].target == Target::Shadow;
                     state.pass = None;
                 }
-                Step::ExecuteSecondaries(lists) => {
+                Step::ExecuteSecondaries(lists, _) => {
                     let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
                     ensure!(
                         self.passes[n].kind != PassKind::DynamicRendering,
@@ -636,7 +702,7 @@ impl Plan {
                                         | Step::EndPass
                                         | Step::NextSubpass
                                         | Step::ClearDepthImage { .. }
-                                        | Step::ExecuteSecondaries(_)
+                                        | Step::ExecuteSecondaries(..)
                                 ),
                                 "step {index}: {step:?} inside a secondary"
                             );
@@ -707,10 +773,43 @@ impl Plan {
                 used_pipelines[*n] = true;
                 state.pipeline = Some(*n);
                 state.set = [false; 4];
+                let size = pipeline.program.push_constant_size();
+                if state.pushed.1 != size {
+                    state.pushed = (0, size);
+                }
             }
-            Step::Draw(n) => {
+            Step::Push {
+                object,
+                offset,
+                size,
+            } => {
+                ensure!(*object < objects, "step {index}: no object {object}");
+                let declared = bound(state)?.program.push_constant_size();
+                ensure!(
+                    offset % 4 == 0 && size % 4 == 0 && *size > 0 && offset + size <= declared,
+                    "step {index}: push range {offset}+{size} is not 4-aligned inside the \
+                     program's {declared} bytes"
+                );
+                for word in offset / 4..(offset + size) / 4 {
+                    state.pushed.0 |= 1 << word;
+                }
+            }
+            Step::Draw(n) | Step::DrawPushed(n) => {
                 ensure!(*n < objects, "step {index}: no object {n}");
                 let pipeline = bound(state)?;
+                let size = pipeline.program.push_constant_size();
+                let all = if size == 128 {
+                    u32::MAX
+                } else {
+                    (1u32 << (size / 4)) - 1
+                };
+                if matches!(step, Step::Draw(_)) {
+                    state.pushed.0 = all;
+                }
+                ensure!(
+                    state.pushed.0 & all == all,
+                    "step {index}: drawn before all {size} bytes of push constants were pushed"
+                );
                 let needed = [
                     pipeline.depth_test == DepthTest::Dynamic,
                     pipeline.bias == Bias::Dynamic,
@@ -787,7 +886,7 @@ impl Plan {
             | Step::BeginPass(_)
             | Step::NextSubpass
             | Step::EndPass
-            | Step::ExecuteSecondaries(_) => unreachable!("handled by Plan::check"),
+            | Step::ExecuteSecondaries(..) => unreachable!("handled by Plan::check"),
         }
         Ok(())
     }
@@ -829,6 +928,74 @@ mod tests {
     }
 
     #[test]
+    fn partial_pushes_must_cover_what_a_draw_reads() {
+        let base = Plan::single_pass(2);
+        let with_steps = |steps: Vec<Step>| Plan {
+            steps,
+            ..base.clone()
+        };
+        let push = |object, offset, size| Step::Push {
+            object,
+            offset,
+            size,
+        };
+        let framed = |middle: Vec<Step>| {
+            let mut steps = vec![Step::BeginPass(0), Step::Bind(0)];
+            steps.extend(middle);
+            steps.push(Step::EndPass);
+            with_steps(steps)
+        };
+        // A draw before anything was pushed.
+        assert!(framed(vec![Step::DrawPushed(0)]).check(2, false).is_err());
+        // Two partial pushes covering all 80 bytes, or a full draw before.
+        framed(vec![push(0, 0, 32), push(0, 32, 48), Step::DrawPushed(0)])
+            .check(2, false)
+            .unwrap();
+        framed(vec![Step::Draw(0), push(1, 64, 16), Step::DrawPushed(1)])
+            .check(2, false)
+            .unwrap();
+        // A gap (48..64 never pushed).
+        assert!(
+            framed(vec![push(0, 0, 48), push(0, 64, 16), Step::DrawPushed(0)])
+                .check(2, false)
+                .is_err()
+        );
+        // Misaligned, empty, or beyond the program's 80 bytes.
+        for bad in [push(0, 2, 16), push(0, 0, 0), push(0, 64, 32)] {
+            assert!(framed(vec![Step::Draw(0), bad]).check(2, false).is_err());
+        }
+        // Binding a pipeline with another push-constant size forgets what was pushed.
+        let mut plan = framed(vec![
+            Step::Draw(0),
+            Step::Bind(1),
+            Step::Bind(0),
+            Step::DrawPushed(0),
+        ]);
+        plan.pipelines.push(PipelineSpec {
+            program: Program::MvpPair,
+            ..PipelineSpec::standard("pair", 0)
+        });
+        assert!(plan.check(2, false).is_err());
+        plan.pipelines[1].program = Program::RowMajor;
+        plan.check(2, false).unwrap();
+    }
+
+    #[test]
+    fn threaded_secondaries_are_not_allocated_from_the_main_pool() {
+        let mut plan = Plan::single_pass(2);
+        let list = |n| vec![Step::Bind(0), Step::Draw(n)];
+        plan.steps = vec![
+            Step::BeginPass(0),
+            Step::ExecuteSecondaries(vec![list(0), list(1)], Recording::ThreadPerSecondary),
+            Step::EndPass,
+        ];
+        plan.check(2, false).unwrap();
+        assert_eq!(plan.needs().secondaries, 0);
+        plan.steps[1] = Step::ExecuteSecondaries(vec![list(0), list(1)], Recording::MainThread);
+        assert_eq!(plan.needs().secondaries, 2);
+    }
+
+    #[test]
     fn check_rejects_malformed_plans() {
         let base = Plan::single_pass(1);
         let with_steps = |steps: Vec<Step>| Plan {
@@ -859,14 +1026,17 @@ mod tests {
         let plan = with_steps(vec![
             Step::BeginPass(0),
             Step::Bind(0),
-            Step::ExecuteSecondaries(vec![vec![Step::Bind(0), Step::Draw(0)]]),
+            Step::ExecuteSecondaries(
+                vec![vec![Step::Bind(0), Step::Draw(0)]],
+                Recording::MainThread,
+            ),
             Step::EndPass,
         ]);
         assert!(plan.check(1, false).is_err());
         // A secondary that draws without binding its own pipeline.
         let plan = with_steps(vec![
             Step::BeginPass(0),
-            Step::ExecuteSecondaries(vec![vec![Step::Draw(0)]]),
+            Step::ExecuteSecondaries(vec![vec![Step::Draw(0)]], Recording::ThreadPerSecondary),
             Step::EndPass,
         ]);
         assert!(plan.check(1, false).is_err());

@@ -1,7 +1,7 @@
 //! Getting the rendered images back and writing them out: the host-visible read-back buffers,
 //! the barriers and copies recorded after the render pass, decoding of the depth aspect to
 //! f32 for every depth format, and the output files (`color.png`, `depth.png`, `depth.f32`,
-//! `render.json`). With `--no-depth-readback` only the color image is read back (the depth
+//! `render.json`; the ground-truth files are written by `main.rs`). With `--no-depth-readback` only the color image is read back (the depth
 //! image then has no TRANSFER_SRC usage), and `depth.png` / `depth.f32` are not written. The
 //! stencil aspect is never read back.
 
@@ -14,6 +14,7 @@ use image::{ImageBuffer, Luma, Rgba};
 use serde::Serialize;
 
 use crate::gpu::{Gpu, HostBuffer};
+use crate::ground_truth::GroundTruthReport;
 use crate::target::{full_range, DepthFormat, Targets};
 
 /// Host-visible buffers receiving the color image and the depth aspect of the depth image.
@@ -305,6 +306,9 @@ pub struct RenderReport {
     pub depth_max: Option<f32>,
     /// Pixels whose depth differs from the clear value (null if depth was not read back).
     pub covered_pixels: Option<usize>,
+    /// The computed ground truth (null for scenes where something else than the nearest
+    /// surface decides what shows).
+    pub ground_truth: Option<GroundTruthReport>,
 }
 
 /// Writes `color.png`, and `depth.png` and `depth.f32` if depth was read back (`clear`: the

@@ -1,8 +1,9 @@
 //! Drawing a scene: the scene's vertex and index buffers, the Vulkan objects its [`Plan`]
-//! names (render passes and framebuffers, pipelines, the shadow map's sampler, uniform buffer
-//! and descriptor set), recording of one primary command buffer (and any secondaries) by
-//! interpreting the plan's steps one by one, then the read-back copies, and the single fenced
-//! submit.
+//! names (render passes and framebuffers, pipelines and their layouts, the shadow map's
+//! sampler, uniform buffer and descriptor set, the uniform buffer of object colors), recording
+//! of one primary command buffer (and any secondaries, on the main thread or one thread each
+//! with its own command pool) by interpreting the plan's steps one by one, then the read-back
+//! copies, and the single fenced submit.
 
 use std::fmt;
 
@@ -14,9 +15,9 @@ use crate::pipeline::{
     create_pipeline, create_render_pass, full_viewport, map_color_load, map_compare, MainFormats,
     PipelineTarget,
 };
-use crate::plan::{DepthBias, DepthLoad, PassKind, Plan, Program, Step, Target};
+use crate::plan::{DepthBias, DepthLoad, PassKind, Plan, Program, Recording, Step, Target};
 use crate::readback::Readback;
-use crate::scene::{DrawRange, Scene, View, PUSH_CONSTANT_SIZE};
+use crate::scene::{DrawRange, Scene, View};
 use crate::target::{full_range, Targets, SHADOW_MAP_SIZE};
 
 /// The color the color attachment is cleared to: dark grey (25/255, exact in UNORM8).
@@ -27,6 +28,8 @@ pub const CLEAR_STENCIL: u32 = 0;
 const FENCE_TIMEOUT_NS: u64 = 60_000_000_000;
 /// The light MVPs `shadow_receiver.vert` can index (its uniform array size).
 const MAX_LIGHT_MVPS: usize = 16;
+/// The object colors `mvp_pair.frag` can index (its uniform array size).
+const MAX_OBJECT_COLORS: usize = 16;
 
 /// The scene's geometry in host-visible vertex and index buffers.
 #[derive(Debug)]
@@ -71,6 +74,14 @@ struct ShadowBindings<'a> {
     light: HostBuffer<'a>,
 }
 
+/// What `mvp_pair` pipelines bind: the object colors, in one descriptor set.
+struct ColorBindings<'a> {
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    colors: HostBuffer<'a>,
+}
+
 /// Everything the plan names, for one render of the targets.
 pub struct Renderer<'a> {
     device: &'a ash::Device,
@@ -83,9 +94,15 @@ pub struct Renderer<'a> {
     /// Push constants and the shadow descriptor set (null without a shadow map).
     shadow_layout: vk::PipelineLayout,
     shadow: Option<ShadowBindings<'a>>,
+    /// 128 bytes of vertex push constants and the color descriptor set (null without an
+    /// [`Program::MvpPair`] pipeline).
+    pair_layout: vk::PipelineLayout,
+    colors: Option<ColorBindings<'a>>,
     /// One per plan pipeline.
     pipelines: Vec<vk::Pipeline>,
     command_pool: vk::CommandPool,
+    /// The queue family of the command pools (recording threads create their own).
+    queue_family: u32,
     command_buffer: vk::CommandBuffer,
     secondaries: Vec<vk::CommandBuffer>,
     fence: vk::Fence,
@@ -119,6 +136,12 @@ impl Drop for Renderer<'_> {
             self.device
                 .destroy_pipeline_layout(self.shadow_layout, None);
             self.device.destroy_pipeline_layout(self.plain_layout, None);
+            self.device.destroy_pipeline_layout(self.pair_layout, None);
+            if let Some(colors) = &self.colors {
+                self.device.destroy_descriptor_pool(colors.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(colors.set_layout, None);
+            }
             if let Some(shadow) = &self.shadow {
                 self.device.destroy_descriptor_pool(shadow.pool, None);
                 self.device
@@ -135,13 +158,24 @@ impl Drop for Renderer<'_> {
     }
 }
 
-/// The push-constant range shared by every pipeline.
+/// The stages that read the 80-byte push constants (`mvp`, then `color` for the fragment
+/// shader).
+const PLAIN_PUSH_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
+    vk::ShaderStageFlags::VERTEX.as_raw() | vk::ShaderStageFlags::FRAGMENT.as_raw(),
+);
+
+/// The push-constant range of the plain and shadow-receiver layouts.
 const PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
-    stage_flags: vk::ShaderStageFlags::from_raw(
-        vk::ShaderStageFlags::VERTEX.as_raw() | vk::ShaderStageFlags::FRAGMENT.as_raw(),
-    ),
+    stage_flags: PLAIN_PUSH_STAGES,
     offset: 0,
-    size: PUSH_CONSTANT_SIZE,
+    size: 80,
+}];
+
+/// The push-constant range of the [`Program::MvpPair`] layout: two matrices, vertex stage only.
+const PAIR_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
+    stage_flags: vk::ShaderStageFlags::VERTEX,
+    offset: 0,
+    size: 128,
 }];
 
 impl<'a> Renderer<'a> {
@@ -157,8 +191,11 @@ impl<'a> Renderer<'a> {
             plain_layout: vk::PipelineLayout::null(),
             shadow_layout: vk::PipelineLayout::null(),
             shadow: None,
+            pair_layout: vk::PipelineLayout::null(),
+            colors: None,
             pipelines: Vec::new(),
             command_pool: vk::CommandPool::null(),
+            queue_family: gpu.queue_family,
             command_buffer: vk::CommandBuffer::null(),
             secondaries: Vec::new(),
             fence: vk::Fence::null(),
@@ -207,14 +244,17 @@ impl<'a> Renderer<'a> {
         if needs.shadow_map {
             this.create_shadow_bindings(gpu, targets, scene)?;
         }
+        if plan.pipelines.iter().any(|p| p.program == Program::MvpPair) {
+            let limit = gpu.limits().max_push_constants_size;
+            if limit < 128 {
+                bail!("the device's maxPushConstantsSize is {limit}, 128 are needed");
+            }
+            this.create_color_bindings(gpu, scene)?;
+        }
 
         for spec in &plan.pipelines {
             let pass = &plan.passes[spec.pass];
-            let layout = if spec.program == Program::ShadowReceiver {
-                this.shadow_layout
-            } else {
-                this.plain_layout
-            };
+            let (layout, _) = this.layout(spec.program);
             let pipeline = create_pipeline(
                 device,
                 spec,
@@ -258,6 +298,92 @@ impl<'a> Renderer<'a> {
         this.fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
             .context("vkCreateFence failed")?;
         Ok(this)
+    }
+
+    /// The pipeline layout of `program` and the stages its push constants are pushed for.
+    fn layout(&self, program: Program) -> (vk::PipelineLayout, vk::ShaderStageFlags) {
+        match program {
+            Program::ShadowReceiver => (self.shadow_layout, PLAIN_PUSH_STAGES),
+            Program::MvpPair => (self.pair_layout, vk::ShaderStageFlags::VERTEX),
+            Program::Flat | Program::DepthOnly | Program::RowMajor | Program::RowVector => {
+                (self.plain_layout, PLAIN_PUSH_STAGES)
+            }
+        }
+    }
+
+    /// Creates the uniform buffer of object colors (`mvp_pair.frag`), its descriptor set and
+    /// the [`Program::MvpPair`] pipeline layout.
+    fn create_color_bindings(&mut self, gpu: &'a Gpu, scene: &Scene) -> Result<()> {
+        let device = self.device;
+        if scene.objects.len() > MAX_OBJECT_COLORS {
+            bail!(
+                "scene '{}' has more than {MAX_OBJECT_COLORS} objects",
+                scene.name
+            );
+        }
+        let mut bytes = vec![0u8; MAX_OBJECT_COLORS * 16];
+        let colors = scene.objects.iter().flat_map(|o| o.color);
+        for (chunk, value) in bytes.chunks_exact_mut(4).zip(colors) {
+            chunk.copy_from_slice(&value.to_le_bytes());
+        }
+        let mut buffer = HostBuffer::new(gpu, bytes.len(), vk::BufferUsageFlags::UNIFORM_BUFFER)
+            .context("object color uniform buffer")?;
+        buffer.write(&bytes);
+        // Stored at once so that `Drop` destroys whatever was made, even if a later step fails.
+        let colors = self.colors.insert(ColorBindings {
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            colors: buffer,
+        });
+        let bindings = [vk::DescriptorSetLayoutBinding::default()
+            .binding(0)
+            .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+        let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid device and create info.
+        colors.set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
+            .context("vkCreateDescriptorSetLayout (colors) failed")?;
+        let sizes = [vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::UNIFORM_BUFFER,
+            descriptor_count: 1,
+        }];
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: valid device and create info.
+        colors.pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+            .context("vkCreateDescriptorPool (colors) failed")?;
+        let set_layouts = [colors.set_layout];
+        let allocate_info = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(colors.pool)
+            .set_layouts(&set_layouts);
+        // SAFETY: valid pool with room for one set of this layout.
+        colors.set = unsafe { device.allocate_descriptor_sets(&allocate_info) }
+            .context("vkAllocateDescriptorSets (colors) failed")?
+            .into_iter()
+            .next()
+            .ok_or_else(|| anyhow!("vkAllocateDescriptorSets returned no set"))?;
+        let buffer_info = [vk::DescriptorBufferInfo {
+            buffer: colors.colors.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let writes = [vk::WriteDescriptorSet::default()
+            .dst_set(colors.set)
+            .dst_binding(0)
+            .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+            .buffer_info(&buffer_info)];
+        // SAFETY: valid set and buffer; the info matches the binding type.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&PAIR_PUSH_CONSTANT_RANGES);
+        // SAFETY: valid device and create info.
+        self.pair_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (model-view-projection pair) failed")?;
+        Ok(())
     }
 
     /// Creates the shadow receiver's descriptor set (light MVPs, shadow map, comparison
@@ -440,6 +566,7 @@ impl<'a> Renderer<'a> {
             subpass: 0,
             pipeline: None,
             next_secondary: 0,
+            thread_pools: Vec::new(),
         };
         recorder.bind_geometry(cmd);
         recorder.record(cmd, &scene.plan.steps)?;
@@ -503,6 +630,26 @@ struct Recorder<'r> {
     pipeline: Option<usize>,
     /// The next unused secondary command buffer.
     next_secondary: usize,
+    /// The command pools created by recording threads; destroyed when the recorder is dropped,
+    /// which [`Renderer::render`] does only after the submission's fence (or on an error path,
+    /// after waiting for the device to be idle).
+    thread_pools: Vec<vk::CommandPool>,
+}
+
+impl Drop for Recorder<'_> {
+    fn drop(&mut self) {
+        if self.thread_pools.is_empty() {
+            return;
+        }
+        // SAFETY: the pools were created from this device; once the device is idle none of
+        // their command buffers is pending. Destroying a pool frees its command buffers.
+        unsafe {
+            let _ = self.device().device_wait_idle();
+            for &pool in &self.thread_pools {
+                self.device().destroy_command_pool(pool, None);
+            }
+        }
+    }
 }
 
 impl Recorder<'_> {
@@ -531,7 +678,9 @@ impl Recorder<'_> {
             // A subpass recorded in secondaries is begun with SECONDARY_COMMAND_BUFFERS
             // contents (the plan check makes that its only kind of step).
             let contents = match steps.get(index + 1) {
-                Some(Step::ExecuteSecondaries(_)) => vk::SubpassContents::SECONDARY_COMMAND_BUFFERS,
+                Some(Step::ExecuteSecondaries(..)) => {
+                    vk::SubpassContents::SECONDARY_COMMAND_BUFFERS
+                }
                 _ => vk::SubpassContents::INLINE,
             };
             match step {
@@ -544,7 +693,13 @@ impl Recorder<'_> {
                 }
                 Step::EndPass => self.end_pass(cmd),
                 Step::Bind(n) => self.bind(cmd, *n),
-                Step::Draw(n) => self.draw(cmd, *n)?,
+                Step::Draw(n) => self.draw(cmd, *n, true)?,
+                Step::DrawPushed(n) => self.draw(cmd, *n, false)?,
+                Step::Push {
+                    object,
+                    offset,
+                    size,
+                } => self.push(cmd, *object, *offset, *size)?,
                 Step::SetDepthCompareOp(op) => {
                     // SAFETY: `cmd` is recording with a bound pipeline whose compare op is
                     // dynamic; the device is Vulkan 1.3 (checked before rendering).
@@ -574,7 +729,12 @@ impl Recorder<'_> {
                     };
                 }
                 Step::ClearDepthRect { rect, depth } => self.clear_depth_rect(cmd, *rect, *depth),
-                Step::ExecuteSecondaries(lists) => self.execute_secondaries(cmd, lists)?,
+                Step::ExecuteSecondaries(lists, Recording::MainThread) => {
+                    self.execute_secondaries(cmd, lists)?;
+                }
+                Step::ExecuteSecondaries(lists, Recording::ThreadPerSecondary) => {
+                    self.execute_secondaries_on_threads(cmd, lists)?;
+                }
             }
         }
         Ok(())
@@ -812,56 +972,77 @@ impl Recorder<'_> {
                 vk::PipelineBindPoint::GRAPHICS,
                 renderer.pipelines[n],
             );
-            if self.plan.pipelines[n].program == Program::ShadowReceiver {
-                if let Some(shadow) = &renderer.shadow {
-                    self.device().cmd_bind_descriptor_sets(
-                        cmd,
-                        vk::PipelineBindPoint::GRAPHICS,
-                        renderer.shadow_layout,
-                        0,
-                        &[shadow.set],
-                        &[],
-                    );
-                }
+            let set = match self.plan.pipelines[n].program {
+                Program::ShadowReceiver => renderer.shadow.as_ref().map(|s| s.set),
+                Program::MvpPair => renderer.colors.as_ref().map(|c| c.set),
+                _ => None,
+            };
+            if let Some(set) = set {
+                let (layout, _) = renderer.layout(self.plan.pipelines[n].program);
+                self.device().cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    layout,
+                    0,
+                    &[set],
+                    &[],
+                );
             }
         }
     }
 
-    fn draw(&self, cmd: vk::CommandBuffer, n: usize) -> Result<()> {
+    /// `vkCmdPushConstants` of bytes `offset..offset + size` of object `n`'s constants for
+    /// the bound program.
+    fn push(&self, cmd: vk::CommandBuffer, n: usize, offset: u32, size: u32) -> Result<()> {
         let pipeline = self
             .pipeline
-            .ok_or_else(|| anyhow!("draw without a bound pipeline"))?;
-        let receiver = self.plan.pipelines[pipeline].program == Program::ShadowReceiver;
-        let layout = if receiver {
-            self.renderer.shadow_layout
-        } else {
-            self.renderer.plain_layout
-        };
+            .ok_or_else(|| anyhow!("push constants without a bound pipeline"))?;
+        let program = self.plan.pipelines[pipeline].program;
         let view = match self.pass.map(|p| self.plan.passes[p].target) {
             Some(Target::Shadow) => View::Light,
             _ => View::Camera,
         };
+        let object = self
+            .scene
+            .objects
+            .get(n)
+            .ok_or_else(|| anyhow!("no object {n}"))?;
         let constants = self
             .scene
-            .push_constants_in(view, &self.scene.objects[n], self.aspect);
+            .push_constants_in(program, view, object, self.aspect);
+        let bytes = constants
+            .get(offset as usize..(offset + size) as usize)
+            .ok_or_else(|| anyhow!("push range {offset}+{size} outside the constants"))?;
+        let (layout, stages) = self.renderer.layout(program);
+        // SAFETY: `cmd` is recording; the layout is the bound pipeline's, whose push-constant
+        // range covers these 4-aligned bytes for exactly these stages (plan check).
+        unsafe {
+            self.device()
+                .cmd_push_constants(cmd, layout, stages, offset, bytes)
+        };
+        Ok(())
+    }
+
+    /// Draws object `n`, after pushing all of its constants when `push` is set.
+    fn draw(&self, cmd: vk::CommandBuffer, n: usize, push: bool) -> Result<()> {
+        let pipeline = self
+            .pipeline
+            .ok_or_else(|| anyhow!("draw without a bound pipeline"))?;
+        let program = self.plan.pipelines[pipeline].program;
+        if push {
+            self.push(cmd, n, 0, program.push_constant_size())?;
+        }
         let range = self.buffers.draws[n];
-        // The shadow receiver indexes its light MVPs with the instance index.
-        let first_instance = if receiver {
+        // The shadow receiver indexes its light MVPs, the pair program its colors, with the
+        // instance index.
+        let first_instance = if matches!(program, Program::ShadowReceiver | Program::MvpPair) {
             u32::try_from(n).context("object index")?
         } else {
             0
         };
-        // SAFETY: `cmd` is recording inside a pass with a bound pipeline whose layout has this
-        // 80-byte VERTEX|FRAGMENT push-constant range; the draw range indexes the bound
-        // buffers.
+        // SAFETY: `cmd` is recording inside a pass with a bound pipeline and its push
+        // constants written (plan check); the draw range indexes the bound buffers.
         unsafe {
-            self.device().cmd_push_constants(
-                cmd,
-                layout,
-                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                0,
-                &constants,
-            );
             self.device().cmd_draw_indexed(
                 cmd,
                 range.index_count,
@@ -967,5 +1148,133 @@ impl Recorder<'_> {
         // contents; the secondaries were recorded for it.
         unsafe { self.device().cmd_execute_commands(cmd, &recorded) };
         Ok(())
+    }
+
+    /// Records each list on its own thread, at the same time: each thread creates its own
+    /// command pool, allocates a secondary from it, records the list with its own recorder
+    /// state (binding geometry, pipeline and push constants itself) and hands the pool and
+    /// the secondary back; then one `vkCmdExecuteCommands` runs them in list order.
+    fn execute_secondaries_on_threads(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        lists: &[Vec<Step>],
+    ) -> Result<()> {
+        let n = self
+            .pass
+            .ok_or_else(|| anyhow!("secondaries outside a pass"))?;
+        let (renderer, scene, plan) = (self.renderer, self.scene, self.plan);
+        let (buffers, targets, aspect, subpass) =
+            (self.buffers, self.targets, self.aspect, self.subpass);
+        let results: Vec<Result<(vk::CommandPool, vk::CommandBuffer)>> =
+            std::thread::scope(|scope| {
+                let threads: Vec<_> = lists
+                    .iter()
+                    .map(|list| {
+                        let mut recorder = Recorder {
+                            renderer,
+                            scene,
+                            plan,
+                            buffers,
+                            targets,
+                            aspect,
+                            pass: Some(n),
+                            subpass,
+                            pipeline: None,
+                            next_secondary: 0,
+                            thread_pools: Vec::new(),
+                        };
+                        scope.spawn(move || recorder.record_on_own_pool(list))
+                    })
+                    .collect();
+                threads
+                    .into_iter()
+                    .map(|thread| {
+                        thread
+                            .join()
+                            .unwrap_or_else(|_| Err(anyhow!("a recording thread panicked")))
+                    })
+                    .collect()
+            });
+        let mut recorded = Vec::with_capacity(results.len());
+        let mut first_error = None;
+        for result in results {
+            match result {
+                Ok((pool, secondary)) => {
+                    self.thread_pools.push(pool);
+                    recorded.push(secondary);
+                }
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        if let Some(e) = first_error {
+            return Err(e);
+        }
+        self.pipeline = None;
+        // SAFETY: `cmd` is a primary inside a subpass begun with SECONDARY_COMMAND_BUFFERS
+        // contents; the secondaries were recorded for it, and their pools are only destroyed
+        // after the submission completes.
+        unsafe { self.device().cmd_execute_commands(cmd, &recorded) };
+        Ok(())
+    }
+
+    /// On a recording thread: creates a command pool, allocates one secondary from it and
+    /// records `list` into it, inheriting the current render pass, subpass and framebuffer.
+    /// On failure the pool is destroyed again.
+    fn record_on_own_pool(
+        &mut self,
+        list: &[Step],
+    ) -> Result<(vk::CommandPool, vk::CommandBuffer)> {
+        let device = self.renderer.device;
+        let n = self
+            .pass
+            .ok_or_else(|| anyhow!("secondaries outside a pass"))?;
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT)
+            .queue_family_index(self.renderer.queue_family);
+        // SAFETY: valid device, queue family of the device's queue.
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .context("vkCreateCommandPool (recording thread) failed")?;
+        let recorded = (|| {
+            let info = vk::CommandBufferAllocateInfo::default()
+                .command_pool(pool)
+                .level(vk::CommandBufferLevel::SECONDARY)
+                .command_buffer_count(1);
+            // SAFETY: valid pool, used by this thread only.
+            let secondary = unsafe { device.allocate_command_buffers(&info) }
+                .context("vkAllocateCommandBuffers (recording thread) failed")?
+                .into_iter()
+                .next()
+                .ok_or_else(|| anyhow!("vkAllocateCommandBuffers returned no command buffer"))?;
+            let inheritance = vk::CommandBufferInheritanceInfo::default()
+                .render_pass(self.renderer.render_passes[n])
+                .subpass(self.subpass)
+                .framebuffer(self.renderer.framebuffers[n]);
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(
+                    vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
+                        | vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT,
+                )
+                .inheritance_info(&inheritance);
+            // SAFETY: a fresh secondary of this thread's pool; the inheritance names the
+            // current render pass, subpass and framebuffer.
+            unsafe { device.begin_command_buffer(secondary, &begin) }
+                .context("vkBeginCommandBuffer (recording thread) failed")?;
+            self.bind_geometry(secondary);
+            self.record(secondary, list)?;
+            // SAFETY: the secondary is recording.
+            unsafe { device.end_command_buffer(secondary) }
+                .context("vkEndCommandBuffer (recording thread) failed")?;
+            Ok(secondary)
+        })();
+        match recorded {
+            Ok(secondary) => Ok((pool, secondary)),
+            Err(e) => {
+                // SAFETY: nothing recorded in the pool was submitted.
+                unsafe { device.destroy_command_pool(pool, None) };
+                Err(e)
+            }
+        }
     }
 }

@@ -7,9 +7,12 @@
 //! not reversed: near = 0, far = 1, compare LESS) and y pointing down, obtained by flipping
 //! the y row of glam's right-handed [0, 1]-depth perspective (the former
 //! `DMat4::perspective_rh`, `glam::dcamera::rh::proj::directx::perspective` since glam 0.34);
-//! the viewport height stays positive. Every matrix is
-//! computed in f64; each object's precomposed MVP = P * V * M is rounded once to f32, which is
-//! what most applications push.
+//! the viewport height stays positive. A camera may instead use OpenGL's [-1, 1] depth or an
+//! already reversed projection ([`Projection`]). Every matrix is computed in f64; each
+//! object's precomposed MVP = P * V * M is rounded once to f32, which is what most
+//! applications push. Objects may also carry their model (or model-view) transform in their
+//! vertices ([`Space`]), and programs lay their push constants out differently
+//! ([`Scene::push_constants_in`]).
 //!
 //! Adding a scene: add a variant to [`SceneId`] and a row to [`crate::scenes::CATALOG`] naming
 //! a builder function that returns a [`Scene`].
@@ -18,7 +21,7 @@ use clap::ValueEnum;
 use glam::dcamera::rh::{proj, view};
 use glam::{DMat4, DVec3, DVec4};
 
-use crate::plan::Plan;
+use crate::plan::{Plan, Program};
 
 /// The scenes the tester can render (`--scene`); each variant's documentation is on its
 /// builder in [`crate::scenes`].
@@ -59,6 +62,22 @@ pub enum SceneId {
     DynamicRendering,
     /// A shadow map (native D32, sampled with a comparison sampler) darkening the ground.
     ShadowMap,
+    /// Push constants hold only the projection P; vertices are in view space.
+    ProjectionOnly,
+    /// Push constants hold P * V; vertices are in world space (a far-reaching scene).
+    ViewProjection,
+    /// Push constants hold a model matrix and a view-projection matrix.
+    ModelViewProjectionPair,
+    /// HLSL-style layouts: a `RowMajor` MVP, and `position * M`.
+    RowMajor,
+    /// An OpenGL-convention projection with `negativeOneToOne` depth clip control.
+    OpenglDepth,
+    /// The application already renders reversed: complementary projection, clear 0, GREATER.
+    AlreadyReversed,
+    /// Push constants updated in parts between draws.
+    PushPartial,
+    /// The overlap scene recorded on four threads into secondaries.
+    Threads,
 }
 
 impl SceneId {
@@ -88,6 +107,38 @@ pub struct Camera {
     pub near: f64,
     /// Far plane distance (> near).
     pub far: f64,
+    /// The depth convention of its projection.
+    pub projection: Projection,
+}
+
+/// The depth convention of a camera's projection (every one is y-down and maps `near` and
+/// `far` to the ends of its depth range).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Projection {
+    /// Vulkan standard: z_ndc = 0 at near, 1 at far (what revz expects applications to use).
+    Standard,
+    /// OpenGL: z_ndc = -1 at near, 1 at far; drawn with `negativeOneToOne` depth clip control,
+    /// so the stored depth is (z_ndc + 1) / 2, the same as [`Projection::Standard`]'s.
+    OpenGl,
+    /// Complementary (reversed finite): z_ndc = 1 at near, 0 at far; drawn with GREATER into a
+    /// depth buffer cleared to 0.
+    Reversed,
+}
+
+impl Projection {
+    /// The stored depth (viewport [0, 1]) of a point at view distance `w`, in f64.
+    #[cfg(test)]
+    pub fn stored_depth(self, near: f64, far: f64, w: f64) -> f64 {
+        match self {
+            Projection::Standard | Projection::OpenGl => far / (far - near) * (1.0 - near / w),
+            Projection::Reversed => near * (far - w) / (w * (far - near)),
+        }
+    }
+
+    /// Whether clip-space depth runs over [-w, w] (OpenGL) rather than [0, w].
+    pub fn negative_one_to_one(self) -> bool {
+        self == Projection::OpenGl
+    }
 }
 
 /// Negates clip-space y: glam's projections are y-up, Vulkan's framebuffer y points down.
@@ -101,9 +152,18 @@ impl Camera {
         view::look_at_mat4(self.eye, self.target, self.up)
     }
 
-    /// View -> Vulkan clip space, standard depth: z_ndc = 0 at `near`, 1 at `far`.
+    /// View -> Vulkan clip space (y down) with the camera's depth convention: standard
+    /// z_ndc = 0 at `near`, 1 at `far`; OpenGL -1 at `near`, 1 at `far`; reversed 1 at `near`,
+    /// 0 at `far`.
     pub fn projection(&self, aspect: f64) -> DMat4 {
-        vulkan_y_flip() * proj::directx::perspective(self.fov_y, aspect, self.near, self.far)
+        let (fov, near, far) = (self.fov_y, self.near, self.far);
+        vulkan_y_flip()
+            * match self.projection {
+                Projection::Standard => proj::directx::perspective(fov, aspect, near, far),
+                Projection::OpenGl => proj::opengl::perspective(fov, aspect, near, far),
+                // The [0, 1] perspective with the planes swapped: depth 1 at `near`, 0 at `far`.
+                Projection::Reversed => proj::directx::perspective(fov, aspect, far, near),
+            }
     }
 
     /// Unit view direction (world).
@@ -250,6 +310,16 @@ impl Mesh {
         mesh
     }
 
+    /// The mesh moved by `offset` (model space).
+    pub fn translated(mut self, offset: DVec3) -> Mesh {
+        for p in &mut self.positions {
+            *p = (DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) + offset)
+                .as_vec3()
+                .to_array();
+        }
+        self
+    }
+
     /// The positions as f64 (exactly the f32 values the GPU gets).
     pub fn positions_f64(&self) -> impl Iterator<Item = DVec3> + '_ {
         self.positions
@@ -301,13 +371,19 @@ pub struct Object {
     pub space: Space,
 }
 
-/// The space an object's model matrix maps to.
+/// The space an object's model matrix maps to, and where it is applied.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Space {
     /// World space: MVP = P * V * model.
     World,
     /// Clip space: MVP = model, whatever the view (full-screen passes, a hard-coded clip z).
     Clip,
+    /// World space, applied on the CPU: the vertex buffer holds `model * p` (computed in f64,
+    /// rounded once to f32) and the pushed matrix is P * V.
+    WorldBaked,
+    /// View space, applied on the CPU: the vertex buffer holds `V * model * p` for the camera
+    /// and the pushed matrix is P alone.
+    ViewBaked,
 }
 
 impl Object {
@@ -388,10 +464,6 @@ impl Geometry {
     }
 }
 
-/// Size in bytes of the push-constant block shared by `scene.vert` and `scene.frag`:
-/// `mat4 mvp` (column-major) at offset 0, `vec4 color` at offset 64.
-pub const PUSH_CONSTANT_SIZE: u32 = 80;
-
 /// A camera (and optionally a light), objects, and the plan that records them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
@@ -441,43 +513,131 @@ impl Scene {
         self.mvp_in(View::Camera, object, aspect)
     }
 
-    /// The object's MVP for `view` in f64 (a scene without a light uses its camera for
-    /// [`View::Light`]; [`Plan::check`] keeps that from happening).
+    /// The object's complete clip transform for `view` in f64: what maps the positions in
+    /// its vertex buffer ([`Scene::vertex_positions`]) to clip space: P * V * M for a world
+    /// object, M for a clip-space one, P * V or P for baked ones. (A scene without a light
+    /// uses its camera for [`View::Light`]; [`Plan::check`] keeps that from happening.)
     pub fn mvp_in(&self, view: View, object: &Object, aspect: f64) -> DMat4 {
-        match (object.space, view, &self.light) {
-            (Space::Clip, _, _) => object.model,
-            (Space::World, View::Light, Some(light)) => light.view_projection() * object.model,
-            (Space::World, _, _) => self.view_projection(aspect) * object.model,
+        let view_projection = self.view_projection_in(view, aspect);
+        match object.space {
+            Space::Clip => object.model,
+            Space::World => view_projection * object.model,
+            Space::WorldBaked => view_projection,
+            // The vertices are in the camera's view space: undo V first.
+            Space::ViewBaked => match (view, &self.light) {
+                (View::Light, Some(_)) => view_projection * self.camera.view().inverse(),
+                _ => self.camera.projection(aspect),
+            },
         }
     }
 
-    /// The 80 bytes of push constants for `object` seen by the camera: the MVP rounded once
-    /// to f32, column-major, then the RGBA color.
-    #[cfg(test)]
-    pub fn push_constants(
-        &self,
-        object: &Object,
-        aspect: f64,
-    ) -> [u8; PUSH_CONSTANT_SIZE as usize] {
-        self.push_constants_in(View::Camera, object, aspect)
+    /// The view-projection of `view`: the light's, or the camera's P * V.
+    fn view_projection_in(&self, view: View, aspect: f64) -> DMat4 {
+        match (view, &self.light) {
+            (View::Light, Some(light)) => light.view_projection(),
+            _ => self.view_projection(aspect),
+        }
     }
 
-    /// The 80 bytes of push constants for `object` in `view`.
+    /// The positions in `object`'s vertex buffer, as f64 (exactly the f32 values the GPU
+    /// gets): its mesh, or for baked objects the mesh transformed on the CPU in f64 and
+    /// rounded once to f32.
+    pub fn vertex_positions(&self, object: &Object) -> Vec<DVec3> {
+        let bake = match object.space {
+            Space::World | Space::Clip => return object.mesh.positions_f64().collect(),
+            Space::WorldBaked => object.model,
+            Space::ViewBaked => self.camera.view() * object.model,
+        };
+        object
+            .mesh
+            .positions_f64()
+            .map(|p| bake.transform_point3(p).as_vec3().as_dvec3())
+            .collect()
+    }
+
+    /// The push constants of `object` for `program` in the camera's view.
+    #[cfg(test)]
+    pub fn push_constants(&self, program: Program, object: &Object, aspect: f64) -> Vec<u8> {
+        self.push_constants_in(program, View::Camera, object, aspect)
+    }
+
+    /// The push constants of `object` drawn with `program` in `view`, every value rounded once
+    /// from f64 to f32 ([`Program::push_constant_size`] bytes):
+    /// - [`Program::Flat`], [`Program::DepthOnly`], [`Program::ShadowReceiver`]: the clip
+    ///   transform ([`Scene::mvp_in`]) column-major at 0, the RGBA color at 64;
+    /// - [`Program::RowMajor`], [`Program::RowVector`]: the same transform row-major (its
+    ///   transpose column-major) at 0, the color at 64;
+    /// - [`Program::MvpPair`]: the model matrix (world objects; identity otherwise) at 0 and
+    ///   the rest of the transform (P * V) at 64, both column-major.
     pub fn push_constants_in(
         &self,
+        program: Program,
         view: View,
         object: &Object,
         aspect: f64,
-    ) -> [u8; PUSH_CONSTANT_SIZE as usize] {
-        let mvp = self.mvp_in(view, object, aspect).as_mat4().to_cols_array();
-        let mut bytes = [0u8; PUSH_CONSTANT_SIZE as usize];
-        for (chunk, value) in bytes
-            .chunks_exact_mut(4)
-            .zip(mvp.iter().chain(object.color.iter()))
-        {
-            chunk.copy_from_slice(&value.to_le_bytes());
+    ) -> Vec<u8> {
+        let mvp = self.mvp_in(view, object, aspect);
+        let values: Vec<f32> = match program {
+            Program::Flat | Program::DepthOnly | Program::ShadowReceiver => {
+                let mut v = mvp.as_mat4().to_cols_array().to_vec();
+                v.extend(object.color);
+                v
+            }
+            Program::RowMajor | Program::RowVector => {
+                let mut v = mvp.as_mat4().transpose().to_cols_array().to_vec();
+                v.extend(object.color);
+                v
+            }
+            Program::MvpPair => {
+                let (model, outer) = self.model_split(view, object, aspect);
+                let mut v = model.as_mat4().to_cols_array().to_vec();
+                v.extend(outer.as_mat4().to_cols_array());
+                v
+            }
+        };
+        debug_assert_eq!(values.len() * 4, program.push_constant_size() as usize);
+        values.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    /// The clip transform split into (inner model matrix, outer matrix) as
+    /// [`Program::MvpPair`] pushes it: (M, P * V) for a world object, (identity, transform)
+    /// otherwise.
+    fn model_split(&self, view: View, object: &Object, aspect: f64) -> (DMat4, DMat4) {
+        match object.space {
+            Space::World => (object.model, self.view_projection_in(view, aspect)),
+            _ => (DMat4::IDENTITY, self.mvp_in(view, object, aspect)),
         }
-        bytes
+    }
+
+    /// The matrices the GPU applies to `object`'s vertex positions for `program`, outermost
+    /// first, in f64: `[P * V, M]` for [`Program::MvpPair`] (world objects), the single clip
+    /// transform otherwise.
+    pub fn matrix_stages(
+        &self,
+        program: Program,
+        view: View,
+        object: &Object,
+        aspect: f64,
+    ) -> Vec<DMat4> {
+        match (program, object.space) {
+            (Program::MvpPair, Space::World) => {
+                let (model, outer) = self.model_split(view, object, aspect);
+                vec![outer, model]
+            }
+            _ => vec![self.mvp_in(view, object, aspect)],
+        }
+    }
+
+    /// The outermost matrix `program` pushes for `object` in the camera's view, as the shader
+    /// applies it (`clip = M * v`, 16 f32 values column-major, whatever the storage order):
+    /// the matrix a projection-rewriting layer sees. Its depth mapping (k, B) is that of the
+    /// whole clip transform (an affine model matrix does not change it).
+    pub fn pushed_projection(&self, program: Program, object: &Object, aspect: f64) -> [f32; 16] {
+        let outer = match program {
+            Program::MvpPair => self.model_split(View::Camera, object, aspect).1,
+            _ => self.mvp_in(View::Camera, object, aspect),
+        };
+        outer.as_mat4().to_cols_array()
     }
 
     /// Every object's light MVP (f32, column-major), in object order: the uniform buffer
@@ -501,7 +661,11 @@ impl Scene {
                 index_count: u32::try_from(object.mesh.indices.len()).expect("too many indices"),
                 vertex_offset: i32::try_from(geometry.positions.len()).expect("too many vertices"),
             };
-            geometry.positions.extend_from_slice(&object.mesh.positions);
+            geometry.positions.extend(
+                self.vertex_positions(object)
+                    .iter()
+                    .map(|p| p.as_vec3().to_array()),
+            );
             geometry.indices.extend_from_slice(&object.mesh.indices);
             geometry.draws.push(range);
         }
@@ -544,6 +708,7 @@ pub fn overlap_camera() -> Camera {
         fov_y: 45f64.to_radians(),
         near: 0.1,
         far: 100.0,
+        projection: Projection::Standard,
     }
 }
 
@@ -618,13 +783,20 @@ mod tests {
     fn every_vertex_is_between_near_and_far() {
         for id in SceneId::value_variants() {
             let scene = id.build();
+            // OpenGL's clip depth runs over [-1, 1]; the others over [0, 1].
+            let lowest = if scene.camera.projection.negative_one_to_one() {
+                -1.0
+            } else {
+                0.0
+            };
             for object in &scene.objects {
                 let mvp = scene.mvp(object, ASPECT);
-                for p in object.mesh.positions_f64() {
+                for p in scene.vertex_positions(object) {
                     let z = ndc(&mvp, p).z;
                     assert!(
-                        (0.0..=1.0).contains(&z),
-                        "{}: {p} has depth {z}",
+                        (lowest..=1.0).contains(&z),
+                        "{}: {}: {p} has depth {z}",
+                        scene.name,
                         object.name
                     );
                 }
@@ -723,7 +895,7 @@ mod tests {
     fn push_constants_are_rounded_mvp_then_color() {
         let scene = overlap();
         let object = &scene.objects[1];
-        let bytes = scene.push_constants(object, ASPECT);
+        let bytes = scene.push_constants(Program::Flat, object, ASPECT);
         let floats: Vec<f32> = bytes
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().unwrap()))

@@ -3,7 +3,11 @@
 //!
 //! Every scene but `overlap` exists to exercise one thing a reversed-depth layer must change
 //! (see DESIGN.md section 2) and is built so that the color image would be visibly wrong if
-//! the layer forgot it. Each builder's documentation says which item and how. The tester
+//! the layer forgot it. The scenes of the precise path (`projection-only` to `threads`) are
+//! the overlap scene, or one like it, reached through another way of handing the projection
+//! to the shader; they are drawn by one camera with LESS (the nearest surface wins), so the
+//! tester computes their ground truth (`ground_truth`) and the tests check the depth values
+//! the layer produces, not just the image. Each builder's documentation says which item and how. The tester
 //! itself knows nothing of the layer: these are ordinary standard-depth renders (clear 1.0,
 //! LESS), and the claims about depth values (which object lies on which side of a clear value
 //! or bound, with margins far above any format's resolution, so that no pixel sits on a tie)
@@ -17,11 +21,11 @@ use glam::{DMat4, DVec3};
 
 use crate::plan::{
     Bias, Bounds, Compare, DepthBias, DepthLoad, DepthTest, PassKind, PassSpec, PipelineSpec, Plan,
-    Program, StencilTest, StencilWrite, Step, Target, Viewport,
+    Program, Recording, StencilTest, StencilWrite, Step, Target, Viewport,
 };
 use crate::scene::{
     grounded_cube, overlap, overlap_camera, overlap_objects, rgb8, Camera, Light, Mesh, Object,
-    Scene, SceneId, Space,
+    Projection, Scene, SceneId, Space,
 };
 
 /// One row of the catalog.
@@ -73,6 +77,22 @@ pub const CATALOG: &[Entry] = &[
         dynamic_rendering,
     ),
     entry_row(SceneId::ShadowMap, "shadow-map", shadow_map),
+    entry_row(SceneId::ProjectionOnly, "projection-only", projection_only),
+    entry_row(SceneId::ViewProjection, "view-projection", view_projection),
+    entry_row(
+        SceneId::ModelViewProjectionPair,
+        "model-view-projection-pair",
+        model_view_projection_pair,
+    ),
+    entry_row(SceneId::RowMajor, "row-major", row_major),
+    entry_row(SceneId::OpenglDepth, "opengl-depth", opengl_depth),
+    entry_row(
+        SceneId::AlreadyReversed,
+        "already-reversed",
+        already_reversed,
+    ),
+    entry_row(SceneId::PushPartial, "push-partial", push_partial),
+    entry_row(SceneId::Threads, "threads", threads),
 ];
 
 const fn entry_row(id: SceneId, name: &'static str, build: fn() -> Scene) -> Entry {
@@ -850,7 +870,7 @@ pub fn secondary() -> Scene {
     };
     scene.plan.steps = vec![
         Step::BeginPass(0),
-        Step::ExecuteSecondaries(vec![record(first), record(second)]),
+        Step::ExecuteSecondaries(vec![record(first), record(second)], Recording::MainThread),
         Step::EndPass,
     ];
     scene
@@ -1008,6 +1028,308 @@ pub fn shadow_map() -> Scene {
     b.finish("shadow-map", camera, Some(shadow_light()))
 }
 
+/// The overlap objects with their model matrices applied in `space`.
+fn overlap_objects_in(space: Space) -> Vec<Object> {
+    overlap_objects()
+        .into_iter()
+        .map(|o| Object { space, ..o })
+        .collect()
+}
+
+/// `projection-only`: the overlap scene with the projection P alone in the push constants:
+/// each object's vertices are transformed to view space on the CPU (V * M in f64, rounded once
+/// to f32, [`Space::ViewBaked`]) and `scene.vert` computes `P * position`.
+///
+/// Layer item: the precise path on a bare projection (the matrix the layer classifies is P
+/// itself: no view or model part folded in).
+pub fn projection_only() -> Scene {
+    Scene::new(
+        "projection-only",
+        overlap_camera(),
+        overlap_objects_in(Space::ViewBaked),
+    )
+}
+
+/// The camera of `view-projection`: eye (4, 3, 12) looking far down -z, near 0.1, far 1000.
+pub fn far_camera() -> Camera {
+    Camera {
+        eye: DVec3::new(4.0, 3.0, 12.0),
+        target: DVec3::new(0.0, 4.0, -100.0),
+        far: 1000.0,
+        ..overlap_camera()
+    }
+}
+
+/// `view-projection`: P * V in the push constants, the vertices in world space (each model
+/// matrix applied on the CPU, [`Space::WorldBaked`]); and a scene reaching far: boxes at view
+/// distances of about 5, 30, 120 and 430 overlapping on screen, in front of a wall 860 away,
+/// with near 0.1 and far 1000. Nothing floats near anything else (the closest depths of two
+/// surfaces at any pixel differ by far more than standard D32's resolution out there), so the
+/// image is the same whichever way depth is stored.
+///
+/// Layer item: the precise path on a view-projection matrix (a translated camera folded into
+/// the projection); far depths are where standard and flip-path storage lose their precision
+/// (1 - D there is about 1e-4, one float32 step near 1 is 6e-8), which the precise tests
+/// measure.
+pub fn view_projection() -> Scene {
+    let boxed = |name, half: DVec3, at: DVec3, yaw: f64, color| Object {
+        name,
+        mesh: Mesh::cuboid(half),
+        model: DMat4::from_translation(at) * DMat4::from_rotation_y(yaw),
+        color,
+        space: Space::WorldBaked,
+    };
+    let objects = vec![
+        boxed(
+            "near box",
+            DVec3::splat(0.6),
+            DVec3::new(3.3, 2.2, 7.0),
+            0.5,
+            rgb8(230, 30, 30),
+        ),
+        boxed(
+            "middle box",
+            DVec3::new(2.5, 2.0, 2.5),
+            DVec3::new(1.5, 3.5, -17.0),
+            0.3,
+            rgb8(30, 200, 40),
+        ),
+        boxed(
+            "far box",
+            DVec3::splat(9.0),
+            DVec3::new(-16.0, 6.0, -105.0),
+            0.7,
+            rgb8(40, 80, 240),
+        ),
+        boxed(
+            "distant tower",
+            DVec3::new(15.0, 60.0, 15.0),
+            DVec3::new(40.0, 20.0, -420.0),
+            0.2,
+            rgb8(250, 210, 20),
+        ),
+        Object {
+            name: "horizon wall",
+            mesh: Mesh::rect_xy(0.0, 0.0, 700.0, 450.0),
+            model: DMat4::from_translation(DVec3::new(0.0, 0.0, -850.0)),
+            color: rgb8(150, 60, 170),
+            space: Space::WorldBaked,
+        },
+    ];
+    Scene::new("view-projection", far_camera(), objects)
+}
+
+/// `model-view-projection-pair`: the overlap scene drawn with `mvp_pair.vert`: push constants
+/// `{ mat4 model @0; mat4 view_proj @64 }` and `gl_Position = view_proj * (model * position)`
+/// (the color from a uniform buffer: the two matrices fill the 128 bytes lavapipe allows).
+///
+/// Layer item: only the outermost matrix of the chain is a projection. The layer must rewrite
+/// `view_proj` (bytes 64..128) and leave `model` alone: an affine model matrix classifies as
+/// orthographic, and rewriting it too would break the image.
+pub fn model_view_projection_pair() -> Scene {
+    let mut scene = Scene::new(
+        "model-view-projection-pair",
+        overlap_camera(),
+        overlap_objects(),
+    );
+    scene.plan.pipelines[0].program = Program::MvpPair;
+    scene
+}
+
+/// `row-major`: the overlap scene drawn with HLSL-style shaders: the near, slab and ground
+/// objects with `row_major.vert` (the MVP in a `RowMajor` push-constant member), the others
+/// with `row_vector.vert` (`position * M`); both read the MVP's rows from memory, so the CPU
+/// pushes the transpose of what `overlap` pushes.
+///
+/// Layer item: storage order. The layer must read (and write back) the projection by rows
+/// for both shaders; read as columns, the matrix is not a projection at all.
+pub fn row_major() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    b.pass(PassSpec::clear(1.0));
+    let rows = b.pipeline(PipelineSpec {
+        program: Program::RowMajor,
+        ..PipelineSpec::standard("row-major mvp", 0)
+    });
+    let vector = b.pipeline(PipelineSpec {
+        program: Program::RowVector,
+        ..PipelineSpec::standard("row-vector mvp", 0)
+    });
+    b.step(Step::BeginPass(0));
+    for (pipeline, parity) in [(rows, 0), (vector, 1)] {
+        b.step(Step::Bind(pipeline));
+        let some: Vec<usize> = objects
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % 2 == parity)
+            .map(|(_, &o)| o)
+            .collect();
+        b.draw(&some);
+    }
+    b.step(Step::EndPass);
+    b.finish("row-major", camera, None)
+}
+
+/// `opengl-depth` (needs `VK_EXT_depth_clip_control`): the overlap scene with an
+/// OpenGL-convention projection (glm without `GLM_FORCE_DEPTH_ZERO_TO_ONE`: z_ndc = -1 at
+/// near, 1 at far) and pipelines made with `negativeOneToOne`, so the stored depth is
+/// (z_ndc + 1) / 2: the same values as `overlap`'s.
+///
+/// Layer item: the depth convention of the pipeline (DESIGN.md pitfall 8): the projection's
+/// visible range must be recovered under [-1, 1], and the rewritten matrix must stay in it.
+/// Read as a [0, 1] projection its near plane lands at about 0.05 and the reversal is wrong.
+pub fn opengl_depth() -> Scene {
+    let camera = Camera {
+        projection: Projection::OpenGl,
+        ..overlap_camera()
+    };
+    let mut scene = Scene::new("opengl-depth", camera, overlap_objects());
+    scene.plan.pipelines[0].negative_one_to_one = true;
+    scene
+}
+
+/// `already-reversed`: an application that already renders reversed, as Unreal, Godot 4.3+ or
+/// Bevy do: the overlap scene with a complementary projection (depth 1 at near, 0 at far),
+/// depth cleared to 0 and compare GREATER.
+///
+/// Layer item: leave it alone (DESIGN.md pitfall 7). Reversing it again (flipping its clear,
+/// compare op or projection) renders nothing or the far objects in front; the render must be
+/// bit-identical to one without the layer.
+pub fn already_reversed() -> Scene {
+    let camera = Camera {
+        projection: Projection::Reversed,
+        ..overlap_camera()
+    };
+    let mut scene = Scene::new("already-reversed", camera, overlap_objects());
+    scene.plan.passes[0] = PassSpec::clear(0.0);
+    scene.plan.pipelines[0].depth_test = DepthTest::Static(Compare::Greater);
+    scene
+}
+
+/// `push-partial`: push constants updated in parts between draws, each object still drawn with
+/// a complete, known MVP and color (the unit tests replay the pushes byte by byte):
+/// - the ground and the red cube push everything;
+/// - the yellow lid shares the red cube's model matrix: only its color is pushed (bytes
+///   64..80);
+/// - the yellow cube behind is the red cube moved along its own z: only the MVP's last column
+///   (the translation, bytes 48..64) is pushed, and it keeps the lid's color;
+/// - the green cube pushes its MVP and color in two calls split inside the matrix (bytes 0..32
+///   and 32..80);
+/// - the blue pillar through it has the green cube's translation and its own rotation: its
+///   first three columns (0..48) and its color (64..80) are pushed, the last column stays.
+///
+/// Layer item: `vkCmdPushConstants` calls that cover part of the projection, or none of it.
+/// The layer must keep the application's bytes per command buffer and rewrite the whole
+/// matrix from them at each draw; rewriting only the pushed bytes, or classifying a partial
+/// matrix, leaves a mixed standard/reversed matrix (objects vanish or land at wrong depths).
+pub fn push_partial() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let ground = overlap_objects()
+        .into_iter()
+        .find(|o| o.name == "ground")
+        .expect("overlap has a ground");
+    let red = grounded_cube("red cube", 0.45, -1.3, 1.2, 0.3, rgb8(230, 30, 30));
+    let lid = Object {
+        name: "lid",
+        mesh: Mesh::cuboid(DVec3::new(0.3, 0.08, 0.3)).translated(DVec3::new(0.0, 0.5, 0.0)),
+        color: rgb8(250, 210, 20),
+        ..red.clone()
+    };
+    let moved = Object {
+        name: "moved cube",
+        model: red.model * DMat4::from_translation(DVec3::new(-0.9, 0.0, -2.0)),
+        color: lid.color,
+        ..red.clone()
+    };
+    let green = grounded_cube("green cube", 0.5, 1.3, 0.9, -0.4, rgb8(30, 200, 40));
+    let pillar = Object {
+        name: "pillar",
+        mesh: Mesh::cuboid(DVec3::new(0.2, 0.85, 0.2)),
+        model: green.model * DMat4::from_rotation_y(0.7),
+        color: rgb8(40, 80, 240),
+        ..green.clone()
+    };
+    let [ground, red, lid, moved, green, pillar] =
+        [ground, red, lid, moved, green, pillar].map(|o| b.object(o));
+    b.pass(PassSpec::clear(1.0));
+    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    let push = |object, offset, size| Step::Push {
+        object,
+        offset,
+        size,
+    };
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&[ground, red]);
+    for step in [
+        push(lid, 64, 16),
+        Step::DrawPushed(lid),
+        push(moved, 48, 16),
+        Step::DrawPushed(moved),
+        push(green, 0, 32),
+        push(green, 32, 48),
+        Step::DrawPushed(green),
+        push(pillar, 0, 48),
+        push(pillar, 64, 16),
+        Step::DrawPushed(pillar),
+    ] {
+        b.step(step);
+    }
+    b.step(Step::EndPass);
+    b.finish("push-partial", camera, None)
+}
+
+/// `threads`: the overlap scene recorded on four threads at once (`std::thread::scope`), each
+/// with its own command pool created on that thread and one secondary command buffer
+/// (RENDER_PASS_CONTINUE, inheriting the render pass) that binds the geometry, a pipeline with
+/// a dynamic viewport, sets the viewport and pushes its objects' constants itself; one primary
+/// executes the four.
+///
+/// Layer item: multi-threaded recording (DESIGN.md pitfall 9): per-command-buffer state
+/// (pipeline, viewport, push constants) recorded concurrently, objects created on several
+/// threads; the image and depth must be exactly `overlap`'s.
+pub fn threads() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    b.pass(PassSpec::clear(1.0));
+    let pipeline = b.pipeline(PipelineSpec {
+        viewport: Viewport::Dynamic,
+        ..PipelineSpec::standard("dynamic viewport", 0)
+    });
+    let lists = (0..THREADS)
+        .map(|thread| {
+            let mut steps = vec![
+                Step::Bind(pipeline),
+                Step::SetViewport {
+                    min_depth: 0.0,
+                    max_depth: 1.0,
+                },
+            ];
+            steps.extend(
+                objects
+                    .iter()
+                    .skip(thread)
+                    .step_by(THREADS)
+                    .map(|&o| Step::Draw(o)),
+            );
+            steps
+        })
+        .collect();
+    b.step(Step::BeginPass(0));
+    b.step(Step::ExecuteSecondaries(
+        lists,
+        Recording::ThreadPerSecondary,
+    ));
+    b.step(Step::EndPass);
+    b.finish("threads", camera, None)
+}
+
+/// The recording threads of `threads`.
+pub const THREADS: usize = 4;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1035,8 +1357,9 @@ mod tests {
     fn clip(scene: &Scene, view: View, object: usize) -> Vec<DVec4> {
         let o = &scene.objects[object];
         let mvp = scene.mvp_in(view, o, ASPECT);
-        o.mesh
-            .positions_f64()
+        scene
+            .vertex_positions(o)
+            .into_iter()
             .map(|p| mvp * p.extend(1.0))
             .collect()
     }
@@ -1076,7 +1399,9 @@ mod tests {
         for step in scene.plan.all_steps() {
             match step {
                 Step::BeginPass(n) => current = Some(scene.plan.passes[*n].target),
-                Step::Draw(n) if current == Some(target) => drawn.push(*n),
+                Step::Draw(n) | Step::DrawPushed(n) if current == Some(target) => {
+                    drawn.push(*n);
+                }
                 _ => {}
             }
         }
@@ -1126,13 +1451,17 @@ mod tests {
     fn every_vertex_is_within_the_depth_range_of_its_views() {
         for scene in all() {
             for (target, view) in [(Target::Main, View::Camera), (Target::Shadow, View::Light)] {
+                // OpenGL's clip depth runs over [-1, 1]; the others over [0, 1].
+                let negative_one_to_one =
+                    view == View::Camera && scene.camera.projection.negative_one_to_one();
+                let lowest = if negative_one_to_one { -1.0 } else { 0.0 };
                 for n in drawn_in(&scene, target) {
                     for c in clip(&scene, view, n) {
                         let name = scene.objects[n].name;
                         assert!(c.w > 0.0, "{}: {name} behind the eye", scene.name);
                         let z = c.z / c.w;
                         assert!(
-                            (0.0..=1.0).contains(&z),
+                            (lowest..=1.0).contains(&z),
                             "{}: {name} has depth {z} in {view:?}",
                             scene.name
                         );
@@ -1323,6 +1652,295 @@ mod tests {
             "the cube crosses the far cube's edge"
         );
         assert!(clo[1] > -1.0 && chi[1] < flo[1] + 0.5 * (fhi[1] - flo[1]));
+    }
+
+    /// The scenes with a ground truth: exactly those where the nearest surface decides.
+    #[test]
+    fn ground_truth_applies_where_the_nearest_surface_wins() {
+        let with: Vec<&str> = all()
+            .iter()
+            .filter(|s| crate::ground_truth::applies(s).is_ok())
+            .map(|s| s.name)
+            .collect();
+        assert_eq!(
+            with,
+            [
+                "overlap",
+                "secondary",
+                "dynamic-rendering",
+                "shadow-map",
+                "projection-only",
+                "view-projection",
+                "model-view-projection-pair",
+                "row-major",
+                "opengl-depth",
+                "already-reversed",
+                "push-partial",
+                "threads",
+            ]
+        );
+        for scene in all() {
+            let Ok(drawn) = crate::ground_truth::applies(&scene) else {
+                continue;
+            };
+            let (truth, report) = crate::ground_truth::compute(&scene, 96, 64).unwrap();
+            assert_eq!(drawn.len(), report.objects.len());
+            assert!(
+                truth.interior > 96 * 64 / 2,
+                "{}: {} interior pixels",
+                scene.name,
+                truth.interior
+            );
+            // Every object drawn shows somewhere, except what the scene hides on purpose.
+            for object in &report.objects {
+                let shows = truth.ids.contains(&object.id);
+                assert!(
+                    shows || scene.name == "shadow-map",
+                    "{}: {}",
+                    scene.name,
+                    object.name
+                );
+            }
+        }
+    }
+
+    /// Replays a plan's push constants byte by byte (per command buffer, as Vulkan keeps them):
+    /// at every draw without a push, the bytes there are exactly the drawn object's own.
+    #[test]
+    fn partial_pushes_leave_every_object_its_own_constants() {
+        let mut replayed = 0;
+        for scene in all() {
+            let aspect = 1.5;
+            let lists: Vec<Vec<&Step>> = {
+                let mut lists = vec![Vec::new()];
+                for step in &scene.plan.steps {
+                    match step {
+                        Step::ExecuteSecondaries(inner, _) => {
+                            lists.extend(inner.iter().map(|l| l.iter().collect()));
+                        }
+                        other => lists[0].push(other),
+                    }
+                }
+                lists
+            };
+            for list in lists {
+                let mut bytes = [0u8; 128];
+                let mut program = Program::Flat;
+                for step in list {
+                    match step {
+                        Step::Bind(n) => program = scene.plan.pipelines[*n].program,
+                        Step::Draw(n) => {
+                            let own = scene.push_constants(program, &scene.objects[*n], aspect);
+                            bytes[..own.len()].copy_from_slice(&own);
+                        }
+                        Step::Push {
+                            object,
+                            offset,
+                            size,
+                        } => {
+                            let own =
+                                scene.push_constants(program, &scene.objects[*object], aspect);
+                            let range = *offset as usize..(offset + size) as usize;
+                            bytes[range.clone()].copy_from_slice(&own[range]);
+                        }
+                        Step::DrawPushed(n) => {
+                            let own = scene.push_constants(program, &scene.objects[*n], aspect);
+                            assert_eq!(
+                                &bytes[..own.len()],
+                                &own[..],
+                                "{}: {} is drawn with someone else's constants",
+                                scene.name,
+                                scene.objects[*n].name
+                            );
+                            replayed += 1;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+        }
+        assert_eq!(
+            replayed, 4,
+            "push-partial has four draws without a full push"
+        );
+    }
+
+    #[test]
+    fn push_partial_updates_the_ranges_it_claims() {
+        let scene = push_partial();
+        let pushes: Vec<(&str, u32, u32)> = scene
+            .plan
+            .steps
+            .iter()
+            .filter_map(|step| match step {
+                Step::Push {
+                    object,
+                    offset,
+                    size,
+                } => Some((scene.objects[*object].name, *offset, *size)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            pushes,
+            [
+                ("lid", 64, 16),
+                ("moved cube", 48, 16),
+                ("green cube", 0, 32),
+                ("green cube", 32, 48),
+                ("pillar", 0, 48),
+                ("pillar", 64, 16),
+            ]
+        );
+        // What the partial pushes skip really is shared: the lid's matrix is the red cube's,
+        // the moved cube differs from the lid only in the translation column (and keeps its
+        // color), the pillar from the green cube only in the first three columns and color.
+        let bytes =
+            |name| scene.push_constants(Program::Flat, &scene.objects[find(&scene, name)], 1.0);
+        let (red, lid, moved) = (bytes("red cube"), bytes("lid"), bytes("moved cube"));
+        assert_eq!(red[..64], lid[..64]);
+        assert_ne!(red[64..], lid[64..]);
+        assert_eq!(lid[..48], moved[..48]);
+        assert_eq!(lid[64..], moved[64..]);
+        assert_ne!(lid[48..64], moved[48..64]);
+        let (green, pillar) = (bytes("green cube"), bytes("pillar"));
+        assert_eq!(green[48..64], pillar[48..64]);
+        assert_ne!(green[..48], pillar[..48]);
+        assert_ne!(green[64..], pillar[64..]);
+    }
+
+    #[test]
+    fn programs_lay_out_the_same_transform_their_own_way() {
+        let scene = model_view_projection_pair();
+        let object = &scene.objects[find(&scene, "middle cube")];
+        let mvp = scene.mvp(object, ASPECT);
+        let floats = |bytes: Vec<u8>| -> Vec<f32> {
+            bytes
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+                .collect()
+        };
+        // Row-major: the transpose of the column-major bytes, then the color.
+        let columns = floats(scene.push_constants(Program::Flat, object, ASPECT));
+        for program in [Program::RowMajor, Program::RowVector] {
+            let rows = floats(scene.push_constants(program, object, ASPECT));
+            for r in 0..4 {
+                for c in 0..4 {
+                    assert_eq!(rows[r * 4 + c], columns[c * 4 + r]);
+                }
+            }
+            assert_eq!(rows[16..], columns[16..]);
+        }
+        // The pair: M at 0, P * V at 64, no color; P * V is what a layer sees as projection,
+        // and the two stages compose to the MVP.
+        let pair = floats(scene.push_constants(Program::MvpPair, object, ASPECT));
+        assert_eq!(pair.len(), 32);
+        assert_eq!(pair[..16], object.model.as_mat4().to_cols_array());
+        let view_projection = scene.view_projection(ASPECT).as_mat4().to_cols_array();
+        assert_eq!(pair[16..], view_projection);
+        assert_eq!(
+            scene.pushed_projection(Program::MvpPair, object, ASPECT),
+            view_projection
+        );
+        let stages = scene.matrix_stages(Program::MvpPair, View::Camera, object, ASPECT);
+        assert!((stages[0] * stages[1]).abs_diff_eq(mvp, 1e-12));
+    }
+
+    #[test]
+    fn baked_vertices_land_where_the_world_path_puts_them() {
+        for scene in [projection_only(), view_projection()] {
+            let space = scene.objects[0].space;
+            assert!(matches!(space, Space::ViewBaked | Space::WorldBaked));
+            let pushed = scene.mvp_in(View::Camera, &scene.objects[0], ASPECT);
+            let expected = match space {
+                Space::ViewBaked => scene.camera.projection(ASPECT),
+                _ => scene.view_projection(ASPECT),
+            };
+            assert_eq!(pushed, expected, "{}", scene.name);
+            for object in &scene.objects {
+                let world = Object {
+                    space: Space::World,
+                    ..object.clone()
+                };
+                let by_world = scene.mvp_in(View::Camera, &world, ASPECT);
+                let by_bake = scene.mvp_in(View::Camera, object, ASPECT);
+                for (p, q) in object
+                    .mesh
+                    .positions_f64()
+                    .zip(scene.vertex_positions(object))
+                {
+                    let (a, b) = (by_world * p.extend(1.0), by_bake * q.extend(1.0));
+                    // The bake rounds once to f32: relative 1e-7 of the coordinates.
+                    assert!((a - b).abs().max_element() < 1e-6 * a.abs().max_element());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn view_projection_reaches_far_inside_its_planes() {
+        let scene = view_projection();
+        let camera = &scene.camera;
+        let farthest = (0..scene.objects.len())
+            .flat_map(|n| clip(&scene, View::Camera, n))
+            .map(|c| c.w)
+            .fold(0.0, f64::max);
+        assert!(farthest > 800.0 && farthest < camera.far, "{farthest}");
+    }
+
+    #[test]
+    fn threads_record_every_object_once_each_list_binding_its_own_state() {
+        let scene = threads();
+        let [Step::BeginPass(0), Step::ExecuteSecondaries(lists, Recording::ThreadPerSecondary), Step::EndPass] =
+            &scene.plan.steps[..]
+        else {
+            panic!("{:?}", scene.plan.steps);
+        };
+        assert_eq!(lists.len(), THREADS);
+        let mut drawn = Vec::new();
+        for list in lists {
+            assert!(matches!(list[0], Step::Bind(_)));
+            assert!(matches!(list[1], Step::SetViewport { .. }));
+            drawn.extend(list.iter().filter_map(|s| match s {
+                Step::Draw(n) => Some(*n),
+                _ => None,
+            }));
+        }
+        drawn.sort_unstable();
+        assert_eq!(drawn, (0..scene.objects.len()).collect::<Vec<_>>());
+        assert_eq!(
+            scene.plan.needs().secondaries,
+            0,
+            "no secondary from the main pool"
+        );
+        let mut names: Vec<&str> = scene.objects.iter().map(|o| o.name).collect();
+        let mut expected: Vec<&str> = overlap().objects.iter().map(|o| o.name).collect();
+        names.sort_unstable();
+        expected.sort_unstable();
+        assert_eq!(names, expected);
+    }
+
+    #[test]
+    fn the_depth_conventions_follow_the_cameras() {
+        let gl = opengl_depth();
+        assert!(gl.plan.pipelines.iter().all(|p| p.negative_one_to_one));
+        assert!(gl.plan.needs().depth_clip_control);
+        let reversed = already_reversed();
+        assert_eq!(reversed.plan.main_clear_depth(), 0.0);
+        assert_eq!(
+            reversed.plan.pipelines[0].depth_test,
+            DepthTest::Static(Compare::Greater)
+        );
+        // Depth decreases with distance: the near cube's nearest vertex is above the far
+        // cube's farthest.
+        let near = depth_range_of(&reversed, "near cube");
+        let far = depth_range_of(&reversed, "far cube");
+        assert!(near.0 > far.1);
+        for scene in all() {
+            if scene.name != "opengl-depth" {
+                assert!(!scene.plan.needs().depth_clip_control, "{}", scene.name);
+            }
+        }
     }
 
     #[test]

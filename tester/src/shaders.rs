@@ -43,6 +43,19 @@ pub const SHADOW_RECEIVER_VERT: ShaderSource = shader!("shadow_receiver.vert");
 /// says the fragment is shadowed.
 pub const SHADOW_RECEIVER_FRAG: ShaderSource = shader!("shadow_receiver.frag");
 
+/// `row_major.vert`: `gl_Position = pc.mvp * vec4(position, 1.0)` with `mvp` decorated
+/// `RowMajor` (its rows consecutive in memory, as HLSL compilers lay matrices out).
+pub const ROW_MAJOR_VERT: ShaderSource = shader!("row_major.vert");
+/// `row_vector.vert`: `gl_Position = vec4(position, 1.0) * pc.mvp_transposed` (HLSL's
+/// `mul(v, M)`): the same bytes as `row_major.vert`, reached by another SPIR-V instruction.
+pub const ROW_VECTOR_VERT: ShaderSource = shader!("row_vector.vert");
+
+/// `mvp_pair.vert`: `gl_Position = pc.view_proj * (pc.model * vec4(position, 1.0))`, two
+/// push-constant matrices; passes the instance index (the object's index) on.
+pub const MVP_PAIR_VERT: ShaderSource = shader!("mvp_pair.vert");
+/// `mvp_pair.frag`: the object's color from a uniform buffer of colors.
+pub const MVP_PAIR_FRAG: ShaderSource = shader!("mvp_pair.frag");
+
 /// Every embedded module.
 #[cfg(test)]
 pub const ALL: &[ShaderSource] = &[
@@ -50,6 +63,10 @@ pub const ALL: &[ShaderSource] = &[
     SCENE_FRAG,
     SHADOW_RECEIVER_VERT,
     SHADOW_RECEIVER_FRAG,
+    ROW_MAJOR_VERT,
+    ROW_VECTOR_VERT,
+    MVP_PAIR_VERT,
+    MVP_PAIR_FRAG,
 ];
 
 #[cfg(test)]
@@ -82,6 +99,44 @@ mod tests {
         let broken = [0x0723_0203u32, 0x0001_0000, 0, 0, 0];
         let validator = val::create(Some(TargetEnv::Vulkan_1_1));
         assert!(validator.validate(broken, None).is_err());
+    }
+
+    /// The (struct id, member, decoration) of every `OpMemberDecorate` without literals.
+    fn member_decorations(words: &[u32]) -> Vec<(u32, u32, u32)> {
+        let mut at = 5;
+        let mut out = Vec::new();
+        while at < words.len() {
+            let count = (words[at] >> 16) as usize;
+            assert!(count > 0);
+            if words[at] & 0xffff == 72 && count == 4 {
+                out.push((words[at + 1], words[at + 2], words[at + 3]));
+            }
+            at += count;
+        }
+        out
+    }
+
+    #[test]
+    fn the_row_major_matrix_is_decorated_row_major() {
+        const ROW_MAJOR: u32 = 4;
+        const COL_MAJOR: u32 = 5;
+        let decorations = member_decorations(&ROW_MAJOR_VERT.words().unwrap());
+        // Exactly one matrix member, member 0, and it is RowMajor.
+        let layouts: Vec<_> = decorations
+            .iter()
+            .filter(|d| d.2 == ROW_MAJOR || d.2 == COL_MAJOR)
+            .collect();
+        assert_eq!(layouts.len(), 1, "{decorations:?}");
+        assert_eq!((layouts[0].1, layouts[0].2), (0, ROW_MAJOR));
+        // The other shaders keep naga's ColMajor.
+        for shader in [SCENE_VERT, ROW_VECTOR_VERT, MVP_PAIR_VERT] {
+            let decorations = member_decorations(&shader.words().unwrap());
+            assert!(
+                decorations.iter().all(|d| d.2 != ROW_MAJOR),
+                "{}: {decorations:?}",
+                shader.name
+            );
+        }
     }
 
     #[test]

@@ -1,5 +1,7 @@
 //! Harness for the end-to-end tests: runs `revz-tester` as a child process on lavapipe, with
-//! the Khronos validation layer, with or without the revz layer, and reads back what it wrote.
+//! the Khronos validation layer, with or without the revz layer, and reads back what it wrote:
+//! the images, the depth values, and for scenes that have one the tester's computed ground
+//! truth ([`GroundTruth`]), against which [`compare_depth`] checks depth pixel by pixel.
 //!
 //! The binaries and manifests come from `cargo xtask build` (which `cargo xtask test` runs
 //! first): the harness finds them next to the test executable, in the same profile directory.
@@ -255,4 +257,259 @@ pub fn differing_depths(a: &[f32], b: &[f32]) -> usize {
         .zip(b)
         .filter(|(x, y)| x.to_bits() != y.to_bits())
         .count()
+}
+
+/// The object id of pixels where nothing is drawn (in `expected-id.u16`).
+pub const BACKGROUND: u16 = u16::MAX;
+
+/// One object of the ground truth (`render.json`'s `ground_truth.objects`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruthObject {
+    /// Its index in the scene (the id in `expected-id.u16`).
+    pub id: u16,
+    /// Its name.
+    pub name: String,
+    /// Its flat RGBA8 color.
+    pub color: [u8; 4],
+    /// The outermost matrix the application pushes for it, as the shader applies it
+    /// (`clip = M * v`), column-major f32: what a projection-rewriting layer sees.
+    pub pushed_projection: [f32; 16],
+    /// The GPU's float32 w is within `(u + gamma_4) * w_condition * w` of the exact one.
+    pub w_condition: f64,
+}
+
+/// The ground truth the tester computed for a render (`expected-w.f64`, `expected-id.u16` and
+/// the `ground_truth` section of `render.json`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroundTruth {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// The camera's near plane.
+    pub near: f64,
+    /// The camera's far plane.
+    pub far: f64,
+    /// The application's clip depth is OpenGL's [-1, 1].
+    pub negative_one_to_one: bool,
+    /// The application's projection is already reversed.
+    pub reversed: bool,
+    /// The visible object per pixel ([`BACKGROUND`] for none).
+    pub ids: Vec<u16>,
+    /// The visible surface's exact view-space w at interior pixels, NaN elsewhere.
+    pub w: Vec<f64>,
+    /// The objects drawn into the main target.
+    pub objects: Vec<TruthObject>,
+}
+
+impl GroundTruth {
+    /// The object with id `id`.
+    pub fn object(&self, id: u16) -> &TruthObject {
+        self.objects
+            .iter()
+            .find(|o| o.id == id)
+            .unwrap_or_else(|| panic!("no object {id} in the ground truth"))
+    }
+
+    /// The number of interior pixels.
+    pub fn interior(&self) -> usize {
+        self.w.iter().filter(|w| w.is_finite()).count()
+    }
+
+    /// The background pixels whose 3 x 3 neighbourhood is all background (no silhouette near).
+    pub fn open_background(&self) -> Vec<usize> {
+        let (width, height) = (self.width, self.height);
+        (0..width * height)
+            .filter(|&at| {
+                let (x, y) = (at % width, at / width);
+                (y.saturating_sub(1)..(y + 2).min(height)).all(|ny| {
+                    (x.saturating_sub(1)..(x + 2).min(width))
+                        .all(|nx| self.ids[ny * width + nx] == BACKGROUND)
+                })
+            })
+            .collect()
+    }
+}
+
+impl Render {
+    /// The tester's ground truth for this render; panics if the scene has none.
+    pub fn ground_truth(&self) -> GroundTruth {
+        let json = self.json();
+        let truth = &json["ground_truth"];
+        assert!(
+            truth.is_object(),
+            "scene {} has no ground truth: {json}",
+            json["scene"]
+        );
+        let number = |v: &serde_json::Value| v.as_f64().expect("a number");
+        let (width, height) = (
+            json["width"].as_u64().expect("width") as usize,
+            json["height"].as_u64().expect("height") as usize,
+        );
+        let read = |key: &str| {
+            let name = truth[key].as_str().expect("a file name");
+            std::fs::read(self.dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+        };
+        let w: Vec<f64> = read("file")
+            .chunks_exact(8)
+            .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")))
+            .collect();
+        let ids: Vec<u16> = read("id_file")
+            .chunks_exact(2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]))
+            .collect();
+        assert_eq!(w.len(), width * height, "expected-w.f64 has the wrong size");
+        assert_eq!(
+            ids.len(),
+            width * height,
+            "expected-id.u16 has the wrong size"
+        );
+        let objects = truth["objects"]
+            .as_array()
+            .expect("objects")
+            .iter()
+            .map(|o| {
+                let values: Vec<f32> = o["pushed_projection"]
+                    .as_array()
+                    .expect("pushed_projection")
+                    .iter()
+                    .map(|v| number(v) as f32)
+                    .collect();
+                let color: Vec<u8> = o["color"]
+                    .as_array()
+                    .expect("color")
+                    .iter()
+                    .map(|v| v.as_u64().expect("a color component") as u8)
+                    .collect();
+                TruthObject {
+                    id: o["id"].as_u64().expect("id") as u16,
+                    name: o["name"].as_str().expect("name").to_owned(),
+                    color: color.try_into().expect("RGBA"),
+                    pushed_projection: values.try_into().expect("16 values"),
+                    w_condition: number(&o["w_condition"]),
+                }
+            })
+            .collect();
+        let ground_truth = GroundTruth {
+            width,
+            height,
+            near: number(&truth["near"]),
+            far: number(&truth["far"]),
+            negative_one_to_one: truth["depth_convention"] == "negative-one-to-one",
+            reversed: truth["reversed"] == true,
+            ids,
+            w,
+            objects,
+        };
+        assert_eq!(
+            ground_truth.interior() as u64,
+            truth["interior_pixels"].as_u64().expect("interior_pixels")
+        );
+        ground_truth
+    }
+}
+
+/// How the depth read back compares with a reference at the interior pixels.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DepthComparison {
+    /// Interior pixels checked.
+    pub checked: usize,
+    /// Pixels outside their bound.
+    pub failures: usize,
+    /// The largest |depth - reference| / bound (< 1 everywhere means the check holds).
+    pub worst_ratio: f64,
+    /// The largest |depth - reference| / |reference|.
+    pub worst_relative: f64,
+    /// The pixel with the worst ratio, described.
+    pub worst: String,
+}
+
+impl DepthComparison {
+    /// Whether every pixel is within its bound.
+    pub fn holds(&self) -> bool {
+        self.checked > 0 && self.failures == 0
+    }
+}
+
+/// Compares `depth` with `reference(object, w) = (value, bound)` at every interior pixel of
+/// `truth`.
+pub fn compare_depth(
+    depth: &[f32],
+    truth: &GroundTruth,
+    mut reference: impl FnMut(&TruthObject, f64) -> (f64, f64),
+) -> DepthComparison {
+    assert_eq!(
+        depth.len(),
+        truth.w.len(),
+        "depth and ground truth sizes differ"
+    );
+    let mut result = DepthComparison::default();
+    for (at, (&stored, &w)) in depth.iter().zip(&truth.w).enumerate() {
+        if !w.is_finite() {
+            continue;
+        }
+        let object = truth.object(truth.ids[at]);
+        let (value, bound) = reference(object, w);
+        let error = (f64::from(stored) - value).abs();
+        result.checked += 1;
+        // NaN (a reference or a depth that is not a number) counts as a failure.
+        let within = error <= bound;
+        if !within {
+            result.failures += 1;
+        }
+        result.worst_relative = result.worst_relative.max(error / value.abs());
+        let ratio = error / bound;
+        if ratio > result.worst_ratio || ratio.is_nan() {
+            result.worst_ratio = ratio;
+            result.worst = format!(
+                "pixel ({}, {}) on {}: w {w:.6}, depth {stored:e}, reference {value:e}, \
+                 error {error:.3e} = {:.3e} relative, bound {bound:.3e}",
+                at % truth.width,
+                at / truth.width,
+                object.name,
+                error / value.abs(),
+            );
+        }
+    }
+    result
+}
+
+/// The pixels where `layered`'s colors differ from `native`'s that the ground truth does not
+/// explain, described. A difference is explained at a pixel that is not interior (a silhouette
+/// or an intersection line: two surfaces meet near its center) where `layered` shows the
+/// object that is exactly nearest at the pixel center: a depth tie that `native` resolved with
+/// less precision. At interior pixels the colors must be identical.
+pub fn unexplained_color_differences(
+    native: &image::RgbaImage,
+    layered: &image::RgbaImage,
+    truth: &GroundTruth,
+) -> Vec<String> {
+    assert_eq!(native.dimensions(), layered.dimensions());
+    let width = truth.width;
+    native
+        .pixels()
+        .zip(layered.pixels())
+        .enumerate()
+        .filter(|(_, (a, b))| a != b)
+        .filter_map(|(at, (a, b))| {
+            let id = truth.ids[at];
+            let exact = (id != BACKGROUND).then(|| truth.object(id));
+            let explained = truth.w[at].is_nan() && exact.is_some_and(|o| o.color == b.0);
+            (!explained).then(|| {
+                format!(
+                    "pixel ({}, {}): {:?} natively, {:?} layered, {} exactly{}",
+                    at % width,
+                    at / width,
+                    a.0,
+                    b.0,
+                    exact.map_or("background", |o| o.name.as_str()),
+                    if truth.w[at].is_nan() {
+                        ""
+                    } else {
+                        " (interior)"
+                    },
+                )
+            })
+        })
+        .collect()
 }

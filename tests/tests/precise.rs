@@ -1,0 +1,516 @@
+//! End-to-end tests of the precise path (issue #3): the tester's scenes that hand their
+//! projection to the shader in the ways applications do (a bare P, P * V, P * V * M, a model
+//! and a view-projection matrix side by side, row-major storage, OpenGL depth, partial push
+//! updates, recording on several threads), rendered on lavapipe under the validation layer,
+//! checked pixel by pixel against the tester's computed ground truth (`expected-w.f64`: the
+//! exact view-space w of the visible surface at every interior pixel).
+//!
+//! - `ground_truth::*` (no layer): the native depth is the camera's standard mapping of the
+//!   ground truth's w within [`depth_floor`]: this proves the ground truth and the floor.
+//! - `precise::*`: through revz in `complementary` and `infinite` mode (and `infinite` with
+//!   `far_clip=keep`), depth readback allowed (`reverse_observable=copies`): zero validation
+//!   messages, the color image identical to the native one (at interior pixels; elsewhere a
+//!   difference must show the object the ground truth says is nearest: an intersection line
+//!   where two surfaces are closer at a pixel center than standard depth resolves, and the
+//!   layer got right), and the depth read back equal to the reversed mapping of the ground
+//!   truth's w within [`depth_floor`].
+//! - `flip_does_not_meet_the_precise_bound`: the flip path stores 1 - D_standard, which is
+//!   correct but carries standard depth's rounding near 1: it must fail the same check, or the
+//!   check would not show that the projection was rewritten.
+//! - `already_reversed_is_left_alone`: an application with its own reversed projection renders
+//!   bit-identically with and without the layer, in every mode, and the layer says so.
+//!
+//! # The reference
+//!
+//! For each object the reference mapping uses the visible range (n', f') of the matrix the
+//! application actually pushed (float32), recovered with `revz-math` in f64 exactly as the
+//! layer does: complementary `n' (f' - w) / (w (f' - n'))` (= 1 - D_standard(w)), infinite
+//! `n' / w`. Not the camera's f64 (n, f): a precomposed float32 matrix only determines its depth
+//! row to its own rounding (its translation entry is about `k * r3[3] + B` with `|k r3[3]|`
+//! some 100 times `|B|` for these cameras), so its n' differs from the camera's n by up to about
+//! 2e-6 relative (measured on `overlap`), and that is what any layer, however exact, reproduces.
+//! The ground truth's w, on the other hand, comes from the f64 matrices (what the application
+//! meant); the float32 evaluation of w is part of the floor below.
+//!
+//! # The floor
+//!
+//! [`depth_floor`] bounds |stored - reference| at an interior pixel for a stored mapping
+//! `D(w) = k + B / w`, with u = 2^-24, gamma_4 = 4u / (1 - 4u) (the running error of a float32
+//! dot product of 4 terms, as in `revz_math::precision`), and c = the object's `w_condition`
+//! (the GPU's w is within `(u + gamma_4) c w` of the exact w; about 1 to 3 here):
+//!
+//! ```text
+//! (u + gamma_4) (|k| c + |B| / w + |D| c)      vertex stage: the depth row rounded to float32
+//!                                               and evaluated, and the error of w
+//! + 2u |D| * (2.5 + 4 + 0.5)                   division (2.5 ulp, Vulkan's bound), rasterizer
+//!                                               interpolation (4 ulp), storing (0.5 ulp)
+//! + one step of the format's grid (D24: 2^-24; D32: 0)
+//! ```
+//!
+//! Vertex errors carry over to the pixel: depth is interpolated linearly in screen space, with
+//! the same weights as the depth itself, so an error relative to D at the vertices stays
+//! relative to D at the pixel, and the `|B| / w` term interpolates to `|B| / w` at the pixel
+//! (1/w is affine in screen space too). For the reversed mappings (|k| <= n/(f-n), D ~ n/w) the
+//! floor is a relative tolerance of about `(u + gamma_4)(1 + c) + 14u`, 1e-6 to 2e-6 for these
+//! scenes; for standard depth near 1 it is an absolute one of 2e-6 to 3e-6.
+//! Measured on lavapipe: native standard depth is within 3.1e-7 of its reference (5 ulps of
+//! 1), an application's own float32 complementary projection (`already-reversed`) within
+//! 3.3e-7 relative: the floor holds with a margin of 5 or more. The flip path on
+//! `view-projection` is off by up to about 1e-2 relative (its surfaces 860 away have
+//! 1 - D ~ 1e-4, stored to 6e-8), on `overlap` by about 2e-5.
+
+use revz_math::precision::{float32_gamma, F32_UNIT_ROUNDOFF};
+use revz_math::{classify, read_clip_transform, DepthConvention, Storage};
+use revz_tests::{
+    compare_depth, differing_depths, differing_pixels, unexplained_color_differences,
+    DepthComparison, GroundTruth, Harness, Render, TruthObject,
+};
+
+/// The render size of every test here: small, lavapipe is a CPU.
+const SIZE: [&str; 4] = ["--width", "96", "--height", "64"];
+
+/// Ulps (of the stored value) allowed after the vertex stage: division 2.5, interpolation 4,
+/// storing 0.5.
+const RASTER_ULPS: f64 = 7.0;
+
+/// The substring of the layer's info line for an application it leaves alone.
+const ALREADY_REVERSED_LINE: &str = "already uses reversed depth";
+
+/// A stored depth mapping `D(w) = k + b / w` (viewport [0, 1]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Mapping {
+    k: f64,
+    b: f64,
+    kind: Kind,
+    near: f64,
+    far: f64,
+}
+
+/// Which mapping, for evaluating it in its most accurate form.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// `f / (f - n) * (1 - n / w)`: near 0, far 1.
+    Standard,
+    /// `n (f - w) / (w (f - n))` = 1 - standard: near 1, far 0.
+    Complementary,
+    /// `n / w`: near 1, infinity 0.
+    Infinite,
+}
+
+impl Mapping {
+    fn new(kind: Kind, near: f64, far: f64) -> Mapping {
+        let (k, b) = match kind {
+            Kind::Standard => (far / (far - near), -far * near / (far - near)),
+            Kind::Complementary => (-near / (far - near), far * near / (far - near)),
+            Kind::Infinite => (0.0, near),
+        };
+        Mapping {
+            k,
+            b,
+            kind,
+            near,
+            far,
+        }
+    }
+
+    /// The stored depth at view distance `w`, in f64.
+    fn at(self, w: f64) -> f64 {
+        let (n, f) = (self.near, self.far);
+        match self.kind {
+            Kind::Standard => f / (f - n) * (1.0 - n / w),
+            Kind::Complementary => n * (f - w) / (w * (f - n)),
+            Kind::Infinite => n / w,
+        }
+    }
+}
+
+/// The bound on |stored - reference| at an interior pixel (derivation in the module docs).
+///
+/// With `negativeOneToOne` the pipeline computes z_ndc = 2D - 1 (the mapping's clip-space form
+/// is k_ndc = 2k - 1, B_ndc = 2B) and the viewport stores (z_ndc + 1) / 2: every error of the
+/// vertex stage and of the division is relative to |z_ndc| ~ 1, not to the stored D, and the
+/// addition rounds once more. Near the far plane of a reversed mapping (D ~ 0, z_ndc ~ -1)
+/// that is an absolute floor of a few u whatever the layer does: the OpenGL convention's own
+/// cancellation, which only a pipeline clipping to [0, 1] would avoid.
+fn depth_floor(
+    mapping: Mapping,
+    reference: f64,
+    w: f64,
+    w_condition: f64,
+    format: &str,
+    negative_one_to_one: bool,
+) -> f64 {
+    let u = F32_UNIT_ROUNDOFF;
+    let (k, b, d) = if negative_one_to_one {
+        (
+            2.0 * mapping.k - 1.0,
+            2.0 * mapping.b,
+            2.0 * reference - 1.0,
+        )
+    } else {
+        (mapping.k, mapping.b, reference)
+    };
+    let scale = if negative_one_to_one { 0.5 } else { 1.0 };
+    let vertex = scale
+        * (u + float32_gamma(4))
+        * (k.abs() * w_condition + b.abs() / w + d.abs() * w_condition);
+    let viewport = if negative_one_to_one { u } else { 0.0 };
+    let raster = scale * RASTER_ULPS * 2.0 * u * d.abs() + viewport;
+    let grid = match format {
+        "x8-d24" | "d24-s8" => 1.0 / 16_777_215.0,
+        "d16" => 1.0 / 65_535.0,
+        _ => 0.0,
+    };
+    vertex + raster + grid + f64::from(f32::MIN_POSITIVE)
+}
+
+/// The visible range (n', f') of the matrix pushed for `object`, recovered in f64 under the
+/// application's depth convention, as the layer recovers it.
+fn pushed_range(object: &TruthObject, truth: &GroundTruth) -> (f64, f64) {
+    let convention = if truth.negative_one_to_one {
+        DepthConvention::NegativeOneToOne
+    } else {
+        DepthConvention::ZeroToOne
+    };
+    let m = read_clip_transform(&object.pushed_projection, Storage::ColumnMajor);
+    let range = classify(&m, convention).range().unwrap_or_else(|| {
+        panic!(
+            "{}: the pushed matrix is not a perspective: {:?}",
+            object.name,
+            classify(&m, convention)
+        )
+    });
+    (range.near(), range.far())
+}
+
+/// What the layer is asked to do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Case {
+    mode: &'static str,
+    keep_far_clip: bool,
+}
+
+const COMPLEMENTARY: Case = Case {
+    mode: "complementary",
+    keep_far_clip: false,
+};
+const INFINITE: Case = Case {
+    mode: "infinite",
+    keep_far_clip: false,
+};
+const INFINITE_KEEP: Case = Case {
+    mode: "infinite",
+    keep_far_clip: true,
+};
+
+impl Case {
+    fn label(self) -> String {
+        if self.keep_far_clip {
+            format!("{}+keep", self.mode)
+        } else {
+            self.mode.to_owned()
+        }
+    }
+
+    /// The reference mapping of an object under this case.
+    fn mapping(self, object: &TruthObject, truth: &GroundTruth) -> Mapping {
+        let (near, far) = pushed_range(object, truth);
+        match self.mode {
+            "infinite" => Mapping::new(Kind::Infinite, near, far),
+            _ => Mapping::new(Kind::Complementary, near, far),
+        }
+    }
+}
+
+/// Renders `scene` at the test size, without the layer (`case` None) or through it with depth
+/// readback allowed; `label` keeps scratch directories of parallel tests apart.
+fn render(harness: &Harness, label: &str, scene: &str, format: &str, case: Option<Case>) -> Render {
+    let mode = case.map_or("native".to_owned(), Case::label);
+    let dir = harness.scratch_dir(&format!("precise-{label}-{scene}-{format}-{mode}"));
+    let mut command = harness.tester(format, &dir);
+    command.args(["--scene", scene]).args(SIZE);
+    if let Some(case) = case {
+        harness
+            .with_layer(&mut command)
+            .env("REVZ_MODE", case.mode)
+            .env("REVZ_REVERSE_OBSERVABLE", "copies")
+            .env("REVZ_LOG", "info");
+        if case.keep_far_clip {
+            command.env("REVZ_FAR_CLIP", "keep");
+        }
+    }
+    let render = harness.render(command, &dir);
+    if let Some(case) = case {
+        assert_eq!(
+            render.loaded_mode().as_deref(),
+            Some(case.mode),
+            "{}",
+            render.stderr()
+        );
+    }
+    render
+}
+
+/// Compares a render's depth with `mapping_of(object)` at the ground truth's interior pixels.
+fn compare(
+    render: &Render,
+    truth: &GroundTruth,
+    format: &str,
+    mapping_of: impl Fn(&TruthObject) -> Mapping,
+) -> DepthComparison {
+    compare_depth(&render.depth(), truth, |object, w| {
+        let mapping = mapping_of(object);
+        let reference = mapping.at(w);
+        (
+            reference,
+            depth_floor(
+                mapping,
+                reference,
+                w,
+                object.w_condition,
+                format,
+                truth.negative_one_to_one,
+            ),
+        )
+    })
+}
+
+fn describe(what: &str, comparison: &DepthComparison) -> String {
+    format!(
+        "{what}: {} of {} interior pixels outside the floor; worst error {:.2} x the floor, \
+         worst relative error {:.3e}; worst pixel: {}",
+        comparison.failures,
+        comparison.checked,
+        comparison.worst_ratio,
+        comparison.worst_relative,
+        comparison.worst
+    )
+}
+
+/// Without the layer, the depth on d32 is the camera's own mapping (standard, or
+/// complementary for `already-reversed`) of the ground truth's w within the floor, and the
+/// open background holds the clear value: the ground truth says what was rendered.
+fn ground_truth_holds(scene: &str) {
+    let harness = Harness::locate();
+    let native = render(&harness, "truth", scene, "d32", None);
+    let truth = native.ground_truth();
+    assert!(
+        truth.interior() > truth.width * truth.height / 2,
+        "{scene}: only {} interior pixels",
+        truth.interior()
+    );
+    let kind = if truth.reversed {
+        Kind::Complementary
+    } else {
+        Kind::Standard
+    };
+    let camera = Mapping::new(kind, truth.near, truth.far);
+    let comparison = compare(&native, &truth, "d32", |_| camera);
+    // Shown with --nocapture: the margin, for the record.
+    eprintln!("native {}", describe(scene, &comparison));
+    assert!(comparison.holds(), "{}", describe(scene, &comparison));
+    let clear = if truth.reversed { 0.0 } else { 1.0 };
+    let depth = native.depth();
+    for at in truth.open_background() {
+        assert_eq!(depth[at], clear, "{scene}: background pixel {at}");
+    }
+    // Every pushed matrix renders the camera's range, to its float32 rounding: the precise
+    // references (which use the pushed ranges) are the camera's mapping to about 1e-5.
+    for object in &truth.objects {
+        let (near, far) = pushed_range(object, &truth);
+        assert!(
+            (near / truth.near - 1.0).abs() < 1e-5 && (far / truth.far - 1.0).abs() < 1e-3,
+            "{scene}: {} pushes a matrix of range [{near}, {far}]",
+            object.name
+        );
+    }
+}
+
+/// The precise path on `scene` in `format`, for each case: clean, the native colors, the
+/// reversed mapping of the ground truth within the floor, and the cleared background.
+fn precise_path(scene: &str, format: &str, cases: &[Case]) {
+    let harness = Harness::locate();
+    let native = render(&harness, "precise", scene, format, None);
+    let truth = native.ground_truth();
+    let mut problems = Vec::new();
+    for &case in cases {
+        let label = case.label();
+        let layered = render(&harness, "precise", scene, format, Some(case));
+        if !layered.stderr().contains("): reversed") {
+            problems.push(format!(
+                "{label}: the depth attachment was not reversed: {}",
+                layered.stderr()
+            ));
+        }
+        let (native_color, layered_color) = (native.color(), layered.color());
+        let unexplained = unexplained_color_differences(&native_color, &layered_color, &truth);
+        if !unexplained.is_empty() {
+            problems.push(format!(
+                "{label}: {} color pixels differ from the native render where the ground \
+                 truth does not explain it: {}",
+                unexplained.len(),
+                unexplained.join("; ")
+            ));
+        }
+        let comparison = compare(&layered, &truth, format, |o| case.mapping(o, &truth));
+        // Shown with --nocapture: the margins of passing checks, for the record.
+        eprintln!(
+            "{scene} {format}: {} ({} color pixels differ, all explained)",
+            describe(&label, &comparison),
+            differing_pixels(&native_color, &layered_color) - unexplained.len()
+        );
+        if !comparison.holds() {
+            problems.push(describe(&label, &comparison));
+        }
+        // The clear value: 1.0 flipped to 0 (the far end of both reversed mappings). With the
+        // far plane kept, the layer clears to n/f, known only after a projection was seen: it
+        // must at least be one value, behind everything drawn.
+        let depth = layered.depth();
+        let background: Vec<f32> = truth
+            .open_background()
+            .iter()
+            .map(|&at| depth[at])
+            .collect();
+        let wrong_background = if case.keep_far_clip {
+            background.iter().any(|&d| d != background[0])
+        } else {
+            background.iter().any(|&d| d != 0.0)
+        };
+        if wrong_background {
+            let mut values = background.clone();
+            values.sort_by(f32::total_cmp);
+            values.dedup();
+            values.truncate(4);
+            problems.push(format!("{label}: background depths {values:?}"));
+        }
+    }
+    assert!(
+        problems.is_empty(),
+        "{scene} {format}:\n  {}",
+        problems.join("\n  ")
+    );
+}
+
+/// One ground-truth test and one precise test per scene (d32, every case).
+macro_rules! scene_tests {
+    ($($name:ident: $scene:literal;)*) => {
+        mod ground_truth {
+            $(
+                #[test]
+                fn $name() {
+                    super::ground_truth_holds($scene);
+                }
+            )*
+
+            #[test]
+            fn already_reversed() {
+                super::ground_truth_holds("already-reversed");
+            }
+        }
+
+        mod precise {
+            use super::{COMPLEMENTARY, INFINITE, INFINITE_KEEP};
+            $(
+                #[test]
+                fn $name() {
+                    super::precise_path($scene, "d32", &[COMPLEMENTARY, INFINITE, INFINITE_KEEP]);
+                }
+            )*
+
+            /// D24 keeps its fixed-point grid: the floor grows by one step, and the test shows
+            /// the path is correct there too (not more precise).
+            #[test]
+            fn overlap_d24_s8() {
+                super::precise_path("overlap", "d24-s8", &[COMPLEMENTARY, INFINITE]);
+            }
+        }
+    };
+}
+
+scene_tests! {
+    overlap: "overlap";
+    projection_only: "projection-only";
+    view_projection: "view-projection";
+    model_view_projection_pair: "model-view-projection-pair";
+    row_major: "row-major";
+    opengl_depth: "opengl-depth";
+    push_partial: "push-partial";
+    threads: "threads";
+}
+
+/// The flip path renders `view-projection` correctly (same colors, depth = 1 - native) but
+/// with standard depth's precision: checked like the precise path's complementary mode it
+/// fails at most pixels, and by far: the check tells a rewritten projection from a flipped
+/// viewport.
+#[test]
+fn flip_does_not_meet_the_precise_bound() {
+    let harness = Harness::locate();
+    let scene = "view-projection";
+    let native = render(&harness, "flip", scene, "d32", None);
+    let truth = native.ground_truth();
+    let flip = Case {
+        mode: "flip",
+        keep_far_clip: false,
+    };
+    let flipped = render(&harness, "flip", scene, "d32", Some(flip));
+    assert_eq!(differing_pixels(&native.color(), &flipped.color()), 0);
+    let comparison = compare(&flipped, &truth, "d32", |o| {
+        COMPLEMENTARY.mapping(o, &truth)
+    });
+    eprintln!("{}", describe("flip", &comparison));
+    assert!(
+        comparison.failures * 2 > comparison.checked && comparison.worst_ratio > 100.0,
+        "the flip path passes the precise check: {}",
+        describe("flip", &comparison)
+    );
+    // Its depth is still the flipped native depth, within one float32 step near 1.
+    let worst = native
+        .depth()
+        .iter()
+        .zip(flipped.depth())
+        .map(|(n, f)| ((1.0 - f64::from(*n)) - f64::from(f)).abs())
+        .fold(0.0, f64::max);
+    assert!(worst <= 1.2e-7, "flip depth is not 1 - native: {worst:e}");
+}
+
+/// An application that renders reversed itself (complementary projection, clear 0, GREATER):
+/// in every mode the render is bit-identical to the one without the layer, and the layer logs
+/// that it left the application alone.
+#[test]
+fn already_reversed_is_left_alone() {
+    let harness = Harness::locate();
+    let scene = "already-reversed";
+    let native = render(&harness, "left-alone", scene, "d32", None);
+    let mut problems = Vec::new();
+    let cases = [
+        Case {
+            mode: "off",
+            keep_far_clip: false,
+        },
+        Case {
+            mode: "flip",
+            keep_far_clip: false,
+        },
+        COMPLEMENTARY,
+        INFINITE,
+        INFINITE_KEEP,
+    ];
+    for case in cases {
+        let label = case.label();
+        let layered = render(&harness, "left-alone", scene, "d32", Some(case));
+        let colors = differing_pixels(&native.color(), &layered.color());
+        let depths = differing_depths(&native.depth(), &layered.depth());
+        if colors != 0 || depths != 0 {
+            problems.push(format!(
+                "{label}: {colors} color pixels and {depths} depth values differ"
+            ));
+        }
+        if case.mode != "off" && !layered.stderr().contains(ALREADY_REVERSED_LINE) {
+            problems.push(format!(
+                "{label}: no '{ALREADY_REVERSED_LINE}' in the log:\n{}",
+                layered.stderr()
+            ));
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
