@@ -19,7 +19,7 @@
 
 use ash::vk;
 use revz_math::{
-    classify, read_clip_transform, rewrite, Classification, DepthConvention, Storage,
+    classify, read_clip_transform, reversed_depth_row, Classification, DepthConvention, Storage,
     Target as RewriteTarget,
 };
 
@@ -190,13 +190,25 @@ pub fn rewrite_projection(
     let m = read_clip_transform(values, storage);
     let classification = classify(&m, convention);
     match classification {
-        Classification::Perspective { range, .. } => match rewrite(&m, &classification, target) {
-            Some(reversed) => Outcome::Rewritten {
-                values: revz_math::write_clip_transform(&reversed, storage),
+        Classification::Perspective { range, .. } => {
+            // Only the depth row changes: the other twelve floats stay the application's.
+            let Some(row) = reversed_depth_row(&m, &classification, target, convention) else {
+                return Outcome::Unchanged;
+            };
+            let mut values = *values;
+            for (column, entry) in row.to_array().into_iter().enumerate() {
+                let index = match storage {
+                    Storage::ColumnMajor => 4 * column + 2,
+                    Storage::RowMajor => 8 + column,
+                };
+                // Rounded once, to nearest.
+                values[index] = entry as f32;
+            }
+            Outcome::Rewritten {
+                values,
                 near_over_far: (range.near() / range.far()) as f32,
-            },
-            None => Outcome::Unchanged,
-        },
+            }
+        }
         Classification::Reversed { .. } => Outcome::AlreadyReversed,
         Classification::Orthographic { .. } | Classification::NotProjection(_) => {
             Outcome::Unchanged
@@ -631,6 +643,31 @@ mod tests {
             None
         );
         assert_eq!(push_stages(&[range(VERTEX, 0, 32)], 0, 64), None);
+    }
+
+    #[test]
+    fn only_the_depth_row_is_rewritten_and_exactly_as_the_full_rewrite() {
+        for storage in [Storage::ColumnMajor, Storage::RowMajor] {
+            let columns = perspective();
+            let matrix = match storage {
+                Storage::ColumnMajor => columns,
+                Storage::RowMajor => glam::Mat4::from_cols_array(&columns)
+                    .transpose()
+                    .to_cols_array(),
+            };
+            for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
+                let m = read_clip_transform(&matrix, storage);
+                let classification = classify(&m, DepthConvention::ZeroToOne);
+                let full = revz_math::rewrite(&m, &classification, target).expect("a perspective");
+                let expected = revz_math::write_clip_transform(&full, storage);
+                let Outcome::Rewritten { values, .. } =
+                    rewrite_projection(&matrix, storage, DepthConvention::ZeroToOne, target)
+                else {
+                    panic!("not rewritten");
+                };
+                assert_eq!(values, expected, "{storage:?} {target:?}");
+            }
+        }
     }
 
     #[test]

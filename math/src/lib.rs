@@ -51,4 +51,4 @@ pub use classify::{
 };
 pub use matrix::{from_rows, read_clip_transform, write_clip_transform, Storage, E3};
 pub use range::{DepthCoefficients, DepthConvention, DepthDirection, RangeError, VisibleRange};
-pub use rewrite::{reversed_coefficients, rewrite, rewrite_into, Target};
+pub use rewrite::{reversed_coefficients, reversed_depth_row, rewrite, rewrite_into, Target};

@@ -35,7 +35,7 @@
 //! targets: an affine matrix never gets the infinite form. Already reversed and
 //! non-projection matrices are not rewritten.
 
-use glam::DMat4;
+use glam::{DMat4, DVec4};
 
 use crate::classify::Classification;
 use crate::matrix::{from_rows, E3};
@@ -90,6 +90,21 @@ pub fn rewrite_into(
     target: Target,
     output: DepthConvention,
 ) -> Option<DMat4> {
+    let depth_row = reversed_depth_row(m, classification, target, output)?;
+    Some(from_rows([m.row(0), m.row(1), depth_row, m.row(3)]))
+}
+
+/// The depth row (r2) of [`rewrite_into`]'s result: the only row a rewrite changes, so a
+/// caller holding the float32 matrix can replace just its four entries (the others stay
+/// exactly as they were). `None` where [`rewrite_into`] gives `None`, including a row whose
+/// entries would not fit in a float32.
+#[must_use]
+pub fn reversed_depth_row(
+    m: &DMat4,
+    classification: &Classification,
+    target: Target,
+    output: DepthConvention,
+) -> Option<DVec4> {
     let w_row = m.row(3);
     let depth_row = match *classification {
         Classification::Perspective { range, .. } => {
@@ -105,12 +120,11 @@ pub fn rewrite_into(
         }
         Classification::Reversed { .. } | Classification::NotProjection(_) => return None,
     };
-    let rewritten = from_rows([m.row(0), m.row(1), depth_row, w_row]);
-    let fits_float32 = rewritten
-        .to_cols_array()
+    let fits_float32 = depth_row
+        .to_array()
         .iter()
         .all(|entry| entry.is_finite() && entry.abs() <= f64::from(f32::MAX));
-    fits_float32.then_some(rewritten)
+    fits_float32.then_some(depth_row)
 }
 
 #[cfg(test)]

@@ -12,6 +12,8 @@
 //! Exit codes: 0 = rendered, no counted validation message; 1 = error; 2 = rendered (files
 //! written) but the validation layer reported messages.
 
+mod accuracy;
+mod bench;
 mod gpu;
 mod ground_truth;
 mod pipeline;
@@ -22,12 +24,13 @@ mod scene;
 mod scenes;
 mod shaders;
 mod target;
+mod variants;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
-use clap::Parser;
+use clap::{Parser, Subcommand};
 
 use crate::gpu::{Features, Gpu, GpuOptions};
 use crate::readback::{DepthStats, Readback, RenderReport};
@@ -39,8 +42,37 @@ use crate::target::{DepthFormat, TargetOptions, Targets};
 /// render.json (see `--scene` for the scenes), and for scenes where the nearest surface wins
 /// the computed ground truth, expected-w.f64 and expected-id.u16.
 #[derive(Debug, Parser)]
-#[command(name = "revz-tester", version)]
+#[command(
+    name = "revz-tester",
+    version,
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
 struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+
+    #[command(flatten)]
+    render: RenderArgs,
+}
+
+/// What else the tester does, beyond rendering one scene (the default).
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Accuracy report: every hard-case scene in every mode and depth format against ground
+    /// truth, the precision model beside it (report.json, report.md, images, plots).
+    Report(accuracy::ReportArgs),
+    /// Conformance for CI: every scene, mode and depth format against ground truth with a
+    /// stated bound each; exits non-zero on any failure; writes JUnit XML and JSON.
+    Conformance(accuracy::ConformanceArgs),
+    /// Benchmark: the layer's cost per frame, per pipeline and per intercepted call in every
+    /// mode, as ratios against no layer measured in one run.
+    Bench(bench::BenchArgs),
+}
+
+/// Renders one scene (the default command).
+#[derive(Debug, clap::Args)]
+struct RenderArgs {
     /// Render on the first device whose name contains NAME (case-insensitive). Default: the
     /// first device whose name contains "llvmpipe" (lavapipe), else the first device.
     #[arg(long, value_name = "NAME")]
@@ -76,8 +108,8 @@ struct Cli {
     vulkan: Option<String>,
 
     /// Output directory (created if missing).
-    #[arg(long, value_name = "DIR")]
-    out: PathBuf,
+    #[arg(long, value_name = "DIR", required = true)]
+    out: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -94,7 +126,13 @@ fn main() -> ExitCode {
             };
         }
     };
-    match run(&cli) {
+    let outcome = match &cli.command {
+        Some(Command::Report(args)) => return report_exit(accuracy::report(args)),
+        Some(Command::Conformance(args)) => return report_exit(accuracy::conformance(args)),
+        Some(Command::Bench(args)) => return report_exit(bench::run(args)),
+        None => run(&cli.render),
+    };
+    match outcome {
         Ok(0) => ExitCode::SUCCESS,
         Ok(messages) => {
             eprintln!("revz-tester: {messages} validation message(s) reported");
@@ -107,8 +145,20 @@ fn main() -> ExitCode {
     }
 }
 
+/// The exit code of a subcommand: its own, or 1 with the error printed.
+fn report_exit(result: Result<ExitCode>) -> ExitCode {
+    result.unwrap_or_else(|e| {
+        eprintln!("revz-tester: error: {e:#}");
+        ExitCode::from(1)
+    })
+}
+
 /// Renders and writes the outputs; returns the number of counted validation messages.
-fn run(cli: &Cli) -> Result<u32> {
+fn run(cli: &RenderArgs) -> Result<u32> {
+    let out = cli
+        .out
+        .as_deref()
+        .context("--out is required when rendering a scene")?;
     let scene = cli.scene.build();
     let needs = scene.plan.needs();
     if needs.stencil && !cli.depth_format.has_stencil() {
@@ -118,8 +168,8 @@ fn run(cli: &Cli) -> Result<u32> {
             cli.depth_format.vk_name()
         );
     }
-    std::fs::create_dir_all(&cli.out)
-        .with_context(|| format!("cannot create output directory {}", cli.out.display()))?;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
 
     let gpu = Gpu::new(&GpuOptions {
         device: cli.device.clone(),
@@ -174,7 +224,7 @@ fn run(cli: &Cli) -> Result<u32> {
         readback.frame()?
     };
     let clear_depth = scene.plan.main_clear_depth();
-    for path in readback::write_images(&cli.out, &frame, clear_depth)? {
+    for path in readback::write_images(out, &frame, clear_depth)? {
         print_wrote(&path);
     }
     // Pure computation, no Vulkan: scenes where something else than the nearest surface
@@ -185,7 +235,7 @@ fn run(cli: &Cli) -> Result<u32> {
                 (ground_truth::W_FILE, truth.w_bytes()),
                 (ground_truth::ID_FILE, truth.id_bytes()),
             ] {
-                let path = cli.out.join(name);
+                let path = out.join(name);
                 std::fs::write(&path, bytes)
                     .with_context(|| format!("cannot write {}", path.display()))?;
                 print_wrote(&path);
@@ -222,7 +272,7 @@ fn run(cli: &Cli) -> Result<u32> {
         covered_pixels: stats.map(|s| s.covered),
         ground_truth,
     };
-    print_wrote(&readback::write_report(&cli.out, &report)?);
+    print_wrote(&readback::write_report(out, &report)?);
     Ok(messages)
 }
 

@@ -20,6 +20,10 @@ pub const PACKAGES: &[(&str, &str)] = &[
     ),
     ("vulkan-tools", "vulkaninfo"),
     ("spirv-tools", "spirv-val, which checks the tester's SPIR-V"),
+    (
+        "fonts-dejavu-core",
+        "DejaVu Sans, the font of the report's plots",
+    ),
 ];
 
 fn is_installed(package: &str) -> bool {
