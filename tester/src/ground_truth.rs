@@ -236,6 +236,73 @@ pub fn compute(
     Ok((truth, report))
 }
 
+/// The ground truth of a scene that may also draw decals with a static depth bias (LESS, no
+/// depth writes, coplanar with what they decorate): as [`compute`] for the scene with those
+/// pipelines made plain, where an object drawn with a bias wins ties (it is taken a relative
+/// 1e-9 nearer than it is). The accuracy checks use it; `render.json` does not (the stored
+/// depth of a biased decal is not the mapping of its w).
+pub fn compute_ids(scene: &Scene, width: u32, height: u32) -> Result<GroundTruth, String> {
+    let mut plain = scene.clone();
+    let mut biased_pipelines = Vec::new();
+    for (n, pipeline) in plain.plan.pipelines.iter_mut().enumerate() {
+        if let crate::plan::Bias::Static(_) = pipeline.bias {
+            if pipeline.depth_test != DepthTest::Static(Compare::Less) {
+                return Err(format!(
+                    "biased pipeline {} does not test LESS",
+                    pipeline.name
+                ));
+            }
+            pipeline.bias = crate::plan::Bias::Off;
+            pipeline.depth_write = true;
+            biased_pipelines.push(n);
+        }
+    }
+    let drawn = applies(&plain)?;
+    // Which objects a biased pipeline draws.
+    let mut biased = Vec::new();
+    let mut pipeline = None;
+    for step in plain.plan.all_steps() {
+        match step {
+            Step::Bind(n) => pipeline = Some(*n),
+            Step::Draw(n) | Step::DrawPushed(n)
+                if pipeline.is_some_and(|p| biased_pipelines.contains(&p)) =>
+            {
+                biased.push(*n);
+            }
+            _ => {}
+        }
+    }
+    let aspect = f64::from(width) / f64::from(height);
+    let mut triangles = Vec::new();
+    for &(n, _) in &drawn {
+        let object = &plain.objects[n];
+        let id = u16::try_from(n)
+            .ok()
+            .filter(|&id| id != BACKGROUND)
+            .ok_or("too many objects")?;
+        let mvp = plain.mvp_in(View::Camera, object, aspect);
+        // Scaling a clip position keeps its screen position and scales its w.
+        let scale = if biased.contains(&n) { 1.0 - 1e-9 } else { 1.0 };
+        let clip: Vec<DVec4> = plain
+            .vertex_positions(object)
+            .iter()
+            .map(|p| mvp * p.extend(1.0) * scale)
+            .collect();
+        for t in object.mesh.indices.chunks_exact(3) {
+            let corners = [
+                clip[t[0] as usize],
+                clip[t[1] as usize],
+                clip[t[2] as usize],
+            ];
+            if corners.iter().any(|c| c.w <= 0.0) {
+                return Err(format!("{}: a vertex behind the eye", object.name));
+            }
+            triangles.push(ClipTriangle { id, corners });
+        }
+    }
+    Ok(rasterize(&triangles, width, height))
+}
+
 /// [`ObjectReport::w_condition`] of the matrix chain `stages` (outermost first, each applied
 /// to the result of the next) over `positions`.
 fn w_condition(stages: &[DMat4], positions: &[DVec3]) -> f64 {

@@ -78,6 +78,18 @@ pub enum SceneId {
     PushPartial,
     /// The overlap scene recorded on four threads into secondaries.
     Threads,
+    /// Accuracy: seed 001's red mesh over a green plane, half parallel, half sloping down.
+    SlopedPlane,
+    /// Accuracy: seed 001's terrain patch 600 m over Mars, seen from 10 km, world coordinates.
+    MarsPatch,
+    /// Accuracy: two interpenetrating tori far from the eye.
+    Tori,
+    /// Accuracy: pairs of parallel planes over distances and relative separations.
+    PlaneStack,
+    /// Accuracy: near 1e-3, far 1e7, pairs of surfaces 1 % apart at every decade.
+    DeepRange,
+    /// Accuracy: coplanar decals held in front of their walls by depth bias alone.
+    DecalBias,
 }
 
 impl SceneId {

@@ -19,6 +19,7 @@
 
 use glam::{DMat4, DVec3};
 
+use crate::accuracy::scenes as accuracy;
 use crate::plan::{
     Bias, Bounds, Compare, DepthBias, DepthLoad, DepthTest, PassKind, PassSpec, PipelineSpec, Plan,
     Program, Recording, StencilTest, StencilWrite, Step, Target, Viewport,
@@ -93,6 +94,12 @@ pub const CATALOG: &[Entry] = &[
     ),
     entry_row(SceneId::PushPartial, "push-partial", push_partial),
     entry_row(SceneId::Threads, "threads", threads),
+    entry_row(SceneId::SlopedPlane, "sloped-plane", accuracy::sloped_plane),
+    entry_row(SceneId::MarsPatch, "mars-patch", accuracy::mars_patch),
+    entry_row(SceneId::Tori, "tori", accuracy::tori),
+    entry_row(SceneId::PlaneStack, "plane-stack", accuracy::plane_stack),
+    entry_row(SceneId::DeepRange, "deep-range", accuracy::deep_range),
+    entry_row(SceneId::DecalBias, "decal-bias", accuracy::decal_bias),
 ];
 
 const fn entry_row(id: SceneId, name: &'static str, build: fn() -> Scene) -> Entry {
@@ -1408,6 +1415,16 @@ mod tests {
         drawn
     }
 
+    /// The accuracy scenes (issue #6): many objects, and checked by `crate::accuracy`.
+    const ACCURACY: [&str; 6] = [
+        "sloped-plane",
+        "mars-patch",
+        "tori",
+        "plane-stack",
+        "deep-range",
+        "decal-bias",
+    ];
+
     /// A margin well above the depth resolution of every format (D16: 1.5e-5).
     const MARGIN: f64 = 4e-4;
 
@@ -1440,7 +1457,7 @@ mod tests {
                 );
             }
             assert!(
-                scene.objects.len() <= 16,
+                scene.objects.len() <= 16 || ACCURACY.contains(&scene.name),
                 "{}: too many objects",
                 scene.name
             );
@@ -1677,6 +1694,11 @@ mod tests {
                 "already-reversed",
                 "push-partial",
                 "threads",
+                "sloped-plane",
+                "mars-patch",
+                "tori",
+                "plane-stack",
+                "deep-range",
             ]
         );
         for scene in all() {
@@ -1686,7 +1708,7 @@ mod tests {
             let (truth, report) = crate::ground_truth::compute(&scene, 96, 64).unwrap();
             assert_eq!(drawn.len(), report.objects.len());
             assert!(
-                truth.interior > 96 * 64 / 2,
+                truth.interior > 96 * 64 / 2 || ACCURACY.contains(&scene.name),
                 "{}: {} interior pixels",
                 scene.name,
                 truth.interior
@@ -1695,7 +1717,7 @@ mod tests {
             for object in &report.objects {
                 let shows = truth.ids.contains(&object.id);
                 assert!(
-                    shows || scene.name == "shadow-map",
+                    shows || scene.name == "shadow-map" || scene.name == "plane-stack",
                     "{}: {}",
                     scene.name,
                     object.name

@@ -1,10 +1,130 @@
-//! Accuracy (issue #6): hard-case scenes against ground truth, the report and conformance for
-//! CI. Not built yet: both commands say so and fail.
+//! Accuracy (issue #6): hard-case scenes against ground truth, the precision model beside the
+//! measurements, the report, and conformance for CI.
+//!
+//! Both commands render every (scene, mode, depth format) as a child tester process
+//! ([`crate::variants`]): `none` (no layer: standard depth), and revz in `flip`,
+//! `complementary` and `infinite` mode, each with depth readback allowed
+//! (`REVZ_REVERSE_OBSERVABLE=copies`) and the validation layer on (a validation message fails
+//! the render). [`measure`] compares each render with the scene's ground truth:
+//! `wrong_pixel_fraction` is the fraction of checked pixels (interior: at least one pixel away
+//! from any silhouette or intersection where another object shows) that show another object
+//! than the nearest one.
+//!
+//! - `report` ([`report`]): `report.json`, `report.md`, the renders side by side per scene, and
+//!   plots of `plane-stack`'s measured minimum separations over the model's curves.
+//! - `conformance` ([`conformance`]): every case against a stated bound; JUnit XML and JSON;
+//!   a one-line summary; exit status 1 on any failure.
 
-use std::path::PathBuf;
+pub mod conformance;
+pub mod measure;
+pub mod model;
+pub mod report;
+pub mod report_images;
+pub mod scenes;
+
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
+use clap::ValueEnum;
+
+use crate::scene::SceneId;
+use crate::target::DepthFormat;
+use crate::variants::{Runner, Variant};
+use measure::{Case, Measurement, Truth};
+
+/// The accuracy scenes, in report order.
+pub const SCENES: [SceneId; 6] = [
+    SceneId::SlopedPlane,
+    SceneId::MarsPatch,
+    SceneId::Tori,
+    SceneId::PlaneStack,
+    SceneId::DeepRange,
+    SceneId::DecalBias,
+];
+
+/// Every depth format, in report order.
+pub const FORMATS: [DepthFormat; 5] = [
+    DepthFormat::D16,
+    DepthFormat::X8D24,
+    DepthFormat::D24S8,
+    DepthFormat::D32,
+    DepthFormat::D32S8,
+];
+
+/// A mode of the report: no layer, or revz in one of its reversing modes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, ValueEnum)]
+pub enum Mode {
+    /// No layer: the application's standard depth.
+    None,
+    Flip,
+    Complementary,
+    Infinite,
+}
+
+impl Mode {
+    pub const ALL: [Mode; 4] = [Mode::None, Mode::Flip, Mode::Complementary, Mode::Infinite];
+
+    pub fn variant(self) -> Variant {
+        match self {
+            Mode::None => Variant::NoLayer,
+            Mode::Flip => Variant::Flip,
+            Mode::Complementary => Variant::Complementary,
+            Mode::Infinite => Variant::Infinite,
+        }
+    }
+}
+
+/// What both commands render.
+#[derive(Debug, Clone, clap::Args)]
+pub struct Selection {
+    /// Scenes (comma-separated). Default: all six accuracy scenes.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub scenes: Vec<SceneId>,
+
+    /// Modes (comma-separated). Default: none, flip, complementary, infinite.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub modes: Vec<Mode>,
+
+    /// Depth formats (comma-separated). Default: every format.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub formats: Vec<DepthFormat>,
+
+    /// The revz layer's manifest directory. Default: `manifests/explicit` next to this
+    /// executable (what `cargo xtask build` writes).
+    #[arg(long, value_name = "DIR")]
+    pub layer_dir: Option<PathBuf>,
+
+    /// Render on the first device whose name contains NAME (as the tester's `--device`).
+    #[arg(long, value_name = "NAME")]
+    pub device: Option<String>,
+}
+
+impl Selection {
+    fn scenes(&self) -> Vec<SceneId> {
+        if self.scenes.is_empty() {
+            SCENES.to_vec()
+        } else {
+            self.scenes.clone()
+        }
+    }
+
+    fn modes(&self) -> Vec<Mode> {
+        if self.modes.is_empty() {
+            Mode::ALL.to_vec()
+        } else {
+            self.modes.clone()
+        }
+    }
+
+    fn formats(&self) -> Vec<DepthFormat> {
+        if self.formats.is_empty() {
+            FORMATS.to_vec()
+        } else {
+            self.formats.clone()
+        }
+    }
+}
 
 /// `revz-tester report`.
 #[derive(Debug, clap::Args)]
@@ -12,20 +132,111 @@ pub struct ReportArgs {
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+
+    /// Render width (`plane-stack` renders at 3 times this size).
+    #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub width: u32,
+
+    /// Render height.
+    #[arg(long, default_value_t = 120, value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub height: u32,
+
+    #[command(flatten)]
+    pub selection: Selection,
 }
 
 /// `revz-tester conformance`.
 #[derive(Debug, clap::Args)]
 pub struct ConformanceArgs {
-    /// Output directory (created if missing).
+    /// Output directory (created if missing): conformance.json, junit.xml, the renders.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+
+    /// Render width (`plane-stack` renders at 3 times this size).
+    #[arg(long, default_value_t = 96, value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub width: u32,
+
+    /// Render height.
+    #[arg(long, default_value_t = 72, value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub height: u32,
+
+    #[command(flatten)]
+    pub selection: Selection,
 }
 
-pub fn report(_args: &ReportArgs) -> Result<ExitCode> {
-    bail!("report: not built yet")
+/// The render size of a scene: `plane-stack` needs about a hundred pixels per cell (27 rows,
+/// 6 columns), so it renders at three times the size.
+pub fn scene_size(scene: SceneId, width: u32, height: u32) -> (u32, u32) {
+    match scene {
+        SceneId::PlaneStack => (width * 3, height * 3),
+        _ => (width, height),
+    }
 }
 
-pub fn conformance(_args: &ConformanceArgs) -> Result<ExitCode> {
-    bail!("conformance: not built yet")
+/// Renders and measures every selected case, scene by scene; prints one line per case.
+fn run_all(selection: &Selection, out: &Path, width: u32, height: u32) -> Result<Vec<Measurement>> {
+    std::fs::create_dir_all(out)?;
+    let runner = Runner::locate(selection.layer_dir.as_deref())?;
+    let mut results = Vec::new();
+    for scene in selection.scenes() {
+        let (w, h) = scene_size(scene, width, height);
+        let truth = Truth::new(scene, w, h)?;
+        let dir = format!("renders/{}", scene.name());
+        std::fs::create_dir_all(out.join(&dir))?;
+        truth
+            .expected_image()
+            .save(out.join(&dir).join("expected.png"))?;
+        for format in selection.formats() {
+            for mode in selection.modes() {
+                let case = Case {
+                    scene,
+                    variant: mode.variant(),
+                    format,
+                    width: w,
+                    height: h,
+                };
+                let case_dir = format!(
+                    "{dir}/{}-{}",
+                    mode.variant().name(),
+                    measure::format_name(format)
+                );
+                let m = measure::measure(
+                    &runner,
+                    selection.device.as_deref(),
+                    &case,
+                    &truth,
+                    out,
+                    &case_dir,
+                )?;
+                println!(
+                    "{:<13} {:<13} {:<7} wrong {:>9.3e} of {:>6} checked, reversed {:<5}{}",
+                    m.scene,
+                    m.mode,
+                    m.format,
+                    m.wrong_pixel_fraction,
+                    m.checked_pixels,
+                    m.depth_reversed
+                        .map(|r| r.to_string())
+                        .unwrap_or_else(|| "?".into()),
+                    m.error
+                        .as_deref()
+                        .map(|e| format!("  ERROR {e}"))
+                        .unwrap_or_default()
+                );
+                results.push(m);
+            }
+        }
+    }
+    Ok(results)
+}
+
+pub fn report(args: &ReportArgs) -> Result<ExitCode> {
+    let results = run_all(&args.selection, &args.out, args.width, args.height)?;
+    report::write(&args.out, &results)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn conformance(args: &ConformanceArgs) -> Result<ExitCode> {
+    let results = run_all(&args.selection, &args.out, args.width, args.height)?;
+    conformance::finish(&args.out, &results)
 }

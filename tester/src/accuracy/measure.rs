@@ -1,0 +1,371 @@
+//! One accuracy measurement: render a scene in one mode and depth format (a child tester
+//! process, through [`Runner`]), then compare every checked pixel's color with the object the
+//! ground truth says is visible there.
+//!
+//! Checked pixels are the interior ones of the ground truth (an object, and the same object at
+//! all 8 neighbouring pixel centers): at least one pixel away from any silhouette edge or
+//! intersection line where another object shows. A checked pixel whose color is not the
+//! expected object's is a depth error. The rendered color names an object because every object
+//! of a scene has its own color (`render.json` lists them).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+
+use crate::ground_truth::{self, GroundTruth, BACKGROUND};
+use crate::scene::SceneId;
+use crate::target::DepthFormat;
+use crate::variants::{Runner, Variant};
+
+/// Fraction of wrong checked pixels below which a separation counts as resolved (as
+/// `revz_math::model::WRONG_ORDER_LIMIT`).
+pub const RESOLVED_BELOW: f64 = 0.01;
+
+/// The id of a color no object of the scene wears.
+const UNKNOWN: u16 = u16::MAX - 1;
+
+/// What to render.
+#[derive(Clone, Debug)]
+pub struct Case {
+    pub scene: SceneId,
+    pub variant: Variant,
+    pub format: DepthFormat,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// The outcome of one case.
+#[derive(Clone, Debug, Serialize)]
+pub struct Measurement {
+    pub scene: &'static str,
+    /// `none` (no layer: standard depth), `flip`, `complementary`, `infinite`.
+    pub mode: &'static str,
+    /// The CLI name of the depth format (`d32`, ...).
+    pub format: String,
+    /// Its Vulkan name.
+    pub vk_format: &'static str,
+    pub device: String,
+    pub driver: String,
+    pub width: u32,
+    pub height: u32,
+    /// Interior pixels compared with the ground truth.
+    pub checked_pixels: usize,
+    /// Checked pixels that show another object than the ground truth's.
+    pub wrong_pixels: usize,
+    /// `wrong_pixels / checked_pixels` (1 when the render failed).
+    pub wrong_pixel_fraction: f64,
+    /// Whether the depth read back decreases with distance (null when it cannot tell).
+    pub depth_reversed: Option<bool>,
+    /// Validation messages the child counted.
+    pub validation_messages: u32,
+    /// Why the render failed, if it did (validation messages included).
+    pub error: Option<String>,
+    /// The render's folder, relative to the output folder.
+    pub dir: String,
+    /// `plane-stack`: per cell, (column, row, checked, wrong).
+    #[serde(skip)]
+    pub cells: Vec<CellResult>,
+    /// `plane-stack`: the smallest relative separation from which on every larger one of the
+    /// scene resolves (fewer than 1 % of the cell wrong), per distance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub min_rel_separation: Option<Vec<StackPoint>>,
+}
+
+/// One `plane-stack` cell's count.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct CellResult {
+    pub column: usize,
+    pub row: usize,
+    pub checked: usize,
+    pub wrong: usize,
+}
+
+/// A measured minimum separation at one distance.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct StackPoint {
+    pub distance_over_near: f64,
+    /// Null when no separation of the scene resolves.
+    pub min_rel_separation: Option<f64>,
+}
+
+/// The CLI name of a depth format.
+pub fn format_name(format: DepthFormat) -> String {
+    clap::ValueEnum::to_possible_value(&format)
+        .map(|v| v.get_name().to_string())
+        .unwrap_or_else(|| format.vk_name().to_string())
+}
+
+/// The scene's ground truth at a size (computed once per scene and size).
+pub struct Truth {
+    pub truth: GroundTruth,
+    /// Color (RGBA8) -> object id.
+    colors: HashMap<[u8; 4], u16>,
+}
+
+impl Truth {
+    pub fn new(id: SceneId, width: u32, height: u32) -> Result<Truth> {
+        let scene = id.build();
+        let truth = ground_truth::compute_ids(&scene, width, height)
+            .map_err(|e| anyhow::anyhow!("scene {} has no ground truth: {e}", scene.name))?;
+        let mut colors = HashMap::new();
+        for (n, object) in scene.objects.iter().enumerate() {
+            let rgba = object.color.map(|c| (c * 255.0).round() as u8);
+            let id = u16::try_from(n).context("too many objects")?;
+            if colors.insert(rgba, id).is_some() {
+                anyhow::bail!("scene {}: two objects share the color {rgba:?}", scene.name);
+            }
+        }
+        Ok(Truth { truth, colors })
+    }
+
+    /// The object a rendered color shows ([`BACKGROUND`] for the clear color, `UNKNOWN` for
+    /// a color no object wears).
+    fn id_of(&self, rgba: [u8; 4]) -> u16 {
+        match self.colors.get(&rgba) {
+            Some(&id) => id,
+            None if rgba == crate::render::CLEAR_COLOR.map(|c| (c * 255.0).round() as u8) => {
+                BACKGROUND
+            }
+            None => UNKNOWN,
+        }
+    }
+
+    /// Whether pixel `at` is checked.
+    fn checked(&self, at: usize) -> bool {
+        self.truth.w[at].is_finite()
+    }
+
+    /// An RGBA image of what should show (each object in its color, background black).
+    pub fn expected_image(&self) -> image::RgbaImage {
+        let colors: HashMap<u16, [u8; 4]> = self.colors.iter().map(|(c, id)| (*id, *c)).collect();
+        let (w, h) = (self.truth.width, self.truth.height);
+        image::RgbaImage::from_fn(w, h, |x, y| {
+            let id = self.truth.ids[(y * w + x) as usize];
+            image::Rgba(colors.get(&id).copied().unwrap_or([0, 0, 0, 255]))
+        })
+    }
+}
+
+/// Runs one case into `out/dir` and measures it against `truth` (computed at the case's size).
+pub fn measure(
+    runner: &Runner,
+    device: Option<&str>,
+    case: &Case,
+    truth: &Truth,
+    out: &Path,
+    dir: &str,
+) -> Result<Measurement> {
+    let render_dir = out.join(dir);
+    std::fs::create_dir_all(&render_dir)
+        .with_context(|| format!("cannot create {}", render_dir.display()))?;
+    let format = format_name(case.format);
+    let (width, height) = (case.width.to_string(), case.height.to_string());
+    let render_dir_str = render_dir.to_string_lossy().into_owned();
+    let mut args = vec![
+        "--scene",
+        case.scene.name(),
+        "--depth-format",
+        &format,
+        "--width",
+        &width,
+        "--height",
+        &height,
+        "--validation",
+        "--out",
+        &render_dir_str,
+    ];
+    if let Some(device) = device {
+        args.extend(["--device", device]);
+    }
+    let output: Output = runner
+        .command(
+            case.variant,
+            &args,
+            &[("REVZ_REVERSE_OBSERVABLE", "copies")],
+        )
+        .output()
+        .context("cannot run the tester as a child process")?;
+    let log = format!(
+        "{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    std::fs::write(render_dir.join("log.txt"), &log).ok();
+    let mut m = Measurement {
+        scene: case.scene.name(),
+        mode: case.variant.name(),
+        format,
+        vk_format: case.format.vk_name(),
+        device: String::new(),
+        driver: String::new(),
+        width: case.width,
+        height: case.height,
+        checked_pixels: 0,
+        wrong_pixels: 0,
+        wrong_pixel_fraction: 1.0,
+        depth_reversed: None,
+        validation_messages: 0,
+        error: None,
+        dir: dir.to_string(),
+        cells: Vec::new(),
+        min_rel_separation: None,
+    };
+    let code = output.status.code();
+    if code != Some(0) && code != Some(2) {
+        let last = log
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("");
+        m.error = Some(format!("render failed ({:?}): {last}", output.status));
+        return Ok(m);
+    }
+    let json: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(render_dir.join("render.json")).context("no render.json")?,
+    )
+    .context("render.json is not JSON")?;
+    m.device = json["device"].as_str().unwrap_or("").to_string();
+    m.driver = json["driver"].as_str().unwrap_or("").to_string();
+    m.validation_messages = json["validation_messages"].as_u64().unwrap_or(0) as u32;
+    if code == Some(2) || m.validation_messages > 0 {
+        m.error = Some(format!(
+            "{} validation message(s) (see {dir}/log.txt)",
+            m.validation_messages.max(1)
+        ));
+    }
+    let color = image::open(render_dir.join("color.png"))
+        .context("cannot read color.png")?
+        .to_rgba8();
+    let depth = read_f32(&render_dir.join("depth.f32")).ok();
+    compare(&mut m, truth, &color, depth.as_deref())?;
+    Ok(m)
+}
+
+fn read_f32(path: &PathBuf) -> Result<Vec<f32>> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect())
+}
+
+/// Fills the pixel counts, the fraction, the reversal and the plane-stack cells.
+fn compare(
+    m: &mut Measurement,
+    truth: &Truth,
+    color: &image::RgbaImage,
+    depth: Option<&[f32]>,
+) -> Result<()> {
+    let (w, h) = (truth.truth.width, truth.truth.height);
+    anyhow::ensure!(
+        color.dimensions() == (w, h),
+        "color.png is {:?}, expected {w}x{h}",
+        color.dimensions()
+    );
+    let mut checked = 0;
+    let mut wrong = 0;
+    let mut rendered = vec![BACKGROUND; (w * h) as usize];
+    // (w, depth) of the nearest and farthest correctly shown checked pixels.
+    let mut nearest: Option<(f64, f32)> = None;
+    let mut farthest: Option<(f64, f32)> = None;
+    for (at, pixel) in color.pixels().enumerate() {
+        let id = truth.id_of(pixel.0);
+        rendered[at] = id;
+        if !truth.checked(at) {
+            continue;
+        }
+        checked += 1;
+        if id != truth.truth.ids[at] {
+            wrong += 1;
+            continue;
+        }
+        if let Some(d) = depth.and_then(|d| d.get(at)) {
+            let wv = truth.truth.w[at];
+            if nearest.is_none_or(|(n, _)| wv < n) {
+                nearest = Some((wv, *d));
+            }
+            if farthest.is_none_or(|(f, _)| wv > f) {
+                farthest = Some((wv, *d));
+            }
+        }
+    }
+    m.checked_pixels = checked;
+    m.wrong_pixels = wrong;
+    m.wrong_pixel_fraction = if checked == 0 {
+        1.0
+    } else {
+        wrong as f64 / checked as f64
+    };
+    m.depth_reversed = match (nearest, farthest) {
+        (Some((wn, dn)), Some((wf, df))) if wf > wn * 1.001 && dn != df => Some(dn > df),
+        // Every checked depth the same (D16 far away): the scenes keep their surfaces beyond
+        // 10 n, where standard depth is above 0.9 and reversed depth below 0.1.
+        (Some((_, dn)), _) => Some(dn < 0.5),
+        _ => None,
+    };
+    if m.scene == "plane-stack" {
+        stack_cells(m, truth, &rendered);
+    }
+    Ok(())
+}
+
+/// Counts the `plane-stack` cells and finds the smallest resolved separation per distance.
+fn stack_cells(m: &mut Measurement, truth: &Truth, rendered: &[u16]) {
+    use super::scenes::{stack_cells, stack_separations, STACK_DISTANCES};
+    let cells = stack_cells();
+    let mut by_front: HashMap<u16, usize> = HashMap::new();
+    for (k, cell) in cells.iter().enumerate() {
+        by_front.insert(cell.front as u16, k);
+    }
+    let mut results: Vec<CellResult> = cells
+        .iter()
+        .map(|c| CellResult {
+            column: c.column,
+            row: c.row,
+            checked: 0,
+            wrong: 0,
+        })
+        .collect();
+    for (at, &shown) in rendered.iter().enumerate() {
+        if !truth.checked(at) {
+            continue;
+        }
+        if let Some(&k) = by_front.get(&truth.truth.ids[at]) {
+            results[k].checked += 1;
+            if shown != truth.truth.ids[at] {
+                results[k].wrong += 1;
+            }
+        }
+    }
+    let separations = stack_separations();
+    let points = STACK_DISTANCES
+        .iter()
+        .enumerate()
+        .map(|(column, &d)| {
+            let ok = |row: usize| {
+                results
+                    .iter()
+                    .find(|r| r.column == column && r.row == row)
+                    .is_some_and(|r| {
+                        r.checked > 0 && (r.wrong as f64) < RESOLVED_BELOW * r.checked as f64
+                    })
+            };
+            // The smallest separation from which on every larger one resolves too: one cell
+            // is one deterministic pair of planes, and standard depth's rounding can land a
+            // lucky cell far below the separation it needs in general.
+            let first = (0..separations.len())
+                .rev()
+                .take_while(|&row| ok(row))
+                .last();
+            StackPoint {
+                distance_over_near: d,
+                min_rel_separation: first.map(|row| separations[row]),
+            }
+        })
+        .collect();
+    m.cells = results;
+    m.min_rel_separation = Some(points);
+}

@@ -1,0 +1,195 @@
+//! The report's pictures: renders side by side, and the minimum-separation plots.
+
+use std::path::Path;
+
+use anyhow::{anyhow, Context, Result};
+use image::RgbaImage;
+use plotters::prelude::*;
+
+use super::measure::{format_name, Measurement};
+use super::model;
+use super::report::{formats_in, SeparationRow, FONT};
+use super::Mode;
+
+/// Pixels between tiles.
+const GAP: u32 = 4;
+
+/// `images/<scene>.png` for every scene: the expected image, then one row per mode and one
+/// column per format. Returns the paths written, relative to `out`.
+pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> {
+    let formats = formats_in(results);
+    let mut scenes: Vec<&str> = Vec::new();
+    for m in results {
+        if !scenes.contains(&m.scene) {
+            scenes.push(m.scene);
+        }
+    }
+    std::fs::create_dir_all(out.join("images"))?;
+    let mut written = Vec::new();
+    for scene in scenes {
+        let expected = image::open(out.join(format!("renders/{scene}/expected.png")))
+            .context("no expected.png")?
+            .to_rgba8();
+        let (w, h) = expected.dimensions();
+        let modes: Vec<Mode> = Mode::ALL
+            .into_iter()
+            .filter(|mode| {
+                results
+                    .iter()
+                    .any(|m| m.scene == scene && m.mode == mode.variant().name())
+            })
+            .collect();
+        let columns = formats.len().max(1) as u32;
+        let rows = 1 + modes.len() as u32;
+        let mut sheet = RgbaImage::from_pixel(
+            columns * (w + GAP) + GAP,
+            rows * (h + GAP) + GAP,
+            image::Rgba([255, 255, 255, 255]),
+        );
+        image::imageops::replace(&mut sheet, &expected, i64::from(GAP), i64::from(GAP));
+        for (r, mode) in modes.iter().enumerate() {
+            for (c, format) in formats.iter().enumerate() {
+                let Some(m) = results.iter().find(|m| {
+                    m.scene == scene
+                        && m.mode == mode.variant().name()
+                        && m.format == format_name(*format)
+                }) else {
+                    continue;
+                };
+                let Ok(tile) = image::open(out.join(&m.dir).join("color.png")) else {
+                    continue;
+                };
+                let x = GAP + c as u32 * (w + GAP);
+                let y = GAP + (r as u32 + 1) * (h + GAP);
+                image::imageops::replace(&mut sheet, &tile.to_rgba8(), i64::from(x), i64::from(y));
+            }
+        }
+        let rel = format!("images/{scene}.png");
+        sheet
+            .save(out.join(&rel))
+            .with_context(|| format!("cannot write {rel}"))?;
+        written.push(rel);
+    }
+    Ok(written)
+}
+
+/// Registers the plot font once; a clear error when it is missing.
+fn font() -> Result<()> {
+    static REGISTERED: std::sync::OnceLock<std::result::Result<(), String>> =
+        std::sync::OnceLock::new();
+    REGISTERED
+        .get_or_init(|| {
+            let bytes = std::fs::read(FONT).map_err(|e| {
+                format!("cannot read the plot font {FONT} ({e}): install fonts-dejavu-core (`cargo xtask setup`)")
+            })?;
+            plotters::style::register_font("sans-serif", FontStyle::Normal, Box::leak(bytes.into_boxed_slice()))
+                .map_err(|_| format!("{FONT} is not a usable font"))
+        })
+        .clone()
+        .map_err(|e| anyhow!(e))
+}
+
+fn mode_color(mode: &str) -> RGBColor {
+    match mode {
+        "none" => RGBColor(200, 40, 40),
+        "flip" => RGBColor(230, 150, 20),
+        "complementary" => RGBColor(40, 140, 60),
+        _ => RGBColor(40, 80, 220),
+    }
+}
+
+/// `plots/min-separation-<format>.png` per format: measured points over the model's lines.
+pub fn plots(out: &Path, results: &[Measurement], rows: &[SeparationRow]) -> Result<Vec<String>> {
+    if rows.is_empty() {
+        return Ok(Vec::new());
+    }
+    font()?;
+    std::fs::create_dir_all(out.join("plots"))?;
+    let mut written = Vec::new();
+    for format in formats_in(results) {
+        let name = format_name(format);
+        let rows: Vec<&SeparationRow> = rows.iter().filter(|r| r.format == name).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let rel = format!("plots/min-separation-{name}.png");
+        let path = out.join(&rel);
+        {
+            let root = BitMapBackend::new(&path, (720, 480)).into_drawing_area();
+            root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+            let mut chart = ChartBuilder::on(&root)
+                .caption(
+                    format!("plane-stack {name}: minimum dz/z resolved (points) vs model (lines)"),
+                    ("sans-serif", 18),
+                )
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d((3.0f64..3e6).log_scale(), (1e-8f64..2.0).log_scale())
+                .map_err(|e| anyhow!("{e}"))?;
+            chart
+                .configure_mesh()
+                .x_desc("view distance / near")
+                .y_desc("relative separation dz/z")
+                .x_label_formatter(&|v| format!("{v:.0e}"))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .draw()
+                .map_err(|e| anyhow!("{e}"))?;
+            // The storage-only floor (grey), dense.
+            let dense: Vec<f64> = (0..=22)
+                .map(|i| 10f64.powf(1.0 + f64::from(i) / 4.0))
+                .collect();
+            for mode in Mode::ALL {
+                let mode_name = mode.variant().name();
+                let color = mode_color(mode_name);
+                let mine: Vec<&&SeparationRow> =
+                    rows.iter().filter(|r| r.mode == mode_name).collect();
+                if mine.is_empty() {
+                    continue;
+                }
+                let floor = model::storage_only(mode.variant(), format, &dense);
+                chart
+                    .draw_series(LineSeries::new(
+                        dense
+                            .iter()
+                            .zip(floor)
+                            .filter_map(|(d, v)| v.map(|v| (*d, v))),
+                        color.mix(0.35).stroke_width(1),
+                    ))
+                    .map_err(|e| anyhow!("{e}"))?;
+                chart
+                    .draw_series(LineSeries::new(
+                        mine.iter().filter_map(|r| {
+                            r.model_min_rel_separation
+                                .map(|v| (r.distance_over_near, v))
+                        }),
+                        color.stroke_width(2),
+                    ))
+                    .map_err(|e| anyhow!("{e}"))?
+                    .label(format!("{mode_name}: model (thin: storage only)"))
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+                    });
+                chart
+                    .draw_series(mine.iter().filter_map(|r| {
+                        r.min_rel_separation
+                            .map(|v| Circle::new((r.distance_over_near, v), 5, color.filled()))
+                    }))
+                    .map_err(|e| anyhow!("{e}"))?
+                    .label(format!("{mode_name}: measured"))
+                    .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 12))
+                .draw()
+                .map_err(|e| anyhow!("{e}"))?;
+            root.present().map_err(|e| anyhow!("{e}"))?;
+        }
+        written.push(rel);
+    }
+    Ok(written)
+}
