@@ -1,18 +1,497 @@
-//! The benchmark (issue #7). Not built yet: the command says so and fails.
+//! The benchmark (issue #7): the layer's cost measured in every mode against no layer, in one
+//! run.
+//!
+//! The parent process runs each measurement in a child process of this same executable (the
+//! hidden `--child ROLE` argument), once per [`Variant`] (no layer, and revz in `off`, `flip`,
+//! `complementary`, `infinite`), round after round with the variants' order rotated each
+//! round, and compares every variant with no layer *of the same round*: ratios and differences
+//! are the median over rounds of the per-round figures. The children print what they measured
+//! as one JSON object on stdout (`child.rs` has the roles). Timing runs have validation off;
+//! `--validation` turns it on in every child (for smoke tests, not for figures).
+//!
+//! Outputs: `<out>/bench.json` (every child's figures and the summary), the `speed` table of
+//! `<out>/report.json` and `<out>/report.md` (after the `<!-- speed -->` marker; the rest of
+//! both files belongs to `revz-tester report`), and `<out>/overhead-vs-error.png`.
 
+mod child;
+mod report;
+
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use serde_json::{json, Value};
+
+use crate::gpu::{Features, Gpu, GpuOptions};
+use crate::variants::{Runner, Variant};
+
+/// A child process's role (hidden `--child`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Role {
+    DrawStorm,
+    PipelineStorm,
+    Micro,
+    /// Every role with tiny counts and one submitted storm (for validated smoke runs).
+    Smoke,
+}
 
 /// `revz-tester bench`.
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
-    /// Output directory (created if missing).
+    /// Output directory (created if missing): bench.json, and the speed table merged into
+    /// report.json and report.md, overhead-vs-error.png.
+    #[arg(long, value_name = "DIR", required_unless_present = "child")]
+    pub out: Option<PathBuf>,
+
+    /// Run on the first device whose name contains NAME (case-insensitive). Default: lavapipe
+    /// when present, else the first device.
+    #[arg(long, value_name = "NAME")]
+    pub device: Option<String>,
+
+    /// Draws per frame in the draw storm, one measurement each (comma-separated).
+    #[arg(long, value_delimiter = ',', default_values_t = [1000usize, 10000])]
+    pub draws: Vec<usize>,
+
+    /// Distinct projections among a draw-storm frame's MVPs (1: one camera, every draw its
+    /// own model matrix, as most applications draw; more: the projection changes between
+    /// draws too).
+    #[arg(long, default_value_t = 1)]
+    pub projections: usize,
+
+    /// Measured frames per draw-storm child (after the warm-up frames).
+    #[arg(long, default_value_t = 20)]
+    pub frames: usize,
+
+    /// Warm-up frames per draw-storm child (not measured).
+    #[arg(long, default_value_t = 3)]
+    pub warmup: usize,
+
+    /// Rounds: each round runs every variant once per measurement, order rotated.
+    #[arg(long, default_value_t = 5)]
+    pub rounds: usize,
+
+    /// Pipelines in the pipeline storm (each from its own vertex module).
+    #[arg(long, default_value_t = 200)]
+    pub pipelines: usize,
+
+    /// Calls per loop in the micro-benchmark.
+    #[arg(long, default_value_t = 100_000)]
+    pub calls: usize,
+
+    /// Repeats of each micro-benchmark loop and of the pipeline storm in one child (the best
+    /// is kept).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+
+    /// The layer's manifest directory (default: `manifests/explicit` next to this executable,
+    /// as `cargo xtask build` writes it).
     #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    pub layer_dir: Option<PathBuf>,
+
+    /// Tiny counts (a smoke run; the figures mean nothing).
+    #[arg(long)]
+    pub quick: bool,
+
+    /// Enable the Khronos validation layer in every child (fails on any message; the timings
+    /// are then meaningless).
+    #[arg(long)]
+    pub validation: bool,
+
+    /// Internal: run one measurement and print it as JSON (what the parent starts).
+    #[arg(long, value_enum, hide = true)]
+    pub child: Option<Role>,
 }
 
-pub fn run(_args: &BenchArgs) -> Result<ExitCode> {
-    bail!("bench: not built yet")
+/// The counts one run uses (`--quick` overrides the arguments).
+#[derive(Clone, Debug, Serialize)]
+struct Config {
+    draws: Vec<usize>,
+    frames: usize,
+    warmup: usize,
+    projections: usize,
+    rounds: usize,
+    pipelines: usize,
+    calls: usize,
+    repeats: usize,
+    validation: bool,
+}
+
+impl Config {
+    fn of(args: &BenchArgs) -> Config {
+        if args.quick {
+            Config {
+                draws: vec![50, 200],
+                frames: 3,
+                warmup: 1,
+                projections: args.projections.max(1),
+                rounds: 1,
+                pipelines: 4,
+                calls: 2000,
+                repeats: 1,
+                validation: args.validation,
+            }
+        } else {
+            Config {
+                draws: args.draws.clone(),
+                frames: args.frames.max(1),
+                warmup: args.warmup,
+                projections: args.projections.max(1),
+                rounds: args.rounds.max(1),
+                pipelines: args.pipelines.max(1),
+                calls: args.calls.max(1),
+                repeats: args.repeats.max(1),
+                validation: args.validation,
+            }
+        }
+    }
+}
+
+pub fn run(args: &BenchArgs) -> Result<ExitCode> {
+    match args.child {
+        Some(role) => run_child(args, role),
+        None => run_parent(args),
+    }
+}
+
+/// A child: one measurement, printed as JSON on stdout.
+fn run_child(args: &BenchArgs, role: Role) -> Result<ExitCode> {
+    let config = Config::of(args);
+    let gpu = Gpu::new(&GpuOptions {
+        device: args.device.clone(),
+        validation: args.validation,
+        features: Features::default(),
+        max_api_version: None,
+    })?;
+    let draws = config.draws.first().copied().unwrap_or(1000);
+    let result = match role {
+        Role::DrawStorm => serde_json::to_value(child::draw_storm(
+            &gpu,
+            draws,
+            config.frames,
+            config.warmup,
+            config.projections,
+        )?)?,
+        Role::PipelineStorm => serde_json::to_value(child::pipeline_storm(
+            &gpu,
+            config.pipelines,
+            config.repeats,
+        )?)?,
+        Role::Micro => serde_json::to_value(child::micro(&gpu, config.calls, config.repeats)?)?,
+        Role::Smoke => {
+            child::smoke(&gpu)?;
+            json!({})
+        }
+    };
+    let device = gpu.info.name.clone();
+    let driver = gpu.info.driver();
+    let log = gpu.validation_log();
+    drop(gpu);
+    let messages = log.count();
+    let out = json!({
+        "role": role,
+        "device": device,
+        "driver": driver,
+        "validation_messages": messages,
+        "result": result,
+    });
+    println!("{out}");
+    Ok(if messages > 0 {
+        ExitCode::from(2)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// One measurement the parent runs in every variant.
+#[derive(Clone, Debug, PartialEq)]
+enum Job {
+    /// Draws per frame, distinct projections among them.
+    DrawStorm(usize, usize),
+    Micro,
+    PipelineStorm,
+    Smoke,
+}
+
+impl Job {
+    fn name(&self) -> String {
+        match self {
+            Job::DrawStorm(n, p) => format!("draw-storm-{n}-p{p}"),
+            Job::Micro => "micro".into(),
+            Job::PipelineStorm => "pipeline-storm".into(),
+            Job::Smoke => "smoke".into(),
+        }
+    }
+}
+
+/// One child's figures.
+#[derive(Clone, Debug, Serialize)]
+struct Sample {
+    job: String,
+    variant: &'static str,
+    round: usize,
+    result: Value,
+}
+
+fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
+    let out = args.out.as_deref().context("--out is required")?;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
+    let config = Config::of(args);
+    let runner = Runner::locate(args.layer_dir.as_deref())?;
+    let mut jobs: Vec<Job> = config
+        .draws
+        .iter()
+        .map(|&n| Job::DrawStorm(n, config.projections))
+        .collect();
+    // The worst case for the precise path: the projection changes with every draw.
+    let largest = config.draws.iter().copied().max().unwrap_or(0);
+    if largest > 0 && config.projections < largest {
+        jobs.push(Job::DrawStorm(largest, largest));
+    }
+    jobs.push(Job::Micro);
+    jobs.push(Job::PipelineStorm);
+    if config.validation {
+        jobs.push(Job::Smoke);
+    }
+    eprintln!(
+        "bench: {} round(s) x {} variants x {} measurements{}",
+        config.rounds,
+        Variant::ALL.len(),
+        jobs.len(),
+        if config.validation {
+            " (validation on: timings are not meaningful)"
+        } else {
+            ""
+        }
+    );
+    let started = std::time::Instant::now();
+    let mut samples = Vec::new();
+    let mut device = String::new();
+    let mut driver = String::new();
+    for round in 0..config.rounds {
+        for (j, job) in jobs.iter().enumerate() {
+            let mut order = Variant::ALL.to_vec();
+            let len = order.len();
+            order.rotate_left((round + j) % len);
+            for variant in order {
+                let line = run_one(&runner, args, &config, job, variant)?;
+                if device.is_empty() {
+                    device = line["device"].as_str().unwrap_or("").to_owned();
+                    driver = line["driver"].as_str().unwrap_or("").to_owned();
+                }
+                samples.push(Sample {
+                    job: job.name(),
+                    variant: variant.name(),
+                    round,
+                    result: line["result"].clone(),
+                });
+            }
+        }
+        eprintln!(
+            "bench: round {}/{} done ({:.0} s)",
+            round + 1,
+            config.rounds,
+            started.elapsed().as_secs_f64()
+        );
+    }
+    let summary = summarize(&samples, &config, &device, &driver);
+    let bench = json!({
+        "device": device,
+        "driver": driver,
+        "config": config,
+        "elapsed_s": started.elapsed().as_secs_f64(),
+        "speed": summary,
+        "samples": samples,
+    });
+    let bench_path = out.join("bench.json");
+    std::fs::write(&bench_path, serde_json::to_string_pretty(&bench)? + "\n")
+        .with_context(|| format!("cannot write {}", bench_path.display()))?;
+    println!("wrote: {}", bench_path.display());
+    let table = report::integrate(out, &device, &driver, &summary, &config.draws)?;
+    println!("{table}");
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Runs one child and returns its JSON line.
+fn run_one(
+    runner: &Runner,
+    args: &BenchArgs,
+    config: &Config,
+    job: &Job,
+    variant: Variant,
+) -> Result<Value> {
+    let role = match job {
+        Job::DrawStorm(..) => "draw-storm",
+        Job::Micro => "micro",
+        Job::PipelineStorm => "pipeline-storm",
+        Job::Smoke => "smoke",
+    };
+    let (draws, projections) = match job {
+        Job::DrawStorm(n, p) => (*n, *p),
+        _ => (1, 1),
+    };
+    let mut owned: Vec<String> = vec![
+        "bench".into(),
+        "--child".into(),
+        role.into(),
+        "--draws".into(),
+        draws.to_string(),
+        "--frames".into(),
+        config.frames.to_string(),
+        "--warmup".into(),
+        config.warmup.to_string(),
+        "--projections".into(),
+        projections.to_string(),
+        "--pipelines".into(),
+        config.pipelines.to_string(),
+        "--calls".into(),
+        config.calls.to_string(),
+        "--repeats".into(),
+        config.repeats.to_string(),
+    ];
+    if let Some(device) = &args.device {
+        owned.push("--device".into());
+        owned.push(device.clone());
+    }
+    if config.validation {
+        owned.push("--validation".into());
+    }
+    let argv: Vec<&str> = owned.iter().map(String::as_str).collect();
+    let mut command = runner.command(variant, &argv, &[]);
+    // Pipelines are created from scratch in every variant: no shader cache on disk.
+    command.env("MESA_SHADER_CACHE_DISABLE", "true");
+    let output = command
+        .output()
+        .with_context(|| format!("cannot start the {} child", job.name()))?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    if !output.status.success() {
+        bail!(
+            "the {} child ({}) failed ({}):\n{}{}",
+            job.name(),
+            variant.name(),
+            output.status,
+            String::from_utf8_lossy(&output.stderr),
+            stdout
+        );
+    }
+    let line = stdout
+        .lines()
+        .rev()
+        .find(|l| l.starts_with('{'))
+        .with_context(|| format!("the {} child printed no JSON: {stdout}", job.name()))?;
+    serde_json::from_str(line).with_context(|| format!("the {} child's JSON", job.name()))
+}
+
+/// The figures of `job` in `variant`, round by round (`None` where missing).
+fn per_round<'a>(
+    samples: &'a [Sample],
+    job: &str,
+    variant: &str,
+    rounds: usize,
+) -> Vec<Option<&'a Value>> {
+    (0..rounds)
+        .map(|r| {
+            samples
+                .iter()
+                .find(|s| s.job == job && s.variant == variant && s.round == r)
+                .map(|s| &s.result)
+        })
+        .collect()
+}
+
+/// The median over rounds of `f(variant's figure, no layer's figure)`, `None` without data.
+fn paired(
+    samples: &[Sample],
+    job: &str,
+    variant: &str,
+    rounds: usize,
+    key: &str,
+    f: impl Fn(f64, f64) -> f64,
+) -> Option<f64> {
+    let with = per_round(samples, job, variant, rounds);
+    let without = per_round(samples, job, Variant::NoLayer.name(), rounds);
+    let values: Vec<f64> = with
+        .iter()
+        .zip(&without)
+        .filter_map(|(w, n)| Some(f((*w)?.get(key)?.as_f64()?, (*n)?.get(key)?.as_f64()?)))
+        .collect();
+    (!values.is_empty()).then(|| child::median(&values))
+}
+
+/// The median over rounds of a variant's own figure.
+fn own(samples: &[Sample], job: &str, variant: &str, rounds: usize, key: &str) -> Option<f64> {
+    let values: Vec<f64> = per_round(samples, job, variant, rounds)
+        .into_iter()
+        .filter_map(|v| v?.get(key)?.as_f64())
+        .collect();
+    (!values.is_empty()).then(|| child::median(&values))
+}
+
+/// One speed row per variant (mode), in `report.json`'s `speed` schema.
+fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) -> Vec<Value> {
+    let rounds = config.rounds;
+    let largest = config.draws.iter().copied().max().unwrap_or(0);
+    let storm = |n: usize| Job::DrawStorm(n, config.projections).name();
+    let varying = Job::DrawStorm(largest, largest).name();
+    let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
+    let diff = |a: f64, b: f64| a - b;
+    let pipe = Job::PipelineStorm.name();
+    let micro = Job::Micro.name();
+    Variant::ALL
+        .iter()
+        .map(|variant| {
+            let v = variant.name();
+            let mut by_draws = BTreeMap::new();
+            let mut cpu_ns = BTreeMap::new();
+            let mut wall_ns = BTreeMap::new();
+            for &n in &config.draws {
+                let job = storm(n);
+                by_draws.insert(
+                    n.to_string(),
+                    json!({
+                        "frame_cpu_ratio": paired(samples, &job, v, rounds, "frame_cpu_ns", ratio),
+                        "frame_wall_ratio": paired(samples, &job, v, rounds, "frame_wall_ns", ratio),
+                    }),
+                );
+                cpu_ns.insert(n.to_string(), own(samples, &job, v, rounds, "frame_cpu_ns"));
+                wall_ns.insert(n.to_string(), own(samples, &job, v, rounds, "frame_wall_ns"));
+            }
+            let big = storm(largest);
+            json!({
+                "device": device,
+                "driver": driver,
+                "mode": v,
+                "draws": largest,
+                "frame_cpu_ratio": paired(samples, &big, v, rounds, "frame_cpu_ns", ratio),
+                "projections": config.projections,
+                "frame_cpu_ratio_projection_per_draw": paired(samples, &varying, v, rounds, "frame_cpu_ns", ratio),
+                "frame_wall_ratio": paired(samples, &big, v, rounds, "frame_wall_ns", ratio),
+                "pipeline_creation_ratio": paired(samples, &pipe, v, rounds, "create_wall_ns", ratio),
+                "pipeline_creation_cpu_ratio": paired(samples, &pipe, v, rounds, "create_cpu_ns", ratio),
+                "ns_per_push_constant": paired(samples, &micro, v, rounds, "push_constant_ns", diff),
+                "ns_per_draw": paired(samples, &micro, v, rounds, "draw_ns", diff),
+                "ns_per_bind": paired(samples, &micro, v, rounds, "bind_ns", diff),
+                "bytes_per_pipeline": paired(samples, &pipe, v, rounds, "heap_per_pipeline", diff),
+                "bytes_per_command_buffer": paired(samples, &big, v, rounds, "heap_per_command_buffer", diff),
+                "heap_growth_per_frame": paired(samples, &big, v, rounds, "heap_growth_per_frame", diff),
+                "heap_growth_per_frame_own": own(samples, &big, v, rounds, "heap_growth_per_frame"),
+                "peak_rss_draw_storm": own(samples, &big, v, rounds, "vm_hwm"),
+                "peak_rss_delta_draw_storm": paired(samples, &big, v, rounds, "vm_hwm", diff),
+                "peak_rss_pipeline_storm": own(samples, &pipe, v, rounds, "vm_hwm"),
+                "peak_rss_delta_pipeline_storm": paired(samples, &pipe, v, rounds, "vm_hwm", diff),
+                "frame_cpu_ns": cpu_ns,
+                "frame_wall_ns": wall_ns,
+                "pipeline_creation_ns": own(samples, &pipe, v, rounds, "create_wall_ns"),
+                "pipelines": config.pipelines,
+                "push_constant_ns": own(samples, &micro, v, rounds, "push_constant_ns"),
+                "draw_ns": own(samples, &micro, v, rounds, "draw_ns"),
+                "bind_ns": own(samples, &micro, v, rounds, "bind_ns"),
+                "by_draws": by_draws,
+                "rounds": rounds,
+            })
+        })
+        .collect()
 }

@@ -1,0 +1,922 @@
+//! The benchmark's child roles: each runs in its own process (with or without the layer, as
+//! [`crate::variants::Runner`] started it), does one measured piece of work on the device and
+//! returns its figures, which `mod.rs` prints as one JSON object on stdout.
+//!
+//! - [`draw_storm`]: N draws per frame, each with its own pushed MVP, pipelines switched every
+//!   [`DRAWS_PER_BIND`] draws, into a D32_SFLOAT attachment that is never read back (so the
+//!   layer's default policy reverses it). Per frame: the recording thread's CPU time from the
+//!   start of recording to the return of `vkQueueSubmit`, and the wall time until the fence
+//!   signals; medians after warm-up. Then the heap and resident size: growth over the measured
+//!   frames, and what [`COMMAND_BUFFERS`] recorded command buffers cost.
+//! - [`pipeline_storm`]: M graphics pipelines, each from its own vertex module (a copy of
+//!   `scene.vert` with one distinct unused constant), module and pipeline created together and
+//!   timed; then the heap the pipelines hold.
+//! - [`micro`]: the intercepted hot calls in a render pass on the reversed attachment:
+//!   `vkCmdPushConstants` of a different perspective MVP each call, `vkCmdDraw` with nothing
+//!   changed, `vkCmdBindPipeline` alternating two pipelines; thread CPU time per loop.
+
+use std::time::Instant;
+
+use anyhow::{anyhow, Context, Result};
+use ash::vk;
+use glam::{Mat4, Vec3};
+use serde::{Deserialize, Serialize};
+
+use crate::gpu::{Gpu, HostBuffer};
+use crate::shaders;
+use crate::target::{DepthFormat, TargetOptions, Targets, COLOR_FORMAT};
+
+/// Draws between pipeline binds in the draw storm (4 pipelines in turn).
+pub const DRAWS_PER_BIND: usize = 16;
+/// Command buffers recorded for the per-command-buffer memory figure.
+pub const COMMAND_BUFFERS: usize = 200;
+/// Draws recorded into each of them.
+const DRAWS_PER_COMMAND_BUFFER: usize = 64;
+/// The push-constant block of `scene.vert` / `scene.frag`: mat4 mvp, vec4 color.
+const PUSH_BYTES: u32 = 80;
+const PUSH_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
+    vk::ShaderStageFlags::VERTEX.as_raw() | vk::ShaderStageFlags::FRAGMENT.as_raw(),
+);
+/// Render size: small, so that the device's raster work does not hide the CPU cost.
+const EXTENT: vk::Extent2D = vk::Extent2D {
+    width: 64,
+    height: 64,
+};
+
+/// The recording thread's CPU time in nanoseconds.
+pub fn thread_cpu_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec to write; CLOCK_THREAD_CPUTIME_ID exists on Linux.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// Bytes of heap in use (glibc `mallinfo2`: small-chunk bytes in use in every arena plus
+/// mmapped chunks): what the process, the driver and the layer have allocated and not freed.
+pub fn heap_in_use() -> u64 {
+    // SAFETY: plain query of the allocator's statistics.
+    let info = unsafe { libc::mallinfo2() };
+    (info.uordblks + info.hblkhd) as u64
+}
+
+/// A `/proc/self/status` size in bytes (`VmHWM`, `VmRSS`), 0 where unreadable.
+pub fn proc_status(key: &str) -> u64 {
+    let Ok(status) = std::fs::read_to_string("/proc/self/status") else {
+        return 0;
+    };
+    status
+        .lines()
+        .find_map(|line| {
+            let rest = line.strip_prefix(key)?.strip_prefix(':')?;
+            let kb: u64 = rest.trim().trim_end_matches("kB").trim().parse().ok()?;
+            Some(kb * 1024)
+        })
+        .unwrap_or(0)
+}
+
+/// The median of `values` (0 for none).
+pub fn median(values: &[f64]) -> f64 {
+    let mut sorted: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    sorted.sort_by(f64::total_cmp);
+    let mid = sorted.len() / 2;
+    if sorted.len() % 2 == 1 {
+        sorted[mid]
+    } else {
+        (sorted[mid - 1] + sorted[mid]) / 2.0
+    }
+}
+
+/// An MVP that differs with `i`: the model moves with `i`, the perspective projection (a
+/// standard [0, 1] one: near 0, far 1) is the `i % projections`-th of a family with different
+/// field of view, near and far planes.
+fn mvp(i: usize, projections: usize) -> Mat4 {
+    let k = i as f32;
+    let p = i % projections.max(1);
+    let near = 0.1 + (p % 97) as f32 * 0.001;
+    let far = 100.0 + (p % 89) as f32;
+    // Right-handed, depth [0, 1] (near 0, far 1), column-major.
+    let f = 1.0 / (0.5 + (p % 13) as f32 * 0.005).tan();
+    let proj = Mat4::from_cols_array(&[
+        f,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        f,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        far / (near - far),
+        -1.0,
+        0.0,
+        0.0,
+        near * far / (near - far),
+        0.0,
+    ]);
+    let model = Mat4::from_translation(Vec3::new(
+        ((k * 0.37).sin()) * 2.0,
+        ((k * 0.61).cos()) * 2.0,
+        -5.0 - (i % 50) as f32 * 0.2,
+    ));
+    proj * model
+}
+
+/// The 80 push-constant bytes of draw `i`: its MVP (see [`mvp`]) and a color.
+fn push_bytes(i: usize, projections: usize) -> [u8; PUSH_BYTES as usize] {
+    let mut out = [0u8; PUSH_BYTES as usize];
+    let m = mvp(i, projections).to_cols_array();
+    let color = [
+        (i % 7) as f32 / 7.0,
+        (i % 5) as f32 / 5.0,
+        (i % 3) as f32 / 3.0,
+        1.0,
+    ];
+    for (n, v) in m.iter().chain(color.iter()).enumerate() {
+        out[n * 4..n * 4 + 4].copy_from_slice(&v.to_ne_bytes());
+    }
+    out
+}
+
+/// SPIR-V word of `OpTypeFloat` (opcode 22) and `OpConstant` (opcode 43).
+const OP_TYPE_FLOAT: u32 = 22;
+const OP_CONSTANT: u32 = 43;
+
+/// `words` (a SPIR-V module) with one more, unused, 32-bit float constant of value `value`,
+/// declared right after the module's `OpTypeFloat 32`: a distinct module that computes the
+/// same thing.
+pub fn with_unused_constant(words: &[u32], value: f32) -> Result<Vec<u32>> {
+    if words.len() < 5 {
+        return Err(anyhow!("SPIR-V module too short"));
+    }
+    let mut at = 5;
+    let mut float_type = None;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        if count == 0 {
+            return Err(anyhow!("malformed SPIR-V instruction at word {at}"));
+        }
+        if words[at] & 0xffff == OP_TYPE_FLOAT && count == 3 && words.get(at + 2) == Some(&32) {
+            float_type = Some((at + count, words[at + 1]));
+            break;
+        }
+        at += count;
+    }
+    let (insert_at, type_id) = float_type.context("no OpTypeFloat 32 in the module")?;
+    let new_id = words[3];
+    let mut out = Vec::with_capacity(words.len() + 4);
+    out.extend_from_slice(&words[..insert_at]);
+    out.extend_from_slice(&[(4 << 16) | OP_CONSTANT, type_id, new_id, value.to_bits()]);
+    out.extend_from_slice(&words[insert_at..]);
+    out[3] = new_id + 1;
+    Ok(out)
+}
+
+/// One pipeline's depth state in the draw storm's mix.
+#[derive(Clone, Copy, Debug)]
+struct PipelineKind {
+    compare: vk::CompareOp,
+    bias: bool,
+}
+
+const MIX: [PipelineKind; 4] = [
+    PipelineKind {
+        compare: vk::CompareOp::LESS,
+        bias: false,
+    },
+    PipelineKind {
+        compare: vk::CompareOp::LESS_OR_EQUAL,
+        bias: false,
+    },
+    PipelineKind {
+        compare: vk::CompareOp::LESS,
+        bias: true,
+    },
+    PipelineKind {
+        compare: vk::CompareOp::LESS_OR_EQUAL,
+        bias: true,
+    },
+];
+
+/// The objects every role renders with: color + D32 targets, a render pass clearing both
+/// (depth to 1.0), its framebuffer, the push-constant layout, `scene.frag`, a one-triangle
+/// vertex buffer, a command pool and a fence.
+struct Bench<'a> {
+    gpu: &'a Gpu,
+    render_pass: vk::RenderPass,
+    framebuffer: vk::Framebuffer,
+    layout: vk::PipelineLayout,
+    fragment: vk::ShaderModule,
+    pipelines: Vec<vk::Pipeline>,
+    pool: vk::CommandPool,
+    fence: vk::Fence,
+    vertices: HostBuffer<'a>,
+    _targets: Targets<'a>,
+}
+
+impl Drop for Bench<'_> {
+    fn drop(&mut self) {
+        let device = &self.gpu.device;
+        // SAFETY: every handle was created from `device` (or is null) and the device is idle.
+        unsafe {
+            let _ = device.device_wait_idle();
+            device.destroy_fence(self.fence, None);
+            device.destroy_command_pool(self.pool, None);
+            for &pipeline in &self.pipelines {
+                device.destroy_pipeline(pipeline, None);
+            }
+            device.destroy_shader_module(self.fragment, None);
+            device.destroy_pipeline_layout(self.layout, None);
+            device.destroy_framebuffer(self.framebuffer, None);
+            device.destroy_render_pass(self.render_pass, None);
+        }
+    }
+}
+
+impl<'a> Bench<'a> {
+    fn new(gpu: &'a Gpu) -> Result<Self> {
+        let device = &gpu.device;
+        let targets = Targets::new(
+            gpu,
+            EXTENT.width,
+            EXTENT.height,
+            DepthFormat::D32,
+            TargetOptions {
+                depth_readback: false,
+                clear_depth_image: false,
+                shadow_map: false,
+            },
+        )?;
+        let mut vertices = HostBuffer::new(gpu, 36, vk::BufferUsageFlags::VERTEX_BUFFER)?;
+        let triangle: [f32; 9] = [-0.5, -0.5, 0.0, 0.5, -0.5, 0.0, 0.0, 0.5, 0.0];
+        let bytes: Vec<u8> = triangle.iter().flat_map(|v| v.to_ne_bytes()).collect();
+        vertices.write(&bytes);
+        let mut this = Bench {
+            gpu,
+            render_pass: vk::RenderPass::null(),
+            framebuffer: vk::Framebuffer::null(),
+            layout: vk::PipelineLayout::null(),
+            fragment: vk::ShaderModule::null(),
+            pipelines: Vec::new(),
+            pool: vk::CommandPool::null(),
+            fence: vk::Fence::null(),
+            vertices,
+            _targets: targets,
+        };
+        this.render_pass = create_render_pass(device)?;
+        let views = [this._targets.color.view, this._targets.depth.view];
+        let info = vk::FramebufferCreateInfo::default()
+            .render_pass(this.render_pass)
+            .attachments(&views)
+            .width(EXTENT.width)
+            .height(EXTENT.height)
+            .layers(1);
+        // SAFETY: valid render pass and views compatible with it.
+        this.framebuffer = unsafe { device.create_framebuffer(&info, None) }
+            .context("vkCreateFramebuffer failed")?;
+        let ranges = [vk::PushConstantRange {
+            stage_flags: PUSH_STAGES,
+            offset: 0,
+            size: PUSH_BYTES,
+        }];
+        let info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges);
+        // SAFETY: valid device and create info.
+        this.layout = unsafe { device.create_pipeline_layout(&info, None) }
+            .context("vkCreatePipelineLayout failed")?;
+        this.fragment = create_module(device, &shaders::SCENE_FRAG.words()?)?;
+        let info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(gpu.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid device and create info.
+        this.pool = unsafe { device.create_command_pool(&info, None) }
+            .context("vkCreateCommandPool failed")?;
+        // SAFETY: valid device.
+        this.fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+            .context("vkCreateFence failed")?;
+        Ok(this)
+    }
+
+    /// Creates a pipeline of `kind` from `vertex` (with `scene.frag`).
+    fn pipeline(&self, vertex: vk::ShaderModule, kind: PipelineKind) -> Result<vk::Pipeline> {
+        create_pipeline(
+            &self.gpu.device,
+            vertex,
+            self.fragment,
+            kind,
+            self.layout,
+            self.render_pass,
+        )
+    }
+
+    /// The standard pipelines of the mix, from one `scene.vert` module.
+    fn standard_pipelines(&mut self) -> Result<()> {
+        let device = &self.gpu.device;
+        let vertex = create_module(device, &shaders::SCENE_VERT.words()?)?;
+        let created: Result<Vec<_>> = MIX.iter().map(|&k| self.pipeline(vertex, k)).collect();
+        // SAFETY: only needed while the pipelines were created.
+        unsafe { device.destroy_shader_module(vertex, None) };
+        self.pipelines = created?;
+        Ok(())
+    }
+
+    fn allocate(&self, count: usize) -> Result<Vec<vk::CommandBuffer>> {
+        let info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(self.pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(count as u32);
+        // SAFETY: valid pool.
+        unsafe { self.gpu.device.allocate_command_buffers(&info) }
+            .context("vkAllocateCommandBuffers failed")
+    }
+
+    /// Begins `cmd` and the render pass (clear color, depth 1.0), binds the vertex buffer.
+    fn begin(&self, cmd: vk::CommandBuffer) -> Result<()> {
+        let device = &self.gpu.device;
+        let clear = [
+            vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: [0.0, 0.0, 0.0, 1.0],
+                },
+            },
+            vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: 1.0,
+                    stencil: 0,
+                },
+            },
+        ];
+        let pass = vk::RenderPassBeginInfo::default()
+            .render_pass(self.render_pass)
+            .framebuffer(self.framebuffer)
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: EXTENT,
+            })
+            .clear_values(&clear);
+        // SAFETY: `cmd` is a fresh or reset primary command buffer of this device; the pass
+        // objects are alive.
+        unsafe {
+            device
+                .begin_command_buffer(
+                    cmd,
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
+                .context("vkBeginCommandBuffer failed")?;
+            device.cmd_begin_render_pass(cmd, &pass, vk::SubpassContents::INLINE);
+            device.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.buffer], &[0]);
+        }
+        Ok(())
+    }
+
+    /// Ends the render pass and `cmd`.
+    fn end(&self, cmd: vk::CommandBuffer) -> Result<()> {
+        let device = &self.gpu.device;
+        // SAFETY: `cmd` is recording, inside the render pass `begin` started.
+        unsafe {
+            device.cmd_end_render_pass(cmd);
+            device
+                .end_command_buffer(cmd)
+                .context("vkEndCommandBuffer failed")
+        }
+    }
+
+    /// Records `draws` draws into `cmd` (a pipeline bind every [`DRAWS_PER_BIND`], an 80-byte
+    /// push of each draw's MVP and color before each), between `begin` and `end`.
+    fn record_storm(
+        &self,
+        cmd: vk::CommandBuffer,
+        pushes: &[[u8; 80]],
+        draws: usize,
+    ) -> Result<()> {
+        let device = &self.gpu.device;
+        self.begin(cmd)?;
+        for i in 0..draws {
+            // SAFETY: `cmd` is recording inside the render pass; pipelines and layout alive.
+            unsafe {
+                if i % DRAWS_PER_BIND == 0 {
+                    let pipeline = self.pipelines[(i / DRAWS_PER_BIND) % self.pipelines.len()];
+                    device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+                }
+                device.cmd_push_constants(
+                    cmd,
+                    self.layout,
+                    PUSH_STAGES,
+                    0,
+                    &pushes[i % pushes.len()],
+                );
+                device.cmd_draw(cmd, 3, 1, 0, 0);
+            }
+        }
+        self.end(cmd)
+    }
+
+    fn submit_and_wait(&self, cmd: vk::CommandBuffer) -> Result<()> {
+        self.submit(cmd)?;
+        self.wait()
+    }
+
+    fn submit(&self, cmd: vk::CommandBuffer) -> Result<()> {
+        let cmds = [cmd];
+        let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+        // SAFETY: `cmd` is executable; the fence is unsignaled.
+        unsafe {
+            self.gpu
+                .device
+                .queue_submit(self.gpu.queue, &[submit], self.fence)
+        }
+        .context("vkQueueSubmit failed")
+    }
+
+    fn wait(&self) -> Result<()> {
+        let device = &self.gpu.device;
+        // SAFETY: the fence was submitted with work.
+        unsafe {
+            device
+                .wait_for_fences(&[self.fence], true, u64::MAX)
+                .context("vkWaitForFences failed")?;
+            device
+                .reset_fences(&[self.fence])
+                .context("vkResetFences failed")
+        }
+    }
+}
+
+fn create_module(device: &ash::Device, words: &[u32]) -> Result<vk::ShaderModule> {
+    let info = vk::ShaderModuleCreateInfo::default().code(words);
+    // SAFETY: valid device; `words` is SPIR-V built (and validated) at build time, or such a
+    // module with one more unused constant.
+    unsafe { device.create_shader_module(&info, None) }.context("vkCreateShaderModule failed")
+}
+
+fn create_render_pass(device: &ash::Device) -> Result<vk::RenderPass> {
+    let ds_layout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    let color_layout = vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL;
+    let attachments = [
+        vk::AttachmentDescription::default()
+            .format(COLOR_FORMAT)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .initial_layout(vk::ImageLayout::UNDEFINED)
+            .final_layout(color_layout),
+        vk::AttachmentDescription::default()
+            .format(vk::Format::D32_SFLOAT)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .initial_layout(vk::ImageLayout::UNDEFINED)
+            .final_layout(ds_layout),
+    ];
+    let color_refs = [vk::AttachmentReference {
+        attachment: 0,
+        layout: color_layout,
+    }];
+    let depth_ref = vk::AttachmentReference {
+        attachment: 1,
+        layout: ds_layout,
+    };
+    let subpasses = [vk::SubpassDescription::default()
+        .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+        .color_attachments(&color_refs)
+        .depth_stencil_attachment(&depth_ref)];
+    let stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+        | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+        | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+    // The previous frame's attachment writes before this frame's clears.
+    let dependencies = [vk::SubpassDependency {
+        src_subpass: vk::SUBPASS_EXTERNAL,
+        dst_subpass: 0,
+        src_stage_mask: stages,
+        dst_stage_mask: stages,
+        src_access_mask: vk::AccessFlags::COLOR_ATTACHMENT_WRITE
+            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+        dst_access_mask: vk::AccessFlags::COLOR_ATTACHMENT_WRITE
+            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+        dependency_flags: vk::DependencyFlags::empty(),
+    }];
+    let info = vk::RenderPassCreateInfo::default()
+        .attachments(&attachments)
+        .subpasses(&subpasses)
+        .dependencies(&dependencies);
+    // SAFETY: valid device; the create info refers to live locals.
+    unsafe { device.create_render_pass(&info, None) }.context("vkCreateRenderPass failed")
+}
+
+/// A pipeline: `scene.vert`'s vertex input (vec3 positions), triangle lists, no culling, the
+/// viewport covering the target, depth test with `kind`'s compare op and writes, a static
+/// depth bias when `kind` asks for one.
+fn create_pipeline(
+    device: &ash::Device,
+    vertex: vk::ShaderModule,
+    fragment: vk::ShaderModule,
+    kind: PipelineKind,
+    layout: vk::PipelineLayout,
+    render_pass: vk::RenderPass,
+) -> Result<vk::Pipeline> {
+    let stages = [
+        vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::VERTEX)
+            .module(vertex)
+            .name(c"main"),
+        vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::FRAGMENT)
+            .module(fragment)
+            .name(c"main"),
+    ];
+    let bindings = [vk::VertexInputBindingDescription {
+        binding: 0,
+        stride: 12,
+        input_rate: vk::VertexInputRate::VERTEX,
+    }];
+    let attributes = [vk::VertexInputAttributeDescription {
+        location: 0,
+        binding: 0,
+        format: vk::Format::R32G32B32_SFLOAT,
+        offset: 0,
+    }];
+    let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
+        .vertex_binding_descriptions(&bindings)
+        .vertex_attribute_descriptions(&attributes);
+    let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let viewports = [vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: EXTENT.width as f32,
+        height: EXTENT.height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    }];
+    let scissors = [vk::Rect2D {
+        offset: vk::Offset2D { x: 0, y: 0 },
+        extent: EXTENT,
+    }];
+    let viewport_state = vk::PipelineViewportStateCreateInfo::default()
+        .viewports(&viewports)
+        .scissors(&scissors);
+    let rasterization = vk::PipelineRasterizationStateCreateInfo::default()
+        .polygon_mode(vk::PolygonMode::FILL)
+        .cull_mode(vk::CullModeFlags::NONE)
+        .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+        .line_width(1.0)
+        .depth_bias_enable(kind.bias)
+        .depth_bias_constant_factor(if kind.bias { 2.0 } else { 0.0 })
+        .depth_bias_slope_factor(if kind.bias { 1.0 } else { 0.0 });
+    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
+        .depth_test_enable(true)
+        .depth_write_enable(true)
+        .depth_compare_op(kind.compare)
+        .min_depth_bounds(0.0)
+        .max_depth_bounds(1.0);
+    let blend = [vk::PipelineColorBlendAttachmentState::default()
+        .blend_enable(false)
+        .color_write_mask(vk::ColorComponentFlags::RGBA)];
+    let color_blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend);
+    let dynamic_state = vk::PipelineDynamicStateCreateInfo::default();
+    let info = vk::GraphicsPipelineCreateInfo::default()
+        .stages(&stages)
+        .vertex_input_state(&vertex_input)
+        .input_assembly_state(&input_assembly)
+        .viewport_state(&viewport_state)
+        .rasterization_state(&rasterization)
+        .multisample_state(&multisample)
+        .depth_stencil_state(&depth_stencil)
+        .color_blend_state(&color_blend)
+        .dynamic_state(&dynamic_state)
+        .layout(layout)
+        .render_pass(render_pass)
+        .subpass(0);
+    // SAFETY: valid device; every state structure and module referenced is alive for the call.
+    let pipelines =
+        unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
+            .map_err(|(pipelines, e)| {
+                for pipeline in pipelines {
+                    // SAFETY: pipelines returned by the failed call; null ones are ignored.
+                    unsafe { device.destroy_pipeline(pipeline, None) };
+                }
+                anyhow!("vkCreateGraphicsPipelines failed: {e}")
+            })?;
+    pipelines
+        .into_iter()
+        .next()
+        .ok_or_else(|| anyhow!("vkCreateGraphicsPipelines returned no pipeline"))
+}
+
+/// What a draw-storm child measured.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct DrawStorm {
+    pub draws: usize,
+    pub frames: usize,
+    pub warmup: usize,
+    /// Distinct projections among the draws' MVPs (1: one camera, the model differs).
+    pub projections: usize,
+    /// Median recording-thread CPU time from the start of recording to the return of
+    /// `vkQueueSubmit`, ns.
+    pub frame_cpu_ns: f64,
+    /// Median wall time from the start of recording to the fence, ns.
+    pub frame_wall_ns: f64,
+    /// Median wall time of recording and submitting only, ns.
+    pub record_wall_ns: f64,
+    /// Median over the measured frames of the heap's growth during one frame (bytes): a
+    /// steady leak shows as itself, a one-time step of the driver's pools as 0.
+    pub heap_growth_per_frame: f64,
+    /// Heap growth from the first to the last measured frame, per frame (bytes).
+    pub heap_growth_mean_per_frame: f64,
+    /// Heap held by [`COMMAND_BUFFERS`] recorded command buffers, per command buffer (bytes).
+    pub heap_per_command_buffer: f64,
+    /// Resident size growth for the same, per command buffer (bytes, page granularity).
+    pub rss_per_command_buffer: f64,
+    /// Peak resident size of the process at the end (`VmHWM`, bytes).
+    pub vm_hwm: u64,
+}
+
+/// The draw storm: `draws` draws a frame, `warmup` frames then `frames` measured.
+pub fn draw_storm(
+    gpu: &Gpu,
+    draws: usize,
+    frames: usize,
+    warmup: usize,
+    projections: usize,
+) -> Result<DrawStorm> {
+    let mut bench = Bench::new(gpu)?;
+    bench.standard_pipelines()?;
+    // One distinct MVP per draw, computed before anything is timed.
+    let pushes: Vec<[u8; 80]> = (0..draws.max(1))
+        .map(|i| push_bytes(i, projections))
+        .collect();
+    let cmd = bench.allocate(1)?[0];
+    let mut cpu = Vec::new();
+    let mut wall = Vec::new();
+    let mut record = Vec::new();
+    let mut growth = Vec::new();
+    let mut heap_first = 0;
+    let mut heap = heap_in_use();
+    for frame in 0..warmup + frames {
+        let w0 = Instant::now();
+        let c0 = thread_cpu_ns();
+        // SAFETY: the previous submission of `cmd` has completed (fence waited).
+        unsafe {
+            gpu.device
+                .reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
+        }
+        .context("vkResetCommandBuffer failed")?;
+        bench.record_storm(cmd, &pushes, draws)?;
+        bench.submit(cmd)?;
+        let c1 = thread_cpu_ns();
+        let w1 = Instant::now();
+        bench.wait()?;
+        let w2 = Instant::now();
+        let heap_now = heap_in_use();
+        if frame >= warmup {
+            cpu.push((c1 - c0) as f64);
+            record.push((w1 - w0).as_nanos() as f64);
+            wall.push((w2 - w0).as_nanos() as f64);
+            growth.push(heap_now as f64 - heap as f64);
+            if frame == warmup {
+                heap_first = heap_now;
+            }
+        }
+        heap = heap_now;
+    }
+    let heap_growth_mean_per_frame = if frames > 1 {
+        (heap as f64 - heap_first as f64) / (frames - 1) as f64
+    } else {
+        0.0
+    };
+
+    // Memory per recorded command buffer: COMMAND_BUFFERS buffers recorded (not submitted),
+    // heap and resident size before and after.
+    let heap0 = heap_in_use();
+    let rss0 = proc_status("VmRSS");
+    let cmds = bench.allocate(COMMAND_BUFFERS)?;
+    for &c in &cmds {
+        bench.record_storm(c, &pushes, DRAWS_PER_COMMAND_BUFFER.min(draws.max(1)))?;
+    }
+    let heap1 = heap_in_use();
+    let rss1 = proc_status("VmRSS");
+    // SAFETY: never submitted; freed back to their pool.
+    unsafe { gpu.device.free_command_buffers(bench.pool, &cmds) };
+    let per = |a: u64, b: u64| (b as f64 - a as f64) / COMMAND_BUFFERS as f64;
+    Ok(DrawStorm {
+        draws,
+        frames,
+        warmup,
+        projections,
+        frame_cpu_ns: median(&cpu),
+        frame_wall_ns: median(&wall),
+        record_wall_ns: median(&record),
+        heap_growth_per_frame: median(&growth),
+        heap_growth_mean_per_frame,
+        heap_per_command_buffer: per(heap0, heap1),
+        rss_per_command_buffer: per(rss0, rss1),
+        vm_hwm: proc_status("VmHWM"),
+    })
+}
+
+/// What a pipeline-storm child measured.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct PipelineStorm {
+    pub pipelines: usize,
+    pub repeats: usize,
+    /// Wall time to create every module and pipeline, ns (the best of the repeats).
+    pub create_wall_ns: f64,
+    /// The creating thread's CPU time for the same, ns (the best of the repeats).
+    pub create_cpu_ns: f64,
+    /// Heap held after the first repeat (modules destroyed, pipelines alive), per pipeline
+    /// (bytes).
+    pub heap_per_pipeline: f64,
+    /// Resident size growth for the same, per pipeline (bytes).
+    pub rss_per_pipeline: f64,
+    /// Peak resident size at the end (`VmHWM`, bytes).
+    pub vm_hwm: u64,
+}
+
+/// The pipeline storm: `count` pipelines, each from its own vertex module, created `repeats`
+/// times (new modules each time; the pipelines are destroyed between repeats).
+pub fn pipeline_storm(gpu: &Gpu, count: usize, repeats: usize) -> Result<PipelineStorm> {
+    let mut bench = Bench::new(gpu)?;
+    let base = shaders::SCENE_VERT.words()?;
+    let repeats = repeats.max(1);
+    let modules: Vec<Vec<u32>> = (0..count * repeats)
+        .map(|i| with_unused_constant(&base, 1000.0 + i as f32))
+        .collect::<Result<_>>()?;
+    // One pipeline first, so that one-time costs (the driver's and the layer's first
+    // pipeline) are not counted.
+    let warm = create_module(&gpu.device, &base)?;
+    let first = bench.pipeline(warm, MIX[0]);
+    // SAFETY: only needed while the pipeline was created.
+    unsafe { gpu.device.destroy_shader_module(warm, None) };
+    bench.pipelines.push(first?);
+
+    let (mut wall, mut cpu) = (f64::MAX, f64::MAX);
+    let (mut heap_per_pipeline, mut rss_per_pipeline) = (0.0, 0.0);
+    let n = count.max(1) as f64;
+    for (rep, chunk) in modules.chunks(count.max(1)).enumerate() {
+        let heap0 = heap_in_use();
+        let rss0 = proc_status("VmRSS");
+        let mut created = Vec::with_capacity(count);
+        let w0 = Instant::now();
+        let c0 = thread_cpu_ns();
+        for (i, words) in chunk.iter().enumerate() {
+            let module = create_module(&gpu.device, words)?;
+            let pipeline = bench.pipeline(module, MIX[i % MIX.len()]);
+            // SAFETY: only needed while the pipeline was created.
+            unsafe { gpu.device.destroy_shader_module(module, None) };
+            match pipeline {
+                Ok(pipeline) => created.push(pipeline),
+                Err(e) => {
+                    bench.pipelines.extend(created);
+                    return Err(e);
+                }
+            }
+        }
+        let c1 = thread_cpu_ns();
+        let w1 = Instant::now();
+        wall = wall.min((w1 - w0).as_nanos() as f64);
+        cpu = cpu.min((c1 - c0) as f64);
+        if rep == 0 {
+            heap_per_pipeline = (heap_in_use() as f64 - heap0 as f64) / n;
+            rss_per_pipeline = (proc_status("VmRSS") as f64 - rss0 as f64) / n;
+        }
+        for pipeline in created {
+            // SAFETY: never used in a command buffer.
+            unsafe { gpu.device.destroy_pipeline(pipeline, None) };
+        }
+    }
+    Ok(PipelineStorm {
+        pipelines: count,
+        repeats,
+        create_wall_ns: wall,
+        create_cpu_ns: cpu,
+        heap_per_pipeline,
+        rss_per_pipeline,
+        vm_hwm: proc_status("VmHWM"),
+    })
+}
+
+/// What a micro-benchmark child measured: thread CPU ns per call, each loop's best of
+/// `repeats`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Micro {
+    pub calls: usize,
+    pub push_constant_ns: f64,
+    pub draw_ns: f64,
+    pub bind_ns: f64,
+}
+
+/// The micro-benchmark: `calls` pushes (a different perspective MVP each), `calls` draws with
+/// nothing changed, `calls` binds alternating two pipelines, in a render pass on the reversed
+/// attachment with the MVP pipeline bound; each loop timed alone, `repeats` times.
+pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
+    let mut bench = Bench::new(gpu)?;
+    bench.standard_pipelines()?;
+    let device = &gpu.device;
+    let mvps: Vec<[u8; 64]> = (0..calls.max(1))
+        .map(|i| {
+            let mut out = [0u8; 64];
+            out.copy_from_slice(&push_bytes(i, i + 1)[..64]);
+            out
+        })
+        .collect();
+    let cmd = bench.allocate(1)?[0];
+    let (mut push, mut draw, mut bind) = (f64::MAX, f64::MAX, f64::MAX);
+    let per_call = |c0: u64, c1: u64| (c1 - c0) as f64 / calls.max(1) as f64;
+    for _ in 0..repeats.max(1) {
+        // SAFETY: `cmd` is not pending (never submitted).
+        unsafe { device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()) }
+            .context("vkResetCommandBuffer failed")?;
+        bench.begin(cmd)?;
+        let [a, b] = [bench.pipelines[0], bench.pipelines[1]];
+        // SAFETY: `cmd` is recording inside the render pass; pipelines and layout alive.
+        unsafe {
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, a);
+            let c0 = thread_cpu_ns();
+            for m in &mvps {
+                device.cmd_push_constants(cmd, bench.layout, PUSH_STAGES, 0, m);
+            }
+            let c1 = thread_cpu_ns();
+            push = push.min(per_call(c0, c1));
+            // The first draw after the pushes settles whatever is pending.
+            device.cmd_draw(cmd, 3, 1, 0, 0);
+            let c0 = thread_cpu_ns();
+            for _ in 0..calls {
+                device.cmd_draw(cmd, 3, 1, 0, 0);
+            }
+            let c1 = thread_cpu_ns();
+            draw = draw.min(per_call(c0, c1));
+            let c0 = thread_cpu_ns();
+            for i in 0..calls {
+                let p = if i % 2 == 0 { b } else { a };
+                device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p);
+            }
+            let c1 = thread_cpu_ns();
+            bind = bind.min(per_call(c0, c1));
+        }
+        bench.end(cmd)?;
+    }
+    Ok(Micro {
+        calls,
+        push_constant_ns: push,
+        draw_ns: draw,
+        bind_ns: bind,
+    })
+}
+
+/// A short validated run of every role's recording (tiny counts), submitted once: the smoke
+/// test's check that what the benchmark records is valid Vulkan.
+pub fn smoke(gpu: &Gpu) -> Result<()> {
+    draw_storm(gpu, 40, 2, 1, 1)?;
+    pipeline_storm(gpu, 3, 2)?;
+    micro(gpu, 50, 1)?;
+    let mut bench = Bench::new(gpu)?;
+    bench.standard_pipelines()?;
+    let cmd = bench.allocate(1)?[0];
+    let pushes: Vec<[u8; 80]> = (0..8).map(|i| push_bytes(i, 3)).collect();
+    bench.record_storm(cmd, &pushes, 40)?;
+    bench.submit_and_wait(cmd)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unused_constant_makes_a_distinct_valid_module() {
+        let base = shaders::SCENE_VERT.words().unwrap();
+        let a = with_unused_constant(&base, 1.0).unwrap();
+        let b = with_unused_constant(&base, 2.0).unwrap();
+        assert_ne!(a, b);
+        assert_eq!(a.len(), base.len() + 4);
+        assert_eq!(a[3], base[3] + 1);
+        use spirv_tools::val::{self, Validator as _};
+        let validator = val::create(Some(spirv_tools::TargetEnv::Vulkan_1_1));
+        validator.validate(&a, None).expect("valid SPIR-V");
+    }
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert_eq!(median(&[]), 0.0);
+    }
+
+    #[test]
+    fn status_sizes_are_read() {
+        assert!(proc_status("VmRSS") > 0);
+        assert!(heap_in_use() > 0);
+    }
+}

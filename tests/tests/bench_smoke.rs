@@ -1,0 +1,80 @@
+//! The benchmark (`revz-tester bench`, issue #7) runs end to end: `--quick` (tiny counts) with
+//! the validation layer on in every child (no, one of every role, with and without the layer
+//! in every mode) writes bench.json, the `speed` rows of report.json, report.md after its
+//! marker and the plot. No timing is asserted: the figures of a quick run mean nothing.
+
+use std::time::Instant;
+
+use revz_tests::{clean_command, Harness};
+
+#[test]
+fn quick_bench_writes_valid_reports() {
+    let harness = Harness::locate();
+    let dir = harness.scratch_dir("bench-quick");
+    // An accuracy report already there: the benchmark must keep it.
+    std::fs::write(
+        dir.join("report.json"),
+        r#"{"device": "x", "driver": "y", "rows": [], "min_separation": []}"#,
+    )
+    .unwrap();
+    std::fs::write(dir.join("report.md"), "# Accuracy\n\nkept\n").unwrap();
+
+    let started = Instant::now();
+    let output = clean_command(&harness.tester)
+        .args(["bench", "--quick", "--validation", "--device", "llvmpipe"])
+        .arg("--layer-dir")
+        .arg(&harness.explicit_manifest_dir)
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .expect("run revz-tester bench");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        output.status.success(),
+        "bench failed ({}):\n{stdout}\n{stderr}",
+        output.status
+    );
+    eprintln!("bench --quick took {:.1} s", started.elapsed().as_secs_f64());
+
+    let read = |name: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}\n{text}"))
+    };
+    let bench = read("bench.json");
+    let speed = bench["speed"].as_array().expect("speed rows");
+    let modes: Vec<&str> = speed.iter().map(|r| r["mode"].as_str().unwrap()).collect();
+    assert_eq!(modes, ["none", "off", "flip", "complementary", "infinite"]);
+    // 5 measurements (2 storms, the storm with a projection per draw, micro, pipelines) + the
+    // validated smoke role, in 5 variants.
+    assert_eq!(bench["samples"].as_array().unwrap().len(), 30);
+
+    let report = read("report.json");
+    assert_eq!(report["device"], "x", "other keys of report.json are kept");
+    assert!(report["rows"].is_array());
+    let rows = report["speed"].as_array().expect("report.json gains speed");
+    assert_eq!(rows.len(), 5);
+    for row in rows {
+        for key in [
+            "device",
+            "mode",
+            "frame_cpu_ratio",
+            "pipeline_creation_ratio",
+            "ns_per_push_constant",
+        ] {
+            assert!(row.get(key).is_some(), "{key} missing in {row}");
+        }
+        assert!(
+            row["frame_cpu_ratio"].as_f64().is_some_and(|r| r > 0.0),
+            "{row}"
+        );
+    }
+    assert_eq!(rows[0]["frame_cpu_ratio"].as_f64(), Some(1.0));
+
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(md.starts_with("# Accuracy\n\nkept\n"), "{md}");
+    assert!(md.contains("<!-- speed -->") && md.contains("| complementary |"), "{md}");
+    let png = std::fs::read(dir.join("overhead-vs-error.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"));
+    assert!(stdout.contains("| infinite |"), "the table is printed: {stdout}");
+}
