@@ -107,6 +107,14 @@ pub enum Target {
     Reversed,
 }
 
+/// Whether two n / f ratios are the same camera's. The matrices of one camera (P * V * M,
+/// one per object) recover n and f only to float32 noise, about 1e-6 relative: following that
+/// noise would re-emit state for every draw, and move flip-path depths by less than they can
+/// resolve.
+pub fn same_near_over_far(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-4 * a.abs().max(b.abs())
+}
+
 /// Which path the last emitted state was for.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum DrawPath {
@@ -267,9 +275,16 @@ impl CommandState {
         if let (Outcome::Rewritten { near_over_far, .. }, Reversal::Infinite { near_over_far: r }) =
             (outcome, &mut self.reversing.reversal)
         {
-            if *r != *near_over_far {
+            if !same_near_over_far(*r, *near_over_far) {
                 *r = *near_over_far;
-                self.dirty = true;
+                // Only flip-path viewports and depth bounds depend on it.
+                let bounds = self
+                    .pipeline
+                    .as_ref()
+                    .is_some_and(|p| (p.app_dynamic | p.injected).contains(States::BOUNDS));
+                if self.path != DrawPath::Precise || bounds {
+                    self.dirty = true;
+                }
             }
         }
     }

@@ -7,11 +7,11 @@
 //! lookups from the thread that records (the usual case) without touching the shared table.
 
 use std::cell::RefCell;
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError, RwLock};
 
 use ash::vk;
+use rustc_hash::FxHashMap;
 
 use crate::command_state::{CommandState, PipelineDepth, Target};
 use crate::policy::ImageDepth;
@@ -39,13 +39,15 @@ pub struct RenderPassInfo {
 }
 
 /// A map behind a read-write lock that tolerates poisoning (a panic caught at the boundary
-/// leaves every map consistent: each operation is one insert, remove or read).
+/// leaves every map consistent: each operation is one insert, remove or read). Keys are Vulkan
+/// handles, which no one chooses adversarially: Fx hashing keeps a lookup (one per pipeline
+/// bind) to a few nanoseconds.
 #[derive(Debug)]
-pub struct Table<K, V>(RwLock<HashMap<K, V>>);
+pub struct Table<K, V>(RwLock<FxHashMap<K, V>>);
 
 impl<K: std::hash::Hash + Eq, V: Clone> Table<K, V> {
     pub fn new() -> Self {
-        Table(RwLock::new(HashMap::new()))
+        Table(RwLock::new(FxHashMap::default()))
     }
 
     pub fn insert(&self, key: K, value: V) {

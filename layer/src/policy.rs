@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use ash::vk;
 use revz_math::Target as RewriteTarget;
 
-use crate::command_state::{Reversing, Target};
+use crate::command_state::{same_near_over_far, Reversing, Target};
 use crate::config::{FarClip, Mode, Observable, Settings};
 use crate::conv::{flip_depth, has_depth, Reversal};
 
@@ -196,10 +196,10 @@ impl Observed {
     }
 
     pub fn note_near_over_far(&self, near_over_far: f32) {
-        let bits = near_over_far.to_bits();
-        // Load first: the common case (unchanged) must not write the shared cache line.
-        if self.near_over_far.load(Ordering::Relaxed) != bits {
-            self.near_over_far.store(bits, Ordering::Relaxed);
+        // Load first: the common case (the same camera) must not write the shared cache line.
+        if !same_near_over_far(self.near_over_far(), near_over_far) {
+            self.near_over_far
+                .store(near_over_far.to_bits(), Ordering::Relaxed);
         }
     }
 }

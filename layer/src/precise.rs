@@ -102,28 +102,41 @@ impl ProjectionUse {
         self.offset + 3 * self.stride + 16
     }
 
-    /// Byte offset of the i-th stored float (vector `i / 4`, component `i % 4`).
-    fn at(&self, i: usize) -> usize {
-        self.offset as usize + (i / 4) * self.stride as usize + (i % 4) * 4
-    }
-
-    /// The 16 floats in storage order.
+    /// The 16 floats in storage order (vector by vector: one bounds check per vector on this
+    /// per-push path; `end() <= PUSH_CONSTANT_BYTES` by construction).
     fn read(&self, bytes: &[u8; PUSH_CONSTANT_BYTES]) -> [f32; 16] {
-        std::array::from_fn(|i| {
-            let at = self.at(i);
-            f32::from_ne_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]])
-        })
-    }
-
-    /// Writes `values` (storage order) into `out`, which holds push-constant bytes starting at
-    /// byte `base`; floats outside `out` are skipped.
-    fn write(&self, values: &[f32; 16], out: &mut [u8], base: usize) {
-        for (i, value) in values.iter().enumerate() {
-            let Some(at) = self.at(i).checked_sub(base) else {
+        let mut values = [0.0; 16];
+        for (vector, out) in values.chunks_exact_mut(4).enumerate() {
+            let at = self.offset as usize + vector * self.stride as usize;
+            let Some(stored) = bytes.get(at..at + 16) else {
                 continue;
             };
-            if let Some(dst) = out.get_mut(at..at + 4) {
-                dst.copy_from_slice(&value.to_ne_bytes());
+            for (value, word) in out.iter_mut().zip(stored.chunks_exact(4)) {
+                *value = f32::from_ne_bytes([word[0], word[1], word[2], word[3]]);
+            }
+        }
+        values
+    }
+
+    /// Byte offset of entry (row 2, `column`) of the matrix: the depth row is all a rewrite
+    /// changes.
+    fn depth_entry(&self, column: usize) -> usize {
+        let (offset, stride) = (self.offset as usize, self.stride as usize);
+        match self.storage {
+            Storage::ColumnMajor => offset + column * stride + 8,
+            Storage::RowMajor => offset + 2 * stride + column * 4,
+        }
+    }
+
+    /// Writes the depth row `row` into `out`, which holds push-constant bytes starting at byte
+    /// `base`; entries outside `out` are skipped.
+    fn write_depth_row(&self, row: &[f32; 4], out: &mut [u8], base: usize) {
+        for (column, value) in row.iter().enumerate() {
+            let Some(at) = self.depth_entry(column).checked_sub(base) else {
+                continue;
+            };
+            if let Some(word) = out.get_mut(at..at + 4) {
+                word.copy_from_slice(&value.to_ne_bytes());
             }
         }
     }
@@ -167,10 +180,10 @@ pub fn push_stages(
 /// What the current value of a projection slot is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Outcome {
-    /// A standard perspective, rewritten (storage order values to push). `near_over_far` is
-    /// n / f of its visible range (0 for an infinite far plane).
+    /// A standard perspective, rewritten: its new depth row (the other rows are unchanged).
+    /// `near_over_far` is n / f of its visible range (0 for an infinite far plane).
     Rewritten {
-        values: [f32; 16],
+        depth_row: [f32; 4],
         near_over_far: f32,
     },
     /// A projection the application already reversed.
@@ -192,21 +205,13 @@ pub fn rewrite_projection(
     match classification {
         Classification::Perspective { range, .. } => {
             // Only the depth row changes: the other twelve floats stay the application's.
-            let Some(row) = reversed_depth_row(&m, &classification, target, convention) else {
-                return Outcome::Unchanged;
-            };
-            let mut values = *values;
-            for (column, entry) in row.to_array().into_iter().enumerate() {
-                let index = match storage {
-                    Storage::ColumnMajor => 4 * column + 2,
-                    Storage::RowMajor => 8 + column,
-                };
-                // Rounded once, to nearest.
-                values[index] = entry as f32;
-            }
-            Outcome::Rewritten {
-                values,
-                near_over_far: (range.near() / range.far()) as f32,
+            match reversed_depth_row(&m, &classification, target, convention) {
+                Some(row) => Outcome::Rewritten {
+                    // Each entry rounded once, to nearest.
+                    depth_row: row.to_array().map(|entry| entry as f32),
+                    near_over_far: (range.near() / range.far()) as f32,
+                },
+                None => Outcome::Unchanged,
             }
         }
         Classification::Reversed { .. } => Outcome::AlreadyReversed,
@@ -337,8 +342,8 @@ impl PushConstants {
         if let Some((use_, target)) = in_place {
             let outcome = self.outcome(use_, target)?;
             self.device = match outcome {
-                Outcome::Rewritten { values, .. } => {
-                    use_.write(&values, data, start);
+                Outcome::Rewritten { depth_row, .. } => {
+                    use_.write_depth_row(&depth_row, data, start);
                     Device::Rewritten(*use_)
                 }
                 _ => Device::Same,
@@ -364,7 +369,7 @@ impl PushConstants {
     ) -> Option<Outcome> {
         let outcome = wanted.and_then(|(use_, target)| Some((use_, self.outcome(use_, target)?)));
         let rewrite = match outcome {
-            Some((use_, Outcome::Rewritten { values, .. })) => Some((use_, values)),
+            Some((use_, Outcome::Rewritten { depth_row, .. })) => Some((use_, depth_row)),
             _ => None,
         };
         if self.layout == vk::PipelineLayout::null() {
@@ -378,13 +383,13 @@ impl PushConstants {
                     self.send(&held, None, sink);
                 }
                 self.device = Device::Same;
-                if let Some((use_, values)) = rewrite {
-                    self.send(use_, Some(&values), sink);
+                if let Some((use_, row)) = rewrite {
+                    self.send(use_, Some(&row), sink);
                     self.device = Device::Rewritten(*use_);
                 }
             }
-            (Device::Same, Some((use_, values))) => {
-                self.send(use_, Some(&values), sink);
+            (Device::Same, Some((use_, row))) => {
+                self.send(use_, Some(&row), sink);
                 self.device = Device::Rewritten(*use_);
             }
             (Device::Same, None) => {}
@@ -392,14 +397,14 @@ impl PushConstants {
         outcome.map(|(_, o)| o)
     }
 
-    /// Pushes the bytes of `use_`'s slot: the application's, with `values` over the matrix.
-    fn send(&self, use_: &ProjectionUse, values: Option<&[f32; 16]>, sink: &mut impl PushSink) {
+    /// Pushes the bytes of `use_`'s slot: the application's, with `row` as the depth row.
+    fn send(&self, use_: &ProjectionUse, row: Option<&[f32; 4]>, sink: &mut impl PushSink) {
         let (start, end) = (use_.offset as usize, use_.end() as usize);
         let mut bytes = [0u8; PUSH_CONSTANT_BYTES];
         let out = &mut bytes[..end - start];
         out.copy_from_slice(&self.bytes[start..end]);
-        if let Some(values) = values {
-            use_.write(values, out, start);
+        if let Some(row) = row {
+            use_.write_depth_row(row, out, start);
         }
         sink.push_constants(self.layout, use_.stages, use_.offset, out);
     }
@@ -468,6 +473,7 @@ mod tests {
         vk::PipelineLayout::from_raw(7)
     }
 
+    /// `values` (column-major) with the depth row rewritten to complementary Z.
     fn rewritten(values: &[f32; 16]) -> [f32; 16] {
         match rewrite_projection(
             values,
@@ -475,7 +481,13 @@ mod tests {
             DepthConvention::ZeroToOne,
             RewriteTarget::Complementary,
         ) {
-            Outcome::Rewritten { values, .. } => values,
+            Outcome::Rewritten { depth_row, .. } => {
+                let mut out = *values;
+                for (column, entry) in depth_row.into_iter().enumerate() {
+                    out[4 * column + 2] = entry;
+                }
+                out
+            }
             other => panic!("not rewritten: {other:?}"),
         }
     }
@@ -660,12 +672,18 @@ mod tests {
                 let classification = classify(&m, DepthConvention::ZeroToOne);
                 let full = revz_math::rewrite(&m, &classification, target).expect("a perspective");
                 let expected = revz_math::write_clip_transform(&full, storage);
-                let Outcome::Rewritten { values, .. } =
+                let Outcome::Rewritten { depth_row, .. } =
                     rewrite_projection(&matrix, storage, DepthConvention::ZeroToOne, target)
                 else {
                     panic!("not rewritten");
                 };
-                assert_eq!(values, expected, "{storage:?} {target:?}");
+                let use_ = ProjectionUse {
+                    storage,
+                    ..column_major_at(0)
+                };
+                let mut bytes = bytes_of(&matrix);
+                use_.write_depth_row(&depth_row, &mut bytes, 0);
+                assert_eq!(floats_of(&bytes), expected, "{storage:?} {target:?}");
             }
         }
     }

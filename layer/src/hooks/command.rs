@@ -137,32 +137,47 @@ pub unsafe extern "system" fn cmd_push_constants(
     // The copy passed down: on the stack for every size a current driver allows.
     let mut local = [0u8; PUSH_CONSTANT_BYTES];
     let mut large = Vec::new();
-    let mut modified = false;
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        // SAFETY: `size` bytes of values (the application's contract).
-        let values = unsafe { slice(p_values.cast::<u8>(), size) };
-        let data = if values.len() <= PUSH_CONSTANT_BYTES {
-            &mut local[..values.len()]
-        } else {
-            large = values.to_vec();
-            &mut large[..]
-        };
-        data.copy_from_slice(values);
-        let outcome = entry.state().push_constants(layout, offset, data);
-        if let Some(outcome) = outcome {
-            modified = matches!(outcome, Outcome::Rewritten { .. });
-            observe(&entry.device, &outcome);
+    let call = |device: &DeviceState, p_values: *const std::ffi::c_void| {
+        // SAFETY: calling down with the application's arguments (a projection rewritten).
+        unsafe {
+            (device.next.fp_v1_0().cmd_push_constants)(
+                buffer, layout, stages, offset, size, p_values,
+            )
         }
-    });
-    let Some(device) = device else { return };
-    let p_values = match (modified, large.is_empty()) {
-        (false, _) => p_values,
-        (true, true) => local.as_ptr().cast(),
-        (true, false) => large.as_ptr().cast(),
     };
-    // SAFETY: calling down with the application's arguments (a projection rewritten).
-    unsafe {
-        (device.next.fp_v1_0().cmd_push_constants)(buffer, layout, stages, offset, size, p_values)
+    // The per-draw path: no reference count taken on the command buffer's entry.
+    let tracked = objects::with_command_buffer(buffer, |entry| {
+        let modified = guarded(
+            &ENTRY,
+            || {
+                // SAFETY: `size` bytes of values (the application's contract).
+                let values = unsafe { slice(p_values.cast::<u8>(), size) };
+                let data = if values.len() <= PUSH_CONSTANT_BYTES {
+                    &mut local[..values.len()]
+                } else {
+                    large = values.to_vec();
+                    &mut large[..]
+                };
+                data.copy_from_slice(values);
+                let outcome = entry.state().push_constants(layout, offset, data);
+                outcome.is_some_and(|outcome| {
+                    observe(&entry.device, &outcome);
+                    matches!(outcome, Outcome::Rewritten { .. })
+                })
+            },
+            || false,
+        );
+        let p_sent = match (modified, large.is_empty()) {
+            (false, _) => p_values,
+            (true, true) => local.as_ptr().cast(),
+            (true, false) => large.as_ptr().cast(),
+        };
+        call(&entry.device, p_sent);
+    });
+    if tracked.is_none() {
+        if let Some(device) = untracked_device(buffer) {
+            call(&device, p_values);
+        }
     }
 }
 
