@@ -2,7 +2,8 @@
 //!
 //! - `setup`: install the system packages revz needs (Vulkan loader, lavapipe, validation).
 //! - `build`: build the layer and the tester, and render the layer manifests next to them.
-//! - `demo`: render the first scene without and with the layer; print where the images are.
+//! - `demo`: render the first scene without and with the layer, then the accuracy report and
+//!   the benchmark (release build): print where the images and the report are, and the table.
 //! - `test`: everything `build` does, then the whole test suite.
 //! - `install` / `uninstall`: the implicit layer for the current user.
 //! - `run`: any program with revz injected, nothing installed.
@@ -33,7 +34,8 @@ enum Task {
         #[arg(long)]
         release: bool,
     },
-    /// Render the first scene on lavapipe without and with the layer.
+    /// Render the first scene on lavapipe without and with the layer, then write the accuracy
+    /// report and run the benchmark (release build) into target/revz-demo/report.
     Demo {
         /// REVZ_MODE for the render with the layer.
         #[arg(long, default_value = "complementary")]
@@ -41,6 +43,10 @@ enum Task {
         /// Depth format (d16, x8-d24, d24-s8, d32, d32-s8).
         #[arg(long, default_value = "d32")]
         depth_format: String,
+        /// Run the benchmark with tiny counts (seconds instead of minutes; the figures then
+        /// mean nothing).
+        #[arg(long)]
+        quick: bool,
     },
     /// Build, then run the whole test suite (extra arguments go to `cargo test`).
     Test {
@@ -119,10 +125,11 @@ pub fn build(paths: &Paths, release: bool) -> Result<PathBuf> {
     Ok(explicit)
 }
 
-fn demo(mode: &str, depth_format: &str) -> Result<()> {
+fn demo(mode: &str, depth_format: &str, quick: bool) -> Result<()> {
     system::ensure_packages()?;
-    let paths = Paths::new(false);
-    let explicit = build(&paths, false)?;
+    // Release: the benchmark measures the layer as users run it.
+    let paths = Paths::new(true);
+    let explicit = build(&paths, true)?;
     let out = paths.root.join("target").join("revz-demo");
     let native = out.join("native");
     let layered = out.join(format!("revz-{mode}"));
@@ -158,6 +165,24 @@ fn demo(mode: &str, depth_format: &str) -> Result<()> {
         let verdict = if a == b { "identical" } else { "different" };
         println!("{file:>18}: {verdict}");
     }
+
+    let report = out.join("report");
+    println!("== accuracy report (every hard case, mode and depth format against ground truth)");
+    let mut accuracy = Command::new(paths.tester());
+    accuracy.arg("report").arg("--out").arg(&report);
+    run_checked(accuracy)?;
+    println!("== benchmark (every mode against no layer, interleaved in one run)");
+    let mut bench = Command::new(paths.tester());
+    bench.arg("bench").arg("--out").arg(&report);
+    if quick {
+        bench.arg("--quick");
+    }
+    run_checked(bench)?;
+    println!(
+        "report: {} ({})",
+        report.join("report.md").display(),
+        report.join("report.json").display()
+    );
     Ok(())
 }
 
@@ -177,7 +202,11 @@ fn main() -> Result<()> {
     match Cli::parse().task {
         Task::Setup => system::ensure_packages(),
         Task::Build { release } => build(&Paths::new(release), release).map(drop),
-        Task::Demo { mode, depth_format } => demo(&mode, &depth_format),
+        Task::Demo {
+            mode,
+            depth_format,
+            quick,
+        } => demo(&mode, &depth_format, quick),
         Task::Test { cargo_test_args } => test(&cargo_test_args),
         Task::Install(choice) => install::install(&choice),
         Task::Uninstall => install::uninstall(),
