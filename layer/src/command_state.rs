@@ -152,6 +152,108 @@ pub trait StateSink: PushSink {
     fn set_bounds(&mut self, min: f32, max: f32);
 }
 
+/// What revz last sent down for each depth-related dynamic state, so that a draw whose state
+/// was re-evaluated (a pipeline bind, a push that changed the path) sends only what changed: on
+/// a driver that records every `vkCmdSet*` as a command, redundant ones cost as much as the
+/// layer's own work.
+#[derive(Clone, Copy, Debug, Default)]
+struct Emitted {
+    /// The last viewport call: with count or not, first, count, and the values' bits.
+    viewports: Option<(bool, u32, u32, [[u32; 6]; MAX_VIEWPORTS])>,
+    compare_op: Option<vk::CompareOp>,
+    bias: Option<DepthBias>,
+    bounds: Option<(u32, u32)>,
+}
+
+impl Emitted {
+    /// Forgets the states a newly bound pipeline sets statically (binding it overwrites them).
+    fn forget_static(&mut self, dynamic: States) {
+        if !dynamic.intersects(States::VIEWPORT | States::VIEWPORT_WITH_COUNT) {
+            self.viewports = None;
+        }
+        if !dynamic.contains(States::COMPARE_OP) {
+            self.compare_op = None;
+        }
+        if !dynamic.contains(States::BIAS) {
+            self.bias = None;
+        }
+        if !dynamic.contains(States::BOUNDS) {
+            self.bounds = None;
+        }
+    }
+}
+
+fn viewport_bits(viewports: &[vk::Viewport]) -> [[u32; 6]; MAX_VIEWPORTS] {
+    let mut bits = [[0; 6]; MAX_VIEWPORTS];
+    for (out, v) in bits.iter_mut().zip(viewports) {
+        *out = [v.x, v.y, v.width, v.height, v.min_depth, v.max_depth].map(f32::to_bits);
+    }
+    bits
+}
+
+/// A [`StateSink`] that drops what would re-send the values last sent.
+struct Filtered<'a, S> {
+    sink: &'a mut S,
+    last: &'a mut Emitted,
+}
+
+impl<S: StateSink> PushSink for Filtered<'_, S> {
+    fn push_constants(
+        &mut self,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        bytes: &[u8],
+    ) {
+        self.sink.push_constants(layout, stages, offset, bytes);
+    }
+}
+
+impl<S: StateSink> StateSink for Filtered<'_, S> {
+    fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
+        let call = (
+            false,
+            first,
+            viewports.len() as u32,
+            viewport_bits(viewports),
+        );
+        if self.last.viewports != Some(call) {
+            self.last.viewports = Some(call);
+            self.sink.set_viewports(first, viewports);
+        }
+    }
+
+    fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
+        let call = (true, 0, viewports.len() as u32, viewport_bits(viewports));
+        if self.last.viewports != Some(call) {
+            self.last.viewports = Some(call);
+            self.sink.set_viewports_with_count(viewports);
+        }
+    }
+
+    fn set_compare_op(&mut self, op: vk::CompareOp) {
+        if self.last.compare_op != Some(op) {
+            self.last.compare_op = Some(op);
+            self.sink.set_compare_op(op);
+        }
+    }
+
+    fn set_bias(&mut self, bias: DepthBias) {
+        if self.last.bias != Some(bias) {
+            self.last.bias = Some(bias);
+            self.sink.set_bias(bias);
+        }
+    }
+
+    fn set_bounds(&mut self, min: f32, max: f32) {
+        let bits = (min.to_bits(), max.to_bits());
+        if self.last.bounds != Some(bits) {
+            self.last.bounds = Some(bits);
+            self.sink.set_bounds(min, max);
+        }
+    }
+}
+
 /// Depth state of one command buffer while it records.
 #[derive(Clone, Debug)]
 pub struct CommandState {
@@ -175,6 +277,7 @@ pub struct CommandState {
     push: PushConstants,
     /// The path the emitted state is for.
     path: DrawPath,
+    emitted: Emitted,
     dirty: bool,
 }
 
@@ -194,6 +297,7 @@ impl Default for CommandState {
             reversing: Reversing::default(),
             push: PushConstants::default(),
             path: DrawPath::Native,
+            emitted: Emitted::default(),
             dirty: true,
         }
     }
@@ -308,6 +412,11 @@ impl CommandState {
 
     /// `vkCmdBindPipeline` with a graphics pipeline.
     pub fn bind_pipeline(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {
+        // An untracked pipeline (or shader objects) may set anything statically.
+        let dynamic = pipeline
+            .as_ref()
+            .map_or(States::NONE, |p| p.app_dynamic | p.injected);
+        self.emitted.forget_static(dynamic);
         self.pipeline = pipeline;
         self.dirty = true;
     }
@@ -315,7 +424,14 @@ impl CommandState {
     /// `vkCmdExecuteCommands`: the secondaries leave the state undefined.
     pub fn invalidate(&mut self) {
         self.push.invalidate();
+        self.emitted = Emitted::default();
         self.dirty = true;
+    }
+
+    /// The depth bias was sent down outside the state machine (`vkCmdSetDepthBias2EXT` with
+    /// a representation): the next emission must not assume it knows the value.
+    pub fn forget_emitted_bias(&mut self) {
+        self.emitted.bias = None;
     }
 
     /// `vkCmdSetViewport`. Viewports beyond [`MAX_VIEWPORTS`] are ignored.
@@ -376,7 +492,12 @@ impl CommandState {
             (Target::Reversed, _) => DrawPath::Flip,
             _ => DrawPath::Native,
         };
-        self.emit(sink);
+        let mut emitted = self.emitted;
+        self.emit(&mut Filtered {
+            sink,
+            last: &mut emitted,
+        });
+        self.emitted = emitted;
         self.dirty = false;
         outcome
     }
@@ -785,5 +906,36 @@ mod tests {
         assert_eq!(sink.pushes.len(), 2);
         assert_eq!(sink.viewports.last(), Some(&(0, vec![(0.0, 1.0)])));
         assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::LESS));
+    }
+
+    #[test]
+    fn rebinding_pipelines_with_the_same_state_sends_nothing_again() {
+        let mut state = CommandState::default();
+        state.begin(Target::Reversed, Reversal::Complementary);
+        let mut sink = Recorded::default();
+        for _ in 0..3 {
+            state.bind_pipeline(Some(static_pipeline()));
+            state.before_draw(&mut sink);
+        }
+        assert_eq!(sink.viewports.len(), 1);
+        assert_eq!(sink.compare_ops.len(), 1);
+        assert_eq!(sink.biases.len(), 1);
+
+        // A pipeline that keeps the compare op static overwrites it: after it, it is sent again.
+        state.bind_pipeline(Some(Arc::new(PipelineDepth {
+            injected: States::VIEWPORT | States::BIAS,
+            ..(*static_pipeline()).clone()
+        })));
+        state.before_draw(&mut sink);
+        state.bind_pipeline(Some(static_pipeline()));
+        state.before_draw(&mut sink);
+        assert_eq!(sink.viewports.len(), 1);
+        assert_eq!(sink.compare_ops.len(), 2);
+
+        // After secondaries ran, everything is sent again.
+        state.invalidate();
+        state.before_draw(&mut sink);
+        assert_eq!(sink.viewports.len(), 2);
+        assert_eq!(sink.compare_ops.len(), 3);
     }
 }

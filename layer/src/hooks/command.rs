@@ -973,6 +973,7 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
             state.set_bias(bias);
             return;
         }
+        state.forget_emitted_bias();
         if state.target() == Target::Reversed {
             let negated = bias.flipped();
             flipped = Some(vk::DepthBiasInfoEXT {
