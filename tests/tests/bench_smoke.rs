@@ -35,7 +35,10 @@ fn quick_bench_writes_valid_reports() {
         "bench failed ({}):\n{stdout}\n{stderr}",
         output.status
     );
-    eprintln!("bench --quick took {:.1} s", started.elapsed().as_secs_f64());
+    eprintln!(
+        "bench --quick took {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
 
     let read = |name: &str| -> serde_json::Value {
         let text = std::fs::read_to_string(dir.join(name)).unwrap();
@@ -73,8 +76,14 @@ fn quick_bench_writes_valid_reports() {
 
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(md.starts_with("# Accuracy\n\nkept\n"), "{md}");
-    assert!(md.contains("<!-- speed -->") && md.contains("| complementary |"), "{md}");
+    assert!(
+        md.contains("<!-- speed -->") && md.contains("| complementary |"),
+        "{md}"
+    );
     let png = std::fs::read(dir.join("overhead-vs-error.png")).unwrap();
     assert!(png.starts_with(b"\x89PNG"));
-    assert!(stdout.contains("| infinite |"), "the table is printed: {stdout}");
+    assert!(
+        stdout.contains("| infinite |"),
+        "the table is printed: {stdout}"
+    );
 }
