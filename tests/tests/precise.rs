@@ -436,6 +436,9 @@ scene_tests! {
     opengl_depth: "opengl-depth";
     push_partial: "push-partial";
     threads: "threads";
+    secondary: "secondary";
+    dynamic_rendering: "dynamic-rendering";
+    shadow_map: "shadow-map";
 }
 
 /// The flip path renders `view-projection` correctly (same colors, depth = 1 - native) but
