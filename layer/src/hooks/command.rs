@@ -450,15 +450,28 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
     pipeline: vk::Pipeline,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindPipeline");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        if bind_point == vk::PipelineBindPoint::GRAPHICS {
-            let depth = entry.device.objects.pipelines.get(&pipeline);
-            entry.state().bind_pipeline(depth);
-        }
-    });
-    if let Some(device) = device {
+    let call = |device: &DeviceState| {
         // SAFETY: calling down with the application's arguments.
         unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, pipeline) }
+    };
+    // A per-draw-rate path: no reference count taken on the command buffer's entry.
+    let tracked = objects::with_command_buffer(buffer, |entry| {
+        if bind_point == vk::PipelineBindPoint::GRAPHICS {
+            guarded(
+                &ENTRY,
+                || {
+                    let depth = entry.device.objects.pipelines.get(&pipeline);
+                    entry.state().bind_pipeline(depth);
+                },
+                || (),
+            );
+        }
+        call(&entry.device);
+    });
+    if tracked.is_none() {
+        if let Some(device) = untracked_device(buffer) {
+            call(&device);
+        }
     }
 }
 
