@@ -137,48 +137,42 @@ pub unsafe extern "system" fn cmd_push_constants(
     // The copy passed down: on the stack for every size a current driver allows.
     let mut local = [0u8; PUSH_CONSTANT_BYTES];
     let mut large = Vec::new();
-    let call = |device: &DeviceState, p_values: *const std::ffi::c_void| {
-        // SAFETY: calling down with the application's arguments (a projection rewritten).
-        unsafe {
-            (device.next.fp_v1_0().cmd_push_constants)(
-                buffer, layout, stages, offset, size, p_values,
-            )
-        }
-    };
-    // The per-draw path: no reference count taken on the command buffer's entry.
-    let tracked = objects::with_command_buffer(buffer, |entry| {
-        let modified = guarded(
-            &ENTRY,
-            || {
-                // SAFETY: `size` bytes of values (the application's contract).
-                let values = unsafe { slice(p_values.cast::<u8>(), size) };
-                let data = if values.len() <= PUSH_CONSTANT_BYTES {
-                    &mut local[..values.len()]
-                } else {
-                    large = values.to_vec();
-                    &mut large[..]
-                };
-                data.copy_from_slice(values);
-                let outcome = entry.state().push_constants(layout, offset, data);
-                outcome.is_some_and(|outcome| {
-                    observe(&entry.device, &outcome);
-                    matches!(outcome, Outcome::Rewritten { .. })
-                })
-            },
-            || false,
-        );
-        let p_sent = match (modified, large.is_empty()) {
-            (false, _) => p_values,
-            (true, true) => local.as_ptr().cast(),
-            (true, false) => large.as_ptr().cast(),
-        };
-        call(&entry.device, p_sent);
-    });
-    if tracked.is_none() {
-        if let Some(device) = untracked_device(buffer) {
-            call(&device, p_values);
-        }
-    }
+    record_then_call(
+        buffer,
+        &ENTRY,
+        |entry| {
+            // SAFETY: `size` bytes of values (the application's contract).
+            let values = unsafe { slice(p_values.cast::<u8>(), size) };
+            let data = if values.len() <= PUSH_CONSTANT_BYTES {
+                &mut local[..values.len()]
+            } else {
+                large = values.to_vec();
+                &mut large[..]
+            };
+            data.copy_from_slice(values);
+            let outcome = entry.state().push_constants(layout, offset, data);
+            let rewritten = outcome.is_some_and(|outcome| {
+                observe(&entry.device, &outcome);
+                matches!(outcome, Outcome::Rewritten { .. })
+            });
+            // The values to send: the rewritten copy (alive until the hook returns), else the
+            // application's.
+            if rewritten {
+                data.as_ptr().cast()
+            } else {
+                p_values
+            }
+        },
+        p_values,
+        |device, p_sent| {
+            // SAFETY: calling down with the application's arguments (a projection rewritten).
+            unsafe {
+                (device.next.fp_v1_0().cmd_push_constants)(
+                    buffer, layout, stages, offset, size, p_sent,
+                )
+            }
+        },
+    );
 }
 
 /// `vkCmdPushConstants2KHR`: followed like `vkCmdPushConstants` when it names a layout.
@@ -222,6 +216,29 @@ pub unsafe extern "system" fn cmd_push_constants2(
     unsafe { next(buffer, p_info) }
 }
 
+/// The per-draw-rate hook shape (draws, pushes, binds): `record` runs on the command buffer's
+/// entry (a thread-local cache hit, no reference count taken; a panic in it is caught and gives
+/// `fallback`), then `call` goes down through the entry's device with what `record` returned.
+/// An untracked command buffer is only called down, with `fallback`.
+#[inline]
+fn record_then_call<T: Copy>(
+    buffer: vk::CommandBuffer,
+    entry_point: &'static EntryPoint,
+    record: impl FnOnce(&CommandBufferEntry) -> T,
+    fallback: T,
+    call: impl Fn(&DeviceState, T),
+) {
+    let tracked = objects::with_command_buffer(buffer, |entry| {
+        let recorded = guarded(entry_point, || record(entry), || fallback);
+        call(&entry.device, recorded);
+    });
+    if tracked.is_none() {
+        if let Some(device) = untracked_device(buffer) {
+            call(&device, fallback);
+        }
+    }
+}
+
 /// Defines a draw hook: emit pending state, then call down. A draw with no state change costs
 /// a thread-local lookup, an uncontended lock and a flag check.
 macro_rules! draw_hook {
@@ -232,20 +249,17 @@ macro_rules! draw_hook {
         /// Called by the application with the arguments the Vulkan spec allows.
         pub unsafe extern "system" fn $name(buffer: vk::CommandBuffer, $($arg: $ty),*) {
             static ENTRY: EntryPoint = EntryPoint::new($entry);
-            let call = |$device: &DeviceState| {
-                let next = $next;
-                // SAFETY: calling down with the application's arguments.
-                unsafe { next(buffer, $($arg),*) }
-            };
-            let tracked = objects::with_command_buffer(buffer, |entry| {
-                guarded(&ENTRY, || before_draw(entry, buffer), || ());
-                call(&entry.device);
-            });
-            if tracked.is_none() {
-                if let Some(device) = untracked_device(buffer) {
-                    call(&device);
-                }
-            }
+            record_then_call(
+                buffer,
+                &ENTRY,
+                |entry| before_draw(entry, buffer),
+                (),
+                |$device: &DeviceState, ()| {
+                    let next = $next;
+                    // SAFETY: calling down with the application's arguments.
+                    unsafe { next(buffer, $($arg),*) }
+                },
+            );
         }
     };
 }
@@ -450,29 +464,21 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
     pipeline: vk::Pipeline,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindPipeline");
-    let call = |device: &DeviceState| {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, pipeline) }
-    };
-    // A per-draw-rate path: no reference count taken on the command buffer's entry.
-    let tracked = objects::with_command_buffer(buffer, |entry| {
-        if bind_point == vk::PipelineBindPoint::GRAPHICS {
-            guarded(
-                &ENTRY,
-                || {
-                    let depth = entry.device.objects.pipelines.get(&pipeline);
-                    entry.state().bind_pipeline(depth);
-                },
-                || (),
-            );
-        }
-        call(&entry.device);
-    });
-    if tracked.is_none() {
-        if let Some(device) = untracked_device(buffer) {
-            call(&device);
-        }
-    }
+    record_then_call(
+        buffer,
+        &ENTRY,
+        |entry| {
+            if bind_point == vk::PipelineBindPoint::GRAPHICS {
+                let depth = entry.device.objects.pipelines.get(&pipeline);
+                entry.state().bind_pipeline(depth);
+            }
+        },
+        (),
+        |device, ()| {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, pipeline) }
+        },
+    );
 }
 
 /// `vkCmdBindShadersEXT`: with shader objects every piece of state is dynamic, so revz emits
