@@ -25,7 +25,7 @@ use glam::{DMat4, DVec3, DVec4};
 use serde::Serialize;
 
 use crate::plan::{Compare, DepthLoad, DepthTest, Program, Step, Target, Viewport};
-use crate::scene::{Projection, Scene, View};
+use crate::scene::{Object, Projection, Scene, View};
 
 /// The id of pixels no object covers.
 pub const BACKGROUND: u16 = u16::MAX;
@@ -189,24 +189,11 @@ pub fn compute(
     let mut objects = Vec::new();
     for &(n, program) in &drawn {
         let object = &scene.objects[n];
-        let id = u16::try_from(n)
-            .ok()
-            .filter(|&id| id != BACKGROUND)
-            .ok_or("too many objects")?;
+        let id = object_id(n)?;
         let mvp = scene.mvp_in(View::Camera, object, aspect);
         let positions = scene.vertex_positions(object);
         let clip: Vec<DVec4> = positions.iter().map(|p| mvp * p.extend(1.0)).collect();
-        for t in object.mesh.indices.chunks_exact(3) {
-            let corners = [
-                clip[t[0] as usize],
-                clip[t[1] as usize],
-                clip[t[2] as usize],
-            ];
-            if corners.iter().any(|c| c.w <= 0.0) {
-                return Err(format!("{}: a vertex behind the eye", object.name));
-            }
-            triangles.push(ClipTriangle { id, corners });
-        }
+        push_triangles(&mut triangles, id, object, &clip)?;
         let stages = scene.matrix_stages(program, View::Camera, object, aspect);
         objects.push(ObjectReport {
             id,
@@ -276,10 +263,7 @@ pub fn compute_ids(scene: &Scene, width: u32, height: u32) -> Result<GroundTruth
     let mut triangles = Vec::new();
     for &(n, _) in &drawn {
         let object = &plain.objects[n];
-        let id = u16::try_from(n)
-            .ok()
-            .filter(|&id| id != BACKGROUND)
-            .ok_or("too many objects")?;
+        let id = object_id(n)?;
         let mvp = plain.mvp_in(View::Camera, object, aspect);
         // Scaling a clip position keeps its screen position and scales its w.
         let scale = if biased.contains(&n) { 1.0 - 1e-9 } else { 1.0 };
@@ -288,19 +272,39 @@ pub fn compute_ids(scene: &Scene, width: u32, height: u32) -> Result<GroundTruth
             .iter()
             .map(|p| mvp * p.extend(1.0) * scale)
             .collect();
-        for t in object.mesh.indices.chunks_exact(3) {
-            let corners = [
-                clip[t[0] as usize],
-                clip[t[1] as usize],
-                clip[t[2] as usize],
-            ];
-            if corners.iter().any(|c| c.w <= 0.0) {
-                return Err(format!("{}: a vertex behind the eye", object.name));
-            }
-            triangles.push(ClipTriangle { id, corners });
-        }
+        push_triangles(&mut triangles, id, object, &clip)?;
     }
     Ok(rasterize(&triangles, width, height))
+}
+
+/// The id scene object `n` writes (its index; [`BACKGROUND`] is reserved).
+fn object_id(n: usize) -> Result<u16, String> {
+    u16::try_from(n)
+        .ok()
+        .filter(|&id| id != BACKGROUND)
+        .ok_or_else(|| "too many objects".to_owned())
+}
+
+/// Appends `object`'s triangles, from its vertices in clip space `clip`; every vertex must be
+/// in front of the eye (no clipping is modeled).
+fn push_triangles(
+    triangles: &mut Vec<ClipTriangle>,
+    id: u16,
+    object: &Object,
+    clip: &[DVec4],
+) -> Result<(), String> {
+    for t in object.mesh.indices.chunks_exact(3) {
+        let corners = [
+            clip[t[0] as usize],
+            clip[t[1] as usize],
+            clip[t[2] as usize],
+        ];
+        if corners.iter().any(|c| c.w <= 0.0) {
+            return Err(format!("{}: a vertex behind the eye", object.name));
+        }
+        triangles.push(ClipTriangle { id, corners });
+    }
+    Ok(())
 }
 
 /// [`ObjectReport::w_condition`] of the matrix chain `stages` (outermost first, each applied

@@ -344,17 +344,7 @@ pub fn create_pipeline(
                 .name(c"main"),
         );
     }
-    let bindings = [vk::VertexInputBindingDescription {
-        binding: 0,
-        stride: 12,
-        input_rate: vk::VertexInputRate::VERTEX,
-    }];
-    let attributes = [vk::VertexInputAttributeDescription {
-        location: 0,
-        binding: 0,
-        format: vk::Format::R32G32B32_SFLOAT,
-        offset: 0,
-    }];
+    let (bindings, attributes) = position_input();
     let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
         .vertex_binding_descriptions(&bindings)
         .vertex_attribute_descriptions(&attributes);
@@ -469,6 +459,26 @@ pub fn full_viewport(extent: vk::Extent2D, min_depth: f32, max_depth: f32) -> vk
         min_depth,
         max_depth,
     }
+}
+
+/// The tester's one vertex layout: a tightly packed float32 position (binding 0, location 0),
+/// as [`crate::scene::Mesh`] stores it.
+pub fn position_input() -> (
+    [vk::VertexInputBindingDescription; 1],
+    [vk::VertexInputAttributeDescription; 1],
+) {
+    let bindings = [vk::VertexInputBindingDescription {
+        binding: 0,
+        stride: 12,
+        input_rate: vk::VertexInputRate::VERTEX,
+    }];
+    let attributes = [vk::VertexInputAttributeDescription {
+        location: 0,
+        binding: 0,
+        format: vk::Format::R32G32B32_SFLOAT,
+        offset: 0,
+    }];
+    (bindings, attributes)
 }
 
 #[cfg(test)]

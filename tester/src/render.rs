@@ -341,30 +341,14 @@ impl<'a> Renderer<'a> {
             .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
             .descriptor_count(1)
             .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
-        let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
-        // SAFETY: valid device and create info.
-        colors.set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
-            .context("vkCreateDescriptorSetLayout (colors) failed")?;
-        let sizes = [vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::UNIFORM_BUFFER,
-            descriptor_count: 1,
-        }];
-        let pool_info = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(1)
-            .pool_sizes(&sizes);
-        // SAFETY: valid device and create info.
-        colors.pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
-            .context("vkCreateDescriptorPool (colors) failed")?;
+        colors.set = single_descriptor_set(
+            device,
+            &bindings,
+            "colors",
+            &mut colors.set_layout,
+            &mut colors.pool,
+        )?;
         let set_layouts = [colors.set_layout];
-        let allocate_info = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(colors.pool)
-            .set_layouts(&set_layouts);
-        // SAFETY: valid pool with room for one set of this layout.
-        colors.set = unsafe { device.allocate_descriptor_sets(&allocate_info) }
-            .context("vkAllocateDescriptorSets (colors) failed")?
-            .into_iter()
-            .next()
-            .ok_or_else(|| anyhow!("vkAllocateDescriptorSets returned no set"))?;
         let buffer_info = [vk::DescriptorBufferInfo {
             buffer: colors.colors.buffer,
             offset: 0,
@@ -459,31 +443,14 @@ impl<'a> Renderer<'a> {
                 .descriptor_count(1)
                 .stage_flags(stages)
         });
-        let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
-        // SAFETY: valid device and create info.
-        shadow.set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
-            .context("vkCreateDescriptorSetLayout failed")?;
-        let sizes = bindings.map(|b| vk::DescriptorPoolSize {
-            ty: b.descriptor_type,
-            descriptor_count: 1,
-        });
-        let pool_info = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(1)
-            .pool_sizes(&sizes);
-        // SAFETY: valid device and create info.
-        shadow.pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
-            .context("vkCreateDescriptorPool failed")?;
-        let set_layouts = [shadow.set_layout];
-        let allocate_info = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(shadow.pool)
-            .set_layouts(&set_layouts);
-        // SAFETY: valid pool with room for one set of this layout.
-        let set = unsafe { device.allocate_descriptor_sets(&allocate_info) }
-            .context("vkAllocateDescriptorSets failed")?
-            .into_iter()
-            .next()
-            .ok_or_else(|| anyhow!("vkAllocateDescriptorSets returned no set"))?;
-        shadow.set = set;
+        shadow.set = single_descriptor_set(
+            device,
+            &bindings,
+            "shadow map",
+            &mut shadow.set_layout,
+            &mut shadow.pool,
+        )?;
+        let (set, set_layouts) = (shadow.set, [shadow.set_layout]);
         let light_buffer = shadow.light.buffer;
 
         let buffer_info = [vk::DescriptorBufferInfo {
@@ -1277,4 +1244,43 @@ impl Recorder<'_> {
             }
         }
     }
+}
+
+/// Creates a descriptor set layout of `bindings`, a pool with room for one set of it, and that
+/// set. Each handle is stored as soon as it exists (`set_layout`, `pool`), so that the owner's
+/// `Drop` destroys whatever was made when a later step fails.
+fn single_descriptor_set(
+    device: &ash::Device,
+    bindings: &[vk::DescriptorSetLayoutBinding<'_>],
+    what: &str,
+    set_layout: &mut vk::DescriptorSetLayout,
+    pool: &mut vk::DescriptorPool,
+) -> Result<vk::DescriptorSet> {
+    let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(bindings);
+    // SAFETY: valid device and create info.
+    *set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
+        .with_context(|| format!("vkCreateDescriptorSetLayout ({what}) failed"))?;
+    let sizes: Vec<vk::DescriptorPoolSize> = bindings
+        .iter()
+        .map(|b| vk::DescriptorPoolSize {
+            ty: b.descriptor_type,
+            descriptor_count: b.descriptor_count,
+        })
+        .collect();
+    let pool_info = vk::DescriptorPoolCreateInfo::default()
+        .max_sets(1)
+        .pool_sizes(&sizes);
+    // SAFETY: valid device and create info.
+    *pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+        .with_context(|| format!("vkCreateDescriptorPool ({what}) failed"))?;
+    let set_layouts = [*set_layout];
+    let allocate_info = vk::DescriptorSetAllocateInfo::default()
+        .descriptor_pool(*pool)
+        .set_layouts(&set_layouts);
+    // SAFETY: valid pool with room for one set of this layout.
+    unsafe { device.allocate_descriptor_sets(&allocate_info) }
+        .with_context(|| format!("vkAllocateDescriptorSets ({what}) failed"))?
+        .into_iter()
+        .next()
+        .ok_or_else(|| anyhow!("vkAllocateDescriptorSets ({what}) returned no set"))
 }

@@ -535,17 +535,7 @@ fn create_pipeline(
             .module(fragment)
             .name(c"main"),
     ];
-    let bindings = [vk::VertexInputBindingDescription {
-        binding: 0,
-        stride: 12,
-        input_rate: vk::VertexInputRate::VERTEX,
-    }];
-    let attributes = [vk::VertexInputAttributeDescription {
-        location: 0,
-        binding: 0,
-        format: vk::Format::R32G32B32_SFLOAT,
-        offset: 0,
-    }];
+    let (bindings, attributes) = crate::pipeline::position_input();
     let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
         .vertex_binding_descriptions(&bindings)
         .vertex_attribute_descriptions(&attributes);
