@@ -492,17 +492,18 @@ impl CommandState {
             (Target::Reversed, _) => DrawPath::Flip,
             _ => DrawPath::Native,
         };
-        let mut emitted = self.emitted;
-        self.emit(&mut Filtered {
-            sink,
-            last: &mut emitted,
-        });
-        self.emitted = emitted;
+        self.emit(sink);
         self.dirty = false;
         outcome
     }
 
-    fn emit(&self, sink: &mut impl StateSink) {
+    fn emit(&mut self, sink: &mut impl StateSink) {
+        // Only what changed since it was last sent goes down (closures below capture only
+        // the fields they read, so the record is borrowed apart from them).
+        let sink = &mut Filtered {
+            sink,
+            last: &mut self.emitted,
+        };
         let reversed = self.target == Target::Reversed;
         let reversal = self.reversing.reversal;
         if reversed && self.pipeline.as_ref().is_some_and(|p| p.writes_frag_depth) {

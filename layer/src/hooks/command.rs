@@ -11,6 +11,7 @@ use ash::vk;
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::command_state::{StateSink, Target};
+use crate::config::Mode;
 use crate::conv::{flip_resolve_mode, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope};
 use crate::precise::{Outcome, PushSink, PUSH_CONSTANT_BYTES};
@@ -112,9 +113,11 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
 /// What a classified projection tells about the application.
 fn observe(device: &DeviceState, outcome: &Outcome) {
     match outcome {
-        Outcome::Rewritten { near_over_far, .. } => {
+        // Only infinite mode maps clears and flip-path state with n / f.
+        Outcome::Rewritten { near_over_far, .. } if device.policy.mode == Mode::Infinite => {
             device.observed.note_near_over_far(*near_over_far)
         }
+        Outcome::Rewritten { .. } => {}
         Outcome::AlreadyReversed => device
             .observed
             .note_app_reversed("it pushes a reversed projection"),
