@@ -14,7 +14,7 @@ use ash::vk;
 use rustc_hash::FxHashMap;
 
 use crate::command_state::{CommandState, PipelineDepth, Target};
-use crate::policy::ImageDepth;
+use crate::policy::{DepthResolve, ImageDepth, NativeReason};
 use crate::shader_analysis::Analysis;
 
 /// The shader analysis of one module: each vertex entry point's result, or why naga could not
@@ -29,13 +29,45 @@ pub struct ImageInfo {
     pub depth: ImageDepth,
 }
 
-/// A render pass: each attachment's format and whether its depth is cleared at load, and each
-/// subpass's depth attachment.
+/// A render pass: each attachment's format and whether its depth is cleared at load, each
+/// subpass's depth attachment and depth resolve, and the twin revz made to swap MIN and MAX
+/// depth resolves.
 #[derive(Clone, Debug, Default)]
 pub struct RenderPassInfo {
     pub attachments: Vec<vk::Format>,
     pub depth_cleared: Vec<bool>,
     pub subpass_depth: Vec<Option<u32>>,
+    pub subpass_resolve: Vec<Option<SubpassResolve>>,
+    /// The same render pass with MIN and MAX depth resolves swapped, begun in its place when
+    /// the resolved attachment is reversed. Only single-subpass passes have one: resolve modes
+    /// do not count for their compatibility (Vulkan spec, "Render Pass Compatibility"), so the
+    /// application's framebuffers and pipelines work with it.
+    pub swapped_resolve_twin: Option<vk::RenderPass>,
+}
+
+/// A subpass's depth resolve: the attachment resolved into and the depth mode (never NONE).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SubpassResolve {
+    pub attachment: u32,
+    pub mode: vk::ResolveModeFlags,
+}
+
+impl RenderPassInfo {
+    /// Whether a MIN/MAX depth resolve of this pass can be swapped (it has a twin).
+    pub fn resolve_swappable(&self, resolve: SubpassResolve) -> bool {
+        !matches!(
+            resolve.mode,
+            vk::ResolveModeFlags::MIN | vk::ResolveModeFlags::MAX
+        ) || self.swapped_resolve_twin.is_some()
+    }
+
+    /// Each depth resolve of the pass: (source attachment, resolve).
+    pub fn depth_resolves(&self) -> impl Iterator<Item = (u32, SubpassResolve)> + '_ {
+        self.subpass_depth
+            .iter()
+            .zip(&self.subpass_resolve)
+            .filter_map(|(depth, resolve)| Some(((*depth)?, (*resolve)?)))
+    }
 }
 
 /// A map behind a read-write lock that tolerates poisoning (a panic caught at the boundary
@@ -123,6 +155,68 @@ impl DeviceObjects {
                 ImageDepth::Reversed => (r + 1, n),
                 ImageDepth::Native(_) => (r, n + 1),
             })
+    }
+
+    /// Makes a reversed depth image native for the rest of its life (logged once: it happens
+    /// once per image).
+    pub fn demote(&self, image: vk::Image, reason: NativeReason) {
+        let mut images = self
+            .images
+            .0
+            .write()
+            .unwrap_or_else(PoisonError::into_inner);
+        if let Some(info) = images.get_mut(&image) {
+            if info.depth == ImageDepth::Reversed {
+                info.depth = ImageDepth::Native(reason);
+                log::info!(
+                    "depth image {image:?} ({:?}): native from now on, because {reason}",
+                    info.format
+                );
+            }
+        }
+    }
+
+    /// Applies the resolve rule of the policy ([`DepthResolve::demotes_source`]) to a depth
+    /// resolve from `source` into `destination`: a reversed source that cannot stay reversed
+    /// through it becomes native. Called where resolves are first seen (framebuffer creation,
+    /// imageless and dynamic rendering begins), before the instance's targets are decided.
+    pub fn settle_depth_resolve(
+        &self,
+        source: vk::ImageView,
+        destination: vk::ImageView,
+        mode: vk::ResolveModeFlags,
+        swappable: bool,
+    ) {
+        if mode == vk::ResolveModeFlags::NONE {
+            return;
+        }
+        let Some(source_image) = self.views.get(&source) else {
+            return;
+        };
+        if !self.image_reversed(source_image) {
+            return;
+        }
+        let resolve = DepthResolve {
+            mode,
+            destination: self.view_target(destination),
+            destination_image: self.views.get(&destination).unwrap_or_default(),
+            swappable,
+        };
+        if let Some(reason) = resolve.demotes_source() {
+            self.demote(source_image, reason);
+        }
+    }
+
+    /// [`Self::settle_depth_resolve`] for every depth resolve of `pass` over the framebuffer
+    /// attachments `views`.
+    pub fn settle_pass_resolves(&self, pass: &RenderPassInfo, views: &[vk::ImageView]) {
+        for (source, resolve) in pass.depth_resolves() {
+            let view = |index: u32| views.get(index as usize).copied();
+            if let (Some(source), Some(destination)) = (view(source), view(resolve.attachment)) {
+                let swappable = pass.resolve_swappable(resolve);
+                self.settle_depth_resolve(source, destination, resolve.mode, swappable);
+            }
+        }
     }
 
     /// Whether an image is a reversed depth image.

@@ -29,6 +29,13 @@ pub enum NativeReason {
     CopiedFrom,
     /// Linear tiling: the host can read it.
     LinearTiling,
+    /// A render pass resolves it into a depth image that is not reversed: the resolved values
+    /// must be standard ones. Decided when the resolve is first seen (framebuffer creation, or
+    /// the begin of an imageless or dynamic rendering instance).
+    ResolvedIntoNative(vk::Image),
+    /// A MIN or MAX depth resolve of it could not be swapped (a render pass of several
+    /// subpasses, or a stencil resolve sharing the mode): it would resolve the other extreme.
+    UnswappableResolve,
 }
 
 impl fmt::Display for NativeReason {
@@ -45,6 +52,13 @@ impl fmt::Display for NativeReason {
                 f.write_str("it is copied from (TRANSFER_SRC); see reverse_observable")
             }
             NativeReason::LinearTiling => f.write_str("linear tiling (host-readable)"),
+            NativeReason::ResolvedIntoNative(destination) => {
+                write!(f, "it is resolved into native depth image {destination:?}")
+            }
+            NativeReason::UnswappableResolve => f.write_str(
+                "its MIN/MAX depth resolve cannot be swapped (several subpasses, or a stencil \
+                 resolve sharing the mode)",
+            ),
         }
     }
 }
@@ -151,6 +165,38 @@ impl DevicePolicy {
             return native(NativeReason::LinearTiling);
         }
         Some(ImageDepth::Reversed)
+    }
+}
+
+/// A multisample depth resolve out of a reversed attachment, as the render pass or rendering
+/// instance declares it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DepthResolve {
+    /// The resolve mode (never NONE).
+    pub mode: vk::ResolveModeFlags,
+    /// What the destination image is.
+    pub destination: Target,
+    /// The destination image (null when revz does not track its view).
+    pub destination_image: vk::Image,
+    /// Whether revz can swap MIN and MAX for this resolve (a twin render pass of one subpass,
+    /// or a rendering instance whose stencil does not share the mode).
+    pub swappable: bool,
+}
+
+impl DepthResolve {
+    /// Why the reversed source of this resolve must become native, if it must: reversed
+    /// values may only be resolved into a reversed image, and MIN or MAX pick the other sample
+    /// on reversed values unless they are swapped. SAMPLE_ZERO and AVERAGE commute with every
+    /// reversal revz makes (d -> 1 - d, and the affine map of infinite mode).
+    pub fn demotes_source(&self) -> Option<NativeReason> {
+        if self.destination != Target::Reversed {
+            return Some(NativeReason::ResolvedIntoNative(self.destination_image));
+        }
+        let extreme = matches!(
+            self.mode,
+            vk::ResolveModeFlags::MIN | vk::ResolveModeFlags::MAX
+        );
+        (extreme && !self.swappable).then_some(NativeReason::UnswappableResolve)
     }
 }
 
@@ -292,6 +338,36 @@ mod tests {
             all.classify_image(D32, sampled | copied, OPTIMAL),
             Some(ImageDepth::Reversed)
         );
+    }
+
+    #[test]
+    fn a_reversed_resolve_source_stays_reversed_only_into_a_reversed_image() {
+        let resolve = |mode, destination, swappable| DepthResolve {
+            mode,
+            destination,
+            destination_image: vk::Image::null(),
+            swappable,
+        };
+        use vk::ResolveModeFlags as M;
+        for mode in [M::SAMPLE_ZERO, M::AVERAGE, M::MIN, M::MAX] {
+            for destination in [Target::Native, Target::None] {
+                assert!(matches!(
+                    resolve(mode, destination, true).demotes_source(),
+                    Some(NativeReason::ResolvedIntoNative(_))
+                ));
+            }
+            assert_eq!(resolve(mode, Target::Reversed, true).demotes_source(), None);
+        }
+        assert_eq!(
+            resolve(M::AVERAGE, Target::Reversed, false).demotes_source(),
+            None
+        );
+        for mode in [M::MIN, M::MAX] {
+            assert_eq!(
+                resolve(mode, Target::Reversed, false).demotes_source(),
+                Some(NativeReason::UnswappableResolve)
+            );
+        }
     }
 
     #[test]

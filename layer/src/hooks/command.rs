@@ -500,62 +500,89 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
     }
 }
 
-/// The depth target of each attachment of a render pass instance.
-fn attachment_targets(
+/// The attachments of a render pass instance: the framebuffer's views, or for an imageless
+/// framebuffer those of the begin info.
+fn attachment_views(
     device: &DeviceState,
     framebuffer: vk::Framebuffer,
     begin_next: *const std::ffi::c_void,
-) -> Vec<Target> {
-    let views = device.objects.framebuffers.get(&framebuffer);
-    let mut imageless: &[vk::ImageView] = &[];
-    if views.as_ref().is_none_or(|v| v.is_empty()) {
-        // Imageless framebuffer: the views come with the begin info.
-        let mut next = begin_next.cast::<vk::BaseInStructure>();
-        // SAFETY: a valid pNext chain (the application's contract).
-        while let Some(base) = unsafe { next.as_ref() } {
-            if base.s_type == vk::StructureType::RENDER_PASS_ATTACHMENT_BEGIN_INFO {
-                // SAFETY: the sType identifies the structure; `attachmentCount` views.
-                let info = unsafe { &*next.cast::<vk::RenderPassAttachmentBeginInfo<'_>>() };
-                // SAFETY: as above.
-                imageless = unsafe { slice(info.p_attachments, info.attachment_count) };
-            }
-            next = base.p_next;
+) -> Arc<[vk::ImageView]> {
+    if let Some(views) = device.objects.framebuffers.get(&framebuffer) {
+        if !views.is_empty() {
+            return views;
         }
     }
-    let views: &[vk::ImageView] = match &views {
-        Some(v) if !v.is_empty() => v,
-        _ => imageless,
-    };
-    views.iter().map(|&view| device.view_target(view)).collect()
+    let mut next = begin_next.cast::<vk::BaseInStructure>();
+    // SAFETY: a valid pNext chain (the application's contract).
+    while let Some(base) = unsafe { next.as_ref() } {
+        if base.s_type == vk::StructureType::RENDER_PASS_ATTACHMENT_BEGIN_INFO {
+            // SAFETY: the sType identifies the structure; `attachmentCount` views.
+            let info = unsafe { &*next.cast::<vk::RenderPassAttachmentBeginInfo<'_>>() };
+            // SAFETY: as above.
+            return Arc::from(unsafe { slice(info.p_attachments, info.attachment_count) });
+        }
+        next = base.p_next;
+    }
+    Arc::from([])
 }
 
-/// Begins a render pass instance: flips the clear values of reversed depth attachments and
-/// records the scope. Returns the begin info to pass down (with its own clear value array).
-fn begin_pass(
-    entry: &CommandBufferEntry,
-    begin: &vk::RenderPassBeginInfo<'_>,
-    clears: &mut Vec<vk::ClearValue>,
-) -> bool {
+/// What a render pass begin passes down in place of the application's values.
+#[derive(Default)]
+struct PassBegin {
+    /// The clear values, when a reversed depth attachment's was flipped.
+    clears: Option<Vec<vk::ClearValue>>,
+    /// The twin with swapped MIN/MAX depth resolves, when the resolved attachment is reversed.
+    render_pass: Option<vk::RenderPass>,
+}
+
+impl PassBegin {
+    /// The begin info to pass down: the application's, or a copy with revz's values.
+    fn apply<'a>(&'a self, begin: &vk::RenderPassBeginInfo<'a>) -> vk::RenderPassBeginInfo<'a> {
+        let mut copy = *begin;
+        if let Some(clears) = &self.clears {
+            copy.p_clear_values = clears.as_ptr();
+        }
+        if let Some(render_pass) = self.render_pass {
+            copy.render_pass = render_pass;
+        }
+        copy
+    }
+
+    fn changes_anything(&self) -> bool {
+        self.clears.is_some() || self.render_pass.is_some()
+    }
+}
+
+/// Begins a render pass instance: settles its depth resolves, flips the clear values of
+/// reversed depth attachments, picks the swapped-resolve twin where its resolved attachment is
+/// reversed, and records the scope.
+fn begin_pass(entry: &CommandBufferEntry, begin: &vk::RenderPassBeginInfo<'_>) -> PassBegin {
     let device = &entry.device;
     let pass = device.objects.render_passes.get(&begin.render_pass);
-    let mut targets = attachment_targets(device, begin.framebuffer, begin.p_next);
-    let mut changed = false;
+    let views = attachment_views(device, begin.framebuffer, begin.p_next);
+    let targets_of = || -> Vec<Target> { views.iter().map(|&v| device.view_target(v)).collect() };
+    let mut out = PassBegin::default();
+    let mut targets = Vec::new();
     if let Some(pass) = &pass {
-        // SAFETY: `clearValueCount` values.
-        clears.extend_from_slice(unsafe { slice(begin.p_clear_values, begin.clear_value_count) });
-        let reversed_clears = || {
-            clears.iter().enumerate().filter(|(index, _)| {
-                pass.depth_cleared.get(*index).copied().unwrap_or(false)
-                    && targets.get(*index) == Some(&Target::Reversed)
-            })
-        };
-        // SAFETY: a depth attachment's clear value is the depthStencil member.
-        if reversed_clears().any(|(_, clear)| unsafe { clear.depth_stencil.depth } == 0.0) {
+        // Ordinary framebuffers were settled at creation; imageless ones only now.
+        device.objects.settle_pass_resolves(pass, &views);
+        targets = targets_of();
+        let mut clears: Vec<vk::ClearValue> =
+            // SAFETY: `clearValueCount` values.
+            unsafe { slice(begin.p_clear_values, begin.clear_value_count) }.to_vec();
+        let reversed_clear_to_0 = clears.iter().enumerate().any(|(index, clear)| {
+            pass.depth_cleared.get(index).copied().unwrap_or(false)
+                && targets.get(index) == Some(&Target::Reversed)
+                // SAFETY: a depth attachment's clear value is the depthStencil member.
+                && unsafe { clear.depth_stencil.depth } == 0.0
+        });
+        if reversed_clear_to_0 {
             device
                 .observed
                 .note_app_reversed("a depth attachment is cleared to 0");
-            targets = attachment_targets(device, begin.framebuffer, begin.p_next);
+            targets = targets_of();
         }
+        let mut changed = false;
         for (index, clear) in clears.iter_mut().enumerate() {
             let cleared = pass.depth_cleared.get(index).copied().unwrap_or(false);
             if cleared && targets.get(index) == Some(&Target::Reversed) {
@@ -566,6 +593,15 @@ fn begin_pass(
                 changed = true;
             }
         }
+        out.clears = changed.then_some(clears);
+        // A twin exists only for passes of one subpass; its resolve source was settled above,
+        // so a reversed source here resolves into a reversed image.
+        let resolved_reversed = pass
+            .depth_resolves()
+            .any(|(source, _)| targets.get(source as usize) == Some(&Target::Reversed));
+        if resolved_reversed {
+            out.render_pass = pass.swapped_resolve_twin;
+        }
     }
     let scope = PassScope {
         render_pass: pass,
@@ -574,7 +610,7 @@ fn begin_pass(
     };
     entry.state().set_target(scope.target());
     *entry.scope() = scope;
-    changed
+    out
 }
 
 pub unsafe extern "system" fn cmd_begin_render_pass(
@@ -583,21 +619,20 @@ pub unsafe extern "system" fn cmd_begin_render_pass(
     contents: vk::SubpassContents,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRenderPass");
-    let mut clears = Vec::new();
-    let mut changed = false;
+    let mut pass_begin = PassBegin::default();
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid begin info (the application's contract).
-        changed = begin_pass(entry, unsafe { &*p_begin }, &mut clears);
+        pass_begin = begin_pass(entry, unsafe { &*p_begin });
     });
     let Some(device) = device else { return };
-    // SAFETY: valid; the copy differs only in its clear value array.
-    let begin = unsafe { *p_begin };
-    let flipped = vk::RenderPassBeginInfo {
-        p_clear_values: clears.as_ptr(),
-        ..begin
+    // SAFETY: a valid begin info.
+    let replaced = pass_begin.apply(unsafe { &*p_begin });
+    let p_begin = if pass_begin.changes_anything() {
+        &replaced
+    } else {
+        p_begin
     };
-    let p_begin = if changed { &flipped } else { p_begin };
-    // SAFETY: calling down with the application's arguments (clear values flipped).
+    // SAFETY: calling down with the application's arguments (clear values flipped, twin pass).
     unsafe { (device.next.fp_v1_0().cmd_begin_render_pass)(buffer, p_begin, contents) }
 }
 
@@ -607,23 +642,22 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
     p_subpass_begin: *const vk::SubpassBeginInfo<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRenderPass2");
-    let mut clears = Vec::new();
-    let mut changed = false;
+    let mut pass_begin = PassBegin::default();
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid begin info (the application's contract).
-        changed = begin_pass(entry, unsafe { &*p_begin }, &mut clears);
+        pass_begin = begin_pass(entry, unsafe { &*p_begin });
     });
     let Some(next) = device.and_then(|d| d.commands.begin_render_pass2) else {
         return;
     };
-    // SAFETY: valid; the copy differs only in its clear value array.
-    let begin = unsafe { *p_begin };
-    let flipped = vk::RenderPassBeginInfo {
-        p_clear_values: clears.as_ptr(),
-        ..begin
+    // SAFETY: a valid begin info.
+    let replaced = pass_begin.apply(unsafe { &*p_begin });
+    let p_begin = if pass_begin.changes_anything() {
+        &replaced
+    } else {
+        p_begin
     };
-    let p_begin = if changed { &flipped } else { p_begin };
-    // SAFETY: calling down with the application's arguments (clear values flipped).
+    // SAFETY: calling down with the application's arguments (clear values flipped, twin pass).
     unsafe { next(buffer, p_begin, p_subpass_begin) }
 }
 
@@ -696,6 +730,19 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         // SAFETY: null or valid.
         let depth = unsafe { info.p_depth_attachment.as_ref() };
         let device = &entry.device;
+        // A stencil resolve of the same attachment must keep its mode equal to the depth one
+        // on devices without independentResolve, so then MIN/MAX cannot be swapped.
+        // SAFETY: null or valid.
+        let stencil_resolves = unsafe { info.p_stencil_attachment.as_ref() }
+            .is_some_and(|s| s.resolve_mode != vk::ResolveModeFlags::NONE);
+        if let Some(depth) = depth {
+            device.objects.settle_depth_resolve(
+                depth.image_view,
+                depth.resolve_image_view,
+                depth.resolve_mode,
+                !stencil_resolves,
+            );
+        }
         let mut target = depth.map_or(Target::None, |d| device.view_target(d.image_view));
         // SAFETY: a depth attachment's clear value is the depthStencil member.
         let clear_depth = depth.map(|d| unsafe { d.clear_value.depth_stencil.depth });
@@ -717,27 +764,9 @@ pub unsafe extern "system" fn cmd_begin_rendering(
                         device.reversed_clear(copy.clear_value.depth_stencil.depth)
                 };
             }
-            // MIN/MAX pick the other sample on reversed depth. A stencil resolve of the same
-            // attachment must keep its mode equal to the depth one on devices without
-            // independentResolve, so then the depth mode stays (and the resolved depth is the
-            // other extreme: logged once).
-            // SAFETY: null or valid.
-            let stencil_resolves = unsafe { info.p_stencil_attachment.as_ref() }
-                .is_some_and(|s| s.resolve_mode != vk::ResolveModeFlags::NONE);
-            if !stencil_resolves {
-                copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
-            } else if matches!(
-                copy.resolve_mode,
-                vk::ResolveModeFlags::MIN | vk::ResolveModeFlags::MAX
-            ) {
-                static LOGGED: std::sync::Once = std::sync::Once::new();
-                LOGGED.call_once(|| {
-                    log::warn!(
-                        "a MIN/MAX depth resolve with a stencil resolve on a reversed \
-                         attachment keeps its mode: the resolved depth is the other extreme"
-                    )
-                });
-            }
+            // Settled above: a reversed attachment that still resolves resolves into a
+            // reversed image, with a mode revz may swap.
+            copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
             depth_copy = Some(copy);
         }
         entry.state().set_target(target);
@@ -1066,7 +1095,11 @@ fn inherited_target(
     if inheritance.render_pass != vk::RenderPass::null() {
         let pass = device.objects.render_passes.get(&inheritance.render_pass);
         // An imageless framebuffer names no views: the format decides, as without one.
-        let targets = attachment_targets(device, inheritance.framebuffer, std::ptr::null());
+        let targets: Vec<Target> =
+            attachment_views(device, inheritance.framebuffer, std::ptr::null())
+                .iter()
+                .map(|&view| device.view_target(view))
+                .collect();
         if !targets.is_empty() {
             let scope = PassScope {
                 render_pass: pass,

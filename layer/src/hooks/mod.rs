@@ -39,6 +39,7 @@ pub mod command;
 pub mod device;
 pub mod instance;
 pub mod pipeline;
+pub mod render_pass;
 pub mod resources;
 
 #[cfg(test)]
@@ -97,20 +98,21 @@ pub fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
 /// EXT names) share one hook, which calls down through whichever name the device has.
 pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     use command as c;
+    use render_pass as rp;
     use resources as r;
     match name.to_bytes() {
         b"vkCreateImage" => void_fn!(vk::PFN_vkCreateImage, r::create_image),
         b"vkDestroyImage" => void_fn!(vk::PFN_vkDestroyImage, r::destroy_image),
         b"vkCreateImageView" => void_fn!(vk::PFN_vkCreateImageView, r::create_image_view),
         b"vkDestroyImageView" => void_fn!(vk::PFN_vkDestroyImageView, r::destroy_image_view),
-        b"vkCreateRenderPass" => void_fn!(vk::PFN_vkCreateRenderPass, r::create_render_pass),
+        b"vkCreateRenderPass" => void_fn!(vk::PFN_vkCreateRenderPass, rp::create_render_pass),
         b"vkCreateRenderPass2" | b"vkCreateRenderPass2KHR" => {
-            void_fn!(vk::PFN_vkCreateRenderPass2, r::create_render_pass2)
+            void_fn!(vk::PFN_vkCreateRenderPass2, rp::create_render_pass2)
         }
-        b"vkDestroyRenderPass" => void_fn!(vk::PFN_vkDestroyRenderPass, r::destroy_render_pass),
-        b"vkCreateFramebuffer" => void_fn!(vk::PFN_vkCreateFramebuffer, r::create_framebuffer),
+        b"vkDestroyRenderPass" => void_fn!(vk::PFN_vkDestroyRenderPass, rp::destroy_render_pass),
+        b"vkCreateFramebuffer" => void_fn!(vk::PFN_vkCreateFramebuffer, rp::create_framebuffer),
         b"vkDestroyFramebuffer" => {
-            void_fn!(vk::PFN_vkDestroyFramebuffer, r::destroy_framebuffer)
+            void_fn!(vk::PFN_vkDestroyFramebuffer, rp::destroy_framebuffer)
         }
         b"vkAllocateCommandBuffers" => {
             void_fn!(

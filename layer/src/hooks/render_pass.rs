@@ -1,0 +1,418 @@
+//! Render pass and framebuffer hooks: what revz records of each (attachment formats, depth
+//! clears, depth attachments and depth resolves per subpass, framebuffer views), and the one
+//! object revz creates on the application's behalf: a twin render pass whose MIN and MAX depth
+//! resolves are swapped.
+//!
+//! Why a twin: a MIN (MAX) resolve of reversed depth picks the farthest (nearest) sample, so a
+//! reversed attachment must be resolved with the other mode. The mode is baked into the render
+//! pass, but for passes of one subpass resolve modes do not count for compatibility (Vulkan
+//! spec, "Render Pass Compatibility"), so the twin can be begun in place of the application's
+//! pass with the application's framebuffers, pipelines and secondaries. Resolves revz cannot
+//! swap make their source native instead (`policy::DepthResolve`), decided here at framebuffer
+//! creation for ordinary framebuffers.
+
+use std::ffi::c_void;
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::{device_state, record};
+use crate::boundary::EntryPoint;
+use crate::conv::{flip_resolve_mode, has_depth};
+use crate::hooks::resources::slice;
+use crate::objects::{RenderPassInfo, SubpassResolve};
+
+static CREATE_RENDER_PASS: EntryPoint = EntryPoint::new("vkCreateRenderPass");
+static CREATE_RENDER_PASS2: EntryPoint = EntryPoint::new("vkCreateRenderPass2");
+static DESTROY_RENDER_PASS: EntryPoint = EntryPoint::new("vkDestroyRenderPass");
+static CREATE_FRAMEBUFFER: EntryPoint = EntryPoint::new("vkCreateFramebuffer");
+static DESTROY_FRAMEBUFFER: EntryPoint = EntryPoint::new("vkDestroyFramebuffer");
+
+/// Builds a [`RenderPassInfo`] from attachment formats and load ops, and subpass depth
+/// attachments and depth resolves (the twin is added by the caller).
+fn render_pass_info(
+    attachments: impl Iterator<Item = (vk::Format, vk::AttachmentLoadOp)>,
+    subpasses: impl Iterator<Item = (Option<u32>, Option<SubpassResolve>)>,
+) -> RenderPassInfo {
+    let mut info = RenderPassInfo::default();
+    for (format, load_op) in attachments {
+        info.attachments.push(format);
+        info.depth_cleared
+            .push(has_depth(format) && load_op == vk::AttachmentLoadOp::CLEAR);
+    }
+    for (depth, resolve) in subpasses {
+        info.subpass_depth
+            .push(depth.filter(|&i| i != vk::ATTACHMENT_UNUSED));
+        info.subpass_resolve.push(resolve);
+    }
+    info
+}
+
+/// The depth resolve structure in a subpass's pNext chain, if any.
+fn depth_resolve_of<'a>(
+    subpass: &vk::SubpassDescription2<'a>,
+) -> Option<&'a vk::SubpassDescriptionDepthStencilResolve<'a>> {
+    let mut next = subpass.p_next.cast::<vk::BaseInStructure>();
+    // SAFETY: a valid pNext chain (the application's contract).
+    while let Some(base) = unsafe { next.as_ref() } {
+        if base.s_type == vk::StructureType::SUBPASS_DESCRIPTION_DEPTH_STENCIL_RESOLVE {
+            // SAFETY: the sType identifies the structure.
+            return Some(unsafe { &*next.cast() });
+        }
+        next = base.p_next;
+    }
+    None
+}
+
+/// A subpass's depth resolve as revz records it: `None` without a depth resolve.
+fn subpass_resolve(subpass: &vk::SubpassDescription2<'_>) -> Option<SubpassResolve> {
+    let resolve = depth_resolve_of(subpass)?;
+    // SAFETY: null or one valid reference.
+    let attachment = unsafe { resolve.p_depth_stencil_resolve_attachment.as_ref() }?.attachment;
+    (attachment != vk::ATTACHMENT_UNUSED
+        && resolve.depth_resolve_mode != vk::ResolveModeFlags::NONE)
+        .then_some(SubpassResolve {
+            attachment,
+            mode: resolve.depth_resolve_mode,
+        })
+}
+
+/// The depth resolve structure of the twin subpass: the application's with MIN and MAX
+/// swapped, chained in front of the rest of the subpass's chain. `Ok(None)`: nothing to swap.
+/// `Err`: a MIN/MAX resolve revz cannot swap, and why.
+fn swapped_resolve<'a>(
+    subpass: &vk::SubpassDescription2<'a>,
+) -> Result<Option<vk::SubpassDescriptionDepthStencilResolve<'a>>, &'static str> {
+    let Some(resolve) = subpass_resolve(subpass) else {
+        return Ok(None);
+    };
+    if flip_resolve_mode(resolve.mode) == resolve.mode {
+        return Ok(None);
+    }
+    let Some(original) = depth_resolve_of(subpass) else {
+        return Ok(None);
+    };
+    if original.stencil_resolve_mode != vk::ResolveModeFlags::NONE {
+        // Without independentResolve the two modes must stay equal; swapping the stencil too
+        // would change which stencil sample is kept.
+        return Err("a stencil resolve shares the depth resolve");
+    }
+    // Linking a copy in front of the chain skips the original only when it comes first;
+    // elsewhere revz would have to copy structures it does not know.
+    if !std::ptr::eq(
+        subpass.p_next,
+        (original as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast(),
+    ) {
+        return Err("another structure precedes it in the subpass's pNext chain");
+    }
+    Ok(Some(vk::SubpassDescriptionDepthStencilResolve {
+        depth_resolve_mode: flip_resolve_mode(original.depth_resolve_mode),
+        ..*original
+    }))
+}
+
+/// Creates the twin of a render pass of one subpass with a MIN/MAX depth resolve; `None` when
+/// the pass has none, or it cannot be swapped or created (logged at debug: the attachment then
+/// stays native, see `NativeReason::UnswappableResolve`).
+fn create_swapped_resolve_twin(
+    device: vk::Device,
+    info: &vk::RenderPassCreateInfo2<'_>,
+    next: vk::PFN_vkCreateRenderPass2,
+) -> Option<vk::RenderPass> {
+    // SAFETY: `subpassCount` subpasses (the application's contract).
+    let subpasses = unsafe { slice(info.p_subpasses, info.subpass_count) };
+    let swappable = |s: &vk::SubpassDescription2<'_>| {
+        subpass_resolve(s).is_some_and(|r| flip_resolve_mode(r.mode) != r.mode)
+    };
+    if !subpasses.iter().any(swappable) {
+        return None;
+    }
+    let [subpass] = subpasses else {
+        log::debug!("a MIN/MAX depth resolve in a render pass of several subpasses: no twin");
+        return None;
+    };
+    let resolve = match swapped_resolve(subpass) {
+        Ok(resolve) => resolve?,
+        Err(why) => {
+            log::debug!("a MIN/MAX depth resolve revz cannot swap: {why}");
+            return None;
+        }
+    };
+    let twin_subpass = vk::SubpassDescription2 {
+        p_next: (&resolve as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast::<c_void>(),
+        ..*subpass
+    };
+    let twin_info = vk::RenderPassCreateInfo2 {
+        p_subpasses: &twin_subpass,
+        ..*info
+    };
+    let mut twin = vk::RenderPass::null();
+    // SAFETY: the application's create info, with one subpass whose resolve structure is ours;
+    // revz's own object, so no application allocator.
+    let result = unsafe { next(device, &twin_info, std::ptr::null(), &mut twin) };
+    if result != vk::Result::SUCCESS {
+        log::debug!("the swapped-resolve twin of a render pass failed: {result:?}");
+        return None;
+    }
+    Some(twin)
+}
+
+pub unsafe extern "system" fn create_render_pass(
+    device: vk::Device,
+    p_create_info: *const vk::RenderPassCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_render_pass: *mut vk::RenderPass,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_render_pass)(device, p_create_info, p_allocator, p_render_pass)
+    };
+    if result == vk::Result::SUCCESS {
+        record(&CREATE_RENDER_PASS, || {
+            // SAFETY: valid on success; arrays sized by their counts.
+            let info = unsafe { &*p_create_info };
+            // SAFETY: as above.
+            let (attachments, subpasses) = unsafe {
+                (
+                    slice(info.p_attachments, info.attachment_count),
+                    slice(info.p_subpasses, info.subpass_count),
+                )
+            };
+            let pass = render_pass_info(
+                attachments.iter().map(|a| (a.format, a.load_op)),
+                subpasses.iter().map(|s| {
+                    // SAFETY: null or one valid reference.
+                    let depth = unsafe { s.p_depth_stencil_attachment.as_ref() };
+                    (depth.map(|r| r.attachment), None)
+                }),
+            );
+            // SAFETY: valid on success.
+            let handle = unsafe { *p_render_pass };
+            state.objects.render_passes.insert(handle, Arc::new(pass));
+        });
+    }
+    result
+}
+
+pub unsafe extern "system" fn create_render_pass2(
+    device: vk::Device,
+    p_create_info: *const vk::RenderPassCreateInfo2<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_render_pass: *mut vk::RenderPass,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    let Some(next) = state.commands.create_render_pass2 else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe { next(device, p_create_info, p_allocator, p_render_pass) };
+    if result == vk::Result::SUCCESS {
+        record(&CREATE_RENDER_PASS2, || {
+            // SAFETY: valid on success; arrays sized by their counts.
+            let info = unsafe { &*p_create_info };
+            // SAFETY: as above.
+            let (attachments, subpasses) = unsafe {
+                (
+                    slice(info.p_attachments, info.attachment_count),
+                    slice(info.p_subpasses, info.subpass_count),
+                )
+            };
+            let mut pass = render_pass_info(
+                attachments.iter().map(|a| (a.format, a.load_op)),
+                subpasses.iter().map(|s| {
+                    // SAFETY: null or one valid reference.
+                    let depth = unsafe { s.p_depth_stencil_attachment.as_ref() };
+                    (depth.map(|r| r.attachment), subpass_resolve(s))
+                }),
+            );
+            pass.swapped_resolve_twin = create_swapped_resolve_twin(device, info, next);
+            // SAFETY: valid on success.
+            let handle = unsafe { *p_render_pass };
+            state.objects.render_passes.insert(handle, Arc::new(pass));
+        });
+    }
+    result
+}
+
+pub unsafe extern "system" fn destroy_render_pass(
+    device: vk::Device,
+    render_pass: vk::RenderPass,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return;
+    };
+    let destroy = state.next.fp_v1_0().destroy_render_pass;
+    record(&DESTROY_RENDER_PASS, || {
+        let twin = state
+            .objects
+            .render_passes
+            .remove(&render_pass)
+            .and_then(|pass| pass.swapped_resolve_twin);
+        if let Some(twin) = twin {
+            // SAFETY: revz's own object; command buffers that began it are, like the
+            // application's pass, no longer in use (the application's contract for destroying
+            // the pass they were recorded with).
+            unsafe { destroy(device, twin, std::ptr::null()) };
+        }
+    });
+    // SAFETY: calling down with the application's arguments.
+    unsafe { destroy(device, render_pass, p_allocator) };
+}
+
+destroy_hook!(
+    destroy_framebuffer,
+    DESTROY_FRAMEBUFFER,
+    vk::Framebuffer,
+    framebuffers,
+    destroy_framebuffer
+);
+
+pub unsafe extern "system" fn create_framebuffer(
+    device: vk::Device,
+    p_create_info: *const vk::FramebufferCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_framebuffer: *mut vk::Framebuffer,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_framebuffer)(device, p_create_info, p_allocator, p_framebuffer)
+    };
+    if result == vk::Result::SUCCESS {
+        record(&CREATE_FRAMEBUFFER, || {
+            // SAFETY: valid on success.
+            let info = unsafe { &*p_create_info };
+            let views: Arc<[vk::ImageView]> =
+                if info.flags.contains(vk::FramebufferCreateFlags::IMAGELESS) {
+                    Arc::from([])
+                } else {
+                    // SAFETY: `attachmentCount` views.
+                    Arc::from(unsafe { slice(info.p_attachments, info.attachment_count) })
+                };
+            // Resolves are settled here, before any command buffer records with the views,
+            // so that a depth pre-pass recorded before the resolving pass agrees with it.
+            if let Some(pass) = state.objects.render_passes.get(&info.render_pass) {
+                state.objects.settle_pass_resolves(&pass, &views);
+            }
+            // SAFETY: valid on success.
+            state
+                .objects
+                .framebuffers
+                .insert(unsafe { *p_framebuffer }, views);
+        });
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn reference(attachment: u32) -> vk::AttachmentReference2<'static> {
+        vk::AttachmentReference2 {
+            attachment,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn min_and_max_depth_resolves_are_swapped_in_a_copy_chained_first() {
+        static DESTINATION: vk::AttachmentReference2<'static> = vk::AttachmentReference2 {
+            s_type: vk::StructureType::ATTACHMENT_REFERENCE_2,
+            p_next: std::ptr::null(),
+            attachment: 1,
+            layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            _marker: std::marker::PhantomData,
+        };
+        let after = vk::BaseInStructure::default();
+        for (mode, swapped) in [
+            (vk::ResolveModeFlags::MIN, vk::ResolveModeFlags::MAX),
+            (vk::ResolveModeFlags::MAX, vk::ResolveModeFlags::MIN),
+        ] {
+            let resolve = vk::SubpassDescriptionDepthStencilResolve {
+                p_next: (&after as *const vk::BaseInStructure).cast(),
+                depth_resolve_mode: mode,
+                p_depth_stencil_resolve_attachment: &DESTINATION,
+                ..Default::default()
+            };
+            let subpass = vk::SubpassDescription2 {
+                p_next: (&resolve as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast(),
+                ..Default::default()
+            };
+            assert_eq!(
+                subpass_resolve(&subpass),
+                Some(SubpassResolve {
+                    attachment: 1,
+                    mode
+                })
+            );
+            let copy = swapped_resolve(&subpass).unwrap().unwrap();
+            assert_eq!(copy.depth_resolve_mode, swapped);
+            assert_eq!(copy.p_next, resolve.p_next, "the rest of the chain follows");
+            assert_eq!(
+                copy.p_depth_stencil_resolve_attachment,
+                resolve.p_depth_stencil_resolve_attachment
+            );
+        }
+    }
+
+    #[test]
+    fn linear_resolves_need_no_twin_and_blocked_swaps_say_why() {
+        let destination = reference(1);
+        let resolve = |depth, stencil| vk::SubpassDescriptionDepthStencilResolve {
+            depth_resolve_mode: depth,
+            stencil_resolve_mode: stencil,
+            p_depth_stencil_resolve_attachment: &destination,
+            ..Default::default()
+        };
+        let subpass_with =
+            |r: &vk::SubpassDescriptionDepthStencilResolve<'_>| vk::SubpassDescription2 {
+                p_next: (r as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast(),
+                ..Default::default()
+            };
+        use vk::ResolveModeFlags as M;
+        for mode in [M::SAMPLE_ZERO, M::AVERAGE] {
+            let r = resolve(mode, M::NONE);
+            assert!(swapped_resolve(&subpass_with(&r)).unwrap().is_none());
+        }
+        let none = resolve(M::NONE, M::NONE);
+        assert_eq!(subpass_resolve(&subpass_with(&none)), None);
+        let shared = resolve(M::MIN, M::MIN);
+        assert!(swapped_resolve(&subpass_with(&shared)).is_err());
+
+        // The resolve structure after another one: found, but not swappable in place.
+        let min = resolve(M::MIN, M::NONE);
+        let before = vk::BaseInStructure {
+            s_type: vk::StructureType::FRAGMENT_SHADING_RATE_ATTACHMENT_INFO_KHR,
+            p_next: (&min as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast(),
+            ..Default::default()
+        };
+        let later = vk::SubpassDescription2 {
+            p_next: (&before as *const vk::BaseInStructure).cast(),
+            ..Default::default()
+        };
+        assert_eq!(subpass_resolve(&later).map(|r| r.mode), Some(M::MIN));
+        assert!(swapped_resolve(&later).is_err());
+
+        let unused = reference(vk::ATTACHMENT_UNUSED);
+        let to_unused = vk::SubpassDescriptionDepthStencilResolve {
+            depth_resolve_mode: M::MIN,
+            p_depth_stencil_resolve_attachment: &unused,
+            ..Default::default()
+        };
+        assert_eq!(subpass_resolve(&subpass_with(&to_unused)), None);
+    }
+}
