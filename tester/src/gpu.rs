@@ -16,6 +16,8 @@ use std::sync::Arc;
 use anyhow::{anyhow, bail, Context, Result};
 use ash::vk;
 
+use crate::target::ResolveSupport;
+
 /// The Khronos validation layer, enabled through `ppEnabledLayerNames` by `--validation`.
 pub const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -574,6 +576,25 @@ impl Gpu {
                 .get_physical_device_properties(self.physical_device)
         }
         .limits
+    }
+
+    /// The device's depth/stencil resolve modes
+    /// (`VkPhysicalDeviceDepthStencilResolveProperties`; the device and the instance are at
+    /// Vulkan 1.2 or later, which the caller checks).
+    pub fn resolve_support(&self) -> ResolveSupport {
+        let mut resolve = vk::PhysicalDeviceDepthStencilResolveProperties::default();
+        let mut properties2 = vk::PhysicalDeviceProperties2::default().push_next(&mut resolve);
+        // SAFETY: core 1.1 entry point (the instance asks for 1.2 or later); the chain holds a
+        // valid Vulkan 1.2 properties structure.
+        unsafe {
+            self.instance()
+                .get_physical_device_properties2(self.physical_device, &mut properties2)
+        };
+        ResolveSupport {
+            depth_modes: resolve.supported_depth_resolve_modes,
+            stencil_modes: resolve.supported_stencil_resolve_modes,
+            independent_none: resolve.independent_resolve_none == vk::TRUE,
+        }
     }
 
     /// The counter of validation messages (shared: still readable after `Gpu` is dropped,

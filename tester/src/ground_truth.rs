@@ -122,6 +122,11 @@ pub fn applies(scene: &Scene) -> Result<Vec<(usize, Program)>, String> {
             Step::BeginPass(n) => {
                 let pass = &plan.passes[*n];
                 in_main = pass.target == Target::Main;
+                if in_main && pass.multisample.is_some() {
+                    // The resolved depth is no pixel-center value (sample 0 lies off the
+                    // center; other modes combine samples).
+                    return Err(format!("main pass {n} is multisampled"));
+                }
                 if in_main {
                     let expected = if main_passes == 0 {
                         DepthLoad::Clear(clear)

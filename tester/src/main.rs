@@ -33,7 +33,8 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 use crate::gpu::{Features, Gpu, GpuOptions};
-use crate::readback::{DepthStats, Readback, RenderReport};
+use crate::plan::ResolveMode;
+use crate::readback::{resolve_mode_name, DepthStats, MultisampleReport, Readback, RenderReport};
 use crate::render::{Renderer, SceneBuffers};
 use crate::scene::SceneId;
 use crate::target::{DepthFormat, TargetOptions, Targets};
@@ -85,6 +86,13 @@ struct RenderArgs {
     /// Scene to render.
     #[arg(long, value_enum, default_value = "overlap")]
     scene: SceneId,
+
+    /// How the multisampled scenes (msaa-resolve, msaa-resolve-dynamic) resolve depth into
+    /// the depth image read back [default: sample-zero]. The device must support the mode
+    /// (VkPhysicalDeviceDepthStencilResolveProperties; lavapipe: sample-zero and average).
+    /// Other scenes resolve nothing and refuse it.
+    #[arg(long, value_enum, value_name = "MODE")]
+    depth_resolve: Option<ResolveMode>,
 
     /// Width of the render in pixels.
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
@@ -159,7 +167,15 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         .out
         .as_deref()
         .context("--out is required when rendering a scene")?;
-    let scene = cli.scene.build();
+    let mut scene = cli.scene.build();
+    let depth_resolve = cli.depth_resolve.unwrap_or(ResolveMode::SampleZero);
+    if !scene.plan.set_depth_resolve(depth_resolve) && cli.depth_resolve.is_some() {
+        bail!(
+            "scene '{}' has no multisampled pass: --depth-resolve applies to msaa-resolve and \
+             msaa-resolve-dynamic",
+            scene.name
+        );
+    }
     let needs = scene.plan.needs();
     if needs.stencil && !cli.depth_format.has_stencil() {
         bail!(
@@ -215,14 +231,21 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             depth_readback,
             clear_depth_image: needs.clear_depth_image,
             shadow_map: needs.shadow_map,
+            multisample: needs.multisample,
         };
         let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;
         let readback = Readback::new(&gpu, &targets, depth_readback)?;
         let renderer = Renderer::new(&gpu, &targets, &scene)?;
         renderer.render(&gpu, &scene, &buffers, &targets, &readback)?;
-        readback.frame()?
+        let multisample = targets.multisampled.as_ref().map(|ms| MultisampleReport {
+            samples: ms.samples.as_raw(),
+            depth_resolve: resolve_mode_name(ms.resolve.depth),
+            stencil_resolve: resolve_mode_name(ms.resolve.stencil),
+        });
+        (readback.frame()?, multisample)
     };
+    let (frame, multisample) = frame;
     let clear_depth = scene.plan.main_clear_depth();
     for path in readback::write_images(out, &frame, clear_depth)? {
         print_wrote(&path);
@@ -270,6 +293,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         depth_min: stats.and_then(|s| s.min),
         depth_max: stats.and_then(|s| s.max),
         covered_pixels: stats.map(|s| s.covered),
+        multisample,
         ground_truth,
     };
     print_wrote(&readback::write_report(out, &report)?);

@@ -1,6 +1,7 @@
 //! Vulkan objects made from a scene's [`Plan`] data: render passes (one or two subpasses, main
-//! target or shadow map) and graphics pipelines (their depth, stencil, bias, bounds and
-//! viewport state, static or dynamic; made for a render pass or for dynamic rendering), and
+//! target or shadow map; multisampled ones with `vkCreateRenderPass2` and color and depth
+//! resolves) and graphics pipelines (their depth, stencil, bias, bounds and viewport state,
+//! static or dynamic, and sample count; made for a render pass or for dynamic rendering), and
 //! the pure maps from the plan's enums to Vulkan's.
 
 use anyhow::{anyhow, Context, Result};
@@ -11,7 +12,7 @@ use crate::plan::{
     StencilTest, StencilWrite, Target, Viewport,
 };
 use crate::shaders::{self, ShaderSource};
-use crate::target::{COLOR_FORMAT, SHADOW_MAP_FORMAT};
+use crate::target::{ResolveModes, COLOR_FORMAT, SHADOW_MAP_FORMAT};
 
 /// `VkCompareOp` of a [`Compare`].
 pub fn map_compare(op: Compare) -> vk::CompareOp {
@@ -267,6 +268,122 @@ pub fn create_render_pass(
     unsafe { device.create_render_pass(&info, None) }.context("vkCreateRenderPass failed")
 }
 
+/// Creates the render pass of a multisampled main `pass` with `vkCreateRenderPass2`: one
+/// subpass drawing into attachment 0 (color) and 1 (depth-stencil), both of `samples` samples,
+/// cleared and not stored (transient), resolved at the end of the subpass into attachment 2
+/// (the main color image, `pResolveAttachments`) and attachment 3 (the main depth image,
+/// `VkSubpassDescriptionDepthStencilResolve` with `resolve`'s modes). The resolve attachments
+/// are stored and end in their attachment layouts (the read-back transitions them).
+pub fn create_resolving_render_pass(
+    device: &ash::Device,
+    pass: &PassSpec,
+    main: MainFormats,
+    samples: vk::SampleCountFlags,
+    resolve: ResolveModes,
+) -> Result<vk::RenderPass> {
+    let ds_layout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    let color_layout = vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL;
+    let stencil_load = if main.stencil {
+        vk::AttachmentLoadOp::CLEAR
+    } else {
+        vk::AttachmentLoadOp::DONT_CARE
+    };
+    let stencil_resolved = main.stencil && resolve.stencil != vk::ResolveModeFlags::NONE;
+    // Written only by the resolve: their previous contents do not matter.
+    let resolved = |format, stencil_store| {
+        vk::AttachmentDescription2::default()
+            .format(format)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .load_op(vk::AttachmentLoadOp::DONT_CARE)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+            .stencil_store_op(stencil_store)
+            .initial_layout(vk::ImageLayout::UNDEFINED)
+    };
+    let attachments = [
+        vk::AttachmentDescription2::default()
+            .format(COLOR_FORMAT)
+            .samples(samples)
+            .load_op(map_color_load(pass.load_color))
+            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .initial_layout(vk::ImageLayout::UNDEFINED)
+            .final_layout(color_layout),
+        vk::AttachmentDescription2::default()
+            .format(main.depth)
+            .samples(samples)
+            .load_op(map_depth_load(pass.depth))
+            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .stencil_load_op(stencil_load)
+            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .initial_layout(vk::ImageLayout::UNDEFINED)
+            .final_layout(ds_layout),
+        resolved(COLOR_FORMAT, vk::AttachmentStoreOp::DONT_CARE).final_layout(color_layout),
+        resolved(
+            main.depth,
+            if stencil_resolved {
+                vk::AttachmentStoreOp::STORE
+            } else {
+                vk::AttachmentStoreOp::DONT_CARE
+            },
+        )
+        .final_layout(ds_layout),
+    ];
+    let reference = |attachment, layout, aspects| {
+        vk::AttachmentReference2::default()
+            .attachment(attachment)
+            .layout(layout)
+            .aspect_mask(aspects)
+    };
+    let ds_aspects = if main.stencil {
+        vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
+    } else {
+        vk::ImageAspectFlags::DEPTH
+    };
+    let color_refs = [reference(0, color_layout, vk::ImageAspectFlags::COLOR)];
+    let depth_ref = reference(1, ds_layout, ds_aspects);
+    let resolve_refs = [reference(2, color_layout, vk::ImageAspectFlags::COLOR)];
+    let depth_resolve_ref = reference(3, ds_layout, ds_aspects);
+    let mut depth_resolve = vk::SubpassDescriptionDepthStencilResolve::default()
+        .depth_resolve_mode(resolve.depth)
+        .stencil_resolve_mode(resolve.stencil)
+        .depth_stencil_resolve_attachment(&depth_resolve_ref);
+    let subpasses = [vk::SubpassDescription2::default()
+        .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+        .color_attachments(&color_refs)
+        .resolve_attachments(&resolve_refs)
+        .depth_stencil_attachment(&depth_ref)
+        .push_next(&mut depth_resolve)];
+
+    let attachment_stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+        | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+        | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+    let attachment_writes =
+        vk::AccessFlags::COLOR_ATTACHMENT_WRITE | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
+    // Before the pass: earlier attachment writes (or nothing, for fresh images) come before
+    // this pass's clears, layout changes and resolve writes (color attachment output, for
+    // color and depth resolves alike).
+    let dependencies = [vk::SubpassDependency2::default()
+        .src_subpass(vk::SUBPASS_EXTERNAL)
+        .dst_subpass(0)
+        .src_stage_mask(attachment_stages)
+        .dst_stage_mask(attachment_stages)
+        .src_access_mask(attachment_writes)
+        .dst_access_mask(
+            attachment_writes
+                | vk::AccessFlags::COLOR_ATTACHMENT_READ
+                | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ,
+        )];
+    let info = vk::RenderPassCreateInfo2::default()
+        .attachments(&attachments)
+        .subpasses(&subpasses)
+        .dependencies(&dependencies);
+    // SAFETY: valid device at Vulkan 1.2 (checked with the targets); the create info refers
+    // to live locals.
+    unsafe { device.create_render_pass2(&info, None) }.context("vkCreateRenderPass2 failed")
+}
+
 /// A shader module destroyed when dropped (shader modules are only needed while the pipeline
 /// is created).
 struct ShaderModule<'a> {
@@ -389,7 +506,7 @@ pub fn create_pipeline(
         }
     }
     let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        .rasterization_samples(vk::SampleCountFlags::from_raw(target.pass.samples()));
     let depth_stencil = depth_stencil_state(spec);
     let blend_attachments: Vec<vk::PipelineColorBlendAttachmentState> =
         if target.pass.has_color(spec.subpass) {

@@ -9,7 +9,9 @@
 //! pass and subpass they were made for, dynamic state set before the draws that need it), so a
 //! malformed plan is an error before any Vulkan call, and every scene is checked in the unit
 //! tests. What a plan needs from the device ([`Needs`]) is derived from it, never declared
-//! separately.
+//! separately. A main pass may be multisampled ([`Multisample`]): it then renders into
+//! transient multisampled attachments resolved into the main color and depth images at its
+//! end, with the depth resolve mode the plan names (`--depth-resolve` sets it).
 
 use std::fmt;
 
@@ -251,7 +253,9 @@ pub enum Target {
 /// How a pass is begun.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PassKind {
-    /// `vkCmdBeginRenderPass`, one subpass.
+    /// `vkCmdBeginRenderPass`, one subpass: a render pass made with `vkCreateRenderPass`, or
+    /// with `vkCreateRenderPass2` when the pass is multisampled (its depth resolve needs
+    /// `VkSubpassDescriptionDepthStencilResolve`).
     RenderPass,
     /// `vkCmdBeginRenderPass`, two subpasses sharing the depth attachment: subpass 0 has no
     /// color attachment (depth pre-pass), subpass 1 has both; a subpass dependency orders
@@ -280,6 +284,44 @@ pub enum DepthLoad {
     Load,
 }
 
+/// How a multisampled depth attachment is resolved into a single-sample one, as
+/// `VkResolveModeFlagBits` (`--depth-resolve`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
+pub enum ResolveMode {
+    /// `VK_RESOLVE_MODE_SAMPLE_ZERO_BIT`: sample 0 (every device supports it).
+    SampleZero,
+    /// `VK_RESOLVE_MODE_AVERAGE_BIT`: the mean of the samples.
+    Average,
+    /// `VK_RESOLVE_MODE_MIN_BIT`: the smallest sample (the nearest, with standard depth).
+    Min,
+    /// `VK_RESOLVE_MODE_MAX_BIT`: the largest sample.
+    Max,
+}
+
+impl ResolveMode {
+    /// The Vulkan name without `VK_RESOLVE_MODE_` and `_BIT` (`SAMPLE_ZERO`).
+    pub fn vk_name(self) -> &'static str {
+        match self {
+            ResolveMode::SampleZero => "SAMPLE_ZERO",
+            ResolveMode::Average => "AVERAGE",
+            ResolveMode::Min => "MIN",
+            ResolveMode::Max => "MAX",
+        }
+    }
+}
+
+/// The multisampling of a main pass: it renders into transient color and depth attachments
+/// of `samples` samples per pixel (its pipelines rasterize with as many), which are resolved
+/// at the end of the pass into the main color image (averaged) and the main depth image
+/// (with `depth_resolve`); only the resolved images are read back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Multisample {
+    /// Samples per pixel: a power of two from 2 to 64 (`VkSampleCountFlagBits`).
+    pub samples: u32,
+    /// How the depth attachment is resolved.
+    pub depth_resolve: ResolveMode,
+}
+
 /// One pass over a target.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PassSpec {
@@ -291,6 +333,9 @@ pub struct PassSpec {
     pub depth: DepthLoad,
     /// Color load op (Main only): `true` loads, `false` clears to the clear color.
     pub load_color: bool,
+    /// Multisampled with a resolve at the end (main target, one-subpass kinds, both
+    /// attachments cleared), or single-sample (None).
+    pub multisample: Option<Multisample>,
 }
 
 impl PassSpec {
@@ -301,6 +346,7 @@ impl PassSpec {
             kind: PassKind::RenderPass,
             depth: DepthLoad::Clear(depth),
             load_color: false,
+            multisample: None,
         }
     }
 
@@ -310,10 +356,17 @@ impl PassSpec {
             && !(self.kind == PassKind::DepthPrepassSubpasses && subpass == 0)
     }
 
-    /// Whether a pipeline made for `other` can be used in this pass (same attachments and
-    /// subpass structure; load ops do not matter).
+    /// Whether a pipeline made for `other` can be used in this pass (same attachments, sample
+    /// counts, resolves and subpass structure; load ops do not matter).
     pub fn compatible(&self, other: &PassSpec) -> bool {
-        self.target == other.target && self.kind == other.kind
+        self.target == other.target
+            && self.kind == other.kind
+            && self.multisample == other.multisample
+    }
+
+    /// Samples per pixel of the pass's attachments (and its pipelines' rasterization).
+    pub fn samples(&self) -> u32 {
+        self.multisample.map_or(1, |m| m.samples)
     }
 }
 
@@ -429,6 +482,11 @@ pub struct Needs {
     /// `VK_EXT_depth_clip_control` with `depthClipControl` (a pipeline clips depth to
     /// [-w, w]).
     pub depth_clip_control: bool,
+    /// Multisampled attachments of this sample count, resolved with this depth resolve mode
+    /// (the device must support both for the formats, and the mode in
+    /// `VkPhysicalDeviceDepthStencilResolveProperties`); every multisampled pass of a plan
+    /// shares them.
+    pub multisample: Option<Multisample>,
 }
 
 /// Why a plan is malformed.
@@ -481,6 +539,21 @@ impl Plan {
         }
     }
 
+    /// Sets the depth resolve mode of every multisampled pass (`--depth-resolve`); returns
+    /// whether the plan has one.
+    pub fn set_depth_resolve(&mut self, mode: ResolveMode) -> bool {
+        let mut any = false;
+        for multisample in self
+            .passes
+            .iter_mut()
+            .filter_map(|p| p.multisample.as_mut())
+        {
+            multisample.depth_resolve = mode;
+            any = true;
+        }
+        any
+    }
+
     /// Every step, with the steps inside secondaries, in recording order.
     pub fn all_steps(&self) -> Vec<&Step> {
         fn walk<'a>(steps: &'a [Step], out: &mut Vec<&'a Step>) {
@@ -503,6 +576,7 @@ impl Plan {
         let mut needs = Needs::default();
         for pass in &self.passes {
             needs.shadow_map |= pass.target == Target::Shadow;
+            needs.multisample = needs.multisample.or(pass.multisample);
             if pass.kind == PassKind::DynamicRendering {
                 needs.dynamic_rendering = true;
                 needs.vulkan_1_3 = true;
@@ -606,6 +680,37 @@ impl Plan {
                     "pipeline {name}: bad depth bounds"
                 );
             }
+        }
+        for (n, pass) in self.passes.iter().enumerate() {
+            let Some(multisample) = pass.multisample else {
+                continue;
+            };
+            let samples = multisample.samples;
+            ensure!(
+                samples.is_power_of_two() && (2..=64).contains(&samples),
+                "pass {n}: {samples} samples (2, 4, 8, 16, 32 or 64)"
+            );
+            ensure!(
+                pass.target == Target::Main,
+                "pass {n}: only the main target is multisampled"
+            );
+            ensure!(
+                pass.kind != PassKind::DepthPrepassSubpasses,
+                "pass {n}: multisampled passes have one subpass"
+            );
+            // The multisampled attachments are transient: nothing of them survives a pass.
+            ensure!(
+                matches!(pass.depth, DepthLoad::Clear(_)) && !pass.load_color,
+                "pass {n}: a multisampled pass clears its attachments (they are transient)"
+            );
+            ensure!(
+                self.passes
+                    .iter()
+                    .filter_map(|p| p.multisample)
+                    .all(|other| other == multisample),
+                "pass {n}: multisampled passes differ in samples or resolve (they share one \
+                 set of attachments)"
+            );
         }
         let shadow_receivers = self
             .pipelines
@@ -993,6 +1098,75 @@ mod tests {
         assert_eq!(plan.needs().secondaries, 0);
         plan.steps[1] = Step::ExecuteSecondaries(vec![list(0), list(1)], Recording::MainThread);
         assert_eq!(plan.needs().secondaries, 2);
+    }
+
+    #[test]
+    fn multisampled_passes_are_checked_and_resolve_as_set() {
+        let multisample = Multisample {
+            samples: 4,
+            depth_resolve: ResolveMode::SampleZero,
+        };
+        let mut plan = Plan::single_pass(1);
+        assert!(!plan.set_depth_resolve(ResolveMode::Average));
+        plan.passes[0].multisample = Some(multisample);
+        plan.check(1, false).unwrap();
+        assert_eq!(plan.needs().multisample, Some(multisample));
+        assert!(plan.set_depth_resolve(ResolveMode::Max));
+        assert_eq!(
+            plan.needs().multisample.map(|m| m.depth_resolve),
+            Some(ResolveMode::Max)
+        );
+
+        let broken = |change: &dyn Fn(&mut Plan)| {
+            let mut broken = plan.clone();
+            change(&mut broken);
+            broken.check(1, true).is_err()
+        };
+        for samples in [0, 1, 3, 128] {
+            assert!(
+                broken(&|p| p.passes[0].multisample = Some(Multisample {
+                    samples,
+                    ..multisample
+                })),
+                "{samples} samples"
+            );
+        }
+        assert!(broken(&|p| p.passes[0].depth = DepthLoad::Load));
+        assert!(broken(&|p| p.passes[0].load_color = true));
+        assert!(broken(
+            &|p| p.passes[0].kind = PassKind::DepthPrepassSubpasses
+        ));
+        assert!(broken(&|p| {
+            p.passes[0].target = Target::Shadow;
+            p.pipelines[0].program = Program::DepthOnly;
+            p.pipelines[0].color_write = false;
+        }));
+        // A pipeline made for a single-sample pass is not used in a multisampled one.
+        assert!(broken(&|p| {
+            p.passes.push(PassSpec::clear(1.0));
+            p.pipelines[0].pass = 1;
+            p.steps.extend([Step::BeginPass(1), Step::EndPass]);
+        }));
+        // Two multisampled passes share one set of attachments: one sample count and mode.
+        let second = |resolve| {
+            move |p: &mut Plan| {
+                p.passes.push(PassSpec {
+                    multisample: Some(Multisample {
+                        depth_resolve: resolve,
+                        ..multisample
+                    }),
+                    ..PassSpec::clear(1.0)
+                });
+                p.steps.extend([
+                    Step::BeginPass(1),
+                    Step::Bind(0),
+                    Step::Draw(0),
+                    Step::EndPass,
+                ]);
+            }
+        };
+        assert!(!broken(&second(ResolveMode::Max)));
+        assert!(broken(&second(ResolveMode::Average)));
     }
 
     #[test]

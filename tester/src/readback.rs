@@ -69,7 +69,7 @@ impl<'a> Readback<'a> {
     }
 
     /// Records, after the render pass: attachment layouts -> TRANSFER_SRC_OPTIMAL (waiting for
-    /// the attachment writes, including the store ops), the copies of the color image and of
+    /// the attachment writes, including the store ops and resolves), the copies of the color image and of
     /// the DEPTH aspect (if read back), and a TRANSFER -> HOST barrier so the host can read the
     /// buffers once the submission's fence has signalled.
     pub fn record(&self, device: &ash::Device, cmd: vk::CommandBuffer, targets: &Targets<'_>) {
@@ -83,10 +83,16 @@ impl<'a> Readback<'a> {
             .image(targets.color.image)
             .subresource_range(full_range(vk::ImageAspectFlags::COLOR))];
         if self.depth.is_some() {
+            // Resolves write in the color attachment output stage with color attachment
+            // writes, the depth resolve of a multisampled pass included.
+            let mut written = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
+            if targets.multisampled.is_some() {
+                written |= vk::AccessFlags::COLOR_ATTACHMENT_WRITE;
+            }
             // A layout transition of a depth/stencil image names all of its aspects.
             to_transfer.push(
                 vk::ImageMemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)
+                    .src_access_mask(written)
                     .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
                     .old_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
                     .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
@@ -306,9 +312,35 @@ pub struct RenderReport {
     pub depth_max: Option<f32>,
     /// Pixels whose depth differs from the clear value (null if depth was not read back).
     pub covered_pixels: Option<usize>,
+    /// How a multisampled scene was rendered and resolved (null for single-sample scenes).
+    pub multisample: Option<MultisampleReport>,
     /// The computed ground truth (null for scenes where something else than the nearest
     /// surface decides what shows).
     pub ground_truth: Option<GroundTruthReport>,
+}
+
+/// `render.json`'s `multisample` section.
+#[derive(Clone, Debug, Serialize)]
+pub struct MultisampleReport {
+    /// Samples per pixel of the multisampled attachments.
+    pub samples: u32,
+    /// The depth resolve mode (`SAMPLE_ZERO`, `AVERAGE`, `MIN`, `MAX`).
+    pub depth_resolve: &'static str,
+    /// The stencil resolve mode (`NONE` for formats without stencil, or where the device
+    /// resolves depth alone).
+    pub stencil_resolve: &'static str,
+}
+
+/// The Vulkan name of a single resolve mode (without `VK_RESOLVE_MODE_` and `_BIT`).
+pub fn resolve_mode_name(mode: vk::ResolveModeFlags) -> &'static str {
+    match mode {
+        vk::ResolveModeFlags::NONE => "NONE",
+        vk::ResolveModeFlags::SAMPLE_ZERO => "SAMPLE_ZERO",
+        vk::ResolveModeFlags::AVERAGE => "AVERAGE",
+        vk::ResolveModeFlags::MIN => "MIN",
+        vk::ResolveModeFlags::MAX => "MAX",
+        _ => "OTHER",
+    }
 }
 
 /// Writes `color.png`, and `depth.png` and `depth.f32` if depth was read back (`clear`: the

@@ -12,13 +12,13 @@ use ash::vk;
 
 use crate::gpu::{Gpu, HostBuffer};
 use crate::pipeline::{
-    create_pipeline, create_render_pass, full_viewport, map_color_load, map_compare, MainFormats,
-    PipelineTarget,
+    create_pipeline, create_render_pass, create_resolving_render_pass, full_viewport,
+    map_color_load, map_compare, MainFormats, PipelineTarget,
 };
 use crate::plan::{DepthBias, DepthLoad, PassKind, Plan, Program, Recording, Step, Target};
 use crate::readback::Readback;
 use crate::scene::{DrawRange, Scene, View};
-use crate::target::{full_range, Targets, SHADOW_MAP_SIZE};
+use crate::target::{full_range, MultisampledTargets, Targets, SHADOW_MAP_SIZE};
 
 /// The color the color attachment is cleared to: dark grey (25/255, exact in UNORM8).
 pub const CLEAR_COLOR: [f32; 4] = [25.0 / 255.0, 25.0 / 255.0, 25.0 / 255.0, 1.0];
@@ -212,11 +212,31 @@ impl<'a> Renderer<'a> {
                 this.framebuffers.push(vk::Framebuffer::null());
                 continue;
             }
-            let render_pass = create_render_pass(device, pass, main)?;
+            let multisampled = match pass.multisample {
+                Some(_) => Some(multisampled_targets(targets)?),
+                None => None,
+            };
+            let render_pass = match multisampled {
+                Some(ms) => {
+                    create_resolving_render_pass(device, pass, main, ms.samples, ms.resolve)?
+                }
+                None => create_render_pass(device, pass, main)?,
+            };
             this.render_passes.push(render_pass);
-            let (views, extent) = match pass.target {
-                Target::Main => (vec![targets.color.view, targets.depth.view], targets.extent),
-                Target::Shadow => (
+            let (views, extent) = match (pass.target, multisampled) {
+                (Target::Main, Some(ms)) => (
+                    vec![
+                        ms.color.view,
+                        ms.depth.view,
+                        targets.color.view,
+                        targets.depth.view,
+                    ],
+                    targets.extent,
+                ),
+                (Target::Main, None) => {
+                    (vec![targets.color.view, targets.depth.view], targets.extent)
+                }
+                (Target::Shadow, _) => (
                     vec![shadow_view(targets)?],
                     vk::Extent2D {
                         width: SHADOW_MAP_SIZE,
@@ -570,6 +590,15 @@ fn shadow_view(targets: &Targets<'_>) -> Result<vk::ImageView> {
         .ok_or_else(|| anyhow!("the scene has a shadow pass but no shadow map was created"))
 }
 
+/// The multisampled attachments (the plan's needs asked for them when a pass is
+/// multisampled).
+fn multisampled_targets<'t, 'a>(targets: &'t Targets<'a>) -> Result<&'t MultisampledTargets<'a>> {
+    targets
+        .multisampled
+        .as_ref()
+        .ok_or_else(|| anyhow!("the scene has a multisampled pass but no multisampled targets"))
+}
+
 /// The size of a pass's target.
 fn target_extent(target: Target, main: vk::Extent2D) -> vk::Extent2D {
     match target {
@@ -652,7 +681,7 @@ impl Recorder<'_> {
             };
             match step {
                 Step::ClearDepthImage { depth } => self.clear_depth_image(cmd, *depth),
-                Step::BeginPass(n) => self.begin_pass(cmd, *n, contents),
+                Step::BeginPass(n) => self.begin_pass(cmd, *n, contents)?,
                 Step::NextSubpass => {
                     self.subpass += 1;
                     // SAFETY: `cmd` is inside a render pass with another subpass (plan check).
@@ -778,7 +807,12 @@ impl Recorder<'_> {
         }
     }
 
-    fn begin_pass(&mut self, cmd: vk::CommandBuffer, n: usize, contents: vk::SubpassContents) {
+    fn begin_pass(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        n: usize,
+        contents: vk::SubpassContents,
+    ) -> Result<()> {
         self.pass = Some(n);
         self.subpass = 0;
         self.pipeline = None;
@@ -799,12 +833,13 @@ impl Recorder<'_> {
             },
         };
         if pass.kind == PassKind::DynamicRendering {
-            self.begin_rendering(cmd, n, color_clear, depth_clear);
-            return;
+            return self.begin_rendering(cmd, n, color_clear, depth_clear);
         }
-        let clear_values = match pass.target {
-            Target::Main => vec![color_clear, depth_clear],
-            Target::Shadow => vec![depth_clear],
+        let clear_values = match (pass.target, pass.multisample) {
+            // The multisampled attachments are cleared; their resolve attachments are not.
+            (Target::Main, Some(_)) => vec![color_clear, depth_clear, color_clear, depth_clear],
+            (Target::Main, None) => vec![color_clear, depth_clear],
+            (Target::Shadow, _) => vec![depth_clear],
         };
         let begin = vk::RenderPassBeginInfo::default()
             .render_pass(self.renderer.render_passes[n])
@@ -817,20 +852,27 @@ impl Recorder<'_> {
         // SAFETY: `cmd` is a recording primary outside any pass; the framebuffer was made for
         // this render pass, with one clear value per attachment.
         unsafe { self.device().cmd_begin_render_pass(cmd, &begin, contents) };
+        Ok(())
     }
 
     /// `vkCmdBeginRendering` over the main target, after a barrier that puts both attachments
     /// in their attachment layouts (from nothing when cleared, keeping them when loaded) and
-    /// orders earlier attachment writes before this rendering's load ops.
+    /// orders earlier attachment writes before this rendering's load ops. A multisampled pass
+    /// renders into the multisampled attachments (from nothing: they are transient) and
+    /// resolves them into the main images, whose previous contents do not matter either.
     fn begin_rendering(
         &self,
         cmd: vk::CommandBuffer,
         n: usize,
         color_clear: vk::ClearValue,
         depth_clear: vk::ClearValue,
-    ) {
+    ) -> Result<()> {
         let pass = &self.plan.passes[n];
         let targets = self.targets;
+        let multisampled = match pass.multisample {
+            Some(_) => Some(multisampled_targets(targets)?),
+            None => None,
+        };
         let depth_load = match pass.depth {
             DepthLoad::Clear(_) => vk::AttachmentLoadOp::CLEAR,
             DepthLoad::Load => vk::AttachmentLoadOp::LOAD,
@@ -845,47 +887,128 @@ impl Recorder<'_> {
                 vk::ImageLayout::UNDEFINED
             }
         };
-        let barriers = [
+        let color_access =
+            vk::AccessFlags::COLOR_ATTACHMENT_READ | vk::AccessFlags::COLOR_ATTACHMENT_WRITE;
+        let depth_access = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
+        let barrier = |image, aspects, src_access, dst_access, old_layout, new_layout| {
             vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE)
-                .dst_access_mask(
-                    vk::AccessFlags::COLOR_ATTACHMENT_READ
-                        | vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
-                )
-                .old_layout(old(color_load, color_layout))
-                .new_layout(color_layout)
+                .src_access_mask(src_access)
+                .dst_access_mask(dst_access)
+                .old_layout(old_layout)
+                .new_layout(new_layout)
                 .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                 .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(targets.color.image)
-                .subresource_range(full_range(vk::ImageAspectFlags::COLOR)),
-            vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)
-                .dst_access_mask(
-                    vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
-                        | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
-                )
-                .old_layout(old(depth_load, depth_layout))
-                .new_layout(depth_layout)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(targets.depth.image)
-                .subresource_range(full_range(targets.depth_format.aspects())),
+                .image(image)
+                .subresource_range(full_range(aspects))
+        };
+        let depth_aspects = targets.depth_format.aspects();
+        let mut barriers = vec![
+            barrier(
+                targets.color.image,
+                vk::ImageAspectFlags::COLOR,
+                vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+                color_access,
+                old(color_load, color_layout),
+                color_layout,
+            ),
+            // A resolve destination is written in the color attachment output stage, with
+            // color attachment writes, depth included.
+            barrier(
+                targets.depth.image,
+                depth_aspects,
+                vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                if multisampled.is_some() {
+                    depth_access | vk::AccessFlags::COLOR_ATTACHMENT_WRITE
+                } else {
+                    depth_access
+                },
+                old(depth_load, depth_layout),
+                depth_layout,
+            ),
         ];
+        if let Some(ms) = multisampled {
+            barriers.push(barrier(
+                ms.color.image,
+                vk::ImageAspectFlags::COLOR,
+                vk::AccessFlags::empty(),
+                color_access,
+                vk::ImageLayout::UNDEFINED,
+                color_layout,
+            ));
+            barriers.push(barrier(
+                ms.depth.image,
+                depth_aspects,
+                vk::AccessFlags::empty(),
+                depth_access,
+                vk::ImageLayout::UNDEFINED,
+                depth_layout,
+            ));
+        }
         let stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
             | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
             | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
-        let color_attachments = [vk::RenderingAttachmentInfo::default()
+        let color_attachment = vk::RenderingAttachmentInfo::default()
             .image_view(targets.color.view)
             .image_layout(color_layout)
             .load_op(color_load)
             .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(color_clear)];
+            .clear_value(color_clear);
         let depth_attachment = vk::RenderingAttachmentInfo::default()
             .image_view(targets.depth.view)
             .image_layout(depth_layout)
             .load_op(depth_load)
             .store_op(vk::AttachmentStoreOp::STORE)
             .clear_value(depth_clear);
+        let has_stencil = targets.depth_format.has_stencil();
+        // The same view and clear value; the stencil is cleared to 0 or loaded with depth.
+        let mut stencil_attachment = depth_attachment;
+        let (color_attachments, depth_attachment) = match multisampled {
+            Some(ms) => {
+                // Draw into the multisampled attachments (not stored: transient) and resolve
+                // them into the main images.
+                let resolved = |attachment: vk::RenderingAttachmentInfo<'static>,
+                                view,
+                                mode,
+                                resolve_view,
+                                layout| {
+                    let attachment = attachment
+                        .image_view(view)
+                        .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                        .resolve_mode(mode);
+                    if mode == vk::ResolveModeFlags::NONE {
+                        attachment
+                    } else {
+                        attachment
+                            .resolve_image_view(resolve_view)
+                            .resolve_image_layout(layout)
+                    }
+                };
+                stencil_attachment = resolved(
+                    stencil_attachment,
+                    ms.depth.view,
+                    ms.resolve.stencil,
+                    targets.depth.view,
+                    depth_layout,
+                );
+                let depth = resolved(
+                    depth_attachment,
+                    ms.depth.view,
+                    ms.resolve.depth,
+                    targets.depth.view,
+                    depth_layout,
+                );
+                let color = resolved(
+                    color_attachment,
+                    ms.color.view,
+                    vk::ResolveModeFlags::AVERAGE,
+                    targets.color.view,
+                    color_layout,
+                );
+                ([color], depth)
+            }
+            None => ([color_attachment], depth_attachment),
+        };
         let mut info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D { x: 0, y: 0 },
@@ -894,13 +1017,13 @@ impl Recorder<'_> {
             .layer_count(1)
             .color_attachments(&color_attachments)
             .depth_attachment(&depth_attachment);
-        if targets.depth_format.has_stencil() {
-            // The same view and clear value; the stencil is cleared to 0 or loaded with depth.
-            info = info.stencil_attachment(&depth_attachment);
+        if has_stencil {
+            info = info.stencil_attachment(&stencil_attachment);
         }
         // SAFETY: `cmd` is a recording primary outside any pass; the device has
         // dynamicRendering enabled (checked before rendering); the views cover the images
-        // transitioned by the barrier.
+        // transitioned by the barrier; multisampled views resolve into single-sample views of
+        // the same formats with modes the device supports (checked with the targets).
         unsafe {
             self.device().cmd_pipeline_barrier(
                 cmd,
@@ -913,6 +1036,7 @@ impl Recorder<'_> {
             );
             self.device().cmd_begin_rendering(cmd, &info);
         }
+        Ok(())
     }
 
     fn end_pass(&mut self, cmd: vk::CommandBuffer) {

@@ -62,6 +62,11 @@ pub enum SceneId {
     DynamicRendering,
     /// A shadow map (native D32, sampled with a comparison sampler) darkening the ground.
     ShadowMap,
+    /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
+    /// resolved into the main images (`--depth-resolve`).
+    MsaaResolve,
+    /// The same with dynamic rendering's `resolveMode` / `resolveImageView`.
+    MsaaResolveDynamic,
     /// Push constants hold only the projection P; vertices are in view space.
     ProjectionOnly,
     /// Push constants hold P * V; vertices are in world space (a far-reaching scene).

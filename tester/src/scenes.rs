@@ -21,8 +21,9 @@ use glam::{DMat4, DVec3};
 
 use crate::accuracy::scenes as accuracy;
 use crate::plan::{
-    Bias, Bounds, Compare, DepthBias, DepthLoad, DepthTest, PassKind, PassSpec, PipelineSpec, Plan,
-    Program, Recording, StencilTest, StencilWrite, Step, Target, Viewport,
+    Bias, Bounds, Compare, DepthBias, DepthLoad, DepthTest, Multisample, PassKind, PassSpec,
+    PipelineSpec, Plan, Program, Recording, ResolveMode, StencilTest, StencilWrite, Step, Target,
+    Viewport,
 };
 use crate::scene::{
     grounded_cube, overlap, overlap_camera, overlap_objects, rgb8, Camera, Light, Mesh, Object,
@@ -78,6 +79,12 @@ pub const CATALOG: &[Entry] = &[
         dynamic_rendering,
     ),
     entry_row(SceneId::ShadowMap, "shadow-map", shadow_map),
+    entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
+    entry_row(
+        SceneId::MsaaResolveDynamic,
+        "msaa-resolve-dynamic",
+        msaa_resolve_dynamic,
+    ),
     entry_row(SceneId::ProjectionOnly, "projection-only", projection_only),
     entry_row(SceneId::ViewProjection, "view-projection", view_projection),
     entry_row(
@@ -951,6 +958,7 @@ pub fn dynamic_rendering() -> Scene {
         kind: PassKind::DynamicRendering,
         depth,
         load_color,
+        multisample: None,
     };
     let clear = b.pass(dynamic(DepthLoad::Clear(1.0), false));
     let load = b.pass(dynamic(DepthLoad::Load, true));
@@ -1033,6 +1041,60 @@ pub fn shadow_map() -> Scene {
         b.step(Step::EndPass);
     }
     b.finish("shadow-map", camera, Some(shadow_light()))
+}
+
+/// The sample count of the multisampled scenes.
+pub const MSAA_SAMPLES: u32 = 4;
+
+/// `msaa-resolve`: the overlap scene (its objects, camera and drawing order) rendered at 4x
+/// MSAA in a render pass made with `vkCreateRenderPass2`: one subpass draws into a transient
+/// 4x color attachment and a transient 4x depth attachment (DEPTH_STENCIL_ATTACHMENT |
+/// TRANSIENT_ATTACHMENT only: never read back, never copied), cleared to 1.0, LESS, pipelines
+/// rasterizing 4 samples; at the end of the subpass the color is resolved
+/// (`pResolveAttachments`) into the main color image and the depth through
+/// `VkSubpassDescriptionDepthStencilResolve` into the main depth image (the one read back),
+/// with `--depth-resolve`'s mode (default SAMPLE_ZERO; stencil NONE where the device allows
+/// it, else the depth mode). The color image is the overlap image with antialiased edges.
+///
+/// Layer item: depth resolves of `vkCreateRenderPass2` render passes. The 4x image is not
+/// observable, so the layer may reverse it; the read-back main image stays native by
+/// default, and a reversed attachment resolved into a native one hands it reversed values
+/// unless the layer keeps the 4x image native. Missed, the colors stay right but the depth
+/// read back is 1 - D: `depth.png` shows the background (cleared to 1.0, resolved as 0) as
+/// covered and the near cube dimmest. With both images reversed
+/// (`reverse_observable = copies`), MIN and MAX must be swapped: unswapped, every
+/// silhouette pixel of the depth image takes its farthest sample instead of its nearest (or
+/// the reverse), so the depth silhouettes shrink (grow) by a pixel against the color image.
+pub fn msaa_resolve() -> Scene {
+    msaa_scene("msaa-resolve", PassKind::RenderPass)
+}
+
+/// `msaa-resolve-dynamic`: [`msaa_resolve`] with dynamic rendering: `vkCmdBeginRendering`
+/// whose depth `VkRenderingAttachmentInfo` (and stencil one, for formats with stencil) names
+/// the 4x depth view with `resolveMode` and the main depth image as `resolveImageView`, and
+/// whose color attachment resolves (AVERAGE) into the main color image likewise.
+///
+/// Layer item: the resolve mode and resolve image of dynamic rendering's depth attachment
+/// info. Missed, the same wrong depth image as [`msaa_resolve`]'s.
+pub fn msaa_resolve_dynamic() -> Scene {
+    msaa_scene("msaa-resolve-dynamic", PassKind::DynamicRendering)
+}
+
+/// The overlap scene (objects nearest first, one pass, the standard pipeline) with its pass
+/// made a 4x multisampled one of `kind`, depth cleared to 1.0 and resolved with SAMPLE_ZERO
+/// (`--depth-resolve` changes it).
+fn msaa_scene(name: &'static str, kind: PassKind) -> Scene {
+    let mut scene = overlap();
+    scene.name = name;
+    scene.plan.passes[0] = PassSpec {
+        kind,
+        multisample: Some(Multisample {
+            samples: MSAA_SAMPLES,
+            depth_resolve: ResolveMode::SampleZero,
+        }),
+        ..PassSpec::clear(1.0)
+    };
+    scene
 }
 
 /// The overlap objects with their model matrices applied in `space`.
@@ -1501,6 +1563,17 @@ mod tests {
         assert!(needs(SceneId::ShadowMap).shadow_map);
         assert_eq!(needs(SceneId::Secondary).secondaries, 2);
         assert_eq!(needs(SceneId::Overlap), crate::plan::Needs::default());
+        for id in [SceneId::MsaaResolve, SceneId::MsaaResolveDynamic] {
+            let needs = needs(id);
+            assert_eq!(
+                needs.multisample,
+                Some(Multisample {
+                    samples: MSAA_SAMPLES,
+                    depth_resolve: ResolveMode::SampleZero,
+                })
+            );
+            assert_eq!(needs.dynamic_rendering, id == SceneId::MsaaResolveDynamic);
+        }
         for scene in all() {
             let needs = scene.plan.needs();
             if scene.name != "stencil" {
@@ -1509,13 +1582,24 @@ mod tests {
             if scene.name != "depth-bounds" {
                 assert!(!needs.depth_bounds, "{}", scene.name);
             }
+            assert_eq!(
+                needs.multisample.is_some(),
+                scene.name.starts_with("msaa-"),
+                "{}",
+                scene.name
+            );
         }
     }
 
     #[test]
     fn overlap_based_scenes_keep_the_overlap_geometry() {
         let overlap = overlap();
-        for id in [SceneId::Secondary, SceneId::Subpasses] {
+        for id in [
+            SceneId::Secondary,
+            SceneId::Subpasses,
+            SceneId::MsaaResolve,
+            SceneId::MsaaResolveDynamic,
+        ] {
             let scene = id.build();
             let mut names: Vec<&str> = scene.objects.iter().map(|o| o.name).collect();
             let mut expected: Vec<&str> = overlap.objects.iter().map(|o| o.name).collect();
@@ -1524,6 +1608,13 @@ mod tests {
             assert_eq!(names, expected, "{}", scene.name);
         }
         assert_eq!(secondary().objects, overlap.objects);
+        // The multisampled scenes draw the overlap objects in the overlap order, with its
+        // camera: only the sample count and the resolves differ.
+        for scene in [msaa_resolve(), msaa_resolve_dynamic()] {
+            assert_eq!(scene.objects, overlap.objects, "{}", scene.name);
+            assert_eq!(scene.camera, overlap.camera, "{}", scene.name);
+            assert_eq!(scene.plan.steps, overlap.plan.steps, "{}", scene.name);
+        }
     }
 
     #[test]

@@ -3,7 +3,10 @@
 //! device-local memory with its image view, the color image usable as a transfer source for
 //! read-back, the depth image too unless `--no-depth-readback` (and a transfer destination
 //! only for scenes that clear it with `vkCmdClearDepthStencilImage`); plus, for shadow-map
-//! scenes, a D32_SFLOAT shadow map with SAMPLED usage (never read back, never transferred).
+//! scenes, a D32_SFLOAT shadow map with SAMPLED usage (never read back, never transferred),
+//! and for multisampled scenes a transient multisampled color and depth attachment pair
+//! (resolved into the two main images, never read back) with the resolve modes the device
+//! supports for them, checked here.
 
 use std::fmt;
 
@@ -12,6 +15,7 @@ use ash::vk;
 use clap::ValueEnum;
 
 use crate::gpu::Gpu;
+use crate::plan::{Multisample, ResolveMode};
 
 /// The color attachment format.
 pub const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -154,6 +158,26 @@ impl<'a> Attachment<'a> {
         usage: vk::ImageUsageFlags,
         extent: vk::Extent2D,
     ) -> Result<Self> {
+        Self::with_samples(
+            gpu,
+            format,
+            aspects,
+            usage,
+            extent,
+            vk::SampleCountFlags::TYPE_1,
+        )
+    }
+
+    /// Creates a 2D image of `format` with `samples` samples per pixel and `usage`, its memory
+    /// and a view of `aspects`.
+    pub fn with_samples(
+        gpu: &'a Gpu,
+        format: vk::Format,
+        aspects: vk::ImageAspectFlags,
+        usage: vk::ImageUsageFlags,
+        extent: vk::Extent2D,
+        samples: vk::SampleCountFlags,
+    ) -> Result<Self> {
         let mut this = Attachment {
             device: &gpu.device,
             image: vk::Image::null(),
@@ -171,7 +195,7 @@ impl<'a> Attachment<'a> {
             })
             .mip_levels(1)
             .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
+            .samples(samples)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
@@ -226,6 +250,201 @@ pub struct TargetOptions {
     pub clear_depth_image: bool,
     /// A shadow map is needed.
     pub shadow_map: bool,
+    /// Multisampled attachments are needed (the plan's [`crate::plan::Needs::multisample`]).
+    pub multisample: Option<Multisample>,
+}
+
+/// `VkResolveModeFlagBits` of a [`ResolveMode`].
+pub fn map_resolve_mode(mode: ResolveMode) -> vk::ResolveModeFlags {
+    match mode {
+        ResolveMode::SampleZero => vk::ResolveModeFlags::SAMPLE_ZERO,
+        ResolveMode::Average => vk::ResolveModeFlags::AVERAGE,
+        ResolveMode::Min => vk::ResolveModeFlags::MIN,
+        ResolveMode::Max => vk::ResolveModeFlags::MAX,
+    }
+}
+
+/// The names of the resolve modes in `modes` (`SAMPLE_ZERO | AVERAGE`).
+fn resolve_mode_names(modes: vk::ResolveModeFlags) -> String {
+    let names: Vec<&str> = [
+        ResolveMode::SampleZero,
+        ResolveMode::Average,
+        ResolveMode::Min,
+        ResolveMode::Max,
+    ]
+    .into_iter()
+    .filter(|&mode| modes.contains(map_resolve_mode(mode)))
+    .map(ResolveMode::vk_name)
+    .collect();
+    if names.is_empty() {
+        "none".to_owned()
+    } else {
+        names.join(" | ")
+    }
+}
+
+/// The resolve modes of a multisampled pass: the depth one the plan asks for, and the stencil
+/// one that goes with it on this device (for formats with a stencil aspect).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ResolveModes {
+    /// `depthResolveMode` / the depth attachment's `resolveMode`.
+    pub depth: vk::ResolveModeFlags,
+    /// `stencilResolveMode` / the stencil attachment's `resolveMode`: NONE for formats
+    /// without stencil and where the device resolves depth alone (`independentResolveNone`);
+    /// else the depth mode, which the device must then support for stencil too (Vulkan
+    /// requires both modes to be equal there).
+    pub stencil: vk::ResolveModeFlags,
+}
+
+/// What the device offers for depth/stencil resolves, as
+/// `VkPhysicalDeviceDepthStencilResolveProperties`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ResolveSupport {
+    /// `supportedDepthResolveModes`.
+    pub depth_modes: vk::ResolveModeFlags,
+    /// `supportedStencilResolveModes`.
+    pub stencil_modes: vk::ResolveModeFlags,
+    /// `independentResolveNone`.
+    pub independent_none: bool,
+}
+
+impl ResolveSupport {
+    /// The resolve modes of `depth_format` resolved with `mode`, or why the device cannot.
+    pub fn modes(
+        &self,
+        mode: ResolveMode,
+        depth_format: DepthFormat,
+    ) -> Result<ResolveModes, String> {
+        let depth = map_resolve_mode(mode);
+        if !self.depth_modes.contains(depth) {
+            return Err(format!(
+                "cannot resolve depth with {} (--depth-resolve {}): its \
+                 supportedDepthResolveModes are {}",
+                mode.vk_name(),
+                mode_cli_name(mode),
+                resolve_mode_names(self.depth_modes)
+            ));
+        }
+        let stencil = if !depth_format.has_stencil() || self.independent_none {
+            vk::ResolveModeFlags::NONE
+        } else if self.stencil_modes.contains(depth) {
+            depth
+        } else {
+            return Err(format!(
+                "cannot resolve {} with depth mode {}: without independentResolveNone the \
+                 stencil aspect must be resolved with the same mode, and its \
+                 supportedStencilResolveModes are {} (use a depth format without stencil, \
+                 or --depth-resolve sample-zero)",
+                depth_format.vk_name(),
+                mode.vk_name(),
+                resolve_mode_names(self.stencil_modes)
+            ));
+        };
+        Ok(ResolveModes { depth, stencil })
+    }
+}
+
+/// The command-line name of a resolve mode (`sample-zero`).
+fn mode_cli_name(mode: ResolveMode) -> String {
+    mode.to_possible_value()
+        .map_or_else(|| mode.vk_name().to_owned(), |v| v.get_name().to_owned())
+}
+
+/// The transient multisampled attachments of multisampled passes.
+#[derive(Debug)]
+pub struct MultisampledTargets<'a> {
+    /// Samples per pixel.
+    pub samples: vk::SampleCountFlags,
+    /// R8G8B8A8_UNORM, COLOR_ATTACHMENT | TRANSIENT_ATTACHMENT, resolved into the main color
+    /// image.
+    pub color: Attachment<'a>,
+    /// The chosen depth format, DEPTH_STENCIL_ATTACHMENT | TRANSIENT_ATTACHMENT (never read
+    /// back, never copied), resolved into the main depth image.
+    pub depth: Attachment<'a>,
+    /// How it is resolved.
+    pub resolve: ResolveModes,
+}
+
+/// Fails with a clear message unless the device can render `multisample` with `depth_format`
+/// (Vulkan 1.2 for `vkCreateRenderPass2` and depth resolves, the sample count for both
+/// attachments, the depth resolve mode); returns the resolve modes to use.
+fn check_multisample(
+    gpu: &Gpu,
+    depth_format: DepthFormat,
+    multisample: Multisample,
+) -> Result<(vk::SampleCountFlags, ResolveModes)> {
+    let device = &gpu.info.name;
+    if gpu.info.api_version < vk::API_VERSION_1_2 {
+        bail!(
+            "device '{device}' is Vulkan {}: multisampled depth resolves need Vulkan 1.2",
+            gpu.info.api_version_string()
+        );
+    }
+    let samples = vk::SampleCountFlags::from_raw(multisample.samples);
+    let limits = gpu.limits();
+    let mut framebuffer = vec![
+        (
+            limits.framebuffer_color_sample_counts,
+            "framebufferColorSampleCounts",
+        ),
+        (
+            limits.framebuffer_depth_sample_counts,
+            "framebufferDepthSampleCounts",
+        ),
+    ];
+    if depth_format.has_stencil() {
+        framebuffer.push((
+            limits.framebuffer_stencil_sample_counts,
+            "framebufferStencilSampleCounts",
+        ));
+    }
+    for (counts, name) in framebuffer {
+        if !counts.contains(samples) {
+            bail!(
+                "device '{device}' cannot render {} samples per pixel ({name} {counts:?})",
+                multisample.samples
+            );
+        }
+    }
+    for (format, name, usage) in [
+        (
+            COLOR_FORMAT,
+            "R8G8B8A8_UNORM",
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+        ),
+        (
+            depth_format.vk_format(),
+            depth_format.vk_name(),
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+        ),
+    ] {
+        // SAFETY: valid physical device of this instance.
+        let properties = unsafe {
+            gpu.instance().get_physical_device_image_format_properties(
+                gpu.physical_device,
+                format,
+                vk::ImageType::TYPE_2D,
+                vk::ImageTiling::OPTIMAL,
+                usage,
+                vk::ImageCreateFlags::empty(),
+            )
+        }
+        .with_context(|| format!("device '{device}' cannot make {name} images with {usage:?}"))?;
+        if !properties.sample_counts.contains(samples) {
+            bail!(
+                "device '{device}' cannot make {name} images with {} samples per pixel \
+                 (sampleCounts {:?})",
+                multisample.samples,
+                properties.sample_counts
+            );
+        }
+    }
+    let resolve = gpu
+        .resolve_support()
+        .modes(multisample.depth_resolve, depth_format)
+        .map_err(|why| anyhow::anyhow!("device '{device}' {why}"))?;
+    Ok((samples, resolve))
 }
 
 /// The offscreen color and depth attachments (and the shadow map, if any).
@@ -242,6 +461,8 @@ pub struct Targets<'a> {
     pub depth: Attachment<'a>,
     /// D32_SFLOAT, [`SHADOW_MAP_SIZE`] square, DEPTH_STENCIL_ATTACHMENT | SAMPLED.
     pub shadow: Option<Attachment<'a>>,
+    /// The multisampled attachments of multisampled passes.
+    pub multisampled: Option<MultisampledTargets<'a>>,
 }
 
 impl<'a> Targets<'a> {
@@ -317,12 +538,41 @@ impl<'a> Targets<'a> {
         } else {
             None
         };
+        let multisampled = match options.multisample {
+            Some(multisample) => {
+                let (samples, resolve) = check_multisample(gpu, depth_format, multisample)?;
+                Some(MultisampledTargets {
+                    samples,
+                    color: Attachment::with_samples(
+                        gpu,
+                        COLOR_FORMAT,
+                        vk::ImageAspectFlags::COLOR,
+                        vk::ImageUsageFlags::COLOR_ATTACHMENT
+                            | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+                        extent,
+                        samples,
+                    )?,
+                    depth: Attachment::with_samples(
+                        gpu,
+                        depth_format.vk_format(),
+                        depth_format.aspects(),
+                        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                            | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+                        extent,
+                        samples,
+                    )?,
+                    resolve,
+                })
+            }
+            None => None,
+        };
         Ok(Targets {
             extent,
             depth_format,
             color,
             depth,
             shadow,
+            multisampled,
         })
     }
 
@@ -346,6 +596,55 @@ mod tests {
         for format in DepthFormat::value_variants() {
             assert_eq!(format!("{:?}", format.vk_format()), format.vk_name());
         }
+    }
+
+    #[test]
+    fn resolve_modes_follow_the_device() {
+        // lavapipe's: no MIN or MAX, stencil resolved with the depth mode only.
+        let lavapipe = ResolveSupport {
+            depth_modes: vk::ResolveModeFlags::SAMPLE_ZERO | vk::ResolveModeFlags::AVERAGE,
+            stencil_modes: vk::ResolveModeFlags::SAMPLE_ZERO,
+            independent_none: false,
+        };
+        let modes = |support: &ResolveSupport, mode, format| support.modes(mode, format);
+        let none = vk::ResolveModeFlags::NONE;
+        assert_eq!(
+            modes(&lavapipe, ResolveMode::Average, DepthFormat::D32),
+            Ok(ResolveModes {
+                depth: vk::ResolveModeFlags::AVERAGE,
+                stencil: none,
+            })
+        );
+        assert_eq!(
+            modes(&lavapipe, ResolveMode::SampleZero, DepthFormat::D24S8),
+            Ok(ResolveModes {
+                depth: vk::ResolveModeFlags::SAMPLE_ZERO,
+                stencil: vk::ResolveModeFlags::SAMPLE_ZERO,
+            })
+        );
+        let refused = modes(&lavapipe, ResolveMode::Min, DepthFormat::D16).unwrap_err();
+        assert!(
+            refused.contains("MIN (--depth-resolve min)")
+                && refused.contains("SAMPLE_ZERO | AVERAGE"),
+            "{refused}"
+        );
+        let refused = modes(&lavapipe, ResolveMode::Average, DepthFormat::D32S8).unwrap_err();
+        assert!(refused.contains("D32_SFLOAT_S8_UINT"), "{refused}");
+        // A device that resolves depth alone leaves stencil unresolved.
+        let independent = ResolveSupport {
+            depth_modes: vk::ResolveModeFlags::SAMPLE_ZERO
+                | vk::ResolveModeFlags::MIN
+                | vk::ResolveModeFlags::MAX,
+            independent_none: true,
+            ..lavapipe
+        };
+        assert_eq!(
+            modes(&independent, ResolveMode::Max, DepthFormat::D24S8),
+            Ok(ResolveModes {
+                depth: vk::ResolveModeFlags::MAX,
+                stencil: none,
+            })
+        );
     }
 
     #[test]

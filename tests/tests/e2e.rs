@@ -68,8 +68,17 @@ fn flip_scene(scene: &str, format: &str) -> String {
 /// Renders `scene` natively and in flip mode (depth readback allowed), both with the tester
 /// arguments `extra`, and compares them; returns the flip render's log.
 fn flip_scene_with(scene: &str, format: &str, extra: &[&str]) -> String {
+    flip_scene_within(scene, format, extra, flip_tolerance(format))
+}
+
+/// [`flip_scene_with`] with the depth bound `tolerance` instead of the format's
+/// [`flip_tolerance`].
+fn flip_scene_within(scene: &str, format: &str, extra: &[&str], tolerance: f32) -> String {
     let harness = Harness::locate();
-    let native_dir = harness.scratch_dir(&format!("flip-{scene}-{format}-native"));
+    // The arguments are part of both directory names: tests running at the same time render
+    // the same scene and format with other arguments.
+    let native_dir =
+        harness.scratch_dir(&format!("flip-{scene}-{format}{}-native", extra.join("")));
     let mut command = harness.tester(format, &native_dir);
     command.args(["--scene", scene]).args(extra);
     let native = harness.render(command, &native_dir);
@@ -90,7 +99,6 @@ fn flip_scene_with(scene: &str, format: &str, extra: &[&str]) -> String {
         differing <= flip_color_tolerance(format),
         "{scene} {format}: {differing} color pixels differ from the native render"
     );
-    let tolerance = flip_tolerance(format);
     let (a, b) = (native.depth(), flipped.depth());
     let worst = a
         .iter()
@@ -148,6 +156,223 @@ fn flip_shadow_map_keeps_the_sampled_map_native() {
     }
 }
 
+/// The depth resolve modes lavapipe supports (`supportedDepthResolveModes`; MIN and MAX are
+/// for real GPUs).
+const LAVAPIPE_DEPTH_RESOLVES: [&str; 2] = ["sample-zero", "average"];
+
+/// Whether lavapipe can resolve `format` with depth resolve `mode`. It lacks
+/// `independentResolveNone`, so the stencil aspect of d24-s8 and d32-s8 must be resolved with
+/// the depth mode, and AVERAGE is never a stencil mode: those formats take sample-zero only
+/// (the tester refuses the rest: `unsupported_depth_resolves_are_refused`).
+fn lavapipe_resolves(format: &str, mode: &str) -> bool {
+    mode == "sample-zero" || !STENCIL_FORMATS.contains(&format)
+}
+
+/// The Vulkan name of a `--depth-resolve` value, as `render.json` reports it.
+fn resolve_vk_name(mode: &str) -> String {
+    mode.replace('-', "_").to_uppercase()
+}
+
+/// The multisampled scenes (`msaa-resolve`: `vkCreateRenderPass2` with
+/// `VkSubpassDescriptionDepthStencilResolve`; `msaa-resolve-dynamic`: dynamic rendering's
+/// `resolveMode` / `resolveImageView`) resolve a transient 4x depth attachment into the depth
+/// image the tester reads back.
+///
+/// Default configuration: the 4x depth attachment is not observable, so the layer may reverse
+/// it, but it is resolved into the read-back depth image, which stays native: the layer
+/// must make the 4x image native too (logged, at info, as `resolved into native`), so every
+/// mode renders both color and depth bit-identical to the native render, for every depth
+/// format and each depth resolve mode lavapipe supports for it. (`off` passes everything
+/// through and decides nothing: no line is asked of it.)
+fn msaa_resolve_into_native_is_bit_identical(scene: &str) {
+    let harness = Harness::locate();
+    for format in DEPTH_FORMATS {
+        for resolve in LAVAPIPE_DEPTH_RESOLVES {
+            if !lavapipe_resolves(format, resolve) {
+                continue;
+            }
+            let args = ["--scene", scene, "--depth-resolve", resolve];
+            let name = format!("{scene}-{format}-{resolve}");
+            let native_dir = harness.scratch_dir(&format!("{name}-native"));
+            let mut command = harness.tester(format, &native_dir);
+            command.args(args);
+            let native = harness.render(command, &native_dir);
+            let json = native.json();
+            assert_eq!(json["multisample"]["samples"], 4, "{name}: {json}");
+            assert_eq!(
+                json["multisample"]["depth_resolve"],
+                resolve_vk_name(resolve).as_str(),
+                "{name}: {json}"
+            );
+            assert!(
+                json["covered_pixels"].as_u64().unwrap() > 1000,
+                "{name}: the scene barely covers the image: {json}"
+            );
+            let (native_color, native_depth) = (native.color(), native.depth());
+            for mode in MODES {
+                let dir = harness.scratch_dir(&format!("{name}-{mode}"));
+                let mut command = harness.tester(format, &dir);
+                command.args(args);
+                harness
+                    .with_layer(&mut command)
+                    .env("REVZ_MODE", mode)
+                    .env("REVZ_LOG", "info");
+                let layered = harness.render(command, &dir);
+                let log = layered.stderr();
+                assert_eq!(
+                    layered.loaded_mode().as_deref(),
+                    Some(mode),
+                    "{name}: {log}"
+                );
+                if mode != "off" {
+                    assert!(
+                        log.contains("resolved into native"),
+                        "{name}, mode {mode}: the 4x depth image was not made native\n{log}"
+                    );
+                }
+                assert_eq!(
+                    differing_pixels(&native_color, &layered.color()),
+                    0,
+                    "{name}, mode {mode}: color differs from the native render\n{log}"
+                );
+                assert_eq!(
+                    differing_depths(&native_depth, &layered.depth()),
+                    0,
+                    "{name}, mode {mode}: depth differs from the native render\n{log}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn msaa_resolve_into_native_depth_is_bit_identical() {
+    msaa_resolve_into_native_is_bit_identical("msaa-resolve");
+}
+
+#[test]
+fn msaa_resolve_dynamic_into_native_depth_is_bit_identical() {
+    msaa_resolve_into_native_is_bit_identical("msaa-resolve-dynamic");
+}
+
+/// How far an AVERAGE depth resolve of flipped samples may lie from 1 - the native resolve,
+/// beyond [`flip_tolerance`]: the mean of the samples is rounded to the format in each render,
+/// the mean of D and the mean of 1 - D independently. Fixed-point formats: one step of the
+/// grid (lavapipe's AVERAGE of x8-d24 lands one step above its SAMPLE_ZERO at every covered
+/// pixel, and the flipped render was measured 3.01 steps from 1 - native, past the 3 of
+/// `flip_tolerance`). Float formats: the mean of four values in [0, 1] in float32, three
+/// additions below 4 (half an ulp each, 2^-22, quartered by the exact division) and the final
+/// rounding below 1 (2^-24): 3 * 2^-24 + 2^-24 = 2.4e-7. (lavapipe's AVERAGE of d16 and d32
+/// equals its SAMPLE_ZERO here, so only x8-d24 uses the margin today.)
+fn average_resolve_rounding(format: &str) -> f32 {
+    match format {
+        "d16" => 1.0 / 65535.0,
+        "x8-d24" | "d24-s8" => 1.0 / 16_777_215.0,
+        _ => 2.4e-7,
+    }
+}
+
+/// Flip mode with depth readback allowed (`reverse_observable=copies`): the read-back depth
+/// image is reversed, so the 4x one stays reversed (no `resolved into native`), and the
+/// render must keep the native colors with the depth read back 1 - the native depth: within
+/// [`flip_tolerance`] for SAMPLE_ZERO (it picks the same sample), within that plus
+/// [`average_resolve_rounding`] for AVERAGE (the mean commutes with d -> 1 - d up to
+/// rounding). Every depth format, each resolve mode lavapipe supports for it.
+fn flip_msaa_scene(scene: &str) {
+    for format in DEPTH_FORMATS {
+        for resolve in LAVAPIPE_DEPTH_RESOLVES {
+            if !lavapipe_resolves(format, resolve) {
+                continue;
+            }
+            let mut tolerance = flip_tolerance(format);
+            if resolve == "average" {
+                tolerance += average_resolve_rounding(format);
+            }
+            let log = flip_scene_within(scene, format, &["--depth-resolve", resolve], tolerance);
+            assert!(
+                !log.contains("resolved into native"),
+                "{scene} {format} {resolve}: the 4x depth image was made native although its \
+                 resolve target is reversed\n{log}"
+            );
+        }
+    }
+}
+
+#[test]
+fn flip_msaa_resolve() {
+    flip_msaa_scene("msaa-resolve");
+}
+
+#[test]
+fn flip_msaa_resolve_dynamic() {
+    flip_msaa_scene("msaa-resolve-dynamic");
+}
+
+/// The tester refuses, with one clear error and no render, a depth resolve mode the device
+/// lacks (lavapipe: MIN and MAX), AVERAGE on a stencil format where the device cannot resolve
+/// depth alone, and `--depth-resolve` for a scene without a multisampled pass.
+#[test]
+fn unsupported_depth_resolves_are_refused() {
+    let harness = Harness::locate();
+    let cases = [
+        (
+            "msaa-resolve",
+            "d32",
+            "min",
+            "cannot resolve depth with MIN (--depth-resolve min)",
+        ),
+        (
+            "msaa-resolve-dynamic",
+            "d16",
+            "max",
+            "cannot resolve depth with MAX (--depth-resolve max)",
+        ),
+        (
+            "msaa-resolve",
+            "d24-s8",
+            "average",
+            "cannot resolve D24_UNORM_S8_UINT with depth mode AVERAGE",
+        ),
+        (
+            "msaa-resolve-dynamic",
+            "d32-s8",
+            "average",
+            "cannot resolve D32_SFLOAT_S8_UINT with depth mode AVERAGE",
+        ),
+        (
+            "overlap",
+            "d32",
+            "sample-zero",
+            "scene 'overlap' has no multisampled pass",
+        ),
+    ];
+    for (scene, format, resolve, error) in cases {
+        let dir = harness.scratch_dir(&format!("refused-{scene}-{format}-{resolve}"));
+        let mut command = harness.tester(format, &dir);
+        command.args(["--scene", scene, "--depth-resolve", resolve]);
+        let output = command.output().expect("run the tester");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(
+            output.status.code(),
+            Some(1),
+            "{scene} {format} {resolve}: {stderr}"
+        );
+        assert!(
+            stderr.contains(error),
+            "{scene} {format} {resolve}: {stderr}"
+        );
+        assert_eq!(
+            stderr.lines().filter(|l| l.contains("error")).count(),
+            1,
+            "{stderr}"
+        );
+        assert!(
+            !dir.join("render.json").exists(),
+            "{scene} {format} {resolve}"
+        );
+    }
+}
+
 /// An application that asks for Vulkan 1.2 has no core dynamic compare op: revz enables
 /// `VK_EXT_extended_dynamic_state` for it, and the flip path works the same (validation would
 /// report the extension's commands if the extension were not enabled).
@@ -163,11 +388,18 @@ fn applications_below_vulkan_1_3_get_extended_dynamic_state() {
 }
 
 /// Without depth readback the main attachment is not observable: the default policy reverses
-/// it, and the color still matches the native render.
+/// it (and, in the multisampled scenes, the 4x attachment resolved into it, which then stays
+/// reversed), and the color still matches the native render.
 #[test]
 fn unobservable_attachments_are_reversed_by_default() {
     let harness = Harness::locate();
-    for scene in ["overlap", "shadow-map", "secondary"] {
+    for scene in [
+        "overlap",
+        "shadow-map",
+        "secondary",
+        "msaa-resolve",
+        "msaa-resolve-dynamic",
+    ] {
         let native_dir = harness.scratch_dir(&format!("unobserved-{scene}-native"));
         let mut command = harness.tester("d32", &native_dir);
         command.args(["--scene", scene, "--no-depth-readback"]);
@@ -185,6 +417,7 @@ fn unobservable_attachments_are_reversed_by_default() {
             log.contains("(D32_SFLOAT, 256x256): reversed"),
             "{scene}: {log}"
         );
+        assert!(!log.contains("resolved into native"), "{scene}: {log}");
         assert_eq!(
             differing_pixels(&native.color(), &flipped.color()),
             0,

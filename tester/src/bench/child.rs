@@ -251,6 +251,7 @@ impl<'a> Bench<'a> {
                 depth_readback: false,
                 clear_depth_image: false,
                 shadow_map: false,
+                multisample: None,
             },
         )?;
         let mut vertices = HostBuffer::new(gpu, 36, vk::BufferUsageFlags::VERTEX_BUFFER)?;
