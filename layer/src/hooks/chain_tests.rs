@@ -2,122 +2,20 @@
 //! stands below revz, so the chain walk, the state registration and the pass-through of
 //! commands revz does not intercept are checked without a GPU or a loader.
 
-use std::ffi::{c_char, CStr};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use ash::vk;
 
-use ash::vk::{self, Handle};
-
+use super::fake_chain::{
+    self, fake_cmd_draw, fake_command, fake_create_device, fake_destroy_device,
+    fake_get_device_proc_addr, fake_get_instance_proc_addr, Event, Tables, VoidFn,
+};
 use super::{device, instance};
 use crate::ffi;
 use crate::state::{DispatchKey, DEVICES, INSTANCES};
 
-type VoidFn = unsafe extern "system" fn();
-
-static DESTROYED_INSTANCES: AtomicUsize = AtomicUsize::new(0);
-static DESTROYED_DEVICES: AtomicUsize = AtomicUsize::new(0);
-static SETTINGS_PASSED_DOWN: AtomicBool = AtomicBool::new(false);
-
-/// A dispatchable object as the loader lays it out: its first word is the dispatch table.
-fn dispatchable(table: &'static u8) -> *mut usize {
-    Box::into_raw(Box::new(table as *const u8 as usize))
-}
-
-static INSTANCE_TABLE: u8 = 0;
-static DEVICE_TABLE: u8 = 0;
-
-unsafe extern "system" fn fake_command() {}
-
-unsafe extern "system" fn fake_create_instance(
-    create_info: *const vk::InstanceCreateInfo,
-    _: *const vk::AllocationCallbacks,
-    p_instance: *mut vk::Instance,
-) -> vk::Result {
-    // SAFETY: revz passes the application's create info through.
-    let first = unsafe { (*create_info).p_next.cast::<vk::BaseInStructure>().as_ref() };
-    if first.map(|s| s.s_type) == Some(vk::StructureType::LAYER_SETTINGS_CREATE_INFO_EXT) {
-        SETTINGS_PASSED_DOWN.store(true, Ordering::SeqCst);
-    }
-    // SAFETY: revz passes the application's output pointer through.
-    unsafe { *p_instance = vk::Instance::from_raw(dispatchable(&INSTANCE_TABLE) as u64) };
-    vk::Result::SUCCESS
-}
-
-unsafe extern "system" fn fake_destroy_instance(
-    _: vk::Instance,
-    _: *const vk::AllocationCallbacks,
-) {
-    DESTROYED_INSTANCES.fetch_add(1, Ordering::SeqCst);
-}
-
-unsafe extern "system" fn fake_create_device(
-    _: vk::PhysicalDevice,
-    _: *const vk::DeviceCreateInfo,
-    _: *const vk::AllocationCallbacks,
-    p_device: *mut vk::Device,
-) -> vk::Result {
-    // SAFETY: revz passes the application's output pointer through.
-    unsafe { *p_device = vk::Device::from_raw(dispatchable(&DEVICE_TABLE) as u64) };
-    vk::Result::SUCCESS
-}
-
-unsafe extern "system" fn fake_destroy_device(_: vk::Device, _: *const vk::AllocationCallbacks) {
-    DESTROYED_DEVICES.fetch_add(1, Ordering::SeqCst);
-}
-
-/// A Vulkan 1.3 device: the application below also asks for 1.3, so the flip path is active.
-unsafe extern "system" fn fake_get_physical_device_properties(
-    _: vk::PhysicalDevice,
-    properties: *mut vk::PhysicalDeviceProperties,
-) {
-    // SAFETY: revz passes a valid output.
-    unsafe { (*properties).api_version = vk::API_VERSION_1_3 };
-}
-
-unsafe extern "system" fn fake_cmd_draw(_: vk::CommandBuffer, _: u32, _: u32, _: u32, _: u32) {}
-
-unsafe extern "system" fn fake_cmd_set_depth_compare_op(_: vk::CommandBuffer, _: vk::CompareOp) {}
-
-unsafe extern "system" fn fake_get_instance_proc_addr(
-    _: vk::Instance,
-    name: *const c_char,
-) -> vk::PFN_vkVoidFunction {
-    // SAFETY: revz only asks for NUL-terminated names.
-    let name = unsafe { CStr::from_ptr(name) };
-    match name.to_bytes() {
-        b"vkCreateInstance" => void_fn!(vk::PFN_vkCreateInstance, fake_create_instance),
-        b"vkDestroyInstance" => void_fn!(vk::PFN_vkDestroyInstance, fake_destroy_instance),
-        b"vkCreateDevice" => void_fn!(vk::PFN_vkCreateDevice, fake_create_device),
-        b"vkGetPhysicalDeviceProperties" => void_fn!(
-            vk::PFN_vkGetPhysicalDeviceProperties,
-            fake_get_physical_device_properties
-        ),
-        b"vkFakeInstanceCommand" => Some(fake_command),
-        _ => None,
-    }
-}
-
-unsafe extern "system" fn fake_get_device_proc_addr(
-    _: vk::Device,
-    name: *const c_char,
-) -> vk::PFN_vkVoidFunction {
-    // SAFETY: revz only asks for NUL-terminated names.
-    let name = unsafe { CStr::from_ptr(name) };
-    match name.to_bytes() {
-        b"vkDestroyDevice" => void_fn!(vk::PFN_vkDestroyDevice, fake_destroy_device),
-        b"vkFakeDeviceCommand" => Some(fake_command),
-        b"vkCmdDraw" => void_fn!(vk::PFN_vkCmdDraw, fake_cmd_draw),
-        b"vkCmdSetDepthCompareOp" => {
-            void_fn!(
-                vk::PFN_vkCmdSetDepthCompareOp,
-                fake_cmd_set_depth_compare_op
-            )
-        }
-        _ => None,
-    }
-}
-
 #[test]
 fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
+    // This test's own dispatch tables: other tests create instances and devices in parallel.
+    let tables = Tables::fresh();
     // --- instance
     let mut instance_link = ffi::LayerInstanceLink {
         p_next: std::ptr::null_mut(),
@@ -163,8 +61,9 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
         .get(instance_key)
         .expect("the instance is registered");
     assert_eq!(state.settings.mode, crate::config::Mode::Flip);
+    let instance_events = fake_chain::take_events(tables.instance);
     assert!(
-        SETTINGS_PASSED_DOWN.load(Ordering::SeqCst),
+        instance_events.contains(&Event::SettingsPassedDown),
         "the application's chain must reach the next layer untouched"
     );
 
@@ -185,7 +84,7 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
     }
 
     // --- device: the physical device shares the instance's dispatch table.
-    let physical = vk::PhysicalDevice::from_raw(dispatchable(&INSTANCE_TABLE) as u64);
+    let physical: vk::PhysicalDevice = fake_chain::dispatchable(fake_chain::key(tables.instance));
     let mut device_link = ffi::LayerDeviceLink {
         p_next: std::ptr::null_mut(),
         pfn_next_get_instance_proc_addr: fake_get_instance_proc_addr,
@@ -243,17 +142,21 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
 
         device::destroy_device(device_handle, std::ptr::null());
     }
-    assert_eq!(DESTROYED_DEVICES.load(Ordering::SeqCst), 1);
+    let destroyed_devices = fake_chain::take_events(tables.device);
+    assert_eq!(destroyed_devices, [Event::DestroyDevice]);
     assert!(DEVICES.get(device_key).is_none());
 
     // SAFETY: a live instance.
     unsafe { instance::destroy_instance(handle, std::ptr::null()) };
-    assert_eq!(DESTROYED_INSTANCES.load(Ordering::SeqCst), 1);
+    let destroyed_instances = fake_chain::take_events(tables.instance);
+    assert_eq!(destroyed_instances, [Event::DestroyInstance]);
     assert!(INSTANCES.get(instance_key).is_none());
 
-    // The fake objects were leaked boxes; reclaim them.
-    for raw in [handle.as_raw(), physical.as_raw(), device_handle.as_raw()] {
-        // SAFETY: each was made by `dispatchable` and is no longer used.
-        drop(unsafe { Box::from_raw(raw as *mut usize) });
+    // The fake objects are boxes; reclaim them.
+    // SAFETY: each was made by `dispatchable` and is no longer used.
+    unsafe {
+        fake_chain::reclaim(handle);
+        fake_chain::reclaim(physical);
+        fake_chain::reclaim(device_handle);
     }
 }

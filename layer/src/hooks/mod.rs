@@ -44,6 +44,10 @@ pub mod resources;
 
 #[cfg(test)]
 mod chain_tests;
+#[cfg(test)]
+mod fake_chain;
+#[cfg(test)]
+mod resolve_chain_tests;
 
 use std::ffi::CStr;
 use std::sync::Arc;

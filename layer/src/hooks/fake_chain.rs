@@ -1,0 +1,556 @@
+//! A fake next layer for the chain tests: `extern "system"` stubs that stand below revz and
+//! record what reaches them.
+//!
+//! Tests run in parallel threads of one process, and revz keys instances and devices by the
+//! first word of their dispatchable handles (the loader's dispatch table). So every test takes
+//! its own dispatch tables ([`Tables::fresh`]): the fake `vkCreateInstance` and
+//! `vkCreateDevice` hand out objects whose first word is the calling test's table, command
+//! buffers get their device's table, and what the fakes record is kept per table, so no test
+//! sees another's calls. Non-dispatchable handles are distinct numbers from one counter.
+
+use std::cell::Cell;
+use std::ffi::{c_char, CStr};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
+
+use ash::vk::{self, Handle};
+
+pub(super) type VoidFn = unsafe extern "system" fn();
+
+/// Dispatch tables: only their addresses matter (revz never reads through them), so distinct
+/// elements of one static give every test addresses no other test uses.
+static TABLE_SLOTS: [u8; 64] = [0; 64];
+static NEXT_SLOT: AtomicUsize = AtomicUsize::new(0);
+
+/// The dispatch tables of one test's instance (and physical devices) and device (and command
+/// buffers).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tables {
+    pub instance: &'static u8,
+    pub device: &'static u8,
+}
+
+thread_local! {
+    /// The tables the fake `vkCreateInstance` and `vkCreateDevice` give the objects they make:
+    /// revz calls them on the thread of the test that called revz.
+    static CURRENT: Cell<Option<Tables>> = const { Cell::new(None) };
+}
+
+impl Tables {
+    /// Two tables no other test (or earlier call) uses, made current for this thread's fake
+    /// instance and device creations.
+    pub fn fresh() -> Tables {
+        let slot = || {
+            let index = NEXT_SLOT.fetch_add(1, Ordering::Relaxed);
+            TABLE_SLOTS
+                .get(index)
+                .expect("enough dispatch tables for every chain test")
+        };
+        let tables = Tables {
+            instance: slot(),
+            device: slot(),
+        };
+        CURRENT.with(|current| current.set(Some(tables)));
+        tables
+    }
+
+    fn current() -> Tables {
+        CURRENT
+            .with(Cell::get)
+            .expect("the test called Tables::fresh before creating through the fake chain")
+    }
+}
+
+/// The key a table's events are recorded under.
+pub(super) fn key(table: &'static u8) -> usize {
+    table as *const u8 as usize
+}
+
+/// The dispatch table (first word) of a fake dispatchable object.
+///
+/// # Safety
+/// `handle` must have been made by [`dispatchable`] and not yet reclaimed.
+unsafe fn key_of<H: Handle>(handle: H) -> usize {
+    // SAFETY: the caller guarantees a live object of one word.
+    unsafe { *(handle.as_raw() as *const usize) }
+}
+
+/// A dispatchable object as the loader lays it out: its first word is the dispatch table.
+pub(super) fn dispatchable<H: Handle>(table: usize) -> H {
+    H::from_raw(Box::into_raw(Box::new(table)) as u64)
+}
+
+/// Frees a fake dispatchable object.
+///
+/// # Safety
+/// `handle` must have been made by [`dispatchable`], and is not used afterwards.
+pub(super) unsafe fn reclaim<H: Handle>(handle: H) {
+    // SAFETY: the caller guarantees a box made by `dispatchable`, freed once.
+    drop(unsafe { Box::from_raw(handle.as_raw() as *mut usize) });
+}
+
+static NEXT_HANDLE: AtomicU64 = AtomicU64::new(0x1000);
+
+/// A non-dispatchable handle no other fake object has.
+fn fresh_handle<H: Handle>() -> H {
+    H::from_raw(NEXT_HANDLE.fetch_add(1, Ordering::Relaxed))
+}
+
+/// A subpass's depth/stencil resolve structure as the fake `vkCreateRenderPass2` saw it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct SeenResolve {
+    pub depth_mode: vk::ResolveModeFlags,
+    pub stencil_mode: vk::ResolveModeFlags,
+    pub attachment: u32,
+}
+
+/// The depth attachment of a `vkCmdBeginRendering` as the fake saw it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct SeenDepthAttachment {
+    /// Where the structure was: the application's, or a copy.
+    pub address: usize,
+    pub view: vk::ImageView,
+    pub resolve_mode: vk::ResolveModeFlags,
+    pub resolve_view: vk::ImageView,
+    pub clear_depth: f32,
+}
+
+/// What reached the fake layer, recorded under the dispatch table of the object it was for.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Event {
+    /// `vkCreateInstance` found `VkLayerSettingsCreateInfoEXT` first in the chain.
+    SettingsPassedDown,
+    DestroyInstance,
+    DestroyDevice,
+    CreateRenderPass2 {
+        handle: vk::RenderPass,
+        /// Each subpass's depth/stencil resolve structure, if it had one.
+        resolves: Vec<Option<SeenResolve>>,
+        allocator: bool,
+    },
+    DestroyRenderPass {
+        handle: vk::RenderPass,
+        allocator: bool,
+    },
+    BeginRenderPass2 {
+        render_pass: vk::RenderPass,
+        framebuffer: vk::Framebuffer,
+        /// Where the clear values were: the application's array, or a copy.
+        clear_values: usize,
+        clear_depths: Vec<f32>,
+    },
+    EndRenderPass2,
+    BeginRendering {
+        depth: Option<SeenDepthAttachment>,
+    },
+    EndRendering,
+}
+
+static EVENTS: Mutex<Vec<(usize, Event)>> = Mutex::new(Vec::new());
+
+fn note(table: usize, event: Event) {
+    EVENTS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .push((table, event));
+}
+
+/// Removes and returns, in order, what the fakes recorded for `table`.
+pub(super) fn take_events(table: &'static u8) -> Vec<Event> {
+    let key = key(table);
+    let mut events = EVENTS.lock().unwrap_or_else(PoisonError::into_inner);
+    let (mine, others) = std::mem::take(&mut *events)
+        .into_iter()
+        .partition(|(table, _)| *table == key);
+    *events = others;
+    mine.into_iter().map(|(_, event)| event).collect()
+}
+
+pub(super) unsafe extern "system" fn fake_command() {}
+
+pub(super) unsafe extern "system" fn fake_create_instance(
+    create_info: *const vk::InstanceCreateInfo,
+    _: *const vk::AllocationCallbacks,
+    p_instance: *mut vk::Instance,
+) -> vk::Result {
+    let table = key(Tables::current().instance);
+    // SAFETY: revz passes the application's create info through.
+    let first = unsafe { (*create_info).p_next.cast::<vk::BaseInStructure>().as_ref() };
+    if first.map(|s| s.s_type) == Some(vk::StructureType::LAYER_SETTINGS_CREATE_INFO_EXT) {
+        note(table, Event::SettingsPassedDown);
+    }
+    // SAFETY: revz passes the application's output pointer through.
+    unsafe { *p_instance = dispatchable(table) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn fake_destroy_instance(
+    instance: vk::Instance,
+    _: *const vk::AllocationCallbacks,
+) {
+    // SAFETY: the fake's live object.
+    note(unsafe { key_of(instance) }, Event::DestroyInstance);
+}
+
+pub(super) unsafe extern "system" fn fake_create_device(
+    _: vk::PhysicalDevice,
+    _: *const vk::DeviceCreateInfo,
+    _: *const vk::AllocationCallbacks,
+    p_device: *mut vk::Device,
+) -> vk::Result {
+    // SAFETY: revz passes the application's output pointer through.
+    unsafe { *p_device = dispatchable(key(Tables::current().device)) };
+    vk::Result::SUCCESS
+}
+
+pub(super) unsafe extern "system" fn fake_destroy_device(
+    device: vk::Device,
+    _: *const vk::AllocationCallbacks,
+) {
+    // SAFETY: the fake's live object.
+    note(unsafe { key_of(device) }, Event::DestroyDevice);
+}
+
+/// A Vulkan 1.3 device: the application above also asks for 1.3, so the flip path is active.
+unsafe extern "system" fn fake_get_physical_device_properties(
+    _: vk::PhysicalDevice,
+    properties: *mut vk::PhysicalDeviceProperties,
+) {
+    // SAFETY: revz passes a valid output.
+    unsafe { (*properties).api_version = vk::API_VERSION_1_3 };
+}
+
+pub(super) unsafe extern "system" fn fake_cmd_draw(
+    _: vk::CommandBuffer,
+    _: u32,
+    _: u32,
+    _: u32,
+    _: u32,
+) {
+}
+
+unsafe extern "system" fn fake_cmd_set_depth_compare_op(_: vk::CommandBuffer, _: vk::CompareOp) {}
+
+/// The fake layer's `vkGetInstanceProcAddr`.
+pub(super) unsafe extern "system" fn fake_get_instance_proc_addr(
+    _: vk::Instance,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    // SAFETY: revz only asks for NUL-terminated names.
+    let name = unsafe { CStr::from_ptr(name) };
+    match name.to_bytes() {
+        b"vkCreateInstance" => void_fn!(vk::PFN_vkCreateInstance, fake_create_instance),
+        b"vkDestroyInstance" => void_fn!(vk::PFN_vkDestroyInstance, fake_destroy_instance),
+        b"vkCreateDevice" => void_fn!(vk::PFN_vkCreateDevice, fake_create_device),
+        b"vkGetPhysicalDeviceProperties" => void_fn!(
+            vk::PFN_vkGetPhysicalDeviceProperties,
+            fake_get_physical_device_properties
+        ),
+        b"vkFakeInstanceCommand" => Some(fake_command),
+        _ => None,
+    }
+}
+
+/// The fake layer's `vkGetDeviceProcAddr` for a device with only a few commands (no render
+/// passes, no dynamic rendering).
+pub(super) unsafe extern "system" fn fake_get_device_proc_addr(
+    _: vk::Device,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    // SAFETY: revz only asks for NUL-terminated names.
+    let name = unsafe { CStr::from_ptr(name) };
+    match name.to_bytes() {
+        b"vkDestroyDevice" => void_fn!(vk::PFN_vkDestroyDevice, fake_destroy_device),
+        b"vkFakeDeviceCommand" => Some(fake_command),
+        b"vkCmdDraw" => void_fn!(vk::PFN_vkCmdDraw, fake_cmd_draw),
+        b"vkCmdSetDepthCompareOp" => {
+            void_fn!(
+                vk::PFN_vkCmdSetDepthCompareOp,
+                fake_cmd_set_depth_compare_op
+            )
+        }
+        _ => None,
+    }
+}
+
+/// The fake layer's `vkGetDeviceProcAddr` for a device that also has images, render passes,
+/// framebuffers, command buffers and dynamic rendering (core 1.3 names).
+pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
+    device: vk::Device,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    // SAFETY: revz only asks for NUL-terminated names.
+    let bytes = unsafe { CStr::from_ptr(name) }.to_bytes();
+    match bytes {
+        b"vkCreateImage" => void_fn!(vk::PFN_vkCreateImage, passes::create_image),
+        b"vkDestroyImage" => void_fn!(vk::PFN_vkDestroyImage, passes::destroy_image),
+        b"vkCreateImageView" => void_fn!(vk::PFN_vkCreateImageView, passes::create_image_view),
+        b"vkDestroyImageView" => {
+            void_fn!(vk::PFN_vkDestroyImageView, passes::destroy_image_view)
+        }
+        b"vkCreateRenderPass2" => {
+            void_fn!(vk::PFN_vkCreateRenderPass2, passes::create_render_pass2)
+        }
+        b"vkDestroyRenderPass" => {
+            void_fn!(vk::PFN_vkDestroyRenderPass, passes::destroy_render_pass)
+        }
+        b"vkCreateFramebuffer" => {
+            void_fn!(vk::PFN_vkCreateFramebuffer, passes::create_framebuffer)
+        }
+        b"vkDestroyFramebuffer" => {
+            void_fn!(vk::PFN_vkDestroyFramebuffer, passes::destroy_framebuffer)
+        }
+        b"vkAllocateCommandBuffers" => void_fn!(
+            vk::PFN_vkAllocateCommandBuffers,
+            passes::allocate_command_buffers
+        ),
+        b"vkFreeCommandBuffers" => {
+            void_fn!(vk::PFN_vkFreeCommandBuffers, passes::free_command_buffers)
+        }
+        b"vkDestroyCommandPool" => {
+            void_fn!(vk::PFN_vkDestroyCommandPool, passes::destroy_command_pool)
+        }
+        b"vkBeginCommandBuffer" => {
+            void_fn!(vk::PFN_vkBeginCommandBuffer, passes::begin_command_buffer)
+        }
+        b"vkCmdBeginRenderPass2" => void_fn!(
+            vk::PFN_vkCmdBeginRenderPass2,
+            passes::cmd_begin_render_pass2
+        ),
+        b"vkCmdEndRenderPass2" => {
+            void_fn!(vk::PFN_vkCmdEndRenderPass2, passes::cmd_end_render_pass2)
+        }
+        b"vkCmdBeginRendering" => {
+            void_fn!(vk::PFN_vkCmdBeginRendering, passes::cmd_begin_rendering)
+        }
+        b"vkCmdEndRendering" => {
+            void_fn!(vk::PFN_vkCmdEndRendering, passes::cmd_end_rendering)
+        }
+        // SAFETY: forwarding the caller's arguments.
+        _ => unsafe { fake_get_device_proc_addr(device, name) },
+    }
+}
+
+/// The commands of [`fake_get_device_proc_addr_with_passes`].
+mod passes {
+    use super::*;
+
+    /// The depth/stencil resolve structure in a subpass's pNext chain.
+    fn seen_resolve(subpass: &vk::SubpassDescription2<'_>) -> Option<SeenResolve> {
+        let mut next = subpass.p_next.cast::<vk::BaseInStructure>();
+        // SAFETY: revz passes a valid chain (the application's, or its own copy in front).
+        while let Some(base) = unsafe { next.as_ref() } {
+            if base.s_type == vk::StructureType::SUBPASS_DESCRIPTION_DEPTH_STENCIL_RESOLVE {
+                // SAFETY: the sType identifies the structure.
+                let resolve =
+                    unsafe { &*next.cast::<vk::SubpassDescriptionDepthStencilResolve<'_>>() };
+                // SAFETY: null or one valid reference.
+                let attachment = unsafe { resolve.p_depth_stencil_resolve_attachment.as_ref() };
+                return Some(SeenResolve {
+                    depth_mode: resolve.depth_resolve_mode,
+                    stencil_mode: resolve.stencil_resolve_mode,
+                    attachment: attachment.map_or(vk::ATTACHMENT_UNUSED, |a| a.attachment),
+                });
+            }
+            next = base.p_next;
+        }
+        None
+    }
+
+    pub(super) unsafe extern "system" fn create_image(
+        _: vk::Device,
+        _: *const vk::ImageCreateInfo,
+        _: *const vk::AllocationCallbacks,
+        p_image: *mut vk::Image,
+    ) -> vk::Result {
+        // SAFETY: revz passes the application's output pointer through.
+        unsafe { *p_image = fresh_handle() };
+        vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn destroy_image(
+        _: vk::Device,
+        _: vk::Image,
+        _: *const vk::AllocationCallbacks,
+    ) {
+    }
+
+    pub(super) unsafe extern "system" fn create_image_view(
+        _: vk::Device,
+        _: *const vk::ImageViewCreateInfo,
+        _: *const vk::AllocationCallbacks,
+        p_view: *mut vk::ImageView,
+    ) -> vk::Result {
+        // SAFETY: as above.
+        unsafe { *p_view = fresh_handle() };
+        vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn destroy_image_view(
+        _: vk::Device,
+        _: vk::ImageView,
+        _: *const vk::AllocationCallbacks,
+    ) {
+    }
+
+    pub(super) unsafe extern "system" fn create_render_pass2(
+        device: vk::Device,
+        p_create_info: *const vk::RenderPassCreateInfo2,
+        p_allocator: *const vk::AllocationCallbacks,
+        p_render_pass: *mut vk::RenderPass,
+    ) -> vk::Result {
+        // SAFETY: a valid create info with `subpassCount` subpasses.
+        let subpasses = unsafe {
+            let info = &*p_create_info;
+            crate::hooks::resources::slice(info.p_subpasses, info.subpass_count)
+        };
+        let handle = fresh_handle();
+        // SAFETY: a valid output pointer.
+        unsafe { *p_render_pass = handle };
+        let event = Event::CreateRenderPass2 {
+            handle,
+            resolves: subpasses.iter().map(seen_resolve).collect(),
+            allocator: !p_allocator.is_null(),
+        };
+        // SAFETY: the fake's live device.
+        note(unsafe { key_of(device) }, event);
+        vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn destroy_render_pass(
+        device: vk::Device,
+        handle: vk::RenderPass,
+        p_allocator: *const vk::AllocationCallbacks,
+    ) {
+        let event = Event::DestroyRenderPass {
+            handle,
+            allocator: !p_allocator.is_null(),
+        };
+        // SAFETY: the fake's live device.
+        note(unsafe { key_of(device) }, event);
+    }
+
+    pub(super) unsafe extern "system" fn create_framebuffer(
+        _: vk::Device,
+        _: *const vk::FramebufferCreateInfo,
+        _: *const vk::AllocationCallbacks,
+        p_framebuffer: *mut vk::Framebuffer,
+    ) -> vk::Result {
+        // SAFETY: a valid output pointer.
+        unsafe { *p_framebuffer = fresh_handle() };
+        vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn destroy_framebuffer(
+        _: vk::Device,
+        _: vk::Framebuffer,
+        _: *const vk::AllocationCallbacks,
+    ) {
+    }
+
+    /// Command buffers are dispatchable: their first word is their device's table.
+    pub(super) unsafe extern "system" fn allocate_command_buffers(
+        device: vk::Device,
+        p_allocate_info: *const vk::CommandBufferAllocateInfo,
+        p_command_buffers: *mut vk::CommandBuffer,
+    ) -> vk::Result {
+        // SAFETY: the fake's live device; a valid info and room for its count.
+        unsafe {
+            let table = key_of(device);
+            for index in 0..(*p_allocate_info).command_buffer_count as usize {
+                *p_command_buffers.add(index) = dispatchable(table);
+            }
+        }
+        vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn free_command_buffers(
+        _: vk::Device,
+        _: vk::CommandPool,
+        count: u32,
+        p_command_buffers: *const vk::CommandBuffer,
+    ) {
+        // SAFETY: `count` handles made by `allocate_command_buffers` (or null), freed once.
+        for &buffer in unsafe { crate::hooks::resources::slice(p_command_buffers, count) } {
+            if buffer != vk::CommandBuffer::null() {
+                // SAFETY: as above.
+                unsafe { reclaim(buffer) };
+            }
+        }
+    }
+
+    pub(super) unsafe extern "system" fn destroy_command_pool(
+        _: vk::Device,
+        _: vk::CommandPool,
+        _: *const vk::AllocationCallbacks,
+    ) {
+    }
+
+    pub(super) unsafe extern "system" fn begin_command_buffer(
+        _: vk::CommandBuffer,
+        _: *const vk::CommandBufferBeginInfo,
+    ) -> vk::Result {
+        vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn cmd_begin_render_pass2(
+        buffer: vk::CommandBuffer,
+        p_begin: *const vk::RenderPassBeginInfo,
+        _: *const vk::SubpassBeginInfo,
+    ) {
+        // SAFETY: a valid begin info with `clearValueCount` values.
+        let (begin, clears) = unsafe {
+            let begin = &*p_begin;
+            let clears =
+                crate::hooks::resources::slice(begin.p_clear_values, begin.clear_value_count);
+            (begin, clears)
+        };
+        let event = Event::BeginRenderPass2 {
+            render_pass: begin.render_pass,
+            framebuffer: begin.framebuffer,
+            clear_values: begin.p_clear_values as usize,
+            // SAFETY: the tests' clear values are all depth/stencil values.
+            clear_depths: clears
+                .iter()
+                .map(|c| unsafe { c.depth_stencil.depth })
+                .collect(),
+        };
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, event);
+    }
+
+    pub(super) unsafe extern "system" fn cmd_end_render_pass2(
+        buffer: vk::CommandBuffer,
+        _: *const vk::SubpassEndInfo,
+    ) {
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, Event::EndRenderPass2);
+    }
+
+    pub(super) unsafe extern "system" fn cmd_begin_rendering(
+        buffer: vk::CommandBuffer,
+        p_info: *const vk::RenderingInfo,
+    ) {
+        // SAFETY: a valid rendering info; its depth attachment null or valid.
+        let depth = unsafe { (*p_info).p_depth_attachment };
+        // SAFETY: as above.
+        let seen = unsafe { depth.as_ref() }.map(|d| SeenDepthAttachment {
+            address: depth as usize,
+            view: d.image_view,
+            resolve_mode: d.resolve_mode,
+            resolve_view: d.resolve_image_view,
+            // SAFETY: a depth attachment's clear value is the depthStencil member.
+            clear_depth: unsafe { d.clear_value.depth_stencil.depth },
+        });
+        // SAFETY: the fake's live command buffer.
+        note(
+            unsafe { key_of(buffer) },
+            Event::BeginRendering { depth: seen },
+        );
+    }
+
+    pub(super) unsafe extern "system" fn cmd_end_rendering(buffer: vk::CommandBuffer) {
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, Event::EndRendering);
+    }
+}

@@ -1,0 +1,832 @@
+//! Depth resolves driven through revz's hooks over the fake layer (`fake_chain`): the
+//! swapped-resolve twin render pass (created, begun in place of the application's pass, and
+//! destroyed with it), sources made native where a resolve cannot follow them, and MIN/MAX
+//! swapped in dynamic rendering.
+//!
+//! Every test makes its own instance and device (flip mode, Vulkan 1.3) with its own dispatch
+//! tables, gets revz's hooks from `vkGetDeviceProcAddr`, and checks what reaches the fake layer
+//! below and what revz decided for the images.
+
+use std::cell::RefCell;
+use std::sync::Arc;
+
+use ash::vk::{self, Handle};
+
+use super::fake_chain::{self, Event, SeenDepthAttachment, SeenResolve, Tables, VoidFn};
+use super::{device, instance};
+use crate::ffi;
+use crate::policy::{ImageDepth, NativeReason};
+use crate::state::{DeviceState, DispatchKey, DEVICES, INSTANCES};
+
+use vk::ResolveModeFlags as Mode;
+
+const D32: vk::Format = vk::Format::D32_SFLOAT;
+const D32_S8: vk::Format = vk::Format::D32_SFLOAT_S8_UINT;
+/// Only rendered to: revz reverses it.
+const RENDERED: vk::ImageUsageFlags = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+/// Read by shaders: native (`reverse_observable = none`).
+const SAMPLED: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(
+    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT.as_raw() | vk::ImageUsageFlags::SAMPLED.as_raw(),
+);
+const MULTISAMPLED: vk::SampleCountFlags = vk::SampleCountFlags::TYPE_4;
+const SINGLE: vk::SampleCountFlags = vk::SampleCountFlags::TYPE_1;
+const EXTENT: vk::Extent2D = vk::Extent2D {
+    width: 64,
+    height: 64,
+};
+const LAYOUT: vk::ImageLayout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+
+/// revz's hook for a command, from its `vkGetDeviceProcAddr`.
+macro_rules! hook {
+    ($device:expr, $name:expr, $pfn:ty) => {{
+        // SAFETY: a live device and a NUL-terminated name.
+        let found = unsafe { device::get_device_proc_addr($device, $name.as_ptr()) }
+            .unwrap_or_else(|| panic!("revz hands out {:?}", $name));
+        // SAFETY: the command named has this type.
+        unsafe { std::mem::transmute::<VoidFn, $pfn>(found) }
+    }};
+}
+
+/// The hooks these tests call, as the application would get them.
+struct Hooks {
+    create_image: vk::PFN_vkCreateImage,
+    destroy_image: vk::PFN_vkDestroyImage,
+    create_image_view: vk::PFN_vkCreateImageView,
+    destroy_image_view: vk::PFN_vkDestroyImageView,
+    create_render_pass2: vk::PFN_vkCreateRenderPass2,
+    destroy_render_pass: vk::PFN_vkDestroyRenderPass,
+    create_framebuffer: vk::PFN_vkCreateFramebuffer,
+    destroy_framebuffer: vk::PFN_vkDestroyFramebuffer,
+    allocate_command_buffers: vk::PFN_vkAllocateCommandBuffers,
+    free_command_buffers: vk::PFN_vkFreeCommandBuffers,
+    destroy_command_pool: vk::PFN_vkDestroyCommandPool,
+    begin_command_buffer: vk::PFN_vkBeginCommandBuffer,
+    cmd_begin_render_pass2: vk::PFN_vkCmdBeginRenderPass2,
+    cmd_end_render_pass2: vk::PFN_vkCmdEndRenderPass2,
+    cmd_begin_rendering: vk::PFN_vkCmdBeginRendering,
+    cmd_end_rendering: vk::PFN_vkCmdEndRendering,
+}
+
+impl Hooks {
+    fn of(device: vk::Device) -> Hooks {
+        Hooks {
+            create_image: hook!(device, c"vkCreateImage", vk::PFN_vkCreateImage),
+            destroy_image: hook!(device, c"vkDestroyImage", vk::PFN_vkDestroyImage),
+            create_image_view: hook!(device, c"vkCreateImageView", vk::PFN_vkCreateImageView),
+            destroy_image_view: hook!(device, c"vkDestroyImageView", vk::PFN_vkDestroyImageView),
+            create_render_pass2: hook!(device, c"vkCreateRenderPass2", vk::PFN_vkCreateRenderPass2),
+            destroy_render_pass: hook!(device, c"vkDestroyRenderPass", vk::PFN_vkDestroyRenderPass),
+            create_framebuffer: hook!(device, c"vkCreateFramebuffer", vk::PFN_vkCreateFramebuffer),
+            destroy_framebuffer: hook!(
+                device,
+                c"vkDestroyFramebuffer",
+                vk::PFN_vkDestroyFramebuffer
+            ),
+            allocate_command_buffers: hook!(
+                device,
+                c"vkAllocateCommandBuffers",
+                vk::PFN_vkAllocateCommandBuffers
+            ),
+            free_command_buffers: hook!(
+                device,
+                c"vkFreeCommandBuffers",
+                vk::PFN_vkFreeCommandBuffers
+            ),
+            destroy_command_pool: hook!(
+                device,
+                c"vkDestroyCommandPool",
+                vk::PFN_vkDestroyCommandPool
+            ),
+            begin_command_buffer: hook!(
+                device,
+                c"vkBeginCommandBuffer",
+                vk::PFN_vkBeginCommandBuffer
+            ),
+            cmd_begin_render_pass2: hook!(
+                device,
+                c"vkCmdBeginRenderPass2",
+                vk::PFN_vkCmdBeginRenderPass2
+            ),
+            cmd_end_render_pass2: hook!(
+                device,
+                c"vkCmdEndRenderPass2",
+                vk::PFN_vkCmdEndRenderPass2
+            ),
+            cmd_begin_rendering: hook!(device, c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering),
+            cmd_end_rendering: hook!(device, c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering),
+        }
+    }
+}
+
+/// What reached the fake layer's `vkCmdBeginRenderPass2`.
+#[derive(Debug, PartialEq)]
+struct PassBegun {
+    render_pass: vk::RenderPass,
+    framebuffer: vk::Framebuffer,
+    clear_depths: Vec<f32>,
+    /// Whether the application's own clear value array was passed down (not a copy).
+    app_clear_values: bool,
+}
+
+/// A render pass created through revz, and what the fake layer's `vkCreateRenderPass2` saw.
+struct CreatedPass {
+    handle: vk::RenderPass,
+    /// Each creation below (the application's pass first): its handle, its subpasses'
+    /// resolves, and whether an allocator was passed.
+    created: Vec<(vk::RenderPass, Vec<Option<SeenResolve>>, bool)>,
+}
+
+/// One instance and device over the fake layer, with one command buffer, and everything a
+/// test creates through it (destroyed through revz's hooks by [`Fixture::finish`]).
+struct Fixture {
+    tables: Tables,
+    instance: vk::Instance,
+    physical: vk::PhysicalDevice,
+    device: vk::Device,
+    state: Arc<DeviceState>,
+    hooks: Hooks,
+    pool: vk::CommandPool,
+    command_buffer: vk::CommandBuffer,
+    images: RefCell<Vec<vk::Image>>,
+    views: RefCell<Vec<vk::ImageView>>,
+    passes: RefCell<Vec<vk::RenderPass>>,
+    framebuffers: RefCell<Vec<vk::Framebuffer>>,
+}
+
+impl Fixture {
+    /// Flip mode, `reverse_observable = none`, a Vulkan 1.3 application and device.
+    fn new() -> Fixture {
+        let tables = Tables::fresh();
+        let mut instance_link = ffi::LayerInstanceLink {
+            p_next: std::ptr::null_mut(),
+            pfn_next_get_instance_proc_addr: fake_chain::fake_get_instance_proc_addr,
+            pfn_next_get_physical_device_proc_addr: None,
+        };
+        let mut instance_chain = ffi::LayerInstanceCreateInfo {
+            s_type: ffi::STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO,
+            p_next: std::ptr::null(),
+            function: ffi::LAYER_LINK_INFO,
+            p_layer_info: &mut instance_link,
+        };
+        let flip = [c"flip".as_ptr()];
+        let none = [c"none".as_ptr()];
+        let setting = |name: &'static std::ffi::CStr, value: &[*const std::ffi::c_char; 1]| {
+            vk::LayerSettingEXT {
+                p_layer_name: c"VK_LAYER_REVZ_reverse_z".as_ptr(),
+                p_setting_name: name.as_ptr(),
+                ty: vk::LayerSettingTypeEXT::STRING,
+                value_count: 1,
+                p_values: value.as_ptr().cast(),
+                ..Default::default()
+            }
+        };
+        let settings = [
+            setting(c"mode", &flip),
+            setting(c"reverse_observable", &none),
+        ];
+        let mut layer_settings = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
+        layer_settings.p_next = (&mut instance_chain as *mut ffi::LayerInstanceCreateInfo).cast();
+        let app_info = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+        let create_info = vk::InstanceCreateInfo {
+            p_next: (&layer_settings as *const vk::LayerSettingsCreateInfoEXT).cast(),
+            p_application_info: &app_info,
+            ..Default::default()
+        };
+        let mut instance = vk::Instance::null();
+        // SAFETY: a well-formed loader chain over the fake layer.
+        let result =
+            unsafe { instance::create_instance(&create_info, std::ptr::null(), &mut instance) };
+        assert_eq!(result, vk::Result::SUCCESS);
+
+        // The physical device shares the instance's dispatch table.
+        let physical: vk::PhysicalDevice =
+            fake_chain::dispatchable(fake_chain::key(tables.instance));
+        let mut device_link = ffi::LayerDeviceLink {
+            p_next: std::ptr::null_mut(),
+            pfn_next_get_instance_proc_addr: fake_chain::fake_get_instance_proc_addr,
+            pfn_next_get_device_proc_addr: fake_chain::fake_get_device_proc_addr_with_passes,
+        };
+        let mut device_chain = ffi::LayerDeviceCreateInfo {
+            s_type: ffi::STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO,
+            p_next: std::ptr::null(),
+            function: ffi::LAYER_LINK_INFO,
+            p_layer_info: &mut device_link,
+        };
+        let device_info = vk::DeviceCreateInfo {
+            p_next: (&mut device_chain as *mut ffi::LayerDeviceCreateInfo).cast(),
+            ..Default::default()
+        };
+        let mut device = vk::Device::null();
+        // SAFETY: a well-formed loader chain over the fake layer.
+        let result = unsafe {
+            instance::create_device(physical, &device_info, std::ptr::null(), &mut device)
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        // SAFETY: the fake's live device.
+        let state = DEVICES
+            .get(unsafe { DispatchKey::of(device) })
+            .expect("the device is registered");
+        assert_eq!(state.settings.mode, crate::config::Mode::Flip);
+        assert!(state.policy.is_active(), "flip mode acts on a 1.3 device");
+
+        let hooks = Hooks::of(device);
+        let pool = vk::CommandPool::from_raw(1);
+        let allocate = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let mut command_buffer = vk::CommandBuffer::null();
+        // SAFETY: a live device, a valid info and room for one handle.
+        let result =
+            unsafe { (hooks.allocate_command_buffers)(device, &allocate, &mut command_buffer) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        // Creation left nothing the tests look at (the settings were passed down).
+        fake_chain::take_events(tables.instance);
+        assert_eq!(fake_chain::take_events(tables.device), []);
+        Fixture {
+            tables,
+            instance,
+            physical,
+            device,
+            state,
+            hooks,
+            pool,
+            command_buffer,
+            images: RefCell::default(),
+            views: RefCell::default(),
+            passes: RefCell::default(),
+            framebuffers: RefCell::default(),
+        }
+    }
+
+    /// What reached the fake layer for this device and its command buffer since last asked.
+    fn events(&self) -> Vec<Event> {
+        fake_chain::take_events(self.tables.device)
+    }
+
+    /// revz's decision for a depth image.
+    fn depth(&self, image: vk::Image) -> ImageDepth {
+        self.state
+            .objects
+            .images
+            .get(&image)
+            .expect("a tracked depth image")
+            .depth
+    }
+
+    /// A depth image and a view of it.
+    fn depth_image(
+        &self,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        samples: vk::SampleCountFlags,
+    ) -> (vk::Image, vk::ImageView) {
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(EXTENT.into())
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(samples)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(usage);
+        let mut image = vk::Image::null();
+        // SAFETY: a live device and a valid create info.
+        let result =
+            unsafe { (self.hooks.create_image)(self.device, &info, std::ptr::null(), &mut image) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        self.images.borrow_mut().push(image);
+        let info = vk::ImageViewCreateInfo::default()
+            .image(image)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::DEPTH,
+                level_count: 1,
+                layer_count: 1,
+                ..Default::default()
+            });
+        let mut view = vk::ImageView::null();
+        // SAFETY: as above.
+        let result = unsafe {
+            (self.hooks.create_image_view)(self.device, &info, std::ptr::null(), &mut view)
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        self.views.borrow_mut().push(view);
+        (image, view)
+    }
+
+    /// A render pass of a multisampled D32 attachment (0, cleared) resolved with `mode` into a
+    /// single-sampled one (1) in its first subpass, first in that subpass's pNext chain; the
+    /// other subpasses use attachment 0 without a resolve.
+    fn render_pass(
+        &self,
+        mode: vk::ResolveModeFlags,
+        subpasses: usize,
+        allocator: Option<&vk::AllocationCallbacks<'_>>,
+    ) -> CreatedPass {
+        let attachment = |samples, load_op| {
+            vk::AttachmentDescription2::default()
+                .format(D32)
+                .samples(samples)
+                .load_op(load_op)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .final_layout(LAYOUT)
+        };
+        let attachments = [
+            attachment(MULTISAMPLED, vk::AttachmentLoadOp::CLEAR),
+            attachment(SINGLE, vk::AttachmentLoadOp::DONT_CARE),
+        ];
+        let depth = vk::AttachmentReference2::default()
+            .attachment(0)
+            .layout(LAYOUT)
+            .aspect_mask(vk::ImageAspectFlags::DEPTH);
+        let destination = vk::AttachmentReference2::default()
+            .attachment(1)
+            .layout(LAYOUT)
+            .aspect_mask(vk::ImageAspectFlags::DEPTH);
+        let mut resolve = vk::SubpassDescriptionDepthStencilResolve::default()
+            .depth_resolve_mode(mode)
+            .stencil_resolve_mode(Mode::NONE)
+            .depth_stencil_resolve_attachment(&destination);
+        let plain = vk::SubpassDescription2::default()
+            .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+            .depth_stencil_attachment(&depth);
+        let resolving = plain.push_next(&mut resolve);
+        let mut all = vec![resolving];
+        all.resize(subpasses, plain);
+        let info = vk::RenderPassCreateInfo2::default()
+            .attachments(&attachments)
+            .subpasses(&all);
+        let p_allocator = allocator.map_or(std::ptr::null(), |a| a as *const _);
+        let mut handle = vk::RenderPass::null();
+        // SAFETY: a live device and a valid create info.
+        let result = unsafe {
+            (self.hooks.create_render_pass2)(self.device, &info, p_allocator, &mut handle)
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        self.passes.borrow_mut().push(handle);
+        let created = self
+            .events()
+            .into_iter()
+            .map(|event| match event {
+                Event::CreateRenderPass2 {
+                    handle,
+                    resolves,
+                    allocator,
+                } => (handle, resolves, allocator),
+                other => panic!("only render pass creations reach the fake: {other:?}"),
+            })
+            .collect();
+        CreatedPass { handle, created }
+    }
+
+    /// Destroys a render pass through revz's hook (not again at the end).
+    fn destroy_render_pass(
+        &self,
+        pass: vk::RenderPass,
+        allocator: Option<&vk::AllocationCallbacks<'_>>,
+    ) {
+        self.passes.borrow_mut().retain(|&p| p != pass);
+        let p_allocator = allocator.map_or(std::ptr::null(), |a| a as *const _);
+        // SAFETY: a live device and a render pass it created.
+        unsafe { (self.hooks.destroy_render_pass)(self.device, pass, p_allocator) };
+    }
+
+    fn framebuffer(&self, pass: vk::RenderPass, views: &[vk::ImageView]) -> vk::Framebuffer {
+        let info = vk::FramebufferCreateInfo::default()
+            .render_pass(pass)
+            .attachments(views)
+            .width(EXTENT.width)
+            .height(EXTENT.height)
+            .layers(1);
+        let mut framebuffer = vk::Framebuffer::null();
+        // SAFETY: a live device and a valid create info.
+        let result = unsafe {
+            (self.hooks.create_framebuffer)(self.device, &info, std::ptr::null(), &mut framebuffer)
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        self.framebuffers.borrow_mut().push(framebuffer);
+        framebuffer
+    }
+
+    fn begin_command_buffer(&self) {
+        let begin = vk::CommandBufferBeginInfo::default();
+        // SAFETY: the fixture's command buffer, not recording.
+        let result = unsafe { (self.hooks.begin_command_buffer)(self.command_buffer, &begin) };
+        assert_eq!(result, vk::Result::SUCCESS);
+    }
+
+    /// Records a render pass instance (both attachments' clear values at depth 1.0) and
+    /// returns what the fake layer's begin saw.
+    fn run_pass(&self, pass: vk::RenderPass, framebuffer: vk::Framebuffer) -> PassBegun {
+        self.begin_command_buffer();
+        let clear = vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth: 1.0,
+                stencil: 0,
+            },
+        };
+        let clears = [clear; 2];
+        let begin = vk::RenderPassBeginInfo::default()
+            .render_pass(pass)
+            .framebuffer(framebuffer)
+            .render_area(EXTENT.into())
+            .clear_values(&clears);
+        let subpass_begin = vk::SubpassBeginInfo::default().contents(vk::SubpassContents::INLINE);
+        let subpass_end = vk::SubpassEndInfo::default();
+        // SAFETY: a recording primary command buffer and valid begin and end infos.
+        unsafe {
+            (self.hooks.cmd_begin_render_pass2)(self.command_buffer, &begin, &subpass_begin);
+            (self.hooks.cmd_end_render_pass2)(self.command_buffer, &subpass_end);
+        }
+        match self.events().as_slice() {
+            [Event::BeginRenderPass2 {
+                render_pass,
+                framebuffer,
+                clear_values,
+                clear_depths,
+            }, Event::EndRenderPass2] => PassBegun {
+                render_pass: *render_pass,
+                framebuffer: *framebuffer,
+                clear_depths: clear_depths.clone(),
+                app_clear_values: *clear_values == clears.as_ptr() as usize,
+            },
+            other => panic!("one begin and one end reach the fake: {other:?}"),
+        }
+    }
+
+    /// Records a dynamic rendering instance and returns the depth attachment the fake layer's
+    /// begin saw, and whether it was the application's structure.
+    fn run_rendering(
+        &self,
+        depth: &vk::RenderingAttachmentInfo<'_>,
+        stencil: Option<&vk::RenderingAttachmentInfo<'_>>,
+    ) -> (SeenDepthAttachment, bool) {
+        self.begin_command_buffer();
+        let mut info = vk::RenderingInfo::default()
+            .render_area(EXTENT.into())
+            .layer_count(1)
+            .depth_attachment(depth);
+        if let Some(stencil) = stencil {
+            info = info.stencil_attachment(stencil);
+        }
+        // SAFETY: a recording primary command buffer and a valid rendering info.
+        unsafe {
+            (self.hooks.cmd_begin_rendering)(self.command_buffer, &info);
+            (self.hooks.cmd_end_rendering)(self.command_buffer);
+        }
+        match self.events().as_slice() {
+            [Event::BeginRendering { depth: Some(seen) }, Event::EndRendering] => {
+                let app_structure = seen.address == depth as *const _ as usize;
+                (*seen, app_structure)
+            }
+            other => panic!("one begin and one end reach the fake: {other:?}"),
+        }
+    }
+
+    /// Destroys everything through revz's hooks, then the device and the instance, and
+    /// reclaims the fake objects.
+    fn finish(self) {
+        // SAFETY: objects of this live device, no longer in use, each destroyed once.
+        unsafe {
+            let device = self.device;
+            let hooks = &self.hooks;
+            (hooks.free_command_buffers)(device, self.pool, 1, &self.command_buffer);
+            (hooks.destroy_command_pool)(device, self.pool, std::ptr::null());
+            for &framebuffer in self.framebuffers.borrow().iter() {
+                (hooks.destroy_framebuffer)(device, framebuffer, std::ptr::null());
+            }
+            for &pass in self.passes.borrow().iter() {
+                (hooks.destroy_render_pass)(device, pass, std::ptr::null());
+            }
+            for &view in self.views.borrow().iter() {
+                (hooks.destroy_image_view)(device, view, std::ptr::null());
+            }
+            for &image in self.images.borrow().iter() {
+                (hooks.destroy_image)(device, image, std::ptr::null());
+            }
+        }
+        for image in self.images.borrow().iter() {
+            assert!(self.state.objects.images.get(image).is_none());
+        }
+        for pass in self.passes.borrow().iter() {
+            assert!(self.state.objects.render_passes.get(pass).is_none());
+        }
+        // SAFETY: a live device, then a live instance.
+        unsafe {
+            device::destroy_device(self.device, std::ptr::null());
+            instance::destroy_instance(self.instance, std::ptr::null());
+        }
+        let device_events = fake_chain::take_events(self.tables.device);
+        assert_eq!(device_events.last(), Some(&Event::DestroyDevice));
+        assert_eq!(
+            fake_chain::take_events(self.tables.instance),
+            [Event::DestroyInstance]
+        );
+        // SAFETY: the keys of objects the fake made, destroyed above.
+        unsafe {
+            assert!(DEVICES.get(DispatchKey::of(self.device)).is_none());
+            assert!(INSTANCES.get(DispatchKey::of(self.instance)).is_none());
+        }
+        // SAFETY: each was made by `dispatchable` and is no longer used.
+        unsafe {
+            fake_chain::reclaim(self.device);
+            fake_chain::reclaim(self.physical);
+            fake_chain::reclaim(self.instance);
+        }
+    }
+}
+
+fn resolve(depth_mode: vk::ResolveModeFlags) -> Option<SeenResolve> {
+    Some(SeenResolve {
+        depth_mode,
+        stencil_mode: Mode::NONE,
+        attachment: 1,
+    })
+}
+
+#[test]
+fn a_min_or_max_resolve_between_reversed_images_begins_the_swapped_twin() {
+    let fx = Fixture::new();
+    for (mode, swapped) in [(Mode::MIN, Mode::MAX), (Mode::MAX, Mode::MIN)] {
+        let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+        let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
+        let pass = fx.render_pass(mode, 1, None);
+        // The application's pass, then its twin: identical but for the swapped mode.
+        let [(app, app_resolves, false), (twin, twin_resolves, false)] = pass.created.as_slice()
+        else {
+            panic!("two creations, without allocators: {:?}", pass.created);
+        };
+        assert_eq!(*app, pass.handle);
+        assert_ne!(twin, app);
+        assert_eq!(app_resolves, &[resolve(mode)]);
+        assert_eq!(twin_resolves, &[resolve(swapped)]);
+        assert_eq!(
+            fx.state
+                .objects
+                .render_passes
+                .get(app)
+                .and_then(|p| p.swapped_resolve_twin),
+            Some(*twin)
+        );
+
+        let framebuffer = fx.framebuffer(pass.handle, &[source_view, destination_view]);
+        assert!(fx.state.objects.image_reversed(source));
+        assert!(fx.state.objects.image_reversed(destination));
+
+        // The twin goes down with the application's framebuffer, and the cleared reversed
+        // attachment's depth flipped (1 -> 0); the resolve target is not cleared.
+        assert_eq!(
+            fx.run_pass(pass.handle, framebuffer),
+            PassBegun {
+                render_pass: *twin,
+                framebuffer,
+                clear_depths: vec![0.0, 1.0],
+                app_clear_values: false,
+            },
+            "{mode:?}"
+        );
+    }
+    fx.finish();
+}
+
+#[test]
+fn a_reversed_source_resolved_into_a_native_image_becomes_native_and_begins_the_app_pass() {
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let (destination, destination_view) = fx.depth_image(D32, SAMPLED, SINGLE);
+    assert!(fx.state.objects.image_reversed(source));
+    assert_eq!(
+        fx.depth(destination),
+        ImageDepth::Native(NativeReason::ReadByShaders(vk::ImageUsageFlags::SAMPLED))
+    );
+    let pass = fx.render_pass(Mode::MIN, 1, None);
+    assert_eq!(pass.created.len(), 2, "the pass has its twin");
+
+    let framebuffer = fx.framebuffer(pass.handle, &[source_view, destination_view]);
+    assert!(!fx.state.objects.image_reversed(source));
+    assert_eq!(
+        fx.depth(source),
+        ImageDepth::Native(NativeReason::ResolvedIntoNative(destination))
+    );
+
+    // Everything native: the application's pass and clear values go down untouched.
+    assert_eq!(
+        fx.run_pass(pass.handle, framebuffer),
+        PassBegun {
+            render_pass: pass.handle,
+            framebuffer,
+            clear_depths: vec![1.0, 1.0],
+            app_clear_values: true,
+        }
+    );
+    // Native for life: a later framebuffer into a reversed image does not bring it back.
+    let (_, reversed_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    fx.framebuffer(pass.handle, &[source_view, reversed_view]);
+    assert!(!fx.state.objects.image_reversed(source));
+    fx.finish();
+}
+
+#[test]
+fn a_min_resolve_in_a_pass_of_two_subpasses_gets_no_twin_and_demotes_its_source() {
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    let pass = fx.render_pass(Mode::MIN, 2, None);
+    assert_eq!(
+        pass.created,
+        [(pass.handle, vec![resolve(Mode::MIN), None], false)],
+        "only the application's pass is created"
+    );
+    assert_eq!(
+        fx.state
+            .objects
+            .render_passes
+            .get(&pass.handle)
+            .map(|p| p.swapped_resolve_twin),
+        Some(None)
+    );
+
+    assert!(fx.state.objects.image_reversed(source));
+    let framebuffer = fx.framebuffer(pass.handle, &[source_view, destination_view]);
+    assert_eq!(
+        fx.depth(source),
+        ImageDepth::Native(NativeReason::UnswappableResolve)
+    );
+    assert!(
+        fx.state.objects.image_reversed(destination),
+        "only the source is demoted"
+    );
+    assert_eq!(
+        fx.run_pass(pass.handle, framebuffer),
+        PassBegun {
+            render_pass: pass.handle,
+            framebuffer,
+            clear_depths: vec![1.0, 1.0],
+            app_clear_values: true,
+        }
+    );
+    fx.finish();
+}
+
+#[test]
+fn sample_zero_and_average_resolves_need_no_twin_and_keep_the_source_reversed() {
+    let fx = Fixture::new();
+    for mode in [Mode::SAMPLE_ZERO, Mode::AVERAGE] {
+        let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+        let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
+        let pass = fx.render_pass(mode, 1, None);
+        assert_eq!(
+            pass.created,
+            [(pass.handle, vec![resolve(mode)], false)],
+            "{mode:?}: no twin"
+        );
+        let framebuffer = fx.framebuffer(pass.handle, &[source_view, destination_view]);
+        assert!(fx.state.objects.image_reversed(source), "{mode:?}");
+        assert!(fx.state.objects.image_reversed(destination), "{mode:?}");
+        // The application's pass, with the reversed attachment's clear flipped.
+        assert_eq!(
+            fx.run_pass(pass.handle, framebuffer),
+            PassBegun {
+                render_pass: pass.handle,
+                framebuffer,
+                clear_depths: vec![0.0, 1.0],
+                app_clear_values: false,
+            },
+            "{mode:?}"
+        );
+    }
+    fx.finish();
+}
+
+#[test]
+fn destroying_a_render_pass_destroys_its_twin_first_without_the_app_allocator() {
+    let fx = Fixture::new();
+    let allocator = vk::AllocationCallbacks::default();
+    let pass = fx.render_pass(Mode::MIN, 1, Some(&allocator));
+    // The application's pass with its allocator; revz's twin with none.
+    let [(app, _, true), (twin, _, false)] = pass.created.as_slice() else {
+        panic!("the application's pass and its twin: {:?}", pass.created);
+    };
+    let (app, twin) = (*app, *twin);
+    fx.destroy_render_pass(pass.handle, Some(&allocator));
+    assert_eq!(
+        fx.events(),
+        [
+            Event::DestroyRenderPass {
+                handle: twin,
+                allocator: false
+            },
+            Event::DestroyRenderPass {
+                handle: app,
+                allocator: true
+            },
+        ]
+    );
+    assert!(fx.state.objects.render_passes.get(&app).is_none());
+
+    // A pass without a twin: only the application's pass is destroyed.
+    let plain = fx.render_pass(Mode::AVERAGE, 1, None);
+    assert_eq!(plain.created.len(), 1);
+    fx.destroy_render_pass(plain.handle, None);
+    assert_eq!(
+        fx.events(),
+        [Event::DestroyRenderPass {
+            handle: plain.handle,
+            allocator: false
+        }]
+    );
+    fx.finish();
+}
+
+/// A depth attachment of dynamic rendering: cleared to 1.0, resolved with `mode`.
+fn rendering_depth(
+    view: vk::ImageView,
+    mode: vk::ResolveModeFlags,
+    resolve_view: vk::ImageView,
+) -> vk::RenderingAttachmentInfo<'static> {
+    vk::RenderingAttachmentInfo::default()
+        .image_view(view)
+        .image_layout(LAYOUT)
+        .resolve_mode(mode)
+        .resolve_image_view(resolve_view)
+        .resolve_image_layout(LAYOUT)
+        .load_op(vk::AttachmentLoadOp::CLEAR)
+        .store_op(vk::AttachmentStoreOp::DONT_CARE)
+        .clear_value(vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth: 1.0,
+                stencil: 0,
+            },
+        })
+}
+
+#[test]
+fn dynamic_rendering_swaps_min_and_max_between_reversed_images() {
+    let fx = Fixture::new();
+    for (mode, swapped) in [(Mode::MIN, Mode::MAX), (Mode::MAX, Mode::MIN)] {
+        let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+        let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
+        let depth = rendering_depth(source_view, mode, destination_view);
+        let (seen, app_structure) = fx.run_rendering(&depth, None);
+        assert_eq!(
+            (
+                seen.view,
+                seen.resolve_view,
+                seen.resolve_mode,
+                seen.clear_depth
+            ),
+            (source_view, destination_view, swapped, 0.0),
+            "{mode:?}"
+        );
+        assert!(!app_structure, "a copy goes down");
+        assert_eq!(
+            depth.resolve_mode, mode,
+            "the application's structure is kept"
+        );
+        assert!(fx.state.objects.image_reversed(source));
+        assert!(fx.state.objects.image_reversed(destination));
+    }
+    fx.finish();
+}
+
+#[test]
+fn dynamic_rendering_into_a_native_image_demotes_the_source_and_passes_the_app_values() {
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let (destination, destination_view) = fx.depth_image(D32, SAMPLED, SINGLE);
+    assert!(fx.state.objects.image_reversed(source));
+    let depth = rendering_depth(source_view, Mode::MIN, destination_view);
+    let (seen, app_structure) = fx.run_rendering(&depth, None);
+    assert_eq!(
+        fx.depth(source),
+        ImageDepth::Native(NativeReason::ResolvedIntoNative(destination))
+    );
+    assert_eq!(
+        (seen.resolve_mode, seen.clear_depth),
+        (Mode::MIN, 1.0),
+        "mode and clear value unchanged"
+    );
+    assert!(app_structure, "the application's structure goes down");
+    fx.finish();
+}
+
+#[test]
+fn dynamic_rendering_with_a_stencil_resolve_demotes_a_min_depth_resolve() {
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32_S8, RENDERED, MULTISAMPLED);
+    let (destination, destination_view) = fx.depth_image(D32_S8, RENDERED, SINGLE);
+    let depth = rendering_depth(source_view, Mode::MIN, destination_view);
+    // The same attachment's stencil, resolved with the same mode (no independentResolve).
+    let stencil = rendering_depth(source_view, Mode::MIN, destination_view);
+    let (seen, app_structure) = fx.run_rendering(&depth, Some(&stencil));
+    assert_eq!(
+        fx.depth(source),
+        ImageDepth::Native(NativeReason::UnswappableResolve)
+    );
+    assert!(fx.state.objects.image_reversed(destination));
+    assert_eq!((seen.resolve_mode, seen.clear_depth), (Mode::MIN, 1.0));
+    assert!(app_structure);
+    fx.finish();
+}
