@@ -193,17 +193,42 @@ impl DeviceObjects {
         let Some(source_image) = self.views.get(&source) else {
             return;
         };
-        if !self.image_reversed(source_image) {
-            return;
+        let destination_image = self.views.get(&destination);
+        if self.image_reversed(source_image) {
+            let resolve = DepthResolve {
+                mode,
+                destination: self.view_target(destination),
+                destination_image: destination_image.unwrap_or_default(),
+                swappable,
+            };
+            if let Some(reason) = resolve.demotes_source() {
+                self.demote(source_image, reason);
+            }
         }
-        let resolve = DepthResolve {
-            mode,
-            destination: self.view_target(destination),
-            destination_image: self.views.get(&destination).unwrap_or_default(),
-            swappable,
-        };
-        if let Some(reason) = resolve.demotes_source() {
-            self.demote(source_image, reason);
+        // A native source (observable, or made native just above) resolves standard values:
+        // its destination must hold standard depth too.
+        if let Some(destination_image) = destination_image {
+            if !self.image_reversed(source_image) {
+                self.demote(
+                    destination_image,
+                    NativeReason::ResolvedFromNative(source_image),
+                );
+            }
+        }
+    }
+
+    /// Destroys the objects revz created on the device's behalf (swapped-resolve twins of
+    /// render passes the application did not destroy), before the device goes.
+    pub fn destroy_own_objects(&self, device: vk::Device, next: &ash::Device) {
+        let passes = self
+            .render_passes
+            .0
+            .read()
+            .unwrap_or_else(PoisonError::into_inner);
+        for twin in passes.values().filter_map(|pass| pass.swapped_resolve_twin) {
+            // SAFETY: revz's own object; the device is idle (the application's contract for
+            // vkDestroyDevice).
+            unsafe { (next.fp_v1_0().destroy_render_pass)(device, twin, std::ptr::null()) };
         }
     }
 

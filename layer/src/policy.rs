@@ -33,6 +33,8 @@ pub enum NativeReason {
     /// must be standard ones. Decided when the resolve is first seen (framebuffer creation, or
     /// the begin of an imageless or dynamic rendering instance).
     ResolvedIntoNative(vk::Image),
+    /// A render pass resolves a native depth image into it: it receives standard values.
+    ResolvedFromNative(vk::Image),
     /// A MIN or MAX depth resolve of it could not be swapped (a render pass of several
     /// subpasses, or a stencil resolve sharing the mode): it would resolve the other extreme.
     UnswappableResolve,
@@ -54,6 +56,9 @@ impl fmt::Display for NativeReason {
             NativeReason::LinearTiling => f.write_str("linear tiling (host-readable)"),
             NativeReason::ResolvedIntoNative(destination) => {
                 write!(f, "it is resolved into native depth image {destination:?}")
+            }
+            NativeReason::ResolvedFromNative(source) => {
+                write!(f, "native depth image {source:?} is resolved into it")
             }
             NativeReason::UnswappableResolve => f.write_str(
                 "its MIN/MAX depth resolve cannot be swapped (several subpasses, or a stencil \

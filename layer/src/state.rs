@@ -65,6 +65,9 @@ pub struct DeviceState {
     pub commands: DeviceCommands,
     pub settings: Arc<Settings>,
     pub policy: DevicePolicy,
+    /// The depth resolve modes the device supports: MIN and MAX are swapped only where the
+    /// other one is supported.
+    pub depth_resolve_modes: vk::ResolveModeFlags,
     /// What revz learned about the application while it records.
     pub observed: Observed,
     pub objects: DeviceObjects,
@@ -84,6 +87,13 @@ impl DeviceState {
     /// A depth clear value on a reversed attachment.
     pub fn reversed_clear(&self, depth: f32) -> f32 {
         self.policy.reversed_clear(depth, &self.observed)
+    }
+
+    /// Whether a depth resolve with `mode` can follow a reversed attachment: MIN and MAX need
+    /// the other one supported.
+    pub fn resolve_mode_swappable(&self, mode: vk::ResolveModeFlags) -> bool {
+        self.depth_resolve_modes
+            .contains(crate::conv::flip_resolve_mode(mode))
     }
 }
 

@@ -740,7 +740,7 @@ pub unsafe extern "system" fn cmd_begin_rendering(
                 depth.image_view,
                 depth.resolve_image_view,
                 depth.resolve_mode,
-                !stencil_resolves,
+                !stencil_resolves && device.resolve_mode_swappable(depth.resolve_mode),
             );
         }
         let mut target = depth.map_or(Target::None, |d| device.view_target(d.image_view));

@@ -70,6 +70,7 @@ pub unsafe extern "system" fn destroy_device(
             let removed = DEVICES.remove(unsafe { DispatchKey::of(device) });
             if let Some(state) = &removed {
                 crate::objects::forget_device_command_buffers(&state.objects);
+                state.objects.destroy_own_objects(device, &state.next);
             }
             match removed {
                 // SAFETY: calling down with the application's arguments.

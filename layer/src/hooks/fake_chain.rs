@@ -220,6 +220,31 @@ unsafe extern "system" fn fake_get_physical_device_properties(
     unsafe { (*properties).api_version = vk::API_VERSION_1_3 };
 }
 
+/// Every depth resolve mode (a device with MIN and MAX, which revz needs to swap them).
+unsafe extern "system" fn fake_get_physical_device_properties2(
+    _: vk::PhysicalDevice,
+    properties: *mut vk::PhysicalDeviceProperties2,
+) {
+    // SAFETY: revz passes a valid output chain.
+    let mut next = unsafe { (*properties).p_next }.cast::<vk::BaseOutStructure>();
+    // SAFETY: as above.
+    while let Some(base) = unsafe { next.as_mut() } {
+        if base.s_type == vk::StructureType::PHYSICAL_DEVICE_DEPTH_STENCIL_RESOLVE_PROPERTIES {
+            // SAFETY: the sType identifies the structure.
+            let resolve = unsafe {
+                &mut *(base as *mut vk::BaseOutStructure)
+                    .cast::<vk::PhysicalDeviceDepthStencilResolveProperties>()
+            };
+            resolve.supported_depth_resolve_modes = vk::ResolveModeFlags::SAMPLE_ZERO
+                | vk::ResolveModeFlags::AVERAGE
+                | vk::ResolveModeFlags::MIN
+                | vk::ResolveModeFlags::MAX;
+            resolve.supported_stencil_resolve_modes = vk::ResolveModeFlags::SAMPLE_ZERO;
+        }
+        next = base.p_next;
+    }
+}
+
 pub(super) unsafe extern "system" fn fake_cmd_draw(
     _: vk::CommandBuffer,
     _: u32,
@@ -245,6 +270,10 @@ pub(super) unsafe extern "system" fn fake_get_instance_proc_addr(
         b"vkGetPhysicalDeviceProperties" => void_fn!(
             vk::PFN_vkGetPhysicalDeviceProperties,
             fake_get_physical_device_properties
+        ),
+        b"vkGetPhysicalDeviceProperties2" => void_fn!(
+            vk::PFN_vkGetPhysicalDeviceProperties2,
+            fake_get_physical_device_properties2
         ),
         b"vkFakeInstanceCommand" => Some(fake_command),
         _ => None,

@@ -124,6 +124,42 @@ fn requested_api_version(create_info: &vk::InstanceCreateInfo) -> u32 {
     }
 }
 
+/// The depth resolve modes a device supports (`VkPhysicalDeviceDepthStencilResolveProperties`,
+/// Vulkan 1.2); only SAMPLE_ZERO (the one every device has) when it cannot be asked. revz
+/// swaps MIN and MAX only where the swapped mode is supported.
+///
+/// # Safety
+/// `physical_device` must be a live physical device of `instance`.
+unsafe fn depth_resolve_modes(
+    instance: &InstanceState,
+    physical_device: vk::PhysicalDevice,
+    api: u32,
+) -> vk::ResolveModeFlags {
+    if api < vk::API_VERSION_1_2 {
+        return vk::ResolveModeFlags::SAMPLE_ZERO;
+    }
+    // SAFETY: querying the next layer for a core 1.1 instance command.
+    let found = unsafe {
+        (instance.next_get_instance_proc_addr)(
+            instance.handle,
+            c"vkGetPhysicalDeviceProperties2".as_ptr(),
+        )
+    };
+    let Some(found) = found else {
+        return vk::ResolveModeFlags::SAMPLE_ZERO;
+    };
+    // SAFETY: the command has this type.
+    let get: vk::PFN_vkGetPhysicalDeviceProperties2 = unsafe { std::mem::transmute(found) };
+    let mut resolve = vk::PhysicalDeviceDepthStencilResolveProperties::default();
+    let mut properties = vk::PhysicalDeviceProperties2 {
+        p_next: (&mut resolve as *mut vk::PhysicalDeviceDepthStencilResolveProperties<'_>).cast(),
+        ..Default::default()
+    };
+    // SAFETY: a live physical device and a valid output chain (core 1.2 structure).
+    unsafe { get(physical_device, &mut properties) };
+    resolve.supported_depth_resolve_modes | vk::ResolveModeFlags::SAMPLE_ZERO
+}
+
 /// The physical device's API version (1.0 if the next layer cannot say). Looked up by name
 /// rather than through `ash`'s table, whose stand-in for a missing command aborts.
 ///
@@ -410,6 +446,8 @@ pub unsafe extern "system" fn create_device(
                 .min(unsafe { device_api_version(&instance, physical_device) });
             // SAFETY: a live physical device of this instance; the application's create info.
             let source = unsafe { compare_op_source(&instance, physical_device, create_info, api) };
+            // SAFETY: a live physical device of this instance.
+            let resolve_modes = unsafe { depth_resolve_modes(&instance, physical_device, api) };
             // Enabling VK_EXT_extended_dynamic_state for the application when revz needs it:
             // the application's extensions plus one, and the feature chained in front.
             let mut extensions = Vec::new();
@@ -491,6 +529,7 @@ pub unsafe extern "system" fn create_device(
                     commands,
                     settings: Arc::clone(&instance.settings),
                     policy,
+                    depth_resolve_modes: resolve_modes,
                     observed: Default::default(),
                     objects: DeviceObjects::default(),
                 },

@@ -17,10 +17,11 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::{device_state, record};
-use crate::boundary::EntryPoint;
+use crate::boundary::{guarded, EntryPoint};
 use crate::conv::{flip_resolve_mode, has_depth};
 use crate::hooks::resources::slice;
 use crate::objects::{RenderPassInfo, SubpassResolve};
+use crate::state::DeviceState;
 
 static CREATE_RENDER_PASS: EntryPoint = EntryPoint::new("vkCreateRenderPass");
 static CREATE_RENDER_PASS2: EntryPoint = EntryPoint::new("vkCreateRenderPass2");
@@ -115,6 +116,7 @@ fn swapped_resolve<'a>(
 /// the pass has none, or it cannot be swapped or created (logged at debug: the attachment then
 /// stays native, see `NativeReason::UnswappableResolve`).
 fn create_swapped_resolve_twin(
+    state: &DeviceState,
     device: vk::Device,
     info: &vk::RenderPassCreateInfo2<'_>,
     next: vk::PFN_vkCreateRenderPass2,
@@ -138,6 +140,16 @@ fn create_swapped_resolve_twin(
             return None;
         }
     };
+    if !state
+        .depth_resolve_modes
+        .contains(resolve.depth_resolve_mode)
+    {
+        log::debug!(
+            "a MIN/MAX depth resolve revz cannot swap: the device does not support {:?}",
+            resolve.depth_resolve_mode
+        );
+        return None;
+    }
     let twin_subpass = vk::SubpassDescription2 {
         p_next: (&resolve as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast::<c_void>(),
         ..*subpass
@@ -211,8 +223,22 @@ pub unsafe extern "system" fn create_render_pass2(
     let Some(next) = state.commands.create_render_pass2 else {
         return vk::Result::ERROR_INITIALIZATION_FAILED;
     };
+    // The twin first, so that output structures in the chain (creation feedback) end up
+    // holding what the driver wrote for the application's pass.
+    let twin = guarded(
+        &CREATE_RENDER_PASS2,
+        // SAFETY: a valid create info (the application's contract).
+        || create_swapped_resolve_twin(&state, device, unsafe { &*p_create_info }, next),
+        || None,
+    );
     // SAFETY: calling down with the application's arguments.
     let result = unsafe { next(device, p_create_info, p_allocator, p_render_pass) };
+    if result != vk::Result::SUCCESS {
+        if let Some(twin) = twin {
+            // SAFETY: revz's own object, never used.
+            unsafe { (state.next.fp_v1_0().destroy_render_pass)(device, twin, std::ptr::null()) };
+        }
+    }
     if result == vk::Result::SUCCESS {
         record(&CREATE_RENDER_PASS2, || {
             // SAFETY: valid on success; arrays sized by their counts.
@@ -232,7 +258,7 @@ pub unsafe extern "system" fn create_render_pass2(
                     (depth.map(|r| r.attachment), subpass_resolve(s))
                 }),
             );
-            pass.swapped_resolve_twin = create_swapped_resolve_twin(device, info, next);
+            pass.swapped_resolve_twin = twin;
             // SAFETY: valid on success.
             let handle = unsafe { *p_render_pass };
             state.objects.render_passes.insert(handle, Arc::new(pass));

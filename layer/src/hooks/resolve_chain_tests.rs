@@ -553,8 +553,10 @@ fn a_min_or_max_resolve_between_reversed_images_begins_the_swapped_twin() {
         let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
         let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
         let pass = fx.render_pass(mode, 1, None);
-        // The application's pass, then its twin: identical but for the swapped mode.
-        let [(app, app_resolves, false), (twin, twin_resolves, false)] = pass.created.as_slice()
+        // The twin, then the application's pass (so that the driver's last word in any output
+        // structure of the chain is about the application's pass): identical but for the
+        // swapped mode.
+        let [(twin, twin_resolves, false), (app, app_resolves, false)] = pass.created.as_slice()
         else {
             panic!("two creations, without allocators: {:?}", pass.created);
         };
@@ -621,10 +623,39 @@ fn a_reversed_source_resolved_into_a_native_image_becomes_native_and_begins_the_
             app_clear_values: true,
         }
     );
-    // Native for life: a later framebuffer into a reversed image does not bring it back.
-    let (_, reversed_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    // Native for life: a later framebuffer into a reversed image does not bring it back; that
+    // image, receiving standard values, becomes native instead.
+    let (later, reversed_view) = fx.depth_image(D32, RENDERED, SINGLE);
     fx.framebuffer(pass.handle, &[source_view, reversed_view]);
     assert!(!fx.state.objects.image_reversed(source));
+    assert_eq!(
+        fx.depth(later),
+        ImageDepth::Native(NativeReason::ResolvedFromNative(source))
+    );
+    fx.finish();
+}
+
+#[test]
+fn an_observable_source_resolved_into_a_reversed_image_makes_the_destination_native() {
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32, SAMPLED, MULTISAMPLED);
+    let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    assert!(fx.state.objects.image_reversed(destination));
+    let pass = fx.render_pass(Mode::AVERAGE, 1, None);
+    let framebuffer = fx.framebuffer(pass.handle, &[source_view, destination_view]);
+    assert_eq!(
+        fx.depth(destination),
+        ImageDepth::Native(NativeReason::ResolvedFromNative(source))
+    );
+    assert_eq!(
+        fx.run_pass(pass.handle, framebuffer),
+        PassBegun {
+            render_pass: pass.handle,
+            framebuffer,
+            clear_depths: vec![1.0, 1.0],
+            app_clear_values: true,
+        }
+    );
     fx.finish();
 }
 
@@ -654,9 +685,10 @@ fn a_min_resolve_in_a_pass_of_two_subpasses_gets_no_twin_and_demotes_its_source(
         fx.depth(source),
         ImageDepth::Native(NativeReason::UnswappableResolve)
     );
-    assert!(
-        fx.state.objects.image_reversed(destination),
-        "only the source is demoted"
+    assert_eq!(
+        fx.depth(destination),
+        ImageDepth::Native(NativeReason::ResolvedFromNative(source)),
+        "the destination receives the native source's values"
     );
     assert_eq!(
         fx.run_pass(pass.handle, framebuffer),
@@ -705,8 +737,8 @@ fn destroying_a_render_pass_destroys_its_twin_first_without_the_app_allocator() 
     let fx = Fixture::new();
     let allocator = vk::AllocationCallbacks::default();
     let pass = fx.render_pass(Mode::MIN, 1, Some(&allocator));
-    // The application's pass with its allocator; revz's twin with none.
-    let [(app, _, true), (twin, _, false)] = pass.created.as_slice() else {
+    // revz's twin with no allocator; the application's pass with its own.
+    let [(twin, _, false), (app, _, true)] = pass.created.as_slice() else {
         panic!("the application's pass and its twin: {:?}", pass.created);
     };
     let (app, twin) = (*app, *twin);
@@ -825,7 +857,10 @@ fn dynamic_rendering_with_a_stencil_resolve_demotes_a_min_depth_resolve() {
         fx.depth(source),
         ImageDepth::Native(NativeReason::UnswappableResolve)
     );
-    assert!(fx.state.objects.image_reversed(destination));
+    assert_eq!(
+        fx.depth(destination),
+        ImageDepth::Native(NativeReason::ResolvedFromNative(source))
+    );
     assert_eq!((seen.resolve_mode, seen.clear_depth), (Mode::MIN, 1.0));
     assert!(app_structure);
     fx.finish();
