@@ -93,6 +93,12 @@ pub struct PipelineDepth {
     pub bounds: (f32, f32),
     /// The fragment stage writes `FragDepth`, which the flip path cannot reverse.
     pub writes_frag_depth: bool,
+    /// The pipeline itself.
+    pub handle: vk::Pipeline,
+    /// The same pipeline with its static compare op flipped, bound in its place for draws
+    /// into reversed attachments where the compare op is not made dynamic
+    /// (`compare_op = variants`, or a device without extended dynamic state).
+    pub reversed_variant: Option<vk::Pipeline>,
     /// Where the vertex stage's projection is in the push constants, if it comes from there.
     pub projection: Option<ProjectionUse>,
 }
@@ -150,6 +156,8 @@ pub trait StateSink: PushSink {
     fn set_compare_op(&mut self, op: vk::CompareOp);
     fn set_bias(&mut self, bias: DepthBias);
     fn set_bounds(&mut self, min: f32, max: f32);
+    /// Binds a graphics pipeline (a compare-op variant, or the application's pipeline back).
+    fn bind_pipeline(&mut self, pipeline: vk::Pipeline);
 }
 
 /// What revz last sent down for each depth-related dynamic state, so that a draw whose state
@@ -252,6 +260,12 @@ impl<S: StateSink> StateSink for Filtered<'_, S> {
             self.sink.set_bounds(min, max);
         }
     }
+
+    fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
+        // A variant has the dynamic states of the pipeline it stands for: binding it
+        // overwrites nothing the record holds.
+        self.sink.bind_pipeline(pipeline);
+    }
 }
 
 /// Depth state of one command buffer while it records.
@@ -278,6 +292,8 @@ pub struct CommandState {
     /// The path the emitted state is for.
     path: DrawPath,
     emitted: Emitted,
+    /// Whether revz bound the bound pipeline's compare-op variant in its place.
+    variant_bound: bool,
     dirty: bool,
 }
 
@@ -298,6 +314,7 @@ impl Default for CommandState {
             push: PushConstants::default(),
             path: DrawPath::Native,
             emitted: Emitted::default(),
+            variant_bound: false,
             dirty: true,
         }
     }
@@ -418,6 +435,7 @@ impl CommandState {
             .map_or(States::NONE, |p| p.app_dynamic | p.injected);
         self.emitted.forget_static(dynamic);
         self.pipeline = pipeline;
+        self.variant_bound = false;
         self.dirty = true;
     }
 
@@ -425,6 +443,7 @@ impl CommandState {
     pub fn invalidate(&mut self) {
         self.push.invalidate();
         self.emitted = Emitted::default();
+        self.variant_bound = false;
         self.dirty = true;
     }
 
@@ -514,6 +533,14 @@ impl CommandState {
                      its fragments keep standard depth (not handled yet)"
                 )
             });
+        }
+        if let Some(p) = &self.pipeline {
+            if let Some(variant) = p.reversed_variant {
+                if reversed != self.variant_bound {
+                    sink.bind_pipeline(if reversed { variant } else { p.handle });
+                    self.variant_bound = reversed;
+                }
+            }
         }
         let (from_app, injected, pipeline) = match &self.pipeline {
             Some(p) => (self.app_set & p.app_dynamic, p.injected, Some(&**p)),
@@ -614,6 +641,7 @@ mod tests {
         biases: Vec<DepthBias>,
         bounds: Vec<(f32, f32)>,
         pushes: Vec<(u32, usize)>,
+        binds: Vec<vk::Pipeline>,
     }
 
     impl PushSink for Recorded {
@@ -652,6 +680,9 @@ mod tests {
         fn set_bounds(&mut self, min: f32, max: f32) {
             self.bounds.push((min, max));
         }
+        fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
+            self.binds.push(pipeline);
+        }
     }
 
     fn viewport(min_depth: f32, max_depth: f32) -> vk::Viewport {
@@ -678,8 +709,55 @@ mod tests {
             },
             bounds: (0.0, 1.0),
             writes_frag_depth: false,
+            handle: vk::Pipeline::null(),
+            reversed_variant: None,
             projection: None,
         })
+    }
+
+    #[test]
+    fn a_compare_op_variant_is_bound_for_reversed_draws_and_the_original_for_native_ones() {
+        let original = vk::Pipeline::from_raw(10);
+        let variant = vk::Pipeline::from_raw(11);
+        let pipeline = Arc::new(PipelineDepth {
+            injected: States::VIEWPORT,
+            viewports: vec![viewport(0.0, 1.0)],
+            compare_op: vk::CompareOp::LESS,
+            handle: original,
+            reversed_variant: Some(variant),
+            ..PipelineDepth::default()
+        });
+        let mut state = CommandState::default();
+        state.begin(Target::Reversed, Reversal::Complementary);
+        state.bind_pipeline(Some(Arc::clone(&pipeline)));
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        state.before_draw(&mut sink);
+        assert_eq!(
+            sink.binds,
+            vec![variant],
+            "bound once, for the reversed draws"
+        );
+        assert!(
+            sink.compare_ops.is_empty(),
+            "the variant holds the compare op"
+        );
+        assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.0)])]);
+
+        // A native pass: the application's pipeline comes back.
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.binds, vec![variant, original]);
+
+        // The application binds again (its own pipeline goes down): reversed draws need the
+        // variant bound again; native ones need nothing.
+        state.bind_pipeline(Some(Arc::clone(&pipeline)));
+        state.before_draw(&mut sink);
+        assert_eq!(sink.binds, vec![variant, original]);
+        state.set_target(Target::Reversed);
+        state.bind_pipeline(Some(pipeline));
+        state.before_draw(&mut sink);
+        assert_eq!(sink.binds, vec![variant, original, variant]);
     }
 
     #[test]

@@ -218,8 +218,18 @@ impl DeviceObjects {
     }
 
     /// Destroys the objects revz created on the device's behalf (swapped-resolve twins of
-    /// render passes the application did not destroy), before the device goes.
+    /// render passes and compare-op variants of pipelines the application did not destroy),
+    /// before the device goes.
     pub fn destroy_own_objects(&self, device: vk::Device, next: &ash::Device) {
+        let pipelines = self
+            .pipelines
+            .0
+            .read()
+            .unwrap_or_else(PoisonError::into_inner);
+        for variant in pipelines.values().filter_map(|p| p.reversed_variant) {
+            // SAFETY: revz's own object; the device is idle.
+            unsafe { (next.fp_v1_0().destroy_pipeline)(device, variant, std::ptr::null()) };
+        }
         let passes = self
             .render_passes
             .0

@@ -12,7 +12,7 @@ use ash::vk;
 use revz_math::Target as RewriteTarget;
 
 use crate::command_state::{same_near_over_far, Reversing, Target};
-use crate::config::{FarClip, Mode, Observable, Settings};
+use crate::config::{CompareOp, FarClip, Mode, Observable, Settings};
 use crate::conv::{flip_depth, has_depth, Reversal};
 
 /// Why a depth image keeps standard depth.
@@ -20,9 +20,6 @@ use crate::conv::{flip_depth, has_depth, Reversal};
 pub enum NativeReason {
     /// `REVZ_MODE=off`.
     ModeOff,
-    /// The device cannot make the compare op dynamic (no Vulkan 1.3, no
-    /// `VK_EXT_extended_dynamic_state`), so draws could not follow a reversed attachment.
-    NoDynamicCompareOp,
     /// Shaders read it (sampled, storage, input attachment).
     ReadByShaders(vk::ImageUsageFlags),
     /// It is copied from (transfer source).
@@ -44,9 +41,6 @@ impl fmt::Display for NativeReason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             NativeReason::ModeOff => f.write_str("mode is off"),
-            NativeReason::NoDynamicCompareOp => f.write_str(
-                "the device has neither Vulkan 1.3 nor VK_EXT_extended_dynamic_state enabled",
-            ),
             NativeReason::ReadByShaders(usage) => {
                 write!(f, "shaders read it ({usage:?}); see reverse_observable")
             }
@@ -81,23 +75,28 @@ pub struct DevicePolicy {
     pub mode: Mode,
     pub far_clip: FarClip,
     pub observable: Observable,
-    /// Whether `vkCmdSetDepthCompareOp` (core 1.3 or the EXT) can be used.
-    pub dynamic_compare_op: bool,
+    /// Whether draws into reversed attachments get the flipped compare op from a pipeline
+    /// variant rather than `vkCmdSetDepthCompareOp`: by choice (`compare_op = variants`), or
+    /// because the device cannot make it dynamic (no Vulkan 1.3, no
+    /// `VK_EXT_extended_dynamic_state`).
+    pub compare_op_variants: bool,
 }
 
 impl DevicePolicy {
+    /// The policy of a device; `dynamic_compare_op`: whether `vkCmdSetDepthCompareOp` (core
+    /// 1.3 or the EXT) can be used.
     pub fn new(settings: &Settings, dynamic_compare_op: bool) -> DevicePolicy {
         DevicePolicy {
             mode: settings.mode,
             far_clip: settings.far_clip,
             observable: settings.reverse_observable,
-            dynamic_compare_op,
+            compare_op_variants: settings.compare_op == CompareOp::Variants || !dynamic_compare_op,
         }
     }
 
     /// Whether the layer acts on this device's depth at all.
     pub fn is_active(&self) -> bool {
-        self.mode != Mode::Off && self.dynamic_compare_op
+        self.mode != Mode::Off
     }
 
     /// The projection rewrite of the mode, if it has one (flip mode only flips).
@@ -151,9 +150,6 @@ impl DevicePolicy {
         let native = |reason| Some(ImageDepth::Native(reason));
         if self.mode == Mode::Off {
             return native(NativeReason::ModeOff);
-        }
-        if !self.dynamic_compare_op {
-            return native(NativeReason::NoDynamicCompareOp);
         }
         let shader_reads = usage
             & (vk::ImageUsageFlags::SAMPLED
@@ -264,7 +260,7 @@ mod tests {
             mode,
             far_clip: FarClip::Remove,
             observable,
-            dynamic_compare_op: true,
+            compare_op_variants: false,
         }
     }
 
@@ -376,20 +372,28 @@ mod tests {
     }
 
     #[test]
-    fn nothing_is_reversed_when_off_or_without_dynamic_compare_op() {
+    fn nothing_is_reversed_when_off_and_variants_stand_in_for_the_dynamic_compare_op() {
         let off = policy(Mode::Off, Observable::All);
         assert_eq!(
             off.classify_image(D32, ATTACHMENT, OPTIMAL),
             Some(ImageDepth::Native(NativeReason::ModeOff))
         );
         assert!(!off.is_active());
-        let no_eds = DevicePolicy {
-            dynamic_compare_op: false,
-            ..policy(Mode::Flip, Observable::None)
+        let settings = Settings {
+            mode: Mode::Flip,
+            ..Settings::default()
         };
+        let no_eds = DevicePolicy::new(&settings, false);
+        assert!(no_eds.compare_op_variants && no_eds.is_active());
         assert_eq!(
             no_eds.classify_image(D32, ATTACHMENT, OPTIMAL),
-            Some(ImageDepth::Native(NativeReason::NoDynamicCompareOp))
+            Some(ImageDepth::Reversed)
         );
+        assert!(!DevicePolicy::new(&settings, true).compare_op_variants);
+        let chosen = Settings {
+            compare_op: CompareOp::Variants,
+            ..settings
+        };
+        assert!(DevicePolicy::new(&chosen, true).compare_op_variants);
     }
 }

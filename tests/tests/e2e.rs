@@ -68,12 +68,18 @@ fn flip_scene(scene: &str, format: &str) -> String {
 /// Renders `scene` natively and in flip mode (depth readback allowed), both with the tester
 /// arguments `extra`, and compares them; returns the flip render's log.
 fn flip_scene_with(scene: &str, format: &str, extra: &[&str]) -> String {
-    flip_scene_within(scene, format, extra, flip_tolerance(format))
+    flip_scene_within(scene, format, extra, &[], flip_tolerance(format))
 }
 
-/// [`flip_scene_with`] with the depth bound `tolerance` instead of the format's
-/// [`flip_tolerance`].
-fn flip_scene_within(scene: &str, format: &str, extra: &[&str], tolerance: f32) -> String {
+/// [`flip_scene_with`] with the layer settings `settings` (environment variables) added and
+/// the depth bound `tolerance` instead of the format's [`flip_tolerance`].
+fn flip_scene_within(
+    scene: &str,
+    format: &str,
+    extra: &[&str],
+    settings: &[(&str, &str)],
+    tolerance: f32,
+) -> String {
     let harness = Harness::locate();
     // The arguments are part of both directory names: tests running at the same time render
     // the same scene and format with other arguments.
@@ -82,14 +88,19 @@ fn flip_scene_within(scene: &str, format: &str, extra: &[&str], tolerance: f32) 
     let mut command = harness.tester(format, &native_dir);
     command.args(["--scene", scene]).args(extra);
     let native = harness.render(command, &native_dir);
-    let dir = harness.scratch_dir(&format!("flip-{scene}-{format}{}", extra.join("")));
+    let settings_name: String = settings.iter().map(|(_, value)| *value).collect();
+    let dir = harness.scratch_dir(&format!(
+        "flip-{scene}-{format}{}{settings_name}",
+        extra.join("")
+    ));
     let mut command = harness.tester(format, &dir);
     command.args(["--scene", scene]).args(extra);
     harness
         .with_layer(&mut command)
         .env("REVZ_MODE", "flip")
         .env("REVZ_REVERSE_OBSERVABLE", "copies")
-        .env("REVZ_LOG", "info");
+        .env("REVZ_LOG", "info")
+        .envs(settings.iter().copied());
     let flipped = harness.render(command, &dir);
     let stderr = flipped.stderr();
     assert!(stderr.contains("): reversed"), "{scene} {format}: {stderr}");
@@ -288,7 +299,8 @@ fn flip_msaa_scene(scene: &str) {
             if resolve == "average" {
                 tolerance += average_resolve_rounding(format);
             }
-            let log = flip_scene_within(scene, format, &["--depth-resolve", resolve], tolerance);
+            let log =
+                flip_scene_within(scene, format, &["--depth-resolve", resolve], &[], tolerance);
             assert!(
                 !log.contains("resolved into native"),
                 "{scene} {format} {resolve}: the 4x depth image was made native although its \
@@ -765,4 +777,30 @@ fn bad_config_files_warn_with_file_and_line_and_the_layer_carries_on() {
         stderr.contains(&format!("{}: cannot read the config file (", dir.display())),
         "{stderr}"
     );
+}
+
+/// `compare_op = variants`, what a device without Vulkan 1.3 or
+/// `VK_EXT_extended_dynamic_state` gets: compare ops stay static and revz binds a variant of
+/// each pipeline with the flipped op for draws into reversed attachments (and the
+/// application's pipeline for native ones, as in `shadow-map`'s light pass). Same bounds as
+/// the dynamic flip path; a variant not bound would invert every occlusion.
+#[test]
+fn flip_with_compare_op_variants() {
+    let variants = [("REVZ_COMPARE_OP", "variants")];
+    let scenes = [
+        ("overlap", "d32"),
+        ("compare-ops", "d32"),
+        ("compare-ops", "d16"),
+        ("depth-bias", "d32"),
+        ("viewport-sky", "d32"),
+        ("secondary", "d32"),
+        ("subpasses", "d32"),
+        ("dynamic-rendering", "d32"),
+        ("shadow-map", "d32"),
+        ("stencil", "d32-s8"),
+    ];
+    for (scene, format) in scenes {
+        let log = flip_scene_within(scene, format, &[], &variants, flip_tolerance(format));
+        assert!(log.contains("compare_op=variants"), "{scene}: {log}");
+    }
 }

@@ -123,6 +123,31 @@ impl From<bool> for Observable {
     }
 }
 
+/// How draws into reversed attachments get their flipped compare op.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CompareOp {
+    /// `vkCmdSetDepthCompareOp` (Vulkan 1.3 or `VK_EXT_extended_dynamic_state`); devices with
+    /// neither get variants.
+    #[default]
+    Dynamic,
+    /// A second pipeline with the flipped compare op, bound for those draws.
+    Variants,
+}
+
+impl CompareOp {
+    const NAMES: &'static [&'static str] = &["dynamic", "variants"];
+
+    pub fn name(self) -> &'static str {
+        CompareOp::NAMES[self as usize]
+    }
+
+    pub fn parse(text: &str) -> Option<CompareOp> {
+        [CompareOp::Dynamic, CompareOp::Variants]
+            .into_iter()
+            .find(|v| v.name().eq_ignore_ascii_case(text.trim()))
+    }
+}
+
 /// The settings one instance runs with.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Settings {
@@ -131,6 +156,8 @@ pub struct Settings {
     /// Which depth images the application can observe (sampled, copied from, ...) are still
     /// reversed; those hand reversed values to the shaders or the CPU that read them.
     pub reverse_observable: Observable,
+    /// Dynamic compare ops or pipeline variants.
+    pub compare_op: CompareOp,
     /// Promote D16/D24 depth attachments to D32_SFLOAT (not implemented yet: no effect).
     pub promote_depth_formats: bool,
     /// The log level (per process: the first instance's settings install the logger).
@@ -145,6 +172,7 @@ impl Default for Settings {
             mode: Mode::default(),
             far_clip: FarClip::default(),
             reverse_observable: Observable::None,
+            compare_op: CompareOp::Dynamic,
             promote_depth_formats: false,
             log_level: LevelFilter::Off,
             log_file: None,
@@ -158,6 +186,7 @@ pub enum Key {
     Mode,
     FarClip,
     ReverseObservable,
+    CompareOp,
     PromoteDepthFormats,
     Log,
     LogFile,
@@ -220,6 +249,18 @@ pub const SETTINGS: &[SettingSpec] = &[
         description: "Which depth images the application can read back are reversed anyway: \
                       none; copies (images only copied from, not read by shaders); all. \
                       true and false mean all and none.",
+    },
+    SettingSpec {
+        key: Key::CompareOp,
+        name: "compare_op",
+        env: "REVZ_COMPARE_OP",
+        kind: Kind::Choice(CompareOp::NAMES),
+        default: "dynamic",
+        description: "How draws into reversed attachments get the flipped depth compare op: \
+                      dynamic (vkCmdSetDepthCompareOp; a device without Vulkan 1.3 or \
+                      VK_EXT_extended_dynamic_state uses variants anyway) or variants (revz \
+                      creates a second pipeline with the flipped compare op and binds it for \
+                      those draws).",
     },
     SettingSpec {
         key: Key::PromoteDepthFormats,
@@ -309,6 +350,7 @@ impl Settings {
                 Value::Text(text) => Observable::parse(text),
             }
             .map(|v| self.reverse_observable = v),
+            Key::CompareOp => text.and_then(CompareOp::parse).map(|v| self.compare_op = v),
             Key::PromoteDepthFormats => as_bool.map(|b| self.promote_depth_formats = b),
             Key::Log => text
                 .and_then(crate::logging::parse_level)
@@ -340,6 +382,7 @@ impl Settings {
             Key::Mode => self.mode.name().to_owned(),
             Key::FarClip => self.far_clip.name().to_owned(),
             Key::ReverseObservable => self.reverse_observable.name().to_owned(),
+            Key::CompareOp => self.compare_op.name().to_owned(),
             Key::PromoteDepthFormats => self.promote_depth_formats.to_string(),
             Key::Log => self.log_level.to_string().to_lowercase(),
             Key::LogFile => self

@@ -84,6 +84,7 @@ fn every_setting_can_be_set_by_its_environment_variable() {
             mode: Mode::Infinite,
             far_clip: FarClip::Keep,
             reverse_observable: Observable::All,
+            compare_op: CompareOp::Dynamic,
             promote_depth_formats: false,
             log_level: LevelFilter::Debug,
             log_file: Some("/tmp/revz.log".into()),
@@ -146,7 +147,7 @@ fn vulkan_configurator_settings_sit_between_the_environment_and_the_config_file(
         resolved.warnings,
         vec![
             "/vkconfig/vk_layer_settings.txt:5: unknown setting 'colour' (settings: mode, \
-             far_clip, reverse_observable, promote_depth_formats, log, log_file)",
+             far_clip, reverse_observable, compare_op, promote_depth_formats, log, log_file)",
             "/vkconfig/vk_layer_settings.txt:6: expected 'revz_reverse_z.<setting> = <value>'; \
              line ignored",
         ]
@@ -275,7 +276,7 @@ fn unknown_keys_are_reported_with_their_line_and_the_rest_applies() {
         resolved.warnings,
         vec![
             "/home/u/revz.toml:1: unknown key 'moed' (settings: mode, far_clip, \
-             reverse_observable, promote_depth_formats, log, log_file; sections: [[application]])"
+             reverse_observable, compare_op, promote_depth_formats, log, log_file; sections: [[application]])"
         ]
     );
 }
@@ -372,7 +373,7 @@ fn bad_layer_settings_are_reported() {
         world.resolve().warnings,
         vec![
             "VK_EXT_layer_settings 'color': unknown setting (known: mode, far_clip, \
-             reverse_observable, promote_depth_formats, log, log_file)",
+             reverse_observable, compare_op, promote_depth_formats, log, log_file)",
             "VK_EXT_layer_settings 'mode': true is not a valid mode \
              (expected one of: off, flip, complementary, infinite); using off",
             "VK_EXT_layer_settings 'log': no value given; ignored",

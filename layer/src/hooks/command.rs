@@ -95,6 +95,18 @@ impl StateSink for NextLayer<'_> {
         // SAFETY: as above.
         unsafe { (self.device.next.fp_v1_0().cmd_set_depth_bounds)(self.buffer, min, max) }
     }
+
+    fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
+        // SAFETY: as above; a live pipeline (the application's, or its variant, destroyed
+        // with it).
+        unsafe {
+            (self.device.next.fp_v1_0().cmd_bind_pipeline)(
+                self.buffer,
+                vk::PipelineBindPoint::GRAPHICS,
+                pipeline,
+            )
+        }
+    }
 }
 
 /// Emits pending depth state before a draw.

@@ -502,10 +502,10 @@ pub unsafe extern "system" fn create_device(
                     "device {device:?}: enabled VK_EXT_extended_dynamic_state to make the depth \
                      compare op dynamic"
                 ),
-                CompareOpSource::Unavailable => log::warn!(
-                    "device {device:?}: depth stays native: the device offers neither Vulkan \
-                     1.3 to this application nor VK_EXT_extended_dynamic_state, which revz \
-                     needs to make the depth compare op dynamic"
+                CompareOpSource::Unavailable => log::info!(
+                    "device {device:?}: the device offers neither Vulkan 1.3 to this \
+                     application nor VK_EXT_extended_dynamic_state: draws into reversed \
+                     attachments get their compare op from pipeline variants"
                 ),
                 _ => {}
             }

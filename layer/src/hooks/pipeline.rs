@@ -15,7 +15,7 @@ use super::device_state;
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::command_state::{PipelineDepth, States};
-use crate::conv::DepthBias;
+use crate::conv::{flip_compare_op, DepthBias};
 use crate::objects::ModuleAnalysis;
 use crate::precise::ProjectionUse;
 use crate::shader_analysis::{self, Analysis};
@@ -205,6 +205,9 @@ struct Plan {
     depth: PipelineDepth,
     /// Why the pipeline's draws take the flip path (precise modes).
     flip_reason: Option<String>,
+    /// Whether a variant with the static compare op flipped is to be created (the compare op
+    /// is not made dynamic: `DevicePolicy::compare_op_variants`).
+    compare_op_variant: bool,
 }
 
 /// What [`plan`] needs to know beyond the create info.
@@ -216,6 +219,8 @@ struct PlanContext {
     library_dynamic: States,
     /// The pipeline builds or links libraries: recorded, never changed.
     uses_libraries: bool,
+    /// The flipped compare op comes from a pipeline variant, not dynamic state.
+    compare_op_variants: bool,
 }
 
 /// Whether a `pNext` chain holds a structure of type `s_type`.
@@ -253,6 +258,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         dynamic_states: None,
         depth,
         flip_reason: None,
+        compare_op_variant: false,
     };
     if context.uses_libraries || !context.has_depth_attachment {
         return unchanged(depth);
@@ -282,9 +288,14 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     let mut added = Vec::new();
     let depth_test =
         depth_stencil.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
+    let mut compare_op_variant = false;
     if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
-        added.push(vk::DynamicState::DEPTH_COMPARE_OP);
-        depth.injected |= States::COMPARE_OP;
+        if context.compare_op_variants {
+            compare_op_variant = flip_compare_op(depth.compare_op) != depth.compare_op;
+        } else {
+            added.push(vk::DynamicState::DEPTH_COMPARE_OP);
+            depth.injected |= States::COMPARE_OP;
+        }
     }
     let viewport_dynamic =
         has(vk::DynamicState::VIEWPORT) || has(vk::DynamicState::VIEWPORT_WITH_COUNT);
@@ -320,15 +331,16 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         added.push(vk::DynamicState::DEPTH_BOUNDS);
         depth.injected |= States::BOUNDS;
     }
-    if added.is_empty() {
-        return unchanged(depth);
-    }
-    let mut states = app_states.to_vec();
-    states.extend(added);
+    let dynamic_states = (!added.is_empty()).then(|| {
+        let mut states = app_states.to_vec();
+        states.extend(added);
+        states
+    });
     Plan {
-        dynamic_states: Some(states),
+        dynamic_states,
         depth,
         flip_reason: None,
+        compare_op_variant,
     }
 }
 
@@ -380,6 +392,7 @@ fn context(state: &DeviceState, info: &vk::GraphicsPipelineCreateInfo<'_>) -> Pl
         has_depth_attachment,
         library_dynamic,
         uses_libraries: uses_libraries(info),
+        compare_op_variants: state.policy.compare_op_variants,
     }
 }
 
@@ -490,8 +503,17 @@ pub unsafe extern "system" fn create_graphics_pipelines(
         || {
             // SAFETY: `count` handles were written (null where creation failed).
             let pipelines = unsafe { slice(p_pipelines, count) };
-            for (&pipeline, plan) in pipelines.iter().zip(plans) {
-                if let Some(plan) = plan.filter(|_| pipeline != vk::Pipeline::null()) {
+            let created = pipelines
+                .iter()
+                .zip(plans)
+                .zip(infos.iter().zip(&dynamic_infos));
+            for ((&pipeline, plan), (info, dynamic)) in created {
+                if let Some(mut plan) = plan.filter(|_| pipeline != vk::Pipeline::null()) {
+                    plan.depth.handle = pipeline;
+                    if plan.compare_op_variant {
+                        plan.depth.reversed_variant =
+                            create_compare_op_variant(&state, device, cache, info, dynamic);
+                    }
                     match (&plan.depth.projection, &plan.flip_reason) {
                         (Some(p), _) => log::debug!(
                             "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
@@ -600,13 +622,81 @@ destroy_hook!(
     destroy_pipeline_layout
 );
 
-destroy_hook!(
-    destroy_pipeline,
-    DESTROY_PIPELINE,
-    vk::Pipeline,
-    pipelines,
-    destroy_pipeline
-);
+/// Creates the compare-op variant of a pipeline: its create info (with the dynamic states
+/// revz added) with the static depth compare op flipped. Not a derivative (the base index of
+/// the application's batch means nothing in a batch of one). `None` when creation fails: the
+/// pipeline's draws into reversed attachments then keep its compare op (logged once).
+fn create_compare_op_variant(
+    state: &DeviceState,
+    device: vk::Device,
+    cache: vk::PipelineCache,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+    dynamic: &Option<vk::PipelineDynamicStateCreateInfo<'_>>,
+) -> Option<vk::Pipeline> {
+    static FAILED: AtomicBool = AtomicBool::new(false);
+    // SAFETY: non-null (the plan read it) and valid (the application's contract).
+    let depth_stencil = unsafe { info.p_depth_stencil_state.as_ref() }?;
+    let flipped = vk::PipelineDepthStencilStateCreateInfo {
+        depth_compare_op: flip_compare_op(depth_stencil.depth_compare_op),
+        ..*depth_stencil
+    };
+    let variant_info = vk::GraphicsPipelineCreateInfo {
+        flags: info.flags & !vk::PipelineCreateFlags::DERIVATIVE,
+        base_pipeline_handle: vk::Pipeline::null(),
+        base_pipeline_index: -1,
+        p_depth_stencil_state: &flipped,
+        p_dynamic_state: dynamic.as_ref().map_or(info.p_dynamic_state, |d| d),
+        ..*info
+    };
+    let mut variant = vk::Pipeline::null();
+    // SAFETY: the application's create info with the depth state and dynamic list replaced by
+    // copies that live until the call returns; revz's own object, so no allocator.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_graphics_pipelines)(
+            device,
+            cache,
+            1,
+            &variant_info,
+            std::ptr::null(),
+            &mut variant,
+        )
+    };
+    if result != vk::Result::SUCCESS || variant == vk::Pipeline::null() {
+        if !FAILED.swap(true, Ordering::Relaxed) {
+            log::warn!(
+                "the compare-op variant of a pipeline could not be created ({result:?}): its \
+                 draws into reversed attachments keep its compare op"
+            );
+        }
+        return None;
+    }
+    Some(variant)
+}
+
+pub unsafe extern "system" fn destroy_pipeline(
+    device: vk::Device,
+    pipeline: vk::Pipeline,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return;
+    };
+    let destroy = state.next.fp_v1_0().destroy_pipeline;
+    super::record(&DESTROY_PIPELINE, || {
+        let variant = state
+            .objects
+            .pipelines
+            .remove(&pipeline)
+            .and_then(|depth| depth.reversed_variant);
+        if let Some(variant) = variant {
+            // SAFETY: revz's own object, in use only where the application's pipeline was.
+            unsafe { destroy(device, variant, std::ptr::null()) };
+        }
+    });
+    // SAFETY: calling down with the application's arguments.
+    unsafe { destroy(device, pipeline, p_allocator) };
+}
 
 #[cfg(test)]
 mod tests {
@@ -638,6 +728,7 @@ mod tests {
         has_depth_attachment: true,
         library_dynamic: States::NONE,
         uses_libraries: false,
+        compare_op_variants: false,
     };
 
     const VIEWPORT: [vk::Viewport; 1] = [vk::Viewport {
@@ -685,6 +776,44 @@ mod tests {
         assert_eq!(pipeline.bias.constant, -4.0);
         assert_eq!(pipeline.bounds, (0.0, 0.75));
         assert_eq!(pipeline.viewports.len(), 1);
+    }
+
+    #[test]
+    fn with_variants_the_compare_op_stays_static_and_a_variant_is_planned_where_it_flips() {
+        let depth = depth_state(true, false);
+        let raster = raster(false, false);
+        let viewport = vk::PipelineViewportStateCreateInfo::default().viewports(&VIEWPORT);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .depth_stencil_state(&depth)
+            .rasterization_state(&raster)
+            .viewport_state(&viewport);
+        let variants = PlanContext {
+            compare_op_variants: true,
+            ..RENDERS_DEPTH
+        };
+        let planned = plan(&info, &variants);
+        assert!(planned.compare_op_variant);
+        assert_eq!(
+            planned
+                .dynamic_states
+                .expect("the viewport is made dynamic"),
+            [vk::DynamicState::VIEWPORT]
+        );
+        assert!(!planned.depth.injected.contains(States::COMPARE_OP));
+        assert_eq!(planned.depth.compare_op, vk::CompareOp::LESS_OR_EQUAL);
+
+        // EQUAL reads the same reversed: no variant, and nothing else to add.
+        let equal = vk::PipelineDepthStencilStateCreateInfo {
+            depth_compare_op: vk::CompareOp::EQUAL,
+            ..depth
+        };
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .depth_stencil_state(&equal)
+            .rasterization_state(&raster);
+        let planned = plan(&info, &variants);
+        assert!(!planned.compare_op_variant);
+        assert!(planned.dynamic_states.is_none());
+        assert!(!plan(&info, &RENDERS_DEPTH).compare_op_variant);
     }
 
     #[test]
