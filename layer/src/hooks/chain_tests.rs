@@ -6,10 +6,9 @@ use ash::vk;
 
 use super::fake_chain::{
     self, fake_cmd_draw, fake_command, fake_create_device, fake_destroy_device,
-    fake_get_device_proc_addr, fake_get_instance_proc_addr, Event, Tables, VoidFn,
+    fake_get_device_proc_addr, Event, Tables, VoidFn,
 };
 use super::{device, instance};
-use crate::ffi;
 use crate::state::{DispatchKey, DEVICES, INSTANCES};
 
 #[test]
@@ -17,44 +16,10 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
     // This test's own dispatch tables: other tests create instances and devices in parallel.
     let tables = Tables::fresh();
     // --- instance
-    let mut instance_link = ffi::LayerInstanceLink {
-        p_next: std::ptr::null_mut(),
-        pfn_next_get_instance_proc_addr: fake_get_instance_proc_addr,
-        pfn_next_get_physical_device_proc_addr: None,
-    };
-    let mut instance_chain = ffi::LayerInstanceCreateInfo {
-        s_type: ffi::STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO,
-        p_next: std::ptr::null(),
-        function: ffi::LAYER_LINK_INFO,
-        p_layer_info: &mut instance_link,
-    };
     // The application asks for flip mode through VK_EXT_layer_settings.
-    let flip = [c"flip".as_ptr()];
-    let settings = [vk::LayerSettingEXT {
-        p_layer_name: c"VK_LAYER_REVZ_reverse_z".as_ptr(),
-        p_setting_name: c"mode".as_ptr(),
-        ty: vk::LayerSettingTypeEXT::STRING,
-        value_count: 1,
-        p_values: flip.as_ptr().cast(),
-        ..Default::default()
-    }];
-    let mut layer_settings = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
-    layer_settings.p_next = (&mut instance_chain as *mut ffi::LayerInstanceCreateInfo).cast();
-    let app_info = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
-    let create_info = vk::InstanceCreateInfo {
-        p_next: (&layer_settings as *const vk::LayerSettingsCreateInfoEXT).cast(),
-        p_application_info: &app_info,
-        ..Default::default()
-    };
-    let mut handle = vk::Instance::null();
-    // SAFETY: a well-formed loader chain over the fake layer.
-    let result = unsafe { instance::create_instance(&create_info, std::ptr::null(), &mut handle) };
-    assert_eq!(result, vk::Result::SUCCESS);
+    let (handle, advanced) = fake_chain::create_instance(&[(c"mode", c"flip")]);
     assert_ne!(handle, vk::Instance::null());
-    assert!(
-        instance_chain.p_layer_info.is_null(),
-        "revz must advance the chain to the next link"
-    );
+    assert!(advanced, "revz must advance the chain to the next link");
     // SAFETY: `handle` is the fake's live object.
     let instance_key = unsafe { DispatchKey::of(handle) };
     let state = INSTANCES
@@ -83,30 +48,11 @@ fn instance_and_device_go_through_the_chain_and_unknown_commands_pass_down() {
         assert!(instance::get_instance_proc_addr(handle, c"vkNoSuchCommand".as_ptr()).is_none());
     }
 
-    // --- device: the physical device shares the instance's dispatch table.
-    let physical: vk::PhysicalDevice = fake_chain::dispatchable(fake_chain::key(tables.instance));
-    let mut device_link = ffi::LayerDeviceLink {
-        p_next: std::ptr::null_mut(),
-        pfn_next_get_instance_proc_addr: fake_get_instance_proc_addr,
-        pfn_next_get_device_proc_addr: fake_get_device_proc_addr,
-    };
-    let mut device_chain = ffi::LayerDeviceCreateInfo {
-        s_type: ffi::STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO,
-        p_next: std::ptr::null(),
-        function: ffi::LAYER_LINK_INFO,
-        p_layer_info: &mut device_link,
-    };
-    let device_info = vk::DeviceCreateInfo {
-        p_next: (&mut device_chain as *mut ffi::LayerDeviceCreateInfo).cast(),
-        ..Default::default()
-    };
-    let mut device_handle = vk::Device::null();
-    // SAFETY: a well-formed loader chain over the fake layer.
-    let result = unsafe {
-        instance::create_device(physical, &device_info, std::ptr::null(), &mut device_handle)
-    };
-    assert_eq!(result, vk::Result::SUCCESS);
-    assert!(device_chain.p_layer_info.is_null());
+    // --- device
+    let (physical, device_handle, advanced) =
+        fake_chain::create_device(tables, fake_get_device_proc_addr);
+    assert_ne!(device_handle, vk::Device::null());
+    assert!(advanced);
     // SAFETY: the fake's live object.
     let device_key = unsafe { DispatchKey::of(device_handle) };
     let device_state = DEVICES.get(device_key).expect("the device is registered");

@@ -583,3 +583,81 @@ mod passes {
         note(unsafe { key_of(buffer) }, Event::EndRendering);
     }
 }
+
+/// Creates an instance through revz over the fake layer, as a Vulkan 1.3 application that
+/// passes `settings` (name, string value) through `VK_EXT_layer_settings`. Returns the
+/// instance and whether revz advanced the loader chain to the next link.
+pub(super) fn create_instance(settings: &[(&'static CStr, &'static CStr)]) -> (vk::Instance, bool) {
+    let mut instance_link = crate::ffi::LayerInstanceLink {
+        p_next: std::ptr::null_mut(),
+        pfn_next_get_instance_proc_addr: fake_get_instance_proc_addr,
+        pfn_next_get_physical_device_proc_addr: None,
+    };
+    let mut instance_chain = crate::ffi::LayerInstanceCreateInfo {
+        s_type: crate::ffi::STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO,
+        p_next: std::ptr::null(),
+        function: crate::ffi::LAYER_LINK_INFO,
+        p_layer_info: &mut instance_link,
+    };
+    let values: Vec<[*const c_char; 1]> = settings.iter().map(|(_, v)| [v.as_ptr()]).collect();
+    let settings: Vec<vk::LayerSettingEXT<'_>> = settings
+        .iter()
+        .zip(&values)
+        .map(|((name, _), value)| vk::LayerSettingEXT {
+            p_layer_name: c"VK_LAYER_REVZ_reverse_z".as_ptr(),
+            p_setting_name: name.as_ptr(),
+            ty: vk::LayerSettingTypeEXT::STRING,
+            value_count: 1,
+            p_values: value.as_ptr().cast(),
+            ..Default::default()
+        })
+        .collect();
+    let mut layer_settings = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
+    layer_settings.p_next =
+        (&mut instance_chain as *mut crate::ffi::LayerInstanceCreateInfo).cast();
+    let app_info = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+    let create_info = vk::InstanceCreateInfo {
+        p_next: (&layer_settings as *const vk::LayerSettingsCreateInfoEXT).cast(),
+        p_application_info: &app_info,
+        ..Default::default()
+    };
+    let mut instance = vk::Instance::null();
+    // SAFETY: a well-formed loader chain over the fake layer.
+    let result =
+        unsafe { super::instance::create_instance(&create_info, std::ptr::null(), &mut instance) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    (instance, instance_chain.p_layer_info.is_null())
+}
+
+/// Creates a device through revz over the fake layer whose `vkGetDeviceProcAddr` is `gdpa`,
+/// on a physical device of the instance made with `tables`. Returns the physical device, the
+/// device and whether revz advanced the loader chain to the next link.
+pub(super) fn create_device(
+    tables: Tables,
+    gdpa: vk::PFN_vkGetDeviceProcAddr,
+) -> (vk::PhysicalDevice, vk::Device, bool) {
+    // The physical device shares the instance's dispatch table.
+    let physical: vk::PhysicalDevice = dispatchable(key(tables.instance));
+    let mut device_link = crate::ffi::LayerDeviceLink {
+        p_next: std::ptr::null_mut(),
+        pfn_next_get_instance_proc_addr: fake_get_instance_proc_addr,
+        pfn_next_get_device_proc_addr: gdpa,
+    };
+    let mut device_chain = crate::ffi::LayerDeviceCreateInfo {
+        s_type: crate::ffi::STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO,
+        p_next: std::ptr::null(),
+        function: crate::ffi::LAYER_LINK_INFO,
+        p_layer_info: &mut device_link,
+    };
+    let device_info = vk::DeviceCreateInfo {
+        p_next: (&mut device_chain as *mut crate::ffi::LayerDeviceCreateInfo).cast(),
+        ..Default::default()
+    };
+    let mut device = vk::Device::null();
+    // SAFETY: a well-formed loader chain over the fake layer.
+    let result = unsafe {
+        super::instance::create_device(physical, &device_info, std::ptr::null(), &mut device)
+    };
+    assert_eq!(result, vk::Result::SUCCESS);
+    (physical, device, device_chain.p_layer_info.is_null())
+}

@@ -14,7 +14,6 @@ use ash::vk::{self, Handle};
 
 use super::fake_chain::{self, Event, SeenDepthAttachment, SeenResolve, Tables, VoidFn};
 use super::{device, instance};
-use crate::ffi;
 use crate::policy::{ImageDepth, NativeReason};
 use crate::state::{DeviceState, DispatchKey, DEVICES, INSTANCES};
 
@@ -157,71 +156,11 @@ impl Fixture {
     /// Flip mode, `reverse_observable = none`, a Vulkan 1.3 application and device.
     fn new() -> Fixture {
         let tables = Tables::fresh();
-        let mut instance_link = ffi::LayerInstanceLink {
-            p_next: std::ptr::null_mut(),
-            pfn_next_get_instance_proc_addr: fake_chain::fake_get_instance_proc_addr,
-            pfn_next_get_physical_device_proc_addr: None,
-        };
-        let mut instance_chain = ffi::LayerInstanceCreateInfo {
-            s_type: ffi::STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO,
-            p_next: std::ptr::null(),
-            function: ffi::LAYER_LINK_INFO,
-            p_layer_info: &mut instance_link,
-        };
-        let flip = [c"flip".as_ptr()];
-        let none = [c"none".as_ptr()];
-        let setting = |name: &'static std::ffi::CStr, value: &[*const std::ffi::c_char; 1]| {
-            vk::LayerSettingEXT {
-                p_layer_name: c"VK_LAYER_REVZ_reverse_z".as_ptr(),
-                p_setting_name: name.as_ptr(),
-                ty: vk::LayerSettingTypeEXT::STRING,
-                value_count: 1,
-                p_values: value.as_ptr().cast(),
-                ..Default::default()
-            }
-        };
-        let settings = [
-            setting(c"mode", &flip),
-            setting(c"reverse_observable", &none),
-        ];
-        let mut layer_settings = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
-        layer_settings.p_next = (&mut instance_chain as *mut ffi::LayerInstanceCreateInfo).cast();
-        let app_info = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
-        let create_info = vk::InstanceCreateInfo {
-            p_next: (&layer_settings as *const vk::LayerSettingsCreateInfoEXT).cast(),
-            p_application_info: &app_info,
-            ..Default::default()
-        };
-        let mut instance = vk::Instance::null();
-        // SAFETY: a well-formed loader chain over the fake layer.
-        let result =
-            unsafe { instance::create_instance(&create_info, std::ptr::null(), &mut instance) };
-        assert_eq!(result, vk::Result::SUCCESS);
+        let (instance, _) =
+            fake_chain::create_instance(&[(c"mode", c"flip"), (c"reverse_observable", c"none")]);
 
-        // The physical device shares the instance's dispatch table.
-        let physical: vk::PhysicalDevice =
-            fake_chain::dispatchable(fake_chain::key(tables.instance));
-        let mut device_link = ffi::LayerDeviceLink {
-            p_next: std::ptr::null_mut(),
-            pfn_next_get_instance_proc_addr: fake_chain::fake_get_instance_proc_addr,
-            pfn_next_get_device_proc_addr: fake_chain::fake_get_device_proc_addr_with_passes,
-        };
-        let mut device_chain = ffi::LayerDeviceCreateInfo {
-            s_type: ffi::STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO,
-            p_next: std::ptr::null(),
-            function: ffi::LAYER_LINK_INFO,
-            p_layer_info: &mut device_link,
-        };
-        let device_info = vk::DeviceCreateInfo {
-            p_next: (&mut device_chain as *mut ffi::LayerDeviceCreateInfo).cast(),
-            ..Default::default()
-        };
-        let mut device = vk::Device::null();
-        // SAFETY: a well-formed loader chain over the fake layer.
-        let result = unsafe {
-            instance::create_device(physical, &device_info, std::ptr::null(), &mut device)
-        };
-        assert_eq!(result, vk::Result::SUCCESS);
+        let (physical, device, _) =
+            fake_chain::create_device(tables, fake_chain::fake_get_device_proc_addr_with_passes);
         // SAFETY: the fake's live device.
         let state = DEVICES
             .get(unsafe { DispatchKey::of(device) })
