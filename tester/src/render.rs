@@ -8,6 +8,7 @@
 use std::fmt;
 
 use anyhow::{anyhow, bail, Context, Result};
+use ash::prelude::VkResult;
 use ash::vk;
 
 use crate::gpu::{Gpu, HostBuffer};
@@ -1198,6 +1199,24 @@ impl Recorder<'_> {
         };
     }
 
+    /// Begins a fresh secondary command buffer that continues pass `n`, inheriting its render
+    /// pass, the current subpass and its framebuffer.
+    fn begin_secondary(&self, secondary: vk::CommandBuffer, n: usize) -> VkResult<()> {
+        let inheritance = vk::CommandBufferInheritanceInfo::default()
+            .render_pass(self.renderer.render_passes[n])
+            .subpass(self.subpass)
+            .framebuffer(self.renderer.framebuffers[n]);
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(
+                vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
+                    | vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT,
+            )
+            .inheritance_info(&inheritance);
+        // SAFETY: a fresh secondary of one of this device's pools; the inheritance names the
+        // current render pass, subpass and framebuffer.
+        unsafe { self.device().begin_command_buffer(secondary, &begin) }
+    }
+
     /// Records each list into the next secondary command buffer and executes them.
     fn execute_secondaries(&mut self, cmd: vk::CommandBuffer, lists: &[Vec<Step>]) -> Result<()> {
         let n = self
@@ -1211,19 +1230,7 @@ impl Recorder<'_> {
                 .get(self.next_secondary)
                 .ok_or_else(|| anyhow!("not enough secondary command buffers"))?;
             self.next_secondary += 1;
-            let inheritance = vk::CommandBufferInheritanceInfo::default()
-                .render_pass(self.renderer.render_passes[n])
-                .subpass(self.subpass)
-                .framebuffer(self.renderer.framebuffers[n]);
-            let begin = vk::CommandBufferBeginInfo::default()
-                .flags(
-                    vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
-                        | vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT,
-                )
-                .inheritance_info(&inheritance);
-            // SAFETY: a fresh secondary of this device's pool; the inheritance names the
-            // current render pass, subpass and framebuffer.
-            unsafe { self.device().begin_command_buffer(secondary, &begin) }
+            self.begin_secondary(secondary, n)
                 .context("vkBeginCommandBuffer (secondary) failed")?;
             // Secondaries inherit no bound state: geometry and pipeline are bound again.
             self.pipeline = None;
@@ -1338,19 +1345,7 @@ impl Recorder<'_> {
                 .into_iter()
                 .next()
                 .ok_or_else(|| anyhow!("vkAllocateCommandBuffers returned no command buffer"))?;
-            let inheritance = vk::CommandBufferInheritanceInfo::default()
-                .render_pass(self.renderer.render_passes[n])
-                .subpass(self.subpass)
-                .framebuffer(self.renderer.framebuffers[n]);
-            let begin = vk::CommandBufferBeginInfo::default()
-                .flags(
-                    vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
-                        | vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT,
-                )
-                .inheritance_info(&inheritance);
-            // SAFETY: a fresh secondary of this thread's pool; the inheritance names the
-            // current render pass, subpass and framebuffer.
-            unsafe { device.begin_command_buffer(secondary, &begin) }
+            self.begin_secondary(secondary, n)
                 .context("vkBeginCommandBuffer (recording thread) failed")?;
             self.bind_geometry(secondary);
             self.record(secondary, list)?;
