@@ -95,20 +95,21 @@ pub unsafe fn c_str<'a>(ptr: *const c_char) -> Option<&'a CStr> {
 /// `p_next` must be null or the head of a valid Vulkan structure chain, and any structure of
 /// type `s_type` in it must have the layout of `T` (a `#[repr(C)]` struct starting with
 /// `sType`, `pNext`, `function`).
-unsafe fn find_link_info<T>(mut p_next: *const c_void, s_type: vk::StructureType) -> *mut T {
-    while !p_next.is_null() {
-        // SAFETY: every structure in a valid chain starts like `VkBaseInStructure`.
-        let base = unsafe { &*p_next.cast::<vk::BaseInStructure>() };
-        if base.s_type == s_type {
-            // SAFETY: the loader's create infos start with sType, pNext, function (u32).
-            let function = unsafe { *p_next.cast::<u8>().add(function_offset()).cast::<u32>() };
-            if function == LAYER_LINK_INFO {
-                return p_next.cast_mut().cast();
-            }
-        }
-        p_next = base.p_next.cast();
-    }
-    std::ptr::null_mut()
+unsafe fn find_link_info<T>(p_next: *const c_void, s_type: vk::StructureType) -> *mut T {
+    // SAFETY: the caller's contract.
+    let link = unsafe { crate::chain::structures(p_next) }
+        .map(|base| (base as *const vk::BaseInStructure<'_>).cast::<u8>())
+        .find(|&structure| {
+            // SAFETY: the sType is checked first; the loader's create infos start with sType,
+            // pNext, function (u32).
+            let s_type_found = unsafe { *structure.cast::<vk::StructureType>() };
+            // SAFETY: as above.
+            s_type_found == s_type
+                && unsafe { *structure.add(function_offset()).cast::<u32>() } == LAYER_LINK_INFO
+        });
+    link.map_or(std::ptr::null_mut(), |structure| {
+        structure.cast_mut().cast()
+    })
 }
 
 const fn function_offset() -> usize {

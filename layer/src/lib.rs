@@ -14,6 +14,7 @@
 #![allow(non_snake_case)]
 
 pub mod boundary;
+pub mod chain;
 pub mod command_state;
 pub mod config;
 pub mod conv;

@@ -26,27 +26,28 @@ pub struct LayerSetting {
 /// # Safety
 /// `p_next` must be null or the head of a valid Vulkan structure chain (as the spec requires of
 /// `VkInstanceCreateInfo::pNext`).
-pub unsafe fn read(mut p_next: *const c_void) -> Vec<LayerSetting> {
+pub unsafe fn read(p_next: *const c_void) -> Vec<LayerSetting> {
     let mut found = Vec::new();
-    while !p_next.is_null() {
-        // SAFETY: every structure in a valid chain starts like `VkBaseInStructure`.
-        let base = unsafe { &*p_next.cast::<vk::BaseInStructure>() };
-        if base.s_type == vk::StructureType::LAYER_SETTINGS_CREATE_INFO_EXT {
-            // SAFETY: the sType identifies the structure.
-            let info = unsafe { &*p_next.cast::<vk::LayerSettingsCreateInfoEXT>() };
-            let count = info.setting_count as usize;
-            if count > 0 && !info.p_settings.is_null() {
-                // SAFETY: the spec requires `settingCount` valid elements.
-                let settings = unsafe { std::slice::from_raw_parts(info.p_settings, count) };
-                for setting in settings {
-                    // SAFETY: each element is a valid `VkLayerSettingEXT`.
-                    if let Some(setting) = unsafe { read_one(setting) } {
-                        found.push(setting);
-                    }
+    // SAFETY: the caller's contract.
+    for base in unsafe { crate::chain::structures(p_next) } {
+        if base.s_type != vk::StructureType::LAYER_SETTINGS_CREATE_INFO_EXT {
+            continue;
+        }
+        // SAFETY: the sType identifies the structure.
+        let info = unsafe {
+            &*(base as *const vk::BaseInStructure<'_>).cast::<vk::LayerSettingsCreateInfoEXT>()
+        };
+        let count = info.setting_count as usize;
+        if count > 0 && !info.p_settings.is_null() {
+            // SAFETY: the spec requires `settingCount` valid elements.
+            let settings = unsafe { std::slice::from_raw_parts(info.p_settings, count) };
+            for setting in settings {
+                // SAFETY: each element is a valid `VkLayerSettingEXT`.
+                if let Some(setting) = unsafe { read_one(setting) } {
+                    found.push(setting);
                 }
             }
         }
-        p_next = base.p_next.cast();
     }
     found
 }

@@ -10,6 +10,7 @@ use ash::vk;
 
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
+use crate::chain;
 use crate::command_state::{StateSink, Target};
 use crate::config::Mode;
 use crate::conv::{flip_resolve_mode, DepthBias};
@@ -524,18 +525,12 @@ fn attachment_views(
             return views;
         }
     }
-    let mut next = begin_next.cast::<vk::BaseInStructure>();
     // SAFETY: a valid pNext chain (the application's contract).
-    while let Some(base) = unsafe { next.as_ref() } {
-        if base.s_type == vk::StructureType::RENDER_PASS_ATTACHMENT_BEGIN_INFO {
-            // SAFETY: the sType identifies the structure; `attachmentCount` views.
-            let info = unsafe { &*next.cast::<vk::RenderPassAttachmentBeginInfo<'_>>() };
-            // SAFETY: as above.
-            return Arc::from(unsafe { slice(info.p_attachments, info.attachment_count) });
-        }
-        next = base.p_next;
+    match unsafe { chain::find::<vk::RenderPassAttachmentBeginInfo<'_>>(begin_next) } {
+        // SAFETY: `attachmentCount` views.
+        Some(info) => Arc::from(unsafe { slice(info.p_attachments, info.attachment_count) }),
+        None => Arc::from([]),
     }
-    Arc::from([])
 }
 
 /// What a render pass begin passes down in place of the application's values.
@@ -1131,19 +1126,11 @@ fn inherited_target(
         return format.map_or(Target::None, |f| format_target(device, f));
     }
     // Dynamic rendering inheritance names only the formats.
-    let mut next = inheritance.p_next.cast::<vk::BaseInStructure>();
     // SAFETY: a valid pNext chain (the application's contract).
-    while let Some(base) = unsafe { next.as_ref() } {
-        if base.s_type == vk::StructureType::COMMAND_BUFFER_INHERITANCE_RENDERING_INFO {
-            // SAFETY: the sType identifies the structure.
-            let info = unsafe { &*next.cast::<vk::CommandBufferInheritanceRenderingInfo<'_>>() };
-            if info.depth_attachment_format != vk::Format::UNDEFINED {
-                return format_target(device, info.depth_attachment_format);
-            }
-        }
-        next = base.p_next;
-    }
-    Target::None
+    unsafe { chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next) }
+        .map(|info| info.depth_attachment_format)
+        .filter(|&format| format != vk::Format::UNDEFINED)
+        .map_or(Target::None, |format| format_target(device, format))
 }
 
 /// Without a framebuffer, a secondary only knows its depth format: it follows the device's

@@ -295,20 +295,14 @@ fn extended_dynamic_state_requested(create_info: &vk::DeviceCreateInfo) -> (bool
         let name = unsafe { ffi::c_str(name) };
         name == Some(EXTENDED_DYNAMIC_STATE)
     });
-    let mut next = create_info.p_next.cast::<vk::BaseInStructure>();
-    let (mut feature_struct, mut feature) = (false, false);
     // SAFETY: a valid pNext chain (the application's contract).
-    while let Some(base) = unsafe { next.as_ref() } {
-        if base.s_type == vk::StructureType::PHYSICAL_DEVICE_EXTENDED_DYNAMIC_STATE_FEATURES_EXT {
-            feature_struct = true;
-            // SAFETY: the sType identifies the structure.
-            let features =
-                unsafe { &*next.cast::<vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT<'_>>() };
-            feature |= features.extended_dynamic_state == vk::TRUE;
-        }
-        next = base.p_next;
-    }
-    (extension, feature_struct, feature)
+    let features = unsafe {
+        crate::chain::find::<vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT<'_>>(
+            create_info.p_next,
+        )
+    };
+    let feature = features.is_some_and(|f| f.extended_dynamic_state == vk::TRUE);
+    (extension, features.is_some(), feature)
 }
 
 /// What identifies this process to per-application config sections.

@@ -14,6 +14,7 @@ use ash::vk;
 use super::device_state;
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
+use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, DepthBias};
 use crate::objects::ModuleAnalysis;
@@ -35,19 +36,14 @@ fn uses_libraries(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
     if info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR) {
         return true;
     }
-    let mut next = info.p_next.cast::<vk::BaseInStructure>();
     // SAFETY: a valid pNext chain (the application's contract).
-    while let Some(base) = unsafe { next.as_ref() } {
-        if matches!(
+    unsafe { chain::structures(info.p_next) }.any(|base| {
+        matches!(
             base.s_type,
             vk::StructureType::PIPELINE_LIBRARY_CREATE_INFO_KHR
                 | vk::StructureType::GRAPHICS_PIPELINE_LIBRARY_CREATE_INFO_EXT
-        ) {
-            return true;
-        }
-        next = base.p_next;
-    }
-    false
+        )
+    })
 }
 
 /// Whether the fragment stage of a create info writes `FragDepth`, from its module (looked up
@@ -65,19 +61,7 @@ fn writes_frag_depth(
             if stage.module != vk::ShaderModule::null() {
                 return module_writes(stage.module);
             }
-            let mut next = stage.p_next.cast::<vk::BaseInStructure>();
-            // SAFETY: a valid pNext chain.
-            while let Some(base) = unsafe { next.as_ref() } {
-                if base.s_type == vk::StructureType::SHADER_MODULE_CREATE_INFO {
-                    // SAFETY: the sType identifies the structure; `codeSize` bytes of code.
-                    let inline = unsafe { &*next.cast::<vk::ShaderModuleCreateInfo<'_>>() };
-                    // SAFETY: as above.
-                    let words = unsafe { slice(inline.p_code, (inline.code_size / 4) as u32) };
-                    return crate::spirv_scan::writes_frag_depth(words);
-                }
-                next = base.p_next;
-            }
-            false
+            inline_code(stage).is_some_and(crate::spirv_scan::writes_frag_depth)
         })
 }
 
@@ -97,18 +81,10 @@ fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> ModuleAnaly
 /// The SPIR-V chained into a stage instead of a module (`VkShaderModuleCreateInfo` in its
 /// `pNext`), if any.
 fn inline_code<'a>(stage: &'a vk::PipelineShaderStageCreateInfo<'_>) -> Option<&'a [u32]> {
-    let mut next = stage.p_next.cast::<vk::BaseInStructure>();
     // SAFETY: a valid pNext chain (the application's contract).
-    while let Some(base) = unsafe { next.as_ref() } {
-        if base.s_type == vk::StructureType::SHADER_MODULE_CREATE_INFO {
-            // SAFETY: the sType identifies the structure; `codeSize` bytes of code.
-            let inline = unsafe { &*next.cast::<vk::ShaderModuleCreateInfo<'_>>() };
-            // SAFETY: as above.
-            return Some(unsafe { slice(inline.p_code, (inline.code_size / 4) as u32) });
-        }
-        next = base.p_next;
-    }
-    None
+    let inline = unsafe { chain::find::<vk::ShaderModuleCreateInfo<'_>>(stage.p_next) }?;
+    // SAFETY: `codeSize` bytes of code.
+    Some(unsafe { slice(inline.p_code, (inline.code_size / 4) as u32) })
 }
 
 /// The clip-space depth convention of a pipeline (`VK_EXT_depth_clip_control`); `None` when
@@ -124,20 +100,17 @@ fn depth_convention(
     let Some(viewport) = (unsafe { info.p_viewport_state.as_ref() }) else {
         return Some(DepthConvention::ZeroToOne);
     };
-    let mut next = viewport.p_next.cast::<vk::BaseInStructure>();
-    // SAFETY: a valid pNext chain.
-    while let Some(base) = unsafe { next.as_ref() } {
-        if base.s_type == vk::StructureType::PIPELINE_VIEWPORT_DEPTH_CLIP_CONTROL_CREATE_INFO_EXT {
-            // SAFETY: the sType identifies the structure.
-            let control =
-                unsafe { &*next.cast::<vk::PipelineViewportDepthClipControlCreateInfoEXT<'_>>() };
-            if control.negative_one_to_one == vk::TRUE {
-                return Some(DepthConvention::NegativeOneToOne);
-            }
-        }
-        next = base.p_next;
-    }
-    Some(DepthConvention::ZeroToOne)
+    // SAFETY: a valid pNext chain (the application's contract).
+    let control = unsafe {
+        chain::find::<vk::PipelineViewportDepthClipControlCreateInfoEXT<'_>>(viewport.p_next)
+    };
+    Some(
+        if control.is_some_and(|c| c.negative_one_to_one == vk::TRUE) {
+            DepthConvention::NegativeOneToOne
+        } else {
+            DepthConvention::ZeroToOne
+        },
+    )
 }
 
 /// Where a pipeline's projection is in its push constants (the precise path), or why its draws
@@ -223,18 +196,6 @@ struct PlanContext {
     compare_op_variants: bool,
 }
 
-/// Whether a `pNext` chain holds a structure of type `s_type`.
-fn chain_has(mut next: *const vk::BaseInStructure<'_>, s_type: vk::StructureType) -> bool {
-    // SAFETY: a valid pNext chain (the application's contract).
-    while let Some(base) = unsafe { next.as_ref() } {
-        if base.s_type == s_type {
-            return true;
-        }
-        next = base.p_next;
-    }
-    false
-}
-
 /// Plans one create info. Every graphics pipeline gets a [`PipelineDepth`] (at least the
 /// states the application made dynamic, so that draw time never sends state a pipeline keeps
 /// static); depth-related static state becomes dynamic only for pipelines that render depth
@@ -316,10 +277,13 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         };
         // A bias with an explicit representation (VK_EXT_depth_bias_control) cannot be re-sent
         // with vkCmdSetDepthBias without losing it: such pipelines keep their static bias.
-        let represented = chain_has(
-            raster.p_next.cast(),
-            vk::StructureType::DEPTH_BIAS_REPRESENTATION_INFO_EXT,
-        );
+        // SAFETY: a valid pNext chain (the application's contract).
+        let represented = unsafe {
+            chain::has(
+                raster.p_next,
+                vk::StructureType::DEPTH_BIAS_REPRESENTATION_INFO_EXT,
+            )
+        };
         if bias && !represented && !has(vk::DynamicState::DEPTH_BIAS) {
             added.push(vk::DynamicState::DEPTH_BIAS);
             depth.injected |= States::BIAS;
@@ -359,34 +323,20 @@ fn context(state: &DeviceState, info: &vk::GraphicsPipelineCreateInfo<'_>) -> Pl
             })
             .is_some()
     } else {
-        let mut next = info.p_next.cast::<vk::BaseInStructure>();
-        let mut format = vk::Format::UNDEFINED;
         // SAFETY: a valid pNext chain (the application's contract).
-        while let Some(base) = unsafe { next.as_ref() } {
-            if base.s_type == vk::StructureType::PIPELINE_RENDERING_CREATE_INFO {
-                // SAFETY: the sType identifies the structure.
-                let rendering = unsafe { &*next.cast::<vk::PipelineRenderingCreateInfo<'_>>() };
-                format = rendering.depth_attachment_format;
-            }
-            next = base.p_next;
-        }
-        format != vk::Format::UNDEFINED
+        unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) }
+            .is_some_and(|rendering| rendering.depth_attachment_format != vk::Format::UNDEFINED)
     };
     let mut library_dynamic = States::NONE;
-    let mut next = info.p_next.cast::<vk::BaseInStructure>();
     // SAFETY: a valid pNext chain (the application's contract).
-    while let Some(base) = unsafe { next.as_ref() } {
-        if base.s_type == vk::StructureType::PIPELINE_LIBRARY_CREATE_INFO_KHR {
-            // SAFETY: the sType identifies the structure; `libraryCount` pipelines.
-            let libraries = unsafe { &*next.cast::<vk::PipelineLibraryCreateInfoKHR<'_>>() };
-            // SAFETY: as above.
-            for library in unsafe { slice(libraries.p_libraries, libraries.library_count) } {
-                if let Some(depth) = state.objects.pipelines.get(library) {
-                    library_dynamic |= depth.app_dynamic;
-                }
+    let libraries = unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next) };
+    if let Some(libraries) = libraries {
+        // SAFETY: `libraryCount` pipelines.
+        for library in unsafe { slice(libraries.p_libraries, libraries.library_count) } {
+            if let Some(depth) = state.objects.pipelines.get(library) {
+                library_dynamic |= depth.app_dynamic;
             }
         }
-        next = base.p_next;
     }
     PlanContext {
         has_depth_attachment,

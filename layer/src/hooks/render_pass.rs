@@ -18,6 +18,7 @@ use ash::vk;
 
 use super::{device_state, record};
 use crate::boundary::{guarded, EntryPoint};
+use crate::chain;
 use crate::conv::{flip_resolve_mode, has_depth};
 use crate::hooks::resources::slice;
 use crate::objects::{RenderPassInfo, SubpassResolve};
@@ -53,16 +54,8 @@ fn render_pass_info(
 fn depth_resolve_of<'a>(
     subpass: &vk::SubpassDescription2<'a>,
 ) -> Option<&'a vk::SubpassDescriptionDepthStencilResolve<'a>> {
-    let mut next = subpass.p_next.cast::<vk::BaseInStructure>();
     // SAFETY: a valid pNext chain (the application's contract).
-    while let Some(base) = unsafe { next.as_ref() } {
-        if base.s_type == vk::StructureType::SUBPASS_DESCRIPTION_DEPTH_STENCIL_RESOLVE {
-            // SAFETY: the sType identifies the structure.
-            return Some(unsafe { &*next.cast() });
-        }
-        next = base.p_next;
-    }
-    None
+    unsafe { chain::find(subpass.p_next) }
 }
 
 /// A subpass's depth resolve as revz records it: `None` without a depth resolve.
