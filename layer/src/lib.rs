@@ -19,6 +19,7 @@ pub mod command_state;
 pub mod config;
 pub mod conv;
 pub mod ffi;
+pub mod fragment_depth;
 mod hooks;
 pub mod logging;
 pub mod objects;

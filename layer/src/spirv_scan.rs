@@ -42,10 +42,13 @@ pub struct Instructions<'a> {
 /// Walks the instructions of `words`; `None` when the words do not start with a SPIR-V
 /// header.
 pub fn instructions(words: &[u32]) -> Option<Instructions<'_>> {
-    (words.len() >= HEADER_WORDS && words[0] == MAGIC).then_some(Instructions {
-        words,
-        at: HEADER_WORDS,
-    })
+    (words.len() >= HEADER_WORDS && words[0] == MAGIC).then(|| instructions_at(words, HEADER_WORDS))
+}
+
+/// Walks the instructions of `words` from word `at` on, which must be where an instruction
+/// starts (the header already checked).
+pub fn instructions_at(words: &[u32], at: usize) -> Instructions<'_> {
+    Instructions { words, at }
 }
 
 impl<'a> Iterator for Instructions<'a> {
