@@ -91,13 +91,15 @@ pub struct PipelineDepth {
     pub compare_op: vk::CompareOp,
     pub bias: DepthBias,
     pub bounds: (f32, f32),
-    /// The fragment stage writes `FragDepth`, which the flip path cannot reverse.
-    pub writes_frag_depth: bool,
+    /// The fragment stage computes with depth (`FragDepth`, `FragCoord.z`) and no reversed
+    /// variant rewrites it: draws into reversed attachments keep standard depth there.
+    pub unreversed_fragment: bool,
     /// The pipeline itself.
     pub handle: vk::Pipeline,
-    /// The same pipeline with its static compare op flipped, bound in its place for draws
-    /// into reversed attachments where the compare op is not made dynamic
-    /// (`compare_op = variants`, or a device without extended dynamic state).
+    /// The pipeline bound in its place for draws into reversed attachments: the same pipeline
+    /// with its static compare op flipped where the compare op is not made dynamic
+    /// (`compare_op = variants`, or a device without extended dynamic state), and its
+    /// fragment shader rewritten where it computes with depth (`crate::fragment_depth`).
     pub reversed_variant: Option<vk::Pipeline>,
     /// Where the vertex stage's projection is in the push constants, if it comes from there.
     pub projection: Option<ProjectionUse>,
@@ -525,12 +527,18 @@ impl CommandState {
         };
         let reversed = self.target == Target::Reversed;
         let reversal = self.reversing.reversal;
-        if reversed && self.pipeline.as_ref().is_some_and(|p| p.writes_frag_depth) {
+        if reversed
+            && self
+                .pipeline
+                .as_ref()
+                .is_some_and(|p| p.unreversed_fragment)
+        {
             static WARNED: std::sync::Once = std::sync::Once::new();
             WARNED.call_once(|| {
                 log::warn!(
-                    "a pipeline that writes FragDepth draws into a reversed depth attachment: \
-                     its fragments keep standard depth (not handled yet)"
+                    "a pipeline whose fragment shader computes with depth (FragDepth or \
+                     FragCoord.z) and could not be rewritten draws into a reversed depth \
+                     attachment: its fragments keep standard depth"
                 )
             });
         }
@@ -708,7 +716,7 @@ mod tests {
                 slope: -2.0,
             },
             bounds: (0.0, 1.0),
-            writes_frag_depth: false,
+            unreversed_fragment: false,
             handle: vk::Pipeline::null(),
             reversed_variant: None,
             projection: None,

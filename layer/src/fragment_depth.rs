@@ -113,9 +113,10 @@ impl Module {
                     }
                     _ => {}
                 },
-                (OP_MEMBER_DECORATE, &[_, _, DECORATION_BUILT_IN, built_in])
-                    if matches!(built_in, BUILT_IN_FRAG_DEPTH | BUILT_IN_FRAG_COORD) =>
-                {
+                (
+                    OP_MEMBER_DECORATE,
+                    &[_, _, DECORATION_BUILT_IN, BUILT_IN_FRAG_DEPTH | BUILT_IN_FRAG_COORD],
+                ) => {
                     return Err(Unsupported("a depth built-in is a block member"));
                 }
                 (OP_TYPE_FLOAT, &[id, 32, ..]) => {

@@ -14,12 +14,16 @@ use ash::vk;
 use rustc_hash::FxHashMap;
 
 use crate::command_state::{CommandState, PipelineDepth, Target};
+use crate::fragment_depth::Unsupported;
 use crate::policy::{DepthResolve, ImageDepth, NativeReason};
 use crate::shader_analysis::Analysis;
 
 /// The shader analysis of one module: each vertex entry point's result, or why naga could not
 /// read it.
 pub type ModuleAnalysis = Result<Vec<(String, Analysis)>, String>;
+/// A fragment module rewritten for reversed attachments (`crate::fragment_depth`), or why it
+/// cannot be.
+pub type ReversedFragment = Result<Arc<[u32]>, Unsupported>;
 use crate::state::DeviceState;
 
 /// A tracked depth image.
@@ -121,8 +125,9 @@ pub struct DeviceObjects {
     /// Each framebuffer's attachments (empty for an imageless framebuffer).
     pub framebuffers: Table<vk::Framebuffer, Arc<[vk::ImageView]>>,
     pub pipelines: Table<vk::Pipeline, Arc<PipelineDepth>>,
-    /// Shader modules that write `FragDepth`.
-    pub frag_depth_modules: Table<vk::ShaderModule, ()>,
+    /// Shader modules that compute with depth (`FragDepth`, `FragCoord.z`): rewritten for
+    /// reversed attachments, or why they cannot be.
+    pub fragment_depth_modules: Table<vk::ShaderModule, ReversedFragment>,
     /// What the shader analysis found in each vertex module (precise modes only): per entry
     /// point, or why the module could not be read.
     pub vertex_modules: Table<vk::ShaderModule, Arc<ModuleAnalysis>>,

@@ -1,16 +1,7 @@
-//! Cheap facts read straight from SPIR-V words, without parsing the module, and the one
-//! instruction walker ([`instructions`]) every word scan in the layer uses.
-//!
-//! A fragment shader that writes `FragDepth` computes its own depth: the viewport flip cannot
-//! reach it, so its draws into a reversed attachment would mix conventions. Finding the
-//! decoration is a linear scan for one instruction, done once per shader module.
+//! The one instruction walker ([`instructions`]) every word scan in the layer uses, and the
+//! copy of a module the shader analysis reads ([`for_analysis`]). Cheap facts read straight
+//! from SPIR-V words, without parsing the module.
 
-/// `OpDecorate`.
-const OP_DECORATE: u32 = 71;
-/// `Decoration BuiltIn`.
-const DECORATION_BUILT_IN: u32 = 11;
-/// `BuiltIn FragDepth`.
-const BUILT_IN_FRAG_DEPTH: u32 = 22;
 /// `OpExtension`, `OpExtInstImport`, `OpExtInst`, `OpCapability`.
 const OP_EXTENSION: u32 = 10;
 const OP_EXT_INST_IMPORT: u32 = 11;
@@ -70,20 +61,6 @@ impl<'a> Iterator for Instructions<'a> {
     }
 }
 
-/// Whether a module decorates a variable as `BuiltIn FragDepth`. A module that is not SPIR-V
-/// (bad magic, truncated instruction) answers `false`.
-pub fn writes_frag_depth(words: &[u32]) -> bool {
-    let Some(instructions) = instructions(words) else {
-        return false;
-    };
-    instructions.map_while(Result::ok).any(|i| {
-        i.opcode == OP_DECORATE
-            && i.operands.len() == 3
-            && i.operands[1] == DECORATION_BUILT_IN
-            && i.operands[2] == BUILT_IN_FRAG_DEPTH
-    })
-}
-
 /// A copy of a module with what the shader analysis never needs removed, so that naga reads
 /// modules it would otherwise reject (`shared/DESIGN.md` section 2: Slang's `DrawParameters`,
 /// `NonSemantic.DebugPrintf`, extensions naga does not list): every `OpCapability` but
@@ -140,26 +117,25 @@ mod tests {
     }
 
     #[test]
-    fn finds_the_frag_depth_decoration() {
-        let frag_depth = [
-            (4 << 16) | OP_DECORATE,
-            7,
-            DECORATION_BUILT_IN,
-            BUILT_IN_FRAG_DEPTH,
-        ];
-        let position = [(4 << 16) | OP_DECORATE, 8, DECORATION_BUILT_IN, 0];
-        assert!(writes_frag_depth(&module(&frag_depth)));
-        assert!(!writes_frag_depth(&module(&position)));
-        // An OpName whose operand happens to hold the same numbers is not a decoration.
-        let name = [(5 << 16) | 5, 7, 11, 22, 0];
-        assert!(!writes_frag_depth(&module(&name)));
-    }
-
-    #[test]
     fn malformed_modules_are_not_read_past_their_end() {
-        assert!(!writes_frag_depth(&[]));
-        assert!(!writes_frag_depth(&[1, 2, 3, 4, 5, 6]));
-        assert!(!writes_frag_depth(&module(&[(9 << 16) | OP_DECORATE, 7])));
-        assert!(!writes_frag_depth(&module(&[0])));
+        fn walk(words: &[u32]) -> Option<Vec<Result<Instruction<'_>, usize>>> {
+            instructions(words).map(Iterator::collect)
+        }
+        assert_eq!(walk(&[]), None);
+        assert_eq!(walk(&[1, 2, 3, 4, 5, 6]), None);
+        // An instruction of 9 words with 1 present, and a zero word count: one error each.
+        assert_eq!(
+            walk(&module(&[(9 << 16) | 71, 7])),
+            Some(vec![Err(HEADER_WORDS)])
+        );
+        assert_eq!(walk(&module(&[0, 0])), Some(vec![Err(HEADER_WORDS)]));
+        let name = [(3 << 16) | 5, 7, 0];
+        assert_eq!(
+            walk(&module(&name)),
+            Some(vec![Ok(Instruction {
+                opcode: 5,
+                operands: &[7, 0]
+            })])
+        );
     }
 }

@@ -1,13 +1,14 @@
 //! Ground truth, computed (no Vulkan, all f64): for a scene seen by one perspective camera in
 //! which the nearest surface wins (every main-pass draw tests LESS with depth writes into a
 //! buffer cleared to 1.0, or GREATER into 0.0 for an already reversed projection, full viewport,
-//! nothing else touching depth), which object is visible at every pixel center, the view-space
-//! w of that surface there, and whether the pixel is *interior*: its 3 x 3 neighbourhood of
-//! pixel centers all see the same object, so that which triangle the rasterizer gives a pixel on
-//! a silhouette or an intersection line (its tie-breaking rules, the float32 rounding of vertex
-//! positions) cannot matter. At an interior pixel the rendered depth is a function of w alone
-//! (`D(w) = k + B / w` for the camera's mapping), which is what the end-to-end tests compare
-//! against; the object ids serve any per-pixel correctness measure (which surface should show).
+//! nothing else touching depth, no fragment shader writing its own depth), which object is
+//! visible at every pixel center, the view-space w of that surface there, and whether the pixel
+//! is *interior*: its 3 x 3 neighbourhood of pixel centers all see the same object, so that which
+//! triangle the rasterizer gives a pixel on a silhouette or an intersection line (its
+//! tie-breaking rules, the float32 rounding of vertex positions) cannot matter. At an interior
+//! pixel the rendered depth is a function of w alone (`D(w) = k + B / w` for the camera's
+//! mapping), which is what the end-to-end tests compare against; the object ids serve any
+//! per-pixel correctness measure (which surface should show).
 //!
 //! w comes from the f64 clip transforms ([`Scene::mvp_in`]) applied to the vertex positions
 //! as uploaded (f32 values): what the application *meant*. The GPU evaluates f32-rounded
@@ -144,6 +145,11 @@ pub fn applies(scene: &Scene) -> Result<Vec<(usize, Program)>, String> {
                 let spec = pipeline
                     .map(|p| &plan.pipelines[p])
                     .ok_or("a draw without a pipeline")?;
+                if spec.program == Program::FragDepth {
+                    // The depth tested and stored is the shader's, not the surface's: the
+                    // nearest surface need not win, and no depth here is a function of w.
+                    return Err(format!("pipeline {} writes FragDepth", spec.name));
+                }
                 let usual = spec.depth_test == DepthTest::Static(compare)
                     && spec.depth_write
                     && spec.color_write

@@ -437,6 +437,7 @@ pub fn create_pipeline(
     let (vertex, fragment) = match spec.program {
         Program::Flat => (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG)),
         Program::DepthOnly => (shaders::SCENE_VERT, None),
+        Program::FragDepth => (shaders::SCENE_VERT, Some(shaders::FRAG_DEPTH_FRAG)),
         Program::ShadowReceiver => (
             shaders::SHADOW_RECEIVER_VERT,
             Some(shaders::SHADOW_RECEIVER_FRAG),

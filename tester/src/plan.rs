@@ -156,6 +156,11 @@ pub enum Program {
     Flat,
     /// `scene.vert` only (no fragment shader): depth-only passes and subpasses.
     DepthOnly,
+    /// `scene.vert` + `frag_depth.frag`: the push constants and flat color of
+    /// [`Program::Flat`], and a fragment shader that writes its own depth computed from the
+    /// rasterized one, `gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z` (`Program::frag_depth` in
+    /// the unit tests).
+    FragDepth,
     /// `shadow_receiver.vert|frag`: the flat color darkened where the shadow map says the
     /// surface is shadowed (needs a [`Target::Shadow`] pass before it).
     ShadowReceiver,
@@ -181,9 +186,22 @@ impl Program {
             Program::MvpPair => 128,
             Program::Flat
             | Program::DepthOnly
+            | Program::FragDepth
             | Program::ShadowReceiver
             | Program::RowMajor
             | Program::RowVector => 80,
+        }
+    }
+
+    /// The depth a fragment of the program stores (and is tested with), given the depth
+    /// rasterized for it (`gl_FragCoord.z`, standard depth with the tester's own [0, 1]
+    /// viewports): `0.5 + 0.5 * z` for [`Program::FragDepth`] (`frag_depth.frag`), `z`
+    /// itself for every other program (they leave depth to the rasterizer).
+    #[cfg(test)]
+    pub fn frag_depth(self, z: f64) -> f64 {
+        match self {
+            Program::FragDepth => 0.5 + 0.5 * z,
+            _ => z,
         }
     }
 }

@@ -326,9 +326,11 @@ impl<'a> Renderer<'a> {
         match program {
             Program::ShadowReceiver => (self.shadow_layout, PLAIN_PUSH_STAGES),
             Program::MvpPair => (self.pair_layout, vk::ShaderStageFlags::VERTEX),
-            Program::Flat | Program::DepthOnly | Program::RowMajor | Program::RowVector => {
-                (self.plain_layout, PLAIN_PUSH_STAGES)
-            }
+            Program::Flat
+            | Program::DepthOnly
+            | Program::FragDepth
+            | Program::RowMajor
+            | Program::RowVector => (self.plain_layout, PLAIN_PUSH_STAGES),
         }
     }
 

@@ -67,6 +67,9 @@ pub enum SceneId {
     MsaaResolve,
     /// The same with dynamic rendering's `resolveMode` / `resolveImageView`.
     MsaaResolveDynamic,
+    /// A fragment shader writing `gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z`: a near card
+    /// pushed behind a farther one, in front of a far wall.
+    FragDepth,
     /// Push constants hold only the projection P; vertices are in view space.
     ProjectionOnly,
     /// Push constants hold P * V; vertices are in world space (a far-reaching scene).
@@ -580,8 +583,9 @@ impl Scene {
 
     /// The push constants of `object` drawn with `program` in `view`, every value rounded once
     /// from f64 to f32 ([`Program::push_constant_size`] bytes):
-    /// - [`Program::Flat`], [`Program::DepthOnly`], [`Program::ShadowReceiver`]: the clip
-    ///   transform ([`Scene::mvp_in`]) column-major at 0, the RGBA color at 64;
+    /// - [`Program::Flat`], [`Program::DepthOnly`], [`Program::FragDepth`],
+    ///   [`Program::ShadowReceiver`]: the clip transform ([`Scene::mvp_in`]) column-major at
+    ///   0, the RGBA color at 64;
     /// - [`Program::RowMajor`], [`Program::RowVector`]: the same transform row-major (its
     ///   transpose column-major) at 0, the color at 64;
     /// - [`Program::MvpPair`]: the model matrix (world objects; identity otherwise) at 0 and
@@ -595,7 +599,7 @@ impl Scene {
     ) -> Vec<u8> {
         let mvp = self.mvp_in(view, object, aspect);
         let values: Vec<f32> = match program {
-            Program::Flat | Program::DepthOnly | Program::ShadowReceiver => {
+            Program::Flat | Program::DepthOnly | Program::FragDepth | Program::ShadowReceiver => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

@@ -85,6 +85,7 @@ pub const CATALOG: &[Entry] = &[
         "msaa-resolve-dynamic",
         msaa_resolve_dynamic,
     ),
+    entry_row(SceneId::FragDepth, "frag-depth", frag_depth),
     entry_row(SceneId::ProjectionOnly, "projection-only", projection_only),
     entry_row(SceneId::ViewProjection, "view-projection", view_projection),
     entry_row(
@@ -1097,6 +1098,91 @@ fn msaa_scene(name: &'static str, kind: PassKind) -> Scene {
     scene
 }
 
+/// A rectangle facing the eye of `camera` at view distance `distance` (so its depth is the same
+/// at every pixel) that covers `[x0, x1] x [y0, y1]` of Vulkan NDC (y down) at aspect 1.
+fn card(
+    camera: &Camera,
+    name: &'static str,
+    distance: f64,
+    [x0, y0, x1, y1]: [f64; 4],
+    color: [f32; 4],
+) -> Object {
+    // NDC x = x_view / (t * distance), NDC y = -y_view / (t * distance).
+    let scale = (camera.fov_y / 2.0).tan() * distance;
+    Object::world(
+        name,
+        Mesh::rect_xy(
+            scale * (x0 + x1) / 2.0,
+            -scale * (y0 + y1) / 2.0,
+            scale * (x1 - x0) / 2.0,
+            scale * (y1 - y0) / 2.0,
+        ),
+        camera.view().inverse() * DMat4::from_translation(DVec3::new(0.0, 0.0, -distance)),
+        color,
+    )
+}
+
+/// `frag-depth`: three cards facing the eye (each at one depth), drawn in this order with LESS
+/// and depth writes:
+/// - a blue far wall (view distance 8, depth 0.98849; standard pipeline) on the left;
+/// - a red card across the middle (distance 3, depth D = 0.96763), the nearest surface, drawn
+///   with `frag_depth.frag` ([`Program::FragDepth`]): it stores 0.5 + 0.5 * D = 0.98382,
+///   still in front of the wall (it covers the wall's upper right) and of the clear (1.0: its
+///   upper band and its middle cover nothing else);
+/// - a green card (distance 4.5, depth 0.97876; standard pipeline) on the right, geometrically
+///   behind the red card but in front of its pushed-back depth: it passes against what the
+///   red card stored and shows over the red card's lower right.
+///
+/// Layer item: fragment shaders that write `FragDepth` and read `gl_FragCoord.z`. Into a
+/// reversed attachment the rewritten shader must read the standard depth (1 - z) and store the
+/// reversal of what it computes (1 - x = 0.01618, between the green card's 1 - 0.97876 =
+/// 0.02124 and the wall's 0.01151). Stores left unflipped (0.98382), or the reversed depth
+/// read as it is (the shader computes 0.5 + 0.5 * 0.03237 = 0.51618, stored flipped as
+/// 0.48382 or as it is), all land near the eye: the red card covers the green one where they
+/// overlap. A FragDepth draw left with LESS fails against the reversed clear (0): the red card
+/// vanishes, the wall and the background show through. Where the red card is alone, the depth
+/// read back is the stored FragDepth value itself.
+pub fn frag_depth() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let wall = b.object(card(
+        &camera,
+        "far wall",
+        8.0,
+        [-0.85, -0.2, -0.15, 0.7],
+        rgb8(40, 80, 240),
+    ));
+    let pushed = b.object(card(
+        &camera,
+        "pushed card",
+        3.0,
+        [-0.5, -0.6, 0.5, 0.3],
+        rgb8(230, 30, 30),
+    ));
+    let middle = b.object(card(
+        &camera,
+        "middle card",
+        4.5,
+        [0.15, -0.2, 0.85, 0.7],
+        rgb8(30, 200, 40),
+    ));
+    b.pass(PassSpec::clear(1.0));
+    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    let frag_depth = b.pipeline(PipelineSpec {
+        program: Program::FragDepth,
+        ..PipelineSpec::standard("frag depth", 0)
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.step(Step::Draw(wall));
+    b.step(Step::Bind(frag_depth));
+    b.step(Step::Draw(pushed));
+    b.step(Step::Bind(standard));
+    b.step(Step::Draw(middle));
+    b.step(Step::EndPass);
+    b.finish("frag-depth", camera, None)
+}
+
 /// The overlap objects with their model matrices applied in `space`.
 fn overlap_objects_in(space: Space) -> Vec<Object> {
     overlap_objects()
@@ -1760,6 +1846,181 @@ mod tests {
             "the cube crosses the far cube's edge"
         );
         assert!(clo[1] > -1.0 && chi[1] < flo[1] + 0.5 * (fhi[1] - flo[1]));
+    }
+
+    /// How one depth convention stores depth: the clear value, whether LESS is swapped for
+    /// GREATER, the depth rasterized for a surface at standard depth D (what flat programs
+    /// store and `gl_FragCoord.z` holds), and the maps applied to `gl_FragCoord.z` loads and
+    /// `FragDepth` stores of [`Program::FragDepth`] (a layer's rewrite; identity natively).
+    struct Convention {
+        name: &'static str,
+        clear: f64,
+        greater: bool,
+        rasterized: &'static dyn Fn(f64) -> f64,
+        load: &'static dyn Fn(f64) -> f64,
+        store: &'static dyn Fn(f64) -> f64,
+    }
+
+    /// The stored depth of `frag-depth`'s object `n` (its cards have one depth each) under
+    /// `convention`, drawn with `program`.
+    fn card_depth(scene: &Scene, n: usize, program: Program, convention: &Convention) -> f64 {
+        let (lo, hi) = depth_range(scene, n);
+        assert!(
+            hi - lo < 1e-9,
+            "{}: not facing the eye",
+            scene.objects[n].name
+        );
+        let rasterized = (convention.rasterized)(lo);
+        match program {
+            Program::FragDepth => {
+                (convention.store)(program.frag_depth((convention.load)(rasterized)))
+            }
+            _ => rasterized,
+        }
+    }
+
+    /// Replays `frag-depth`'s draws at the NDC point `at` (the cards are rectangles facing the
+    /// eye: their screen boxes are what they cover) with `convention`: the object that shows
+    /// there, if any. Every depth test is asserted to be decided by more than [`MARGIN`].
+    fn frag_depth_winner(scene: &Scene, at: [f64; 2], convention: &Convention) -> Option<usize> {
+        let mut stored = convention.clear;
+        let mut shows = None;
+        let mut program = Program::Flat;
+        for step in &scene.plan.steps {
+            match step {
+                Step::Bind(p) => {
+                    let pipeline = &scene.plan.pipelines[*p];
+                    assert_eq!(pipeline.depth_test, DepthTest::Static(Compare::Less));
+                    assert!(pipeline.depth_write);
+                    program = pipeline.program;
+                }
+                Step::Draw(n) => {
+                    let (lo, hi) = screen_box(scene, scene.objects[*n].name);
+                    if !(lo[0] < at[0] && at[0] < hi[0] && lo[1] < at[1] && at[1] < hi[1]) {
+                        continue;
+                    }
+                    let depth = card_depth(scene, *n, program, convention);
+                    assert!(
+                        (depth - stored).abs() > MARGIN,
+                        "{}: {} ties at {at:?}: {depth} against {stored}",
+                        convention.name,
+                        scene.objects[*n].name
+                    );
+                    let op = if convention.greater {
+                        Compare::Greater
+                    } else {
+                        Compare::Less
+                    };
+                    if op.passes(depth, stored) {
+                        stored = depth;
+                        shows = Some(*n);
+                    }
+                }
+                _ => {}
+            }
+        }
+        shows
+    }
+
+    #[test]
+    fn frag_depth_pushes_the_near_card_between_the_others() {
+        let scene = frag_depth();
+        let [wall, pushed, middle] =
+            ["far wall", "pushed card", "middle card"].map(|name| find(&scene, name));
+        assert_eq!(scene.plan.main_clear_depth(), 1.0);
+        // Standard depths: the pushed card is geometrically the nearest...
+        let depth = |n| depth_range(&scene, n).0;
+        assert!(depth(pushed) + MARGIN < depth(middle) && depth(middle) + MARGIN < depth(wall));
+        // ...and its FragDepth puts it between the middle card and the wall.
+        let pushed_back = Program::FragDepth.frag_depth(depth(pushed));
+        assert_eq!(pushed_back, 0.5 + 0.5 * depth(pushed));
+        assert!(depth(middle) + MARGIN < pushed_back && pushed_back + MARGIN < depth(wall));
+        assert!(
+            pushed_back < 1.0 - MARGIN,
+            "in front of the clear with margin"
+        );
+
+        // Which object shows where: (point in NDC, natively, under a layer that forgets to map
+        // FragDepth stores or gl_FragCoord.z loads). Only the overlap of the pushed and the
+        // middle card changes.
+        let regions = [
+            ([0.0, -0.4], Some(pushed), Some(pushed)), // the pushed card alone (upper band)
+            ([0.0, 0.05], Some(pushed), Some(pushed)), // the pushed card alone (between)
+            ([-0.3, 0.05], Some(pushed), Some(pushed)), // the pushed card over the wall
+            ([0.3, 0.05], Some(middle), Some(pushed)), // the middle card over the pushed card
+            ([-0.6, 0.5], Some(wall), Some(wall)),
+            ([0.6, 0.5], Some(middle), Some(middle)),
+            ([0.0, 0.5], None, None),
+            ([-0.9, -0.9], None, None),
+        ];
+        let flip = &|d: f64| 1.0 - d;
+        let same = &|d: f64| d;
+        // Infinite reversed-Z stores n/w = 1 - (1 - n/f) D; a rewrite baking the complementary
+        // map is off by up to n/f = 1e-3 (the scenes' margins must absorb it).
+        assert_eq!((scene.camera.near, scene.camera.far), (0.1, 100.0));
+        let infinite = &|d: f64| 1.0 - (1.0 - 0.1 / 100.0) * d;
+        let native = Convention {
+            name: "native",
+            clear: 1.0,
+            greater: false,
+            rasterized: same,
+            load: same,
+            store: same,
+        };
+        let reversed = |name, rasterized, load, store| Convention {
+            name,
+            clear: 0.0,
+            greater: true,
+            rasterized,
+            load,
+            store,
+        };
+        let right = [
+            reversed("reversed", flip, flip, flip),
+            reversed("infinite", infinite, flip, flip),
+        ];
+        let wrong = [
+            reversed("stores unflipped", flip, flip, same),
+            reversed("loads unflipped", flip, same, flip),
+            reversed("shader untouched", flip, same, same),
+            reversed("infinite, stores unflipped", infinite, flip, same),
+            reversed("infinite, loads unflipped", infinite, same, flip),
+        ];
+        for (at, expected, when_wrong) in regions {
+            assert_eq!(
+                frag_depth_winner(&scene, at, &native),
+                expected,
+                "native at {at:?}"
+            );
+            for convention in &right {
+                assert_eq!(
+                    frag_depth_winner(&scene, at, convention),
+                    expected,
+                    "{} at {at:?}",
+                    convention.name
+                );
+            }
+            for convention in &wrong {
+                assert_eq!(
+                    frag_depth_winner(&scene, at, convention),
+                    when_wrong,
+                    "{} at {at:?}",
+                    convention.name
+                );
+            }
+        }
+
+        // The cards overlap as the regions say, and stay inside the image.
+        for name in ["far wall", "pushed card", "middle card"] {
+            let (lo, hi) = screen_box(&scene, name);
+            assert!(
+                lo[0] > -1.0 && lo[1] > -1.0 && hi[0] < 1.0 && hi[1] < 1.0,
+                "{name}"
+            );
+        }
+        // No ground truth: the nearest surface does not win.
+        let refused = crate::ground_truth::applies(&scene).unwrap_err();
+        assert!(refused.contains("FragDepth"), "{refused}");
     }
 
     /// The scenes with a ground truth: exactly those where the nearest surface decides.

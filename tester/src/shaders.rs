@@ -35,6 +35,10 @@ macro_rules! shader {
 pub const SCENE_VERT: ShaderSource = shader!("scene.vert");
 /// `scene.frag`: writes `pc.color`.
 pub const SCENE_FRAG: ShaderSource = shader!("scene.frag");
+/// `frag_depth.frag`: writes `pc.color` (the push constants of `scene.vert`) and
+/// `gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z` (`DepthReplacing`): reads the rasterized depth
+/// and stores the surface pushed back to (1 + D) / 2.
+pub const FRAG_DEPTH_FRAG: ShaderSource = shader!("frag_depth.frag");
 
 /// `shadow_receiver.vert`: `scene.vert` plus the light-space position (a uniform-buffer light
 /// MVP indexed by `gl_InstanceIndex`).
@@ -61,6 +65,7 @@ pub const MVP_PAIR_FRAG: ShaderSource = shader!("mvp_pair.frag");
 pub const ALL: &[ShaderSource] = &[
     SCENE_VERT,
     SCENE_FRAG,
+    FRAG_DEPTH_FRAG,
     SHADOW_RECEIVER_VERT,
     SHADOW_RECEIVER_FRAG,
     ROW_MAJOR_VERT,
@@ -134,6 +139,58 @@ mod tests {
             assert!(
                 decorations.iter().all(|d| d.2 != ROW_MAJOR),
                 "{}: {decorations:?}",
+                shader.name
+            );
+        }
+    }
+
+    /// Every instruction of a module as (opcode, operands).
+    fn instructions(words: &[u32]) -> Vec<(u32, &[u32])> {
+        let mut at = 5;
+        let mut out = Vec::new();
+        while at < words.len() {
+            let count = (words[at] >> 16) as usize;
+            assert!(count > 0);
+            out.push((words[at] & 0xffff, &words[at + 1..at + count]));
+            at += count;
+        }
+        out
+    }
+
+    #[test]
+    fn only_the_frag_depth_shader_writes_and_reads_depth() {
+        const OP_EXECUTION_MODE: u32 = 16;
+        const OP_DECORATE: u32 = 71;
+        const DEPTH_REPLACING: u32 = 12;
+        const BUILT_IN: u32 = 11;
+        const FRAG_COORD: u32 = 15;
+        const FRAG_DEPTH: u32 = 22;
+        for shader in ALL {
+            let words = shader.words().unwrap();
+            let instructions = instructions(&words);
+            let has = |opcode: u32, tail: &[u32]| {
+                instructions
+                    .iter()
+                    .any(|(op, operands)| *op == opcode && operands.ends_with(tail))
+            };
+            let frag_depth = shader.name == FRAG_DEPTH_FRAG.name;
+            // Writing FragDepth needs the DepthReplacing execution mode.
+            assert_eq!(
+                has(OP_DECORATE, &[BUILT_IN, FRAG_DEPTH]),
+                frag_depth,
+                "{}",
+                shader.name
+            );
+            assert_eq!(
+                has(OP_EXECUTION_MODE, &[DEPTH_REPLACING]),
+                frag_depth,
+                "{}",
+                shader.name
+            );
+            assert_eq!(
+                has(OP_DECORATE, &[BUILT_IN, FRAG_COORD]),
+                frag_depth,
+                "{}",
                 shader.name
             );
         }

@@ -152,6 +152,7 @@ flip_scene_tests! {
     flip_secondary: "secondary", DEPTH_FORMATS;
     flip_subpasses: "subpasses", DEPTH_FORMATS;
     flip_dynamic_rendering: "dynamic-rendering", DEPTH_FORMATS;
+    flip_frag_depth: "frag-depth", DEPTH_FORMATS;
 }
 
 /// The shadow map is sampled: it stays native while the main pass is reversed, and the shadows
@@ -802,5 +803,23 @@ fn flip_with_compare_op_variants() {
     for (scene, format) in scenes {
         let log = flip_scene_within(scene, format, &[], &variants, flip_tolerance(format));
         assert!(log.contains("compare_op=variants"), "{scene}: {log}");
+    }
+}
+
+/// The precise modes bind the rewritten fragment shader too. Complementary Z stores 1 - D, so
+/// the render matches 1 - native as the flip path's does (to the rounding of the rewritten
+/// projection, a few float32 steps). Infinite mode stores n/w = 1 - (1 - n/f) D for the cards
+/// drawn without FragDepth but 1 - x for the rewritten shader's (it bakes one map, the
+/// complementary one): those depths differ from 1 - native by up to n/f = 1e-3 for this
+/// camera, while the colors, decided by margins of 4.7e-3 and more, stay the same.
+#[test]
+fn precise_modes_rewrite_frag_depth() {
+    for format in DEPTH_FORMATS {
+        let settings = [("REVZ_MODE", "complementary")];
+        let tolerance = flip_tolerance(format) + 4.0 * f32::EPSILON;
+        flip_scene_within("frag-depth", format, &[], &settings, tolerance);
+        let settings = [("REVZ_MODE", "infinite")];
+        let tolerance = flip_tolerance(format) + 1e-3;
+        flip_scene_within("frag-depth", format, &[], &settings, tolerance);
     }
 }

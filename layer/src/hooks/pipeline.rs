@@ -17,7 +17,8 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, DepthBias};
-use crate::objects::ModuleAnalysis;
+use crate::fragment_depth;
+use crate::objects::{ModuleAnalysis, ReversedFragment};
 use crate::precise::ProjectionUse;
 use crate::shader_analysis::{self, Analysis};
 use crate::state::DeviceState;
@@ -46,23 +47,38 @@ fn uses_libraries(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
     })
 }
 
-/// Whether the fragment stage of a create info writes `FragDepth`, from its module (looked up
-/// with `module_writes`) or from SPIR-V chained inline into the stage.
-fn writes_frag_depth(
+/// The fragment stage of a create info (its index) and its rewrite for reversed attachments
+/// when it computes with depth: its module's, made at module creation, or one of SPIR-V
+/// chained inline into the stage.
+fn reversed_fragment(
+    state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
-    module_writes: &dyn Fn(vk::ShaderModule) -> bool,
-) -> bool {
+) -> Option<(usize, ReversedFragment)> {
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
-    stages
+    let (index, stage) = stages
         .iter()
-        .filter(|stage| stage.stage == vk::ShaderStageFlags::FRAGMENT)
-        .any(|stage| {
-            if stage.module != vk::ShaderModule::null() {
-                return module_writes(stage.module);
-            }
-            inline_code(stage).is_some_and(crate::spirv_scan::writes_frag_depth)
-        })
+        .enumerate()
+        .find(|(_, stage)| stage.stage == vk::ShaderStageFlags::FRAGMENT)?;
+    let rewrite = if stage.module != vk::ShaderModule::null() {
+        state.objects.fragment_depth_modules.get(&stage.module)?
+    } else {
+        reverse_fragment(vk::ShaderModule::null(), inline_code(stage)?)?
+    };
+    Some((index, rewrite))
+}
+
+/// A fragment module rewritten for reversed attachments, `None` when it does not compute
+/// with depth. One that cannot be rewritten is logged (once per module).
+fn reverse_fragment(module: vk::ShaderModule, words: &[u32]) -> Option<ReversedFragment> {
+    let rewrite = fragment_depth::reverse_fragment_depth(words).transpose()?;
+    if let Err(reason) = &rewrite {
+        log::warn!(
+            "shader module {module:?} computes with depth in a way revz cannot rewrite \
+             ({reason}): its draws into reversed attachments keep standard depth"
+        );
+    }
+    Some(rewrite.map(Into::into))
 }
 
 /// The shader analysis of a module (at its creation, or of SPIR-V chained into a pipeline
@@ -178,9 +194,19 @@ struct Plan {
     depth: PipelineDepth,
     /// Why the pipeline's draws take the flip path (precise modes).
     flip_reason: Option<String>,
-    /// Whether a variant with the static compare op flipped is to be created (the compare op
-    /// is not made dynamic: `DevicePolicy::compare_op_variants`).
+    /// Whether the reversed variant flips the static compare op (the compare op is not made
+    /// dynamic: `DevicePolicy::compare_op_variants`).
     compare_op_variant: bool,
+    /// The fragment stage (its index) the reversed variant gets rewritten
+    /// (`crate::fragment_depth`).
+    fragment: Option<(usize, Arc<[u32]>)>,
+}
+
+impl Plan {
+    /// Whether the pipeline gets a variant bound for draws into reversed attachments.
+    fn needs_variant(&self) -> bool {
+        self.compare_op_variant || self.fragment.is_some()
+    }
 }
 
 /// What [`plan`] needs to know beyond the create info.
@@ -220,6 +246,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         depth,
         flip_reason: None,
         compare_op_variant: false,
+        fragment: None,
     };
     if context.uses_libraries || !context.has_depth_attachment {
         return unchanged(depth);
@@ -305,6 +332,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         depth,
         flip_reason: None,
         compare_op_variant,
+        fragment: None,
     }
 }
 
@@ -375,9 +403,17 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         );
                     }
                     let mut plan = plan(info, &context);
-                    plan.depth.writes_frag_depth = writes_frag_depth(info, &|module| {
-                        state.objects.frag_depth_modules.get(&module).is_some()
-                    });
+                    // Even without depth writes, a fragment shader may read FragCoord.z.
+                    if state.policy.is_active()
+                        && context.has_depth_attachment
+                        && !context.uses_libraries
+                    {
+                        match reversed_fragment(&state, info) {
+                            Some((index, Ok(code))) => plan.fragment = Some((index, code)),
+                            Some((_, Err(_))) => plan.depth.unreversed_fragment = true,
+                            None => {}
+                        }
+                    }
                     let precise = state.policy.rewrite().is_some()
                         && context.has_depth_attachment
                         && !context.uses_libraries;
@@ -412,6 +448,23 @@ pub unsafe extern "system" fn create_graphics_pipelines(
             })
         })
         .collect();
+    // Reversed variants are created before the application's pipelines: creating a pipeline
+    // writes the output structures of its chain (creation feedback), which must end up
+    // holding the application's results.
+    let variants: Vec<Option<vk::Pipeline>> = guarded(
+        &CREATE_GRAPHICS_PIPELINES,
+        || {
+            plans
+                .iter()
+                .zip(infos.iter().zip(&dynamic_infos))
+                .map(|(plan, (info, dynamic))| {
+                    let plan = plan.as_ref().filter(|plan| plan.needs_variant())?;
+                    create_reversed_variant(&state, device, cache, info, dynamic, plan)
+                })
+                .collect()
+        },
+        Vec::new,
+    );
     let result = if dynamic_infos.iter().all(Option::is_none) {
         // SAFETY: calling down with the application's arguments.
         unsafe {
@@ -453,36 +506,44 @@ pub unsafe extern "system" fn create_graphics_pipelines(
         || {
             // SAFETY: `count` handles were written (null where creation failed).
             let pipelines = unsafe { slice(p_pipelines, count) };
-            let created = pipelines
-                .iter()
-                .zip(plans)
-                .zip(infos.iter().zip(&dynamic_infos));
-            for ((&pipeline, plan), (info, dynamic)) in created {
-                if let Some(mut plan) = plan.filter(|_| pipeline != vk::Pipeline::null()) {
-                    plan.depth.handle = pipeline;
-                    if plan.compare_op_variant {
-                        plan.depth.reversed_variant =
-                            create_compare_op_variant(&state, device, cache, info, dynamic);
+            for (index, (&pipeline, plan)) in pipelines.iter().zip(plans).enumerate() {
+                let variant = variants.get(index).copied().flatten();
+                let Some(mut plan) = plan.filter(|_| pipeline != vk::Pipeline::null()) else {
+                    if let Some(variant) = variant {
+                        // SAFETY: revz's own object, never handed out.
+                        unsafe { destroy_pipeline_down(&state, device, variant) };
                     }
-                    match (&plan.depth.projection, &plan.flip_reason) {
-                        (Some(p), _) => log::debug!(
-                            "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
-                             ({:?}, {:?}): precise path",
-                            p.offset,
-                            p.end(),
-                            p.storage,
-                            p.convention
-                        ),
-                        (None, Some(reason)) => {
-                            log::debug!("pipeline {pipeline:?}: flip path ({reason})")
-                        }
-                        (None, None) => {}
-                    }
-                    state
-                        .objects
-                        .pipelines
-                        .insert(pipeline, Arc::new(plan.depth));
+                    continue;
+                };
+                plan.depth.handle = pipeline;
+                plan.depth.reversed_variant = variant;
+                if plan.fragment.is_some() && variant.is_none() {
+                    plan.depth.unreversed_fragment = true;
                 }
+                match (&plan.depth.projection, &plan.flip_reason) {
+                    (Some(p), _) => log::debug!(
+                        "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
+                         ({:?}, {:?}): precise path",
+                        p.offset,
+                        p.end(),
+                        p.storage,
+                        p.convention
+                    ),
+                    (None, Some(reason)) => {
+                        log::debug!("pipeline {pipeline:?}: flip path ({reason})")
+                    }
+                    (None, None) => {}
+                }
+                if let (Some(_), Some(variant)) = (&plan.fragment, variant) {
+                    log::debug!(
+                        "pipeline {pipeline:?}: its fragment shader computes with depth; \
+                         {variant:?}, with the shader rewritten, draws into reversed attachments"
+                    );
+                }
+                state
+                    .objects
+                    .pipelines
+                    .insert(pipeline, Arc::new(plan.depth));
             }
         },
         || (),
@@ -512,8 +573,10 @@ pub unsafe extern "system" fn create_shader_module(
             let words = unsafe { slice(info.p_code, (info.code_size / 4) as u32) };
             // SAFETY: valid on success.
             let module = unsafe { *p_module };
-            if crate::spirv_scan::writes_frag_depth(words) {
-                state.objects.frag_depth_modules.insert(module, ());
+            if state.policy.is_active() {
+                if let Some(rewrite) = reverse_fragment(module, words) {
+                    state.objects.fragment_depth_modules.insert(module, rewrite);
+                }
             }
             if state.policy.rewrite().is_some() {
                 let analysis = analyze_vertex_module(module, words);
@@ -531,7 +594,7 @@ destroy_hook!(
     destroy_shader_module,
     DESTROY_SHADER_MODULE,
     vk::ShaderModule,
-    frag_depth_modules | vertex_modules,
+    fragment_depth_modules | vertex_modules,
     destroy_shader_module
 );
 
@@ -572,35 +635,55 @@ destroy_hook!(
     destroy_pipeline_layout
 );
 
-/// Creates the compare-op variant of a pipeline: its create info (with the dynamic states
-/// revz added) with the static depth compare op flipped. Not a derivative (the base index of
-/// the application's batch means nothing in a batch of one). `None` when creation fails: the
-/// pipeline's draws into reversed attachments then keep its compare op (logged once).
-fn create_compare_op_variant(
+/// Creates the reversed variant of a pipeline: its create info (with the dynamic states revz
+/// added) with the static depth compare op flipped and the fragment stage rewritten, as the
+/// plan says. Not a derivative (the base index of the application's batch means nothing in a
+/// batch of one), and compiled even where the application only asked for cached pipelines.
+/// `None` when creation fails: the pipeline's draws into reversed attachments then keep its
+/// compare op and fragment shader (logged once).
+fn create_reversed_variant(
     state: &DeviceState,
     device: vk::Device,
     cache: vk::PipelineCache,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
     dynamic: &Option<vk::PipelineDynamicStateCreateInfo<'_>>,
+    plan: &Plan,
 ) -> Option<vk::Pipeline> {
     static FAILED: AtomicBool = AtomicBool::new(false);
-    // SAFETY: non-null (the plan read it) and valid (the application's contract).
-    let depth_stencil = unsafe { info.p_depth_stencil_state.as_ref() }?;
-    let flipped = vk::PipelineDepthStencilStateCreateInfo {
-        depth_compare_op: flip_compare_op(depth_stencil.depth_compare_op),
-        ..*depth_stencil
+    let flipped = if plan.compare_op_variant {
+        // SAFETY: non-null (the plan read it) and valid (the application's contract).
+        let depth_stencil = unsafe { info.p_depth_stencil_state.as_ref() }?;
+        Some(vk::PipelineDepthStencilStateCreateInfo {
+            depth_compare_op: flip_compare_op(depth_stencil.depth_compare_op),
+            ..*depth_stencil
+        })
+    } else {
+        None
+    };
+    // SAFETY: `stageCount` stages (the application's contract).
+    let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
+    let module = match &plan.fragment {
+        Some((index, code)) => Some(rewritten_stage(state, device, &mut stages[*index], code)?),
+        None => None,
     };
     let variant_info = vk::GraphicsPipelineCreateInfo {
-        flags: info.flags & !vk::PipelineCreateFlags::DERIVATIVE,
+        flags: info.flags
+            & !(vk::PipelineCreateFlags::DERIVATIVE
+                | vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED
+                | vk::PipelineCreateFlags::EARLY_RETURN_ON_FAILURE),
         base_pipeline_handle: vk::Pipeline::null(),
         base_pipeline_index: -1,
-        p_depth_stencil_state: &flipped,
+        p_stages: stages.as_ptr(),
+        p_depth_stencil_state: flipped
+            .as_ref()
+            .map_or(info.p_depth_stencil_state, |flipped| flipped),
         p_dynamic_state: dynamic.as_ref().map_or(info.p_dynamic_state, |d| d),
         ..*info
     };
     let mut variant = vk::Pipeline::null();
-    // SAFETY: the application's create info with the depth state and dynamic list replaced by
-    // copies that live until the call returns; revz's own object, so no allocator.
+    // SAFETY: the application's create info with the stages, depth state and dynamic list
+    // replaced by copies that live until the call returns; revz's own object, so no
+    // allocator.
     let result = unsafe {
         (state.next.fp_v1_0().create_graphics_pipelines)(
             device,
@@ -611,16 +694,57 @@ fn create_compare_op_variant(
             &mut variant,
         )
     };
+    if let Some(module) = module {
+        // SAFETY: revz's own module; a pipeline no longer needs its modules once created.
+        unsafe { (state.next.fp_v1_0().destroy_shader_module)(device, module, std::ptr::null()) };
+    }
     if result != vk::Result::SUCCESS || variant == vk::Pipeline::null() {
         if !FAILED.swap(true, Ordering::Relaxed) {
             log::warn!(
-                "the compare-op variant of a pipeline could not be created ({result:?}): its \
-                 draws into reversed attachments keep its compare op"
+                "the reversed variant of a pipeline could not be created ({result:?}): its \
+                 draws into reversed attachments keep its compare op and fragment shader"
             );
         }
         return None;
     }
     Some(variant)
+}
+
+/// Points a copy of a fragment stage at a module of `code`, created through the next layer
+/// (the caller destroys it once the pipeline is created). A stage whose SPIR-V is chained
+/// inline drops that structure from its copy's chain, which it can only where it comes
+/// first; `None` otherwise, or when the module cannot be created.
+fn rewritten_stage(
+    state: &DeviceState,
+    device: vk::Device,
+    stage: &mut vk::PipelineShaderStageCreateInfo<'_>,
+    code: &[u32],
+) -> Option<vk::ShaderModule> {
+    if stage.module == vk::ShaderModule::null() {
+        // SAFETY: a valid pNext chain (the application's contract).
+        let inline = unsafe { chain::find::<vk::ShaderModuleCreateInfo<'_>>(stage.p_next) }?;
+        if !std::ptr::eq(stage.p_next.cast(), inline) {
+            return None;
+        }
+        stage.p_next = inline.p_next;
+    }
+    let create = vk::ShaderModuleCreateInfo::default().code(code);
+    let mut module = vk::ShaderModule::null();
+    // SAFETY: a create info of revz's words; revz's own object, so no allocator.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_shader_module)(device, &create, std::ptr::null(), &mut module)
+    };
+    stage.module = module;
+    (result == vk::Result::SUCCESS).then_some(module)
+}
+
+/// Destroys a pipeline of revz's own through the next layer.
+///
+/// # Safety
+/// `pipeline` was created by revz on `device` and is not in use.
+unsafe fn destroy_pipeline_down(state: &DeviceState, device: vk::Device, pipeline: vk::Pipeline) {
+    // SAFETY: the caller's contract; revz's own object, so no allocator.
+    unsafe { (state.next.fp_v1_0().destroy_pipeline)(device, pipeline, std::ptr::null()) };
 }
 
 pub unsafe extern "system" fn destroy_pipeline(
@@ -641,7 +765,7 @@ pub unsafe extern "system" fn destroy_pipeline(
             .and_then(|depth| depth.reversed_variant);
         if let Some(variant) = variant {
             // SAFETY: revz's own object, in use only where the application's pipeline was.
-            unsafe { destroy(device, variant, std::ptr::null()) };
+            unsafe { destroy_pipeline_down(&state, device, variant) };
         }
     });
     // SAFETY: calling down with the application's arguments.
