@@ -19,7 +19,7 @@ pub(super) type VoidFn = unsafe extern "system" fn();
 
 /// Dispatch tables: only their addresses matter (revz never reads through them), so distinct
 /// elements of one static give every test addresses no other test uses.
-static TABLE_SLOTS: [u8; 64] = [0; 64];
+static TABLE_SLOTS: [u8; 128] = [0; 128];
 static NEXT_SLOT: AtomicUsize = AtomicUsize::new(0);
 
 /// The dispatch tables of one test's instance (and physical devices) and device (and command
@@ -144,6 +144,207 @@ pub(super) enum Event {
         depth: Option<SeenDepthAttachment>,
     },
     EndRendering,
+    /// `vkCreateShaderModule` (the handle null where the fake was told to fail it).
+    CreateShaderModule {
+        handle: vk::ShaderModule,
+        code: Vec<u32>,
+        allocator: bool,
+    },
+    DestroyShaderModule {
+        handle: vk::ShaderModule,
+        allocator: bool,
+    },
+    /// `vkCreateGraphicsPipelines`: what it was given, what it answered.
+    CreateGraphicsPipelines {
+        cache: vk::PipelineCache,
+        infos: Vec<SeenPipeline>,
+        allocator: bool,
+        result: vk::Result,
+        /// The handles written (null where creation failed).
+        handles: Vec<vk::Pipeline>,
+    },
+    DestroyPipeline {
+        handle: vk::Pipeline,
+        allocator: bool,
+    },
+}
+
+/// A shader stage of a graphics pipeline create info as the fake `vkCreateGraphicsPipelines`
+/// saw it.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct SeenStage {
+    pub flags: vk::PipelineShaderStageCreateFlags,
+    pub stage: vk::ShaderStageFlags,
+    pub module: vk::ShaderModule,
+    /// The stage's `pNext`: the address of the first structure of its chain.
+    pub p_next: usize,
+    /// The SPIR-V of a `VkShaderModuleCreateInfo` anywhere in the stage's chain.
+    pub inline_code: Option<Vec<u32>>,
+    pub name: usize,
+    pub specialization: usize,
+}
+
+/// A graphics pipeline create info as the fake `vkCreateGraphicsPipelines` saw it: its
+/// pointers as addresses (the application's structures, or copies), and what revz may change
+/// behind them (stages, dynamic states, the depth compare op) read out.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct SeenPipeline {
+    /// Where the create info itself was.
+    pub address: usize,
+    pub p_next: usize,
+    pub flags: vk::PipelineCreateFlags,
+    /// The flags of a `VkPipelineCreateFlags2CreateInfoKHR` in the chain (which then replace
+    /// `flags`).
+    pub flags2: Option<vk::PipelineCreateFlags2KHR>,
+    pub stages_address: usize,
+    pub stages: Vec<SeenStage>,
+    pub vertex_input: usize,
+    pub input_assembly: usize,
+    pub tessellation: usize,
+    pub viewport: usize,
+    pub rasterization: usize,
+    pub multisample: usize,
+    pub depth_stencil: usize,
+    /// The depth compare op of a non-null depth-stencil state (the tests pass valid ones).
+    pub depth_compare_op: Option<vk::CompareOp>,
+    pub color_blend: usize,
+    pub dynamic: usize,
+    /// The dynamic states listed (none without a dynamic state).
+    pub dynamic_states: Vec<vk::DynamicState>,
+    pub layout: vk::PipelineLayout,
+    pub render_pass: vk::RenderPass,
+    pub subpass: u32,
+    pub base_pipeline_handle: vk::Pipeline,
+    pub base_pipeline_index: i32,
+}
+
+/// A pipeline shader stage's fields, its inline SPIR-V read out.
+///
+/// # Safety
+/// `stage` has a valid pNext chain.
+unsafe fn seen_stage(stage: &vk::PipelineShaderStageCreateInfo<'_>) -> SeenStage {
+    // SAFETY: the caller's contract.
+    let inline = unsafe { crate::chain::find::<vk::ShaderModuleCreateInfo<'_>>(stage.p_next) };
+    SeenStage {
+        flags: stage.flags,
+        stage: stage.stage,
+        module: stage.module,
+        p_next: stage.p_next as usize,
+        // SAFETY: `codeSize` bytes of code.
+        inline_code: inline.map(|inline| unsafe {
+            crate::hooks::resources::slice(inline.p_code, (inline.code_size / 4) as u32).to_vec()
+        }),
+        name: stage.p_name as usize,
+        specialization: stage.p_specialization_info as usize,
+    }
+}
+
+/// A graphics pipeline create info as the fake sees it (also for the tests to build what they
+/// expect from the application's create info).
+///
+/// # Safety
+/// `info` is a valid create info whose depth-stencil state, if not null, is valid.
+pub(super) unsafe fn seen_pipeline(info: &vk::GraphicsPipelineCreateInfo<'_>) -> SeenPipeline {
+    // SAFETY: the caller's contract (`stageCount` valid stages, a valid chain, null or valid
+    // state pointers).
+    unsafe {
+        let stages = crate::hooks::resources::slice(info.p_stages, info.stage_count);
+        let flags2 = crate::chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(info.p_next);
+        let dynamic = info.p_dynamic_state.as_ref();
+        SeenPipeline {
+            address: info as *const _ as usize,
+            p_next: info.p_next as usize,
+            flags: info.flags,
+            flags2: flags2.map(|f| f.flags),
+            stages_address: info.p_stages as usize,
+            stages: stages.iter().map(|stage| seen_stage(stage)).collect(),
+            vertex_input: info.p_vertex_input_state as usize,
+            input_assembly: info.p_input_assembly_state as usize,
+            tessellation: info.p_tessellation_state as usize,
+            viewport: info.p_viewport_state as usize,
+            rasterization: info.p_rasterization_state as usize,
+            multisample: info.p_multisample_state as usize,
+            depth_stencil: info.p_depth_stencil_state as usize,
+            depth_compare_op: info
+                .p_depth_stencil_state
+                .as_ref()
+                .map(|d| d.depth_compare_op),
+            color_blend: info.p_color_blend_state as usize,
+            dynamic: info.p_dynamic_state as usize,
+            dynamic_states: dynamic.map_or(Vec::new(), |d| {
+                crate::hooks::resources::slice(d.p_dynamic_states, d.dynamic_state_count).to_vec()
+            }),
+            layout: info.layout,
+            render_pass: info.render_pass,
+            subpass: info.subpass,
+            base_pipeline_handle: info.base_pipeline_handle,
+            base_pipeline_index: info.base_pipeline_index,
+        }
+    }
+}
+
+/// How the fake `vkCreateGraphicsPipelines` answers one call: its result, and which create
+/// infos get a pipeline (a missing entry: created when the result is `SUCCESS`).
+#[derive(Clone, Debug)]
+pub(super) struct PipelineOutcome {
+    pub result: vk::Result,
+    pub created: Vec<bool>,
+}
+
+impl PipelineOutcome {
+    /// Every pipeline created.
+    pub fn success() -> PipelineOutcome {
+        PipelineOutcome {
+            result: vk::Result::SUCCESS,
+            created: Vec::new(),
+        }
+    }
+
+    /// No pipeline created.
+    pub fn failure(result: vk::Result) -> PipelineOutcome {
+        PipelineOutcome {
+            result,
+            created: Vec::new(),
+        }
+    }
+}
+
+/// The answers scripted for the next calls of the fake `vkCreateGraphicsPipelines` and
+/// `vkCreateShaderModule`, per dispatch table; a call with none scripted succeeds.
+static PIPELINE_OUTCOMES: Mutex<Vec<(usize, PipelineOutcome)>> = Mutex::new(Vec::new());
+static SHADER_MODULE_RESULTS: Mutex<Vec<(usize, vk::Result)>> = Mutex::new(Vec::new());
+
+/// Scripts the answers of the next calls of the fake `vkCreateGraphicsPipelines` for the
+/// device of `table`, in order.
+pub(super) fn script_pipeline_creations(
+    table: &'static u8,
+    outcomes: impl IntoIterator<Item = PipelineOutcome>,
+) {
+    let key = key(table);
+    PIPELINE_OUTCOMES
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .extend(outcomes.into_iter().map(|outcome| (key, outcome)));
+}
+
+/// Scripts the results of the next calls of the fake `vkCreateShaderModule` for the device of
+/// `table`, in order (a failed call writes a null handle).
+pub(super) fn script_shader_module_creations(
+    table: &'static u8,
+    results: impl IntoIterator<Item = vk::Result>,
+) {
+    let key = key(table);
+    SHADER_MODULE_RESULTS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .extend(results.into_iter().map(|result| (key, result)));
+}
+
+/// Takes the first scripted answer for `table`.
+fn next_scripted<T>(script: &Mutex<Vec<(usize, T)>>, table: usize) -> Option<T> {
+    let mut script = script.lock().unwrap_or_else(PoisonError::into_inner);
+    let index = script.iter().position(|(key, _)| *key == table)?;
+    Some(script.remove(index).1)
 }
 
 static EVENTS: Mutex<Vec<(usize, Event)>> = Mutex::new(Vec::new());
@@ -357,6 +558,143 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
         }
         // SAFETY: forwarding the caller's arguments.
         _ => unsafe { fake_get_device_proc_addr(device, name) },
+    }
+}
+
+/// The fake layer's `vkGetDeviceProcAddr` for a device that also has shader modules and
+/// graphics pipelines (besides everything of [`fake_get_device_proc_addr_with_passes`]).
+pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_pipelines(
+    device: vk::Device,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    // SAFETY: revz only asks for NUL-terminated names.
+    let bytes = unsafe { CStr::from_ptr(name) }.to_bytes();
+    match bytes {
+        b"vkCreateShaderModule" => {
+            void_fn!(
+                vk::PFN_vkCreateShaderModule,
+                pipelines::create_shader_module
+            )
+        }
+        b"vkDestroyShaderModule" => {
+            void_fn!(
+                vk::PFN_vkDestroyShaderModule,
+                pipelines::destroy_shader_module
+            )
+        }
+        b"vkCreateGraphicsPipelines" => void_fn!(
+            vk::PFN_vkCreateGraphicsPipelines,
+            pipelines::create_graphics_pipelines
+        ),
+        b"vkDestroyPipeline" => void_fn!(vk::PFN_vkDestroyPipeline, pipelines::destroy_pipeline),
+        // SAFETY: forwarding the caller's arguments.
+        _ => unsafe { fake_get_device_proc_addr_with_passes(device, name) },
+    }
+}
+
+/// The commands of [`fake_get_device_proc_addr_with_pipelines`].
+mod pipelines {
+    use super::*;
+
+    pub(super) unsafe extern "system" fn create_shader_module(
+        device: vk::Device,
+        p_create_info: *const vk::ShaderModuleCreateInfo,
+        p_allocator: *const vk::AllocationCallbacks,
+        p_module: *mut vk::ShaderModule,
+    ) -> vk::Result {
+        // SAFETY: the fake's live device.
+        let table = unsafe { key_of(device) };
+        let result = next_scripted(&SHADER_MODULE_RESULTS, table).unwrap_or(vk::Result::SUCCESS);
+        let handle = if result == vk::Result::SUCCESS {
+            fresh_handle()
+        } else {
+            vk::ShaderModule::null()
+        };
+        // SAFETY: a valid create info of `codeSize` bytes, and a valid output pointer.
+        let code = unsafe {
+            let info = &*p_create_info;
+            *p_module = handle;
+            crate::hooks::resources::slice(info.p_code, (info.code_size / 4) as u32).to_vec()
+        };
+        let event = Event::CreateShaderModule {
+            handle,
+            code,
+            allocator: !p_allocator.is_null(),
+        };
+        note(table, event);
+        result
+    }
+
+    pub(super) unsafe extern "system" fn destroy_shader_module(
+        device: vk::Device,
+        handle: vk::ShaderModule,
+        p_allocator: *const vk::AllocationCallbacks,
+    ) {
+        let event = Event::DestroyShaderModule {
+            handle,
+            allocator: !p_allocator.is_null(),
+        };
+        // SAFETY: the fake's live device.
+        note(unsafe { key_of(device) }, event);
+    }
+
+    pub(super) unsafe extern "system" fn create_graphics_pipelines(
+        device: vk::Device,
+        cache: vk::PipelineCache,
+        count: u32,
+        p_create_infos: *const vk::GraphicsPipelineCreateInfo,
+        p_allocator: *const vk::AllocationCallbacks,
+        p_pipelines: *mut vk::Pipeline,
+    ) -> vk::Result {
+        // SAFETY: the fake's live device.
+        let table = unsafe { key_of(device) };
+        let outcome =
+            next_scripted(&PIPELINE_OUTCOMES, table).unwrap_or_else(PipelineOutcome::success);
+        // SAFETY: `count` valid create infos.
+        let infos = unsafe { crate::hooks::resources::slice(p_create_infos, count) };
+        // SAFETY: as above.
+        let seen = infos.iter().map(|info| unsafe { seen_pipeline(info) });
+        let seen: Vec<SeenPipeline> = seen.collect();
+        let handles: Vec<vk::Pipeline> = (0..count as usize)
+            .map(|index| {
+                let created = outcome
+                    .created
+                    .get(index)
+                    .copied()
+                    .unwrap_or(outcome.result == vk::Result::SUCCESS);
+                if created {
+                    fresh_handle()
+                } else {
+                    vk::Pipeline::null()
+                }
+            })
+            .collect();
+        for (index, &handle) in handles.iter().enumerate() {
+            // SAFETY: room for `count` handles.
+            unsafe { *p_pipelines.add(index) = handle };
+        }
+        let event = Event::CreateGraphicsPipelines {
+            cache,
+            infos: seen,
+            allocator: !p_allocator.is_null(),
+            result: outcome.result,
+            handles,
+        };
+        note(table, event);
+        outcome.result
+    }
+
+    pub(super) unsafe extern "system" fn destroy_pipeline(
+        device: vk::Device,
+        handle: vk::Pipeline,
+        p_allocator: *const vk::AllocationCallbacks,
+    ) {
+        let event = Event::DestroyPipeline {
+            handle,
+            allocator: !p_allocator.is_null(),
+        };
+        // SAFETY: the fake's live device.
+        note(unsafe { key_of(device) }, event);
     }
 }
 
