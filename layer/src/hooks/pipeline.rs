@@ -666,7 +666,29 @@ fn create_reversed_variant(
         Some((index, code)) => Some(rewritten_stage(state, device, &mut stages[*index], code)?),
         None => None,
     };
+    // Flags given in a `VkPipelineCreateFlags2CreateInfoKHR` replace `flags`: a copy with
+    // the same flags cleared takes its place, which it can only where it comes first.
+    // SAFETY: a valid pNext chain (the application's contract).
+    let flags2 = unsafe { chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(info.p_next) };
+    let cleared2 = vk::PipelineCreateFlags2KHR::DERIVATIVE
+        | vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
+        | vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE;
+    let flags2 = match flags2 {
+        Some(flags2) if flags2.flags.intersects(cleared2) => {
+            if !std::ptr::eq(info.p_next.cast(), flags2) {
+                return None;
+            }
+            Some(vk::PipelineCreateFlags2CreateInfoKHR {
+                flags: flags2.flags & !cleared2,
+                ..*flags2
+            })
+        }
+        _ => None,
+    };
     let variant_info = vk::GraphicsPipelineCreateInfo {
+        p_next: flags2.as_ref().map_or(info.p_next, |flags2| {
+            (flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast()
+        }),
         flags: info.flags
             & !(vk::PipelineCreateFlags::DERIVATIVE
                 | vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED
