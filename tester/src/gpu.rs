@@ -1,8 +1,8 @@
 //! Vulkan bring-up and teardown: the loader entry, the instance (optionally with the Khronos
 //! validation layer and a `VK_EXT_debug_utils` messenger that counts what it reports), physical
 //! device selection, the logical device (with the optional features a scene needs and the
-//! device has, and `VK_EXT_depth_clip_control` when a scene asks for it) and its graphics
-//! queue, the memory-type helper and host-visible buffers.
+//! device has, and `VK_EXT_depth_clip_control` or `VK_EXT_graphics_pipeline_library` when a
+//! scene asks for it) and its graphics queue, the memory-type helper and host-visible buffers.
 //!
 //! Everything created here is destroyed by `Drop`, in reverse order of creation, so that the
 //! validation layer has nothing to report as leaked at `vkDestroyDevice` / `vkDestroyInstance`.
@@ -145,6 +145,9 @@ pub struct Features {
     pub depth_bias_clamp: bool,
     /// `VK_EXT_depth_clip_control`'s `depthClipControl` (the extension is enabled with it).
     pub depth_clip_control: bool,
+    /// `VK_EXT_graphics_pipeline_library`'s `graphicsPipelineLibrary` (the extension and the
+    /// `VK_KHR_pipeline_library` it requires are enabled with it).
+    pub graphics_pipeline_library: bool,
 }
 
 impl Features {
@@ -155,6 +158,7 @@ impl Features {
             (self.depth_bounds, "depthBounds"),
             (self.depth_bias_clamp, "depthBiasClamp"),
             (self.depth_clip_control, "depthClipControl"),
+            (self.graphics_pipeline_library, "graphicsPipelineLibrary"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -168,6 +172,8 @@ impl Features {
             depth_bounds: self.depth_bounds && other.depth_bounds,
             depth_bias_clamp: self.depth_bias_clamp && other.depth_bias_clamp,
             depth_clip_control: self.depth_clip_control && other.depth_clip_control,
+            graphics_pipeline_library: self.graphics_pipeline_library
+                && other.graphics_pipeline_library,
         }
     }
 }
@@ -308,8 +314,8 @@ impl InstanceCtx {
 
 /// The instance, the chosen physical device, the logical device and its graphics queue.
 pub struct Gpu {
-    /// The logical device (only the optional features in `enabled`, and the extension of
-    /// `depthClipControl` when that is one of them).
+    /// The logical device (only the optional features in `enabled`, and the extensions of
+    /// `depthClipControl` and `graphicsPipelineLibrary` when they are among them).
     pub device: ash::Device,
     /// A queue of `queue_family` that supports graphics (and therefore transfer).
     pub queue: vk::Queue,
@@ -392,7 +398,7 @@ fn device_info(instance: &InstanceCtx, physical_device: vk::PhysicalDevice) -> D
 }
 
 /// The optional features `physical_device` has (`dynamicRendering` only with Vulkan 1.3,
-/// `depthClipControl` only with its extension).
+/// `depthClipControl` and `graphicsPipelineLibrary` only with their extensions).
 fn supported_features(
     instance: &InstanceCtx,
     physical_device: vk::PhysicalDevice,
@@ -424,9 +430,12 @@ fn supported_features(
             .enumerate_device_extension_properties(physical_device)
     }
     .unwrap_or_default();
-    let has_clip_control = extensions
-        .iter()
-        .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::depth_clip_control::NAME));
+    let has = |name: &CStr| {
+        extensions
+            .iter()
+            .any(|e| e.extension_name_as_c_str() == Ok(name))
+    };
+    let has_clip_control = has(ash::ext::depth_clip_control::NAME);
     let mut depth_clip_control = false;
     if has_clip_control {
         let mut clip = vk::PhysicalDeviceDepthClipControlFeaturesEXT::default();
@@ -440,11 +449,25 @@ fn supported_features(
         };
         depth_clip_control = clip.depth_clip_control == vk::TRUE;
     }
+    let mut graphics_pipeline_library = false;
+    if has(ash::ext::graphics_pipeline_library::NAME) && has(ash::khr::pipeline_library::NAME) {
+        let mut library = vk::PhysicalDeviceGraphicsPipelineLibraryFeaturesEXT::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut library);
+        // SAFETY: core 1.1 entry point (the instance asks for 1.2 or later); the device has
+        // the extension whose features structure is chained.
+        unsafe {
+            instance
+                .instance
+                .get_physical_device_features2(physical_device, &mut features2)
+        };
+        graphics_pipeline_library = library.graphics_pipeline_library == vk::TRUE;
+    }
     Features {
         dynamic_rendering,
         depth_bounds: core.depth_bounds == vk::TRUE,
         depth_bias_clamp: core.depth_bias_clamp == vk::TRUE,
         depth_clip_control,
+        graphics_pipeline_library,
     }
 }
 
@@ -513,7 +536,8 @@ impl Gpu {
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
         // Only the optional features the scene asked for and the device has, and no extension
-        // but VK_EXT_depth_clip_control for the scenes that need it.
+        // but VK_EXT_depth_clip_control and VK_EXT_graphics_pipeline_library (with the
+        // VK_KHR_pipeline_library it requires) for the scenes that need them.
         let core_features = vk::PhysicalDeviceFeatures::default()
             .depth_bounds(enabled.depth_bounds)
             .depth_bias_clamp(enabled.depth_bias_clamp);
@@ -521,17 +545,28 @@ impl Gpu {
             .dynamic_rendering(enabled.dynamic_rendering);
         let mut clip_control =
             vk::PhysicalDeviceDepthClipControlFeaturesEXT::default().depth_clip_control(true);
-        let extensions = [ash::ext::depth_clip_control::NAME.as_ptr()];
+        let mut library = vk::PhysicalDeviceGraphicsPipelineLibraryFeaturesEXT::default()
+            .graphics_pipeline_library(true);
+        let mut extensions = Vec::new();
+        if enabled.depth_clip_control {
+            extensions.push(ash::ext::depth_clip_control::NAME.as_ptr());
+        }
+        if enabled.graphics_pipeline_library {
+            extensions.push(ash::khr::pipeline_library::NAME.as_ptr());
+            extensions.push(ash::ext::graphics_pipeline_library::NAME.as_ptr());
+        }
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
-            .enabled_features(&core_features);
+            .enabled_features(&core_features)
+            .enabled_extension_names(&extensions);
         if enabled.dynamic_rendering {
             device_create_info = device_create_info.push_next(&mut features13);
         }
         if enabled.depth_clip_control {
-            device_create_info = device_create_info
-                .enabled_extension_names(&extensions)
-                .push_next(&mut clip_control);
+            device_create_info = device_create_info.push_next(&mut clip_control);
+        }
+        if enabled.graphics_pipeline_library {
+            device_create_info = device_create_info.push_next(&mut library);
         }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {
@@ -748,6 +783,7 @@ mod tests {
             depth_bounds: true,
             depth_bias_clamp: true,
             depth_clip_control: true,
+            graphics_pipeline_library: true,
         };
         assert_eq!(
             all.names(),
@@ -755,7 +791,8 @@ mod tests {
                 "dynamicRendering",
                 "depthBounds",
                 "depthBiasClamp",
-                "depthClipControl"
+                "depthClipControl",
+                "graphicsPipelineLibrary"
             ]
         );
         let some = Features {

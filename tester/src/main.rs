@@ -3,9 +3,10 @@
 //! the revz layer; the layer, when injected, changes what it renders. Each scene (`scenes`)
 //! exercises depth state a reversed-depth layer must handle: compare ops, clear values, depth
 //! bias and bounds, viewport depth ranges, stencil, secondaries, subpasses, dynamic rendering,
-//! a sampled shadow map, and the ways applications hand their projection to the shader (push
-//! constant layouts, partial updates, OpenGL depth, already reversed, threads). Where the
-//! nearest surface wins, it also writes the computed ground truth (`ground_truth`).
+//! pipeline libraries, a sampled shadow map, and the ways applications hand their projection
+//! to the shader (push constant layouts, partial updates, OpenGL depth, already reversed,
+//! threads). Where the nearest surface wins, it also writes the computed ground truth
+//! (`ground_truth`).
 //!
 //! This file owns the command line and the orchestration only; see the modules for the rest.
 //!
@@ -199,6 +200,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             depth_bounds: needs.depth_bounds,
             depth_bias_clamp: needs.depth_bias_clamp,
             depth_clip_control: needs.depth_clip_control,
+            graphics_pipeline_library: needs.graphics_pipeline_library,
         },
     })?;
     say(&format!(
@@ -220,6 +222,12 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     }
     if needs.depth_clip_control && !gpu.supported.depth_clip_control {
         bail!(lacks("depthClipControl (VK_EXT_depth_clip_control)"));
+    }
+    if needs.graphics_pipeline_library && !gpu.supported.graphics_pipeline_library {
+        bail!(lacks(
+            "graphicsPipelineLibrary (VK_EXT_graphics_pipeline_library with \
+             VK_KHR_pipeline_library)"
+        ));
     }
     let features = gpu.enabled.names();
 

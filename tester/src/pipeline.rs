@@ -1,8 +1,9 @@
 //! Vulkan objects made from a scene's [`Plan`] data: render passes (one or two subpasses, main
 //! target or shadow map; multisampled ones with `vkCreateRenderPass2` and color and depth
 //! resolves) and graphics pipelines (their depth, stencil, bias, bounds and viewport state,
-//! static or dynamic, and sample count; made for a render pass or for dynamic rendering), and
-//! the pure maps from the plan's enums to Vulkan's.
+//! static or dynamic, and sample count; made for a render pass or for dynamic rendering, in
+//! one call or from `VK_EXT_graphics_pipeline_library` libraries linked together), and the
+//! pure maps from the plan's enums to Vulkan's.
 
 use anyhow::{anyhow, Context, Result};
 use ash::vk;
@@ -427,13 +428,84 @@ pub struct PipelineTarget<'p> {
     pub bias_clamp: bool,
 }
 
+/// A pipeline made by [`create_pipeline`] and what it was linked from: its owner destroys
+/// `pipeline`, then `libraries` (kept alive for as long as the pipeline, as an application
+/// that may link them again would).
+#[derive(Clone, Debug)]
+pub struct BuiltPipeline {
+    /// The pipeline to bind.
+    pub pipeline: vk::Pipeline,
+    /// The `VK_EXT_graphics_pipeline_library` libraries it was linked from, in the order
+    /// vertex input interface, pre-rasterization shaders, fragment shader, fragment output
+    /// interface (empty for an ordinary pipeline).
+    pub libraries: Vec<vk::Pipeline>,
+}
+
+/// Pipelines destroyed when dropped unless taken: the libraries made so far, should a later
+/// library or the link fail.
+struct PipelineGuard<'a> {
+    device: &'a ash::Device,
+    pipelines: Vec<vk::Pipeline>,
+}
+
+impl Drop for PipelineGuard<'_> {
+    fn drop(&mut self) {
+        for &pipeline in &self.pipelines {
+            // SAFETY: created from `device` and never bound (creation did not complete).
+            unsafe { self.device.destroy_pipeline(pipeline, None) };
+        }
+    }
+}
+
+/// One `vkCreateGraphicsPipelines` call for `info`.
+fn create_one(
+    device: &ash::Device,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+    what: &str,
+) -> Result<vk::Pipeline> {
+    // SAFETY: valid device; every state structure and module `info` refers to is alive for
+    // the call (the callers build them as locals around it).
+    let pipelines = unsafe {
+        device.create_graphics_pipelines(
+            vk::PipelineCache::null(),
+            std::slice::from_ref(info),
+            None,
+        )
+    }
+    .map_err(|(pipelines, e)| {
+        for pipeline in pipelines {
+            // SAFETY: pipelines returned by the failed call; null ones are ignored.
+            unsafe { device.destroy_pipeline(pipeline, None) };
+        }
+        anyhow!("vkCreateGraphicsPipelines ({what}) failed: {e}")
+    })?;
+    pipelines
+        .into_iter()
+        .next()
+        .ok_or_else(|| anyhow!("vkCreateGraphicsPipelines ({what}) returned no pipeline"))
+}
+
+/// The `VK_EXT_graphics_pipeline_library` state subset a dynamic state belongs to: viewport
+/// and depth bias are pre-rasterization state, the depth compare op and bounds fragment
+/// shader state.
+fn library_of(state: vk::DynamicState) -> vk::GraphicsPipelineLibraryFlagsEXT {
+    match state {
+        vk::DynamicState::VIEWPORT | vk::DynamicState::DEPTH_BIAS => {
+            vk::GraphicsPipelineLibraryFlagsEXT::PRE_RASTERIZATION_SHADERS
+        }
+        _ => vk::GraphicsPipelineLibraryFlagsEXT::FRAGMENT_SHADER,
+    }
+}
+
 /// Creates the pipeline of `spec`: vec3 positions, triangle lists, no culling, the viewport
-/// covering the target, and the spec's depth, stencil, bias, bounds and dynamic state.
+/// covering the target, and the spec's depth, stencil, bias, bounds and dynamic state; with
+/// [`PipelineSpec::libraries`], from four `VK_EXT_graphics_pipeline_library` libraries (each
+/// with its share of the same state) linked into the pipeline returned.
 pub fn create_pipeline(
     device: &ash::Device,
     spec: &PipelineSpec,
     target: PipelineTarget<'_>,
-) -> Result<vk::Pipeline> {
+) -> Result<BuiltPipeline> {
     let (vertex, fragment) = match spec.program {
         Program::Flat => (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG)),
         Program::DepthOnly => (shaders::SCENE_VERT, None),
@@ -450,18 +522,19 @@ pub fn create_pipeline(
     let frag = fragment
         .map(|source| ShaderModule::new(device, &source))
         .transpose()?;
-    let mut stages = vec![vk::PipelineShaderStageCreateInfo::default()
+    let vertex_stage = vk::PipelineShaderStageCreateInfo::default()
         .stage(vk::ShaderStageFlags::VERTEX)
         .module(vert.module)
-        .name(c"main")];
-    if let Some(frag) = &frag {
-        stages.push(
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::FRAGMENT)
-                .module(frag.module)
-                .name(c"main"),
-        );
-    }
+        .name(c"main");
+    let fragment_stage = frag.as_ref().map(|frag| {
+        vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::FRAGMENT)
+            .module(frag.module)
+            .name(c"main")
+    });
+    let stages: Vec<_> = std::iter::once(vertex_stage)
+        .chain(fragment_stage)
+        .collect();
     let (bindings, attributes) = position_input();
     let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
         .vertex_binding_descriptions(&bindings)
@@ -524,8 +597,104 @@ pub fn create_pipeline(
     let color_blend =
         vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
     let dynamic = dynamic_states(spec);
-    let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
 
+    if spec.libraries {
+        // Render passes only (`Plan::check`): every library that needs the render pass and
+        // subpass is given them, and no `VkPipelineRenderingCreateInfo` is chained.
+        let library = |flags: vk::GraphicsPipelineLibraryFlagsEXT| {
+            vk::GraphicsPipelineLibraryCreateInfoEXT::default().flags(flags)
+        };
+        let dynamic_of = |flags| -> Vec<vk::DynamicState> {
+            dynamic
+                .iter()
+                .copied()
+                .filter(|&state| library_of(state) == flags)
+                .collect()
+        };
+        let pre_rasterization_dynamic =
+            dynamic_of(vk::GraphicsPipelineLibraryFlagsEXT::PRE_RASTERIZATION_SHADERS);
+        let fragment_dynamic = dynamic_of(vk::GraphicsPipelineLibraryFlagsEXT::FRAGMENT_SHADER);
+        let pre_rasterization_dynamic_state = vk::PipelineDynamicStateCreateInfo::default()
+            .dynamic_states(&pre_rasterization_dynamic);
+        let fragment_dynamic_state =
+            vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&fragment_dynamic);
+        let base =
+            vk::GraphicsPipelineCreateInfo::default().flags(vk::PipelineCreateFlags::LIBRARY_KHR);
+        let mut guard = PipelineGuard {
+            device,
+            pipelines: Vec::with_capacity(4),
+        };
+
+        // Vertex input interface: vertex input and input assembly.
+        let mut subset = library(vk::GraphicsPipelineLibraryFlagsEXT::VERTEX_INPUT_INTERFACE);
+        let info = base
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&input_assembly)
+            .push_next(&mut subset);
+        let what = format!("{}: vertex input interface library", spec.name);
+        guard.pipelines.push(create_one(device, &info, &what)?);
+
+        // Pre-rasterization shaders: the vertex shader, the viewport (its depth range) and the
+        // rasterization state (its depth bias).
+        let mut subset = library(vk::GraphicsPipelineLibraryFlagsEXT::PRE_RASTERIZATION_SHADERS);
+        let mut info = base
+            .stages(std::slice::from_ref(&vertex_stage))
+            .viewport_state(&viewport_state)
+            .rasterization_state(&rasterization)
+            .layout(target.layout)
+            .render_pass(target.render_pass)
+            .subpass(spec.subpass)
+            .push_next(&mut subset);
+        if !pre_rasterization_dynamic.is_empty() {
+            info = info.dynamic_state(&pre_rasterization_dynamic_state);
+        }
+        let what = format!("{}: pre-rasterization shaders library", spec.name);
+        guard.pipelines.push(create_one(device, &info, &what)?);
+
+        // Fragment shader: the fragment shader (none for depth-only programs), the
+        // depth-stencil state (compare op, test and write enables, bounds, stencil) and the
+        // multisample state.
+        let mut subset = library(vk::GraphicsPipelineLibraryFlagsEXT::FRAGMENT_SHADER);
+        let mut info = base
+            .stages(fragment_stage.as_slice())
+            .depth_stencil_state(&depth_stencil)
+            .multisample_state(&multisample)
+            .layout(target.layout)
+            .render_pass(target.render_pass)
+            .subpass(spec.subpass)
+            .push_next(&mut subset);
+        if !fragment_dynamic.is_empty() {
+            info = info.dynamic_state(&fragment_dynamic_state);
+        }
+        let what = format!("{}: fragment shader library", spec.name);
+        guard.pipelines.push(create_one(device, &info, &what)?);
+
+        // Fragment output interface: color blending and the multisample state.
+        let mut subset = library(vk::GraphicsPipelineLibraryFlagsEXT::FRAGMENT_OUTPUT_INTERFACE);
+        let info = base
+            .color_blend_state(&color_blend)
+            .multisample_state(&multisample)
+            .render_pass(target.render_pass)
+            .subpass(spec.subpass)
+            .push_next(&mut subset);
+        let what = format!("{}: fragment output interface library", spec.name);
+        guard.pipelines.push(create_one(device, &info, &what)?);
+
+        // The executable pipeline: the four libraries linked (no link-time optimization),
+        // with the same layout.
+        let mut linked = vk::PipelineLibraryCreateInfoKHR::default().libraries(&guard.pipelines);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .layout(target.layout)
+            .push_next(&mut linked);
+        let what = format!("{}: link of its libraries", spec.name);
+        let pipeline = create_one(device, &info, &what)?;
+        return Ok(BuiltPipeline {
+            pipeline,
+            libraries: std::mem::take(&mut guard.pipelines),
+        });
+    }
+
+    let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
     let color_formats = [COLOR_FORMAT];
     let mut rendering = vk::PipelineRenderingCreateInfo::default()
         .color_attachment_formats(&color_formats)
@@ -551,20 +720,10 @@ pub fn create_pipeline(
     } else {
         info = info.render_pass(target.render_pass).subpass(spec.subpass);
     }
-    // SAFETY: valid device; every state structure and module referenced is alive for the call.
-    let pipelines =
-        unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
-            .map_err(|(pipelines, e)| {
-                for pipeline in pipelines {
-                    // SAFETY: pipelines returned by the failed call; null ones are ignored.
-                    unsafe { device.destroy_pipeline(pipeline, None) };
-                }
-                anyhow!("vkCreateGraphicsPipelines ({}) failed: {e}", spec.name)
-            })?;
-    pipelines
-        .into_iter()
-        .next()
-        .ok_or_else(|| anyhow!("vkCreateGraphicsPipelines returned no pipeline"))
+    Ok(BuiltPipeline {
+        pipeline: create_one(device, &info, spec.name)?,
+        libraries: Vec::new(),
+    })
 }
 
 /// The viewport covering `extent` with depth range [min_depth, max_depth].
@@ -633,6 +792,12 @@ mod tests {
             ..standard
         };
         assert_eq!(dynamic_states(&all).len(), 4);
+        // Each goes to the library holding its state: viewport and bias to the
+        // pre-rasterization shaders, compare op and bounds to the fragment shader.
+        let libraries: Vec<_> = dynamic_states(&all).into_iter().map(library_of).collect();
+        let pre = vk::GraphicsPipelineLibraryFlagsEXT::PRE_RASTERIZATION_SHADERS;
+        let fragment = vk::GraphicsPipelineLibraryFlagsEXT::FRAGMENT_SHADER;
+        assert_eq!(libraries, [fragment, pre, fragment, pre]);
         let state = depth_stencil_state(&all);
         assert_eq!(state.depth_test_enable, vk::TRUE);
         assert_eq!(state.depth_bounds_test_enable, vk::TRUE);

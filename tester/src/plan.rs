@@ -235,6 +235,12 @@ pub struct PipelineSpec {
     /// `VkPipelineViewportDepthClipControlCreateInfoEXT::negativeOneToOne`: clip-space depth
     /// in [-w, w] (OpenGL's convention) instead of [0, w] (needs `VK_EXT_depth_clip_control`).
     pub negative_one_to_one: bool,
+    /// Built with `VK_EXT_graphics_pipeline_library` (needs it and its `graphicsPipelineLibrary`
+    /// feature; render passes only): four libraries (vertex input interface, pre-rasterization
+    /// shaders, fragment shader, fragment output interface), each holding its part of this
+    /// same state, linked into the pipeline that is bound. `false`: one ordinary
+    /// `vkCreateGraphicsPipelines` call. Both give the same pipeline.
+    pub libraries: bool,
 }
 
 impl PipelineSpec {
@@ -254,6 +260,7 @@ impl PipelineSpec {
             stencil: None,
             viewport: Viewport::FULL,
             negative_one_to_one: false,
+            libraries: false,
         }
     }
 }
@@ -500,6 +507,9 @@ pub struct Needs {
     /// `VK_EXT_depth_clip_control` with `depthClipControl` (a pipeline clips depth to
     /// [-w, w]).
     pub depth_clip_control: bool,
+    /// `VK_EXT_graphics_pipeline_library` (and `VK_KHR_pipeline_library`) with
+    /// `graphicsPipelineLibrary` (a pipeline is built from libraries).
+    pub graphics_pipeline_library: bool,
     /// Multisampled attachments of this sample count, resolved with this depth resolve mode
     /// (the device must support both for the formats, and the mode in
     /// `VkPhysicalDeviceDepthStencilResolveProperties`); every multisampled pass of a plan
@@ -605,6 +615,7 @@ impl Plan {
             needs.depth_bounds |= pipeline.bounds != Bounds::Off;
             needs.vulkan_1_3 |= pipeline.depth_test == DepthTest::Dynamic;
             needs.depth_clip_control |= pipeline.negative_one_to_one;
+            needs.graphics_pipeline_library |= pipeline.libraries;
             if let Bias::Static(bias) = pipeline.bias {
                 needs.depth_bias_clamp |= bias.clamp != 0.0;
             }
@@ -677,6 +688,11 @@ impl Plan {
             ensure!(
                 pipeline.program != Program::ShadowReceiver || pass.target == Target::Main,
                 "pipeline {name}: a shadow receiver drawing into the shadow map"
+            );
+            ensure!(
+                !pipeline.libraries || pass.kind != PassKind::DynamicRendering,
+                "pipeline {name}: library pipelines are built for render passes only (their \
+                 libraries are given the render pass and subpass)"
             );
             ensure!(
                 pass.target == Target::Main || pipeline.stencil.is_none(),
@@ -1185,6 +1201,25 @@ mod tests {
         };
         assert!(!broken(&second(ResolveMode::Max)));
         assert!(broken(&second(ResolveMode::Average)));
+    }
+
+    #[test]
+    fn library_pipelines_need_the_extension_and_a_render_pass() {
+        let mut plan = Plan::single_pass(1);
+        plan.pipelines[0].libraries = true;
+        plan.check(1, false).unwrap();
+        assert_eq!(
+            plan.needs(),
+            Needs {
+                graphics_pipeline_library: true,
+                ..Needs::default()
+            }
+        );
+        // Dynamic rendering: no render pass to give the libraries.
+        plan.passes[0].kind = PassKind::DynamicRendering;
+        assert!(plan.check(1, false).is_err());
+        plan.pipelines[0].libraries = false;
+        plan.check(1, false).unwrap();
     }
 
     #[test]

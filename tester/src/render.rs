@@ -101,6 +101,9 @@ pub struct Renderer<'a> {
     colors: Option<ColorBindings<'a>>,
     /// One per plan pipeline.
     pipelines: Vec<vk::Pipeline>,
+    /// The libraries the pipelines built from `VK_EXT_graphics_pipeline_library` libraries
+    /// were linked from (destroyed after them).
+    libraries: Vec<vk::Pipeline>,
     command_pool: vk::CommandPool,
     /// The queue family of the command pools (recording threads create their own).
     queue_family: u32,
@@ -131,7 +134,7 @@ impl Drop for Renderer<'_> {
             let _ = self.device.device_wait_idle();
             self.device.destroy_fence(self.fence, None);
             self.device.destroy_command_pool(self.command_pool, None);
-            for &pipeline in &self.pipelines {
+            for &pipeline in self.pipelines.iter().chain(&self.libraries) {
                 self.device.destroy_pipeline(pipeline, None);
             }
             self.device
@@ -195,6 +198,7 @@ impl<'a> Renderer<'a> {
             pair_layout: vk::PipelineLayout::null(),
             colors: None,
             pipelines: Vec::new(),
+            libraries: Vec::new(),
             command_pool: vk::CommandPool::null(),
             queue_family: gpu.queue_family,
             command_buffer: vk::CommandBuffer::null(),
@@ -276,7 +280,7 @@ impl<'a> Renderer<'a> {
         for spec in &plan.pipelines {
             let pass = &plan.passes[spec.pass];
             let (layout, _) = this.layout(spec.program);
-            let pipeline = create_pipeline(
+            let built = create_pipeline(
                 device,
                 spec,
                 PipelineTarget {
@@ -288,7 +292,8 @@ impl<'a> Renderer<'a> {
                     bias_clamp: this.bias_clamp,
                 },
             )?;
-            this.pipelines.push(pipeline);
+            this.pipelines.push(built.pipeline);
+            this.libraries.extend(built.libraries);
         }
 
         let pool_info = vk::CommandPoolCreateInfo::default()

@@ -70,6 +70,9 @@ pub enum SceneId {
     /// A fragment shader writing `gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z`: a near card
     /// pushed behind a farther one, in front of a far wall.
     FragDepth,
+    /// The overlap scene, decals with a static depth bias and a sky at viewport depth [1, 1],
+    /// every pipeline linked from `VK_EXT_graphics_pipeline_library` libraries.
+    PipelineLibrary,
     /// Push constants hold only the projection P; vertices are in view space.
     ProjectionOnly,
     /// Push constants hold P * V; vertices are in world space (a far-reaching scene).

@@ -86,6 +86,11 @@ pub const CATALOG: &[Entry] = &[
         msaa_resolve_dynamic,
     ),
     entry_row(SceneId::FragDepth, "frag-depth", frag_depth),
+    entry_row(
+        SceneId::PipelineLibrary,
+        "pipeline-library",
+        pipeline_library,
+    ),
     entry_row(SceneId::ProjectionOnly, "projection-only", projection_only),
     entry_row(SceneId::ViewProjection, "view-projection", view_projection),
     entry_row(
@@ -1183,6 +1188,118 @@ pub fn frag_depth() -> Scene {
     b.finish("frag-depth", camera, None)
 }
 
+/// A rectangle `[x ± half_width] x [y ± half_height]` on the +z face of `cube` (a
+/// [`grounded_cube`] of half size `half`): the face's plane in the cube's own model space
+/// (local z = `half`, the very f32 value of the face's vertices) with the cube's model matrix,
+/// so exactly coplanar with the face.
+fn face_decal(
+    name: &'static str,
+    cube: &Object,
+    half: f64,
+    [x, y, half_width, half_height]: [f64; 4],
+    color: [f32; 4],
+) -> Object {
+    Object {
+        name,
+        mesh: Mesh::rect_xy(x, y, half_width, half_height).translated(DVec3::new(0.0, 0.0, half)),
+        color,
+        ..cube.clone()
+    }
+}
+
+/// The half sizes of the overlap scene's near and middle cubes (see `overlap_objects`).
+const NEAR_CUBE_HALF: f64 = 0.5;
+/// See [`NEAR_CUBE_HALF`].
+const MIDDLE_CUBE_HALF: f64 = 0.75;
+
+/// `pipeline-library` (needs `VK_EXT_graphics_pipeline_library`): every pipeline is built
+/// from four libraries (vertex input interface, pre-rasterization shaders, fragment shader,
+/// fragment output interface; each given the render pass and subpass where it needs them)
+/// linked into the pipeline bound, with all depth state static and where the extension puts
+/// it: the viewport and the rasterization state (depth bias) in the pre-rasterization
+/// library, the depth-stencil state (compare op, test and write) in the fragment shader
+/// library. One render pass (depth cleared to 1.0) draws:
+/// - the overlap objects with LESS and depth writes (the nearest wins: the red cube in front
+///   of the green one, the slab cutting the green cube, the blue cube behind);
+/// - two decals coplanar with the +z faces of the red and green cubes (same model matrix,
+///   the face's own plane), with LESS, no depth writes and the static bias of `depth-bias`
+///   (constant -8, slope -12, clamp -1e-4 when the device has `depthBiasClamp`): a white
+///   square on the red cube, a cyan band on the green cube whose left end passes behind the
+///   red cube, which hides it there (the red cube is in front by far more than the bias);
+/// - a full-screen sky quad (clip depth 0.5) with viewport depth range [1, 1] and
+///   LESS_OR_EQUAL without depth writes: it fills the background above the ground only.
+///
+/// Layer item: depth state carried by pipeline libraries. The layer must change the libraries
+/// as it changes ordinary pipelines (swap the compare ops in the fragment shader library;
+/// negate the bias and flip the viewport depth range in the pre-rasterization library, as its
+/// mode wants): the linked create info carries no depth state at all. A layer that passes
+/// library pipelines through untouched into a reversed depth buffer (cleared to 0) leaves
+/// LESS and LESS_OR_EQUAL failing against it at every pixel: the whole image is the clear
+/// color. With the fragment shader library handled but not the pre-rasterization one: the
+/// unflipped [1, 1] sky lands at reversed depth 1, the nearest, and covers the whole image;
+/// an unnegated bias pushes the decals behind their faces (they vanish: plain red and green
+/// faces, the white square and cyan band gone); on the flip path (viewport flipped for a
+/// standard projection) a missed flip also leaves standard depths tested with GREATER, so the
+/// farthest surface wins (the ground over the cubes).
+pub fn pipeline_library() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = overlap_objects();
+    let cube = |name: &str| {
+        objects
+            .iter()
+            .find(|o| o.name == name)
+            .expect("overlap has the cube")
+            .clone()
+    };
+    let (near, middle) = (cube("near cube"), cube("middle cube"));
+    let world = b.nearest_first(&camera, objects);
+    let decals = [
+        face_decal(
+            "near cube decal",
+            &near,
+            NEAR_CUBE_HALF,
+            [0.0, 0.05, 0.25, 0.25],
+            rgb8(240, 240, 240),
+        ),
+        face_decal(
+            "middle cube decal",
+            &middle,
+            MIDDLE_CUBE_HALF,
+            [-0.1, 0.25, 0.55, 0.15],
+            rgb8(0, 230, 230),
+        ),
+    ]
+    .map(|o| b.object(o));
+    let sky = b.object(Object::full_screen("sky", rgb8(120, 180, 240)));
+    b.pass(PassSpec::clear(1.0));
+    let library = |spec: PipelineSpec| PipelineSpec {
+        libraries: true,
+        ..spec
+    };
+    let standard = b.pipeline(library(PipelineSpec::standard("standard", 0)));
+    let decal = b.pipeline(library(PipelineSpec {
+        bias: Bias::Static(DECAL_BIAS),
+        ..test_only("decal", DepthTest::Static(Compare::Less))
+    }));
+    let sky_pipeline = b.pipeline(library(PipelineSpec {
+        viewport: Viewport::Static {
+            min_depth: 1.0,
+            max_depth: 1.0,
+        },
+        ..test_only("sky", DepthTest::Static(Compare::LessOrEqual))
+    }));
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&world);
+    b.step(Step::Bind(decal));
+    b.draw(&decals);
+    b.step(Step::Bind(sky_pipeline));
+    b.step(Step::Draw(sky));
+    b.step(Step::EndPass);
+    b.finish("pipeline-library", camera, None)
+}
+
 /// The overlap objects with their model matrices applied in `space`.
 fn overlap_objects_in(space: Space) -> Vec<Object> {
     overlap_objects()
@@ -1646,6 +1763,7 @@ mod tests {
         assert!(needs(SceneId::DepthBias).depth_bias_clamp);
         assert!(needs(SceneId::DepthBiasDynamic).depth_bias_clamp);
         assert!(needs(SceneId::ClearImage).clear_depth_image);
+        assert!(needs(SceneId::PipelineLibrary).graphics_pipeline_library);
         assert!(needs(SceneId::ShadowMap).shadow_map);
         assert_eq!(needs(SceneId::Secondary).secondaries, 2);
         assert_eq!(needs(SceneId::Overlap), crate::plan::Needs::default());
@@ -1823,6 +1941,179 @@ mod tests {
         let rod = depth_range_of(&scene, "rod");
         let wall = depth_range_of(&scene, "slanted wall");
         assert!(rod.0 > wall.0 && rod.1 < wall.1);
+    }
+
+    /// Where the ray `origin + t * dir` (t > 0) meets the triangle, as t (Möller-Trumbore).
+    fn ray_hits(origin: DVec3, dir: DVec3, [a, b, c]: [DVec3; 3]) -> Option<f64> {
+        let (e1, e2) = (b - a, c - a);
+        let p = dir.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-15 {
+            return None;
+        }
+        let s = origin - a;
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let v = dir.dot(q) / det;
+        let t = e2.dot(q) / det;
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
+    }
+
+    /// The nearest world-space object of `scene` (but those in `skip`) that the ray
+    /// `origin + t * dir` meets, with its t.
+    fn nearest_hit(
+        scene: &Scene,
+        origin: DVec3,
+        dir: DVec3,
+        skip: &[usize],
+    ) -> Option<(usize, f64)> {
+        let mut nearest: Option<(usize, f64)> = None;
+        for (n, object) in scene.objects.iter().enumerate() {
+            if object.space != Space::World || skip.contains(&n) {
+                continue;
+            }
+            for triangle in object.mesh.triangles() {
+                let world = triangle.map(|p| object.model.transform_point3(p));
+                if let Some(t) = ray_hits(origin, dir, world) {
+                    if nearest.is_none_or(|(_, best)| t < best) {
+                        nearest = Some((n, t));
+                    }
+                }
+            }
+        }
+        nearest
+    }
+
+    #[test]
+    fn pipeline_library_builds_every_pipeline_from_static_libraries() {
+        let scene = pipeline_library();
+        let plan = &scene.plan;
+        assert!(plan.needs().graphics_pipeline_library);
+        // A render pass: every library is given it and its subpass.
+        assert!(plan.passes.iter().all(|p| p.kind == PassKind::RenderPass));
+        for pipeline in &plan.pipelines {
+            assert!(pipeline.libraries, "{}", pipeline.name);
+            // All depth state static: in the libraries' create infos, nowhere else.
+            assert!(matches!(pipeline.depth_test, DepthTest::Static(_)));
+            assert!(matches!(pipeline.bias, Bias::Off | Bias::Static(_)));
+            assert!(matches!(pipeline.viewport, Viewport::Static { .. }));
+            assert_eq!(pipeline.bounds, Bounds::Off);
+        }
+        let spec = |name: &str| {
+            plan.pipelines
+                .iter()
+                .find(|p| p.name == name)
+                .unwrap_or_else(|| panic!("no pipeline {name}"))
+        };
+        assert_eq!(
+            spec("standard").depth_test,
+            DepthTest::Static(Compare::Less)
+        );
+        assert_eq!(spec("decal").bias, Bias::Static(DECAL_BIAS));
+        assert!(!spec("decal").depth_write);
+        assert_eq!(
+            spec("sky").viewport,
+            Viewport::Static {
+                min_depth: 1.0,
+                max_depth: 1.0
+            }
+        );
+        assert_eq!(
+            spec("sky").depth_test,
+            DepthTest::Static(Compare::LessOrEqual)
+        );
+        // The overlap objects, unchanged.
+        for object in overlap().objects {
+            assert!(scene.objects.contains(&object), "{}", object.name);
+        }
+        // No other scene needs the extension.
+        for other in all() {
+            assert_eq!(
+                other.plan.needs().graphics_pipeline_library,
+                other.name == "pipeline-library",
+                "{}",
+                other.name
+            );
+        }
+    }
+
+    #[test]
+    fn pipeline_library_decals_lie_on_visible_faces_and_the_sky_behind_everything() {
+        let scene = pipeline_library();
+        let eye = scene.camera.eye;
+        let decals = ["near cube decal", "middle cube decal"].map(|name| find(&scene, name));
+        for (decal, cube, half) in [
+            (decals[0], "near cube", NEAR_CUBE_HALF),
+            (decals[1], "middle cube", MIDDLE_CUBE_HALF),
+        ] {
+            let cube = find(&scene, cube);
+            let (d, c) = (&scene.objects[decal], &scene.objects[cube]);
+            let name = d.name;
+            // Exactly coplanar with the cube's +z face (the same model matrix, the face's own
+            // f32 z), and inside its edges.
+            assert_eq!(d.model, c.model, "{name}");
+            let face_z = half as f32;
+            assert!(
+                c.mesh
+                    .positions
+                    .chunks_exact(4)
+                    .any(|face| face.iter().all(|p| p[2] == face_z)),
+                "{name}: the cube has no face at z = {face_z}"
+            );
+            for p in &d.mesh.positions {
+                assert!(
+                    p[2] == face_z && p[0].abs() < face_z && p[1].abs() < face_z,
+                    "{name}"
+                );
+            }
+            // The face turns toward the eye.
+            let normal = d.model.transform_vector3(DVec3::Z);
+            assert!(normal.dot(eye - d.world_center()) > 0.0, "{name}");
+            // Over the whole decal (a 10 x 10 grid of points), the nearest surface the eye sees
+            // is the decal's own face, at the decal: nothing else is in front of it, so the
+            // bias alone decides whether it shows. And it is inside the image.
+            let corners: Vec<DVec3> = d.mesh.positions_f64().collect();
+            let view_projection = scene.view_projection(ASPECT);
+            for i in 0..10 {
+                for j in 0..10 {
+                    let (u, v) = ((f64::from(i) + 0.5) / 10.0, (f64::from(j) + 0.5) / 10.0);
+                    let local =
+                        corners[0] + u * (corners[1] - corners[0]) + v * (corners[3] - corners[0]);
+                    let point = d.model.transform_point3(local);
+                    let (hit, t) = nearest_hit(&scene, eye, point - eye, &decals)
+                        .unwrap_or_else(|| panic!("{name}: the eye sees nothing at {point}"));
+                    assert_eq!(
+                        hit, cube,
+                        "{name}: {} in front at {point}",
+                        scene.objects[hit].name
+                    );
+                    assert!((t - 1.0).abs() < 1e-9, "{name}: t = {t}");
+                    let ndc = view_projection.project_point3(point);
+                    assert!(ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0, "{name} at {ndc}");
+                }
+            }
+        }
+        // The sky (viewport [1, 1], LESS_OR_EQUAL) passes only on the clear value: every
+        // surface is nearer than 1 by far more than any format's resolution...
+        let sky = find(&scene, "sky");
+        for n in (0..scene.objects.len()).filter(|&n| n != sky) {
+            let (_, far) = depth_range(&scene, n);
+            assert!(far < 1.0 - MARGIN, "{}: {far}", scene.objects[n].name);
+        }
+        // ...and the top corners of the image see no surface (the sky shows there), the
+        // bottom ones the ground.
+        let inverse = scene.view_projection(ASPECT).inverse();
+        let ground = find(&scene, "ground");
+        for (x, y, sees) in [
+            (-0.95, -0.95, None),
+            (0.95, -0.95, None),
+            (-0.95, 0.95, Some(ground)),
+            (0.95, 0.95, Some(ground)),
+        ] {
+            let through = inverse.project_point3(DVec3::new(x, y, 0.5));
+            let hit = nearest_hit(&scene, eye, through - eye, &[]).map(|(n, _)| n);
+            assert_eq!(hit, sees, "at ({x}, {y})");
+        }
     }
 
     #[test]

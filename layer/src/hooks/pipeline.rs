@@ -660,12 +660,6 @@ fn create_reversed_variant(
     } else {
         None
     };
-    // SAFETY: `stageCount` stages (the application's contract).
-    let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
-    let module = match &plan.fragment {
-        Some((index, code)) => Some(rewritten_stage(state, device, &mut stages[*index], code)?),
-        None => None,
-    };
     // Flags given in a `VkPipelineCreateFlags2CreateInfoKHR` replace `flags`: a copy with
     // the same flags cleared takes its place, which it can only where it comes first.
     // SAFETY: a valid pNext chain (the application's contract).
@@ -684,6 +678,12 @@ fn create_reversed_variant(
             })
         }
         _ => None,
+    };
+    // SAFETY: `stageCount` stages (the application's contract).
+    let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
+    let module = match &plan.fragment {
+        Some((index, code)) => Some(rewritten_stage(state, device, &mut stages[*index], code)?),
+        None => None,
     };
     let variant_info = vk::GraphicsPipelineCreateInfo {
         p_next: flags2.as_ref().map_or(info.p_next, |flags2| {
