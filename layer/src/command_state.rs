@@ -103,6 +103,10 @@ pub struct PipelineDepth {
     pub reversed_variant: Option<vk::Pipeline>,
     /// Where the vertex stage's projection is in the push constants, if it comes from there.
     pub projection: Option<ProjectionUse>,
+    /// The state subsets the pipeline defines itself (`VK_EXT_graphics_pipeline_library`):
+    /// all of them but for libraries, whose links take each subset's state from the library
+    /// that defines it.
+    pub subsets: vk::GraphicsPipelineLibraryFlagsEXT,
 }
 
 /// The depth attachment draws currently go to.
@@ -720,6 +724,7 @@ mod tests {
             handle: vk::Pipeline::null(),
             reversed_variant: None,
             projection: None,
+            subsets: vk::GraphicsPipelineLibraryFlagsEXT::empty(),
         })
     }
 

@@ -3,8 +3,11 @@
 //! A pipeline can draw into reversed and native attachments alike, so its compare op, viewport,
 //! depth bias and depth bounds are made dynamic (when the application left them static) and
 //! their static values are recorded; [`crate::command_state`] emits the right values at draw
-//! time. Pipeline libraries are passed through untouched (and their draws into reversed
-//! attachments are not corrected: logged once).
+//! time. Graphics pipeline libraries get the same in the state subsets each defines, and a
+//! linked pipeline takes each subset's state from its library. A pipeline whose fragment
+//! shader computes with depth, or whose compare op stays static (`compare_op = variants`),
+//! gets a reversed variant bound for draws into reversed attachments; libraries and their
+//! links get none (logged once).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -32,19 +35,79 @@ static CREATE_PIPELINE_LAYOUT: EntryPoint = EntryPoint::new("vkCreatePipelineLay
 static DESTROY_PIPELINE_LAYOUT: EntryPoint = EntryPoint::new("vkDestroyPipelineLayout");
 static LIBRARY_LOGGED: AtomicBool = AtomicBool::new(false);
 
-/// Whether a create info builds or links pipeline libraries.
-fn uses_libraries(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
-    if info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR) {
-        return true;
-    }
+/// The state subsets of a graphics pipeline (`VK_EXT_graphics_pipeline_library`).
+type Subsets = vk::GraphicsPipelineLibraryFlagsEXT;
+
+/// Every subset: what an ordinary pipeline defines.
+const ALL_SUBSETS: Subsets = Subsets::from_raw(
+    Subsets::VERTEX_INPUT_INTERFACE.as_raw()
+        | Subsets::PRE_RASTERIZATION_SHADERS.as_raw()
+        | Subsets::FRAGMENT_SHADER.as_raw()
+        | Subsets::FRAGMENT_OUTPUT_INTERFACE.as_raw(),
+);
+
+/// The subsets a create info defines itself (not those of the libraries it links): those its
+/// `VkGraphicsPipelineLibraryCreateInfoEXT` names, none for a library or a link without one,
+/// and all of them for an ordinary pipeline.
+fn own_subsets(info: &vk::GraphicsPipelineCreateInfo<'_>) -> Subsets {
     // SAFETY: a valid pNext chain (the application's contract).
-    unsafe { chain::structures(info.p_next) }.any(|base| {
-        matches!(
-            base.s_type,
-            vk::StructureType::PIPELINE_LIBRARY_CREATE_INFO_KHR
-                | vk::StructureType::GRAPHICS_PIPELINE_LIBRARY_CREATE_INFO_EXT
+    let (named, links) = unsafe {
+        (
+            chain::find::<vk::GraphicsPipelineLibraryCreateInfoEXT<'_>>(info.p_next),
+            chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next),
         )
-    })
+    };
+    if let Some(named) = named {
+        return named.flags;
+    }
+    let links = links.is_some_and(|links| links.library_count > 0);
+    if info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR) || links {
+        Subsets::empty()
+    } else {
+        ALL_SUBSETS
+    }
+}
+
+/// Whether a create info builds a library or links libraries.
+fn is_library_or_link(info: &vk::GraphicsPipelineCreateInfo<'_>, subsets: Subsets) -> bool {
+    subsets != ALL_SUBSETS || info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR)
+}
+
+/// The libraries a create info links, as revz recorded them (unknown ones are skipped).
+fn linked_libraries(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> Vec<Arc<PipelineDepth>> {
+    // SAFETY: a valid pNext chain (the application's contract).
+    let Some(links) = (unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next) })
+    else {
+        return Vec::new();
+    };
+    // SAFETY: `libraryCount` pipelines.
+    unsafe { slice(links.p_libraries, links.library_count) }
+        .iter()
+        .filter_map(|library| state.objects.pipelines.get(library))
+        .collect()
+}
+
+/// A linked pipeline's depth state: each subset's from the library that defines it, and the
+/// dynamic states of all of them (a library's dynamic states are those of its subsets, which
+/// the linked pipeline keeps).
+fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]) {
+    for library in libraries {
+        depth.app_dynamic |= library.app_dynamic;
+        depth.injected |= library.injected;
+        if library.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
+            depth.viewports.clone_from(&library.viewports);
+            depth.bias = library.bias;
+            depth.projection = library.projection;
+        }
+        if library.subsets.contains(Subsets::FRAGMENT_SHADER) {
+            depth.compare_op = library.compare_op;
+            depth.bounds = library.bounds;
+            depth.unreversed_fragment |= library.unreversed_fragment;
+        }
+    }
 }
 
 /// The fragment stage of a create info (its index) and its rewrite for reversed attachments
@@ -214,18 +277,20 @@ struct PlanContext {
     /// Whether the pipeline renders into a depth attachment; the spec makes
     /// `pDepthStencilState` ignored (possibly dangling) otherwise.
     has_depth_attachment: bool,
-    /// Dynamic states the pipeline gets from the libraries it links.
-    library_dynamic: States,
-    /// The pipeline builds or links libraries: recorded, never changed.
-    uses_libraries: bool,
+    /// The state subsets the create info defines itself (all but for pipeline libraries).
+    subsets: Subsets,
+    /// The create info builds a library or links libraries: it gets no reversed variant.
+    library: bool,
     /// The flipped compare op comes from a pipeline variant, not dynamic state.
     compare_op_variants: bool,
 }
 
 /// Plans one create info. Every graphics pipeline gets a [`PipelineDepth`] (at least the
 /// states the application made dynamic, so that draw time never sends state a pipeline keeps
-/// static); depth-related static state becomes dynamic only for pipelines that render depth
-/// and do not involve libraries.
+/// static); depth-related static state becomes dynamic for pipelines that render depth, in
+/// the subsets the create info defines (viewport and depth bias are pre-rasterization state,
+/// compare op and depth bounds fragment shader state). A linked pipeline adds its libraries'
+/// afterwards ([`inherit_libraries`]).
 fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Plan {
     // SAFETY: null or valid (the application's contract).
     let dynamic = unsafe { info.p_dynamic_state.as_ref() };
@@ -235,7 +300,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     });
     let has = |state: vk::DynamicState| app_states.contains(&state);
     let mut depth = PipelineDepth {
-        app_dynamic: context.library_dynamic,
+        subsets: context.subsets,
         ..PipelineDepth::default()
     };
     for &state in app_states {
@@ -248,41 +313,61 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         compare_op_variant: false,
         fragment: None,
     };
-    if context.uses_libraries || !context.has_depth_attachment {
+    if !context.has_depth_attachment {
         return unchanged(depth);
     }
-    // SAFETY: the state pointers are null or valid (the application's contract; the depth
-    // state is read only when the pipeline has a depth attachment).
+    let pre_rasterization = context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
+    let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
+    // SAFETY: the state pointers are null or valid for the subsets the create info defines
+    // (the application's contract; the depth state is read only when the pipeline has a depth
+    // attachment).
     let (depth_stencil, raster, viewport) = unsafe {
         (
-            info.p_depth_stencil_state.as_ref(),
-            info.p_rasterization_state.as_ref(),
-            info.p_viewport_state.as_ref(),
+            info.p_depth_stencil_state.as_ref().filter(|_| fragment),
+            info.p_rasterization_state
+                .as_ref()
+                .filter(|_| pre_rasterization),
+            info.p_viewport_state.as_ref().filter(|_| pre_rasterization),
         )
     };
-    let Some(depth_stencil) = depth_stencil else {
+    if fragment && depth_stencil.is_none() {
         return unchanged(depth);
-    };
+    }
     if raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE)
         && !has(vk::DynamicState::RASTERIZER_DISCARD_ENABLE)
     {
         return unchanged(depth);
     }
-    depth.compare_op = depth_stencil.depth_compare_op;
-    depth.bounds = (
-        depth_stencil.min_depth_bounds,
-        depth_stencil.max_depth_bounds,
-    );
     let mut added = Vec::new();
-    let depth_test =
-        depth_stencil.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
     let mut compare_op_variant = false;
-    if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
-        if context.compare_op_variants {
-            compare_op_variant = flip_compare_op(depth.compare_op) != depth.compare_op;
-        } else {
-            added.push(vk::DynamicState::DEPTH_COMPARE_OP);
-            depth.injected |= States::COMPARE_OP;
+    if let Some(depth_stencil) = depth_stencil {
+        depth.compare_op = depth_stencil.depth_compare_op;
+        depth.bounds = (
+            depth_stencil.min_depth_bounds,
+            depth_stencil.max_depth_bounds,
+        );
+        let depth_test =
+            depth_stencil.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
+        if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
+            if !context.compare_op_variants {
+                added.push(vk::DynamicState::DEPTH_COMPARE_OP);
+                depth.injected |= States::COMPARE_OP;
+            } else if context.library {
+                if !LIBRARY_LOGGED.swap(true, Ordering::Relaxed) {
+                    log::warn!(
+                        "pipeline libraries get no compare-op variants: draws of pipelines \
+                         linked from them into reversed attachments keep their compare op"
+                    );
+                }
+            } else {
+                compare_op_variant = flip_compare_op(depth.compare_op) != depth.compare_op;
+            }
+        }
+        let bounds = depth_stencil.depth_bounds_test_enable == vk::TRUE
+            || has(vk::DynamicState::DEPTH_BOUNDS_TEST_ENABLE);
+        if bounds && !has(vk::DynamicState::DEPTH_BOUNDS) {
+            added.push(vk::DynamicState::DEPTH_BOUNDS);
+            depth.injected |= States::BOUNDS;
         }
     }
     let viewport_dynamic =
@@ -316,12 +401,6 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
             depth.injected |= States::BIAS;
         }
     }
-    let bounds = depth_stencil.depth_bounds_test_enable == vk::TRUE
-        || has(vk::DynamicState::DEPTH_BOUNDS_TEST_ENABLE);
-    if bounds && !has(vk::DynamicState::DEPTH_BOUNDS) {
-        added.push(vk::DynamicState::DEPTH_BOUNDS);
-        depth.injected |= States::BOUNDS;
-    }
     let dynamic_states = (!added.is_empty()).then(|| {
         let mut states = app_states.to_vec();
         states.extend(added);
@@ -338,6 +417,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
 
 /// What a create info needs from the device's tracked objects to be planned.
 fn context(state: &DeviceState, info: &vk::GraphicsPipelineCreateInfo<'_>) -> PlanContext {
+    let subsets = own_subsets(info);
     let has_depth_attachment = if info.render_pass != vk::RenderPass::null() {
         state
             .objects
@@ -350,26 +430,19 @@ fn context(state: &DeviceState, info: &vk::GraphicsPipelineCreateInfo<'_>) -> Pl
                     .flatten()
             })
             .is_some()
-    } else {
+    } else if subsets.contains(Subsets::FRAGMENT_OUTPUT_INTERFACE) {
         // SAFETY: a valid pNext chain (the application's contract).
         unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) }
             .is_some_and(|rendering| rendering.depth_attachment_format != vk::Format::UNDEFINED)
+    } else {
+        // A library without the attachment formats: it may render depth, and a fragment
+        // shader library without them must give its depth state (the spec's rule).
+        true
     };
-    let mut library_dynamic = States::NONE;
-    // SAFETY: a valid pNext chain (the application's contract).
-    let libraries = unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next) };
-    if let Some(libraries) = libraries {
-        // SAFETY: `libraryCount` pipelines.
-        for library in unsafe { slice(libraries.p_libraries, libraries.library_count) } {
-            if let Some(depth) = state.objects.pipelines.get(library) {
-                library_dynamic |= depth.app_dynamic;
-            }
-        }
-    }
     PlanContext {
         has_depth_attachment,
-        library_dynamic,
-        uses_libraries: uses_libraries(info),
+        subsets,
+        library: is_library_or_link(info, subsets),
         compare_op_variants: state.policy.compare_op_variants,
     }
 }
@@ -396,33 +469,28 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 .iter()
                 .map(|info| {
                     let context = context(&state, info);
-                    if context.uses_libraries && !LIBRARY_LOGGED.swap(true, Ordering::Relaxed) {
-                        log::warn!(
-                            "graphics pipeline libraries are passed through: their draws into \
-                             reversed attachments are not corrected"
-                        );
-                    }
                     let mut plan = plan(info, &context);
                     // Even without depth writes, a fragment shader may read FragCoord.z.
-                    if state.policy.is_active()
-                        && context.has_depth_attachment
-                        && !context.uses_libraries
-                    {
+                    let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
+                    if state.policy.is_active() && context.has_depth_attachment && fragment {
                         match reversed_fragment(&state, info) {
-                            Some((index, Ok(code))) => plan.fragment = Some((index, code)),
-                            Some((_, Err(_))) => plan.depth.unreversed_fragment = true,
+                            Some((index, Ok(code))) if !context.library => {
+                                plan.fragment = Some((index, code))
+                            }
+                            Some(_) => plan.depth.unreversed_fragment = true,
                             None => {}
                         }
                     }
                     let precise = state.policy.rewrite().is_some()
                         && context.has_depth_attachment
-                        && !context.uses_libraries;
+                        && context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
                     if precise {
                         match projection_of(&state, info) {
                             Ok(projection) => plan.depth.projection = Some(projection),
                             Err(reason) => plan.flip_reason = Some(reason),
                         }
                     }
+                    inherit_libraries(&mut plan.depth, &linked_libraries(&state, info));
                     Some(plan)
                 })
                 .collect::<Vec<_>>()
@@ -822,8 +890,8 @@ mod tests {
 
     const RENDERS_DEPTH: PlanContext = PlanContext {
         has_depth_attachment: true,
-        library_dynamic: States::NONE,
-        uses_libraries: false,
+        subsets: ALL_SUBSETS,
+        library: false,
         compare_op_variants: false,
     };
 
@@ -858,9 +926,9 @@ mod tests {
             [
                 vk::DynamicState::SCISSOR,
                 vk::DynamicState::DEPTH_COMPARE_OP,
+                vk::DynamicState::DEPTH_BOUNDS,
                 vk::DynamicState::VIEWPORT,
                 vk::DynamicState::DEPTH_BIAS,
-                vk::DynamicState::DEPTH_BOUNDS,
             ]
         );
         assert_eq!(pipeline.app_dynamic, States::NONE);
@@ -976,18 +1044,119 @@ mod tests {
         );
     }
 
+    /// A library of `subsets`.
+    fn library(subsets: Subsets) -> PlanContext {
+        PlanContext {
+            subsets,
+            library: true,
+            ..RENDERS_DEPTH
+        }
+    }
+
     #[test]
-    fn linked_pipelines_inherit_their_libraries_dynamic_states_and_are_not_changed() {
+    fn each_library_makes_the_state_of_its_own_subsets_dynamic() {
+        let depth = depth_state(true, true);
+        let raster = raster(true, false);
+        let viewport = vk::PipelineViewportStateCreateInfo::default().viewports(&VIEWPORT);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .depth_stencil_state(&depth)
+            .rasterization_state(&raster)
+            .viewport_state(&viewport);
+
+        let pre_rasterization = plan(&info, &library(Subsets::PRE_RASTERIZATION_SHADERS));
+        assert_eq!(
+            pre_rasterization.dynamic_states.expect("states were added"),
+            [vk::DynamicState::VIEWPORT, vk::DynamicState::DEPTH_BIAS]
+        );
+        assert_eq!(
+            pre_rasterization.depth.injected,
+            States::VIEWPORT | States::BIAS
+        );
+        assert_eq!(pre_rasterization.depth.bias.slope, -2.0);
+
+        // The pre-rasterization state a fragment shader library is given is ignored by the
+        // spec, so it may dangle: it is never read.
+        let dangling = 0x10 as *const vk::PipelineViewportStateCreateInfo<'static>;
+        let info = vk::GraphicsPipelineCreateInfo {
+            p_viewport_state: dangling,
+            p_rasterization_state: dangling.cast(),
+            ..info
+        };
+        let fragment = plan(&info, &library(Subsets::FRAGMENT_SHADER));
+        assert_eq!(
+            fragment.dynamic_states.expect("states were added"),
+            [
+                vk::DynamicState::DEPTH_COMPARE_OP,
+                vk::DynamicState::DEPTH_BOUNDS
+            ]
+        );
+        assert_eq!(fragment.depth.compare_op, vk::CompareOp::LESS_OR_EQUAL);
+        assert_eq!(fragment.depth.bounds, (0.0, 0.75));
+
+        // Vertex input and fragment output define no depth state; a link defines nothing.
+        let other = Subsets::VERTEX_INPUT_INTERFACE | Subsets::FRAGMENT_OUTPUT_INTERFACE;
+        let info = vk::GraphicsPipelineCreateInfo {
+            p_depth_stencil_state: dangling.cast(),
+            ..info
+        };
+        assert!(plan(&info, &library(other)).dynamic_states.is_none());
+        assert!(plan(&info, &library(Subsets::empty()))
+            .dynamic_states
+            .is_none());
+    }
+
+    #[test]
+    fn libraries_get_no_compare_op_variants() {
         let depth = depth_state(true, false);
         let info = vk::GraphicsPipelineCreateInfo::default().depth_stencil_state(&depth);
-        let linked = PlanContext {
-            library_dynamic: States::VIEWPORT | States::BIAS,
-            uses_libraries: true,
-            ..RENDERS_DEPTH
+        let variants = PlanContext {
+            compare_op_variants: true,
+            ..library(Subsets::FRAGMENT_SHADER)
         };
-        let plan = plan(&info, &linked);
-        assert!(plan.dynamic_states.is_none());
-        assert_eq!(plan.depth.app_dynamic, States::VIEWPORT | States::BIAS);
+        let planned = plan(&info, &variants);
+        assert!(!planned.compare_op_variant);
+        assert!(planned.dynamic_states.is_none());
+    }
+
+    #[test]
+    fn a_link_takes_each_subsets_state_from_the_library_that_defines_it() {
+        let pre_rasterization = Arc::new(PipelineDepth {
+            subsets: Subsets::PRE_RASTERIZATION_SHADERS,
+            app_dynamic: States::VIEWPORT_WITH_COUNT,
+            injected: States::BIAS,
+            bias: DepthBias {
+                constant: 3.0,
+                clamp: 0.0,
+                slope: 1.0,
+            },
+            // What a fragment shader library would own is ignored from this one.
+            compare_op: vk::CompareOp::NEVER,
+            ..PipelineDepth::default()
+        });
+        let fragment = Arc::new(PipelineDepth {
+            subsets: Subsets::FRAGMENT_SHADER,
+            injected: States::COMPARE_OP | States::BOUNDS,
+            compare_op: vk::CompareOp::LESS,
+            bounds: (0.25, 0.5),
+            unreversed_fragment: true,
+            bias: DepthBias {
+                constant: 99.0,
+                clamp: 0.0,
+                slope: 0.0,
+            },
+            ..PipelineDepth::default()
+        });
+        let mut link = PipelineDepth::default();
+        inherit_libraries(&mut link, &[pre_rasterization, fragment]);
+        assert_eq!(link.app_dynamic, States::VIEWPORT_WITH_COUNT);
+        assert_eq!(
+            link.injected,
+            States::BIAS | States::COMPARE_OP | States::BOUNDS
+        );
+        assert_eq!(link.bias.constant, 3.0);
+        assert_eq!(link.compare_op, vk::CompareOp::LESS);
+        assert_eq!(link.bounds, (0.25, 0.5));
+        assert!(link.unreversed_fragment);
     }
 
     #[test]
@@ -1003,13 +1172,25 @@ mod tests {
     }
 
     #[test]
-    fn pipeline_libraries_are_recognized() {
+    fn the_subsets_a_create_info_defines() {
+        let ordinary = vk::GraphicsPipelineCreateInfo::default();
+        assert_eq!(own_subsets(&ordinary), ALL_SUBSETS);
+        assert!(!is_library_or_link(&ordinary, ALL_SUBSETS));
         let library =
             vk::GraphicsPipelineCreateInfo::default().flags(vk::PipelineCreateFlags::LIBRARY_KHR);
-        assert!(uses_libraries(&library));
-        let mut link = vk::PipelineLibraryCreateInfoKHR::default();
-        let linked = vk::GraphicsPipelineCreateInfo::default().push_next(&mut link);
-        assert!(uses_libraries(&linked));
-        assert!(!uses_libraries(&vk::GraphicsPipelineCreateInfo::default()));
+        assert_eq!(own_subsets(&library), Subsets::empty());
+        let mut named =
+            vk::GraphicsPipelineLibraryCreateInfoEXT::default().flags(Subsets::FRAGMENT_SHADER);
+        let fragment = library.push_next(&mut named);
+        assert_eq!(own_subsets(&fragment), Subsets::FRAGMENT_SHADER);
+        let libraries = [vk::Pipeline::null()];
+        let mut links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&libraries);
+        let linked = vk::GraphicsPipelineCreateInfo::default().push_next(&mut links);
+        assert_eq!(own_subsets(&linked), Subsets::empty());
+        assert!(is_library_or_link(&linked, Subsets::empty()));
+        // A library that defines every subset is still a library.
+        let whole =
+            vk::GraphicsPipelineCreateInfo::default().flags(vk::PipelineCreateFlags::LIBRARY_KHR);
+        assert!(is_library_or_link(&whole, ALL_SUBSETS));
     }
 }
