@@ -61,16 +61,26 @@ fn own_subsets(info: &vk::GraphicsPipelineCreateInfo<'_>) -> Subsets {
         return named.flags;
     }
     let links = links.is_some_and(|links| links.library_count > 0);
-    if info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR) || links {
+    if is_library(info) || links {
         Subsets::empty()
     } else {
         ALL_SUBSETS
     }
 }
 
+/// Whether a create info builds a library (`LIBRARY_KHR` in its flags, or in the
+/// `VkPipelineCreateFlags2CreateInfoKHR` that replaces them).
+fn is_library(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    // SAFETY: a valid pNext chain (the application's contract).
+    match unsafe { chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(info.p_next) } {
+        Some(flags2) => flags2.flags.contains(vk::PipelineCreateFlags2KHR::LIBRARY),
+        None => info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR),
+    }
+}
+
 /// Whether a create info builds a library or links libraries.
 fn is_library_or_link(info: &vk::GraphicsPipelineCreateInfo<'_>, subsets: Subsets) -> bool {
-    subsets != ALL_SUBSETS || info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR)
+    subsets != ALL_SUBSETS || is_library(info)
 }
 
 /// The libraries a create info links, as revz recorded them (unknown ones are skipped).
@@ -1188,6 +1198,11 @@ mod tests {
         let linked = vk::GraphicsPipelineCreateInfo::default().push_next(&mut links);
         assert_eq!(own_subsets(&linked), Subsets::empty());
         assert!(is_library_or_link(&linked, Subsets::empty()));
+        // Flags given as flags2 replace `flags`.
+        let mut flags2 = vk::PipelineCreateFlags2CreateInfoKHR::default()
+            .flags(vk::PipelineCreateFlags2KHR::LIBRARY);
+        let library2 = vk::GraphicsPipelineCreateInfo::default().push_next(&mut flags2);
+        assert_eq!(own_subsets(&library2), Subsets::empty());
         // A library that defines every subset is still a library.
         let whole =
             vk::GraphicsPipelineCreateInfo::default().flags(vk::PipelineCreateFlags::LIBRARY_KHR);
