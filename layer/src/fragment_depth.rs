@@ -24,6 +24,7 @@ use std::fmt;
 use crate::spirv_scan::{instructions, instructions_at, Instruction, HEADER_WORDS};
 
 const OP_LINE: u32 = 8;
+const OP_EXT_INST: u32 = 12;
 const OP_EXECUTION_MODE: u32 = 16;
 const OP_TYPE_INT: u32 = 21;
 const OP_TYPE_FLOAT: u32 = 22;
@@ -42,6 +43,9 @@ const OP_VECTOR_SHUFFLE: u32 = 79;
 const OP_COMPOSITE_EXTRACT: u32 = 81;
 const OP_COMPOSITE_INSERT: u32 = 82;
 const OP_F_SUB: u32 = 131;
+const OP_LOOP_MERGE: u32 = 246;
+const OP_SELECTION_MERGE: u32 = 247;
+const OP_SWITCH: u32 = 251;
 const OP_NO_LINE: u32 = 317;
 
 const DECORATION_BUILT_IN: u32 = 11;
@@ -134,6 +138,10 @@ impl Module {
                 (OP_CONSTANT, &[ty, id, value]) if module.ints.contains(&ty) => {
                     module.int_constants.insert(id, value);
                 }
+                (OP_VARIABLE, &[_, id, _, _]) if module.frag_depth.contains(&id) => {
+                    // The initializer is the depth of every fragment that stores none.
+                    return Err(Unsupported("FragDepth has an initializer"));
+                }
                 (OP_VARIABLE, &[ty, id, ..]) if module.functions_at == 0 => {
                     module.variables.insert(id, ty);
                 }
@@ -188,7 +196,13 @@ impl Module {
             return Ok(None);
         }
 
-        let mut bound = words[3];
+        // One constant, and at most three ids per edit.
+        let needed = 1 + 3 * body.edits();
+        let mut bound = u32::try_from(needed)
+            .ok()
+            .and_then(|needed| words[3].checked_add(needed))
+            .map(|_| words[3])
+            .ok_or(Unsupported("its id bound leaves no room"))?;
         let mut fresh = || {
             bound += 1;
             bound - 1
@@ -294,7 +308,14 @@ impl Body {
         }
         // Pass 2: every use of a tracked id is one of the handled forms.
         for Instruction { opcode, operands } in all() {
-            let uses = |ids: &HashSet<u32>| operands.iter().any(|word| ids.contains(word));
+            let ids_of = || {
+                operands
+                    .iter()
+                    .enumerate()
+                    .filter(|&(index, _)| !is_literal(opcode, index))
+                    .map(|(_, word)| word)
+            };
+            let uses = |ids: &HashSet<u32>| ids_of().any(|word| ids.contains(word));
             match (opcode, operands) {
                 (OP_LINE | OP_NO_LINE, _) => {}
                 (OP_STORE, &[pointer, ..]) if module.frag_depth.contains(&pointer) => {
@@ -340,7 +361,7 @@ impl Body {
                 }
                 _ => {
                     // Any other use of a loaded FragCoord may read its z.
-                    for word in operands {
+                    for word in ids_of() {
                         if coord_loads.contains(word) {
                             body.z_read_loads.insert(*word);
                         }
@@ -357,6 +378,25 @@ impl Body {
 
     fn changes_anything(&self) -> bool {
         self.edits() > 0
+    }
+}
+
+/// Whether operand `index` of an instruction in a function body is a literal rather than an
+/// id, for the instructions whose literals could otherwise be taken for a built-in's id (a
+/// GLSL.std.450 instruction number, a composite index, a memory operand, a switch case).
+/// Others count every operand as a possible id: a false match refuses the module, never
+/// rewrites it wrongly.
+fn is_literal(opcode: u32, index: usize) -> bool {
+    match opcode {
+        OP_EXT_INST => index == 3,
+        OP_LOAD | OP_COMPOSITE_EXTRACT => index >= 3,
+        OP_STORE => index >= 2,
+        OP_COMPOSITE_INSERT | OP_VECTOR_SHUFFLE => index >= 4,
+        OP_SELECTION_MERGE => index >= 1,
+        OP_LOOP_MERGE => index >= 2,
+        // Selector, default, then (literal, label) pairs.
+        OP_SWITCH => index >= 2 && index % 2 == 0,
+        _ => false,
     }
 }
 
@@ -784,6 +824,74 @@ mod tests {
         .is_err());
         // Copied as memory.
         assert!(refused("OpCopyMemory %depth %depth").is_err());
+    }
+
+    #[test]
+    fn a_literal_equal_to_a_built_ins_id_is_not_a_use() {
+        // FragDepth is id 4 (ids go by first appearance), and so is GLSL.std.450's FAbs.
+        let text = "OpCapability Shader
+             %glsl = OpExtInstImport \"GLSL.std.450\"
+             OpMemoryModel Logical GLSL450
+             OpEntryPoint Fragment %main \"main\" %coord %depth
+             OpExecutionMode %main OriginUpperLeft
+             OpExecutionMode %main DepthReplacing
+             OpDecorate %coord BuiltIn FragCoord
+             OpDecorate %depth BuiltIn FragDepth
+             %void = OpTypeVoid
+             %fn = OpTypeFunction %void
+             %float = OpTypeFloat 32
+             %v4 = OpTypeVector %float 4
+             %pin_v4 = OpTypePointer Input %v4
+             %pout_f = OpTypePointer Output %float
+             %coord = OpVariable %pin_v4 Input
+             %depth = OpVariable %pout_f Output
+             %main = OpFunction %void None %fn
+             %entry = OpLabel
+             %c = OpLoad %v4 %coord
+             %z = OpCompositeExtract %float %c 2
+             %p = OpExtInst %float %glsl FAbs %z
+             OpStore %depth %p
+             OpReturn
+             OpFunctionEnd";
+        let original = assembler::create(Some(TargetEnv::Vulkan_1_1))
+            .assemble(text, assembler::AssemblerOptions::default())
+            .expect("assembly")
+            .as_words()
+            .to_vec();
+        let frag_depth = Module::read(&original).unwrap().unwrap().frag_depth;
+        assert_eq!(frag_depth, HashSet::from([4]), "FragDepth is id 4");
+        reversed(&original);
+    }
+
+    #[test]
+    fn a_frag_depth_initializer_is_refused() {
+        let initialized = assembler::create(Some(TargetEnv::Vulkan_1_1))
+            .assemble(
+                "OpCapability Shader
+                 OpMemoryModel Logical GLSL450
+                 OpEntryPoint Fragment %main \"main\" %depth
+                 OpExecutionMode %main OriginUpperLeft
+                 OpExecutionMode %main DepthReplacing
+                 OpDecorate %depth BuiltIn FragDepth
+                 %void = OpTypeVoid
+                 %fn = OpTypeFunction %void
+                 %float = OpTypeFloat 32
+                 %quarter = OpConstant %float 0.25
+                 %pout_f = OpTypePointer Output %float
+                 %depth = OpVariable %pout_f Output %quarter
+                 %main = OpFunction %void None %fn
+                 %entry = OpLabel
+                 OpReturn
+                 OpFunctionEnd",
+                assembler::AssemblerOptions::default(),
+            )
+            .expect("assembly")
+            .as_words()
+            .to_vec();
+        assert_eq!(
+            reverse_fragment_depth(&initialized),
+            Err(Unsupported("FragDepth has an initializer"))
+        );
     }
 
     #[test]

@@ -100,11 +100,12 @@ fn linked_libraries(
         .collect()
 }
 
-/// A linked pipeline's depth state: each subset's from the library that defines it, and the
-/// dynamic states of all of them (a library's dynamic states are those of its subsets, which
-/// the linked pipeline keeps).
+/// A linked pipeline's (or a library's that links others) depth state: each subset's from
+/// the library that defines it, with the dynamic states each library recorded for its own
+/// subsets ([`subset_states`]); the linking pipeline defines those subsets from then on.
 fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]) {
     for library in libraries {
+        depth.subsets |= library.subsets;
         depth.app_dynamic |= library.app_dynamic;
         depth.injected |= library.injected;
         if library.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
@@ -118,6 +119,35 @@ fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]
             depth.unreversed_fragment |= library.unreversed_fragment;
         }
     }
+}
+
+/// The depth-related states of `subsets`: a dynamic state listed by a create info that does
+/// not define its subset is ignored (the spec's rule for libraries).
+fn subset_states(subsets: Subsets) -> States {
+    let mut states = States::NONE;
+    if subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
+        states |= States::VIEWPORT | States::VIEWPORT_WITH_COUNT | States::BIAS;
+    }
+    if subsets.contains(Subsets::FRAGMENT_SHADER) {
+        states |= States::COMPARE_OP | States::BOUNDS;
+    }
+    states
+}
+
+/// Whether a stage is given by a shader module identifier
+/// (`VK_EXT_shader_module_identifier`): no code revz could rewrite.
+fn uses_module_identifiers(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    // SAFETY: `stageCount` stages (the application's contract).
+    let stages = unsafe { slice(info.p_stages, info.stage_count) };
+    stages.iter().any(|stage| {
+        // SAFETY: a valid pNext chain (the application's contract).
+        unsafe {
+            chain::has(
+                stage.p_next,
+                vk::StructureType::PIPELINE_SHADER_STAGE_MODULE_IDENTIFIER_CREATE_INFO_EXT,
+            )
+        }
+    })
 }
 
 /// The fragment stage of a create info (its index) and its rewrite for reversed attachments
@@ -316,6 +346,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     for &state in app_states {
         depth.app_dynamic |= States::of_dynamic(state);
     }
+    depth.app_dynamic = depth.app_dynamic & subset_states(context.subsets);
     let unchanged = |depth| Plan {
         dynamic_states: None,
         depth,
@@ -333,16 +364,17 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     // attachment).
     let (depth_stencil, raster, viewport) = unsafe {
         (
-            info.p_depth_stencil_state.as_ref().filter(|_| fragment),
-            info.p_rasterization_state
-                .as_ref()
-                .filter(|_| pre_rasterization),
-            info.p_viewport_state.as_ref().filter(|_| pre_rasterization),
+            fragment
+                .then(|| info.p_depth_stencil_state.as_ref())
+                .flatten(),
+            pre_rasterization
+                .then(|| info.p_rasterization_state.as_ref())
+                .flatten(),
+            pre_rasterization
+                .then(|| info.p_viewport_state.as_ref())
+                .flatten(),
         )
     };
-    if fragment && depth_stencil.is_none() {
-        return unchanged(depth);
-    }
     if raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE)
         && !has(vk::DynamicState::RASTERIZER_DISCARD_ENABLE)
     {
@@ -482,15 +514,22 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     let mut plan = plan(info, &context);
                     // Even without depth writes, a fragment shader may read FragCoord.z.
                     let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
+                    let identified = uses_module_identifiers(info);
                     if state.policy.is_active() && context.has_depth_attachment && fragment {
                         match reversed_fragment(&state, info) {
-                            Some((index, Ok(code))) if !context.library => {
+                            Some((index, Ok(code))) if !context.library && !identified => {
                                 plan.fragment = Some((index, code))
                             }
                             Some(_) => plan.depth.unreversed_fragment = true,
+                            // Shaders named by identifier have no code to look at.
+                            None if identified => plan.depth.unreversed_fragment = true,
                             None => {}
                         }
                     }
+                    // A variant must keep FAIL_ON_PIPELINE_COMPILE_REQUIRED with identifiers
+                    // (VUID-VkPipelineShaderStageModuleIdentifierCreateInfoEXT-pNext-06851):
+                    // such pipelines get none.
+                    plan.compare_op_variant &= !identified;
                     let precise = state.policy.rewrite().is_some()
                         && context.has_depth_attachment
                         && context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
@@ -1167,6 +1206,33 @@ mod tests {
         assert_eq!(link.compare_op, vk::CompareOp::LESS);
         assert_eq!(link.bounds, (0.25, 0.5));
         assert!(link.unreversed_fragment);
+
+        // A library that links the two passes their state on to what links it.
+        let mut outer = PipelineDepth::default();
+        inherit_libraries(&mut outer, &[Arc::new(link)]);
+        assert_eq!(
+            outer.subsets,
+            Subsets::PRE_RASTERIZATION_SHADERS | Subsets::FRAGMENT_SHADER
+        );
+        assert_eq!(outer.bias.constant, 3.0);
+        assert_eq!(outer.compare_op, vk::CompareOp::LESS);
+    }
+
+    #[test]
+    fn dynamic_states_outside_a_librarys_subsets_are_ignored() {
+        let depth = depth_state(true, false);
+        let app_states = [
+            vk::DynamicState::VIEWPORT_WITH_COUNT,
+            vk::DynamicState::DEPTH_COMPARE_OP,
+        ];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&app_states);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .depth_stencil_state(&depth)
+            .dynamic_state(&dynamic);
+        let fragment = plan(&info, &library(Subsets::FRAGMENT_SHADER));
+        assert_eq!(fragment.depth.app_dynamic, States::COMPARE_OP);
+        let link = plan(&info, &library(Subsets::empty()));
+        assert_eq!(link.depth.app_dynamic, States::NONE);
     }
 
     #[test]
