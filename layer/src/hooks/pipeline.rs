@@ -363,16 +363,24 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     // (the application's contract; the depth state is read only when the pipeline has a depth
     // attachment).
     let (depth_stencil, raster, viewport) = unsafe {
+        // References are made only from pointers the spec says to read (`then_some` would
+        // make them first).
         (
-            fragment
-                .then(|| info.p_depth_stencil_state.as_ref())
-                .flatten(),
-            pre_rasterization
-                .then(|| info.p_rasterization_state.as_ref())
-                .flatten(),
-            pre_rasterization
-                .then(|| info.p_viewport_state.as_ref())
-                .flatten(),
+            if fragment {
+                info.p_depth_stencil_state.as_ref()
+            } else {
+                None
+            },
+            if pre_rasterization {
+                info.p_rasterization_state.as_ref()
+            } else {
+                None
+            },
+            if pre_rasterization {
+                info.p_viewport_state.as_ref()
+            } else {
+                None
+            },
         )
     };
     if raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE)
