@@ -424,8 +424,8 @@ fn push(out: &mut Vec<u32>, opcode: u32, operands: &[u32]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_spirv;
     use proptest::prelude::*;
-    use spirv_tools::assembler::{self, Assembler as _};
     use spirv_tools::val::{self, Validator as _};
     use spirv_tools::TargetEnv;
 
@@ -465,33 +465,12 @@ mod tests {
              OpReturn
              OpFunctionEnd"
         );
-        assembler::create(Some(TargetEnv::Vulkan_1_1))
-            .assemble(&text, assembler::AssemblerOptions::default())
-            .unwrap_or_else(|e| panic!("assembly: {e}\n{text}"))
-            .as_words()
-            .to_vec()
+        test_spirv::assemble(&text)
     }
 
     /// Compiles a GLSL fragment shader with naga, as the tester's shaders are.
     fn compile_glsl(source: &str) -> Vec<u32> {
-        let mut frontend = naga::front::glsl::Frontend::default();
-        let module = frontend
-            .parse(
-                &naga::front::glsl::Options::from(naga::ShaderStage::Fragment),
-                source,
-            )
-            .unwrap_or_else(|e| panic!("GLSL: {e:?}"));
-        let info = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("validation: {e:?}"));
-        let options = naga::back::spv::Options {
-            flags: naga::back::spv::WriterFlags::empty(),
-            ..Default::default()
-        };
-        naga::back::spv::write_vec(&module, &info, &options, None).expect("spv-out")
+        test_spirv::compile_glsl(naga::ShaderStage::Fragment, source)
     }
 
     fn validate(words: &[u32]) {
@@ -853,11 +832,7 @@ mod tests {
              OpStore %depth %p
              OpReturn
              OpFunctionEnd";
-        let original = assembler::create(Some(TargetEnv::Vulkan_1_1))
-            .assemble(text, assembler::AssemblerOptions::default())
-            .expect("assembly")
-            .as_words()
-            .to_vec();
+        let original = test_spirv::assemble(text);
         let frag_depth = Module::read(&original).unwrap().unwrap().frag_depth;
         assert_eq!(frag_depth, HashSet::from([4]), "FragDepth is id 4");
         reversed(&original);
@@ -865,9 +840,8 @@ mod tests {
 
     #[test]
     fn a_frag_depth_initializer_is_refused() {
-        let initialized = assembler::create(Some(TargetEnv::Vulkan_1_1))
-            .assemble(
-                "OpCapability Shader
+        let initialized = test_spirv::assemble(
+            "OpCapability Shader
                  OpMemoryModel Logical GLSL450
                  OpEntryPoint Fragment %main \"main\" %depth
                  OpExecutionMode %main OriginUpperLeft
@@ -883,11 +857,7 @@ mod tests {
                  %entry = OpLabel
                  OpReturn
                  OpFunctionEnd",
-                assembler::AssemblerOptions::default(),
-            )
-            .expect("assembly")
-            .as_words()
-            .to_vec();
+        );
         assert_eq!(
             reverse_fragment_depth(&initialized),
             Err(Unsupported("FragDepth has an initializer"))

@@ -28,6 +28,8 @@ pub mod precise;
 pub mod shader_analysis;
 pub mod spirv_scan;
 pub mod state;
+#[cfg(test)]
+mod test_spirv;
 
 use std::ffi::c_char;
 

@@ -966,24 +966,7 @@ mod tests {
 
     /// Compiles a GLSL vertex shader to SPIR-V with naga (no coordinate-space adjustment).
     fn compile(source: &str) -> Vec<u32> {
-        let mut frontend = naga::front::glsl::Frontend::default();
-        let module = frontend
-            .parse(
-                &naga::front::glsl::Options::from(ShaderStage::Vertex),
-                source,
-            )
-            .unwrap_or_else(|e| panic!("GLSL: {e:?}"));
-        let info = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("validation: {e:?}"));
-        let options = naga::back::spv::Options {
-            flags: naga::back::spv::WriterFlags::empty(),
-            ..Default::default()
-        };
-        naga::back::spv::write_vec(&module, &info, &options, None).expect("spv-out")
+        crate::test_spirv::compile_glsl(ShaderStage::Vertex, source)
     }
 
     fn analyze_glsl(source: &str) -> Analysis {

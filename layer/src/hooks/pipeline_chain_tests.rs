@@ -22,6 +22,7 @@ use super::{device, instance, pipeline};
 use crate::command_state::PipelineDepth;
 use crate::fragment_depth::reverse_fragment_depth;
 use crate::state::{DeviceState, DispatchKey, DEVICES, INSTANCES};
+use crate::test_spirv;
 
 const D32: vk::Format = vk::Format::D32_SFLOAT;
 const COLOR: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -56,32 +57,12 @@ const PLAIN: &str = "#version 450
 const VERTEX: &str = "#version 450
     void main() { gl_Position = vec4(0.0, 0.0, 0.5, 1.0); }";
 
-/// Compiles GLSL with naga's front end and SPIR-V back end.
-fn compile_glsl(stage: naga::ShaderStage, source: &str) -> Vec<u32> {
-    let mut frontend = naga::front::glsl::Frontend::default();
-    let module = frontend
-        .parse(&naga::front::glsl::Options::from(stage), source)
-        .unwrap_or_else(|e| panic!("GLSL: {e:?}"));
-    let info = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("validation: {e:?}"));
-    let options = naga::back::spv::Options {
-        flags: naga::back::spv::WriterFlags::empty(),
-        ..Default::default()
-    };
-    naga::back::spv::write_vec(&module, &info, &options, None).expect("spv-out")
-}
-
 fn fragment(source: &str) -> Vec<u32> {
-    compile_glsl(naga::ShaderStage::Fragment, source)
+    test_spirv::compile_glsl(naga::ShaderStage::Fragment, source)
 }
 
 /// A fragment shader that stores `FragDepth` and reads it back: the rewrite refuses it.
 fn refused_fragment() -> Vec<u32> {
-    use spirv_tools::assembler::{self, Assembler as _};
     let text = "OpCapability Shader
         OpMemoryModel Logical GLSL450
         OpEntryPoint Fragment %main \"main\" %coord %depth
@@ -106,11 +87,7 @@ fn refused_fragment() -> Vec<u32> {
         OpStore %depth %e
         OpReturn
         OpFunctionEnd";
-    let words = assembler::create(Some(spirv_tools::TargetEnv::Vulkan_1_1))
-        .assemble(text, assembler::AssemblerOptions::default())
-        .unwrap_or_else(|e| panic!("assembly: {e}"))
-        .as_words()
-        .to_vec();
+    let words = test_spirv::assemble(text);
     assert!(
         reverse_fragment_depth(&words).is_err(),
         "the rewrite refuses FragDepth read back"
@@ -296,7 +273,7 @@ impl Fixture {
     }
 
     fn vertex_module(&self) -> vk::ShaderModule {
-        self.module(&compile_glsl(naga::ShaderStage::Vertex, VERTEX))
+        self.module(&test_spirv::compile_glsl(naga::ShaderStage::Vertex, VERTEX))
     }
 
     /// Creates pipelines through the hook; returns the result and the handles written.
