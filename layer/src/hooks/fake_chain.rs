@@ -17,6 +17,18 @@ use ash::vk::{self, Handle};
 
 pub(super) type VoidFn = unsafe extern "system" fn();
 
+/// revz's hook for a command, from its `vkGetDeviceProcAddr`, as the application gets it.
+macro_rules! hook {
+    ($device:expr, $name:expr, $pfn:ty) => {{
+        // SAFETY: a live device and a NUL-terminated name.
+        let found = unsafe { $crate::hooks::device::get_device_proc_addr($device, $name.as_ptr()) }
+            .unwrap_or_else(|| panic!("revz hands out {:?}", $name));
+        // SAFETY: the command named has this type.
+        unsafe { std::mem::transmute::<$crate::hooks::fake_chain::VoidFn, $pfn>(found) }
+    }};
+}
+pub(super) use hook;
+
 /// Dispatch tables: only their addresses matter (revz never reads through them), so distinct
 /// elements of one static give every test addresses no other test uses.
 static TABLE_SLOTS: [u8; 128] = [0; 128];

@@ -15,9 +15,7 @@ use std::sync::Arc;
 
 use ash::vk::{self, Handle};
 
-use super::fake_chain::{
-    self, seen_pipeline, Event, PipelineOutcome, SeenPipeline, Tables, VoidFn,
-};
+use super::fake_chain::{self, seen_pipeline, Event, PipelineOutcome, SeenPipeline, Tables};
 use super::{device, instance, pipeline};
 use crate::command_state::PipelineDepth;
 use crate::fragment_depth::reverse_fragment_depth;
@@ -111,16 +109,7 @@ const PIPELINE_COMMANDS: [&CStr; 4] = [
     c"vkDestroyPipeline",
 ];
 
-/// revz's hook for a command, from its `vkGetDeviceProcAddr`.
-macro_rules! hook {
-    ($device:expr, $name:expr, $pfn:ty) => {{
-        // SAFETY: a live device and a NUL-terminated name.
-        let found = unsafe { device::get_device_proc_addr($device, $name.as_ptr()) }
-            .unwrap_or_else(|| panic!("revz hands out {:?}", $name));
-        // SAFETY: the command named has this type.
-        unsafe { std::mem::transmute::<VoidFn, $pfn>(found) }
-    }};
-}
+use super::fake_chain::hook;
 
 /// The commands these tests call, as the application would get them.
 struct Hooks {

@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use ash::vk::{self, Handle};
 
-use super::fake_chain::{self, Event, SeenDepthAttachment, SeenResolve, Tables, VoidFn};
+use super::fake_chain::{self, Event, SeenDepthAttachment, SeenResolve, Tables};
 use super::{device, instance};
 use crate::policy::{ImageDepth, NativeReason};
 use crate::state::{DeviceState, DispatchKey, DEVICES, INSTANCES};
@@ -35,16 +35,7 @@ const EXTENT: vk::Extent2D = vk::Extent2D {
 };
 const LAYOUT: vk::ImageLayout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
 
-/// revz's hook for a command, from its `vkGetDeviceProcAddr`.
-macro_rules! hook {
-    ($device:expr, $name:expr, $pfn:ty) => {{
-        // SAFETY: a live device and a NUL-terminated name.
-        let found = unsafe { device::get_device_proc_addr($device, $name.as_ptr()) }
-            .unwrap_or_else(|| panic!("revz hands out {:?}", $name));
-        // SAFETY: the command named has this type.
-        unsafe { std::mem::transmute::<VoidFn, $pfn>(found) }
-    }};
-}
+use super::fake_chain::hook;
 
 /// The hooks these tests call, as the application would get them.
 struct Hooks {
