@@ -17,6 +17,7 @@ use crate::command_state::{CommandState, PipelineDepth, Target};
 use crate::fragment_depth::Unsupported;
 use crate::policy::{DepthResolve, ImageDepth, NativeReason};
 use crate::shader_analysis::Analysis;
+use crate::state::DeviceState;
 
 /// The shader analysis of one module: each vertex entry point's result, or why naga could not
 /// read it.
@@ -24,7 +25,6 @@ pub type ModuleAnalysis = Result<Vec<(String, Analysis)>, String>;
 /// A fragment module rewritten for reversed attachments (`crate::fragment_depth`), or why it
 /// cannot be.
 pub type ReversedFragment = Result<Arc<[u32]>, Unsupported>;
-use crate::state::DeviceState;
 
 /// A tracked depth image.
 #[derive(Clone, Copy, Debug)]

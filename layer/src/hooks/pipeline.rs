@@ -153,7 +153,7 @@ fn uses_module_identifiers(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
 /// The fragment stage of a create info (its index) and its rewrite for reversed attachments
 /// when it computes with depth: its module's, made at module creation, or one of SPIR-V
 /// chained inline into the stage.
-fn reversed_fragment(
+fn fragment_stage_rewrite(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
 ) -> Option<(usize, ReversedFragment)> {
@@ -166,14 +166,14 @@ fn reversed_fragment(
     let rewrite = if stage.module != vk::ShaderModule::null() {
         state.objects.fragment_depth_modules.get(&stage.module)?
     } else {
-        reverse_fragment(vk::ShaderModule::null(), inline_code(stage)?)?
+        rewrite_fragment_module(vk::ShaderModule::null(), inline_code(stage)?)?
     };
     Some((index, rewrite))
 }
 
 /// A fragment module rewritten for reversed attachments, `None` when it does not compute
 /// with depth. One that cannot be rewritten is logged (once per module).
-fn reverse_fragment(module: vk::ShaderModule, words: &[u32]) -> Option<ReversedFragment> {
+fn rewrite_fragment_module(module: vk::ShaderModule, words: &[u32]) -> Option<ReversedFragment> {
     let rewrite = fragment_depth::reverse_fragment_depth(words).transpose()?;
     if let Err(reason) = &rewrite {
         log::warn!(
@@ -320,7 +320,7 @@ struct PlanContext {
     /// The state subsets the create info defines itself (all but for pipeline libraries).
     subsets: Subsets,
     /// The create info builds a library or links libraries: it gets no reversed variant.
-    library: bool,
+    library_or_link: bool,
     /// The flipped compare op comes from a pipeline variant, not dynamic state.
     compare_op_variants: bool,
 }
@@ -402,7 +402,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
             if !context.compare_op_variants {
                 added.push(vk::DynamicState::DEPTH_COMPARE_OP);
                 depth.injected |= States::COMPARE_OP;
-            } else if context.library {
+            } else if context.library_or_link {
                 if !LIBRARY_LOGGED.swap(true, Ordering::Relaxed) {
                     log::warn!(
                         "pipeline libraries get no compare-op variants: draws of pipelines \
@@ -492,7 +492,7 @@ fn context(state: &DeviceState, info: &vk::GraphicsPipelineCreateInfo<'_>) -> Pl
     PlanContext {
         has_depth_attachment,
         subsets,
-        library: is_library_or_link(info, subsets),
+        library_or_link: is_library_or_link(info, subsets),
         compare_op_variants: state.policy.compare_op_variants,
     }
 }
@@ -524,8 +524,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
                     let identified = uses_module_identifiers(info);
                     if state.policy.is_active() && context.has_depth_attachment && fragment {
-                        match reversed_fragment(&state, info) {
-                            Some((index, Ok(code))) if !context.library && !identified => {
+                        match fragment_stage_rewrite(&state, info) {
+                            Some((index, Ok(code))) if !context.library_or_link && !identified => {
                                 plan.fragment = Some((index, code))
                             }
                             Some(_) => plan.depth.unreversed_fragment = true,
@@ -699,7 +699,7 @@ pub unsafe extern "system" fn create_shader_module(
             // SAFETY: valid on success.
             let module = unsafe { *p_module };
             if state.policy.is_active() {
-                if let Some(rewrite) = reverse_fragment(module, words) {
+                if let Some(rewrite) = rewrite_fragment_module(module, words) {
                     state.objects.fragment_depth_modules.insert(module, rewrite);
                 }
             }
@@ -948,7 +948,7 @@ mod tests {
     const RENDERS_DEPTH: PlanContext = PlanContext {
         has_depth_attachment: true,
         subsets: ALL_SUBSETS,
-        library: false,
+        library_or_link: false,
         compare_op_variants: false,
     };
 
@@ -1105,7 +1105,7 @@ mod tests {
     fn library(subsets: Subsets) -> PlanContext {
         PlanContext {
             subsets,
-            library: true,
+            library_or_link: true,
             ..RENDERS_DEPTH
         }
     }
