@@ -303,6 +303,10 @@ struct Plan {
     /// The fragment stage (its index) the reversed variant gets rewritten
     /// (`crate::fragment_depth`).
     fragment: Option<(usize, Arc<[u32]>)>,
+    /// Whether the pipeline's draws can reach a depth attachment: it has one and does not
+    /// statically discard every primitive. Otherwise its viewport and depth state are ignored
+    /// by the spec (possibly dangling) and nothing about its depth matters.
+    renders_depth: bool,
 }
 
 impl Plan {
@@ -353,6 +357,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         flip_reason: None,
         compare_op_variant: false,
         fragment: None,
+        renders_depth: false,
     };
     if !context.has_depth_attachment {
         return unchanged(depth);
@@ -462,6 +467,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         flip_reason: None,
         compare_op_variant,
         fragment: None,
+        renders_depth: true,
     }
 }
 
@@ -523,7 +529,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     // Even without depth writes, a fragment shader may read FragCoord.z.
                     let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
                     let identified = uses_module_identifiers(info);
-                    if state.policy.is_active() && context.has_depth_attachment && fragment {
+                    if state.policy.is_active() && plan.renders_depth && fragment {
                         match fragment_stage_rewrite(&state, info) {
                             Some((index, Ok(code))) if !context.library_or_link && !identified => {
                                 plan.fragment = Some((index, code))
@@ -539,7 +545,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     // such pipelines get none.
                     plan.compare_op_variant &= !identified;
                     let precise = state.policy.rewrite().is_some()
-                        && context.has_depth_attachment
+                        && plan.renders_depth
                         && context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
                     if precise {
                         match projection_of(&state, info) {
@@ -1095,10 +1101,10 @@ mod tests {
         let info = vk::GraphicsPipelineCreateInfo::default()
             .depth_stencil_state(&depth)
             .rasterization_state(&discard);
-        assert!(
-            plan(&info, &RENDERS_DEPTH).dynamic_states.is_none(),
-            "rasterizer discard"
-        );
+        let discarding = plan(&info, &RENDERS_DEPTH);
+        assert!(discarding.dynamic_states.is_none(), "rasterizer discard");
+        assert!(!discarding.renders_depth);
+        assert!(plan(&info, &no_attachment).dynamic_states.is_none());
     }
 
     /// A library of `subsets`.

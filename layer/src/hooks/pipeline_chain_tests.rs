@@ -1438,3 +1438,31 @@ fn the_variant_clears_derivative_and_cache_only_flags_given_as_flags2() {
     );
     fx.finish();
 }
+
+#[test]
+fn a_pipeline_that_discards_every_primitive_is_not_read_beyond_what_the_spec_requires() {
+    // Static rasterizer discard makes the viewport state ignored (it may dangle): the
+    // precise path must not look for the clip convention there, and no variant is needed.
+    let fx = Fixture::with_settings(&[(c"mode", c"complementary")]);
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let mut app = AppPipeline::of_modules(vertex, module);
+    app.rasterization.rasterizer_discard_enable = vk::TRUE;
+    let built = app.build();
+    let dangling = 0x10 as *const vk::PipelineViewportStateCreateInfo<'static>;
+    let info = vk::GraphicsPipelineCreateInfo {
+        p_viewport_state: dangling,
+        ..built.info()
+    };
+    assert_eq!(
+        fx.create_pipelines(std::slice::from_ref(&info), None).0,
+        vk::Result::SUCCESS
+    );
+    let (app_info, handle) = only_app_creation(&fx.events());
+    assert_eq!(app_info, seen(&info), "passed down untouched");
+    let recorded = fx.recorded(handle);
+    assert_eq!(recorded.reversed_variant, None);
+    assert_eq!(recorded.projection, None);
+    assert!(!recorded.unreversed_fragment);
+    fx.finish();
+}
