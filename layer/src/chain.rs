@@ -1,6 +1,7 @@
-//! Reading the application's `pNext` chains. revz only reads them: structures it does not know
-//! are skipped here and reach the next layer untouched, and a structure revz must change is
-//! copied by the caller, never written in place.
+//! Reading the application's `pNext` chains, and splicing copies of them. revz never writes
+//! the application's chains: structures it does not know are skipped here and reach the next
+//! layer untouched, and a chain in which revz must change or leave out a structure is
+//! [`splice`]d: the structures before it are copied, the rest is shared.
 
 use std::ffi::c_void;
 
@@ -43,6 +44,130 @@ pub unsafe fn has(p_next: *const c_void, s_type: vk::StructureType) -> bool {
     unsafe { structures(p_next) }.any(|base| base.s_type == s_type)
 }
 
+/// A copy of the head of a `pNext` chain in which one structure is replaced or left out (see
+/// [`splice`]). The copies live as long as this value; the rest of the chain is the
+/// application's.
+#[derive(Debug)]
+pub struct Spliced {
+    /// The copied structures, each in its own 8-byte-aligned allocation (they do not move when
+    /// this vector grows).
+    copies: Vec<Box<[u64]>>,
+    head: *const c_void,
+}
+
+impl Spliced {
+    /// The head of the spliced chain, to give in place of the application's.
+    pub fn head(&self) -> *const c_void {
+        self.head
+    }
+
+    /// Copies `size` bytes of a structure and returns the copy.
+    ///
+    /// # Safety
+    /// `structure` points to at least `size` readable bytes of a structure (8-byte alignment
+    /// at most, as every Vulkan structure).
+    unsafe fn copy(
+        &mut self,
+        structure: *const c_void,
+        size: usize,
+    ) -> *mut vk::BaseOutStructure<'static> {
+        let mut copy = vec![0u64; size.div_ceil(8)].into_boxed_slice();
+        // SAFETY: the caller's contract; the copy has room for `size` bytes.
+        unsafe {
+            std::ptr::copy_nonoverlapping(structure.cast::<u8>(), copy.as_mut_ptr().cast(), size);
+        }
+        let pointer = copy.as_mut_ptr().cast();
+        self.copies.push(copy);
+        pointer
+    }
+}
+
+/// The byte sizes of the structures that may come before the one revz splices out of a
+/// graphics pipeline's or a shader stage's chain: only structures of known size can be copied.
+fn known_size(s_type: vk::StructureType) -> Option<usize> {
+    macro_rules! sizes {
+        ($($structure:ty),* $(,)?) => {
+            $(
+                if s_type == <$structure as vk::TaggedStructure>::STRUCTURE_TYPE {
+                    return Some(std::mem::size_of::<$structure>());
+                }
+            )*
+        };
+    }
+    sizes!(
+        // VkGraphicsPipelineCreateInfo
+        vk::AttachmentSampleCountInfoAMD<'static>,
+        vk::ExternalFormatANDROID<'static>,
+        vk::GraphicsPipelineLibraryCreateInfoEXT<'static>,
+        vk::GraphicsPipelineShaderGroupsCreateInfoNV<'static>,
+        vk::MultiviewPerViewAttributesInfoNVX<'static>,
+        vk::PipelineCompilerControlCreateInfoAMD<'static>,
+        vk::PipelineCreateFlags2CreateInfoKHR<'static>,
+        vk::PipelineCreationFeedbackCreateInfo<'static>,
+        vk::PipelineDiscardRectangleStateCreateInfoEXT<'static>,
+        vk::PipelineFragmentShadingRateEnumStateCreateInfoNV<'static>,
+        vk::PipelineFragmentShadingRateStateCreateInfoKHR<'static>,
+        vk::PipelineLibraryCreateInfoKHR<'static>,
+        vk::PipelineRenderingCreateInfo<'static>,
+        vk::PipelineRepresentativeFragmentTestStateCreateInfoNV<'static>,
+        vk::PipelineRobustnessCreateInfoEXT<'static>,
+        vk::RenderingAttachmentLocationInfoKHR<'static>,
+        vk::RenderingInputAttachmentIndexInfoKHR<'static>,
+        // VkPipelineShaderStageCreateInfo
+        vk::DebugUtilsObjectNameInfoEXT<'static>,
+        vk::PipelineShaderStageModuleIdentifierCreateInfoEXT<'static>,
+        vk::PipelineShaderStageRequiredSubgroupSizeCreateInfo<'static>,
+        vk::ShaderModuleCreateInfo<'static>,
+        vk::ShaderModuleValidationCacheCreateInfoEXT<'static>,
+    );
+    None
+}
+
+/// The chain `p_next` with its first structure of `T`'s type replaced by `replacement`, or
+/// left out when `replacement` is `None`: the structures before it are copied, the
+/// replacement's own `pNext` is ignored (it takes the original's), and the structures after
+/// it are the application's. `None` when the chain holds no `T`, or when a structure before
+/// it is of a type revz does not know the size of (it cannot be copied).
+///
+/// # Safety
+/// As [`structures`]; the chain must outlive every use of the splice's head.
+pub unsafe fn splice<T: vk::TaggedStructure>(
+    p_next: *const c_void,
+    replacement: Option<&T>,
+) -> Option<Spliced> {
+    // The structures before the target: where each is and how many bytes to copy.
+    let mut before: Vec<(*const c_void, Option<usize>)> = Vec::new();
+    // SAFETY: the caller's contract.
+    let target = unsafe { structures(p_next) }.find(|base| {
+        let found = base.s_type == T::STRUCTURE_TYPE;
+        if !found {
+            let address = (*base as *const vk::BaseInStructure<'_>).cast();
+            before.push((address, known_size(base.s_type)));
+        }
+        found
+    })?;
+    let mut copied = Vec::with_capacity(before.len() + 1);
+    for (structure, size) in before {
+        copied.push((structure, size?));
+    }
+    if let Some(replacement) = replacement {
+        copied.push(((replacement as *const T).cast(), std::mem::size_of::<T>()));
+    }
+    let mut spliced = Spliced {
+        copies: Vec::with_capacity(copied.len()),
+        head: target.p_next.cast(),
+    };
+    // Copied from the end towards the head, each copy pointing at the one made before it.
+    for (structure, size) in copied.into_iter().rev() {
+        // SAFETY: a structure of the chain of a known size, or the caller's replacement.
+        let copy = unsafe { spliced.copy(structure, size) };
+        // SAFETY: every structure starts like `VkBaseOutStructure`.
+        unsafe { (*copy).p_next = spliced.head.cast_mut().cast() };
+        spliced.head = copy.cast_const().cast();
+    }
+    Some(spliced)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -68,6 +193,130 @@ mod tests {
             assert!(find::<vk::PipelineRenderingCreateInfo<'_>>(head).is_none());
             assert!(has(head, unknown.s_type));
             assert!(!has(std::ptr::null(), unknown.s_type));
+        }
+    }
+
+    /// The structure types of a chain, in order, and where each is.
+    fn walk(head: *const c_void) -> Vec<(vk::StructureType, usize)> {
+        // SAFETY: the tests' chains are valid.
+        unsafe { structures(head) }
+            .map(|base| (base.s_type, base as *const vk::BaseInStructure<'_> as usize))
+            .collect()
+    }
+
+    #[test]
+    fn a_splice_copies_what_comes_before_replaces_the_structure_and_shares_the_rest() {
+        let unknown = vk::BaseInStructure {
+            s_type: vk::StructureType::from_raw(1_000_999_000),
+            ..Default::default()
+        };
+        let flags2 = vk::PipelineCreateFlags2CreateInfoKHR {
+            p_next: (&unknown as *const vk::BaseInStructure<'_>).cast(),
+            flags: vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
+                | vk::PipelineCreateFlags2KHR::LIBRARY,
+            ..Default::default()
+        };
+        let formats = [vk::Format::R8G8B8A8_UNORM];
+        let rendering = vk::PipelineRenderingCreateInfo {
+            p_next: (&flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast(),
+            depth_attachment_format: vk::Format::D32_SFLOAT,
+            ..Default::default()
+        }
+        .color_attachment_formats(&formats);
+        let head = (&rendering as *const vk::PipelineRenderingCreateInfo<'_>).cast::<c_void>();
+        let original = walk(head);
+
+        // The replacement's own pNext is not followed.
+        let replacement = vk::PipelineCreateFlags2CreateInfoKHR {
+            p_next: 0x10 as *const c_void,
+            flags: vk::PipelineCreateFlags2KHR::LIBRARY,
+            ..Default::default()
+        };
+        // SAFETY: a valid chain on the stack that outlives the splice.
+        let spliced = unsafe { splice(head, Some(&replacement)) }.expect("spliced");
+        let chain = walk(spliced.head());
+        assert_eq!(
+            chain.iter().map(|(s_type, _)| *s_type).collect::<Vec<_>>(),
+            original
+                .iter()
+                .map(|(s_type, _)| *s_type)
+                .collect::<Vec<_>>()
+        );
+        assert_ne!(chain[0].1, original[0].1, "the structure before is a copy");
+        assert_ne!(chain[1].1, original[1].1, "the replacement is a copy");
+        assert_eq!(chain[2], original[2], "the rest is the application's");
+        // SAFETY: the spliced chain lives as long as `spliced`.
+        unsafe {
+            let copy = find::<vk::PipelineRenderingCreateInfo<'_>>(spliced.head()).unwrap();
+            assert_eq!(copy.depth_attachment_format, vk::Format::D32_SFLOAT);
+            assert_eq!(copy.p_color_attachment_formats, formats.as_ptr());
+            let replaced = find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(spliced.head());
+            assert_eq!(
+                replaced.map(|f| f.flags),
+                Some(vk::PipelineCreateFlags2KHR::LIBRARY)
+            );
+        }
+        assert_eq!(walk(head), original, "the application's chain is unchanged");
+        assert_eq!(
+            flags2.flags,
+            vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
+                | vk::PipelineCreateFlags2KHR::LIBRARY
+        );
+    }
+
+    #[test]
+    fn a_splice_can_leave_a_structure_out() {
+        let unknown = vk::BaseInStructure {
+            s_type: vk::StructureType::from_raw(1_000_999_000),
+            ..Default::default()
+        };
+        let code = [0x0723_0203u32];
+        let inline = vk::ShaderModuleCreateInfo {
+            p_next: (&unknown as *const vk::BaseInStructure<'_>).cast(),
+            ..Default::default()
+        }
+        .code(&code);
+        let name = vk::DebugUtilsObjectNameInfoEXT {
+            p_next: (&inline as *const vk::ShaderModuleCreateInfo<'_>).cast(),
+            ..Default::default()
+        };
+        let head = (&name as *const vk::DebugUtilsObjectNameInfoEXT<'_>).cast::<c_void>();
+        // SAFETY: a valid chain on the stack that outlives the splice.
+        let spliced =
+            unsafe { splice::<vk::ShaderModuleCreateInfo<'_>>(head, None) }.expect("spliced");
+        let chain = walk(spliced.head());
+        assert_eq!(
+            chain.iter().map(|(s_type, _)| *s_type).collect::<Vec<_>>(),
+            [name.s_type, unknown.s_type]
+        );
+        assert_eq!(chain[1].1, &unknown as *const _ as usize);
+
+        // First in the chain: nothing is copied, the head is what followed it.
+        let head = (&inline as *const vk::ShaderModuleCreateInfo<'_>).cast::<c_void>();
+        // SAFETY: as above.
+        let spliced =
+            unsafe { splice::<vk::ShaderModuleCreateInfo<'_>>(head, None) }.expect("spliced");
+        assert_eq!(spliced.head(), inline.p_next);
+    }
+
+    #[test]
+    fn a_splice_needs_the_structure_and_copies_only_structures_of_known_size() {
+        let flags2 = vk::PipelineCreateFlags2CreateInfoKHR::default();
+        let unknown = vk::BaseInStructure {
+            s_type: vk::StructureType::from_raw(1_000_999_000),
+            p_next: (&flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast(),
+            ..Default::default()
+        };
+        let head = (&unknown as *const vk::BaseInStructure<'_>).cast::<c_void>();
+        // SAFETY: valid chains on the stack.
+        unsafe {
+            assert!(
+                splice(head, Some(&flags2)).is_none(),
+                "unknown size before it"
+            );
+            let missing = vk::PipelineRenderingCreateInfo::default();
+            assert!(splice(head, Some(&missing)).is_none(), "not in the chain");
+            assert!(splice(std::ptr::null(), Some(&missing)).is_none());
         }
     }
 }
