@@ -190,6 +190,8 @@ pub(super) struct SeenStage {
     pub module: vk::ShaderModule,
     /// The stage's `pNext`: the address of the first structure of its chain.
     pub p_next: usize,
+    /// The structure types of the stage's chain, in order.
+    pub chain: Vec<vk::StructureType>,
     /// The SPIR-V of a `VkShaderModuleCreateInfo` anywhere in the stage's chain.
     pub inline_code: Option<Vec<u32>>,
     pub name: usize,
@@ -204,6 +206,10 @@ pub(super) struct SeenPipeline {
     /// Where the create info itself was.
     pub address: usize,
     pub p_next: usize,
+    /// The structure types of the create info's chain, in order.
+    pub chain: Vec<vk::StructureType>,
+    /// The libraries of a `VkPipelineLibraryCreateInfoKHR` in the chain.
+    pub libraries: Vec<vk::Pipeline>,
     pub flags: vk::PipelineCreateFlags,
     /// The flags of a `VkPipelineCreateFlags2CreateInfoKHR` in the chain (which then replace
     /// `flags`).
@@ -230,6 +236,14 @@ pub(super) struct SeenPipeline {
     pub base_pipeline_index: i32,
 }
 
+/// The structure types of a valid `pNext` chain, in order.
+fn chain_types(p_next: *const std::ffi::c_void) -> Vec<vk::StructureType> {
+    // SAFETY: the fake is given valid chains.
+    unsafe { crate::chain::structures(p_next) }
+        .map(|base| base.s_type)
+        .collect()
+}
+
 /// A pipeline shader stage's fields, its inline SPIR-V read out.
 ///
 /// # Safety
@@ -242,6 +256,7 @@ unsafe fn seen_stage(stage: &vk::PipelineShaderStageCreateInfo<'_>) -> SeenStage
         stage: stage.stage,
         module: stage.module,
         p_next: stage.p_next as usize,
+        chain: chain_types(stage.p_next),
         // SAFETY: `codeSize` bytes of code.
         inline_code: inline.map(|inline| unsafe {
             crate::hooks::resources::slice(inline.p_code, (inline.code_size / 4) as u32).to_vec()
@@ -266,6 +281,12 @@ pub(super) unsafe fn seen_pipeline(info: &vk::GraphicsPipelineCreateInfo<'_>) ->
         SeenPipeline {
             address: info as *const _ as usize,
             p_next: info.p_next as usize,
+            chain: chain_types(info.p_next),
+            libraries: crate::chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next)
+                .map_or(Vec::new(), |links| {
+                    crate::hooks::resources::slice(links.p_libraries, links.library_count)
+                        .to_vec()
+                }),
             flags: info.flags,
             flags2: flags2.map(|f| f.flags),
             stages_address: info.p_stages as usize,

@@ -33,7 +33,6 @@ static CREATE_SHADER_MODULE: EntryPoint = EntryPoint::new("vkCreateShaderModule"
 static DESTROY_SHADER_MODULE: EntryPoint = EntryPoint::new("vkDestroyShaderModule");
 static CREATE_PIPELINE_LAYOUT: EntryPoint = EntryPoint::new("vkCreatePipelineLayout");
 static DESTROY_PIPELINE_LAYOUT: EntryPoint = EntryPoint::new("vkDestroyPipelineLayout");
-static LIBRARY_LOGGED: AtomicBool = AtomicBool::new(false);
 
 /// The state subsets of a graphics pipeline (`VK_EXT_graphics_pipeline_library`).
 type Subsets = vk::GraphicsPipelineLibraryFlagsEXT;
@@ -78,11 +77,6 @@ fn is_library(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
     }
 }
 
-/// Whether a create info builds a library or links libraries.
-fn is_library_or_link(info: &vk::GraphicsPipelineCreateInfo<'_>, subsets: Subsets) -> bool {
-    subsets != ALL_SUBSETS || is_library(info)
-}
-
 /// The libraries a create info links, as revz recorded them (unknown ones are skipped).
 fn linked_libraries(
     state: &DeviceState,
@@ -98,6 +92,26 @@ fn linked_libraries(
         .iter()
         .filter_map(|library| state.objects.pipelines.get(library))
         .collect()
+}
+
+/// The libraries a create info links, with each that has a reversed variant replaced by it:
+/// the reversed variant of a link links the variants. `None` when none has one.
+fn library_variants(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> Option<Vec<vk::Pipeline>> {
+    // SAFETY: a valid pNext chain (the application's contract).
+    let links = unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next) }?;
+    // SAFETY: `libraryCount` pipelines.
+    let libraries = unsafe { slice(links.p_libraries, links.library_count) };
+    let variants: Vec<vk::Pipeline> = libraries
+        .iter()
+        .map(|library| {
+            let depth = state.objects.pipelines.get(library);
+            depth.and_then(|depth| depth.reversed_variant).unwrap_or(*library)
+        })
+        .collect();
+    (variants.as_slice() != libraries).then_some(variants)
 }
 
 /// A linked pipeline's (or a library's that links others) depth state: each subset's from
@@ -303,6 +317,9 @@ struct Plan {
     /// The fragment stage (its index) the reversed variant gets rewritten
     /// (`crate::fragment_depth`).
     fragment: Option<(usize, Arc<[u32]>)>,
+    /// The libraries the create info links, with those that have a reversed variant replaced
+    /// by it; `None` when none has one.
+    libraries: Option<Vec<vk::Pipeline>>,
     /// Whether the pipeline's draws can reach a depth attachment: it has one and does not
     /// statically discard every primitive. Otherwise its viewport and depth state are ignored
     /// by the spec (possibly dangling) and nothing about its depth matters.
@@ -312,7 +329,7 @@ struct Plan {
 impl Plan {
     /// Whether the pipeline gets a variant bound for draws into reversed attachments.
     fn needs_variant(&self) -> bool {
-        self.compare_op_variant || self.fragment.is_some()
+        self.compare_op_variant || self.fragment.is_some() || self.libraries.is_some()
     }
 }
 
@@ -323,8 +340,6 @@ struct PlanContext {
     has_depth_attachment: bool,
     /// The state subsets the create info defines itself (all but for pipeline libraries).
     subsets: Subsets,
-    /// The create info builds a library or links libraries: it gets no reversed variant.
-    library_or_link: bool,
     /// The flipped compare op comes from a pipeline variant, not dynamic state.
     compare_op_variants: bool,
 }
@@ -357,6 +372,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         flip_reason: None,
         compare_op_variant: false,
         fragment: None,
+        libraries: None,
         renders_depth: false,
     };
     if !context.has_depth_attachment {
@@ -407,13 +423,6 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
             if !context.compare_op_variants {
                 added.push(vk::DynamicState::DEPTH_COMPARE_OP);
                 depth.injected |= States::COMPARE_OP;
-            } else if context.library_or_link {
-                if !LIBRARY_LOGGED.swap(true, Ordering::Relaxed) {
-                    log::warn!(
-                        "pipeline libraries get no compare-op variants: draws of pipelines \
-                         linked from them into reversed attachments keep their compare op"
-                    );
-                }
             } else {
                 compare_op_variant = flip_compare_op(depth.compare_op) != depth.compare_op;
             }
@@ -467,6 +476,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         flip_reason: None,
         compare_op_variant,
         fragment: None,
+        libraries: None,
         renders_depth: true,
     }
 }
@@ -498,7 +508,6 @@ fn context(state: &DeviceState, info: &vk::GraphicsPipelineCreateInfo<'_>) -> Pl
     PlanContext {
         has_depth_attachment,
         subsets,
-        library_or_link: is_library_or_link(info, subsets),
         compare_op_variants: state.policy.compare_op_variants,
     }
 }
@@ -531,7 +540,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     let identified = uses_module_identifiers(info);
                     if state.policy.is_active() && plan.renders_depth && fragment {
                         match fragment_stage_rewrite(&state, info) {
-                            Some((index, Ok(code))) if !context.library_or_link && !identified => {
+                            Some((index, Ok(code))) if !identified => {
                                 plan.fragment = Some((index, code))
                             }
                             Some(_) => plan.depth.unreversed_fragment = true,
@@ -554,6 +563,9 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         }
                     }
                     inherit_libraries(&mut plan.depth, &linked_libraries(&state, info));
+                    if !identified {
+                        plan.libraries = library_variants(&state, info);
+                    }
                     Some(plan)
                 })
                 .collect::<Vec<_>>()
@@ -648,7 +660,9 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 };
                 plan.depth.handle = pipeline;
                 plan.depth.reversed_variant = variant;
-                if plan.fragment.is_some() && variant.is_none() {
+                // Without its variant, a pipeline keeps (or links) the fragment shader that was
+                // to be rewritten.
+                if (plan.fragment.is_some() || plan.libraries.is_some()) && variant.is_none() {
                     plan.depth.unreversed_fragment = true;
                 }
                 match (&plan.depth.projection, &plan.flip_reason) {
@@ -767,11 +781,12 @@ destroy_hook!(
 );
 
 /// Creates the reversed variant of a pipeline: its create info (with the dynamic states revz
-/// added) with the static depth compare op flipped and the fragment stage rewritten, as the
-/// plan says. Not a derivative (the base index of the application's batch means nothing in a
-/// batch of one), and compiled even where the application only asked for cached pipelines.
-/// `None` when creation fails: the pipeline's draws into reversed attachments then keep its
-/// compare op and fragment shader (logged once).
+/// added) with the static depth compare op flipped, the fragment stage rewritten and the
+/// linked libraries replaced by their variants, as the plan says. Not a derivative (the base
+/// index of the application's batch means nothing in a batch of one), and compiled even where
+/// the application only asked for cached pipelines. `None` when it cannot be made: the
+/// pipeline's draws into reversed attachments then keep its compare op and fragment shader
+/// (logged once).
 fn create_reversed_variant(
     state: &DeviceState,
     device: vk::Device,
@@ -781,6 +796,15 @@ fn create_reversed_variant(
     plan: &Plan,
 ) -> Option<vk::Pipeline> {
     static FAILED: AtomicBool = AtomicBool::new(false);
+    let failed = |why: &dyn std::fmt::Display| {
+        if !FAILED.swap(true, Ordering::Relaxed) {
+            log::warn!(
+                "the reversed variant of a pipeline could not be created ({why}): its draws \
+                 into reversed attachments keep its compare op and fragment shader"
+            );
+        }
+        None
+    };
     let flipped = if plan.compare_op_variant {
         // SAFETY: non-null (the plan read it) and valid (the application's contract).
         let depth_stencil = unsafe { info.p_depth_stencil_state.as_ref() }?;
@@ -791,35 +815,65 @@ fn create_reversed_variant(
     } else {
         None
     };
+    // The chain, spliced where it must change; each splice lives until the call returns.
+    let mut p_next = info.p_next;
     // Flags given in a `VkPipelineCreateFlags2CreateInfoKHR` replace `flags`: a copy with
-    // the same flags cleared takes its place, which it can only where it comes first.
+    // the same flags cleared takes its place.
     // SAFETY: a valid pNext chain (the application's contract).
-    let flags2 = unsafe { chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(info.p_next) };
+    let flags2 = unsafe { chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(p_next) };
     let cleared2 = vk::PipelineCreateFlags2KHR::DERIVATIVE
         | vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
         | vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE;
-    let flags2 = match flags2 {
+    let flags2_splice = match flags2 {
         Some(flags2) if flags2.flags.intersects(cleared2) => {
-            if !std::ptr::eq(info.p_next.cast(), flags2) {
-                return None;
-            }
-            Some(vk::PipelineCreateFlags2CreateInfoKHR {
+            let cleared = vk::PipelineCreateFlags2CreateInfoKHR {
                 flags: flags2.flags & !cleared2,
                 ..*flags2
-            })
+            };
+            // SAFETY: a valid pNext chain that outlives the call below.
+            let Some(spliced) = (unsafe { chain::splice(p_next, Some(&cleared)) }) else {
+                return failed(&"an unknown structure precedes its flags2");
+            };
+            Some(spliced)
         }
         _ => None,
     };
+    if let Some(spliced) = &flags2_splice {
+        p_next = spliced.head();
+    }
+    let libraries_splice = match &plan.libraries {
+        Some(libraries) => {
+            // SAFETY: a valid pNext chain (the plan found the structure in it).
+            let links = unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(p_next) }?;
+            let variants = vk::PipelineLibraryCreateInfoKHR {
+                library_count: libraries.len() as u32,
+                p_libraries: libraries.as_ptr(),
+                ..*links
+            };
+            // SAFETY: as above.
+            let Some(spliced) = (unsafe { chain::splice(p_next, Some(&variants)) }) else {
+                return failed(&"an unknown structure precedes its libraries");
+            };
+            Some(spliced)
+        }
+        None => None,
+    };
+    if let Some(spliced) = &libraries_splice {
+        p_next = spliced.head();
+    }
     // SAFETY: `stageCount` stages (the application's contract).
     let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
-    let module = match &plan.fragment {
-        Some((index, code)) => Some(rewritten_stage(state, device, &mut stages[*index], code)?),
+    let rewritten = match &plan.fragment {
+        Some((index, code)) => {
+            let Some(rewritten) = rewritten_stage(state, device, &mut stages[*index], code) else {
+                return failed(&"its rewritten fragment stage could not be made");
+            };
+            Some(rewritten)
+        }
         None => None,
     };
     let variant_info = vk::GraphicsPipelineCreateInfo {
-        p_next: flags2.as_ref().map_or(info.p_next, |flags2| {
-            (flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast()
-        }),
+        p_next,
         flags: info.flags
             & !(vk::PipelineCreateFlags::DERIVATIVE
                 | vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED
@@ -834,8 +888,8 @@ fn create_reversed_variant(
         ..*info
     };
     let mut variant = vk::Pipeline::null();
-    // SAFETY: the application's create info with the stages, depth state and dynamic list
-    // replaced by copies that live until the call returns; revz's own object, so no
+    // SAFETY: the application's create info with the chain, stages, depth state and dynamic
+    // list replaced by copies that live until the call returns; revz's own object, so no
     // allocator.
     let result = unsafe {
         (state.next.fp_v1_0().create_graphics_pipelines)(
@@ -847,40 +901,42 @@ fn create_reversed_variant(
             &mut variant,
         )
     };
-    if let Some(module) = module {
+    if let Some(RewrittenStage { module, .. }) = rewritten {
         // SAFETY: revz's own module; a pipeline no longer needs its modules once created.
         unsafe { (state.next.fp_v1_0().destroy_shader_module)(device, module, std::ptr::null()) };
     }
     if result != vk::Result::SUCCESS || variant == vk::Pipeline::null() {
-        if !FAILED.swap(true, Ordering::Relaxed) {
-            log::warn!(
-                "the reversed variant of a pipeline could not be created ({result:?}): its \
-                 draws into reversed attachments keep its compare op and fragment shader"
-            );
-        }
-        return None;
+        return failed(&format_args!("{result:?}"));
     }
     Some(variant)
 }
 
-/// Points a copy of a fragment stage at a module of `code`, created through the next layer
-/// (the caller destroys it once the pipeline is created). A stage whose SPIR-V is chained
-/// inline drops that structure from its copy's chain, which it can only where it comes
-/// first; `None` otherwise, or when the module cannot be created.
+/// A fragment stage pointed at revz's module of rewritten code: the module (the caller
+/// destroys it once the pipeline is created), and the stage's chain without its inline SPIR-V
+/// where it had some (the stage points into it).
+struct RewrittenStage {
+    module: vk::ShaderModule,
+    _chain: Option<chain::Spliced>,
+}
+
+/// Points a copy of a fragment stage at a module of `code`, created through the next layer.
+/// A stage whose SPIR-V is chained inline drops that structure from its copy's chain. `None`
+/// when the module cannot be created or the inline structure cannot be spliced out.
 fn rewritten_stage(
     state: &DeviceState,
     device: vk::Device,
     stage: &mut vk::PipelineShaderStageCreateInfo<'_>,
     code: &[u32],
-) -> Option<vk::ShaderModule> {
-    if stage.module == vk::ShaderModule::null() {
-        // SAFETY: a valid pNext chain (the application's contract).
-        let inline = unsafe { chain::find::<vk::ShaderModuleCreateInfo<'_>>(stage.p_next) }?;
-        if !std::ptr::eq(stage.p_next.cast(), inline) {
-            return None;
-        }
-        stage.p_next = inline.p_next;
-    }
+) -> Option<RewrittenStage> {
+    let chain = if stage.module == vk::ShaderModule::null() {
+        // SAFETY: a valid pNext chain (the application's contract) that outlives the
+        // variant's creation.
+        let spliced = unsafe { chain::splice::<vk::ShaderModuleCreateInfo<'_>>(stage.p_next, None) }?;
+        stage.p_next = spliced.head();
+        Some(spliced)
+    } else {
+        None
+    };
     let create = vk::ShaderModuleCreateInfo::default().code(code);
     let mut module = vk::ShaderModule::null();
     // SAFETY: a create info of revz's words; revz's own object, so no allocator.
@@ -888,7 +944,10 @@ fn rewritten_stage(
         (state.next.fp_v1_0().create_shader_module)(device, &create, std::ptr::null(), &mut module)
     };
     stage.module = module;
-    (result == vk::Result::SUCCESS).then_some(module)
+    (result == vk::Result::SUCCESS).then_some(RewrittenStage {
+        module,
+        _chain: chain,
+    })
 }
 
 /// Destroys a pipeline of revz's own through the next layer.
@@ -954,7 +1013,6 @@ mod tests {
     const RENDERS_DEPTH: PlanContext = PlanContext {
         has_depth_attachment: true,
         subsets: ALL_SUBSETS,
-        library_or_link: false,
         compare_op_variants: false,
     };
 
@@ -1107,11 +1165,10 @@ mod tests {
         assert!(plan(&info, &no_attachment).dynamic_states.is_none());
     }
 
-    /// A library of `subsets`.
+    /// A library (or a link) of `subsets`.
     fn library(subsets: Subsets) -> PlanContext {
         PlanContext {
             subsets,
-            library_or_link: true,
             ..RENDERS_DEPTH
         }
     }
@@ -1169,16 +1226,19 @@ mod tests {
     }
 
     #[test]
-    fn libraries_get_no_compare_op_variants() {
+    fn a_fragment_shader_library_gets_the_compare_op_variant() {
         let depth = depth_state(true, false);
         let info = vk::GraphicsPipelineCreateInfo::default().depth_stencil_state(&depth);
-        let variants = PlanContext {
+        let variants = |subsets| PlanContext {
             compare_op_variants: true,
-            ..library(Subsets::FRAGMENT_SHADER)
+            ..library(subsets)
         };
-        let planned = plan(&info, &variants);
-        assert!(!planned.compare_op_variant);
+        let planned = plan(&info, &variants(Subsets::FRAGMENT_SHADER));
+        assert!(planned.compare_op_variant);
         assert!(planned.dynamic_states.is_none());
+        // The compare op is fragment shader state: other libraries have none to flip.
+        let planned = plan(&info, &variants(Subsets::PRE_RASTERIZATION_SHADERS));
+        assert!(!planned.compare_op_variant);
     }
 
     #[test]
@@ -1265,7 +1325,6 @@ mod tests {
     fn the_subsets_a_create_info_defines() {
         let ordinary = vk::GraphicsPipelineCreateInfo::default();
         assert_eq!(own_subsets(&ordinary), ALL_SUBSETS);
-        assert!(!is_library_or_link(&ordinary, ALL_SUBSETS));
         let library =
             vk::GraphicsPipelineCreateInfo::default().flags(vk::PipelineCreateFlags::LIBRARY_KHR);
         assert_eq!(own_subsets(&library), Subsets::empty());
@@ -1277,15 +1336,15 @@ mod tests {
         let mut links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&libraries);
         let linked = vk::GraphicsPipelineCreateInfo::default().push_next(&mut links);
         assert_eq!(own_subsets(&linked), Subsets::empty());
-        assert!(is_library_or_link(&linked, Subsets::empty()));
         // Flags given as flags2 replace `flags`.
         let mut flags2 = vk::PipelineCreateFlags2CreateInfoKHR::default()
             .flags(vk::PipelineCreateFlags2KHR::LIBRARY);
         let library2 = vk::GraphicsPipelineCreateInfo::default().push_next(&mut flags2);
         assert_eq!(own_subsets(&library2), Subsets::empty());
         // A library that defines every subset is still a library.
-        let whole =
-            vk::GraphicsPipelineCreateInfo::default().flags(vk::PipelineCreateFlags::LIBRARY_KHR);
-        assert!(is_library_or_link(&whole, ALL_SUBSETS));
+        let mut every = vk::GraphicsPipelineLibraryCreateInfoEXT::default().flags(ALL_SUBSETS);
+        let whole = library.push_next(&mut every);
+        assert!(is_library(&whole));
+        assert_eq!(own_subsets(&whole), ALL_SUBSETS);
     }
 }

@@ -1120,12 +1120,22 @@ fn inline_spirv_first_in_the_stage_chain_is_skipped_by_the_variant_stage() {
     fx.finish();
 }
 
+/// A structure of a type revz does not know (so cannot copy).
+const UNKNOWN: vk::StructureType = vk::StructureType::from_raw(1_000_999_000);
+
 #[test]
-fn inline_spirv_after_another_structure_gets_no_variant_and_is_marked_unreversed() {
+fn inline_spirv_after_another_structure_is_spliced_out_of_the_variant_stage() {
     let fx = Fixture::new();
     let vertex = fx.vertex_module();
     let words = fragment(FRAG_DEPTH);
-    let inline = vk::ShaderModuleCreateInfo::default().code(&words);
+    let after = vk::BaseInStructure {
+        s_type: UNKNOWN,
+        ..Default::default()
+    };
+    let inline = vk::ShaderModuleCreateInfo {
+        p_next: (&after as *const vk::BaseInStructure<'_>).cast(),
+        ..vk::ShaderModuleCreateInfo::default().code(&words)
+    };
     let subgroup = vk::PipelineShaderStageRequiredSubgroupSizeCreateInfo {
         p_next: (&inline as *const vk::ShaderModuleCreateInfo<'_>)
             .cast_mut()
@@ -1133,6 +1143,8 @@ fn inline_spirv_after_another_structure_gets_no_variant_and_is_marked_unreversed
         ..vk::PipelineShaderStageRequiredSubgroupSizeCreateInfo::default()
             .required_subgroup_size(32)
     };
+    let subgroup_address =
+        &subgroup as *const vk::PipelineShaderStageRequiredSubgroupSizeCreateInfo<'_> as usize;
     let app = AppPipeline::new(vec![
         stage(vk::ShaderStageFlags::VERTEX, vertex),
         inline_stage(
@@ -1140,10 +1152,50 @@ fn inline_spirv_after_another_structure_gets_no_variant_and_is_marked_unreversed
         ),
     ]);
     let built = app.build();
+    let created = fx.create_with_variant(&built.info(), None);
+    assert_eq!(
+        created.code,
+        reverse_fragment_depth(&words).unwrap().unwrap()
+    );
+    let variant_stage = &created.variant_info.stages[1];
+    assert_eq!(variant_stage.module, created.temporary);
+    assert_eq!(variant_stage.inline_code, None);
+    assert_eq!(
+        variant_stage.chain,
+        [subgroup.s_type, UNKNOWN],
+        "the structure before the inline code copied, the one after it shared"
+    );
+    assert_ne!(variant_stage.p_next, subgroup_address, "a copy");
+    let app_stage = &created.app_info.stages[1];
+    assert_eq!(app_stage.p_next, subgroup_address, "the application's chain");
+    assert_eq!(
+        app_stage.chain,
+        [subgroup.s_type, inline.s_type, UNKNOWN],
+        "left as it was"
+    );
+    fx.finish();
+}
+
+#[test]
+fn inline_spirv_after_an_unknown_structure_gets_no_variant_and_is_marked_unreversed() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let words = fragment(FRAG_DEPTH);
+    let inline = vk::ShaderModuleCreateInfo::default().code(&words);
+    let unknown = vk::BaseInStructure {
+        s_type: UNKNOWN,
+        p_next: (&inline as *const vk::ShaderModuleCreateInfo<'_>).cast(),
+        ..Default::default()
+    };
+    let app = AppPipeline::new(vec![
+        stage(vk::ShaderStageFlags::VERTEX, vertex),
+        inline_stage((&unknown as *const vk::BaseInStructure<'_>).cast()),
+    ]);
+    let built = app.build();
     let info = built.info();
     let (result, handles) = fx.create_pipelines(std::slice::from_ref(&info), None);
     assert_eq!(result, vk::Result::SUCCESS);
-    // No temporary module, no variant: only the application's pipeline.
+    // Its size unknown, the structure cannot be copied: no temporary module, no variant.
     let (app_info, handle) = only_app_creation(&fx.events());
     assert_eq!(handles, [handle]);
     assert_eq!(app_info.stages, seen(&info).stages);
@@ -1464,5 +1516,51 @@ fn a_pipeline_that_discards_every_primitive_is_not_read_beyond_what_the_spec_req
     assert_eq!(recorded.reversed_variant, None);
     assert_eq!(recorded.projection, None);
     assert!(!recorded.unreversed_fragment);
+    fx.finish();
+}
+
+#[test]
+fn flags2_after_another_structure_is_replaced_in_a_spliced_chain() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let app = AppPipeline::of_modules(vertex, module);
+    let mut built = app.build();
+    let app_flags2 = vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
+        | vk::PipelineCreateFlags2KHR::DISABLE_OPTIMIZATION;
+    let flags2 = vk::PipelineCreateFlags2CreateInfoKHR {
+        flags: app_flags2,
+        ..Default::default()
+    };
+    built.rendering.p_next = (&flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast();
+    let info = built.info();
+    let created = fx.create_with_variant(&info, None);
+    assert_eq!(created.app_info.flags2, Some(app_flags2));
+    assert_eq!(created.app_info.p_next, info.p_next as usize);
+    assert_eq!(
+        created.variant_info.flags2,
+        Some(vk::PipelineCreateFlags2KHR::DISABLE_OPTIMIZATION)
+    );
+    assert_eq!(
+        created.variant_info.chain,
+        [built.rendering.s_type, flags2.s_type]
+    );
+    assert_eq!(flags2.flags, app_flags2, "the application's flags2 unchanged");
+
+    // After a structure revz cannot copy, the flags cannot be cleared: no variant.
+    let unknown = vk::BaseInStructure {
+        s_type: UNKNOWN,
+        p_next: (&flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast(),
+        ..Default::default()
+    };
+    built.rendering.p_next = (&unknown as *const vk::BaseInStructure<'_>).cast();
+    let info = built.info();
+    let (result, handles) = fx.create_pipelines(std::slice::from_ref(&info), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (_, handle) = only_app_creation(&fx.events());
+    assert_eq!(handles, [handle]);
+    let recorded = fx.recorded(handle);
+    assert_eq!(recorded.reversed_variant, None);
+    assert!(recorded.unreversed_fragment);
     fx.finish();
 }
