@@ -70,6 +70,8 @@ pub enum SceneId {
     /// A fragment shader writing `gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z`: a near card
     /// pushed behind a farther one, in front of a far wall.
     FragDepth,
+    /// `frag-depth` with every pipeline built from graphics pipeline libraries.
+    FragDepthLibrary,
     /// The overlap scene, decals with a static depth bias and a sky at viewport depth [1, 1],
     /// every pipeline linked from `VK_EXT_graphics_pipeline_library` libraries.
     PipelineLibrary,

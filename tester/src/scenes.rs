@@ -87,6 +87,11 @@ pub const CATALOG: &[Entry] = &[
     ),
     entry_row(SceneId::FragDepth, "frag-depth", frag_depth),
     entry_row(
+        SceneId::FragDepthLibrary,
+        "frag-depth-library",
+        frag_depth_library,
+    ),
+    entry_row(
         SceneId::PipelineLibrary,
         "pipeline-library",
         pipeline_library,
@@ -1148,6 +1153,22 @@ fn card(
 /// vanishes, the wall and the background show through. Where the red card is alone, the depth
 /// read back is the stored FragDepth value itself.
 pub fn frag_depth() -> Scene {
+    frag_depth_built("frag-depth", false)
+}
+
+/// `frag-depth-library` (needs `VK_EXT_graphics_pipeline_library`): [`frag_depth`] with every
+/// pipeline built from four libraries linked together, as in [`pipeline_library`].
+///
+/// Layer item: a fragment shader library that computes with depth. The layer must give the
+/// fragment shader library a variant with the rewritten shader and bind, for draws into a
+/// reversed attachment, a variant of the linked pipeline that links it; a layer that links
+/// the application's library shows what [`frag_depth`] shows with the shader untouched.
+pub fn frag_depth_library() -> Scene {
+    frag_depth_built("frag-depth-library", true)
+}
+
+/// The `frag-depth` scene named `name`, its pipelines built from libraries or not.
+fn frag_depth_built(name: &'static str, libraries: bool) -> Scene {
     let camera = overlap_camera();
     let mut b = Builder::default();
     let wall = b.object(card(
@@ -1172,9 +1193,13 @@ pub fn frag_depth() -> Scene {
         rgb8(30, 200, 40),
     ));
     b.pass(PassSpec::clear(1.0));
-    let standard = b.pipeline(PipelineSpec::standard("standard", 0));
+    let standard = b.pipeline(PipelineSpec {
+        libraries,
+        ..PipelineSpec::standard("standard", 0)
+    });
     let frag_depth = b.pipeline(PipelineSpec {
         program: Program::FragDepth,
+        libraries,
         ..PipelineSpec::standard("frag depth", 0)
     });
     b.step(Step::BeginPass(0));
@@ -1185,7 +1210,7 @@ pub fn frag_depth() -> Scene {
     b.step(Step::Bind(standard));
     b.step(Step::Draw(middle));
     b.step(Step::EndPass);
-    b.finish("frag-depth", camera, None)
+    b.finish(name, camera, None)
 }
 
 /// A rectangle `[x ± half_width] x [y ± half_height]` on the +z face of `cube` (a
@@ -2030,7 +2055,7 @@ mod tests {
         for other in all() {
             assert_eq!(
                 other.plan.needs().graphics_pipeline_library,
-                other.name == "pipeline-library",
+                ["pipeline-library", "frag-depth-library"].contains(&other.name),
                 "{}",
                 other.name
             );
@@ -2211,6 +2236,30 @@ mod tests {
             }
         }
         shows
+    }
+
+    #[test]
+    fn frag_depth_library_is_frag_depth_built_from_libraries() {
+        let (plain, library) = (frag_depth(), frag_depth_library());
+        assert!(library.plan.needs().graphics_pipeline_library);
+        assert_eq!(library.objects, plain.objects);
+        assert_eq!(library.plan.steps, plain.plan.steps);
+        assert_eq!(library.plan.passes, plain.plan.passes);
+        assert!(library
+            .plan
+            .passes
+            .iter()
+            .all(|p| p.kind == PassKind::RenderPass));
+        for (with, without) in library.plan.pipelines.iter().zip(&plain.plan.pipelines) {
+            assert!(with.libraries, "{}", with.name);
+            assert_eq!(
+                &PipelineSpec {
+                    libraries: false,
+                    ..with.clone()
+                },
+                without
+            );
+        }
     }
 
     #[test]

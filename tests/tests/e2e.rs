@@ -183,6 +183,7 @@ flip_scene_tests! {
     flip_dynamic_rendering: "dynamic-rendering", DEPTH_FORMATS;
     flip_frag_depth: "frag-depth", DEPTH_FORMATS;
     flip_pipeline_library: "pipeline-library", DEPTH_FORMATS;
+    flip_frag_depth_library: "frag-depth-library", DEPTH_FORMATS;
 }
 
 /// The shadow map is sampled: it stays native while the main pass is reversed, and the shadows
@@ -850,6 +851,7 @@ fn precise_modes_rewrite_frag_depth() {
         let settings = [("REVZ_MODE", "complementary")];
         let tolerance = Tolerance::flip_plus(format, 4.0 * f32::EPSILON);
         flip_scene_within("frag-depth", format, &[], &settings, tolerance);
+        flip_scene_within("frag-depth-library", format, &[], &settings, tolerance);
         let settings = [("REVZ_MODE", "infinite")];
         let tolerance = Tolerance::flip_plus(format, 1e-3);
         flip_scene_within("frag-depth", format, &[], &settings, tolerance);

@@ -284,8 +284,7 @@ pub(super) unsafe fn seen_pipeline(info: &vk::GraphicsPipelineCreateInfo<'_>) ->
             chain: chain_types(info.p_next),
             libraries: crate::chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next)
                 .map_or(Vec::new(), |links| {
-                    crate::hooks::resources::slice(links.p_libraries, links.library_count)
-                        .to_vec()
+                    crate::hooks::resources::slice(links.p_libraries, links.library_count).to_vec()
                 }),
             flags: info.flags,
             flags2: flags2.map(|f| f.flags),

@@ -6,8 +6,8 @@
 //! time. Graphics pipeline libraries get the same in the state subsets each defines, and a
 //! linked pipeline takes each subset's state from its library. A pipeline whose fragment
 //! shader computes with depth, or whose compare op stays static (`compare_op = variants`),
-//! gets a reversed variant bound for draws into reversed attachments; libraries and their
-//! links get none (logged once).
+//! gets a reversed variant bound for draws into reversed attachments: a fragment shader library
+//! gets a variant library, and what links it a variant linking that one.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -108,7 +108,9 @@ fn library_variants(
         .iter()
         .map(|library| {
             let depth = state.objects.pipelines.get(library);
-            depth.and_then(|depth| depth.reversed_variant).unwrap_or(*library)
+            depth
+                .and_then(|depth| depth.reversed_variant)
+                .unwrap_or(*library)
         })
         .collect();
     (variants.as_slice() != libraries).then_some(variants)
@@ -931,7 +933,8 @@ fn rewritten_stage(
     let chain = if stage.module == vk::ShaderModule::null() {
         // SAFETY: a valid pNext chain (the application's contract) that outlives the
         // variant's creation.
-        let spliced = unsafe { chain::splice::<vk::ShaderModuleCreateInfo<'_>>(stage.p_next, None) }?;
+        let spliced =
+            unsafe { chain::splice::<vk::ShaderModuleCreateInfo<'_>>(stage.p_next, None) }?;
         stage.p_next = spliced.head();
         Some(spliced)
     } else {

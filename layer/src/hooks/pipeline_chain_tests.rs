@@ -3,7 +3,8 @@
 //! reversed variant created before the application's pipeline from a temporary module of the
 //! rewritten code (destroyed once the variant exists), inline SPIR-V, the variant destroyed
 //! with the application's pipeline or when that pipeline fails, modules that need no rewrite or
-//! cannot be rewritten, and mode off.
+//! cannot be rewritten, chains spliced around the structures a variant changes, variants of
+//! pipeline libraries and of the pipelines linking them, and mode off.
 //!
 //! Every test makes its own instance and device (Vulkan 1.3) with its own dispatch tables, gets
 //! revz's hooks from `vkGetDeviceProcAddr`, and checks what reaches the fake layer below and
@@ -1167,7 +1168,10 @@ fn inline_spirv_after_another_structure_is_spliced_out_of_the_variant_stage() {
     );
     assert_ne!(variant_stage.p_next, subgroup_address, "a copy");
     let app_stage = &created.app_info.stages[1];
-    assert_eq!(app_stage.p_next, subgroup_address, "the application's chain");
+    assert_eq!(
+        app_stage.p_next, subgroup_address,
+        "the application's chain"
+    );
     assert_eq!(
         app_stage.chain,
         [subgroup.s_type, inline.s_type, UNKNOWN],
@@ -1545,7 +1549,10 @@ fn flags2_after_another_structure_is_replaced_in_a_spliced_chain() {
         created.variant_info.chain,
         [built.rendering.s_type, flags2.s_type]
     );
-    assert_eq!(flags2.flags, app_flags2, "the application's flags2 unchanged");
+    assert_eq!(
+        flags2.flags, app_flags2,
+        "the application's flags2 unchanged"
+    );
 
     // After a structure revz cannot copy, the flags cannot be cleared: no variant.
     let unknown = vk::BaseInStructure {
@@ -1562,5 +1569,234 @@ fn flags2_after_another_structure_is_replaced_in_a_spliced_chain() {
     let recorded = fx.recorded(handle);
     assert_eq!(recorded.reversed_variant, None);
     assert!(recorded.unreversed_fragment);
+    fx.finish();
+}
+
+/// The graphics pipeline libraries of an [`AppPipeline`] of two stages: a pre-rasterization
+/// library of its vertex stage and a fragment shader library of its fragment stage (with the
+/// depth state), each a create info sharing the built pipeline's state.
+struct Libraries<'a> {
+    pre_rasterization: vk::GraphicsPipelineLibraryCreateInfoEXT<'a>,
+    fragment: vk::GraphicsPipelineLibraryCreateInfoEXT<'a>,
+    built: &'a Built<'a>,
+}
+
+impl<'a> Libraries<'a> {
+    fn of(built: &'a Built<'a>) -> Libraries<'a> {
+        Libraries {
+            pre_rasterization: vk::GraphicsPipelineLibraryCreateInfoEXT::default()
+                .flags(vk::GraphicsPipelineLibraryFlagsEXT::PRE_RASTERIZATION_SHADERS),
+            fragment: vk::GraphicsPipelineLibraryCreateInfoEXT::default()
+                .flags(vk::GraphicsPipelineLibraryFlagsEXT::FRAGMENT_SHADER),
+            built,
+        }
+    }
+
+    /// A library of `subset` and stage `index` of the application's pipeline.
+    fn library(
+        &self,
+        subset: &'a vk::GraphicsPipelineLibraryCreateInfoEXT<'a>,
+        index: usize,
+    ) -> vk::GraphicsPipelineCreateInfo<'a> {
+        vk::GraphicsPipelineCreateInfo {
+            p_next: (subset as *const vk::GraphicsPipelineLibraryCreateInfoEXT<'_>).cast(),
+            flags: vk::PipelineCreateFlags::LIBRARY_KHR,
+            stage_count: 1,
+            p_stages: &self.built.app.stages[index],
+            ..self.built.info()
+        }
+    }
+
+    fn pre_rasterization_info(&'a self) -> vk::GraphicsPipelineCreateInfo<'a> {
+        self.library(&self.pre_rasterization, 0)
+    }
+
+    fn fragment_info(&'a self) -> vk::GraphicsPipelineCreateInfo<'a> {
+        self.library(&self.fragment, 1)
+    }
+}
+
+/// A pipeline linking `links` (no state of its own).
+fn link_info<'a>(
+    links: &'a vk::PipelineLibraryCreateInfoKHR<'a>,
+) -> vk::GraphicsPipelineCreateInfo<'a> {
+    vk::GraphicsPipelineCreateInfo {
+        p_next: (links as *const vk::PipelineLibraryCreateInfoKHR<'_>).cast(),
+        layout: layout(),
+        ..Default::default()
+    }
+}
+
+/// The two creations a link with a variant sends down: the variant link, then the
+/// application's; their create infos and handles.
+fn variant_link_creation(
+    events: &[Event],
+) -> (SeenPipeline, vk::Pipeline, SeenPipeline, vk::Pipeline) {
+    let [variant, app] = events else {
+        panic!("the variant link, then the application's: {events:#?}");
+    };
+    let ([variant_info], [variant]) = created_pipelines(variant) else {
+        panic!("one variant: {events:#?}");
+    };
+    let ([app_info], [app]) = created_pipelines(app) else {
+        panic!("one application's pipeline: {events:#?}");
+    };
+    (variant_info.clone(), *variant, app_info.clone(), *app)
+}
+
+#[test]
+fn a_fragment_shader_library_gets_a_variant_library_and_its_links_link_the_variant() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let app = AppPipeline::of_modules(vertex, module);
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+
+    let (_, pre) = fx.create_pipelines(&[libraries.pre_rasterization_info()], None);
+    let (_, pre_handle) = only_app_creation(&fx.events());
+    assert_eq!(pre, [pre_handle]);
+    assert_eq!(fx.recorded(pre_handle).reversed_variant, None);
+
+    let fragment_info = libraries.fragment_info();
+    let created = fx.create_with_variant(&fragment_info, None);
+    assert!(created
+        .variant_info
+        .flags
+        .contains(vk::PipelineCreateFlags::LIBRARY_KHR));
+    assert_eq!(
+        created.variant_info.p_next, fragment_info.p_next as usize,
+        "the library's chain, shared"
+    );
+    assert_eq!(created.variant_info.stages[0].module, created.temporary);
+    assert_eq!(created.app_info.stages[0].module, module);
+
+    let linked = [pre_handle, created.app];
+    let links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&linked);
+    let (result, handles) = fx.create_pipelines(&[link_info(&links)], None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (variant_info, variant, app_info, app_link) = variant_link_creation(&fx.events());
+    assert_eq!(handles, [app_link]);
+    assert_eq!(variant_info.libraries, [pre_handle, created.variant]);
+    assert_eq!(
+        app_info.libraries, linked,
+        "the application's link is its own"
+    );
+    assert_eq!(app_info.p_next, &links as *const _ as usize);
+    let recorded = fx.recorded(app_link);
+    assert_eq!(recorded.reversed_variant, Some(variant));
+    assert!(!recorded.unreversed_fragment);
+    assert_eq!(
+        recorded.subsets,
+        vk::GraphicsPipelineLibraryFlagsEXT::PRE_RASTERIZATION_SHADERS
+            | vk::GraphicsPipelineLibraryFlagsEXT::FRAGMENT_SHADER
+    );
+    // A library linking the fragment library (nested) gets a variant library the same way,
+    // and what links it links that.
+    let nested_links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&linked[1..]);
+    let nested = vk::GraphicsPipelineCreateInfo {
+        flags: vk::PipelineCreateFlags::LIBRARY_KHR,
+        ..link_info(&nested_links)
+    };
+    let (_, handles) = fx.create_pipelines(&[nested], None);
+    let (variant_info, nested_variant, _, nested_app) = variant_link_creation(&fx.events());
+    assert_eq!(handles, [nested_app]);
+    assert_eq!(variant_info.libraries, [created.variant]);
+    assert!(variant_info
+        .flags
+        .contains(vk::PipelineCreateFlags::LIBRARY_KHR));
+    let outer = [pre_handle, nested_app];
+    let outer_links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&outer);
+    let _ = fx.create_pipelines(&[link_info(&outer_links)], None);
+    let (variant_info, _, _, _) = variant_link_creation(&fx.events());
+    assert_eq!(variant_info.libraries, [pre_handle, nested_variant]);
+    fx.finish();
+}
+
+#[test]
+fn a_link_whose_variant_fails_is_marked_unreversed() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let app = AppPipeline::of_modules(vertex, module);
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+    let created = fx.create_with_variant(&libraries.fragment_info(), None);
+    let linked = [created.app];
+    let links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&linked);
+    fake_chain::script_pipeline_creations(
+        fx.tables.device,
+        [PipelineOutcome::failure(
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY,
+        )],
+    );
+    let (result, handles) = fx.create_pipelines(&[link_info(&links)], None);
+    assert_eq!(
+        result,
+        vk::Result::SUCCESS,
+        "the application's link is made"
+    );
+    let events = fx.events();
+    let [Event::CreateGraphicsPipelines {
+        result: vk::Result::ERROR_OUT_OF_DEVICE_MEMORY,
+        ..
+    }, app_creation] = events.as_slice()
+    else {
+        panic!("the failed variant link, then the application's: {events:#?}");
+    };
+    let (_, app_link) = only_app_creation(std::slice::from_ref(app_creation));
+    assert_eq!(handles, [app_link]);
+    let recorded = fx.recorded(app_link);
+    assert_eq!(recorded.reversed_variant, None);
+    assert!(recorded.unreversed_fragment);
+    fx.finish();
+}
+
+#[test]
+fn libraries_without_variants_are_linked_as_they_are() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(PLAIN));
+    let app = AppPipeline::of_modules(vertex, module);
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+    let (_, fragment_library) = fx.create_pipelines(&[libraries.fragment_info()], None);
+    let (app_info, _) = only_app_creation(&fx.events());
+    assert_eq!(
+        app_info.dynamic_states,
+        [
+            vk::DynamicState::SCISSOR,
+            vk::DynamicState::DEPTH_COMPARE_OP
+        ],
+        "the compare op made dynamic in the fragment shader library"
+    );
+    let links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&fragment_library);
+    let info = link_info(&links);
+    let (_, handles) = fx.create_pipelines(std::slice::from_ref(&info), None);
+    let (app_info, app_link) = only_app_creation(&fx.events());
+    assert_eq!(handles, [app_link]);
+    assert_eq!(app_info, seen(&info));
+    assert_eq!(fx.recorded(app_link).reversed_variant, None);
+    fx.finish();
+}
+
+#[test]
+fn with_compare_op_variants_a_fragment_shader_library_gets_a_flipped_variant() {
+    let fx = Fixture::with_settings(&[(c"mode", c"flip"), (c"compare_op", c"variants")]);
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(PLAIN));
+    let app = AppPipeline::of_modules(vertex, module);
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+    let (_, handles) = fx.create_pipelines(&[libraries.fragment_info()], None);
+    let (variant_info, variant, app_info, app_library) = variant_link_creation(&fx.events());
+    assert_eq!(handles, [app_library]);
+    assert_eq!(variant_info.depth_compare_op, Some(vk::CompareOp::GREATER));
+    assert_eq!(app_info.depth_compare_op, Some(vk::CompareOp::LESS));
+    assert_eq!(variant_info.stages[0].module, module, "no rewrite needed");
+    let links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&handles);
+    let _ = fx.create_pipelines(&[link_info(&links)], None);
+    let (variant_info, _, _, _) = variant_link_creation(&fx.events());
+    assert_eq!(variant_info.libraries, [variant]);
     fx.finish();
 }
