@@ -67,14 +67,19 @@ fn own_subsets(info: &vk::GraphicsPipelineCreateInfo<'_>) -> Subsets {
     }
 }
 
-/// Whether a create info builds a library (`LIBRARY_KHR` in its flags, or in the
-/// `VkPipelineCreateFlags2CreateInfoKHR` that replaces them).
-fn is_library(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+/// A create info's flags: those of a chained `VkPipelineCreateFlags2CreateInfoKHR`, which
+/// replace `flags`, or `flags`.
+fn create_flags(info: &vk::GraphicsPipelineCreateInfo<'_>) -> vk::PipelineCreateFlags2KHR {
     // SAFETY: a valid pNext chain (the application's contract).
     match unsafe { chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(info.p_next) } {
-        Some(flags2) => flags2.flags.contains(vk::PipelineCreateFlags2KHR::LIBRARY),
-        None => info.flags.contains(vk::PipelineCreateFlags::LIBRARY_KHR),
+        Some(flags2) => flags2.flags,
+        None => vk::PipelineCreateFlags2KHR::from_raw(u64::from(info.flags.as_raw())),
     }
+}
+
+/// Whether a create info builds a library.
+fn is_library(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    create_flags(info).contains(vk::PipelineCreateFlags2KHR::LIBRARY)
 }
 
 /// The libraries a create info links, as revz recorded them (unknown ones are skipped).
@@ -335,6 +340,26 @@ impl Plan {
     }
 }
 
+/// What became of a pipeline's reversed variant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Variant {
+    /// None was needed, or it could not be made (logged).
+    Missing,
+    Made(vk::Pipeline),
+    /// It is not in the pipeline cache, and the application asked for no compilation
+    /// (`FAIL_ON_PIPELINE_COMPILE_REQUIRED`).
+    CompileRequired,
+}
+
+impl Variant {
+    fn pipeline(self) -> Option<vk::Pipeline> {
+        match self {
+            Variant::Made(pipeline) => Some(pipeline),
+            Variant::Missing | Variant::CompileRequired => None,
+        }
+    }
+}
+
 /// What [`plan`] needs to know beyond the create info.
 struct PlanContext {
     /// Whether the pipeline renders into a depth attachment; the spec makes
@@ -551,9 +576,11 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                             None => {}
                         }
                     }
-                    // A variant must keep FAIL_ON_PIPELINE_COMPILE_REQUIRED with identifiers
-                    // (VUID-VkPipelineShaderStageModuleIdentifierCreateInfoEXT-pNext-06851):
-                    // such pipelines get none.
+                    // With identifiers a variant could only come from the cache (it keeps
+                    // FAIL_ON_PIPELINE_COMPILE_REQUIRED:
+                    // VUID-VkPipelineShaderStageModuleIdentifierCreateInfoEXT-pNext-06851),
+                    // where the flipped state is not found: the application's pipeline would
+                    // be taken back every time, so such pipelines get none.
                     plan.compare_op_variant &= !identified;
                     let precise = state.policy.rewrite().is_some()
                         && plan.renders_depth
@@ -596,15 +623,17 @@ pub unsafe extern "system" fn create_graphics_pipelines(
     // Reversed variants are created before the application's pipelines: creating a pipeline
     // writes the output structures of its chain (creation feedback), which must end up
     // holding the application's results.
-    let variants: Vec<Option<vk::Pipeline>> = guarded(
+    let variants: Vec<Variant> = guarded(
         &CREATE_GRAPHICS_PIPELINES,
         || {
             plans
                 .iter()
                 .zip(infos.iter().zip(&dynamic_infos))
-                .map(|(plan, (info, dynamic))| {
-                    let plan = plan.as_ref().filter(|plan| plan.needs_variant())?;
-                    create_reversed_variant(&state, device, cache, info, dynamic, plan)
+                .map(|(plan, (info, dynamic))| match plan {
+                    Some(plan) if plan.needs_variant() => {
+                        create_reversed_variant(&state, device, cache, info, dynamic, plan)
+                    }
+                    _ => Variant::Missing,
                 })
                 .collect()
         },
@@ -646,13 +675,29 @@ pub unsafe extern "system" fn create_graphics_pipelines(
             )
         }
     };
+    let result = guarded(
+        &CREATE_GRAPHICS_PIPELINES,
+        // SAFETY: the handles just created from `infos` with `p_allocator`.
+        || unsafe {
+            take_back_uncompiled(
+                &state,
+                device,
+                infos,
+                &variants,
+                p_allocator,
+                p_pipelines,
+                result,
+            )
+        },
+        || result,
+    );
     guarded(
         &CREATE_GRAPHICS_PIPELINES,
         || {
             // SAFETY: `count` handles were written (null where creation failed).
             let pipelines = unsafe { slice(p_pipelines, count) };
             for (index, (&pipeline, plan)) in pipelines.iter().zip(plans).enumerate() {
-                let variant = variants.get(index).copied().flatten();
+                let variant = variants.get(index).and_then(|variant| variant.pipeline());
                 let Some(mut plan) = plan.filter(|_| pipeline != vk::Pipeline::null()) else {
                     if let Some(variant) = variant {
                         // SAFETY: revz's own object, never handed out.
@@ -696,6 +741,53 @@ pub unsafe extern "system" fn create_graphics_pipelines(
         || (),
     );
     result
+}
+
+/// Takes back the application's pipelines whose variant needs compiling where the application
+/// asked for none (`FAIL_ON_PIPELINE_COMPILE_REQUIRED`): each is destroyed and reported as
+/// needing compilation too, so that the application's compiling call (without the flag) makes
+/// both, and draws never go without their variant. Where such a create info asks for
+/// `EARLY_RETURN_ON_FAILURE`, the pipelines after it are taken back as well, as a driver that
+/// failed there would not have created them. Returns the batch's result.
+///
+/// # Safety
+/// `p_pipelines` holds the `infos.len()` handles just created from `infos` with `p_allocator`.
+unsafe fn take_back_uncompiled(
+    state: &DeviceState,
+    device: vk::Device,
+    infos: &[vk::GraphicsPipelineCreateInfo<'_>],
+    variants: &[Variant],
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_pipelines: *mut vk::Pipeline,
+    result: vk::Result,
+) -> vk::Result {
+    if !variants.contains(&Variant::CompileRequired) {
+        return result;
+    }
+    // SAFETY: the caller's contract (non-null, as `infos` is not empty).
+    let pipelines = unsafe { std::slice::from_raw_parts_mut(p_pipelines, infos.len()) };
+    let mut taken_back = false;
+    let mut returned_early = false;
+    for ((info, variant), pipeline) in infos.iter().zip(variants).zip(pipelines) {
+        let required = *variant == Variant::CompileRequired;
+        if !required && !returned_early {
+            continue;
+        }
+        if *pipeline != vk::Pipeline::null() {
+            // SAFETY: the application's pipeline, just created with `p_allocator` and never
+            // handed out.
+            unsafe { (state.next.fp_v1_0().destroy_pipeline)(device, *pipeline, p_allocator) };
+            *pipeline = vk::Pipeline::null();
+        }
+        taken_back |= required;
+        returned_early |= required
+            && create_flags(info).contains(vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE);
+    }
+    if taken_back && result == vk::Result::SUCCESS {
+        vk::Result::PIPELINE_COMPILE_REQUIRED
+    } else {
+        result
+    }
 }
 
 pub unsafe extern "system" fn create_shader_module(
@@ -785,10 +877,11 @@ destroy_hook!(
 /// Creates the reversed variant of a pipeline: its create info (with the dynamic states revz
 /// added) with the static depth compare op flipped, the fragment stage rewritten and the
 /// linked libraries replaced by their variants, as the plan says. Not a derivative (the base
-/// index of the application's batch means nothing in a batch of one), and compiled even where
-/// the application only asked for cached pipelines. `None` when it cannot be made: the
-/// pipeline's draws into reversed attachments then keep its compare op and fragment shader
-/// (logged once).
+/// index of the application's batch means nothing in a batch of one), without early return (a
+/// batch of one), and with the application's `FAIL_ON_PIPELINE_COMPILE_REQUIRED`: a variant
+/// not in the cache is then [`Variant::CompileRequired`]. [`Variant::Missing`] when it cannot
+/// be made: the pipeline's draws into reversed attachments then keep its compare op and
+/// fragment shader (logged once).
 fn create_reversed_variant(
     state: &DeviceState,
     device: vk::Device,
@@ -796,7 +889,7 @@ fn create_reversed_variant(
     info: &vk::GraphicsPipelineCreateInfo<'_>,
     dynamic: &Option<vk::PipelineDynamicStateCreateInfo<'_>>,
     plan: &Plan,
-) -> Option<vk::Pipeline> {
+) -> Variant {
     static FAILED: AtomicBool = AtomicBool::new(false);
     let failed = |why: &dyn std::fmt::Display| {
         if !FAILED.swap(true, Ordering::Relaxed) {
@@ -805,11 +898,13 @@ fn create_reversed_variant(
                  into reversed attachments keep its compare op and fragment shader"
             );
         }
-        None
+        Variant::Missing
     };
     let flipped = if plan.compare_op_variant {
         // SAFETY: non-null (the plan read it) and valid (the application's contract).
-        let depth_stencil = unsafe { info.p_depth_stencil_state.as_ref() }?;
+        let Some(depth_stencil) = (unsafe { info.p_depth_stencil_state.as_ref() }) else {
+            return failed(&"no depth-stencil state");
+        };
         Some(vk::PipelineDepthStencilStateCreateInfo {
             depth_compare_op: flip_compare_op(depth_stencil.depth_compare_op),
             ..*depth_stencil
@@ -824,7 +919,6 @@ fn create_reversed_variant(
     // SAFETY: a valid pNext chain (the application's contract).
     let flags2 = unsafe { chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(p_next) };
     let cleared2 = vk::PipelineCreateFlags2KHR::DERIVATIVE
-        | vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
         | vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE;
     let flags2_splice = match flags2 {
         Some(flags2) if flags2.flags.intersects(cleared2) => {
@@ -846,7 +940,11 @@ fn create_reversed_variant(
     let libraries_splice = match &plan.libraries {
         Some(libraries) => {
             // SAFETY: a valid pNext chain (the plan found the structure in it).
-            let links = unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(p_next) }?;
+            let Some(links) =
+                (unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(p_next) })
+            else {
+                return failed(&"its libraries are gone from its chain");
+            };
             let variants = vk::PipelineLibraryCreateInfoKHR {
                 library_count: libraries.len() as u32,
                 p_libraries: libraries.as_ptr(),
@@ -878,7 +976,6 @@ fn create_reversed_variant(
         p_next,
         flags: info.flags
             & !(vk::PipelineCreateFlags::DERIVATIVE
-                | vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED
                 | vk::PipelineCreateFlags::EARLY_RETURN_ON_FAILURE),
         base_pipeline_handle: vk::Pipeline::null(),
         base_pipeline_index: -1,
@@ -907,10 +1004,11 @@ fn create_reversed_variant(
         // SAFETY: revz's own module; a pipeline no longer needs its modules once created.
         unsafe { (state.next.fp_v1_0().destroy_shader_module)(device, module, std::ptr::null()) };
     }
-    if result != vk::Result::SUCCESS || variant == vk::Pipeline::null() {
-        return failed(&format_args!("{result:?}"));
+    match result {
+        vk::Result::SUCCESS if variant != vk::Pipeline::null() => Variant::Made(variant),
+        vk::Result::PIPELINE_COMPILE_REQUIRED => Variant::CompileRequired,
+        _ => failed(&format_args!("{result:?}")),
     }
-    Some(variant)
 }
 
 /// A fragment stage pointed at revz's module of rewritten code: the module (the caller

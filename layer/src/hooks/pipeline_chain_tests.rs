@@ -772,8 +772,9 @@ fn a_frag_depth_module_is_rewritten_and_its_variant_created_before_the_app_pipel
     assert_eq!(app_seen.dynamic_states, [vk::DynamicState::SCISSOR], "kept");
     assert_eq!(created.app_info.base_pipeline_handle, base);
 
-    // The variant: the same, standalone (no derivative, compiled whatever the cache holds),
-    // its fragment stage of the temporary module.
+    // The variant: the same, standalone (no derivative, no early return in its batch of one,
+    // from the cache only as the application asked), its fragment stage of the temporary
+    // module.
     let mut stages = app_seen.stages.clone();
     stages[1].module = created.temporary;
     assert_eq!(
@@ -781,7 +782,8 @@ fn a_frag_depth_module_is_rewritten_and_its_variant_created_before_the_app_pipel
         SeenPipeline {
             address: created.variant_info.address,
             flags: vk::PipelineCreateFlags::ALLOW_DERIVATIVES
-                | vk::PipelineCreateFlags::DISABLE_OPTIMIZATION,
+                | vk::PipelineCreateFlags::DISABLE_OPTIMIZATION
+                | vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED,
             stages_address: created.variant_info.stages_address,
             stages,
             dynamic: created.variant_info.dynamic,
@@ -1456,7 +1458,7 @@ fn mode_off_passes_the_next_layers_commands_and_its_hooks_rewrite_nothing() {
 /// derivative with no base, invalid; refused where only cached pipelines are accepted). The
 /// variant's chain starts with a cleared copy instead.
 #[test]
-fn the_variant_clears_derivative_and_cache_only_flags_given_as_flags2() {
+fn the_variant_clears_derivative_and_early_return_flags_given_as_flags2() {
     let fx = Fixture::new();
     let vertex = fx.vertex_module();
     let module = fx.module(&fragment(FRAG_DEPTH));
@@ -1478,19 +1480,18 @@ fn the_variant_clears_derivative_and_cache_only_flags_given_as_flags2() {
     };
     let created = fx.create_with_variant(&info, None);
     assert_eq!(created.app_info.flags2, Some(app_flags2));
-    let cleared = vk::PipelineCreateFlags2KHR::DERIVATIVE
-        | vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
-        | vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE;
-    // The flags the variant is created with (flags2 where chained) lack all three.
+    // The flags the variant is created with (flags2 where chained): the application's
+    // cache-only request is kept.
     let effective = created
         .variant_info
         .flags2
         .unwrap_or(vk::PipelineCreateFlags2KHR::from_raw(u64::from(
             created.variant_info.flags.as_raw(),
         )));
-    assert!(
-        !effective.intersects(cleared),
-        "the variant is created with {effective:?}"
+    assert_eq!(
+        effective,
+        vk::PipelineCreateFlags2KHR::ALLOW_DERIVATIVES
+            | vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
     );
     fx.finish();
 }
@@ -1530,7 +1531,7 @@ fn flags2_after_another_structure_is_replaced_in_a_spliced_chain() {
     let module = fx.module(&fragment(FRAG_DEPTH));
     let app = AppPipeline::of_modules(vertex, module);
     let mut built = app.build();
-    let app_flags2 = vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
+    let app_flags2 = vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE
         | vk::PipelineCreateFlags2KHR::DISABLE_OPTIMIZATION;
     let flags2 = vk::PipelineCreateFlags2CreateInfoKHR {
         flags: app_flags2,
@@ -1798,5 +1799,130 @@ fn with_compare_op_variants_a_fragment_shader_library_gets_a_flipped_variant() {
     let _ = fx.create_pipelines(&[link_info(&links)], None);
     let (variant_info, _, _, _) = variant_link_creation(&fx.events());
     assert_eq!(variant_info.libraries, [variant]);
+    fx.finish();
+}
+
+/// The fake's answer for a pipeline not in the cache, created with
+/// `FAIL_ON_PIPELINE_COMPILE_REQUIRED`.
+fn compile_required() -> PipelineOutcome {
+    PipelineOutcome {
+        result: vk::Result::PIPELINE_COMPILE_REQUIRED,
+        created: vec![false],
+    }
+}
+
+#[test]
+fn a_variant_that_needs_compiling_takes_back_the_app_pipeline_asked_for_from_the_cache() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let mut app = AppPipeline::of_modules(vertex, module);
+    app.flags = vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED;
+    let built = app.build();
+    let info = built.info();
+    // The application's pipeline is in the cache, its variant is not.
+    fake_chain::script_pipeline_creations(fx.tables.device, [compile_required()]);
+    let allocator = vk::AllocationCallbacks::default();
+    let (result, handles) = fx.create_pipelines(std::slice::from_ref(&info), Some(&allocator));
+    assert_eq!(result, vk::Result::PIPELINE_COMPILE_REQUIRED);
+    assert_eq!(handles, [vk::Pipeline::null()], "reported as not created");
+    let events = fx.events();
+    let [Event::CreateShaderModule {
+        handle: temporary, ..
+    }, Event::CreateGraphicsPipelines {
+        infos: variant_infos,
+        result: vk::Result::PIPELINE_COMPILE_REQUIRED,
+        ..
+    }, Event::DestroyShaderModule {
+        handle: destroyed, ..
+    }, app_creation, Event::DestroyPipeline {
+        handle: taken_back,
+        allocator: true,
+    }] = events.as_slice()
+    else {
+        panic!("the variant not compiled, the app's pipeline created then destroyed: {events:#?}");
+    };
+    assert_eq!(temporary, destroyed);
+    assert!(variant_infos[0]
+        .flags
+        .contains(vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED));
+    let (_, app_pipeline) = only_app_creation(std::slice::from_ref(app_creation));
+    assert_eq!(
+        *taken_back, app_pipeline,
+        "with the application's allocator"
+    );
+    assert!(fx.state.objects.pipelines.get(&app_pipeline).is_none());
+
+    // The application compiles it (without the flag): both are made.
+    app.flags = vk::PipelineCreateFlags::empty();
+    let built = app.build();
+    fx.create_with_variant(&built.info(), None);
+    fx.finish();
+}
+
+#[test]
+fn with_early_return_the_pipelines_after_one_taken_back_are_taken_back_too() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let plain = fx.module(&fragment(PLAIN));
+    let cache_only = vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED;
+    let mut first = AppPipeline::of_modules(vertex, module);
+    let mut second = AppPipeline::of_modules(vertex, module);
+    let mut third = AppPipeline::of_modules(vertex, plain);
+    second.flags = cache_only;
+    third.flags = cache_only;
+    for early_return in [false, true] {
+        first.flags = if early_return {
+            cache_only | vk::PipelineCreateFlags::EARLY_RETURN_ON_FAILURE
+        } else {
+            cache_only
+        };
+        let built = [first.build(), second.build(), third.build()];
+        let infos = built.each_ref().map(|built| built.info());
+        // The first's variant is not in the cache, the second's is.
+        fake_chain::script_pipeline_creations(
+            fx.tables.device,
+            [compile_required(), PipelineOutcome::success()],
+        );
+        let (result, handles) = fx.create_pipelines(&infos, None);
+        assert_eq!(result, vk::Result::PIPELINE_COMPILE_REQUIRED);
+        let events = fx.events();
+        let [_, _, _, _, second_variant, _, app_creation, taken_back @ ..] = events.as_slice()
+        else {
+            panic!("two variants with their modules, the batch, what is taken back: {events:#?}");
+        };
+        let (_, [second_variant]) = created_pipelines(second_variant) else {
+            panic!("one variant: {events:#?}");
+        };
+        let (_, app_pipelines) = created_pipelines(app_creation);
+        let destroyed = |handle| Event::DestroyPipeline {
+            handle,
+            allocator: false,
+        };
+        if early_return {
+            assert_eq!(handles, [vk::Pipeline::null(); 3]);
+            assert_eq!(
+                taken_back,
+                [
+                    destroyed(app_pipelines[0]),
+                    destroyed(app_pipelines[1]),
+                    destroyed(app_pipelines[2]),
+                    destroyed(*second_variant),
+                ],
+                "every pipeline from the first on, then the second's variant"
+            );
+        } else {
+            assert_eq!(
+                handles,
+                [vk::Pipeline::null(), app_pipelines[1], app_pipelines[2]]
+            );
+            assert_eq!(taken_back, [destroyed(app_pipelines[0])]);
+            assert_eq!(
+                fx.recorded(app_pipelines[1]).reversed_variant,
+                Some(*second_variant)
+            );
+        }
+    }
     fx.finish();
 }
