@@ -38,6 +38,24 @@ pub enum Role {
     Smoke,
 }
 
+/// revz's `compare_op` setting, as the benchmark runs it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CompareOp {
+    Dynamic,
+    Variants,
+}
+
+impl CompareOp {
+    /// The setting's value (`REVZ_COMPARE_OP`).
+    fn setting(self) -> &'static str {
+        match self {
+            CompareOp::Dynamic => "dynamic",
+            CompareOp::Variants => "variants",
+        }
+    }
+}
+
 /// `revz-tester bench`.
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
@@ -91,6 +109,12 @@ pub struct BenchArgs {
     #[arg(long, value_name = "DIR")]
     pub layer_dir: Option<PathBuf>,
 
+    /// How revz gives draws into reversed attachments the flipped compare op (its
+    /// `compare_op` setting, `REVZ_COMPARE_OP`): dynamic state, or a pipeline variant per
+    /// depth-testing pipeline (what devices without extended dynamic state get).
+    #[arg(long, value_enum, default_value_t = CompareOp::Dynamic)]
+    pub compare_op: CompareOp,
+
     /// Tiny counts (a smoke run; the figures mean nothing).
     #[arg(long)]
     pub quick: bool,
@@ -116,6 +140,7 @@ struct Config {
     pipelines: usize,
     calls: usize,
     repeats: usize,
+    compare_op: CompareOp,
     validation: bool,
 }
 
@@ -131,6 +156,7 @@ impl Config {
                 pipelines: 4,
                 calls: 2000,
                 repeats: 1,
+                compare_op: args.compare_op,
                 validation: args.validation,
             }
         } else {
@@ -143,6 +169,7 @@ impl Config {
                 pipelines: args.pipelines.max(1),
                 calls: args.calls.max(1),
                 repeats: args.repeats.max(1),
+                compare_op: args.compare_op,
                 validation: args.validation,
             }
         }
@@ -310,7 +337,14 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
     std::fs::write(&bench_path, serde_json::to_string_pretty(&bench)? + "\n")
         .with_context(|| format!("cannot write {}", bench_path.display()))?;
     println!("wrote: {}", bench_path.display());
-    let table = report::integrate(out, &device, &driver, &summary, &config.draws)?;
+    let table = report::integrate(
+        out,
+        &device,
+        &driver,
+        config.compare_op.setting(),
+        &summary,
+        &config.draws,
+    )?;
     println!("{table}");
     Ok(ExitCode::SUCCESS)
 }
@@ -360,7 +394,8 @@ fn run_one(
         owned.push("--validation".into());
     }
     let argv: Vec<&str> = owned.iter().map(String::as_str).collect();
-    let mut command = runner.command(variant, &argv, &[]);
+    let settings = [("REVZ_COMPARE_OP", config.compare_op.setting())];
+    let mut command = runner.command(variant, &argv, &settings);
     // Pipelines are created from scratch in every variant: no shader cache on disk.
     command.env("MESA_SHADER_CACHE_DISABLE", "true");
     let output = command

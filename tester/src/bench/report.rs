@@ -69,6 +69,7 @@ pub fn integrate(
     out: &Path,
     device: &str,
     driver: &str,
+    compare_op: &str,
     speed: &[Value],
     draws: &[usize],
 ) -> Result<String> {
@@ -115,7 +116,7 @@ pub fn integrate(
         }
         Err(e) => format!("The plot could not be drawn: {e:#}."),
     };
-    let table = table(device, driver, &rows, draws);
+    let table = table(device, driver, compare_op, &rows, draws);
     let md_path = out.join("report.md");
     let existing = std::fs::read_to_string(&md_path).unwrap_or_default();
     let mut md = match existing.find(MARKER) {
@@ -148,10 +149,16 @@ fn fmt_sci(value: &Value) -> String {
 }
 
 /// The markdown speed table.
-fn table(device: &str, driver: &str, rows: &[Value], draws: &[usize]) -> String {
+fn table(
+    device: &str,
+    driver: &str,
+    compare_op: &str,
+    rows: &[Value],
+    draws: &[usize],
+) -> String {
     let largest = draws.iter().copied().max().unwrap_or(0);
     let others: Vec<usize> = draws.iter().copied().filter(|&n| n != largest).collect();
-    let mut s = format!("## Speed: {device} ({driver})\n\n");
+    let mut s = format!("## Speed: {device} ({driver}), `compare_op = {compare_op}`\n\n");
     s.push_str(
         "Ratios against no layer measured in the same run (median over rounds of per-round \
          ratios); ns per call and bytes are differences with no layer. Frame CPU time: the \
@@ -333,7 +340,7 @@ mod tests {
         std::fs::write(dir.join("report.json"), r#"{"device": "d", "rows": []}"#).unwrap();
         let speed = vec![json!({"mode": "none", "frame_cpu_ratio": 1.0})];
         for _ in 0..2 {
-            integrate(&dir, "d", "drv", &speed, &[10]).unwrap();
+            integrate(&dir, "d", "drv", "dynamic", &speed, &[10]).unwrap();
         }
         let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
         assert!(md.starts_with("# Accuracy\n\ntext\n\n<!-- speed -->\n"));
