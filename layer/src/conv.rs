@@ -129,6 +129,17 @@ pub fn has_depth(format: vk::Format) -> bool {
     )
 }
 
+/// Whether a format has a stencil aspect (stencil-only or depth/stencil formats).
+pub fn has_stencil(format: vk::Format) -> bool {
+    matches!(
+        format,
+        vk::Format::S8_UINT
+            | vk::Format::D16_UNORM_S8_UINT
+            | vk::Format::D24_UNORM_S8_UINT
+            | vk::Format::D32_SFLOAT_S8_UINT
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,6 +240,14 @@ mod tests {
         assert_eq!((precise.min_depth, precise.max_depth), (0.0, 0.75));
         let flip = Reversal::Complementary.viewport(viewport);
         assert_eq!((flip.min_depth, flip.max_depth), (1.0, 0.0));
+    }
+
+    #[test]
+    fn stencil_aspects_are_those_of_stencil_and_depth_stencil_formats() {
+        assert!(has_stencil(vk::Format::D32_SFLOAT_S8_UINT));
+        assert!(has_stencil(vk::Format::S8_UINT));
+        assert!(!has_stencil(vk::Format::D32_SFLOAT));
+        assert!(!has_stencil(vk::Format::R8G8B8A8_UNORM));
     }
 
     #[test]

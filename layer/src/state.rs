@@ -14,7 +14,7 @@ use ash::vk::{self, Handle};
 use crate::command_state::{Reversing, Target};
 use crate::config::Settings;
 use crate::objects::DeviceObjects;
-use crate::policy::{DevicePolicy, Observed};
+use crate::policy::{DevicePolicy, Observed, ResolveSupport};
 
 /// The loader's dispatch table pointer of a dispatchable handle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -65,9 +65,9 @@ pub struct DeviceState {
     pub commands: DeviceCommands,
     pub settings: Arc<Settings>,
     pub policy: DevicePolicy,
-    /// The depth resolve modes the device supports: MIN and MAX are swapped only where the
-    /// other one is supported.
-    pub depth_resolve_modes: vk::ResolveModeFlags,
+    /// The depth resolve modes the device supports and which depth and stencil modes it lets
+    /// one resolve combine: MIN and MAX are swapped only where the device allows the result.
+    pub resolve_support: ResolveSupport,
     /// What revz learned about the application while it records.
     pub observed: Observed,
     pub objects: DeviceObjects,
@@ -87,13 +87,6 @@ impl DeviceState {
     /// A depth clear value on a reversed attachment.
     pub fn reversed_clear(&self, depth: f32) -> f32 {
         self.policy.reversed_clear(depth, &self.observed)
-    }
-
-    /// Whether a depth resolve with `mode` can follow a reversed attachment: MIN and MAX need
-    /// the other one supported.
-    pub fn resolve_mode_swappable(&self, mode: vk::ResolveModeFlags) -> bool {
-        self.depth_resolve_modes
-            .contains(crate::conv::flip_resolve_mode(mode))
     }
 }
 

@@ -737,17 +737,23 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         // SAFETY: null or valid.
         let depth = unsafe { info.p_depth_attachment.as_ref() };
         let device = &entry.device;
-        // A stencil resolve of the same attachment must keep its mode equal to the depth one
-        // on devices without independentResolve, so then MIN/MAX cannot be swapped.
+        // The spec pairs the depth and stencil resolve modes only where both attachments have
+        // a view (VUID-VkRenderingInfo-pDepthAttachment-06104, -06105); the stencil mode is
+        // kept as it is, so the swapped depth mode must pair with it.
         // SAFETY: null or valid.
-        let stencil_resolves = unsafe { info.p_stencil_attachment.as_ref() }
-            .is_some_and(|s| s.resolve_mode != vk::ResolveModeFlags::NONE);
+        let paired_stencil_mode = unsafe { info.p_stencil_attachment.as_ref() }
+            .filter(|s| s.image_view != vk::ImageView::null())
+            .map(|s| s.resolve_mode);
         if let Some(depth) = depth {
+            let swappable = device
+                .resolve_support
+                .swapped_depth_mode(depth.resolve_mode, paired_stencil_mode)
+                .is_ok();
             device.objects.settle_depth_resolve(
                 depth.image_view,
                 depth.resolve_image_view,
                 depth.resolve_mode,
-                !stencil_resolves && device.resolve_mode_swappable(depth.resolve_mode),
+                swappable,
             );
         }
         let mut target = depth.map_or(Target::None, |d| device.view_target(d.image_view));

@@ -453,11 +453,33 @@ unsafe extern "system" fn fake_get_physical_device_properties(
     unsafe { (*properties).api_version = vk::API_VERSION_1_3 };
 }
 
-/// Every depth resolve mode (a device with MIN and MAX, which revz needs to swap them).
+/// The `independentResolveNone` and `independentResolve` the fake reports, per instance
+/// dispatch table (neither where none was set).
+static RESOLVE_INDEPENDENCE: Mutex<Vec<(usize, (bool, bool))>> = Mutex::new(Vec::new());
+
+/// Makes the fake report `independentResolveNone` and `independentResolve` for the physical
+/// devices of the instance of `table` (revz reads them at device creation).
+pub(super) fn set_resolve_independence(table: &'static u8, none: bool, all: bool) {
+    RESOLVE_INDEPENDENCE
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .push((key(table), (none, all)));
+}
+
+/// Every depth resolve mode (a device with MIN and MAX, which revz needs to swap them), the
+/// stencil modes a stencil resolve may share with them, and the independence the test set.
 unsafe extern "system" fn fake_get_physical_device_properties2(
-    _: vk::PhysicalDevice,
+    physical_device: vk::PhysicalDevice,
     properties: *mut vk::PhysicalDeviceProperties2,
 ) {
+    // SAFETY: the fake's physical device.
+    let table = unsafe { key_of(physical_device) };
+    let (none, all) = RESOLVE_INDEPENDENCE
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .iter()
+        .find(|(key, _)| *key == table)
+        .map_or((false, false), |(_, independence)| *independence);
     // SAFETY: revz passes a valid output chain.
     let mut next = unsafe { (*properties).p_next }.cast::<vk::BaseOutStructure>();
     // SAFETY: as above.
@@ -472,7 +494,11 @@ unsafe extern "system" fn fake_get_physical_device_properties2(
                 | vk::ResolveModeFlags::AVERAGE
                 | vk::ResolveModeFlags::MIN
                 | vk::ResolveModeFlags::MAX;
-            resolve.supported_stencil_resolve_modes = vk::ResolveModeFlags::SAMPLE_ZERO;
+            resolve.supported_stencil_resolve_modes = vk::ResolveModeFlags::SAMPLE_ZERO
+                | vk::ResolveModeFlags::MIN
+                | vk::ResolveModeFlags::MAX;
+            resolve.independent_resolve_none = none.into();
+            resolve.independent_resolve = all.into();
         }
         next = base.p_next;
     }

@@ -10,7 +10,7 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::config::{self, layer_settings, AppIdentity, Mode, Settings, Sources};
 use crate::ffi;
 use crate::objects::DeviceObjects;
-use crate::policy::DevicePolicy;
+use crate::policy::{DevicePolicy, ResolveSupport};
 use crate::state::{DeviceCommands, DeviceState, DispatchKey, InstanceState, DEVICES, INSTANCES};
 use crate::{logging, LAYER_NAME, VERSION};
 
@@ -124,19 +124,20 @@ fn requested_api_version(create_info: &vk::InstanceCreateInfo) -> u32 {
     }
 }
 
-/// The depth resolve modes a device supports (`VkPhysicalDeviceDepthStencilResolveProperties`,
-/// Vulkan 1.2); only SAMPLE_ZERO (the one every device has) when it cannot be asked. revz
-/// swaps MIN and MAX only where the swapped mode is supported.
+/// What a device allows of depth/stencil resolves (`VkPhysicalDeviceDepthStencilResolveProperties`,
+/// Vulkan 1.2): its depth modes, and whether depth and stencil modes may differ
+/// (`independentResolveNone`, `independentResolve`). [`ResolveSupport::MINIMAL`] when it cannot
+/// be asked. revz swaps MIN and MAX only where the device allows the swapped resolve.
 ///
 /// # Safety
 /// `physical_device` must be a live physical device of `instance`.
-unsafe fn depth_resolve_modes(
+unsafe fn resolve_support(
     instance: &InstanceState,
     physical_device: vk::PhysicalDevice,
     api: u32,
-) -> vk::ResolveModeFlags {
+) -> ResolveSupport {
     if api < vk::API_VERSION_1_2 {
-        return vk::ResolveModeFlags::SAMPLE_ZERO;
+        return ResolveSupport::MINIMAL;
     }
     // SAFETY: querying the next layer for a core 1.1 instance command.
     let found = unsafe {
@@ -146,7 +147,7 @@ unsafe fn depth_resolve_modes(
         )
     };
     let Some(found) = found else {
-        return vk::ResolveModeFlags::SAMPLE_ZERO;
+        return ResolveSupport::MINIMAL;
     };
     // SAFETY: the command has this type.
     let get: vk::PFN_vkGetPhysicalDeviceProperties2 = unsafe { std::mem::transmute(found) };
@@ -157,7 +158,11 @@ unsafe fn depth_resolve_modes(
     };
     // SAFETY: a live physical device and a valid output chain (core 1.2 structure).
     unsafe { get(physical_device, &mut properties) };
-    resolve.supported_depth_resolve_modes | vk::ResolveModeFlags::SAMPLE_ZERO
+    ResolveSupport {
+        depth_modes: resolve.supported_depth_resolve_modes | vk::ResolveModeFlags::SAMPLE_ZERO,
+        independent_resolve_none: resolve.independent_resolve_none == vk::TRUE,
+        independent_resolve: resolve.independent_resolve == vk::TRUE,
+    }
 }
 
 /// The physical device's API version (1.0 if the next layer cannot say). Looked up by name
@@ -441,7 +446,7 @@ pub unsafe extern "system" fn create_device(
             // SAFETY: a live physical device of this instance; the application's create info.
             let source = unsafe { compare_op_source(&instance, physical_device, create_info, api) };
             // SAFETY: a live physical device of this instance.
-            let resolve_modes = unsafe { depth_resolve_modes(&instance, physical_device, api) };
+            let resolve_support = unsafe { resolve_support(&instance, physical_device, api) };
             // Enabling VK_EXT_extended_dynamic_state for the application when revz needs it:
             // the application's extensions plus one, and the feature chained in front.
             let mut extensions = Vec::new();
@@ -523,7 +528,7 @@ pub unsafe extern "system" fn create_device(
                     commands,
                     settings: Arc::clone(&instance.settings),
                     policy,
-                    depth_resolve_modes: resolve_modes,
+                    resolve_support,
                     observed: Default::default(),
                     objects: DeviceObjects::default(),
                 },

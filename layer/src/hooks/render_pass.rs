@@ -19,9 +19,10 @@ use ash::vk;
 use super::{device_state, record};
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
-use crate::conv::{flip_resolve_mode, has_depth};
+use crate::conv::{flip_resolve_mode, has_depth, has_stencil};
 use crate::hooks::resources::slice;
 use crate::objects::{RenderPassInfo, SubpassResolve};
+use crate::policy::ResolveSupport;
 use crate::state::DeviceState;
 
 static CREATE_RENDER_PASS: EntryPoint = EntryPoint::new("vkCreateRenderPass");
@@ -73,9 +74,12 @@ fn subpass_resolve(subpass: &vk::SubpassDescription2<'_>) -> Option<SubpassResol
 
 /// The depth resolve structure of the twin subpass: the application's with MIN and MAX
 /// swapped, chained in front of the rest of the subpass's chain. `Ok(None)`: nothing to swap.
-/// `Err`: a MIN/MAX resolve revz cannot swap, and why.
+/// `Err`: a MIN/MAX resolve revz cannot swap, and why. `attachments`: the pass's attachments,
+/// whose resolve attachment's format says whether the stencil mode counts.
 fn swapped_resolve<'a>(
     subpass: &vk::SubpassDescription2<'a>,
+    attachments: &[vk::AttachmentDescription2<'_>],
+    support: &ResolveSupport,
 ) -> Result<Option<vk::SubpassDescriptionDepthStencilResolve<'a>>, &'static str> {
     let Some(resolve) = subpass_resolve(subpass) else {
         return Ok(None);
@@ -86,11 +90,14 @@ fn swapped_resolve<'a>(
     let Some(original) = depth_resolve_of(subpass) else {
         return Ok(None);
     };
-    if original.stencil_resolve_mode != vk::ResolveModeFlags::NONE {
-        // Without independentResolve the two modes must stay equal; swapping the stencil too
-        // would change which stencil sample is kept.
-        return Err("a stencil resolve shares the depth resolve");
-    }
+    // The spec pairs the two modes only for a resolve attachment with a stencil component
+    // (VUID-VkSubpassDescriptionDepthStencilResolve-pDepthStencilResolveAttachment-03185,
+    // -03186); an index out of range (an invalid pass) counts it, to stay on the safe side.
+    let stencil_counts = attachments
+        .get(resolve.attachment as usize)
+        .is_none_or(|a| has_stencil(a.format));
+    let stencil = stencil_counts.then_some(original.stencil_resolve_mode);
+    let depth_resolve_mode = support.swapped_depth_mode(resolve.mode, stencil)?;
     // Linking a copy in front of the chain skips the original only when it comes first;
     // elsewhere revz would have to copy structures it does not know.
     if !std::ptr::eq(
@@ -99,8 +106,9 @@ fn swapped_resolve<'a>(
     ) {
         return Err("another structure precedes it in the subpass's pNext chain");
     }
+    // The stencil mode is kept: stencil is never reversed.
     Ok(Some(vk::SubpassDescriptionDepthStencilResolve {
-        depth_resolve_mode: flip_resolve_mode(original.depth_resolve_mode),
+        depth_resolve_mode,
         ..*original
     }))
 }
@@ -126,23 +134,15 @@ fn create_swapped_resolve_twin(
         log::debug!("a MIN/MAX depth resolve in a render pass of several subpasses: no twin");
         return None;
     };
-    let resolve = match swapped_resolve(subpass) {
+    // SAFETY: `attachmentCount` attachments (the application's contract).
+    let attachments = unsafe { slice(info.p_attachments, info.attachment_count) };
+    let resolve = match swapped_resolve(subpass, attachments, &state.resolve_support) {
         Ok(resolve) => resolve?,
         Err(why) => {
             log::debug!("a MIN/MAX depth resolve revz cannot swap: {why}");
             return None;
         }
     };
-    if !state
-        .depth_resolve_modes
-        .contains(resolve.depth_resolve_mode)
-    {
-        log::debug!(
-            "a MIN/MAX depth resolve revz cannot swap: the device does not support {:?}",
-            resolve.depth_resolve_mode
-        );
-        return None;
-    }
     let twin_subpass = vk::SubpassDescription2 {
         p_next: (&resolve as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast::<c_void>(),
         ..*subpass
@@ -339,10 +339,26 @@ pub unsafe extern "system" fn create_framebuffer(
 mod tests {
     use super::*;
 
+    use vk::ResolveModeFlags as M;
+
     fn reference(attachment: u32) -> vk::AttachmentReference2<'static> {
         vk::AttachmentReference2 {
             attachment,
             ..Default::default()
+        }
+    }
+
+    /// A pass's attachments: a multisampled source and a resolve attachment, both of `format`.
+    fn attachments(format: vk::Format) -> [vk::AttachmentDescription2<'static>; 2] {
+        [vk::AttachmentDescription2::default().format(format); 2]
+    }
+
+    /// A device with every depth mode and the given independence.
+    fn support(independent_resolve_none: bool, independent_resolve: bool) -> ResolveSupport {
+        ResolveSupport {
+            depth_modes: M::SAMPLE_ZERO | M::AVERAGE | M::MIN | M::MAX,
+            independent_resolve_none,
+            independent_resolve,
         }
     }
 
@@ -357,10 +373,8 @@ mod tests {
             _marker: std::marker::PhantomData,
         };
         let after = vk::BaseInStructure::default();
-        for (mode, swapped) in [
-            (vk::ResolveModeFlags::MIN, vk::ResolveModeFlags::MAX),
-            (vk::ResolveModeFlags::MAX, vk::ResolveModeFlags::MIN),
-        ] {
+        let d32 = attachments(vk::Format::D32_SFLOAT);
+        for (mode, swapped) in [(M::MIN, M::MAX), (M::MAX, M::MIN)] {
             let resolve = vk::SubpassDescriptionDepthStencilResolve {
                 p_next: (&after as *const vk::BaseInStructure).cast(),
                 depth_resolve_mode: mode,
@@ -378,7 +392,9 @@ mod tests {
                     mode
                 })
             );
-            let copy = swapped_resolve(&subpass).unwrap().unwrap();
+            let copy = swapped_resolve(&subpass, &d32, &support(false, false))
+                .unwrap()
+                .unwrap();
             assert_eq!(copy.depth_resolve_mode, swapped);
             assert_eq!(copy.p_next, resolve.p_next, "the rest of the chain follows");
             assert_eq!(
@@ -402,15 +418,45 @@ mod tests {
                 p_next: (r as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast(),
                 ..Default::default()
             };
-        use vk::ResolveModeFlags as M;
+        let d32 = attachments(vk::Format::D32_SFLOAT);
+        let d32_s8 = attachments(vk::Format::D32_SFLOAT_S8_UINT);
+        let dependent = support(false, false);
         for mode in [M::SAMPLE_ZERO, M::AVERAGE] {
             let r = resolve(mode, M::NONE);
-            assert!(swapped_resolve(&subpass_with(&r)).unwrap().is_none());
+            let swapped = swapped_resolve(&subpass_with(&r), &d32_s8, &dependent);
+            assert!(swapped.unwrap().is_none());
         }
         let none = resolve(M::NONE, M::NONE);
         assert_eq!(subpass_resolve(&subpass_with(&none)), None);
+
+        // A stencil resolve sharing the mode blocks the swap on a device without
+        // independentResolve, where the resolve attachment has stencil.
         let shared = resolve(M::MIN, M::MIN);
-        assert!(swapped_resolve(&subpass_with(&shared)).is_err());
+        assert!(swapped_resolve(&subpass_with(&shared), &d32_s8, &dependent).is_err());
+        // An index out of range counts the stencil mode.
+        assert!(swapped_resolve(&subpass_with(&shared), &[], &dependent).is_err());
+        // With independentResolve the swapped pair is allowed; the stencil mode is kept.
+        let independent = swapped_resolve(&subpass_with(&shared), &d32_s8, &support(true, true));
+        let copy = independent.unwrap().unwrap();
+        assert_eq!(
+            (copy.depth_resolve_mode, copy.stencil_resolve_mode),
+            (M::MAX, M::MIN)
+        );
+        // A resolve attachment without stencil: the stencil mode is ignored.
+        let copy = swapped_resolve(&subpass_with(&shared), &d32, &dependent)
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            (copy.depth_resolve_mode, copy.stencil_resolve_mode),
+            (M::MAX, M::MIN)
+        );
+        // The swapped mode must be supported.
+        let no_max = ResolveSupport {
+            depth_modes: M::SAMPLE_ZERO | M::MIN,
+            ..support(true, true)
+        };
+        let alone = resolve(M::MIN, M::NONE);
+        assert!(swapped_resolve(&subpass_with(&alone), &d32, &no_max).is_err());
 
         // The resolve structure after another one: found, but not swappable in place.
         let min = resolve(M::MIN, M::NONE);
@@ -424,7 +470,7 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(subpass_resolve(&later).map(|r| r.mode), Some(M::MIN));
-        assert!(swapped_resolve(&later).is_err());
+        assert!(swapped_resolve(&later, &d32, &dependent).is_err());
 
         let unused = reference(vk::ATTACHMENT_UNUSED);
         let to_unused = vk::SubpassDescriptionDepthStencilResolve {

@@ -144,9 +144,17 @@ struct Fixture {
 }
 
 impl Fixture {
-    /// Flip mode, `reverse_observable = none`, a Vulkan 1.3 application and device.
+    /// Flip mode, `reverse_observable = none`, a Vulkan 1.3 application and device, without
+    /// `independentResolveNone` or `independentResolve`.
     fn new() -> Fixture {
+        Fixture::with_resolve_independence(false, false)
+    }
+
+    /// [`Fixture::new`] on a device that reports `independentResolveNone` = `none` and
+    /// `independentResolve` = `all`.
+    fn with_resolve_independence(none: bool, all: bool) -> Fixture {
         let tables = Tables::fresh();
+        fake_chain::set_resolve_independence(tables.instance, none, all);
         let (instance, _) =
             fake_chain::create_instance(&[(c"mode", c"flip"), (c"reverse_observable", c"none")]);
 
@@ -255,9 +263,22 @@ impl Fixture {
         subpasses: usize,
         allocator: Option<&vk::AllocationCallbacks<'_>>,
     ) -> CreatedPass {
+        self.resolving_pass(D32, mode, Mode::NONE, subpasses, allocator)
+    }
+
+    /// [`Fixture::render_pass`] with both attachments of `format`, and the stencil resolved
+    /// with `stencil_mode` beside the depth's `depth_mode`.
+    fn resolving_pass(
+        &self,
+        format: vk::Format,
+        depth_mode: vk::ResolveModeFlags,
+        stencil_mode: vk::ResolveModeFlags,
+        subpasses: usize,
+        allocator: Option<&vk::AllocationCallbacks<'_>>,
+    ) -> CreatedPass {
         let attachment = |samples, load_op| {
             vk::AttachmentDescription2::default()
-                .format(D32)
+                .format(format)
                 .samples(samples)
                 .load_op(load_op)
                 .store_op(vk::AttachmentStoreOp::STORE)
@@ -276,8 +297,8 @@ impl Fixture {
             .layout(LAYOUT)
             .aspect_mask(vk::ImageAspectFlags::DEPTH);
         let mut resolve = vk::SubpassDescriptionDepthStencilResolve::default()
-            .depth_resolve_mode(mode)
-            .stencil_resolve_mode(Mode::NONE)
+            .depth_resolve_mode(depth_mode)
+            .stencil_resolve_mode(stencil_mode)
             .depth_stencil_resolve_attachment(&destination);
         let plain = vk::SubpassDescription2::default()
             .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
@@ -793,5 +814,162 @@ fn dynamic_rendering_with_a_stencil_resolve_demotes_a_min_depth_resolve() {
     );
     assert_eq!((seen.resolve_mode, seen.clear_depth), (Mode::MIN, 1.0));
     assert!(app_structure);
+    fx.finish();
+}
+
+/// A twin's resolve structure (or the application's), as the fake saw it.
+fn resolve_pair(
+    depth_mode: vk::ResolveModeFlags,
+    stencil_mode: vk::ResolveModeFlags,
+) -> SeenResolve {
+    SeenResolve {
+        depth_mode,
+        stencil_mode,
+        attachment: 1,
+    }
+}
+
+#[test]
+fn a_stencil_resolve_beside_a_min_depth_resolve_gets_a_twin_where_the_device_allows_the_pair() {
+    // (independentResolveNone, independentResolve, the stencil mode, whether a twin is made)
+    for (none, all, stencil, twin_expected) in [
+        (true, true, Mode::MIN, true),
+        (true, true, Mode::SAMPLE_ZERO, true),
+        (true, false, Mode::NONE, true),
+        (true, false, Mode::MIN, false),
+        (false, false, Mode::MIN, false),
+    ] {
+        let case = format!("none {none}, all {all}, stencil {stencil:?}");
+        let fx = Fixture::with_resolve_independence(none, all);
+        let (source, source_view) = fx.depth_image(D32_S8, RENDERED, MULTISAMPLED);
+        let (destination, destination_view) = fx.depth_image(D32_S8, RENDERED, SINGLE);
+        let pass = fx.resolving_pass(D32_S8, Mode::MIN, stencil, 1, None);
+        let framebuffer = fx.framebuffer(pass.handle, &[source_view, destination_view]);
+        let begun = fx.run_pass(pass.handle, framebuffer);
+        if twin_expected {
+            // Only the depth mode is swapped; the stencil keeps the application's.
+            let [(twin, twin_resolves, _), (app, app_resolves, _)] = pass.created.as_slice() else {
+                panic!(
+                    "{case}: a twin and the application's pass: {:?}",
+                    pass.created
+                );
+            };
+            assert_eq!(
+                app_resolves,
+                &[Some(resolve_pair(Mode::MIN, stencil))],
+                "{case}"
+            );
+            assert_eq!(
+                twin_resolves,
+                &[Some(resolve_pair(Mode::MAX, stencil))],
+                "{case}"
+            );
+            assert_eq!((begun.render_pass, *app), (*twin, pass.handle), "{case}");
+            assert!(fx.state.objects.image_reversed(source), "{case}");
+            assert!(fx.state.objects.image_reversed(destination), "{case}");
+        } else {
+            assert_eq!(pass.created.len(), 1, "{case}: no twin");
+            assert_eq!(begun.render_pass, pass.handle, "{case}");
+            assert_eq!(
+                fx.depth(source),
+                ImageDepth::Native(NativeReason::UnswappableResolve),
+                "{case}"
+            );
+            assert_eq!(
+                fx.depth(destination),
+                ImageDepth::Native(NativeReason::ResolvedFromNative(source)),
+                "{case}"
+            );
+        }
+        fx.finish();
+    }
+}
+
+#[test]
+fn a_stencil_mode_beside_a_resolve_attachment_without_stencil_does_not_block_the_twin() {
+    // No independence at all: the spec pairs the modes only where the resolve attachment has a
+    // stencil component, and D32 has none, so the stencil mode is ignored.
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    let pass = fx.resolving_pass(D32, Mode::MAX, Mode::SAMPLE_ZERO, 1, None);
+    let [(twin, twin_resolves, _), (_, app_resolves, _)] = pass.created.as_slice() else {
+        panic!("a twin and the application's pass: {:?}", pass.created);
+    };
+    assert_eq!(
+        app_resolves,
+        &[Some(resolve_pair(Mode::MAX, Mode::SAMPLE_ZERO))]
+    );
+    assert_eq!(
+        twin_resolves,
+        &[Some(resolve_pair(Mode::MIN, Mode::SAMPLE_ZERO))]
+    );
+    let framebuffer = fx.framebuffer(pass.handle, &[source_view, destination_view]);
+    assert_eq!(fx.run_pass(pass.handle, framebuffer).render_pass, *twin);
+    assert!(fx.state.objects.image_reversed(source));
+    assert!(fx.state.objects.image_reversed(destination));
+    fx.finish();
+}
+
+#[test]
+fn dynamic_rendering_swaps_a_depth_resolve_beside_a_stencil_resolve_the_device_pairs_with_it() {
+    // (independentResolveNone, independentResolve, the stencil mode, whether depth is swapped)
+    for (none, all, stencil_mode, swap_expected) in [
+        (true, true, Mode::MIN, true),
+        (true, true, Mode::SAMPLE_ZERO, true),
+        (true, false, Mode::NONE, true),
+        (true, false, Mode::MIN, false),
+        (false, false, Mode::MIN, false),
+    ] {
+        let case = format!("none {none}, all {all}, stencil {stencil_mode:?}");
+        let fx = Fixture::with_resolve_independence(none, all);
+        let (source, source_view) = fx.depth_image(D32_S8, RENDERED, MULTISAMPLED);
+        let (destination, destination_view) = fx.depth_image(D32_S8, RENDERED, SINGLE);
+        let depth = rendering_depth(source_view, Mode::MIN, destination_view);
+        let stencil = rendering_depth(source_view, stencil_mode, destination_view);
+        let (seen, app_structure) = fx.run_rendering(&depth, Some(&stencil));
+        if swap_expected {
+            assert_eq!(
+                (seen.resolve_mode, seen.clear_depth),
+                (Mode::MAX, 0.0),
+                "{case}"
+            );
+            assert!(!app_structure, "{case}: a copy goes down");
+            assert!(fx.state.objects.image_reversed(source), "{case}");
+            assert!(fx.state.objects.image_reversed(destination), "{case}");
+        } else {
+            assert_eq!(
+                (seen.resolve_mode, seen.clear_depth),
+                (Mode::MIN, 1.0),
+                "{case}"
+            );
+            assert!(app_structure, "{case}");
+            assert_eq!(
+                fx.depth(source),
+                ImageDepth::Native(NativeReason::UnswappableResolve),
+                "{case}"
+            );
+        }
+        assert_eq!(
+            stencil.resolve_mode, stencil_mode,
+            "{case}: the stencil is never changed"
+        );
+        fx.finish();
+    }
+}
+
+#[test]
+fn dynamic_rendering_ignores_the_resolve_mode_of_a_stencil_attachment_without_a_view() {
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    let depth = rendering_depth(source_view, Mode::MIN, destination_view);
+    // No view: the spec does not pair its mode with the depth one (06104, 06105).
+    let stencil = rendering_depth(vk::ImageView::null(), Mode::MIN, vk::ImageView::null());
+    let (seen, app_structure) = fx.run_rendering(&depth, Some(&stencil));
+    assert_eq!((seen.resolve_mode, seen.clear_depth), (Mode::MAX, 0.0));
+    assert!(!app_structure);
+    assert!(fx.state.objects.image_reversed(source));
+    assert!(fx.state.objects.image_reversed(destination));
     fx.finish();
 }
