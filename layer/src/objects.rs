@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError, RwLock};
 
 use ash::vk;
-use rustc_hash::FxHashMap;
+use rustc_hash::{FxHashMap, FxHashSet};
 
 use crate::command_state::{CommandState, PipelineDepth, Target};
 use crate::fragment_depth::Unsupported;
@@ -115,10 +115,65 @@ impl<K: std::hash::Hash + Eq, V: Clone> Default for Table<K, V> {
     }
 }
 
+/// The depth resolves seen between two reversed images, as (source image, destination image)
+/// pairs. A reversed image may only be resolved into, or from, a reversed one, so when either
+/// end of a pair is made native later, the other end must follow
+/// ([`DeviceObjects::settle_depth_resolve`]). Pairs with a native end are not kept: an image
+/// made native stays native, so such a pair can never ask for anything again.
+#[derive(Debug, Default)]
+pub struct ResolvePairs(RwLock<FxHashSet<(vk::Image, vk::Image)>>);
+
+impl ResolvePairs {
+    fn contains(&self, pair: (vk::Image, vk::Image)) -> bool {
+        self.0
+            .read()
+            .unwrap_or_else(PoisonError::into_inner)
+            .contains(&pair)
+    }
+
+    fn insert(&self, pair: (vk::Image, vk::Image)) {
+        self.0
+            .write()
+            .unwrap_or_else(PoisonError::into_inner)
+            .insert(pair);
+    }
+
+    /// Forgets the pairs of a destroyed image: its handle may come back for another image,
+    /// which must not inherit them. (Named like [`Table::remove`] for the destroy hook.)
+    pub fn remove(&self, image: &vk::Image) {
+        self.0
+            .write()
+            .unwrap_or_else(PoisonError::into_inner)
+            .retain(|&(source, destination)| source != *image && destination != *image);
+    }
+
+    /// Removes and returns the pairs with `image` at either end.
+    fn take_touching(&self, image: vk::Image) -> Vec<(vk::Image, vk::Image)> {
+        let mut pairs = self.0.write().unwrap_or_else(PoisonError::into_inner);
+        let touching: Vec<_> = pairs
+            .iter()
+            .copied()
+            .filter(|&(source, destination)| source == image || destination == image)
+            .collect();
+        for pair in &touching {
+            pairs.remove(pair);
+        }
+        touching
+    }
+
+    /// How many pairs are kept.
+    #[cfg(test)]
+    pub fn count(&self) -> usize {
+        self.0.read().unwrap_or_else(PoisonError::into_inner).len()
+    }
+}
+
 /// Every object of one device that revz tracks.
 #[derive(Debug, Default)]
 pub struct DeviceObjects {
     pub images: Table<vk::Image, ImageInfo>,
+    /// Resolves seen between reversed images, to carry a later demotion across them.
+    pub resolve_pairs: ResolvePairs,
     /// Views of tracked depth images, with the image they show.
     pub views: Table<vk::ImageView, vk::Image>,
     pub render_passes: Table<vk::RenderPass, Arc<RenderPassInfo>>,
@@ -163,28 +218,34 @@ impl DeviceObjects {
     }
 
     /// Makes a reversed depth image native for the rest of its life (logged once: it happens
-    /// once per image).
-    pub fn demote(&self, image: vk::Image, reason: NativeReason) {
+    /// once per image). Returns whether it was reversed until now.
+    pub fn demote(&self, image: vk::Image, reason: NativeReason) -> bool {
         let mut images = self
             .images
             .0
             .write()
             .unwrap_or_else(PoisonError::into_inner);
-        if let Some(info) = images.get_mut(&image) {
-            if info.depth == ImageDepth::Reversed {
-                info.depth = ImageDepth::Native(reason);
-                log::info!(
-                    "depth image {image:?} ({:?}): native from now on, because {reason}",
-                    info.format
-                );
-            }
+        let Some(info) = images.get_mut(&image) else {
+            return false;
+        };
+        if info.depth != ImageDepth::Reversed {
+            return false;
         }
+        info.depth = ImageDepth::Native(reason);
+        log::info!(
+            "depth image {image:?} ({:?}): native from now on, because {reason}",
+            info.format
+        );
+        true
     }
 
     /// Applies the resolve rule of the policy ([`DepthResolve::demotes_source`]) to a depth
     /// resolve from `source` into `destination`: a reversed source that cannot stay reversed
-    /// through it becomes native. Called where resolves are first seen (framebuffer creation,
-    /// imageless and dynamic rendering begins), before the instance's targets are decided.
+    /// through it becomes native, and so does a reversed destination of a native source. Each
+    /// image made native is then followed through the resolves seen before
+    /// ([`Self::propagate_demotions`]), so every resolve seen keeps holding the rule. Called
+    /// where resolves are first seen (framebuffer creation, imageless and dynamic rendering
+    /// begins), before the instance's targets are decided.
     pub fn settle_depth_resolve(
         &self,
         source: vk::ImageView,
@@ -199,6 +260,8 @@ impl DeviceObjects {
             return;
         };
         let destination_image = self.views.get(&destination);
+        // Empty unless something is made native (no allocation on the usual begin).
+        let mut demoted = Vec::new();
         if self.image_reversed(source_image) {
             let resolve = DepthResolve {
                 mode,
@@ -207,17 +270,57 @@ impl DeviceObjects {
                 swappable,
             };
             if let Some(reason) = resolve.demotes_source() {
-                self.demote(source_image, reason);
+                if self.demote(source_image, reason) {
+                    demoted.push(source_image);
+                }
             }
         }
-        // A native source (observable, or made native just above) resolves standard values:
-        // its destination must hold standard depth too.
         if let Some(destination_image) = destination_image {
             if !self.image_reversed(source_image) {
-                self.demote(
-                    destination_image,
-                    NativeReason::ResolvedFromNative(source_image),
-                );
+                // A native source (observable, or made native just above) resolves standard
+                // values: its destination must hold standard depth too.
+                let reason = NativeReason::ResolvedFromNative(source_image);
+                if self.demote(destination_image, reason) {
+                    demoted.push(destination_image);
+                }
+            } else {
+                // Both ends reversed (the rule above keeps a reversed source only into a
+                // reversed destination): remembered, for a later demotion of either end.
+                let pair = (source_image, destination_image);
+                if !self.resolve_pairs.contains(pair) {
+                    self.resolve_pairs.insert(pair);
+                    // Another thread may have made an end native between the checks above and
+                    // the insert, and missed the pair when it followed that demotion.
+                    demoted.extend(
+                        [source_image, destination_image]
+                            .into_iter()
+                            .filter(|&image| !self.image_reversed(image)),
+                    );
+                }
+            }
+        }
+        if !demoted.is_empty() {
+            self.propagate_demotions(demoted);
+        }
+    }
+
+    /// Follows images just made native through the resolves seen between reversed images,
+    /// until nothing changes: the other end of each such resolve becomes native too (a
+    /// destination receives standard values from a native source; a source may not resolve
+    /// reversed values into a native destination), and is followed in turn. Each pair is taken
+    /// out once followed (both its ends are native then), and each image is made native once,
+    /// so this ends after at most as many steps as there are pairs.
+    fn propagate_demotions(&self, mut worklist: Vec<vk::Image>) {
+        while let Some(image) = worklist.pop() {
+            for (source, destination) in self.resolve_pairs.take_touching(image) {
+                let (other, reason) = if source == image {
+                    (destination, NativeReason::ResolvedFromNative(source))
+                } else {
+                    (source, NativeReason::ResolvedIntoNative(destination))
+                };
+                if self.demote(other, reason) {
+                    worklist.push(other);
+                }
             }
         }
     }
@@ -425,4 +528,49 @@ pub fn command_buffer(buffer: vk::CommandBuffer) -> Option<Arc<CommandBufferEntr
         remember(cache, buffer, generation, &entry);
         Some(entry)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use ash::vk::Handle;
+
+    use super::*;
+
+    /// A tracked D32 image with handle `raw`, and a view of it (handle `raw + 100`).
+    fn track(objects: &DeviceObjects, raw: u64, depth: ImageDepth) -> (vk::Image, vk::ImageView) {
+        let (image, view) = (vk::Image::from_raw(raw), vk::ImageView::from_raw(raw + 100));
+        let format = vk::Format::D32_SFLOAT;
+        objects.images.insert(image, ImageInfo { format, depth });
+        objects.views.insert(view, image);
+        (image, view)
+    }
+
+    #[test]
+    fn a_reused_image_handle_does_not_inherit_the_resolve_pairs_of_the_destroyed_image() {
+        let objects = DeviceObjects::default();
+        let average = vk::ResolveModeFlags::AVERAGE;
+        let (source, source_view) = track(&objects, 1, ImageDepth::Reversed);
+        let (old, old_view) = track(&objects, 2, ImageDepth::Reversed);
+        objects.settle_depth_resolve(source_view, old_view, average, true);
+        assert_eq!(objects.resolve_pairs.count(), 1);
+        // Destroyed (what the destroy hook does), and the handle comes back for a new image.
+        objects.images.remove(&old);
+        objects.resolve_pairs.remove(&old);
+        let (reused, _) = track(&objects, 2, ImageDepth::Reversed);
+        assert_eq!(reused, old);
+
+        let native = ImageDepth::Native(NativeReason::CopiedFrom);
+        let (observed, observed_view) = track(&objects, 3, native);
+        objects.settle_depth_resolve(source_view, observed_view, average, true);
+        assert_eq!(
+            objects.images.get(&source).map(|i| i.depth),
+            Some(ImageDepth::Native(NativeReason::ResolvedIntoNative(
+                observed
+            )))
+        );
+        assert!(
+            objects.image_reversed(reused),
+            "the new image is not touched"
+        );
+    }
 }

@@ -28,9 +28,11 @@ pub enum NativeReason {
     LinearTiling,
     /// A render pass resolves it into a depth image that is not reversed: the resolved values
     /// must be standard ones. Decided when the resolve is first seen (framebuffer creation, or
-    /// the begin of an imageless or dynamic rendering instance).
+    /// the begin of an imageless or dynamic rendering instance), or when the destination is
+    /// made native later.
     ResolvedIntoNative(vk::Image),
-    /// A render pass resolves a native depth image into it: it receives standard values.
+    /// A render pass resolves a native depth image into it: it receives standard values. As
+    /// above, also when the source is made native after the resolve was seen.
     ResolvedFromNative(vk::Image),
     /// A MIN or MAX depth resolve of it could not be swapped (a render pass of several
     /// subpasses, or a device that does not support the swapped mode or does not allow it

@@ -1,7 +1,9 @@
 //! Depth resolves driven through revz's hooks over the fake layer (`fake_chain`): the
 //! swapped-resolve twin render pass (created, begun in place of the application's pass, and
-//! destroyed with it), sources made native where a resolve cannot follow them, and MIN/MAX
-//! swapped in dynamic rendering.
+//! destroyed with it), sources made native where a resolve cannot follow them, MIN/MAX swapped
+//! in dynamic rendering, stencil resolves beside a swapped depth resolve (as the device's
+//! `independentResolve` allows), and images made native followed across every resolve seen
+//! before.
 //!
 //! Every test makes its own instance and device (flip mode, Vulkan 1.3) with its own dispatch
 //! tables, gets revz's hooks from `vkGetDeviceProcAddr`, and checks what reaches the fake layer
@@ -971,5 +973,165 @@ fn dynamic_rendering_ignores_the_resolve_mode_of_a_stencil_attachment_without_a_
     assert!(!app_structure);
     assert!(fx.state.objects.image_reversed(source));
     assert!(fx.state.objects.image_reversed(destination));
+    fx.finish();
+}
+
+#[test]
+fn resolves_seen_after_a_demotion_already_followed_it_one_resolve_at_a_time() {
+    // What settling each resolve once, as it is seen, always did: a native source makes its
+    // destination native, and that destination then makes a later source into it native.
+    let fx = Fixture::new();
+    let (observed, observed_view) = fx.depth_image(D32, SAMPLED, MULTISAMPLED);
+    let (shared, shared_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    let (later, later_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let pass = fx.render_pass(Mode::AVERAGE, 1, None);
+    fx.framebuffer(pass.handle, &[observed_view, shared_view]);
+    assert_eq!(
+        fx.depth(shared),
+        ImageDepth::Native(NativeReason::ResolvedFromNative(observed))
+    );
+    fx.framebuffer(pass.handle, &[later_view, shared_view]);
+    assert_eq!(
+        fx.depth(later),
+        ImageDepth::Native(NativeReason::ResolvedIntoNative(shared))
+    );
+    fx.finish();
+}
+
+#[test]
+fn a_destination_made_native_later_makes_the_sources_resolved_into_it_before_native() {
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let (shared, shared_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    let (observed, observed_view) = fx.depth_image(D32, SAMPLED, MULTISAMPLED);
+    // A MIN resolve between reversed images: the twin is begun.
+    let min = fx.render_pass(Mode::MIN, 1, None);
+    let framebuffer = fx.framebuffer(min.handle, &[source_view, shared_view]);
+    assert_eq!(
+        fx.run_pass(min.handle, framebuffer).render_pass,
+        min.created[0].0
+    );
+    // Another source, one shaders read, resolves into the same image: that image must hold
+    // standard values, so the first source may no longer resolve reversed ones into it.
+    let average = fx.render_pass(Mode::AVERAGE, 1, None);
+    fx.framebuffer(average.handle, &[observed_view, shared_view]);
+    assert_eq!(
+        fx.depth(shared),
+        ImageDepth::Native(NativeReason::ResolvedFromNative(observed))
+    );
+    assert_eq!(
+        fx.depth(source),
+        ImageDepth::Native(NativeReason::ResolvedIntoNative(shared))
+    );
+    // The application's pass and values from then on.
+    assert_eq!(
+        fx.run_pass(min.handle, framebuffer),
+        PassBegun {
+            render_pass: min.handle,
+            framebuffer,
+            clear_depths: vec![1.0, 1.0],
+            app_clear_values: true,
+        }
+    );
+    assert_eq!(
+        fx.state.objects.resolve_pairs.count(),
+        0,
+        "nothing left to follow"
+    );
+    fx.finish();
+}
+
+#[test]
+fn a_source_made_native_later_makes_the_images_it_resolved_into_before_native() {
+    let fx = Fixture::new();
+    let (source, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let (reversed, reversed_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    let (observed, observed_view) = fx.depth_image(D32, SAMPLED, SINGLE);
+    let depth = rendering_depth(source_view, Mode::AVERAGE, reversed_view);
+    let (seen, _) = fx.run_rendering(&depth, None);
+    assert_eq!(seen.clear_depth, 0.0, "both reversed");
+    // The same source resolved into an image shaders read: the source becomes native, and the
+    // image it resolved into before receives standard values from then on.
+    let pass = fx.render_pass(Mode::AVERAGE, 1, None);
+    fx.framebuffer(pass.handle, &[source_view, observed_view]);
+    assert_eq!(
+        fx.depth(source),
+        ImageDepth::Native(NativeReason::ResolvedIntoNative(observed))
+    );
+    assert_eq!(
+        fx.depth(reversed),
+        ImageDepth::Native(NativeReason::ResolvedFromNative(source))
+    );
+    let (seen, app_structure) = fx.run_rendering(&depth, None);
+    assert_eq!(seen.clear_depth, 1.0);
+    assert!(app_structure);
+    fx.finish();
+}
+
+#[test]
+fn a_demotion_is_followed_across_every_resolve_it_reaches_until_nothing_changes() {
+    // first -> first_target <- second -> second_target <- third -> third_target, all reversed;
+    // then an image shaders read resolves into third_target. Each demotion reaches the next
+    // resolve, back to `first`.
+    let fx = Fixture::new();
+    let pass = fx.render_pass(Mode::AVERAGE, 1, None);
+    let sources: Vec<_> = (0..3)
+        .map(|_| fx.depth_image(D32, RENDERED, MULTISAMPLED))
+        .collect();
+    let targets: Vec<_> = (0..3)
+        .map(|_| fx.depth_image(D32, RENDERED, SINGLE))
+        .collect();
+    for (index, &(_, source_view)) in sources.iter().enumerate() {
+        fx.framebuffer(pass.handle, &[source_view, targets[index].1]);
+        if let Some(&(_, previous_target)) = index.checked_sub(1).and_then(|i| targets.get(i)) {
+            fx.framebuffer(pass.handle, &[source_view, previous_target]);
+        }
+    }
+    for &(image, _) in sources.iter().chain(&targets) {
+        assert!(fx.state.objects.image_reversed(image));
+    }
+    assert_eq!(fx.state.objects.resolve_pairs.count(), 5);
+
+    let (observed, observed_view) = fx.depth_image(D32, SAMPLED, MULTISAMPLED);
+    fx.framebuffer(pass.handle, &[observed_view, targets[2].1]);
+    assert_eq!(
+        fx.depth(targets[2].0),
+        ImageDepth::Native(NativeReason::ResolvedFromNative(observed))
+    );
+    for index in (0..3).rev() {
+        assert_eq!(
+            fx.depth(sources[index].0),
+            ImageDepth::Native(NativeReason::ResolvedIntoNative(targets[index].0)),
+            "source {index}"
+        );
+        if index > 0 {
+            assert_eq!(
+                fx.depth(targets[index - 1].0),
+                ImageDepth::Native(NativeReason::ResolvedFromNative(sources[index].0)),
+                "target {}",
+                index - 1
+            );
+        }
+    }
+    assert_eq!(fx.state.objects.resolve_pairs.count(), 0);
+    fx.finish();
+}
+
+#[test]
+fn a_destroyed_image_takes_its_resolve_pairs_with_it() {
+    let fx = Fixture::new();
+    let (_, source_view) = fx.depth_image(D32, RENDERED, MULTISAMPLED);
+    let (destination, destination_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    let pass = fx.render_pass(Mode::AVERAGE, 1, None);
+    fx.framebuffer(pass.handle, &[source_view, destination_view]);
+    assert_eq!(fx.state.objects.resolve_pairs.count(), 1);
+    // Beginning the pass again records nothing new.
+    let framebuffer = fx.framebuffer(pass.handle, &[source_view, destination_view]);
+    fx.run_pass(pass.handle, framebuffer);
+    assert_eq!(fx.state.objects.resolve_pairs.count(), 1);
+    fx.images.borrow_mut().retain(|&image| image != destination);
+    // SAFETY: a live device and an image it created, destroyed once.
+    unsafe { (fx.hooks.destroy_image)(fx.device, destination, std::ptr::null()) };
+    assert_eq!(fx.state.objects.resolve_pairs.count(), 0);
     fx.finish();
 }

@@ -104,11 +104,12 @@ pub(crate) unsafe fn slice<'a, T>(ptr: *const T, count: u32) -> &'a [T] {
     }
 }
 
+// A destroyed image's handle may come back: its resolve pairs go with it.
 destroy_hook!(
     destroy_image,
     DESTROY_IMAGE,
     vk::Image,
-    images,
+    images | resolve_pairs,
     destroy_image
 );
 destroy_hook!(
