@@ -124,6 +124,7 @@ impl<K: std::hash::Hash + Eq, V: Clone> Default for Table<K, V> {
 pub struct ResolvePairs(RwLock<FxHashSet<(vk::Image, vk::Image)>>);
 
 impl ResolvePairs {
+    /// Whether the resolve from `pair.0` into `pair.1` was seen between reversed images.
     fn contains(&self, pair: (vk::Image, vk::Image)) -> bool {
         self.0
             .read()
@@ -131,6 +132,7 @@ impl ResolvePairs {
             .contains(&pair)
     }
 
+    /// Remembers a resolve from `pair.0` into `pair.1`, both reversed.
     fn insert(&self, pair: (vk::Image, vk::Image)) {
         self.0
             .write()
