@@ -149,13 +149,7 @@ fn fmt_sci(value: &Value) -> String {
 }
 
 /// The markdown speed table.
-fn table(
-    device: &str,
-    driver: &str,
-    compare_op: &str,
-    rows: &[Value],
-    draws: &[usize],
-) -> String {
+fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[usize]) -> String {
     let largest = draws.iter().copied().max().unwrap_or(0);
     let others: Vec<usize> = draws.iter().copied().filter(|&n| n != largest).collect();
     let mut s = format!("## Speed: {device} ({driver}), `compare_op = {compare_op}`\n\n");
