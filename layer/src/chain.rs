@@ -7,6 +7,31 @@ use std::ffi::c_void;
 
 use ash::vk;
 
+/// Each structure of a `pNext` chain, in order, with its type: pointers to the whole
+/// structures, from which the structure itself may be read (a reference to its
+/// `VkBaseInStructure` would cover only the header's bytes).
+///
+/// # Safety
+/// As [`structures`].
+unsafe fn pointers(
+    p_next: *const c_void,
+) -> impl Iterator<Item = (vk::StructureType, *const vk::BaseInStructure<'static>)> {
+    let mut next = p_next.cast::<vk::BaseInStructure<'static>>();
+    std::iter::from_fn(move || {
+        if next.is_null() {
+            return None;
+        }
+        let structure = next;
+        // SAFETY: the caller's contract: a structure of the chain, which starts like
+        // `VkBaseInStructure`.
+        let s_type = unsafe {
+            next = (*structure).p_next;
+            (*structure).s_type
+        };
+        Some((s_type, structure))
+    })
+}
+
 /// Each structure of a `pNext` chain, in order.
 ///
 /// # Safety
@@ -15,12 +40,10 @@ use ash::vk;
 pub unsafe fn structures<'a>(
     p_next: *const c_void,
 ) -> impl Iterator<Item = &'a vk::BaseInStructure<'a>> {
-    let mut next = p_next.cast::<vk::BaseInStructure<'a>>();
-    std::iter::from_fn(move || {
+    // SAFETY: the caller's contract.
+    unsafe { pointers(p_next) }.map(|(_, structure)| {
         // SAFETY: the caller's contract.
-        let base = unsafe { next.as_ref() }?;
-        next = base.p_next;
-        Some(base)
+        unsafe { &*structure.cast::<vk::BaseInStructure<'a>>() }
     })
 }
 
@@ -30,9 +53,10 @@ pub unsafe fn structures<'a>(
 /// As [`structures`].
 pub unsafe fn find<'a, T: vk::TaggedStructure + 'a>(p_next: *const c_void) -> Option<&'a T> {
     // SAFETY: the caller's contract.
-    let found = unsafe { structures(p_next) }.find(|base| base.s_type == T::STRUCTURE_TYPE)?;
+    let (_, found) =
+        unsafe { pointers(p_next) }.find(|&(s_type, _)| s_type == T::STRUCTURE_TYPE)?;
     // SAFETY: the sType identifies the structure.
-    Some(unsafe { &*(found as *const vk::BaseInStructure<'_>).cast::<T>() })
+    Some(unsafe { &*found.cast::<T>() })
 }
 
 /// Whether a `pNext` chain holds a structure of type `s_type`.
@@ -49,9 +73,9 @@ pub unsafe fn has(p_next: *const c_void, s_type: vk::StructureType) -> bool {
 /// application's.
 #[derive(Debug)]
 pub struct Spliced {
-    /// The copied structures, each in its own 8-byte-aligned allocation (they do not move when
+    /// The copied structures, each in its own 8-byte-aligned buffer (buffers do not move when
     /// this vector grows).
-    copies: Vec<Box<[u64]>>,
+    copies: Vec<Vec<u64>>,
     head: *const c_void,
 }
 
@@ -61,7 +85,8 @@ impl Spliced {
         self.head
     }
 
-    /// Copies `size` bytes of a structure and returns the copy.
+    /// Copies `size` bytes of a structure, points the copy's `pNext` at `p_next`, keeps it
+    /// and returns where it is.
     ///
     /// # Safety
     /// `structure` points to at least `size` readable bytes of a structure (8-byte alignment
@@ -70,15 +95,21 @@ impl Spliced {
         &mut self,
         structure: *const c_void,
         size: usize,
-    ) -> *mut vk::BaseOutStructure<'static> {
-        let mut copy = vec![0u64; size.div_ceil(8)].into_boxed_slice();
-        // SAFETY: the caller's contract; the copy has room for `size` bytes.
+        p_next: *const c_void,
+    ) -> *const c_void {
+        let mut copy = vec![0u64; size.div_ceil(8)];
+        let bytes = copy.as_mut_ptr().cast::<u8>();
+        // SAFETY: the caller's contract; the copy has room for `size` bytes, and every
+        // structure starts like `VkBaseOutStructure`.
         unsafe {
-            std::ptr::copy_nonoverlapping(structure.cast::<u8>(), copy.as_mut_ptr().cast(), size);
+            std::ptr::copy_nonoverlapping(structure.cast::<u8>(), bytes, size);
+            (*bytes.cast::<vk::BaseOutStructure<'_>>()).p_next = p_next.cast_mut().cast();
         }
-        let pointer = copy.as_mut_ptr().cast();
+        // Written before it is stored: moving the vector leaves its buffer where it is.
         self.copies.push(copy);
-        pointer
+        self.copies
+            .last()
+            .map_or(std::ptr::null(), |copy| copy.as_ptr().cast())
     }
 }
 
@@ -138,14 +169,15 @@ pub unsafe fn splice<T: vk::TaggedStructure>(
     // The structures before the target: where each is and how many bytes to copy.
     let mut before: Vec<(*const c_void, Option<usize>)> = Vec::new();
     // SAFETY: the caller's contract.
-    let target = unsafe { structures(p_next) }.find(|base| {
-        let found = base.s_type == T::STRUCTURE_TYPE;
+    let (_, target) = unsafe { pointers(p_next) }.find(|&(s_type, structure)| {
+        let found = s_type == T::STRUCTURE_TYPE;
         if !found {
-            let address = (*base as *const vk::BaseInStructure<'_>).cast();
-            before.push((address, known_size(base.s_type)));
+            before.push((structure.cast(), known_size(s_type)));
         }
         found
     })?;
+    // SAFETY: as above.
+    let target_next = unsafe { (*target).p_next }.cast::<c_void>();
     let mut copied = Vec::with_capacity(before.len() + 1);
     for (structure, size) in before {
         copied.push((structure, size?));
@@ -155,15 +187,12 @@ pub unsafe fn splice<T: vk::TaggedStructure>(
     }
     let mut spliced = Spliced {
         copies: Vec::with_capacity(copied.len()),
-        head: target.p_next.cast(),
+        head: target_next,
     };
     // Copied from the end towards the head, each copy pointing at the one made before it.
     for (structure, size) in copied.into_iter().rev() {
         // SAFETY: a structure of the chain of a known size, or the caller's replacement.
-        let copy = unsafe { spliced.copy(structure, size) };
-        // SAFETY: every structure starts like `VkBaseOutStructure`.
-        unsafe { (*copy).p_next = spliced.head.cast_mut().cast() };
-        spliced.head = copy.cast_const().cast();
+        spliced.head = unsafe { spliced.copy(structure, size, spliced.head) };
     }
     Some(spliced)
 }
