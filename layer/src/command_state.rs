@@ -107,6 +107,10 @@ pub struct PipelineDepth {
     /// all of them but for libraries, whose links take each subset's state from the library
     /// that defines it.
     pub subsets: vk::GraphicsPipelineLibraryFlagsEXT,
+    /// A stage of the pipeline, or of a library it links, is given by a shader module
+    /// identifier (`VK_EXT_shader_module_identifier`): what links it must keep
+    /// `FAIL_ON_PIPELINE_COMPILE_REQUIRED`, so it gets no reversed variant.
+    pub module_identifiers: bool,
 }
 
 /// The depth attachment draws currently go to.
@@ -725,6 +729,7 @@ mod tests {
             reversed_variant: None,
             projection: None,
             subsets: vk::GraphicsPipelineLibraryFlagsEXT::empty(),
+            module_identifiers: false,
         })
     }
 

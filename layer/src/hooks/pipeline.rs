@@ -77,6 +77,11 @@ fn create_flags(info: &vk::GraphicsPipelineCreateInfo<'_>) -> vk::PipelineCreate
     }
 }
 
+/// Whether a create info asks for its batch to end at its failure (`EARLY_RETURN_ON_FAILURE`).
+fn returns_early(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    create_flags(info).contains(vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE)
+}
+
 /// Whether a create info builds a library.
 fn is_library(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
     create_flags(info).contains(vk::PipelineCreateFlags2KHR::LIBRARY)
@@ -127,6 +132,7 @@ fn library_variants(
 fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]) {
     for library in libraries {
         depth.subsets |= library.subsets;
+        depth.module_identifiers |= library.module_identifiers;
         depth.app_dynamic |= library.app_dynamic;
         depth.injected |= library.injected;
         if library.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
@@ -564,7 +570,13 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     let mut plan = plan(info, &context);
                     // Even without depth writes, a fragment shader may read FragCoord.z.
                     let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
-                    let identified = uses_module_identifiers(info);
+                    let linked = linked_libraries(&state, info);
+                    plan.depth.module_identifiers = uses_module_identifiers(info);
+                    // A pipeline linking a library of identified stages must keep
+                    // FAIL_ON_PIPELINE_COMPILE_REQUIRED too (VUID-VkPipelineLibraryCreateInfoKHR-
+                    // pLibraries-06855).
+                    let identified = plan.depth.module_identifiers
+                        || linked.iter().any(|library| library.module_identifiers);
                     if state.policy.is_active() && plan.renders_depth && fragment {
                         match fragment_stage_rewrite(&state, info) {
                             Some((index, Ok(code))) if !identified => {
@@ -580,7 +592,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     // FAIL_ON_PIPELINE_COMPILE_REQUIRED:
                     // VUID-VkPipelineShaderStageModuleIdentifierCreateInfoEXT-pNext-06851),
                     // where the flipped state is not found: the application's pipeline would
-                    // be taken back every time, so such pipelines get none.
+                    // be taken back every time, so such pipelines (and those linking them) get
+                    // none.
                     plan.compare_op_variant &= !identified;
                     let precise = state.policy.rewrite().is_some()
                         && plan.renders_depth
@@ -591,9 +604,12 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                             Err(reason) => plan.flip_reason = Some(reason),
                         }
                     }
-                    inherit_libraries(&mut plan.depth, &linked_libraries(&state, info));
-                    if !identified {
-                        plan.libraries = library_variants(&state, info);
+                    inherit_libraries(&mut plan.depth, &linked);
+                    if plan.renders_depth {
+                        match library_variants(&state, info) {
+                            Some(_) if identified => plan.depth.unreversed_fragment = true,
+                            variants => plan.libraries = variants,
+                        }
                     }
                     Some(plan)
                 })
@@ -626,12 +642,18 @@ pub unsafe extern "system" fn create_graphics_pipelines(
     let variants: Vec<Variant> = guarded(
         &CREATE_GRAPHICS_PIPELINES,
         || {
+            // After a variant that needs compiling in a create info asking for early return,
+            // every pipeline is taken back (`take_back_uncompiled`): no more variants.
+            let mut returned_early = false;
             plans
                 .iter()
                 .zip(infos.iter().zip(&dynamic_infos))
                 .map(|(plan, (info, dynamic))| match plan {
-                    Some(plan) if plan.needs_variant() => {
-                        create_reversed_variant(&state, device, cache, info, dynamic, plan)
+                    Some(plan) if plan.needs_variant() && !returned_early => {
+                        let variant =
+                            create_reversed_variant(&state, device, cache, info, dynamic, plan);
+                        returned_early = variant == Variant::CompileRequired && returns_early(info);
+                        variant
                     }
                     _ => Variant::Missing,
                 })
@@ -780,8 +802,7 @@ unsafe fn take_back_uncompiled(
             *pipeline = vk::Pipeline::null();
         }
         taken_back |= required;
-        returned_early |= required
-            && create_flags(info).contains(vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE);
+        returned_early |= required && returns_early(info);
     }
     if taken_back && result == vk::Result::SUCCESS {
         vk::Result::PIPELINE_COMPILE_REQUIRED

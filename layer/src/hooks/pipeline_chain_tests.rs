@@ -1601,7 +1601,7 @@ impl<'a> Libraries<'a> {
     ) -> vk::GraphicsPipelineCreateInfo<'a> {
         vk::GraphicsPipelineCreateInfo {
             p_next: (subset as *const vk::GraphicsPipelineLibraryCreateInfoEXT<'_>).cast(),
-            flags: vk::PipelineCreateFlags::LIBRARY_KHR,
+            flags: self.built.app.flags | vk::PipelineCreateFlags::LIBRARY_KHR,
             stage_count: 1,
             p_stages: &self.built.app.stages[index],
             ..self.built.info()
@@ -1872,13 +1872,29 @@ fn with_early_return_the_pipelines_after_one_taken_back_are_taken_back_too() {
     let mut third = AppPipeline::of_modules(vertex, plain);
     second.flags = cache_only;
     third.flags = cache_only;
-    for early_return in [false, true] {
-        first.flags = if early_return {
-            cache_only | vk::PipelineCreateFlags::EARLY_RETURN_ON_FAILURE
-        } else {
-            cache_only
+    /// Where the first create info asks for early return.
+    #[derive(PartialEq)]
+    enum EarlyReturn {
+        No,
+        InFlags,
+        InFlags2,
+    }
+    let early_flags2 = vk::PipelineCreateFlags2CreateInfoKHR::default().flags(
+        vk::PipelineCreateFlags2KHR::FAIL_ON_PIPELINE_COMPILE_REQUIRED
+            | vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE,
+    );
+    for early_return in [EarlyReturn::No, EarlyReturn::InFlags, EarlyReturn::InFlags2] {
+        first.flags = match early_return {
+            EarlyReturn::InFlags => cache_only | vk::PipelineCreateFlags::EARLY_RETURN_ON_FAILURE,
+            // Replaced by the flags2 in the chain.
+            EarlyReturn::InFlags2 => vk::PipelineCreateFlags::empty(),
+            EarlyReturn::No => cache_only,
         };
-        let built = [first.build(), second.build(), third.build()];
+        let mut built = [first.build(), second.build(), third.build()];
+        if early_return == EarlyReturn::InFlags2 {
+            built[0].rendering.p_next =
+                (&early_flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast();
+        }
         let infos = built.each_ref().map(|built| built.info());
         // The first's variant is not in the cache, the second's is.
         fake_chain::script_pipeline_creations(
@@ -1888,31 +1904,19 @@ fn with_early_return_the_pipelines_after_one_taken_back_are_taken_back_too() {
         let (result, handles) = fx.create_pipelines(&infos, None);
         assert_eq!(result, vk::Result::PIPELINE_COMPILE_REQUIRED);
         let events = fx.events();
-        let [_, _, _, _, second_variant, _, app_creation, taken_back @ ..] = events.as_slice()
-        else {
-            panic!("two variants with their modules, the batch, what is taken back: {events:#?}");
-        };
-        let (_, [second_variant]) = created_pipelines(second_variant) else {
-            panic!("one variant: {events:#?}");
-        };
-        let (_, app_pipelines) = created_pipelines(app_creation);
         let destroyed = |handle| Event::DestroyPipeline {
             handle,
             allocator: false,
         };
-        if early_return {
-            assert_eq!(handles, [vk::Pipeline::null(); 3]);
-            assert_eq!(
-                taken_back,
-                [
-                    destroyed(app_pipelines[0]),
-                    destroyed(app_pipelines[1]),
-                    destroyed(app_pipelines[2]),
-                    destroyed(*second_variant),
-                ],
-                "every pipeline from the first on, then the second's variant"
-            );
-        } else {
+        if early_return == EarlyReturn::No {
+            let [_, _, _, _, second_variant, _, app_creation, taken_back @ ..] = events.as_slice()
+            else {
+                panic!("two variants with their modules, the batch, one taken back: {events:#?}");
+            };
+            let (_, [second_variant]) = created_pipelines(second_variant) else {
+                panic!("one variant: {events:#?}");
+            };
+            let (_, app_pipelines) = created_pipelines(app_creation);
             assert_eq!(
                 handles,
                 [vk::Pipeline::null(), app_pipelines[1], app_pipelines[2]]
@@ -1922,7 +1926,149 @@ fn with_early_return_the_pipelines_after_one_taken_back_are_taken_back_too() {
                 fx.recorded(app_pipelines[1]).reversed_variant,
                 Some(*second_variant)
             );
+        } else {
+            // No variant made after the first: the batch ends there.
+            let [_, _, _, app_creation, taken_back @ ..] = events.as_slice() else {
+                panic!(
+                    "the first's variant and module, the batch, what is taken back: {events:#?}"
+                );
+            };
+            let (_, app_pipelines) = created_pipelines(app_creation);
+            assert_eq!(handles, [vk::Pipeline::null(); 3]);
+            assert_eq!(
+                taken_back,
+                app_pipelines
+                    .iter()
+                    .map(|&p| destroyed(p))
+                    .collect::<Vec<_>>(),
+                "every pipeline from the first on"
+            );
         }
     }
+    fx.finish();
+}
+
+#[test]
+fn an_error_of_the_batch_is_kept_when_a_pipeline_is_taken_back() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let plain = fx.module(&fragment(PLAIN));
+    let mut first = AppPipeline::of_modules(vertex, module);
+    first.flags = vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED;
+    let second = AppPipeline::of_modules(vertex, plain);
+    let built = [first.build(), second.build()];
+    let infos = built.each_ref().map(|built| built.info());
+    fake_chain::script_pipeline_creations(
+        fx.tables.device,
+        [
+            compile_required(),
+            PipelineOutcome {
+                result: vk::Result::ERROR_OUT_OF_DEVICE_MEMORY,
+                created: vec![true, false],
+            },
+        ],
+    );
+    let (result, handles) = fx.create_pipelines(&infos, None);
+    assert_eq!(result, vk::Result::ERROR_OUT_OF_DEVICE_MEMORY);
+    assert_eq!(handles, [vk::Pipeline::null(); 2]);
+    let events = fx.events();
+    let [_, _, _, app_creation, Event::DestroyPipeline {
+        handle: taken_back, ..
+    }] = events.as_slice()
+    else {
+        panic!("the variant not compiled, the failed batch, the first taken back: {events:#?}");
+    };
+    let Event::CreateGraphicsPipelines { handles: app, .. } = app_creation else {
+        panic!("the batch: {events:#?}");
+    };
+    assert_eq!(*taken_back, app[0]);
+    fx.finish();
+}
+
+#[test]
+fn a_variant_link_splices_its_libraries_and_flags2_wherever_they_are_in_the_chain() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let app = AppPipeline::of_modules(vertex, module);
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+    let created = fx.create_with_variant(&libraries.fragment_info(), None);
+    let linked = [created.app];
+    let links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&linked);
+    let app_flags2 = vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE
+        | vk::PipelineCreateFlags2KHR::DISABLE_OPTIMIZATION;
+    let flags2 = vk::PipelineCreateFlags2CreateInfoKHR {
+        p_next: (&links as *const vk::PipelineLibraryCreateInfoKHR<'_>).cast(),
+        flags: app_flags2,
+        ..Default::default()
+    };
+    let rendering = vk::PipelineRenderingCreateInfo {
+        p_next: (&flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast(),
+        ..built.rendering
+    };
+    let info = vk::GraphicsPipelineCreateInfo {
+        p_next: (&rendering as *const vk::PipelineRenderingCreateInfo<'_>).cast(),
+        ..link_info(&links)
+    };
+    let (_, handles) = fx.create_pipelines(std::slice::from_ref(&info), None);
+    let (variant_info, variant, app_info, app_link) = variant_link_creation(&fx.events());
+    assert_eq!(handles, [app_link]);
+    let chain = [rendering.s_type, flags2.s_type, links.s_type];
+    assert_eq!(variant_info.chain, chain);
+    assert_eq!(variant_info.libraries, [created.variant]);
+    assert_eq!(
+        variant_info.flags2,
+        Some(vk::PipelineCreateFlags2KHR::DISABLE_OPTIMIZATION)
+    );
+    assert_eq!(app_info, seen(&info), "the application's link as it was");
+    assert_eq!(fx.recorded(app_link).reversed_variant, Some(variant));
+    fx.finish();
+}
+
+#[test]
+fn a_link_of_a_library_given_by_module_identifiers_gets_no_variant() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let module = fx.module(&fragment(FRAG_DEPTH));
+    let identifier_bytes = [7u8; 16];
+    let identifier = vk::PipelineShaderStageModuleIdentifierCreateInfoEXT::default()
+        .identifier(&identifier_bytes);
+    let mut app = AppPipeline::of_modules(vertex, module);
+    app.stages[0] = vk::PipelineShaderStageCreateInfo {
+        p_next: (&identifier as *const vk::PipelineShaderStageModuleIdentifierCreateInfoEXT<'_>)
+            .cast(),
+        ..stage(vk::ShaderStageFlags::VERTEX, vk::ShaderModule::null())
+    };
+    // Identifiers need the cache-only flag, and so does what links them (VUID 06855).
+    app.flags = vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED;
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+    let (_, pre) = fx.create_pipelines(&[libraries.pre_rasterization_info()], None);
+    let (_, pre_handle) = only_app_creation(&fx.events());
+    assert_eq!(pre, [pre_handle]);
+    assert!(fx.recorded(pre_handle).module_identifiers);
+    // The fragment shader library is of SPIR-V: it gets its variant library (from the cache
+    // too, where the fake finds it).
+    let created = fx.create_with_variant(&libraries.fragment_info(), None);
+
+    let linked = [pre_handle, created.app];
+    let links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&linked);
+    let info = vk::GraphicsPipelineCreateInfo {
+        flags: vk::PipelineCreateFlags::FAIL_ON_PIPELINE_COMPILE_REQUIRED,
+        ..link_info(&links)
+    };
+    let (result, handles) = fx.create_pipelines(std::slice::from_ref(&info), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    // A variant link would have to come from the cache too, where it is never found: none,
+    // and the link's draws into reversed attachments are known to keep standard depth.
+    let (app_info, app_link) = only_app_creation(&fx.events());
+    assert_eq!(handles, [app_link]);
+    assert_eq!(app_info.libraries, linked);
+    let recorded = fx.recorded(app_link);
+    assert_eq!(recorded.reversed_variant, None);
+    assert!(recorded.unreversed_fragment);
+    assert!(recorded.module_identifiers);
     fx.finish();
 }
