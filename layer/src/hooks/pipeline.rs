@@ -202,7 +202,8 @@ fn fragment_stage_rewrite(
 /// with depth. One that cannot be rewritten is logged (once per module).
 fn rewrite_fragment_module(module: vk::ShaderModule, words: &[u32]) -> Option<ReversedFragment> {
     let rewrite = fragment_depth::reverse_fragment_depth(words).transpose()?;
-    if let Err(reason) = &rewrite {
+    let first = module != vk::ShaderModule::null() || first_inline_report(Report::Rewrite, words);
+    if let (Err(reason), true) = (&rewrite, first) {
         log::warn!(
             "shader module {module:?} computes with depth in a way revz cannot rewrite \
              ({reason}): its draws into reversed attachments keep standard depth"
@@ -211,11 +212,35 @@ fn rewrite_fragment_module(module: vk::ShaderModule, words: &[u32]) -> Option<Re
     Some(rewrite.map(Into::into))
 }
 
+/// What is logged of a shader that revz cannot handle.
+#[derive(Hash)]
+enum Report {
+    Rewrite,
+    Analysis,
+}
+
+/// Whether `report` is made of inline SPIR-V `words` for the first time. Inline code (chained
+/// into a pipeline stage) is rewritten and analyzed at every pipeline creation, but reported
+/// once, as a module is at its creation. Only hashes are kept: a collision can only drop a
+/// log line.
+fn first_inline_report(report: Report, words: &[u32]) -> bool {
+    use std::hash::{Hash, Hasher};
+    static REPORTED: std::sync::LazyLock<std::sync::Mutex<rustc_hash::FxHashSet<u64>>> =
+        std::sync::LazyLock::new(Default::default);
+    let mut hasher = rustc_hash::FxHasher::default();
+    (report, words).hash(&mut hasher);
+    REPORTED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .insert(hasher.finish())
+}
+
 /// The shader analysis of a module (at its creation, or of SPIR-V chained into a pipeline
 /// stage): a module naga cannot read is logged once, and its draws take the flip path.
 fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> ModuleAnalysis {
     let analysis = shader_analysis::analyze_vertex_entry_points(words);
-    if let Err(reason) = &analysis {
+    let first = module != vk::ShaderModule::null() || first_inline_report(Report::Analysis, words);
+    if let (Err(reason), true) = (&analysis, first) {
         log::warn!(
             "shader module {module:?} cannot be analyzed ({reason}): its draws into reversed \
              attachments take the flip path"
@@ -1441,6 +1466,16 @@ mod tests {
             .rasterization_state(&raster);
         let plan = plan(&info, &RENDERS_DEPTH);
         assert_eq!(plan.depth.injected, States::COMPARE_OP);
+    }
+
+    #[test]
+    fn inline_code_is_reported_once_per_kind_of_report() {
+        // Words no other test reports.
+        let words = [0x0723_0203, 0x5EED_0001, 0x5EED_0002];
+        assert!(first_inline_report(Report::Rewrite, &words));
+        assert!(!first_inline_report(Report::Rewrite, &words));
+        assert!(first_inline_report(Report::Analysis, &words));
+        assert!(first_inline_report(Report::Rewrite, &words[..2]));
     }
 
     #[test]
