@@ -92,6 +92,42 @@ pub(super) fn dispatchable<H: Handle>(table: usize) -> H {
     H::from_raw(Box::into_raw(Box::new(table)) as u64)
 }
 
+/// Destroys a device and then its instance through revz's hooks, checks that only the
+/// instance's destruction reached the fake for the instance and that revz forgot both, frees
+/// the fake objects, and returns what reached the fake for the device since last asked
+/// (ending with its destruction).
+///
+/// # Safety
+/// The three objects were made by the fake for `tables`, the device on the physical device of
+/// the instance; nothing of theirs is in use, and none is used afterwards.
+pub(super) unsafe fn tear_down(
+    tables: Tables,
+    instance: vk::Instance,
+    physical: vk::PhysicalDevice,
+    device: vk::Device,
+) -> Vec<Event> {
+    // SAFETY: the caller's contract: a live device, then a live instance.
+    unsafe {
+        super::device::destroy_device(device, std::ptr::null());
+        super::instance::destroy_instance(instance, std::ptr::null());
+    }
+    let device_events = take_events(tables.device);
+    assert_eq!(take_events(tables.instance), [Event::DestroyInstance]);
+    // SAFETY: the keys of objects the fake made, destroyed above.
+    unsafe {
+        use crate::state::{DispatchKey, DEVICES, INSTANCES};
+        assert!(DEVICES.get(DispatchKey::of(device)).is_none());
+        assert!(INSTANCES.get(DispatchKey::of(instance)).is_none());
+    }
+    // SAFETY: the caller's contract.
+    unsafe {
+        reclaim(device);
+        reclaim(physical);
+        reclaim(instance);
+    }
+    device_events
+}
+
 /// Frees a fake dispatchable object.
 ///
 /// # Safety

@@ -17,10 +17,10 @@ use std::sync::Arc;
 use ash::vk::{self, Handle};
 
 use super::fake_chain::{self, seen_pipeline, Event, PipelineOutcome, SeenPipeline, Tables};
-use super::{device, instance, pipeline};
+use super::{device, pipeline};
 use crate::command_state::PipelineDepth;
 use crate::fragment_depth::reverse_fragment_depth;
-use crate::state::{DeviceState, DispatchKey, DEVICES, INSTANCES};
+use crate::state::{DeviceState, DispatchKey, DEVICES};
 use crate::test_spirv;
 
 const D32: vk::Format = vk::Format::D32_SFLOAT;
@@ -461,33 +461,16 @@ impl Fixture {
                 "variant {variant:?} destroyed with its pipeline: {events:#?}"
             );
         }
-        // SAFETY: a live device, then a live instance.
-        unsafe {
-            device::destroy_device(self.device, std::ptr::null());
-            instance::destroy_instance(self.instance, std::ptr::null());
-        }
+        // SAFETY: the fixture's objects, no longer in use.
+        let device_events = unsafe {
+            fake_chain::tear_down(self.tables, self.instance, self.physical, self.device)
+        };
         let mut expected = at_device_destruction.to_vec();
         expected.push(Event::DestroyDevice);
         assert_eq!(
-            fake_chain::take_events(self.tables.device),
-            expected,
+            device_events, expected,
             "what revz destroys with the device"
         );
-        assert_eq!(
-            fake_chain::take_events(self.tables.instance),
-            [Event::DestroyInstance]
-        );
-        // SAFETY: the keys of objects the fake made, destroyed above.
-        unsafe {
-            assert!(DEVICES.get(DispatchKey::of(self.device)).is_none());
-            assert!(INSTANCES.get(DispatchKey::of(self.instance)).is_none());
-        }
-        // SAFETY: each was made by `dispatchable` and is no longer used.
-        unsafe {
-            fake_chain::reclaim(self.device);
-            fake_chain::reclaim(self.physical);
-            fake_chain::reclaim(self.instance);
-        }
     }
 
     fn finish(self) {

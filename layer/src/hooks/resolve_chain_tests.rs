@@ -15,9 +15,8 @@ use std::sync::Arc;
 use ash::vk::{self, Handle};
 
 use super::fake_chain::{self, Event, SeenDepthAttachment, SeenResolve, Tables};
-use super::{device, instance};
 use crate::policy::{ImageDepth, NativeReason};
-use crate::state::{DeviceState, DispatchKey, DEVICES, INSTANCES};
+use crate::state::{DeviceState, DispatchKey, DEVICES};
 
 use vk::ResolveModeFlags as Mode;
 
@@ -466,28 +465,11 @@ impl Fixture {
         for pass in self.passes.borrow().iter() {
             assert!(self.state.objects.render_passes.get(pass).is_none());
         }
-        // SAFETY: a live device, then a live instance.
-        unsafe {
-            device::destroy_device(self.device, std::ptr::null());
-            instance::destroy_instance(self.instance, std::ptr::null());
-        }
-        let device_events = fake_chain::take_events(self.tables.device);
+        // SAFETY: the fixture's objects, no longer in use.
+        let device_events = unsafe {
+            fake_chain::tear_down(self.tables, self.instance, self.physical, self.device)
+        };
         assert_eq!(device_events.last(), Some(&Event::DestroyDevice));
-        assert_eq!(
-            fake_chain::take_events(self.tables.instance),
-            [Event::DestroyInstance]
-        );
-        // SAFETY: the keys of objects the fake made, destroyed above.
-        unsafe {
-            assert!(DEVICES.get(DispatchKey::of(self.device)).is_none());
-            assert!(INSTANCES.get(DispatchKey::of(self.instance)).is_none());
-        }
-        // SAFETY: each was made by `dispatchable` and is no longer used.
-        unsafe {
-            fake_chain::reclaim(self.device);
-            fake_chain::reclaim(self.physical);
-            fake_chain::reclaim(self.instance);
-        }
     }
 }
 
