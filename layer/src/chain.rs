@@ -80,9 +80,39 @@ pub struct Spliced {
 }
 
 impl Spliced {
+    /// The application's chain, not spliced yet.
+    pub fn of(p_next: *const c_void) -> Spliced {
+        Spliced {
+            copies: Vec::new(),
+            head: p_next,
+        }
+    }
+
     /// The head of the spliced chain, to give in place of the application's.
     pub fn head(&self) -> *const c_void {
         self.head
+    }
+
+    /// Replaces the first structure of `T`'s type in the chain as spliced so far by the copy
+    /// `edit` makes of it, where it makes one ([`splice`] on the current head; the copies
+    /// made before stay alive, as the new ones may point into them). `Err` when the structure
+    /// cannot be spliced (a structure of unknown size before it): the chain is left as it was.
+    ///
+    /// # Safety
+    /// As [`splice`].
+    pub unsafe fn edit<T: vk::TaggedStructure>(
+        &mut self,
+        edit: impl FnOnce(&T) -> Option<T>,
+    ) -> Result<(), Unspliceable> {
+        // SAFETY: the caller's contract.
+        let Some(replacement) = unsafe { find::<T>(self.head) }.and_then(edit) else {
+            return Ok(());
+        };
+        // SAFETY: the caller's contract.
+        let spliced = unsafe { splice(self.head, Some(&replacement)) }.ok_or(Unspliceable)?;
+        self.copies.extend(spliced.copies);
+        self.head = spliced.head;
+        Ok(())
     }
 
     /// Copies `size` bytes of a structure, points the copy's `pNext` at `p_next`, keeps it
@@ -112,6 +142,10 @@ impl Spliced {
             .map_or(std::ptr::null(), |copy| copy.as_ptr().cast())
     }
 }
+
+/// A structure of a type revz does not know the size of comes before the one to splice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Unspliceable;
 
 /// The byte sizes of the structures that may come before the one revz splices out of a
 /// graphics pipeline's or a shader stage's chain: only structures of known size can be copied.
@@ -347,5 +381,74 @@ mod tests {
             assert!(splice(head, Some(&missing)).is_none(), "not in the chain");
             assert!(splice(std::ptr::null(), Some(&missing)).is_none());
         }
+    }
+
+    #[test]
+    fn edits_stack_and_keep_what_earlier_edits_copied() {
+        let unknown = vk::BaseInStructure {
+            s_type: vk::StructureType::from_raw(1_000_999_000),
+            ..Default::default()
+        };
+        let flags2 = vk::PipelineCreateFlags2CreateInfoKHR {
+            p_next: (&unknown as *const vk::BaseInStructure<'_>).cast(),
+            flags: vk::PipelineCreateFlags2KHR::LIBRARY
+                | vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE,
+            ..Default::default()
+        };
+        let libraries = [vk::Pipeline::null()];
+        let links = vk::PipelineLibraryCreateInfoKHR {
+            p_next: (&flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast(),
+            ..Default::default()
+        }
+        .libraries(&libraries);
+        let head = (&links as *const vk::PipelineLibraryCreateInfoKHR<'_>).cast::<c_void>();
+        let original = walk(head);
+        let mut chain = Spliced::of(head);
+        let replaced = [vk::Pipeline::null(); 2];
+        // SAFETY: a valid chain on the stack that outlives the splices.
+        unsafe {
+            // The later structure first, then the one before it (whose copy points at the
+            // first edit's copy); an edit that makes no copy changes nothing.
+            chain
+                .edit(|f: &vk::PipelineCreateFlags2CreateInfoKHR<'_>| {
+                    Some(f.flags(vk::PipelineCreateFlags2KHR::LIBRARY))
+                })
+                .unwrap();
+            chain
+                .edit(|l: &vk::PipelineLibraryCreateInfoKHR<'_>| Some(l.libraries(&replaced)))
+                .unwrap();
+            chain
+                .edit(|_: &vk::PipelineRenderingCreateInfo<'_>| None)
+                .unwrap();
+            let edited = walk(chain.head());
+            assert_eq!(
+                edited.iter().map(|(s_type, _)| *s_type).collect::<Vec<_>>(),
+                original
+                    .iter()
+                    .map(|(s_type, _)| *s_type)
+                    .collect::<Vec<_>>()
+            );
+            assert_eq!(edited[2], original[2], "the rest is the application's");
+            let found = find::<vk::PipelineLibraryCreateInfoKHR<'_>>(chain.head()).unwrap();
+            assert_eq!(found.library_count, 2);
+            let found = find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(chain.head()).unwrap();
+            assert_eq!(found.flags, vk::PipelineCreateFlags2KHR::LIBRARY);
+        }
+        assert_eq!(walk(head), original, "the application's chain is unchanged");
+
+        // Behind a structure of unknown size: refused, the chain left as it was.
+        let rendering = vk::PipelineRenderingCreateInfo::default();
+        let behind = vk::BaseInStructure {
+            s_type: unknown.s_type,
+            p_next: (&rendering as *const vk::PipelineRenderingCreateInfo<'_>).cast(),
+            ..Default::default()
+        };
+        let head = (&behind as *const vk::BaseInStructure<'_>).cast::<c_void>();
+        let mut chain = Spliced::of(head);
+        // SAFETY: as above.
+        let refused =
+            unsafe { chain.edit(|r: &vk::PipelineRenderingCreateInfo<'_>| Some(r.view_mask(1))) };
+        assert_eq!(refused, Err(Unspliceable));
+        assert_eq!(chain.head(), head);
     }
 }

@@ -958,54 +958,34 @@ fn create_reversed_variant(
     } else {
         None
     };
-    // The chain, spliced where it must change; each splice lives until the call returns.
-    let mut p_next = info.p_next;
+    // The chain, spliced where it must change; the splices live until the call returns.
+    let mut chain = chain::Spliced::of(info.p_next);
     // Flags given in a `VkPipelineCreateFlags2CreateInfoKHR` replace `flags`: a copy with
     // the same flags cleared takes its place.
-    // SAFETY: a valid pNext chain (the application's contract).
-    let flags2 = unsafe { chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(p_next) };
     let cleared2 = vk::PipelineCreateFlags2KHR::DERIVATIVE
         | vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE;
-    let flags2_splice = match flags2 {
-        Some(flags2) if flags2.flags.intersects(cleared2) => {
-            let cleared = vk::PipelineCreateFlags2CreateInfoKHR {
-                flags: flags2.flags & !cleared2,
-                ..*flags2
-            };
-            // SAFETY: a valid pNext chain that outlives the call below.
-            let Some(spliced) = (unsafe { chain::splice(p_next, Some(&cleared)) }) else {
-                return failed(&"an unknown structure precedes its flags2");
-            };
-            Some(spliced)
-        }
-        _ => None,
+    // SAFETY: a valid pNext chain (the application's contract) that outlives the call below.
+    let flags2 = unsafe {
+        chain.edit(|flags2: &vk::PipelineCreateFlags2CreateInfoKHR<'_>| {
+            flags2
+                .flags
+                .intersects(cleared2)
+                .then(|| flags2.flags(flags2.flags & !cleared2))
+        })
     };
-    if let Some(spliced) = &flags2_splice {
-        p_next = spliced.head();
+    if flags2.is_err() {
+        return failed(&"an unknown structure precedes its flags2");
     }
-    let libraries_splice = match &plan.libraries {
-        Some(libraries) => {
-            // SAFETY: a valid pNext chain (the plan found the structure in it).
-            let Some(links) =
-                (unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(p_next) })
-            else {
-                return failed(&"its libraries are gone from its chain");
-            };
-            let variants = vk::PipelineLibraryCreateInfoKHR {
-                library_count: libraries.len() as u32,
-                p_libraries: libraries.as_ptr(),
-                ..*links
-            };
-            // SAFETY: as above.
-            let Some(spliced) = (unsafe { chain::splice(p_next, Some(&variants)) }) else {
-                return failed(&"an unknown structure precedes its libraries");
-            };
-            Some(spliced)
+    if let Some(libraries) = &plan.libraries {
+        // SAFETY: as above; the libraries outlive the call too.
+        let links = unsafe {
+            chain.edit(|links: &vk::PipelineLibraryCreateInfoKHR<'_>| {
+                Some(links.libraries(libraries))
+            })
+        };
+        if links.is_err() {
+            return failed(&"an unknown structure precedes its libraries");
         }
-        None => None,
-    };
-    if let Some(spliced) = &libraries_splice {
-        p_next = spliced.head();
     }
     // SAFETY: `stageCount` stages (the application's contract).
     let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
@@ -1019,7 +999,7 @@ fn create_reversed_variant(
         None => None,
     };
     let variant_info = vk::GraphicsPipelineCreateInfo {
-        p_next,
+        p_next: chain.head(),
         flags: info.flags
             & !(vk::PipelineCreateFlags::DERIVATIVE
                 | vk::PipelineCreateFlags::EARLY_RETURN_ON_FAILURE),
