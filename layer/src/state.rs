@@ -38,6 +38,11 @@ pub struct InstanceState {
     /// The API version the application asked for (`VkApplicationInfo::apiVersion`, 1.0 if
     /// none): core commands of later versions are not available to it.
     pub api_version: u32,
+    /// `VK_KHR_get_physical_device_properties2` is enabled (by the application or by revz).
+    pub properties2_enabled: bool,
+    /// revz added `VK_KHR_get_physical_device_properties2` (its commands are hidden from the
+    /// application, which did not enable it).
+    pub added_properties2: bool,
     /// The next layer's `vkGetInstanceProcAddr`, for everything revz does not intercept.
     pub next_get_instance_proc_addr: vk::PFN_vkGetInstanceProcAddr,
     /// The next layer's instance commands.
@@ -68,6 +73,9 @@ pub struct DeviceState {
     /// The depth resolve modes the device supports and which depth and stencil modes it lets
     /// one resolve combine: MIN and MAX are swapped only where the device allows the result.
     pub resolve_support: ResolveSupport,
+    /// revz added `VK_EXT_extended_dynamic_state` (its commands are hidden from the
+    /// application, which did not enable it).
+    pub added_extended_dynamic_state: bool,
     /// What revz learned about the application while it records.
     pub observed: Observed,
     pub objects: DeviceObjects,

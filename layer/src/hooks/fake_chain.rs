@@ -437,12 +437,53 @@ pub(super) fn take_events(table: &'static u8) -> Vec<Event> {
 
 pub(super) unsafe extern "system" fn fake_command() {}
 
+/// The extensions each fake instance and device was created with, per dispatch table.
+static CREATED_WITH: Mutex<Vec<(usize, Vec<String>)>> = Mutex::new(Vec::new());
+
+/// Records the extension names an instance or device of `table` was created with.
+///
+/// # Safety
+/// `names` must point at `count` NUL-terminated strings (or be null with `count` 0).
+unsafe fn note_extensions(table: usize, names: *const *const c_char, count: u32) {
+    // SAFETY: the caller's contract.
+    let names = unsafe { super::extensions::names(names, count) };
+    let names = names
+        .iter()
+        .map(|name| name.to_string_lossy().into_owned())
+        .collect();
+    CREATED_WITH
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .push((table, names));
+}
+
+/// The extensions the fake's instance or device of `table` was created with (the last one).
+pub(super) fn created_with(table: &'static u8) -> Vec<String> {
+    let key = key(table);
+    CREATED_WITH
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .iter()
+        .rev()
+        .find(|(table, _)| *table == key)
+        .map(|(_, names)| names.clone())
+        .unwrap_or_default()
+}
+
 pub(super) unsafe extern "system" fn fake_create_instance(
     create_info: *const vk::InstanceCreateInfo,
     _: *const vk::AllocationCallbacks,
     p_instance: *mut vk::Instance,
 ) -> vk::Result {
     let table = key(Tables::current().instance);
+    // SAFETY: revz passes a valid create info.
+    unsafe {
+        note_extensions(
+            table,
+            (*create_info).pp_enabled_extension_names,
+            (*create_info).enabled_extension_count,
+        )
+    };
     // SAFETY: revz passes the application's create info through.
     let first = unsafe { (*create_info).p_next.cast::<vk::BaseInStructure>().as_ref() };
     if first.map(|s| s.s_type) == Some(vk::StructureType::LAYER_SETTINGS_CREATE_INFO_EXT) {
@@ -463,10 +504,18 @@ unsafe extern "system" fn fake_destroy_instance(
 
 pub(super) unsafe extern "system" fn fake_create_device(
     _: vk::PhysicalDevice,
-    _: *const vk::DeviceCreateInfo,
+    create_info: *const vk::DeviceCreateInfo,
     _: *const vk::AllocationCallbacks,
     p_device: *mut vk::Device,
 ) -> vk::Result {
+    // SAFETY: revz passes a valid create info.
+    unsafe {
+        note_extensions(
+            key(Tables::current().device),
+            (*create_info).pp_enabled_extension_names,
+            (*create_info).enabled_extension_count,
+        )
+    };
     // SAFETY: revz passes the application's output pointer through.
     unsafe { *p_device = dispatchable(key(Tables::current().device)) };
     vk::Result::SUCCESS
@@ -570,9 +619,39 @@ pub(super) unsafe extern "system" fn fake_get_instance_proc_addr(
             vk::PFN_vkGetPhysicalDeviceProperties2,
             fake_get_physical_device_properties2
         ),
+        b"vkEnumerateDeviceExtensionProperties" => void_fn!(
+            vk::PFN_vkEnumerateDeviceExtensionProperties,
+            fake_enumerate_device_extension_properties
+        ),
         b"vkFakeInstanceCommand" => Some(fake_command),
+        b"vkGetPhysicalDeviceFeatures2KHR" => Some(fake_command),
         _ => None,
     }
+}
+
+/// The fake's physical devices offer one extension: `VK_EXT_extended_dynamic_state`.
+unsafe extern "system" fn fake_enumerate_device_extension_properties(
+    _: vk::PhysicalDevice,
+    _: *const c_char,
+    count: *mut u32,
+    properties: *mut vk::ExtensionProperties,
+) -> vk::Result {
+    let mut offered = vk::ExtensionProperties::default();
+    for (to, from) in offered
+        .extension_name
+        .iter_mut()
+        .zip(super::extensions::EXTENDED_DYNAMIC_STATE.to_bytes_with_nul())
+    {
+        *to = *from as c_char;
+    }
+    // SAFETY: revz passes a valid count, and room for it where `properties` is not null.
+    unsafe {
+        if !properties.is_null() && *count >= 1 {
+            *properties = offered;
+        }
+        *count = 1;
+    }
+    vk::Result::SUCCESS
 }
 
 /// The fake layer's `vkGetDeviceProcAddr` for a device with only a few commands (no render
@@ -587,7 +666,7 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr(
         b"vkDestroyDevice" => void_fn!(vk::PFN_vkDestroyDevice, fake_destroy_device),
         b"vkFakeDeviceCommand" => Some(fake_command),
         b"vkCmdDraw" => void_fn!(vk::PFN_vkCmdDraw, fake_cmd_draw),
-        b"vkCmdSetDepthCompareOp" => {
+        b"vkCmdSetDepthCompareOp" | b"vkCmdSetDepthCompareOpEXT" => {
             void_fn!(
                 vk::PFN_vkCmdSetDepthCompareOp,
                 fake_cmd_set_depth_compare_op
@@ -1020,6 +1099,16 @@ mod passes {
 /// passes `settings` (name, string value) through `VK_EXT_layer_settings`. Returns the
 /// instance and whether revz advanced the loader chain to the next link.
 pub(super) fn create_instance(settings: &[(&'static CStr, &'static CStr)]) -> (vk::Instance, bool) {
+    create_instance_at(vk::API_VERSION_1_3, &[], settings)
+}
+
+/// [`create_instance`] for an application that asks for Vulkan `api` and enables the instance
+/// extensions `extensions`.
+pub(super) fn create_instance_at(
+    api: u32,
+    extensions: &[&'static CStr],
+    settings: &[(&'static CStr, &'static CStr)],
+) -> (vk::Instance, bool) {
     let mut instance_link = crate::ffi::LayerInstanceLink {
         p_next: std::ptr::null_mut(),
         pfn_next_get_instance_proc_addr: fake_get_instance_proc_addr,
@@ -1047,10 +1136,13 @@ pub(super) fn create_instance(settings: &[(&'static CStr, &'static CStr)]) -> (v
     let mut layer_settings = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
     layer_settings.p_next =
         (&mut instance_chain as *mut crate::ffi::LayerInstanceCreateInfo).cast();
-    let app_info = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+    let app_info = vk::ApplicationInfo::default().api_version(api);
+    let extensions: Vec<*const c_char> = extensions.iter().map(|name| name.as_ptr()).collect();
     let create_info = vk::InstanceCreateInfo {
         p_next: (&layer_settings as *const vk::LayerSettingsCreateInfoEXT).cast(),
         p_application_info: &app_info,
+        enabled_extension_count: extensions.len() as u32,
+        pp_enabled_extension_names: extensions.as_ptr(),
         ..Default::default()
     };
     let mut instance = vk::Instance::null();

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::extensions::{self, EXTENDED_DYNAMIC_STATE, GET_PHYSICAL_DEVICE_PROPERTIES2};
 use crate::boundary::{guarded, EntryPoint};
 use crate::config::{self, layer_settings, AppIdentity, Mode, Settings, Sources};
 use crate::ffi;
@@ -43,6 +44,9 @@ pub unsafe extern "system" fn get_instance_proc_addr(
             }
             // SAFETY: a non-null instance passed to vkGetInstanceProcAddr is live.
             let state = INSTANCES.get(unsafe { DispatchKey::of(instance) })?;
+            if extensions::hides_instance_command(name, state.added_properties2) {
+                return None;
+            }
             // SAFETY: calling down the chain with the caller's arguments.
             unsafe { (state.next_get_instance_proc_addr)(instance, p_name) }
         },
@@ -73,6 +77,42 @@ pub unsafe extern "system" fn create_instance(
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
             let settings = read_settings(create_info);
+            let api_version = requested_api_version(create_info);
+            // SAFETY: the application's extension names.
+            let app_extensions = unsafe {
+                extensions::names(
+                    create_info.pp_enabled_extension_names,
+                    create_info.enabled_extension_count,
+                )
+            };
+            let added_properties2 =
+                extensions::instance_needs_properties2(settings.mode, api_version, &app_extensions);
+            let properties2_enabled =
+                added_properties2 || app_extensions.contains(&GET_PHYSICAL_DEVICE_PROPERTIES2);
+            // The application's create info, or a copy with the instance extension added. The
+            // loader's terminator passes each driver only the extensions it supports.
+            let names_down = if added_properties2 {
+                // SAFETY: the application's extension names.
+                unsafe {
+                    extensions::with_added(
+                        create_info.pp_enabled_extension_names,
+                        create_info.enabled_extension_count,
+                        GET_PHYSICAL_DEVICE_PROPERTIES2,
+                    )
+                }
+            } else {
+                Vec::new()
+            };
+            let mut with_properties2 = *create_info;
+            if added_properties2 {
+                with_properties2.enabled_extension_count = names_down.len() as u32;
+                with_properties2.pp_enabled_extension_names = names_down.as_ptr();
+            }
+            let p_create_info = if added_properties2 {
+                &with_properties2
+            } else {
+                p_create_info
+            };
             let gipa = link.get_instance_proc_addr;
             // SAFETY: querying a global command from the next layer.
             let Some(next_create) =
@@ -82,13 +122,20 @@ pub unsafe extern "system" fn create_instance(
             };
             // SAFETY: the next layer's vkCreateInstance has this signature.
             let next_create: vk::PFN_vkCreateInstance = unsafe { std::mem::transmute(next_create) };
-            // SAFETY: calling down with the application's arguments.
+            // SAFETY: calling down with the application's arguments (plus, where revz needs
+            // it, one extension).
             let result = unsafe { next_create(p_create_info, p_allocator, p_instance) };
             if result != vk::Result::SUCCESS {
                 return result;
             }
             // SAFETY: on success the next layer wrote a live instance.
             let instance = unsafe { *p_instance };
+            if added_properties2 {
+                log::info!(
+                    "instance {instance:?}: enabled VK_KHR_get_physical_device_properties2 for \
+                     this Vulkan 1.0 application (VK_EXT_extended_dynamic_state requires it)"
+                );
+            }
             // SAFETY: loading the next layer's instance commands for this instance.
             let next = unsafe {
                 ash::Instance::load_with(
@@ -102,7 +149,9 @@ pub unsafe extern "system" fn create_instance(
                 key,
                 InstanceState {
                     handle: instance,
-                    api_version: requested_api_version(create_info),
+                    api_version,
+                    properties2_enabled,
+                    added_properties2,
                     next_get_instance_proc_addr: gipa,
                     next,
                     settings,
@@ -189,8 +238,6 @@ unsafe fn device_api_version(instance: &InstanceState, physical_device: vk::Phys
     properties.api_version
 }
 
-const EXTENDED_DYNAMIC_STATE: &std::ffi::CStr = c"VK_EXT_extended_dynamic_state";
-
 /// Where a device's `vkCmdSetDepthCompareOp` comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum CompareOpSource {
@@ -222,7 +269,10 @@ unsafe fn compare_op_source(
     }
     // The application's own feature structure (with the feature off) cannot be changed in
     // place, and a second one would be invalid: leave such a device alone.
-    if instance.settings.mode == Mode::Off || feature_struct {
+    if instance.settings.mode == Mode::Off
+        || feature_struct
+        || !extensions::extended_dynamic_state_allowed(api, instance.properties2_enabled)
+    {
         return CompareOpSource::Unavailable;
     }
     // SAFETY: the caller's contract.
@@ -290,16 +340,12 @@ unsafe fn device_has_extension(
 fn extended_dynamic_state_requested(create_info: &vk::DeviceCreateInfo) -> (bool, bool, bool) {
     // SAFETY: `enabledExtensionCount` NUL-terminated names.
     let names = unsafe {
-        super::resources::slice(
+        extensions::names(
             create_info.pp_enabled_extension_names,
             create_info.enabled_extension_count,
         )
     };
-    let extension = names.iter().any(|&name| {
-        // SAFETY: as above.
-        let name = unsafe { ffi::c_str(name) };
-        name == Some(EXTENDED_DYNAMIC_STATE)
-    });
+    let extension = names.contains(&EXTENDED_DYNAMIC_STATE);
     // SAFETY: a valid pNext chain (the application's contract).
     let features = unsafe {
         crate::chain::find::<vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT<'_>>(
@@ -449,26 +495,30 @@ pub unsafe extern "system" fn create_device(
             let resolve_support = unsafe { resolve_support(&instance, physical_device, api) };
             // Enabling VK_EXT_extended_dynamic_state for the application when revz needs it:
             // the application's extensions plus one, and the feature chained in front.
-            let mut extensions = Vec::new();
-            let mut features = vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT::default();
-            let mut with_extension = *create_info;
-            if source == CompareOpSource::AddedExtension {
+            let added_extended_dynamic_state = source == CompareOpSource::AddedExtension;
+            let names_down = if added_extended_dynamic_state {
                 // SAFETY: `enabledExtensionCount` names.
-                extensions.extend_from_slice(unsafe {
-                    super::resources::slice(
+                unsafe {
+                    extensions::with_added(
                         create_info.pp_enabled_extension_names,
                         create_info.enabled_extension_count,
+                        EXTENDED_DYNAMIC_STATE,
                     )
-                });
-                extensions.push(EXTENDED_DYNAMIC_STATE.as_ptr());
+                }
+            } else {
+                Vec::new()
+            };
+            let mut features = vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT::default();
+            let mut with_extension = *create_info;
+            if added_extended_dynamic_state {
                 features.extended_dynamic_state = vk::TRUE;
                 features.p_next = create_info.p_next.cast_mut();
                 with_extension.p_next =
                     (&features as *const vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT).cast();
-                with_extension.enabled_extension_count = extensions.len() as u32;
-                with_extension.pp_enabled_extension_names = extensions.as_ptr();
+                with_extension.enabled_extension_count = names_down.len() as u32;
+                with_extension.pp_enabled_extension_names = names_down.as_ptr();
             }
-            let p_create_info = if source == CompareOpSource::AddedExtension {
+            let p_create_info = if added_extended_dynamic_state {
                 &with_extension
             } else {
                 p_create_info
@@ -529,6 +579,7 @@ pub unsafe extern "system" fn create_device(
                     settings: Arc::clone(&instance.settings),
                     policy,
                     resolve_support,
+                    added_extended_dynamic_state,
                     observed: Default::default(),
                     objects: DeviceObjects::default(),
                 },

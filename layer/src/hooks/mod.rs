@@ -37,6 +37,7 @@ macro_rules! destroy_hook {
 
 pub mod command;
 pub mod device;
+pub mod extensions;
 pub mod instance;
 pub mod pipeline;
 pub mod render_pass;
@@ -44,6 +45,8 @@ pub mod resources;
 
 #[cfg(test)]
 mod chain_tests;
+#[cfg(test)]
+mod extension_chain_tests;
 #[cfg(test)]
 mod fake_chain;
 #[cfg(test)]

@@ -1,0 +1,175 @@
+//! The extensions revz enables beyond what the application asked for, with what they require,
+//! and the commands it then hides from the application.
+//!
+//! revz needs a dynamic depth compare op. Below Vulkan 1.3 it enables
+//! `VK_EXT_extended_dynamic_state` at device creation, which requires
+//! `VK_KHR_get_physical_device_properties2` (or Vulkan 1.1) at instance creation: an application
+//! that asks for Vulkan 1.0 gets that instance extension added too
+//! (VUID-vkCreateDevice-ppEnabledExtensionNames-01387). What revz adds is revz's, not the
+//! application's: the commands of an added extension are not handed to the application through
+//! `vkGetInstanceProcAddr` or `vkGetDeviceProcAddr` (it did not enable them, and would get null
+//! without revz). Enumeration (`vkEnumerate*ExtensionProperties`) reports what the
+//! implementation offers, which enabling does not change, so it passes through untouched.
+
+use std::ffi::{c_char, CStr};
+
+use ash::vk;
+
+use crate::config::Mode;
+use crate::ffi;
+
+/// The instance extension `VK_EXT_extended_dynamic_state` requires below Vulkan 1.1.
+pub const GET_PHYSICAL_DEVICE_PROPERTIES2: &CStr = c"VK_KHR_get_physical_device_properties2";
+/// The device extension that makes the depth compare op dynamic below Vulkan 1.3.
+pub const EXTENDED_DYNAMIC_STATE: &CStr = c"VK_EXT_extended_dynamic_state";
+
+/// The commands of `VK_KHR_get_physical_device_properties2`.
+const GET_PHYSICAL_DEVICE_PROPERTIES2_COMMANDS: [&[u8]; 7] = [
+    b"vkGetPhysicalDeviceFeatures2KHR",
+    b"vkGetPhysicalDeviceProperties2KHR",
+    b"vkGetPhysicalDeviceFormatProperties2KHR",
+    b"vkGetPhysicalDeviceImageFormatProperties2KHR",
+    b"vkGetPhysicalDeviceQueueFamilyProperties2KHR",
+    b"vkGetPhysicalDeviceMemoryProperties2KHR",
+    b"vkGetPhysicalDeviceSparseImageFormatProperties2KHR",
+];
+
+/// The commands of `VK_EXT_extended_dynamic_state` (their EXT names; the core names are the
+/// application's wherever its API version has them).
+const EXTENDED_DYNAMIC_STATE_COMMANDS: [&[u8]; 12] = [
+    b"vkCmdSetCullModeEXT",
+    b"vkCmdSetFrontFaceEXT",
+    b"vkCmdSetPrimitiveTopologyEXT",
+    b"vkCmdSetViewportWithCountEXT",
+    b"vkCmdSetScissorWithCountEXT",
+    b"vkCmdBindVertexBuffers2EXT",
+    b"vkCmdSetDepthTestEnableEXT",
+    b"vkCmdSetDepthWriteEnableEXT",
+    b"vkCmdSetDepthCompareOpEXT",
+    b"vkCmdSetDepthBoundsTestEnableEXT",
+    b"vkCmdSetStencilTestEnableEXT",
+    b"vkCmdSetStencilOpEXT",
+];
+
+/// The extension names of a create info.
+///
+/// # Safety
+/// `names` must point at `count` NUL-terminated strings (or be null with `count` 0).
+pub unsafe fn names<'a>(names: *const *const c_char, count: u32) -> Vec<&'a CStr> {
+    // SAFETY: the caller's contract.
+    let pointers = unsafe { super::resources::slice(names, count) };
+    pointers
+        .iter()
+        // SAFETY: each pointer is a NUL-terminated string (the caller's contract).
+        .filter_map(|&name| unsafe { ffi::c_str(name) })
+        .collect()
+}
+
+/// Whether revz must add `VK_KHR_get_physical_device_properties2` to an instance created with
+/// `api` and the extensions `enabled`: below Vulkan 1.1, in any active mode (a device of it may
+/// need `VK_EXT_extended_dynamic_state`, and which device is not known yet), unless the
+/// application enabled it itself.
+pub fn instance_needs_properties2(mode: Mode, api: u32, enabled: &[&CStr]) -> bool {
+    mode != Mode::Off
+        && api < vk::API_VERSION_1_1
+        && !enabled.contains(&GET_PHYSICAL_DEVICE_PROPERTIES2)
+}
+
+/// Whether a device of an instance created with `api` (and `properties2_enabled`, by the
+/// application or by revz) may enable `VK_EXT_extended_dynamic_state`: the extension's one
+/// dependency.
+pub fn extended_dynamic_state_allowed(api: u32, properties2_enabled: bool) -> bool {
+    api >= vk::API_VERSION_1_1 || properties2_enabled
+}
+
+/// Whether `vkGetInstanceProcAddr` hides `name` from the application: a command of an instance
+/// extension revz added.
+pub fn hides_instance_command(name: &CStr, added_properties2: bool) -> bool {
+    added_properties2 && GET_PHYSICAL_DEVICE_PROPERTIES2_COMMANDS.contains(&name.to_bytes())
+}
+
+/// Whether `vkGetDeviceProcAddr` hides `name` from the application: a command of a device
+/// extension revz added.
+pub fn hides_device_command(name: &CStr, added_extended_dynamic_state: bool) -> bool {
+    added_extended_dynamic_state && EXTENDED_DYNAMIC_STATE_COMMANDS.contains(&name.to_bytes())
+}
+
+/// The application's extension list with `added` appended, for the create info passed down.
+///
+/// # Safety
+/// As [`names`].
+pub unsafe fn with_added(
+    names: *const *const c_char,
+    count: u32,
+    added: &'static CStr,
+) -> Vec<*const c_char> {
+    // SAFETY: the caller's contract.
+    let mut list = unsafe { super::resources::slice(names, count) }.to_vec();
+    list.push(added.as_ptr());
+    list
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn properties2_is_added_only_below_vulkan_1_1_in_active_modes_where_missing() {
+        use vk::{API_VERSION_1_0 as V10, API_VERSION_1_1 as V11, API_VERSION_1_3 as V13};
+        let none: [&CStr; 0] = [];
+        for mode in [Mode::Flip, Mode::Complementary, Mode::Infinite] {
+            assert!(instance_needs_properties2(mode, V10, &none));
+            assert!(instance_needs_properties2(
+                mode,
+                V10,
+                &[c"VK_EXT_debug_utils"]
+            ));
+            assert!(!instance_needs_properties2(
+                mode,
+                V10,
+                &[c"VK_EXT_debug_utils", GET_PHYSICAL_DEVICE_PROPERTIES2]
+            ));
+            assert!(!instance_needs_properties2(mode, V11, &none));
+            assert!(!instance_needs_properties2(mode, V13, &none));
+        }
+        assert!(!instance_needs_properties2(Mode::Off, V10, &none));
+        assert!(extended_dynamic_state_allowed(V11, false));
+        assert!(extended_dynamic_state_allowed(V10, true));
+        assert!(!extended_dynamic_state_allowed(V10, false));
+    }
+
+    #[test]
+    fn only_the_commands_of_added_extensions_are_hidden() {
+        assert!(hides_instance_command(
+            c"vkGetPhysicalDeviceFeatures2KHR",
+            true
+        ));
+        assert!(!hides_instance_command(
+            c"vkGetPhysicalDeviceFeatures2KHR",
+            false
+        ));
+        // The core name is the application's at 1.1 and above; at 1.0 the loader answers it.
+        assert!(!hides_instance_command(
+            c"vkGetPhysicalDeviceFeatures2",
+            true
+        ));
+        assert!(hides_device_command(c"vkCmdSetDepthCompareOpEXT", true));
+        assert!(hides_device_command(c"vkCmdSetStencilOpEXT", true));
+        assert!(!hides_device_command(c"vkCmdSetDepthCompareOpEXT", false));
+        assert!(!hides_device_command(c"vkCmdSetDepthCompareOp", true));
+        assert!(!hides_device_command(c"vkCmdDraw", true));
+    }
+
+    #[test]
+    fn the_added_name_follows_the_application_names() {
+        let app = [c"VK_EXT_debug_utils".as_ptr()];
+        // SAFETY: one valid name.
+        let list = unsafe { with_added(app.as_ptr(), 1, EXTENDED_DYNAMIC_STATE) };
+        // SAFETY: the list holds valid names.
+        let seen = unsafe { names(list.as_ptr(), list.len() as u32) };
+        assert_eq!(seen, [c"VK_EXT_debug_utils", EXTENDED_DYNAMIC_STATE]);
+        // SAFETY: null with count 0.
+        let only = unsafe { with_added(std::ptr::null(), 0, EXTENDED_DYNAMIC_STATE) };
+        assert_eq!(only.len(), 1);
+    }
+}
