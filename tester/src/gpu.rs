@@ -131,6 +131,9 @@ pub struct GpuOptions {
     /// Optional features to enable where the device has them.
     pub features: Features,
     /// The highest Vulkan version to ask for (default: 1.3 where the loader has it, else 1.2).
+    /// Below 1.1 the tester enables `VK_KHR_get_physical_device_properties2` only where a
+    /// requested feature needs it (`depthClipControl`, `graphicsPipelineLibrary`), as a
+    /// Vulkan 1.0 application would.
     pub max_api_version: Option<u32>,
 }
 
@@ -185,6 +188,9 @@ struct InstanceCtx {
     entry: ash::Entry,
     instance: ash::Instance,
     api_version: u32,
+    /// `VK_KHR_get_physical_device_properties2`, where the instance is below 1.1 and enabled
+    /// it (the features and properties queries beyond Vulkan 1.0 go through it).
+    properties2: Option<ash::khr::get_physical_device_properties2::Instance>,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     log: Arc<ValidationLog>,
 }
@@ -216,7 +222,13 @@ fn debug_messenger_info(log: &Arc<ValidationLog>) -> vk::DebugUtilsMessengerCrea
 }
 
 impl InstanceCtx {
-    fn new(validation: bool, max_api_version: Option<u32>) -> Result<Self> {
+    /// `extension_features`: features of device extensions will be asked for (below Vulkan 1.1
+    /// their queries need `VK_KHR_get_physical_device_properties2`).
+    fn new(
+        validation: bool,
+        max_api_version: Option<u32>,
+        extension_features: bool,
+    ) -> Result<Self> {
         // SAFETY: loading libvulkan.so.1 runs its initialisers; the loader is a well-behaved
         // shared library and `Entry` keeps it loaded for as long as it lives.
         let entry = unsafe { ash::Entry::load() }
@@ -267,6 +279,10 @@ impl InstanceCtx {
             }
             extensions.push(debug_utils.as_ptr());
         }
+        let properties2 = api_version < vk::API_VERSION_1_1 && extension_features;
+        if properties2 {
+            extensions.push(ash::khr::get_physical_device_properties2::NAME.as_ptr());
+        }
 
         let app_info = vk::ApplicationInfo::default()
             .application_name(c"revz-tester")
@@ -293,10 +309,13 @@ impl InstanceCtx {
             Err(e) => bail!("vkCreateInstance failed: {e}"),
         };
 
+        let properties2 = properties2
+            .then(|| ash::khr::get_physical_device_properties2::Instance::new(&entry, &instance));
         let mut ctx = InstanceCtx {
             entry,
             instance,
             api_version,
+            properties2,
             debug: None,
             log,
         };
@@ -397,6 +416,31 @@ fn device_info(instance: &InstanceCtx, physical_device: vk::PhysicalDevice) -> D
     info
 }
 
+impl InstanceCtx {
+    /// `vkGetPhysicalDeviceFeatures2` (core 1.1) or its KHR name below 1.1; `false` where the
+    /// instance has neither (a Vulkan 1.0 instance without the extension).
+    fn features2(
+        &self,
+        physical_device: vk::PhysicalDevice,
+        features: &mut vk::PhysicalDeviceFeatures2<'_>,
+    ) -> bool {
+        if self.api_version >= vk::API_VERSION_1_1 {
+            // SAFETY: core 1.1 entry point; the caller's chain holds valid structures.
+            unsafe {
+                self.instance
+                    .get_physical_device_features2(physical_device, features)
+            };
+            true
+        } else if let Some(properties2) = &self.properties2 {
+            // SAFETY: the extension is enabled; the caller's chain holds valid structures.
+            unsafe { properties2.get_physical_device_features2(physical_device, features) };
+            true
+        } else {
+            false
+        }
+    }
+}
+
 /// The optional features `physical_device` has (`dynamicRendering` only with Vulkan 1.3,
 /// `depthClipControl` and `graphicsPipelineLibrary` only with their extensions).
 fn supported_features(
@@ -414,13 +458,7 @@ fn supported_features(
     if vulkan_1_3 {
         let mut features13 = vk::PhysicalDeviceVulkan13Features::default();
         let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features13);
-        // SAFETY: core 1.1 entry point (instance and device are at 1.3); the chain holds a
-        // valid Vulkan 1.3 features structure.
-        unsafe {
-            instance
-                .instance
-                .get_physical_device_features2(physical_device, &mut features2)
-        };
+        instance.features2(physical_device, &mut features2);
         dynamic_rendering = features13.dynamic_rendering == vk::TRUE;
     }
     // SAFETY: `physical_device` was enumerated from this instance.
@@ -440,27 +478,17 @@ fn supported_features(
     if has_clip_control {
         let mut clip = vk::PhysicalDeviceDepthClipControlFeaturesEXT::default();
         let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut clip);
-        // SAFETY: core 1.1 entry point (the instance asks for 1.2 or later); the device has
-        // the extension whose features structure is chained.
-        unsafe {
-            instance
-                .instance
-                .get_physical_device_features2(physical_device, &mut features2)
-        };
-        depth_clip_control = clip.depth_clip_control == vk::TRUE;
+        // The device has the extension whose features structure is chained.
+        depth_clip_control = instance.features2(physical_device, &mut features2)
+            && clip.depth_clip_control == vk::TRUE;
     }
     let mut graphics_pipeline_library = false;
     if has(ash::ext::graphics_pipeline_library::NAME) && has(ash::khr::pipeline_library::NAME) {
         let mut library = vk::PhysicalDeviceGraphicsPipelineLibraryFeaturesEXT::default();
         let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut library);
-        // SAFETY: core 1.1 entry point (the instance asks for 1.2 or later); the device has
-        // the extension whose features structure is chained.
-        unsafe {
-            instance
-                .instance
-                .get_physical_device_features2(physical_device, &mut features2)
-        };
-        graphics_pipeline_library = library.graphics_pipeline_library == vk::TRUE;
+        // The device has the extension whose features structure is chained.
+        graphics_pipeline_library = instance.features2(physical_device, &mut features2)
+            && library.graphics_pipeline_library == vk::TRUE;
     }
     Features {
         dynamic_rendering,
@@ -474,7 +502,13 @@ fn supported_features(
 impl Gpu {
     /// Creates the instance, picks the physical device, creates the device and its queue.
     pub fn new(options: &GpuOptions) -> Result<Self> {
-        let instance = InstanceCtx::new(options.validation, options.max_api_version)?;
+        let extension_features =
+            options.features.depth_clip_control || options.features.graphics_pipeline_library;
+        let instance = InstanceCtx::new(
+            options.validation,
+            options.max_api_version,
+            extension_features,
+        )?;
 
         // SAFETY: valid instance.
         let physical_devices = unsafe { instance.instance.enumerate_physical_devices() }
@@ -601,6 +635,11 @@ impl Gpu {
     /// The Vulkan instance.
     pub fn instance(&self) -> &ash::Instance {
         &self.instance.instance
+    }
+
+    /// The Vulkan version the tester uses: what it asked for, capped by the device's.
+    pub fn api_version(&self) -> u32 {
+        self.instance.api_version.min(self.info.api_version)
     }
 
     /// The device's limits.

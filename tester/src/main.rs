@@ -112,8 +112,10 @@ struct RenderArgs {
     #[arg(long)]
     no_depth_readback: bool,
 
-    /// Ask for at most this Vulkan version (`1.2` or `1.3`), as an older application would.
-    #[arg(long, value_name = "VERSION", value_parser = ["1.2", "1.3"])]
+    /// Ask for at most this Vulkan version, as an older application would. Scenes that need
+    /// a later core version (dynamic rendering and dynamic compare ops 1.3, multisampled depth
+    /// resolves 1.2) are refused below it.
+    #[arg(long, value_name = "VERSION", value_parser = ["1.0", "1.1", "1.2", "1.3"])]
     vulkan: Option<String>,
 
     /// Output directory (created if missing).
@@ -192,6 +194,8 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         device: cli.device.clone(),
         validation: cli.validation,
         max_api_version: cli.vulkan.as_deref().map(|v| match v {
+            "1.0" => ash::vk::API_VERSION_1_0,
+            "1.1" => ash::vk::API_VERSION_1_1,
             "1.2" => ash::vk::API_VERSION_1_2,
             _ => ash::vk::API_VERSION_1_3,
         }),

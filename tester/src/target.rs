@@ -374,10 +374,12 @@ fn check_multisample(
     multisample: Multisample,
 ) -> Result<(vk::SampleCountFlags, ResolveModes)> {
     let device = &gpu.info.name;
-    if gpu.info.api_version < vk::API_VERSION_1_2 {
+    if gpu.api_version() < vk::API_VERSION_1_2 {
         bail!(
-            "device '{device}' is Vulkan {}: multisampled depth resolves need Vulkan 1.2",
-            gpu.info.api_version_string()
+            "device '{device}' is used at Vulkan {}.{}: multisampled depth resolves need \
+             Vulkan 1.2",
+            vk::api_version_major(gpu.api_version()),
+            vk::api_version_minor(gpu.api_version())
         );
     }
     let samples = vk::SampleCountFlags::from_raw(multisample.samples);

@@ -15,6 +15,7 @@ use crate::command_state::{StateSink, Target};
 use crate::config::Mode;
 use crate::conv::{flip_resolve_mode, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope};
+use crate::policy::Convention;
 use crate::precise::{Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
@@ -126,14 +127,14 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
 /// What a classified projection tells about the application.
 fn observe(device: &DeviceState, outcome: &Outcome) {
     match outcome {
-        // Only infinite mode maps clears and flip-path state with n / f.
-        Outcome::Rewritten { near_over_far, .. } if device.policy.mode == Mode::Infinite => {
-            device.observed.note_near_over_far(*near_over_far)
+        Outcome::Rewritten { near_over_far, .. } => {
+            device.observed.note_projection(false);
+            // Only infinite mode maps clears and flip-path state with n / f.
+            if device.policy.mode == Mode::Infinite {
+                device.observed.note_near_over_far(*near_over_far)
+            }
         }
-        Outcome::Rewritten { .. } => {}
-        Outcome::AlreadyReversed => device
-            .observed
-            .note_app_reversed("it pushes a reversed projection"),
+        Outcome::AlreadyReversed => device.observed.note_projection(true),
         Outcome::Unchanged => {}
     }
 }
@@ -437,7 +438,10 @@ pub unsafe extern "system" fn cmd_set_depth_compare_op(
     op: vk::CompareOp,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthCompareOp");
-    let taken = recorded(buffer, &ENTRY, |entry| entry.state().set_compare_op(op));
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        entry.device.observed.note_dynamic_compare_op(op);
+        entry.state().set_compare_op(op)
+    });
     if let Err(Some(device)) = taken {
         if let Some(next) = device.commands.set_depth_compare_op {
             // SAFETY: calling down with the application's arguments.
@@ -567,32 +571,35 @@ fn begin_pass(entry: &CommandBufferEntry, begin: &vk::RenderPassBeginInfo<'_>) -
     let device = &entry.device;
     let pass = device.objects.render_passes.get(&begin.render_pass);
     let views = attachment_views(device, begin.framebuffer, begin.p_next);
-    let targets_of = || -> Vec<Target> { views.iter().map(|&v| device.view_target(v)).collect() };
     let mut out = PassBegin::default();
     let mut targets = Vec::new();
     if let Some(pass) = &pass {
         // Ordinary framebuffers were settled at creation; imageless ones only now.
         device.objects.settle_pass_resolves(pass, &views);
-        targets = targets_of();
+        let images: Vec<Target> = views
+            .iter()
+            .map(|&v| device.objects.view_target(v))
+            .collect();
         let mut clears: Vec<vk::ClearValue> =
             // SAFETY: `clearValueCount` values.
             unsafe { slice(begin.p_clear_values, begin.clear_value_count) }.to_vec();
-        let reversed_clear_to_0 = clears.iter().enumerate().any(|(index, clear)| {
-            pass.depth_cleared.get(index).copied().unwrap_or(false)
-                && targets.get(index) == Some(&Target::Reversed)
+        let cleared = |index: usize| pass.depth_cleared.get(index).copied().unwrap_or(false);
+        // The first reversed attachment cleared here settles the convention with its value.
+        let reversed_clear = clears.iter().enumerate().find_map(|(index, clear)| {
+            (cleared(index) && images.get(index) == Some(&Target::Reversed))
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
-                && unsafe { clear.depth_stencil.depth } == 0.0
+                .then(|| unsafe { clear.depth_stencil.depth })
         });
-        if reversed_clear_to_0 {
-            device
-                .observed
-                .note_app_reversed("a depth attachment is cleared to 0");
-            targets = targets_of();
+        if images.contains(&Target::Reversed) {
+            device.observed.settle(reversed_clear);
         }
+        targets = images
+            .into_iter()
+            .map(|target| device.observed.effective(target))
+            .collect();
         let mut changed = false;
         for (index, clear) in clears.iter_mut().enumerate() {
-            let cleared = pass.depth_cleared.get(index).copied().unwrap_or(false);
-            if cleared && targets.get(index) == Some(&Target::Reversed) {
+            if cleared(index) && targets.get(index) == Some(&Target::Reversed) {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
                 unsafe {
                     clear.depth_stencil.depth = device.reversed_clear(clear.depth_stencil.depth)
@@ -756,18 +763,16 @@ pub unsafe extern "system" fn cmd_begin_rendering(
                 swappable,
             );
         }
-        let mut target = depth.map_or(Target::None, |d| device.view_target(d.image_view));
-        // SAFETY: a depth attachment's clear value is the depthStencil member.
-        let clear_depth = depth.map(|d| unsafe { d.clear_value.depth_stencil.depth });
-        if target == Target::Reversed
-            && depth.is_some_and(|d| d.load_op == vk::AttachmentLoadOp::CLEAR)
-            && clear_depth == Some(0.0)
-        {
-            device
-                .observed
-                .note_app_reversed("a depth attachment is cleared to 0");
-            target = device.observed.effective(target);
+        let image = depth.map_or(Target::None, |d| device.objects.view_target(d.image_view));
+        if image == Target::Reversed {
+            // The clear of a reversed attachment settles the convention with its value.
+            let clear = depth
+                .filter(|d| d.load_op == vk::AttachmentLoadOp::CLEAR)
+                // SAFETY: a depth attachment's clear value is the depthStencil member.
+                .map(|d| unsafe { d.clear_value.depth_stencil.depth });
+            device.observed.settle(clear);
         }
+        let target = device.observed.effective(image);
         if let (Some(depth), Target::Reversed) = (depth, target) {
             let mut copy = *depth;
             if copy.load_op == vk::AttachmentLoadOp::CLEAR {
@@ -872,12 +877,10 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
         if device.objects.image_reversed(image) {
             // SAFETY: a valid value (the application's contract).
             let mut value = unsafe { *p_value };
-            if value.depth == 0.0 {
-                device
-                    .observed
-                    .note_app_reversed("a depth image is cleared to 0");
-            }
-            if !device.observed.app_reversed() {
+            // SAFETY: `rangeCount` ranges.
+            let ranges = unsafe { slice(p_ranges, range_count) };
+            let clear = clears_depth(ranges).then_some(value.depth);
+            if device.observed.settle(clear) == Convention::Standard {
                 value.depth = device.reversed_clear(value.depth);
                 flipped = Some(value);
             }
@@ -896,6 +899,14 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
             p_ranges,
         )
     }
+}
+
+/// Whether an image clear writes depth: a range of the depth aspect (a stencil-only clear
+/// leaves depth, and says nothing of its convention).
+fn clears_depth(ranges: &[vk::ImageSubresourceRange]) -> bool {
+    ranges
+        .iter()
+        .any(|range| range.aspect_mask.contains(vk::ImageAspectFlags::DEPTH))
 }
 
 /// Warns once when a transfer writes into a reversed depth image: the values it writes keep
@@ -1145,14 +1156,7 @@ fn inherited_target(
 fn format_target(device: &DeviceState, format: vk::Format) -> Target {
     static MIXED: OnceLock<()> = OnceLock::new();
     let (reversed, native) = device.objects.count_images(format);
-    if device.observed.app_reversed() {
-        return if reversed + native == 0 {
-            Target::None
-        } else {
-            Target::Native
-        };
-    }
-    match (reversed, native) {
+    let images = match (reversed, native) {
         (0, 0) => Target::None,
         (_, 0) => Target::Reversed,
         (0, _) => Target::Native,
@@ -1165,7 +1169,8 @@ fn format_target(device: &DeviceState, format: vk::Format) -> Target {
             });
             Target::Reversed
         }
-    }
+    };
+    device.observed.effective(images)
 }
 
 pub unsafe extern "system" fn cmd_execute_commands(
@@ -1199,5 +1204,28 @@ pub unsafe extern "system" fn cmd_execute_commands(
     if let Some(device) = device {
         // SAFETY: calling down with the application's arguments.
         unsafe { (device.next.fp_v1_0().cmd_execute_commands)(buffer, count, p_buffers) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_clears_of_the_depth_aspect_say_anything_about_depth() {
+        let range = |aspect_mask| vk::ImageSubresourceRange {
+            aspect_mask,
+            level_count: 1,
+            layer_count: 1,
+            ..Default::default()
+        };
+        use vk::ImageAspectFlags as A;
+        assert!(!clears_depth(&[range(A::STENCIL)]));
+        assert!(!clears_depth(&[]));
+        assert!(clears_depth(&[range(A::DEPTH)]));
+        assert!(clears_depth(&[
+            range(A::STENCIL),
+            range(A::DEPTH | A::STENCIL)
+        ]));
     }
 }

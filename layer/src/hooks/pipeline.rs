@@ -362,6 +362,10 @@ struct Plan {
     /// statically discard every primitive. Otherwise its viewport and depth state are ignored
     /// by the spec (possibly dangling) and nothing about its depth matters.
     renders_depth: bool,
+    /// The static compare op of a pipeline that tests depth (`None` where it does not, or
+    /// where the application sets the compare op dynamically): evidence of the application's
+    /// depth convention (`crate::policy::ConventionEvidence`).
+    tested_compare_op: Option<vk::CompareOp>,
 }
 
 impl Plan {
@@ -432,6 +436,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         fragment: None,
         libraries: None,
         renders_depth: false,
+        tested_compare_op: None,
     };
     if !context.has_depth_attachment {
         return unchanged(depth);
@@ -469,6 +474,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     }
     let mut added = Vec::new();
     let mut compare_op_variant = false;
+    let mut tested_compare_op = None;
     if let Some(depth_stencil) = depth_stencil {
         depth.compare_op = depth_stencil.depth_compare_op;
         depth.bounds = (
@@ -478,6 +484,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         let depth_test =
             depth_stencil.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
         if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
+            tested_compare_op = Some(depth.compare_op);
             if !context.compare_op_variants {
                 added.push(vk::DynamicState::DEPTH_COMPARE_OP);
                 depth.injected |= States::COMPARE_OP;
@@ -536,6 +543,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         fragment: None,
         libraries: None,
         renders_depth: true,
+        tested_compare_op,
     }
 }
 
@@ -593,6 +601,9 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 .map(|info| {
                     let context = context(&state, info);
                     let mut plan = plan(info, &context);
+                    if let Some(op) = plan.tested_compare_op {
+                        state.observed.note_pipeline_compare_op(op);
+                    }
                     // Even without depth writes, a fragment shader may read FragCoord.z.
                     let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
                     let linked = linked_libraries(&state, info);

@@ -15,7 +15,7 @@ use std::sync::Arc;
 use ash::vk::{self, Handle};
 
 use super::fake_chain::{self, Event, SeenDepthAttachment, SeenResolve, Tables};
-use crate::policy::{ImageDepth, NativeReason};
+use crate::policy::{Convention, ImageDepth, NativeReason};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
 use vk::ResolveModeFlags as Mode;
@@ -1115,5 +1115,58 @@ fn a_destroyed_image_takes_its_resolve_pairs_with_it() {
     // SAFETY: a live device and an image it created, destroyed once.
     unsafe { (fx.hooks.destroy_image)(fx.device, destination, std::ptr::null()) };
     assert_eq!(fx.state.objects.resolve_pairs.count(), 0);
+    fx.finish();
+}
+
+/// The depth convention is decided once, at the first reversed attachment a command buffer
+/// commits to: a clear to 0 seen later (in another command buffer of the same frame) must not
+/// turn reversal off, or command buffers recorded before would draw reversed and the new ones
+/// LESS against reversed contents.
+#[test]
+fn a_clear_to_0_after_the_first_reversed_pass_leaves_reversal_on() {
+    let fx = Fixture::new();
+    let (_, view) = fx.depth_image(D32, RENDERED, SINGLE);
+    let first = rendering_depth(view, Mode::NONE, vk::ImageView::null());
+    let (seen, _) = fx.run_rendering(&first, None);
+    assert_eq!(seen.clear_depth, 0.0, "1.0 is reversed to 0.0");
+    // A GREATER pipeline and a clear to 0 after the decision: weak, late evidence.
+    fx.state
+        .observed
+        .note_pipeline_compare_op(vk::CompareOp::GREATER);
+    let mut late = first;
+    late.clear_value.depth_stencil.depth = 0.0;
+    let (seen, _) = fx.run_rendering(&late, None);
+    assert_eq!(seen.clear_depth, 1.0, "still reversed: 0.0 becomes 1.0");
+    assert_eq!(fx.state.observed.convention(), Some(Convention::Standard));
+    fx.finish();
+}
+
+/// Strong evidence before the first reversed pass (a GREATER pipeline, then the attachment
+/// cleared to 0): the application renders reversed itself and is left alone.
+#[test]
+fn strong_evidence_before_the_first_pass_leaves_a_reversed_application_alone() {
+    let fx = Fixture::new();
+    let (image, view) = fx.depth_image(D32, RENDERED, SINGLE);
+    fx.state
+        .observed
+        .note_pipeline_compare_op(vk::CompareOp::GREATER);
+    let mut depth = rendering_depth(view, Mode::NONE, vk::ImageView::null());
+    depth.clear_value.depth_stencil.depth = 0.0;
+    let (seen, app_structure) = fx.run_rendering(&depth, None);
+    assert_eq!(seen.clear_depth, 0.0);
+    assert!(
+        app_structure,
+        "the application's attachment goes down untouched"
+    );
+    assert_eq!(
+        fx.state.observed.convention(),
+        Some(Convention::AppReversed)
+    );
+    // The image itself stays what the policy made it: only the convention differs.
+    assert!(fx.state.objects.image_reversed(image));
+    // A clear to 1.0 later is the application's too.
+    depth.clear_value.depth_stencil.depth = 1.0;
+    let (seen, app_structure) = fx.run_rendering(&depth, None);
+    assert_eq!((seen.clear_depth, app_structure), (1.0, true));
     fx.finish();
 }
