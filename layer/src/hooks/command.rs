@@ -586,9 +586,9 @@ fn begin_pass(entry: &CommandBufferEntry, begin: &vk::RenderPassBeginInfo<'_>) -
         let cleared = |index: usize| pass.depth_cleared.get(index).copied().unwrap_or(false);
         // The first reversed attachment cleared here settles the convention with its value.
         let reversed_clear = clears.iter().enumerate().find_map(|(index, clear)| {
-            (cleared(index) && images.get(index) == Some(&Target::Reversed))
-                // SAFETY: a depth attachment's clear value is the depthStencil member.
-                .then(|| unsafe { clear.depth_stencil.depth })
+            // SAFETY: a depth attachment's clear value is the depthStencil member.
+            let depth = unsafe { clear.depth_stencil.depth };
+            (cleared(index) && images.get(index) == Some(&Target::Reversed)).then_some(depth)
         });
         if images.contains(&Target::Reversed) {
             device.observed.settle(reversed_clear);
