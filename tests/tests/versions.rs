@@ -1,0 +1,168 @@
+//! Applications that ask for Vulkan 1.0 or 1.1 (issue #18): revz must enable what it needs with
+//! its requirements at every API version (`VK_EXT_extended_dynamic_state`, and below 1.1 the
+//! `VK_KHR_get_physical_device_properties2` it requires), so that every scene renders in every
+//! mode with zero validation messages, and exactly as it does for a Vulkan 1.3 application.
+//!
+//! Each scene is rendered through the layer (`reverse_observable = copies`, so its main depth
+//! image is reversed and read back) at 1.3, then at 1.0 and 1.1: color and depth must be
+//! bit-identical to the 1.3 render, whose correctness the other suites check. A scene that
+//! needs a later core version (dynamic rendering and dynamic compare ops 1.3, multisampled
+//! depth resolves 1.2), or a feature lavapipe lacks, is refused by the tester; which ones are
+//! refused at each version is asserted, not skipped silently.
+
+use std::path::Path;
+
+use revz_tests::{differing_depths, differing_pixels, Harness, Render};
+
+/// The scenes `revz-tester --help` lists under `--scene`.
+fn scenes(harness: &Harness) -> Vec<String> {
+    let output = revz_tests::clean_command(&harness.tester)
+        .arg("--help")
+        .output()
+        .expect("run revz-tester --help");
+    let help = String::from_utf8_lossy(&output.stdout).into_owned();
+    let section = help
+        .split("--scene <SCENE>")
+        .nth(1)
+        .and_then(|rest| rest.split("\n      --").next())
+        .expect("--help documents --scene");
+    let scenes: Vec<String> = section
+        .lines()
+        .filter_map(|line| line.trim().strip_prefix("- "))
+        .filter_map(|entry| entry.split(':').next())
+        .map(str::to_owned)
+        .collect();
+    assert!(
+        scenes.len() >= 30 && scenes.iter().any(|s| s == "overlap"),
+        "{scenes:?}"
+    );
+    scenes
+}
+
+/// The scenes the tester refuses at `version`, and why (what its error says).
+fn refused(version: &str, scene: &str) -> Option<&'static str> {
+    let below_1_3 = version != "1.3";
+    let below_1_2 = matches!(version, "1.0" | "1.1");
+    match scene {
+        // lavapipe has no depthBounds at any version.
+        "depth-bounds" => Some("device lacks depthBounds"),
+        "compare-ops-dynamic" | "dynamic-rendering" | "msaa-resolve-dynamic" if below_1_3 => {
+            Some("device lacks Vulkan 1.3")
+        }
+        "msaa-resolve" if below_1_2 => Some("multisampled depth resolves need Vulkan 1.2"),
+        _ => None,
+    }
+}
+
+/// The scenes whose device extensions (`VK_EXT_depth_clip_control`,
+/// `VK_EXT_graphics_pipeline_library`) make the tester, as a Vulkan 1.0 application, enable
+/// `VK_KHR_get_physical_device_properties2` itself: revz then has nothing to add.
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 3] =
+    ["opengl-depth", "pipeline-library", "frag-depth-library"];
+
+/// Renders `scene` through the layer in `mode` at `version`; `Err` with the tester's error
+/// where it refused the scene.
+fn render(harness: &Harness, scene: &str, mode: &str, version: &str) -> Result<Render, String> {
+    let format = if scene == "stencil" { "d32-s8" } else { "d32" };
+    let dir = harness.scratch_dir(&format!("versions-{scene}-{mode}-{version}"));
+    let mut command = harness.tester(format, &dir);
+    command.args(["--scene", scene, "--vulkan", version]);
+    harness
+        .with_layer(&mut command)
+        .env("REVZ_MODE", mode)
+        .env("REVZ_REVERSE_OBSERVABLE", "copies")
+        .env("REVZ_LOG", "info");
+    let output = command.output().expect("start revz-tester");
+    let render = Render { dir, output };
+    if render.output.status.code() == Some(1) {
+        return Err(render.stderr());
+    }
+    render.assert_clean();
+    Ok(render)
+}
+
+fn same_as_vulkan_1_3(mode: &str) {
+    let harness = Harness::locate();
+    let mut problems = Vec::new();
+    for scene in scenes(&harness) {
+        let reference = render(&harness, &scene, mode, "1.3");
+        for version in ["1.3", "1.0", "1.1"] {
+            let result = if version == "1.3" {
+                reference.as_ref().map(|_| ()).map_err(Clone::clone)
+            } else {
+                render(&harness, &scene, mode, version).and_then(|layered| {
+                    check(&layered, reference.as_ref().ok(), &scene, mode, version)
+                        .map_err(|problem| format!("RENDERED: {problem}"))
+                })
+            };
+            match (refused(version, &scene), result) {
+                (None, Ok(())) => {}
+                (Some(reason), Err(error)) if error.contains(reason) => {}
+                (expected, outcome) => problems.push(format!(
+                    "{scene} {mode} at Vulkan {version}: expected {}, got {outcome:?}",
+                    expected.map_or("a clean render".to_owned(), |r| format!("refusal '{r}'"))
+                )),
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// The render at an older version against the 1.3 one.
+fn check(
+    layered: &Render,
+    reference: Option<&Render>,
+    scene: &str,
+    mode: &str,
+    version: &str,
+) -> Result<(), String> {
+    let stderr = layered.stderr();
+    let added = "enabled VK_KHR_get_physical_device_properties2";
+    let should_add =
+        mode != "off" && version == "1.0" && !ENABLE_PROPERTIES2_THEMSELVES.contains(&scene);
+    if stderr.contains(added) != should_add {
+        return Err(format!(
+            "'{added}' expected: {should_add}; the log:\n{stderr}"
+        ));
+    }
+    if mode != "off" && !stderr.contains("enabled VK_EXT_extended_dynamic_state") {
+        return Err(format!(
+            "VK_EXT_extended_dynamic_state not enabled:\n{stderr}"
+        ));
+    }
+    let Some(reference) = reference else {
+        return Err("the Vulkan 1.3 render was refused".into());
+    };
+    let colors = differing_pixels(&reference.color(), &layered.color());
+    let depths = if Path::new(&layered.dir.join("depth.f32")).exists() {
+        differing_depths(&reference.depth(), &layered.depth())
+    } else {
+        0
+    };
+    if colors != 0 || depths != 0 {
+        return Err(format!(
+            "{colors} color pixels and {depths} depth values differ from Vulkan 1.3"
+        ));
+    }
+    Ok(())
+}
+
+#[test]
+fn off_at_vulkan_1_0_and_1_1_renders_as_at_1_3() {
+    same_as_vulkan_1_3("off");
+}
+
+#[test]
+fn flip_at_vulkan_1_0_and_1_1_renders_as_at_1_3() {
+    same_as_vulkan_1_3("flip");
+}
+
+#[test]
+fn complementary_at_vulkan_1_0_and_1_1_renders_as_at_1_3() {
+    same_as_vulkan_1_3("complementary");
+}
+
+#[test]
+fn infinite_at_vulkan_1_0_and_1_1_renders_as_at_1_3() {
+    same_as_vulkan_1_3("infinite");
+}
