@@ -456,6 +456,7 @@ pub fn forget_command_buffers(buffers: &[vk::CommandBuffer]) {
     for buffer in buffers {
         COMMAND_BUFFERS.remove(buffer);
     }
+    uncache(buffers);
     // After the removal, so that a racing lookup cannot cache a removed entry under the new
     // generation.
     GENERATION.fetch_add(1, Ordering::Release);
@@ -493,32 +494,46 @@ fn remember(
 }
 
 /// Runs `f` with the entry of a command buffer, if revz tracks it, without taking a reference
-/// count on a cache hit (the per-draw path).
+/// count on a cache hit (the per-draw path). From a thread-local destructor that runs after the
+/// cache's own (a Vulkan call made while the thread exits), the lookup goes to the table
+/// uncached instead of panicking.
 #[inline]
 pub fn with_command_buffer<R>(
     buffer: vk::CommandBuffer,
     f: impl FnOnce(&CommandBufferEntry) -> R,
 ) -> Option<R> {
     let generation = GENERATION.load(Ordering::Acquire);
-    CACHE.with(|cache| {
+    let mut f = Some(f);
+    let cached = CACHE.try_with(|cache| {
         if let Ok(slot) = cache.try_borrow() {
             if let Some((cached, cached_generation, entry)) = slot.as_ref() {
                 if *cached == buffer && *cached_generation == generation {
+                    let f = f.take().expect("called once");
                     return Some(f(entry));
                 }
             }
         }
         let entry = COMMAND_BUFFERS.get(&buffer)?;
         remember(cache, buffer, generation, &entry);
+        let f = f.take().expect("called once");
         Some(f(&entry))
-    })
+    });
+    match cached {
+        Ok(result) => result,
+        // The cache is gone (this thread is exiting): uncached.
+        Err(_) => {
+            let entry = COMMAND_BUFFERS.get(&buffer)?;
+            f.take().map(|f| f(&entry))
+        }
+    }
 }
 
-/// The entry of a command buffer, if revz tracks it.
+/// The entry of a command buffer, if revz tracks it (uncached where the cache is gone, as in
+/// [`with_command_buffer`]).
 #[inline]
 pub fn command_buffer(buffer: vk::CommandBuffer) -> Option<Arc<CommandBufferEntry>> {
     let generation = GENERATION.load(Ordering::Acquire);
-    CACHE.with(|cache| {
+    let cached = CACHE.try_with(|cache| {
         if let Ok(slot) = cache.try_borrow() {
             if let Some((cached, cached_generation, entry)) = slot.as_ref() {
                 if *cached == buffer && *cached_generation == generation {
@@ -529,7 +544,32 @@ pub fn command_buffer(buffer: vk::CommandBuffer) -> Option<Arc<CommandBufferEntr
         let entry = COMMAND_BUFFERS.get(&buffer)?;
         remember(cache, buffer, generation, &entry);
         Some(entry)
-    })
+    });
+    cached.unwrap_or_else(|_| COMMAND_BUFFERS.get(&buffer))
+}
+
+/// Whether this thread's cache still exists (false in thread-local destructors that run after
+/// its own).
+#[cfg(test)]
+pub(crate) fn thread_cache_alive() -> bool {
+    CACHE.try_with(|_| ()).is_ok()
+}
+
+/// Empties this thread's cache if it holds one of `buffers`, so that a forgotten command
+/// buffer (and the device state it refers to) is not kept alive by the thread that freed it.
+/// Other threads' caches are stale from the generation bump on and are replaced at their next
+/// lookup.
+fn uncache(buffers: &[vk::CommandBuffer]) {
+    let _ = CACHE.try_with(|cache| {
+        if let Ok(mut slot) = cache.try_borrow_mut() {
+            if slot
+                .as_ref()
+                .is_some_and(|(cached, _, _)| buffers.contains(cached))
+            {
+                *slot = None;
+            }
+        }
+    });
 }
 
 #[cfg(test)]
