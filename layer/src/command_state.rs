@@ -304,6 +304,13 @@ pub struct CommandState {
     emitted: Emitted,
     /// Whether revz bound the bound pipeline's compare-op variant in its place.
     variant_bound: bool,
+    /// A secondary that inherits its viewports from the primary that executes it
+    /// (`VK_NV_inherited_viewport_scissor`): its draws take the flip path, the one the
+    /// primary sends its viewports for ([`CommandState::flush_viewports_for_secondaries`]).
+    inherits_viewports: bool,
+    /// The current subpass (or rendering instance) records its draws in secondaries: no
+    /// state command may be recorded in it.
+    secondary_contents: bool,
     dirty: bool,
 }
 
@@ -325,6 +332,8 @@ impl Default for CommandState {
             path: DrawPath::Native,
             emitted: Emitted::default(),
             variant_bound: false,
+            inherits_viewports: false,
+            secondary_contents: false,
             dirty: true,
         }
     }
@@ -365,7 +374,7 @@ impl CommandState {
 
     /// The projection the bound pipeline's draws would rewrite now, if any.
     fn precise_use(&self) -> Option<(&ProjectionUse, RewriteTarget)> {
-        if self.target != Target::Reversed {
+        if self.target != Target::Reversed || self.inherits_viewports {
             return None;
         }
         let projection = self.pipeline.as_ref()?.projection.as_ref()?;
@@ -446,6 +455,60 @@ impl CommandState {
         self.emitted.forget_static(dynamic);
         self.pipeline = pipeline;
         self.variant_bound = false;
+        self.dirty = true;
+    }
+
+    /// A secondary begun with `VkCommandBufferInheritanceViewportScissorInfoNV`
+    /// (`viewportScissor2D`): its viewports come from the primary, which sends them for the
+    /// flip path, so its draws take the flip path too.
+    pub fn inherit_viewports(&mut self) {
+        self.inherits_viewports = true;
+        self.dirty = true;
+    }
+
+    /// Whether the current subpass or rendering instance records its draws in secondaries.
+    pub fn set_secondary_contents(&mut self, secondary: bool) {
+        self.secondary_contents = secondary;
+    }
+
+    /// Whether state commands may be recorded here (not inside a subpass or rendering
+    /// instance whose contents are secondaries).
+    pub fn records_inline(&self) -> bool {
+        !self.secondary_contents
+    }
+
+    /// Before secondaries can run (`vkCmdExecuteCommands`, or the begin of a subpass or
+    /// rendering instance whose contents are secondaries, called before it is recorded): the
+    /// viewports the application set here go down now, for the flip path, since the spec lets
+    /// secondaries inherit them (`VK_NV_inherited_viewport_scissor`) and no draw of this
+    /// command buffer may send them first. Only viewports: nothing else is inherited.
+    pub fn flush_viewports_for_secondaries(&mut self, sink: &mut impl StateSink) {
+        if !self
+            .app_set
+            .intersects(States::VIEWPORT | States::VIEWPORT_WITH_COUNT)
+        {
+            return;
+        }
+        let path = if self.target == Target::Reversed {
+            DrawPath::Flip
+        } else {
+            DrawPath::Native
+        };
+        let sink = &mut Filtered {
+            sink,
+            last: &mut self.emitted,
+        };
+        emit_viewports(
+            sink,
+            path,
+            self.reversing.reversal,
+            self.app_set,
+            None,
+            &self.viewports,
+            self.viewports_set,
+            self.viewport_count,
+        );
+        // The next draw of this command buffer decides its own path again.
         self.dirty = true;
     }
 
@@ -563,42 +626,16 @@ impl CommandState {
             None => (self.app_set, States::NONE, None),
         };
 
-        let viewport = |v: &vk::Viewport| match self.path {
-            DrawPath::Native => *v,
-            DrawPath::Flip => reversal.viewport(*v),
-            DrawPath::Precise => precise_viewport(*v),
-        };
-        if from_app.contains(States::VIEWPORT_WITH_COUNT) {
-            let count = self.viewport_count.unwrap_or(0) as usize;
-            let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
-            for (o, v) in out.iter_mut().zip(&self.viewports[..count]) {
-                *o = viewport(v);
-            }
-            sink.set_viewports_with_count(&out[..count]);
-        } else if from_app.contains(States::VIEWPORT) {
-            // Emit each contiguous run of viewports the application set.
-            let mut index = 0;
-            while index < MAX_VIEWPORTS {
-                if self.viewports_set & (1 << index) == 0 {
-                    index += 1;
-                    continue;
-                }
-                let start = index;
-                let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
-                while index < MAX_VIEWPORTS && self.viewports_set & (1 << index) != 0 {
-                    out[index - start] = viewport(&self.viewports[index]);
-                    index += 1;
-                }
-                sink.set_viewports(start as u32, &out[..index - start]);
-            }
-        } else if let Some(p) = pipeline.filter(|p| p.injected.contains(States::VIEWPORT)) {
-            let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
-            let count = p.viewports.len().min(MAX_VIEWPORTS);
-            for (o, v) in out.iter_mut().zip(&p.viewports[..count]) {
-                *o = viewport(v);
-            }
-            sink.set_viewports(0, &out[..count]);
-        }
+        emit_viewports(
+            sink,
+            self.path,
+            reversal,
+            from_app,
+            pipeline,
+            &self.viewports,
+            self.viewports_set,
+            self.viewport_count,
+        );
 
         let pick = |state: States| {
             if from_app.contains(state) {
@@ -638,6 +675,58 @@ impl CommandState {
             };
             sink.set_bounds(min, max);
         }
+    }
+}
+
+/// Sends the viewports of a draw on `path`: the application's (`from_app` says which kind it
+/// set: with count, or by index in `set`), else the pipeline's static ones that revz made
+/// dynamic.
+#[allow(clippy::too_many_arguments)]
+fn emit_viewports(
+    sink: &mut impl StateSink,
+    path: DrawPath,
+    reversal: Reversal,
+    from_app: States,
+    pipeline: Option<&PipelineDepth>,
+    viewports: &[vk::Viewport; MAX_VIEWPORTS],
+    set: u16,
+    count: Option<u32>,
+) {
+    let viewport = |v: &vk::Viewport| match path {
+        DrawPath::Native => *v,
+        DrawPath::Flip => reversal.viewport(*v),
+        DrawPath::Precise => precise_viewport(*v),
+    };
+    if from_app.contains(States::VIEWPORT_WITH_COUNT) {
+        let count = count.unwrap_or(0) as usize;
+        let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
+        for (o, v) in out.iter_mut().zip(&viewports[..count]) {
+            *o = viewport(v);
+        }
+        sink.set_viewports_with_count(&out[..count]);
+    } else if from_app.contains(States::VIEWPORT) {
+        // Emit each contiguous run of viewports the application set.
+        let mut index = 0;
+        while index < MAX_VIEWPORTS {
+            if set & (1 << index) == 0 {
+                index += 1;
+                continue;
+            }
+            let start = index;
+            let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
+            while index < MAX_VIEWPORTS && set & (1 << index) != 0 {
+                out[index - start] = viewport(&viewports[index]);
+                index += 1;
+            }
+            sink.set_viewports(start as u32, &out[..index - start]);
+        }
+    } else if let Some(p) = pipeline.filter(|p| p.injected.contains(States::VIEWPORT)) {
+        let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
+        let count = p.viewports.len().min(MAX_VIEWPORTS);
+        for (o, v) in out.iter_mut().zip(&p.viewports[..count]) {
+            *o = viewport(v);
+        }
+        sink.set_viewports(0, &out[..count]);
     }
 }
 
@@ -944,6 +1033,56 @@ mod tests {
         state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
         state.before_draw(&mut sink);
         assert_eq!(sink.viewports.len(), 1);
+    }
+
+    #[test]
+    fn viewports_go_down_before_secondaries_run_for_the_flip_path_they_inherit() {
+        let mut state = precise(RewriteTarget::Complementary);
+        state.begin(Target::None, Reversal::Complementary);
+        let mut sink = Recorded::default();
+        // Nothing set: nothing to send.
+        state.flush_viewports_for_secondaries(&mut sink);
+        assert_eq!(sink, Recorded::default());
+        // Set before a render pass of secondaries into a reversed attachment.
+        state.set_viewports(0, &[viewport(0.0, 1.0)]);
+        state.set_compare_op(vk::CompareOp::LESS);
+        state.set_target(Target::Reversed);
+        state.flush_viewports_for_secondaries(&mut sink);
+        assert_eq!(
+            sink,
+            Recorded {
+                viewports: vec![(0, vec![(1.0, 0.0)])],
+                ..Default::default()
+            },
+            "only the viewports, flipped: nothing else is inherited"
+        );
+        state.set_secondary_contents(true);
+        assert!(!state.records_inline());
+        // Into a native attachment: the application's values.
+        state.set_target(Target::Native);
+        state.flush_viewports_for_secondaries(&mut sink);
+        assert_eq!(sink.viewports.last(), Some(&(0, vec![(0.0, 1.0)])));
+    }
+
+    #[test]
+    fn a_secondary_inheriting_viewports_takes_the_flip_path_even_with_a_pushed_projection() {
+        let mut state = precise(RewriteTarget::Complementary);
+        state.begin(Target::Reversed, Reversal::Complementary);
+        state.inherit_viewports();
+        state.bind_pipeline(Some(projection_pipeline()));
+        let mut data = perspective_bytes();
+        state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
+        assert_eq!(data, perspective_bytes(), "the pushed bytes are left alone");
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip);
+        // A new recording of the same command buffer forgets it.
+        state.begin(Target::Reversed, Reversal::Complementary);
+        state.bind_pipeline(Some(projection_pipeline()));
+        let mut data = perspective_bytes();
+        state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
     }
 
     #[test]

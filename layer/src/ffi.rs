@@ -89,6 +89,15 @@ pub unsafe fn c_str<'a>(ptr: *const c_char) -> Option<&'a CStr> {
     (!ptr.is_null()).then(|| unsafe { CStr::from_ptr(ptr) })
 }
 
+/// `vkCmdExecuteGeneratedCommandsEXT` (`VK_EXT_device_generated_commands`, newer than ash
+/// 0.38's headers): the command buffer, `isPreprocessed`, and a `VkGeneratedCommandsInfoEXT`
+/// that revz passes through unread.
+pub type PfnCmdExecuteGeneratedCommandsExt = unsafe extern "system" fn(
+    command_buffer: vk::CommandBuffer,
+    is_preprocessed: vk::Bool32,
+    p_generated_commands_info: *const std::ffi::c_void,
+);
+
 /// Walks a `pNext` chain and returns the first loader link info of type `s_type`.
 ///
 /// # Safety

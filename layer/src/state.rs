@@ -123,6 +123,7 @@ pub struct DeviceCommands {
     pub draw_cluster_huawei: Option<vk::PFN_vkCmdDrawClusterHUAWEI>,
     pub draw_cluster_indirect_huawei: Option<vk::PFN_vkCmdDrawClusterIndirectHUAWEI>,
     pub execute_generated_commands_nv: Option<vk::PFN_vkCmdExecuteGeneratedCommandsNV>,
+    pub execute_generated_commands_ext: Option<crate::ffi::PfnCmdExecuteGeneratedCommandsExt>,
     pub bind_shaders_ext: Option<vk::PFN_vkCmdBindShadersEXT>,
     pub push_constants2: Option<vk::PFN_vkCmdPushConstants2KHR>,
     pub copy_buffer_to_image2: Option<vk::PFN_vkCmdCopyBufferToImage2>,
@@ -157,6 +158,8 @@ impl DeviceCommands {
             };
         }
         use vk::{API_VERSION_1_2 as V12, API_VERSION_1_3 as V13};
+        // Not in ash 0.38.
+        const V14: u32 = vk::make_api_version(0, 1, 4, 0);
         DeviceCommands {
             set_depth_compare_op: load!(
                 V13,
@@ -199,8 +202,9 @@ impl DeviceCommands {
             draw_cluster_huawei: load!(0, c"vkCmdDrawClusterHUAWEI"),
             draw_cluster_indirect_huawei: load!(0, c"vkCmdDrawClusterIndirectHUAWEI"),
             execute_generated_commands_nv: load!(0, c"vkCmdExecuteGeneratedCommandsNV"),
+            execute_generated_commands_ext: load!(0, c"vkCmdExecuteGeneratedCommandsEXT"),
             bind_shaders_ext: load!(0, c"vkCmdBindShadersEXT"),
-            push_constants2: load!(0, c"vkCmdPushConstants2KHR"),
+            push_constants2: load!(V14, c"vkCmdPushConstants2", c"vkCmdPushConstants2KHR"),
             copy_buffer_to_image2: load!(
                 V13,
                 c"vkCmdCopyBufferToImage2",

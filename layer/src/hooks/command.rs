@@ -192,12 +192,13 @@ pub unsafe extern "system" fn cmd_push_constants(
     );
 }
 
-/// `vkCmdPushConstants2KHR`: followed like `vkCmdPushConstants` when it names a layout.
+/// `vkCmdPushConstants2` (Vulkan 1.4) and `vkCmdPushConstants2KHR`: followed like
+/// `vkCmdPushConstants` when it names a layout.
 pub unsafe extern "system" fn cmd_push_constants2(
     buffer: vk::CommandBuffer,
     p_info: *const vk::PushConstantsInfoKHR<'_>,
 ) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants2KHR");
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants2");
     // SAFETY: a valid info (the application's contract).
     let info = unsafe { *p_info };
     let mut local = [0u8; PUSH_CONSTANT_BYTES];
@@ -332,6 +333,11 @@ draw_hook!(cmd_draw_cluster_indirect_huawei, "vkCmdDrawClusterIndirectHUAWEI",
 draw_hook!(cmd_execute_generated_commands_nv, "vkCmdExecuteGeneratedCommandsNV",
     a: vk::Bool32, b: *const vk::GeneratedCommandsInfoNV<'_>
     => |device| match device.commands.execute_generated_commands_nv { Some(f) => f, None => return });
+// Not in ash 0.38 (Vulkan 1.3.281): declared in `crate::ffi`. Pending state is sent as for any
+// draw; pipelines or shaders an indirect execution set switches to are not seen by revz.
+draw_hook!(cmd_execute_generated_commands_ext, "vkCmdExecuteGeneratedCommandsEXT",
+    a: vk::Bool32, b: *const std::ffi::c_void
+    => |device| match device.commands.execute_generated_commands_ext { Some(f) => f, None => return });
 
 /// The device a hook calls down to. For a tracked command buffer it is reached through the
 /// command buffer's entry, whose reference count only the recording thread touches; cloning
@@ -637,6 +643,11 @@ pub unsafe extern "system" fn cmd_begin_render_pass(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid begin info (the application's contract).
         pass_begin = begin_pass(entry, unsafe { &*p_begin });
+        enter_contents(
+            entry,
+            buffer,
+            contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS,
+        );
     });
     let Some(device) = device else { return };
     // SAFETY: a valid begin info.
@@ -660,6 +671,13 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid begin info (the application's contract).
         pass_begin = begin_pass(entry, unsafe { &*p_begin });
+        // SAFETY: a valid subpass begin info (the application's contract).
+        let contents = unsafe { (*p_subpass_begin).contents };
+        enter_contents(
+            entry,
+            buffer,
+            contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS,
+        );
     });
     let Some(next) = device.and_then(|d| d.commands.begin_render_pass2) else {
         return;
@@ -675,15 +693,36 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
     unsafe { next(buffer, p_begin, p_subpass_begin) }
 }
 
-fn next_subpass(entry: &CommandBufferEntry) {
-    let mut scope = entry.scope();
-    scope.subpass += 1;
-    entry.state().set_target(scope.target());
+/// A subpass or rendering instance begins whose draws are (`secondary`) or are not recorded
+/// in secondaries; called before its begin goes down. Where they are, the viewports the
+/// application set go down first (secondaries may inherit them, and nothing may be recorded
+/// inside such a subpass), unless the subpass being left records secondaries itself.
+fn enter_contents(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
+    let mut state = entry.state();
+    if secondary && state.records_inline() {
+        state.flush_viewports_for_secondaries(&mut NextLayer {
+            device: &entry.device,
+            buffer,
+        });
+    }
+    state.set_secondary_contents(secondary);
+}
+
+fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
+    let target = {
+        let mut scope = entry.scope();
+        scope.subpass += 1;
+        scope.target()
+    };
+    entry.state().set_target(target);
+    enter_contents(entry, buffer, secondary);
 }
 
 fn end_pass(entry: &CommandBufferEntry) {
     *entry.scope() = PassScope::default();
-    entry.state().set_target(Target::None);
+    let mut state = entry.state();
+    state.set_target(Target::None);
+    state.set_secondary_contents(false);
 }
 
 pub unsafe extern "system" fn cmd_next_subpass(
@@ -691,7 +730,10 @@ pub unsafe extern "system" fn cmd_next_subpass(
     contents: vk::SubpassContents,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdNextSubpass");
-    if let Some(device) = with_entry(buffer, &ENTRY, next_subpass) {
+    let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
+    if let Some(device) = with_entry(buffer, &ENTRY, |entry| {
+        next_subpass(entry, buffer, secondary)
+    }) {
         // SAFETY: calling down with the application's arguments.
         unsafe { (device.next.fp_v1_0().cmd_next_subpass)(buffer, contents) }
     }
@@ -703,8 +745,13 @@ pub unsafe extern "system" fn cmd_next_subpass2(
     p_end: *const vk::SubpassEndInfo<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdNextSubpass2");
-    if let Some(next) =
-        with_entry(buffer, &ENTRY, next_subpass).and_then(|d| d.commands.next_subpass2)
+    // SAFETY: a valid subpass begin info (the application's contract).
+    let contents = unsafe { (*p_begin).contents };
+    let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
+    if let Some(next) = with_entry(buffer, &ENTRY, |entry| {
+        next_subpass(entry, buffer, secondary)
+    })
+    .and_then(|d| d.commands.next_subpass2)
     {
         // SAFETY: calling down with the application's arguments.
         unsafe { next(buffer, p_begin, p_end) }
@@ -788,6 +835,10 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             depth_copy = Some(copy);
         }
         entry.state().set_target(target);
+        let secondary = info
+            .flags
+            .contains(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS);
+        enter_contents(entry, buffer, secondary);
     });
     let Some(next) = device.and_then(|d| d.commands.begin_rendering) else {
         return;
@@ -809,9 +860,7 @@ pub unsafe extern "system" fn cmd_begin_rendering(
 
 pub unsafe extern "system" fn cmd_end_rendering(buffer: vk::CommandBuffer) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRendering");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        entry.state().set_target(Target::None)
-    });
+    let device = with_entry(buffer, &ENTRY, end_pass);
     if let Some(next) = device.and_then(|d| d.commands.end_rendering) {
         // SAFETY: calling down with the application's arguments.
         unsafe { next(buffer) }
@@ -1098,15 +1147,31 @@ pub unsafe extern "system" fn begin_command_buffer(
             Target::None
         };
         *entry.scope() = PassScope::default();
-        entry
-            .state()
-            .begin(target, entry.device.reversing().reversal);
+        let mut state = entry.state();
+        state.begin(target, entry.device.reversing().reversal);
+        if entry.secondary && inherits_viewports(begin) {
+            state.inherit_viewports();
+        }
     });
     match device {
         // SAFETY: calling down with the application's arguments.
         Some(device) => unsafe { (device.next.fp_v1_0().begin_command_buffer)(buffer, p_begin) },
         None => vk::Result::ERROR_INITIALIZATION_FAILED,
     }
+}
+
+/// Whether a secondary inherits its viewports from the primary that executes it
+/// (`VK_NV_inherited_viewport_scissor`).
+fn inherits_viewports(begin: &vk::CommandBufferBeginInfo<'_>) -> bool {
+    // SAFETY: null or valid (only read for secondaries, where the spec reads it too).
+    let Some(inheritance) = (unsafe { begin.p_inheritance_info.as_ref() }) else {
+        return false;
+    };
+    // SAFETY: a valid pNext chain (the application's contract).
+    unsafe {
+        chain::find::<vk::CommandBufferInheritanceViewportScissorInfoNV<'_>>(inheritance.p_next)
+    }
+    .is_some_and(|info| info.viewport_scissor2_d == vk::TRUE)
 }
 
 /// The depth target a secondary command buffer continues: from the inherited framebuffer when
@@ -1198,6 +1263,14 @@ pub unsafe extern "system" fn cmd_execute_commands(
                     )
                 });
             }
+        }
+        // Secondaries may inherit the viewports set here; inside a subpass of secondaries
+        // they went down at its begin, and nothing may be recorded there.
+        if state.records_inline() {
+            state.flush_viewports_for_secondaries(&mut NextLayer {
+                device: &entry.device,
+                buffer,
+            });
         }
         state.invalidate();
     });

@@ -271,6 +271,10 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             vk::PFN_vkCmdExecuteGeneratedCommandsNV,
             c::cmd_execute_generated_commands_nv
         ),
+        b"vkCmdExecuteGeneratedCommandsEXT" => void_fn!(
+            crate::ffi::PfnCmdExecuteGeneratedCommandsExt,
+            c::cmd_execute_generated_commands_ext
+        ),
         b"vkCmdBindShadersEXT" => void_fn!(vk::PFN_vkCmdBindShadersEXT, c::cmd_bind_shaders_ext),
         b"vkCmdDrawIndirectByteCountEXT" => void_fn!(
             vk::PFN_vkCmdDrawIndirectByteCountEXT,
@@ -285,7 +289,8 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
 pub fn precise_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     match name.to_bytes() {
         b"vkCmdPushConstants" => void_fn!(vk::PFN_vkCmdPushConstants, command::cmd_push_constants),
-        b"vkCmdPushConstants2KHR" => {
+        // Vulkan 1.4 core, and VK_KHR_maintenance6 before it.
+        b"vkCmdPushConstants2" | b"vkCmdPushConstants2KHR" => {
             void_fn!(vk::PFN_vkCmdPushConstants2KHR, command::cmd_push_constants2)
         }
         b"vkCreatePipelineLayout" => void_fn!(
@@ -319,6 +324,17 @@ mod tests {
             assert!(device_command(name).is_some(), "{name:?}");
         }
         assert!(precise_path_command(c"vkCmdPushConstants").is_some());
+        // Every name of a command revz must see, core or extension.
+        for name in [c"vkCmdPushConstants2", c"vkCmdPushConstants2KHR"] {
+            assert!(precise_path_command(name).is_some(), "{name:?}");
+        }
+        for name in [
+            c"vkCmdExecuteGeneratedCommandsNV",
+            c"vkCmdExecuteGeneratedCommandsEXT",
+            c"vkCmdExecuteCommands",
+        ] {
+            assert!(depth_path_command(name).is_some(), "{name:?}");
+        }
         assert!(depth_path_command(c"vkCmdPushConstants").is_none());
         assert!(instance_command(c"vkCmdDraw").is_none());
         assert!(device_command(c"vkCmdDraw").is_none());
