@@ -31,7 +31,7 @@ pub(super) use hook;
 
 /// Dispatch tables: only their addresses matter (revz never reads through them), so distinct
 /// elements of one static give every test addresses no other test uses.
-static TABLE_SLOTS: [u8; 128] = [0; 128];
+static TABLE_SLOTS: [u8; 512] = [0; 512];
 static NEXT_SLOT: AtomicUsize = AtomicUsize::new(0);
 
 /// The dispatch tables of one test's instance (and physical devices) and device (and command

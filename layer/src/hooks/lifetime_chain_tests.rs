@@ -35,10 +35,8 @@ fn device_with_command_buffer() -> (
         .command_buffer_count(1);
     let mut buffer = vk::CommandBuffer::null();
     // SAFETY: a live device, a valid info and room for one handle.
-    assert_eq!(
-        unsafe { allocate(device, &info, &mut buffer) },
-        vk::Result::SUCCESS
-    );
+    let result = unsafe { allocate(device, &info, &mut buffer) };
+    assert_eq!(result, vk::Result::SUCCESS);
     (tables, instance, physical, device, buffer)
 }
 
