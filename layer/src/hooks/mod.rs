@@ -47,6 +47,8 @@ mod chain_tests;
 #[cfg(test)]
 mod fake_chain;
 #[cfg(test)]
+mod leak_tests;
+#[cfg(test)]
 mod pipeline_chain_tests;
 #[cfg(test)]
 mod resolve_chain_tests;
