@@ -109,6 +109,14 @@ impl<K: std::hash::Hash + Eq, V: Clone> Table<K, V> {
     }
 }
 
+#[cfg(test)]
+impl<K, V> Table<K, V> {
+    /// How many entries the table holds.
+    pub fn count(&self) -> usize {
+        self.0.read().unwrap_or_else(PoisonError::into_inner).len()
+    }
+}
+
 impl<K: std::hash::Hash + Eq, V: Clone> Default for Table<K, V> {
     fn default() -> Self {
         Self::new()
@@ -477,6 +485,16 @@ pub fn forget_device_command_buffers(objects: &DeviceObjects) {
         let buffers = pool.lock().unwrap_or_else(PoisonError::into_inner);
         forget_command_buffers(&buffers);
     }
+}
+
+/// How many command buffers revz tracks, over every device of the process.
+#[cfg(test)]
+pub fn tracked_command_buffers() -> usize {
+    COMMAND_BUFFERS
+        .0
+        .read()
+        .unwrap_or_else(PoisonError::into_inner)
+        .len()
 }
 
 /// Caches `entry` for this thread, unless the cache is in use further up this thread's stack

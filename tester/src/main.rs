@@ -24,6 +24,7 @@ mod render;
 mod scene;
 mod scenes;
 mod shaders;
+mod stress;
 mod target;
 mod variants;
 
@@ -70,6 +71,9 @@ enum Command {
     /// Benchmark: the layer's cost per frame, per pipeline and per intercepted call in every
     /// mode, as ratios against no layer measured in one run.
     Bench(bench::BenchArgs),
+    /// Multi-threaded recording stress: threads recording secondaries into one primary, for
+    /// many frames; every frame must equal the first (writes a render and stress.json).
+    StressThreads(stress::StressArgs),
 }
 
 /// Renders one scene (the default command).
@@ -141,6 +145,7 @@ fn main() -> ExitCode {
         Some(Command::Report(args)) => return report_exit(accuracy::report(args)),
         Some(Command::Conformance(args)) => return report_exit(accuracy::conformance(args)),
         Some(Command::Bench(args)) => return report_exit(bench::run(args)),
+        Some(Command::StressThreads(args)) => return report_exit(stress::run(args)),
         None => run(&cli.render),
     };
     match outcome {

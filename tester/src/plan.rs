@@ -471,6 +471,10 @@ pub enum Recording {
     /// All at once, each on its own thread (`std::thread::scope`) with its own command pool
     /// created on that thread: multi-threaded recording as engines do it.
     ThreadPerSecondary,
+    /// As [`Recording::ThreadPerSecondary`], but the odd-numbered lists inherit the render
+    /// pass and subpass without the framebuffer (which the inheritance info may leave null):
+    /// a layer then only knows the depth format the secondary draws into.
+    ThreadPerSecondaryOddWithoutFramebuffer,
 }
 
 /// The passes, pipelines and steps of a scene.

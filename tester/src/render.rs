@@ -525,6 +525,22 @@ impl<'a> Renderer<'a> {
         Ok(())
     }
 
+    /// Makes the renderer ready to render again after a completed [`Renderer::render`]: the
+    /// fence unsignalled, the primary command buffer back in the initial state (its pool
+    /// reset: the pool is TRANSIENT, without per-buffer reset).
+    pub fn next_frame(&self) -> Result<()> {
+        // SAFETY: the last render waited on the fence: nothing of the pool is pending.
+        unsafe {
+            self.device
+                .reset_fences(&[self.fence])
+                .context("vkResetFences failed")?;
+            self.device
+                .reset_command_pool(self.command_pool, vk::CommandPoolResetFlags::empty())
+                .context("vkResetCommandPool failed")?;
+        }
+        Ok(())
+    }
+
     /// Records the plan's steps and the read-back copies, submits them and waits for them to
     /// complete. The read-back buffers are ready when this returns.
     pub fn render(
@@ -737,7 +753,13 @@ impl Recorder<'_> {
                     self.execute_secondaries(cmd, lists)?;
                 }
                 Step::ExecuteSecondaries(lists, Recording::ThreadPerSecondary) => {
-                    self.execute_secondaries_on_threads(cmd, lists)?;
+                    self.execute_secondaries_on_threads(cmd, lists, false)?;
+                }
+                Step::ExecuteSecondaries(
+                    lists,
+                    Recording::ThreadPerSecondaryOddWithoutFramebuffer,
+                ) => {
+                    self.execute_secondaries_on_threads(cmd, lists, true)?;
                 }
             }
         }
@@ -1207,12 +1229,22 @@ impl Recorder<'_> {
     }
 
     /// Begins a fresh secondary command buffer that continues pass `n`, inheriting its render
-    /// pass, the current subpass and its framebuffer.
-    fn begin_secondary(&self, secondary: vk::CommandBuffer, n: usize) -> VkResult<()> {
+    /// pass, the current subpass and (if `framebuffer`) its framebuffer.
+    fn begin_secondary(
+        &self,
+        secondary: vk::CommandBuffer,
+        n: usize,
+        framebuffer: bool,
+    ) -> VkResult<()> {
+        let framebuffer = if framebuffer {
+            self.renderer.framebuffers[n]
+        } else {
+            vk::Framebuffer::null()
+        };
         let inheritance = vk::CommandBufferInheritanceInfo::default()
             .render_pass(self.renderer.render_passes[n])
             .subpass(self.subpass)
-            .framebuffer(self.renderer.framebuffers[n]);
+            .framebuffer(framebuffer);
         let begin = vk::CommandBufferBeginInfo::default()
             .flags(
                 vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
@@ -1237,7 +1269,7 @@ impl Recorder<'_> {
                 .get(self.next_secondary)
                 .ok_or_else(|| anyhow!("not enough secondary command buffers"))?;
             self.next_secondary += 1;
-            self.begin_secondary(secondary, n)
+            self.begin_secondary(secondary, n, true)
                 .context("vkBeginCommandBuffer (secondary) failed")?;
             // Secondaries inherit no bound state: geometry and pipeline are bound again.
             self.pipeline = None;
@@ -1258,11 +1290,13 @@ impl Recorder<'_> {
     /// Records each list on its own thread, at the same time: each thread creates its own
     /// command pool, allocates a secondary from it, records the list with its own recorder
     /// state (binding geometry, pipeline and push constants itself) and hands the pool and
-    /// the secondary back; then one `vkCmdExecuteCommands` runs them in list order.
+    /// the secondary back; then one `vkCmdExecuteCommands` runs them in list order. With
+    /// `odd_without_framebuffer`, the odd-numbered lists inherit no framebuffer.
     fn execute_secondaries_on_threads(
         &mut self,
         cmd: vk::CommandBuffer,
         lists: &[Vec<Step>],
+        odd_without_framebuffer: bool,
     ) -> Result<()> {
         let n = self
             .pass
@@ -1274,7 +1308,9 @@ impl Recorder<'_> {
             std::thread::scope(|scope| {
                 let threads: Vec<_> = lists
                     .iter()
-                    .map(|list| {
+                    .enumerate()
+                    .map(|(index, list)| {
+                        let framebuffer = !(odd_without_framebuffer && index % 2 == 1);
                         let mut recorder = Recorder {
                             renderer,
                             scene,
@@ -1288,7 +1324,7 @@ impl Recorder<'_> {
                             next_secondary: 0,
                             thread_pools: Vec::new(),
                         };
-                        scope.spawn(move || recorder.record_on_own_pool(list))
+                        scope.spawn(move || recorder.record_on_own_pool(list, framebuffer))
                     })
                     .collect();
                 threads
@@ -1325,11 +1361,12 @@ impl Recorder<'_> {
     }
 
     /// On a recording thread: creates a command pool, allocates one secondary from it and
-    /// records `list` into it, inheriting the current render pass, subpass and framebuffer.
-    /// On failure the pool is destroyed again.
+    /// records `list` into it, inheriting the current render pass, subpass and (if
+    /// `framebuffer`) framebuffer. On failure the pool is destroyed again.
     fn record_on_own_pool(
         &mut self,
         list: &[Step],
+        framebuffer: bool,
     ) -> Result<(vk::CommandPool, vk::CommandBuffer)> {
         let device = self.renderer.device;
         let n = self
@@ -1352,7 +1389,7 @@ impl Recorder<'_> {
                 .into_iter()
                 .next()
                 .ok_or_else(|| anyhow!("vkAllocateCommandBuffers returned no command buffer"))?;
-            self.begin_secondary(secondary, n)
+            self.begin_secondary(secondary, n, framebuffer)
                 .context("vkBeginCommandBuffer (recording thread) failed")?;
             self.bind_geometry(secondary);
             self.record(secondary, list)?;

@@ -50,6 +50,8 @@ mod extension_chain_tests;
 #[cfg(test)]
 mod fake_chain;
 #[cfg(test)]
+mod leak_tests;
+#[cfg(test)]
 mod lifetime_chain_tests;
 #[cfg(test)]
 mod pipeline_chain_tests;
