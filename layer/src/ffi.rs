@@ -89,6 +89,22 @@ pub unsafe fn c_str<'a>(ptr: *const c_char) -> Option<&'a CStr> {
     (!ptr.is_null()).then(|| unsafe { CStr::from_ptr(ptr) })
 }
 
+/// `VK_STRUCTURE_TYPE_PIPELINE_BINARY_INFO_KHR` (`VK_KHR_pipeline_binary`, newer than ash
+/// 0.38's headers).
+pub const STRUCTURE_TYPE_PIPELINE_BINARY_INFO_KHR: vk::StructureType =
+    vk::StructureType::from_raw(1_000_483_002);
+
+/// `VkPipelineBinaryInfoKHR`: the pipeline binaries a pipeline is created from.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct PipelineBinaryInfo {
+    pub s_type: vk::StructureType,
+    pub p_next: *const std::ffi::c_void,
+    pub binary_count: u32,
+    /// `VkPipelineBinaryKHR` handles (non-dispatchable: 64-bit).
+    pub p_pipeline_binaries: *const u64,
+}
+
 /// `vkCmdExecuteGeneratedCommandsEXT` (`VK_EXT_device_generated_commands`, newer than ash
 /// 0.38's headers): the command buffer, `isPreprocessed`, and a `VkGeneratedCommandsInfoEXT`
 /// that revz passes through unread.

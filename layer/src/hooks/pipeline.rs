@@ -177,6 +177,23 @@ fn uses_module_identifiers(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
     })
 }
 
+/// Whether a create info is made from pipeline binaries (`VkPipelineBinaryInfoKHR` with a
+/// `binaryCount` above 0): its shaders and compiled state come from them, so a variant made
+/// from the same create info would be the same pipeline, nothing rewritten or flipped.
+fn uses_pipeline_binaries(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    // SAFETY: a valid pNext chain (the application's contract).
+    let mut structures = unsafe { chain::structures(info.p_next) };
+    structures.any(|base| {
+        base.s_type == crate::ffi::STRUCTURE_TYPE_PIPELINE_BINARY_INFO_KHR && {
+            // SAFETY: the sType identifies the structure.
+            let binary = unsafe {
+                &*(base as *const vk::BaseInStructure<'_>).cast::<crate::ffi::PipelineBinaryInfo>()
+            };
+            binary.binary_count > 0
+        }
+    })
+}
+
 /// The fragment stage of a create info (its index) and its rewrite for reversed attachments
 /// when it computes with depth: its module's, made at module creation, or one of SPIR-V
 /// chained inline into the stage.
@@ -613,6 +630,21 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     // pLibraries-06855).
                     let identified = plan.depth.module_identifiers
                         || linked.iter().any(|library| library.module_identifiers);
+                    // Pipelines of identified stages or of binaries get no variants: there is
+                    // no code revz can change (and, with identifiers, no compiling either).
+                    let from_binaries = uses_pipeline_binaries(info);
+                    if from_binaries && plan.renders_depth && state.policy.is_active() {
+                        static BINARIES: std::sync::Once = std::sync::Once::new();
+                        BINARIES.call_once(|| {
+                            log::warn!(
+                                "a pipeline is created from pipeline binaries \
+                                 (VK_KHR_pipeline_binary): revz cannot make its reversed \
+                                 variant, so a fragment shader computing with depth, or a static \
+                                 compare op with compare_op = variants, keeps standard depth"
+                            )
+                        });
+                    }
+                    let identified = identified || from_binaries;
                     if state.policy.is_active() && plan.renders_depth && fragment {
                         match fragment_stage_rewrite(&state, info) {
                             Some((index, Ok(code))) if !identified => {

@@ -2055,3 +2055,67 @@ fn a_link_of_a_library_given_by_module_identifiers_gets_no_variant() {
     assert!(recorded.module_identifiers);
     fx.finish();
 }
+
+/// A pipeline made from pipeline binaries (`VK_KHR_pipeline_binary`) takes its shaders and
+/// compiled state from them: a variant from the same create info would change nothing, so
+/// none is made, and a fragment shader computing with depth is known to keep standard depth.
+#[test]
+fn a_pipeline_made_from_pipeline_binaries_gets_no_variant() {
+    let fx = Fixture::with_settings(&[(c"mode", c"flip"), (c"compare_op", c"variants")]);
+    let vertex = fx.vertex_module();
+    let binaries = [0xB1u64, 0xB2];
+    let binary_info = crate::ffi::PipelineBinaryInfo {
+        s_type: crate::ffi::STRUCTURE_TYPE_PIPELINE_BINARY_INFO_KHR,
+        p_next: std::ptr::null(),
+        binary_count: binaries.len() as u32,
+        p_pipeline_binaries: binaries.as_ptr(),
+    };
+    for source in [PLAIN, FRAG_DEPTH] {
+        let module = fx.module(&fragment(source));
+        let app = AppPipeline::of_modules(vertex, module);
+        let built = app.build();
+        // In front of the application's chain (its rendering info).
+        let info = built.info();
+        let binary_info = crate::ffi::PipelineBinaryInfo {
+            p_next: info.p_next,
+            ..binary_info
+        };
+        let info = vk::GraphicsPipelineCreateInfo {
+            p_next: (&binary_info as *const crate::ffi::PipelineBinaryInfo).cast(),
+            ..info
+        };
+        let (result, handles) = fx.create_pipelines(std::slice::from_ref(&info), None);
+        assert_eq!(result, vk::Result::SUCCESS);
+        let (_, app_handle) = only_app_creation(&fx.events());
+        assert_eq!(handles, [app_handle]);
+        let recorded = fx.recorded(app_handle);
+        assert_eq!(recorded.reversed_variant, None);
+        // Nothing is known of the code a binary holds: marked, as for module identifiers.
+        assert!(recorded.unreversed_fragment, "{source}");
+    }
+    // Without binaries (binaryCount 0 is the same as no structure) the variant is made.
+    let empty = crate::ffi::PipelineBinaryInfo {
+        binary_count: 0,
+        ..binary_info
+    };
+    let module = fx.module(&fragment(PLAIN));
+    let app = AppPipeline::of_modules(vertex, module);
+    let built = app.build();
+    let info = built.info();
+    let empty = crate::ffi::PipelineBinaryInfo {
+        p_next: info.p_next,
+        ..empty
+    };
+    let info = vk::GraphicsPipelineCreateInfo {
+        p_next: (&empty as *const crate::ffi::PipelineBinaryInfo).cast(),
+        ..info
+    };
+    let (_, handles) = fx.create_pipelines(std::slice::from_ref(&info), None);
+    assert_eq!(
+        fx.events().len(),
+        2,
+        "the variant, then the application's pipeline"
+    );
+    assert!(fx.recorded(handles[0]).reversed_variant.is_some());
+    fx.finish();
+}
