@@ -137,6 +137,8 @@ pub struct Target {
 /// What a run did.
 #[derive(Debug)]
 pub struct Report {
+    /// Whether this was a replay (or a target skipped by one): nothing was fuzzed.
+    pub replay: bool,
     pub cases: u64,
     pub seconds: f64,
     pub corpus: usize,
@@ -162,7 +164,10 @@ fn failure_dir() -> PathBuf {
         .unwrap_or_else(|| {
             let target = std::env::var_os("CARGO_TARGET_DIR")
                 .map(PathBuf::from)
-                .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target"));
+                .unwrap_or_else(|| {
+                    let layer = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+                    layer.parent().unwrap_or(layer).join("target")
+                });
             target.join("fuzz")
         })
 }
@@ -265,19 +270,38 @@ const IDLE: u64 = u64::MAX;
 /// The most inputs a corpus keeps.
 const MAX_CORPUS: usize = 512;
 
-/// Runs `target` for `REVZ_FUZZ_SECONDS` and prints its report; panics on a failure.
+/// How a run goes (from the environment, see the module docs).
+#[derive(Clone, Debug)]
+struct Settings {
+    seconds: f64,
+    seed: u64,
+    case_limit: Duration,
+    dir: PathBuf,
+}
+
+/// Runs `target` for `REVZ_FUZZ_SECONDS` (or on `REVZ_FUZZ_REPLAY`) and prints its report;
+/// panics on a failure.
 pub fn run(target: Target) -> Report {
-    install_panic_hook();
-    let dir = failure_dir();
-    std::fs::create_dir_all(&dir)
-        .unwrap_or_else(|e| panic!("cannot create {}: {e}", dir.display()));
+    let settings = Settings {
+        seconds: env_number("REVZ_FUZZ_SECONDS", 1.0),
+        seed: env_number("REVZ_FUZZ_SEED", 1),
+        case_limit: Duration::from_secs_f64(env_number("REVZ_FUZZ_CASE_SECONDS", 20.0)),
+        dir: failure_dir(),
+    };
     let name = target.name;
 
-    if let Some(replay) = std::env::var_os("REVZ_FUZZ_REPLAY").map(PathBuf::from) {
+    if let Some(mut replay) = std::env::var_os("REVZ_FUZZ_REPLAY").map(PathBuf::from) {
+        if replay.is_relative() && !replay.exists() {
+            // Relative to the workspace (tests run in `layer/`).
+            replay = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("..")
+                .join(replay);
+        }
         let file_name = replay.file_name().unwrap_or_default().to_string_lossy();
         if !file_name.starts_with(&format!("{name}-")) {
             eprintln!("fuzz {name}: skipped (replaying {})", replay.display());
             return Report {
+                replay: true,
                 cases: 0,
                 seconds: 0.0,
                 corpus: 0,
@@ -287,6 +311,7 @@ pub fn run(target: Target) -> Report {
         }
         let input = std::fs::read(&replay)
             .unwrap_or_else(|e| panic!("cannot read {}: {e}", replay.display()));
+        install_panic_hook();
         let outcome = std::thread::Builder::new()
             .name(format!("fuzz-{name}"))
             .spawn(move || run_case(&target, &input))
@@ -297,6 +322,7 @@ pub fn run(target: Target) -> Report {
             Ok(_) => {
                 eprintln!("fuzz {name}: {} passes", replay.display());
                 return Report {
+                    replay: true,
                     cases: 1,
                     seconds: 0.0,
                     corpus: 0,
@@ -308,9 +334,19 @@ pub fn run(target: Target) -> Report {
         }
     }
 
-    let seconds: f64 = env_number("REVZ_FUZZ_SECONDS", 1.0);
-    let seed: u64 = env_number("REVZ_FUZZ_SEED", 1);
-    let case_limit = Duration::from_secs_f64(env_number("REVZ_FUZZ_CASE_SECONDS", 20.0));
+    run_with(target, &settings)
+}
+
+fn run_with(target: Target, settings: &Settings) -> Report {
+    let Settings {
+        seconds,
+        seed,
+        case_limit,
+        ref dir,
+    } = *settings;
+    let name = target.name;
+    install_panic_hook();
+    std::fs::create_dir_all(dir).unwrap_or_else(|e| panic!("cannot create {}: {e}", dir.display()));
     let in_flight_path = dir.join(format!("{name}.in-flight"));
     let shared = Arc::new(Shared {
         case_started: AtomicU64::new(IDLE),
@@ -319,6 +355,7 @@ pub fn run(target: Target) -> Report {
     let deadline = start + Duration::from_secs_f64(seconds);
 
     let counters = target.counters;
+    let target_extension = target.extension;
     let worker = {
         let shared = Arc::clone(&shared);
         let in_flight = InFlight::create(in_flight_path.clone());
@@ -380,6 +417,7 @@ pub fn run(target: Target) -> Report {
                 let caught_panics = PANICS.with(|panics| panics.borrow().1.clone());
                 let _ = std::fs::remove_file(&in_flight.path);
                 Report {
+                    replay: false,
                     cases,
                     seconds: start.elapsed().as_secs_f64(),
                     corpus: corpus.len(),
@@ -398,7 +436,11 @@ pub fn run(target: Target) -> Report {
             let now = start.elapsed().as_millis() as u64;
             if Duration::from_millis(now.saturating_sub(started)) > case_limit {
                 let input = std::fs::read(&in_flight_path).unwrap_or_default();
-                let path = dir.join(format!("{name}-hang-{:016x}.bin", hash_of(&input)));
+                let path = dir.join(format!(
+                    "{name}-hang-{:016x}.{}",
+                    hash_of(&input),
+                    target_extension
+                ));
                 let _ = std::fs::write(&path, &input);
                 panic!(
                     "fuzz target {name}: a case ran longer than {case_limit:?} (a hang); \
@@ -511,4 +553,93 @@ fn chain_splice() {
 #[test]
 fn config() {
     config::run();
+}
+
+/// The engine itself: a broken invariant, a panic and a hang each fail the run with the input
+/// written where the message says.
+mod engine_tests {
+    use super::*;
+
+    fn settings(test: &str) -> Settings {
+        Settings {
+            seconds: 5.0,
+            seed: 1,
+            case_limit: Duration::from_millis(300),
+            dir: std::env::temp_dir().join(format!("revz-fuzz-{test}-{}", std::process::id())),
+        }
+    }
+
+    fn mutate(rng: &mut Rng, corpus: &[Vec<u8>], input: &mut Vec<u8>) {
+        mutate_bytes(rng, corpus, input, &["x", "p", "h"]);
+    }
+
+    /// Runs a target whose check fails on inputs holding `trigger`, and returns the input the
+    /// failure wrote.
+    fn failing_input(test: &str, check: fn(&[u8]) -> Result<u64, String>) -> (String, Vec<u8>) {
+        let target = Target {
+            name: "engine",
+            extension: "bin",
+            seeds: vec![b"abcd".to_vec()],
+            mutate,
+            check,
+            max_len: 64,
+            counters: &[],
+        };
+        let settings = settings(test);
+        let payload = catch_unwind(AssertUnwindSafe(|| run_with(target, &settings)))
+            .expect_err("the run fails");
+        let message = payload
+            .downcast_ref::<String>()
+            .cloned()
+            .unwrap_or_default();
+        let path = message
+            .split("written to ")
+            .nth(1)
+            .and_then(|rest| rest.lines().next())
+            .unwrap_or_else(|| panic!("no path in {message:?}"));
+        let input = std::fs::read(path).expect("the failing input was written");
+        let _ = std::fs::remove_dir_all(&settings.dir);
+        (message, input)
+    }
+
+    #[test]
+    fn a_broken_invariant_fails_with_its_input() {
+        fn check(input: &[u8]) -> Result<u64, String> {
+            match input.contains(&b'x') {
+                true => Err("holds an x".to_owned()),
+                false => Ok(hash_of(&input)),
+            }
+        }
+        let (message, input) = failing_input("invariant", check);
+        assert!(message.contains("holds an x"), "{message}");
+        assert!(input.contains(&b'x'));
+    }
+
+    #[test]
+    fn a_panic_fails_with_its_input() {
+        fn check(input: &[u8]) -> Result<u64, String> {
+            assert!(!input.contains(&b'p'), "a p");
+            Ok(hash_of(&input))
+        }
+        let (message, input) = failing_input("panic", check);
+        assert!(
+            message.contains("panic: ") && message.contains("a p"),
+            "{message}"
+        );
+        assert!(input.contains(&b'p'));
+    }
+
+    #[test]
+    fn a_hang_fails_with_its_input() {
+        fn check(input: &[u8]) -> Result<u64, String> {
+            if input.contains(&b'h') {
+                // Left behind by the watchdog; asleep, it costs nothing.
+                std::thread::sleep(Duration::from_secs(3600));
+            }
+            Ok(hash_of(&input))
+        }
+        let (message, input) = failing_input("hang", check);
+        assert!(message.contains("a hang"), "{message}");
+        assert!(input.contains(&b'h'));
+    }
 }
