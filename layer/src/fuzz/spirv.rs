@@ -630,7 +630,7 @@ pub fn run_fragment() {
     assert!(report.cases as usize >= FRAGMENT_SEEDS.len());
     assert!(
         FRAGMENT_VALIDATED.get() > 0,
-        "no rewrite of a valid module was validated"
+        "no rewrite of a valid module was validated (is spirv-val, Debian spirv-tools, installed?)"
     );
 }
 
