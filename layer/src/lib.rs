@@ -20,6 +20,8 @@ pub mod config;
 pub mod conv;
 pub mod ffi;
 pub mod fragment_depth;
+#[cfg(test)]
+mod fuzz;
 mod hooks;
 pub mod logging;
 pub mod objects;

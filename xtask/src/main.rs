@@ -4,7 +4,9 @@
 //! - `build`: build the layer and the tester, and render the layer manifests next to them.
 //! - `demo`: render the first scene without and with the layer, then the accuracy report and
 //!   the benchmark (release build): print where the images and the report are, and the table.
-//! - `test`: everything `build` does, then the whole test suite.
+//! - `test`: everything `build` does, then the whole test suite, then the fuzz targets for
+//!   30 s each.
+//! - `fuzz`: the fuzz targets alone, for as long as asked.
 //! - `install` / `uninstall`: the implicit layer for the current user.
 //! - `run`: any program with revz injected, nothing installed.
 
@@ -52,6 +54,18 @@ enum Task {
     Test {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         cargo_test_args: Vec<String>,
+    },
+    /// Run the fuzz targets (layer/src/fuzz), one after another, each for `seconds`.
+    Fuzz {
+        /// How long each target runs.
+        #[arg(long, default_value_t = 30)]
+        seconds: u64,
+        /// A release build (more cases per second; CI fuzzes the test build it already has).
+        #[arg(long)]
+        release: bool,
+        /// Only the targets whose name contains this (vertex_analysis, fragment_rewrite,
+        /// chain_splice, config).
+        target: Option<String>,
     },
     /// Install revz as an implicit layer for the current user (active with ENABLE_REVZ=1).
     Install(install::BuildChoice),
@@ -195,6 +209,46 @@ fn test(extra: &[String]) -> Result<()> {
         .current_dir(&paths.root)
         .args(["test", "--workspace"])
         .args(extra);
+    run_checked(command)?;
+    if extra.is_empty() {
+        // The fuzz targets ran for a second each above; now for their CI time, on the same
+        // build (no rebuild: same packages, profile and features).
+        let seconds = std::env::var("REVZ_FUZZ_SECONDS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(30);
+        fuzz(&paths, seconds, false, None)?;
+    }
+    Ok(())
+}
+
+/// Runs the layer's fuzz targets one after another (each target is a test `fuzz::...`),
+/// printing each one's case count.
+fn fuzz(paths: &Paths, seconds: u64, release: bool, target: Option<&str>) -> Result<()> {
+    println!("== fuzzing, {seconds} s per target");
+    let filter = match target {
+        Some(name) => format!("fuzz::{name}"),
+        None => "fuzz::".to_owned(),
+    };
+    let mut command = cargo();
+    command
+        .current_dir(&paths.root)
+        .env("REVZ_FUZZ_SECONDS", seconds.to_string())
+        .args(["test", "--workspace", "--lib"]);
+    if release {
+        command.arg("--release");
+    }
+    // The engine's own tests (which fail runs on purpose) ran with the suite.
+    command.args([
+        "--",
+        &filter,
+        "--skip",
+        "fuzz::engine_tests",
+        "--skip",
+        "fuzz::spirv::",
+        "--test-threads=1",
+        "--nocapture",
+    ]);
     run_checked(command)
 }
 
@@ -208,6 +262,11 @@ fn main() -> Result<()> {
             quick,
         } => demo(&mode, &depth_format, quick),
         Task::Test { cargo_test_args } => test(&cargo_test_args),
+        Task::Fuzz {
+            seconds,
+            release,
+            target,
+        } => fuzz(&Paths::new(release), seconds, release, target.as_deref()),
         Task::Install(choice) => install::install(&choice),
         Task::Uninstall => install::uninstall(),
         Task::Run(args) => install::run(&args),
