@@ -200,6 +200,33 @@ pub struct DeviceObjects {
     pub pipeline_layouts: Table<vk::PipelineLayout, Arc<[vk::PushConstantRange]>>,
     /// Each pool's command buffers, to forget them when the pool is destroyed.
     pub pools: Table<vk::CommandPool, Arc<Mutex<Vec<vk::CommandBuffer>>>>,
+    /// The depth target each subpass (render pass, index) or dynamic rendering depth format
+    /// was last begun with for secondaries, for secondaries whose inheritance names no
+    /// framebuffer (`crate::policy::secondary_target`). A render pass's entries go with it.
+    pub secondary_targets: Table<SecondaryPass, Target>,
+}
+
+/// What a secondary's inheritance names of the pass it continues, without a framebuffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SecondaryPass {
+    Subpass(vk::RenderPass, u32),
+    Rendering(vk::Format),
+}
+
+impl DeviceObjects {
+    /// The format of a tracked depth view's image.
+    pub fn view_format(&self, view: vk::ImageView) -> Option<vk::Format> {
+        let image = self.views.get(&view)?;
+        self.images.get(&image).map(|info| info.format)
+    }
+
+    /// Remembers the target a primary begins `pass` with for secondaries (written only when
+    /// it changes: a read lock in the steady state).
+    pub fn remember_secondary_target(&self, pass: SecondaryPass, target: Target) {
+        if self.secondary_targets.get(&pass) != Some(target) {
+            self.secondary_targets.insert(pass, target);
+        }
+    }
 }
 
 impl DeviceObjects {
@@ -384,6 +411,8 @@ impl DeviceObjects {
 /// The render pass instance a primary command buffer is inside, to follow `vkCmdNextSubpass`.
 #[derive(Clone, Debug, Default)]
 pub struct PassScope {
+    /// The render pass begun (null for dynamic rendering or none).
+    pub handle: vk::RenderPass,
     pub render_pass: Option<Arc<RenderPassInfo>>,
     /// The depth target of each attachment of the current framebuffer.
     pub attachment_targets: Vec<Target>,

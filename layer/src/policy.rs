@@ -265,6 +265,28 @@ impl ResolveSupport {
     }
 }
 
+/// Where a secondary command buffer without a framebuffer in its inheritance info draws: the
+/// target a primary last began that subpass or rendering format with for secondaries
+/// (`remembered`), else what the device's live depth images of the format are (`reversed`
+/// and `native` counts). Returns the target and whether it is a guess between images of both
+/// kinds (then reversed, since non-observable attachments, the ones secondaries usually draw
+/// into, are reversed; logged once by the caller).
+pub fn secondary_target(
+    remembered: Option<Target>,
+    reversed: usize,
+    native: usize,
+) -> (Target, bool) {
+    if let Some(target) = remembered {
+        return (target, false);
+    }
+    match (reversed, native) {
+        (0, 0) => (Target::None, false),
+        (_, 0) => (Target::Reversed, false),
+        (0, _) => (Target::Native, false),
+        _ => (Target::Reversed, true),
+    }
+}
+
 /// The depth convention an application renders with, as revz decides it for a device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Convention {
@@ -514,6 +536,26 @@ mod tests {
             }
         );
         assert_eq!(policy(Mode::Flip, Observable::None).rewrite(), None);
+    }
+
+    #[test]
+    fn a_secondary_without_framebuffer_follows_the_pass_it_was_last_begun_for() {
+        // A sampled (native) shadow map and a reversed main attachment of one format: the
+        // shadow pass, once begun for secondaries, is known to be native.
+        assert_eq!(
+            secondary_target(Some(Target::Native), 1, 1),
+            (Target::Native, false)
+        );
+        assert_eq!(
+            secondary_target(Some(Target::Reversed), 0, 1),
+            (Target::Reversed, false)
+        );
+        // Never begun yet: the images of the format decide, a guess only where both kinds
+        // exist.
+        assert_eq!(secondary_target(None, 1, 1), (Target::Reversed, true));
+        assert_eq!(secondary_target(None, 0, 2), (Target::Native, false));
+        assert_eq!(secondary_target(None, 3, 0), (Target::Reversed, false));
+        assert_eq!(secondary_target(None, 0, 0), (Target::None, false));
     }
 
     #[test]

@@ -14,8 +14,8 @@ use crate::chain;
 use crate::command_state::{StateSink, Target};
 use crate::config::Mode;
 use crate::conv::{flip_resolve_mode, DepthBias};
-use crate::objects::{self, CommandBufferEntry, PassScope};
-use crate::policy::Convention;
+use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
+use crate::policy::{secondary_target, Convention};
 use crate::precise::{Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
@@ -624,6 +624,7 @@ fn begin_pass(entry: &CommandBufferEntry, begin: &vk::RenderPassBeginInfo<'_>) -
         }
     }
     let scope = PassScope {
+        handle: begin.render_pass,
         render_pass: pass,
         attachment_targets: targets,
         subpass: 0,
@@ -643,10 +644,12 @@ pub unsafe extern "system" fn cmd_begin_render_pass(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid begin info (the application's contract).
         pass_begin = begin_pass(entry, unsafe { &*p_begin });
+        let key = subpass_key(&entry.scope());
         enter_contents(
             entry,
             buffer,
             contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS,
+            key,
         );
     });
     let Some(device) = device else { return };
@@ -673,10 +676,12 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
         pass_begin = begin_pass(entry, unsafe { &*p_begin });
         // SAFETY: a valid subpass begin info (the application's contract).
         let contents = unsafe { (*p_subpass_begin).contents };
+        let key = subpass_key(&entry.scope());
         enter_contents(
             entry,
             buffer,
             contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS,
+            key,
         );
     });
     let Some(next) = device.and_then(|d| d.commands.begin_render_pass2) else {
@@ -696,8 +701,14 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
 /// A subpass or rendering instance begins whose draws are (`secondary`) or are not recorded
 /// in secondaries; called before its begin goes down. Where they are, the viewports the
 /// application set go down first (secondaries may inherit them, and nothing may be recorded
-/// inside such a subpass), unless the subpass being left records secondaries itself.
-fn enter_contents(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
+/// inside such a subpass), unless the subpass being left records secondaries itself; and the
+/// depth target is remembered for `pass` (what secondaries without a framebuffer continue).
+fn enter_contents(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    secondary: bool,
+    pass: Option<SecondaryPass>,
+) {
     let mut state = entry.state();
     if secondary && state.records_inline() {
         state.flush_viewports_for_secondaries(&mut NextLayer {
@@ -706,16 +717,28 @@ fn enter_contents(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, seconda
         });
     }
     state.set_secondary_contents(secondary);
+    if let (true, false, Some(pass)) = (secondary, entry.secondary, pass) {
+        entry
+            .device
+            .objects
+            .remember_secondary_target(pass, state.target());
+    }
+}
+
+/// The key a subpass of the current render pass is remembered under.
+fn subpass_key(scope: &PassScope) -> Option<SecondaryPass> {
+    (scope.handle != vk::RenderPass::null())
+        .then_some(SecondaryPass::Subpass(scope.handle, scope.subpass as u32))
 }
 
 fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
-    let target = {
+    let (target, key) = {
         let mut scope = entry.scope();
         scope.subpass += 1;
-        scope.target()
+        (scope.target(), subpass_key(&scope))
     };
     entry.state().set_target(target);
-    enter_contents(entry, buffer, secondary);
+    enter_contents(entry, buffer, secondary, key);
 }
 
 fn end_pass(entry: &CommandBufferEntry) {
@@ -838,7 +861,10 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         let secondary = info
             .flags
             .contains(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS);
-        enter_contents(entry, buffer, secondary);
+        let key = depth
+            .and_then(|d| device.objects.view_format(d.image_view))
+            .map(SecondaryPass::Rendering);
+        enter_contents(entry, buffer, secondary, key);
     });
     let Some(next) = device.and_then(|d| d.commands.begin_rendering) else {
         return;
@@ -1191,6 +1217,7 @@ fn inherited_target(
                 .collect();
         if !targets.is_empty() {
             let scope = PassScope {
+                handle: inheritance.render_pass,
                 render_pass: pass,
                 attachment_targets: targets,
                 subpass: inheritance.subpass as usize,
@@ -1205,36 +1232,39 @@ fn inherited_target(
                 .flatten()?;
             p.attachments.get(index as usize).copied()
         });
-        return format.map_or(Target::None, |f| format_target(device, f));
+        let key = SecondaryPass::Subpass(inheritance.render_pass, inheritance.subpass);
+        return format.map_or(Target::None, |f| format_target(device, key, f));
     }
     // Dynamic rendering inheritance names only the formats.
     // SAFETY: a valid pNext chain (the application's contract).
     unsafe { chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next) }
         .map(|info| info.depth_attachment_format)
         .filter(|&format| format != vk::Format::UNDEFINED)
-        .map_or(Target::None, |format| format_target(device, format))
+        .map_or(Target::None, |format| {
+            format_target(device, SecondaryPass::Rendering(format), format)
+        })
 }
 
-/// Without a framebuffer, a secondary only knows its depth format: it follows the device's
-/// live depth images of that format (logged once when they disagree; reversed then wins,
-/// since non-observable attachments, the ones secondaries usually draw into, are reversed).
-fn format_target(device: &DeviceState, format: vk::Format) -> Target {
+/// Without a framebuffer, a secondary knows its pass and depth format: it follows the target
+/// that pass was last begun with for secondaries, else the device's live depth images of that
+/// format (`crate::policy::secondary_target`; a guess between both kinds is logged once).
+fn format_target(device: &DeviceState, pass: SecondaryPass, format: vk::Format) -> Target {
     static MIXED: OnceLock<()> = OnceLock::new();
-    let (reversed, native) = device.objects.count_images(format);
-    let images = match (reversed, native) {
-        (0, 0) => Target::None,
-        (_, 0) => Target::Reversed,
-        (0, _) => Target::Native,
-        _ => {
-            MIXED.get_or_init(|| {
-                log::warn!(
-                    "a secondary command buffer without a framebuffer draws into {format:?}, \
-                     which has both reversed and native images: assuming reversed"
-                )
-            });
-            Target::Reversed
-        }
+    let remembered = device.objects.secondary_targets.get(&pass);
+    let (reversed, native) = match remembered {
+        Some(_) => (0, 0),
+        None => device.objects.count_images(format),
     };
+    let (images, guessed) = secondary_target(remembered, reversed, native);
+    if guessed {
+        MIXED.get_or_init(|| {
+            log::warn!(
+                "a secondary command buffer without a framebuffer draws into {format:?}, which \
+                 has both reversed and native images, in a pass not yet begun for secondaries: \
+                 assuming reversed"
+            )
+        });
+    }
     device.observed.effective(images)
 }
 

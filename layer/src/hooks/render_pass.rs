@@ -271,11 +271,13 @@ pub unsafe extern "system" fn destroy_render_pass(
     };
     let destroy = state.next.fp_v1_0().destroy_render_pass;
     record(&DESTROY_RENDER_PASS, || {
-        let twin = state
-            .objects
-            .render_passes
-            .remove(&render_pass)
-            .and_then(|pass| pass.swapped_resolve_twin);
+        let removed = state.objects.render_passes.remove(&render_pass);
+        let subpasses = removed.as_ref().map_or(0, |pass| pass.subpass_depth.len());
+        for subpass in 0..subpasses as u32 {
+            let key = crate::objects::SecondaryPass::Subpass(render_pass, subpass);
+            state.objects.secondary_targets.remove(&key);
+        }
+        let twin = removed.and_then(|pass| pass.swapped_resolve_twin);
         if let Some(twin) = twin {
             // SAFETY: revz's own object; command buffers that began it are, like the
             // application's pass, no longer in use (the application's contract for destroying

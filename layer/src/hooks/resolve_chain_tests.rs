@@ -15,6 +15,7 @@ use std::sync::Arc;
 use ash::vk::{self, Handle};
 
 use super::fake_chain::{self, Event, SeenDepthAttachment, SeenResolve, Tables};
+use crate::command_state::Target;
 use crate::policy::{Convention, ImageDepth, NativeReason};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
@@ -1168,5 +1169,71 @@ fn strong_evidence_before_the_first_pass_leaves_a_reversed_application_alone() {
     depth.clear_value.depth_stencil.depth = 1.0;
     let (seen, app_structure) = fx.run_rendering(&depth, None);
     assert_eq!((seen.clear_depth, app_structure), (1.0, true));
+    fx.finish();
+}
+
+/// A secondary whose inheritance names no framebuffer (dynamic rendering: only formats)
+/// follows the target its pass was last begun with for secondaries: a sampled (native) shadow
+/// map and a reversed main attachment of the same format no longer make it guess "reversed".
+#[test]
+fn a_secondary_without_framebuffer_follows_the_rendering_last_begun_for_secondaries() {
+    let fx = Fixture::new();
+    let (shadow, shadow_view) = fx.depth_image(D32, SAMPLED, SINGLE);
+    let (main, main_view) = fx.depth_image(D32, RENDERED, SINGLE);
+    assert!(!fx.state.objects.image_reversed(shadow));
+    assert!(fx.state.objects.image_reversed(main));
+    let allocate = vk::CommandBufferAllocateInfo::default()
+        .command_pool(fx.pool)
+        .level(vk::CommandBufferLevel::SECONDARY)
+        .command_buffer_count(1);
+    let mut secondary = vk::CommandBuffer::null();
+    // SAFETY: a live device, a valid info and room for one handle.
+    let result =
+        unsafe { (fx.hooks.allocate_command_buffers)(fx.device, &allocate, &mut secondary) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    // What a secondary continuing a D32 rendering instance without a framebuffer assumes.
+    let secondary_target = || {
+        let formats = [];
+        let mut rendering = vk::CommandBufferInheritanceRenderingInfo::default()
+            .color_attachment_formats(&formats)
+            .depth_attachment_format(D32)
+            .rasterization_samples(SINGLE);
+        let inheritance = vk::CommandBufferInheritanceInfo::default().push_next(&mut rendering);
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE)
+            .inheritance_info(&inheritance);
+        // SAFETY: the secondary, not recording, and a valid begin info.
+        let result = unsafe { (fx.hooks.begin_command_buffer)(secondary, &begin) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        crate::objects::command_buffer(secondary)
+            .expect("tracked")
+            .state()
+            .inherited()
+    };
+    // Before any rendering for secondaries: both kinds exist, reversed is the guess.
+    assert_eq!(secondary_target(), Target::Reversed);
+    let begin_for_secondaries = |view| {
+        fx.begin_command_buffer();
+        let depth = rendering_depth(view, Mode::NONE, vk::ImageView::null());
+        let info = vk::RenderingInfo::default()
+            .flags(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS)
+            .render_area(EXTENT.into())
+            .layer_count(1)
+            .depth_attachment(&depth);
+        // SAFETY: a recording primary and a valid rendering info.
+        unsafe {
+            (fx.hooks.cmd_begin_rendering)(fx.command_buffer, &info);
+            (fx.hooks.cmd_end_rendering)(fx.command_buffer);
+        }
+        fx.events();
+    };
+    // The shadow pass is recorded in secondaries: they draw into the native map.
+    begin_for_secondaries(shadow_view);
+    assert_eq!(secondary_target(), Target::Native);
+    // Then the main pass.
+    begin_for_secondaries(main_view);
+    assert_eq!(secondary_target(), Target::Reversed);
+    // SAFETY: the secondary is not in use.
+    unsafe { (fx.hooks.free_command_buffers)(fx.device, fx.pool, 1, &secondary) };
     fx.finish();
 }
