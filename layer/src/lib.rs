@@ -5,8 +5,10 @@
 //! - the Vulkan plumbing: [`ffi`] (loader structures), [`boundary`] (no panic crosses into C),
 //!   [`state`] (per-instance/device state keyed by dispatch pointer) and [`hooks`] (the
 //!   intercepted commands, thin and mechanical);
-//! - the policy: [`config`] (which mode an instance runs in);
-//! - the depth math (to come: pure Rust, no Vulkan).
+//! - the policy: [`policy`] (which images are reversed, what the application's convention is,
+//!   where secondaries draw) and [`config`] (which mode an instance runs in);
+//! - the depth math: the `revz-math` crate (pure Rust, no Vulkan), with the per-draw logic in
+//!   [`command_state`] and [`precise`].
 //!
 //! Only the three loader entry points below are exported from the shared library.
 

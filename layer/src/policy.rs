@@ -1,9 +1,24 @@
-//! The policy: the one place that decides which depth images revz reverses.
+//! The policy: decisions revz takes about depth, as functions of plain facts.
+//!
+//! | decision | facts it reads | where they come from |
+//! |---|---|---|
+//! | is a depth image reversed or native ([`DevicePolicy::classify_image`]) | format, usage, tiling, settings | `vkCreateImage` |
+//! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
+//! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
+//! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
+//! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
 //! observe keeps standard depth unless the `reverse_observable` setting allows it, because its
 //! readers (shadow-map compares, SSAO, picking, screenshots) expect standard values.
+//!
+//! Where this differs from `shared/DESIGN.md`: the design notes call an application reversed
+//! on "a clear to 0 with GREATER, or B > 0 projections"; one reversed-looking matrix (rounding
+//! in a P*V*M far from the camera) or a clear to 0 alone is weak evidence, and deciding on it
+//! mid-frame left command buffers recorded before drawing reversed and new ones not. The
+//! convention is now decided once, from a clear to 0 together with GREATER compare ops or
+//! reversed projections, and never changed.
 
 use std::fmt;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
