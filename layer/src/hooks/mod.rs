@@ -57,6 +57,8 @@ mod lifetime_chain_tests;
 mod pipeline_chain_tests;
 #[cfg(test)]
 mod resolve_chain_tests;
+#[cfg(test)]
+mod secondary_chain_tests;
 
 use std::ffi::CStr;
 use std::sync::Arc;
