@@ -147,16 +147,15 @@ impl Spliced {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Unspliceable;
 
-/// The byte sizes of the structures that may come before the one revz splices out of a
-/// graphics pipeline's or a shader stage's chain: only structures of known size can be copied.
-fn known_size(s_type: vk::StructureType) -> Option<usize> {
+/// The structures that may come before the one revz splices out of a graphics pipeline's or a
+/// shader stage's chain, with their byte sizes: only structures of known size can be copied.
+pub(crate) const KNOWN_SIZES: &[(vk::StructureType, usize)] = {
     macro_rules! sizes {
         ($($structure:ty),* $(,)?) => {
-            $(
-                if s_type == <$structure as vk::TaggedStructure>::STRUCTURE_TYPE {
-                    return Some(std::mem::size_of::<$structure>());
-                }
-            )*
+            &[$((
+                <$structure as vk::TaggedStructure>::STRUCTURE_TYPE,
+                std::mem::size_of::<$structure>(),
+            )),*]
         };
     }
     sizes!(
@@ -184,8 +183,15 @@ fn known_size(s_type: vk::StructureType) -> Option<usize> {
         vk::PipelineShaderStageRequiredSubgroupSizeCreateInfo<'static>,
         vk::ShaderModuleCreateInfo<'static>,
         vk::ShaderModuleValidationCacheCreateInfoEXT<'static>,
-    );
-    None
+    )
+};
+
+/// The byte size of a structure of `s_type`, if revz knows it ([`KNOWN_SIZES`]).
+fn known_size(s_type: vk::StructureType) -> Option<usize> {
+    KNOWN_SIZES
+        .iter()
+        .find(|&&(known, _)| known == s_type)
+        .map(|&(_, size)| size)
 }
 
 /// The chain `p_next` with its first structure of `T`'s type replaced by `replacement`, or

@@ -25,30 +25,7 @@ macro_rules! kinds {
 }
 
 /// The structures revz knows the size of (those `chain::splice` copies).
-const COPYABLE: &[(vk::StructureType, usize)] = kinds!(
-    vk::AttachmentSampleCountInfoAMD<'static>,
-    vk::ExternalFormatANDROID<'static>,
-    vk::GraphicsPipelineLibraryCreateInfoEXT<'static>,
-    vk::GraphicsPipelineShaderGroupsCreateInfoNV<'static>,
-    vk::MultiviewPerViewAttributesInfoNVX<'static>,
-    vk::PipelineCompilerControlCreateInfoAMD<'static>,
-    vk::PipelineCreateFlags2CreateInfoKHR<'static>,
-    vk::PipelineCreationFeedbackCreateInfo<'static>,
-    vk::PipelineDiscardRectangleStateCreateInfoEXT<'static>,
-    vk::PipelineFragmentShadingRateEnumStateCreateInfoNV<'static>,
-    vk::PipelineFragmentShadingRateStateCreateInfoKHR<'static>,
-    vk::PipelineLibraryCreateInfoKHR<'static>,
-    vk::PipelineRenderingCreateInfo<'static>,
-    vk::PipelineRepresentativeFragmentTestStateCreateInfoNV<'static>,
-    vk::PipelineRobustnessCreateInfoEXT<'static>,
-    vk::RenderingAttachmentLocationInfoKHR<'static>,
-    vk::RenderingInputAttachmentIndexInfoKHR<'static>,
-    vk::DebugUtilsObjectNameInfoEXT<'static>,
-    vk::PipelineShaderStageModuleIdentifierCreateInfoEXT<'static>,
-    vk::PipelineShaderStageRequiredSubgroupSizeCreateInfo<'static>,
-    vk::ShaderModuleCreateInfo<'static>,
-    vk::ShaderModuleValidationCacheCreateInfoEXT<'static>,
-);
+const COPYABLE: &[(vk::StructureType, usize)] = crate::chain::KNOWN_SIZES;
 
 /// Real structures revz does not know the size of.
 const UNCOPYABLE: &[(vk::StructureType, usize)] = kinds!(
