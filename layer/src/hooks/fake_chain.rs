@@ -29,6 +29,26 @@ macro_rules! hook {
 }
 pub(super) use hook;
 
+/// Declares a struct of revz's hooks, each field the hook for one command as the application
+/// gets it from `vkGetDeviceProcAddr`, with `of(device)` to look them all up.
+macro_rules! hook_set {
+    (struct $name:ident { $($field:ident: $command:literal => $pfn:ty),* $(,)? }) => {
+        /// revz's hooks for the commands these tests call, as the application gets them.
+        struct $name {
+            $($field: $pfn,)*
+        }
+
+        impl $name {
+            fn of(device: vk::Device) -> $name {
+                $name {
+                    $($field: $crate::hooks::fake_chain::hook!(device, $command, $pfn),)*
+                }
+            }
+        }
+    };
+}
+pub(super) use hook_set;
+
 /// Dispatch tables: only their addresses matter (revz never reads through them), so distinct
 /// elements of one static give every test addresses no other test uses.
 static TABLE_SLOTS: [u8; 512] = [0; 512];

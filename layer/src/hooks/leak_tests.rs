@@ -33,7 +33,7 @@ use std::time::Instant;
 
 use ash::vk::{self, Handle};
 
-use super::fake_chain::{self, hook, Event, Tables};
+use super::fake_chain::{self, hook_set, Event, Tables};
 use crate::objects;
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 use crate::test_spirv;
@@ -225,122 +225,35 @@ unsafe extern "system" fn gdpa(device: vk::Device, name: *const c_char) -> vk::P
     }
 }
 
-/// The commands the cycles call, as the application gets them from revz.
-struct Hooks {
-    create_shader_module: vk::PFN_vkCreateShaderModule,
-    destroy_shader_module: vk::PFN_vkDestroyShaderModule,
-    create_graphics_pipelines: vk::PFN_vkCreateGraphicsPipelines,
-    destroy_pipeline: vk::PFN_vkDestroyPipeline,
-    create_pipeline_layout: vk::PFN_vkCreatePipelineLayout,
-    destroy_pipeline_layout: vk::PFN_vkDestroyPipelineLayout,
-    create_image: vk::PFN_vkCreateImage,
-    destroy_image: vk::PFN_vkDestroyImage,
-    create_image_view: vk::PFN_vkCreateImageView,
-    destroy_image_view: vk::PFN_vkDestroyImageView,
-    create_render_pass2: vk::PFN_vkCreateRenderPass2,
-    destroy_render_pass: vk::PFN_vkDestroyRenderPass,
-    create_framebuffer: vk::PFN_vkCreateFramebuffer,
-    destroy_framebuffer: vk::PFN_vkDestroyFramebuffer,
-    allocate_command_buffers: vk::PFN_vkAllocateCommandBuffers,
-    free_command_buffers: vk::PFN_vkFreeCommandBuffers,
-    destroy_command_pool: vk::PFN_vkDestroyCommandPool,
-    begin_command_buffer: vk::PFN_vkBeginCommandBuffer,
-    end_command_buffer: vk::PFN_vkEndCommandBuffer,
-    reset_command_buffer: vk::PFN_vkResetCommandBuffer,
-    cmd_begin_render_pass2: vk::PFN_vkCmdBeginRenderPass2,
-    cmd_end_render_pass2: vk::PFN_vkCmdEndRenderPass2,
-    cmd_bind_pipeline: vk::PFN_vkCmdBindPipeline,
-    cmd_push_constants: vk::PFN_vkCmdPushConstants,
-    cmd_draw: vk::PFN_vkCmdDraw,
-    cmd_execute_commands: vk::PFN_vkCmdExecuteCommands,
-}
-
-impl Hooks {
-    fn of(device: vk::Device) -> Hooks {
-        Hooks {
-            create_shader_module: hook!(
-                device,
-                c"vkCreateShaderModule",
-                vk::PFN_vkCreateShaderModule
-            ),
-            destroy_shader_module: hook!(
-                device,
-                c"vkDestroyShaderModule",
-                vk::PFN_vkDestroyShaderModule
-            ),
-            create_graphics_pipelines: hook!(
-                device,
-                c"vkCreateGraphicsPipelines",
-                vk::PFN_vkCreateGraphicsPipelines
-            ),
-            destroy_pipeline: hook!(device, c"vkDestroyPipeline", vk::PFN_vkDestroyPipeline),
-            create_pipeline_layout: hook!(
-                device,
-                c"vkCreatePipelineLayout",
-                vk::PFN_vkCreatePipelineLayout
-            ),
-            destroy_pipeline_layout: hook!(
-                device,
-                c"vkDestroyPipelineLayout",
-                vk::PFN_vkDestroyPipelineLayout
-            ),
-            create_image: hook!(device, c"vkCreateImage", vk::PFN_vkCreateImage),
-            destroy_image: hook!(device, c"vkDestroyImage", vk::PFN_vkDestroyImage),
-            create_image_view: hook!(device, c"vkCreateImageView", vk::PFN_vkCreateImageView),
-            destroy_image_view: hook!(device, c"vkDestroyImageView", vk::PFN_vkDestroyImageView),
-            create_render_pass2: hook!(device, c"vkCreateRenderPass2", vk::PFN_vkCreateRenderPass2),
-            destroy_render_pass: hook!(device, c"vkDestroyRenderPass", vk::PFN_vkDestroyRenderPass),
-            create_framebuffer: hook!(device, c"vkCreateFramebuffer", vk::PFN_vkCreateFramebuffer),
-            destroy_framebuffer: hook!(
-                device,
-                c"vkDestroyFramebuffer",
-                vk::PFN_vkDestroyFramebuffer
-            ),
-            allocate_command_buffers: hook!(
-                device,
-                c"vkAllocateCommandBuffers",
-                vk::PFN_vkAllocateCommandBuffers
-            ),
-            free_command_buffers: hook!(
-                device,
-                c"vkFreeCommandBuffers",
-                vk::PFN_vkFreeCommandBuffers
-            ),
-            destroy_command_pool: hook!(
-                device,
-                c"vkDestroyCommandPool",
-                vk::PFN_vkDestroyCommandPool
-            ),
-            begin_command_buffer: hook!(
-                device,
-                c"vkBeginCommandBuffer",
-                vk::PFN_vkBeginCommandBuffer
-            ),
-            end_command_buffer: hook!(device, c"vkEndCommandBuffer", vk::PFN_vkEndCommandBuffer),
-            reset_command_buffer: hook!(
-                device,
-                c"vkResetCommandBuffer",
-                vk::PFN_vkResetCommandBuffer
-            ),
-            cmd_begin_render_pass2: hook!(
-                device,
-                c"vkCmdBeginRenderPass2",
-                vk::PFN_vkCmdBeginRenderPass2
-            ),
-            cmd_end_render_pass2: hook!(
-                device,
-                c"vkCmdEndRenderPass2",
-                vk::PFN_vkCmdEndRenderPass2
-            ),
-            cmd_bind_pipeline: hook!(device, c"vkCmdBindPipeline", vk::PFN_vkCmdBindPipeline),
-            cmd_push_constants: hook!(device, c"vkCmdPushConstants", vk::PFN_vkCmdPushConstants),
-            cmd_draw: hook!(device, c"vkCmdDraw", vk::PFN_vkCmdDraw),
-            cmd_execute_commands: hook!(
-                device,
-                c"vkCmdExecuteCommands",
-                vk::PFN_vkCmdExecuteCommands
-            ),
-        }
+// The commands the cycles call, as the application gets them from revz.
+hook_set! {
+    struct Hooks {
+        create_shader_module: c"vkCreateShaderModule" => vk::PFN_vkCreateShaderModule,
+        destroy_shader_module: c"vkDestroyShaderModule" => vk::PFN_vkDestroyShaderModule,
+        create_graphics_pipelines: c"vkCreateGraphicsPipelines" => vk::PFN_vkCreateGraphicsPipelines,
+        destroy_pipeline: c"vkDestroyPipeline" => vk::PFN_vkDestroyPipeline,
+        create_pipeline_layout: c"vkCreatePipelineLayout" => vk::PFN_vkCreatePipelineLayout,
+        destroy_pipeline_layout: c"vkDestroyPipelineLayout" => vk::PFN_vkDestroyPipelineLayout,
+        create_image: c"vkCreateImage" => vk::PFN_vkCreateImage,
+        destroy_image: c"vkDestroyImage" => vk::PFN_vkDestroyImage,
+        create_image_view: c"vkCreateImageView" => vk::PFN_vkCreateImageView,
+        destroy_image_view: c"vkDestroyImageView" => vk::PFN_vkDestroyImageView,
+        create_render_pass2: c"vkCreateRenderPass2" => vk::PFN_vkCreateRenderPass2,
+        destroy_render_pass: c"vkDestroyRenderPass" => vk::PFN_vkDestroyRenderPass,
+        create_framebuffer: c"vkCreateFramebuffer" => vk::PFN_vkCreateFramebuffer,
+        destroy_framebuffer: c"vkDestroyFramebuffer" => vk::PFN_vkDestroyFramebuffer,
+        allocate_command_buffers: c"vkAllocateCommandBuffers" => vk::PFN_vkAllocateCommandBuffers,
+        free_command_buffers: c"vkFreeCommandBuffers" => vk::PFN_vkFreeCommandBuffers,
+        destroy_command_pool: c"vkDestroyCommandPool" => vk::PFN_vkDestroyCommandPool,
+        begin_command_buffer: c"vkBeginCommandBuffer" => vk::PFN_vkBeginCommandBuffer,
+        end_command_buffer: c"vkEndCommandBuffer" => vk::PFN_vkEndCommandBuffer,
+        reset_command_buffer: c"vkResetCommandBuffer" => vk::PFN_vkResetCommandBuffer,
+        cmd_begin_render_pass2: c"vkCmdBeginRenderPass2" => vk::PFN_vkCmdBeginRenderPass2,
+        cmd_end_render_pass2: c"vkCmdEndRenderPass2" => vk::PFN_vkCmdEndRenderPass2,
+        cmd_bind_pipeline: c"vkCmdBindPipeline" => vk::PFN_vkCmdBindPipeline,
+        cmd_push_constants: c"vkCmdPushConstants" => vk::PFN_vkCmdPushConstants,
+        cmd_draw: c"vkCmdDraw" => vk::PFN_vkCmdDraw,
+        cmd_execute_commands: c"vkCmdExecuteCommands" => vk::PFN_vkCmdExecuteCommands,
     }
 }
 

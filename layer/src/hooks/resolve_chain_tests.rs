@@ -37,76 +37,26 @@ const EXTENT: vk::Extent2D = vk::Extent2D {
 };
 const LAYOUT: vk::ImageLayout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
 
-use super::fake_chain::hook;
+use super::fake_chain::hook_set;
 
-/// The hooks these tests call, as the application would get them.
-struct Hooks {
-    create_image: vk::PFN_vkCreateImage,
-    destroy_image: vk::PFN_vkDestroyImage,
-    create_image_view: vk::PFN_vkCreateImageView,
-    destroy_image_view: vk::PFN_vkDestroyImageView,
-    create_render_pass2: vk::PFN_vkCreateRenderPass2,
-    destroy_render_pass: vk::PFN_vkDestroyRenderPass,
-    create_framebuffer: vk::PFN_vkCreateFramebuffer,
-    destroy_framebuffer: vk::PFN_vkDestroyFramebuffer,
-    allocate_command_buffers: vk::PFN_vkAllocateCommandBuffers,
-    free_command_buffers: vk::PFN_vkFreeCommandBuffers,
-    destroy_command_pool: vk::PFN_vkDestroyCommandPool,
-    begin_command_buffer: vk::PFN_vkBeginCommandBuffer,
-    cmd_begin_render_pass2: vk::PFN_vkCmdBeginRenderPass2,
-    cmd_end_render_pass2: vk::PFN_vkCmdEndRenderPass2,
-    cmd_begin_rendering: vk::PFN_vkCmdBeginRendering,
-    cmd_end_rendering: vk::PFN_vkCmdEndRendering,
-}
-
-impl Hooks {
-    fn of(device: vk::Device) -> Hooks {
-        Hooks {
-            create_image: hook!(device, c"vkCreateImage", vk::PFN_vkCreateImage),
-            destroy_image: hook!(device, c"vkDestroyImage", vk::PFN_vkDestroyImage),
-            create_image_view: hook!(device, c"vkCreateImageView", vk::PFN_vkCreateImageView),
-            destroy_image_view: hook!(device, c"vkDestroyImageView", vk::PFN_vkDestroyImageView),
-            create_render_pass2: hook!(device, c"vkCreateRenderPass2", vk::PFN_vkCreateRenderPass2),
-            destroy_render_pass: hook!(device, c"vkDestroyRenderPass", vk::PFN_vkDestroyRenderPass),
-            create_framebuffer: hook!(device, c"vkCreateFramebuffer", vk::PFN_vkCreateFramebuffer),
-            destroy_framebuffer: hook!(
-                device,
-                c"vkDestroyFramebuffer",
-                vk::PFN_vkDestroyFramebuffer
-            ),
-            allocate_command_buffers: hook!(
-                device,
-                c"vkAllocateCommandBuffers",
-                vk::PFN_vkAllocateCommandBuffers
-            ),
-            free_command_buffers: hook!(
-                device,
-                c"vkFreeCommandBuffers",
-                vk::PFN_vkFreeCommandBuffers
-            ),
-            destroy_command_pool: hook!(
-                device,
-                c"vkDestroyCommandPool",
-                vk::PFN_vkDestroyCommandPool
-            ),
-            begin_command_buffer: hook!(
-                device,
-                c"vkBeginCommandBuffer",
-                vk::PFN_vkBeginCommandBuffer
-            ),
-            cmd_begin_render_pass2: hook!(
-                device,
-                c"vkCmdBeginRenderPass2",
-                vk::PFN_vkCmdBeginRenderPass2
-            ),
-            cmd_end_render_pass2: hook!(
-                device,
-                c"vkCmdEndRenderPass2",
-                vk::PFN_vkCmdEndRenderPass2
-            ),
-            cmd_begin_rendering: hook!(device, c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering),
-            cmd_end_rendering: hook!(device, c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering),
-        }
+hook_set! {
+    struct Hooks {
+        create_image: c"vkCreateImage" => vk::PFN_vkCreateImage,
+        destroy_image: c"vkDestroyImage" => vk::PFN_vkDestroyImage,
+        create_image_view: c"vkCreateImageView" => vk::PFN_vkCreateImageView,
+        destroy_image_view: c"vkDestroyImageView" => vk::PFN_vkDestroyImageView,
+        create_render_pass2: c"vkCreateRenderPass2" => vk::PFN_vkCreateRenderPass2,
+        destroy_render_pass: c"vkDestroyRenderPass" => vk::PFN_vkDestroyRenderPass,
+        create_framebuffer: c"vkCreateFramebuffer" => vk::PFN_vkCreateFramebuffer,
+        destroy_framebuffer: c"vkDestroyFramebuffer" => vk::PFN_vkDestroyFramebuffer,
+        allocate_command_buffers: c"vkAllocateCommandBuffers" => vk::PFN_vkAllocateCommandBuffers,
+        free_command_buffers: c"vkFreeCommandBuffers" => vk::PFN_vkFreeCommandBuffers,
+        destroy_command_pool: c"vkDestroyCommandPool" => vk::PFN_vkDestroyCommandPool,
+        begin_command_buffer: c"vkBeginCommandBuffer" => vk::PFN_vkBeginCommandBuffer,
+        cmd_begin_render_pass2: c"vkCmdBeginRenderPass2" => vk::PFN_vkCmdBeginRenderPass2,
+        cmd_end_render_pass2: c"vkCmdEndRenderPass2" => vk::PFN_vkCmdEndRenderPass2,
+        cmd_begin_rendering: c"vkCmdBeginRendering" => vk::PFN_vkCmdBeginRendering,
+        cmd_end_rendering: c"vkCmdEndRendering" => vk::PFN_vkCmdEndRendering,
     }
 }
 
