@@ -572,8 +572,13 @@ impl PassBegin {
 
 /// Begins a render pass instance: settles its depth resolves, flips the clear values of
 /// reversed depth attachments, picks the swapped-resolve twin where its resolved attachment is
-/// reversed, and records the scope.
-fn begin_pass(entry: &CommandBufferEntry, begin: &vk::RenderPassBeginInfo<'_>) -> PassBegin {
+/// reversed, records the scope, and enters its first subpass's `contents`.
+fn begin_pass(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    begin: &vk::RenderPassBeginInfo<'_>,
+    contents: vk::SubpassContents,
+) -> PassBegin {
     let device = &entry.device;
     let pass = device.objects.render_passes.get(&begin.render_pass);
     let views = attachment_views(device, begin.framebuffer, begin.p_next);
@@ -630,7 +635,10 @@ fn begin_pass(entry: &CommandBufferEntry, begin: &vk::RenderPassBeginInfo<'_>) -
         subpass: 0,
     };
     entry.state().set_target(scope.target());
+    let key = subpass_key(&scope);
     *entry.scope() = scope;
+    let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
+    enter_contents(entry, buffer, secondary, key);
     out
 }
 
@@ -643,14 +651,7 @@ pub unsafe extern "system" fn cmd_begin_render_pass(
     let mut pass_begin = PassBegin::default();
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid begin info (the application's contract).
-        pass_begin = begin_pass(entry, unsafe { &*p_begin });
-        let key = subpass_key(&entry.scope());
-        enter_contents(
-            entry,
-            buffer,
-            contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS,
-            key,
-        );
+        pass_begin = begin_pass(entry, buffer, unsafe { &*p_begin }, contents);
     });
     let Some(device) = device else { return };
     // SAFETY: a valid begin info.
@@ -672,17 +673,10 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRenderPass2");
     let mut pass_begin = PassBegin::default();
     let device = with_entry(buffer, &ENTRY, |entry| {
-        // SAFETY: a valid begin info (the application's contract).
-        pass_begin = begin_pass(entry, unsafe { &*p_begin });
         // SAFETY: a valid subpass begin info (the application's contract).
         let contents = unsafe { (*p_subpass_begin).contents };
-        let key = subpass_key(&entry.scope());
-        enter_contents(
-            entry,
-            buffer,
-            contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS,
-            key,
-        );
+        // SAFETY: a valid begin info (the application's contract).
+        pass_begin = begin_pass(entry, buffer, unsafe { &*p_begin }, contents);
     });
     let Some(next) = device.and_then(|d| d.commands.begin_render_pass2) else {
         return;
