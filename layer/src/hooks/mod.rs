@@ -42,6 +42,7 @@ pub mod instance;
 pub mod pipeline;
 pub mod render_pass;
 pub mod resources;
+pub mod shader_object;
 
 #[cfg(test)]
 mod chain_tests;
@@ -151,6 +152,18 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             void_fn!(
                 vk::PFN_vkDestroyShaderModule,
                 pipeline::destroy_shader_module
+            )
+        }
+        b"vkCreateShadersEXT" => {
+            void_fn!(
+                vk::PFN_vkCreateShadersEXT,
+                shader_object::create_shaders_ext
+            )
+        }
+        b"vkDestroyShaderEXT" => {
+            void_fn!(
+                vk::PFN_vkDestroyShaderEXT,
+                shader_object::destroy_shader_ext
             )
         }
         b"vkBeginCommandBuffer" => {
@@ -334,6 +347,9 @@ mod tests {
             c"vkCmdExecuteGeneratedCommandsNV",
             c"vkCmdExecuteGeneratedCommandsEXT",
             c"vkCmdExecuteCommands",
+            c"vkCreateShadersEXT",
+            c"vkDestroyShaderEXT",
+            c"vkCmdBindShadersEXT",
         ] {
             assert!(depth_path_command(name).is_some(), "{name:?}");
         }
