@@ -58,6 +58,8 @@ mod lifetime_chain_tests;
 mod pipeline_chain_tests;
 #[cfg(test)]
 mod resolve_chain_tests;
+#[cfg(test)]
+mod shader_object_chain_tests;
 
 use std::ffi::CStr;
 use std::sync::Arc;
