@@ -665,11 +665,11 @@ impl CommandState {
             }
         }
         match self.fragment_shader {
-            (shader, Some(FragmentShader::Reversed(variant))) => {
-                if reversed != self.shader_variant_bound {
-                    sink.bind_fragment_shader(if reversed { variant } else { shader });
-                    self.shader_variant_bound = reversed;
-                }
+            (shader, Some(FragmentShader::Reversed(variant)))
+                if reversed != self.shader_variant_bound =>
+            {
+                sink.bind_fragment_shader(if reversed { variant } else { shader });
+                self.shader_variant_bound = reversed;
             }
             (_, Some(FragmentShader::Unreversed)) if reversed => {
                 static WARNED: std::sync::Once = std::sync::Once::new();

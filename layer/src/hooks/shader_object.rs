@@ -189,8 +189,8 @@ pub unsafe extern "system" fn create_shaders_ext(
         );
         for (index, depth) in variants.iter().enumerate() {
             let Some(depth) = *depth else { continue };
-            // SAFETY: `count` handles written (checked above).
             let shader = if written {
+                // SAFETY: `count` handles written (checked above).
                 unsafe { *p_shaders.add(index) }
             } else {
                 vk::ShaderEXT::null()

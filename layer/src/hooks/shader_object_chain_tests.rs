@@ -612,6 +612,31 @@ fn a_variant_the_app_never_destroyed_goes_with_the_device() {
 }
 
 #[test]
+fn an_active_mode_hands_out_revz_shader_object_hooks() {
+    let fx = Fixture::new();
+    for name in [
+        c"vkCreateShadersEXT",
+        c"vkDestroyShaderEXT",
+        c"vkCmdBindShadersEXT",
+    ] {
+        // SAFETY: a live device and NUL-terminated names.
+        let (revz, next) = unsafe {
+            (
+                super::device::get_device_proc_addr(fx.device, name.as_ptr()),
+                fake_chain::fake_get_device_proc_addr_with_shader_objects(fx.device, name.as_ptr()),
+            )
+        };
+        assert!(revz.is_some() && next.is_some(), "{name:?}");
+        assert_ne!(
+            revz.map(|f| f as usize),
+            next.map(|f| f as usize),
+            "{name:?}"
+        );
+    }
+    fx.finish();
+}
+
+#[test]
 fn mode_off_hands_out_the_next_layers_shader_object_commands() {
     let fx = Fixture::with_settings(&[(c"mode", c"off")]);
     for name in [
