@@ -6,8 +6,9 @@
 //! - The application's `vkCreateShadersEXT` goes down unchanged. Variants are created before
 //!   it, one call per variant, from the application's create info with only the code replaced
 //!   (its chain, flags, layouts, push constant ranges and specialization kept, no allocator):
-//!   creating a shader object may write output structures of the chain it is given, which must
-//!   end up holding the application's results. A variant whose application shader was not
+//!   should a structure of that shared chain be written by creation (as creation feedback is
+//!   for pipelines), the application's call, made last, leaves its own results there; and the
+//!   application's handles and result are never touched. A variant whose application shader was not
 //!   created is destroyed again; the application's results are only read on `SUCCESS` and
 //!   `INCOMPATIBLE_SHADER_BINARY_EXT`, where every handle is written.
 //! - Linked shaders (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`) get no variant: the stages of a
