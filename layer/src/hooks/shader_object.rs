@@ -7,10 +7,10 @@
 //!   it, one call per variant, from the application's create info with only the code replaced
 //!   (its chain, flags, layouts, push constant ranges and specialization kept, no allocator):
 //!   should a structure of that shared chain be written by creation (as creation feedback is
-//!   for pipelines), the application's call, made last, leaves its own results there; and the
-//!   application's handles and result are never touched. A variant whose application shader was not
-//!   created is destroyed again; the application's results are only read on `SUCCESS` and
-//!   `INCOMPATIBLE_SHADER_BINARY_EXT`, where every handle is written.
+//!   for pipelines), the application's call, made last, leaves its own results there; the
+//!   application's handles and result are never touched. A variant whose application shader
+//!   was not created is destroyed again; the application's handles are only read on `SUCCESS`
+//!   and `INCOMPATIBLE_SHADER_BINARY_EXT`, where every one is written.
 //! - Linked shaders (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`) get no variant: the stages of a
 //!   linked set are compiled together and must be bound together, so a fragment variant would
 //!   need the whole set re-created (variants of every stage) and every stage of it swapped at
@@ -73,7 +73,7 @@ fn plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
     if info.code_type != vk::ShaderCodeTypeEXT::SPIRV {
         return Plan::Nothing;
     }
-    // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (VUID-VkShaderCreateInfoEXT-pCode-08493).
+    // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's contract).
     let words = unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) };
     match fragment_depth::reverse_fragment_depth(words) {
         Ok(None) => Plan::Nothing,
