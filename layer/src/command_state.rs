@@ -12,11 +12,17 @@
 //! attachment whose pipeline reads its projection from push constants, and whose pushed value
 //! was rewritten ([`crate::precise`]), takes the precise path (viewport [a, b] -> [1-b, 1-a]);
 //! every other draw into a reversed attachment takes the flip path.
+//!
+//! The fragment stage of a draw that computes with depth is swapped the same way: the bound
+//! pipeline's reversed variant, or the bound fragment shader object's
+//! (`VK_EXT_shader_object`, `crate::hooks::shader_object`), is bound in its place for a
+//! reversed target and the application's back for a native one, each only when it changes.
 
 use ash::vk;
 use revz_math::Target as RewriteTarget;
 
 use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
+use crate::objects::FragmentShader;
 use crate::precise::{Outcome, ProjectionUse, PushConstants, PushSink};
 
 /// A set of depth-related dynamic states.
@@ -168,6 +174,9 @@ pub trait StateSink: PushSink {
     fn set_bounds(&mut self, min: f32, max: f32);
     /// Binds a graphics pipeline (a compare-op variant, or the application's pipeline back).
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline);
+    /// Binds a shader object to the fragment stage (a reversed variant, or the application's
+    /// shader back).
+    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT);
 }
 
 /// What revz last sent down for each depth-related dynamic state, so that a draw whose state
@@ -276,6 +285,11 @@ impl<S: StateSink> StateSink for Filtered<'_, S> {
         // overwrites nothing the record holds.
         self.sink.bind_pipeline(pipeline);
     }
+
+    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT) {
+        // Shader objects have no static state.
+        self.sink.bind_fragment_shader(shader);
+    }
 }
 
 /// Depth state of one command buffer while it records.
@@ -304,6 +318,11 @@ pub struct CommandState {
     emitted: Emitted,
     /// Whether revz bound the bound pipeline's compare-op variant in its place.
     variant_bound: bool,
+    /// The shader object the application bound to the fragment stage (null: none), and what
+    /// revz knows of it when it computes with depth.
+    fragment_shader: (vk::ShaderEXT, Option<FragmentShader>),
+    /// Whether revz bound the bound fragment shader object's reversed variant in its place.
+    shader_variant_bound: bool,
     /// A secondary that inherits its viewports from the primary that executes it
     /// (`VK_NV_inherited_viewport_scissor`): its draws take the flip path, the one the
     /// primary sends its viewports for ([`CommandState::flush_viewports_for_secondaries`]).
@@ -332,6 +351,8 @@ impl Default for CommandState {
             path: DrawPath::Native,
             emitted: Emitted::default(),
             variant_bound: false,
+            fragment_shader: (vk::ShaderEXT::null(), None),
+            shader_variant_bound: false,
             inherits_viewports: false,
             secondary_contents: false,
             dirty: true,
@@ -446,8 +467,29 @@ impl CommandState {
         }
     }
 
-    /// `vkCmdBindPipeline` with a graphics pipeline.
+    /// `vkCmdBindPipeline` with a graphics pipeline: it unbinds the shader objects bound to
+    /// graphics stages (revz's fragment variant with them).
     pub fn bind_pipeline(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {
+        self.bind_graphics(pipeline);
+        self.fragment_shader = (vk::ShaderEXT::null(), None);
+        self.shader_variant_bound = false;
+    }
+
+    /// `vkCmdBindShadersEXT`: the bound pipeline is replaced. `fragment` is the shader object
+    /// the call binds to the fragment stage (null: it unbinds the stage) and what revz knows of
+    /// it, when the call names that stage; the fragment stage is left as it is otherwise (a
+    /// variant revz bound stays in place of the application's shader).
+    pub fn bind_shaders(&mut self, fragment: Option<(vk::ShaderEXT, Option<FragmentShader>)>) {
+        self.bind_graphics(None);
+        if let Some(fragment) = fragment {
+            // The application's bind goes down after this: its shader is the one bound now.
+            self.fragment_shader = fragment;
+            self.shader_variant_bound = false;
+        }
+    }
+
+    /// A pipeline (`None`: untracked, or shader objects) becomes the source of static state.
+    fn bind_graphics(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {
         // An untracked pipeline (or shader objects) may set anything statically.
         let dynamic = pipeline
             .as_ref()
@@ -517,6 +559,7 @@ impl CommandState {
         self.push.invalidate();
         self.emitted = Emitted::default();
         self.variant_bound = false;
+        self.shader_variant_bound = false;
         self.dirty = true;
     }
 
@@ -620,6 +663,26 @@ impl CommandState {
                     self.variant_bound = reversed;
                 }
             }
+        }
+        match self.fragment_shader {
+            (shader, Some(FragmentShader::Reversed(variant)))
+                if reversed != self.shader_variant_bound =>
+            {
+                sink.bind_fragment_shader(if reversed { variant } else { shader });
+                self.shader_variant_bound = reversed;
+            }
+            (_, Some(FragmentShader::Unreversed)) if reversed => {
+                static WARNED: std::sync::Once = std::sync::Once::new();
+                WARNED.call_once(|| {
+                    log::warn!(
+                        "a fragment shader object that computes with depth (FragDepth or \
+                         FragCoord.z) and has no reversed variant (the rewrite refused it, its \
+                         variant failed, it is linked, or its code is binary) draws into a \
+                         reversed depth attachment: its fragments keep standard depth"
+                    )
+                });
+            }
+            _ => {}
         }
         let (from_app, injected, pipeline) = match &self.pipeline {
             Some(p) => (self.app_set & p.app_dynamic, p.injected, Some(&**p)),
@@ -747,6 +810,7 @@ mod tests {
         bounds: Vec<(f32, f32)>,
         pushes: Vec<(u32, usize)>,
         binds: Vec<vk::Pipeline>,
+        shader_binds: Vec<vk::ShaderEXT>,
     }
 
     impl PushSink for Recorded {
@@ -787,6 +851,9 @@ mod tests {
         }
         fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
             self.binds.push(pipeline);
+        }
+        fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT) {
+            self.shader_binds.push(shader);
         }
     }
 
@@ -865,6 +932,86 @@ mod tests {
         state.bind_pipeline(Some(pipeline));
         state.before_draw(&mut sink);
         assert_eq!(sink.binds, vec![variant, original, variant]);
+    }
+
+    #[test]
+    fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_shader_back() {
+        let shader = vk::ShaderEXT::from_raw(20);
+        let variant = vk::ShaderEXT::from_raw(21);
+        let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
+        let mut state = CommandState::default();
+        state.begin(Target::Reversed, Reversal::Complementary);
+        state.bind_shaders(fragment);
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        state.before_draw(&mut sink);
+        assert_eq!(
+            sink.shader_binds,
+            [variant],
+            "bound once, for reversed draws"
+        );
+        assert!(sink.binds.is_empty());
+
+        // Binding other stages leaves the variant in place of the application's shader.
+        state.bind_shaders(None);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.shader_binds, [variant]);
+
+        // A native pass: the application's shader comes back, once.
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.shader_binds, [variant, shader]);
+
+        // The application binds its shader again (it goes down): native draws need nothing,
+        // reversed ones the variant again.
+        state.bind_shaders(fragment);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.shader_binds, [variant, shader]);
+        state.set_target(Target::Reversed);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.shader_binds, [variant, shader, variant]);
+
+        // Secondaries leave the bindings undefined: the variant is bound again.
+        state.invalidate();
+        state.before_draw(&mut sink);
+        assert_eq!(sink.shader_binds, [variant, shader, variant, variant]);
+    }
+
+    #[test]
+    fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
+        let shader = vk::ShaderEXT::from_raw(30);
+        let variant = vk::ShaderEXT::from_raw(31);
+        let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
+        let mut state = CommandState::default();
+        state.begin(Target::Reversed, Reversal::Complementary);
+        let mut sink = Recorded::default();
+
+        // Unbound (null): nothing to swap.
+        state.bind_shaders(fragment);
+        state.bind_shaders(Some((vk::ShaderEXT::null(), None)));
+        state.before_draw(&mut sink);
+        assert!(sink.shader_binds.is_empty());
+
+        // A pipeline bound after the variant unbinds it: native draws bind nothing back.
+        state.bind_shaders(fragment);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.shader_binds, [variant]);
+        state.bind_pipeline(Some(static_pipeline()));
+        state.before_draw(&mut sink);
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.shader_binds, [variant]);
+
+        // Shaders without a variant (plain, or marked unreversed) are never swapped.
+        for depth in [None, Some(FragmentShader::Unreversed)] {
+            state.set_target(Target::Reversed);
+            state.bind_shaders(Some((shader, depth)));
+            state.before_draw(&mut sink);
+            state.set_target(Target::Native);
+            state.before_draw(&mut sink);
+        }
+        assert_eq!(sink.shader_binds, [variant]);
     }
 
     #[test]

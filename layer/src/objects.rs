@@ -196,6 +196,10 @@ pub struct DeviceObjects {
     /// What the shader analysis found in each vertex module (precise modes only): per entry
     /// point, or why the module could not be read.
     pub vertex_modules: Table<vk::ShaderModule, Arc<ModuleAnalysis>>,
+    /// Fragment shader objects (`VK_EXT_shader_object`) that compute with depth, or whose code
+    /// revz cannot read: each one's reversed variant, or that it keeps standard depth
+    /// (`crate::hooks::shader_object`). Other shader objects have no entry.
+    pub fragment_shaders: Table<vk::ShaderEXT, FragmentShader>,
     /// Each pipeline layout's push-constant ranges (precise modes only).
     pub pipeline_layouts: Table<vk::PipelineLayout, Arc<[vk::PushConstantRange]>>,
     /// Each pool's command buffers, to forget them when the pool is destroyed.
@@ -204,6 +208,29 @@ pub struct DeviceObjects {
     /// was last begun with for secondaries, for secondaries whose inheritance names no
     /// framebuffer (`crate::policy::secondary_target`). A render pass's entries go with it.
     pub secondary_targets: Table<SecondaryPass, Target>,
+}
+
+/// A fragment shader object that computes with depth (or may: binary code), as draws into
+/// reversed attachments see it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FragmentShader {
+    /// The shader object of its rewritten code (revz's own), bound in its place for draws into
+    /// reversed attachments.
+    Reversed(vk::ShaderEXT),
+    /// No variant: its draws into reversed attachments keep standard fragment depth (warned
+    /// once at draw). The code was refused by the rewrite, the variant could not be created,
+    /// the shader is part of a linked set, or its code is binary.
+    Unreversed,
+}
+
+impl FragmentShader {
+    /// The reversed variant, if there is one.
+    pub fn variant(self) -> Option<vk::ShaderEXT> {
+        match self {
+            FragmentShader::Reversed(variant) => Some(variant),
+            FragmentShader::Unreversed => None,
+        }
+    }
 }
 
 /// What a secondary's inheritance names of the pass it continues, without a framebuffer.
@@ -363,9 +390,25 @@ impl DeviceObjects {
     }
 
     /// Destroys the objects revz created on the device's behalf (swapped-resolve twins of
-    /// render passes and compare-op variants of pipelines the application did not destroy),
-    /// before the device goes.
-    pub fn destroy_own_objects(&self, device: vk::Device, next: &ash::Device) {
+    /// render passes, reversed variants of pipelines and of fragment shader objects the
+    /// application did not destroy), before the device goes.
+    pub fn destroy_own_objects(
+        &self,
+        device: vk::Device,
+        next: &ash::Device,
+        commands: &crate::state::DeviceCommands,
+    ) {
+        let shaders = self
+            .fragment_shaders
+            .0
+            .read()
+            .unwrap_or_else(PoisonError::into_inner);
+        if let Some(destroy) = commands.destroy_shader_ext {
+            for variant in shaders.values().filter_map(|shader| shader.variant()) {
+                // SAFETY: revz's own object; the device is idle.
+                unsafe { destroy(device, variant, std::ptr::null()) };
+            }
+        }
         let pipelines = self
             .pipelines
             .0

@@ -125,6 +125,9 @@ pub struct DeviceCommands {
     pub execute_generated_commands_nv: Option<vk::PFN_vkCmdExecuteGeneratedCommandsNV>,
     pub execute_generated_commands_ext: Option<crate::ffi::PfnCmdExecuteGeneratedCommandsExt>,
     pub bind_shaders_ext: Option<vk::PFN_vkCmdBindShadersEXT>,
+    /// `VK_EXT_shader_object`: revz makes reversed variants of fragment shader objects.
+    pub create_shaders_ext: Option<vk::PFN_vkCreateShadersEXT>,
+    pub destroy_shader_ext: Option<vk::PFN_vkDestroyShaderEXT>,
     pub push_constants2: Option<vk::PFN_vkCmdPushConstants2KHR>,
     pub copy_buffer_to_image2: Option<vk::PFN_vkCmdCopyBufferToImage2>,
     pub copy_image2: Option<vk::PFN_vkCmdCopyImage2>,
@@ -204,6 +207,8 @@ impl DeviceCommands {
             execute_generated_commands_nv: load!(0, c"vkCmdExecuteGeneratedCommandsNV"),
             execute_generated_commands_ext: load!(0, c"vkCmdExecuteGeneratedCommandsEXT"),
             bind_shaders_ext: load!(0, c"vkCmdBindShadersEXT"),
+            create_shaders_ext: load!(0, c"vkCreateShadersEXT"),
+            destroy_shader_ext: load!(0, c"vkDestroyShaderEXT"),
             push_constants2: load!(V14, c"vkCmdPushConstants2", c"vkCmdPushConstants2KHR"),
             copy_buffer_to_image2: load!(
                 V13,

@@ -109,6 +109,15 @@ impl StateSink for NextLayer<'_> {
             )
         }
     }
+
+    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT) {
+        // Only shader objects of this device get here, so it has the command.
+        if let Some(bind) = self.device.commands.bind_shaders_ext {
+            // SAFETY: as above; a live shader object (the application's, or its variant,
+            // destroyed with it) of the fragment stage.
+            unsafe { bind(self.buffer, 1, &vk::ShaderStageFlags::FRAGMENT, &shader) }
+        }
+    }
 }
 
 /// Emits pending depth state before a draw.
@@ -508,7 +517,8 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
 }
 
 /// `vkCmdBindShadersEXT`: with shader objects every piece of state is dynamic, so revz emits
-/// whatever the application set.
+/// whatever the application set. The shader bound to the fragment stage is recorded, so that
+/// draws into reversed attachments bind its reversed variant (`super::shader_object`).
 pub unsafe extern "system" fn cmd_bind_shaders_ext(
     buffer: vk::CommandBuffer,
     count: u32,
@@ -516,7 +526,27 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
     p_shaders: *const vk::ShaderEXT,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindShadersEXT");
-    let device = with_entry(buffer, &ENTRY, |entry| entry.state().bind_pipeline(None));
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: `count` stages, and `count` shaders unless null (then every stage is
+        // unbound).
+        let stages = unsafe { slice(p_stages, count) };
+        let fragment = stages
+            .iter()
+            .position(|&stage| stage == vk::ShaderStageFlags::FRAGMENT)
+            .map(|index| {
+                let shader = if p_shaders.is_null() {
+                    vk::ShaderEXT::null()
+                } else {
+                    // SAFETY: as above; `index` is below `count`.
+                    unsafe { *p_shaders.add(index) }
+                };
+                let depth = (shader != vk::ShaderEXT::null())
+                    .then(|| entry.device.objects.fragment_shaders.get(&shader))
+                    .flatten();
+                (shader, depth)
+            });
+        entry.state().bind_shaders(fragment)
+    });
     if let Some(next) = device.and_then(|d| d.commands.bind_shaders_ext) {
         // SAFETY: calling down with the application's arguments.
         unsafe { next(buffer, count, p_stages, p_shaders) }

@@ -73,7 +73,9 @@ pub unsafe extern "system" fn destroy_device(
             let removed = DEVICES.remove(unsafe { DispatchKey::of(device) });
             if let Some(state) = &removed {
                 crate::objects::forget_device_command_buffers(&state.objects);
-                state.objects.destroy_own_objects(device, &state.next);
+                state
+                    .objects
+                    .destroy_own_objects(device, &state.next, &state.commands);
             }
             match removed {
                 // SAFETY: calling down with the application's arguments.

@@ -235,6 +235,66 @@ pub(super) enum Event {
         handle: vk::Pipeline,
         allocator: bool,
     },
+    /// `vkCreateShadersEXT`: what it was given, what it answered.
+    CreateShaders {
+        /// Where the create info array was.
+        infos_address: usize,
+        infos: Vec<SeenShader>,
+        allocator: bool,
+        result: vk::Result,
+        /// The handles written (null where creation failed).
+        handles: Vec<vk::ShaderEXT>,
+    },
+    DestroyShader {
+        handle: vk::ShaderEXT,
+        allocator: bool,
+    },
+    /// `vkCmdBindShadersEXT` (null shaders where `pShaders` was null).
+    BindShaders {
+        stages: Vec<vk::ShaderStageFlags>,
+        shaders: Vec<vk::ShaderEXT>,
+    },
+}
+
+/// A shader object create info as the fake `vkCreateShadersEXT` saw it: its pointers as
+/// addresses, its code read out.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct SeenShader {
+    pub p_next: usize,
+    pub flags: vk::ShaderCreateFlagsEXT,
+    pub stage: vk::ShaderStageFlags,
+    pub next_stage: vk::ShaderStageFlags,
+    pub code_type: vk::ShaderCodeTypeEXT,
+    pub code: Vec<u8>,
+    pub name: usize,
+    pub set_layouts: usize,
+    pub push_constant_ranges: usize,
+    pub specialization: usize,
+}
+
+impl SeenShader {
+    /// A create info as the fake sees it (also for the tests to build what they expect).
+    ///
+    /// # Safety
+    /// `info` holds `codeSize` bytes of code.
+    pub unsafe fn of(info: &vk::ShaderCreateInfoEXT<'_>) -> SeenShader {
+        SeenShader {
+            p_next: info.p_next as usize,
+            flags: info.flags,
+            stage: info.stage,
+            next_stage: info.next_stage,
+            code_type: info.code_type,
+            // SAFETY: the caller's contract.
+            code: unsafe {
+                crate::hooks::resources::slice(info.p_code.cast::<u8>(), info.code_size as u32)
+            }
+            .to_vec(),
+            name: info.p_name as usize,
+            set_layouts: info.p_set_layouts as usize,
+            push_constant_ranges: info.p_push_constant_ranges as usize,
+            specialization: info.p_specialization_info as usize,
+        }
+    }
 }
 
 /// A shader stage of a graphics pipeline create info as the fake `vkCreateGraphicsPipelines`
@@ -401,6 +461,20 @@ impl PipelineOutcome {
 /// `vkCreateShaderModule`, per dispatch table; a call with none scripted succeeds.
 static PIPELINE_OUTCOMES: Mutex<Vec<(usize, PipelineOutcome)>> = Mutex::new(Vec::new());
 static SHADER_MODULE_RESULTS: Mutex<Vec<(usize, vk::Result)>> = Mutex::new(Vec::new());
+static SHADER_OBJECT_RESULTS: Mutex<Vec<(usize, vk::Result)>> = Mutex::new(Vec::new());
+
+/// Scripts the results of the next calls of the fake `vkCreateShadersEXT` for the device of
+/// `table`, in order (a failed call writes null handles).
+pub(super) fn script_shader_object_creations(
+    table: &'static u8,
+    results: impl IntoIterator<Item = vk::Result>,
+) {
+    let key = key(table);
+    SHADER_OBJECT_RESULTS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .extend(results.into_iter().map(|result| (key, result)));
+}
 
 /// Scripts the answers of the next calls of the fake `vkCreateGraphicsPipelines` for the
 /// device of `table`, in order.
@@ -782,6 +856,114 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_pipelines(
         b"vkDestroyPipeline" => void_fn!(vk::PFN_vkDestroyPipeline, pipelines::destroy_pipeline),
         // SAFETY: forwarding the caller's arguments.
         _ => unsafe { fake_get_device_proc_addr_with_passes(device, name) },
+    }
+}
+
+/// The fake layer's `vkGetDeviceProcAddr` for a device that also has shader objects
+/// (`VK_EXT_shader_object`; besides everything of [`fake_get_device_proc_addr_with_pipelines`]).
+pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_shader_objects(
+    device: vk::Device,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    // SAFETY: revz only asks for NUL-terminated names.
+    let bytes = unsafe { CStr::from_ptr(name) }.to_bytes();
+    match bytes {
+        b"vkCreateShadersEXT" => {
+            void_fn!(vk::PFN_vkCreateShadersEXT, shader_objects::create_shaders)
+        }
+        b"vkDestroyShaderEXT" => {
+            void_fn!(vk::PFN_vkDestroyShaderEXT, shader_objects::destroy_shader)
+        }
+        b"vkCmdBindShadersEXT" => {
+            void_fn!(
+                vk::PFN_vkCmdBindShadersEXT,
+                shader_objects::cmd_bind_shaders
+            )
+        }
+        // SAFETY: forwarding the caller's arguments.
+        _ => unsafe { fake_get_device_proc_addr_with_pipelines(device, name) },
+    }
+}
+
+/// The commands of [`fake_get_device_proc_addr_with_shader_objects`].
+pub(super) mod shader_objects {
+    use super::*;
+
+    pub(in crate::hooks) unsafe extern "system" fn create_shaders(
+        device: vk::Device,
+        count: u32,
+        p_create_infos: *const vk::ShaderCreateInfoEXT,
+        p_allocator: *const vk::AllocationCallbacks,
+        p_shaders: *mut vk::ShaderEXT,
+    ) -> vk::Result {
+        // SAFETY: the fake's live device.
+        let table = unsafe { key_of(device) };
+        let result = next_scripted(&SHADER_OBJECT_RESULTS, table).unwrap_or(vk::Result::SUCCESS);
+        // SAFETY: `count` valid create infos.
+        let infos = unsafe { crate::hooks::resources::slice(p_create_infos, count) };
+        // SAFETY: as above.
+        let seen = infos
+            .iter()
+            .map(|info| unsafe { SeenShader::of(info) })
+            .collect();
+        let handles: Vec<vk::ShaderEXT> = (0..count)
+            .map(|_| {
+                if result == vk::Result::SUCCESS {
+                    fresh_handle()
+                } else {
+                    vk::ShaderEXT::null()
+                }
+            })
+            .collect();
+        for (index, &handle) in handles.iter().enumerate() {
+            // SAFETY: room for `count` handles.
+            unsafe { *p_shaders.add(index) = handle };
+        }
+        let event = Event::CreateShaders {
+            infos_address: p_create_infos as usize,
+            infos: seen,
+            allocator: !p_allocator.is_null(),
+            result,
+            handles,
+        };
+        note(table, event);
+        result
+    }
+
+    pub(in crate::hooks) unsafe extern "system" fn destroy_shader(
+        device: vk::Device,
+        handle: vk::ShaderEXT,
+        p_allocator: *const vk::AllocationCallbacks,
+    ) {
+        let event = Event::DestroyShader {
+            handle,
+            allocator: !p_allocator.is_null(),
+        };
+        // SAFETY: the fake's live device.
+        note(unsafe { key_of(device) }, event);
+    }
+
+    pub(in crate::hooks) unsafe extern "system" fn cmd_bind_shaders(
+        buffer: vk::CommandBuffer,
+        count: u32,
+        p_stages: *const vk::ShaderStageFlags,
+        p_shaders: *const vk::ShaderEXT,
+    ) {
+        // SAFETY: `count` stages, and `count` shaders unless null.
+        let (stages, shaders) = unsafe {
+            let stages = crate::hooks::resources::slice(p_stages, count).to_vec();
+            let shaders = if p_shaders.is_null() {
+                vec![vk::ShaderEXT::null(); count as usize]
+            } else {
+                crate::hooks::resources::slice(p_shaders, count).to_vec()
+            };
+            (stages, shaders)
+        };
+        // SAFETY: the fake's live command buffer.
+        note(
+            unsafe { key_of(buffer) },
+            Event::BindShaders { stages, shaders },
+        );
     }
 }
 

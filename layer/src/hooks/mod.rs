@@ -42,6 +42,7 @@ pub mod instance;
 pub mod pipeline;
 pub mod render_pass;
 pub mod resources;
+pub mod shader_object;
 
 #[cfg(test)]
 mod chain_tests;
@@ -59,6 +60,8 @@ mod pipeline_chain_tests;
 mod resolve_chain_tests;
 #[cfg(test)]
 mod secondary_chain_tests;
+#[cfg(test)]
+mod shader_object_chain_tests;
 
 use std::ffi::CStr;
 use std::sync::Arc;
@@ -153,6 +156,18 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             void_fn!(
                 vk::PFN_vkDestroyShaderModule,
                 pipeline::destroy_shader_module
+            )
+        }
+        b"vkCreateShadersEXT" => {
+            void_fn!(
+                vk::PFN_vkCreateShadersEXT,
+                shader_object::create_shaders_ext
+            )
+        }
+        b"vkDestroyShaderEXT" => {
+            void_fn!(
+                vk::PFN_vkDestroyShaderEXT,
+                shader_object::destroy_shader_ext
             )
         }
         b"vkBeginCommandBuffer" => {
@@ -336,6 +351,9 @@ mod tests {
             c"vkCmdExecuteGeneratedCommandsNV",
             c"vkCmdExecuteGeneratedCommandsEXT",
             c"vkCmdExecuteCommands",
+            c"vkCreateShadersEXT",
+            c"vkDestroyShaderEXT",
+            c"vkCmdBindShadersEXT",
         ] {
             assert!(depth_path_command(name).is_some(), "{name:?}");
         }

@@ -231,7 +231,7 @@ fn rewrite_fragment_module(module: vk::ShaderModule, words: &[u32]) -> Option<Re
 
 /// What is logged of a shader that revz cannot handle.
 #[derive(Hash)]
-enum Report {
+pub(super) enum Report {
     Rewrite,
     Analysis,
 }
@@ -240,7 +240,7 @@ enum Report {
 /// into a pipeline stage) is rewritten and analyzed at every pipeline creation, but reported
 /// once, as a module is at its creation. Only hashes are kept: a collision can only drop a
 /// log line.
-fn first_inline_report(report: Report, words: &[u32]) -> bool {
+pub(super) fn first_inline_report(report: Report, words: &[u32]) -> bool {
     use std::hash::{Hash, Hasher};
     static REPORTED: std::sync::LazyLock<std::sync::Mutex<rustc_hash::FxHashSet<u64>>> =
         std::sync::LazyLock::new(Default::default);

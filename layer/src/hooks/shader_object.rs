@@ -1,0 +1,240 @@
+//! Shader objects (`VK_EXT_shader_object`): a fragment shader object that computes with depth
+//! (writes `FragDepth` or reads `FragCoord.z`) gets a reversed variant, the shader object of
+//! its code rewritten by [`crate::fragment_depth`], which draws into reversed attachments bind
+//! in its place ([`crate::command_state`], from `vkCmdBindShadersEXT`).
+//!
+//! - The application's `vkCreateShadersEXT` goes down unchanged. Variants are created before
+//!   it, one call per variant, from the application's create info with only the code replaced
+//!   (its chain, flags, layouts, push constant ranges and specialization kept, no allocator):
+//!   should a structure of that shared chain be written by creation (as creation feedback is
+//!   for pipelines), the application's call, made last, leaves its own results there; the
+//!   application's handles and result are never touched. A variant whose application shader
+//!   was not created is destroyed again; the application's handles are only read on `SUCCESS`
+//!   and `INCOMPATIBLE_SHADER_BINARY_EXT`, where every one is written.
+//! - Linked shaders (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`) get no variant: the stages of a
+//!   linked set are compiled together and must be bound together, so a fragment variant would
+//!   need the whole set re-created (variants of every stage) and every stage of it swapped at
+//!   draw time, tracked per stage and per command buffer; an application that binds one stage
+//!   of the set alone would have revz break the rule the application kept. Such a fragment
+//!   shader that computes with depth keeps standard depth in reversed attachments (marked,
+//!   warned once at draw, as a pipeline's unreversed fragment shader is). Linking is an
+//!   optimization the application can turn off.
+//! - Binary code (`VK_SHADER_CODE_TYPE_BINARY_EXT`) cannot be read or rewritten: binary fragment
+//!   shaders get no variant and are marked as keeping standard depth (they may not compute
+//!   with depth at all; logged once).
+//! - Code the rewrite refuses is marked and logged once per code; a variant that cannot be
+//!   created is logged once and marked; the application's call never fails because of revz.
+//! - A variant is destroyed (without the application's allocator) with its application shader,
+//!   and with the device for shaders the application never destroyed.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::device_state;
+use super::pipeline::{first_inline_report, Report};
+use super::resources::slice;
+use crate::boundary::{guarded, EntryPoint};
+use crate::fragment_depth;
+use crate::objects::FragmentShader;
+use crate::state::DeviceState;
+
+static CREATE_SHADERS: EntryPoint = EntryPoint::new("vkCreateShadersEXT");
+static DESTROY_SHADER: EntryPoint = EntryPoint::new("vkDestroyShaderEXT");
+
+/// What revz makes of one shader create info.
+#[derive(Debug)]
+enum Plan {
+    /// Not a fragment shader that computes with depth: nothing.
+    Nothing,
+    /// A reversed variant of the rewritten code.
+    Variant(Arc<[u32]>),
+    /// It computes with depth (or may, binary code) but gets no variant.
+    Unreversed,
+}
+
+/// The plan of one create info (only fragment shaders get one).
+fn plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
+    if info.stage != vk::ShaderStageFlags::FRAGMENT {
+        return Plan::Nothing;
+    }
+    if info.code_type == vk::ShaderCodeTypeEXT::BINARY {
+        static BINARY: std::sync::Once = std::sync::Once::new();
+        BINARY.call_once(|| {
+            log::warn!(
+                "a fragment shader object is created from binary code: revz cannot read it, so \
+                 if it computes with depth (FragDepth or FragCoord.z), its draws into reversed \
+                 attachments keep standard depth"
+            )
+        });
+        return Plan::Unreversed;
+    }
+    if info.code_type != vk::ShaderCodeTypeEXT::SPIRV {
+        return Plan::Nothing;
+    }
+    // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's contract).
+    let words = unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) };
+    match fragment_depth::reverse_fragment_depth(words) {
+        Ok(None) => Plan::Nothing,
+        Err(reason) => {
+            if first_inline_report(Report::Rewrite, words) {
+                log::warn!(
+                    "a fragment shader object computes with depth in a way revz cannot rewrite \
+                     ({reason}): its draws into reversed attachments keep standard depth"
+                );
+            }
+            Plan::Unreversed
+        }
+        Ok(Some(_)) if info.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE) => {
+            static LINKED: std::sync::Once = std::sync::Once::new();
+            LINKED.call_once(|| {
+                log::warn!(
+                    "a linked fragment shader object (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) \
+                     computes with depth: revz does not re-create linked sets, so its draws \
+                     into reversed attachments keep standard depth (create it unlinked to have \
+                     it reversed)"
+                )
+            });
+            Plan::Unreversed
+        }
+        Ok(Some(code)) => Plan::Variant(code.into()),
+    }
+}
+
+/// Creates the reversed variant of a fragment shader object: its create info with the code
+/// replaced by `code`, through the next layer, without an allocator (revz's own object).
+/// [`FragmentShader::Unreversed`] when it cannot be made (logged once).
+fn create_variant(
+    device: vk::Device,
+    next: vk::PFN_vkCreateShadersEXT,
+    info: &vk::ShaderCreateInfoEXT<'_>,
+    code: &[u32],
+) -> FragmentShader {
+    let variant_info = vk::ShaderCreateInfoEXT {
+        code_size: std::mem::size_of_val(code),
+        p_code: code.as_ptr().cast(),
+        ..*info
+    };
+    let mut variant = vk::ShaderEXT::null();
+    // SAFETY: the application's create info with revz's code, which outlives the call; one
+    // handle written.
+    let result = unsafe { next(device, 1, &variant_info, std::ptr::null(), &mut variant) };
+    if result == vk::Result::SUCCESS && variant != vk::ShaderEXT::null() {
+        return FragmentShader::Reversed(variant);
+    }
+    static FAILED: AtomicBool = AtomicBool::new(false);
+    if !FAILED.swap(true, Ordering::Relaxed) {
+        log::warn!(
+            "the reversed variant of a fragment shader object could not be created \
+             ({result:?}): its draws into reversed attachments keep standard depth"
+        );
+    }
+    FragmentShader::Unreversed
+}
+
+/// Destroys a shader object of revz's own through the next layer.
+///
+/// # Safety
+/// `shader` was created by revz on `device` and is not in use.
+unsafe fn destroy_down(state: &DeviceState, device: vk::Device, shader: vk::ShaderEXT) {
+    if let Some(destroy) = state.commands.destroy_shader_ext {
+        // SAFETY: the caller's contract; revz's own object, so no allocator.
+        unsafe { destroy(device, shader, std::ptr::null()) };
+    }
+}
+
+pub unsafe extern "system" fn create_shaders_ext(
+    device: vk::Device,
+    count: u32,
+    p_create_infos: *const vk::ShaderCreateInfoEXT<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_shaders: *mut vk::ShaderEXT,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // revz hands this hook out only where the next layer has the command.
+    let Some(next) = state.commands.create_shaders_ext else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: `count` create infos.
+    let infos = unsafe { slice(p_create_infos, count) };
+    // Before the application's call (see the module comment): each create info's variant, or
+    // its mark; `None` for shaders revz leaves alone.
+    let variants: Vec<Option<FragmentShader>> = guarded(
+        &CREATE_SHADERS,
+        || {
+            if !state.policy.is_active() {
+                return Vec::new();
+            }
+            infos
+                .iter()
+                .map(|info| match plan(info) {
+                    Plan::Nothing => None,
+                    Plan::Unreversed => Some(FragmentShader::Unreversed),
+                    Plan::Variant(code) => Some(create_variant(device, next, info, &code)),
+                })
+                .collect()
+        },
+        Vec::new,
+    );
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe { next(device, count, p_create_infos, p_allocator, p_shaders) };
+    super::record(&CREATE_SHADERS, || {
+        // Every handle is written on these results (null where creation failed).
+        let written = matches!(
+            result,
+            vk::Result::SUCCESS | vk::Result::INCOMPATIBLE_SHADER_BINARY_EXT
+        );
+        for (index, depth) in variants.iter().enumerate() {
+            let Some(depth) = *depth else { continue };
+            let shader = if written {
+                // SAFETY: `count` handles written (checked above).
+                unsafe { *p_shaders.add(index) }
+            } else {
+                vk::ShaderEXT::null()
+            };
+            if shader != vk::ShaderEXT::null() {
+                if let FragmentShader::Reversed(variant) = depth {
+                    log::debug!(
+                        "fragment shader object {shader:?} computes with depth; {variant:?}, \
+                         with its code rewritten, draws into reversed attachments"
+                    );
+                }
+                state.objects.fragment_shaders.insert(shader, depth);
+            } else if let Some(variant) = depth.variant() {
+                // SAFETY: revz's own object, never handed out.
+                unsafe { destroy_down(&state, device, variant) };
+            }
+        }
+    });
+    result
+}
+
+pub unsafe extern "system" fn destroy_shader_ext(
+    device: vk::Device,
+    shader: vk::ShaderEXT,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return;
+    };
+    super::record(&DESTROY_SHADER, || {
+        let variant = state
+            .objects
+            .fragment_shaders
+            .remove(&shader)
+            .and_then(FragmentShader::variant);
+        if let Some(variant) = variant {
+            // SAFETY: revz's own object, in use only where the application's shader was.
+            unsafe { destroy_down(&state, device, variant) };
+        }
+    });
+    if let Some(destroy) = state.commands.destroy_shader_ext {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { destroy(device, shader, p_allocator) };
+    }
+}

@@ -1,0 +1,664 @@
+//! Shader objects (`VK_EXT_shader_object`) driven through revz's hooks over the fake layer
+//! (`fake_chain`): a fragment shader object that computes with depth gets a variant of its
+//! rewritten code, created before the application's shaders; plain, linked, binary and refused
+//! ones get none; failures never reach the application; draws into reversed attachments bind
+//! the variant (once), native ones the application's shader back; the variant goes with its
+//! shader, or with the device.
+//!
+//! Lavapipe 22.3 has no `VK_EXT_shader_object`: these tests are the only check of this path.
+
+use std::cell::RefCell;
+use std::ffi::CStr;
+use std::sync::Arc;
+
+use ash::vk::{self, Handle};
+
+use super::fake_chain::{self, hook, Event, SeenShader, Tables};
+use crate::fragment_depth::reverse_fragment_depth;
+use crate::objects::FragmentShader;
+use crate::state::{DeviceState, DispatchKey, DEVICES};
+use crate::test_spirv;
+
+const D32: vk::Format = vk::Format::D32_SFLOAT;
+const LAYOUT: vk::ImageLayout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+const MAIN: &CStr = c"main";
+const EXTENT: vk::Extent2D = vk::Extent2D {
+    width: 64,
+    height: 64,
+};
+
+/// A fragment shader that writes `FragDepth` from `FragCoord.z`.
+const FRAG_DEPTH: &str = "#version 450
+    layout(location = 0) out vec4 color;
+    void main() {
+        color = vec4(gl_FragCoord.xy, 0.0, 1.0);
+        gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z;
+    }";
+
+/// A fragment shader that does not compute with depth.
+const PLAIN: &str = "#version 450
+    layout(location = 0) out vec4 color;
+    void main() { color = vec4(1.0, 0.5, 0.25, 1.0); }";
+
+const VERTEX: &str = "#version 450
+    void main() { gl_Position = vec4(0.0, 0.0, 0.5, 1.0); }";
+
+fn fragment(source: &str) -> Vec<u32> {
+    test_spirv::compile_glsl(naga::ShaderStage::Fragment, source)
+}
+
+fn vertex() -> Vec<u32> {
+    test_spirv::compile_glsl(naga::ShaderStage::Vertex, VERTEX)
+}
+
+/// A fragment shader that stores `FragDepth` and reads it back: the rewrite refuses it.
+fn refused_fragment() -> Vec<u32> {
+    let text = "OpCapability Shader
+        OpMemoryModel Logical GLSL450
+        OpEntryPoint Fragment %main \"main\" %depth
+        OpExecutionMode %main OriginUpperLeft
+        OpExecutionMode %main DepthReplacing
+        OpDecorate %depth BuiltIn FragDepth
+        %void = OpTypeVoid
+        %fn = OpTypeFunction %void
+        %float = OpTypeFloat 32
+        %half = OpConstant %float 0.5
+        %pout_f = OpTypePointer Output %float
+        %depth = OpVariable %pout_f Output
+        %main = OpFunction %void None %fn
+        %entry = OpLabel
+        OpStore %depth %half
+        %d = OpLoad %float %depth
+        %e = OpFMul %float %d %half
+        OpStore %depth %e
+        OpReturn
+        OpFunctionEnd";
+    let words = test_spirv::assemble(text);
+    assert!(
+        reverse_fragment_depth(&words).is_err(),
+        "the rewrite refuses"
+    );
+    words
+}
+
+/// spirv-val accepts `words` (Vulkan 1.1 environment).
+fn validate(words: &[u32]) {
+    use spirv_tools::val::{self, Validator as _};
+    val::create(Some(spirv_tools::TargetEnv::Vulkan_1_1))
+        .validate(words, None)
+        .unwrap_or_else(|e| panic!("spirv-val rejects the module: {e}"));
+}
+
+fn bytes(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_ne_bytes()).collect()
+}
+
+/// The commands these tests call, as the application would get them.
+struct Hooks {
+    create_shaders: vk::PFN_vkCreateShadersEXT,
+    destroy_shader: vk::PFN_vkDestroyShaderEXT,
+    cmd_bind_shaders: vk::PFN_vkCmdBindShadersEXT,
+    create_image: vk::PFN_vkCreateImage,
+    create_image_view: vk::PFN_vkCreateImageView,
+    allocate_command_buffers: vk::PFN_vkAllocateCommandBuffers,
+    free_command_buffers: vk::PFN_vkFreeCommandBuffers,
+    begin_command_buffer: vk::PFN_vkBeginCommandBuffer,
+    cmd_begin_rendering: vk::PFN_vkCmdBeginRendering,
+    cmd_end_rendering: vk::PFN_vkCmdEndRendering,
+    cmd_draw: vk::PFN_vkCmdDraw,
+}
+
+impl Hooks {
+    fn of(device: vk::Device) -> Hooks {
+        Hooks {
+            create_shaders: hook!(device, c"vkCreateShadersEXT", vk::PFN_vkCreateShadersEXT),
+            destroy_shader: hook!(device, c"vkDestroyShaderEXT", vk::PFN_vkDestroyShaderEXT),
+            cmd_bind_shaders: hook!(device, c"vkCmdBindShadersEXT", vk::PFN_vkCmdBindShadersEXT),
+            create_image: hook!(device, c"vkCreateImage", vk::PFN_vkCreateImage),
+            create_image_view: hook!(device, c"vkCreateImageView", vk::PFN_vkCreateImageView),
+            allocate_command_buffers: hook!(
+                device,
+                c"vkAllocateCommandBuffers",
+                vk::PFN_vkAllocateCommandBuffers
+            ),
+            free_command_buffers: hook!(
+                device,
+                c"vkFreeCommandBuffers",
+                vk::PFN_vkFreeCommandBuffers
+            ),
+            begin_command_buffer: hook!(
+                device,
+                c"vkBeginCommandBuffer",
+                vk::PFN_vkBeginCommandBuffer
+            ),
+            cmd_begin_rendering: hook!(device, c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering),
+            cmd_end_rendering: hook!(device, c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering),
+            cmd_draw: hook!(device, c"vkCmdDraw", vk::PFN_vkCmdDraw),
+        }
+    }
+}
+
+/// One instance and device over the fake layer (flip mode, observable images native), and the
+/// shader objects a test creates (destroyed through the hooks by [`Fixture::finish`]).
+struct Fixture {
+    tables: Tables,
+    instance: vk::Instance,
+    physical: vk::PhysicalDevice,
+    device: vk::Device,
+    state: Arc<DeviceState>,
+    hooks: Hooks,
+    shaders: RefCell<Vec<vk::ShaderEXT>>,
+}
+
+impl Fixture {
+    fn new() -> Fixture {
+        Fixture::with_settings(&[(c"mode", c"flip"), (c"reverse_observable", c"none")])
+    }
+
+    fn with_settings(settings: &[(&'static CStr, &'static CStr)]) -> Fixture {
+        let tables = Tables::fresh();
+        let (instance, _) = fake_chain::create_instance(settings);
+        let (physical, device, _) = fake_chain::create_device(
+            tables,
+            fake_chain::fake_get_device_proc_addr_with_shader_objects,
+        );
+        // SAFETY: the fake's live device.
+        let state = DEVICES
+            .get(unsafe { DispatchKey::of(device) })
+            .expect("the device is registered");
+        let hooks = Hooks::of(device);
+        fake_chain::take_events(tables.instance);
+        assert_eq!(fake_chain::take_events(tables.device), []);
+        Fixture {
+            tables,
+            instance,
+            physical,
+            device,
+            state,
+            hooks,
+            shaders: RefCell::default(),
+        }
+    }
+
+    fn events(&self) -> Vec<Event> {
+        fake_chain::take_events(self.tables.device)
+    }
+
+    /// What revz recorded of a shader object.
+    fn recorded(&self, shader: vk::ShaderEXT) -> Option<FragmentShader> {
+        self.state.objects.fragment_shaders.get(&shader)
+    }
+
+    /// Creates shader objects through revz with an allocator; returns the call's result and
+    /// the handles it wrote.
+    fn create(&self, infos: &[vk::ShaderCreateInfoEXT<'_>]) -> (vk::Result, Vec<vk::ShaderEXT>) {
+        let allocator = vk::AllocationCallbacks::default();
+        let mut shaders = vec![vk::ShaderEXT::null(); infos.len()];
+        // SAFETY: a live device, valid create infos and room for their handles.
+        let result = unsafe {
+            (self.hooks.create_shaders)(
+                self.device,
+                infos.len() as u32,
+                infos.as_ptr(),
+                &allocator,
+                shaders.as_mut_ptr(),
+            )
+        };
+        self.shaders
+            .borrow_mut()
+            .extend(shaders.iter().filter(|s| !s.is_null()));
+        (result, shaders)
+    }
+
+    /// A depth image (`usage`) and a view of it.
+    fn depth_view(&self, usage: vk::ImageUsageFlags) -> vk::ImageView {
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(D32)
+            .extent(EXTENT.into())
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(usage);
+        let mut image = vk::Image::null();
+        // SAFETY: a live device and a valid create info.
+        let result =
+            unsafe { (self.hooks.create_image)(self.device, &info, std::ptr::null(), &mut image) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        let info = vk::ImageViewCreateInfo::default()
+            .image(image)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(D32)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::DEPTH,
+                level_count: 1,
+                layer_count: 1,
+                ..Default::default()
+            });
+        let mut view = vk::ImageView::null();
+        // SAFETY: as above.
+        let result = unsafe {
+            (self.hooks.create_image_view)(self.device, &info, std::ptr::null(), &mut view)
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        view
+    }
+
+    /// A primary command buffer, recording.
+    fn command_buffer(&self) -> vk::CommandBuffer {
+        let allocate = vk::CommandBufferAllocateInfo::default()
+            .command_pool(vk::CommandPool::from_raw(1))
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let mut buffer = vk::CommandBuffer::null();
+        // SAFETY: a live device, a valid info and room for one handle; then a command buffer
+        // not recording.
+        unsafe {
+            let result = (self.hooks.allocate_command_buffers)(self.device, &allocate, &mut buffer);
+            assert_eq!(result, vk::Result::SUCCESS);
+            let begin = vk::CommandBufferBeginInfo::default();
+            let result = (self.hooks.begin_command_buffer)(buffer, &begin);
+            assert_eq!(result, vk::Result::SUCCESS);
+        }
+        buffer
+    }
+
+    /// Records a rendering instance into `view` of `draws` draws.
+    fn render(&self, buffer: vk::CommandBuffer, view: vk::ImageView, draws: usize) {
+        let depth = vk::RenderingAttachmentInfo::default()
+            .image_view(view)
+            .image_layout(LAYOUT)
+            .load_op(vk::AttachmentLoadOp::LOAD)
+            .store_op(vk::AttachmentStoreOp::STORE);
+        let info = vk::RenderingInfo::default()
+            .render_area(EXTENT.into())
+            .layer_count(1)
+            .depth_attachment(&depth);
+        // SAFETY: a recording primary command buffer and a valid rendering info.
+        unsafe {
+            (self.hooks.cmd_begin_rendering)(buffer, &info);
+            for _ in 0..draws {
+                (self.hooks.cmd_draw)(buffer, 3, 1, 0, 0);
+            }
+            (self.hooks.cmd_end_rendering)(buffer);
+        }
+    }
+
+    fn bind(
+        &self,
+        buffer: vk::CommandBuffer,
+        stages: &[vk::ShaderStageFlags],
+        shaders: &[vk::ShaderEXT],
+    ) {
+        // SAFETY: a recording command buffer, as many stages as shaders.
+        unsafe {
+            (self.hooks.cmd_bind_shaders)(
+                buffer,
+                stages.len() as u32,
+                stages.as_ptr(),
+                shaders.as_ptr(),
+            )
+        };
+    }
+
+    fn free(&self, buffer: vk::CommandBuffer) {
+        // SAFETY: the fixture's command buffer, not in use.
+        unsafe {
+            (self.hooks.free_command_buffers)(self.device, vk::CommandPool::from_raw(1), 1, &buffer)
+        };
+    }
+
+    /// Destroys the shader objects left through the hooks, checks what reached the fake (each
+    /// variant destroyed without an allocator before its shader with the application's), and
+    /// that the device's destruction sends down exactly `at_device_destruction` before the
+    /// device itself.
+    fn finish_with(self, at_device_destruction: &[Event]) {
+        let allocator = vk::AllocationCallbacks::default();
+        for &shader in self.shaders.borrow().iter() {
+            let variant = self.recorded(shader).and_then(FragmentShader::variant);
+            // SAFETY: the fixture's shader object, not in use, destroyed once.
+            unsafe { (self.hooks.destroy_shader)(self.device, shader, &allocator) };
+            let mut expected: Vec<Event> = variant
+                .map(|handle| Event::DestroyShader {
+                    handle,
+                    allocator: false,
+                })
+                .into_iter()
+                .collect();
+            expected.push(Event::DestroyShader {
+                handle: shader,
+                allocator: true,
+            });
+            assert_eq!(self.events(), expected);
+            assert_eq!(self.recorded(shader), None);
+        }
+        // SAFETY: the fixture's objects, no longer in use.
+        let device_events = unsafe {
+            fake_chain::tear_down(self.tables, self.instance, self.physical, self.device)
+        };
+        let mut expected = at_device_destruction.to_vec();
+        expected.push(Event::DestroyDevice);
+        assert_eq!(
+            device_events, expected,
+            "what revz destroys with the device"
+        );
+    }
+
+    fn finish(self) {
+        self.finish_with(&[]);
+    }
+}
+
+/// An unlinked shader create info of SPIR-V `code`.
+fn shader_info<'a>(
+    stage: vk::ShaderStageFlags,
+    next_stage: vk::ShaderStageFlags,
+    code: &'a [u32],
+) -> vk::ShaderCreateInfoEXT<'a> {
+    vk::ShaderCreateInfoEXT::default()
+        .stage(stage)
+        .next_stage(next_stage)
+        .code_type(vk::ShaderCodeTypeEXT::SPIRV)
+        .code(bytemuck_bytes(code))
+        .name(MAIN)
+}
+
+fn bytemuck_bytes(words: &[u32]) -> &[u8] {
+    // SAFETY: u32s seen as their bytes.
+    unsafe { std::slice::from_raw_parts(words.as_ptr().cast(), std::mem::size_of_val(words)) }
+}
+
+/// `info` linked with the other shaders of its call.
+fn link(info: vk::ShaderCreateInfoEXT<'_>) -> vk::ShaderCreateInfoEXT<'_> {
+    info.flags(vk::ShaderCreateFlagsEXT::LINK_STAGE)
+}
+
+const VERTEX_STAGE: vk::ShaderStageFlags = vk::ShaderStageFlags::VERTEX;
+const FRAGMENT_STAGE: vk::ShaderStageFlags = vk::ShaderStageFlags::FRAGMENT;
+
+/// The one `vkCreateShadersEXT` of `events` that created `count` shaders (the application's).
+fn app_creation(event: &Event) -> (usize, &[SeenShader], bool, &[vk::ShaderEXT]) {
+    match event {
+        Event::CreateShaders {
+            infos_address,
+            infos,
+            allocator,
+            handles,
+            ..
+        } => (*infos_address, infos, *allocator, handles),
+        other => panic!("a vkCreateShadersEXT: {other:?}"),
+    }
+}
+
+/// The vertex and FragDepth fragment shader objects, created unlinked; returns their handles
+/// and the fragment's variant (checked to be of the rewritten code, before the app's call).
+fn create_depth_pair(fx: &Fixture) -> (vk::ShaderEXT, vk::ShaderEXT, vk::ShaderEXT) {
+    let vertex = vertex();
+    let frag = fragment(FRAG_DEPTH);
+    let infos = [
+        shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &vertex),
+        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &frag),
+    ];
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(
+        events.len(),
+        2,
+        "the variant, then the application's: {events:#?}"
+    );
+    let (variant_address, variant_infos, variant_allocator, variant_handles) =
+        app_creation(&events[0]);
+    let (app_address, app_infos, app_allocator, app_handles) = app_creation(&events[1]);
+    // The application's call went down unchanged.
+    assert_eq!(app_address, infos.as_ptr() as usize);
+    // SAFETY: valid create infos.
+    let expected: Vec<SeenShader> = infos.iter().map(|i| unsafe { SeenShader::of(i) }).collect();
+    assert_eq!(app_infos, expected);
+    assert!(app_allocator);
+    assert_eq!(app_handles, handles);
+    // The variant: the fragment create info with only its code replaced, no allocator.
+    assert_ne!(variant_address, infos.as_ptr() as usize);
+    assert!(!variant_allocator);
+    let rewritten = reverse_fragment_depth(&frag)
+        .expect("rewritable")
+        .expect("computes with depth");
+    validate(&rewritten);
+    assert_eq!(
+        variant_infos,
+        [SeenShader {
+            code: bytes(&rewritten),
+            ..expected[1].clone()
+        }]
+    );
+    let variant = variant_handles[0];
+    assert_eq!(
+        fx.recorded(handles[1]),
+        Some(FragmentShader::Reversed(variant))
+    );
+    assert_eq!(
+        fx.recorded(handles[0]),
+        None,
+        "a vertex shader gets nothing"
+    );
+    (handles[0], handles[1], variant)
+}
+
+#[test]
+fn a_frag_depth_fragment_shader_object_gets_a_variant_of_rewritten_code_before_the_app_call() {
+    let fx = Fixture::new();
+    create_depth_pair(&fx);
+    fx.finish();
+}
+
+#[test]
+fn plain_linked_binary_and_refused_fragment_shaders_get_no_variant() {
+    let fx = Fixture::new();
+    let vertex = vertex();
+    let plain = fragment(PLAIN);
+    let depth = fragment(FRAG_DEPTH);
+    let refused = refused_fragment();
+    let binary = [0xB1u8, 0x4A, 0x27, 0x00];
+    let binary_info = vk::ShaderCreateInfoEXT::default()
+        .stage(FRAGMENT_STAGE)
+        .code_type(vk::ShaderCodeTypeEXT::BINARY)
+        .code(&binary)
+        .name(MAIN);
+    let cases: [(Vec<vk::ShaderCreateInfoEXT<'_>>, Option<FragmentShader>); 4] = [
+        (
+            vec![shader_info(
+                FRAGMENT_STAGE,
+                vk::ShaderStageFlags::empty(),
+                &plain,
+            )],
+            None,
+        ),
+        (
+            vec![
+                link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &vertex)),
+                link(shader_info(
+                    FRAGMENT_STAGE,
+                    vk::ShaderStageFlags::empty(),
+                    &depth,
+                )),
+            ],
+            Some(FragmentShader::Unreversed),
+        ),
+        (vec![binary_info], Some(FragmentShader::Unreversed)),
+        (
+            vec![shader_info(
+                FRAGMENT_STAGE,
+                vk::ShaderStageFlags::empty(),
+                &refused,
+            )],
+            Some(FragmentShader::Unreversed),
+        ),
+    ];
+    for (infos, recorded) in cases {
+        let (result, handles) = fx.create(&infos);
+        assert_eq!(result, vk::Result::SUCCESS);
+        let events = fx.events();
+        assert_eq!(events.len(), 1, "only the application's call: {events:#?}");
+        let (address, ..) = app_creation(&events[0]);
+        assert_eq!(address, infos.as_ptr() as usize);
+        let fragment = *handles.last().expect("a fragment shader");
+        assert_eq!(fx.recorded(fragment), recorded, "{infos:#?}");
+    }
+    fx.finish();
+}
+
+#[test]
+fn a_failed_variant_marks_the_shader_and_a_failed_app_call_destroys_the_variant() {
+    let fx = Fixture::new();
+    let frag = fragment(FRAG_DEPTH);
+    let infos = [shader_info(
+        FRAGMENT_STAGE,
+        vk::ShaderStageFlags::empty(),
+        &frag,
+    )];
+
+    // The variant fails: the application's call still goes down and succeeds.
+    fake_chain::script_shader_object_creations(
+        fx.tables.device,
+        [vk::Result::ERROR_OUT_OF_DEVICE_MEMORY],
+    );
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(events.len(), 2);
+    assert_eq!(app_creation(&events[1]).3, handles);
+    assert_eq!(fx.recorded(handles[0]), Some(FragmentShader::Unreversed));
+
+    // The application's call fails: revz's variant is destroyed, nothing recorded, the
+    // application gets its result.
+    fake_chain::script_shader_object_creations(
+        fx.tables.device,
+        [vk::Result::SUCCESS, vk::Result::ERROR_OUT_OF_HOST_MEMORY],
+    );
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::ERROR_OUT_OF_HOST_MEMORY);
+    assert_eq!(handles, [vk::ShaderEXT::null()]);
+    let events = fx.events();
+    let variant = app_creation(&events[0]).3[0];
+    assert_eq!(
+        events[2..],
+        [Event::DestroyShader {
+            handle: variant,
+            allocator: false
+        }]
+    );
+    fx.finish();
+}
+
+#[test]
+fn draws_into_a_reversed_attachment_bind_the_variant_once_and_native_ones_the_app_shader_back() {
+    let fx = Fixture::new();
+    let (vertex, frag, variant) = create_depth_pair(&fx);
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let native =
+        fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED);
+    let buffer = fx.command_buffer();
+    fx.bind(buffer, &[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]);
+    fx.render(buffer, reversed, 2);
+    fx.render(buffer, native, 2);
+    // Binding another stage leaves the fragment stage as it is: the variant comes back once.
+    fx.render(buffer, reversed, 1);
+    fx.bind(buffer, &[VERTEX_STAGE], &[vertex]);
+    fx.render(buffer, reversed, 1);
+    let events = fx.events();
+    let bind = |stages: &[vk::ShaderStageFlags], shaders: &[vk::ShaderEXT]| Event::BindShaders {
+        stages: stages.to_vec(),
+        shaders: shaders.to_vec(),
+    };
+    let binds: Vec<&Event> = events
+        .iter()
+        .filter(|e| matches!(e, Event::BindShaders { .. }))
+        .collect();
+    assert_eq!(
+        binds,
+        [
+            &bind(&[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]),
+            &bind(&[FRAGMENT_STAGE], &[variant]),
+            &bind(&[FRAGMENT_STAGE], &[frag]),
+            &bind(&[FRAGMENT_STAGE], &[variant]),
+            &bind(&[VERTEX_STAGE], &[vertex]),
+        ]
+    );
+    // Unbinding the fragment stage (null) leaves nothing to swap.
+    fx.bind(buffer, &[FRAGMENT_STAGE], &[vk::ShaderEXT::null()]);
+    fx.render(buffer, native, 1);
+    fx.render(buffer, reversed, 1);
+    let binds = fx
+        .events()
+        .into_iter()
+        .filter(|e| matches!(e, Event::BindShaders { .. }))
+        .count();
+    assert_eq!(binds, 1, "only the application's unbind");
+    fx.free(buffer);
+    fx.finish();
+}
+
+#[test]
+fn a_variant_the_app_never_destroyed_goes_with_the_device() {
+    let fx = Fixture::new();
+    let (_, frag, variant) = create_depth_pair(&fx);
+    // The application leaks its fragment shader.
+    fx.shaders.borrow_mut().retain(|&s| s != frag);
+    fx.finish_with(&[Event::DestroyShader {
+        handle: variant,
+        allocator: false,
+    }]);
+}
+
+#[test]
+fn an_active_mode_hands_out_revz_shader_object_hooks() {
+    let fx = Fixture::new();
+    for name in [
+        c"vkCreateShadersEXT",
+        c"vkDestroyShaderEXT",
+        c"vkCmdBindShadersEXT",
+    ] {
+        // SAFETY: a live device and NUL-terminated names.
+        let (revz, next) = unsafe {
+            (
+                super::device::get_device_proc_addr(fx.device, name.as_ptr()),
+                fake_chain::fake_get_device_proc_addr_with_shader_objects(fx.device, name.as_ptr()),
+            )
+        };
+        assert!(revz.is_some() && next.is_some(), "{name:?}");
+        assert_ne!(
+            revz.map(|f| f as usize),
+            next.map(|f| f as usize),
+            "{name:?}"
+        );
+    }
+    fx.finish();
+}
+
+#[test]
+fn mode_off_hands_out_the_next_layers_shader_object_commands() {
+    let fx = Fixture::with_settings(&[(c"mode", c"off")]);
+    for name in [
+        c"vkCreateShadersEXT",
+        c"vkDestroyShaderEXT",
+        c"vkCmdBindShadersEXT",
+    ] {
+        // SAFETY: a live device and NUL-terminated names.
+        let (revz, next) = unsafe {
+            (
+                super::device::get_device_proc_addr(fx.device, name.as_ptr()),
+                fake_chain::fake_get_device_proc_addr_with_shader_objects(fx.device, name.as_ptr()),
+            )
+        };
+        assert_eq!(
+            revz.map(|f| f as usize),
+            next.map(|f| f as usize),
+            "{name:?}"
+        );
+    }
+    // SAFETY: the fake's live device, no longer in use.
+    let device_events =
+        unsafe { fake_chain::tear_down(fx.tables, fx.instance, fx.physical, fx.device) };
+    assert_eq!(device_events, [Event::DestroyDevice]);
+}
