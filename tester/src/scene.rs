@@ -62,6 +62,9 @@ pub enum SceneId {
     DynamicRendering,
     /// A shadow map (native D32, sampled with a comparison sampler) darkening the ground.
     ShadowMap,
+    /// `shadow-map` with both passes drawn from secondaries recorded on threads, half of them
+    /// inheriting the render pass without its framebuffer.
+    ShadowMapSecondaries,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,

@@ -79,6 +79,11 @@ pub const CATALOG: &[Entry] = &[
         dynamic_rendering,
     ),
     entry_row(SceneId::ShadowMap, "shadow-map", shadow_map),
+    entry_row(
+        SceneId::ShadowMapSecondaries,
+        "shadow-map-secondaries",
+        shadow_map_secondaries,
+    ),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,
@@ -1052,6 +1057,45 @@ pub fn shadow_map() -> Scene {
         b.step(Step::EndPass);
     }
     b.finish("shadow-map", camera, Some(shadow_light()))
+}
+
+/// `shadow-map-secondaries`: `shadow-map` with each pass's draws recorded into two secondaries
+/// on two threads, the second of each inheriting the render pass and subpass without the
+/// framebuffer (which the inheritance info may leave null).
+///
+/// Layer item: a secondary without a framebuffer knows only its render pass and depth format,
+/// and the sampled (native) shadow map and the reversed main attachment share D32: guessing by
+/// format draws the shadow casters reversed into the native map, so no shadow lands. The render
+/// must be `shadow-map`'s.
+pub fn shadow_map_secondaries() -> Scene {
+    let mut scene = shadow_map();
+    scene.name = "shadow-map-secondaries";
+    let mut steps = Vec::new();
+    let mut lists: Vec<Vec<Step>> = Vec::new();
+    for step in std::mem::take(&mut scene.plan.steps) {
+        match step {
+            Step::BeginPass(_) => steps.push(step),
+            Step::Bind(_) => lists = vec![vec![step.clone()], vec![step]],
+            Step::Draw(_) => {
+                let shortest = if lists[0].len() <= lists[1].len() {
+                    0
+                } else {
+                    1
+                };
+                lists[shortest].push(step);
+            }
+            Step::EndPass => {
+                steps.push(Step::ExecuteSecondaries(
+                    std::mem::take(&mut lists),
+                    Recording::ThreadPerSecondaryOddWithoutFramebuffer,
+                ));
+                steps.push(step);
+            }
+            other => unreachable!("shadow-map records no {other:?}"),
+        }
+    }
+    scene.plan.steps = steps;
+    scene
 }
 
 /// The sample count of the multisampled scenes.
@@ -2378,6 +2422,7 @@ mod tests {
                 "secondary",
                 "dynamic-rendering",
                 "shadow-map",
+                "shadow-map-secondaries",
                 "projection-only",
                 "view-projection",
                 "model-view-projection-pair",

@@ -179,6 +179,9 @@ flip_scene_tests! {
     flip_viewport_split: "viewport-split", DEPTH_FORMATS;
     flip_stencil: "stencil", STENCIL_FORMATS;
     flip_secondary: "secondary", DEPTH_FORMATS;
+    // The shadow casters drawn from secondaries without a framebuffer must land in the native
+    // map (guessing "reversed" by format leaves the ground unshadowed: colors differ).
+    flip_shadow_map_secondaries: "shadow-map-secondaries", DEPTH_FORMATS;
     flip_subpasses: "subpasses", DEPTH_FORMATS;
     flip_dynamic_rendering: "dynamic-rendering", DEPTH_FORMATS;
     flip_frag_depth: "frag-depth", DEPTH_FORMATS;
