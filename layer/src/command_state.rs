@@ -301,11 +301,8 @@ pub struct CommandState {
     target: Target,
     /// The target a secondary command buffer assumed at its begin.
     inherited: Target,
-    viewports: [vk::Viewport; MAX_VIEWPORTS],
-    /// Which of `viewports` the application set with `vkCmdSetViewport`.
-    viewports_set: u16,
-    /// The count of `vkCmdSetViewportWithCount`, if the application used it.
-    viewport_count: Option<u32>,
+    /// The viewports the application set.
+    viewports: AppViewports,
     compare_op: vk::CompareOp,
     bias: DepthBias,
     bounds: (f32, f32),
@@ -339,9 +336,7 @@ impl Default for CommandState {
             pipeline: None,
             target: Target::None,
             inherited: Target::None,
-            viewports: [vk::Viewport::default(); MAX_VIEWPORTS],
-            viewports_set: 0,
-            viewport_count: None,
+            viewports: AppViewports::default(),
             compare_op: vk::CompareOp::NEVER,
             bias: DepthBias::default(),
             bounds: (0.0, 1.0),
@@ -540,16 +535,8 @@ impl CommandState {
             sink,
             last: &mut self.emitted,
         };
-        emit_viewports(
-            sink,
-            path,
-            self.reversing.reversal,
-            self.app_set,
-            None,
-            &self.viewports,
-            self.viewports_set,
-            self.viewport_count,
-        );
+        self.viewports
+            .emit(sink, path, self.reversing.reversal, self.app_set, None);
         // The next draw of this command buffer decides its own path again.
         self.dirty = true;
     }
@@ -573,8 +560,8 @@ impl CommandState {
     pub fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
         for (index, viewport) in (first as usize..).zip(viewports) {
             if index < MAX_VIEWPORTS {
-                self.viewports[index] = *viewport;
-                self.viewports_set |= 1 << index;
+                self.viewports.values[index] = *viewport;
+                self.viewports.set |= 1 << index;
             }
         }
         self.app_set |= States::VIEWPORT;
@@ -584,8 +571,8 @@ impl CommandState {
     /// `vkCmdSetViewportWithCount`.
     pub fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
         let count = viewports.len().min(MAX_VIEWPORTS);
-        self.viewports[..count].copy_from_slice(&viewports[..count]);
-        self.viewport_count = Some(count as u32);
+        self.viewports.values[..count].copy_from_slice(&viewports[..count]);
+        self.viewports.count = Some(count as u32);
         self.app_set |= States::VIEWPORT_WITH_COUNT;
         self.dirty = true;
     }
@@ -689,16 +676,8 @@ impl CommandState {
             None => (self.app_set, States::NONE, None),
         };
 
-        emit_viewports(
-            sink,
-            self.path,
-            reversal,
-            from_app,
-            pipeline,
-            &self.viewports,
-            self.viewports_set,
-            self.viewport_count,
-        );
+        self.viewports
+            .emit(sink, self.path, reversal, from_app, pipeline);
 
         let pick = |state: States| {
             if from_app.contains(state) {
@@ -741,55 +720,74 @@ impl CommandState {
     }
 }
 
-/// Sends the viewports of a draw on `path`: the application's (`from_app` says which kind it
-/// set: with count, or by index in `set`), else the pipeline's static ones that revz made
-/// dynamic.
-#[allow(clippy::too_many_arguments)]
-fn emit_viewports(
-    sink: &mut impl StateSink,
-    path: DrawPath,
-    reversal: Reversal,
-    from_app: States,
-    pipeline: Option<&PipelineDepth>,
-    viewports: &[vk::Viewport; MAX_VIEWPORTS],
+/// The viewports the application set in a command buffer.
+#[derive(Clone, Copy, Debug)]
+struct AppViewports {
+    values: [vk::Viewport; MAX_VIEWPORTS],
+    /// Which of `values` were set with `vkCmdSetViewport`.
     set: u16,
+    /// The count of `vkCmdSetViewportWithCount`, if the application used it.
     count: Option<u32>,
-) {
-    let viewport = |v: &vk::Viewport| match path {
-        DrawPath::Native => *v,
-        DrawPath::Flip => reversal.viewport(*v),
-        DrawPath::Precise => precise_viewport(*v),
-    };
-    if from_app.contains(States::VIEWPORT_WITH_COUNT) {
-        let count = count.unwrap_or(0) as usize;
-        let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
-        for (o, v) in out.iter_mut().zip(&viewports[..count]) {
-            *o = viewport(v);
+}
+
+impl Default for AppViewports {
+    fn default() -> Self {
+        AppViewports {
+            values: [vk::Viewport::default(); MAX_VIEWPORTS],
+            set: 0,
+            count: None,
         }
-        sink.set_viewports_with_count(&out[..count]);
-    } else if from_app.contains(States::VIEWPORT) {
-        // Emit each contiguous run of viewports the application set.
-        let mut index = 0;
-        while index < MAX_VIEWPORTS {
-            if set & (1 << index) == 0 {
-                index += 1;
-                continue;
-            }
-            let start = index;
+    }
+}
+
+impl AppViewports {
+    /// Sends the viewports of a draw on `path`: the application's (`from_app` says which
+    /// kind it set: with count, or by index), else the pipeline's static ones that revz made
+    /// dynamic.
+    fn emit(
+        &self,
+        sink: &mut impl StateSink,
+        path: DrawPath,
+        reversal: Reversal,
+        from_app: States,
+        pipeline: Option<&PipelineDepth>,
+    ) {
+        let viewport = |v: &vk::Viewport| match path {
+            DrawPath::Native => *v,
+            DrawPath::Flip => reversal.viewport(*v),
+            DrawPath::Precise => precise_viewport(*v),
+        };
+        if from_app.contains(States::VIEWPORT_WITH_COUNT) {
+            let count = self.count.unwrap_or(0) as usize;
             let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
-            while index < MAX_VIEWPORTS && set & (1 << index) != 0 {
-                out[index - start] = viewport(&viewports[index]);
-                index += 1;
+            for (o, v) in out.iter_mut().zip(&self.values[..count]) {
+                *o = viewport(v);
             }
-            sink.set_viewports(start as u32, &out[..index - start]);
+            sink.set_viewports_with_count(&out[..count]);
+        } else if from_app.contains(States::VIEWPORT) {
+            // Emit each contiguous run of viewports the application set.
+            let mut index = 0;
+            while index < MAX_VIEWPORTS {
+                if self.set & (1 << index) == 0 {
+                    index += 1;
+                    continue;
+                }
+                let start = index;
+                let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
+                while index < MAX_VIEWPORTS && self.set & (1 << index) != 0 {
+                    out[index - start] = viewport(&self.values[index]);
+                    index += 1;
+                }
+                sink.set_viewports(start as u32, &out[..index - start]);
+            }
+        } else if let Some(p) = pipeline.filter(|p| p.injected.contains(States::VIEWPORT)) {
+            let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
+            let count = p.viewports.len().min(MAX_VIEWPORTS);
+            for (o, v) in out.iter_mut().zip(&p.viewports[..count]) {
+                *o = viewport(v);
+            }
+            sink.set_viewports(0, &out[..count]);
         }
-    } else if let Some(p) = pipeline.filter(|p| p.injected.contains(States::VIEWPORT)) {
-        let mut out = [vk::Viewport::default(); MAX_VIEWPORTS];
-        let count = p.viewports.len().min(MAX_VIEWPORTS);
-        for (o, v) in out.iter_mut().zip(&p.viewports[..count]) {
-            *o = viewport(v);
-        }
-        sink.set_viewports(0, &out[..count]);
     }
 }
 
