@@ -140,8 +140,16 @@ pub struct GpuOptions {
 /// The optional device features the tester may enable (everything else stays off).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Features {
-    /// Vulkan 1.3 `dynamicRendering`.
+    /// `dynamicRendering`: Vulkan 1.3, or `VK_KHR_dynamic_rendering` below it (enabled with
+    /// what it requires).
     pub dynamic_rendering: bool,
+    /// `vkCmdSetDepthCompareOp`: Vulkan 1.3, or `VK_EXT_extended_dynamic_state`'s
+    /// `extendedDynamicState` below it.
+    pub dynamic_compare_op: bool,
+    /// `vkCreateRenderPass2` with depth/stencil resolves: Vulkan 1.2, or
+    /// `VK_KHR_create_renderpass2` and `VK_KHR_depth_stencil_resolve` below it (not a feature:
+    /// not in [`Features::names`]).
+    pub depth_stencil_resolve: bool,
     /// `depthBounds`.
     pub depth_bounds: bool,
     /// `depthBiasClamp`.
@@ -158,6 +166,7 @@ impl Features {
     pub fn names(self) -> Vec<&'static str> {
         [
             (self.dynamic_rendering, "dynamicRendering"),
+            (self.dynamic_compare_op, "extendedDynamicState"),
             (self.depth_bounds, "depthBounds"),
             (self.depth_bias_clamp, "depthBiasClamp"),
             (self.depth_clip_control, "depthClipControl"),
@@ -172,6 +181,8 @@ impl Features {
     pub fn and(self, other: Features) -> Features {
         Features {
             dynamic_rendering: self.dynamic_rendering && other.dynamic_rendering,
+            dynamic_compare_op: self.dynamic_compare_op && other.dynamic_compare_op,
+            depth_stencil_resolve: self.depth_stencil_resolve && other.depth_stencil_resolve,
             depth_bounds: self.depth_bounds && other.depth_bounds,
             depth_bias_clamp: self.depth_bias_clamp && other.depth_bias_clamp,
             depth_clip_control: self.depth_clip_control && other.depth_clip_control,
@@ -348,8 +359,11 @@ pub struct Gpu {
     pub supported: Features,
     /// The optional features enabled at device creation (requested and supported).
     pub enabled: Features,
-    /// Vulkan 1.3 commands are available (instance and device both at 1.3 or later).
-    pub vulkan_1_3: bool,
+    /// The extensions standing in for core commands below their version (see
+    /// [`Gpu::cmd_begin_rendering`] and the methods after it).
+    dynamic_rendering_khr: Option<ash::khr::dynamic_rendering::Device>,
+    extended_dynamic_state: Option<ash::ext::extended_dynamic_state::Device>,
+    create_renderpass2_khr: Option<ash::khr::create_renderpass2::Device>,
     memory_properties: vk::PhysicalDeviceMemoryProperties,
     // Dropped after `Drop::drop` has destroyed the device.
     instance: InstanceCtx,
@@ -417,6 +431,29 @@ fn device_info(instance: &InstanceCtx, physical_device: vk::PhysicalDevice) -> D
 }
 
 impl InstanceCtx {
+    /// `vkGetPhysicalDeviceProperties2` (core 1.1) or its KHR name below 1.1; `false` where the
+    /// instance has neither.
+    fn properties2(
+        &self,
+        physical_device: vk::PhysicalDevice,
+        properties: &mut vk::PhysicalDeviceProperties2<'_>,
+    ) -> bool {
+        if self.api_version >= vk::API_VERSION_1_1 {
+            // SAFETY: core 1.1 entry point; the caller's chain holds valid structures.
+            unsafe {
+                self.instance
+                    .get_physical_device_properties2(physical_device, properties)
+            };
+            true
+        } else if let Some(properties2) = &self.properties2 {
+            // SAFETY: the extension is enabled; the caller's chain holds valid structures.
+            unsafe { properties2.get_physical_device_properties2(physical_device, properties) };
+            true
+        } else {
+            false
+        }
+    }
+
     /// `vkGetPhysicalDeviceFeatures2` (core 1.1) or its KHR name below 1.1; `false` where the
     /// instance has neither (a Vulkan 1.0 instance without the extension).
     fn features2(
@@ -441,11 +478,22 @@ impl InstanceCtx {
     }
 }
 
-/// The optional features `physical_device` has (`dynamicRendering` only with Vulkan 1.3,
-/// `depthClipControl` and `graphicsPipelineLibrary` only with their extensions).
+/// The device extensions that give Vulkan 1.2's depth/stencil resolves (with
+/// `vkCreateRenderPass2`) below it, in the order they require each other.
+const KHR_DEPTH_STENCIL_RESOLVE: [&CStr; 4] = [
+    ash::khr::multiview::NAME,
+    ash::khr::maintenance2::NAME,
+    ash::khr::create_renderpass2::NAME,
+    ash::khr::depth_stencil_resolve::NAME,
+];
+
+/// The optional features `physical_device` has (`dynamicRendering` and the dynamic compare op
+/// with Vulkan 1.3 or the extensions that give them below it, `depthClipControl` and
+/// `graphicsPipelineLibrary` only with their extensions).
 fn supported_features(
     instance: &InstanceCtx,
     physical_device: vk::PhysicalDevice,
+    device_api: u32,
     vulkan_1_3: bool,
 ) -> Features {
     // SAFETY: `physical_device` was enumerated from this instance.
@@ -454,13 +502,6 @@ fn supported_features(
             .instance
             .get_physical_device_features(physical_device)
     };
-    let mut dynamic_rendering = false;
-    if vulkan_1_3 {
-        let mut features13 = vk::PhysicalDeviceVulkan13Features::default();
-        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features13);
-        instance.features2(physical_device, &mut features2);
-        dynamic_rendering = features13.dynamic_rendering == vk::TRUE;
-    }
     // SAFETY: `physical_device` was enumerated from this instance.
     let extensions = unsafe {
         instance
@@ -472,6 +513,33 @@ fn supported_features(
         extensions
             .iter()
             .any(|e| e.extension_name_as_c_str() == Ok(name))
+    };
+    let api = instance.api_version.min(device_api);
+    let depth_stencil_resolve =
+        api >= vk::API_VERSION_1_2 || KHR_DEPTH_STENCIL_RESOLVE.iter().all(|&name| has(name));
+    let (dynamic_rendering, dynamic_compare_op) = if vulkan_1_3 {
+        let mut features13 = vk::PhysicalDeviceVulkan13Features::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features13);
+        instance.features2(physical_device, &mut features2);
+        (features13.dynamic_rendering == vk::TRUE, true)
+    } else {
+        let mut rendering = vk::PhysicalDeviceDynamicRenderingFeatures::default();
+        let mut state = vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default();
+        let has_rendering = depth_stencil_resolve && has(ash::khr::dynamic_rendering::NAME);
+        let has_state = has(ash::ext::extended_dynamic_state::NAME);
+        if has_rendering {
+            features2 = features2.push_next(&mut rendering);
+        }
+        if has_state {
+            features2 = features2.push_next(&mut state);
+        }
+        // The device has the extensions whose features structures are chained.
+        let queried = instance.features2(physical_device, &mut features2);
+        (
+            queried && has_rendering && rendering.dynamic_rendering == vk::TRUE,
+            queried && has_state && state.extended_dynamic_state == vk::TRUE,
+        )
     };
     let has_clip_control = has(ash::ext::depth_clip_control::NAME);
     let mut depth_clip_control = false;
@@ -492,6 +560,8 @@ fn supported_features(
     }
     Features {
         dynamic_rendering,
+        dynamic_compare_op,
+        depth_stencil_resolve,
         depth_bounds: core.depth_bounds == vk::TRUE,
         depth_bias_clamp: core.depth_bias_clamp == vk::TRUE,
         depth_clip_control,
@@ -502,8 +572,14 @@ fn supported_features(
 impl Gpu {
     /// Creates the instance, picks the physical device, creates the device and its queue.
     pub fn new(options: &GpuOptions) -> Result<Self> {
-        let extension_features =
-            options.features.depth_clip_control || options.features.graphics_pipeline_library;
+        // Below 1.1, extension features and properties are queried through
+        // VK_KHR_get_physical_device_properties2, which the extensions also require.
+        let f = &options.features;
+        let extension_features = f.depth_clip_control
+            || f.graphics_pipeline_library
+            || f.dynamic_rendering
+            || f.dynamic_compare_op
+            || f.depth_stencil_resolve;
         let instance = InstanceCtx::new(
             options.validation,
             options.max_api_version,
@@ -562,7 +638,8 @@ impl Gpu {
 
         let vulkan_1_3 =
             info.api_version >= vk::API_VERSION_1_3 && instance.api_version >= vk::API_VERSION_1_3;
-        let supported = supported_features(&instance, physical_device, vulkan_1_3);
+        let supported =
+            supported_features(&instance, physical_device, info.api_version, vulkan_1_3);
         let enabled = options.features.and(supported);
 
         let priorities = [1.0f32];
@@ -577,11 +654,31 @@ impl Gpu {
             .depth_bias_clamp(enabled.depth_bias_clamp);
         let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(enabled.dynamic_rendering);
+        // Below 1.3 (and 1.2), the extensions that stand in for the core commands, as an older
+        // application enables them.
+        let api = instance.api_version.min(info.api_version);
+        let mut rendering_khr =
+            vk::PhysicalDeviceDynamicRenderingFeatures::default().dynamic_rendering(true);
+        let mut dynamic_state = vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT::default()
+            .extended_dynamic_state(true);
+        let rendering_extension = !vulkan_1_3 && enabled.dynamic_rendering;
+        let state_extension = !vulkan_1_3 && enabled.dynamic_compare_op;
+        let resolve_extensions =
+            api < vk::API_VERSION_1_2 && (enabled.depth_stencil_resolve || rendering_extension);
         let mut clip_control =
             vk::PhysicalDeviceDepthClipControlFeaturesEXT::default().depth_clip_control(true);
         let mut library = vk::PhysicalDeviceGraphicsPipelineLibraryFeaturesEXT::default()
             .graphics_pipeline_library(true);
         let mut extensions = Vec::new();
+        if resolve_extensions {
+            extensions.extend(KHR_DEPTH_STENCIL_RESOLVE.iter().map(|name| name.as_ptr()));
+        }
+        if rendering_extension {
+            extensions.push(ash::khr::dynamic_rendering::NAME.as_ptr());
+        }
+        if state_extension {
+            extensions.push(ash::ext::extended_dynamic_state::NAME.as_ptr());
+        }
         if enabled.depth_clip_control {
             extensions.push(ash::ext::depth_clip_control::NAME.as_ptr());
         }
@@ -593,8 +690,14 @@ impl Gpu {
             .queue_create_infos(&queue_infos)
             .enabled_features(&core_features)
             .enabled_extension_names(&extensions);
-        if enabled.dynamic_rendering {
+        if enabled.dynamic_rendering && vulkan_1_3 {
             device_create_info = device_create_info.push_next(&mut features13);
+        }
+        if rendering_extension {
+            device_create_info = device_create_info.push_next(&mut rendering_khr);
+        }
+        if state_extension {
+            device_create_info = device_create_info.push_next(&mut dynamic_state);
         }
         if enabled.depth_clip_control {
             device_create_info = device_create_info.push_next(&mut clip_control);
@@ -618,7 +721,16 @@ impl Gpu {
                 .get_physical_device_memory_properties(physical_device)
         };
 
+        let dynamic_rendering_khr = rendering_extension
+            .then(|| ash::khr::dynamic_rendering::Device::new(&instance.instance, &device));
+        let extended_dynamic_state = state_extension
+            .then(|| ash::ext::extended_dynamic_state::Device::new(&instance.instance, &device));
+        let create_renderpass2_khr = resolve_extensions
+            .then(|| ash::khr::create_renderpass2::Device::new(&instance.instance, &device));
         Ok(Gpu {
+            dynamic_rendering_khr,
+            extended_dynamic_state,
+            create_renderpass2_khr,
             device,
             queue,
             queue_family,
@@ -626,7 +738,6 @@ impl Gpu {
             info,
             supported,
             enabled,
-            vulkan_1_3,
             memory_properties,
             instance,
         })
@@ -635,6 +746,65 @@ impl Gpu {
     /// The Vulkan instance.
     pub fn instance(&self) -> &ash::Instance {
         &self.instance.instance
+    }
+
+    /// `vkCmdBeginRendering`, or its KHR name below Vulkan 1.3.
+    ///
+    /// # Safety
+    /// As `vkCmdBeginRendering`.
+    pub unsafe fn cmd_begin_rendering(&self, cmd: vk::CommandBuffer, info: &vk::RenderingInfo<'_>) {
+        // SAFETY: the caller's contract; the extension is enabled where it is loaded.
+        unsafe {
+            match &self.dynamic_rendering_khr {
+                Some(khr) => khr.cmd_begin_rendering(cmd, info),
+                None => self.device.cmd_begin_rendering(cmd, info),
+            }
+        }
+    }
+
+    /// `vkCmdEndRendering`, or its KHR name below Vulkan 1.3.
+    ///
+    /// # Safety
+    /// As `vkCmdEndRendering`.
+    pub unsafe fn cmd_end_rendering(&self, cmd: vk::CommandBuffer) {
+        // SAFETY: the caller's contract; the extension is enabled where it is loaded.
+        unsafe {
+            match &self.dynamic_rendering_khr {
+                Some(khr) => khr.cmd_end_rendering(cmd),
+                None => self.device.cmd_end_rendering(cmd),
+            }
+        }
+    }
+
+    /// `vkCmdSetDepthCompareOp`, or `VK_EXT_extended_dynamic_state`'s below Vulkan 1.3.
+    ///
+    /// # Safety
+    /// As `vkCmdSetDepthCompareOp`.
+    pub unsafe fn cmd_set_depth_compare_op(&self, cmd: vk::CommandBuffer, op: vk::CompareOp) {
+        // SAFETY: the caller's contract; the extension is enabled where it is loaded.
+        unsafe {
+            match &self.extended_dynamic_state {
+                Some(ext) => ext.cmd_set_depth_compare_op(cmd, op),
+                None => self.device.cmd_set_depth_compare_op(cmd, op),
+            }
+        }
+    }
+
+    /// `vkCreateRenderPass2`, or its KHR name below Vulkan 1.2.
+    ///
+    /// # Safety
+    /// As `vkCreateRenderPass2`.
+    pub unsafe fn create_render_pass2(
+        &self,
+        info: &vk::RenderPassCreateInfo2<'_>,
+    ) -> ash::prelude::VkResult<vk::RenderPass> {
+        // SAFETY: the caller's contract; the extension is enabled where it is loaded.
+        unsafe {
+            match &self.create_renderpass2_khr {
+                Some(khr) => khr.create_render_pass2(info, None),
+                None => self.device.create_render_pass2(info, None),
+            }
+        }
     }
 
     /// The Vulkan version the tester uses: what it asked for, capped by the device's.
@@ -658,12 +828,8 @@ impl Gpu {
     pub fn resolve_support(&self) -> ResolveSupport {
         let mut resolve = vk::PhysicalDeviceDepthStencilResolveProperties::default();
         let mut properties2 = vk::PhysicalDeviceProperties2::default().push_next(&mut resolve);
-        // SAFETY: core 1.1 entry point (the instance asks for 1.2 or later); the chain holds a
-        // valid Vulkan 1.2 properties structure.
-        unsafe {
-            self.instance()
-                .get_physical_device_properties2(self.physical_device, &mut properties2)
-        };
+        self.instance
+            .properties2(self.physical_device, &mut properties2);
         ResolveSupport {
             depth_modes: resolve.supported_depth_resolve_modes,
             stencil_modes: resolve.supported_stencil_resolve_modes,
@@ -819,6 +985,8 @@ mod tests {
     fn feature_names_are_vulkan_names_of_the_set_features() {
         let all = Features {
             dynamic_rendering: true,
+            dynamic_compare_op: true,
+            depth_stencil_resolve: true,
             depth_bounds: true,
             depth_bias_clamp: true,
             depth_clip_control: true,
@@ -828,6 +996,7 @@ mod tests {
             all.names(),
             [
                 "dynamicRendering",
+                "extendedDynamicState",
                 "depthBounds",
                 "depthBiasClamp",
                 "depthClipControl",

@@ -206,6 +206,8 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         }),
         features: Features {
             dynamic_rendering: needs.dynamic_rendering,
+            dynamic_compare_op: needs.dynamic_compare_op,
+            depth_stencil_resolve: needs.multisample.is_some(),
             depth_bounds: needs.depth_bounds,
             depth_bias_clamp: needs.depth_bias_clamp,
             depth_clip_control: needs.depth_clip_control,
@@ -220,11 +222,15 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     ));
     let device_info = gpu.info.clone();
     let lacks = |what: &str| format!("scene '{}': device lacks {what}", scene.name);
-    if needs.vulkan_1_3 && !gpu.vulkan_1_3 {
-        bail!(lacks("Vulkan 1.3"));
+    if needs.dynamic_compare_op && !gpu.supported.dynamic_compare_op {
+        bail!(lacks(
+            "a dynamic depth compare op (Vulkan 1.3 or VK_EXT_extended_dynamic_state)"
+        ));
     }
     if needs.dynamic_rendering && !gpu.supported.dynamic_rendering {
-        bail!(lacks("dynamicRendering"));
+        bail!(lacks(
+            "dynamicRendering (Vulkan 1.3 or VK_KHR_dynamic_rendering)"
+        ));
     }
     if needs.depth_bounds && !gpu.supported.depth_bounds {
         bail!(lacks("depthBounds"));

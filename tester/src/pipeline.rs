@@ -8,6 +8,7 @@
 use anyhow::{anyhow, Context, Result};
 use ash::vk;
 
+use crate::gpu::Gpu;
 use crate::plan::{
     Bias, Bounds, Compare, DepthLoad, DepthTest, PassKind, PassSpec, PipelineSpec, Program,
     StencilTest, StencilWrite, Target, Viewport,
@@ -276,7 +277,7 @@ pub fn create_render_pass(
 /// `VkSubpassDescriptionDepthStencilResolve` with `resolve`'s modes). The resolve attachments
 /// are stored and end in their attachment layouts (the read-back transitions them).
 pub fn create_resolving_render_pass(
-    device: &ash::Device,
+    gpu: &Gpu,
     pass: &PassSpec,
     main: MainFormats,
     samples: vk::SampleCountFlags,
@@ -380,9 +381,9 @@ pub fn create_resolving_render_pass(
         .attachments(&attachments)
         .subpasses(&subpasses)
         .dependencies(&dependencies);
-    // SAFETY: valid device at Vulkan 1.2 (checked with the targets); the create info refers
-    // to live locals.
-    unsafe { device.create_render_pass2(&info, None) }.context("vkCreateRenderPass2 failed")
+    // SAFETY: the device has the command (Vulkan 1.2, or the extension: checked with the
+    // targets); the create info refers to live locals.
+    unsafe { gpu.create_render_pass2(&info) }.context("vkCreateRenderPass2 failed")
 }
 
 /// A shader module destroyed when dropped (shader modules are only needed while the pipeline

@@ -497,8 +497,8 @@ pub struct Needs {
     pub depth_bounds: bool,
     /// The `dynamicRendering` feature (Vulkan 1.3).
     pub dynamic_rendering: bool,
-    /// Vulkan 1.3 core commands (dynamic compare op, dynamic rendering).
-    pub vulkan_1_3: bool,
+    /// `vkCmdSetDepthCompareOp` (Vulkan 1.3, or `VK_EXT_extended_dynamic_state`).
+    pub dynamic_compare_op: bool,
     /// The `depthBiasClamp` feature would be used (optional: clamp 0 without it).
     pub depth_bias_clamp: bool,
     /// TRANSFER_DST usage on the depth image.
@@ -611,13 +611,12 @@ impl Plan {
             needs.multisample = needs.multisample.or(pass.multisample);
             if pass.kind == PassKind::DynamicRendering {
                 needs.dynamic_rendering = true;
-                needs.vulkan_1_3 = true;
             }
         }
         for pipeline in &self.pipelines {
             needs.stencil |= pipeline.stencil.is_some();
             needs.depth_bounds |= pipeline.bounds != Bounds::Off;
-            needs.vulkan_1_3 |= pipeline.depth_test == DepthTest::Dynamic;
+            needs.dynamic_compare_op |= pipeline.depth_test == DepthTest::Dynamic;
             needs.depth_clip_control |= pipeline.negative_one_to_one;
             needs.graphics_pipeline_library |= pipeline.libraries;
             if let Bias::Static(bias) = pipeline.bias {
@@ -1277,6 +1276,6 @@ mod tests {
         assert!(plan.check(1, false).is_err());
         plan.steps.insert(2, Step::SetDepthCompareOp(Compare::Less));
         plan.check(1, false).unwrap();
-        assert!(plan.needs().vulkan_1_3);
+        assert!(plan.needs().dynamic_compare_op);
     }
 }

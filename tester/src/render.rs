@@ -85,6 +85,9 @@ struct ColorBindings<'a> {
 
 /// Everything the plan names, for one render of the targets.
 pub struct Renderer<'a> {
+    /// The device's commands, with the extensions standing in for core ones below their
+    /// version.
+    gpu: &'a Gpu,
     device: &'a ash::Device,
     /// One per plan pass (null for dynamic rendering).
     render_passes: Vec<vk::RenderPass>,
@@ -189,6 +192,7 @@ impl<'a> Renderer<'a> {
         let plan = &scene.plan;
         let needs = plan.needs();
         let mut this = Renderer {
+            gpu,
             device,
             render_passes: Vec::new(),
             framebuffers: Vec::new(),
@@ -222,9 +226,7 @@ impl<'a> Renderer<'a> {
                 None => None,
             };
             let render_pass = match multisampled {
-                Some(ms) => {
-                    create_resolving_render_pass(device, pass, main, ms.samples, ms.resolve)?
-                }
+                Some(ms) => create_resolving_render_pass(gpu, pass, main, ms.samples, ms.resolve)?,
                 None => create_render_pass(device, pass, main)?,
             };
             this.render_passes.push(render_pass);
@@ -722,9 +724,10 @@ impl Recorder<'_> {
                 } => self.push(cmd, *object, *offset, *size)?,
                 Step::SetDepthCompareOp(op) => {
                     // SAFETY: `cmd` is recording with a bound pipeline whose compare op is
-                    // dynamic; the device is Vulkan 1.3 (checked before rendering).
+                    // dynamic; the device has the command (checked before rendering).
                     unsafe {
-                        self.device()
+                        self.renderer
+                            .gpu
                             .cmd_set_depth_compare_op(cmd, map_compare(*op))
                     };
                 }
@@ -1064,7 +1067,7 @@ impl Recorder<'_> {
                 &[],
                 &barriers,
             );
-            self.device().cmd_begin_rendering(cmd, &info);
+            self.renderer.gpu.cmd_begin_rendering(cmd, &info);
         }
         Ok(())
     }
@@ -1075,7 +1078,7 @@ impl Recorder<'_> {
         // SAFETY: `cmd` is inside the pass begun by the matching BeginPass.
         unsafe {
             if self.plan.passes[n].kind == PassKind::DynamicRendering {
-                self.device().cmd_end_rendering(cmd);
+                self.renderer.gpu.cmd_end_rendering(cmd);
             } else {
                 self.device().cmd_end_render_pass(cmd);
             }

@@ -1828,7 +1828,7 @@ mod tests {
         assert!(needs(SceneId::Stencil).stencil);
         assert!(needs(SceneId::DepthBounds).depth_bounds);
         assert!(needs(SceneId::DynamicRendering).dynamic_rendering);
-        assert!(needs(SceneId::CompareOpsDynamic).vulkan_1_3);
+        assert!(needs(SceneId::CompareOpsDynamic).dynamic_compare_op);
         assert!(needs(SceneId::DepthBias).depth_bias_clamp);
         assert!(needs(SceneId::DepthBiasDynamic).depth_bias_clamp);
         assert!(needs(SceneId::ClearImage).clear_depth_image);

@@ -374,10 +374,10 @@ fn check_multisample(
     multisample: Multisample,
 ) -> Result<(vk::SampleCountFlags, ResolveModes)> {
     let device = &gpu.info.name;
-    if gpu.api_version() < vk::API_VERSION_1_2 {
+    if !gpu.enabled.depth_stencil_resolve {
         bail!(
-            "device '{device}' is used at Vulkan {}.{}: multisampled depth resolves need \
-             Vulkan 1.2",
+            "device '{device}' is used at Vulkan {}.{} without VK_KHR_depth_stencil_resolve: \
+             multisampled depth resolves need Vulkan 1.2 or it",
             vk::api_version_major(gpu.api_version()),
             vk::api_version_minor(gpu.api_version())
         );
