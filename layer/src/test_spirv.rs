@@ -31,3 +31,74 @@ pub fn assemble(text: &str) -> Vec<u32> {
         .as_words()
         .to_vec()
 }
+
+/// The shaders the chain tests share.
+///
+/// A fragment shader that writes `FragDepth` from `FragCoord.z`.
+pub const FRAG_DEPTH: &str = "#version 450
+    layout(location = 0) out vec4 color;
+    void main() {
+        color = vec4(gl_FragCoord.xy, 0.0, 1.0);
+        gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z;
+    }";
+
+/// A fragment shader that does not compute with depth.
+pub const PLAIN: &str = "#version 450
+    layout(location = 0) out vec4 color;
+    void main() { color = vec4(1.0, 0.5, 0.25, 1.0); }";
+
+/// A vertex shader with a constant position.
+pub const VERTEX: &str = "#version 450
+    void main() { gl_Position = vec4(0.0, 0.0, 0.5, 1.0); }";
+
+/// A fragment shader of `source`.
+pub fn fragment(source: &str) -> Vec<u32> {
+    compile_glsl(naga::ShaderStage::Fragment, source)
+}
+
+/// [`VERTEX`], compiled.
+pub fn vertex() -> Vec<u32> {
+    compile_glsl(naga::ShaderStage::Vertex, VERTEX)
+}
+
+/// A fragment shader that stores `FragDepth` and reads it back: the rewrite refuses it.
+pub fn refused_fragment() -> Vec<u32> {
+    let text = "OpCapability Shader
+        OpMemoryModel Logical GLSL450
+        OpEntryPoint Fragment %main \"main\" %coord %depth
+        OpExecutionMode %main OriginUpperLeft
+        OpExecutionMode %main DepthReplacing
+        OpDecorate %coord BuiltIn FragCoord
+        OpDecorate %depth BuiltIn FragDepth
+        %void = OpTypeVoid
+        %fn = OpTypeFunction %void
+        %float = OpTypeFloat 32
+        %v4 = OpTypeVector %float 4
+        %half = OpConstant %float 0.5
+        %pin_v4 = OpTypePointer Input %v4
+        %pout_f = OpTypePointer Output %float
+        %coord = OpVariable %pin_v4 Input
+        %depth = OpVariable %pout_f Output
+        %main = OpFunction %void None %fn
+        %entry = OpLabel
+        OpStore %depth %half
+        %d = OpLoad %float %depth
+        %e = OpFMul %float %d %half
+        OpStore %depth %e
+        OpReturn
+        OpFunctionEnd";
+    let words = assemble(text);
+    assert!(
+        crate::fragment_depth::reverse_fragment_depth(&words).is_err(),
+        "the rewrite refuses FragDepth read back"
+    );
+    words
+}
+
+/// spirv-val accepts `words` (Vulkan 1.1 environment).
+pub fn validate(words: &[u32]) {
+    use spirv_tools::val::{self, Validator as _};
+    val::create(Some(TargetEnv::Vulkan_1_1))
+        .validate(words, None)
+        .unwrap_or_else(|e| panic!("spirv-val rejects the module: {e}"));
+}

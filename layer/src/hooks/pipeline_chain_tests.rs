@@ -21,7 +21,7 @@ use super::{device, pipeline};
 use crate::command_state::PipelineDepth;
 use crate::fragment_depth::reverse_fragment_depth;
 use crate::state::{DeviceState, DispatchKey, DEVICES};
-use crate::test_spirv;
+use crate::test_spirv::{self, fragment, refused_fragment, validate, FRAG_DEPTH, PLAIN, VERTEX};
 
 const D32: vk::Format = vk::Format::D32_SFLOAT;
 const COLOR: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -39,68 +39,6 @@ const EXTENT: vk::Extent2D = vk::Extent2D {
     width: 64,
     height: 64,
 };
-
-/// A fragment shader that writes `FragDepth` from `FragCoord.z`.
-const FRAG_DEPTH: &str = "#version 450
-    layout(location = 0) out vec4 color;
-    void main() {
-        color = vec4(gl_FragCoord.xy, 0.0, 1.0);
-        gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z;
-    }";
-
-/// A fragment shader that does not compute with depth.
-const PLAIN: &str = "#version 450
-    layout(location = 0) out vec4 color;
-    void main() { color = vec4(1.0, 0.5, 0.25, 1.0); }";
-
-const VERTEX: &str = "#version 450
-    void main() { gl_Position = vec4(0.0, 0.0, 0.5, 1.0); }";
-
-fn fragment(source: &str) -> Vec<u32> {
-    test_spirv::compile_glsl(naga::ShaderStage::Fragment, source)
-}
-
-/// A fragment shader that stores `FragDepth` and reads it back: the rewrite refuses it.
-fn refused_fragment() -> Vec<u32> {
-    let text = "OpCapability Shader
-        OpMemoryModel Logical GLSL450
-        OpEntryPoint Fragment %main \"main\" %coord %depth
-        OpExecutionMode %main OriginUpperLeft
-        OpExecutionMode %main DepthReplacing
-        OpDecorate %coord BuiltIn FragCoord
-        OpDecorate %depth BuiltIn FragDepth
-        %void = OpTypeVoid
-        %fn = OpTypeFunction %void
-        %float = OpTypeFloat 32
-        %v4 = OpTypeVector %float 4
-        %half = OpConstant %float 0.5
-        %pin_v4 = OpTypePointer Input %v4
-        %pout_f = OpTypePointer Output %float
-        %coord = OpVariable %pin_v4 Input
-        %depth = OpVariable %pout_f Output
-        %main = OpFunction %void None %fn
-        %entry = OpLabel
-        OpStore %depth %half
-        %d = OpLoad %float %depth
-        %e = OpFMul %float %d %half
-        OpStore %depth %e
-        OpReturn
-        OpFunctionEnd";
-    let words = test_spirv::assemble(text);
-    assert!(
-        reverse_fragment_depth(&words).is_err(),
-        "the rewrite refuses FragDepth read back"
-    );
-    words
-}
-
-/// spirv-val accepts `words` (Vulkan 1.1 environment).
-fn validate(words: &[u32]) {
-    use spirv_tools::val::{self, Validator as _};
-    val::create(Some(spirv_tools::TargetEnv::Vulkan_1_1))
-        .validate(words, None)
-        .unwrap_or_else(|e| panic!("spirv-val rejects the module: {e}"));
-}
 
 /// The commands of the pipeline hooks: revz's in an active mode, the next layer's in mode off.
 const PIPELINE_COMMANDS: [&CStr; 4] = [
