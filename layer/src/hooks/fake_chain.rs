@@ -1387,3 +1387,39 @@ pub(super) fn create_device(
     assert_eq!(result, vk::Result::SUCCESS);
     (physical, device, device_chain.p_layer_info.is_null())
 }
+
+/// The create info of a 2D, single-level depth image of `format`, `extent`, `usage` and
+/// `samples`, optimally tiled: the depth images the chain tests create through revz.
+pub(super) fn depth_image_info(
+    format: vk::Format,
+    extent: vk::Extent2D,
+    usage: vk::ImageUsageFlags,
+    samples: vk::SampleCountFlags,
+) -> vk::ImageCreateInfo<'static> {
+    vk::ImageCreateInfo::default()
+        .image_type(vk::ImageType::TYPE_2D)
+        .format(format)
+        .extent(extent.into())
+        .mip_levels(1)
+        .array_layers(1)
+        .samples(samples)
+        .tiling(vk::ImageTiling::OPTIMAL)
+        .usage(usage)
+}
+
+/// The create info of a 2D view of the depth aspect of `image` (of `format`).
+pub(super) fn depth_view_info(
+    image: vk::Image,
+    format: vk::Format,
+) -> vk::ImageViewCreateInfo<'static> {
+    vk::ImageViewCreateInfo::default()
+        .image(image)
+        .view_type(vk::ImageViewType::TYPE_2D)
+        .format(format)
+        .subresource_range(vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            level_count: 1,
+            layer_count: 1,
+            ..Default::default()
+        })
+}

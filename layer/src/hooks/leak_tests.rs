@@ -435,15 +435,12 @@ impl Fixture {
     }
 
     fn depth_image(&self, samples: vk::SampleCountFlags) -> vk::Image {
-        let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(D32)
-            .extent(EXTENT.into())
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(samples)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+        let info = fake_chain::depth_image_info(
+            D32,
+            EXTENT,
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            samples,
+        );
         let mut image = vk::Image::null();
         // SAFETY: a live device and a valid create info.
         ok(unsafe { (self.hooks.create_image)(self.device, &info, std::ptr::null(), &mut image) });
@@ -451,16 +448,7 @@ impl Fixture {
     }
 
     fn depth_view(&self, image: vk::Image) -> vk::ImageView {
-        let info = vk::ImageViewCreateInfo::default()
-            .image(image)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(D32)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: vk::ImageAspectFlags::DEPTH,
-                level_count: 1,
-                layer_count: 1,
-                ..Default::default()
-            });
+        let info = fake_chain::depth_view_info(image, D32);
         let mut view = vk::ImageView::null();
         // SAFETY: a live device and a valid create info.
         ok(unsafe {

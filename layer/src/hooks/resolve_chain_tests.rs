@@ -171,31 +171,14 @@ impl Fixture {
         usage: vk::ImageUsageFlags,
         samples: vk::SampleCountFlags,
     ) -> (vk::Image, vk::ImageView) {
-        let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(format)
-            .extent(EXTENT.into())
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(samples)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(usage);
+        let info = fake_chain::depth_image_info(format, EXTENT, usage, samples);
         let mut image = vk::Image::null();
         // SAFETY: a live device and a valid create info.
         let result =
             unsafe { (self.hooks.create_image)(self.device, &info, std::ptr::null(), &mut image) };
         assert_eq!(result, vk::Result::SUCCESS);
         self.images.borrow_mut().push(image);
-        let info = vk::ImageViewCreateInfo::default()
-            .image(image)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(format)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: vk::ImageAspectFlags::DEPTH,
-                level_count: 1,
-                layer_count: 1,
-                ..Default::default()
-            });
+        let info = fake_chain::depth_view_info(image, format);
         let mut view = vk::ImageView::null();
         // SAFETY: as above.
         let result = unsafe {

@@ -131,18 +131,15 @@ fn viewports_go_down_before_secondaries_run_flipped_for_a_reversed_attachment() 
         vk::PFN_vkCmdExecuteCommands
     );
 
-    let image_info = vk::ImageCreateInfo::default()
-        .image_type(vk::ImageType::TYPE_2D)
-        .format(vk::Format::D32_SFLOAT)
-        .extent(vk::Extent3D {
+    let image_info = fake_chain::depth_image_info(
+        vk::Format::D32_SFLOAT,
+        vk::Extent2D {
             width: 64,
             height: 64,
-            depth: 1,
-        })
-        .mip_levels(1)
-        .array_layers(1)
-        .samples(vk::SampleCountFlags::TYPE_1)
-        .usage(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+        },
+        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        vk::SampleCountFlags::TYPE_1,
+    );
     let (mut image, mut view) = (vk::Image::null(), vk::ImageView::null());
     let pool = vk::CommandPool::from_raw(1);
     let mut buffers = [vk::CommandBuffer::null(); 2];
@@ -152,16 +149,7 @@ fn viewports_go_down_before_secondaries_run_flipped_for_a_reversed_attachment() 
             create_image(device, &image_info, std::ptr::null(), &mut image),
             vk::Result::SUCCESS
         );
-        let view_info = vk::ImageViewCreateInfo::default()
-            .image(image)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(vk::Format::D32_SFLOAT)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: vk::ImageAspectFlags::DEPTH,
-                level_count: 1,
-                layer_count: 1,
-                ..Default::default()
-            });
+        let view_info = fake_chain::depth_view_info(image, vk::Format::D32_SFLOAT);
         assert_eq!(
             create_view(device, &view_info, std::ptr::null(), &mut view),
             vk::Result::SUCCESS

@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 use ash::vk::{self, Handle};
 
-use super::fake_chain::{self, hook, Event, SeenShader, Tables};
+use super::fake_chain::{self, hook_set, Event, SeenShader, Tables};
 use crate::fragment_depth::reverse_fragment_depth;
 use crate::objects::FragmentShader;
 use crate::state::{DeviceState, DispatchKey, DEVICES};
@@ -31,48 +31,19 @@ fn bytes(words: &[u32]) -> Vec<u8> {
     words.iter().flat_map(|w| w.to_ne_bytes()).collect()
 }
 
-/// The commands these tests call, as the application would get them.
-struct Hooks {
-    create_shaders: vk::PFN_vkCreateShadersEXT,
-    destroy_shader: vk::PFN_vkDestroyShaderEXT,
-    cmd_bind_shaders: vk::PFN_vkCmdBindShadersEXT,
-    create_image: vk::PFN_vkCreateImage,
-    create_image_view: vk::PFN_vkCreateImageView,
-    allocate_command_buffers: vk::PFN_vkAllocateCommandBuffers,
-    free_command_buffers: vk::PFN_vkFreeCommandBuffers,
-    begin_command_buffer: vk::PFN_vkBeginCommandBuffer,
-    cmd_begin_rendering: vk::PFN_vkCmdBeginRendering,
-    cmd_end_rendering: vk::PFN_vkCmdEndRendering,
-    cmd_draw: vk::PFN_vkCmdDraw,
-}
-
-impl Hooks {
-    fn of(device: vk::Device) -> Hooks {
-        Hooks {
-            create_shaders: hook!(device, c"vkCreateShadersEXT", vk::PFN_vkCreateShadersEXT),
-            destroy_shader: hook!(device, c"vkDestroyShaderEXT", vk::PFN_vkDestroyShaderEXT),
-            cmd_bind_shaders: hook!(device, c"vkCmdBindShadersEXT", vk::PFN_vkCmdBindShadersEXT),
-            create_image: hook!(device, c"vkCreateImage", vk::PFN_vkCreateImage),
-            create_image_view: hook!(device, c"vkCreateImageView", vk::PFN_vkCreateImageView),
-            allocate_command_buffers: hook!(
-                device,
-                c"vkAllocateCommandBuffers",
-                vk::PFN_vkAllocateCommandBuffers
-            ),
-            free_command_buffers: hook!(
-                device,
-                c"vkFreeCommandBuffers",
-                vk::PFN_vkFreeCommandBuffers
-            ),
-            begin_command_buffer: hook!(
-                device,
-                c"vkBeginCommandBuffer",
-                vk::PFN_vkBeginCommandBuffer
-            ),
-            cmd_begin_rendering: hook!(device, c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering),
-            cmd_end_rendering: hook!(device, c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering),
-            cmd_draw: hook!(device, c"vkCmdDraw", vk::PFN_vkCmdDraw),
-        }
+hook_set! {
+    struct Hooks {
+        create_shaders: c"vkCreateShadersEXT" => vk::PFN_vkCreateShadersEXT,
+        destroy_shader: c"vkDestroyShaderEXT" => vk::PFN_vkDestroyShaderEXT,
+        cmd_bind_shaders: c"vkCmdBindShadersEXT" => vk::PFN_vkCmdBindShadersEXT,
+        create_image: c"vkCreateImage" => vk::PFN_vkCreateImage,
+        create_image_view: c"vkCreateImageView" => vk::PFN_vkCreateImageView,
+        allocate_command_buffers: c"vkAllocateCommandBuffers" => vk::PFN_vkAllocateCommandBuffers,
+        free_command_buffers: c"vkFreeCommandBuffers" => vk::PFN_vkFreeCommandBuffers,
+        begin_command_buffer: c"vkBeginCommandBuffer" => vk::PFN_vkBeginCommandBuffer,
+        cmd_begin_rendering: c"vkCmdBeginRendering" => vk::PFN_vkCmdBeginRendering,
+        cmd_end_rendering: c"vkCmdEndRendering" => vk::PFN_vkCmdEndRendering,
+        cmd_draw: c"vkCmdDraw" => vk::PFN_vkCmdDraw,
     }
 }
 
@@ -150,30 +121,13 @@ impl Fixture {
 
     /// A depth image (`usage`) and a view of it.
     fn depth_view(&self, usage: vk::ImageUsageFlags) -> vk::ImageView {
-        let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(D32)
-            .extent(EXTENT.into())
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(usage);
+        let info = fake_chain::depth_image_info(D32, EXTENT, usage, vk::SampleCountFlags::TYPE_1);
         let mut image = vk::Image::null();
         // SAFETY: a live device and a valid create info.
         let result =
             unsafe { (self.hooks.create_image)(self.device, &info, std::ptr::null(), &mut image) };
         assert_eq!(result, vk::Result::SUCCESS);
-        let info = vk::ImageViewCreateInfo::default()
-            .image(image)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(D32)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: vk::ImageAspectFlags::DEPTH,
-                level_count: 1,
-                layer_count: 1,
-                ..Default::default()
-            });
+        let info = fake_chain::depth_view_info(image, D32);
         let mut view = vk::ImageView::null();
         // SAFETY: as above.
         let result = unsafe {
