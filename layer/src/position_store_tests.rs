@@ -1,0 +1,339 @@
+//! The `Position` rewrite on the shapes compilers emit (naga: a `BuiltIn Position` variable;
+//! glslang: a `gl_PerVertex` block), each result checked by spirv-val and read back by naga,
+//! and the refusals.
+
+use spirv_tools::val::{self, Validator as _};
+use spirv_tools::TargetEnv;
+
+use super::*;
+use crate::spirv_scan::instructions;
+use crate::test_spirv::{assemble, compile_glsl, validate};
+
+const OFFSET: u32 = 112;
+
+/// `scene.vert`'s shape, plus a view vector computed from the same `Position` value.
+const LIT: &str = "#version 450
+    layout(push_constant) uniform PushConstants { mat4 mvp; vec4 color; } pc;
+    layout(location = 0) in vec3 position;
+    layout(location = 0) out vec3 view_vec;
+    void main() {
+        vec4 pos = pc.mvp * vec4(position, 1.0);
+        gl_Position = pos;
+        view_vec = -pos.xyz;
+    }";
+
+fn rewritten(words: &[u32]) -> Vec<u32> {
+    let out = rewrite_position_store(words, OFFSET)
+        .expect("rewritable")
+        .expect("has a Position");
+    validate(&out);
+    out
+}
+
+/// The instructions of `words` with `opcode`, as (opcode, operands) copies.
+fn with_opcode(words: &[u32], opcode: u32) -> Vec<Vec<u32>> {
+    instructions(words)
+        .expect("SPIR-V")
+        .map_while(Result::ok)
+        .filter(|i| i.opcode == opcode)
+        .map(|i| i.operands.to_vec())
+        .collect()
+}
+
+/// The rewritten module's carrier: the member decorated at [`OFFSET`], and its block has it as
+/// its last member.
+fn assert_carrier(out: &[u32]) {
+    let offsets: Vec<_> = with_opcode(out, OP_MEMBER_DECORATE)
+        .into_iter()
+        .filter(|d| d[2] == DECORATION_OFFSET && d[3] == OFFSET)
+        .collect();
+    assert_eq!(offsets.len(), 1, "one member at the carrier offset");
+    let (block, member) = (offsets[0][0], offsets[0][1]);
+    let structs = with_opcode(out, OP_TYPE_STRUCT);
+    let members = structs.iter().find(|s| s[0] == block).expect("the block");
+    assert_eq!(members.len() - 2, member as usize, "the carrier is the last member");
+}
+
+#[test]
+fn a_position_variable_becomes_private_and_a_new_output_takes_its_place() {
+    let words = compile_glsl(naga::ShaderStage::Vertex, LIT);
+    validate(&words);
+    let out = rewritten(&words);
+    assert_carrier(&out);
+    let built_ins: Vec<_> = with_opcode(&out, OP_DECORATE)
+        .into_iter()
+        .filter(|d| d[1..] == [DECORATION_BUILT_IN, BUILT_IN_POSITION])
+        .collect();
+    assert_eq!(built_ins.len(), 1);
+    let variables = with_opcode(&out, OP_VARIABLE);
+    let output = variables
+        .iter()
+        .find(|v| v[1] == built_ins[0][0])
+        .expect("the new output");
+    assert_eq!(output[2], STORAGE_OUTPUT);
+    let privates = |variables: &[Vec<u32>]| {
+        variables
+            .iter()
+            .filter(|v| v[2] == STORAGE_PRIVATE)
+            .count()
+    };
+    assert_eq!(
+        privates(&variables),
+        privates(&with_opcode(&words, OP_VARIABLE)) + 1,
+        "the shadow"
+    );
+    // One epilogue per return: a store to the new output.
+    let stores = with_opcode(&out, OP_STORE);
+    assert!(stores.iter().any(|s| s[0] == output[1]));
+    // naga reads it back, with the push-constant block one member longer.
+    let module = naga::front::spv::parse_u8_slice(
+        bytemuck_words(&out).as_slice(),
+        &naga::front::spv::Options::default(),
+    )
+    .expect("naga reads the rewrite");
+    let pc = module
+        .global_variables
+        .iter()
+        .find(|(_, g)| g.space == naga::AddressSpace::Immediate)
+        .expect("push constants");
+    let naga::TypeInner::Struct { members, span } = &module.types[pc.1.ty].inner else {
+        panic!("a struct");
+    };
+    // naga wraps the application's block in a struct: revz's member follows it.
+    assert_eq!(members.last().map(|m| m.offset), Some(OFFSET));
+    assert!(*span >= OFFSET + 16);
+}
+
+fn bytemuck_words(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}
+
+/// glslang's shape: `gl_PerVertex` with `Position` as member 0, a component store after the
+/// whole one (`gl_Position.y = -gl_Position.y`), `invariant`, and a helper function.
+const PER_VERTEX: &str = "OpCapability Shader
+    OpMemoryModel Logical GLSL450
+    OpEntryPoint Vertex %main \"main\" %_ %position
+    OpMemberDecorate %gl_PerVertex 0 BuiltIn Position
+    OpMemberDecorate %gl_PerVertex 1 BuiltIn PointSize
+    OpMemberDecorate %gl_PerVertex 0 Invariant
+    OpDecorate %gl_PerVertex Block
+    OpMemberDecorate %PC 0 ColMajor
+    OpMemberDecorate %PC 0 Offset 0
+    OpMemberDecorate %PC 0 MatrixStride 16
+    OpMemberDecorate %PC 1 Offset 64
+    OpDecorate %PC Block
+    OpDecorate %position Location 0
+    %void = OpTypeVoid
+    %fn = OpTypeFunction %void
+    %float = OpTypeFloat 32
+    %v4 = OpTypeVector %float 4
+    %v3 = OpTypeVector %float 3
+    %mat4 = OpTypeMatrix %v4 4
+    %int = OpTypeInt 32 1
+    %uint = OpTypeInt 32 0
+    %int_0 = OpConstant %int 0
+    %uint_1 = OpConstant %uint 1
+    %one = OpConstant %float 1
+    %gl_PerVertex = OpTypeStruct %v4 %float
+    %p_out_pv = OpTypePointer Output %gl_PerVertex
+    %_ = OpVariable %p_out_pv Output
+    %PC = OpTypeStruct %mat4 %v4
+    %p_pc = OpTypePointer PushConstant %PC
+    %pc = OpVariable %p_pc PushConstant
+    %p_pc_mat4 = OpTypePointer PushConstant %mat4
+    %p_in_v3 = OpTypePointer Input %v3
+    %position = OpVariable %p_in_v3 Input
+    %p_out_v4 = OpTypePointer Output %v4
+    %p_out_f = OpTypePointer Output %float
+    %main = OpFunction %void None %fn
+    %entry = OpLabel
+    %mp = OpAccessChain %p_pc_mat4 %pc %int_0
+    %m = OpLoad %mat4 %mp
+    %p = OpLoad %v3 %position
+    %p4 = OpCompositeConstruct %v4 %p %one
+    %clip = OpMatrixTimesVector %v4 %m %p4
+    %gp = OpAccessChain %p_out_v4 %_ %int_0
+    OpStore %gp %clip
+    %yp = OpAccessChain %p_out_f %_ %int_0 %uint_1
+    %y = OpLoad %float %yp
+    %ny = OpFNegate %float %y
+    OpStore %yp %ny
+    OpReturn
+    OpFunctionEnd";
+
+#[test]
+fn a_per_vertex_member_is_redirected_to_a_shadow_with_component_stores_kept() {
+    let words = assemble(PER_VERTEX);
+    validate(&words);
+    let out = rewritten(&words);
+    assert_carrier(&out);
+    // The component chain now starts at the shadow, typed private.
+    let chains = with_opcode(&out, OP_ACCESS_CHAIN);
+    let privates: Vec<_> = with_opcode(&out, OP_VARIABLE)
+        .into_iter()
+        .filter(|v| v[2] == STORAGE_PRIVATE)
+        .collect();
+    assert_eq!(privates.len(), 1);
+    let shadow = privates[0][1];
+    assert!(chains.iter().any(|c| c[2] == shadow && c.len() == 4));
+    assert!(!with_opcode(&out, OP_COPY_OBJECT).is_empty());
+}
+
+#[test]
+fn a_module_without_push_constants_gets_revz_block() {
+    let words = compile_glsl(
+        naga::ShaderStage::Vertex,
+        "#version 450
+        layout(location = 0) in vec3 position;
+        void main() { gl_Position = vec4(position, 1.0); }",
+    );
+    let out = rewritten(&words);
+    assert_carrier(&out);
+}
+
+#[test]
+fn spirv_1_4_interfaces_list_the_shadow_and_the_carrier() {
+    let validate_1_4 = |words: &[u32]| {
+        val::create(Some(TargetEnv::Vulkan_1_2))
+            .validate(words, None)
+            .unwrap_or_else(|e| panic!("spirv-val rejects the 1.4 module: {e}"));
+    };
+    for text in [INVARIANT, PER_VERTEX] {
+        let mut words = assemble(text);
+        words[1] = VERSION_1_4;
+        if text == PER_VERTEX {
+            // From 1.4 the push constants are in the interface too.
+            let mut listed = assemble(&PER_VERTEX.replace("%_ %position", "%_ %position %pc"));
+            listed[1] = VERSION_1_4;
+            words = listed;
+        }
+        validate_1_4(&words);
+        let out = rewrite_position_store(&words, OFFSET)
+            .expect("rewritable")
+            .expect("has a Position");
+        validate_1_4(&out);
+    }
+}
+
+/// A `Position` variable decorated `Invariant`, without push constants.
+const INVARIANT: &str = "OpCapability Shader
+        OpMemoryModel Logical GLSL450
+        OpEntryPoint Vertex %main \"main\" %pos
+        OpDecorate %pos BuiltIn Position
+        OpDecorate %pos Invariant
+        %void = OpTypeVoid
+        %fn = OpTypeFunction %void
+        %float = OpTypeFloat 32
+        %v4 = OpTypeVector %float 4
+        %half = OpConstant %float 0.5
+        %c = OpConstantComposite %v4 %half %half %half %half
+        %p_out_v4 = OpTypePointer Output %v4
+        %pos = OpVariable %p_out_v4 Output
+        %main = OpFunction %void None %fn
+        %entry = OpLabel
+        OpStore %pos %c
+        OpReturn
+        OpFunctionEnd";
+
+#[test]
+fn invariant_moves_to_the_new_output() {
+    let out = rewritten(&assemble(INVARIANT));
+    let decorations = with_opcode(&out, OP_DECORATE);
+    let built_in = decorations
+        .iter()
+        .find(|d| d[1..] == [DECORATION_BUILT_IN, BUILT_IN_POSITION])
+        .expect("BuiltIn Position")[0];
+    assert!(decorations.iter().any(|d| d[..] == [built_in, 18]), "Invariant");
+}
+
+#[test]
+fn what_the_rewrite_does_not_recognise_is_refused() {
+    let refused = |text: &str, why: &'static str| {
+        let words = assemble(text);
+        validate(&words);
+        assert_eq!(
+            rewrite_position_store(&words, OFFSET),
+            Err(Unsupported(why)),
+            "{text}"
+        );
+    };
+    // Two push-constant blocks (each entry point may use one).
+    refused(
+        "OpCapability Shader
+        OpMemoryModel Logical GLSL450
+        OpEntryPoint Vertex %main \"main\" %pos
+        OpDecorate %pos BuiltIn Position
+        OpMemberDecorate %PC 0 Offset 0
+        OpDecorate %PC Block
+        %void = OpTypeVoid
+        %fn = OpTypeFunction %void
+        %float = OpTypeFloat 32
+        %v4 = OpTypeVector %float 4
+        %half = OpConstant %float 0.5
+        %c = OpConstantComposite %v4 %half %half %half %half
+        %PC = OpTypeStruct %v4
+        %p_pc = OpTypePointer PushConstant %PC
+        %pc1 = OpVariable %p_pc PushConstant
+        %pc2 = OpVariable %p_pc PushConstant
+        %p_out_v4 = OpTypePointer Output %v4
+        %pos = OpVariable %p_out_v4 Output
+        %main = OpFunction %void None %fn
+        %entry = OpLabel
+        OpStore %pos %c
+        OpReturn
+        OpFunctionEnd",
+        "more than one push-constant block",
+    );
+    // A push-constant block whose members reach the carrier's bytes.
+    refused(
+        "OpCapability Shader
+        OpMemoryModel Logical GLSL450
+        OpEntryPoint Vertex %main \"main\" %pos
+        OpDecorate %pos BuiltIn Position
+        OpMemberDecorate %PC 0 Offset 0
+        OpMemberDecorate %PC 1 Offset 112
+        OpDecorate %PC Block
+        %void = OpTypeVoid
+        %fn = OpTypeFunction %void
+        %float = OpTypeFloat 32
+        %v4 = OpTypeVector %float 4
+        %int = OpTypeInt 32 1
+        %int_1 = OpConstant %int 1
+        %PC = OpTypeStruct %v4 %v4
+        %p_pc = OpTypePointer PushConstant %PC
+        %pc = OpVariable %p_pc PushConstant
+        %p_pc_v4 = OpTypePointer PushConstant %v4
+        %p_out_v4 = OpTypePointer Output %v4
+        %pos = OpVariable %p_out_v4 Output
+        %main = OpFunction %void None %fn
+        %entry = OpLabel
+        %cp = OpAccessChain %p_pc_v4 %pc %int_1
+        %c = OpLoad %v4 %cp
+        OpStore %pos %c
+        OpReturn
+        OpFunctionEnd",
+        "the push-constant block reaches revz's carrier bytes",
+    );
+    // The whole gl_PerVertex block stored at once.
+    refused(
+        &PER_VERTEX.replace(
+            "%gp = OpAccessChain %p_out_v4 %_ %int_0
+    OpStore %gp %clip",
+            "%block = OpCompositeConstruct %gl_PerVertex %clip %one
+    OpStore %_ %block",
+        ),
+        "Position is used other than by loads, stores and access chains",
+    );
+    assert_eq!(
+        rewrite_position_store(&assemble(PER_VERTEX), 100),
+        Err(Unsupported("the carrier offset is not 16-byte aligned"))
+    );
+}
+
+#[test]
+fn modules_without_position_or_not_spirv_are_left_alone() {
+    assert_eq!(rewrite_position_store(&[], OFFSET), Ok(None));
+    assert_eq!(rewrite_position_store(&[1, 2, 3, 4, 5, 6], OFFSET), Ok(None));
+    let fragment = crate::test_spirv::fragment(crate::test_spirv::PLAIN);
+    assert!(rewrite_position_store(&fragment, OFFSET).is_err(), "a fragment entry point");
+}
