@@ -14,6 +14,10 @@
 //!   `k' * r3 + B' * e3` computed in f64, never `r3 - r2`,
 //! - writes the result back, each entry rounded once ([`write_clip_transform`]).
 //!
+//! [`camera`] gives the matrices of one camera one range: far objects lose B to float32
+//! rounding, so a table of cameras ([`Cameras`]), keyed by depth line within its error bounds
+//! ([`DepthLine`]), hands every matrix the range of its camera's best-conditioned matrix.
+//!
 //! [`precision`] holds the float32 evaluation and error floor that tests (and the tester's
 //! depth read-back) compare against. [`model`] is the precision model behind `DESIGN.md`
 //! section 3: storage-only minimum separation, seed 000's average error, and a float32
@@ -38,6 +42,7 @@
 #![warn(missing_docs)]
 #![deny(clippy::unwrap_used)]
 
+pub mod camera;
 mod classify;
 mod matrix;
 pub mod model;
@@ -45,6 +50,7 @@ pub mod precision;
 mod range;
 mod rewrite;
 
+pub use camera::{CameraMatch, Cameras, DepthLine, MAX_CAMERAS, TRUSTED_B_ERROR};
 pub use classify::{
     classify, fit_depth_row, Classification, DepthFit, Rejection, AFFINE_W_TOLERANCE,
     RESIDUAL_TOLERANCE,

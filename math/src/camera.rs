@@ -1,0 +1,399 @@
+//! One camera, one range: a small table of the cameras seen in the pushed matrices, so that every
+//! matrix of one camera gets one visible range, the one of the best-conditioned matrix seen.
+//!
+//! This module owns the depth line of a float32 clip transform with bounds on its rounding
+//! error ([`DepthLine`]), the trust threshold ([`TRUSTED_B_ERROR`]) and the table ([`Cameras`]).
+//!
+//! Why: an application pushes one float32 `M = P * V * Model` per object. Its depth row is
+//! `r2 = k * r3 + B * e3` with the camera's (k, B), but B is recovered as `r2.w - k * r3.w`, and
+//! `r3.w` is the object origin's view distance d. For d much larger than n the rounding of
+//! `r2.w` and `r3.w` (about u d) swamps B (about n): in the `deep-range` scene (n = 1e-3) the
+//! cells at 1e2..1e3 have B exactly 0. Each matrix's own (n, f) is then noise, and two objects
+//! at the same w get different depth scales. The objects of one camera share (k, B), so the
+//! table keeps, per camera, the line with the smallest relative error of B, and hands its range
+//! to every matrix whose line agrees with it within the error bounds.
+//!
+//! # The key: convention and depth line, not the w row's direction
+//!
+//! A camera is (convention, k, B). The w row's direction is not part of the key: with rotated
+//! model matrices (and a camera that turns between frames) r3.xyz differs from object to object
+//! while k and B do not. (The issue suggested keying on the direction; this is a deliberate
+//! deviation.) Two cameras with the same (k, B) are therefore one camera here, which is what the
+//! layer needs: they render the same depth range.
+//!
+//! # Error bounds (u = 2^-24)
+//!
+//! Let `M*` be the application's exact transform, `r2* = k r3* + B e3`, and `M = M* + Delta` the
+//! float32 matrix, rows `r2 = r2* + d2`, `r3 = r3* + d3`. With `e = (d2 - k d3).xyz`,
+//! `r2.xyz = k r3.xyz + e`, so the least-squares `k^ = <r2.xyz, r3.xyz> / |r3.xyz|^2` has
+//! `k^ - k = <e, r3.xyz> / |r3.xyz|^2`: only e's part along r3.xyz moves k, and its orthogonal
+//! part is the fit's residual vector `r2.xyz - k^ r3.xyz`. Exactly (in reals),
+//!
+//! ```text
+//! B^ = r2.w - k^ r3.w = B + d2.w - k d3.w - (k^ - k) r3.w
+//! ```
+//!
+//! - Entries each rounded once (composed in f64): `|d2_i| <= u |r2*_i|`, `|d3_i| <= u |r3*_i|`,
+//!   so `|k^ - k| <= 2u |k|` and `|B^ - B| <= u (|r2.w| + 3 |k r3.w|)` (first order).
+//! - Composed in float32: glam's f32 projection has its own k within 3u (`f - n`, the
+//!   reciprocal, the product) and B within 4u, and every product entry is a dot product within
+//!   `gamma_m * sum |a_i b_i|` (m terms, `gamma_m` about m u). For `P * (V * Model)` the error
+//!   of `V * Model` is an error of the object's placement, which does not leave the line (any
+//!   affine X gives `P * X` the line of P), so only the last product counts: one rounding of
+//!   each xyz entry of r2 (r3 is exact), two of `r2.w`. That is `|k^ - k| <= 4u |k|` and
+//!   `|B^ - B| <= 4u |B| + u (2 |k r3.w| + |r2.w|) <= u (5 |r2.w| + 6 |k r3.w|)` (the
+//!   constructor's error in k cancels in B^, since `r2.w` carries the same rounded k), first
+//!   order. For `(P * V) * Model` (glam's `P * V * M`) the xyz entries pass through `P * V`
+//!   (1u) and a 3-term sum (3u): `|k^ - k|` up to about `7u |k|`; for its w column see the
+//!   limitation below.
+//!
+//! The bounds, 8u where the float32 products need up to 7u (4 times the once-rounded 2u):
+//!
+//! ```text
+//! k_error = |r2.xyz - k^ r3.xyz| / |r3.xyz| + 8u |k^|
+//! b_error = 8u (|r2.w| + |k^ r3.w|) + k_error |r3.w|
+//! ```
+//!
+//! The residual term of `k_error` is e's orthogonal part: rounding that is larger than assumed
+//! (longer float32 chains, non-uniform scale) shows up there, and rounding errors have no
+//! preferred direction, so the parallel part is of the same size. The f64 evaluation of the fit
+//! adds a few 2^-53 relative, far inside the 8u terms. `tests/cameras.rs` measures the ratios
+//! error / bound over random cameras and objects (10 n to 1e6 n): for B at most 0.14 (f64,
+//! rounded once), 0.10 (`P * (V * Model)`) and 0.26 (`(P * V) * Model`, eye within the nearest
+//! object's distance of the origin); for k at most 0.23, 0.44 and 0.56. (Tightening 8u to 4u
+//! would leave the float32 k bound with no margin, and buy a factor 2 in how far from the
+//! camera a line is trusted.)
+//!
+//! Limitation, float32 `(P * V) * Model` with the camera at distance E from the world origin:
+//! `P * V` has a translation of about `|k| E`, rounded to about `u |k| E`, and the model
+//! translation (about E) cancels it in value but not in error: B carries an extra error of up
+//! to about `10u |k| E`, which the product (whose entries are of the size of the object's view
+//! distance d) does not show. The bounds hold for E below d (measured error / bound at most 0.3
+//! there); the ratio grows as E / d beyond (up to 1.4 for E in [d, 10 d), 13 in [10 d, 100 d),
+//! 130 in [100 d, 1000 d)). Such a line is noisier than it says: matrices of one camera may
+//! disagree and open cameras of their own, each still within about `10u |k| E / |B|`
+//! (relative) of the true B; the rest of the table works unchanged. Composing in f64, or as
+//! `P * (V * Model)`, avoids it.
+//!
+//! # Trust
+//!
+//! A line is trusted alone when `b_error / |B| <= TRUSTED_B_ERROR` (see the constant), and only
+//! a trusted line with a valid visible range starts a camera or becomes its best line. An
+//! untrusted line (a far object, B lost to rounding, even B = 0) is still matched against the
+//! known cameras: the true (k, B) lies within the error bounds of both lines, so a line of the
+//! camera agrees with the camera's best line however large its own error.
+//!
+//! Hot-path use: fixed-size storage, no allocation, no panics.
+
+use glam::DMat4;
+
+use crate::classify::{fit_depth_row, AFFINE_W_TOLERANCE, RESIDUAL_TOLERANCE};
+use crate::precision::F32_UNIT_ROUNDOFF;
+use crate::range::{DepthCoefficients, DepthConvention, DepthDirection, VisibleRange};
+
+/// How many cameras a [`Cameras`] table holds; the least recently used one makes room.
+///
+/// A frame has a main camera, a few shadow or reflection views and a few screen passes; 8 covers
+/// that with room to spare while a linear scan stays cheaper than hashing.
+pub const MAX_CAMERAS: usize = 8;
+
+/// Largest relative error of B (`b_error / |B|`) for a line to be trusted alone: 1e-3.
+///
+/// Where it comes from:
+///
+/// - The near plane `n = B / (d_n - k)` then is within 0.1 % (plus `k_error / |d_n - k|`, about
+///   8u): the near clip plane moves by 0.1 % of n, and the reversed depth of every matrix of the
+///   camera is scaled by the same factor, which keeps their order. Invisible.
+/// - Cameras whose n differ by 1 % stay apart: two trusted lines agree only when their B differ
+///   by at most 0.2 % (and their k within the k errors, which are about 1e-6).
+/// - It decides which objects can start a camera. For a once-rounded [0, 1] matrix, `|B| = k n`
+///   and `b_error` is about `24u k d`, so `b_error / |B|` is about `1.4e-6 d / n`: objects
+///   within about 700 n of the camera are trusted (in `deep-range`, the cells at 10 n and
+///   100 n), all farther ones borrow the camera's range. A smaller threshold would leave only
+///   the very nearest objects to start a camera, a larger one would let 1 % cameras merge.
+pub const TRUSTED_B_ERROR: f64 = 1e-3;
+
+/// Multiple of u in the rounding terms of the bounds (module docs: 4 times the once-rounded
+/// 2u, for float32 products).
+const ROUNDING: f64 = 8.0 * F32_UNIT_ROUNDOFF;
+
+/// The depth line of one float32 clip transform with bounds on its rounding error: the true
+/// (k, B) of the application's camera is within `k_error` of `k` and within `b_error` of `b`
+/// (module docs for the derivation and the one case where it does not hold).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthLine {
+    /// The fitted multiple of the w row in the depth row.
+    pub k: f64,
+    /// The fitted constant term of the depth row, `r2.w - k * r3.w`.
+    pub b: f64,
+    /// Bound on `|k - k_true|`.
+    pub k_error: f64,
+    /// Bound on `|b - b_true|`.
+    pub b_error: f64,
+}
+
+impl DepthLine {
+    /// The depth line of `m` (the f64 values of the float32 matrix, `clip = m * v`).
+    ///
+    /// `None` where an entry is not finite, the w row is zero or w does not vary (affine, per
+    /// [`AFFINE_W_TOLERANCE`]), or the depth row is not on the w row within
+    /// [`RESIDUAL_TOLERANCE`]: the cases [`crate::classify`] does not call a projection or
+    /// calls orthographic. A line with B = 0 or an invalid range is returned: it may still
+    /// belong to a known camera.
+    #[must_use]
+    pub fn of(m: &DMat4) -> Option<Self> {
+        if !m.is_finite() {
+            return None;
+        }
+        let (depth_row, w_row) = (m.row(2), m.row(3));
+        let w_xyz_length = w_row.truncate().length();
+        // Affine, as classify decides it; also the zero w row (0 <= 0). The entries are finite.
+        if w_xyz_length <= AFFINE_W_TOLERANCE * w_row.w.abs() {
+            return None;
+        }
+        let fit = fit_depth_row(m).ok()?;
+        if fit.residual > RESIDUAL_TOLERANCE {
+            return None;
+        }
+        let DepthCoefficients { k, b } = fit.coefficients;
+        let misfit = (depth_row.truncate() - k * w_row.truncate()).length() / w_xyz_length;
+        let k_error = misfit + ROUNDING * k.abs();
+        let b_error =
+            ROUNDING * (depth_row.w.abs() + (k * w_row.w).abs()) + k_error * w_row.w.abs();
+        let line = Self {
+            k,
+            b,
+            k_error,
+            b_error,
+        };
+        (k_error.is_finite() && b_error.is_finite()).then_some(line)
+    }
+
+    /// `b_error / |b|`, the relative error of B (and, to 8u, of the near plane); `+inf` when
+    /// `b == 0`.
+    #[must_use]
+    pub fn relative_b_error(&self) -> f64 {
+        if self.b == 0.0 {
+            f64::INFINITY
+        } else {
+            self.b_error / self.b.abs()
+        }
+    }
+
+    /// Whether the line determines B alone: `relative_b_error() <= TRUSTED_B_ERROR`.
+    #[must_use]
+    pub fn is_trusted(&self) -> bool {
+        self.relative_b_error() <= TRUSTED_B_ERROR
+    }
+
+    /// Whether both lines can be the same true line: `|dk| <= k_error` summed and
+    /// `|db| <= b_error` summed.
+    #[must_use]
+    pub fn agrees_with(&self, other: &DepthLine) -> bool {
+        (self.k - other.k).abs() <= self.k_error + other.k_error
+            && (self.b - other.b).abs() <= self.b_error + other.b_error
+    }
+
+    /// The line's (k, B).
+    #[must_use]
+    pub fn coefficients(&self) -> DepthCoefficients {
+        DepthCoefficients {
+            k: self.k,
+            b: self.b,
+        }
+    }
+}
+
+/// What the table says about one matrix.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CameraMatch {
+    /// The matrix belongs to camera `index`; `range` and `direction` are that camera's (from
+    /// its best line).
+    Camera {
+        /// The camera's slot, `< MAX_CAMERAS`. A slot is reused after eviction, which is
+        /// reported as `changed`.
+        index: usize,
+        /// The camera's visible range.
+        range: VisibleRange,
+        /// Whether the camera renders standard or reversed depth.
+        direction: DepthDirection,
+        /// True when this observation created the camera (possibly in an evicted slot) or
+        /// improved its line: state derived from the camera's range is stale.
+        changed: bool,
+    },
+    /// A perspective depth line that matches no camera and cannot be trusted alone.
+    Untrusted,
+    /// Not a perspective transform (affine or orthographic, or not a projection):
+    /// [`crate::classify`] says what it is.
+    NotPerspective,
+}
+
+/// One camera: its best line and what follows from it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Entry {
+    convention: DepthConvention,
+    line: DepthLine,
+    range: VisibleRange,
+    direction: DepthDirection,
+    /// `Cameras::clock` at the last match: larger is more recent.
+    last_used: u64,
+}
+
+/// The cameras seen so far, at most [`MAX_CAMERAS`], least recently used evicted first.
+#[derive(Clone, Debug, Default)]
+pub struct Cameras {
+    entries: [Option<Entry>; MAX_CAMERAS],
+    clock: u64,
+}
+
+impl Cameras {
+    /// An empty table.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Finds the camera of `m` under the pipeline's `convention`, learning from it: a matching
+    /// line with a smaller relative error of B becomes the camera's line, and a trusted line
+    /// that matches no camera starts one. Never panics.
+    pub fn observe(&mut self, m: &DMat4, convention: DepthConvention) -> CameraMatch {
+        match DepthLine::of(m) {
+            Some(line) => self.observe_line(line, convention),
+            None => CameraMatch::NotPerspective,
+        }
+    }
+
+    /// [`Cameras::observe`] for a line already fitted.
+    pub fn observe_line(&mut self, line: DepthLine, convention: DepthConvention) -> CameraMatch {
+        self.clock = self.clock.wrapping_add(1);
+        // A line's (direction, range), where it may become a camera's line.
+        let storable = |line: &DepthLine| {
+            if !line.is_trusted() {
+                return None;
+            }
+            line.coefficients().visible_range(convention).ok()
+        };
+        if let Some(index) = self.matching(&line, convention) {
+            let clock = self.clock;
+            let Some(entry) = self.entries.get_mut(index).and_then(Option::as_mut) else {
+                return CameraMatch::Untrusted;
+            };
+            entry.last_used = clock;
+            let mut changed = false;
+            if line.relative_b_error() < entry.line.relative_b_error() {
+                if let Some((direction, range)) = storable(&line) {
+                    entry.line = line;
+                    entry.range = range;
+                    entry.direction = direction;
+                    changed = true;
+                }
+            }
+            return CameraMatch::Camera {
+                index,
+                range: entry.range,
+                direction: entry.direction,
+                changed,
+            };
+        }
+        let Some((direction, range)) = storable(&line) else {
+            return CameraMatch::Untrusted;
+        };
+        let index = self.free_slot();
+        if let Some(slot) = self.entries.get_mut(index) {
+            *slot = Some(Entry {
+                convention,
+                line,
+                range,
+                direction,
+                last_used: self.clock,
+            });
+        }
+        CameraMatch::Camera {
+            index,
+            range,
+            direction,
+            changed: true,
+        }
+    }
+
+    /// Camera `index`: its range, direction, convention and best line; `None` for an empty slot
+    /// or an index `>= MAX_CAMERAS`.
+    #[must_use]
+    pub fn camera(
+        &self,
+        index: usize,
+    ) -> Option<(VisibleRange, DepthDirection, DepthConvention, DepthLine)> {
+        let entry = self.entries.get(index)?.as_ref()?;
+        Some((entry.range, entry.direction, entry.convention, entry.line))
+    }
+
+    /// How many cameras the table holds.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.entries.iter().flatten().count()
+    }
+
+    /// Whether the table holds no camera.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.entries.iter().all(Option::is_none)
+    }
+
+    /// Learning across command buffers: every camera of `other` is observed in `self`, oldest
+    /// first, so that per camera the better-conditioned line of the two is kept and cameras only
+    /// `other` knows are added (evicting `self`'s least recently used). `other`'s cameras count
+    /// as more recent than all of `self`'s: `other` is meant to be the newer record (a command
+    /// buffer merged into a longer-lived table). Returns whether any camera was created or
+    /// improved, i.e. whether a slot's range may have changed. Never allocates.
+    pub fn merge(&mut self, other: &Cameras) -> bool {
+        let mut order = [(0u64, 0usize); MAX_CAMERAS];
+        let mut count = 0;
+        for (index, entry) in other.entries.iter().enumerate() {
+            if let (Some(entry), Some(place)) = (entry, order.get_mut(count)) {
+                *place = (entry.last_used, index);
+                count += 1;
+            }
+        }
+        let order = order.get_mut(..count).unwrap_or_default();
+        order.sort_unstable();
+        let mut changed = false;
+        for &(_, index) in order.iter() {
+            if let Some(Some(entry)) = other.entries.get(index) {
+                if let CameraMatch::Camera { changed: true, .. } =
+                    self.observe_line(entry.line, entry.convention)
+                {
+                    changed = true;
+                }
+            }
+        }
+        changed
+    }
+
+    /// Forgets every camera.
+    pub fn clear(&mut self) {
+        *self = Self::default();
+    }
+
+    /// The most recently used camera of `convention` whose line agrees with `line`.
+    fn matching(&self, line: &DepthLine, convention: DepthConvention) -> Option<usize> {
+        self.entries
+            .iter()
+            .enumerate()
+            .filter_map(|(index, entry)| Some((index, entry.as_ref()?)))
+            .filter(|(_, entry)| entry.convention == convention && entry.line.agrees_with(line))
+            .max_by_key(|(_, entry)| entry.last_used)
+            .map(|(index, _)| index)
+    }
+
+    /// The first empty slot, or the least recently used one.
+    fn free_slot(&self) -> usize {
+        if let Some(index) = self.entries.iter().position(Option::is_none) {
+            return index;
+        }
+        self.entries
+            .iter()
+            .enumerate()
+            .min_by_key(|(_, entry)| entry.as_ref().map_or(0, |entry| entry.last_used))
+            .map_or(0, |(index, _)| index)
+    }
+}
