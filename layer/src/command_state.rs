@@ -19,11 +19,11 @@
 //! reversed target and the application's back for a native one, each only when it changes.
 
 use ash::vk;
-use revz_math::Target as RewriteTarget;
+use revz_math::{Cameras, Target as RewriteTarget};
 
 use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
 use crate::objects::FragmentShader;
-use crate::precise::{Outcome, ProjectionUse, PushConstants, PushSink};
+use crate::precise::{Carrier, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER};
 
 /// A set of depth-related dynamic states.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -107,8 +107,14 @@ pub struct PipelineDepth {
     /// (`compare_op = variants`, or a device without extended dynamic state), and its
     /// fragment shader rewritten where it computes with depth (`crate::fragment_depth`).
     pub reversed_variant: Option<vk::Pipeline>,
-    /// Where the vertex stage's projection is in the push constants, if it comes from there.
+    /// Where the vertex stage's projection is in the push constants, if it comes from there
+    /// and its draws can take the precise path (the reversed variant's vertex stage stores
+    /// the carrier's depth: [`PipelineDepth::position_store`]).
     pub projection: Option<ProjectionUse>,
+    /// The reversed variant's vertex stage stores `Position` through revz's carrier
+    /// ([`crate::position_store`]): while it is bound, the carrier must hold the draw's values
+    /// (the camera's on the precise path, [`crate::precise::FLIP_CARRIER`] on the flip path).
+    pub position_store: Option<Carrier>,
     /// The state subsets the pipeline defines itself (`VK_EXT_graphics_pipeline_library`):
     /// all of them but for libraries, whose links take each subset's state from the library
     /// that defines it.
@@ -315,6 +321,14 @@ pub struct CommandState {
     emitted: Emitted,
     /// Whether revz bound the bound pipeline's compare-op variant in its place.
     variant_bound: bool,
+    /// Whether the bound pipeline's variant may be bound: it has no rewritten vertex stage,
+    /// or the carrier holds the draw's values.
+    variant_usable: bool,
+    /// What revz last pushed as its carrier, and with which layout: pushed again only when
+    /// the value or the application's push layout changes.
+    carrier_held: Option<(vk::PipelineLayout, [u32; 4])>,
+    /// The generation of the cameras last handed to the device.
+    cameras_reported: u64,
     /// The shader object the application bound to the fragment stage (null: none), and what
     /// revz knows of it when it computes with depth.
     fragment_shader: (vk::ShaderEXT, Option<FragmentShader>),
@@ -346,6 +360,9 @@ impl Default for CommandState {
             path: DrawPath::Native,
             emitted: Emitted::default(),
             variant_bound: false,
+            variant_usable: true,
+            carrier_held: None,
+            cameras_reported: 0,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
             inherits_viewports: false,
@@ -365,8 +382,9 @@ impl CommandState {
     }
 
     /// Starts recording (`vkBeginCommandBuffer`): all state is undefined again. `reversal`
-    /// is the device's current map (infinite mode learns n / f from the projections it sees).
-    pub fn begin(&mut self, target: Target, reversal: Reversal) {
+    /// is the device's current map (infinite mode learns n / f from the projections it sees),
+    /// `cameras` the cameras the device has seen.
+    pub fn begin(&mut self, target: Target, reversal: Reversal, cameras: Cameras) {
         *self = CommandState {
             target,
             inherited: target,
@@ -374,8 +392,20 @@ impl CommandState {
                 reversal,
                 ..self.reversing
             },
+            push: PushConstants::with_cameras(cameras),
             ..CommandState::default()
         };
+    }
+
+    /// The cameras this recording has seen, when they changed since last asked (the device
+    /// learns them).
+    pub fn take_changed_cameras(&mut self) -> Option<Cameras> {
+        let generation = self.push.generation();
+        if generation == self.cameras_reported {
+            return None;
+        }
+        self.cameras_reported = generation;
+        Some(self.push.cameras().clone())
     }
 
     /// The map of standard depth onto this command buffer's reversed attachments.
@@ -397,27 +427,36 @@ impl CommandState {
         Some((projection, self.reversing.rewrite?))
     }
 
-    /// `vkCmdPushConstants` of `data` (the copy passed down) at `offset`: rewrites the bound
-    /// pipeline's projection in place when it can. Returns the outcome of a classification, if
-    /// one was made (the caller reports already reversed projections).
+    /// `vkCmdPushConstants` of `data` at `offset` (passed down unchanged): classifies the
+    /// bound pipeline's projection when the push reaches it. Returns the outcome of a
+    /// classification, if one was made (the caller reports already reversed projections).
     pub fn push_constants(
         &mut self,
         layout: vk::PipelineLayout,
         offset: u32,
-        data: &mut [u8],
+        data: &[u8],
     ) -> Option<Outcome> {
-        let bound = self.precise_use().map(|(p, t)| (*p, t));
-        let outcome = self
-            .push
-            .push(layout, offset, data, bound.as_ref().map(|(p, t)| (p, *t)));
+        if layout != self.push.layout() {
+            // Values pushed with another layout may have disturbed the carrier.
+            self.carrier_held = None;
+            self.dirty = true;
+        }
+        self.push.push(layout, offset, data);
+        let (use_, target) = self.precise_use().map(|(p, t)| (*p, t))?;
+        let end = u64::from(offset) + data.len() as u64;
+        if end <= u64::from(use_.offset) || u64::from(use_.end()) <= u64::from(offset) {
+            return None;
+        }
+        let outcome = self.push.outcome(&use_, target);
         match outcome {
             Some(outcome) => {
-                let path = match outcome {
-                    Outcome::Rewritten { .. } => DrawPath::Precise,
-                    _ => DrawPath::Flip,
-                };
                 self.learn(&outcome);
-                if path != self.path {
+                let (path, carrier) = match outcome {
+                    Outcome::Rewritten { carrier, .. } => (DrawPath::Precise, carrier),
+                    _ => (DrawPath::Flip, FLIP_CARRIER),
+                };
+                let held = self.carrier_held.map(|(_, bits)| bits);
+                if path != self.path || held != Some(carrier.map(f32::to_bits)) {
                     self.dirty = true;
                 }
             }
@@ -544,6 +583,7 @@ impl CommandState {
     /// `vkCmdExecuteCommands`: the secondaries leave the state undefined.
     pub fn invalidate(&mut self) {
         self.push.invalidate();
+        self.carrier_held = None;
         self.emitted = Emitted::default();
         self.variant_bound = false;
         self.shader_variant_bound = false;
@@ -602,15 +642,44 @@ impl CommandState {
         if !self.dirty {
             return None;
         }
-        let bound = self.precise_use().map(|(p, t)| (*p, t));
-        let outcome = self
-            .push
-            .resolve(bound.as_ref().map(|(p, t)| (p, *t)), sink);
+        let outcome = match self.precise_use().map(|(p, t)| (*p, t)) {
+            Some((use_, target)) => self.push.outcome(&use_, target),
+            None => None,
+        };
         if let Some(outcome) = &outcome {
             self.learn(outcome);
         }
+        let reversed = self.target == Target::Reversed;
+        // The rewritten vertex stage reads the carrier: it goes down (when it changed) with
+        // the application's push layout, which the bound pipeline's is compatible with.
+        let store = self.pipeline.as_ref().and_then(|p| p.position_store);
+        let carrier_ready = match store {
+            Some(carrier) if reversed && self.push.layout() != vk::PipelineLayout::null() => {
+                let values = match outcome {
+                    Some(Outcome::Rewritten { carrier, .. }) => carrier,
+                    _ => FLIP_CARRIER,
+                };
+                let held = (self.push.layout(), values.map(f32::to_bits));
+                if self.carrier_held != Some(held) {
+                    sink.push_constants(
+                        held.0,
+                        carrier.stages,
+                        carrier.offset,
+                        &Carrier::bytes(&values),
+                    );
+                    self.carrier_held = Some(held);
+                }
+                true
+            }
+            _ => false,
+        };
+        // Without a carrier push (nothing pushed yet), the application's pipeline is drawn
+        // with the flip path.
+        self.variant_usable = store.is_none() || carrier_ready;
         self.path = match (self.target, outcome) {
-            (Target::Reversed, Some(Outcome::Rewritten { .. })) => DrawPath::Precise,
+            (Target::Reversed, Some(Outcome::Rewritten { .. })) if carrier_ready => {
+                DrawPath::Precise
+            }
             (Target::Reversed, _) => DrawPath::Flip,
             _ => DrawPath::Native,
         };
@@ -645,9 +714,10 @@ impl CommandState {
         }
         if let Some(p) = &self.pipeline {
             if let Some(variant) = p.reversed_variant {
-                if reversed != self.variant_bound {
-                    sink.bind_pipeline(if reversed { variant } else { p.handle });
-                    self.variant_bound = reversed;
+                let wanted = reversed && self.variant_usable;
+                if wanted != self.variant_bound {
+                    sink.bind_pipeline(if wanted { variant } else { p.handle });
+                    self.variant_bound = wanted;
                 }
             }
         }

@@ -16,6 +16,7 @@ use rustc_hash::{FxHashMap, FxHashSet};
 use crate::command_state::{CommandState, PipelineDepth, Target};
 use crate::fragment_depth::Unsupported;
 use crate::policy::{DepthResolve, ImageDepth, NativeReason};
+use crate::precise::Carrier;
 use crate::shader_analysis::Analysis;
 use crate::state::DeviceState;
 
@@ -25,6 +26,9 @@ pub type ModuleAnalysis = Result<Vec<(String, Analysis)>, String>;
 /// A fragment module rewritten for reversed attachments (`crate::fragment_depth`), or why it
 /// cannot be.
 pub type ReversedFragment = Result<Arc<[u32]>, Unsupported>;
+/// A vertex module rewritten to store the carrier's depth (`crate::position_store`), or why it
+/// cannot be.
+pub type RewrittenVertex = Result<Arc<[u32]>, crate::position_store::Unsupported>;
 
 /// A tracked depth image.
 #[derive(Clone, Copy, Debug)]
@@ -196,12 +200,18 @@ pub struct DeviceObjects {
     /// What the shader analysis found in each vertex module (precise modes only): per entry
     /// point, or why the module could not be read.
     pub vertex_modules: Table<vk::ShaderModule, Arc<ModuleAnalysis>>,
+    /// Vertex modules with a projection from push constants (precise modes only): rewritten
+    /// to store the carrier's depth into `Position` (`crate::position_store`), or why not.
+    pub position_stores: Table<vk::ShaderModule, RewrittenVertex>,
     /// Fragment shader objects (`VK_EXT_shader_object`) that compute with depth, or whose code
     /// revz cannot read: each one's reversed variant, or that it keeps standard depth
     /// (`crate::hooks::shader_object`). Other shader objects have no entry.
     pub fragment_shaders: Table<vk::ShaderEXT, FragmentShader>,
-    /// Each pipeline layout's push-constant ranges (precise modes only).
+    /// Each pipeline layout's push-constant ranges as the application gave them (precise
+    /// modes only).
     pub pipeline_layouts: Table<vk::PipelineLayout, Arc<[vk::PushConstantRange]>>,
+    /// The carrier revz reserved in each pipeline layout, where it had room.
+    pub layout_carriers: Table<vk::PipelineLayout, Carrier>,
     /// Each pool's command buffers, to forget them when the pool is destroyed.
     pub pools: Table<vk::CommandPool, Arc<Mutex<Vec<vk::CommandBuffer>>>>,
     /// The depth target each subpass (render pass, index) or dynamic rendering depth format

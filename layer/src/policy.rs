@@ -98,9 +98,23 @@ pub struct DevicePolicy {
     /// because the device cannot make it dynamic (no Vulkan 1.3, no
     /// `VK_EXT_extended_dynamic_state`).
     pub compare_op_variants: bool,
+    /// Where revz's carrier goes in every pipeline layout (precise modes on a device with the
+    /// room: `crate::precise::carrier_offset`); `None`: the precise path is off and every draw
+    /// into a reversed attachment takes the flip path.
+    pub carrier_offset: Option<u32>,
 }
 
 impl DevicePolicy {
+    /// The policy on a device with `maxPushConstantsSize` bytes of push constants.
+    pub fn with_push_constant_space(self, max_push_constants_size: u32) -> DevicePolicy {
+        DevicePolicy {
+            carrier_offset: self
+                .rewrite()
+                .and(crate::precise::carrier_offset(max_push_constants_size)),
+            ..self
+        }
+    }
+
     /// The policy of a device; `dynamic_compare_op`: whether `vkCmdSetDepthCompareOp` (core
     /// 1.3 or the EXT) can be used.
     pub fn new(settings: &Settings, dynamic_compare_op: bool) -> DevicePolicy {
@@ -109,6 +123,7 @@ impl DevicePolicy {
             far_clip: settings.far_clip,
             observable: settings.reverse_observable,
             compare_op_variants: settings.compare_op == CompareOp::Variants || !dynamic_compare_op,
+            carrier_offset: None,
         }
     }
 
@@ -527,6 +542,7 @@ mod tests {
             far_clip: FarClip::Remove,
             observable,
             compare_op_variants: false,
+            carrier_offset: None,
         }
     }
 

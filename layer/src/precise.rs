@@ -1,26 +1,33 @@
-//! The precise path (`shared/DESIGN.md` sections 1 and 2): the push-constant bytes of one
-//! command buffer, and the projection rewrite revz makes in them.
+//! The precise path (`shared/DESIGN.md` sections 1 and 2, as changed by issue #14): the
+//! push-constant state of one command buffer, the camera each pushed projection belongs to, and
+//! the carrier revz pushes for the rewritten vertex stage.
 //!
 //! A pipeline whose vertex stage multiplies a push-constant matrix into `Position` has a
-//! [`ProjectionUse`] (found by [`crate::shader_analysis`] at shader module creation). For its
-//! draws into a reversed attachment, the bytes of that matrix must hold the rewritten
-//! projection when the draw executes, and every other byte the application's values.
-//! [`PushConstants`] keeps the application's values (a shadow copy, so that updates covering
-//! part of a matrix can be followed) and what the device holds:
+//! [`ProjectionUse`] (found by [`crate::shader_analysis`] at shader module creation). Its
+//! reversed variant's vertex stage stores `z' = c_z z + c_w w + c_1` into `Position`
+//! ([`crate::position_store`]), with the three values read from a [`Carrier`] revz reserves in
+//! the pipeline layout and pushes:
 //!
-//! - in the common case (bind a pipeline, push its matrix, draw) the rewrite is made in the
-//!   bytes `vkCmdPushConstants` passes down ([`PushConstants::push`]) and the draw costs a
-//!   flag check;
-//! - otherwise (the matrix pushed before its pipeline was bound or before the render pass began,
-//!   a partial update, a pipeline without a projection reading bytes rewritten for another) the
-//!   draw sends the difference first ([`PushConstants::resolve`]).
+//! - the application's bytes go down unchanged, so every other use of the matrix (lighting,
+//!   view vectors, a varying computed from `Position`) sees the application's values; revz
+//!   keeps a shadow copy ([`PushConstants`]) to classify the matrix at draw time;
+//! - the matrix is matched to a camera ([`revz_math::Cameras`]): one camera, one (n, f), taken
+//!   from its best-conditioned matrix, so a P * V * M far from the camera, whose own B is lost
+//!   to rounding, still stores the camera's `n / w` (infinite) or complementary depth;
+//! - the carrier holds `(0, k', B')` of that range for precise draws and `(1, 0, 0)` (the
+//!   shader's z exactly) for flip-path draws; it is pushed only when its value or the layout
+//!   changes, so a frame of one camera pushes it once per command buffer.
+//!
+//! Why the store and not the matrix bytes (the design before #14): rewriting the depth row in
+//! the pushed bytes changed every output computed from the matrix (13 % of the pixels of an
+//! application lighting with its MVP), and took n from each matrix's own, rounded depth row.
 //!
 //! Pure logic, no Vulkan calls: what must be pushed goes through a [`PushSink`].
 
 use ash::vk;
 use revz_math::{
-    classify, read_clip_transform, reversed_depth_row, Classification, DepthConvention, Storage,
-    Target as RewriteTarget,
+    read_clip_transform, reversed_coefficients, CameraMatch, Cameras, DepthCoefficients,
+    DepthConvention, DepthDirection, Storage, Target as RewriteTarget,
 };
 
 use crate::shader_analysis::ProjectionSlot;
@@ -117,29 +124,6 @@ impl ProjectionUse {
         }
         values
     }
-
-    /// Byte offset of entry (row 2, `column`) of the matrix: the depth row is all a rewrite
-    /// changes.
-    fn depth_entry(&self, column: usize) -> usize {
-        let (offset, stride) = (self.offset as usize, self.stride as usize);
-        match self.storage {
-            Storage::ColumnMajor => offset + column * stride + 8,
-            Storage::RowMajor => offset + 2 * stride + column * 4,
-        }
-    }
-
-    /// Writes the depth row `row` into `out`, which holds push-constant bytes starting at byte
-    /// `base`; entries outside `out` are skipped.
-    fn write_depth_row(&self, row: &[f32; 4], out: &mut [u8], base: usize) {
-        for (column, value) in row.iter().enumerate() {
-            let Some(at) = self.depth_entry(column).checked_sub(base) else {
-                continue;
-            };
-            if let Some(word) = out.get_mut(at..at + 4) {
-                word.copy_from_slice(&value.to_ne_bytes());
-            }
-        }
-    }
 }
 
 /// The stage flags for pushing exactly bytes `[start, end)` of a layout with `ranges`: the
@@ -177,51 +161,183 @@ pub fn push_stages(
     all_covered.then_some(stages)
 }
 
+/// Bytes of revz's carrier: a `vec4` (`c_z`, `c_w`, `c_1`, unused) that the rewritten vertex
+/// stage reads ([`crate::position_store`]).
+pub const CARRIER_BYTES: u32 = 16;
+
+/// The carrier values of the flip path: `z' = 1 * z + 0 * w + 0`, the shader's z exactly.
+pub const FLIP_CARRIER: [f32; 4] = [1.0, 0.0, 0.0, 0.0];
+
+/// Where revz's carrier lies in a pipeline layout's push constants, and how to push it.
+///
+/// Every pipeline layout revz sees in a precise mode gets the same 16 bytes reserved at the
+/// device's [`carrier_offset`] ([`reserve_carrier`]): the same function of the application's
+/// ranges for every layout, so layouts the application made identical stay identical
+/// (compatible for push constants and descriptor sets).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Carrier {
+    pub offset: u32,
+    /// The stages a push of exactly the carrier's bytes must name: those of the range that
+    /// holds them.
+    pub stages: vk::ShaderStageFlags,
+}
+
+/// The carrier's offset on a device with `max_push_constants_size`: the last 16 bytes of the
+/// first 256 (a larger push-constant space costs some drivers on every draw, and revz follows
+/// 256 bytes). `None` when the device offers less than the 128 bytes Vulkan guarantees.
+pub fn carrier_offset(max_push_constants_size: u32) -> Option<u32> {
+    let space = max_push_constants_size.min(PUSH_CONSTANT_BYTES as u32) / 16 * 16;
+    (space >= 128).then(|| space - CARRIER_BYTES)
+}
+
+/// Why a layout has no carrier (its pipelines' draws take the flip path).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NoRoom {
+    /// The application's ranges reach the carrier's bytes.
+    Used,
+    /// Extending the vertex stage's range to the carrier would overlap another stage's range,
+    /// whose pushes would then have to name the vertex stage too.
+    Overlap,
+}
+
+impl std::fmt::Display for NoRoom {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            NoRoom::Used => "the application's push constants use the bytes revz reserves",
+            NoRoom::Overlap => {
+                "the vertex stage's push-constant range cannot be extended past another \
+                 stage's range"
+            }
+        })
+    }
+}
+
+/// The application's push-constant `ranges` with the carrier at `offset` added: the vertex
+/// stage's range extended to cover it (a stage may appear in one range only), or a new range
+/// of the vertex stage where it had none.
+pub fn reserve_carrier(
+    ranges: &[vk::PushConstantRange],
+    offset: u32,
+) -> Result<(Vec<vk::PushConstantRange>, Carrier), NoRoom> {
+    let end = |r: &vk::PushConstantRange| u64::from(r.offset) + u64::from(r.size);
+    if ranges.iter().any(|r| end(r) > u64::from(offset)) {
+        return Err(NoRoom::Used);
+    }
+    let carrier_end = offset + CARRIER_BYTES;
+    let mut out = ranges.to_vec();
+    let vertex = out
+        .iter()
+        .position(|r| r.stage_flags.contains(vk::ShaderStageFlags::VERTEX));
+    let range = match vertex {
+        Some(index) => {
+            let start = end(&out[index]);
+            let overlaps = ranges.iter().enumerate().any(|(other, r)| {
+                other != index && u64::from(r.offset) < u64::from(carrier_end) && end(r) > start
+            });
+            if overlaps {
+                return Err(NoRoom::Overlap);
+            }
+            out[index].size = carrier_end - out[index].offset;
+            out[index]
+        }
+        None => {
+            let range = vk::PushConstantRange {
+                stage_flags: vk::ShaderStageFlags::VERTEX,
+                offset,
+                size: CARRIER_BYTES,
+            };
+            out.push(range);
+            range
+        }
+    };
+    Ok((
+        out,
+        Carrier {
+            offset,
+            stages: range.stage_flags,
+        },
+    ))
+}
+
+impl Carrier {
+    /// The carrier's bytes for `values`.
+    pub fn bytes(values: &[f32; 4]) -> [u8; CARRIER_BYTES as usize] {
+        let mut bytes = [0; CARRIER_BYTES as usize];
+        for (out, value) in bytes.chunks_exact_mut(4).zip(values) {
+            out.copy_from_slice(&value.to_ne_bytes());
+        }
+        bytes
+    }
+}
+
 /// What the current value of a projection slot is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Outcome {
-    /// A standard perspective, rewritten: its new depth row (the other rows are unchanged).
-    /// `near_over_far` is n / f of its visible range (0 for an infinite far plane).
+    /// A standard perspective of a known camera: the carrier values that make the rewritten
+    /// vertex stage store the camera's reversed depth (`z' = k' w + B'`). `near_over_far` is
+    /// n / f of the camera's range (0 for an infinite far plane).
     Rewritten {
-        depth_row: [f32; 4],
+        carrier: [f32; 4],
         near_over_far: f32,
     },
     /// A projection the application already reversed.
     AlreadyReversed,
-    /// Orthographic, or not a projection: the draw takes the flip path (for an affine matrix
-    /// that is the exact reversal, `shared/DESIGN.md` section 2).
+    /// Orthographic, not a projection, or a perspective of no camera revz can trust: the draw
+    /// takes the flip path (for an affine matrix that is the exact reversal, `shared/DESIGN.md`
+    /// section 2).
     Unchanged,
 }
 
-/// Classifies and rewrites one pushed matrix (f64 math in [`revz_math`]).
-pub fn rewrite_projection(
+/// Classifies one pushed matrix against the cameras seen so far (f64 math in [`revz_math`]):
+/// the range is the camera's, taken from the best-conditioned matrix of that camera, never
+/// this matrix's own where its depth row lost B to rounding. Also says whether the cameras
+/// changed (a camera was made, or its range improved).
+pub fn classify_projection(
     values: &[f32; 16],
     storage: Storage,
     convention: DepthConvention,
     target: RewriteTarget,
-) -> Outcome {
+    cameras: &mut Cameras,
+) -> (Outcome, bool) {
     let m = read_clip_transform(values, storage);
-    let classification = classify(&m, convention);
-    match classification {
-        Classification::Perspective { range, .. } => {
-            // Only the depth row changes: the other twelve floats stay the application's.
-            match reversed_depth_row(&m, &classification, target, convention) {
-                Some(row) => Outcome::Rewritten {
-                    // Each entry rounded once, to nearest.
-                    depth_row: row.to_array().map(|entry| entry as f32),
-                    near_over_far: (range.near() / range.far()) as f32,
-                },
-                None => Outcome::Unchanged,
+    let observed = cameras.observe(&m, convention);
+    let changed = matches!(observed, CameraMatch::Camera { changed: true, .. });
+    let outcome = match observed {
+        CameraMatch::Camera {
+            range, direction, ..
+        } => match direction {
+            DepthDirection::Standard => {
+                let DepthCoefficients { k, b } = reversed_coefficients(range, target, convention);
+                let carrier = [0.0, k as f32, b as f32, 0.0];
+                if carrier.iter().all(|c| c.is_finite()) {
+                    Outcome::Rewritten {
+                        carrier,
+                        near_over_far: (range.near() / range.far()) as f32,
+                    }
+                } else {
+                    Outcome::Unchanged
+                }
             }
-        }
-        Classification::Reversed { .. } => Outcome::AlreadyReversed,
-        Classification::Orthographic { .. } | Classification::NotProjection(_) => {
+            DepthDirection::Reversed => Outcome::AlreadyReversed,
+        },
+        CameraMatch::Untrusted => {
+            static UNTRUSTED: std::sync::Once = std::sync::Once::new();
+            UNTRUSTED.call_once(|| {
+                log::info!(
+                    "a pushed perspective matrix matches no camera seen so far and its own \
+                     depth row is too rounded to give its near plane: its draws take the flip \
+                     path until a better-conditioned matrix of its camera is pushed"
+                )
+            });
             Outcome::Unchanged
         }
-    }
+        CameraMatch::NotPerspective => Outcome::Unchanged,
+    };
+    (outcome, changed)
 }
 
-/// Where [`PushConstants::resolve`] sends push constants (the next layer, in production).
+/// Where [`crate::command_state::CommandState`] sends revz's own push constants (the next
+/// layer, in production).
 pub trait PushSink {
     fn push_constants(
         &mut self,
@@ -232,19 +348,8 @@ pub trait PushSink {
     );
 }
 
-/// What the device holds, compared with the application's values.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Device {
-    /// The application's values everywhere.
-    Same,
-    /// The rewrite of the application's current matrix at this slot; its values elsewhere.
-    Rewritten(ProjectionUse),
-    /// Something else at this slot's bytes (part of a rewrite, after a partial update); the
-    /// application's values elsewhere.
-    Stale(ProjectionUse),
-}
-
-/// The push-constant state of one command buffer while it records.
+/// The push-constant state of one command buffer while it records: a shadow copy of the
+/// application's values (which go down untouched), and the cameras its projections belong to.
 #[derive(Clone, Debug)]
 pub struct PushConstants {
     /// The application's values.
@@ -254,10 +359,13 @@ pub struct PushConstants {
     /// The layout of the application's last push (compatible with the bound pipeline's for
     /// push constants, or the application's draws would be invalid).
     layout: vk::PipelineLayout,
-    device: Device,
-    /// The last classification: its input (bits, storage, convention) and outcome. Consecutive
-    /// draws often push the same projection.
-    last: Option<([u32; 16], Storage, DepthConvention, Outcome)>,
+    /// The last classification: its input (bits, storage, convention, the cameras'
+    /// generation) and outcome. Consecutive draws often push the same projection.
+    last: Option<([u32; 16], Storage, DepthConvention, u64, Outcome)>,
+    /// The cameras seen (seeded from the device's at the recording's begin).
+    cameras: Cameras,
+    /// Bumped whenever a camera is created or its range improves.
+    generation: u64,
 }
 
 impl Default for PushConstants {
@@ -266,8 +374,9 @@ impl Default for PushConstants {
             bytes: [0; PUSH_CONSTANT_BYTES],
             written: 0,
             layout: vk::PipelineLayout::null(),
-            device: Device::Same,
             last: None,
+            cameras: Cameras::default(),
+            generation: 0,
         }
     }
 }
@@ -287,6 +396,25 @@ fn word_mask(start: usize, end: usize) -> u64 {
 }
 
 impl PushConstants {
+    /// A recording that starts knowing `cameras`.
+    pub fn with_cameras(cameras: Cameras) -> PushConstants {
+        PushConstants {
+            cameras,
+            ..PushConstants::default()
+        }
+    }
+
+    /// The cameras seen so far.
+    pub fn cameras(&self) -> &Cameras {
+        &self.cameras
+    }
+
+    /// Counts the changes of [`PushConstants::cameras`] (a camera made, or its range
+    /// improved).
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
     /// The outcome for `use_` on the current values, or `None` when the application has not
     /// pushed all of its bytes.
     pub fn outcome(&mut self, use_: &ProjectionUse, target: RewriteTarget) -> Option<Outcome> {
@@ -296,28 +424,38 @@ impl PushConstants {
         }
         let values = use_.read(&self.bytes);
         let bits = values.map(f32::to_bits);
-        if let Some((last_bits, storage, convention, outcome)) = &self.last {
-            if *last_bits == bits && *storage == use_.storage && *convention == use_.convention {
+        if let Some((last_bits, storage, convention, generation, outcome)) = &self.last {
+            if *last_bits == bits
+                && *storage == use_.storage
+                && *convention == use_.convention
+                && *generation == self.generation
+            {
                 return Some(*outcome);
             }
         }
-        let outcome = rewrite_projection(&values, use_.storage, use_.convention, target);
-        self.last = Some((bits, use_.storage, use_.convention, outcome));
+        let (outcome, changed) = classify_projection(
+            &values,
+            use_.storage,
+            use_.convention,
+            target,
+            &mut self.cameras,
+        );
+        if changed {
+            self.generation += 1;
+        }
+        self.last = Some((
+            bits,
+            use_.storage,
+            use_.convention,
+            self.generation,
+            outcome,
+        ));
         Some(outcome)
     }
 
-    /// `vkCmdPushConstants` of `data` at `offset` with `layout`. `data` is the copy that goes
-    /// down: when `bound` (the projection of the bound pipeline, if its draws would take the
-    /// precise path now) lies wholly in it and rewrites, the rewrite is written into `data`.
-    /// Returns the outcome applied in place, if any; `None` means the next draw must
-    /// [`resolve`](Self::resolve).
-    pub fn push(
-        &mut self,
-        layout: vk::PipelineLayout,
-        offset: u32,
-        data: &mut [u8],
-        bound: Option<(&ProjectionUse, RewriteTarget)>,
-    ) -> Option<Outcome> {
+    /// `vkCmdPushConstants` of `data` at `offset` with `layout`: the values go down as they
+    /// are; the shadow copy follows them.
+    pub fn push(&mut self, layout: vk::PipelineLayout, offset: u32, data: &[u8]) {
         self.layout = layout;
         let start = offset as usize;
         let end = start.saturating_add(data.len());
@@ -325,105 +463,32 @@ impl PushConstants {
             shadow.copy_from_slice(&data[..shadow.len()]);
         }
         self.written |= word_mask(start, end);
-
-        let overlaps = |u: &ProjectionUse| start < (u.end() as usize) && (u.offset as usize) < end;
-        let covers = |u: &ProjectionUse| start <= (u.offset as usize) && (u.end() as usize) <= end;
-        let in_place = bound.filter(|(u, _)| {
-            covers(u)
-                && match self.device {
-                    Device::Same => true,
-                    // One slot at most differs from the application's values: the one
-                    // rewritten here, or one this push overwrites wholly.
-                    Device::Rewritten(other) | Device::Stale(other) => {
-                        other == **u || covers(&other)
-                    }
-                }
-        });
-        if let Some((use_, target)) = in_place {
-            let outcome = self.outcome(use_, target)?;
-            self.device = match outcome {
-                Outcome::Rewritten { depth_row, .. } => {
-                    use_.write_depth_row(&depth_row, data, start);
-                    Device::Rewritten(*use_)
-                }
-                _ => Device::Same,
-            };
-            return Some(outcome);
-        }
-        self.device = match self.device {
-            // The application's bytes now cover the whole slot.
-            Device::Rewritten(u) | Device::Stale(u) if covers(&u) => Device::Same,
-            Device::Rewritten(u) | Device::Stale(u) if overlaps(&u) => Device::Stale(u),
-            other => other,
-        };
-        None
     }
 
-    /// Before a draw whose state changed: makes the device hold the rewrite at `wanted` (the
-    /// draw's projection, when it takes the precise path) and the application's values
-    /// everywhere else. Returns the outcome for `wanted`.
-    pub fn resolve(
-        &mut self,
-        wanted: Option<(&ProjectionUse, RewriteTarget)>,
-        sink: &mut impl PushSink,
-    ) -> Option<Outcome> {
-        let outcome = wanted.and_then(|(use_, target)| Some((use_, self.outcome(use_, target)?)));
-        let rewrite = match outcome {
-            Some((use_, Outcome::Rewritten { depth_row, .. })) => Some((use_, depth_row)),
-            _ => None,
-        };
-        if self.layout == vk::PipelineLayout::null() {
-            return outcome.map(|(_, o)| o);
-        }
-        match (self.device, rewrite) {
-            (Device::Rewritten(held), Some((use_, _))) if held == *use_ => {}
-            (Device::Rewritten(held) | Device::Stale(held), rewrite) => {
-                // Restore the application's bytes unless the rewrite below covers them.
-                if rewrite.is_none_or(|(use_, _)| *use_ != held) {
-                    self.send(&held, None, sink);
-                }
-                self.device = Device::Same;
-                if let Some((use_, row)) = rewrite {
-                    self.send(use_, Some(&row), sink);
-                    self.device = Device::Rewritten(*use_);
-                }
-            }
-            (Device::Same, Some((use_, row))) => {
-                self.send(use_, Some(&row), sink);
-                self.device = Device::Rewritten(*use_);
-            }
-            (Device::Same, None) => {}
-        }
-        outcome.map(|(_, o)| o)
+    /// The layout of the application's last push (null before the first).
+    pub fn layout(&self) -> vk::PipelineLayout {
+        self.layout
     }
 
-    /// Pushes the bytes of `use_`'s slot: the application's, with `row` as the depth row.
-    fn send(&self, use_: &ProjectionUse, row: Option<&[f32; 4]>, sink: &mut impl PushSink) {
-        let (start, end) = (use_.offset as usize, use_.end() as usize);
-        let mut bytes = [0u8; PUSH_CONSTANT_BYTES];
-        let out = &mut bytes[..end - start];
-        out.copy_from_slice(&self.bytes[start..end]);
-        if let Some(row) = row {
-            use_.write_depth_row(row, out, start);
-        }
-        sink.push_constants(self.layout, use_.stages, use_.offset, out);
-    }
-
-    /// After `vkCmdExecuteCommands`, push constants are undefined again.
+    /// After `vkCmdExecuteCommands`, push constants are undefined again (the cameras stay
+    /// known).
     pub fn invalidate(&mut self) {
-        *self = PushConstants::default();
+        *self = PushConstants {
+            generation: self.generation,
+            ..PushConstants::with_cameras(std::mem::take(&mut self.cameras))
+        };
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use ash::vk::Handle;
     use glam::dcamera::rh::{proj::vulkan, view::look_at_mat4};
     use glam::{DMat4, DVec3};
 
     use super::*;
 
     const VERTEX: vk::ShaderStageFlags = vk::ShaderStageFlags::VERTEX;
+    const FRAGMENT: vk::ShaderStageFlags = vk::ShaderStageFlags::FRAGMENT;
 
     fn column_major_at(offset: u32) -> ProjectionUse {
         ProjectionUse {
@@ -435,9 +500,18 @@ mod tests {
         }
     }
 
-    fn perspective() -> [f32; 16] {
-        let view = look_at_mat4(DVec3::new(3.0, 2.0, 5.0), DVec3::ZERO, DVec3::Y);
-        (vulkan::perspective(1.0, 1.5, 0.1, 100.0) * view)
+    fn range(stage_flags: vk::ShaderStageFlags, offset: u32, size: u32) -> vk::PushConstantRange {
+        vk::PushConstantRange {
+            stage_flags,
+            offset,
+            size,
+        }
+    }
+
+    /// P * V * M of a camera (n = 0.1, f = 100, eye off the origin) for an object at `at`.
+    fn mvp(at: DVec3) -> [f32; 16] {
+        let view = look_at_mat4(DVec3::new(30.0, 20.0, 50.0), DVec3::ZERO, DVec3::Y);
+        (vulkan::perspective(1.0, 1.5, 0.1, 100.0) * view * DMat4::from_translation(at))
             .as_mat4()
             .to_cols_array()
     }
@@ -446,190 +520,133 @@ mod tests {
         values.iter().flat_map(|v| v.to_ne_bytes()).collect()
     }
 
-    fn floats_of(bytes: &[u8]) -> Vec<f32> {
-        bytes
-            .chunks_exact(4)
-            .map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
-            .collect()
-    }
-
-    #[derive(Default)]
-    struct Pushes(Vec<(u32, Vec<f32>)>);
-
-    impl PushSink for Pushes {
-        fn push_constants(
-            &mut self,
-            _: vk::PipelineLayout,
-            stages: vk::ShaderStageFlags,
-            offset: u32,
-            bytes: &[u8],
-        ) {
-            assert_eq!(stages, VERTEX);
-            self.0.push((offset, floats_of(bytes)));
-        }
-    }
-
     fn layout() -> vk::PipelineLayout {
+        use ash::vk::Handle;
         vk::PipelineLayout::from_raw(7)
     }
 
-    /// `values` (column-major) with the depth row rewritten to complementary Z.
-    fn rewritten(values: &[f32; 16]) -> [f32; 16] {
-        match rewrite_projection(
-            values,
-            Storage::ColumnMajor,
-            DepthConvention::ZeroToOne,
-            RewriteTarget::Complementary,
-        ) {
-            Outcome::Rewritten { depth_row, .. } => {
-                let mut out = *values;
-                for (column, entry) in depth_row.into_iter().enumerate() {
-                    out[4 * column + 2] = entry;
-                }
-                out
+    #[test]
+    fn the_carrier_is_the_last_16_of_the_first_256_bytes() {
+        assert_eq!(carrier_offset(128), Some(112));
+        assert_eq!(carrier_offset(256), Some(240));
+        assert_eq!(carrier_offset(4096), Some(240));
+        assert_eq!(carrier_offset(200), Some(176));
+        assert_eq!(carrier_offset(64), None);
+    }
+
+    #[test]
+    fn the_vertex_range_is_extended_to_the_carrier_or_one_is_added() {
+        let shared = [range(VERTEX | FRAGMENT, 0, 80)];
+        let (ranges, carrier) = reserve_carrier(&shared, 112).expect("room");
+        assert_eq!(ranges, [range(VERTEX | FRAGMENT, 0, 128)]);
+        assert_eq!(
+            carrier,
+            Carrier {
+                offset: 112,
+                stages: VERTEX | FRAGMENT
             }
-            other => panic!("not rewritten: {other:?}"),
-        }
-    }
-
-    #[test]
-    fn a_push_covering_the_bound_projection_is_rewritten_in_place() {
-        let use_ = column_major_at(64);
-        let matrix = perspective();
-        let mut push = PushConstants::default();
-        let mut data = bytes_of(&[[1.0; 16], matrix].concat());
-        let outcome = push.push(
-            layout(),
-            0,
-            &mut data,
-            Some((&use_, RewriteTarget::Complementary)),
         );
-        assert!(matches!(outcome, Some(Outcome::Rewritten { .. })));
-        let sent = floats_of(&data);
+        // The same application ranges give the same layout (compatibility is kept).
+        assert_eq!(reserve_carrier(&shared, 112).expect("room").0, ranges);
+        // A vertex range below a fragment range cannot reach past it.
+        let split = [range(VERTEX, 0, 64), range(FRAGMENT, 64, 16)];
+        assert_eq!(reserve_carrier(&split, 112), Err(NoRoom::Overlap));
+        // The fragment range below the vertex one is fine.
+        let below = [range(FRAGMENT, 0, 16), range(VERTEX, 16, 64)];
+        let (ranges, carrier) = reserve_carrier(&below, 112).expect("room");
+        assert_eq!(ranges, [range(FRAGMENT, 0, 16), range(VERTEX, 16, 112)]);
+        assert_eq!(carrier.stages, VERTEX);
+        // No vertex range: one of the carrier's own.
+        let (ranges, _) = reserve_carrier(&[range(FRAGMENT, 0, 16)], 112).expect("room");
+        assert_eq!(ranges[1], range(VERTEX, 112, 16));
         assert_eq!(
-            sent[..16],
-            [1.0; 16],
-            "bytes outside the slot are the app's"
+            reserve_carrier(&[range(VERTEX, 0, 128)], 112),
+            Err(NoRoom::Used)
         );
-        assert_eq!(sent[16..], rewritten(&matrix));
-        // The draw then has nothing to send.
-        let mut sink = Pushes::default();
-        push.resolve(Some((&use_, RewriteTarget::Complementary)), &mut sink);
-        assert!(sink.0.is_empty());
-    }
-
-    #[test]
-    fn a_matrix_pushed_before_its_pipeline_is_rewritten_at_the_draw() {
-        let use_ = column_major_at(0);
-        let matrix = perspective();
-        let mut push = PushConstants::default();
-        let mut data = bytes_of(&matrix);
-        assert_eq!(push.push(layout(), 0, &mut data, None), None);
-        assert_eq!(floats_of(&data), matrix, "passed down as the app gave it");
-        let mut sink = Pushes::default();
-        push.resolve(Some((&use_, RewriteTarget::Complementary)), &mut sink);
-        assert_eq!(sink.0, vec![(0, rewritten(&matrix).to_vec())]);
-        // A draw of a pipeline without a projection gets the application's bytes back.
-        push.resolve(None, &mut sink);
-        assert_eq!(sink.0[1], (0, matrix.to_vec()));
-        push.resolve(None, &mut sink);
-        assert_eq!(sink.0.len(), 2, "nothing more to restore");
-    }
-
-    #[test]
-    fn partial_updates_are_followed_through_the_shadow_copy() {
-        let use_ = column_major_at(0);
-        let bound = Some((&use_, RewriteTarget::Complementary));
-        let mut push = PushConstants::default();
-        let first = perspective();
-        push.push(layout(), 0, &mut bytes_of(&first), bound);
-        // Only the translation column changes: bytes 48..64.
-        let mut second = first;
-        second[12..].copy_from_slice(&[0.5, -0.25, 4.0, 6.0]);
-        let mut data = bytes_of(&second[12..]);
-        assert_eq!(push.push(layout(), 48, &mut data, bound), None);
         assert_eq!(
-            floats_of(&data),
-            second[12..],
-            "a partial push passes as is"
+            Carrier::bytes(&FLIP_CARRIER)[..4],
+            1.0f32.to_ne_bytes(),
+            "c_z first"
         );
-        let mut sink = Pushes::default();
-        push.resolve(bound, &mut sink);
-        assert_eq!(sink.0, vec![(0, rewritten(&second).to_vec())]);
     }
 
     #[test]
-    fn unpushed_or_unclassifiable_matrices_take_the_flip_path() {
+    fn the_application_bytes_go_down_unchanged_and_matrices_of_one_camera_share_its_range() {
         let use_ = column_major_at(0);
-        let bound = Some((&use_, RewriteTarget::Infinite));
+        let target = RewriteTarget::Infinite;
         let mut push = PushConstants::default();
-        let mut sink = Pushes::default();
-        assert_eq!(push.resolve(bound, &mut sink), None, "nothing pushed yet");
-        let mut half = bytes_of(&perspective()[..8]);
-        assert_eq!(push.push(layout(), 0, &mut half, bound), None);
-        assert_eq!(push.resolve(bound, &mut sink), None, "half a matrix");
-        let identity = DMat4::IDENTITY.as_mat4().to_cols_array();
-        let mut data = bytes_of(&identity);
-        assert_eq!(
-            push.push(layout(), 0, &mut data, bound),
-            Some(Outcome::Unchanged)
-        );
-        assert_eq!(floats_of(&data), identity);
-        assert!(sink.0.is_empty());
-    }
-
-    #[test]
-    fn already_reversed_projections_are_reported_and_left_alone() {
-        let reversed = vulkan::perspective_infinite_reverse(1.0, 1.5, 0.1)
-            .as_mat4()
-            .to_cols_array();
-        let use_ = column_major_at(0);
-        let mut push = PushConstants::default();
-        let mut data = bytes_of(&reversed);
-        let outcome = push.push(
-            layout(),
-            0,
-            &mut data,
-            Some((&use_, RewriteTarget::Complementary)),
-        );
-        assert_eq!(outcome, Some(Outcome::AlreadyReversed));
-        assert_eq!(floats_of(&data), reversed);
-    }
-
-    #[test]
-    fn strided_row_major_slots_are_read_and_written_in_their_layout() {
-        // A row-major matrix with 32-byte row stride (std430 would not do this, but a
-        // MatrixStride decoration may): rows at 16, 48, 80, 112.
-        let use_ = ProjectionUse {
-            offset: 16,
-            stride: 32,
-            storage: Storage::RowMajor,
-            ..column_major_at(0)
+        let near = mvp(DVec3::new(0.5, 0.0, 0.0));
+        let data = bytes_of(&near);
+        push.push(layout(), 0, &data);
+        assert_eq!(data, bytes_of(&near), "nothing is written into the app's bytes");
+        let Some(Outcome::Rewritten { carrier, .. }) = push.outcome(&use_, target) else {
+            panic!("the near object's projection is rewritten");
         };
-        assert_eq!(use_.end(), 128);
-        let matrix = DMat4::from_cols_array(&perspective().map(f64::from)).transpose();
-        let rows = matrix.to_cols_array().map(|v| v as f32);
-        let mut block = [9.0f32; 32];
-        for row in 0..4 {
-            block[4 + row * 8..8 + row * 8].copy_from_slice(&rows[row * 4..row * 4 + 4]);
+        assert_eq!(carrier[0], 0.0, "z does not count");
+        assert!((f64::from(carrier[2]) / 0.1 - 1.0).abs() < 1e-5, "B' = n: {carrier:?}");
+        // Objects far from the camera get its carrier exactly, whatever their own rounding.
+        for distance in [10.0, 1e3, 1e5, 1e6] {
+            push.push(layout(), 0, &bytes_of(&mvp(DVec3::new(distance, 0.0, 0.0))));
+            assert_eq!(
+                push.outcome(&use_, target),
+                Some(Outcome::Rewritten {
+                    carrier,
+                    near_over_far: 0.0
+                }),
+                "an object {distance} away"
+            );
         }
-        let mut data = bytes_of(&block);
-        let bound = Some((&use_, RewriteTarget::Complementary));
+    }
+
+    #[test]
+    fn a_far_matrix_before_its_camera_takes_the_flip_path_and_the_camera_is_kept_across_recordings()
+    {
+        let use_ = column_major_at(0);
+        let target = RewriteTarget::Complementary;
+        let far = bytes_of(&mvp(DVec3::new(1e6, 0.0, 0.0)));
         let mut push = PushConstants::default();
+        push.push(layout(), 0, &far);
+        assert_eq!(push.outcome(&use_, target), Some(Outcome::Unchanged));
+        push.push(layout(), 0, &bytes_of(&mvp(DVec3::ZERO)));
         assert!(matches!(
-            push.push(layout(), 0, &mut data, bound),
+            push.outcome(&use_, target),
             Some(Outcome::Rewritten { .. })
         ));
-        let sent = floats_of(&data);
-        for (i, value) in sent.iter().enumerate() {
-            let in_slot = i >= 4 && (i - 4) % 8 < 4;
-            if !in_slot {
-                assert_eq!(*value, 9.0, "padding at float {i} untouched");
-            }
-        }
-        // Depth row (row 2) changed, the others did not.
-        assert_eq!(sent[4..8], rows[0..4]);
-        assert_ne!(sent[20..24], rows[8..12]);
+        push.push(layout(), 0, &far);
+        assert!(matches!(
+            push.outcome(&use_, target),
+            Some(Outcome::Rewritten { .. })
+        ));
+        // The next recording starts with the cameras learned.
+        let mut next = PushConstants::with_cameras(push.cameras().clone());
+        next.push(layout(), 0, &far);
+        assert!(matches!(
+            next.outcome(&use_, target),
+            Some(Outcome::Rewritten { .. })
+        ));
+        next.invalidate();
+        next.push(layout(), 0, &far);
+        assert!(
+            matches!(next.outcome(&use_, target), Some(Outcome::Rewritten { .. })),
+            "invalidation forgets the values, not the cameras"
+        );
+    }
+
+    #[test]
+    fn unpushed_orthographic_and_reversed_matrices_are_not_rewritten() {
+        let use_ = column_major_at(64);
+        let target = RewriteTarget::Infinite;
+        let mut push = PushConstants::default();
+        assert_eq!(push.outcome(&use_, target), None, "nothing pushed");
+        push.push(layout(), 64, &bytes_of(&mvp(DVec3::ZERO)[..8]));
+        assert_eq!(push.outcome(&use_, target), None, "half a matrix pushed");
+        let ortho = vulkan::orthographic(-1.0, 1.0, -1.0, 1.0, 0.1, 10.0);
+        push.push(layout(), 64, &bytes_of(&ortho.as_mat4().to_cols_array()));
+        assert_eq!(push.outcome(&use_, target), Some(Outcome::Unchanged));
+        // An application's own reversed projection (near and far swapped).
+        let reversed = vulkan::perspective(1.0, 1.5, 100.0, 0.1);
+        push.push(layout(), 64, &bytes_of(&reversed.as_mat4().to_cols_array()));
+        assert_eq!(push.outcome(&use_, target), Some(Outcome::AlreadyReversed));
     }
 
     #[test]
@@ -655,37 +672,6 @@ mod tests {
             None
         );
         assert_eq!(push_stages(&[range(VERTEX, 0, 32)], 0, 64), None);
-    }
-
-    #[test]
-    fn only_the_depth_row_is_rewritten_and_exactly_as_the_full_rewrite() {
-        for storage in [Storage::ColumnMajor, Storage::RowMajor] {
-            let columns = perspective();
-            let matrix = match storage {
-                Storage::ColumnMajor => columns,
-                Storage::RowMajor => glam::Mat4::from_cols_array(&columns)
-                    .transpose()
-                    .to_cols_array(),
-            };
-            for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
-                let m = read_clip_transform(&matrix, storage);
-                let classification = classify(&m, DepthConvention::ZeroToOne);
-                let full = revz_math::rewrite(&m, &classification, target).expect("a perspective");
-                let expected = revz_math::write_clip_transform(&full, storage);
-                let Outcome::Rewritten { depth_row, .. } =
-                    rewrite_projection(&matrix, storage, DepthConvention::ZeroToOne, target)
-                else {
-                    panic!("not rewritten");
-                };
-                let use_ = ProjectionUse {
-                    storage,
-                    ..column_major_at(0)
-                };
-                let mut bytes = bytes_of(&matrix);
-                use_.write_depth_row(&depth_row, &mut bytes, 0);
-                assert_eq!(floats_of(&bytes), expected, "{storage:?} {target:?}");
-            }
-        }
     }
 
     #[test]

@@ -78,6 +78,10 @@ pub struct DeviceState {
     pub added_extended_dynamic_state: bool,
     /// What revz learned about the application while it records.
     pub observed: Observed,
+    /// The cameras the application's projections belong to (`revz_math::Cameras`): each
+    /// recording starts from them, and adds a camera (or a better range for one) when it
+    /// finds it. Locked at command buffer begin and on such a change only.
+    pub cameras: std::sync::Mutex<revz_math::Cameras>,
     pub objects: DeviceObjects,
 }
 

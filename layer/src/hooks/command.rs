@@ -127,9 +127,15 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
         device: &entry.device,
         buffer,
     };
-    let outcome = entry.state().before_draw(&mut sink);
+    let mut state = entry.state();
+    let outcome = state.before_draw(&mut sink);
+    let cameras = state.take_changed_cameras();
+    drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
+    }
+    if let Some(cameras) = cameras {
+        learn_cameras(&entry.device, &cameras);
     }
 }
 
@@ -148,9 +154,8 @@ fn observe(device: &DeviceState, outcome: &Outcome) {
     }
 }
 
-/// `vkCmdPushConstants`: the values go into the command buffer's shadow copy, and the bound
-/// pipeline's projection is rewritten in the bytes passed down when its draws take the precise
-/// path (`crate::precise`).
+/// `vkCmdPushConstants`: the values go down as they are, and into the command buffer's shadow
+/// copy, where the bound pipeline's projection is classified (`crate::precise`).
 pub unsafe extern "system" fn cmd_push_constants(
     buffer: vk::CommandBuffer,
     layout: vk::PipelineLayout,
@@ -160,45 +165,48 @@ pub unsafe extern "system" fn cmd_push_constants(
     p_values: *const std::ffi::c_void,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants");
-    // The copy passed down: on the stack for every size a current driver allows.
-    let mut local = [0u8; PUSH_CONSTANT_BYTES];
-    let mut large = Vec::new();
     record_then_call(
         buffer,
         &ENTRY,
         |entry| {
             // SAFETY: `size` bytes of values (the application's contract).
             let values = unsafe { slice(p_values.cast::<u8>(), size) };
-            let data = if values.len() <= PUSH_CONSTANT_BYTES {
-                &mut local[..values.len()]
-            } else {
-                large = values.to_vec();
-                &mut large[..]
-            };
-            data.copy_from_slice(values);
-            let outcome = entry.state().push_constants(layout, offset, data);
-            let rewritten = outcome.is_some_and(|outcome| {
-                observe(&entry.device, &outcome);
-                matches!(outcome, Outcome::Rewritten { .. })
-            });
-            // The values to send: the rewritten copy (alive until the hook returns), else the
-            // application's.
-            if rewritten {
-                data.as_ptr().cast()
-            } else {
-                p_values
-            }
+            follow_push(entry, layout, offset, values);
         },
-        p_values,
-        |device, p_sent| {
-            // SAFETY: calling down with the application's arguments (a projection rewritten).
+        (),
+        |device, ()| {
+            // SAFETY: calling down with the application's arguments.
             unsafe {
                 (device.next.fp_v1_0().cmd_push_constants)(
-                    buffer, layout, stages, offset, size, p_sent,
+                    buffer, layout, stages, offset, size, p_values,
                 )
             }
         },
     );
+}
+
+/// Follows a push of the application's: the shadow copy, the outcome for the bound pipeline's
+/// projection, and a camera found or improved (the device learns it).
+fn follow_push(entry: &CommandBufferEntry, layout: vk::PipelineLayout, offset: u32, values: &[u8]) {
+    let mut state = entry.state();
+    let outcome = state.push_constants(layout, offset, values);
+    let cameras = state.take_changed_cameras();
+    drop(state);
+    if let Some(outcome) = outcome {
+        observe(&entry.device, &outcome);
+    }
+    if let Some(cameras) = cameras {
+        learn_cameras(&entry.device, &cameras);
+    }
+}
+
+/// The device learns the cameras a recording found (a lock only when one changed).
+fn learn_cameras(device: &DeviceState, cameras: &revz_math::Cameras) {
+    device
+        .cameras
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .merge(cameras);
 }
 
 /// `vkCmdPushConstants2` (Vulkan 1.4) and `vkCmdPushConstants2KHR`: followed like
@@ -210,36 +218,21 @@ pub unsafe extern "system" fn cmd_push_constants2(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants2");
     // SAFETY: a valid info (the application's contract).
     let info = unsafe { *p_info };
-    let mut local = [0u8; PUSH_CONSTANT_BYTES];
-    let mut modified = false;
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: `size` bytes of values.
         let values = unsafe { slice(info.p_values.cast::<u8>(), info.size) };
-        let mut state = entry.state();
         if info.layout == vk::PipelineLayout::null() || values.len() > PUSH_CONSTANT_BYTES {
             // A layout given through pNext, or an unusually large push: not followed; the
-            // state is forgotten so that no rewrite is assumed to survive it.
-            state.invalidate();
+            // state is forgotten so that no carrier is assumed to survive it.
+            entry.state().invalidate();
             return;
         }
-        let data = &mut local[..values.len()];
-        data.copy_from_slice(values);
-        let outcome = state.push_constants(info.layout, info.offset, data);
-        drop(state);
-        if let Some(outcome) = outcome {
-            modified = matches!(outcome, Outcome::Rewritten { .. });
-            observe(&entry.device, &outcome);
-        }
+        follow_push(entry, info.layout, info.offset, values);
     });
     let Some(next) = device.as_ref().and_then(|d| d.commands.push_constants2) else {
         return;
     };
-    let rewritten = vk::PushConstantsInfoKHR {
-        p_values: local.as_ptr().cast(),
-        ..info
-    };
-    let p_info = if modified { &rewritten } else { p_info };
-    // SAFETY: calling down with the application's arguments (a projection rewritten).
+    // SAFETY: calling down with the application's arguments.
     unsafe { next(buffer, p_info) }
 }
 
@@ -1198,7 +1191,13 @@ pub unsafe extern "system" fn begin_command_buffer(
         };
         *entry.scope() = PassScope::default();
         let mut state = entry.state();
-        state.begin(target, entry.device.reversing().reversal);
+        let cameras = entry
+            .device
+            .cameras
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone();
+        state.begin(target, entry.device.reversing().reversal, cameras);
         if entry.secondary && inherits_viewports(begin) {
             state.inherit_viewports();
         }

@@ -623,13 +623,18 @@ pub(super) unsafe extern "system" fn fake_destroy_device(
     note(unsafe { key_of(device) }, Event::DestroyDevice);
 }
 
-/// A Vulkan 1.3 device: the application above also asks for 1.3, so the flip path is active.
+/// A Vulkan 1.3 device with 128 bytes of push constants: the application above also asks for
+/// 1.3, so the flip path is active.
 unsafe extern "system" fn fake_get_physical_device_properties(
     _: vk::PhysicalDevice,
     properties: *mut vk::PhysicalDeviceProperties,
 ) {
     // SAFETY: revz passes a valid output.
-    unsafe { (*properties).api_version = vk::API_VERSION_1_3 };
+    unsafe {
+        (*properties).api_version = vk::API_VERSION_1_3;
+        // The push-constant space Vulkan guarantees (lavapipe's too).
+        (*properties).limits.max_push_constants_size = 128;
+    }
 }
 
 /// The `independentResolveNone` and `independentResolve` the fake reports, per instance

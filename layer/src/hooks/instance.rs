@@ -220,6 +220,19 @@ unsafe fn resolve_support(
 /// # Safety
 /// `physical_device` must be a live physical device of `instance`.
 unsafe fn device_api_version(instance: &InstanceState, physical_device: vk::PhysicalDevice) -> u32 {
+    // SAFETY: the caller's contract.
+    unsafe { device_properties(instance, physical_device) }.api_version
+}
+
+/// The physical device's properties through the next layer (defaults where it has no
+/// `vkGetPhysicalDeviceProperties`).
+///
+/// # Safety
+/// `physical_device` is a live physical device of `instance`.
+unsafe fn device_properties(
+    instance: &InstanceState,
+    physical_device: vk::PhysicalDevice,
+) -> vk::PhysicalDeviceProperties {
     // SAFETY: querying the next layer for an instance command.
     let found = unsafe {
         (instance.next_get_instance_proc_addr)(
@@ -227,15 +240,18 @@ unsafe fn device_api_version(instance: &InstanceState, physical_device: vk::Phys
             c"vkGetPhysicalDeviceProperties".as_ptr(),
         )
     };
+    let mut properties = vk::PhysicalDeviceProperties {
+        api_version: vk::API_VERSION_1_0,
+        ..Default::default()
+    };
     let Some(found) = found else {
-        return vk::API_VERSION_1_0;
+        return properties;
     };
     // SAFETY: the command has this type.
     let get: vk::PFN_vkGetPhysicalDeviceProperties = unsafe { std::mem::transmute(found) };
-    let mut properties = vk::PhysicalDeviceProperties::default();
     // SAFETY: a live physical device and a valid output.
     unsafe { get(physical_device, &mut properties) };
-    properties.api_version
+    properties
 }
 
 /// Where a device's `vkCmdSetDepthCompareOp` comes from.
@@ -544,7 +560,10 @@ pub unsafe extern "system" fn create_device(
             let commands = unsafe { DeviceCommands::load(gdpa, device, api) };
             let dynamic_compare_op =
                 commands.set_depth_compare_op.is_some() && source != CompareOpSource::Unavailable;
-            let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op);
+            // SAFETY: a live physical device of this instance.
+            let limits = unsafe { device_properties(&instance, physical_device) }.limits;
+            let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op)
+                .with_push_constant_space(limits.max_push_constants_size);
             match source {
                 _ if instance.settings.mode == Mode::Off => {}
                 CompareOpSource::AddedExtension => log::info!(
@@ -581,6 +600,7 @@ pub unsafe extern "system" fn create_device(
                     resolve_support,
                     added_extended_dynamic_state,
                     observed: Default::default(),
+                    cameras: Default::default(),
                     objects: DeviceObjects::default(),
                 },
             );

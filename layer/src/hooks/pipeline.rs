@@ -21,8 +21,9 @@ use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, DepthBias};
 use crate::fragment_depth;
-use crate::objects::{ModuleAnalysis, ReversedFragment};
-use crate::precise::ProjectionUse;
+use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex};
+use crate::precise::{self, Carrier, ProjectionUse};
+use crate::position_store;
 use crate::shader_analysis::{self, Analysis};
 use crate::state::DeviceState;
 use revz_math::DepthConvention;
@@ -139,6 +140,7 @@ fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]
             depth.viewports.clone_from(&library.viewports);
             depth.bias = library.bias;
             depth.projection = library.projection;
+            depth.position_store = library.position_store;
         }
         if library.subsets.contains(Subsets::FRAGMENT_SHADER) {
             depth.compare_op = library.compare_op;
@@ -306,7 +308,7 @@ fn depth_convention(
 fn projection_of(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
-) -> Result<ProjectionUse, String> {
+) -> Result<PreciseStage, String> {
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
     let later = vk::ShaderStageFlags::GEOMETRY
@@ -355,7 +357,62 @@ fn projection_of(
         .pipeline_layouts
         .get(&info.layout)
         .ok_or("its pipeline layout is unknown")?;
-    ProjectionUse::new(slot, convention, &ranges).map_err(|e| e.to_string())
+    let projection = ProjectionUse::new(slot, convention, &ranges).map_err(|e| e.to_string())?;
+    let carrier = state
+        .objects
+        .layout_carriers
+        .get(&info.layout)
+        .ok_or("its pipeline layout has no room for revz's push constants")?;
+    let rewrite = if vertex.module != vk::ShaderModule::null() {
+        state
+            .objects
+            .position_stores
+            .get(&vertex.module)
+            .ok_or("its vertex module has no Position rewrite")?
+    } else {
+        let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
+        position_store_of(state, &analysis, words).ok_or("its vertex shader has no rewrite")?
+    };
+    let code = rewrite
+        .map_err(|reason| format!("its Position store cannot be rewritten ({reason})"))?;
+    let index = stages
+        .iter()
+        .position(|s| s.stage == vk::ShaderStageFlags::VERTEX)
+        .ok_or("it has no vertex stage")?;
+    Ok(PreciseStage {
+        projection,
+        carrier,
+        vertex: (index, code),
+    })
+}
+
+/// What the precise path needs of a pipeline: where its projection is, where revz's carrier
+/// is, and its vertex stage (index) rewritten to store the carrier's depth.
+struct PreciseStage {
+    projection: ProjectionUse,
+    carrier: Carrier,
+    vertex: (usize, Arc<[u32]>),
+}
+
+/// The `Position` rewrite of a vertex module whose analysis found a projection in push
+/// constants (`None` for others: their draws take the flip path anyway).
+fn position_store_of(
+    state: &DeviceState,
+    analysis: &ModuleAnalysis,
+    words: &[u32],
+) -> Option<RewrittenVertex> {
+    let offset = state.policy.carrier_offset?;
+    let entries = analysis.as_ref().ok()?;
+    if !entries
+        .iter()
+        .any(|(_, a)| matches!(a, Analysis::Projection(_)))
+    {
+        return None;
+    }
+    Some(position_store::rewrite_position_store(words, offset).and_then(|code| {
+        code.map(Into::into)
+            .ok_or(position_store::Unsupported("no Position output"))
+    }))
 }
 
 /// What revz does with one create info: the pipeline's depth state for draw time, and the
@@ -372,6 +429,9 @@ struct Plan {
     /// The fragment stage (its index) the reversed variant gets rewritten
     /// (`crate::fragment_depth`).
     fragment: Option<(usize, Arc<[u32]>)>,
+    /// The vertex stage (its index) the reversed variant gets rewritten to store the
+    /// carrier's depth (`crate::position_store`): the precise path.
+    vertex: Option<(usize, Arc<[u32]>)>,
     /// The libraries the create info links, with those that have a reversed variant replaced
     /// by it; `None` when none has one.
     libraries: Option<Vec<vk::Pipeline>>,
@@ -388,7 +448,10 @@ struct Plan {
 impl Plan {
     /// Whether the pipeline gets a variant bound for draws into reversed attachments.
     fn needs_variant(&self) -> bool {
-        self.compare_op_variant || self.fragment.is_some() || self.libraries.is_some()
+        self.compare_op_variant
+            || self.fragment.is_some()
+            || self.vertex.is_some()
+            || self.libraries.is_some()
     }
 }
 
@@ -451,6 +514,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         flip_reason: None,
         compare_op_variant: false,
         fragment: None,
+        vertex: None,
         libraries: None,
         renders_depth: false,
         tested_compare_op: None,
@@ -558,6 +622,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         flip_reason: None,
         compare_op_variant,
         fragment: None,
+        vertex: None,
         libraries: None,
         renders_depth: true,
         tested_compare_op,
@@ -666,9 +731,16 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     let precise = state.policy.rewrite().is_some()
                         && plan.renders_depth
                         && context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
-                    if precise {
+                    if precise && identified {
+                        plan.flip_reason =
+                            Some("its code is not given (identifiers or binaries)".into());
+                    } else if precise {
                         match projection_of(&state, info) {
-                            Ok(projection) => plan.depth.projection = Some(projection),
+                            Ok(stage) => {
+                                plan.depth.projection = Some(stage.projection);
+                                plan.depth.position_store = Some(stage.carrier);
+                                plan.vertex = Some(stage.vertex);
+                            }
                             Err(reason) => plan.flip_reason = Some(reason),
                         }
                     }
@@ -802,6 +874,12 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 if (plan.fragment.is_some() || plan.libraries.is_some()) && variant.is_none() {
                     plan.depth.unreversed_fragment = true;
                 }
+                // Without its variant's rewritten vertex stage, no precise path.
+                if plan.depth.position_store.is_some() && variant.is_none() {
+                    plan.depth.projection = None;
+                    plan.depth.position_store = None;
+                    plan.flip_reason = Some("its reversed variant could not be made".into());
+                }
                 match (&plan.depth.projection, &plan.flip_reason) {
                     (Some(p), _) => log::debug!(
                         "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
@@ -908,6 +986,9 @@ pub unsafe extern "system" fn create_shader_module(
             }
             if state.policy.rewrite().is_some() {
                 let analysis = analyze_vertex_module(module, words);
+                if let Some(rewrite) = position_store_of(&state, &analysis, words) {
+                    state.objects.position_stores.insert(module, rewrite);
+                }
                 state
                     .objects
                     .vertex_modules
@@ -922,7 +1003,7 @@ destroy_hook!(
     destroy_shader_module,
     DESTROY_SHADER_MODULE,
     vk::ShaderModule,
-    fragment_depth_modules | vertex_modules,
+    fragment_depth_modules | vertex_modules | position_stores,
     destroy_shader_module
 );
 
@@ -936,9 +1017,48 @@ pub unsafe extern "system" fn create_pipeline_layout(
     let Some(state) = (unsafe { device_state(device) }) else {
         return vk::Result::ERROR_INITIALIZATION_FAILED;
     };
-    // SAFETY: calling down with the application's arguments.
+    // The carrier's bytes, reserved in every layout where they fit (`crate::precise`).
+    let reserved = guarded(
+        &CREATE_PIPELINE_LAYOUT,
+        || {
+            let offset = state.policy.carrier_offset?;
+            // SAFETY: a valid create info with `pushConstantRangeCount` ranges.
+            let info = unsafe { &*p_create_info };
+            let ranges =
+                unsafe { slice(info.p_push_constant_ranges, info.push_constant_range_count) };
+            match precise::reserve_carrier(ranges, offset) {
+                Ok(reserved) => Some(reserved),
+                Err(reason) => {
+                    static NO_ROOM: AtomicBool = AtomicBool::new(false);
+                    if !NO_ROOM.swap(true, Ordering::Relaxed) {
+                        log::info!(
+                            "a pipeline layout has no room for revz's 16 bytes of push \
+                             constants at offset {offset} ({reason}): its pipelines' draws into \
+                             reversed attachments take the flip path"
+                        );
+                    }
+                    None
+                }
+            }
+        },
+        || None,
+    );
+    let with_carrier = reserved.as_ref().map(|(ranges, _)| {
+        // SAFETY: as above.
+        let info = unsafe { &*p_create_info };
+        vk::PipelineLayoutCreateInfo {
+            push_constant_range_count: ranges.len() as u32,
+            p_push_constant_ranges: ranges.as_ptr(),
+            ..*info
+        }
+    });
+    let p_down = with_carrier
+        .as_ref()
+        .map_or(p_create_info, |info| info as *const _);
+    // SAFETY: calling down with the application's arguments (its push-constant ranges with
+    // revz's carrier reserved).
     let result = unsafe {
-        (state.next.fp_v1_0().create_pipeline_layout)(device, p_create_info, p_allocator, p_layout)
+        (state.next.fp_v1_0().create_pipeline_layout)(device, p_down, p_allocator, p_layout)
     };
     if result == vk::Result::SUCCESS {
         super::record(&CREATE_PIPELINE_LAYOUT, || {
@@ -950,6 +1070,9 @@ pub unsafe extern "system" fn create_pipeline_layout(
             // SAFETY: valid on success.
             let layout = unsafe { *p_layout };
             state.objects.pipeline_layouts.insert(layout, ranges.into());
+            if let Some((_, carrier)) = reserved {
+                state.objects.layout_carriers.insert(layout, carrier);
+            }
         });
     }
     result
@@ -959,7 +1082,7 @@ destroy_hook!(
     destroy_pipeline_layout,
     DESTROY_PIPELINE_LAYOUT,
     vk::PipelineLayout,
-    pipeline_layouts,
+    pipeline_layouts | layout_carriers,
     destroy_pipeline_layout
 );
 
@@ -1032,15 +1155,27 @@ fn create_reversed_variant(
     }
     // SAFETY: `stageCount` stages (the application's contract).
     let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
-    let rewritten = match &plan.fragment {
-        Some((index, code)) => {
-            let Some(rewritten) = rewritten_stage(state, device, &mut stages[*index], code) else {
-                return failed(&"its rewritten fragment stage could not be made");
-            };
-            Some(rewritten)
+    let mut rewritten = Vec::new();
+    for (stage, what) in [(&plan.fragment, "fragment"), (&plan.vertex, "vertex")] {
+        if let Some((index, code)) = stage {
+            match rewritten_stage(state, device, &mut stages[*index], code) {
+                Some(stage) => rewritten.push(stage),
+                None => {
+                    for RewrittenStage { module, .. } in rewritten {
+                        // SAFETY: revz's own module, not used by any pipeline.
+                        unsafe {
+                            (state.next.fp_v1_0().destroy_shader_module)(
+                                device,
+                                module,
+                                std::ptr::null(),
+                            )
+                        };
+                    }
+                    return failed(&format_args!("its rewritten {what} stage could not be made"));
+                }
+            }
         }
-        None => None,
-    };
+    }
     let variant_info = vk::GraphicsPipelineCreateInfo {
         p_next: chain.head(),
         flags: info.flags
@@ -1069,7 +1204,7 @@ fn create_reversed_variant(
             &mut variant,
         )
     };
-    if let Some(RewrittenStage { module, .. }) = rewritten {
+    for RewrittenStage { module, .. } in rewritten {
         // SAFETY: revz's own module; a pipeline no longer needs its modules once created.
         unsafe { (state.next.fp_v1_0().destroy_shader_module)(device, module, std::ptr::null()) };
     }

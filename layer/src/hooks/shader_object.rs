@@ -38,6 +38,7 @@ use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::fragment_depth;
 use crate::objects::FragmentShader;
+use crate::precise;
 use crate::state::DeviceState;
 
 static CREATE_SHADERS: EntryPoint = EntryPoint::new("vkCreateShadersEXT");
@@ -160,7 +161,49 @@ pub unsafe extern "system" fn create_shaders_ext(
         return vk::Result::ERROR_INITIALIZATION_FAILED;
     };
     // SAFETY: `count` create infos.
-    let infos = unsafe { slice(p_create_infos, count) };
+    let app_infos = unsafe { slice(p_create_infos, count) };
+    // Shader objects give their push-constant ranges themselves: they get revz's carrier
+    // reserved as pipeline layouts do (`crate::precise::reserve_carrier`), so that they stay
+    // compatible with the layouts the application pushes with.
+    let reserved: Vec<Option<Vec<vk::PushConstantRange>>> = guarded(
+        &CREATE_SHADERS,
+        || {
+            let Some(offset) = state.policy.carrier_offset else {
+                return Vec::new();
+            };
+            app_infos
+                .iter()
+                .map(|info| {
+                    // SAFETY: `pushConstantRangeCount` ranges (the application's contract).
+                    let ranges = unsafe {
+                        slice(info.p_push_constant_ranges, info.push_constant_range_count)
+                    };
+                    precise::reserve_carrier(ranges, offset)
+                        .ok()
+                        .map(|(ranges, _)| ranges)
+                })
+                .collect()
+        },
+        Vec::new,
+    );
+    let modified: Vec<vk::ShaderCreateInfoEXT<'_>> = app_infos
+        .iter()
+        .enumerate()
+        .map(|(index, info)| match reserved.get(index).and_then(Option::as_ref) {
+            Some(ranges) => vk::ShaderCreateInfoEXT {
+                push_constant_range_count: ranges.len() as u32,
+                p_push_constant_ranges: ranges.as_ptr(),
+                ..*info
+            },
+            None => *info,
+        })
+        .collect();
+    let infos = &modified[..];
+    let p_create_infos = if reserved.is_empty() {
+        p_create_infos
+    } else {
+        modified.as_ptr()
+    };
     // Before the application's call (see the module comment): each create info's variant, or
     // its mark; `None` for shaders revz leaves alone.
     let variants: Vec<Option<FragmentShader>> = guarded(
@@ -180,7 +223,8 @@ pub unsafe extern "system" fn create_shaders_ext(
         },
         Vec::new,
     );
-    // SAFETY: calling down with the application's arguments.
+    // SAFETY: calling down with the application's arguments (push-constant ranges with revz's
+    // carrier reserved).
     let result = unsafe { next(device, count, p_create_infos, p_allocator, p_shaders) };
     super::record(&CREATE_SHADERS, || {
         // Every handle is written on these results (null where creation failed).
