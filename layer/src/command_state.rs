@@ -952,6 +952,7 @@ mod tests {
             handle: vk::Pipeline::null(),
             reversed_variant: None,
             projection: None,
+            position_store: None,
             subsets: vk::GraphicsPipelineLibraryFlagsEXT::empty(),
             module_identifiers: false,
         })
@@ -970,7 +971,11 @@ mod tests {
             ..PipelineDepth::default()
         });
         let mut state = CommandState::default();
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         state.bind_pipeline(Some(Arc::clone(&pipeline)));
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -1008,7 +1013,11 @@ mod tests {
         let variant = vk::ShaderEXT::from_raw(21);
         let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
         let mut state = CommandState::default();
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         state.bind_shaders(fragment);
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -1052,7 +1061,11 @@ mod tests {
         let variant = vk::ShaderEXT::from_raw(31);
         let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
         let mut state = CommandState::default();
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         let mut sink = Recorded::default();
 
         // Unbound (null): nothing to swap.
@@ -1085,7 +1098,11 @@ mod tests {
     #[test]
     fn static_state_is_emitted_flipped_for_a_reversed_target_once() {
         let mut state = CommandState::default();
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         state.bind_pipeline(Some(static_pipeline()));
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -1108,7 +1125,7 @@ mod tests {
     #[test]
     fn native_targets_get_the_application_values_unchanged() {
         let mut state = CommandState::default();
-        state.begin(Target::Native, Reversal::Complementary);
+        state.begin(Target::Native, Reversal::Complementary, Default::default());
         state.bind_pipeline(Some(static_pipeline()));
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -1120,7 +1137,7 @@ mod tests {
     #[test]
     fn application_dynamic_state_is_flipped_and_reemitted_when_the_target_changes() {
         let mut state = CommandState::default();
-        state.begin(Target::None, Reversal::Complementary);
+        state.begin(Target::None, Reversal::Complementary, Default::default());
         state.bind_pipeline(Some(Arc::new(PipelineDepth {
             app_dynamic: States::VIEWPORT | States::COMPARE_OP | States::BOUNDS,
             ..PipelineDepth::default()
@@ -1147,7 +1164,11 @@ mod tests {
     #[test]
     fn only_viewports_the_application_set_are_emitted() {
         let mut state = CommandState::default();
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         state.set_viewports(2, &[viewport(0.0, 0.1)]);
         state.set_viewports(4, &[viewport(0.0, 1.0), viewport(0.25, 0.5)]);
         let mut sink = Recorded::default();
@@ -1161,7 +1182,11 @@ mod tests {
     #[test]
     fn states_the_pipeline_keeps_static_are_not_emitted() {
         let mut state = CommandState::default();
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         state.set_compare_op(vk::CompareOp::LESS);
         state.set_viewports_with_count(&[viewport(0.0, 1.0)]);
         state.bind_pipeline(Some(Arc::new(PipelineDepth {
@@ -1179,7 +1204,7 @@ mod tests {
         // Shader objects, or a pipeline revz could not read: the application's dynamic state
         // must still reach the driver.
         let mut state = CommandState::default();
-        state.begin(Target::Native, Reversal::Complementary);
+        state.begin(Target::Native, Reversal::Complementary, Default::default());
         state.set_compare_op(vk::CompareOp::GREATER);
         state.set_bias(DepthBias {
             constant: 3.0,
@@ -1201,7 +1226,11 @@ mod tests {
             .collect()
     }
 
-    /// A pipeline reading its projection from push-constant bytes 0..64.
+    const APP_PIPELINE: u64 = 8;
+    const STORE_VARIANT: u64 = 9;
+
+    /// A pipeline reading its projection from push-constant bytes 0..64, whose reversed
+    /// variant stores the carrier's depth (carrier at byte 112).
     fn projection_pipeline() -> Arc<PipelineDepth> {
         Arc::new(PipelineDepth {
             projection: Some(ProjectionUse {
@@ -1211,8 +1240,18 @@ mod tests {
                 convention: revz_math::DepthConvention::ZeroToOne,
                 stages: vk::ShaderStageFlags::VERTEX,
             }),
+            position_store: Some(Carrier {
+                offset: 112,
+                stages: vk::ShaderStageFlags::VERTEX,
+            }),
+            handle: vk::Pipeline::from_raw(APP_PIPELINE),
+            reversed_variant: Some(vk::Pipeline::from_raw(STORE_VARIANT)),
             ..(*static_pipeline()).clone()
         })
+    }
+
+    fn layout() -> vk::PipelineLayout {
+        vk::PipelineLayout::from_raw(3)
     }
 
     fn precise(target: RewriteTarget) -> CommandState {
@@ -1227,33 +1266,62 @@ mod tests {
     }
 
     #[test]
-    fn a_rewritten_projection_takes_the_precise_path() {
+    fn a_projection_takes_the_precise_path_through_the_carrier_pushed_once_per_camera() {
         let mut state = precise(RewriteTarget::Complementary);
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         state.bind_pipeline(Some(projection_pipeline()));
-        let mut data = perspective_bytes();
-        let outcome = state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
+        let data = perspective_bytes();
+        let outcome = state.push_constants(layout(), 0, &data);
         assert!(matches!(outcome, Some(Outcome::Rewritten { .. })));
-        assert_ne!(data, perspective_bytes(), "rewritten in place");
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
-        // [0, 1] -> [1 - 1, 1 - 0]: the rewritten projection already reverses.
+        // The application's bytes are never re-sent; only the carrier goes down, and the
+        // variant whose vertex stage reads it is bound.
+        assert_eq!(sink.pushes, vec![(112, 16)]);
+        assert_eq!(sink.binds, vec![vk::Pipeline::from_raw(STORE_VARIANT)]);
+        // [0, 1] -> [1 - 1, 1 - 0]: the rewritten store already reverses.
         assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
         assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
-        assert!(sink.pushes.is_empty(), "nothing left to push");
 
-        // The next object's matrix, pushed the same way: no state to re-emit at its draw.
-        let mut data = perspective_bytes();
-        state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
+        // The next object's matrix of the same camera: nothing to send at its draw.
+        state.push_constants(layout(), 0, &data);
         state.before_draw(&mut sink);
+        assert_eq!(sink.pushes.len(), 1);
         assert_eq!(sink.viewports.len(), 1);
+        // A push with another layout may have disturbed the carrier: it goes down again.
+        state.push_constants(vk::PipelineLayout::from_raw(4), 0, &data);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.pushes, vec![(112, 16), (112, 16)]);
+    }
+
+    #[test]
+    fn without_a_push_layout_the_application_pipeline_draws_with_the_flip_path() {
+        let mut state = precise(RewriteTarget::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
+        state.bind_pipeline(Some(projection_pipeline()));
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip);
+        assert!(sink.pushes.is_empty());
+        assert!(
+            sink.binds.is_empty(),
+            "the application's pipeline stays bound"
+        );
     }
 
     #[test]
     fn viewports_go_down_before_secondaries_run_for_the_flip_path_they_inherit() {
         let mut state = precise(RewriteTarget::Complementary);
-        state.begin(Target::None, Reversal::Complementary);
+        state.begin(Target::None, Reversal::Complementary, Default::default());
         let mut sink = Recorded::default();
         // Nothing set: nothing to send.
         state.flush_viewports_for_secondaries(&mut sink);
@@ -1282,20 +1350,27 @@ mod tests {
     #[test]
     fn a_secondary_inheriting_viewports_takes_the_flip_path_even_with_a_pushed_projection() {
         let mut state = precise(RewriteTarget::Complementary);
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         state.inherit_viewports();
         state.bind_pipeline(Some(projection_pipeline()));
-        let mut data = perspective_bytes();
-        state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
-        assert_eq!(data, perspective_bytes(), "the pushed bytes are left alone");
+        state.push_constants(layout(), 0, &perspective_bytes());
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Flip);
+        // The variant is drawn with the flip carrier: the shader's own z.
+        assert_eq!(sink.pushes, vec![(112, 16)]);
         // A new recording of the same command buffer forgets it.
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         state.bind_pipeline(Some(projection_pipeline()));
-        let mut data = perspective_bytes();
-        state.push_constants(vk::PipelineLayout::null(), 0, &mut data);
+        state.push_constants(layout(), 0, &perspective_bytes());
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
     }
@@ -1303,14 +1378,17 @@ mod tests {
     #[test]
     fn draws_without_a_push_constant_projection_take_the_flip_path() {
         let mut state = precise(RewriteTarget::Complementary);
-        state.begin(Target::Reversed, Reversal::Complementary);
-        state.bind_pipeline(Some(static_pipeline()));
-        let mut data = perspective_bytes();
-        assert_eq!(
-            state.push_constants(vk::PipelineLayout::null(), 0, &mut data),
-            None
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
         );
-        assert_eq!(data, perspective_bytes(), "not this pipeline's projection");
+        state.bind_pipeline(Some(static_pipeline()));
+        assert_eq!(
+            state.push_constants(layout(), 0, &perspective_bytes()),
+            None,
+            "not this pipeline's projection"
+        );
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Flip);
@@ -1318,19 +1396,20 @@ mod tests {
     }
 
     #[test]
-    fn a_projection_pushed_outside_the_render_pass_is_rewritten_at_the_draw() {
+    fn a_projection_pushed_outside_the_render_pass_is_classified_at_the_draw() {
         let mut state = precise(RewriteTarget::Infinite);
-        state.begin(Target::None, Reversal::Infinite { near_over_far: 0.0 });
+        state.begin(
+            Target::None,
+            Reversal::Infinite { near_over_far: 0.0 },
+            Default::default(),
+        );
         state.bind_pipeline(Some(projection_pipeline()));
-        let layout = vk::PipelineLayout::from_raw(3);
-        let mut data = perspective_bytes();
-        state.push_constants(layout, 0, &mut data);
-        assert_eq!(data, perspective_bytes());
+        state.push_constants(layout(), 0, &perspective_bytes());
         state.set_target(Target::Reversed);
         let mut sink = Recorded::default();
         let outcome = state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
-        assert_eq!(sink.pushes, vec![(0, 64)]);
+        assert_eq!(sink.pushes, vec![(112, 16)]);
         // Infinite mode learned n / f = 0.01 from it, for the flip path's state.
         let Some(Outcome::Rewritten { near_over_far, .. }) = outcome else {
             panic!("{outcome:?}");
@@ -1338,23 +1417,27 @@ mod tests {
         assert!((near_over_far - 0.01).abs() < 1e-6);
         assert_eq!(state.reversal(), Reversal::Infinite { near_over_far });
 
-        // A flip-path pipeline in the same pass: the application's bytes go back, and its
-        // viewport maps standard depth to n / w: [0, 1] -> [1, n / f].
+        // A flip-path pipeline in the same pass: nothing pushed, and its viewport maps
+        // standard depth to n / w: [0, 1] -> [1, n / f].
         state.bind_pipeline(Some(static_pipeline()));
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Flip);
-        assert_eq!(sink.pushes, vec![(0, 64), (0, 64)]);
+        assert_eq!(sink.pushes.len(), 1);
         assert_eq!(
             sink.viewports.last(),
             Some(&(0, vec![(1.0, near_over_far)]))
         );
 
-        // Native attachments never see a rewritten byte or a flipped state.
+        // Native attachments never see the variant or a flipped state.
         state.bind_pipeline(Some(projection_pipeline()));
         state.set_target(Target::Native);
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Native);
-        assert_eq!(sink.pushes.len(), 2);
+        assert_eq!(sink.pushes.len(), 1);
+        assert_eq!(
+            sink.binds.last(),
+            Some(&vk::Pipeline::from_raw(STORE_VARIANT))
+        );
         assert_eq!(sink.viewports.last(), Some(&(0, vec![(0.0, 1.0)])));
         assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::LESS));
     }
@@ -1362,7 +1445,11 @@ mod tests {
     #[test]
     fn rebinding_pipelines_with_the_same_state_sends_nothing_again() {
         let mut state = CommandState::default();
-        state.begin(Target::Reversed, Reversal::Complementary);
+        state.begin(
+            Target::Reversed,
+            Reversal::Complementary,
+            Default::default(),
+        );
         let mut sink = Recorded::default();
         for _ in 0..3 {
             state.bind_pipeline(Some(static_pipeline()));

@@ -520,7 +520,11 @@ impl Module {
                     );
                 }
                 if out_vec4.1 {
-                    push(&mut out, OP_TYPE_POINTER, &[out_vec4.0, STORAGE_OUTPUT, vec4]);
+                    push(
+                        &mut out,
+                        OP_TYPE_POINTER,
+                        &[out_vec4.0, STORAGE_OUTPUT, vec4],
+                    );
                 }
                 if let Some(pointer) = new_block {
                     push(&mut out, OP_TYPE_STRUCT, &[push_block, vec4]);
@@ -541,7 +545,11 @@ impl Module {
                 }
                 match position {
                     Position::Variable(_) => {
-                        push(&mut out, OP_VARIABLE, &[out_pointer, output, STORAGE_OUTPUT]);
+                        push(
+                            &mut out,
+                            OP_VARIABLE,
+                            &[out_pointer, output, STORAGE_OUTPUT],
+                        );
                     }
                     Position::Member { .. } => {
                         if new_private_vec4 {
@@ -551,7 +559,11 @@ impl Module {
                                 &[private_vec4, STORAGE_PRIVATE, vec4],
                             );
                         }
-                        push(&mut out, OP_VARIABLE, &[private_vec4, shadow, STORAGE_PRIVATE]);
+                        push(
+                            &mut out,
+                            OP_VARIABLE,
+                            &[private_vec4, shadow, STORAGE_PRIVATE],
+                        );
                     }
                 }
             }
@@ -587,8 +599,7 @@ impl Module {
                     }
                     push(&mut out, opcode, &operands);
                 }
-                (OP_DECORATE, &[target, ref rest @ ..])
-                    if matches!(position, Position::Variable(v) if v == target) =>
+                (OP_DECORATE, &[target, ref rest @ ..]) if matches!(position, Position::Variable(v) if v == target) =>
                 {
                     // Every decoration of the output (BuiltIn, Invariant, ...) moves to the
                     // new output; the built-in one was written above.
@@ -621,9 +632,10 @@ impl Module {
                     current_function = id;
                     push(&mut out, opcode, operands);
                 }
-                (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[ty, result, base, first, ref rest @ ..])
-                    if in_functions && body.redirected.contains(&result) =>
-                {
+                (
+                    OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN,
+                    &[ty, result, base, first, ref rest @ ..],
+                ) if in_functions && body.redirected.contains(&result) => {
                     let pointee = self.pointers.get(&ty).map_or(0, |&(_, p)| p);
                     let private = private_pointers.get(&pointee).map_or(private_vec4, |p| p.0);
                     match position {
@@ -665,7 +677,11 @@ impl Module {
                     push(&mut out, OP_F_MUL, &[float, scaled_w, c_w, w]);
                     push(&mut out, OP_F_ADD, &[float, sum, scaled_z, scaled_w]);
                     push(&mut out, OP_F_ADD, &[float, depth, sum, c_1]);
-                    push(&mut out, OP_COMPOSITE_INSERT, &[vec4, stored, depth, value, 2]);
+                    push(
+                        &mut out,
+                        OP_COMPOSITE_INSERT,
+                        &[vec4, stored, depth, value, 2],
+                    );
                     match member_index {
                         Some((index, _)) => {
                             let pointer = fresh();
@@ -736,15 +752,16 @@ impl Body {
                 (OP_RETURN, _) if module.entry_functions.contains(&current_function) => {
                     body.returns += 1;
                 }
-                (OP_FUNCTION_CALL, &[_, _, callee, ..]) if module.entry_functions.contains(&callee) => {
+                (OP_FUNCTION_CALL, &[_, _, callee, ..])
+                    if module.entry_functions.contains(&callee) =>
+                {
                     // OpFunctionCall of an entry point: its epilogue would run mid-shader.
                     entry_called = true;
                 }
                 (OP_LINE | OP_NO_LINE, _) => {}
-                (
-                    OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN,
-                    &[ty, result, base, first, ..],
-                ) if Some(base) == block.map(|(b, _)| b) => {
+                (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[ty, result, base, first, ..])
+                    if Some(base) == block.map(|(b, _)| b) =>
+                {
                     let (_, member) = block.expect("matched");
                     match module.int_constants.get(&first) {
                         Some(&index) if index == member => {
@@ -777,9 +794,8 @@ impl Body {
                 (OP_COPY_MEMORY, &[target, source, ..])
                     if shadowed.contains(&target) || shadowed.contains(&source) => {}
                 _ => {
-                    let uses = |id: u32| {
-                        shadowed.contains(&id) || block.is_some_and(|(b, _)| b == id)
-                    };
+                    let uses =
+                        |id: u32| shadowed.contains(&id) || block.is_some_and(|(b, _)| b == id);
                     if ids_of().any(uses) {
                         return Err(Unsupported(
                             "Position is used other than by loads, stores and access chains",

@@ -51,7 +51,11 @@ fn assert_carrier(out: &[u32]) {
     let (block, member) = (offsets[0][0], offsets[0][1]);
     let structs = with_opcode(out, OP_TYPE_STRUCT);
     let members = structs.iter().find(|s| s[0] == block).expect("the block");
-    assert_eq!(members.len() - 2, member as usize, "the carrier is the last member");
+    assert_eq!(
+        members.len() - 2,
+        member as usize,
+        "the carrier is the last member"
+    );
 }
 
 #[test]
@@ -71,12 +75,8 @@ fn a_position_variable_becomes_private_and_a_new_output_takes_its_place() {
         .find(|v| v[1] == built_ins[0][0])
         .expect("the new output");
     assert_eq!(output[2], STORAGE_OUTPUT);
-    let privates = |variables: &[Vec<u32>]| {
-        variables
-            .iter()
-            .filter(|v| v[2] == STORAGE_PRIVATE)
-            .count()
-    };
+    let privates =
+        |variables: &[Vec<u32>]| variables.iter().filter(|v| v[2] == STORAGE_PRIVATE).count();
     assert_eq!(
         privates(&variables),
         privates(&with_opcode(&words, OP_VARIABLE)) + 1,
@@ -243,7 +243,10 @@ fn invariant_moves_to_the_new_output() {
         .iter()
         .find(|d| d[1..] == [DECORATION_BUILT_IN, BUILT_IN_POSITION])
         .expect("BuiltIn Position")[0];
-    assert!(decorations.iter().any(|d| d[..] == [built_in, 18]), "Invariant");
+    assert!(
+        decorations.iter().any(|d| d[..] == [built_in, 18]),
+        "Invariant"
+    );
 }
 
 #[test]
@@ -333,7 +336,13 @@ fn what_the_rewrite_does_not_recognise_is_refused() {
 #[test]
 fn modules_without_position_or_not_spirv_are_left_alone() {
     assert_eq!(rewrite_position_store(&[], OFFSET), Ok(None));
-    assert_eq!(rewrite_position_store(&[1, 2, 3, 4, 5, 6], OFFSET), Ok(None));
+    assert_eq!(
+        rewrite_position_store(&[1, 2, 3, 4, 5, 6], OFFSET),
+        Ok(None)
+    );
     let fragment = crate::test_spirv::fragment(crate::test_spirv::PLAIN);
-    assert!(rewrite_position_store(&fragment, OFFSET).is_err(), "a fragment entry point");
+    assert!(
+        rewrite_position_store(&fragment, OFFSET).is_err(),
+        "a fragment entry point"
+    );
 }

@@ -795,9 +795,10 @@ impl Fixture {
         }
         let events = fake_chain::take_events(self.tables.device);
         match kind {
-            // The temporary module of the rewritten code, the variant, the module destroyed,
-            // the application's pipeline; then the variant and the pipeline destroyed.
-            Kind::Pipelines => assert_eq!(events.len(), 6, "{events:#?}"),
+            // The temporary modules of the rewritten fragment and vertex code, the variant,
+            // the modules destroyed, the application's pipeline; then the variant and the
+            // pipeline destroyed.
+            Kind::Pipelines => assert_eq!(events.len(), 8, "{events:#?}"),
             // Each pass clears its depth to 1 - 1.0: the attachment is reversed.
             Kind::CommandBuffers | Kind::CommandPools => {
                 let clears: Vec<&Vec<f32>> = events

@@ -22,8 +22,8 @@ use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, DepthBias};
 use crate::fragment_depth;
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex};
-use crate::precise::{self, Carrier, ProjectionUse};
 use crate::position_store;
+use crate::precise::{self, Carrier, ProjectionUse};
 use crate::shader_analysis::{self, Analysis};
 use crate::state::DeviceState;
 use revz_math::DepthConvention;
@@ -373,8 +373,8 @@ fn projection_of(
         let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
         position_store_of(state, &analysis, words).ok_or("its vertex shader has no rewrite")?
     };
-    let code = rewrite
-        .map_err(|reason| format!("its Position store cannot be rewritten ({reason})"))?;
+    let code =
+        rewrite.map_err(|reason| format!("its Position store cannot be rewritten ({reason})"))?;
     let index = stages
         .iter()
         .position(|s| s.stage == vk::ShaderStageFlags::VERTEX)
@@ -409,10 +409,12 @@ fn position_store_of(
     {
         return None;
     }
-    Some(position_store::rewrite_position_store(words, offset).and_then(|code| {
-        code.map(Into::into)
-            .ok_or(position_store::Unsupported("no Position output"))
-    }))
+    Some(
+        position_store::rewrite_position_store(words, offset).and_then(|code| {
+            code.map(Into::into)
+                .ok_or(position_store::Unsupported("no Position output"))
+        }),
+    )
 }
 
 /// What revz does with one create info: the pipeline's depth state for draw time, and the
@@ -1171,7 +1173,9 @@ fn create_reversed_variant(
                             )
                         };
                     }
-                    return failed(&format_args!("its rewritten {what} stage could not be made"));
+                    return failed(&format_args!(
+                        "its rewritten {what} stage could not be made"
+                    ));
                 }
             }
         }

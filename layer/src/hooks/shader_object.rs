@@ -189,14 +189,16 @@ pub unsafe extern "system" fn create_shaders_ext(
     let modified: Vec<vk::ShaderCreateInfoEXT<'_>> = app_infos
         .iter()
         .enumerate()
-        .map(|(index, info)| match reserved.get(index).and_then(Option::as_ref) {
-            Some(ranges) => vk::ShaderCreateInfoEXT {
-                push_constant_range_count: ranges.len() as u32,
-                p_push_constant_ranges: ranges.as_ptr(),
-                ..*info
+        .map(
+            |(index, info)| match reserved.get(index).and_then(Option::as_ref) {
+                Some(ranges) => vk::ShaderCreateInfoEXT {
+                    push_constant_range_count: ranges.len() as u32,
+                    p_push_constant_ranges: ranges.as_ptr(),
+                    ..*info
+                },
+                None => *info,
             },
-            None => *info,
-        })
+        )
         .collect();
     let infos = &modified[..];
     let p_create_infos = if reserved.is_empty() {
