@@ -397,6 +397,14 @@ impl CommandState {
         };
     }
 
+    /// Takes the device's cameras (which include this recording's): what other recordings
+    /// found serves this one's next draws.
+    pub fn adopt_cameras(&mut self, cameras: Cameras) {
+        self.push.adopt_cameras(cameras);
+        self.cameras_reported = self.push.generation();
+        self.dirty = true;
+    }
+
     /// The cameras this recording has seen, when they changed since last asked (the device
     /// learns them).
     pub fn take_changed_cameras(&mut self) -> Option<Cameras> {

@@ -409,6 +409,13 @@ impl PushConstants {
         &self.cameras
     }
 
+    /// Replaces the cameras by `cameras` (the device's, which include these): a range that
+    /// changes counts as a change.
+    pub fn adopt_cameras(&mut self, cameras: Cameras) {
+        self.cameras = cameras;
+        self.generation += 1;
+    }
+
     /// Counts the changes of [`PushConstants::cameras`] (a camera made, or its range
     /// improved).
     pub fn generation(&self) -> u64 {

@@ -60,7 +60,7 @@
 //! 1 - D ~ 1e-4, stored to 6e-8), on `overlap` by about 2e-5.
 
 use revz_math::precision::{float32_gamma, F32_UNIT_ROUNDOFF};
-use revz_math::{classify, read_clip_transform, DepthConvention, Storage};
+use revz_math::{classify, read_clip_transform, CameraMatch, Cameras, DepthConvention, Storage};
 use revz_tests::{
     compare_depth, differing_depths, differing_pixels, unexplained_color_differences,
     DepthComparison, GroundTruth, Harness, Render, TruthObject,
@@ -183,6 +183,30 @@ fn pushed_range(object: &TruthObject, truth: &GroundTruth) -> (f64, f64) {
     (range.near(), range.far())
 }
 
+/// The visible range the layer uses for each object (in `truth.objects` order, the order
+/// they are drawn in): its camera's (`revz_math::Cameras`), from the best-conditioned matrix
+/// of that camera pushed so far, as the layer classifies them in one recording; an object
+/// whose matrix matches no trusted camera keeps its own.
+fn layer_ranges(truth: &GroundTruth) -> Vec<(f64, f64)> {
+    let convention = if truth.negative_one_to_one {
+        DepthConvention::NegativeOneToOne
+    } else {
+        DepthConvention::ZeroToOne
+    };
+    let mut cameras = Cameras::default();
+    truth
+        .objects
+        .iter()
+        .map(|object| {
+            let m = read_clip_transform(&object.pushed_projection, Storage::ColumnMajor);
+            match cameras.observe(&m, convention) {
+                CameraMatch::Camera { range, .. } => (range.near(), range.far()),
+                _ => pushed_range(object, truth),
+            }
+        })
+        .collect()
+}
+
 /// What the layer is asked to do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Case {
@@ -212,9 +236,15 @@ impl Case {
         }
     }
 
-    /// The reference mapping of an object under this case.
+    /// The reference mapping of an object under this case: its camera's range as the layer
+    /// uses it ([`layer_ranges`]).
     fn mapping(self, object: &TruthObject, truth: &GroundTruth) -> Mapping {
-        let (near, far) = pushed_range(object, truth);
+        let index = truth
+            .objects
+            .iter()
+            .position(|o| std::ptr::eq(o, object))
+            .expect("an object of this ground truth");
+        let (near, far) = layer_ranges(truth)[index];
         match self.mode {
             "infinite" => Mapping::new(Kind::Infinite, near, far),
             _ => Mapping::new(Kind::Complementary, near, far),
@@ -431,7 +461,6 @@ scene_tests! {
     overlap: "overlap";
     projection_only: "projection-only";
     view_projection: "view-projection";
-    model_view_projection_pair: "model-view-projection-pair";
     row_major: "row-major";
     opengl_depth: "opengl-depth";
     push_partial: "push-partial";
@@ -439,6 +468,31 @@ scene_tests! {
     secondary: "secondary";
     dynamic_rendering: "dynamic-rendering";
     shadow_map: "shadow-map";
+}
+
+/// `model-view-projection-pair` pushes 128 bytes, all of lavapipe's push-constant space:
+/// revz's carrier has no room, so its draws take the flip path (logged): the native colors, and
+/// depth 1 - native.
+#[test]
+fn a_full_push_constant_space_takes_the_flip_path() {
+    let harness = Harness::locate();
+    let scene = "model-view-projection-pair";
+    let native = render(&harness, "full", scene, "d32", None);
+    let layered = render(&harness, "full", scene, "d32", Some(COMPLEMENTARY));
+    assert!(
+        layered.stderr().contains("no room for revz's 16 bytes"),
+        "{}",
+        layered.stderr()
+    );
+    assert_eq!(differing_pixels(&native.color(), &layered.color()), 0);
+    let worst = native
+        .depth()
+        .iter()
+        .zip(layered.depth())
+        .map(|(n, f)| ((1.0 - f64::from(*n)) - f64::from(f)).abs())
+        .fold(0.0, f64::max);
+    // One float32 step near 1 (2^-23), and the rounding of 1 - native.
+    assert!(worst <= 1.8e-7, "depth is not 1 - native: {worst:e}");
 }
 
 /// The flip path renders `view-projection` correctly (same colors, depth = 1 - native) but

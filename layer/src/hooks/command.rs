@@ -135,7 +135,7 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
         observe(&entry.device, &outcome);
     }
     if let Some(cameras) = cameras {
-        learn_cameras(&entry.device, &cameras);
+        learn_cameras(entry, &cameras);
     }
 }
 
@@ -196,17 +196,23 @@ fn follow_push(entry: &CommandBufferEntry, layout: vk::PipelineLayout, offset: u
         observe(&entry.device, &outcome);
     }
     if let Some(cameras) = cameras {
-        learn_cameras(&entry.device, &cameras);
+        learn_cameras(entry, &cameras);
     }
 }
 
-/// The device learns the cameras a recording found (a lock only when one changed).
-fn learn_cameras(device: &DeviceState, cameras: &revz_math::Cameras) {
-    device
-        .cameras
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-        .merge(cameras);
+/// The device learns the cameras a recording found, and the recording those other recordings
+/// found (a lock only when a camera changed: rare, not per draw).
+fn learn_cameras(entry: &CommandBufferEntry, cameras: &revz_math::Cameras) {
+    let known = {
+        let mut device = entry
+            .device
+            .cameras
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        device.merge(cameras);
+        device.clone()
+    };
+    entry.state().adopt_cameras(known);
 }
 
 /// `vkCmdPushConstants2` (Vulkan 1.4) and `vkCmdPushConstants2KHR`: followed like
