@@ -9,9 +9,12 @@
 //! through a [`StateSink`], so the logic is tested without a device.
 //!
 //! The draw's path (`shared/DESIGN.md` section 2) is decided here too: a draw into a reversed
-//! attachment whose pipeline reads its projection from push constants, and whose pushed value
-//! was rewritten ([`crate::precise`]), takes the precise path (viewport [a, b] -> [1-b, 1-a]);
-//! every other draw into a reversed attachment takes the flip path.
+//! attachment whose pipeline reads its projection from push constants, whose reversed variant
+//! stores the carrier's depth ([`PipelineDepth::position_store`]), and whose pushed matrix is a
+//! standard perspective of a known camera ([`crate::precise`]), takes the precise path: the
+//! carrier holds the camera's reversed depth line (pushed when it changes) and the viewport maps
+//! [a, b] -> [1-b, 1-a]. Every other draw into a reversed attachment takes the flip path (the
+//! variant, where bound, gets the carrier that keeps the shader's z).
 //!
 //! The fragment stage of a draw that computes with depth is swapped the same way: the bound
 //! pipeline's reversed variant, or the bound fragment shader object's

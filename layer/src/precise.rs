@@ -324,9 +324,10 @@ pub fn classify_projection(
             static UNTRUSTED: std::sync::Once = std::sync::Once::new();
             UNTRUSTED.call_once(|| {
                 log::info!(
-                    "a pushed perspective matrix matches no camera seen so far and its own \
-                     depth row is too rounded to give its near plane: its draws take the flip \
-                     path until a better-conditioned matrix of its camera is pushed"
+                    "a pushed perspective matrix matches no camera seen so far, and its depth \
+                     row, rounded to float32, gives no near plane revz can trust (B lost to \
+                     rounding, or a reversed-looking sign): its draws take the flip path until \
+                     a better-conditioned matrix of its camera is pushed"
                 )
             });
             Outcome::Unchanged
@@ -632,35 +633,45 @@ mod tests {
     }
 
     #[test]
-    fn a_far_matrix_before_its_camera_takes_the_flip_path_and_the_camera_is_kept_across_recordings()
-    {
+    fn a_far_matrix_before_its_camera_gets_the_better_range_once_it_is_seen_and_kept_across_recordings(
+    ) {
         let use_ = column_major_at(0);
         let target = RewriteTarget::Complementary;
         let far = bytes_of(&mvp(DVec3::new(1e6, 0.0, 0.0)));
+        let near = bytes_of(&mvp(DVec3::new(29.0, 19.5, 49.0)));
         let mut push = PushConstants::default();
+        // Alone, the far matrix is a provisional camera (its B has the standard sign) or the
+        // flip path: never a range taken as better than it is.
         push.push(layout(), 0, &far);
-        assert_eq!(push.outcome(&use_, target), Some(Outcome::Unchanged));
-        push.push(layout(), 0, &bytes_of(&mvp(DVec3::ZERO)));
-        assert!(matches!(
+        let first = push.outcome(&use_, target);
+        assert!(
+            matches!(first, Some(Outcome::Unchanged | Outcome::Rewritten { .. })),
+            "{first:?}"
+        );
+        push.push(layout(), 0, &near);
+        let Some(Outcome::Rewritten { carrier, .. }) = push.outcome(&use_, target) else {
+            panic!("the near matrix is rewritten");
+        };
+        assert_ne!(
+            first,
             push.outcome(&use_, target),
-            Some(Outcome::Rewritten { .. })
-        ));
+            "the near range replaced it"
+        );
         push.push(layout(), 0, &far);
-        assert!(matches!(
-            push.outcome(&use_, target),
-            Some(Outcome::Rewritten { .. })
-        ));
+        let far_outcome = push.outcome(&use_, target);
+        assert!(
+            matches!(far_outcome, Some(Outcome::Rewritten { carrier: c, .. }) if c == carrier),
+            "the far matrix gets the near one's range: {far_outcome:?}"
+        );
         // The next recording starts with the cameras learned.
         let mut next = PushConstants::with_cameras(push.cameras().clone());
         next.push(layout(), 0, &far);
-        assert!(matches!(
-            next.outcome(&use_, target),
-            Some(Outcome::Rewritten { .. })
-        ));
+        assert_eq!(next.outcome(&use_, target), far_outcome);
         next.invalidate();
         next.push(layout(), 0, &far);
-        assert!(
-            matches!(next.outcome(&use_, target), Some(Outcome::Rewritten { .. })),
+        assert_eq!(
+            next.outcome(&use_, target),
+            far_outcome,
             "invalidation forgets the values, not the cameras"
         );
     }

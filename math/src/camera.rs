@@ -77,11 +77,23 @@
 //!
 //! # Trust
 //!
-//! A line is trusted alone when `b_error / |B| <= TRUSTED_B_ERROR` (see the constant), and only
-//! a trusted line with a valid visible range starts a camera or becomes its best line. An
-//! untrusted line (a far object, B lost to rounding, even B = 0) is still matched against the
-//! known cameras: the true (k, B) lies within the error bounds of both lines, so a line of the
-//! camera agrees with the camera's best line however large its own error.
+//! A line is trusted alone when `b_error / |B| <= TRUSTED_B_ERROR` (see the constant). A line
+//! matching no camera starts one when its computed range is valid and either it is trusted or
+//! its direction is standard; a matching line becomes the camera's line when its relative error
+//! is smaller. Any line (a far object, B lost to rounding, even B = 0) is matched against the
+//! known cameras first: the true (k, B) lies within the error bounds of both lines, so a line of
+//! the camera agrees with the camera's best line however large its own error.
+//!
+//! Why untrusted standard lines start (provisional) cameras: some applications push no matrix
+//! from which n can be had at all. `mars-patch` pushes one P * V built around a world origin
+//! 3390 km away, where float32 cannot hold B (0.2) next to `r2.w` (3.4e6, ulp 0.25). All its
+//! draws share that line, so any n of the right sign stores consistent depths (n only scales
+//! them, and moves the near clip plane by the same fraction); refusing it would send them to
+//! the flip path and its standard-depth errors (3 % wrong pixels instead of none). What needs
+//! trust is what a wrong sign would break: a line that looks reversed (B > 0 from rounding)
+//! never makes a reversed camera unless it is trusted (the application's convention is
+//! decided from reversed projections), and B = 0 gives no range: both are
+//! [`CameraMatch::Untrusted`], and their draws take the flip path.
 //!
 //! Hot-path use: fixed-size storage, no allocation, no panics.
 
@@ -97,21 +109,29 @@ use crate::range::{DepthCoefficients, DepthConvention, DepthDirection, VisibleRa
 /// that with room to spare while a linear scan stays cheaper than hashing.
 pub const MAX_CAMERAS: usize = 8;
 
-/// Largest relative error of B (`b_error / |B|`) for a line to be trusted alone: 1e-3.
+/// Largest relative error bound of B (`b_error / |B|`) for a line to be trusted alone: 0.5.
 ///
-/// Where it comes from:
+/// Where it comes from (changed from 1e-3 once the layer used it on the tester's scenes):
 ///
-/// - The near plane `n = B / (d_n - k)` then is within 0.1 % (plus `k_error / |d_n - k|`, about
-///   8u): the near clip plane moves by 0.1 % of n, and the reversed depth of every matrix of the
-///   camera is scaled by the same factor, which keeps their order. Invisible.
-/// - Cameras whose n differ by 1 % stay apart: two trusted lines agree only when their B differ
-///   by at most 0.2 % (and their k within the k errors, which are about 1e-6).
-/// - It decides which objects can start a camera. For a once-rounded [0, 1] matrix, `|B| = k n`
-///   and `b_error` is about `24u k d`, so `b_error / |B|` is about `1.4e-6 d / n`: objects
-///   within about 700 n of the camera are trusted (in `deep-range`, the cells at 10 n and
-///   100 n), all farther ones borrow the camera's range. A smaller threshold would leave only
-///   the very nearest objects to start a camera, a larger one would let 1 % cameras merge.
-pub const TRUSTED_B_ERROR: f64 = 1e-3;
+/// - What an error in B does. The camera's range only sets the scale of its reversed depths
+///   (`n / w`, or complementary) and where its near clip plane is: every matrix of the camera
+///   gets the same range, so their order, and so every depth test between them, is kept. An
+///   error of B moves the near clip plane by the same fraction of n and scales the depths
+///   uniformly: nothing else. What must never happen is a sign error (B = 0 or the wrong
+///   direction), which `b_error / |B| <= 0.5` rules out with room: B is then within a factor
+///   of 1.5 by the bound, and the bound is pessimistic (measured errors are 0.1 to 0.3 of it).
+/// - Who must be able to start a camera. For a once-rounded [0, 1] matrix, `|B| = k n` and
+///   `b_error` is about `24u k d`, so `b_error / |B|` is about `1.4e-6 d / n`. With 1e-3 only
+///   objects within 700 n could, and scenes whose every matrix is a P * V seen from far away
+///   (`sloped-plane`: the camera 1.1e5 n from the origin its one matrix is built around) never
+///   had a camera, so their draws lost the precise path. With 0.5 objects within about
+///   3.6e5 n can; farther ones (B lost to rounding: the `deep-range` cells beyond 1e5 n) still
+///   borrow the camera's range, and a better line replaces a camera's as soon as one is seen.
+/// - Cameras stay apart by k first (k errors are about 1e-6 relative; k = f / (f - n) differs
+///   between cameras unless their f / n agree), then by B within both lines' bounds: two
+///   cameras of the same f / n whose n differ by less than the sum of their lines' bounds are
+///   one camera until a better line separates them.
+pub const TRUSTED_B_ERROR: f64 = 0.5;
 
 /// Multiple of u in the rounding terms of the bounds (module docs: 4 times the once-rounded
 /// 2u, for float32 products).
@@ -267,11 +287,12 @@ impl Cameras {
     pub fn observe_line(&mut self, line: DepthLine, convention: DepthConvention) -> CameraMatch {
         self.clock = self.clock.wrapping_add(1);
         // A line's (direction, range), where it may become a camera's line.
+        // Untrusted lines of the standard direction are stored too, provisionally (module
+        // docs, "Trust"): a better line replaces them as soon as one is seen.
         let storable = |line: &DepthLine| {
-            if !line.is_trusted() {
-                return None;
-            }
-            line.coefficients().visible_range(convention).ok()
+            let (direction, range) = line.coefficients().visible_range(convention).ok()?;
+            (line.is_trusted() || direction == DepthDirection::Standard)
+                .then_some((direction, range))
         };
         if let Some(index) = self.matching(&line, convention) {
             let clock = self.clock;

@@ -313,7 +313,13 @@ pub fn mutate_spirv(rng: &mut Rng, corpus: &[Vec<u8>], input: &mut Vec<u8>) {
 
 pub static VERTEX_PROJECTIONS: Counter = Counter::new("projections found");
 pub static VERTEX_PARSED: Counter = Counter::new("parsed by naga");
-pub static VERTEX_COUNTERS: &[&Counter] = &[&VERTEX_PROJECTIONS, &VERTEX_PARSED];
+pub static VERTEX_STORES_VALIDATED: Counter =
+    Counter::new("Position rewrites of valid modules validated");
+pub static VERTEX_COUNTERS: &[&Counter] = &[
+    &VERTEX_PROJECTIONS,
+    &VERTEX_PARSED,
+    &VERTEX_STORES_VALIDATED,
+];
 
 /// A message's shape for the outcome hash: its words without numbers.
 fn shape(message: &str) -> String {
@@ -383,6 +389,21 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
             ));
         }
     }
+    // The Position rewrite never panics, and what it returns passes spirv-val wherever the
+    // module does.
+    let stored = match crate::position_store::rewrite_position_store(&words, 112) {
+        Ok(Some(out)) => {
+            if validates(&words).is_ok() {
+                if let Err(message) = validates(&out) {
+                    return Err(format!("the Position rewrite of a valid module: {message}"));
+                }
+                VERTEX_STORES_VALIDATED.add();
+            }
+            "rewritten".to_owned()
+        }
+        Ok(None) => "unchanged".to_owned(),
+        Err(reason) => reason.0.to_owned(),
+    };
     let entries_shape = match &entries {
         Ok(list) => list
             .iter()
@@ -391,7 +412,12 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
             .join(","),
         Err(message) => shape(message),
     };
-    Ok(hash_of(&(has, analysis_shape(&main), entries_shape)))
+    Ok(hash_of(&(
+        has,
+        analysis_shape(&main),
+        entries_shape,
+        stored,
+    )))
 }
 
 pub fn vertex_target() -> Target {
