@@ -99,6 +99,12 @@ enum Kind {
 
 impl Mapping {
     fn new(kind: Kind, near: f64, far: f64) -> Mapping {
+        // Complementary Z of a range without a far plane is infinite reversed Z.
+        let kind = if kind == Kind::Complementary && far.is_infinite() {
+            Kind::Infinite
+        } else {
+            kind
+        };
         let (k, b) = match kind {
             Kind::Standard => (far / (far - near), -far * near / (far - near)),
             Kind::Complementary => (-near / (far - near), far * near / (far - near)),
@@ -570,4 +576,97 @@ fn already_reversed_is_left_alone() {
         }
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// Issue #14's promise for objects far from the camera, each with its own P * V * M: in
+/// `infinite` on D32 the depth stored is the camera's n / w within 4 float32 ulps at every
+/// decade of distance (n the camera's, as the layer takes it from its best-conditioned matrix,
+/// [`layer_ranges`]; that n is within the bound of that matrix of the scene's own), where each
+/// object's own float32 depth row would give n / w off by up to 2 % at 1e3 n and nothing
+/// beyond 1e5 n. Every decade must have interior pixels.
+fn stores_the_cameras_n_over_w(scene: &str, decades: &[f64]) {
+    let harness = Harness::locate();
+    let native = render(&harness, "decades", scene, "d32", None);
+    let truth = native.ground_truth();
+    let layered = render(&harness, "decades", scene, "d32", Some(INFINITE));
+    let ranges = layer_ranges(&truth);
+    let near = ranges[0].0;
+    assert!(
+        ranges.iter().all(|&(n, _)| n == near),
+        "{scene}: one camera, one near plane: {ranges:?}"
+    );
+    assert!(
+        (near / truth.near - 1.0).abs() < 1e-4,
+        "{scene}: the camera's n {near} is not the scene's {}",
+        truth.near
+    );
+    let mut per_decade = vec![0usize; decades.len()];
+    let mut worst_ulps = vec![0.0f64; decades.len()];
+    let depth = layered.depth();
+    let comparison = compare_depth(&depth, &truth, |_, w| {
+        let reference = near / w;
+        per_decade[decade_of(decades, w)] += 1;
+        (
+            reference,
+            4.0 * revz_math::precision::float32_ulp(reference),
+        )
+    });
+    for (&stored, &w) in depth.iter().zip(&truth.w).filter(|(_, w)| w.is_finite()) {
+        let reference = near / w;
+        let decade = decade_of(decades, w);
+        let ulps =
+            (f64::from(stored) - reference).abs() / revz_math::precision::float32_ulp(reference);
+        worst_ulps[decade] = worst_ulps[decade].max(ulps);
+    }
+    eprintln!("{scene}: worst ulps per decade {worst_ulps:.2?}, pixels {per_decade:?}");
+    assert!(
+        per_decade.iter().all(|&count| count > 0),
+        "{scene}: a decade without interior pixels: {per_decade:?}"
+    );
+    assert_eq!(
+        comparison.failures,
+        0,
+        "{}",
+        describe(&format!("{scene} n/w within 4 ulp"), &comparison)
+    );
+}
+
+/// The index of the decade of `decades` (view distances, ascending) that `w` belongs to.
+fn decade_of(decades: &[f64], w: f64) -> usize {
+    decades
+        .iter()
+        .rposition(|&d| w >= 0.5 * d)
+        .unwrap_or_default()
+}
+
+#[test]
+fn deep_range_stores_the_cameras_n_over_w_at_every_decade() {
+    stores_the_cameras_n_over_w(
+        "deep-range",
+        &[1e-2, 1e-1, 1.0, 10.0, 1e2, 1e3, 1e4, 1e5, 1e6],
+    );
+}
+
+/// `deep-range` on the precise path: the reversed mapping of the camera's range within the
+/// float32 floor at every interior pixel, in both precise modes (`complementary` stores the
+/// complementary depth of the camera's range; its float32 k rounds to 1, so that range's far
+/// plane is at infinity and the two modes agree). Colors are not compared with the native
+/// render here: natively the application's own rounded matrices clip the cells beyond 1e4 n
+/// (conformance checks every pixel against the ground truth instead: none wrong).
+#[test]
+fn deep_range_meets_the_float32_floor() {
+    let harness = Harness::locate();
+    let scene = "deep-range";
+    let native = render(&harness, "floor", scene, "d32", None);
+    let truth = native.ground_truth();
+    for case in [COMPLEMENTARY, INFINITE] {
+        let layered = render(&harness, "floor", scene, "d32", Some(case));
+        let comparison = compare(&layered, &truth, "d32", |o| case.mapping(o, &truth));
+        eprintln!("{}", describe(&case.label(), &comparison));
+        assert!(
+            comparison.holds(),
+            "{}",
+            describe(&case.label(), &comparison)
+        );
+    }
 }
