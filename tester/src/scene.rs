@@ -109,6 +109,9 @@ pub enum SceneId {
     DeepRange,
     /// Accuracy: coplanar decals held in front of their walls by depth bias alone.
     DecalBias,
+    /// Accuracy: boxes from 10 n to 1e6 n, each with its own P * V * M, touching and
+    /// intersecting pairs drawn with different matrices; camera far from the origin.
+    FarObjects,
 }
 
 impl SceneId {

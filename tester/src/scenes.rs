@@ -124,6 +124,7 @@ pub const CATALOG: &[Entry] = &[
     entry_row(SceneId::PlaneStack, "plane-stack", accuracy::plane_stack),
     entry_row(SceneId::DeepRange, "deep-range", accuracy::deep_range),
     entry_row(SceneId::DecalBias, "decal-bias", accuracy::decal_bias),
+    entry_row(SceneId::FarObjects, "far-objects", accuracy::far_objects),
 ];
 
 const fn entry_row(id: SceneId, name: &'static str, build: fn() -> Scene) -> Entry {
@@ -1871,13 +1872,14 @@ mod tests {
     }
 
     /// The accuracy scenes (issue #6): many objects, and checked by `crate::accuracy`.
-    const ACCURACY: [&str; 6] = [
+    const ACCURACY: [&str; 7] = [
         "sloped-plane",
         "mars-patch",
         "tori",
         "plane-stack",
         "deep-range",
         "decal-bias",
+        "far-objects",
     ];
 
     /// A margin well above the depth resolution of every format (D16: 1.5e-5).
@@ -2558,6 +2560,7 @@ mod tests {
                 "tori",
                 "plane-stack",
                 "deep-range",
+                "far-objects",
             ]
         );
         for scene in all() {
