@@ -106,15 +106,15 @@ pub const W_FILE: &str = "expected-w.f64";
 pub const ID_FILE: &str = "expected-id.u16";
 
 /// Why a scene has no ground truth (its first rule broken), or the objects drawn into the main
-/// target with the program of their first draw there.
-pub fn applies(scene: &Scene) -> Result<Vec<(usize, Program)>, String> {
+/// target with the program of their first draw there and whether that draw culls back faces.
+pub fn applies(scene: &Scene) -> Result<Vec<(usize, Program, bool)>, String> {
     let projection = scene.camera.projection;
     let (compare, clear) = match projection {
         Projection::Reversed => (Compare::Greater, 0.0),
         Projection::Standard | Projection::OpenGl => (Compare::Less, 1.0),
     };
     let plan = &scene.plan;
-    let mut drawn: Vec<(usize, Program)> = Vec::new();
+    let mut drawn: Vec<(usize, Program, bool)> = Vec::new();
     let mut main_passes = 0;
     let mut in_main = false;
     let mut pipeline = None;
@@ -162,8 +162,8 @@ pub fn applies(scene: &Scene) -> Result<Vec<(usize, Program)>, String> {
                 if !usual {
                     return Err(format!("pipeline {} does more than {compare:?}", spec.name));
                 }
-                if !drawn.iter().any(|(o, _)| o == n) {
-                    drawn.push((*n, spec.program));
+                if !drawn.iter().any(|(o, _, _)| o == n) {
+                    drawn.push((*n, spec.program, spec.cull_back_faces));
                 }
             }
             Step::SetViewport {
@@ -198,13 +198,13 @@ pub fn compute(
     let aspect = f64::from(width) / f64::from(height);
     let mut triangles = Vec::new();
     let mut objects = Vec::new();
-    for &(n, program) in &drawn {
+    for &(n, program, cull) in &drawn {
         let object = &scene.objects[n];
         let id = object_id(n)?;
         let mvp = scene.mvp_in(View::Camera, object, aspect);
         let positions = scene.vertex_positions(object);
         let clip: Vec<DVec4> = positions.iter().map(|p| mvp * p.extend(1.0)).collect();
-        push_triangles(&mut triangles, id, object, &clip)?;
+        push_triangles(&mut triangles, id, object, &clip, cull)?;
         let stages = scene.matrix_stages(program, View::Camera, object, aspect);
         objects.push(ObjectReport {
             id,
@@ -272,7 +272,7 @@ pub fn compute_ids(scene: &Scene, width: u32, height: u32) -> Result<GroundTruth
     }
     let aspect = f64::from(width) / f64::from(height);
     let mut triangles = Vec::new();
-    for &(n, _) in &drawn {
+    for &(n, _, cull) in &drawn {
         let object = &plain.objects[n];
         let id = object_id(n)?;
         let mvp = plain.mvp_in(View::Camera, object, aspect);
@@ -283,7 +283,7 @@ pub fn compute_ids(scene: &Scene, width: u32, height: u32) -> Result<GroundTruth
             .iter()
             .map(|p| mvp * p.extend(1.0) * scale)
             .collect();
-        push_triangles(&mut triangles, id, object, &clip)?;
+        push_triangles(&mut triangles, id, object, &clip, cull)?;
     }
     Ok(rasterize(&triangles, width, height))
 }
@@ -296,13 +296,14 @@ fn object_id(n: usize) -> Result<u16, String> {
         .ok_or_else(|| "too many objects".to_owned())
 }
 
-/// Appends `object`'s triangles, from its vertices in clip space `clip`; every vertex must be
-/// in front of the eye (no clipping is modeled).
+/// Appends `object`'s triangles, from its vertices in clip space `clip`, without the back-facing
+/// ones when `cull` is set; every vertex must be in front of the eye (no clipping is modeled).
 fn push_triangles(
     triangles: &mut Vec<ClipTriangle>,
     id: u16,
     object: &Object,
     clip: &[DVec4],
+    cull: bool,
 ) -> Result<(), String> {
     for t in object.mesh.indices.chunks_exact(3) {
         let corners = [
@@ -313,9 +314,21 @@ fn push_triangles(
         if corners.iter().any(|c| c.w <= 0.0) {
             return Err(format!("{}: a vertex behind the eye", object.name));
         }
+        if cull && !front_facing(&corners) {
+            continue;
+        }
         triangles.push(ClipTriangle { id, corners });
     }
     Ok(())
+}
+
+/// Whether a triangle (w > 0 at its corners) is front-facing for `VK_FRONT_FACE_COUNTER_CLOCKWISE`:
+/// Vulkan's area `a = -1/2 sum(x_i y_(i+1) - x_(i+1) y_i)` in framebuffer coordinates (NDC
+/// scaled by positive factors: the same sign) is positive. Zero-area triangles are back-facing.
+pub fn front_facing(corners: &[DVec4; 3]) -> bool {
+    let [(x0, y0), (x1, y1), (x2, y2)] = corners.map(|c| (c.x / c.w, c.y / c.w));
+    let twice_shoelace = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+    -twice_shoelace > 0.0
 }
 
 /// [`ObjectReport::w_condition`] of the matrix chain `stages` (outermost first, each applied
@@ -614,6 +627,27 @@ mod tests {
         .projection(1.5);
         assert_eq!(ours.row(2), gl.row(2));
         assert_eq!(ours.row(1), -gl.row(1));
+    }
+
+    #[test]
+    fn culling_keeps_what_faces_the_eye() {
+        // The quads of these tests wind counter-clockwise seen from the eye (the y-up view
+        // space): front-facing through the y-down projection; wound the other way, back-facing.
+        let camera = camera();
+        let p = camera.projection(1.0);
+        let corners = [
+            DVec3::new(-1.0, -1.0, -4.0),
+            DVec3::new(1.0, -1.0, -4.0),
+            DVec3::new(1.0, 1.0, -4.0),
+            DVec3::new(-1.0, 1.0, -4.0),
+        ];
+        for triangle in quad(0, &p, corners) {
+            assert!(front_facing(&triangle.corners));
+            let [a, b, c] = triangle.corners;
+            assert!(!front_facing(&[a, c, b]));
+            // Zero area: back-facing, as Vulkan says.
+            assert!(!front_facing(&[a, a, b]));
+        }
     }
 
     #[test]

@@ -498,10 +498,11 @@ fn library_of(state: vk::DynamicState) -> vk::GraphicsPipelineLibraryFlagsEXT {
     }
 }
 
-/// Creates the pipeline of `spec`: vec3 positions, triangle lists, no culling, the viewport
-/// covering the target, and the spec's depth, stencil, bias, bounds and dynamic state; with
-/// [`PipelineSpec::libraries`], from four `VK_EXT_graphics_pipeline_library` libraries (each
-/// with its share of the same state) linked into the pipeline returned.
+/// Creates the pipeline of `spec`: vec3 positions, triangle lists, back faces culled where the
+/// spec says so, the viewport covering the target, and the spec's depth, stencil, bias, bounds
+/// and dynamic state; with [`PipelineSpec::libraries`], from four
+/// `VK_EXT_graphics_pipeline_library` libraries (each with its share of the same state) linked
+/// into the pipeline returned.
 pub fn create_pipeline(
     device: &ash::Device,
     spec: &PipelineSpec,
@@ -518,6 +519,7 @@ pub fn create_pipeline(
         Program::RowMajor => (shaders::ROW_MAJOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),
+        Program::LitMvp => (shaders::LIT_MVP_VERT, Some(shaders::LIT_MVP_FRAG)),
     };
     let vert = ShaderModule::new(device, &vertex)?;
     let frag = fragment
@@ -566,7 +568,11 @@ pub fn create_pipeline(
     }
     let mut rasterization = vk::PipelineRasterizationStateCreateInfo::default()
         .polygon_mode(vk::PolygonMode::FILL)
-        .cull_mode(vk::CullModeFlags::NONE)
+        .cull_mode(if spec.cull_back_faces {
+            vk::CullModeFlags::BACK
+        } else {
+            vk::CullModeFlags::NONE
+        })
         .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
         .line_width(1.0);
     match spec.bias {

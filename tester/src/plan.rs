@@ -174,6 +174,12 @@ pub enum Program {
     /// guaranteed maximum), `view_proj * (model * position)`; the flat color comes from a
     /// uniform buffer indexed by the object.
     MvpPair,
+    /// `lit_mvp.vert|frag`: the push constants of [`Program::Flat`] (`{ mat4 mvp; vec4 color }`,
+    /// 80 bytes), and the clip position `pos = mvp * position` used for lighting too: the view
+    /// vector `-pos.xyz`, the face normal from its screen-space derivatives, a fixed light,
+    /// diffuse and specular on top of the color. A change of the pushed matrix's depth row
+    /// changes the shading.
+    LitMvp,
 }
 
 impl Program {
@@ -189,7 +195,8 @@ impl Program {
             | Program::FragDepth
             | Program::ShadowReceiver
             | Program::RowMajor
-            | Program::RowVector => 80,
+            | Program::RowVector
+            | Program::LitMvp => 80,
         }
     }
 
@@ -241,6 +248,11 @@ pub struct PipelineSpec {
     /// same state, linked into the pipeline that is bound. `false`: one ordinary
     /// `vkCreateGraphicsPipelines` call. Both give the same pipeline.
     pub libraries: bool,
+    /// `cullMode = BACK` (front faces counter-clockwise in framebuffer coordinates: the
+    /// outside of the meshes, which wind counter-clockwise seen from outside in the y-up world
+    /// and are mirrored by the y-down projection), as lit applications draw closed meshes; the
+    /// ground truth culls the same triangles. `false`: no culling.
+    pub cull_back_faces: bool,
 }
 
 impl PipelineSpec {
@@ -261,6 +273,7 @@ impl PipelineSpec {
             viewport: Viewport::FULL,
             negative_one_to_one: false,
             libraries: false,
+            cull_back_faces: false,
         }
     }
 }

@@ -337,7 +337,8 @@ impl<'a> Renderer<'a> {
             | Program::DepthOnly
             | Program::FragDepth
             | Program::RowMajor
-            | Program::RowVector => (self.plain_layout, PLAIN_PUSH_STAGES),
+            | Program::RowVector
+            | Program::LitMvp => (self.plain_layout, PLAIN_PUSH_STAGES),
         }
     }
 

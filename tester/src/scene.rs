@@ -94,6 +94,9 @@ pub enum SceneId {
     PushPartial,
     /// The overlap scene recorded on four threads into secondaries.
     Threads,
+    /// Lit boxes: the pushed MVP also feeds the lighting (view vector, face normal, specular),
+    /// so a changed depth row changes the colors.
+    LitMvp,
     /// Accuracy: seed 001's red mesh over a green plane, half parallel, half sloping down.
     SlopedPlane,
     /// Accuracy: seed 001's terrain patch 600 m over Mars, seen from 10 km, world coordinates.
@@ -106,6 +109,9 @@ pub enum SceneId {
     DeepRange,
     /// Accuracy: coplanar decals held in front of their walls by depth bias alone.
     DecalBias,
+    /// Accuracy: boxes from 10 n to 1e6 n, each with its own P * V * M, touching and
+    /// intersecting pairs drawn with different matrices; camera far from the origin.
+    FarObjects,
 }
 
 impl SceneId {
@@ -592,7 +598,7 @@ impl Scene {
     /// The push constants of `object` drawn with `program` in `view`, every value rounded once
     /// from f64 to f32 ([`Program::push_constant_size`] bytes):
     /// - [`Program::Flat`], [`Program::DepthOnly`], [`Program::FragDepth`],
-    ///   [`Program::ShadowReceiver`]: the clip transform ([`Scene::mvp_in`]) column-major at
+    ///   [`Program::ShadowReceiver`], [`Program::LitMvp`]: the clip transform ([`Scene::mvp_in`]) column-major at
     ///   0, the RGBA color at 64;
     /// - [`Program::RowMajor`], [`Program::RowVector`]: the same transform row-major (its
     ///   transpose column-major) at 0, the color at 64;
@@ -607,7 +613,11 @@ impl Scene {
     ) -> Vec<u8> {
         let mvp = self.mvp_in(view, object, aspect);
         let values: Vec<f32> = match program {
-            Program::Flat | Program::DepthOnly | Program::FragDepth | Program::ShadowReceiver => {
+            Program::Flat
+            | Program::DepthOnly
+            | Program::FragDepth
+            | Program::ShadowReceiver
+            | Program::LitMvp => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

@@ -117,12 +117,14 @@ pub const CATALOG: &[Entry] = &[
     ),
     entry_row(SceneId::PushPartial, "push-partial", push_partial),
     entry_row(SceneId::Threads, "threads", threads),
+    entry_row(SceneId::LitMvp, "lit-mvp", lit_mvp),
     entry_row(SceneId::SlopedPlane, "sloped-plane", accuracy::sloped_plane),
     entry_row(SceneId::MarsPatch, "mars-patch", accuracy::mars_patch),
     entry_row(SceneId::Tori, "tori", accuracy::tori),
     entry_row(SceneId::PlaneStack, "plane-stack", accuracy::plane_stack),
     entry_row(SceneId::DeepRange, "deep-range", accuracy::deep_range),
     entry_row(SceneId::DecalBias, "decal-bias", accuracy::decal_bias),
+    entry_row(SceneId::FarObjects, "far-objects", accuracy::far_objects),
 ];
 
 const fn entry_row(id: SceneId, name: &'static str, build: fn() -> Scene) -> Entry {
@@ -1671,6 +1673,126 @@ pub fn threads() -> Scene {
 /// The recording threads of `threads`.
 pub const THREADS: usize = 4;
 
+/// The camera of `lit-mvp`: eye (0.6, 2.1, 7.4) looking at (-0.2, 1.0, -4.0), 45 degrees,
+/// near 0.1, far 100.
+pub fn lit_camera() -> Camera {
+    Camera {
+        eye: DVec3::new(0.6, 2.1, 7.4),
+        target: DVec3::new(-0.2, 1.0, -4.0),
+        ..overlap_camera()
+    }
+}
+
+/// One box of `lit-mvp`.
+struct LitBox {
+    name: &'static str,
+    /// Half extents.
+    half: [f64; 3],
+    /// NDC center (x, y) at aspect 1 (y down).
+    at: [f64; 2],
+    /// View distance w of the center.
+    distance: f64,
+    /// (yaw, pitch, roll), radians, in the camera's frame.
+    turn: [f64; 3],
+    color: [u8; 3],
+}
+
+/// The boxes of `lit-mvp`. Their view-distance ranges are disjoint with margins of 4 % and
+/// more (checked by a unit test); the wall fills the whole image behind them.
+const LIT_BOXES: [LitBox; 6] = [
+    LitBox {
+        name: "red box",
+        half: [0.45, 0.35, 0.4],
+        at: [-0.45, 0.3],
+        distance: 4.0,
+        turn: [0.6, 0.35, 0.0],
+        color: [200, 70, 60],
+    },
+    LitBox {
+        name: "green box",
+        half: [0.7, 0.55, 0.6],
+        at: [0.4, 0.25],
+        distance: 6.3,
+        turn: [-0.5, 0.2, 0.3],
+        color: [70, 170, 80],
+    },
+    LitBox {
+        name: "blue slab",
+        half: [1.3, 0.45, 0.8],
+        at: [-0.1, -0.3],
+        distance: 9.4,
+        turn: [0.3, -0.4, 0.15],
+        color: [70, 100, 210],
+    },
+    LitBox {
+        name: "yellow cube",
+        half: [1.1, 1.1, 1.1],
+        at: [0.5, -0.45],
+        distance: 13.8,
+        turn: [0.8, 0.5, -0.2],
+        color: [210, 180, 60],
+    },
+    LitBox {
+        name: "cyan tower",
+        half: [1.4, 2.0, 1.0],
+        at: [-0.55, -0.4],
+        distance: 19.0,
+        turn: [-0.7, 0.1, 0.25],
+        color: [60, 180, 190],
+    },
+    LitBox {
+        name: "wall",
+        half: [20.0, 14.0, 0.5],
+        at: [0.0, 0.0],
+        distance: 28.0,
+        turn: [0.15, -0.1, 0.0],
+        color: [150, 140, 130],
+    },
+];
+
+/// `lit-mvp`: five boxes of several sizes and orientations at view distances 4 to 19 (each in
+/// a depth range of its own: no depth-precision stress) in front of a wall filling the image,
+/// drawn nearest first with [`Program::LitMvp`] (back faces culled): the push constants are
+/// `scene.vert`'s (`{ mat4 mvp @0; vec4 color @64 }`, 80 bytes, each box its own P * V * M),
+/// and the vertex shader uses the clip position `pos = mvp * p` both for `gl_Position` and
+/// for the lighting (view vector `-pos.xyz`, face normal from its screen-space derivatives,
+/// a fixed light, diffuse and a specular highlight on the color).
+///
+/// Layer item: where the reversal is applied (DESIGN.md section 2, issue #14). Rewriting the
+/// pushed matrix's depth row changes `pos.z`, so the view vector, the normals and the
+/// highlights, and the colors with them (the unit tests compute by how much); rewriting only
+/// the store to `Position` leaves every color as it is natively: the render through the layer
+/// must equal the native one in every mode.
+pub fn lit_mvp() -> Scene {
+    let camera = lit_camera();
+    let view_to_world = camera.view().inverse();
+    let t = (camera.fov_y / 2.0).tan();
+    let objects = LIT_BOXES
+        .iter()
+        .map(|b| {
+            let ([x, y], w, [yaw, pitch, roll]) = (b.at, b.distance, b.turn);
+            let center = DVec3::new(x * t * w, -y * t * w, -w);
+            Object::world(
+                b.name,
+                Mesh::cuboid(DVec3::from_array(b.half)),
+                view_to_world
+                    * DMat4::from_translation(center)
+                    * DMat4::from_rotation_y(yaw)
+                    * DMat4::from_rotation_x(pitch)
+                    * DMat4::from_rotation_z(roll),
+                rgb8(b.color[0], b.color[1], b.color[2]),
+            )
+        })
+        .collect();
+    let mut scene = Scene::new("lit-mvp", camera, objects);
+    scene.plan.pipelines[0] = PipelineSpec {
+        program: Program::LitMvp,
+        cull_back_faces: true,
+        ..PipelineSpec::standard("lit", 0)
+    };
+    scene
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1750,13 +1872,14 @@ mod tests {
     }
 
     /// The accuracy scenes (issue #6): many objects, and checked by `crate::accuracy`.
-    const ACCURACY: [&str; 6] = [
+    const ACCURACY: [&str; 7] = [
         "sloped-plane",
         "mars-patch",
         "tori",
         "plane-stack",
         "deep-range",
         "decal-bias",
+        "far-objects",
     ];
 
     /// A margin well above the depth resolution of every format (D16: 1.5e-5).
@@ -2431,11 +2554,13 @@ mod tests {
                 "already-reversed",
                 "push-partial",
                 "threads",
+                "lit-mvp",
                 "sloped-plane",
                 "mars-patch",
                 "tori",
                 "plane-stack",
                 "deep-range",
+                "far-objects",
             ]
         );
         for scene in all() {
@@ -2714,5 +2839,208 @@ mod tests {
             }
         }
         assert_eq!(scene.light_mvps().len(), scene.objects.len());
+    }
+
+    /// The f64 model of `lit_mvp.frag` for the clip transform `mvp` at the model-space point
+    /// `p` of a flat face spanned by the model-space tangents `tangents`, with base color
+    /// `color`: linear RGB before the UNORM store. The shader's normal is
+    /// `cross(dFdx(v), dFdy(v))` of the view vector `v = -(mvp * p).xyz`: the screen
+    /// derivatives of `v` along a face are the rows 0..2 of `mvp` applied to tangents of the
+    /// face, so its direction is that of `cross(A t1, A t2)` (A: the linear part of those
+    /// rows), turned toward `v` as the shader turns it.
+    fn lit_shade(mvp: &DMat4, p: DVec3, tangents: [DVec3; 2], color: [f32; 4]) -> DVec3 {
+        let linear = |t: DVec3| (*mvp * t.extend(0.0)).truncate();
+        let v = (-(*mvp * p.extend(1.0)).truncate()).normalize();
+        let mut n = linear(tangents[0]).cross(linear(tangents[1])).normalize();
+        if n.dot(v) < 0.0 {
+            n = -n;
+        }
+        let l = DVec3::new(-0.35, -0.55, -0.75).normalize();
+        let diffuse = n.dot(l).max(0.0);
+        // reflect(-l, n) = -l - 2 dot(n, -l) n.
+        let reflected = -l + 2.0 * n.dot(l) * n;
+        let specular = reflected.dot(v).max(0.0).powi(32);
+        let base = DVec3::new(
+            f64::from(color[0]),
+            f64::from(color[1]),
+            f64::from(color[2]),
+        );
+        base * (0.3 + 0.7 * diffuse) + DVec3::splat(0.5 * specular)
+    }
+
+    /// A shaded color as the R8G8B8A8_UNORM attachment stores it.
+    fn unorm8(color: DVec3) -> [u8; 3] {
+        color
+            .to_array()
+            .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)
+    }
+
+    /// `mvp` with its depth row replaced by `k' r3 + b' e3` (r3: its w row): what a layer
+    /// rewriting the pushed matrix to the reversed mapping (k', b') pushes.
+    fn with_depth_row(mvp: &DMat4, k: f64, b: f64) -> DMat4 {
+        let mut m = *mvp;
+        let w_row = mvp.row(3);
+        for col in 0..4 {
+            let e3 = if col == 3 { b } else { 0.0 };
+            m.col_mut(col)[2] = k * w_row[col] + e3;
+        }
+        m
+    }
+
+    /// For every interior pixel of `lit-mvp`'s ground truth (96 x 64): the box, the model-space
+    /// point it shows and the tangents of that point's face.
+    fn lit_pixels(scene: &Scene) -> Vec<(usize, DVec3, [DVec3; 2])> {
+        let (width, height) = (96u32, 64u32);
+        let aspect = f64::from(width) / f64::from(height);
+        let (truth, _) = crate::ground_truth::compute(scene, width, height).unwrap();
+        let camera = &scene.camera;
+        let t = (camera.fov_y / 2.0).tan();
+        let view_to_world = camera.view().inverse();
+        let mut pixels = Vec::new();
+        for (at, &w) in truth.w.iter().enumerate() {
+            if !w.is_finite() {
+                continue;
+            }
+            let (px, py) = (at % width as usize, at / width as usize);
+            let x = (px as f64 + 0.5) / f64::from(width) * 2.0 - 1.0;
+            let y = (py as f64 + 0.5) / f64::from(height) * 2.0 - 1.0;
+            let view = DVec3::new(x * t * aspect * w, -y * t * w, -w);
+            let n = usize::from(truth.ids[at]);
+            let object = &scene.objects[n];
+            let p = object
+                .model
+                .inverse()
+                .transform_point3(view_to_world.transform_point3(view));
+            // The face: the axis along which the point is farthest out, relative to the box.
+            let half = object
+                .mesh
+                .positions_f64()
+                .fold(DVec3::ZERO, |h, q| h.max(q.abs()));
+            let axis = (p / half).abs().max_position();
+            let tangents = [DVec3::AXES[(axis + 1) % 3], DVec3::AXES[(axis + 2) % 3]];
+            pixels.push((n, p, tangents));
+        }
+        pixels
+    }
+
+    #[test]
+    fn lit_mvp_pushes_scene_vert_constants_and_culls_back_faces() {
+        let scene = lit_mvp();
+        let [pipeline] = &scene.plan.pipelines[..] else {
+            panic!("{:?}", scene.plan.pipelines);
+        };
+        assert_eq!(pipeline.program, Program::LitMvp);
+        assert!(pipeline.cull_back_faces);
+        assert_eq!(Program::LitMvp.push_constant_size(), 80);
+        // The layout of scene.vert: the MVP column-major, then the color.
+        for object in &scene.objects {
+            assert_eq!(
+                scene.push_constants(Program::LitMvp, object, ASPECT),
+                scene.push_constants(Program::Flat, object, ASPECT),
+                "{}",
+                object.name
+            );
+        }
+        // Every box is a closed cuboid wound outward: culling keeps the faces the nearest
+        // surface is on, so the ground truth is the unculled one.
+        let (culled, _) = crate::ground_truth::compute(&scene, 96, 64).unwrap();
+        let mut unculled = scene.clone();
+        unculled.plan.pipelines[0].cull_back_faces = false;
+        let (all, _) = crate::ground_truth::compute(&unculled, 96, 64).unwrap();
+        assert_eq!(culled.ids, all.ids);
+        let bits = |truth: &crate::ground_truth::GroundTruth| -> Vec<u64> {
+            truth.w.iter().map(|w| w.to_bits()).collect()
+        };
+        assert_eq!(bits(&culled), bits(&all));
+    }
+
+    #[test]
+    fn lit_mvp_boxes_lie_in_depth_ranges_of_their_own() {
+        let scene = lit_mvp();
+        let mut ranges: Vec<(f64, f64, &str)> = (0..scene.objects.len())
+            .map(|n| {
+                let (lo, hi) = clip(&scene, View::Camera, n)
+                    .iter()
+                    .fold((f64::INFINITY, 0.0f64), |(lo, hi), c| {
+                        (lo.min(c.w), hi.max(c.w))
+                    });
+                (lo, hi, scene.objects[n].name)
+            })
+            .collect();
+        ranges.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for pair in ranges.windows(2) {
+            let (near, far) = (pair[0], pair[1]);
+            assert!(
+                far.0 > near.1 * 1.04,
+                "{} reaches {:.3}, {} starts at {:.3}",
+                near.2,
+                near.1,
+                far.2,
+                far.0
+            );
+        }
+        // The nearest and farthest surfaces, well inside the camera's planes.
+        assert!(ranges[0].0 > 30.0 * scene.camera.near, "{ranges:?}");
+        assert!(
+            ranges.last().unwrap().1 < 0.5 * scene.camera.far,
+            "{ranges:?}"
+        );
+        // Nearest first, so the draw order never decides a pixel.
+        let depths: Vec<f64> = scene.objects.iter().map(|o| scene.view_depth(o)).collect();
+        assert!(depths.windows(2).all(|w| w[0] < w[1]), "{depths:?}");
+    }
+
+    /// The shading sees the pushed matrix's depth row: with the depth row replaced by the
+    /// complementary or the infinite reversed one (what a layer rewriting the pushed matrix
+    /// hands the shader), most interior pixels get another color, while the float32 rounding
+    /// of the matrix the application pushes changes next to none. So comparing the render
+    /// through the layer with the native one catches a layer that rewrites the matrix.
+    #[test]
+    fn lit_mvp_colors_change_with_the_depth_row() {
+        let scene = lit_mvp();
+        let aspect = 96.0 / 64.0;
+        let (n, f) = (scene.camera.near, scene.camera.far);
+        let pixels = lit_pixels(&scene);
+        assert!(
+            pixels.len() > 96 * 64 / 2,
+            "{} interior pixels",
+            pixels.len()
+        );
+        let differing = |change: &dyn Fn(&DMat4) -> DMat4| {
+            pixels
+                .iter()
+                .filter(|&&(object, p, tangents)| {
+                    let o = &scene.objects[object];
+                    let mvp = scene.mvp(o, aspect);
+                    let native = unorm8(lit_shade(&mvp, p, tangents, o.color));
+                    let changed = unorm8(lit_shade(&change(&mvp), p, tangents, o.color));
+                    native.iter().zip(changed).any(|(a, b)| a.abs_diff(b) > 1)
+                })
+                .count() as f64
+                / pixels.len() as f64
+        };
+        let complementary = differing(&|m| with_depth_row(m, -n / (f - n), f * n / (f - n)));
+        let infinite = differing(&|m| with_depth_row(m, 0.0, n));
+        let rounded = differing(&|m| m.as_mat4().as_dmat4());
+        eprintln!(
+            "lit-mvp pixels whose color changes by more than 1/255: complementary depth row              {complementary:.3}, infinite {infinite:.3}, float32 rounding {rounded:.4}"
+        );
+        assert!(
+            complementary > 0.5 && infinite > 0.5,
+            "{complementary} {infinite}"
+        );
+        assert!(rounded < 0.01, "{rounded}");
+        // The shading is not flat: every box shows several colors, the wall a highlight.
+        for (object, o) in scene.objects.iter().enumerate() {
+            let mvp = scene.mvp(o, aspect);
+            let mut colors: Vec<[u8; 3]> = pixels
+                .iter()
+                .filter(|p| p.0 == object)
+                .map(|&(_, p, tangents)| unorm8(lit_shade(&mvp, p, tangents, o.color)))
+                .collect();
+            colors.sort_unstable();
+            colors.dedup();
+            assert!(colors.len() >= 3, "{}: {colors:?}", o.name);
+        }
     }
 }

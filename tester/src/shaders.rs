@@ -60,6 +60,15 @@ pub const MVP_PAIR_VERT: ShaderSource = shader!("mvp_pair.vert");
 /// `mvp_pair.frag`: the object's color from a uniform buffer of colors.
 pub const MVP_PAIR_FRAG: ShaderSource = shader!("mvp_pair.frag");
 
+/// `lit_mvp.vert`: `pos = pc.mvp * vec4(position, 1.0)` (the push constants of `scene.vert`),
+/// `gl_Position = pos` and the view vector `-pos.xyz` passed on: the pushed matrix also serves
+/// the lighting.
+pub const LIT_MVP_VERT: ShaderSource = shader!("lit_mvp.vert");
+/// `lit_mvp.frag`: `pc.color` lit by a fixed light (ambient, diffuse, Phong specular), the face
+/// normal from the screen-space derivatives of the view vector (`lit_shade` in the scene unit
+/// tests is its f64 model).
+pub const LIT_MVP_FRAG: ShaderSource = shader!("lit_mvp.frag");
+
 /// Every embedded module.
 #[cfg(test)]
 pub const ALL: &[ShaderSource] = &[
@@ -72,6 +81,8 @@ pub const ALL: &[ShaderSource] = &[
     ROW_VECTOR_VERT,
     MVP_PAIR_VERT,
     MVP_PAIR_FRAG,
+    LIT_MVP_VERT,
+    LIT_MVP_FRAG,
 ];
 
 #[cfg(test)]
@@ -134,7 +145,7 @@ mod tests {
         assert_eq!(layouts.len(), 1, "{decorations:?}");
         assert_eq!((layouts[0].1, layouts[0].2), (0, ROW_MAJOR));
         // The other shaders keep naga's ColMajor.
-        for shader in [SCENE_VERT, ROW_VECTOR_VERT, MVP_PAIR_VERT] {
+        for shader in [SCENE_VERT, ROW_VECTOR_VERT, MVP_PAIR_VERT, LIT_MVP_VERT] {
             let decorations = member_decorations(&shader.words().unwrap());
             assert!(
                 decorations.iter().all(|d| d.2 != ROW_MAJOR),

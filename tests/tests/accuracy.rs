@@ -8,6 +8,11 @@
 //!   most 1e-4 wrong pixels, with its depth read back reversed.
 //! - `conformance_passes_on_lavapipe`: every scene in every mode, on one depth format of each
 //!   kind (D16, D24 with stencil, D32), within its stated bound; JUnit XML and JSON written.
+//! - `far_objects_resolve_every_decade_with_reversed_float_depth` (issue #14): boxes from 10 n
+//!   to 1e6 n, each object with its own P * V * M, touching and intersecting pairs drawn with
+//!   different matrices: standard depth fails from 1e4 n on, and revz's complementary and
+//!   infinite D32 renders show no wrong pixel at any decade, which takes one depth mapping for
+//!   all of a camera's objects.
 //! - `plane_stack_agrees_with_the_model`: the measured minimum separations on D32 are within a
 //!   factor of 2 of the precision model's wherever both exist, and the report says why where
 //!   one does not.
@@ -97,6 +102,75 @@ fn seed_cases_standard_fails_and_infinite_d32_holds() {
 }
 
 #[test]
+fn far_objects_resolve_every_decade_with_reversed_float_depth() {
+    let harness = Harness::locate();
+    let out = harness.scratch_dir("accuracy-far-objects");
+    let mut command = tester(&harness, "report", &out);
+    command.args([
+        "--scenes",
+        "far-objects",
+        "--modes",
+        "none,complementary,infinite",
+        "--formats",
+        "d32",
+    ]);
+    let (code, text) = run(command);
+    assert_eq!(code, 0, "{text}");
+    let report = json(&out.join("report.json"));
+    let wrong = |r: &serde_json::Value| r["wrong_pixel_fraction"].as_f64().unwrap();
+    // (wrong fraction, checked pixels) of each decade's group, 10 n to 1e6 n.
+    let decades = |r: &serde_json::Value| -> Vec<(f64, u64)> {
+        let decades = r["decades"].as_array().unwrap_or_else(|| panic!("{r}"));
+        assert_eq!(decades.len(), 6, "{r}");
+        decades
+            .iter()
+            .map(|d| (wrong(d), d["checked"].as_u64().unwrap()))
+            .collect()
+    };
+    let standard = row(&report, "far-objects", "none", "d32");
+    assert!(standard["error"].is_null(), "{standard}");
+    assert_eq!(standard["depth_reversed"], false);
+    let by_decade = decades(standard);
+    assert!(
+        by_decade.iter().all(|&(_, checked)| checked > 300),
+        "{standard}"
+    );
+    // Standard depth: right near the eye, wrong far away.
+    assert!(by_decade[..3].iter().all(|&(w, _)| w == 0.0), "{standard}");
+    assert!(
+        by_decade[5].0 >= 0.02 && wrong(standard) >= 5e-3,
+        "{standard}"
+    );
+    let mut problems = Vec::new();
+    for mode in ["complementary", "infinite"] {
+        let r = row(&report, "far-objects", mode, "d32");
+        if !r["error"].is_null() || r["depth_reversed"] != true {
+            problems.push(format!("{mode}: {r}"));
+            continue;
+        }
+        let by_decade = decades(r);
+        eprintln!(
+            "far-objects {mode} d32: wrong {:.3e}; per decade {by_decade:?}",
+            wrong(r)
+        );
+        if wrong(r) > 1e-4 || by_decade.iter().any(|&(w, _)| w > 0.0) {
+            problems.push(format!(
+                "{mode}: wrong_pixel_fraction {:.3e}, per decade (10 n to 1e6 n) {:?}",
+                wrong(r),
+                by_decade.iter().map(|d| d.0).collect::<Vec<_>>()
+            ));
+        }
+    }
+    assert!(
+        problems.is_empty(),
+        "far-objects d32:\n  {}",
+        problems.join("\n  ")
+    );
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("## Per decade (`far-objects`)"), "{md}");
+}
+
+#[test]
 fn conformance_passes_on_lavapipe() {
     let harness = Harness::locate();
     let out = harness.scratch_dir("accuracy-conformance");
@@ -111,7 +185,7 @@ fn conformance_passes_on_lavapipe() {
     assert!(summary.contains("PASS"), "{summary}");
     let result = json(&out.join("conformance.json"));
     let total = result["total"].as_u64().unwrap();
-    assert_eq!(total, 6 * 4 * 3, "{result}");
+    assert_eq!(total, 7 * 4 * 3, "{result}");
     assert_eq!(result["passed"].as_u64().unwrap(), total);
     assert_eq!(result["failed"].as_u64().unwrap(), 0);
     for case in result["cases"].as_array().unwrap() {

@@ -889,3 +889,71 @@ fn precise_modes_with_pipeline_libraries() {
         flip_scene_within("pipeline-library", format, &[], &settings, lines(1e-3));
     }
 }
+
+/// `lit-mvp` (issue #14): the vertex shader uses the pushed MVP for lighting too (the clip
+/// position's xyz is the view vector; the face normal comes from its screen derivatives), so a
+/// layer that rewrites the matrix's depth row changes the shading. Through the layer, with
+/// depth readback allowed (`reverse_observable=copies`, so the attachment is reversed), the
+/// color image in `flip`, `complementary` and `infinite` must equal the native render exactly:
+/// the reversal belongs at the store to `Position`. The precise modes must take the precise
+/// path (a layer that fell back to the flip path would pass trivially), every mode's depth must
+/// read back reversed (within n/f = 1e-3 of 1 - native: infinite stores n/w), and the native
+/// depth must be the standard mapping of the ground truth's w (the nearest face is drawn, not a
+/// culled one: back faces are culled in this scene).
+#[test]
+fn lit_mvp_colors_are_the_native_ones_in_every_mode() {
+    let harness = Harness::locate();
+    let size = ["--scene", "lit-mvp", "--width", "96", "--height", "64"];
+    let native_dir = harness.scratch_dir("lit-mvp-native");
+    let mut command = harness.tester("d32", &native_dir);
+    command.args(size);
+    let native = harness.render(command, &native_dir);
+    let truth = native.ground_truth();
+    assert!(truth.interior() > truth.width * truth.height / 2);
+    let (near, far) = (truth.near, truth.far);
+    let comparison = revz_tests::compare_depth(&native.depth(), &truth, |_, w| {
+        (far / (far - near) * (1.0 - near / w), 3e-6)
+    });
+    assert!(
+        comparison.holds(),
+        "native depth is not the standard mapping of the ground truth: {comparison:?}"
+    );
+    let (native_color, native_depth) = (native.color(), native.depth());
+    let mut problems = Vec::new();
+    for mode in ["flip", "complementary", "infinite"] {
+        let dir = harness.scratch_dir(&format!("lit-mvp-{mode}"));
+        let mut command = harness.tester("d32", &dir);
+        command.args(size);
+        harness
+            .with_layer(&mut command)
+            .env("REVZ_MODE", mode)
+            .env("REVZ_REVERSE_OBSERVABLE", "copies")
+            .env("REVZ_LOG", "debug");
+        let layered = harness.render(command, &dir);
+        let log = layered.stderr();
+        assert!(log.contains("): reversed"), "{mode}: not reversed\n{log}");
+        if mode != "flip" {
+            assert!(
+                log.contains("precise path"),
+                "{mode}: no precise path\n{log}"
+            );
+        }
+        let worst = native_depth
+            .iter()
+            .zip(layered.depth())
+            .zip(&truth.w)
+            .filter(|(_, w)| w.is_finite())
+            .map(|((n, l), _)| ((1.0 - f64::from(*n)) - f64::from(l)).abs())
+            .fold(0.0, f64::max);
+        assert!(worst <= 1.1e-3, "{mode}: depth is not reversed: {worst:e}");
+        let differing = differing_pixels(&native_color, &layered.color());
+        eprintln!("lit-mvp {mode}: {differing} color pixels differ from the native render");
+        if differing != 0 {
+            problems.push(format!(
+                "{mode}: {differing} of {} color pixels differ from the native render",
+                truth.width * truth.height
+            ));
+        }
+    }
+    assert!(problems.is_empty(), "lit-mvp:\n  {}", problems.join("\n  "));
+}

@@ -71,6 +71,37 @@ pub fn bound(scene: &str, mode: &str, format: &str) -> (f64, Expectation) {
             }
         }
         "decal-bias" => (1e-3, Resolves),
+        // The sunk boxes cross their bases' faces at 0.03 to 0.05 rad: at a checked pixel (1.5
+        // pixels or more from a crossing line, 7e-3 rad per pixel at 160 x 120) the two
+        // surfaces are some 5e-4 of their distance apart (9e-4 at 96 x 72), and they are drawn
+        // with different matrices.
+        // - Standard depth (none, flip) of a float32 P * V * M is near 1 and off by about
+        //   1.4e-7 (the depth row's rounding times the vertex), which is dw / w = 1.4e-7 w / n:
+        //   1.4e-3 at 1e4 n, 1.3e-2 at 1e5 n, 0.14 at 1e6 n (measured on lavapipe). Bands
+        //   around the crossings fail from 1e4 n on (1e-3, 1.3e-2 and 9.4e-2 of those groups'
+        //   pixels, 1.8e-2 to 1.9e-2 of the scene with D24 or D32): bounded at twice that.
+        // - Reversed float depth with one mapping for every object (n / w, or 1 - D of the
+        //   camera's range) keeps the float32 floor of about 2e-7 relative at every distance,
+        //   three decades below the separations: it resolves the scene. (An application's own
+        //   float32 complementary P * V * M, one per object, shows no wrong pixel at either
+        //   size.) A layer that takes each object's range from that object's float32 matrix is
+        //   off by 5e-4, 6e-3 and 4e-2 relative at 1e4, 1e5 and 1e6 n, and fails there.
+        // - Reversed D24 stores n / w in steps of 6e-8: 6e-3 relative at 1e5 n, 6e-2 at 1e6 n
+        //   (an application's own complementary projection: 1.2e-2 and 1.4e-2 of the scene at
+        //   96 x 72 and 160 x 120): bounded at twice that.
+        // - D16 (steps of 1.5e-5) ties from 1e4 n on, the 1e6 n group entirely: about 0.21 in
+        //   every mode.
+        "far-objects" => {
+            if format == "d16" {
+                (0.3, Limited)
+            } else if reversed && float {
+                (1e-4, Resolves)
+            } else if reversed {
+                (3e-2, Limited)
+            } else {
+                (4e-2, Limited)
+            }
+        }
         _ => (0.0, Resolves),
     }
 }
@@ -293,5 +324,25 @@ mod tests {
         assert_eq!(bound("mars-patch", "infinite", "d32").0, 1e-4);
         assert_eq!(bound("sloped-plane", "infinite", "d32").0, 1e-4);
         assert_eq!(bound("sloped-plane", "none", "d32").1, Expectation::Limited);
+    }
+
+    #[test]
+    fn far_objects_must_resolve_with_reversed_float_depth_only() {
+        for mode in ["complementary", "infinite"] {
+            for format in ["d32", "d32-s8"] {
+                assert_eq!(
+                    bound("far-objects", mode, format),
+                    (1e-4, Expectation::Resolves)
+                );
+            }
+            assert_eq!(bound("far-objects", mode, "d24-s8").1, Expectation::Limited);
+        }
+        for mode in ["none", "flip"] {
+            assert_eq!(bound("far-objects", mode, "d32").1, Expectation::Limited);
+        }
+        assert_eq!(
+            bound("far-objects", "infinite", "d16").1,
+            Expectation::Limited
+        );
     }
 }

@@ -72,6 +72,21 @@ pub struct Measurement {
     /// scene resolves (fewer than 1 % of the cell wrong), per distance.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub min_rel_separation: Option<Vec<StackPoint>>,
+    /// `far-objects`: the checked and wrong pixels of each decade's group.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decades: Option<Vec<DecadeResult>>,
+}
+
+/// One `far-objects` group's count: the checked pixels whose expected object is one of the
+/// group's.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct DecadeResult {
+    /// The group's view distance over the near plane.
+    pub distance_over_near: f64,
+    pub checked: usize,
+    pub wrong: usize,
+    /// `wrong / checked` (1 when nothing is checked).
+    pub wrong_pixel_fraction: f64,
 }
 
 /// One `plane-stack` cell's count.
@@ -212,6 +227,7 @@ pub fn measure(
         dir: dir.to_string(),
         cells: Vec::new(),
         min_rel_separation: None,
+        decades: None,
     };
     let code = output.status.code();
     if code != Some(0) && code != Some(2) {
@@ -309,7 +325,43 @@ fn compare(
     if m.scene == "plane-stack" {
         stack_cells(m, truth, &rendered);
     }
+    if m.scene == "far-objects" {
+        m.decades = Some(far_decades(truth, &rendered));
+    }
     Ok(())
+}
+
+/// Counts the checked and wrong pixels of each `far-objects` group.
+fn far_decades(truth: &Truth, rendered: &[u16]) -> Vec<DecadeResult> {
+    use super::scenes::{far_layout, FAR_DISTANCES, FAR_NEAR};
+    let decade_of: Vec<usize> = far_layout().into_iter().map(|(d, _)| d).collect();
+    let mut counts = vec![(0, 0); FAR_DISTANCES.len()];
+    for (at, &shown) in rendered.iter().enumerate() {
+        if !truth.checked(at) {
+            continue;
+        }
+        let Some(&decade) = decade_of.get(usize::from(truth.truth.ids[at])) else {
+            continue;
+        };
+        counts[decade].0 += 1;
+        if shown != truth.truth.ids[at] {
+            counts[decade].1 += 1;
+        }
+    }
+    FAR_DISTANCES
+        .iter()
+        .zip(counts)
+        .map(|(&d, (checked, wrong))| DecadeResult {
+            distance_over_near: d / FAR_NEAR,
+            checked,
+            wrong,
+            wrong_pixel_fraction: if checked == 0 {
+                1.0
+            } else {
+                wrong as f64 / checked as f64
+            },
+        })
+        .collect()
 }
 
 /// Counts the `plane-stack` cells and finds the smallest resolved separation per distance.

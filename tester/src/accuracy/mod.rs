@@ -34,13 +34,14 @@ use crate::variants::{Runner, Variant};
 use measure::{Case, Measurement, Truth};
 
 /// The accuracy scenes, in report order.
-pub const SCENES: [SceneId; 6] = [
+pub const SCENES: [SceneId; 7] = [
     SceneId::SlopedPlane,
     SceneId::MarsPatch,
     SceneId::Tori,
     SceneId::PlaneStack,
     SceneId::DeepRange,
     SceneId::DecalBias,
+    SceneId::FarObjects,
 ];
 
 /// Every depth format, in report order.
@@ -78,7 +79,7 @@ impl Mode {
 /// What both commands render.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Selection {
-    /// Scenes (comma-separated). Default: all six accuracy scenes.
+    /// Scenes (comma-separated). Default: all seven accuracy scenes.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub scenes: Vec<SceneId>,
 

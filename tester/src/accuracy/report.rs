@@ -3,11 +3,12 @@
 //! - `report.json`: a JSON object `{ "device", "driver", "rows": [...], "min_separation":
 //!   [...], "scenes": [...] }`. One row per (scene, mode, format) with `scene`, `mode`,
 //!   `format`, `device`, `wrong_pixel_fraction`, `checked_pixels`, `depth_reversed`, ..., and
-//!   for `plane-stack` `min_rel_separation` per distance. `min_separation` holds one entry per
+//!   for `plane-stack` `min_rel_separation` per distance, for `far-objects` `decades` (the
+//!   checked and wrong pixels of each decade's group). `min_separation` holds one entry per
 //!   (mode, format, distance): measured and model minimum relative separations, their ratio,
 //!   and whether they agree within a factor of 2 (or why they cannot be compared). An existing
 //!   `report.json` keeps every other top-level key (the benchmark adds `speed`).
-//! - `report.md`: the tables; anything after a line `<!-- speed -->` in an existing file is
+//! - `report.md`: the tables (with `far-objects`' per decade); anything after a line `<!-- speed -->` in an existing file is
 //!   kept.
 //! - `images/<scene>.png`: the expected image and every render side by side (rows: modes,
 //!   columns: formats).
@@ -24,7 +25,7 @@ use serde_json::{Map, Value};
 
 use super::measure::{format_name, Measurement};
 use super::model;
-use super::scenes::STACK_DISTANCES;
+use super::scenes::{FAR_DISTANCES, FAR_NEAR, STACK_DISTANCES};
 use super::{Mode, FORMATS};
 use crate::target::DepthFormat;
 
@@ -263,6 +264,37 @@ fn write_markdown(
                         }
                     ),
                     None => "".into(),
+                };
+                let _ = write!(md, " {cell} |");
+            }
+            md.push('\n');
+        }
+    }
+    let far: Vec<&Measurement> = results
+        .iter()
+        .filter(|m| m.scene == "far-objects" && m.decades.is_some())
+        .collect();
+    if !far.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n## Per decade (`far-objects`)\n\nwrong_pixel_fraction of each group (a base, a top box standing on it, a box sunk into it, each with its own P * V * M) by its view distance over the near plane; `-` where the group has no checked pixel.\n"
+        );
+        md.push_str("| mode | format |");
+        for d in FAR_DISTANCES {
+            let _ = write!(md, " {:.0e} n |", d / FAR_NEAR);
+        }
+        md.push_str("\n|---|---|");
+        for _ in FAR_DISTANCES {
+            md.push_str("---|");
+        }
+        md.push('\n');
+        for m in far {
+            let _ = write!(md, "| {} | {} |", m.mode, m.format);
+            for decade in m.decades.iter().flatten() {
+                let cell = if decade.checked == 0 {
+                    "-".to_string()
+                } else {
+                    fraction(decade.wrong_pixel_fraction)
                 };
                 let _ = write!(md, " {cell} |");
             }

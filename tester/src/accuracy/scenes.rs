@@ -10,6 +10,7 @@
 //! | `plane-stack` | pairs of parallel planes at 10 n to 1e6 n, relative separations swept over decades (the minimum-separation measurement) |
 //! | `deep-range` | n = 1e-3, f = 1e7: pairs of parallel surfaces 1 % apart at every decade from 1e-2 to 1e6 |
 //! | `decal-bias` | coplanar decals on walls at 2 to 800 held apart only by depth bias |
+//! | `far-objects` | boxes from 10 n to 1e6 n, each with its own P * V * M; touching and shallowly intersecting pairs drawn with different matrices; camera 3.4 km from the origin; unsorted draws |
 //!
 //! Every object's color is unique within its scene, so a rendered pixel's color names the
 //! object that shows there (`crate::accuracy` maps colors back to ids).
@@ -485,6 +486,138 @@ pub fn decal_bias() -> Scene {
     }
 }
 
+/// Near plane of `far-objects` (its far plane is 1e6, as `plane-stack`'s).
+pub const FAR_NEAR: f64 = 0.1;
+
+/// The view distances of the groups of `far-objects`, one per decade: 10 n to 1e6 n.
+pub const FAR_DISTANCES: [f64; 6] = [1.0, 10.0, 1e2, 1e3, 1e4, 1e5];
+
+/// The order `far-objects` draws its groups in (indices into [`FAR_DISTANCES`]): neither
+/// nearest nor farthest first, as an application that does not sort.
+pub const FAR_DRAW_ORDER: [usize; 6] = [3, 0, 5, 1, 4, 2];
+
+/// The aspect ratio `far-objects`' groups are laid out for (render it at 4:3).
+pub const FAR_ASPECT: f64 = 4.0 / 3.0;
+
+/// The names of each group's objects, per decade of [`FAR_DISTANCES`]: (base, top, sunk box).
+const FAR_NAMES: [[&str; 3]; 6] = [
+    ["base at 1e1 n", "top at 1e1 n", "sunk box at 1e1 n"],
+    ["base at 1e2 n", "top at 1e2 n", "sunk box at 1e2 n"],
+    ["base at 1e3 n", "top at 1e3 n", "sunk box at 1e3 n"],
+    ["base at 1e4 n", "top at 1e4 n", "sunk box at 1e4 n"],
+    ["base at 1e5 n", "top at 1e5 n", "sunk box at 1e5 n"],
+    ["base at 1e6 n", "top at 1e6 n", "sunk box at 1e6 n"],
+];
+
+/// The camera of `far-objects`: at (1234.5, 87.25, -3210.75), far from the world origin,
+/// heading 33.7 degrees left of -z and looking 30 degrees down, 50 degrees, near 0.1, far 1e6.
+pub fn far_objects_camera() -> Camera {
+    let (yaw, pitch) = (33.7f64.to_radians(), (-30f64).to_radians());
+    let forward = DVec3::new(
+        -yaw.sin() * pitch.cos(),
+        pitch.sin(),
+        -yaw.cos() * pitch.cos(),
+    );
+    let eye = DVec3::new(1234.5, 87.25, -3210.75);
+    Camera {
+        eye,
+        target: eye + forward,
+        up: DVec3::Y,
+        fov_y: 50f64.to_radians(),
+        near: FAR_NEAR,
+        far: 1.0e6,
+        projection: Projection::Standard,
+    }
+}
+
+/// The objects of `far-objects` in drawing order, each with the index of its decade in
+/// [`FAR_DISTANCES`].
+pub fn far_layout() -> Vec<(usize, Object)> {
+    let camera = far_objects_camera();
+    let view_to_world = camera.view().inverse();
+    let t = (camera.fov_y / 2.0).tan();
+    // The groups' frames turn their +z toward the camera (horizontally), then 0.55 rad more,
+    // so that the front (+z) and right (+x) faces of every base are seen.
+    let forward = camera.forward();
+    let heading = (-forward.x).atan2(-forward.z) + 0.55;
+    let mut objects = Vec::new();
+    for (g, &decade) in FAR_DRAW_ORDER.iter().enumerate() {
+        let d = FAR_DISTANCES[decade];
+        // A 3 x 2 grid of cells on screen (NDC, y down), one decade per cell; the lower row,
+        // seen more steeply from above, a little higher than its cell's center.
+        let (x, y) = (
+            (decade % 3) as f64 * 2.0 / 3.0 - 2.0 / 3.0,
+            [-0.5, 0.44][decade / 3],
+        );
+        let anchor =
+            view_to_world.transform_point3(DVec3::new(x * t * FAR_ASPECT * d, -y * t * d, -d));
+        let frame = DMat4::from_translation(anchor - DVec3::Y * (0.055 * d))
+            * DMat4::from_rotation_y(heading);
+        let scaled = |x: f64, y: f64, z: f64| DVec3::new(x, y, z) * (0.92 * d);
+        let [base_name, top_name, sunk_name] = FAR_NAMES[decade];
+        let base = Object::world(
+            base_name,
+            Mesh::cuboid(scaled(0.14, 0.07, 0.12)),
+            frame,
+            id_color(3 * decade),
+        );
+        // Standing on the base: its bottom face (local y = -0.06 d) in the plane of the base's
+        // top face (0.07 d), turned 0.4 rad, its footprint inside the top face.
+        let top = Object::world(
+            top_name,
+            Mesh::cuboid(scaled(0.05, 0.06, 0.045)),
+            frame
+                * DMat4::from_translation(scaled(0.06, 0.13, -0.045))
+                * DMat4::from_rotation_y(0.4),
+            id_color(3 * decade + 1),
+        );
+        // Sunk into the base's front top edge, left of the top box, turned a little about
+        // every axis: its top face crosses the base's top face, and its front face the base's
+        // front face, at 0.03 to 0.05 rad, along slanted lines (where the two surfaces are as
+        // close as the pixels allow).
+        let sunk = Object::world(
+            sunk_name,
+            Mesh::cuboid(scaled(0.05, 0.04, 0.05)),
+            frame
+                * DMat4::from_translation(scaled(-0.075, 0.0315, 0.0715))
+                * DMat4::from_rotation_y(0.04)
+                * DMat4::from_rotation_x(0.03)
+                * DMat4::from_rotation_z(0.05),
+            id_color(3 * decade + 2),
+        );
+        let group = [base, top, sunk];
+        // The order inside a group changes from group to group too.
+        for k in 0..3 {
+            objects.push((decade, group[(k + g) % 3].clone()));
+        }
+    }
+    objects
+}
+
+/// `far-objects`: a city of boxes, one group per decade of [`FAR_DISTANCES`] (view distances
+/// 10 n to 1e6 n, near 0.1, far 1e6) in a 3 x 2 grid on screen, each sized with its distance:
+/// a base box, a top box standing on it (touching: its bottom face in the plane of the base's
+/// top face) and a box sunk into the base's front top edge, turned 0.03 to 0.05 rad about
+/// every axis (intersecting: its top and front faces cross the base's along slanted lines).
+/// Each object has its own model matrix, so its own precomposed P * V * M in the push
+/// constants. The camera is 3.4 km from the world origin, looking 30 degrees down; the groups
+/// are drawn in the order of [`FAR_DRAW_ORDER`], and inside each group in an order that
+/// changes from group to group.
+///
+/// What makes it hard: where two objects meet (the top box's edges on the base's top face,
+/// the sunk box's crossings with the base's faces) their surfaces are as close as the pixels
+/// allow (a few 1e-4 of their distance at the checked pixels next to the crossings), and they
+/// are drawn with different matrices. Standard depth cannot resolve them from 1e4 n on (its
+/// float32 P * V * M gives depth near 1 to about 1e-7); reversed float depth can, but only if
+/// every object's depth follows one mapping: a layer that recovers the camera's range from
+/// each object's float32 matrix alone (whose depth row's translation carries n to a few % at
+/// 1e6 n) gives every object its own, and at 1e5 n and 1e6 n the surfaces of different objects
+/// cross where they are not meant to. See `conformance::bound` for the numbers.
+pub fn far_objects() -> Scene {
+    let objects = far_layout().into_iter().map(|(_, o)| o).collect();
+    in_order("far-objects", far_objects_camera(), objects)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -515,6 +648,7 @@ mod tests {
             plane_stack(),
             deep_range(),
             decal_bias(),
+            far_objects(),
         ] {
             let mut colors: Vec<[u8; 4]> = scene
                 .objects
@@ -561,6 +695,175 @@ mod tests {
             for a in 0..2 {
                 assert!((flo[a] - blo[a]).abs() < 1e-5 && (fhi[a] - bhi[a]).abs() < 1e-5);
             }
+        }
+    }
+
+    /// Each decade's three objects, in the base's frame: (base, top, sunk box) vertices.
+    fn far_groups() -> Vec<(usize, [Vec<DVec3>; 3], [DMat4; 3])> {
+        let layout = far_layout();
+        (0..FAR_DISTANCES.len())
+            .map(|decade| {
+                let of = |name: &str| {
+                    layout
+                        .iter()
+                        .map(|(_, o)| o)
+                        .find(|o| o.name == name)
+                        .unwrap_or_else(|| panic!("no {name}"))
+                };
+                let objects = FAR_NAMES[decade].map(of);
+                let to_base = objects[0].model.inverse();
+                let vertices = objects.map(|o| {
+                    o.mesh
+                        .positions_f64()
+                        .map(|p| (to_base * o.model).transform_point3(p))
+                        .collect::<Vec<_>>()
+                });
+                (decade, vertices, objects.map(|o| o.model))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn far_objects_groups_fill_one_cell_each_from_10_n_to_1e6_n() {
+        let scene = far_objects();
+        let camera = &scene.camera;
+        assert!(
+            camera.eye.length() > 3000.0,
+            "the camera is near the origin"
+        );
+        assert_eq!((camera.near, camera.far), (FAR_NEAR, 1.0e6));
+        let decades: Vec<usize> = far_layout().iter().map(|(d, _)| *d).collect();
+        assert_eq!(decades.len(), scene.objects.len());
+        for (n, &decade) in decades.iter().enumerate() {
+            let d = FAR_DISTANCES[decade];
+            let (lo, hi) = ndc_box(&scene, n, FAR_ASPECT);
+            // Inside its cell of the 3 x 2 grid, with a margin.
+            let (x0, y0) = (
+                -1.0 + (decade % 3) as f64 * 2.0 / 3.0,
+                -1.0 + (decade / 3) as f64,
+            );
+            assert!(
+                lo[0] > x0 + 0.01 && hi[0] < x0 + 2.0 / 3.0 - 0.01,
+                "{}: x {lo:?} {hi:?}",
+                scene.objects[n].name
+            );
+            assert!(
+                lo[1] > y0 + 0.01 && hi[1] < y0 + 1.0 - 0.01,
+                "{}: y {lo:?} {hi:?}",
+                scene.objects[n].name
+            );
+            // Its view distances within 20 % of the decade's.
+            let o = &scene.objects[n];
+            let mvp = scene.mvp_in(View::Camera, o, FAR_ASPECT);
+            for p in scene.vertex_positions(o) {
+                let w = (mvp * p.extend(1.0)).w;
+                assert!((0.8 * d..1.2 * d).contains(&w), "{}: w {w}", o.name);
+            }
+        }
+        // 10 n to 1e6 n, one decade each.
+        for (d, next) in FAR_DISTANCES.iter().zip(&FAR_DISTANCES[1..]) {
+            assert_eq!(next / d, 10.0);
+        }
+        assert_eq!(FAR_DISTANCES[0] / FAR_NEAR, 10.0);
+        // Every decade shows a good number of checked pixels at the conformance size.
+        let truth = crate::ground_truth::compute_ids(&scene, 96, 72).unwrap();
+        for decade in 0..FAR_DISTANCES.len() {
+            let checked = (0..truth.ids.len())
+                .filter(|&at| truth.w[at].is_finite())
+                .filter(|&at| decades[usize::from(truth.ids[at])] == decade)
+                .count();
+            assert!(checked > 150, "decade {decade}: {checked} checked pixels");
+        }
+    }
+
+    #[test]
+    fn far_objects_are_drawn_unsorted_each_with_its_own_matrix() {
+        let scene = far_objects();
+        let depths: Vec<f64> = scene.objects.iter().map(|o| scene.view_depth(o)).collect();
+        let rising = depths.windows(2).filter(|w| w[0] < w[1]).count();
+        assert!(
+            rising > 2 && rising < depths.len() - 3,
+            "nearly sorted: {depths:?}"
+        );
+        for (i, a) in scene.objects.iter().enumerate() {
+            for b in &scene.objects[i + 1..] {
+                assert_ne!(a.model, b.model, "{} and {}", a.name, b.name);
+            }
+        }
+        // Inside a group, the order changes from group to group.
+        let layout = far_layout();
+        let firsts: Vec<&str> = layout
+            .chunks(3)
+            .map(|g| g[0].1.name.split(" at ").next().unwrap())
+            .collect();
+        assert!(
+            firsts.contains(&"base") && firsts.contains(&"top"),
+            "{firsts:?}"
+        );
+        assert!(firsts.contains(&"sunk box"), "{firsts:?}");
+    }
+
+    #[test]
+    fn far_tops_stand_on_their_bases_and_sunk_boxes_cross_them() {
+        let camera = far_objects_camera();
+        for (decade, [base, top, sunk], [base_model, ..]) in far_groups() {
+            let d = FAR_DISTANCES[decade];
+            let max = |v: &[DVec3], f: fn(DVec3) -> f64| {
+                v.iter().copied().map(f).fold(f64::NEG_INFINITY, f64::max)
+            };
+            let min = |v: &[DVec3], f: fn(DVec3) -> f64| {
+                v.iter().copied().map(f).fold(f64::INFINITY, f64::min)
+            };
+            let (bx, by, bz) = (
+                max(&base, |p| p.x),
+                max(&base, |p| p.y),
+                max(&base, |p| p.z),
+            );
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * d;
+            // The top's bottom face lies in the plane of the base's top face (to the rounding of
+            // f32 vertices), its footprint well inside it.
+            let bottom: Vec<DVec3> = top
+                .iter()
+                .copied()
+                .filter(|p| p.y < by + 0.01 * d)
+                .collect();
+            assert_eq!(bottom.len(), 12, "decade {decade}: the top's bottom face");
+            for p in &bottom {
+                assert!(close(p.y, by), "decade {decade}: {p} on {by}");
+                assert!(
+                    p.x.abs() < bx - 0.01 * d && p.z.abs() < bz - 0.01 * d,
+                    "{p}"
+                );
+            }
+            // The sunk box crosses the base's top and front faces and nothing else: some of its
+            // corners above the top face, some below; some in front of the front face, some
+            // behind; all inside the base's sides, its bottom and back; apart from the top box.
+            let above = sunk.iter().filter(|p| p.y > by).count();
+            let in_front = sunk.iter().filter(|p| p.z > bz).count();
+            assert!(
+                above > 0 && above < sunk.len(),
+                "decade {decade}: {above} above"
+            );
+            assert!(
+                in_front > 0 && in_front < sunk.len(),
+                "decade {decade}: {in_front}"
+            );
+            assert!(
+                min(&sunk, |p| p.x) > -bx && max(&sunk, |p| p.x) < bx,
+                "decade {decade}"
+            );
+            assert!(
+                min(&sunk, |p| p.y) > -by && min(&sunk, |p| p.z) > -bz,
+                "decade {decade}"
+            );
+            assert!(
+                max(&sunk, |p| p.x) < min(&top, |p| p.x),
+                "decade {decade}: sunk meets top"
+            );
+            // Seen from above and in front: the eye is above the base's top face and in front
+            // of its front face.
+            let eye = base_model.inverse().transform_point3(camera.eye);
+            assert!(eye.y > by && eye.z > bz, "decade {decade}: eye at {eye}");
         }
     }
 }
