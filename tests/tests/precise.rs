@@ -439,6 +439,8 @@ scene_tests! {
     secondary: "secondary";
     dynamic_rendering: "dynamic-rendering";
     shadow_map: "shadow-map";
+    // The pushed MVP feeds the lighting too (issue #14): only the store to Position may change.
+    lit_mvp: "lit-mvp";
 }
 
 /// The flip path renders `view-projection` correctly (same colors, depth = 1 - native) but
