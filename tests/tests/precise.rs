@@ -474,6 +474,8 @@ scene_tests! {
     secondary: "secondary";
     dynamic_rendering: "dynamic-rendering";
     shadow_map: "shadow-map";
+    // The pushed MVP feeds the lighting too (issue #14): only the store to Position may change.
+    lit_mvp: "lit-mvp";
 }
 
 /// `model-view-projection-pair` pushes 128 bytes, all of lavapipe's push-constant space:
