@@ -9,12 +9,12 @@
 //! through a [`StateSink`], so the logic is tested without a device.
 //!
 //! The draw's path (`shared/DESIGN.md` section 2) is decided here too: a draw into a reversed
-//! attachment whose pipeline reads its projection from push constants, whose reversed variant
+//! attachment whose pipeline reads its projection from push constants, whose vertex stage
 //! stores the carrier's depth ([`PipelineDepth::position_store`]), and whose pushed matrix is a
 //! standard perspective of a known camera ([`crate::precise`]), takes the precise path: the
 //! carrier holds the camera's reversed depth line (pushed when it changes) and the viewport maps
-//! [a, b] -> [1-b, 1-a]. Every other draw into a reversed attachment takes the flip path (the
-//! variant, where bound, gets the carrier that keeps the shader's z).
+//! [a, b] -> [1-b, 1-a]. Every other draw into a reversed attachment takes the flip path, and
+//! every draw of such a pipeline elsewhere gets the carrier that keeps the shader's own z.
 //!
 //! The fragment stage of a draw that computes with depth is swapped the same way: the bound
 //! pipeline's reversed variant, or the bound fragment shader object's
@@ -22,7 +22,7 @@
 //! reversed target and the application's back for a native one, each only when it changes.
 
 use ash::vk;
-use revz_math::{Cameras, Target as RewriteTarget};
+use revz_math::{Cameras, DepthConvention, DepthLine, Target as RewriteTarget};
 
 use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
 use crate::objects::FragmentShader;
@@ -111,12 +111,13 @@ pub struct PipelineDepth {
     /// fragment shader rewritten where it computes with depth (`crate::fragment_depth`).
     pub reversed_variant: Option<vk::Pipeline>,
     /// Where the vertex stage's projection is in the push constants, if it comes from there
-    /// and its draws can take the precise path (the reversed variant's vertex stage stores
-    /// the carrier's depth: [`PipelineDepth::position_store`]).
+    /// and its draws can take the precise path (its vertex stage stores the carrier's depth:
+    /// [`PipelineDepth::position_store`]).
     pub projection: Option<ProjectionUse>,
-    /// The reversed variant's vertex stage stores `Position` through revz's carrier
-    /// ([`crate::position_store`]): while it is bound, the carrier must hold the draw's values
-    /// (the camera's on the precise path, [`crate::precise::FLIP_CARRIER`] on the flip path).
+    /// The pipeline's vertex stage (the application's pipeline's and its variant's) stores
+    /// `Position` through revz's carrier ([`crate::position_store`]): every draw needs the
+    /// carrier to hold its values (the camera's on the precise path,
+    /// [`crate::precise::FLIP_CARRIER`], the shader's own z, everywhere else).
     pub position_store: Option<Carrier>,
     /// The state subsets the pipeline defines itself (`VK_EXT_graphics_pipeline_library`):
     /// all of them but for libraries, whose links take each subset's state from the library
@@ -324,14 +325,9 @@ pub struct CommandState {
     emitted: Emitted,
     /// Whether revz bound the bound pipeline's compare-op variant in its place.
     variant_bound: bool,
-    /// Whether the bound pipeline's variant may be bound: it has no rewritten vertex stage,
-    /// or the carrier holds the draw's values.
-    variant_usable: bool,
     /// What revz last pushed as its carrier, and with which layout: pushed again only when
     /// the value or the application's push layout changes.
     carrier_held: Option<(vk::PipelineLayout, [u32; 4])>,
-    /// The generation of the cameras last handed to the device.
-    cameras_reported: u64,
     /// The shader object the application bound to the fragment stage (null: none), and what
     /// revz knows of it when it computes with depth.
     fragment_shader: (vk::ShaderEXT, Option<FragmentShader>),
@@ -363,9 +359,7 @@ impl Default for CommandState {
             path: DrawPath::Native,
             emitted: Emitted::default(),
             variant_bound: false,
-            variant_usable: true,
             carrier_held: None,
-            cameras_reported: 0,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
             inherits_viewports: false,
@@ -400,23 +394,18 @@ impl CommandState {
         };
     }
 
-    /// Takes the device's cameras (which include this recording's): what other recordings
-    /// found serves this one's next draws.
-    pub fn adopt_cameras(&mut self, cameras: Cameras) {
-        self.push.adopt_cameras(cameras);
-        self.cameras_reported = self.push.generation();
-        self.dirty = true;
+    /// The best line of a camera this recording found or improved since last asked (the
+    /// device learns it).
+    pub fn take_changed_camera(&mut self) -> Option<(DepthLine, DepthConvention)> {
+        self.push.take_changed()
     }
 
-    /// The cameras this recording has seen, when they changed since last asked (the device
-    /// learns them).
-    pub fn take_changed_cameras(&mut self) -> Option<Cameras> {
-        let generation = self.push.generation();
-        if generation == self.cameras_reported {
-            return None;
+    /// Learns the device's best line for a camera of this recording (found by another
+    /// recording): the next draws of that camera use it.
+    pub fn learn_camera(&mut self, line: DepthLine, convention: DepthConvention) {
+        if self.push.learn(line, convention) {
+            self.dirty = true;
         }
-        self.cameras_reported = generation;
-        Some(self.push.cameras().clone())
     }
 
     /// The map of standard depth onto this command buffer's reversed attachments.
@@ -660,14 +649,15 @@ impl CommandState {
         if let Some(outcome) = &outcome {
             self.learn(outcome);
         }
-        let reversed = self.target == Target::Reversed;
-        // The rewritten vertex stage reads the carrier: it goes down (when it changed) with
-        // the application's push layout, which the bound pipeline's is compatible with.
+        // The pipeline's rewritten vertex stage reads the carrier in every draw, into native
+        // attachments too: it goes down (when it changed) with the application's push layout,
+        // which the bound pipeline's is compatible with. Before the application's first push
+        // there is none, and its own push constants are undefined as well.
         let store = self.pipeline.as_ref().and_then(|p| p.position_store);
         let carrier_ready = match store {
-            Some(carrier) if reversed && self.push.layout() != vk::PipelineLayout::null() => {
-                let values = match outcome {
-                    Some(Outcome::Rewritten { carrier, .. }) => carrier,
+            Some(carrier) if self.push.layout() != vk::PipelineLayout::null() => {
+                let values = match (self.target, outcome) {
+                    (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
                     _ => FLIP_CARRIER,
                 };
                 let held = (self.push.layout(), values.map(f32::to_bits));
@@ -684,9 +674,6 @@ impl CommandState {
             }
             _ => false,
         };
-        // Without a carrier push (nothing pushed yet), the application's pipeline is drawn
-        // with the flip path.
-        self.variant_usable = store.is_none() || carrier_ready;
         self.path = match (self.target, outcome) {
             (Target::Reversed, Some(Outcome::Rewritten { .. })) if carrier_ready => {
                 DrawPath::Precise
@@ -725,10 +712,9 @@ impl CommandState {
         }
         if let Some(p) = &self.pipeline {
             if let Some(variant) = p.reversed_variant {
-                let wanted = reversed && self.variant_usable;
-                if wanted != self.variant_bound {
-                    sink.bind_pipeline(if wanted { variant } else { p.handle });
-                    self.variant_bound = wanted;
+                if reversed != self.variant_bound {
+                    sink.bind_pipeline(if reversed { variant } else { p.handle });
+                    self.variant_bound = reversed;
                 }
             }
         }
@@ -1238,10 +1224,9 @@ mod tests {
     }
 
     const APP_PIPELINE: u64 = 8;
-    const STORE_VARIANT: u64 = 9;
 
-    /// A pipeline reading its projection from push-constant bytes 0..64, whose reversed
-    /// variant stores the carrier's depth (carrier at byte 112).
+    /// A pipeline reading its projection from push-constant bytes 0..64, whose vertex stage
+    /// stores the carrier's depth (carrier at byte 112).
     fn projection_pipeline() -> Arc<PipelineDepth> {
         Arc::new(PipelineDepth {
             projection: Some(ProjectionUse {
@@ -1256,7 +1241,6 @@ mod tests {
                 stages: vk::ShaderStageFlags::VERTEX,
             }),
             handle: vk::Pipeline::from_raw(APP_PIPELINE),
-            reversed_variant: Some(vk::Pipeline::from_raw(STORE_VARIANT)),
             ..(*static_pipeline()).clone()
         })
     }
@@ -1291,10 +1275,10 @@ mod tests {
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
-        // The application's bytes are never re-sent; only the carrier goes down, and the
-        // variant whose vertex stage reads it is bound.
+        // The application's bytes are never re-sent; only the carrier goes down, read by the
+        // application's pipeline's own (rewritten) vertex stage: nothing else is bound.
         assert_eq!(sink.pushes, vec![(112, 16)]);
-        assert_eq!(sink.binds, vec![vk::Pipeline::from_raw(STORE_VARIANT)]);
+        assert!(sink.binds.is_empty());
         // [0, 1] -> [1 - 1, 1 - 0]: the rewritten store already reverses.
         assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
         assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
@@ -1439,16 +1423,13 @@ mod tests {
             Some(&(0, vec![(1.0, near_over_far)]))
         );
 
-        // Native attachments never see the variant or a flipped state.
+        // Native attachments get the carrier that keeps the shader's own z, and no flipped
+        // state.
         state.bind_pipeline(Some(projection_pipeline()));
         state.set_target(Target::Native);
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Native);
-        assert_eq!(sink.pushes.len(), 1);
-        assert_eq!(
-            sink.binds.last(),
-            Some(&vk::Pipeline::from_raw(STORE_VARIANT))
-        );
+        assert_eq!(sink.pushes, vec![(112, 16), (112, 16)]);
         assert_eq!(sink.viewports.last(), Some(&(0, vec![(0.0, 1.0)])));
         assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::LESS));
     }

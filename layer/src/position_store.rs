@@ -120,7 +120,7 @@ struct Module {
     /// Ids decorated `BuiltIn Position`, and (struct, member) pairs member-decorated so.
     position_ids: HashSet<u32>,
     position_members: HashMap<u32, u32>,
-    /// `OpDecorate` targets: which words decorate the Position variable (they move with it).
+    /// 32-bit float types.
     floats: HashSet<u32>,
     /// (component, count) of vector types.
     vectors: HashMap<u32, (u32, u32)>,

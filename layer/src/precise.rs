@@ -27,7 +27,7 @@
 use ash::vk;
 use revz_math::{
     read_clip_transform, reversed_coefficients, CameraMatch, Cameras, DepthCoefficients,
-    DepthConvention, DepthDirection, Storage, Target as RewriteTarget,
+    DepthConvention, DepthDirection, DepthLine, Storage, Target as RewriteTarget,
 };
 
 use crate::shader_analysis::ProjectionSlot;
@@ -290,18 +290,25 @@ pub enum Outcome {
 
 /// Classifies one pushed matrix against the cameras seen so far (f64 math in [`revz_math`]):
 /// the range is the camera's, taken from the best-conditioned matrix of that camera, never
-/// this matrix's own where its depth row lost B to rounding. Also says whether the cameras
-/// changed (a camera was made, or its range improved).
+/// this matrix's own where its depth row lost B to rounding. Also says which camera changed,
+/// if one did (it was made, or its range improved).
 pub fn classify_projection(
     values: &[f32; 16],
     storage: Storage,
     convention: DepthConvention,
     target: RewriteTarget,
     cameras: &mut Cameras,
-) -> (Outcome, bool) {
+) -> (Outcome, Option<usize>) {
     let m = read_clip_transform(values, storage);
     let observed = cameras.observe(&m, convention);
-    let changed = matches!(observed, CameraMatch::Camera { changed: true, .. });
+    let changed = match observed {
+        CameraMatch::Camera {
+            index,
+            changed: true,
+            ..
+        } => Some(index),
+        _ => None,
+    };
     let outcome = match observed {
         CameraMatch::Camera {
             range, direction, ..
@@ -367,6 +374,8 @@ pub struct PushConstants {
     cameras: Cameras,
     /// Bumped whenever a camera is created or its range improves.
     generation: u64,
+    /// The line of the camera that changed last, not yet handed to the device.
+    changed: Option<(DepthLine, DepthConvention)>,
 }
 
 impl Default for PushConstants {
@@ -378,6 +387,7 @@ impl Default for PushConstants {
             last: None,
             cameras: Cameras::default(),
             generation: 0,
+            changed: None,
         }
     }
 }
@@ -410,17 +420,23 @@ impl PushConstants {
         &self.cameras
     }
 
-    /// Replaces the cameras by `cameras` (the device's, which include these): a range that
-    /// changes counts as a change.
-    pub fn adopt_cameras(&mut self, cameras: Cameras) {
-        self.cameras = cameras;
-        self.generation += 1;
+    /// The best line of a camera this recording found or improved since last asked (the
+    /// device learns it).
+    pub fn take_changed(&mut self) -> Option<(DepthLine, DepthConvention)> {
+        self.changed.take()
     }
 
-    /// Counts the changes of [`PushConstants::cameras`] (a camera made, or its range
-    /// improved).
-    pub fn generation(&self) -> u64 {
-        self.generation
+    /// Learns `line` of another recording (the device's best for a camera of this one):
+    /// whether a camera changed.
+    pub fn learn(&mut self, line: DepthLine, convention: DepthConvention) -> bool {
+        let changed = matches!(
+            self.cameras.observe_line(line, convention),
+            CameraMatch::Camera { changed: true, .. }
+        );
+        if changed {
+            self.generation += 1;
+        }
+        changed
     }
 
     /// The outcome for `use_` on the current values, or `None` when the application has not
@@ -448,8 +464,12 @@ impl PushConstants {
             target,
             &mut self.cameras,
         );
-        if changed {
+        if let Some(index) = changed {
             self.generation += 1;
+            self.changed = self
+                .cameras
+                .camera(index)
+                .map(|(_, _, convention, line)| (line, convention));
         }
         self.last = Some((
             bits,

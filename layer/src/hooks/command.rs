@@ -18,6 +18,7 @@ use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
 use crate::policy::{secondary_target, Convention};
 use crate::precise::{Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
+use revz_math::{CameraMatch, DepthConvention, DepthLine};
 
 /// The device of a command buffer revz does not track (slow path: the global registry).
 fn untracked_device(buffer: vk::CommandBuffer) -> Option<Arc<DeviceState>> {
@@ -129,13 +130,13 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
     };
     let mut state = entry.state();
     let outcome = state.before_draw(&mut sink);
-    let cameras = state.take_changed_cameras();
+    let changed = state.take_changed_camera();
     drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
     }
-    if let Some(cameras) = cameras {
-        learn_cameras(entry, &cameras);
+    if let Some(changed) = changed {
+        learn_cameras(entry, changed);
     }
 }
 
@@ -190,29 +191,34 @@ pub unsafe extern "system" fn cmd_push_constants(
 fn follow_push(entry: &CommandBufferEntry, layout: vk::PipelineLayout, offset: u32, values: &[u8]) {
     let mut state = entry.state();
     let outcome = state.push_constants(layout, offset, values);
-    let cameras = state.take_changed_cameras();
+    let changed = state.take_changed_camera();
     drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
     }
-    if let Some(cameras) = cameras {
-        learn_cameras(entry, &cameras);
+    if let Some(changed) = changed {
+        learn_cameras(entry, changed);
     }
 }
 
-/// The device learns the cameras a recording found, and the recording those other recordings
-/// found (a lock only when a camera changed: rare, not per draw).
-fn learn_cameras(entry: &CommandBufferEntry, cameras: &revz_math::Cameras) {
-    let known = {
+/// The device learns the camera line a recording found, and the recording the device's best
+/// line for that camera, where another recording found a better one (one lock, only when a
+/// camera changed: rare, not per draw).
+fn learn_cameras(entry: &CommandBufferEntry, (line, convention): (DepthLine, DepthConvention)) {
+    let best = {
         let mut device = entry
             .device
             .cameras
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        device.merge(cameras);
-        device.clone()
+        match device.observe_line(line, convention) {
+            CameraMatch::Camera { index, .. } => device.camera(index).map(|(.., best)| best),
+            _ => None,
+        }
     };
-    entry.state().adopt_cameras(known);
+    if let Some(best) = best.filter(|best| best.relative_b_error() < line.relative_b_error()) {
+        entry.state().learn_camera(best, convention);
+    }
 }
 
 /// `vkCmdPushConstants2` (Vulkan 1.4) and `vkCmdPushConstants2KHR`: followed like

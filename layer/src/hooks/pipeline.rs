@@ -431,8 +431,9 @@ struct Plan {
     /// The fragment stage (its index) the reversed variant gets rewritten
     /// (`crate::fragment_depth`).
     fragment: Option<(usize, Arc<[u32]>)>,
-    /// The vertex stage (its index) the reversed variant gets rewritten to store the
-    /// carrier's depth (`crate::position_store`): the precise path.
+    /// The vertex stage (its index) rewritten to store the carrier's depth
+    /// (`crate::position_store`): the precise path. The application's pipeline itself (and
+    /// its variant) is created with it: with the flip carrier it stores the shader's own z.
     vertex: Option<(usize, Arc<[u32]>)>,
     /// The libraries the create info links, with those that have a reversed variant replaced
     /// by it; `None` when none has one.
@@ -450,10 +451,7 @@ struct Plan {
 impl Plan {
     /// Whether the pipeline gets a variant bound for draws into reversed attachments.
     fn needs_variant(&self) -> bool {
-        self.compare_op_variant
-            || self.fragment.is_some()
-            || self.vertex.is_some()
-            || self.libraries.is_some()
+        self.compare_op_variant || self.fragment.is_some() || self.libraries.is_some()
     }
 }
 
@@ -677,7 +675,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
     let next = state.next.fp_v1_0().create_graphics_pipelines;
     // SAFETY: `count` create infos.
     let infos = unsafe { slice(p_create_infos, count) };
-    let plans = guarded(
+    let mut plans = guarded(
         &CREATE_GRAPHICS_PIPELINES,
         || {
             infos
@@ -760,6 +758,53 @@ pub unsafe extern "system" fn create_graphics_pipelines(
         Vec::new,
     );
 
+    // The precise path's vertex stage: the application's pipeline itself (and its variant)
+    // is created with the rewritten module (`crate::position_store`). With the flip carrier
+    // it stores the shader's own z exactly, so one pipeline serves native and reversed
+    // attachments, and no second pipeline is compiled for it. The stage arrays and modules
+    // live until the calls below return.
+    let vertex_stages: Vec<Option<(Vec<vk::PipelineShaderStageCreateInfo<'_>>, RewrittenStage)>> =
+        guarded(
+            &CREATE_GRAPHICS_PIPELINES,
+            || {
+                plans
+                    .iter_mut()
+                    .zip(infos)
+                    .map(|(plan, info)| {
+                        let plan = plan.as_mut()?;
+                        let (index, code) = plan.vertex.take()?;
+                        // SAFETY: `stageCount` stages (the application's contract).
+                        let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
+                        let stage = stages
+                            .get_mut(index)
+                            .and_then(|stage| rewritten_stage(&state, device, stage, &code));
+                        if stage.is_none() {
+                            plan.depth.projection = None;
+                            plan.depth.position_store = None;
+                            plan.flip_reason =
+                                Some("its rewritten vertex stage could not be made".into());
+                        }
+                        Some((stages, stage?))
+                    })
+                    .collect()
+            },
+            Vec::new,
+        );
+    let with_vertex: Vec<vk::GraphicsPipelineCreateInfo<'_>> = infos
+        .iter()
+        .enumerate()
+        .map(
+            |(index, info)| match vertex_stages.get(index).and_then(Option::as_ref) {
+                Some((stages, _)) => vk::GraphicsPipelineCreateInfo {
+                    p_stages: stages.as_ptr(),
+                    ..*info
+                },
+                None => *info,
+            },
+        )
+        .collect();
+    let rewrites_vertex = vertex_stages.iter().any(Option::is_some);
+    let infos: &[vk::GraphicsPipelineCreateInfo<'_>] = &with_vertex;
     // The application's create infos, with the dynamic state lists revz extends; the arrays
     // they point to live until the call returns.
     let dynamic_infos: Vec<Option<vk::PipelineDynamicStateCreateInfo<'_>>> = plans
@@ -803,7 +848,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
         },
         Vec::new,
     );
-    let result = if dynamic_infos.iter().all(Option::is_none) {
+    let result = if dynamic_infos.iter().all(Option::is_none) && !rewrites_vertex {
         // SAFETY: calling down with the application's arguments.
         unsafe {
             next(
@@ -827,7 +872,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 None => *info,
             })
             .collect();
-        // SAFETY: the application's create infos, with only dynamic state lists extended.
+        // SAFETY: the application's create infos, with only dynamic state lists extended and
+        // precise-path vertex stages rewritten.
         unsafe {
             next(
                 device,
@@ -876,12 +922,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 if (plan.fragment.is_some() || plan.libraries.is_some()) && variant.is_none() {
                     plan.depth.unreversed_fragment = true;
                 }
-                // Without its variant's rewritten vertex stage, no precise path.
-                if plan.depth.position_store.is_some() && variant.is_none() {
-                    plan.depth.projection = None;
-                    plan.depth.position_store = None;
-                    plan.flip_reason = Some("its reversed variant could not be made".into());
-                }
+
                 match (&plan.depth.projection, &plan.flip_reason) {
                     (Some(p), _) => log::debug!(
                         "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
@@ -910,6 +951,10 @@ pub unsafe extern "system" fn create_graphics_pipelines(
         },
         || (),
     );
+    for (_, RewrittenStage { module, .. }) in vertex_stages.into_iter().flatten() {
+        // SAFETY: revz's own module; pipelines no longer need their modules once created.
+        unsafe { (state.next.fp_v1_0().destroy_shader_module)(device, module, std::ptr::null()) };
+    }
     result
 }
 
@@ -1024,8 +1069,9 @@ pub unsafe extern "system" fn create_pipeline_layout(
         &CREATE_PIPELINE_LAYOUT,
         || {
             let offset = state.policy.carrier_offset?;
-            // SAFETY: a valid create info with `pushConstantRangeCount` ranges.
+            // SAFETY: a valid create info (the application's contract).
             let info = unsafe { &*p_create_info };
+            // SAFETY: `pushConstantRangeCount` ranges.
             let ranges =
                 unsafe { slice(info.p_push_constant_ranges, info.push_constant_range_count) };
             match precise::reserve_carrier(ranges, offset) {
@@ -1157,29 +1203,15 @@ fn create_reversed_variant(
     }
     // SAFETY: `stageCount` stages (the application's contract).
     let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
-    let mut rewritten = Vec::new();
-    for (stage, what) in [(&plan.fragment, "fragment"), (&plan.vertex, "vertex")] {
-        if let Some((index, code)) = stage {
-            match rewritten_stage(state, device, &mut stages[*index], code) {
-                Some(stage) => rewritten.push(stage),
-                None => {
-                    for RewrittenStage { module, .. } in rewritten {
-                        // SAFETY: revz's own module, not used by any pipeline.
-                        unsafe {
-                            (state.next.fp_v1_0().destroy_shader_module)(
-                                device,
-                                module,
-                                std::ptr::null(),
-                            )
-                        };
-                    }
-                    return failed(&format_args!(
-                        "its rewritten {what} stage could not be made"
-                    ));
-                }
-            }
+    let rewritten = match &plan.fragment {
+        Some((index, code)) => {
+            let Some(rewritten) = rewritten_stage(state, device, &mut stages[*index], code) else {
+                return failed(&"its rewritten fragment stage could not be made");
+            };
+            Some(rewritten)
         }
-    }
+        None => None,
+    };
     let variant_info = vk::GraphicsPipelineCreateInfo {
         p_next: chain.head(),
         flags: info.flags
@@ -1208,7 +1240,7 @@ fn create_reversed_variant(
             &mut variant,
         )
     };
-    for RewrittenStage { module, .. } in rewritten {
+    if let Some(RewrittenStage { module, .. }) = rewritten {
         // SAFETY: revz's own module; a pipeline no longer needs its modules once created.
         unsafe { (state.next.fp_v1_0().destroy_shader_module)(device, module, std::ptr::null()) };
     }
