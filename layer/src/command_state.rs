@@ -22,7 +22,7 @@
 //! reversed target and the application's back for a native one, each only when it changes.
 
 use ash::vk;
-use revz_math::{Cameras, DepthConvention, DepthLine, Target as RewriteTarget};
+use revz_math::{Cameras, Target as RewriteTarget};
 
 use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
 use crate::objects::FragmentShader;
@@ -394,18 +394,12 @@ impl CommandState {
         };
     }
 
-    /// The best line of a camera this recording found or improved since last asked (the
-    /// device learns it).
-    pub fn take_changed_camera(&mut self) -> Option<(DepthLine, DepthConvention)> {
-        self.push.take_changed()
-    }
-
-    /// Learns the device's best line for a camera of this recording (found by another
-    /// recording): the next draws of that camera use it.
-    pub fn learn_camera(&mut self, line: DepthLine, convention: DepthConvention) {
-        if self.push.learn(line, convention) {
-            self.dirty = true;
-        }
+    /// The cameras this recording found or improved, if it did (the device learns them at
+    /// the recording's end, for the recordings begun after it).
+    pub fn take_changed_cameras(&mut self) -> Option<Cameras> {
+        self.push
+            .take_changed()
+            .then(|| self.push.cameras().clone())
     }
 
     /// The map of standard depth onto this command buffer's reversed attachments.

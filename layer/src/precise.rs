@@ -3,10 +3,10 @@
 //! the carrier revz pushes for the rewritten vertex stage.
 //!
 //! A pipeline whose vertex stage multiplies a push-constant matrix into `Position` has a
-//! [`ProjectionUse`] (found by [`crate::shader_analysis`] at shader module creation). Its
-//! reversed variant's vertex stage stores `z' = c_z z + c_w w + c_1` into `Position`
-//! ([`crate::position_store`]), with the three values read from a [`Carrier`] revz reserves in
-//! the pipeline layout and pushes:
+//! [`ProjectionUse`] (found by [`crate::shader_analysis`] at shader module creation). The
+//! pipeline is created with its vertex stage rewritten to store `z' = c_z z + c_w w + c_1` into
+//! `Position` ([`crate::position_store`]), with the three values read from a [`Carrier`] revz
+//! reserves in the pipeline layout and pushes:
 //!
 //! - the application's bytes go down unchanged, so every other use of the matrix (lighting,
 //!   view vectors, a varying computed from `Position`) sees the application's values; revz
@@ -15,8 +15,10 @@
 //!   from its best-conditioned matrix, so a P * V * M far from the camera, whose own B is lost
 //!   to rounding, still stores the camera's `n / w` (infinite) or complementary depth;
 //! - the carrier holds `(0, k', B')` of that range for precise draws and `(1, 0, 0)` (the
-//!   shader's z exactly) for flip-path draws; it is pushed only when its value or the layout
-//!   changes, so a frame of one camera pushes it once per command buffer.
+//!   shader's z exactly: `1 * z + 0 * w + 0` in any order of evaluation, fused or not) for
+//!   every other draw, native ones included, so the one pipeline serves both kinds of
+//!   attachment and no second pipeline is compiled; it is pushed only when its value or the
+//!   layout changes, so a frame of one camera pushes it once per command buffer and target.
 //!
 //! Why the store and not the matrix bytes (the design before #14): rewriting the depth row in
 //! the pushed bytes changed every output computed from the matrix (13 % of the pixels of an
@@ -27,7 +29,7 @@
 use ash::vk;
 use revz_math::{
     read_clip_transform, reversed_coefficients, CameraMatch, Cameras, DepthCoefficients,
-    DepthConvention, DepthDirection, DepthLine, Storage, Target as RewriteTarget,
+    DepthConvention, DepthDirection, Storage, Target as RewriteTarget,
 };
 
 use crate::shader_analysis::ProjectionSlot;
@@ -374,8 +376,8 @@ pub struct PushConstants {
     cameras: Cameras,
     /// Bumped whenever a camera is created or its range improves.
     generation: u64,
-    /// The line of the camera that changed last, not yet handed to the device.
-    changed: Option<(DepthLine, DepthConvention)>,
+    /// A camera was found or improved since [`PushConstants::take_changed`] last asked.
+    changed: bool,
 }
 
 impl Default for PushConstants {
@@ -387,7 +389,7 @@ impl Default for PushConstants {
             last: None,
             cameras: Cameras::default(),
             generation: 0,
-            changed: None,
+            changed: false,
         }
     }
 }
@@ -420,23 +422,9 @@ impl PushConstants {
         &self.cameras
     }
 
-    /// The best line of a camera this recording found or improved since last asked (the
-    /// device learns it).
-    pub fn take_changed(&mut self) -> Option<(DepthLine, DepthConvention)> {
-        self.changed.take()
-    }
-
-    /// Learns `line` of another recording (the device's best for a camera of this one):
-    /// whether a camera changed.
-    pub fn learn(&mut self, line: DepthLine, convention: DepthConvention) -> bool {
-        let changed = matches!(
-            self.cameras.observe_line(line, convention),
-            CameraMatch::Camera { changed: true, .. }
-        );
-        if changed {
-            self.generation += 1;
-        }
-        changed
+    /// Whether a camera was found or improved since last asked.
+    pub fn take_changed(&mut self) -> bool {
+        std::mem::take(&mut self.changed)
     }
 
     /// The outcome for `use_` on the current values, or `None` when the application has not
@@ -464,12 +452,9 @@ impl PushConstants {
             target,
             &mut self.cameras,
         );
-        if let Some(index) = changed {
+        if changed.is_some() {
             self.generation += 1;
-            self.changed = self
-                .cameras
-                .camera(index)
-                .map(|(_, _, convention, line)| (line, convention));
+            self.changed = true;
         }
         self.last = Some((
             bits,
@@ -503,6 +488,7 @@ impl PushConstants {
     pub fn invalidate(&mut self) {
         *self = PushConstants {
             generation: self.generation,
+            changed: self.changed,
             ..PushConstants::with_cameras(std::mem::take(&mut self.cameras))
         };
     }

@@ -18,7 +18,6 @@ use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
 use crate::policy::{secondary_target, Convention};
 use crate::precise::{Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
-use revz_math::{CameraMatch, DepthConvention, DepthLine};
 
 /// The device of a command buffer revz does not track (slow path: the global registry).
 fn untracked_device(buffer: vk::CommandBuffer) -> Option<Arc<DeviceState>> {
@@ -130,13 +129,9 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
     };
     let mut state = entry.state();
     let outcome = state.before_draw(&mut sink);
-    let changed = state.take_changed_camera();
     drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
-    }
-    if let Some(changed) = changed {
-        learn_cameras(entry, changed);
     }
 }
 
@@ -191,33 +186,9 @@ pub unsafe extern "system" fn cmd_push_constants(
 fn follow_push(entry: &CommandBufferEntry, layout: vk::PipelineLayout, offset: u32, values: &[u8]) {
     let mut state = entry.state();
     let outcome = state.push_constants(layout, offset, values);
-    let changed = state.take_changed_camera();
     drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
-    }
-    if let Some(changed) = changed {
-        learn_cameras(entry, changed);
-    }
-}
-
-/// The device learns the camera line a recording found, and the recording the device's best
-/// line for that camera, where another recording found a better one (one lock, only when a
-/// camera changed: rare, not per draw).
-fn learn_cameras(entry: &CommandBufferEntry, (line, convention): (DepthLine, DepthConvention)) {
-    let best = {
-        let mut device = entry
-            .device
-            .cameras
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        match device.observe_line(line, convention) {
-            CameraMatch::Camera { index, .. } => device.camera(index).map(|(.., best)| best),
-            _ => None,
-        }
-    };
-    if let Some(best) = best.filter(|best| best.relative_b_error() < line.relative_b_error()) {
-        entry.state().learn_camera(best, convention);
     }
 }
 
@@ -1217,6 +1188,28 @@ pub unsafe extern "system" fn begin_command_buffer(
     match device {
         // SAFETY: calling down with the application's arguments.
         Some(device) => unsafe { (device.next.fp_v1_0().begin_command_buffer)(buffer, p_begin) },
+        None => vk::Result::ERROR_INITIALIZATION_FAILED,
+    }
+}
+
+/// `vkEndCommandBuffer`: the device learns the cameras the recording found or improved (one
+/// lock per recording, and only when it found something), for the recordings begun after it.
+pub unsafe extern "system" fn end_command_buffer(buffer: vk::CommandBuffer) -> vk::Result {
+    static ENTRY: EntryPoint = EntryPoint::new("vkEndCommandBuffer");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let cameras = entry.state().take_changed_cameras();
+        if let Some(cameras) = cameras {
+            entry
+                .device
+                .cameras
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .merge(&cameras);
+        }
+    });
+    match device {
+        // SAFETY: calling down with the application's arguments.
+        Some(device) => unsafe { (device.next.fp_v1_0().end_command_buffer)(buffer) },
         None => vk::Result::ERROR_INITIALIZATION_FAILED,
     }
 }

@@ -173,6 +173,7 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkBeginCommandBuffer" => {
             void_fn!(vk::PFN_vkBeginCommandBuffer, c::begin_command_buffer)
         }
+        b"vkEndCommandBuffer" => void_fn!(vk::PFN_vkEndCommandBuffer, c::end_command_buffer),
         b"vkCmdBeginRenderPass" => {
             void_fn!(vk::PFN_vkCmdBeginRenderPass, c::cmd_begin_render_pass)
         }
