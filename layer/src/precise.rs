@@ -556,9 +556,10 @@ mod tests {
             .collect()
     }
 
-    fn reserved(
-        ranges: &[vk::PushConstantRange],
-    ) -> Result<(Vec<(u32, u32, u32)>, Carrier), NoRoom> {
+    /// Ranges as triples, and the carrier (or why there is none).
+    type Reserved = Result<(Vec<(u32, u32, u32)>, Carrier), NoRoom>;
+
+    fn reserved(ranges: &[vk::PushConstantRange]) -> Reserved {
         reserve_carrier(ranges, 112).map(|(ranges, carrier)| (triples(&ranges), carrier))
     }
 

@@ -325,11 +325,6 @@ fn compare_any_camera_line(
     format: &str,
     case: Case,
 ) -> DepthComparison {
-    let convention = if truth.negative_one_to_one {
-        DepthConvention::NegativeOneToOne
-    } else {
-        DepthConvention::ZeroToOne
-    };
     let mut ranges = layer_ranges(truth);
     for object in &truth.objects {
         let m = read_clip_transform(&object.pushed_projection, Storage::ColumnMajor);
@@ -371,7 +366,8 @@ fn compare_any_camera_line(
             .min_by(|a, b| a.0.total_cmp(&b.0))
             .expect("at least the camera's range");
         best.checked += 1;
-        if !(ratio <= 1.0) {
+        // NaN (no number stored, or none to compare with) counts as a failure.
+        if ratio.is_nan() || ratio > 1.0 {
             best.failures += 1;
         }
         let error = (f64::from(stored) - reference).abs();
