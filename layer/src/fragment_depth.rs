@@ -21,32 +21,10 @@
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 
-use crate::spirv_scan::{instructions, instructions_at, Instruction, HEADER_WORDS};
-
-const OP_LINE: u32 = 8;
-const OP_EXT_INST: u32 = 12;
-const OP_EXECUTION_MODE: u32 = 16;
-const OP_TYPE_INT: u32 = 21;
-const OP_TYPE_FLOAT: u32 = 22;
-const OP_TYPE_VECTOR: u32 = 23;
-const OP_TYPE_POINTER: u32 = 32;
-const OP_CONSTANT: u32 = 43;
-const OP_FUNCTION: u32 = 54;
-const OP_VARIABLE: u32 = 59;
-const OP_LOAD: u32 = 61;
-const OP_STORE: u32 = 62;
-const OP_ACCESS_CHAIN: u32 = 65;
-const OP_IN_BOUNDS_ACCESS_CHAIN: u32 = 66;
-const OP_DECORATE: u32 = 71;
-const OP_MEMBER_DECORATE: u32 = 72;
-const OP_VECTOR_SHUFFLE: u32 = 79;
-const OP_COMPOSITE_EXTRACT: u32 = 81;
-const OP_COMPOSITE_INSERT: u32 = 82;
-const OP_F_SUB: u32 = 131;
-const OP_LOOP_MERGE: u32 = 246;
-const OP_SELECTION_MERGE: u32 = 247;
-const OP_SWITCH: u32 = 251;
-const OP_NO_LINE: u32 = 317;
+use crate::spirv_scan::op::*;
+use crate::spirv_scan::{
+    instructions, instructions_at, is_literal, push, Instruction, HEADER_WORDS,
+};
 
 const DECORATION_BUILT_IN: u32 = 11;
 const BUILT_IN_FRAG_COORD: u32 = 15;
@@ -381,25 +359,6 @@ impl Body {
     }
 }
 
-/// Whether operand `index` of an instruction in a function body is a literal rather than an
-/// id, for the instructions whose literals could otherwise be taken for a built-in's id (a
-/// GLSL.std.450 instruction number, a composite index, a memory operand, a switch case).
-/// Others count every operand as a possible id: a false match refuses the module, never
-/// rewrites it wrongly.
-fn is_literal(opcode: u32, index: usize) -> bool {
-    match opcode {
-        OP_EXT_INST => index == 3,
-        OP_LOAD | OP_COMPOSITE_EXTRACT => index >= 3,
-        OP_STORE => index >= 2,
-        OP_COMPOSITE_INSERT | OP_VECTOR_SHUFFLE => index >= 4,
-        OP_SELECTION_MERGE => index >= 1,
-        OP_LOOP_MERGE => index >= 2,
-        // Selector, default, then (literal, label) pairs.
-        OP_SWITCH => index >= 2 && index % 2 == 0,
-        _ => false,
-    }
-}
-
 fn is_conservative_depth(mode: u32) -> bool {
     matches!(
         mode,
@@ -414,11 +373,6 @@ fn swap_conservative_depth(mode: u32) -> u32 {
         EXECUTION_MODE_DEPTH_GREATER => EXECUTION_MODE_DEPTH_LESS,
         _ => EXECUTION_MODE_DEPTH_GREATER,
     }
-}
-
-fn push(out: &mut Vec<u32>, opcode: u32, operands: &[u32]) {
-    out.push(((operands.len() as u32 + 1) << 16) | opcode);
-    out.extend_from_slice(operands);
 }
 
 #[cfg(test)]

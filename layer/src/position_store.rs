@@ -28,43 +28,8 @@
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 
-use crate::spirv_scan::{instructions, Instruction, HEADER_WORDS};
-
-const OP_NAME: u32 = 5;
-const OP_MEMBER_NAME: u32 = 6;
-const OP_LINE: u32 = 8;
-const OP_EXT_INST: u32 = 12;
-const OP_ENTRY_POINT: u32 = 15;
-const OP_TYPE_INT: u32 = 21;
-const OP_TYPE_FLOAT: u32 = 22;
-const OP_TYPE_VECTOR: u32 = 23;
-const OP_TYPE_MATRIX: u32 = 24;
-const OP_TYPE_ARRAY: u32 = 28;
-const OP_TYPE_RUNTIME_ARRAY: u32 = 29;
-const OP_TYPE_STRUCT: u32 = 30;
-const OP_TYPE_POINTER: u32 = 32;
-const OP_CONSTANT: u32 = 43;
-const OP_FUNCTION: u32 = 54;
-const OP_FUNCTION_CALL: u32 = 57;
-const OP_VARIABLE: u32 = 59;
-const OP_LOAD: u32 = 61;
-const OP_STORE: u32 = 62;
-const OP_COPY_MEMORY: u32 = 63;
-const OP_ACCESS_CHAIN: u32 = 65;
-const OP_IN_BOUNDS_ACCESS_CHAIN: u32 = 66;
-const OP_DECORATE: u32 = 71;
-const OP_MEMBER_DECORATE: u32 = 72;
-const OP_VECTOR_SHUFFLE: u32 = 79;
-const OP_COMPOSITE_EXTRACT: u32 = 81;
-const OP_COMPOSITE_INSERT: u32 = 82;
-const OP_COPY_OBJECT: u32 = 83;
-const OP_F_ADD: u32 = 129;
-const OP_F_MUL: u32 = 133;
-const OP_LOOP_MERGE: u32 = 246;
-const OP_SELECTION_MERGE: u32 = 247;
-const OP_RETURN: u32 = 253;
-const OP_SWITCH: u32 = 251;
-const OP_NO_LINE: u32 = 317;
+use crate::spirv_scan::op::*;
+use crate::spirv_scan::{instructions, is_literal, push, Instruction, HEADER_WORDS};
 
 const STORAGE_PRIVATE: u32 = 6;
 const STORAGE_OUTPUT: u32 = 3;
@@ -818,30 +783,6 @@ fn result_id(opcode: u32, operands: &[u32]) -> Option<&u32> {
         OP_CONSTANT..=52 | OP_VARIABLE | OP_FUNCTION => operands.get(1),
         _ => None,
     }
-}
-
-/// Whether operand `index` of an instruction in a function body is a literal rather than an
-/// id (as in `crate::fragment_depth`): a false match refuses the module, never rewrites it
-/// wrongly.
-fn is_literal(opcode: u32, index: usize) -> bool {
-    match opcode {
-        OP_NAME | OP_MEMBER_NAME => true,
-        OP_EXT_INST => index == 3,
-        OP_LOAD | OP_COMPOSITE_EXTRACT => index >= 3,
-        OP_STORE => index >= 2,
-        OP_COPY_MEMORY => index >= 2,
-        OP_COMPOSITE_INSERT | OP_VECTOR_SHUFFLE => index >= 4,
-        OP_SELECTION_MERGE => index >= 1,
-        OP_LOOP_MERGE => index >= 2,
-        OP_SWITCH => index >= 2 && index % 2 == 0,
-        OP_CONSTANT => index >= 2,
-        _ => false,
-    }
-}
-
-fn push(out: &mut Vec<u32>, opcode: u32, operands: &[u32]) {
-    out.push(((operands.len() as u32 + 1) << 16) | opcode);
-    out.extend_from_slice(operands);
 }
 
 #[cfg(test)]

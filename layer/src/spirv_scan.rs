@@ -1,5 +1,6 @@
-//! The one instruction walker ([`instructions`]) every word scan in the layer uses, and the
-//! copy of a module the shader analysis reads ([`for_analysis`]). Cheap facts read straight
+//! The one instruction walker ([`instructions`]) every word scan in the layer uses, the copy
+//! of a module the shader analysis reads ([`for_analysis`]), and the opcodes and operand rules
+//! the word-level rewriters share ([`op`], [`is_literal`], [`push`]). Cheap facts read straight
 //! from SPIR-V words, without parsing the module.
 
 /// `OpExtension`, `OpExtInstImport`, `OpExtInst`, `OpCapability`.
@@ -104,6 +105,76 @@ pub fn for_analysis(words: &[u32]) -> Option<Vec<u32>> {
         }
     }
     removed.then_some(out)
+}
+
+/// The opcodes the word-level rewriters ([`crate::fragment_depth`], [`crate::position_store`])
+/// read and write (SPIR-V specification, section 3.52).
+pub mod op {
+    pub const OP_NAME: u32 = 5;
+    pub const OP_MEMBER_NAME: u32 = 6;
+    pub const OP_LINE: u32 = 8;
+    pub const OP_EXT_INST: u32 = 12;
+    pub const OP_ENTRY_POINT: u32 = 15;
+    pub const OP_EXECUTION_MODE: u32 = 16;
+    pub const OP_TYPE_INT: u32 = 21;
+    pub const OP_TYPE_FLOAT: u32 = 22;
+    pub const OP_TYPE_VECTOR: u32 = 23;
+    pub const OP_TYPE_MATRIX: u32 = 24;
+    pub const OP_TYPE_ARRAY: u32 = 28;
+    pub const OP_TYPE_RUNTIME_ARRAY: u32 = 29;
+    pub const OP_TYPE_STRUCT: u32 = 30;
+    pub const OP_TYPE_POINTER: u32 = 32;
+    pub const OP_CONSTANT: u32 = 43;
+    pub const OP_FUNCTION: u32 = 54;
+    pub const OP_FUNCTION_CALL: u32 = 57;
+    pub const OP_VARIABLE: u32 = 59;
+    pub const OP_LOAD: u32 = 61;
+    pub const OP_STORE: u32 = 62;
+    pub const OP_COPY_MEMORY: u32 = 63;
+    pub const OP_ACCESS_CHAIN: u32 = 65;
+    pub const OP_IN_BOUNDS_ACCESS_CHAIN: u32 = 66;
+    pub const OP_DECORATE: u32 = 71;
+    pub const OP_MEMBER_DECORATE: u32 = 72;
+    pub const OP_VECTOR_SHUFFLE: u32 = 79;
+    pub const OP_COMPOSITE_EXTRACT: u32 = 81;
+    pub const OP_COMPOSITE_INSERT: u32 = 82;
+    pub const OP_COPY_OBJECT: u32 = 83;
+    pub const OP_F_ADD: u32 = 129;
+    pub const OP_F_SUB: u32 = 131;
+    pub const OP_F_MUL: u32 = 133;
+    pub const OP_LOOP_MERGE: u32 = 246;
+    pub const OP_SELECTION_MERGE: u32 = 247;
+    pub const OP_SWITCH: u32 = 251;
+    pub const OP_RETURN: u32 = 253;
+    pub const OP_NO_LINE: u32 = 317;
+}
+
+/// Whether operand `index` of an instruction in a function body is a literal rather than an
+/// id, for the instructions whose literals could otherwise be taken for a tracked id (a
+/// GLSL.std.450 instruction number, a composite index, a memory operand, a switch case, a
+/// constant's value). Others count every operand as a possible id: a false match refuses a
+/// module, never rewrites it wrongly.
+pub fn is_literal(opcode: u32, index: usize) -> bool {
+    use op::*;
+    match opcode {
+        OP_NAME | OP_MEMBER_NAME => true,
+        OP_EXT_INST => index == 3,
+        OP_LOAD | OP_COMPOSITE_EXTRACT => index >= 3,
+        OP_STORE | OP_COPY_MEMORY => index >= 2,
+        OP_COMPOSITE_INSERT | OP_VECTOR_SHUFFLE => index >= 4,
+        OP_SELECTION_MERGE => index >= 1,
+        OP_LOOP_MERGE => index >= 2,
+        // Selector, default, then (literal, label) pairs.
+        OP_SWITCH => index >= 2 && index % 2 == 0,
+        OP_CONSTANT => index >= 2,
+        _ => false,
+    }
+}
+
+/// Appends one instruction to `out`.
+pub fn push(out: &mut Vec<u32>, opcode: u32, operands: &[u32]) {
+    out.push(((operands.len() as u32 + 1) << 16) | opcode);
+    out.extend_from_slice(operands);
 }
 
 #[cfg(test)]

@@ -78,10 +78,9 @@ pub struct DeviceState {
     pub added_extended_dynamic_state: bool,
     /// What revz learned about the application while it records.
     pub observed: Observed,
-    /// The cameras the application's projections belong to (`revz_math::Cameras`): each
-    /// recording starts from them, and adds a camera (or a better range for one) when it
-    /// finds it. Locked at command buffer begin and on such a change only.
-    pub cameras: std::sync::Mutex<revz_math::Cameras>,
+    /// The cameras the application's projections belong to, as recordings learn them
+    /// (`crate::hooks::cameras`).
+    pub cameras: crate::hooks::cameras::DeviceCameras,
     pub objects: DeviceObjects,
 }
 
@@ -133,6 +132,7 @@ pub struct DeviceCommands {
     pub create_shaders_ext: Option<vk::PFN_vkCreateShadersEXT>,
     pub destroy_shader_ext: Option<vk::PFN_vkDestroyShaderEXT>,
     pub push_constants2: Option<vk::PFN_vkCmdPushConstants2KHR>,
+    pub queue_submit2: Option<vk::PFN_vkQueueSubmit2>,
     pub copy_buffer_to_image2: Option<vk::PFN_vkCmdCopyBufferToImage2>,
     pub copy_image2: Option<vk::PFN_vkCmdCopyImage2>,
     pub blit_image2: Option<vk::PFN_vkCmdBlitImage2>,
@@ -214,6 +214,7 @@ impl DeviceCommands {
             create_shaders_ext: load!(0, c"vkCreateShadersEXT"),
             destroy_shader_ext: load!(0, c"vkDestroyShaderEXT"),
             push_constants2: load!(V14, c"vkCmdPushConstants2", c"vkCmdPushConstants2KHR"),
+            queue_submit2: load!(V13, c"vkQueueSubmit2", c"vkQueueSubmit2KHR"),
             copy_buffer_to_image2: load!(
                 V13,
                 c"vkCmdCopyBufferToImage2",

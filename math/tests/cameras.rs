@@ -12,12 +12,14 @@
 //! within the nearest object's view distance of the world origin (the module docs' limitation);
 //! `float32_view_translation_beyond_the_bound_is_measured` shows what happens beyond.
 
+mod common;
+
 use std::cell::RefCell;
 use std::f64::consts::TAU;
 
 use glam::{camera, dcamera, DMat4, DQuat, DVec3, DVec4, Mat4};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, TestCaseError, TestRunner};
+use proptest::test_runner::TestCaseError;
 use revz_math::precision::F32_UNIT_ROUNDOFF;
 use revz_math::{
     classify, from_rows, CameraMatch, Cameras, Classification, DepthConvention, DepthDirection,
@@ -31,56 +33,7 @@ const NEGATIVE_ONE_TO_ONE: DepthConvention = DepthConvention::NegativeOneToOne;
 // ---------------------------------------------------------------------------------------------
 // Statistics (as in tests/properties.rs)
 
-#[derive(Debug, Default)]
-struct Worst {
-    values: Vec<(&'static str, f64)>,
-    counts: Vec<(&'static str, u64)>,
-}
-
-impl Worst {
-    fn max(&mut self, name: &'static str, value: f64) {
-        match self.values.iter_mut().find(|(n, _)| *n == name) {
-            Some((_, worst)) => *worst = worst.max(value),
-            None => self.values.push((name, value)),
-        }
-    }
-
-    fn count(&mut self, name: &'static str) {
-        match self.counts.iter_mut().find(|(n, _)| *n == name) {
-            Some((_, count)) => *count += 1,
-            None => self.counts.push((name, 1)),
-        }
-    }
-
-    fn print(&self, test: &str) {
-        println!("{test}:");
-        for (name, value) in &self.values {
-            println!("  worst {name}: {value:.3e}");
-        }
-        for (name, count) in &self.counts {
-            println!("  count {name}: {count}");
-        }
-    }
-}
-
-fn runner(cases: u32) -> TestRunner {
-    TestRunner::new(Config {
-        cases,
-        failure_persistence: None,
-        max_shrink_iters: std::env::var("NO_SHRINK").map_or(1024, |_| 0),
-        ..Config::default()
-    })
-}
-
-fn check(result: Result<(), proptest::test_runner::TestError<impl std::fmt::Debug>>) {
-    if let Err(error) = result {
-        panic!("{error}");
-    }
-}
-
-fn fail(message: String) -> TestCaseError {
-    TestCaseError::fail(message)
-}
+use common::{check, fail, runner, Worst};
 
 // ---------------------------------------------------------------------------------------------
 // Cameras and objects

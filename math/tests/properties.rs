@@ -37,13 +37,15 @@
 //! [`float32_depth_floor`] of it (a rigorous bound: rounding of the new row, of the shader's
 //! dot products and of the division).
 
+mod common;
+
 use std::cell::RefCell;
 use std::f64::consts::TAU;
 
 use glam::dcamera::{lh, rh};
 use glam::{DMat4, DQuat, DVec3, DVec4, Mat4};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, TestCaseError, TestRunner};
+use proptest::test_runner::TestCaseError;
 use revz_math::precision::{
     float32_depth_floor, float32_ulp, gpu_clip, gpu_depth, F32_UNIT_ROUNDOFF,
 };
@@ -320,56 +322,7 @@ fn rho_b(m: &DMat4, k: f64, b: f64) -> f64 {
 // ---------------------------------------------------------------------------------------------
 // Statistics
 
-#[derive(Debug, Default)]
-struct Worst {
-    values: Vec<(&'static str, f64)>,
-    counts: Vec<(&'static str, u64)>,
-}
-
-impl Worst {
-    fn max(&mut self, name: &'static str, value: f64) {
-        match self.values.iter_mut().find(|(n, _)| *n == name) {
-            Some((_, worst)) => *worst = worst.max(value),
-            None => self.values.push((name, value)),
-        }
-    }
-
-    fn count(&mut self, name: &'static str) {
-        match self.counts.iter_mut().find(|(n, _)| *n == name) {
-            Some((_, count)) => *count += 1,
-            None => self.counts.push((name, 1)),
-        }
-    }
-
-    fn print(&self, test: &str) {
-        println!("{test}:");
-        for (name, value) in &self.values {
-            println!("  worst {name}: {value:.3e}");
-        }
-        for (name, count) in &self.counts {
-            println!("  count {name}: {count}");
-        }
-    }
-}
-
-fn runner(cases: u32) -> TestRunner {
-    TestRunner::new(Config {
-        cases,
-        failure_persistence: None,
-        max_shrink_iters: std::env::var("NO_SHRINK").map_or(1024, |_| 0),
-        ..Config::default()
-    })
-}
-
-fn check(result: Result<(), proptest::test_runner::TestError<impl std::fmt::Debug>>) {
-    if let Err(error) = result {
-        panic!("{error}");
-    }
-}
-
-fn fail(message: String) -> TestCaseError {
-    TestCaseError::fail(message)
-}
+use common::{check, fail, runner, Worst};
 
 // ---------------------------------------------------------------------------------------------
 // Checks 1 to 3 and 6: standard perspective cameras

@@ -3,7 +3,8 @@
 //! threads record at once, each into a secondary of its own command pool (half of them
 //! inheriting the framebuffer, half the render pass only), binding, setting the viewport and
 //! pushing per-object matrices; one primary executes them. The tester fails unless every frame
-//! is bit-identical to the first; this test then checks that first frame: zero validation
+//! from the second on is bit-identical to the second (the first is a warm-up: revz learns each
+//! camera's best matrix across frames); this test then checks that frame: zero validation
 //! messages, every visible object drawn in its color where the ground truth says it is
 //! visible, colors equal to the native render, and the depth reversed as the mode says
 //! (`off`: identical; `flip`: 1 - native; `complementary`: 1 - the standard mapping of the

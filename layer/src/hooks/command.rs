@@ -327,7 +327,7 @@ draw_hook!(cmd_execute_generated_commands_ext, "vkCmdExecuteGeneratedCommandsEXT
 /// The device a hook calls down to. For a tracked command buffer it is reached through the
 /// command buffer's entry, whose reference count only the recording thread touches; cloning
 /// the device's own `Arc` on every command would make all recording threads contend on it.
-enum Down {
+pub(super) enum Down {
     Tracked(Arc<CommandBufferEntry>),
     Untracked(Arc<DeviceState>),
 }
@@ -344,7 +344,7 @@ impl std::ops::Deref for Down {
 }
 
 /// Looks up a command buffer for a state-recording hook; returns the device to call down to.
-fn with_entry(
+pub(super) fn with_entry(
     buffer: vk::CommandBuffer,
     entry_point: &'static EntryPoint,
     record: impl FnOnce(&CommandBufferEntry),
@@ -1174,12 +1174,7 @@ pub unsafe extern "system" fn begin_command_buffer(
         };
         *entry.scope() = PassScope::default();
         let mut state = entry.state();
-        let cameras = entry
-            .device
-            .cameras
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
-            .clone();
+        let cameras = entry.device.cameras.learned();
         state.begin(target, entry.device.reversing().reversal, cameras);
         if entry.secondary && inherits_viewports(begin) {
             state.inherit_viewports();
@@ -1188,28 +1183,6 @@ pub unsafe extern "system" fn begin_command_buffer(
     match device {
         // SAFETY: calling down with the application's arguments.
         Some(device) => unsafe { (device.next.fp_v1_0().begin_command_buffer)(buffer, p_begin) },
-        None => vk::Result::ERROR_INITIALIZATION_FAILED,
-    }
-}
-
-/// `vkEndCommandBuffer`: the device learns the cameras the recording found or improved (one
-/// lock per recording, and only when it found something), for the recordings begun after it.
-pub unsafe extern "system" fn end_command_buffer(buffer: vk::CommandBuffer) -> vk::Result {
-    static ENTRY: EntryPoint = EntryPoint::new("vkEndCommandBuffer");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        let cameras = entry.state().take_changed_cameras();
-        if let Some(cameras) = cameras {
-            entry
-                .device
-                .cameras
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner)
-                .merge(&cameras);
-        }
-    });
-    match device {
-        // SAFETY: calling down with the application's arguments.
-        Some(device) => unsafe { (device.next.fp_v1_0().end_command_buffer)(buffer) },
         None => vk::Result::ERROR_INITIALIZATION_FAILED,
     }
 }

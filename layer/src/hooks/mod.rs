@@ -35,6 +35,7 @@ macro_rules! destroy_hook {
     };
 }
 
+pub mod cameras;
 pub mod command;
 pub mod device;
 pub mod extensions;
@@ -173,7 +174,6 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkBeginCommandBuffer" => {
             void_fn!(vk::PFN_vkBeginCommandBuffer, c::begin_command_buffer)
         }
-        b"vkEndCommandBuffer" => void_fn!(vk::PFN_vkEndCommandBuffer, c::end_command_buffer),
         b"vkCmdBeginRenderPass" => {
             void_fn!(vk::PFN_vkCmdBeginRenderPass, c::cmd_begin_render_pass)
         }
@@ -321,6 +321,13 @@ pub fn precise_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             vk::PFN_vkDestroyPipelineLayout,
             pipeline::destroy_pipeline_layout
         ),
+        b"vkEndCommandBuffer" => {
+            void_fn!(vk::PFN_vkEndCommandBuffer, cameras::end_command_buffer)
+        }
+        b"vkQueueSubmit" => void_fn!(vk::PFN_vkQueueSubmit, cameras::queue_submit),
+        b"vkQueueSubmit2" | b"vkQueueSubmit2KHR" => {
+            void_fn!(vk::PFN_vkQueueSubmit2, cameras::queue_submit2)
+        }
         _ => None,
     }
 }

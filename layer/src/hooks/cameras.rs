@@ -1,0 +1,150 @@
+//! What recordings teach each other about cameras (the precise path, `crate::precise`): each
+//! recording classifies its projections against a copy of the device's cameras taken when it
+//! begins; what it found or improved goes into the device's *pending* cameras when it ends, and
+//! a queue submission makes the pending ones the cameras later recordings begin with.
+//!
+//! Why at a submission, not at the end of each recording: recordings of one frame (on several
+//! threads, or one after the other) then all start from what the frames before taught, so a
+//! frame's depths do not depend on which thread finished first, and every frame after the
+//! first of a camera gets its best-conditioned matrix from the first draw on. One lock per
+//! recording that found something, one per submission after such a recording: none per draw.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, PoisonError};
+
+use ash::vk;
+use revz_math::Cameras;
+
+use super::command::with_entry;
+use crate::boundary::{guarded, EntryPoint};
+use crate::state::{DispatchKey, DEVICES};
+
+/// A device's cameras: those recordings begin with, and those learned since the last
+/// submission.
+#[derive(Debug, Default)]
+pub struct DeviceCameras {
+    learned: Mutex<Cameras>,
+    pending: Mutex<Cameras>,
+    has_pending: AtomicBool,
+}
+
+impl DeviceCameras {
+    /// The cameras a recording begins with.
+    pub fn learned(&self) -> Cameras {
+        self.learned
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+
+    /// A recording ended having found or improved `cameras`.
+    pub fn end_recording(&self, cameras: &Cameras) {
+        self.pending
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .merge(cameras);
+        self.has_pending.store(true, Ordering::Release);
+    }
+
+    /// A submission: what recordings found becomes what the next ones begin with.
+    pub fn submit(&self) {
+        if !self.has_pending.swap(false, Ordering::AcqRel) {
+            return;
+        }
+        let pending =
+            std::mem::take(&mut *self.pending.lock().unwrap_or_else(PoisonError::into_inner));
+        self.learned
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .merge(&pending);
+    }
+}
+
+/// `vkEndCommandBuffer`.
+pub unsafe extern "system" fn end_command_buffer(buffer: vk::CommandBuffer) -> vk::Result {
+    static ENTRY: EntryPoint = EntryPoint::new("vkEndCommandBuffer");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let cameras = entry.state().take_changed_cameras();
+        if let Some(cameras) = cameras {
+            entry.device.cameras.end_recording(&cameras);
+        }
+    });
+    match device {
+        // SAFETY: calling down with the application's arguments.
+        Some(device) => unsafe { (device.next.fp_v1_0().end_command_buffer)(buffer) },
+        None => vk::Result::ERROR_INITIALIZATION_FAILED,
+    }
+}
+
+static QUEUE_SUBMIT: EntryPoint = EntryPoint::new("vkQueueSubmit");
+
+/// The device of `queue` (a queue shares its device's dispatch key), with its cameras
+/// promoted.
+///
+/// # Safety
+/// `queue` is a live queue.
+unsafe fn submitting(queue: vk::Queue) -> Option<std::sync::Arc<crate::state::DeviceState>> {
+    // SAFETY: the caller's contract.
+    let device = DEVICES.get(unsafe { DispatchKey::of(queue) })?;
+    guarded(&QUEUE_SUBMIT, || device.cameras.submit(), || ());
+    Some(device)
+}
+
+/// `vkQueueSubmit`.
+pub unsafe extern "system" fn queue_submit(
+    queue: vk::Queue,
+    count: u32,
+    p_submits: *const vk::SubmitInfo<'_>,
+    fence: vk::Fence,
+) -> vk::Result {
+    // SAFETY: a live queue (the application's contract).
+    match unsafe { submitting(queue) } {
+        // SAFETY: calling down with the application's arguments.
+        Some(device) => unsafe {
+            (device.next.fp_v1_0().queue_submit)(queue, count, p_submits, fence)
+        },
+        None => vk::Result::ERROR_INITIALIZATION_FAILED,
+    }
+}
+
+/// `vkQueueSubmit2` and `vkQueueSubmit2KHR`.
+pub unsafe extern "system" fn queue_submit2(
+    queue: vk::Queue,
+    count: u32,
+    p_submits: *const vk::SubmitInfo2<'_>,
+    fence: vk::Fence,
+) -> vk::Result {
+    // SAFETY: a live queue (the application's contract).
+    let next = unsafe { submitting(queue) }.and_then(|device| device.commands.queue_submit2);
+    match next {
+        // SAFETY: calling down with the application's arguments.
+        Some(next) => unsafe { next(queue, count, p_submits, fence) },
+        None => vk::Result::ERROR_INITIALIZATION_FAILED,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::dcamera::rh::proj::vulkan;
+    use glam::{DMat4, DVec3};
+    use revz_math::{CameraMatch, DepthConvention};
+
+    use super::*;
+
+    #[test]
+    fn what_a_recording_found_is_seen_by_recordings_begun_after_the_next_submission() {
+        let device = DeviceCameras::default();
+        let mut recording = device.learned();
+        let near = vulkan::perspective(1.0, 1.5, 0.1, 100.0)
+            * DMat4::from_translation(DVec3::new(0.0, 0.0, -2.0));
+        let found = recording.observe(&near, DepthConvention::ZeroToOne);
+        assert!(matches!(found, CameraMatch::Camera { changed: true, .. }));
+        device.end_recording(&recording);
+        assert!(device.learned().is_empty(), "not before a submission");
+        device.submit();
+        assert_eq!(device.learned().len(), 1);
+        // Nothing pending: a submission changes nothing.
+        device.submit();
+        assert_eq!(device.learned().len(), 1);
+    }
+}
