@@ -26,7 +26,9 @@ use revz_math::{Cameras, Target as RewriteTarget};
 
 use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
 use crate::objects::FragmentShader;
-use crate::precise::{Carrier, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER};
+use crate::precise::{
+    Carrier, FoldedPush, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER,
+};
 
 /// A set of depth-related dynamic states.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -421,42 +423,83 @@ impl CommandState {
         Some((projection, self.reversing.rewrite?))
     }
 
-    /// `vkCmdPushConstants` of `data` at `offset` (passed down unchanged): classifies the
-    /// bound pipeline's projection when the push reaches it. Returns the outcome of a
-    /// classification, if one was made (the caller reports already reversed projections).
+    /// `vkCmdPushConstants` of `data` with `stages` at `offset`: classifies the bound
+    /// pipeline's projection when the push reaches it. Returns the outcome of a classification,
+    /// if one was made (the caller reports already reversed projections), and the push to send
+    /// in the application's place when the carrier changes with it ([`FoldedPush`]: the
+    /// application's bytes extended to the carrier's); otherwise the application's push goes
+    /// down unchanged.
     pub fn push_constants(
         &mut self,
         layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
         offset: u32,
         data: &[u8],
-    ) -> Option<Outcome> {
+    ) -> (Option<Outcome>, Option<FoldedPush>) {
         if layout != self.push.layout() {
             // Values pushed with another layout may have disturbed the carrier.
             self.carrier_held = None;
             self.dirty = true;
         }
         self.push.push(layout, offset, data);
-        let (use_, target) = self.precise_use().map(|(p, t)| (*p, t))?;
+        let Some((use_, target)) = self.precise_use().map(|(p, t)| (*p, t)) else {
+            return (None, self.fold(layout, stages, offset, None));
+        };
         let end = u64::from(offset) + data.len() as u64;
         if end <= u64::from(use_.offset) || u64::from(use_.end()) <= u64::from(offset) {
-            return None;
+            return (None, self.fold(layout, stages, offset, None));
         }
         let outcome = self.push.outcome(&use_, target);
         match outcome {
             Some(outcome) => {
                 self.learn(&outcome);
-                let (path, carrier) = match outcome {
-                    Outcome::Rewritten { carrier, .. } => (DrawPath::Precise, carrier),
-                    _ => (DrawPath::Flip, FLIP_CARRIER),
+                let path = match outcome {
+                    Outcome::Rewritten { .. } => DrawPath::Precise,
+                    _ => DrawPath::Flip,
                 };
-                let held = self.carrier_held.map(|(_, bits)| bits);
-                if path != self.path || held != Some(carrier.map(f32::to_bits)) {
+                if path != self.path {
                     self.dirty = true;
                 }
             }
             None => self.dirty = true,
         }
-        outcome
+        (outcome, self.fold(layout, stages, offset, outcome))
+    }
+
+    /// The push returned by [`Self::push_constants`] was not sent extended: the next draw
+    /// sends the carrier.
+    pub fn unfold(&mut self) {
+        self.carrier_held = None;
+        self.dirty = true;
+    }
+
+    /// The application's push extended to the carrier, where the bound pipeline reads it and
+    /// its value for the next draw (`outcome` of this push) is not the one held.
+    fn fold(
+        &mut self,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        outcome: Option<Outcome>,
+    ) -> Option<FoldedPush> {
+        let carrier = self.pipeline.as_ref()?.position_store?;
+        let values = match (self.target, outcome) {
+            (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
+            // Another classification for the draw decides (at the draw).
+            (Target::Reversed, None) if self.precise_use().is_some() => return None,
+            _ => FLIP_CARRIER,
+        };
+        let held = (layout, values.map(f32::to_bits));
+        if self.carrier_held == Some(held) {
+            return None;
+        }
+        let folded = self.push.fold_carrier(&carrier, stages, offset, &values);
+        match folded {
+            Some(_) => self.carrier_held = Some(held),
+            // The draw pushes it.
+            None => self.dirty = true,
+        }
+        folded
     }
 
     /// Infinite mode: a rewritten projection tells n / f, which flip-path state follows.
@@ -1218,6 +1261,10 @@ mod tests {
     }
 
     const APP_PIPELINE: u64 = 8;
+    /// Push stages other than the carrier's range's: such pushes never carry the carrier.
+    const OTHER_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
+        vk::ShaderStageFlags::VERTEX.as_raw() | vk::ShaderStageFlags::FRAGMENT.as_raw(),
+    );
 
     /// A pipeline reading its projection from push-constant bytes 0..64, whose vertex stage
     /// stores the carrier's depth (carrier at byte 112).
@@ -1233,6 +1280,7 @@ mod tests {
             position_store: Some(Carrier {
                 offset: 112,
                 stages: vk::ShaderStageFlags::VERTEX,
+                range_offset: 0,
             }),
             handle: vk::Pipeline::from_raw(APP_PIPELINE),
             ..(*static_pipeline()).clone()
@@ -1264,8 +1312,10 @@ mod tests {
         );
         state.bind_pipeline(Some(projection_pipeline()));
         let data = perspective_bytes();
-        let outcome = state.push_constants(layout(), 0, &data);
+        // Pushed with other stages than the carrier's range: the draw sends the carrier.
+        let (outcome, folded) = state.push_constants(layout(), OTHER_STAGES, 0, &data);
         assert!(matches!(outcome, Some(Outcome::Rewritten { .. })));
+        assert!(folded.is_none());
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
@@ -1278,14 +1328,54 @@ mod tests {
         assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
 
         // The next object's matrix of the same camera: nothing to send at its draw.
-        state.push_constants(layout(), 0, &data);
+        state.push_constants(layout(), OTHER_STAGES, 0, &data);
         state.before_draw(&mut sink);
         assert_eq!(sink.pushes.len(), 1);
         assert_eq!(sink.viewports.len(), 1);
         // A push with another layout may have disturbed the carrier: it goes down again.
-        state.push_constants(vk::PipelineLayout::from_raw(4), 0, &data);
+        state.push_constants(vk::PipelineLayout::from_raw(4), OTHER_STAGES, 0, &data);
         state.before_draw(&mut sink);
         assert_eq!(sink.pushes, vec![(112, 16), (112, 16)]);
+    }
+
+    #[test]
+    fn a_push_of_the_carriers_stages_carries_it_when_it_changes() {
+        let mut state = precise(RewriteTarget::Infinite);
+        state.begin(
+            Target::Reversed,
+            Reversal::Infinite { near_over_far: 0.0 },
+            Default::default(),
+        );
+        state.bind_pipeline(Some(projection_pipeline()));
+        let data = perspective_bytes();
+        let (outcome, folded) =
+            state.push_constants(layout(), vk::ShaderStageFlags::VERTEX, 0, &data);
+        let Some(Outcome::Rewritten { carrier, .. }) = outcome else {
+            panic!("{outcome:?}");
+        };
+        let folded = folded.expect("the carrier goes with the push");
+        assert_eq!((folded.offset, folded.size), (0, 128));
+        assert_eq!(folded.bytes[..64], data[..]);
+        assert_eq!(folded.bytes[64..112], [0; 48], "bytes never pushed");
+        assert_eq!(folded.bytes[112..128], Carrier::bytes(&carrier));
+        // The draw has nothing to push; the same camera's next matrix goes down as it is.
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert!(sink.pushes.is_empty());
+        let (_, again) = state.push_constants(layout(), vk::ShaderStageFlags::VERTEX, 0, &data);
+        assert!(again.is_none());
+        // Not sent extended (a caller that could not): the draw sends it.
+        let (_, other) = state.push_constants(
+            vk::PipelineLayout::from_raw(4),
+            vk::ShaderStageFlags::VERTEX,
+            0,
+            &data,
+        );
+        assert!(other.is_some());
+        state.unfold();
+        state.before_draw(&mut sink);
+        assert_eq!(sink.pushes, vec![(112, 16)]);
     }
 
     #[test]
@@ -1346,7 +1436,7 @@ mod tests {
         );
         state.inherit_viewports();
         state.bind_pipeline(Some(projection_pipeline()));
-        state.push_constants(layout(), 0, &perspective_bytes());
+        state.push_constants(layout(), OTHER_STAGES, 0, &perspective_bytes());
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Flip);
@@ -1359,7 +1449,7 @@ mod tests {
             Default::default(),
         );
         state.bind_pipeline(Some(projection_pipeline()));
-        state.push_constants(layout(), 0, &perspective_bytes());
+        state.push_constants(layout(), OTHER_STAGES, 0, &perspective_bytes());
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
     }
@@ -1374,7 +1464,14 @@ mod tests {
         );
         state.bind_pipeline(Some(static_pipeline()));
         assert_eq!(
-            state.push_constants(layout(), 0, &perspective_bytes()),
+            state
+                .push_constants(
+                    layout(),
+                    vk::ShaderStageFlags::VERTEX,
+                    0,
+                    &perspective_bytes()
+                )
+                .0,
             None,
             "not this pipeline's projection"
         );
@@ -1393,7 +1490,12 @@ mod tests {
             Default::default(),
         );
         state.bind_pipeline(Some(projection_pipeline()));
-        state.push_constants(layout(), 0, &perspective_bytes());
+        state.push_constants(
+            layout(),
+            vk::ShaderStageFlags::VERTEX,
+            0,
+            &perspective_bytes(),
+        );
         state.set_target(Target::Reversed);
         let mut sink = Recorded::default();
         let outcome = state.before_draw(&mut sink);

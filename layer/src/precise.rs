@@ -182,6 +182,9 @@ pub struct Carrier {
     /// The stages a push of exactly the carrier's bytes must name: those of the range that
     /// holds them.
     pub stages: vk::ShaderStageFlags,
+    /// Where that range starts: a push of the application's with exactly these stages, at or
+    /// after it, may be extended to the carrier's bytes ([`PushConstants::fold_carrier`]).
+    pub range_offset: u32,
 }
 
 /// The carrier's offset on a device with `max_push_constants_size`: the last 16 bytes of the
@@ -257,6 +260,7 @@ pub fn reserve_carrier(
         Carrier {
             offset,
             stages: range.stage_flags,
+            range_offset: range.offset,
         },
     ))
 }
@@ -344,6 +348,16 @@ pub fn classify_projection(
         CameraMatch::NotPerspective => Outcome::Unchanged,
     };
     (outcome, changed)
+}
+
+/// An application's push extended to revz's carrier ([`PushConstants::fold_carrier`]): what
+/// goes down in its place.
+#[derive(Clone, Copy, Debug)]
+pub struct FoldedPush {
+    pub offset: u32,
+    pub size: u32,
+    /// The first `size` bytes are the values.
+    pub bytes: [u8; PUSH_CONSTANT_BYTES],
 }
 
 /// Where [`crate::command_state::CommandState`] sends revz's own push constants (the next
@@ -478,6 +492,37 @@ impl PushConstants {
         self.written |= word_mask(start, end);
     }
 
+    /// The application's push of `stages` at `offset` (already followed by [`Self::push`]),
+    /// extended to the carrier's bytes holding `values`: the bytes from `offset` to the
+    /// carrier's end (the application's values, then its earlier ones or zeros where it pushed
+    /// none, then the carrier). `None` where the push cannot carry it alone: other stages than
+    /// the carrier's range's, or bytes before that range. One call down instead of two when a
+    /// camera change comes with a push, as it does for a projection per draw.
+    pub fn fold_carrier(
+        &self,
+        carrier: &Carrier,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        values: &[f32; 4],
+    ) -> Option<FoldedPush> {
+        if stages != carrier.stages || offset < carrier.range_offset || offset >= carrier.offset {
+            return None;
+        }
+        let (start, carrier_at) = (offset as usize, carrier.offset as usize);
+        let end = carrier_at + CARRIER_BYTES as usize;
+        if end > PUSH_CONSTANT_BYTES {
+            return None;
+        }
+        let mut bytes = [0u8; PUSH_CONSTANT_BYTES];
+        bytes[..carrier_at - start].copy_from_slice(&self.bytes[start..carrier_at]);
+        bytes[carrier_at - start..end - start].copy_from_slice(&Carrier::bytes(values));
+        Some(FoldedPush {
+            offset,
+            size: (end - start) as u32,
+            bytes,
+        })
+    }
+
     /// The layout of the application's last push (null before the first).
     pub fn layout(&self) -> vk::PipelineLayout {
         self.layout
@@ -572,7 +617,8 @@ mod tests {
             carrier,
             Carrier {
                 offset: 112,
-                stages: VERTEX | FRAGMENT
+                stages: VERTEX | FRAGMENT,
+                range_offset: 0,
             }
         );
         // The same application ranges give the same layout (compatibility is kept).

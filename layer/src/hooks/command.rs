@@ -16,7 +16,7 @@ use crate::config::Mode;
 use crate::conv::{flip_resolve_mode, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
 use crate::policy::{secondary_target, Convention};
-use crate::precise::{Outcome, PushSink, PUSH_CONSTANT_BYTES};
+use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
 /// The device of a command buffer revz does not track (slow path: the global registry).
@@ -150,8 +150,9 @@ fn observe(device: &DeviceState, outcome: &Outcome) {
     }
 }
 
-/// `vkCmdPushConstants`: the values go down as they are, and into the command buffer's shadow
-/// copy, where the bound pipeline's projection is classified (`crate::precise`).
+/// `vkCmdPushConstants`: the values go into the command buffer's shadow copy, where the bound
+/// pipeline's projection is classified (`crate::precise`), and down as they are, or extended to
+/// revz's carrier when its value changes with this push (one call instead of two).
 pub unsafe extern "system" fn cmd_push_constants(
     buffer: vk::CommandBuffer,
     layout: vk::PipelineLayout,
@@ -167,29 +168,41 @@ pub unsafe extern "system" fn cmd_push_constants(
         |entry| {
             // SAFETY: `size` bytes of values (the application's contract).
             let values = unsafe { slice(p_values.cast::<u8>(), size) };
-            follow_push(entry, layout, offset, values);
+            follow_push(entry, layout, stages, offset, values)
         },
-        (),
-        |device, ()| {
-            // SAFETY: calling down with the application's arguments.
+        None,
+        |device, folded: Option<FoldedPush>| {
+            let (offset, size, p_sent) = match &folded {
+                Some(f) => (f.offset, f.size, f.bytes.as_ptr().cast()),
+                None => (offset, size, p_values),
+            };
+            // SAFETY: calling down with the application's arguments (its values extended to
+            // the carrier's bytes, which the layout's range of `stages` holds).
             unsafe {
                 (device.next.fp_v1_0().cmd_push_constants)(
-                    buffer, layout, stages, offset, size, p_values,
+                    buffer, layout, stages, offset, size, p_sent,
                 )
             }
         },
     );
 }
 
-/// Follows a push of the application's: the shadow copy, the outcome for the bound pipeline's
-/// projection, and a camera found or improved (the device learns it).
-fn follow_push(entry: &CommandBufferEntry, layout: vk::PipelineLayout, offset: u32, values: &[u8]) {
+/// Follows a push of the application's: the shadow copy and the outcome for the bound
+/// pipeline's projection; returns the push to send in its place, if the carrier goes with it.
+fn follow_push(
+    entry: &CommandBufferEntry,
+    layout: vk::PipelineLayout,
+    stages: vk::ShaderStageFlags,
+    offset: u32,
+    values: &[u8],
+) -> Option<FoldedPush> {
     let mut state = entry.state();
-    let outcome = state.push_constants(layout, offset, values);
+    let (outcome, folded) = state.push_constants(layout, stages, offset, values);
     drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
     }
+    folded
 }
 
 /// `vkCmdPushConstants2` (Vulkan 1.4) and `vkCmdPushConstants2KHR`: followed like
@@ -210,7 +223,17 @@ pub unsafe extern "system" fn cmd_push_constants2(
             entry.state().invalidate();
             return;
         }
-        follow_push(entry, info.layout, info.offset, values);
+        // Followed, never extended (the draw sends the carrier): this command is rare.
+        let mut state = entry.state();
+        let (outcome, folded) =
+            state.push_constants(info.layout, info.stage_flags, info.offset, values);
+        if folded.is_some() {
+            state.unfold();
+        }
+        drop(state);
+        if let Some(outcome) = outcome {
+            observe(&entry.device, &outcome);
+        }
     });
     let Some(next) = device.as_ref().and_then(|d| d.commands.push_constants2) else {
         return;
