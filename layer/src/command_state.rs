@@ -483,12 +483,11 @@ impl CommandState {
         outcome: Option<Outcome>,
     ) -> Option<FoldedPush> {
         let carrier = self.pipeline.as_ref()?.position_store?;
-        let values = match (self.target, outcome) {
-            (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
+        if self.target == Target::Reversed && outcome.is_none() && self.precise_use().is_some() {
             // Another classification for the draw decides (at the draw).
-            (Target::Reversed, None) if self.precise_use().is_some() => return None,
-            _ => FLIP_CARRIER,
-        };
+            return None;
+        }
+        let values = self.carrier_values(outcome);
         let held = (layout, values.map(f32::to_bits));
         if self.carrier_held == Some(held) {
             return None;
@@ -500,6 +499,15 @@ impl CommandState {
             None => self.dirty = true,
         }
         folded
+    }
+
+    /// What the carrier must hold for the next draw, given the outcome of its projection: the
+    /// camera's reversed depth line on the precise path, the shader's own z everywhere else.
+    fn carrier_values(&self, outcome: Option<Outcome>) -> [f32; 4] {
+        match (self.target, outcome) {
+            (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
+            _ => FLIP_CARRIER,
+        }
     }
 
     /// Infinite mode: a rewritten projection tells n / f, which flip-path state follows.
@@ -693,10 +701,7 @@ impl CommandState {
         let store = self.pipeline.as_ref().and_then(|p| p.position_store);
         let carrier_ready = match store {
             Some(carrier) if self.push.layout() != vk::PipelineLayout::null() => {
-                let values = match (self.target, outcome) {
-                    (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
-                    _ => FLIP_CARRIER,
-                };
+                let values = self.carrier_values(outcome);
                 let held = (self.push.layout(), values.map(f32::to_bits));
                 if self.carrier_held != Some(held) {
                     sink.push_constants(
@@ -969,6 +974,13 @@ mod tests {
         }
     }
 
+    /// A command buffer of a flip-mode device, begun with `target`.
+    fn begun(target: Target) -> CommandState {
+        let mut state = CommandState::default();
+        state.begin(target, Reversal::Complementary, Cameras::default());
+        state
+    }
+
     /// A pipeline whose viewport and compare op were static and made dynamic by revz.
     fn static_pipeline() -> Arc<PipelineDepth> {
         Arc::new(PipelineDepth {
@@ -1004,12 +1016,7 @@ mod tests {
             reversed_variant: Some(variant),
             ..PipelineDepth::default()
         });
-        let mut state = CommandState::default();
-        state.begin(
-            Target::Reversed,
-            Reversal::Complementary,
-            Default::default(),
-        );
+        let mut state = begun(Target::Reversed);
         state.bind_pipeline(Some(Arc::clone(&pipeline)));
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -1046,12 +1053,7 @@ mod tests {
         let shader = vk::ShaderEXT::from_raw(20);
         let variant = vk::ShaderEXT::from_raw(21);
         let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
-        let mut state = CommandState::default();
-        state.begin(
-            Target::Reversed,
-            Reversal::Complementary,
-            Default::default(),
-        );
+        let mut state = begun(Target::Reversed);
         state.bind_shaders(fragment);
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -1094,12 +1096,7 @@ mod tests {
         let shader = vk::ShaderEXT::from_raw(30);
         let variant = vk::ShaderEXT::from_raw(31);
         let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
-        let mut state = CommandState::default();
-        state.begin(
-            Target::Reversed,
-            Reversal::Complementary,
-            Default::default(),
-        );
+        let mut state = begun(Target::Reversed);
         let mut sink = Recorded::default();
 
         // Unbound (null): nothing to swap.
@@ -1131,12 +1128,7 @@ mod tests {
 
     #[test]
     fn static_state_is_emitted_flipped_for_a_reversed_target_once() {
-        let mut state = CommandState::default();
-        state.begin(
-            Target::Reversed,
-            Reversal::Complementary,
-            Default::default(),
-        );
+        let mut state = begun(Target::Reversed);
         state.bind_pipeline(Some(static_pipeline()));
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -1158,8 +1150,7 @@ mod tests {
 
     #[test]
     fn native_targets_get_the_application_values_unchanged() {
-        let mut state = CommandState::default();
-        state.begin(Target::Native, Reversal::Complementary, Default::default());
+        let mut state = begun(Target::Native);
         state.bind_pipeline(Some(static_pipeline()));
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
@@ -1170,8 +1161,7 @@ mod tests {
 
     #[test]
     fn application_dynamic_state_is_flipped_and_reemitted_when_the_target_changes() {
-        let mut state = CommandState::default();
-        state.begin(Target::None, Reversal::Complementary, Default::default());
+        let mut state = begun(Target::None);
         state.bind_pipeline(Some(Arc::new(PipelineDepth {
             app_dynamic: States::VIEWPORT | States::COMPARE_OP | States::BOUNDS,
             ..PipelineDepth::default()
@@ -1197,12 +1187,7 @@ mod tests {
 
     #[test]
     fn only_viewports_the_application_set_are_emitted() {
-        let mut state = CommandState::default();
-        state.begin(
-            Target::Reversed,
-            Reversal::Complementary,
-            Default::default(),
-        );
+        let mut state = begun(Target::Reversed);
         state.set_viewports(2, &[viewport(0.0, 0.1)]);
         state.set_viewports(4, &[viewport(0.0, 1.0), viewport(0.25, 0.5)]);
         let mut sink = Recorded::default();
@@ -1215,12 +1200,7 @@ mod tests {
 
     #[test]
     fn states_the_pipeline_keeps_static_are_not_emitted() {
-        let mut state = CommandState::default();
-        state.begin(
-            Target::Reversed,
-            Reversal::Complementary,
-            Default::default(),
-        );
+        let mut state = begun(Target::Reversed);
         state.set_compare_op(vk::CompareOp::LESS);
         state.set_viewports_with_count(&[viewport(0.0, 1.0)]);
         state.bind_pipeline(Some(Arc::new(PipelineDepth {
@@ -1237,8 +1217,7 @@ mod tests {
     fn without_a_tracked_pipeline_every_set_state_is_emitted() {
         // Shader objects, or a pipeline revz could not read: the application's dynamic state
         // must still reach the driver.
-        let mut state = CommandState::default();
-        state.begin(Target::Native, Reversal::Complementary, Default::default());
+        let mut state = begun(Target::Native);
         state.set_compare_op(vk::CompareOp::GREATER);
         state.set_bias(DepthBias {
             constant: 3.0,
@@ -1275,7 +1254,6 @@ mod tests {
                 stride: 16,
                 storage: revz_math::Storage::ColumnMajor,
                 convention: revz_math::DepthConvention::ZeroToOne,
-                stages: vk::ShaderStageFlags::VERTEX,
             }),
             position_store: Some(Carrier {
                 offset: 112,
@@ -1532,12 +1510,7 @@ mod tests {
 
     #[test]
     fn rebinding_pipelines_with_the_same_state_sends_nothing_again() {
-        let mut state = CommandState::default();
-        state.begin(
-            Target::Reversed,
-            Reversal::Complementary,
-            Default::default(),
-        );
+        let mut state = begun(Target::Reversed);
         let mut sink = Recorded::default();
         for _ in 0..3 {
             state.bind_pipeline(Some(static_pipeline()));

@@ -107,7 +107,6 @@ struct Module {
     member_offsets: HashMap<(u32, u32), u32>,
     member_matrix_strides: HashMap<(u32, u32), u32>,
     array_strides: HashMap<u32, u32>,
-    blocks: HashSet<u32>,
     /// Where each id is declared (word index), for declaration-order checks.
     declared_at: HashMap<u32, usize>,
     /// Word index of the first `OpFunction`.
@@ -149,9 +148,6 @@ impl Module {
                 }
                 (OP_DECORATE, &[target, DECORATION_BUILT_IN, BUILT_IN_POSITION]) => {
                     m.position_ids.insert(target);
-                }
-                (OP_DECORATE, &[target, DECORATION_BLOCK]) => {
-                    m.blocks.insert(target);
                 }
                 (OP_DECORATE, &[target, DECORATION_ARRAY_STRIDE, stride]) => {
                     m.array_strides.insert(target, stride);

@@ -198,15 +198,11 @@ fn spirv_1_4_interfaces_list_the_shadow_and_the_carrier() {
             .validate(words, None)
             .unwrap_or_else(|e| panic!("spirv-val rejects the 1.4 module: {e}"));
     };
-    for text in [INVARIANT, PER_VERTEX] {
-        let mut words = assemble(text);
+    // From 1.4 the push constants are in the interface too.
+    let per_vertex = PER_VERTEX.replace("%_ %position", "%_ %position %pc");
+    for text in [invariant(), per_vertex] {
+        let mut words = assemble(&text);
         words[1] = VERSION_1_4;
-        if text == PER_VERTEX {
-            // From 1.4 the push constants are in the interface too.
-            let mut listed = assemble(&PER_VERTEX.replace("%_ %position", "%_ %position %pc"));
-            listed[1] = VERSION_1_4;
-            words = listed;
-        }
         validate_1_4(&words);
         let out = rewrite_position_store(&words, OFFSET)
             .expect("rewritable")
@@ -215,29 +211,41 @@ fn spirv_1_4_interfaces_list_the_shadow_and_the_carrier() {
     }
 }
 
-/// A `Position` variable decorated `Invariant`, without push constants.
-const INVARIANT: &str = "OpCapability Shader
+/// A vertex module whose entry point stores the constant `%c` (a vec4 of 0.5) into a
+/// `BuiltIn Position` variable `%pos`: `annotations` after its decoration, `declarations`
+/// after the float, vec4 and constant types.
+fn position_module(annotations: &str, declarations: &str) -> String {
+    format!(
+        "OpCapability Shader
         OpMemoryModel Logical GLSL450
         OpEntryPoint Vertex %main \"main\" %pos
         OpDecorate %pos BuiltIn Position
-        OpDecorate %pos Invariant
+        {annotations}
         %void = OpTypeVoid
         %fn = OpTypeFunction %void
         %float = OpTypeFloat 32
         %v4 = OpTypeVector %float 4
         %half = OpConstant %float 0.5
         %c = OpConstantComposite %v4 %half %half %half %half
+        {declarations}
         %p_out_v4 = OpTypePointer Output %v4
         %pos = OpVariable %p_out_v4 Output
         %main = OpFunction %void None %fn
         %entry = OpLabel
         OpStore %pos %c
         OpReturn
-        OpFunctionEnd";
+        OpFunctionEnd"
+    )
+}
+
+/// A `Position` variable decorated `Invariant`, without push constants.
+fn invariant() -> String {
+    position_module("OpDecorate %pos Invariant", "")
+}
 
 #[test]
 fn invariant_moves_to_the_new_output() {
-    let out = rewritten(&assemble(INVARIANT));
+    let out = rewritten(&assemble(&invariant()));
     let decorations = with_opcode(&out, OP_DECORATE);
     let built_in = decorations
         .iter()
@@ -262,29 +270,14 @@ fn what_the_rewrite_does_not_recognise_is_refused() {
     };
     // Two push-constant blocks (each entry point may use one).
     refused(
-        "OpCapability Shader
-        OpMemoryModel Logical GLSL450
-        OpEntryPoint Vertex %main \"main\" %pos
-        OpDecorate %pos BuiltIn Position
-        OpMemberDecorate %PC 0 Offset 0
-        OpDecorate %PC Block
-        %void = OpTypeVoid
-        %fn = OpTypeFunction %void
-        %float = OpTypeFloat 32
-        %v4 = OpTypeVector %float 4
-        %half = OpConstant %float 0.5
-        %c = OpConstantComposite %v4 %half %half %half %half
-        %PC = OpTypeStruct %v4
-        %p_pc = OpTypePointer PushConstant %PC
-        %pc1 = OpVariable %p_pc PushConstant
-        %pc2 = OpVariable %p_pc PushConstant
-        %p_out_v4 = OpTypePointer Output %v4
-        %pos = OpVariable %p_out_v4 Output
-        %main = OpFunction %void None %fn
-        %entry = OpLabel
-        OpStore %pos %c
-        OpReturn
-        OpFunctionEnd",
+        &position_module(
+            "OpMemberDecorate %PC 0 Offset 0
+            OpDecorate %PC Block",
+            "%PC = OpTypeStruct %v4
+            %p_pc = OpTypePointer PushConstant %PC
+            %pc1 = OpVariable %p_pc PushConstant
+            %pc2 = OpVariable %p_pc PushConstant",
+        ),
         "more than one push-constant block",
     );
     // A push-constant block whose members reach the carrier's bytes.

@@ -49,9 +49,6 @@ pub struct ProjectionUse {
     pub storage: Storage,
     /// The pipeline's clip-space depth convention (`negativeOneToOne` or not).
     pub convention: DepthConvention,
-    /// The stage flags a `vkCmdPushConstants` of exactly the matrix's bytes must name: the
-    /// stages of every push-constant range of the pipeline layout that overlaps them.
-    pub stages: vk::ShaderStageFlags,
 }
 
 /// Why a pipeline's projection cannot take the precise path.
@@ -100,10 +97,13 @@ impl ProjectionUse {
                 Storage::ColumnMajor
             },
             convention,
-            stages: vk::ShaderStageFlags::empty(),
         };
-        let stages = push_stages(ranges, use_.offset, use_.end()).ok_or(Unusable::Ranges)?;
-        Ok(ProjectionUse { stages, ..use_ })
+        // revz no longer pushes the matrix's bytes (only its carrier), so this check is no
+        // longer needed for the pushes to be valid; it is kept so that issue #14 did not change
+        // which pipelines take the precise path beyond what it had to (whether to drop it is
+        // left open).
+        push_stages(ranges, use_.offset, use_.end()).ok_or(Unusable::Ranges)?;
+        Ok(use_)
     }
 
     /// One past the last byte of the matrix.
@@ -555,7 +555,6 @@ mod tests {
             stride: 16,
             storage: Storage::ColumnMajor,
             convention: DepthConvention::ZeroToOne,
-            stages: VERTEX,
         }
     }
 

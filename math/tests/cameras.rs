@@ -15,7 +15,6 @@
 mod common;
 
 use std::cell::RefCell;
-use std::f64::consts::TAU;
 
 use glam::{camera, dcamera, DMat4, DQuat, DVec3, DVec4, Mat4};
 use proptest::prelude::*;
@@ -33,25 +32,10 @@ const NEGATIVE_ONE_TO_ONE: DepthConvention = DepthConvention::NegativeOneToOne;
 // ---------------------------------------------------------------------------------------------
 // Statistics (as in tests/properties.rs)
 
-use common::{check, fail, runner, Worst};
+use common::{check, fail, log_uniform, rotation, runner, unit_vector, Worst};
 
 // ---------------------------------------------------------------------------------------------
 // Cameras and objects
-
-fn log_uniform(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
-    (lo.ln()..hi.ln()).prop_map(f64::exp)
-}
-
-fn unit_vector() -> impl Strategy<Value = DVec3> {
-    (-1.0..1.0f64, 0.0..TAU).prop_map(|(z, phi): (f64, f64)| {
-        let radius = (1.0 - z * z).sqrt();
-        DVec3::new(radius * phi.cos(), radius * phi.sin(), z)
-    })
-}
-
-fn rotation() -> impl Strategy<Value = DQuat> {
-    (unit_vector(), 0.0..TAU).prop_map(|(axis, angle)| DQuat::from_axis_angle(axis, angle))
-}
 
 /// How the application composes `P * V * Model`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

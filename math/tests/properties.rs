@@ -40,10 +40,9 @@
 mod common;
 
 use std::cell::RefCell;
-use std::f64::consts::TAU;
 
 use glam::dcamera::{lh, rh};
-use glam::{DMat4, DQuat, DVec3, DVec4, Mat4};
+use glam::{DMat4, DVec3, DVec4, Mat4};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 use revz_math::precision::{
@@ -88,21 +87,6 @@ struct Camera {
     far_from_origin: bool,
     composition: Composition,
     storage: Storage,
-}
-
-fn log_uniform(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
-    (lo.ln()..hi.ln()).prop_map(f64::exp)
-}
-
-fn unit_vector() -> impl Strategy<Value = DVec3> {
-    (-1.0..1.0f64, 0.0..TAU).prop_map(|(z, phi): (f64, f64)| {
-        let radius = (1.0 - z * z).sqrt();
-        DVec3::new(radius * phi.cos(), radius * phi.sin(), z)
-    })
-}
-
-fn rotation() -> impl Strategy<Value = DQuat> {
-    (unit_vector(), 0.0..TAU).prop_map(|(axis, angle)| DQuat::from_axis_angle(axis, angle))
 }
 
 /// World-to-view matrix of a camera with a random orientation, either within 100 units of the
@@ -322,7 +306,7 @@ fn rho_b(m: &DMat4, k: f64, b: f64) -> f64 {
 // ---------------------------------------------------------------------------------------------
 // Statistics
 
-use common::{check, fail, runner, Worst};
+use common::{check, fail, log_uniform, rotation, runner, unit_vector, Worst};
 
 // ---------------------------------------------------------------------------------------------
 // Checks 1 to 3 and 6: standard perspective cameras

@@ -224,15 +224,8 @@ pub unsafe extern "system" fn cmd_push_constants2(
             return;
         }
         // Followed, never extended (the draw sends the carrier): this command is rare.
-        let mut state = entry.state();
-        let (outcome, folded) =
-            state.push_constants(info.layout, info.stage_flags, info.offset, values);
-        if folded.is_some() {
-            state.unfold();
-        }
-        drop(state);
-        if let Some(outcome) = outcome {
-            observe(&entry.device, &outcome);
+        if follow_push(entry, info.layout, info.stage_flags, info.offset, values).is_some() {
+            entry.state().unfold();
         }
     });
     let Some(next) = device.as_ref().and_then(|d| d.commands.push_constants2) else {
@@ -1197,7 +1190,11 @@ pub unsafe extern "system" fn begin_command_buffer(
         };
         *entry.scope() = PassScope::default();
         let mut state = entry.state();
-        let cameras = entry.device.cameras.learned();
+        // Cameras matter to the precise path only (no lock in flip mode).
+        let cameras = match entry.device.policy.rewrite() {
+            Some(_) => entry.device.cameras.learned(),
+            None => revz_math::Cameras::default(),
+        };
         state.begin(target, entry.device.reversing().reversal, cameras);
         if entry.secondary && inherits_viewports(begin) {
             state.inherit_viewports();

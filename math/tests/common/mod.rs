@@ -1,8 +1,13 @@
 //! What the property tests share: the statistics they print (worst values and counts), the
-//! proptest runner they use, and its error plumbing.
+//! proptest runner they use and its error plumbing, and the random directions and rotations
+//! their cameras and objects are made of.
 
 #![allow(dead_code)]
 
+use std::f64::consts::TAU;
+
+use glam::{DQuat, DVec3};
+use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
 
 #[derive(Debug, Default)]
@@ -54,4 +59,22 @@ pub fn check(result: Result<(), proptest::test_runner::TestError<impl std::fmt::
 
 pub fn fail(message: String) -> TestCaseError {
     TestCaseError::fail(message)
+}
+
+/// Log-uniform in [lo, hi).
+pub fn log_uniform(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    (lo.ln()..hi.ln()).prop_map(f64::exp)
+}
+
+/// A uniformly distributed unit vector.
+pub fn unit_vector() -> impl Strategy<Value = DVec3> {
+    (-1.0..1.0f64, 0.0..TAU).prop_map(|(z, phi): (f64, f64)| {
+        let radius = (1.0 - z * z).sqrt();
+        DVec3::new(radius * phi.cos(), radius * phi.sin(), z)
+    })
+}
+
+/// A uniformly distributed rotation axis with a uniform angle.
+pub fn rotation() -> impl Strategy<Value = DQuat> {
+    (unit_vector(), 0.0..TAU).prop_map(|(axis, angle)| DQuat::from_axis_angle(axis, angle))
 }
