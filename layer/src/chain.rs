@@ -177,6 +177,17 @@ pub(crate) const KNOWN_SIZES: &[(vk::StructureType, usize)] = {
         vk::PipelineRobustnessCreateInfoEXT<'static>,
         vk::RenderingAttachmentLocationInfoKHR<'static>,
         vk::RenderingInputAttachmentIndexInfoKHR<'static>,
+        // VkImageCreateInfo (before its format list)
+        vk::DedicatedAllocationImageCreateInfoNV<'static>,
+        vk::ExternalMemoryImageCreateInfo<'static>,
+        vk::ImageCompressionControlEXT<'static>,
+        vk::ImageStencilUsageCreateInfo<'static>,
+        vk::ImageSwapchainCreateInfoKHR<'static>,
+        vk::OpaqueCaptureDescriptorDataCreateInfoEXT<'static>,
+        // VkCommandBufferInheritanceInfo (before its rendering info)
+        vk::CommandBufferInheritanceConditionalRenderingInfoEXT<'static>,
+        vk::CommandBufferInheritanceViewportScissorInfoNV<'static>,
+        vk::RenderPassTransformBeginInfoQCOM<'static>,
         // VkPipelineShaderStageCreateInfo
         vk::DebugUtilsObjectNameInfoEXT<'static>,
         vk::PipelineShaderStageModuleIdentifierCreateInfoEXT<'static>,

@@ -112,6 +112,16 @@ pub struct PipelineDepth {
     /// (`compare_op = variants`, or a device without extended dynamic state), and its
     /// fragment shader rewritten where it computes with depth (`crate::fragment_depth`).
     pub reversed_variant: Option<vk::Pipeline>,
+    /// The pipeline's render pass or rendering formats have a UNORM depth format revz
+    /// promotes: draws into promoted attachments need the promoted variants below.
+    pub promotable: bool,
+    /// The pipeline made for the promoted twin of its render pass (or the float formats of its
+    /// rendering formats), bound for draws into promoted attachments
+    /// (`crate::policy::DevicePolicy::promoted_format`).
+    pub promoted_variant: Option<vk::Pipeline>,
+    /// The promoted variant with the reversed variant's changes, where the pipeline has both;
+    /// draws into promoted reversed attachments.
+    pub promoted_reversed_variant: Option<vk::Pipeline>,
     /// Where the vertex stage's projection is in the push constants, if it comes from there
     /// and its draws can take the precise path (its vertex stage stores the carrier's depth:
     /// [`PipelineDepth::position_store`]).
@@ -129,6 +139,30 @@ pub struct PipelineDepth {
     /// identifier (`VK_EXT_shader_module_identifier`): what links it must keep
     /// `FAIL_ON_PIPELINE_COMPILE_REQUIRED`, so it gets no reversed variant.
     pub module_identifiers: bool,
+}
+
+impl PipelineDepth {
+    /// The variant revz binds in the pipeline's place for a draw into a `reversed` and
+    /// `promoted` attachment (`None`: the pipeline itself).
+    pub fn variant_for(&self, reversed: bool, promoted: bool) -> Option<vk::Pipeline> {
+        match (promoted && self.promotable, reversed) {
+            (false, false) => None,
+            (false, true) => self.reversed_variant,
+            (true, false) => self.promoted_variant,
+            (true, true) => self.promoted_reversed_variant.or(self.promoted_variant),
+        }
+    }
+
+    /// The pipelines revz made for this one (to destroy with it).
+    pub fn variants(&self) -> impl Iterator<Item = vk::Pipeline> {
+        [
+            self.reversed_variant,
+            self.promoted_variant,
+            self.promoted_reversed_variant,
+        ]
+        .into_iter()
+        .flatten()
+    }
 }
 
 /// The depth attachment draws currently go to.
@@ -325,8 +359,11 @@ pub struct CommandState {
     /// The path the emitted state is for.
     path: DrawPath,
     emitted: Emitted,
-    /// Whether revz bound the bound pipeline's compare-op variant in its place.
-    variant_bound: bool,
+    /// The variant revz bound in the bound pipeline's place (`None`: the application's).
+    variant_bound: Option<vk::Pipeline>,
+    /// The UNORM format the current depth attachment was created with, when revz promoted
+    /// it to float: draws bind promoted variants, and constant depth bias is converted.
+    promoted_from: Option<vk::Format>,
     /// What revz last pushed as its carrier, and with which layout: pushed again only when
     /// the value or the application's push layout changes.
     carrier_held: Option<(vk::PipelineLayout, [u32; 4])>,
@@ -360,7 +397,8 @@ impl Default for CommandState {
             push: PushConstants::default(),
             path: DrawPath::Native,
             emitted: Emitted::default(),
-            variant_bound: false,
+            variant_bound: None,
+            promoted_from: None,
             carrier_held: None,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
@@ -538,6 +576,21 @@ impl CommandState {
         self.inherited
     }
 
+    /// Whether draws go to a promoted attachment (a promoted twin's subpass, or a rendering
+    /// instance with a promoted view).
+    pub fn promoted(&self) -> bool {
+        self.promoted_from.is_some()
+    }
+
+    /// The current depth attachment's image was promoted from `format` (`None`: it keeps
+    /// its format, or there is none).
+    pub fn set_promoted(&mut self, promoted_from: Option<vk::Format>) {
+        if self.promoted_from != promoted_from {
+            self.promoted_from = promoted_from;
+            self.dirty = true;
+        }
+    }
+
     /// The depth attachment changed (render pass begin, next subpass, end, ...).
     pub fn set_target(&mut self, target: Target) {
         if self.target != target {
@@ -575,7 +628,7 @@ impl CommandState {
             .map_or(States::NONE, |p| p.app_dynamic | p.injected);
         self.emitted.forget_static(dynamic);
         self.pipeline = pipeline;
-        self.variant_bound = false;
+        self.variant_bound = None;
         self.dirty = true;
     }
 
@@ -630,7 +683,7 @@ impl CommandState {
         self.push.invalidate();
         self.carrier_held = None;
         self.emitted = Emitted::default();
-        self.variant_bound = false;
+        self.variant_bound = None;
         self.shader_variant_bound = false;
         self.dirty = true;
     }
@@ -753,11 +806,10 @@ impl CommandState {
             });
         }
         if let Some(p) = &self.pipeline {
-            if let Some(variant) = p.reversed_variant {
-                if reversed != self.variant_bound {
-                    sink.bind_pipeline(if reversed { variant } else { p.handle });
-                    self.variant_bound = reversed;
-                }
+            let wanted = p.variant_for(reversed, self.promoted_from.is_some());
+            if wanted != self.variant_bound {
+                sink.bind_pipeline(wanted.unwrap_or(p.handle));
+                self.variant_bound = wanted;
             }
         }
         match self.fragment_shader {
@@ -810,6 +862,10 @@ impl CommandState {
                 self.bias
             } else {
                 pipeline.map_or(self.bias, |p| p.bias)
+            };
+            let bias = match self.promoted_from {
+                Some(format) => bias.in_float_storage(format),
+                None => bias,
             };
             sink.set_bias(if reversed { bias.flipped() } else { bias });
         }
@@ -997,6 +1053,9 @@ mod tests {
             unreversed_fragment: false,
             handle: vk::Pipeline::null(),
             reversed_variant: None,
+            promotable: false,
+            promoted_variant: None,
+            promoted_reversed_variant: None,
             projection: None,
             position_store: None,
             subsets: vk::GraphicsPipelineLibraryFlagsEXT::empty(),

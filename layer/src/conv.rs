@@ -93,6 +93,25 @@ pub struct DepthBias {
 }
 
 impl DepthBias {
+    /// The bias of an application written for a UNORM `format`, for its image promoted to
+    /// float. The constant factor counts units `r` of the format (Vulkan spec, "Depth Bias"):
+    /// 2^-16 (D16) or 2^-24 (D24) in UNORM, 2^(e - 23) in float, `e` the exponent of the
+    /// primitive's largest depth. The factor is scaled by r_unorm / 2^-24, which is exact for
+    /// depths in [0.5, 1] (standard depth beyond twice the near plane, reversed depth within
+    /// it): there the float unit is 2^-24. At smaller depths the float unit halves with each
+    /// octave, so the bias shrinks with the depth's own precision: a decal keeps the same
+    /// number of representable steps over its surface, not the same distance. The slope
+    /// factor and the clamp are in depth units in every format: unchanged.
+    pub fn in_float_storage(self, format: vk::Format) -> DepthBias {
+        let Some(unit) = unorm_bias_unit(format) else {
+            return self;
+        };
+        DepthBias {
+            constant: self.constant * (unit / 2f32.powi(-24)),
+            ..self
+        }
+    }
+
     pub fn flipped(self) -> DepthBias {
         DepthBias {
             constant: -self.constant,
@@ -140,9 +159,94 @@ pub fn has_stencil(format: vk::Format) -> bool {
     )
 }
 
+/// The float depth format a UNORM depth format is promoted to (stencil kept): D16 and X8_D24
+/// to D32_SFLOAT, D16_S8 and D24_S8 to D32_SFLOAT_S8_UINT. `None` for formats already float
+/// or without depth.
+pub fn float_depth_format(format: vk::Format) -> Option<vk::Format> {
+    match format {
+        vk::Format::D16_UNORM | vk::Format::X8_D24_UNORM_PACK32 => Some(vk::Format::D32_SFLOAT),
+        vk::Format::D16_UNORM_S8_UINT | vk::Format::D24_UNORM_S8_UINT => {
+            Some(vk::Format::D32_SFLOAT_S8_UINT)
+        }
+        _ => None,
+    }
+}
+
+/// The bytes of one texel of a depth format's depth and stencil aspects as copies lay them out
+/// (the driver's own storage may pad: D32_SFLOAT_S8_UINT is often 8): D16 2, X8_D24 4, D32 4,
+/// plus 1 for stencil (D24_S8 4: the depth aspect copies as 4 bytes, stencil as 1, but they
+/// are stored packed in 4). 0 for other formats.
+pub fn depth_texel_bytes(format: vk::Format) -> u64 {
+    match format {
+        vk::Format::D16_UNORM => 2,
+        vk::Format::X8_D24_UNORM_PACK32 | vk::Format::D32_SFLOAT | vk::Format::D24_UNORM_S8_UINT => 4,
+        vk::Format::D16_UNORM_S8_UINT => 3,
+        vk::Format::D32_SFLOAT_S8_UINT => 5,
+        _ => 0,
+    }
+}
+
+/// The unit of a constant depth bias in a UNORM depth format: `r` of the Vulkan spec
+/// ("Depth Bias"), 2^-16 for D16 and 2^-24 for D24 (the spec's minimum resolvable difference,
+/// as drivers implement it). `None` for float and non-depth formats, whose `r` depends on the
+/// primitive's depth.
+pub fn unorm_bias_unit(format: vk::Format) -> Option<f32> {
+    match format {
+        vk::Format::D16_UNORM | vk::Format::D16_UNORM_S8_UINT => Some(2f32.powi(-16)),
+        vk::Format::X8_D24_UNORM_PACK32 | vk::Format::D24_UNORM_S8_UINT => Some(2f32.powi(-24)),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn promoted_bias_keeps_its_unit_where_float_and_unorm_units_agree() {
+        let bias = DepthBias {
+            constant: -8.0,
+            clamp: -1e-4,
+            slope: -12.0,
+        };
+        // D24: 2^-24 is the float unit in [0.5, 1]: unchanged.
+        assert_eq!(bias.in_float_storage(vk::Format::D24_UNORM_S8_UINT), bias);
+        assert_eq!(bias.in_float_storage(vk::Format::X8_D24_UNORM_PACK32), bias);
+        // D16: 2^-16 is 256 float units there.
+        let d16 = bias.in_float_storage(vk::Format::D16_UNORM);
+        assert_eq!(d16.constant, -8.0 * 256.0);
+        assert_eq!((d16.slope, d16.clamp), (bias.slope, bias.clamp));
+        // The absolute offset c * r agrees at depth 0.75 (float unit 2^-24).
+        let float_unit = 0.75f32.to_bits();
+        let next = f32::from_bits(float_unit + 1) - 0.75;
+        assert_eq!(next, 2f32.powi(-24));
+        assert_eq!(d16.constant * next, bias.constant * 2f32.powi(-16));
+        // Float formats are left alone.
+        assert_eq!(bias.in_float_storage(vk::Format::D32_SFLOAT), bias);
+    }
+
+    #[test]
+    fn unorm_formats_promote_to_float_keeping_stencil() {
+        let cases = [
+            (vk::Format::D16_UNORM, Some(vk::Format::D32_SFLOAT)),
+            (vk::Format::X8_D24_UNORM_PACK32, Some(vk::Format::D32_SFLOAT)),
+            (vk::Format::D16_UNORM_S8_UINT, Some(vk::Format::D32_SFLOAT_S8_UINT)),
+            (vk::Format::D24_UNORM_S8_UINT, Some(vk::Format::D32_SFLOAT_S8_UINT)),
+            (vk::Format::D32_SFLOAT, None),
+            (vk::Format::D32_SFLOAT_S8_UINT, None),
+            (vk::Format::S8_UINT, None),
+            (vk::Format::R8G8B8A8_UNORM, None),
+        ];
+        for (format, promoted) in cases {
+            assert_eq!(float_depth_format(format), promoted, "{format:?}");
+            if let Some(promoted) = promoted {
+                assert_eq!(has_stencil(format), has_stencil(promoted), "{format:?}");
+                assert!(depth_texel_bytes(promoted) >= depth_texel_bytes(format));
+                assert!(unorm_bias_unit(format).is_some());
+                assert!(unorm_bias_unit(promoted).is_none());
+            }
+        }
+    }
 
     const OPS: [vk::CompareOp; 8] = [
         vk::CompareOp::NEVER,

@@ -33,8 +33,11 @@ pub type RewrittenVertex = Result<Arc<[u32]>, crate::position_store::Unsupported
 /// A tracked depth image.
 #[derive(Clone, Copy, Debug)]
 pub struct ImageInfo {
+    /// The format the application created it with.
     pub format: vk::Format,
     pub depth: ImageDepth,
+    /// The float format revz created it in instead, if it promoted it (for life).
+    pub promoted: Option<vk::Format>,
 }
 
 /// A render pass: each attachment's format and whether its depth is cleared at load, each
@@ -51,6 +54,12 @@ pub struct RenderPassInfo {
     /// do not count for their compatibility (Vulkan spec, "Render Pass Compatibility"), so the
     /// application's framebuffers and pipelines work with it.
     pub swapped_resolve_twin: Option<vk::RenderPass>,
+    /// The same render pass with its UNORM depth attachments (resolve attachments included)
+    /// in their float formats, begun in its place over framebuffers of promoted images
+    /// (`crate::policy::DevicePolicy::promoted_format`); and the same for the swapped-resolve
+    /// twin.
+    pub promoted_twin: Option<vk::RenderPass>,
+    pub promoted_swapped_twin: Option<vk::RenderPass>,
 }
 
 /// A subpass's depth resolve: the attachment resolved into and the depth mode (never NONE).
@@ -61,6 +70,36 @@ pub struct SubpassResolve {
 }
 
 impl RenderPassInfo {
+    /// Whether attachment `index` has a format revz promotes.
+    pub fn promotable(&self, index: usize) -> bool {
+        self.attachments
+            .get(index)
+            .is_some_and(|&format| crate::conv::float_depth_format(format).is_some())
+    }
+
+    /// The render pass to begin in place of the application's: its promoted twin when the
+    /// framebuffer's depth images are promoted, its swapped-resolve twin when a reversed
+    /// attachment is resolved (`None`: the application's).
+    pub fn twin(&self, promoted: bool, swapped: bool) -> Option<vk::RenderPass> {
+        match (promoted, swapped) {
+            (false, false) => None,
+            (false, true) => self.swapped_resolve_twin,
+            (true, false) => self.promoted_twin,
+            (true, true) => self.promoted_swapped_twin,
+        }
+    }
+
+    /// The twins revz created for this pass (to destroy with it).
+    pub fn twins(&self) -> impl Iterator<Item = vk::RenderPass> + '_ {
+        [
+            self.swapped_resolve_twin,
+            self.promoted_twin,
+            self.promoted_swapped_twin,
+        ]
+        .into_iter()
+        .flatten()
+    }
+
     /// Whether a MIN/MAX depth resolve of this pass can be swapped (it has a twin).
     pub fn resolve_swappable(&self, resolve: SubpassResolve) -> bool {
         !matches!(
@@ -193,6 +232,9 @@ pub struct DeviceObjects {
     pub render_passes: Table<vk::RenderPass, Arc<RenderPassInfo>>,
     /// Each framebuffer's attachments (empty for an imageless framebuffer).
     pub framebuffers: Table<vk::Framebuffer, Arc<[vk::ImageView]>>,
+    /// Framebuffers created with their render pass's promoted twin (their depth images are
+    /// promoted): their passes begin as the twin.
+    pub promoted_framebuffers: Table<vk::Framebuffer, ()>,
     pub pipelines: Table<vk::Pipeline, Arc<PipelineDepth>>,
     /// Shader modules that compute with depth (`FragDepth`, `FragCoord.z`): rewritten for
     /// reversed attachments, or why they cannot be.
@@ -218,6 +260,9 @@ pub struct DeviceObjects {
     /// was last begun with for secondaries, for secondaries whose inheritance names no
     /// framebuffer (`crate::policy::secondary_target`). A render pass's entries go with it.
     pub secondary_targets: Table<SecondaryPass, Target>,
+    /// Whether each of those was last begun promoted (as its promoted twin, or with a
+    /// promoted view), for the same secondaries.
+    pub secondary_promoted: Table<SecondaryPass, bool>,
 }
 
 /// A fragment shader object that computes with depth (or may: binary code), as draws into
@@ -259,14 +304,35 @@ impl DeviceObjects {
 
     /// Remembers the target a primary begins `pass` with for secondaries (written only when
     /// it changes: a read lock in the steady state).
-    pub fn remember_secondary_target(&self, pass: SecondaryPass, target: Target) {
+    pub fn remember_secondary_target(&self, pass: SecondaryPass, target: Target, promoted: bool) {
         if self.secondary_targets.get(&pass) != Some(target) {
             self.secondary_targets.insert(pass, target);
+        }
+        if self.secondary_promoted.get(&pass) != Some(promoted) {
+            self.secondary_promoted.insert(pass, promoted);
         }
     }
 }
 
 impl DeviceObjects {
+    /// The float format of a view's image, if revz promoted it.
+    pub fn view_promoted(&self, view: vk::ImageView) -> Option<vk::Format> {
+        let image = self.views.get(&view)?;
+        self.images.get(&image)?.promoted
+    }
+
+    /// How many live depth images of `format` are promoted and kept in `format`.
+    pub fn count_promoted(&self, format: vk::Format) -> (usize, usize) {
+        let images = self.images.0.read().unwrap_or_else(PoisonError::into_inner);
+        images
+            .values()
+            .filter(|info| info.format == format)
+            .fold((0, 0), |(p, k), info| match info.promoted {
+                Some(_) => (p + 1, k),
+                None => (p, k + 1),
+            })
+    }
+
     /// The depth target a view is: reversed, native, or not a tracked depth view.
     pub fn view_target(&self, view: vk::ImageView) -> Target {
         let Some(image) = self.views.get(&view) else {
@@ -424,7 +490,7 @@ impl DeviceObjects {
             .0
             .read()
             .unwrap_or_else(PoisonError::into_inner);
-        for variant in pipelines.values().filter_map(|p| p.reversed_variant) {
+        for variant in pipelines.values().flat_map(|p| p.variants()) {
             // SAFETY: revz's own object; the device is idle.
             unsafe { (next.fp_v1_0().destroy_pipeline)(device, variant, std::ptr::null()) };
         }
@@ -433,7 +499,7 @@ impl DeviceObjects {
             .0
             .read()
             .unwrap_or_else(PoisonError::into_inner);
-        for twin in passes.values().filter_map(|pass| pass.swapped_resolve_twin) {
+        for twin in passes.values().flat_map(|pass| pass.twins()) {
             // SAFETY: revz's own object; the device is idle (the application's contract for
             // vkDestroyDevice).
             unsafe { (next.fp_v1_0().destroy_render_pass)(device, twin, std::ptr::null()) };
@@ -470,9 +536,30 @@ pub struct PassScope {
     /// The depth target of each attachment of the current framebuffer.
     pub attachment_targets: Vec<Target>,
     pub subpass: usize,
+    /// The framebuffer's depth images are promoted: the pass was begun as its promoted twin.
+    pub promoted: bool,
 }
 
 impl PassScope {
+    /// What draws of the current subpass know of promotion
+    /// ([`crate::command_state::CommandState::set_promoted`]): `None` outside a promoted twin;
+    /// else the UNORM format of the subpass's depth attachment (UNDEFINED where it has none
+    /// or it is not promoted: the pass is still the twin, but no bias converts).
+    pub fn promoted_from(&self) -> Option<vk::Format> {
+        if !self.promoted {
+            return None;
+        }
+        let pass = self.render_pass.as_ref()?;
+        let format = pass
+            .subpass_depth
+            .get(self.subpass)
+            .copied()
+            .flatten()
+            .and_then(|index| pass.attachments.get(index as usize).copied())
+            .filter(|&format| crate::conv::float_depth_format(format).is_some());
+        Some(format.unwrap_or(vk::Format::UNDEFINED))
+    }
+
     pub fn target(&self) -> Target {
         let Some(pass) = &self.render_pass else {
             return Target::None;
@@ -682,7 +769,14 @@ mod tests {
     fn track(objects: &DeviceObjects, raw: u64, depth: ImageDepth) -> (vk::Image, vk::ImageView) {
         let (image, view) = (vk::Image::from_raw(raw), vk::ImageView::from_raw(raw + 100));
         let format = vk::Format::D32_SFLOAT;
-        objects.images.insert(image, ImageInfo { format, depth });
+        objects.images.insert(
+            image,
+            ImageInfo {
+                format,
+                depth,
+                promoted: None,
+            },
+        );
         objects.views.insert(view, image);
         (image, view)
     }

@@ -3,10 +3,12 @@
 //! | decision | facts it reads | where they come from |
 //! |---|---|---|
 //! | is a depth image reversed or native ([`DevicePolicy::classify_image`]) | format, usage, tiling, settings | `vkCreateImage` |
+//! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
 //! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
+//! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
@@ -104,6 +106,55 @@ pub struct DevicePolicy {
     /// room: `crate::precise::carrier_offset`); `None`: the precise path is off and every draw
     /// into a reversed attachment takes the flip path.
     pub carrier_offset: Option<u32>,
+    /// Whether UNORM depth images are promoted to float formats (`promote_depth_formats` in
+    /// this mode).
+    pub promote: bool,
+}
+
+/// What decides whether a depth image can be promoted, besides its format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageFacts {
+    pub usage: vk::ImageUsageFlags,
+    pub tiling: vk::ImageTiling,
+    pub flags: vk::ImageCreateFlags,
+    /// The image's memory is shared with another API or process
+    /// (`VkExternalMemoryImageCreateInfo`, DRM format modifiers): its layout is agreed on.
+    pub external: bool,
+}
+
+/// Why a depth image in a UNORM format keeps it (logged once per reason).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeptFormat {
+    /// Copies read or write its bytes (transfer usage): the application would get float bits
+    /// where it expects UNORM values (and, for D16, twice the bytes).
+    Copied,
+    /// Linear tiling, DRM modifiers or external memory: its memory layout is seen from
+    /// outside.
+    LaidOutOutside,
+    /// Sparse or aliased memory: the application places its memory by the format's sizes.
+    PlacedMemory,
+    /// The device does not support the float format with the image's usage, flags, tiling
+    /// and samples.
+    Unsupported,
+}
+
+impl fmt::Display for KeptFormat {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            KeptFormat::Copied => {
+                "it is copied from or to (transfer usage), and copies of promoted images are \
+                 not converted"
+            }
+            KeptFormat::LaidOutOutside => {
+                "its memory layout is seen outside (linear tiling, DRM modifier or external \
+                 memory)"
+            }
+            KeptFormat::PlacedMemory => "its memory is sparse or aliased",
+            KeptFormat::Unsupported => {
+                "the device does not support the float format with its usage, flags and samples"
+            }
+        })
+    }
 }
 
 impl DevicePolicy {
@@ -126,7 +177,46 @@ impl DevicePolicy {
             observable: settings.reverse_observable,
             compare_op_variants: settings.compare_op == CompareOp::Variants || !dynamic_compare_op,
             carrier_offset: None,
+            promote: settings.promote_depth_formats.applies(settings.mode),
         }
+    }
+
+    /// The float format a depth image is created in instead of its own, or why it keeps its
+    /// own (`Ok(None)`: not a promotable format, or promotion is off). Every image that can be
+    /// is promoted, reversed or native: a render pass resolves only between images of one
+    /// format, and a multisampled image cannot know at creation whether the image it will be
+    /// resolved into is reversed, so the decision may not depend on reversal. `supported`
+    /// asks the device about the float format (`vkGetPhysicalDeviceImageFormatProperties`
+    /// with the image's parameters).
+    pub fn promoted_format(
+        &self,
+        format: vk::Format,
+        facts: ImageFacts,
+        supported: impl FnOnce(vk::Format) -> bool,
+    ) -> Result<Option<vk::Format>, KeptFormat> {
+        let Some(float) = crate::conv::float_depth_format(format).filter(|_| self.promote) else {
+            return Ok(None);
+        };
+        let transfer = vk::ImageUsageFlags::TRANSFER_SRC
+            | vk::ImageUsageFlags::TRANSFER_DST
+            // VK_EXT_host_image_copy's HOST_TRANSFER usage.
+            | vk::ImageUsageFlags::from_raw(0x0040_0000);
+        if facts.usage.intersects(transfer) {
+            return Err(KeptFormat::Copied);
+        }
+        if facts.tiling != vk::ImageTiling::OPTIMAL || facts.external {
+            return Err(KeptFormat::LaidOutOutside);
+        }
+        if facts
+            .flags
+            .intersects(vk::ImageCreateFlags::SPARSE_BINDING | vk::ImageCreateFlags::ALIAS)
+        {
+            return Err(KeptFormat::PlacedMemory);
+        }
+        if !supported(float) {
+            return Err(KeptFormat::Unsupported);
+        }
+        Ok(Some(float))
     }
 
     /// Whether the layer acts on this device's depth at all.
@@ -316,6 +406,20 @@ pub fn secondary_target(
         (_, 0) => (Target::Reversed, false),
         (0, _) => (Target::Native, false),
         _ => (Target::Reversed, true),
+    }
+}
+
+/// Whether a secondary without a framebuffer draws into a promoted attachment: as its pass was
+/// last begun for secondaries, else as the device's live images of its depth format are
+/// (`promoted` of them promoted, `kept` not). Returns whether it is, and whether that was a
+/// guess between both kinds (promoted is assumed: in a promoting mode, the images that keep
+/// their format are the ones copied from, rarely drawn by secondaries).
+pub fn secondary_promoted(remembered: Option<bool>, promoted: usize, kept: usize) -> (bool, bool) {
+    match (remembered, promoted, kept) {
+        (Some(remembered), _, _) => (remembered, false),
+        (None, 0, _) => (false, false),
+        (None, _, 0) => (true, false),
+        (None, _, _) => (true, true),
     }
 }
 
@@ -545,7 +649,127 @@ mod tests {
             observable,
             compare_op_variants: false,
             carrier_offset: None,
+            promote: matches!(mode, Mode::Complementary | Mode::Infinite),
         }
+    }
+
+    const ATTACHMENT_IMAGE: ImageFacts = ImageFacts {
+        usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        tiling: vk::ImageTiling::OPTIMAL,
+        flags: vk::ImageCreateFlags::empty(),
+        external: false,
+    };
+
+    #[test]
+    fn secondaries_follow_the_pass_then_the_formats_images() {
+        assert_eq!(secondary_promoted(Some(false), 3, 0), (false, false));
+        assert_eq!(secondary_promoted(Some(true), 0, 3), (true, false));
+        assert_eq!(secondary_promoted(None, 0, 0), (false, false));
+        assert_eq!(secondary_promoted(None, 0, 2), (false, false));
+        assert_eq!(secondary_promoted(None, 2, 0), (true, false));
+        assert_eq!(secondary_promoted(None, 2, 1), (true, true));
+    }
+
+    #[test]
+    fn unorm_depth_images_are_promoted_unless_their_bytes_are_seen() {
+        let p = policy(Mode::Infinite, Observable::None);
+        let yes = |_| true;
+        let d24 = vk::Format::D24_UNORM_S8_UINT;
+        assert_eq!(
+            p.promoted_format(d24, ATTACHMENT_IMAGE, yes),
+            Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
+        );
+        assert_eq!(
+            p.promoted_format(vk::Format::D16_UNORM, ATTACHMENT_IMAGE, yes),
+            Ok(Some(vk::Format::D32_SFLOAT))
+        );
+        // Sampled images too (native ones): a resolve needs one format at both ends.
+        let sampled = ImageFacts {
+            usage: ATTACHMENT_IMAGE.usage | vk::ImageUsageFlags::SAMPLED,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, sampled, yes),
+            Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
+        );
+        for transfer in [
+            vk::ImageUsageFlags::TRANSFER_SRC,
+            vk::ImageUsageFlags::TRANSFER_DST,
+            vk::ImageUsageFlags::from_raw(0x0040_0000),
+        ] {
+            let copied = ImageFacts {
+                usage: ATTACHMENT_IMAGE.usage | transfer,
+                ..ATTACHMENT_IMAGE
+            };
+            assert_eq!(p.promoted_format(d24, copied, yes), Err(KeptFormat::Copied));
+        }
+        let linear = ImageFacts {
+            tiling: vk::ImageTiling::LINEAR,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, linear, yes),
+            Err(KeptFormat::LaidOutOutside)
+        );
+        let external = ImageFacts {
+            external: true,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, external, yes),
+            Err(KeptFormat::LaidOutOutside)
+        );
+        let aliased = ImageFacts {
+            flags: vk::ImageCreateFlags::ALIAS,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, aliased, yes),
+            Err(KeptFormat::PlacedMemory)
+        );
+        let mut asked = None;
+        assert_eq!(
+            p.promoted_format(d24, ATTACHMENT_IMAGE, |f| {
+                asked = Some(f);
+                false
+            }),
+            Err(KeptFormat::Unsupported)
+        );
+        assert_eq!(asked, Some(vk::Format::D32_SFLOAT_S8_UINT));
+        // Float formats and color formats are not promoted, and the device is not asked.
+        let never = |_| -> bool { panic!("asked") };
+        assert_eq!(p.promoted_format(vk::Format::D32_SFLOAT, ATTACHMENT_IMAGE, never), Ok(None));
+        assert_eq!(p.promoted_format(vk::Format::R8_UNORM, ATTACHMENT_IMAGE, never), Ok(None));
+    }
+
+    #[test]
+    fn promotion_follows_the_setting_of_the_mode() {
+        let d16 = vk::Format::D16_UNORM;
+        let yes = |_| true;
+        for (mode, promoted) in [
+            (Mode::Complementary, true),
+            (Mode::Infinite, true),
+            (Mode::Flip, false),
+            (Mode::Off, false),
+        ] {
+            let settings = Settings {
+                mode,
+                ..Settings::default()
+            };
+            let p = DevicePolicy::new(&settings, true);
+            assert_eq!(
+                p.promoted_format(d16, ATTACHMENT_IMAGE, yes).unwrap().is_some(),
+                promoted,
+                "{mode:?}"
+            );
+        }
+        let never = Settings {
+            mode: Mode::Infinite,
+            promote_depth_formats: crate::config::Promote::Never,
+            ..Settings::default()
+        };
+        let p = DevicePolicy::new(&never, true);
+        assert_eq!(p.promoted_format(d16, ATTACHMENT_IMAGE, yes), Ok(None));
     }
 
     #[test]

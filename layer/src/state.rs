@@ -82,6 +82,51 @@ pub struct DeviceState {
     /// (`crate::hooks::cameras`).
     pub cameras: crate::hooks::cameras::DeviceCameras,
     pub objects: DeviceObjects,
+    /// Asks the device which image parameters a format supports (for promotion).
+    pub image_formats: ImageFormatQuery,
+}
+
+/// `vkGetPhysicalDeviceImageFormatProperties` of the device's physical device.
+#[derive(Clone, Copy)]
+pub struct ImageFormatQuery {
+    pub physical_device: vk::PhysicalDevice,
+    pub get: vk::PFN_vkGetPhysicalDeviceImageFormatProperties,
+}
+
+impl std::fmt::Debug for ImageFormatQuery {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ImageFormatQuery")
+            .field("physical_device", &self.physical_device)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ImageFormatQuery {
+    /// Whether an image of `info`'s type, tiling, usage, flags, size, mip levels, layers and
+    /// samples can be created in `format`.
+    pub fn supports(&self, info: &vk::ImageCreateInfo<'_>, format: vk::Format) -> bool {
+        let mut properties = vk::ImageFormatProperties::default();
+        // SAFETY: a live physical device and a valid output structure.
+        let result = unsafe {
+            (self.get)(
+                self.physical_device,
+                format,
+                info.image_type,
+                info.tiling,
+                info.usage,
+                info.flags,
+                &mut properties,
+            )
+        };
+        let extent = properties.max_extent;
+        result == vk::Result::SUCCESS
+            && properties.sample_counts.contains(info.samples)
+            && info.mip_levels <= properties.max_mip_levels
+            && info.array_layers <= properties.max_array_layers
+            && info.extent.width <= extent.width
+            && info.extent.height <= extent.height
+            && info.extent.depth <= extent.depth
+    }
 }
 
 impl DeviceState {

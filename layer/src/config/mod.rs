@@ -84,6 +84,55 @@ impl FarClip {
     }
 }
 
+/// Whether depth images in UNORM formats are created in a float format instead
+/// (`crate::policy::DevicePolicy::promoted_format`): reversal only gains precision with float
+/// storage.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Promote {
+    /// In the modes that rewrite depth (`complementary`, `infinite`); not in `flip`, which
+    /// gains no precision from it.
+    #[default]
+    Auto,
+    Always,
+    Never,
+}
+
+impl Promote {
+    const NAMES: &'static [&'static str] = &["auto", "always", "never"];
+
+    pub fn name(self) -> &'static str {
+        Promote::NAMES[self as usize]
+    }
+
+    /// Parses a name; `true` and `false` (the setting's old values) read as `always` and
+    /// `never`.
+    pub fn parse(text: &str) -> Option<Promote> {
+        [Promote::Auto, Promote::Always, Promote::Never]
+            .into_iter()
+            .find(|v| v.name().eq_ignore_ascii_case(text.trim()))
+            .or_else(|| parse_bool(text).map(Promote::from))
+    }
+
+    /// Whether images are promoted in `mode`.
+    pub fn applies(self, mode: Mode) -> bool {
+        match self {
+            Promote::Auto => matches!(mode, Mode::Complementary | Mode::Infinite),
+            Promote::Always => mode != Mode::Off,
+            Promote::Never => false,
+        }
+    }
+}
+
+impl From<bool> for Promote {
+    fn from(promote: bool) -> Self {
+        if promote {
+            Promote::Always
+        } else {
+            Promote::Never
+        }
+    }
+}
+
 /// Which depth images the application can observe revz may still reverse.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Observable {
@@ -158,8 +207,8 @@ pub struct Settings {
     pub reverse_observable: Observable,
     /// Dynamic compare ops or pipeline variants.
     pub compare_op: CompareOp,
-    /// Promote D16/D24 depth attachments to D32_SFLOAT (not implemented yet: no effect).
-    pub promote_depth_formats: bool,
+    /// Whether D16/D24 depth images are created as D32_SFLOAT (D32_SFLOAT_S8_UINT).
+    pub promote_depth_formats: Promote,
     /// The log level (per process: the first instance's settings install the logger).
     pub log_level: LevelFilter,
     /// Append the log to this file instead of stderr.
@@ -173,7 +222,7 @@ impl Default for Settings {
             far_clip: FarClip::default(),
             reverse_observable: Observable::None,
             compare_op: CompareOp::Dynamic,
-            promote_depth_formats: false,
+            promote_depth_formats: Promote::Auto,
             log_level: LevelFilter::Off,
             log_file: None,
         }
@@ -266,10 +315,14 @@ pub const SETTINGS: &[SettingSpec] = &[
         key: Key::PromoteDepthFormats,
         name: "promote_depth_formats",
         env: "REVZ_PROMOTE_DEPTH_FORMATS",
-        kind: Kind::Bool,
-        default: "false",
-        description: "Promote D16/D24 depth attachments to D32_SFLOAT. Not implemented yet: \
-                      has no effect.",
+        kind: Kind::Choice(Promote::NAMES),
+        default: "auto",
+        description: "Create D16 and D24 depth images as D32_SFLOAT (D32_SFLOAT_S8_UINT with \
+                      stencil), where the device supports it and their bytes are not copied \
+                      (no transfer usage, optimal tiling): auto (in complementary and \
+                      infinite), always (in every mode but off) or never; true and false read \
+                      as always and never. Reversed depth gains precision only in float \
+                      storage.",
     },
     SettingSpec {
         key: Key::Log,
@@ -338,10 +391,6 @@ impl Settings {
             Value::Text(text) => Some(text.as_str()),
             Value::Bool(_) => None,
         };
-        let as_bool = match value {
-            Value::Bool(b) => Some(*b),
-            Value::Text(text) => parse_bool(text),
-        };
         let applied = match spec.key {
             Key::Mode => text.and_then(Mode::parse).map(|m| self.mode = m),
             Key::FarClip => text.and_then(FarClip::parse).map(|v| self.far_clip = v),
@@ -351,7 +400,11 @@ impl Settings {
             }
             .map(|v| self.reverse_observable = v),
             Key::CompareOp => text.and_then(CompareOp::parse).map(|v| self.compare_op = v),
-            Key::PromoteDepthFormats => as_bool.map(|b| self.promote_depth_formats = b),
+            Key::PromoteDepthFormats => match value {
+                Value::Bool(b) => Some(Promote::from(*b)),
+                Value::Text(text) => Promote::parse(text),
+            }
+            .map(|v| self.promote_depth_formats = v),
             Key::Log => text
                 .and_then(crate::logging::parse_level)
                 .map(|l| self.log_level = l),
@@ -383,7 +436,7 @@ impl Settings {
             Key::FarClip => self.far_clip.name().to_owned(),
             Key::ReverseObservable => self.reverse_observable.name().to_owned(),
             Key::CompareOp => self.compare_op.name().to_owned(),
-            Key::PromoteDepthFormats => self.promote_depth_formats.to_string(),
+            Key::PromoteDepthFormats => self.promote_depth_formats.name().to_owned(),
             Key::Log => self.log_level.to_string().to_lowercase(),
             Key::LogFile => self
                 .log_file
@@ -498,11 +551,6 @@ pub fn resolve(sources: &Sources<'_>) -> Resolved {
         }
     }
 
-    if resolved.settings.promote_depth_formats {
-        resolved
-            .warnings
-            .push("promote_depth_formats is not implemented yet and has no effect".to_owned());
-    }
     resolved
 }
 

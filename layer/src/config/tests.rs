@@ -85,7 +85,7 @@ fn every_setting_can_be_set_by_its_environment_variable() {
             far_clip: FarClip::Keep,
             reverse_observable: Observable::All,
             compare_op: CompareOp::Dynamic,
-            promote_depth_formats: false,
+            promote_depth_formats: Promote::Never,
             log_level: LevelFilter::Debug,
             log_file: Some("/tmp/revz.log".into()),
         }
@@ -396,14 +396,39 @@ fn reverse_observable_takes_names_and_booleans() {
 }
 
 #[test]
-fn promoting_formats_is_accepted_but_reported_as_not_implemented() {
-    let world = World::with_config("promote_depth_formats = true\n");
+fn promoting_formats_reads_its_names_and_the_old_booleans() {
+    for (text, promote) in [
+        ("\"auto\"", Promote::Auto),
+        ("\"ALWAYS\"", Promote::Always),
+        ("\"never\"", Promote::Never),
+        ("true", Promote::Always),
+        ("false", Promote::Never),
+        ("\"off\"", Promote::Never),
+    ] {
+        let world = World::with_config(&format!("promote_depth_formats = {text}\n"));
+        let resolved = world.resolve();
+        assert_eq!(resolved.settings.promote_depth_formats, promote, "{text}");
+        assert!(resolved.warnings.is_empty(), "{text}: {:?}", resolved.warnings);
+    }
+    let world = World::with_config("promote_depth_formats = \"sometimes\"\n");
     let resolved = world.resolve();
-    assert!(resolved.settings.promote_depth_formats);
-    assert_eq!(
-        resolved.warnings,
-        vec!["promote_depth_formats is not implemented yet and has no effect"]
+    assert_eq!(resolved.settings.promote_depth_formats, Promote::Auto);
+    assert_eq!(resolved.warnings.len(), 1, "{:?}", resolved.warnings);
+    assert!(
+        resolved.warnings[0].contains("auto, always, never"),
+        "{:?}",
+        resolved.warnings
     );
+}
+
+#[test]
+fn promotion_applies_in_the_modes_that_rewrite_depth() {
+    assert!(Promote::Auto.applies(Mode::Complementary));
+    assert!(Promote::Auto.applies(Mode::Infinite));
+    assert!(!Promote::Auto.applies(Mode::Flip));
+    assert!(Promote::Always.applies(Mode::Flip));
+    assert!(!Promote::Always.applies(Mode::Off));
+    assert!(!Promote::Never.applies(Mode::Infinite));
 }
 
 #[test]

@@ -332,7 +332,6 @@ fn check(bytes: &[u8]) -> Result<u64, String> {
         CONFIG,
         VK_SETTINGS,
         "VK_EXT_layer_settings",
-        "promote_depth_formats is not implemented",
     ];
     for warning in &resolved.warnings {
         WARNINGS.add();

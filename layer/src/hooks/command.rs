@@ -570,7 +570,9 @@ fn attachment_views(
 struct PassBegin {
     /// The clear values, when a reversed depth attachment's was flipped.
     clears: Option<Vec<vk::ClearValue>>,
-    /// The twin with swapped MIN/MAX depth resolves, when the resolved attachment is reversed.
+    /// The twin begun in the application's pass's place: with float depth formats over a
+    /// framebuffer of promoted images, with swapped MIN/MAX depth resolves when the resolved
+    /// attachment is reversed, or both.
     render_pass: Option<vk::RenderPass>,
 }
 
@@ -606,6 +608,7 @@ fn begin_pass(
     let views = attachment_views(device, begin.framebuffer, begin.p_next);
     let mut out = PassBegin::default();
     let mut targets = Vec::new();
+    let mut promoted = false;
     if let Some(pass) = &pass {
         // Ordinary framebuffers were settled at creation; imageless ones only now.
         device.objects.settle_pass_resolves(pass, &views);
@@ -646,17 +649,25 @@ fn begin_pass(
         let resolved_reversed = pass
             .depth_resolves()
             .any(|(source, _)| targets.get(source as usize) == Some(&Target::Reversed));
-        if resolved_reversed {
-            out.render_pass = pass.swapped_resolve_twin;
-        }
+        promoted = device
+            .objects
+            .promoted_framebuffers
+            .get(&begin.framebuffer)
+            .is_some();
+        out.render_pass = pass.twin(promoted, resolved_reversed);
     }
     let scope = PassScope {
         handle: begin.render_pass,
         render_pass: pass,
         attachment_targets: targets,
         subpass: 0,
+        promoted,
     };
-    entry.state().set_target(scope.target());
+    {
+        let mut state = entry.state();
+        state.set_target(scope.target());
+        state.set_promoted(scope.promoted_from());
+    }
     let key = subpass_key(&scope);
     *entry.scope() = scope;
     let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
@@ -737,7 +748,7 @@ fn enter_contents(
         entry
             .device
             .objects
-            .remember_secondary_target(pass, state.target());
+            .remember_secondary_target(pass, state.target(), state.promoted());
     }
 }
 
@@ -748,12 +759,16 @@ fn subpass_key(scope: &PassScope) -> Option<SecondaryPass> {
 }
 
 fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
-    let (target, key) = {
+    let (target, promoted, key) = {
         let mut scope = entry.scope();
         scope.subpass += 1;
-        (scope.target(), subpass_key(&scope))
+        (scope.target(), scope.promoted_from(), subpass_key(&scope))
     };
-    entry.state().set_target(target);
+    {
+        let mut state = entry.state();
+        state.set_target(target);
+        state.set_promoted(promoted);
+    }
     enter_contents(entry, buffer, secondary, key);
 }
 
@@ -761,6 +776,7 @@ fn end_pass(entry: &CommandBufferEntry) {
     *entry.scope() = PassScope::default();
     let mut state = entry.state();
     state.set_target(Target::None);
+    state.set_promoted(None);
     state.set_secondary_contents(false);
 }
 
@@ -873,7 +889,26 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
             depth_copy = Some(copy);
         }
-        entry.state().set_target(target);
+        // A promoted depth (or stencil) view: draws bind the variants made with float
+        // rendering formats.
+        // SAFETY: null or valid.
+        let stencil = unsafe { info.p_stencil_attachment.as_ref() };
+        let promoted = [depth, stencil]
+            .into_iter()
+            .flatten()
+            .map(|a| a.image_view)
+            .find(|&view| device.objects.view_promoted(view).is_some())
+            .map(|view| {
+                device
+                    .objects
+                    .view_format(view)
+                    .unwrap_or(vk::Format::UNDEFINED)
+            });
+        {
+            let mut state = entry.state();
+            state.set_target(target);
+            state.set_promoted(promoted);
+        }
         let secondary = info
             .flags
             .contains(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS);
@@ -1168,26 +1203,82 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
     }
 }
 
+/// A secondary's begin info as it goes down when it continues a promoted pass: its
+/// inheritance names the promoted twin, or the float rendering formats (the copies it points
+/// into live here).
+struct PromotedInheritance<'a> {
+    begin: vk::CommandBufferBeginInfo<'a>,
+    _inheritance: Box<vk::CommandBufferInheritanceInfo<'a>>,
+    _chain: Option<chain::Spliced>,
+}
+
+/// The begin info of a secondary continuing a promoted pass (`None`: the application's is
+/// right as it is, or cannot be changed: logged).
+fn promoted_inheritance<'a>(
+    device: &DeviceState,
+    begin: &vk::CommandBufferBeginInfo<'a>,
+    inheritance: &vk::CommandBufferInheritanceInfo<'a>,
+) -> Option<PromotedInheritance<'a>> {
+    let mut copy = *inheritance;
+    let mut spliced = None;
+    if inheritance.render_pass != vk::RenderPass::null() {
+        let pass = device.objects.render_passes.get(&inheritance.render_pass)?;
+        copy.render_pass = pass.promoted_twin?;
+    } else {
+        // SAFETY: a valid pNext chain (the application's contract).
+        let rendering = unsafe {
+            chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
+        }?;
+        let float = |format: vk::Format| crate::conv::float_depth_format(format).unwrap_or(format);
+        let replacement = vk::CommandBufferInheritanceRenderingInfo {
+            depth_attachment_format: float(rendering.depth_attachment_format),
+            stencil_attachment_format: float(rendering.stencil_attachment_format),
+            ..*rendering
+        };
+        // SAFETY: as above; the copies live in the result.
+        let Some(chain) = (unsafe { chain::splice(inheritance.p_next, Some(&replacement)) }) else {
+            log::error!(
+                "a secondary continuing rendering into a promoted depth image has a structure \
+                 revz cannot copy before its inheritance rendering info: it keeps the UNORM \
+                 format, and the driver may reject it"
+            );
+            return None;
+        };
+        copy.p_next = chain.head();
+        spliced = Some(chain);
+    }
+    let inheritance = Box::new(copy);
+    Some(PromotedInheritance {
+        begin: vk::CommandBufferBeginInfo {
+            p_inheritance_info: &*inheritance,
+            ..*begin
+        },
+        _inheritance: inheritance,
+        _chain: spliced,
+    })
+}
+
 pub unsafe extern "system" fn begin_command_buffer(
     buffer: vk::CommandBuffer,
     p_begin: *const vk::CommandBufferBeginInfo<'_>,
 ) -> vk::Result {
     static ENTRY: EntryPoint = EntryPoint::new("vkBeginCommandBuffer");
+    let mut promoted_begin = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid begin info (the application's contract).
         let begin = unsafe { &*p_begin };
         // The inheritance info is ignored (and may be garbage) for primaries.
-        let target = if entry.secondary
+        let continues = entry.secondary
             && begin
                 .flags
-                .contains(vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE)
-        {
-            // SAFETY: null or valid; only read for secondaries continuing a render pass.
-            unsafe { begin.p_inheritance_info.as_ref() }
-                .map_or(Target::None, |i| inherited_target(entry, i))
-        } else {
-            Target::None
-        };
+                .contains(vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE);
+        // SAFETY: null or valid; only read for secondaries continuing a render pass.
+        let inheritance = unsafe { begin.p_inheritance_info.as_ref() }.filter(|_| continues);
+        let target = inheritance.map_or(Target::None, |i| inherited_target(entry, i));
+        let promoted = inheritance.and_then(|i| inherited_promotion(entry, i));
+        if let (Some(_), Some(inheritance)) = (promoted, inheritance) {
+            promoted_begin = promoted_inheritance(&entry.device, begin, inheritance);
+        }
         *entry.scope() = PassScope::default();
         let mut state = entry.state();
         // Cameras matter to the precise path only (no lock in flip mode).
@@ -1196,15 +1287,94 @@ pub unsafe extern "system" fn begin_command_buffer(
             None => revz_math::Cameras::default(),
         };
         state.begin(target, entry.device.reversing().reversal, cameras);
+        state.set_promoted(promoted);
         if entry.secondary && inherits_viewports(begin) {
             state.inherit_viewports();
         }
     });
+    let p_begin = promoted_begin
+        .as_ref()
+        .map_or(p_begin, |promoted| &promoted.begin as *const _);
     match device {
-        // SAFETY: calling down with the application's arguments.
+        // SAFETY: calling down with the application's arguments (a promoted pass's
+        // inheritance naming its twin or its float formats).
         Some(device) => unsafe { (device.next.fp_v1_0().begin_command_buffer)(buffer, p_begin) },
         None => vk::Result::ERROR_INITIALIZATION_FAILED,
     }
+}
+
+/// Whether a secondary continues a promoted pass, and the UNORM format of its depth
+/// attachment (as [`PassScope::promoted_from`]): from the inherited framebuffer when there is
+/// one; otherwise from how its pass was last begun for secondaries, or the format's images.
+fn inherited_promotion(
+    entry: &CommandBufferEntry,
+    inheritance: &vk::CommandBufferInheritanceInfo<'_>,
+) -> Option<vk::Format> {
+    let device = &entry.device;
+    if !device.policy.promote {
+        return None;
+    }
+    let (key, format) = if inheritance.render_pass != vk::RenderPass::null() {
+        let pass = device.objects.render_passes.get(&inheritance.render_pass)?;
+        if !(0..pass.attachments.len()).any(|i| pass.promotable(i)) {
+            return None;
+        }
+        let framebuffer = inheritance.framebuffer;
+        let views = device.objects.framebuffers.get(&framebuffer);
+        let format = pass
+            .subpass_depth
+            .get(inheritance.subpass as usize)
+            .copied()
+            .flatten()
+            .and_then(|index| pass.attachments.get(index as usize).copied());
+        if views.is_some_and(|views| !views.is_empty()) {
+            let promoted = device.objects.promoted_framebuffers.get(&framebuffer).is_some();
+            let scope = PassScope {
+                render_pass: Some(pass),
+                subpass: inheritance.subpass as usize,
+                promoted,
+                ..PassScope::default()
+            };
+            return scope.promoted_from();
+        }
+        (
+            SecondaryPass::Subpass(inheritance.render_pass, inheritance.subpass),
+            format,
+        )
+    } else {
+        // SAFETY: a valid pNext chain (the application's contract).
+        let rendering = unsafe {
+            chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
+        }?;
+        let format = [
+            rendering.depth_attachment_format,
+            rendering.stencil_attachment_format,
+        ]
+        .into_iter()
+        .find(|&f| crate::conv::float_depth_format(f).is_some())?;
+        (SecondaryPass::Rendering(format), Some(format))
+    };
+    let remembered = device.objects.secondary_promoted.get(&key);
+    let (promoted, kept) = match (remembered, format) {
+        (None, Some(format)) => device.objects.count_promoted(format),
+        _ => (0, 0),
+    };
+    let (promoted, guessed) = crate::policy::secondary_promoted(remembered, promoted, kept);
+    if guessed {
+        static MIXED: OnceLock<()> = OnceLock::new();
+        MIXED.get_or_init(|| {
+            log::warn!(
+                "a secondary command buffer without a framebuffer draws into {format:?}, which \
+                 has both promoted and unpromoted images, in a pass not yet begun for \
+                 secondaries: assuming promoted"
+            )
+        });
+    }
+    promoted.then(|| {
+        format
+            .filter(|&f| crate::conv::float_depth_format(f).is_some())
+            .unwrap_or(vk::Format::UNDEFINED)
+    })
 }
 
 /// Whether a secondary inherits its viewports from the primary that executes it
@@ -1242,6 +1412,7 @@ fn inherited_target(
                 render_pass: pass,
                 attachment_targets: targets,
                 subpass: inheritance.subpass as usize,
+                promoted: false,
             };
             return scope.target();
         }

@@ -699,6 +699,44 @@ pub(super) unsafe extern "system" fn fake_cmd_draw(
 
 unsafe extern "system" fn fake_cmd_set_depth_compare_op(_: vk::CommandBuffer, _: vk::CompareOp) {}
 
+/// Formats the fake's physical devices do not support as images (for the promotion tests).
+pub(super) static UNSUPPORTED_IMAGE_FORMATS: Mutex<Vec<vk::Format>> = Mutex::new(Vec::new());
+
+/// Every image the fake is asked about is supported (up to 4096 texels a side, every sample
+/// count), but for the formats of [`UNSUPPORTED_IMAGE_FORMATS`].
+unsafe extern "system" fn fake_get_physical_device_image_format_properties(
+    _: vk::PhysicalDevice,
+    format: vk::Format,
+    _: vk::ImageType,
+    _: vk::ImageTiling,
+    _: vk::ImageUsageFlags,
+    _: vk::ImageCreateFlags,
+    properties: *mut vk::ImageFormatProperties,
+) -> vk::Result {
+    let unsupported = UNSUPPORTED_IMAGE_FORMATS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .contains(&format);
+    if unsupported {
+        return vk::Result::ERROR_FORMAT_NOT_SUPPORTED;
+    }
+    // SAFETY: revz passes a valid output.
+    unsafe {
+        *properties = vk::ImageFormatProperties {
+            max_extent: vk::Extent3D {
+                width: 4096,
+                height: 4096,
+                depth: 1,
+            },
+            max_mip_levels: 13,
+            max_array_layers: 256,
+            sample_counts: vk::SampleCountFlags::from_raw(0x7f),
+            max_resource_size: 1 << 32,
+        }
+    };
+    vk::Result::SUCCESS
+}
+
 /// The fake layer's `vkGetInstanceProcAddr`.
 pub(super) unsafe extern "system" fn fake_get_instance_proc_addr(
     _: vk::Instance,
@@ -721,6 +759,10 @@ pub(super) unsafe extern "system" fn fake_get_instance_proc_addr(
         b"vkEnumerateDeviceExtensionProperties" => void_fn!(
             vk::PFN_vkEnumerateDeviceExtensionProperties,
             fake_enumerate_device_extension_properties
+        ),
+        b"vkGetPhysicalDeviceImageFormatProperties" => void_fn!(
+            vk::PFN_vkGetPhysicalDeviceImageFormatProperties,
+            fake_get_physical_device_image_format_properties
         ),
         b"vkFakeInstanceCommand" => Some(fake_command),
         b"vkGetPhysicalDeviceFeatures2KHR" => Some(fake_command),

@@ -602,6 +602,13 @@ pub unsafe extern "system" fn create_device(
                     observed: Default::default(),
                     cameras: Default::default(),
                     objects: DeviceObjects::default(),
+                    image_formats: crate::state::ImageFormatQuery {
+                        physical_device,
+                        get: instance
+                            .next
+                            .fp_v1_0()
+                            .get_physical_device_image_format_properties,
+                    },
                 },
             );
             result

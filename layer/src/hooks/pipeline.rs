@@ -105,11 +105,14 @@ fn linked_libraries(
         .collect()
 }
 
-/// The libraries a create info links, with each that has a reversed variant replaced by it:
-/// the reversed variant of a link links the variants. `None` when none has one.
+/// The libraries a create info links, with each that has a variant for draws into `reversed`
+/// and `promoted` attachments replaced by it: that variant of a link links the libraries'
+/// variants. `None` when none has one.
 fn library_variants(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
+    reversed: bool,
+    promoted: bool,
 ) -> Option<Vec<vk::Pipeline>> {
     // SAFETY: a valid pNext chain (the application's contract).
     let links = unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next) }?;
@@ -120,7 +123,7 @@ fn library_variants(
         .map(|library| {
             let depth = state.objects.pipelines.get(library);
             depth
-                .and_then(|depth| depth.reversed_variant)
+                .and_then(|depth| depth.variant_for(reversed, promoted))
                 .unwrap_or(*library)
         })
         .collect();
@@ -134,6 +137,7 @@ fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]
     for library in libraries {
         depth.subsets |= library.subsets;
         depth.module_identifiers |= library.module_identifiers;
+        depth.promotable |= library.promotable;
         depth.app_dynamic |= library.app_dynamic;
         depth.injected |= library.injected;
         if library.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
@@ -446,12 +450,109 @@ struct Plan {
     /// where the application sets the compare op dynamically): evidence of the application's
     /// depth convention (`crate::policy::ConventionEvidence`).
     tested_compare_op: Option<vk::CompareOp>,
+    /// How its promoted variants differ from it, where it draws into promoted attachments.
+    promotion: Option<Promotion>,
+}
+
+/// How a pipeline's promoted variants differ from it (`crate::policy::DevicePolicy::
+/// promoted_format`): a framebuffer of promoted images is begun as its render pass's
+/// promoted twin, and a pipeline drawn there must be compatible with the twin (attachment
+/// formats count for render pass compatibility and for dynamic rendering).
+#[derive(Debug, Default)]
+struct Promotion {
+    /// The promoted twin of its render pass (`None`: dynamic rendering, or a link).
+    render_pass: Option<vk::RenderPass>,
+    /// Its rendering formats name a UNORM depth or stencil format: the variants name the
+    /// float ones.
+    rendering: bool,
+    /// The linked libraries with their promoted variants, and with their promoted reversed
+    /// ones (`None`: no library has one).
+    libraries: Option<Vec<vk::Pipeline>>,
+    reversed_libraries: Option<Vec<vk::Pipeline>>,
+}
+
+/// Which variant of a pipeline to make: for reversed attachments, promoted ones, or both.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct VariantKind {
+    reversed: bool,
+    promoted: bool,
+}
+
+/// The subsets whose state includes the render pass or rendering formats.
+const USES_ATTACHMENT_FORMATS: Subsets = Subsets::from_raw(
+    Subsets::PRE_RASTERIZATION_SHADERS.as_raw()
+        | Subsets::FRAGMENT_SHADER.as_raw()
+        | Subsets::FRAGMENT_OUTPUT_INTERFACE.as_raw(),
+);
+
+/// How the promoted variants of a pipeline differ from it, if it needs them: its render pass
+/// has a promoted twin, its rendering formats are promotable, or a library it links has
+/// promoted variants. Logged where a pipeline needs them and cannot have them.
+fn promotion_of(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+    subsets: Subsets,
+) -> Option<Promotion> {
+    if !state.policy.promote {
+        return None;
+    }
+    let mut promotion = Promotion::default();
+    let mut promotable = false;
+    if subsets.intersects(USES_ATTACHMENT_FORMATS) {
+        if info.render_pass != vk::RenderPass::null() {
+            let pass = state.objects.render_passes.get(&info.render_pass)?;
+            if (0..pass.attachments.len()).any(|i| pass.promotable(i)) {
+                let Some(twin) = pass.promoted_twin else {
+                    static MISSING: std::sync::Once = std::sync::Once::new();
+                    MISSING.call_once(|| {
+                        log::error!(
+                            "a pipeline of a render pass without its promoted twin: its draws \
+                             into promoted depth images use it as it is, and the driver may \
+                             reject them"
+                        )
+                    });
+                    return None;
+                };
+                promotion.render_pass = Some(twin);
+                promotable = true;
+            }
+        } else {
+            // SAFETY: a valid pNext chain (the application's contract).
+            let rendering =
+                unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) };
+            promotion.rendering = rendering.is_some_and(|r| {
+                [r.depth_attachment_format, r.stencil_attachment_format]
+                    .into_iter()
+                    .any(|f| crate::conv::float_depth_format(f).is_some())
+            });
+            promotable |= promotion.rendering;
+        }
+    }
+    promotion.libraries = library_variants(state, info, false, true);
+    promotion.reversed_libraries = library_variants(state, info, true, true);
+    promotable |= linked_libraries(state, info)
+        .iter()
+        .any(|library| library.promotable);
+    promotable.then_some(promotion)
 }
 
 impl Plan {
     /// Whether the pipeline gets a variant bound for draws into reversed attachments.
     fn needs_variant(&self) -> bool {
         self.compare_op_variant || self.fragment.is_some() || self.libraries.is_some()
+    }
+
+    /// The variants the pipeline gets, in the order they are made.
+    fn variant_kinds(&self) -> impl Iterator<Item = VariantKind> {
+        let reversed = self.needs_variant();
+        let promoted = self.promotion.is_some();
+        [
+            (reversed, VariantKind { reversed: true, promoted: false }),
+            (promoted, VariantKind { reversed: false, promoted: true }),
+            (reversed && promoted, VariantKind { reversed: true, promoted: true }),
+        ]
+        .into_iter()
+        .filter_map(|(made, kind)| made.then_some(kind))
     }
 }
 
@@ -518,6 +619,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         libraries: None,
         renders_depth: false,
         tested_compare_op: None,
+        promotion: None,
     };
     if !context.has_depth_attachment {
         return unchanged(depth);
@@ -626,6 +728,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
         libraries: None,
         renders_depth: true,
         tested_compare_op,
+        promotion: None,
     }
 }
 
@@ -746,10 +849,23 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     }
                     inherit_libraries(&mut plan.depth, &linked);
                     if plan.renders_depth {
-                        match library_variants(&state, info) {
+                        match library_variants(&state, info, true, false) {
                             Some(_) if identified => plan.depth.unreversed_fragment = true,
                             variants => plan.libraries = variants,
                         }
+                    }
+                    plan.promotion = promotion_of(&state, info, context.subsets);
+                    plan.depth.promotable |= plan.promotion.is_some();
+                    if identified && plan.promotion.take().is_some() {
+                        static IDENTIFIED: std::sync::Once = std::sync::Once::new();
+                        IDENTIFIED.call_once(|| {
+                            log::error!(
+                                "a pipeline given by identifiers or binaries draws into \
+                                 promoted depth images: revz cannot make its promoted variant, \
+                                 and the driver may reject its draws there (set \
+                                 promote_depth_formats = never for this application)"
+                            )
+                        });
                     }
                     Some(plan)
                 })
@@ -823,10 +939,10 @@ pub unsafe extern "system" fn create_graphics_pipelines(
             })
         })
         .collect();
-    // Reversed variants are created before the application's pipelines: creating a pipeline
+    // Variants are created before the application's pipelines: creating a pipeline
     // writes the output structures of its chain (creation feedback), which must end up
     // holding the application's results.
-    let variants: Vec<Variant> = guarded(
+    let variants: Vec<Vec<(VariantKind, Variant)>> = guarded(
         &CREATE_GRAPHICS_PIPELINES,
         || {
             // After a variant that needs compiling in a create info asking for early return,
@@ -835,19 +951,37 @@ pub unsafe extern "system" fn create_graphics_pipelines(
             plans
                 .iter()
                 .zip(infos.iter().zip(&dynamic_infos))
-                .map(|(plan, (info, dynamic))| match plan {
-                    Some(plan) if plan.needs_variant() && !returned_early => {
+                .map(|(plan, (info, dynamic))| {
+                    let Some(plan) = plan else {
+                        return Vec::new();
+                    };
+                    let mut made = Vec::new();
+                    for kind in plan.variant_kinds() {
+                        if returned_early {
+                            break;
+                        }
                         let variant =
-                            create_reversed_variant(&state, device, cache, info, dynamic, plan);
+                            create_variant(&state, device, cache, info, dynamic, plan, kind);
                         returned_early = variant == Variant::CompileRequired && returns_early(info);
-                        variant
+                        made.push((kind, variant));
                     }
-                    _ => Variant::Missing,
+                    made
                 })
                 .collect()
         },
         Vec::new,
     );
+    // Per create info: a variant needs compiling (all are taken back then), else made.
+    let statuses: Vec<Variant> = variants
+        .iter()
+        .map(|made| {
+            if made.iter().any(|(_, v)| *v == Variant::CompileRequired) {
+                Variant::CompileRequired
+            } else {
+                Variant::Missing
+            }
+        })
+        .collect();
     let result = if dynamic_infos.iter().all(Option::is_none) && !rewrites_vertex {
         // SAFETY: calling down with the application's arguments.
         unsafe {
@@ -893,7 +1027,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 &state,
                 device,
                 infos,
-                &variants,
+                &statuses,
                 p_allocator,
                 p_pipelines,
                 result,
@@ -907,16 +1041,43 @@ pub unsafe extern "system" fn create_graphics_pipelines(
             // SAFETY: `count` handles were written (null where creation failed).
             let pipelines = unsafe { slice(p_pipelines, count) };
             for (index, (&pipeline, plan)) in pipelines.iter().zip(plans).enumerate() {
-                let variant = variants.get(index).and_then(|variant| variant.pipeline());
+                let made = variants.get(index).map_or(&[][..], Vec::as_slice);
+                let made_kind = |wanted: VariantKind| {
+                    made.iter()
+                        .find(|(kind, _)| *kind == wanted)
+                        .and_then(|(_, variant)| variant.pipeline())
+                };
                 let Some(mut plan) = plan.filter(|_| pipeline != vk::Pipeline::null()) else {
-                    if let Some(variant) = variant {
+                    for variant in made.iter().filter_map(|(_, variant)| variant.pipeline()) {
                         // SAFETY: revz's own object, never handed out.
                         unsafe { destroy_pipeline_down(&state, device, variant) };
                     }
                     continue;
                 };
                 plan.depth.handle = pipeline;
+                let variant = made_kind(VariantKind {
+                    reversed: true,
+                    promoted: false,
+                });
                 plan.depth.reversed_variant = variant;
+                plan.depth.promoted_variant = made_kind(VariantKind {
+                    reversed: false,
+                    promoted: true,
+                });
+                plan.depth.promoted_reversed_variant = made_kind(VariantKind {
+                    reversed: true,
+                    promoted: true,
+                });
+                if plan.promotion.is_some() && plan.depth.promoted_variant.is_none() {
+                    static MISSING: std::sync::Once = std::sync::Once::new();
+                    MISSING.call_once(|| {
+                        log::error!(
+                            "pipeline {pipeline:?}: its promoted variant could not be made; its \
+                             draws into promoted depth images use it as it is, and the driver \
+                             may reject them"
+                        )
+                    });
+                }
                 // Without its variant, a pipeline keeps (or links) the fragment shader that was
                 // to be rewritten.
                 if (plan.fragment.is_some() || plan.libraries.is_some()) && variant.is_none() {
@@ -1142,25 +1303,28 @@ destroy_hook!(
 /// not in the cache is then [`Variant::CompileRequired`]. [`Variant::Missing`] when it cannot
 /// be made: the pipeline's draws into reversed attachments then keep its compare op and
 /// fragment shader (logged once).
-fn create_reversed_variant(
+fn create_variant(
     state: &DeviceState,
     device: vk::Device,
     cache: vk::PipelineCache,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
     dynamic: &Option<vk::PipelineDynamicStateCreateInfo<'_>>,
     plan: &Plan,
+    kind: VariantKind,
 ) -> Variant {
     static FAILED: AtomicBool = AtomicBool::new(false);
     let failed = |why: &dyn std::fmt::Display| {
         if !FAILED.swap(true, Ordering::Relaxed) {
             log::warn!(
-                "the reversed variant of a pipeline could not be created ({why}): its draws \
-                 into reversed attachments keep its compare op and fragment shader"
+                "a {kind:?} variant of a pipeline could not be created ({why}): its draws \
+                 into reversed attachments keep its compare op and fragment shader, and into \
+                 promoted ones its attachment formats"
             );
         }
         Variant::Missing
     };
-    let flipped = if plan.compare_op_variant {
+    let promotion = plan.promotion.as_ref().filter(|_| kind.promoted);
+    let flipped = if plan.compare_op_variant && kind.reversed {
         // SAFETY: non-null (the plan read it) and valid (the application's contract).
         let Some(depth_stencil) = (unsafe { info.p_depth_stencil_state.as_ref() }) else {
             return failed(&"no depth-stencil state");
@@ -1190,7 +1354,12 @@ fn create_reversed_variant(
     if flags2.is_err() {
         return failed(&"an unknown structure precedes its flags2");
     }
-    if let Some(libraries) = &plan.libraries {
+    let libraries = match (promotion, kind.reversed) {
+        (Some(promotion), false) => &promotion.libraries,
+        (Some(promotion), true) => &promotion.reversed_libraries,
+        (None, _) => &plan.libraries,
+    };
+    if let Some(libraries) = libraries {
         // SAFETY: as above; the libraries outlive the call too.
         let links = unsafe {
             chain.edit(|links: &vk::PipelineLibraryCreateInfoKHR<'_>| {
@@ -1201,9 +1370,26 @@ fn create_reversed_variant(
             return failed(&"an unknown structure precedes its libraries");
         }
     }
+    if promotion.is_some_and(|p| p.rendering) {
+        let float = |format: vk::Format| crate::conv::float_depth_format(format).unwrap_or(format);
+        // SAFETY: as above.
+        let rendering = unsafe {
+            chain.edit(|rendering: &vk::PipelineRenderingCreateInfo<'_>| {
+                Some(vk::PipelineRenderingCreateInfo {
+                    depth_attachment_format: float(rendering.depth_attachment_format),
+                    stencil_attachment_format: float(rendering.stencil_attachment_format),
+                    ..*rendering
+                })
+            })
+        };
+        if rendering.is_err() {
+            return failed(&"an unknown structure precedes its rendering formats");
+        }
+    }
     // SAFETY: `stageCount` stages (the application's contract).
     let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
-    let rewritten = match &plan.fragment {
+    let fragment = plan.fragment.as_ref().filter(|_| kind.reversed);
+    let rewritten = match fragment {
         Some((index, code)) => {
             let Some(rewritten) = rewritten_stage(state, device, &mut stages[*index], code) else {
                 return failed(&"its rewritten fragment stage could not be made");
@@ -1224,6 +1410,9 @@ fn create_reversed_variant(
             .as_ref()
             .map_or(info.p_depth_stencil_state, |flipped| flipped),
         p_dynamic_state: dynamic.as_ref().map_or(info.p_dynamic_state, |d| d),
+        render_pass: promotion
+            .and_then(|p| p.render_pass)
+            .unwrap_or(info.render_pass),
         ..*info
     };
     let mut variant = vk::Pipeline::null();
@@ -1311,12 +1500,8 @@ pub unsafe extern "system" fn destroy_pipeline(
     };
     let destroy = state.next.fp_v1_0().destroy_pipeline;
     super::record(&DESTROY_PIPELINE, || {
-        let variant = state
-            .objects
-            .pipelines
-            .remove(&pipeline)
-            .and_then(|depth| depth.reversed_variant);
-        if let Some(variant) = variant {
+        let removed = state.objects.pipelines.remove(&pipeline);
+        for variant in removed.iter().flat_map(|depth| depth.variants()) {
             // SAFETY: revz's own object, in use only where the application's pipeline was.
             unsafe { destroy_pipeline_down(&state, device, variant) };
         }

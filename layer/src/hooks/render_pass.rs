@@ -1,7 +1,15 @@
 //! Render pass and framebuffer hooks: what revz records of each (attachment formats, depth
-//! clears, depth attachments and depth resolves per subpass, framebuffer views), and the one
-//! object revz creates on the application's behalf: a twin render pass whose MIN and MAX depth
-//! resolves are swapped.
+//! clears, depth attachments and depth resolves per subpass, framebuffer views), and the
+//! objects revz creates on the application's behalf: twin render passes whose MIN and MAX
+//! depth resolves are swapped, whose UNORM depth attachments are in their float formats
+//! (promotion, `crate::policy::DevicePolicy::promoted_format`), or both.
+//!
+//! Why a promoted twin: a framebuffer's views must have its render pass's attachment formats,
+//! and a promoted image's views are in the float format. The twin differs from the
+//! application's pass in those formats only; framebuffers of promoted images are created with
+//! it (so they are compatible with it, not with the application's pass), passes over them
+//! begin as it, and pipelines and secondaries drawn there get the promoted variant made
+//! against it (`crate::hooks::pipeline`).
 //!
 //! Why a twin: a MIN (MAX) resolve of reversed depth picks the farthest (nearest) sample, so a
 //! reversed attachment must be resolved with the other mode. The mode is baked into the render
@@ -162,6 +170,29 @@ fn create_swapped_resolve_twin(
     Some(twin)
 }
 
+/// The attachments with their UNORM depth formats replaced by float ones, if any is.
+fn promoted_attachments<T: Copy>(
+    attachments: &[T],
+    format: impl Fn(&mut T) -> &mut vk::Format,
+) -> Option<Vec<T>> {
+    let mut copy = attachments.to_vec();
+    let mut changed = false;
+    for attachment in &mut copy {
+        let format = format(attachment);
+        if let Some(float) = crate::conv::float_depth_format(*format) {
+            *format = float;
+            changed = true;
+        }
+    }
+    changed.then_some(copy)
+}
+
+/// Logs a twin render pass that could not be created (its framebuffers then keep the
+/// application's pass: see [`create_framebuffer`]).
+fn twin_failed(kind: &str, result: vk::Result) {
+    log::warn!("the {kind} twin of a render pass could not be created ({result:?})");
+}
+
 pub unsafe extern "system" fn create_render_pass(
     device: vk::Device,
     p_create_info: *const vk::RenderPassCreateInfo<'_>,
@@ -172,10 +203,42 @@ pub unsafe extern "system" fn create_render_pass(
     let Some(state) = (unsafe { device_state(device) }) else {
         return vk::Result::ERROR_INITIALIZATION_FAILED;
     };
+    let create = state.next.fp_v1_0().create_render_pass;
+    let promoted_twin = guarded(
+        &CREATE_RENDER_PASS,
+        || {
+            // SAFETY: a valid create info (the application's contract).
+            let info = unsafe { &*p_create_info };
+            if !state.policy.promote {
+                return None;
+            }
+            // SAFETY: `attachmentCount` attachments.
+            let attachments = unsafe { slice(info.p_attachments, info.attachment_count) };
+            let promoted = promoted_attachments(attachments, |a| &mut a.format)?;
+            let twin_info = vk::RenderPassCreateInfo {
+                p_attachments: promoted.as_ptr(),
+                ..*info
+            };
+            let mut twin = vk::RenderPass::null();
+            // SAFETY: the application's create info with float depth formats; revz's own
+            // object.
+            let result = unsafe { create(device, &twin_info, std::ptr::null(), &mut twin) };
+            if result != vk::Result::SUCCESS {
+                twin_failed("promoted", result);
+                return None;
+            }
+            Some(twin)
+        },
+        || None,
+    );
     // SAFETY: calling down with the application's arguments.
-    let result = unsafe {
-        (state.next.fp_v1_0().create_render_pass)(device, p_create_info, p_allocator, p_render_pass)
-    };
+    let result = unsafe { create(device, p_create_info, p_allocator, p_render_pass) };
+    if result != vk::Result::SUCCESS {
+        if let Some(twin) = promoted_twin {
+            // SAFETY: revz's own object, never used.
+            unsafe { (state.next.fp_v1_0().destroy_render_pass)(device, twin, std::ptr::null()) };
+        }
+    }
     if result == vk::Result::SUCCESS {
         record(&CREATE_RENDER_PASS, || {
             // SAFETY: valid on success; arrays sized by their counts.
@@ -187,7 +250,7 @@ pub unsafe extern "system" fn create_render_pass(
                     slice(info.p_subpasses, info.subpass_count),
                 )
             };
-            let pass = render_pass_info(
+            let mut pass = render_pass_info(
                 attachments.iter().map(|a| (a.format, a.load_op)),
                 subpasses.iter().map(|s| {
                     // SAFETY: null or one valid reference.
@@ -195,6 +258,7 @@ pub unsafe extern "system" fn create_render_pass(
                     (depth.map(|r| r.attachment), None)
                 }),
             );
+            pass.promoted_twin = promoted_twin;
             // SAFETY: valid on success.
             let handle = unsafe { *p_render_pass };
             state.objects.render_passes.insert(handle, Arc::new(pass));
@@ -218,20 +282,54 @@ pub unsafe extern "system" fn create_render_pass2(
     };
     // The twin first, so that output structures in the chain (creation feedback) end up
     // holding what the driver wrote for the application's pass.
-    let twin = guarded(
+    let twins = guarded(
         &CREATE_RENDER_PASS2,
-        // SAFETY: a valid create info (the application's contract).
-        || create_swapped_resolve_twin(&state, device, unsafe { &*p_create_info }, next),
-        || None,
+        || {
+            // SAFETY: a valid create info (the application's contract).
+            let info = unsafe { &*p_create_info };
+            let swapped = create_swapped_resolve_twin(&state, device, info, next);
+            // SAFETY: `attachmentCount` attachments.
+            let attachments = unsafe { slice(info.p_attachments, info.attachment_count) };
+            let promoted = state
+                .policy
+                .promote
+                .then(|| promoted_attachments(attachments, |a| &mut a.format))
+                .flatten();
+            let (promoted_twin, promoted_swapped) = match promoted {
+                Some(promoted) => {
+                    let promoted_info = vk::RenderPassCreateInfo2 {
+                        p_attachments: promoted.as_ptr(),
+                        ..*info
+                    };
+                    let mut twin = vk::RenderPass::null();
+                    // SAFETY: the application's create info with float depth formats.
+                    let result = unsafe { next(device, &promoted_info, std::ptr::null(), &mut twin) };
+                    let twin = if result == vk::Result::SUCCESS {
+                        Some(twin)
+                    } else {
+                        twin_failed("promoted", result);
+                        None
+                    };
+                    let swapped = swapped
+                        .and(twin)
+                        .and_then(|_| create_swapped_resolve_twin(&state, device, &promoted_info, next));
+                    (twin, swapped)
+                }
+                None => (None, None),
+            };
+            [swapped, promoted_twin, promoted_swapped]
+        },
+        || [None; 3],
     );
     // SAFETY: calling down with the application's arguments.
     let result = unsafe { next(device, p_create_info, p_allocator, p_render_pass) };
     if result != vk::Result::SUCCESS {
-        if let Some(twin) = twin {
+        for twin in twins.into_iter().flatten() {
             // SAFETY: revz's own object, never used.
             unsafe { (state.next.fp_v1_0().destroy_render_pass)(device, twin, std::ptr::null()) };
         }
     }
+    let [twin, promoted_twin, promoted_swapped_twin] = twins;
     if result == vk::Result::SUCCESS {
         record(&CREATE_RENDER_PASS2, || {
             // SAFETY: valid on success; arrays sized by their counts.
@@ -252,6 +350,8 @@ pub unsafe extern "system" fn create_render_pass2(
                 }),
             );
             pass.swapped_resolve_twin = twin;
+            pass.promoted_twin = promoted_twin;
+            pass.promoted_swapped_twin = promoted_swapped_twin;
             // SAFETY: valid on success.
             let handle = unsafe { *p_render_pass };
             state.objects.render_passes.insert(handle, Arc::new(pass));
@@ -276,9 +376,9 @@ pub unsafe extern "system" fn destroy_render_pass(
         for subpass in 0..subpasses as u32 {
             let key = crate::objects::SecondaryPass::Subpass(render_pass, subpass);
             state.objects.secondary_targets.remove(&key);
+            state.objects.secondary_promoted.remove(&key);
         }
-        let twin = removed.and_then(|pass| pass.swapped_resolve_twin);
-        if let Some(twin) = twin {
+        for twin in removed.iter().flat_map(|pass| pass.twins()) {
             // SAFETY: revz's own object; command buffers that began it are, like the
             // application's pass, no longer in use (the application's contract for destroying
             // the pass they were recorded with).
@@ -293,9 +393,198 @@ destroy_hook!(
     destroy_framebuffer,
     DESTROY_FRAMEBUFFER,
     vk::Framebuffer,
-    framebuffers,
+    framebuffers | promoted_framebuffers,
     destroy_framebuffer
 );
+
+/// Whether a framebuffer's promotable depth attachments are promoted images: all (it is
+/// created with the pass's promoted twin), none, or some (a mix no pass can take).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum FramebufferStorage {
+    Unpromoted,
+    Promoted,
+    Mixed,
+}
+
+impl FramebufferStorage {
+    fn of(promoted: impl Iterator<Item = bool>) -> FramebufferStorage {
+        let (mut any, mut all) = (false, true);
+        for promoted in promoted {
+            any |= promoted;
+            all &= promoted;
+        }
+        match (any, all) {
+            (false, _) => FramebufferStorage::Unpromoted,
+            (true, true) => FramebufferStorage::Promoted,
+            (true, false) => FramebufferStorage::Mixed,
+        }
+    }
+}
+
+/// Whether an imageless framebuffer's attachment would be a promoted image: the policy's
+/// decision on what its attachment info says (usage, flags, size, layers; optimal tiling, as
+/// for any attachment, and one sample, which the info does not give).
+fn imageless_promoted(
+    state: &DeviceState,
+    format: vk::Format,
+    attachment: &vk::FramebufferAttachmentImageInfo<'_>,
+) -> bool {
+    let facts = crate::policy::ImageFacts {
+        usage: attachment.usage,
+        tiling: vk::ImageTiling::OPTIMAL,
+        flags: attachment.flags,
+        external: false,
+    };
+    let image = vk::ImageCreateInfo {
+        flags: attachment.flags,
+        image_type: vk::ImageType::TYPE_2D,
+        format,
+        extent: vk::Extent3D {
+            width: attachment.width,
+            height: attachment.height,
+            depth: 1,
+        },
+        mip_levels: 1,
+        array_layers: attachment.layer_count,
+        samples: vk::SampleCountFlags::TYPE_1,
+        tiling: vk::ImageTiling::OPTIMAL,
+        usage: attachment.usage,
+        ..Default::default()
+    };
+    matches!(
+        state
+            .policy
+            .promoted_format(format, facts, |float| state.image_formats.supports(&image, float)),
+        Ok(Some(_))
+    )
+}
+
+/// What a framebuffer is created with in place of the application's create info: the
+/// promoted twin of its pass, and for an imageless one, attachment infos naming the float
+/// formats (the arrays they point into live here).
+struct FramebufferCreation<'a> {
+    info: vk::FramebufferCreateInfo<'a>,
+    _images: Vec<vk::FramebufferAttachmentImageInfo<'a>>,
+    _formats: Vec<Vec<vk::Format>>,
+    _chain: Option<chain::Spliced>,
+}
+
+/// Plans a framebuffer's creation; `None`: the application's create info as it is.
+///
+/// # Safety
+/// `info` is the application's valid create info.
+unsafe fn plan_framebuffer<'a>(
+    state: &DeviceState,
+    info: &vk::FramebufferCreateInfo<'a>,
+    pass: &RenderPassInfo,
+) -> Option<FramebufferCreation<'a>> {
+    if !state.policy.promote || !(0..pass.attachments.len()).any(|i| pass.promotable(i)) {
+        return None;
+    }
+    let imageless = info.flags.contains(vk::FramebufferCreateFlags::IMAGELESS);
+    // SAFETY: a valid chain.
+    let images_info = unsafe { chain::find::<vk::FramebufferAttachmentsCreateInfo<'_>>(info.p_next) }
+        .filter(|_| imageless);
+    // SAFETY: `attachmentImageInfoCount` infos.
+    let images = images_info.map_or(&[][..], |images| unsafe {
+        slice(
+            images.p_attachment_image_infos,
+            images.attachment_image_info_count,
+        )
+    });
+    // SAFETY: `attachmentCount` views.
+    let views = unsafe { slice(info.p_attachments, info.attachment_count) };
+    let promoted = |index: usize| {
+        if imageless {
+            images
+                .get(index)
+                .is_some_and(|image| imageless_promoted(state, pass.attachments[index], image))
+        } else {
+            views
+                .get(index)
+                .is_some_and(|&view| state.objects.view_promoted(view).is_some())
+        }
+    };
+    let storage = FramebufferStorage::of(
+        (0..pass.attachments.len())
+            .filter(|&i| pass.promotable(i))
+            .map(promoted),
+    );
+    match storage {
+        FramebufferStorage::Unpromoted => return None,
+        FramebufferStorage::Mixed => {
+            log::error!(
+                "a framebuffer of render pass {:?} mixes promoted (float) and UNORM depth images \
+                 (one of them is copied, linear, external or unsupported as float): no render \
+                 pass fits both; it is created as the application asked, and the driver may \
+                 reject it. Set promote_depth_formats = never for this application.",
+                info.render_pass
+            );
+            return None;
+        }
+        FramebufferStorage::Promoted => {}
+    }
+    let Some(twin) = pass.promoted_twin else {
+        log::error!(
+            "the promoted twin of render pass {:?} is missing: a framebuffer of promoted depth \
+             images is created with the application's pass, and the driver may reject it",
+            info.render_pass
+        );
+        return None;
+    };
+    let mut creation = FramebufferCreation {
+        info: vk::FramebufferCreateInfo {
+            render_pass: twin,
+            ..*info
+        },
+        _images: Vec::new(),
+        _formats: Vec::new(),
+        _chain: None,
+    };
+    if let Some(images_info) = images_info {
+        creation._formats = images
+            .iter()
+            .enumerate()
+            .map(|(index, image)| {
+                // SAFETY: `viewFormatCount` formats.
+                let formats = unsafe { slice(image.p_view_formats, image.view_format_count) };
+                let original = pass.attachments.get(index).copied();
+                formats
+                    .iter()
+                    .map(|&f| match crate::conv::float_depth_format(f) {
+                        Some(float) if Some(f) == original && pass.promotable(index) => float,
+                        _ => f,
+                    })
+                    .collect()
+            })
+            .collect();
+        creation._images = images
+            .iter()
+            .zip(&creation._formats)
+            .map(|(image, formats)| vk::FramebufferAttachmentImageInfo {
+                p_view_formats: formats.as_ptr(),
+                ..*image
+            })
+            .collect();
+        let replacement = vk::FramebufferAttachmentsCreateInfo {
+            attachment_image_info_count: creation._images.len() as u32,
+            p_attachment_image_infos: creation._images.as_ptr(),
+            ..*images_info
+        };
+        // SAFETY: a valid chain; the copies live in `creation` (vectors whose buffers do not
+        // move with it).
+        let Some(spliced) = (unsafe { chain::splice(info.p_next, Some(&replacement)) }) else {
+            log::error!(
+                "an imageless framebuffer's attachment infos follow a structure revz cannot \
+                 copy: it is created as the application asked, and the driver may reject it"
+            );
+            return None;
+        };
+        creation.info.p_next = spliced.head();
+        creation._chain = Some(spliced);
+    }
+    Some(creation)
+}
 
 pub unsafe extern "system" fn create_framebuffer(
     device: vk::Device,
@@ -307,9 +596,24 @@ pub unsafe extern "system" fn create_framebuffer(
     let Some(state) = (unsafe { device_state(device) }) else {
         return vk::Result::ERROR_INITIALIZATION_FAILED;
     };
-    // SAFETY: calling down with the application's arguments.
+    let creation = guarded(
+        &CREATE_FRAMEBUFFER,
+        || {
+            // SAFETY: a valid create info (the application's contract).
+            let info = unsafe { &*p_create_info };
+            let pass = state.objects.render_passes.get(&info.render_pass)?;
+            // SAFETY: as above.
+            unsafe { plan_framebuffer(&state, info, &pass) }
+        },
+        || None,
+    );
+    let info_down = creation
+        .as_ref()
+        .map_or(p_create_info, |creation| &creation.info as *const _);
+    // SAFETY: calling down with the application's arguments, or its create info with the
+    // promoted twin of its render pass (and float formats in imageless attachment infos).
     let result = unsafe {
-        (state.next.fp_v1_0().create_framebuffer)(device, p_create_info, p_allocator, p_framebuffer)
+        (state.next.fp_v1_0().create_framebuffer)(device, info_down, p_allocator, p_framebuffer)
     };
     if result == vk::Result::SUCCESS {
         record(&CREATE_FRAMEBUFFER, || {
@@ -328,10 +632,11 @@ pub unsafe extern "system" fn create_framebuffer(
                 state.objects.settle_pass_resolves(&pass, &views);
             }
             // SAFETY: valid on success.
-            state
-                .objects
-                .framebuffers
-                .insert(unsafe { *p_framebuffer }, views);
+            let framebuffer = unsafe { *p_framebuffer };
+            if creation.is_some() {
+                state.objects.promoted_framebuffers.insert(framebuffer, ());
+            }
+            state.objects.framebuffers.insert(framebuffer, views);
         });
     }
     result

@@ -1,15 +1,18 @@
 //! Object-tracking hooks: depth images and their views, render passes, framebuffers, and
-//! command buffer allocation. Each calls down first and records what was created only when the
-//! driver succeeded; nothing here changes what the application passes.
+//! command buffer allocation. Each records what was created only when the driver succeeded.
+//! The one change made to what the application passes: a depth image the policy promotes
+//! (`crate::policy::DevicePolicy::promoted_format`) is created, and viewed, in its float
+//! format; the application then allocates and binds the memory the driver asks for it.
 
 use std::sync::{Arc, Mutex};
 
 use ash::vk;
 
 use super::{device_state, record};
-use crate::boundary::EntryPoint;
+use crate::boundary::{guarded, EntryPoint};
 use crate::objects::{self, ImageInfo};
-use crate::policy::ImageDepth;
+use crate::policy::{ImageDepth, ImageFacts};
+use crate::state::DeviceState;
 
 static CREATE_IMAGE: EntryPoint = EntryPoint::new("vkCreateImage");
 static DESTROY_IMAGE: EntryPoint = EntryPoint::new("vkDestroyImage");
@@ -18,6 +21,131 @@ static DESTROY_IMAGE_VIEW: EntryPoint = EntryPoint::new("vkDestroyImageView");
 static ALLOCATE_COMMAND_BUFFERS: EntryPoint = EntryPoint::new("vkAllocateCommandBuffers");
 static FREE_COMMAND_BUFFERS: EntryPoint = EntryPoint::new("vkFreeCommandBuffers");
 static DESTROY_COMMAND_POOL: EntryPoint = EntryPoint::new("vkDestroyCommandPool");
+
+/// What revz creates a depth image as: its own create info, or a promoted copy
+/// (`crate::policy::DevicePolicy::promoted_format`), with the copies it points into.
+struct ImageCreation<'a> {
+    info: vk::ImageCreateInfo<'a>,
+    /// The float format, where promoted.
+    promoted: Option<vk::Format>,
+    /// The spliced chain (a format list with the float format) and the list it points at.
+    _chain: Option<(crate::chain::Spliced, Vec<vk::Format>)>,
+}
+
+/// Logs once per reason why images keep their UNORM format.
+fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
+    use crate::policy::KeptFormat;
+    static ONCE: [std::sync::Once; 4] = [const { std::sync::Once::new() }; 4];
+    let index = match reason {
+        KeptFormat::Copied => 0,
+        KeptFormat::LaidOutOutside => 1,
+        KeptFormat::PlacedMemory => 2,
+        KeptFormat::Unsupported => 3,
+    };
+    ONCE[index].call_once(|| {
+        log::info!(
+            "depth images such as one in {format:?} keep their format (not promoted to float), \
+             because {reason}"
+        )
+    });
+}
+
+/// Plans the creation of an image: promoted where the policy says so and its chain can be
+/// followed.
+///
+/// # Safety
+/// `info` is the application's valid create info.
+unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) -> ImageCreation<'a> {
+    let unchanged = ImageCreation {
+        info: *info,
+        promoted: None,
+        _chain: None,
+    };
+    if !state.policy.promote || crate::conv::float_depth_format(info.format).is_none() {
+        return unchanged;
+    }
+    // SAFETY: a valid chain (the application's contract).
+    let external = unsafe {
+        crate::chain::find::<vk::ExternalMemoryImageCreateInfo<'_>>(info.p_next)
+            .is_some_and(|external| !external.handle_types.is_empty())
+    };
+    let facts = ImageFacts {
+        usage: info.usage,
+        tiling: info.tiling,
+        flags: info.flags,
+        external,
+    };
+    let promoted = state
+        .policy
+        .promoted_format(info.format, facts, |float| {
+            state.image_formats.supports(info, float)
+        });
+    let float = match promoted {
+        Ok(Some(float)) => float,
+        Ok(None) => return unchanged,
+        Err(reason) => {
+            log_kept_format(info.format, reason);
+            return unchanged;
+        }
+    };
+    // A format list naming the UNORM format names the float one instead.
+    // SAFETY: as above.
+    let list = unsafe { crate::chain::find::<vk::ImageFormatListCreateInfo<'_>>(info.p_next) };
+    let chain = match list {
+        Some(list) => {
+            // SAFETY: `viewFormatCount` formats.
+            let formats: Vec<vk::Format> = unsafe { slice(list.p_view_formats, list.view_format_count) }
+                .iter()
+                .map(|&f| if f == info.format { float } else { f })
+                .collect();
+            let replacement = vk::ImageFormatListCreateInfo {
+                view_format_count: formats.len() as u32,
+                p_view_formats: formats.as_ptr(),
+                ..*list
+            };
+            // SAFETY: as above; `formats` lives as long as the splice (moved beside it; its
+            // buffer does not move).
+            match unsafe { crate::chain::splice(info.p_next, Some(&replacement)) } {
+                Some(spliced) => Some((spliced, formats)),
+                None => {
+                    log::info!(
+                        "depth image in {:?}: not promoted (its format list follows a structure \
+                         revz cannot copy)",
+                        info.format
+                    );
+                    return unchanged;
+                }
+            }
+        }
+        None => None,
+    };
+    let p_next = chain
+        .as_ref()
+        .map_or(info.p_next, |(spliced, _)| spliced.head());
+    ImageCreation {
+        info: vk::ImageCreateInfo {
+            format: float,
+            p_next,
+            ..*info
+        },
+        promoted: Some(float),
+        _chain: chain,
+    }
+}
+
+/// The bytes a promoted image adds to its UNORM layout (texel sizes as copies count them,
+/// over every mip level, layer and sample).
+fn promotion_cost(info: &vk::ImageCreateInfo<'_>, float: vk::Format) -> u64 {
+    let extra = crate::conv::depth_texel_bytes(float)
+        .saturating_sub(crate::conv::depth_texel_bytes(info.format));
+    let texels: u64 = (0..info.mip_levels.min(32))
+        .map(|level| {
+            let side = |size: u32| u64::from((size >> level).max(1));
+            side(info.extent.width) * side(info.extent.height) * side(info.extent.depth)
+        })
+        .sum();
+    extra * texels * u64::from(info.array_layers) * u64::from(info.samples.as_raw().max(1))
+}
 
 pub unsafe extern "system" fn create_image(
     device: vk::Device,
@@ -29,9 +157,19 @@ pub unsafe extern "system" fn create_image(
     let Some(state) = (unsafe { device_state(device) }) else {
         return vk::Result::ERROR_INITIALIZATION_FAILED;
     };
-    // SAFETY: calling down with the application's arguments.
+    let creation = guarded(
+        &CREATE_IMAGE,
+        // SAFETY: the application's valid create info.
+        || Some(unsafe { plan_image(&state, &*p_create_info) }),
+        || None,
+    );
+    let info_down = creation
+        .as_ref()
+        .map_or(p_create_info, |creation| &creation.info as *const _);
+    // SAFETY: calling down with the application's arguments, or its create info with the
+    // float format.
     let result =
-        unsafe { (state.next.fp_v1_0().create_image)(device, p_create_info, p_allocator, p_image) };
+        unsafe { (state.next.fp_v1_0().create_image)(device, info_down, p_allocator, p_image) };
     if result == vk::Result::SUCCESS {
         record(&CREATE_IMAGE, || {
             // SAFETY: valid on success.
@@ -44,22 +182,45 @@ pub unsafe extern "system" fn create_image(
             };
             let size = info.extent;
             let format = info.format;
-            match depth {
-                ImageDepth::Reversed => log::info!(
+            let promoted = creation.as_ref().and_then(|creation| creation.promoted);
+            let promotion = match promoted {
+                Some(float) => format!(
+                    "promoted to {float:?} ({} more bytes)",
+                    promotion_cost(info, float)
+                ),
+                None => String::new(),
+            };
+            match (depth, promoted) {
+                (ImageDepth::Reversed, None) => log::info!(
                     "depth image {image:?} ({format:?}, {}x{}): reversed",
                     size.width,
                     size.height
                 ),
-                ImageDepth::Native(reason) => log::info!(
+                (ImageDepth::Reversed, Some(_)) => log::info!(
+                    "depth image {image:?} ({format:?}, {}x{}): reversed, {promotion}",
+                    size.width,
+                    size.height
+                ),
+                (ImageDepth::Native(reason), None) => log::info!(
                     "depth image {image:?} ({format:?}, {}x{}): native, because {reason}",
                     size.width,
                     size.height
                 ),
+                (ImageDepth::Native(reason), Some(_)) => log::info!(
+                    "depth image {image:?} ({format:?}, {}x{}): native, because {reason}; \
+                     {promotion}",
+                    size.width,
+                    size.height
+                ),
             }
-            state
-                .objects
-                .images
-                .insert(image, ImageInfo { format, depth });
+            state.objects.images.insert(
+                image,
+                ImageInfo {
+                    format,
+                    depth,
+                    promoted,
+                },
+            );
         });
     }
     result
@@ -75,10 +236,29 @@ pub unsafe extern "system" fn create_image_view(
     let Some(state) = (unsafe { device_state(device) }) else {
         return vk::Result::ERROR_INITIALIZATION_FAILED;
     };
-    // SAFETY: calling down with the application's arguments.
-    let result = unsafe {
-        (state.next.fp_v1_0().create_image_view)(device, p_create_info, p_allocator, p_view)
-    };
+    // A view of a promoted image in the image's UNORM format is made in its float format
+    // (the only format a depth image's views can have).
+    let promoted = guarded(
+        &CREATE_IMAGE_VIEW,
+        || {
+            // SAFETY: the application's valid create info.
+            let info = unsafe { &*p_create_info };
+            let image = state.objects.images.get(&info.image)?;
+            let float = image.promoted.filter(|_| info.format == image.format)?;
+            Some(vk::ImageViewCreateInfo {
+                format: float,
+                ..*info
+            })
+        },
+        || None,
+    );
+    let info_down = promoted
+        .as_ref()
+        .map_or(p_create_info, |info| info as *const _);
+    // SAFETY: calling down with the application's arguments (or its create info with the
+    // promoted image's format).
+    let result =
+        unsafe { (state.next.fp_v1_0().create_image_view)(device, info_down, p_allocator, p_view) };
     if result == vk::Result::SUCCESS {
         record(&CREATE_IMAGE_VIEW, || {
             // SAFETY: valid on success.
