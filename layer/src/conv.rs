@@ -179,7 +179,9 @@ pub fn float_depth_format(format: vk::Format) -> Option<vk::Format> {
 pub fn depth_texel_bytes(format: vk::Format) -> u64 {
     match format {
         vk::Format::D16_UNORM => 2,
-        vk::Format::X8_D24_UNORM_PACK32 | vk::Format::D32_SFLOAT | vk::Format::D24_UNORM_S8_UINT => 4,
+        vk::Format::X8_D24_UNORM_PACK32
+        | vk::Format::D32_SFLOAT
+        | vk::Format::D24_UNORM_S8_UINT => 4,
         vk::Format::D16_UNORM_S8_UINT => 3,
         vk::Format::D32_SFLOAT_S8_UINT => 5,
         _ => 0,
@@ -229,9 +231,18 @@ mod tests {
     fn unorm_formats_promote_to_float_keeping_stencil() {
         let cases = [
             (vk::Format::D16_UNORM, Some(vk::Format::D32_SFLOAT)),
-            (vk::Format::X8_D24_UNORM_PACK32, Some(vk::Format::D32_SFLOAT)),
-            (vk::Format::D16_UNORM_S8_UINT, Some(vk::Format::D32_SFLOAT_S8_UINT)),
-            (vk::Format::D24_UNORM_S8_UINT, Some(vk::Format::D32_SFLOAT_S8_UINT)),
+            (
+                vk::Format::X8_D24_UNORM_PACK32,
+                Some(vk::Format::D32_SFLOAT),
+            ),
+            (
+                vk::Format::D16_UNORM_S8_UINT,
+                Some(vk::Format::D32_SFLOAT_S8_UINT),
+            ),
+            (
+                vk::Format::D24_UNORM_S8_UINT,
+                Some(vk::Format::D32_SFLOAT_S8_UINT),
+            ),
             (vk::Format::D32_SFLOAT, None),
             (vk::Format::D32_SFLOAT_S8_UINT, None),
             (vk::Format::S8_UINT, None),

@@ -85,6 +85,8 @@ impl RenderPassInfo {
             (false, false) => None,
             (false, true) => self.swapped_resolve_twin,
             (true, false) => self.promoted_twin,
+            // Resolves that need no swap have no swapped twin.
+            (true, true) if self.swapped_resolve_twin.is_none() => self.promoted_twin,
             (true, true) => self.promoted_swapped_twin,
         }
     }

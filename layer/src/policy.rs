@@ -738,8 +738,14 @@ mod tests {
         assert_eq!(asked, Some(vk::Format::D32_SFLOAT_S8_UINT));
         // Float formats and color formats are not promoted, and the device is not asked.
         let never = |_| -> bool { panic!("asked") };
-        assert_eq!(p.promoted_format(vk::Format::D32_SFLOAT, ATTACHMENT_IMAGE, never), Ok(None));
-        assert_eq!(p.promoted_format(vk::Format::R8_UNORM, ATTACHMENT_IMAGE, never), Ok(None));
+        assert_eq!(
+            p.promoted_format(vk::Format::D32_SFLOAT, ATTACHMENT_IMAGE, never),
+            Ok(None)
+        );
+        assert_eq!(
+            p.promoted_format(vk::Format::R8_UNORM, ATTACHMENT_IMAGE, never),
+            Ok(None)
+        );
     }
 
     #[test]
@@ -758,7 +764,9 @@ mod tests {
             };
             let p = DevicePolicy::new(&settings, true);
             assert_eq!(
-                p.promoted_format(d16, ATTACHMENT_IMAGE, yes).unwrap().is_some(),
+                p.promoted_format(d16, ATTACHMENT_IMAGE, yes)
+                    .unwrap()
+                    .is_some(),
                 promoted,
                 "{mode:?}"
             );

@@ -408,7 +408,11 @@ fn promoting_formats_reads_its_names_and_the_old_booleans() {
         let world = World::with_config(&format!("promote_depth_formats = {text}\n"));
         let resolved = world.resolve();
         assert_eq!(resolved.settings.promote_depth_formats, promote, "{text}");
-        assert!(resolved.warnings.is_empty(), "{text}: {:?}", resolved.warnings);
+        assert!(
+            resolved.warnings.is_empty(),
+            "{text}: {:?}",
+            resolved.warnings
+        );
     }
     let world = World::with_config("promote_depth_formats = \"sometimes\"\n");
     let resolved = world.resolve();

@@ -328,11 +328,7 @@ fn check(bytes: &[u8]) -> Result<u64, String> {
         app: app.clone(),
         layer_settings: read,
     });
-    let origins = [
-        CONFIG,
-        VK_SETTINGS,
-        "VK_EXT_layer_settings",
-    ];
+    let origins = [CONFIG, VK_SETTINGS, "VK_EXT_layer_settings"];
     for warning in &resolved.warnings {
         WARNINGS.add();
         let named = origins.iter().any(|o| warning.starts_with(o))

@@ -1328,7 +1328,11 @@ fn inherited_promotion(
             .flatten()
             .and_then(|index| pass.attachments.get(index as usize).copied());
         if views.is_some_and(|views| !views.is_empty()) {
-            let promoted = device.objects.promoted_framebuffers.get(&framebuffer).is_some();
+            let promoted = device
+                .objects
+                .promoted_framebuffers
+                .get(&framebuffer)
+                .is_some();
             let scope = PassScope {
                 render_pass: Some(pass),
                 subpass: inheritance.subpass as usize,

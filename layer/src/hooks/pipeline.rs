@@ -547,9 +547,27 @@ impl Plan {
         let reversed = self.needs_variant();
         let promoted = self.promotion.is_some();
         [
-            (reversed, VariantKind { reversed: true, promoted: false }),
-            (promoted, VariantKind { reversed: false, promoted: true }),
-            (reversed && promoted, VariantKind { reversed: true, promoted: true }),
+            (
+                reversed,
+                VariantKind {
+                    reversed: true,
+                    promoted: false,
+                },
+            ),
+            (
+                promoted,
+                VariantKind {
+                    reversed: false,
+                    promoted: true,
+                },
+            ),
+            (
+                reversed && promoted,
+                VariantKind {
+                    reversed: true,
+                    promoted: true,
+                },
+            ),
         ]
         .into_iter()
         .filter_map(|(made, kind)| made.then_some(kind))

@@ -303,16 +303,17 @@ pub unsafe extern "system" fn create_render_pass2(
                     };
                     let mut twin = vk::RenderPass::null();
                     // SAFETY: the application's create info with float depth formats.
-                    let result = unsafe { next(device, &promoted_info, std::ptr::null(), &mut twin) };
+                    let result =
+                        unsafe { next(device, &promoted_info, std::ptr::null(), &mut twin) };
                     let twin = if result == vk::Result::SUCCESS {
                         Some(twin)
                     } else {
                         twin_failed("promoted", result);
                         None
                     };
-                    let swapped = swapped
-                        .and(twin)
-                        .and_then(|_| create_swapped_resolve_twin(&state, device, &promoted_info, next));
+                    let swapped = swapped.and(twin).and_then(|_| {
+                        create_swapped_resolve_twin(&state, device, &promoted_info, next)
+                    });
                     (twin, swapped)
                 }
                 None => (None, None),
@@ -452,9 +453,9 @@ fn imageless_promoted(
         ..Default::default()
     };
     matches!(
-        state
-            .policy
-            .promoted_format(format, facts, |float| state.image_formats.supports(&image, float)),
+        state.policy.promoted_format(format, facts, |float| state
+            .image_formats
+            .supports(&image, float)),
         Ok(Some(_))
     )
 }
@@ -483,8 +484,9 @@ unsafe fn plan_framebuffer<'a>(
     }
     let imageless = info.flags.contains(vk::FramebufferCreateFlags::IMAGELESS);
     // SAFETY: a valid chain.
-    let images_info = unsafe { chain::find::<vk::FramebufferAttachmentsCreateInfo<'_>>(info.p_next) }
-        .filter(|_| imageless);
+    let images_info =
+        unsafe { chain::find::<vk::FramebufferAttachmentsCreateInfo<'_>>(info.p_next) }
+            .filter(|_| imageless);
     // SAFETY: `attachmentImageInfoCount` infos.
     let images = images_info.map_or(&[][..], |images| unsafe {
         slice(

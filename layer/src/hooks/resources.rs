@@ -75,11 +75,9 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
         flags: info.flags,
         external,
     };
-    let promoted = state
-        .policy
-        .promoted_format(info.format, facts, |float| {
-            state.image_formats.supports(info, float)
-        });
+    let promoted = state.policy.promoted_format(info.format, facts, |float| {
+        state.image_formats.supports(info, float)
+    });
     let float = match promoted {
         Ok(Some(float)) => float,
         Ok(None) => return unchanged,
@@ -94,10 +92,11 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
     let chain = match list {
         Some(list) => {
             // SAFETY: `viewFormatCount` formats.
-            let formats: Vec<vk::Format> = unsafe { slice(list.p_view_formats, list.view_format_count) }
-                .iter()
-                .map(|&f| if f == info.format { float } else { f })
-                .collect();
+            let formats: Vec<vk::Format> =
+                unsafe { slice(list.p_view_formats, list.view_format_count) }
+                    .iter()
+                    .map(|&f| if f == info.format { float } else { f })
+                    .collect();
             let replacement = vk::ImageFormatListCreateInfo {
                 view_format_count: formats.len() as u32,
                 p_view_formats: formats.as_ptr(),
