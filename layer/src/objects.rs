@@ -38,6 +38,9 @@ pub struct ImageInfo {
     pub depth: ImageDepth,
     /// The float format revz created it in instead, if it promoted it (for life).
     pub promoted: Option<vk::Format>,
+    /// Its size and sample count (to find its likely resolve partners).
+    pub extent: vk::Extent3D,
+    pub samples: vk::SampleCountFlags,
 }
 
 /// A render pass: each attachment's format and whether its depth is cleared at load, each
@@ -321,6 +324,25 @@ impl DeviceObjects {
     pub fn view_promoted(&self, view: vk::ImageView) -> Option<vk::Format> {
         let image = self.views.get(&view)?;
         self.images.get(&image)?.promoted
+    }
+
+    /// Whether a live depth image that may be resolved with an image of `format`, `extent`
+    /// and `samples` keeps its format: one of the same format and size, multisampled where
+    /// this one is single-sampled and the other way round.
+    pub fn resolve_partner_kept(
+        &self,
+        format: vk::Format,
+        extent: vk::Extent3D,
+        samples: vk::SampleCountFlags,
+    ) -> bool {
+        let multisampled = samples != vk::SampleCountFlags::TYPE_1;
+        let images = self.images.0.read().unwrap_or_else(PoisonError::into_inner);
+        images.values().any(|info| {
+            info.format == format
+                && info.extent == extent
+                && (info.samples != vk::SampleCountFlags::TYPE_1) != multisampled
+                && info.promoted.is_none()
+        })
     }
 
     /// How many live depth images of `format` are promoted and kept in `format`.
@@ -777,6 +799,8 @@ mod tests {
                 format,
                 depth,
                 promoted: None,
+                extent: vk::Extent3D::default(),
+                samples: vk::SampleCountFlags::TYPE_1,
             },
         );
         objects.views.insert(view, image);

@@ -120,6 +120,11 @@ pub struct ImageFacts {
     /// The image's memory is shared with another API or process
     /// (`VkExternalMemoryImageCreateInfo`, DRM format modifiers): its layout is agreed on.
     pub external: bool,
+    /// A live image that may be this one's resolve partner keeps its format: one of the same
+    /// format and size on the other side of a resolve (multisampled for a single-sampled
+    /// image, and the other way round), a depth attachment (see
+    /// `DeviceObjects::resolve_partner_kept`).
+    pub partner_kept: bool,
 }
 
 /// Why a depth image in a UNORM format keeps it (logged once per reason).
@@ -136,6 +141,9 @@ pub enum KeptFormat {
     /// The device does not support the float format with the image's usage, flags, tiling
     /// and samples.
     Unsupported,
+    /// An image it may be resolved with keeps its format (a resolve needs one format at both
+    /// ends).
+    ResolvePartner,
 }
 
 impl fmt::Display for KeptFormat {
@@ -152,6 +160,10 @@ impl fmt::Display for KeptFormat {
             KeptFormat::PlacedMemory => "its memory is sparse or aliased",
             KeptFormat::Unsupported => {
                 "the device does not support the float format with its usage, flags and samples"
+            }
+            KeptFormat::ResolvePartner => {
+                "an image of its format and size it may be resolved with (the other sample \
+                 count) keeps its format, and a resolve needs one format at both ends"
             }
         })
     }
@@ -185,7 +197,10 @@ impl DevicePolicy {
     /// own (`Ok(None)`: not a promotable format, or promotion is off). Every image that can be
     /// is promoted, reversed or native: a render pass resolves only between images of one
     /// format, and a multisampled image cannot know at creation whether the image it will be
-    /// resolved into is reversed, so the decision may not depend on reversal. `supported`
+    /// resolved into is reversed, so the decision may not depend on reversal. For the same
+    /// reason an image whose likely resolve partner, created before it, keeps its format keeps
+    /// its own (a multisampled attachment resolved into a read-back image: the order images
+    /// are usually created in; the other order is logged at framebuffer creation). `supported`
     /// asks the device about the float format (`vkGetPhysicalDeviceImageFormatProperties`
     /// with the image's parameters).
     pub fn promoted_format(
@@ -212,6 +227,9 @@ impl DevicePolicy {
             .intersects(vk::ImageCreateFlags::SPARSE_BINDING | vk::ImageCreateFlags::ALIAS)
         {
             return Err(KeptFormat::PlacedMemory);
+        }
+        if facts.partner_kept {
+            return Err(KeptFormat::ResolvePartner);
         }
         if !supported(float) {
             return Err(KeptFormat::Unsupported);
@@ -658,6 +676,7 @@ mod tests {
         tiling: vk::ImageTiling::OPTIMAL,
         flags: vk::ImageCreateFlags::empty(),
         external: false,
+        partner_kept: false,
     };
 
     #[test]
@@ -726,6 +745,14 @@ mod tests {
         assert_eq!(
             p.promoted_format(d24, aliased, yes),
             Err(KeptFormat::PlacedMemory)
+        );
+        let partner = ImageFacts {
+            partner_kept: true,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, partner, yes),
+            Err(KeptFormat::ResolvePartner)
         );
         let mut asked = None;
         assert_eq!(

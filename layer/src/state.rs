@@ -156,6 +156,7 @@ pub struct DeviceCommands {
     pub end_render_pass2: Option<vk::PFN_vkCmdEndRenderPass2>,
     pub create_render_pass2: Option<vk::PFN_vkCreateRenderPass2>,
     pub begin_rendering: Option<vk::PFN_vkCmdBeginRendering>,
+    pub get_device_image_memory_requirements: Option<vk::PFN_vkGetDeviceImageMemoryRequirements>,
     pub end_rendering: Option<vk::PFN_vkCmdEndRendering>,
     pub draw_indirect_count: Option<vk::PFN_vkCmdDrawIndirectCount>,
     pub draw_indexed_indirect_count: Option<vk::PFN_vkCmdDrawIndexedIndirectCount>,
@@ -228,6 +229,11 @@ impl DeviceCommands {
             end_render_pass2: load!(V12, c"vkCmdEndRenderPass2", c"vkCmdEndRenderPass2KHR"),
             create_render_pass2: load!(V12, c"vkCreateRenderPass2", c"vkCreateRenderPass2KHR"),
             begin_rendering: load!(V13, c"vkCmdBeginRendering", c"vkCmdBeginRenderingKHR"),
+            get_device_image_memory_requirements: load!(
+                V13,
+                c"vkGetDeviceImageMemoryRequirements",
+                c"vkGetDeviceImageMemoryRequirementsKHR"
+            ),
             end_rendering: load!(V13, c"vkCmdEndRendering", c"vkCmdEndRenderingKHR"),
             draw_indirect_count: load!(
                 V12,

@@ -123,6 +123,12 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCreateImage" => void_fn!(vk::PFN_vkCreateImage, r::create_image),
         b"vkDestroyImage" => void_fn!(vk::PFN_vkDestroyImage, r::destroy_image),
         b"vkCreateImageView" => void_fn!(vk::PFN_vkCreateImageView, r::create_image_view),
+        b"vkGetDeviceImageMemoryRequirements" | b"vkGetDeviceImageMemoryRequirementsKHR" => {
+            void_fn!(
+                vk::PFN_vkGetDeviceImageMemoryRequirements,
+                r::get_device_image_memory_requirements
+            )
+        }
         b"vkDestroyImageView" => void_fn!(vk::PFN_vkDestroyImageView, r::destroy_image_view),
         b"vkCreateRenderPass" => void_fn!(vk::PFN_vkCreateRenderPass, rp::create_render_pass),
         b"vkCreateRenderPass2" | b"vkCreateRenderPass2KHR" => {

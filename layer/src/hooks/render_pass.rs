@@ -435,6 +435,7 @@ fn imageless_promoted(
         tiling: vk::ImageTiling::OPTIMAL,
         flags: attachment.flags,
         external: false,
+        partner_kept: false,
     };
     let image = vk::ImageCreateInfo {
         flags: attachment.flags,

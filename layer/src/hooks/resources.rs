@@ -35,12 +35,13 @@ struct ImageCreation<'a> {
 /// Logs once per reason why images keep their UNORM format.
 fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
     use crate::policy::KeptFormat;
-    static ONCE: [std::sync::Once; 4] = [const { std::sync::Once::new() }; 4];
+    static ONCE: [std::sync::Once; 5] = [const { std::sync::Once::new() }; 5];
     let index = match reason {
         KeptFormat::Copied => 0,
         KeptFormat::LaidOutOutside => 1,
         KeptFormat::PlacedMemory => 2,
         KeptFormat::Unsupported => 3,
+        KeptFormat::ResolvePartner => 4,
     };
     ONCE[index].call_once(|| {
         log::info!(
@@ -74,6 +75,12 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
         tiling: info.tiling,
         flags: info.flags,
         external,
+        partner_kept: info
+            .usage
+            .contains(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT)
+            && state
+                .objects
+                .resolve_partner_kept(info.format, info.extent, info.samples),
     };
     let promoted = state.policy.promoted_format(info.format, facts, |float| {
         state.image_formats.supports(info, float)
@@ -218,11 +225,57 @@ pub unsafe extern "system" fn create_image(
                     format,
                     depth,
                     promoted,
+                    extent: info.extent,
+                    samples: info.samples,
                 },
             );
         });
     }
     result
+}
+
+/// `vkGetDeviceImageMemoryRequirements`: the application asks what an image it has not
+/// created yet needs; revz answers for the image it would create (its float format where
+/// promoted), so that the memory the application allocates fits it.
+pub unsafe extern "system" fn get_device_image_memory_requirements(
+    device: vk::Device,
+    p_info: *const vk::DeviceImageMemoryRequirements<'_>,
+    p_requirements: *mut vk::MemoryRequirements2<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkGetDeviceImageMemoryRequirements");
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return;
+    };
+    let Some(next) = state.commands.get_device_image_memory_requirements else {
+        return;
+    };
+    let creation = guarded(
+        &ENTRY,
+        || {
+            // SAFETY: a valid query (the application's contract).
+            let info = unsafe { (*p_info).p_create_info.as_ref() }?;
+            // SAFETY: as above.
+            let creation = unsafe { plan_image(&state, info) };
+            creation.promoted.map(|_| creation)
+        },
+        || None,
+    );
+    let query;
+    let p_info = match &creation {
+        Some(creation) => {
+            query = vk::DeviceImageMemoryRequirements {
+                p_create_info: &creation.info,
+                // SAFETY: as above.
+                ..unsafe { *p_info }
+            };
+            &query as *const _
+        }
+        None => p_info,
+    };
+    // SAFETY: calling down with the application's arguments (its create info with the
+    // float format where revz would promote the image).
+    unsafe { next(device, p_info, p_requirements) }
 }
 
 pub unsafe extern "system" fn create_image_view(
