@@ -45,8 +45,7 @@ fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
     };
     ONCE[index].call_once(|| {
         log::info!(
-            "depth images such as one in {format:?} keep their format (not promoted to float), \
-             because {reason}"
+            "depth images such as one in {format:?} keep their format, because {reason}"
         )
     });
 }
