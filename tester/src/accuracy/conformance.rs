@@ -5,7 +5,7 @@
 //! float format revz promoted the image to, where it did: issue #15), and its depth was stored
 //! the way the mode says (reversed by every revz mode, not by `none`). That last check needs
 //! the depth read back: the cases where promotion can apply are rendered without it
-//! ([`super::promotable`]), so their `depth_reversed` is null and the check is skipped for
+//! ([`super::depth_readback`]), so their `depth_reversed` is null and the check is skipped for
 //! them (their colors are still checked against the bound; the e2e tests check that promoted
 //! images are reversed, from the layer's log). Outputs, in the output folder:
 //! `conformance.json` (summary and one entry per case) and `junit.xml` (one `testsuite` per

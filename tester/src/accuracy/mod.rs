@@ -12,9 +12,11 @@
 //! so, but only an image without transfer usage: the depth readback's TRANSFER_SRC prevents it.
 //! The cases where promotion can apply ([`promotable`]: those formats in `complementary` and
 //! `infinite`, the setting's `auto`; every layer mode with `--promote-depth-formats always`)
-//! are therefore rendered with `--no-depth-readback`: their color is measured, their depth is
-//! not (`depth_reversed` is null there), and the row's `promoted_format` says what the layer
-//! logged it promoted the image to (null where it did not). Every other case reads depth back.
+//! are therefore rendered with `--no-depth-readback` ([`depth_readback`]; with `never` too, so
+//! that a render with `never` differs from the default's by the setting alone): their color is
+//! measured, their depth is not (`depth_reversed` is null there), and the row's
+//! `promoted_format` says what the layer logged it promoted the image to (null where it did
+//! not). Every other case reads depth back.
 //! [`measure`] compares each render with the scene's ground truth:
 //! `wrong_pixel_fraction` is the fraction of checked pixels (interior: at least one pixel away
 //! from any silhouette or intersection where another object shows) that show another object
@@ -112,8 +114,7 @@ impl Promotion {
 /// Whether revz may promote the depth image of `format` in `mode` under `setting` (`None`: the
 /// layer's default, `auto`): the formats it promotes (D16_UNORM, X8_D24_UNORM_PACK32,
 /// D24_UNORM_S8_UINT; the tester has no D16_UNORM_S8_UINT), in the modes the setting promotes
-/// in. Such a case is rendered without depth readback, whose TRANSFER_SRC usage would keep the
-/// image in its format.
+/// in, provided the image has no transfer usage ([`depth_readback`]).
 pub fn promotable(mode: Mode, format: DepthFormat, setting: Option<Promotion>) -> bool {
     let format_promotes = matches!(
         format,
@@ -125,6 +126,14 @@ pub fn promotable(mode: Mode, format: DepthFormat, setting: Option<Promotion>) -
         Promotion::Never => false,
     };
     format_promotes && mode_promotes
+}
+
+/// Whether a case reads its depth image back: not where revz may promote it under `setting` or
+/// under its default (the readback's TRANSFER_SRC usage would keep the image in its format).
+/// A case the default promotes is rendered without readback under `never` too: `never` then
+/// changes nothing but the setting, and shows what promotion is worth.
+pub fn depth_readback(mode: Mode, format: DepthFormat, setting: Option<Promotion>) -> bool {
+    !(promotable(mode, format, setting) || promotable(mode, format, None))
 }
 
 /// What both commands render.
@@ -252,7 +261,7 @@ fn run_all(selection: &Selection, out: &Path, width: u32, height: u32) -> Result
                     format,
                     width: w,
                     height: h,
-                    depth_readback: !promotable(mode, format, selection.promote_depth_formats),
+                    depth_readback: depth_readback(mode, format, selection.promote_depth_formats),
                     promote_depth_formats: selection.promote_depth_formats,
                 };
                 let case_dir = format!(
@@ -330,7 +339,13 @@ mod tests {
         for format in [D32, D32S8] {
             for mode in Mode::ALL {
                 assert!(!promotable(mode, format, Some(Promotion::Always)));
+                assert!(depth_readback(mode, format, Some(Promotion::Always)));
             }
         }
+        // `never` renders the default's promotable cases without readback too.
+        assert!(!depth_readback(Mode::Infinite, D16, Some(Promotion::Never)));
+        assert!(depth_readback(Mode::Flip, D16, Some(Promotion::Never)));
+        assert!(!depth_readback(Mode::Flip, D16, Some(Promotion::Always)));
+        assert!(depth_readback(Mode::None, D24S8, Some(Promotion::Always)));
     }
 }

@@ -5,7 +5,7 @@
 //!   `format`, `vk_format`, `promoted_format` (the float format revz logged it promoted the
 //!   depth image to, null where it did not), `depth_readback`, `device`,
 //!   `wrong_pixel_fraction`, `checked_pixels`, `depth_reversed` (null without depth readback:
-//!   the cases where promotion can apply, [`super::promotable`]), ..., and
+//!   the cases where promotion can apply, [`super::depth_readback`]), ..., and
 //!   for `plane-stack` `min_rel_separation` per distance, for `far-objects` `decades` (the
 //!   checked and wrong pixels of each decade's group). `min_separation` holds one entry per
 //!   (mode, format, distance): measured and model minimum relative separations, their ratio,
