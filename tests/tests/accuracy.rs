@@ -16,6 +16,15 @@
 //! - `plane_stack_agrees_with_the_model`: the measured minimum separations on D32 are within a
 //!   factor of 2 of the precision model's wherever both exist, and the report says why where
 //!   one does not.
+//! - `promoted_formats_match_their_float_rows` (issue #15): in `complementary` and `infinite`,
+//!   on `plane-stack` and `deep-range`, revz promotes the D16, X8_D24 and D24_S8 images (drawn
+//!   without depth readback, which would prevent it) to D32_SFLOAT, D32_SFLOAT and
+//!   D32_SFLOAT_S8_UINT, as the rows' `promoted_format` says from the layer's log, and they
+//!   then measure as the float rows do: wrong-pixel fractions within 1e-4 of the D32 (D32_S8)
+//!   row's, `plane-stack`'s minimum separations within a factor of 2 of its at every distance.
+//!   With `--promote-depth-formats never` (`REVZ_PROMOTE_DEPTH_FORMATS=never`, the same render
+//!   otherwise) the D24_S8 row names no promoted format and is worse than D32 by 0.1 or more of
+//!   the checked pixels: the comparison would show a layer that does not promote.
 
 use std::path::Path;
 use std::process::Command;
@@ -255,3 +264,164 @@ fn plane_stack_agrees_with_the_model() {
     assert!(compared >= 12, "{compared} comparisons");
     assert!(out.join("plots/min-separation-d32.png").is_file());
 }
+
+/// The formats revz promotes, the float row each must then match, and what it is promoted to.
+const PROMOTED: [(&str, &str, &str); 3] = [
+    ("d16", "d32", "D32_SFLOAT"),
+    ("x8-d24", "d32", "D32_SFLOAT"),
+    ("d24-s8", "d32-s8", "D32_SFLOAT_S8_UINT"),
+];
+
+/// `plane-stack`'s measured minimum relative separation per distance (null: none resolves).
+fn separations(r: &serde_json::Value) -> Vec<(f64, Option<f64>)> {
+    r["min_rel_separation"]
+        .as_array()
+        .unwrap_or_else(|| panic!("no min_rel_separation: {r}"))
+        .iter()
+        .map(|p| {
+            (
+                p["distance_over_near"].as_f64().unwrap(),
+                p["min_rel_separation"].as_f64(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn promoted_formats_match_their_float_rows() {
+    let harness = Harness::locate();
+    let wrong = |r: &serde_json::Value| r["wrong_pixel_fraction"].as_f64().unwrap();
+    let out = harness.scratch_dir("accuracy-promoted");
+    let mut command = tester(&harness, "report", &out);
+    command.args([
+        "--scenes",
+        "plane-stack,deep-range",
+        "--modes",
+        "complementary,infinite",
+    ]);
+    let (code, text) = run(command);
+    assert_eq!(code, 0, "{text}");
+    let report = json(&out.join("report.json"));
+    // What promotion is asked to change, collected so that everything else is checked first.
+    let mut problems = Vec::new();
+    for scene in ["plane-stack", "deep-range"] {
+        for mode in ["complementary", "infinite"] {
+            for (format, float, promoted) in PROMOTED {
+                let r = row(&report, scene, mode, format);
+                let f = row(&report, scene, mode, float);
+                let case = format!("{scene} {mode} {format}");
+                for x in [r, f] {
+                    assert!(x["error"].is_null(), "{case}: {x}");
+                    assert!(x["checked_pixels"].as_u64().unwrap() > 5000, "{case}: {x}");
+                }
+                // The promotable row is drawn without depth readback (its TRANSFER_SRC would
+                // keep the format), the float row with it, reversed.
+                assert_eq!(r["depth_readback"], false, "{case}: {r}");
+                assert!(r["depth_reversed"].is_null(), "{case}: {r}");
+                assert_eq!(f["depth_readback"], true, "{case}: {f}");
+                assert_eq!(f["depth_reversed"], true, "{case}: {f}");
+                assert!(f["promoted_format"].is_null(), "{case}: {f}");
+                if r["promoted_format"] != promoted {
+                    problems.push(format!(
+                        "{case}: promoted_format {}, expected {promoted} (log: {}/{}/log.txt)",
+                        r["promoted_format"],
+                        out.display(),
+                        r["dir"].as_str().unwrap()
+                    ));
+                }
+                let (a, b) = (wrong(r), wrong(f));
+                eprintln!("{case}: wrong {a:.3e}, {float} {b:.3e}");
+                if (a - b).abs() > 1e-4 {
+                    problems.push(format!(
+                        "{case}: wrong_pixel_fraction {a:.3e}, {float}'s {b:.3e}: more than 1e-4 apart"
+                    ));
+                }
+                if scene != "plane-stack" {
+                    continue;
+                }
+                let mut compared = 0;
+                for ((d, a), (_, b)) in separations(r).into_iter().zip(separations(f)) {
+                    let (Some(a), Some(b)) = (a, b) else {
+                        continue;
+                    };
+                    compared += 1;
+                    if !(0.5..=2.0).contains(&(a / b)) {
+                        problems.push(format!(
+                            "{case}: minimum separation at {d:.0e} n {a:.2e}, {float}'s {b:.2e}: \
+                             not within a factor of 2"
+                        ));
+                    }
+                }
+                // Reversed float depth resolves something at every distance (at least 1e-7
+                // to 3.2e-7 relative, the model's 2e-7): comparing fewer would prove little.
+                if compared < STACK_DISTANCES_COMPARED {
+                    problems.push(format!(
+                        "{case}: minimum separations compared at {compared} distances, \
+                         fewer than {STACK_DISTANCES_COMPARED}: {:?} against {float}'s {:?}",
+                        separations(r),
+                        separations(f)
+                    ));
+                }
+            }
+        }
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("| plane-stack | complementary |"), "{md}");
+
+    // The mutation guard: the same D24_S8 render with promotion off is worse than D32.
+    let never = harness.scratch_dir("accuracy-promoted-never");
+    let mut command = tester(&harness, "report", &never);
+    command.args([
+        "--scenes",
+        "plane-stack",
+        "--modes",
+        "complementary",
+        "--formats",
+        "d24-s8,d32",
+        "--promote-depth-formats",
+        "never",
+    ]);
+    let (code, text) = run(command);
+    assert_eq!(code, 0, "{text}");
+    let report = json(&never.join("report.json"));
+    let (d24, d32) = (
+        row(&report, "plane-stack", "complementary", "d24-s8"),
+        row(&report, "plane-stack", "complementary", "d32"),
+    );
+    for r in [d24, d32] {
+        assert!(r["error"].is_null(), "{r}");
+        assert!(r["promoted_format"].is_null(), "never promoted: {r}");
+    }
+    assert_eq!(d24["depth_readback"], false, "{d24}");
+    let log = std::fs::read_to_string(never.join(d24["dir"].as_str().unwrap()).join("log.txt"))
+        .expect("the render's log");
+    assert!(
+        log.contains("(D24_UNORM_S8_UINT, 480x360): reversed"),
+        "the D24_S8 image was not reversed: {log}"
+    );
+    eprintln!(
+        "never: d24-s8 wrong {:.3e}, d32 {:.3e}",
+        wrong(d24),
+        wrong(d32)
+    );
+    assert!(
+        wrong(d24) >= wrong(d32) + 0.1,
+        "unpromoted D24_S8 is not visibly worse than D32: {d24}\n{d32}"
+    );
+    // The layer takes the value (a layer that does not know it warns and keeps its default).
+    let warnings: Vec<&str> = log.lines().filter(|l| l.contains("[revz WARN]")).collect();
+    if !warnings.is_empty() {
+        problems.push(format!(
+            "REVZ_PROMOTE_DEPTH_FORMATS=never was not taken: {}",
+            warnings.join("\n")
+        ));
+    }
+    assert!(
+        problems.is_empty(),
+        "promotion:\n  {}",
+        problems.join("\n  ")
+    );
+}
+
+/// How many of `plane-stack`'s 6 distances a promoted row and its float row must both resolve.
+const STACK_DISTANCES_COMPARED: usize = 4;

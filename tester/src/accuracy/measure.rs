@@ -7,6 +7,11 @@
 //! intersection line where another object shows. A checked pixel whose color is not the
 //! expected object's is a depth error. The rendered color names an object because every object
 //! of a scene has its own color (`render.json` lists them).
+//!
+//! The child runs with revz's log at `info` (`REVZ_LOG`; on stderr, kept in the render's
+//! `log.txt`), where the layer says once per depth image whether it reversed it and, when it
+//! promoted it to a float format, which one (`... (D16_UNORM, 480x360): reversed, promoted to
+//! D32_SFLOAT (N more bytes)`): [`promoted_format`] reads the main depth image's line.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -15,6 +20,7 @@ use std::process::Output;
 use anyhow::{Context, Result};
 use serde::Serialize;
 
+use super::Promotion;
 use crate::ground_truth::{self, GroundTruth, BACKGROUND};
 use crate::scene::SceneId;
 use crate::target::DepthFormat;
@@ -35,6 +41,11 @@ pub struct Case {
     pub format: DepthFormat,
     pub width: u32,
     pub height: u32,
+    /// Whether the depth image is read back (else the child runs with `--no-depth-readback`,
+    /// and the image has no transfer usage, so revz may promote it).
+    pub depth_readback: bool,
+    /// revz's `promote_depth_formats` (`REVZ_PROMOTE_DEPTH_FORMATS`); `None`: not set.
+    pub promote_depth_formats: Option<Promotion>,
 }
 
 /// The outcome of one case.
@@ -47,6 +58,12 @@ pub struct Measurement {
     pub format: String,
     /// Its Vulkan name.
     pub vk_format: &'static str,
+    /// The Vulkan name of the format revz logged it promoted the depth image to
+    /// (`D32_SFLOAT`, `D32_SFLOAT_S8_UINT`); null where it did not promote it.
+    pub promoted_format: Option<String>,
+    /// Whether the depth image was read back (false where promotion can apply: the readback's
+    /// TRANSFER_SRC usage would prevent it).
+    pub depth_readback: bool,
     pub device: String,
     pub driver: String,
     pub width: u32,
@@ -57,7 +74,8 @@ pub struct Measurement {
     pub wrong_pixels: usize,
     /// `wrong_pixels / checked_pixels` (1 when the render failed).
     pub wrong_pixel_fraction: f64,
-    /// Whether the depth read back decreases with distance (null when it cannot tell).
+    /// Whether the depth read back decreases with distance (null when it cannot tell, and
+    /// where depth was not read back).
     pub depth_reversed: Option<bool>,
     /// Validation messages the child counted.
     pub validation_messages: u32,
@@ -111,6 +129,25 @@ pub fn format_name(format: DepthFormat) -> String {
     clap::ValueEnum::to_possible_value(&format)
         .map(|v| v.get_name().to_string())
         .unwrap_or_else(|| format.vk_name().to_string())
+}
+
+/// The format revz logged it promoted the `vk_format` depth image of `width` x `height` to:
+/// the Vulkan name after `promoted to ` on that image's line (`depth image 0x.. (D16_UNORM,
+/// 480x360): reversed, promoted to D32_SFLOAT (N more bytes)`, or `): native, because ...;
+/// promoted to ...`); `None` when no such line says it was promoted.
+pub fn promoted_format(log: &str, vk_format: &str, width: u32, height: u32) -> Option<String> {
+    const PROMOTED: &str = "promoted to ";
+    let image = format!("({vk_format}, {width}x{height}): ");
+    log.lines()
+        .filter(|line| line.contains("depth image") && line.contains(&image))
+        .find_map(|line| {
+            let at = line.find(PROMOTED)? + PROMOTED.len();
+            let name: String = line[at..]
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            (!name.is_empty()).then_some(name)
+        })
 }
 
 /// The scene's ground truth at a size (computed once per scene and size).
@@ -195,12 +232,15 @@ pub fn measure(
     if let Some(device) = device {
         args.extend(["--device", device]);
     }
+    if !case.depth_readback {
+        args.push("--no-depth-readback");
+    }
+    let mut settings = vec![("REVZ_REVERSE_OBSERVABLE", "copies"), ("REVZ_LOG", "info")];
+    if let Some(promotion) = case.promote_depth_formats {
+        settings.push(("REVZ_PROMOTE_DEPTH_FORMATS", promotion.name()));
+    }
     let output: Output = runner
-        .command(
-            case.variant,
-            &args,
-            &[("REVZ_REVERSE_OBSERVABLE", "copies")],
-        )
+        .command(case.variant, &args, &settings)
         .output()
         .context("cannot run the tester as a child process")?;
     let log = format!(
@@ -212,8 +252,10 @@ pub fn measure(
     let mut m = Measurement {
         scene: case.scene.name(),
         mode: case.variant.name(),
+        promoted_format: promoted_format(&log, case.format.vk_name(), case.width, case.height),
         format,
         vk_format: case.format.vk_name(),
+        depth_readback: case.depth_readback,
         device: String::new(),
         driver: String::new(),
         width: case.width,
@@ -255,7 +297,10 @@ pub fn measure(
     let color = image::open(render_dir.join("color.png"))
         .context("cannot read color.png")?
         .to_rgba8();
-    let depth = read_f32(&render_dir.join("depth.f32")).ok();
+    let depth = case
+        .depth_readback
+        .then(|| read_f32(&render_dir.join("depth.f32")).ok())
+        .flatten();
     compare(&mut m, truth, &color, depth.as_deref())?;
     Ok(m)
 }
@@ -420,4 +465,34 @@ fn stack_cells(m: &mut Measurement, truth: &Truth, rendered: &[u16]) {
         .collect();
     m.cells = results;
     m.min_rel_separation = Some(points);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_promoted_format_is_read_from_the_main_depth_image_line() {
+        let log = "\
+[revz INFO] loaded as VK_LAYER_REVZ_reverse_z: mode complementary
+[revz INFO] depth image 0x5 (D32_SFLOAT, 512x512): native, because shaders read it (SAMPLED)
+[revz INFO] depth image 0x6 (D24_UNORM_S8_UINT, 160x120): reversed, promoted to D32_SFLOAT_S8_UINT (38400 more bytes)
+";
+        assert_eq!(
+            promoted_format(log, "D24_UNORM_S8_UINT", 160, 120).as_deref(),
+            Some("D32_SFLOAT_S8_UINT")
+        );
+        // Another image's size or format is not the main image.
+        assert_eq!(promoted_format(log, "D24_UNORM_S8_UINT", 96, 72), None);
+        assert_eq!(promoted_format(log, "D16_UNORM", 160, 120), None);
+        let native = "[revz INFO] depth image 0x7 (D16_UNORM, 96x72): native, because it is \
+                      resolved into native; promoted to D32_SFLOAT (13824 more bytes)";
+        assert_eq!(
+            promoted_format(native, "D16_UNORM", 96, 72).as_deref(),
+            Some("D32_SFLOAT")
+        );
+        // Without promotion the lines end as before issue #15.
+        let plain = "[revz INFO] depth image 0x8 (D16_UNORM, 96x72): reversed";
+        assert_eq!(promoted_format(plain, "D16_UNORM", 96, 72), None);
+    }
 }

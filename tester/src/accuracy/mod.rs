@@ -4,8 +4,20 @@
 //! Both commands render every (scene, mode, depth format) as a child tester process
 //! ([`crate::variants`]): `none` (no layer: standard depth), and revz in `flip`,
 //! `complementary` and `infinite` mode, each with depth readback allowed
-//! (`REVZ_REVERSE_OBSERVABLE=copies`) and the validation layer on (a validation message fails
-//! the render). [`measure`] compares each render with the scene's ground truth:
+//! (`REVZ_REVERSE_OBSERVABLE=copies`), the layer's log at `info` and the validation layer on
+//! (a validation message fails the render).
+//!
+//! Depth format promotion (issue #15): revz creates a D16, X8_D24 or D24_S8 depth image in a
+//! float format (D32_SFLOAT, D32_SFLOAT_S8_UINT) where its `promote_depth_formats` setting says
+//! so, but only an image without transfer usage: the depth readback's TRANSFER_SRC prevents it.
+//! The cases where promotion can apply ([`promotable`]: those formats in `complementary` and
+//! `infinite`, the setting's `auto`; every layer mode with `--promote-depth-formats always`)
+//! are therefore rendered with `--no-depth-readback` ([`depth_readback`]; with `never` too, so
+//! that a render with `never` differs from the default's by the setting alone): their color is
+//! measured, their depth is not (`depth_reversed` is null there), and the row's
+//! `promoted_format` says what the layer logged it promoted the image to (null where it did
+//! not). Every other case reads depth back.
+//! [`measure`] compares each render with the scene's ground truth:
 //! `wrong_pixel_fraction` is the fraction of checked pixels (interior: at least one pixel away
 //! from any silhouette or intersection where another object shows) that show another object
 //! than the nearest one.
@@ -76,6 +88,54 @@ impl Mode {
     }
 }
 
+/// revz's `promote_depth_formats` setting (`REVZ_PROMOTE_DEPTH_FORMATS`), as the commands pass
+/// it to the layer's children.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, ValueEnum)]
+pub enum Promotion {
+    /// The layer's default: promote in `complementary` and `infinite`, not in `flip`.
+    Auto,
+    /// Promote in every reversing mode.
+    Always,
+    /// Never promote.
+    Never,
+}
+
+impl Promotion {
+    /// The value of `REVZ_PROMOTE_DEPTH_FORMATS`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Promotion::Auto => "auto",
+            Promotion::Always => "always",
+            Promotion::Never => "never",
+        }
+    }
+}
+
+/// Whether revz may promote the depth image of `format` in `mode` under `setting` (`None`: the
+/// layer's default, `auto`): the formats it promotes (D16_UNORM, X8_D24_UNORM_PACK32,
+/// D24_UNORM_S8_UINT; the tester has no D16_UNORM_S8_UINT), in the modes the setting promotes
+/// in, provided the image has no transfer usage ([`depth_readback`]).
+pub fn promotable(mode: Mode, format: DepthFormat, setting: Option<Promotion>) -> bool {
+    let format_promotes = matches!(
+        format,
+        DepthFormat::D16 | DepthFormat::X8D24 | DepthFormat::D24S8
+    );
+    let mode_promotes = match setting.unwrap_or(Promotion::Auto) {
+        Promotion::Auto => matches!(mode, Mode::Complementary | Mode::Infinite),
+        Promotion::Always => mode != Mode::None,
+        Promotion::Never => false,
+    };
+    format_promotes && mode_promotes
+}
+
+/// Whether a case reads its depth image back: not where revz may promote it under `setting` or
+/// under its default (the readback's TRANSFER_SRC usage would keep the image in its format).
+/// A case the default promotes is rendered without readback under `never` too: `never` then
+/// changes nothing but the setting, and shows what promotion is worth.
+pub fn depth_readback(mode: Mode, format: DepthFormat, setting: Option<Promotion>) -> bool {
+    !(promotable(mode, format, setting) || promotable(mode, format, None))
+}
+
 /// What both commands render.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Selection {
@@ -99,6 +159,12 @@ pub struct Selection {
     /// Render on the first device whose name contains NAME (as the tester's `--device`).
     #[arg(long, value_name = "NAME")]
     pub device: Option<String>,
+
+    /// revz's `promote_depth_formats` for the layer's renders (REVZ_PROMOTE_DEPTH_FORMATS).
+    /// Default: not set (the layer's default, auto). Cases the setting lets revz promote are
+    /// rendered without depth readback.
+    #[arg(long, value_enum, value_name = "WHEN")]
+    pub promote_depth_formats: Option<Promotion>,
 }
 
 impl Selection {
@@ -195,6 +261,8 @@ fn run_all(selection: &Selection, out: &Path, width: u32, height: u32) -> Result
                     format,
                     width: w,
                     height: h,
+                    depth_readback: depth_readback(mode, format, selection.promote_depth_formats),
+                    promote_depth_formats: selection.promote_depth_formats,
                 };
                 let case_dir = format!(
                     "{dir}/{}-{}",
@@ -210,15 +278,21 @@ fn run_all(selection: &Selection, out: &Path, width: u32, height: u32) -> Result
                     &case_dir,
                 )?;
                 println!(
-                    "{:<13} {:<13} {:<7} wrong {:>9.3e} of {:>6} checked, reversed {:<5}{}",
+                    "{:<13} {:<13} {:<7} wrong {:>9.3e} of {:>6} checked, reversed {:<5}{}{}",
                     m.scene,
                     m.mode,
                     m.format,
                     m.wrong_pixel_fraction,
                     m.checked_pixels,
-                    m.depth_reversed
-                        .map(|r| r.to_string())
-                        .unwrap_or_else(|| "?".into()),
+                    match m.depth_reversed {
+                        Some(r) => r.to_string(),
+                        None if !m.depth_readback => "-".into(),
+                        None => "?".into(),
+                    },
+                    m.promoted_format
+                        .as_deref()
+                        .map(|f| format!(" promoted to {f}"))
+                        .unwrap_or_default(),
                     m.error
                         .as_deref()
                         .map(|e| format!("  ERROR {e}"))
@@ -240,4 +314,38 @@ pub fn report(args: &ReportArgs) -> Result<ExitCode> {
 pub fn conformance(args: &ConformanceArgs) -> Result<ExitCode> {
     let results = run_all(&args.selection, &args.out, args.width, args.height)?;
     conformance::finish(&args.out, &results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn promotion_applies_to_unorm_formats_in_the_modes_the_setting_names() {
+        use DepthFormat::{D16, D24S8, D32, D32S8, X8D24};
+        for format in [D16, X8D24, D24S8] {
+            for setting in [None, Some(Promotion::Auto)] {
+                assert!(promotable(Mode::Complementary, format, setting));
+                assert!(promotable(Mode::Infinite, format, setting));
+                assert!(!promotable(Mode::Flip, format, setting));
+                assert!(!promotable(Mode::None, format, setting));
+            }
+            assert!(promotable(Mode::Flip, format, Some(Promotion::Always)));
+            assert!(!promotable(Mode::None, format, Some(Promotion::Always)));
+            for mode in Mode::ALL {
+                assert!(!promotable(mode, format, Some(Promotion::Never)));
+            }
+        }
+        for format in [D32, D32S8] {
+            for mode in Mode::ALL {
+                assert!(!promotable(mode, format, Some(Promotion::Always)));
+                assert!(depth_readback(mode, format, Some(Promotion::Always)));
+            }
+        }
+        // `never` renders the default's promotable cases without readback too.
+        assert!(!depth_readback(Mode::Infinite, D16, Some(Promotion::Never)));
+        assert!(depth_readback(Mode::Flip, D16, Some(Promotion::Never)));
+        assert!(!depth_readback(Mode::Flip, D16, Some(Promotion::Always)));
+        assert!(depth_readback(Mode::None, D24S8, Some(Promotion::Always)));
+    }
 }

@@ -2,11 +2,15 @@
 //!
 //! - `report.json`: a JSON object `{ "device", "driver", "rows": [...], "min_separation":
 //!   [...], "scenes": [...] }`. One row per (scene, mode, format) with `scene`, `mode`,
-//!   `format`, `device`, `wrong_pixel_fraction`, `checked_pixels`, `depth_reversed`, ..., and
+//!   `format`, `vk_format`, `promoted_format` (the float format revz logged it promoted the
+//!   depth image to, null where it did not), `depth_readback`, `device`,
+//!   `wrong_pixel_fraction`, `checked_pixels`, `depth_reversed` (null without depth readback:
+//!   the cases where promotion can apply, [`super::depth_readback`]), ..., and
 //!   for `plane-stack` `min_rel_separation` per distance, for `far-objects` `decades` (the
 //!   checked and wrong pixels of each decade's group). `min_separation` holds one entry per
 //!   (mode, format, distance): measured and model minimum relative separations, their ratio,
-//!   and whether they agree within a factor of 2 (or why they cannot be compared). An existing
+//!   and whether they agree within a factor of 2 (or why they cannot be compared); a promoted
+//!   row is compared with the model of the format it was stored in. An existing
 //!   `report.json` keeps every other top-level key (the benchmark adds `speed`).
 //! - `report.md`: the tables (with `far-objects`' per decade); anything after a line `<!-- speed -->` in an existing file is
 //!   kept.
@@ -23,6 +27,7 @@ use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use serde_json::{Map, Value};
 
+use super::conformance::stored_format;
 use super::measure::{format_name, Measurement};
 use super::model;
 use super::scenes::{FAR_DISTANCES, FAR_NEAR, STACK_DISTANCES};
@@ -40,6 +45,9 @@ pub const FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 pub struct SeparationRow {
     pub mode: &'static str,
     pub format: String,
+    /// The float format revz promoted the depth image to (null: not promoted); the model is
+    /// that format's.
+    pub promoted_format: Option<String>,
     pub distance_over_near: f64,
     /// Measured on `plane-stack` (null: no separation of the scene, up to 0.56, resolved).
     pub min_rel_separation: Option<f64>,
@@ -86,8 +94,10 @@ pub fn separations(results: &[Measurement]) -> Vec<SeparationRow> {
             };
             let aspect = f64::from(m.width) / f64::from(m.height);
             let distances: Vec<f64> = points.iter().map(|p| p.distance_over_near).collect();
-            let simulated = model::simulated(mode.variant(), format, aspect, &distances);
-            let floor = model::storage_only(mode.variant(), format, &distances);
+            // A promoted image stores the float format's values: its model is that format's.
+            let stored = clap::ValueEnum::from_str(&stored_format(m), false).unwrap_or(format);
+            let simulated = model::simulated(mode.variant(), stored, aspect, &distances);
+            let floor = model::storage_only(mode.variant(), stored, &distances);
             for ((p, sim), storage) in points.iter().zip(simulated).zip(floor) {
                 let (ratio, agrees, note) = match (p.min_rel_separation, sim) {
                     (Some(measured), Some(model)) => {
@@ -126,6 +136,7 @@ pub fn separations(results: &[Measurement]) -> Vec<SeparationRow> {
                 rows.push(SeparationRow {
                     mode: m.mode,
                     format: name.clone(),
+                    promoted_format: m.promoted_format.clone(),
                     distance_over_near: p.distance_over_near,
                     min_rel_separation: p.min_rel_separation,
                     model_min_rel_separation: sim,
@@ -227,7 +238,7 @@ fn write_markdown(
     let _ = writeln!(md, "Device: {device} ({driver}).\n");
     let _ = writeln!(
         md,
-        "wrong_pixel_fraction per scene, mode and depth format: the checked pixels (at least one pixel away from any silhouette or intersection where another object shows) that show another object than the nearest one. `none` is the application's standard depth without the layer; the others are revz modes. An `R` marks depth read back reversed; `!` a failed render.\n"
+        "wrong_pixel_fraction per scene, mode and depth format: the checked pixels (at least one pixel away from any silhouette or intersection where another object shows) that show another object than the nearest one. `none` is the application's standard depth without the layer; the others are revz modes. An `R` marks depth read back reversed; `!` a failed render; `as D32_SFLOAT` (or `as D32_SFLOAT_S8_UINT`) a depth image revz promoted to that float format. The cases where promotion can apply (D16, X8_D24 and D24_S8 in the modes that promote) are rendered without depth readback, which would prevent it: they show no `R`.\n"
     );
     let _ = write!(md, "| scene | mode |");
     for f in &formats {
@@ -255,13 +266,17 @@ fn write_markdown(
                 let cell = match find(results, scene, mode, f) {
                     Some(m) if m.error.is_some() => "!".to_string(),
                     Some(m) => format!(
-                        "{}{}",
+                        "{}{}{}",
                         fraction(m.wrong_pixel_fraction),
                         if m.depth_reversed == Some(true) {
                             " R"
                         } else {
                             ""
-                        }
+                        },
+                        m.promoted_format
+                            .as_deref()
+                            .map(|f| format!(" as {f}"))
+                            .unwrap_or_default()
                     ),
                     None => "".into(),
                 };
@@ -289,7 +304,11 @@ fn write_markdown(
         }
         md.push('\n');
         for m in far {
-            let _ = write!(md, "| {} | {} |", m.mode, m.format);
+            let format = match &m.promoted_format {
+                Some(promoted) => format!("{} as {promoted}", m.format),
+                None => m.format.clone(),
+            };
+            let _ = write!(md, "| {} | {format} |", m.mode);
             for decade in m.decades.iter().flatten() {
                 let cell = if decade.checked == 0 {
                     "-".to_string()
@@ -308,11 +327,15 @@ fn write_markdown(
         );
         md.push_str("| mode | format | d / n | measured | model | storage | ratio | |\n|---|---|---|---|---|---|---|---|\n");
         for r in separation_rows {
+            let format = match &r.promoted_format {
+                Some(promoted) => format!("{} as {promoted}", r.format),
+                None => r.format.clone(),
+            };
             let _ = writeln!(
                 md,
                 "| {} | {} | {:.0e} | {} | {} | {} | {} | {} |",
                 r.mode,
-                r.format,
+                format,
                 r.distance_over_near,
                 opt(r.min_rel_separation),
                 opt(r.model_min_rel_separation),
