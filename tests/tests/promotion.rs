@@ -22,8 +22,10 @@
 //!   native render in the float format shows what the promoted one shows (the source format's
 //!   ties, which float depth resolves: D16's grid of 1.5e-5 moves up to 45 pixels of these
 //!   scenes between D16 and D32 natively), and at most [`PRECISE_LINE_PIXELS`] other pixels (the
-//!   precise path's intersection lines). A promotion that lost the stencil, a depth bias that
-//!   no longer holds the decals, or a resolve into the wrong format differs from both.
+//!   precise path's intersection lines); and bit-identical to the same mode's render in the
+//!   float format (D32, D32_S8): promotion makes the UNORM format render exactly as the float
+//!   one. A promotion that lost the stencil, a depth bias that no longer holds the decals, or a
+//!   resolve into the wrong format differs from both.
 //! - `never_promotes_nothing_and_renders_as_before`: `REVZ_PROMOTE_DEPTH_FORMATS=never` in
 //!   `complementary` (`depth-bias` in the three formats, `stencil`, `msaa-resolve` in D16) logs
 //!   every depth image as `): reversed` with no promotion, and renders colors bit-identical to
@@ -223,6 +225,17 @@ fn promoted_scene(scene: &str) {
         let (native, float_native) = (native.color(), float_native.color());
         for mode in ["complementary", "infinite"] {
             let case = format!("{scene} {} {mode}", p.format);
+            // The same mode in the float format: promotion makes the UNORM format render
+            // exactly as it.
+            let float_layered = render(
+                &harness,
+                &format!("{scene}-{}-{mode}-{}", p.format, p.float),
+                scene,
+                p.float,
+                true,
+                &[("REVZ_MODE", mode)],
+            )
+            .color();
             let layered = render(
                 &harness,
                 &format!("{scene}-{}-{mode}", p.format),
@@ -242,6 +255,13 @@ fn promoted_scene(scene: &str) {
                 promotion_problem(&log, p.vk_format, depth_images(scene), Some(p.promoted))
             {
                 problems.push(format!("{case}: {problem}"));
+            }
+            let as_float = differing_pixels(&float_layered, &layered.color());
+            if as_float != 0 {
+                problems.push(format!(
+                    "{case}: {as_float} color pixels differ from the same mode's render in {}",
+                    p.float
+                ));
             }
             let (unexplained, differing) =
                 precise_color_differences(&native, &float_native, &layered.color());

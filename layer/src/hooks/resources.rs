@@ -44,9 +44,7 @@ fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
         KeptFormat::ResolvePartner => 4,
     };
     ONCE[index].call_once(|| {
-        log::info!(
-            "depth images such as one in {format:?} keep their format, because {reason}"
-        )
+        log::info!("depth images such as one in {format:?} keep their format, because {reason}")
     });
 }
 
