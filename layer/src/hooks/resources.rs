@@ -166,8 +166,10 @@ pub unsafe extern "system" fn create_image(
         || Some(unsafe { plan_image(&state, &*p_create_info) }),
         || None,
     );
+    // Unchanged images go down with the application's own pointer.
     let info_down = creation
         .as_ref()
+        .filter(|creation| creation.promoted.is_some())
         .map_or(p_create_info, |creation| &creation.info as *const _);
     // SAFETY: calling down with the application's arguments, or its create info with the
     // float format.
