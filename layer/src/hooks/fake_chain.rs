@@ -254,6 +254,194 @@ pub(super) enum Event {
         stages: Vec<vk::ShaderStageFlags>,
         shaders: Vec<vk::ShaderEXT>,
     },
+    /// `vkCreateRenderPass` (the first version): its attachments' formats.
+    CreateRenderPass {
+        handle: vk::RenderPass,
+        formats: Vec<vk::Format>,
+        allocator: bool,
+    },
+    /// `vkCmdBeginRenderPass` (the first version).
+    BeginRenderPass {
+        render_pass: vk::RenderPass,
+        framebuffer: vk::Framebuffer,
+    },
+    EndRenderPass,
+    /// `vkCmdBindPipeline`.
+    BindPipeline {
+        bind_point: vk::PipelineBindPoint,
+        pipeline: vk::Pipeline,
+    },
+    /// `vkCmdSetDepthBias`.
+    SetDepthBias {
+        constant: f32,
+        clamp: f32,
+        slope: f32,
+    },
+    /// `vkCmdSetDepthBias2EXT`, with the representation of a
+    /// `VkDepthBiasRepresentationInfoEXT` in its chain.
+    SetDepthBias2 {
+        constant: f32,
+        clamp: f32,
+        slope: f32,
+        representation: Option<vk::DepthBiasRepresentationEXT>,
+    },
+    /// `vkCmdNextSubpass2`.
+    NextSubpass2,
+    /// `vkGetDeviceImageMemoryRequirements`: the format of the image asked about.
+    GetDeviceImageMemoryRequirements {
+        format: vk::Format,
+    },
+    // The detail events: recorded only for the devices of the tables that asked for them
+    // ([`record_details`]), so that the tests written before them see what they always saw.
+    /// `vkCreateImage` (details).
+    CreateImage {
+        handle: vk::Image,
+        info: SeenImage,
+    },
+    /// `vkDestroyImage` (details).
+    DestroyImage {
+        handle: vk::Image,
+    },
+    /// `vkCreateImageView` (details).
+    CreateImageView {
+        handle: vk::ImageView,
+        /// Where the create info was: the application's, or a copy.
+        address: usize,
+        image: vk::Image,
+        format: vk::Format,
+    },
+    /// `vkDestroyImageView` (details).
+    DestroyImageView {
+        handle: vk::ImageView,
+    },
+    /// The attachment formats of the render pass a `vkCreateRenderPass2` created, right after
+    /// its [`Event::CreateRenderPass2`] (details).
+    RenderPass2Formats {
+        handle: vk::RenderPass,
+        formats: Vec<vk::Format>,
+    },
+    /// `vkCreateFramebuffer` (details).
+    CreateFramebuffer {
+        handle: vk::Framebuffer,
+        /// Where the create info was: the application's, or a copy.
+        address: usize,
+        render_pass: vk::RenderPass,
+        flags: vk::FramebufferCreateFlags,
+        /// The views (none for an imageless framebuffer).
+        attachments: Vec<vk::ImageView>,
+        /// The view formats of each attachment image info of a
+        /// `VkFramebufferAttachmentsCreateInfo` in the chain.
+        image_view_formats: Option<Vec<Vec<vk::Format>>>,
+    },
+    /// `vkDestroyFramebuffer` (details).
+    DestroyFramebuffer {
+        handle: vk::Framebuffer,
+    },
+    /// `vkBeginCommandBuffer` (details).
+    BeginCommandBuffer {
+        /// Where the begin info was: the application's, or a copy.
+        address: usize,
+        /// The inheritance info, where it was not null.
+        inheritance: Option<SeenInheritance>,
+    },
+}
+
+/// An image create info as the fake `vkCreateImage` saw it: every field, its pointers as
+/// addresses, the formats of its format list read out.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) struct SeenImage {
+    /// Where the create info was: the application's, or a copy.
+    pub address: usize,
+    pub p_next: usize,
+    pub flags: vk::ImageCreateFlags,
+    pub image_type: vk::ImageType,
+    pub format: vk::Format,
+    pub extent: vk::Extent3D,
+    pub mip_levels: u32,
+    pub array_layers: u32,
+    pub samples: vk::SampleCountFlags,
+    pub tiling: vk::ImageTiling,
+    pub usage: vk::ImageUsageFlags,
+    pub sharing_mode: vk::SharingMode,
+    pub queue_family_index_count: u32,
+    pub queue_family_indices: usize,
+    pub initial_layout: vk::ImageLayout,
+    /// The formats of a `VkImageFormatListCreateInfo` in the chain.
+    pub view_formats: Option<Vec<vk::Format>>,
+}
+
+/// An image create info as the fake sees it (also for the tests to build what they expect).
+///
+/// # Safety
+/// `info` has a valid pNext chain.
+pub(super) unsafe fn seen_image(info: &vk::ImageCreateInfo<'_>) -> SeenImage {
+    // SAFETY: the caller's contract.
+    let list = unsafe { crate::chain::find::<vk::ImageFormatListCreateInfo<'_>>(info.p_next) };
+    SeenImage {
+        address: info as *const _ as usize,
+        p_next: info.p_next as usize,
+        flags: info.flags,
+        image_type: info.image_type,
+        format: info.format,
+        extent: info.extent,
+        mip_levels: info.mip_levels,
+        array_layers: info.array_layers,
+        samples: info.samples,
+        tiling: info.tiling,
+        usage: info.usage,
+        sharing_mode: info.sharing_mode,
+        queue_family_index_count: info.queue_family_index_count,
+        queue_family_indices: info.p_queue_family_indices as usize,
+        initial_layout: info.initial_layout,
+        // SAFETY: `viewFormatCount` formats.
+        view_formats: list.map(|list| unsafe {
+            crate::hooks::resources::slice(list.p_view_formats, list.view_format_count).to_vec()
+        }),
+    }
+}
+
+/// The attachment formats of dynamic rendering, as a pipeline or a secondary's inheritance
+/// names them.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) struct SeenRendering {
+    pub colors: Vec<vk::Format>,
+    pub depth: vk::Format,
+    pub stencil: vk::Format,
+}
+
+/// A secondary's inheritance info as the fake `vkBeginCommandBuffer` saw it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) struct SeenInheritance {
+    /// Where the inheritance info was: the application's, or a copy.
+    pub address: usize,
+    pub render_pass: vk::RenderPass,
+    pub subpass: u32,
+    pub framebuffer: vk::Framebuffer,
+    /// The formats of a `VkCommandBufferInheritanceRenderingInfo` in the chain.
+    pub rendering: Option<SeenRendering>,
+}
+
+/// Tables whose devices' fakes record the detail events.
+static DETAILED: Mutex<Vec<usize>> = Mutex::new(Vec::new());
+
+/// Makes the fakes record the detail events (images, views, framebuffers, command buffer
+/// begins, render pass formats) for the device of `table`.
+pub(super) fn record_details(table: &'static u8) {
+    DETAILED
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .push(key(table));
+}
+
+/// Records a detail event, if the device of `table` asked for them.
+fn note_detail(table: usize, event: impl FnOnce() -> Event) {
+    let detailed = DETAILED
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .contains(&table);
+    if detailed {
+        note(table, event());
+    }
 }
 
 /// A shader object create info as the fake `vkCreateShadersEXT` saw it: its pointers as
@@ -350,6 +538,8 @@ pub(super) struct SeenPipeline {
     pub subpass: u32,
     pub base_pipeline_handle: vk::Pipeline,
     pub base_pipeline_index: i32,
+    /// The formats of a `VkPipelineRenderingCreateInfo` in the chain.
+    pub rendering: Option<SeenRendering>,
 }
 
 /// The structure types of a valid `pNext` chain, in order.
@@ -427,6 +617,17 @@ pub(super) unsafe fn seen_pipeline(info: &vk::GraphicsPipelineCreateInfo<'_>) ->
             subpass: info.subpass,
             base_pipeline_handle: info.base_pipeline_handle,
             base_pipeline_index: info.base_pipeline_index,
+            rendering: crate::chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next).map(
+                |r| SeenRendering {
+                    colors: crate::hooks::resources::slice(
+                        r.p_color_attachment_formats,
+                        r.color_attachment_count,
+                    )
+                    .to_vec(),
+                    depth: r.depth_attachment_format,
+                    stencil: r.stencil_attachment_format,
+                },
+            ),
         }
     }
 }
@@ -699,13 +900,24 @@ pub(super) unsafe extern "system" fn fake_cmd_draw(
 
 unsafe extern "system" fn fake_cmd_set_depth_compare_op(_: vk::CommandBuffer, _: vk::CompareOp) {}
 
-/// Formats the fake's physical devices do not support as images (for the promotion tests).
-pub(super) static UNSUPPORTED_IMAGE_FORMATS: Mutex<Vec<vk::Format>> = Mutex::new(Vec::new());
+/// Formats the fake's physical devices do not support as images (for the promotion tests),
+/// per instance dispatch table.
+static UNSUPPORTED_IMAGE_FORMATS: Mutex<Vec<(usize, vk::Format)>> = Mutex::new(Vec::new());
+
+/// Makes the physical devices of the instance of `table` refuse images of `format` (revz asks
+/// when it would promote an image to it).
+pub(super) fn refuse_image_format(table: &'static u8, format: vk::Format) {
+    UNSUPPORTED_IMAGE_FORMATS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .push((key(table), format));
+}
 
 /// Every image the fake is asked about is supported (up to 4096 texels a side, every sample
-/// count), but for the formats of [`UNSUPPORTED_IMAGE_FORMATS`].
+/// count), but for the formats [`refuse_image_format`] named for the physical device's
+/// instance.
 unsafe extern "system" fn fake_get_physical_device_image_format_properties(
-    _: vk::PhysicalDevice,
+    physical_device: vk::PhysicalDevice,
     format: vk::Format,
     _: vk::ImageType,
     _: vk::ImageTiling,
@@ -713,10 +925,12 @@ unsafe extern "system" fn fake_get_physical_device_image_format_properties(
     _: vk::ImageCreateFlags,
     properties: *mut vk::ImageFormatProperties,
 ) -> vk::Result {
+    // SAFETY: the fake's physical device.
+    let table = unsafe { key_of(physical_device) };
     let unsupported = UNSUPPORTED_IMAGE_FORMATS
         .lock()
         .unwrap_or_else(PoisonError::into_inner)
-        .contains(&format);
+        .contains(&(table, format));
     if unsupported {
         return vk::Result::ERROR_FORMAT_NOT_SUPPORTED;
     }
@@ -832,6 +1046,13 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
         b"vkDestroyImageView" => {
             void_fn!(vk::PFN_vkDestroyImageView, passes::destroy_image_view)
         }
+        b"vkGetDeviceImageMemoryRequirements" => void_fn!(
+            vk::PFN_vkGetDeviceImageMemoryRequirements,
+            passes::get_device_image_memory_requirements
+        ),
+        b"vkCreateRenderPass" => {
+            void_fn!(vk::PFN_vkCreateRenderPass, passes::create_render_pass)
+        }
         b"vkCreateRenderPass2" => {
             void_fn!(vk::PFN_vkCreateRenderPass2, passes::create_render_pass2)
         }
@@ -857,12 +1078,21 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
         b"vkBeginCommandBuffer" => {
             void_fn!(vk::PFN_vkBeginCommandBuffer, passes::begin_command_buffer)
         }
+        b"vkCmdBeginRenderPass" => {
+            void_fn!(vk::PFN_vkCmdBeginRenderPass, passes::cmd_begin_render_pass)
+        }
+        b"vkCmdEndRenderPass" => {
+            void_fn!(vk::PFN_vkCmdEndRenderPass, passes::cmd_end_render_pass)
+        }
         b"vkCmdBeginRenderPass2" => void_fn!(
             vk::PFN_vkCmdBeginRenderPass2,
             passes::cmd_begin_render_pass2
         ),
         b"vkCmdEndRenderPass2" => {
             void_fn!(vk::PFN_vkCmdEndRenderPass2, passes::cmd_end_render_pass2)
+        }
+        b"vkCmdNextSubpass2" => {
+            void_fn!(vk::PFN_vkCmdNextSubpass2, passes::cmd_next_subpass2)
         }
         b"vkCmdBeginRendering" => {
             void_fn!(vk::PFN_vkCmdBeginRendering, passes::cmd_begin_rendering)
@@ -875,8 +1105,9 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
     }
 }
 
-/// The fake layer's `vkGetDeviceProcAddr` for a device that also has shader modules and
-/// graphics pipelines (besides everything of [`fake_get_device_proc_addr_with_passes`]).
+/// The fake layer's `vkGetDeviceProcAddr` for a device that also has shader modules, graphics
+/// pipelines, their binding and the state revz sends before their draws (besides everything of
+/// [`fake_get_device_proc_addr_with_passes`]).
 pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_pipelines(
     device: vk::Device,
     name: *const c_char,
@@ -901,6 +1132,20 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_pipelines(
             pipelines::create_graphics_pipelines
         ),
         b"vkDestroyPipeline" => void_fn!(vk::PFN_vkDestroyPipeline, pipelines::destroy_pipeline),
+        b"vkCmdBindPipeline" => void_fn!(vk::PFN_vkCmdBindPipeline, pipelines::cmd_bind_pipeline),
+        b"vkCmdSetDepthBias" => {
+            void_fn!(vk::PFN_vkCmdSetDepthBias, pipelines::cmd_set_depth_bias)
+        }
+        b"vkCmdSetDepthBias2EXT" => {
+            void_fn!(
+                vk::PFN_vkCmdSetDepthBias2EXT,
+                pipelines::cmd_set_depth_bias2
+            )
+        }
+        b"vkCmdSetViewport" => void_fn!(vk::PFN_vkCmdSetViewport, pipelines::cmd_set_viewport),
+        b"vkCmdSetDepthBounds" => {
+            void_fn!(vk::PFN_vkCmdSetDepthBounds, pipelines::cmd_set_depth_bounds)
+        }
         // SAFETY: forwarding the caller's arguments.
         _ => unsafe { fake_get_device_proc_addr_with_passes(device, name) },
     }
@@ -1118,6 +1363,73 @@ mod pipelines {
         // SAFETY: the fake's live device.
         note(unsafe { key_of(device) }, event);
     }
+
+    pub(super) unsafe extern "system" fn cmd_bind_pipeline(
+        buffer: vk::CommandBuffer,
+        bind_point: vk::PipelineBindPoint,
+        pipeline: vk::Pipeline,
+    ) {
+        let event = Event::BindPipeline {
+            bind_point,
+            pipeline,
+        };
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, event);
+    }
+
+    pub(super) unsafe extern "system" fn cmd_set_depth_bias(
+        buffer: vk::CommandBuffer,
+        constant: f32,
+        clamp: f32,
+        slope: f32,
+    ) {
+        let event = Event::SetDepthBias {
+            constant,
+            clamp,
+            slope,
+        };
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, event);
+    }
+
+    pub(super) unsafe extern "system" fn cmd_set_depth_bias2(
+        buffer: vk::CommandBuffer,
+        p_info: *const vk::DepthBiasInfoEXT,
+    ) {
+        // SAFETY: a valid info with a valid chain.
+        let (info, representation) = unsafe {
+            let info = &*p_info;
+            let representation =
+                crate::chain::find::<vk::DepthBiasRepresentationInfoEXT<'_>>(info.p_next);
+            (info, representation.map(|r| r.depth_bias_representation))
+        };
+        let event = Event::SetDepthBias2 {
+            constant: info.depth_bias_constant_factor,
+            clamp: info.depth_bias_clamp,
+            slope: info.depth_bias_slope_factor,
+            representation,
+        };
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, event);
+    }
+
+    /// Not recorded: revz sends the viewports of pipelines whose static viewport it made
+    /// dynamic before their draws.
+    pub(super) unsafe extern "system" fn cmd_set_viewport(
+        _: vk::CommandBuffer,
+        _: u32,
+        _: u32,
+        _: *const vk::Viewport,
+    ) {
+    }
+
+    /// Not recorded, as above.
+    pub(super) unsafe extern "system" fn cmd_set_depth_bounds(
+        _: vk::CommandBuffer,
+        _: f32,
+        _: f32,
+    ) {
+    }
 }
 
 /// The commands of [`fake_get_device_proc_addr_with_passes`].
@@ -1147,39 +1459,109 @@ mod passes {
     }
 
     pub(super) unsafe extern "system" fn create_image(
-        _: vk::Device,
-        _: *const vk::ImageCreateInfo,
+        device: vk::Device,
+        p_create_info: *const vk::ImageCreateInfo,
         _: *const vk::AllocationCallbacks,
         p_image: *mut vk::Image,
     ) -> vk::Result {
+        let handle = fresh_handle();
         // SAFETY: revz passes the application's output pointer through.
-        unsafe { *p_image = fresh_handle() };
+        unsafe { *p_image = handle };
+        // SAFETY: the fake's live device.
+        note_detail(unsafe { key_of(device) }, || Event::CreateImage {
+            handle,
+            // SAFETY: a valid create info with a valid chain.
+            info: unsafe { seen_image(&*p_create_info) },
+        });
         vk::Result::SUCCESS
     }
 
     pub(super) unsafe extern "system" fn destroy_image(
-        _: vk::Device,
-        _: vk::Image,
+        device: vk::Device,
+        handle: vk::Image,
         _: *const vk::AllocationCallbacks,
     ) {
+        // SAFETY: the fake's live device.
+        note_detail(unsafe { key_of(device) }, || Event::DestroyImage { handle });
     }
 
     pub(super) unsafe extern "system" fn create_image_view(
-        _: vk::Device,
-        _: *const vk::ImageViewCreateInfo,
+        device: vk::Device,
+        p_create_info: *const vk::ImageViewCreateInfo,
         _: *const vk::AllocationCallbacks,
         p_view: *mut vk::ImageView,
     ) -> vk::Result {
+        let handle = fresh_handle();
         // SAFETY: as above.
-        unsafe { *p_view = fresh_handle() };
+        unsafe { *p_view = handle };
+        // SAFETY: a valid create info.
+        let info = unsafe { &*p_create_info };
+        // SAFETY: the fake's live device.
+        note_detail(unsafe { key_of(device) }, || Event::CreateImageView {
+            handle,
+            address: p_create_info as usize,
+            image: info.image,
+            format: info.format,
+        });
         vk::Result::SUCCESS
     }
 
     pub(super) unsafe extern "system" fn destroy_image_view(
-        _: vk::Device,
-        _: vk::ImageView,
+        device: vk::Device,
+        handle: vk::ImageView,
         _: *const vk::AllocationCallbacks,
     ) {
+        // SAFETY: the fake's live device.
+        note_detail(unsafe { key_of(device) }, || Event::DestroyImageView {
+            handle,
+        });
+    }
+
+    /// Answers the bytes of the image's texels as copies count them (one level, layer and
+    /// sample).
+    pub(super) unsafe extern "system" fn get_device_image_memory_requirements(
+        device: vk::Device,
+        p_info: *const vk::DeviceImageMemoryRequirements,
+        p_requirements: *mut vk::MemoryRequirements2,
+    ) {
+        // SAFETY: a valid info whose create info is valid, and a valid output.
+        let format = unsafe {
+            let image = &*(*p_info).p_create_info;
+            (*p_requirements).memory_requirements.size =
+                crate::conv::depth_texel_bytes(image.format)
+                    * u64::from(image.extent.width)
+                    * u64::from(image.extent.height);
+            image.format
+        };
+        // SAFETY: the fake's live device.
+        note(
+            unsafe { key_of(device) },
+            Event::GetDeviceImageMemoryRequirements { format },
+        );
+    }
+
+    pub(super) unsafe extern "system" fn create_render_pass(
+        device: vk::Device,
+        p_create_info: *const vk::RenderPassCreateInfo,
+        p_allocator: *const vk::AllocationCallbacks,
+        p_render_pass: *mut vk::RenderPass,
+    ) -> vk::Result {
+        // SAFETY: a valid create info with `attachmentCount` attachments.
+        let attachments = unsafe {
+            let info = &*p_create_info;
+            crate::hooks::resources::slice(info.p_attachments, info.attachment_count)
+        };
+        let handle = fresh_handle();
+        // SAFETY: a valid output pointer.
+        unsafe { *p_render_pass = handle };
+        let event = Event::CreateRenderPass {
+            handle,
+            formats: attachments.iter().map(|a| a.format).collect(),
+            allocator: !p_allocator.is_null(),
+        };
+        // SAFETY: the fake's live device.
+        note(unsafe { key_of(device) }, event);
+        vk::Result::SUCCESS
     }
 
     pub(super) unsafe extern "system" fn create_render_pass2(
@@ -1193,6 +1575,11 @@ mod passes {
             let info = &*p_create_info;
             crate::hooks::resources::slice(info.p_subpasses, info.subpass_count)
         };
+        // SAFETY: as above, `attachmentCount` attachments.
+        let attachments = unsafe {
+            let info = &*p_create_info;
+            crate::hooks::resources::slice(info.p_attachments, info.attachment_count)
+        };
         let handle = fresh_handle();
         // SAFETY: a valid output pointer.
         unsafe { *p_render_pass = handle };
@@ -1202,7 +1589,12 @@ mod passes {
             allocator: !p_allocator.is_null(),
         };
         // SAFETY: the fake's live device.
-        note(unsafe { key_of(device) }, event);
+        let table = unsafe { key_of(device) };
+        note(table, event);
+        note_detail(table, || Event::RenderPass2Formats {
+            handle,
+            formats: attachments.iter().map(|a| a.format).collect(),
+        });
         vk::Result::SUCCESS
     }
 
@@ -1220,21 +1612,64 @@ mod passes {
     }
 
     pub(super) unsafe extern "system" fn create_framebuffer(
-        _: vk::Device,
-        _: *const vk::FramebufferCreateInfo,
+        device: vk::Device,
+        p_create_info: *const vk::FramebufferCreateInfo,
         _: *const vk::AllocationCallbacks,
         p_framebuffer: *mut vk::Framebuffer,
     ) -> vk::Result {
+        let handle = fresh_handle();
         // SAFETY: a valid output pointer.
-        unsafe { *p_framebuffer = fresh_handle() };
+        unsafe { *p_framebuffer = handle };
+        // SAFETY: the fake's live device.
+        note_detail(unsafe { key_of(device) }, || {
+            // SAFETY: a valid create info: `attachmentCount` views unless imageless, and a
+            // valid chain whose attachment image infos have `viewFormatCount` formats each.
+            unsafe {
+                let info = &*p_create_info;
+                let imageless = info.flags.contains(vk::FramebufferCreateFlags::IMAGELESS);
+                let images =
+                    crate::chain::find::<vk::FramebufferAttachmentsCreateInfo<'_>>(info.p_next);
+                Event::CreateFramebuffer {
+                    handle,
+                    address: p_create_info as usize,
+                    render_pass: info.render_pass,
+                    flags: info.flags,
+                    attachments: if imageless {
+                        Vec::new()
+                    } else {
+                        crate::hooks::resources::slice(info.p_attachments, info.attachment_count)
+                            .to_vec()
+                    },
+                    image_view_formats: images.map(|images| {
+                        crate::hooks::resources::slice(
+                            images.p_attachment_image_infos,
+                            images.attachment_image_info_count,
+                        )
+                        .iter()
+                        .map(|image| {
+                            crate::hooks::resources::slice(
+                                image.p_view_formats,
+                                image.view_format_count,
+                            )
+                            .to_vec()
+                        })
+                        .collect()
+                    }),
+                }
+            }
+        });
         vk::Result::SUCCESS
     }
 
     pub(super) unsafe extern "system" fn destroy_framebuffer(
-        _: vk::Device,
-        _: vk::Framebuffer,
+        device: vk::Device,
+        handle: vk::Framebuffer,
         _: *const vk::AllocationCallbacks,
     ) {
+        // SAFETY: the fake's live device.
+        note_detail(unsafe { key_of(device) }, || Event::DestroyFramebuffer {
+            handle,
+        });
     }
 
     /// Command buffers are dispatchable: their first word is their device's table.
@@ -1276,10 +1711,63 @@ mod passes {
     }
 
     pub(super) unsafe extern "system" fn begin_command_buffer(
-        _: vk::CommandBuffer,
-        _: *const vk::CommandBufferBeginInfo,
+        buffer: vk::CommandBuffer,
+        p_begin: *const vk::CommandBufferBeginInfo,
     ) -> vk::Result {
+        // SAFETY: the fake's live command buffer.
+        note_detail(unsafe { key_of(buffer) }, || {
+            // SAFETY: a valid begin info; the tests pass a null or valid inheritance info
+            // (with a valid chain).
+            let inheritance = unsafe { (*p_begin).p_inheritance_info.as_ref() };
+            Event::BeginCommandBuffer {
+                address: p_begin as usize,
+                inheritance: inheritance.map(|i| SeenInheritance {
+                    address: i as *const _ as usize,
+                    render_pass: i.render_pass,
+                    subpass: i.subpass,
+                    framebuffer: i.framebuffer,
+                    // SAFETY: as above; `colorAttachmentCount` formats.
+                    rendering: unsafe {
+                        crate::chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(
+                            i.p_next,
+                        )
+                    }
+                    .map(|r| SeenRendering {
+                        // SAFETY: as above.
+                        colors: unsafe {
+                            crate::hooks::resources::slice(
+                                r.p_color_attachment_formats,
+                                r.color_attachment_count,
+                            )
+                        }
+                        .to_vec(),
+                        depth: r.depth_attachment_format,
+                        stencil: r.stencil_attachment_format,
+                    }),
+                }),
+            }
+        });
         vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn cmd_begin_render_pass(
+        buffer: vk::CommandBuffer,
+        p_begin: *const vk::RenderPassBeginInfo,
+        _: vk::SubpassContents,
+    ) {
+        // SAFETY: a valid begin info.
+        let begin = unsafe { &*p_begin };
+        let event = Event::BeginRenderPass {
+            render_pass: begin.render_pass,
+            framebuffer: begin.framebuffer,
+        };
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, event);
+    }
+
+    pub(super) unsafe extern "system" fn cmd_end_render_pass(buffer: vk::CommandBuffer) {
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, Event::EndRenderPass);
     }
 
     pub(super) unsafe extern "system" fn cmd_begin_render_pass2(
@@ -1306,6 +1794,15 @@ mod passes {
         };
         // SAFETY: the fake's live command buffer.
         note(unsafe { key_of(buffer) }, event);
+    }
+
+    pub(super) unsafe extern "system" fn cmd_next_subpass2(
+        buffer: vk::CommandBuffer,
+        _: *const vk::SubpassBeginInfo,
+        _: *const vk::SubpassEndInfo,
+    ) {
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, Event::NextSubpass2);
     }
 
     pub(super) unsafe extern "system" fn cmd_end_render_pass2(

@@ -58,6 +58,8 @@ mod lifetime_chain_tests;
 #[cfg(test)]
 mod pipeline_chain_tests;
 #[cfg(test)]
+mod promotion_chain_tests;
+#[cfg(test)]
 mod resolve_chain_tests;
 #[cfg(test)]
 mod secondary_chain_tests;
