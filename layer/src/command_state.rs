@@ -576,6 +576,11 @@ impl CommandState {
         self.inherited
     }
 
+    /// The UNORM format the current attachment was promoted from (see [`Self::set_promoted`]).
+    pub fn promoted_from(&self) -> Option<vk::Format> {
+        self.promoted_from
+    }
+
     /// Whether draws go to a promoted attachment (a promoted twin's subpass, or a rendering
     /// instance with a promoted view).
     pub fn promoted(&self) -> bool {

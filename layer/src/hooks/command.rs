@@ -1175,12 +1175,26 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
             return;
         }
         state.forget_emitted_bias();
-        if state.target() == Target::Reversed {
-            let negated = bias.flipped();
+        // A bias in the format's units on a promoted attachment is converted to the float
+        // format's (`DepthBias::in_float_storage`); FLOAT and FORCE_UNORM representations
+        // name units that promotion does not change.
+        // SAFETY: a valid pNext chain (the application's contract).
+        let representation =
+            unsafe { chain::find::<vk::DepthBiasRepresentationInfoEXT<'_>>(info.p_next) }
+                .map(|r| r.depth_bias_representation);
+        let in_format_units = representation
+            .is_none_or(|r| r == vk::DepthBiasRepresentationEXT::LEAST_REPRESENTABLE_VALUE_FORMAT);
+        let scaled = match state.promoted_from() {
+            Some(format) if in_format_units => bias.in_float_storage(format),
+            _ => bias,
+        };
+        let reversed = state.target() == Target::Reversed;
+        if reversed || scaled != bias {
+            let sent = if reversed { scaled.flipped() } else { scaled };
             flipped = Some(vk::DepthBiasInfoEXT {
-                depth_bias_constant_factor: negated.constant,
-                depth_bias_clamp: negated.clamp,
-                depth_bias_slope_factor: negated.slope,
+                depth_bias_constant_factor: sent.constant,
+                depth_bias_clamp: sent.clamp,
+                depth_bias_slope_factor: sent.slope,
                 ..info
             });
         }
@@ -1327,7 +1341,8 @@ fn inherited_promotion(
             .copied()
             .flatten()
             .and_then(|index| pass.attachments.get(index as usize).copied());
-        if views.is_some_and(|views| !views.is_empty()) {
+        // Any tracked framebuffer (imageless ones too) says how it was created.
+        if views.is_some() {
             let promoted = device
                 .objects
                 .promoted_framebuffers
