@@ -29,7 +29,7 @@
 use ash::vk;
 use revz_math::{
     read_clip_transform, reversed_coefficients, CameraMatch, Cameras, DepthCoefficients,
-    DepthConvention, DepthDirection, Storage, Target as RewriteTarget,
+    DepthConvention, DepthDirection, DepthLine, Storage, Target as RewriteTarget,
 };
 
 use crate::shader_analysis::ProjectionSlot;
@@ -306,7 +306,26 @@ pub fn classify_projection(
     cameras: &mut Cameras,
 ) -> (Outcome, Option<usize>) {
     let m = read_clip_transform(values, storage);
-    let observed = cameras.observe(&m, convention);
+    let (outcome, changed, _) = classify_line(DepthLine::of(&m), convention, target, cameras);
+    (outcome, changed)
+}
+
+/// [`classify_projection`] of a matrix's depth line (`None`: not a perspective): the outcome,
+/// the camera that changed, and the camera the line belongs to, if any.
+fn classify_line(
+    line: Option<DepthLine>,
+    convention: DepthConvention,
+    target: RewriteTarget,
+    cameras: &mut Cameras,
+) -> (Outcome, Option<usize>, Option<usize>) {
+    let observed = match line {
+        Some(line) => cameras.observe_line(line, convention),
+        None => CameraMatch::NotPerspective,
+    };
+    let camera = match observed {
+        CameraMatch::Camera { index, .. } => Some(index),
+        _ => None,
+    };
     let changed = match observed {
         CameraMatch::Camera {
             index,
@@ -347,7 +366,7 @@ pub fn classify_projection(
         }
         CameraMatch::NotPerspective => Outcome::Unchanged,
     };
-    (outcome, changed)
+    (outcome, changed, camera)
 }
 
 /// An application's push extended to revz's carrier ([`PushConstants::fold_carrier`]): what
@@ -386,6 +405,9 @@ pub struct PushConstants {
     /// The last classification: its input (bits, storage, convention, the cameras'
     /// generation) and outcome. Consecutive draws often push the same projection.
     last: Option<([u32; 16], Storage, DepthConvention, u64, Outcome)>,
+    /// The camera the last classified matrix belonged to, for the next matrices of the same
+    /// camera (P * V * M of each object: other bits, same line).
+    same_camera: Option<SameCamera>,
     /// The cameras seen (seeded from the device's at the recording's begin).
     cameras: Cameras,
     /// Bumped whenever a camera is created or its range improves.
@@ -401,11 +423,28 @@ impl Default for PushConstants {
             written: 0,
             layout: vk::PipelineLayout::null(),
             last: None,
+            same_camera: None,
             cameras: Cameras::default(),
             generation: 0,
             changed: false,
         }
     }
+}
+
+/// The camera of the last classified matrix, and what its matrices classify as: a matrix whose
+/// line agrees with the camera's best line and does not improve it gets the same outcome from
+/// [`Cameras::observe_line`] (the camera is the most recently used agreeing one, and its
+/// range does not change), so the table is not searched again. Valid while the cameras'
+/// generation is the one it was made in.
+#[derive(Clone, Copy, Debug)]
+struct SameCamera {
+    index: usize,
+    /// The camera's best line.
+    line: DepthLine,
+    convention: DepthConvention,
+    target: RewriteTarget,
+    generation: u64,
+    outcome: Outcome,
 }
 
 /// The 4-byte words `[start, end)` covers (both clamped to [`PUSH_CONSTANT_BYTES`]).
@@ -459,17 +498,39 @@ impl PushConstants {
                 return Some(*outcome);
             }
         }
-        let (outcome, changed) = classify_projection(
-            &values,
-            use_.storage,
-            use_.convention,
-            target,
-            &mut self.cameras,
-        );
-        if changed.is_some() {
-            self.generation += 1;
-            self.changed = true;
-        }
+        let line = DepthLine::of(&read_clip_transform(&values, use_.storage));
+        let outcome = match (line, self.same_camera) {
+            (Some(line), Some(same))
+                if same.generation == self.generation
+                    && same.convention == use_.convention
+                    && same.target == target
+                    && same.line.agrees_with(&line)
+                    && line.relative_b_error() >= same.line.relative_b_error() =>
+            {
+                self.cameras.touch(same.index);
+                same.outcome
+            }
+            _ => {
+                let (outcome, changed, camera) =
+                    classify_line(line, use_.convention, target, &mut self.cameras);
+                if changed.is_some() {
+                    self.generation += 1;
+                    self.changed = true;
+                }
+                self.same_camera = camera.and_then(|index| {
+                    let (.., line) = self.cameras.camera(index)?;
+                    Some(SameCamera {
+                        index,
+                        line,
+                        convention: use_.convention,
+                        target,
+                        generation: self.generation,
+                        outcome,
+                    })
+                });
+                outcome
+            }
+        };
         self.last = Some((
             bits,
             use_.storage,
@@ -581,6 +642,61 @@ mod tests {
     fn layout() -> vk::PipelineLayout {
         use ash::vk::Handle;
         vk::PipelineLayout::from_raw(7)
+    }
+
+    /// The same-camera shortcut of [`PushConstants::outcome`] changes nothing: matrices of
+    /// three cameras (objects near and far, so that later matrices improve a camera's line),
+    /// pushed interleaved in runs, get the outcomes and leave the cameras that classifying
+    /// each one from scratch ([`classify_projection`]) gives.
+    #[test]
+    fn the_same_camera_shortcut_gives_what_the_full_search_gives() {
+        let eyes = [
+            DVec3::new(30.0, 20.0, 50.0),
+            DVec3::new(-4000.0, 15.0, 900.0),
+            DVec3::new(0.5, 1.0, 2.0),
+        ];
+        let planes = [(0.1, 100.0), (0.5, 5.0e4), (0.01, 1.0e7)];
+        let mvp = |camera: usize, at: DVec3| -> [f32; 16] {
+            let view = look_at_mat4(eyes[camera], DVec3::ZERO, DVec3::Y);
+            let (near, far) = planes[camera];
+            (vulkan::perspective(1.0, 1.5, near, far) * view * DMat4::from_translation(at))
+                .as_mat4()
+                .to_cols_array()
+        };
+        let use_ = column_major_at(0);
+        for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
+            let mut push = PushConstants::default();
+            let mut reference = Cameras::default();
+            let mut state = 0x2545_f491_4f6c_dd1du64;
+            for step in 0..3000 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                // Runs of one camera, objects from far to near and back.
+                let camera = (step / 50 + (state % 7 == 0) as usize) % 3;
+                let distance = [1.0e5, 1.0e3, 10.0, 0.5][(state >> 8) as usize % 4];
+                let at = DVec3::new(
+                    ((state >> 16) % 100) as f64 / 100.0 - 0.5,
+                    ((state >> 24) % 100) as f64 / 100.0 - 0.5,
+                    -1.0,
+                ) * distance;
+                let values = mvp(camera, at);
+                push.push(layout(), 0, &bytes_of(&values));
+                let got = push.outcome(&use_, target);
+                let (want, _) = classify_projection(
+                    &values,
+                    Storage::ColumnMajor,
+                    DepthConvention::ZeroToOne,
+                    target,
+                    &mut reference,
+                );
+                assert_eq!(got, Some(want), "step {step}");
+                for index in 0..revz_math::MAX_CAMERAS {
+                    let ranges = |cameras: &Cameras| cameras.camera(index).map(|c| (c.0, c.3));
+                    assert_eq!(ranges(push.cameras()), ranges(&reference), "step {step}");
+                }
+            }
+        }
     }
 
     #[test]

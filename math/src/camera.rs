@@ -99,7 +99,7 @@
 
 use glam::DMat4;
 
-use crate::classify::{fit_depth_row, AFFINE_W_TOLERANCE, RESIDUAL_TOLERANCE};
+use crate::classify::{AFFINE_W_TOLERANCE, RESIDUAL_TOLERANCE};
 use crate::precision::F32_UNIT_ROUNDOFF;
 use crate::range::{DepthCoefficients, DepthConvention, DepthDirection, VisibleRange};
 
@@ -171,12 +171,25 @@ impl DepthLine {
         if w_xyz_length <= AFFINE_W_TOLERANCE * w_row.w.abs() {
             return None;
         }
-        let fit = fit_depth_row(m).ok()?;
-        if fit.residual > RESIDUAL_TOLERANCE {
+        // `fit_depth_row`'s arithmetic, with the off-line part computed once for the residual
+        // and the misfit (the same operations: the same bits).
+        let (depth_xyz, w_xyz) = (depth_row.truncate(), w_row.truncate());
+        let k = depth_xyz.dot(w_xyz) / w_xyz.length_squared();
+        let depth_xyz_length = depth_xyz.length();
+        let off_line = (depth_xyz - k * w_xyz).length();
+        let residual = if depth_xyz_length == 0.0 {
+            0.0
+        } else {
+            off_line / depth_xyz_length
+        };
+        let b = depth_row.w - k * w_row.w;
+        if !(k.is_finite() && b.is_finite() && residual.is_finite()) {
             return None;
         }
-        let DepthCoefficients { k, b } = fit.coefficients;
-        let misfit = (depth_row.truncate() - k * w_row.truncate()).length() / w_xyz_length;
+        if residual > RESIDUAL_TOLERANCE {
+            return None;
+        }
+        let misfit = off_line / w_xyz_length;
         let k_error = misfit + ROUNDING * k.abs();
         let b_error =
             ROUNDING * (depth_row.w.abs() + (k * w_row.w).abs()) + k_error * w_row.w.abs();
@@ -334,6 +347,16 @@ impl Cameras {
             range,
             direction,
             changed: true,
+        }
+    }
+
+    /// Marks camera `index` used now (as a match by [`Cameras::observe_line`] does), for a
+    /// caller that knows a line matches it without searching.
+    pub fn touch(&mut self, index: usize) {
+        self.clock = self.clock.wrapping_add(1);
+        let clock = self.clock;
+        if let Some(Some(entry)) = self.entries.get_mut(index) {
+            entry.last_used = clock;
         }
     }
 
