@@ -437,6 +437,24 @@ fn per_round<'a>(
         .collect()
 }
 
+/// The per-round values of `f(variant's figure, no layer's figure)`, for the rounds that have
+/// both.
+fn paired_rounds(
+    samples: &[Sample],
+    job: &str,
+    variant: &str,
+    rounds: usize,
+    key: &str,
+    f: impl Fn(f64, f64) -> f64,
+) -> Vec<f64> {
+    let with = per_round(samples, job, variant, rounds);
+    let without = per_round(samples, job, Variant::NoLayer.name(), rounds);
+    with.iter()
+        .zip(&without)
+        .filter_map(|(w, n)| Some(f((*w)?.get(key)?.as_f64()?, (*n)?.get(key)?.as_f64()?)))
+        .collect()
+}
+
 /// The median over rounds of `f(variant's figure, no layer's figure)`, `None` without data.
 fn paired(
     samples: &[Sample],
@@ -446,14 +464,29 @@ fn paired(
     key: &str,
     f: impl Fn(f64, f64) -> f64,
 ) -> Option<f64> {
-    let with = per_round(samples, job, variant, rounds);
-    let without = per_round(samples, job, Variant::NoLayer.name(), rounds);
-    let values: Vec<f64> = with
-        .iter()
-        .zip(&without)
-        .filter_map(|(w, n)| Some(f((*w)?.get(key)?.as_f64()?, (*n)?.get(key)?.as_f64()?)))
-        .collect();
+    let values = paired_rounds(samples, job, variant, rounds, key, f);
     (!values.is_empty()).then(|| child::median(&values))
+}
+
+/// The smallest and largest per-round value of `f(variant's figure, no layer's figure)`:
+/// the spread beside [`paired`]'s median. `None` without data.
+fn paired_spread(
+    samples: &[Sample],
+    job: &str,
+    variant: &str,
+    rounds: usize,
+    key: &str,
+    f: impl Fn(f64, f64) -> f64,
+) -> Option<[f64; 2]> {
+    spread(&paired_rounds(samples, job, variant, rounds, key, f))
+}
+
+/// `[min, max]` of finite values, `None` when there is none.
+fn spread(values: &[f64]) -> Option<[f64; 2]> {
+    let finite = values.iter().copied().filter(|v| v.is_finite());
+    let min = finite.clone().reduce(f64::min)?;
+    let max = finite.reduce(f64::max)?;
+    Some([min, max])
 }
 
 /// The median over rounds of a variant's own figure.
@@ -526,7 +559,28 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "bind_ns": own(samples, &micro, v, rounds, "bind_ns"),
                 "by_draws": by_draws,
                 "rounds": rounds,
+                // [min, max] over rounds of the per-round figures whose median is above.
+                "spread": {
+                    "frame_cpu_ratio": paired_spread(samples, &big, v, rounds, "frame_cpu_ns", ratio),
+                    "frame_cpu_ratio_projection_per_draw": paired_spread(samples, &varying, v, rounds, "frame_cpu_ns", ratio),
+                    "pipeline_creation_ratio": paired_spread(samples, &pipe, v, rounds, "create_wall_ns", ratio),
+                    "ns_per_push_constant": paired_spread(samples, &micro, v, rounds, "push_constant_ns", diff),
+                    "ns_per_draw": paired_spread(samples, &micro, v, rounds, "draw_ns", diff),
+                    "ns_per_bind": paired_spread(samples, &micro, v, rounds, "bind_ns", diff),
+                },
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_spread_is_the_finite_extremes() {
+        assert_eq!(spread(&[1.2, f64::NAN, 0.9, 1.5]), Some([0.9, 1.5]));
+        assert_eq!(spread(&[f64::NAN]), None);
+        assert_eq!(spread(&[]), None);
+    }
 }

@@ -141,6 +141,20 @@ fn fmt(value: &Value, digits: usize) -> String {
     }
 }
 
+/// A median with its spread over rounds: `1.684 (1.60-1.75)`; the median alone where the
+/// row has no spread for `key`.
+fn fmt_spread(row: &Value, key: &str, digits: usize) -> String {
+    let median = fmt(&row[key], digits);
+    let spread = &row["spread"][key];
+    match (spread[0].as_f64(), spread[1].as_f64()) {
+        (Some(min), Some(max)) if median != "-" => {
+            let d = digits.min(2);
+            format!("{median} ({min:.d$}-{max:.d$})")
+        }
+        _ => median,
+    }
+}
+
 fn fmt_sci(value: &Value) -> String {
     match value.as_f64() {
         Some(v) if v.is_finite() => format!("{v:.2e}"),
@@ -155,8 +169,9 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
     let mut s = format!("## Speed: {device} ({driver}), `compare_op = {compare_op}`\n\n");
     s.push_str(
         "Ratios against no layer measured in the same run (median over rounds of per-round \
-         ratios); ns per call and bytes are differences with no layer. Frame CPU time: the \
-         recording thread's CPU time to record and submit one frame (release build).\n\n",
+         ratios, with the smallest and largest round's in parentheses); ns per call and bytes \
+         are differences with no layer. Frame CPU time: the recording thread's CPU time to \
+         record and submit one frame (release build).\n\n",
     );
     let mut header = format!("| mode | frame CPU ratio ({largest} draws) |");
     for n in &others {
@@ -178,7 +193,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
         let mut line = format!(
             "| {} | {} |",
             row["mode"].as_str().unwrap_or("?"),
-            fmt(&row["frame_cpu_ratio"], 3)
+            fmt_spread(row, "frame_cpu_ratio", 3)
         );
         for n in &others {
             line.push_str(&format!(
@@ -188,12 +203,12 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
         }
         line.push_str(&format!(
             " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-            fmt(&row["frame_cpu_ratio_projection_per_draw"], 3),
+            fmt_spread(row, "frame_cpu_ratio_projection_per_draw", 3),
             fmt(&row["frame_wall_ratio"], 3),
-            fmt(&row["pipeline_creation_ratio"], 3),
-            fmt(&row["ns_per_push_constant"], 1),
-            fmt(&row["ns_per_draw"], 1),
-            fmt(&row["ns_per_bind"], 1),
+            fmt_spread(row, "pipeline_creation_ratio", 3),
+            fmt_spread(row, "ns_per_push_constant", 1),
+            fmt_spread(row, "ns_per_draw", 1),
+            fmt_spread(row, "ns_per_bind", 1),
             fmt(&row["bytes_per_pipeline"], 0),
             fmt(&row["bytes_per_command_buffer"], 0),
             fmt(&row["heap_growth_per_frame"], 0),
@@ -305,6 +320,18 @@ fn range(values: impl Iterator<Item = f64>, min_span: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn medians_show_their_spread_where_the_row_has_one() {
+        let row = json!({
+            "frame_cpu_ratio": 1.684,
+            "ns_per_draw": 44.7,
+            "spread": {"frame_cpu_ratio": [1.6012, 1.7549], "ns_per_draw": null},
+        });
+        assert_eq!(fmt_spread(&row, "frame_cpu_ratio", 3), "1.684 (1.60-1.75)");
+        assert_eq!(fmt_spread(&row, "ns_per_draw", 1), "44.7");
+        assert_eq!(fmt_spread(&json!({}), "frame_cpu_ratio", 3), "-");
+    }
 
     #[test]
     fn accuracy_figures_are_found_by_scene_mode_and_format() {
