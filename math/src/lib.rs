@@ -49,6 +49,7 @@ pub mod model;
 pub mod precision;
 mod range;
 mod rewrite;
+pub mod shader_fit;
 
 pub use camera::{CameraMatch, Cameras, DepthLine, MAX_CAMERAS, TRUSTED_B_ERROR};
 pub use classify::{
