@@ -28,6 +28,7 @@ mod hooks;
 pub mod logging;
 pub mod objects;
 pub mod policy;
+pub mod derived_range;
 pub mod position_store;
 pub mod precise;
 pub mod shader_analysis;

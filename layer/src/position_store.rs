@@ -28,6 +28,7 @@
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 
+use crate::derived_range::{self, Fit, Insert, MatrixSource, ModuleFacts, PositionStores, Types};
 use crate::spirv_scan::op::*;
 use crate::spirv_scan::{instructions, is_literal, push, Instruction, HEADER_WORDS};
 
@@ -58,13 +59,34 @@ impl fmt::Display for Unsupported {
 /// the push constants (16-byte aligned), `None` when no vertex entry point outputs `Position`,
 /// or why it cannot be rewritten. Never panics, never reads past the words.
 pub fn rewrite_position_store(words: &[u32], offset: u32) -> Result<Option<Vec<u32>>, Unsupported> {
+    rewrite(words, offset, false).map(|code| code.map(|(code, _)| code))
+}
+
+/// [`rewrite_position_store`] for a module whose projection revz cannot read on the CPU: the
+/// stage also fits the depth line of the outermost matrix it multiplies into `Position`
+/// ([`crate::derived_range`]) and stores reversed depth of that line where the pushed
+/// carrier's w selects it (1 complementary, 2 infinite; 0 keeps the pushed carrier, as in
+/// [`rewrite_position_store`]). Also says where that matrix comes from.
+pub fn rewrite_position_store_deriving(
+    words: &[u32],
+    offset: u32,
+) -> Result<Option<(Vec<u32>, MatrixSource)>, Unsupported> {
+    rewrite(words, offset, true)
+        .map(|code| code.map(|(code, source)| (code, source.unwrap_or(MatrixSource::Computed))))
+}
+
+fn rewrite(
+    words: &[u32],
+    offset: u32,
+    derive: bool,
+) -> Result<Option<(Vec<u32>, Option<MatrixSource>)>, Unsupported> {
     if offset % 16 != 0 {
         return Err(Unsupported("the carrier offset is not 16-byte aligned"));
     }
     let Some(module) = Module::read(words)? else {
         return Ok(None);
     };
-    module.rewrite(words, offset).map(Some)
+    module.rewrite(words, offset, derive).map(Some)
 }
 
 /// Where the shader's `Position` lives.
@@ -116,6 +138,14 @@ struct Module {
     annotations_at: Option<usize>,
     /// Every operand of type declarations that names a type (to find where a struct is used).
     type_uses: Vec<u32>,
+    /// Constant composites and null constants outside functions: id -> (opcode, type), for a
+    /// constant matrix the derived range fits (`crate::derived_range`).
+    global_opcodes: HashMap<u32, u32>,
+    global_types: HashMap<u32, u32>,
+    /// `OpTypeBool`, if declared.
+    bool_type: Option<u32>,
+    /// Types decorated `BufferBlock`.
+    buffer_blocks: HashSet<u32>,
 }
 
 impl Module {
@@ -191,6 +221,14 @@ impl Module {
                 }
                 (OP_VARIABLE, &[ty, id, class, ..]) => {
                     m.variables.insert(id, (ty, class));
+                }
+                (derived_range::TYPE_BOOL, &[id]) => m.bool_type = Some(id),
+                (OP_DECORATE, &[target, derived_range::BUFFER_BLOCK]) => {
+                    m.buffer_blocks.insert(target);
+                }
+                (opcode, &[ty, id, ..]) if derived_range::is_matrix_constant(opcode) => {
+                    m.global_opcodes.insert(id, opcode);
+                    m.global_types.insert(id, ty);
                 }
                 (OP_FUNCTION, _) => m.functions_at = at,
                 _ => {}
@@ -279,7 +317,12 @@ impl Module {
         None
     }
 
-    fn rewrite(&self, words: &[u32], offset: u32) -> Result<Vec<u32>, Unsupported> {
+    fn rewrite(
+        &self,
+        words: &[u32],
+        offset: u32,
+        derive: bool,
+    ) -> Result<(Vec<u32>, Option<MatrixSource>), Unsupported> {
         let Some(position) = self.position()? else {
             return Err(Unsupported("no Position output"));
         };
@@ -370,8 +413,33 @@ impl Module {
             }
         }
 
+        // The matrix a deriving rewrite fits, before anything is allocated: a refusal here
+        // leaves the module to the flip path.
+        let leaf = if derive {
+            if self.entry_functions.len() != 1 {
+                return Err(Unsupported("more than one vertex entry point"));
+            }
+            let facts = ModuleFacts {
+                functions_at: self.functions_at,
+                variables: &self.variables,
+                global_opcodes: &self.global_opcodes,
+                global_types: &self.global_types,
+                buffer_blocks: &self.buffer_blocks,
+                pointers: &self.pointers,
+                matrices: &self.matrices,
+                vec4,
+            };
+            Some(derived_range::find(words, &facts, &body.stores)?)
+        } else {
+            None
+        };
+
         // Fresh ids.
-        let needed = 32 + 16 * body.returns + 2 * body.private_pointees.len();
+        let needed = 32
+            + 16 * body.returns
+            + 2 * body.private_pointees.len()
+            + derived_range::FIT_IDS
+            + derived_range::RETURN_IDS * body.returns;
         let mut bound = words[3];
         if bound.checked_add(needed as u32).is_none() {
             return Err(Unsupported("its id bound leaves no room"));
@@ -429,6 +497,22 @@ impl Module {
         } else {
             (fresh(), true)
         };
+        let types = Types {
+            float,
+            vec4,
+            push_vec4,
+            push_variable,
+            carrier_index,
+        };
+        let fit = leaf.map(|leaf| Fit::new(leaf, self.bool_type, types, &mut fresh));
+        let fit_after = match fit.as_ref().map(|f| f.leaf.insert) {
+            Some(Insert::After(at)) => Some(at),
+            _ => None,
+        };
+        let mut fit_at_entry = fit
+            .as_ref()
+            .is_some_and(|f| f.leaf.insert == Insert::EntryStart);
+        let mut entry_label_seen = false;
 
         let mut out = Vec::with_capacity(words.len() + 64 + 24 * body.returns);
         out.extend_from_slice(&words[..HEADER_WORDS]);
@@ -462,6 +546,9 @@ impl Module {
                     OP_MEMBER_DECORATE,
                     &[push_block, carrier_member, DECORATION_OFFSET, offset],
                 );
+                if let Some(fit) = &fit {
+                    fit.decorations(&mut out);
+                }
             }
             if at == self.functions_at {
                 // New types, constants and variables, after every declaration.
@@ -527,8 +614,25 @@ impl Module {
                         );
                     }
                 }
+                if let Some(fit) = &fit {
+                    fit.declarations(&mut out, float, vec4, private_vec4);
+                }
             }
             let in_functions = at >= self.functions_at;
+            if fit_at_entry && self.entry_functions.contains(&current_function) {
+                // A constant matrix: the fit opens the entry's first block, after its
+                // variables.
+                if opcode == derived_range::LABEL {
+                    entry_label_seen = true;
+                } else if entry_label_seen
+                    && !matches!(opcode, OP_VARIABLE | OP_LINE | OP_NO_LINE)
+                {
+                    if let Some(fit) = &fit {
+                        out.extend_from_slice(&fit.code);
+                    }
+                    fit_at_entry = false;
+                }
+            }
             match (opcode, operands) {
                 (OP_ENTRY_POINT, &[model, function, ref rest @ ..]) => {
                     // Keep the name, then the interface: below 1.4 only Input and Output
@@ -553,6 +657,9 @@ impl Module {
                     if modern {
                         if matches!(position, Position::Member { .. }) {
                             operands.push(shadow);
+                        }
+                        if let Some(fit) = &fit {
+                            operands.push(fit.derived);
                         }
                         if new_block.is_some() || !interface.contains(&push_variable) {
                             operands.push(push_variable);
@@ -632,6 +739,12 @@ impl Module {
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_z, carrier, 0]);
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_w, carrier, 1]);
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_1, carrier, 2]);
+                    let [c_z, c_w, c_1] = match &fit {
+                        Some(fit) => {
+                            fit.select_at_return(&mut out, types, carrier, [c_z, c_w, c_1], &mut fresh)
+                        }
+                        None => [c_z, c_w, c_1],
+                    };
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, z, value, 2]);
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, w, value, 3]);
                     push(&mut out, OP_F_MUL, &[float, scaled_z, c_z, z]);
@@ -659,9 +772,17 @@ impl Module {
                 }
                 _ => push(&mut out, opcode, operands),
             }
+            if fit_after == Some(at) {
+                if let Some(fit) = &fit {
+                    out.extend_from_slice(&fit.code);
+                }
+            }
+        }
+        if fit_at_entry {
+            return Err(Unsupported("the entry point has no block for the fit"));
         }
         out[3] = bound;
-        Ok(out)
+        Ok((out, fit.map(|f| f.leaf.source)))
     }
 }
 
@@ -675,6 +796,8 @@ struct Body {
     private_pointees: HashSet<u32>,
     /// `OpReturn`s in vertex entry functions.
     returns: usize,
+    /// What is stored into `Position` (for the derived range).
+    stores: PositionStores,
 }
 
 impl Body {
@@ -690,6 +813,10 @@ impl Body {
             }
             Position::Member { block, member } => Some((block, member)),
         };
+        // Pointers to the whole Position, and to one component (its constant index, `None`
+        // for a dynamic or nested one).
+        let mut whole: HashSet<u32> = shadowed.clone();
+        let mut component: HashMap<u32, Option<u32>> = HashMap::new();
         let mut word = HEADER_WORDS;
         let mut current_function = 0;
         let mut entry_called = false;
@@ -730,6 +857,16 @@ impl Body {
                             body.redirected.insert(result);
                             body.private_pointees.insert(pointee);
                             shadowed.insert(result);
+                            match operands.get(4) {
+                                None => {
+                                    whole.insert(result);
+                                }
+                                Some(index) => {
+                                    let nested = operands.len() > 5;
+                                    let index = module.int_constants.get(index).copied();
+                                    component.insert(result, index.filter(|_| !nested));
+                                }
+                            }
                         }
                         Some(_) => {}
                         None => return Err(Unsupported("the output block is indexed dynamically")),
@@ -745,15 +882,29 @@ impl Body {
                     if operands[3..].iter().any(|i| shadowed.contains(i)) {
                         return Err(Unsupported("Position is used as an index"));
                     }
+                    let index = if whole.contains(&base) && operands.len() == 4 {
+                        module.int_constants.get(&operands[3]).copied()
+                    } else {
+                        None
+                    };
+                    component.insert(result, index);
                 }
                 (OP_LOAD, &[_, _, pointer, ..]) if shadowed.contains(&pointer) => {}
                 (OP_STORE, &[pointer, value, ..]) if shadowed.contains(&pointer) => {
                     if shadowed.contains(&value) {
                         return Err(Unsupported("a pointer to Position is stored"));
                     }
+                    if whole.contains(&pointer) {
+                        body.stores.whole.push(value);
+                    } else {
+                        body.stores.components.push(component.get(&pointer).copied().flatten());
+                    }
                 }
                 (OP_COPY_MEMORY, &[target, source, ..])
-                    if shadowed.contains(&target) || shadowed.contains(&source) => {}
+                    if shadowed.contains(&target) || shadowed.contains(&source) =>
+                {
+                    body.stores.copied = true;
+                }
                 _ => {
                     let uses =
                         |id: u32| shadowed.contains(&id) || block.is_some_and(|(b, _)| b == id);

@@ -339,3 +339,136 @@ fn modules_without_position_or_not_spirv_are_left_alone() {
         "a fragment entry point"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// The derived range (`crate::derived_range`): projections the CPU cannot read.
+
+fn derived(words: &[u32]) -> (Vec<u32>, MatrixSource) {
+    let (out, source) = rewrite_position_store_deriving(words, OFFSET)
+        .expect("rewritable")
+        .expect("has a Position");
+    validate(&out);
+    // naga reads it back: the fit is ordinary SPIR-V.
+    naga::front::spv::Frontend::new(out.iter().copied(), &Default::default())
+        .parse()
+        .expect("naga reads the rewritten module");
+    (out, source)
+}
+
+/// `ubo.projection * ubo.view * ubo.model * p` from a dynamic uniform buffer block.
+const UBO_PVM: &str = "#version 450
+    layout(set = 0, binding = 0) uniform Object { mat4 projection; mat4 view; mat4 model; vec4 color; } ubo;
+    layout(location = 0) in vec3 position;
+    layout(location = 0) out vec4 color;
+    void main() {
+        gl_Position = ubo.projection * ubo.view * ubo.model * vec4(position, 1.0);
+        color = ubo.color;
+    }";
+
+#[test]
+fn a_uniform_buffer_projection_is_fitted_from_its_outermost_factor() {
+    let words = compile_glsl(naga::ShaderStage::Vertex, UBO_PVM);
+    let (out, source) = derived(&words);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    // The fit is decorated NoContraction and stores into a private vec4 the returns read.
+    let no_contraction = with_opcode(&out, OP_DECORATE)
+        .into_iter()
+        .filter(|d| d.get(1) == Some(&42))
+        .count();
+    assert!(no_contraction >= 30, "{no_contraction} NoContraction decorations");
+    // The leaf is the projection: the fit's extractions read member 0 of the loaded block
+    // (naga loads the block, extracts P, V and M, and evaluates (P * V) * M left to right).
+    let extracts = with_opcode(&out, OP_COMPOSITE_EXTRACT);
+    let fitted = extracts
+        .iter()
+        .find(|e| e.len() == 5)
+        .map(|e| e[2])
+        .expect("the fit extracts matrix elements");
+    let member = extracts
+        .iter()
+        .find(|e| e[1] == fitted)
+        .expect("the leaf is an extraction");
+    assert_eq!(member[3], 0, "the projection, member 0");
+    // The carrier-only rewrite of the same module still works and has no fit.
+    let plain = rewrite_position_store(&words, OFFSET).unwrap().unwrap();
+    validate(&plain);
+    assert!(with_opcode(&plain, OP_DECORATE)
+        .iter()
+        .all(|d| d.get(1) != Some(&42)));
+}
+
+#[test]
+fn storage_buffers_constants_and_row_vectors_are_fitted() {
+    let ssbo = "#version 450
+        struct Item { mat4 mvp; vec4 color; };
+        layout(set = 0, binding = 0) readonly buffer Objects { Item items[]; } objects;
+        layout(location = 0) in vec3 position;
+        void main() {
+            gl_Position = objects.items[gl_InstanceIndex].mvp * vec4(position, 1.0);
+        }";
+    let (_, source) = derived(&compile_glsl(naga::ShaderStage::Vertex, ssbo));
+    assert_eq!(source, MatrixSource::StorageBuffer);
+    let row_vector = "#version 450
+        layout(set = 0, binding = 0) uniform Frame { mat4 view_proj; } frame;
+        layout(location = 0) in vec3 position;
+        void main() {
+            vec4 clip = vec4(position, 1.0) * frame.view_proj;
+            gl_Position = clip;
+        }";
+    let (_, source) = derived(&compile_glsl(naga::ShaderStage::Vertex, row_vector));
+    assert_eq!(source, MatrixSource::UniformBuffer);
+}
+
+#[test]
+fn depth_that_is_not_one_matrix_line_is_refused() {
+    let refused = |body: &str, reason: &str| {
+        let source = format!(
+            "#version 450
+            layout(set = 0, binding = 0) uniform Frame {{ mat4 a; mat4 b; }} frame;
+            layout(location = 0) in vec3 position;
+            void main() {{ {body} }}"
+        );
+        let words = compile_glsl(naga::ShaderStage::Vertex, &source);
+        assert_eq!(
+            rewrite_position_store_deriving(&words, OFFSET).map(|r| r.map(|(_, s)| s)),
+            Err(Unsupported(match reason {
+                "z" => "Position's z or w is stored on its own",
+                "not" => "Position is not a matrix times a vector",
+                _ => "Position comes from more than one matrix",
+            })),
+            "{body}"
+        );
+    };
+    // naga passes Position through a private written component-wise: not followed.
+    refused(
+        "gl_Position = frame.a * vec4(position, 1.0);
+         gl_Position.z = (gl_Position.z + gl_Position.w) * 0.5;",
+        "not",
+    );
+    refused("gl_Position = vec4(position, 1.0);", "not");
+    // naga stores its private Position twice: not followed either.
+    refused(
+        "if (position.x > 0.0) { gl_Position = frame.a * vec4(position, 1.0); }
+         else { gl_Position = frame.b * vec4(position, 1.0); }",
+        "not",
+    );
+}
+
+#[test]
+fn a_store_to_position_z_refuses_and_one_to_y_does_not() {
+    // glslang's shape: components stored through chains into the gl_PerVertex member.
+    let (_, source) = derived(&assemble(PER_VERTEX));
+    assert_eq!(source, MatrixSource::PushConstants);
+    let z = PER_VERTEX.replace(
+        "%yp = OpAccessChain %p_out_f %_ %int_0 %uint_1",
+        "%yp = OpAccessChain %p_out_f %_ %int_0 %uint_2",
+    );
+    let z = z.replace(
+        "%uint_1 = OpConstant %uint 1",
+        "%uint_1 = OpConstant %uint 1\n    %uint_2 = OpConstant %uint 2",
+    );
+    assert_eq!(
+        rewrite_position_store_deriving(&assemble(&z), OFFSET).map(|r| r.map(|(_, s)| s)),
+        Err(Unsupported("Position's z or w is stored on its own"))
+    );
+}

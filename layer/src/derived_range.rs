@@ -1,0 +1,696 @@
+//! The range a rewritten vertex stage derives from the matrix it loads (issue #16): where
+//! revz cannot read the projection on the CPU (a uniform or storage buffer, a specialization
+//! constant, a literal), the vertex stage fits the depth line of the outermost matrix it
+//! multiplies into `Position` and stores reversed depth of that line.
+//!
+//! This module owns the two halves of that, word-level like [`crate::position_store`], which
+//! calls it:
+//!
+//! - [`find`]: which matrix. Every store of a whole `Position` value must trace back (through
+//!   copies and function-local variables stored once) to `M * v` (`OpMatrixTimesVector`) or
+//!   `v * M` (`OpVectorTimesMatrix`); the outermost factor of `M` (down `OpMatrixTimesMatrix`
+//!   and `OpTranspose`) is the *leaf*, one id for all stores. A store to `Position.z` or `.w`,
+//!   a whole store of anything else, or two leaves refuse: the shader's depth would not be the
+//!   leaf's line.
+//! - [`Fit`]: the SPIR-V of `revz_math::shader_fit::fit_in_shader` and `derived_carrier`, the
+//!   same float32 operations in the same order, each `NoContraction`, written right after the
+//!   leaf's definition (or at the entry for a constant leaf) into a private `vec4` that the
+//!   `Position` store at each return reads in place of the pushed carrier when the pushed
+//!   carrier's w (the *selector*) says so: 0 the pushed carrier (flip, native, the CPU's
+//!   precise values), 1 complementary, 2 infinite. Until a fit runs, and where the guard
+//!   refuses, the private holds the flip mapping `(-1, 1, 0)`: `z' = w - z`.
+//!
+//! Why after the leaf's definition and not after the multiply: the leaf dominates every use
+//! of it, also where it was reached through a local variable, so the fit is valid SSA there.
+
+use std::collections::{HashMap, HashSet};
+
+use revz_math::shader_fit::{
+    AFFINE_W_TOLERANCE_SQUARED, FLIP_IN_SHADER, RESIDUAL_TOLERANCE_SQUARED,
+};
+
+use crate::position_store::Unsupported;
+use crate::spirv_scan::op::*;
+use crate::spirv_scan::{instructions, push, Instruction, HEADER_WORDS};
+
+const OP_TYPE_BOOL: u32 = 20;
+const OP_CONSTANT_COMPOSITE: u32 = 44;
+const OP_CONSTANT_NULL: u32 = 46;
+const OP_SPEC_CONSTANT_COMPOSITE: u32 = 51;
+const OP_FUNCTION_PARAMETER: u32 = 55;
+const OP_LABEL: u32 = 248;
+const OP_PHI: u32 = 245;
+const OP_TRANSPOSE: u32 = 84;
+const OP_COMPOSITE_CONSTRUCT: u32 = 80;
+const OP_F_NEGATE: u32 = 127;
+const OP_F_DIV: u32 = 136;
+const OP_VECTOR_TIMES_MATRIX: u32 = 144;
+const OP_MATRIX_TIMES_VECTOR: u32 = 145;
+const OP_MATRIX_TIMES_MATRIX: u32 = 146;
+const OP_LOGICAL_AND: u32 = 167;
+const OP_SELECT: u32 = 169;
+const OP_F_ORD_LESS_THAN: u32 = 184;
+const OP_F_ORD_GREATER_THAN: u32 = 186;
+const OP_F_ORD_LESS_THAN_EQUAL: u32 = 188;
+const OP_F_ORD_GREATER_THAN_EQUAL: u32 = 190;
+const DECORATION_NO_CONTRACTION: u32 = 42;
+const STORAGE_UNIFORM_CONSTANT: u32 = 0;
+const STORAGE_UNIFORM: u32 = 2;
+const STORAGE_PUSH_CONSTANT: u32 = 9;
+const STORAGE_PRIVATE: u32 = 6;
+const STORAGE_STORAGE_BUFFER: u32 = 12;
+const DECORATION_BUFFER_BLOCK: u32 = 3;
+
+/// Where the leaf matrix comes from, for the log.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MatrixSource {
+    UniformBuffer,
+    StorageBuffer,
+    /// Push constants the CPU path could not use (dynamically indexed, or a second block).
+    PushConstants,
+    Constant,
+    SpecializationConstant,
+    /// Computed in the shader (a function parameter's matrix, a matrix built from columns).
+    Computed,
+}
+
+impl MatrixSource {
+    pub fn describe(self) -> &'static str {
+        match self {
+            MatrixSource::UniformBuffer => "a uniform buffer",
+            MatrixSource::StorageBuffer => "a storage buffer",
+            MatrixSource::PushConstants => "push constants",
+            MatrixSource::Constant => "a constant",
+            MatrixSource::SpecializationConstant => "a specialization constant",
+            MatrixSource::Computed => "a matrix the shader computes",
+        }
+    }
+}
+
+/// Where the fit goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Insert {
+    /// Right after the instruction at this word index (the leaf's definition).
+    After(usize),
+    /// At the start of each entry function's first block, after its variables (a leaf
+    /// declared outside functions: a constant).
+    EntryStart,
+}
+
+/// The matrix whose line the shader fits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Leaf {
+    pub id: u32,
+    /// `v * M`: the rows of the column-vector matrix are the leaf's columns.
+    pub transposed: bool,
+    pub insert: Insert,
+    pub source: MatrixSource,
+}
+
+/// How `Position` is stored, as [`crate::position_store`]'s body pass saw it.
+#[derive(Debug, Default)]
+pub struct PositionStores {
+    /// Values stored into the whole `Position`.
+    pub whole: Vec<u32>,
+    /// Components stored alone (`None`: a dynamic or nested index).
+    pub components: Vec<Option<u32>>,
+    /// `OpCopyMemory` into or out of it.
+    pub copied: bool,
+}
+
+/// What the function bodies define: result id -> (word index, opcode, operands).
+struct Defs {
+    at: HashMap<u32, (usize, u32, Vec<u32>)>,
+    /// Stores into variables: variable -> values.
+    stores: HashMap<u32, Vec<u32>>,
+    /// Function-local variables, and the module's private ones (naga's SPIR-V passes every
+    /// output through a private global that a wrapper entry point copies out).
+    followed: HashSet<u32>,
+    /// Variables reached through an access chain (a component may be written apart): never
+    /// followed.
+    chained: HashSet<u32>,
+}
+
+fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
+    match opcode {
+        OP_LOAD | OP_COPY_OBJECT | OP_MATRIX_TIMES_VECTOR | OP_VECTOR_TIMES_MATRIX
+        | OP_MATRIX_TIMES_MATRIX | OP_TRANSPOSE | OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN
+        | OP_VARIABLE | OP_PHI | OP_FUNCTION_PARAMETER | OP_COMPOSITE_CONSTRUCT
+        | OP_COMPOSITE_EXTRACT | OP_FUNCTION_CALL => operands.get(1).copied(),
+        _ => None,
+    }
+}
+
+impl Defs {
+    fn read(words: &[u32], module: &ModuleFacts<'_>) -> Result<Defs, Unsupported> {
+        let functions_at = module.functions_at;
+        let mut defs = Defs {
+            at: HashMap::new(),
+            stores: HashMap::new(),
+            followed: module
+                .variables
+                .iter()
+                .filter(|(_, &(_, class))| class == STORAGE_PRIVATE)
+                .map(|(&id, _)| id)
+                .collect(),
+            chained: HashSet::new(),
+        };
+        let mut word = HEADER_WORDS;
+        for instruction in instructions(words).into_iter().flatten() {
+            let Instruction { opcode, operands } =
+                instruction.map_err(|_| Unsupported("a malformed instruction"))?;
+            let at = word;
+            word += operands.len() + 1;
+            if at < functions_at {
+                continue;
+            }
+            match (opcode, operands) {
+                (OP_VARIABLE, &[_, id, ..]) => {
+                    defs.followed.insert(id);
+                }
+                (OP_STORE, &[pointer, value, ..]) => {
+                    defs.stores.entry(pointer).or_default().push(value);
+                }
+                (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[_, _, base, ..]) => {
+                    defs.chained.insert(base);
+                }
+                (OP_COPY_MEMORY, &[target, ..]) => {
+                    defs.chained.insert(target);
+                }
+                (OP_FUNCTION_CALL, &[_, _, _, ref arguments @ ..]) => {
+                    // A pointer argument may be written by the callee.
+                    defs.chained.extend(arguments.iter().copied());
+                }
+                _ => {}
+            }
+            if let Some(id) = result_of(opcode, operands) {
+                defs.at.insert(id, (at, opcode, operands.to_vec()));
+            }
+        }
+        Ok(defs)
+    }
+
+    /// The value a load of a local or private variable stored exactly once, whole, reads.
+    fn through_local(&self, pointer: u32) -> Option<u32> {
+        if !self.followed.contains(&pointer) || self.chained.contains(&pointer) {
+            return None;
+        }
+        match self.stores.get(&pointer).map(Vec::as_slice) {
+            Some(&[value]) => Some(value),
+            _ => None,
+        }
+    }
+
+    /// Member `index` of a composite built by `OpCompositeConstruct` (naga's wrapper builds
+    /// the entry point's output struct so).
+    fn member(&self, composite: u32, index: u32) -> Option<u32> {
+        match self.at.get(&composite) {
+            Some((_, OP_COMPOSITE_CONSTRUCT, operands)) => operands.get(2 + index as usize).copied(),
+            _ => None,
+        }
+    }
+
+    /// The multiply a whole `Position` value comes from: (matrix, transposed).
+    fn multiply(&self, value: u32, depth: u32) -> Option<(u32, bool)> {
+        if depth > 16 {
+            return None;
+        }
+        let (_, opcode, operands) = self.at.get(&value)?;
+        match (*opcode, operands.as_slice()) {
+            (OP_MATRIX_TIMES_VECTOR, &[_, _, matrix, _]) => Some((matrix, false)),
+            (OP_VECTOR_TIMES_MATRIX, &[_, _, _, matrix]) => Some((matrix, true)),
+            (OP_COPY_OBJECT, &[_, _, source]) => self.multiply(source, depth + 1),
+            (OP_LOAD, &[_, _, pointer, ..]) => self.multiply(self.through_local(pointer)?, depth + 1),
+            (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => {
+                self.multiply(self.member(composite, index)?, depth + 1)
+            }
+            _ => None,
+        }
+    }
+
+    /// The outermost factor of `matrix` (for `transposed`, the use `v * matrix`).
+    fn leaf(&self, matrix: u32, transposed: bool, depth: u32) -> (u32, bool) {
+        if depth > 16 {
+            return (matrix, transposed);
+        }
+        let Some((_, opcode, operands)) = self.at.get(&matrix) else {
+            return (matrix, transposed);
+        };
+        match (*opcode, operands.as_slice()) {
+            // M = A * B applied to a column vector: A is applied last; to a row vector
+            // (v * (A * B)), B is.
+            (OP_MATRIX_TIMES_MATRIX, &[_, _, a, b]) => {
+                self.leaf(if transposed { b } else { a }, transposed, depth + 1)
+            }
+            (OP_TRANSPOSE, &[_, _, x]) => self.leaf(x, !transposed, depth + 1),
+            (OP_COPY_OBJECT, &[_, _, x]) => self.leaf(x, transposed, depth + 1),
+            (OP_LOAD, &[_, _, pointer, ..]) => match self.through_local(pointer) {
+                Some(stored) => self.leaf(stored, transposed, depth + 1),
+                None => (matrix, transposed),
+            },
+            _ => (matrix, transposed),
+        }
+    }
+
+    /// The storage class the pointer chain of a load starts from.
+    fn pointer_class(&self, module: &ModuleFacts<'_>, pointer: u32, depth: u32) -> Option<u32> {
+        if depth > 16 {
+            return None;
+        }
+        if let Some(&(_, class)) = module.variables.get(&pointer) {
+            return Some(class);
+        }
+        let (_, opcode, operands) = self.at.get(&pointer)?;
+        match (*opcode, operands.as_slice()) {
+            (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[_, _, base, ..]) => {
+                self.pointer_class(module, base, depth + 1)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// What [`find`] needs of the module's declarations.
+#[derive(Debug)]
+pub struct ModuleFacts<'a> {
+    pub functions_at: usize,
+    /// Global variables: id -> (pointer type, storage class).
+    pub variables: &'a HashMap<u32, (u32, u32)>,
+    /// Declarations outside functions: id -> opcode (constants, spec constants), and their
+    /// result types.
+    pub global_opcodes: &'a HashMap<u32, u32>,
+    pub global_types: &'a HashMap<u32, u32>,
+    /// Ids decorated `BufferBlock` (storage buffers before SPIR-V 1.3's `StorageBuffer`).
+    pub buffer_blocks: &'a HashSet<u32>,
+    /// Pointer types: id -> (storage class, pointee).
+    pub pointers: &'a HashMap<u32, (u32, u32)>,
+    /// Matrix types: id -> (column type, count).
+    pub matrices: &'a HashMap<u32, (u32, u32)>,
+    /// The `vec4` of floats `Position` is.
+    pub vec4: u32,
+}
+
+/// The leaf matrix of every whole `Position` store, or why the shader's depth is not one
+/// matrix's line.
+pub fn find(
+    words: &[u32],
+    module: &ModuleFacts<'_>,
+    stores: &PositionStores,
+) -> Result<Leaf, Unsupported> {
+    if stores.copied {
+        return Err(Unsupported("Position is copied as memory"));
+    }
+    if stores
+        .components
+        .iter()
+        .any(|index| !matches!(index, Some(0 | 1)))
+    {
+        return Err(Unsupported("Position's z or w is stored on its own"));
+    }
+    let defs = Defs::read(words, module)?;
+    let mut leaf: Option<(u32, bool)> = None;
+    for &value in &stores.whole {
+        let (matrix, transposed) = defs
+            .multiply(value, 0)
+            .ok_or(Unsupported("Position is not a matrix times a vector"))?;
+        let found = defs.leaf(matrix, transposed, 0);
+        if leaf.is_some_and(|l| l != found) {
+            return Err(Unsupported("Position comes from more than one matrix"));
+        }
+        leaf = Some(found);
+    }
+    let (id, transposed) = leaf.ok_or(Unsupported("Position is never stored whole"))?;
+    // A 4x4 matrix of the position's vec4 columns.
+    let matrix_type = match defs.at.get(&id) {
+        Some((_, _, operands)) => operands.first().copied(),
+        None => None,
+    };
+    let (insert, source) = match defs.at.get(&id) {
+        Some((at, opcode, operands)) => {
+            let source = match (*opcode, operands.as_slice()) {
+                (OP_PHI | OP_FUNCTION_PARAMETER, _) => {
+                    return Err(Unsupported("the matrix is a phi or a parameter"))
+                }
+                (OP_LOAD, &[_, _, pointer, ..]) => source_of(module, &defs, pointer),
+                // A matrix member of a loaded block (naga loads the whole block).
+                (OP_COMPOSITE_EXTRACT, &[_, _, composite, ..]) => match defs.at.get(&composite) {
+                    Some((_, OP_LOAD, loaded)) => source_of(module, &defs, loaded[2]),
+                    _ => MatrixSource::Computed,
+                },
+                _ => MatrixSource::Computed,
+            };
+            (Insert::After(*at), source)
+        }
+        None => {
+            let source = match module.global_opcodes.get(&id) {
+                Some(&(OP_CONSTANT_COMPOSITE | OP_CONSTANT_NULL)) => MatrixSource::Constant,
+                Some(&OP_SPEC_CONSTANT_COMPOSITE) => MatrixSource::SpecializationConstant,
+                _ => return Err(Unsupported("the matrix is not defined where revz can see it")),
+            };
+            (Insert::EntryStart, source)
+        }
+    };
+    let matrix_type = matrix_type.or_else(|| module.global_types.get(&id).copied());
+    let square = matrix_type.is_some_and(|ty| module.matrices.get(&ty) == Some(&(module.vec4, 4)));
+    if !square {
+        return Err(Unsupported("the matrix is not a 4x4 float matrix"));
+    }
+    Ok(Leaf {
+        id,
+        transposed,
+        insert,
+        source,
+    })
+}
+
+/// Where a loaded pointer points: the storage class its access chain starts in.
+fn source_of(module: &ModuleFacts<'_>, defs: &Defs, pointer: u32) -> MatrixSource {
+                    match defs.pointer_class(module, pointer, 0) {
+                        Some(STORAGE_STORAGE_BUFFER) => MatrixSource::StorageBuffer,
+                        Some(STORAGE_UNIFORM) => {
+                            let block = buffer_block_of(module, pointer, &defs);
+                            if block {
+                                MatrixSource::StorageBuffer
+                            } else {
+                                MatrixSource::UniformBuffer
+                            }
+                        }
+                        Some(STORAGE_PUSH_CONSTANT) => MatrixSource::PushConstants,
+                        Some(STORAGE_UNIFORM_CONSTANT) | None => MatrixSource::Computed,
+                        Some(_) => MatrixSource::Computed,
+                    }
+}
+
+/// Whether a `Uniform` pointer chain starts at a `BufferBlock` variable (a storage buffer in
+/// SPIR-V before 1.3).
+fn buffer_block_of(module: &ModuleFacts<'_>, pointer: u32, defs: &Defs) -> bool {
+    let mut current = pointer;
+    for _ in 0..16 {
+        if let Some(&(ty, _)) = module.variables.get(&current) {
+            let pointee = module.pointers.get(&ty).map(|&(_, p)| p);
+            return pointee.is_some_and(|p| module.buffer_blocks.contains(&p));
+        }
+        match defs.at.get(&current) {
+            Some((_, OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, operands)) => {
+                current = operands[2];
+            }
+            _ => return false,
+        }
+    }
+    false
+}
+
+/// The fit's SPIR-V, made before the module is written (its arithmetic ids must be decorated
+/// in the annotation section, ahead of the code).
+#[derive(Debug)]
+pub struct Fit {
+    pub leaf: Leaf,
+    /// `OpTypeBool`: the module's, or a new one (`new_bool`).
+    pub bool_type: u32,
+    new_bool: bool,
+    /// The private `vec4` holding the derived carrier, and its initializer.
+    pub derived: u32,
+    init: u32,
+    /// Float constants: (id, value).
+    constants: Vec<(u32, f32)>,
+    half: u32,
+    /// The fit's instructions, ending with the store of the derived carrier.
+    pub code: Vec<u32>,
+    /// The arithmetic results, decorated `NoContraction`.
+    exact: Vec<u32>,
+}
+
+/// The ids a module's types give the fit.
+#[derive(Clone, Copy, Debug)]
+pub struct Types {
+    pub float: u32,
+    pub vec4: u32,
+    /// Pointer to a push-constant `vec4`, the push-constant variable, and the carrier's
+    /// member index constant.
+    pub push_vec4: u32,
+    pub push_variable: u32,
+    pub carrier_index: u32,
+}
+
+/// A builder of float instructions that records the arithmetic results.
+struct Code<'f, F: FnMut() -> u32> {
+    words: Vec<u32>,
+    exact: Vec<u32>,
+    fresh: &'f mut F,
+    float: u32,
+}
+
+impl<F: FnMut() -> u32> Code<'_, F> {
+    fn op(&mut self, opcode: u32, x: u32, y: u32) -> u32 {
+        let id = (self.fresh)();
+        push(&mut self.words, opcode, &[self.float, id, x, y]);
+        self.exact.push(id);
+        id
+    }
+
+    fn typed(&mut self, opcode: u32, ty: u32, operands: &[u32]) -> u32 {
+        let id = (self.fresh)();
+        let mut all = vec![ty, id];
+        all.extend_from_slice(operands);
+        push(&mut self.words, opcode, &all);
+        id
+    }
+
+    /// `((x0 y0 + x1 y1) + x2 y2)`, as `fit_in_shader` evaluates it.
+    fn dot3(&mut self, x: [u32; 3], y: [u32; 3]) -> u32 {
+        let p0 = self.op(OP_F_MUL, x[0], y[0]);
+        let p1 = self.op(OP_F_MUL, x[1], y[1]);
+        let sum = self.op(OP_F_ADD, p0, p1);
+        let p2 = self.op(OP_F_MUL, x[2], y[2]);
+        self.op(OP_F_ADD, sum, p2)
+    }
+}
+
+/// An upper bound on the ids [`Fit::new`] and one [`Fit::select_at_return`] take.
+pub const FIT_IDS: usize = 100;
+/// Ids each [`Fit::select_at_return`] takes.
+pub const RETURN_IDS: usize = 9;
+
+impl Fit {
+    pub fn new<F: FnMut() -> u32>(
+        leaf: Leaf,
+        bool_type: Option<u32>,
+        types: Types,
+        fresh: &mut F,
+    ) -> Fit {
+        let (bool_type, new_bool) = match bool_type {
+            Some(id) => (id, false),
+            None => (fresh(), true),
+        };
+        let mut constant = |value: f32| (fresh(), value);
+        let zero = constant(0.0);
+        let one = constant(1.0);
+        let minus_one = constant(-1.0);
+        let half = constant(0.5);
+        let one_and_a_half = constant(1.5);
+        let residual = constant(RESIDUAL_TOLERANCE_SQUARED);
+        let affine = constant(AFFINE_W_TOLERANCE_SQUARED);
+        let infinity = constant(f32::INFINITY);
+        let minus_infinity = constant(f32::NEG_INFINITY);
+        let (derived, init) = (fresh(), fresh());
+        let Types {
+            float,
+            vec4,
+            push_vec4,
+            push_variable,
+            carrier_index,
+        } = types;
+        let mut code = Code {
+            words: Vec::new(),
+            exact: Vec::new(),
+            fresh,
+            float,
+        };
+        // The depth row a and the w row b of the column-vector matrix.
+        let element = |code: &mut Code<'_, F>, row: u32, column: u32| {
+            let indices = if leaf.transposed {
+                [row, column]
+            } else {
+                [column, row]
+            };
+            code.typed(
+                OP_COMPOSITE_EXTRACT,
+                float,
+                &[leaf.id, indices[0], indices[1]],
+            )
+        };
+        let a: [u32; 4] = std::array::from_fn(|j| element(&mut code, 2, j as u32));
+        let b: [u32; 4] = std::array::from_fn(|j| element(&mut code, 3, j as u32));
+        let xyz = |v: [u32; 4]| [v[0], v[1], v[2]];
+        let bb = code.dot3(xyz(b), xyz(b));
+        let aa = code.dot3(xyz(a), xyz(a));
+        let ab = code.dot3(xyz(a), xyz(b));
+        let k = code.op(OP_F_DIV, ab, bb);
+        let e: [u32; 3] = std::array::from_fn(|i| {
+            let m = code.op(OP_F_MUL, k, b[i]);
+            code.op(OP_F_SUB, a[i], m)
+        });
+        let ee = code.dot3(e, e);
+        let kb3 = code.op(OP_F_MUL, k, b[3]);
+        let b_fit = code.op(OP_F_SUB, a[3], kb3);
+        let bw2 = code.op(OP_F_MUL, b[3], b[3]);
+        let affine_bound = code.op(OP_F_MUL, affine.0, bw2);
+        let tolerance = code.op(OP_F_MUL, residual.0, aa);
+        let one_minus_k = code.op(OP_F_SUB, one.0, k);
+        let neg_b = code.typed(OP_F_NEGATE, float, &[b_fit]);
+        code.exact.push(neg_b);
+        let near = code.op(OP_F_DIV, neg_b, k);
+        // The guard, each comparison false for NaN.
+        let conditions = [
+            (OP_F_ORD_GREATER_THAN, bb, zero.0),
+            (OP_F_ORD_GREATER_THAN_EQUAL, bb, affine_bound),
+            (OP_F_ORD_LESS_THAN_EQUAL, ee, tolerance),
+            (OP_F_ORD_GREATER_THAN, k, zero.0),
+            (OP_F_ORD_LESS_THAN, k, infinity.0),
+            (OP_F_ORD_LESS_THAN, b_fit, zero.0),
+            (OP_F_ORD_GREATER_THAN, b_fit, minus_infinity.0),
+        ]
+        .map(|(opcode, x, y)| code.typed(opcode, bool_type, &[x, y]));
+        let accepted = conditions[1..].iter().fold(conditions[0], |all, &c| {
+            code.typed(OP_LOGICAL_AND, bool_type, &[all, c])
+        });
+        // The selector (the pushed carrier's w): 2 infinite, else complementary.
+        let pointer = code.typed(
+            OP_ACCESS_CHAIN,
+            push_vec4,
+            &[push_variable, carrier_index],
+        );
+        let carrier = code.typed(OP_LOAD, vec4, &[pointer]);
+        let selector = code.typed(OP_COMPOSITE_EXTRACT, float, &[carrier, 3]);
+        let infinite = code.typed(
+            OP_F_ORD_GREATER_THAN,
+            bool_type,
+            &[selector, one_and_a_half.0],
+        );
+        let c_w = code.typed(OP_SELECT, float, &[infinite, zero.0, one_minus_k]);
+        let c_1 = code.typed(OP_SELECT, float, &[infinite, near, neg_b]);
+        let [flip_z, flip_w, flip_1] = FLIP_IN_SHADER;
+        let id_of = |value: f32| match value {
+            v if v == 0.0 => zero.0,
+            v if v == 1.0 => one.0,
+            _ => minus_one.0,
+        };
+        let out_z = code.typed(OP_SELECT, float, &[accepted, zero.0, id_of(flip_z)]);
+        let out_w = code.typed(OP_SELECT, float, &[accepted, c_w, id_of(flip_w)]);
+        let out_1 = code.typed(OP_SELECT, float, &[accepted, c_1, id_of(flip_1)]);
+        let value = code.typed(
+            OP_COMPOSITE_CONSTRUCT,
+            vec4,
+            &[out_z, out_w, out_1, zero.0],
+        );
+        push(&mut code.words, OP_STORE, &[derived, value]);
+        let Code { words, exact, .. } = code;
+        Fit {
+            leaf,
+            bool_type,
+            new_bool,
+            derived,
+            init,
+            constants: vec![
+                zero,
+                one,
+                minus_one,
+                half,
+                one_and_a_half,
+                residual,
+                affine,
+                infinity,
+                minus_infinity,
+            ],
+            half: half.0,
+            code: words,
+            exact,
+        }
+    }
+
+    /// `OpDecorate ... NoContraction` for every arithmetic result (annotation section).
+    pub fn decorations(&self, out: &mut Vec<u32>) {
+        for &id in &self.exact {
+            push(out, OP_DECORATE, &[id, DECORATION_NO_CONTRACTION]);
+        }
+    }
+
+    /// The constants, the bool type and the private variable (declaration section, after
+    /// the float, `vec4` and the private `vec4` pointer type are declared).
+    pub fn declarations(&self, out: &mut Vec<u32>, float: u32, vec4: u32, private_vec4: u32) {
+        if self.new_bool {
+            push(out, OP_TYPE_BOOL, &[self.bool_type]);
+        }
+        for &(id, value) in &self.constants {
+            push(out, OP_CONSTANT, &[float, id, value.to_bits()]);
+        }
+        let id_of = |value: f32| {
+            self.constants
+                .iter()
+                .find(|&&(_, v)| v == value)
+                .map_or(0, |&(id, _)| id)
+        };
+        let [c_z, c_w, c_1] = FLIP_IN_SHADER;
+        push(
+            out,
+            OP_CONSTANT_COMPOSITE,
+            &[vec4, self.init, id_of(c_z), id_of(c_w), id_of(c_1), id_of(0.0)],
+        );
+        push(
+            out,
+            OP_VARIABLE,
+            &[private_vec4, self.derived, STORAGE_PRIVATE, self.init],
+        );
+    }
+
+    /// At a return: the carrier components `(c_z, c_w, c_1)` to store with, the pushed ones
+    /// (`pushed`, from the loaded `carrier`) where its selector is 0, the derived ones
+    /// otherwise.
+    pub fn select_at_return<F: FnMut() -> u32>(
+        &self,
+        out: &mut Vec<u32>,
+        types: Types,
+        carrier: u32,
+        pushed: [u32; 3],
+        fresh: &mut F,
+    ) -> [u32; 3] {
+        let Types { float, vec4, .. } = types;
+        let (selector, use_derived, derived) = (fresh(), fresh(), fresh());
+        push(out, OP_COMPOSITE_EXTRACT, &[float, selector, carrier, 3]);
+        // 0.5: between the selector 0 of pushed values and the derived ones (1, 2).
+        push(
+            out,
+            OP_F_ORD_GREATER_THAN,
+            &[self.bool_type, use_derived, selector, self.half],
+        );
+        push(out, OP_LOAD, &[vec4, derived, self.derived]);
+        std::array::from_fn(|i| {
+            let (component, selected) = (fresh(), fresh());
+            push(
+                out,
+                OP_COMPOSITE_EXTRACT,
+                &[float, component, derived, i as u32],
+            );
+            push(
+                out,
+                OP_SELECT,
+                &[float, selected, use_derived, component, pushed[i]],
+            );
+            selected
+        })
+    }
+}
+
+/// `OpTypeBool`, `BufferBlock`, and the constant opcodes a constant leaf can be, for the
+/// caller's declaration pass.
+pub const TYPE_BOOL: u32 = OP_TYPE_BOOL;
+pub const BUFFER_BLOCK: u32 = DECORATION_BUFFER_BLOCK;
+pub const LABEL: u32 = OP_LABEL;
+
+/// Declarations outside functions a constant leaf matrix can be.
+pub fn is_matrix_constant(opcode: u32) -> bool {
+    matches!(
+        opcode,
+        OP_CONSTANT_COMPOSITE | OP_CONSTANT_NULL | OP_SPEC_CONSTANT_COMPOSITE
+    )
+}
