@@ -25,6 +25,7 @@ use ash::vk;
 use revz_math::{Cameras, Target as RewriteTarget};
 
 use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
+use crate::derived_range::MatrixSource;
 use crate::objects::FragmentShader;
 use crate::precise::{
     Carrier, FoldedPush, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER,
@@ -131,6 +132,13 @@ pub struct PipelineDepth {
     /// carrier to hold its values (the camera's on the precise path,
     /// [`crate::precise::FLIP_CARRIER`], the shader's own z, everywhere else).
     pub position_store: Option<Carrier>,
+    /// The vertex stage derives its range from the matrix it loads (no projection in push
+    /// constants: `crate::derived_range`), and where that matrix comes from: its draws into
+    /// reversed attachments push the selector of the mode instead of a camera's values.
+    pub derived_range: Option<MatrixSource>,
+    /// The pipeline's layout: what revz pushes the carrier with before the application has
+    /// pushed anything (an application without push constants never does).
+    pub layout: vk::PipelineLayout,
     /// The state subsets the pipeline defines itself (`VK_EXT_graphics_pipeline_library`):
     /// all of them but for libraries, whose links take each subset's state from the library
     /// that defines it.
@@ -173,6 +181,15 @@ pub enum Target {
     None,
     Native,
     Reversed,
+}
+
+/// The carrier of a draw whose vertex stage derives its range (`crate::derived_range`): the
+/// selector of the mode in w (1 complementary, 2 infinite); the rest is unused.
+pub fn derived_selector(target: RewriteTarget) -> [f32; 4] {
+    match target {
+        RewriteTarget::Complementary => [0.0, 0.0, 0.0, 1.0],
+        RewriteTarget::Infinite => [0.0, 0.0, 0.0, 2.0],
+    }
 }
 
 /// Whether two n / f ratios are the same camera's. The matrices of one camera (P * V * M,
@@ -461,6 +478,17 @@ impl CommandState {
         Some((projection, self.reversing.rewrite?))
     }
 
+    /// The mode whose depth the bound pipeline's vertex stage derives itself for the next
+    /// draw, if it does (`crate::derived_range`): a reversed attachment, viewports of its own,
+    /// a rewriting mode, and a stage that derives its range.
+    fn derived_use(&self) -> Option<RewriteTarget> {
+        if self.target != Target::Reversed || self.inherits_viewports {
+            return None;
+        }
+        self.pipeline.as_ref()?.derived_range?;
+        self.reversing.rewrite
+    }
+
     /// `vkCmdPushConstants` of `data` with `stages` at `offset`: classifies the bound
     /// pipeline's projection when the push reaches it. Returns the outcome of a classification,
     /// if one was made (the caller reports already reversed projections), and the push to send
@@ -542,6 +570,9 @@ impl CommandState {
     /// What the carrier must hold for the next draw, given the outcome of its projection: the
     /// camera's reversed depth line on the precise path, the shader's own z everywhere else.
     fn carrier_values(&self, outcome: Option<Outcome>) -> [f32; 4] {
+        if let Some(target) = self.derived_use() {
+            return derived_selector(target);
+        }
         match (self.target, outcome) {
             (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
             _ => FLIP_CARRIER,
@@ -757,10 +788,19 @@ impl CommandState {
         // which the bound pipeline's is compatible with. Before the application's first push
         // there is none, and its own push constants are undefined as well.
         let store = self.pipeline.as_ref().and_then(|p| p.position_store);
+        // Before the application's first push, the bound pipeline's own layout (an
+        // application whose projection is in buffers may push nothing at all).
+        let layout = match self.push.layout() {
+            layout if layout != vk::PipelineLayout::null() => layout,
+            _ => self
+                .pipeline
+                .as_ref()
+                .map_or(vk::PipelineLayout::null(), |p| p.layout),
+        };
         let carrier_ready = match store {
-            Some(carrier) if self.push.layout() != vk::PipelineLayout::null() => {
+            Some(carrier) if layout != vk::PipelineLayout::null() => {
                 let values = self.carrier_values(outcome);
-                let held = (self.push.layout(), values.map(f32::to_bits));
+                let held = (layout, values.map(f32::to_bits));
                 if self.carrier_held != Some(held) {
                     sink.push_constants(
                         held.0,
@@ -775,6 +815,9 @@ impl CommandState {
             _ => false,
         };
         self.path = match (self.target, outcome) {
+            (Target::Reversed, _) if carrier_ready && self.derived_use().is_some() => {
+                DrawPath::Precise
+            }
             (Target::Reversed, Some(Outcome::Rewritten { .. })) if carrier_ready => {
                 DrawPath::Precise
             }
@@ -977,6 +1020,8 @@ mod tests {
         biases: Vec<DepthBias>,
         bounds: Vec<(f32, f32)>,
         pushes: Vec<(u32, usize)>,
+        /// The layout and bytes of each push.
+        pushed: Vec<(vk::PipelineLayout, Vec<u8>)>,
         binds: Vec<vk::Pipeline>,
         shader_binds: Vec<vk::ShaderEXT>,
     }
@@ -984,12 +1029,13 @@ mod tests {
     impl PushSink for Recorded {
         fn push_constants(
             &mut self,
-            _: vk::PipelineLayout,
+            layout: vk::PipelineLayout,
             _: vk::ShaderStageFlags,
             offset: u32,
             bytes: &[u8],
         ) {
             self.pushes.push((offset, bytes.len()));
+            self.pushed.push((layout, bytes.to_vec()));
         }
     }
 
@@ -1063,6 +1109,8 @@ mod tests {
             promoted_reversed_variant: None,
             projection: None,
             position_store: None,
+            derived_range: None,
+            layout: vk::PipelineLayout::null(),
             subsets: vk::GraphicsPipelineLibraryFlagsEXT::empty(),
             module_identifiers: false,
         })
@@ -1342,6 +1390,56 @@ mod tests {
             rewrite: Some(target),
             reversal,
         })
+    }
+
+    /// A pipeline whose vertex stage derives its range from a uniform buffer's matrix.
+    fn derived_pipeline() -> Arc<PipelineDepth> {
+        Arc::new(PipelineDepth {
+            projection: None,
+            derived_range: Some(MatrixSource::UniformBuffer),
+            layout: vk::PipelineLayout::from_raw(9),
+            ..(*projection_pipeline()).clone()
+        })
+    }
+
+    #[test]
+    fn a_stage_deriving_its_range_gets_the_selector_with_its_own_layout_and_no_push_of_its_own() {
+        for (target, selector) in [
+            (RewriteTarget::Complementary, 1.0f32),
+            (RewriteTarget::Infinite, 2.0),
+        ] {
+            let reversal = precise(target).reversal();
+            let mut state = precise(target);
+            state.begin(Target::Reversed, reversal, Default::default());
+            state.bind_pipeline(Some(derived_pipeline()));
+            let mut sink = Recorded::default();
+            state.before_draw(&mut sink);
+            assert_eq!(state.path(), DrawPath::Precise);
+            let carrier = Carrier::bytes(&[0.0, 0.0, 0.0, selector]).to_vec();
+            assert_eq!(
+                sink.pushed,
+                vec![(vk::PipelineLayout::from_raw(9), carrier)]
+            );
+            assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
+            assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
+            // The next draws: nothing more to send.
+            state.before_draw(&mut sink);
+            assert_eq!(sink.pushed.len(), 1);
+            // Into a native attachment the stage stores its own z.
+            state.set_target(Target::Native);
+            state.before_draw(&mut sink);
+            assert_eq!(state.path(), DrawPath::Native);
+            let flip = Carrier::bytes(&FLIP_CARRIER).to_vec();
+            assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&flip));
+            // A secondary inheriting viewports cannot take it: the flip path.
+            let mut inherited = precise(target);
+            inherited.begin(Target::Reversed, reversal, Default::default());
+            inherited.inherit_viewports();
+            inherited.bind_pipeline(Some(derived_pipeline()));
+            let mut sink = Recorded::default();
+            inherited.before_draw(&mut sink);
+            assert_eq!(inherited.path(), DrawPath::Flip);
+        }
     }
 
     #[test]

@@ -133,10 +133,20 @@ struct Defs {
 
 fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
     match opcode {
-        OP_LOAD | OP_COPY_OBJECT | OP_MATRIX_TIMES_VECTOR | OP_VECTOR_TIMES_MATRIX
-        | OP_MATRIX_TIMES_MATRIX | OP_TRANSPOSE | OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN
-        | OP_VARIABLE | OP_PHI | OP_FUNCTION_PARAMETER | OP_COMPOSITE_CONSTRUCT
-        | OP_COMPOSITE_EXTRACT | OP_FUNCTION_CALL => operands.get(1).copied(),
+        OP_LOAD
+        | OP_COPY_OBJECT
+        | OP_MATRIX_TIMES_VECTOR
+        | OP_VECTOR_TIMES_MATRIX
+        | OP_MATRIX_TIMES_MATRIX
+        | OP_TRANSPOSE
+        | OP_ACCESS_CHAIN
+        | OP_IN_BOUNDS_ACCESS_CHAIN
+        | OP_VARIABLE
+        | OP_PHI
+        | OP_FUNCTION_PARAMETER
+        | OP_COMPOSITE_CONSTRUCT
+        | OP_COMPOSITE_EXTRACT
+        | OP_FUNCTION_CALL => operands.get(1).copied(),
         _ => None,
     }
 }
@@ -205,7 +215,9 @@ impl Defs {
     /// the entry point's output struct so).
     fn member(&self, composite: u32, index: u32) -> Option<u32> {
         match self.at.get(&composite) {
-            Some((_, OP_COMPOSITE_CONSTRUCT, operands)) => operands.get(2 + index as usize).copied(),
+            Some((_, OP_COMPOSITE_CONSTRUCT, operands)) => {
+                operands.get(2 + index as usize).copied()
+            }
             _ => None,
         }
     }
@@ -220,7 +232,9 @@ impl Defs {
             (OP_MATRIX_TIMES_VECTOR, &[_, _, matrix, _]) => Some((matrix, false)),
             (OP_VECTOR_TIMES_MATRIX, &[_, _, _, matrix]) => Some((matrix, true)),
             (OP_COPY_OBJECT, &[_, _, source]) => self.multiply(source, depth + 1),
-            (OP_LOAD, &[_, _, pointer, ..]) => self.multiply(self.through_local(pointer)?, depth + 1),
+            (OP_LOAD, &[_, _, pointer, ..]) => {
+                self.multiply(self.through_local(pointer)?, depth + 1)
+            }
             (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => {
                 self.multiply(self.member(composite, index)?, depth + 1)
             }
@@ -345,7 +359,11 @@ pub fn find(
             let source = match module.global_opcodes.get(&id) {
                 Some(&(OP_CONSTANT_COMPOSITE | OP_CONSTANT_NULL)) => MatrixSource::Constant,
                 Some(&OP_SPEC_CONSTANT_COMPOSITE) => MatrixSource::SpecializationConstant,
-                _ => return Err(Unsupported("the matrix is not defined where revz can see it")),
+                _ => {
+                    return Err(Unsupported(
+                        "the matrix is not defined where revz can see it",
+                    ))
+                }
             };
             (Insert::EntryStart, source)
         }
@@ -365,20 +383,20 @@ pub fn find(
 
 /// Where a loaded pointer points: the storage class its access chain starts in.
 fn source_of(module: &ModuleFacts<'_>, defs: &Defs, pointer: u32) -> MatrixSource {
-                    match defs.pointer_class(module, pointer, 0) {
-                        Some(STORAGE_STORAGE_BUFFER) => MatrixSource::StorageBuffer,
-                        Some(STORAGE_UNIFORM) => {
-                            let block = buffer_block_of(module, pointer, &defs);
-                            if block {
-                                MatrixSource::StorageBuffer
-                            } else {
-                                MatrixSource::UniformBuffer
-                            }
-                        }
-                        Some(STORAGE_PUSH_CONSTANT) => MatrixSource::PushConstants,
-                        Some(STORAGE_UNIFORM_CONSTANT) | None => MatrixSource::Computed,
-                        Some(_) => MatrixSource::Computed,
-                    }
+    match defs.pointer_class(module, pointer, 0) {
+        Some(STORAGE_STORAGE_BUFFER) => MatrixSource::StorageBuffer,
+        Some(STORAGE_UNIFORM) => {
+            let block = buffer_block_of(module, pointer, &defs);
+            if block {
+                MatrixSource::StorageBuffer
+            } else {
+                MatrixSource::UniformBuffer
+            }
+        }
+        Some(STORAGE_PUSH_CONSTANT) => MatrixSource::PushConstants,
+        Some(STORAGE_UNIFORM_CONSTANT) | None => MatrixSource::Computed,
+        Some(_) => MatrixSource::Computed,
+    }
 }
 
 /// Whether a `Uniform` pointer chain starts at a `BufferBlock` variable (a storage buffer in
@@ -555,11 +573,7 @@ impl Fit {
             code.typed(OP_LOGICAL_AND, bool_type, &[all, c])
         });
         // The selector (the pushed carrier's w): 2 infinite, else complementary.
-        let pointer = code.typed(
-            OP_ACCESS_CHAIN,
-            push_vec4,
-            &[push_variable, carrier_index],
-        );
+        let pointer = code.typed(OP_ACCESS_CHAIN, push_vec4, &[push_variable, carrier_index]);
         let carrier = code.typed(OP_LOAD, vec4, &[pointer]);
         let selector = code.typed(OP_COMPOSITE_EXTRACT, float, &[carrier, 3]);
         let infinite = code.typed(
@@ -578,11 +592,7 @@ impl Fit {
         let out_z = code.typed(OP_SELECT, float, &[accepted, zero.0, id_of(flip_z)]);
         let out_w = code.typed(OP_SELECT, float, &[accepted, c_w, id_of(flip_w)]);
         let out_1 = code.typed(OP_SELECT, float, &[accepted, c_1, id_of(flip_1)]);
-        let value = code.typed(
-            OP_COMPOSITE_CONSTRUCT,
-            vec4,
-            &[out_z, out_w, out_1, zero.0],
-        );
+        let value = code.typed(OP_COMPOSITE_CONSTRUCT, vec4, &[out_z, out_w, out_1, zero.0]);
         push(&mut code.words, OP_STORE, &[derived, value]);
         let Code { words, exact, .. } = code;
         Fit {
@@ -634,7 +644,14 @@ impl Fit {
         push(
             out,
             OP_CONSTANT_COMPOSITE,
-            &[vec4, self.init, id_of(c_z), id_of(c_w), id_of(c_1), id_of(0.0)],
+            &[
+                vec4,
+                self.init,
+                id_of(c_z),
+                id_of(c_w),
+                id_of(c_1),
+                id_of(0.0),
+            ],
         );
         push(
             out,

@@ -20,6 +20,7 @@ pub mod chain;
 pub mod command_state;
 pub mod config;
 pub mod conv;
+pub mod derived_range;
 pub mod ffi;
 pub mod fragment_depth;
 #[cfg(test)]
@@ -28,7 +29,6 @@ mod hooks;
 pub mod logging;
 pub mod objects;
 pub mod policy;
-pub mod derived_range;
 pub mod position_store;
 pub mod precise;
 pub mod shader_analysis;

@@ -28,7 +28,15 @@ pub type ModuleAnalysis = Result<Vec<(String, Analysis)>, String>;
 pub type ReversedFragment = Result<Arc<[u32]>, Unsupported>;
 /// A vertex module rewritten to store the carrier's depth (`crate::position_store`), or why it
 /// cannot be.
-pub type RewrittenVertex = Result<Arc<[u32]>, crate::position_store::Unsupported>;
+pub type RewrittenVertex = Result<VertexRewrite, crate::position_store::Unsupported>;
+
+/// A vertex module's `Position` rewrite: its code, and where the matrix comes from when the
+/// stage derives its range itself (`crate::derived_range`: no projection in push constants).
+#[derive(Clone, Debug)]
+pub struct VertexRewrite {
+    pub code: Arc<[u32]>,
+    pub derived: Option<crate::derived_range::MatrixSource>,
+}
 
 /// A tracked depth image.
 #[derive(Clone, Copy, Debug)]

@@ -624,8 +624,7 @@ impl Module {
                 // variables.
                 if opcode == derived_range::LABEL {
                     entry_label_seen = true;
-                } else if entry_label_seen
-                    && !matches!(opcode, OP_VARIABLE | OP_LINE | OP_NO_LINE)
+                } else if entry_label_seen && !matches!(opcode, OP_VARIABLE | OP_LINE | OP_NO_LINE)
                 {
                     if let Some(fit) = &fit {
                         out.extend_from_slice(&fit.code);
@@ -740,9 +739,13 @@ impl Module {
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_w, carrier, 1]);
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_1, carrier, 2]);
                     let [c_z, c_w, c_1] = match &fit {
-                        Some(fit) => {
-                            fit.select_at_return(&mut out, types, carrier, [c_z, c_w, c_1], &mut fresh)
-                        }
+                        Some(fit) => fit.select_at_return(
+                            &mut out,
+                            types,
+                            carrier,
+                            [c_z, c_w, c_1],
+                            &mut fresh,
+                        ),
                         None => [c_z, c_w, c_1],
                     };
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, z, value, 2]);
@@ -897,7 +900,9 @@ impl Body {
                     if whole.contains(&pointer) {
                         body.stores.whole.push(value);
                     } else {
-                        body.stores.components.push(component.get(&pointer).copied().flatten());
+                        body.stores
+                            .components
+                            .push(component.get(&pointer).copied().flatten());
                     }
                 }
                 (OP_COPY_MEMORY, &[target, source, ..])

@@ -375,7 +375,10 @@ fn a_uniform_buffer_projection_is_fitted_from_its_outermost_factor() {
         .into_iter()
         .filter(|d| d.get(1) == Some(&42))
         .count();
-    assert!(no_contraction >= 30, "{no_contraction} NoContraction decorations");
+    assert!(
+        no_contraction >= 30,
+        "{no_contraction} NoContraction decorations"
+    );
     // The leaf is the projection: the fit's extractions read member 0 of the loaded block
     // (naga loads the block, extracts P, V and M, and evaluates (P * V) * M left to right).
     let extracts = with_opcode(&out, OP_COMPOSITE_EXTRACT);

@@ -150,7 +150,6 @@ mod tests {
     use super::*;
     use glam::{dcamera::rh::proj::vulkan, DMat4};
 
-
     fn rows(m: DMat4) -> ([f32; 4], [f32; 4]) {
         let c = m.as_mat4().to_cols_array_2d();
         depth_and_w_rows(&c, false)
@@ -178,7 +177,12 @@ mod tests {
 
     #[test]
     fn transposed_rows_are_columns() {
-        let c = [[1.0, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 8.0], [9.0; 4], [0.0; 4]];
+        let c = [
+            [1.0, 2.0, 3.0, 4.0],
+            [5.0, 6.0, 7.0, 8.0],
+            [9.0; 4],
+            [0.0; 4],
+        ];
         assert_eq!(depth_and_w_rows(&c, true), (c[2], c[3]));
         assert_eq!(depth_and_w_rows(&c, false).0, [3.0, 7.0, 9.0, 0.0]);
     }

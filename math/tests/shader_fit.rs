@@ -49,17 +49,15 @@ fn setup() -> impl Strategy<Value = Setup> {
         log_uniform(0.1, 10.0),
     )
         .prop_map(
-            |(fov_y, near, ratio, (eye_dir, eye_distance), forward, d, object_rotation, s)| {
-                Setup {
-                    fov_y,
-                    near,
-                    far: near * ratio,
-                    eye: eye_dir * eye_distance * near,
-                    forward,
-                    object_distance: d,
-                    object_rotation,
-                    object_scale: s,
-                }
+            |(fov_y, near, ratio, (eye_dir, eye_distance), forward, d, object_rotation, s)| Setup {
+                fov_y,
+                near,
+                far: near * ratio,
+                eye: eye_dir * eye_distance * near,
+                forward,
+                object_distance: d,
+                object_rotation,
+                object_scale: s,
             },
         )
 }
@@ -126,14 +124,18 @@ fn the_float32_fit_is_within_its_bound_of_the_f64_fit_of_the_same_entries() {
             // The f64 fit refuses: the shader must not accept a line the CPU would not call
             // a projection (it may refuse more: its comparisons are float32).
             if let Some(line) = fit_in_shader(a, b) {
-                return Err(fail(format!("accepted {line:?} where DepthLine refuses: {s:?}")));
+                return Err(fail(format!(
+                    "accepted {line:?} where DepthLine refuses: {s:?}"
+                )));
             }
             worst.borrow_mut().count("refused by both");
             return Ok(());
         };
         let Some(line) = fit_in_shader(a, b) else {
             if line64.b < 0.0 && line64.k > 0.0 && line64.relative_b_error() < 1e-3 {
-                return Err(fail(format!("refused a well-conditioned line {line64:?}: {s:?}")));
+                return Err(fail(format!(
+                    "refused a well-conditioned line {line64:?}: {s:?}"
+                )));
             }
             worst.borrow_mut().count("refused by the shader only");
             return Ok(());
@@ -142,8 +144,12 @@ fn the_float32_fit_is_within_its_bound_of_the_f64_fit_of_the_same_entries() {
         let bound = 10.0 * U * (aw + kbw);
         let k_error = (f64::from(line.k) - line64.k).abs() / line64.k.abs();
         let b_error = (f64::from(line.b) - line64.b).abs();
-        worst.borrow_mut().max("|k32 - k64| / (u |k64|)", k_error / U);
-        worst.borrow_mut().max("|B32 - B64| / bound", b_error / bound);
+        worst
+            .borrow_mut()
+            .max("|k32 - k64| / (u |k64|)", k_error / U);
+        worst
+            .borrow_mut()
+            .max("|B32 - B64| / bound", b_error / bound);
         if k_error > 8.5 * U || b_error > bound {
             return Err(fail(format!(
                 "k error {k_error:e}, B error {b_error:e} > bound {bound:e}: {s:?}"
@@ -167,8 +173,7 @@ fn a_shared_projection_gives_its_near_plane_within_a_few_u() {
             ("P * V", s.projection() * s.view(), 0.0),
         ] {
             let ((a, b), entries) = rounded(m);
-            let line = fit_in_shader(a, b)
-                .ok_or_else(|| fail(format!("{name} refused: {s:?}")))?;
+            let line = fit_in_shader(a, b).ok_or_else(|| fail(format!("{name} refused: {s:?}")))?;
             let relative = (near_of(line) / n - 1.0).abs();
             if name == "P" {
                 worst.borrow_mut().max("P: |n32 / n - 1| / u", relative / U);
@@ -180,7 +185,9 @@ fn a_shared_projection_gives_its_near_plane_within_a_few_u() {
                 // relative); the f64 fit of the same entries says how much.
                 let line64 = DepthLine::of(&entries).expect("a projection");
                 let bound = line64.relative_b_error() + 10.0 * U * (1.0 + s.eye.length() / n);
-                worst.borrow_mut().max("P * V: |n32 / n - 1| / bound", relative / bound);
+                worst
+                    .borrow_mut()
+                    .max("P * V: |n32 / n - 1| / bound", relative / bound);
                 if relative > bound {
                     return Err(fail(format!("{name}: near off by {relative:e}: {s:?}")));
                 }
@@ -214,9 +221,13 @@ fn per_object_ranges_differ_by_a_few_units_of_the_flip_paths_rounding() {
         };
         let spread = (near_of(first) / near_of(second) - 1.0).abs();
         let unit = U * s.object_distance;
-        worst.borrow_mut().max("|n1 / n2 - 1| / (u d / n)", spread / unit);
+        worst
+            .borrow_mut()
+            .max("|n1 / n2 - 1| / (u d / n)", spread / unit);
         if spread > 16.0 * unit {
-            return Err(fail(format!("ranges {spread:e} apart, unit {unit:e}: {s:?}")));
+            return Err(fail(format!(
+                "ranges {spread:e} apart, unit {unit:e}: {s:?}"
+            )));
         }
         let (k, b) = s.true_line();
         let truth = -b / k;

@@ -20,8 +20,9 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, DepthBias};
+use crate::derived_range::MatrixSource;
 use crate::fragment_depth;
-use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex};
+use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::position_store;
 use crate::precise::{self, Carrier, ProjectionUse};
 use crate::shader_analysis::{self, Analysis};
@@ -144,7 +145,9 @@ fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]
             depth.viewports.clone_from(&library.viewports);
             depth.bias = library.bias;
             depth.projection = library.projection;
+            depth.derived_range = library.derived_range;
             depth.position_store = library.position_store;
+            depth.layout = library.layout;
         }
         if library.subsets.contains(Subsets::FRAGMENT_SHADER) {
             depth.compare_op = library.compare_op;
@@ -352,16 +355,32 @@ fn projection_of(
         .iter()
         .find(|(entry, _)| entry.as_bytes() == name.to_bytes())
     {
-        Some((_, Analysis::Projection(slot))) => slot,
+        Some((_, Analysis::Projection(slot))) => Some(slot),
         Some((_, Analysis::Unreadable(reason))) => return Err(reason.clone()),
-        _ => return Err("Position does not come from a push-constant matrix".into()),
+        Some(_) => None,
+        None => return Err("its vertex entry point is unknown".into()),
     };
-    let ranges = state
-        .objects
-        .pipeline_layouts
-        .get(&info.layout)
-        .ok_or("its pipeline layout is unknown")?;
-    let projection = ProjectionUse::new(slot, convention, &ranges).map_err(|e| e.to_string())?;
+    let projection = match slot {
+        Some(slot) => {
+            let ranges = state
+                .objects
+                .pipeline_layouts
+                .get(&info.layout)
+                .ok_or("its pipeline layout is unknown")?;
+            Some(ProjectionUse::new(slot, convention, &ranges).map_err(|e| e.to_string())?)
+        }
+        // The stage derives its range from the matrix it loads (`crate::derived_range`),
+        // which assumes [0, 1] clip depth: the [-1, 1] one would need the layer to change the
+        // pipeline's clip convention.
+        None if convention == DepthConvention::NegativeOneToOne => {
+            return Err(
+                "its projection is not in push constants and its clip depth is \
+                        [-1, 1] (VK_EXT_depth_clip_control)"
+                    .into(),
+            )
+        }
+        None => None,
+    };
     let carrier = state
         .objects
         .layout_carriers
@@ -377,23 +396,34 @@ fn projection_of(
         let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
         position_store_of(state, &analysis, words).ok_or("its vertex shader has no rewrite")?
     };
-    let code =
-        rewrite.map_err(|reason| format!("its Position store cannot be rewritten ({reason})"))?;
+    let rewrite = rewrite.map_err(|reason| {
+        if projection.is_some() {
+            format!("its Position store cannot be rewritten ({reason})")
+        } else {
+            format!("its projection is not in push constants, and its vertex stage cannot derive its range ({reason})")
+        }
+    })?;
+    if projection.is_none() && rewrite.derived.is_none() {
+        return Err("Position does not come from a push-constant matrix".into());
+    }
     let index = stages
         .iter()
         .position(|s| s.stage == vk::ShaderStageFlags::VERTEX)
         .ok_or("it has no vertex stage")?;
     Ok(PreciseStage {
         projection,
+        derived: rewrite.derived,
         carrier,
-        vertex: (index, code),
+        vertex: (index, rewrite.code),
     })
 }
 
-/// What the precise path needs of a pipeline: where its projection is, where revz's carrier
-/// is, and its vertex stage (index) rewritten to store the carrier's depth.
+/// What the precise path needs of a pipeline: where its projection is (or where the matrix
+/// its vertex stage derives the range from comes from), where revz's carrier is, and its
+/// vertex stage (index) rewritten to store the carrier's depth.
 struct PreciseStage {
-    projection: ProjectionUse,
+    projection: Option<ProjectionUse>,
+    derived: Option<MatrixSource>,
     carrier: Carrier,
     vertex: (usize, Arc<[u32]>),
 }
@@ -407,16 +437,29 @@ fn position_store_of(
 ) -> Option<RewrittenVertex> {
     let offset = state.policy.carrier_offset?;
     let entries = analysis.as_ref().ok()?;
-    if !entries
+    let no_position = position_store::Unsupported("no Position output");
+    if entries
         .iter()
         .any(|(_, a)| matches!(a, Analysis::Projection(_)))
     {
-        return None;
+        return Some(
+            position_store::rewrite_position_store(words, offset).and_then(|code| {
+                let code = code.ok_or(no_position)?;
+                Ok(VertexRewrite {
+                    code: code.into(),
+                    derived: None,
+                })
+            }),
+        );
     }
+    // No projection in push constants: the stage derives its range from the matrix it loads.
     Some(
-        position_store::rewrite_position_store(words, offset).and_then(|code| {
-            code.map(Into::into)
-                .ok_or(position_store::Unsupported("no Position output"))
+        position_store::rewrite_position_store_deriving(words, offset).and_then(|code| {
+            let (code, source) = code.ok_or(no_position)?;
+            Ok(VertexRewrite {
+                code: code.into(),
+                derived: Some(source),
+            })
         }),
     )
 }
@@ -621,6 +664,7 @@ fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Pla
     let has = |state: vk::DynamicState| app_states.contains(&state);
     let mut depth = PipelineDepth {
         subsets: context.subsets,
+        layout: info.layout,
         ..PipelineDepth::default()
     };
     for &state in app_states {
@@ -858,7 +902,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     } else if precise {
                         match projection_of(&state, info) {
                             Ok(stage) => {
-                                plan.depth.projection = Some(stage.projection);
+                                plan.depth.projection = stage.projection;
+                                plan.depth.derived_range = stage.derived;
                                 plan.depth.position_store = Some(stage.carrier);
                                 plan.vertex = Some(stage.vertex);
                             }
@@ -914,6 +959,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                             .and_then(|stage| rewritten_stage(&state, device, stage, &code));
                         if stage.is_none() {
                             plan.depth.projection = None;
+                            plan.depth.derived_range = None;
                             plan.depth.position_store = None;
                             plan.flip_reason =
                                 Some("its rewritten vertex stage could not be made".into());
@@ -1103,6 +1149,11 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 }
 
                 match (&plan.depth.projection, &plan.flip_reason) {
+                    (None, None) if plan.depth.derived_range.is_some() => log::debug!(
+                        "pipeline {pipeline:?}: projection from {}: its vertex stage derives \
+                         the range from the matrix it loads (precise path)",
+                        plan.depth.derived_range.map_or("?", MatrixSource::describe)
+                    ),
                     (Some(p), _) => log::debug!(
                         "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
                          ({:?}, {:?}): precise path",
