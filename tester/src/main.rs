@@ -184,7 +184,11 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         .out
         .as_deref()
         .context("--out is required when rendering a scene")?;
-    let mut scene = cli.scene.build().with_delivery(cli.delivery).map_err(anyhow::Error::msg)?;
+    let mut scene = cli
+        .scene
+        .build()
+        .with_delivery(cli.delivery)
+        .map_err(anyhow::Error::msg)?;
     let depth_resolve = cli.depth_resolve.unwrap_or(ResolveMode::SampleZero);
     if !scene.plan.set_depth_resolve(depth_resolve) && cli.depth_resolve.is_some() {
         bail!(

@@ -1262,6 +1262,52 @@ mod tests {
     }
 
     #[test]
+    fn a_buffer_delivery_replaces_the_flat_program_and_drops_the_pushes() {
+        let plan = Plan::single_pass(2);
+        assert_eq!(plan.with_delivery(Delivery::Push).unwrap(), plan);
+        for delivery in [Delivery::Ubo, Delivery::UboDynamic, Delivery::Ssbo] {
+            let taken = plan.with_delivery(delivery).unwrap();
+            let program = delivery.program().unwrap();
+            assert_eq!(taken.pipelines[0].program, program);
+            assert_eq!(taken.buffer_program(), Some(program));
+            assert_eq!(program.push_constant_size(), 0);
+            taken.check(2, false).unwrap();
+            // A push into a program without push constants is malformed.
+            let mut pushing = taken.clone();
+            pushing.steps.insert(
+                2,
+                Step::Push {
+                    object: 0,
+                    offset: 0,
+                    size: 16,
+                },
+            );
+            assert!(pushing.check(2, false).is_err());
+            // Two buffer deliveries in one plan share no buffers.
+            let mut mixed = taken.clone();
+            let other = if program == Program::Ssbo {
+                Program::Ubo
+            } else {
+                Program::Ssbo
+            };
+            mixed.pipelines.push(PipelineSpec {
+                program: other,
+                ..PipelineSpec::standard("other", 0)
+            });
+            mixed.steps.insert(2, Step::Bind(1));
+            assert!(mixed.check(2, false).is_err());
+        }
+        // Other programs, partial pushes and shadow passes refuse.
+        let mut pair = plan.clone();
+        pair.pipelines[0].program = Program::MvpPair;
+        assert!(pair.with_delivery(Delivery::Ubo).is_err());
+        let mut partial = plan.clone();
+        partial.steps[3] = Step::DrawPushed(1);
+        assert!(partial.with_delivery(Delivery::Ssbo).is_err());
+        assert!(plan.buffer_program().is_none());
+    }
+
+    #[test]
     fn threaded_secondaries_are_not_allocated_from_the_main_pool() {
         let mut plan = Plan::single_pass(2);
         let list = |n| vec![Step::Bind(0), Step::Draw(n)];

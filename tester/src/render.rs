@@ -164,7 +164,8 @@ impl Drop for Renderer<'_> {
                 .destroy_pipeline_layout(self.shadow_layout, None);
             self.device.destroy_pipeline_layout(self.plain_layout, None);
             self.device.destroy_pipeline_layout(self.pair_layout, None);
-            self.device.destroy_pipeline_layout(self.matrix_layout, None);
+            self.device
+                .destroy_pipeline_layout(self.matrix_layout, None);
             if let Some(matrices) = &self.matrices {
                 self.device.destroy_descriptor_pool(matrices.pool, None);
                 self.device
@@ -490,8 +491,7 @@ impl<'a> Renderer<'a> {
             let at = n * stride as usize;
             bytes[at..at + data.len()].copy_from_slice(data);
         }
-        let mut objects =
-            HostBuffer::new(gpu, size, usage).context("object matrix buffer")?;
+        let mut objects = HostBuffer::new(gpu, size, usage).context("object matrix buffer")?;
         objects.write(&bytes);
         let frame = if program == Program::UboDynamic {
             let data = scene.frame_block(aspect);

@@ -608,10 +608,7 @@ impl Scene {
                 delivery.name()
             )
         };
-        let plan = self
-            .plan
-            .with_delivery(delivery)
-            .map_err(|e| refuse(e.0))?;
+        let plan = self.plan.with_delivery(delivery).map_err(|e| refuse(e.0))?;
         if delivery == Delivery::UboDynamic {
             let outer = |o: &Object| self.model_split(View::Camera, o, 1.0).1;
             if let Some(first) = self.objects.first() {
@@ -735,7 +732,7 @@ impl Scene {
     /// The clip transform split into (inner model matrix, outer matrix) as
     /// [`Program::MvpPair`] pushes it and [`Program::UboDynamic`] stores it: (M, P * V) for a
     /// world object, (identity, transform) otherwise.
-    fn model_split(&self, view: View, object: &Object, aspect: f64) -> (DMat4, DMat4) {
+    pub fn model_split(&self, view: View, object: &Object, aspect: f64) -> (DMat4, DMat4) {
         match object.space {
             Space::World => (object.model, self.view_projection_in(view, aspect)),
             _ => (DMat4::IDENTITY, self.mvp_in(view, object, aspect)),
