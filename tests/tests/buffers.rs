@@ -269,7 +269,14 @@ fn infinite_report(harness: &Harness, scenes: &str, out: &Path) -> serde_json::V
         .args(["--device", "llvmpipe"])
         .arg("--layer-dir")
         .arg(&harness.explicit_manifest_dir)
-        .args(["--scenes", scenes, "--modes", "infinite", "--formats", "d32"])
+        .args([
+            "--scenes",
+            scenes,
+            "--modes",
+            "infinite",
+            "--formats",
+            "d32",
+        ])
         .args(["--deliveries", &DELIVERIES.join(",")]);
     let output = command.output().expect("start revz-tester report");
     let text = format!(
@@ -335,9 +342,7 @@ fn infinite_d32_plane_stack_meets_the_float32_floor_through_every_buffer_deliver
     let harness = Harness::locate();
     let out = harness.scratch_dir("buffers-plane-stack");
     let report = infinite_report(&harness, "plane-stack", &out);
-    let separations = report["min_separation"]
-        .as_array()
-        .expect("min_separation");
+    let separations = report["min_separation"].as_array().expect("min_separation");
     let mut problems = Vec::new();
     for delivery in DELIVERIES {
         let r = row(&report, "plane-stack", delivery);
