@@ -35,7 +35,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 use crate::gpu::{Features, Gpu, GpuOptions};
-use crate::plan::ResolveMode;
+use crate::plan::{Delivery, ResolveMode};
 use crate::readback::{resolve_mode_name, DepthStats, MultisampleReport, Readback, RenderReport};
 use crate::render::{Renderer, SceneBuffers};
 use crate::scene::SceneId;
@@ -91,6 +91,15 @@ struct RenderArgs {
     /// Scene to render.
     #[arg(long, value_enum, default_value = "overlap")]
     scene: SceneId,
+
+    /// How the scene hands its matrices to the vertex shader: push constants (the scenes'
+    /// own), `ubo` (P, V and M apart in a dynamic uniform buffer block per object),
+    /// `ubo-dynamic` (P * V in a uniform buffer, the model matrix in a dynamic one) or `ssbo`
+    /// (P * V * M per object in a storage buffer, indexed by the instance index). The buffer
+    /// deliveries replace the flat push-constant program; scenes with other programs, shadow
+    /// passes or partial push updates refuse them.
+    #[arg(long, value_enum, value_name = "HOW", default_value = "push")]
+    delivery: Delivery,
 
     /// How the multisampled scenes (msaa-resolve, msaa-resolve-dynamic) resolve depth into
     /// the depth image read back [default: sample-zero]. The device must support the mode
@@ -175,7 +184,11 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         .out
         .as_deref()
         .context("--out is required when rendering a scene")?;
-    let mut scene = cli.scene.build();
+    let mut scene = cli
+        .scene
+        .build()
+        .with_delivery(cli.delivery)
+        .map_err(anyhow::Error::msg)?;
     let depth_resolve = cli.depth_resolve.unwrap_or(ResolveMode::SampleZero);
     if !scene.plan.set_depth_resolve(depth_resolve) && cli.depth_resolve.is_some() {
         bail!(
@@ -306,6 +319,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         driver: device_info.driver(),
         depth_format: cli.depth_format.vk_name(),
         scene: cli.scene.name(),
+        delivery: cli.delivery.name(),
         width: frame.width,
         height: frame.height,
         validation_messages: messages,

@@ -520,6 +520,9 @@ pub fn create_pipeline(
         Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),
         Program::LitMvp => (shaders::LIT_MVP_VERT, Some(shaders::LIT_MVP_FRAG)),
+        Program::Ubo => (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::UboDynamic => (shaders::UBO_DYNAMIC_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::Ssbo => (shaders::SSBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
     };
     let vert = ShaderModule::new(device, &vertex)?;
     let frag = fragment

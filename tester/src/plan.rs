@@ -180,15 +180,85 @@ pub enum Program {
     /// diffuse and specular on top of the color. A change of the pushed matrix's depth row
     /// changes the shading.
     LitMvp,
+    /// `ubo.vert` + `flat_color.frag` (the `ubo` [`Delivery`]): no push constants; a dynamic
+    /// uniform buffer of per-object blocks `{ mat4 projection; mat4 view; mat4 model; vec4
+    /// color }` at an aligned stride, bound with the object's dynamic offset at each draw;
+    /// `projection * view * model * position`.
+    Ubo,
+    /// `ubo_dynamic.vert` + `flat_color.frag` (the `ubo-dynamic` [`Delivery`]): no push
+    /// constants; binding 0 a uniform buffer `{ mat4 view_proj }`, binding 1 a dynamic uniform
+    /// buffer of per-object `{ mat4 model; vec4 color }`; `view_proj * model * position`.
+    UboDynamic,
+    /// `ssbo.vert` + `flat_color.frag` (the `ssbo` [`Delivery`]): no push constants; a
+    /// read-only storage buffer of per-object `{ mat4 mvp; vec4 color }` indexed by
+    /// `gl_InstanceIndex` (each object drawn as one instance, firstInstance = its index).
+    Ssbo,
+}
+
+/// How a scene hands its matrices to the vertex shader (`--delivery`): push constants, as
+/// every scene does by default, or one of three buffer layouts applications use. The buffer
+/// deliveries replace [`Program::Flat`] by their program ([`Delivery::program`]) and render
+/// the same image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, clap::ValueEnum)]
+pub enum Delivery {
+    /// Push constants `{ mat4 mvp; vec4 color }`: the scene's own programs.
+    #[default]
+    Push,
+    /// Separate P, V and M in one block per object of a dynamic uniform buffer
+    /// ([`Program::Ubo`]).
+    Ubo,
+    /// Precomposed P * V in a uniform buffer, the per-object model matrix in a dynamic one
+    /// ([`Program::UboDynamic`]).
+    UboDynamic,
+    /// Per-object P * V * M in a storage buffer, indexed by the instance index
+    /// ([`Program::Ssbo`]).
+    Ssbo,
+}
+
+impl Delivery {
+    /// Every delivery, push first.
+    pub const ALL: [Delivery; 4] = [
+        Delivery::Push,
+        Delivery::Ubo,
+        Delivery::UboDynamic,
+        Delivery::Ssbo,
+    ];
+
+    /// The CLI and report name (`push`, `ubo`, `ubo-dynamic`, `ssbo`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Delivery::Push => "push",
+            Delivery::Ubo => "ubo",
+            Delivery::UboDynamic => "ubo-dynamic",
+            Delivery::Ssbo => "ssbo",
+        }
+    }
+
+    /// The program that replaces [`Program::Flat`]; `None` for push constants (nothing is
+    /// replaced).
+    pub fn program(self) -> Option<Program> {
+        match self {
+            Delivery::Push => None,
+            Delivery::Ubo => Some(Program::Ubo),
+            Delivery::UboDynamic => Some(Program::UboDynamic),
+            Delivery::Ssbo => Some(Program::Ssbo),
+        }
+    }
 }
 
 impl Program {
+    /// Whether the program reads its matrices and color from buffers (no push constants).
+    pub fn is_buffer_delivery(self) -> bool {
+        matches!(self, Program::Ubo | Program::UboDynamic | Program::Ssbo)
+    }
+
     /// Bytes of push constants the program's shaders declare, all of which a
-    /// [`Step::Draw`] pushes: 80 (`mat4` + `vec4 color`) or 128 (two `mat4`s). Pipelines of
-    /// programs with the same size share push-constant state (their layouts have the same
-    /// push-constant range).
+    /// [`Step::Draw`] pushes: 80 (`mat4` + `vec4 color`), 128 (two `mat4`s), or 0 for the
+    /// buffer deliveries. Pipelines of programs with the same size share push-constant state
+    /// (their layouts have the same push-constant range).
     pub fn push_constant_size(self) -> u32 {
         match self {
+            Program::Ubo | Program::UboDynamic | Program::Ssbo => 0,
             Program::MvpPair => 128,
             Program::Flat
             | Program::DepthOnly
@@ -584,6 +654,54 @@ impl Plan {
         }
     }
 
+    /// The plan with its matrices handed over by `delivery`: every [`Program::Flat`] pipeline
+    /// gets the delivery's buffer program, the rest unchanged ([`Delivery::Push`] changes
+    /// nothing). The error says why the plan cannot take it: a pipeline with another program
+    /// (its shaders declare their own push constants or bindings), a shadow pass (its draws
+    /// use the light's matrices), or push-constant updates between draws
+    /// ([`Step::Push`], [`Step::DrawPushed`]).
+    pub fn with_delivery(&self, delivery: Delivery) -> Result<Plan, PlanError> {
+        let Some(program) = delivery.program() else {
+            return Ok(self.clone());
+        };
+        let name = delivery.name();
+        let mut plan = self.clone();
+        for pipeline in &mut plan.pipelines {
+            ensure!(
+                pipeline.program == Program::Flat || pipeline.program == program,
+                "pipeline {} uses the {:?} program, which has no {name} variant (only the flat \
+                 push-constant program has one)",
+                pipeline.name,
+                pipeline.program
+            );
+            pipeline.program = program;
+        }
+        if let Some(n) = plan.passes.iter().position(|p| p.target != Target::Main) {
+            return Err(PlanError(format!(
+                "pass {n} renders a shadow map with the light's matrices; the {name} delivery \
+                 holds the camera's only"
+            )));
+        }
+        if let Some(step) = plan
+            .all_steps()
+            .into_iter()
+            .find(|s| matches!(s, Step::Push { .. } | Step::DrawPushed(_)))
+        {
+            return Err(PlanError(format!(
+                "{step:?} updates push constants between draws; the {name} delivery has none"
+            )));
+        }
+        Ok(plan)
+    }
+
+    /// The buffer delivery program of the plan's pipelines, if one uses one.
+    pub fn buffer_program(&self) -> Option<Program> {
+        self.pipelines
+            .iter()
+            .map(|p| p.program)
+            .find(|p| p.is_buffer_delivery())
+    }
+
     /// Sets the depth resolve mode of every multisampled pass (`--depth-resolve`); returns
     /// whether the plan has one.
     pub fn set_depth_resolve(&mut self, mode: ResolveMode) -> bool {
@@ -704,6 +822,14 @@ impl Plan {
             ensure!(
                 pipeline.program != Program::ShadowReceiver || pass.target == Target::Main,
                 "pipeline {name}: a shadow receiver drawing into the shadow map"
+            );
+            // The renderer makes one set of buffers, with the camera's matrices.
+            ensure!(
+                !pipeline.program.is_buffer_delivery()
+                    || (pass.target == Target::Main
+                        && self.buffer_program() == Some(pipeline.program)),
+                "pipeline {name}: a buffer delivery drawing into the shadow map, or two \
+                 buffer deliveries in one plan"
             );
             ensure!(
                 !pipeline.libraries || pass.kind != PassKind::DynamicRendering,
@@ -1133,6 +1259,52 @@ mod tests {
         assert!(plan.check(2, false).is_err());
         plan.pipelines[1].program = Program::RowMajor;
         plan.check(2, false).unwrap();
+    }
+
+    #[test]
+    fn a_buffer_delivery_replaces_the_flat_program_and_drops_the_pushes() {
+        let plan = Plan::single_pass(2);
+        assert_eq!(plan.with_delivery(Delivery::Push).unwrap(), plan);
+        for delivery in [Delivery::Ubo, Delivery::UboDynamic, Delivery::Ssbo] {
+            let taken = plan.with_delivery(delivery).unwrap();
+            let program = delivery.program().unwrap();
+            assert_eq!(taken.pipelines[0].program, program);
+            assert_eq!(taken.buffer_program(), Some(program));
+            assert_eq!(program.push_constant_size(), 0);
+            taken.check(2, false).unwrap();
+            // A push into a program without push constants is malformed.
+            let mut pushing = taken.clone();
+            pushing.steps.insert(
+                2,
+                Step::Push {
+                    object: 0,
+                    offset: 0,
+                    size: 16,
+                },
+            );
+            assert!(pushing.check(2, false).is_err());
+            // Two buffer deliveries in one plan share no buffers.
+            let mut mixed = taken.clone();
+            let other = if program == Program::Ssbo {
+                Program::Ubo
+            } else {
+                Program::Ssbo
+            };
+            mixed.pipelines.push(PipelineSpec {
+                program: other,
+                ..PipelineSpec::standard("other", 0)
+            });
+            mixed.steps.insert(2, Step::Bind(1));
+            assert!(mixed.check(2, false).is_err());
+        }
+        // Other programs, partial pushes and shadow passes refuse.
+        let mut pair = plan.clone();
+        pair.pipelines[0].program = Program::MvpPair;
+        assert!(pair.with_delivery(Delivery::Ubo).is_err());
+        let mut partial = plan.clone();
+        partial.steps[3] = Step::DrawPushed(1);
+        assert!(partial.with_delivery(Delivery::Ssbo).is_err());
+        assert!(plan.buffer_program().is_none());
     }
 
     #[test]

@@ -291,6 +291,9 @@ pub struct RenderReport {
     pub depth_format: &'static str,
     /// Scene name, e.g. `overlap`.
     pub scene: &'static str,
+    /// How the scene handed its matrices to the vertex shader (`--delivery`): `push`, `ubo`,
+    /// `ubo-dynamic` or `ssbo`.
+    pub delivery: &'static str,
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.

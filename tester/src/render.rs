@@ -83,6 +83,23 @@ struct ColorBindings<'a> {
     colors: HostBuffer<'a>,
 }
 
+/// What the buffer-delivery pipelines bind ([`Program::Ubo`], [`Program::UboDynamic`],
+/// [`Program::Ssbo`]): every object's block ([`Scene::object_block`]) at `stride` bytes from
+/// the last, and for `ubo-dynamic` the frame block ([`Scene::frame_block`]), in one
+/// descriptor set. The host writes them once, before recording.
+struct MatrixBindings<'a> {
+    program: Program,
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    /// Bytes from one object's block to the next: the block size rounded up to
+    /// `minUniformBufferOffsetAlignment` for the dynamic uniform buffers (object `n`'s dynamic
+    /// offset is `n * stride`), the std430 array stride (80) for the storage buffer.
+    stride: u64,
+    objects: HostBuffer<'a>,
+    frame: Option<HostBuffer<'a>>,
+}
+
 /// Everything the plan names, for one render of the targets.
 pub struct Renderer<'a> {
     /// The device's commands, with the extensions standing in for core ones below their
@@ -102,6 +119,9 @@ pub struct Renderer<'a> {
     /// [`Program::MvpPair`] pipeline).
     pair_layout: vk::PipelineLayout,
     colors: Option<ColorBindings<'a>>,
+    /// The buffer-delivery pipelines' layout (no push constants; null without one).
+    matrix_layout: vk::PipelineLayout,
+    matrices: Option<MatrixBindings<'a>>,
     /// One per plan pipeline.
     pipelines: Vec<vk::Pipeline>,
     /// The libraries the pipelines built from `VK_EXT_graphics_pipeline_library` libraries
@@ -144,6 +164,13 @@ impl Drop for Renderer<'_> {
                 .destroy_pipeline_layout(self.shadow_layout, None);
             self.device.destroy_pipeline_layout(self.plain_layout, None);
             self.device.destroy_pipeline_layout(self.pair_layout, None);
+            self.device
+                .destroy_pipeline_layout(self.matrix_layout, None);
+            if let Some(matrices) = &self.matrices {
+                self.device.destroy_descriptor_pool(matrices.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(matrices.set_layout, None);
+            }
             if let Some(colors) = &self.colors {
                 self.device.destroy_descriptor_pool(colors.pool, None);
                 self.device
@@ -201,6 +228,8 @@ impl<'a> Renderer<'a> {
             shadow: None,
             pair_layout: vk::PipelineLayout::null(),
             colors: None,
+            matrix_layout: vk::PipelineLayout::null(),
+            matrices: None,
             pipelines: Vec::new(),
             libraries: Vec::new(),
             command_pool: vk::CommandPool::null(),
@@ -278,6 +307,10 @@ impl<'a> Renderer<'a> {
             }
             this.create_color_bindings(gpu, scene)?;
         }
+        if let Some(program) = plan.buffer_program() {
+            let aspect = f64::from(targets.extent.width) / f64::from(targets.extent.height);
+            this.create_matrix_bindings(gpu, scene, program, aspect)?;
+        }
 
         for spec in &plan.pipelines {
             let pass = &plan.passes[spec.pass];
@@ -333,6 +366,9 @@ impl<'a> Renderer<'a> {
         match program {
             Program::ShadowReceiver => (self.shadow_layout, PLAIN_PUSH_STAGES),
             Program::MvpPair => (self.pair_layout, vk::ShaderStageFlags::VERTEX),
+            Program::Ubo | Program::UboDynamic | Program::Ssbo => {
+                (self.matrix_layout, vk::ShaderStageFlags::empty())
+            }
             Program::Flat
             | Program::DepthOnly
             | Program::FragDepth
@@ -398,6 +434,146 @@ impl<'a> Renderer<'a> {
         // SAFETY: valid device and create info.
         self.pair_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
             .context("vkCreatePipelineLayout (model-view-projection pair) failed")?;
+        Ok(())
+    }
+
+    /// Creates the buffers of a buffer delivery (`program`: every object's block at an aligned
+    /// stride, the frame block of `ubo-dynamic`), their descriptor set and the pipeline layout
+    /// of its pipelines (that set, no push constants).
+    fn create_matrix_bindings(
+        &mut self,
+        gpu: &'a Gpu,
+        scene: &Scene,
+        program: Program,
+        aspect: f64,
+    ) -> Result<()> {
+        let device = self.device;
+        let limits = gpu.limits();
+        let blocks: Vec<Vec<u8>> = scene
+            .objects
+            .iter()
+            .map(|o| scene.object_block(program, o, aspect))
+            .collect();
+        let block = blocks.first().map_or(0, Vec::len) as u64;
+        if block == 0 {
+            bail!("scene '{}' has no object to draw", scene.name);
+        }
+        let (usage, object_type, stride) = match program {
+            Program::Ssbo => (
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                vk::DescriptorType::STORAGE_BUFFER,
+                block,
+            ),
+            _ => {
+                if block > u64::from(limits.max_uniform_buffer_range) {
+                    bail!(
+                        "a {block}-byte uniform block exceeds maxUniformBufferRange ({})",
+                        limits.max_uniform_buffer_range
+                    );
+                }
+                let alignment = limits.min_uniform_buffer_offset_alignment.max(1);
+                (
+                    vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    vk::DescriptorType::UNIFORM_BUFFER_DYNAMIC,
+                    block.div_ceil(alignment) * alignment,
+                )
+            }
+        };
+        let size = usize::try_from(stride * blocks.len() as u64).context("buffer size")?;
+        if program == Program::Ssbo && size as u64 > u64::from(limits.max_storage_buffer_range) {
+            bail!(
+                "{size} bytes of storage buffer exceed maxStorageBufferRange ({})",
+                limits.max_storage_buffer_range
+            );
+        }
+        let mut bytes = vec![0u8; size];
+        for (n, data) in blocks.iter().enumerate() {
+            let at = n * stride as usize;
+            bytes[at..at + data.len()].copy_from_slice(data);
+        }
+        let mut objects = HostBuffer::new(gpu, size, usage).context("object matrix buffer")?;
+        objects.write(&bytes);
+        let frame = if program == Program::UboDynamic {
+            let data = scene.frame_block(aspect);
+            let mut frame = HostBuffer::new(gpu, data.len(), vk::BufferUsageFlags::UNIFORM_BUFFER)
+                .context("frame uniform buffer")?;
+            frame.write(&data);
+            Some(frame)
+        } else {
+            None
+        };
+        // Stored at once so that `Drop` destroys whatever was made, even if a later step fails.
+        let matrices = self.matrices.insert(MatrixBindings {
+            program,
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            stride,
+            objects,
+            frame,
+        });
+        // (binding, type, buffer, range)
+        let mut layout: Vec<(u32, vk::DescriptorType, vk::Buffer, u64)> = Vec::new();
+        if let Some(frame) = &matrices.frame {
+            layout.push((0, vk::DescriptorType::UNIFORM_BUFFER, frame.buffer, 64));
+        }
+        let object_range = if object_type == vk::DescriptorType::STORAGE_BUFFER {
+            vk::WHOLE_SIZE
+        } else {
+            block
+        };
+        layout.push((
+            layout.len() as u32,
+            object_type,
+            matrices.objects.buffer,
+            object_range,
+        ));
+        let bindings: Vec<vk::DescriptorSetLayoutBinding> = layout
+            .iter()
+            .map(|&(binding, kind, _, _)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(binding)
+                    .descriptor_type(kind)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::VERTEX)
+            })
+            .collect();
+        matrices.set = single_descriptor_set(
+            device,
+            &bindings,
+            "object matrices",
+            &mut matrices.set_layout,
+            &mut matrices.pool,
+        )?;
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = layout
+            .iter()
+            .map(|&(_, _, buffer, range)| {
+                [vk::DescriptorBufferInfo {
+                    buffer,
+                    offset: 0,
+                    range,
+                }]
+            })
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = layout
+            .iter()
+            .zip(&infos)
+            .map(|(&(binding, kind, _, _), info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(matrices.set)
+                    .dst_binding(binding)
+                    .descriptor_type(kind)
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: valid set and buffers; the infos match the binding types, and each range
+        // lies within its buffer (a dynamic offset of object n, n * stride, keeps it inside).
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        let set_layouts = [matrices.set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        // SAFETY: valid device and create info.
+        self.matrix_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (buffer delivery) failed")?;
         Ok(())
     }
 
@@ -1100,6 +1276,9 @@ impl Recorder<'_> {
             let set = match self.plan.pipelines[n].program {
                 Program::ShadowReceiver => renderer.shadow.as_ref().map(|s| s.set),
                 Program::MvpPair => renderer.colors.as_ref().map(|c| c.set),
+                // The storage buffer holds every object, indexed by the instance index; the
+                // dynamic uniform buffers are bound at each draw with its offset.
+                Program::Ssbo => renderer.matrices.as_ref().map(|m| m.set),
                 _ => None,
             };
             if let Some(set) = set {
@@ -1154,13 +1333,38 @@ impl Recorder<'_> {
             .pipeline
             .ok_or_else(|| anyhow!("draw without a bound pipeline"))?;
         let program = self.plan.pipelines[pipeline].program;
-        if push {
+        // The buffer deliveries have no push constants: nothing to push.
+        if push && program.push_constant_size() > 0 {
             self.push(cmd, n, 0, program.push_constant_size())?;
         }
         let range = self.buffers.draws[n];
-        // The shadow receiver indexes its light MVPs, the pair program its colors, with the
-        // instance index.
-        let first_instance = if matches!(program, Program::ShadowReceiver | Program::MvpPair) {
+        if matches!(program, Program::Ubo | Program::UboDynamic) {
+            let matrices = self
+                .renderer
+                .matrices
+                .as_ref()
+                .filter(|m| m.program == program)
+                .ok_or_else(|| anyhow!("no buffers for the {program:?} program"))?;
+            let offset = u32::try_from(n as u64 * matrices.stride).context("dynamic offset")?;
+            // SAFETY: `cmd` is recording with a pipeline of this layout bound; the set's one
+            // dynamic binding gets object n's block, inside the buffer.
+            unsafe {
+                self.device().cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.renderer.matrix_layout,
+                    0,
+                    &[matrices.set],
+                    &[offset],
+                );
+            }
+        }
+        // The shadow receiver indexes its light MVPs, the pair program its colors, the storage
+        // buffer delivery its objects, with the instance index.
+        let first_instance = if matches!(
+            program,
+            Program::ShadowReceiver | Program::MvpPair | Program::Ssbo
+        ) {
             u32::try_from(n).context("object index")?
         } else {
             0

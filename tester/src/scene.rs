@@ -21,7 +21,7 @@ use clap::ValueEnum;
 use glam::dcamera::rh::{proj, view};
 use glam::{DMat4, DVec3, DVec4};
 
-use crate::plan::{Plan, Program};
+use crate::plan::{Delivery, Plan, Program};
 
 /// The scenes the tester can render (`--scene`); each variant's documentation is on its
 /// builder in [`crate::scenes`].
@@ -595,6 +595,94 @@ impl Scene {
         self.push_constants_in(program, View::Camera, object, aspect)
     }
 
+    /// The scene with its matrices handed over by `delivery` ([`Plan::with_delivery`]); the
+    /// error says why it cannot take it. `ubo-dynamic` also needs one view-projection for every
+    /// object (one frame block): objects whose clip transform splits into another outer matrix
+    /// than the others' ([`Scene::model_split`]: a full-screen quad beside world objects)
+    /// cannot share it.
+    pub fn with_delivery(&self, delivery: Delivery) -> Result<Scene, String> {
+        let refuse = |why: String| {
+            format!(
+                "scene '{}' cannot take the {} delivery: {why}",
+                self.name,
+                delivery.name()
+            )
+        };
+        let plan = self.plan.with_delivery(delivery).map_err(|e| refuse(e.0))?;
+        if delivery == Delivery::UboDynamic {
+            let outer = |o: &Object| self.model_split(View::Camera, o, 1.0).1;
+            if let Some(first) = self.objects.first() {
+                if let Some(other) = self.objects.iter().find(|o| outer(o) != outer(first)) {
+                    return Err(refuse(format!(
+                        "'{}' and '{}' need different view-projections, and its frame block \
+                         holds one",
+                        first.name, other.name
+                    )));
+                }
+            }
+        }
+        Ok(Scene {
+            plan,
+            ..self.clone()
+        })
+    }
+
+    /// The matrices the `ubo` delivery stores for `object` in the camera's view, each in f64,
+    /// as (projection, view, model): (P, V, M) for a world object, (P, V, identity) when the
+    /// model is baked into the vertices, (P, identity, identity) when the view is too, and
+    /// (identity, identity, M) for a clip-space one. Their product is [`Scene::mvp_in`]'s.
+    pub fn separate_matrices(&self, object: &Object, aspect: f64) -> [DMat4; 3] {
+        let (p, v) = (self.camera.projection(aspect), self.camera.view());
+        match object.space {
+            Space::World => [p, v, object.model],
+            Space::WorldBaked => [p, v, DMat4::IDENTITY],
+            Space::ViewBaked => [p, DMat4::IDENTITY, DMat4::IDENTITY],
+            Space::Clip => [DMat4::IDENTITY, DMat4::IDENTITY, object.model],
+        }
+    }
+
+    /// `object`'s block in its buffer for a buffer-delivery `program`, in the camera's view,
+    /// every value rounded once from f64 to f32 (std140 / std430 layouts, column-major):
+    /// - [`Program::Ubo`]: P, V and M ([`Scene::separate_matrices`]) at 0, 64 and 128, the
+    ///   color at 192 (208 bytes);
+    /// - [`Program::UboDynamic`]: the model matrix ([`Scene::model_split`]'s inner one) at 0,
+    ///   the color at 64 (80 bytes; the outer matrix is the frame block,
+    ///   [`Scene::frame_block`]);
+    /// - [`Program::Ssbo`]: the clip transform ([`Scene::mvp_in`]) at 0, the color at 64
+    ///   (80 bytes);
+    ///
+    /// and nothing for the push-constant programs.
+    pub fn object_block(&self, program: Program, object: &Object, aspect: f64) -> Vec<u8> {
+        let matrices: Vec<DMat4> = match program {
+            Program::Ubo => self.separate_matrices(object, aspect).to_vec(),
+            Program::UboDynamic => vec![self.model_split(View::Camera, object, aspect).0],
+            Program::Ssbo => vec![self.mvp_in(View::Camera, object, aspect)],
+            _ => return Vec::new(),
+        };
+        let mut values: Vec<f32> = matrices
+            .iter()
+            .flat_map(|m| m.as_mat4().to_cols_array())
+            .collect();
+        values.extend(object.color);
+        values.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    /// The frame block of [`Program::UboDynamic`]: the view-projection every object shares
+    /// ([`Scene::model_split`]'s outer matrix: P * V for world objects), rounded once to f32
+    /// (64 bytes, column-major); the camera's P * V for a scene without objects.
+    pub fn frame_block(&self, aspect: f64) -> Vec<u8> {
+        let view_proj = match self.objects.first() {
+            Some(object) => self.model_split(View::Camera, object, aspect).1,
+            None => self.view_projection(aspect),
+        };
+        view_proj
+            .as_mat4()
+            .to_cols_array()
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
+    }
+
     /// The push constants of `object` drawn with `program` in `view`, every value rounded once
     /// from f64 to f32 ([`Program::push_constant_size`] bytes):
     /// - [`Program::Flat`], [`Program::DepthOnly`], [`Program::FragDepth`],
@@ -603,7 +691,9 @@ impl Scene {
     /// - [`Program::RowMajor`], [`Program::RowVector`]: the same transform row-major (its
     ///   transpose column-major) at 0, the color at 64;
     /// - [`Program::MvpPair`]: the model matrix (world objects; identity otherwise) at 0 and
-    ///   the rest of the transform (P * V) at 64, both column-major.
+    ///   the rest of the transform (P * V) at 64, both column-major;
+    /// - the buffer deliveries ([`Program::Ubo`], [`Program::UboDynamic`], [`Program::Ssbo`]):
+    ///   nothing (their matrices are in [`Scene::object_block`]).
     pub fn push_constants_in(
         &self,
         program: Program,
@@ -633,15 +723,16 @@ impl Scene {
                 v.extend(outer.as_mat4().to_cols_array());
                 v
             }
+            Program::Ubo | Program::UboDynamic | Program::Ssbo => Vec::new(),
         };
         debug_assert_eq!(values.len() * 4, program.push_constant_size() as usize);
         values.iter().flat_map(|v| v.to_le_bytes()).collect()
     }
 
     /// The clip transform split into (inner model matrix, outer matrix) as
-    /// [`Program::MvpPair`] pushes it: (M, P * V) for a world object, (identity, transform)
-    /// otherwise.
-    fn model_split(&self, view: View, object: &Object, aspect: f64) -> (DMat4, DMat4) {
+    /// [`Program::MvpPair`] pushes it and [`Program::UboDynamic`] stores it: (M, P * V) for a
+    /// world object, (identity, transform) otherwise.
+    pub fn model_split(&self, view: View, object: &Object, aspect: f64) -> (DMat4, DMat4) {
         match object.space {
             Space::World => (object.model, self.view_projection_in(view, aspect)),
             _ => (DMat4::IDENTITY, self.mvp_in(view, object, aspect)),
@@ -649,8 +740,9 @@ impl Scene {
     }
 
     /// The matrices the GPU applies to `object`'s vertex positions for `program`, outermost
-    /// first, in f64: `[P * V, M]` for [`Program::MvpPair`] (world objects), the single clip
-    /// transform otherwise.
+    /// first, in f64: `[P * V, M]` for [`Program::MvpPair`] and [`Program::UboDynamic`]
+    /// (world objects), `[P, V, M]` for [`Program::Ubo`] ([`Scene::separate_matrices`]), the
+    /// single clip transform otherwise.
     pub fn matrix_stages(
         &self,
         program: Program,
@@ -659,21 +751,29 @@ impl Scene {
         aspect: f64,
     ) -> Vec<DMat4> {
         match (program, object.space) {
-            (Program::MvpPair, Space::World) => {
+            (Program::MvpPair | Program::UboDynamic, Space::World) => {
                 let (model, outer) = self.model_split(view, object, aspect);
                 vec![outer, model]
+            }
+            (Program::Ubo, _) if view == View::Camera => {
+                self.separate_matrices(object, aspect).to_vec()
             }
             _ => vec![self.mvp_in(view, object, aspect)],
         }
     }
 
-    /// The outermost matrix `program` pushes for `object` in the camera's view, as the shader
-    /// applies it (`clip = M * v`, 16 f32 values column-major, whatever the storage order):
-    /// the matrix a projection-rewriting layer sees. Its depth mapping (k, B) is that of the
-    /// whole clip transform (an affine model matrix does not change it).
+    /// The outermost matrix `program` pushes (or stores in its buffer) for `object` in the
+    /// camera's view, as the shader applies it (`clip = M * v`, 16 f32 values column-major,
+    /// whatever the storage order): the matrix a projection-rewriting layer sees. Its depth
+    /// mapping (k, B) is that of the whole clip transform (an affine model or view matrix
+    /// does not change it): P for [`Program::Ubo`], P * V for [`Program::MvpPair`] and
+    /// [`Program::UboDynamic`], the whole clip transform otherwise.
     pub fn pushed_projection(&self, program: Program, object: &Object, aspect: f64) -> [f32; 16] {
         let outer = match program {
-            Program::MvpPair => self.model_split(View::Camera, object, aspect).1,
+            Program::MvpPair | Program::UboDynamic => {
+                self.model_split(View::Camera, object, aspect).1
+            }
+            Program::Ubo => self.separate_matrices(object, aspect)[0],
             _ => self.mvp_in(View::Camera, object, aspect),
         };
         outer.as_mat4().to_cols_array()

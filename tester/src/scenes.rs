@@ -3043,4 +3043,143 @@ mod tests {
             assert!(colors.len() >= 3, "{}: {colors:?}", o.name);
         }
     }
+
+    /// The scenes the buffer deliveries are meant for (issue #16).
+    const DELIVERY_SCENES: [&str; 6] = [
+        "overlap",
+        "sloped-plane",
+        "mars-patch",
+        "plane-stack",
+        "deep-range",
+        "far-objects",
+    ];
+
+    fn floats(bytes: &[u8]) -> Vec<f32> {
+        bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .collect()
+    }
+
+    #[test]
+    fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
+        use crate::plan::Delivery;
+        for scene in all() {
+            let same = scene.with_delivery(Delivery::Push).unwrap();
+            assert_eq!(same, scene, "push changes nothing");
+            for delivery in [Delivery::Ubo, Delivery::UboDynamic, Delivery::Ssbo] {
+                let program = delivery.program().unwrap();
+                match scene.with_delivery(delivery) {
+                    Ok(taken) => {
+                        taken
+                            .plan
+                            .check(taken.objects.len(), taken.light.is_some())
+                            .unwrap_or_else(|e| panic!("{} {delivery:?}: {e}", scene.name));
+                        assert!(
+                            taken.plan.pipelines.iter().all(|p| p.program == program),
+                            "{} {delivery:?}",
+                            scene.name
+                        );
+                        assert_eq!(taken.objects, scene.objects);
+                        assert_eq!(taken.plan.needs(), scene.plan.needs());
+                        // The ground truth comes from the scene, not the delivery.
+                        // (w compared bit for bit: NaN where a pixel is not interior.)
+                        let bits = |t: &crate::ground_truth::GroundTruth| {
+                            (
+                                t.ids.clone(),
+                                t.w.iter().map(|w| w.to_bits()).collect::<Vec<_>>(),
+                            )
+                        };
+                        if let Ok(truth) = crate::ground_truth::compute_ids(&scene, 48, 36) {
+                            let taken_truth =
+                                crate::ground_truth::compute_ids(&taken, 48, 36).unwrap();
+                            assert!(
+                                bits(&taken_truth) == bits(&truth),
+                                "{} {delivery:?}: another ground truth",
+                                scene.name
+                            );
+                        }
+                    }
+                    Err(why) => {
+                        assert!(
+                            !DELIVERY_SCENES.contains(&scene.name),
+                            "{} refuses {delivery:?}: {why}",
+                            scene.name
+                        );
+                        assert!(
+                            why.contains(scene.name) && why.contains(delivery.name()),
+                            "{why}"
+                        );
+                    }
+                }
+            }
+        }
+        // Special programs, shadow passes and partial pushes are refused, saying why.
+        for (scene, why) in [
+            (SceneId::ModelViewProjectionPair, "MvpPair program"),
+            (SceneId::LitMvp, "LitMvp program"),
+            (SceneId::RowMajor, "RowMajor program"),
+            (SceneId::FragDepth, "FragDepth program"),
+            (SceneId::ShadowMap, "program"),
+            (SceneId::PushPartial, "updates push constants"),
+        ] {
+            let error = scene.build().with_delivery(Delivery::Ubo).unwrap_err();
+            assert!(error.contains(why), "{error}");
+        }
+    }
+
+    #[test]
+    fn buffer_blocks_hold_the_delivered_matrices_rounded_once() {
+        use crate::plan::{Delivery, Program};
+        let aspect = 4.0 / 3.0;
+        for name in DELIVERY_SCENES {
+            let scene = SceneId::from_str(name, false).unwrap().build();
+            for object in &scene.objects {
+                let push = floats(&scene.push_constants(Program::Flat, object, aspect));
+                let mvp = scene.mvp_in(View::Camera, object, aspect);
+                // ssbo: exactly the push constants (the same float32 P * V * M and color).
+                let ssbo = floats(&scene.object_block(Program::Ssbo, object, aspect));
+                assert_eq!(ssbo, push, "{name}");
+                // ubo: P, V and M apart, each rounded from f64; their f64 product is the MVP.
+                let ubo = floats(&scene.object_block(Program::Ubo, object, aspect));
+                assert_eq!(ubo.len(), 52);
+                let [p, v, m] = scene.separate_matrices(object, aspect);
+                for (k, matrix) in [p, v, m].iter().enumerate() {
+                    assert_eq!(
+                        ubo[16 * k..16 * (k + 1)],
+                        matrix.as_mat4().to_cols_array(),
+                        "{name}"
+                    );
+                }
+                assert_eq!(ubo[48..], object.color);
+                let largest = mvp.abs().to_cols_array().into_iter().fold(0.0, f64::max);
+                assert!((p * v * m).abs_diff_eq(mvp, 1e-12 * largest), "{name}");
+                assert_eq!(
+                    scene.pushed_projection(Program::Ubo, object, aspect),
+                    p.as_mat4().to_cols_array()
+                );
+                // ubo-dynamic: the shared frame's P * V and the object's model.
+                let model = floats(&scene.object_block(Program::UboDynamic, object, aspect));
+                let frame = floats(&scene.frame_block(aspect));
+                let (inner, outer) = scene.model_split(View::Camera, object, aspect);
+                assert_eq!(frame, outer.as_mat4().to_cols_array(), "{name}");
+                assert_eq!(model[..16], inner.as_mat4().to_cols_array());
+                assert_eq!(model[16..], object.color);
+                assert_eq!(
+                    scene.pushed_projection(Program::UboDynamic, object, aspect),
+                    outer.as_mat4().to_cols_array()
+                );
+                assert_eq!(
+                    scene.matrix_stages(Program::Ubo, View::Camera, object, aspect),
+                    vec![p, v, m]
+                );
+            }
+            // Push constants are not used by the buffer deliveries.
+            let taken = scene.with_delivery(Delivery::Ubo).unwrap();
+            assert_eq!(taken.plan.pipelines[0].program.push_constant_size(), 0);
+            assert!(scene
+                .push_constants(Program::Ubo, &scene.objects[0], aspect)
+                .is_empty());
+        }
+    }
 }

@@ -69,6 +69,18 @@ pub const LIT_MVP_VERT: ShaderSource = shader!("lit_mvp.vert");
 /// tests is its f64 model).
 pub const LIT_MVP_FRAG: ShaderSource = shader!("lit_mvp.frag");
 
+/// `ubo.vert`: `gl_Position = ubo.projection * ubo.view * ubo.model * vec4(position, 1.0)`
+/// from one dynamic uniform block per object (P, V and M apart); passes the block's color on.
+pub const UBO_VERT: ShaderSource = shader!("ubo.vert");
+/// `ubo_dynamic.vert`: `gl_Position = frame.view_proj * object.model * vec4(position, 1.0)`,
+/// P * V in a uniform buffer, the model matrix in a dynamic one; passes the object's color on.
+pub const UBO_DYNAMIC_VERT: ShaderSource = shader!("ubo_dynamic.vert");
+/// `ssbo.vert`: `gl_Position = objects.items[gl_InstanceIndex].mvp * vec4(position, 1.0)` from
+/// a read-only storage buffer; passes the item's color on.
+pub const SSBO_VERT: ShaderSource = shader!("ssbo.vert");
+/// `flat_color.frag`: writes the flat color passed on by the buffer deliveries' vertex shaders.
+pub const FLAT_COLOR_FRAG: ShaderSource = shader!("flat_color.frag");
+
 /// Every embedded module.
 #[cfg(test)]
 pub const ALL: &[ShaderSource] = &[
@@ -83,6 +95,10 @@ pub const ALL: &[ShaderSource] = &[
     MVP_PAIR_FRAG,
     LIT_MVP_VERT,
     LIT_MVP_FRAG,
+    UBO_VERT,
+    UBO_DYNAMIC_VERT,
+    SSBO_VERT,
+    FLAT_COLOR_FRAG,
 ];
 
 #[cfg(test)]
@@ -205,6 +221,40 @@ mod tests {
                 shader.name
             );
         }
+    }
+
+    #[test]
+    fn the_buffer_deliveries_declare_no_push_constants() {
+        const OP_VARIABLE: u32 = 59;
+        const PUSH_CONSTANT: u32 = 9;
+        const UNIFORM: u32 = 2;
+        const STORAGE_BUFFER: u32 = 12;
+        // (module, its buffer variables' storage class, how many)
+        for (shader, class, count) in [
+            (UBO_VERT, UNIFORM, 1),
+            (UBO_DYNAMIC_VERT, UNIFORM, 2),
+            (SSBO_VERT, STORAGE_BUFFER, 1),
+            (FLAT_COLOR_FRAG, UNIFORM, 0),
+        ] {
+            let words = shader.words().unwrap();
+            let classes: Vec<u32> = instructions(&words)
+                .iter()
+                .filter(|(op, _)| *op == OP_VARIABLE)
+                .map(|(_, operands)| operands[2])
+                .collect();
+            assert!(!classes.contains(&PUSH_CONSTANT), "{}", shader.name);
+            assert_eq!(
+                classes.iter().filter(|&&c| c == class).count(),
+                count,
+                "{}: {classes:?}",
+                shader.name
+            );
+        }
+        // The scene shader does use them (the check sees them).
+        let words = SCENE_VERT.words().unwrap();
+        assert!(instructions(&words)
+            .iter()
+            .any(|(op, operands)| *op == OP_VARIABLE && operands[2] == PUSH_CONSTANT));
     }
 
     #[test]

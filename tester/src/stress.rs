@@ -246,6 +246,7 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
         driver: device_info.driver(),
         depth_format: args.depth_format.vk_name(),
         scene: SCENE,
+        delivery: crate::plan::Delivery::Push.name(),
         width: first.width,
         height: first.height,
         validation_messages: messages,

@@ -9,7 +9,8 @@
 //! them (their colors are still checked against the bound; the e2e tests check that promoted
 //! images are reversed, from the layer's log). Outputs, in the output folder:
 //! `conformance.json` (summary and one entry per case) and `junit.xml` (one `testsuite` per
-//! scene, one `testcase` per mode and format, a `failure` element for each failure); and one
+//! scene, one `testcase` per mode and format (and delivery, for the buffer deliveries of issue
+//! #16: `--deliveries`), a `failure` element for each failure); and one
 //! line on stdout: `revz conformance: PASS|FAIL: N passed, M failed of T on DEVICE`. The
 //! exit status is 0 when every case passed, 1 otherwise.
 
@@ -48,7 +49,19 @@ pub fn stored_format(m: &Measurement) -> String {
     }
 }
 
-/// The bound on `wrong_pixel_fraction` of (scene, mode, format), and why.
+/// The bound on `wrong_pixel_fraction` of (scene, mode, format) with the matrices handed
+/// over by `delivery`, and why.
+///
+/// The projection delivery (issue #16) changes the application's own float32 arithmetic only
+/// where the GPU composes matrices the push delivery composes in f64: `ssbo` stores the same
+/// float32 P * V * M as the push constants (its renders are the push renders bit for bit),
+/// `ubo-dynamic` computes `view_proj * (model * p)` (the same as push where the model matrix
+/// is the identity: `sloped-plane`, `mars-patch`, `plane-stack`), `ubo` computes
+/// `((P * V) * M) * p`. So every bound is the push delivery's, and the regression caps of
+/// standard depth (`none`, `flip`) are widened where that composition measures worse on
+/// lavapipe (`far-objects`). The tight bounds are the same for every delivery: reversed float
+/// depth with one mapping per camera resolves the scenes whatever path the projection took,
+/// once the layer reaches it.
 ///
 /// How each bound is derived (issue #14 tightened them from caps set above failures):
 /// - [`Expectation::Resolves`] where the precision model says the mode and format resolve
@@ -75,9 +88,21 @@ pub fn stored_format(m: &Measurement) -> String {
 /// their own bounds: a layer that stops promoting fails the float bounds where they are
 /// tighter, not here, since the row then names no promoted format; the accuracy test
 /// `promoted_formats_match_their_float_rows` checks that promotion happens.)
-pub fn bound(scene: &str, mode: &str, format: &str) -> (f64, Expectation) {
+pub fn bound(scene: &str, mode: &str, format: &str, delivery: &str) -> (f64, Expectation) {
     use Expectation::{Limited, Resolves};
     let reversed = matches!(mode, "complementary" | "infinite");
+    // The sunk boxes of `far-objects` with the camera 3.4 km from the origin: composing V * M
+    // in float32 on the GPU (ubo: (P * V) * M; ubo-dynamic: P * V then M) rounds the large
+    // translations that cancel in the f64 P * V * M. Measured (96 x 72 / 160 x 120) for D24
+    // and D32: ubo 4.9e-2 (none), 3.9e-2 to 4.4e-2 (flip); ubo-dynamic 4.0e-2 (none), 2.8e-2
+    // to 2.9e-2 (flip); D16 0.21 to 0.22 (within its own bound).
+    if scene == "far-objects"
+        && !reversed
+        && format != "d16"
+        && matches!(delivery, "ubo" | "ubo-dynamic")
+    {
+        return (7.5e-2, Limited);
+    }
     let float = is_float(format);
     let fixed24 = format.starts_with("d24") || format.starts_with("x8");
     match scene {
@@ -175,6 +200,8 @@ pub fn bound(scene: &str, mode: &str, format: &str) -> (f64, Expectation) {
 #[derive(Clone, Debug, Serialize)]
 pub struct Verdict {
     pub scene: &'static str,
+    /// How the matrices reached the shader (`push`, `ubo`, `ubo-dynamic`, `ssbo`).
+    pub delivery: &'static str,
     pub mode: &'static str,
     pub format: String,
     /// The float format revz promoted the depth image to (null: not promoted).
@@ -197,7 +224,7 @@ pub struct Verdict {
 /// Checks one measurement.
 pub fn verdict(m: &Measurement) -> Verdict {
     let bound_format = stored_format(m);
-    let (bound, expectation) = bound(m.scene, m.mode, &bound_format);
+    let (bound, expectation) = bound(m.scene, m.mode, &bound_format, m.delivery);
     let mut failures = Vec::new();
     if let Some(error) = &m.error {
         failures.push(error.clone());
@@ -221,6 +248,7 @@ pub fn verdict(m: &Measurement) -> Verdict {
     }
     Verdict {
         scene: m.scene,
+        delivery: m.delivery,
         mode: m.mode,
         format: m.format.clone(),
         promoted_format: m.promoted_format.clone(),
@@ -273,8 +301,9 @@ pub fn finish(out: &Path, results: &[Measurement]) -> Result<ExitCode> {
         .with_context(|| format!("cannot write {}", xml.display()))?;
     for v in verdicts.iter().filter(|v| !v.passed) {
         println!(
-            "FAIL {} {} {}: {}",
+            "FAIL {} {} {} {}: {}",
             v.scene,
+            v.delivery,
             v.mode,
             v.format,
             v.failures.join("; ")
@@ -333,12 +362,19 @@ pub fn junit(verdicts: &[Verdict], device: &str) -> String {
             escape(device)
         );
         for v in cases {
+            // Push cases keep their names; a buffer delivery's name it.
+            let delivery = if v.delivery == "push" {
+                String::new()
+            } else {
+                format!(" {}", v.delivery)
+            };
             let _ = write!(
                 xml,
-                "    <testcase classname=\"revz.conformance.{}\" name=\"{} {}\"",
+                "    <testcase classname=\"revz.conformance.{}\" name=\"{} {}{}\"",
                 escape(scene),
                 v.mode,
-                escape(&v.format)
+                escape(&v.format),
+                escape(&delivery)
             );
             let detail = format!(
                 "wrong_pixel_fraction={:.3e} bound={:.0e} checked_pixels={} depth_reversed={:?} \
@@ -378,6 +414,7 @@ mod tests {
     fn junit_escapes_and_counts() {
         let v = |passed: bool| Verdict {
             scene: "tori",
+            delivery: "push",
             mode: "none",
             format: "d16".into(),
             promoted_format: None,
@@ -406,6 +443,7 @@ mod tests {
     fn measurement(format: &str, promoted: Option<&str>, depth_readback: bool) -> Measurement {
         Measurement {
             scene: "deep-range",
+            delivery: "push",
             mode: "complementary",
             format: format.into(),
             vk_format: "D16_UNORM",
@@ -433,7 +471,10 @@ mod tests {
         // Unpromoted D16, read back: D16's bound, depth checked.
         let v = verdict(&measurement("d16", None, true));
         assert!(v.passed, "{v:?}");
-        assert_eq!(v.bound, bound("deep-range", "complementary", "d16").0);
+        assert_eq!(
+            v.bound,
+            bound("deep-range", "complementary", "d16", "push").0
+        );
         // Promoted to D32_SFLOAT, no readback: the float bound (1e-4), no depth to check.
         let v = verdict(&measurement("d16", Some("D32_SFLOAT"), false));
         assert_eq!(v.bound_format, "d32");
@@ -454,9 +495,12 @@ mod tests {
 
     #[test]
     fn the_seed_cases_are_bounded_tightly_for_reversed_float_depth() {
-        assert_eq!(bound("mars-patch", "infinite", "d32").0, 1e-4);
-        assert_eq!(bound("sloped-plane", "infinite", "d32").0, 1e-4);
-        assert_eq!(bound("sloped-plane", "none", "d32").1, Expectation::Limited);
+        assert_eq!(bound("mars-patch", "infinite", "d32", "push").0, 1e-4);
+        assert_eq!(bound("sloped-plane", "infinite", "d32", "push").0, 1e-4);
+        assert_eq!(
+            bound("sloped-plane", "none", "d32", "push").1,
+            Expectation::Limited
+        );
     }
 
     #[test]
@@ -464,18 +508,49 @@ mod tests {
         for mode in ["complementary", "infinite"] {
             for format in ["d32", "d32-s8"] {
                 assert_eq!(
-                    bound("far-objects", mode, format),
+                    bound("far-objects", mode, format, "push"),
                     (1e-4, Expectation::Resolves)
                 );
             }
-            assert_eq!(bound("far-objects", mode, "d24-s8").1, Expectation::Limited);
+            assert_eq!(
+                bound("far-objects", mode, "d24-s8", "push").1,
+                Expectation::Limited
+            );
         }
         for mode in ["none", "flip"] {
-            assert_eq!(bound("far-objects", mode, "d32").1, Expectation::Limited);
+            assert_eq!(
+                bound("far-objects", mode, "d32", "push").1,
+                Expectation::Limited
+            );
         }
         assert_eq!(
-            bound("far-objects", "infinite", "d16").1,
+            bound("far-objects", "infinite", "d16", "push").1,
             Expectation::Limited
+        );
+    }
+
+    #[test]
+    fn buffer_deliveries_keep_the_tight_bounds() {
+        for scene in ["sloped-plane", "mars-patch", "deep-range", "far-objects"] {
+            for delivery in ["ubo", "ubo-dynamic", "ssbo"] {
+                for mode in ["complementary", "infinite"] {
+                    assert_eq!(
+                        bound(scene, mode, "d32", delivery),
+                        (1e-4, Expectation::Resolves),
+                        "{scene} {mode} {delivery}"
+                    );
+                }
+            }
+        }
+        // Only the composing deliveries' standard depth of far-objects is capped higher.
+        assert_eq!(bound("far-objects", "none", "d32", "ubo").0, 7.5e-2);
+        assert_eq!(
+            bound("far-objects", "none", "d32", "ssbo"),
+            bound("far-objects", "none", "d32", "push")
+        );
+        assert_eq!(
+            bound("far-objects", "none", "d16", "ubo"),
+            bound("far-objects", "none", "d16", "push")
         );
     }
 }

@@ -22,6 +22,7 @@ use serde::Serialize;
 
 use super::Promotion;
 use crate::ground_truth::{self, GroundTruth, BACKGROUND};
+use crate::plan::Delivery;
 use crate::scene::SceneId;
 use crate::target::DepthFormat;
 use crate::variants::{Runner, Variant};
@@ -37,6 +38,8 @@ const UNKNOWN: u16 = u16::MAX - 1;
 #[derive(Clone, Debug)]
 pub struct Case {
     pub scene: SceneId,
+    /// How the scene hands its matrices to the shader (`--delivery`).
+    pub delivery: Delivery,
     pub variant: Variant,
     pub format: DepthFormat,
     pub width: u32,
@@ -52,6 +55,9 @@ pub struct Case {
 #[derive(Clone, Debug, Serialize)]
 pub struct Measurement {
     pub scene: &'static str,
+    /// How the scene handed its matrices to the shader: `push` (push constants), `ubo`,
+    /// `ubo-dynamic`, `ssbo` (buffers; issue #16).
+    pub delivery: &'static str,
     /// `none` (no layer: standard depth), `flip`, `complementary`, `infinite`.
     pub mode: &'static str,
     /// The CLI name of the depth format (`d32`, ...).
@@ -219,6 +225,8 @@ pub fn measure(
     let mut args = vec![
         "--scene",
         case.scene.name(),
+        "--delivery",
+        case.delivery.name(),
         "--depth-format",
         &format,
         "--width",
@@ -251,6 +259,7 @@ pub fn measure(
     std::fs::write(render_dir.join("log.txt"), &log).ok();
     let mut m = Measurement {
         scene: case.scene.name(),
+        delivery: case.delivery.name(),
         mode: case.variant.name(),
         promoted_format: promoted_format(&log, case.format.vk_name(), case.width, case.height),
         format,

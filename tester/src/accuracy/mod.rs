@@ -22,6 +22,19 @@
 //! from any silhouette or intersection where another object shows) that show another object
 //! than the nearest one.
 //!
+//!
+//! Projection deliveries (issue #16): every scene hands its matrices to the vertex shader in
+//! push constants (`push`). `--deliveries` adds the buffer deliveries (`ubo`: P, V and M apart
+//! in a dynamic uniform buffer; `ubo-dynamic`: P * V in a uniform buffer and the model matrix
+//! in a dynamic one; `ssbo`: P * V * M in a storage buffer; `all`: the three and `push`) for
+//! the scenes of [`DELIVERY_SCENES`], every selected mode and format; each row names its
+//! `delivery`. The default is `push` alone: the three buffer deliveries of those five scenes
+//! would add 300 renders to the 140 of the default report (about three times its runtime),
+//! and conformance's bounds for them need the layer's buffer path (until then its reversed
+//! rows take the flip path and fail their tight bounds). `tori` and `decal-bias` are rendered
+//! with push constants only (a scene the buffer deliveries do not cover is skipped when
+//! `push` is not selected).
+//!
 //! - `report` ([`report`]): `report.json`, `report.md`, the renders side by side per scene, and
 //!   plots of `plane-stack`'s measured minimum separations over the model's curves.
 //! - `conformance` ([`conformance`]): every case against a stated bound; JUnit XML and JSON;
@@ -40,6 +53,7 @@ use std::process::ExitCode;
 use anyhow::Result;
 use clap::ValueEnum;
 
+use crate::plan::Delivery;
 use crate::scene::SceneId;
 use crate::target::DepthFormat;
 use crate::variants::{Runner, Variant};
@@ -55,6 +69,44 @@ pub const SCENES: [SceneId; 7] = [
     SceneId::DecalBias,
     SceneId::FarObjects,
 ];
+
+/// The accuracy scenes the buffer deliveries are rendered for (`--deliveries`): those whose
+/// precision depends on how the projection reaches the shader (seed 001's two cases, the
+/// minimum separation, the deep range, objects with their own matrices far away).
+pub const DELIVERY_SCENES: [SceneId; 5] = [
+    SceneId::SlopedPlane,
+    SceneId::MarsPatch,
+    SceneId::PlaneStack,
+    SceneId::DeepRange,
+    SceneId::FarObjects,
+];
+
+/// A `--deliveries` value: one delivery, or `all` of them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, ValueEnum)]
+pub enum DeliveryChoice {
+    /// Push constants (every scene).
+    Push,
+    /// P, V and M apart in a dynamic uniform buffer.
+    Ubo,
+    /// P * V in a uniform buffer, the model matrix in a dynamic one.
+    UboDynamic,
+    /// P * V * M in a storage buffer indexed by the instance.
+    Ssbo,
+    /// push, ubo, ubo-dynamic and ssbo.
+    All,
+}
+
+impl DeliveryChoice {
+    fn deliveries(self) -> &'static [Delivery] {
+        match self {
+            DeliveryChoice::Push => &[Delivery::Push],
+            DeliveryChoice::Ubo => &[Delivery::Ubo],
+            DeliveryChoice::UboDynamic => &[Delivery::UboDynamic],
+            DeliveryChoice::Ssbo => &[Delivery::Ssbo],
+            DeliveryChoice::All => &Delivery::ALL,
+        }
+    }
+}
 
 /// Every depth format, in report order.
 pub const FORMATS: [DepthFormat; 5] = [
@@ -151,6 +203,12 @@ pub struct Selection {
     #[arg(long, value_enum, value_delimiter = ',')]
     pub formats: Vec<DepthFormat>,
 
+    /// Projection deliveries (comma-separated): push, ubo, ubo-dynamic, ssbo, or all. The
+    /// buffer deliveries are rendered for sloped-plane, mars-patch, plane-stack, deep-range and
+    /// far-objects. Default: push.
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "DELIVERIES")]
+    pub deliveries: Vec<DeliveryChoice>,
+
     /// The revz layer's manifest directory. Default: `manifests/explicit` next to this
     /// executable (what `cargo xtask build` writes).
     #[arg(long, value_name = "DIR")]
@@ -191,6 +249,31 @@ impl Selection {
             self.formats.clone()
         }
     }
+
+    /// The selected deliveries, in [`Delivery::ALL`] order, without repeats.
+    fn deliveries(&self) -> Vec<Delivery> {
+        if self.deliveries.is_empty() {
+            return vec![Delivery::Push];
+        }
+        Delivery::ALL
+            .into_iter()
+            .filter(|d| {
+                self.deliveries
+                    .iter()
+                    .any(|choice| choice.deliveries().contains(d))
+            })
+            .collect()
+    }
+}
+
+/// The deliveries of `deliveries` rendered for `scene`: all of them for
+/// [`DELIVERY_SCENES`], push alone (if selected) for the others.
+pub fn scene_deliveries(scene: SceneId, deliveries: &[Delivery]) -> Vec<Delivery> {
+    deliveries
+        .iter()
+        .copied()
+        .filter(|&d| d == Delivery::Push || DELIVERY_SCENES.contains(&scene))
+        .collect()
 }
 
 /// `revz-tester report`.
@@ -240,12 +323,34 @@ pub fn scene_size(scene: SceneId, width: u32, height: u32) -> (u32, u32) {
     }
 }
 
+/// The (delivery, format, mode) of a scene's cases, in rendering order.
+fn cases(deliveries: &[Delivery], selection: &Selection) -> Vec<(Delivery, DepthFormat, Mode)> {
+    let mut cases = Vec::new();
+    for &delivery in deliveries {
+        for format in selection.formats() {
+            for mode in selection.modes() {
+                cases.push((delivery, format, mode));
+            }
+        }
+    }
+    cases
+}
+
 /// Renders and measures every selected case, scene by scene; prints one line per case.
 fn run_all(selection: &Selection, out: &Path, width: u32, height: u32) -> Result<Vec<Measurement>> {
     std::fs::create_dir_all(out)?;
     let runner = Runner::locate(selection.layer_dir.as_deref())?;
     let mut results = Vec::new();
     for scene in selection.scenes() {
+        let deliveries = scene_deliveries(scene, &selection.deliveries());
+        if deliveries.is_empty() {
+            println!(
+                "{}: skipped (the buffer deliveries cover {})",
+                scene.name(),
+                DELIVERY_SCENES.map(|s| s.name()).join(", ")
+            );
+            continue;
+        }
         let (w, h) = scene_size(scene, width, height);
         let truth = Truth::new(scene, w, h)?;
         let dir = format!("renders/{}", scene.name());
@@ -253,54 +358,62 @@ fn run_all(selection: &Selection, out: &Path, width: u32, height: u32) -> Result
         truth
             .expected_image()
             .save(out.join(&dir).join("expected.png"))?;
-        for format in selection.formats() {
-            for mode in selection.modes() {
-                let case = Case {
-                    scene,
-                    variant: mode.variant(),
-                    format,
-                    width: w,
-                    height: h,
-                    depth_readback: depth_readback(mode, format, selection.promote_depth_formats),
-                    promote_depth_formats: selection.promote_depth_formats,
-                };
-                let case_dir = format!(
-                    "{dir}/{}-{}",
-                    mode.variant().name(),
-                    measure::format_name(format)
-                );
-                let m = measure::measure(
-                    &runner,
-                    selection.device.as_deref(),
-                    &case,
-                    &truth,
-                    out,
-                    &case_dir,
-                )?;
-                println!(
-                    "{:<13} {:<13} {:<7} wrong {:>9.3e} of {:>6} checked, reversed {:<5}{}{}",
-                    m.scene,
-                    m.mode,
-                    m.format,
-                    m.wrong_pixel_fraction,
-                    m.checked_pixels,
-                    match m.depth_reversed {
-                        Some(r) => r.to_string(),
-                        None if !m.depth_readback => "-".into(),
-                        None => "?".into(),
-                    },
-                    m.promoted_format
-                        .as_deref()
-                        .map(|f| format!(" promoted to {f}"))
-                        .unwrap_or_default(),
-                    m.error
-                        .as_deref()
-                        .map(|e| format!("  ERROR {e}"))
-                        .unwrap_or_default()
-                );
-                results.push(m);
-            }
+        for (delivery, format, mode) in cases(&deliveries, selection) {
+            let case = Case {
+                scene,
+                delivery,
+                variant: mode.variant(),
+                format,
+                width: w,
+                height: h,
+                depth_readback: depth_readback(mode, format, selection.promote_depth_formats),
+                promote_depth_formats: selection.promote_depth_formats,
+            };
+            // Push renders keep their folder names; the others are prefixed.
+            let prefix = match delivery {
+                Delivery::Push => String::new(),
+                other => format!("{}-", other.name()),
+            };
+            let case_dir = format!(
+                "{dir}/{prefix}{}-{}",
+                mode.variant().name(),
+                measure::format_name(format)
+            );
+            let m = measure::measure(
+                &runner,
+                selection.device.as_deref(),
+                &case,
+                &truth,
+                out,
+                &case_dir,
+            )?;
+            println!(
+                "{:<13} {:<11} {:<13} {:<7} wrong {:>9.3e} of {:>6} checked, reversed {:<5}{}{}",
+                m.scene,
+                m.delivery,
+                m.mode,
+                m.format,
+                m.wrong_pixel_fraction,
+                m.checked_pixels,
+                match m.depth_reversed {
+                    Some(r) => r.to_string(),
+                    None if !m.depth_readback => "-".into(),
+                    None => "?".into(),
+                },
+                m.promoted_format
+                    .as_deref()
+                    .map(|f| format!(" promoted to {f}"))
+                    .unwrap_or_default(),
+                m.error
+                    .as_deref()
+                    .map(|e| format!("  ERROR {e}"))
+                    .unwrap_or_default()
+            );
+            results.push(m);
         }
+    }
+    if results.is_empty() {
+        anyhow::bail!("no case selected (the buffer deliveries cover only some scenes)");
     }
     Ok(results)
 }

@@ -8,25 +8,37 @@ use plotters::prelude::*;
 
 use super::measure::{format_name, Measurement};
 use super::model;
-use super::report::{formats_in, SeparationRow, FONT};
+use super::report::{deliveries_in, formats_in, SeparationRow, FONT};
 use super::Mode;
 
 /// Pixels between tiles.
 const GAP: u32 = 4;
 
-/// `images/<scene>.png` for every scene: the expected image, then one row per mode and one
-/// column per format. Returns the paths written, relative to `out`.
+/// The suffix of a delivery's images and plots: none for push constants, `-<delivery>` else.
+fn suffix(delivery: &str) -> String {
+    if delivery == "push" {
+        String::new()
+    } else {
+        format!("-{delivery}")
+    }
+}
+
+/// `images/<scene>.png` for every scene (`images/<scene>-<delivery>.png` for a buffer
+/// delivery): the expected image, then one row per mode and one column per format. Returns
+/// the paths written, relative to `out`.
 pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> {
     let formats = formats_in(results);
-    let mut scenes: Vec<&str> = Vec::new();
-    for m in results {
-        if !scenes.contains(&m.scene) {
-            scenes.push(m.scene);
+    let mut sheets: Vec<(&str, &str)> = Vec::new();
+    for delivery in deliveries_in(results) {
+        for m in results {
+            if m.delivery == delivery && !sheets.contains(&(m.scene, delivery)) {
+                sheets.push((m.scene, delivery));
+            }
         }
     }
     std::fs::create_dir_all(out.join("images"))?;
     let mut written = Vec::new();
-    for scene in scenes {
+    for (scene, delivery) in sheets {
         let expected = image::open(out.join(format!("renders/{scene}/expected.png")))
             .context("no expected.png")?
             .to_rgba8();
@@ -34,9 +46,9 @@ pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> 
         let modes: Vec<Mode> = Mode::ALL
             .into_iter()
             .filter(|mode| {
-                results
-                    .iter()
-                    .any(|m| m.scene == scene && m.mode == mode.variant().name())
+                results.iter().any(|m| {
+                    m.scene == scene && m.delivery == delivery && m.mode == mode.variant().name()
+                })
             })
             .collect();
         let columns = formats.len().max(1) as u32;
@@ -51,6 +63,7 @@ pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> 
             for (c, format) in formats.iter().enumerate() {
                 let Some(m) = results.iter().find(|m| {
                     m.scene == scene
+                        && m.delivery == delivery
                         && m.mode == mode.variant().name()
                         && m.format == format_name(*format)
                 }) else {
@@ -64,7 +77,7 @@ pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> 
                 image::imageops::replace(&mut sheet, &tile.to_rgba8(), i64::from(x), i64::from(y));
             }
         }
-        let rel = format!("images/{scene}.png");
+        let rel = format!("images/{scene}{}.png", suffix(delivery));
         sheet
             .save(out.join(&rel))
             .with_context(|| format!("cannot write {rel}"))?;
@@ -98,7 +111,8 @@ fn mode_color(mode: &str) -> RGBColor {
     }
 }
 
-/// `plots/min-separation-<format>.png` per format: measured points over the model's lines.
+/// `plots/min-separation-<format>.png` per format (`...-<format>-<delivery>.png` for a buffer
+/// delivery): measured points over the model's lines.
 pub fn plots(out: &Path, results: &[Measurement], rows: &[SeparationRow]) -> Result<Vec<String>> {
     if rows.is_empty() {
         return Ok(Vec::new());
@@ -106,20 +120,35 @@ pub fn plots(out: &Path, results: &[Measurement], rows: &[SeparationRow]) -> Res
     font()?;
     std::fs::create_dir_all(out.join("plots"))?;
     let mut written = Vec::new();
-    for format in formats_in(results) {
+    let sheets = deliveries_in(results).into_iter().flat_map(|delivery| {
+        formats_in(results)
+            .into_iter()
+            .map(move |format| (delivery, format))
+    });
+    for (delivery, format) in sheets {
         let name = format_name(format);
-        let rows: Vec<&SeparationRow> = rows.iter().filter(|r| r.format == name).collect();
+        let rows: Vec<&SeparationRow> = rows
+            .iter()
+            .filter(|r| r.format == name && r.delivery == delivery)
+            .collect();
         if rows.is_empty() {
             continue;
         }
-        let rel = format!("plots/min-separation-{name}.png");
+        let rel = format!("plots/min-separation-{name}{}.png", suffix(delivery));
         let path = out.join(&rel);
         {
             let root = BitMapBackend::new(&path, (720, 480)).into_drawing_area();
             root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
             let mut chart = ChartBuilder::on(&root)
                 .caption(
-                    format!("plane-stack {name}: minimum dz/z resolved (points) vs model (lines)"),
+                    format!(
+                        "plane-stack {name}{}: minimum dz/z resolved (points) vs model (lines)",
+                        if delivery == "push" {
+                            String::new()
+                        } else {
+                            format!(" ({delivery})")
+                        }
+                    ),
                     ("sans-serif", 18),
                 )
                 .margin(12)
