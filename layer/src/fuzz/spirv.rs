@@ -404,6 +404,20 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
         Ok(None) => "unchanged".to_owned(),
         Err(reason) => reason.0.to_owned(),
     };
+    // The same for the deriving rewrite (projections in buffers, `crate::derived_range`).
+    let derived = match crate::position_store::rewrite_position_store_deriving(&words, 112) {
+        Ok(Some((out, source))) => {
+            if validates(&words).is_ok() {
+                if let Err(message) = validates(&out) {
+                    return Err(format!("the deriving rewrite of a valid module: {message}"));
+                }
+                VERTEX_STORES_VALIDATED.add();
+            }
+            format!("derived from {source:?}")
+        }
+        Ok(None) => "unchanged".to_owned(),
+        Err(reason) => reason.0.to_owned(),
+    };
     let entries_shape = match &entries {
         Ok(list) => list
             .iter()
@@ -417,6 +431,7 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
         analysis_shape(&main),
         entries_shape,
         stored,
+        derived,
     )))
 }
 
@@ -432,6 +447,9 @@ pub fn vertex_target() -> Target {
                 include_str!("../../../shaders/mvp_pair.vert"),
                 include_str!("../../../shaders/row_vector.vert"),
                 include_str!("../../../shaders/shadow_receiver.vert"),
+                include_str!("../../../shaders/ubo.vert"),
+                include_str!("../../../shaders/ubo_dynamic.vert"),
+                include_str!("../../../shaders/ssbo.vert"),
             ],
         ),
         mutate: mutate_spirv,
