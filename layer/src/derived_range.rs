@@ -386,7 +386,7 @@ fn source_of(module: &ModuleFacts<'_>, defs: &Defs, pointer: u32) -> MatrixSourc
     match defs.pointer_class(module, pointer, 0) {
         Some(STORAGE_STORAGE_BUFFER) => MatrixSource::StorageBuffer,
         Some(STORAGE_UNIFORM) => {
-            let block = buffer_block_of(module, pointer, &defs);
+            let block = buffer_block_of(module, pointer, defs);
             if block {
                 MatrixSource::StorageBuffer
             } else {
@@ -584,10 +584,15 @@ impl Fit {
         let c_w = code.typed(OP_SELECT, float, &[infinite, zero.0, one_minus_k]);
         let c_1 = code.typed(OP_SELECT, float, &[infinite, near, neg_b]);
         let [flip_z, flip_w, flip_1] = FLIP_IN_SHADER;
-        let id_of = |value: f32| match value {
-            v if v == 0.0 => zero.0,
-            v if v == 1.0 => one.0,
-            _ => minus_one.0,
+        // The flip mapping's entries are 0, 1 and -1.
+        let id_of = |value: f32| {
+            if value == 0.0 {
+                zero.0
+            } else if value == 1.0 {
+                one.0
+            } else {
+                minus_one.0
+            }
         };
         let out_z = code.typed(OP_SELECT, float, &[accepted, zero.0, id_of(flip_z)]);
         let out_w = code.typed(OP_SELECT, float, &[accepted, c_w, id_of(flip_w)]);

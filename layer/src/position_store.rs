@@ -75,11 +75,10 @@ pub fn rewrite_position_store_deriving(
         .map(|code| code.map(|(code, source)| (code, source.unwrap_or(MatrixSource::Computed))))
 }
 
-fn rewrite(
-    words: &[u32],
-    offset: u32,
-    derive: bool,
-) -> Result<Option<(Vec<u32>, Option<MatrixSource>)>, Unsupported> {
+/// A rewritten module, and the source of the matrix it fits (deriving rewrites).
+type Rewritten = (Vec<u32>, Option<MatrixSource>);
+
+fn rewrite(words: &[u32], offset: u32, derive: bool) -> Result<Option<Rewritten>, Unsupported> {
     if offset % 16 != 0 {
         return Err(Unsupported("the carrier offset is not 16-byte aligned"));
     }
@@ -322,7 +321,7 @@ impl Module {
         words: &[u32],
         offset: u32,
         derive: bool,
-    ) -> Result<(Vec<u32>, Option<MatrixSource>), Unsupported> {
+    ) -> Result<Rewritten, Unsupported> {
         let Some(position) = self.position()? else {
             return Err(Unsupported("no Position output"));
         };
