@@ -15,6 +15,7 @@
 
 mod accuracy;
 mod bench;
+mod gl;
 mod gpu;
 mod ground_truth;
 mod pipeline;
@@ -74,6 +75,9 @@ enum Command {
     /// Multi-threaded recording stress: threads recording secondaries into one primary, for
     /// many frames; every frame must equal the first (writes a render and stress.json).
     StressThreads(stress::StressArgs),
+    /// OpenGL: a scene drawn by a small GL program (EGL, headless), on llvmpipe or through
+    /// Zink on lavapipe (`--zink`, `--revz MODE`), measured against the ground truth.
+    GlRender(gl::GlRenderArgs),
 }
 
 /// Renders one scene (the default command).
@@ -155,6 +159,7 @@ fn main() -> ExitCode {
         Some(Command::Conformance(args)) => return report_exit(accuracy::conformance(args)),
         Some(Command::Bench(args)) => return report_exit(bench::run(args)),
         Some(Command::StressThreads(args)) => return report_exit(stress::run(args)),
+        Some(Command::GlRender(args)) => return report_exit(gl::run(args)),
         None => run(&cli.render),
     };
     match outcome {

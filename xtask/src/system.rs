@@ -21,6 +21,18 @@ pub const PACKAGES: &[(&str, &str)] = &[
     ("vulkan-tools", "vulkaninfo"),
     ("spirv-tools", "spirv-val, which checks the tester's SPIR-V"),
     (
+        "libegl1",
+        "libEGL.so.1 (glvnd), which `revz-tester gl-render` loads",
+    ),
+    (
+        "libegl-mesa0",
+        "Mesa's EGL and its surfaceless platform, for headless OpenGL",
+    ),
+    (
+        "libgl1-mesa-dri",
+        "Mesa's OpenGL drivers: llvmpipe and Zink (zink_dri.so), OpenGL on Vulkan",
+    ),
+    (
         "fonts-dejavu-core",
         "DejaVu Sans, the font of the report's plots",
     ),

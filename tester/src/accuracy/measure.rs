@@ -101,6 +101,42 @@ pub struct Measurement {
     pub decades: Option<Vec<DecadeResult>>,
 }
 
+impl Measurement {
+    /// A case of `scene` in `mode` not measured yet: nothing checked, everything wrong, depth
+    /// read back, no device; [`compare`] fills the counts.
+    pub fn blank(
+        scene: &'static str,
+        mode: &'static str,
+        format: DepthFormat,
+        width: u32,
+        height: u32,
+    ) -> Measurement {
+        Measurement {
+            scene,
+            delivery: "push",
+            mode,
+            format: format_name(format),
+            vk_format: format.vk_name(),
+            promoted_format: None,
+            depth_readback: true,
+            device: String::new(),
+            driver: String::new(),
+            width,
+            height,
+            checked_pixels: 0,
+            wrong_pixels: 0,
+            wrong_pixel_fraction: 1.0,
+            depth_reversed: None,
+            validation_messages: 0,
+            error: None,
+            dir: String::new(),
+            cells: Vec::new(),
+            min_rel_separation: None,
+            decades: None,
+        }
+    }
+}
+
 /// One `far-objects` group's count: the checked pixels whose expected object is one of the
 /// group's.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -257,29 +293,17 @@ pub fn measure(
         String::from_utf8_lossy(&output.stderr)
     );
     std::fs::write(render_dir.join("log.txt"), &log).ok();
-    let mut m = Measurement {
-        scene: case.scene.name(),
-        delivery: case.delivery.name(),
-        mode: case.variant.name(),
-        promoted_format: promoted_format(&log, case.format.vk_name(), case.width, case.height),
-        format,
-        vk_format: case.format.vk_name(),
-        depth_readback: case.depth_readback,
-        device: String::new(),
-        driver: String::new(),
-        width: case.width,
-        height: case.height,
-        checked_pixels: 0,
-        wrong_pixels: 0,
-        wrong_pixel_fraction: 1.0,
-        depth_reversed: None,
-        validation_messages: 0,
-        error: None,
-        dir: dir.to_string(),
-        cells: Vec::new(),
-        min_rel_separation: None,
-        decades: None,
-    };
+    let mut m = Measurement::blank(
+        case.scene.name(),
+        case.variant.name(),
+        case.format,
+        case.width,
+        case.height,
+    );
+    m.delivery = case.delivery.name();
+    m.promoted_format = promoted_format(&log, case.format.vk_name(), case.width, case.height);
+    m.depth_readback = case.depth_readback;
+    m.dir = dir.to_string();
     let code = output.status.code();
     if code != Some(0) && code != Some(2) {
         let last = log
@@ -322,8 +346,10 @@ fn read_f32(path: &PathBuf) -> Result<Vec<f32>> {
         .collect())
 }
 
-/// Fills the pixel counts, the fraction, the reversal and the plane-stack cells.
-fn compare(
+/// Fills the pixel counts, the fraction, the reversal and the plane-stack cells of `m` from a
+/// rendered color image (and its depth, top row first, where read back); `gl-render` measures
+/// its OpenGL renders with it too.
+pub fn compare(
     m: &mut Measurement,
     truth: &Truth,
     color: &image::RgbaImage,

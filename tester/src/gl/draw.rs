@@ -1,0 +1,327 @@
+//! The OpenGL program of `gl-render`: a scene of the tester drawn as an ordinary OpenGL 3.3
+//! application would, into a framebuffer object (an RGBA8 color renderbuffer and a
+//! GL_DEPTH_COMPONENT32F depth renderbuffer), with standard GL depth (glClearDepth(1), GL_LESS,
+//! the default glDepthRange), the matrices as separate GLSL uniforms (`u_projection`, `u_view`,
+//! `u_model`), the projection GL's own: clip z in [-w, w] from the scene camera's near, far and
+//! field of view, y up. Both are read back with glReadPixels and turned top row first, which
+//! lines the render up pixel for pixel with the Vulkan renders and the ground truth: the
+//! Vulkan projection is GL's depth-remapped and y-negated, and GL's bottom-up window rows
+//! reversed put every pixel center at the same NDC as Vulkan's top-down framebuffer rows.
+
+use anyhow::{bail, ensure, Context as _, Result};
+use glam::dcamera::rh::proj;
+use glam::DMat4;
+use glow::HasContext as _;
+
+use crate::plan::Program;
+use crate::scene::{Projection, Scene, Space};
+
+/// The vertex shader: what an OpenGL application with separate matrices writes.
+pub const VERTEX_SHADER: &str = "#version 330 core
+layout(location = 0) in vec3 position;
+uniform mat4 u_projection;
+uniform mat4 u_view;
+uniform mat4 u_model;
+void main() {
+    gl_Position = u_projection * u_view * u_model * vec4(position, 1.0);
+}
+";
+
+/// The fragment shader: each object's flat color.
+pub const FRAGMENT_SHADER: &str = "#version 330 core
+uniform vec4 u_color;
+out vec4 color;
+void main() {
+    color = u_color;
+}
+";
+
+/// What was rendered and read back.
+#[derive(Debug)]
+pub struct GlFrame {
+    /// RGBA8, row-major, top row first.
+    pub rgba: Vec<u8>,
+    /// Window depth per pixel, row-major, top row first.
+    pub depth: Vec<f32>,
+    /// GL_RENDERER.
+    pub renderer: String,
+    /// GL_VERSION.
+    pub version: String,
+}
+
+/// The matrices one object's draw sets: (u_projection, u_view, u_model), each rounded once
+/// from f64 to f32 as an application holding f64 math would upload them.
+pub fn matrices(scene: &Scene, space: Space, model: DMat4, aspect: f64) -> Result<[DMat4; 3]> {
+    let camera = &scene.camera;
+    let projection = proj::opengl::perspective(camera.fov_y, aspect, camera.near, camera.far);
+    Ok(match space {
+        Space::World => [projection, camera.view(), model],
+        // The vertex buffer holds the baked positions (`Scene::vertex_positions`).
+        Space::WorldBaked => [projection, camera.view(), DMat4::IDENTITY],
+        Space::ViewBaked => [projection, DMat4::IDENTITY, DMat4::IDENTITY],
+        Space::Clip => bail!("clip-space objects (Vulkan clip y) are not drawn through GL"),
+    })
+}
+
+/// The objects drawn, in draw order: refuses scenes that do more than GL_LESS into depth
+/// cleared to 1 with the flat program and no culling (the ground truth's rule, and what this
+/// program draws).
+fn drawn(scene: &Scene) -> Result<Vec<usize>> {
+    if scene.camera.projection != Projection::Standard {
+        bail!(
+            "scene '{}' has a {:?} projection: gl-render draws standard-depth scenes",
+            scene.name,
+            scene.camera.projection
+        );
+    }
+    let drawn = crate::ground_truth::applies(scene).map_err(|why| {
+        anyhow::anyhow!(
+            "scene '{}' is more than nearest-surface-wins ({why})",
+            scene.name
+        )
+    })?;
+    drawn
+        .into_iter()
+        .map(|(object, program, cull)| {
+            ensure!(
+                program == Program::Flat && !cull,
+                "scene '{}' draws object {object} with {program:?}{}: gl-render has the flat \
+                 program only, without culling",
+                scene.name,
+                if cull { " and culling" } else { "" }
+            );
+            Ok(object)
+        })
+        .collect()
+}
+
+/// Renders `scene` at `width` x `height` with the current context's GL and reads it back.
+pub fn render(gl: &glow::Context, scene: &Scene, width: u32, height: u32) -> Result<GlFrame> {
+    let objects = drawn(scene)?;
+    let aspect = f64::from(width) / f64::from(height);
+    let (w, h) = (
+        i32::try_from(width).context("width")?,
+        i32::try_from(height).context("height")?,
+    );
+    let geometry = scene.geometry();
+    // SAFETY: every call below is made on the thread whose context is current, with objects
+    // this function created, slices of the sizes GL reads or writes, and is checked with
+    // glGetError at the end.
+    unsafe {
+        let renderer = gl.get_parameter_string(glow::RENDERER);
+        let version = gl.get_parameter_string(glow::VERSION);
+        let program = link_program(gl)?;
+
+        let framebuffer = gl.create_framebuffer().map_err(anyhow::Error::msg)?;
+        gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
+        let color = gl.create_renderbuffer().map_err(anyhow::Error::msg)?;
+        gl.bind_renderbuffer(glow::RENDERBUFFER, Some(color));
+        gl.renderbuffer_storage(glow::RENDERBUFFER, glow::RGBA8, w, h);
+        gl.framebuffer_renderbuffer(
+            glow::FRAMEBUFFER,
+            glow::COLOR_ATTACHMENT0,
+            glow::RENDERBUFFER,
+            Some(color),
+        );
+        let depth = gl.create_renderbuffer().map_err(anyhow::Error::msg)?;
+        gl.bind_renderbuffer(glow::RENDERBUFFER, Some(depth));
+        gl.renderbuffer_storage(glow::RENDERBUFFER, glow::DEPTH_COMPONENT32F, w, h);
+        gl.framebuffer_renderbuffer(
+            glow::FRAMEBUFFER,
+            glow::DEPTH_ATTACHMENT,
+            glow::RENDERBUFFER,
+            Some(depth),
+        );
+        let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
+        ensure!(
+            status == glow::FRAMEBUFFER_COMPLETE,
+            "framebuffer incomplete (0x{status:x})"
+        );
+
+        let vao = gl.create_vertex_array().map_err(anyhow::Error::msg)?;
+        gl.bind_vertex_array(Some(vao));
+        let vertices = gl.create_buffer().map_err(anyhow::Error::msg)?;
+        gl.bind_buffer(glow::ARRAY_BUFFER, Some(vertices));
+        gl.buffer_data_u8_slice(
+            glow::ARRAY_BUFFER,
+            &geometry.position_bytes(),
+            glow::STATIC_DRAW,
+        );
+        gl.enable_vertex_attrib_array(0);
+        gl.vertex_attrib_pointer_f32(0, 3, glow::FLOAT, false, 12, 0);
+        let indices = gl.create_buffer().map_err(anyhow::Error::msg)?;
+        gl.bind_buffer(glow::ELEMENT_ARRAY_BUFFER, Some(indices));
+        gl.buffer_data_u8_slice(
+            glow::ELEMENT_ARRAY_BUFFER,
+            &geometry.index_bytes(),
+            glow::STATIC_DRAW,
+        );
+
+        gl.viewport(0, 0, w, h);
+        gl.disable(glow::DITHER);
+        gl.enable(glow::DEPTH_TEST);
+        gl.depth_func(glow::LESS);
+        gl.depth_mask(true);
+        let [r, g, b, a] = crate::render::CLEAR_COLOR;
+        gl.clear_color(r, g, b, a);
+        gl.clear_depth(1.0);
+        gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
+
+        gl.use_program(Some(program));
+        let uniform = |name: &str| gl.get_uniform_location(program, name);
+        let (u_projection, u_view, u_model, u_color) = (
+            uniform("u_projection"),
+            uniform("u_view"),
+            uniform("u_model"),
+            uniform("u_color"),
+        );
+        for n in objects {
+            let object = &scene.objects[n];
+            let [p, v, m] = matrices(scene, object.space, object.model, aspect)?;
+            let cols = |m: DMat4| m.as_mat4().to_cols_array();
+            gl.uniform_matrix_4_f32_slice(u_projection.as_ref(), false, &cols(p));
+            gl.uniform_matrix_4_f32_slice(u_view.as_ref(), false, &cols(v));
+            gl.uniform_matrix_4_f32_slice(u_model.as_ref(), false, &cols(m));
+            gl.uniform_4_f32_slice(u_color.as_ref(), &object.color);
+            let range = geometry.draws[n];
+            gl.draw_elements_base_vertex(
+                glow::TRIANGLES,
+                i32::try_from(range.index_count).context("index count")?,
+                glow::UNSIGNED_INT,
+                i32::try_from(range.first_index * 4).context("index offset")?,
+                range.vertex_offset,
+            );
+        }
+        gl.finish();
+
+        let pixels = (width * height) as usize;
+        let mut rgba = vec![0u8; pixels * 4];
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
+        gl.read_pixels(
+            0,
+            0,
+            w,
+            h,
+            glow::RGBA,
+            glow::UNSIGNED_BYTE,
+            glow::PixelPackData::Slice(Some(&mut rgba)),
+        );
+        let mut depth_bytes = vec![0u8; pixels * 4];
+        gl.read_pixels(
+            0,
+            0,
+            w,
+            h,
+            glow::DEPTH_COMPONENT,
+            glow::FLOAT,
+            glow::PixelPackData::Slice(Some(&mut depth_bytes)),
+        );
+        let error = gl.get_error();
+
+        gl.delete_buffer(indices);
+        gl.delete_buffer(vertices);
+        gl.delete_vertex_array(vao);
+        gl.delete_renderbuffer(depth);
+        gl.delete_renderbuffer(color);
+        gl.delete_framebuffer(framebuffer);
+        gl.delete_program(program);
+        ensure!(error == glow::NO_ERROR, "GL error 0x{error:x}");
+
+        let row = width as usize;
+        let depth: Vec<f32> = depth_bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        Ok(GlFrame {
+            rgba: top_row_first(&rgba, row * 4),
+            depth: top_row_first(&depth, row),
+            renderer,
+            version,
+        })
+    }
+}
+
+/// GL's rows (bottom row first) in the tester's order (top row first).
+fn top_row_first<T: Copy>(rows: &[T], row: usize) -> Vec<T> {
+    rows.chunks_exact(row).rev().flatten().copied().collect()
+}
+
+/// Compiles and links the two shaders.
+///
+/// # Safety
+/// The GL context must be current on this thread.
+unsafe fn link_program(gl: &glow::Context) -> Result<glow::Program> {
+    // SAFETY: the caller's context is current.
+    unsafe {
+        let program = gl.create_program().map_err(anyhow::Error::msg)?;
+        let mut shaders = Vec::new();
+        for (kind, source, name) in [
+            (glow::VERTEX_SHADER, VERTEX_SHADER, "vertex"),
+            (glow::FRAGMENT_SHADER, FRAGMENT_SHADER, "fragment"),
+        ] {
+            let shader = gl.create_shader(kind).map_err(anyhow::Error::msg)?;
+            gl.shader_source(shader, source);
+            gl.compile_shader(shader);
+            if !gl.get_shader_compile_status(shader) {
+                bail!(
+                    "the {name} shader does not compile: {}",
+                    gl.get_shader_info_log(shader)
+                );
+            }
+            gl.attach_shader(program, shader);
+            shaders.push(shader);
+        }
+        gl.bind_attrib_location(program, 0, "position");
+        gl.link_program(program);
+        for shader in shaders {
+            gl.detach_shader(program, shader);
+            gl.delete_shader(shader);
+        }
+        if !gl.get_program_link_status(program) {
+            bail!(
+                "the program does not link: {}",
+                gl.get_program_info_log(program)
+            );
+        }
+        Ok(program)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_gl_projection_is_the_vulkan_one_with_y_negated_and_depth_remapped() {
+        // Where the ground truth's Vulkan clip position lands, GL's lands at the same x, -y
+        // and the same window depth (z_ndc + 1) / 2 = Vulkan's z_ndc.
+        for id in [
+            crate::scene::SceneId::SlopedPlane,
+            crate::scene::SceneId::PlaneStack,
+        ] {
+            let scene = id.build();
+            let aspect = 4.0 / 3.0;
+            for object in &scene.objects {
+                let vulkan = scene.mvp_in(crate::scene::View::Camera, object, aspect);
+                let [p, v, m] = matrices(&scene, object.space, object.model, aspect).unwrap();
+                let gl = p * v * m;
+                for q in scene.vertex_positions(object) {
+                    let a = vulkan * q.extend(1.0);
+                    let b = gl * q.extend(1.0);
+                    let (a, b) = (a / a.w, b / b.w);
+                    let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * (1.0 + x.abs());
+                    assert!(close(a.x, b.x) && close(a.y, -b.y), "{a} {b}");
+                    assert!(close(a.z, (b.z + 1.0) / 2.0), "{a} {b}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rows_are_turned_top_first() {
+        assert_eq!(
+            top_row_first(&[1, 2, 3, 4, 5, 6], 2),
+            vec![5, 6, 3, 4, 1, 2]
+        );
+    }
+}

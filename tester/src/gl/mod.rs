@@ -1,0 +1,282 @@
+//! `revz-tester gl-render` (issue #16): the tester's scenes drawn by a small OpenGL program,
+//! headless, so that what OpenGL applications reaching Vulkan (and revz) through Zink render
+//! is judged against the same ground truth as the Vulkan renders. This file owns the
+//! subcommand: the environment that picks the driver for this process (`--zink`: Mesa's Zink
+//! on lavapipe; `--revz MODE`: revz injected under Zink), the outputs, and the measurement,
+//! made by the accuracy code itself ([`crate::accuracy::measure`]). [`context`]: EGL;
+//! [`draw`]: the GL program.
+//!
+//! What selects Zink on lavapipe with Mesa 22.3 on the surfaceless EGL platform without a
+//! render node (found by trying): `MESA_LOADER_DRIVER_OVERRIDE=zink` (EGL loads `zink_dri.so`
+//! instead of `swrast`, i.e. llvmpipe; `GALLIUM_DRIVER=zink` does the same on the software
+//! path) *and* `LIBGL_ALWAYS_SOFTWARE=1`: Zink's `choose_pdev` takes a
+//! `VK_PHYSICAL_DEVICE_TYPE_CPU` device only when `LIBGL_ALWAYS_SOFTWARE` (or
+//! `D3D_ALWAYS_SOFTWARE`) is set, and without it eglInitialize fails ("DRI2: failed to create
+//! screen"). `VK_DRIVER_FILES` (`VK_ICD_FILENAMES` for older loaders) holds the Vulkan loader
+//! to lavapipe's ICD.
+
+pub mod context;
+pub mod draw;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context as _, Result};
+use serde::Serialize;
+
+use crate::accuracy::measure::{self, Measurement, Truth};
+use crate::readback::{self, Frame};
+use crate::scene::SceneId;
+use crate::target::DepthFormat;
+
+/// Where Debian's mesa-vulkan-drivers puts lavapipe's ICD manifest.
+const ICD_DIRS: [&str; 2] = ["/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d"];
+
+/// `revz-tester gl-render`.
+#[derive(Debug, clap::Args)]
+pub struct GlRenderArgs {
+    /// Scene to render (flat-colored standard-depth scenes: sloped-plane, plane-stack,
+    /// overlap, tori, ...).
+    #[arg(long, value_enum, default_value = "overlap")]
+    pub scene: SceneId,
+
+    /// Output directory (created if missing): color.png, depth.png, depth.f32, the ground
+    /// truth (expected-w.f64, expected-id.u16, expected.png) and measurement.json.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+
+    /// Width [default: the accuracy report's, 160 (plane-stack 480); other scenes 256].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(16..=8192))]
+    pub width: Option<u32>,
+
+    /// Height [default: the accuracy report's, 120 (plane-stack 360); other scenes 256].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(16..=8192))]
+    pub height: Option<u32>,
+
+    /// Render through Zink on lavapipe (sets MESA_LOADER_DRIVER_OVERRIDE=zink,
+    /// GALLIUM_DRIVER=zink, LIBGL_ALWAYS_SOFTWARE=1, and VK_DRIVER_FILES / VK_ICD_FILENAMES to
+    /// lavapipe's ICD).
+    /// Without it: whatever Mesa picks from the environment (llvmpipe by default).
+    #[arg(long)]
+    pub zink: bool,
+
+    /// Inject revz in this mode under Zink (implies --zink): VK_ADD_LAYER_PATH,
+    /// VK_INSTANCE_LAYERS, REVZ_MODE; REVZ_LOG=debug and REVZ_REVERSE_OBSERVABLE=copies unless
+    /// already set.
+    #[arg(long, value_name = "MODE", value_parser = ["off", "flip", "complementary", "infinite"])]
+    pub revz: Option<String>,
+
+    /// The revz layer's manifest directory [default: manifests/explicit next to this
+    /// executable, what `cargo xtask build` writes].
+    #[arg(long, value_name = "DIR")]
+    pub layer_dir: Option<PathBuf>,
+}
+
+/// `measurement.json`.
+#[derive(Debug, Serialize)]
+struct Report<'a> {
+    gl_renderer: &'a str,
+    gl_version: &'a str,
+    /// The driver-selecting variables as this process had them.
+    environment: Vec<(&'static str, Option<String>)>,
+    measurement: &'a Measurement,
+}
+
+/// The variables [`set_environment`] may set, reported in `measurement.json`.
+const REPORTED_ENV: [&str; 10] = [
+    "MESA_LOADER_DRIVER_OVERRIDE",
+    "GALLIUM_DRIVER",
+    "LIBGL_ALWAYS_SOFTWARE",
+    "VK_DRIVER_FILES",
+    "VK_ICD_FILENAMES",
+    "VK_ADD_LAYER_PATH",
+    "VK_INSTANCE_LAYERS",
+    "REVZ_MODE",
+    "REVZ_LOG",
+    "REVZ_REVERSE_OBSERVABLE",
+];
+
+/// lavapipe's ICD manifest.
+fn lavapipe_icd() -> Result<PathBuf> {
+    for dir in ICD_DIRS {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            continue;
+        };
+        let mut found: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with("lvp_icd") && n.ends_with(".json"))
+            })
+            .collect();
+        found.sort();
+        if let Some(icd) = found.into_iter().next() {
+            return Ok(icd);
+        }
+    }
+    bail!(
+        "no lavapipe ICD (lvp_icd*.json) in {} (install mesa-vulkan-drivers)",
+        ICD_DIRS.join(" or ")
+    )
+}
+
+/// Sets this process's driver environment before libEGL is loaded (nothing else runs yet:
+/// the process is single-threaded here).
+fn set_environment(args: &GlRenderArgs) -> Result<()> {
+    if !(args.zink || args.revz.is_some()) {
+        return Ok(());
+    }
+    let icd = lavapipe_icd()?;
+    std::env::set_var("MESA_LOADER_DRIVER_OVERRIDE", "zink");
+    std::env::set_var("GALLIUM_DRIVER", "zink");
+    // Zink picks a CPU Vulkan device only when asked for software rendering.
+    std::env::set_var("LIBGL_ALWAYS_SOFTWARE", "1");
+    std::env::set_var("VK_DRIVER_FILES", &icd);
+    std::env::set_var("VK_ICD_FILENAMES", &icd);
+    if let Some(mode) = &args.revz {
+        let dir = match &args.layer_dir {
+            Some(dir) => dir.clone(),
+            None => std::env::current_exe()
+                .context("cannot find the tester's own executable")?
+                .parent()
+                .context("the tester's executable has no directory")?
+                .join("manifests/explicit"),
+        };
+        if !dir.join("VkLayer_revz.json").is_file() {
+            bail!(
+                "no revz layer manifest in {} (run `cargo xtask build`, or pass --layer-dir)",
+                dir.display()
+            );
+        }
+        std::env::set_var("VK_ADD_LAYER_PATH", &dir);
+        std::env::set_var("VK_INSTANCE_LAYERS", crate::variants::LAYER_NAME);
+        std::env::set_var("REVZ_MODE", mode);
+        for (name, default) in [("REVZ_LOG", "debug"), ("REVZ_REVERSE_OBSERVABLE", "copies")] {
+            if std::env::var_os(name).is_none() {
+                std::env::set_var(name, default);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The render size: the accuracy report's for its scenes, else 256 x 256.
+fn size(args: &GlRenderArgs) -> (u32, u32) {
+    let (w, h) = if crate::accuracy::SCENES.contains(&args.scene) {
+        crate::accuracy::scene_size(args.scene, 160, 120)
+    } else {
+        (256, 256)
+    };
+    (args.width.unwrap_or(w), args.height.unwrap_or(h))
+}
+
+/// The `mode` column of the measurement.
+fn mode_name(args: &GlRenderArgs) -> &'static str {
+    match args.revz.as_deref() {
+        Some("off") => "zink-revz-off",
+        Some("flip") => "zink-revz-flip",
+        Some("complementary") => "zink-revz-complementary",
+        Some(_) => "zink-revz-infinite",
+        None if args.zink => "zink",
+        None => "gl",
+    }
+}
+
+/// `revz-tester gl-render`.
+pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
+    set_environment(args)?;
+    let (width, height) = size(args);
+    let scene = args.scene.build();
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+
+    let frame = {
+        let context = context::GlContext::new().context("cannot create an OpenGL context")?;
+        draw::render(&context.gl, &scene, width, height)?
+    };
+    println!("GL renderer: {} ({})", frame.renderer, frame.version);
+    let out = &args.out;
+    let written = readback::write_images(
+        out,
+        &Frame {
+            width,
+            height,
+            depth_format: DepthFormat::D32,
+            rgba: frame.rgba.clone(),
+            depth: Some(frame.depth.clone()),
+        },
+        1.0,
+    )?;
+    for path in written {
+        println!("wrote: {}", path.display());
+    }
+
+    let truth = Truth::new(args.scene, width, height)?;
+    for (name, bytes) in [
+        (crate::ground_truth::W_FILE, truth.truth.w_bytes()),
+        (crate::ground_truth::ID_FILE, truth.truth.id_bytes()),
+    ] {
+        write(&out.join(name), &bytes)?;
+    }
+    let expected = out.join("expected.png");
+    truth.expected_image().save(&expected)?;
+    println!("wrote: {}", expected.display());
+    let color = image::RgbaImage::from_raw(width, height, frame.rgba.clone())
+        .context("color read-back has the wrong size")?;
+    let mut m = Measurement::blank(
+        args.scene.name(),
+        mode_name(args),
+        DepthFormat::D32,
+        width,
+        height,
+    );
+    m.device = frame.renderer.clone();
+    m.driver = frame.version.clone();
+    m.dir = out.display().to_string();
+    measure::compare(&mut m, &truth, &color, Some(&frame.depth))?;
+    print_measurement(&m);
+
+    let report = Report {
+        gl_renderer: &frame.renderer,
+        gl_version: &frame.version,
+        environment: REPORTED_ENV
+            .iter()
+            .map(|&name| (name, std::env::var(name).ok()))
+            .collect(),
+        measurement: &m,
+    };
+    let mut json = serde_json::to_string_pretty(&report)?;
+    json.push('\n');
+    write(&out.join("measurement.json"), json.as_bytes())?;
+    Ok(ExitCode::SUCCESS)
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<()> {
+    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
+    println!("wrote: {}", path.display());
+    Ok(())
+}
+
+/// One line as the accuracy commands print it, and `plane-stack`'s minimum separations.
+fn print_measurement(m: &Measurement) {
+    println!(
+        "{} {}: wrong {:.3e} ({} of {} checked), depth reversed {}",
+        m.scene,
+        m.mode,
+        m.wrong_pixel_fraction,
+        m.wrong_pixels,
+        m.checked_pixels,
+        m.depth_reversed
+            .map_or_else(|| "?".to_string(), |r| r.to_string())
+    );
+    for point in m.min_rel_separation.iter().flatten() {
+        println!(
+            "  distance {:>7.0e} n: minimum relative separation {}",
+            point.distance_over_near,
+            point
+                .min_rel_separation
+                .map_or_else(|| "none resolves".to_string(), |s| format!("{s:.2e}"))
+        );
+    }
+}
