@@ -41,6 +41,7 @@ const OP_FUNCTION_PARAMETER: u32 = 55;
 const OP_LABEL: u32 = 248;
 const OP_PHI: u32 = 245;
 const OP_TRANSPOSE: u32 = 84;
+const OP_BITCAST: u32 = 124;
 const OP_COMPOSITE_CONSTRUCT: u32 = 80;
 const OP_F_NEGATE: u32 = 127;
 const OP_F_DIV: u32 = 136;
@@ -100,9 +101,13 @@ pub enum Insert {
 /// The matrix whose line the shader fits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Leaf {
+    /// The matrix (unused where `columns` is set).
     pub id: u32,
     /// `v * M`: the rows of the column-vector matrix are the leaf's columns.
     pub transposed: bool,
+    /// The matrix as four `vec4` columns of a product written out as
+    /// `c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w` (Mesa's NIR, so Zink's SPIR-V).
+    pub columns: Option<[u32; 4]>,
     pub insert: Insert,
     pub source: MatrixSource,
 }
@@ -133,7 +138,11 @@ struct Defs {
 
 fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
     match opcode {
-        OP_LOAD
+        OP_BITCAST
+        | OP_F_ADD
+        | OP_F_MUL
+        | OP_VECTOR_SHUFFLE
+        | OP_LOAD
         | OP_COPY_OBJECT
         | OP_MATRIX_TIMES_VECTOR
         | OP_VECTOR_TIMES_MATRIX
@@ -242,6 +251,104 @@ impl Defs {
         }
     }
 
+    /// `id` without the `OpBitcast`s around it (Zink passes every value through uint
+    /// vectors and back: the bits, so the values, are the same).
+    fn unwrapped(&self, mut id: u32) -> u32 {
+        for _ in 0..16 {
+            match self.at.get(&id) {
+                Some((_, OP_BITCAST, operands)) if operands.len() == 3 => id = operands[2],
+                _ => break,
+            }
+        }
+        id
+    }
+
+    /// The component a splat repeats (`v.xxxx` as a shuffle or a construct of one extract)
+    /// and the vector it comes from.
+    fn splat(&self, id: u32) -> Option<(u32, u32)> {
+        match self.at.get(&self.unwrapped(id))? {
+            (_, OP_VECTOR_SHUFFLE, operands) => match operands.as_slice() {
+                &[_, _, first, _, i, j, k, l] if i == j && j == k && k == l && i < 4 => {
+                    Some((self.unwrapped(first), i))
+                }
+                _ => None,
+            },
+            (_, OP_COMPOSITE_CONSTRUCT, operands) => match operands.as_slice() {
+                &[_, _, a, b, c, d] if a == b && b == c && c == d => match self.at.get(&a)? {
+                    (_, OP_COMPOSITE_EXTRACT, e) if e.len() == 4 => {
+                        Some((self.unwrapped(e[2]), e[3]))
+                    }
+                    _ => None,
+                },
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+
+    /// The sum's terms (operands of nested `OpFAdd`s, bitcasts looked through).
+    fn terms(&self, id: u32, out: &mut Vec<u32>, depth: u32) -> Option<()> {
+        if depth > 8 || out.len() > 4 {
+            return None;
+        }
+        match self.at.get(&self.unwrapped(id)) {
+            Some((_, OP_F_ADD, operands)) if operands.len() == 4 => {
+                self.terms(operands[2], out, depth + 1)?;
+                self.terms(operands[3], out, depth + 1)
+            }
+            _ => {
+                out.push(id);
+                Some(())
+            }
+        }
+    }
+
+    /// `c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w` (any order of the terms, `c3` alone where
+    /// `v.w` was folded to 1): the columns, and the sum's root (where the fit goes).
+    fn column_product(&self, value: u32) -> Option<([u32; 4], u32)> {
+        let root = self.unwrapped(value);
+        let mut terms = Vec::new();
+        self.terms(value, &mut terms, 0)?;
+        if terms.len() != 4 {
+            return None;
+        }
+        let mut columns = [None; 4];
+        let mut vector = None;
+        let mut bare = None;
+        for term in terms {
+            let product = match self.at.get(&self.unwrapped(term)) {
+                Some((_, OP_F_MUL, operands)) if operands.len() == 4 => {
+                    Some((operands[2], operands[3]))
+                }
+                _ => None,
+            };
+            let Some((x, y)) = product else {
+                if bare.replace(term).is_some() {
+                    return None;
+                }
+                continue;
+            };
+            let (column, (source, index)) = match (self.splat(x), self.splat(y)) {
+                (None, Some(splat)) => (x, splat),
+                (Some(splat), None) => (y, splat),
+                _ => return None,
+            };
+            if vector.replace(source).is_some_and(|v| v != source) {
+                return None;
+            }
+            if columns[index as usize].replace(column).is_some() {
+                return None;
+            }
+        }
+        if let Some(term) = bare {
+            if columns[3].replace(term).is_some() {
+                return None;
+            }
+        }
+        let columns = [columns[0]?, columns[1]?, columns[2]?, columns[3]?];
+        self.at.contains_key(&root).then_some((columns, root))
+    }
+
     /// The outermost factor of `matrix` (for `transposed`, the use `v * matrix`).
     fn leaf(&self, matrix: u32, transposed: bool, depth: u32) -> (u32, bool) {
         if depth > 16 {
@@ -322,6 +429,13 @@ pub fn find(
         return Err(Unsupported("Position's z or w is stored on its own"));
     }
     let defs = Defs::read(words, module)?;
+    if let [value] = stores.whole.as_slice() {
+        if defs.multiply(*value, 0).is_none() {
+            if let Some((columns, root)) = defs.column_product(*value) {
+                return column_leaf(module, &defs, columns, root);
+            }
+        }
+    }
     let mut leaf: Option<(u32, bool)> = None;
     for &value in &stores.whole {
         let (matrix, transposed) = defs
@@ -376,7 +490,50 @@ pub fn find(
     Ok(Leaf {
         id,
         transposed,
+        columns: None,
         insert,
+        source,
+    })
+}
+
+/// The leaf of a product written out by columns: each a `vec4` of the position's type, the fit
+/// after the sum's root (which every column dominates).
+fn column_leaf(
+    module: &ModuleFacts<'_>,
+    defs: &Defs,
+    columns: [u32; 4],
+    root: u32,
+) -> Result<Leaf, Unsupported> {
+    let typed = |id: u32| {
+        defs.at
+            .get(&id)
+            .is_some_and(|(_, _, operands)| operands.first() == Some(&module.vec4))
+    };
+    if !columns.iter().all(|&c| typed(c)) {
+        return Err(Unsupported("the product's columns are not vec4s"));
+    }
+    let (at, ..) = defs.at[&root];
+    // Where the first column's values are loaded from.
+    let mut source = MatrixSource::Computed;
+    let mut pending = vec![columns[0]];
+    for _ in 0..16 {
+        let Some(id) = pending.pop() else { break };
+        match defs.at.get(&id) {
+            Some((_, OP_LOAD, operands)) => {
+                source = source_of(module, defs, operands[2]);
+                break;
+            }
+            Some((_, OP_BITCAST | OP_COMPOSITE_CONSTRUCT, operands)) => {
+                pending.extend(operands.iter().skip(2).rev());
+            }
+            _ => {}
+        }
+    }
+    Ok(Leaf {
+        id: 0,
+        transposed: false,
+        columns: Some(columns),
+        insert: Insert::After(at),
         source,
     })
 }
@@ -526,6 +683,13 @@ impl Fit {
         };
         // The depth row a and the w row b of the column-vector matrix.
         let element = |code: &mut Code<'_, F>, row: u32, column: u32| {
+            if let Some(columns) = leaf.columns {
+                return code.typed(
+                    OP_COMPOSITE_EXTRACT,
+                    float,
+                    &[columns[column as usize], row],
+                );
+            }
             let indices = if leaf.transposed {
                 [row, column]
             } else {

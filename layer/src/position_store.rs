@@ -380,9 +380,6 @@ impl Module {
                 {
                     return Err(Unsupported("the push-constant block type has other uses"));
                 }
-                if self.declared_at.get(&vec4) > self.declared_at.get(&block) {
-                    return Err(Unsupported("the push-constant block precedes vec4"));
-                }
                 for index in 0..members.len() as u32 {
                     let start = *self
                         .member_offsets
@@ -405,6 +402,20 @@ impl Module {
             }
             _ => return Err(Unsupported("more than one push-constant block")),
         };
+        // A push-constant block declared before `vec4` (Zink's) cannot take a `vec4` member
+        // where it is: the block, its pointer types and its variable move to the end of the
+        // declarations (nothing else declared refers to them: checked above for the block).
+        let relocated: Option<Vec<u32>> = app_block
+            .filter(|&(_, block, _)| self.declared_at.get(&vec4) > self.declared_at.get(&block))
+            .map(|(_, block, _)| {
+                self.pointers
+                    .iter()
+                    .filter(|(_, &(class, pointee))| {
+                        class == STORAGE_PUSH_CONSTANT && pointee == block
+                    })
+                    .map(|(&id, _)| id)
+                    .collect()
+            });
         let positions_private = self.pointer_of.get(&(STORAGE_PRIVATE, vec4)).copied();
         if let (Position::Variable(var), Some(private)) = (position, positions_private) {
             if self.declared_at.get(&private) > self.declared_at.get(&var) {
@@ -573,6 +584,25 @@ impl Module {
                         &[out_vec4.0, STORAGE_OUTPUT, vec4],
                     );
                 }
+                if let (Some(pointers), Some((variable, block, _))) = (&relocated, app_block) {
+                    let mut members = self.structs[&block].clone();
+                    members.insert(0, block);
+                    members.push(vec4);
+                    push(&mut out, OP_TYPE_STRUCT, &members);
+                    for &pointer in pointers {
+                        push(
+                            &mut out,
+                            OP_TYPE_POINTER,
+                            &[pointer, STORAGE_PUSH_CONSTANT, block],
+                        );
+                    }
+                    let (ty, _) = self.variables[&variable];
+                    push(
+                        &mut out,
+                        OP_VARIABLE,
+                        &[ty, variable, STORAGE_PUSH_CONSTANT],
+                    );
+                }
                 if let Some(pointer) = new_block {
                     push(&mut out, OP_TYPE_STRUCT, &[push_block, vec4]);
                     push(
@@ -676,10 +706,16 @@ impl Module {
                     }
                 }
                 (OP_TYPE_STRUCT, &[id, ..]) if app_block.is_some() && id == push_block => {
-                    let mut members = operands.to_vec();
-                    members.push(vec4);
-                    push(&mut out, opcode, &members);
+                    if relocated.is_none() {
+                        let mut members = operands.to_vec();
+                        members.push(vec4);
+                        push(&mut out, opcode, &members);
+                    }
                 }
+                (OP_TYPE_POINTER, &[id, ..])
+                    if relocated.as_ref().is_some_and(|p| p.contains(&id)) => {}
+                (OP_VARIABLE, &[_, id, STORAGE_PUSH_CONSTANT, ..])
+                    if !in_functions && relocated.is_some() && id == push_variable => {}
                 (OP_VARIABLE, &[_, id, STORAGE_OUTPUT, ref init @ ..])
                     if !in_functions && matches!(position, Position::Variable(v) if v == id) =>
                 {

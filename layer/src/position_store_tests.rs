@@ -475,3 +475,39 @@ fn a_store_to_position_z_refuses_and_one_to_y_does_not() {
         Err(Unsupported("Position's z or w is stored on its own"))
     );
 }
+
+#[test]
+fn zinks_column_by_column_product_is_fitted_from_the_projections_columns() {
+    // Zink's vertex stage for `u_projection * u_view * u_model * vec4(position, 1)`: uniforms
+    // as uint loads bitcast to vec4 columns, each product written out as column FMuls by
+    // splats summed with FAdds (tester/src/gl/zink_vertex.spvasm.txt).
+    use spirv_tools::assembler::{self, Assembler as _};
+    let words = assembler::create(Some(TargetEnv::Vulkan_1_2))
+        .assemble(
+            include_str!("test_data/zink_vertex.spvasm"),
+            assembler::AssemblerOptions::default(),
+        )
+        .expect("Zink's module assembles")
+        .as_words()
+        .to_vec();
+    let (out, source) = rewrite_position_store_deriving(&words, OFFSET)
+        .expect("rewritable")
+        .expect("has a Position");
+    // SPIR-V 1.5 with the Vulkan memory model and scalar block layout (Zink's uint arrays):
+    // Vulkan 1.2's rules with scalarBlockLayout.
+    let vulkan_1_2 = |words: &[u32]| {
+        let options = val::ValidatorOptions {
+            scalar_block_layout: true,
+            ..Default::default()
+        };
+        val::create(Some(TargetEnv::Vulkan_1_2))
+            .validate(words, Some(options))
+            .unwrap_or_else(|e| panic!("spirv-val rejects the module: {e}"))
+    };
+    vulkan_1_2(&words);
+    vulkan_1_2(&out);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    assert!(with_opcode(&out, OP_DECORATE)
+        .iter()
+        .any(|d| d.get(1) == Some(&42)));
+}
