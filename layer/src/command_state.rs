@@ -22,7 +22,7 @@
 //! reversed target and the application's back for a native one, each only when it changes.
 
 use ash::vk;
-use revz_math::{Cameras, Target as RewriteTarget};
+use revz_math::{Cameras, DepthConvention, Target as RewriteTarget};
 
 use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
 use crate::derived_range::MatrixSource;
@@ -42,7 +42,10 @@ impl States {
     pub const COMPARE_OP: States = States(4);
     pub const BIAS: States = States(8);
     pub const BOUNDS: States = States(16);
-    pub const ALL: States = States(31);
+    /// `VK_EXT_depth_clip_control`'s convention, set with
+    /// `vkCmdSetDepthClipNegativeOneToOneEXT` (Zink's [-1, 1] clip depth).
+    pub const CLIP_CONTROL: States = States(32);
+    pub const ALL: States = States(63);
 
     pub fn contains(self, other: States) -> bool {
         self.0 & other.0 == other.0
@@ -64,6 +67,7 @@ impl States {
             vk::DynamicState::DEPTH_COMPARE_OP => States::COMPARE_OP,
             vk::DynamicState::DEPTH_BIAS => States::BIAS,
             vk::DynamicState::DEPTH_BOUNDS => States::BOUNDS,
+            vk::DynamicState::DEPTH_CLIP_NEGATIVE_ONE_TO_ONE_EXT => States::CLIP_CONTROL,
             _ => States::NONE,
         }
     }
@@ -185,10 +189,16 @@ pub enum Target {
 
 /// The carrier of a draw whose vertex stage derives its range (`crate::derived_range`): the
 /// selector of the mode in w (1 complementary, 2 infinite); the rest is unused.
-pub fn derived_selector(target: RewriteTarget) -> [f32; 4] {
+/// 3 and 4 are the same for a line fitted in [-1, 1] clip depth (the stage converts it to
+/// [0, 1], which revz sets for the draw).
+pub fn derived_selector(target: RewriteTarget, convention: DepthConvention) -> [f32; 4] {
+    let gl = match convention {
+        DepthConvention::ZeroToOne => 0.0,
+        DepthConvention::NegativeOneToOne => 2.0,
+    };
     match target {
-        RewriteTarget::Complementary => [0.0, 0.0, 0.0, 1.0],
-        RewriteTarget::Infinite => [0.0, 0.0, 0.0, 2.0],
+        RewriteTarget::Complementary => [0.0, 0.0, 0.0, 1.0 + gl],
+        RewriteTarget::Infinite => [0.0, 0.0, 0.0, 2.0 + gl],
     }
 }
 
@@ -235,6 +245,8 @@ pub trait StateSink: PushSink {
     fn set_compare_op(&mut self, op: vk::CompareOp);
     fn set_bias(&mut self, bias: DepthBias);
     fn set_bounds(&mut self, min: f32, max: f32);
+    /// `vkCmdSetDepthClipNegativeOneToOneEXT`.
+    fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool);
     /// Binds a graphics pipeline (a compare-op variant, or the application's pipeline back).
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline);
     /// Binds a shader object to the fragment stage (a reversed variant, or the application's
@@ -253,6 +265,7 @@ struct Emitted {
     compare_op: Option<vk::CompareOp>,
     bias: Option<DepthBias>,
     bounds: Option<(u32, u32)>,
+    clip_negative_one_to_one: Option<bool>,
 }
 
 impl Emitted {
@@ -269,6 +282,9 @@ impl Emitted {
         }
         if !dynamic.contains(States::BOUNDS) {
             self.bounds = None;
+        }
+        if !dynamic.contains(States::CLIP_CONTROL) {
+            self.clip_negative_one_to_one = None;
         }
     }
 }
@@ -343,6 +359,13 @@ impl<S: StateSink> StateSink for Filtered<'_, S> {
         }
     }
 
+    fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
+        if self.last.clip_negative_one_to_one != Some(negative_one_to_one) {
+            self.last.clip_negative_one_to_one = Some(negative_one_to_one);
+            self.sink.set_clip_negative_one_to_one(negative_one_to_one);
+        }
+    }
+
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
         // A variant has the dynamic states of the pipeline it stands for: binding it
         // overwrites nothing the record holds.
@@ -369,6 +392,9 @@ pub struct CommandState {
     compare_op: vk::CompareOp,
     bias: DepthBias,
     bounds: (f32, f32),
+    /// The application's `vkCmdSetDepthClipNegativeOneToOneEXT` (with
+    /// `States::CLIP_CONTROL` in `app_set`).
+    clip_negative_one_to_one: bool,
     /// Which states the application set with `vkCmdSet*`.
     app_set: States,
     reversing: Reversing,
@@ -409,6 +435,7 @@ impl Default for CommandState {
             compare_op: vk::CompareOp::NEVER,
             bias: DepthBias::default(),
             bounds: (0.0, 1.0),
+            clip_negative_one_to_one: false,
             app_set: States::NONE,
             reversing: Reversing::default(),
             push: PushConstants::default(),
@@ -481,12 +508,24 @@ impl CommandState {
     /// The mode whose depth the bound pipeline's vertex stage derives itself for the next
     /// draw, if it does (`crate::derived_range`): a reversed attachment, viewports of its own,
     /// a rewriting mode, and a stage that derives its range.
-    fn derived_use(&self) -> Option<RewriteTarget> {
+    fn derived_use(&self) -> Option<(RewriteTarget, DepthConvention)> {
         if self.target != Target::Reversed || self.inherits_viewports {
             return None;
         }
-        self.pipeline.as_ref()?.derived_range?;
-        self.reversing.rewrite
+        let pipeline = self.pipeline.as_ref()?;
+        pipeline.derived_range?;
+        // A dynamic [-1, 1] clip convention (Zink): the stage converts its fitted line, and
+        // revz sets [0, 1] for the draw ([`Self::emit`]), where reversed depth near 0 keeps
+        // float32's resolution.
+        let convention = if pipeline.app_dynamic.contains(States::CLIP_CONTROL)
+            && self.app_set.contains(States::CLIP_CONTROL)
+            && self.clip_negative_one_to_one
+        {
+            DepthConvention::NegativeOneToOne
+        } else {
+            DepthConvention::ZeroToOne
+        };
+        Some((self.reversing.rewrite?, convention))
     }
 
     /// `vkCmdPushConstants` of `data` with `stages` at `offset`: classifies the bound
@@ -570,8 +609,8 @@ impl CommandState {
     /// What the carrier must hold for the next draw, given the outcome of its projection: the
     /// camera's reversed depth line on the precise path, the shader's own z everywhere else.
     fn carrier_values(&self, outcome: Option<Outcome>) -> [f32; 4] {
-        if let Some(target) = self.derived_use() {
-            return derived_selector(target);
+        if let Some((target, convention)) = self.derived_use() {
+            return derived_selector(target, convention);
         }
         match (self.target, outcome) {
             (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
@@ -763,6 +802,13 @@ impl CommandState {
         self.dirty = true;
     }
 
+    /// `vkCmdSetDepthClipNegativeOneToOneEXT`.
+    pub fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
+        self.clip_negative_one_to_one = negative_one_to_one;
+        self.app_set |= States::CLIP_CONTROL;
+        self.dirty = true;
+    }
+
     pub fn set_bounds(&mut self, min: f32, max: f32) {
         self.bounds = (min, max);
         self.app_set |= States::BOUNDS;
@@ -830,6 +876,11 @@ impl CommandState {
     }
 
     fn emit(&mut self, sink: &mut impl StateSink) {
+        let converted = self.path == DrawPath::Precise
+            && matches!(
+                self.derived_use(),
+                Some((_, DepthConvention::NegativeOneToOne))
+            );
         // Only what changed since it was last sent goes down (closures below capture only
         // the fields they read, so the record is borrowed apart from them).
         let sink = &mut Filtered {
@@ -916,6 +967,11 @@ impl CommandState {
                 None => bias,
             };
             sink.set_bias(if reversed { bias.flipped() } else { bias });
+        }
+        if from_app.contains(States::CLIP_CONTROL) {
+            // The application's convention, but [0, 1] for a draw whose stage converts its
+            // [-1, 1] line (`derived_use`).
+            sink.set_clip_negative_one_to_one(self.clip_negative_one_to_one && !converted);
         }
         if let Some(app) = pick(States::BOUNDS) {
             let (min, max) = if app {
@@ -1022,6 +1078,7 @@ mod tests {
         pushes: Vec<(u32, usize)>,
         /// The layout and bytes of each push.
         pushed: Vec<(vk::PipelineLayout, Vec<u8>)>,
+        clip_conventions: Vec<bool>,
         binds: Vec<vk::Pipeline>,
         shader_binds: Vec<vk::ShaderEXT>,
     }
@@ -1060,6 +1117,10 @@ mod tests {
         fn set_bias(&mut self, bias: DepthBias) {
             self.biases.push(bias);
         }
+        fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
+            self.clip_conventions.push(negative_one_to_one);
+        }
+
         fn set_bounds(&mut self, min: f32, max: f32) {
             self.bounds.push((min, max));
         }
@@ -1440,6 +1501,39 @@ mod tests {
             inherited.before_draw(&mut sink);
             assert_eq!(inherited.path(), DrawPath::Flip);
         }
+    }
+
+    #[test]
+    fn a_dynamic_minus_one_to_one_convention_is_converted_by_the_stage_and_set_to_zero_to_one() {
+        // Zink: the clip convention is dynamic and set [-1, 1] before each draw.
+        let pipeline = Arc::new(PipelineDepth {
+            app_dynamic: States::CLIP_CONTROL,
+            ..(*derived_pipeline()).clone()
+        });
+        let mut state = precise(RewriteTarget::Infinite);
+        let reversal = state.reversal();
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.bind_pipeline(Some(pipeline));
+        state.set_clip_negative_one_to_one(true);
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        let carrier = Carrier::bytes(&[0.0, 0.0, 0.0, 4.0]).to_vec();
+        assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&carrier));
+        assert_eq!(sink.clip_conventions, vec![false]);
+        // Into a native attachment: the application's [-1, 1] and the shader's own z.
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.clip_conventions, vec![false, true]);
+        let flip = Carrier::bytes(&FLIP_CARRIER).to_vec();
+        assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&flip));
+        // [0, 1] set by the application: selector 2, nothing converted.
+        state.set_target(Target::Reversed);
+        state.set_clip_negative_one_to_one(false);
+        state.before_draw(&mut sink);
+        let carrier = Carrier::bytes(&[0.0, 0.0, 0.0, 2.0]).to_vec();
+        assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&carrier));
+        assert_eq!(sink.clip_conventions, vec![false, true, false]);
     }
 
     #[test]

@@ -48,7 +48,9 @@ const OP_F_DIV: u32 = 136;
 const OP_VECTOR_TIMES_MATRIX: u32 = 144;
 const OP_MATRIX_TIMES_VECTOR: u32 = 145;
 const OP_MATRIX_TIMES_MATRIX: u32 = 146;
+const OP_LOGICAL_OR: u32 = 166;
 const OP_LOGICAL_AND: u32 = 167;
+const OP_F_ORD_EQUAL: u32 = 180;
 const OP_SELECT: u32 = 169;
 const OP_F_ORD_LESS_THAN: u32 = 184;
 const OP_F_ORD_GREATER_THAN: u32 = 186;
@@ -662,7 +664,9 @@ impl Fit {
         let one = constant(1.0);
         let minus_one = constant(-1.0);
         let half = constant(0.5);
-        let one_and_a_half = constant(1.5);
+        let two = constant(2.0);
+        let two_and_a_half = constant(2.5);
+        let four = constant(4.0);
         let residual = constant(RESIDUAL_TOLERANCE_SQUARED);
         let affine = constant(AFFINE_W_TOLERANCE_SQUARED);
         let infinity = constant(f32::INFINITY);
@@ -718,11 +722,7 @@ impl Fit {
         let bw2 = code.op(OP_F_MUL, b[3], b[3]);
         let affine_bound = code.op(OP_F_MUL, affine.0, bw2);
         let tolerance = code.op(OP_F_MUL, residual.0, aa);
-        let one_minus_k = code.op(OP_F_SUB, one.0, k);
-        let neg_b = code.typed(OP_F_NEGATE, float, &[b_fit]);
-        code.exact.push(neg_b);
-        let near = code.op(OP_F_DIV, neg_b, k);
-        // The guard, each comparison false for NaN.
+        // The guard, on the line as fitted, each comparison false for NaN.
         let conditions = [
             (OP_F_ORD_GREATER_THAN, bb, zero.0),
             (OP_F_ORD_GREATER_THAN_EQUAL, bb, affine_bound),
@@ -736,15 +736,29 @@ impl Fit {
         let accepted = conditions[1..].iter().fold(conditions[0], |all, &c| {
             code.typed(OP_LOGICAL_AND, bool_type, &[all, c])
         });
-        // The selector (the pushed carrier's w): 2 infinite, else complementary.
+        // The selector (the pushed carrier's w): 1 and 3 complementary, 2 and 4 infinite; 3
+        // and 4 for a line in [-1, 1] clip depth, converted to [0, 1]
+        // (`revz_math::shader_fit::zero_to_one`).
         let pointer = code.typed(OP_ACCESS_CHAIN, push_vec4, &[push_variable, carrier_index]);
         let carrier = code.typed(OP_LOAD, vec4, &[pointer]);
         let selector = code.typed(OP_COMPOSITE_EXTRACT, float, &[carrier, 3]);
-        let infinite = code.typed(
+        let gl = code.typed(
             OP_F_ORD_GREATER_THAN,
             bool_type,
-            &[selector, one_and_a_half.0],
+            &[selector, two_and_a_half.0],
         );
+        let is_two = code.typed(OP_F_ORD_EQUAL, bool_type, &[selector, two.0]);
+        let is_four = code.typed(OP_F_ORD_EQUAL, bool_type, &[selector, four.0]);
+        let infinite = code.typed(OP_LOGICAL_OR, bool_type, &[is_two, is_four]);
+        let k_plus_one = code.op(OP_F_ADD, k, one.0);
+        let k_gl = code.op(OP_F_MUL, k_plus_one, half.0);
+        let b_gl = code.op(OP_F_MUL, b_fit, half.0);
+        let k = code.typed(OP_SELECT, float, &[gl, k_gl, k]);
+        let b_fit = code.typed(OP_SELECT, float, &[gl, b_gl, b_fit]);
+        let one_minus_k = code.op(OP_F_SUB, one.0, k);
+        let neg_b = code.typed(OP_F_NEGATE, float, &[b_fit]);
+        code.exact.push(neg_b);
+        let near = code.op(OP_F_DIV, neg_b, k);
         let c_w = code.typed(OP_SELECT, float, &[infinite, zero.0, one_minus_k]);
         let c_1 = code.typed(OP_SELECT, float, &[infinite, near, neg_b]);
         let [flip_z, flip_w, flip_1] = FLIP_IN_SHADER;
@@ -775,7 +789,9 @@ impl Fit {
                 one,
                 minus_one,
                 half,
-                one_and_a_half,
+                two,
+                two_and_a_half,
+                four,
                 residual,
                 affine,
                 infinity,

@@ -316,12 +316,7 @@ impl Module {
         None
     }
 
-    fn rewrite(
-        &self,
-        words: &[u32],
-        offset: u32,
-        derive: bool,
-    ) -> Result<Rewritten, Unsupported> {
+    fn rewrite(&self, words: &[u32], offset: u32, derive: bool) -> Result<Rewritten, Unsupported> {
         let Some(position) = self.position()? else {
             return Err(Unsupported("no Position output"));
         };

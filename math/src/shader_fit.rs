@@ -36,7 +36,9 @@
 //! # The carrier it makes
 //!
 //! - complementary: `z' = (1 - k^) w - B^`, i.e. `D'(w) = 1 - D(w)` of the fitted line;
-//! - infinite: `z' = -B^ / k^ = n`, i.e. `D'(w) = n / w`.
+//! - infinite: `z' = -B^ / k^ = n`, i.e. `D'(w) = n / w`;
+//! - a line fitted in [-1, 1] clip depth is first turned into its [0, 1] line
+//!   ([`zero_to_one`]), and the draw gets [0, 1] clip depth.
 //!
 //! # Error bound (u = 2^-24)
 //!
@@ -129,6 +131,18 @@ pub fn derived_carrier(line: Option<ShaderLine>, target: Target) -> [f32; 3] {
         (Some(ShaderLine { k, b }), Target::Complementary) => [0.0, 1.0 - k, -b],
         (Some(ShaderLine { k, b }), Target::Infinite) => [0.0, 0.0, -b / k],
         (None, _) => FLIP_IN_SHADER,
+    }
+}
+
+/// The [0, 1] line of a line fitted in [-1, 1] clip depth (`VK_EXT_depth_clip_control`'s
+/// `negativeOneToOne`, Zink's): `D01 = (D + 1) / 2`, so `k01 = (k + 1) / 2`, `B01 = B / 2`
+/// (evaluated in this order; the halving is exact). revz sets [0, 1] for such draws, where
+/// reversed depth near 0 keeps float32's resolution: `2 n / w - 1` in [-1, 1] would not.
+#[must_use]
+pub fn zero_to_one(line: ShaderLine) -> ShaderLine {
+    ShaderLine {
+        k: (line.k + 1.0) * 0.5,
+        b: line.b * 0.5,
     }
 }
 

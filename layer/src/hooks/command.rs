@@ -98,6 +98,14 @@ impl StateSink for NextLayer<'_> {
         unsafe { (self.device.next.fp_v1_0().cmd_set_depth_bounds)(self.buffer, min, max) }
     }
 
+    fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
+        // Only sent where the application set it, so the device has the command.
+        if let Some(set) = self.device.commands.set_depth_clip_negative_one_to_one {
+            // SAFETY: as above.
+            unsafe { set(self.buffer, negative_one_to_one.into()) }
+        }
+    }
+
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
         // SAFETY: as above; a live pipeline (the application's, or its variant, destroyed
         // with it).
@@ -453,6 +461,26 @@ pub unsafe extern "system" fn cmd_set_depth_compare_op(
         if let Some(next) = device.commands.set_depth_compare_op {
             // SAFETY: calling down with the application's arguments.
             unsafe { next(buffer, op) }
+        }
+    }
+}
+
+/// `vkCmdSetDepthClipNegativeOneToOneEXT`: followed like the other depth states, and sent at
+/// the draw (a draw whose vertex stage converts a [-1, 1] line gets [0, 1]).
+pub unsafe extern "system" fn cmd_set_depth_clip_negative_one_to_one(
+    buffer: vk::CommandBuffer,
+    negative_one_to_one: vk::Bool32,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthClipNegativeOneToOneEXT");
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        entry
+            .state()
+            .set_clip_negative_one_to_one(negative_one_to_one == vk::TRUE)
+    });
+    if let Err(Some(device)) = taken {
+        if let Some(next) = device.commands.set_depth_clip_negative_one_to_one {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, negative_one_to_one) }
         }
     }
 }

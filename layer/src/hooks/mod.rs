@@ -214,6 +214,10 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             void_fn!(vk::PFN_vkCmdSetDepthCompareOp, c::cmd_set_depth_compare_op)
         }
         b"vkCmdSetDepthBias" => void_fn!(vk::PFN_vkCmdSetDepthBias, c::cmd_set_depth_bias),
+        b"vkCmdSetDepthClipNegativeOneToOneEXT" => void_fn!(
+            vk::PFN_vkCmdSetDepthClipNegativeOneToOneEXT,
+            c::cmd_set_depth_clip_negative_one_to_one
+        ),
         b"vkCmdSetDepthBounds" => void_fn!(vk::PFN_vkCmdSetDepthBounds, c::cmd_set_depth_bounds),
         b"vkCmdClearAttachments" => {
             void_fn!(vk::PFN_vkCmdClearAttachments, c::cmd_clear_attachments)

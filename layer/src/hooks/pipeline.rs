@@ -333,8 +333,9 @@ fn projection_of(
         // SAFETY: `dynamicStateCount` entries.
         slice(d.p_dynamic_states, d.dynamic_state_count)
     });
-    let convention =
-        depth_convention(info, dynamic).ok_or("its depth clip convention is dynamic")?;
+    // `None`: dynamic (`vkCmdSetDepthClipNegativeOneToOneEXT`, Zink's): known per draw, which
+    // only a stage deriving its range can follow.
+    let convention = depth_convention(info, dynamic);
     let analysis = if vertex.module != vk::ShaderModule::null() {
         state
             .objects
@@ -368,12 +369,13 @@ fn projection_of(
                 .pipeline_layouts
                 .get(&info.layout)
                 .ok_or("its pipeline layout is unknown")?;
+            let convention = convention.ok_or("its depth clip convention is dynamic")?;
             Some(ProjectionUse::new(slot, convention, &ranges).map_err(|e| e.to_string())?)
         }
         // The stage derives its range from the matrix it loads (`crate::derived_range`),
         // which assumes [0, 1] clip depth: the [-1, 1] one would need the layer to change the
         // pipeline's clip convention.
-        None if convention == DepthConvention::NegativeOneToOne => {
+        None if convention == Some(DepthConvention::NegativeOneToOne) => {
             return Err(
                 "its projection is not in push constants and its clip depth is \
                         [-1, 1] (VK_EXT_depth_clip_control)"
