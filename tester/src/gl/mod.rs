@@ -231,6 +231,8 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
         width,
         height,
     );
+    // The matrices are GLSL uniforms (Zink: a uniform buffer).
+    m.delivery = "gl-uniforms";
     m.device = frame.renderer.clone();
     m.driver = frame.version.clone();
     m.dir = out.display().to_string();
