@@ -30,6 +30,7 @@ use crate::objects::FragmentShader;
 use crate::precise::{
     Carrier, FoldedPush, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER,
 };
+use crate::profile::DrawCounts;
 
 /// A set of depth-related dynamic states.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -401,6 +402,9 @@ pub struct CommandState {
     push: PushConstants,
     /// The path the emitted state is for.
     path: DrawPath,
+    /// Draw commands recorded per path, for the depth profile (`crate::profile`); executed
+    /// secondaries' are added to their primary's.
+    draws: DrawCounts,
     emitted: Emitted,
     /// The variant revz bound in the bound pipeline's place (`None`: the application's).
     variant_bound: Option<vk::Pipeline>,
@@ -440,6 +444,7 @@ impl Default for CommandState {
             reversing: Reversing::default(),
             push: PushConstants::default(),
             path: DrawPath::Native,
+            draws: DrawCounts::default(),
             emitted: Emitted::default(),
             variant_bound: None,
             promoted_from: None,
@@ -494,6 +499,25 @@ impl CommandState {
     /// The path the last draw took.
     pub fn path(&self) -> DrawPath {
         self.path
+    }
+
+    /// The draw commands recorded so far, per path.
+    pub fn draws(&self) -> DrawCounts {
+        self.draws
+    }
+
+    /// `vkCmdExecuteCommands` of a secondary that recorded `draws`.
+    pub fn add_executed_draws(&mut self, draws: &DrawCounts) {
+        self.draws.add(draws);
+    }
+
+    fn count_draw(&mut self) {
+        let counter = match self.path {
+            DrawPath::Native => &mut self.draws.native,
+            DrawPath::Flip => &mut self.draws.flip,
+            DrawPath::Precise => &mut self.draws.precise,
+        };
+        *counter += 1;
     }
 
     /// The projection the bound pipeline's draws would rewrite now, if any.
@@ -820,6 +844,7 @@ impl CommandState {
     #[inline]
     pub fn before_draw(&mut self, sink: &mut impl StateSink) -> Option<Outcome> {
         if !self.dirty {
+            self.count_draw();
             return None;
         }
         let outcome = match self.precise_use().map(|(p, t)| (*p, t)) {
@@ -872,6 +897,7 @@ impl CommandState {
         };
         self.emit(sink);
         self.dirty = false;
+        self.count_draw();
         outcome
     }
 

@@ -31,6 +31,7 @@ pub mod objects;
 pub mod policy;
 pub mod position_store;
 pub mod precise;
+pub mod profile;
 pub mod shader_analysis;
 pub mod spirv_scan;
 pub mod state;

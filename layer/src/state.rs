@@ -48,6 +48,9 @@ pub struct InstanceState {
     /// The next layer's instance commands.
     pub next: ash::Instance,
     pub settings: Arc<Settings>,
+    /// The application as its profile names it (`crate::profile`): executable,
+    /// `VkApplicationInfo` names, API version.
+    pub application: serde_json::Value,
 }
 
 impl std::fmt::Debug for InstanceState {
@@ -84,6 +87,8 @@ pub struct DeviceState {
     pub objects: DeviceObjects,
     /// Asks the device which image parameters a format supports (for promotion).
     pub image_formats: ImageFormatQuery,
+    /// The depth profile, where the `report` setting asks for one.
+    pub profile: Option<Arc<crate::profile::Profile>>,
 }
 
 /// `vkGetPhysicalDeviceImageFormatProperties` of the device's physical device.
@@ -181,6 +186,7 @@ pub struct DeviceCommands {
     pub destroy_shader_ext: Option<vk::PFN_vkDestroyShaderEXT>,
     pub push_constants2: Option<vk::PFN_vkCmdPushConstants2KHR>,
     pub queue_submit2: Option<vk::PFN_vkQueueSubmit2>,
+    pub queue_present: Option<vk::PFN_vkQueuePresentKHR>,
     pub copy_buffer_to_image2: Option<vk::PFN_vkCmdCopyBufferToImage2>,
     pub copy_image2: Option<vk::PFN_vkCmdCopyImage2>,
     pub blit_image2: Option<vk::PFN_vkCmdBlitImage2>,
@@ -269,6 +275,7 @@ impl DeviceCommands {
             destroy_shader_ext: load!(0, c"vkDestroyShaderEXT"),
             push_constants2: load!(V14, c"vkCmdPushConstants2", c"vkCmdPushConstants2KHR"),
             queue_submit2: load!(V13, c"vkQueueSubmit2", c"vkQueueSubmit2KHR"),
+            queue_present: load!(0, c"vkQueuePresentKHR"),
             copy_buffer_to_image2: load!(
                 V13,
                 c"vkCmdCopyBufferToImage2",

@@ -213,6 +213,8 @@ pub struct Settings {
     pub log_level: LevelFilter,
     /// Append the log to this file instead of stderr.
     pub log_file: Option<PathBuf>,
+    /// Write the depth profile (`crate::profile`) to this file, or into this directory.
+    pub report: Option<PathBuf>,
 }
 
 impl Default for Settings {
@@ -225,6 +227,7 @@ impl Default for Settings {
             promote_depth_formats: Promote::Auto,
             log_level: LevelFilter::Off,
             log_file: None,
+            report: None,
         }
     }
 }
@@ -239,6 +242,7 @@ pub enum Key {
     PromoteDepthFormats,
     Log,
     LogFile,
+    Report,
 }
 
 /// What values a setting takes.
@@ -340,6 +344,16 @@ pub const SETTINGS: &[SettingSpec] = &[
         default: "",
         description: "Append the log to this file instead of stderr.",
     },
+    SettingSpec {
+        key: Key::Report,
+        name: "report",
+        env: "REVZ_REPORT",
+        kind: Kind::Path,
+        default: "",
+        description: "Write the depth profile (JSON: depth images, pipelines and the path \
+                      their draws take, draws per path per frame) to this file, or into this \
+                      directory; rewritten every few seconds and when the device is destroyed.",
+    },
 ];
 
 impl SettingSpec {
@@ -411,6 +425,9 @@ impl Settings {
             Key::LogFile => text
                 .filter(|t| !t.trim().is_empty())
                 .map(|t| self.log_file = Some(PathBuf::from(t))),
+            Key::Report => text
+                .filter(|t| !t.trim().is_empty())
+                .map(|t| self.report = Some(PathBuf::from(t))),
         };
         if applied.is_some() {
             return Ok(());
@@ -442,6 +459,10 @@ impl Settings {
                 .log_file
                 .as_ref()
                 .map_or("stderr".to_owned(), |p| p.display().to_string()),
+            Key::Report => self
+                .report
+                .as_ref()
+                .map_or("none".to_owned(), |p| p.display().to_string()),
         }
     }
 

@@ -88,6 +88,7 @@ fn every_setting_can_be_set_by_its_environment_variable() {
             promote_depth_formats: Promote::Never,
             log_level: LevelFilter::Debug,
             log_file: Some("/tmp/revz.log".into()),
+            report: None,
         }
     );
     assert!(resolved.warnings.is_empty(), "{:?}", resolved.warnings);

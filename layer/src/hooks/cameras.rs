@@ -99,12 +99,80 @@ pub unsafe extern "system" fn queue_submit(
 ) -> vk::Result {
     // SAFETY: a live queue (the application's contract).
     match unsafe { submitting(queue) } {
-        // SAFETY: calling down with the application's arguments.
-        Some(device) => unsafe {
-            (device.next.fp_v1_0().queue_submit)(queue, count, p_submits, fence)
-        },
+        Some(device) => {
+            if let Some(profile) = &device.profile {
+                guarded(
+                    &QUEUE_SUBMIT,
+                    || {
+                        // SAFETY: `count` valid submit infos, each with its command buffers.
+                        let submits = unsafe { super::resources::slice(p_submits, count) };
+                        // SAFETY: each submit info's `commandBufferCount` command buffers.
+                        let buffers = submits.iter().flat_map(|submit| unsafe {
+                            super::resources::slice(
+                                submit.p_command_buffers,
+                                submit.command_buffer_count,
+                            )
+                        });
+                        profile_submit(&device, profile, buffers.copied());
+                    },
+                    || (),
+                );
+            }
+            // SAFETY: calling down with the application's arguments.
+            unsafe { (device.next.fp_v1_0().queue_submit)(queue, count, p_submits, fence) }
+        }
         None => vk::Result::ERROR_INITIALIZATION_FAILED,
     }
+}
+
+/// `vkQueuePresentKHR` (handed out only with a depth profile): the frame ends.
+pub unsafe extern "system" fn queue_present(
+    queue: vk::Queue,
+    p_present_info: *const vk::PresentInfoKHR<'_>,
+) -> vk::Result {
+    static ENTRY: EntryPoint = EntryPoint::new("vkQueuePresentKHR");
+    // SAFETY: a live queue shares its device's dispatch key.
+    let Some(device) = DEVICES.get(unsafe { DispatchKey::of(queue) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    if let Some(profile) = &device.profile {
+        guarded(&ENTRY, || profile.present(), || ());
+    }
+    match device.commands.queue_present {
+        // SAFETY: calling down with the application's arguments.
+        Some(next) => unsafe { next(queue, p_present_info) },
+        None => vk::Result::ERROR_INITIALIZATION_FAILED,
+    }
+}
+
+/// Folds the draws of submitted command buffers into the device's depth profile.
+fn profile_submit(
+    device: &crate::state::DeviceState,
+    profile: &crate::profile::Profile,
+    buffers: impl Iterator<Item = vk::CommandBuffer>,
+) {
+    let mut draws = crate::profile::DrawCounts::default();
+    for buffer in buffers {
+        if let Some(entry) = crate::objects::command_buffer(buffer) {
+            draws.add(&entry.state().draws());
+        }
+    }
+    profile.submit(&draws, || camera_list(&device.cameras.learned()));
+}
+
+/// The cameras for the profile: near, far, convention, direction.
+pub(crate) fn camera_list(cameras: &Cameras) -> Vec<serde_json::Value> {
+    (0..revz_math::MAX_CAMERAS)
+        .filter_map(|index| cameras.camera(index))
+        .map(|(range, direction, convention, _)| {
+            serde_json::json!({
+                "near": range.near(),
+                "far": if range.is_infinite() { None } else { Some(range.far()) },
+                "convention": format!("{convention:?}"),
+                "direction": format!("{direction:?}"),
+            })
+        })
+        .collect()
 }
 
 /// `vkQueueSubmit2` and `vkQueueSubmit2KHR`.
@@ -115,7 +183,29 @@ pub unsafe extern "system" fn queue_submit2(
     fence: vk::Fence,
 ) -> vk::Result {
     // SAFETY: a live queue (the application's contract).
-    let next = unsafe { submitting(queue) }.and_then(|device| device.commands.queue_submit2);
+    let device = unsafe { submitting(queue) };
+    if let Some((device, profile)) = device
+        .as_ref()
+        .and_then(|d| d.profile.as_ref().map(|p| (d, p)))
+    {
+        guarded(
+            &QUEUE_SUBMIT,
+            || {
+                // SAFETY: `count` valid submit infos, each with its command buffer infos.
+                let submits = unsafe { super::resources::slice(p_submits, count) };
+                // SAFETY: each submit info's `commandBufferInfoCount` infos.
+                let buffers = submits.iter().flat_map(|submit| unsafe {
+                    super::resources::slice(
+                        submit.p_command_buffer_infos,
+                        submit.command_buffer_info_count,
+                    )
+                });
+                profile_submit(device, profile, buffers.map(|info| info.command_buffer));
+            },
+            || (),
+        );
+    }
+    let next = device.and_then(|device| device.commands.queue_submit2);
     match next {
         // SAFETY: calling down with the application's arguments.
         Some(next) => unsafe { next(queue, count, p_submits, fence) },

@@ -1520,6 +1520,13 @@ pub unsafe extern "system" fn cmd_execute_commands(
         // A secondary decided its depth target at its begin; it can only be checked here.
         // SAFETY: `count` command buffers.
         for &secondary in unsafe { slice(p_buffers, count) } {
+            if entry.device.profile.is_some() {
+                if let Some(recorded) =
+                    objects::command_buffer(secondary).map(|s| s.state().draws())
+                {
+                    state.add_executed_draws(&recorded);
+                }
+            }
             let assumed = objects::command_buffer(secondary).map(|s| s.state().inherited());
             if matches!(assumed, Some(a) if a != target && a != Target::None && target != Target::None)
             {

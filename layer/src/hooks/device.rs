@@ -42,11 +42,20 @@ pub unsafe extern "system" fn get_device_proc_addr(
                     if !policy.is_active() {
                         return None;
                     }
-                    super::depth_path_command(name).or_else(|| {
-                        policy
-                            .rewrite()
-                            .and_then(|_| super::precise_path_command(name))
-                    })
+                    super::depth_path_command(name)
+                        .or_else(|| {
+                            policy
+                                .rewrite()
+                                .and_then(|_| super::precise_path_command(name))
+                        })
+                        .or_else(|| {
+                            // The depth profile folds draws at submissions and closes
+                            // frames at presents, in every mode.
+                            state
+                                .profile
+                                .as_ref()
+                                .and_then(|_| super::profile_command(name))
+                        })
                 })
             });
             hook.or(next)
@@ -72,6 +81,10 @@ pub unsafe extern "system" fn destroy_device(
             // SAFETY: a non-null device being destroyed is still live.
             let removed = DEVICES.remove(unsafe { DispatchKey::of(device) });
             if let Some(state) = &removed {
+                if let Some(profile) = &state.profile {
+                    profile.set_cameras(super::cameras::camera_list(&state.cameras.learned()));
+                    profile.write();
+                }
                 crate::objects::forget_device_command_buffers(&state.objects);
                 state
                     .objects

@@ -155,12 +155,28 @@ pub unsafe extern "system" fn create_instance(
                     next_get_instance_proc_addr: gipa,
                     next,
                     settings,
+                    application: application_json(create_info, api_version),
                 },
             );
             result
         },
         || vk::Result::ERROR_INITIALIZATION_FAILED,
     )
+}
+
+/// The application, as its depth profile names it.
+fn application_json(create_info: &vk::InstanceCreateInfo, api_version: u32) -> serde_json::Value {
+    let identity = app_identity(create_info);
+    serde_json::json!({
+        "executable": identity.executable,
+        "application_name": identity.application_name,
+        "engine_name": identity.engine_name,
+        "api_version": format!(
+            "{}.{}",
+            vk::api_version_major(api_version),
+            vk::api_version_minor(api_version)
+        ),
+    })
 }
 
 /// The API version the application asked for; 1.0 when it gave none.
@@ -609,6 +625,15 @@ pub unsafe extern "system" fn create_device(
                             .fp_v1_0()
                             .get_physical_device_image_format_properties,
                     },
+                    profile: instance.settings.report.as_deref().map(|report| {
+                        let profile = crate::profile::Profile::new(
+                            report,
+                            instance.application.clone(),
+                            &instance.settings,
+                        );
+                        log::info!("depth profile: {}", profile.path().display());
+                        Arc::new(profile)
+                    }),
                 },
             );
             result

@@ -114,6 +114,19 @@ pub fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     }
 }
 
+/// The hook for a device-level command the depth profile needs (`crate::profile`) beyond the
+/// depth path's: submissions (also in `flip` mode) and presents.
+pub fn profile_command(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkQueueSubmit" => void_fn!(vk::PFN_vkQueueSubmit, cameras::queue_submit),
+        b"vkQueueSubmit2" | b"vkQueueSubmit2KHR" => {
+            void_fn!(vk::PFN_vkQueueSubmit2, cameras::queue_submit2)
+        }
+        b"vkQueuePresentKHR" => void_fn!(vk::PFN_vkQueuePresentKHR, cameras::queue_present),
+        _ => None,
+    }
+}
+
 /// The hook for a device-level command of the depth path (only for devices where the policy
 /// is active: elsewhere these commands go straight to the next layer). Aliases (core, KHR,
 /// EXT names) share one hook, which calls down through whichever name the device has.

@@ -1172,6 +1172,32 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     }
                     (None, None) => {}
                 }
+                if let (Some(profile), true) = (&state.profile, plan.renders_depth) {
+                    let (path, projection) = match (&plan.depth.projection, &plan.flip_reason) {
+                        (Some(p), _) => (
+                            "precise",
+                            format!("push-constant bytes {}..{}", p.offset, p.end()),
+                        ),
+                        (None, None) if plan.depth.derived_range.is_some() => (
+                            "precise",
+                            format!(
+                                "{}, fitted by the vertex stage",
+                                plan.depth.derived_range.map_or("?", MatrixSource::describe)
+                            ),
+                        ),
+                        (None, Some(reason)) => ("flip", reason.clone()),
+                        (None, None) => ("flip", "the mode does not rewrite depth".to_owned()),
+                    };
+                    profile.pipeline(
+                        pipeline,
+                        crate::profile::PipelineRecord {
+                            path,
+                            projection,
+                            reversed_variant: plan.depth.reversed_variant.is_some(),
+                            promoted_variant: plan.depth.promoted_variant.is_some(),
+                        },
+                    );
+                }
                 if let (Some(_), Some(variant)) = (&plan.fragment, variant) {
                     log::debug!(
                         "pipeline {pipeline:?}: its fragment shader computes with depth; \

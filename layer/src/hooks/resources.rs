@@ -218,6 +218,22 @@ pub unsafe extern "system" fn create_image(
                     size.height
                 ),
             }
+            if let Some(profile) = &state.profile {
+                profile.image(
+                    image,
+                    crate::profile::ImageRecord {
+                        format,
+                        promoted,
+                        extent: info.extent,
+                        samples: info.samples,
+                        usage: info.usage,
+                        native_because: match depth {
+                            ImageDepth::Reversed => None,
+                            ImageDepth::Native(reason) => Some(reason.to_string()),
+                        },
+                    },
+                );
+            }
             state.objects.images.insert(
                 image,
                 ImageInfo {
