@@ -148,7 +148,7 @@ fn vulkan_configurator_settings_sit_between_the_environment_and_the_config_file(
         resolved.warnings,
         vec![
             "/vkconfig/vk_layer_settings.txt:5: unknown setting 'colour' (settings: mode, \
-             far_clip, reverse_observable, compare_op, promote_depth_formats, log, log_file)",
+             far_clip, reverse_observable, compare_op, promote_depth_formats, log, log_file, report)",
             "/vkconfig/vk_layer_settings.txt:6: expected 'revz_reverse_z.<setting> = <value>'; \
              line ignored",
         ]
@@ -277,7 +277,7 @@ fn unknown_keys_are_reported_with_their_line_and_the_rest_applies() {
         resolved.warnings,
         vec![
             "/home/u/revz.toml:1: unknown key 'moed' (settings: mode, far_clip, \
-             reverse_observable, compare_op, promote_depth_formats, log, log_file; sections: [[application]])"
+             reverse_observable, compare_op, promote_depth_formats, log, log_file, report; sections: [[application]])"
         ]
     );
 }
@@ -374,7 +374,7 @@ fn bad_layer_settings_are_reported() {
         world.resolve().warnings,
         vec![
             "VK_EXT_layer_settings 'color': unknown setting (known: mode, far_clip, \
-             reverse_observable, compare_op, promote_depth_formats, log, log_file)",
+             reverse_observable, compare_op, promote_depth_formats, log, log_file, report)",
             "VK_EXT_layer_settings 'mode': true is not a valid mode \
              (expected one of: off, flip, complementary, infinite); using off",
             "VK_EXT_layer_settings 'log': no value given; ignored",
