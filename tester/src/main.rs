@@ -20,6 +20,7 @@ mod gpu;
 mod ground_truth;
 mod pipeline;
 mod plan;
+mod profile;
 mod readback;
 mod render;
 mod scene;
@@ -78,6 +79,9 @@ enum Command {
     /// OpenGL: a scene drawn by a small GL program (EGL, headless), on llvmpipe or through
     /// Zink on lavapipe (`--zink`, `--revz MODE`), measured against the ground truth.
     GlRender(gl::GlRenderArgs),
+    /// revz's depth profile (`REVZ_REPORT`) as tables, and a bar chart of the draws per path
+    /// per frame (`--png`).
+    Profile(profile::ProfileArgs),
 }
 
 /// Renders one scene (the default command).
@@ -160,8 +164,12 @@ fn main() -> ExitCode {
         Some(Command::Bench(args)) => return report_exit(bench::run(args)),
         Some(Command::StressThreads(args)) => return report_exit(stress::run(args)),
         Some(Command::GlRender(args)) => return report_exit(gl::run(args)),
+        Some(Command::Profile(args)) => return report_exit(profile::run(args)),
         None => run(&cli.render),
     };
+    if cli.command.is_none() {
+        profile::print_own_summary();
+    }
     match outcome {
         Ok(0) => ExitCode::SUCCESS,
         Ok(messages) => {

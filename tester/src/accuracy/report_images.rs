@@ -87,7 +87,7 @@ pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> 
 }
 
 /// Registers the plot font once; a clear error when it is missing.
-fn font() -> Result<()> {
+pub fn font() -> Result<()> {
     static REGISTERED: std::sync::OnceLock<std::result::Result<(), String>> =
         std::sync::OnceLock::new();
     REGISTERED
