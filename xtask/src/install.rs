@@ -59,6 +59,10 @@ pub struct RunArgs {
     /// REVZ_LOG for the program: off, error, warn, info, debug, trace.
     #[arg(long)]
     log: Option<String>,
+    /// Write revz's depth profile into this directory (REVZ_REPORT) and print its summary when
+    /// the program ends (default directory: target/revz-report).
+    #[arg(long, value_name = "DIR", num_args = 0..=1, default_missing_value = "target/revz-report")]
+    report: Option<PathBuf>,
     /// The program and its arguments.
     #[arg(required = true, trailing_var_arg = true, allow_hyphen_values = true)]
     command: Vec<String>,
@@ -175,8 +179,50 @@ pub fn run(args: &RunArgs) -> Result<()> {
             command.env(name, value);
         }
     }
+    let started = std::time::SystemTime::now();
+    if let Some(dir) = &args.report {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the report directory {}", dir.display()))?;
+        command.env("REVZ_REPORT", dir);
+    }
     let status = command
         .status()
         .with_context(|| format!("starting {}", args.command[0]))?;
+    if let Some(dir) = &args.report {
+        print_profiles(dir, started);
+    }
     std::process::exit(status.code().unwrap_or(1));
+}
+
+/// The summary of every depth profile written into `dir` since `since`.
+fn print_profiles(dir: &Path, since: std::time::SystemTime) {
+    let entries = std::fs::read_dir(dir).into_iter().flatten().flatten();
+    let mut found = false;
+    for entry in entries {
+        let path = entry.path();
+        let fresh = entry
+            .metadata()
+            .and_then(|m| m.modified())
+            .is_ok_and(|modified| modified >= since);
+        if !fresh || path.extension().is_none_or(|e| e != "json") {
+            continue;
+        }
+        let summary = std::fs::read_to_string(&path)
+            .ok()
+            .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok())
+            .and_then(|profile| profile["summary"].as_str().map(str::to_owned));
+        if let Some(summary) = summary {
+            found = true;
+            println!(
+                "revz: {summary}\n  ({}; `revz-tester profile` shows it whole)",
+                path.display()
+            );
+        }
+    }
+    if !found {
+        println!(
+            "revz: no depth profile in {} (did the program create a Vulkan device through revz?)",
+            dir.display()
+        );
+    }
 }
