@@ -237,6 +237,9 @@ fn run_child(args: &BenchArgs, role: Role) -> Result<ExitCode> {
 enum Job {
     /// Draws per frame, distinct projections among them.
     DrawStorm(usize, usize),
+    /// The draw storm with revz's depth profile on (`REVZ_REPORT`: draws counted per command
+    /// buffer, folded at submit, the file rewritten every 2 s).
+    DrawStormProfiled(usize, usize),
     Micro,
     PipelineStorm,
     Smoke,
@@ -246,6 +249,7 @@ impl Job {
     fn name(&self) -> String {
         match self {
             Job::DrawStorm(n, p) => format!("draw-storm-{n}-p{p}"),
+            Job::DrawStormProfiled(n, p) => format!("draw-storm-{n}-p{p}-report"),
             Job::Micro => "micro".into(),
             Job::PipelineStorm => "pipeline-storm".into(),
             Job::Smoke => "smoke".into(),
@@ -277,6 +281,9 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
     let largest = config.draws.iter().copied().max().unwrap_or(0);
     if largest > 0 && config.projections < largest {
         jobs.push(Job::DrawStorm(largest, largest));
+    }
+    if largest > 0 {
+        jobs.push(Job::DrawStormProfiled(largest, config.projections));
     }
     jobs.push(Job::Micro);
     jobs.push(Job::PipelineStorm);
@@ -358,13 +365,13 @@ fn run_one(
     variant: Variant,
 ) -> Result<Value> {
     let role = match job {
-        Job::DrawStorm(..) => "draw-storm",
+        Job::DrawStorm(..) | Job::DrawStormProfiled(..) => "draw-storm",
         Job::Micro => "micro",
         Job::PipelineStorm => "pipeline-storm",
         Job::Smoke => "smoke",
     };
     let (draws, projections) = match job {
-        Job::DrawStorm(n, p) => (*n, *p),
+        Job::DrawStorm(n, p) | Job::DrawStormProfiled(n, p) => (*n, *p),
         _ => (1, 1),
     };
     let mut owned: Vec<String> = vec![
@@ -394,7 +401,14 @@ fn run_one(
         owned.push("--validation".into());
     }
     let argv: Vec<&str> = owned.iter().map(String::as_str).collect();
-    let settings = [("REVZ_COMPARE_OP", config.compare_op.setting())];
+    let profile_dir =
+        std::env::temp_dir().join(format!("revz-bench-profile-{}", std::process::id()));
+    let mut settings = vec![("REVZ_COMPARE_OP", config.compare_op.setting().to_owned())];
+    if let Job::DrawStormProfiled(..) = job {
+        std::fs::create_dir_all(&profile_dir).ok();
+        settings.push(("REVZ_REPORT", profile_dir.display().to_string()));
+    }
+    let settings: Vec<(&str, &str)> = settings.iter().map(|(k, v)| (*k, v.as_str())).collect();
     let mut command = runner.command(variant, &argv, &settings);
     // Pipelines are created from scratch in every variant: no shader cache on disk.
     command.env("MESA_SHADER_CACHE_DISABLE", "true");
@@ -504,6 +518,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
     let largest = config.draws.iter().copied().max().unwrap_or(0);
     let storm = |n: usize| Job::DrawStorm(n, config.projections).name();
     let varying = Job::DrawStorm(largest, largest).name();
+    let profiled = Job::DrawStormProfiled(largest, config.projections).name();
     let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
     let diff = |a: f64, b: f64| a - b;
     let pipe = Job::PipelineStorm.name();
@@ -536,6 +551,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "frame_cpu_ratio": paired(samples, &big, v, rounds, "frame_cpu_ns", ratio),
                 "projections": config.projections,
                 "frame_cpu_ratio_projection_per_draw": paired(samples, &varying, v, rounds, "frame_cpu_ns", ratio),
+                "frame_cpu_ratio_with_report": paired(samples, &profiled, v, rounds, "frame_cpu_ns", ratio),
                 "frame_wall_ratio": paired(samples, &big, v, rounds, "frame_wall_ns", ratio),
                 "pipeline_creation_ratio": paired(samples, &pipe, v, rounds, "create_wall_ns", ratio),
                 "pipeline_creation_cpu_ratio": paired(samples, &pipe, v, rounds, "create_cpu_ns", ratio),

@@ -178,7 +178,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
         header.push_str(&format!(" frame CPU ratio ({n}) |"));
     }
     header.push_str(&format!(
-        " frame CPU ratio ({largest}, a projection per draw) |"
+        " frame CPU ratio ({largest}, a projection per draw) | frame CPU ratio ({largest}, depth profile on) |"
     ));
     header.push_str(
         " frame wall ratio | pipeline creation ratio | ns / push constant | ns / draw | \
@@ -202,8 +202,9 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             ));
         }
         line.push_str(&format!(
-            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             fmt_spread(row, "frame_cpu_ratio_projection_per_draw", 3),
+            fmt_spread(row, "frame_cpu_ratio_with_report", 3),
             fmt(&row["frame_wall_ratio"], 3),
             fmt_spread(row, "pipeline_creation_ratio", 3),
             fmt_spread(row, "ns_per_push_constant", 1),
