@@ -249,6 +249,10 @@ pub struct DeviceObjects {
     /// promoted): their passes begin as the twin.
     pub promoted_framebuffers: Table<vk::Framebuffer, ()>,
     pub pipelines: Table<vk::Pipeline, Arc<PipelineDepth>>,
+    /// Images demoted since the depth profile last asked (`crate::profile`; kept only where
+    /// there is a profile: `keep_demotions`).
+    demotions: Mutex<Vec<(vk::Image, NativeReason)>>,
+    pub keep_demotions: std::sync::atomic::AtomicBool,
     /// Shader modules that compute with depth (`FragDepth`, `FragCoord.z`): rewritten for
     /// reversed attachments, or why they cannot be.
     pub fragment_depth_modules: Table<vk::ShaderModule, ReversedFragment>,
@@ -404,11 +408,30 @@ impl DeviceObjects {
             return false;
         }
         info.depth = ImageDepth::Native(reason);
+        if self
+            .keep_demotions
+            .load(std::sync::atomic::Ordering::Relaxed)
+        {
+            self.demotions
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .push((image, reason));
+        }
         log::info!(
             "depth image {image:?} ({:?}): native from now on, because {reason}",
             info.format
         );
         true
+    }
+
+    /// The images demoted since the last call, with why (for the depth profile).
+    pub fn take_demotions(&self) -> Vec<(vk::Image, NativeReason)> {
+        std::mem::take(
+            &mut *self
+                .demotions
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner),
+        )
     }
 
     /// Applies the resolve rule of the policy ([`DepthResolve::demotes_source`]) to a depth

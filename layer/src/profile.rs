@@ -68,6 +68,9 @@ pub struct ImageRecord {
     pub usage: vk::ImageUsageFlags,
     /// `None`: reversed; else why it stays native.
     pub native_because: Option<String>,
+    /// The frame in which a reversed image became native (a resolve from or into a native
+    /// image), if it did.
+    pub demoted_in_frame: Option<u64>,
 }
 
 /// One depth-testing pipeline and its path.
@@ -187,6 +190,17 @@ impl Profile {
         }
     }
 
+    /// A reversed image became native (`because`), in the frame open now.
+    pub fn demote(&self, image: vk::Image, because: String) {
+        let mut inner = self.inner();
+        let frame = inner.frame_index;
+        let raw = vk::Handle::as_raw(image);
+        if let Some((_, record)) = inner.images.iter_mut().rev().find(|(h, _)| *h == raw) {
+            record.native_because = Some(because);
+            record.demoted_in_frame = Some(frame);
+        }
+    }
+
     /// A submission of command buffers that recorded `draws`, with the device's cameras as
     /// they are now; writes the report if it is due.
     pub fn submit(&self, draws: &DrawCounts, cameras: impl FnOnce() -> Vec<Value>) {
@@ -240,6 +254,7 @@ impl Profile {
                     "usage": format!("{:?}", r.usage),
                     "depth": if r.native_because.is_none() { "reversed" } else { "native" },
                     "reason": r.native_because,
+                    "demoted_in_frame": r.demoted_in_frame,
                 })
             })
             .collect();
@@ -389,6 +404,7 @@ mod tests {
             samples: vk::SampleCountFlags::TYPE_1,
             usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
             native_because: native_because.map(str::to_owned),
+            demoted_in_frame: None,
         }
     }
 

@@ -151,6 +151,9 @@ fn profile_submit(
     profile: &crate::profile::Profile,
     buffers: impl Iterator<Item = vk::CommandBuffer>,
 ) {
+    for (image, reason) in device.objects.take_demotions() {
+        profile.demote(image, reason.to_string());
+    }
     let mut draws = crate::profile::DrawCounts::default();
     for buffer in buffers {
         if let Some(entry) = crate::objects::command_buffer(buffer) {

@@ -83,6 +83,9 @@ pub unsafe extern "system" fn destroy_device(
             if let Some(state) = &removed {
                 if let Some(profile) = &state.profile {
                     profile.set_cameras(super::cameras::camera_list(&state.cameras.learned()));
+                    for (image, reason) in state.objects.take_demotions() {
+                        profile.demote(image, reason.to_string());
+                    }
                     profile.write();
                 }
                 crate::objects::forget_device_command_buffers(&state.objects);

@@ -604,6 +604,19 @@ pub unsafe extern "system" fn create_device(
             );
             // SAFETY: `device` is live.
             let key = unsafe { DispatchKey::of(device) };
+            let objects = DeviceObjects::default();
+            let profile = instance.settings.report.as_deref().map(|report| {
+                objects
+                    .keep_demotions
+                    .store(true, std::sync::atomic::Ordering::Relaxed);
+                let profile = crate::profile::Profile::new(
+                    report,
+                    instance.application.clone(),
+                    &instance.settings,
+                );
+                log::info!("depth profile: {}", profile.path().display());
+                Arc::new(profile)
+            });
             DEVICES.insert(
                 key,
                 DeviceState {
@@ -617,7 +630,7 @@ pub unsafe extern "system" fn create_device(
                     added_extended_dynamic_state,
                     observed: Default::default(),
                     cameras: Default::default(),
-                    objects: DeviceObjects::default(),
+                    objects,
                     image_formats: crate::state::ImageFormatQuery {
                         physical_device,
                         get: instance
@@ -625,15 +638,7 @@ pub unsafe extern "system" fn create_device(
                             .fp_v1_0()
                             .get_physical_device_image_format_properties,
                     },
-                    profile: instance.settings.report.as_deref().map(|report| {
-                        let profile = crate::profile::Profile::new(
-                            report,
-                            instance.application.clone(),
-                            &instance.settings,
-                        );
-                        log::info!("depth profile: {}", profile.path().display());
-                        Arc::new(profile)
-                    }),
+                    profile,
                 },
             );
             result

@@ -231,6 +231,7 @@ pub unsafe extern "system" fn create_image(
                             ImageDepth::Reversed => None,
                             ImageDepth::Native(reason) => Some(reason.to_string()),
                         },
+                        demoted_in_frame: None,
                     },
                 );
             }
