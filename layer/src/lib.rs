@@ -1,14 +1,21 @@
 //! revz: a Vulkan layer that renders unmodified applications with a reversed depth buffer.
 //!
-//! See `shared/DESIGN.md` for the depth math and the per-draw model. The crate keeps three
-//! concerns apart:
+//! See `shared/DESIGN.md` for the depth math and the per-draw model, and `docs/` for each path.
+//! The crate keeps three concerns apart:
 //! - the Vulkan plumbing: [`ffi`] (loader structures), [`boundary`] (no panic crosses into C),
-//!   [`state`] (per-instance/device state keyed by dispatch pointer) and [`hooks`] (the
-//!   intercepted commands, thin and mechanical);
-//! - the policy: [`policy`] (which images are reversed, what the application's convention is,
-//!   where secondaries draw) and [`config`] (which mode an instance runs in);
+//!   [`state`] (per-instance/device state keyed by dispatch pointer), [`objects`] (tracked
+//!   objects), [`chain`] (pNext chains) and `hooks` (the intercepted commands, thin and
+//!   mechanical); the SPIR-V readers and rewriters [`spirv_scan`], [`shader_analysis`] (which
+//!   push-constant bytes hold the projection), [`position_store`] (the `Position` store
+//!   rewrite), [`derived_range`] (the in-shader range fit for projections in buffers) and
+//!   [`fragment_depth`];
+//! - the policy: [`policy`] (which images are reversed or promoted, what the application's
+//!   convention is, where secondaries draw) and [`config`] (the settings and where they come
+//!   from);
 //! - the depth math: the `revz-math` crate (pure Rust, no Vulkan), with the per-draw logic in
-//!   [`command_state`] and [`precise`].
+//!   [`command_state`] (the draw's path and its depth state), [`precise`] (push-constant shadow
+//!   copy, cameras, the carrier) and [`conv`];
+//! - what revz tells the user: [`logging`] and [`profile`] (the depth profile, `REVZ_REPORT`).
 //!
 //! Only the three loader entry points below are exported from the shared library.
 
@@ -86,7 +93,7 @@ pub unsafe extern "system" fn vkNegotiateLoaderLayerInterfaceVersion(
 /// Exported `vkGetInstanceProcAddr`, for loaders and tools that look the symbol up directly.
 ///
 /// # Safety
-/// As for [`hooks::instance::get_instance_proc_addr`].
+/// As for `hooks::instance::get_instance_proc_addr`: the loader's contract.
 #[no_mangle]
 pub unsafe extern "system" fn vkGetInstanceProcAddr(
     instance: vk::Instance,
@@ -99,7 +106,7 @@ pub unsafe extern "system" fn vkGetInstanceProcAddr(
 /// Exported `vkGetDeviceProcAddr`, for loaders and tools that look the symbol up directly.
 ///
 /// # Safety
-/// As for [`hooks::device::get_device_proc_addr`].
+/// As for `hooks::device::get_device_proc_addr`: the loader's contract.
 #[no_mangle]
 pub unsafe extern "system" fn vkGetDeviceProcAddr(
     device: vk::Device,

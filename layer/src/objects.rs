@@ -438,7 +438,7 @@ impl DeviceObjects {
     /// resolve from `source` into `destination`: a reversed source that cannot stay reversed
     /// through it becomes native, and so does a reversed destination of a native source. Each
     /// image made native is then followed through the resolves seen before
-    /// ([`Self::propagate_demotions`]), so every resolve seen keeps holding the rule. Called
+    /// (`Self::propagate_demotions`), so every resolve seen keeps holding the rule. Called
     /// where resolves are first seen (framebuffer creation, imageless and dynamic rendering
     /// begins), before the instance's targets are decided.
     pub fn settle_depth_resolve(

@@ -1,4 +1,4 @@
-//! Vulkan objects made from a scene's [`Plan`] data: render passes (one or two subpasses, main
+//! Vulkan objects made from a scene's [`crate::plan::Plan`] data: render passes (one or two subpasses, main
 //! target or shadow map; multisampled ones with `vkCreateRenderPass2` and color and depth
 //! resolves) and graphics pipelines (their depth, stencil, bias, bounds and viewport state,
 //! static or dynamic, and sample count; made for a render pass or for dynamic rendering, in

@@ -5,7 +5,7 @@
 //!    ([`layer_settings`]);
 //! 2. environment variables, one per setting (`REVZ_MODE`, ...);
 //! 3. `vk_layer_settings.txt`, which Vulkan Configurator writes ([`vk_layer_settings`]);
-//! 4. the config file ([`file`]): its top-level keys, then every `[[application]]` section that
+//! 4. the config file ([`mod@file`]): its top-level keys, then every `[[application]]` section that
 //!    matches this process (by executable name or `VkApplicationInfo` names), in file order.
 //!
 //! A value that cannot be read produces one warning naming where it came from and what is

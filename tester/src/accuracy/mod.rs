@@ -35,9 +35,9 @@
 //! with push constants only (a scene the buffer deliveries do not cover is skipped when
 //! `push` is not selected).
 //!
-//! - `report` ([`report`]): `report.json`, `report.md`, the renders side by side per scene, and
+//! - `report` ([`report()`]): `report.json`, `report.md`, the renders side by side per scene, and
 //!   plots of `plane-stack`'s measured minimum separations over the model's curves.
-//! - `conformance` ([`conformance`]): every case against a stated bound; JUnit XML and JSON;
+//! - `conformance` ([`conformance()`]): every case against a stated bound; JUnit XML and JSON;
 //!   a one-line summary; exit status 1 on any failure.
 
 pub mod conformance;
