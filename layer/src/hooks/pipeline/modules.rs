@@ -1,0 +1,236 @@
+//! Shader modules and pipeline layouts: the analyses and rewrites made once per module at
+//! creation (fragment depth, `Position` store, derived range) and the carrier reserved in each
+//! pipeline layout.
+
+#![allow(clippy::wildcard_imports)]
+
+use super::*;
+
+/// The fragment stage of a create info (its index) and its rewrite for reversed attachments
+/// when it computes with depth: its module's, made at module creation, or one of SPIR-V
+/// chained inline into the stage.
+pub(super) fn fragment_stage_rewrite(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> Option<(usize, ReversedFragment)> {
+    // SAFETY: `stageCount` stages (the application's contract).
+    let stages = unsafe { slice(info.p_stages, info.stage_count) };
+    let (index, stage) = stages
+        .iter()
+        .enumerate()
+        .find(|(_, stage)| stage.stage == vk::ShaderStageFlags::FRAGMENT)?;
+    let rewrite = if stage.module != vk::ShaderModule::null() {
+        state.objects.fragment_depth_modules.get(&stage.module)?
+    } else {
+        rewrite_fragment_module(vk::ShaderModule::null(), inline_code(stage)?)?
+    };
+    Some((index, rewrite))
+}
+
+/// A fragment module rewritten for reversed attachments, `None` when it does not compute
+/// with depth. One that cannot be rewritten is logged (once per module).
+pub(super) fn rewrite_fragment_module(
+    module: vk::ShaderModule,
+    words: &[u32],
+) -> Option<ReversedFragment> {
+    let rewrite = fragment_depth::reverse_fragment_depth(words).transpose()?;
+    let first = module != vk::ShaderModule::null() || first_inline_report(Report::Rewrite, words);
+    if let (Err(reason), true) = (&rewrite, first) {
+        log::warn!(
+            "shader module {module:?} computes with depth in a way revz cannot rewrite \
+             ({reason}): its draws into reversed attachments keep standard depth"
+        );
+    }
+    Some(rewrite.map(Into::into))
+}
+
+/// The shader analysis of a module (at its creation, or of SPIR-V chained into a pipeline
+/// stage): a module naga cannot read is logged once, and its draws take the flip path.
+pub(super) fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> ModuleAnalysis {
+    let analysis = shader_analysis::analyze_vertex_entry_points(words);
+    let first = module != vk::ShaderModule::null() || first_inline_report(Report::Analysis, words);
+    if let (Err(reason), true) = (&analysis, first) {
+        log::warn!(
+            "shader module {module:?} cannot be analyzed ({reason}): its draws into reversed \
+             attachments take the flip path"
+        );
+    }
+    analysis
+}
+
+/// The SPIR-V chained into a stage instead of a module (`VkShaderModuleCreateInfo` in its
+/// `pNext`), if any.
+pub(super) fn inline_code<'a>(
+    stage: &'a vk::PipelineShaderStageCreateInfo<'_>,
+) -> Option<&'a [u32]> {
+    // SAFETY: a valid pNext chain (the application's contract).
+    let inline = unsafe { chain::find::<vk::ShaderModuleCreateInfo<'_>>(stage.p_next) }?;
+    // SAFETY: `codeSize` bytes of code.
+    Some(unsafe { slice(inline.p_code, (inline.code_size / 4) as u32) })
+}
+
+/// The `Position` rewrite of a vertex module whose analysis found a projection in push
+/// constants (`None` for others: their draws take the flip path anyway).
+pub(super) fn position_store_of(
+    state: &DeviceState,
+    analysis: &ModuleAnalysis,
+    words: &[u32],
+) -> Option<RewrittenVertex> {
+    let offset = state.policy.carrier_offset?;
+    let entries = analysis.as_ref().ok()?;
+    let no_position = position_store::Unsupported("no Position output");
+    if entries
+        .iter()
+        .any(|(_, a)| matches!(a, Analysis::Projection(_)))
+    {
+        return Some(
+            position_store::rewrite_position_store(words, offset).and_then(|code| {
+                let code = code.ok_or(no_position)?;
+                Ok(VertexRewrite {
+                    code: code.into(),
+                    derived: None,
+                })
+            }),
+        );
+    }
+    // No projection in push constants: the stage derives its range from the matrix it loads.
+    Some(
+        position_store::rewrite_position_store_deriving(words, offset).and_then(|code| {
+            let (code, source) = code.ok_or(no_position)?;
+            Ok(VertexRewrite {
+                code: code.into(),
+                derived: Some(source),
+            })
+        }),
+    )
+}
+
+pub unsafe extern "system" fn create_shader_module(
+    device: vk::Device,
+    p_create_info: *const vk::ShaderModuleCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_module: *mut vk::ShaderModule,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_shader_module)(device, p_create_info, p_allocator, p_module)
+    };
+    if result == vk::Result::SUCCESS {
+        super::super::record(&CREATE_SHADER_MODULE, || {
+            // SAFETY: valid on success; `codeSize` bytes of code.
+            let info = unsafe { &*p_create_info };
+            // SAFETY: as above.
+            let words = unsafe { slice(info.p_code, (info.code_size / 4) as u32) };
+            // SAFETY: valid on success.
+            let module = unsafe { *p_module };
+            if state.policy.is_active() {
+                if let Some(rewrite) = rewrite_fragment_module(module, words) {
+                    state.objects.fragment_depth_modules.insert(module, rewrite);
+                }
+            }
+            if state.policy.rewrite().is_some() {
+                let analysis = analyze_vertex_module(module, words);
+                if let Some(rewrite) = position_store_of(&state, &analysis, words) {
+                    state.objects.position_stores.insert(module, rewrite);
+                }
+                state
+                    .objects
+                    .vertex_modules
+                    .insert(module, Arc::new(analysis));
+            }
+        });
+    }
+    result
+}
+
+destroy_hook!(
+    destroy_shader_module,
+    DESTROY_SHADER_MODULE,
+    vk::ShaderModule,
+    fragment_depth_modules | vertex_modules | position_stores,
+    destroy_shader_module
+);
+
+pub unsafe extern "system" fn create_pipeline_layout(
+    device: vk::Device,
+    p_create_info: *const vk::PipelineLayoutCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_layout: *mut vk::PipelineLayout,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // The carrier's bytes, reserved in every layout where they fit (`crate::precise`).
+    let reserved = guarded(
+        &CREATE_PIPELINE_LAYOUT,
+        || {
+            let offset = state.policy.carrier_offset?;
+            // SAFETY: a valid create info (the application's contract).
+            let info = unsafe { &*p_create_info };
+            // SAFETY: `pushConstantRangeCount` ranges.
+            let ranges =
+                unsafe { slice(info.p_push_constant_ranges, info.push_constant_range_count) };
+            match precise::reserve_carrier(ranges, offset) {
+                Ok(reserved) => Some(reserved),
+                Err(reason) => {
+                    static NO_ROOM: AtomicBool = AtomicBool::new(false);
+                    if !NO_ROOM.swap(true, Ordering::Relaxed) {
+                        log::info!(
+                            "a pipeline layout has no room for revz's 16 bytes of push \
+                             constants at offset {offset} ({reason}): its pipelines' draws into \
+                             reversed attachments take the flip path"
+                        );
+                    }
+                    None
+                }
+            }
+        },
+        || None,
+    );
+    let with_carrier = reserved.as_ref().map(|(ranges, _)| {
+        // SAFETY: as above.
+        let info = unsafe { &*p_create_info };
+        vk::PipelineLayoutCreateInfo {
+            push_constant_range_count: ranges.len() as u32,
+            p_push_constant_ranges: ranges.as_ptr(),
+            ..*info
+        }
+    });
+    let p_down = with_carrier
+        .as_ref()
+        .map_or(p_create_info, |info| info as *const _);
+    // SAFETY: calling down with the application's arguments (its push-constant ranges with
+    // revz's carrier reserved).
+    let result = unsafe {
+        (state.next.fp_v1_0().create_pipeline_layout)(device, p_down, p_allocator, p_layout)
+    };
+    if result == vk::Result::SUCCESS {
+        super::super::record(&CREATE_PIPELINE_LAYOUT, || {
+            // SAFETY: valid on success.
+            let info = unsafe { &*p_create_info };
+            // SAFETY: `pushConstantRangeCount` ranges.
+            let ranges =
+                unsafe { slice(info.p_push_constant_ranges, info.push_constant_range_count) };
+            // SAFETY: valid on success.
+            let layout = unsafe { *p_layout };
+            state.objects.pipeline_layouts.insert(layout, ranges.into());
+            if let Some((_, carrier)) = reserved {
+                state.objects.layout_carriers.insert(layout, carrier);
+            }
+        });
+    }
+    result
+}
+
+destroy_hook!(
+    destroy_pipeline_layout,
+    DESTROY_PIPELINE_LAYOUT,
+    vk::PipelineLayout,
+    pipeline_layouts | layout_carriers,
+    destroy_pipeline_layout
+);

@@ -1,0 +1,511 @@
+//! What revz does with one graphics pipeline create info (`super`'s entry points apply it):
+//! the state subsets it defines, the dynamic states revz adds, whether its draws can take the
+//! precise path (a projection in push constants, or a vertex stage that derives its range),
+//! and how its promoted variants differ.
+
+#![allow(clippy::wildcard_imports)]
+
+use super::*;
+
+/// The subsets a create info defines itself (not those of the libraries it links): those its
+/// `VkGraphicsPipelineLibraryCreateInfoEXT` names, none for a library or a link without one,
+/// and all of them for an ordinary pipeline.
+pub(super) fn own_subsets(info: &vk::GraphicsPipelineCreateInfo<'_>) -> Subsets {
+    // SAFETY: a valid pNext chain (the application's contract).
+    let (named, links) = unsafe {
+        (
+            chain::find::<vk::GraphicsPipelineLibraryCreateInfoEXT<'_>>(info.p_next),
+            chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next),
+        )
+    };
+    if let Some(named) = named {
+        return named.flags;
+    }
+    let links = links.is_some_and(|links| links.library_count > 0);
+    if is_library(info) || links {
+        Subsets::empty()
+    } else {
+        ALL_SUBSETS
+    }
+}
+
+/// A create info's flags: those of a chained `VkPipelineCreateFlags2CreateInfoKHR`, which
+/// replace `flags`, or `flags`.
+pub(super) fn create_flags(
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> vk::PipelineCreateFlags2KHR {
+    // SAFETY: a valid pNext chain (the application's contract).
+    match unsafe { chain::find::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(info.p_next) } {
+        Some(flags2) => flags2.flags,
+        None => vk::PipelineCreateFlags2KHR::from_raw(u64::from(info.flags.as_raw())),
+    }
+}
+
+/// Whether a create info asks for its batch to end at its failure (`EARLY_RETURN_ON_FAILURE`).
+pub(super) fn returns_early(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    create_flags(info).contains(vk::PipelineCreateFlags2KHR::EARLY_RETURN_ON_FAILURE)
+}
+
+/// Whether a create info builds a library.
+pub(super) fn is_library(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    create_flags(info).contains(vk::PipelineCreateFlags2KHR::LIBRARY)
+}
+
+/// The libraries a create info links, as revz recorded them (unknown ones are skipped).
+pub(super) fn linked_libraries(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> Vec<Arc<PipelineDepth>> {
+    // SAFETY: a valid pNext chain (the application's contract).
+    let Some(links) = (unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next) })
+    else {
+        return Vec::new();
+    };
+    // SAFETY: `libraryCount` pipelines.
+    unsafe { slice(links.p_libraries, links.library_count) }
+        .iter()
+        .filter_map(|library| state.objects.pipelines.get(library))
+        .collect()
+}
+
+/// A linked pipeline's (or a library's that links others) depth state: each subset's from
+/// the library that defines it, with the dynamic states each library recorded for its own
+/// subsets ([`subset_states`]); the linking pipeline defines those subsets from then on.
+pub(super) fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]) {
+    for library in libraries {
+        depth.subsets |= library.subsets;
+        depth.module_identifiers |= library.module_identifiers;
+        depth.promotable |= library.promotable;
+        depth.app_dynamic |= library.app_dynamic;
+        depth.injected |= library.injected;
+        if library.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
+            depth.viewports.clone_from(&library.viewports);
+            depth.bias = library.bias;
+            depth.projection = library.projection;
+            depth.derived_range = library.derived_range;
+            depth.position_store = library.position_store;
+            depth.layout = library.layout;
+        }
+        if library.subsets.contains(Subsets::FRAGMENT_SHADER) {
+            depth.compare_op = library.compare_op;
+            depth.bounds = library.bounds;
+            depth.unreversed_fragment |= library.unreversed_fragment;
+        }
+    }
+}
+
+/// The depth-related states of `subsets`: a dynamic state listed by a create info that does
+/// not define its subset is ignored (the spec's rule for libraries).
+pub(super) fn subset_states(subsets: Subsets) -> States {
+    let mut states = States::NONE;
+    if subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
+        states |= States::VIEWPORT | States::VIEWPORT_WITH_COUNT | States::BIAS;
+        // Depth clip control is viewport state.
+        states |= States::CLIP_CONTROL;
+    }
+    if subsets.contains(Subsets::FRAGMENT_SHADER) {
+        states |= States::COMPARE_OP | States::BOUNDS;
+    }
+    states
+}
+
+/// Whether a stage is given by a shader module identifier
+/// (`VK_EXT_shader_module_identifier`): no code revz could rewrite.
+pub(super) fn uses_module_identifiers(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    // SAFETY: `stageCount` stages (the application's contract).
+    let stages = unsafe { slice(info.p_stages, info.stage_count) };
+    stages.iter().any(|stage| {
+        // SAFETY: a valid pNext chain (the application's contract).
+        unsafe {
+            chain::has(
+                stage.p_next,
+                vk::StructureType::PIPELINE_SHADER_STAGE_MODULE_IDENTIFIER_CREATE_INFO_EXT,
+            )
+        }
+    })
+}
+
+/// Whether a create info is made from pipeline binaries (`VkPipelineBinaryInfoKHR` with a
+/// `binaryCount` above 0): its shaders and compiled state come from them, so a variant made
+/// from the same create info would be the same pipeline, nothing rewritten or flipped.
+pub(super) fn uses_pipeline_binaries(info: &vk::GraphicsPipelineCreateInfo<'_>) -> bool {
+    // SAFETY: a valid pNext chain (the application's contract).
+    let mut structures = unsafe { chain::structures(info.p_next) };
+    structures.any(|base| {
+        base.s_type == crate::ffi::STRUCTURE_TYPE_PIPELINE_BINARY_INFO_KHR && {
+            // SAFETY: the sType identifies the structure.
+            let binary = unsafe {
+                &*(base as *const vk::BaseInStructure<'_>).cast::<crate::ffi::PipelineBinaryInfo>()
+            };
+            binary.binary_count > 0
+        }
+    })
+}
+
+/// The clip-space depth convention of a pipeline (`VK_EXT_depth_clip_control`); `None` when
+/// it is dynamic, so unknown when the projection is pushed.
+pub(super) fn depth_convention(
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+    dynamic: &[vk::DynamicState],
+) -> Option<DepthConvention> {
+    if dynamic.contains(&vk::DynamicState::DEPTH_CLIP_NEGATIVE_ONE_TO_ONE_EXT) {
+        return None;
+    }
+    // SAFETY: null or valid (the application's contract).
+    let Some(viewport) = (unsafe { info.p_viewport_state.as_ref() }) else {
+        return Some(DepthConvention::ZeroToOne);
+    };
+    // SAFETY: a valid pNext chain (the application's contract).
+    let control = unsafe {
+        chain::find::<vk::PipelineViewportDepthClipControlCreateInfoEXT<'_>>(viewport.p_next)
+    };
+    Some(
+        if control.is_some_and(|c| c.negative_one_to_one == vk::TRUE) {
+            DepthConvention::NegativeOneToOne
+        } else {
+            DepthConvention::ZeroToOne
+        },
+    )
+}
+
+/// Where a pipeline's projection is in its push constants (the precise path), or why its draws
+/// take the flip path.
+pub(super) fn projection_of(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> Result<PreciseStage, String> {
+    // SAFETY: `stageCount` stages (the application's contract).
+    let stages = unsafe { slice(info.p_stages, info.stage_count) };
+    let later = vk::ShaderStageFlags::GEOMETRY
+        | vk::ShaderStageFlags::TESSELLATION_EVALUATION
+        | vk::ShaderStageFlags::MESH_EXT;
+    if stages.iter().any(|s| s.stage.intersects(later)) {
+        return Err("its last pre-rasterization stage is not a vertex shader".into());
+    }
+    let vertex = stages
+        .iter()
+        .find(|s| s.stage == vk::ShaderStageFlags::VERTEX)
+        .ok_or("it has no vertex stage")?;
+    // SAFETY: null or valid (the application's contract).
+    let dynamic = unsafe { info.p_dynamic_state.as_ref() }.map_or(&[][..], |d| unsafe {
+        // SAFETY: `dynamicStateCount` entries.
+        slice(d.p_dynamic_states, d.dynamic_state_count)
+    });
+    // `None`: dynamic (`vkCmdSetDepthClipNegativeOneToOneEXT`, Zink's): known per draw, which
+    // only a stage deriving its range can follow.
+    let convention = depth_convention(info, dynamic);
+    let analysis = if vertex.module != vk::ShaderModule::null() {
+        state
+            .objects
+            .vertex_modules
+            .get(&vertex.module)
+            .ok_or("its vertex module is unknown")?
+    } else {
+        let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
+        Arc::new(analyze_vertex_module(vertex.module, words))
+    };
+    let entries = analysis
+        .as_ref()
+        .as_ref()
+        .map_err(|_| "naga cannot read its vertex module")?;
+    // SAFETY: a NUL-terminated entry point name (the application's contract).
+    let name = unsafe { crate::ffi::c_str(vertex.p_name) }.ok_or("no entry point name")?;
+    let slot = match entries
+        .iter()
+        .find(|(entry, _)| entry.as_bytes() == name.to_bytes())
+    {
+        Some((_, Analysis::Projection(slot))) => Some(slot),
+        Some((_, Analysis::Unreadable(reason))) => return Err(reason.clone()),
+        // Not from push constants, or a module without push constants (not parsed: no
+        // entries); the deriving rewrite has its single vertex entry point.
+        Some(_) | None => None,
+    };
+    let projection = match slot {
+        Some(slot) => {
+            let ranges = state
+                .objects
+                .pipeline_layouts
+                .get(&info.layout)
+                .ok_or("its pipeline layout is unknown")?;
+            let convention = convention.ok_or("its depth clip convention is dynamic")?;
+            Some(ProjectionUse::new(slot, convention, &ranges).map_err(|e| e.to_string())?)
+        }
+        // The stage derives its range from the matrix it loads (`crate::derived_range`),
+        // which assumes [0, 1] clip depth: the [-1, 1] one would need the layer to change the
+        // pipeline's clip convention.
+        None if convention == Some(DepthConvention::NegativeOneToOne) => {
+            return Err(
+                "its projection is not in push constants and its clip depth is \
+                        [-1, 1] (VK_EXT_depth_clip_control)"
+                    .into(),
+            )
+        }
+        None => None,
+    };
+    let carrier = state
+        .objects
+        .layout_carriers
+        .get(&info.layout)
+        .ok_or("its pipeline layout has no room for revz's push constants")?;
+    let rewrite = if vertex.module != vk::ShaderModule::null() {
+        state
+            .objects
+            .position_stores
+            .get(&vertex.module)
+            .ok_or("its vertex module has no Position rewrite")?
+    } else {
+        let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
+        position_store_of(state, &analysis, words).ok_or("its vertex shader has no rewrite")?
+    };
+    let rewrite = rewrite.map_err(|reason| {
+        if projection.is_some() {
+            format!("its Position store cannot be rewritten ({reason})")
+        } else {
+            format!("its projection is not in push constants, and its vertex stage cannot derive its range ({reason})")
+        }
+    })?;
+    if projection.is_none() && rewrite.derived.is_none() {
+        return Err("Position does not come from a push-constant matrix".into());
+    }
+    let index = stages
+        .iter()
+        .position(|s| s.stage == vk::ShaderStageFlags::VERTEX)
+        .ok_or("it has no vertex stage")?;
+    Ok(PreciseStage {
+        projection,
+        derived: rewrite.derived,
+        carrier,
+        vertex: (index, rewrite.code),
+    })
+}
+
+/// How the promoted variants of a pipeline differ from it, if it needs them: its render pass
+/// has a promoted twin, its rendering formats are promotable, or a library it links has
+/// promoted variants. Logged where a pipeline needs them and cannot have them.
+pub(super) fn promotion_of(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+    subsets: Subsets,
+) -> Option<Promotion> {
+    if !state.policy.promote {
+        return None;
+    }
+    let mut promotion = Promotion::default();
+    let mut promotable = false;
+    if subsets.intersects(USES_ATTACHMENT_FORMATS) {
+        if info.render_pass != vk::RenderPass::null() {
+            let pass = state.objects.render_passes.get(&info.render_pass)?;
+            if (0..pass.attachments.len()).any(|i| pass.promotable(i)) {
+                let Some(twin) = pass.promoted_twin else {
+                    static MISSING: std::sync::Once = std::sync::Once::new();
+                    MISSING.call_once(|| {
+                        log::error!(
+                            "a pipeline of a render pass without its promoted twin: its draws \
+                             into promoted depth images use it as it is, and the driver may \
+                             reject them"
+                        )
+                    });
+                    return None;
+                };
+                promotion.render_pass = Some(twin);
+                promotable = true;
+            }
+        } else {
+            // SAFETY: a valid pNext chain (the application's contract).
+            let rendering =
+                unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) };
+            promotion.rendering = rendering.is_some_and(|r| {
+                [r.depth_attachment_format, r.stencil_attachment_format]
+                    .into_iter()
+                    .any(|f| crate::conv::float_depth_format(f).is_some())
+            });
+            promotable |= promotion.rendering;
+        }
+    }
+    promotion.libraries = library_variants(state, info, false, true);
+    promotion.reversed_libraries = library_variants(state, info, true, true);
+    promotable |= linked_libraries(state, info)
+        .iter()
+        .any(|library| library.promotable);
+    promotable.then_some(promotion)
+}
+
+/// Plans one create info. Every graphics pipeline gets a [`PipelineDepth`] (at least the
+/// states the application made dynamic, so that draw time never sends state a pipeline keeps
+/// static); depth-related static state becomes dynamic for pipelines that render depth, in
+/// the subsets the create info defines (viewport and depth bias are pre-rasterization state,
+/// compare op and depth bounds fragment shader state). A linked pipeline adds its libraries'
+/// afterwards ([`inherit_libraries`]).
+pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Plan {
+    // SAFETY: null or valid (the application's contract).
+    let dynamic = unsafe { info.p_dynamic_state.as_ref() };
+    // SAFETY: `dynamicStateCount` entries.
+    let app_states = dynamic.map_or(&[][..], |d| unsafe {
+        slice(d.p_dynamic_states, d.dynamic_state_count)
+    });
+    let has = |state: vk::DynamicState| app_states.contains(&state);
+    let mut depth = PipelineDepth {
+        subsets: context.subsets,
+        layout: info.layout,
+        ..PipelineDepth::default()
+    };
+    for &state in app_states {
+        depth.app_dynamic |= States::of_dynamic(state);
+    }
+    depth.app_dynamic = depth.app_dynamic & subset_states(context.subsets);
+    let unchanged = |depth| Plan {
+        dynamic_states: None,
+        depth,
+        flip_reason: None,
+        compare_op_variant: false,
+        fragment: None,
+        vertex: None,
+        libraries: None,
+        renders_depth: false,
+        tested_compare_op: None,
+        promotion: None,
+    };
+    if !context.has_depth_attachment {
+        return unchanged(depth);
+    }
+    let pre_rasterization = context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
+    let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
+    // SAFETY: the state pointers are null or valid for the subsets the create info defines
+    // (the application's contract; the depth state is read only when the pipeline has a depth
+    // attachment).
+    let (depth_stencil, raster, viewport) = unsafe {
+        // References are made only from pointers the spec says to read (`then_some` would
+        // make them first).
+        (
+            if fragment {
+                info.p_depth_stencil_state.as_ref()
+            } else {
+                None
+            },
+            if pre_rasterization {
+                info.p_rasterization_state.as_ref()
+            } else {
+                None
+            },
+            if pre_rasterization {
+                info.p_viewport_state.as_ref()
+            } else {
+                None
+            },
+        )
+    };
+    if raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE)
+        && !has(vk::DynamicState::RASTERIZER_DISCARD_ENABLE)
+    {
+        return unchanged(depth);
+    }
+    let mut added = Vec::new();
+    let mut compare_op_variant = false;
+    let mut tested_compare_op = None;
+    if let Some(depth_stencil) = depth_stencil {
+        depth.compare_op = depth_stencil.depth_compare_op;
+        depth.bounds = (
+            depth_stencil.min_depth_bounds,
+            depth_stencil.max_depth_bounds,
+        );
+        let depth_test =
+            depth_stencil.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
+        if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
+            tested_compare_op = Some(depth.compare_op);
+            if !context.compare_op_variants {
+                added.push(vk::DynamicState::DEPTH_COMPARE_OP);
+                depth.injected |= States::COMPARE_OP;
+            } else {
+                compare_op_variant = flip_compare_op(depth.compare_op) != depth.compare_op;
+            }
+        }
+        let bounds = depth_stencil.depth_bounds_test_enable == vk::TRUE
+            || has(vk::DynamicState::DEPTH_BOUNDS_TEST_ENABLE);
+        if bounds && !has(vk::DynamicState::DEPTH_BOUNDS) {
+            added.push(vk::DynamicState::DEPTH_BOUNDS);
+            depth.injected |= States::BOUNDS;
+        }
+    }
+    let viewport_dynamic =
+        has(vk::DynamicState::VIEWPORT) || has(vk::DynamicState::VIEWPORT_WITH_COUNT);
+    if let Some(viewport) = viewport.filter(|_| !viewport_dynamic) {
+        // SAFETY: `viewportCount` viewports when static.
+        depth.viewports = unsafe { slice(viewport.p_viewports, viewport.viewport_count) }.to_vec();
+        if !depth.viewports.is_empty() {
+            added.push(vk::DynamicState::VIEWPORT);
+            depth.injected |= States::VIEWPORT;
+        }
+    }
+    if let Some(raster) = raster {
+        let bias = raster.depth_bias_enable == vk::TRUE || has(vk::DynamicState::DEPTH_BIAS_ENABLE);
+        depth.bias = DepthBias {
+            constant: raster.depth_bias_constant_factor,
+            clamp: raster.depth_bias_clamp,
+            slope: raster.depth_bias_slope_factor,
+        };
+        // A bias with an explicit representation (VK_EXT_depth_bias_control) cannot be re-sent
+        // with vkCmdSetDepthBias without losing it: such pipelines keep their static bias.
+        // SAFETY: a valid pNext chain (the application's contract).
+        let represented = unsafe {
+            chain::has(
+                raster.p_next,
+                vk::StructureType::DEPTH_BIAS_REPRESENTATION_INFO_EXT,
+            )
+        };
+        if bias && !represented && !has(vk::DynamicState::DEPTH_BIAS) {
+            added.push(vk::DynamicState::DEPTH_BIAS);
+            depth.injected |= States::BIAS;
+        }
+    }
+    let dynamic_states = (!added.is_empty()).then(|| {
+        let mut states = app_states.to_vec();
+        states.extend(added);
+        states
+    });
+    Plan {
+        dynamic_states,
+        depth,
+        flip_reason: None,
+        compare_op_variant,
+        fragment: None,
+        vertex: None,
+        libraries: None,
+        renders_depth: true,
+        tested_compare_op,
+        promotion: None,
+    }
+}
+
+/// What a create info needs from the device's tracked objects to be planned.
+pub(super) fn context(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> PlanContext {
+    let subsets = own_subsets(info);
+    let has_depth_attachment = if info.render_pass != vk::RenderPass::null() {
+        state
+            .objects
+            .render_passes
+            .get(&info.render_pass)
+            .and_then(|pass| {
+                pass.subpass_depth
+                    .get(info.subpass as usize)
+                    .copied()
+                    .flatten()
+            })
+            .is_some()
+    } else if subsets.contains(Subsets::FRAGMENT_OUTPUT_INTERFACE) {
+        // SAFETY: a valid pNext chain (the application's contract).
+        unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) }
+            .is_some_and(|rendering| rendering.depth_attachment_format != vk::Format::UNDEFINED)
+    } else {
+        // A library without the attachment formats: it may render depth, and a fragment
+        // shader library without them must give its depth state (the spec's rule).
+        true
+    };
+    PlanContext {
+        has_depth_attachment,
+        subsets,
+        compare_op_variants: state.policy.compare_op_variants,
+    }
+}
