@@ -1,0 +1,678 @@
+//! Command recording hooks: where a draw's depth target is known, the application's depth
+//! state is collected, clear values are flipped, and state is emitted before draws.
+//!
+//! Every hook looks up its command buffer (a thread-local cache hit in the common case); an
+//! unknown command buffer is passed down untouched through its device's table.
+//!
+//! By concern: this file holds the shared plumbing (the next layer as a state sink, the lookup
+//! of a command buffer's state), push constants, the depth state setters, binds and draws;
+//! [`passes`] the render pass and dynamic rendering begins, subpasses and ends; [`transfers`]
+//! clears, copies and blits into depth images; [`secondaries`] command buffer begins (what a
+//! secondary inherits) and `vkCmdExecuteCommands`.
+
+mod passes;
+mod secondaries;
+mod transfers;
+
+use std::sync::{Arc, OnceLock};
+
+use ash::vk;
+
+use super::resources::slice;
+use crate::boundary::{guarded, EntryPoint};
+use crate::chain;
+use crate::command_state::{StateSink, Target};
+use crate::config::Mode;
+use crate::conv::{flip_resolve_mode, DepthBias};
+use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
+use crate::policy::{secondary_target, Convention};
+use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
+use crate::state::{DeviceState, DispatchKey, DEVICES};
+
+pub use passes::*;
+pub use secondaries::*;
+pub use transfers::*;
+
+/// The device of a command buffer revz does not track (slow path: the global registry).
+fn untracked_device(buffer: vk::CommandBuffer) -> Option<Arc<DeviceState>> {
+    // SAFETY: a live command buffer's first word is its device's dispatch table.
+    DEVICES.get(unsafe { DispatchKey::of(buffer) })
+}
+
+/// Sends emitted state to the next layer.
+struct NextLayer<'a> {
+    device: &'a DeviceState,
+    buffer: vk::CommandBuffer,
+}
+
+impl PushSink for NextLayer<'_> {
+    fn push_constants(
+        &mut self,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        bytes: &[u8],
+    ) {
+        // SAFETY: a recording command buffer of this device; `layout` is the one the
+        // application last pushed with, and `stages` cover exactly these bytes.
+        unsafe {
+            (self.device.next.fp_v1_0().cmd_push_constants)(
+                self.buffer,
+                layout,
+                stages,
+                offset,
+                bytes.len() as u32,
+                bytes.as_ptr().cast(),
+            )
+        }
+    }
+}
+
+impl StateSink for NextLayer<'_> {
+    fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
+        // SAFETY: a recording command buffer of this device.
+        unsafe {
+            (self.device.next.fp_v1_0().cmd_set_viewport)(
+                self.buffer,
+                first,
+                viewports.len() as u32,
+                viewports.as_ptr(),
+            )
+        }
+    }
+
+    fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
+        if let Some(set) = self.device.commands.set_viewport_with_count {
+            // SAFETY: as above.
+            unsafe { set(self.buffer, viewports.len() as u32, viewports.as_ptr()) }
+        }
+    }
+
+    fn set_compare_op(&mut self, op: vk::CompareOp) {
+        if let Some(set) = self.device.commands.set_depth_compare_op {
+            // SAFETY: as above.
+            unsafe { set(self.buffer, op) }
+        }
+    }
+
+    fn set_bias(&mut self, bias: DepthBias) {
+        // SAFETY: as above.
+        unsafe {
+            (self.device.next.fp_v1_0().cmd_set_depth_bias)(
+                self.buffer,
+                bias.constant,
+                bias.clamp,
+                bias.slope,
+            )
+        }
+    }
+
+    fn set_bounds(&mut self, min: f32, max: f32) {
+        // SAFETY: as above.
+        unsafe { (self.device.next.fp_v1_0().cmd_set_depth_bounds)(self.buffer, min, max) }
+    }
+
+    fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
+        // Only sent where the application set it, so the device has the command.
+        if let Some(set) = self.device.commands.set_depth_clip_negative_one_to_one {
+            // SAFETY: as above.
+            unsafe { set(self.buffer, negative_one_to_one.into()) }
+        }
+    }
+
+    fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
+        // SAFETY: as above; a live pipeline (the application's, or its variant, destroyed
+        // with it).
+        unsafe {
+            (self.device.next.fp_v1_0().cmd_bind_pipeline)(
+                self.buffer,
+                vk::PipelineBindPoint::GRAPHICS,
+                pipeline,
+            )
+        }
+    }
+
+    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT) {
+        // Only shader objects of this device get here, so it has the command.
+        if let Some(bind) = self.device.commands.bind_shaders_ext {
+            // SAFETY: as above; a live shader object (the application's, or its variant,
+            // destroyed with it) of the fragment stage.
+            unsafe { bind(self.buffer, 1, &vk::ShaderStageFlags::FRAGMENT, &shader) }
+        }
+    }
+}
+
+/// Emits pending depth state before a draw.
+#[inline]
+fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
+    let mut sink = NextLayer {
+        device: &entry.device,
+        buffer,
+    };
+    let mut state = entry.state();
+    let outcome = state.before_draw(&mut sink);
+    drop(state);
+    if let Some(outcome) = outcome {
+        observe(&entry.device, &outcome);
+    }
+}
+
+/// What a classified projection tells about the application.
+fn observe(device: &DeviceState, outcome: &Outcome) {
+    match outcome {
+        Outcome::Rewritten { near_over_far, .. } => {
+            device.observed.note_projection(false);
+            // Only infinite mode maps clears and flip-path state with n / f.
+            if device.policy.mode == Mode::Infinite {
+                device.observed.note_near_over_far(*near_over_far)
+            }
+        }
+        Outcome::AlreadyReversed => device.observed.note_projection(true),
+        Outcome::Unchanged => {}
+    }
+}
+
+/// `vkCmdPushConstants`: the values go into the command buffer's shadow copy, where the bound
+/// pipeline's projection is classified (`crate::precise`), and down as they are, or extended to
+/// revz's carrier when its value changes with this push (one call instead of two).
+pub unsafe extern "system" fn cmd_push_constants(
+    buffer: vk::CommandBuffer,
+    layout: vk::PipelineLayout,
+    stages: vk::ShaderStageFlags,
+    offset: u32,
+    size: u32,
+    p_values: *const std::ffi::c_void,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants");
+    record_then_call(
+        buffer,
+        &ENTRY,
+        |entry| {
+            // SAFETY: `size` bytes of values (the application's contract).
+            let values = unsafe { slice(p_values.cast::<u8>(), size) };
+            follow_push(entry, layout, stages, offset, values)
+        },
+        None,
+        |device, folded: Option<FoldedPush>| {
+            let (offset, size, p_sent) = match &folded {
+                Some(f) => (f.offset, f.size, f.bytes.as_ptr().cast()),
+                None => (offset, size, p_values),
+            };
+            // SAFETY: calling down with the application's arguments (its values extended to
+            // the carrier's bytes, which the layout's range of `stages` holds).
+            unsafe {
+                (device.next.fp_v1_0().cmd_push_constants)(
+                    buffer, layout, stages, offset, size, p_sent,
+                )
+            }
+        },
+    );
+}
+
+/// Follows a push of the application's: the shadow copy and the outcome for the bound
+/// pipeline's projection; returns the push to send in its place, if the carrier goes with it.
+fn follow_push(
+    entry: &CommandBufferEntry,
+    layout: vk::PipelineLayout,
+    stages: vk::ShaderStageFlags,
+    offset: u32,
+    values: &[u8],
+) -> Option<FoldedPush> {
+    let mut state = entry.state();
+    let (outcome, folded) = state.push_constants(layout, stages, offset, values);
+    drop(state);
+    if let Some(outcome) = outcome {
+        observe(&entry.device, &outcome);
+    }
+    folded
+}
+
+/// `vkCmdPushConstants2` (Vulkan 1.4) and `vkCmdPushConstants2KHR`: followed like
+/// `vkCmdPushConstants` when it names a layout.
+pub unsafe extern "system" fn cmd_push_constants2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::PushConstantsInfoKHR<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants2");
+    // SAFETY: a valid info (the application's contract).
+    let info = unsafe { *p_info };
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: `size` bytes of values.
+        let values = unsafe { slice(info.p_values.cast::<u8>(), info.size) };
+        if info.layout == vk::PipelineLayout::null() || values.len() > PUSH_CONSTANT_BYTES {
+            // A layout given through pNext, or an unusually large push: not followed; the
+            // state is forgotten so that no carrier is assumed to survive it.
+            entry.state().invalidate();
+            return;
+        }
+        // Followed, never extended (the draw sends the carrier): this command is rare.
+        if follow_push(entry, info.layout, info.stage_flags, info.offset, values).is_some() {
+            entry.state().unfold();
+        }
+    });
+    let Some(next) = device.as_ref().and_then(|d| d.commands.push_constants2) else {
+        return;
+    };
+    // SAFETY: calling down with the application's arguments.
+    unsafe { next(buffer, p_info) }
+}
+
+/// The per-draw-rate hook shape (draws, pushes, binds): `record` runs on the command buffer's
+/// entry (a thread-local cache hit, no reference count taken; a panic in it is caught and gives
+/// `fallback`), then `call` goes down through the entry's device with what `record` returned.
+/// An untracked command buffer is only called down, with `fallback`.
+#[inline]
+fn record_then_call<T: Copy>(
+    buffer: vk::CommandBuffer,
+    entry_point: &'static EntryPoint,
+    record: impl FnOnce(&CommandBufferEntry) -> T,
+    fallback: T,
+    call: impl Fn(&DeviceState, T),
+) {
+    let tracked = objects::with_command_buffer(buffer, |entry| {
+        let recorded = guarded(entry_point, || record(entry), || fallback);
+        call(&entry.device, recorded);
+    });
+    if tracked.is_none() {
+        if let Some(device) = untracked_device(buffer) {
+            call(&device, fallback);
+        }
+    }
+}
+
+/// Defines a draw hook: emit pending state, then call down. A draw with no state change costs
+/// a thread-local lookup, an uncontended lock and a flag check.
+macro_rules! draw_hook {
+    ($name:ident, $entry:literal, $($arg:ident: $ty:ty),* => |$device:ident| $next:expr) => {
+        #[doc = concat!("`", $entry, "`.")]
+        ///
+        /// # Safety
+        /// Called by the application with the arguments the Vulkan spec allows.
+        pub unsafe extern "system" fn $name(buffer: vk::CommandBuffer, $($arg: $ty),*) {
+            static ENTRY: EntryPoint = EntryPoint::new($entry);
+            record_then_call(
+                buffer,
+                &ENTRY,
+                |entry| before_draw(entry, buffer),
+                (),
+                |$device: &DeviceState, ()| {
+                    let next = $next;
+                    // SAFETY: calling down with the application's arguments.
+                    unsafe { next(buffer, $($arg),*) }
+                },
+            );
+        }
+    };
+}
+
+draw_hook!(cmd_draw, "vkCmdDraw", a: u32, b: u32, c: u32, d: u32
+    => |device| device.next.fp_v1_0().cmd_draw);
+draw_hook!(cmd_draw_indexed, "vkCmdDrawIndexed", a: u32, b: u32, c: u32, d: i32, e: u32
+    => |device| device.next.fp_v1_0().cmd_draw_indexed);
+draw_hook!(cmd_draw_indirect, "vkCmdDrawIndirect", a: vk::Buffer, b: vk::DeviceSize, c: u32, d: u32
+    => |device| device.next.fp_v1_0().cmd_draw_indirect);
+draw_hook!(cmd_draw_indexed_indirect, "vkCmdDrawIndexedIndirect",
+    a: vk::Buffer, b: vk::DeviceSize, c: u32, d: u32
+    => |device| device.next.fp_v1_0().cmd_draw_indexed_indirect);
+draw_hook!(cmd_draw_indirect_count, "vkCmdDrawIndirectCount",
+    a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_indirect_count { Some(f) => f, None => return });
+draw_hook!(cmd_draw_indexed_indirect_count, "vkCmdDrawIndexedIndirectCount",
+    a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_indexed_indirect_count { Some(f) => f, None => return });
+
+// Extension draws: the device has them only when the application enabled the extension.
+draw_hook!(cmd_draw_mesh_tasks_ext, "vkCmdDrawMeshTasksEXT", a: u32, b: u32, c: u32
+    => |device| match device.commands.draw_mesh_tasks_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_mesh_tasks_indirect_ext, "vkCmdDrawMeshTasksIndirectEXT",
+    a: vk::Buffer, b: vk::DeviceSize, c: u32, d: u32
+    => |device| match device.commands.draw_mesh_tasks_indirect_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_mesh_tasks_indirect_count_ext, "vkCmdDrawMeshTasksIndirectCountEXT",
+    a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_mesh_tasks_indirect_count_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_mesh_tasks_nv, "vkCmdDrawMeshTasksNV", a: u32, b: u32
+    => |device| match device.commands.draw_mesh_tasks_nv { Some(f) => f, None => return });
+draw_hook!(cmd_draw_mesh_tasks_indirect_nv, "vkCmdDrawMeshTasksIndirectNV",
+    a: vk::Buffer, b: vk::DeviceSize, c: u32, d: u32
+    => |device| match device.commands.draw_mesh_tasks_indirect_nv { Some(f) => f, None => return });
+draw_hook!(cmd_draw_multi_ext, "vkCmdDrawMultiEXT",
+    a: u32, b: *const vk::MultiDrawInfoEXT, c: u32, d: u32, e: u32
+    => |device| match device.commands.draw_multi_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_multi_indexed_ext, "vkCmdDrawMultiIndexedEXT",
+    a: u32, b: *const vk::MultiDrawIndexedInfoEXT, c: u32, d: u32, e: u32, f: *const i32
+    => |device| match device.commands.draw_multi_indexed_ext { Some(f) => f, None => return });
+draw_hook!(cmd_draw_indirect_byte_count_ext, "vkCmdDrawIndirectByteCountEXT",
+    a: u32, b: u32, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_indirect_byte_count_ext { Some(f) => f, None => return });
+
+draw_hook!(cmd_draw_mesh_tasks_indirect_count_nv, "vkCmdDrawMeshTasksIndirectCountNV",
+    a: vk::Buffer, b: vk::DeviceSize, c: vk::Buffer, d: vk::DeviceSize, e: u32, f: u32
+    => |device| match device.commands.draw_mesh_tasks_indirect_count_nv { Some(f) => f, None => return });
+draw_hook!(cmd_draw_cluster_huawei, "vkCmdDrawClusterHUAWEI", a: u32, b: u32, c: u32
+    => |device| match device.commands.draw_cluster_huawei { Some(f) => f, None => return });
+draw_hook!(cmd_draw_cluster_indirect_huawei, "vkCmdDrawClusterIndirectHUAWEI",
+    a: vk::Buffer, b: vk::DeviceSize
+    => |device| match device.commands.draw_cluster_indirect_huawei { Some(f) => f, None => return });
+draw_hook!(cmd_execute_generated_commands_nv, "vkCmdExecuteGeneratedCommandsNV",
+    a: vk::Bool32, b: *const vk::GeneratedCommandsInfoNV<'_>
+    => |device| match device.commands.execute_generated_commands_nv { Some(f) => f, None => return });
+// Not in ash 0.38 (Vulkan 1.3.281): declared in `crate::ffi`. Pending state is sent as for any
+// draw; pipelines or shaders an indirect execution set switches to are not seen by revz.
+draw_hook!(cmd_execute_generated_commands_ext, "vkCmdExecuteGeneratedCommandsEXT",
+    a: vk::Bool32, b: *const std::ffi::c_void
+    => |device| match device.commands.execute_generated_commands_ext { Some(f) => f, None => return });
+
+/// The device a hook calls down to. For a tracked command buffer it is reached through the
+/// command buffer's entry, whose reference count only the recording thread touches; cloning
+/// the device's own `Arc` on every command would make all recording threads contend on it.
+pub(super) enum Down {
+    Tracked(Arc<CommandBufferEntry>),
+    Untracked(Arc<DeviceState>),
+}
+
+impl std::ops::Deref for Down {
+    type Target = DeviceState;
+
+    fn deref(&self) -> &DeviceState {
+        match self {
+            Down::Tracked(entry) => &entry.device,
+            Down::Untracked(device) => device,
+        }
+    }
+}
+
+/// Looks up a command buffer for a state-recording hook; returns the device to call down to.
+pub(super) fn with_entry(
+    buffer: vk::CommandBuffer,
+    entry_point: &'static EntryPoint,
+    record: impl FnOnce(&CommandBufferEntry),
+) -> Option<Down> {
+    match objects::command_buffer(buffer) {
+        Some(entry) => {
+            guarded(entry_point, || record(&entry), || ());
+            Some(Down::Tracked(entry))
+        }
+        None => untracked_device(buffer).map(Down::Untracked),
+    }
+}
+
+/// Whether the command buffer's state machine took the call (then it is emitted at draw time
+/// and must not go down now).
+fn recorded(
+    buffer: vk::CommandBuffer,
+    entry_point: &'static EntryPoint,
+    record: impl FnOnce(&CommandBufferEntry),
+) -> Result<(), Option<Down>> {
+    match objects::command_buffer(buffer) {
+        Some(entry) => {
+            let taken = guarded(
+                entry_point,
+                || {
+                    record(&entry);
+                    true
+                },
+                || false,
+            );
+            if taken {
+                Ok(())
+            } else {
+                Err(Some(Down::Tracked(entry)))
+            }
+        }
+        None => Err(untracked_device(buffer).map(Down::Untracked)),
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_viewport(
+    buffer: vk::CommandBuffer,
+    first: u32,
+    count: u32,
+    p_viewports: *const vk::Viewport,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetViewport");
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        // SAFETY: `count` viewports.
+        entry
+            .state()
+            .set_viewports(first, unsafe { slice(p_viewports, count) });
+    });
+    if let Err(Some(device)) = taken {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_set_viewport)(buffer, first, count, p_viewports) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_viewport_with_count(
+    buffer: vk::CommandBuffer,
+    count: u32,
+    p_viewports: *const vk::Viewport,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetViewportWithCount");
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        // SAFETY: `count` viewports.
+        entry
+            .state()
+            .set_viewports_with_count(unsafe { slice(p_viewports, count) });
+    });
+    if let Err(Some(device)) = taken {
+        if let Some(next) = device.commands.set_viewport_with_count {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, count, p_viewports) }
+        }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_depth_compare_op(
+    buffer: vk::CommandBuffer,
+    op: vk::CompareOp,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthCompareOp");
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        entry.device.observed.note_dynamic_compare_op(op);
+        entry.state().set_compare_op(op)
+    });
+    if let Err(Some(device)) = taken {
+        if let Some(next) = device.commands.set_depth_compare_op {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, op) }
+        }
+    }
+}
+
+/// `vkCmdSetDepthClipNegativeOneToOneEXT`: followed like the other depth states, and sent at
+/// the draw (a draw whose vertex stage converts a [-1, 1] line gets [0, 1]).
+pub unsafe extern "system" fn cmd_set_depth_clip_negative_one_to_one(
+    buffer: vk::CommandBuffer,
+    negative_one_to_one: vk::Bool32,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthClipNegativeOneToOneEXT");
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        entry
+            .state()
+            .set_clip_negative_one_to_one(negative_one_to_one == vk::TRUE)
+    });
+    if let Err(Some(device)) = taken {
+        if let Some(next) = device.commands.set_depth_clip_negative_one_to_one {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, negative_one_to_one) }
+        }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_depth_bias(
+    buffer: vk::CommandBuffer,
+    constant: f32,
+    clamp: f32,
+    slope: f32,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthBias");
+    let bias = DepthBias {
+        constant,
+        clamp,
+        slope,
+    };
+    let taken = recorded(buffer, &ENTRY, |entry| entry.state().set_bias(bias));
+    if let Err(Some(device)) = taken {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_set_depth_bias)(buffer, constant, clamp, slope) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_depth_bounds(buffer: vk::CommandBuffer, min: f32, max: f32) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthBounds");
+    let taken = recorded(buffer, &ENTRY, |entry| entry.state().set_bounds(min, max));
+    if let Err(Some(device)) = taken {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_set_depth_bounds)(buffer, min, max) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_bind_pipeline(
+    buffer: vk::CommandBuffer,
+    bind_point: vk::PipelineBindPoint,
+    pipeline: vk::Pipeline,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindPipeline");
+    record_then_call(
+        buffer,
+        &ENTRY,
+        |entry| {
+            if bind_point == vk::PipelineBindPoint::GRAPHICS {
+                let depth = entry.device.objects.pipelines.get(&pipeline);
+                entry.state().bind_pipeline(depth);
+            }
+        },
+        (),
+        |device, ()| {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, pipeline) }
+        },
+    );
+}
+
+/// `vkCmdBindShadersEXT`: with shader objects every piece of state is dynamic, so revz emits
+/// whatever the application set. The shader bound to the fragment stage is recorded, so that
+/// draws into reversed attachments bind its reversed variant (`super::shader_object`).
+pub unsafe extern "system" fn cmd_bind_shaders_ext(
+    buffer: vk::CommandBuffer,
+    count: u32,
+    p_stages: *const vk::ShaderStageFlags,
+    p_shaders: *const vk::ShaderEXT,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindShadersEXT");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: `count` stages, and `count` shaders unless null (then every stage is
+        // unbound).
+        let stages = unsafe { slice(p_stages, count) };
+        let fragment = stages
+            .iter()
+            .position(|&stage| stage == vk::ShaderStageFlags::FRAGMENT)
+            .map(|index| {
+                let shader = if p_shaders.is_null() {
+                    vk::ShaderEXT::null()
+                } else {
+                    // SAFETY: as above; `index` is below `count`.
+                    unsafe { *p_shaders.add(index) }
+                };
+                let depth = (shader != vk::ShaderEXT::null())
+                    .then(|| entry.device.objects.fragment_shaders.get(&shader))
+                    .flatten();
+                (shader, depth)
+            });
+        entry.state().bind_shaders(fragment)
+    });
+    if let Some(next) = device.and_then(|d| d.commands.bind_shaders_ext) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, count, p_stages, p_shaders) }
+    }
+}
+
+/// `vkCmdSetDepthBias2EXT` (`VK_EXT_depth_bias_control`). Without a representation in its
+/// `pNext` it is `vkCmdSetDepthBias` and goes through the state machine. With one, revz cannot
+/// re-send it as `vkCmdSetDepthBias`: it goes down at once, negated when the current target is
+/// reversed (a target that changes before the draw is not followed: logged once).
+pub unsafe extern "system" fn cmd_set_depth_bias2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::DepthBiasInfoEXT<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthBias2EXT");
+    static REPRESENTED: std::sync::Once = std::sync::Once::new();
+    // SAFETY: a valid info (the application's contract).
+    let info = unsafe { *p_info };
+    let bias = DepthBias {
+        constant: info.depth_bias_constant_factor,
+        clamp: info.depth_bias_clamp,
+        slope: info.depth_bias_slope_factor,
+    };
+    let mut flipped = None;
+    let taken = recorded(buffer, &ENTRY, |entry| {
+        let mut state = entry.state();
+        if info.p_next.is_null() {
+            state.set_bias(bias);
+            return;
+        }
+        state.forget_emitted_bias();
+        // A bias in the format's units on a promoted attachment is converted to the float
+        // format's (`DepthBias::in_float_storage`); FLOAT and FORCE_UNORM representations
+        // name units that promotion does not change.
+        // SAFETY: a valid pNext chain (the application's contract).
+        let representation =
+            unsafe { chain::find::<vk::DepthBiasRepresentationInfoEXT<'_>>(info.p_next) }
+                .map(|r| r.depth_bias_representation);
+        let in_format_units = representation
+            .is_none_or(|r| r == vk::DepthBiasRepresentationEXT::LEAST_REPRESENTABLE_VALUE_FORMAT);
+        let scaled = match state.promoted_from() {
+            Some(format) if in_format_units => bias.in_float_storage(format),
+            _ => bias,
+        };
+        let reversed = state.target() == Target::Reversed;
+        if reversed || scaled != bias {
+            let sent = if reversed { scaled.flipped() } else { scaled };
+            flipped = Some(vk::DepthBiasInfoEXT {
+                depth_bias_constant_factor: sent.constant,
+                depth_bias_clamp: sent.clamp,
+                depth_bias_slope_factor: sent.slope,
+                ..info
+            });
+        }
+        REPRESENTED.call_once(|| {
+            log::info!(
+                "vkCmdSetDepthBias2EXT with a bias representation is negated where it is \
+                 recorded, not per draw"
+            )
+        });
+    });
+    let down = match taken {
+        Ok(()) if info.p_next.is_null() => return,
+        Ok(()) => objects::command_buffer(buffer).map(Down::Tracked),
+        Err(down) => down,
+    };
+    if let Some(next) = down.and_then(|d| d.commands.set_depth_bias2) {
+        let p_info = flipped.as_ref().map_or(p_info, |f| f as *const _);
+        // SAFETY: calling down with the application's arguments (the bias negated).
+        unsafe { next(buffer, p_info) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_clears_of_the_depth_aspect_say_anything_about_depth() {
+        let range = |aspect_mask| vk::ImageSubresourceRange {
+            aspect_mask,
+            level_count: 1,
+            layer_count: 1,
+            ..Default::default()
+        };
+        use vk::ImageAspectFlags as A;
+        assert!(!clears_depth(&[range(A::STENCIL)]));
+        assert!(!clears_depth(&[]));
+        assert!(clears_depth(&[range(A::DEPTH)]));
+        assert!(clears_depth(&[
+            range(A::STENCIL),
+            range(A::DEPTH | A::STENCIL)
+        ]));
+    }
+}

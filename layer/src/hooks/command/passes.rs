@@ -1,0 +1,406 @@
+//! Render pass and dynamic rendering instances: where a draw's depth target becomes known
+//! (begin, next subpass, end), the attachments' depth, promotion and resolves, and the clear
+//! values of reversed attachments.
+
+#![allow(clippy::wildcard_imports)]
+
+use super::*;
+
+/// The attachments of a render pass instance: the framebuffer's views, or for an imageless
+/// framebuffer those of the begin info.
+pub(super) fn attachment_views(
+    device: &DeviceState,
+    framebuffer: vk::Framebuffer,
+    begin_next: *const std::ffi::c_void,
+) -> Arc<[vk::ImageView]> {
+    if let Some(views) = device.objects.framebuffers.get(&framebuffer) {
+        if !views.is_empty() {
+            return views;
+        }
+    }
+    // SAFETY: a valid pNext chain (the application's contract).
+    match unsafe { chain::find::<vk::RenderPassAttachmentBeginInfo<'_>>(begin_next) } {
+        // SAFETY: `attachmentCount` views.
+        Some(info) => Arc::from(unsafe { slice(info.p_attachments, info.attachment_count) }),
+        None => Arc::from([]),
+    }
+}
+
+/// What a render pass begin passes down in place of the application's values.
+#[derive(Default)]
+struct PassBegin {
+    /// The clear values, when a reversed depth attachment's was flipped.
+    clears: Option<Vec<vk::ClearValue>>,
+    /// The twin begun in the application's pass's place: with float depth formats over a
+    /// framebuffer of promoted images, with swapped MIN/MAX depth resolves when the resolved
+    /// attachment is reversed, or both.
+    render_pass: Option<vk::RenderPass>,
+}
+
+impl PassBegin {
+    /// The begin info to pass down: the application's, or a copy with revz's values.
+    fn apply<'a>(&'a self, begin: &vk::RenderPassBeginInfo<'a>) -> vk::RenderPassBeginInfo<'a> {
+        let mut copy = *begin;
+        if let Some(clears) = &self.clears {
+            copy.p_clear_values = clears.as_ptr();
+        }
+        if let Some(render_pass) = self.render_pass {
+            copy.render_pass = render_pass;
+        }
+        copy
+    }
+
+    fn changes_anything(&self) -> bool {
+        self.clears.is_some() || self.render_pass.is_some()
+    }
+}
+
+/// Begins a render pass instance: settles its depth resolves, flips the clear values of
+/// reversed depth attachments, picks the swapped-resolve twin where its resolved attachment is
+/// reversed, records the scope, and enters its first subpass's `contents`.
+fn begin_pass(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    begin: &vk::RenderPassBeginInfo<'_>,
+    contents: vk::SubpassContents,
+) -> PassBegin {
+    let device = &entry.device;
+    let pass = device.objects.render_passes.get(&begin.render_pass);
+    let views = attachment_views(device, begin.framebuffer, begin.p_next);
+    let mut out = PassBegin::default();
+    let mut targets = Vec::new();
+    let mut promoted = false;
+    if let Some(pass) = &pass {
+        // Ordinary framebuffers were settled at creation; imageless ones only now.
+        device.objects.settle_pass_resolves(pass, &views);
+        let images: Vec<Target> = views
+            .iter()
+            .map(|&v| device.objects.view_target(v))
+            .collect();
+        let mut clears: Vec<vk::ClearValue> =
+            // SAFETY: `clearValueCount` values.
+            unsafe { slice(begin.p_clear_values, begin.clear_value_count) }.to_vec();
+        let cleared = |index: usize| pass.depth_cleared.get(index).copied().unwrap_or(false);
+        // The first reversed attachment cleared here settles the convention with its value.
+        let reversed_clear = clears.iter().enumerate().find_map(|(index, clear)| {
+            // SAFETY: a depth attachment's clear value is the depthStencil member.
+            let depth = unsafe { clear.depth_stencil.depth };
+            (cleared(index) && images.get(index) == Some(&Target::Reversed)).then_some(depth)
+        });
+        if images.contains(&Target::Reversed) {
+            device.observed.settle(reversed_clear);
+        }
+        targets = images
+            .into_iter()
+            .map(|target| device.observed.effective(target))
+            .collect();
+        let mut changed = false;
+        for (index, clear) in clears.iter_mut().enumerate() {
+            if cleared(index) && targets.get(index) == Some(&Target::Reversed) {
+                // SAFETY: a depth attachment's clear value is the depthStencil member.
+                unsafe {
+                    clear.depth_stencil.depth = device.reversed_clear(clear.depth_stencil.depth)
+                };
+                changed = true;
+            }
+        }
+        out.clears = changed.then_some(clears);
+        // A twin exists only for passes of one subpass; its resolve source was settled above,
+        // so a reversed source here resolves into a reversed image.
+        let resolved_reversed = pass
+            .depth_resolves()
+            .any(|(source, _)| targets.get(source as usize) == Some(&Target::Reversed));
+        promoted = device
+            .objects
+            .promoted_framebuffers
+            .get(&begin.framebuffer)
+            .is_some();
+        out.render_pass = pass.twin(promoted, resolved_reversed);
+    }
+    let scope = PassScope {
+        handle: begin.render_pass,
+        render_pass: pass,
+        attachment_targets: targets,
+        subpass: 0,
+        promoted,
+    };
+    {
+        let mut state = entry.state();
+        state.set_target(scope.target());
+        state.set_promoted(scope.promoted_from());
+    }
+    let key = subpass_key(&scope);
+    *entry.scope() = scope;
+    let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
+    enter_contents(entry, buffer, secondary, key);
+    out
+}
+
+pub unsafe extern "system" fn cmd_begin_render_pass(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::RenderPassBeginInfo<'_>,
+    contents: vk::SubpassContents,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRenderPass");
+    let mut pass_begin = PassBegin::default();
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid begin info (the application's contract).
+        pass_begin = begin_pass(entry, buffer, unsafe { &*p_begin }, contents);
+    });
+    let Some(device) = device else { return };
+    // SAFETY: a valid begin info.
+    let replaced = pass_begin.apply(unsafe { &*p_begin });
+    let p_begin = if pass_begin.changes_anything() {
+        &replaced
+    } else {
+        p_begin
+    };
+    // SAFETY: calling down with the application's arguments (clear values flipped, twin pass).
+    unsafe { (device.next.fp_v1_0().cmd_begin_render_pass)(buffer, p_begin, contents) }
+}
+
+pub unsafe extern "system" fn cmd_begin_render_pass2(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::RenderPassBeginInfo<'_>,
+    p_subpass_begin: *const vk::SubpassBeginInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRenderPass2");
+    let mut pass_begin = PassBegin::default();
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid subpass begin info (the application's contract).
+        let contents = unsafe { (*p_subpass_begin).contents };
+        // SAFETY: a valid begin info (the application's contract).
+        pass_begin = begin_pass(entry, buffer, unsafe { &*p_begin }, contents);
+    });
+    let Some(next) = device.and_then(|d| d.commands.begin_render_pass2) else {
+        return;
+    };
+    // SAFETY: a valid begin info.
+    let replaced = pass_begin.apply(unsafe { &*p_begin });
+    let p_begin = if pass_begin.changes_anything() {
+        &replaced
+    } else {
+        p_begin
+    };
+    // SAFETY: calling down with the application's arguments (clear values flipped, twin pass).
+    unsafe { next(buffer, p_begin, p_subpass_begin) }
+}
+
+/// A subpass or rendering instance begins whose draws are (`secondary`) or are not recorded
+/// in secondaries; called before its begin goes down. Where they are, the viewports the
+/// application set go down first (secondaries may inherit them, and nothing may be recorded
+/// inside such a subpass), unless the subpass being left records secondaries itself; and the
+/// depth target is remembered for `pass` (what secondaries without a framebuffer continue).
+pub(super) fn enter_contents(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    secondary: bool,
+    pass: Option<SecondaryPass>,
+) {
+    let mut state = entry.state();
+    if secondary && state.records_inline() {
+        state.flush_viewports_for_secondaries(&mut NextLayer {
+            device: &entry.device,
+            buffer,
+        });
+    }
+    state.set_secondary_contents(secondary);
+    if let (true, false, Some(pass)) = (secondary, entry.secondary, pass) {
+        entry
+            .device
+            .objects
+            .remember_secondary_target(pass, state.target(), state.promoted());
+    }
+}
+
+/// The key a subpass of the current render pass is remembered under.
+pub(super) fn subpass_key(scope: &PassScope) -> Option<SecondaryPass> {
+    (scope.handle != vk::RenderPass::null())
+        .then_some(SecondaryPass::Subpass(scope.handle, scope.subpass as u32))
+}
+
+pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
+    let (target, promoted, key) = {
+        let mut scope = entry.scope();
+        scope.subpass += 1;
+        (scope.target(), scope.promoted_from(), subpass_key(&scope))
+    };
+    {
+        let mut state = entry.state();
+        state.set_target(target);
+        state.set_promoted(promoted);
+    }
+    enter_contents(entry, buffer, secondary, key);
+}
+
+pub(super) fn end_pass(entry: &CommandBufferEntry) {
+    *entry.scope() = PassScope::default();
+    let mut state = entry.state();
+    state.set_target(Target::None);
+    state.set_promoted(None);
+    state.set_secondary_contents(false);
+}
+
+pub unsafe extern "system" fn cmd_next_subpass(
+    buffer: vk::CommandBuffer,
+    contents: vk::SubpassContents,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdNextSubpass");
+    let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
+    if let Some(device) = with_entry(buffer, &ENTRY, |entry| {
+        next_subpass(entry, buffer, secondary)
+    }) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_next_subpass)(buffer, contents) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_next_subpass2(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::SubpassBeginInfo<'_>,
+    p_end: *const vk::SubpassEndInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdNextSubpass2");
+    // SAFETY: a valid subpass begin info (the application's contract).
+    let contents = unsafe { (*p_begin).contents };
+    let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
+    if let Some(next) = with_entry(buffer, &ENTRY, |entry| {
+        next_subpass(entry, buffer, secondary)
+    })
+    .and_then(|d| d.commands.next_subpass2)
+    {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_begin, p_end) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_end_render_pass(buffer: vk::CommandBuffer) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRenderPass");
+    if let Some(device) = with_entry(buffer, &ENTRY, end_pass) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_end_render_pass)(buffer) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_end_render_pass2(
+    buffer: vk::CommandBuffer,
+    p_end: *const vk::SubpassEndInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRenderPass2");
+    if let Some(next) =
+        with_entry(buffer, &ENTRY, end_pass).and_then(|d| d.commands.end_render_pass2)
+    {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_end) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_begin_rendering(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::RenderingInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginRendering");
+    // SAFETY: a valid rendering info (the application's contract).
+    let info = unsafe { *p_info };
+    let mut depth_copy: Option<vk::RenderingAttachmentInfo<'_>> = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: null or valid.
+        let depth = unsafe { info.p_depth_attachment.as_ref() };
+        let device = &entry.device;
+        // The spec pairs the depth and stencil resolve modes only where both attachments have
+        // a view (VUID-VkRenderingInfo-pDepthAttachment-06104, -06105); the stencil mode is
+        // kept as it is, so the swapped depth mode must pair with it.
+        // SAFETY: null or valid.
+        let paired_stencil_mode = unsafe { info.p_stencil_attachment.as_ref() }
+            .filter(|s| s.image_view != vk::ImageView::null())
+            .map(|s| s.resolve_mode);
+        if let Some(depth) = depth {
+            let swappable = device
+                .resolve_support
+                .swapped_depth_mode(depth.resolve_mode, paired_stencil_mode)
+                .is_ok();
+            device.objects.settle_depth_resolve(
+                depth.image_view,
+                depth.resolve_image_view,
+                depth.resolve_mode,
+                swappable,
+            );
+        }
+        let image = depth.map_or(Target::None, |d| device.objects.view_target(d.image_view));
+        if image == Target::Reversed {
+            // The clear of a reversed attachment settles the convention with its value.
+            let clear = depth
+                .filter(|d| d.load_op == vk::AttachmentLoadOp::CLEAR)
+                // SAFETY: a depth attachment's clear value is the depthStencil member.
+                .map(|d| unsafe { d.clear_value.depth_stencil.depth });
+            device.observed.settle(clear);
+        }
+        let target = device.observed.effective(image);
+        if let (Some(depth), Target::Reversed) = (depth, target) {
+            let mut copy = *depth;
+            if copy.load_op == vk::AttachmentLoadOp::CLEAR {
+                // SAFETY: a depth attachment's clear value is the depthStencil member.
+                unsafe {
+                    copy.clear_value.depth_stencil.depth =
+                        device.reversed_clear(copy.clear_value.depth_stencil.depth)
+                };
+            }
+            // Settled above: a reversed attachment that still resolves resolves into a
+            // reversed image, with a mode revz may swap.
+            copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
+            depth_copy = Some(copy);
+        }
+        // A promoted depth (or stencil) view: draws bind the variants made with float
+        // rendering formats.
+        // SAFETY: null or valid.
+        let stencil = unsafe { info.p_stencil_attachment.as_ref() };
+        let promoted = [depth, stencil]
+            .into_iter()
+            .flatten()
+            .map(|a| a.image_view)
+            .find(|&view| device.objects.view_promoted(view).is_some())
+            .map(|view| {
+                device
+                    .objects
+                    .view_format(view)
+                    .unwrap_or(vk::Format::UNDEFINED)
+            });
+        {
+            let mut state = entry.state();
+            state.set_target(target);
+            state.set_promoted(promoted);
+        }
+        let secondary = info
+            .flags
+            .contains(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS);
+        let key = depth
+            .and_then(|d| device.objects.view_format(d.image_view))
+            .map(SecondaryPass::Rendering);
+        enter_contents(entry, buffer, secondary, key);
+    });
+    let Some(next) = device.and_then(|d| d.commands.begin_rendering) else {
+        return;
+    };
+    let flipped;
+    let p_info = match &depth_copy {
+        Some(depth) => {
+            flipped = vk::RenderingInfo {
+                p_depth_attachment: depth,
+                ..info
+            };
+            &flipped
+        }
+        None => p_info,
+    };
+    // SAFETY: calling down with the application's arguments (depth clear flipped).
+    unsafe { next(buffer, p_info) }
+}
+
+pub unsafe extern "system" fn cmd_end_rendering(buffer: vk::CommandBuffer) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRendering");
+    let device = with_entry(buffer, &ENTRY, end_pass);
+    if let Some(next) = device.and_then(|d| d.commands.end_rendering) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer) }
+    }
+}

@@ -1,0 +1,321 @@
+//! Command buffer begins (what a secondary inherits: its depth target, promotion, viewports)
+//! and `vkCmdExecuteCommands`.
+
+#![allow(clippy::wildcard_imports)]
+
+use super::*;
+
+/// A secondary's begin info as it goes down when it continues a promoted pass: its
+/// inheritance names the promoted twin, or the float rendering formats (the copies it points
+/// into live here).
+struct PromotedInheritance<'a> {
+    begin: vk::CommandBufferBeginInfo<'a>,
+    _inheritance: Box<vk::CommandBufferInheritanceInfo<'a>>,
+    _chain: Option<chain::Spliced>,
+}
+
+/// The begin info of a secondary continuing a promoted pass (`None`: the application's is
+/// right as it is, or cannot be changed: logged).
+fn promoted_inheritance<'a>(
+    device: &DeviceState,
+    begin: &vk::CommandBufferBeginInfo<'a>,
+    inheritance: &vk::CommandBufferInheritanceInfo<'a>,
+) -> Option<PromotedInheritance<'a>> {
+    let mut copy = *inheritance;
+    let mut spliced = None;
+    if inheritance.render_pass != vk::RenderPass::null() {
+        let pass = device.objects.render_passes.get(&inheritance.render_pass)?;
+        copy.render_pass = pass.promoted_twin?;
+    } else {
+        // SAFETY: a valid pNext chain (the application's contract).
+        let rendering = unsafe {
+            chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
+        }?;
+        let float = |format: vk::Format| crate::conv::float_depth_format(format).unwrap_or(format);
+        let replacement = vk::CommandBufferInheritanceRenderingInfo {
+            depth_attachment_format: float(rendering.depth_attachment_format),
+            stencil_attachment_format: float(rendering.stencil_attachment_format),
+            ..*rendering
+        };
+        // SAFETY: as above; the copies live in the result.
+        let Some(chain) = (unsafe { chain::splice(inheritance.p_next, Some(&replacement)) }) else {
+            log::error!(
+                "a secondary continuing rendering into a promoted depth image has a structure \
+                 revz cannot copy before its inheritance rendering info: it keeps the UNORM \
+                 format, and the driver may reject it"
+            );
+            return None;
+        };
+        copy.p_next = chain.head();
+        spliced = Some(chain);
+    }
+    let inheritance = Box::new(copy);
+    Some(PromotedInheritance {
+        begin: vk::CommandBufferBeginInfo {
+            p_inheritance_info: &*inheritance,
+            ..*begin
+        },
+        _inheritance: inheritance,
+        _chain: spliced,
+    })
+}
+
+pub unsafe extern "system" fn begin_command_buffer(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::CommandBufferBeginInfo<'_>,
+) -> vk::Result {
+    static ENTRY: EntryPoint = EntryPoint::new("vkBeginCommandBuffer");
+    let mut promoted_begin = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid begin info (the application's contract).
+        let begin = unsafe { &*p_begin };
+        // The inheritance info is ignored (and may be garbage) for primaries.
+        let continues = entry.secondary
+            && begin
+                .flags
+                .contains(vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE);
+        // SAFETY: null or valid; only read for secondaries continuing a render pass.
+        let inheritance = unsafe { begin.p_inheritance_info.as_ref() }.filter(|_| continues);
+        let target = inheritance.map_or(Target::None, |i| inherited_target(entry, i));
+        let promoted = inheritance.and_then(|i| inherited_promotion(entry, i));
+        if let (Some(_), Some(inheritance)) = (promoted, inheritance) {
+            promoted_begin = promoted_inheritance(&entry.device, begin, inheritance);
+        }
+        *entry.scope() = PassScope::default();
+        let mut state = entry.state();
+        // Cameras matter to the precise path only (no lock in flip mode).
+        let cameras = match entry.device.policy.rewrite() {
+            Some(_) => entry.device.cameras.learned(),
+            None => revz_math::Cameras::default(),
+        };
+        state.begin(target, entry.device.reversing().reversal, cameras);
+        state.set_promoted(promoted);
+        if entry.secondary && inherits_viewports(begin) {
+            state.inherit_viewports();
+        }
+    });
+    let p_begin = promoted_begin
+        .as_ref()
+        .map_or(p_begin, |promoted| &promoted.begin as *const _);
+    match device {
+        // SAFETY: calling down with the application's arguments (a promoted pass's
+        // inheritance naming its twin or its float formats).
+        Some(device) => unsafe { (device.next.fp_v1_0().begin_command_buffer)(buffer, p_begin) },
+        None => vk::Result::ERROR_INITIALIZATION_FAILED,
+    }
+}
+
+/// Whether a secondary continues a promoted pass, and the UNORM format of its depth
+/// attachment (as [`PassScope::promoted_from`]): from the inherited framebuffer when there is
+/// one; otherwise from how its pass was last begun for secondaries, or the format's images.
+pub(super) fn inherited_promotion(
+    entry: &CommandBufferEntry,
+    inheritance: &vk::CommandBufferInheritanceInfo<'_>,
+) -> Option<vk::Format> {
+    let device = &entry.device;
+    if !device.policy.promote {
+        return None;
+    }
+    let (key, format) = if inheritance.render_pass != vk::RenderPass::null() {
+        let pass = device.objects.render_passes.get(&inheritance.render_pass)?;
+        if !(0..pass.attachments.len()).any(|i| pass.promotable(i)) {
+            return None;
+        }
+        let framebuffer = inheritance.framebuffer;
+        let views = device.objects.framebuffers.get(&framebuffer);
+        let format = pass
+            .subpass_depth
+            .get(inheritance.subpass as usize)
+            .copied()
+            .flatten()
+            .and_then(|index| pass.attachments.get(index as usize).copied());
+        // Any tracked framebuffer (imageless ones too) says how it was created.
+        if views.is_some() {
+            let promoted = device
+                .objects
+                .promoted_framebuffers
+                .get(&framebuffer)
+                .is_some();
+            let scope = PassScope {
+                render_pass: Some(pass),
+                subpass: inheritance.subpass as usize,
+                promoted,
+                ..PassScope::default()
+            };
+            return scope.promoted_from();
+        }
+        (
+            SecondaryPass::Subpass(inheritance.render_pass, inheritance.subpass),
+            format,
+        )
+    } else {
+        // SAFETY: a valid pNext chain (the application's contract).
+        let rendering = unsafe {
+            chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
+        }?;
+        let format = [
+            rendering.depth_attachment_format,
+            rendering.stencil_attachment_format,
+        ]
+        .into_iter()
+        .find(|&f| crate::conv::float_depth_format(f).is_some())?;
+        (SecondaryPass::Rendering(format), Some(format))
+    };
+    let remembered = device.objects.secondary_promoted.get(&key);
+    let (promoted, kept) = match (remembered, format) {
+        (None, Some(format)) => device.objects.count_promoted(format),
+        _ => (0, 0),
+    };
+    let (promoted, guessed) = crate::policy::secondary_promoted(remembered, promoted, kept);
+    if guessed {
+        static MIXED: OnceLock<()> = OnceLock::new();
+        MIXED.get_or_init(|| {
+            log::warn!(
+                "a secondary command buffer without a framebuffer draws into {format:?}, which \
+                 has both promoted and unpromoted images, in a pass not yet begun for \
+                 secondaries: assuming promoted"
+            )
+        });
+    }
+    promoted.then(|| {
+        format
+            .filter(|&f| crate::conv::float_depth_format(f).is_some())
+            .unwrap_or(vk::Format::UNDEFINED)
+    })
+}
+
+/// Whether a secondary inherits its viewports from the primary that executes it
+/// (`VK_NV_inherited_viewport_scissor`).
+pub(super) fn inherits_viewports(begin: &vk::CommandBufferBeginInfo<'_>) -> bool {
+    // SAFETY: null or valid (only read for secondaries, where the spec reads it too).
+    let Some(inheritance) = (unsafe { begin.p_inheritance_info.as_ref() }) else {
+        return false;
+    };
+    // SAFETY: a valid pNext chain (the application's contract).
+    unsafe {
+        chain::find::<vk::CommandBufferInheritanceViewportScissorInfoNV<'_>>(inheritance.p_next)
+    }
+    .is_some_and(|info| info.viewport_scissor2_d == vk::TRUE)
+}
+
+/// The depth target a secondary command buffer continues: from the inherited framebuffer when
+/// there is one; otherwise from what the device's depth images of that format are.
+pub(super) fn inherited_target(
+    entry: &CommandBufferEntry,
+    inheritance: &vk::CommandBufferInheritanceInfo<'_>,
+) -> Target {
+    let device = &entry.device;
+    if inheritance.render_pass != vk::RenderPass::null() {
+        let pass = device.objects.render_passes.get(&inheritance.render_pass);
+        // An imageless framebuffer names no views: the format decides, as without one.
+        let targets: Vec<Target> =
+            attachment_views(device, inheritance.framebuffer, std::ptr::null())
+                .iter()
+                .map(|&view| device.view_target(view))
+                .collect();
+        if !targets.is_empty() {
+            let scope = PassScope {
+                handle: inheritance.render_pass,
+                render_pass: pass,
+                attachment_targets: targets,
+                subpass: inheritance.subpass as usize,
+                promoted: false,
+            };
+            return scope.target();
+        }
+        let format = pass.and_then(|p| {
+            let index = p
+                .subpass_depth
+                .get(inheritance.subpass as usize)
+                .copied()
+                .flatten()?;
+            p.attachments.get(index as usize).copied()
+        });
+        let key = SecondaryPass::Subpass(inheritance.render_pass, inheritance.subpass);
+        return format.map_or(Target::None, |f| format_target(device, key, f));
+    }
+    // Dynamic rendering inheritance names only the formats.
+    // SAFETY: a valid pNext chain (the application's contract).
+    unsafe { chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next) }
+        .map(|info| info.depth_attachment_format)
+        .filter(|&format| format != vk::Format::UNDEFINED)
+        .map_or(Target::None, |format| {
+            format_target(device, SecondaryPass::Rendering(format), format)
+        })
+}
+
+/// Without a framebuffer, a secondary knows its pass and depth format: it follows the target
+/// that pass was last begun with for secondaries, else the device's live depth images of that
+/// format (`crate::policy::secondary_target`; a guess between both kinds is logged once).
+pub(super) fn format_target(
+    device: &DeviceState,
+    pass: SecondaryPass,
+    format: vk::Format,
+) -> Target {
+    static MIXED: OnceLock<()> = OnceLock::new();
+    let remembered = device.objects.secondary_targets.get(&pass);
+    let (reversed, native) = match remembered {
+        Some(_) => (0, 0),
+        None => device.objects.count_images(format),
+    };
+    let (images, guessed) = secondary_target(remembered, reversed, native);
+    if guessed {
+        MIXED.get_or_init(|| {
+            log::warn!(
+                "a secondary command buffer without a framebuffer draws into {format:?}, which \
+                 has both reversed and native images, in a pass not yet begun for secondaries: \
+                 assuming reversed"
+            )
+        });
+    }
+    device.observed.effective(images)
+}
+
+pub unsafe extern "system" fn cmd_execute_commands(
+    buffer: vk::CommandBuffer,
+    count: u32,
+    p_buffers: *const vk::CommandBuffer,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdExecuteCommands");
+    static MISMATCH: std::sync::Once = std::sync::Once::new();
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let mut state = entry.state();
+        let target = state.target();
+        // A secondary decided its depth target at its begin; it can only be checked here.
+        // SAFETY: `count` command buffers.
+        for &secondary in unsafe { slice(p_buffers, count) } {
+            if entry.device.profile.is_some() {
+                if let Some(recorded) =
+                    objects::command_buffer(secondary).map(|s| s.state().draws())
+                {
+                    state.add_executed_draws(&recorded);
+                }
+            }
+            let assumed = objects::command_buffer(secondary).map(|s| s.state().inherited());
+            if matches!(assumed, Some(a) if a != target && a != Target::None && target != Target::None)
+            {
+                MISMATCH.call_once(|| {
+                    log::warn!(
+                        "a secondary command buffer recorded for a {:?} depth attachment runs \
+                         where the depth attachment is {target:?}: its depth state does not \
+                         match (give secondaries their framebuffer in the inheritance info)",
+                        assumed.unwrap_or_default()
+                    )
+                });
+            }
+        }
+        // Secondaries may inherit the viewports set here; inside a subpass of secondaries
+        // they went down at its begin, and nothing may be recorded there.
+        if state.records_inline() {
+            state.flush_viewports_for_secondaries(&mut NextLayer {
+                device: &entry.device,
+                buffer,
+            });
+        }
+        state.invalidate();
+    });
+    if let Some(device) = device {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { (device.next.fp_v1_0().cmd_execute_commands)(buffer, count, p_buffers) }
+    }
+}
