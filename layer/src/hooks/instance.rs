@@ -11,7 +11,7 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::config::{self, layer_settings, AppIdentity, Mode, Settings, Sources};
 use crate::ffi;
 use crate::objects::DeviceObjects;
-use crate::policy::{DevicePolicy, ResolveSupport};
+use crate::policy::{CompareOpFacts, CompareOpSource, DevicePolicy, ResolveSupport};
 use crate::state::{DeviceCommands, DeviceState, DispatchKey, InstanceState, DEVICES, INSTANCES};
 use crate::{logging, LAYER_NAME, VERSION};
 
@@ -270,19 +270,7 @@ unsafe fn device_properties(
     properties
 }
 
-/// Where a device's `vkCmdSetDepthCompareOp` comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum CompareOpSource {
-    /// Vulkan 1.3, which the application asked for and the device has.
-    Core,
-    /// `VK_EXT_extended_dynamic_state`, which the application enabled itself.
-    ApplicationExtension,
-    /// `VK_EXT_extended_dynamic_state`, which revz adds to the device's creation.
-    AddedExtension,
-    Unavailable,
-}
-
-/// Decides how the device will provide a dynamic compare op.
+/// Gathers the facts of [`CompareOpSource::decide`] for a device being created.
 ///
 /// # Safety
 /// `physical_device` must be a live physical device of `instance`.
@@ -292,27 +280,23 @@ unsafe fn compare_op_source(
     create_info: &vk::DeviceCreateInfo,
     api: u32,
 ) -> CompareOpSource {
-    if api >= vk::API_VERSION_1_3 {
-        return CompareOpSource::Core;
-    }
     let (extension, feature_struct, feature) = extended_dynamic_state_requested(create_info);
-    if extension && feature {
-        return CompareOpSource::ApplicationExtension;
-    }
-    // The application's own feature structure (with the feature off) cannot be changed in
-    // place, and a second one would be invalid: leave such a device alone.
-    if instance.settings.mode == Mode::Off
-        || feature_struct
-        || !extensions::extended_dynamic_state_allowed(api, instance.properties2_enabled)
-    {
-        return CompareOpSource::Unavailable;
-    }
-    // SAFETY: the caller's contract.
-    if unsafe { device_has_extension(instance, physical_device, EXTENDED_DYNAMIC_STATE) } {
-        CompareOpSource::AddedExtension
-    } else {
-        CompareOpSource::Unavailable
-    }
+    let facts = CompareOpFacts {
+        core: api >= vk::API_VERSION_1_3,
+        application_extension: extension && feature,
+        application_feature_struct: feature_struct,
+        mode_off: instance.settings.mode == Mode::Off,
+        extension_allowed: extensions::extended_dynamic_state_allowed(
+            api,
+            instance.properties2_enabled,
+        ),
+        // Asked only where it decides (it queries the layers below).
+        // SAFETY: the caller's contract.
+        device_has_extension: &|| unsafe {
+            device_has_extension(instance, physical_device, EXTENDED_DYNAMIC_STATE)
+        },
+    };
+    CompareOpSource::decide(&facts)
 }
 
 /// Whether a device extension is offered, asked of the layers below.
