@@ -39,6 +39,8 @@ const OP_CONSTANT_NULL: u32 = 46;
 const OP_SPEC_CONSTANT_COMPOSITE: u32 = 51;
 const OP_FUNCTION_PARAMETER: u32 = 55;
 const OP_LABEL: u32 = 248;
+const OP_LOOP_MERGE: u32 = 246;
+const STORAGE_INPUT: u32 = 1;
 const OP_PHI: u32 = 245;
 const OP_TRANSPOSE: u32 = 84;
 const OP_BITCAST: u32 = 124;
@@ -128,14 +130,27 @@ pub struct PositionStores {
 /// What the function bodies define: result id -> (word index, opcode, operands).
 struct Defs {
     at: HashMap<u32, (usize, u32, Vec<u32>)>,
-    /// Stores into variables: variable -> values.
-    stores: HashMap<u32, Vec<u32>>,
+    /// Stores into variables: variable -> (value, word index).
+    stores: HashMap<u32, Vec<(u32, usize)>>,
+    /// Function variables with an initializer: a load may read it where the store did not
+    /// run, so they are followed only from a store earlier in the load's own block.
+    initialized: HashSet<u32>,
+    /// Word indices of `OpLabel`s (block starts), in order.
+    labels: Vec<usize>,
     /// Function-local variables, and the module's private ones (naga's SPIR-V passes every
     /// output through a private global that a wrapper entry point copies out).
     followed: HashSet<u32>,
-    /// Variables reached through an access chain (a component may be written apart): never
-    /// followed.
+    /// Variables reached through an access chain (a component may be written apart), or used
+    /// other than as the pointer of a load or a store: never followed.
     chained: HashSet<u32>,
+    /// Component counts of vector types.
+    counts: HashMap<u32, u32>,
+    /// Word ranges of loop constructs (from an `OpLoopMerge` to its merge block's label).
+    loops: Vec<(usize, usize)>,
+    /// Constants whose one word is the bits of 1.0 (a float, or Zink's uint bitcast to one).
+    ones: HashSet<u32>,
+    /// `Input` variables (vertex attributes: a fetch of fewer than 4 components gives w = 1).
+    inputs: HashSet<u32>,
 }
 
 fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
@@ -175,7 +190,23 @@ impl Defs {
                 .map(|(&id, _)| id)
                 .collect(),
             chained: HashSet::new(),
+            initialized: HashSet::new(),
+            labels: Vec::new(),
+            counts: module
+                .vectors
+                .iter()
+                .map(|(&id, &(_, n))| (id, n))
+                .collect(),
+            loops: Vec::new(),
+            ones: module.ones.clone(),
+            inputs: module
+                .variables
+                .iter()
+                .filter(|(_, &(_, class))| class == STORAGE_INPUT)
+                .map(|(&id, _)| id)
+                .collect(),
         };
+        let mut open_loops: Vec<(u32, usize)> = Vec::new();
         let mut word = HEADER_WORDS;
         for instruction in instructions(words).into_iter().flatten() {
             let Instruction { opcode, operands } =
@@ -185,12 +216,33 @@ impl Defs {
             if at < functions_at {
                 continue;
             }
+            // A followed variable used other than as the pointer of a load or a store (an
+            // alias, an argument, a debug reference): its value is not only what is stored.
+            if opcode != OP_VARIABLE {
+                for (index, operand) in operands.iter().enumerate() {
+                    let pointer_use = matches!((opcode, index), (OP_LOAD, 2) | (OP_STORE, 0));
+                    if !pointer_use && defs.followed.contains(operand) {
+                        defs.chained.insert(*operand);
+                    }
+                }
+            }
             match (opcode, operands) {
-                (OP_VARIABLE, &[_, id, ..]) => {
+                (OP_LOOP_MERGE, &[merge, ..]) => open_loops.push((merge, at)),
+                (OP_LABEL, &[label]) => {
+                    defs.labels.push(at);
+                    while let Some(index) = open_loops.iter().position(|&(m, _)| m == label) {
+                        let (_, start) = open_loops.remove(index);
+                        defs.loops.push((start, at));
+                    }
+                }
+                (OP_VARIABLE, &[_, id, _, ref initializer @ ..]) => {
                     defs.followed.insert(id);
+                    if !initializer.is_empty() {
+                        defs.initialized.insert(id);
+                    }
                 }
                 (OP_STORE, &[pointer, value, ..]) => {
-                    defs.stores.entry(pointer).or_default().push(value);
+                    defs.stores.entry(pointer).or_default().push((value, at));
                 }
                 (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[_, _, base, ..]) => {
                     defs.chained.insert(base);
@@ -208,18 +260,89 @@ impl Defs {
                 defs.at.insert(id, (at, opcode, operands.to_vec()));
             }
         }
+        // Loops still open at the end of the words (malformed): to the end.
+        defs.loops
+            .extend(open_loops.into_iter().map(|(_, start)| (start, usize::MAX)));
         Ok(defs)
     }
 
-    /// The value a load of a local or private variable stored exactly once, whole, reads.
-    fn through_local(&self, pointer: u32) -> Option<u32> {
+    /// Whether the instruction at `at` lies in a loop construct: a fit there may describe
+    /// another iteration than the one whose value is stored.
+    fn in_loop(&self, at: usize) -> bool {
+        self.loops
+            .iter()
+            .any(|&(start, end)| start < at && at < end)
+    }
+
+    /// Component count of the vector `id` (by its result type), if known.
+    fn components(&self, id: u32) -> Option<u32> {
+        let (_, _, operands) = self.at.get(&id)?;
+        self.counts.get(operands.first()?).copied()
+    }
+
+    /// Whether the vector a projection multiplies has w = 1 (what `z' = c_w w + c_1` assumes:
+    /// the line's constant term is `B * v.w`): `vec4(p, 1.0)`, an attribute, a product of
+    /// such a vector (by affine matrices), through copies, bitcasts and followed variables.
+    fn unit_w(&self, vector: u32, depth: u32) -> bool {
+        if depth > 16 {
+            return false;
+        }
+        let vector = self.unwrapped(vector);
+        if let Some((_, terms_w_one)) = self.column_source(vector) {
+            return match terms_w_one {
+                ColumnW::Folded => true,
+                ColumnW::Of(source) => self.unit_w(source, depth + 1),
+            };
+        }
+        let Some((_, opcode, operands)) = self.at.get(&vector) else {
+            return false;
+        };
+        match (*opcode, operands.as_slice()) {
+            (OP_COMPOSITE_CONSTRUCT, [.., last]) if operands.len() > 2 => {
+                let last = self.unwrapped(*last);
+                self.ones.contains(&last)
+            }
+            (OP_MATRIX_TIMES_VECTOR, &[_, _, _, v]) => self.unit_w(v, depth + 1),
+            (OP_COPY_OBJECT, &[_, _, source]) => self.unit_w(source, depth + 1),
+            (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => self
+                .member(composite, index)
+                .is_some_and(|m| self.unit_w(m, depth + 1)),
+            (OP_LOAD, &[_, _, pointer, ..]) => {
+                self.inputs.contains(&pointer)
+                    || self
+                        .through_local(pointer, self.at_of(vector))
+                        .is_some_and(|stored| self.unit_w(stored, depth + 1))
+            }
+            _ => false,
+        }
+    }
+
+    /// The value a load (at word `load_at`) of a local or private variable stored exactly
+    /// once, whole, reads.
+    fn through_local(&self, pointer: u32, load_at: usize) -> Option<u32> {
         if !self.followed.contains(&pointer) || self.chained.contains(&pointer) {
             return None;
         }
-        match self.stores.get(&pointer).map(Vec::as_slice) {
-            Some(&[value]) => Some(value),
-            _ => None,
+        let &[(value, store_at)] = self.stores.get(&pointer)?.as_slice() else {
+            return None;
+        };
+        if self.initialized.contains(&pointer) {
+            // The store must run before the load: earlier in the same block.
+            let same_block = store_at < load_at
+                && !self
+                    .labels
+                    .iter()
+                    .any(|&label| store_at < label && label < load_at);
+            if !same_block {
+                return None;
+            }
         }
+        Some(value)
+    }
+
+    /// The word index of `id`'s definition (0 where unknown).
+    fn at_of(&self, id: u32) -> usize {
+        self.at.get(&id).map_or(0, |(at, ..)| *at)
     }
 
     /// Member `index` of a composite built by `OpCompositeConstruct` (naga's wrapper builds
@@ -233,18 +356,18 @@ impl Defs {
         }
     }
 
-    /// The multiply a whole `Position` value comes from: (matrix, transposed).
-    fn multiply(&self, value: u32, depth: u32) -> Option<(u32, bool)> {
+    /// The multiply a whole `Position` value comes from: (matrix, transposed, vector).
+    fn multiply(&self, value: u32, depth: u32) -> Option<(u32, bool, u32)> {
         if depth > 16 {
             return None;
         }
         let (_, opcode, operands) = self.at.get(&value)?;
         match (*opcode, operands.as_slice()) {
-            (OP_MATRIX_TIMES_VECTOR, &[_, _, matrix, _]) => Some((matrix, false)),
-            (OP_VECTOR_TIMES_MATRIX, &[_, _, _, matrix]) => Some((matrix, true)),
+            (OP_MATRIX_TIMES_VECTOR, &[_, _, matrix, vector]) => Some((matrix, false, vector)),
+            (OP_VECTOR_TIMES_MATRIX, &[_, _, vector, matrix]) => Some((matrix, true, vector)),
             (OP_COPY_OBJECT, &[_, _, source]) => self.multiply(source, depth + 1),
             (OP_LOAD, &[_, _, pointer, ..]) => {
-                self.multiply(self.through_local(pointer)?, depth + 1)
+                self.multiply(self.through_local(pointer, self.at_of(value))?, depth + 1)
             }
             (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => {
                 self.multiply(self.member(composite, index)?, depth + 1)
@@ -269,15 +392,20 @@ impl Defs {
     /// and the vector it comes from.
     fn splat(&self, id: u32) -> Option<(u32, u32)> {
         match self.at.get(&self.unwrapped(id))? {
+            // A component of the first vector (a larger index selects from the second).
             (_, OP_VECTOR_SHUFFLE, operands) => match operands.as_slice() {
-                &[_, _, first, _, i, j, k, l] if i == j && j == k && k == l && i < 4 => {
+                &[_, _, first, _, i, j, k, l]
+                    if i == j && j == k && k == l && i < self.components(first)?.min(4) =>
+                {
                     Some((self.unwrapped(first), i))
                 }
                 _ => None,
             },
             (_, OP_COMPOSITE_CONSTRUCT, operands) => match operands.as_slice() {
                 &[_, _, a, b, c, d] if a == b && b == c && c == d => match self.at.get(&a)? {
-                    (_, OP_COMPOSITE_EXTRACT, e) if e.len() == 4 => {
+                    (_, OP_COMPOSITE_EXTRACT, e)
+                        if e.len() == 4 && e[3] < self.components(e[2])?.min(4) =>
+                    {
                         Some((self.unwrapped(e[2]), e[3]))
                     }
                     _ => None,
@@ -308,6 +436,17 @@ impl Defs {
     /// `c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w` (any order of the terms, `c3` alone where
     /// `v.w` was folded to 1): the columns, and the sum's root (where the fit goes).
     fn column_product(&self, value: u32) -> Option<([u32; 4], u32)> {
+        self.column_parts(value)
+            .map(|(columns, root, _)| (columns, root))
+    }
+
+    /// [`Self::column_product`]'s vector: its w folded to 1, or the vector the splats take
+    /// their components from.
+    fn column_source(&self, value: u32) -> Option<([u32; 4], ColumnW)> {
+        self.column_parts(value).map(|(columns, _, w)| (columns, w))
+    }
+
+    fn column_parts(&self, value: u32) -> Option<([u32; 4], u32, ColumnW)> {
         let root = self.unwrapped(value);
         let mut terms = Vec::new();
         self.terms(value, &mut terms, 0)?;
@@ -342,13 +481,19 @@ impl Defs {
                 return None;
             }
         }
+        let folded = bare.is_some();
         if let Some(term) = bare {
             if columns[3].replace(term).is_some() {
                 return None;
             }
         }
         let columns = [columns[0]?, columns[1]?, columns[2]?, columns[3]?];
-        self.at.contains_key(&root).then_some((columns, root))
+        let w = if folded {
+            ColumnW::Folded
+        } else {
+            ColumnW::Of(vector?)
+        };
+        self.at.contains_key(&root).then_some((columns, root, w))
     }
 
     /// The outermost factor of `matrix` (for `transposed`, the use `v * matrix`).
@@ -367,10 +512,12 @@ impl Defs {
             }
             (OP_TRANSPOSE, &[_, _, x]) => self.leaf(x, !transposed, depth + 1),
             (OP_COPY_OBJECT, &[_, _, x]) => self.leaf(x, transposed, depth + 1),
-            (OP_LOAD, &[_, _, pointer, ..]) => match self.through_local(pointer) {
-                Some(stored) => self.leaf(stored, transposed, depth + 1),
-                None => (matrix, transposed),
-            },
+            (OP_LOAD, &[_, _, pointer, ..]) => {
+                match self.through_local(pointer, self.at_of(matrix)) {
+                    Some(stored) => self.leaf(stored, transposed, depth + 1),
+                    None => (matrix, transposed),
+                }
+            }
             _ => (matrix, transposed),
         }
     }
@@ -411,6 +558,19 @@ pub struct ModuleFacts<'a> {
     pub matrices: &'a HashMap<u32, (u32, u32)>,
     /// The `vec4` of floats `Position` is.
     pub vec4: u32,
+    /// Vector types: id -> (component type, count).
+    pub vectors: &'a HashMap<u32, (u32, u32)>,
+    /// 32-bit constants whose word is the bits of 1.0.
+    pub ones: &'a HashSet<u32>,
+}
+
+/// The w of the vector a column-form product multiplies.
+#[derive(Clone, Copy, Debug)]
+enum ColumnW {
+    /// The product's last column is added alone: its w was 1, folded by the compiler.
+    Folded,
+    /// The vector the splats come from.
+    Of(u32),
 }
 
 /// The leaf matrix of every whole `Position` store, or why the shader's depth is not one
@@ -434,15 +594,28 @@ pub fn find(
     if let [value] = stores.whole.as_slice() {
         if defs.multiply(*value, 0).is_none() {
             if let Some((columns, root)) = defs.column_product(*value) {
+                if !defs.unit_w(*value, 0) {
+                    return Err(Unsupported(
+                        "the vector the projection multiplies may not have w = 1",
+                    ));
+                }
+                if defs.in_loop(defs.at[&root].0) {
+                    return Err(Unsupported("the projection is applied in a loop"));
+                }
                 return column_leaf(module, &defs, columns, root);
             }
         }
     }
     let mut leaf: Option<(u32, bool)> = None;
     for &value in &stores.whole {
-        let (matrix, transposed) = defs
+        let (matrix, transposed, vector) = defs
             .multiply(value, 0)
             .ok_or(Unsupported("Position is not a matrix times a vector"))?;
+        if !defs.unit_w(vector, 0) {
+            return Err(Unsupported(
+                "the vector the projection multiplies may not have w = 1",
+            ));
+        }
         let found = defs.leaf(matrix, transposed, 0);
         if leaf.is_some_and(|l| l != found) {
             return Err(Unsupported("Position comes from more than one matrix"));
@@ -464,11 +637,16 @@ pub fn find(
                 (OP_LOAD, &[_, _, pointer, ..]) => source_of(module, &defs, pointer),
                 // A matrix member of a loaded block (naga loads the whole block).
                 (OP_COMPOSITE_EXTRACT, &[_, _, composite, ..]) => match defs.at.get(&composite) {
-                    Some((_, OP_LOAD, loaded)) => source_of(module, &defs, loaded[2]),
+                    Some((_, OP_LOAD, loaded)) => loaded
+                        .get(2)
+                        .map_or(MatrixSource::Computed, |&p| source_of(module, &defs, p)),
                     _ => MatrixSource::Computed,
                 },
                 _ => MatrixSource::Computed,
             };
+            if defs.in_loop(*at) {
+                return Err(Unsupported("the projection is loaded in a loop"));
+            }
             (Insert::After(*at), source)
         }
         None => {
@@ -522,7 +700,9 @@ fn column_leaf(
         let Some(id) = pending.pop() else { break };
         match defs.at.get(&id) {
             Some((_, OP_LOAD, operands)) => {
-                source = source_of(module, defs, operands[2]);
+                if let Some(&pointer) = operands.get(2) {
+                    source = source_of(module, defs, pointer);
+                }
                 break;
             }
             Some((_, OP_BITCAST | OP_COMPOSITE_CONSTRUCT, operands)) => {
@@ -569,7 +749,10 @@ fn buffer_block_of(module: &ModuleFacts<'_>, pointer: u32, defs: &Defs) -> bool 
         }
         match defs.at.get(&current) {
             Some((_, OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, operands)) => {
-                current = operands[2];
+                match operands.get(2) {
+                    Some(&base) => current = base,
+                    None => return false,
+                }
             }
             _ => return false,
         }
@@ -591,6 +774,11 @@ pub struct Fit {
     /// Float constants: (id, value).
     constants: Vec<(u32, f32)>,
     half: u32,
+    minus_half: u32,
+    two_and_a_half: u32,
+    zero: u32,
+    one: u32,
+    minus_one: u32,
     /// The fit's instructions, ending with the store of the derived carrier.
     pub code: Vec<u32>,
     /// The arithmetic results, decorated `NoContraction`.
@@ -646,7 +834,7 @@ impl<F: FnMut() -> u32> Code<'_, F> {
 /// An upper bound on the ids [`Fit::new`] and one [`Fit::select_at_return`] take.
 pub const FIT_IDS: usize = 100;
 /// Ids each [`Fit::select_at_return`] takes.
-pub const RETURN_IDS: usize = 9;
+pub const RETURN_IDS: usize = 17;
 
 impl Fit {
     pub fn new<F: FnMut() -> u32>(
@@ -664,6 +852,7 @@ impl Fit {
         let one = constant(1.0);
         let minus_one = constant(-1.0);
         let half = constant(0.5);
+        let minus_half = constant(-0.5);
         let two = constant(2.0);
         let two_and_a_half = constant(2.5);
         let four = constant(4.0);
@@ -772,10 +961,15 @@ impl Fit {
                 minus_one.0
             }
         };
-        let out_z = code.typed(OP_SELECT, float, &[accepted, zero.0, id_of(flip_z)]);
-        let out_w = code.typed(OP_SELECT, float, &[accepted, c_w, id_of(flip_w)]);
+        // A refused fit: the flip mapping, halved where the clip depth is [-1, 1] and revz set
+        // [0, 1] for the draw (`z' = (w - z) / 2`).
+        let flip_z_gl = code.typed(OP_SELECT, float, &[gl, minus_half.0, id_of(flip_z)]);
+        let flip_w_gl = code.typed(OP_SELECT, float, &[gl, half.0, id_of(flip_w)]);
+        let out_z = code.typed(OP_SELECT, float, &[accepted, zero.0, flip_z_gl]);
+        let out_w = code.typed(OP_SELECT, float, &[accepted, c_w, flip_w_gl]);
         let out_1 = code.typed(OP_SELECT, float, &[accepted, c_1, id_of(flip_1)]);
-        let value = code.typed(OP_COMPOSITE_CONSTRUCT, vec4, &[out_z, out_w, out_1, zero.0]);
+        // w = 1: the fit ran (the initializer's 0 says it did not, [`Self::select_at_return`]).
+        let value = code.typed(OP_COMPOSITE_CONSTRUCT, vec4, &[out_z, out_w, out_1, one.0]);
         push(&mut code.words, OP_STORE, &[derived, value]);
         let Code { words, exact, .. } = code;
         Fit {
@@ -789,6 +983,7 @@ impl Fit {
                 one,
                 minus_one,
                 half,
+                minus_half,
                 two,
                 two_and_a_half,
                 four,
@@ -798,6 +993,11 @@ impl Fit {
                 minus_infinity,
             ],
             half: half.0,
+            minus_half: minus_half.0,
+            two_and_a_half: two_and_a_half.0,
+            zero: zero.0,
+            one: one.0,
+            minus_one: minus_one.0,
             code: words,
             exact,
         }
@@ -859,24 +1059,46 @@ impl Fit {
         let Types { float, vec4, .. } = types;
         let (selector, use_derived, derived) = (fresh(), fresh(), fresh());
         push(out, OP_COMPOSITE_EXTRACT, &[float, selector, carrier, 3]);
-        // 0.5: between the selector 0 of pushed values and the derived ones (1, 2).
+        // 0.5: between the selector 0 of pushed values and the derived ones (1 to 4).
         push(
             out,
             OP_F_ORD_GREATER_THAN,
             &[self.bool_type, use_derived, selector, self.half],
         );
         push(out, OP_LOAD, &[vec4, derived, self.derived]);
+        // The fit did not run before this return (its w is the initializer's 0): the flip
+        // mapping, halved for a [-1, 1] line (selectors 3, 4).
+        let (ran_w, ran, gl, flip_z, flip_w) = (fresh(), fresh(), fresh(), fresh(), fresh());
+        push(out, OP_COMPOSITE_EXTRACT, &[float, ran_w, derived, 3]);
+        push(
+            out,
+            OP_F_ORD_GREATER_THAN,
+            &[self.bool_type, ran, ran_w, self.half],
+        );
+        push(
+            out,
+            OP_F_ORD_GREATER_THAN,
+            &[self.bool_type, gl, selector, self.two_and_a_half],
+        );
+        push(
+            out,
+            OP_SELECT,
+            &[float, flip_z, gl, self.minus_half, self.minus_one],
+        );
+        push(out, OP_SELECT, &[float, flip_w, gl, self.half, self.one]);
+        let fallback = [flip_z, flip_w, self.zero];
         std::array::from_fn(|i| {
-            let (component, selected) = (fresh(), fresh());
+            let (component, known, selected) = (fresh(), fresh(), fresh());
             push(
                 out,
                 OP_COMPOSITE_EXTRACT,
                 &[float, component, derived, i as u32],
             );
+            push(out, OP_SELECT, &[float, known, ran, component, fallback[i]]);
             push(
                 out,
                 OP_SELECT,
-                &[float, selected, use_derived, component, pushed[i]],
+                &[float, selected, use_derived, known, pushed[i]],
             );
             selected
         })

@@ -145,6 +145,8 @@ struct Module {
     bool_type: Option<u32>,
     /// Types decorated `BufferBlock`.
     buffer_blocks: HashSet<u32>,
+    /// 32-bit constants whose word is the bits of 1.0 (`crate::derived_range`'s w = 1 test).
+    ones: HashSet<u32>,
 }
 
 impl Module {
@@ -215,8 +217,13 @@ impl Module {
                     m.pointers.insert(id, (class, pointee));
                     m.pointer_of.entry((class, pointee)).or_insert(id);
                 }
-                (OP_CONSTANT, &[ty, id, value]) if m.ints.iter().any(|&(t, _)| t == ty) => {
-                    m.int_constants.insert(id, value);
+                (OP_CONSTANT, &[ty, id, value]) => {
+                    if m.ints.iter().any(|&(t, _)| t == ty) {
+                        m.int_constants.insert(id, value);
+                    }
+                    if value == 1.0f32.to_bits() {
+                        m.ones.insert(id);
+                    }
                 }
                 (OP_VARIABLE, &[ty, id, class, ..]) => {
                     m.variables.insert(id, (ty, class));
@@ -411,6 +418,30 @@ impl Module {
                     .map(|(&id, _)| id)
                     .collect()
             });
+        if let (Some(pointers), Some((variable, block, _))) = (&relocated, app_block) {
+            // Nothing declared between the block and the functions may refer to what moves
+            // (a debug-info `OpExtInst` naming the variable, a function type taking the
+            // pointer, a null constant of the block): it would refer forward.
+            let moved: HashSet<u32> = pointers.iter().copied().chain([block, variable]).collect();
+            let from = self.declared_at.get(&block).copied().unwrap_or(0);
+            let mut word = HEADER_WORDS;
+            for instruction in instructions(words).into_iter().flatten() {
+                let Ok(Instruction { opcode, operands }) = instruction else {
+                    return Err(Unsupported("a malformed instruction"));
+                };
+                let at = word;
+                word += operands.len() + 1;
+                if at <= from || at >= self.functions_at {
+                    continue;
+                }
+                let is_moved = result_id(opcode, operands).is_some_and(|id| moved.contains(id));
+                if !is_moved && declaration_ids(opcode, operands).any(|o| moved.contains(&o)) {
+                    return Err(Unsupported(
+                        "the push-constant block precedes vec4 and is referred to before it",
+                    ));
+                }
+            }
+        }
         let positions_private = self.pointer_of.get(&(STORAGE_PRIVATE, vec4)).copied();
         if let (Position::Variable(var), Some(private)) = (position, positions_private) {
             if self.declared_at.get(&private) > self.declared_at.get(&var) {
@@ -433,6 +464,8 @@ impl Module {
                 pointers: &self.pointers,
                 matrices: &self.matrices,
                 vec4,
+                vectors: &self.vectors,
+                ones: &self.ones,
             };
             Some(derived_range::find(words, &facts, &body.stores)?)
         } else {
@@ -956,6 +989,36 @@ impl Body {
         }
         Ok(body)
     }
+}
+
+/// The ids a declaration refers to (not its literals), for the declarations that can refer to
+/// a push-constant block, its pointer or its variable; others refer to none of them.
+fn declaration_ids(opcode: u32, operands: &[u32]) -> impl Iterator<Item = u32> + '_ {
+    const OP_TYPE_FUNCTION: u32 = 33;
+    const OP_CONSTANT_COMPOSITE: u32 = 44;
+    const OP_CONSTANT_NULL: u32 = 46;
+    const OP_SPEC_CONSTANT_COMPOSITE: u32 = 51;
+    const OP_UNDEF: u32 = 1;
+    let ids: &[u32] = match opcode {
+        // Result id first, then ids (a pointer's storage class is a literal).
+        OP_TYPE_POINTER => operands.get(2..).unwrap_or_default(),
+        OP_TYPE_STRUCT | OP_TYPE_ARRAY | OP_TYPE_RUNTIME_ARRAY | OP_TYPE_FUNCTION => {
+            operands.get(1..).unwrap_or_default()
+        }
+        // Result type, result id, then ids.
+        OP_CONSTANT_COMPOSITE | OP_SPEC_CONSTANT_COMPOSITE => operands,
+        OP_CONSTANT_NULL | OP_UNDEF => operands.get(..1).unwrap_or_default(),
+        // Result type, id, storage class (literal), initializer.
+        OP_VARIABLE => operands.get(3..).unwrap_or_default(),
+        // Result type, id, set, instruction number (literal), then ids (debug info).
+        OP_EXT_INST => operands.get(2..).unwrap_or_default(),
+        _ => &[],
+    };
+    let skip_literal = opcode == OP_EXT_INST;
+    ids.iter()
+        .enumerate()
+        .filter(move |&(i, _)| !(skip_literal && i == 1))
+        .map(|(_, &id)| id)
 }
 
 /// The result id of an instruction, for the declarations that have one.

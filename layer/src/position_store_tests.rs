@@ -511,3 +511,51 @@ fn zinks_column_by_column_product_is_fitted_from_the_projections_columns() {
         .iter()
         .any(|d| d.get(1) == Some(&42)));
 }
+
+/// glslang output saved as binary (`layer/src/test_data/*.spv`).
+fn binary(bytes: &[u8]) -> Vec<u32> {
+    bytes
+        .chunks_exact(4)
+        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        .collect()
+}
+
+#[test]
+fn shapes_a_review_found_are_refused_not_rewritten_wrongly() {
+    let reason = |words: &[u32]| {
+        rewrite_position_store_deriving(words, OFFSET)
+            .map(|r| r.map(|(_, s)| s))
+            .err()
+    };
+    // A splat built from an extract of component 7 of an array: no panic, no fit.
+    let splat = assemble(include_str!("test_data/splat_index_7.spvasm"));
+    assert!(reason(&splat).is_some());
+    // glslang -gVS: a push block `{ uint index; }` declared before vec4 and named by debug
+    // info before vec4: moving the block would leave the debug info referring forward.
+    let debug = binary(include_bytes!("test_data/push_block_first_debug_info.spv"));
+    assert_eq!(
+        reason(&debug),
+        Some(Unsupported(
+            "the push-constant block precedes vec4 and is referred to before it"
+        ))
+    );
+    // `p[i] * v` in a loop, the chosen iteration's value stored: the fit would describe the
+    // last iteration.
+    let looped = binary(include_bytes!("test_data/projection_in_a_loop.spv"));
+    assert!(reason(&looped).is_some(), "a projection applied in a loop");
+    // `P * (V * vec4(dir, 0.0))`: a point at infinity, whose depth is not `k w + B`.
+    let direction = binary(include_bytes!("test_data/direction_w_zero.spv"));
+    assert_eq!(
+        reason(&direction),
+        Some(Unsupported(
+            "the vector the projection multiplies may not have w = 1"
+        ))
+    );
+    // Each of them is valid SPIR-V, left as it is.
+    for words in [&debug, &looped, &direction] {
+        let options = val::ValidatorOptions::default();
+        val::create(Some(TargetEnv::Vulkan_1_2))
+            .validate(words, Some(options))
+            .expect("the input is valid");
+    }
+}

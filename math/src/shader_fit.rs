@@ -31,7 +31,13 @@
 //!
 //! A refused fit gives the shader's own z through the flip mapping (`z' = w - z`, the
 //! complementary reversal of standard depth: correct, without the precision gain), the same
-//! as the flip path would store.
+//! as the flip path would store; for a [-1, 1] clip depth turned into [0, 1] for the draw,
+//! `z' = (w - z) / 2` ([`FLIP_IN_SHADER_GL`]).
+//!
+//! The stored `z' = c_w w + c_1` assumes the vector the matrix multiplies has w = 1 (the
+//! line's constant term is `B * v.w`); the rewrite refuses a vector whose w it cannot see is
+//! 1 (`vec4(dir, 0.0)` for a sky at infinity would otherwise get the depth of a point at
+//! distance w).
 //!
 //! # The carrier it makes
 //!
@@ -98,6 +104,9 @@ pub const AFFINE_W_TOLERANCE_SQUARED: f32 = (AFFINE_W_TOLERANCE * AFFINE_W_TOLER
 
 /// The carrier of a refused fit: `z' = -1 * z + 1 * w + 0`, the flip mapping.
 pub const FLIP_IN_SHADER: [f32; 3] = [-1.0, 1.0, 0.0];
+/// The same for a [-1, 1] clip depth turned into [0, 1] for the draw: `z' = (w - z) / 2`, the
+/// flip mapping of `(D + 1) / 2`.
+pub const FLIP_IN_SHADER_GL: [f32; 3] = [-0.5, 0.5, 0.0];
 
 /// The fit of the depth row `a` on the w row `b`, exactly as the rewritten vertex stage
 /// evaluates it (float32, left to right, no fused operations), or `None` where the guard
