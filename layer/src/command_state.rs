@@ -141,8 +141,10 @@ pub struct PipelineDepth {
     /// constants: `crate::derived_range`), and where that matrix comes from: its draws into
     /// reversed attachments push the selector of the mode instead of a camera's values.
     pub derived_range: Option<MatrixSource>,
-    /// The pipeline's layout: what revz pushes the carrier with before the application has
-    /// pushed anything (an application without push constants never does).
+    /// revz's own layout with the pipeline layout's push-constant ranges
+    /// (`crate::objects::DeviceObjects::layout_pushers`): what revz pushes the carrier with
+    /// for a stage that derives its range (the application may push nothing for it, or last
+    /// pushed with another pipeline's layout), and before the application's first push.
     pub layout: vk::PipelineLayout,
     /// The state subsets the pipeline defines itself (`VK_EXT_graphics_pipeline_library`):
     /// all of them but for libraries, whose links take each subset's state from the library
@@ -859,14 +861,21 @@ impl CommandState {
         // which the bound pipeline's is compatible with. Before the application's first push
         // there is none, and its own push constants are undefined as well.
         let store = self.pipeline.as_ref().and_then(|p| p.position_store);
-        // Before the application's first push, the bound pipeline's own layout (an
-        // application whose projection is in buffers may push nothing at all).
+        // A stage that derives its range: revz's own layout with the pipeline's push ranges
+        // (the application may push nothing for it, or last pushed with another pipeline's
+        // layout). Before the application's first push, the same.
+        let own = self
+            .pipeline
+            .as_ref()
+            .map_or(vk::PipelineLayout::null(), |p| p.layout);
+        let derived = self
+            .pipeline
+            .as_ref()
+            .is_some_and(|p| p.derived_range.is_some());
         let layout = match self.push.layout() {
+            _ if derived && own != vk::PipelineLayout::null() => own,
             layout if layout != vk::PipelineLayout::null() => layout,
-            _ => self
-                .pipeline
-                .as_ref()
-                .map_or(vk::PipelineLayout::null(), |p| p.layout),
+            _ => own,
         };
         let carrier_ready = match store {
             Some(carrier) if layout != vk::PipelineLayout::null() => {
@@ -1518,6 +1527,18 @@ mod tests {
             assert_eq!(state.path(), DrawPath::Native);
             let flip = Carrier::bytes(&FLIP_CARRIER).to_vec();
             assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&flip));
+            // The application pushed with another pipeline's layout (an overlay's): the
+            // selector still goes down with revz's layout of this pipeline's ranges.
+            let mut state = precise(target);
+            state.begin(Target::Reversed, reversal, Default::default());
+            state.push_constants(layout(), OTHER_STAGES, 0, &[0; 16]);
+            state.bind_pipeline(Some(derived_pipeline()));
+            let mut sink = Recorded::default();
+            state.before_draw(&mut sink);
+            assert_eq!(
+                sink.pushed.last().map(|p| p.0),
+                Some(vk::PipelineLayout::from_raw(9))
+            );
             // A secondary inheriting viewports cannot take it: the flip path.
             let mut inherited = precise(target);
             inherited.begin(Target::Reversed, reversal, Default::default());

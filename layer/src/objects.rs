@@ -271,6 +271,14 @@ pub struct DeviceObjects {
     pub pipeline_layouts: Table<vk::PipelineLayout, Arc<[vk::PushConstantRange]>>,
     /// The carrier revz reserved in each pipeline layout, where it had room.
     pub layout_carriers: Table<vk::PipelineLayout, Carrier>,
+    /// For each pipeline layout with a carrier, revz's own layout with the same push-constant
+    /// ranges (compatible for push constants, no descriptor sets): what revz pushes a carrier
+    /// with for a pipeline whose application pushes nothing of its own (projections in
+    /// buffers), where the application's last push layout may be another pipeline's, and the
+    /// application may have destroyed the pipeline's own (`maintenance4`).
+    pub layout_pushers: Table<vk::PipelineLayout, vk::PipelineLayout>,
+    /// revz's push layouts, one per set of push-constant ranges (destroyed with the device).
+    pub push_layouts: Mutex<Vec<(Vec<(u32, u32, u32)>, vk::PipelineLayout)>>,
     /// Each pool's command buffers, to forget them when the pool is destroyed.
     pub pools: Table<vk::CommandPool, Arc<Mutex<Vec<vk::CommandBuffer>>>>,
     /// The depth target each subpass (render pass, index) or dynamic rendering depth format
@@ -558,6 +566,14 @@ impl DeviceObjects {
             // SAFETY: revz's own object; the device is idle (the application's contract for
             // vkDestroyDevice).
             unsafe { (next.fp_v1_0().destroy_render_pass)(device, twin, std::ptr::null()) };
+        }
+        let layouts = self
+            .push_layouts
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        for &(_, layout) in layouts.iter() {
+            // SAFETY: as above.
+            unsafe { (next.fp_v1_0().destroy_pipeline_layout)(device, layout, std::ptr::null()) };
         }
     }
 

@@ -310,6 +310,11 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                             Ok(stage) => {
                                 plan.depth.projection = stage.projection;
                                 plan.depth.derived_range = stage.derived;
+                                plan.depth.layout = state
+                                    .objects
+                                    .layout_pushers
+                                    .get(&info.layout)
+                                    .unwrap_or_default();
                                 plan.depth.position_store = Some(stage.carrier);
                                 plan.vertex = Some(stage.vertex);
                             }

@@ -219,8 +219,11 @@ pub unsafe extern "system" fn create_pipeline_layout(
             // SAFETY: valid on success.
             let layout = unsafe { *p_layout };
             state.objects.pipeline_layouts.insert(layout, ranges.into());
-            if let Some((_, carrier)) = reserved {
-                state.objects.layout_carriers.insert(layout, carrier);
+            if let Some((reserved_ranges, carrier)) = &reserved {
+                state.objects.layout_carriers.insert(layout, *carrier);
+                if let Some(pusher) = push_layout(&state, device, reserved_ranges) {
+                    state.objects.layout_pushers.insert(layout, pusher);
+                }
             }
         });
     }
@@ -231,6 +234,37 @@ destroy_hook!(
     destroy_pipeline_layout,
     DESTROY_PIPELINE_LAYOUT,
     vk::PipelineLayout,
-    pipeline_layouts | layout_carriers,
+    pipeline_layouts | layout_carriers | layout_pushers,
     destroy_pipeline_layout
 );
+
+/// revz's own pipeline layout with `ranges` (and no descriptor sets), made once per set of
+/// ranges (`crate::objects::DeviceObjects::layout_pushers`).
+fn push_layout(
+    state: &DeviceState,
+    device: vk::Device,
+    ranges: &[vk::PushConstantRange],
+) -> Option<vk::PipelineLayout> {
+    let key: Vec<(u32, u32, u32)> = ranges
+        .iter()
+        .map(|r| (r.stage_flags.as_raw(), r.offset, r.size))
+        .collect();
+    let mut layouts = state
+        .objects
+        .push_layouts
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(&(_, layout)) = layouts.iter().find(|(k, _)| *k == key) {
+        return Some(layout);
+    }
+    let info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(ranges);
+    let mut layout = vk::PipelineLayout::null();
+    // SAFETY: a create info of revz's own ranges; revz's object, so no allocator.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_pipeline_layout)(device, &info, std::ptr::null(), &mut layout)
+    };
+    (result == vk::Result::SUCCESS).then(|| {
+        layouts.push((key, layout));
+        layout
+    })
+}

@@ -346,7 +346,6 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
     let has = |state: vk::DynamicState| app_states.contains(&state);
     let mut depth = PipelineDepth {
         subsets: context.subsets,
-        layout: info.layout,
         ..PipelineDepth::default()
     };
     for &state in app_states {
