@@ -38,6 +38,10 @@ pub struct VertexRewrite {
     pub derived: Option<crate::derived_range::MatrixSource>,
 }
 
+/// A layout's push-constant ranges as (stages, offset, size), the key of revz's own push
+/// layouts.
+pub type PushRanges = Vec<(u32, u32, u32)>;
+
 /// A tracked depth image.
 #[derive(Clone, Copy, Debug)]
 pub struct ImageInfo {
@@ -278,7 +282,7 @@ pub struct DeviceObjects {
     /// application may have destroyed the pipeline's own (`maintenance4`).
     pub layout_pushers: Table<vk::PipelineLayout, vk::PipelineLayout>,
     /// revz's push layouts, one per set of push-constant ranges (destroyed with the device).
-    pub push_layouts: Mutex<Vec<(Vec<(u32, u32, u32)>, vk::PipelineLayout)>>,
+    pub push_layouts: Mutex<Vec<(PushRanges, vk::PipelineLayout)>>,
     /// Each pool's command buffers, to forget them when the pool is destroyed.
     pub pools: Table<vk::CommandPool, Arc<Mutex<Vec<vk::CommandBuffer>>>>,
     /// The depth target each subpass (render pass, index) or dynamic rendering depth format
