@@ -100,24 +100,16 @@ pub unsafe extern "system" fn queue_submit(
     // SAFETY: a live queue (the application's contract).
     match unsafe { submitting(queue) } {
         Some(device) => {
-            if let Some(profile) = &device.profile {
-                guarded(
-                    &QUEUE_SUBMIT,
-                    || {
-                        // SAFETY: `count` valid submit infos, each with its command buffers.
-                        let submits = unsafe { super::resources::slice(p_submits, count) };
-                        // SAFETY: each submit info's `commandBufferCount` command buffers.
-                        let buffers = submits.iter().flat_map(|submit| unsafe {
-                            super::resources::slice(
-                                submit.p_command_buffers,
-                                submit.command_buffer_count,
-                            )
-                        });
-                        profile_submit(&device, profile, buffers.copied());
-                    },
-                    || (),
-                );
-            }
+            profile_submit(&device, || {
+                // SAFETY: `count` valid submit infos, each with its command buffers.
+                let submits = unsafe { super::resources::slice(p_submits, count) };
+                // SAFETY: each submit info's `commandBufferCount` command buffers.
+                submits.iter().flat_map(|submit| unsafe {
+                    super::resources::slice(submit.p_command_buffers, submit.command_buffer_count)
+                        .iter()
+                        .copied()
+                })
+            });
             // SAFETY: calling down with the application's arguments.
             unsafe { (device.next.fp_v1_0().queue_submit)(queue, count, p_submits, fence) }
         }
@@ -145,22 +137,32 @@ pub unsafe extern "system" fn queue_present(
     }
 }
 
-/// Folds the draws of submitted command buffers into the device's depth profile.
-fn profile_submit(
+/// Folds the draws of the submitted command buffers (`buffers` lists them: only read where
+/// the device has a depth profile) into the profile, with the demotions since the last
+/// submission.
+fn profile_submit<I: Iterator<Item = vk::CommandBuffer>>(
     device: &crate::state::DeviceState,
-    profile: &crate::profile::Profile,
-    buffers: impl Iterator<Item = vk::CommandBuffer>,
+    buffers: impl FnOnce() -> I,
 ) {
-    for (image, reason) in device.objects.take_demotions() {
-        profile.demote(image, reason.to_string());
-    }
-    let mut draws = crate::profile::DrawCounts::default();
-    for buffer in buffers {
-        if let Some(entry) = crate::objects::command_buffer(buffer) {
-            draws.add(&entry.state().draws());
-        }
-    }
-    profile.submit(&draws, || camera_list(&device.cameras.learned()));
+    let Some(profile) = &device.profile else {
+        return;
+    };
+    guarded(
+        &QUEUE_SUBMIT,
+        || {
+            for (image, reason) in device.objects.take_demotions() {
+                profile.demote(image, reason.to_string());
+            }
+            let mut draws = crate::profile::DrawCounts::default();
+            for buffer in buffers() {
+                if let Some(entry) = crate::objects::command_buffer(buffer) {
+                    draws.add(&entry.state().draws());
+                }
+            }
+            profile.submit(&draws, || camera_list(&device.cameras.learned()));
+        },
+        || (),
+    );
 }
 
 /// The cameras for the profile: near, far, convention, direction.
@@ -187,26 +189,20 @@ pub unsafe extern "system" fn queue_submit2(
 ) -> vk::Result {
     // SAFETY: a live queue (the application's contract).
     let device = unsafe { submitting(queue) };
-    if let Some((device, profile)) = device
-        .as_ref()
-        .and_then(|d| d.profile.as_ref().map(|p| (d, p)))
-    {
-        guarded(
-            &QUEUE_SUBMIT,
-            || {
-                // SAFETY: `count` valid submit infos, each with its command buffer infos.
-                let submits = unsafe { super::resources::slice(p_submits, count) };
-                // SAFETY: each submit info's `commandBufferInfoCount` infos.
-                let buffers = submits.iter().flat_map(|submit| unsafe {
-                    super::resources::slice(
-                        submit.p_command_buffer_infos,
-                        submit.command_buffer_info_count,
-                    )
-                });
-                profile_submit(device, profile, buffers.map(|info| info.command_buffer));
-            },
-            || (),
-        );
+    if let Some(device) = &device {
+        profile_submit(device, || {
+            // SAFETY: `count` valid submit infos, each with its command buffer infos.
+            let submits = unsafe { super::resources::slice(p_submits, count) };
+            // SAFETY: each submit info's `commandBufferInfoCount` infos.
+            submits.iter().flat_map(|submit| unsafe {
+                super::resources::slice(
+                    submit.p_command_buffer_infos,
+                    submit.command_buffer_info_count,
+                )
+                .iter()
+                .map(|info| info.command_buffer)
+            })
+        });
     }
     let next = device.and_then(|device| device.commands.queue_submit2);
     match next {
