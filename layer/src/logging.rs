@@ -3,13 +3,16 @@
 //! The level and destination come from the resolved settings of the first instance (a process
 //! has one logger): stderr, or appended to the `log_file` setting. The layer is a `cdylib` with
 //! its own copy of `log`, so this logger never collides with one the host application installs.
+//!
+//! With a depth profile (`report`), revz's warnings and errors are also kept, each once with a
+//! count ([`warnings`]), whatever the log level: the profile lists them.
 
 use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::Path;
-use std::sync::Once;
+use std::sync::{Mutex, Once, PoisonError};
 
-use log::LevelFilter;
+use log::{LevelFilter, Log, Metadata, Record};
 
 static INIT: Once = Once::new();
 
@@ -29,12 +32,71 @@ pub fn parse_level(text: &str) -> Option<LevelFilter> {
     }
 }
 
+/// revz's warnings and errors so far, each once, with how many times it was logged (kept only
+/// where [`init`] was asked to).
+static WARNINGS: Mutex<Vec<(String, u64)>> = Mutex::new(Vec::new());
+/// At most this many distinct warnings are kept.
+const WARNINGS_KEPT: usize = 256;
+
+/// The warnings and errors kept so far, with their counts.
+pub fn warnings() -> Vec<(String, u64)> {
+    WARNINGS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .clone()
+}
+
+/// The logger: env_logger for what the level prints, and the kept warnings.
+struct Logger {
+    print: Option<env_logger::Logger>,
+    keep_warnings: bool,
+}
+
+impl Log for Logger {
+    fn enabled(&self, metadata: &Metadata<'_>) -> bool {
+        ours(metadata.target())
+            && ((self.keep_warnings && metadata.level() <= log::Level::Warn)
+                || self.print.as_ref().is_some_and(|p| p.enabled(metadata)))
+    }
+
+    fn log(&self, record: &Record<'_>) {
+        if !ours(record.target()) {
+            return;
+        }
+        if self.keep_warnings && record.level() <= log::Level::Warn {
+            let message = record.args().to_string();
+            let mut kept = WARNINGS.lock().unwrap_or_else(PoisonError::into_inner);
+            match kept.iter().position(|(m, _)| *m == message) {
+                Some(index) => kept[index].1 += 1,
+                None if kept.len() < WARNINGS_KEPT => kept.push((message, 1)),
+                None => {}
+            }
+        }
+        if let Some(print) = &self.print {
+            print.log(record);
+        }
+    }
+
+    fn flush(&self) {
+        if let Some(print) = &self.print {
+            print.flush();
+        }
+    }
+}
+
+/// Whether a record's target is this crate's (naga, which revz runs on application shaders,
+/// logs through the same facade).
+fn ours(target: &str) -> bool {
+    target.split("::").next() == module_path!().split("::").next()
+}
+
 /// Installs the logger once per process; later calls do nothing. Returns a warning to log if
-/// the log file could not be opened (the log then goes to stderr).
-pub fn init(level: LevelFilter, file: Option<&Path>) -> Option<String> {
+/// the log file could not be opened (the log then goes to stderr). `keep_warnings`: also keep
+/// revz's warnings and errors for the depth profile, whatever `level`.
+pub fn init(level: LevelFilter, file: Option<&Path>, keep_warnings: bool) -> Option<String> {
     let mut problem = None;
     INIT.call_once(|| {
-        if level == LevelFilter::Off {
+        if level == LevelFilter::Off && !keep_warnings {
             return;
         }
         let mut builder = env_logger::Builder::new();
@@ -57,8 +119,21 @@ pub fn init(level: LevelFilter, file: Option<&Path>) -> Option<String> {
                 }
             }
         }
+        let print = (level != LevelFilter::Off).then(|| builder.build());
+        let max = if keep_warnings {
+            level.max(LevelFilter::Warn)
+        } else {
+            level
+        };
         // This library's own `log` cannot have another logger, but never fail the host for it.
-        let _ = builder.try_init();
+        if log::set_boxed_logger(Box::new(Logger {
+            print,
+            keep_warnings,
+        }))
+        .is_ok()
+        {
+            log::set_max_level(max);
+        }
     });
     problem
 }

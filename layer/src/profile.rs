@@ -298,6 +298,11 @@ impl Profile {
             }),
         );
         object.insert("summary".into(), json!(summary(&inner)));
+        let warnings: Vec<Value> = crate::logging::warnings()
+            .into_iter()
+            .map(|(message, count)| json!({"message": message, "count": count}))
+            .collect();
+        object.insert("warnings".into(), Value::Array(warnings));
         document
     }
 

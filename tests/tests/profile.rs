@@ -182,3 +182,36 @@ fn a_killed_process_leaves_a_valid_profile() {
         "{profile}"
     );
 }
+
+#[test]
+fn warnings_are_kept_once_with_a_count_whatever_the_log_level() {
+    let harness = Harness::locate();
+    let dir = harness.scratch_dir("profile-warnings");
+    let report = dir.join("revz-profile.json");
+    std::fs::remove_file(&report).ok();
+    let mut command = harness.tester("d32", &dir);
+    command
+        .args(["--scene", "overlap"])
+        .env("REVZ_MODE", "infinite")
+        .env("REVZ_FAR_CLIP", "bogus")
+        .env("REVZ_REPORT", &report);
+    harness.with_layer(&mut command);
+    let render = harness.render(command, &dir);
+    assert!(
+        !render.stderr().contains("bogus"),
+        "the log is off: {}",
+        render.stderr()
+    );
+    let profile: Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile")).unwrap();
+    let warnings = profile["warnings"].as_array().expect("warnings");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0]["message"]
+            .as_str()
+            .unwrap()
+            .starts_with("REVZ_FAR_CLIP: 'bogus' is not a valid far_clip"),
+        "{warnings:?}"
+    );
+    assert_eq!(warnings[0]["count"], 1);
+}

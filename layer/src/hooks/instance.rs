@@ -406,7 +406,11 @@ fn read_settings(create_info: &vk::InstanceCreateInfo) -> Arc<Settings> {
                 layer_settings: unsafe { layer_settings::read(create_info.p_next) },
             });
             let settings = resolved.settings;
-            let log_problem = logging::init(settings.log_level, settings.log_file.as_deref());
+            let log_problem = logging::init(
+                settings.log_level,
+                settings.log_file.as_deref(),
+                settings.report.is_some(),
+            );
             for warning in resolved.warnings.iter().chain(&log_problem) {
                 log::warn!("{warning}");
             }
