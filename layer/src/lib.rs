@@ -27,6 +27,7 @@ pub mod chain;
 pub mod command_state;
 pub mod config;
 pub mod conv;
+pub mod depth_copy;
 pub mod derived_range;
 pub mod ffi;
 pub mod fragment_depth;

@@ -656,9 +656,17 @@ pub struct CommandBufferEntry {
     pub secondary: bool,
     pub state: Mutex<CommandState>,
     pub scope: Mutex<PassScope>,
+    /// Its pool's queue family can dispatch compute (converted copies need it).
+    pub dispatchable: bool,
+    /// Scratch buffers of converted copies and the compute state to restore after them.
+    pub copies: Mutex<crate::depth_copy::scratch::CommandCopies>,
 }
 
 impl CommandBufferEntry {
+    pub fn copies(&self) -> MutexGuard<'_, crate::depth_copy::scratch::CommandCopies> {
+        self.copies.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     pub fn state(&self) -> MutexGuard<'_, CommandState> {
         self.state.lock().unwrap_or_else(PoisonError::into_inner)
     }
@@ -686,7 +694,9 @@ pub fn track_command_buffers(
     device: &Arc<DeviceState>,
     buffers: &[vk::CommandBuffer],
     level: vk::CommandBufferLevel,
+    pool: vk::CommandPool,
 ) {
+    let dispatchable = device.copies.pool_dispatches(pool);
     for &buffer in buffers {
         COMMAND_BUFFERS.insert(
             buffer,
@@ -695,6 +705,8 @@ pub fn track_command_buffers(
                 secondary: level == vk::CommandBufferLevel::SECONDARY,
                 state: Mutex::new(CommandState::new(device.reversing())),
                 scope: Mutex::new(PassScope::default()),
+                dispatchable,
+                copies: Default::default(),
             }),
         );
     }
@@ -706,7 +718,9 @@ pub fn track_command_buffers(
 /// Stops tracking command buffers (freed, or their pool destroyed).
 pub fn forget_command_buffers(buffers: &[vk::CommandBuffer]) {
     for buffer in buffers {
-        COMMAND_BUFFERS.remove(buffer);
+        if let Some(entry) = COMMAND_BUFFERS.remove(buffer) {
+            entry.copies().destroy(&entry.device);
+        }
     }
     uncache(buffers);
     // After the removal, so that a racing lookup cannot cache a removed entry under the new

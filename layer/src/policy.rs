@@ -13,6 +13,7 @@
 //! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
 //! | does a pipeline's vertex stage store reversed depth itself, and of which range (`crate::hooks::pipeline::plan::projection_of`, from the analysis of `crate::shader_analysis` and `crate::derived_range`) | where its projection comes from (push-constant bytes, a buffer the stage can fit from, neither), its clip convention (static or dynamic) | `vkCreateShaderModule`, `vkCreateGraphicsPipelines` |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
+//! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
@@ -101,6 +102,9 @@ impl CompareOpSource {
     }
 }
 
+/// `VK_EXT_host_image_copy`'s `VK_IMAGE_USAGE_HOST_TRANSFER_BIT_EXT`.
+const HOST_TRANSFER: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(0x0040_0000);
+
 /// Why a depth image keeps standard depth.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NativeReason {
@@ -112,6 +116,9 @@ pub enum NativeReason {
     CopiedFrom,
     /// Linear tiling: the host can read it.
     LinearTiling,
+    /// Host image copies (`VK_EXT_host_image_copy`) read or write it: revz does not convert
+    /// those.
+    HostCopied,
     /// A render pass resolves it into a depth image that is not reversed: the resolved values
     /// must be standard ones. Decided when the resolve is first seen (framebuffer creation, or
     /// the begin of an imageless or dynamic rendering instance), or when the destination is
@@ -137,6 +144,9 @@ impl fmt::Display for NativeReason {
                 f.write_str("it is copied from (TRANSFER_SRC); see reverse_observable")
             }
             NativeReason::LinearTiling => f.write_str("linear tiling (host-readable)"),
+            NativeReason::HostCopied => {
+                f.write_str("host image copies read it (HOST_TRANSFER), which are not converted")
+            }
             NativeReason::ResolvedIntoNative(destination) => {
                 write!(f, "it is resolved into native depth image {destination:?}")
             }
@@ -279,10 +289,8 @@ impl DevicePolicy {
         let Some(float) = crate::conv::float_depth_format(format).filter(|_| self.promote) else {
             return Ok(None);
         };
-        let transfer = vk::ImageUsageFlags::TRANSFER_SRC
-            | vk::ImageUsageFlags::TRANSFER_DST
-            // VK_EXT_host_image_copy's HOST_TRANSFER usage.
-            | vk::ImageUsageFlags::from_raw(0x0040_0000);
+        let transfer =
+            vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST | HOST_TRANSFER;
         if facts.usage.intersects(transfer) {
             return Err(KeptFormat::Copied);
         }
@@ -372,10 +380,134 @@ impl DevicePolicy {
         if usage.contains(vk::ImageUsageFlags::TRANSFER_SRC) && observable == Observable::None {
             return native(NativeReason::CopiedFrom);
         }
-        if tiling == vk::ImageTiling::LINEAR && observable == Observable::None {
+        // The host reads these without a copy revz sees: linear images through mapped
+        // memory, host image copies (`VK_EXT_host_image_copy`, not converted).
+        if tiling == vk::ImageTiling::LINEAR && observable != Observable::All {
             return native(NativeReason::LinearTiling);
         }
+        if usage.contains(HOST_TRANSFER) && observable != Observable::All {
+            return native(NativeReason::HostCopied);
+        }
         Some(ImageDepth::Reversed)
+    }
+}
+
+/// One end of a copy, blit or resolve, as [`CopyFacts`] sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CopyEnd {
+    /// A buffer: the application's bytes, in standard depth.
+    Buffer,
+    /// A depth image revz stores reversed (and the application renders standard depth).
+    Reversed,
+    /// Any other image: native depth, or not a depth image.
+    Native,
+}
+
+/// The direction a copy's depth values are converted in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CopyDirection {
+    /// Reversed values leave revz: the application receives the standard ones.
+    ToStandard,
+    /// Standard values enter a reversed image: revz stores them reversed.
+    ToReversed,
+}
+
+/// Why a copy that should be converted is not (its values keep the source's convention;
+/// logged once per reason).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unconverted {
+    /// The command buffer's queue family has no compute (the conversion is a dispatch).
+    NoCompute,
+    /// The application bound compute descriptors revz cannot bind again after its dispatch
+    /// (push descriptors, descriptor buffers, `vkCmdBindDescriptorSets2`).
+    ComputeBindings,
+    /// The command or a region carries an extension structure revz does not know.
+    Extended,
+    /// A blit: it may scale, and revz converts only copies.
+    Blit,
+    /// Too many texels for one conversion (past the device's `maxStorageBufferRange`), or
+    /// revz could not create its conversion pipeline or scratch memory.
+    Resources,
+}
+
+impl fmt::Display for Unconverted {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Unconverted::NoCompute => "its command buffer's queue family has no compute",
+            Unconverted::ComputeBindings => {
+                "compute descriptors were bound in a way revz cannot restore after its \
+                 dispatch (push descriptors, descriptor buffers or vkCmdBindDescriptorSets2)"
+            }
+            Unconverted::Extended => "it carries an extension structure revz does not know",
+            Unconverted::Blit => "blits are not converted (they may scale)",
+            Unconverted::Resources => {
+                "revz could not get the scratch memory or pipeline for it (or it exceeds \
+                 maxStorageBufferRange)"
+            }
+        })
+    }
+}
+
+/// What decides whether a transfer's depth values are converted, gathered at its recording.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CopyFacts {
+    pub source: CopyEnd,
+    pub destination: CopyEnd,
+    /// The transfer touches the depth aspect (stencil is never converted).
+    pub depth_aspect: bool,
+    /// The `copy_values` setting.
+    pub values: crate::config::CopyValues,
+    /// A blit rather than a copy.
+    pub blit: bool,
+    /// The command buffer's queue family can dispatch compute.
+    pub dispatchable: bool,
+    /// revz can bind the application's compute state again after its dispatch.
+    pub restorable: bool,
+    /// The command or one of its regions has a `pNext` chain.
+    pub extended: bool,
+}
+
+/// The decision for one transfer touching a reversed depth image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CopyDecision {
+    /// Nothing to convert: no reversed end, both ends reversed, no depth aspect, or
+    /// `copy_values = stored`.
+    Unchanged,
+    Convert(CopyDirection),
+    /// It should be converted and cannot be: it goes down as it is.
+    Unconverted(Unconverted),
+}
+
+impl CopyFacts {
+    /// Values change convention exactly where one end is reversed and the other is not:
+    /// out of a reversed image into a buffer or a native image they become standard, into a
+    /// reversed image from a buffer or a native image they become reversed.
+    pub fn decide(&self) -> CopyDecision {
+        use crate::config::CopyValues;
+        let direction = match (self.source, self.destination) {
+            (CopyEnd::Reversed, CopyEnd::Reversed) => return CopyDecision::Unchanged,
+            (CopyEnd::Reversed, _) => CopyDirection::ToStandard,
+            (_, CopyEnd::Reversed) => CopyDirection::ToReversed,
+            _ => return CopyDecision::Unchanged,
+        };
+        if !self.depth_aspect || self.values == CopyValues::Stored {
+            return CopyDecision::Unchanged;
+        }
+        let refused = if self.blit {
+            Some(Unconverted::Blit)
+        } else if self.extended {
+            Some(Unconverted::Extended)
+        } else if !self.dispatchable {
+            Some(Unconverted::NoCompute)
+        } else if !self.restorable {
+            Some(Unconverted::ComputeBindings)
+        } else {
+            None
+        };
+        match refused {
+            Some(why) => CopyDecision::Unconverted(why),
+            None => CopyDecision::Convert(direction),
+        }
     }
 }
 
@@ -1105,6 +1237,119 @@ mod tests {
             all.classify_image(D32, sampled | copied, OPTIMAL),
             Some(ImageDepth::Reversed)
         );
+    }
+
+    #[test]
+    fn images_the_host_reads_stay_native_unless_every_image_is_reversed() {
+        let host_copied = ATTACHMENT | HOST_TRANSFER;
+        for observable in [Observable::None, Observable::Copies] {
+            let p = policy(Mode::Flip, observable);
+            assert_eq!(
+                p.classify_image(D32, ATTACHMENT, vk::ImageTiling::LINEAR),
+                Some(ImageDepth::Native(NativeReason::LinearTiling))
+            );
+            assert_eq!(
+                p.classify_image(D32, host_copied, OPTIMAL),
+                Some(ImageDepth::Native(NativeReason::HostCopied))
+            );
+        }
+        let all = policy(Mode::Flip, Observable::All);
+        assert_eq!(
+            all.classify_image(D32, host_copied, vk::ImageTiling::LINEAR),
+            Some(ImageDepth::Reversed)
+        );
+        assert_eq!(
+            crate::config::Settings::default().reverse_observable,
+            Observable::Copies,
+            "copies are converted, so images only copied from are reversed by default"
+        );
+    }
+
+    #[test]
+    fn copies_convert_exactly_where_one_end_is_reversed() {
+        use crate::config::CopyValues;
+        let facts = |source, destination| CopyFacts {
+            source,
+            destination,
+            depth_aspect: true,
+            values: CopyValues::Standard,
+            blit: false,
+            dispatchable: true,
+            restorable: true,
+            extended: false,
+        };
+        use CopyEnd::{Buffer, Native, Reversed};
+        let table = [
+            (
+                Reversed,
+                Buffer,
+                CopyDecision::Convert(CopyDirection::ToStandard),
+            ),
+            (
+                Reversed,
+                Native,
+                CopyDecision::Convert(CopyDirection::ToStandard),
+            ),
+            (
+                Buffer,
+                Reversed,
+                CopyDecision::Convert(CopyDirection::ToReversed),
+            ),
+            (
+                Native,
+                Reversed,
+                CopyDecision::Convert(CopyDirection::ToReversed),
+            ),
+            (Reversed, Reversed, CopyDecision::Unchanged),
+            (Native, Native, CopyDecision::Unchanged),
+            (Native, Buffer, CopyDecision::Unchanged),
+            (Buffer, Native, CopyDecision::Unchanged),
+        ];
+        for (source, destination, decision) in table {
+            assert_eq!(
+                facts(source, destination).decide(),
+                decision,
+                "{source:?} -> {destination:?}"
+            );
+        }
+        let out = facts(Reversed, Buffer);
+        let stencil = CopyFacts {
+            depth_aspect: false,
+            ..out
+        };
+        assert_eq!(stencil.decide(), CopyDecision::Unchanged);
+        let stored = CopyFacts {
+            values: CopyValues::Stored,
+            ..out
+        };
+        assert_eq!(stored.decide(), CopyDecision::Unchanged);
+        let refusals = [
+            (CopyFacts { blit: true, ..out }, Unconverted::Blit),
+            (
+                CopyFacts {
+                    extended: true,
+                    ..out
+                },
+                Unconverted::Extended,
+            ),
+            (
+                CopyFacts {
+                    dispatchable: false,
+                    ..out
+                },
+                Unconverted::NoCompute,
+            ),
+            (
+                CopyFacts {
+                    restorable: false,
+                    ..out
+                },
+                Unconverted::ComputeBindings,
+            ),
+        ];
+        for (facts, why) in refusals {
+            assert_eq!(facts.decide(), CopyDecision::Unconverted(why));
+        }
     }
 
     #[test]

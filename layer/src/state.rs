@@ -89,6 +89,8 @@ pub struct DeviceState {
     pub image_formats: ImageFormatQuery,
     /// The depth profile, where the `report` setting asks for one.
     pub profile: Option<Arc<crate::profile::Profile>>,
+    /// What converting copies of reversed depth images needs (`crate::depth_copy`).
+    pub copies: crate::depth_copy::DeviceCopies,
 }
 
 /// `vkGetPhysicalDeviceImageFormatProperties` of the device's physical device.

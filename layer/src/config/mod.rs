@@ -137,10 +137,11 @@ impl From<bool> for Promote {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Observable {
     /// None: an image read by shaders or copied from keeps standard depth.
-    #[default]
     None,
-    /// Images read only by copies (screenshots, picking, test readback) are reversed; images
-    /// shaders read (sampled, storage, input attachments) stay native.
+    /// Images read only by copies (screenshots, picking, test readback) are reversed, their
+    /// copies converted (`copy_values`); images shaders read (sampled, storage, input
+    /// attachments) or the host maps (linear tiling) stay native.
+    #[default]
     Copies,
     /// Every depth image is reversed, whoever reads it.
     All,
@@ -169,6 +170,33 @@ impl From<bool> for Observable {
         } else {
             Observable::None
         }
+    }
+}
+
+/// What copies out of a reversed depth image hand the application, and what copies into one
+/// are taken to hold.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CopyValues {
+    /// The standard values the application would have without revz: converted on the way
+    /// out and in (`crate::depth_copy`).
+    #[default]
+    Standard,
+    /// The values revz stores, reversed, as they are (for tools that measure the stored
+    /// precision, such as the tester's accuracy report).
+    Stored,
+}
+
+impl CopyValues {
+    const NAMES: &'static [&'static str] = &["standard", "stored"];
+
+    pub fn name(self) -> &'static str {
+        CopyValues::NAMES[self as usize]
+    }
+
+    pub fn parse(text: &str) -> Option<CopyValues> {
+        [CopyValues::Standard, CopyValues::Stored]
+            .into_iter()
+            .find(|v| v.name().eq_ignore_ascii_case(text.trim()))
     }
 }
 
@@ -205,6 +233,8 @@ pub struct Settings {
     /// Which depth images the application can observe (sampled, copied from, ...) are still
     /// reversed; those hand reversed values to the shaders or the CPU that read them.
     pub reverse_observable: Observable,
+    /// What copies out of and into reversed depth images carry.
+    pub copy_values: CopyValues,
     /// Dynamic compare ops or pipeline variants.
     pub compare_op: CompareOp,
     /// Whether D16/D24 depth images are created as D32_SFLOAT (D32_SFLOAT_S8_UINT).
@@ -222,7 +252,8 @@ impl Default for Settings {
         Settings {
             mode: Mode::default(),
             far_clip: FarClip::default(),
-            reverse_observable: Observable::None,
+            reverse_observable: Observable::Copies,
+            copy_values: CopyValues::Standard,
             compare_op: CompareOp::Dynamic,
             promote_depth_formats: Promote::Auto,
             log_level: LevelFilter::Off,
@@ -238,6 +269,7 @@ pub enum Key {
     Mode,
     FarClip,
     ReverseObservable,
+    CopyValues,
     CompareOp,
     PromoteDepthFormats,
     Log,
@@ -298,10 +330,22 @@ pub const SETTINGS: &[SettingSpec] = &[
         name: "reverse_observable",
         env: "REVZ_REVERSE_OBSERVABLE",
         kind: Kind::Choice(Observable::NAMES),
-        default: "none",
+        default: "copies",
         description: "Which depth images the application can read back are reversed anyway: \
-                      none; copies (images only copied from, not read by shaders); all. \
-                      true and false mean all and none.",
+                      none; copies (images only copied from, not read by shaders: their \
+                      copies are converted, see copy_values); all (shaders then read \
+                      reversed values). true and false mean all and none.",
+    },
+    SettingSpec {
+        key: Key::CopyValues,
+        name: "copy_values",
+        env: "REVZ_COPY_VALUES",
+        kind: Kind::Choice(CopyValues::NAMES),
+        default: "standard",
+        description: "What copies out of reversed depth images give the application, and what \
+                      copies into them are taken to hold: standard (the values it would have \
+                      without revz, converted on the way) or stored (revz's reversed values as \
+                      they are, for measuring the stored precision).",
     },
     SettingSpec {
         key: Key::CompareOp,
@@ -413,6 +457,9 @@ impl Settings {
                 Value::Text(text) => Observable::parse(text),
             }
             .map(|v| self.reverse_observable = v),
+            Key::CopyValues => text
+                .and_then(CopyValues::parse)
+                .map(|v| self.copy_values = v),
             Key::CompareOp => text.and_then(CompareOp::parse).map(|v| self.compare_op = v),
             Key::PromoteDepthFormats => match value {
                 Value::Bool(b) => Some(Promote::from(*b)),
@@ -452,6 +499,7 @@ impl Settings {
             Key::Mode => self.mode.name().to_owned(),
             Key::FarClip => self.far_clip.name().to_owned(),
             Key::ReverseObservable => self.reverse_observable.name().to_owned(),
+            Key::CopyValues => self.copy_values.name().to_owned(),
             Key::CompareOp => self.compare_op.name().to_owned(),
             Key::PromoteDepthFormats => self.promote_depth_formats.name().to_owned(),
             Key::Log => self.log_level.to_string().to_lowercase(),

@@ -74,6 +74,7 @@ fn every_setting_can_be_set_by_its_environment_variable() {
         ("REVZ_PROMOTE_DEPTH_FORMATS", "false"),
         ("REVZ_LOG", "debug"),
         ("REVZ_LOG_FILE", "/tmp/revz.log"),
+        ("REVZ_COPY_VALUES", "stored"),
     ] {
         world.env.insert(name, value.to_owned());
     }
@@ -84,6 +85,7 @@ fn every_setting_can_be_set_by_its_environment_variable() {
             mode: Mode::Infinite,
             far_clip: FarClip::Keep,
             reverse_observable: Observable::All,
+            copy_values: CopyValues::Stored,
             compare_op: CompareOp::Dynamic,
             promote_depth_formats: Promote::Never,
             log_level: LevelFilter::Debug,
@@ -148,7 +150,7 @@ fn vulkan_configurator_settings_sit_between_the_environment_and_the_config_file(
         resolved.warnings,
         vec![
             "/vkconfig/vk_layer_settings.txt:5: unknown setting 'colour' (settings: mode, \
-             far_clip, reverse_observable, compare_op, promote_depth_formats, log, log_file, report)",
+             far_clip, reverse_observable, copy_values, compare_op, promote_depth_formats, log, log_file, report)",
             "/vkconfig/vk_layer_settings.txt:6: expected 'revz_reverse_z.<setting> = <value>'; \
              line ignored",
         ]
@@ -277,7 +279,7 @@ fn unknown_keys_are_reported_with_their_line_and_the_rest_applies() {
         resolved.warnings,
         vec![
             "/home/u/revz.toml:1: unknown key 'moed' (settings: mode, far_clip, \
-             reverse_observable, compare_op, promote_depth_formats, log, log_file, report; sections: [[application]])"
+             reverse_observable, copy_values, compare_op, promote_depth_formats, log, log_file, report; sections: [[application]])"
         ]
     );
 }
@@ -294,7 +296,7 @@ fn wrong_values_name_the_accepted_ones_and_keep_the_lower_source() {
             "/home/u/revz.toml:1: 'sometimes' is not a valid far_clip \
              (expected one of: remove, keep); using remove",
             "/home/u/revz.toml:2: 'maybe' is not a valid reverse_observable \
-             (expected one of: none, copies, all); using none",
+             (expected one of: none, copies, all); using copies",
             "/home/u/revz.toml:3: log must be a string or a boolean \
              (expected one of: off, error, warn, info, debug, trace); using off",
             "/home/u/revz.toml:4: 'reverse' is not a valid mode \
@@ -374,7 +376,7 @@ fn bad_layer_settings_are_reported() {
         world.resolve().warnings,
         vec![
             "VK_EXT_layer_settings 'color': unknown setting (known: mode, far_clip, \
-             reverse_observable, compare_op, promote_depth_formats, log, log_file, report)",
+             reverse_observable, copy_values, compare_op, promote_depth_formats, log, log_file, report)",
             "VK_EXT_layer_settings 'mode': true is not a valid mode \
              (expected one of: off, flip, complementary, infinite); using off",
             "VK_EXT_layer_settings 'log': no value given; ignored",

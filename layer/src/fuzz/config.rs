@@ -37,6 +37,7 @@ const DICTIONARY: &[&str] = &[
     "mode",
     "far_clip",
     "reverse_observable",
+    "copy_values",
     "compare_op",
     "promote_depth_formats",
     "log",

@@ -89,6 +89,7 @@ pub unsafe extern "system" fn destroy_device(
                     profile.write();
                 }
                 crate::objects::forget_device_command_buffers(&state.objects);
+                state.copies.destroy(device, &state.next);
                 state
                     .objects
                     .destroy_own_objects(device, &state.next, &state.commands);

@@ -270,6 +270,45 @@ unsafe fn device_properties(
     properties
 }
 
+/// What converting depth copies needs of a physical device: its memory types and queue
+/// families, asked of the next layer (a chain without these commands gets no memory types
+/// and no compute families: copies then go down unconverted).
+///
+/// # Safety
+/// `physical_device` is a live physical device of `instance`.
+unsafe fn device_copies(
+    instance: &InstanceState,
+    physical_device: vk::PhysicalDevice,
+    limits: &vk::PhysicalDeviceLimits,
+) -> crate::depth_copy::DeviceCopies {
+    let find = |name: &std::ffi::CStr| {
+        // SAFETY: querying the next layer for an instance command.
+        unsafe { (instance.next_get_instance_proc_addr)(instance.handle, name.as_ptr()) }
+    };
+    let mut memory = vk::PhysicalDeviceMemoryProperties::default();
+    if let Some(found) = find(c"vkGetPhysicalDeviceMemoryProperties") {
+        // SAFETY: the command has this type.
+        let get: vk::PFN_vkGetPhysicalDeviceMemoryProperties =
+            unsafe { std::mem::transmute(found) };
+        // SAFETY: a live physical device and a valid output.
+        unsafe { get(physical_device, &mut memory) };
+    }
+    let mut families = Vec::new();
+    if let Some(found) = find(c"vkGetPhysicalDeviceQueueFamilyProperties") {
+        // SAFETY: the command has this type.
+        let get: vk::PFN_vkGetPhysicalDeviceQueueFamilyProperties =
+            unsafe { std::mem::transmute(found) };
+        let mut count = 0;
+        // SAFETY: the two-call idiom with valid outputs.
+        unsafe { get(physical_device, &mut count, std::ptr::null_mut()) };
+        families.resize(count as usize, vk::QueueFamilyProperties::default());
+        // SAFETY: as above.
+        unsafe { get(physical_device, &mut count, families.as_mut_ptr()) };
+        families.truncate(count as usize);
+    }
+    crate::depth_copy::DeviceCopies::new(memory, &families, limits.max_storage_buffer_range)
+}
+
 /// Gathers the facts of [`CompareOpSource::decide`] for a device being created.
 ///
 /// # Safety
@@ -590,6 +629,8 @@ pub unsafe extern "system" fn create_device(
                     "inactive"
                 }
             );
+            // SAFETY: a live physical device of this instance.
+            let copies = unsafe { device_copies(&instance, physical_device, &limits) };
             // SAFETY: `device` is live.
             let key = unsafe { DispatchKey::of(device) };
             let objects = DeviceObjects::default();
@@ -627,6 +668,7 @@ pub unsafe extern "system" fn create_device(
                             .get_physical_device_image_format_properties,
                     },
                     profile,
+                    copies,
                 },
             );
             result

@@ -386,7 +386,7 @@ pub unsafe extern "system" fn allocate_command_buffers(
             let info = unsafe { &*p_allocate_info };
             // SAFETY: as above.
             let buffers = unsafe { slice(p_command_buffers, info.command_buffer_count) };
-            objects::track_command_buffers(&state, buffers, info.level);
+            objects::track_command_buffers(&state, buffers, info.level, info.command_pool);
             let pool = state
                 .objects
                 .pools

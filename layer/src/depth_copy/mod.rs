@@ -1,0 +1,314 @@
+//! Copies of reversed depth images hand the application standard values (issue #21).
+//!
+//! A copy whose one end is a reversed depth image and whose other end is a buffer or an image
+//! of standard depth (which way, and whether at all: `crate::policy::CopyFacts::decide`) goes
+//! through revz's scratch buffer in the same command buffer:
+//!
+//! 1. the texels are copied into the scratch buffer, tightly packed, behind a 32-byte header
+//!    written with `vkCmdUpdateBuffer`;
+//! 2. a compute dispatch (`shaders/depth_convert.comp.spvasm`) maps them in place: d -> 1 - d
+//!    (a bit complement on UNORM integers, so D16 and D24 are exact), or infinite mode's
+//!    affine map with the device's n / f ([`plan::DepthMap`]);
+//! 3. they are copied to where the application asked, with its row pitch, never touching
+//!    the padding between its rows.
+//!
+//! Steps 1 and 3 are transfers, like the application's own copy: its barriers before and
+//! after the copy cover them unchanged. revz's barriers order 1 -> 2 -> 3 on the scratch
+//! buffer only. The dispatch binds revz's compute pipeline and descriptor set; the
+//! application's compute pipeline and descriptor sets are bound again after it
+//! ([`scratch::ComputeBindings`]). Push constants are not used, so none are disturbed.
+//!
+//! What this module owns: the per-device conversion pipeline ([`DeviceCopies`]), the scratch
+//! buffers of each command buffer ([`scratch`], released when the command buffer is begun
+//! again, freed or its pool destroyed), the arithmetic of a conversion ([`plan`]: pure, unit
+//! tested) and the recording of the sequence ([`record`]). The copy hooks themselves are in
+//! `crate::hooks::command::transfers`.
+
+pub mod plan;
+pub mod record;
+pub mod scratch;
+
+use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::OnceLock;
+
+use ash::vk;
+
+use crate::policy::Unconverted;
+
+/// The conversion shader, assembled from `shaders/depth_convert.comp.spvasm` (a test checks
+/// they agree).
+pub const SHADER: &[u8] = include_bytes!("depth_convert.spv");
+
+/// What a device needs to convert copies: its memory types and compute-capable queue
+/// families (read at `vkCreateDevice`), and the conversion pipeline (created at the first
+/// conversion).
+pub struct DeviceCopies {
+    memory: vk::PhysicalDeviceMemoryProperties,
+    /// Bit i: queue family i supports compute (families past 63 count as not).
+    compute_families: u64,
+    max_storage_buffer_range: u32,
+    /// Queue family of every live command pool.
+    pool_families: crate::objects::Table<vk::CommandPool, u32>,
+    pipeline: OnceLock<Option<ConvertPipeline>>,
+    /// One bit per [`Unconverted`] reason already logged.
+    warned: AtomicU8,
+}
+
+impl std::fmt::Debug for DeviceCopies {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DeviceCopies")
+            .field("compute_families", &self.compute_families)
+            .finish_non_exhaustive()
+    }
+}
+
+/// revz's compute pipeline and its layouts.
+#[derive(Clone, Copy, Debug)]
+pub struct ConvertPipeline {
+    pub set_layout: vk::DescriptorSetLayout,
+    pub layout: vk::PipelineLayout,
+    pub module: vk::ShaderModule,
+    pub pipeline: vk::Pipeline,
+}
+
+impl DeviceCopies {
+    pub fn new(
+        memory: vk::PhysicalDeviceMemoryProperties,
+        families: &[vk::QueueFamilyProperties],
+        max_storage_buffer_range: u32,
+    ) -> DeviceCopies {
+        let compute_families = families
+            .iter()
+            .take(64)
+            .enumerate()
+            .filter(|(_, family)| family.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            .fold(0u64, |bits, (i, _)| bits | 1 << i);
+        DeviceCopies {
+            memory,
+            compute_families,
+            max_storage_buffer_range,
+            pool_families: Default::default(),
+            pipeline: OnceLock::new(),
+            warned: AtomicU8::new(0),
+        }
+    }
+
+    pub fn note_pool(&self, pool: vk::CommandPool, family: u32) {
+        self.pool_families.insert(pool, family);
+    }
+
+    pub fn forget_pool(&self, pool: vk::CommandPool) {
+        self.pool_families.remove(&pool);
+    }
+
+    /// Whether command buffers of `pool` can record a dispatch (unknown pools: no).
+    pub fn pool_dispatches(&self, pool: vk::CommandPool) -> bool {
+        self.pool_families
+            .get(&pool)
+            .is_some_and(|family| family < 64 && self.compute_families & (1 << family) != 0)
+    }
+
+    /// Whether a conversion of `size` scratch bytes fits one storage buffer descriptor.
+    pub fn fits(&self, size: u64) -> bool {
+        size <= u64::from(self.max_storage_buffer_range)
+    }
+
+    /// A memory type for revz's scratch buffers among `allowed`: device-local if one is.
+    pub fn memory_type(&self, allowed: u32) -> Option<u32> {
+        let types = &self.memory.memory_types[..self.memory.memory_type_count as usize];
+        let allowed = |i: usize| allowed & (1 << i) != 0;
+        let find = |wanted: vk::MemoryPropertyFlags| {
+            (0..types.len())
+                .find(|&i| allowed(i) && types[i].property_flags.contains(wanted))
+                .map(|i| i as u32)
+        };
+        find(vk::MemoryPropertyFlags::DEVICE_LOCAL)
+            .or_else(|| find(vk::MemoryPropertyFlags::empty()))
+    }
+
+    /// The conversion pipeline, created on first use (`None` if the device refused it:
+    /// logged once, and copies then go down unconverted).
+    pub fn pipeline(&self, device: vk::Device, next: &ash::Device) -> Option<ConvertPipeline> {
+        *self.pipeline.get_or_init(|| {
+            // SAFETY: a live device; revz's own objects.
+            let created = unsafe { create_pipeline(device, next) };
+            if let Err(result) = created {
+                log::error!(
+                    "cannot create revz's depth conversion pipeline ({result:?}): copies of \
+                     reversed depth images keep reversed values"
+                );
+            }
+            created.ok()
+        })
+    }
+
+    /// Logs once per reason that copies go down unconverted.
+    pub fn warn_unconverted(&self, why: Unconverted) {
+        let bit = 1u8 << (why as u8);
+        if self.warned.fetch_or(bit, Ordering::Relaxed) & bit == 0 {
+            log::warn!(
+                "a copy of a reversed depth image is not converted ({why}): the application \
+                 gets or writes reversed depth values there"
+            );
+        }
+    }
+
+    /// Destroys the pipeline (at `vkDestroyDevice`; the device is idle).
+    pub fn destroy(&self, device: vk::Device, next: &ash::Device) {
+        if let Some(Some(p)) = self.pipeline.get() {
+            let v = next.fp_v1_0();
+            // SAFETY: revz's own objects, no longer used.
+            unsafe {
+                (v.destroy_pipeline)(device, p.pipeline, std::ptr::null());
+                (v.destroy_shader_module)(device, p.module, std::ptr::null());
+                (v.destroy_pipeline_layout)(device, p.layout, std::ptr::null());
+                (v.destroy_descriptor_set_layout)(device, p.set_layout, std::ptr::null());
+            }
+        }
+    }
+}
+
+/// Creates the conversion pipeline: one storage buffer at set 0, binding 0, no push
+/// constants. Whatever was created is destroyed on failure.
+///
+/// # Safety
+/// `device` must be live and `next` its next layer's table.
+unsafe fn create_pipeline(
+    device: vk::Device,
+    next: &ash::Device,
+) -> Result<ConvertPipeline, vk::Result> {
+    let v = next.fp_v1_0();
+    let null = std::ptr::null();
+    let binding = [vk::DescriptorSetLayoutBinding::default()
+        .binding(0)
+        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+        .descriptor_count(1)
+        .stage_flags(vk::ShaderStageFlags::COMPUTE)];
+    let set_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&binding);
+    let mut set_layout = vk::DescriptorSetLayout::null();
+    // SAFETY: valid create infos and outputs (here and below).
+    unsafe { (v.create_descriptor_set_layout)(device, &set_info, null, &mut set_layout) }
+        .result()?;
+    let set_layouts = [set_layout];
+    let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+    let mut layout = vk::PipelineLayout::null();
+    let mut module = vk::ShaderModule::null();
+    let mut pipeline = vk::Pipeline::null();
+    let destroy_all = |layout, module, pipeline| {
+        // SAFETY: revz's own objects (null handles are ignored).
+        unsafe {
+            (v.destroy_pipeline)(device, pipeline, null);
+            (v.destroy_shader_module)(device, module, null);
+            (v.destroy_pipeline_layout)(device, layout, null);
+            (v.destroy_descriptor_set_layout)(device, set_layout, null);
+        }
+    };
+    let result = (|| {
+        // SAFETY: as above.
+        unsafe { (v.create_pipeline_layout)(device, &layout_info, null, &mut layout) }.result()?;
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(SHADER))
+            .map_err(|_| vk::Result::ERROR_INITIALIZATION_FAILED)?;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: as above; the module is valid SPIR-V 1.0 (tested).
+        unsafe { (v.create_shader_module)(device, &module_info, null, &mut module) }.result()?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout);
+        // SAFETY: as above.
+        unsafe {
+            (v.create_compute_pipelines)(
+                device,
+                vk::PipelineCache::null(),
+                1,
+                &info,
+                null,
+                &mut pipeline,
+            )
+        }
+        .result()
+    })();
+    match result {
+        Ok(()) => Ok(ConvertPipeline {
+            set_layout,
+            layout,
+            module,
+            pipeline,
+        }),
+        Err(error) => {
+            destroy_all(layout, module, pipeline);
+            Err(error)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ash::vk::Handle;
+
+    /// The embedded binary is the assembly source, assembled for Vulkan 1.0, and valid there.
+    /// `REVZ_BLESS=1` rewrites the binary from the source.
+    #[test]
+    fn the_embedded_shader_is_its_source_assembled_for_vulkan_1_0() {
+        use spirv_tools::assembler::{self, Assembler};
+        use spirv_tools::val::{self, Validator};
+        use spirv_tools::TargetEnv;
+        let source = include_str!("../../../shaders/depth_convert.comp.spvasm");
+        let words = assembler::create(Some(TargetEnv::Vulkan_1_0))
+            .assemble(source, assembler::AssemblerOptions::default())
+            .unwrap_or_else(|e| panic!("assembly: {e}"))
+            .as_words()
+            .to_vec();
+        val::create(Some(TargetEnv::Vulkan_1_0))
+            .validate(&words, None)
+            .unwrap_or_else(|e| panic!("the conversion shader does not validate: {e}"));
+        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        if std::env::var_os("REVZ_BLESS").is_some() {
+            let path = concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/src/depth_copy/depth_convert.spv"
+            );
+            std::fs::write(path, &bytes).unwrap();
+        }
+        assert!(
+            bytes == SHADER,
+            "layer/src/depth_copy/depth_convert.spv is stale: run \
+             REVZ_BLESS=1 cargo test -p revz-layer the_embedded_shader"
+        );
+    }
+
+    #[test]
+    fn compute_families_and_memory_types_are_chosen_from_the_device() {
+        let families = [
+            vk::QueueFamilyProperties {
+                queue_flags: vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE,
+                ..Default::default()
+            },
+            vk::QueueFamilyProperties {
+                queue_flags: vk::QueueFlags::TRANSFER,
+                ..Default::default()
+            },
+        ];
+        let mut memory = vk::PhysicalDeviceMemoryProperties {
+            memory_type_count: 2,
+            ..Default::default()
+        };
+        memory.memory_types[0].property_flags = vk::MemoryPropertyFlags::HOST_VISIBLE;
+        memory.memory_types[1].property_flags = vk::MemoryPropertyFlags::DEVICE_LOCAL;
+        let copies = DeviceCopies::new(memory, &families, 1 << 27);
+        let (graphics, transfer) = (vk::CommandPool::from_raw(1), vk::CommandPool::from_raw(2));
+        copies.note_pool(graphics, 0);
+        copies.note_pool(transfer, 1);
+        assert!(copies.pool_dispatches(graphics));
+        assert!(!copies.pool_dispatches(transfer));
+        assert!(!copies.pool_dispatches(vk::CommandPool::from_raw(3)));
+        assert_eq!(copies.memory_type(0b11), Some(1));
+        assert_eq!(copies.memory_type(0b01), Some(0));
+        assert_eq!(copies.memory_type(0), None);
+        assert!(copies.fits(1 << 27) && !copies.fits((1 << 27) + 1));
+    }
+}

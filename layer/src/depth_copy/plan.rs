@@ -1,0 +1,511 @@
+//! The arithmetic of a converted copy, without Vulkan calls: how a depth format's texels lie in
+//! a buffer, the map between the stored and the standard values, the header the conversion
+//! shader reads, where each copied region sits in revz's scratch buffer, and the buffer
+//! copies between that scratch and the application's buffer.
+
+use ash::vk;
+
+use crate::conv::Reversal;
+
+/// How the depth aspect of a format lies in a buffer (Vulkan spec, "Copying Data Between
+/// Buffers and Images": D16 two bytes, X8_D24 and D24_S8 a 32-bit word with the depth in its
+/// low 24 bits, D32 a float32; the stencil aspect is copied on its own).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TexelKind {
+    Unorm16,
+    Unorm24,
+    Float32,
+}
+
+impl TexelKind {
+    /// The kind of `format`'s depth aspect; `None` without one.
+    pub fn of(format: vk::Format) -> Option<TexelKind> {
+        match format {
+            vk::Format::D16_UNORM | vk::Format::D16_UNORM_S8_UINT => Some(TexelKind::Unorm16),
+            vk::Format::X8_D24_UNORM_PACK32 | vk::Format::D24_UNORM_S8_UINT => {
+                Some(TexelKind::Unorm24)
+            }
+            vk::Format::D32_SFLOAT | vk::Format::D32_SFLOAT_S8_UINT => Some(TexelKind::Float32),
+            _ => None,
+        }
+    }
+
+    /// Bytes per texel in a buffer.
+    pub fn bytes(self) -> u64 {
+        match self {
+            TexelKind::Unorm16 => 2,
+            TexelKind::Unorm24 | TexelKind::Float32 => 4,
+        }
+    }
+
+    /// The largest integer of a UNORM kind (the value of depth 1); `None` for float.
+    pub fn unorm_max(self) -> Option<u32> {
+        match self {
+            TexelKind::Unorm16 => Some(0xFFFF),
+            TexelKind::Unorm24 => Some(0x00FF_FFFF),
+            TexelKind::Float32 => None,
+        }
+    }
+
+    /// The shader's `kind` (`shaders/depth_convert.comp.spvasm`).
+    fn shader_kind(self) -> u32 {
+        match self {
+            TexelKind::Unorm16 => 0,
+            TexelKind::Unorm24 => 1,
+            TexelKind::Float32 => 2,
+        }
+    }
+}
+
+/// An affine map of depth values, d -> offset + scale * d, in depth units ([0, 1]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthMap {
+    pub offset: f64,
+    pub scale: f64,
+}
+
+impl DepthMap {
+    /// From stored (reversed) values to the standard ones the application would have had
+    /// without revz: the inverse of `reversal` (d -> 1 - d, or for infinite mode's
+    /// v = 1 - (1 - r) d, d = (1 - v) / (1 - r)).
+    pub fn to_standard(reversal: Reversal) -> DepthMap {
+        let keep = keep_factor(reversal);
+        DepthMap {
+            offset: 1.0 / keep,
+            scale: -1.0 / keep,
+        }
+    }
+
+    /// From standard values to the reversed ones revz stores: `reversal` itself.
+    pub fn to_reversed(reversal: Reversal) -> DepthMap {
+        let keep = keep_factor(reversal);
+        DepthMap {
+            offset: 1.0,
+            scale: -keep,
+        }
+    }
+
+    /// Whether this is d -> 1 - d (exact on UNORM integers as a bit complement).
+    pub fn is_flip(self) -> bool {
+        self.offset == 1.0 && self.scale == -1.0
+    }
+
+    /// The map applied in f64, clamped to [0, 1] (what the shader computes in float32).
+    pub fn apply(self, depth: f64) -> f64 {
+        (self.offset + self.scale * depth).clamp(0.0, 1.0)
+    }
+}
+
+/// 1 - r of `reversal` (1 for the plain flip).
+fn keep_factor(reversal: Reversal) -> f64 {
+    match reversal {
+        Reversal::Complementary => 1.0,
+        Reversal::Infinite { near_over_far } => {
+            let r = f64::from(near_over_far);
+            // r is n / f of a camera, in [0, 1); anything else is not a range: plain flip.
+            if (0.0..1.0).contains(&r) {
+                1.0 - r
+            } else {
+                1.0
+            }
+        }
+    }
+}
+
+/// The header of the conversion shader's buffer (`shaders/depth_convert.comp.spvasm`): 32
+/// bytes before the texels. A word x becomes c0 + c1 * (x + t).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShaderHeader {
+    pub kind: u32,
+    /// Words to convert.
+    pub count: u32,
+    /// Bits complemented (the exact flip of UNORM values), 0 for the affine map.
+    pub mask: u32,
+    pub c0: f32,
+    pub c1: f32,
+    pub t: f32,
+}
+
+/// Bytes before the first texel in the scratch buffer.
+pub const HEADER_BYTES: u64 = 32;
+
+impl ShaderHeader {
+    /// The header converting `words` 32-bit words of `kind` with `map`. UNORM values are
+    /// mapped on their integers (the constants times max, computed in f64 before the one
+    /// rounding to float32), so a flip is exact (a bit complement) and infinite mode's maps
+    /// are within one unit. The map offset + scale d is written scale (d - 1) where offset is
+    /// -scale (the maps to standard depth): d - 1 is exact on integers and on floats of
+    /// [0.5, 1], so one multiplication rounds.
+    pub fn new(kind: TexelKind, map: DepthMap, words: u32) -> ShaderHeader {
+        let unit = kind.unorm_max().map_or(1.0, f64::from);
+        let (c0, t) = if map.offset == -map.scale {
+            (0.0, -unit)
+        } else {
+            (map.offset * unit, 0.0)
+        };
+        let mask = match kind {
+            TexelKind::Unorm16 if map.is_flip() => 0xFFFF_FFFF,
+            TexelKind::Unorm24 if map.is_flip() => 0x00FF_FFFF,
+            _ => 0,
+        };
+        ShaderHeader {
+            kind: kind.shader_kind(),
+            count: words,
+            mask,
+            c0: c0 as f32,
+            c1: map.scale as f32,
+            t: t as f32,
+        }
+    }
+
+    /// The header as `vkCmdUpdateBuffer` writes it.
+    pub fn to_bytes(self) -> [u8; HEADER_BYTES as usize] {
+        let mut bytes = [0u8; HEADER_BYTES as usize];
+        let words = [
+            self.kind,
+            self.count,
+            self.mask,
+            self.c0.to_bits(),
+            self.c1.to_bits(),
+            self.t.to_bits(),
+        ];
+        for (chunk, word) in bytes.chunks_exact_mut(4).zip(words) {
+            chunk.copy_from_slice(&word.to_ne_bytes());
+        }
+        bytes
+    }
+
+    /// What the shader computes for one word, on the host (the reference its tests use).
+    pub fn convert_word(self, word: u32) -> u32 {
+        if self.mask != 0 {
+            return word ^ self.mask;
+        }
+        let map = |x: f32| self.c0 + self.c1 * (x + self.t);
+        let unorm = |value: u32, max: f32| -> u32 {
+            map(value as f32).round_ties_even().clamp(0.0, max) as u32
+        };
+        match self.kind {
+            2 => map(f32::from_bits(word)).clamp(0.0, 1.0).to_bits(),
+            1 => (word & 0xFF00_0000) | unorm(word & 0x00FF_FFFF, 16_777_215.0),
+            _ => (unorm(word >> 16, 65535.0) << 16) | unorm(word & 0xFFFF, 65535.0),
+        }
+    }
+}
+
+/// The workgroups of a dispatch over `words` words (64 per group; a second dimension past the
+/// 65535 groups every device allows in x).
+pub fn workgroups(words: u32) -> (u32, u32) {
+    let groups = words.div_ceil(64).max(1);
+    let x = groups.min(65535);
+    (x, groups.div_ceil(x))
+}
+
+/// One region of a copy between an image's depth aspect and a buffer, as the application
+/// gave it (`VkBufferImageCopy`): where its texels are in the application's buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BufferRegion {
+    pub offset: u64,
+    /// Texels per row in the buffer (0: the width).
+    pub row_length: u32,
+    /// Rows per image in the buffer (0: the height).
+    pub image_height: u32,
+    pub extent: vk::Extent3D,
+    /// Array layers (each one `image_height` rows times the depth).
+    pub layers: u32,
+}
+
+/// A region's texels packed tightly in the scratch buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScratchRegion {
+    /// Bytes from the scratch buffer's start (past the header, 4-aligned as depth copies
+    /// require).
+    pub offset: u64,
+    pub bytes: u64,
+}
+
+/// Where every region of a copy lies in the scratch buffer, and its size.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ScratchLayout {
+    pub regions: Vec<ScratchRegion>,
+    /// Bytes the scratch buffer needs, header included.
+    pub size: u64,
+    /// 32-bit words of texels to convert (from the first region to the end).
+    pub words: u32,
+}
+
+/// The bytes of a region's texels packed tightly (rows of `width` texels, images of `height`
+/// rows).
+pub fn packed_bytes(extent: vk::Extent3D, layers: u32, kind: TexelKind) -> u64 {
+    u64::from(extent.width)
+        * u64::from(extent.height)
+        * u64::from(extent.depth)
+        * u64::from(layers)
+        * kind.bytes()
+}
+
+/// Lays regions of `extents` (extent, layers) out one after another past the header, each
+/// starting on 4 bytes. `None` when the texels would not fit the shader's 32-bit word count.
+pub fn scratch_layout(
+    extents: impl IntoIterator<Item = (vk::Extent3D, u32)>,
+    kind: TexelKind,
+) -> Option<ScratchLayout> {
+    let mut offset = HEADER_BYTES;
+    let mut regions = Vec::new();
+    for (extent, layers) in extents {
+        let bytes = packed_bytes(extent, layers, kind);
+        regions.push(ScratchRegion { offset, bytes });
+        offset = offset.checked_add(bytes)?.checked_next_multiple_of(4)?;
+    }
+    let words = u32::try_from((offset - HEADER_BYTES) / 4).ok()?;
+    Some(ScratchLayout {
+        regions,
+        size: offset,
+        words,
+    })
+}
+
+/// The buffer copies moving a region between the application's buffer (laid out as the
+/// application said) and its tight copy in the scratch buffer (`scratch_offset`): one per run
+/// of contiguous rows, so that the padding between the application's rows is never written.
+/// `src_is_scratch`: the direction. Appends to `copies`.
+pub fn row_copies(
+    region: BufferRegion,
+    scratch_offset: u64,
+    kind: TexelKind,
+    src_is_scratch: bool,
+    copies: &mut Vec<vk::BufferCopy>,
+) {
+    let texel = kind.bytes();
+    let vk::Extent3D {
+        width,
+        height,
+        depth,
+    } = region.extent;
+    let row_length = u64::from(if region.row_length == 0 {
+        width
+    } else {
+        region.row_length
+    });
+    let image_height = u64::from(if region.image_height == 0 {
+        height
+    } else {
+        region.image_height
+    });
+    let (width, height) = (u64::from(width), u64::from(height));
+    let slices = u64::from(depth) * u64::from(region.layers);
+    let row_bytes = width * texel;
+    let mut push = |app: u64, scratch: u64, size: u64| {
+        if size == 0 {
+            return;
+        }
+        let (src_offset, dst_offset) = if src_is_scratch {
+            (scratch, app)
+        } else {
+            (app, scratch)
+        };
+        copies.push(vk::BufferCopy {
+            src_offset,
+            dst_offset,
+            size,
+        });
+    };
+    let slice_bytes = row_bytes * height;
+    if row_length == width && image_height == height {
+        push(region.offset, scratch_offset, slice_bytes * slices);
+        return;
+    }
+    for slice in 0..slices {
+        let app_slice = region.offset + slice * image_height * row_length * texel;
+        let scratch_slice = scratch_offset + slice * slice_bytes;
+        if row_length == width {
+            push(app_slice, scratch_slice, slice_bytes);
+            continue;
+        }
+        for row in 0..height {
+            push(
+                app_slice + row * row_length * texel,
+                scratch_slice + row * row_bytes,
+                row_bytes,
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn extent(width: u32, height: u32) -> vk::Extent3D {
+        vk::Extent3D {
+            width,
+            height,
+            depth: 1,
+        }
+    }
+
+    #[test]
+    fn flips_of_unorm_values_are_exact_bit_complements() {
+        let map = DepthMap::to_standard(Reversal::Complementary);
+        assert!(map.is_flip());
+        let d16 = ShaderHeader::new(TexelKind::Unorm16, map, 1);
+        assert_eq!(d16.convert_word(0x0000_FFFF), 0xFFFF_0000);
+        assert_eq!(d16.convert_word(0x1234_0001), 0xEDCB_FFFE);
+        let d24 = ShaderHeader::new(TexelKind::Unorm24, map, 1);
+        // The top byte (undefined in X8_D24, not depth) is kept.
+        assert_eq!(d24.convert_word(0xAB00_0001), 0xABFF_FFFE);
+        for u in [0u32, 1, 0x7F_FFFF, 0xFF_FFFE, 0xFF_FFFF] {
+            assert_eq!(d24.convert_word(u), 0xFF_FFFF - u);
+        }
+    }
+
+    #[test]
+    fn float_flips_are_one_rounding_of_one_minus_d() {
+        let header = ShaderHeader::new(
+            TexelKind::Float32,
+            DepthMap::to_standard(Reversal::Complementary),
+            1,
+        );
+        for d in [0.0f32, 1.0, 0.5, 1e-7, 0.999_999_9, 0.3] {
+            let got = f32::from_bits(header.convert_word(d.to_bits()));
+            assert_eq!(got, 1.0 - d, "{d}");
+        }
+    }
+
+    #[test]
+    fn infinite_maps_invert_each_other() {
+        let reversal = Reversal::Infinite {
+            near_over_far: 1e-4,
+        };
+        let (out, into) = (
+            DepthMap::to_standard(reversal),
+            DepthMap::to_reversed(reversal),
+        );
+        for d in [0.0, 0.25, 0.5, 0.999, 1.0] {
+            let stored = into.apply(d);
+            assert!((stored - f64::from(reversal.depth(d as f32))).abs() < 1e-7);
+            assert!((out.apply(stored) - d).abs() < 1e-12, "{d}");
+        }
+        // UNORM24 in infinite mode: within one unit of the f64 inverse.
+        let header = ShaderHeader::new(TexelKind::Unorm24, out, 1);
+        for u in [0u32, 1, 12_345, 8_000_000, 16_777_000, 16_777_215] {
+            let exact = out.apply(f64::from(u) / 16_777_215.0) * 16_777_215.0;
+            let got = f64::from(header.convert_word(u));
+            assert!((got - exact).abs() <= 1.0, "{u}: {got} vs {exact}");
+        }
+        let header = ShaderHeader::new(TexelKind::Unorm16, into, 1);
+        let word = header.convert_word((40_000 << 16) | 7);
+        let exact = |u: f64| into.apply(u / 65535.0) * 65535.0;
+        assert!((f64::from(word >> 16) - exact(40_000.0)).abs() <= 0.5);
+        assert!((f64::from(word & 0xFFFF) - exact(7.0)).abs() <= 0.5);
+    }
+
+    #[test]
+    fn headers_are_laid_out_as_the_shader_reads_them() {
+        let header = ShaderHeader {
+            kind: 2,
+            count: 7,
+            mask: 0,
+            c0: 1.0,
+            c1: -1.0,
+            t: 0.5,
+        };
+        let bytes = header.to_bytes();
+        let word = |i: usize| u32::from_ne_bytes(bytes[i * 4..i * 4 + 4].try_into().unwrap());
+        assert_eq!([word(0), word(1), word(2)], [2, 7, 0]);
+        assert_eq!(f32::from_bits(word(3)), 1.0);
+        assert_eq!(f32::from_bits(word(4)), -1.0);
+        assert_eq!(f32::from_bits(word(5)), 0.5);
+        assert!(bytes[24..].iter().all(|&b| b == 0));
+    }
+
+    #[test]
+    fn wide_dispatches_use_a_second_dimension() {
+        assert_eq!(workgroups(1), (1, 1));
+        assert_eq!(workgroups(64 * 65535), (65535, 1));
+        let (x, y) = workgroups(u32::MAX);
+        assert!(u64::from(x) * u64::from(y) * 64 >= u64::from(u32::MAX));
+    }
+
+    #[test]
+    fn scratch_regions_start_on_four_bytes_past_the_header() {
+        let layout =
+            scratch_layout([(extent(3, 1), 1), (extent(2, 2), 1)], TexelKind::Unorm16).unwrap();
+        assert_eq!(
+            layout.regions,
+            [
+                ScratchRegion {
+                    offset: 32,
+                    bytes: 6
+                },
+                ScratchRegion {
+                    offset: 40,
+                    bytes: 8
+                }
+            ]
+        );
+        assert_eq!(layout.size, 48);
+        assert_eq!(layout.words, 4);
+    }
+
+    /// Every byte the application's copy would write is written once, nothing else (padding
+    /// rows and images stay untouched), and each lands on its tight scratch position.
+    #[test]
+    fn row_copies_cover_exactly_the_regions_bytes() {
+        let cases = [
+            (0, 0, extent(5, 3), 1),
+            (7, 0, extent(5, 3), 1),
+            (0, 4, extent(5, 3), 2),
+            (6, 5, extent(4, 2), 3),
+        ];
+        for kind in [TexelKind::Unorm16, TexelKind::Float32] {
+            for (row_length, image_height, extent, layers) in cases {
+                let region = BufferRegion {
+                    offset: 100,
+                    row_length,
+                    image_height,
+                    extent,
+                    layers,
+                };
+                let mut copies = Vec::new();
+                row_copies(region, HEADER_BYTES, kind, true, &mut copies);
+                let t = kind.bytes();
+                let rl = u64::from(if row_length == 0 {
+                    extent.width
+                } else {
+                    row_length
+                });
+                let ih = u64::from(if image_height == 0 {
+                    extent.height
+                } else {
+                    image_height
+                });
+                let mut expected = Vec::new();
+                for layer in 0..u64::from(layers) {
+                    for y in 0..u64::from(extent.height) {
+                        for x in 0..u64::from(extent.width) {
+                            let app = 100 + ((layer * ih + y) * rl + x) * t;
+                            let tight = HEADER_BYTES
+                                + ((layer * u64::from(extent.height) + y)
+                                    * u64::from(extent.width)
+                                    + x)
+                                    * t;
+                            for b in 0..t {
+                                expected.push((tight + b, app + b));
+                            }
+                        }
+                    }
+                }
+                let mut got: Vec<_> = copies
+                    .iter()
+                    .flat_map(|c| (0..c.size).map(move |b| (c.src_offset + b, c.dst_offset + b)))
+                    .collect();
+                got.sort_unstable();
+                expected.sort_unstable();
+                assert_eq!(
+                    got, expected,
+                    "{kind:?} {row_length} {image_height} {layers}"
+                );
+            }
+        }
+    }
+}

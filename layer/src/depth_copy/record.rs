@@ -1,0 +1,210 @@
+//! Recording one converted copy: header, fill, barrier, dispatch, barrier, drain, and the
+//! application's compute state bound again (see the module above for why each step is there).
+
+use ash::vk;
+
+use super::plan::{workgroups, ShaderHeader, HEADER_BYTES};
+use super::scratch::CommandCopies;
+use crate::policy::Unconverted;
+use crate::state::DeviceState;
+
+/// Where the texels come from, into the scratch buffer (offsets in `regions` / `copies` are
+/// the scratch buffer's where it is the destination).
+#[derive(Debug)]
+pub enum Fill<'a> {
+    /// `vkCmdCopyImageToBuffer` from the application's image, in its layout.
+    Image {
+        image: vk::Image,
+        layout: vk::ImageLayout,
+        regions: &'a [vk::BufferImageCopy],
+    },
+    /// `vkCmdCopyBuffer` from the application's buffer.
+    Buffer {
+        buffer: vk::Buffer,
+        copies: &'a [vk::BufferCopy],
+    },
+}
+
+/// Where the converted texels go, out of the scratch buffer.
+#[derive(Debug)]
+pub enum Drain<'a> {
+    /// `vkCmdCopyBufferToImage` into the application's image, in its layout.
+    Image {
+        image: vk::Image,
+        layout: vk::ImageLayout,
+        regions: &'a [vk::BufferImageCopy],
+    },
+    /// `vkCmdCopyBuffer` into the application's buffer.
+    Buffer {
+        buffer: vk::Buffer,
+        copies: &'a [vk::BufferCopy],
+    },
+}
+
+/// One conversion: `size` scratch bytes (header included), the shader's header, and the two
+/// transfers around the dispatch.
+#[derive(Debug)]
+pub struct Conversion<'a> {
+    pub header: ShaderHeader,
+    pub size: u64,
+    pub fill: Fill<'a>,
+    pub drain: Drain<'a>,
+}
+
+/// Records `conversion` into `buffer`; on `Err` nothing was recorded (the caller sends the
+/// application's command down as it is).
+///
+/// # Safety
+/// `buffer` must be a command buffer of `device` in the recording state, outside a render
+/// pass, and `copies` its scratch.
+pub unsafe fn record(
+    device: &DeviceState,
+    copies: &mut CommandCopies,
+    buffer: vk::CommandBuffer,
+    conversion: &Conversion<'_>,
+) -> Result<(), Unconverted> {
+    if !device.copies.fits(conversion.size) {
+        return Err(Unconverted::Resources);
+    }
+    let pipeline = device
+        .copies
+        .pipeline(device.handle, &device.next)
+        .ok_or(Unconverted::Resources)?;
+    let slot = copies
+        .slot(device, conversion.size)
+        .ok_or(Unconverted::Resources)?;
+    let (scratch, set) = (slot.buffer, slot.set);
+    let v = device.next.fp_v1_0();
+    let scratch_barrier = |src_access, dst_access| vk::BufferMemoryBarrier {
+        src_access_mask: src_access,
+        dst_access_mask: dst_access,
+        src_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+        dst_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+        buffer: scratch,
+        offset: 0,
+        size: vk::WHOLE_SIZE,
+        ..Default::default()
+    };
+    let barrier = |src_stage, dst_stage, barriers: &[vk::BufferMemoryBarrier<'_>]| {
+        // SAFETY: a recording command buffer outside a render pass (the caller's contract);
+        // barriers on revz's own buffer.
+        unsafe {
+            (v.cmd_pipeline_barrier)(
+                buffer,
+                src_stage,
+                dst_stage,
+                vk::DependencyFlags::empty(),
+                0,
+                std::ptr::null(),
+                barriers.len() as u32,
+                barriers.as_ptr(),
+                0,
+                std::ptr::null(),
+            )
+        }
+    };
+    let transfer = vk::PipelineStageFlags::TRANSFER;
+    let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
+    // A command buffer executed again (a secondary run twice, a primary resubmitted) reads
+    // the scratch in its last drain before this header overwrites it.
+    barrier(transfer, transfer, &[]);
+    let header = conversion.header.to_bytes();
+    // SAFETY: as above; the header fits the scratch buffer (`size` includes it).
+    unsafe { (v.cmd_update_buffer)(buffer, scratch, 0, HEADER_BYTES, header.as_ptr().cast()) };
+    match conversion.fill {
+        // SAFETY: the application's image in the layout it named, regions into the scratch.
+        Fill::Image {
+            image,
+            layout,
+            regions,
+        } => unsafe {
+            (v.cmd_copy_image_to_buffer)(
+                buffer,
+                image,
+                layout,
+                scratch,
+                regions.len() as u32,
+                regions.as_ptr(),
+            )
+        },
+        // SAFETY: the application's buffer, copies into the scratch.
+        Fill::Buffer {
+            buffer: source,
+            copies,
+        } => unsafe {
+            (v.cmd_copy_buffer)(
+                buffer,
+                source,
+                scratch,
+                copies.len() as u32,
+                copies.as_ptr(),
+            )
+        },
+    }
+    barrier(
+        transfer,
+        compute,
+        &[scratch_barrier(
+            vk::AccessFlags::TRANSFER_WRITE,
+            vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+        )],
+    );
+    let (x, y) = workgroups(conversion.header.count);
+    // SAFETY: revz's pipeline and its set; the application's compute state is bound again
+    // below.
+    unsafe {
+        (v.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
+        (v.cmd_bind_descriptor_sets)(
+            buffer,
+            vk::PipelineBindPoint::COMPUTE,
+            pipeline.layout,
+            0,
+            1,
+            &set,
+            0,
+            std::ptr::null(),
+        );
+        (v.cmd_dispatch)(buffer, x, y, 1);
+    }
+    barrier(
+        compute,
+        transfer,
+        &[scratch_barrier(
+            vk::AccessFlags::SHADER_WRITE,
+            vk::AccessFlags::TRANSFER_READ,
+        )],
+    );
+    match conversion.drain {
+        // SAFETY: regions out of the scratch into the application's image, in its layout.
+        Drain::Image {
+            image,
+            layout,
+            regions,
+        } => unsafe {
+            (v.cmd_copy_buffer_to_image)(
+                buffer,
+                scratch,
+                image,
+                layout,
+                regions.len() as u32,
+                regions.as_ptr(),
+            )
+        },
+        // SAFETY: copies out of the scratch into the application's buffer.
+        Drain::Buffer {
+            buffer: destination,
+            copies,
+        } => unsafe {
+            (v.cmd_copy_buffer)(
+                buffer,
+                scratch,
+                destination,
+                copies.len() as u32,
+                copies.as_ptr(),
+            )
+        },
+    }
+    // SAFETY: the application's own bindings of this command buffer.
+    unsafe { copies.compute.restore(device, buffer) };
+    Ok(())
+}

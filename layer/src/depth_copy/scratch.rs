@@ -1,0 +1,327 @@
+//! What one command buffer holds for converted copies: its scratch buffers, and the compute
+//! state the application bound (bound again after revz's dispatch).
+//!
+//! Scratch buffers belong to the command buffer that recorded them. They are reused, in
+//! order, when it is recorded again (`vkBeginCommandBuffer` needs it not pending, so its last
+//! execution is over), and destroyed when it is freed, its pool destroyed or the device
+//! destroyed. Each conversion of one recording gets its own buffer, so two conversions never
+//! share bytes.
+
+use ash::vk;
+
+use crate::state::DeviceState;
+
+/// One scratch buffer, its memory, and the descriptor set that binds it to the conversion
+/// shader (written once: a set in a pool of its own).
+#[derive(Debug)]
+pub struct Slot {
+    pub buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    pool: vk::DescriptorPool,
+    pub set: vk::DescriptorSet,
+    capacity: u64,
+}
+
+/// `vkCmdBindDescriptorSets` of the compute bind point, as the application called it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct SetBind {
+    layout: vk::PipelineLayout,
+    first: u32,
+    sets: Vec<vk::DescriptorSet>,
+    dynamic_offsets: Vec<u32>,
+}
+
+impl SetBind {
+    fn covers(&self, other: &SetBind) -> bool {
+        self.first <= other.first
+            && other.first + other.sets.len() as u32 <= self.first + self.sets.len() as u32
+    }
+}
+
+/// The application's compute pipeline and descriptor sets in one command buffer.
+#[derive(Debug, Default)]
+pub struct ComputeBindings {
+    pipeline: vk::Pipeline,
+    /// The binds that still define some set, in the order they were made: replaying them
+    /// rebuilds the same state, disturbances included.
+    binds: Vec<SetBind>,
+    /// Compute descriptors were bound another way (push descriptors, descriptor buffers,
+    /// `vkCmdBindDescriptorSets2`): revz cannot restore them.
+    unrestorable: bool,
+}
+
+/// Binds kept before the command buffer's compute state counts as unrestorable (an
+/// application binding many disjoint set ranges without ever covering the earlier ones).
+const MAX_BINDS: usize = 16;
+
+impl ComputeBindings {
+    pub fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
+        self.pipeline = pipeline;
+    }
+
+    pub fn bind_sets(
+        &mut self,
+        layout: vk::PipelineLayout,
+        first: u32,
+        sets: &[vk::DescriptorSet],
+        dynamic_offsets: &[u32],
+    ) {
+        let bind = SetBind {
+            layout,
+            first,
+            sets: sets.to_vec(),
+            dynamic_offsets: dynamic_offsets.to_vec(),
+        };
+        self.binds.retain(|earlier| !bind.covers(earlier));
+        self.binds.push(bind);
+        if self.binds.len() > MAX_BINDS {
+            self.binds.clear();
+            self.unrestorable = true;
+        }
+    }
+
+    /// Compute descriptors were bound in a way revz does not follow.
+    pub fn bound_otherwise(&mut self) {
+        self.unrestorable = true;
+    }
+
+    pub fn restorable(&self) -> bool {
+        !self.unrestorable
+    }
+
+    /// Binds the application's compute state again (after revz's dispatch).
+    ///
+    /// # Safety
+    /// `buffer` must be recording, on `device`.
+    pub unsafe fn restore(&self, device: &DeviceState, buffer: vk::CommandBuffer) {
+        let v = device.next.fp_v1_0();
+        if self.pipeline != vk::Pipeline::null() {
+            // SAFETY: the application's pipeline, bound by it in this command buffer.
+            unsafe { (v.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::COMPUTE, self.pipeline) };
+        }
+        for bind in &self.binds {
+            // SAFETY: the application's own bind, replayed in order.
+            unsafe {
+                (v.cmd_bind_descriptor_sets)(
+                    buffer,
+                    vk::PipelineBindPoint::COMPUTE,
+                    bind.layout,
+                    bind.first,
+                    bind.sets.len() as u32,
+                    bind.sets.as_ptr(),
+                    bind.dynamic_offsets.len() as u32,
+                    bind.dynamic_offsets.as_ptr(),
+                )
+            };
+        }
+    }
+}
+
+/// A command buffer's scratch buffers and compute state.
+#[derive(Debug, Default)]
+pub struct CommandCopies {
+    slots: Vec<Slot>,
+    /// Slots used by the current recording.
+    used: usize,
+    pub compute: ComputeBindings,
+}
+
+impl CommandCopies {
+    /// A new recording begins: every slot is free again, and no compute state is bound.
+    pub fn begin(&mut self) {
+        self.used = 0;
+        self.compute = ComputeBindings::default();
+    }
+
+    /// The next free slot with room for `size` bytes, made or grown as needed.
+    pub fn slot(&mut self, device: &DeviceState, size: u64) -> Option<&Slot> {
+        let index = self.used;
+        match self.slots.get(index).map(|slot| slot.capacity >= size) {
+            Some(true) => {}
+            Some(false) => {
+                // SAFETY: a live device.
+                let grown = unsafe { create_slot(device, size)? };
+                let small = std::mem::replace(&mut self.slots[index], grown);
+                // SAFETY: the slot is not in use: an earlier, finished recording used it.
+                unsafe { destroy_slot(device, &small) };
+            }
+            // `used` never passes the slots' count: this is the next one.
+            None => {
+                // SAFETY: a live device.
+                let slot = unsafe { create_slot(device, size)? };
+                self.slots.push(slot);
+            }
+        }
+        self.used += 1;
+        self.slots.get(index)
+    }
+
+    /// Destroys every slot (the command buffer is freed, or its device destroyed).
+    pub fn destroy(&mut self, device: &DeviceState) {
+        for slot in self.slots.drain(..) {
+            // SAFETY: the command buffer is not pending (the application's contract for
+            // freeing it and for destroying the device).
+            unsafe { destroy_slot(device, &slot) };
+        }
+        self.used = 0;
+    }
+}
+
+/// Scratch buffers are made at least this large, so that small copies share one size.
+const MIN_CAPACITY: u64 = 64 * 1024;
+
+/// Creates a scratch buffer of at least `size` bytes with its memory and descriptor set.
+///
+/// # Safety
+/// `device` must be live.
+unsafe fn create_slot(device: &DeviceState, size: u64) -> Option<Slot> {
+    let v = device.next.fp_v1_0();
+    let handle = device.handle;
+    let null = std::ptr::null();
+    let capacity = size.max(MIN_CAPACITY).checked_next_power_of_two()?;
+    let capacity = if device.copies.fits(capacity) {
+        capacity
+    } else {
+        size
+    };
+    let mut slot = Slot {
+        buffer: vk::Buffer::null(),
+        memory: vk::DeviceMemory::null(),
+        pool: vk::DescriptorPool::null(),
+        set: vk::DescriptorSet::null(),
+        capacity,
+    };
+    let made = (|| {
+        let info = vk::BufferCreateInfo::default()
+            .size(capacity)
+            .usage(
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_SRC
+                    | vk::BufferUsageFlags::TRANSFER_DST,
+            )
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid create infos and outputs (here and below), on a live device.
+        unsafe { (v.create_buffer)(handle, &info, null, &mut slot.buffer) }.result()?;
+        let mut requirements = vk::MemoryRequirements::default();
+        // SAFETY: as above.
+        unsafe { (v.get_buffer_memory_requirements)(handle, slot.buffer, &mut requirements) };
+        let memory_type = device
+            .copies
+            .memory_type(requirements.memory_type_bits)
+            .ok_or(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY)?;
+        let allocate = vk::MemoryAllocateInfo::default()
+            .allocation_size(requirements.size)
+            .memory_type_index(memory_type);
+        // SAFETY: as above.
+        unsafe { (v.allocate_memory)(handle, &allocate, null, &mut slot.memory) }.result()?;
+        // SAFETY: as above.
+        unsafe { (v.bind_buffer_memory)(handle, slot.buffer, slot.memory, 0) }.result()?;
+        let sizes = [vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::STORAGE_BUFFER,
+            descriptor_count: 1,
+        }];
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: as above.
+        unsafe { (v.create_descriptor_pool)(handle, &pool_info, null, &mut slot.pool) }.result()?;
+        let pipeline = device
+            .copies
+            .pipeline(handle, &device.next)
+            .ok_or(vk::Result::ERROR_INITIALIZATION_FAILED)?;
+        let layouts = [pipeline.set_layout];
+        let set_info = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(slot.pool)
+            .set_layouts(&layouts);
+        // SAFETY: as above.
+        unsafe { (v.allocate_descriptor_sets)(handle, &set_info, &mut slot.set) }.result()?;
+        let buffer_info = [vk::DescriptorBufferInfo {
+            buffer: slot.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(slot.set)
+            .dst_binding(0)
+            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+            .buffer_info(&buffer_info);
+        // SAFETY: a set just allocated, not in use.
+        unsafe { (v.update_descriptor_sets)(handle, 1, &write, 0, std::ptr::null()) };
+        Ok::<(), vk::Result>(())
+    })();
+    match made {
+        Ok(()) => Some(slot),
+        Err(result) => {
+            log::error!(
+                "cannot create a {capacity}-byte scratch buffer for a depth copy: {result:?}"
+            );
+            // SAFETY: what was made of the slot, unused.
+            unsafe { destroy_slot(device, &slot) };
+            None
+        }
+    }
+}
+
+/// # Safety
+/// The slot must be revz's and not in use by a pending command buffer.
+unsafe fn destroy_slot(device: &DeviceState, slot: &Slot) {
+    let v = device.next.fp_v1_0();
+    let null = std::ptr::null();
+    // SAFETY: the caller's contract; null handles are ignored.
+    unsafe {
+        (v.destroy_descriptor_pool)(device.handle, slot.pool, null);
+        (v.destroy_buffer)(device.handle, slot.buffer, null);
+        (v.free_memory)(device.handle, slot.memory, null);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ash::vk::Handle;
+
+    fn sets(raw: &[u64]) -> Vec<vk::DescriptorSet> {
+        raw.iter()
+            .map(|&r| vk::DescriptorSet::from_raw(r))
+            .collect()
+    }
+
+    #[test]
+    fn binds_covered_by_a_later_one_are_dropped() {
+        let layout = vk::PipelineLayout::from_raw(9);
+        let mut compute = ComputeBindings::default();
+        compute.bind_sets(layout, 0, &sets(&[1, 2]), &[]);
+        compute.bind_sets(layout, 1, &sets(&[3]), &[16]);
+        assert_eq!(
+            compute.binds.len(),
+            2,
+            "set 0 of the first bind still stands"
+        );
+        compute.bind_sets(layout, 0, &sets(&[4, 5]), &[]);
+        assert_eq!(compute.binds.len(), 1);
+        assert_eq!(compute.binds[0].sets, sets(&[4, 5]));
+        assert!(compute.restorable());
+    }
+
+    #[test]
+    fn too_many_disjoint_binds_or_other_bindings_are_not_restorable() {
+        let layout = vk::PipelineLayout::from_raw(9);
+        let mut compute = ComputeBindings::default();
+        for set in 0..=MAX_BINDS as u32 {
+            compute.bind_sets(layout, set, &sets(&[1]), &[]);
+        }
+        assert!(!compute.restorable());
+        let mut other = ComputeBindings::default();
+        other.bound_otherwise();
+        assert!(!other.restorable());
+        let mut copies = CommandCopies {
+            compute: other,
+            ..Default::default()
+        };
+        copies.begin();
+        assert!(
+            copies.compute.restorable(),
+            "a new recording binds nothing yet"
+        );
+    }
+}
