@@ -191,6 +191,10 @@ pub struct DeviceCommands {
     pub queue_present: Option<vk::PFN_vkQueuePresentKHR>,
     pub copy_buffer_to_image2: Option<vk::PFN_vkCmdCopyBufferToImage2>,
     pub copy_image2: Option<vk::PFN_vkCmdCopyImage2>,
+    pub copy_image_to_buffer2: Option<vk::PFN_vkCmdCopyImageToBuffer2>,
+    pub push_descriptor_set: Option<vk::PFN_vkCmdPushDescriptorSetKHR>,
+    pub bind_descriptor_sets2: Option<vk::PFN_vkCmdBindDescriptorSets2KHR>,
+    pub set_descriptor_buffer_offsets: Option<vk::PFN_vkCmdSetDescriptorBufferOffsetsEXT>,
     pub blit_image2: Option<vk::PFN_vkCmdBlitImage2>,
     pub set_depth_bias2: Option<vk::PFN_vkCmdSetDepthBias2EXT>,
 }
@@ -284,6 +288,22 @@ impl DeviceCommands {
                 c"vkCmdCopyBufferToImage2KHR"
             ),
             copy_image2: load!(V13, c"vkCmdCopyImage2", c"vkCmdCopyImage2KHR"),
+            copy_image_to_buffer2: load!(
+                V13,
+                c"vkCmdCopyImageToBuffer2",
+                c"vkCmdCopyImageToBuffer2KHR"
+            ),
+            push_descriptor_set: load!(
+                V14,
+                c"vkCmdPushDescriptorSet",
+                c"vkCmdPushDescriptorSetKHR"
+            ),
+            bind_descriptor_sets2: load!(
+                V14,
+                c"vkCmdBindDescriptorSets2",
+                c"vkCmdBindDescriptorSets2KHR"
+            ),
+            set_descriptor_buffer_offsets: load!(0, c"vkCmdSetDescriptorBufferOffsetsEXT"),
             blit_image2: load!(V13, c"vkCmdBlitImage2", c"vkCmdBlitImage2KHR"),
             set_depth_bias2: load!(0, c"vkCmdSetDepthBias2EXT"),
         }

@@ -128,6 +128,9 @@ pub struct GpuOptions {
     pub device: Option<String>,
     /// Enable `VK_LAYER_KHRONOS_validation` and count its messages.
     pub validation: bool,
+    /// With `validation`: enable its synchronization validation too
+    /// (`VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT`).
+    pub sync_validation: bool,
     /// Optional features to enable where the device has them.
     pub features: Features,
     /// The highest Vulkan version to ask for (default: 1.3 where the loader has it, else 1.2).
@@ -237,6 +240,7 @@ impl InstanceCtx {
     /// their queries need `VK_KHR_get_physical_device_properties2`).
     fn new(
         validation: bool,
+        sync_validation: bool,
         max_api_version: Option<u32>,
         extension_features: bool,
     ) -> Result<Self> {
@@ -303,12 +307,17 @@ impl InstanceCtx {
             .api_version(api_version);
         // Chained so that vkCreateInstance / vkDestroyInstance are covered too.
         let mut chained_messenger = debug_messenger_info(&log);
+        let sync = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&sync);
         let mut create_info = vk::InstanceCreateInfo::default()
             .application_info(&app_info)
             .enabled_layer_names(&layers)
             .enabled_extension_names(&extensions);
         if validation {
             create_info = create_info.push_next(&mut chained_messenger);
+            if sync_validation {
+                create_info = create_info.push_next(&mut features);
+            }
         }
         // SAFETY: every pointer in `create_info` refers to locals that outlive the call.
         let instance = match unsafe { entry.create_instance(&create_info, None) } {
@@ -582,6 +591,7 @@ impl Gpu {
             || f.depth_stencil_resolve;
         let instance = InstanceCtx::new(
             options.validation,
+            options.sync_validation,
             options.max_api_version,
             extension_features,
         )?;

@@ -128,6 +128,33 @@ struct RenderArgs {
     #[arg(long)]
     validation: bool,
 
+    /// With --validation: enable synchronization validation too.
+    #[arg(long, requires = "validation")]
+    sync_validation: bool,
+
+    /// How the depth image reaches the host: `direct` (one copy into the host buffer),
+    /// `image` (through a second depth image only copied: revz reverses it by default),
+    /// `native-image` (through a second depth image that may be sampled: revz keeps it
+    /// native) or `buffer` (into a device buffer, back into a second depth image, then to the
+    /// host). Every route must read back the same depth.
+    #[arg(long, value_enum, value_name = "ROUTE", default_value = "direct")]
+    depth_route: readback::DepthRoute,
+
+    /// Texels of padding after each row of the depth read-back buffer (bufferRowLength =
+    /// width + N); the padding must be left as it was.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    depth_row_padding: u32,
+
+    /// Render the scene this many times (recording it again each time), writing out the
+    /// last: what a layer learns in one frame (infinite mode's n / f) is in force from the
+    /// first command of the next.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    frames: u32,
+
+    /// Record the depth read-back with the `*2` copy commands (Vulkan 1.3).
+    #[arg(long)]
+    copy2: bool,
+
     /// Do not read the depth image back: it is created without TRANSFER_SRC usage, and
     /// depth.png / depth.f32 are not written (render.json says "depth_readback": false).
     #[arg(long)]
@@ -224,6 +251,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     let gpu = Gpu::new(&GpuOptions {
         device: cli.device.clone(),
         validation: cli.validation,
+        sync_validation: cli.sync_validation,
         max_api_version: cli.vulkan.as_deref().map(|v| match v {
             "1.0" => ash::vk::API_VERSION_1_0,
             "1.1" => ash::vk::API_VERSION_1_1,
@@ -284,9 +312,19 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         };
         let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;
-        let readback = Readback::new(&gpu, &targets, depth_readback)?;
+        if cli.copy2 && gpu.api_version() < ash::vk::API_VERSION_1_3 {
+            bail!("--copy2 needs Vulkan 1.3 (the *2 copy commands)");
+        }
+        let options = readback::DepthReadback {
+            route: cli.depth_route,
+            row_padding: cli.depth_row_padding,
+            copy2: cli.copy2,
+        };
+        let readback = Readback::new(&gpu, &targets, depth_readback, options)?;
         let renderer = Renderer::new(&gpu, &targets, &scene)?;
-        renderer.render(&gpu, &scene, &buffers, &targets, &readback)?;
+        for _ in 0..cli.frames {
+            renderer.render(&gpu, &scene, &buffers, &targets, &readback)?;
+        }
         let multisample = targets.multisampled.as_ref().map(|ms| MultisampleReport {
             samples: ms.samples.as_raw(),
             depth_resolve: resolve_mode_name(ms.resolve.depth),

@@ -15,7 +15,55 @@ use serde::Serialize;
 
 use crate::gpu::{Gpu, HostBuffer};
 use crate::ground_truth::GroundTruthReport;
-use crate::target::{full_range, DepthFormat, Targets};
+use crate::target::{full_range, Attachment, DepthFormat, Targets};
+
+/// How the depth aspect reaches the host (`--depth-route`): the copies an application makes
+/// of a depth image, for revz's conversion of copies (issue #21). Every route must deliver
+/// the same values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DepthRoute {
+    /// `vkCmdCopyImageToBuffer` into the host buffer.
+    #[default]
+    Direct,
+    /// `vkCmdCopyImage` into a second depth image (TRANSFER_SRC | TRANSFER_DST, which revz
+    /// reverses by default), then into the host buffer.
+    Image,
+    /// The same through a second image that shaders may sample (SAMPLED: revz keeps it
+    /// native), so the image copy crosses conventions.
+    NativeImage,
+    /// `vkCmdCopyImageToBuffer` into a device buffer, `vkCmdCopyBufferToImage` into a second
+    /// depth image, then into the host buffer: a round trip through the application's bytes.
+    Buffer,
+}
+
+impl DepthRoute {
+    /// The second image's usage, if the route has one.
+    fn image_usage(self) -> Option<vk::ImageUsageFlags> {
+        let copied = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+        match self {
+            DepthRoute::Direct => None,
+            DepthRoute::Image | DepthRoute::Buffer => Some(copied),
+            DepthRoute::NativeImage => Some(copied | vk::ImageUsageFlags::SAMPLED),
+        }
+    }
+}
+
+/// How the depth is read back: its route, the padding of the host buffer's rows, and which
+/// copy commands record it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DepthReadback {
+    pub route: DepthRoute,
+    /// Texels of padding after each row in the host buffer (`bufferRowLength` = width +
+    /// padding). The padding is filled with [`PADDING_BYTE`] before the render and must hold
+    /// it after: a copy may write only the texels.
+    pub row_padding: u32,
+    /// Record the copies with the `*2` commands (`vkCmdCopyImageToBuffer2`, ...; Vulkan 1.3).
+    pub copy2: bool,
+}
+
+/// What the host buffer's row padding holds before and after the render.
+pub const PADDING_BYTE: u8 = 0xA5;
 
 /// Host-visible buffers receiving the color image and the depth aspect of the depth image.
 #[derive(Debug)]
@@ -25,6 +73,11 @@ pub struct Readback<'a> {
     depth: Option<HostBuffer<'a>>,
     extent: vk::Extent2D,
     depth_format: DepthFormat,
+    options: DepthReadback,
+    /// The route's second depth image.
+    second: Option<Attachment<'a>>,
+    /// The `buffer` route's device buffer.
+    staging: Option<HostBuffer<'a>>,
 }
 
 /// What was rendered, on the host.
@@ -44,27 +97,48 @@ pub struct Frame {
 
 impl<'a> Readback<'a> {
     /// Creates the read-back buffers for `targets` (none for depth unless `depth`).
-    pub fn new(gpu: &'a Gpu, targets: &Targets<'_>, depth: bool) -> Result<Self> {
+    pub fn new(
+        gpu: &'a Gpu,
+        targets: &Targets<'_>,
+        depth: bool,
+        options: DepthReadback,
+    ) -> Result<Self> {
         let pixels = targets.pixel_count();
         let color = HostBuffer::new(gpu, pixels * 4, vk::BufferUsageFlags::TRANSFER_DST)
             .context("color read-back buffer")?;
-        let depth = if depth {
-            Some(
-                HostBuffer::new(
-                    gpu,
-                    pixels * targets.depth_format.depth_copy_texel_size(),
-                    vk::BufferUsageFlags::TRANSFER_DST,
-                )
-                .context("depth read-back buffer")?,
-            )
-        } else {
-            None
-        };
+        let texel = targets.depth_format.depth_copy_texel_size();
+        let extent = targets.extent;
+        let padded = (extent.width + options.row_padding) as usize * extent.height as usize;
+        let (mut depth_buffer, mut second, mut staging) = (None, None, None);
+        if depth {
+            let mut buffer =
+                HostBuffer::new(gpu, padded * texel, vk::BufferUsageFlags::TRANSFER_DST)
+                    .context("depth read-back buffer")?;
+            buffer.write(&vec![PADDING_BYTE; padded * texel]);
+            depth_buffer = Some(buffer);
+            if let Some(usage) = options.route.image_usage() {
+                let format = targets.depth_format;
+                second = Some(
+                    Attachment::copied(gpu, format.vk_format(), usage, extent)
+                        .context("the depth route's second image")?,
+                );
+            }
+            if options.route == DepthRoute::Buffer {
+                let usage = vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
+                staging = Some(
+                    HostBuffer::new(gpu, pixels * texel, usage)
+                        .context("the depth route's device buffer")?,
+                );
+            }
+        }
         Ok(Readback {
             color,
-            depth,
-            extent: targets.extent,
+            depth: depth_buffer,
+            extent,
             depth_format: targets.depth_format,
+            options,
+            second,
+            staging,
         })
     }
 
@@ -102,24 +176,19 @@ impl<'a> Readback<'a> {
                     .subresource_range(full_range(targets.depth_format.aspects())),
             );
         }
-        let extent = vk::Extent3D {
-            width: self.extent.width,
-            height: self.extent.height,
-            depth: 1,
-        };
-        let region = |aspect| vk::BufferImageCopy {
-            buffer_offset: 0,
-            buffer_row_length: 0,
-            buffer_image_height: 0,
-            image_subresource: vk::ImageSubresourceLayers {
-                aspect_mask: aspect,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            },
-            image_offset: vk::Offset3D { x: 0, y: 0, z: 0 },
-            image_extent: extent,
-        };
+        if let Some(second) = &self.second {
+            // The route's second image: written first, by a copy.
+            to_transfer.push(
+                vk::ImageMemoryBarrier::default()
+                    .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .old_layout(vk::ImageLayout::UNDEFINED)
+                    .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(second.image)
+                    .subresource_range(full_range(targets.depth_format.aspects())),
+            );
+        }
         let to_host: Vec<vk::BufferMemoryBarrier<'_>> = std::iter::once(&self.color)
             .chain(self.depth.as_ref())
             .map(|buffer| {
@@ -134,12 +203,13 @@ impl<'a> Readback<'a> {
             })
             .collect();
         // SAFETY: `cmd` is recording outside a render pass; the images and buffers are valid,
-        // the buffers are large enough for tightly packed copies of the whole images, and the
-        // depth image has TRANSFER_SRC usage whenever a depth buffer exists.
+        // the buffers are large enough for the copies of the whole images, and the depth
+        // image has TRANSFER_SRC usage whenever a depth buffer exists.
         unsafe {
             device.cmd_pipeline_barrier(
                 cmd,
-                vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+                vk::PipelineStageFlags::TOP_OF_PIPE
+                    | vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
                     | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
                     | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS,
                 vk::PipelineStageFlags::TRANSFER,
@@ -153,17 +223,14 @@ impl<'a> Readback<'a> {
                 targets.color.image,
                 vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 self.color.buffer,
-                &[region(vk::ImageAspectFlags::COLOR)],
+                &[self.region(vk::ImageAspectFlags::COLOR, 0)],
             );
-            if let Some(depth) = &self.depth {
-                device.cmd_copy_image_to_buffer(
-                    cmd,
-                    targets.depth.image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    depth.buffer,
-                    &[region(vk::ImageAspectFlags::DEPTH)],
-                );
-            }
+        }
+        if let Some(depth) = &self.depth {
+            self.record_depth(device, cmd, targets.depth.image, depth.buffer);
+        }
+        // SAFETY: as above.
+        unsafe {
             device.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TRANSFER,
@@ -176,12 +243,109 @@ impl<'a> Readback<'a> {
         }
     }
 
+    /// A copy region of the whole image's `aspect`, with `row_length` texels per buffer row
+    /// (0: tight).
+    fn region(&self, aspect: vk::ImageAspectFlags, row_length: u32) -> vk::BufferImageCopy {
+        vk::BufferImageCopy {
+            buffer_offset: 0,
+            buffer_row_length: row_length,
+            buffer_image_height: 0,
+            image_subresource: vk::ImageSubresourceLayers {
+                aspect_mask: aspect,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            },
+            image_offset: vk::Offset3D { x: 0, y: 0, z: 0 },
+            image_extent: vk::Extent3D {
+                width: self.extent.width,
+                height: self.extent.height,
+                depth: 1,
+            },
+        }
+    }
+
+    /// The depth aspect's copies along the route, into `host` (the depth image is in
+    /// TRANSFER_SRC_OPTIMAL, the second image in TRANSFER_DST_OPTIMAL).
+    fn record_depth(
+        &self,
+        device: &ash::Device,
+        cmd: vk::CommandBuffer,
+        image: vk::Image,
+        host: vk::Buffer,
+    ) {
+        let depth = vk::ImageAspectFlags::DEPTH;
+        let padded = match self.options.row_padding {
+            0 => 0,
+            padding => self.extent.width + padding,
+        };
+        let copies = Copies {
+            device,
+            cmd,
+            copy2: self.options.copy2,
+        };
+        let Some(second) = &self.second else {
+            copies.image_to_buffer(image, host, self.region(depth, padded));
+            return;
+        };
+        let layers = self.region(depth, 0).image_subresource;
+        match self.options.route {
+            DepthRoute::Buffer => {
+                let staging = self
+                    .staging
+                    .as_ref()
+                    .expect("the buffer route has a device buffer");
+                copies.image_to_buffer(image, staging.buffer, self.region(depth, 0));
+                copies.barrier(
+                    vk::BufferMemoryBarrier::default()
+                        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                        .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
+                        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                        .buffer(staging.buffer)
+                        .size(vk::WHOLE_SIZE),
+                    None,
+                );
+                copies.buffer_to_image(staging.buffer, second.image, self.region(depth, 0));
+            }
+            _ => copies.image_to_image(
+                image,
+                second.image,
+                vk::ImageCopy {
+                    src_subresource: layers,
+                    src_offset: vk::Offset3D::default(),
+                    dst_subresource: layers,
+                    dst_offset: vk::Offset3D::default(),
+                    extent: self.region(depth, 0).image_extent,
+                },
+            ),
+        }
+        copies.barrier(
+            vk::BufferMemoryBarrier::default(),
+            Some(
+                vk::ImageMemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
+                    .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                    .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(second.image)
+                    .subresource_range(full_range(self.depth_format.aspects())),
+            ),
+        );
+        copies.image_to_buffer(second.image, host, self.region(depth, padded));
+    }
+
     /// The read-back contents (call only after the render's fence has signalled).
     pub fn frame(&self) -> Result<Frame> {
         let pixels = self.extent.width as usize * self.extent.height as usize;
         let rgba = self.color.contents()[..pixels * 4].to_vec();
         let depth = match &self.depth {
-            Some(depth) => Some(decode_depth(self.depth_format, depth.contents(), pixels)?),
+            Some(depth) => {
+                let packed = self.unpadded(depth.contents())?;
+                Some(decode_depth(self.depth_format, &packed, pixels)?)
+            }
             None => None,
         };
         Ok(Frame {
@@ -192,6 +356,145 @@ impl<'a> Readback<'a> {
             depth,
         })
     }
+}
+
+impl Readback<'_> {
+    /// The host buffer's texels without the row padding; an error if a copy wrote into the
+    /// padding.
+    fn unpadded(&self, bytes: &[u8]) -> Result<Vec<u8>> {
+        let padding = self.options.row_padding as usize;
+        if padding == 0 {
+            return Ok(bytes.to_vec());
+        }
+        let texel = self.depth_format.depth_copy_texel_size();
+        let (width, height) = (self.extent.width as usize, self.extent.height as usize);
+        let row = (width + padding) * texel;
+        let mut packed = Vec::with_capacity(width * height * texel);
+        for y in 0..height {
+            let line = &bytes[y * row..(y + 1) * row];
+            let (texels, pad) = line.split_at(width * texel);
+            if let Some(i) = pad.iter().position(|&b| b != PADDING_BYTE) {
+                bail!(
+                    "a depth copy wrote into the read-back buffer's row padding (row {y}, byte \
+                     {i} of the padding holds {:#04x})",
+                    pad[i]
+                );
+            }
+            packed.extend_from_slice(texels);
+        }
+        Ok(packed)
+    }
+}
+
+/// Records copies with the `1.0` commands or their `*2` twins.
+struct Copies<'a> {
+    device: &'a ash::Device,
+    cmd: vk::CommandBuffer,
+    copy2: bool,
+}
+
+impl Copies<'_> {
+    fn image_to_buffer(&self, image: vk::Image, buffer: vk::Buffer, region: vk::BufferImageCopy) {
+        let layout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+        // SAFETY: a recording command buffer outside a render pass; `image` is in `layout`
+        // with TRANSFER_SRC usage and `buffer` holds the region.
+        unsafe {
+            if self.copy2 {
+                let regions = [region2(region)];
+                let info = vk::CopyImageToBufferInfo2::default()
+                    .src_image(image)
+                    .src_image_layout(layout)
+                    .dst_buffer(buffer)
+                    .regions(&regions);
+                self.device.cmd_copy_image_to_buffer2(self.cmd, &info);
+            } else {
+                self.device
+                    .cmd_copy_image_to_buffer(self.cmd, image, layout, buffer, &[region]);
+            }
+        }
+    }
+
+    fn buffer_to_image(&self, buffer: vk::Buffer, image: vk::Image, region: vk::BufferImageCopy) {
+        let layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+        // SAFETY: as above, `image` in `layout` with TRANSFER_DST usage.
+        unsafe {
+            if self.copy2 {
+                let regions = [region2(region)];
+                let info = vk::CopyBufferToImageInfo2::default()
+                    .src_buffer(buffer)
+                    .dst_image(image)
+                    .dst_image_layout(layout)
+                    .regions(&regions);
+                self.device.cmd_copy_buffer_to_image2(self.cmd, &info);
+            } else {
+                self.device
+                    .cmd_copy_buffer_to_image(self.cmd, buffer, image, layout, &[region]);
+            }
+        }
+    }
+
+    fn image_to_image(&self, src: vk::Image, dst: vk::Image, region: vk::ImageCopy) {
+        let (src_layout, dst_layout) = (
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        );
+        // SAFETY: as above.
+        unsafe {
+            if self.copy2 {
+                let regions = [vk::ImageCopy2::default()
+                    .src_subresource(region.src_subresource)
+                    .src_offset(region.src_offset)
+                    .dst_subresource(region.dst_subresource)
+                    .dst_offset(region.dst_offset)
+                    .extent(region.extent)];
+                let info = vk::CopyImageInfo2::default()
+                    .src_image(src)
+                    .src_image_layout(src_layout)
+                    .dst_image(dst)
+                    .dst_image_layout(dst_layout)
+                    .regions(&regions);
+                self.device.cmd_copy_image2(self.cmd, &info);
+            } else {
+                self.device
+                    .cmd_copy_image(self.cmd, src, src_layout, dst, dst_layout, &[region]);
+            }
+        }
+    }
+
+    /// A TRANSFER -> TRANSFER barrier: `buffer` (skipped when its handle is null) and `image`.
+    fn barrier(
+        &self,
+        buffer: vk::BufferMemoryBarrier<'_>,
+        image: Option<vk::ImageMemoryBarrier<'_>>,
+    ) {
+        let buffers: Vec<_> = std::iter::once(buffer)
+            .filter(|b| b.buffer != vk::Buffer::null())
+            .collect();
+        let images: Vec<_> = image.into_iter().collect();
+        // SAFETY: as above.
+        unsafe {
+            self.device.cmd_pipeline_barrier(
+                self.cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &buffers,
+                &images,
+            )
+        }
+    }
+}
+
+/// A `1.0` region as its `*2` twin.
+fn region2(region: vk::BufferImageCopy) -> vk::BufferImageCopy2<'static> {
+    vk::BufferImageCopy2::default()
+        .buffer_offset(region.buffer_offset)
+        .buffer_row_length(region.buffer_row_length)
+        .buffer_image_height(region.buffer_image_height)
+        .image_subresource(region.image_subresource)
+        .image_offset(region.image_offset)
+        .image_extent(region.image_extent)
 }
 
 /// Decodes `count` texels of a DEPTH-aspect buffer copy to f32 (computed in f64, rounded

@@ -740,9 +740,20 @@ impl<'a> Renderer<'a> {
             .check(scene.objects.len(), scene.light.is_some())
             .with_context(|| format!("scene '{}' has a malformed plan", scene.name))?;
 
+        // A render after the first records the command buffers again: the last submission
+        // has completed (its fence was waited on).
+        // SAFETY: no command buffer of the pool is pending; the fence is not in use.
+        unsafe {
+            device
+                .reset_command_pool(self.command_pool, vk::CommandPoolResetFlags::empty())
+                .context("vkResetCommandPool failed")?;
+            device
+                .reset_fences(&[self.fence])
+                .context("vkResetFences failed")?;
+        }
         let begin_info = vk::CommandBufferBeginInfo::default()
             .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-        // SAFETY: fresh command buffer from a pool of this device, not in use.
+        // SAFETY: a command buffer of this device's pool, reset and not in use.
         unsafe { device.begin_command_buffer(cmd, &begin_info) }
             .context("vkBeginCommandBuffer failed")?;
         let mut recorder = Recorder {

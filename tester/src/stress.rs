@@ -172,6 +172,7 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
     let gpu = Gpu::new(&GpuOptions {
         device: args.device.clone(),
         validation: args.validation,
+        sync_validation: false,
         max_api_version: None,
         features: Features::default(),
     })?;
@@ -191,7 +192,7 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
         };
         let targets = Targets::new(&gpu, args.size, args.size, args.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;
-        let readback = Readback::new(&gpu, &targets, true)?;
+        let readback = Readback::new(&gpu, &targets, true, Default::default())?;
         let renderer = Renderer::new(&gpu, &targets, &scene)?;
         let start = Instant::now();
         let mut first: Option<Frame> = None;

@@ -178,6 +178,35 @@ impl<'a> Attachment<'a> {
         extent: vk::Extent2D,
         samples: vk::SampleCountFlags,
     ) -> Result<Self> {
+        Self::create(gpu, format, Some(aspects), usage, extent, samples)
+    }
+
+    /// Creates a 2D single-sample image only copied to and from (no view: `usage` may have
+    /// no usage a view needs).
+    pub fn copied(
+        gpu: &'a Gpu,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        extent: vk::Extent2D,
+    ) -> Result<Self> {
+        Self::create(
+            gpu,
+            format,
+            None,
+            usage,
+            extent,
+            vk::SampleCountFlags::TYPE_1,
+        )
+    }
+
+    fn create(
+        gpu: &'a Gpu,
+        format: vk::Format,
+        view_aspects: Option<vk::ImageAspectFlags>,
+        usage: vk::ImageUsageFlags,
+        extent: vk::Extent2D,
+        samples: vk::SampleCountFlags,
+    ) -> Result<Self> {
         let mut this = Attachment {
             device: &gpu.device,
             image: vk::Image::null(),
@@ -213,6 +242,9 @@ impl<'a> Attachment<'a> {
         // SAFETY: fresh image and memory of a compatible type and sufficient size.
         unsafe { gpu.device.bind_image_memory(this.image, this.memory, 0) }
             .context("vkBindImageMemory failed")?;
+        let Some(aspects) = view_aspects else {
+            return Ok(this);
+        };
         let view_info = vk::ImageViewCreateInfo::default()
             .image(this.image)
             .view_type(vk::ImageViewType::TYPE_2D)

@@ -331,6 +331,151 @@ pub fn row_copies(
     }
 }
 
+/// A copy between an image and a buffer, split: its depth regions go through the scratch
+/// buffer, the others (stencil) go down as they are.
+#[derive(Clone, Debug)]
+pub struct BufferCopyPlan {
+    pub layout: ScratchLayout,
+    /// The depth regions between the image and the scratch buffer (tightly packed).
+    pub image_regions: Vec<vk::BufferImageCopy>,
+    /// The copies between the scratch buffer and the application's buffer.
+    pub buffer_copies: Vec<vk::BufferCopy>,
+    /// Indices of the application's regions that are not depth: sent down unchanged.
+    pub rest: Vec<usize>,
+}
+
+/// Plans a copy between a depth image and a buffer (either way: `to_buffer`). `None` when
+/// no region copies depth, or a region's layer count is not explicit
+/// (`VK_REMAINING_ARRAY_LAYERS`) or its texels do not fit one conversion.
+pub fn plan_buffer_copy(
+    regions: &[vk::BufferImageCopy],
+    kind: TexelKind,
+    to_buffer: bool,
+) -> Option<BufferCopyPlan> {
+    let is_depth =
+        |r: &vk::BufferImageCopy| r.image_subresource.aspect_mask == vk::ImageAspectFlags::DEPTH;
+    let depth: Vec<&vk::BufferImageCopy> = regions.iter().filter(|r| is_depth(r)).collect();
+    if depth.is_empty()
+        || depth
+            .iter()
+            .any(|r| r.image_subresource.layer_count == vk::REMAINING_ARRAY_LAYERS)
+    {
+        return None;
+    }
+    let layout = scratch_layout(
+        depth
+            .iter()
+            .map(|r| (r.image_extent, r.image_subresource.layer_count)),
+        kind,
+    )?;
+    let mut buffer_copies = Vec::new();
+    let image_regions = depth
+        .iter()
+        .zip(&layout.regions)
+        .map(|(region, scratch)| {
+            let application = BufferRegion {
+                offset: region.buffer_offset,
+                row_length: region.buffer_row_length,
+                image_height: region.buffer_image_height,
+                extent: region.image_extent,
+                layers: region.image_subresource.layer_count,
+            };
+            row_copies(
+                application,
+                scratch.offset,
+                kind,
+                to_buffer,
+                &mut buffer_copies,
+            );
+            vk::BufferImageCopy {
+                buffer_offset: scratch.offset,
+                buffer_row_length: 0,
+                buffer_image_height: 0,
+                ..**region
+            }
+        })
+        .collect();
+    let rest = (0..regions.len())
+        .filter(|&i| !is_depth(&regions[i]))
+        .collect();
+    Some(BufferCopyPlan {
+        layout,
+        image_regions,
+        buffer_copies,
+        rest,
+    })
+}
+
+/// A copy between two depth images of different conventions, split: the depth aspect of each
+/// region goes through the scratch buffer, the rest (stencil) goes down.
+#[derive(Clone, Debug)]
+pub struct ImageCopyPlan {
+    pub layout: ScratchLayout,
+    /// Source image -> scratch.
+    pub from_source: Vec<vk::BufferImageCopy>,
+    /// Scratch -> destination image.
+    pub to_destination: Vec<vk::BufferImageCopy>,
+    /// The application's regions still sent down, with the aspects left to them (`STENCIL`
+    /// where a region copied depth and stencil; unchanged where it copied no depth).
+    pub rest: Vec<(usize, vk::ImageAspectFlags)>,
+}
+
+/// Plans an image copy whose depth must change convention (`None` as for
+/// [`plan_buffer_copy`]).
+pub fn plan_image_copy(regions: &[vk::ImageCopy], kind: TexelKind) -> Option<ImageCopyPlan> {
+    let depth = vk::ImageAspectFlags::DEPTH;
+    let copies_depth = |r: &vk::ImageCopy| r.src_subresource.aspect_mask.contains(depth);
+    let converted: Vec<&vk::ImageCopy> = regions.iter().filter(|r| copies_depth(r)).collect();
+    if converted.is_empty()
+        || converted
+            .iter()
+            .any(|r| r.src_subresource.layer_count == vk::REMAINING_ARRAY_LAYERS)
+    {
+        return None;
+    }
+    let layout = scratch_layout(
+        converted
+            .iter()
+            .map(|r| (r.extent, r.src_subresource.layer_count)),
+        kind,
+    )?;
+    let only_depth = |subresource: vk::ImageSubresourceLayers| vk::ImageSubresourceLayers {
+        aspect_mask: depth,
+        ..subresource
+    };
+    let (mut from_source, mut to_destination) = (Vec::new(), Vec::new());
+    for (region, scratch) in converted.iter().zip(&layout.regions) {
+        let packed = |subresource, offset| vk::BufferImageCopy {
+            buffer_offset: scratch.offset,
+            buffer_row_length: 0,
+            buffer_image_height: 0,
+            image_subresource: only_depth(subresource),
+            image_offset: offset,
+            image_extent: region.extent,
+        };
+        from_source.push(packed(region.src_subresource, region.src_offset));
+        to_destination.push(packed(region.dst_subresource, region.dst_offset));
+    }
+    let rest = regions
+        .iter()
+        .enumerate()
+        .filter_map(|(i, region)| {
+            let left = region.src_subresource.aspect_mask & !depth;
+            match (copies_depth(region), left.is_empty()) {
+                (false, _) => Some((i, region.src_subresource.aspect_mask)),
+                (true, false) => Some((i, left)),
+                (true, true) => None,
+            }
+        })
+        .collect();
+    Some(ImageCopyPlan {
+        layout,
+        from_source,
+        to_destination,
+        rest,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -445,6 +590,90 @@ mod tests {
         );
         assert_eq!(layout.size, 48);
         assert_eq!(layout.words, 4);
+    }
+
+    fn layers(aspect: vk::ImageAspectFlags, count: u32) -> vk::ImageSubresourceLayers {
+        vk::ImageSubresourceLayers {
+            aspect_mask: aspect,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: count,
+        }
+    }
+
+    #[test]
+    fn buffer_copies_split_depth_from_stencil_regions() {
+        let region = |aspect, offset| vk::BufferImageCopy {
+            buffer_offset: offset,
+            buffer_row_length: 8,
+            buffer_image_height: 0,
+            image_subresource: layers(aspect, 1),
+            image_offset: vk::Offset3D { x: 1, y: 2, z: 0 },
+            image_extent: extent(4, 2),
+        };
+        let regions = [
+            region(vk::ImageAspectFlags::STENCIL, 0),
+            region(vk::ImageAspectFlags::DEPTH, 256),
+        ];
+        let plan = plan_buffer_copy(&regions, TexelKind::Float32, true).unwrap();
+        assert_eq!(plan.rest, [0]);
+        assert_eq!(plan.image_regions.len(), 1);
+        let packed = plan.image_regions[0];
+        assert_eq!(
+            (
+                packed.buffer_offset,
+                packed.buffer_row_length,
+                packed.image_offset.x
+            ),
+            (HEADER_BYTES, 0, 1)
+        );
+        // Two rows of 16 bytes, the application's 32 bytes apart.
+        let copies: Vec<_> = plan
+            .buffer_copies
+            .iter()
+            .map(|c| (c.src_offset, c.dst_offset, c.size))
+            .collect();
+        assert_eq!(copies, [(32, 256, 16), (48, 288, 16)]);
+        assert!(plan_buffer_copy(&regions[..1], TexelKind::Float32, true).is_none());
+        let remaining = vk::BufferImageCopy {
+            image_subresource: layers(vk::ImageAspectFlags::DEPTH, vk::REMAINING_ARRAY_LAYERS),
+            ..regions[1]
+        };
+        assert!(plan_buffer_copy(&[remaining], TexelKind::Float32, true).is_none());
+    }
+
+    #[test]
+    fn image_copies_convert_depth_and_leave_stencil_to_the_application_s_copy() {
+        let both = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+        let region = |aspect| vk::ImageCopy {
+            src_subresource: layers(aspect, 2),
+            src_offset: vk::Offset3D::default(),
+            dst_subresource: vk::ImageSubresourceLayers {
+                base_array_layer: 3,
+                ..layers(aspect, 2)
+            },
+            dst_offset: vk::Offset3D { x: 5, y: 0, z: 0 },
+            extent: extent(4, 4),
+        };
+        let regions = [region(both), region(vk::ImageAspectFlags::STENCIL)];
+        let plan = plan_image_copy(&regions, TexelKind::Unorm24).unwrap();
+        assert_eq!(
+            plan.rest,
+            [
+                (0, vk::ImageAspectFlags::STENCIL),
+                (1, vk::ImageAspectFlags::STENCIL)
+            ]
+        );
+        assert_eq!(plan.layout.words, 32);
+        let (from, to) = (plan.from_source[0], plan.to_destination[0]);
+        assert_eq!(
+            from.image_subresource.aspect_mask,
+            vk::ImageAspectFlags::DEPTH
+        );
+        assert_eq!(to.image_subresource.base_array_layer, 3);
+        assert_eq!((from.buffer_offset, to.buffer_offset), (32, 32));
+        assert_eq!(to.image_offset.x, 5);
+        assert!(plan_image_copy(&regions[1..], TexelKind::Unorm24).is_none());
     }
 
     /// Every byte the application's copy would write is written once, nothing else (padding

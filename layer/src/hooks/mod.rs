@@ -254,6 +254,32 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdBlitImage2" | b"vkCmdBlitImage2KHR" => {
             void_fn!(vk::PFN_vkCmdBlitImage2, c::cmd_blit_image2)
         }
+        b"vkCmdCopyImageToBuffer" => {
+            void_fn!(vk::PFN_vkCmdCopyImageToBuffer, c::cmd_copy_image_to_buffer)
+        }
+        b"vkCmdCopyImageToBuffer2" | b"vkCmdCopyImageToBuffer2KHR" => void_fn!(
+            vk::PFN_vkCmdCopyImageToBuffer2,
+            c::cmd_copy_image_to_buffer2
+        ),
+        // The compute state a converted copy's dispatch disturbs, bound again after it.
+        b"vkCmdBindDescriptorSets" => {
+            void_fn!(vk::PFN_vkCmdBindDescriptorSets, c::cmd_bind_descriptor_sets)
+        }
+        b"vkCmdPushDescriptorSet" | b"vkCmdPushDescriptorSetKHR" => void_fn!(
+            vk::PFN_vkCmdPushDescriptorSetKHR,
+            c::cmd_push_descriptor_set_khr
+        ),
+        b"vkCmdBindDescriptorSets2" | b"vkCmdBindDescriptorSets2KHR" => void_fn!(
+            vk::PFN_vkCmdBindDescriptorSets2KHR,
+            c::cmd_bind_descriptor_sets2
+        ),
+        b"vkCmdSetDescriptorBufferOffsetsEXT" => void_fn!(
+            vk::PFN_vkCmdSetDescriptorBufferOffsetsEXT,
+            c::cmd_set_descriptor_buffer_offsets_ext
+        ),
+        b"vkCreateCommandPool" => {
+            void_fn!(vk::PFN_vkCreateCommandPool, r::create_command_pool)
+        }
         b"vkCmdSetDepthBias2EXT" => void_fn!(vk::PFN_vkCmdSetDepthBias2EXT, c::cmd_set_depth_bias2),
         b"vkCmdExecuteCommands" => {
             void_fn!(vk::PFN_vkCmdExecuteCommands, c::cmd_execute_commands)

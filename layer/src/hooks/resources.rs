@@ -21,6 +21,7 @@ static DESTROY_IMAGE_VIEW: EntryPoint = EntryPoint::new("vkDestroyImageView");
 static ALLOCATE_COMMAND_BUFFERS: EntryPoint = EntryPoint::new("vkAllocateCommandBuffers");
 static FREE_COMMAND_BUFFERS: EntryPoint = EntryPoint::new("vkFreeCommandBuffers");
 static DESTROY_COMMAND_POOL: EntryPoint = EntryPoint::new("vkDestroyCommandPool");
+static CREATE_COMMAND_POOL: EntryPoint = EntryPoint::new("vkCreateCommandPool");
 
 /// What revz creates a depth image as: its own create info, or a promoted copy
 /// (`crate::policy::DevicePolicy::promoted_format`), with the copies it points into.
@@ -433,6 +434,32 @@ pub unsafe extern "system" fn free_command_buffers(
     };
 }
 
+/// `vkCreateCommandPool`: the pool's queue family says whether its command buffers can
+/// dispatch (converted copies need compute).
+pub unsafe extern "system" fn create_command_pool(
+    device: vk::Device,
+    p_create_info: *const vk::CommandPoolCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_pool: *mut vk::CommandPool,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe {
+        (state.next.fp_v1_0().create_command_pool)(device, p_create_info, p_allocator, p_pool)
+    };
+    if result == vk::Result::SUCCESS {
+        record(&CREATE_COMMAND_POOL, || {
+            // SAFETY: valid on success.
+            let (info, pool) = unsafe { (&*p_create_info, *p_pool) };
+            state.copies.note_pool(pool, info.queue_family_index);
+        });
+    }
+    result
+}
+
 pub unsafe extern "system" fn destroy_command_pool(
     device: vk::Device,
     command_pool: vk::CommandPool,
@@ -443,6 +470,7 @@ pub unsafe extern "system" fn destroy_command_pool(
         return;
     };
     record(&DESTROY_COMMAND_POOL, || {
+        state.copies.forget_pool(command_pool);
         if let Some(pool) = state.objects.pools.remove(&command_pool) {
             let buffers = pool
                 .lock()

@@ -189,6 +189,7 @@ fn run_child(args: &BenchArgs, role: Role) -> Result<ExitCode> {
     let gpu = Gpu::new(&GpuOptions {
         device: args.device.clone(),
         validation: args.validation,
+        sync_validation: false,
         features: Features::default(),
         max_api_version: None,
     })?;

@@ -7,9 +7,11 @@
 //! By concern: this file holds the shared plumbing (the next layer as a state sink, the lookup
 //! of a command buffer's state), push constants, the depth state setters, binds and draws;
 //! [`passes`] the render pass and dynamic rendering begins, subpasses and ends; [`transfers`]
-//! clears, copies and blits into depth images; [`secondaries`] command buffer begins (what a
-//! secondary inherits) and `vkCmdExecuteCommands`.
+//! clears and blits of depth images; [`copies`] copies of depth images (converted where one end
+//! is reversed) and the compute binds they restore; [`secondaries`] command buffer begins
+//! (what a secondary inherits) and `vkCmdExecuteCommands`.
 
+mod copies;
 mod passes;
 mod secondaries;
 mod transfers;
@@ -29,6 +31,7 @@ use crate::policy::{secondary_target, Convention};
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
+pub use copies::*;
 pub use passes::*;
 pub use secondaries::*;
 pub use transfers::*;
@@ -540,6 +543,9 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
             if bind_point == vk::PipelineBindPoint::GRAPHICS {
                 let depth = entry.device.objects.pipelines.get(&pipeline);
                 entry.state().bind_pipeline(depth);
+            } else if bind_point == vk::PipelineBindPoint::COMPUTE {
+                // Bound again after a converted copy's dispatch.
+                entry.copies().compute.bind_pipeline(pipeline);
             }
         },
         (),

@@ -1,5 +1,6 @@
-//! Clears, copies and blits that write depth images: clear values of reversed images are
-//! flipped; copies and blits into reversed images are warned about (not converted yet, #21).
+//! Clears and blits of depth images: clear values of reversed images are flipped; blits
+//! between a reversed and a native image are warned about (not converted: they may scale).
+//! Copies are converted in [`super::copies`].
 
 #![allow(clippy::wildcard_imports)]
 
@@ -96,56 +97,15 @@ pub(super) fn clears_depth(ranges: &[vk::ImageSubresourceRange]) -> bool {
         .any(|range| range.aspect_mask.contains(vk::ImageAspectFlags::DEPTH))
 }
 
-/// Warns once when a transfer writes into a reversed depth image: the values it writes keep
-/// the standard convention (not converted yet).
-pub(super) fn check_transfer_destination(entry: &CommandBufferEntry, image: vk::Image) {
-    static WARNED: std::sync::Once = std::sync::Once::new();
-    if entry.device.objects.image_reversed(image) {
-        WARNED.call_once(|| {
-            log::warn!(
-                "a copy or blit writes into reversed depth image {image:?}: the values it writes \
-                 keep standard depth (not converted yet)"
-            )
-        });
-    }
-}
-
-pub unsafe extern "system" fn cmd_copy_buffer_to_image(
-    buffer: vk::CommandBuffer,
-    src: vk::Buffer,
-    dst: vk::Image,
-    layout: vk::ImageLayout,
-    count: u32,
-    p_regions: *const vk::BufferImageCopy,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyBufferToImage");
-    if let Some(device) = with_entry(buffer, &ENTRY, |e| check_transfer_destination(e, dst)) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe {
-            (device.next.fp_v1_0().cmd_copy_buffer_to_image)(
-                buffer, src, dst, layout, count, p_regions,
-            )
-        }
-    }
-}
-
-pub unsafe extern "system" fn cmd_copy_image(
-    buffer: vk::CommandBuffer,
-    src: vk::Image,
-    src_layout: vk::ImageLayout,
-    dst: vk::Image,
-    dst_layout: vk::ImageLayout,
-    count: u32,
-    p_regions: *const vk::ImageCopy,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyImage");
-    if let Some(device) = with_entry(buffer, &ENTRY, |e| check_transfer_destination(e, dst)) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe {
-            (device.next.fp_v1_0().cmd_copy_image)(
-                buffer, src, src_layout, dst, dst_layout, count, p_regions,
-            )
-        }
+/// Warns once when a blit has a reversed depth image at one end and standard depth at the
+/// other: blits are not converted (they may scale).
+fn check_blit(entry: &CommandBufferEntry, src: vk::Image, dst: vk::Image) {
+    let objects = &entry.device.objects;
+    if objects.image_reversed(src) != objects.image_reversed(dst) {
+        entry
+            .device
+            .copies
+            .warn_unconverted(crate::policy::Unconverted::Blit);
     }
 }
 
@@ -160,7 +120,7 @@ pub unsafe extern "system" fn cmd_blit_image(
     filter: vk::Filter,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBlitImage");
-    if let Some(device) = with_entry(buffer, &ENTRY, |e| check_transfer_destination(e, dst)) {
+    if let Some(device) = with_entry(buffer, &ENTRY, |e| check_blit(e, src, dst)) {
         // SAFETY: calling down with the application's arguments.
         unsafe {
             (device.next.fp_v1_0().cmd_blit_image)(
@@ -170,45 +130,18 @@ pub unsafe extern "system" fn cmd_blit_image(
     }
 }
 
-/// Defines a hook for a `*2` transfer command: warn when it writes into a reversed image, then
-/// call down through whichever name the device has.
-macro_rules! transfer2_hook {
-    ($name:ident, $entry:literal, $info:ty, $command:ident) => {
-        #[doc = concat!("`", $entry, "`.")]
-        ///
-        /// # Safety
-        /// Called by the application with the arguments the Vulkan spec allows.
-        pub unsafe extern "system" fn $name(buffer: vk::CommandBuffer, p_info: *const $info) {
-            static ENTRY: EntryPoint = EntryPoint::new($entry);
-            let device = with_entry(buffer, &ENTRY, |entry| {
-                // SAFETY: a valid info (the application's contract).
-                check_transfer_destination(entry, unsafe { (*p_info).dst_image })
-            });
-            if let Some(next) = device.and_then(|d| d.commands.$command) {
-                // SAFETY: calling down with the application's arguments.
-                unsafe { next(buffer, p_info) }
-            }
-        }
-    };
+pub unsafe extern "system" fn cmd_blit_image2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::BlitImageInfo2<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBlitImage2");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid info (the application's contract).
+        let info = unsafe { &*p_info };
+        check_blit(entry, info.src_image, info.dst_image)
+    });
+    if let Some(next) = device.and_then(|d| d.commands.blit_image2) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_info) }
+    }
 }
-
-transfer2_hook!(
-    cmd_copy_buffer_to_image2,
-    "vkCmdCopyBufferToImage2",
-    vk::CopyBufferToImageInfo2<'_>,
-    copy_buffer_to_image2
-);
-
-transfer2_hook!(
-    cmd_copy_image2,
-    "vkCmdCopyImage2",
-    vk::CopyImageInfo2<'_>,
-    copy_image2
-);
-
-transfer2_hook!(
-    cmd_blit_image2,
-    "vkCmdBlitImage2",
-    vk::BlitImageInfo2<'_>,
-    blit_image2
-);

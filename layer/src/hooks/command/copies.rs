@@ -1,0 +1,638 @@
+//! Copies between depth images and buffers: where one end is a reversed image and the other
+//! holds standard depth, the depth regions are converted on the way (`crate::depth_copy`,
+//! decided by `crate::policy::CopyFacts::decide`) and the other regions (stencil) go down as
+//! the application gave them. The compute state the conversion disturbs is followed here
+//! too: compute pipeline and descriptor set binds.
+
+#![allow(clippy::wildcard_imports)]
+
+use super::*;
+use crate::depth_copy::plan::{
+    plan_buffer_copy, plan_image_copy, DepthMap, ShaderHeader, TexelKind,
+};
+use crate::depth_copy::record::{record, Conversion, Drain, Fill};
+use crate::policy::{CopyDecision, CopyDirection, CopyEnd, CopyFacts, Unconverted};
+
+/// What a copy end is, and how its depth lies in a buffer.
+fn image_end(device: &DeviceState, image: vk::Image) -> (CopyEnd, Option<TexelKind>) {
+    let Some(info) = device.objects.images.get(&image) else {
+        return (CopyEnd::Native, None);
+    };
+    let end = match device.observed.effective(match info.depth {
+        crate::policy::ImageDepth::Reversed => Target::Reversed,
+        crate::policy::ImageDepth::Native(_) => Target::Native,
+    }) {
+        Target::Reversed => CopyEnd::Reversed,
+        _ => CopyEnd::Native,
+    };
+    (end, TexelKind::of(info.promoted.unwrap_or(info.format)))
+}
+
+/// The decision for a copy between `source` and `destination`.
+fn decide(
+    entry: &CommandBufferEntry,
+    source: CopyEnd,
+    destination: CopyEnd,
+    depth_aspect: bool,
+    extended: bool,
+) -> CopyDecision {
+    if source != CopyEnd::Reversed && destination != CopyEnd::Reversed {
+        // The common case (no reversed end) takes no lock.
+        return CopyDecision::Unchanged;
+    }
+    CopyFacts {
+        source,
+        destination,
+        depth_aspect,
+        values: entry.device.settings.copy_values,
+        blit: false,
+        dispatchable: entry.dispatchable,
+        restorable: entry.copies().compute.restorable(),
+        extended,
+    }
+    .decide()
+}
+
+/// The map of a conversion in `direction` on this device now.
+fn depth_map(device: &DeviceState, direction: CopyDirection) -> DepthMap {
+    let reversal = device.reversing().reversal;
+    match direction {
+        CopyDirection::ToStandard => DepthMap::to_standard(reversal),
+        CopyDirection::ToReversed => DepthMap::to_reversed(reversal),
+    }
+}
+
+/// Records `conversion`; logs why not where it cannot.
+fn convert(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    conversion: &Conversion<'_>,
+) -> bool {
+    let mut copies = entry.copies();
+    // SAFETY: a recording command buffer of this device, outside a render pass (copies are
+    // only allowed there); its own scratch.
+    match unsafe { record(&entry.device, &mut copies, buffer, conversion) } {
+        Ok(()) => true,
+        Err(why) => {
+            entry.device.copies.warn_unconverted(why);
+            false
+        }
+    }
+}
+
+/// What a hook sends down after planning: the application's regions untouched, or only those
+/// left (by index, with the aspects left to them) after the depth was converted.
+enum Sent {
+    All,
+    Rest(Vec<(usize, vk::ImageAspectFlags)>),
+}
+
+/// Converts the depth regions of a copy between an image and a buffer, if the policy says so.
+fn image_buffer_copy(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    image: vk::Image,
+    layout: vk::ImageLayout,
+    other: vk::Buffer,
+    regions: &[vk::BufferImageCopy],
+    to_buffer: bool,
+    extended: bool,
+) -> Sent {
+    let (end, kind) = image_end(&entry.device, image);
+    let (source, destination) = if to_buffer {
+        (end, CopyEnd::Buffer)
+    } else {
+        (CopyEnd::Buffer, end)
+    };
+    let depth_aspect = regions
+        .iter()
+        .any(|r| r.image_subresource.aspect_mask == vk::ImageAspectFlags::DEPTH);
+    let direction = match decide(entry, source, destination, depth_aspect, extended) {
+        CopyDecision::Unchanged => return Sent::All,
+        CopyDecision::Unconverted(why) => {
+            entry.device.copies.warn_unconverted(why);
+            return Sent::All;
+        }
+        CopyDecision::Convert(direction) => direction,
+    };
+    let Some(plan) =
+        kind.and_then(|kind| plan_buffer_copy(regions, kind, to_buffer).map(|p| (kind, p)))
+    else {
+        entry.device.copies.warn_unconverted(Unconverted::Resources);
+        return Sent::All;
+    };
+    let (kind, plan) = plan;
+    let header = ShaderHeader::new(kind, depth_map(&entry.device, direction), plan.layout.words);
+    let (fill, drain) = if to_buffer {
+        (
+            Fill::Image {
+                image,
+                layout,
+                regions: &plan.image_regions,
+            },
+            Drain::Buffer {
+                buffer: other,
+                copies: &plan.buffer_copies,
+            },
+        )
+    } else {
+        (
+            Fill::Buffer {
+                buffer: other,
+                copies: &plan.buffer_copies,
+            },
+            Drain::Image {
+                image,
+                layout,
+                regions: &plan.image_regions,
+            },
+        )
+    };
+    let conversion = Conversion {
+        header,
+        size: plan.layout.size,
+        fill,
+        drain,
+    };
+    if !convert(entry, buffer, &conversion) {
+        return Sent::All;
+    }
+    Sent::Rest(
+        plan.rest
+            .iter()
+            .map(|&i| (i, regions[i].image_subresource.aspect_mask))
+            .collect(),
+    )
+}
+
+/// Converts the depth of an image copy between conventions, if the policy says so.
+#[allow(clippy::too_many_arguments)]
+fn image_image_copy(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    src: vk::Image,
+    src_layout: vk::ImageLayout,
+    dst: vk::Image,
+    dst_layout: vk::ImageLayout,
+    regions: &[vk::ImageCopy],
+    extended: bool,
+) -> Sent {
+    let (source, src_kind) = image_end(&entry.device, src);
+    let (destination, dst_kind) = image_end(&entry.device, dst);
+    let depth_aspect = regions.iter().any(|r| {
+        r.src_subresource
+            .aspect_mask
+            .contains(vk::ImageAspectFlags::DEPTH)
+    });
+    let direction = match decide(entry, source, destination, depth_aspect, extended) {
+        CopyDecision::Unchanged => return Sent::All,
+        CopyDecision::Unconverted(why) => {
+            entry.device.copies.warn_unconverted(why);
+            return Sent::All;
+        }
+        CopyDecision::Convert(direction) => direction,
+    };
+    // A depth copy needs one format at both ends (before VK_KHR_maintenance8).
+    let kind = src_kind.filter(|&kind| dst_kind == Some(kind));
+    let Some((kind, plan)) =
+        kind.and_then(|kind| plan_image_copy(regions, kind).map(|p| (kind, p)))
+    else {
+        entry.device.copies.warn_unconverted(Unconverted::Resources);
+        return Sent::All;
+    };
+    let conversion = Conversion {
+        header: ShaderHeader::new(kind, depth_map(&entry.device, direction), plan.layout.words),
+        size: plan.layout.size,
+        fill: Fill::Image {
+            image: src,
+            layout: src_layout,
+            regions: &plan.from_source,
+        },
+        drain: Drain::Image {
+            image: dst,
+            layout: dst_layout,
+            regions: &plan.to_destination,
+        },
+    };
+    if !convert(entry, buffer, &conversion) {
+        return Sent::All;
+    }
+    Sent::Rest(plan.rest)
+}
+
+/// The regions a hook sends down: all of them, or those left with their aspects narrowed.
+fn regions_left<R: Copy>(
+    regions: &[R],
+    sent: &Sent,
+    narrow: impl Fn(R, vk::ImageAspectFlags) -> R,
+) -> Option<Vec<R>> {
+    match sent {
+        Sent::All => None,
+        Sent::Rest(rest) => Some(
+            rest.iter()
+                .map(|&(i, aspect)| narrow(regions[i], aspect))
+                .collect(),
+        ),
+    }
+}
+
+fn narrow_buffer_image(
+    region: vk::BufferImageCopy,
+    aspect: vk::ImageAspectFlags,
+) -> vk::BufferImageCopy {
+    let mut region = region;
+    region.image_subresource.aspect_mask = aspect;
+    region
+}
+
+fn narrow_image(region: vk::ImageCopy, aspect: vk::ImageAspectFlags) -> vk::ImageCopy {
+    let mut region = region;
+    region.src_subresource.aspect_mask = aspect;
+    region.dst_subresource.aspect_mask = aspect;
+    region
+}
+
+pub unsafe extern "system" fn cmd_copy_image_to_buffer(
+    buffer: vk::CommandBuffer,
+    src: vk::Image,
+    layout: vk::ImageLayout,
+    dst: vk::Buffer,
+    count: u32,
+    p_regions: *const vk::BufferImageCopy,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyImageToBuffer");
+    // SAFETY: `count` regions (the application's contract).
+    let regions = unsafe { slice(p_regions, count) };
+    let mut left = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let sent = image_buffer_copy(entry, buffer, src, layout, dst, regions, true, false);
+        left = regions_left(regions, &sent, narrow_buffer_image);
+    });
+    let Some(device) = device else { return };
+    let (count, p_regions) = match &left {
+        Some(rest) if rest.is_empty() => return,
+        Some(rest) => (rest.len() as u32, rest.as_ptr()),
+        None => (count, p_regions),
+    };
+    // SAFETY: calling down with the application's arguments (its depth regions converted).
+    unsafe {
+        (device.next.fp_v1_0().cmd_copy_image_to_buffer)(buffer, src, layout, dst, count, p_regions)
+    }
+}
+
+pub unsafe extern "system" fn cmd_copy_buffer_to_image(
+    buffer: vk::CommandBuffer,
+    src: vk::Buffer,
+    dst: vk::Image,
+    layout: vk::ImageLayout,
+    count: u32,
+    p_regions: *const vk::BufferImageCopy,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyBufferToImage");
+    // SAFETY: `count` regions (the application's contract).
+    let regions = unsafe { slice(p_regions, count) };
+    let mut left = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let sent = image_buffer_copy(entry, buffer, dst, layout, src, regions, false, false);
+        left = regions_left(regions, &sent, narrow_buffer_image);
+    });
+    let Some(device) = device else { return };
+    let (count, p_regions) = match &left {
+        Some(rest) if rest.is_empty() => return,
+        Some(rest) => (rest.len() as u32, rest.as_ptr()),
+        None => (count, p_regions),
+    };
+    // SAFETY: calling down with the application's arguments (its depth regions converted).
+    unsafe {
+        (device.next.fp_v1_0().cmd_copy_buffer_to_image)(buffer, src, dst, layout, count, p_regions)
+    }
+}
+
+pub unsafe extern "system" fn cmd_copy_image(
+    buffer: vk::CommandBuffer,
+    src: vk::Image,
+    src_layout: vk::ImageLayout,
+    dst: vk::Image,
+    dst_layout: vk::ImageLayout,
+    count: u32,
+    p_regions: *const vk::ImageCopy,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyImage");
+    // SAFETY: `count` regions (the application's contract).
+    let regions = unsafe { slice(p_regions, count) };
+    let mut left = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let sent = image_image_copy(
+            entry, buffer, src, src_layout, dst, dst_layout, regions, false,
+        );
+        left = regions_left(regions, &sent, narrow_image);
+    });
+    let Some(device) = device else { return };
+    let (count, p_regions) = match &left {
+        Some(rest) if rest.is_empty() => return,
+        Some(rest) => (rest.len() as u32, rest.as_ptr()),
+        None => (count, p_regions),
+    };
+    // SAFETY: calling down with the application's arguments (its depth regions converted).
+    unsafe {
+        (device.next.fp_v1_0().cmd_copy_image)(
+            buffer, src, src_layout, dst, dst_layout, count, p_regions,
+        )
+    }
+}
+
+/// A `*2` region as its `1.0` twin, and whether it carries a `pNext` chain.
+fn buffer_image_region(region: &vk::BufferImageCopy2<'_>) -> (vk::BufferImageCopy, bool) {
+    (
+        vk::BufferImageCopy {
+            buffer_offset: region.buffer_offset,
+            buffer_row_length: region.buffer_row_length,
+            buffer_image_height: region.buffer_image_height,
+            image_subresource: region.image_subresource,
+            image_offset: region.image_offset,
+            image_extent: region.image_extent,
+        },
+        !region.p_next.is_null(),
+    )
+}
+
+fn image_region(region: &vk::ImageCopy2<'_>) -> (vk::ImageCopy, bool) {
+    (
+        vk::ImageCopy {
+            src_subresource: region.src_subresource,
+            src_offset: region.src_offset,
+            dst_subresource: region.dst_subresource,
+            dst_offset: region.dst_offset,
+            extent: region.extent,
+        },
+        !region.p_next.is_null(),
+    )
+}
+
+/// The `*2` regions left after a conversion, aspects narrowed like their `1.0` twins.
+fn regions2_left<R: Copy>(
+    regions: &[R],
+    sent: &Sent,
+    narrow: impl Fn(&mut R, vk::ImageAspectFlags),
+) -> Option<Vec<R>> {
+    regions_left(regions, sent, |mut region, aspect| {
+        narrow(&mut region, aspect);
+        region
+    })
+}
+
+pub unsafe extern "system" fn cmd_copy_image_to_buffer2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::CopyImageToBufferInfo2<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyImageToBuffer2");
+    // SAFETY: a valid info (the application's contract).
+    let info = unsafe { &*p_info };
+    // SAFETY: `regionCount` regions.
+    let regions2 = unsafe { slice(info.p_regions, info.region_count) };
+    let mut left = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let (regions, chained): (Vec<_>, Vec<_>) = regions2.iter().map(buffer_image_region).unzip();
+        let extended = !info.p_next.is_null() || chained.contains(&true);
+        let sent = image_buffer_copy(
+            entry,
+            buffer,
+            info.src_image,
+            info.src_image_layout,
+            info.dst_buffer,
+            &regions,
+            true,
+            extended,
+        );
+        left = regions2_left(regions2, &sent, |r, aspect| {
+            r.image_subresource.aspect_mask = aspect
+        });
+    });
+    let Some(next) = device.and_then(|d| d.commands.copy_image_to_buffer2) else {
+        return;
+    };
+    let narrowed;
+    let p_info = match &left {
+        Some(rest) if rest.is_empty() => return,
+        Some(rest) => {
+            narrowed = vk::CopyImageToBufferInfo2 {
+                region_count: rest.len() as u32,
+                p_regions: rest.as_ptr(),
+                ..*info
+            };
+            &narrowed as *const _
+        }
+        None => p_info,
+    };
+    // SAFETY: calling down with the application's arguments (its depth regions converted).
+    unsafe { next(buffer, p_info) }
+}
+
+pub unsafe extern "system" fn cmd_copy_buffer_to_image2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::CopyBufferToImageInfo2<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyBufferToImage2");
+    // SAFETY: a valid info (the application's contract).
+    let info = unsafe { &*p_info };
+    // SAFETY: `regionCount` regions.
+    let regions2 = unsafe { slice(info.p_regions, info.region_count) };
+    let mut left = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let (regions, chained): (Vec<_>, Vec<_>) = regions2.iter().map(buffer_image_region).unzip();
+        let extended = !info.p_next.is_null() || chained.contains(&true);
+        let sent = image_buffer_copy(
+            entry,
+            buffer,
+            info.dst_image,
+            info.dst_image_layout,
+            info.src_buffer,
+            &regions,
+            false,
+            extended,
+        );
+        left = regions2_left(regions2, &sent, |r, aspect| {
+            r.image_subresource.aspect_mask = aspect
+        });
+    });
+    let Some(next) = device.and_then(|d| d.commands.copy_buffer_to_image2) else {
+        return;
+    };
+    let narrowed;
+    let p_info = match &left {
+        Some(rest) if rest.is_empty() => return,
+        Some(rest) => {
+            narrowed = vk::CopyBufferToImageInfo2 {
+                region_count: rest.len() as u32,
+                p_regions: rest.as_ptr(),
+                ..*info
+            };
+            &narrowed as *const _
+        }
+        None => p_info,
+    };
+    // SAFETY: calling down with the application's arguments (its depth regions converted).
+    unsafe { next(buffer, p_info) }
+}
+
+pub unsafe extern "system" fn cmd_copy_image2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::CopyImageInfo2<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdCopyImage2");
+    // SAFETY: a valid info (the application's contract).
+    let info = unsafe { &*p_info };
+    // SAFETY: `regionCount` regions.
+    let regions2 = unsafe { slice(info.p_regions, info.region_count) };
+    let mut left = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let (regions, chained): (Vec<_>, Vec<_>) = regions2.iter().map(image_region).unzip();
+        let extended = !info.p_next.is_null() || chained.contains(&true);
+        let sent = image_image_copy(
+            entry,
+            buffer,
+            info.src_image,
+            info.src_image_layout,
+            info.dst_image,
+            info.dst_image_layout,
+            &regions,
+            extended,
+        );
+        left = regions2_left(regions2, &sent, |r, aspect| {
+            r.src_subresource.aspect_mask = aspect;
+            r.dst_subresource.aspect_mask = aspect;
+        });
+    });
+    let Some(next) = device.and_then(|d| d.commands.copy_image2) else {
+        return;
+    };
+    let narrowed;
+    let p_info = match &left {
+        Some(rest) if rest.is_empty() => return,
+        Some(rest) => {
+            narrowed = vk::CopyImageInfo2 {
+                region_count: rest.len() as u32,
+                p_regions: rest.as_ptr(),
+                ..*info
+            };
+            &narrowed as *const _
+        }
+        None => p_info,
+    };
+    // SAFETY: calling down with the application's arguments (its depth regions converted).
+    unsafe { next(buffer, p_info) }
+}
+
+/// `vkCmdBindDescriptorSets`: compute binds are kept, to be bound again after a conversion's
+/// dispatch; graphics binds go straight down.
+pub unsafe extern "system" fn cmd_bind_descriptor_sets(
+    buffer: vk::CommandBuffer,
+    bind_point: vk::PipelineBindPoint,
+    layout: vk::PipelineLayout,
+    first_set: u32,
+    set_count: u32,
+    p_sets: *const vk::DescriptorSet,
+    dynamic_offset_count: u32,
+    p_dynamic_offsets: *const u32,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindDescriptorSets");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        if bind_point == vk::PipelineBindPoint::COMPUTE {
+            // SAFETY: the counts the application gave.
+            let (sets, offsets) = unsafe {
+                (
+                    slice(p_sets, set_count),
+                    slice(p_dynamic_offsets, dynamic_offset_count),
+                )
+            };
+            entry
+                .copies()
+                .compute
+                .bind_sets(layout, first_set, sets, offsets);
+        }
+    });
+    if let Some(device) = device {
+        // SAFETY: calling down with the application's arguments.
+        unsafe {
+            (device.next.fp_v1_0().cmd_bind_descriptor_sets)(
+                buffer,
+                bind_point,
+                layout,
+                first_set,
+                set_count,
+                p_sets,
+                dynamic_offset_count,
+                p_dynamic_offsets,
+            )
+        }
+    }
+}
+
+/// `vkCmdPushDescriptorSetKHR`: compute push descriptors cannot be bound again by revz, so
+/// conversions in this recording are refused from here on.
+pub unsafe extern "system" fn cmd_push_descriptor_set_khr(
+    buffer: vk::CommandBuffer,
+    bind_point: vk::PipelineBindPoint,
+    layout: vk::PipelineLayout,
+    set: u32,
+    count: u32,
+    p_writes: *const vk::WriteDescriptorSet<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetKHR");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        if bind_point == vk::PipelineBindPoint::COMPUTE {
+            entry.copies().compute.bound_otherwise();
+        }
+    });
+    if let Some(next) = device.and_then(|d| d.commands.push_descriptor_set) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, bind_point, layout, set, count, p_writes) }
+    }
+}
+
+/// `vkCmdBindDescriptorSets2` (`VK_KHR_maintenance6`, Vulkan 1.4): not followed; a compute
+/// bind refuses later conversions in this recording.
+pub unsafe extern "system" fn cmd_bind_descriptor_sets2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::BindDescriptorSetsInfoKHR<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindDescriptorSets2");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid info (the application's contract).
+        let stages = unsafe { (*p_info).stage_flags };
+        if stages.contains(vk::ShaderStageFlags::COMPUTE) {
+            entry.copies().compute.bound_otherwise();
+        }
+    });
+    if let Some(next) = device.and_then(|d| d.commands.bind_descriptor_sets2) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_info) }
+    }
+}
+
+/// `vkCmdSetDescriptorBufferOffsetsEXT`: descriptor buffers are not followed; a compute bind
+/// refuses later conversions in this recording.
+pub unsafe extern "system" fn cmd_set_descriptor_buffer_offsets_ext(
+    buffer: vk::CommandBuffer,
+    bind_point: vk::PipelineBindPoint,
+    layout: vk::PipelineLayout,
+    first_set: u32,
+    count: u32,
+    p_indices: *const u32,
+    p_offsets: *const vk::DeviceSize,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDescriptorBufferOffsetsEXT");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        if bind_point == vk::PipelineBindPoint::COMPUTE {
+            entry.copies().compute.bound_otherwise();
+        }
+    });
+    if let Some(next) = device.and_then(|d| d.commands.set_descriptor_buffer_offsets) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe {
+            next(
+                buffer, bind_point, layout, first_set, count, p_indices, p_offsets,
+            )
+        }
+    }
+}
