@@ -13,6 +13,9 @@
 //! Exit codes: 0 = rendered, no counted validation message; 1 = error; 2 = rendered (files
 //! written) but the validation layer reported messages.
 
+// The bench summary's `json!` rows are deeper than serde_json's default macro recursion.
+#![recursion_limit = "256"]
+
 mod accuracy;
 mod bench;
 mod gl;
@@ -82,6 +85,8 @@ enum Command {
     /// revz's depth profile (`REVZ_REPORT`) as tables, and a bar chart of the draws per path
     /// per frame (`--png`).
     Profile(profile::ProfileArgs),
+    /// The scenes `--scene` takes, one per line (for test drivers).
+    Scenes,
 }
 
 /// Renders one scene (the default command).
@@ -192,6 +197,12 @@ fn main() -> ExitCode {
         Some(Command::StressThreads(args)) => return report_exit(stress::run(args)),
         Some(Command::GlRender(args)) => return report_exit(gl::run(args)),
         Some(Command::Profile(args)) => return report_exit(profile::run(args)),
+        Some(Command::Scenes) => {
+            for entry in scenes::CATALOG {
+                println!("{}", entry.name);
+            }
+            return ExitCode::SUCCESS;
+        }
         None => run(&cli.render),
     };
     if cli.command.is_none() {

@@ -82,6 +82,7 @@ fn render(harness: &Harness, scene: &str, delivery: &str, mode: Option<&str>) ->
             .with_layer(&mut command)
             .env("REVZ_MODE", mode)
             .env("REVZ_REVERSE_OBSERVABLE", "copies")
+            .env("REVZ_COPY_VALUES", "stored")
             .env("REVZ_LOG", "info");
     }
     let render = harness.render(command, &dir);

@@ -8,10 +8,11 @@ use revz_tests::{
     DEPTH_FORMATS, LAYER_NAME, MODES,
 };
 
-/// Renders `format` natively, then through the layer in every mode, and requires the layer's
-/// renders to be bit-identical: the tester reads its depth image back (TRANSFER_SRC), so by
-/// default that image stays native in every mode, and its draws must be left exactly as they
-/// are.
+/// Renders `format` natively, then through the layer in every mode with
+/// `reverse_observable = none`, and requires the layer's renders to be bit-identical: the
+/// tester reads its depth image back (TRANSFER_SRC), so that image stays native in every
+/// mode, and its draws must be left exactly as they are. (The default policy reverses it and
+/// converts the copy: `tests/tests/copies.rs`.)
 fn passthrough_is_bit_identical(format: &str) {
     let harness = Harness::locate();
     let native_dir = harness.scratch_dir(&format!("{format}-native"));
@@ -31,6 +32,7 @@ fn passthrough_is_bit_identical(format: &str) {
         harness
             .with_layer(&mut command)
             .env("REVZ_MODE", mode)
+            .env("REVZ_REVERSE_OBSERVABLE", "none")
             .env("REVZ_LOG", "info");
         let layered = harness.render(command, &dir);
         assert_eq!(
@@ -127,6 +129,7 @@ fn flip_scene_within(
         .with_layer(&mut command)
         .env("REVZ_MODE", "flip")
         .env("REVZ_REVERSE_OBSERVABLE", "copies")
+        .env("REVZ_COPY_VALUES", "stored")
         .env("REVZ_LOG", "info")
         .envs(settings.iter().copied());
     let flipped = harness.render(command, &dir);
@@ -224,8 +227,9 @@ fn resolve_vk_name(mode: &str) -> String {
 /// `resolveMode` / `resolveImageView`) resolve a transient 4x depth attachment into the depth
 /// image the tester reads back.
 ///
-/// Default configuration: the 4x depth attachment is not observable, so the layer may reverse
-/// it, but it is resolved into the read-back depth image, which stays native: the layer
+/// With `reverse_observable = none`: the 4x depth attachment is not observable, so the layer
+/// may reverse it, but it is resolved into the read-back depth image, which stays native: the
+/// layer
 /// must make the 4x image native too (logged, at info, as `resolved into native`), so every
 /// mode renders both color and depth bit-identical to the native render, for every depth
 /// format and each depth resolve mode lavapipe supports for it. (`off` passes everything
@@ -262,6 +266,7 @@ fn msaa_resolve_into_native_is_bit_identical(scene: &str) {
                 harness
                     .with_layer(&mut command)
                     .env("REVZ_MODE", mode)
+                    .env("REVZ_REVERSE_OBSERVABLE", "none")
                     .env("REVZ_LOG", "info");
                 let layered = harness.render(command, &dir);
                 let log = layered.stderr();
@@ -928,6 +933,7 @@ fn lit_mvp_colors_are_the_native_ones_in_every_mode() {
             .with_layer(&mut command)
             .env("REVZ_MODE", mode)
             .env("REVZ_REVERSE_OBSERVABLE", "copies")
+            .env("REVZ_COPY_VALUES", "stored")
             .env("REVZ_LOG", "debug");
         let layered = harness.render(command, &dir);
         let log = layered.stderr();

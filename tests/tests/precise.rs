@@ -272,6 +272,7 @@ fn render(harness: &Harness, label: &str, scene: &str, format: &str, case: Optio
             .with_layer(&mut command)
             .env("REVZ_MODE", case.mode)
             .env("REVZ_REVERSE_OBSERVABLE", "copies")
+            .env("REVZ_COPY_VALUES", "stored")
             .env("REVZ_LOG", "info");
         if case.keep_far_clip {
             command.env("REVZ_FAR_CLIP", "keep");

@@ -346,6 +346,7 @@ fn never_promotes_nothing_and_renders_as_before() {
             .with_layer(&mut command)
             .env("REVZ_MODE", "complementary")
             .env("REVZ_REVERSE_OBSERVABLE", "copies")
+            .env("REVZ_COPY_VALUES", "stored")
             .env("REVZ_LOG", "info");
         if depth_images(scene) > 1 {
             command.env("REVZ_PROMOTE_DEPTH_FORMATS", "never");

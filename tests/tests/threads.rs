@@ -47,6 +47,7 @@ fn stress(harness: &Harness, mode: Option<&str>) -> Render {
             .with_layer(&mut command)
             .env("REVZ_MODE", mode)
             .env("REVZ_REVERSE_OBSERVABLE", "copies")
+            .env("REVZ_COPY_VALUES", "stored")
             .env("REVZ_LOG", "info");
     }
     let render = harness.render(command, &dir);

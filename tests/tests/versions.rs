@@ -77,6 +77,7 @@ fn render(harness: &Harness, scene: &str, mode: &str, version: &str) -> Result<R
         .with_layer(&mut command)
         .env("REVZ_MODE", mode)
         .env("REVZ_REVERSE_OBSERVABLE", "copies")
+        .env("REVZ_COPY_VALUES", "stored")
         .env("REVZ_LOG", "info");
     let output = command.output().expect("start revz-tester");
     let render = Render { dir, output };

@@ -279,7 +279,12 @@ pub fn measure(
     if !case.depth_readback {
         args.push("--no-depth-readback");
     }
-    let mut settings = vec![("REVZ_REVERSE_OBSERVABLE", "copies"), ("REVZ_LOG", "info")];
+    // The stored values are what is measured: copies hand them over unconverted.
+    let mut settings = vec![
+        ("REVZ_REVERSE_OBSERVABLE", "copies"),
+        ("REVZ_COPY_VALUES", "stored"),
+        ("REVZ_LOG", "info"),
+    ];
     if let Some(promotion) = case.promote_depth_formats {
         settings.push(("REVZ_PROMOTE_DEPTH_FORMATS", promotion.name()));
     }

@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::gpu::{Gpu, HostBuffer};
 use crate::shaders;
-use crate::target::{DepthFormat, TargetOptions, Targets, COLOR_FORMAT};
+use crate::target::{Attachment, DepthFormat, TargetOptions, Targets, COLOR_FORMAT};
 
 /// Draws between pipeline binds in the draw storm (4 pipelines in turn).
 pub const DRAWS_PER_BIND: usize = 16;
@@ -864,6 +864,164 @@ pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
         push_constant_ns: push,
         draw_ns: draw,
         bind_ns: bind,
+    })
+}
+
+/// What [`depth_copy`] measured.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct DepthCopy {
+    pub frames: usize,
+    /// Texels copied per frame, in millions.
+    pub megapixels: f64,
+    /// Median wall time of one frame: record, submit, wait.
+    pub copy_wall_ns: f64,
+    /// Median CPU time of the recording thread to record and submit one frame.
+    pub copy_cpu_ns: f64,
+}
+
+/// Side of the depth image [`depth_copy`] reads back (1024 x 1024: one megapixel).
+pub const DEPTH_COPY_SIDE: u32 = 1024;
+
+/// A depth readback per frame: a D32_SFLOAT image (`TRANSFER_SRC | TRANSFER_DST |
+/// DEPTH_STENCIL_ATTACHMENT`, which revz reverses by default and whose copies it converts)
+/// cleared with `vkCmdClearDepthStencilImage`, then copied into a host buffer with
+/// `vkCmdCopyImageToBuffer`; each frame submitted and waited for.
+pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> {
+    let bench = Bench::new(gpu)?;
+    let device = &gpu.device;
+    let extent = vk::Extent2D {
+        width: DEPTH_COPY_SIDE,
+        height: DEPTH_COPY_SIDE,
+    };
+    let usage = vk::ImageUsageFlags::TRANSFER_SRC
+        | vk::ImageUsageFlags::TRANSFER_DST
+        | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+    let image = Attachment::copied(gpu, vk::Format::D32_SFLOAT, usage, extent)?;
+    let pixels = (DEPTH_COPY_SIDE * DEPTH_COPY_SIDE) as usize;
+    let host = HostBuffer::new(gpu, pixels * 4, vk::BufferUsageFlags::TRANSFER_DST)?;
+    let cmd = bench.allocate(1)?[0];
+    let range = crate::target::full_range(vk::ImageAspectFlags::DEPTH);
+    let region = vk::BufferImageCopy {
+        image_subresource: vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        },
+        image_extent: vk::Extent3D {
+            width: DEPTH_COPY_SIDE,
+            height: DEPTH_COPY_SIDE,
+            depth: 1,
+        },
+        ..Default::default()
+    };
+    let (mut wall, mut cpu) = (Vec::new(), Vec::new());
+    for frame in 0..warmup + frames.max(1) {
+        let (w0, c0) = (Instant::now(), thread_cpu_ns());
+        // SAFETY: `cmd` is not pending (each frame is waited for); the image and buffer are
+        // alive and have the usages the commands need.
+        unsafe {
+            device
+                .reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
+                .context("vkResetCommandBuffer failed")?;
+            device
+                .begin_command_buffer(
+                    cmd,
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
+                .context("vkBeginCommandBuffer failed")?;
+            let to_clear = vk::ImageMemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_READ)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .old_layout(vk::ImageLayout::UNDEFINED)
+                .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(image.image)
+                .subresource_range(range);
+            device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[to_clear],
+            );
+            let value = vk::ClearDepthStencilValue {
+                depth: 0.25,
+                stencil: 0,
+            };
+            device.cmd_clear_depth_stencil_image(
+                cmd,
+                image.image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &value,
+                &[range],
+            );
+            let to_copy = vk::ImageMemoryBarrier {
+                src_access_mask: vk::AccessFlags::TRANSFER_WRITE,
+                dst_access_mask: vk::AccessFlags::TRANSFER_READ,
+                old_layout: vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                new_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                ..to_clear
+            };
+            device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[to_copy],
+            );
+            device.cmd_copy_image_to_buffer(
+                cmd,
+                image.image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                host.buffer,
+                &[region],
+            );
+            let to_host = vk::BufferMemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .buffer(host.buffer)
+                .size(vk::WHOLE_SIZE);
+            device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[to_host],
+                &[],
+            );
+            device
+                .end_command_buffer(cmd)
+                .context("vkEndCommandBuffer failed")?;
+        }
+        bench.submit(cmd)?;
+        let c1 = thread_cpu_ns();
+        bench.wait()?;
+        if frame >= warmup {
+            wall.push(w0.elapsed().as_nanos() as f64);
+            cpu.push((c1 - c0) as f64);
+        }
+    }
+    // The values read back: 0.25 wherever revz reverses and converts (checked so that a
+    // timing of a wrong conversion is not reported).
+    let first = f32::from_ne_bytes(host.contents()[..4].try_into().expect("4 bytes"));
+    if (first - 0.25).abs() > 1e-6 {
+        anyhow::bail!("the depth copy read back {first}, not the 0.25 it was cleared to");
+    }
+    Ok(DepthCopy {
+        frames: wall.len(),
+        megapixels: pixels as f64 / 1e6,
+        copy_wall_ns: median(&wall),
+        copy_cpu_ns: median(&cpu),
     })
 }
 

@@ -34,6 +34,8 @@ pub enum Role {
     DrawStorm,
     PipelineStorm,
     Micro,
+    /// A one-megapixel depth readback per frame (revz converts the copy).
+    DepthCopy,
     /// Every role with tiny counts and one submitted storm (for validated smoke runs).
     Smoke,
 }
@@ -208,6 +210,9 @@ fn run_child(args: &BenchArgs, role: Role) -> Result<ExitCode> {
             config.repeats,
         )?)?,
         Role::Micro => serde_json::to_value(child::micro(&gpu, config.calls, config.repeats)?)?,
+        Role::DepthCopy => {
+            serde_json::to_value(child::depth_copy(&gpu, config.frames, config.warmup)?)?
+        }
         Role::Smoke => {
             child::smoke(&gpu)?;
             json!({})
@@ -243,6 +248,7 @@ enum Job {
     DrawStormProfiled(usize, usize),
     Micro,
     PipelineStorm,
+    DepthCopy,
     Smoke,
 }
 
@@ -253,6 +259,7 @@ impl Job {
             Job::DrawStormProfiled(n, p) => format!("draw-storm-{n}-p{p}-report"),
             Job::Micro => "micro".into(),
             Job::PipelineStorm => "pipeline-storm".into(),
+            Job::DepthCopy => "depth-copy".into(),
             Job::Smoke => "smoke".into(),
         }
     }
@@ -288,6 +295,7 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
     }
     jobs.push(Job::Micro);
     jobs.push(Job::PipelineStorm);
+    jobs.push(Job::DepthCopy);
     if config.validation {
         jobs.push(Job::Smoke);
     }
@@ -369,6 +377,7 @@ fn run_one(
         Job::DrawStorm(..) | Job::DrawStormProfiled(..) => "draw-storm",
         Job::Micro => "micro",
         Job::PipelineStorm => "pipeline-storm",
+        Job::DepthCopy => "depth-copy",
         Job::Smoke => "smoke",
     };
     let (draws, projections) = match job {
@@ -524,6 +533,8 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
     let diff = |a: f64, b: f64| a - b;
     let pipe = Job::PipelineStorm.name();
     let micro = Job::Micro.name();
+    let copy = Job::DepthCopy.name();
+    let megapixels = f64::from(child::DEPTH_COPY_SIDE * child::DEPTH_COPY_SIDE) / 1e6;
     Variant::ALL
         .iter()
         .map(|variant| {
@@ -559,6 +570,12 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "ns_per_push_constant": paired(samples, &micro, v, rounds, "push_constant_ns", diff),
                 "ns_per_draw": paired(samples, &micro, v, rounds, "draw_ns", diff),
                 "ns_per_bind": paired(samples, &micro, v, rounds, "bind_ns", diff),
+                // A converted depth copy: the frame's wall time against no layer, and what it
+                // adds per copy and per megapixel.
+                "depth_copy_wall_ratio": paired(samples, &copy, v, rounds, "copy_wall_ns", ratio),
+                "depth_copy_extra_ms": paired(samples, &copy, v, rounds, "copy_wall_ns", |a, b| (a - b) / 1e6),
+                "depth_copy_extra_ms_per_megapixel": paired(samples, &copy, v, rounds, "copy_wall_ns", |a, b| (a - b) / 1e6 / megapixels),
+                "depth_copy_wall_ns": own(samples, &copy, v, rounds, "copy_wall_ns"),
                 "bytes_per_pipeline": paired(samples, &pipe, v, rounds, "heap_per_pipeline", diff),
                 "bytes_per_command_buffer": paired(samples, &big, v, rounds, "heap_per_command_buffer", diff),
                 "heap_growth_per_frame": paired(samples, &big, v, rounds, "heap_growth_per_frame", diff),
@@ -584,6 +601,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                     "ns_per_push_constant": paired_spread(samples, &micro, v, rounds, "push_constant_ns", diff),
                     "ns_per_draw": paired_spread(samples, &micro, v, rounds, "draw_ns", diff),
                     "ns_per_bind": paired_spread(samples, &micro, v, rounds, "bind_ns", diff),
+                    "depth_copy_wall_ratio": paired_spread(samples, &copy, v, rounds, "copy_wall_ns", ratio),
                 },
             })
         })

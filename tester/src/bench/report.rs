@@ -182,8 +182,9 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
     ));
     header.push_str(
         " frame wall ratio | pipeline creation ratio | ns / push constant | ns / draw | \
-         ns / bind | bytes / pipeline | bytes / command buffer | heap growth / frame | \
-         mars-patch wrong | sloped-plane wrong | min separation at 1e4 n |\n",
+         ns / bind | depth copy wall ratio (1 MP) | depth copy extra ms / MP | bytes / pipeline | \
+         bytes / command buffer | heap growth / frame | mars-patch wrong | sloped-plane wrong | \
+         min separation at 1e4 n |\n",
     );
     s.push_str(&header);
     let columns = header.matches('|').count() - 1;
@@ -202,7 +203,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             ));
         }
         line.push_str(&format!(
-            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             fmt_spread(row, "frame_cpu_ratio_projection_per_draw", 3),
             fmt_spread(row, "frame_cpu_ratio_with_report", 3),
             fmt(&row["frame_wall_ratio"], 3),
@@ -210,6 +211,8 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             fmt_spread(row, "ns_per_push_constant", 1),
             fmt_spread(row, "ns_per_draw", 1),
             fmt_spread(row, "ns_per_bind", 1),
+            fmt_spread(row, "depth_copy_wall_ratio", 3),
+            fmt(&row["depth_copy_extra_ms_per_megapixel"], 2),
             fmt(&row["bytes_per_pipeline"], 0),
             fmt(&row["bytes_per_command_buffer"], 0),
             fmt(&row["heap_growth_per_frame"], 0),

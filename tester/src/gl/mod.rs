@@ -61,8 +61,8 @@ pub struct GlRenderArgs {
     pub zink: bool,
 
     /// Inject revz in this mode under Zink (implies --zink): VK_ADD_LAYER_PATH,
-    /// VK_INSTANCE_LAYERS, REVZ_MODE; REVZ_LOG=debug and REVZ_REVERSE_OBSERVABLE=copies unless
-    /// already set.
+    /// VK_INSTANCE_LAYERS, REVZ_MODE; REVZ_LOG=debug, REVZ_REVERSE_OBSERVABLE=copies and
+    /// REVZ_COPY_VALUES=stored (the stored depth is what is judged) unless already set.
     #[arg(long, value_name = "MODE", value_parser = ["off", "flip", "complementary", "infinite"])]
     pub revz: Option<String>,
 
@@ -83,7 +83,7 @@ struct Report<'a> {
 }
 
 /// The variables [`set_environment`] may set, reported in `measurement.json`.
-const REPORTED_ENV: [&str; 10] = [
+const REPORTED_ENV: [&str; 11] = [
     "MESA_LOADER_DRIVER_OVERRIDE",
     "GALLIUM_DRIVER",
     "LIBGL_ALWAYS_SOFTWARE",
@@ -94,6 +94,7 @@ const REPORTED_ENV: [&str; 10] = [
     "REVZ_MODE",
     "REVZ_LOG",
     "REVZ_REVERSE_OBSERVABLE",
+    "REVZ_COPY_VALUES",
 ];
 
 /// lavapipe's ICD manifest.
@@ -152,7 +153,11 @@ fn set_environment(args: &GlRenderArgs) -> Result<()> {
         std::env::set_var("VK_ADD_LAYER_PATH", &dir);
         std::env::set_var("VK_INSTANCE_LAYERS", crate::variants::LAYER_NAME);
         std::env::set_var("REVZ_MODE", mode);
-        for (name, default) in [("REVZ_LOG", "debug"), ("REVZ_REVERSE_OBSERVABLE", "copies")] {
+        for (name, default) in [
+            ("REVZ_LOG", "debug"),
+            ("REVZ_REVERSE_OBSERVABLE", "copies"),
+            ("REVZ_COPY_VALUES", "stored"),
+        ] {
             if std::env::var_os(name).is_none() {
                 std::env::set_var(name, default);
             }

@@ -1,0 +1,286 @@
+//! Copies of reversed depth images hand back standard depth (issue #21, `layer/src/depth_copy`),
+//! on lavapipe under the validation layer with synchronization validation on.
+//!
+//! - Under the default policy (`reverse_observable = copies`, `copy_values = standard`) the
+//!   tester's read-back depth image is reversed, and every scene in every mode and format
+//!   reads back the depth it has without revz: within [`converted_tolerance`] of the native
+//!   render, colors within [`flip_color_tolerance`]. The hard precision cases (`STRESS`) are
+//!   judged against ground truth by the accuracy tests, not against the native render, whose
+//!   depth and colors they are built to get wrong; their conversion is still checked exactly.
+//! - The conversion is exact: the same render read back with `copy_values = stored` gives the
+//!   stored values, and for the flip and complementary maps the standard ones are their
+//!   complement, bit for bit (UNORM integers: max - u; float: 1 - v in float32).
+//! - Every copy route (`--depth-route`: image to image, to a native image, a round trip through
+//!   a buffer into another reversed image, padded buffer rows, the `*2` commands) reads back
+//!   exactly what the direct copy does.
+//!
+//! Every render here is two frames (`--frames 2`): infinite mode learns the camera's n / f in
+//! the first, and stores the first frame's clears and early draws with the n / f known then
+//! (see `docs/copies.md`).
+
+use std::process::Command;
+
+use revz_tests::{differing_pixels, flip_color_tolerance, flip_tolerance, Harness, Render};
+
+/// The scenes built to defeat standard depth (the accuracy report's): their native render is
+/// not the reference.
+const STRESS: [&str; 7] = [
+    "sloped-plane",
+    "mars-patch",
+    "tori",
+    "plane-stack",
+    "deep-range",
+    "decal-bias",
+    "far-objects",
+];
+
+const REVERSING_MODES: [&str; 3] = ["flip", "complementary", "infinite"];
+
+/// Every scene the tester has.
+fn scenes(harness: &Harness) -> Vec<String> {
+    let output = revz_tests::clean_command(&harness.tester)
+        .arg("scenes")
+        .output()
+        .expect("start revz-tester");
+    assert!(output.status.success(), "revz-tester scenes failed");
+    let names: Vec<String> = String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    assert!(names.len() > 30, "too few scenes: {names:?}");
+    names
+}
+
+/// How far the depth read back through revz may lie from the native render's. The flip path
+/// stores the rasterizer's 1 - D ([`flip_tolerance`]); the precise path computes depth from
+/// the rewritten matrix, whose float32 rounding differs from the standard one's near depth 1
+/// (its relative error there is the native render's own: about 4 ulp of 1 in the vertex
+/// transform, plus interpolation), so D24 and D32 get 8 units of 2^-24 (measured on lavapipe:
+/// at most 6, `secondary` in D24); D16's grid is coarser than either: 2 steps.
+fn converted_tolerance(format: &str, mode: &str) -> f32 {
+    match (format, mode) {
+        (_, "flip") | ("d16", _) => flip_tolerance(format),
+        _ => 8.0 / 16_777_216.0,
+    }
+}
+
+/// The tester's render arguments for one case.
+fn tester(harness: &Harness, format: &str, dir: &std::path::Path, args: &[&str]) -> Command {
+    let mut command = harness.tester(format, dir);
+    command
+        .args(["--sync-validation", "--frames", "2"])
+        .args(args);
+    command
+}
+
+/// The native render of `scene`, or `None` where the tester refuses the combination (a
+/// scene that needs a feature lavapipe lacks, or a stencil format).
+fn native(harness: &Harness, scene: &str, format: &str) -> Option<Render> {
+    let dir = harness.scratch_dir(&format!("copies-{scene}-{format}-native"));
+    let output = tester(harness, format, &dir, &["--scene", scene])
+        .output()
+        .expect("start revz-tester");
+    if output.status.code() == Some(1) {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            stderr.contains("revz-tester: error:"),
+            "{scene} {format}: {stderr}"
+        );
+        return None;
+    }
+    let render = Render { dir, output };
+    render.assert_clean();
+    Some(render)
+}
+
+fn layered(harness: &Harness, scene: &str, format: &str, mode: &str, stored: bool) -> Render {
+    let values = if stored { "stored" } else { "standard" };
+    let dir = harness.scratch_dir(&format!("copies-{scene}-{format}-{mode}-{values}"));
+    let mut command = tester(harness, format, &dir, &["--scene", scene]);
+    harness
+        .with_layer(&mut command)
+        .env("REVZ_MODE", mode)
+        .env("REVZ_COPY_VALUES", values)
+        .env("REVZ_LOG", "info");
+    harness.render(command, &dir)
+}
+
+/// The largest integer of a UNORM format's depth.
+fn unorm_max(format: &str) -> Option<f64> {
+    match format {
+        "d16" => Some(65535.0),
+        "x8-d24" | "d24-s8" => Some(16_777_215.0),
+        _ => None,
+    }
+}
+
+/// Standard values are the exact complement of the stored ones (flip and complementary maps).
+fn assert_complement(format: &str, standard: &[f32], stored: &[f32], what: &str) {
+    let wrong = standard
+        .iter()
+        .zip(stored)
+        .filter(|(&d, &v)| match unorm_max(format) {
+            Some(max) => {
+                let (d, v) = ((f64::from(d) * max).round(), (f64::from(v) * max).round());
+                d != max - v
+            }
+            None => d.to_bits() != (1.0 - v).to_bits(),
+        })
+        .count();
+    assert_eq!(
+        wrong, 0,
+        "{what}: standard values are not the complement of the stored"
+    );
+}
+
+/// Every scene, every reversing mode, one format: see the module's first two points.
+fn default_policy_hands_back_native_depth(format: &str) {
+    let harness = Harness::locate();
+    let (mut checked, mut refused) = (0, Vec::new());
+    for scene in scenes(&harness) {
+        let Some(native) = native(&harness, &scene, format) else {
+            refused.push(scene);
+            continue;
+        };
+        let (native_color, native_depth) = (native.color(), native.depth());
+        for mode in REVERSING_MODES {
+            let what = format!("{scene}, {format}, {mode}");
+            let standard = layered(&harness, &scene, format, mode, false);
+            let stored = layered(&harness, &scene, format, mode, true);
+            let log = standard.stderr();
+            assert!(
+                !log.contains("is not converted"),
+                "{what}: a copy went down unconverted\n{log}"
+            );
+            let (depth, stored_depth) = (standard.depth(), stored.depth());
+            let reversed = depth
+                .iter()
+                .zip(&stored_depth)
+                .any(|(a, b)| a.to_bits() != b.to_bits());
+            if !reversed {
+                // The read-back image is not reversed (the application renders reversed
+                // depth itself): nothing may change.
+                assert_eq!(depth, native_depth, "{what}: a native image changed\n{log}");
+                continue;
+            }
+            if mode != "infinite" {
+                assert_complement(format, &depth, &stored_depth, &what);
+            }
+            checked += 1;
+            if STRESS.contains(&scene.as_str()) {
+                continue;
+            }
+            let tolerance = converted_tolerance(format, mode);
+            let (worst, at) = depth
+                .iter()
+                .zip(&native_depth)
+                .map(|(a, b)| (a - b).abs())
+                .enumerate()
+                .fold(
+                    (0f32, 0),
+                    |(w, at), (i, d)| if d > w { (d, i) } else { (w, at) },
+                );
+            assert!(
+                worst <= tolerance,
+                "{what}: depth read back {worst:e} from the native render at pixel {at} \
+                 (bound {tolerance:e}): {} vs {}",
+                depth[at],
+                native_depth[at]
+            );
+            let colors = differing_pixels(&native_color, &standard.color());
+            assert!(
+                colors <= flip_color_tolerance(format),
+                "{what}: {colors} color pixels differ from the native render"
+            );
+        }
+    }
+    eprintln!(
+        "{format}: {checked} reversed read-backs checked; refused by the tester: {refused:?}"
+    );
+    // Only scenes that need what lavapipe or the format lacks may be refused.
+    for scene in &refused {
+        assert!(
+            ["depth-bounds", "stencil"].contains(&scene.as_str()),
+            "{format}: the tester refused {scene}"
+        );
+    }
+    assert!(
+        checked >= 90,
+        "{format}: only {checked} reversed read-backs"
+    );
+}
+
+#[test]
+fn default_policy_hands_back_native_depth_d16() {
+    default_policy_hands_back_native_depth("d16");
+}
+
+#[test]
+fn default_policy_hands_back_native_depth_x8_d24() {
+    default_policy_hands_back_native_depth("x8-d24");
+}
+
+#[test]
+fn default_policy_hands_back_native_depth_d24_s8() {
+    default_policy_hands_back_native_depth("d24-s8");
+}
+
+#[test]
+fn default_policy_hands_back_native_depth_d32() {
+    default_policy_hands_back_native_depth("d32");
+}
+
+#[test]
+fn default_policy_hands_back_native_depth_d32_s8() {
+    default_policy_hands_back_native_depth("d32-s8");
+}
+
+/// The copy routes, each against the direct copy of the same mode: bit-identical.
+#[test]
+fn every_copy_route_reads_back_what_the_direct_copy_does() {
+    let harness = Harness::locate();
+    let routes: [&[&str]; 6] = [
+        &["--depth-route", "image"],
+        &["--depth-route", "native-image"],
+        &["--depth-route", "buffer", "--depth-row-padding", "3"],
+        &[
+            "--depth-route",
+            "buffer",
+            "--copy2",
+            "--depth-row-padding",
+            "1",
+        ],
+        &["--depth-route", "native-image", "--copy2"],
+        &["--depth-row-padding", "5", "--copy2"],
+    ];
+    for format in revz_tests::DEPTH_FORMATS {
+        for mode in REVERSING_MODES {
+            let render = |name: &str, args: &[&str]| {
+                let dir = harness.scratch_dir(&format!("copies-route-{format}-{mode}-{name}"));
+                let mut command = tester(&harness, format, &dir, &["--scene", "overlap"]);
+                command.args(args);
+                harness
+                    .with_layer(&mut command)
+                    .env("REVZ_MODE", mode)
+                    .env("REVZ_LOG", "info");
+                harness.render(command, &dir)
+            };
+            let direct = render("direct", &[]);
+            let log = direct.stderr();
+            assert!(
+                log.contains("): reversed"),
+                "{format} {mode}: the read-back image was not reversed\n{log}"
+            );
+            for (i, args) in routes.iter().enumerate() {
+                let routed = render(&i.to_string(), args);
+                let log = routed.stderr();
+                assert!(!log.contains("is not converted"), "{args:?}: {log}");
+                assert_eq!(
+                    routed.depth(),
+                    direct.depth(),
+                    "{format} {mode} {args:?}: the route reads back other values"
+                );
+            }
+        }
+    }
+}
