@@ -24,7 +24,7 @@
 use ash::vk;
 use revz_math::{Cameras, DepthConvention, Target as RewriteTarget};
 
-use crate::conv::{flip_compare_op, precise_viewport, DepthBias, Reversal};
+use crate::conv::{flip_compare_op, DepthBias, Reversal};
 use crate::derived_range::MatrixSource;
 use crate::objects::FragmentShader;
 use crate::precise::{
@@ -1059,7 +1059,7 @@ impl AppViewports {
         let viewport = |v: &vk::Viewport| match path {
             DrawPath::Native => *v,
             DrawPath::Flip => reversal.viewport(*v),
-            DrawPath::Precise => precise_viewport(*v),
+            DrawPath::Precise => reversal.precise_viewport(*v),
         };
         if from_app.contains(States::VIEWPORT_WITH_COUNT) {
             let count = self.count.unwrap_or(0) as usize;

@@ -34,17 +34,6 @@ pub fn flip_viewport(viewport: vk::Viewport) -> vk::Viewport {
     }
 }
 
-/// The precise path's viewport: depth range [a, b] -> [1 - b, 1 - a]. The rewritten projection
-/// already produces reversed depth z' (1 - D, or n / w), and the application's range must still
-/// be honoured: `(1 - b) + z' (b - a)` is `1 - (a + D (b - a))` for z' = 1 - D.
-pub fn precise_viewport(viewport: vk::Viewport) -> vk::Viewport {
-    vk::Viewport {
-        min_depth: flip_depth(viewport.max_depth),
-        max_depth: flip_depth(viewport.min_depth),
-        ..viewport
-    }
-}
-
 /// How a standard depth value maps onto a reversed attachment, for the state the projection
 /// rewrite cannot reach (flip-path viewports, clear values, depth bounds).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,6 +62,22 @@ impl Reversal {
         vk::Viewport {
             min_depth: self.depth(viewport.min_depth),
             max_depth: self.depth(viewport.max_depth),
+            ..viewport
+        }
+    }
+
+    /// The precise path's viewport: depth range [a, b] -> [map(a) - (b - a), map(a)]. The
+    /// rewritten projection already produces reversed depth z' = 1 - (1 - r) D (1 - D, or n / w
+    /// in infinite mode), and the application's range must still be honoured on the map every
+    /// other draw uses: `map(a) - (b - a) + z' (b - a)` is `map(a + D (b - a))`. For the full
+    /// range that is [0, 1], z' itself; for the plain flip [1 - b, 1 - a]. (Before issue #21 infinite mode used [1 - b, 1 - a] too, which puts a range that does not
+    /// start at 0 r a above the other draws: found by converting copies back.)
+    pub fn precise_viewport(self, viewport: vk::Viewport) -> vk::Viewport {
+        let (a, b) = (f64::from(viewport.min_depth), f64::from(viewport.max_depth));
+        let top = f64::from(self.depth(viewport.min_depth));
+        vk::Viewport {
+            min_depth: (top - (b - a)).clamp(0.0, 1.0) as f32,
+            max_depth: top as f32,
             ..viewport
         }
     }
@@ -347,12 +352,39 @@ mod tests {
             max_depth: 1.0,
             ..Default::default()
         };
-        let precise = precise_viewport(vk::Viewport {
+        let quarter = vk::Viewport {
             min_depth: 0.25,
             max_depth: 1.0,
             ..viewport
-        });
+        };
+        let precise = Reversal::Complementary.precise_viewport(quarter);
         assert_eq!((precise.min_depth, precise.max_depth), (0.0, 0.75));
+        // Infinite mode: z' = n / w = 1 - (1 - r) D through the precise viewport lands on the
+        // map of a + D (b - a), the one flip-path draws and clears use.
+        let r = 1e-3f32;
+        let infinite = Reversal::Infinite { near_over_far: r };
+        for range in [
+            viewport,
+            quarter,
+            vk::Viewport {
+                min_depth: 0.5,
+                max_depth: 0.75,
+                ..viewport
+            },
+        ] {
+            let precise = infinite.precise_viewport(range);
+            let (a, b) = (f64::from(range.min_depth), f64::from(range.max_depth));
+            for d in [0.0, 0.3, 1.0] {
+                let z = 1.0 - (1.0 - f64::from(r)) * d;
+                let (lo, hi) = (f64::from(precise.min_depth), f64::from(precise.max_depth));
+                let stored = lo + z * (hi - lo);
+                let expected = f64::from(infinite.depth((a + d * (b - a)) as f32));
+                assert!(
+                    (stored - expected).abs() < 1e-6,
+                    "{range:?} {d}: {stored} vs {expected}"
+                );
+            }
+        }
         let flip = Reversal::Complementary.viewport(viewport);
         assert_eq!((flip.min_depth, flip.max_depth), (1.0, 0.0));
     }

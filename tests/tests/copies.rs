@@ -20,7 +20,10 @@
 
 use std::process::Command;
 
-use revz_tests::{differing_pixels, flip_color_tolerance, flip_tolerance, Harness, Render};
+use revz_tests::{
+    differing_pixels, flip_color_tolerance, flip_tolerance, unexplained_color_differences, Harness,
+    Render,
+};
 
 /// The scenes built to defeat standard depth (the accuracy report's): their native render is
 /// not the reference.
@@ -61,6 +64,38 @@ fn converted_tolerance(format: &str, mode: &str) -> f32 {
     match (format, mode) {
         (_, "flip") | ("d16", _) => flip_tolerance(format),
         _ => 8.0 / 16_777_216.0,
+    }
+}
+
+/// A known inexactness of revz's stored depth, not of the conversion: in infinite mode a
+/// rewritten fragment depth stores 1 - d, not the 1 - (1 - n/f) d of every other draw (n / f is
+/// known only at draw time; `docs/limits.md`), so the `frag-depth` scenes read back within n / f
+/// of the camera (0.1 / 100).
+fn known_limit(scene: &str, mode: &str) -> f32 {
+    if mode == "infinite" && scene.starts_with("frag-depth") {
+        1e-3
+    } else {
+        0.0
+    }
+}
+
+/// How many color pixels may differ from the native render in a scene without ground truth.
+/// The flip path: [`flip_color_tolerance`]. The precise path computes depth with other float32
+/// rounding, so a pixel on an intersection line of two surfaces may resolve the other way: 2
+/// (measured on lavapipe: at most 1, `compare-ops` and `viewport-split` in D24 and D32). In
+/// D16 surfaces closer than one step of its grid (1.5e-5) tie, and which pairs tie depends on
+/// where the values fall between grid steps: the flip path stores the exact complement (the
+/// same ties), complementary mode nearly so (measured: at most 2 pixels), infinite mode's
+/// n / w is a slightly scaled value (by 1 / (1 - n/f)) and ties other pairs: 48 (measured:
+/// 38, `msaa-resolve` with its four samples per pixel; 6 to 15 in the other scenes). Those
+/// pixels are ties in the native render too, where draw order decides; their depth is checked
+/// within one step like every other pixel.
+fn color_tolerance(format: &str, mode: &str) -> usize {
+    match (mode, format) {
+        ("flip", _) => flip_color_tolerance(format),
+        ("infinite", "d16") => 48,
+        (_, "d16") => flip_color_tolerance(format),
+        _ => 2,
     }
 }
 
@@ -170,7 +205,7 @@ fn default_policy_hands_back_native_depth(format: &str) {
             if STRESS.contains(&scene.as_str()) {
                 continue;
             }
-            let tolerance = converted_tolerance(format, mode);
+            let tolerance = converted_tolerance(format, mode).max(known_limit(&scene, mode));
             let (worst, at) = depth
                 .iter()
                 .zip(&native_depth)
@@ -187,11 +222,35 @@ fn default_policy_hands_back_native_depth(format: &str) {
                 depth[at],
                 native_depth[at]
             );
-            let colors = differing_pixels(&native_color, &standard.color());
-            assert!(
-                colors <= flip_color_tolerance(format),
-                "{what}: {colors} color pixels differ from the native render"
-            );
+            let color = standard.color();
+            if native.dir.join("expected-id.u16").exists() {
+                // Where the ground truth says which surface is nearest, a differing pixel
+                // must show it (a tie the native render resolved with less precision).
+                let unexplained =
+                    unexplained_color_differences(&native_color, &color, &native.ground_truth());
+                // Shaded scenes (shadows) have no flat colors to explain a pixel by: their
+                // differences count against the same bound as scenes without ground truth. A
+                // silhouette or intersection pixel whose two surfaces are within the depth
+                // tolerance at its center is a tie the truth cannot settle either: 2 more of
+                // those (measured: 1, `push-partial` in flip mode).
+                let interior = unexplained
+                    .iter()
+                    .filter(|u| u.contains("(interior)"))
+                    .count();
+                assert!(
+                    interior <= color_tolerance(format, mode)
+                        && unexplained.len() <= color_tolerance(format, mode) + 2,
+                    "{what}: {} color pixels differ from the native render: {:?}",
+                    unexplained.len(),
+                    &unexplained[..unexplained.len().min(4)]
+                );
+            } else {
+                let colors = differing_pixels(&native_color, &color);
+                assert!(
+                    colors <= color_tolerance(format, mode),
+                    "{what}: {colors} color pixels differ from the native render"
+                );
+            }
         }
     }
     eprintln!(
@@ -275,10 +334,30 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
                 let routed = render(&i.to_string(), args);
                 let log = routed.stderr();
                 assert!(!log.contains("is not converted"), "{args:?}: {log}");
-                assert_eq!(
-                    routed.depth(),
-                    direct.depth(),
-                    "{format} {mode} {args:?}: the route reads back other values"
+                // A round trip through a buffer maps to standard and back: exact for d -> 1 - d
+                // (a bit complement twice), within one step of a UNORM grid for infinite
+                // mode's affine map (each way within half a step of the f64 value).
+                let round_trip = args.contains(&"buffer") && mode == "infinite";
+                // Float: one rounding each way, within one ulp of [0.5, 1) (2^-23).
+                let step = match unorm_max(format) {
+                    _ if !round_trip => 0.0,
+                    Some(max) => (1.0 / max) as f32 * 1.001,
+                    None => 1.2e-7,
+                };
+                let (depth, reference) = (routed.depth(), direct.depth());
+                let off: Vec<f32> = depth
+                    .iter()
+                    .zip(&reference)
+                    .map(|(a, b)| (a - b).abs())
+                    .filter(|&d| d > step || (step == 0.0 && d != 0.0))
+                    .collect();
+                let worst = off.iter().copied().fold(0.0, f32::max);
+                assert!(
+                    off.is_empty(),
+                    "{format} {mode} {args:?}: {} of {} pixels read back other values than the \
+                     direct copy (worst {worst:e}, allowed {step:e})",
+                    off.len(),
+                    depth.len()
                 );
             }
         }
