@@ -112,34 +112,38 @@ pub unsafe fn record(
     // SAFETY: as above; the header fits the scratch buffer (`size` includes it).
     unsafe { (v.cmd_update_buffer)(buffer, scratch, 0, HEADER_BYTES, header.as_ptr().cast()) };
     match conversion.fill {
-        // SAFETY: the application's image in the layout it named, regions into the scratch.
         Fill::Image {
             image,
             layout,
             regions,
-        } => unsafe {
-            (v.cmd_copy_image_to_buffer)(
-                buffer,
-                image,
-                layout,
-                scratch,
-                regions.len() as u32,
-                regions.as_ptr(),
-            )
-        },
-        // SAFETY: the application's buffer, copies into the scratch.
+        } => {
+            // SAFETY: the application's image in the layout it named, regions into the scratch.
+            unsafe {
+                (v.cmd_copy_image_to_buffer)(
+                    buffer,
+                    image,
+                    layout,
+                    scratch,
+                    regions.len() as u32,
+                    regions.as_ptr(),
+                )
+            }
+        }
         Fill::Buffer {
             buffer: source,
             copies,
-        } => unsafe {
-            (v.cmd_copy_buffer)(
-                buffer,
-                source,
-                scratch,
-                copies.len() as u32,
-                copies.as_ptr(),
-            )
-        },
+        } => {
+            // SAFETY: the application's buffer, copies into the scratch.
+            unsafe {
+                (v.cmd_copy_buffer)(
+                    buffer,
+                    source,
+                    scratch,
+                    copies.len() as u32,
+                    copies.as_ptr(),
+                )
+            }
+        }
     }
     barrier(
         transfer,
@@ -175,34 +179,38 @@ pub unsafe fn record(
         )],
     );
     match conversion.drain {
-        // SAFETY: regions out of the scratch into the application's image, in its layout.
         Drain::Image {
             image,
             layout,
             regions,
-        } => unsafe {
-            (v.cmd_copy_buffer_to_image)(
-                buffer,
-                scratch,
-                image,
-                layout,
-                regions.len() as u32,
-                regions.as_ptr(),
-            )
-        },
-        // SAFETY: copies out of the scratch into the application's buffer.
+        } => {
+            // SAFETY: regions out of the scratch into the application's image, in its layout.
+            unsafe {
+                (v.cmd_copy_buffer_to_image)(
+                    buffer,
+                    scratch,
+                    image,
+                    layout,
+                    regions.len() as u32,
+                    regions.as_ptr(),
+                )
+            }
+        }
         Drain::Buffer {
             buffer: destination,
             copies,
-        } => unsafe {
-            (v.cmd_copy_buffer)(
-                buffer,
-                scratch,
-                destination,
-                copies.len() as u32,
-                copies.as_ptr(),
-            )
-        },
+        } => {
+            // SAFETY: copies out of the scratch into the application's buffer.
+            unsafe {
+                (v.cmd_copy_buffer)(
+                    buffer,
+                    scratch,
+                    destination,
+                    copies.len() as u32,
+                    copies.as_ptr(),
+                )
+            }
+        }
     }
     // SAFETY: the application's own bindings of this command buffer.
     unsafe { copies.compute.restore(device, buffer) };

@@ -88,6 +88,8 @@ enum Sent {
 }
 
 /// Converts the depth regions of a copy between an image and a buffer, if the policy says so.
+/// (The arguments are the command's own, plus its direction and whether it is extended.)
+#[allow(clippy::too_many_arguments)]
 fn image_buffer_copy(
     entry: &CommandBufferEntry,
     buffer: vk::CommandBuffer,
@@ -165,7 +167,8 @@ fn image_buffer_copy(
     )
 }
 
-/// Converts the depth of an image copy between conventions, if the policy says so.
+/// Converts the depth of an image copy between conventions, if the policy says so. (The
+/// arguments are the command's own, plus whether it is extended.)
 #[allow(clippy::too_many_arguments)]
 fn image_image_copy(
     entry: &CommandBufferEntry,
