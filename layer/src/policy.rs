@@ -423,8 +423,6 @@ pub enum Unconverted {
     ComputeBindings,
     /// The command or a region carries an extension structure revz does not know.
     Extended,
-    /// A blit: it may scale, and revz converts only copies.
-    Blit,
     /// Too many texels for one conversion (past the device's `maxStorageBufferRange`), or
     /// revz could not create its conversion pipeline or scratch memory.
     Resources,
@@ -439,7 +437,6 @@ impl fmt::Display for Unconverted {
                  dispatch (push descriptors, descriptor buffers or vkCmdBindDescriptorSets2)"
             }
             Unconverted::Extended => "it carries an extension structure revz does not know",
-            Unconverted::Blit => "blits are not converted (they may scale)",
             Unconverted::Resources => {
                 "revz could not get the scratch memory or pipeline for it (or it exceeds \
                  maxStorageBufferRange)"
@@ -457,8 +454,6 @@ pub struct CopyFacts {
     pub depth_aspect: bool,
     /// The `copy_values` setting.
     pub values: crate::config::CopyValues,
-    /// A blit rather than a copy.
-    pub blit: bool,
     /// The command buffer's queue family can dispatch compute.
     pub dispatchable: bool,
     /// revz can bind the application's compute state again after its dispatch.
@@ -493,9 +488,7 @@ impl CopyFacts {
         if !self.depth_aspect || self.values == CopyValues::Stored {
             return CopyDecision::Unchanged;
         }
-        let refused = if self.blit {
-            Some(Unconverted::Blit)
-        } else if self.extended {
+        let refused = if self.extended {
             Some(Unconverted::Extended)
         } else if !self.dispatchable {
             Some(Unconverted::NoCompute)
@@ -1273,7 +1266,6 @@ mod tests {
             destination,
             depth_aspect: true,
             values: CopyValues::Standard,
-            blit: false,
             dispatchable: true,
             restorable: true,
             extended: false,
@@ -1324,7 +1316,6 @@ mod tests {
         };
         assert_eq!(stored.decide(), CopyDecision::Unchanged);
         let refusals = [
-            (CopyFacts { blit: true, ..out }, Unconverted::Blit),
             (
                 CopyFacts {
                     extended: true,

@@ -35,6 +35,10 @@ pub enum DepthRoute {
     /// `vkCmdCopyImageToBuffer` into a device buffer, `vkCmdCopyBufferToImage` into a second
     /// depth image, then into the host buffer: a round trip through the application's bytes.
     Buffer,
+    /// `vkCmdBlitImage` (same size, NEAREST, mirrored in x and back by the read: the blit
+    /// flips x, a second blit would not be a copy, so the host flips the rows back) into a
+    /// second image that shaders may sample (native), then into the host buffer.
+    BlitNativeImage,
 }
 
 impl DepthRoute {
@@ -44,7 +48,9 @@ impl DepthRoute {
         match self {
             DepthRoute::Direct => None,
             DepthRoute::Image | DepthRoute::Buffer => Some(copied),
-            DepthRoute::NativeImage => Some(copied | vk::ImageUsageFlags::SAMPLED),
+            DepthRoute::NativeImage | DepthRoute::BlitNativeImage => {
+                Some(copied | vk::ImageUsageFlags::SAMPLED)
+            }
         }
     }
 }
@@ -308,6 +314,20 @@ impl<'a> Readback<'a> {
                 );
                 copies.buffer_to_image(staging.buffer, second.image, self.region(depth, 0));
             }
+            DepthRoute::BlitNativeImage => {
+                let (w, h) = (self.extent.width as i32, self.extent.height as i32);
+                let corner = |x, y, z| vk::Offset3D { x, y, z };
+                copies.blit(
+                    image,
+                    second.image,
+                    vk::ImageBlit {
+                        src_subresource: layers,
+                        src_offsets: [corner(w, 0, 0), corner(0, h, 1)],
+                        dst_subresource: layers,
+                        dst_offsets: [corner(0, 0, 0), corner(w, h, 1)],
+                    },
+                );
+            }
             _ => copies.image_to_image(
                 image,
                 second.image,
@@ -362,6 +382,20 @@ impl Readback<'_> {
     /// The host buffer's texels without the row padding; an error if a copy wrote into the
     /// padding.
     fn unpadded(&self, bytes: &[u8]) -> Result<Vec<u8>> {
+        let texel = self.depth_format.depth_copy_texel_size();
+        let packed = self.without_padding(bytes)?;
+        if self.options.route != DepthRoute::BlitNativeImage {
+            return Ok(packed);
+        }
+        // The blit mirrored x: every row back to front.
+        let width = self.extent.width as usize;
+        Ok(packed
+            .chunks_exact(width * texel)
+            .flat_map(|row| row.chunks_exact(texel).rev().flatten().copied())
+            .collect())
+    }
+
+    fn without_padding(&self, bytes: &[u8]) -> Result<Vec<u8>> {
         let padding = self.options.row_padding as usize;
         if padding == 0 {
             return Ok(bytes.to_vec());
@@ -457,6 +491,41 @@ impl Copies<'_> {
             } else {
                 self.device
                     .cmd_copy_image(self.cmd, src, src_layout, dst, dst_layout, &[region]);
+            }
+        }
+    }
+
+    fn blit(&self, src: vk::Image, dst: vk::Image, region: vk::ImageBlit) {
+        let (src_layout, dst_layout) = (
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        );
+        // SAFETY: as above; depth blits are NEAREST, between images of one format.
+        unsafe {
+            if self.copy2 {
+                let regions = [vk::ImageBlit2::default()
+                    .src_subresource(region.src_subresource)
+                    .src_offsets(region.src_offsets)
+                    .dst_subresource(region.dst_subresource)
+                    .dst_offsets(region.dst_offsets)];
+                let info = vk::BlitImageInfo2::default()
+                    .src_image(src)
+                    .src_image_layout(src_layout)
+                    .dst_image(dst)
+                    .dst_image_layout(dst_layout)
+                    .regions(&regions)
+                    .filter(vk::Filter::NEAREST);
+                self.device.cmd_blit_image2(self.cmd, &info);
+            } else {
+                self.device.cmd_blit_image(
+                    self.cmd,
+                    src,
+                    src_layout,
+                    dst,
+                    dst_layout,
+                    &[region],
+                    vk::Filter::NEAREST,
+                );
             }
         }
     }

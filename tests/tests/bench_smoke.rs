@@ -48,11 +48,13 @@ fn quick_bench_writes_valid_reports() {
     let speed = bench["speed"].as_array().expect("speed rows");
     let modes: Vec<&str> = speed.iter().map(|r| r["mode"].as_str().unwrap()).collect();
     assert_eq!(modes, ["none", "off", "flip", "complementary", "infinite"]);
-    // 6 measurements (2 storms, the storm with a projection per draw, the storm with the depth
-    // profile on, micro, pipelines) + the validated smoke role, in 5 variants.
-    assert_eq!(bench["samples"].as_array().unwrap().len(), 35);
+    // 7 measurements (2 storms, the storm with a projection per draw, the storm with the depth
+    // profile on, micro, pipelines, a converted depth copy) + the validated smoke role, in 5
+    // variants.
+    assert_eq!(bench["samples"].as_array().unwrap().len(), 40);
     for row in bench["speed"].as_array().unwrap() {
         assert!(row.get("frame_cpu_ratio_with_report").is_some(), "{row}");
+        assert!(row["depth_copy_wall_ratio"].is_number(), "{row}");
     }
 
     let report = read("report.json");

@@ -11,8 +11,8 @@
 //!   stored values, and for the flip and complementary maps the standard ones are their
 //!   complement, bit for bit (UNORM integers: max - u; float: 1 - v in float32).
 //! - Every copy route (`--depth-route`: image to image, to a native image, a round trip through
-//!   a buffer into another reversed image, padded buffer rows, the `*2` commands) reads back
-//!   exactly what the direct copy does.
+//!   a buffer into another reversed image, a mirrored blit into a native image, padded buffer
+//!   rows, the `*2` commands) reads back exactly what the direct copy does.
 //!
 //! Every render here is two frames (`--frames 2`): infinite mode learns the camera's n / f in
 //! the first, and stores the first frame's clears and early draws with the n / f known then
@@ -298,7 +298,9 @@ fn default_policy_hands_back_native_depth_d32_s8() {
 #[test]
 fn every_copy_route_reads_back_what_the_direct_copy_does() {
     let harness = Harness::locate();
-    let routes: [&[&str]; 6] = [
+    let routes: [&[&str]; 8] = [
+        &["--depth-route", "blit-native-image"],
+        &["--depth-route", "blit-native-image", "--copy2"],
         &["--depth-route", "image"],
         &["--depth-route", "native-image"],
         &["--depth-route", "buffer", "--depth-row-padding", "3"],

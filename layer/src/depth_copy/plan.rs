@@ -476,6 +476,140 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kind: TexelKind) -> Option<Ima
     })
 }
 
+/// A blit whose depth must change convention: each region's source box is copied, converted,
+/// into layers of a staged image of the source's format, and blitted from there (a blit may
+/// scale or mirror, so the conversion happens before it, on the texels it reads).
+#[derive(Clone, Debug)]
+pub struct BlitPlan {
+    pub layout: ScratchLayout,
+    /// Source image -> scratch, one per converted region (its box, tightly packed).
+    pub from_source: Vec<vk::BufferImageCopy>,
+    /// Scratch -> staged image: region i at the origin of its own layers.
+    pub to_staged: Vec<vk::BufferImageCopy>,
+    /// The staged image's size (the largest box) and layers (every region's, in turn).
+    pub staged_extent: vk::Extent3D,
+    pub staged_layers: u32,
+    /// The depth blits, from the staged image.
+    pub blits: Vec<vk::ImageBlit>,
+    /// The application's regions still sent down with the aspects left to them, as for
+    /// [`ImageCopyPlan::rest`].
+    pub rest: Vec<(usize, vk::ImageAspectFlags)>,
+}
+
+/// Plans a converted blit (`None` where no region blits depth, a region's layer count is not
+/// explicit or its source box is empty).
+pub fn plan_blit(regions: &[vk::ImageBlit], kind: TexelKind) -> Option<BlitPlan> {
+    let depth = vk::ImageAspectFlags::DEPTH;
+    let blits_depth = |r: &vk::ImageBlit| r.src_subresource.aspect_mask.contains(depth);
+    let converted: Vec<&vk::ImageBlit> = regions.iter().filter(|r| blits_depth(r)).collect();
+    if converted.is_empty() {
+        return None;
+    }
+    // Each region's source box: its smallest corner and size.
+    let boxes: Vec<(vk::Offset3D, vk::Extent3D)> = converted
+        .iter()
+        .map(|r| {
+            let [a, b] = r.src_offsets;
+            let lo = vk::Offset3D {
+                x: a.x.min(b.x),
+                y: a.y.min(b.y),
+                z: a.z.min(b.z),
+            };
+            let extent = vk::Extent3D {
+                width: a.x.abs_diff(b.x),
+                height: a.y.abs_diff(b.y),
+                depth: a.z.abs_diff(b.z),
+            };
+            (lo, extent)
+        })
+        .collect();
+    if converted
+        .iter()
+        .any(|r| r.src_subresource.layer_count == vk::REMAINING_ARRAY_LAYERS)
+        || boxes
+            .iter()
+            .any(|(_, e)| e.width == 0 || e.height == 0 || e.depth == 0)
+    {
+        return None;
+    }
+    let layout = scratch_layout(
+        converted
+            .iter()
+            .zip(&boxes)
+            .map(|(r, (_, extent))| (*extent, r.src_subresource.layer_count)),
+        kind,
+    )?;
+    let staged_extent = vk::Extent3D {
+        width: boxes.iter().map(|(_, e)| e.width).max()?,
+        height: boxes.iter().map(|(_, e)| e.height).max()?,
+        depth: 1,
+    };
+    let (mut from_source, mut to_staged, mut blits) = (Vec::new(), Vec::new(), Vec::new());
+    let mut base = 0;
+    for ((region, (lo, extent)), scratch) in converted.iter().zip(&boxes).zip(&layout.regions) {
+        let count = region.src_subresource.layer_count;
+        let source = vk::ImageSubresourceLayers {
+            aspect_mask: depth,
+            ..region.src_subresource
+        };
+        let staged = vk::ImageSubresourceLayers {
+            aspect_mask: depth,
+            mip_level: 0,
+            base_array_layer: base,
+            layer_count: count,
+        };
+        from_source.push(vk::BufferImageCopy {
+            buffer_offset: scratch.offset,
+            buffer_row_length: 0,
+            buffer_image_height: 0,
+            image_subresource: source,
+            image_offset: *lo,
+            image_extent: *extent,
+        });
+        to_staged.push(vk::BufferImageCopy {
+            image_subresource: staged,
+            image_offset: vk::Offset3D::default(),
+            ..from_source[from_source.len() - 1]
+        });
+        let shift = |o: vk::Offset3D| vk::Offset3D {
+            x: o.x - lo.x,
+            y: o.y - lo.y,
+            z: o.z - lo.z,
+        };
+        blits.push(vk::ImageBlit {
+            src_subresource: staged,
+            src_offsets: region.src_offsets.map(shift),
+            dst_subresource: vk::ImageSubresourceLayers {
+                aspect_mask: depth,
+                ..region.dst_subresource
+            },
+            dst_offsets: region.dst_offsets,
+        });
+        base = base.checked_add(count)?;
+    }
+    let rest = regions
+        .iter()
+        .enumerate()
+        .filter_map(|(i, region)| {
+            let left = region.src_subresource.aspect_mask & !depth;
+            match (blits_depth(region), left.is_empty()) {
+                (false, _) => Some((i, region.src_subresource.aspect_mask)),
+                (true, false) => Some((i, left)),
+                (true, true) => None,
+            }
+        })
+        .collect();
+    Some(BlitPlan {
+        layout,
+        from_source,
+        to_staged,
+        staged_extent,
+        staged_layers: base,
+        blits,
+        rest,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -674,6 +808,36 @@ mod tests {
         assert_eq!((from.buffer_offset, to.buffer_offset), (32, 32));
         assert_eq!(to.image_offset.x, 5);
         assert!(plan_image_copy(&regions[1..], TexelKind::Unorm24).is_none());
+    }
+
+    #[test]
+    fn blits_read_their_converted_box_from_a_staged_image_mirrors_kept() {
+        let offset = |x, y, z| vk::Offset3D { x, y, z };
+        let region = vk::ImageBlit {
+            src_subresource: layers(vk::ImageAspectFlags::DEPTH, 2),
+            // Mirrored in x: from (10, 2) to (4, 8).
+            src_offsets: [offset(10, 2, 0), offset(4, 8, 1)],
+            dst_subresource: layers(vk::ImageAspectFlags::DEPTH, 2),
+            dst_offsets: [offset(0, 0, 0), offset(12, 12, 1)],
+        };
+        let plan = plan_blit(&[region], TexelKind::Float32).unwrap();
+        assert!(plan.rest.is_empty());
+        assert_eq!(
+            (plan.staged_extent.width, plan.staged_extent.height),
+            (6, 6)
+        );
+        assert_eq!(plan.staged_layers, 2);
+        assert_eq!(plan.from_source[0].image_offset.x, 4);
+        assert_eq!(plan.to_staged[0].image_offset.x, 0);
+        assert_eq!(plan.blits[0].src_offsets[0].x, 6);
+        assert_eq!(plan.blits[0].src_offsets[1].x, 0);
+        assert_eq!(plan.blits[0].dst_offsets[1].x, 12);
+        assert_eq!(plan.layout.words, 6 * 6 * 2);
+        let empty = vk::ImageBlit {
+            src_offsets: [offset(3, 3, 0), offset(3, 9, 1)],
+            ..region
+        };
+        assert!(plan_blit(&[empty], TexelKind::Float32).is_none());
     }
 
     /// Every byte the application's copy would write is written once, nothing else (padding

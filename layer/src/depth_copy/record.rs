@@ -216,3 +216,89 @@ pub unsafe fn record(
     unsafe { copies.compute.restore(device, buffer) };
     Ok(())
 }
+
+/// Records a converted blit: `conversion` (which drains into `staged`, in
+/// TRANSFER_DST_OPTIMAL), then the blits from `staged` into the application's destination.
+/// `staged_aspects`: every aspect of the staged image's format (its layout transitions name
+/// them all).
+///
+/// # Safety
+/// As [`record`]; `staged` is revz's image of the current recording, never used before.
+#[allow(clippy::too_many_arguments)]
+pub unsafe fn record_blit(
+    device: &DeviceState,
+    copies: &mut CommandCopies,
+    buffer: vk::CommandBuffer,
+    conversion: &Conversion<'_>,
+    staged: vk::Image,
+    staged_aspects: vk::ImageAspectFlags,
+    destination: (vk::Image, vk::ImageLayout),
+    blits: &[vk::ImageBlit],
+) -> Result<(), Unconverted> {
+    let v = device.next.fp_v1_0();
+    let range = vk::ImageSubresourceRange {
+        aspect_mask: staged_aspects,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: vk::REMAINING_ARRAY_LAYERS,
+    };
+    let transition = |old, new, src_access, dst_access| vk::ImageMemoryBarrier {
+        src_access_mask: src_access,
+        dst_access_mask: dst_access,
+        old_layout: old,
+        new_layout: new,
+        src_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+        dst_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+        image: staged,
+        subresource_range: range,
+        ..Default::default()
+    };
+    let barrier = |image_barrier: vk::ImageMemoryBarrier<'_>| {
+        // SAFETY: a recording command buffer outside a render pass; revz's own image.
+        unsafe {
+            (v.cmd_pipeline_barrier)(
+                buffer,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                0,
+                std::ptr::null(),
+                0,
+                std::ptr::null(),
+                1,
+                &image_barrier,
+            )
+        }
+    };
+    barrier(transition(
+        vk::ImageLayout::UNDEFINED,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::AccessFlags::empty(),
+        vk::AccessFlags::TRANSFER_WRITE,
+    ));
+    // SAFETY: the caller's contract.
+    unsafe { record(device, copies, buffer, conversion) }?;
+    barrier(transition(
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        vk::AccessFlags::TRANSFER_WRITE,
+        vk::AccessFlags::TRANSFER_READ,
+    ));
+    let (image, layout) = destination;
+    // SAFETY: the staged image (source format, TRANSFER_SRC) into the application's
+    // destination in the layout it named; depth blits are NEAREST.
+    unsafe {
+        (v.cmd_blit_image)(
+            buffer,
+            staged,
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            image,
+            layout,
+            blits.len() as u32,
+            blits.as_ptr(),
+            vk::Filter::NEAREST,
+        )
+    };
+    Ok(())
+}

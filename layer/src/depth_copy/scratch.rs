@@ -123,14 +123,86 @@ pub struct CommandCopies {
     slots: Vec<Slot>,
     /// Slots used by the current recording.
     used: usize,
+    /// Images converted blits read from, made by the current recording.
+    staged: Vec<(vk::Image, vk::DeviceMemory)>,
     pub compute: ComputeBindings,
 }
 
 impl CommandCopies {
-    /// A new recording begins: every slot is free again, and no compute state is bound.
-    pub fn begin(&mut self) {
+    /// A new recording begins: every slot is free again, the last recording's staged images
+    /// are destroyed (it is not pending: `vkBeginCommandBuffer` needs that), and no compute
+    /// state is bound.
+    pub fn begin(&mut self, device: &DeviceState) {
+        self.destroy_staged(device);
+        self.reset_recording();
+    }
+
+    fn reset_recording(&mut self) {
         self.used = 0;
         self.compute = ComputeBindings::default();
+    }
+
+    fn destroy_staged(&mut self, device: &DeviceState) {
+        let v = device.next.fp_v1_0();
+        for (image, memory) in self.staged.drain(..) {
+            // SAFETY: revz's own image, not used by a pending command buffer.
+            unsafe {
+                (v.destroy_image)(device.handle, image, std::ptr::null());
+                (v.free_memory)(device.handle, memory, std::ptr::null());
+            }
+        }
+    }
+
+    /// A device-local 2D image of `format`, `extent` and `layers` for a converted blit to read
+    /// from (TRANSFER_SRC | TRANSFER_DST), kept until the command buffer is recorded again.
+    pub fn staged_image(
+        &mut self,
+        device: &DeviceState,
+        format: vk::Format,
+        extent: vk::Extent3D,
+        layers: u32,
+    ) -> Option<vk::Image> {
+        let v = device.next.fp_v1_0();
+        let null = std::ptr::null();
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(extent)
+            .mip_levels(1)
+            .array_layers(layers)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let mut image = vk::Image::null();
+        let mut memory = vk::DeviceMemory::null();
+        let made = (|| {
+            // SAFETY: valid create infos and outputs on a live device.
+            unsafe { (v.create_image)(device.handle, &info, null, &mut image) }.result()?;
+            let mut requirements = vk::MemoryRequirements::default();
+            // SAFETY: as above.
+            unsafe { (v.get_image_memory_requirements)(device.handle, image, &mut requirements) };
+            let memory_type = device
+                .copies
+                .memory_type(requirements.memory_type_bits)
+                .ok_or(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY)?;
+            let allocate = vk::MemoryAllocateInfo::default()
+                .allocation_size(requirements.size)
+                .memory_type_index(memory_type);
+            // SAFETY: as above.
+            unsafe { (v.allocate_memory)(device.handle, &allocate, null, &mut memory) }.result()?;
+            // SAFETY: as above.
+            unsafe { (v.bind_image_memory)(device.handle, image, memory, 0) }.result()
+        })();
+        self.staged.push((image, memory));
+        match made {
+            Ok(()) => Some(image),
+            Err(result) => {
+                log::error!("cannot create an image for a converted depth blit: {result:?}");
+                None
+            }
+        }
     }
 
     /// The next free slot with room for `size` bytes, made or grown as needed.
@@ -158,6 +230,7 @@ impl CommandCopies {
 
     /// Destroys every slot (the command buffer is freed, or its device destroyed).
     pub fn destroy(&mut self, device: &DeviceState) {
+        self.destroy_staged(device);
         for slot in self.slots.drain(..) {
             // SAFETY: the command buffer is not pending (the application's contract for
             // freeing it and for destroying the device).
@@ -318,7 +391,7 @@ mod tests {
             compute: other,
             ..Default::default()
         };
-        copies.begin();
+        copies.reset_recording();
         assert!(
             copies.compute.restorable(),
             "a new recording binds nothing yet"

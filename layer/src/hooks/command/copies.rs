@@ -1,5 +1,5 @@
-//! Copies between depth images and buffers: where one end is a reversed image and the other
-//! holds standard depth, the depth regions are converted on the way (`crate::depth_copy`,
+//! Copies and blits between depth images and buffers: where one end is a reversed image and
+//! the other holds standard depth, the depth regions are converted on the way (`crate::depth_copy`,
 //! decided by `crate::policy::CopyFacts::decide`) and the other regions (stencil) go down as
 //! the application gave them. The compute state the conversion disturbs is followed here
 //! too: compute pipeline and descriptor set binds.
@@ -8,9 +8,9 @@
 
 use super::*;
 use crate::depth_copy::plan::{
-    plan_buffer_copy, plan_image_copy, DepthMap, ShaderHeader, TexelKind,
+    plan_blit, plan_buffer_copy, plan_image_copy, DepthMap, ShaderHeader, TexelKind,
 };
-use crate::depth_copy::record::{record, Conversion, Drain, Fill};
+use crate::depth_copy::record::{record, record_blit, Conversion, Drain, Fill};
 use crate::policy::{CopyDecision, CopyDirection, CopyEnd, CopyFacts, Unconverted};
 
 /// What a copy end is, and how its depth lies in a buffer.
@@ -45,7 +45,6 @@ fn decide(
         destination,
         depth_aspect,
         values: entry.device.settings.copy_values,
-        blit: false,
         dispatchable: entry.dispatchable,
         restorable: entry.copies().compute.restorable(),
         extended,
@@ -221,6 +220,97 @@ fn image_image_copy(
         return Sent::All;
     }
     Sent::Rest(plan.rest)
+}
+
+/// Converts the depth of a blit between conventions, if the policy says so: the source boxes
+/// are converted into a staged image, which is blitted in their place.
+#[allow(clippy::too_many_arguments)]
+fn image_blit(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    src: vk::Image,
+    src_layout: vk::ImageLayout,
+    dst: vk::Image,
+    dst_layout: vk::ImageLayout,
+    regions: &[vk::ImageBlit],
+    extended: bool,
+) -> Sent {
+    let (source, src_kind) = image_end(&entry.device, src);
+    let (destination, dst_kind) = image_end(&entry.device, dst);
+    let depth_aspect = regions.iter().any(|r| {
+        r.src_subresource
+            .aspect_mask
+            .contains(vk::ImageAspectFlags::DEPTH)
+    });
+    let direction = match decide(entry, source, destination, depth_aspect, extended) {
+        CopyDecision::Unchanged => return Sent::All,
+        CopyDecision::Unconverted(why) => {
+            entry.device.copies.warn_unconverted(why);
+            return Sent::All;
+        }
+        CopyDecision::Convert(direction) => direction,
+    };
+    let format = entry
+        .device
+        .objects
+        .images
+        .get(&src)
+        .map(|info| info.format);
+    let kind = src_kind.filter(|&kind| dst_kind == Some(kind));
+    let planned = kind
+        .zip(format)
+        .and_then(|(kind, format)| plan_blit(regions, kind).map(|plan| (kind, format, plan)));
+    let Some((kind, format, plan)) = planned else {
+        entry.device.copies.warn_unconverted(Unconverted::Resources);
+        return Sent::All;
+    };
+    let device = &entry.device;
+    let mut copies = entry.copies();
+    let Some(staged) = copies.staged_image(device, format, plan.staged_extent, plan.staged_layers)
+    else {
+        device.copies.warn_unconverted(Unconverted::Resources);
+        return Sent::All;
+    };
+    let conversion = Conversion {
+        header: ShaderHeader::new(kind, depth_map(device, direction), plan.layout.words),
+        size: plan.layout.size,
+        fill: Fill::Image {
+            image: src,
+            layout: src_layout,
+            regions: &plan.from_source,
+        },
+        drain: Drain::Image {
+            image: staged,
+            layout: vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            regions: &plan.to_staged,
+        },
+    };
+    let aspects = if crate::conv::has_stencil(format) {
+        vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
+    } else {
+        vk::ImageAspectFlags::DEPTH
+    };
+    // SAFETY: a recording command buffer of this device outside a render pass (blits are only
+    // allowed there); its own scratch and a staged image made for this blit.
+    let recorded = unsafe {
+        record_blit(
+            device,
+            &mut copies,
+            buffer,
+            &conversion,
+            staged,
+            aspects,
+            (dst, dst_layout),
+            &plan.blits,
+        )
+    };
+    match recorded {
+        Ok(()) => Sent::Rest(plan.rest),
+        Err(why) => {
+            device.copies.warn_unconverted(why);
+            Sent::All
+        }
+    }
 }
 
 /// The regions a hook sends down: all of them, or those left with their aspects narrowed.
@@ -638,4 +728,101 @@ pub unsafe extern "system" fn cmd_set_descriptor_buffer_offsets_ext(
             )
         }
     }
+}
+
+fn narrow_blit(region: vk::ImageBlit, aspect: vk::ImageAspectFlags) -> vk::ImageBlit {
+    let mut region = region;
+    region.src_subresource.aspect_mask = aspect;
+    region.dst_subresource.aspect_mask = aspect;
+    region
+}
+
+pub unsafe extern "system" fn cmd_blit_image(
+    buffer: vk::CommandBuffer,
+    src: vk::Image,
+    src_layout: vk::ImageLayout,
+    dst: vk::Image,
+    dst_layout: vk::ImageLayout,
+    count: u32,
+    p_regions: *const vk::ImageBlit,
+    filter: vk::Filter,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBlitImage");
+    // SAFETY: `count` regions (the application's contract).
+    let regions = unsafe { slice(p_regions, count) };
+    let mut left = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let sent = image_blit(
+            entry, buffer, src, src_layout, dst, dst_layout, regions, false,
+        );
+        left = regions_left(regions, &sent, narrow_blit);
+    });
+    let Some(device) = device else { return };
+    let (count, p_regions) = match &left {
+        Some(rest) if rest.is_empty() => return,
+        Some(rest) => (rest.len() as u32, rest.as_ptr()),
+        None => (count, p_regions),
+    };
+    // SAFETY: calling down with the application's arguments (its depth regions converted).
+    unsafe {
+        (device.next.fp_v1_0().cmd_blit_image)(
+            buffer, src, src_layout, dst, dst_layout, count, p_regions, filter,
+        )
+    }
+}
+
+pub unsafe extern "system" fn cmd_blit_image2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::BlitImageInfo2<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBlitImage2");
+    // SAFETY: a valid info (the application's contract).
+    let info = unsafe { &*p_info };
+    // SAFETY: `regionCount` regions.
+    let regions2 = unsafe { slice(info.p_regions, info.region_count) };
+    let mut left = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        let regions: Vec<vk::ImageBlit> = regions2
+            .iter()
+            .map(|r| vk::ImageBlit {
+                src_subresource: r.src_subresource,
+                src_offsets: r.src_offsets,
+                dst_subresource: r.dst_subresource,
+                dst_offsets: r.dst_offsets,
+            })
+            .collect();
+        let extended = !info.p_next.is_null() || regions2.iter().any(|r| !r.p_next.is_null());
+        let sent = image_blit(
+            entry,
+            buffer,
+            info.src_image,
+            info.src_image_layout,
+            info.dst_image,
+            info.dst_image_layout,
+            &regions,
+            extended,
+        );
+        left = regions2_left(regions2, &sent, |r, aspect| {
+            r.src_subresource.aspect_mask = aspect;
+            r.dst_subresource.aspect_mask = aspect;
+        });
+    });
+    let Some(next) = device.and_then(|d| d.commands.blit_image2) else {
+        return;
+    };
+    let narrowed;
+    let p_info = match &left {
+        Some(rest) if rest.is_empty() => return,
+        Some(rest) => {
+            narrowed = vk::BlitImageInfo2 {
+                region_count: rest.len() as u32,
+                p_regions: rest.as_ptr(),
+                ..*info
+            };
+            &narrowed as *const _
+        }
+        None => p_info,
+    };
+    // SAFETY: calling down with the application's arguments (its depth regions converted).
+    unsafe { next(buffer, p_info) }
 }

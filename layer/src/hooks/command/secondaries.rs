@@ -82,7 +82,7 @@ pub unsafe extern "system" fn begin_command_buffer(
             promoted_begin = promoted_inheritance(&entry.device, begin, inheritance);
         }
         *entry.scope() = PassScope::default();
-        entry.copies().begin();
+        entry.copies().begin(&entry.device);
         let mut state = entry.state();
         // Cameras matter to the precise path only (no lock in flip mode).
         let cameras = match entry.device.policy.rewrite() {

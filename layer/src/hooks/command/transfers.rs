@@ -1,6 +1,5 @@
-//! Clears and blits of depth images: clear values of reversed images are flipped; blits
-//! between a reversed and a native image are warned about (not converted: they may scale).
-//! Copies are converted in [`super::copies`].
+//! Clears of depth images: clear values of reversed images are flipped. Copies and blits are
+//! converted in [`super::copies`].
 
 #![allow(clippy::wildcard_imports)]
 
@@ -95,53 +94,4 @@ pub(super) fn clears_depth(ranges: &[vk::ImageSubresourceRange]) -> bool {
     ranges
         .iter()
         .any(|range| range.aspect_mask.contains(vk::ImageAspectFlags::DEPTH))
-}
-
-/// Warns once when a blit has a reversed depth image at one end and standard depth at the
-/// other: blits are not converted (they may scale).
-fn check_blit(entry: &CommandBufferEntry, src: vk::Image, dst: vk::Image) {
-    let objects = &entry.device.objects;
-    if objects.image_reversed(src) != objects.image_reversed(dst) {
-        entry
-            .device
-            .copies
-            .warn_unconverted(crate::policy::Unconverted::Blit);
-    }
-}
-
-pub unsafe extern "system" fn cmd_blit_image(
-    buffer: vk::CommandBuffer,
-    src: vk::Image,
-    src_layout: vk::ImageLayout,
-    dst: vk::Image,
-    dst_layout: vk::ImageLayout,
-    count: u32,
-    p_regions: *const vk::ImageBlit,
-    filter: vk::Filter,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBlitImage");
-    if let Some(device) = with_entry(buffer, &ENTRY, |e| check_blit(e, src, dst)) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe {
-            (device.next.fp_v1_0().cmd_blit_image)(
-                buffer, src, src_layout, dst, dst_layout, count, p_regions, filter,
-            )
-        }
-    }
-}
-
-pub unsafe extern "system" fn cmd_blit_image2(
-    buffer: vk::CommandBuffer,
-    p_info: *const vk::BlitImageInfo2<'_>,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBlitImage2");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        // SAFETY: a valid info (the application's contract).
-        let info = unsafe { &*p_info };
-        check_blit(entry, info.src_image, info.dst_image)
-    });
-    if let Some(next) = device.and_then(|d| d.commands.blit_image2) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, p_info) }
-    }
 }
