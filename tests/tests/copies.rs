@@ -294,7 +294,8 @@ fn default_policy_hands_back_native_depth_d32_s8() {
     default_policy_hands_back_native_depth("d32-s8");
 }
 
-/// The copy routes, each against the direct copy of the same mode: bit-identical.
+/// The copy routes, each against the direct copy of the same mode: bit-identical, but for the
+/// device's own blit rounding and infinite mode's round trips (below).
 #[test]
 fn every_copy_route_reads_back_what_the_direct_copy_does() {
     let harness = Harness::locate();
@@ -315,6 +316,29 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
         &["--depth-row-padding", "5", "--copy2"],
     ];
     for format in revz_tests::DEPTH_FORMATS {
+        // The device's own blit may round (lavapipe blits D24 through float32, one unit off
+        // at most texels): measured without the layer, and allowed to the blit routes.
+        let blit_rounding = {
+            let plain = |name: &str, args: &[&str]| {
+                let dir = harness.scratch_dir(&format!("copies-route-{format}-none-{name}"));
+                let mut command = tester(&harness, format, &dir, &["--scene", "overlap"]);
+                command.args(args);
+                harness.render(command, &dir).depth()
+            };
+            let (direct, blitted) = (
+                plain("direct", &[]),
+                plain("blit", &["--depth-route", "blit-native-image"]),
+            );
+            direct
+                .iter()
+                .zip(&blitted)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max)
+        };
+        assert!(
+            blit_rounding <= 1.0 / 16_777_215.0 * 1.001,
+            "{format}: the device's blit rounds by {blit_rounding:e}"
+        );
         for mode in REVERSING_MODES {
             let render = |name: &str, args: &[&str]| {
                 let dir = harness.scratch_dir(&format!("copies-route-{format}-{mode}-{name}"));
@@ -342,6 +366,7 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
                 let round_trip = args.contains(&"buffer") && mode == "infinite";
                 // Float: one rounding each way, within one ulp of [0.5, 1) (2^-23).
                 let step = match unorm_max(format) {
+                    _ if args.contains(&"blit-native-image") => blit_rounding,
                     _ if !round_trip => 0.0,
                     Some(max) => (1.0 / max) as f32 * 1.001,
                     None => 1.2e-7,
@@ -362,6 +387,44 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
                     depth.len()
                 );
             }
+        }
+    }
+}
+
+/// A Vulkan 1.0 application gets the same converted copies (revz's sequence uses 1.0 commands
+/// only and its shader is SPIR-V 1.0 without extensions): bit-identical to Vulkan 1.3.
+#[test]
+fn vulkan_1_0_applications_get_the_same_converted_copies() {
+    let harness = Harness::locate();
+    for format in ["d16", "d32-s8"] {
+        for mode in REVERSING_MODES {
+            let render = |version: &str| {
+                let dir = harness.scratch_dir(&format!("copies-vk{version}-{format}-{mode}"));
+                let mut command = tester(
+                    &harness,
+                    format,
+                    &dir,
+                    &["--scene", "overlap", "--vulkan", version],
+                );
+                harness
+                    .with_layer(&mut command)
+                    .env("REVZ_MODE", mode)
+                    .env("REVZ_LOG", "info");
+                harness.render(command, &dir)
+            };
+            let (old, new) = (render("1.0"), render("1.3"));
+            let log = old.stderr();
+            assert!(log.contains("): reversed"), "{format} {mode}: {log}");
+            assert!(!log.contains("is not converted"), "{format} {mode}: {log}");
+            let same = old
+                .depth()
+                .iter()
+                .zip(&new.depth())
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(
+                same,
+                "{format} {mode}: Vulkan 1.0 reads back other depth than 1.3"
+            );
         }
     }
 }
