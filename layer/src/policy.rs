@@ -416,13 +416,19 @@ pub enum CopyDirection {
 /// logged once per reason).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Unconverted {
-    /// The command buffer's queue family has no compute (the conversion is a dispatch).
+    /// The command buffer's queue family lacks graphics or compute (the conversion is a
+    /// dispatch, and copies into a depth aspect need graphics), or its pool is protected.
     NoCompute,
     /// The application bound compute descriptors revz cannot bind again after its dispatch
     /// (push descriptors, descriptor buffers, `vkCmdBindDescriptorSets2`).
     ComputeBindings,
     /// The command or a region carries an extension structure revz does not know.
     Extended,
+    /// A multisampled image: copies through a buffer cannot carry its samples.
+    Multisampled,
+    /// Its regions or formats: a layer count of `VK_REMAINING_ARRAY_LAYERS`, an empty blit box,
+    /// two depth formats, or more texels than one conversion holds.
+    Regions,
     /// Too many texels for one conversion (past the device's `maxStorageBufferRange`), or
     /// revz could not create its conversion pipeline or scratch memory.
     Resources,
@@ -431,15 +437,25 @@ pub enum Unconverted {
 impl fmt::Display for Unconverted {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Unconverted::NoCompute => "its command buffer's queue family has no compute",
+            Unconverted::NoCompute => {
+                "its command buffer's queue family lacks graphics or compute, or its pool is \
+                 protected"
+            }
             Unconverted::ComputeBindings => {
                 "compute descriptors were bound in a way revz cannot restore after its \
                  dispatch (push descriptors, descriptor buffers or vkCmdBindDescriptorSets2)"
             }
             Unconverted::Extended => "it carries an extension structure revz does not know",
+            Unconverted::Multisampled => {
+                "an image is multisampled (a conversion goes through a buffer)"
+            }
+            Unconverted::Regions => {
+                "of its regions or formats (VK_REMAINING_ARRAY_LAYERS, an empty blit box, two \
+                 depth formats, or too many texels)"
+            }
             Unconverted::Resources => {
-                "revz could not get the scratch memory or pipeline for it (or it exceeds \
-                 maxStorageBufferRange)"
+                "revz could not get the scratch memory, staged image or pipeline for it (or it \
+                 exceeds maxStorageBufferRange)"
             }
         })
     }
@@ -460,6 +476,8 @@ pub struct CopyFacts {
     pub restorable: bool,
     /// The command or one of its regions has a `pNext` chain.
     pub extended: bool,
+    /// One of its images is multisampled (image copies and blits).
+    pub multisampled: bool,
 }
 
 /// The decision for one transfer touching a reversed depth image.
@@ -490,6 +508,8 @@ impl CopyFacts {
         }
         let refused = if self.extended {
             Some(Unconverted::Extended)
+        } else if self.multisampled {
+            Some(Unconverted::Multisampled)
         } else if !self.dispatchable {
             Some(Unconverted::NoCompute)
         } else if !self.restorable {
@@ -1269,6 +1289,7 @@ mod tests {
             dispatchable: true,
             restorable: true,
             extended: false,
+            multisampled: false,
         };
         use CopyEnd::{Buffer, Native, Reversed};
         let table = [
@@ -1322,6 +1343,13 @@ mod tests {
                     ..out
                 },
                 Unconverted::Extended,
+            ),
+            (
+                CopyFacts {
+                    multisampled: true,
+                    ..out
+                },
+                Unconverted::Multisampled,
             ),
             (
                 CopyFacts {

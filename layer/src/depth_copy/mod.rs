@@ -44,7 +44,7 @@ pub const SHADER: &[u8] = include_bytes!("depth_convert.spv");
 /// conversion).
 pub struct DeviceCopies {
     memory: vk::PhysicalDeviceMemoryProperties,
-    /// Bit i: queue family i supports compute (families past 63 count as not).
+    /// Bit i: queue family i supports graphics and compute (families past 63 count as not).
     compute_families: u64,
     max_storage_buffer_range: u32,
     /// Queue family of every live command pool.
@@ -81,7 +81,12 @@ impl DeviceCopies {
             .iter()
             .take(64)
             .enumerate()
-            .filter(|(_, family)| family.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            // A dispatch needs compute; a copy into a depth aspect needs graphics.
+            .filter(|(_, family)| {
+                family
+                    .queue_flags
+                    .contains(vk::QueueFlags::COMPUTE | vk::QueueFlags::GRAPHICS)
+            })
             .fold(0u64, |bits, (i, _)| bits | 1 << i);
         DeviceCopies {
             memory,
@@ -93,8 +98,11 @@ impl DeviceCopies {
         }
     }
 
-    pub fn note_pool(&self, pool: vk::CommandPool, family: u32) {
-        self.pool_families.insert(pool, family);
+    /// A command pool was created for `family`; command buffers of a protected pool never
+    /// dispatch (revz's scratch memory is not protected).
+    pub fn note_pool(&self, pool: vk::CommandPool, family: u32, protected: bool) {
+        self.pool_families
+            .insert(pool, if protected { u32::MAX } else { family });
     }
 
     pub fn forget_pool(&self, pool: vk::CommandPool) {
@@ -115,7 +123,8 @@ impl DeviceCopies {
 
     /// A memory type for revz's scratch buffers among `allowed`: device-local if one is.
     pub fn memory_type(&self, allowed: u32) -> Option<u32> {
-        let types = &self.memory.memory_types[..self.memory.memory_type_count as usize];
+        let count = (self.memory.memory_type_count as usize).min(vk::MAX_MEMORY_TYPES);
+        let types = &self.memory.memory_types[..count];
         let allowed = |i: usize| allowed & (1 << i) != 0;
         let find = |wanted: vk::MemoryPropertyFlags| {
             (0..types.len())
@@ -301,10 +310,13 @@ mod tests {
         memory.memory_types[1].property_flags = vk::MemoryPropertyFlags::DEVICE_LOCAL;
         let copies = DeviceCopies::new(memory, &families, 1 << 27);
         let (graphics, transfer) = (vk::CommandPool::from_raw(1), vk::CommandPool::from_raw(2));
-        copies.note_pool(graphics, 0);
-        copies.note_pool(transfer, 1);
+        copies.note_pool(graphics, 0, false);
+        copies.note_pool(transfer, 1, false);
+        let protected = vk::CommandPool::from_raw(4);
+        copies.note_pool(protected, 0, true);
         assert!(copies.pool_dispatches(graphics));
         assert!(!copies.pool_dispatches(transfer));
+        assert!(!copies.pool_dispatches(protected));
         assert!(!copies.pool_dispatches(vk::CommandPool::from_raw(3)));
         assert_eq!(copies.memory_type(0b11), Some(1));
         assert_eq!(copies.memory_type(0b01), Some(0));

@@ -105,9 +105,32 @@ pub unsafe fn record(
     };
     let transfer = vk::PipelineStageFlags::TRANSFER;
     let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
-    // A command buffer executed again (a secondary run twice, a primary resubmitted) reads
-    // the scratch in its last drain before this header overwrites it.
-    barrier(transfer, transfer, &[]);
+    // Before the first transfer: a command buffer executed again (a secondary run twice, a
+    // primary resubmitted) must have read and written the scratch in its last dispatch and
+    // drain before this header and fill overwrite it; and the application's barrier before
+    // its command may have named only its own stage (`VK_PIPELINE_STAGE_2_BLIT_BIT` before a
+    // blit), which the fill's copy is not in: chained from there, the writes it made visible
+    // are made visible to the fill.
+    let before = vk::MemoryBarrier {
+        src_access_mask: vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::SHADER_WRITE,
+        dst_access_mask: vk::AccessFlags::TRANSFER_READ | vk::AccessFlags::TRANSFER_WRITE,
+        ..Default::default()
+    };
+    // SAFETY: as `barrier` above.
+    unsafe {
+        (v.cmd_pipeline_barrier)(
+            buffer,
+            transfer | compute,
+            transfer,
+            vk::DependencyFlags::empty(),
+            1,
+            &before,
+            0,
+            std::ptr::null(),
+            0,
+            std::ptr::null(),
+        )
+    };
     let header = conversion.header.to_bytes();
     // SAFETY: as above; the header fits the scratch buffer (`size` includes it).
     unsafe { (v.cmd_update_buffer)(buffer, scratch, 0, HEADER_BYTES, header.as_ptr().cast()) };

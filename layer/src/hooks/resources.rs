@@ -454,7 +454,10 @@ pub unsafe extern "system" fn create_command_pool(
         record(&CREATE_COMMAND_POOL, || {
             // SAFETY: valid on success.
             let (info, pool) = unsafe { (&*p_create_info, *p_pool) };
-            state.copies.note_pool(pool, info.queue_family_index);
+            let protected = info.flags.contains(vk::CommandPoolCreateFlags::PROTECTED);
+            state
+                .copies
+                .note_pool(pool, info.queue_family_index, protected);
         });
     }
     result

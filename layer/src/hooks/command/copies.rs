@@ -28,6 +28,16 @@ fn image_end(device: &DeviceState, image: vk::Image) -> (CopyEnd, Option<TexelKi
     (end, TexelKind::of(info.promoted.unwrap_or(info.format)))
 }
 
+/// Whether `image` has one sample per texel (unknown images count as single-sampled: revz
+/// converts only copies with a reversed end, which it knows).
+fn single_sampled(device: &DeviceState, image: vk::Image) -> bool {
+    device
+        .objects
+        .images
+        .get(&image)
+        .is_none_or(|info| info.samples == vk::SampleCountFlags::TYPE_1)
+}
+
 /// The decision for a copy between `source` and `destination`.
 fn decide(
     entry: &CommandBufferEntry,
@@ -35,6 +45,7 @@ fn decide(
     destination: CopyEnd,
     depth_aspect: bool,
     extended: bool,
+    images: &[vk::Image],
 ) -> CopyDecision {
     if source != CopyEnd::Reversed && destination != CopyEnd::Reversed {
         // The common case (no reversed end) takes no lock.
@@ -48,6 +59,9 @@ fn decide(
         dispatchable: entry.dispatchable,
         restorable: entry.copies().compute.restorable(),
         extended,
+        multisampled: !images
+            .iter()
+            .all(|&image| single_sampled(&entry.device, image)),
     }
     .decide()
 }
@@ -108,7 +122,7 @@ fn image_buffer_copy(
     let depth_aspect = regions
         .iter()
         .any(|r| r.image_subresource.aspect_mask == vk::ImageAspectFlags::DEPTH);
-    let direction = match decide(entry, source, destination, depth_aspect, extended) {
+    let direction = match decide(entry, source, destination, depth_aspect, extended, &[image]) {
         CopyDecision::Unchanged => return Sent::All,
         CopyDecision::Unconverted(why) => {
             entry.device.copies.warn_unconverted(why);
@@ -119,7 +133,7 @@ fn image_buffer_copy(
     let Some(plan) =
         kind.and_then(|kind| plan_buffer_copy(regions, kind, to_buffer).map(|p| (kind, p)))
     else {
-        entry.device.copies.warn_unconverted(Unconverted::Resources);
+        entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
     let (kind, plan) = plan;
@@ -186,7 +200,14 @@ fn image_image_copy(
             .aspect_mask
             .contains(vk::ImageAspectFlags::DEPTH)
     });
-    let direction = match decide(entry, source, destination, depth_aspect, extended) {
+    let direction = match decide(
+        entry,
+        source,
+        destination,
+        depth_aspect,
+        extended,
+        &[src, dst],
+    ) {
         CopyDecision::Unchanged => return Sent::All,
         CopyDecision::Unconverted(why) => {
             entry.device.copies.warn_unconverted(why);
@@ -199,7 +220,7 @@ fn image_image_copy(
     let Some((kind, plan)) =
         kind.and_then(|kind| plan_image_copy(regions, kind).map(|p| (kind, p)))
     else {
-        entry.device.copies.warn_unconverted(Unconverted::Resources);
+        entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
     let conversion = Conversion {
@@ -242,7 +263,14 @@ fn image_blit(
             .aspect_mask
             .contains(vk::ImageAspectFlags::DEPTH)
     });
-    let direction = match decide(entry, source, destination, depth_aspect, extended) {
+    let direction = match decide(
+        entry,
+        source,
+        destination,
+        depth_aspect,
+        extended,
+        &[src, dst],
+    ) {
         CopyDecision::Unchanged => return Sent::All,
         CopyDecision::Unconverted(why) => {
             entry.device.copies.warn_unconverted(why);
@@ -261,7 +289,7 @@ fn image_blit(
         .zip(format)
         .and_then(|(kind, format)| plan_blit(regions, kind).map(|plan| (kind, format, plan)));
     let Some((kind, format, plan)) = planned else {
-        entry.device.copies.warn_unconverted(Unconverted::Resources);
+        entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
     let device = &entry.device;

@@ -585,6 +585,11 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
                     .flatten();
                 (shader, depth)
             });
+        if stages.contains(&vk::ShaderStageFlags::COMPUTE) {
+            // A compute shader object: revz's dispatch would unbind it, and it does not bind
+            // shader objects again.
+            entry.copies().compute.bound_otherwise();
+        }
         entry.state().bind_shaders(fragment)
     });
     if let Some(next) = device.and_then(|d| d.commands.bind_shaders_ext) {
