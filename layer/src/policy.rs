@@ -426,6 +426,8 @@ pub enum Unconverted {
     Extended,
     /// A multisampled image: copies through a buffer cannot carry its samples.
     Multisampled,
+    /// Conditional rendering is active: it could discard revz's dispatch and not the copies.
+    Conditional,
     /// Its regions or formats: a layer count of `VK_REMAINING_ARRAY_LAYERS`, an empty blit box,
     /// two depth formats, or more texels than one conversion holds.
     Regions,
@@ -448,6 +450,9 @@ impl fmt::Display for Unconverted {
             Unconverted::Extended => "it carries an extension structure revz does not know",
             Unconverted::Multisampled => {
                 "an image is multisampled (a conversion goes through a buffer)"
+            }
+            Unconverted::Conditional => {
+                "conditional rendering is active (it could discard revz's dispatch)"
             }
             Unconverted::Regions => {
                 "of its regions or formats (VK_REMAINING_ARRAY_LAYERS, an empty blit box, two \
@@ -478,6 +483,8 @@ pub struct CopyFacts {
     pub extended: bool,
     /// One of its images is multisampled (image copies and blits).
     pub multisampled: bool,
+    /// Conditional rendering is active where it is recorded.
+    pub conditional: bool,
 }
 
 /// The decision for one transfer touching a reversed depth image.
@@ -510,6 +517,8 @@ impl CopyFacts {
             Some(Unconverted::Extended)
         } else if self.multisampled {
             Some(Unconverted::Multisampled)
+        } else if self.conditional {
+            Some(Unconverted::Conditional)
         } else if !self.dispatchable {
             Some(Unconverted::NoCompute)
         } else if !self.restorable {
@@ -1290,6 +1299,7 @@ mod tests {
             restorable: true,
             extended: false,
             multisampled: false,
+            conditional: false,
         };
         use CopyEnd::{Buffer, Native, Reversed};
         let table = [
@@ -1350,6 +1360,13 @@ mod tests {
                     ..out
                 },
                 Unconverted::Multisampled,
+            ),
+            (
+                CopyFacts {
+                    conditional: true,
+                    ..out
+                },
+                Unconverted::Conditional,
             ),
             (
                 CopyFacts {

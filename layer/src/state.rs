@@ -195,6 +195,11 @@ pub struct DeviceCommands {
     pub push_descriptor_set: Option<vk::PFN_vkCmdPushDescriptorSetKHR>,
     pub bind_descriptor_sets2: Option<vk::PFN_vkCmdBindDescriptorSets2KHR>,
     pub set_descriptor_buffer_offsets: Option<vk::PFN_vkCmdSetDescriptorBufferOffsetsEXT>,
+    pub push_descriptor_set_with_template: Option<vk::PFN_vkCmdPushDescriptorSetWithTemplateKHR>,
+    pub create_descriptor_update_template: Option<vk::PFN_vkCreateDescriptorUpdateTemplate>,
+    pub destroy_descriptor_update_template: Option<vk::PFN_vkDestroyDescriptorUpdateTemplate>,
+    pub begin_conditional_rendering: Option<vk::PFN_vkCmdBeginConditionalRenderingEXT>,
+    pub end_conditional_rendering: Option<vk::PFN_vkCmdEndConditionalRenderingEXT>,
     pub blit_image2: Option<vk::PFN_vkCmdBlitImage2>,
     pub set_depth_bias2: Option<vk::PFN_vkCmdSetDepthBias2EXT>,
 }
@@ -304,6 +309,23 @@ impl DeviceCommands {
                 c"vkCmdBindDescriptorSets2KHR"
             ),
             set_descriptor_buffer_offsets: load!(0, c"vkCmdSetDescriptorBufferOffsetsEXT"),
+            push_descriptor_set_with_template: load!(
+                V14,
+                c"vkCmdPushDescriptorSetWithTemplate",
+                c"vkCmdPushDescriptorSetWithTemplateKHR"
+            ),
+            create_descriptor_update_template: load!(
+                vk::API_VERSION_1_1,
+                c"vkCreateDescriptorUpdateTemplate",
+                c"vkCreateDescriptorUpdateTemplateKHR"
+            ),
+            destroy_descriptor_update_template: load!(
+                vk::API_VERSION_1_1,
+                c"vkDestroyDescriptorUpdateTemplate",
+                c"vkDestroyDescriptorUpdateTemplateKHR"
+            ),
+            begin_conditional_rendering: load!(0, c"vkCmdBeginConditionalRenderingEXT"),
+            end_conditional_rendering: load!(0, c"vkCmdEndConditionalRenderingEXT"),
             blit_image2: load!(V13, c"vkCmdBlitImage2", c"vkCmdBlitImage2KHR"),
             set_depth_bias2: load!(0, c"vkCmdSetDepthBias2EXT"),
         }

@@ -49,6 +49,9 @@ pub struct DeviceCopies {
     max_storage_buffer_range: u32,
     /// Queue family of every live command pool.
     pool_families: crate::objects::Table<vk::CommandPool, u32>,
+    /// Push-descriptor update templates of the compute bind point: pushing with one disturbs
+    /// what revz would have to bind again.
+    compute_push_templates: crate::objects::Table<vk::DescriptorUpdateTemplate, ()>,
     pipeline: OnceLock<Option<ConvertPipeline>>,
     /// One bit per [`Unconverted`] reason already logged.
     warned: AtomicU8,
@@ -93,6 +96,7 @@ impl DeviceCopies {
             compute_families,
             max_storage_buffer_range,
             pool_families: Default::default(),
+            compute_push_templates: Default::default(),
             pipeline: OnceLock::new(),
             warned: AtomicU8::new(0),
         }
@@ -107,6 +111,22 @@ impl DeviceCopies {
 
     pub fn forget_pool(&self, pool: vk::CommandPool) {
         self.pool_families.remove(&pool);
+    }
+
+    /// A descriptor update template was created; only compute push-descriptor ones matter.
+    pub fn note_template(&self, template: vk::DescriptorUpdateTemplate, compute_push: bool) {
+        if compute_push {
+            self.compute_push_templates.insert(template, ());
+        }
+    }
+
+    pub fn forget_template(&self, template: vk::DescriptorUpdateTemplate) {
+        self.compute_push_templates.remove(&template);
+    }
+
+    /// Whether pushing descriptors with `template` binds compute descriptors.
+    pub fn pushes_compute(&self, template: vk::DescriptorUpdateTemplate) -> bool {
+        self.compute_push_templates.get(&template).is_some()
     }
 
     /// Whether command buffers of `pool` can record a dispatch (unknown pools: no).

@@ -126,6 +126,9 @@ pub struct CommandCopies {
     /// Images converted blits read from, made by the current recording.
     staged: Vec<(vk::Image, vk::DeviceMemory)>,
     pub compute: ComputeBindings,
+    /// Conditional rendering is active (begun here, or inherited by a secondary): it could
+    /// discard revz's dispatch while the copies around it run.
+    pub conditional: bool,
 }
 
 impl CommandCopies {
@@ -140,6 +143,7 @@ impl CommandCopies {
     fn reset_recording(&mut self) {
         self.used = 0;
         self.compute = ComputeBindings::default();
+        self.conditional = false;
     }
 
     fn destroy_staged(&mut self, device: &DeviceState) {

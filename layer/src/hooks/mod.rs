@@ -277,6 +277,30 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             vk::PFN_vkCmdSetDescriptorBufferOffsetsEXT,
             c::cmd_set_descriptor_buffer_offsets_ext
         ),
+        b"vkCmdPushDescriptorSetWithTemplate" | b"vkCmdPushDescriptorSetWithTemplateKHR" => {
+            void_fn!(
+                vk::PFN_vkCmdPushDescriptorSetWithTemplateKHR,
+                c::cmd_push_descriptor_set_with_template
+            )
+        }
+        b"vkCmdBeginConditionalRenderingEXT" => void_fn!(
+            vk::PFN_vkCmdBeginConditionalRenderingEXT,
+            c::cmd_begin_conditional_rendering
+        ),
+        b"vkCmdEndConditionalRenderingEXT" => void_fn!(
+            vk::PFN_vkCmdEndConditionalRenderingEXT,
+            c::cmd_end_conditional_rendering
+        ),
+        b"vkCreateDescriptorUpdateTemplate" | b"vkCreateDescriptorUpdateTemplateKHR" => void_fn!(
+            vk::PFN_vkCreateDescriptorUpdateTemplate,
+            r::create_descriptor_update_template
+        ),
+        b"vkDestroyDescriptorUpdateTemplate" | b"vkDestroyDescriptorUpdateTemplateKHR" => {
+            void_fn!(
+                vk::PFN_vkDestroyDescriptorUpdateTemplate,
+                r::destroy_descriptor_update_template
+            )
+        }
         b"vkCreateCommandPool" => {
             void_fn!(vk::PFN_vkCreateCommandPool, r::create_command_pool)
         }

@@ -22,6 +22,10 @@ static ALLOCATE_COMMAND_BUFFERS: EntryPoint = EntryPoint::new("vkAllocateCommand
 static FREE_COMMAND_BUFFERS: EntryPoint = EntryPoint::new("vkFreeCommandBuffers");
 static DESTROY_COMMAND_POOL: EntryPoint = EntryPoint::new("vkDestroyCommandPool");
 static CREATE_COMMAND_POOL: EntryPoint = EntryPoint::new("vkCreateCommandPool");
+static CREATE_DESCRIPTOR_UPDATE_TEMPLATE: EntryPoint =
+    EntryPoint::new("vkCreateDescriptorUpdateTemplate");
+static DESTROY_DESCRIPTOR_UPDATE_TEMPLATE: EntryPoint =
+    EntryPoint::new("vkDestroyDescriptorUpdateTemplate");
 
 /// What revz creates a depth image as: its own create info, or a promoted copy
 /// (`crate::policy::DevicePolicy::promoted_format`), with the copies it points into.
@@ -432,6 +436,54 @@ pub unsafe extern "system" fn free_command_buffers(
     unsafe {
         (state.next.fp_v1_0().free_command_buffers)(device, command_pool, count, p_command_buffers)
     };
+}
+
+/// `vkCreateDescriptorUpdateTemplate(KHR)`: push-descriptor templates of the compute bind
+/// point are kept (pushing with one disturbs compute state revz would bind again).
+pub unsafe extern "system" fn create_descriptor_update_template(
+    device: vk::Device,
+    p_create_info: *const vk::DescriptorUpdateTemplateCreateInfo<'_>,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+    p_template: *mut vk::DescriptorUpdateTemplate,
+) -> vk::Result {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    let Some(next) = state.commands.create_descriptor_update_template else {
+        return vk::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    // SAFETY: calling down with the application's arguments.
+    let result = unsafe { next(device, p_create_info, p_allocator, p_template) };
+    if result == vk::Result::SUCCESS {
+        record(&CREATE_DESCRIPTOR_UPDATE_TEMPLATE, || {
+            // SAFETY: valid on success.
+            let (info, template) = unsafe { (&*p_create_info, *p_template) };
+            let compute_push = info.template_type
+                == vk::DescriptorUpdateTemplateType::PUSH_DESCRIPTORS_KHR
+                && info.pipeline_bind_point == vk::PipelineBindPoint::COMPUTE;
+            state.copies.note_template(template, compute_push);
+        });
+    }
+    result
+}
+
+pub unsafe extern "system" fn destroy_descriptor_update_template(
+    device: vk::Device,
+    template: vk::DescriptorUpdateTemplate,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return;
+    };
+    record(&DESTROY_DESCRIPTOR_UPDATE_TEMPLATE, || {
+        state.copies.forget_template(template)
+    });
+    if let Some(next) = state.commands.destroy_descriptor_update_template {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(device, template, p_allocator) }
+    }
 }
 
 /// `vkCreateCommandPool`: the pool's queue family says whether its command buffers can

@@ -51,13 +51,18 @@ fn decide(
         // The common case (no reversed end) takes no lock.
         return CopyDecision::Unchanged;
     }
+    let (restorable, conditional) = {
+        let copies = entry.copies();
+        (copies.compute.restorable(), copies.conditional)
+    };
     CopyFacts {
         source,
         destination,
         depth_aspect,
         values: entry.device.settings.copy_values,
         dispatchable: entry.dispatchable,
-        restorable: entry.copies().compute.restorable(),
+        restorable,
+        conditional,
         extended,
         multisampled: !images
             .iter()
@@ -853,4 +858,47 @@ pub unsafe extern "system" fn cmd_blit_image2(
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe { next(buffer, p_info) }
+}
+
+/// `vkCmdPushDescriptorSetWithTemplate(KHR)`: a push-descriptor template of the compute bind
+/// point refuses later conversions in this recording (revz cannot push them again).
+pub unsafe extern "system" fn cmd_push_descriptor_set_with_template(
+    buffer: vk::CommandBuffer,
+    template: vk::DescriptorUpdateTemplate,
+    layout: vk::PipelineLayout,
+    set: u32,
+    p_data: *const std::ffi::c_void,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetWithTemplateKHR");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        if entry.device.copies.pushes_compute(template) {
+            entry.copies().compute.bound_otherwise();
+        }
+    });
+    if let Some(next) = device.and_then(|d| d.commands.push_descriptor_set_with_template) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, template, layout, set, p_data) }
+    }
+}
+
+/// `vkCmdBeginConditionalRenderingEXT`: conversions are refused until it ends.
+pub unsafe extern "system" fn cmd_begin_conditional_rendering(
+    buffer: vk::CommandBuffer,
+    p_begin: *const vk::ConditionalRenderingBeginInfoEXT<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginConditionalRenderingEXT");
+    let device = with_entry(buffer, &ENTRY, |entry| entry.copies().conditional = true);
+    if let Some(next) = device.and_then(|d| d.commands.begin_conditional_rendering) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_begin) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_end_conditional_rendering(buffer: vk::CommandBuffer) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndConditionalRenderingEXT");
+    let device = with_entry(buffer, &ENTRY, |entry| entry.copies().conditional = false);
+    if let Some(next) = device.and_then(|d| d.commands.end_conditional_rendering) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer) }
+    }
 }

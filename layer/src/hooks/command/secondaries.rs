@@ -82,7 +82,23 @@ pub unsafe extern "system" fn begin_command_buffer(
             promoted_begin = promoted_inheritance(&entry.device, begin, inheritance);
         }
         *entry.scope() = PassScope::default();
-        entry.copies().begin(&entry.device);
+        {
+            let mut copies = entry.copies();
+            copies.begin(&entry.device);
+            // A secondary may run inside the primary's conditional rendering.
+            // SAFETY: null or a valid chain (read only for secondaries).
+            copies.conditional =
+                entry.secondary
+                    && unsafe { begin.p_inheritance_info.as_ref() }.is_some_and(|inheritance| {
+                        // SAFETY: the inheritance info's chain is valid.
+                        unsafe {
+                            crate::chain::find::<
+                                vk::CommandBufferInheritanceConditionalRenderingInfoEXT,
+                            >(inheritance.p_next)
+                        }
+                        .is_some_and(|info| info.conditional_rendering_enable == vk::TRUE)
+                    });
+        }
         let mut state = entry.state();
         // Cameras matter to the precise path only (no lock in flip mode).
         let cameras = match entry.device.policy.rewrite() {
