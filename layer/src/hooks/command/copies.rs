@@ -346,6 +346,16 @@ fn image_blit(
     }
 }
 
+/// The region count and pointer a hook sends down: the application's, or those of the regions
+/// left after a conversion; `None` when none is left (nothing to send).
+fn to_send<R>(left: &Option<Vec<R>>, count: u32, p_regions: *const R) -> Option<(u32, *const R)> {
+    match left {
+        Some(rest) if rest.is_empty() => None,
+        Some(rest) => Some((rest.len() as u32, rest.as_ptr())),
+        None => Some((count, p_regions)),
+    }
+}
+
 /// The regions a hook sends down: all of them, or those left with their aspects narrowed.
 fn regions_left<R: Copy>(
     regions: &[R],
@@ -395,10 +405,8 @@ pub unsafe extern "system" fn cmd_copy_image_to_buffer(
         left = regions_left(regions, &sent, narrow_buffer_image);
     });
     let Some(device) = device else { return };
-    let (count, p_regions) = match &left {
-        Some(rest) if rest.is_empty() => return,
-        Some(rest) => (rest.len() as u32, rest.as_ptr()),
-        None => (count, p_regions),
+    let Some((count, p_regions)) = to_send(&left, count, p_regions) else {
+        return;
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe {
@@ -423,10 +431,8 @@ pub unsafe extern "system" fn cmd_copy_buffer_to_image(
         left = regions_left(regions, &sent, narrow_buffer_image);
     });
     let Some(device) = device else { return };
-    let (count, p_regions) = match &left {
-        Some(rest) if rest.is_empty() => return,
-        Some(rest) => (rest.len() as u32, rest.as_ptr()),
-        None => (count, p_regions),
+    let Some((count, p_regions)) = to_send(&left, count, p_regions) else {
+        return;
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe {
@@ -454,10 +460,8 @@ pub unsafe extern "system" fn cmd_copy_image(
         left = regions_left(regions, &sent, narrow_image);
     });
     let Some(device) = device else { return };
-    let (count, p_regions) = match &left {
-        Some(rest) if rest.is_empty() => return,
-        Some(rest) => (rest.len() as u32, rest.as_ptr()),
-        None => (count, p_regions),
+    let Some((count, p_regions)) = to_send(&left, count, p_regions) else {
+        return;
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe {
@@ -538,17 +542,16 @@ pub unsafe extern "system" fn cmd_copy_image_to_buffer2(
         return;
     };
     let narrowed;
-    let p_info = match &left {
-        Some(rest) if rest.is_empty() => return,
-        Some(rest) => {
+    let p_info = match to_send(&left, info.region_count, info.p_regions) {
+        None => return,
+        Some((region_count, p_regions)) => {
             narrowed = vk::CopyImageToBufferInfo2 {
-                region_count: rest.len() as u32,
-                p_regions: rest.as_ptr(),
+                region_count,
+                p_regions,
                 ..*info
             };
             &narrowed as *const _
         }
-        None => p_info,
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe { next(buffer, p_info) }
@@ -585,17 +588,16 @@ pub unsafe extern "system" fn cmd_copy_buffer_to_image2(
         return;
     };
     let narrowed;
-    let p_info = match &left {
-        Some(rest) if rest.is_empty() => return,
-        Some(rest) => {
+    let p_info = match to_send(&left, info.region_count, info.p_regions) {
+        None => return,
+        Some((region_count, p_regions)) => {
             narrowed = vk::CopyBufferToImageInfo2 {
-                region_count: rest.len() as u32,
-                p_regions: rest.as_ptr(),
+                region_count,
+                p_regions,
                 ..*info
             };
             &narrowed as *const _
         }
-        None => p_info,
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe { next(buffer, p_info) }
@@ -633,17 +635,16 @@ pub unsafe extern "system" fn cmd_copy_image2(
         return;
     };
     let narrowed;
-    let p_info = match &left {
-        Some(rest) if rest.is_empty() => return,
-        Some(rest) => {
+    let p_info = match to_send(&left, info.region_count, info.p_regions) {
+        None => return,
+        Some((region_count, p_regions)) => {
             narrowed = vk::CopyImageInfo2 {
-                region_count: rest.len() as u32,
-                p_regions: rest.as_ptr(),
+                region_count,
+                p_regions,
                 ..*info
             };
             &narrowed as *const _
         }
-        None => p_info,
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe { next(buffer, p_info) }
@@ -791,10 +792,8 @@ pub unsafe extern "system" fn cmd_blit_image(
         left = regions_left(regions, &sent, narrow_blit);
     });
     let Some(device) = device else { return };
-    let (count, p_regions) = match &left {
-        Some(rest) if rest.is_empty() => return,
-        Some(rest) => (rest.len() as u32, rest.as_ptr()),
-        None => (count, p_regions),
+    let Some((count, p_regions)) = to_send(&left, count, p_regions) else {
+        return;
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe {
@@ -844,17 +843,16 @@ pub unsafe extern "system" fn cmd_blit_image2(
         return;
     };
     let narrowed;
-    let p_info = match &left {
-        Some(rest) if rest.is_empty() => return,
-        Some(rest) => {
+    let p_info = match to_send(&left, info.region_count, info.p_regions) {
+        None => return,
+        Some((region_count, p_regions)) => {
             narrowed = vk::BlitImageInfo2 {
-                region_count: rest.len() as u32,
-                p_regions: rest.as_ptr(),
+                region_count,
+                p_regions,
                 ..*info
             };
             &narrowed as *const _
         }
-        None => p_info,
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe { next(buffer, p_info) }

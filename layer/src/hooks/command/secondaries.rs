@@ -87,17 +87,16 @@ pub unsafe extern "system" fn begin_command_buffer(
             copies.begin(&entry.device);
             // A secondary may run inside the primary's conditional rendering.
             // SAFETY: null or a valid chain (read only for secondaries).
-            copies.conditional =
-                entry.secondary
-                    && unsafe { begin.p_inheritance_info.as_ref() }.is_some_and(|inheritance| {
-                        // SAFETY: the inheritance info's chain is valid.
-                        unsafe {
+            copies.conditional = entry.secondary
+                && unsafe { begin.p_inheritance_info.as_ref() }.is_some_and(|inheritance| {
+                    // SAFETY: the inheritance info's chain is valid.
+                    unsafe {
                             crate::chain::find::<
                                 vk::CommandBufferInheritanceConditionalRenderingInfoEXT,
                             >(inheritance.p_next)
                         }
                         .is_some_and(|info| info.conditional_rendering_enable == vk::TRUE)
-                    });
+                });
         }
         let mut state = entry.state();
         // Cameras matter to the precise path only (no lock in flip mode).
