@@ -86,17 +86,9 @@ pub unsafe extern "system" fn begin_command_buffer(
             let mut copies = entry.copies();
             copies.begin(&entry.device);
             // A secondary may run inside the primary's conditional rendering.
-            // SAFETY: null or a valid chain (read only for secondaries).
-            copies.conditional = entry.secondary
-                && unsafe { begin.p_inheritance_info.as_ref() }.is_some_and(|inheritance| {
-                    // SAFETY: the inheritance info's chain is valid.
-                    unsafe {
-                            crate::chain::find::<
-                                vk::CommandBufferInheritanceConditionalRenderingInfoEXT,
-                            >(inheritance.p_next)
-                        }
-                        .is_some_and(|info| info.conditional_rendering_enable == vk::TRUE)
-                });
+            // SAFETY: a valid begin info (the application's contract).
+            copies.conditional =
+                entry.secondary && unsafe { inherits_conditional_rendering(begin) };
         }
         let mut state = entry.state();
         // Cameras matter to the precise path only (no lock in flip mode).
@@ -334,4 +326,23 @@ pub unsafe extern "system" fn cmd_execute_commands(
         // SAFETY: calling down with the application's arguments.
         unsafe { (device.next.fp_v1_0().cmd_execute_commands)(buffer, count, p_buffers) }
     }
+}
+
+/// Whether a secondary's begin info inherits the primary's conditional rendering
+/// (`VkCommandBufferInheritanceConditionalRenderingInfoEXT` with the flag set).
+///
+/// # Safety
+/// `begin` must be a valid begin info of a secondary command buffer.
+unsafe fn inherits_conditional_rendering(begin: &vk::CommandBufferBeginInfo<'_>) -> bool {
+    // SAFETY: null or a valid inheritance info with a valid chain (the caller's contract).
+    let Some(inheritance) = (unsafe { begin.p_inheritance_info.as_ref() }) else {
+        return false;
+    };
+    // SAFETY: as above.
+    let info = unsafe {
+        crate::chain::find::<vk::CommandBufferInheritanceConditionalRenderingInfoEXT>(
+            inheritance.p_next,
+        )
+    };
+    info.is_some_and(|info| info.conditional_rendering_enable == vk::TRUE)
 }
