@@ -187,15 +187,8 @@ impl CommandCopies {
             let mut requirements = vk::MemoryRequirements::default();
             // SAFETY: as above.
             unsafe { (v.get_image_memory_requirements)(device.handle, image, &mut requirements) };
-            let memory_type = device
-                .copies
-                .memory_type(requirements.memory_type_bits)
-                .ok_or(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY)?;
-            let allocate = vk::MemoryAllocateInfo::default()
-                .allocation_size(requirements.size)
-                .memory_type_index(memory_type);
             // SAFETY: as above.
-            unsafe { (v.allocate_memory)(device.handle, &allocate, null, &mut memory) }.result()?;
+            memory = unsafe { allocate(device, requirements) }?;
             // SAFETY: as above.
             unsafe { (v.bind_image_memory)(device.handle, image, memory, 0) }.result()
         })();
@@ -282,15 +275,8 @@ unsafe fn create_slot(device: &DeviceState, size: u64) -> Option<Slot> {
         let mut requirements = vk::MemoryRequirements::default();
         // SAFETY: as above.
         unsafe { (v.get_buffer_memory_requirements)(handle, slot.buffer, &mut requirements) };
-        let memory_type = device
-            .copies
-            .memory_type(requirements.memory_type_bits)
-            .ok_or(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY)?;
-        let allocate = vk::MemoryAllocateInfo::default()
-            .allocation_size(requirements.size)
-            .memory_type_index(memory_type);
         // SAFETY: as above.
-        unsafe { (v.allocate_memory)(handle, &allocate, null, &mut slot.memory) }.result()?;
+        slot.memory = unsafe { allocate(device, requirements) }?;
         // SAFETY: as above.
         unsafe { (v.bind_buffer_memory)(handle, slot.buffer, slot.memory, 0) }.result()?;
         let sizes = [vk::DescriptorPoolSize {
@@ -338,6 +324,31 @@ unsafe fn create_slot(device: &DeviceState, size: u64) -> Option<Slot> {
             None
         }
     }
+}
+
+/// Device memory for `requirements`, device-local where a type allows it (scratch buffers and
+/// staged images alike).
+///
+/// # Safety
+/// `device` must be live.
+unsafe fn allocate(
+    device: &DeviceState,
+    requirements: vk::MemoryRequirements,
+) -> Result<vk::DeviceMemory, vk::Result> {
+    let memory_type = device
+        .copies
+        .memory_type(requirements.memory_type_bits)
+        .ok_or(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY)?;
+    let info = vk::MemoryAllocateInfo::default()
+        .allocation_size(requirements.size)
+        .memory_type_index(memory_type);
+    let mut memory = vk::DeviceMemory::null();
+    // SAFETY: a valid allocate info and output on a live device (the caller's contract).
+    unsafe {
+        (device.next.fp_v1_0().allocate_memory)(device.handle, &info, std::ptr::null(), &mut memory)
+    }
+    .result()?;
+    Ok(memory)
 }
 
 /// # Safety
