@@ -1,12 +1,14 @@
-//! The depth state of one command buffer, and what must be sent down before a draw.
+//! The depth state of one command buffer, and what must be sent down for its next draw.
 //!
 //! The application's depth-related state (viewports, compare op, depth bias, depth bounds)
-//! reaches the driver only at draw time: its `vkCmdSet*` calls are recorded here, the pipeline
-//! it binds brings its static values (for the states revz made dynamic), and before a draw
-//! whose state changed, [`CommandState::before_draw`] emits the values for the current depth
-//! attachment: flipped when it is reversed, as the application gave them otherwise. A draw
-//! with nothing changed costs one flag check. No Vulkan calls are made here: emission goes
-//! through a [`StateSink`], so the logic is tested without a device.
+//! goes through here: its `vkCmdSet*` calls are recorded, the pipeline it binds brings its
+//! static values (for the states revz made dynamic), and after every command that may change
+//! what the next draw needs, [`CommandState::settle`] sends the values for the current depth
+//! attachment: flipped when it is reversed, as the application gave them otherwise, only what
+//! changed, and only inside a pass (outside one no draw can follow before the next begin,
+//! which settles again). Draws therefore need nothing from revz and are not intercepted (the
+//! depth profile hooks them to count, [`CommandState::before_draw`]). No Vulkan calls are made
+//! here: emission goes through a [`StateSink`], so the logic is tested without a device.
 //!
 //! The draw's path (`shared/DESIGN.md` section 2) is decided here too: a draw into a reversed
 //! attachment whose pipeline reads its projection from push constants, whose vertex stage
@@ -428,6 +430,9 @@ pub struct CommandState {
     /// The current subpass (or rendering instance) records its draws in secondaries: no
     /// state command may be recorded in it.
     secondary_contents: bool,
+    /// Draws can be recorded now: inside a render pass or rendering instance, or in a
+    /// secondary that continues one. State is only sent down here ([`Self::settle`]).
+    in_pass: bool,
     dirty: bool,
 }
 
@@ -455,6 +460,7 @@ impl Default for CommandState {
             shader_variant_bound: false,
             inherits_viewports: false,
             secondary_contents: false,
+            in_pass: false,
             dirty: true,
         }
     }
@@ -472,10 +478,13 @@ impl CommandState {
     /// Starts recording (`vkBeginCommandBuffer`): all state is undefined again. `reversal`
     /// is the device's current map (infinite mode learns n / f from the projections it sees),
     /// `cameras` the cameras the device has seen.
+    /// A begin with a depth target (a secondary continuing a pass) is inside that pass; a
+    /// secondary continuing a pass without depth says so with [`Self::set_target`].
     pub fn begin(&mut self, target: Target, reversal: Reversal, cameras: Cameras) {
         *self = CommandState {
             target,
             inherited: target,
+            in_pass: target != Target::None,
             reversing: Reversing {
                 reversal,
                 ..self.reversing
@@ -692,12 +701,36 @@ impl CommandState {
         }
     }
 
-    /// The depth attachment changed (render pass begin, next subpass, end, ...).
+    /// Draws go to `target` now (render pass begin, next subpass, rendering begin, a
+    /// secondary continuing a pass).
     pub fn set_target(&mut self, target: Target) {
+        self.in_pass = true;
         if self.target != target {
             self.target = target;
             self.dirty = true;
         }
+    }
+
+    /// The render pass or rendering instance ended: no draw can be recorded until the next,
+    /// and nothing is sent down before it ([`Self::settle`]).
+    pub fn leave_pass(&mut self) {
+        self.in_pass = false;
+        if self.target != Target::None {
+            self.target = Target::None;
+            self.dirty = true;
+        }
+    }
+
+    /// `vkCmdBindPipeline` of `app`, after [`Self::bind_pipeline`]: the pipeline to send down
+    /// in its place, so that a reversed variant is bound at once instead of the application's
+    /// pipeline and then the variant.
+    pub fn pipeline_to_bind(&mut self, app: vk::Pipeline) -> vk::Pipeline {
+        let Some(pipeline) = self.pipeline.as_ref().filter(|_| self.in_pass) else {
+            return app;
+        };
+        let wanted = pipeline.variant_for(self.target == Target::Reversed, self.promoted());
+        self.variant_bound = wanted;
+        wanted.unwrap_or(app)
     }
 
     /// `vkCmdBindPipeline` with a graphics pipeline: it unbinds the shader objects bound to
@@ -841,12 +874,24 @@ impl CommandState {
         self.dirty = true;
     }
 
-    /// Before a draw: emits the depth state if anything changed since the last draw. Returns
-    /// the outcome of a classification made for it, if any.
+    /// A draw (hooked only with the depth profile, which counts it): sends what
+    /// [`Self::settle`] would, which is nothing when every hook settled.
     #[inline]
     pub fn before_draw(&mut self, sink: &mut impl StateSink) -> Option<Outcome> {
-        if !self.dirty {
-            self.count_draw();
+        let outcome = self.settle(sink);
+        self.count_draw();
+        outcome
+    }
+
+    /// After a command that may change what the next draw needs (a bind, a push, a state
+    /// setter, a pass begin, `vkCmdExecuteCommands`): sends down the depth state for the
+    /// current target if it changed, so that draws need nothing from revz and go straight to
+    /// the driver. Outside a pass (no draw can follow before a begin, which settles again) and
+    /// inside a subpass of secondaries (nothing may be recorded there) it waits. Returns the
+    /// outcome of a classification made for it, if any.
+    #[inline]
+    pub fn settle(&mut self, sink: &mut impl StateSink) -> Option<Outcome> {
+        if !self.dirty || !self.in_pass || self.secondary_contents {
             return None;
         }
         let outcome = match self.precise_use().map(|(p, t)| (*p, t)) {
@@ -906,7 +951,6 @@ impl CommandState {
         };
         self.emit(sink);
         self.dirty = false;
-        self.count_draw();
         outcome
     }
 
@@ -1103,7 +1147,7 @@ mod tests {
 
     use super::*;
 
-    #[derive(Debug, Default, PartialEq)]
+    #[derive(Clone, Debug, Default, PartialEq)]
     struct Recorded {
         viewports: Vec<(u32, Vec<(f32, f32)>)>,
         with_count: Vec<Vec<(f32, f32)>>,
@@ -1254,6 +1298,57 @@ mod tests {
         state.bind_pipeline(Some(pipeline));
         state.before_draw(&mut sink);
         assert_eq!(sink.binds, vec![variant, original, variant]);
+    }
+
+    #[test]
+    fn state_settles_inside_passes_only_and_a_variant_goes_down_in_the_binds_place() {
+        let original = vk::Pipeline::from_raw(10);
+        let variant = vk::Pipeline::from_raw(11);
+        let pipeline = Arc::new(PipelineDepth {
+            handle: original,
+            reversed_variant: Some(variant),
+            ..(*static_pipeline()).clone()
+        });
+        // A primary, outside any pass: the bind goes down as the application's, and nothing
+        // else is sent (no draw can follow before a begin).
+        let mut state = CommandState::default();
+        state.begin(Target::None, Reversal::Complementary, Cameras::default());
+        state.bind_pipeline(Some(Arc::clone(&pipeline)));
+        assert_eq!(state.pipeline_to_bind(original), original);
+        state.set_compare_op(vk::CompareOp::LESS);
+        let mut sink = Recorded::default();
+        assert!(state.settle(&mut sink).is_none());
+        assert_eq!(sink, Recorded::default(), "nothing outside a pass");
+        // The pass begins into a reversed attachment: everything the next draw needs goes
+        // down once, as the begin settles, and a draw then sends nothing.
+        state.set_target(Target::Reversed);
+        state.settle(&mut sink);
+        assert_eq!(sink.binds, vec![variant]);
+        assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.0)])]);
+        assert_eq!(sink.biases.len(), 1);
+        let sent = sink.clone();
+        state.settle(&mut sink);
+        state.before_draw(&mut sink);
+        assert_eq!(sink, sent, "nothing more for the draw");
+        // A bind inside the pass: the variant is what goes down, and nothing after it.
+        state.bind_pipeline(Some(Arc::clone(&pipeline)));
+        assert_eq!(state.pipeline_to_bind(original), variant);
+        state.settle(&mut sink);
+        assert_eq!(sink.binds, vec![variant], "no second bind");
+        // Inside a subpass of secondaries nothing may be recorded: it waits.
+        state.set_secondary_contents(true);
+        state.set_target(Target::Native);
+        state.settle(&mut sink);
+        assert_eq!(sink.binds, vec![variant]);
+        state.set_secondary_contents(false);
+        state.settle(&mut sink);
+        assert_eq!(sink.binds, vec![variant, original]);
+        // The pass ends: nothing goes down until the next begin.
+        state.leave_pass();
+        state.set_compare_op(vk::CompareOp::GREATER);
+        let sent = sink.clone();
+        state.settle(&mut sink);
+        assert_eq!(sink, sent);
     }
 
     #[test]

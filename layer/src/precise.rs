@@ -10,7 +10,7 @@
 //!
 //! - the application's bytes go down unchanged, so every other use of the matrix (lighting,
 //!   view vectors, a varying computed from `Position`) sees the application's values; revz
-//!   keeps a shadow copy ([`PushConstants`]) to classify the matrix at draw time;
+//!   keeps a shadow copy ([`PushConstants`]) to classify the matrix when it is pushed or bound;
 //! - the matrix is matched to a camera ([`revz_math::Cameras`]): one camera, one (n, f), taken
 //!   from its best-conditioned matrix, so a P * V * M far from the camera, whose own B is lost
 //!   to rounding, still stores the camera's `n / w` (infinite) or complementary depth;

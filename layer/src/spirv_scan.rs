@@ -37,6 +37,40 @@ pub fn instructions(words: &[u32]) -> Option<Instructions<'_>> {
     (words.len() >= HEADER_WORDS && words[0] == MAGIC).then(|| instructions_at(words, HEADER_WORDS))
 }
 
+/// Whether `words` declare an entry point of the vertex stage (`OpEntryPoint Vertex`): only
+/// such modules can be the last pre-rasterization stage revz analyzes and rewrites (it does
+/// not analyze tessellation, geometry or mesh stages). Malformed words answer `true`, so the
+/// analysis that follows reports them.
+pub fn declares_vertex_entry_point(words: &[u32]) -> bool {
+    const EXECUTION_MODEL_VERTEX: u32 = 0;
+    const OP_EXTENSION: u32 = 10;
+    const OP_EXT_INST_IMPORT: u32 = 11;
+    const OP_MEMORY_MODEL: u32 = 14;
+    const OP_CAPABILITY: u32 = 17;
+    let Some(instructions) = instructions(words) else {
+        return true;
+    };
+    for instruction in instructions {
+        let Ok(instruction) = instruction else {
+            return true;
+        };
+        match instruction.opcode {
+            op::OP_ENTRY_POINT if instruction.operands.first() == Some(&EXECUTION_MODEL_VERTEX) => {
+                return true
+            }
+            // Only capabilities, extensions, imports and the memory model come before the
+            // entry points, and everything else after them (SPIR-V 2.4, logical layout).
+            op::OP_ENTRY_POINT
+            | OP_CAPABILITY
+            | OP_EXTENSION
+            | OP_EXT_INST_IMPORT
+            | OP_MEMORY_MODEL => {}
+            _ => return false,
+        }
+    }
+    false
+}
+
 /// Walks the instructions of `words` from word `at` on, which must be where an instruction
 /// starts (the header already checked).
 pub fn instructions_at(words: &[u32], at: usize) -> Instructions<'_> {
@@ -185,6 +219,30 @@ mod tests {
         let mut words = vec![MAGIC, 0x0001_0000, 0, 100, 0];
         words.extend_from_slice(body);
         words
+    }
+
+    #[test]
+    fn only_modules_with_a_vertex_entry_point_are_analyzed() {
+        use crate::test_spirv::compile_glsl;
+        use naga::ShaderStage;
+        let vertex = compile_glsl(
+            ShaderStage::Vertex,
+            "#version 450\nvoid main() { gl_Position = vec4(0.0); }",
+        );
+        let fragment = compile_glsl(
+            ShaderStage::Fragment,
+            "#version 450\nlayout(location = 0) out vec4 c;\nvoid main() { c = vec4(1.0); }",
+        );
+        let compute = compile_glsl(
+            ShaderStage::Compute,
+            "#version 450\nlayout(local_size_x = 1) in;\nvoid main() {}",
+        );
+        assert!(declares_vertex_entry_point(&vertex));
+        assert!(!declares_vertex_entry_point(&fragment));
+        assert!(!declares_vertex_entry_point(&compute));
+        // Words that are not a module, or break off: the analysis says why.
+        assert!(declares_vertex_entry_point(&[1, 2, 3]));
+        assert!(declares_vertex_entry_point(&module(&[0x0005_0011])));
     }
 
     #[test]

@@ -49,12 +49,12 @@ pub unsafe extern "system" fn get_device_proc_addr(
                                 .and_then(|_| super::precise_path_command(name))
                         })
                         .or_else(|| {
-                            // The depth profile folds draws at submissions and closes
-                            // frames at presents, in every mode.
-                            state
-                                .profile
-                                .as_ref()
-                                .and_then(|_| super::profile_command(name))
+                            // The depth profile counts draws, folds them at submissions and
+                            // closes frames at presents, in every mode. Without it draws are
+                            // the next layer's own.
+                            state.profile.as_ref().and_then(|_| {
+                                super::profile_command(name).or_else(|| super::draw_command(name))
+                            })
                         })
                 })
             });

@@ -898,7 +898,11 @@ pub(super) unsafe extern "system" fn fake_cmd_draw(
 ) {
 }
 
-unsafe extern "system" fn fake_cmd_set_depth_compare_op(_: vk::CommandBuffer, _: vk::CompareOp) {}
+pub(super) unsafe extern "system" fn fake_cmd_set_depth_compare_op(
+    _: vk::CommandBuffer,
+    _: vk::CompareOp,
+) {
+}
 
 /// Formats the fake's physical devices do not support as images (for the promotion tests),
 /// per instance dispatch table.

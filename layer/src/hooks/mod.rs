@@ -308,6 +308,18 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdExecuteCommands" => {
             void_fn!(vk::PFN_vkCmdExecuteCommands, c::cmd_execute_commands)
         }
+        b"vkCmdBindShadersEXT" => void_fn!(vk::PFN_vkCmdBindShadersEXT, c::cmd_bind_shaders_ext),
+        _ => None,
+    }
+}
+
+/// The hook for a draw command: handed out only where the depth profile counts draws
+/// (`crate::profile`). Everywhere else draws go straight to the next layer: every hook that
+/// changes what a draw needs sends it down as it goes
+/// ([`crate::command_state::CommandState::settle`]).
+pub fn draw_command(name: &CStr) -> vk::PFN_vkVoidFunction {
+    use command as c;
+    match name.to_bytes() {
         b"vkCmdDraw" => void_fn!(vk::PFN_vkCmdDraw, c::cmd_draw),
         b"vkCmdDrawIndexed" => void_fn!(vk::PFN_vkCmdDrawIndexed, c::cmd_draw_indexed),
         b"vkCmdDrawIndirect" => void_fn!(vk::PFN_vkCmdDrawIndirect, c::cmd_draw_indirect),
@@ -370,7 +382,6 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             crate::ffi::PfnCmdExecuteGeneratedCommandsExt,
             c::cmd_execute_generated_commands_ext
         ),
-        b"vkCmdBindShadersEXT" => void_fn!(vk::PFN_vkCmdBindShadersEXT, c::cmd_bind_shaders_ext),
         b"vkCmdDrawIndirectByteCountEXT" => void_fn!(
             vk::PFN_vkCmdDrawIndirectByteCountEXT,
             c::cmd_draw_indirect_byte_count_ext
@@ -431,8 +442,17 @@ mod tests {
             assert!(precise_path_command(name).is_some(), "{name:?}");
         }
         for name in [
+            c"vkCmdDraw",
+            c"vkCmdDrawIndexedIndirectCountKHR",
+            c"vkCmdDrawMultiEXT",
             c"vkCmdExecuteGeneratedCommandsNV",
             c"vkCmdExecuteGeneratedCommandsEXT",
+            c"vkCmdDrawIndirectByteCountEXT",
+        ] {
+            assert!(draw_command(name).is_some(), "{name:?}");
+            assert!(depth_path_command(name).is_none(), "{name:?}");
+        }
+        for name in [
             c"vkCmdExecuteCommands",
             c"vkCreateShadersEXT",
             c"vkDestroyShaderEXT",

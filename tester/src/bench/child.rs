@@ -805,11 +805,15 @@ pub fn pipeline_storm(gpu: &Gpu, count: usize, repeats: usize) -> Result<Pipelin
 pub struct Micro {
     pub calls: usize,
     pub push_constant_ns: f64,
+    /// Pushes of one camera's MVPs (every push its own model matrix: what most applications
+    /// push, and what the same-camera shortcut serves).
+    pub push_one_camera_ns: f64,
     pub draw_ns: f64,
     pub bind_ns: f64,
 }
 
-/// The micro-benchmark: `calls` pushes (a different perspective MVP each), `calls` draws with
+/// The micro-benchmark: `calls` pushes (a different perspective MVP each), `calls` pushes of
+/// one camera's MVPs (a model matrix each), `calls` draws with
 /// nothing changed, `calls` binds alternating two pipelines, in a render pass on the reversed
 /// attachment with the MVP pipeline bound; each loop timed alone, `repeats` times.
 pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
@@ -823,8 +827,15 @@ pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
             out
         })
         .collect();
+    let one_camera: Vec<[u8; 64]> = (0..calls.max(1))
+        .map(|i| {
+            let mut out = [0u8; 64];
+            out.copy_from_slice(&push_bytes(i, 1)[..64]);
+            out
+        })
+        .collect();
     let cmd = bench.allocate(1)?[0];
-    let (mut push, mut draw, mut bind) = (f64::MAX, f64::MAX, f64::MAX);
+    let (mut push, mut push_one, mut draw, mut bind) = (f64::MAX, f64::MAX, f64::MAX, f64::MAX);
     let per_call = |c0: u64, c1: u64| (c1 - c0) as f64 / calls.max(1) as f64;
     for _ in 0..repeats.max(1) {
         // SAFETY: `cmd` is not pending (never submitted).
@@ -841,6 +852,12 @@ pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
             }
             let c1 = thread_cpu_ns();
             push = push.min(per_call(c0, c1));
+            let c0 = thread_cpu_ns();
+            for m in &one_camera {
+                device.cmd_push_constants(cmd, bench.layout, PUSH_STAGES, 0, m);
+            }
+            let c1 = thread_cpu_ns();
+            push_one = push_one.min(per_call(c0, c1));
             // The first draw after the pushes settles whatever is pending.
             device.cmd_draw(cmd, 3, 1, 0, 0);
             let c0 = thread_cpu_ns();
@@ -862,6 +879,7 @@ pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
     Ok(Micro {
         calls,
         push_constant_ns: push,
+        push_one_camera_ns: push_one,
         draw_ns: draw,
         bind_ns: bind,
     })

@@ -568,6 +568,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "pipeline_creation_ratio": paired(samples, &pipe, v, rounds, "create_wall_ns", ratio),
                 "pipeline_creation_cpu_ratio": paired(samples, &pipe, v, rounds, "create_cpu_ns", ratio),
                 "ns_per_push_constant": paired(samples, &micro, v, rounds, "push_constant_ns", diff),
+                "ns_per_push_one_camera": paired(samples, &micro, v, rounds, "push_one_camera_ns", diff),
                 "ns_per_draw": paired(samples, &micro, v, rounds, "draw_ns", diff),
                 "ns_per_bind": paired(samples, &micro, v, rounds, "bind_ns", diff),
                 // A converted depth copy: the frame's wall time against no layer, and what it
@@ -589,6 +590,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "pipeline_creation_ns": own(samples, &pipe, v, rounds, "create_wall_ns"),
                 "pipelines": config.pipelines,
                 "push_constant_ns": own(samples, &micro, v, rounds, "push_constant_ns"),
+                "push_one_camera_ns": own(samples, &micro, v, rounds, "push_one_camera_ns"),
                 "draw_ns": own(samples, &micro, v, rounds, "draw_ns"),
                 "bind_ns": own(samples, &micro, v, rounds, "bind_ns"),
                 "by_draws": by_draws,
@@ -599,6 +601,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                     "frame_cpu_ratio_projection_per_draw": paired_spread(samples, &varying, v, rounds, "frame_cpu_ns", ratio),
                     "pipeline_creation_ratio": paired_spread(samples, &pipe, v, rounds, "create_wall_ns", ratio),
                     "ns_per_push_constant": paired_spread(samples, &micro, v, rounds, "push_constant_ns", diff),
+                    "ns_per_push_one_camera": paired_spread(samples, &micro, v, rounds, "push_one_camera_ns", diff),
                     "ns_per_draw": paired_spread(samples, &micro, v, rounds, "draw_ns", diff),
                     "ns_per_bind": paired_spread(samples, &micro, v, rounds, "bind_ns", diff),
                     "depth_copy_wall_ratio": paired_spread(samples, &copy, v, rounds, "copy_wall_ns", ratio),

@@ -2,10 +2,13 @@
 //! state is collected, clear values are flipped, and state is emitted before draws.
 //!
 //! Every hook looks up its command buffer (a thread-local cache hit in the common case); an
-//! unknown command buffer is passed down untouched through its device's table.
+//! unknown command buffer is passed down untouched through its device's table. A hook that
+//! changes what the next draw needs settles the depth state after its call has gone down
+//! ([`settle`]), so draws are not intercepted (only the depth profile hooks them, to count).
 //!
 //! By concern: this file holds the shared plumbing (the next layer as a state sink, the lookup
-//! of a command buffer's state), push constants, the depth state setters, binds and draws;
+//! of a command buffer's state, settling), push constants, the depth state setters, binds and
+//! the profile's draw hooks;
 //! [`passes`] the render pass and dynamic rendering begins, subpasses and ends; [`transfers`]
 //! clears and blits of depth images; [`copies`] copies of depth images (converted where one end
 //! is reversed) and the compute binds they restore; [`secondaries`] command buffer begins
@@ -145,7 +148,8 @@ impl StateSink for NextLayer<'_> {
     }
 }
 
-/// Emits pending depth state before a draw.
+/// Emits pending depth state before a draw (draws are hooked only with the depth profile,
+/// which counts them: every other hook already settled the state).
 #[inline]
 fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
     let mut sink = NextLayer {
@@ -157,6 +161,39 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
     drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
+    }
+}
+
+/// After a hook that may change what the next draw needs has gone down: the depth state for
+/// it goes down now ([`crate::command_state::CommandState::settle`]), so that draws reach the
+/// driver without passing through revz. A panic here is caught and logged; the next hook
+/// settles again.
+#[inline]
+fn settle(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
+    static ENTRY: EntryPoint = EntryPoint::new("depth state after a command");
+    guarded(
+        &ENTRY,
+        || {
+            let mut sink = NextLayer {
+                device: &entry.device,
+                buffer,
+            };
+            let mut state = entry.state();
+            let outcome = state.settle(&mut sink);
+            drop(state);
+            if let Some(outcome) = outcome {
+                observe(&entry.device, &outcome);
+            }
+        },
+        || (),
+    );
+}
+
+/// [`settle`] after a hook that called down through `down`, when the command buffer is
+/// tracked.
+pub(super) fn settle_down(down: &Option<Down>, buffer: vk::CommandBuffer) {
+    if let Some(Down::Tracked(entry)) = down {
+        settle(entry, buffer);
     }
 }
 
@@ -187,7 +224,7 @@ pub unsafe extern "system" fn cmd_push_constants(
     p_values: *const std::ffi::c_void,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants");
-    record_then_call(
+    record_then_call::<true, _>(
         buffer,
         &ENTRY,
         |entry| {
@@ -257,15 +294,17 @@ pub unsafe extern "system" fn cmd_push_constants2(
         return;
     };
     // SAFETY: calling down with the application's arguments.
-    unsafe { next(buffer, p_info) }
+    unsafe { next(buffer, p_info) };
+    settle_down(&device, buffer);
 }
 
 /// The per-draw-rate hook shape (draws, pushes, binds): `record` runs on the command buffer's
 /// entry (a thread-local cache hit, no reference count taken; a panic in it is caught and gives
-/// `fallback`), then `call` goes down through the entry's device with what `record` returned.
-/// An untracked command buffer is only called down, with `fallback`.
+/// `fallback`), then `call` goes down through the entry's device with what `record` returned,
+/// then, where `SETTLES`, the depth state the next draw needs ([`settle`]). An untracked
+/// command buffer is only called down, with `fallback`.
 #[inline]
-fn record_then_call<T: Copy>(
+fn record_then_call<const SETTLES: bool, T: Copy>(
     buffer: vk::CommandBuffer,
     entry_point: &'static EntryPoint,
     record: impl FnOnce(&CommandBufferEntry) -> T,
@@ -275,6 +314,9 @@ fn record_then_call<T: Copy>(
     let tracked = objects::with_command_buffer(buffer, |entry| {
         let recorded = guarded(entry_point, || record(entry), || fallback);
         call(&entry.device, recorded);
+        if SETTLES {
+            settle(entry, buffer);
+        }
     });
     if tracked.is_none() {
         if let Some(device) = untracked_device(buffer) {
@@ -283,8 +325,8 @@ fn record_then_call<T: Copy>(
     }
 }
 
-/// Defines a draw hook: emit pending state, then call down. A draw with no state change costs
-/// a thread-local lookup, an uncontended lock and a flag check.
+/// Defines a draw hook (handed out only with the depth profile, `super::draw_command`): count
+/// the draw and send what is pending (nothing, when every hook settled), then call down.
 macro_rules! draw_hook {
     ($name:ident, $entry:literal, $($arg:ident: $ty:ty),* => |$device:ident| $next:expr) => {
         #[doc = concat!("`", $entry, "`.")]
@@ -293,7 +335,7 @@ macro_rules! draw_hook {
         /// Called by the application with the arguments the Vulkan spec allows.
         pub unsafe extern "system" fn $name(buffer: vk::CommandBuffer, $($arg: $ty),*) {
             static ENTRY: EntryPoint = EntryPoint::new($entry);
-            record_then_call(
+            record_then_call::<false, _>(
                 buffer,
                 &ENTRY,
                 |entry| before_draw(entry, buffer),
@@ -399,8 +441,9 @@ pub(super) fn with_entry(
     }
 }
 
-/// Whether the command buffer's state machine took the call (then it is emitted at draw time
-/// and must not go down now).
+/// Whether the command buffer's state machine took the call (then what it sets goes down as
+/// the state machine settles, flipped where the target is reversed, and the application's
+/// call must not go down).
 fn recorded(
     buffer: vk::CommandBuffer,
     entry_point: &'static EntryPoint,
@@ -417,6 +460,7 @@ fn recorded(
                 || false,
             );
             if taken {
+                settle(&entry, buffer);
                 Ok(())
             } else {
                 Err(Some(Down::Tracked(entry)))
@@ -536,22 +580,29 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
     pipeline: vk::Pipeline,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindPipeline");
-    record_then_call(
+    record_then_call::<true, _>(
         buffer,
         &ENTRY,
         |entry| {
             if bind_point == vk::PipelineBindPoint::GRAPHICS {
                 let depth = entry.device.objects.pipelines.get(&pipeline);
-                entry.state().bind_pipeline(depth);
-            } else if bind_point == vk::PipelineBindPoint::COMPUTE {
-                // Bound again after a converted copy's dispatch.
-                entry.copies().compute.bind_pipeline(pipeline);
+                let mut state = entry.state();
+                state.bind_pipeline(depth);
+                // A reversed variant goes down in the application's pipeline's place.
+                state.pipeline_to_bind(pipeline)
+            } else {
+                if bind_point == vk::PipelineBindPoint::COMPUTE {
+                    // Bound again after a converted copy's dispatch.
+                    entry.copies().compute.bind_pipeline(pipeline);
+                }
+                pipeline
             }
         },
-        (),
-        |device, ()| {
-            // SAFETY: calling down with the application's arguments.
-            unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, pipeline) }
+        pipeline,
+        |device, sent| {
+            // SAFETY: calling down with the application's arguments (the pipeline, or its
+            // reversed or promoted variant, created with it and destroyed with it).
+            unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, sent) }
         },
     );
 }
@@ -592,9 +643,10 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
         }
         entry.state().bind_shaders(fragment)
     });
-    if let Some(next) = device.and_then(|d| d.commands.bind_shaders_ext) {
+    if let Some(next) = device.as_ref().and_then(|d| d.commands.bind_shaders_ext) {
         // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, count, p_stages, p_shaders) }
+        unsafe { next(buffer, count, p_stages, p_shaders) };
+        settle_down(&device, buffer);
     }
 }
 

@@ -147,7 +147,7 @@ pub unsafe extern "system" fn cmd_begin_render_pass(
         // SAFETY: a valid begin info (the application's contract).
         pass_begin = begin_pass(entry, buffer, unsafe { &*p_begin }, contents);
     });
-    let Some(device) = device else { return };
+    let Some(down) = device else { return };
     // SAFETY: a valid begin info.
     let replaced = pass_begin.apply(unsafe { &*p_begin });
     let p_begin = if pass_begin.changes_anything() {
@@ -156,7 +156,8 @@ pub unsafe extern "system" fn cmd_begin_render_pass(
         p_begin
     };
     // SAFETY: calling down with the application's arguments (clear values flipped, twin pass).
-    unsafe { (device.next.fp_v1_0().cmd_begin_render_pass)(buffer, p_begin, contents) }
+    unsafe { (down.next.fp_v1_0().cmd_begin_render_pass)(buffer, p_begin, contents) };
+    settle_down(&Some(down), buffer);
 }
 
 pub unsafe extern "system" fn cmd_begin_render_pass2(
@@ -172,7 +173,7 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
         // SAFETY: a valid begin info (the application's contract).
         pass_begin = begin_pass(entry, buffer, unsafe { &*p_begin }, contents);
     });
-    let Some(next) = device.and_then(|d| d.commands.begin_render_pass2) else {
+    let Some(next) = device.as_ref().and_then(|d| d.commands.begin_render_pass2) else {
         return;
     };
     // SAFETY: a valid begin info.
@@ -183,7 +184,8 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
         p_begin
     };
     // SAFETY: calling down with the application's arguments (clear values flipped, twin pass).
-    unsafe { next(buffer, p_begin, p_subpass_begin) }
+    unsafe { next(buffer, p_begin, p_subpass_begin) };
+    settle_down(&device, buffer);
 }
 
 /// A subpass or rendering instance begins whose draws are (`secondary`) or are not recorded
@@ -236,7 +238,7 @@ pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer
 pub(super) fn end_pass(entry: &CommandBufferEntry) {
     *entry.scope() = PassScope::default();
     let mut state = entry.state();
-    state.set_target(Target::None);
+    state.leave_pass();
     state.set_promoted(None);
     state.set_secondary_contents(false);
 }
@@ -247,11 +249,13 @@ pub unsafe extern "system" fn cmd_next_subpass(
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdNextSubpass");
     let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
-    if let Some(device) = with_entry(buffer, &ENTRY, |entry| {
+    let down = with_entry(buffer, &ENTRY, |entry| {
         next_subpass(entry, buffer, secondary)
-    }) {
+    });
+    if let Some(device) = &down {
         // SAFETY: calling down with the application's arguments.
-        unsafe { (device.next.fp_v1_0().cmd_next_subpass)(buffer, contents) }
+        unsafe { (device.next.fp_v1_0().cmd_next_subpass)(buffer, contents) };
+        settle_down(&down, buffer);
     }
 }
 
@@ -264,13 +268,13 @@ pub unsafe extern "system" fn cmd_next_subpass2(
     // SAFETY: a valid subpass begin info (the application's contract).
     let contents = unsafe { (*p_begin).contents };
     let secondary = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
-    if let Some(next) = with_entry(buffer, &ENTRY, |entry| {
+    let down = with_entry(buffer, &ENTRY, |entry| {
         next_subpass(entry, buffer, secondary)
-    })
-    .and_then(|d| d.commands.next_subpass2)
-    {
+    });
+    if let Some(next) = down.as_ref().and_then(|d| d.commands.next_subpass2) {
         // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, p_begin, p_end) }
+        unsafe { next(buffer, p_begin, p_end) };
+        settle_down(&down, buffer);
     }
 }
 
@@ -378,7 +382,7 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             .map(SecondaryPass::Rendering);
         enter_contents(entry, buffer, secondary, key);
     });
-    let Some(next) = device.and_then(|d| d.commands.begin_rendering) else {
+    let Some(next) = device.as_ref().and_then(|d| d.commands.begin_rendering) else {
         return;
     };
     let flipped;
@@ -393,7 +397,8 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         None => p_info,
     };
     // SAFETY: calling down with the application's arguments (depth clear flipped).
-    unsafe { next(buffer, p_info) }
+    unsafe { next(buffer, p_info) };
+    settle_down(&device, buffer);
 }
 
 pub unsafe extern "system" fn cmd_end_rendering(buffer: vk::CommandBuffer) {

@@ -97,6 +97,10 @@ pub unsafe extern "system" fn begin_command_buffer(
             None => revz_math::Cameras::default(),
         };
         state.begin(target, entry.device.reversing().reversal, cameras);
+        if continues {
+            // Inside the pass it continues, with or without a depth attachment.
+            state.set_target(target);
+        }
         state.set_promoted(promoted);
         if entry.secondary && inherits_viewports(begin) {
             state.inherit_viewports();
@@ -322,9 +326,11 @@ pub unsafe extern "system" fn cmd_execute_commands(
         }
         state.invalidate();
     });
-    if let Some(device) = device {
+    if let Some(down) = &device {
         // SAFETY: calling down with the application's arguments.
-        unsafe { (device.next.fp_v1_0().cmd_execute_commands)(buffer, count, p_buffers) }
+        unsafe { (down.next.fp_v1_0().cmd_execute_commands)(buffer, count, p_buffers) };
+        // The secondaries left the state undefined: what the next inline draw needs goes down.
+        settle_down(&device, buffer);
     }
 }
 

@@ -132,7 +132,11 @@ pub unsafe extern "system" fn create_shader_module(
                     state.objects.fragment_depth_modules.insert(module, rewrite);
                 }
             }
-            if state.policy.rewrite().is_some() {
+            // Only a vertex stage's projection is analyzed (fragment and compute modules
+            // with push constants are not parsed).
+            if state.policy.rewrite().is_some()
+                && crate::spirv_scan::declares_vertex_entry_point(words)
+            {
                 let analysis = analyze_vertex_module(module, words);
                 if let Some(rewrite) = position_store_of(&state, &analysis, words) {
                     state.objects.position_stores.insert(module, rewrite);
