@@ -108,6 +108,11 @@ impl Runner {
         Ok(Runner { exe, layer_dir })
     }
 
+    /// The directory of revz's explicit manifest (and the benchmark's counting layer's).
+    pub fn layer_dir(&self) -> &Path {
+        &self.layer_dir
+    }
+
     /// A command running this tester with `args` as `variant`, with revz's settings `env`
     /// (pairs such as `("REVZ_REVERSE_OBSERVABLE", "copies")`) when the layer is loaded.
     pub fn command(&self, variant: Variant, args: &[&str], env: &[(&str, &str)]) -> Command {

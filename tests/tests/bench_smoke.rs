@@ -48,13 +48,51 @@ fn quick_bench_writes_valid_reports() {
     let speed = bench["speed"].as_array().expect("speed rows");
     let modes: Vec<&str> = speed.iter().map(|r| r["mode"].as_str().unwrap()).collect();
     assert_eq!(modes, ["none", "off", "flip", "complementary", "infinite"]);
-    // 7 measurements (2 storms, the storm with a projection per draw, the storm with the depth
-    // profile on, micro, pipelines, a converted depth copy) + the validated smoke role, in 5
-    // variants.
-    assert_eq!(bench["samples"].as_array().unwrap().len(), 40);
+    // 8 measurements (2 storms, the storm with a projection per draw, the storm with the depth
+    // profile on, the storm over the counting layer, micro, pipelines, a converted depth copy)
+    // + the validated smoke role, in 5 variants.
+    assert_eq!(bench["samples"].as_array().unwrap().len(), 45);
     for row in bench["speed"].as_array().unwrap() {
         assert!(row.get("frame_cpu_ratio_with_report").is_some(), "{row}");
         assert!(row["depth_copy_wall_ratio"].is_number(), "{row}");
+    }
+    // What reaches the driver (the counting layer below revz): exactly the application's
+    // draws and binds, and its pushes (the carrier folded into them) but for the carrier's
+    // first push at the frame's first bind, before the application's first push; beyond them
+    // only depth state revz made dynamic (`off`: nothing), at most once per bind and pass
+    // begin (the bench's pipelines differ in compare op and bias).
+    let calls = |row: &serde_json::Value, command: &str| {
+        row["driver_calls_by_command"][command]
+            .as_u64()
+            .unwrap_or_else(|| panic!("{command} counted in {row}"))
+    };
+    let none = &speed[0];
+    assert!(calls(none, "vkCmdDraw") >= 200, "{none}");
+    let setters = [
+        "vkCmdSetViewport",
+        "vkCmdSetViewportWithCount",
+        "vkCmdSetDepthCompareOp",
+        "vkCmdSetDepthBias",
+        "vkCmdSetDepthBounds",
+    ];
+    for row in &speed[1..] {
+        for command in ["vkCmdDraw", "vkCmdBindPipeline"] {
+            assert_eq!(
+                calls(row, command),
+                calls(none, command),
+                "{command}: {row}"
+            );
+        }
+        let pushes = calls(row, "vkCmdPushConstants") - calls(none, "vkCmdPushConstants");
+        assert!(pushes <= 1, "{pushes} more pushes: {row}");
+        let extra = calls(row, "total") - calls(none, "total") - pushes;
+        let set: u64 = setters.iter().map(|c| calls(row, c) - calls(none, c)).sum();
+        assert_eq!(extra, set, "only depth state is added: {row}");
+        let bound = calls(none, "vkCmdBindPipeline") + calls(none, "vkCmdBeginRenderPass");
+        assert!(extra <= 4 * bound, "{extra} more calls per frame: {row}");
+        if row["mode"] == "off" {
+            assert_eq!(extra, 0, "{row}");
+        }
     }
 
     let report = read("report.json");

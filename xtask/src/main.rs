@@ -126,14 +126,27 @@ fn run_checked(mut command: Command) -> Result<()> {
 /// Builds the layer and tester and writes the manifests; returns the explicit manifest's dir.
 pub fn build(paths: &Paths, release: bool) -> Result<PathBuf> {
     let mut command = cargo();
-    command
-        .current_dir(&paths.root)
-        .args(["build", "-p", "revz-layer", "-p", "revz-tester"]);
+    command.current_dir(&paths.root).args([
+        "build",
+        "-p",
+        "revz-layer",
+        "-p",
+        "revz-tester",
+        "-p",
+        "revz-count-layer",
+    ]);
     if release {
         command.arg("--release");
     }
     run_checked(command)?;
     let explicit = manifest::write_all(&paths.root, &paths.library(), &paths.manifests())?;
+    // The benchmark's counting layer, in a directory of its own (the loader stacks layers in
+    // the order it finds their manifests).
+    manifest::write_count_layer(
+        &paths.root,
+        &paths.profile_dir.join("libVkLayer_revz_count.so"),
+        &paths.manifests().join("count"),
+    )?;
     eprintln!("xtask: layer {}", paths.library().display());
     eprintln!("xtask: manifests in {}", paths.manifests().display());
     Ok(explicit)

@@ -87,6 +87,24 @@ pub fn write_all(root: &Path, library: &Path, out: &Path) -> Result<PathBuf> {
     Ok(Kind::Explicit.dir(out))
 }
 
+/// The benchmark's counting layer (`tester/count-layer`): its manifest's template and name.
+pub const COUNT_TEMPLATE: &str = "tester/count-layer/manifest.json.in";
+pub const COUNT_FILE_NAME: &str = "VkLayer_revz_count.json";
+
+/// Renders the counting layer's explicit manifest for `library` into `dir`.
+pub fn write_count_layer(root: &Path, library: &Path, dir: &Path) -> Result<PathBuf> {
+    let template_path = root.join(COUNT_TEMPLATE);
+    let template = std::fs::read_to_string(&template_path)
+        .with_context(|| format!("reading {}", template_path.display()))?;
+    let escaped = serde_json::to_string(&library.to_string_lossy())?;
+    let text = template.replace("@LIBRARY_PATH@", &escaped[1..escaped.len() - 1]);
+    let _: Value = serde_json::from_str(&text).context("the counting layer's template")?;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let path = dir.join(COUNT_FILE_NAME);
+    std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
+    Ok(path)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -246,6 +246,10 @@ enum Job {
     /// The draw storm with revz's depth profile on (`REVZ_REPORT`: draws counted per command
     /// buffer, folded at submit, the file rewritten every 2 s).
     DrawStormProfiled(usize, usize),
+    /// The draw storm with the counting layer (`tester/count-layer`) below revz, or alone for
+    /// no layer: the commands that reach the driver per frame. Counts do not vary, so it runs
+    /// in the first round only, and its timings are not used.
+    DrawStormCounted(usize, usize),
     Micro,
     PipelineStorm,
     DepthCopy,
@@ -257,6 +261,7 @@ impl Job {
         match self {
             Job::DrawStorm(n, p) => format!("draw-storm-{n}-p{p}"),
             Job::DrawStormProfiled(n, p) => format!("draw-storm-{n}-p{p}-report"),
+            Job::DrawStormCounted(n, p) => format!("draw-storm-{n}-p{p}-counted"),
             Job::Micro => "micro".into(),
             Job::PipelineStorm => "pipeline-storm".into(),
             Job::DepthCopy => "depth-copy".into(),
@@ -292,6 +297,7 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
     }
     if largest > 0 {
         jobs.push(Job::DrawStormProfiled(largest, config.projections));
+        jobs.push(Job::DrawStormCounted(largest, config.projections));
     }
     jobs.push(Job::Micro);
     jobs.push(Job::PipelineStorm);
@@ -316,6 +322,9 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
     let mut driver = String::new();
     for round in 0..config.rounds {
         for (j, job) in jobs.iter().enumerate() {
+            if round > 0 && matches!(job, Job::DrawStormCounted(..)) {
+                continue;
+            }
             let mut order = Variant::ALL.to_vec();
             let len = order.len();
             order.rotate_left((round + j) % len);
@@ -374,14 +383,16 @@ fn run_one(
     variant: Variant,
 ) -> Result<Value> {
     let role = match job {
-        Job::DrawStorm(..) | Job::DrawStormProfiled(..) => "draw-storm",
+        Job::DrawStorm(..) | Job::DrawStormProfiled(..) | Job::DrawStormCounted(..) => "draw-storm",
         Job::Micro => "micro",
         Job::PipelineStorm => "pipeline-storm",
         Job::DepthCopy => "depth-copy",
         Job::Smoke => "smoke",
     };
     let (draws, projections) = match job {
-        Job::DrawStorm(n, p) | Job::DrawStormProfiled(n, p) => (*n, *p),
+        Job::DrawStorm(n, p) | Job::DrawStormProfiled(n, p) | Job::DrawStormCounted(n, p) => {
+            (*n, *p)
+        }
         _ => (1, 1),
     };
     let mut owned: Vec<String> = vec![
@@ -422,6 +433,28 @@ fn run_one(
     let mut command = runner.command(variant, &argv, &settings);
     // Pipelines are created from scratch in every variant: no shader cache on disk.
     command.env("MESA_SHADER_CACHE_DISABLE", "true");
+    let counts = std::env::temp_dir().join(format!(
+        "revz-bench-counts-{}-{}.txt",
+        std::process::id(),
+        variant.name()
+    ));
+    if let Job::DrawStormCounted(..) = job {
+        // Below revz (the first layer named is the application's side), or alone.
+        let layers = match variant.mode() {
+            Some(_) => format!("{}:{COUNT_LAYER}", crate::variants::LAYER_NAME),
+            None => COUNT_LAYER.to_owned(),
+        };
+        // The loader stacks explicit layers in the order it finds their manifests: revz's
+        // directory first puts the counting layer below it.
+        let count_dir = runner.layer_dir().join("../count");
+        let mut path = std::ffi::OsString::from(runner.layer_dir());
+        path.push(":");
+        path.push(&count_dir);
+        command
+            .env("VK_ADD_LAYER_PATH", path)
+            .env("VK_INSTANCE_LAYERS", layers)
+            .env("REVZ_COUNT_OUT", &counts);
+    }
     let output = command
         .output()
         .with_context(|| format!("cannot start the {} child", job.name()))?;
@@ -441,7 +474,49 @@ fn run_one(
         .rev()
         .find(|l| l.starts_with('{'))
         .with_context(|| format!("the {} child printed no JSON: {stdout}", job.name()))?;
-    serde_json::from_str(line).with_context(|| format!("the {} child's JSON", job.name()))
+    let mut value: Value =
+        serde_json::from_str(line).with_context(|| format!("the {} child's JSON", job.name()))?;
+    if let Job::DrawStormCounted(..) = job {
+        let text = std::fs::read_to_string(&counts).with_context(|| {
+            format!(
+                "the counting layer wrote no {} (is {COUNT_LAYER} built? `cargo xtask build`)",
+                counts.display()
+            )
+        })?;
+        let _ = std::fs::remove_file(&counts);
+        value["result"]["driver_calls"] = last_frame_calls(&text)?;
+    }
+    Ok(value)
+}
+
+/// The benchmark's counting layer (`tester/count-layer`).
+const COUNT_LAYER: &str = "VK_LAYER_REVZ_count";
+
+/// The commands the last submission's frame sent to the driver, from the counting layer's
+/// file (a line of cumulative `name=count` pairs per submission), with their `total`.
+fn last_frame_calls(text: &str) -> Result<Value> {
+    let parse = |line: &str| -> Result<Vec<(String, u64)>> {
+        line.split_whitespace()
+            .map(|pair| {
+                let (name, count) = pair.split_once('=').context("a name=count pair")?;
+                Ok((name.to_owned(), count.parse()?))
+            })
+            .collect()
+    };
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    let [.., before, last] = lines.as_slice() else {
+        bail!("the counting layer saw fewer than two submissions");
+    };
+    let (before, last) = (parse(before)?, parse(last)?);
+    let mut calls = serde_json::Map::new();
+    let mut total = 0;
+    for ((name, was), (_, is)) in before.iter().zip(&last) {
+        let frame = is - was;
+        total += frame;
+        calls.insert(name.clone(), json!(frame));
+    }
+    calls.insert("total".into(), json!(total));
+    Ok(Value::Object(calls))
 }
 
 /// The figures of `job` in `variant`, round by round (`None` where missing).
@@ -555,6 +630,12 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 wall_ns.insert(n.to_string(), own(samples, &job, v, rounds, "frame_wall_ns"));
             }
             let big = storm(largest);
+            let counted = Job::DrawStormCounted(largest, config.projections).name();
+            let calls = samples
+                .iter()
+                .find(|s| s.job == counted && s.variant == v)
+                .map(|s| s.result["driver_calls"].clone())
+                .unwrap_or(Value::Null);
             json!({
                 "device": device,
                 "driver": driver,
@@ -595,6 +676,10 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "bind_ns": own(samples, &micro, v, rounds, "bind_ns"),
                 "by_draws": by_draws,
                 "rounds": rounds,
+                // What reached the driver in the last frame of the largest storm (the
+                // counting layer below revz): per command, and in total.
+                "driver_calls_per_frame": calls["total"].clone(),
+                "driver_calls_by_command": calls,
                 // [min, max] over rounds of the per-round figures whose median is above.
                 "spread": {
                     "frame_cpu_ratio": paired_spread(samples, &big, v, rounds, "frame_cpu_ns", ratio),
@@ -614,6 +699,18 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_last_frames_calls_are_the_difference_of_the_last_two_submissions() {
+        let text = "vkCmdDraw=0 vkCmdBindPipeline=1\nvkCmdDraw=10 vkCmdBindPipeline=4\n\
+                    vkCmdDraw=20 vkCmdBindPipeline=6\n";
+        let calls = last_frame_calls(text).unwrap();
+        assert_eq!(calls["vkCmdDraw"], 10);
+        assert_eq!(calls["vkCmdBindPipeline"], 2);
+        assert_eq!(calls["total"], 12);
+        assert!(last_frame_calls("vkCmdDraw=1\n").is_err());
+        assert!(last_frame_calls("vkCmdDraw=1\nvkCmdDraw\n").is_err());
+    }
 
     #[test]
     fn the_spread_is_the_finite_extremes() {

@@ -183,7 +183,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
     header.push_str(
         " frame wall ratio | pipeline creation ratio | ns / push (one camera) | \
          ns / push (a new camera each) | ns / draw | \
-         ns / bind | depth copy wall ratio (1 MP) | depth copy extra ms / MP | bytes / pipeline | \
+         ns / bind | driver calls / frame (largest storm) | depth copy wall ratio (1 MP) | depth copy extra ms / MP | bytes / pipeline | \
          bytes / command buffer | heap growth / frame | mars-patch wrong | sloped-plane wrong | \
          min separation at 1e4 n |\n",
     );
@@ -204,7 +204,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             ));
         }
         line.push_str(&format!(
-            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             fmt_spread(row, "frame_cpu_ratio_projection_per_draw", 3),
             fmt_spread(row, "frame_cpu_ratio_with_report", 3),
             fmt(&row["frame_wall_ratio"], 3),
@@ -213,6 +213,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             fmt_spread(row, "ns_per_push_constant", 1),
             fmt_spread(row, "ns_per_draw", 1),
             fmt_spread(row, "ns_per_bind", 1),
+            fmt(&row["driver_calls_per_frame"], 0),
             fmt_spread(row, "depth_copy_wall_ratio", 3),
             fmt(&row["depth_copy_extra_ms_per_megapixel"], 2),
             fmt(&row["bytes_per_pipeline"], 0),
