@@ -169,17 +169,65 @@ impl<K: std::hash::Hash + Eq, V: Clone> Table<K, V> {
     }
 }
 
-#[cfg(test)]
 impl<K, V> Table<K, V> {
     /// How many entries the table holds.
-    pub fn count(&self) -> usize {
+    pub fn len(&self) -> usize {
         self.0.read().unwrap_or_else(PoisonError::into_inner).len()
+    }
+
+    #[cfg(test)]
+    pub fn count(&self) -> usize {
+        self.len()
     }
 }
 
 impl<K: std::hash::Hash + Eq, V: Clone> Default for Table<K, V> {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+/// What revz made of SPIR-V chained into pipeline stages (`VkShaderModuleCreateInfo` in a
+/// stage's `pNext`), by the code's hash. Each entry keeps its words, compared on a hit, so a
+/// hash collision is a miss. Inline code has no destroy: at most [`InlineCodes::CAPACITY`]
+/// codes are kept, and past that each creation does the work again.
+#[derive(Debug)]
+pub struct InlineCodes<T>(Table<u64, Arc<(Arc<[u32]>, T)>>);
+
+impl<T: Clone> InlineCodes<T> {
+    pub const CAPACITY: usize = 1024;
+
+    /// What `make` makes of `words`, made once per distinct code.
+    pub fn get_or_make(&self, words: &[u32], make: impl FnOnce() -> T) -> T {
+        use std::hash::{Hash, Hasher};
+        let mut hasher = rustc_hash::FxHasher::default();
+        words.hash(&mut hasher);
+        let key = hasher.finish();
+        if let Some(hit) = self.0.get(&key) {
+            if *hit.0 == *words {
+                return hit.1.clone();
+            }
+        }
+        let made = make();
+        if self.0.len() < Self::CAPACITY {
+            self.0.insert(key, Arc::new((words.into(), made.clone())));
+        }
+        made
+    }
+
+    /// How many distinct codes are kept.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+impl<T: Clone> Default for InlineCodes<T> {
+    fn default() -> Self {
+        InlineCodes(Table::new())
     }
 }
 
@@ -266,6 +314,11 @@ pub struct DeviceObjects {
     /// Vertex modules with a projection from push constants (precise modes only): rewritten
     /// to store the carrier's depth into `Position` (`crate::position_store`), or why not.
     pub position_stores: Table<vk::ShaderModule, RewrittenVertex>,
+    /// SPIR-V chained into vertex stages instead of a module: analyzed and rewritten once per
+    /// distinct code, not at every pipeline creation.
+    pub inline_vertex: InlineCodes<(Arc<ModuleAnalysis>, Option<RewrittenVertex>)>,
+    /// SPIR-V chained into fragment stages: rewritten once per distinct code.
+    pub inline_fragment: InlineCodes<Option<ReversedFragment>>,
     /// Fragment shader objects (`VK_EXT_shader_object`) that compute with depth, or whose code
     /// revz cannot read: each one's reversed variant, or that it keeps standard depth
     /// (`crate::hooks::shader_object`). Other shader objects have no entry.
@@ -853,6 +906,23 @@ mod tests {
     use ash::vk::Handle;
 
     use super::*;
+
+    #[test]
+    fn inline_code_is_made_once_per_distinct_code() {
+        let codes: InlineCodes<usize> = InlineCodes::default();
+        let made = std::cell::Cell::new(0);
+        let make = |words: &[u32]| {
+            codes.get_or_make(words, || {
+                made.set(made.get() + 1);
+                words.len()
+            })
+        };
+        assert_eq!(make(&[1, 2, 3]), 3);
+        assert_eq!(make(&[1, 2, 3]), 3);
+        assert_eq!(made.get(), 1, "the same code again: kept");
+        assert_eq!(make(&[1, 2, 4, 5]), 4);
+        assert_eq!((made.get(), codes.len()), (2, 2));
+    }
 
     /// A tracked D32 image with handle `raw`, and a view of it (handle `raw + 100`).
     fn track(objects: &DeviceObjects, raw: u64, depth: ImageDepth) -> (vk::Image, vk::ImageView) {

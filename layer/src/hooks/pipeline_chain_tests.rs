@@ -1041,6 +1041,8 @@ fn inline_spirv_first_in_the_stage_chain_is_skipped_by_the_variant_stage() {
     assert_eq!(app_stage.module, vk::ShaderModule::null());
     assert_eq!(app_stage.p_next, inline_address, "the application's chain");
     assert_eq!(app_stage.inline_code.as_deref(), Some(words.as_slice()));
+    // Rewritten once for this code, kept for the next pipeline that chains it.
+    assert_eq!(fx.state.objects.inline_fragment.len(), 1);
     fx.finish();
 }
 

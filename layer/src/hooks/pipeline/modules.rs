@@ -22,7 +22,10 @@ pub(super) fn fragment_stage_rewrite(
     let rewrite = if stage.module != vk::ShaderModule::null() {
         state.objects.fragment_depth_modules.get(&stage.module)?
     } else {
-        rewrite_fragment_module(vk::ShaderModule::null(), inline_code(stage)?)?
+        let words = inline_code(stage)?;
+        state.objects.inline_fragment.get_or_make(words, || {
+            rewrite_fragment_module(vk::ShaderModule::null(), words)
+        })?
     };
     Some((index, rewrite))
 }

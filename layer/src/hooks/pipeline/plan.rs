@@ -202,7 +202,7 @@ pub(super) fn projection_of(
             .ok_or("its vertex module is unknown")?
     } else {
         let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
-        Arc::new(analyze_vertex_module(vertex.module, words))
+        inline_vertex(state, words).0
     };
     let entries = analysis
         .as_ref()
@@ -255,7 +255,9 @@ pub(super) fn projection_of(
             .ok_or("its vertex module has no Position rewrite")?
     } else {
         let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
-        position_store_of(state, &analysis, words).ok_or("its vertex shader has no rewrite")?
+        inline_vertex(state, words)
+            .1
+            .ok_or("its vertex shader has no rewrite")?
     };
     let rewrite = rewrite.map_err(|reason| {
         if projection.is_some() {
@@ -507,4 +509,20 @@ pub(super) fn context(
         subsets,
         compare_op_variants: state.policy.compare_op_variants,
     }
+}
+
+/// The analysis and `Position` rewrite of SPIR-V chained into a vertex stage, made once per
+/// distinct code (`DeviceObjects::inline_vertex`).
+fn inline_vertex(
+    state: &DeviceState,
+    words: &[u32],
+) -> (
+    Arc<crate::objects::ModuleAnalysis>,
+    Option<crate::objects::RewrittenVertex>,
+) {
+    state.objects.inline_vertex.get_or_make(words, || {
+        let analysis = analyze_vertex_module(vk::ShaderModule::null(), words);
+        let rewrite = position_store_of(state, &analysis, words);
+        (Arc::new(analysis), rewrite)
+    })
 }
