@@ -175,6 +175,10 @@ impl<K, V> Table<K, V> {
         self.0.read().unwrap_or_else(PoisonError::into_inner).len()
     }
 
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
     #[cfg(test)]
     pub fn count(&self) -> usize {
         self.len()
@@ -192,7 +196,10 @@ impl<K: std::hash::Hash + Eq, V: Clone> Default for Table<K, V> {
 /// hash collision is a miss. Inline code has no destroy: at most [`InlineCodes::CAPACITY`]
 /// codes are kept, and past that each creation does the work again.
 #[derive(Debug)]
-pub struct InlineCodes<T>(Table<u64, Arc<(Arc<[u32]>, T)>>);
+pub struct InlineCodes<T>(Table<u64, Arc<InlineCode<T>>>);
+
+/// One kept code: its words and what was made of them.
+type InlineCode<T> = (Arc<[u32]>, T);
 
 impl<T: Clone> InlineCodes<T> {
     pub const CAPACITY: usize = 1024;

@@ -25,6 +25,16 @@ use std::sync::Mutex;
 
 use ash::vk;
 
+/// `f` as the loader's `PFN_vkVoidFunction`.
+macro_rules! void_fn {
+    ($pfn:ty, $f:expr) => {{
+        let typed: $pfn = $f;
+        // SAFETY: function pointers share one representation; the caller casts it back to
+        // the type the name implies, which is `$pfn`.
+        Some(unsafe { std::mem::transmute::<$pfn, unsafe extern "system" fn()>(typed) })
+    }};
+}
+
 /// `VkLayerFunction_`'s `VK_LAYER_LINK_INFO` (vk_layer.h).
 const LAYER_LINK_INFO: u32 = 0;
 
@@ -181,10 +191,7 @@ macro_rules! counted {
             $(
                 if name == $name.as_bytes() {
                     NEXT[$index].store(next as usize, Ordering::Release);
-                    let hook: $pfn = $hook;
-                    // SAFETY: function pointers share one representation; the caller casts
-                    // it back to the type the name implies.
-                    return Some(unsafe { std::mem::transmute::<$pfn, unsafe extern "system" fn()>(hook) });
+                    return void_fn!($pfn, $hook);
                 }
             )*
             None
@@ -269,19 +276,11 @@ fn hook(name: &[u8], next: unsafe extern "system" fn()) -> vk::PFN_vkVoidFunctio
     match name {
         b"vkQueueSubmit" => {
             NEXT_SUBMIT.store(next as usize, Ordering::Release);
-            let hook: vk::PFN_vkQueueSubmit = queue_submit;
-            // SAFETY: as in `counted_hook`.
-            Some(unsafe {
-                std::mem::transmute::<vk::PFN_vkQueueSubmit, unsafe extern "system" fn()>(hook)
-            })
+            void_fn!(vk::PFN_vkQueueSubmit, queue_submit)
         }
         b"vkDestroyDevice" => {
             NEXT_DESTROY_DEVICE.store(next as usize, Ordering::Release);
-            let hook: vk::PFN_vkDestroyDevice = destroy_device;
-            // SAFETY: as above.
-            Some(unsafe {
-                std::mem::transmute::<vk::PFN_vkDestroyDevice, unsafe extern "system" fn()>(hook)
-            })
+            void_fn!(vk::PFN_vkDestroyDevice, destroy_device)
         }
         _ => counted_hook(name, next),
     }
@@ -299,11 +298,7 @@ pub unsafe extern "system" fn count_get_device_proc_addr(
     // SAFETY: a NUL-terminated name (the caller's contract).
     let name = unsafe { CStr::from_ptr(p_name) }.to_bytes();
     if name == b"vkGetDeviceProcAddr" {
-        let own: vk::PFN_vkGetDeviceProcAddr = count_get_device_proc_addr;
-        // SAFETY: as in `counted_hook`.
-        return Some(unsafe {
-            std::mem::transmute::<vk::PFN_vkGetDeviceProcAddr, unsafe extern "system" fn()>(own)
-        });
+        return void_fn!(vk::PFN_vkGetDeviceProcAddr, count_get_device_proc_addr);
     }
     // SAFETY: calling down with the caller's arguments.
     let next = unsafe { next_gdpa()?(device, p_name) }?;
@@ -321,42 +316,17 @@ pub unsafe extern "system" fn count_get_instance_proc_addr(
 ) -> vk::PFN_vkVoidFunction {
     // SAFETY: a NUL-terminated name (the caller's contract).
     let name = unsafe { CStr::from_ptr(p_name) }.to_bytes();
-    // SAFETY: function pointers share one representation (each transmute), the caller casts
-    // back to the type the name implies.
-    unsafe {
-        match name {
-            b"vkGetInstanceProcAddr" => {
-                let own: vk::PFN_vkGetInstanceProcAddr = count_get_instance_proc_addr;
-                return Some(std::mem::transmute::<
-                    vk::PFN_vkGetInstanceProcAddr,
-                    unsafe extern "system" fn(),
-                >(own));
-            }
-            b"vkCreateInstance" => {
-                let own: vk::PFN_vkCreateInstance = create_instance;
-                return Some(std::mem::transmute::<
-                    vk::PFN_vkCreateInstance,
-                    unsafe extern "system" fn(),
-                >(own));
-            }
-            b"vkCreateDevice" => {
-                let own: vk::PFN_vkCreateDevice = create_device;
-                return Some(std::mem::transmute::<
-                    vk::PFN_vkCreateDevice,
-                    unsafe extern "system" fn(),
-                >(own));
-            }
-            b"vkGetDeviceProcAddr" => {
-                let own: vk::PFN_vkGetDeviceProcAddr = count_get_device_proc_addr;
-                return Some(std::mem::transmute::<
-                    vk::PFN_vkGetDeviceProcAddr,
-                    unsafe extern "system" fn(),
-                >(own));
-            }
-            _ => {}
+    match name {
+        b"vkGetInstanceProcAddr" => {
+            void_fn!(vk::PFN_vkGetInstanceProcAddr, count_get_instance_proc_addr)
+        }
+        b"vkCreateInstance" => void_fn!(vk::PFN_vkCreateInstance, create_instance),
+        b"vkCreateDevice" => void_fn!(vk::PFN_vkCreateDevice, create_device),
+        b"vkGetDeviceProcAddr" => {
+            void_fn!(vk::PFN_vkGetDeviceProcAddr, count_get_device_proc_addr)
         }
         // SAFETY: calling down with the caller's arguments.
-        next_gipa()?(instance, p_name)
+        _ => unsafe { next_gipa()?(instance, p_name) },
     }
 }
 

@@ -148,20 +148,31 @@ impl StateSink for NextLayer<'_> {
     }
 }
 
-/// Emits pending depth state before a draw (draws are hooked only with the depth profile,
-/// which counts them: every other hook already settled the state).
+/// Sends the depth state the next draw needs, if it changed (`counted`: for a draw, which the
+/// depth profile counts), and reports what a classification made for it tells.
 #[inline]
-fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
+fn send_pending(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, counted: bool) {
     let mut sink = NextLayer {
         device: &entry.device,
         buffer,
     };
     let mut state = entry.state();
-    let outcome = state.before_draw(&mut sink);
+    let outcome = if counted {
+        state.before_draw(&mut sink)
+    } else {
+        state.settle(&mut sink)
+    };
     drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
     }
+}
+
+/// A draw (hooked only with the depth profile, which counts it): every other hook already
+/// settled the state, so this sends nothing but what a caught panic left pending.
+#[inline]
+fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
+    send_pending(entry, buffer, true);
 }
 
 /// After a hook that may change what the next draw needs has gone down: the depth state for
@@ -171,22 +182,7 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
 #[inline]
 fn settle(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
     static ENTRY: EntryPoint = EntryPoint::new("depth state after a command");
-    guarded(
-        &ENTRY,
-        || {
-            let mut sink = NextLayer {
-                device: &entry.device,
-                buffer,
-            };
-            let mut state = entry.state();
-            let outcome = state.settle(&mut sink);
-            drop(state);
-            if let Some(outcome) = outcome {
-                observe(&entry.device, &outcome);
-            }
-        },
-        || (),
-    );
+    guarded(&ENTRY, || send_pending(entry, buffer, false), || ());
 }
 
 /// [`settle`] after a hook that called down through `down`, when the command buffer is
