@@ -418,6 +418,14 @@ pub struct CommandState {
     /// What revz last pushed as its carrier, and with which layout: pushed again only when
     /// the value or the application's push layout changes.
     carrier_held: Option<(vk::PipelineLayout, [u32; 4])>,
+    /// revz's layout with the push ranges of the application's last push layout
+    /// ([`PipelineDepth::layout`] of its pipelines; null: unknown), to tell whether that
+    /// layout is push-compatible with the bound pipeline.
+    push_pusher: vk::PipelineLayout,
+    /// The application pushed since the last graphics bind: with a layout the bound pipeline
+    /// is not compatible with, it pushes for the next pipeline, and revz's carrier must not
+    /// go down over its bytes now (it goes with the next compatible push or bind).
+    pushed_since_bind: bool,
     /// The shader object the application bound to the fragment stage (null: none), and what
     /// revz knows of it when it computes with depth.
     fragment_shader: (vk::ShaderEXT, Option<FragmentShader>),
@@ -456,6 +464,8 @@ impl Default for CommandState {
             variant_bound: None,
             promoted_from: None,
             carrier_held: None,
+            push_pusher: vk::PipelineLayout::null(),
+            pushed_since_bind: false,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
             inherits_viewports: false,
@@ -563,6 +573,27 @@ impl CommandState {
         Some((self.reversing.rewrite?, convention))
     }
 
+    /// The application's next push uses a layout whose push ranges revz's layout `pusher`
+    /// has (null: unknown); called before [`Self::push_constants`] when the layout changes.
+    pub fn note_push_pusher(&mut self, pusher: vk::PipelineLayout) {
+        self.push_pusher = pusher;
+    }
+
+    /// The application's last push layout, null before its first push.
+    pub fn push_layout(&self) -> vk::PipelineLayout {
+        self.push.layout()
+    }
+
+    /// Whether the application's last push layout is push-compatible with the bound
+    /// pipeline's (unknown counts as compatible: pipelines without revz's layout).
+    fn push_compatible(&self) -> bool {
+        let own = self
+            .pipeline
+            .as_ref()
+            .map_or(vk::PipelineLayout::null(), |p| p.layout);
+        own == vk::PipelineLayout::null() || self.push_pusher == own
+    }
+
     /// `vkCmdPushConstants` of `data` with `stages` at `offset`: classifies the bound
     /// pipeline's projection when the push reaches it. Returns the outcome of a classification,
     /// if one was made (the caller reports already reversed projections), and the push to send
@@ -582,6 +613,7 @@ impl CommandState {
             self.dirty = true;
         }
         self.push.push(layout, offset, data);
+        self.pushed_since_bind = true;
         let Some((use_, target)) = self.precise_use().map(|(p, t)| (*p, t)) else {
             return (None, self.fold(layout, stages, offset, None));
         };
@@ -623,6 +655,10 @@ impl CommandState {
         outcome: Option<Outcome>,
     ) -> Option<FoldedPush> {
         let carrier = self.pipeline.as_ref()?.position_store?;
+        if !self.push_compatible() {
+            // A push for another pipeline: the carrier goes with a later push or bind.
+            return None;
+        }
         if self.target == Target::Reversed && outcome.is_none() && self.precise_use().is_some() {
             // Another classification for the draw decides (at the draw).
             return None;
@@ -763,6 +799,7 @@ impl CommandState {
         self.emitted.forget_static(dynamic);
         self.pipeline = pipeline;
         self.variant_bound = None;
+        self.pushed_since_bind = false;
         self.dirty = true;
     }
 
@@ -917,9 +954,15 @@ impl CommandState {
             .pipeline
             .as_ref()
             .is_some_and(|p| p.derived_range.is_some());
+        // Since the bind, the application pushed with a layout this pipeline is not
+        // compatible with: it pushes for the next pipeline, and the carrier would overwrite
+        // its bytes. It waits for the next compatible push or bind (the pipeline's draws take
+        // the flip path meanwhile).
+        let waits = self.pushed_since_bind && !self.push_compatible();
         let layout = match self.push.layout() {
+            _ if waits => vk::PipelineLayout::null(),
             _ if derived && own != vk::PipelineLayout::null() => own,
-            layout if layout != vk::PipelineLayout::null() => layout,
+            layout if layout != vk::PipelineLayout::null() && self.push_compatible() => layout,
             _ => own,
         };
         let carrier_ready = match store {
@@ -1643,6 +1686,47 @@ mod tests {
             inherited.before_draw(&mut sink);
             assert_eq!(inherited.path(), DrawPath::Flip);
         }
+    }
+
+    #[test]
+    fn a_push_for_another_pipeline_is_never_overwritten_by_the_carrier() {
+        // Bound: a pipeline whose stage derives its range (revz's layout 9). The application
+        // then pushes 128 bytes with a layout of other ranges (no revz layout of its own), for
+        // the pipeline it binds next: those bytes may cover the carrier's.
+        let mut state = precise(RewriteTarget::Infinite);
+        let reversal = state.reversal();
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.bind_pipeline(Some(derived_pipeline()));
+        let mut sink = Recorded::default();
+        state.settle(&mut sink);
+        assert_eq!(sink.pushed.len(), 1, "the selector, with revz's layout");
+        state.note_push_pusher(vk::PipelineLayout::null());
+        let (_, folded) = state.push_constants(layout(), OTHER_STAGES, 0, &[0; 128]);
+        assert!(
+            folded.is_none(),
+            "not extended with this pipeline's carrier"
+        );
+        state.settle(&mut sink);
+        assert_eq!(
+            sink.pushed.len(),
+            1,
+            "nothing pushed over the application's bytes"
+        );
+        // The application binds again (its next pipeline, here the same): the carrier its
+        // push may have overwritten goes down again.
+        state.bind_pipeline(Some(derived_pipeline()));
+        state.settle(&mut sink);
+        assert_eq!(sink.pushed.len(), 2);
+        assert_eq!(
+            sink.pushed.last().map(|p| p.0),
+            Some(vk::PipelineLayout::from_raw(9))
+        );
+        assert_eq!(state.path(), DrawPath::Precise);
+        // A push with a layout of the pipeline's own ranges is compatible: folded as before.
+        state.note_push_pusher(vk::PipelineLayout::from_raw(9));
+        state.push_constants(vk::PipelineLayout::from_raw(30), OTHER_STAGES, 0, &[0; 16]);
+        state.settle(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
     }
 
     #[test]

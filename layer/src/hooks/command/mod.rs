@@ -255,6 +255,17 @@ fn follow_push(
     values: &[u8],
 ) -> Option<FoldedPush> {
     let mut state = entry.state();
+    if layout != state.push_layout() {
+        // Whether this layout is push-compatible with the bound pipeline's (one lookup per
+        // change of layout, not per push).
+        let pusher = entry
+            .device
+            .objects
+            .layout_pushers
+            .get(&layout)
+            .unwrap_or_default();
+        state.note_push_pusher(pusher);
+    }
     let (outcome, folded) = state.push_constants(layout, stages, offset, values);
     drop(state);
     if let Some(outcome) = outcome {

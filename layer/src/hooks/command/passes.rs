@@ -374,9 +374,13 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             state.set_target(target);
             state.set_promoted(promoted);
         }
+        // `VK_RENDERING_CONTENTS_INLINE_BIT_KHR` (maintenance7, nested command buffers):
+        // secondaries and inline draws mixed, so state may and must be recorded.
+        const CONTENTS_INLINE: vk::RenderingFlags = vk::RenderingFlags::from_raw(0x10);
         let secondary = info
             .flags
-            .contains(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS);
+            .contains(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS)
+            && !info.flags.contains(CONTENTS_INLINE);
         let key = depth
             .and_then(|d| device.objects.view_format(d.image_view))
             .map(SecondaryPass::Rendering);
