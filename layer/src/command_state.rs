@@ -32,7 +32,7 @@ use crate::objects::FragmentShader;
 use crate::precise::{
     Carrier, FoldedPush, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER,
 };
-use crate::profile::DrawCounts;
+use crate::profile::{DrawCounts, DrawTally};
 
 /// A set of depth-related dynamic states.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -406,9 +406,9 @@ pub struct CommandState {
     push: PushConstants,
     /// The path the emitted state is for.
     path: DrawPath,
-    /// Draw commands recorded per path, for the depth profile (`crate::profile`); executed
-    /// secondaries' are added to their primary's.
-    draws: DrawCounts,
+    /// Draw commands recorded per path, and per depth image and pipeline, for the depth
+    /// profile (`crate::profile`); executed secondaries' are added to their primary's.
+    draws: DrawTally,
     emitted: Emitted,
     /// The variant revz bound in the bound pipeline's place (`None`: the application's).
     variant_bound: Option<vk::Pipeline>,
@@ -459,7 +459,7 @@ impl Default for CommandState {
             reversing: Reversing::default(),
             push: PushConstants::default(),
             path: DrawPath::Native,
-            draws: DrawCounts::default(),
+            draws: DrawTally::default(),
             emitted: Emitted::default(),
             variant_bound: None,
             promoted_from: None,
@@ -524,21 +524,54 @@ impl CommandState {
 
     /// The draw commands recorded so far, per path.
     pub fn draws(&self) -> DrawCounts {
-        self.draws
+        self.draws.totals()
+    }
+
+    /// The draw commands recorded so far per depth image and pipeline (the depth profile).
+    pub fn tally(&self) -> &DrawTally {
+        &self.draws
+    }
+
+    /// The depth profile's keys: the depth image (raw handle, 0: none or not known) and the
+    /// pipeline or vertex shader object (raw handle) the next draws are counted under. Set by
+    /// the hooks only where the device keeps a profile.
+    pub fn tally_image(&mut self, image: u64) {
+        self.draws.set_image(image);
+    }
+
+    pub fn tally_pipeline(&mut self, pipeline: u64) {
+        self.draws.set_pipeline(pipeline);
+    }
+
+    /// The cameras this recording classified matrices as, each with how many (the depth
+    /// profile): the camera's best line, its convention and the count.
+    pub fn camera_matches(
+        &self,
+    ) -> impl Iterator<Item = (revz_math::DepthLine, revz_math::DepthConvention, u32)> + '_ {
+        let cameras = self.push.cameras();
+        self.push
+            .matches()
+            .iter()
+            .enumerate()
+            .filter(|(_, &count)| count > 0)
+            .filter_map(move |(index, &count)| {
+                let (_, _, convention, line) = cameras.camera(index)?;
+                Some((line, convention, count))
+            })
     }
 
     /// `vkCmdExecuteCommands` of a secondary that recorded `draws`.
-    pub fn add_executed_draws(&mut self, draws: &DrawCounts) {
-        self.draws.add(draws);
+    pub fn add_executed_draws(&mut self, draws: &DrawTally) {
+        self.draws.add_executed(draws);
     }
 
     fn count_draw(&mut self) {
-        let counter = match self.path {
-            DrawPath::Native => &mut self.draws.native,
-            DrawPath::Flip => &mut self.draws.flip,
-            DrawPath::Precise => &mut self.draws.precise,
-        };
-        *counter += 1;
+        use crate::profile::DrawnPath as Path;
+        self.draws.count(match self.path {
+            DrawPath::Native => Path::Native,
+            DrawPath::Flip => Path::Flip,
+            DrawPath::Precise => Path::Precise,
+        });
     }
 
     /// The projection the bound pipeline's draws would rewrite now, if any.

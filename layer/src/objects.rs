@@ -386,6 +386,13 @@ pub enum SecondaryPass {
 
 impl DeviceObjects {
     /// The format of a tracked depth view's image.
+    /// The raw handle of `view`'s image, 0 for none (the depth profile's key).
+    pub fn view_image_raw(&self, view: vk::ImageView) -> u64 {
+        self.views
+            .get(&view)
+            .map_or(0, |image| vk::Handle::as_raw(image))
+    }
+
     pub fn view_format(&self, view: vk::ImageView) -> Option<vk::Format> {
         let image = self.views.get(&view)?;
         self.images.get(&image).map(|info| info.format)
@@ -670,6 +677,8 @@ pub struct PassScope {
     pub render_pass: Option<Arc<RenderPassInfo>>,
     /// The depth target of each attachment of the current framebuffer.
     pub attachment_targets: Vec<Target>,
+    /// The framebuffer's attachments (the depth profile names the image draws go to).
+    pub attachment_views: Option<Arc<[vk::ImageView]>>,
     pub subpass: usize,
     /// The framebuffer's depth images are promoted: the pass was begun as its promoted twin.
     pub promoted: bool,
@@ -693,6 +702,18 @@ impl PassScope {
             .and_then(|index| pass.attachments.get(index as usize).copied())
             .filter(|&format| crate::conv::float_depth_format(format).is_some());
         Some(format.unwrap_or(vk::Format::UNDEFINED))
+    }
+
+    /// The current subpass's depth attachment view (null: none or not known).
+    pub fn depth_view(&self) -> vk::ImageView {
+        let index = self
+            .render_pass
+            .as_ref()
+            .and_then(|pass| pass.subpass_depth.get(self.subpass).copied().flatten());
+        index
+            .zip(self.attachment_views.as_ref())
+            .and_then(|(index, views)| views.get(index as usize).copied())
+            .unwrap_or_default()
     }
 
     pub fn target(&self) -> Target {

@@ -414,6 +414,9 @@ pub struct PushConstants {
     generation: u64,
     /// A camera was found or improved since [`PushConstants::take_changed`] last asked.
     changed: bool,
+    /// Per camera slot of `cameras`, the matrices classified as that camera's in this
+    /// recording (the depth profile; a matrix pushed again unchanged is not counted again).
+    matches: [u32; revz_math::MAX_CAMERAS],
 }
 
 impl Default for PushConstants {
@@ -427,6 +430,7 @@ impl Default for PushConstants {
             cameras: Cameras::default(),
             generation: 0,
             changed: false,
+            matches: [0; revz_math::MAX_CAMERAS],
         }
     }
 }
@@ -475,6 +479,12 @@ impl PushConstants {
         &self.cameras
     }
 
+    /// Per camera slot of [`Self::cameras`], how many matrices this recording classified as
+    /// that camera's.
+    pub fn matches(&self) -> &[u32; revz_math::MAX_CAMERAS] {
+        &self.matches
+    }
+
     /// Whether a camera was found or improved since last asked.
     pub fn take_changed(&mut self) -> bool {
         std::mem::take(&mut self.changed)
@@ -508,6 +518,7 @@ impl PushConstants {
                     && line.relative_b_error() >= same.line.relative_b_error() =>
             {
                 self.cameras.touch(same.index);
+                self.count_match(Some(same.index));
                 same.outcome
             }
             _ => {
@@ -517,6 +528,7 @@ impl PushConstants {
                     self.generation += 1;
                     self.changed = true;
                 }
+                self.count_match(camera);
                 self.same_camera = camera.and_then(|index| {
                     let (.., line) = self.cameras.camera(index)?;
                     Some(SameCamera {
@@ -539,6 +551,12 @@ impl PushConstants {
             outcome,
         ));
         Some(outcome)
+    }
+
+    fn count_match(&mut self, camera: Option<usize>) {
+        if let Some(count) = camera.and_then(|index| self.matches.get_mut(index)) {
+            *count = count.saturating_add(1);
+        }
     }
 
     /// `vkCmdPushConstants` of `data` at `offset` with `layout`: the values go down as they

@@ -58,6 +58,133 @@ impl DrawCounts {
     }
 }
 
+/// The path of one draw command (`crate::command_state::DrawPath` names them for the state
+/// machine; the profile only counts).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DrawnPath {
+    Native,
+    Flip,
+    Precise,
+}
+
+impl DrawCounts {
+    #[inline]
+    pub fn count(&mut self, path: DrawnPath) {
+        let counter = match path {
+            DrawnPath::Native => &mut self.native,
+            DrawnPath::Flip => &mut self.flip,
+            DrawnPath::Precise => &mut self.precise,
+        };
+        *counter += 1;
+    }
+}
+
+/// Draws of one command buffer with the depth image and the pipeline they were recorded with
+/// (raw handles; 0: none, or not known where recorded, as in a secondary without a
+/// framebuffer).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Segment {
+    pub image: u64,
+    pub pipeline: u64,
+    pub draws: DrawCounts,
+}
+
+/// Distinct (image, pipeline) pairs one command buffer keeps apart; draws of further pairs go
+/// to the pair (0, 0), so a recording never grows without bound.
+const SEGMENTS_KEPT: usize = 256;
+
+/// The draws of one command buffer, in total and per (depth image, pipeline): one add per
+/// draw; the keys change at binds and pass begins, where the open count is filed (a search
+/// of the few pairs this recording has).
+#[derive(Clone, Debug, Default)]
+pub struct DrawTally {
+    totals: DrawCounts,
+    open: DrawCounts,
+    image: u64,
+    pipeline: u64,
+    segments: Vec<Segment>,
+}
+
+impl DrawTally {
+    #[inline]
+    pub fn count(&mut self, path: DrawnPath) {
+        self.totals.count(path);
+        self.open.count(path);
+    }
+
+    pub fn totals(&self) -> DrawCounts {
+        self.totals
+    }
+
+    /// The depth image draws go to from now on.
+    pub fn set_image(&mut self, image: u64) {
+        if image != self.image {
+            self.file();
+            self.image = image;
+        }
+    }
+
+    /// The pipeline (or vertex shader object) draws use from now on.
+    pub fn set_pipeline(&mut self, pipeline: u64) {
+        if pipeline != self.pipeline {
+            self.file();
+            self.pipeline = pipeline;
+        }
+    }
+
+    fn file(&mut self) {
+        if self.open.total() == 0 {
+            return;
+        }
+        let open = std::mem::take(&mut self.open);
+        self.add_segment(self.image, self.pipeline, &open);
+    }
+
+    fn add_segment(&mut self, image: u64, pipeline: u64, draws: &DrawCounts) {
+        let at = |segments: &[Segment], key: (u64, u64)| {
+            segments.iter().position(|s| (s.image, s.pipeline) == key)
+        };
+        let mut key = (image, pipeline);
+        if at(&self.segments, key).is_none() && self.segments.len() >= SEGMENTS_KEPT {
+            key = (0, 0);
+        }
+        match at(&self.segments, key) {
+            Some(index) => self.segments[index].draws.add(draws),
+            None => self.segments.push(Segment {
+                image: key.0,
+                pipeline: key.1,
+                draws: *draws,
+            }),
+        }
+    }
+
+    /// Every (image, pipeline) pair with its draws, the open one included.
+    pub fn segments(&self) -> impl Iterator<Item = Segment> + '_ {
+        let open = (self.open.total() > 0).then_some(Segment {
+            image: self.image,
+            pipeline: self.pipeline,
+            draws: self.open,
+        });
+        self.segments.iter().copied().chain(open)
+    }
+
+    /// `vkCmdExecuteCommands` of a secondary that recorded `executed`: its draws are this
+    /// command buffer's, into the image this one renders to where the secondary did not know
+    /// its own.
+    pub fn add_executed(&mut self, executed: &DrawTally) {
+        self.file();
+        self.totals.add(&executed.totals);
+        for segment in executed.segments() {
+            let image = if segment.image == 0 {
+                self.image
+            } else {
+                segment.image
+            };
+            self.add_segment(image, segment.pipeline, &segment.draws);
+        }
+    }
+}
+
 /// One depth image as the policy decided it.
 #[derive(Clone, Debug)]
 pub struct ImageRecord {
@@ -76,6 +203,9 @@ pub struct ImageRecord {
 /// One depth-testing pipeline and its path.
 #[derive(Clone, Debug)]
 pub struct PipelineRecord {
+    /// `pipeline`, or `vertex shader object` (`VK_EXT_shader_object`: its draws are counted
+    /// under the vertex stage's shader).
+    pub kind: &'static str,
     /// `precise`, `flip` (reversed draws), with why.
     pub path: &'static str,
     /// Where its projection comes from: push-constant bytes, a buffer the stage fits from, or
@@ -94,13 +224,39 @@ struct Inner {
     /// The open frame's draws; frames close at `vkQueuePresentKHR`, or at each submission of
     /// an application that never presents.
     current: DrawCounts,
-    frames: VecDeque<(u64, DrawCounts)>,
+    /// The open frame's draws per depth image (raw handle; 0: none).
+    current_by_image: Vec<(u64, DrawCounts)>,
+    frames: VecDeque<Frame>,
     frame_index: u64,
     totals: DrawCounts,
+    /// All draws per depth image and per pipeline (or vertex shader object).
+    by_image: HashMap<u64, DrawCounts>,
+    by_pipeline: HashMap<u64, DrawCounts>,
     submissions: u64,
     presents: bool,
     last_write: Option<Instant>,
-    cameras: Vec<Value>,
+    /// The device's cameras as last asked, each with its slot.
+    cameras: Vec<(usize, Value)>,
+    /// Matrices matched per camera slot.
+    camera_matches: [u64; revz_math::MAX_CAMERAS],
+}
+
+/// What one `vkQueueSubmit` recorded, for [`Profile::submit`].
+#[derive(Debug, Default)]
+pub struct Submission {
+    pub draws: DrawCounts,
+    /// Per (depth image, pipeline), from every command buffer.
+    pub segments: Vec<Segment>,
+    /// (the device's camera slot, matrices matched) from every command buffer.
+    pub camera_matches: Vec<(usize, u64)>,
+}
+
+/// One closed frame.
+#[derive(Debug)]
+struct Frame {
+    index: u64,
+    draws: DrawCounts,
+    by_image: Vec<(u64, DrawCounts)>,
 }
 
 /// The profile of one device.
@@ -182,11 +338,12 @@ impl Profile {
         }
     }
 
-    pub fn pipeline(&self, pipeline: vk::Pipeline, record: PipelineRecord) {
+    /// A depth-testing pipeline, or a vertex shader object (raw handle).
+    pub fn pipeline(&self, pipeline: u64, record: PipelineRecord) {
         let mut inner = self.inner();
         inner.pipeline_count += 1;
         if inner.pipelines.len() < OBJECTS_KEPT {
-            inner.pipelines.push((vk::Handle::as_raw(pipeline), record));
+            inner.pipelines.push((pipeline, record));
         }
     }
 
@@ -203,11 +360,36 @@ impl Profile {
 
     /// A submission of command buffers that recorded `draws`, with the device's cameras as
     /// they are now; writes the report if it is due.
-    pub fn submit(&self, draws: &DrawCounts, cameras: impl FnOnce() -> Vec<Value>) {
+    pub fn submit(&self, submission: &Submission, cameras: impl FnOnce() -> Vec<(usize, Value)>) {
         let due = {
             let mut inner = self.inner();
-            inner.current.add(draws);
-            inner.totals.add(draws);
+            inner.current.add(&submission.draws);
+            inner.totals.add(&submission.draws);
+            for &(slot, count) in &submission.camera_matches {
+                if let Some(total) = inner.camera_matches.get_mut(slot) {
+                    *total += count;
+                }
+            }
+            for segment in &submission.segments {
+                inner
+                    .by_image
+                    .entry(segment.image)
+                    .or_default()
+                    .add(&segment.draws);
+                inner
+                    .by_pipeline
+                    .entry(segment.pipeline)
+                    .or_default()
+                    .add(&segment.draws);
+                match inner
+                    .current_by_image
+                    .iter_mut()
+                    .find(|(image, _)| *image == segment.image)
+                {
+                    Some((_, counts)) => counts.add(&segment.draws),
+                    None => inner.current_by_image.push((segment.image, segment.draws)),
+                }
+            }
             inner.submissions += 1;
             if !inner.presents {
                 inner.close_frame();
@@ -226,7 +408,7 @@ impl Profile {
     }
 
     /// The device's cameras, for the next write.
-    pub fn set_cameras(&self, cameras: Vec<Value>) {
+    pub fn set_cameras(&self, cameras: Vec<(usize, Value)>) {
         self.inner().cameras = cameras;
     }
 
@@ -245,7 +427,7 @@ impl Profile {
             .iter()
             .map(|(handle, r)| {
                 json!({
-                    "handle": format!("{handle:#x}"),
+                    "handle": handle_name(*handle),
                     "format": format!("{:?}", r.format),
                     "promoted_format": r.promoted.map(|f| format!("{f:?}")),
                     "width": r.extent.width,
@@ -255,6 +437,7 @@ impl Profile {
                     "depth": if r.native_because.is_none() { "reversed" } else { "native" },
                     "reason": r.native_because,
                     "demoted_in_frame": r.demoted_in_frame,
+                    "draws": inner.by_image.get(handle).copied().unwrap_or_default().json(),
                 })
             })
             .collect();
@@ -263,11 +446,13 @@ impl Profile {
             .iter()
             .map(|(handle, r)| {
                 json!({
-                    "handle": format!("{handle:#x}"),
+                    "handle": handle_name(*handle),
+                    "kind": r.kind,
                     "path": r.path,
                     "projection": r.projection,
                     "reversed_variant": r.reversed_variant,
                     "promoted_variant": r.promoted_variant,
+                    "draws": inner.by_pipeline.get(handle).copied().unwrap_or_default().json(),
                 })
             })
             .collect();
@@ -278,15 +463,35 @@ impl Profile {
         let frames: Vec<Value> = inner
             .frames
             .iter()
-            .map(|(index, d)| json!({"frame": index, "draws": d.json()}))
+            .map(|frame| {
+                let by_image: Vec<Value> = frame
+                    .by_image
+                    .iter()
+                    .map(|(image, d)| json!({"image": handle_name(*image), "draws": d.json()}))
+                    .collect();
+                json!({"frame": frame.index, "draws": frame.draws.json(), "by_image": by_image})
+            })
             .collect();
+        let outside_images = inner.by_image.get(&0).copied().unwrap_or_default();
         let mut document = self.header.clone();
         let object = document.as_object_mut().expect("the header is an object");
         object.insert("images".into(), Value::Array(images));
         object.insert("image_count".into(), json!(inner.image_count));
         object.insert("pipelines".into(), Value::Array(pipelines));
         object.insert("pipeline_count".into(), json!(inner.pipeline_count));
-        object.insert("cameras".into(), Value::Array(inner.cameras.clone()));
+        let cameras: Vec<Value> = inner
+            .cameras
+            .iter()
+            .map(|(slot, camera)| {
+                let mut camera = camera.clone();
+                if let Some(fields) = camera.as_object_mut() {
+                    let matched = inner.camera_matches.get(*slot).copied().unwrap_or(0);
+                    fields.insert("matrices_matched".into(), json!(matched));
+                }
+                camera
+            })
+            .collect();
+        object.insert("cameras".into(), Value::Array(cameras));
         object.insert("frames".into(), Value::Array(frames));
         object.insert(
             "totals".into(),
@@ -294,6 +499,7 @@ impl Profile {
                 "frames": inner.frame_index,
                 "submissions": inner.submissions,
                 "draws": inner.totals.json(),
+                "draws_without_depth_image": outside_images.json(),
                 "precise_fraction_of_reversed": precise_fraction(&inner.totals),
             }),
         );
@@ -333,12 +539,26 @@ impl Profile {
 
 impl Inner {
     fn close_frame(&mut self) {
-        let counts = std::mem::take(&mut self.current);
-        self.frames.push_back((self.frame_index, counts));
+        let draws = std::mem::take(&mut self.current);
+        let by_image = std::mem::take(&mut self.current_by_image);
+        self.frames.push_back(Frame {
+            index: self.frame_index,
+            draws,
+            by_image,
+        });
         self.frame_index += 1;
         while self.frames.len() > FRAMES_KEPT {
             self.frames.pop_front();
         }
+    }
+}
+
+/// A raw handle as the document names it (`none` for 0).
+fn handle_name(handle: u64) -> String {
+    if handle == 0 {
+        "none".to_owned()
+    } else {
+        format!("{handle:#x}")
     }
 }
 
@@ -425,8 +645,9 @@ mod tests {
         profile.image(vk::Image::from_raw(1), record(None));
         profile.image(vk::Image::from_raw(2), record(Some("shaders read it")));
         profile.pipeline(
-            vk::Pipeline::from_raw(3),
+            3,
             PipelineRecord {
+                kind: "pipeline",
                 path: "precise",
                 projection: "push-constant bytes 0..64".into(),
                 reversed_variant: false,
@@ -438,8 +659,32 @@ mod tests {
             flip: 1,
             precise: 2,
         };
-        profile.submit(&draws, Vec::new);
-        profile.submit(&draws, Vec::new);
+        let submission = Submission {
+            draws,
+            segments: vec![
+                Segment {
+                    image: 1,
+                    pipeline: 3,
+                    draws: DrawCounts {
+                        precise: 2,
+                        flip: 1,
+                        native: 0,
+                    },
+                },
+                Segment {
+                    image: 2,
+                    pipeline: 3,
+                    draws: DrawCounts {
+                        native: 1,
+                        ..DrawCounts::default()
+                    },
+                },
+            ],
+            camera_matches: vec![(1, 5)],
+        };
+        let camera = || vec![(1, json!({"near": 0.1}))];
+        profile.submit(&submission, camera);
+        profile.submit(&submission, camera);
         let written: Value =
             serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
         // Written at the first submission; the second was within the interval.
@@ -452,10 +697,18 @@ mod tests {
             2.0 / 3.0
         );
         profile.present();
-        profile.submit(&draws, Vec::new);
+        profile.submit(&submission, camera);
         profile.present();
         assert_eq!(profile.document()["totals"]["frames"], 4);
         assert_eq!(profile.document()["frames"][3]["draws"]["native"], 1);
+        // Per image and per pipeline, over every submission.
+        let document = profile.document();
+        assert_eq!(document["images"][0]["draws"]["precise"], 6);
+        assert_eq!(document["images"][1]["draws"]["native"], 3);
+        assert_eq!(document["pipelines"][0]["draws"]["flip"], 3);
+        assert_eq!(document["frames"][3]["by_image"][1]["image"], "0x2");
+        assert_eq!(document["frames"][3]["by_image"][1]["draws"]["native"], 1);
+        assert_eq!(document["cameras"][0]["matrices_matched"], 15);
         let summary = profile.document()["summary"].as_str().unwrap().to_owned();
         assert!(
             summary.starts_with("precise 50% of draws, flip 25%, native 25% (12 draws, 4 frames)"),
@@ -470,5 +723,57 @@ mod tests {
         let again: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
         assert_eq!(again["images"][1]["reason"], "shaders read it");
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_tally_files_draws_under_the_image_and_pipeline_they_were_recorded_with() {
+        let mut primary = DrawTally::default();
+        primary.set_image(7);
+        primary.set_pipeline(1);
+        primary.count(DrawnPath::Precise);
+        primary.count(DrawnPath::Precise);
+        primary.set_pipeline(2);
+        primary.count(DrawnPath::Flip);
+        // Back to the first pipeline: the same pair again.
+        primary.set_pipeline(1);
+        primary.count(DrawnPath::Precise);
+        // A secondary that did not know its image draws into the primary's.
+        let mut secondary = DrawTally::default();
+        secondary.set_pipeline(1);
+        secondary.count(DrawnPath::Precise);
+        secondary.set_image(9);
+        secondary.count(DrawnPath::Native);
+        primary.add_executed(&secondary);
+        let mut segments: Vec<(u64, u64, DrawCounts)> = primary
+            .segments()
+            .map(|s| (s.image, s.pipeline, s.draws))
+            .collect();
+        segments.sort_by_key(|s| (s.0, s.1));
+        let counts = |native, flip, precise| DrawCounts {
+            native,
+            flip,
+            precise,
+        };
+        assert_eq!(
+            segments,
+            vec![
+                (7, 1, counts(0, 0, 4)),
+                (7, 2, counts(0, 1, 0)),
+                (9, 1, counts(1, 0, 0)),
+            ]
+        );
+        assert_eq!(primary.totals(), counts(1, 1, 4));
+        // Beyond the pairs kept, draws go to (0, 0): nothing grows without bound.
+        let mut many = DrawTally::default();
+        for pipeline in 1..=(SEGMENTS_KEPT as u64 + 10) {
+            many.set_pipeline(pipeline);
+            many.count(DrawnPath::Flip);
+        }
+        many.set_pipeline(0);
+        assert_eq!(many.segments().count(), SEGMENTS_KEPT + 1);
+        assert_eq!(
+            many.segments().map(|s| s.draws.flip).sum::<u64>(),
+            SEGMENTS_KEPT as u64 + 10
+        );
     }
 }

@@ -371,6 +371,13 @@ impl Cameras {
         Some((entry.range, entry.direction, entry.convention, entry.line))
     }
 
+    /// The camera `line` belongs to under `convention` (the most recently used agreeing one),
+    /// without learning from it.
+    #[must_use]
+    pub fn find(&self, line: &DepthLine, convention: DepthConvention) -> Option<usize> {
+        self.matching(line, convention)
+    }
+
     /// How many cameras the table holds.
     #[must_use]
     pub fn len(&self) -> usize {

@@ -153,29 +153,47 @@ fn profile_submit<I: Iterator<Item = vk::CommandBuffer>>(
             for (image, reason) in device.objects.take_demotions() {
                 profile.demote(image, reason.to_string());
             }
-            let mut draws = crate::profile::DrawCounts::default();
+            let mut submission = crate::profile::Submission::default();
+            let mut learned = None;
             for buffer in buffers() {
                 if let Some(entry) = crate::objects::command_buffer(buffer) {
-                    draws.add(&entry.state().draws());
+                    let state = entry.state();
+                    submission.draws.add(&state.draws());
+                    submission.segments.extend(state.tally().segments());
+                    // The recording's cameras are the device's by now (merged at its end or
+                    // known at its begin): its counts go to the device's slot of each.
+                    for (line, convention, count) in state.camera_matches() {
+                        let learned = learned.get_or_insert_with(|| device.cameras.learned());
+                        if let Some(slot) = learned.find(&line, convention) {
+                            submission.camera_matches.push((slot, u64::from(count)));
+                        }
+                    }
                 }
             }
-            profile.submit(&draws, || camera_list(&device.cameras.learned()));
+            profile.submit(&submission, || camera_list(&device.cameras.learned()));
         },
         || (),
     );
 }
 
-/// The cameras for the profile: near, far, convention, direction.
-pub(crate) fn camera_list(cameras: &Cameras) -> Vec<serde_json::Value> {
+/// The cameras for the profile: near, far, convention, direction, in the device's slots
+/// (the profile adds how many matrices matched each slot). Only matrices revz reads on the
+/// CPU (push constants) make cameras: a projection in a buffer is fitted per draw by the
+/// vertex stage, and shows in the pipeline's `projection`.
+pub(crate) fn camera_list(cameras: &Cameras) -> Vec<(usize, serde_json::Value)> {
     (0..revz_math::MAX_CAMERAS)
-        .filter_map(|index| cameras.camera(index))
-        .map(|(range, direction, convention, _)| {
-            serde_json::json!({
-                "near": range.near(),
-                "far": if range.is_infinite() { None } else { Some(range.far()) },
-                "convention": format!("{convention:?}"),
-                "direction": format!("{direction:?}"),
-            })
+        .filter_map(|index| Some((index, cameras.camera(index)?)))
+        .map(|(index, (range, direction, convention, _))| {
+            (
+                index,
+                serde_json::json!({
+                    "delivered": "push constants",
+                    "near": range.near(),
+                    "far": if range.is_infinite() { None } else { Some(range.far()) },
+                    "convention": format!("{convention:?}"),
+                    "direction": format!("{direction:?}"),
+                }),
+            )
         })
         .collect()
 }

@@ -234,6 +234,30 @@ pub unsafe extern "system" fn create_shaders_ext(
             result,
             vk::Result::SUCCESS | vk::Result::INCOMPATIBLE_SHADER_BINARY_EXT
         );
+        if let (Some(profile), true) = (&state.profile, written) {
+            for (index, info) in infos.iter().enumerate() {
+                // SAFETY: `count` handles written (checked above).
+                let shader = unsafe { *p_shaders.add(index) };
+                if info.stage == vk::ShaderStageFlags::VERTEX && shader != vk::ShaderEXT::null() {
+                    profile.pipeline(
+                        vk::Handle::as_raw(shader),
+                        crate::profile::PipelineRecord {
+                            kind: "vertex shader object",
+                            path: if state.policy.is_active() {
+                                "flip"
+                            } else {
+                                "native"
+                            },
+                            projection: "not read: the precise path takes pipelines only \
+                                         (shader objects are not analyzed)"
+                                .to_owned(),
+                            reversed_variant: false,
+                            promoted_variant: false,
+                        },
+                    );
+                }
+            }
+        }
         for (index, depth) in variants.iter().enumerate() {
             let Some(depth) = *depth else { continue };
             let shader = if written {

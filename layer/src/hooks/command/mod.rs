@@ -595,6 +595,9 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
                 let depth = entry.device.objects.pipelines.get(&pipeline);
                 let mut state = entry.state();
                 state.bind_pipeline(depth);
+                if entry.device.profile.is_some() {
+                    state.tally_pipeline(vk::Handle::as_raw(pipeline));
+                }
                 // A reversed variant goes down in the application's pipeline's place.
                 state.pipeline_to_bind(pipeline)
             } else {
@@ -648,7 +651,23 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
             // shader objects again.
             entry.copies().compute.bound_otherwise();
         }
-        entry.state().bind_shaders(fragment)
+        // Only graphics stages replace the bound graphics pipeline.
+        if stages.iter().any(|&s| s != vk::ShaderStageFlags::COMPUTE) {
+            let mut state = entry.state();
+            state.bind_shaders(fragment);
+            let vertex = stages
+                .iter()
+                .position(|&stage| stage == vk::ShaderStageFlags::VERTEX);
+            if let (Some(index), true) = (vertex, entry.device.profile.is_some()) {
+                let shader = if p_shaders.is_null() {
+                    0
+                } else {
+                    // SAFETY: as above; `index` is below `count`.
+                    vk::Handle::as_raw(unsafe { *p_shaders.add(index) })
+                };
+                state.tally_pipeline(shader);
+            }
+        }
     });
     if let Some(next) = device.as_ref().and_then(|d| d.commands.bind_shaders_ext) {
         // SAFETY: calling down with the application's arguments.

@@ -121,6 +121,7 @@ fn begin_pass(
         handle: begin.render_pass,
         render_pass: pass,
         attachment_targets: targets,
+        attachment_views: device.profile.is_some().then_some(views),
         subpass: 0,
         promoted,
     };
@@ -128,6 +129,7 @@ fn begin_pass(
         let mut state = entry.state();
         state.set_target(scope.target());
         state.set_promoted(scope.promoted_from());
+        tally_image(entry, &mut state, scope.depth_view());
     }
     let key = subpass_key(&scope);
     *entry.scope() = scope;
@@ -222,22 +224,41 @@ pub(super) fn subpass_key(scope: &PassScope) -> Option<SecondaryPass> {
 }
 
 pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
-    let (target, promoted, key) = {
+    let (target, promoted, key, view) = {
         let mut scope = entry.scope();
         scope.subpass += 1;
-        (scope.target(), scope.promoted_from(), subpass_key(&scope))
+        (
+            scope.target(),
+            scope.promoted_from(),
+            subpass_key(&scope),
+            scope.depth_view(),
+        )
     };
     {
         let mut state = entry.state();
         state.set_target(target);
         state.set_promoted(promoted);
+        tally_image(entry, &mut state, view);
     }
     enter_contents(entry, buffer, secondary, key);
+}
+
+/// Where the device keeps a depth profile: draws from now on are counted as into `view`'s
+/// image.
+fn tally_image(
+    entry: &CommandBufferEntry,
+    state: &mut crate::command_state::CommandState,
+    view: vk::ImageView,
+) {
+    if entry.device.profile.is_some() {
+        state.tally_image(entry.device.objects.view_image_raw(view));
+    }
 }
 
 pub(super) fn end_pass(entry: &CommandBufferEntry) {
     *entry.scope() = PassScope::default();
     let mut state = entry.state();
+    tally_image(entry, &mut state, vk::ImageView::null());
     state.leave_pass();
     state.set_promoted(None);
     state.set_secondary_contents(false);
@@ -373,6 +394,11 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             let mut state = entry.state();
             state.set_target(target);
             state.set_promoted(promoted);
+            tally_image(
+                entry,
+                &mut state,
+                depth.map_or_else(vk::ImageView::null, |d| d.image_view),
+            );
         }
         // `VK_RENDERING_CONTENTS_INLINE_BIT_KHR` (maintenance7, nested command buffers):
         // secondaries and inline draws mixed, so state may and must be recorded.

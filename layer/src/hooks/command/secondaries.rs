@@ -230,6 +230,7 @@ pub(super) fn inherited_target(
                 handle: inheritance.render_pass,
                 render_pass: pass,
                 attachment_targets: targets,
+                attachment_views: None,
                 subpass: inheritance.subpass as usize,
                 promoted: false,
             };
@@ -297,9 +298,8 @@ pub unsafe extern "system" fn cmd_execute_commands(
         // SAFETY: `count` command buffers.
         for &secondary in unsafe { slice(p_buffers, count) } {
             if entry.device.profile.is_some() {
-                if let Some(recorded) =
-                    objects::command_buffer(secondary).map(|s| s.state().draws())
-                {
+                if let Some(recorded) = objects::command_buffer(secondary) {
+                    let recorded = recorded.state().tally().clone();
                     state.add_executed_draws(&recorded);
                 }
             }

@@ -595,8 +595,9 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         (None, None) => ("flip", "the mode does not rewrite depth".to_owned()),
                     };
                     profile.pipeline(
-                        pipeline,
+                        vk::Handle::as_raw(pipeline),
                         crate::profile::PipelineRecord {
+                            kind: "pipeline",
                             path,
                             projection,
                             reversed_variant: plan.depth.reversed_variant.is_some(),
