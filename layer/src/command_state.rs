@@ -409,6 +409,9 @@ pub struct CommandState {
     /// Draw commands recorded per path, and per depth image and pipeline, for the depth
     /// profile (`crate::profile`); executed secondaries' are added to their primary's.
     draws: DrawTally,
+    /// The cameras executed secondaries classified matrices as (their best line, convention
+    /// and count), for the depth profile: a secondary is never submitted itself.
+    executed_matches: Vec<(revz_math::DepthLine, revz_math::DepthConvention, u32)>,
     emitted: Emitted,
     /// The variant revz bound in the bound pipeline's place (`None`: the application's).
     variant_bound: Option<vk::Pipeline>,
@@ -460,6 +463,7 @@ impl Default for CommandState {
             push: PushConstants::default(),
             path: DrawPath::Native,
             draws: DrawTally::default(),
+            executed_matches: Vec::new(),
             emitted: Emitted::default(),
             variant_bound: None,
             promoted_from: None,
@@ -558,11 +562,15 @@ impl CommandState {
                 let (_, _, convention, line) = cameras.camera(index)?;
                 Some((line, convention, count))
             })
+            .chain(self.executed_matches.iter().copied())
     }
 
-    /// `vkCmdExecuteCommands` of a secondary that recorded `draws`.
-    pub fn add_executed_draws(&mut self, draws: &DrawTally) {
-        self.draws.add_executed(draws);
+    /// `vkCmdExecuteCommands` of `secondary` (the depth profile): its draws and camera
+    /// matches are this command buffer's.
+    pub fn add_executed(&mut self, secondary: &CommandState) {
+        self.draws.add_executed(&secondary.draws);
+        let matches: Vec<_> = secondary.camera_matches().collect();
+        self.executed_matches.extend(matches);
     }
 
     fn count_draw(&mut self) {

@@ -239,7 +239,15 @@ struct Inner {
     cameras: Vec<(usize, Value)>,
     /// Matrices matched per camera slot.
     camera_matches: [u64; revz_math::MAX_CAMERAS],
+    /// The device found the application already renders reversed depth: revz leaves every
+    /// attachment alone (`crate::policy::Observed`).
+    application_reversed: bool,
 }
+
+/// Why an image the policy would reverse is native once the application is found to render
+/// reversed depth itself.
+const APPLICATION_REVERSED: &str =
+    "the application already renders reversed depth (cleared to 0, GREATER): revz leaves it alone";
 
 /// What one `vkQueueSubmit` recorded, for [`Profile::submit`].
 #[derive(Debug, Default)]
@@ -407,6 +415,11 @@ impl Profile {
         }
     }
 
+    /// The application was found to render reversed depth itself.
+    pub fn set_application_reversed(&self) {
+        self.inner().application_reversed = true;
+    }
+
     /// The device's cameras, for the next write.
     pub fn set_cameras(&self, cameras: Vec<(usize, Value)>) {
         self.inner().cameras = cameras;
@@ -426,6 +439,7 @@ impl Profile {
             .images
             .iter()
             .map(|(handle, r)| {
+                let native_because = inner.native_because(r);
                 json!({
                     "handle": handle_name(*handle),
                     "format": format!("{:?}", r.format),
@@ -434,8 +448,8 @@ impl Profile {
                     "height": r.extent.height,
                     "samples": r.samples.as_raw(),
                     "usage": format!("{:?}", r.usage),
-                    "depth": if r.native_because.is_none() { "reversed" } else { "native" },
-                    "reason": r.native_because,
+                    "depth": if native_because.is_none() { "reversed" } else { "native" },
+                    "reason": native_because,
                     "demoted_in_frame": r.demoted_in_frame,
                     "draws": inner.by_image.get(handle).copied().unwrap_or_default().json(),
                 })
@@ -538,6 +552,15 @@ impl Profile {
 }
 
 impl Inner {
+    /// Why `image` is native as revz treats it now (`None`: reversed).
+    fn native_because<'a>(&self, image: &'a ImageRecord) -> Option<&'a str> {
+        match &image.native_because {
+            Some(reason) => Some(reason),
+            None if self.application_reversed => Some(APPLICATION_REVERSED),
+            None => None,
+        }
+    }
+
     fn close_frame(&mut self) {
         let draws = std::mem::take(&mut self.current);
         let by_image = std::mem::take(&mut self.current_by_image);
@@ -577,13 +600,13 @@ fn summary(inner: &Inner) -> String {
     let reversed = inner
         .images
         .iter()
-        .filter(|(_, r)| r.native_because.is_none())
+        .filter(|(_, r)| inner.native_because(r).is_none())
         .count();
     let native = inner.images.len() - reversed;
     let mut reasons: Vec<&str> = inner
         .images
         .iter()
-        .filter_map(|(_, r)| r.native_because.as_deref())
+        .filter_map(|(_, r)| inner.native_because(r))
         .collect();
     reasons.sort_unstable();
     reasons.dedup();

@@ -341,9 +341,10 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             depth_resolve: resolve_mode_name(ms.resolve.depth),
             stencil_resolve: resolve_mode_name(ms.resolve.stencil),
         });
-        (readback.frame()?, multisample)
+        let recorded = recorded(&scene, &renderer, &targets, cli.frames);
+        (readback.frame()?, multisample, recorded)
     };
-    let (frame, multisample) = frame;
+    let (frame, multisample, recorded) = frame;
     let clear_depth = scene.plan.main_clear_depth();
     for path in readback::write_images(out, &frame, clear_depth)? {
         print_wrote(&path);
@@ -394,9 +395,104 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         covered_pixels: stats.map(|s| s.covered),
         multisample,
         ground_truth,
+        recorded,
     };
     print_wrote(&readback::write_report(out, &report)?);
     Ok(messages)
+}
+
+/// `render.json`'s `recorded`: the depth images and the draws of one frame of `plan`.
+fn recorded(
+    scene: &crate::scene::Scene,
+    renderer: &Renderer<'_>,
+    targets: &Targets<'_>,
+    frames: u32,
+) -> readback::RecordedReport {
+    use crate::plan::Target;
+    use readback::{RecordedDraws, RecordedImage};
+    let plan = &scene.plan;
+    let handle = |raw: u64| format!("{raw:#x}");
+    let image = |role, a: &crate::target::Attachment<'_>| RecordedImage {
+        role,
+        handle: handle(ash::vk::Handle::as_raw(a.image)),
+        format: format!("{:?}", a.format),
+        usage: a.usage.as_raw(),
+        samples: a.samples.as_raw(),
+        width: a.extent.width,
+        height: a.extent.height,
+    };
+    let mut depth_images = vec![image("main", &targets.depth)];
+    depth_images.extend(targets.shadow.as_ref().map(|a| image("shadow", a)));
+    depth_images.extend(
+        targets
+            .multisampled
+            .as_ref()
+            .map(|ms| image("multisampled", &ms.depth)),
+    );
+    let draws = plan
+        .draw_census()
+        .into_iter()
+        .map(|(index, target, multisampled, draws)| {
+            let spec = &plan.pipelines[index];
+            RecordedDraws {
+                pipeline: spec.name,
+                handle: handle(ash::vk::Handle::as_raw(renderer.pipelines()[index])),
+                program: format!("{:?}", spec.program),
+                depth_test: spec.depth_test != crate::plan::DepthTest::Off,
+                viewport_depth: match spec.viewport {
+                    crate::plan::Viewport::Static {
+                        min_depth,
+                        max_depth,
+                    } => Some([min_depth, max_depth]),
+                    crate::plan::Viewport::Dynamic => None,
+                },
+                image: match (target, multisampled) {
+                    (Target::Shadow, _) => "shadow",
+                    (Target::Main, true) => "multisampled",
+                    (Target::Main, false) => "main",
+                },
+                draws,
+            }
+        })
+        .collect();
+    let aspect = f64::from(targets.extent.width) / f64::from(targets.extent.height);
+    let matrix_near = scene
+        .objects
+        .iter()
+        .map(|object| {
+            let pushed = scene
+                .mvp_in(crate::scene::View::Camera, object, aspect)
+                .as_mat4()
+                .as_dmat4();
+            near_of_clip_matrix(&pushed, scene.camera.projection.negative_one_to_one())
+        })
+        .collect();
+    readback::RecordedReport {
+        frames,
+        depth_images,
+        draws,
+        matrix_near,
+    }
+}
+
+/// The near plane of a clip matrix whose depth row lies on its w row, z = k w + B: where
+/// z / w reaches the near end of the depth range (0, or -1 for `negative_one_to_one`), in f64.
+/// `None` where w does not vary with position or the line is not a perspective one.
+fn near_of_clip_matrix(m: &glam::DMat4, negative_one_to_one: bool) -> Option<f64> {
+    let (depth, w) = (m.row(2), m.row(3));
+    let w_xyz = w.truncate();
+    let length_squared = w_xyz.length_squared();
+    if length_squared == 0.0 {
+        return None;
+    }
+    let k = depth.truncate().dot(w_xyz) / length_squared;
+    let b = depth.w - k * w.w;
+    let near = if negative_one_to_one {
+        -b / (k + 1.0)
+    } else {
+        -b / k
+    };
+    (near.is_finite() && near > 0.0 && b != 0.0).then_some(near)
 }
 
 fn print_wrote(path: &Path) {

@@ -767,6 +767,51 @@ impl Plan {
         needs
     }
 
+    /// The draw commands one recording of the plan makes, per (pipeline, target drawn into):
+    /// `(pipeline index, target, multisampled, draws)`, in the order each pair first draws.
+    /// What a depth profile of a layer under the tester must count (`render.json`'s
+    /// `recorded`).
+    pub fn draw_census(&self) -> Vec<(usize, Target, bool, usize)> {
+        fn walk(
+            plan: &Plan,
+            steps: &[Step],
+            pass: &mut Option<usize>,
+            bound: &mut Option<usize>,
+            out: &mut Vec<(usize, Target, bool, usize)>,
+        ) {
+            for step in steps {
+                match step {
+                    Step::BeginPass(n) => *pass = Some(*n),
+                    Step::EndPass => *pass = None,
+                    Step::Bind(n) => *bound = Some(*n),
+                    Step::Draw(_) | Step::DrawPushed(_) => {
+                        let (Some(pipeline), Some(spec)) =
+                            (*bound, pass.and_then(|n| plan.passes.get(n)))
+                        else {
+                            continue;
+                        };
+                        let key = (pipeline, spec.target, spec.multisample.is_some());
+                        match out.iter_mut().find(|e| (e.0, e.1, e.2) == key) {
+                            Some(entry) => entry.3 += 1,
+                            None => out.push((key.0, key.1, key.2, 1)),
+                        }
+                    }
+                    // Each secondary begins with nothing bound, in the pass it continues.
+                    Step::ExecuteSecondaries(lists, _) => {
+                        for list in lists {
+                            let mut bound = None;
+                            walk(plan, list, pass, &mut bound, out);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let mut out = Vec::new();
+        walk(self, &self.steps, &mut None, &mut None, &mut out);
+        out
+    }
+
     /// The depth the main depth image holds where nothing was drawn: the value of the first
     /// depth clear of the main target (render pass or image clear), 1.0 if there is none.
     pub fn main_clear_depth(&self) -> f32 {
@@ -1176,6 +1221,39 @@ impl Plan {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_census_counts_draws_per_pipeline_and_target_secondaries_included() {
+        let mut shadow = PassSpec::clear(1.0);
+        shadow.target = Target::Shadow;
+        let plan = Plan {
+            passes: vec![shadow, PassSpec::clear(1.0)],
+            pipelines: vec![
+                PipelineSpec::standard("shadow", 0),
+                PipelineSpec::standard("main", 1),
+            ],
+            steps: vec![
+                Step::BeginPass(0),
+                Step::Bind(0),
+                Step::Draw(0),
+                Step::Draw(1),
+                Step::EndPass,
+                Step::BeginPass(1),
+                Step::ExecuteSecondaries(
+                    vec![
+                        vec![Step::Bind(1), Step::Draw(0)],
+                        vec![Step::Bind(1), Step::Draw(1), Step::DrawPushed(1)],
+                    ],
+                    Recording::MainThread,
+                ),
+                Step::EndPass,
+            ],
+        };
+        assert_eq!(
+            plan.draw_census(),
+            vec![(0, Target::Shadow, false, 2), (1, Target::Main, false, 3)]
+        );
+    }
 
     #[test]
     fn compare_ops_evaluate_like_vulkan() {

@@ -692,6 +692,62 @@ pub struct RenderReport {
     /// The computed ground truth (null for scenes where something else than the nearest
     /// surface decides what shows).
     pub ground_truth: Option<GroundTruthReport>,
+    /// What the tester recorded: its depth images and draws, with the handles a layer above
+    /// the driver sees (what a depth profile must count).
+    pub recorded: RecordedReport,
+}
+
+/// `render.json`'s `recorded` section.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct RecordedReport {
+    /// Times the scene's commands were recorded and submitted (`--frames`).
+    pub frames: u32,
+    /// The depth images draws go to.
+    pub depth_images: Vec<RecordedImage>,
+    /// Draw commands per pipeline and depth image, in one frame.
+    pub draws: Vec<RecordedDraws>,
+    /// For each object of the scene seen by its camera, the near plane its clip matrix holds
+    /// once rounded to float32 (as pushed), computed in f64: -B / k of its depth line over
+    /// its w row (-B / (k + 1) for an OpenGL projection); null where the matrix is not a
+    /// perspective. What a layer that reads the pushed matrices can recover, exactly.
+    pub matrix_near: Vec<Option<f64>>,
+}
+
+/// One depth image of `recorded`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RecordedImage {
+    /// `main` (read back), `multisampled` (the main passes' transient attachment, resolved
+    /// into `main`) or `shadow` (sampled by later draws).
+    pub role: &'static str,
+    /// The `VkImage` handle, as `0x...`.
+    pub handle: String,
+    /// The Vulkan name of its format.
+    pub format: String,
+    /// `VkImageUsageFlags`.
+    pub usage: u32,
+    /// Samples per pixel.
+    pub samples: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Draws of one pipeline into one depth image of `recorded`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RecordedDraws {
+    /// The plan's name for the pipeline.
+    pub pipeline: &'static str,
+    /// The `VkPipeline` handle, as `0x...`.
+    pub handle: String,
+    /// Its program (`Flat`, `Ubo`, ...).
+    pub program: String,
+    /// Whether it tests depth.
+    pub depth_test: bool,
+    /// Its static viewport depth range `[min, max]` (null: dynamic).
+    pub viewport_depth: Option<[f32; 2]>,
+    /// The role of the depth image (see [`RecordedImage::role`]).
+    pub image: &'static str,
+    /// Draw commands per frame.
+    pub draws: usize,
 }
 
 /// `render.json`'s `multisample` section.

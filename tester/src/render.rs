@@ -213,6 +213,11 @@ const PAIR_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantR
 }];
 
 impl<'a> Renderer<'a> {
+    /// The pipelines, one per plan pipeline.
+    pub fn pipelines(&self) -> &[vk::Pipeline] {
+        &self.pipelines
+    }
+
     /// Creates everything `scene`'s plan needs to render into `targets`.
     pub fn new(gpu: &'a Gpu, targets: &Targets<'_>, scene: &Scene) -> Result<Self> {
         let device = &gpu.device;

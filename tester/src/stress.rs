@@ -260,6 +260,7 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
         covered_pixels: stats.map(|s| s.covered),
         multisample: None,
         ground_truth: Some(truth_report),
+        recorded: Default::default(),
     };
     say(&format!(
         "wrote: {}",

@@ -124,6 +124,10 @@ pub struct Attachment<'a> {
     pub view: vk::ImageView,
     /// The image format.
     pub format: vk::Format,
+    /// What it was created with (`render.json`'s `recorded`).
+    pub usage: vk::ImageUsageFlags,
+    pub samples: vk::SampleCountFlags,
+    pub extent: vk::Extent2D,
 }
 
 impl fmt::Debug for Attachment<'_> {
@@ -213,6 +217,9 @@ impl<'a> Attachment<'a> {
             memory: vk::DeviceMemory::null(),
             view: vk::ImageView::null(),
             format,
+            usage,
+            samples,
+            extent,
         };
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)

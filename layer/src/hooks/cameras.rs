@@ -153,6 +153,9 @@ fn profile_submit<I: Iterator<Item = vk::CommandBuffer>>(
             for (image, reason) in device.objects.take_demotions() {
                 profile.demote(image, reason.to_string());
             }
+            if device.observed.convention() == Some(crate::policy::Convention::AppReversed) {
+                profile.set_application_reversed();
+            }
             let mut submission = crate::profile::Submission::default();
             let mut learned = None;
             for buffer in buffers() {

@@ -299,8 +299,7 @@ pub unsafe extern "system" fn cmd_execute_commands(
         for &secondary in unsafe { slice(p_buffers, count) } {
             if entry.device.profile.is_some() {
                 if let Some(recorded) = objects::command_buffer(secondary) {
-                    let recorded = recorded.state().tally().clone();
-                    state.add_executed_draws(&recorded);
+                    state.add_executed(&recorded.state());
                 }
             }
             let assumed = objects::command_buffer(secondary).map(|s| s.state().inherited());
