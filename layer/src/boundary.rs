@@ -7,13 +7,13 @@
 
 use std::any::Any;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// One entry point of the layer, for panic reporting.
 #[derive(Debug)]
 pub struct EntryPoint {
     name: &'static str,
-    panicked: AtomicBool,
+    /// Logged at the first panic; later ones are counted (the depth profile's warnings).
+    panicked: crate::logging::LogOnce,
 }
 
 impl EntryPoint {
@@ -21,25 +21,24 @@ impl EntryPoint {
     pub const fn new(name: &'static str) -> Self {
         EntryPoint {
             name,
-            panicked: AtomicBool::new(false),
+            panicked: crate::logging::LogOnce::new(),
         }
     }
 
-    fn report(&self, payload: &(dyn Any + Send)) {
-        if self.panicked.swap(true, Ordering::Relaxed) {
-            return;
-        }
-        let message = payload
-            .downcast_ref::<&str>()
-            .copied()
-            .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
-            .unwrap_or("(no message)");
-        log::error!(
-            "internal error in {}: {message}; the call was passed down unchanged \
-             (further errors in {} are not logged)",
-            self.name,
-            self.name
-        );
+    fn report(&'static self, payload: &(dyn Any + Send)) {
+        self.panicked.log(|| {
+            let message = payload
+                .downcast_ref::<&str>()
+                .copied()
+                .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+                .unwrap_or("(no message)");
+            log::error!(
+                "internal error in {}: {message}; the call was passed down unchanged \
+                 (further errors in {} are not logged)",
+                self.name,
+                self.name
+            );
+        });
     }
 }
 
@@ -72,7 +71,7 @@ mod tests {
     fn a_panic_runs_the_fallback_and_is_remembered() {
         let value = guarded(&ENTRY, || -> i32 { panic!("boom") }, || 7);
         assert_eq!(value, 7);
-        assert!(ENTRY.panicked.load(Ordering::Relaxed));
+        assert!(ENTRY.panicked.occurred());
         // A second panic still falls back.
         assert_eq!(guarded(&ENTRY, || -> i32 { panic!("again") }, || 8), 8);
     }
@@ -81,6 +80,6 @@ mod tests {
     fn no_panic_returns_the_body_value() {
         static QUIET: EntryPoint = EntryPoint::new("vkQuiet");
         assert_eq!(guarded(&QUIET, || 1, || 2), 1);
-        assert!(!QUIET.panicked.load(Ordering::Relaxed));
+        assert!(!QUIET.panicked.occurred());
     }
 }

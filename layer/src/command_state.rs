@@ -1058,8 +1058,8 @@ impl CommandState {
                 .as_ref()
                 .is_some_and(|p| p.unreversed_fragment)
         {
-            static WARNED: std::sync::Once = std::sync::Once::new();
-            WARNED.call_once(|| {
+            static WARNED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            WARNED.log(|| {
                 log::warn!(
                     "a pipeline whose fragment shader computes with depth (FragDepth or \
                      FragCoord.z) and could not be rewritten draws into a reversed depth \
@@ -1082,8 +1082,8 @@ impl CommandState {
                 self.shader_variant_bound = reversed;
             }
             (_, Some(FragmentShader::Unreversed)) if reversed => {
-                static WARNED: std::sync::Once = std::sync::Once::new();
-                WARNED.call_once(|| {
+                static WARNED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                WARNED.log(|| {
                     log::warn!(
                         "a fragment shader object that computes with depth (FragDepth or \
                          FragCoord.z) and has no reversed variant (the rewrite refused it, its \

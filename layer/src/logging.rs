@@ -5,11 +5,14 @@
 //! its own copy of `log`, so this logger never collides with one the host application installs.
 //!
 //! With a depth profile (`report`), revz's warnings and errors are also kept, each once with a
-//! count ([`warnings`]), whatever the log level: the profile lists them.
+//! count ([`warnings`]), whatever the log level: the profile lists them. A warning revz logs
+//! only once ([`LogOnce`]) still counts each time its cause occurs.
 
+use std::cell::Cell;
 use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, Once, PoisonError};
 
 use log::{LevelFilter, Log, Metadata, Record};
@@ -38,6 +41,67 @@ static WARNINGS: Mutex<Vec<(String, u64)>> = Mutex::new(Vec::new());
 /// At most this many distinct warnings are kept.
 const WARNINGS_KEPT: usize = 256;
 
+/// Whether warnings are kept (a depth profile asked for them): later occurrences of a
+/// [`LogOnce`] warning are counted only then.
+static KEEPING: AtomicBool = AtomicBool::new(false);
+
+thread_local! {
+    /// The [`LogOnce`] whose first occurrence is being logged on this thread: the logger
+    /// tells it where its warning was kept.
+    static LOGGING_ONCE: Cell<Option<&'static LogOnce>> = const { Cell::new(None) };
+}
+
+/// A warning or error logged the first time its cause occurs (revz never floods the host's
+/// log); later occurrences are only counted, into the depth profile's count of that warning.
+/// Without a profile a later occurrence costs one load.
+#[derive(Debug)]
+pub struct LogOnce {
+    once: Once,
+    /// 1 + the warning's index in [`WARNINGS`] (0: not kept).
+    kept: AtomicUsize,
+}
+
+impl LogOnce {
+    pub const fn new() -> Self {
+        LogOnce {
+            once: Once::new(),
+            kept: AtomicUsize::new(0),
+        }
+    }
+
+    /// Runs `log` (which logs one record) the first time; counts the later times.
+    pub fn log(&'static self, log: impl FnOnce()) {
+        let mut first = false;
+        self.once.call_once(|| {
+            first = true;
+            LOGGING_ONCE.with(|site| site.set(Some(self)));
+            log();
+            LOGGING_ONCE.with(|site| site.set(None));
+        });
+        if first || !KEEPING.load(Ordering::Relaxed) {
+            return;
+        }
+        let index = self.kept.load(Ordering::Relaxed);
+        if index > 0 {
+            let mut kept = WARNINGS.lock().unwrap_or_else(PoisonError::into_inner);
+            if let Some((_, count)) = kept.get_mut(index - 1) {
+                *count += 1;
+            }
+        }
+    }
+
+    /// Whether its cause occurred.
+    pub fn occurred(&self) -> bool {
+        self.once.is_completed()
+    }
+}
+
+impl Default for LogOnce {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// The warnings and errors kept so far, with their counts.
 pub fn warnings() -> Vec<(String, u64)> {
     WARNINGS
@@ -64,13 +128,7 @@ impl Log for Logger {
             return;
         }
         if self.keep_warnings && record.level() <= log::Level::Warn {
-            let message = record.args().to_string();
-            let mut kept = WARNINGS.lock().unwrap_or_else(PoisonError::into_inner);
-            match kept.iter().position(|(m, _)| *m == message) {
-                Some(index) => kept[index].1 += 1,
-                None if kept.len() < WARNINGS_KEPT => kept.push((message, 1)),
-                None => {}
-            }
+            keep_warning(record.args().to_string());
         }
         if let Some(print) = &self.print {
             print.log(record);
@@ -81,6 +139,26 @@ impl Log for Logger {
         if let Some(print) = &self.print {
             print.flush();
         }
+    }
+}
+
+/// Keeps a warning for the depth profile: counted where it was kept before, and remembered by
+/// the [`LogOnce`] logging it, if one is.
+fn keep_warning(message: String) {
+    let mut kept = WARNINGS.lock().unwrap_or_else(PoisonError::into_inner);
+    let index = match kept.iter().position(|(m, _)| *m == message) {
+        Some(index) => {
+            kept[index].1 += 1;
+            Some(index)
+        }
+        None if kept.len() < WARNINGS_KEPT => {
+            kept.push((message, 1));
+            Some(kept.len() - 1)
+        }
+        None => None,
+    };
+    if let (Some(index), Some(site)) = (index, LOGGING_ONCE.with(Cell::get)) {
+        site.kept.store(index + 1, Ordering::Relaxed);
     }
 }
 
@@ -120,6 +198,7 @@ pub fn init(level: LevelFilter, file: Option<&Path>, keep_warnings: bool) -> Opt
             }
         }
         let print = (level != LevelFilter::Off).then(|| builder.build());
+        KEEPING.store(keep_warnings, Ordering::Relaxed);
         let max = if keep_warnings {
             level.max(LevelFilter::Warn)
         } else {
@@ -149,5 +228,26 @@ mod tests {
         }
         assert_eq!(parse_level(" DEBUG "), Some(LevelFilter::Debug));
         assert_eq!(parse_level("loud"), None);
+    }
+
+    #[test]
+    fn a_warning_logged_once_counts_every_occurrence_where_warnings_are_kept() {
+        static SITE: LogOnce = LogOnce::new();
+        let message = "revz unit test: logged once, counted thrice";
+        KEEPING.store(true, Ordering::Relaxed);
+        let mut logged = 0;
+        for _ in 0..3 {
+            SITE.log(|| {
+                logged += 1;
+                keep_warning(message.to_owned());
+            });
+        }
+        assert_eq!(logged, 1);
+        assert!(SITE.occurred());
+        let count = warnings()
+            .into_iter()
+            .find(|(m, _)| m == message)
+            .map(|(_, count)| count);
+        assert_eq!(count, Some(3));
     }
 }

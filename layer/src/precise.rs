@@ -353,8 +353,8 @@ fn classify_line(
             DepthDirection::Reversed => Outcome::AlreadyReversed,
         },
         CameraMatch::Untrusted => {
-            static UNTRUSTED: std::sync::Once = std::sync::Once::new();
-            UNTRUSTED.call_once(|| {
+            static UNTRUSTED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            UNTRUSTED.log(|| {
                 log::info!(
                     "a pushed perspective matrix matches no camera seen so far, and its depth \
                      row, rounded to float32, gives no near plane revz can trust (B lost to \

@@ -517,7 +517,13 @@ impl Profile {
                 "precise_fraction_of_reversed": precise_fraction(&inner.totals),
             }),
         );
-        object.insert("summary".into(), json!(summary(&inner)));
+        let mode = self.header["settings"]
+            .as_array()
+            .and_then(|settings| settings.iter().find(|s| s["name"] == "mode"))
+            .and_then(|s| s["value"].as_str())
+            .unwrap_or("?")
+            .to_owned();
+        object.insert("summary".into(), json!(summary(&inner, &mode)));
         let warnings: Vec<Value> = crate::logging::warnings()
             .into_iter()
             .map(|(message, count)| json!({"message": message, "count": count}))
@@ -540,8 +546,8 @@ impl Profile {
         let written =
             std::fs::write(&temporary, text).and_then(|()| std::fs::rename(&temporary, &self.path));
         if let Err(err) = written {
-            static FAILED: std::sync::Once = std::sync::Once::new();
-            FAILED.call_once(|| {
+            static FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            FAILED.log(|| {
                 log::warn!(
                     "report {}: cannot be written ({err}); no profile is kept",
                     self.path.display()
@@ -592,45 +598,91 @@ fn precise_fraction(d: &DrawCounts) -> Option<f64> {
     (reversed > 0).then(|| d.precise as f64 / reversed as f64)
 }
 
-/// The few lines a person reads (the README's "did it work?").
-fn summary(inner: &Inner) -> String {
+/// `value` to 3 significant digits, without trailing zeros (0.1, 0.00125, 2.5e-7 as 0).
+fn significant(value: f64) -> String {
+    let digits = (3 - value.abs().log10().ceil() as i32).clamp(0, 12) as usize;
+    let text = format!("{value:.digits$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        text
+    }
+}
+
+/// The line a person reads (the README's "did it work?"), such as `precise 87% of draws
+/// (infinite; camera n=0.1), flip 13% (2 pipelines: ...), native 0% (...); depth images: 1
+/// reversed D32_SFLOAT, 1 native D32_SFLOAT (shaders read it ...)`.
+fn summary(inner: &Inner, mode: &str) -> String {
     let d = &inner.totals;
     let total = d.total().max(1) as f64;
     let percent = |n: u64| 100.0 * n as f64 / total;
-    let reversed = inner
-        .images
+    let nears: Vec<String> = inner
+        .cameras
         .iter()
-        .filter(|(_, r)| inner.native_because(r).is_none())
-        .count();
-    let native = inner.images.len() - reversed;
-    let mut reasons: Vec<&str> = inner
-        .images
-        .iter()
-        .filter_map(|(_, r)| inner.native_because(r))
+        .filter_map(|(_, c)| c["near"].as_f64())
+        .map(significant)
         .collect();
-    reasons.sort_unstable();
-    reasons.dedup();
-    let flip_pipelines = inner
+    let fitted = inner
         .pipelines
         .iter()
-        .filter(|(_, r)| r.path == "flip")
-        .count();
+        .any(|(_, r)| r.path == "precise" && r.projection.contains("fitted"));
+    let mut precise_how = vec![mode.to_owned()];
+    match nears.len() {
+        0 => {}
+        1 => precise_how.push(format!("camera n={}", nears[0])),
+        n => precise_how.push(format!("{n} cameras n={}", nears.join(", "))),
+    }
+    if fitted {
+        precise_how.push("ranges fitted by vertex stages".to_owned());
+    }
+    let flip_pipelines: Vec<&PipelineRecord> = inner
+        .pipelines
+        .iter()
+        .map(|(_, r)| r)
+        .filter(|r| r.path == "flip")
+        .collect();
+    let mut flip_reasons: Vec<&str> = flip_pipelines.iter().map(|r| &r.projection[..]).collect();
+    flip_reasons.sort_unstable();
+    flip_reasons.dedup();
+    let flip_how = match flip_pipelines.len() {
+        0 => String::new(),
+        1 => format!(" (1 pipeline: {})", flip_reasons.join("; ")),
+        n => format!(" ({n} pipelines: {})", flip_reasons.join("; ")),
+    };
+    // Images grouped by what happened to them and their format.
+    let mut groups: Vec<(bool, String, usize, Option<&str>)> = Vec::new();
+    for (_, image) in &inner.images {
+        let because = inner.native_because(image);
+        let format = format!("{:?}", image.promoted.unwrap_or(image.format));
+        match groups
+            .iter_mut()
+            .find(|g| (g.0, &g.1, g.3) == (because.is_none(), &format, because))
+        {
+            Some(group) => group.2 += 1,
+            None => groups.push((because.is_none(), format, 1, because)),
+        }
+    }
+    let images: Vec<String> = groups
+        .iter()
+        .map(|(reversed, format, count, because)| match because {
+            None if *reversed => format!("{count} reversed {format}"),
+            _ => format!("{count} native {format} ({})", because.unwrap_or("")),
+        })
+        .collect();
+    let frames = inner.frame_index;
     format!(
-        "precise {:.0}% of draws, flip {:.0}%, native {:.0}% ({} draws, {} frames); pipelines: \
-         {} precise, {} flip; depth images: {} reversed, {} native{}",
+        "precise {:.0}% of draws ({}), flip {:.0}%{flip_how}, native {:.0}% ({} draws, {frames} \
+         frame{}); depth images: {}",
         percent(d.precise),
+        precise_how.join("; "),
         percent(d.flip),
         percent(d.native),
         d.total(),
-        inner.frame_index,
-        inner.pipelines.len() - flip_pipelines,
-        flip_pipelines,
-        reversed,
-        native,
-        if reasons.is_empty() {
-            String::new()
+        if frames == 1 { "" } else { "s" },
+        if images.is_empty() {
+            "none".to_owned()
         } else {
-            format!(" ({})", reasons.join("; "))
+            images.join(", ")
         }
     )
 }
@@ -733,14 +785,14 @@ mod tests {
         assert_eq!(document["frames"][3]["by_image"][1]["draws"]["native"], 1);
         assert_eq!(document["cameras"][0]["matrices_matched"], 15);
         let summary = profile.document()["summary"].as_str().unwrap().to_owned();
-        assert!(
-            summary.starts_with("precise 50% of draws, flip 25%, native 25% (12 draws, 4 frames)"),
-            "{summary}"
+        assert_eq!(
+            summary,
+            "precise 50% of draws (complementary; camera n=0.1), flip 25%, native 25% (12 \
+             draws, 4 frames); depth images: 1 reversed D32_SFLOAT, 1 native D32_SFLOAT \
+             (shaders read it)"
         );
-        assert!(
-            summary.contains("1 reversed, 1 native (shaders read it)"),
-            "{summary}"
-        );
+        assert_eq!(significant(0.00125), "0.00125");
+        assert_eq!(significant(1234.7), "1235");
         profile.write();
         assert!(!dir.join("report.json.tmp").exists());
         let again: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();

@@ -34,6 +34,16 @@ fn text(value: &Value) -> String {
     }
 }
 
+/// A profile's `draws` object as `precise / flip / native`.
+fn draws(value: &Value) -> String {
+    format!(
+        "{} / {} / {}",
+        text(&value["precise"]),
+        text(&value["flip"]),
+        text(&value["native"])
+    )
+}
+
 /// The tables of a profile.
 pub fn render_tables(profile: &Value) -> String {
     let mut out = String::new();
@@ -71,14 +81,16 @@ pub fn render_tables(profile: &Value) -> String {
     line(&mut out, String::new());
     line(
         &mut out,
-        "| depth image | format | promoted | size | samples | depth | why native |".into(),
+        "| depth image | format | promoted | size | samples | depth | why native | draws \
+         (precise / flip / native) |"
+            .into(),
     );
-    line(&mut out, "|---|---|---|---|---|---|---|".into());
+    line(&mut out, "|---|---|---|---|---|---|---|---|".into());
     for i in profile["images"].as_array().into_iter().flatten() {
         line(
             &mut out,
             format!(
-                "| {} | {} | {} | {}x{} | {} | {} | {} |",
+                "| {} | {} | {} | {}x{} | {} | {} | {} | {} |",
                 text(&i["handle"]),
                 text(&i["format"]),
                 text(&i["promoted_format"]),
@@ -86,16 +98,18 @@ pub fn render_tables(profile: &Value) -> String {
                 text(&i["height"]),
                 text(&i["samples"]),
                 text(&i["depth"]),
-                text(&i["reason"])
+                text(&i["reason"]),
+                draws(&i["draws"])
             ),
         );
     }
     line(&mut out, String::new());
     line(
         &mut out,
-        "| pipeline | path | projection | variants |".into(),
+        "| pipeline | kind | path | projection | variants | draws (precise / flip / native) |"
+            .into(),
     );
-    line(&mut out, "|---|---|---|---|".into());
+    line(&mut out, "|---|---|---|---|---|---|".into());
     for p in profile["pipelines"].as_array().into_iter().flatten() {
         let variants = [
             ("reversed", "reversed_variant"),
@@ -109,17 +123,22 @@ pub fn render_tables(profile: &Value) -> String {
         line(
             &mut out,
             format!(
-                "| {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} |",
                 text(&p["handle"]),
+                text(&p["kind"]),
                 text(&p["path"]),
                 text(&p["projection"]),
-                if variants.is_empty() { "-" } else { &variants }
+                if variants.is_empty() { "-" } else { &variants },
+                draws(&p["draws"])
             ),
         );
     }
     line(&mut out, String::new());
-    line(&mut out, "| camera | near | far | convention |".into());
-    line(&mut out, "|---|---|---|---|".into());
+    line(
+        &mut out,
+        "| camera | near | far | convention | delivered | matrices matched |".into(),
+    );
+    line(&mut out, "|---|---|---|---|---|---|".into());
     for (index, c) in profile["cameras"]
         .as_array()
         .into_iter()
@@ -129,14 +148,16 @@ pub fn render_tables(profile: &Value) -> String {
         line(
             &mut out,
             format!(
-                "| {index} | {} | {} | {} |",
+                "| {index} | {} | {} | {} | {} | {} |",
                 text(&c["near"]),
                 if c["far"].is_null() {
                     "infinite".to_owned()
                 } else {
                     text(&c["far"])
                 },
-                text(&c["convention"])
+                text(&c["convention"]),
+                text(&c["delivered"]),
+                text(&c["matrices_matched"])
             ),
         );
     }

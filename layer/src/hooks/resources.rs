@@ -40,7 +40,7 @@ struct ImageCreation<'a> {
 /// Logs once per reason why images keep their UNORM format.
 fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
     use crate::policy::KeptFormat;
-    static ONCE: [std::sync::Once; 5] = [const { std::sync::Once::new() }; 5];
+    static ONCE: [crate::logging::LogOnce; 5] = [const { crate::logging::LogOnce::new() }; 5];
     let index = match reason {
         KeptFormat::Copied => 0,
         KeptFormat::LaidOutOutside => 1,
@@ -48,7 +48,7 @@ fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
         KeptFormat::Unsupported => 3,
         KeptFormat::ResolvePartner => 4,
     };
-    ONCE[index].call_once(|| {
+    ONCE[index].log(|| {
         log::info!("depth images such as one in {format:?} keep their format, because {reason}")
     });
 }

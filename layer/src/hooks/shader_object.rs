@@ -27,7 +27,6 @@
 //! - A variant is destroyed (without the application's allocator) with its application shader,
 //!   and with the device for shaders the application never destroyed.
 
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use ash::vk;
@@ -61,8 +60,8 @@ fn plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
         return Plan::Nothing;
     }
     if info.code_type == vk::ShaderCodeTypeEXT::BINARY {
-        static BINARY: std::sync::Once = std::sync::Once::new();
-        BINARY.call_once(|| {
+        static BINARY: crate::logging::LogOnce = crate::logging::LogOnce::new();
+        BINARY.log(|| {
             log::warn!(
                 "a fragment shader object is created from binary code: revz cannot read it, so \
                  if it computes with depth (FragDepth or FragCoord.z), its draws into reversed \
@@ -88,8 +87,8 @@ fn plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
             Plan::Unreversed
         }
         Ok(Some(_)) if info.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE) => {
-            static LINKED: std::sync::Once = std::sync::Once::new();
-            LINKED.call_once(|| {
+            static LINKED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            LINKED.log(|| {
                 log::warn!(
                     "a linked fragment shader object (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) \
                      computes with depth: revz does not re-create linked sets, so its draws \
@@ -124,13 +123,13 @@ fn create_variant(
     if result == vk::Result::SUCCESS && variant != vk::ShaderEXT::null() {
         return FragmentShader::Reversed(variant);
     }
-    static FAILED: AtomicBool = AtomicBool::new(false);
-    if !FAILED.swap(true, Ordering::Relaxed) {
+    static FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+    FAILED.log(|| {
         log::warn!(
             "the reversed variant of a fragment shader object could not be created \
              ({result:?}): its draws into reversed attachments keep standard depth"
-        );
-    }
+        )
+    });
     FragmentShader::Unreversed
 }
 

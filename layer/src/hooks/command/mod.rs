@@ -685,7 +685,7 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
     p_info: *const vk::DepthBiasInfoEXT<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthBias2EXT");
-    static REPRESENTED: std::sync::Once = std::sync::Once::new();
+    static REPRESENTED: crate::logging::LogOnce = crate::logging::LogOnce::new();
     // SAFETY: a valid info (the application's contract).
     let info = unsafe { *p_info };
     let bias = DepthBias {
@@ -724,7 +724,7 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
                 ..info
             });
         }
-        REPRESENTED.call_once(|| {
+        REPRESENTED.log(|| {
             log::info!(
                 "vkCmdSetDepthBias2EXT with a bias representation is negated where it is \
                  recorded, not per draw"

@@ -290,7 +290,7 @@ pub unsafe extern "system" fn cmd_execute_commands(
     p_buffers: *const vk::CommandBuffer,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdExecuteCommands");
-    static MISMATCH: std::sync::Once = std::sync::Once::new();
+    static MISMATCH: crate::logging::LogOnce = crate::logging::LogOnce::new();
     let device = with_entry(buffer, &ENTRY, |entry| {
         let mut state = entry.state();
         let target = state.target();
@@ -305,7 +305,7 @@ pub unsafe extern "system" fn cmd_execute_commands(
             let assumed = objects::command_buffer(secondary).map(|s| s.state().inherited());
             if matches!(assumed, Some(a) if a != target && a != Target::None && target != Target::None)
             {
-                MISMATCH.call_once(|| {
+                MISMATCH.log(|| {
                     log::warn!(
                         "a secondary command buffer recorded for a {:?} depth attachment runs \
                          where the depth attachment is {target:?}: its depth state does not \

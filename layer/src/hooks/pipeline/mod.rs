@@ -270,8 +270,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     // no code revz can change (and, with identifiers, no compiling either).
                     let from_binaries = uses_pipeline_binaries(info);
                     if from_binaries && plan.renders_depth && state.policy.is_active() {
-                        static BINARIES: std::sync::Once = std::sync::Once::new();
-                        BINARIES.call_once(|| {
+                        static BINARIES: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                        BINARIES.log(|| {
                             log::warn!(
                                 "a pipeline is created from pipeline binaries \
                                  (VK_KHR_pipeline_binary): revz cannot make its reversed \
@@ -331,8 +331,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     plan.promotion = promotion_of(&state, info, context.subsets);
                     plan.depth.promotable |= plan.promotion.is_some();
                     if identified && plan.promotion.take().is_some() {
-                        static IDENTIFIED: std::sync::Once = std::sync::Once::new();
-                        IDENTIFIED.call_once(|| {
+                        static IDENTIFIED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                        IDENTIFIED.log(|| {
                             log::error!(
                                 "a pipeline given by identifiers or binaries draws into \
                                  promoted depth images: revz cannot make its promoted variant, \
@@ -544,8 +544,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     promoted: true,
                 });
                 if plan.promotion.is_some() && plan.depth.promoted_variant.is_none() {
-                    static MISSING: std::sync::Once = std::sync::Once::new();
-                    MISSING.call_once(|| {
+                    static MISSING: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                    MISSING.log(|| {
                         log::error!(
                             "pipeline {pipeline:?}: its promoted variant could not be made; its \
                              draws into promoted depth images use it as it is, and the driver \

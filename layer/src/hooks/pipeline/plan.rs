@@ -299,8 +299,8 @@ pub(super) fn promotion_of(
             let pass = state.objects.render_passes.get(&info.render_pass)?;
             if (0..pass.attachments.len()).any(|i| pass.promotable(i)) {
                 let Some(twin) = pass.promoted_twin else {
-                    static MISSING: std::sync::Once = std::sync::Once::new();
-                    MISSING.call_once(|| {
+                    static MISSING: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                    MISSING.log(|| {
                         log::error!(
                             "a pipeline of a render pass without its promoted twin: its draws \
                              into promoted depth images use it as it is, and the driver may \

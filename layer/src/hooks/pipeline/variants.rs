@@ -48,15 +48,15 @@ pub(super) fn create_variant(
     plan: &Plan,
     kind: VariantKind,
 ) -> Variant {
-    static FAILED: AtomicBool = AtomicBool::new(false);
+    static FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
     let failed = |why: &dyn std::fmt::Display| {
-        if !FAILED.swap(true, Ordering::Relaxed) {
+        FAILED.log(|| {
             log::warn!(
                 "a {kind:?} variant of a pipeline could not be created ({why}): its draws \
                  into reversed attachments keep its compare op and fragment shader, and into \
                  promoted ones its attachment formats"
-            );
-        }
+            )
+        });
         Variant::Missing
     };
     let promotion = plan.promotion.as_ref().filter(|_| kind.promoted);
