@@ -282,7 +282,12 @@ impl Profile {
     /// The profile of a device created with `settings` by the application `application`
     /// (`VkApplicationInfo` names, API version), written to `report` (a directory: a file
     /// named after the executable, the process and the device in it).
-    pub fn new(report: &Path, application: Value, settings: &Settings) -> Profile {
+    pub fn new(
+        report: &Path,
+        application: Value,
+        settings: &Settings,
+        origins: &[(crate::config::Key, String)],
+    ) -> Profile {
         let device = DEVICES.fetch_add(1, Ordering::Relaxed);
         let is_dir = report.is_dir() || report.as_os_str().to_string_lossy().ends_with('/');
         let path = if is_dir {
@@ -305,15 +310,10 @@ impl Profile {
             .iter()
             .map(|spec| {
                 let value = settings.describe(spec.key);
-                let origin = match std::env::var(spec.env) {
-                    Ok(v) if !v.trim().is_empty() => format!("environment {}", spec.env),
-                    _ if value == spec.default
-                        || (spec.default.is_empty() && (value == "stderr" || value == "none")) =>
-                    {
-                        "default".to_owned()
-                    }
-                    _ => "config file or VK_EXT_layer_settings".to_owned(),
-                };
+                let origin = origins
+                    .iter()
+                    .find(|(key, _)| *key == spec.key)
+                    .map_or("default", |(_, origin)| origin);
                 json!({"name": spec.name, "value": value, "from": origin})
             })
             .collect();
@@ -713,7 +713,13 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("revz-profile-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let file = dir.join("report.json");
-        let profile = Profile::new(&file, json!({"name": "test"}), &Settings::default());
+        let origins = [(crate::config::Key::Mode, "environment REVZ_MODE".to_owned())];
+        let profile = Profile::new(
+            &file,
+            json!({"name": "test"}),
+            &Settings::default(),
+            &origins,
+        );
         // Another test's device may have been this process's first profile: then the file
         // is named apart.
         let file = profile.path.clone();

@@ -51,6 +51,8 @@ pub struct InstanceState {
     /// The application as its profile names it (`crate::profile`): executable,
     /// `VkApplicationInfo` names, API version.
     pub application: serde_json::Value,
+    /// Where each setting not at its default got its value, for the profile.
+    pub setting_origins: Vec<(crate::config::Key, String)>,
 }
 
 impl std::fmt::Debug for InstanceState {

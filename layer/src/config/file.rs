@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 
 use toml_edit::{Document, Item, Table};
 
-use super::{setting_names, AppIdentity, Resolved, SettingSpec, Settings, Value};
+use super::{setting_names, AppIdentity, Key, Resolved, SettingSpec, Settings, Value};
 
 /// The environment variable naming the config file.
 pub const PATH_VAR: &str = "REVZ_CONFIG";
@@ -90,7 +90,14 @@ impl Reader<'_> {
 
     /// Applies the settings of one table (the top level or one application section) to
     /// `settings`; match keys are skipped when `in_application`.
-    fn apply_table(&mut self, table: &Table, settings: &mut Settings, in_application: bool) {
+    /// Applies the settings of `table`; returns the keys applied.
+    fn apply_table(
+        &mut self,
+        table: &Table,
+        settings: &mut Settings,
+        in_application: bool,
+    ) -> Vec<Key> {
+        let mut applied = Vec::new();
         for (key, item) in table.iter() {
             let span = Self::key_span(table, key);
             if in_application && MATCH_KEYS.contains(&key) {
@@ -129,10 +136,18 @@ impl Reader<'_> {
                 );
                 continue;
             };
-            if let Err(problem) = settings.apply(spec, &value) {
-                self.warn_at(item.span().or(span), problem);
+            match settings.apply(spec, &value) {
+                Ok(()) => applied.push(spec.key),
+                Err(problem) => {
+                    // An unreadable mode is `off`, from here.
+                    if spec.key == Key::Mode {
+                        applied.push(spec.key);
+                    }
+                    self.warn_at(item.span().or(span), problem)
+                }
             }
         }
+        applied
     }
 
     /// Whether an application section applies to `app`; `None` if the section is unusable.
@@ -190,10 +205,11 @@ pub fn apply(path: &Path, text: &str, app: &AppIdentity, resolved: &mut Resolved
         warnings: Vec::new(),
     };
     let root = document.as_table();
-    reader.apply_table(root, &mut resolved.settings, false);
-    resolved
-        .notes
-        .push(format!("config file {}", path.display()));
+    let origin = format!("config file {}", path.display());
+    for key in reader.apply_table(root, &mut resolved.settings, false) {
+        resolved.set_origin(key, origin.clone());
+    }
+    resolved.notes.push(origin.clone());
 
     match root.get(APPLICATION_SECTION) {
         None => {}
@@ -201,11 +217,13 @@ pub fn apply(path: &Path, text: &str, app: &AppIdentity, resolved: &mut Resolved
             for section in sections.iter() {
                 match reader.section_matches(section, app) {
                     Some(true) => {
-                        reader.apply_table(section, &mut resolved.settings, true);
+                        let keys = reader.apply_table(section, &mut resolved.settings, true);
                         let line = section.span().map_or(0, |s| line_of(text, s.start));
-                        resolved
-                            .notes
-                            .push(format!("[[{APPLICATION_SECTION}]] at line {line}"));
+                        let section = format!("[[{APPLICATION_SECTION}]] at line {line}");
+                        for key in keys {
+                            resolved.set_origin(key, format!("{origin}, {section}"));
+                        }
+                        resolved.notes.push(section);
                     }
                     // Still report the problems of sections that do not apply here.
                     Some(false) => {

@@ -566,6 +566,40 @@ pub struct Resolved {
     pub warnings: Vec<String>,
     /// Where the settings came from, for the load line (`config file ...`).
     pub notes: Vec<String>,
+    /// Where each setting that is not at its default got its value (the last source that
+    /// set it, the highest in precedence): `environment REVZ_MODE`, `config file <path>`, ...
+    pub origins: Vec<(Key, String)>,
+}
+
+impl Resolved {
+    /// `key` was set from `origin` (a later, higher source replaces an earlier one).
+    pub fn set_origin(&mut self, key: Key, origin: String) {
+        self.origins.retain(|(k, _)| *k != key);
+        self.origins.push((key, origin));
+    }
+
+    /// Applies `value` from `origin`: a problem is a warning beginning with `named` (where a
+    /// person finds the value: the variable, the file and line, the setting). The origin
+    /// is recorded where the value was taken, and for an unreadable mode (which means `off`).
+    pub fn apply(&mut self, spec: &SettingSpec, value: &Value, origin: String, named: &str) {
+        match self.settings.apply(spec, value) {
+            Ok(()) => self.set_origin(spec.key, origin),
+            Err(problem) => {
+                self.warnings.push(format!("{named}: {problem}"));
+                if spec.key == Key::Mode {
+                    self.set_origin(spec.key, origin);
+                }
+            }
+        }
+    }
+
+    /// Where `key` got its value: `default` where no source set it.
+    pub fn origin(&self, key: Key) -> &str {
+        self.origins
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map_or("default", |(_, origin)| origin)
+    }
 }
 
 /// Resolves the settings from every source, in precedence order.
@@ -574,6 +608,7 @@ pub fn resolve(sources: &Sources<'_>) -> Resolved {
         settings: Settings::default(),
         warnings: Vec::new(),
         notes: Vec::new(),
+        origins: Vec::new(),
     };
 
     // 4. The config file.
@@ -592,9 +627,8 @@ pub fn resolve(sources: &Sources<'_>) -> Resolved {
     // 2. Environment variables.
     for spec in SETTINGS {
         if let Some(text) = (sources.env)(spec.env).filter(|v| !v.trim().is_empty()) {
-            if let Err(problem) = resolved.settings.apply(spec, &Value::Text(text)) {
-                resolved.warnings.push(format!("{}: {problem}", spec.env));
-            }
+            let origin = format!("environment {}", spec.env);
+            resolved.apply(spec, &Value::Text(text), origin, spec.env);
         }
     }
 
@@ -610,9 +644,7 @@ pub fn resolve(sources: &Sources<'_>) -> Resolved {
         };
         match &setting.value {
             Ok(value) => {
-                if let Err(problem) = resolved.settings.apply(spec, value) {
-                    resolved.warnings.push(format!("{origin}: {problem}"));
-                }
+                resolved.apply(spec, value, origin.clone(), &origin);
             }
             Err(problem) => resolved
                 .warnings

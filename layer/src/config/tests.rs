@@ -517,3 +517,34 @@ proptest! {
         let _ = world.resolve();
     }
 }
+
+#[test]
+fn each_setting_says_which_source_gave_its_value() {
+    let mut world = World::with_config(
+        "mode = 'flip'\nfar_clip = 'keep'\nlog = 'debug'\n\
+         [[application]]\nexecutable = 'game'\ncompare_op = 'variants'\n",
+    );
+    world.app.executable = Some("game".to_owned());
+    world.env.insert("REVZ_FAR_CLIP", "remove".to_owned());
+    world.env.insert("REVZ_LOG", "loud".to_owned());
+    world
+        .layer_settings
+        .push(layer_setting("mode", Value::Text("infinite".to_owned())));
+    let resolved = world.resolve();
+    assert_eq!(resolved.settings.mode, Mode::Infinite);
+    assert_eq!(resolved.origin(Key::Mode), "VK_EXT_layer_settings 'mode'");
+    assert_eq!(resolved.origin(Key::FarClip), "environment REVZ_FAR_CLIP");
+    // An unreadable value keeps what the file gave, and the file stays its origin.
+    assert_eq!(resolved.settings.log_level, LevelFilter::Debug);
+    assert_eq!(resolved.origin(Key::Log), format!("config file {CONFIG}"));
+    assert!(resolved
+        .origin(Key::CompareOp)
+        .starts_with(&format!("config file {CONFIG}, [[application]] at line ")));
+    assert_eq!(resolved.origin(Key::ReverseObservable), "default");
+    // An unreadable mode means off, from the source that named it.
+    let mut typo = World::default();
+    typo.env.insert("REVZ_MODE", "infinit".to_owned());
+    let resolved = typo.resolve();
+    assert_eq!(resolved.settings.mode, Mode::Off);
+    assert_eq!(resolved.origin(Key::Mode), "environment REVZ_MODE");
+}

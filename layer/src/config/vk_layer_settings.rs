@@ -55,9 +55,7 @@ pub fn apply(path: &Path, text: &str, resolved: &mut Resolved) {
             continue;
         };
         let value = Value::Text(value.trim().to_owned());
-        if let Err(problem) = resolved.settings.apply(spec, &value) {
-            resolved.warnings.push(format!("{at}: {problem}"));
-        }
+        resolved.apply(spec, &value, at.clone(), &at);
     }
     if any {
         resolved.notes.push(format!("{}", path.display()));

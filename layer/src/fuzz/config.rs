@@ -231,6 +231,7 @@ fn fresh() -> Resolved {
         settings: Settings::default(),
         warnings: Vec::new(),
         notes: Vec::new(),
+        origins: Vec::new(),
     }
 }
 

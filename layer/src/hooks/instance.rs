@@ -76,7 +76,7 @@ pub unsafe extern "system" fn create_instance(
                 log::error!("vkCreateInstance: no loader link info; was revz loaded as a layer?");
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
-            let settings = read_settings(create_info);
+            let (settings, setting_origins) = read_settings(create_info);
             let api_version = requested_api_version(create_info);
             // SAFETY: the application's extension names.
             let app_extensions = unsafe {
@@ -156,6 +156,7 @@ pub unsafe extern "system" fn create_instance(
                     next,
                     settings,
                     application: application_json(create_info, api_version),
+                    setting_origins,
                 },
             );
             result
@@ -429,7 +430,10 @@ fn app_identity(create_info: &vk::InstanceCreateInfo) -> AppIdentity {
 
 /// Resolves this instance's settings, installs the logger (first instance only), and logs the
 /// warnings and the load line. Any failure here degrades to `off`.
-fn read_settings(create_info: &vk::InstanceCreateInfo) -> Arc<Settings> {
+/// The instance's settings, and where each got its value (`config::Resolved::origins`).
+fn read_settings(
+    create_info: &vk::InstanceCreateInfo,
+) -> (Arc<Settings>, Vec<(crate::config::Key, String)>) {
     let settings = guarded(
         &READ_CONFIG,
         || {
@@ -463,14 +467,17 @@ fn read_settings(create_info: &vk::InstanceCreateInfo) -> Arc<Settings> {
                 "revz {VERSION} loaded as {LAYER_NAME}: mode {mode}; {}{sources}",
                 settings.summary()
             );
-            settings
+            (settings, resolved.origins)
         },
-        || Settings {
-            mode: Mode::Off,
-            ..Settings::default()
+        || {
+            let off = Settings {
+                mode: Mode::Off,
+                ..Settings::default()
+            };
+            (off, Vec::new())
         },
     );
-    Arc::new(settings)
+    (Arc::new(settings.0), settings.1)
 }
 
 /// `vkDestroyInstance`.
@@ -642,6 +649,7 @@ pub unsafe extern "system" fn create_device(
                     report,
                     instance.application.clone(),
                     &instance.settings,
+                    &instance.setting_origins,
                 );
                 log::info!("depth profile: {}", profile.path().display());
                 Arc::new(profile)
