@@ -239,6 +239,10 @@ struct Inner {
     cameras: Vec<(usize, Value)>,
     /// Matrices matched per camera slot.
     camera_matches: [u64; revz_math::MAX_CAMERAS],
+    /// Copy commands between a reversed and a standard end recorded, converted and sent
+    /// down unconverted (why: in `warnings`).
+    copies_converted: u64,
+    copies_unconverted: u64,
     /// The device found the application already renders reversed depth: revz leaves every
     /// attachment alone (`crate::policy::Observed`).
     application_reversed: bool,
@@ -415,6 +419,17 @@ impl Profile {
         }
     }
 
+    /// A copy command between a reversed and a standard end was recorded, converted or not
+    /// (`crate::depth_copy`).
+    pub fn copy(&self, converted: bool) {
+        let mut inner = self.inner();
+        if converted {
+            inner.copies_converted += 1;
+        } else {
+            inner.copies_unconverted += 1;
+        }
+    }
+
     /// The application was found to render reversed depth itself.
     pub fn set_application_reversed(&self) {
         self.inner().application_reversed = true;
@@ -483,7 +498,12 @@ impl Profile {
                     .iter()
                     .map(|(image, d)| json!({"image": handle_name(*image), "draws": d.json()}))
                     .collect();
-                json!({"frame": frame.index, "draws": frame.draws.json(), "by_image": by_image})
+                json!({
+                    "frame": frame.index,
+                    "draws": frame.draws.json(),
+                    "precise_fraction_of_reversed": precise_fraction(&frame.draws),
+                    "by_image": by_image,
+                })
             })
             .collect();
         let outside_images = inner.by_image.get(&0).copied().unwrap_or_default();
@@ -514,6 +534,10 @@ impl Profile {
                 "submissions": inner.submissions,
                 "draws": inner.totals.json(),
                 "draws_without_depth_image": outside_images.json(),
+                "copies_recorded": {
+                    "converted": inner.copies_converted,
+                    "unconverted": inner.copies_unconverted,
+                },
                 "precise_fraction_of_reversed": precise_fraction(&inner.totals),
             }),
         );

@@ -298,6 +298,64 @@ fn the_profile_says_what_buffer_deliveries_do() {
 }
 
 #[test]
+fn a_read_back_depth_image_stays_reversed_its_copies_are_counted_and_the_profile_reads_as_tables() {
+    let harness = Harness::locate();
+    let dir = harness.scratch_dir("profile-readback");
+    let report = dir.join("revz-profile.json");
+    std::fs::remove_file(&report).ok();
+    let mut command = harness.tester("d32", &dir);
+    command
+        .args(["--scene", "shadow-map", "--frames", "3"])
+        .env("REVZ_MODE", "infinite")
+        .env("REVZ_REPORT", &report);
+    harness.with_layer(&mut command);
+    let render = harness.render(command, &dir);
+    let profile: Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile")).unwrap();
+    check("shadow-map", "push", "infinite", &render.json(), &profile);
+    // One converted readback of the reversed main image per frame.
+    let copies = &profile["totals"]["copies_recorded"];
+    assert_eq!(copies["converted"], 3, "{copies}");
+    assert_eq!(copies["unconverted"], 0, "{copies}");
+    let frames = profile["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    for frame in frames {
+        assert_eq!(frame["precise_fraction_of_reversed"], 1.0, "{frame}");
+        assert_eq!(frame["by_image"].as_array().unwrap().len(), 2, "{frame}");
+    }
+    // `revz-tester profile` renders it as tables and a chart.
+    let png = dir.join("profile.png");
+    std::fs::remove_file(&png).ok();
+    let output = clean_command(&harness.tester)
+        .arg("profile")
+        .arg(&report)
+        .arg("--png")
+        .arg(&png)
+        .output()
+        .expect("revz-tester profile");
+    let tables = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{tables}");
+    assert!(
+        tables.contains("summary: precise 50% of draws (infinite; camera n=0.1)"),
+        "{tables}"
+    );
+    let main = profile["images"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|i| i["depth"] == "reversed")
+        .unwrap();
+    let row = format!("| {} | D32_SFLOAT |", main["handle"].as_str().unwrap());
+    let line = tables
+        .lines()
+        .find(|l| l.starts_with(&row))
+        .expect("the image's row");
+    assert!(line.ends_with("| 15 / 0 / 0 |"), "{line}");
+    assert!(tables.contains("| push constants | "), "{tables}");
+    assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+}
+
+#[test]
 fn a_killed_process_leaves_a_valid_profile() {
     let harness = Harness::locate();
     let dir = harness.scratch_dir("profile-killed");

@@ -55,7 +55,7 @@ fn decide(
         let copies = entry.copies();
         (copies.compute.restorable(), copies.conditional)
     };
-    CopyFacts {
+    let decision = CopyFacts {
         source,
         destination,
         depth_aspect,
@@ -68,7 +68,11 @@ fn decide(
             .iter()
             .all(|&image| single_sampled(&entry.device, image)),
     }
-    .decide()
+    .decide();
+    if let (Some(profile), CopyDecision::Unconverted(_)) = (&entry.device.profile, &decision) {
+        profile.copy(false);
+    }
+    decision
 }
 
 /// The map of a conversion in `direction` on this device now.
@@ -89,13 +93,17 @@ fn convert(
     let mut copies = entry.copies();
     // SAFETY: a recording command buffer of this device, outside a render pass (copies are
     // only allowed there); its own scratch.
-    match unsafe { record(&entry.device, &mut copies, buffer, conversion) } {
+    let converted = match unsafe { record(&entry.device, &mut copies, buffer, conversion) } {
         Ok(()) => true,
         Err(why) => {
             entry.device.copies.warn_unconverted(why);
             false
         }
+    };
+    if let Some(profile) = &entry.device.profile {
+        profile.copy(converted);
     }
+    converted
 }
 
 /// What a hook sends down after planning: the application's regions untouched, or only those
