@@ -390,7 +390,7 @@ impl DeviceObjects {
     pub fn view_image_raw(&self, view: vk::ImageView) -> u64 {
         self.views
             .get(&view)
-            .map_or(0, |image| vk::Handle::as_raw(image))
+            .map_or(0, vk::Handle::as_raw)
     }
 
     pub fn view_format(&self, view: vk::ImageView) -> Option<vk::Format> {
