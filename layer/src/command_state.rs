@@ -900,6 +900,15 @@ impl CommandState {
         self.dirty = true;
     }
 
+    /// A push revz cannot follow (`vkCmdPushConstants2` with its layout in `pNext`): the
+    /// push constants and revz's carrier in them are unknown; the bound pipeline (revz's
+    /// variant, if it bound one) and the other state stay as they are.
+    pub fn forget_push_constants(&mut self) {
+        self.push.invalidate();
+        self.carrier_held = None;
+        self.dirty = true;
+    }
+
     /// The depth bias was sent down outside the state machine (`vkCmdSetDepthBias2EXT` with
     /// a representation): the next emission must not assume it knows the value.
     pub fn forget_emitted_bias(&mut self) {
@@ -1433,6 +1442,31 @@ mod tests {
         let sent = sink.clone();
         state.settle(&mut sink);
         assert_eq!(sink, sent);
+    }
+
+    #[test]
+    fn a_push_revz_cannot_follow_keeps_the_variant_it_bound_in_mind() {
+        let original = vk::Pipeline::from_raw(10);
+        let variant = vk::Pipeline::from_raw(11);
+        let pipeline = Arc::new(PipelineDepth {
+            handle: original,
+            reversed_variant: Some(variant),
+            ..(*static_pipeline()).clone()
+        });
+        let mut state = begun(Target::Reversed);
+        state.bind_pipeline(Some(pipeline));
+        assert_eq!(state.pipeline_to_bind(original), variant);
+        let mut sink = Recorded::default();
+        state.settle(&mut sink);
+        // `vkCmdPushConstants2` with its layout in pNext: the pushes are unknown, the bound
+        // pipeline is not. A later native target must bind the application's pipeline back
+        // (forgetting the variant would leave it bound into a native attachment).
+        state.forget_push_constants();
+        state.settle(&mut sink);
+        assert!(sink.binds.is_empty(), "{:?}", sink.binds);
+        state.set_target(Target::Native);
+        state.settle(&mut sink);
+        assert_eq!(sink.binds, vec![original]);
     }
 
     #[test]

@@ -388,9 +388,7 @@ impl DeviceObjects {
     /// The format of a tracked depth view's image.
     /// The raw handle of `view`'s image, 0 for none (the depth profile's key).
     pub fn view_image_raw(&self, view: vk::ImageView) -> u64 {
-        self.views
-            .get(&view)
-            .map_or(0, vk::Handle::as_raw)
+        self.views.get(&view).map_or(0, vk::Handle::as_raw)
     }
 
     pub fn view_format(&self, view: vk::ImageView) -> Option<vk::Format> {

@@ -613,6 +613,7 @@ impl PushConstants {
         *self = PushConstants {
             generation: self.generation,
             changed: self.changed,
+            matches: self.matches,
             ..PushConstants::with_cameras(std::mem::take(&mut self.cameras))
         };
     }

@@ -288,8 +288,9 @@ pub unsafe extern "system" fn cmd_push_constants2(
         let values = unsafe { slice(info.p_values.cast::<u8>(), info.size) };
         if info.layout == vk::PipelineLayout::null() || values.len() > PUSH_CONSTANT_BYTES {
             // A layout given through pNext, or an unusually large push: not followed; the
-            // state is forgotten so that no carrier is assumed to survive it.
-            entry.state().invalidate();
+            // push constants are forgotten so that no carrier is assumed to survive it (the
+            // bound pipeline, a variant revz bound included, is unchanged).
+            entry.state().forget_push_constants();
             return;
         }
         // Followed, never extended (the draw sends the carrier): this command is rare.
