@@ -234,3 +234,106 @@ fn viewports_go_down_before_secondaries_run_flipped_for_a_reversed_attachment() 
         fake_chain::tear_down(tables, instance, physical, device);
     }
 }
+
+#[test]
+fn a_rendering_instance_of_inline_draws_and_secondaries_remembers_its_target_for_them() {
+    let tables = Tables::fresh();
+    let (instance, _) = fake_chain::create_instance(&[(c"mode", c"flip")]);
+    fake_chain::take_events(tables.instance);
+    let (physical, device, _) = fake_chain::create_device(tables, gdpa);
+    let create_image = hook!(device, c"vkCreateImage", vk::PFN_vkCreateImage);
+    let create_view = hook!(device, c"vkCreateImageView", vk::PFN_vkCreateImageView);
+    let destroy_image = hook!(device, c"vkDestroyImage", vk::PFN_vkDestroyImage);
+    let destroy_view = hook!(device, c"vkDestroyImageView", vk::PFN_vkDestroyImageView);
+    let allocate = hook!(
+        device,
+        c"vkAllocateCommandBuffers",
+        vk::PFN_vkAllocateCommandBuffers
+    );
+    let free = hook!(
+        device,
+        c"vkFreeCommandBuffers",
+        vk::PFN_vkFreeCommandBuffers
+    );
+    let begin = hook!(
+        device,
+        c"vkBeginCommandBuffer",
+        vk::PFN_vkBeginCommandBuffer
+    );
+    let begin_rendering = hook!(device, c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering);
+    let end_rendering = hook!(device, c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering);
+    let image_info = fake_chain::depth_image_info(
+        vk::Format::D32_SFLOAT,
+        vk::Extent2D {
+            width: 64,
+            height: 64,
+        },
+        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        vk::SampleCountFlags::TYPE_1,
+    );
+    let (mut image, mut view) = (vk::Image::null(), vk::ImageView::null());
+    let pool = vk::CommandPool::from_raw(1);
+    let mut primary = vk::CommandBuffer::null();
+    // SAFETY: a live device and valid create infos.
+    unsafe {
+        assert_eq!(
+            create_image(device, &image_info, std::ptr::null(), &mut image),
+            vk::Result::SUCCESS
+        );
+        let view_info = fake_chain::depth_view_info(image, vk::Format::D32_SFLOAT);
+        assert_eq!(
+            create_view(device, &view_info, std::ptr::null(), &mut view),
+            vk::Result::SUCCESS
+        );
+        let info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        assert_eq!(allocate(device, &info, &mut primary), vk::Result::SUCCESS);
+    }
+    // SAFETY: the fake's live device.
+    let key = unsafe { crate::state::DispatchKey::of(device) };
+    let state = crate::state::DEVICES.get(key).expect("the device");
+    let remembered = crate::objects::SecondaryPass::Rendering(vk::Format::D32_SFLOAT);
+    assert_eq!(state.objects.secondary_targets.get(&remembered), None);
+    let depth = vk::RenderingAttachmentInfo::default()
+        .image_view(view)
+        .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+        .load_op(vk::AttachmentLoadOp::LOAD)
+        .store_op(vk::AttachmentStoreOp::STORE);
+    // VK_RENDERING_CONTENTS_INLINE_BIT_KHR with secondaries (maintenance7).
+    let inline = vk::RenderingFlags::from_raw(0x10);
+    let rendering = vk::RenderingInfo::default()
+        .flags(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS | inline)
+        .render_area(vk::Rect2D {
+            extent: vk::Extent2D {
+                width: 64,
+                height: 64,
+            },
+            ..Default::default()
+        })
+        .layer_count(1)
+        .depth_attachment(&depth);
+    // SAFETY: recording a primary with valid arguments.
+    unsafe {
+        assert_eq!(
+            begin(primary, &vk::CommandBufferBeginInfo::default()),
+            vk::Result::SUCCESS
+        );
+        begin_rendering(primary, &rendering);
+        end_rendering(primary);
+    }
+    // Secondaries without a framebuffer it executes draw into a reversed D32 attachment.
+    assert_eq!(
+        state.objects.secondary_targets.get(&remembered),
+        Some(crate::command_state::Target::Reversed)
+    );
+    drop(state);
+    // SAFETY: nothing is in use; each object destroyed once.
+    unsafe {
+        free(device, pool, 1, &primary);
+        destroy_view(device, view, std::ptr::null());
+        destroy_image(device, image, std::ptr::null());
+        fake_chain::tear_down(tables, instance, physical, device);
+    }
+}

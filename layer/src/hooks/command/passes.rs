@@ -403,14 +403,25 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         // `VK_RENDERING_CONTENTS_INLINE_BIT_KHR` (maintenance7, nested command buffers):
         // secondaries and inline draws mixed, so state may and must be recorded.
         const CONTENTS_INLINE: vk::RenderingFlags = vk::RenderingFlags::from_raw(0x10);
-        let secondary = info
+        let executes = info
             .flags
-            .contains(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS)
-            && !info.flags.contains(CONTENTS_INLINE);
+            .contains(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS);
+        let secondary = executes && !info.flags.contains(CONTENTS_INLINE);
         let key = depth
             .and_then(|d| device.objects.view_format(d.image_view))
             .map(SecondaryPass::Rendering);
         enter_contents(entry, buffer, secondary, key);
+        if executes && !secondary && !entry.secondary {
+            // Inline draws and secondaries mixed: the secondaries it executes still look up
+            // the target by format ([`enter_contents`] remembers it only for secondary-only
+            // contents, where nothing else may be recorded).
+            if let Some(key) = key {
+                let state = entry.state();
+                device
+                    .objects
+                    .remember_secondary_target(key, state.target(), state.promoted());
+            }
+        }
     });
     let Some(next) = device.as_ref().and_then(|d| d.commands.begin_rendering) else {
         return;
