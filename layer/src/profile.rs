@@ -10,9 +10,13 @@
 //! over the report, so a killed application leaves the last complete one.
 //!
 //! Cost: images and pipelines are recorded where revz already decides about them (creation),
-//! draws are counted per command buffer (one add per draw, `crate::command_state`) and folded
-//! into the frame at `vkQueueSubmit`, under this module's one lock, taken per submission and
-//! per object creation, never per draw.
+//! draws are counted per command buffer ([`DrawTally`]: one add per draw; the count is filed
+//! under its depth image and pipeline where either changes, at binds and pass begins) and
+//! folded into the frame at `vkQueueSubmit`, under this module's one lock, taken per
+//! submission, per object creation and per converted copy, never per draw. Cameras count the
+//! matrices each recording classified as theirs (`crate::precise::PushConstants::matches`),
+//! mapped to the device's camera slots at the submission. Draws are only seen at all where a
+//! profile is kept: otherwise `vkCmdDraw*` are the next layer's own.
 
 use std::collections::{HashMap, VecDeque};
 use std::path::{Path, PathBuf};
