@@ -1393,8 +1393,8 @@ mod tests {
         assert_eq!(sink.binds, vec![variant, original, variant]);
     }
 
-    #[test]
-    fn state_settles_inside_passes_only_and_a_variant_goes_down_in_the_binds_place() {
+    /// A static pipeline (10) with a reversed variant (11).
+    fn with_reversed_variant() -> (vk::Pipeline, vk::Pipeline, Arc<PipelineDepth>) {
         let original = vk::Pipeline::from_raw(10);
         let variant = vk::Pipeline::from_raw(11);
         let pipeline = Arc::new(PipelineDepth {
@@ -1402,6 +1402,12 @@ mod tests {
             reversed_variant: Some(variant),
             ..(*static_pipeline()).clone()
         });
+        (original, variant, pipeline)
+    }
+
+    #[test]
+    fn state_settles_inside_passes_only_and_a_variant_goes_down_in_the_binds_place() {
+        let (original, variant, pipeline) = with_reversed_variant();
         // A primary, outside any pass: the bind goes down as the application's, and nothing
         // else is sent (no draw can follow before a begin).
         let mut state = CommandState::default();
@@ -1446,13 +1452,7 @@ mod tests {
 
     #[test]
     fn a_push_revz_cannot_follow_keeps_the_variant_it_bound_in_mind() {
-        let original = vk::Pipeline::from_raw(10);
-        let variant = vk::Pipeline::from_raw(11);
-        let pipeline = Arc::new(PipelineDepth {
-            handle: original,
-            reversed_variant: Some(variant),
-            ..(*static_pipeline()).clone()
-        });
+        let (original, variant, pipeline) = with_reversed_variant();
         let mut state = begun(Target::Reversed);
         state.bind_pipeline(Some(pipeline));
         assert_eq!(state.pipeline_to_bind(original), variant);

@@ -9,7 +9,7 @@ use std::sync::Mutex;
 
 use ash::vk::{self, Handle};
 
-use super::fake_chain::{self, hook, Tables};
+use super::fake_chain::{self, hook_set, Tables};
 
 /// What reached the fake below revz, per command buffer (by handle: the fake's handles are
 /// distinct across tests).
@@ -92,78 +92,132 @@ unsafe extern "system" fn gdpa(device: vk::Device, name: *const c_char) -> vk::P
     }
 }
 
+hook_set!(struct Hooks {
+    create_image: c"vkCreateImage" => vk::PFN_vkCreateImage,
+    create_view: c"vkCreateImageView" => vk::PFN_vkCreateImageView,
+    destroy_image: c"vkDestroyImage" => vk::PFN_vkDestroyImage,
+    destroy_view: c"vkDestroyImageView" => vk::PFN_vkDestroyImageView,
+    allocate: c"vkAllocateCommandBuffers" => vk::PFN_vkAllocateCommandBuffers,
+    free: c"vkFreeCommandBuffers" => vk::PFN_vkFreeCommandBuffers,
+    destroy_pool: c"vkDestroyCommandPool" => vk::PFN_vkDestroyCommandPool,
+    begin: c"vkBeginCommandBuffer" => vk::PFN_vkBeginCommandBuffer,
+    set_viewport: c"vkCmdSetViewport" => vk::PFN_vkCmdSetViewport,
+    begin_rendering: c"vkCmdBeginRendering" => vk::PFN_vkCmdBeginRendering,
+    end_rendering: c"vkCmdEndRendering" => vk::PFN_vkCmdEndRendering,
+    execute: c"vkCmdExecuteCommands" => vk::PFN_vkCmdExecuteCommands,
+});
+
+/// A flip-mode device with one 64 x 64 D32 depth image and its view, and `count` primaries.
+struct Fixture {
+    tables: Tables,
+    instance: vk::Instance,
+    physical: vk::PhysicalDevice,
+    device: vk::Device,
+    hooks: Hooks,
+    image: vk::Image,
+    view: vk::ImageView,
+    pool: vk::CommandPool,
+    primaries: Vec<vk::CommandBuffer>,
+}
+
+impl Fixture {
+    fn new(count: u32) -> Fixture {
+        let tables = Tables::fresh();
+        let (instance, _) = fake_chain::create_instance(&[(c"mode", c"flip")]);
+        fake_chain::take_events(tables.instance);
+        let (physical, device, _) = fake_chain::create_device(tables, gdpa);
+        let hooks = Hooks::of(device);
+        let image_info = fake_chain::depth_image_info(
+            vk::Format::D32_SFLOAT,
+            vk::Extent2D {
+                width: 64,
+                height: 64,
+            },
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            vk::SampleCountFlags::TYPE_1,
+        );
+        let (mut image, mut view) = (vk::Image::null(), vk::ImageView::null());
+        let pool = vk::CommandPool::from_raw(1);
+        let mut primaries = vec![vk::CommandBuffer::null(); count as usize];
+        // SAFETY: a live device and valid create infos.
+        unsafe {
+            assert_eq!(
+                (hooks.create_image)(device, &image_info, std::ptr::null(), &mut image),
+                vk::Result::SUCCESS
+            );
+            let view_info = fake_chain::depth_view_info(image, vk::Format::D32_SFLOAT);
+            assert_eq!(
+                (hooks.create_view)(device, &view_info, std::ptr::null(), &mut view),
+                vk::Result::SUCCESS
+            );
+            let info = vk::CommandBufferAllocateInfo::default()
+                .command_pool(pool)
+                .level(vk::CommandBufferLevel::PRIMARY)
+                .command_buffer_count(count);
+            assert_eq!(
+                (hooks.allocate)(device, &info, primaries.as_mut_ptr()),
+                vk::Result::SUCCESS
+            );
+        }
+        Fixture {
+            tables,
+            instance,
+            physical,
+            device,
+            hooks,
+            image,
+            view,
+            pool,
+            primaries,
+        }
+    }
+
+    /// A rendering instance over the depth image (loaded), with `flags`.
+    fn rendering<'a>(
+        &self,
+        depth: &'a vk::RenderingAttachmentInfo<'a>,
+        flags: vk::RenderingFlags,
+    ) -> vk::RenderingInfo<'a> {
+        vk::RenderingInfo::default()
+            .flags(flags)
+            .render_area(vk::Rect2D {
+                extent: vk::Extent2D {
+                    width: 64,
+                    height: 64,
+                },
+                ..Default::default()
+            })
+            .layer_count(1)
+            .depth_attachment(depth)
+    }
+
+    fn depth(&self) -> vk::RenderingAttachmentInfo<'static> {
+        vk::RenderingAttachmentInfo::default()
+            .image_view(self.view)
+            .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::LOAD)
+            .store_op(vk::AttachmentStoreOp::STORE)
+    }
+
+    fn tear_down(self) {
+        let (device, hooks) = (self.device, &self.hooks);
+        // SAFETY: nothing is in use; each object destroyed once.
+        unsafe {
+            let count = self.primaries.len() as u32;
+            (hooks.free)(device, self.pool, count, self.primaries.as_ptr());
+            (hooks.destroy_pool)(device, self.pool, std::ptr::null());
+            (hooks.destroy_view)(device, self.view, std::ptr::null());
+            (hooks.destroy_image)(device, self.image, std::ptr::null());
+            fake_chain::tear_down(self.tables, self.instance, self.physical, self.device);
+        }
+    }
+}
+
 #[test]
 fn viewports_go_down_before_secondaries_run_flipped_for_a_reversed_attachment() {
-    let tables = Tables::fresh();
-    let (instance, _) = fake_chain::create_instance(&[(c"mode", c"flip")]);
-    fake_chain::take_events(tables.instance);
-    let (physical, device, _) = fake_chain::create_device(tables, gdpa);
-    let create_image = hook!(device, c"vkCreateImage", vk::PFN_vkCreateImage);
-    let create_view = hook!(device, c"vkCreateImageView", vk::PFN_vkCreateImageView);
-    let destroy_image = hook!(device, c"vkDestroyImage", vk::PFN_vkDestroyImage);
-    let destroy_view = hook!(device, c"vkDestroyImageView", vk::PFN_vkDestroyImageView);
-    let allocate = hook!(
-        device,
-        c"vkAllocateCommandBuffers",
-        vk::PFN_vkAllocateCommandBuffers
-    );
-    let free = hook!(
-        device,
-        c"vkFreeCommandBuffers",
-        vk::PFN_vkFreeCommandBuffers
-    );
-    let destroy_pool = hook!(
-        device,
-        c"vkDestroyCommandPool",
-        vk::PFN_vkDestroyCommandPool
-    );
-    let begin = hook!(
-        device,
-        c"vkBeginCommandBuffer",
-        vk::PFN_vkBeginCommandBuffer
-    );
-    let set_viewport = hook!(device, c"vkCmdSetViewport", vk::PFN_vkCmdSetViewport);
-    let begin_rendering = hook!(device, c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering);
-    let end_rendering = hook!(device, c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering);
-    let execute = hook!(
-        device,
-        c"vkCmdExecuteCommands",
-        vk::PFN_vkCmdExecuteCommands
-    );
-
-    let image_info = fake_chain::depth_image_info(
-        vk::Format::D32_SFLOAT,
-        vk::Extent2D {
-            width: 64,
-            height: 64,
-        },
-        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-        vk::SampleCountFlags::TYPE_1,
-    );
-    let (mut image, mut view) = (vk::Image::null(), vk::ImageView::null());
-    let pool = vk::CommandPool::from_raw(1);
-    let mut buffers = [vk::CommandBuffer::null(); 2];
-    // SAFETY: a live device and valid create infos.
-    unsafe {
-        assert_eq!(
-            create_image(device, &image_info, std::ptr::null(), &mut image),
-            vk::Result::SUCCESS
-        );
-        let view_info = fake_chain::depth_view_info(image, vk::Format::D32_SFLOAT);
-        assert_eq!(
-            create_view(device, &view_info, std::ptr::null(), &mut view),
-            vk::Result::SUCCESS
-        );
-        let info = vk::CommandBufferAllocateInfo::default()
-            .command_pool(pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(2);
-        assert_eq!(
-            allocate(device, &info, buffers.as_mut_ptr()),
-            vk::Result::SUCCESS
-        );
-    }
-    let [primary, other] = buffers;
+    let fx = Fixture::new(2);
+    let h = &fx.hooks;
+    let [primary, other] = [fx.primaries[0], fx.primaries[1]];
     let viewport = vk::Viewport {
         width: 64.0,
         height: 64.0,
@@ -171,22 +225,11 @@ fn viewports_go_down_before_secondaries_run_flipped_for_a_reversed_attachment() 
         max_depth: 1.0,
         ..Default::default()
     };
-    let depth = vk::RenderingAttachmentInfo::default()
-        .image_view(view)
-        .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-        .load_op(vk::AttachmentLoadOp::LOAD)
-        .store_op(vk::AttachmentStoreOp::STORE);
-    let rendering = vk::RenderingInfo::default()
-        .flags(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS)
-        .render_area(vk::Rect2D {
-            extent: vk::Extent2D {
-                width: 64,
-                height: 64,
-            },
-            ..Default::default()
-        })
-        .layer_count(1)
-        .depth_attachment(&depth);
+    let depth = fx.depth();
+    let rendering = fx.rendering(
+        &depth,
+        vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS,
+    );
     let secondaries = [vk::CommandBuffer::from_raw(0x5EC)];
     // SAFETY: recording primaries with valid arguments (the secondary is never looked at by
     // the fake).
@@ -194,20 +237,20 @@ fn viewports_go_down_before_secondaries_run_flipped_for_a_reversed_attachment() 
         // Into a reversed attachment, drawn by secondaries: the viewport goes down flipped
         // before the rendering instance begins, and nothing is recorded inside it.
         assert_eq!(
-            begin(primary, &vk::CommandBufferBeginInfo::default()),
+            (h.begin)(primary, &vk::CommandBufferBeginInfo::default()),
             vk::Result::SUCCESS
         );
-        set_viewport(primary, 0, 1, &viewport);
-        begin_rendering(primary, &rendering);
-        execute(primary, 1, secondaries.as_ptr());
-        end_rendering(primary);
+        (h.set_viewport)(primary, 0, 1, &viewport);
+        (h.begin_rendering)(primary, &rendering);
+        (h.execute)(primary, 1, secondaries.as_ptr());
+        (h.end_rendering)(primary);
         // Outside a rendering instance: at vkCmdExecuteCommands (not reversed: as set).
         assert_eq!(
-            begin(other, &vk::CommandBufferBeginInfo::default()),
+            (h.begin)(other, &vk::CommandBufferBeginInfo::default()),
             vk::Result::SUCCESS
         );
-        set_viewport(other, 0, 1, &viewport);
-        execute(other, 1, secondaries.as_ptr());
+        (h.set_viewport)(other, 0, 1, &viewport);
+        (h.execute)(other, 1, secondaries.as_ptr());
     }
     assert_eq!(
         calls(primary),
@@ -225,103 +268,34 @@ fn viewports_go_down_before_secondaries_run_flipped_for_a_reversed_attachment() 
             Call::ExecuteCommands
         ]
     );
-    // SAFETY: nothing is in use; each object destroyed once.
-    unsafe {
-        free(device, pool, 2, buffers.as_ptr());
-        destroy_pool(device, pool, std::ptr::null());
-        destroy_view(device, view, std::ptr::null());
-        destroy_image(device, image, std::ptr::null());
-        fake_chain::tear_down(tables, instance, physical, device);
-    }
+    fx.tear_down();
 }
 
 #[test]
 fn a_rendering_instance_of_inline_draws_and_secondaries_remembers_its_target_for_them() {
-    let tables = Tables::fresh();
-    let (instance, _) = fake_chain::create_instance(&[(c"mode", c"flip")]);
-    fake_chain::take_events(tables.instance);
-    let (physical, device, _) = fake_chain::create_device(tables, gdpa);
-    let create_image = hook!(device, c"vkCreateImage", vk::PFN_vkCreateImage);
-    let create_view = hook!(device, c"vkCreateImageView", vk::PFN_vkCreateImageView);
-    let destroy_image = hook!(device, c"vkDestroyImage", vk::PFN_vkDestroyImage);
-    let destroy_view = hook!(device, c"vkDestroyImageView", vk::PFN_vkDestroyImageView);
-    let allocate = hook!(
-        device,
-        c"vkAllocateCommandBuffers",
-        vk::PFN_vkAllocateCommandBuffers
-    );
-    let free = hook!(
-        device,
-        c"vkFreeCommandBuffers",
-        vk::PFN_vkFreeCommandBuffers
-    );
-    let begin = hook!(
-        device,
-        c"vkBeginCommandBuffer",
-        vk::PFN_vkBeginCommandBuffer
-    );
-    let begin_rendering = hook!(device, c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering);
-    let end_rendering = hook!(device, c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering);
-    let image_info = fake_chain::depth_image_info(
-        vk::Format::D32_SFLOAT,
-        vk::Extent2D {
-            width: 64,
-            height: 64,
-        },
-        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-        vk::SampleCountFlags::TYPE_1,
-    );
-    let (mut image, mut view) = (vk::Image::null(), vk::ImageView::null());
-    let pool = vk::CommandPool::from_raw(1);
-    let mut primary = vk::CommandBuffer::null();
-    // SAFETY: a live device and valid create infos.
-    unsafe {
-        assert_eq!(
-            create_image(device, &image_info, std::ptr::null(), &mut image),
-            vk::Result::SUCCESS
-        );
-        let view_info = fake_chain::depth_view_info(image, vk::Format::D32_SFLOAT);
-        assert_eq!(
-            create_view(device, &view_info, std::ptr::null(), &mut view),
-            vk::Result::SUCCESS
-        );
-        let info = vk::CommandBufferAllocateInfo::default()
-            .command_pool(pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        assert_eq!(allocate(device, &info, &mut primary), vk::Result::SUCCESS);
-    }
+    let fx = Fixture::new(1);
+    let h = &fx.hooks;
+    let primary = fx.primaries[0];
     // SAFETY: the fake's live device.
-    let key = unsafe { crate::state::DispatchKey::of(device) };
+    let key = unsafe { crate::state::DispatchKey::of(fx.device) };
     let state = crate::state::DEVICES.get(key).expect("the device");
     let remembered = crate::objects::SecondaryPass::Rendering(vk::Format::D32_SFLOAT);
     assert_eq!(state.objects.secondary_targets.get(&remembered), None);
-    let depth = vk::RenderingAttachmentInfo::default()
-        .image_view(view)
-        .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-        .load_op(vk::AttachmentLoadOp::LOAD)
-        .store_op(vk::AttachmentStoreOp::STORE);
+    let depth = fx.depth();
     // VK_RENDERING_CONTENTS_INLINE_BIT_KHR with secondaries (maintenance7).
     let inline = vk::RenderingFlags::from_raw(0x10);
-    let rendering = vk::RenderingInfo::default()
-        .flags(vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS | inline)
-        .render_area(vk::Rect2D {
-            extent: vk::Extent2D {
-                width: 64,
-                height: 64,
-            },
-            ..Default::default()
-        })
-        .layer_count(1)
-        .depth_attachment(&depth);
+    let rendering = fx.rendering(
+        &depth,
+        vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS | inline,
+    );
     // SAFETY: recording a primary with valid arguments.
     unsafe {
         assert_eq!(
-            begin(primary, &vk::CommandBufferBeginInfo::default()),
+            (h.begin)(primary, &vk::CommandBufferBeginInfo::default()),
             vk::Result::SUCCESS
         );
-        begin_rendering(primary, &rendering);
-        end_rendering(primary);
+        (h.begin_rendering)(primary, &rendering);
+        (h.end_rendering)(primary);
     }
     // Secondaries without a framebuffer it executes draw into a reversed D32 attachment.
     assert_eq!(
@@ -329,11 +303,5 @@ fn a_rendering_instance_of_inline_draws_and_secondaries_remembers_its_target_for
         Some(crate::command_state::Target::Reversed)
     );
     drop(state);
-    // SAFETY: nothing is in use; each object destroyed once.
-    unsafe {
-        free(device, pool, 1, &primary);
-        destroy_view(device, view, std::ptr::null());
-        destroy_image(device, image, std::ptr::null());
-        fake_chain::tear_down(tables, instance, physical, device);
-    }
+    fx.tear_down();
 }
