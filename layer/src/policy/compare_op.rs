@@ -1,0 +1,118 @@
+//! Where a device's dynamic compare op (`vkCmdSetDepthCompareOp`) comes from: core Vulkan
+//! 1.3, the application's `VK_EXT_extended_dynamic_state`, the extension revz adds, or nowhere
+//! ([`CompareOpSource::decide`], from [`CompareOpFacts`] gathered at `vkCreateDevice`).
+
+/// Where a device's `vkCmdSetDepthCompareOp` comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CompareOpSource {
+    /// Vulkan 1.3, which the application asked for and the device has.
+    Core,
+    /// `VK_EXT_extended_dynamic_state`, which the application enabled itself.
+    ApplicationExtension,
+    /// `VK_EXT_extended_dynamic_state`, which revz adds to the device's creation.
+    AddedExtension,
+    Unavailable,
+}
+
+/// What [`CompareOpSource::decide`] reads, gathered at `vkCreateDevice`.
+pub struct CompareOpFacts<'a> {
+    /// The application asked for Vulkan 1.3 or later.
+    pub core: bool,
+    /// The application enabled the extension and its feature.
+    pub application_extension: bool,
+    /// The application chained the extension's feature structure (with the feature off: it
+    /// cannot be changed in place, and a second one would be invalid).
+    pub application_feature_struct: bool,
+    pub mode_off: bool,
+    /// revz may add the extension for this API version and instance (it needs
+    /// `VK_KHR_get_physical_device_properties2` below 1.1).
+    pub extension_allowed: bool,
+    /// Whether the device offers the extension (asked of the layers below, only if needed).
+    pub device_has_extension: &'a dyn Fn() -> bool,
+}
+
+impl std::fmt::Debug for CompareOpFacts<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CompareOpFacts")
+            .field("core", &self.core)
+            .field("application_extension", &self.application_extension)
+            .field(
+                "application_feature_struct",
+                &self.application_feature_struct,
+            )
+            .field("mode_off", &self.mode_off)
+            .field("extension_allowed", &self.extension_allowed)
+            .finish_non_exhaustive()
+    }
+}
+
+impl CompareOpSource {
+    /// How the device provides a dynamic compare op.
+    pub fn decide(facts: &CompareOpFacts<'_>) -> CompareOpSource {
+        if facts.core {
+            return CompareOpSource::Core;
+        }
+        if facts.application_extension {
+            return CompareOpSource::ApplicationExtension;
+        }
+        if facts.mode_off || facts.application_feature_struct || !facts.extension_allowed {
+            return CompareOpSource::Unavailable;
+        }
+        if (facts.device_has_extension)() {
+            CompareOpSource::AddedExtension
+        } else {
+            CompareOpSource::Unavailable
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_compare_op_comes_from_core_the_application_or_revz_in_that_order() {
+        let asked = std::cell::Cell::new(false);
+        let has = || {
+            asked.set(true);
+            true
+        };
+        let facts = |core, app, feature_struct, off, allowed| CompareOpFacts {
+            core,
+            application_extension: app,
+            application_feature_struct: feature_struct,
+            mode_off: off,
+            extension_allowed: allowed,
+            device_has_extension: &has,
+        };
+        use CompareOpSource as S;
+        assert_eq!(S::decide(&facts(true, false, false, false, true)), S::Core);
+        assert_eq!(
+            S::decide(&facts(false, true, true, true, false)),
+            S::ApplicationExtension
+        );
+        assert!(!asked.get(), "the device is asked only where it decides");
+        assert_eq!(
+            S::decide(&facts(false, false, true, false, true)),
+            S::Unavailable
+        );
+        assert_eq!(
+            S::decide(&facts(false, false, false, true, true)),
+            S::Unavailable
+        );
+        assert_eq!(
+            S::decide(&facts(false, false, false, false, false)),
+            S::Unavailable
+        );
+        assert_eq!(
+            S::decide(&facts(false, false, false, false, true)),
+            S::AddedExtension
+        );
+        let none = || false;
+        let without = CompareOpFacts {
+            device_has_extension: &none,
+            ..facts(false, false, false, false, true)
+        };
+        assert_eq!(S::decide(&without), S::Unavailable);
+    }
+}

@@ -1,0 +1,252 @@
+//! Transfers touching a reversed depth image (copies and blits): whether their depth values
+//! are converted, and which way ([`CopyFacts::decide`] into a [`CopyDecision`]), or why one
+//! that should be is not ([`Unconverted`]).
+
+use std::fmt;
+
+/// One end of a copy, blit or resolve, as [`CopyFacts`] sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CopyEnd {
+    /// A buffer: the application's bytes, in standard depth.
+    Buffer,
+    /// A depth image revz stores reversed (and the application renders standard depth).
+    Reversed,
+    /// Any other image: native depth, or not a depth image.
+    Native,
+}
+
+/// The direction a copy's depth values are converted in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CopyDirection {
+    /// Reversed values leave revz: the application receives the standard ones.
+    ToStandard,
+    /// Standard values enter a reversed image: revz stores them reversed.
+    ToReversed,
+}
+
+/// Why a copy that should be converted is not (its values keep the source's convention;
+/// logged once per reason).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unconverted {
+    /// The command buffer's queue family lacks graphics or compute (the conversion is a
+    /// dispatch, and copies into a depth aspect need graphics), or its pool is protected.
+    NoCompute,
+    /// The application bound compute descriptors revz cannot bind again after its dispatch
+    /// (push descriptors, descriptor buffers, `vkCmdBindDescriptorSets2`).
+    ComputeBindings,
+    /// The command or a region carries an extension structure revz does not know.
+    Extended,
+    /// A multisampled image: copies through a buffer cannot carry its samples.
+    Multisampled,
+    /// Conditional rendering is active: it could discard revz's dispatch and not the copies.
+    Conditional,
+    /// Its regions or formats: a layer count of `VK_REMAINING_ARRAY_LAYERS`, an empty blit box,
+    /// two depth formats, or more texels than one conversion holds.
+    Regions,
+    /// Too many texels for one conversion (past the device's `maxStorageBufferRange`), or
+    /// revz could not create its conversion pipeline or scratch memory.
+    Resources,
+}
+
+impl fmt::Display for Unconverted {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Unconverted::NoCompute => {
+                "its command buffer's queue family lacks graphics or compute, or its pool is \
+                 protected"
+            }
+            Unconverted::ComputeBindings => {
+                "compute descriptors were bound in a way revz cannot restore after its \
+                 dispatch (push descriptors, descriptor buffers or vkCmdBindDescriptorSets2)"
+            }
+            Unconverted::Extended => "it carries an extension structure revz does not know",
+            Unconverted::Multisampled => {
+                "an image is multisampled (a conversion goes through a buffer)"
+            }
+            Unconverted::Conditional => {
+                "conditional rendering is active (it could discard revz's dispatch)"
+            }
+            Unconverted::Regions => {
+                "of its regions or formats (VK_REMAINING_ARRAY_LAYERS, an empty blit box, two \
+                 depth formats, or too many texels)"
+            }
+            Unconverted::Resources => {
+                "revz could not get the scratch memory, staged image or pipeline for it (or it \
+                 exceeds maxStorageBufferRange)"
+            }
+        })
+    }
+}
+
+/// What decides whether a transfer's depth values are converted, gathered at its recording.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CopyFacts {
+    pub source: CopyEnd,
+    pub destination: CopyEnd,
+    /// The transfer touches the depth aspect (stencil is never converted).
+    pub depth_aspect: bool,
+    /// The `copy_values` setting.
+    pub values: crate::config::CopyValues,
+    /// The command buffer's queue family can dispatch compute.
+    pub dispatchable: bool,
+    /// revz can bind the application's compute state again after its dispatch.
+    pub restorable: bool,
+    /// The command or one of its regions has a `pNext` chain.
+    pub extended: bool,
+    /// One of its images is multisampled (image copies and blits).
+    pub multisampled: bool,
+    /// Conditional rendering is active where it is recorded.
+    pub conditional: bool,
+}
+
+/// The decision for one transfer touching a reversed depth image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CopyDecision {
+    /// Nothing to convert: no reversed end, both ends reversed, no depth aspect, or
+    /// `copy_values = stored`.
+    Unchanged,
+    Convert(CopyDirection),
+    /// It should be converted and cannot be: it goes down as it is.
+    Unconverted(Unconverted),
+}
+
+impl CopyFacts {
+    /// Values change convention exactly where one end is reversed and the other is not:
+    /// out of a reversed image into a buffer or a native image they become standard, into a
+    /// reversed image from a buffer or a native image they become reversed.
+    pub fn decide(&self) -> CopyDecision {
+        use crate::config::CopyValues;
+        let direction = match (self.source, self.destination) {
+            (CopyEnd::Reversed, CopyEnd::Reversed) => return CopyDecision::Unchanged,
+            (CopyEnd::Reversed, _) => CopyDirection::ToStandard,
+            (_, CopyEnd::Reversed) => CopyDirection::ToReversed,
+            _ => return CopyDecision::Unchanged,
+        };
+        if !self.depth_aspect || self.values == CopyValues::Stored {
+            return CopyDecision::Unchanged;
+        }
+        let refused = if self.extended {
+            Some(Unconverted::Extended)
+        } else if self.multisampled {
+            Some(Unconverted::Multisampled)
+        } else if self.conditional {
+            Some(Unconverted::Conditional)
+        } else if !self.dispatchable {
+            Some(Unconverted::NoCompute)
+        } else if !self.restorable {
+            Some(Unconverted::ComputeBindings)
+        } else {
+            None
+        };
+        match refused {
+            Some(why) => CopyDecision::Unconverted(why),
+            None => CopyDecision::Convert(direction),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn copies_convert_exactly_where_one_end_is_reversed() {
+        use crate::config::CopyValues;
+        let facts = |source, destination| CopyFacts {
+            source,
+            destination,
+            depth_aspect: true,
+            values: CopyValues::Standard,
+            dispatchable: true,
+            restorable: true,
+            extended: false,
+            multisampled: false,
+            conditional: false,
+        };
+        use CopyEnd::{Buffer, Native, Reversed};
+        let table = [
+            (
+                Reversed,
+                Buffer,
+                CopyDecision::Convert(CopyDirection::ToStandard),
+            ),
+            (
+                Reversed,
+                Native,
+                CopyDecision::Convert(CopyDirection::ToStandard),
+            ),
+            (
+                Buffer,
+                Reversed,
+                CopyDecision::Convert(CopyDirection::ToReversed),
+            ),
+            (
+                Native,
+                Reversed,
+                CopyDecision::Convert(CopyDirection::ToReversed),
+            ),
+            (Reversed, Reversed, CopyDecision::Unchanged),
+            (Native, Native, CopyDecision::Unchanged),
+            (Native, Buffer, CopyDecision::Unchanged),
+            (Buffer, Native, CopyDecision::Unchanged),
+        ];
+        for (source, destination, decision) in table {
+            assert_eq!(
+                facts(source, destination).decide(),
+                decision,
+                "{source:?} -> {destination:?}"
+            );
+        }
+        let out = facts(Reversed, Buffer);
+        let stencil = CopyFacts {
+            depth_aspect: false,
+            ..out
+        };
+        assert_eq!(stencil.decide(), CopyDecision::Unchanged);
+        let stored = CopyFacts {
+            values: CopyValues::Stored,
+            ..out
+        };
+        assert_eq!(stored.decide(), CopyDecision::Unchanged);
+        let refusals = [
+            (
+                CopyFacts {
+                    extended: true,
+                    ..out
+                },
+                Unconverted::Extended,
+            ),
+            (
+                CopyFacts {
+                    multisampled: true,
+                    ..out
+                },
+                Unconverted::Multisampled,
+            ),
+            (
+                CopyFacts {
+                    conditional: true,
+                    ..out
+                },
+                Unconverted::Conditional,
+            ),
+            (
+                CopyFacts {
+                    dispatchable: false,
+                    ..out
+                },
+                Unconverted::NoCompute,
+            ),
+            (
+                CopyFacts {
+                    restorable: false,
+                    ..out
+                },
+                Unconverted::ComputeBindings,
+            ),
+        ];
+        for (facts, why) in refusals {
+            assert_eq!(facts.decide(), CopyDecision::Unconverted(why));
+        }
+    }
+}

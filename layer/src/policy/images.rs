@@ -1,0 +1,446 @@
+//! Depth images, decided once at `vkCreateImage` for their whole life: whether one is
+//! reversed or native (`DevicePolicy::classify_image`, and [`NativeReason`] why it stays
+//! native), and whether it is created in a float format (`DevicePolicy::promoted_format`, from
+//! [`ImageFacts`], and [`KeptFormat`] why it keeps its own).
+
+use std::fmt;
+
+use ash::vk;
+
+use super::DevicePolicy;
+use crate::config::{Mode, Observable};
+use crate::conv::has_depth;
+
+/// `VK_EXT_host_image_copy`'s `VK_IMAGE_USAGE_HOST_TRANSFER_BIT_EXT`.
+const HOST_TRANSFER: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(0x0040_0000);
+
+/// Why a depth image keeps standard depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NativeReason {
+    /// `REVZ_MODE=off`.
+    ModeOff,
+    /// Shaders read it (sampled, storage, input attachment).
+    ReadByShaders(vk::ImageUsageFlags),
+    /// It is copied from (transfer source).
+    CopiedFrom,
+    /// Linear tiling: the host can read it.
+    LinearTiling,
+    /// Host image copies (`VK_EXT_host_image_copy`) read or write it: revz does not convert
+    /// those.
+    HostCopied,
+    /// A render pass resolves it into a depth image that is not reversed: the resolved values
+    /// must be standard ones. Decided when the resolve is first seen (framebuffer creation, or
+    /// the begin of an imageless or dynamic rendering instance), or when the destination is
+    /// made native later.
+    ResolvedIntoNative(vk::Image),
+    /// A render pass resolves a native depth image into it: it receives standard values. As
+    /// above, also when the source is made native after the resolve was seen.
+    ResolvedFromNative(vk::Image),
+    /// A MIN or MAX depth resolve of it could not be swapped (a render pass of several
+    /// subpasses, or a device that does not support the swapped mode or does not allow it
+    /// beside the stencil resolve mode): it would resolve the other extreme.
+    UnswappableResolve,
+}
+
+impl fmt::Display for NativeReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            NativeReason::ModeOff => f.write_str("mode is off"),
+            NativeReason::ReadByShaders(usage) => {
+                write!(f, "shaders read it ({usage:?}); see reverse_observable")
+            }
+            NativeReason::CopiedFrom => {
+                f.write_str("it is copied from (TRANSFER_SRC); see reverse_observable")
+            }
+            NativeReason::LinearTiling => f.write_str("linear tiling (host-readable)"),
+            NativeReason::HostCopied => {
+                f.write_str("host image copies read it (HOST_TRANSFER), which are not converted")
+            }
+            NativeReason::ResolvedIntoNative(destination) => {
+                write!(f, "it is resolved into native depth image {destination:?}")
+            }
+            NativeReason::ResolvedFromNative(source) => {
+                write!(f, "native depth image {source:?} is resolved into it")
+            }
+            NativeReason::UnswappableResolve => f.write_str(
+                "its MIN/MAX depth resolve cannot be swapped (several subpasses, or the device \
+                 lacks the swapped mode or does not allow it beside the stencil resolve mode)",
+            ),
+        }
+    }
+}
+
+/// The decision for one depth image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageDepth {
+    Reversed,
+    Native(NativeReason),
+}
+
+/// What decides whether a depth image can be promoted, besides its format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageFacts {
+    pub usage: vk::ImageUsageFlags,
+    pub tiling: vk::ImageTiling,
+    pub flags: vk::ImageCreateFlags,
+    /// The image's memory is shared with another API or process
+    /// (`VkExternalMemoryImageCreateInfo`, DRM format modifiers): its layout is agreed on.
+    pub external: bool,
+    /// A live image that may be this one's resolve partner keeps its format: one of the same
+    /// format and size on the other side of a resolve (multisampled for a single-sampled
+    /// image, and the other way round), a depth attachment (see
+    /// `DeviceObjects::resolve_partner_kept`).
+    pub partner_kept: bool,
+}
+
+/// Why a depth image in a UNORM format keeps it (logged once per reason).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeptFormat {
+    /// Copies read or write its bytes (transfer usage): the application would get float bits
+    /// where it expects UNORM values (and, for D16, twice the bytes).
+    Copied,
+    /// Linear tiling, DRM modifiers or external memory: its memory layout is seen from
+    /// outside.
+    LaidOutOutside,
+    /// Sparse or aliased memory: the application places its memory by the format's sizes.
+    PlacedMemory,
+    /// The device does not support the float format with the image's usage, flags, tiling
+    /// and samples.
+    Unsupported,
+    /// An image it may be resolved with keeps its format (a resolve needs one format at both
+    /// ends).
+    ResolvePartner,
+}
+
+impl fmt::Display for KeptFormat {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            KeptFormat::Copied => {
+                "it is copied from or to (transfer usage), and copies of promoted images are \
+                 not converted"
+            }
+            KeptFormat::LaidOutOutside => {
+                "its memory layout is seen outside (linear tiling, DRM modifier or external \
+                 memory)"
+            }
+            KeptFormat::PlacedMemory => "its memory is sparse or aliased",
+            KeptFormat::Unsupported => {
+                "the device does not support the float format with its usage, flags and samples"
+            }
+            KeptFormat::ResolvePartner => {
+                "an image of its format and size it may be resolved with (the other sample \
+                 count) keeps its format, and a resolve needs one format at both ends"
+            }
+        })
+    }
+}
+
+impl DevicePolicy {
+    /// The float format a depth image is created in instead of its own, or why it keeps its
+    /// own (`Ok(None)`: not a promotable format, or promotion is off). Every image that can be
+    /// is promoted, reversed or native: a render pass resolves only between images of one
+    /// format, and a multisampled image cannot know at creation whether the image it will be
+    /// resolved into is reversed, so the decision may not depend on reversal. For the same
+    /// reason an image whose likely resolve partner, created before it, keeps its format keeps
+    /// its own (a multisampled attachment resolved into a read-back image: the order images
+    /// are usually created in; the other order is logged at framebuffer creation). `supported`
+    /// asks the device about the float format (`vkGetPhysicalDeviceImageFormatProperties`
+    /// with the image's parameters).
+    pub fn promoted_format(
+        &self,
+        format: vk::Format,
+        facts: ImageFacts,
+        supported: impl FnOnce(vk::Format) -> bool,
+    ) -> Result<Option<vk::Format>, KeptFormat> {
+        let Some(float) = crate::conv::float_depth_format(format).filter(|_| self.promote) else {
+            return Ok(None);
+        };
+        let transfer =
+            vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST | HOST_TRANSFER;
+        if facts.usage.intersects(transfer) {
+            return Err(KeptFormat::Copied);
+        }
+        if facts.tiling != vk::ImageTiling::OPTIMAL || facts.external {
+            return Err(KeptFormat::LaidOutOutside);
+        }
+        if facts
+            .flags
+            .intersects(vk::ImageCreateFlags::SPARSE_BINDING | vk::ImageCreateFlags::ALIAS)
+        {
+            return Err(KeptFormat::PlacedMemory);
+        }
+        if facts.partner_kept {
+            return Err(KeptFormat::ResolvePartner);
+        }
+        if !supported(float) {
+            return Err(KeptFormat::Unsupported);
+        }
+        Ok(Some(float))
+    }
+
+    /// Decides a depth image; `None` for images without a depth aspect (never touched).
+    pub fn classify_image(
+        &self,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        tiling: vk::ImageTiling,
+    ) -> Option<ImageDepth> {
+        if !has_depth(format) {
+            return None;
+        }
+        let native = |reason| Some(ImageDepth::Native(reason));
+        if self.mode == Mode::Off {
+            return native(NativeReason::ModeOff);
+        }
+        let shader_reads = usage
+            & (vk::ImageUsageFlags::SAMPLED
+                | vk::ImageUsageFlags::STORAGE
+                | vk::ImageUsageFlags::INPUT_ATTACHMENT);
+        let observable = self.observable;
+        if !shader_reads.is_empty() && observable != Observable::All {
+            return native(NativeReason::ReadByShaders(shader_reads));
+        }
+        if usage.contains(vk::ImageUsageFlags::TRANSFER_SRC) && observable == Observable::None {
+            return native(NativeReason::CopiedFrom);
+        }
+        // The host reads these without a copy revz sees: linear images through mapped
+        // memory, host image copies (`VK_EXT_host_image_copy`, not converted).
+        if tiling == vk::ImageTiling::LINEAR && observable != Observable::All {
+            return native(NativeReason::LinearTiling);
+        }
+        if usage.contains(HOST_TRANSFER) && observable != Observable::All {
+            return native(NativeReason::HostCopied);
+        }
+        Some(ImageDepth::Reversed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{CompareOp, Settings};
+    use crate::policy::tests::policy;
+
+    const ATTACHMENT_IMAGE: ImageFacts = ImageFacts {
+        usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        tiling: vk::ImageTiling::OPTIMAL,
+        flags: vk::ImageCreateFlags::empty(),
+        external: false,
+        partner_kept: false,
+    };
+
+    #[test]
+    fn unorm_depth_images_are_promoted_unless_their_bytes_are_seen() {
+        let p = policy(Mode::Infinite, Observable::None);
+        let yes = |_| true;
+        let d24 = vk::Format::D24_UNORM_S8_UINT;
+        assert_eq!(
+            p.promoted_format(d24, ATTACHMENT_IMAGE, yes),
+            Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
+        );
+        assert_eq!(
+            p.promoted_format(vk::Format::D16_UNORM, ATTACHMENT_IMAGE, yes),
+            Ok(Some(vk::Format::D32_SFLOAT))
+        );
+        // Sampled images too (native ones): a resolve needs one format at both ends.
+        let sampled = ImageFacts {
+            usage: ATTACHMENT_IMAGE.usage | vk::ImageUsageFlags::SAMPLED,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, sampled, yes),
+            Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
+        );
+        for transfer in [
+            vk::ImageUsageFlags::TRANSFER_SRC,
+            vk::ImageUsageFlags::TRANSFER_DST,
+            vk::ImageUsageFlags::from_raw(0x0040_0000),
+        ] {
+            let copied = ImageFacts {
+                usage: ATTACHMENT_IMAGE.usage | transfer,
+                ..ATTACHMENT_IMAGE
+            };
+            assert_eq!(p.promoted_format(d24, copied, yes), Err(KeptFormat::Copied));
+        }
+        let linear = ImageFacts {
+            tiling: vk::ImageTiling::LINEAR,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, linear, yes),
+            Err(KeptFormat::LaidOutOutside)
+        );
+        let external = ImageFacts {
+            external: true,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, external, yes),
+            Err(KeptFormat::LaidOutOutside)
+        );
+        let aliased = ImageFacts {
+            flags: vk::ImageCreateFlags::ALIAS,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, aliased, yes),
+            Err(KeptFormat::PlacedMemory)
+        );
+        let partner = ImageFacts {
+            partner_kept: true,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, partner, yes),
+            Err(KeptFormat::ResolvePartner)
+        );
+        let mut asked = None;
+        assert_eq!(
+            p.promoted_format(d24, ATTACHMENT_IMAGE, |f| {
+                asked = Some(f);
+                false
+            }),
+            Err(KeptFormat::Unsupported)
+        );
+        assert_eq!(asked, Some(vk::Format::D32_SFLOAT_S8_UINT));
+        // Float formats and color formats are not promoted, and the device is not asked.
+        let never = |_| -> bool { panic!("asked") };
+        assert_eq!(
+            p.promoted_format(vk::Format::D32_SFLOAT, ATTACHMENT_IMAGE, never),
+            Ok(None)
+        );
+        assert_eq!(
+            p.promoted_format(vk::Format::R8_UNORM, ATTACHMENT_IMAGE, never),
+            Ok(None)
+        );
+    }
+
+    #[test]
+    fn promotion_follows_the_setting_of_the_mode() {
+        let d16 = vk::Format::D16_UNORM;
+        let yes = |_| true;
+        for (mode, promoted) in [
+            (Mode::Complementary, true),
+            (Mode::Infinite, true),
+            (Mode::Flip, false),
+            (Mode::Off, false),
+        ] {
+            let settings = Settings {
+                mode,
+                ..Settings::default()
+            };
+            let p = DevicePolicy::new(&settings, true);
+            assert_eq!(
+                p.promoted_format(d16, ATTACHMENT_IMAGE, yes)
+                    .unwrap()
+                    .is_some(),
+                promoted,
+                "{mode:?}"
+            );
+        }
+        let never = Settings {
+            mode: Mode::Infinite,
+            promote_depth_formats: crate::config::Promote::Never,
+            ..Settings::default()
+        };
+        let p = DevicePolicy::new(&never, true);
+        assert_eq!(p.promoted_format(d16, ATTACHMENT_IMAGE, yes), Ok(None));
+    }
+
+    const ATTACHMENT: vk::ImageUsageFlags = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+    const OPTIMAL: vk::ImageTiling = vk::ImageTiling::OPTIMAL;
+    const D32: vk::Format = vk::Format::D32_SFLOAT;
+
+    #[test]
+    fn plain_depth_attachments_are_reversed_and_color_is_never_touched() {
+        let p = policy(Mode::Flip, Observable::None);
+        assert_eq!(
+            p.classify_image(D32, ATTACHMENT, OPTIMAL),
+            Some(ImageDepth::Reversed)
+        );
+        let color = vk::Format::R8G8B8A8_UNORM;
+        assert_eq!(p.classify_image(color, ATTACHMENT, OPTIMAL), None);
+        assert_eq!(
+            p.classify_image(vk::Format::S8_UINT, ATTACHMENT, OPTIMAL),
+            None
+        );
+    }
+
+    #[test]
+    fn observable_images_follow_the_setting() {
+        let sampled = ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
+        let copied = ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let none = policy(Mode::Flip, Observable::None);
+        let copies = policy(Mode::Flip, Observable::Copies);
+        let all = policy(Mode::Flip, Observable::All);
+        let shader_native = Some(ImageDepth::Native(NativeReason::ReadByShaders(
+            vk::ImageUsageFlags::SAMPLED,
+        )));
+        assert_eq!(none.classify_image(D32, sampled, OPTIMAL), shader_native);
+        assert_eq!(
+            none.classify_image(D32, copied, OPTIMAL),
+            Some(ImageDepth::Native(NativeReason::CopiedFrom))
+        );
+        assert_eq!(copies.classify_image(D32, sampled, OPTIMAL), shader_native);
+        assert_eq!(
+            copies.classify_image(D32, copied, OPTIMAL),
+            Some(ImageDepth::Reversed)
+        );
+        assert_eq!(
+            all.classify_image(D32, sampled | copied, OPTIMAL),
+            Some(ImageDepth::Reversed)
+        );
+    }
+
+    #[test]
+    fn images_the_host_reads_stay_native_unless_every_image_is_reversed() {
+        let host_copied = ATTACHMENT | HOST_TRANSFER;
+        for observable in [Observable::None, Observable::Copies] {
+            let p = policy(Mode::Flip, observable);
+            assert_eq!(
+                p.classify_image(D32, ATTACHMENT, vk::ImageTiling::LINEAR),
+                Some(ImageDepth::Native(NativeReason::LinearTiling))
+            );
+            assert_eq!(
+                p.classify_image(D32, host_copied, OPTIMAL),
+                Some(ImageDepth::Native(NativeReason::HostCopied))
+            );
+        }
+        let all = policy(Mode::Flip, Observable::All);
+        assert_eq!(
+            all.classify_image(D32, host_copied, vk::ImageTiling::LINEAR),
+            Some(ImageDepth::Reversed)
+        );
+        assert_eq!(
+            crate::config::Settings::default().reverse_observable,
+            Observable::Copies,
+            "copies are converted, so images only copied from are reversed by default"
+        );
+    }
+
+    #[test]
+    fn nothing_is_reversed_when_off_and_variants_stand_in_for_the_dynamic_compare_op() {
+        let off = policy(Mode::Off, Observable::All);
+        assert_eq!(
+            off.classify_image(D32, ATTACHMENT, OPTIMAL),
+            Some(ImageDepth::Native(NativeReason::ModeOff))
+        );
+        assert!(!off.is_active());
+        let settings = Settings {
+            mode: Mode::Flip,
+            ..Settings::default()
+        };
+        let no_eds = DevicePolicy::new(&settings, false);
+        assert!(no_eds.compare_op_variants && no_eds.is_active());
+        assert_eq!(
+            no_eds.classify_image(D32, ATTACHMENT, OPTIMAL),
+            Some(ImageDepth::Reversed)
+        );
+        assert!(!DevicePolicy::new(&settings, true).compare_op_variants);
+        let chosen = Settings {
+            compare_op: CompareOp::Variants,
+            ..settings
+        };
+        assert!(DevicePolicy::new(&chosen, true).compare_op_variants);
+    }
+}

@@ -1,0 +1,183 @@
+//! The policy: decisions revz takes about depth, as functions of plain facts.
+//!
+//! | decision | facts it reads | where they come from |
+//! |---|---|---|
+//! | is a depth image reversed or native ([`DevicePolicy::classify_image`]) | format, usage, tiling, settings | `vkCreateImage` |
+//! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
+//! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
+//! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
+//! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
+//! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
+//! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
+//! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
+//! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
+//! | does a pipeline's vertex stage store reversed depth itself, and of which range (`crate::hooks::pipeline::plan::projection_of`, from the analysis of `crate::shader_analysis` and `crate::derived_range`) | where its projection comes from (push-constant bytes, a buffer the stage can fit from, neither), its clip convention (static or dynamic) | `vkCreateShaderModule`, `vkCreateGraphicsPipelines` |
+//! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
+//! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
+//! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
+//!
+//! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
+//! why an image stays native or keeps its format), `resolves.rs` (resolve sources and modes),
+//! `convention.rs` (the application's convention, and what revz observes of it),
+//! `secondaries.rs` (secondaries without a framebuffer), `compare_op.rs` (the dynamic compare
+//! op), `copies.rs` (copies); [`DevicePolicy`] itself (the mode, the carrier, reversed clears)
+//! is here. The rows that name code outside this module are decided there.
+//!
+//! An image is decided once, at creation, for its whole life: every draw into it must then
+//! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
+//! observe keeps standard depth unless the `reverse_observable` setting allows it, because its
+//! readers (shadow-map compares, SSAO, picking, screenshots) expect standard values.
+//!
+//! Where this differs from `shared/DESIGN.md`: the design notes call an application reversed
+//! on "a clear to 0 with GREATER, or B > 0 projections"; one reversed-looking matrix (rounding
+//! in a P*V*M far from the camera) or a clear to 0 alone is weak evidence, and deciding on it
+//! mid-frame left command buffers recorded before drawing reversed and new ones not. The
+//! convention is now decided once, from a clear to 0 together with GREATER compare ops or
+//! reversed projections, and never changed.
+
+mod compare_op;
+mod convention;
+mod copies;
+mod images;
+mod resolves;
+mod secondaries;
+
+pub use compare_op::{CompareOpFacts, CompareOpSource};
+pub use convention::{Convention, ConventionEvidence, Observed};
+pub use copies::{CopyDecision, CopyDirection, CopyEnd, CopyFacts, Unconverted};
+pub use images::{ImageDepth, ImageFacts, KeptFormat, NativeReason};
+pub use resolves::{DepthResolve, ResolveSupport};
+pub use secondaries::{secondary_promoted, secondary_target};
+
+use revz_math::Target as RewriteTarget;
+
+use crate::command_state::Reversing;
+use crate::config::{CompareOp, FarClip, Mode, Observable, Settings};
+use crate::conv::{flip_depth, Reversal};
+
+/// What the policy needs to know about a device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DevicePolicy {
+    pub mode: Mode,
+    pub far_clip: FarClip,
+    pub observable: Observable,
+    /// Whether draws into reversed attachments get the flipped compare op from a pipeline
+    /// variant rather than `vkCmdSetDepthCompareOp`: by choice (`compare_op = variants`), or
+    /// because the device cannot make it dynamic (no Vulkan 1.3, no
+    /// `VK_EXT_extended_dynamic_state`).
+    pub compare_op_variants: bool,
+    /// Where revz's carrier goes in every pipeline layout (precise modes on a device with the
+    /// room: `crate::precise::carrier_offset`); `None`: the precise path is off and every draw
+    /// into a reversed attachment takes the flip path.
+    pub carrier_offset: Option<u32>,
+    /// Whether UNORM depth images are promoted to float formats (`promote_depth_formats` in
+    /// this mode).
+    pub promote: bool,
+}
+
+impl DevicePolicy {
+    /// The policy on a device with `maxPushConstantsSize` bytes of push constants.
+    pub fn with_push_constant_space(self, max_push_constants_size: u32) -> DevicePolicy {
+        DevicePolicy {
+            carrier_offset: self
+                .rewrite()
+                .and(crate::precise::carrier_offset(max_push_constants_size)),
+            ..self
+        }
+    }
+
+    /// The policy of a device; `dynamic_compare_op`: whether `vkCmdSetDepthCompareOp` (core
+    /// 1.3 or the EXT) can be used.
+    pub fn new(settings: &Settings, dynamic_compare_op: bool) -> DevicePolicy {
+        DevicePolicy {
+            mode: settings.mode,
+            far_clip: settings.far_clip,
+            observable: settings.reverse_observable,
+            compare_op_variants: settings.compare_op == CompareOp::Variants || !dynamic_compare_op,
+            carrier_offset: None,
+            promote: settings.promote_depth_formats.applies(settings.mode),
+        }
+    }
+
+    /// Whether the layer acts on this device's depth at all.
+    pub fn is_active(&self) -> bool {
+        self.mode != Mode::Off
+    }
+
+    /// The projection rewrite of the mode, if it has one (flip mode only flips).
+    pub fn rewrite(&self) -> Option<RewriteTarget> {
+        match self.mode {
+            Mode::Complementary => Some(RewriteTarget::Complementary),
+            Mode::Infinite => Some(RewriteTarget::Infinite),
+            Mode::Off | Mode::Flip => None,
+        }
+    }
+
+    /// How draws into reversed attachments are made, given the n / f seen last (infinite mode).
+    pub fn reversing(&self, observed: &Observed) -> Reversing {
+        Reversing {
+            rewrite: self.rewrite(),
+            reversal: self.reversal(observed),
+        }
+    }
+
+    fn reversal(&self, observed: &Observed) -> Reversal {
+        match self.mode {
+            Mode::Infinite => Reversal::Infinite {
+                near_over_far: observed.near_over_far(),
+            },
+            _ => Reversal::Complementary,
+        }
+    }
+
+    /// A depth clear value on a reversed attachment. Infinite reversed-Z puts the far plane at
+    /// infinity (0) unless `far_clip = keep`, which clears to n / f instead so that fragments
+    /// beyond the far plane lose against the clear (seed 001); a clear is recorded before the
+    /// projections of its pass are pushed, so n / f is the last one seen.
+    pub fn reversed_clear(&self, depth: f32, observed: &Observed) -> f32 {
+        match self.mode {
+            Mode::Infinite if depth == 1.0 && self.far_clip == FarClip::Remove => 0.0,
+            Mode::Infinite => self.reversal(observed).depth(depth),
+            _ => flip_depth(depth),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub(super) fn policy(mode: Mode, observable: Observable) -> DevicePolicy {
+        DevicePolicy {
+            mode,
+            far_clip: FarClip::Remove,
+            observable,
+            compare_op_variants: false,
+            carrier_offset: None,
+            promote: matches!(mode, Mode::Complementary | Mode::Infinite),
+        }
+    }
+
+    #[test]
+    fn infinite_clears_put_the_far_plane_at_infinity_or_at_near_over_far() {
+        let observed = Observed::default();
+        observed.note_near_over_far(0.001);
+        let remove = policy(Mode::Infinite, Observable::None);
+        let keep = DevicePolicy {
+            far_clip: FarClip::Keep,
+            ..remove
+        };
+        assert_eq!(remove.reversed_clear(1.0, &observed), 0.0);
+        assert_eq!(keep.reversed_clear(1.0, &observed), 0.001);
+        assert_eq!(keep.reversed_clear(0.0, &observed), 1.0);
+        let complementary = policy(Mode::Complementary, Observable::None);
+        assert_eq!(complementary.reversed_clear(0.25, &observed), 0.75);
+        assert_eq!(
+            remove.reversing(&observed).reversal,
+            Reversal::Infinite {
+                near_over_far: 0.001
+            }
+        );
+        assert_eq!(policy(Mode::Flip, Observable::None).rewrite(), None);
+    }
+}

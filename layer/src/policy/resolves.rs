@@ -1,0 +1,237 @@
+//! Multisample depth resolves out of reversed attachments: whether a resolve's source must
+//! become native ([`DepthResolve::demotes_source`]), and which MIN/MAX mode a reversed resolve
+//! uses on the device ([`ResolveSupport::swapped_depth_mode`]).
+
+use ash::vk;
+
+use super::NativeReason;
+use crate::command_state::Target;
+use crate::conv::flip_resolve_mode;
+
+/// A multisample depth resolve out of a reversed attachment, as the render pass or rendering
+/// instance declares it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DepthResolve {
+    /// The resolve mode (never NONE).
+    pub mode: vk::ResolveModeFlags,
+    /// What the destination image is.
+    pub destination: Target,
+    /// The destination image (null when revz does not track its view).
+    pub destination_image: vk::Image,
+    /// Whether revz can swap MIN and MAX for this resolve (a twin render pass of one subpass,
+    /// or a rendering instance; either where the device allows the swapped mode beside the
+    /// stencil mode, [`ResolveSupport::swapped_depth_mode`]).
+    pub swappable: bool,
+}
+
+impl DepthResolve {
+    /// Why the reversed source of this resolve must become native, if it must: reversed
+    /// values may only be resolved into a reversed image, and MIN or MAX pick the other sample
+    /// on reversed values unless they are swapped. SAMPLE_ZERO and AVERAGE commute with every
+    /// reversal revz makes (d -> 1 - d, and the affine map of infinite mode).
+    pub fn demotes_source(&self) -> Option<NativeReason> {
+        if self.destination != Target::Reversed {
+            return Some(NativeReason::ResolvedIntoNative(self.destination_image));
+        }
+        let extreme = matches!(
+            self.mode,
+            vk::ResolveModeFlags::MIN | vk::ResolveModeFlags::MAX
+        );
+        (extreme && !self.swappable).then_some(NativeReason::UnswappableResolve)
+    }
+}
+
+/// What a device allows of depth/stencil resolves (`VkPhysicalDeviceDepthStencilResolveProperties`),
+/// read at device creation: which depth modes it has, and which pairs of depth and stencil
+/// modes one resolve may combine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ResolveSupport {
+    /// The depth resolve modes the device supports (SAMPLE_ZERO always).
+    pub depth_modes: vk::ResolveModeFlags,
+    /// `independentResolveNone`: depth and stencil may differ when one of them is NONE.
+    pub independent_resolve_none: bool,
+    /// `independentResolve`: any supported depth mode may go with any supported stencil mode.
+    pub independent_resolve: bool,
+}
+
+impl ResolveSupport {
+    /// What revz assumes of a device it cannot ask (below Vulkan 1.2): only SAMPLE_ZERO, the
+    /// mode every device with depth resolves has, and the two modes always equal.
+    pub const MINIMAL: ResolveSupport = ResolveSupport {
+        depth_modes: vk::ResolveModeFlags::SAMPLE_ZERO,
+        independent_resolve_none: false,
+        independent_resolve: false,
+    };
+
+    /// Whether one resolve may combine these depth and stencil modes, where the spec pairs
+    /// them: equal modes always; one of them NONE with `independentResolveNone`; any pair with
+    /// `independentResolve` as well (VUID-VkSubpassDescriptionDepthStencilResolve-
+    /// pDepthStencilResolveAttachment-03185 and -03186, VUID-VkRenderingInfo-pDepthAttachment-
+    /// 06104 and -06105).
+    pub fn allows_pair(&self, depth: vk::ResolveModeFlags, stencil: vk::ResolveModeFlags) -> bool {
+        let one_none = depth == vk::ResolveModeFlags::NONE || stencil == vk::ResolveModeFlags::NONE;
+        // 06104 asks for independentResolveNone even where independentResolve is set (which
+        // implies it on a conforming device): a device reporting one without the other gets
+        // equal modes only.
+        depth == stencil
+            || (self.independent_resolve_none && (self.independent_resolve || one_none))
+    }
+
+    /// The depth mode a reversed attachment is resolved with in place of `depth` (MIN <-> MAX,
+    /// others kept), or why the device does not allow it. Only the depth mode changes: stencil
+    /// is never reversed, so `stencil` is kept, and the swapped depth mode must still pair with
+    /// it. `stencil` is `None` where the spec does not pair the two (a render pass's resolve
+    /// attachment without a stencil component, or a rendering instance without a stencil
+    /// attachment view): then the stencil mode is ignored and cannot block the swap.
+    pub fn swapped_depth_mode(
+        &self,
+        depth: vk::ResolveModeFlags,
+        stencil: Option<vk::ResolveModeFlags>,
+    ) -> Result<vk::ResolveModeFlags, &'static str> {
+        let swapped = flip_resolve_mode(depth);
+        if !self.depth_modes.contains(swapped) {
+            return Err("the device does not support the swapped depth mode");
+        }
+        match stencil {
+            Some(stencil) if !self.allows_pair(swapped, stencil) => {
+                Err("the device does not allow the swapped depth mode beside the stencil mode")
+            }
+            _ => Ok(swapped),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_reversed_resolve_source_stays_reversed_only_into_a_reversed_image() {
+        let resolve = |mode, destination, swappable| DepthResolve {
+            mode,
+            destination,
+            destination_image: vk::Image::null(),
+            swappable,
+        };
+        use vk::ResolveModeFlags as M;
+        for mode in [M::SAMPLE_ZERO, M::AVERAGE, M::MIN, M::MAX] {
+            for destination in [Target::Native, Target::None] {
+                assert!(matches!(
+                    resolve(mode, destination, true).demotes_source(),
+                    Some(NativeReason::ResolvedIntoNative(_))
+                ));
+            }
+            assert_eq!(resolve(mode, Target::Reversed, true).demotes_source(), None);
+        }
+        assert_eq!(
+            resolve(M::AVERAGE, Target::Reversed, false).demotes_source(),
+            None
+        );
+        for mode in [M::MIN, M::MAX] {
+            assert_eq!(
+                resolve(mode, Target::Reversed, false).demotes_source(),
+                Some(NativeReason::UnswappableResolve)
+            );
+        }
+    }
+
+    /// Every support a device can report: (independentResolveNone, independentResolve).
+    fn supports() -> impl Iterator<Item = ResolveSupport> {
+        [(false, false), (true, false), (true, true), (false, true)]
+            .into_iter()
+            .map(|(none, all)| ResolveSupport {
+                depth_modes: vk::ResolveModeFlags::SAMPLE_ZERO
+                    | vk::ResolveModeFlags::AVERAGE
+                    | vk::ResolveModeFlags::MIN
+                    | vk::ResolveModeFlags::MAX,
+                independent_resolve_none: none,
+                independent_resolve: all,
+            })
+    }
+
+    /// The spec's pairing rules, worded as its VUIDs are, for a pair the spec pairs: render
+    /// passes (VkSubpassDescriptionDepthStencilResolve 03185, 03186) and dynamic rendering
+    /// (VkRenderingInfo 06104, 06105).
+    fn spec_allows(
+        support: ResolveSupport,
+        depth: vk::ResolveModeFlags,
+        stencil: vk::ResolveModeFlags,
+    ) -> bool {
+        use vk::ResolveModeFlags as M;
+        let (none, all) = (
+            support.independent_resolve_none,
+            support.independent_resolve,
+        );
+        let either_none = depth == M::NONE || stencil == M::NONE;
+        let render_pass = match (all, none) {
+            (false, false) => depth == stencil,
+            (false, true) => depth == stencil || either_none,
+            (true, _) => true,
+        };
+        let rendering = (none || depth == stencil) && (all || either_none || depth == stencil);
+        render_pass && rendering
+    }
+
+    #[test]
+    fn the_depth_resolve_swaps_only_into_a_pair_the_spec_allows_and_keeps_the_stencil_mode() {
+        use vk::ResolveModeFlags as M;
+        let stencils = [
+            None,
+            Some(M::NONE),
+            Some(M::SAMPLE_ZERO),
+            Some(M::MIN),
+            Some(M::MAX),
+        ];
+        for support in supports() {
+            for depth in [M::SAMPLE_ZERO, M::AVERAGE, M::MIN, M::MAX] {
+                for stencil in stencils {
+                    let swapped = flip_resolve_mode(depth);
+                    let allowed = stencil.is_none_or(|s| spec_allows(support, swapped, s));
+                    let expected = if allowed { Ok(swapped) } else { Err(()) };
+                    assert_eq!(
+                        support.swapped_depth_mode(depth, stencil).map_err(|_| ()),
+                        expected,
+                        "{support:?} {depth:?} {stencil:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn stencil_modes_block_a_swap_only_where_the_device_pairs_them_with_depth() {
+        use vk::ResolveModeFlags as M;
+        let mut support = supports().next().expect("a support");
+        // Neither independence: the modes must stay equal, so a MIN beside a MIN stencil stays.
+        assert!(support.swapped_depth_mode(M::MIN, Some(M::MIN)).is_err());
+        // ... unless the stencil mode is ignored (no stencil in the resolve attachment).
+        assert_eq!(support.swapped_depth_mode(M::MIN, None), Ok(M::MAX));
+        // independentResolveNone: a NONE stencil mode is fine, a resolving one is not.
+        support.independent_resolve_none = true;
+        assert_eq!(
+            support.swapped_depth_mode(M::MAX, Some(M::NONE)),
+            Ok(M::MIN)
+        );
+        assert!(support.swapped_depth_mode(M::MAX, Some(M::MAX)).is_err());
+        // independentResolve: any pair.
+        support.independent_resolve = true;
+        assert_eq!(support.swapped_depth_mode(M::MIN, Some(M::MIN)), Ok(M::MAX));
+        assert_eq!(
+            support.swapped_depth_mode(M::MIN, Some(M::SAMPLE_ZERO)),
+            Ok(M::MAX)
+        );
+        // The swapped mode must be one the device has.
+        support.depth_modes = M::SAMPLE_ZERO | M::MIN;
+        assert!(support.swapped_depth_mode(M::MIN, None).is_err());
+        assert_eq!(
+            ResolveSupport::MINIMAL
+                .swapped_depth_mode(M::AVERAGE, None)
+                .map_err(|_| ()),
+            Err(())
+        );
+        assert_eq!(
+            ResolveSupport::MINIMAL.swapped_depth_mode(M::SAMPLE_ZERO, Some(M::SAMPLE_ZERO)),
+            Ok(M::SAMPLE_ZERO)
+        );
+    }
+}
