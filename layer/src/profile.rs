@@ -260,7 +260,6 @@ const APPLICATION_REVERSED: &str =
 /// What one `vkQueueSubmit` recorded, for [`Profile::submit`].
 #[derive(Debug, Default)]
 pub struct Submission {
-    pub draws: DrawCounts,
     /// Per (depth image, pipeline), from every command buffer.
     pub segments: Vec<Segment>,
     /// (the device's camera slot, matrices matched) from every command buffer.
@@ -379,8 +378,13 @@ impl Profile {
     pub fn submit(&self, submission: &Submission, cameras: impl FnOnce() -> Vec<(usize, Value)>) {
         let due = {
             let mut inner = self.inner();
-            inner.current.add(&submission.draws);
-            inner.totals.add(&submission.draws);
+            // Every draw of a recording is in one of its segments.
+            let mut draws = DrawCounts::default();
+            for segment in &submission.segments {
+                draws.add(&segment.draws);
+            }
+            inner.current.add(&draws);
+            inner.totals.add(&draws);
             for &(slot, count) in &submission.camera_matches {
                 if let Some(total) = inner.camera_matches.get_mut(slot) {
                     *total += count;
@@ -763,13 +767,8 @@ mod tests {
                 promoted_variant: false,
             },
         );
-        let draws = DrawCounts {
-            native: 1,
-            flip: 1,
-            precise: 2,
-        };
+        // Draws per submission: native 1, flip 1, precise 2.
         let submission = Submission {
-            draws,
             segments: vec![
                 Segment {
                     image: 1,

@@ -161,7 +161,6 @@ fn profile_submit<I: Iterator<Item = vk::CommandBuffer>>(
             for buffer in buffers() {
                 if let Some(entry) = crate::objects::command_buffer(buffer) {
                     let state = entry.state();
-                    submission.draws.add(&state.draws());
                     submission.segments.extend(state.tally().segments());
                     // The recording's cameras are the device's by now (merged at its end or
                     // known at its begin): its counts go to the device's slot of each.
