@@ -27,12 +27,12 @@ use ash::vk;
 use revz_math::{Cameras, DepthConvention, Target as RewriteTarget};
 
 use crate::conv::{flip_compare_op, DepthBias, Reversal};
-use crate::derived_range::MatrixSource;
 use crate::objects::FragmentShader;
 use crate::precise::{
     Carrier, FoldedPush, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER,
 };
 use crate::profile::{DrawCounts, DrawTally};
+use crate::shader::derived_range::MatrixSource;
 
 /// A set of depth-related dynamic states.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -118,7 +118,7 @@ pub struct PipelineDepth {
     /// The pipeline bound in its place for draws into reversed attachments: the same pipeline
     /// with its static compare op flipped where the compare op is not made dynamic
     /// (`compare_op = variants`, or a device without extended dynamic state), and its
-    /// fragment shader rewritten where it computes with depth (`crate::fragment_depth`).
+    /// fragment shader rewritten where it computes with depth (`crate::shader::fragment_depth`).
     pub reversed_variant: Option<vk::Pipeline>,
     /// The pipeline's render pass or rendering formats have a UNORM depth format revz
     /// promotes: draws into promoted attachments need the promoted variants below.
@@ -135,12 +135,12 @@ pub struct PipelineDepth {
     /// [`PipelineDepth::position_store`]).
     pub projection: Option<ProjectionUse>,
     /// The pipeline's vertex stage (the application's pipeline's and its variant's) stores
-    /// `Position` through revz's carrier ([`crate::position_store`]): every draw needs the
+    /// `Position` through revz's carrier ([`crate::shader::position_store`]): every draw needs the
     /// carrier to hold its values (the camera's on the precise path,
     /// [`crate::precise::FLIP_CARRIER`], the shader's own z, everywhere else).
     pub position_store: Option<Carrier>,
     /// The vertex stage derives its range from the matrix it loads (no projection in push
-    /// constants: `crate::derived_range`), and where that matrix comes from: its draws into
+    /// constants: `crate::shader::derived_range`), and where that matrix comes from: its draws into
     /// reversed attachments push the selector of the mode instead of a camera's values.
     pub derived_range: Option<MatrixSource>,
     /// revz's own layout with the pipeline layout's push-constant ranges
@@ -192,7 +192,7 @@ pub enum Target {
     Reversed,
 }
 
-/// The carrier of a draw whose vertex stage derives its range (`crate::derived_range`): the
+/// The carrier of a draw whose vertex stage derives its range (`crate::shader::derived_range`): the
 /// selector of the mode in w (1 complementary, 2 infinite); the rest is unused.
 /// 3 and 4 are the same for a line fitted in [-1, 1] clip depth (the stage converts it to
 /// [0, 1], which revz sets for the draw).
@@ -592,7 +592,7 @@ impl CommandState {
     }
 
     /// The mode whose depth the bound pipeline's vertex stage derives itself for the next
-    /// draw, if it does (`crate::derived_range`): a reversed attachment, viewports of its own,
+    /// draw, if it does (`crate::shader::derived_range`): a reversed attachment, viewports of its own,
     /// a rewriting mode, and a stage that derives its range.
     fn derived_use(&self) -> Option<(RewriteTarget, DepthConvention)> {
         if self.target != Target::Reversed || self.inherits_viewports {
@@ -970,6 +970,13 @@ impl CommandState {
         outcome
     }
 
+    /// Whether [`Self::settle`] would send anything: state changed since the last settle, in a
+    /// pass where draws are recorded inline.
+    #[inline]
+    pub fn wants_settle(&self) -> bool {
+        self.dirty && self.in_pass && !self.secondary_contents
+    }
+
     /// After a command that may change what the next draw needs (a bind, a push, a state
     /// setter, a pass begin, `vkCmdExecuteCommands`): sends down the depth state for the
     /// current target if it changed, so that draws need nothing from revz and go straight to
@@ -978,7 +985,7 @@ impl CommandState {
     /// outcome of a classification made for it, if any.
     #[inline]
     pub fn settle(&mut self, sink: &mut impl StateSink) -> Option<Outcome> {
-        if !self.dirty || !self.in_pass || self.secondary_contents {
+        if !self.wants_settle() {
             return None;
         }
         let outcome = match self.precise_use().map(|(p, t)| (*p, t)) {

@@ -5,10 +5,9 @@
 //! - the Vulkan plumbing: [`ffi`] (loader structures), [`boundary`] (no panic crosses into C),
 //!   [`state`] (per-instance/device state keyed by dispatch pointer), [`objects`] (tracked
 //!   objects), [`chain`] (pNext chains) and `hooks` (the intercepted commands, thin and
-//!   mechanical); the SPIR-V readers and rewriters [`spirv_scan`], [`shader_analysis`] (which
-//!   push-constant bytes hold the projection), [`position_store`] (the `Position` store
-//!   rewrite), [`derived_range`] (the in-shader range fit for projections in buffers) and
-//!   [`fragment_depth`];
+//!   mechanical); [`shader`], the SPIR-V readers and rewriters (which push-constant bytes hold
+//!   the projection, the `Position` store rewrite, the in-shader range fit for projections in
+//!   buffers, the fragment depth rewrite);
 //! - the policy: [`policy`] (which images are reversed or promoted, what the application's
 //!   convention is, where secondaries draw) and [`config`] (the settings and where they come
 //!   from);
@@ -28,23 +27,17 @@ pub mod command_state;
 pub mod config;
 pub mod conv;
 pub mod depth_copy;
-pub mod derived_range;
 pub mod ffi;
-pub mod fragment_depth;
 #[cfg(test)]
 mod fuzz;
 mod hooks;
 pub mod logging;
 pub mod objects;
 pub mod policy;
-pub mod position_store;
 pub mod precise;
 pub mod profile;
-pub mod shader_analysis;
-pub mod spirv_scan;
+pub mod shader;
 pub mod state;
-#[cfg(test)]
-mod test_spirv;
 
 use std::ffi::c_char;
 

@@ -7,35 +7,35 @@
 //! lookups from the thread that records (the usual case) without touching the shared table.
 
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError, RwLock};
 
 use ash::vk;
 use rustc_hash::{FxHashMap, FxHashSet};
 
 use crate::command_state::{CommandState, PipelineDepth, Target};
-use crate::fragment_depth::Unsupported;
 use crate::policy::{DepthResolve, ImageDepth, NativeReason};
 use crate::precise::Carrier;
-use crate::shader_analysis::Analysis;
+use crate::shader::analysis::Analysis;
+use crate::shader::fragment_depth::Unsupported;
 use crate::state::DeviceState;
 
 /// The shader analysis of one module: each vertex entry point's result, or why naga could not
 /// read it.
 pub type ModuleAnalysis = Result<Vec<(String, Analysis)>, String>;
-/// A fragment module rewritten for reversed attachments (`crate::fragment_depth`), or why it
+/// A fragment module rewritten for reversed attachments (`crate::shader::fragment_depth`), or why it
 /// cannot be.
 pub type ReversedFragment = Result<Arc<[u32]>, Unsupported>;
-/// A vertex module rewritten to store the carrier's depth (`crate::position_store`), or why it
+/// A vertex module rewritten to store the carrier's depth (`crate::shader::position_store`), or why it
 /// cannot be.
-pub type RewrittenVertex = Result<VertexRewrite, crate::position_store::Unsupported>;
+pub type RewrittenVertex = Result<VertexRewrite, crate::shader::position_store::Unsupported>;
 
 /// A vertex module's `Position` rewrite: its code, and where the matrix comes from when the
-/// stage derives its range itself (`crate::derived_range`: no projection in push constants).
+/// stage derives its range itself (`crate::shader::derived_range`: no projection in push constants).
 #[derive(Clone, Debug)]
 pub struct VertexRewrite {
     pub code: Arc<[u32]>,
-    pub derived: Option<crate::derived_range::MatrixSource>,
+    pub derived: Option<crate::shader::derived_range::MatrixSource>,
 }
 
 /// A layout's push-constant ranges as (stages, offset, size), the key of revz's own push
@@ -319,7 +319,7 @@ pub struct DeviceObjects {
     /// point, or why the module could not be read.
     pub vertex_modules: Table<vk::ShaderModule, Arc<ModuleAnalysis>>,
     /// Vertex modules with a projection from push constants (precise modes only): rewritten
-    /// to store the carrier's depth into `Position` (`crate::position_store`), or why not.
+    /// to store the carrier's depth into `Position` (`crate::shader::position_store`), or why not.
     pub position_stores: Table<vk::ShaderModule, RewrittenVertex>,
     /// SPIR-V chained into vertex stages instead of a module: analyzed and rewritten once per
     /// distinct code, not at every pipeline creation.
@@ -733,7 +733,11 @@ pub struct CommandBufferEntry {
     pub device: Arc<DeviceState>,
     /// Secondary command buffers may inherit a render pass; primaries never do.
     pub secondary: bool,
-    pub state: Mutex<CommandState>,
+    state: Mutex<CommandState>,
+    /// Whether the state has depth state to send ([`CommandState::wants_settle`]), as it was
+    /// when its lock was last released: a hook after which nothing is pending settles without
+    /// taking the lock again (one load). Written only under the state's lock.
+    settle_wanted: AtomicBool,
     pub scope: Mutex<PassScope>,
     /// Its pool's queue family can dispatch compute (converted copies need it).
     pub dispatchable: bool,
@@ -746,12 +750,51 @@ impl CommandBufferEntry {
         self.copies.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    pub fn state(&self) -> MutexGuard<'_, CommandState> {
-        self.state.lock().unwrap_or_else(PoisonError::into_inner)
+    /// The command buffer's depth state, locked (uncontended: Vulkan has one thread record a
+    /// command buffer at a time).
+    pub fn state(&self) -> StateGuard<'_> {
+        StateGuard {
+            state: self.state.lock().unwrap_or_else(PoisonError::into_inner),
+            settle_wanted: &self.settle_wanted,
+        }
+    }
+
+    /// Whether a settle may have something to send (false: it would send nothing).
+    #[inline]
+    pub fn settle_wanted(&self) -> bool {
+        self.settle_wanted.load(Ordering::Relaxed)
     }
 
     pub fn scope(&self) -> MutexGuard<'_, PassScope> {
         self.scope.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+/// A locked [`CommandState`]; on release it notes whether a settle has anything to send.
+#[derive(Debug)]
+pub struct StateGuard<'a> {
+    state: MutexGuard<'a, CommandState>,
+    settle_wanted: &'a AtomicBool,
+}
+
+impl std::ops::Deref for StateGuard<'_> {
+    type Target = CommandState;
+    fn deref(&self) -> &CommandState {
+        &self.state
+    }
+}
+
+impl std::ops::DerefMut for StateGuard<'_> {
+    fn deref_mut(&mut self) -> &mut CommandState {
+        &mut self.state
+    }
+}
+
+impl Drop for StateGuard<'_> {
+    #[inline]
+    fn drop(&mut self) {
+        self.settle_wanted
+            .store(self.state.wants_settle(), Ordering::Relaxed);
     }
 }
 
@@ -783,6 +826,7 @@ pub fn track_command_buffers(
                 device: Arc::clone(device),
                 secondary: level == vk::CommandBufferLevel::SECONDARY,
                 state: Mutex::new(CommandState::new(device.reversing())),
+                settle_wanted: AtomicBool::new(false),
                 scope: Mutex::new(PassScope::default()),
                 dispatchable,
                 copies: Default::default(),

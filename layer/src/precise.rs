@@ -3,9 +3,9 @@
 //! the carrier revz pushes for the rewritten vertex stage.
 //!
 //! A pipeline whose vertex stage multiplies a push-constant matrix into `Position` has a
-//! [`ProjectionUse`] (found by [`crate::shader_analysis`] at shader module creation). The
+//! [`ProjectionUse`] (found by [`crate::shader::analysis`] at shader module creation). The
 //! pipeline is created with its vertex stage rewritten to store `z' = c_z z + c_w w + c_1` into
-//! `Position` ([`crate::position_store`]), with the three values read from a [`Carrier`] revz
+//! `Position` ([`crate::shader::position_store`]), with the three values read from a [`Carrier`] revz
 //! reserves in the pipeline layout and pushes:
 //!
 //! - the application's bytes go down unchanged, so every other use of the matrix (lighting,
@@ -32,7 +32,7 @@ use revz_math::{
     DepthConvention, DepthDirection, DepthLine, Storage, Target as RewriteTarget,
 };
 
-use crate::shader_analysis::ProjectionSlot;
+use crate::shader::analysis::ProjectionSlot;
 
 /// Push-constant bytes revz follows per command buffer. Vulkan guarantees 128
 /// (`maxPushConstantsSize`); current drivers offer 256. A projection beyond them is not
@@ -164,7 +164,7 @@ pub fn push_stages(
 }
 
 /// Bytes of revz's carrier: a `vec4` (`c_z`, `c_w`, `c_1`, unused) that the rewritten vertex
-/// stage reads ([`crate::position_store`]).
+/// stage reads ([`crate::shader::position_store`]).
 pub const CARRIER_BYTES: u32 = 16;
 
 /// The carrier values of the flip path: `z' = 1 * z + 0 * w + 0`, the shader's z exactly.

@@ -143,7 +143,7 @@ pub struct Report {
     pub seconds: f64,
     pub corpus: usize,
     pub outcomes: usize,
-    /// Panics caught inside the code under test (naga's, which `shader_analysis` turns into
+    /// Panics caught inside the code under test (naga's, which `crate::shader::analysis` turns into
     /// `Unreadable`), by location.
     pub caught_panics: BTreeMap<String, u64>,
 }

@@ -1,4 +1,4 @@
-//! The SPIR-V targets: the vertex-stage analysis (`shader_analysis`) and the fragment depth
+//! The SPIR-V targets: the vertex-stage analysis (`crate::shader::analysis`) and the fragment depth
 //! rewrite (`fragment_depth`), on mutated real modules (glslang's, committed under
 //! `layer/fuzz-seeds/`; naga's, compiled from `shaders/` at test time) and, for the rewrite,
 //! fragment shaders generated as GLSL and compiled with naga.
@@ -12,9 +12,9 @@ use spirv_tools::val::{self, Validator as _};
 use spirv_tools::TargetEnv;
 
 use super::{hash_of, mutate_bytes, Counter, Rng, Target};
-use crate::fragment_depth::reverse_fragment_depth;
-use crate::shader_analysis::{analyze, analyze_vertex_entry_points, has_push_constants, Analysis};
-use crate::spirv_scan::{self, instructions, MAGIC};
+use crate::shader::analysis::{analyze, analyze_vertex_entry_points, has_push_constants, Analysis};
+use crate::shader::fragment_depth::reverse_fragment_depth;
+use crate::shader::scan::{self, instructions, MAGIC};
 
 /// Committed glslang modules (see `layer/fuzz-seeds/generate.sh`).
 macro_rules! seed_files {
@@ -90,7 +90,7 @@ fn seeds(files: &[&[u8]], stage: ShaderStage, glsl: &[&str]) -> Vec<Vec<u8>> {
 
 /// Word indices where the well-formed instructions after the header start.
 fn boundaries(words: &[u32]) -> Vec<usize> {
-    let mut at = spirv_scan::HEADER_WORDS;
+    let mut at = scan::HEADER_WORDS;
     let mut starts = Vec::new();
     let Some(all) = instructions(words) else {
         return starts;
@@ -191,7 +191,7 @@ pub fn mutate_spirv(rng: &mut Rng, corpus: &[Vec<u8>], input: &mut Vec<u8>) {
     let mut words = to_words(input);
     let rounds = if rng.one_in(3) { 2 + rng.below(3) } else { 1 };
     for _ in 0..rounds {
-        if words.len() < spirv_scan::HEADER_WORDS {
+        if words.len() < scan::HEADER_WORDS {
             words = to_words(rng.pick(corpus).as_slice());
             continue;
         }
@@ -359,7 +359,7 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
     } else if main == Analysis::NoPushConstants {
         return Err("has_push_constants, but analyze answers NoPushConstants".to_owned());
     }
-    let stripped = spirv_scan::for_analysis(&words);
+    let stripped = scan::for_analysis(&words);
     let read = stripped.as_deref().unwrap_or(&words);
     if let Ok(list) = &entries {
         if has {
@@ -391,7 +391,7 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
     }
     // The Position rewrite never panics, and what it returns passes spirv-val wherever the
     // module does.
-    let stored = match crate::position_store::rewrite_position_store(&words, 112) {
+    let stored = match crate::shader::position_store::rewrite_position_store(&words, 112) {
         Ok(Some(out)) => {
             if validates(&words).is_ok() {
                 if let Err(message) = validates(&out) {
@@ -404,8 +404,9 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
         Ok(None) => "unchanged".to_owned(),
         Err(reason) => reason.0.to_owned(),
     };
-    // The same for the deriving rewrite (projections in buffers, `crate::derived_range`).
-    let derived = match crate::position_store::rewrite_position_store_deriving(&words, 112) {
+    // The same for the deriving rewrite (projections in buffers, `crate::shader::derived_range`).
+    let derived = match crate::shader::position_store::rewrite_position_store_deriving(&words, 112)
+    {
         Ok(Some((out, source))) => {
             if validates(&words).is_ok() {
                 if let Err(message) = validates(&out) {

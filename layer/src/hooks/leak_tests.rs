@@ -35,8 +35,8 @@ use ash::vk::{self, Handle};
 
 use super::fake_chain::{self, hook_set, Event, Tables};
 use crate::objects;
+use crate::shader::test_spirv;
 use crate::state::{DeviceState, DispatchKey, DEVICES};
-use crate::test_spirv;
 
 const CHILD_ENV: &str = "REVZ_LEAK_CHILD";
 const CYCLES_ENV: &str = "REVZ_STRESS_CYCLES";

@@ -19,9 +19,11 @@ use ash::vk::{self, Handle};
 use super::fake_chain::{self, seen_pipeline, Event, PipelineOutcome, SeenPipeline, Tables};
 use super::{device, pipeline};
 use crate::command_state::PipelineDepth;
-use crate::fragment_depth::reverse_fragment_depth;
+use crate::shader::fragment_depth::reverse_fragment_depth;
+use crate::shader::test_spirv::{
+    self, fragment, refused_fragment, validate, FRAG_DEPTH, PLAIN, VERTEX,
+};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
-use crate::test_spirv::{self, fragment, refused_fragment, validate, FRAG_DEPTH, PLAIN, VERTEX};
 
 const D32: vk::Format = vk::Format::D32_SFLOAT;
 const COLOR: vk::Format = vk::Format::R8G8B8A8_UNORM;

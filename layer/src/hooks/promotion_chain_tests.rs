@@ -27,8 +27,8 @@ use super::fake_chain::{
 };
 use crate::objects::{RenderPassInfo, SecondaryPass};
 use crate::policy::ImageDepth;
+use crate::shader::test_spirv::{self, PLAIN};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
-use crate::test_spirv::{self, PLAIN};
 
 const D16: vk::Format = vk::Format::D16_UNORM;
 const D16_S8: vk::Format = vk::Format::D16_UNORM_S8_UINT;

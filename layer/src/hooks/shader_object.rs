@@ -1,6 +1,6 @@
 //! Shader objects (`VK_EXT_shader_object`): a fragment shader object that computes with depth
 //! (writes `FragDepth` or reads `FragCoord.z`) gets a reversed variant, the shader object of
-//! its code rewritten by [`crate::fragment_depth`], which draws into reversed attachments bind
+//! its code rewritten by [`crate::shader::fragment_depth`], which draws into reversed attachments bind
 //! in its place ([`crate::command_state`], from `vkCmdBindShadersEXT`).
 //!
 //! - The application's `vkCreateShadersEXT` goes down unchanged. Variants are created before
@@ -35,9 +35,9 @@ use super::device_state;
 use super::pipeline::{first_inline_report, Report};
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
-use crate::fragment_depth;
 use crate::objects::FragmentShader;
 use crate::precise;
+use crate::shader::fragment_depth;
 use crate::state::DeviceState;
 
 static CREATE_SHADERS: EntryPoint = EntryPoint::new("vkCreateShadersEXT");

@@ -14,10 +14,10 @@ use std::sync::Arc;
 use ash::vk::{self, Handle};
 
 use super::fake_chain::{self, hook_set, Event, SeenShader, Tables};
-use crate::fragment_depth::reverse_fragment_depth;
 use crate::objects::FragmentShader;
+use crate::shader::fragment_depth::reverse_fragment_depth;
+use crate::shader::test_spirv::{fragment, refused_fragment, validate, vertex, FRAG_DEPTH, PLAIN};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
-use crate::test_spirv::{fragment, refused_fragment, validate, vertex, FRAG_DEPTH, PLAIN};
 
 const D32: vk::Format = vk::Format::D32_SFLOAT;
 const LAYOUT: vk::ImageLayout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;

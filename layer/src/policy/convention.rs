@@ -8,6 +8,8 @@ use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 use ash::vk;
 
 use crate::command_state::{same_near_over_far, Target};
+use crate::config::Mode;
+use crate::precise::Outcome;
 
 /// The depth convention an application renders with, as revz decides it for a device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -135,6 +137,22 @@ impl Observed {
         }
     }
 
+    /// What the classification of a pushed projection tells, in a device of `mode`: evidence
+    /// of the convention, and (infinite mode only, where clears and flip-path state follow
+    /// it) the camera's n / f.
+    pub fn note_outcome(&self, mode: Mode, outcome: &Outcome) {
+        match outcome {
+            Outcome::Rewritten { near_over_far, .. } => {
+                self.note_projection(false);
+                if mode == Mode::Infinite {
+                    self.note_near_over_far(*near_over_far)
+                }
+            }
+            Outcome::AlreadyReversed => self.note_projection(true),
+            Outcome::Unchanged => {}
+        }
+    }
+
     /// Evidence: the application pushed a projection, reversed or standard.
     pub fn note_projection(&self, reversed: bool) {
         if self.decided() != UNDECIDED {
@@ -227,6 +245,32 @@ impl Observed {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_classified_projection_is_evidence_and_gives_n_over_f_only_in_infinite_mode() {
+        let rewritten = Outcome::Rewritten {
+            carrier: [0.0; 4],
+            near_over_far: 0.25,
+        };
+        for mode in [Mode::Complementary, Mode::Infinite] {
+            let observed = Observed::default();
+            observed.note_outcome(mode, &rewritten);
+            observed.note_outcome(mode, &Outcome::Unchanged);
+            let evidence = observed.evidence();
+            assert_eq!(
+                (evidence.standard_projection, evidence.reversed_projection),
+                (true, false)
+            );
+            let expected = if mode == Mode::Infinite {
+                0.25
+            } else {
+                Observed::default().near_over_far()
+            };
+            assert_eq!(observed.near_over_far(), expected, "{mode:?}");
+            observed.note_outcome(mode, &Outcome::AlreadyReversed);
+            assert!(observed.evidence().reversed_projection);
+        }
+    }
 
     #[test]
     fn strong_evidence_makes_reversed_targets_native() {

@@ -11,7 +11,8 @@
 //! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
 //! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
-//! | does a pipeline's vertex stage store reversed depth itself, and of which range (`crate::hooks::pipeline::plan::projection_of`, from the analysis of `crate::shader_analysis` and `crate::derived_range`) | where its projection comes from (push-constant bytes, a buffer the stage can fit from, neither), its clip convention (static or dynamic) | `vkCreateShaderModule`, `vkCreateGraphicsPipelines` |
+//! | is a pipeline a candidate for the precise path ([`vertex_stage::precise_candidate`]) | the mode, whether it renders depth, whether its create info defines its shaders | `vkCreateGraphicsPipelines` |
+//! | does a pipeline's vertex stage store reversed depth itself, and of which range ([`vertex_stage::VertexStageFacts::decide`]) | whether its code is given, its stages, the analysis of its vertex entry point (`crate::shader::analysis`), its layout's push-constant ranges and room for the carrier, its clip convention (static or dynamic), its module's `Position` rewrite and what that derives its range from (`crate::shader::position_store`, `crate::shader::derived_range`) | `vkCreateShaderModule` (or inline code, once per distinct code), `vkCreateGraphicsPipelines` |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
 //! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
@@ -41,6 +42,7 @@ mod copies;
 mod images;
 mod resolves;
 mod secondaries;
+pub mod vertex_stage;
 
 pub use compare_op::{CompareOpFacts, CompareOpSource};
 pub use convention::{Convention, ConventionEvidence, Observed};

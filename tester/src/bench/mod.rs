@@ -238,6 +238,11 @@ fn run_child(args: &BenchArgs, role: Role) -> Result<ExitCode> {
     })
 }
 
+/// The allocator settings every child runs with (unless the caller set `GLIBC_TUNABLES`): heap
+/// memory is neither trimmed nor mmapped below 256 MiB.
+pub const MALLOC_TUNABLES: &str =
+    "glibc.malloc.trim_threshold=268435456:glibc.malloc.mmap_threshold=268435456";
+
 /// One measurement the parent runs in every variant.
 #[derive(Clone, Debug, PartialEq)]
 enum Job {
@@ -354,6 +359,8 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
         "device": device,
         "driver": driver,
         "config": config,
+        // The children's allocator settings (see MALLOC_TUNABLES).
+        "glibc_tunables": std::env::var("GLIBC_TUNABLES").unwrap_or_else(|_| MALLOC_TUNABLES.into()),
         "elapsed_s": started.elapsed().as_secs_f64(),
         "speed": summary,
         "samples": samples,
@@ -433,6 +440,15 @@ fn run_one(
     let mut command = runner.command(variant, &argv, &settings);
     // Pipelines are created from scratch in every variant: no shader cache on disk.
     command.env("MESA_SHADER_CACHE_DISABLE", "true");
+    if std::env::var_os("GLIBC_TUNABLES").is_none() {
+        // glibc's adaptive heap trimming and mmap threshold return lavapipe's per-frame command
+        // memory to the kernel and fault it back in, at a rate that depends on the heap's
+        // layout (and so on whatever else is loaded): measured, a million page faults in a
+        // 10k-draw child without any layer, and 1.4x between runs of the same binary. Fixed
+        // thresholds make every variant's allocator behave alike; a GLIBC_TUNABLES of the
+        // caller's is kept.
+        command.env("GLIBC_TUNABLES", MALLOC_TUNABLES);
+    }
     let counts = std::env::temp_dir().join(format!(
         "revz-bench-counts-{}-{}.txt",
         std::process::id(),

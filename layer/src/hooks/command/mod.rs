@@ -27,7 +27,6 @@ use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{StateSink, Target};
-use crate::config::Mode;
 use crate::conv::{flip_resolve_mode, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
 use crate::policy::{secondary_target, Convention};
@@ -182,6 +181,11 @@ fn before_draw(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
 #[inline]
 fn settle(entry: &CommandBufferEntry, buffer: vk::CommandBuffer) {
     static ENTRY: EntryPoint = EntryPoint::new("depth state after a command");
+    // The common case (a push of the same camera, a bind that changes nothing revz sends):
+    // nothing pending, one load and no lock.
+    if !entry.settle_wanted() {
+        return;
+    }
     guarded(&ENTRY, || send_pending(entry, buffer, false), || ());
 }
 
@@ -193,19 +197,9 @@ pub(super) fn settle_down(down: &Option<Down>, buffer: vk::CommandBuffer) {
     }
 }
 
-/// What a classified projection tells about the application.
+/// What a classified projection tells about the application goes to the device's evidence.
 fn observe(device: &DeviceState, outcome: &Outcome) {
-    match outcome {
-        Outcome::Rewritten { near_over_far, .. } => {
-            device.observed.note_projection(false);
-            // Only infinite mode maps clears and flip-path state with n / f.
-            if device.policy.mode == Mode::Infinite {
-                device.observed.note_near_over_far(*near_over_far)
-            }
-        }
-        Outcome::AlreadyReversed => device.observed.note_projection(true),
-        Outcome::Unchanged => {}
-    }
+    device.observed.note_outcome(device.policy.mode, outcome);
 }
 
 /// `vkCmdPushConstants`: the values go into the command buffer's shadow copy, where the bound

@@ -30,12 +30,13 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, DepthBias};
-use crate::derived_range::MatrixSource;
-use crate::fragment_depth;
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
-use crate::position_store;
+use crate::policy::vertex_stage::{precise_candidate, Missing, VertexStageFacts};
 use crate::precise::{self, Carrier, ProjectionUse};
-use crate::shader_analysis::{self, Analysis};
+use crate::shader::analysis::{self, Analysis};
+use crate::shader::derived_range::MatrixSource;
+use crate::shader::fragment_depth;
+use crate::shader::position_store;
 use crate::state::DeviceState;
 use revz_math::DepthConvention;
 
@@ -110,10 +111,10 @@ struct Plan {
     /// dynamic: `DevicePolicy::compare_op_variants`).
     compare_op_variant: bool,
     /// The fragment stage (its index) the reversed variant gets rewritten
-    /// (`crate::fragment_depth`).
+    /// (`crate::shader::fragment_depth`).
     fragment: Option<(usize, Arc<[u32]>)>,
     /// The vertex stage (its index) rewritten to store the carrier's depth
-    /// (`crate::position_store`): the precise path. The application's pipeline itself (and
+    /// (`crate::shader::position_store`): the precise path. The application's pipeline itself (and
     /// its variant) is created with it: with the flip carrier it stores the shader's own z.
     vertex: Option<(usize, Arc<[u32]>)>,
     /// The libraries the create info links, with those that have a reversed variant replaced
@@ -299,14 +300,13 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     // be taken back every time, so such pipelines (and those linking them) get
                     // none.
                     plan.compare_op_variant &= !identified;
-                    let precise = state.policy.rewrite().is_some()
-                        && plan.renders_depth
-                        && context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
-                    if precise && identified {
-                        plan.flip_reason =
-                            Some("its code is not given (identifiers or binaries)".into());
-                    } else if precise {
-                        match projection_of(&state, info) {
+                    let candidate = precise_candidate(
+                        state.policy.rewrite().is_some(),
+                        plan.renders_depth,
+                        context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS),
+                    );
+                    if candidate {
+                        match projection_of(&state, info, !identified) {
                             Ok(stage) => {
                                 plan.depth.projection = stage.projection;
                                 plan.depth.derived_range = stage.derived;
@@ -349,7 +349,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
     );
 
     // The precise path's vertex stage: the application's pipeline itself (and its variant)
-    // is created with the rewritten module (`crate::position_store`). With the flip carrier
+    // is created with the rewritten module (`crate::shader::position_store`). With the flip carrier
     // it stores the shader's own z exactly, so one pipeline serves native and reversed
     // attachments, and no second pipeline is compiled for it. The stage arrays and modules
     // live until the calls below return.

@@ -50,7 +50,7 @@ pub(super) fn rewrite_fragment_module(
 /// The shader analysis of a module (at its creation, or of SPIR-V chained into a pipeline
 /// stage): a module naga cannot read is logged once, and its draws take the flip path.
 pub(super) fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> ModuleAnalysis {
-    let analysis = shader_analysis::analyze_vertex_entry_points(words);
+    let analysis = analysis::analyze_vertex_entry_points(words);
     let first = module != vk::ShaderModule::null() || first_inline_report(Report::Analysis, words);
     if let (Err(reason), true) = (&analysis, first) {
         log::warn!(
@@ -138,7 +138,7 @@ pub unsafe extern "system" fn create_shader_module(
             // Only a vertex stage's projection is analyzed (fragment and compute modules
             // with push constants are not parsed).
             if state.policy.rewrite().is_some()
-                && crate::spirv_scan::declares_vertex_entry_point(words)
+                && crate::shader::scan::declares_vertex_entry_point(words)
             {
                 let analysis = analyze_vertex_module(module, words);
                 if let Some(rewrite) = position_store_of(&state, &analysis, words) {

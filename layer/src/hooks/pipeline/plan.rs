@@ -168,117 +168,100 @@ pub(super) fn depth_convention(
     )
 }
 
-/// Where a pipeline's projection is in its push constants (the precise path), or why its draws
-/// take the flip path.
+/// The facts of a candidate pipeline's vertex stage, and what the policy makes of them
+/// ([`VertexStageFacts::decide`]): where its projection is (the precise path), or why its
+/// draws take the flip path.
 pub(super) fn projection_of(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
+    code_given: bool,
 ) -> Result<PreciseStage, String> {
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
     let later = vk::ShaderStageFlags::GEOMETRY
         | vk::ShaderStageFlags::TESSELLATION_EVALUATION
         | vk::ShaderStageFlags::MESH_EXT;
-    if stages.iter().any(|s| s.stage.intersects(later)) {
-        return Err("its last pre-rasterization stage is not a vertex shader".into());
-    }
-    let vertex = stages
+    let vertex_index = stages
         .iter()
-        .find(|s| s.stage == vk::ShaderStageFlags::VERTEX)
-        .ok_or("it has no vertex stage")?;
+        .position(|s| s.stage == vk::ShaderStageFlags::VERTEX);
+    let vertex = vertex_index.map(|index| &stages[index]);
     // SAFETY: null or valid (the application's contract).
     let dynamic = unsafe { info.p_dynamic_state.as_ref() }.map_or(&[][..], |d| unsafe {
         // SAFETY: `dynamicStateCount` entries.
         slice(d.p_dynamic_states, d.dynamic_state_count)
     });
-    // `None`: dynamic (`vkCmdSetDepthClipNegativeOneToOneEXT`, Zink's): known per draw, which
-    // only a stage deriving its range can follow.
-    let convention = depth_convention(info, dynamic);
-    let analysis = if vertex.module != vk::ShaderModule::null() {
-        state
-            .objects
-            .vertex_modules
-            .get(&vertex.module)
-            .ok_or("its vertex module is unknown")?
-    } else {
-        let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
-        inline_vertex(state, words).0
-    };
-    let entries = analysis
-        .as_ref()
-        .as_ref()
-        .map_err(|_| "naga cannot read its vertex module")?;
-    // SAFETY: a NUL-terminated entry point name (the application's contract).
-    let name = unsafe { crate::ffi::c_str(vertex.p_name) }.ok_or("no entry point name")?;
-    let slot = match entries
-        .iter()
-        .find(|(entry, _)| entry.as_bytes() == name.to_bytes())
-    {
-        Some((_, Analysis::Projection(slot))) => Some(slot),
-        Some((_, Analysis::Unreadable(reason))) => return Err(reason.clone()),
-        // Not from push constants, or a module without push constants (not parsed: no
-        // entries); the deriving rewrite has its single vertex entry point.
-        Some(_) | None => None,
-    };
-    let projection = match slot {
-        Some(slot) => {
-            let ranges = state
+    // The module's analysis and rewrite, or inline code's (made once per distinct code).
+    let (analysis, rewrite) = match vertex {
+        Some(vertex) if vertex.module != vk::ShaderModule::null() => (
+            state
                 .objects
-                .pipeline_layouts
-                .get(&info.layout)
-                .ok_or("its pipeline layout is unknown")?;
-            let convention = convention.ok_or("its depth clip convention is dynamic")?;
-            Some(ProjectionUse::new(slot, convention, &ranges).map_err(|e| e.to_string())?)
-        }
-        // The stage derives its range from the matrix it loads (`crate::derived_range`),
-        // which assumes [0, 1] clip depth: the [-1, 1] one would need the layer to change the
-        // pipeline's clip convention.
-        None if convention == Some(DepthConvention::NegativeOneToOne) => {
-            return Err(
-                "its projection is not in push constants and its clip depth is \
-                        [-1, 1] (VK_EXT_depth_clip_control)"
-                    .into(),
-            )
-        }
-        None => None,
+                .vertex_modules
+                .get(&vertex.module)
+                .ok_or("its vertex module is unknown"),
+            state
+                .objects
+                .position_stores
+                .get(&vertex.module)
+                .ok_or(Missing::NotMade(
+                    "its vertex module has no Position rewrite",
+                )),
+        ),
+        Some(vertex) => match inline_code(vertex) {
+            Some(words) => {
+                let (analysis, rewrite) = inline_vertex(state, words);
+                (
+                    Ok(analysis),
+                    rewrite.ok_or(Missing::NotMade("its vertex shader has no rewrite")),
+                )
+            }
+            None => (
+                Err("its vertex shader has no module"),
+                Err(Missing::NotMade("its vertex shader has no module")),
+            ),
+        },
+        None => (
+            Err("it has no vertex stage"),
+            Err(Missing::NotMade("it has no vertex stage")),
+        ),
     };
-    let carrier = state
-        .objects
-        .layout_carriers
-        .get(&info.layout)
-        .ok_or("its pipeline layout has no room for revz's push constants")?;
-    let rewrite = if vertex.module != vk::ShaderModule::null() {
-        state
-            .objects
-            .position_stores
-            .get(&vertex.module)
-            .ok_or("its vertex module has no Position rewrite")?
-    } else {
-        let words = inline_code(vertex).ok_or("its vertex shader has no module")?;
-        inline_vertex(state, words)
-            .1
-            .ok_or("its vertex shader has no rewrite")?
+    let rewrite = rewrite.and_then(|r| r.map_err(Missing::Unsupported));
+    // SAFETY: a NUL-terminated entry point name, when there is a vertex stage (the
+    // application's contract).
+    let name = vertex.and_then(|vertex| unsafe { crate::ffi::c_str(vertex.p_name) });
+    let entry = match &analysis {
+        Ok(analysis) => match (analysis.as_ref().as_ref(), name) {
+            (Err(_), _) => Err("naga cannot read its vertex module"),
+            (Ok(_), None) => Err("no entry point name"),
+            (Ok(entries), Some(name)) => Ok(entries
+                .iter()
+                .find(|(entry, _)| entry.as_bytes() == name.to_bytes())
+                .map(|(_, analysis)| analysis)),
+        },
+        Err(reason) => Err(*reason),
     };
-    let rewrite = rewrite.map_err(|reason| {
-        if projection.is_some() {
-            format!("its Position store cannot be rewritten ({reason})")
-        } else {
-            format!("its projection is not in push constants, and its vertex stage cannot derive its range ({reason})")
-        }
-    })?;
-    if projection.is_none() && rewrite.derived.is_none() {
-        return Err("Position does not come from a push-constant matrix".into());
+    let ranges = state.objects.pipeline_layouts.get(&info.layout);
+    let carrier = state.objects.layout_carriers.get(&info.layout);
+    let facts = VertexStageFacts {
+        code_given,
+        later_stage: stages.iter().any(|s| s.stage.intersects(later)),
+        has_vertex: vertex.is_some(),
+        analysis: entry,
+        ranges: ranges.as_deref(),
+        convention: depth_convention(info, dynamic),
+        carrier_room: carrier.is_some(),
+        rewrite: rewrite.as_ref().map(|r| r.derived).map_err(|m| *m),
+    };
+    let range = facts.decide()?;
+    match (carrier, rewrite, vertex_index) {
+        (Some(carrier), Ok(rewrite), Some(index)) => Ok(PreciseStage {
+            projection: range.projection,
+            derived: range.derived,
+            carrier,
+            vertex: (index, rewrite.code),
+        }),
+        // The policy found them all.
+        _ => Err("its vertex stage is incomplete".into()),
     }
-    let index = stages
-        .iter()
-        .position(|s| s.stage == vk::ShaderStageFlags::VERTEX)
-        .ok_or("it has no vertex stage")?;
-    Ok(PreciseStage {
-        projection,
-        derived: rewrite.derived,
-        carrier,
-        vertex: (index, rewrite.code),
-    })
 }
 
 /// How the promoted variants of a pipeline differ from it, if it needs them: its render pass

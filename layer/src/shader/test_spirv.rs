@@ -89,7 +89,7 @@ pub fn refused_fragment() -> Vec<u32> {
         OpFunctionEnd";
     let words = assemble(text);
     assert!(
-        crate::fragment_depth::reverse_fragment_depth(&words).is_err(),
+        crate::shader::fragment_depth::reverse_fragment_depth(&words).is_err(),
         "the rewrite refuses FragDepth read back"
     );
     words

@@ -6,8 +6,8 @@ use spirv_tools::val::{self, Validator as _};
 use spirv_tools::TargetEnv;
 
 use super::*;
-use crate::spirv_scan::instructions;
-use crate::test_spirv::{assemble, compile_glsl, validate};
+use crate::shader::scan::instructions;
+use crate::shader::test_spirv::{assemble, compile_glsl, validate};
 
 const OFFSET: u32 = 112;
 
@@ -333,7 +333,7 @@ fn modules_without_position_or_not_spirv_are_left_alone() {
         rewrite_position_store(&[1, 2, 3, 4, 5, 6], OFFSET),
         Ok(None)
     );
-    let fragment = crate::test_spirv::fragment(crate::test_spirv::PLAIN);
+    let fragment = crate::shader::test_spirv::fragment(crate::shader::test_spirv::PLAIN);
     assert!(
         rewrite_position_store(&fragment, OFFSET).is_err(),
         "a fragment entry point"
@@ -341,7 +341,7 @@ fn modules_without_position_or_not_spirv_are_left_alone() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The derived range (`crate::derived_range`): projections the CPU cannot read.
+// The derived range (`crate::shader::derived_range`): projections the CPU cannot read.
 
 fn derived(words: &[u32]) -> (Vec<u32>, MatrixSource) {
     let (out, source) = rewrite_position_store_deriving(words, OFFSET)

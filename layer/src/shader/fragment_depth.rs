@@ -21,8 +21,8 @@
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 
-use crate::spirv_scan::op::*;
-use crate::spirv_scan::{
+use crate::shader::scan::op::*;
+use crate::shader::scan::{
     instructions, instructions_at, is_literal, push, Instruction, HEADER_WORDS,
 };
 
@@ -378,7 +378,7 @@ fn swap_conservative_depth(mode: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_spirv;
+    use crate::shader::test_spirv;
     use proptest::prelude::*;
     use spirv_tools::val::{self, Validator as _};
     use spirv_tools::TargetEnv;

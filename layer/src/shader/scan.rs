@@ -141,7 +141,7 @@ pub fn for_analysis(words: &[u32]) -> Option<Vec<u32>> {
     removed.then_some(out)
 }
 
-/// The opcodes the word-level rewriters ([`crate::fragment_depth`], [`crate::position_store`])
+/// The opcodes the word-level rewriters ([`crate::shader::fragment_depth`], [`crate::shader::position_store`])
 /// read and write (SPIR-V specification, section 3.52).
 pub mod op {
     pub const OP_NAME: u32 = 5;
@@ -223,7 +223,7 @@ mod tests {
 
     #[test]
     fn only_modules_with_a_vertex_entry_point_are_analyzed() {
-        use crate::test_spirv::compile_glsl;
+        use crate::shader::test_spirv::compile_glsl;
         use naga::ShaderStage;
         let vertex = compile_glsl(
             ShaderStage::Vertex,

@@ -28,9 +28,11 @@
 use std::collections::{HashMap, HashSet};
 use std::fmt;
 
-use crate::derived_range::{self, Fit, Insert, MatrixSource, ModuleFacts, PositionStores, Types};
-use crate::spirv_scan::op::*;
-use crate::spirv_scan::{instructions, is_literal, push, Instruction, HEADER_WORDS};
+use crate::shader::derived_range::{
+    self, Fit, Insert, MatrixSource, ModuleFacts, PositionStores, Types,
+};
+use crate::shader::scan::op::*;
+use crate::shader::scan::{instructions, is_literal, push, Instruction, HEADER_WORDS};
 
 const STORAGE_PRIVATE: u32 = 6;
 const STORAGE_OUTPUT: u32 = 3;
@@ -64,7 +66,7 @@ pub fn rewrite_position_store(words: &[u32], offset: u32) -> Result<Option<Vec<u
 
 /// [`rewrite_position_store`] for a module whose projection revz cannot read on the CPU: the
 /// stage also fits the depth line of the outermost matrix it multiplies into `Position`
-/// ([`crate::derived_range`]) and stores reversed depth of that line where the pushed
+/// ([`crate::shader::derived_range`]) and stores reversed depth of that line where the pushed
 /// carrier's w selects it (1 complementary, 2 infinite; 0 keeps the pushed carrier, as in
 /// [`rewrite_position_store`]). Also says where that matrix comes from.
 pub fn rewrite_position_store_deriving(
@@ -138,14 +140,14 @@ struct Module {
     /// Every operand of type declarations that names a type (to find where a struct is used).
     type_uses: Vec<u32>,
     /// Constant composites and null constants outside functions: id -> (opcode, type), for a
-    /// constant matrix the derived range fits (`crate::derived_range`).
+    /// constant matrix the derived range fits (`crate::shader::derived_range`).
     global_opcodes: HashMap<u32, u32>,
     global_types: HashMap<u32, u32>,
     /// `OpTypeBool`, if declared.
     bool_type: Option<u32>,
     /// Types decorated `BufferBlock`.
     buffer_blocks: HashSet<u32>,
-    /// 32-bit constants whose word is the bits of 1.0 (`crate::derived_range`'s w = 1 test).
+    /// 32-bit constants whose word is the bits of 1.0 (`crate::shader::derived_range`'s w = 1 test).
     ones: HashSet<u32>,
 }
 

@@ -3,7 +3,7 @@
 //! constant, a literal), the vertex stage fits the depth line of the outermost matrix it
 //! multiplies into `Position` and stores reversed depth of that line.
 //!
-//! This module owns the two halves of that, word-level like [`crate::position_store`], which
+//! This module owns the two halves of that, word-level like [`crate::shader::position_store`], which
 //! calls it:
 //!
 //! - [`find`]: which matrix. Every store of a whole `Position` value must trace back (through
@@ -37,9 +37,9 @@ use revz_math::shader_fit::{
     AFFINE_W_TOLERANCE_SQUARED, FLIP_IN_SHADER, RESIDUAL_TOLERANCE_SQUARED,
 };
 
-use crate::position_store::Unsupported;
-use crate::spirv_scan::op::*;
-use crate::spirv_scan::{instructions, push, Instruction, HEADER_WORDS};
+use crate::shader::position_store::Unsupported;
+use crate::shader::scan::op::*;
+use crate::shader::scan::{instructions, push, Instruction, HEADER_WORDS};
 
 const OP_TYPE_BOOL: u32 = 20;
 const OP_CONSTANT_COMPOSITE: u32 = 44;
@@ -124,7 +124,7 @@ pub struct Leaf {
     pub source: MatrixSource,
 }
 
-/// How `Position` is stored, as [`crate::position_store`]'s body pass saw it.
+/// How `Position` is stored, as [`crate::shader::position_store`]'s body pass saw it.
 #[derive(Debug, Default)]
 pub struct PositionStores {
     /// Values stored into the whole `Position`.

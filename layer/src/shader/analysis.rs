@@ -54,7 +54,7 @@ use naga::{
     Module, ShaderStage, Statement, TypeInner,
 };
 
-use crate::spirv_scan::{instructions, Instruction};
+use crate::shader::scan::{instructions, Instruction};
 
 /// `OpVariable`.
 const OP_VARIABLE: u32 = 59;
@@ -240,7 +240,7 @@ pub fn analyze_vertex_entry_points(words: &[u32]) -> Result<Vec<(String, Analysi
     if !scan_push_constants(words)? {
         return Ok(Vec::new());
     }
-    let stripped = crate::spirv_scan::for_analysis(words);
+    let stripped = crate::shader::scan::for_analysis(words);
     let words = stripped.as_deref().unwrap_or(words);
     let module = parse(words)?;
     catch_unwind(AssertUnwindSafe(|| {
@@ -962,11 +962,11 @@ fn collect_calls(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::spirv_scan::{HEADER_WORDS, MAGIC};
+    use crate::shader::scan::{HEADER_WORDS, MAGIC};
 
     /// Compiles a GLSL vertex shader to SPIR-V with naga (no coordinate-space adjustment).
     fn compile(source: &str) -> Vec<u32> {
-        crate::test_spirv::compile_glsl(ShaderStage::Vertex, source)
+        crate::shader::test_spirv::compile_glsl(ShaderStage::Vertex, source)
     }
 
     fn analyze_glsl(source: &str) -> Analysis {
@@ -1018,7 +1018,7 @@ mod tests {
             "gl_Position = pc.mvp * vec4(position, 1.0);",
         );
         assert_eq!(analyze_glsl(&inline), column_major_mat4(0));
-        let scene = include_str!("../../shaders/scene.vert");
+        let scene = include_str!("../../../shaders/scene.vert");
         assert_eq!(analyze_glsl(scene), column_major_mat4(0));
     }
 
@@ -1158,7 +1158,7 @@ mod tests {
 
     #[test]
     fn unknown_entry_point_or_stage() {
-        let words = compile(include_str!("../../shaders/scene.vert"));
+        let words = compile(include_str!("../../../shaders/scene.vert"));
         assert_eq!(
             analyze(&words, "other", ShaderStage::Vertex),
             Analysis::NotFromPushConstants
@@ -1182,7 +1182,7 @@ mod tests {
             Analysis::NoPushConstants
         );
         assert!(has_push_constants(&compile(include_str!(
-            "../../shaders/scene.vert"
+            "../../../shaders/scene.vert"
         ))));
         // Well-formed words naga would reject (an unknown opcode): the pre-filter answers
         // without parsing.
@@ -1249,7 +1249,7 @@ mod tests {
         // Every truncation of a real module: cut inside an instruction it is unreadable; cut
         // between two, naga may read a module without the function bodies (then `Position`
         // comes from nowhere), but never finds a projection.
-        let words = compile(include_str!("../../shaders/scene.vert"));
+        let words = compile(include_str!("../../../shaders/scene.vert"));
         for len in 0..words.len() {
             let analysis = analyze(&words[..len], "main", ShaderStage::Vertex);
             assert!(
@@ -1298,7 +1298,7 @@ mod tests {
     fn what_naga_rejects_but_the_analysis_does_not_need_is_removed_first() {
         // The scene shader with a Slang/DXC-style preamble naga refuses: a capability it does
         // not list, an extension it does not know, and a non-semantic instruction set.
-        let mut words = compile(include_str!("../../shaders/scene.vert"));
+        let mut words = compile(include_str!("../../../shaders/scene.vert"));
         let bound = words[3];
         words[3] = bound + 1;
         let mut preamble = vec![(2 << 16) | 17, 4427]; // OpCapability DrawParameters
@@ -1315,8 +1315,8 @@ mod tests {
         let entries = analyze_vertex_entry_points(&words).expect("readable once stripped");
         assert_eq!(entries, vec![("main".to_owned(), column_major_mat4(0))]);
         // Stripping keeps a module naga already reads as it is.
-        let plain = compile(include_str!("../../shaders/scene.vert"));
-        let stripped = crate::spirv_scan::for_analysis(&plain);
+        let plain = compile(include_str!("../../../shaders/scene.vert"));
+        let stripped = crate::shader::scan::for_analysis(&plain);
         assert!(stripped.is_none_or(|words| parse(&words).is_ok()));
     }
 }

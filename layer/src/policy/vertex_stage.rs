@@ -1,0 +1,321 @@
+//! Whether a pipeline's draws can take the precise path: its vertex stage stores reversed
+//! depth itself (`crate::shader::position_store`), on the line of a projection found in its
+//! push constants, or of one it fits from the matrix it loads from a buffer
+//! (`crate::shader::derived_range`). Otherwise its draws take the flip path, for the reason
+//! returned (logged, and shown in the depth profile).
+//!
+//! The facts come from `vkCreateShaderModule` (each module's analysis and `Position` rewrite,
+//! or those of inline code, made once per distinct code) and `vkCreateGraphicsPipelines` (the
+//! stages, the clip convention, the layout); `crate::hooks::pipeline::plan` gathers them.
+
+use ash::vk;
+use revz_math::DepthConvention;
+
+use crate::precise::ProjectionUse;
+use crate::shader::analysis::Analysis;
+use crate::shader::derived_range::MatrixSource;
+use crate::shader::position_store::Unsupported;
+
+/// Whether a pipeline is a candidate for the precise path at all: the mode rewrites
+/// projections, the pipeline renders depth, and its create info defines the
+/// pre-rasterization shaders (a library of other subsets has no vertex stage to rewrite).
+#[must_use]
+pub fn precise_candidate(mode_rewrites: bool, renders_depth: bool, defines_shaders: bool) -> bool {
+    mode_rewrites && renders_depth && defines_shaders
+}
+
+/// What revz knows of a candidate pipeline's vertex stage.
+#[derive(Clone, Copy, Debug)]
+pub struct VertexStageFacts<'a> {
+    /// Its shader code is given (not only module identifiers or a pipeline binary).
+    pub code_given: bool,
+    /// A geometry, tessellation or mesh stage comes after (or instead of) the vertex stage.
+    pub later_stage: bool,
+    /// It has a vertex stage.
+    pub has_vertex: bool,
+    /// The analysis of its vertex entry point: `Ok(None)` where the module holds no entry
+    /// point analyzed (a module without push constants is not parsed); `Err` where revz could
+    /// not get one (unknown module, no code, naga cannot read it, no entry point name).
+    pub analysis: Result<Option<&'a Analysis>, &'static str>,
+    /// Its pipeline layout's push-constant ranges, if revz knows the layout.
+    pub ranges: Option<&'a [vk::PushConstantRange]>,
+    /// Its clip depth convention; `None` where dynamic
+    /// (`vkCmdSetDepthClipNegativeOneToOneEXT`, known per draw).
+    pub convention: Option<DepthConvention>,
+    /// Its layout has room for revz's carrier.
+    pub carrier_room: bool,
+    /// Its vertex module's `Position` rewrite: where its stage derives the range from (`None`:
+    /// it does not), or why it has none.
+    pub rewrite: Result<Option<MatrixSource>, Missing>,
+}
+
+/// Why a vertex module has no `Position` rewrite.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Missing {
+    /// revz holds none for it (the reason).
+    NotMade(&'static str),
+    /// The rewrite cannot be made.
+    Unsupported(Unsupported),
+}
+
+/// Where a precise pipeline's vertex stage gets the range it stores depth with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VertexRange {
+    /// The projection in its push constants, classified per push.
+    pub projection: Option<ProjectionUse>,
+    /// The matrix the stage loads and fits itself.
+    pub derived: Option<MatrixSource>,
+}
+
+impl VertexStageFacts<'_> {
+    /// The precise path's range, or why the pipeline's draws take the flip path. The first
+    /// reason in the order below is the one given.
+    pub fn decide(&self) -> Result<VertexRange, String> {
+        if !self.code_given {
+            return Err("its code is not given (identifiers or binaries)".into());
+        }
+        if self.later_stage {
+            return Err("its last pre-rasterization stage is not a vertex shader".into());
+        }
+        if !self.has_vertex {
+            return Err("it has no vertex stage".into());
+        }
+        let slot = match self.analysis? {
+            Some(Analysis::Projection(slot)) => Some(slot),
+            Some(Analysis::Unreadable(reason)) => return Err(reason.clone()),
+            // Not from push constants, or a module without push constants; the deriving
+            // rewrite has its single vertex entry point.
+            Some(_) | None => None,
+        };
+        let projection = match slot {
+            Some(slot) => {
+                let ranges = self.ranges.ok_or("its pipeline layout is unknown")?;
+                let convention = self
+                    .convention
+                    .ok_or("its depth clip convention is dynamic")?;
+                Some(ProjectionUse::new(slot, convention, ranges).map_err(|e| e.to_string())?)
+            }
+            // The derived range assumes [0, 1] clip depth: the [-1, 1] one would need the layer
+            // to change the pipeline's clip convention.
+            None if self.convention == Some(DepthConvention::NegativeOneToOne) => {
+                return Err(
+                    "its projection is not in push constants and its clip depth is \
+                            [-1, 1] (VK_EXT_depth_clip_control)"
+                        .into(),
+                )
+            }
+            None => None,
+        };
+        if !self.carrier_room {
+            return Err("its pipeline layout has no room for revz's push constants".into());
+        }
+        let derived = match self.rewrite {
+            Ok(derived) => derived,
+            Err(Missing::NotMade(reason)) => return Err(reason.into()),
+            Err(Missing::Unsupported(reason)) if projection.is_some() => {
+                return Err(format!("its Position store cannot be rewritten ({reason})"))
+            }
+            Err(Missing::Unsupported(reason)) => {
+                return Err(format!(
+                    "its projection is not in push constants, and its vertex stage cannot \
+                     derive its range ({reason})"
+                ))
+            }
+        };
+        if projection.is_none() && derived.is_none() {
+            return Err("Position does not come from a push-constant matrix".into());
+        }
+        Ok(VertexRange {
+            projection,
+            derived,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shader::analysis::ProjectionSlot;
+
+    fn slot() -> ProjectionSlot {
+        ProjectionSlot {
+            offset: 0,
+            matrix_stride: 16,
+            row_major: false,
+            columns: 4,
+            rows: 4,
+        }
+    }
+
+    const RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
+        stage_flags: vk::ShaderStageFlags::VERTEX,
+        offset: 0,
+        size: 64,
+    }];
+
+    /// A vertex stage whose projection is in push constants, everything revz needs known.
+    fn pushed(analysis: &Analysis) -> VertexStageFacts<'_> {
+        VertexStageFacts {
+            code_given: true,
+            later_stage: false,
+            has_vertex: true,
+            analysis: Ok(Some(analysis)),
+            ranges: Some(&RANGES),
+            convention: Some(DepthConvention::ZeroToOne),
+            carrier_room: true,
+            rewrite: Ok(None),
+        }
+    }
+
+    #[test]
+    fn a_projection_in_push_constants_with_a_rewritten_store_takes_the_precise_path() {
+        let analysis = Analysis::Projection(slot());
+        let range = pushed(&analysis).decide().unwrap();
+        assert_eq!(range.projection.map(|p| p.offset), Some(0));
+        assert_eq!(range.derived, None);
+    }
+
+    #[test]
+    fn a_stage_that_derives_its_range_takes_the_precise_path_without_a_pushed_projection() {
+        let analysis = Analysis::NotFromPushConstants;
+        let facts = VertexStageFacts {
+            rewrite: Ok(Some(MatrixSource::UniformBuffer)),
+            ..pushed(&analysis)
+        };
+        assert_eq!(
+            facts.decide(),
+            Ok(VertexRange {
+                projection: None,
+                derived: Some(MatrixSource::UniformBuffer)
+            })
+        );
+        // Without the rewrite's fit there is nothing to store depth with.
+        let facts = VertexStageFacts {
+            rewrite: Ok(None),
+            ..facts
+        };
+        assert_eq!(
+            facts.decide().unwrap_err(),
+            "Position does not come from a push-constant matrix"
+        );
+    }
+
+    #[test]
+    fn each_missing_fact_gives_its_reason_in_order() {
+        let analysis = Analysis::Projection(slot());
+        let base = pushed(&analysis);
+        let reason = |facts: VertexStageFacts<'_>| facts.decide().unwrap_err();
+        let cases: Vec<(VertexStageFacts<'_>, &str)> = vec![
+            (
+                VertexStageFacts {
+                    code_given: false,
+                    later_stage: true,
+                    ..base
+                },
+                "its code is not given",
+            ),
+            (
+                VertexStageFacts {
+                    later_stage: true,
+                    has_vertex: false,
+                    ..base
+                },
+                "its last pre-rasterization stage is not a vertex shader",
+            ),
+            (
+                VertexStageFacts {
+                    has_vertex: false,
+                    ..base
+                },
+                "it has no vertex stage",
+            ),
+            (
+                VertexStageFacts {
+                    analysis: Err("naga cannot read its vertex module"),
+                    ..base
+                },
+                "naga cannot read",
+            ),
+            (
+                VertexStageFacts {
+                    ranges: None,
+                    ..base
+                },
+                "its pipeline layout is unknown",
+            ),
+            (
+                VertexStageFacts {
+                    convention: None,
+                    ..base
+                },
+                "its depth clip convention is dynamic",
+            ),
+            (
+                VertexStageFacts {
+                    carrier_room: false,
+                    ..base
+                },
+                "no room for revz's push constants",
+            ),
+            (
+                VertexStageFacts {
+                    rewrite: Err(Missing::NotMade(
+                        "its vertex module has no Position rewrite",
+                    )),
+                    ..base
+                },
+                "has no Position rewrite",
+            ),
+            (
+                VertexStageFacts {
+                    rewrite: Err(Missing::Unsupported(Unsupported("two stores"))),
+                    ..base
+                },
+                "its Position store cannot be rewritten (",
+            ),
+        ];
+        for (facts, expected) in cases {
+            let got = reason(facts);
+            assert!(got.contains(expected), "{got:?} does not say {expected:?}");
+        }
+        let unreadable = Analysis::Unreadable("a loop".into());
+        assert_eq!(reason(pushed(&unreadable)), "a loop");
+    }
+
+    #[test]
+    fn a_stage_without_a_pushed_projection_needs_zero_to_one_clip_depth_and_a_fit() {
+        let analysis = Analysis::NotFromPushConstants;
+        let facts = VertexStageFacts {
+            convention: Some(DepthConvention::NegativeOneToOne),
+            rewrite: Ok(Some(MatrixSource::UniformBuffer)),
+            ..pushed(&analysis)
+        };
+        assert!(facts.decide().unwrap_err().contains("[-1, 1]"));
+        // A dynamic convention is followed per draw by a deriving stage.
+        let facts = VertexStageFacts {
+            convention: None,
+            ..facts
+        };
+        assert!(facts.decide().is_ok());
+        let facts = VertexStageFacts {
+            rewrite: Err(Missing::Unsupported(Unsupported("two stores"))),
+            ..facts
+        };
+        assert!(facts
+            .decide()
+            .unwrap_err()
+            .starts_with("its projection is not in push constants, and its vertex stage cannot"));
+    }
+
+    #[test]
+    fn only_depth_rendering_pipelines_defining_their_shaders_in_a_rewriting_mode_are_candidates() {
+        assert!(precise_candidate(true, true, true));
+        for facts in [
+            (false, true, true),
+            (true, false, true),
+            (true, true, false),
+        ] {
+            assert!(!precise_candidate(facts.0, facts.1, facts.2));
+        }
+    }
+}
