@@ -679,6 +679,15 @@ impl CommandState {
         (outcome, self.fold(layout, stages, offset, outcome))
     }
 
+    /// The bytes of a push [`Self::push_constants`] just returned, written into `out`.
+    pub fn folded_bytes<'a>(
+        &self,
+        folded: &FoldedPush,
+        out: &'a mut [u8; crate::precise::PUSH_CONSTANT_BYTES],
+    ) -> &'a [u8] {
+        self.push.folded_bytes(folded, out)
+    }
+
     /// The push returned by [`Self::push_constants`] was not sent extended: the next draw
     /// sends the carrier.
     pub fn unfold(&mut self) {
@@ -1897,9 +1906,12 @@ mod tests {
         };
         let folded = folded.expect("the carrier goes with the push");
         assert_eq!((folded.offset, folded.size), (0, 128));
-        assert_eq!(folded.bytes[..64], data[..]);
-        assert_eq!(folded.bytes[64..112], [0; 48], "bytes never pushed");
-        assert_eq!(folded.bytes[112..128], Carrier::bytes(&carrier));
+        let mut out = [0xAA; crate::precise::PUSH_CONSTANT_BYTES];
+        let bytes = state.folded_bytes(&folded, &mut out);
+        assert_eq!(bytes.len(), 128);
+        assert_eq!(bytes[..64], data[..]);
+        assert_eq!(bytes[64..112], [0; 48], "bytes never pushed");
+        assert_eq!(bytes[112..128], Carrier::bytes(&carrier));
         // The draw has nothing to push; the same camera's next matrix goes down as it is.
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);

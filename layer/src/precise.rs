@@ -370,13 +370,15 @@ fn classify_line(
 }
 
 /// An application's push extended to revz's carrier ([`PushConstants::fold_carrier`]): what
-/// goes down in its place.
-#[derive(Clone, Copy, Debug)]
+/// goes down in its place, bytes `offset..offset + size` of the block. Small on purpose: it
+/// travels through the per-push path, and its bytes are written only where it goes down
+/// ([`PushConstants::folded_bytes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FoldedPush {
     pub offset: u32,
     pub size: u32,
-    /// The first `size` bytes are the values.
-    pub bytes: [u8; PUSH_CONSTANT_BYTES],
+    /// The carrier's values, in its last [`CARRIER_BYTES`].
+    carrier: [f32; 4],
 }
 
 /// Where [`crate::command_state::CommandState`] sends revz's own push constants (the next
@@ -452,6 +454,13 @@ struct SameCamera {
 }
 
 /// The 4-byte words `[start, end)` covers (both clamped to [`PUSH_CONSTANT_BYTES`]).
+/// Whether two matrices' bits are equal, compared without a call (`==` on the arrays calls
+/// `memcmp`, a tenth of a push's cost in a profile).
+#[inline]
+fn same_bits(a: &[u32; 16], b: &[u32; 16]) -> bool {
+    a.iter().zip(b).fold(0, |differ, (x, y)| differ | (x ^ y)) == 0
+}
+
 fn word_mask(start: usize, end: usize) -> u64 {
     let (first, last) = (start / 4, end.div_ceil(4).min(64));
     if first >= last {
@@ -500,7 +509,7 @@ impl PushConstants {
         let values = use_.read(&self.bytes);
         let bits = values.map(f32::to_bits);
         if let Some((last_bits, storage, convention, generation, outcome)) = &self.last {
-            if *last_bits == bits
+            if same_bits(last_bits, &bits)
                 && *storage == use_.storage
                 && *convention == use_.convention
                 && *generation == self.generation
@@ -508,7 +517,28 @@ impl PushConstants {
                 return Some(*outcome);
             }
         }
-        let line = DepthLine::of(&read_clip_transform(&values, use_.storage));
+        // The same camera's next matrix, recognized without computing its line (most pushes
+        // of a frame): what the match below would conclude, on a sufficient test.
+        let surely_same = self.same_camera.as_ref().and_then(|same| {
+            (same.generation == self.generation
+                && same.convention == use_.convention
+                && same.target == target
+                && same.line.surely_holds(&values, use_.storage))
+            .then_some((same.index, same.outcome))
+        });
+        if let Some((index, outcome)) = surely_same {
+            self.cameras.touch(index);
+            self.count_match(Some(index));
+            self.last = Some((
+                bits,
+                use_.storage,
+                use_.convention,
+                self.generation,
+                outcome,
+            ));
+            return Some(outcome);
+        }
+        let line = DepthLine::of_stored(&values, use_.storage);
         let outcome = match (line, self.same_camera) {
             (Some(line), Some(same))
                 if same.generation == self.generation
@@ -587,19 +617,33 @@ impl PushConstants {
         if stages != carrier.stages || offset < carrier.range_offset || offset >= carrier.offset {
             return None;
         }
-        let (start, carrier_at) = (offset as usize, carrier.offset as usize);
-        let end = carrier_at + CARRIER_BYTES as usize;
-        if end > PUSH_CONSTANT_BYTES {
+        let end = carrier.offset + CARRIER_BYTES;
+        if end as usize > PUSH_CONSTANT_BYTES {
             return None;
         }
-        let mut bytes = [0u8; PUSH_CONSTANT_BYTES];
-        bytes[..carrier_at - start].copy_from_slice(&self.bytes[start..carrier_at]);
-        bytes[carrier_at - start..end - start].copy_from_slice(&Carrier::bytes(values));
         Some(FoldedPush {
             offset,
-            size: (end - start) as u32,
-            bytes,
+            size: end - offset,
+            carrier: *values,
         })
+    }
+
+    /// The bytes of `folded`, written into `out`: the shadow copy's from its offset to the
+    /// carrier (the application's values just pushed, then its earlier ones or zeros where it
+    /// pushed none), then the carrier. The shadow must be as it was when `folded` was made.
+    pub fn folded_bytes<'a>(
+        &self,
+        folded: &FoldedPush,
+        out: &'a mut [u8; PUSH_CONSTANT_BYTES],
+    ) -> &'a [u8] {
+        let (start, end) = (
+            folded.offset as usize,
+            (folded.offset + folded.size) as usize,
+        );
+        let carrier_at = end - CARRIER_BYTES as usize;
+        out[..carrier_at - start].copy_from_slice(&self.bytes[start..carrier_at]);
+        out[carrier_at - start..end - start].copy_from_slice(&Carrier::bytes(&folded.carrier));
+        &out[..end - start]
     }
 
     /// The layout of the application's last push (null before the first).

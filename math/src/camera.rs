@@ -97,9 +97,10 @@
 //!
 //! Hot-path use: fixed-size storage, no allocation, no panics.
 
-use glam::DMat4;
+use glam::{DMat4, DVec4};
 
 use crate::classify::{AFFINE_W_TOLERANCE, RESIDUAL_TOLERANCE};
+use crate::matrix::Storage;
 use crate::precision::F32_UNIT_ROUNDOFF;
 use crate::range::{DepthCoefficients, DepthConvention, DepthDirection, VisibleRange};
 
@@ -165,7 +166,97 @@ impl DepthLine {
         if !m.is_finite() {
             return None;
         }
-        let (depth_row, w_row) = (m.row(2), m.row(3));
+        Self::of_rows(m.row(2), m.row(3))
+    }
+
+    /// [`Self::of`] the matrix stored as `values` in `storage` order
+    /// ([`crate::read_clip_transform`]), reading only its depth and w rows (the same f64
+    /// values, so the same bits): the per-push path.
+    #[must_use]
+    pub fn of_stored(values: &[f32; 16], storage: Storage) -> Option<Self> {
+        if !values.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        // Entry (row, column) of M: column-major storage holds it at column * 4 + row.
+        let at = |row: usize, column: usize| {
+            f64::from(match storage {
+                Storage::ColumnMajor => values[column * 4 + row],
+                Storage::RowMajor => values[row * 4 + column],
+            })
+        };
+        let row = |r: usize| DVec4::new(at(r, 0), at(r, 1), at(r, 2), at(r, 3));
+        Self::of_rows(row(2), row(3))
+    }
+
+    /// Whether the matrix stored as `values` surely has a line ([`Self::of_stored`]) that
+    /// agrees with this one ([`Self::agrees_with`]) and does not improve it (its
+    /// [`Self::relative_b_error`] is not below this line's): what the same-camera shortcut
+    /// asks of every pushed matrix, answered without a square root or a division.
+    ///
+    /// `true` implies all three (each bound is met with a relative margin of 1e-6; the f64
+    /// rounding of these sums and of the line's own is about 1e-15 of their terms, against
+    /// bounds of at least 5e-7 of them); `false` says nothing, and the caller
+    /// computes the line. How: with `e = d - k w` for this line's `k` (`d`, `w` the depth and w
+    /// rows' xyz), the matrix's own `k'` is within `|e.w| / |w|^2` of `k`, its B within
+    /// `|d.w - k w.w - B| + |k' - k| |w.w|` of this B, its error bounds at least their rounding
+    /// terms, and its off-line part at most `|e|`; each test below is one of these bounds
+    /// multiplied through by `|w|^2`.
+    #[must_use]
+    pub fn surely_holds(&self, values: &[f32; 16], storage: Storage) -> bool {
+        // Entries far from overflow and underflow in the products below.
+        const LARGEST: f32 = 1e18;
+        const MARGIN: f64 = 1.0 - 1e-6;
+        if !values.iter().all(|v| v.abs() <= LARGEST) {
+            return false;
+        }
+        let v = |i: usize| f64::from(values[i]);
+        let (d, w) = match storage {
+            Storage::ColumnMajor => (
+                DVec4::new(v(2), v(6), v(10), v(14)),
+                DVec4::new(v(3), v(7), v(11), v(15)),
+            ),
+            Storage::RowMajor => (
+                DVec4::new(v(8), v(9), v(10), v(11)),
+                DVec4::new(v(12), v(13), v(14), v(15)),
+            ),
+        };
+        let (d_xyz, w_xyz) = (d.truncate(), w.truncate());
+        let w2 = w_xyz.length_squared();
+        let a = w.w.abs();
+        // Not affine (with room), and |w|^2 far from underflow.
+        if !(w2 >= 1e-18 && w2 > 4.0 * (AFFINE_W_TOLERANCE * a) * (AFFINE_W_TOLERANCE * a)) {
+            return false;
+        }
+        let e = d_xyz - self.k * w_xyz;
+        // The residual: |d - k' w| <= |e| <= RESIDUAL_TOLERANCE |d| / 2.
+        if e.length_squared()
+            > 0.25 * (RESIDUAL_TOLERANCE * RESIDUAL_TOLERANCE) * d_xyz.length_squared()
+        {
+            return false;
+        }
+        // |k' - k| W = q; |k'| W >= |k| W - q.
+        let q = e.dot(w_xyz).abs();
+        let k_lo_w = (self.k.abs() * w2 - q).max(0.0);
+        // (2): |k' - k| <= k_error + k'_error, with k'_error >= ROUNDING |k'|.
+        if q > MARGIN * (self.k_error * w2 + ROUNDING * k_lo_w) {
+            return false;
+        }
+        // (3): |B' - B| <= b_error + B'_error, with B'_error >= ROUNDING (|d.w| + 2 |k'| |w.w|).
+        let c0 = (d.w - self.k * w.w - self.b).abs();
+        let b_distance_w = c0 * w2 + q * a;
+        let own_b_error_w = ROUNDING * (d.w.abs() * w2 + 2.0 * k_lo_w * a);
+        if b_distance_w > MARGIN * (self.b_error * w2 + own_b_error_w) {
+            return false;
+        }
+        // (4): B'_error / |B'| >= b_error / |B|, with |B'| <= |B| + |B' - B|, multiplied by
+        // |B|. Where B = 0 this line's relative error is infinite, which no matrix is surely
+        // at least: no.
+        let b = self.b.abs();
+        b > 0.0 && MARGIN * own_b_error_w * b >= self.b_error * (b * w2 + b_distance_w)
+    }
+
+    /// The line of a matrix with these (finite) depth and w rows.
+    fn of_rows(depth_row: DVec4, w_row: DVec4) -> Option<Self> {
         let w_xyz_length = w_row.truncate().length();
         // Affine, as classify decides it; also the zero w row (0 <= 0). The entries are finite.
         if w_xyz_length <= AFFINE_W_TOLERANCE * w_row.w.abs() {

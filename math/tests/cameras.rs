@@ -1140,3 +1140,202 @@ fn bare_projection_lines() {
     assert_eq!(range.near(), 0.25);
     assert!(range.is_infinite());
 }
+
+// ---------------------------------------------------------------------------------------------
+// The per-push reading of a stored matrix
+
+/// A float32 entry: mostly ordinary values of any magnitude, sometimes zero, an infinity or NaN.
+fn entry() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        8 => -1e6f32..1e6f32,
+        2 => -2.0f32..2.0f32,
+        1 => Just(0.0f32),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::NAN),
+    ]
+}
+
+proptest! {
+    /// `DepthLine::of_stored` reads only the depth and w rows, and gives the very line (the same
+    /// bits, the same `None`s) `DepthLine::of` gives for the whole matrix.
+    #[test]
+    fn the_line_of_stored_values_is_the_line_of_the_matrix_they_store(
+        values in prop::array::uniform16(entry()),
+        row_major in any::<bool>(),
+        projection in any::<bool>(),
+    ) {
+        let mut values = values;
+        if projection {
+            // A perspective-shaped w row, so that lines (not only `None`s) are compared.
+            values[3] = 0.0;
+            values[7] = 0.0;
+            values[11] = -1.0;
+            values[15] = 0.0;
+        }
+        let storage = if row_major { revz_math::Storage::RowMajor } else { revz_math::Storage::ColumnMajor };
+        let whole = DepthLine::of(&revz_math::read_clip_transform(&values, storage));
+        let rows = DepthLine::of_stored(&values, storage);
+        prop_assert_eq!(whole.map(|l| (l.k.to_bits(), l.b.to_bits(), l.k_error.to_bits(), l.b_error.to_bits())),
+            rows.map(|l| (l.k.to_bits(), l.b.to_bits(), l.k_error.to_bits(), l.b_error.to_bits())));
+    }
+}
+
+#[test]
+fn a_stored_perspective_has_the_line_of_its_matrix() {
+    let m = dcamera::rh::proj::vulkan::perspective(1.0, 1.5, 0.5, 50.0)
+        * DMat4::from_translation(DVec3::new(0.3, -2.0, -7.0));
+    let values = m.as_mat4().to_cols_array();
+    let line = DepthLine::of_stored(&values, revz_math::Storage::ColumnMajor)
+        .expect("a perspective has a line");
+    let whole = DepthLine::of(&revz_math::read_clip_transform(
+        &values,
+        revz_math::Storage::ColumnMajor,
+    ));
+    assert_eq!(Some(line), whole);
+    let transposed = m.transpose().as_mat4().to_cols_array();
+    assert_eq!(
+        DepthLine::of_stored(&transposed, revz_math::Storage::RowMajor),
+        whole
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// The same-camera shortcut's test without the line
+
+/// What the same-camera shortcut needs of `values` against the camera's `line`, computed the
+/// long way (the line, then the comparisons).
+fn holds_exactly(line: &DepthLine, values: &[f32; 16], storage: revz_math::Storage) -> bool {
+    DepthLine::of_stored(values, storage).is_some_and(|own| {
+        line.agrees_with(&own) && own.relative_b_error() >= line.relative_b_error()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// `surely_holds` never says yes where the long way says no: for one camera's P * V * M
+    /// (objects near and far, rounded once or composed in float32), and for the same entries
+    /// perturbed.
+    #[test]
+    fn surely_holds_implies_what_the_line_says(
+        near in 0.01f64..10.0,
+        far_over_near in 10.0f64..1e6,
+        fovy in 0.3f64..2.0,
+        eye in prop::array::uniform3(-1e3f64..1e3),
+        target in prop::array::uniform3(-1e3f64..1e3),
+        camera_object in prop::array::uniform3(-50.0f64..50.0),
+        object in prop::array::uniform3(-1e4f64..1e4),
+        nudge in 0usize..48,
+        row_major in any::<bool>(),
+    ) {
+        let projection = dcamera::rh::proj::vulkan::perspective(fovy, 1.5, near, near * far_over_near);
+        let (eye, target) = (DVec3::from(eye), DVec3::from(target));
+        prop_assume!((target - eye).length() > 1e-3);
+        let view = dcamera::rh::view::look_at_mat4(eye, target, DVec3::Y);
+        let store = |m: DMat4| {
+            if row_major { m.transpose().as_mat4().to_cols_array() } else { m.as_mat4().to_cols_array() }
+        };
+        let storage = if row_major { revz_math::Storage::RowMajor } else { revz_math::Storage::ColumnMajor };
+        // The camera's line: its first object, near the eye.
+        let first = store(projection * view * DMat4::from_translation(eye + DVec3::from(camera_object)));
+        let Some(line) = DepthLine::of_stored(&first, storage) else { return Ok(()) };
+        let mut values = store(projection * view * DMat4::from_translation(DVec3::from(object)));
+        let exact = holds_exactly(&line, &values, storage);
+        if line.surely_holds(&values, storage) {
+            prop_assert!(exact, "surely_holds said yes, the line says no: {values:?} against {line:?}");
+        }
+        // One entry nudged by a few ulps or by a lot: still never a yes that is wrong.
+        let (index, scale) = (nudge % 16, [1.0 + 4.0 * f32::EPSILON, 1.001, 2.0][nudge / 16]);
+        values[index] *= scale;
+        if line.surely_holds(&values, storage) {
+            prop_assert!(holds_exactly(&line, &values, storage), "nudged {index} by {scale}: {values:?}");
+        }
+    }
+}
+
+/// The shortcut is worth having: for one camera's objects farther than the one whose line it
+/// keeps (what most of a frame's pushes are), `surely_holds` says yes for almost all of those
+/// the long way accepts.
+#[test]
+fn surely_holds_accepts_most_of_one_cameras_matrices() {
+    let projection = dcamera::rh::proj::vulkan::perspective(1.0, 1.5, 0.1, 1000.0);
+    let eye = DVec3::new(3.0, 2.0, 10.0);
+    let view = dcamera::rh::view::look_at_mat4(eye, DVec3::ZERO, DVec3::Y);
+    let line = DepthLine::of_stored(
+        &(projection * view * DMat4::from_translation(eye * 0.9))
+            .as_mat4()
+            .to_cols_array(),
+        revz_math::Storage::ColumnMajor,
+    )
+    .unwrap();
+    let (mut exact, mut sure) = (0, 0);
+    for i in 0..10_000 {
+        let t = i as f64;
+        let object = DVec3::new(
+            (t * 0.37).sin() * 40.0,
+            (t * 0.11).cos() * 5.0,
+            -(t % 97.0) * 3.0,
+        );
+        let values = (projection * view * DMat4::from_translation(object))
+            .as_mat4()
+            .to_cols_array();
+        let long_way = holds_exactly(&line, &values, revz_math::Storage::ColumnMajor);
+        let short = line.surely_holds(&values, revz_math::Storage::ColumnMajor);
+        assert!(!short || long_way);
+        exact += usize::from(long_way);
+        sure += usize::from(short);
+    }
+    println!("surely_holds: {sure} of the {exact} matrices the line accepts");
+    assert!(
+        exact > 9_000,
+        "the test's matrices are the camera's: {exact}"
+    );
+    assert!(sure * 10 >= exact * 9, "{sure} of {exact}");
+}
+
+/// Near the line's own object (where "does not improve it" is decided by a hair), in float32
+/// compositions too: `surely_holds` still never says a wrong yes.
+#[test]
+fn surely_holds_is_never_wrong_near_the_cameras_best_object() {
+    let (mut exact, mut sure) = (0, 0);
+    for camera in 0..20 {
+        let c = f64::from(camera);
+        let (near, far) = (0.05 + c * 0.07, 100.0 + c * 500.0);
+        let eye = DVec3::new(c * 3.0 - 20.0, 1.0 + c, 15.0 - c);
+        let projection = dcamera::rh::proj::vulkan::perspective(0.9, 1.6, near, far);
+        let view = dcamera::rh::view::look_at_mat4(eye, DVec3::ZERO, DVec3::Y);
+        let best = eye * 0.8;
+        let line = DepthLine::of_stored(
+            &(projection * view * DMat4::from_translation(best))
+                .as_mat4()
+                .to_cols_array(),
+            revz_math::Storage::ColumnMajor,
+        )
+        .unwrap();
+        let (p32, v32) = (projection.as_mat4(), view.as_mat4());
+        for i in 0..5_000 {
+            let t = f64::from(i);
+            // Around the best object's distance from the eye: 0.5x to 2x, in every direction.
+            let scale = 0.5 + 1.5 * ((t * 0.618_033_988_7) % 1.0);
+            let direction = DVec3::new((t * 1.3).sin(), (t * 0.7).cos(), (t * 0.29).sin()) * 0.05;
+            let object = eye + (best - eye + direction) * scale;
+            let values = match i % 3 {
+                0 => (projection * view * DMat4::from_translation(object))
+                    .as_mat4()
+                    .to_cols_array(),
+                1 => (p32 * v32 * Mat4::from_translation(object.as_vec3())).to_cols_array(),
+                _ => (p32 * (v32 * Mat4::from_translation(object.as_vec3()))).to_cols_array(),
+            };
+            let long_way = holds_exactly(&line, &values, revz_math::Storage::ColumnMajor);
+            let short = line.surely_holds(&values, revz_math::Storage::ColumnMajor);
+            assert!(
+                !short || long_way,
+                "camera {camera}, object {i}: {values:?}"
+            );
+            exact += usize::from(long_way);
+            sure += usize::from(short);
+        }
+    }
+    println!("near the best object: surely_holds {sure} of the {exact} the line accepts");
+    assert!(sure > 0 && exact < 100_000);
+}

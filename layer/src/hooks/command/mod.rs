@@ -214,39 +214,53 @@ pub unsafe extern "system" fn cmd_push_constants(
     p_values: *const std::ffi::c_void,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants");
-    record_then_call::<true, _>(
-        buffer,
-        &ENTRY,
-        |entry| {
-            // SAFETY: `size` bytes of values (the application's contract).
-            let values = unsafe { slice(p_values.cast::<u8>(), size) };
-            follow_push(entry, layout, stages, offset, values)
-        },
-        None,
-        |device, folded: Option<FoldedPush>| {
-            let (offset, size, p_sent) = match &folded {
-                Some(f) => (f.offset, f.size, f.bytes.as_ptr().cast()),
-                None => (offset, size, p_values),
-            };
-            // SAFETY: calling down with the application's arguments (its values extended to
-            // the carrier's bytes, which the layout's range of `stages` holds).
+    // The extended push's bytes, written only where the carrier goes with this push.
+    let mut folded_bytes = [0u8; PUSH_CONSTANT_BYTES];
+    let tracked = objects::with_command_buffer(buffer, |entry| {
+        let folded = guarded(
+            &ENTRY,
+            || {
+                // SAFETY: `size` bytes of values (the application's contract).
+                let values = unsafe { slice(p_values.cast::<u8>(), size) };
+                follow_push(entry, layout, stages, offset, values, &mut folded_bytes)
+            },
+            || None,
+        );
+        let (offset, size, p_sent) = match folded {
+            Some(f) => (f.offset, f.size, folded_bytes.as_ptr().cast()),
+            None => (offset, size, p_values),
+        };
+        // SAFETY: calling down with the application's arguments (its values extended to the
+        // carrier's bytes, which the layout's range of `stages` holds).
+        unsafe {
+            (entry.device.next.fp_v1_0().cmd_push_constants)(
+                buffer, layout, stages, offset, size, p_sent,
+            )
+        };
+        settle(entry, buffer);
+    });
+    if tracked.is_none() {
+        if let Some(device) = untracked_device(buffer) {
+            // SAFETY: calling down with the application's arguments.
             unsafe {
                 (device.next.fp_v1_0().cmd_push_constants)(
-                    buffer, layout, stages, offset, size, p_sent,
+                    buffer, layout, stages, offset, size, p_values,
                 )
             }
-        },
-    );
+        }
+    }
 }
 
 /// Follows a push of the application's: the shadow copy and the outcome for the bound
-/// pipeline's projection; returns the push to send in its place, if the carrier goes with it.
+/// pipeline's projection; returns the push to send in its place, if the carrier goes with it,
+/// with its bytes written into `out`.
 fn follow_push(
     entry: &CommandBufferEntry,
     layout: vk::PipelineLayout,
     stages: vk::ShaderStageFlags,
     offset: u32,
     values: &[u8],
+    out: &mut [u8; PUSH_CONSTANT_BYTES],
 ) -> Option<FoldedPush> {
     let mut state = entry.state();
     if layout != state.push_layout() {
@@ -261,6 +275,9 @@ fn follow_push(
         state.note_push_pusher(pusher);
     }
     let (outcome, folded) = state.push_constants(layout, stages, offset, values);
+    if let Some(folded) = &folded {
+        state.folded_bytes(folded, out);
+    }
     drop(state);
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
@@ -288,7 +305,17 @@ pub unsafe extern "system" fn cmd_push_constants2(
             return;
         }
         // Followed, never extended (the draw sends the carrier): this command is rare.
-        if follow_push(entry, info.layout, info.stage_flags, info.offset, values).is_some() {
+        let mut unused = [0u8; PUSH_CONSTANT_BYTES];
+        if follow_push(
+            entry,
+            info.layout,
+            info.stage_flags,
+            info.offset,
+            values,
+            &mut unused,
+        )
+        .is_some()
+        {
             entry.state().unfold();
         }
     });
