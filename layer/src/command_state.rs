@@ -265,8 +265,8 @@ pub trait StateSink: PushSink {
 /// layer's own work.
 #[derive(Clone, Copy, Debug, Default)]
 struct Emitted {
-    /// The last viewport call: with count or not, first, count, and the values' bits.
-    viewports: Option<(bool, u32, u32, [[u32; 6]; MAX_VIEWPORTS])>,
+    /// The last viewport call.
+    viewports: Option<SentViewports>,
     compare_op: Option<vk::CompareOp>,
     bias: Option<DepthBias>,
     bounds: Option<(u32, u32)>,
@@ -294,12 +294,60 @@ impl Emitted {
     }
 }
 
-fn viewport_bits(viewports: &[vk::Viewport]) -> [[u32; 6]; MAX_VIEWPORTS] {
-    let mut bits = [[0; 6]; MAX_VIEWPORTS];
-    for (out, v) in bits.iter_mut().zip(viewports) {
-        *out = [v.x, v.y, v.width, v.height, v.min_depth, v.max_depth].map(f32::to_bits);
+/// A viewport call as sent: with count or not, the first viewport, and the bits of the
+/// viewports (only the first `count` entries of `bits` mean anything). Compared and written
+/// for the viewports sent only: a settle runs at every bind.
+#[derive(Clone, Copy, Debug)]
+struct SentViewports {
+    with_count: bool,
+    first: u32,
+    count: u32,
+    bits: [[u32; 6]; MAX_VIEWPORTS],
+}
+
+fn viewport_bits(v: &vk::Viewport) -> [u32; 6] {
+    [v.x, v.y, v.width, v.height, v.min_depth, v.max_depth].map(f32::to_bits)
+}
+
+impl SentViewports {
+    fn is(&self, with_count: bool, first: u32, viewports: &[vk::Viewport]) -> bool {
+        self.with_count == with_count
+            && self.first == first
+            && self.count as usize == viewports.len()
+            && self
+                .bits
+                .iter()
+                .zip(viewports)
+                .all(|(bits, v)| *bits == viewport_bits(v))
     }
-    bits
+
+    /// Records the call in `slot`, unless it is the one recorded: whether it must be sent.
+    fn record(
+        slot: &mut Option<SentViewports>,
+        with_count: bool,
+        first: u32,
+        viewports: &[vk::Viewport],
+    ) -> bool {
+        if slot
+            .as_ref()
+            .is_some_and(|sent| sent.is(with_count, first, viewports))
+        {
+            return false;
+        }
+        let sent = slot.get_or_insert(SentViewports {
+            with_count,
+            first,
+            count: 0,
+            bits: [[0; 6]; MAX_VIEWPORTS],
+        });
+        sent.with_count = with_count;
+        sent.first = first;
+        sent.count = viewports.len().min(MAX_VIEWPORTS) as u32;
+        for (bits, v) in sent.bits.iter_mut().zip(viewports) {
+            *bits = viewport_bits(v);
+        }
+        true
+    }
 }
 
 /// A [`StateSink`] that drops what would re-send the values last sent.
@@ -322,22 +370,13 @@ impl<S: StateSink> PushSink for Filtered<'_, S> {
 
 impl<S: StateSink> StateSink for Filtered<'_, S> {
     fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
-        let call = (
-            false,
-            first,
-            viewports.len() as u32,
-            viewport_bits(viewports),
-        );
-        if self.last.viewports != Some(call) {
-            self.last.viewports = Some(call);
+        if SentViewports::record(&mut self.last.viewports, false, first, viewports) {
             self.sink.set_viewports(first, viewports);
         }
     }
 
     fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
-        let call = (true, 0, viewports.len() as u32, viewport_bits(viewports));
-        if self.last.viewports != Some(call) {
-            self.last.viewports = Some(call);
+        if SentViewports::record(&mut self.last.viewports, true, 0, viewports) {
             self.sink.set_viewports_with_count(viewports);
         }
     }
@@ -383,12 +422,66 @@ impl<S: StateSink> StateSink for Filtered<'_, S> {
     }
 }
 
+/// How many pipelines a recording keeps by handle for its binds.
+const KNOWN_PIPELINES: usize = 4;
+
+/// The graphics pipelines a recording bound, with their depth state (`None`: not tracked),
+/// found by handle: binding one of them again looks nothing up in the device's table (a shared
+/// lock) and takes no reference count. Valid under the device's pipeline generation they were
+/// found in (`DeviceObjects::pipeline_generation`): a pipeline destroyed anywhere on the
+/// device empties them at the next bind.
+#[derive(Clone, Debug, Default)]
+struct KnownPipelines {
+    generation: u64,
+    slots: [(vk::Pipeline, Option<std::sync::Arc<PipelineDepth>>); KNOWN_PIPELINES],
+    /// The slot the next pipeline not found replaces.
+    next: usize,
+}
+
+impl KnownPipelines {
+    /// The slot holding `handle`, found with `lookup` where this recording does not know it.
+    fn slot(
+        &mut self,
+        handle: vk::Pipeline,
+        generation: u64,
+        lookup: impl FnOnce() -> Option<std::sync::Arc<PipelineDepth>>,
+    ) -> usize {
+        if self.generation != generation {
+            *self = KnownPipelines {
+                generation,
+                ..KnownPipelines::default()
+            };
+        } else if let Some(index) = self
+            .slots
+            .iter()
+            .position(|(known, _)| *known == handle && handle != vk::Pipeline::null())
+        {
+            return index;
+        }
+        self.insert(handle, lookup())
+    }
+
+    fn insert(
+        &mut self,
+        handle: vk::Pipeline,
+        depth: Option<std::sync::Arc<PipelineDepth>>,
+    ) -> usize {
+        let index = self.next;
+        self.next = (index + 1) % KNOWN_PIPELINES;
+        self.slots[index] = (handle, depth);
+        index
+    }
+}
+
 /// Depth state of one command buffer while it records.
 #[derive(Clone, Debug)]
 pub struct CommandState {
-    /// The bound graphics pipeline's depth state; `None` when none is bound or it is not
-    /// tracked (then every state the application set is emitted as dynamic).
-    pipeline: Option<std::sync::Arc<PipelineDepth>>,
+    /// The pipelines this recording bound.
+    known: KnownPipelines,
+    /// The slot of the bound graphics pipeline in `known`; `None` when none is bound (or
+    /// shader objects are). Its depth state is `None` when it is not tracked: then every state
+    /// the application set is emitted as dynamic.
+    bound: Option<usize>,
     target: Target,
     /// The target a secondary command buffer assumed at its begin.
     inherited: Target,
@@ -450,7 +543,8 @@ pub struct CommandState {
 impl Default for CommandState {
     fn default() -> Self {
         CommandState {
-            pipeline: None,
+            known: KnownPipelines::default(),
+            bound: None,
             target: Target::None,
             inherited: Target::None,
             viewports: AppViewports::default(),
@@ -587,7 +681,7 @@ impl CommandState {
         if self.target != Target::Reversed || self.inherits_viewports {
             return None;
         }
-        let projection = self.pipeline.as_ref()?.projection.as_ref()?;
+        let projection = self.pipeline()?.projection.as_ref()?;
         Some((projection, self.reversing.rewrite?))
     }
 
@@ -598,7 +692,7 @@ impl CommandState {
         if self.target != Target::Reversed || self.inherits_viewports {
             return None;
         }
-        let pipeline = self.pipeline.as_ref()?;
+        let pipeline = self.pipeline()?;
         pipeline.derived_range?;
         // A dynamic [-1, 1] clip convention (Zink): the stage converts its fitted line, and
         // revz sets [0, 1] for the draw ([`Self::emit`]), where reversed depth near 0 keeps
@@ -629,8 +723,7 @@ impl CommandState {
     /// pipeline's (unknown counts as compatible: pipelines without revz's layout).
     fn push_compatible(&self) -> bool {
         let own = self
-            .pipeline
-            .as_ref()
+            .pipeline()
             .map_or(vk::PipelineLayout::null(), |p| p.layout);
         own == vk::PipelineLayout::null() || self.push_pusher == own
     }
@@ -704,7 +797,7 @@ impl CommandState {
         offset: u32,
         outcome: Option<Outcome>,
     ) -> Option<FoldedPush> {
-        let carrier = self.pipeline.as_ref()?.position_store?;
+        let carrier = self.pipeline()?.position_store?;
         if !self.push_compatible() {
             // A push for another pipeline: the carrier goes with a later push or bind.
             return None;
@@ -748,8 +841,7 @@ impl CommandState {
                 *r = *near_over_far;
                 // Only flip-path viewports and depth bounds depend on it.
                 let bounds = self
-                    .pipeline
-                    .as_ref()
+                    .pipeline()
                     .is_some_and(|p| (p.app_dynamic | p.injected).contains(States::BOUNDS));
                 if self.path != DrawPath::Precise || bounds {
                     self.dirty = true;
@@ -811,7 +903,7 @@ impl CommandState {
     /// in its place, so that a reversed variant is bound at once instead of the application's
     /// pipeline and then the variant.
     pub fn pipeline_to_bind(&mut self, app: vk::Pipeline) -> vk::Pipeline {
-        let Some(pipeline) = self.pipeline.as_ref().filter(|_| self.in_pass) else {
+        let Some(pipeline) = self.pipeline().filter(|_| self.in_pass) else {
             return app;
         };
         let wanted = pipeline.variant_for(self.target == Target::Reversed, self.promoted());
@@ -822,9 +914,36 @@ impl CommandState {
     /// `vkCmdBindPipeline` with a graphics pipeline: it unbinds the shader objects bound to
     /// graphics stages (revz's fragment variant with them).
     pub fn bind_pipeline(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {
-        self.bind_graphics(pipeline);
+        let handle = pipeline.as_ref().map_or(vk::Pipeline::null(), |p| p.handle);
+        let slot = self.known.insert(handle, pipeline);
+        self.bind_slot(Some(slot));
+    }
+
+    /// [`Self::bind_pipeline`] of the application's pipeline `handle`, whose depth state
+    /// `lookup` finds where this recording has not bound it before (under the device's
+    /// pipeline `generation`).
+    #[inline]
+    pub fn bind_pipeline_handle(
+        &mut self,
+        handle: vk::Pipeline,
+        generation: u64,
+        lookup: impl FnOnce() -> Option<std::sync::Arc<PipelineDepth>>,
+    ) {
+        let slot = self.known.slot(handle, generation, lookup);
+        self.bind_slot(Some(slot));
+    }
+
+    fn bind_slot(&mut self, slot: Option<usize>) {
+        self.bind_graphics(slot);
         self.fragment_shader = (vk::ShaderEXT::null(), None);
         self.shader_variant_bound = false;
+    }
+
+    /// The bound graphics pipeline's depth state, if it is tracked.
+    #[inline]
+    fn pipeline(&self) -> Option<&std::sync::Arc<PipelineDepth>> {
+        self.bound
+            .and_then(|slot| self.known.slots[slot].1.as_ref())
     }
 
     /// `vkCmdBindShadersEXT`: the bound pipeline is replaced. `fragment` is the shader object
@@ -841,13 +960,13 @@ impl CommandState {
     }
 
     /// A pipeline (`None`: untracked, or shader objects) becomes the source of static state.
-    fn bind_graphics(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {
+    fn bind_graphics(&mut self, slot: Option<usize>) {
+        self.bound = slot;
         // An untracked pipeline (or shader objects) may set anything statically.
-        let dynamic = pipeline
-            .as_ref()
+        let dynamic = self
+            .pipeline()
             .map_or(States::NONE, |p| p.app_dynamic | p.injected);
         self.emitted.forget_static(dynamic);
-        self.pipeline = pipeline;
         self.variant_bound = None;
         self.pushed_since_bind = false;
         self.dirty = true;
@@ -1008,18 +1127,14 @@ impl CommandState {
         // attachments too: it goes down (when it changed) with the application's push layout,
         // which the bound pipeline's is compatible with. Before the application's first push
         // there is none, and its own push constants are undefined as well.
-        let store = self.pipeline.as_ref().and_then(|p| p.position_store);
+        let store = self.pipeline().and_then(|p| p.position_store);
         // A stage that derives its range: revz's own layout with the pipeline's push ranges
         // (the application may push nothing for it, or last pushed with another pipeline's
         // layout). Before the application's first push, the same.
         let own = self
-            .pipeline
-            .as_ref()
+            .pipeline()
             .map_or(vk::PipelineLayout::null(), |p| p.layout);
-        let derived = self
-            .pipeline
-            .as_ref()
-            .is_some_and(|p| p.derived_range.is_some());
+        let derived = self.pipeline().is_some_and(|p| p.derived_range.is_some());
         // Since the bind, the application pushed with a layout this pipeline is not
         // compatible with: it pushes for the next pipeline, and the carrier would overwrite
         // its bytes. It waits for the next compatible push or bind (the pipeline's draws take
@@ -1071,18 +1186,17 @@ impl CommandState {
             );
         // Only what changed since it was last sent goes down (closures below capture only
         // the fields they read, so the record is borrowed apart from them).
+        // The bound pipeline, borrowed apart from the fields written below.
+        let bound = self
+            .bound
+            .and_then(|slot| self.known.slots[slot].1.as_ref());
         let sink = &mut Filtered {
             sink,
             last: &mut self.emitted,
         };
         let reversed = self.target == Target::Reversed;
         let reversal = self.reversing.reversal;
-        if reversed
-            && self
-                .pipeline
-                .as_ref()
-                .is_some_and(|p| p.unreversed_fragment)
-        {
+        if reversed && bound.is_some_and(|p| p.unreversed_fragment) {
             static WARNED: crate::logging::LogOnce = crate::logging::LogOnce::new();
             WARNED.log(|| {
                 log::warn!(
@@ -1092,7 +1206,7 @@ impl CommandState {
                 )
             });
         }
-        if let Some(p) = &self.pipeline {
+        if let Some(p) = bound {
             let wanted = p.variant_for(reversed, self.promoted_from.is_some());
             if wanted != self.variant_bound {
                 sink.bind_pipeline(wanted.unwrap_or(p.handle));
@@ -1119,7 +1233,7 @@ impl CommandState {
             }
             _ => {}
         }
-        let (from_app, injected, pipeline) = match &self.pipeline {
+        let (from_app, injected, pipeline) = match bound {
             Some(p) => (self.app_set & p.app_dynamic, p.injected, Some(&**p)),
             None => (self.app_set, States::NONE, None),
         };
@@ -1851,6 +1965,61 @@ mod tests {
         let carrier = Carrier::bytes(&[0.0, 0.0, 0.0, 2.0]).to_vec();
         assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&carrier));
         assert_eq!(sink.clip_conventions, vec![false, true, false]);
+    }
+
+    #[test]
+    fn a_recording_looks_each_pipeline_up_once_until_the_device_destroys_one() {
+        let mut state = begun(Target::Reversed);
+        let depth = |raw: u64, compare_op: vk::CompareOp| {
+            Arc::new(PipelineDepth {
+                handle: vk::Pipeline::from_raw(raw),
+                compare_op,
+                ..(*static_pipeline()).clone()
+            })
+        };
+        let lookups = std::cell::Cell::new(0);
+        let bind = |state: &mut CommandState,
+                    raw: u64,
+                    generation: u64,
+                    found: Option<Arc<PipelineDepth>>| {
+            state.bind_pipeline_handle(vk::Pipeline::from_raw(raw), generation, || {
+                lookups.set(lookups.get() + 1);
+                found
+            });
+            state.pipeline().map(|p| (p.handle.as_raw(), p.compare_op))
+        };
+        let (less, equal) = (vk::CompareOp::LESS, vk::CompareOp::EQUAL);
+        assert_eq!(
+            bind(&mut state, 1, 0, Some(depth(1, less))),
+            Some((1, less))
+        );
+        assert_eq!(bind(&mut state, 2, 0, None), None, "untracked");
+        assert_eq!(lookups.get(), 2);
+        // Bound again: known, whatever a lookup would say.
+        assert_eq!(bind(&mut state, 1, 0, None), Some((1, less)));
+        assert_eq!(bind(&mut state, 2, 0, Some(depth(2, less))), None);
+        assert_eq!(lookups.get(), 2);
+        // A pipeline destroyed on the device (and its handle reused): looked up again.
+        assert_eq!(
+            bind(&mut state, 1, 1, Some(depth(1, equal))),
+            Some((1, equal))
+        );
+        assert_eq!(lookups.get(), 3);
+        // More pipelines than slots: each bind still gets its own.
+        for raw in 10..20 {
+            assert_eq!(
+                bind(&mut state, raw, 1, Some(depth(raw, less))),
+                Some((raw, less))
+            );
+        }
+        assert_eq!(
+            bind(&mut state, 1, 1, Some(depth(1, equal))),
+            Some((1, equal))
+        );
+        // The settle after a bind sends the newly bound pipeline's flipped compare op.
+        let mut sink = Recorded::default();
+        state.settle(&mut sink);
+        assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::EQUAL));
     }
 
     #[test]

@@ -308,6 +308,9 @@ pub struct DeviceObjects {
     /// promoted): their passes begin as the twin.
     pub promoted_framebuffers: Table<vk::Framebuffer, ()>,
     pub pipelines: Table<vk::Pipeline, Arc<PipelineDepth>>,
+    /// Bumped at every pipeline destroyed: recordings keep the pipelines they bound by handle
+    /// (`crate::command_state::KnownPipelines`) only under the generation they found them in.
+    pipeline_generation: AtomicU64,
     /// Images demoted since the depth profile last asked (`crate::profile`; kept only where
     /// there is a profile: `keep_demotions`).
     demotions: Mutex<Vec<(vk::Image, NativeReason)>>,
@@ -745,6 +748,23 @@ pub struct CommandBufferEntry {
     pub copies: Mutex<crate::depth_copy::scratch::CommandCopies>,
 }
 
+impl DeviceObjects {
+    /// The generation of the pipeline table (see `pipeline_generation`).
+    #[inline]
+    pub fn pipeline_generation(&self) -> u64 {
+        self.pipeline_generation.load(Ordering::Acquire)
+    }
+
+    /// Stops tracking a destroyed pipeline: its depth state, for its variants' destruction.
+    pub fn forget_pipeline(&self, pipeline: vk::Pipeline) -> Option<Arc<PipelineDepth>> {
+        let removed = self.pipelines.remove(&pipeline);
+        // After the removal: a recording that reads the new generation finds the table
+        // without it.
+        self.pipeline_generation.fetch_add(1, Ordering::AcqRel);
+        removed
+    }
+}
+
 impl CommandBufferEntry {
     pub fn copies(&self) -> MutexGuard<'_, crate::depth_copy::scratch::CommandCopies> {
         self.copies.lock().unwrap_or_else(PoisonError::into_inner)
@@ -976,6 +996,19 @@ mod tests {
     use ash::vk::Handle;
 
     use super::*;
+
+    #[test]
+    fn a_destroyed_pipeline_moves_the_generation_recordings_keep_pipelines_under() {
+        let objects = DeviceObjects::default();
+        let pipeline = vk::Pipeline::from_raw(5);
+        objects
+            .pipelines
+            .insert(pipeline, Arc::new(PipelineDepth::default()));
+        let before = objects.pipeline_generation();
+        assert!(objects.forget_pipeline(pipeline).is_some());
+        assert!(objects.pipelines.get(&pipeline).is_none());
+        assert_ne!(objects.pipeline_generation(), before);
+    }
 
     #[test]
     fn inline_code_is_made_once_per_distinct_code() {

@@ -614,9 +614,13 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
         &ENTRY,
         |entry| {
             if bind_point == vk::PipelineBindPoint::GRAPHICS {
-                let depth = entry.device.objects.pipelines.get(&pipeline);
+                let objects = &entry.device.objects;
+                let generation = objects.pipeline_generation();
                 let mut state = entry.state();
-                state.bind_pipeline(depth);
+                // Found in the device's table only the first time this recording binds it.
+                state.bind_pipeline_handle(pipeline, generation, || {
+                    objects.pipelines.get(&pipeline)
+                });
                 if entry.device.profile.is_some() {
                     state.tally_pipeline(vk::Handle::as_raw(pipeline));
                 }

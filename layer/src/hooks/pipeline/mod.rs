@@ -700,7 +700,7 @@ pub unsafe extern "system" fn destroy_pipeline(
     };
     let destroy = state.next.fp_v1_0().destroy_pipeline;
     super::record(&DESTROY_PIPELINE, || {
-        let removed = state.objects.pipelines.remove(&pipeline);
+        let removed = state.objects.forget_pipeline(pipeline);
         for variant in removed.iter().flat_map(|depth| depth.variants()) {
             // SAFETY: revz's own object, in use only where the application's pipeline was.
             unsafe { destroy_pipeline_down(&state, device, variant) };
