@@ -155,6 +155,11 @@ impl DeviceState {
     }
 }
 
+/// `vkCmdEndRendering2KHR` / `vkCmdEndRendering2EXT`: the command buffer and a
+/// `VkRenderingEndInfoKHR` (null allowed), which revz passes down untouched.
+pub type PfnCmdEndRendering2 =
+    unsafe extern "system" fn(vk::CommandBuffer, *const std::ffi::c_void);
+
 /// Next-layer commands that exist under a core or an extension name, whichever the device has.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct DeviceCommands {
@@ -169,6 +174,10 @@ pub struct DeviceCommands {
     pub begin_rendering: Option<vk::PFN_vkCmdBeginRendering>,
     pub get_device_image_memory_requirements: Option<vk::PFN_vkGetDeviceImageMemoryRequirements>,
     pub end_rendering: Option<vk::PFN_vkCmdEndRendering>,
+    /// `vkCmdEndRendering2KHR` (`VK_KHR_maintenance10`) and `vkCmdEndRendering2EXT`
+    /// (`VK_EXT_fragment_density_map_offset`): not in ash 0.38.
+    pub end_rendering2_khr: Option<PfnCmdEndRendering2>,
+    pub end_rendering2_ext: Option<PfnCmdEndRendering2>,
     pub draw_indirect_count: Option<vk::PFN_vkCmdDrawIndirectCount>,
     pub draw_indexed_indirect_count: Option<vk::PFN_vkCmdDrawIndexedIndirectCount>,
     pub draw_mesh_tasks_ext: Option<vk::PFN_vkCmdDrawMeshTasksEXT>,
@@ -256,6 +265,8 @@ impl DeviceCommands {
                 c"vkGetDeviceImageMemoryRequirementsKHR"
             ),
             end_rendering: load!(V13, c"vkCmdEndRendering", c"vkCmdEndRenderingKHR"),
+            end_rendering2_khr: load!(0, c"vkCmdEndRendering2KHR"),
+            end_rendering2_ext: load!(0, c"vkCmdEndRendering2EXT"),
             draw_indirect_count: load!(
                 V12,
                 c"vkCmdDrawIndirectCount",

@@ -215,6 +215,12 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdEndRendering" | b"vkCmdEndRenderingKHR" => {
             void_fn!(vk::PFN_vkCmdEndRendering, c::cmd_end_rendering)
         }
+        b"vkCmdEndRendering2KHR" => {
+            void_fn!(crate::state::PfnCmdEndRendering2, c::cmd_end_rendering2_khr)
+        }
+        b"vkCmdEndRendering2EXT" => {
+            void_fn!(crate::state::PfnCmdEndRendering2, c::cmd_end_rendering2_ext)
+        }
         b"vkCmdBindPipeline" => void_fn!(vk::PFN_vkCmdBindPipeline, c::cmd_bind_pipeline),
         b"vkCmdSetViewport" => void_fn!(vk::PFN_vkCmdSetViewport, c::cmd_set_viewport),
         b"vkCmdSetViewportWithCount" | b"vkCmdSetViewportWithCountEXT" => {

@@ -21,6 +21,8 @@ enum Call {
     SetViewport(u32, Vec<(f32, f32)>),
     BeginRendering,
     EndRendering,
+    /// `vkCmdEndRendering2KHR`.
+    EndRendering2,
     ExecuteCommands,
 }
 
@@ -70,6 +72,10 @@ unsafe extern "system" fn end_rendering(buffer: vk::CommandBuffer) {
     note(buffer, Call::EndRendering);
 }
 
+unsafe extern "system" fn end_rendering2(buffer: vk::CommandBuffer, _: *const std::ffi::c_void) {
+    note(buffer, Call::EndRendering2);
+}
+
 unsafe extern "system" fn execute_commands(
     buffer: vk::CommandBuffer,
     _: u32,
@@ -86,6 +92,9 @@ unsafe extern "system" fn gdpa(device: vk::Device, name: *const c_char) -> vk::P
         b"vkCmdSetViewport" => void_fn!(vk::PFN_vkCmdSetViewport, set_viewport),
         b"vkCmdBeginRendering" => void_fn!(vk::PFN_vkCmdBeginRendering, begin_rendering),
         b"vkCmdEndRendering" => void_fn!(vk::PFN_vkCmdEndRendering, end_rendering),
+        b"vkCmdEndRendering2KHR" => {
+            void_fn!(crate::state::PfnCmdEndRendering2, end_rendering2)
+        }
         b"vkCmdExecuteCommands" => void_fn!(vk::PFN_vkCmdExecuteCommands, execute_commands),
         // SAFETY: the same arguments.
         _ => unsafe { fake_chain::fake_get_device_proc_addr_with_passes(device, name) },
@@ -104,6 +113,7 @@ hook_set!(struct Hooks {
     set_viewport: c"vkCmdSetViewport" => vk::PFN_vkCmdSetViewport,
     begin_rendering: c"vkCmdBeginRendering" => vk::PFN_vkCmdBeginRendering,
     end_rendering: c"vkCmdEndRendering" => vk::PFN_vkCmdEndRendering,
+    end_rendering2: c"vkCmdEndRendering2KHR" => crate::state::PfnCmdEndRendering2,
     execute: c"vkCmdExecuteCommands" => vk::PFN_vkCmdExecuteCommands,
 });
 
@@ -311,5 +321,47 @@ fn a_rendering_instance_of_inline_draws_and_secondaries_remembers_its_target_for
     );
     assert_eq!(calls(primary), [Call::BeginRendering, Call::EndRendering]);
     drop(state);
+    fx.tear_down();
+}
+
+#[test]
+fn end_rendering2_ends_the_rendering_instance_for_revz_too() {
+    let fx = Fixture::new(1);
+    let h = &fx.hooks;
+    let primary = fx.primaries[0];
+    let depth = fx.depth();
+    let rendering = fx.rendering(&depth, vk::RenderingFlags::empty());
+    let viewport = [vk::Viewport {
+        width: 64.0,
+        height: 64.0,
+        min_depth: 0.0,
+        max_depth: 1.0,
+        ..Default::default()
+    }];
+    // SAFETY: recording a primary with valid arguments (a null end info is allowed).
+    unsafe {
+        assert_eq!(
+            (h.begin)(primary, &vk::CommandBufferBeginInfo::default()),
+            vk::Result::SUCCESS
+        );
+        (h.begin_rendering)(primary, &rendering);
+        (h.set_viewport)(primary, 0, 1, viewport.as_ptr());
+        (h.end_rendering2)(primary, std::ptr::null());
+        // Outside the rendering instance: nothing is sent for a draw until the next begin
+        // (revz not knowing it ended would send this one flipped at once).
+        let other = [vk::Viewport {
+            min_depth: 0.25,
+            ..viewport[0]
+        }];
+        (h.set_viewport)(primary, 0, 1, other.as_ptr());
+    }
+    assert_eq!(
+        calls(primary),
+        [
+            Call::BeginRendering,
+            Call::SetViewport(0, vec![(1.0, 0.0)]),
+            Call::EndRendering2
+        ]
+    );
     fx.tear_down();
 }

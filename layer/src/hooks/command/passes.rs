@@ -442,6 +442,33 @@ pub unsafe extern "system" fn cmd_begin_rendering(
     settle_down(&device, buffer);
 }
 
+/// `vkCmdEndRendering2KHR` (`VK_KHR_maintenance10`): `vkCmdEndRendering` with an info revz
+/// passes down untouched.
+pub unsafe extern "system" fn cmd_end_rendering2_khr(
+    buffer: vk::CommandBuffer,
+    p_info: *const std::ffi::c_void,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRendering2KHR");
+    let device = with_entry(buffer, &ENTRY, end_pass);
+    if let Some(next) = device.and_then(|d| d.commands.end_rendering2_khr) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_info) }
+    }
+}
+
+/// `vkCmdEndRendering2EXT` (`VK_EXT_fragment_density_map_offset`): the same.
+pub unsafe extern "system" fn cmd_end_rendering2_ext(
+    buffer: vk::CommandBuffer,
+    p_info: *const std::ffi::c_void,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRendering2EXT");
+    let device = with_entry(buffer, &ENTRY, end_pass);
+    if let Some(next) = device.and_then(|d| d.commands.end_rendering2_ext) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_info) }
+    }
+}
+
 pub unsafe extern "system" fn cmd_end_rendering(buffer: vk::CommandBuffer) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRendering");
     let device = with_entry(buffer, &ENTRY, end_pass);
