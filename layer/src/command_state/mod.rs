@@ -1,0 +1,947 @@
+//! The depth state of one command buffer, and what must be sent down for its next draw.
+//!
+//! The application's depth-related state (viewports, compare op, depth bias, depth bounds)
+//! goes through here: its `vkCmdSet*` calls are recorded, the pipeline it binds brings its
+//! static values (for the states revz made dynamic), and after every command that may change
+//! what the next draw needs, [`CommandState::settle`] sends the values for the current depth
+//! attachment: flipped when it is reversed, as the application gave them otherwise, only what
+//! changed, and only inside a pass (outside one no draw can follow before the next begin,
+//! which settles again). Draws therefore need nothing from revz and are not intercepted (the
+//! depth profile hooks them to count, [`CommandState::before_draw`]). No Vulkan calls are made
+//! here: emission goes through a [`StateSink`], so the logic is tested without a device.
+//!
+//! The draw's path (`shared/DESIGN.md` section 2) is decided here too: a draw into a reversed
+//! attachment whose pipeline reads its projection from push constants, whose vertex stage
+//! stores the carrier's depth ([`PipelineDepth::position_store`]), and whose pushed matrix is a
+//! standard perspective of a known camera ([`crate::precise`]), takes the precise path: the
+//! carrier holds the camera's reversed depth line (pushed when it changes) and the viewport maps
+//! [a, b] -> [1-b, 1-a]. Every other draw into a reversed attachment takes the flip path, and
+//! every draw of such a pipeline elsewhere gets the carrier that keeps the shader's own z.
+//!
+//! The fragment stage of a draw that computes with depth is swapped the same way: the bound
+//! pipeline's reversed variant, or the bound fragment shader object's
+//! (`VK_EXT_shader_object`, `crate::hooks::shader_object`), is bound in its place for a
+//! reversed target and the application's back for a native one, each only when it changes.
+//!
+//! Files: this one is the state machine itself, the record and every transition (about 900
+//! lines: one concern, whose transitions read each other's fields, and reads better whole);
+//! [`pipeline_depth`] what a pipeline brings to it; `emission` what was last sent and the filter
+//! that drops repeats; `app_viewports` the application's viewports and how each path maps them;
+//! `known_pipelines` the pipelines a recording bound, found by handle; `tests` its tests.
+
+use ash::vk;
+use revz_math::{Cameras, DepthConvention, Target as RewriteTarget};
+
+use crate::conv::{flip_compare_op, DepthBias, Reversal};
+use crate::objects::FragmentShader;
+use crate::precise::{
+    Carrier, FoldedPush, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER,
+};
+use crate::profile::{DrawCounts, DrawTally};
+
+mod app_viewports;
+mod emission;
+mod known_pipelines;
+pub mod pipeline_depth;
+#[cfg(test)]
+mod tests;
+
+use app_viewports::AppViewports;
+use emission::{Emitted, Filtered};
+use known_pipelines::KnownPipelines;
+pub use pipeline_depth::{PipelineDepth, States, MAX_VIEWPORTS};
+
+/// The depth attachment draws currently go to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Target {
+    /// Outside a render pass, or an attachment without depth.
+    #[default]
+    None,
+    Native,
+    Reversed,
+}
+
+/// The carrier of a draw whose vertex stage derives its range (`crate::shader::derived_range`): the
+/// selector of the mode in w (1 complementary, 2 infinite); the rest is unused.
+/// 3 and 4 are the same for a line fitted in [-1, 1] clip depth (the stage converts it to
+/// [0, 1], which revz sets for the draw).
+pub fn derived_selector(target: RewriteTarget, convention: DepthConvention) -> [f32; 4] {
+    let gl = match convention {
+        DepthConvention::ZeroToOne => 0.0,
+        DepthConvention::NegativeOneToOne => 2.0,
+    };
+    match target {
+        RewriteTarget::Complementary => [0.0, 0.0, 0.0, 1.0 + gl],
+        RewriteTarget::Infinite => [0.0, 0.0, 0.0, 2.0 + gl],
+    }
+}
+
+/// Whether two n / f ratios are the same camera's. The matrices of one camera (P * V * M,
+/// one per object) recover n and f only to float32 noise, about 1e-6 relative: following that
+/// noise would re-emit state for every draw, and move flip-path depths by less than they can
+/// resolve.
+pub fn same_near_over_far(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-4 * a.abs().max(b.abs())
+}
+
+/// Which path the last emitted state was for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DrawPath {
+    /// Not into a reversed attachment: the application's state as it is.
+    #[default]
+    Native,
+    Flip,
+    Precise,
+}
+
+/// How a command buffer's reversed draws are made: the device's mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reversing {
+    /// The projection rewrite (complementary and infinite modes); `None` in flip mode.
+    pub rewrite: Option<RewriteTarget>,
+    /// The map of standard depth onto the attachment, for the state the rewrite cannot reach.
+    pub reversal: Reversal,
+}
+
+impl Default for Reversing {
+    fn default() -> Self {
+        Reversing {
+            rewrite: None,
+            reversal: Reversal::Complementary,
+        }
+    }
+}
+
+/// Where [`CommandState::before_draw`] sends state (the next layer, in production).
+pub trait StateSink: PushSink {
+    fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]);
+    fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]);
+    fn set_compare_op(&mut self, op: vk::CompareOp);
+    fn set_bias(&mut self, bias: DepthBias);
+    fn set_bounds(&mut self, min: f32, max: f32);
+    /// `vkCmdSetDepthClipNegativeOneToOneEXT`.
+    fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool);
+    /// Binds a graphics pipeline (a compare-op variant, or the application's pipeline back).
+    fn bind_pipeline(&mut self, pipeline: vk::Pipeline);
+    /// Binds a shader object to the fragment stage (a reversed variant, or the application's
+    /// shader back).
+    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT);
+}
+
+/// Depth state of one command buffer while it records.
+#[derive(Clone, Debug)]
+pub struct CommandState {
+    /// The pipelines this recording bound.
+    known: KnownPipelines,
+    /// The slot of the bound graphics pipeline in `known`; `None` when none is bound (or
+    /// shader objects are). Its depth state is `None` when it is not tracked: then every state
+    /// the application set is emitted as dynamic.
+    bound: Option<usize>,
+    target: Target,
+    /// The target a secondary command buffer assumed at its begin.
+    inherited: Target,
+    /// The viewports the application set.
+    viewports: AppViewports,
+    compare_op: vk::CompareOp,
+    bias: DepthBias,
+    bounds: (f32, f32),
+    /// The application's `vkCmdSetDepthClipNegativeOneToOneEXT` (with
+    /// `States::CLIP_CONTROL` in `app_set`).
+    clip_negative_one_to_one: bool,
+    /// Which states the application set with `vkCmdSet*`.
+    app_set: States,
+    reversing: Reversing,
+    push: PushConstants,
+    /// The path the emitted state is for.
+    path: DrawPath,
+    /// Draw commands recorded per path, and per depth image and pipeline, for the depth
+    /// profile (`crate::profile`); executed secondaries' are added to their primary's.
+    draws: DrawTally,
+    /// The cameras executed secondaries classified matrices as (their best line, convention
+    /// and count), for the depth profile: a secondary is never submitted itself.
+    executed_matches: Vec<(revz_math::DepthLine, revz_math::DepthConvention, u32)>,
+    emitted: Emitted,
+    /// The variant revz bound in the bound pipeline's place (`None`: the application's).
+    variant_bound: Option<vk::Pipeline>,
+    /// The UNORM format the current depth attachment was created with, when revz promoted
+    /// it to float: draws bind promoted variants, and constant depth bias is converted.
+    promoted_from: Option<vk::Format>,
+    /// What revz last pushed as its carrier, and with which layout: pushed again only when
+    /// the value or the application's push layout changes.
+    carrier_held: Option<(vk::PipelineLayout, [u32; 4])>,
+    /// revz's layout with the push ranges of the application's last push layout
+    /// ([`PipelineDepth::layout`] of its pipelines; null: unknown), to tell whether that
+    /// layout is push-compatible with the bound pipeline.
+    push_pusher: vk::PipelineLayout,
+    /// The application pushed since the last graphics bind: with a layout the bound pipeline
+    /// is not compatible with, it pushes for the next pipeline, and revz's carrier must not
+    /// go down over its bytes now (it goes with the next compatible push or bind).
+    pushed_since_bind: bool,
+    /// The shader object the application bound to the fragment stage (null: none), and what
+    /// revz knows of it when it computes with depth.
+    fragment_shader: (vk::ShaderEXT, Option<FragmentShader>),
+    /// Whether revz bound the bound fragment shader object's reversed variant in its place.
+    shader_variant_bound: bool,
+    /// A secondary that inherits its viewports from the primary that executes it
+    /// (`VK_NV_inherited_viewport_scissor`): its draws take the flip path, the one the
+    /// primary sends its viewports for ([`CommandState::flush_viewports_for_secondaries`]).
+    inherits_viewports: bool,
+    /// The current subpass (or rendering instance) records its draws in secondaries: no
+    /// state command may be recorded in it.
+    secondary_contents: bool,
+    /// Draws can be recorded now: inside a render pass or rendering instance, or in a
+    /// secondary that continues one. State is only sent down here ([`Self::settle`]).
+    in_pass: bool,
+    dirty: bool,
+}
+
+impl Default for CommandState {
+    fn default() -> Self {
+        CommandState {
+            known: KnownPipelines::default(),
+            bound: None,
+            target: Target::None,
+            inherited: Target::None,
+            viewports: AppViewports::default(),
+            compare_op: vk::CompareOp::NEVER,
+            bias: DepthBias::default(),
+            bounds: (0.0, 1.0),
+            clip_negative_one_to_one: false,
+            app_set: States::NONE,
+            reversing: Reversing::default(),
+            push: PushConstants::default(),
+            path: DrawPath::Native,
+            draws: DrawTally::default(),
+            executed_matches: Vec::new(),
+            emitted: Emitted::default(),
+            variant_bound: None,
+            promoted_from: None,
+            carrier_held: None,
+            push_pusher: vk::PipelineLayout::null(),
+            pushed_since_bind: false,
+            fragment_shader: (vk::ShaderEXT::null(), None),
+            shader_variant_bound: false,
+            inherits_viewports: false,
+            secondary_contents: false,
+            in_pass: false,
+            dirty: true,
+        }
+    }
+}
+
+impl CommandState {
+    /// A command buffer of a device reversing as `reversing` says.
+    pub fn new(reversing: Reversing) -> CommandState {
+        CommandState {
+            reversing,
+            ..CommandState::default()
+        }
+    }
+
+    /// Starts recording (`vkBeginCommandBuffer`): all state is undefined again. `reversal`
+    /// is the device's current map (infinite mode learns n / f from the projections it sees),
+    /// `cameras` the cameras the device has seen.
+    /// A begin with a depth target (a secondary continuing a pass) is inside that pass; a
+    /// secondary continuing a pass without depth says so with [`Self::set_target`].
+    pub fn begin(&mut self, target: Target, reversal: Reversal, cameras: Cameras) {
+        *self = CommandState {
+            target,
+            inherited: target,
+            in_pass: target != Target::None,
+            reversing: Reversing {
+                reversal,
+                ..self.reversing
+            },
+            push: PushConstants::with_cameras(cameras),
+            ..CommandState::default()
+        };
+    }
+
+    /// The cameras this recording found or improved, if it did (the device learns them at
+    /// the recording's end, for the recordings begun after it).
+    pub fn take_changed_cameras(&mut self) -> Option<Cameras> {
+        self.push
+            .take_changed()
+            .then(|| self.push.cameras().clone())
+    }
+
+    /// The map of standard depth onto this command buffer's reversed attachments.
+    pub fn reversal(&self) -> Reversal {
+        self.reversing.reversal
+    }
+
+    /// The path the last draw took.
+    pub fn path(&self) -> DrawPath {
+        self.path
+    }
+
+    /// The draw commands recorded so far, per path.
+    pub fn draws(&self) -> DrawCounts {
+        self.draws.totals()
+    }
+
+    /// The draw commands recorded so far per depth image and pipeline (the depth profile).
+    pub fn tally(&self) -> &DrawTally {
+        &self.draws
+    }
+
+    /// The depth profile's keys: the depth image (raw handle, 0: none or not known) and the
+    /// pipeline or vertex shader object (raw handle) the next draws are counted under. Set by
+    /// the hooks only where the device keeps a profile.
+    pub fn tally_image(&mut self, image: u64) {
+        self.draws.set_image(image);
+    }
+
+    pub fn tally_pipeline(&mut self, pipeline: u64) {
+        self.draws.set_pipeline(pipeline);
+    }
+
+    /// The cameras this recording classified matrices as, each with how many (the depth
+    /// profile): the camera's best line, its convention and the count.
+    pub fn camera_matches(
+        &self,
+    ) -> impl Iterator<Item = (revz_math::DepthLine, revz_math::DepthConvention, u32)> + '_ {
+        let cameras = self.push.cameras();
+        self.push
+            .matches()
+            .iter()
+            .enumerate()
+            .filter(|(_, &count)| count > 0)
+            .filter_map(move |(index, &count)| {
+                let (_, _, convention, line) = cameras.camera(index)?;
+                Some((line, convention, count))
+            })
+            .chain(self.executed_matches.iter().copied())
+    }
+
+    /// `vkCmdExecuteCommands` of `secondary` (the depth profile): its draws and camera
+    /// matches are this command buffer's.
+    pub fn add_executed(&mut self, secondary: &CommandState) {
+        self.draws.add_executed(&secondary.draws);
+        let matches: Vec<_> = secondary.camera_matches().collect();
+        self.executed_matches.extend(matches);
+    }
+
+    fn count_draw(&mut self) {
+        use crate::profile::DrawnPath as Path;
+        self.draws.count(match self.path {
+            DrawPath::Native => Path::Native,
+            DrawPath::Flip => Path::Flip,
+            DrawPath::Precise => Path::Precise,
+        });
+    }
+
+    /// The projection the bound pipeline's draws would rewrite now, if any.
+    fn precise_use(&self) -> Option<(&ProjectionUse, RewriteTarget)> {
+        if self.target != Target::Reversed || self.inherits_viewports {
+            return None;
+        }
+        let projection = self.pipeline()?.projection.as_ref()?;
+        Some((projection, self.reversing.rewrite?))
+    }
+
+    /// The mode whose depth the bound pipeline's vertex stage derives itself for the next
+    /// draw, if it does (`crate::shader::derived_range`): a reversed attachment, viewports of its own,
+    /// a rewriting mode, and a stage that derives its range.
+    fn derived_use(&self) -> Option<(RewriteTarget, DepthConvention)> {
+        if self.target != Target::Reversed || self.inherits_viewports {
+            return None;
+        }
+        let pipeline = self.pipeline()?;
+        pipeline.derived_range?;
+        // A dynamic [-1, 1] clip convention (Zink): the stage converts its fitted line, and
+        // revz sets [0, 1] for the draw ([`Self::emit`]), where reversed depth near 0 keeps
+        // float32's resolution.
+        let convention = if pipeline.app_dynamic.contains(States::CLIP_CONTROL)
+            && self.app_set.contains(States::CLIP_CONTROL)
+            && self.clip_negative_one_to_one
+        {
+            DepthConvention::NegativeOneToOne
+        } else {
+            DepthConvention::ZeroToOne
+        };
+        Some((self.reversing.rewrite?, convention))
+    }
+
+    /// The application's next push uses a layout whose push ranges revz's layout `pusher`
+    /// has (null: unknown); called before [`Self::push_constants`] when the layout changes.
+    pub fn note_push_pusher(&mut self, pusher: vk::PipelineLayout) {
+        self.push_pusher = pusher;
+    }
+
+    /// The application's last push layout, null before its first push.
+    pub fn push_layout(&self) -> vk::PipelineLayout {
+        self.push.layout()
+    }
+
+    /// Whether the application's last push layout is push-compatible with the bound
+    /// pipeline's (unknown counts as compatible: pipelines without revz's layout).
+    fn push_compatible(&self) -> bool {
+        let own = self
+            .pipeline()
+            .map_or(vk::PipelineLayout::null(), |p| p.layout);
+        own == vk::PipelineLayout::null() || self.push_pusher == own
+    }
+
+    /// `vkCmdPushConstants` of `data` with `stages` at `offset`: classifies the bound
+    /// pipeline's projection when the push reaches it. Returns the outcome of a classification,
+    /// if one was made (the caller reports already reversed projections), and the push to send
+    /// in the application's place when the carrier changes with it ([`FoldedPush`]: the
+    /// application's bytes extended to the carrier's); otherwise the application's push goes
+    /// down unchanged.
+    pub fn push_constants(
+        &mut self,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        data: &[u8],
+    ) -> (Option<Outcome>, Option<FoldedPush>) {
+        if layout != self.push.layout() {
+            // Values pushed with another layout may have disturbed the carrier.
+            self.carrier_held = None;
+            self.dirty = true;
+        }
+        self.push.push(layout, offset, data);
+        self.pushed_since_bind = true;
+        let Some((use_, target)) = self.precise_use().map(|(p, t)| (*p, t)) else {
+            return (None, self.fold(layout, stages, offset, None));
+        };
+        let end = u64::from(offset) + data.len() as u64;
+        if end <= u64::from(use_.offset) || u64::from(use_.end()) <= u64::from(offset) {
+            return (None, self.fold(layout, stages, offset, None));
+        }
+        let outcome = self.push.outcome(&use_, target);
+        match outcome {
+            Some(outcome) => {
+                self.learn(&outcome);
+                let path = match outcome {
+                    Outcome::Rewritten { .. } => DrawPath::Precise,
+                    _ => DrawPath::Flip,
+                };
+                if path != self.path {
+                    self.dirty = true;
+                }
+            }
+            None => self.dirty = true,
+        }
+        (outcome, self.fold(layout, stages, offset, outcome))
+    }
+
+    /// The bytes of a push [`Self::push_constants`] just returned, written into `out`.
+    pub fn folded_bytes<'a>(
+        &self,
+        folded: &FoldedPush,
+        out: &'a mut [u8; crate::precise::PUSH_CONSTANT_BYTES],
+    ) -> &'a [u8] {
+        self.push.folded_bytes(folded, out)
+    }
+
+    /// The push returned by [`Self::push_constants`] was not sent extended: the next draw
+    /// sends the carrier.
+    pub fn unfold(&mut self) {
+        self.carrier_held = None;
+        self.dirty = true;
+    }
+
+    /// The application's push extended to the carrier, where the bound pipeline reads it and
+    /// its value for the next draw (`outcome` of this push) is not the one held.
+    fn fold(
+        &mut self,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        outcome: Option<Outcome>,
+    ) -> Option<FoldedPush> {
+        let carrier = self.pipeline()?.position_store?;
+        if !self.push_compatible() {
+            // A push for another pipeline: the carrier goes with a later push or bind.
+            return None;
+        }
+        if self.target == Target::Reversed && outcome.is_none() && self.precise_use().is_some() {
+            // Another classification for the draw decides (at the draw).
+            return None;
+        }
+        let values = self.carrier_values(outcome);
+        let held = (layout, values.map(f32::to_bits));
+        if self.carrier_held == Some(held) {
+            return None;
+        }
+        let folded = self.push.fold_carrier(&carrier, stages, offset, &values);
+        match folded {
+            Some(_) => self.carrier_held = Some(held),
+            // The draw pushes it.
+            None => self.dirty = true,
+        }
+        folded
+    }
+
+    /// What the carrier must hold for the next draw, given the outcome of its projection: the
+    /// camera's reversed depth line on the precise path, the shader's own z everywhere else.
+    fn carrier_values(&self, outcome: Option<Outcome>) -> [f32; 4] {
+        if let Some((target, convention)) = self.derived_use() {
+            return derived_selector(target, convention);
+        }
+        match (self.target, outcome) {
+            (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
+            _ => FLIP_CARRIER,
+        }
+    }
+
+    /// Infinite mode: a rewritten projection tells n / f, which flip-path state follows.
+    fn learn(&mut self, outcome: &Outcome) {
+        if let (Outcome::Rewritten { near_over_far, .. }, Reversal::Infinite { near_over_far: r }) =
+            (outcome, &mut self.reversing.reversal)
+        {
+            if !same_near_over_far(*r, *near_over_far) {
+                *r = *near_over_far;
+                // Only flip-path viewports and depth bounds depend on it.
+                let bounds = self
+                    .pipeline()
+                    .is_some_and(|p| (p.app_dynamic | p.injected).contains(States::BOUNDS));
+                if self.path != DrawPath::Precise || bounds {
+                    self.dirty = true;
+                }
+            }
+        }
+    }
+
+    pub fn target(&self) -> Target {
+        self.target
+    }
+
+    /// The target this command buffer was begun with (what a secondary assumed).
+    pub fn inherited(&self) -> Target {
+        self.inherited
+    }
+
+    /// The UNORM format the current attachment was promoted from (see [`Self::set_promoted`]).
+    pub fn promoted_from(&self) -> Option<vk::Format> {
+        self.promoted_from
+    }
+
+    /// Whether draws go to a promoted attachment (a promoted twin's subpass, or a rendering
+    /// instance with a promoted view).
+    pub fn promoted(&self) -> bool {
+        self.promoted_from.is_some()
+    }
+
+    /// The current depth attachment's image was promoted from `format` (`None`: it keeps
+    /// its format, or there is none).
+    pub fn set_promoted(&mut self, promoted_from: Option<vk::Format>) {
+        if self.promoted_from != promoted_from {
+            self.promoted_from = promoted_from;
+            self.dirty = true;
+        }
+    }
+
+    /// Draws go to `target` now (render pass begin, next subpass, rendering begin, a
+    /// secondary continuing a pass).
+    pub fn set_target(&mut self, target: Target) {
+        self.in_pass = true;
+        if self.target != target {
+            self.target = target;
+            self.dirty = true;
+        }
+    }
+
+    /// The render pass or rendering instance ended: no draw can be recorded until the next,
+    /// and nothing is sent down before it ([`Self::settle`]).
+    pub fn leave_pass(&mut self) {
+        self.in_pass = false;
+        if self.target != Target::None {
+            self.target = Target::None;
+            self.dirty = true;
+        }
+    }
+
+    /// `vkCmdBindPipeline` of `app`, after [`Self::bind_pipeline`]: the pipeline to send down
+    /// in its place, so that a reversed variant is bound at once instead of the application's
+    /// pipeline and then the variant.
+    pub fn pipeline_to_bind(&mut self, app: vk::Pipeline) -> vk::Pipeline {
+        let Some(pipeline) = self.pipeline().filter(|_| self.in_pass) else {
+            return app;
+        };
+        let wanted = pipeline.variant_for(self.target == Target::Reversed, self.promoted());
+        self.variant_bound = wanted;
+        wanted.unwrap_or(app)
+    }
+
+    /// `vkCmdBindPipeline` with a graphics pipeline: it unbinds the shader objects bound to
+    /// graphics stages (revz's fragment variant with them).
+    pub fn bind_pipeline(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {
+        let handle = pipeline.as_ref().map_or(vk::Pipeline::null(), |p| p.handle);
+        let slot = self.known.insert(handle, pipeline);
+        self.bind_slot(Some(slot));
+    }
+
+    /// [`Self::bind_pipeline`] of the application's pipeline `handle`, whose depth state
+    /// `lookup` finds where this recording has not bound it before (under the device's
+    /// pipeline `generation`).
+    #[inline]
+    pub fn bind_pipeline_handle(
+        &mut self,
+        handle: vk::Pipeline,
+        generation: u64,
+        lookup: impl FnOnce() -> Option<std::sync::Arc<PipelineDepth>>,
+    ) {
+        let slot = self.known.slot(handle, generation, lookup);
+        self.bind_slot(Some(slot));
+    }
+
+    fn bind_slot(&mut self, slot: Option<usize>) {
+        self.bind_graphics(slot);
+        self.fragment_shader = (vk::ShaderEXT::null(), None);
+        self.shader_variant_bound = false;
+    }
+
+    /// The bound graphics pipeline's depth state, if it is tracked.
+    #[inline]
+    fn pipeline(&self) -> Option<&std::sync::Arc<PipelineDepth>> {
+        self.bound
+            .and_then(|slot| self.known.slots[slot].1.as_ref())
+    }
+
+    /// `vkCmdBindShadersEXT`: the bound pipeline is replaced. `fragment` is the shader object
+    /// the call binds to the fragment stage (null: it unbinds the stage) and what revz knows of
+    /// it, when the call names that stage; the fragment stage is left as it is otherwise (a
+    /// variant revz bound stays in place of the application's shader).
+    pub fn bind_shaders(&mut self, fragment: Option<(vk::ShaderEXT, Option<FragmentShader>)>) {
+        self.bind_graphics(None);
+        if let Some(fragment) = fragment {
+            // The application's bind goes down after this: its shader is the one bound now.
+            self.fragment_shader = fragment;
+            self.shader_variant_bound = false;
+        }
+    }
+
+    /// A pipeline (`None`: untracked, or shader objects) becomes the source of static state.
+    fn bind_graphics(&mut self, slot: Option<usize>) {
+        self.bound = slot;
+        // An untracked pipeline (or shader objects) may set anything statically.
+        let dynamic = self
+            .pipeline()
+            .map_or(States::NONE, |p| p.app_dynamic | p.injected);
+        self.emitted.forget_static(dynamic);
+        self.variant_bound = None;
+        self.pushed_since_bind = false;
+        self.dirty = true;
+    }
+
+    /// A secondary begun with `VkCommandBufferInheritanceViewportScissorInfoNV`
+    /// (`viewportScissor2D`): its viewports come from the primary, which sends them for the
+    /// flip path, so its draws take the flip path too.
+    pub fn inherit_viewports(&mut self) {
+        self.inherits_viewports = true;
+        self.dirty = true;
+    }
+
+    /// Whether the current subpass or rendering instance records its draws in secondaries.
+    pub fn set_secondary_contents(&mut self, secondary: bool) {
+        self.secondary_contents = secondary;
+    }
+
+    /// Whether state commands may be recorded here (not inside a subpass or rendering
+    /// instance whose contents are secondaries).
+    pub fn records_inline(&self) -> bool {
+        !self.secondary_contents
+    }
+
+    /// Before secondaries can run (`vkCmdExecuteCommands`, or the begin of a subpass or
+    /// rendering instance whose contents are secondaries, called before it is recorded): the
+    /// viewports the application set here go down now, for the flip path, since the spec lets
+    /// secondaries inherit them (`VK_NV_inherited_viewport_scissor`) and no draw of this
+    /// command buffer may send them first. Only viewports: nothing else is inherited.
+    pub fn flush_viewports_for_secondaries(&mut self, sink: &mut impl StateSink) {
+        if !self
+            .app_set
+            .intersects(States::VIEWPORT | States::VIEWPORT_WITH_COUNT)
+        {
+            return;
+        }
+        let path = if self.target == Target::Reversed {
+            DrawPath::Flip
+        } else {
+            DrawPath::Native
+        };
+        let sink = &mut Filtered {
+            sink,
+            last: &mut self.emitted,
+        };
+        self.viewports
+            .emit(sink, path, self.reversing.reversal, self.app_set, None);
+        // The next draw of this command buffer decides its own path again.
+        self.dirty = true;
+    }
+
+    /// `vkCmdExecuteCommands`: the secondaries leave the state undefined.
+    pub fn invalidate(&mut self) {
+        self.push.invalidate();
+        self.carrier_held = None;
+        self.emitted = Emitted::default();
+        self.variant_bound = None;
+        self.shader_variant_bound = false;
+        self.dirty = true;
+    }
+
+    /// A push revz cannot follow (`vkCmdPushConstants2` with its layout in `pNext`): the
+    /// push constants and revz's carrier in them are unknown; the bound pipeline (revz's
+    /// variant, if it bound one) and the other state stay as they are.
+    pub fn forget_push_constants(&mut self) {
+        self.push.invalidate();
+        self.carrier_held = None;
+        self.dirty = true;
+    }
+
+    /// The depth bias was sent down outside the state machine (`vkCmdSetDepthBias2EXT` with
+    /// a representation): the next emission must not assume it knows the value.
+    pub fn forget_emitted_bias(&mut self) {
+        self.emitted.bias = None;
+    }
+
+    /// `vkCmdSetViewport`. Viewports beyond [`MAX_VIEWPORTS`] are ignored.
+    pub fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
+        for (index, viewport) in (first as usize..).zip(viewports) {
+            if index < MAX_VIEWPORTS {
+                self.viewports.values[index] = *viewport;
+                self.viewports.set |= 1 << index;
+            }
+        }
+        self.app_set |= States::VIEWPORT;
+        self.dirty = true;
+    }
+
+    /// `vkCmdSetViewportWithCount`.
+    pub fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
+        let count = viewports.len().min(MAX_VIEWPORTS);
+        self.viewports.values[..count].copy_from_slice(&viewports[..count]);
+        self.viewports.count = Some(count as u32);
+        self.app_set |= States::VIEWPORT_WITH_COUNT;
+        self.dirty = true;
+    }
+
+    pub fn set_compare_op(&mut self, op: vk::CompareOp) {
+        self.compare_op = op;
+        self.app_set |= States::COMPARE_OP;
+        self.dirty = true;
+    }
+
+    pub fn set_bias(&mut self, bias: DepthBias) {
+        self.bias = bias;
+        self.app_set |= States::BIAS;
+        self.dirty = true;
+    }
+
+    /// `vkCmdSetDepthClipNegativeOneToOneEXT`.
+    pub fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
+        self.clip_negative_one_to_one = negative_one_to_one;
+        self.app_set |= States::CLIP_CONTROL;
+        self.dirty = true;
+    }
+
+    pub fn set_bounds(&mut self, min: f32, max: f32) {
+        self.bounds = (min, max);
+        self.app_set |= States::BOUNDS;
+        self.dirty = true;
+    }
+
+    /// A draw (hooked only with the depth profile, which counts it): sends what
+    /// [`Self::settle`] would, which is nothing when every hook settled.
+    #[inline]
+    pub fn before_draw(&mut self, sink: &mut impl StateSink) -> Option<Outcome> {
+        let outcome = self.settle(sink);
+        self.count_draw();
+        outcome
+    }
+
+    /// Whether [`Self::settle`] would send anything: state changed since the last settle, in a
+    /// pass where draws are recorded inline.
+    #[inline]
+    pub fn wants_settle(&self) -> bool {
+        self.dirty && self.in_pass && !self.secondary_contents
+    }
+
+    /// After a command that may change what the next draw needs (a bind, a push, a state
+    /// setter, a pass begin, `vkCmdExecuteCommands`): sends down the depth state for the
+    /// current target if it changed, so that draws need nothing from revz and go straight to
+    /// the driver. Outside a pass (no draw can follow before a begin, which settles again) and
+    /// inside a subpass of secondaries (nothing may be recorded there) it waits. Returns the
+    /// outcome of a classification made for it, if any.
+    #[inline]
+    pub fn settle(&mut self, sink: &mut impl StateSink) -> Option<Outcome> {
+        if !self.wants_settle() {
+            return None;
+        }
+        let outcome = match self.precise_use().map(|(p, t)| (*p, t)) {
+            Some((use_, target)) => self.push.outcome(&use_, target),
+            None => None,
+        };
+        if let Some(outcome) = &outcome {
+            self.learn(outcome);
+        }
+        // The pipeline's rewritten vertex stage reads the carrier in every draw, into native
+        // attachments too: it goes down (when it changed) with the application's push layout,
+        // which the bound pipeline's is compatible with. Before the application's first push
+        // there is none, and its own push constants are undefined as well.
+        let store = self.pipeline().and_then(|p| p.position_store);
+        // A stage that derives its range: revz's own layout with the pipeline's push ranges
+        // (the application may push nothing for it, or last pushed with another pipeline's
+        // layout). Before the application's first push, the same.
+        let own = self
+            .pipeline()
+            .map_or(vk::PipelineLayout::null(), |p| p.layout);
+        let derived = self.pipeline().is_some_and(|p| p.derived_range.is_some());
+        // Since the bind, the application pushed with a layout this pipeline is not
+        // compatible with: it pushes for the next pipeline, and the carrier would overwrite
+        // its bytes. It waits for the next compatible push or bind (the pipeline's draws take
+        // the flip path meanwhile).
+        let waits = self.pushed_since_bind && !self.push_compatible();
+        let layout = match self.push.layout() {
+            _ if waits => vk::PipelineLayout::null(),
+            _ if derived && own != vk::PipelineLayout::null() => own,
+            layout if layout != vk::PipelineLayout::null() && self.push_compatible() => layout,
+            _ => own,
+        };
+        let carrier_ready = match store {
+            Some(carrier) if layout != vk::PipelineLayout::null() => {
+                let values = self.carrier_values(outcome);
+                let held = (layout, values.map(f32::to_bits));
+                if self.carrier_held != Some(held) {
+                    sink.push_constants(
+                        held.0,
+                        carrier.stages,
+                        carrier.offset,
+                        &Carrier::bytes(&values),
+                    );
+                    self.carrier_held = Some(held);
+                }
+                true
+            }
+            _ => false,
+        };
+        self.path = match (self.target, outcome) {
+            (Target::Reversed, _) if carrier_ready && self.derived_use().is_some() => {
+                DrawPath::Precise
+            }
+            (Target::Reversed, Some(Outcome::Rewritten { .. })) if carrier_ready => {
+                DrawPath::Precise
+            }
+            (Target::Reversed, _) => DrawPath::Flip,
+            _ => DrawPath::Native,
+        };
+        self.emit(sink);
+        self.dirty = false;
+        outcome
+    }
+
+    fn emit(&mut self, sink: &mut impl StateSink) {
+        let converted = self.path == DrawPath::Precise
+            && matches!(
+                self.derived_use(),
+                Some((_, DepthConvention::NegativeOneToOne))
+            );
+        // Only what changed since it was last sent goes down (closures below capture only
+        // the fields they read, so the record is borrowed apart from them).
+        // The bound pipeline, borrowed apart from the fields written below.
+        let bound = self
+            .bound
+            .and_then(|slot| self.known.slots[slot].1.as_ref());
+        let sink = &mut Filtered {
+            sink,
+            last: &mut self.emitted,
+        };
+        let reversed = self.target == Target::Reversed;
+        let reversal = self.reversing.reversal;
+        if reversed && bound.is_some_and(|p| p.unreversed_fragment) {
+            static WARNED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            WARNED.log(|| {
+                log::warn!(
+                    "a pipeline whose fragment shader computes with depth (FragDepth or \
+                     FragCoord.z) and could not be rewritten draws into a reversed depth \
+                     attachment: its fragments keep standard depth"
+                )
+            });
+        }
+        if let Some(p) = bound {
+            let wanted = p.variant_for(reversed, self.promoted_from.is_some());
+            if wanted != self.variant_bound {
+                sink.bind_pipeline(wanted.unwrap_or(p.handle));
+                self.variant_bound = wanted;
+            }
+        }
+        match self.fragment_shader {
+            (shader, Some(FragmentShader::Reversed(variant)))
+                if reversed != self.shader_variant_bound =>
+            {
+                sink.bind_fragment_shader(if reversed { variant } else { shader });
+                self.shader_variant_bound = reversed;
+            }
+            (_, Some(FragmentShader::Unreversed)) if reversed => {
+                static WARNED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                WARNED.log(|| {
+                    log::warn!(
+                        "a fragment shader object that computes with depth (FragDepth or \
+                         FragCoord.z) and has no reversed variant (the rewrite refused it, its \
+                         variant failed, it is linked, or its code is binary) draws into a \
+                         reversed depth attachment: its fragments keep standard depth"
+                    )
+                });
+            }
+            _ => {}
+        }
+        let (from_app, injected, pipeline) = match bound {
+            Some(p) => (self.app_set & p.app_dynamic, p.injected, Some(&**p)),
+            None => (self.app_set, States::NONE, None),
+        };
+
+        self.viewports
+            .emit(sink, self.path, reversal, from_app, pipeline);
+
+        let pick = |state: States| {
+            if from_app.contains(state) {
+                Some(true)
+            } else if injected.contains(state) {
+                Some(false)
+            } else {
+                None
+            }
+        };
+        if let Some(app) = pick(States::COMPARE_OP) {
+            let op = if app {
+                self.compare_op
+            } else {
+                pipeline.map_or(self.compare_op, |p| p.compare_op)
+            };
+            sink.set_compare_op(if reversed { flip_compare_op(op) } else { op });
+        }
+        if let Some(app) = pick(States::BIAS) {
+            let bias = if app {
+                self.bias
+            } else {
+                pipeline.map_or(self.bias, |p| p.bias)
+            };
+            let bias = match self.promoted_from {
+                Some(format) => bias.in_float_storage(format),
+                None => bias,
+            };
+            sink.set_bias(if reversed { bias.flipped() } else { bias });
+        }
+        if from_app.contains(States::CLIP_CONTROL) {
+            // The application's convention, but [0, 1] for a draw whose stage converts its
+            // [-1, 1] line (`derived_use`).
+            sink.set_clip_negative_one_to_one(self.clip_negative_one_to_one && !converted);
+        }
+        if let Some(app) = pick(States::BOUNDS) {
+            let (min, max) = if app {
+                self.bounds
+            } else {
+                pipeline.map_or(self.bounds, |p| p.bounds)
+            };
+            let (min, max) = if reversed {
+                reversal.bounds(min, max)
+            } else {
+                (min, max)
+            };
+            sink.set_bounds(min, max);
+        }
+    }
+}

@@ -1,0 +1,156 @@
+//! What revz knows of a graphics pipeline for draw time: the states it sets statically and the
+//! ones revz made dynamic, its static values, where its projection is, and its variants.
+
+use ash::vk;
+
+use crate::conv::DepthBias;
+use crate::precise::{Carrier, ProjectionUse};
+use crate::shader::derived_range::MatrixSource;
+
+/// A set of depth-related dynamic states.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct States(u8);
+
+impl States {
+    pub const NONE: States = States(0);
+    pub const VIEWPORT: States = States(1);
+    pub const VIEWPORT_WITH_COUNT: States = States(2);
+    pub const COMPARE_OP: States = States(4);
+    pub const BIAS: States = States(8);
+    pub const BOUNDS: States = States(16);
+    /// `VK_EXT_depth_clip_control`'s convention, set with
+    /// `vkCmdSetDepthClipNegativeOneToOneEXT` (Zink's [-1, 1] clip depth).
+    pub const CLIP_CONTROL: States = States(32);
+    pub const ALL: States = States(63);
+
+    pub fn contains(self, other: States) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    pub fn intersects(self, other: States) -> bool {
+        self.0 & other.0 != 0
+    }
+
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The depth-related state a Vulkan dynamic state names, if any.
+    pub fn of_dynamic(state: vk::DynamicState) -> States {
+        match state {
+            vk::DynamicState::VIEWPORT => States::VIEWPORT,
+            vk::DynamicState::VIEWPORT_WITH_COUNT => States::VIEWPORT_WITH_COUNT,
+            vk::DynamicState::DEPTH_COMPARE_OP => States::COMPARE_OP,
+            vk::DynamicState::DEPTH_BIAS => States::BIAS,
+            vk::DynamicState::DEPTH_BOUNDS => States::BOUNDS,
+            vk::DynamicState::DEPTH_CLIP_NEGATIVE_ONE_TO_ONE_EXT => States::CLIP_CONTROL,
+            _ => States::NONE,
+        }
+    }
+}
+
+impl std::ops::BitOr for States {
+    type Output = States;
+    fn bitor(self, rhs: States) -> States {
+        States(self.0 | rhs.0)
+    }
+}
+
+impl std::ops::BitOrAssign for States {
+    fn bitor_assign(&mut self, rhs: States) {
+        self.0 |= rhs.0;
+    }
+}
+
+impl std::ops::BitAnd for States {
+    type Output = States;
+    fn bitand(self, rhs: States) -> States {
+        States(self.0 & rhs.0)
+    }
+}
+
+/// The most viewports revz tracks (`maxViewports` is 16 on every current driver).
+pub const MAX_VIEWPORTS: usize = 16;
+
+/// A pipeline's contribution to depth state.
+#[derive(Clone, Debug, Default)]
+pub struct PipelineDepth {
+    /// States the application made dynamic: their values come from `vkCmdSet*`.
+    pub app_dynamic: States,
+    /// States revz made dynamic: their values are the application's static ones below.
+    pub injected: States,
+    pub viewports: Vec<vk::Viewport>,
+    pub compare_op: vk::CompareOp,
+    pub bias: DepthBias,
+    pub bounds: (f32, f32),
+    /// The fragment stage computes with depth (`FragDepth`, `FragCoord.z`) and no reversed
+    /// variant rewrites it: draws into reversed attachments keep standard depth there.
+    pub unreversed_fragment: bool,
+    /// The pipeline itself.
+    pub handle: vk::Pipeline,
+    /// The pipeline bound in its place for draws into reversed attachments: the same pipeline
+    /// with its static compare op flipped where the compare op is not made dynamic
+    /// (`compare_op = variants`, or a device without extended dynamic state), and its
+    /// fragment shader rewritten where it computes with depth (`crate::shader::fragment_depth`).
+    pub reversed_variant: Option<vk::Pipeline>,
+    /// The pipeline's render pass or rendering formats have a UNORM depth format revz
+    /// promotes: draws into promoted attachments need the promoted variants below.
+    pub promotable: bool,
+    /// The pipeline made for the promoted twin of its render pass (or the float formats of its
+    /// rendering formats), bound for draws into promoted attachments
+    /// (`crate::policy::DevicePolicy::promoted_format`).
+    pub promoted_variant: Option<vk::Pipeline>,
+    /// The promoted variant with the reversed variant's changes, where the pipeline has both;
+    /// draws into promoted reversed attachments.
+    pub promoted_reversed_variant: Option<vk::Pipeline>,
+    /// Where the vertex stage's projection is in the push constants, if it comes from there
+    /// and its draws can take the precise path (its vertex stage stores the carrier's depth:
+    /// [`PipelineDepth::position_store`]).
+    pub projection: Option<ProjectionUse>,
+    /// The pipeline's vertex stage (the application's pipeline's and its variant's) stores
+    /// `Position` through revz's carrier ([`crate::shader::position_store`]): every draw needs the
+    /// carrier to hold its values (the camera's on the precise path,
+    /// [`crate::precise::FLIP_CARRIER`], the shader's own z, everywhere else).
+    pub position_store: Option<Carrier>,
+    /// The vertex stage derives its range from the matrix it loads (no projection in push
+    /// constants: `crate::shader::derived_range`), and where that matrix comes from: its draws into
+    /// reversed attachments push the selector of the mode instead of a camera's values.
+    pub derived_range: Option<MatrixSource>,
+    /// revz's own layout with the pipeline layout's push-constant ranges
+    /// (`crate::objects::DeviceObjects::layout_pushers`): what revz pushes the carrier with
+    /// for a stage that derives its range (the application may push nothing for it, or last
+    /// pushed with another pipeline's layout), and before the application's first push.
+    pub layout: vk::PipelineLayout,
+    /// The state subsets the pipeline defines itself (`VK_EXT_graphics_pipeline_library`):
+    /// all of them but for libraries, whose links take each subset's state from the library
+    /// that defines it.
+    pub subsets: vk::GraphicsPipelineLibraryFlagsEXT,
+    /// A stage of the pipeline, or of a library it links, is given by a shader module
+    /// identifier (`VK_EXT_shader_module_identifier`): what links it must keep
+    /// `FAIL_ON_PIPELINE_COMPILE_REQUIRED`, so it gets no reversed variant.
+    pub module_identifiers: bool,
+}
+
+impl PipelineDepth {
+    /// The variant revz binds in the pipeline's place for a draw into a `reversed` and
+    /// `promoted` attachment (`None`: the pipeline itself).
+    pub fn variant_for(&self, reversed: bool, promoted: bool) -> Option<vk::Pipeline> {
+        match (promoted && self.promotable, reversed) {
+            (false, false) => None,
+            (false, true) => self.reversed_variant,
+            (true, false) => self.promoted_variant,
+            (true, true) => self.promoted_reversed_variant.or(self.promoted_variant),
+        }
+    }
+
+    /// The pipelines revz made for this one (to destroy with it).
+    pub fn variants(&self) -> impl Iterator<Item = vk::Pipeline> {
+        [
+            self.reversed_variant,
+            self.promoted_variant,
+            self.promoted_reversed_variant,
+        ]
+        .into_iter()
+        .flatten()
+    }
+}

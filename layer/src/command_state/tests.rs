@@ -1,0 +1,918 @@
+//! The state machine's tests: what each command sends down, through a recording sink.
+
+use std::sync::Arc;
+
+use ash::vk::Handle;
+
+use super::*;
+use crate::shader::derived_range::MatrixSource;
+
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Recorded {
+    viewports: Vec<(u32, Vec<(f32, f32)>)>,
+    with_count: Vec<Vec<(f32, f32)>>,
+    compare_ops: Vec<vk::CompareOp>,
+    biases: Vec<DepthBias>,
+    bounds: Vec<(f32, f32)>,
+    pushes: Vec<(u32, usize)>,
+    /// The layout and bytes of each push.
+    pushed: Vec<(vk::PipelineLayout, Vec<u8>)>,
+    clip_conventions: Vec<bool>,
+    binds: Vec<vk::Pipeline>,
+    shader_binds: Vec<vk::ShaderEXT>,
+}
+
+impl PushSink for Recorded {
+    fn push_constants(
+        &mut self,
+        layout: vk::PipelineLayout,
+        _: vk::ShaderStageFlags,
+        offset: u32,
+        bytes: &[u8],
+    ) {
+        self.pushes.push((offset, bytes.len()));
+        self.pushed.push((layout, bytes.to_vec()));
+    }
+}
+
+impl StateSink for Recorded {
+    fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]) {
+        let depths = viewports
+            .iter()
+            .map(|v| (v.min_depth, v.max_depth))
+            .collect();
+        self.viewports.push((first, depths));
+    }
+    fn set_viewports_with_count(&mut self, viewports: &[vk::Viewport]) {
+        let depths = viewports
+            .iter()
+            .map(|v| (v.min_depth, v.max_depth))
+            .collect();
+        self.with_count.push(depths);
+    }
+    fn set_compare_op(&mut self, op: vk::CompareOp) {
+        self.compare_ops.push(op);
+    }
+    fn set_bias(&mut self, bias: DepthBias) {
+        self.biases.push(bias);
+    }
+    fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
+        self.clip_conventions.push(negative_one_to_one);
+    }
+
+    fn set_bounds(&mut self, min: f32, max: f32) {
+        self.bounds.push((min, max));
+    }
+    fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
+        self.binds.push(pipeline);
+    }
+    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT) {
+        self.shader_binds.push(shader);
+    }
+}
+
+fn viewport(min_depth: f32, max_depth: f32) -> vk::Viewport {
+    vk::Viewport {
+        width: 256.0,
+        height: 256.0,
+        min_depth,
+        max_depth,
+        ..Default::default()
+    }
+}
+
+/// A command buffer of a flip-mode device, begun with `target`.
+fn begun(target: Target) -> CommandState {
+    let mut state = CommandState::default();
+    state.begin(target, Reversal::Complementary, Cameras::default());
+    state
+}
+
+/// A pipeline whose viewport and compare op were static and made dynamic by revz.
+fn static_pipeline() -> Arc<PipelineDepth> {
+    Arc::new(PipelineDepth {
+        app_dynamic: States::NONE,
+        injected: States::VIEWPORT | States::COMPARE_OP | States::BIAS,
+        viewports: vec![viewport(0.0, 1.0)],
+        compare_op: vk::CompareOp::LESS,
+        bias: DepthBias {
+            constant: -1.0,
+            clamp: 0.0,
+            slope: -2.0,
+        },
+        bounds: (0.0, 1.0),
+        unreversed_fragment: false,
+        handle: vk::Pipeline::null(),
+        reversed_variant: None,
+        promotable: false,
+        promoted_variant: None,
+        promoted_reversed_variant: None,
+        projection: None,
+        position_store: None,
+        derived_range: None,
+        layout: vk::PipelineLayout::null(),
+        subsets: vk::GraphicsPipelineLibraryFlagsEXT::empty(),
+        module_identifiers: false,
+    })
+}
+
+#[test]
+fn a_compare_op_variant_is_bound_for_reversed_draws_and_the_original_for_native_ones() {
+    let original = vk::Pipeline::from_raw(10);
+    let variant = vk::Pipeline::from_raw(11);
+    let pipeline = Arc::new(PipelineDepth {
+        injected: States::VIEWPORT,
+        viewports: vec![viewport(0.0, 1.0)],
+        compare_op: vk::CompareOp::LESS,
+        handle: original,
+        reversed_variant: Some(variant),
+        ..PipelineDepth::default()
+    });
+    let mut state = begun(Target::Reversed);
+    state.bind_pipeline(Some(Arc::clone(&pipeline)));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    state.before_draw(&mut sink);
+    assert_eq!(
+        sink.binds,
+        vec![variant],
+        "bound once, for the reversed draws"
+    );
+    assert!(
+        sink.compare_ops.is_empty(),
+        "the variant holds the compare op"
+    );
+    assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.0)])]);
+
+    // A native pass: the application's pipeline comes back.
+    state.set_target(Target::Native);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.binds, vec![variant, original]);
+
+    // The application binds again (its own pipeline goes down): reversed draws need the
+    // variant bound again; native ones need nothing.
+    state.bind_pipeline(Some(Arc::clone(&pipeline)));
+    state.before_draw(&mut sink);
+    assert_eq!(sink.binds, vec![variant, original]);
+    state.set_target(Target::Reversed);
+    state.bind_pipeline(Some(pipeline));
+    state.before_draw(&mut sink);
+    assert_eq!(sink.binds, vec![variant, original, variant]);
+}
+
+/// A static pipeline (10) with a reversed variant (11).
+fn with_reversed_variant() -> (vk::Pipeline, vk::Pipeline, Arc<PipelineDepth>) {
+    let original = vk::Pipeline::from_raw(10);
+    let variant = vk::Pipeline::from_raw(11);
+    let pipeline = Arc::new(PipelineDepth {
+        handle: original,
+        reversed_variant: Some(variant),
+        ..(*static_pipeline()).clone()
+    });
+    (original, variant, pipeline)
+}
+
+#[test]
+fn state_settles_inside_passes_only_and_a_variant_goes_down_in_the_binds_place() {
+    let (original, variant, pipeline) = with_reversed_variant();
+    // A primary, outside any pass: the bind goes down as the application's, and nothing
+    // else is sent (no draw can follow before a begin).
+    let mut state = CommandState::default();
+    state.begin(Target::None, Reversal::Complementary, Cameras::default());
+    state.bind_pipeline(Some(Arc::clone(&pipeline)));
+    assert_eq!(state.pipeline_to_bind(original), original);
+    state.set_compare_op(vk::CompareOp::LESS);
+    let mut sink = Recorded::default();
+    assert!(state.settle(&mut sink).is_none());
+    assert_eq!(sink, Recorded::default(), "nothing outside a pass");
+    // The pass begins into a reversed attachment: everything the next draw needs goes
+    // down once, as the begin settles, and a draw then sends nothing.
+    state.set_target(Target::Reversed);
+    state.settle(&mut sink);
+    assert_eq!(sink.binds, vec![variant]);
+    assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.0)])]);
+    assert_eq!(sink.biases.len(), 1);
+    let sent = sink.clone();
+    state.settle(&mut sink);
+    state.before_draw(&mut sink);
+    assert_eq!(sink, sent, "nothing more for the draw");
+    // A bind inside the pass: the variant is what goes down, and nothing after it.
+    state.bind_pipeline(Some(Arc::clone(&pipeline)));
+    assert_eq!(state.pipeline_to_bind(original), variant);
+    state.settle(&mut sink);
+    assert_eq!(sink.binds, vec![variant], "no second bind");
+    // Inside a subpass of secondaries nothing may be recorded: it waits.
+    state.set_secondary_contents(true);
+    state.set_target(Target::Native);
+    state.settle(&mut sink);
+    assert_eq!(sink.binds, vec![variant]);
+    state.set_secondary_contents(false);
+    state.settle(&mut sink);
+    assert_eq!(sink.binds, vec![variant, original]);
+    // The pass ends: nothing goes down until the next begin.
+    state.leave_pass();
+    state.set_compare_op(vk::CompareOp::GREATER);
+    let sent = sink.clone();
+    state.settle(&mut sink);
+    assert_eq!(sink, sent);
+}
+
+#[test]
+fn a_push_revz_cannot_follow_keeps_the_variant_it_bound_in_mind() {
+    let (original, variant, pipeline) = with_reversed_variant();
+    let mut state = begun(Target::Reversed);
+    state.bind_pipeline(Some(pipeline));
+    assert_eq!(state.pipeline_to_bind(original), variant);
+    let mut sink = Recorded::default();
+    state.settle(&mut sink);
+    // `vkCmdPushConstants2` with its layout in pNext: the pushes are unknown, the bound
+    // pipeline is not. A later native target must bind the application's pipeline back
+    // (forgetting the variant would leave it bound into a native attachment).
+    state.forget_push_constants();
+    state.settle(&mut sink);
+    assert!(sink.binds.is_empty(), "{:?}", sink.binds);
+    state.set_target(Target::Native);
+    state.settle(&mut sink);
+    assert_eq!(sink.binds, vec![original]);
+}
+
+#[test]
+fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_shader_back() {
+    let shader = vk::ShaderEXT::from_raw(20);
+    let variant = vk::ShaderEXT::from_raw(21);
+    let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
+    let mut state = begun(Target::Reversed);
+    state.bind_shaders(fragment);
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    state.before_draw(&mut sink);
+    assert_eq!(
+        sink.shader_binds,
+        [variant],
+        "bound once, for reversed draws"
+    );
+    assert!(sink.binds.is_empty());
+
+    // Binding other stages leaves the variant in place of the application's shader.
+    state.bind_shaders(None);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.shader_binds, [variant]);
+
+    // A native pass: the application's shader comes back, once.
+    state.set_target(Target::Native);
+    state.before_draw(&mut sink);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.shader_binds, [variant, shader]);
+
+    // The application binds its shader again (it goes down): native draws need nothing,
+    // reversed ones the variant again.
+    state.bind_shaders(fragment);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.shader_binds, [variant, shader]);
+    state.set_target(Target::Reversed);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.shader_binds, [variant, shader, variant]);
+
+    // Secondaries leave the bindings undefined: the variant is bound again.
+    state.invalidate();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.shader_binds, [variant, shader, variant, variant]);
+}
+
+#[test]
+fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
+    let shader = vk::ShaderEXT::from_raw(30);
+    let variant = vk::ShaderEXT::from_raw(31);
+    let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
+    let mut state = begun(Target::Reversed);
+    let mut sink = Recorded::default();
+
+    // Unbound (null): nothing to swap.
+    state.bind_shaders(fragment);
+    state.bind_shaders(Some((vk::ShaderEXT::null(), None)));
+    state.before_draw(&mut sink);
+    assert!(sink.shader_binds.is_empty());
+
+    // A pipeline bound after the variant unbinds it: native draws bind nothing back.
+    state.bind_shaders(fragment);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.shader_binds, [variant]);
+    state.bind_pipeline(Some(static_pipeline()));
+    state.before_draw(&mut sink);
+    state.set_target(Target::Native);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.shader_binds, [variant]);
+
+    // Shaders without a variant (plain, or marked unreversed) are never swapped.
+    for depth in [None, Some(FragmentShader::Unreversed)] {
+        state.set_target(Target::Reversed);
+        state.bind_shaders(Some((shader, depth)));
+        state.before_draw(&mut sink);
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+    }
+    assert_eq!(sink.shader_binds, [variant]);
+}
+
+#[test]
+fn static_state_is_emitted_flipped_for_a_reversed_target_once() {
+    let mut state = begun(Target::Reversed);
+    state.bind_pipeline(Some(static_pipeline()));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    state.before_draw(&mut sink);
+    assert_eq!(
+        sink,
+        Recorded {
+            viewports: vec![(0, vec![(1.0, 0.0)])],
+            compare_ops: vec![vk::CompareOp::GREATER],
+            biases: vec![DepthBias {
+                constant: 1.0,
+                clamp: -0.0,
+                slope: 2.0
+            }],
+            ..Default::default()
+        }
+    );
+}
+
+#[test]
+fn native_targets_get_the_application_values_unchanged() {
+    let mut state = begun(Target::Native);
+    state.bind_pipeline(Some(static_pipeline()));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
+    assert_eq!(sink.compare_ops, vec![vk::CompareOp::LESS]);
+    assert_eq!(sink.biases[0].constant, -1.0);
+}
+
+#[test]
+fn application_dynamic_state_is_flipped_and_reemitted_when_the_target_changes() {
+    let mut state = begun(Target::None);
+    state.bind_pipeline(Some(Arc::new(PipelineDepth {
+        app_dynamic: States::VIEWPORT | States::COMPARE_OP | States::BOUNDS,
+        ..PipelineDepth::default()
+    })));
+    state.set_viewports(0, &[viewport(0.0, 0.5), viewport(0.5, 1.0)]);
+    state.set_compare_op(vk::CompareOp::LESS_OR_EQUAL);
+    state.set_bounds(0.0, 0.75);
+    state.set_target(Target::Reversed);
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.5), (0.5, 0.0)])]);
+    assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER_OR_EQUAL]);
+    assert_eq!(sink.bounds, vec![(0.25, 1.0)]);
+
+    state.set_target(Target::Native);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::LESS_OR_EQUAL));
+    assert_eq!(
+        sink.viewports.last(),
+        Some(&(0, vec![(0.0, 0.5), (0.5, 1.0)]))
+    );
+}
+
+#[test]
+fn only_viewports_the_application_set_are_emitted() {
+    let mut state = begun(Target::Reversed);
+    state.set_viewports(2, &[viewport(0.0, 0.1)]);
+    state.set_viewports(4, &[viewport(0.0, 1.0), viewport(0.25, 0.5)]);
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(
+        sink.viewports,
+        vec![(2, vec![(1.0, 0.9)]), (4, vec![(1.0, 0.0), (0.75, 0.5)])]
+    );
+}
+
+#[test]
+fn states_the_pipeline_keeps_static_are_not_emitted() {
+    let mut state = begun(Target::Reversed);
+    state.set_compare_op(vk::CompareOp::LESS);
+    state.set_viewports_with_count(&[viewport(0.0, 1.0)]);
+    state.bind_pipeline(Some(Arc::new(PipelineDepth {
+        app_dynamic: States::VIEWPORT_WITH_COUNT,
+        ..PipelineDepth::default()
+    })));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.with_count, vec![vec![(1.0, 0.0)]]);
+    assert!(sink.compare_ops.is_empty() && sink.viewports.is_empty());
+}
+
+#[test]
+fn without_a_tracked_pipeline_every_set_state_is_emitted() {
+    // Shader objects, or a pipeline revz could not read: the application's dynamic state
+    // must still reach the driver.
+    let mut state = begun(Target::Native);
+    state.set_compare_op(vk::CompareOp::GREATER);
+    state.set_bias(DepthBias {
+        constant: 3.0,
+        ..Default::default()
+    });
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
+    assert_eq!(sink.biases.len(), 1);
+}
+
+fn perspective_bytes() -> Vec<u8> {
+    let projection = glam::dcamera::rh::proj::vulkan::perspective(1.0, 1.5, 0.5, 50.0);
+    projection
+        .as_mat4()
+        .to_cols_array()
+        .iter()
+        .flat_map(|v| v.to_ne_bytes())
+        .collect()
+}
+
+const APP_PIPELINE: u64 = 8;
+/// Push stages other than the carrier's range's: such pushes never carry the carrier.
+const OTHER_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
+    vk::ShaderStageFlags::VERTEX.as_raw() | vk::ShaderStageFlags::FRAGMENT.as_raw(),
+);
+
+/// A pipeline reading its projection from push-constant bytes 0..64, whose vertex stage
+/// stores the carrier's depth (carrier at byte 112).
+fn projection_pipeline() -> Arc<PipelineDepth> {
+    Arc::new(PipelineDepth {
+        projection: Some(ProjectionUse {
+            offset: 0,
+            stride: 16,
+            storage: revz_math::Storage::ColumnMajor,
+            convention: revz_math::DepthConvention::ZeroToOne,
+        }),
+        position_store: Some(Carrier {
+            offset: 112,
+            stages: vk::ShaderStageFlags::VERTEX,
+            range_offset: 0,
+        }),
+        handle: vk::Pipeline::from_raw(APP_PIPELINE),
+        ..(*static_pipeline()).clone()
+    })
+}
+
+fn layout() -> vk::PipelineLayout {
+    vk::PipelineLayout::from_raw(3)
+}
+
+fn precise(target: RewriteTarget) -> CommandState {
+    let reversal = match target {
+        RewriteTarget::Complementary => Reversal::Complementary,
+        RewriteTarget::Infinite => Reversal::Infinite { near_over_far: 0.0 },
+    };
+    CommandState::new(Reversing {
+        rewrite: Some(target),
+        reversal,
+    })
+}
+
+/// A pipeline whose vertex stage derives its range from a uniform buffer's matrix.
+fn derived_pipeline() -> Arc<PipelineDepth> {
+    Arc::new(PipelineDepth {
+        projection: None,
+        derived_range: Some(MatrixSource::UniformBuffer),
+        layout: vk::PipelineLayout::from_raw(9),
+        ..(*projection_pipeline()).clone()
+    })
+}
+
+#[test]
+fn a_stage_deriving_its_range_gets_the_selector_with_its_own_layout_and_no_push_of_its_own() {
+    for (target, selector) in [
+        (RewriteTarget::Complementary, 1.0f32),
+        (RewriteTarget::Infinite, 2.0),
+    ] {
+        let reversal = precise(target).reversal();
+        let mut state = precise(target);
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.bind_pipeline(Some(derived_pipeline()));
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        let carrier = Carrier::bytes(&[0.0, 0.0, 0.0, selector]).to_vec();
+        assert_eq!(
+            sink.pushed,
+            vec![(vk::PipelineLayout::from_raw(9), carrier)]
+        );
+        assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
+        assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
+        // The next draws: nothing more to send.
+        state.before_draw(&mut sink);
+        assert_eq!(sink.pushed.len(), 1);
+        // Into a native attachment the stage stores its own z.
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Native);
+        let flip = Carrier::bytes(&FLIP_CARRIER).to_vec();
+        assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&flip));
+        // The application pushed with another pipeline's layout (an overlay's): the
+        // selector still goes down with revz's layout of this pipeline's ranges.
+        let mut state = precise(target);
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.push_constants(layout(), OTHER_STAGES, 0, &[0; 16]);
+        state.bind_pipeline(Some(derived_pipeline()));
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(
+            sink.pushed.last().map(|p| p.0),
+            Some(vk::PipelineLayout::from_raw(9))
+        );
+        // A secondary inheriting viewports cannot take it: the flip path.
+        let mut inherited = precise(target);
+        inherited.begin(Target::Reversed, reversal, Default::default());
+        inherited.inherit_viewports();
+        inherited.bind_pipeline(Some(derived_pipeline()));
+        let mut sink = Recorded::default();
+        inherited.before_draw(&mut sink);
+        assert_eq!(inherited.path(), DrawPath::Flip);
+    }
+}
+
+#[test]
+fn a_push_for_another_pipeline_is_never_overwritten_by_the_carrier() {
+    // Bound: a pipeline whose stage derives its range (revz's layout 9). The application
+    // then pushes 128 bytes with a layout of other ranges (no revz layout of its own), for
+    // the pipeline it binds next: those bytes may cover the carrier's.
+    let mut state = precise(RewriteTarget::Infinite);
+    let reversal = state.reversal();
+    state.begin(Target::Reversed, reversal, Default::default());
+    state.bind_pipeline(Some(derived_pipeline()));
+    let mut sink = Recorded::default();
+    state.settle(&mut sink);
+    assert_eq!(sink.pushed.len(), 1, "the selector, with revz's layout");
+    state.note_push_pusher(vk::PipelineLayout::null());
+    let (_, folded) = state.push_constants(layout(), OTHER_STAGES, 0, &[0; 128]);
+    assert!(
+        folded.is_none(),
+        "not extended with this pipeline's carrier"
+    );
+    state.settle(&mut sink);
+    assert_eq!(
+        sink.pushed.len(),
+        1,
+        "nothing pushed over the application's bytes"
+    );
+    // The application binds again (its next pipeline, here the same): the carrier its
+    // push may have overwritten goes down again.
+    state.bind_pipeline(Some(derived_pipeline()));
+    state.settle(&mut sink);
+    assert_eq!(sink.pushed.len(), 2);
+    assert_eq!(
+        sink.pushed.last().map(|p| p.0),
+        Some(vk::PipelineLayout::from_raw(9))
+    );
+    assert_eq!(state.path(), DrawPath::Precise);
+    // A push with a layout of the pipeline's own ranges is compatible: folded as before.
+    state.note_push_pusher(vk::PipelineLayout::from_raw(9));
+    state.push_constants(vk::PipelineLayout::from_raw(30), OTHER_STAGES, 0, &[0; 16]);
+    state.settle(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+}
+
+#[test]
+fn a_dynamic_minus_one_to_one_convention_is_converted_by_the_stage_and_set_to_zero_to_one() {
+    // Zink: the clip convention is dynamic and set [-1, 1] before each draw.
+    let pipeline = Arc::new(PipelineDepth {
+        app_dynamic: States::CLIP_CONTROL,
+        ..(*derived_pipeline()).clone()
+    });
+    let mut state = precise(RewriteTarget::Infinite);
+    let reversal = state.reversal();
+    state.begin(Target::Reversed, reversal, Default::default());
+    state.bind_pipeline(Some(pipeline));
+    state.set_clip_negative_one_to_one(true);
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    let carrier = Carrier::bytes(&[0.0, 0.0, 0.0, 4.0]).to_vec();
+    assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&carrier));
+    assert_eq!(sink.clip_conventions, vec![false]);
+    // Into a native attachment: the application's [-1, 1] and the shader's own z.
+    state.set_target(Target::Native);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.clip_conventions, vec![false, true]);
+    let flip = Carrier::bytes(&FLIP_CARRIER).to_vec();
+    assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&flip));
+    // [0, 1] set by the application: selector 2, nothing converted.
+    state.set_target(Target::Reversed);
+    state.set_clip_negative_one_to_one(false);
+    state.before_draw(&mut sink);
+    let carrier = Carrier::bytes(&[0.0, 0.0, 0.0, 2.0]).to_vec();
+    assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&carrier));
+    assert_eq!(sink.clip_conventions, vec![false, true, false]);
+}
+
+#[test]
+fn a_recording_looks_each_pipeline_up_once_until_the_device_destroys_one() {
+    let mut state = begun(Target::Reversed);
+    let depth = |raw: u64, compare_op: vk::CompareOp| {
+        Arc::new(PipelineDepth {
+            handle: vk::Pipeline::from_raw(raw),
+            compare_op,
+            ..(*static_pipeline()).clone()
+        })
+    };
+    let lookups = std::cell::Cell::new(0);
+    let bind =
+        |state: &mut CommandState, raw: u64, generation: u64, found: Option<Arc<PipelineDepth>>| {
+            state.bind_pipeline_handle(vk::Pipeline::from_raw(raw), generation, || {
+                lookups.set(lookups.get() + 1);
+                found
+            });
+            state.pipeline().map(|p| (p.handle.as_raw(), p.compare_op))
+        };
+    let (less, equal) = (vk::CompareOp::LESS, vk::CompareOp::EQUAL);
+    assert_eq!(
+        bind(&mut state, 1, 0, Some(depth(1, less))),
+        Some((1, less))
+    );
+    assert_eq!(bind(&mut state, 2, 0, None), None, "untracked");
+    assert_eq!(lookups.get(), 2);
+    // Bound again: known, whatever a lookup would say.
+    assert_eq!(bind(&mut state, 1, 0, None), Some((1, less)));
+    assert_eq!(bind(&mut state, 2, 0, Some(depth(2, less))), None);
+    assert_eq!(lookups.get(), 2);
+    // A pipeline destroyed on the device (and its handle reused): looked up again.
+    assert_eq!(
+        bind(&mut state, 1, 1, Some(depth(1, equal))),
+        Some((1, equal))
+    );
+    assert_eq!(lookups.get(), 3);
+    // More pipelines than slots: each bind still gets its own.
+    for raw in 10..20 {
+        assert_eq!(
+            bind(&mut state, raw, 1, Some(depth(raw, less))),
+            Some((raw, less))
+        );
+    }
+    assert_eq!(
+        bind(&mut state, 1, 1, Some(depth(1, equal))),
+        Some((1, equal))
+    );
+    // The settle after a bind sends the newly bound pipeline's flipped compare op.
+    let mut sink = Recorded::default();
+    state.settle(&mut sink);
+    assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::EQUAL));
+}
+
+#[test]
+fn a_projection_takes_the_precise_path_through_the_carrier_pushed_once_per_camera() {
+    let mut state = precise(RewriteTarget::Complementary);
+    state.begin(
+        Target::Reversed,
+        Reversal::Complementary,
+        Default::default(),
+    );
+    state.bind_pipeline(Some(projection_pipeline()));
+    let data = perspective_bytes();
+    // Pushed with other stages than the carrier's range: the draw sends the carrier.
+    let (outcome, folded) = state.push_constants(layout(), OTHER_STAGES, 0, &data);
+    assert!(matches!(outcome, Some(Outcome::Rewritten { .. })));
+    assert!(folded.is_none());
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    // The application's bytes are never re-sent; only the carrier goes down, read by the
+    // application's pipeline's own (rewritten) vertex stage: nothing else is bound.
+    assert_eq!(sink.pushes, vec![(112, 16)]);
+    assert!(sink.binds.is_empty());
+    // [0, 1] -> [1 - 1, 1 - 0]: the rewritten store already reverses.
+    assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
+    assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
+
+    // The next object's matrix of the same camera: nothing to send at its draw.
+    state.push_constants(layout(), OTHER_STAGES, 0, &data);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.pushes.len(), 1);
+    assert_eq!(sink.viewports.len(), 1);
+    // A push with another layout may have disturbed the carrier: it goes down again.
+    state.push_constants(vk::PipelineLayout::from_raw(4), OTHER_STAGES, 0, &data);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.pushes, vec![(112, 16), (112, 16)]);
+}
+
+#[test]
+fn a_push_of_the_carriers_stages_carries_it_when_it_changes() {
+    let mut state = precise(RewriteTarget::Infinite);
+    state.begin(
+        Target::Reversed,
+        Reversal::Infinite { near_over_far: 0.0 },
+        Default::default(),
+    );
+    state.bind_pipeline(Some(projection_pipeline()));
+    let data = perspective_bytes();
+    let (outcome, folded) = state.push_constants(layout(), vk::ShaderStageFlags::VERTEX, 0, &data);
+    let Some(Outcome::Rewritten { carrier, .. }) = outcome else {
+        panic!("{outcome:?}");
+    };
+    let folded = folded.expect("the carrier goes with the push");
+    assert_eq!((folded.offset, folded.size), (0, 128));
+    let mut out = [0xAA; crate::precise::PUSH_CONSTANT_BYTES];
+    let bytes = state.folded_bytes(&folded, &mut out);
+    assert_eq!(bytes.len(), 128);
+    assert_eq!(bytes[..64], data[..]);
+    assert_eq!(bytes[64..112], [0; 48], "bytes never pushed");
+    assert_eq!(bytes[112..128], Carrier::bytes(&carrier));
+    // The draw has nothing to push; the same camera's next matrix goes down as it is.
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert!(sink.pushes.is_empty());
+    let (_, again) = state.push_constants(layout(), vk::ShaderStageFlags::VERTEX, 0, &data);
+    assert!(again.is_none());
+    // Not sent extended (a caller that could not): the draw sends it.
+    let (_, other) = state.push_constants(
+        vk::PipelineLayout::from_raw(4),
+        vk::ShaderStageFlags::VERTEX,
+        0,
+        &data,
+    );
+    assert!(other.is_some());
+    state.unfold();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.pushes, vec![(112, 16)]);
+}
+
+#[test]
+fn without_a_push_layout_the_application_pipeline_draws_with_the_flip_path() {
+    let mut state = precise(RewriteTarget::Complementary);
+    state.begin(
+        Target::Reversed,
+        Reversal::Complementary,
+        Default::default(),
+    );
+    state.bind_pipeline(Some(projection_pipeline()));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    assert!(sink.pushes.is_empty());
+    assert!(
+        sink.binds.is_empty(),
+        "the application's pipeline stays bound"
+    );
+}
+
+#[test]
+fn viewports_go_down_before_secondaries_run_for_the_flip_path_they_inherit() {
+    let mut state = precise(RewriteTarget::Complementary);
+    state.begin(Target::None, Reversal::Complementary, Default::default());
+    let mut sink = Recorded::default();
+    // Nothing set: nothing to send.
+    state.flush_viewports_for_secondaries(&mut sink);
+    assert_eq!(sink, Recorded::default());
+    // Set before a render pass of secondaries into a reversed attachment.
+    state.set_viewports(0, &[viewport(0.0, 1.0)]);
+    state.set_compare_op(vk::CompareOp::LESS);
+    state.set_target(Target::Reversed);
+    state.flush_viewports_for_secondaries(&mut sink);
+    assert_eq!(
+        sink,
+        Recorded {
+            viewports: vec![(0, vec![(1.0, 0.0)])],
+            ..Default::default()
+        },
+        "only the viewports, flipped: nothing else is inherited"
+    );
+    state.set_secondary_contents(true);
+    assert!(!state.records_inline());
+    // Into a native attachment: the application's values.
+    state.set_target(Target::Native);
+    state.flush_viewports_for_secondaries(&mut sink);
+    assert_eq!(sink.viewports.last(), Some(&(0, vec![(0.0, 1.0)])));
+}
+
+#[test]
+fn a_secondary_inheriting_viewports_takes_the_flip_path_even_with_a_pushed_projection() {
+    let mut state = precise(RewriteTarget::Complementary);
+    state.begin(
+        Target::Reversed,
+        Reversal::Complementary,
+        Default::default(),
+    );
+    state.inherit_viewports();
+    state.bind_pipeline(Some(projection_pipeline()));
+    state.push_constants(layout(), OTHER_STAGES, 0, &perspective_bytes());
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    // The variant is drawn with the flip carrier: the shader's own z.
+    assert_eq!(sink.pushes, vec![(112, 16)]);
+    // A new recording of the same command buffer forgets it.
+    state.begin(
+        Target::Reversed,
+        Reversal::Complementary,
+        Default::default(),
+    );
+    state.bind_pipeline(Some(projection_pipeline()));
+    state.push_constants(layout(), OTHER_STAGES, 0, &perspective_bytes());
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+}
+
+#[test]
+fn draws_without_a_push_constant_projection_take_the_flip_path() {
+    let mut state = precise(RewriteTarget::Complementary);
+    state.begin(
+        Target::Reversed,
+        Reversal::Complementary,
+        Default::default(),
+    );
+    state.bind_pipeline(Some(static_pipeline()));
+    assert_eq!(
+        state
+            .push_constants(
+                layout(),
+                vk::ShaderStageFlags::VERTEX,
+                0,
+                &perspective_bytes()
+            )
+            .0,
+        None,
+        "not this pipeline's projection"
+    );
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.0)])]);
+}
+
+#[test]
+fn a_projection_pushed_outside_the_render_pass_is_classified_at_the_draw() {
+    let mut state = precise(RewriteTarget::Infinite);
+    state.begin(
+        Target::None,
+        Reversal::Infinite { near_over_far: 0.0 },
+        Default::default(),
+    );
+    state.bind_pipeline(Some(projection_pipeline()));
+    state.push_constants(
+        layout(),
+        vk::ShaderStageFlags::VERTEX,
+        0,
+        &perspective_bytes(),
+    );
+    state.set_target(Target::Reversed);
+    let mut sink = Recorded::default();
+    let outcome = state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(sink.pushes, vec![(112, 16)]);
+    // Infinite mode learned n / f = 0.01 from it, for the flip path's state.
+    let Some(Outcome::Rewritten { near_over_far, .. }) = outcome else {
+        panic!("{outcome:?}");
+    };
+    assert!((near_over_far - 0.01).abs() < 1e-6);
+    assert_eq!(state.reversal(), Reversal::Infinite { near_over_far });
+
+    // A flip-path pipeline in the same pass: nothing pushed, and its viewport maps
+    // standard depth to n / w: [0, 1] -> [1, n / f].
+    state.bind_pipeline(Some(static_pipeline()));
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    assert_eq!(sink.pushes.len(), 1);
+    assert_eq!(
+        sink.viewports.last(),
+        Some(&(0, vec![(1.0, near_over_far)]))
+    );
+
+    // Native attachments get the carrier that keeps the shader's own z, and no flipped
+    // state.
+    state.bind_pipeline(Some(projection_pipeline()));
+    state.set_target(Target::Native);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Native);
+    assert_eq!(sink.pushes, vec![(112, 16), (112, 16)]);
+    assert_eq!(sink.viewports.last(), Some(&(0, vec![(0.0, 1.0)])));
+    assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::LESS));
+}
+
+#[test]
+fn rebinding_pipelines_with_the_same_state_sends_nothing_again() {
+    let mut state = begun(Target::Reversed);
+    let mut sink = Recorded::default();
+    for _ in 0..3 {
+        state.bind_pipeline(Some(static_pipeline()));
+        state.before_draw(&mut sink);
+    }
+    assert_eq!(sink.viewports.len(), 1);
+    assert_eq!(sink.compare_ops.len(), 1);
+    assert_eq!(sink.biases.len(), 1);
+
+    // A pipeline that keeps the compare op static overwrites it: after it, it is sent again.
+    state.bind_pipeline(Some(Arc::new(PipelineDepth {
+        injected: States::VIEWPORT | States::BIAS,
+        ..(*static_pipeline()).clone()
+    })));
+    state.before_draw(&mut sink);
+    state.bind_pipeline(Some(static_pipeline()));
+    state.before_draw(&mut sink);
+    assert_eq!(sink.viewports.len(), 1);
+    assert_eq!(sink.compare_ops.len(), 2);
+
+    // After secondaries ran, everything is sent again.
+    state.invalidate();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.viewports.len(), 2);
+    assert_eq!(sink.compare_ops.len(), 3);
+}
