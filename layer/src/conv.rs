@@ -95,6 +95,34 @@ pub struct DepthBias {
     pub constant: f32,
     pub clamp: f32,
     pub slope: f32,
+    /// The representation the application gave with it (`VK_EXT_depth_bias_control`), which
+    /// must go down with it again; `None`: the default (`vkCmdSetDepthBias`).
+    pub representation: Option<BiasRepresentation>,
+}
+
+/// A `VkDepthBiasRepresentationInfoEXT`'s values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BiasRepresentation {
+    pub representation: vk::DepthBiasRepresentationEXT,
+    pub exact: bool,
+}
+
+impl BiasRepresentation {
+    /// The representation of a chain's `VkDepthBiasRepresentationInfoEXT`.
+    pub fn of(info: &vk::DepthBiasRepresentationInfoEXT<'_>) -> BiasRepresentation {
+        BiasRepresentation {
+            representation: info.depth_bias_representation,
+            exact: info.depth_bias_exact == vk::TRUE,
+        }
+    }
+
+    /// Whether the constant factor counts the format's least representable values (which
+    /// promotion to float changes), as the default representation does.
+    fn in_format_units(representation: Option<BiasRepresentation>) -> bool {
+        representation.is_none_or(|r| {
+            r.representation == vk::DepthBiasRepresentationEXT::LEAST_REPRESENTABLE_VALUE_FORMAT
+        })
+    }
 }
 
 impl DepthBias {
@@ -108,6 +136,10 @@ impl DepthBias {
     /// number of representable steps over its surface, not the same distance. The slope
     /// factor and the clamp are in depth units in every format: unchanged.
     pub fn in_float_storage(self, format: vk::Format) -> DepthBias {
+        // FLOAT and FORCE_UNORM representations name units that promotion does not change.
+        if !BiasRepresentation::in_format_units(self.representation) {
+            return self;
+        }
         let Some(unit) = unorm_bias_unit(format) else {
             return self;
         };
@@ -122,6 +154,7 @@ impl DepthBias {
             constant: -self.constant,
             clamp: -self.clamp,
             slope: -self.slope,
+            representation: self.representation,
         }
     }
 }
@@ -215,6 +248,7 @@ mod tests {
             constant: -8.0,
             clamp: -1e-4,
             slope: -12.0,
+            representation: None,
         };
         // D24: 2^-24 is the float unit in [0.5, 1]: unchanged.
         assert_eq!(bias.in_float_storage(vk::Format::D24_UNORM_S8_UINT), bias);
@@ -230,6 +264,33 @@ mod tests {
         assert_eq!(d16.constant * next, bias.constant * 2f32.powi(-16));
         // Float formats are left alone.
         assert_eq!(bias.in_float_storage(vk::Format::D32_SFLOAT), bias);
+    }
+
+    #[test]
+    fn only_a_bias_in_the_formats_units_is_scaled_for_float_storage_and_flipping_keeps_its_representation(
+    ) {
+        let represented = |representation| DepthBias {
+            constant: -8.0,
+            clamp: 0.0,
+            slope: -1.0,
+            representation: Some(BiasRepresentation {
+                representation,
+                exact: true,
+            }),
+        };
+        use vk::DepthBiasRepresentationEXT as R;
+        for absolute in [R::FLOAT, R::LEAST_REPRESENTABLE_VALUE_FORCE_UNORM] {
+            let bias = represented(absolute);
+            assert_eq!(bias.in_float_storage(vk::Format::D16_UNORM), bias);
+        }
+        let in_format = represented(R::LEAST_REPRESENTABLE_VALUE_FORMAT);
+        assert_eq!(
+            in_format.in_float_storage(vk::Format::D16_UNORM).constant,
+            -8.0 * 256.0
+        );
+        let flipped = in_format.flipped();
+        assert_eq!((flipped.constant, flipped.slope), (8.0, 1.0));
+        assert_eq!(flipped.representation, in_format.representation);
     }
 
     #[test]
@@ -403,6 +464,7 @@ mod tests {
             constant: -2.0,
             clamp: -0.01,
             slope: -1.5,
+            representation: None,
         };
         assert_eq!(bias.flipped().flipped(), bias);
         assert_eq!(bias.flipped().constant, 2.0);

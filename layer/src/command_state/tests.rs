@@ -99,6 +99,7 @@ fn static_pipeline() -> Arc<PipelineDepth> {
             constant: -1.0,
             clamp: 0.0,
             slope: -2.0,
+            representation: None,
         },
         bounds: (0.0, 1.0),
         unreversed_fragment: false,
@@ -329,7 +330,8 @@ fn static_state_is_emitted_flipped_for_a_reversed_target_once() {
             biases: vec![DepthBias {
                 constant: 1.0,
                 clamp: -0.0,
-                slope: 2.0
+                slope: 2.0,
+                representation: None
             }],
             ..Default::default()
         }

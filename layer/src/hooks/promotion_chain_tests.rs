@@ -2282,6 +2282,63 @@ fn a_depth_bias_in_the_formats_units_set_with_a_representation_is_scaled_on_prom
     fx.finish();
 }
 
+#[test]
+fn a_depth_bias_with_a_representation_set_before_the_pass_is_sent_for_its_reversed_attachment() {
+    let fx = Fixture::new();
+    let (pass, _) = fx.depth_pass(D16, false);
+    let (_, promoted_view) = fx.depth_image(D16, ATTACHMENT, SINGLE);
+    let promoted = fx.framebuffer(pass, &[promoted_view]).handle;
+    let (dynamic, _, _) = fx.pipeline(
+        PipelineTarget::Pass(pass),
+        Some(0.0),
+        &[vk::DynamicState::DEPTH_BIAS],
+    );
+    let buffer = fx.primary();
+    let clears = [vk::ClearValue::default()];
+    let begin = vk::RenderPassBeginInfo::default()
+        .render_pass(pass)
+        .framebuffer(promoted)
+        .render_area(EXTENT.into())
+        .clear_values(&clears);
+    let subpass = vk::SubpassBeginInfo::default().contents(vk::SubpassContents::INLINE);
+    let mut represented = vk::DepthBiasRepresentationInfoEXT::default()
+        .depth_bias_representation(vk::DepthBiasRepresentationEXT::FLOAT)
+        .depth_bias_exact(true);
+    let info = vk::DepthBiasInfoEXT::default()
+        .depth_bias_constant_factor(-8.0)
+        .depth_bias_slope_factor(-1.0)
+        .push_next(&mut represented);
+    // SAFETY: a recording primary, valid infos.
+    unsafe {
+        (fx.hooks.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::GRAPHICS, dynamic);
+        // Outside the pass: where its draws go is not known yet.
+        (fx.hooks.cmd_set_depth_bias2)(buffer, &info);
+        (fx.hooks.cmd_begin_render_pass2)(buffer, &begin, &subpass);
+        (fx.hooks.cmd_draw)(buffer, 3, 1, 0, 0);
+        (fx.hooks.cmd_end_render_pass2)(buffer, &vk::SubpassEndInfo::default());
+    }
+    let sent: Vec<_> = fx
+        .events()
+        .into_iter()
+        .filter_map(|event| match event {
+            Event::SetDepthBias2 {
+                constant,
+                slope,
+                representation,
+                ..
+            } => Some((constant, slope, representation)),
+            Event::SetDepthBias { .. } => panic!("the representation was dropped"),
+            _ => None,
+        })
+        .collect();
+    // Negated for the reversed attachment (not scaled: FLOAT units), with its representation.
+    assert_eq!(
+        sent,
+        [(8.0, 1.0, Some(vk::DepthBiasRepresentationEXT::FLOAT))]
+    );
+    fx.finish();
+}
+
 // --- 8. framebuffers mixing promoted and unpromoted images ---
 
 #[test]

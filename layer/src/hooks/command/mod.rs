@@ -27,7 +27,7 @@ use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{StateSink, Target};
-use crate::conv::{flip_resolve_mode, DepthBias};
+use crate::conv::{flip_resolve_mode, BiasRepresentation, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
 use crate::policy::{secondary_target, Convention};
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
@@ -101,6 +101,22 @@ impl StateSink for NextLayer<'_> {
     }
 
     fn set_bias(&mut self, bias: DepthBias) {
+        let set2 = self.device.commands.set_depth_bias2;
+        if let (Some(representation), Some(set2)) = (bias.representation, set2) {
+            // With the representation the application gave (only biases that came with one
+            // have it, so the device has the extension).
+            let mut represented = vk::DepthBiasRepresentationInfoEXT::default()
+                .depth_bias_representation(representation.representation)
+                .depth_bias_exact(representation.exact);
+            let info = vk::DepthBiasInfoEXT::default()
+                .depth_bias_constant_factor(bias.constant)
+                .depth_bias_clamp(bias.clamp)
+                .depth_bias_slope_factor(bias.slope)
+                .push_next(&mut represented);
+            // SAFETY: as above; a valid info and chain.
+            unsafe { set2(self.buffer, &info) };
+            return;
+        }
         // SAFETY: as above.
         unsafe {
             (self.device.next.fp_v1_0().cmd_set_depth_bias)(
@@ -586,6 +602,7 @@ pub unsafe extern "system" fn cmd_set_depth_bias(
         constant,
         clamp,
         slope,
+        representation: None,
     };
     let taken = recorded(buffer, &ENTRY, |entry| entry.state().set_bias(bias));
     if let Err(Some(device)) = taken {
@@ -702,43 +719,46 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
     }
 }
 
-/// `vkCmdSetDepthBias2EXT` (`VK_EXT_depth_bias_control`). Without a representation in its
-/// `pNext` it is `vkCmdSetDepthBias` and goes through the state machine. With one, revz cannot
-/// re-send it as `vkCmdSetDepthBias`: it goes down at once, negated when the current target is
-/// reversed (a target that changes before the draw is not followed: logged once).
+/// `vkCmdSetDepthBias2EXT` (`VK_EXT_depth_bias_control`): the bias, with the representation of
+/// a chained `VkDepthBiasRepresentationInfoEXT`, goes through the state machine like
+/// `vkCmdSetDepthBias` (sent for each draw's target with that representation). A chain with
+/// other structures revz cannot keep to send again later: it goes down at once, negated when
+/// the current target is reversed (a target that changes before the draw is not followed:
+/// logged once).
 pub unsafe extern "system" fn cmd_set_depth_bias2(
     buffer: vk::CommandBuffer,
     p_info: *const vk::DepthBiasInfoEXT<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthBias2EXT");
-    static REPRESENTED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+    static UNKNOWN_CHAIN: crate::logging::LogOnce = crate::logging::LogOnce::new();
     // SAFETY: a valid info (the application's contract).
     let info = unsafe { *p_info };
+    // SAFETY: a valid pNext chain (the application's contract).
+    let (representation, only_it) = unsafe {
+        let found = chain::find::<vk::DepthBiasRepresentationInfoEXT<'_>>(info.p_next);
+        let only = match found {
+            Some(r) => r.p_next.is_null() && std::ptr::eq(info.p_next.cast(), r as *const _),
+            None => info.p_next.is_null(),
+        };
+        (found.map(BiasRepresentation::of), only)
+    };
     let bias = DepthBias {
         constant: info.depth_bias_constant_factor,
         clamp: info.depth_bias_clamp,
         slope: info.depth_bias_slope_factor,
+        representation,
     };
     let mut flipped = None;
     let taken = recorded(buffer, &ENTRY, |entry| {
         let mut state = entry.state();
-        if info.p_next.is_null() {
+        if only_it {
             state.set_bias(bias);
             return;
         }
         state.forget_emitted_bias();
-        // A bias in the format's units on a promoted attachment is converted to the float
-        // format's (`DepthBias::in_float_storage`); FLOAT and FORCE_UNORM representations
-        // name units that promotion does not change.
-        // SAFETY: a valid pNext chain (the application's contract).
-        let representation =
-            unsafe { chain::find::<vk::DepthBiasRepresentationInfoEXT<'_>>(info.p_next) }
-                .map(|r| r.depth_bias_representation);
-        let in_format_units = representation
-            .is_none_or(|r| r == vk::DepthBiasRepresentationEXT::LEAST_REPRESENTABLE_VALUE_FORMAT);
         let scaled = match state.promoted_from() {
-            Some(format) if in_format_units => bias.in_float_storage(format),
-            _ => bias,
+            Some(format) => bias.in_float_storage(format),
+            None => bias,
         };
         let reversed = state.target() == Target::Reversed;
         if reversed || scaled != bias {
@@ -750,15 +770,14 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
                 ..info
             });
         }
-        REPRESENTED.log(|| {
+        UNKNOWN_CHAIN.log(|| {
             log::info!(
-                "vkCmdSetDepthBias2EXT with a bias representation is negated where it is \
-                 recorded, not per draw"
+                "vkCmdSetDepthBias2EXT with structures revz does not know in its chain is                  negated where it is recorded, not per draw"
             )
         });
     });
     let down = match taken {
-        Ok(()) if info.p_next.is_null() => return,
+        Ok(()) if only_it => return,
         Ok(()) => objects::command_buffer(buffer).map(Down::Tracked),
         Err(down) => down,
     };

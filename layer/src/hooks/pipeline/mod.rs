@@ -29,7 +29,7 @@ use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{PipelineDepth, States};
-use crate::conv::{flip_compare_op, DepthBias};
+use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::policy::vertex_stage::{precise_candidate, Missing, VertexStageFacts};
 use crate::precise::{self, Carrier, ProjectionUse};
@@ -230,6 +230,9 @@ struct PlanContext {
     subsets: Subsets,
     /// The flipped compare op comes from a pipeline variant, not dynamic state.
     compare_op_variants: bool,
+    /// The device has `vkCmdSetDepthBias2EXT`: a bias with an explicit representation can be
+    /// sent again with it.
+    bias_with_representation: bool,
 }
 
 pub unsafe extern "system" fn create_graphics_pipelines(
@@ -740,6 +743,7 @@ mod tests {
         has_depth_attachment: true,
         subsets: ALL_SUBSETS,
         compare_op_variants: false,
+        bias_with_representation: false,
     };
 
     const VIEWPORT: [vk::Viewport; 1] = [vk::Viewport {
@@ -977,6 +981,7 @@ mod tests {
                 constant: 3.0,
                 clamp: 0.0,
                 slope: 1.0,
+                representation: None,
             },
             // What a fragment shader library would own is ignored from this one.
             compare_op: vk::CompareOp::NEVER,
@@ -992,6 +997,7 @@ mod tests {
                 constant: 99.0,
                 clamp: 0.0,
                 slope: 0.0,
+                representation: None,
             },
             ..PipelineDepth::default()
         });
@@ -1036,15 +1042,31 @@ mod tests {
     }
 
     #[test]
-    fn an_explicit_bias_representation_keeps_the_bias_static() {
+    fn an_explicit_bias_representation_is_made_dynamic_only_where_it_can_be_sent_again() {
         let depth = depth_state(true, false);
-        let mut representation = vk::DepthBiasRepresentationInfoEXT::default();
+        let mut representation = vk::DepthBiasRepresentationInfoEXT::default()
+            .depth_bias_representation(vk::DepthBiasRepresentationEXT::FLOAT)
+            .depth_bias_exact(true);
         let raster = raster(true, false).push_next(&mut representation);
         let info = vk::GraphicsPipelineCreateInfo::default()
             .depth_stencil_state(&depth)
             .rasterization_state(&raster);
-        let plan = plan(&info, &RENDERS_DEPTH);
-        assert_eq!(plan.depth.injected, States::COMPARE_OP);
+        // Without vkCmdSetDepthBias2EXT: static.
+        let kept = plan(&info, &RENDERS_DEPTH);
+        assert_eq!(kept.depth.injected, States::COMPARE_OP);
+        let with_command = PlanContext {
+            bias_with_representation: true,
+            ..RENDERS_DEPTH
+        };
+        let dynamic = plan(&info, &with_command);
+        assert_eq!(dynamic.depth.injected, States::COMPARE_OP | States::BIAS);
+        assert_eq!(
+            dynamic.depth.bias.representation,
+            Some(BiasRepresentation {
+                representation: vk::DepthBiasRepresentationEXT::FLOAT,
+                exact: true
+            })
+        );
     }
 
     #[test]

@@ -422,21 +422,21 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
     }
     if let Some(raster) = raster {
         let bias = raster.depth_bias_enable == vk::TRUE || has(vk::DynamicState::DEPTH_BIAS_ENABLE);
+        // SAFETY: a valid pNext chain (the application's contract).
+        let representation =
+            unsafe { chain::find::<vk::DepthBiasRepresentationInfoEXT<'_>>(raster.p_next) }
+                .map(BiasRepresentation::of);
         depth.bias = DepthBias {
             constant: raster.depth_bias_constant_factor,
             clamp: raster.depth_bias_clamp,
             slope: raster.depth_bias_slope_factor,
+            representation,
         };
-        // A bias with an explicit representation (VK_EXT_depth_bias_control) cannot be re-sent
-        // with vkCmdSetDepthBias without losing it: such pipelines keep their static bias.
-        // SAFETY: a valid pNext chain (the application's contract).
-        let represented = unsafe {
-            chain::has(
-                raster.p_next,
-                vk::StructureType::DEPTH_BIAS_REPRESENTATION_INFO_EXT,
-            )
-        };
-        if bias && !represented && !has(vk::DynamicState::DEPTH_BIAS) {
+        // A bias with an explicit representation (VK_EXT_depth_bias_control) goes down again
+        // with vkCmdSetDepthBias2EXT and its representation; without that command it cannot,
+        // and the pipeline keeps its static (unflipped) bias.
+        let resendable = representation.is_none() || context.bias_with_representation;
+        if bias && resendable && !has(vk::DynamicState::DEPTH_BIAS) {
             added.push(vk::DynamicState::DEPTH_BIAS);
             depth.injected |= States::BIAS;
         }
@@ -491,6 +491,7 @@ pub(super) fn context(
         has_depth_attachment,
         subsets,
         compare_op_variants: state.policy.compare_op_variants,
+        bias_with_representation: state.commands.set_depth_bias2.is_some(),
     }
 }
 
