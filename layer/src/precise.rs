@@ -517,41 +517,34 @@ impl PushConstants {
                 return Some(*outcome);
             }
         }
-        // The same camera's next matrix, recognized without computing its line (most pushes
-        // of a frame): what the match below would conclude, on a sufficient test.
-        let surely_same = self.same_camera.as_ref().and_then(|same| {
-            (same.generation == self.generation
+        // The camera of the last classified matrix, where this one can be its.
+        let same = self.same_camera.filter(|same| {
+            same.generation == self.generation
                 && same.convention == use_.convention
                 && same.target == target
-                && same.line.surely_holds(&values, use_.storage))
-            .then_some((same.index, same.outcome))
         });
-        if let Some((index, outcome)) = surely_same {
-            self.cameras.touch(index);
-            self.count_match(Some(index));
-            self.last = Some((
-                bits,
-                use_.storage,
-                use_.convention,
-                self.generation,
-                outcome,
-            ));
-            return Some(outcome);
-        }
-        let line = DepthLine::of_stored(&values, use_.storage);
-        let outcome = match (line, self.same_camera) {
-            (Some(line), Some(same))
-                if same.generation == self.generation
-                    && same.convention == use_.convention
-                    && same.target == target
-                    && same.line.agrees_with(&line)
-                    && line.relative_b_error() >= same.line.relative_b_error() =>
-            {
+        // The line, computed at most once, and not at all for the same camera's next matrix
+        // that the sufficient test recognizes (most pushes of a frame).
+        let mut line = None;
+        let mut line_of =
+            || *line.get_or_insert_with(|| DepthLine::of_stored(&values, use_.storage));
+        // The same camera's matrix: its line agrees with the camera's and does not improve it
+        // (what the full search would conclude).
+        let matched = same.filter(|same| {
+            same.line.surely_holds(&values, use_.storage)
+                || line_of().is_some_and(|line| {
+                    same.line.agrees_with(&line)
+                        && line.relative_b_error() >= same.line.relative_b_error()
+                })
+        });
+        let outcome = match matched {
+            Some(same) => {
                 self.cameras.touch(same.index);
                 self.count_match(Some(same.index));
                 same.outcome
             }
-            _ => {
+            None => {
+                let line = line_of();
                 let (outcome, changed, camera) =
                     classify_line(line, use_.convention, target, &mut self.cameras);
                 if changed.is_some() {

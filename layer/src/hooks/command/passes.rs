@@ -449,11 +449,8 @@ pub unsafe extern "system" fn cmd_end_rendering2_khr(
     p_info: *const std::ffi::c_void,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRendering2KHR");
-    let device = with_entry(buffer, &ENTRY, end_pass);
-    if let Some(next) = device.and_then(|d| d.commands.end_rendering2_khr) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, p_info) }
-    }
+    // SAFETY: the caller's arguments.
+    unsafe { end_rendering2(buffer, p_info, &ENTRY, |c| c.end_rendering2_khr) }
 }
 
 /// `vkCmdEndRendering2EXT` (`VK_EXT_fragment_density_map_offset`): the same.
@@ -462,8 +459,22 @@ pub unsafe extern "system" fn cmd_end_rendering2_ext(
     p_info: *const std::ffi::c_void,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRendering2EXT");
-    let device = with_entry(buffer, &ENTRY, end_pass);
-    if let Some(next) = device.and_then(|d| d.commands.end_rendering2_ext) {
+    // SAFETY: the caller's arguments.
+    unsafe { end_rendering2(buffer, p_info, &ENTRY, |c| c.end_rendering2_ext) }
+}
+
+/// Ends the rendering instance, then calls down the command `next` names.
+///
+/// # Safety
+/// The arguments of a `vkCmdEndRendering2*` call.
+unsafe fn end_rendering2(
+    buffer: vk::CommandBuffer,
+    p_info: *const std::ffi::c_void,
+    entry_point: &'static EntryPoint,
+    next: fn(&crate::state::DeviceCommands) -> Option<crate::state::PfnCmdEndRendering2>,
+) {
+    let device = with_entry(buffer, entry_point, end_pass);
+    if let Some(next) = device.and_then(|d| next(&d.commands)) {
         // SAFETY: calling down with the application's arguments.
         unsafe { next(buffer, p_info) }
     }
