@@ -149,6 +149,20 @@ impl DepthBias {
         }
     }
 
+    /// The bias a draw into an attachment sends: in float units where the attachment is a
+    /// promoted `promoted_from` image, negated where it is reversed.
+    pub fn for_attachment(self, reversed: bool, promoted_from: Option<vk::Format>) -> DepthBias {
+        let bias = match promoted_from {
+            Some(format) => self.in_float_storage(format),
+            None => self,
+        };
+        if reversed {
+            bias.flipped()
+        } else {
+            bias
+        }
+    }
+
     pub fn flipped(self) -> DepthBias {
         DepthBias {
             constant: -self.constant,
@@ -288,6 +302,13 @@ mod tests {
             in_format.in_float_storage(vk::Format::D16_UNORM).constant,
             -8.0 * 256.0
         );
+        assert_eq!(
+            in_format
+                .for_attachment(true, Some(vk::Format::D16_UNORM))
+                .constant,
+            8.0 * 256.0
+        );
+        assert_eq!(in_format.for_attachment(false, None), in_format);
         let flipped = in_format.flipped();
         assert_eq!((flipped.constant, flipped.slope), (8.0, 1.0));
         assert_eq!(flipped.representation, in_format.representation);

@@ -919,11 +919,7 @@ impl CommandState {
             } else {
                 pipeline.map_or(self.bias, |p| p.bias)
             };
-            let bias = match self.promoted_from {
-                Some(format) => bias.in_float_storage(format),
-                None => bias,
-            };
-            sink.set_bias(if reversed { bias.flipped() } else { bias });
+            sink.set_bias(bias.for_attachment(reversed, self.promoted_from));
         }
         if from_app.contains(States::CLIP_CONTROL) {
             // The application's convention, but [0, 1] for a draw whose stage converts its

@@ -608,8 +608,7 @@ pub unsafe extern "system" fn create_device(
             };
             // SAFETY: the next layer's GDPA and a live device.
             let commands = unsafe { DeviceCommands::load(gdpa, device, api) };
-            let dynamic_compare_op =
-                commands.set_depth_compare_op.is_some() && source != CompareOpSource::Unavailable;
+            let dynamic_compare_op = source.is_dynamic(commands.set_depth_compare_op.is_some());
             // SAFETY: a live physical device of this instance.
             let limits = unsafe { device_properties(&instance, physical_device) }.limits;
             let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op)

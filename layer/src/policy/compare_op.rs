@@ -47,6 +47,12 @@ impl std::fmt::Debug for CompareOpFacts<'_> {
 }
 
 impl CompareOpSource {
+    /// Whether draws get the flipped compare op as dynamic state (else from a pipeline
+    /// variant): the device provides it and the next layer gave revz the command.
+    pub fn is_dynamic(self, command_loaded: bool) -> bool {
+        command_loaded && self != CompareOpSource::Unavailable
+    }
+
     /// How the device provides a dynamic compare op.
     pub fn decide(facts: &CompareOpFacts<'_>) -> CompareOpSource {
         if facts.core {
@@ -69,6 +75,16 @@ impl CompareOpSource {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_compare_op_is_dynamic_only_where_the_device_has_it_and_the_command_was_loaded() {
+        use CompareOpSource as S;
+        for source in [S::Core, S::ApplicationExtension, S::AddedExtension] {
+            assert!(source.is_dynamic(true));
+            assert!(!source.is_dynamic(false));
+        }
+        assert!(!S::Unavailable.is_dynamic(true));
+    }
 
     #[test]
     fn the_compare_op_comes_from_core_the_application_or_revz_in_that_order() {

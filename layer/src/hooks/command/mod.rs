@@ -756,13 +756,8 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
             return;
         }
         state.forget_emitted_bias();
-        let scaled = match state.promoted_from() {
-            Some(format) => bias.in_float_storage(format),
-            None => bias,
-        };
-        let reversed = state.target() == Target::Reversed;
-        if reversed || scaled != bias {
-            let sent = if reversed { scaled.flipped() } else { scaled };
+        let sent = bias.for_attachment(state.target() == Target::Reversed, state.promoted_from());
+        if sent != bias {
             flipped = Some(vk::DepthBiasInfoEXT {
                 depth_bias_constant_factor: sent.constant,
                 depth_bias_clamp: sent.clamp,
