@@ -4,8 +4,8 @@
 //! | file | owns |
 //! |---|---|
 //! | [`scan`] | the header and the few instructions read without parsing (entry points, push-constant blocks) |
-//! | [`analysis`] | which push-constant bytes of a vertex stage hold the projection that reaches `Position` (naga) |
-//! | [`position_store`] | the `Position` store rewrite: the stage stores depth on the carrier's line |
+//! | [`analysis`] (`layout.rs`: read from the words; `walker.rs`: the walk through naga's IR) | which push-constant bytes of a vertex stage hold the projection that reaches `Position` (naga) |
+//! | [`position_store`] (`declarations.rs`, `body.rs`, `rewrite.rs`) | the `Position` store rewrite: the stage stores depth on the carrier's line |
 //! | [`derived_range`] | the in-shader fit of the range for projections in uniform or storage buffers |
 //! | [`fragment_depth`] | the rewrite of fragment shaders that compute with or write depth |
 //!

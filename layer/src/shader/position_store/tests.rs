@@ -484,7 +484,7 @@ fn zinks_column_by_column_product_is_fitted_from_the_projections_columns() {
     use spirv_tools::assembler::{self, Assembler as _};
     let words = assembler::create(Some(TargetEnv::Vulkan_1_2))
         .assemble(
-            include_str!("test_data/zink_vertex.spvasm"),
+            include_str!("../test_data/zink_vertex.spvasm"),
             assembler::AssemblerOptions::default(),
         )
         .expect("Zink's module assembles")
@@ -528,11 +528,13 @@ fn shapes_a_review_found_are_refused_not_rewritten_wrongly() {
             .err()
     };
     // A splat built from an extract of component 7 of an array: no panic, no fit.
-    let splat = assemble(include_str!("test_data/splat_index_7.spvasm"));
+    let splat = assemble(include_str!("../test_data/splat_index_7.spvasm"));
     assert!(reason(&splat).is_some());
     // glslang -gVS: a push block `{ uint index; }` declared before vec4 and named by debug
     // info before vec4: moving the block would leave the debug info referring forward.
-    let debug = binary(include_bytes!("test_data/push_block_first_debug_info.spv"));
+    let debug = binary(include_bytes!(
+        "../test_data/push_block_first_debug_info.spv"
+    ));
     assert_eq!(
         reason(&debug),
         Some(Unsupported(
@@ -541,10 +543,10 @@ fn shapes_a_review_found_are_refused_not_rewritten_wrongly() {
     );
     // `p[i] * v` in a loop, the chosen iteration's value stored: the fit would describe the
     // last iteration.
-    let looped = binary(include_bytes!("test_data/projection_in_a_loop.spv"));
+    let looped = binary(include_bytes!("../test_data/projection_in_a_loop.spv"));
     assert!(reason(&looped).is_some(), "a projection applied in a loop");
     // `P * (V * vec4(dir, 0.0))`: a point at infinity, whose depth is not `k w + B`.
-    let direction = binary(include_bytes!("test_data/direction_w_zero.spv"));
+    let direction = binary(include_bytes!("../test_data/direction_w_zero.spv"));
     assert_eq!(
         reason(&direction),
         Some(Unsupported(

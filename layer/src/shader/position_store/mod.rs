@@ -1,0 +1,165 @@
+//! Vertex shaders rewritten to store reversed depth into `Position` (issue #14, `shared/DESIGN.md`
+//! section 2 as corrected in [`crate::precise`]): the precise path changes the depth where it is
+//! made, and nothing else.
+//!
+//! [`rewrite_position_store`] turns the module's `Position` output into a private variable (the
+//! *shadow*) that every load, store and access chain of the shader keeps using unchanged, and
+//! adds, before every `OpReturn` of each vertex entry point, one store of the shadow to the
+//! real `Position` with its z replaced:
+//!
+//! ```text
+//! Position = (x, y, c_z * z + c_w * w + c_1, w)      (c_z, c_w, c_1) = revz's carrier
+//! ```
+//!
+//! x, y, w and every other output keep the shader's values exactly, and every value the shader
+//! computes (lighting from the same matrix, a view vector from `Position` itself) is computed
+//! from the application's bytes. The carrier is a `vec4` revz appends to the module's
+//! push-constant block at byte [`crate::precise::Carrier::offset`], which revz reserves in every
+//! pipeline layout ([`crate::precise::Carrier`]) and pushes per draw: `(0, k', B', 0)` for a
+//! reversed projection (`z' = k' w + B'` from the camera's (n, f) in f64, rounded once) and
+//! `(1, 0, 0, 0)` on the flip path, where `1 * z + 0 * w + 0` is z exactly, so one rewritten
+//! module serves both paths.
+//!
+//! Word manipulation only, no Vulkan and no full parse. What the rewrite does not recognise (a
+//! pointer to `Position` passed to a function, a whole `gl_PerVertex` block stored at once, a
+//! dynamic index into the block, more than one push-constant block, a non-vertex entry point)
+//! is refused with a reason, never guessed at; the pipeline's draws then take the flip path.
+//!
+//! # Files
+//! - this file: the entry points and [`Module`], the declarations the rewrite needs;
+//! - `declarations.rs`: the one pass over the words that fills [`Module`];
+//! - `body.rs`: what the function bodies do with `Position` (redirected chains, returns, stores);
+//! - `rewrite.rs`: the rewrite proper, which emits the new words.
+
+use std::collections::{HashMap, HashSet};
+use std::fmt;
+
+use crate::shader::derived_range::{
+    self, Fit, Insert, MatrixSource, ModuleFacts, PositionStores, Types,
+};
+use crate::shader::scan::op::*;
+use crate::shader::scan::{instructions, is_literal, push, Instruction, HEADER_WORDS};
+
+const STORAGE_PRIVATE: u32 = 6;
+const STORAGE_OUTPUT: u32 = 3;
+const STORAGE_PUSH_CONSTANT: u32 = 9;
+const DECORATION_BLOCK: u32 = 2;
+const DECORATION_ARRAY_STRIDE: u32 = 6;
+const DECORATION_MATRIX_STRIDE: u32 = 7;
+const DECORATION_BUILT_IN: u32 = 11;
+const DECORATION_OFFSET: u32 = 35;
+const BUILT_IN_POSITION: u32 = 0;
+const EXECUTION_MODEL_VERTEX: u32 = 0;
+/// SPIR-V 1.4: entry point interfaces list every global variable they use.
+const VERSION_1_4: u32 = 0x0001_0400;
+
+/// Why a vertex module cannot get the `Position` rewrite.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Unsupported(pub &'static str);
+
+impl fmt::Display for Unsupported {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.0)
+    }
+}
+
+/// The module with its `Position` stores rewritten to read revz's carrier at byte `offset` of
+/// the push constants (16-byte aligned), `None` when no vertex entry point outputs `Position`,
+/// or why it cannot be rewritten. Never panics, never reads past the words.
+pub fn rewrite_position_store(words: &[u32], offset: u32) -> Result<Option<Vec<u32>>, Unsupported> {
+    rewrite(words, offset, false).map(|code| code.map(|(code, _)| code))
+}
+
+/// [`rewrite_position_store`] for a module whose projection revz cannot read on the CPU: the
+/// stage also fits the depth line of the outermost matrix it multiplies into `Position`
+/// ([`crate::shader::derived_range`]) and stores reversed depth of that line where the pushed
+/// carrier's w selects it (1 complementary, 2 infinite; 0 keeps the pushed carrier, as in
+/// [`rewrite_position_store`]). Also says where that matrix comes from.
+pub fn rewrite_position_store_deriving(
+    words: &[u32],
+    offset: u32,
+) -> Result<Option<(Vec<u32>, MatrixSource)>, Unsupported> {
+    rewrite(words, offset, true)
+        .map(|code| code.map(|(code, source)| (code, source.unwrap_or(MatrixSource::Computed))))
+}
+
+/// A rewritten module, and the source of the matrix it fits (deriving rewrites).
+type Rewritten = (Vec<u32>, Option<MatrixSource>);
+
+fn rewrite(words: &[u32], offset: u32, derive: bool) -> Result<Option<Rewritten>, Unsupported> {
+    if offset % 16 != 0 {
+        return Err(Unsupported("the carrier offset is not 16-byte aligned"));
+    }
+    let Some(module) = Module::read(words)? else {
+        return Ok(None);
+    };
+    module.rewrite(words, offset, derive).map(Some)
+}
+
+/// Where the shader's `Position` lives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Position {
+    /// A `vec4` output variable decorated `BuiltIn Position` (naga, DXC).
+    Variable(u32),
+    /// Member `member` of an output block (`gl_PerVertex`, glslang): the block variable.
+    Member { block: u32, member: u32 },
+}
+
+/// The declarations the rewrite needs, from one pass over the words.
+#[derive(Debug, Default)]
+struct Module {
+    version: u32,
+    /// Vertex entry points: the entry function ids. Any other execution model refuses.
+    entry_functions: HashSet<u32>,
+    /// Ids decorated `BuiltIn Position`, and (struct, member) pairs member-decorated so.
+    position_ids: HashSet<u32>,
+    position_members: HashMap<u32, u32>,
+    /// 32-bit float types.
+    floats: HashSet<u32>,
+    /// (component, count) of vector types.
+    vectors: HashMap<u32, (u32, u32)>,
+    /// 32-bit int types (signedness).
+    ints: Vec<(u32, u32)>,
+    /// Pointer types: id -> (storage class, pointee), and the reverse.
+    pointers: HashMap<u32, (u32, u32)>,
+    pointer_of: HashMap<(u32, u32), u32>,
+    /// Struct types and their member types.
+    structs: HashMap<u32, Vec<u32>>,
+    /// Matrix and array types (element or column type, count id or count).
+    matrices: HashMap<u32, (u32, u32)>,
+    arrays: HashMap<u32, (u32, u32)>,
+    /// Int constants (id -> value).
+    int_constants: HashMap<u32, u32>,
+    /// Global variables: id -> (pointer type, storage class).
+    variables: HashMap<u32, (u32, u32)>,
+    /// Member decorations: (struct, member) -> Offset / MatrixStride; type -> ArrayStride.
+    member_offsets: HashMap<(u32, u32), u32>,
+    member_matrix_strides: HashMap<(u32, u32), u32>,
+    array_strides: HashMap<u32, u32>,
+    /// Where each id is declared (word index), for declaration-order checks.
+    declared_at: HashMap<u32, usize>,
+    /// Word index of the first `OpFunction`.
+    functions_at: usize,
+    /// Word index of the first annotation (`OpDecorate`-family): where revz's decorations go
+    /// (a module with a `Position` output has at least its `BuiltIn` one).
+    annotations_at: Option<usize>,
+    /// Every operand of type declarations that names a type (to find where a struct is used).
+    type_uses: Vec<u32>,
+    /// Constant composites and null constants outside functions: id -> (opcode, type), for a
+    /// constant matrix the derived range fits (`crate::shader::derived_range`).
+    global_opcodes: HashMap<u32, u32>,
+    global_types: HashMap<u32, u32>,
+    /// `OpTypeBool`, if declared.
+    bool_type: Option<u32>,
+    /// Types decorated `BufferBlock`.
+    buffer_blocks: HashSet<u32>,
+    /// 32-bit constants whose word is the bits of 1.0 (`crate::shader::derived_range`'s w = 1 test).
+    ones: HashSet<u32>,
+}
+
+mod body;
+mod declarations;
+mod rewrite;
+
+#[cfg(test)]
+mod tests;
