@@ -4,7 +4,7 @@
 //!
 //! This module owns that fit, step for step as the shader evaluates it ([`fit_in_shader`]),
 //! the carrier it turns into ([`derived_carrier`]), and the argument for why its result can be
-//! trusted. `layer/src/position_store.rs` emits the same operations in the same order, each
+//! trusted. `layer/src/shader/derived_range/fit.rs` emits the same operations in the same order, each
 //! decorated `NoContraction`, so what the tests prove here is what the GPU computes (IEEE
 //! float32 `+ - * /` are correctly rounded in Vulkan's `Shader` precision for these
 //! operations, except division, which Vulkan allows 2.5 ULP: see *Error bound*).
