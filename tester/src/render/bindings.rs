@@ -1,0 +1,372 @@
+//! The descriptor sets and uniform buffers of the programs that need them: object colors
+//! ([`Program::MvpPair`]), per-object matrices in buffers, and the shadow map's sampler and
+//! light matrices.
+
+use super::*;
+
+impl<'a> Renderer<'a> {
+    /// Creates the uniform buffer of object colors (`mvp_pair.frag`), its descriptor set and
+    /// the [`Program::MvpPair`] pipeline layout.
+    pub(super) fn create_color_bindings(&mut self, gpu: &'a Gpu, scene: &Scene) -> Result<()> {
+        let device = self.device;
+        if scene.objects.len() > MAX_OBJECT_COLORS {
+            bail!(
+                "scene '{}' has more than {MAX_OBJECT_COLORS} objects",
+                scene.name
+            );
+        }
+        let mut bytes = vec![0u8; MAX_OBJECT_COLORS * 16];
+        let colors = scene.objects.iter().flat_map(|o| o.color);
+        for (chunk, value) in bytes.chunks_exact_mut(4).zip(colors) {
+            chunk.copy_from_slice(&value.to_le_bytes());
+        }
+        let mut buffer = HostBuffer::new(gpu, bytes.len(), vk::BufferUsageFlags::UNIFORM_BUFFER)
+            .context("object color uniform buffer")?;
+        buffer.write(&bytes);
+        // Stored at once so that `Drop` destroys whatever was made, even if a later step fails.
+        let colors = self.colors.insert(ColorBindings {
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            colors: buffer,
+        });
+        let bindings = [vk::DescriptorSetLayoutBinding::default()
+            .binding(0)
+            .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+        colors.set = single_descriptor_set(
+            device,
+            &bindings,
+            "colors",
+            &mut colors.set_layout,
+            &mut colors.pool,
+        )?;
+        let set_layouts = [colors.set_layout];
+        let buffer_info = [vk::DescriptorBufferInfo {
+            buffer: colors.colors.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let writes = [vk::WriteDescriptorSet::default()
+            .dst_set(colors.set)
+            .dst_binding(0)
+            .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+            .buffer_info(&buffer_info)];
+        // SAFETY: valid set and buffer; the info matches the binding type.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&PAIR_PUSH_CONSTANT_RANGES);
+        // SAFETY: valid device and create info.
+        self.pair_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (model-view-projection pair) failed")?;
+        Ok(())
+    }
+
+    /// Creates the buffers of a buffer delivery (`program`: every object's block at an aligned
+    /// stride, the frame block of `ubo-dynamic`), their descriptor set and the pipeline layout
+    /// of its pipelines (that set, no push constants).
+    pub(super) fn create_matrix_bindings(
+        &mut self,
+        gpu: &'a Gpu,
+        scene: &Scene,
+        program: Program,
+        aspect: f64,
+    ) -> Result<()> {
+        let device = self.device;
+        let limits = gpu.limits();
+        let blocks: Vec<Vec<u8>> = scene
+            .objects
+            .iter()
+            .map(|o| scene.object_block(program, o, aspect))
+            .collect();
+        let block = blocks.first().map_or(0, Vec::len) as u64;
+        if block == 0 {
+            bail!("scene '{}' has no object to draw", scene.name);
+        }
+        let (usage, object_type, stride) = match program {
+            Program::Ssbo => (
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                vk::DescriptorType::STORAGE_BUFFER,
+                block,
+            ),
+            _ => {
+                if block > u64::from(limits.max_uniform_buffer_range) {
+                    bail!(
+                        "a {block}-byte uniform block exceeds maxUniformBufferRange ({})",
+                        limits.max_uniform_buffer_range
+                    );
+                }
+                let alignment = limits.min_uniform_buffer_offset_alignment.max(1);
+                (
+                    vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    vk::DescriptorType::UNIFORM_BUFFER_DYNAMIC,
+                    block.div_ceil(alignment) * alignment,
+                )
+            }
+        };
+        let size = usize::try_from(stride * blocks.len() as u64).context("buffer size")?;
+        if program == Program::Ssbo && size as u64 > u64::from(limits.max_storage_buffer_range) {
+            bail!(
+                "{size} bytes of storage buffer exceed maxStorageBufferRange ({})",
+                limits.max_storage_buffer_range
+            );
+        }
+        let mut bytes = vec![0u8; size];
+        for (n, data) in blocks.iter().enumerate() {
+            let at = n * stride as usize;
+            bytes[at..at + data.len()].copy_from_slice(data);
+        }
+        let mut objects = HostBuffer::new(gpu, size, usage).context("object matrix buffer")?;
+        objects.write(&bytes);
+        let frame = if program == Program::UboDynamic {
+            let data = scene.frame_block(aspect);
+            let mut frame = HostBuffer::new(gpu, data.len(), vk::BufferUsageFlags::UNIFORM_BUFFER)
+                .context("frame uniform buffer")?;
+            frame.write(&data);
+            Some(frame)
+        } else {
+            None
+        };
+        // Stored at once so that `Drop` destroys whatever was made, even if a later step fails.
+        let matrices = self.matrices.insert(MatrixBindings {
+            program,
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            stride,
+            objects,
+            frame,
+        });
+        // (binding, type, buffer, range)
+        let mut layout: Vec<(u32, vk::DescriptorType, vk::Buffer, u64)> = Vec::new();
+        if let Some(frame) = &matrices.frame {
+            layout.push((0, vk::DescriptorType::UNIFORM_BUFFER, frame.buffer, 64));
+        }
+        let object_range = if object_type == vk::DescriptorType::STORAGE_BUFFER {
+            vk::WHOLE_SIZE
+        } else {
+            block
+        };
+        layout.push((
+            layout.len() as u32,
+            object_type,
+            matrices.objects.buffer,
+            object_range,
+        ));
+        let bindings: Vec<vk::DescriptorSetLayoutBinding> = layout
+            .iter()
+            .map(|&(binding, kind, _, _)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(binding)
+                    .descriptor_type(kind)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::VERTEX)
+            })
+            .collect();
+        matrices.set = single_descriptor_set(
+            device,
+            &bindings,
+            "object matrices",
+            &mut matrices.set_layout,
+            &mut matrices.pool,
+        )?;
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = layout
+            .iter()
+            .map(|&(_, _, buffer, range)| {
+                [vk::DescriptorBufferInfo {
+                    buffer,
+                    offset: 0,
+                    range,
+                }]
+            })
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = layout
+            .iter()
+            .zip(&infos)
+            .map(|(&(binding, kind, _, _), info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(matrices.set)
+                    .dst_binding(binding)
+                    .descriptor_type(kind)
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: valid set and buffers; the infos match the binding types, and each range
+        // lies within its buffer (a dynamic offset of object n, n * stride, keeps it inside).
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        let set_layouts = [matrices.set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        // SAFETY: valid device and create info.
+        self.matrix_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (buffer delivery) failed")?;
+        Ok(())
+    }
+
+    /// Creates the shadow receiver's descriptor set (light MVPs, shadow map, comparison
+    /// sampler) and pipeline layout.
+    pub(super) fn create_shadow_bindings(
+        &mut self,
+        gpu: &'a Gpu,
+        targets: &Targets<'_>,
+        scene: &Scene,
+    ) -> Result<()> {
+        let device = self.device;
+        let mvps = scene.light_mvps();
+        if mvps.len() > MAX_LIGHT_MVPS {
+            bail!(
+                "scene '{}' has more than {MAX_LIGHT_MVPS} objects",
+                scene.name
+            );
+        }
+        let mut bytes = vec![0u8; MAX_LIGHT_MVPS * 64];
+        for (chunk, value) in bytes.chunks_exact_mut(4).zip(mvps.iter().flatten()) {
+            chunk.copy_from_slice(&value.to_le_bytes());
+        }
+        let mut light = HostBuffer::new(gpu, bytes.len(), vk::BufferUsageFlags::UNIFORM_BUFFER)
+            .context("light uniform buffer")?;
+        light.write(&bytes);
+
+        let sampler_info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::NEAREST)
+            .min_filter(vk::Filter::NEAREST)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            // Outside the map: depth 1.0, the far plane: lit.
+            .border_color(vk::BorderColor::FLOAT_OPAQUE_WHITE)
+            .compare_enable(true)
+            .compare_op(map_compare(crate::plan::Compare::LessOrEqual))
+            .min_lod(0.0)
+            .max_lod(0.0);
+        // SAFETY: valid device and create info.
+        let sampler = unsafe { device.create_sampler(&sampler_info, None) }
+            .context("vkCreateSampler failed")?;
+        // Stored at once (null handles filled in below) so that `Drop` destroys whatever was
+        // made, even if a later step fails.
+        let shadow = self.shadow.insert(ShadowBindings {
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            sampler,
+            light,
+        });
+        let bindings = [
+            (
+                0,
+                vk::DescriptorType::UNIFORM_BUFFER,
+                vk::ShaderStageFlags::VERTEX,
+            ),
+            (
+                1,
+                vk::DescriptorType::SAMPLED_IMAGE,
+                vk::ShaderStageFlags::FRAGMENT,
+            ),
+            (
+                2,
+                vk::DescriptorType::SAMPLER,
+                vk::ShaderStageFlags::FRAGMENT,
+            ),
+        ]
+        .map(|(binding, kind, stages)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(binding)
+                .descriptor_type(kind)
+                .descriptor_count(1)
+                .stage_flags(stages)
+        });
+        shadow.set = single_descriptor_set(
+            device,
+            &bindings,
+            "shadow map",
+            &mut shadow.set_layout,
+            &mut shadow.pool,
+        )?;
+        let (set, set_layouts) = (shadow.set, [shadow.set_layout]);
+        let light_buffer = shadow.light.buffer;
+
+        let buffer_info = [vk::DescriptorBufferInfo {
+            buffer: light_buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let image_info = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: shadow_view(targets)?,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }];
+        let sampler_info = [vk::DescriptorImageInfo {
+            sampler,
+            image_view: vk::ImageView::null(),
+            image_layout: vk::ImageLayout::UNDEFINED,
+        }];
+        let writes = [
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+                .buffer_info(&buffer_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(1)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&image_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(2)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&sampler_info),
+        ];
+        // SAFETY: valid set, buffer, view and sampler; the infos match the binding types.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&PUSH_CONSTANT_RANGES);
+        // SAFETY: valid device and create info.
+        self.shadow_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (shadow receiver) failed")?;
+        Ok(())
+    }
+}
+
+/// Creates a descriptor set layout of `bindings`, a pool with room for one set of it, and that
+/// set. Each handle is stored as soon as it exists (`set_layout`, `pool`), so that the owner's
+/// `Drop` destroys whatever was made when a later step fails.
+fn single_descriptor_set(
+    device: &ash::Device,
+    bindings: &[vk::DescriptorSetLayoutBinding<'_>],
+    what: &str,
+    set_layout: &mut vk::DescriptorSetLayout,
+    pool: &mut vk::DescriptorPool,
+) -> Result<vk::DescriptorSet> {
+    let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(bindings);
+    // SAFETY: valid device and create info.
+    *set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
+        .with_context(|| format!("vkCreateDescriptorSetLayout ({what}) failed"))?;
+    let sizes: Vec<vk::DescriptorPoolSize> = bindings
+        .iter()
+        .map(|b| vk::DescriptorPoolSize {
+            ty: b.descriptor_type,
+            descriptor_count: b.descriptor_count,
+        })
+        .collect();
+    let pool_info = vk::DescriptorPoolCreateInfo::default()
+        .max_sets(1)
+        .pool_sizes(&sizes);
+    // SAFETY: valid device and create info.
+    *pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+        .with_context(|| format!("vkCreateDescriptorPool ({what}) failed"))?;
+    let set_layouts = [*set_layout];
+    let allocate_info = vk::DescriptorSetAllocateInfo::default()
+        .descriptor_pool(*pool)
+        .set_layouts(&set_layouts);
+    // SAFETY: valid pool with room for one set of this layout.
+    unsafe { device.allocate_descriptor_sets(&allocate_info) }
+        .with_context(|| format!("vkAllocateDescriptorSets ({what}) failed"))?
+        .into_iter()
+        .next()
+        .ok_or_else(|| anyhow!("vkAllocateDescriptorSets ({what}) returned no set"))
+}

@@ -1,0 +1,533 @@
+//! Drawing a scene: the scene's vertex and index buffers, the Vulkan objects its [`Plan`]
+//! names (render passes and framebuffers, pipelines and their layouts, the shadow map's
+//! sampler, uniform buffer and descriptor set, the uniform buffer of object colors), recording
+//! of one primary command buffer (and any secondaries, on the main thread or one thread each
+//! with its own command pool) by interpreting the plan's steps one by one, then the read-back
+//! copies, and the single fenced submit.
+//!
+//! Files: this one creates and owns the objects ([`Renderer`]); `bindings.rs` makes the
+//! descriptor sets and uniform buffers of the programs that need them; `record.rs`
+//! interprets the steps into commands (`Recorder`).
+
+use std::fmt;
+
+use anyhow::{anyhow, bail, Context, Result};
+use ash::prelude::VkResult;
+use ash::vk;
+
+use crate::gpu::{Gpu, HostBuffer};
+use crate::pipeline::{
+    create_pipeline, create_render_pass, create_resolving_render_pass, full_viewport,
+    map_color_load, map_compare, MainFormats, PipelineTarget,
+};
+use crate::plan::{DepthBias, DepthLoad, PassKind, Plan, Program, Recording, Step, Target};
+use crate::readback::Readback;
+use crate::scene::{DrawRange, Scene, View};
+use crate::target::{full_range, MultisampledTargets, Targets, SHADOW_MAP_SIZE};
+
+/// The color the color attachment is cleared to: dark grey (25/255, exact in UNORM8).
+pub const CLEAR_COLOR: [f32; 4] = [25.0 / 255.0, 25.0 / 255.0, 25.0 / 255.0, 1.0];
+/// The stencil clear value.
+pub const CLEAR_STENCIL: u32 = 0;
+/// How long to wait for the GPU before giving up (lavapipe renders this in milliseconds).
+const FENCE_TIMEOUT_NS: u64 = 60_000_000_000;
+/// The light MVPs `shadow_receiver.vert` can index (its uniform array size).
+const MAX_LIGHT_MVPS: usize = 16;
+/// The object colors `mvp_pair.frag` can index (its uniform array size).
+const MAX_OBJECT_COLORS: usize = 16;
+
+/// The scene's geometry in host-visible vertex and index buffers.
+#[derive(Debug)]
+pub struct SceneBuffers<'a> {
+    vertices: HostBuffer<'a>,
+    indices: HostBuffer<'a>,
+    draws: Vec<DrawRange>,
+}
+
+impl<'a> SceneBuffers<'a> {
+    /// Packs every mesh of `scene` into one vertex buffer and one u32 index buffer.
+    pub fn upload(gpu: &'a Gpu, scene: &Scene) -> Result<Self> {
+        let geometry = scene.geometry();
+        let vertex_bytes = geometry.position_bytes();
+        let index_bytes = geometry.index_bytes();
+        if vertex_bytes.is_empty() || index_bytes.is_empty() {
+            bail!("scene '{}' has no geometry", scene.name);
+        }
+        let mut vertices =
+            HostBuffer::new(gpu, vertex_bytes.len(), vk::BufferUsageFlags::VERTEX_BUFFER)
+                .context("vertex buffer")?;
+        vertices.write(&vertex_bytes);
+        let mut indices =
+            HostBuffer::new(gpu, index_bytes.len(), vk::BufferUsageFlags::INDEX_BUFFER)
+                .context("index buffer")?;
+        indices.write(&index_bytes);
+        Ok(SceneBuffers {
+            vertices,
+            indices,
+            draws: geometry.draws,
+        })
+    }
+}
+
+/// What `shadow_receiver` pipelines bind: the light MVPs, the shadow map and its comparison
+/// sampler, in one descriptor set.
+struct ShadowBindings<'a> {
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    sampler: vk::Sampler,
+    light: HostBuffer<'a>,
+}
+
+/// What `mvp_pair` pipelines bind: the object colors, in one descriptor set.
+struct ColorBindings<'a> {
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    colors: HostBuffer<'a>,
+}
+
+/// What the buffer-delivery pipelines bind ([`Program::Ubo`], [`Program::UboDynamic`],
+/// [`Program::Ssbo`]): every object's block ([`Scene::object_block`]) at `stride` bytes from
+/// the last, and for `ubo-dynamic` the frame block ([`Scene::frame_block`]), in one
+/// descriptor set. The host writes them once, before recording.
+struct MatrixBindings<'a> {
+    program: Program,
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    /// Bytes from one object's block to the next: the block size rounded up to
+    /// `minUniformBufferOffsetAlignment` for the dynamic uniform buffers (object `n`'s dynamic
+    /// offset is `n * stride`), the std430 array stride (80) for the storage buffer.
+    stride: u64,
+    objects: HostBuffer<'a>,
+    frame: Option<HostBuffer<'a>>,
+}
+
+/// Everything the plan names, for one render of the targets.
+pub struct Renderer<'a> {
+    /// The device's commands, with the extensions standing in for core ones below their
+    /// version.
+    gpu: &'a Gpu,
+    device: &'a ash::Device,
+    /// One per plan pass (null for dynamic rendering).
+    render_passes: Vec<vk::RenderPass>,
+    /// One per plan pass (null for dynamic rendering).
+    framebuffers: Vec<vk::Framebuffer>,
+    /// Push constants only.
+    plain_layout: vk::PipelineLayout,
+    /// Push constants and the shadow descriptor set (null without a shadow map).
+    shadow_layout: vk::PipelineLayout,
+    shadow: Option<ShadowBindings<'a>>,
+    /// 128 bytes of vertex push constants and the color descriptor set (null without an
+    /// [`Program::MvpPair`] pipeline).
+    pair_layout: vk::PipelineLayout,
+    colors: Option<ColorBindings<'a>>,
+    /// The buffer-delivery pipelines' layout (no push constants; null without one).
+    matrix_layout: vk::PipelineLayout,
+    matrices: Option<MatrixBindings<'a>>,
+    /// One per plan pipeline.
+    pipelines: Vec<vk::Pipeline>,
+    /// The libraries the pipelines built from `VK_EXT_graphics_pipeline_library` libraries
+    /// were linked from (destroyed after them).
+    libraries: Vec<vk::Pipeline>,
+    command_pool: vk::CommandPool,
+    /// The queue family of the command pools (recording threads create their own).
+    queue_family: u32,
+    command_buffer: vk::CommandBuffer,
+    secondaries: Vec<vk::CommandBuffer>,
+    fence: vk::Fence,
+    extent: vk::Extent2D,
+    bias_clamp: bool,
+}
+
+impl fmt::Debug for Renderer<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Renderer")
+            .field("render_passes", &self.render_passes)
+            .field("pipelines", &self.pipelines)
+            .field("extent", &self.extent)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Drop for Renderer<'_> {
+    fn drop(&mut self) {
+        // SAFETY: every handle is null or was created from `device`, which outlives `self`.
+        // Waiting for idle first makes sure no submitted work still uses them (it matters only
+        // on error paths: a normal render has already waited on its fence). Destroying null
+        // handles is a no-op; destroying the pools frees their command buffers and set.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_fence(self.fence, None);
+            self.device.destroy_command_pool(self.command_pool, None);
+            for &pipeline in self.pipelines.iter().chain(&self.libraries) {
+                self.device.destroy_pipeline(pipeline, None);
+            }
+            self.device
+                .destroy_pipeline_layout(self.shadow_layout, None);
+            self.device.destroy_pipeline_layout(self.plain_layout, None);
+            self.device.destroy_pipeline_layout(self.pair_layout, None);
+            self.device
+                .destroy_pipeline_layout(self.matrix_layout, None);
+            if let Some(matrices) = &self.matrices {
+                self.device.destroy_descriptor_pool(matrices.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(matrices.set_layout, None);
+            }
+            if let Some(colors) = &self.colors {
+                self.device.destroy_descriptor_pool(colors.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(colors.set_layout, None);
+            }
+            if let Some(shadow) = &self.shadow {
+                self.device.destroy_descriptor_pool(shadow.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(shadow.set_layout, None);
+                self.device.destroy_sampler(shadow.sampler, None);
+            }
+            for &framebuffer in &self.framebuffers {
+                self.device.destroy_framebuffer(framebuffer, None);
+            }
+            for &render_pass in &self.render_passes {
+                self.device.destroy_render_pass(render_pass, None);
+            }
+        }
+    }
+}
+
+/// The stages that read the 80-byte push constants (`mvp`, then `color` for the fragment
+/// shader).
+const PLAIN_PUSH_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
+    vk::ShaderStageFlags::VERTEX.as_raw() | vk::ShaderStageFlags::FRAGMENT.as_raw(),
+);
+
+/// The push-constant range of the plain and shadow-receiver layouts.
+const PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
+    stage_flags: PLAIN_PUSH_STAGES,
+    offset: 0,
+    size: 80,
+}];
+
+/// The push-constant range of the [`Program::MvpPair`] layout: two matrices, vertex stage only.
+const PAIR_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
+    stage_flags: vk::ShaderStageFlags::VERTEX,
+    offset: 0,
+    size: 128,
+}];
+
+impl<'a> Renderer<'a> {
+    /// The pipelines, one per plan pipeline.
+    pub fn pipelines(&self) -> &[vk::Pipeline] {
+        &self.pipelines
+    }
+
+    /// Creates everything `scene`'s plan needs to render into `targets`.
+    pub fn new(gpu: &'a Gpu, targets: &Targets<'_>, scene: &Scene) -> Result<Self> {
+        let device = &gpu.device;
+        let plan = &scene.plan;
+        let needs = plan.needs();
+        let mut this = Renderer {
+            gpu,
+            device,
+            render_passes: Vec::new(),
+            framebuffers: Vec::new(),
+            plain_layout: vk::PipelineLayout::null(),
+            shadow_layout: vk::PipelineLayout::null(),
+            shadow: None,
+            pair_layout: vk::PipelineLayout::null(),
+            colors: None,
+            matrix_layout: vk::PipelineLayout::null(),
+            matrices: None,
+            pipelines: Vec::new(),
+            libraries: Vec::new(),
+            command_pool: vk::CommandPool::null(),
+            queue_family: gpu.queue_family,
+            command_buffer: vk::CommandBuffer::null(),
+            secondaries: Vec::new(),
+            fence: vk::Fence::null(),
+            extent: targets.extent,
+            bias_clamp: gpu.enabled.depth_bias_clamp,
+        };
+        let main = MainFormats {
+            depth: targets.depth.format,
+            stencil: targets.depth_format.has_stencil(),
+        };
+        for pass in &plan.passes {
+            if pass.kind == PassKind::DynamicRendering {
+                this.render_passes.push(vk::RenderPass::null());
+                this.framebuffers.push(vk::Framebuffer::null());
+                continue;
+            }
+            let multisampled = match pass.multisample {
+                Some(_) => Some(multisampled_targets(targets)?),
+                None => None,
+            };
+            let render_pass = match multisampled {
+                Some(ms) => create_resolving_render_pass(gpu, pass, main, ms.samples, ms.resolve)?,
+                None => create_render_pass(device, pass, main)?,
+            };
+            this.render_passes.push(render_pass);
+            let (views, extent) = match (pass.target, multisampled) {
+                (Target::Main, Some(ms)) => (
+                    vec![
+                        ms.color.view,
+                        ms.depth.view,
+                        targets.color.view,
+                        targets.depth.view,
+                    ],
+                    targets.extent,
+                ),
+                (Target::Main, None) => {
+                    (vec![targets.color.view, targets.depth.view], targets.extent)
+                }
+                (Target::Shadow, _) => (
+                    vec![shadow_view(targets)?],
+                    vk::Extent2D {
+                        width: SHADOW_MAP_SIZE,
+                        height: SHADOW_MAP_SIZE,
+                    },
+                ),
+            };
+            let info = vk::FramebufferCreateInfo::default()
+                .render_pass(render_pass)
+                .attachments(&views)
+                .width(extent.width)
+                .height(extent.height)
+                .layers(1);
+            // SAFETY: valid render pass and views compatible with it.
+            let framebuffer = unsafe { device.create_framebuffer(&info, None) }
+                .context("vkCreateFramebuffer failed")?;
+            this.framebuffers.push(framebuffer);
+        }
+
+        let layout_info =
+            vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&PUSH_CONSTANT_RANGES);
+        // SAFETY: valid device and create info.
+        this.plain_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout failed")?;
+        if needs.shadow_map {
+            this.create_shadow_bindings(gpu, targets, scene)?;
+        }
+        if plan.pipelines.iter().any(|p| p.program == Program::MvpPair) {
+            let limit = gpu.limits().max_push_constants_size;
+            if limit < 128 {
+                bail!("the device's maxPushConstantsSize is {limit}, 128 are needed");
+            }
+            this.create_color_bindings(gpu, scene)?;
+        }
+        if let Some(program) = plan.buffer_program() {
+            let aspect = f64::from(targets.extent.width) / f64::from(targets.extent.height);
+            this.create_matrix_bindings(gpu, scene, program, aspect)?;
+        }
+
+        for spec in &plan.pipelines {
+            let pass = &plan.passes[spec.pass];
+            let (layout, _) = this.layout(spec.program);
+            let built = create_pipeline(
+                device,
+                spec,
+                PipelineTarget {
+                    pass,
+                    render_pass: this.render_passes[spec.pass],
+                    layout,
+                    extent: target_extent(pass.target, targets.extent),
+                    main,
+                    bias_clamp: this.bias_clamp,
+                },
+            )?;
+            this.pipelines.push(built.pipeline);
+            this.libraries.extend(built.libraries);
+        }
+
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT)
+            .queue_family_index(gpu.queue_family);
+        // SAFETY: valid device, queue family of the device's queue.
+        this.command_pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .context("vkCreateCommandPool failed")?;
+        let allocate = |level, count| {
+            let info = vk::CommandBufferAllocateInfo::default()
+                .command_pool(this.command_pool)
+                .level(level)
+                .command_buffer_count(count);
+            // SAFETY: valid pool.
+            unsafe { device.allocate_command_buffers(&info) }
+                .context("vkAllocateCommandBuffers failed")
+        };
+        this.command_buffer = allocate(vk::CommandBufferLevel::PRIMARY, 1)?
+            .into_iter()
+            .next()
+            .ok_or_else(|| anyhow!("vkAllocateCommandBuffers returned no command buffer"))?;
+        if needs.secondaries > 0 {
+            let count = u32::try_from(needs.secondaries).context("secondary count")?;
+            this.secondaries = allocate(vk::CommandBufferLevel::SECONDARY, count)?;
+        }
+
+        // SAFETY: valid device, default (unsignalled) fence.
+        this.fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+            .context("vkCreateFence failed")?;
+        Ok(this)
+    }
+
+    /// The pipeline layout of `program` and the stages its push constants are pushed for.
+    fn layout(&self, program: Program) -> (vk::PipelineLayout, vk::ShaderStageFlags) {
+        match program {
+            Program::ShadowReceiver => (self.shadow_layout, PLAIN_PUSH_STAGES),
+            Program::MvpPair => (self.pair_layout, vk::ShaderStageFlags::VERTEX),
+            Program::Ubo | Program::UboDynamic | Program::Ssbo => {
+                (self.matrix_layout, vk::ShaderStageFlags::empty())
+            }
+            Program::Flat
+            | Program::DepthOnly
+            | Program::FragDepth
+            | Program::RowMajor
+            | Program::RowVector
+            | Program::LitMvp => (self.plain_layout, PLAIN_PUSH_STAGES),
+        }
+    }
+
+    /// Makes the renderer ready to render again after a completed [`Renderer::render`]: the
+    /// fence unsignalled, the primary command buffer back in the initial state (its pool
+    /// reset: the pool is TRANSIENT, without per-buffer reset).
+    pub fn next_frame(&self) -> Result<()> {
+        // SAFETY: the last render waited on the fence: nothing of the pool is pending.
+        unsafe {
+            self.device
+                .reset_fences(&[self.fence])
+                .context("vkResetFences failed")?;
+            self.device
+                .reset_command_pool(self.command_pool, vk::CommandPoolResetFlags::empty())
+                .context("vkResetCommandPool failed")?;
+        }
+        Ok(())
+    }
+
+    /// Records the plan's steps and the read-back copies, submits them and waits for them to
+    /// complete. The read-back buffers are ready when this returns.
+    pub fn render(
+        &self,
+        gpu: &Gpu,
+        scene: &Scene,
+        buffers: &SceneBuffers<'_>,
+        targets: &Targets<'_>,
+        readback: &Readback<'_>,
+    ) -> Result<()> {
+        let device = self.device;
+        let cmd = self.command_buffer;
+        if scene.objects.len() != buffers.draws.len() {
+            bail!("scene buffers were uploaded for another scene");
+        }
+        scene
+            .plan
+            .check(scene.objects.len(), scene.light.is_some())
+            .with_context(|| format!("scene '{}' has a malformed plan", scene.name))?;
+
+        // A render after the first records the command buffers again: the last submission
+        // has completed (its fence was waited on).
+        // SAFETY: no command buffer of the pool is pending; the fence is not in use.
+        unsafe {
+            device
+                .reset_command_pool(self.command_pool, vk::CommandPoolResetFlags::empty())
+                .context("vkResetCommandPool failed")?;
+            device
+                .reset_fences(&[self.fence])
+                .context("vkResetFences failed")?;
+        }
+        let begin_info = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: a command buffer of this device's pool, reset and not in use.
+        unsafe { device.begin_command_buffer(cmd, &begin_info) }
+            .context("vkBeginCommandBuffer failed")?;
+        let mut recorder = Recorder {
+            renderer: self,
+            scene,
+            plan: &scene.plan,
+            buffers,
+            targets,
+            aspect: f64::from(self.extent.width) / f64::from(self.extent.height),
+            pass: None,
+            subpass: 0,
+            pipeline: None,
+            next_secondary: 0,
+            thread_pools: Vec::new(),
+        };
+        recorder.bind_geometry(cmd);
+        recorder.record(cmd, &scene.plan.steps)?;
+
+        readback.record(device, cmd, targets);
+
+        // SAFETY: the command buffer is recording.
+        unsafe { device.end_command_buffer(cmd) }.context("vkEndCommandBuffer failed")?;
+
+        let command_buffers = [cmd];
+        let submit = vk::SubmitInfo::default().command_buffers(&command_buffers);
+        // SAFETY: executable command buffer, unsignalled fence, queue of this device; the
+        // host wrote the vertex/index/uniform buffers before the submit (implicitly visible).
+        unsafe { device.queue_submit(gpu.queue, &[submit], self.fence) }
+            .context("vkQueueSubmit failed")?;
+        // SAFETY: the fence was submitted above.
+        match unsafe { device.wait_for_fences(&[self.fence], true, FENCE_TIMEOUT_NS) } {
+            Ok(()) => Ok(()),
+            Err(vk::Result::TIMEOUT) => Err(anyhow!(
+                "the render did not complete within {} s",
+                FENCE_TIMEOUT_NS / 1_000_000_000
+            )),
+            Err(e) => Err(anyhow!("vkWaitForFences failed: {e}")),
+        }
+    }
+}
+
+/// The shadow map's view (the plan checks guarantee one exists when asked for).
+fn shadow_view(targets: &Targets<'_>) -> Result<vk::ImageView> {
+    targets
+        .shadow
+        .as_ref()
+        .map(|shadow| shadow.view)
+        .ok_or_else(|| anyhow!("the scene has a shadow pass but no shadow map was created"))
+}
+
+/// The multisampled attachments (the plan's needs asked for them when a pass is
+/// multisampled).
+fn multisampled_targets<'t, 'a>(targets: &'t Targets<'a>) -> Result<&'t MultisampledTargets<'a>> {
+    targets
+        .multisampled
+        .as_ref()
+        .ok_or_else(|| anyhow!("the scene has a multisampled pass but no multisampled targets"))
+}
+
+/// The size of a pass's target.
+fn target_extent(target: Target, main: vk::Extent2D) -> vk::Extent2D {
+    match target {
+        Target::Main => main,
+        Target::Shadow => vk::Extent2D {
+            width: SHADOW_MAP_SIZE,
+            height: SHADOW_MAP_SIZE,
+        },
+    }
+}
+
+/// Turns plan steps into commands, tracking what the commands depend on.
+struct Recorder<'r> {
+    renderer: &'r Renderer<'r>,
+    scene: &'r Scene,
+    plan: &'r Plan,
+    buffers: &'r SceneBuffers<'r>,
+    targets: &'r Targets<'r>,
+    aspect: f64,
+    /// The current pass.
+    pass: Option<usize>,
+    /// The current subpass.
+    subpass: u32,
+    /// The bound pipeline.
+    pipeline: Option<usize>,
+    /// The next unused secondary command buffer.
+    next_secondary: usize,
+    /// The command pools created by recording threads; destroyed when the recorder is dropped,
+    /// which [`Renderer::render`] does only after the submission's fence (or on an error path,
+    /// after waiting for the device to be idle).
+    thread_pools: Vec<vk::CommandPool>,
+}
+
+mod bindings;
+mod record;

@@ -1,0 +1,786 @@
+//! Recording: the plan's steps turned into commands one by one, on the primary and on
+//! secondaries (on the main thread or one thread each with its own command pool).
+
+use super::*;
+
+impl Drop for Recorder<'_> {
+    fn drop(&mut self) {
+        if self.thread_pools.is_empty() {
+            return;
+        }
+        // SAFETY: the pools were created from this device; once the device is idle none of
+        // their command buffers is pending. Destroying a pool frees its command buffers.
+        unsafe {
+            let _ = self.device().device_wait_idle();
+            for &pool in &self.thread_pools {
+                self.device().destroy_command_pool(pool, None);
+            }
+        }
+    }
+}
+
+impl Recorder<'_> {
+    fn device(&self) -> &ash::Device {
+        self.renderer.device
+    }
+
+    /// Binds the shared vertex and index buffers (once per command buffer).
+    pub(super) fn bind_geometry(&self, cmd: vk::CommandBuffer) {
+        // SAFETY: `cmd` is recording; the buffers are valid vertex and index buffers.
+        unsafe {
+            self.device()
+                .cmd_bind_vertex_buffers(cmd, 0, &[self.buffers.vertices.buffer], &[0]);
+            self.device().cmd_bind_index_buffer(
+                cmd,
+                self.buffers.indices.buffer,
+                0,
+                vk::IndexType::UINT32,
+            );
+        }
+    }
+
+    /// Records `steps` into `cmd`.
+    pub(super) fn record(&mut self, cmd: vk::CommandBuffer, steps: &[Step]) -> Result<()> {
+        for (index, step) in steps.iter().enumerate() {
+            // A subpass recorded in secondaries is begun with SECONDARY_COMMAND_BUFFERS
+            // contents (the plan check makes that its only kind of step).
+            let contents = match steps.get(index + 1) {
+                Some(Step::ExecuteSecondaries(..)) => {
+                    vk::SubpassContents::SECONDARY_COMMAND_BUFFERS
+                }
+                _ => vk::SubpassContents::INLINE,
+            };
+            match step {
+                Step::ClearDepthImage { depth } => self.clear_depth_image(cmd, *depth),
+                Step::BeginPass(n) => self.begin_pass(cmd, *n, contents)?,
+                Step::NextSubpass => {
+                    self.subpass += 1;
+                    // SAFETY: `cmd` is inside a render pass with another subpass (plan check).
+                    unsafe { self.device().cmd_next_subpass(cmd, contents) };
+                }
+                Step::EndPass => self.end_pass(cmd),
+                Step::Bind(n) => self.bind(cmd, *n),
+                Step::Draw(n) => self.draw(cmd, *n, true)?,
+                Step::DrawPushed(n) => self.draw(cmd, *n, false)?,
+                Step::Push {
+                    object,
+                    offset,
+                    size,
+                } => self.push(cmd, *object, *offset, *size)?,
+                Step::SetDepthCompareOp(op) => {
+                    // SAFETY: `cmd` is recording with a bound pipeline whose compare op is
+                    // dynamic; the device has the command (checked before rendering).
+                    unsafe {
+                        self.renderer
+                            .gpu
+                            .cmd_set_depth_compare_op(cmd, map_compare(*op))
+                    };
+                }
+                Step::SetDepthBias(bias) => self.set_depth_bias(cmd, *bias),
+                Step::SetDepthBounds { min, max } => {
+                    // SAFETY: `cmd` is recording; the bound pipeline's bounds are dynamic and
+                    // the depthBounds feature is enabled (checked before rendering).
+                    unsafe { self.device().cmd_set_depth_bounds(cmd, *min, *max) };
+                }
+                Step::SetViewport {
+                    min_depth,
+                    max_depth,
+                } => {
+                    let extent = self.current_extent();
+                    // SAFETY: `cmd` is recording; the bound pipeline's viewport is dynamic.
+                    unsafe {
+                        self.device().cmd_set_viewport(
+                            cmd,
+                            0,
+                            &[full_viewport(extent, *min_depth, *max_depth)],
+                        )
+                    };
+                }
+                Step::ClearDepthRect { rect, depth } => self.clear_depth_rect(cmd, *rect, *depth),
+                Step::ExecuteSecondaries(lists, Recording::MainThread) => {
+                    self.execute_secondaries(cmd, lists)?;
+                }
+                Step::ExecuteSecondaries(lists, Recording::ThreadPerSecondary) => {
+                    self.execute_secondaries_on_threads(cmd, lists, false)?;
+                }
+                Step::ExecuteSecondaries(
+                    lists,
+                    Recording::ThreadPerSecondaryOddWithoutFramebuffer,
+                ) => {
+                    self.execute_secondaries_on_threads(cmd, lists, true)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn current_extent(&self) -> vk::Extent2D {
+        let target = self
+            .pass
+            .map_or(Target::Main, |n| self.plan.passes[n].target);
+        target_extent(target, self.targets.extent)
+    }
+
+    /// `vkCmdClearDepthStencilImage` of the main depth image, with the transitions to
+    /// TRANSFER_DST_OPTIMAL (from nothing: the image is not used before) and back to the
+    /// attachment layout the next pass loads from.
+    fn clear_depth_image(&self, cmd: vk::CommandBuffer, depth: f32) {
+        let image = self.targets.depth.image;
+        let range = full_range(self.targets.depth_format.aspects());
+        let barrier = |old, new, src_access, dst_access| {
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(src_access)
+                .dst_access_mask(dst_access)
+                .old_layout(old)
+                .new_layout(new)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(image)
+                .subresource_range(range)
+        };
+        let value = vk::ClearDepthStencilValue {
+            depth,
+            stencil: CLEAR_STENCIL,
+        };
+        // SAFETY: `cmd` is recording outside a render pass; the image has TRANSFER_DST usage
+        // (the plan's needs asked for it) and the barriers name its whole range.
+        unsafe {
+            self.device().cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier(
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::AccessFlags::empty(),
+                    vk::AccessFlags::TRANSFER_WRITE,
+                )],
+            );
+            self.device().cmd_clear_depth_stencil_image(
+                cmd,
+                image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &value,
+                &[range],
+            );
+            self.device().cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier(
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+                        | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                )],
+            );
+        }
+    }
+
+    fn begin_pass(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        n: usize,
+        contents: vk::SubpassContents,
+    ) -> Result<()> {
+        self.pass = Some(n);
+        self.subpass = 0;
+        self.pipeline = None;
+        let pass = &self.plan.passes[n];
+        let depth = match pass.depth {
+            DepthLoad::Clear(depth) => depth,
+            DepthLoad::Load => 1.0,
+        };
+        let depth_clear = vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth,
+                stencil: CLEAR_STENCIL,
+            },
+        };
+        let color_clear = vk::ClearValue {
+            color: vk::ClearColorValue {
+                float32: CLEAR_COLOR,
+            },
+        };
+        if pass.kind == PassKind::DynamicRendering {
+            return self.begin_rendering(cmd, n, color_clear, depth_clear);
+        }
+        let clear_values = match (pass.target, pass.multisample) {
+            // The multisampled attachments are cleared; their resolve attachments are not.
+            (Target::Main, Some(_)) => vec![color_clear, depth_clear, color_clear, depth_clear],
+            (Target::Main, None) => vec![color_clear, depth_clear],
+            (Target::Shadow, _) => vec![depth_clear],
+        };
+        let begin = vk::RenderPassBeginInfo::default()
+            .render_pass(self.renderer.render_passes[n])
+            .framebuffer(self.renderer.framebuffers[n])
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: target_extent(pass.target, self.targets.extent),
+            })
+            .clear_values(&clear_values);
+        // SAFETY: `cmd` is a recording primary outside any pass; the framebuffer was made for
+        // this render pass, with one clear value per attachment.
+        unsafe { self.device().cmd_begin_render_pass(cmd, &begin, contents) };
+        Ok(())
+    }
+
+    /// `vkCmdBeginRendering` over the main target, after a barrier that puts both attachments
+    /// in their attachment layouts (from nothing when cleared, keeping them when loaded) and
+    /// orders earlier attachment writes before this rendering's load ops. A multisampled pass
+    /// renders into the multisampled attachments (from nothing: they are transient) and
+    /// resolves them into the main images, whose previous contents do not matter either.
+    fn begin_rendering(
+        &self,
+        cmd: vk::CommandBuffer,
+        n: usize,
+        color_clear: vk::ClearValue,
+        depth_clear: vk::ClearValue,
+    ) -> Result<()> {
+        let pass = &self.plan.passes[n];
+        let targets = self.targets;
+        let multisampled = match pass.multisample {
+            Some(_) => Some(multisampled_targets(targets)?),
+            None => None,
+        };
+        let depth_load = match pass.depth {
+            DepthLoad::Clear(_) => vk::AttachmentLoadOp::CLEAR,
+            DepthLoad::Load => vk::AttachmentLoadOp::LOAD,
+        };
+        let color_load = map_color_load(pass.load_color);
+        let color_layout = vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL;
+        let depth_layout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+        let old = |load, layout| {
+            if load == vk::AttachmentLoadOp::LOAD {
+                layout
+            } else {
+                vk::ImageLayout::UNDEFINED
+            }
+        };
+        let color_access =
+            vk::AccessFlags::COLOR_ATTACHMENT_READ | vk::AccessFlags::COLOR_ATTACHMENT_WRITE;
+        let depth_access = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
+        let barrier = |image, aspects, src_access, dst_access, old_layout, new_layout| {
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(src_access)
+                .dst_access_mask(dst_access)
+                .old_layout(old_layout)
+                .new_layout(new_layout)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(image)
+                .subresource_range(full_range(aspects))
+        };
+        let depth_aspects = targets.depth_format.aspects();
+        let mut barriers = vec![
+            barrier(
+                targets.color.image,
+                vk::ImageAspectFlags::COLOR,
+                vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+                color_access,
+                old(color_load, color_layout),
+                color_layout,
+            ),
+            // A resolve destination is written in the color attachment output stage, with
+            // color attachment writes, depth included.
+            barrier(
+                targets.depth.image,
+                depth_aspects,
+                vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                if multisampled.is_some() {
+                    depth_access | vk::AccessFlags::COLOR_ATTACHMENT_WRITE
+                } else {
+                    depth_access
+                },
+                old(depth_load, depth_layout),
+                depth_layout,
+            ),
+        ];
+        if let Some(ms) = multisampled {
+            barriers.push(barrier(
+                ms.color.image,
+                vk::ImageAspectFlags::COLOR,
+                vk::AccessFlags::empty(),
+                color_access,
+                vk::ImageLayout::UNDEFINED,
+                color_layout,
+            ));
+            barriers.push(barrier(
+                ms.depth.image,
+                depth_aspects,
+                vk::AccessFlags::empty(),
+                depth_access,
+                vk::ImageLayout::UNDEFINED,
+                depth_layout,
+            ));
+        }
+        let stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+            | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+            | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+        let color_attachment = vk::RenderingAttachmentInfo::default()
+            .image_view(targets.color.view)
+            .image_layout(color_layout)
+            .load_op(color_load)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(color_clear);
+        let depth_attachment = vk::RenderingAttachmentInfo::default()
+            .image_view(targets.depth.view)
+            .image_layout(depth_layout)
+            .load_op(depth_load)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(depth_clear);
+        let has_stencil = targets.depth_format.has_stencil();
+        // The same view and clear value; the stencil is cleared to 0 or loaded with depth.
+        let mut stencil_attachment = depth_attachment;
+        let (color_attachments, depth_attachment) = match multisampled {
+            Some(ms) => {
+                // Draw into the multisampled attachments (not stored: transient) and resolve
+                // them into the main images.
+                let resolved = |attachment: vk::RenderingAttachmentInfo<'static>,
+                                view,
+                                mode,
+                                resolve_view,
+                                layout| {
+                    let attachment = attachment
+                        .image_view(view)
+                        .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                        .resolve_mode(mode);
+                    if mode == vk::ResolveModeFlags::NONE {
+                        attachment
+                    } else {
+                        attachment
+                            .resolve_image_view(resolve_view)
+                            .resolve_image_layout(layout)
+                    }
+                };
+                stencil_attachment = resolved(
+                    stencil_attachment,
+                    ms.depth.view,
+                    ms.resolve.stencil,
+                    targets.depth.view,
+                    depth_layout,
+                );
+                let depth = resolved(
+                    depth_attachment,
+                    ms.depth.view,
+                    ms.resolve.depth,
+                    targets.depth.view,
+                    depth_layout,
+                );
+                let color = resolved(
+                    color_attachment,
+                    ms.color.view,
+                    vk::ResolveModeFlags::AVERAGE,
+                    targets.color.view,
+                    color_layout,
+                );
+                ([color], depth)
+            }
+            None => ([color_attachment], depth_attachment),
+        };
+        let mut info = vk::RenderingInfo::default()
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: targets.extent,
+            })
+            .layer_count(1)
+            .color_attachments(&color_attachments)
+            .depth_attachment(&depth_attachment);
+        if has_stencil {
+            info = info.stencil_attachment(&stencil_attachment);
+        }
+        // SAFETY: `cmd` is a recording primary outside any pass; the device has
+        // dynamicRendering enabled (checked before rendering); the views cover the images
+        // transitioned by the barrier; multisampled views resolve into single-sample views of
+        // the same formats with modes the device supports (checked with the targets).
+        unsafe {
+            self.device().cmd_pipeline_barrier(
+                cmd,
+                stages,
+                stages,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &barriers,
+            );
+            self.renderer.gpu.cmd_begin_rendering(cmd, &info);
+        }
+        Ok(())
+    }
+
+    fn end_pass(&mut self, cmd: vk::CommandBuffer) {
+        let Some(n) = self.pass.take() else { return };
+        self.pipeline = None;
+        // SAFETY: `cmd` is inside the pass begun by the matching BeginPass.
+        unsafe {
+            if self.plan.passes[n].kind == PassKind::DynamicRendering {
+                self.renderer.gpu.cmd_end_rendering(cmd);
+            } else {
+                self.device().cmd_end_render_pass(cmd);
+            }
+        }
+    }
+
+    fn bind(&mut self, cmd: vk::CommandBuffer, n: usize) {
+        self.pipeline = Some(n);
+        let renderer = self.renderer;
+        // SAFETY: `cmd` is inside a pass compatible with the pipeline (plan check); the
+        // descriptor set matches the shadow layout's only set.
+        unsafe {
+            self.device().cmd_bind_pipeline(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                renderer.pipelines[n],
+            );
+            let set = match self.plan.pipelines[n].program {
+                Program::ShadowReceiver => renderer.shadow.as_ref().map(|s| s.set),
+                Program::MvpPair => renderer.colors.as_ref().map(|c| c.set),
+                // The storage buffer holds every object, indexed by the instance index; the
+                // dynamic uniform buffers are bound at each draw with its offset.
+                Program::Ssbo => renderer.matrices.as_ref().map(|m| m.set),
+                _ => None,
+            };
+            if let Some(set) = set {
+                let (layout, _) = renderer.layout(self.plan.pipelines[n].program);
+                self.device().cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    layout,
+                    0,
+                    &[set],
+                    &[],
+                );
+            }
+        }
+    }
+
+    /// `vkCmdPushConstants` of bytes `offset..offset + size` of object `n`'s constants for
+    /// the bound program.
+    fn push(&self, cmd: vk::CommandBuffer, n: usize, offset: u32, size: u32) -> Result<()> {
+        let pipeline = self
+            .pipeline
+            .ok_or_else(|| anyhow!("push constants without a bound pipeline"))?;
+        let program = self.plan.pipelines[pipeline].program;
+        let view = match self.pass.map(|p| self.plan.passes[p].target) {
+            Some(Target::Shadow) => View::Light,
+            _ => View::Camera,
+        };
+        let object = self
+            .scene
+            .objects
+            .get(n)
+            .ok_or_else(|| anyhow!("no object {n}"))?;
+        let constants = self
+            .scene
+            .push_constants_in(program, view, object, self.aspect);
+        let bytes = constants
+            .get(offset as usize..(offset + size) as usize)
+            .ok_or_else(|| anyhow!("push range {offset}+{size} outside the constants"))?;
+        let (layout, stages) = self.renderer.layout(program);
+        // SAFETY: `cmd` is recording; the layout is the bound pipeline's, whose push-constant
+        // range covers these 4-aligned bytes for exactly these stages (plan check).
+        unsafe {
+            self.device()
+                .cmd_push_constants(cmd, layout, stages, offset, bytes)
+        };
+        Ok(())
+    }
+
+    /// Draws object `n`, after pushing all of its constants when `push` is set.
+    fn draw(&self, cmd: vk::CommandBuffer, n: usize, push: bool) -> Result<()> {
+        let pipeline = self
+            .pipeline
+            .ok_or_else(|| anyhow!("draw without a bound pipeline"))?;
+        let program = self.plan.pipelines[pipeline].program;
+        // The buffer deliveries have no push constants: nothing to push.
+        if push && program.push_constant_size() > 0 {
+            self.push(cmd, n, 0, program.push_constant_size())?;
+        }
+        let range = self.buffers.draws[n];
+        if matches!(program, Program::Ubo | Program::UboDynamic) {
+            let matrices = self
+                .renderer
+                .matrices
+                .as_ref()
+                .filter(|m| m.program == program)
+                .ok_or_else(|| anyhow!("no buffers for the {program:?} program"))?;
+            let offset = u32::try_from(n as u64 * matrices.stride).context("dynamic offset")?;
+            // SAFETY: `cmd` is recording with a pipeline of this layout bound; the set's one
+            // dynamic binding gets object n's block, inside the buffer.
+            unsafe {
+                self.device().cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.renderer.matrix_layout,
+                    0,
+                    &[matrices.set],
+                    &[offset],
+                );
+            }
+        }
+        // The shadow receiver indexes its light MVPs, the pair program its colors, the storage
+        // buffer delivery its objects, with the instance index.
+        let first_instance = if matches!(
+            program,
+            Program::ShadowReceiver | Program::MvpPair | Program::Ssbo
+        ) {
+            u32::try_from(n).context("object index")?
+        } else {
+            0
+        };
+        // SAFETY: `cmd` is recording inside a pass with a bound pipeline and its push
+        // constants written (plan check); the draw range indexes the bound buffers.
+        unsafe {
+            self.device().cmd_draw_indexed(
+                cmd,
+                range.index_count,
+                1,
+                range.first_index,
+                range.vertex_offset,
+                first_instance,
+            );
+        }
+        Ok(())
+    }
+
+    fn set_depth_bias(&self, cmd: vk::CommandBuffer, bias: DepthBias) {
+        let clamp = if self.renderer.bias_clamp {
+            bias.clamp
+        } else {
+            0.0
+        };
+        // SAFETY: `cmd` is recording; the bound pipeline's bias is dynamic; the clamp is 0
+        // unless the depthBiasClamp feature is enabled.
+        unsafe {
+            self.device()
+                .cmd_set_depth_bias(cmd, bias.constant, clamp, bias.slope)
+        };
+    }
+
+    /// `vkCmdClearAttachments` of the depth aspect over a fraction of the target.
+    fn clear_depth_rect(&self, cmd: vk::CommandBuffer, [x0, y0, x1, y1]: [f32; 4], depth: f32) {
+        let extent = self.targets.extent;
+        let px = |f: f32, size: u32| (f * size as f32).round() as u32;
+        let (left, top) = (px(x0, extent.width), px(y0, extent.height));
+        let (right, bottom) = (px(x1, extent.width), px(y1, extent.height));
+        let rect = vk::ClearRect {
+            rect: vk::Rect2D {
+                offset: vk::Offset2D {
+                    x: left as i32,
+                    y: top as i32,
+                },
+                extent: vk::Extent2D {
+                    width: right.saturating_sub(left).max(1),
+                    height: bottom.saturating_sub(top).max(1),
+                },
+            },
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let attachment = vk::ClearAttachment {
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            color_attachment: 0,
+            clear_value: vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth,
+                    stencil: CLEAR_STENCIL,
+                },
+            },
+        };
+        // SAFETY: `cmd` is inside a main-target pass with a depth attachment; the rectangle
+        // lies within the render area.
+        unsafe {
+            self.device()
+                .cmd_clear_attachments(cmd, &[attachment], &[rect])
+        };
+    }
+
+    /// Begins a fresh secondary command buffer that continues pass `n`, inheriting its render
+    /// pass, the current subpass and (if `framebuffer`) its framebuffer.
+    fn begin_secondary(
+        &self,
+        secondary: vk::CommandBuffer,
+        n: usize,
+        framebuffer: bool,
+    ) -> VkResult<()> {
+        let framebuffer = if framebuffer {
+            self.renderer.framebuffers[n]
+        } else {
+            vk::Framebuffer::null()
+        };
+        let inheritance = vk::CommandBufferInheritanceInfo::default()
+            .render_pass(self.renderer.render_passes[n])
+            .subpass(self.subpass)
+            .framebuffer(framebuffer);
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(
+                vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
+                    | vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT,
+            )
+            .inheritance_info(&inheritance);
+        // SAFETY: a fresh secondary of one of this device's pools; the inheritance names the
+        // current render pass, subpass and framebuffer.
+        unsafe { self.device().begin_command_buffer(secondary, &begin) }
+    }
+
+    /// Records each list into the next secondary command buffer and executes them.
+    fn execute_secondaries(&mut self, cmd: vk::CommandBuffer, lists: &[Vec<Step>]) -> Result<()> {
+        let n = self
+            .pass
+            .ok_or_else(|| anyhow!("secondaries outside a pass"))?;
+        let mut recorded = Vec::with_capacity(lists.len());
+        for list in lists {
+            let secondary = *self
+                .renderer
+                .secondaries
+                .get(self.next_secondary)
+                .ok_or_else(|| anyhow!("not enough secondary command buffers"))?;
+            self.next_secondary += 1;
+            self.begin_secondary(secondary, n, true)
+                .context("vkBeginCommandBuffer (secondary) failed")?;
+            // Secondaries inherit no bound state: geometry and pipeline are bound again.
+            self.pipeline = None;
+            self.bind_geometry(secondary);
+            self.record(secondary, list)?;
+            // SAFETY: the secondary is recording.
+            unsafe { self.device().end_command_buffer(secondary) }
+                .context("vkEndCommandBuffer (secondary) failed")?;
+            recorded.push(secondary);
+        }
+        self.pipeline = None;
+        // SAFETY: `cmd` is a primary inside a subpass begun with SECONDARY_COMMAND_BUFFERS
+        // contents; the secondaries were recorded for it.
+        unsafe { self.device().cmd_execute_commands(cmd, &recorded) };
+        Ok(())
+    }
+
+    /// Records each list on its own thread, at the same time: each thread creates its own
+    /// command pool, allocates a secondary from it, records the list with its own recorder
+    /// state (binding geometry, pipeline and push constants itself) and hands the pool and
+    /// the secondary back; then one `vkCmdExecuteCommands` runs them in list order. With
+    /// `odd_without_framebuffer`, the odd-numbered lists inherit no framebuffer.
+    fn execute_secondaries_on_threads(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        lists: &[Vec<Step>],
+        odd_without_framebuffer: bool,
+    ) -> Result<()> {
+        let n = self
+            .pass
+            .ok_or_else(|| anyhow!("secondaries outside a pass"))?;
+        let (renderer, scene, plan) = (self.renderer, self.scene, self.plan);
+        let (buffers, targets, aspect, subpass) =
+            (self.buffers, self.targets, self.aspect, self.subpass);
+        let results: Vec<Result<(vk::CommandPool, vk::CommandBuffer)>> =
+            std::thread::scope(|scope| {
+                let threads: Vec<_> = lists
+                    .iter()
+                    .enumerate()
+                    .map(|(index, list)| {
+                        let framebuffer = !(odd_without_framebuffer && index % 2 == 1);
+                        let mut recorder = Recorder {
+                            renderer,
+                            scene,
+                            plan,
+                            buffers,
+                            targets,
+                            aspect,
+                            pass: Some(n),
+                            subpass,
+                            pipeline: None,
+                            next_secondary: 0,
+                            thread_pools: Vec::new(),
+                        };
+                        scope.spawn(move || recorder.record_on_own_pool(list, framebuffer))
+                    })
+                    .collect();
+                threads
+                    .into_iter()
+                    .map(|thread| {
+                        thread
+                            .join()
+                            .unwrap_or_else(|_| Err(anyhow!("a recording thread panicked")))
+                    })
+                    .collect()
+            });
+        let mut recorded = Vec::with_capacity(results.len());
+        let mut first_error = None;
+        for result in results {
+            match result {
+                Ok((pool, secondary)) => {
+                    self.thread_pools.push(pool);
+                    recorded.push(secondary);
+                }
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        if let Some(e) = first_error {
+            return Err(e);
+        }
+        self.pipeline = None;
+        // SAFETY: `cmd` is a primary inside a subpass begun with SECONDARY_COMMAND_BUFFERS
+        // contents; the secondaries were recorded for it, and their pools are only destroyed
+        // after the submission completes.
+        unsafe { self.device().cmd_execute_commands(cmd, &recorded) };
+        Ok(())
+    }
+
+    /// On a recording thread: creates a command pool, allocates one secondary from it and
+    /// records `list` into it, inheriting the current render pass, subpass and (if
+    /// `framebuffer`) framebuffer. On failure the pool is destroyed again.
+    fn record_on_own_pool(
+        &mut self,
+        list: &[Step],
+        framebuffer: bool,
+    ) -> Result<(vk::CommandPool, vk::CommandBuffer)> {
+        let device = self.renderer.device;
+        let n = self
+            .pass
+            .ok_or_else(|| anyhow!("secondaries outside a pass"))?;
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT)
+            .queue_family_index(self.renderer.queue_family);
+        // SAFETY: valid device, queue family of the device's queue.
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .context("vkCreateCommandPool (recording thread) failed")?;
+        let recorded = (|| {
+            let info = vk::CommandBufferAllocateInfo::default()
+                .command_pool(pool)
+                .level(vk::CommandBufferLevel::SECONDARY)
+                .command_buffer_count(1);
+            // SAFETY: valid pool, used by this thread only.
+            let secondary = unsafe { device.allocate_command_buffers(&info) }
+                .context("vkAllocateCommandBuffers (recording thread) failed")?
+                .into_iter()
+                .next()
+                .ok_or_else(|| anyhow!("vkAllocateCommandBuffers returned no command buffer"))?;
+            self.begin_secondary(secondary, n, framebuffer)
+                .context("vkBeginCommandBuffer (recording thread) failed")?;
+            self.bind_geometry(secondary);
+            self.record(secondary, list)?;
+            // SAFETY: the secondary is recording.
+            unsafe { device.end_command_buffer(secondary) }
+                .context("vkEndCommandBuffer (recording thread) failed")?;
+            Ok(secondary)
+        })();
+        match recorded {
+            Ok(secondary) => Ok((pool, secondary)),
+            Err(e) => {
+                // SAFETY: nothing recorded in the pool was submitted.
+                unsafe { device.destroy_command_pool(pool, None) };
+                Err(e)
+            }
+        }
+    }
+}

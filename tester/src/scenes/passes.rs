@@ -1,0 +1,494 @@
+//! The scenes of passes and command buffers: secondaries, subpasses, dynamic rendering, the
+//! shadow map, multisample resolves, fragment depth and pipeline libraries.
+
+use super::*;
+
+/// `secondary`: the overlap scene's draws recorded into two secondary command buffers
+/// (RENDER_PASS_CONTINUE, inheritance naming the render pass, subpass 0 and the framebuffer;
+/// each binds the pipeline itself), executed with one `vkCmdExecuteCommands` in a pass begun
+/// with SECONDARY_COMMAND_BUFFERS contents. The image is exactly the overlap image.
+///
+/// Layer item: per-command-buffer state in secondaries (DESIGN.md pitfall 9): pipelines
+/// bound and push constants written inside secondary command buffers must be handled like
+/// primary ones. Missed, the secondaries' draws keep standard depth against a reversed clear
+/// and compare: the occlusion order inverts (far cubes over near ones) or nothing draws.
+pub fn secondary() -> Scene {
+    let mut scene = overlap();
+    scene.name = "secondary";
+    let draws: Vec<Step> = (0..scene.objects.len()).map(Step::Draw).collect();
+    let (first, second) = draws.split_at(2);
+    let record = |draws: &[Step]| {
+        let mut steps = vec![Step::Bind(0)];
+        steps.extend_from_slice(draws);
+        steps
+    };
+    scene.plan.steps = vec![
+        Step::BeginPass(0),
+        Step::ExecuteSecondaries(vec![record(first), record(second)], Recording::MainThread),
+        Step::EndPass,
+    ];
+    scene
+}
+
+/// `subpasses`: the overlap objects in one render pass with two subpasses sharing the depth
+/// attachment: subpass 0 (no color attachment) is a depth-only pre-pass with LESS, subpass 1
+/// draws the same objects in color with EQUAL (depth read-write layout, writes off); a
+/// subpass dependency orders subpass 0's depth writes before subpass 1's tests. Subpass 1
+/// draws farthest first, so that where two surfaces tie the pre-pass's choice wins: the image
+/// is exactly the overlap image.
+///
+/// Layer item: compare ops and clear values in a multi-subpass render pass (the depth
+/// attachment is reversed for both subpasses). A layer that handled only subpass 0, or only
+/// single-subpass passes, leaves EQUAL comparing against unmatched values: nothing draws.
+pub fn subpasses() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    b.pass(PassSpec {
+        kind: PassKind::DepthPrepassSubpasses,
+        ..PassSpec::clear(1.0)
+    });
+    let prepass = b.pipeline(PipelineSpec {
+        program: Program::DepthOnly,
+        color_write: false,
+        ..PipelineSpec::standard("depth pre-pass", 0)
+    });
+    let color = b.pipeline(PipelineSpec {
+        subpass: 1,
+        ..test_only("equal", DepthTest::Static(Compare::Equal))
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(prepass));
+    b.draw(&objects);
+    b.step(Step::NextSubpass);
+    b.step(Step::Bind(color));
+    // Farthest first: where surfaces tie exactly, the one the LESS pre-pass kept is drawn
+    // last, so the image is exactly the overlap image.
+    let reversed: Vec<usize> = objects.iter().rev().copied().collect();
+    b.draw(&reversed);
+    b.step(Step::EndPass);
+    b.finish("subpasses", camera, None)
+}
+
+/// `dynamic-rendering`: the overlap scene drawn with `vkCmdBeginRendering` (depth cleared to
+/// 1.0 through `VkRenderingAttachmentInfo`, pipelines made with `VkPipelineRenderingCreateInfo`),
+/// then a second `vkCmdBeginRendering` that loads color and depth and draws an orange cube
+/// partly hidden by the near cube and a cyan pillar partly hidden by the slab.
+///
+/// Layer item: the clear value of dynamic rendering's attachment info. Unflipped, the first
+/// rendering's reversed test passes nowhere: nothing draws in either rendering.
+pub fn dynamic_rendering() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let first = b.nearest_first(&camera, overlap_objects());
+    let second = b.nearest_first(
+        &camera,
+        vec![
+            grounded_cube("orange cube", 0.35, -0.2, 1.0, 0.7, rgb8(255, 140, 0)),
+            Object::world(
+                "pillar",
+                Mesh::cuboid(DVec3::new(0.18, 1.4, 0.18)),
+                DMat4::from_translation(DVec3::new(1.6, 1.35, -1.6)),
+                rgb8(0, 230, 230),
+            ),
+        ],
+    );
+    let dynamic = |depth, load_color| PassSpec {
+        target: Target::Main,
+        kind: PassKind::DynamicRendering,
+        depth,
+        load_color,
+        multisample: None,
+    };
+    let clear = b.pass(dynamic(DepthLoad::Clear(1.0), false));
+    let load = b.pass(dynamic(DepthLoad::Load, true));
+    let standard = b.pipeline(PipelineSpec::standard("standard", clear));
+    b.step(Step::BeginPass(clear));
+    b.step(Step::Bind(standard));
+    b.draw(&first);
+    b.step(Step::EndPass);
+    b.step(Step::BeginPass(load));
+    b.step(Step::Bind(standard));
+    b.draw(&second);
+    b.step(Step::EndPass);
+    b.finish("dynamic-rendering", camera, None)
+}
+
+/// The light of `shadow-map`: above the scene, behind it to the left, looking down at it
+/// (shadows fall toward the camera and to the right).
+pub fn shadow_light() -> Light {
+    Light {
+        eye: DVec3::new(-5.0, 10.0, -6.0),
+        target: DVec3::new(0.0, 0.0, 0.0),
+        up: DVec3::Y,
+        half_extent: 8.0,
+        near: 2.0,
+        far: 25.0,
+    }
+}
+
+/// The light-space depth bias of the shadow pass (standard, positive: away from the light).
+pub const SHADOW_BIAS: DepthBias = DepthBias {
+    constant: 1.25,
+    slope: 1.75,
+    clamp: 0.0,
+};
+
+/// `shadow-map`: an orthographic shadow pass (light above, looking down) renders the cubes,
+/// a pillar and the ground into a separate D32_SFLOAT shadow map (DEPTH_STENCIL_ATTACHMENT |
+/// SAMPLED, cleared to 1.0, LESS, a standard positive depth bias), then the main pass (the
+/// chosen depth format, perspective camera, LESS) draws the same objects with
+/// `shadow_receiver.frag`, which samples the map through a comparison sampler
+/// (`compareEnable`, LESS_OR_EQUAL) and darkens shadowed surfaces: long shadows fall on the
+/// ground away from the light.
+///
+/// Layer item: observable depth images stay native. The shadow map is SAMPLED, so its clear
+/// value, compare op, depth bias and viewport must be left alone while the main pass is
+/// reversed. Reversing it hands the shader reversed stored depths: the LESS_OR_EQUAL compare
+/// against standard references then shadows everything (or nothing); negating its bias
+/// brings back shadow acne (dark stripes on lit surfaces).
+pub fn shadow_map() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let mut objects = overlap_objects();
+    objects.retain(|o| o.name != "slab");
+    objects.push(Object::world(
+        "pillar",
+        Mesh::cuboid(DVec3::new(0.15, 0.9, 0.15)),
+        DMat4::from_translation(DVec3::new(-1.55, 0.85, 2.2)),
+        rgb8(250, 210, 20),
+    ));
+    let objects = b.nearest_first(&camera, objects);
+    let shadow = b.pass(PassSpec {
+        target: Target::Shadow,
+        ..PassSpec::clear(1.0)
+    });
+    let main = b.pass(PassSpec::clear(1.0));
+    let caster = b.pipeline(PipelineSpec {
+        program: Program::DepthOnly,
+        color_write: false,
+        bias: Bias::Static(SHADOW_BIAS),
+        ..PipelineSpec::standard("shadow caster", shadow)
+    });
+    let receiver = b.pipeline(PipelineSpec {
+        program: Program::ShadowReceiver,
+        ..PipelineSpec::standard("shadow receiver", main)
+    });
+    for (pass, pipeline) in [(shadow, caster), (main, receiver)] {
+        b.step(Step::BeginPass(pass));
+        b.step(Step::Bind(pipeline));
+        b.draw(&objects);
+        b.step(Step::EndPass);
+    }
+    b.finish("shadow-map", camera, Some(shadow_light()))
+}
+
+/// `shadow-map-secondaries`: `shadow-map` with each pass's draws recorded into two secondaries
+/// on two threads, the second of each inheriting the render pass and subpass without the
+/// framebuffer (which the inheritance info may leave null).
+///
+/// Layer item: a secondary without a framebuffer knows only its render pass and depth format,
+/// and the sampled (native) shadow map and the reversed main attachment share D32: guessing by
+/// format draws the shadow casters reversed into the native map, so no shadow lands. The render
+/// must be `shadow-map`'s.
+pub fn shadow_map_secondaries() -> Scene {
+    let mut scene = shadow_map();
+    scene.name = "shadow-map-secondaries";
+    let mut steps = Vec::new();
+    let mut lists: Vec<Vec<Step>> = Vec::new();
+    for step in std::mem::take(&mut scene.plan.steps) {
+        match step {
+            Step::BeginPass(_) => steps.push(step),
+            Step::Bind(_) => lists = vec![vec![step.clone()], vec![step]],
+            Step::Draw(_) => {
+                let shortest = if lists[0].len() <= lists[1].len() {
+                    0
+                } else {
+                    1
+                };
+                lists[shortest].push(step);
+            }
+            Step::EndPass => {
+                steps.push(Step::ExecuteSecondaries(
+                    std::mem::take(&mut lists),
+                    Recording::ThreadPerSecondaryOddWithoutFramebuffer,
+                ));
+                steps.push(step);
+            }
+            other => unreachable!("shadow-map records no {other:?}"),
+        }
+    }
+    scene.plan.steps = steps;
+    scene
+}
+
+/// The sample count of the multisampled scenes.
+pub const MSAA_SAMPLES: u32 = 4;
+
+/// `msaa-resolve`: the overlap scene (its objects, camera and drawing order) rendered at 4x
+/// MSAA in a render pass made with `vkCreateRenderPass2`: one subpass draws into a transient
+/// 4x color attachment and a transient 4x depth attachment (DEPTH_STENCIL_ATTACHMENT |
+/// TRANSIENT_ATTACHMENT only: never read back, never copied), cleared to 1.0, LESS, pipelines
+/// rasterizing 4 samples; at the end of the subpass the color is resolved
+/// (`pResolveAttachments`) into the main color image and the depth through
+/// `VkSubpassDescriptionDepthStencilResolve` into the main depth image (the one read back),
+/// with `--depth-resolve`'s mode (default SAMPLE_ZERO; stencil NONE where the device allows
+/// it, else the depth mode). The color image is the overlap image with antialiased edges.
+///
+/// Layer item: depth resolves of `vkCreateRenderPass2` render passes. The 4x image is not
+/// observable, so the layer may reverse it; the read-back main image stays native by
+/// default, and a reversed attachment resolved into a native one hands it reversed values
+/// unless the layer keeps the 4x image native. Missed, the colors stay right but the depth
+/// read back is 1 - D: `depth.png` shows the background (cleared to 1.0, resolved as 0) as
+/// covered and the near cube dimmest. With both images reversed
+/// (`reverse_observable = copies`), MIN and MAX must be swapped: unswapped, every
+/// silhouette pixel of the depth image takes its farthest sample instead of its nearest (or
+/// the reverse), so the depth silhouettes shrink (grow) by a pixel against the color image.
+pub fn msaa_resolve() -> Scene {
+    msaa_scene("msaa-resolve", PassKind::RenderPass)
+}
+
+/// `msaa-resolve-dynamic`: [`msaa_resolve`] with dynamic rendering: `vkCmdBeginRendering`
+/// whose depth `VkRenderingAttachmentInfo` (and stencil one, for formats with stencil) names
+/// the 4x depth view with `resolveMode` and the main depth image as `resolveImageView`, and
+/// whose color attachment resolves (AVERAGE) into the main color image likewise.
+///
+/// Layer item: the resolve mode and resolve image of dynamic rendering's depth attachment
+/// info. Missed, the same wrong depth image as [`msaa_resolve`]'s.
+pub fn msaa_resolve_dynamic() -> Scene {
+    msaa_scene("msaa-resolve-dynamic", PassKind::DynamicRendering)
+}
+
+/// The overlap scene (objects nearest first, one pass, the standard pipeline) with its pass
+/// made a 4x multisampled one of `kind`, depth cleared to 1.0 and resolved with SAMPLE_ZERO
+/// (`--depth-resolve` changes it).
+fn msaa_scene(name: &'static str, kind: PassKind) -> Scene {
+    let mut scene = overlap();
+    scene.name = name;
+    scene.plan.passes[0] = PassSpec {
+        kind,
+        multisample: Some(Multisample {
+            samples: MSAA_SAMPLES,
+            depth_resolve: ResolveMode::SampleZero,
+        }),
+        ..PassSpec::clear(1.0)
+    };
+    scene
+}
+
+/// A rectangle facing the eye of `camera` at view distance `distance` (so its depth is the same
+/// at every pixel) that covers `[x0, x1] x [y0, y1]` of Vulkan NDC (y down) at aspect 1.
+fn card(
+    camera: &Camera,
+    name: &'static str,
+    distance: f64,
+    [x0, y0, x1, y1]: [f64; 4],
+    color: [f32; 4],
+) -> Object {
+    // NDC x = x_view / (t * distance), NDC y = -y_view / (t * distance).
+    let scale = (camera.fov_y / 2.0).tan() * distance;
+    Object::world(
+        name,
+        Mesh::rect_xy(
+            scale * (x0 + x1) / 2.0,
+            -scale * (y0 + y1) / 2.0,
+            scale * (x1 - x0) / 2.0,
+            scale * (y1 - y0) / 2.0,
+        ),
+        camera.view().inverse() * DMat4::from_translation(DVec3::new(0.0, 0.0, -distance)),
+        color,
+    )
+}
+
+/// `frag-depth`: three cards facing the eye (each at one depth), drawn in this order with LESS
+/// and depth writes:
+/// - a blue far wall (view distance 8, depth 0.98849; standard pipeline) on the left;
+/// - a red card across the middle (distance 3, depth D = 0.96763), the nearest surface, drawn
+///   with `frag_depth.frag` ([`Program::FragDepth`]): it stores 0.5 + 0.5 * D = 0.98382,
+///   still in front of the wall (it covers the wall's upper right) and of the clear (1.0: its
+///   upper band and its middle cover nothing else);
+/// - a green card (distance 4.5, depth 0.97876; standard pipeline) on the right, geometrically
+///   behind the red card but in front of its pushed-back depth: it passes against what the
+///   red card stored and shows over the red card's lower right.
+///
+/// Layer item: fragment shaders that write `FragDepth` and read `gl_FragCoord.z`. Into a
+/// reversed attachment the rewritten shader must read the standard depth (1 - z) and store the
+/// reversal of what it computes (1 - x = 0.01618, between the green card's 1 - 0.97876 =
+/// 0.02124 and the wall's 0.01151). Stores left unflipped (0.98382), or the reversed depth
+/// read as it is (the shader computes 0.5 + 0.5 * 0.03237 = 0.51618, stored flipped as
+/// 0.48382 or as it is), all land near the eye: the red card covers the green one where they
+/// overlap. A FragDepth draw left with LESS fails against the reversed clear (0): the red card
+/// vanishes, the wall and the background show through. Where the red card is alone, the depth
+/// read back is the stored FragDepth value itself.
+pub fn frag_depth() -> Scene {
+    frag_depth_built("frag-depth", false)
+}
+
+/// `frag-depth-library` (needs `VK_EXT_graphics_pipeline_library`): [`frag_depth`] with every
+/// pipeline built from four libraries linked together, as in [`pipeline_library`].
+///
+/// Layer item: a fragment shader library that computes with depth. The layer must give the
+/// fragment shader library a variant with the rewritten shader and bind, for draws into a
+/// reversed attachment, a variant of the linked pipeline that links it; a layer that links
+/// the application's library shows what [`frag_depth`] shows with the shader untouched.
+pub fn frag_depth_library() -> Scene {
+    frag_depth_built("frag-depth-library", true)
+}
+
+/// The `frag-depth` scene named `name`, its pipelines built from libraries or not.
+fn frag_depth_built(name: &'static str, libraries: bool) -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let wall = b.object(card(
+        &camera,
+        "far wall",
+        8.0,
+        [-0.85, -0.2, -0.15, 0.7],
+        rgb8(40, 80, 240),
+    ));
+    let pushed = b.object(card(
+        &camera,
+        "pushed card",
+        3.0,
+        [-0.5, -0.6, 0.5, 0.3],
+        rgb8(230, 30, 30),
+    ));
+    let middle = b.object(card(
+        &camera,
+        "middle card",
+        4.5,
+        [0.15, -0.2, 0.85, 0.7],
+        rgb8(30, 200, 40),
+    ));
+    b.pass(PassSpec::clear(1.0));
+    let standard = b.pipeline(PipelineSpec {
+        libraries,
+        ..PipelineSpec::standard("standard", 0)
+    });
+    let frag_depth = b.pipeline(PipelineSpec {
+        program: Program::FragDepth,
+        libraries,
+        ..PipelineSpec::standard("frag depth", 0)
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.step(Step::Draw(wall));
+    b.step(Step::Bind(frag_depth));
+    b.step(Step::Draw(pushed));
+    b.step(Step::Bind(standard));
+    b.step(Step::Draw(middle));
+    b.step(Step::EndPass);
+    b.finish(name, camera, None)
+}
+
+/// A rectangle `[x ± half_width] x [y ± half_height]` on the +z face of `cube` (a
+/// [`grounded_cube`] of half size `half`): the face's plane in the cube's own model space
+/// (local z = `half`, the very f32 value of the face's vertices) with the cube's model matrix,
+/// so exactly coplanar with the face.
+fn face_decal(
+    name: &'static str,
+    cube: &Object,
+    half: f64,
+    [x, y, half_width, half_height]: [f64; 4],
+    color: [f32; 4],
+) -> Object {
+    Object {
+        name,
+        mesh: Mesh::rect_xy(x, y, half_width, half_height).translated(DVec3::new(0.0, 0.0, half)),
+        color,
+        ..cube.clone()
+    }
+}
+
+/// The half sizes of the overlap scene's near and middle cubes (see `overlap_objects`).
+pub(super) const NEAR_CUBE_HALF: f64 = 0.5;
+/// See [`NEAR_CUBE_HALF`].
+pub(super) const MIDDLE_CUBE_HALF: f64 = 0.75;
+
+/// `pipeline-library` (needs `VK_EXT_graphics_pipeline_library`): every pipeline is built
+/// from four libraries (vertex input interface, pre-rasterization shaders, fragment shader,
+/// fragment output interface; each given the render pass and subpass where it needs them)
+/// linked into the pipeline bound, with all depth state static and where the extension puts
+/// it: the viewport and the rasterization state (depth bias) in the pre-rasterization
+/// library, the depth-stencil state (compare op, test and write) in the fragment shader
+/// library. One render pass (depth cleared to 1.0) draws:
+/// - the overlap objects with LESS and depth writes (the nearest wins: the red cube in front
+///   of the green one, the slab cutting the green cube, the blue cube behind);
+/// - two decals coplanar with the +z faces of the red and green cubes (same model matrix,
+///   the face's own plane), with LESS, no depth writes and the static bias of `depth-bias`
+///   (constant -8, slope -12, clamp -1e-4 when the device has `depthBiasClamp`): a white
+///   square on the red cube, a cyan band on the green cube whose left end passes behind the
+///   red cube, which hides it there (the red cube is in front by far more than the bias);
+/// - a full-screen sky quad (clip depth 0.5) with viewport depth range [1, 1] and
+///   LESS_OR_EQUAL without depth writes: it fills the background above the ground only.
+///
+/// Layer item: depth state carried by pipeline libraries. The layer must change the libraries
+/// as it changes ordinary pipelines (swap the compare ops in the fragment shader library;
+/// negate the bias and flip the viewport depth range in the pre-rasterization library, as its
+/// mode wants): the linked create info carries no depth state at all. A layer that passes
+/// library pipelines through untouched into a reversed depth buffer (cleared to 0) leaves
+/// LESS and LESS_OR_EQUAL failing against it at every pixel: the whole image is the clear
+/// color. With the fragment shader library handled but not the pre-rasterization one: the
+/// unflipped [1, 1] sky lands at reversed depth 1, the nearest, and covers the whole image;
+/// an unnegated bias pushes the decals behind their faces (they vanish: plain red and green
+/// faces, the white square and cyan band gone); on the flip path (viewport flipped for a
+/// standard projection) a missed flip also leaves standard depths tested with GREATER, so the
+/// farthest surface wins (the ground over the cubes).
+pub fn pipeline_library() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = overlap_objects();
+    let cube = |name: &str| {
+        objects
+            .iter()
+            .find(|o| o.name == name)
+            .expect("overlap has the cube")
+            .clone()
+    };
+    let (near, middle) = (cube("near cube"), cube("middle cube"));
+    let world = b.nearest_first(&camera, objects);
+    let decals = [
+        face_decal(
+            "near cube decal",
+            &near,
+            NEAR_CUBE_HALF,
+            [0.0, 0.05, 0.25, 0.25],
+            rgb8(240, 240, 240),
+        ),
+        face_decal(
+            "middle cube decal",
+            &middle,
+            MIDDLE_CUBE_HALF,
+            [-0.1, 0.25, 0.55, 0.15],
+            rgb8(0, 230, 230),
+        ),
+    ]
+    .map(|o| b.object(o));
+    let sky = b.object(Object::full_screen("sky", rgb8(120, 180, 240)));
+    b.pass(PassSpec::clear(1.0));
+    let library = |spec: PipelineSpec| PipelineSpec {
+        libraries: true,
+        ..spec
+    };
+    let standard = b.pipeline(library(PipelineSpec::standard("standard", 0)));
+    let decal = b.pipeline(library(PipelineSpec {
+        bias: Bias::Static(DECAL_BIAS),
+        ..test_only("decal", DepthTest::Static(Compare::Less))
+    }));
+    let sky_pipeline = b.pipeline(library(PipelineSpec {
+        viewport: Viewport::Static {
+            min_depth: 1.0,
+            max_depth: 1.0,
+        },
+        ..test_only("sky", DepthTest::Static(Compare::LessOrEqual))
+    }));
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(standard));
+    b.draw(&world);
+    b.step(Step::Bind(decal));
+    b.draw(&decals);
+    b.step(Step::Bind(sky_pipeline));
+    b.step(Step::Draw(sky));
+    b.step(Step::EndPass);
+    b.finish("pipeline-library", camera, None)
+}
