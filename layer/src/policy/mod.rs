@@ -6,6 +6,7 @@
 //! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
 //! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
+//! | does a render pass get a twin with its MIN/MAX depth resolve swapped, and with which mode ([`ResolveSupport::twin_resolve`]) | each subpass's depth resolve mode, the stencil mode where the resolve attachment has stencil, where the resolve structure is in the subpass's chain, the device's resolve properties | `vkCreateRenderPass2` (for the promoted twin too), `vkCreateDevice` |
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
 //! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
@@ -18,7 +19,7 @@
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
-//! why an image stays native or keeps its format), `resolves.rs` (resolve sources and modes),
+//! why an image stays native or keeps its format), `resolves.rs` (resolve sources and modes, and swapped-resolve twins),
 //! `convention.rs` (the application's convention, and what revz observes of it),
 //! `secondaries.rs` (secondaries without a framebuffer), `compare_op.rs` (the dynamic compare
 //! op), `copies.rs` (copies); [`DevicePolicy`] itself (the mode, the carrier, reversed clears)
@@ -48,7 +49,7 @@ pub use compare_op::{CompareOpFacts, CompareOpSource};
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{CopyDecision, CopyDirection, CopyEnd, CopyFacts, Unconverted};
 pub use images::{ImageDepth, ImageFacts, KeptFormat, NativeReason};
-pub use resolves::{DepthResolve, ResolveSupport};
+pub use resolves::{DepthResolve, ResolveSupport, SubpassResolveFacts, TwinResolve};
 pub use secondaries::{secondary_promoted, secondary_target};
 
 use revz_math::Target as RewriteTarget;
