@@ -30,7 +30,7 @@ use crate::chain;
 use crate::conv::{has_depth, has_stencil};
 use crate::hooks::resources::slice;
 use crate::objects::{RenderPassInfo, SubpassResolve};
-use crate::policy::{SubpassResolveFacts, TwinResolve};
+use crate::policy::{FramebufferStorage, SubpassResolveFacts, TwinResolve};
 use crate::state::DeviceState;
 
 static CREATE_RENDER_PASS: EntryPoint = EntryPoint::new("vkCreateRenderPass");
@@ -396,30 +396,6 @@ destroy_hook!(
     framebuffers | promoted_framebuffers,
     destroy_framebuffer
 );
-
-/// Whether a framebuffer's promotable depth attachments are promoted images: all (it is
-/// created with the pass's promoted twin), none, or some (a mix no pass can take).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum FramebufferStorage {
-    Unpromoted,
-    Promoted,
-    Mixed,
-}
-
-impl FramebufferStorage {
-    fn of(promoted: impl Iterator<Item = bool>) -> FramebufferStorage {
-        let (mut any, mut all) = (false, true);
-        for promoted in promoted {
-            any |= promoted;
-            all &= promoted;
-        }
-        match (any, all) {
-            (false, _) => FramebufferStorage::Unpromoted,
-            (true, true) => FramebufferStorage::Promoted,
-            (true, false) => FramebufferStorage::Mixed,
-        }
-    }
-}
 
 /// Whether an imageless framebuffer's attachment would be a promoted image: the policy's
 /// decision on what its attachment info says (usage, flags, size, layers; optimal tiling, as

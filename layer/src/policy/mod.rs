@@ -6,6 +6,9 @@
 //! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
 //! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
+//! | is a framebuffer of promoted depth images, of unpromoted ones, or a mix no pass takes ([`FramebufferStorage::of`]) | whether each of its pass's promotable attachments is a promoted image (imageless: whether its attachment info would be, [`DevicePolicy::promoted_format`]) | `vkCreateFramebuffer` (images from `vkCreateImage`) |
+//! | which render pass a pass begin uses in place of the application's ([`PassTwin::choose`]) | whether the framebuffer was created promoted, whether a reversed attachment is resolved, whether the pass has a swapped-resolve twin | `vkCmdBeginRenderPass*` (framebuffers from `vkCreateFramebuffer`, twins from `vkCreateRenderPass*`) |
+//! | can a render pass's depth resolve be swapped ([`pass_resolve_swappable`]) | its mode, whether the pass has a swapped-resolve twin | framebuffer creation, imageless pass begins |
 //! | does a render pass get a twin with its MIN/MAX depth resolve swapped, and with which mode ([`ResolveSupport::twin_resolve`]) | each subpass's depth resolve mode, the stencil mode where the resolve attachment has stencil, where the resolve structure is in the subpass's chain, the device's resolve properties | `vkCreateRenderPass2` (for the promoted twin too), `vkCreateDevice` |
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
@@ -19,7 +22,8 @@
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
-//! why an image stays native or keeps its format), `resolves.rs` (resolve sources and modes, and swapped-resolve twins),
+//! why an image stays native or keeps its format), `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
+//! pass instances: which twin begins, framebuffers' storage),
 //! `convention.rs` (the application's convention, and what revz observes of it),
 //! `secondaries.rs` (secondaries without a framebuffer), `compare_op.rs` (the dynamic compare
 //! op), `copies.rs` (copies); [`DevicePolicy`] itself (the mode, the carrier, reversed clears)
@@ -41,6 +45,7 @@ mod compare_op;
 mod convention;
 mod copies;
 mod images;
+mod passes;
 mod resolves;
 mod secondaries;
 pub mod vertex_stage;
@@ -49,6 +54,7 @@ pub use compare_op::{CompareOpFacts, CompareOpSource};
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{CopyDecision, CopyDirection, CopyEnd, CopyFacts, Unconverted};
 pub use images::{ImageDepth, ImageFacts, KeptFormat, NativeReason};
+pub use passes::{pass_resolve_swappable, FramebufferStorage, PassTwin};
 pub use resolves::{DepthResolve, ResolveSupport, SubpassResolveFacts, TwinResolve};
 pub use secondaries::{secondary_promoted, secondary_target};
 

@@ -5,6 +5,7 @@
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
+use crate::policy::PassTwin;
 
 /// The attachments of a render pass instance: the framebuffer's views, or for an imageless
 /// framebuffer those of the begin info.
@@ -115,7 +116,11 @@ fn begin_pass(
             .promoted_framebuffers
             .get(&begin.framebuffer)
             .is_some();
-        out.render_pass = pass.twin(promoted, resolved_reversed);
+        out.render_pass = pass.twin(PassTwin::choose(
+            promoted,
+            resolved_reversed,
+            pass.swapped_resolve_twin.is_some(),
+        ));
     }
     let scope = PassScope {
         handle: begin.render_pass,
