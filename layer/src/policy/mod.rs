@@ -4,6 +4,8 @@
 //! |---|---|---|
 //! | is a depth image reversed or native ([`DevicePolicy::classify_image`]) | format, usage, tiling, settings | `vkCreateImage` |
 //! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
+//! | may an image be on one end of a depth resolve, so that its partner's format counts ([`may_be_resolved`]) | its usage | `vkCreateImage` |
+//! | which format a view of a promoted image is made in ([`promoted_view_format`]) | the view's format, the image's format and whether it was promoted | `vkCreateImageView` (images from `vkCreateImage`) |
 //! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
 //! | is a framebuffer of promoted depth images, of unpromoted ones, or a mix no pass takes ([`FramebufferStorage::of`]) | whether each of its pass's promotable attachments is a promoted image (imageless: whether its attachment info would be, [`DevicePolicy::promoted_format`]) | `vkCreateFramebuffer` (images from `vkCreateImage`) |
@@ -22,12 +24,13 @@
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
-//! why an image stays native or keeps its format), `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
-//! pass instances: which twin begins, framebuffers' storage),
-//! `convention.rs` (the application's convention, and what revz observes of it),
-//! `secondaries.rs` (secondaries without a framebuffer), `compare_op.rs` (the dynamic compare
-//! op), `copies.rs` (copies); [`DevicePolicy`] itself (the mode, the carrier, reversed clears)
-//! is here. The rows that name code outside this module are decided there.
+//! why an image stays native or keeps its format; resolve partners, views of promoted images),
+//! `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
+//! pass instances: which twin begins, framebuffers' storage), `convention.rs` (the
+//! application's convention, and what revz observes of it), `secondaries.rs` (secondaries
+//! without a framebuffer), `compare_op.rs` (the dynamic compare op), `copies.rs` (copies);
+//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that
+//! name code outside this module are decided there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
@@ -53,7 +56,9 @@ pub mod vertex_stage;
 pub use compare_op::{CompareOpFacts, CompareOpSource};
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{CopyDecision, CopyDirection, CopyEnd, CopyFacts, Unconverted};
-pub use images::{ImageDepth, ImageFacts, KeptFormat, NativeReason};
+pub use images::{
+    may_be_resolved, promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
+};
 pub use passes::{pass_resolve_swappable, FramebufferStorage, PassTwin};
 pub use resolves::{DepthResolve, ResolveSupport, SubpassResolveFacts, TwinResolve};
 pub use secondaries::{secondary_promoted, secondary_target};
