@@ -29,7 +29,7 @@ use crate::chain;
 use crate::command_state::{StateSink, Target};
 use crate::conv::{flip_resolve_mode, BiasRepresentation, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
-use crate::policy::{secondary_target, Convention};
+use crate::policy::secondary_target;
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 

@@ -88,9 +88,13 @@ fn begin_pass(
             let depth = unsafe { clear.depth_stencil.depth };
             (cleared(index) && images.get(index) == Some(&Target::Reversed)).then_some(depth)
         });
-        if images.contains(&Target::Reversed) {
-            device.observed.settle(reversed_clear);
-        }
+        // The pass commits its reversed attachments (if any) at once.
+        let committed = if images.contains(&Target::Reversed) {
+            Target::Reversed
+        } else {
+            Target::None
+        };
+        device.observed.committed(committed, reversed_clear);
         targets = images
             .into_iter()
             .map(|target| device.observed.effective(target))
@@ -357,15 +361,12 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             );
         }
         let image = depth.map_or(Target::None, |d| device.objects.view_target(d.image_view));
-        if image == Target::Reversed {
-            // The clear of a reversed attachment settles the convention with its value.
-            let clear = depth
-                .filter(|d| d.load_op == vk::AttachmentLoadOp::CLEAR)
-                // SAFETY: a depth attachment's clear value is the depthStencil member.
-                .map(|d| unsafe { d.clear_value.depth_stencil.depth });
-            device.observed.settle(clear);
-        }
-        let target = device.observed.effective(image);
+        // The clear of a reversed attachment settles the convention with its value.
+        let clear = depth
+            .filter(|d| d.load_op == vk::AttachmentLoadOp::CLEAR)
+            // SAFETY: a depth attachment's clear value is the depthStencil member.
+            .map(|d| unsafe { d.clear_value.depth_stencil.depth });
+        let target = device.observed.committed(image, clear);
         if let (Some(depth), Target::Reversed) = (depth, target) {
             let mut copy = *depth;
             if copy.load_op == vk::AttachmentLoadOp::CLEAR {
