@@ -1,7 +1,8 @@
 //! Multisample depth resolves out of reversed attachments: whether a resolve's source must
 //! become native ([`DepthResolve::demotes_source`]), which MIN/MAX mode a reversed resolve
-//! uses on the device ([`ResolveSupport::swapped_depth_mode`]), and whether a render pass gets
-//! a twin with its MIN/MAX resolve swapped ([`ResolveSupport::twin_resolve`]).
+//! uses on the device ([`ResolveSupport::swapped_depth_mode`]; for a rendering instance,
+//! [`ResolveSupport::reversed_resolve`]), and whether a render pass gets a twin with its
+//! MIN/MAX resolve swapped ([`ResolveSupport::twin_resolve`]).
 
 use ash::vk;
 
@@ -98,6 +99,54 @@ impl ResolveSupport {
                 Err("the device does not allow the swapped depth mode beside the stencil mode")
             }
             _ => Ok(swapped),
+        }
+    }
+}
+
+/// How a reversed attachment's depth resolve goes down, where the resolve is in the command
+/// itself (a rendering instance): as the application declares it, with MIN and MAX swapped,
+/// or not at all reversed ([`ResolveSupport::reversed_resolve`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReversedResolve {
+    /// The mode commutes with the reversal (NONE, SAMPLE_ZERO, AVERAGE): kept.
+    Kept,
+    /// MIN or MAX: resolved with this mode, the other one.
+    Swapped(vk::ResolveModeFlags),
+    /// The device does not allow the swapped mode (beside the stencil mode): the resolve's
+    /// reversed source is made native (`DepthResolve::demotes_source`, for MIN and MAX), so no
+    /// reversed attachment resolves with it.
+    Unswappable,
+}
+
+impl ReversedResolve {
+    /// Whether revz can resolve reversed depth with this resolve ([`DepthResolve::swappable`]).
+    pub fn swappable(self) -> bool {
+        self != ReversedResolve::Unswappable
+    }
+
+    /// The mode a reversed attachment is resolved with where the application asks for
+    /// `app_mode`.
+    pub fn mode(self, app_mode: vk::ResolveModeFlags) -> vk::ResolveModeFlags {
+        match self {
+            ReversedResolve::Swapped(mode) => mode,
+            ReversedResolve::Kept | ReversedResolve::Unswappable => app_mode,
+        }
+    }
+}
+
+impl ResolveSupport {
+    /// How a reversed attachment's resolve with `depth` goes down beside `stencil` (as
+    /// [`Self::swapped_depth_mode`] pairs them): a mode the device allows for the reversed
+    /// values, kept or swapped, or none.
+    pub fn reversed_resolve(
+        &self,
+        depth: vk::ResolveModeFlags,
+        stencil: Option<vk::ResolveModeFlags>,
+    ) -> ReversedResolve {
+        match self.swapped_depth_mode(depth, stencil) {
+            Err(_) => ReversedResolve::Unswappable,
+            Ok(mode) if mode == depth => ReversedResolve::Kept,
+            Ok(mode) => ReversedResolve::Swapped(mode),
         }
     }
 }
@@ -353,6 +402,35 @@ mod tests {
         assert_eq!(
             ResolveSupport::MINIMAL.twin_resolve([resolve(M::MIN, None, false)]),
             TwinResolve::Unswappable("the device does not support the swapped depth mode")
+        );
+    }
+
+    #[test]
+    fn a_reversed_rendering_resolve_is_kept_swapped_or_unswappable() {
+        use vk::ResolveModeFlags as M;
+        // independentResolveNone only.
+        let support = supports().nth(1).expect("a support");
+        for mode in [M::NONE, M::SAMPLE_ZERO, M::AVERAGE] {
+            let resolve = support.reversed_resolve(mode, None);
+            assert_eq!(resolve, ReversedResolve::Kept);
+            assert!(resolve.swappable());
+            assert_eq!(resolve.mode(mode), mode);
+        }
+        for (mode, swapped) in [(M::MIN, M::MAX), (M::MAX, M::MIN)] {
+            let resolve = support.reversed_resolve(mode, Some(M::NONE));
+            assert_eq!(resolve, ReversedResolve::Swapped(swapped));
+            assert!(resolve.swappable());
+            assert_eq!(resolve.mode(mode), swapped);
+            // Beside a resolving stencil mode the swap is not allowed here.
+            let blocked = support.reversed_resolve(mode, Some(mode));
+            assert_eq!(blocked, ReversedResolve::Unswappable);
+            assert!(!blocked.swappable());
+            assert_eq!(blocked.mode(mode), mode);
+        }
+        // A mode the device lacks cannot resolve reversed values either.
+        assert_eq!(
+            ResolveSupport::MINIMAL.reversed_resolve(M::AVERAGE, None),
+            ReversedResolve::Unswappable
         );
     }
 }

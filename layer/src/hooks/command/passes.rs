@@ -348,16 +348,17 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         let paired_stencil_mode = unsafe { info.p_stencil_attachment.as_ref() }
             .filter(|s| s.image_view != vk::ImageView::null())
             .map(|s| s.resolve_mode);
-        if let Some(depth) = depth {
-            let swappable = device
+        let resolve = depth.map(|depth| {
+            device
                 .resolve_support
-                .swapped_depth_mode(depth.resolve_mode, paired_stencil_mode)
-                .is_ok();
+                .reversed_resolve(depth.resolve_mode, paired_stencil_mode)
+        });
+        if let (Some(depth), Some(resolve)) = (depth, resolve) {
             device.objects.settle_depth_resolve(
                 depth.image_view,
                 depth.resolve_image_view,
                 depth.resolve_mode,
-                swappable,
+                resolve.swappable(),
             );
         }
         let image = depth.map_or(Target::None, |d| device.objects.view_target(d.image_view));
@@ -367,7 +368,7 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             // SAFETY: a depth attachment's clear value is the depthStencil member.
             .map(|d| unsafe { d.clear_value.depth_stencil.depth });
         let target = device.observed.committed(image, clear);
-        if let (Some(depth), Target::Reversed) = (depth, target) {
+        if let (Some(depth), Some(resolve), Target::Reversed) = (depth, resolve, target) {
             let mut copy = *depth;
             if copy.load_op == vk::AttachmentLoadOp::CLEAR {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
@@ -378,7 +379,7 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             }
             // Settled above: a reversed attachment that still resolves resolves into a
             // reversed image, with a mode revz may swap.
-            copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
+            copy.resolve_mode = resolve.mode(copy.resolve_mode);
             depth_copy = Some(copy);
         }
         // A promoted depth (or stencil) view: draws bind the variants made with float
