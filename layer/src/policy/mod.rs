@@ -17,6 +17,8 @@
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
 //! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
+//! | where a secondary continuing a pass of a depth format draws, without a framebuffer ([`inherited_target`]) | its inheritance's pass (subpass or rendering format) and depth format, the target that pass was last begun with for secondaries, else the format's reversed and native images | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
+//! | whether it draws into a promoted attachment, and which UNORM format draws convert from ([`inherited_promoted`]) | the same, for promotion (the format's promoted and kept images) | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
 //! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
 //! | is a pipeline a candidate for the precise path ([`vertex_stage::precise_candidate`]) | the mode, whether it renders depth, whether its create info defines its shaders | `vkCreateGraphicsPipelines` |
@@ -30,9 +32,9 @@
 //! `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
 //! pass instances: which twin begins, framebuffers' storage), `convention.rs` (the
 //! application's convention, and what revz observes of it), `secondaries.rs` (secondaries
-//! without a framebuffer), `compare_op.rs` (the dynamic compare op), `copies.rs` (copies);
-//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that
-//! name code outside this module are decided there.
+//! without a framebuffer, and what their inheritance makes of them), `compare_op.rs` (the
+//! dynamic compare op), `copies.rs` (copies); [`DevicePolicy`] itself (the mode, the carrier,
+//! reversed clears) is here. The rows that name code outside this module are decided there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
@@ -65,7 +67,7 @@ pub use passes::{pass_resolve_swappable, FramebufferStorage, PassTwin};
 pub use resolves::{
     DepthResolve, ResolveSupport, ReversedResolve, SubpassResolveFacts, TwinResolve,
 };
-pub use secondaries::{secondary_promoted, secondary_target};
+pub use secondaries::{inherited_promoted, inherited_target, secondary_promoted, secondary_target};
 
 use revz_math::Target as RewriteTarget;
 

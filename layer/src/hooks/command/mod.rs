@@ -29,7 +29,6 @@ use crate::chain;
 use crate::command_state::{StateSink, Target};
 use crate::conv::{BiasRepresentation, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
-use crate::policy::secondary_target;
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
