@@ -14,7 +14,7 @@ use ash::vk;
 use rustc_hash::{FxHashMap, FxHashSet};
 
 use crate::command_state::{CommandState, PipelineDepth, Target};
-use crate::policy::{DepthResolve, ImageDepth, NativeReason};
+use crate::policy::{pass_resolve_swappable, DepthResolve, ImageDepth, NativeReason, PassTwin};
 use crate::precise::Carrier;
 use crate::shader::analysis::Analysis;
 use crate::shader::fragment_depth::Unsupported;
@@ -92,17 +92,14 @@ impl RenderPassInfo {
             .is_some_and(|&format| crate::conv::float_depth_format(format).is_some())
     }
 
-    /// The render pass to begin in place of the application's: its promoted twin when the
-    /// framebuffer's depth images are promoted, its swapped-resolve twin when a reversed
-    /// attachment is resolved (`None`: the application's).
-    pub fn twin(&self, promoted: bool, swapped: bool) -> Option<vk::RenderPass> {
-        match (promoted, swapped) {
-            (false, false) => None,
-            (false, true) => self.swapped_resolve_twin,
-            (true, false) => self.promoted_twin,
-            // Resolves that need no swap have no swapped twin.
-            (true, true) if self.swapped_resolve_twin.is_none() => self.promoted_twin,
-            (true, true) => self.promoted_swapped_twin,
+    /// The render pass the policy's choice of twin names (`None`: the application's, or a
+    /// twin the pass does not have).
+    pub fn twin(&self, twin: PassTwin) -> Option<vk::RenderPass> {
+        match twin {
+            PassTwin::Application => None,
+            PassTwin::SwappedResolve => self.swapped_resolve_twin,
+            PassTwin::Promoted => self.promoted_twin,
+            PassTwin::PromotedSwapped => self.promoted_swapped_twin,
         }
     }
 
@@ -117,12 +114,10 @@ impl RenderPassInfo {
         .flatten()
     }
 
-    /// Whether a MIN/MAX depth resolve of this pass can be swapped (it has a twin).
+    /// Whether a depth resolve of this pass can be swapped
+    /// ([`crate::policy::pass_resolve_swappable`]: it needs none, or the pass has its twin).
     pub fn resolve_swappable(&self, resolve: SubpassResolve) -> bool {
-        !matches!(
-            resolve.mode,
-            vk::ResolveModeFlags::MIN | vk::ResolveModeFlags::MAX
-        ) || self.swapped_resolve_twin.is_some()
+        pass_resolve_swappable(resolve.mode, self.swapped_resolve_twin.is_some())
     }
 
     /// Each depth resolve of the pass: (source attachment, resolve).

@@ -27,10 +27,10 @@ use ash::vk;
 use super::{device_state, record};
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
-use crate::conv::{flip_resolve_mode, has_depth, has_stencil};
+use crate::conv::{has_depth, has_stencil};
 use crate::hooks::resources::slice;
 use crate::objects::{RenderPassInfo, SubpassResolve};
-use crate::policy::ResolveSupport;
+use crate::policy::{FramebufferStorage, SubpassResolveFacts, TwinResolve};
 use crate::state::DeviceState;
 
 static CREATE_RENDER_PASS: EntryPoint = EntryPoint::new("vkCreateRenderPass");
@@ -80,50 +80,49 @@ fn subpass_resolve(subpass: &vk::SubpassDescription2<'_>) -> Option<SubpassResol
         })
 }
 
-/// The depth resolve structure of the twin subpass: the application's with MIN and MAX
-/// swapped, chained in front of the rest of the subpass's chain. `Ok(None)`: nothing to swap.
-/// `Err`: a MIN/MAX resolve revz cannot swap, and why. `attachments`: the pass's attachments,
-/// whose resolve attachment's format says whether the stencil mode counts.
-fn swapped_resolve<'a>(
-    subpass: &vk::SubpassDescription2<'a>,
+/// What the policy needs to know of a subpass's depth resolve
+/// ([`crate::policy::ResolveSupport::twin_resolve`]): `None` without one. `attachments`: the
+/// pass's attachments, whose resolve attachment's format says whether the stencil mode counts.
+fn resolve_facts(
+    subpass: &vk::SubpassDescription2<'_>,
     attachments: &[vk::AttachmentDescription2<'_>],
-    support: &ResolveSupport,
-) -> Result<Option<vk::SubpassDescriptionDepthStencilResolve<'a>>, &'static str> {
-    let Some(resolve) = subpass_resolve(subpass) else {
-        return Ok(None);
-    };
-    if flip_resolve_mode(resolve.mode) == resolve.mode {
-        return Ok(None);
-    }
-    let Some(original) = depth_resolve_of(subpass) else {
-        return Ok(None);
-    };
+) -> Option<SubpassResolveFacts> {
+    let resolve = subpass_resolve(subpass)?;
+    let original = depth_resolve_of(subpass)?;
     // The spec pairs the two modes only for a resolve attachment with a stencil component
     // (VUID-VkSubpassDescriptionDepthStencilResolve-pDepthStencilResolveAttachment-03185,
     // -03186); an index out of range (an invalid pass) counts it, to stay on the safe side.
     let stencil_counts = attachments
         .get(resolve.attachment as usize)
         .is_none_or(|a| has_stencil(a.format));
-    let stencil = stencil_counts.then_some(original.stencil_resolve_mode);
-    let depth_resolve_mode = support.swapped_depth_mode(resolve.mode, stencil)?;
-    // Linking a copy in front of the chain skips the original only when it comes first;
-    // elsewhere revz would have to copy structures it does not know.
-    if !std::ptr::eq(
-        subpass.p_next,
-        (original as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast(),
-    ) {
-        return Err("another structure precedes it in the subpass's pNext chain");
-    }
-    // The stencil mode is kept: stencil is never reversed.
-    Ok(Some(vk::SubpassDescriptionDepthStencilResolve {
-        depth_resolve_mode,
-        ..*original
-    }))
+    Some(SubpassResolveFacts {
+        mode: resolve.mode,
+        stencil: stencil_counts.then_some(original.stencil_resolve_mode),
+        chained_first: std::ptr::eq(
+            subpass.p_next,
+            (original as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast(),
+        ),
+    })
 }
 
-/// Creates the twin of a render pass of one subpass with a MIN/MAX depth resolve; `None` when
-/// the pass has none, or it cannot be swapped or created (logged at debug: the attachment then
-/// stays native, see `NativeReason::UnswappableResolve`).
+/// The depth resolve structure of the twin subpass: the application's with the depth mode
+/// the policy chose, chained in front of the rest of the subpass's chain (the policy swaps
+/// only a structure that comes first). The stencil mode is kept: stencil is never reversed.
+fn swapped_resolve<'a>(
+    subpass: &vk::SubpassDescription2<'a>,
+    depth_resolve_mode: vk::ResolveModeFlags,
+) -> Option<vk::SubpassDescriptionDepthStencilResolve<'a>> {
+    let original = depth_resolve_of(subpass)?;
+    Some(vk::SubpassDescriptionDepthStencilResolve {
+        depth_resolve_mode,
+        ..*original
+    })
+}
+
+/// Creates the twin of a render pass of one subpass with a MIN/MAX depth resolve, where the
+/// policy gives it one ([`crate::policy::ResolveSupport::twin_resolve`]); `None` when the pass
+/// has none, or it cannot be swapped or created (logged at debug: the attachment then stays
+/// native, see `NativeReason::UnswappableResolve`).
 fn create_swapped_resolve_twin(
     state: &DeviceState,
     device: vk::Device,
@@ -132,25 +131,25 @@ fn create_swapped_resolve_twin(
 ) -> Option<vk::RenderPass> {
     // SAFETY: `subpassCount` subpasses (the application's contract).
     let subpasses = unsafe { slice(info.p_subpasses, info.subpass_count) };
-    let swappable = |s: &vk::SubpassDescription2<'_>| {
-        subpass_resolve(s).is_some_and(|r| flip_resolve_mode(r.mode) != r.mode)
-    };
-    if !subpasses.iter().any(swappable) {
-        return None;
-    }
-    let [subpass] = subpasses else {
-        log::debug!("a MIN/MAX depth resolve in a render pass of several subpasses: no twin");
-        return None;
-    };
     // SAFETY: `attachmentCount` attachments (the application's contract).
     let attachments = unsafe { slice(info.p_attachments, info.attachment_count) };
-    let resolve = match swapped_resolve(subpass, attachments, &state.resolve_support) {
-        Ok(resolve) => resolve?,
-        Err(why) => {
+    let facts = subpasses.iter().map(|s| resolve_facts(s, attachments));
+    let mode = match state.resolve_support.twin_resolve(facts) {
+        TwinResolve::Unneeded => return None,
+        TwinResolve::SeveralSubpasses => {
+            log::debug!("a MIN/MAX depth resolve in a render pass of several subpasses: no twin");
+            return None;
+        }
+        TwinResolve::Unswappable(why) => {
             log::debug!("a MIN/MAX depth resolve revz cannot swap: {why}");
             return None;
         }
+        TwinResolve::Swapped(mode) => mode,
     };
+    let [subpass] = subpasses else {
+        return None;
+    };
+    let resolve = swapped_resolve(subpass, mode)?;
     let twin_subpass = vk::SubpassDescription2 {
         p_next: (&resolve as *const vk::SubpassDescriptionDepthStencilResolve<'_>).cast::<c_void>(),
         ..*subpass
@@ -398,30 +397,6 @@ destroy_hook!(
     destroy_framebuffer
 );
 
-/// Whether a framebuffer's promotable depth attachments are promoted images: all (it is
-/// created with the pass's promoted twin), none, or some (a mix no pass can take).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum FramebufferStorage {
-    Unpromoted,
-    Promoted,
-    Mixed,
-}
-
-impl FramebufferStorage {
-    fn of(promoted: impl Iterator<Item = bool>) -> FramebufferStorage {
-        let (mut any, mut all) = (false, true);
-        for promoted in promoted {
-            any |= promoted;
-            all &= promoted;
-        }
-        match (any, all) {
-            (false, _) => FramebufferStorage::Unpromoted,
-            (true, true) => FramebufferStorage::Promoted,
-            (true, false) => FramebufferStorage::Mixed,
-        }
-    }
-}
-
 /// Whether an imageless framebuffer's attachment would be a promoted image: the policy's
 /// decision on what its attachment info says (usage, flags, size, layers; optimal tiling, as
 /// for any attachment, and one sample, which the info does not give).
@@ -648,6 +623,7 @@ pub unsafe extern "system" fn create_framebuffer(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::policy::ResolveSupport;
 
     use vk::ResolveModeFlags as M;
 
@@ -669,6 +645,22 @@ mod tests {
             depth_modes: M::SAMPLE_ZERO | M::AVERAGE | M::MIN | M::MAX,
             independent_resolve_none,
             independent_resolve,
+        }
+    }
+
+    /// The twin subpass's resolve structure, as the hook gathers the facts of a pass of one
+    /// subpass, asks the policy and applies its answer: `Ok(None)`, nothing to swap; `Err`,
+    /// why it cannot be swapped.
+    fn twin<'a>(
+        subpass: &vk::SubpassDescription2<'a>,
+        attachments: &[vk::AttachmentDescription2<'_>],
+        support: &ResolveSupport,
+    ) -> Result<Option<vk::SubpassDescriptionDepthStencilResolve<'a>>, &'static str> {
+        match support.twin_resolve([resolve_facts(subpass, attachments)]) {
+            TwinResolve::Unneeded => Ok(None),
+            TwinResolve::SeveralSubpasses => unreachable!("one subpass"),
+            TwinResolve::Unswappable(why) => Err(why),
+            TwinResolve::Swapped(mode) => Ok(swapped_resolve(subpass, mode)),
         }
     }
 
@@ -702,7 +694,7 @@ mod tests {
                     mode
                 })
             );
-            let copy = swapped_resolve(&subpass, &d32, &support(false, false))
+            let copy = twin(&subpass, &d32, &support(false, false))
                 .unwrap()
                 .unwrap();
             assert_eq!(copy.depth_resolve_mode, swapped);
@@ -733,7 +725,7 @@ mod tests {
         let dependent = support(false, false);
         for mode in [M::SAMPLE_ZERO, M::AVERAGE] {
             let r = resolve(mode, M::NONE);
-            let swapped = swapped_resolve(&subpass_with(&r), &d32_s8, &dependent);
+            let swapped = twin(&subpass_with(&r), &d32_s8, &dependent);
             assert!(swapped.unwrap().is_none());
         }
         let none = resolve(M::NONE, M::NONE);
@@ -742,18 +734,18 @@ mod tests {
         // A stencil resolve sharing the mode blocks the swap on a device without
         // independentResolve, where the resolve attachment has stencil.
         let shared = resolve(M::MIN, M::MIN);
-        assert!(swapped_resolve(&subpass_with(&shared), &d32_s8, &dependent).is_err());
+        assert!(twin(&subpass_with(&shared), &d32_s8, &dependent).is_err());
         // An index out of range counts the stencil mode.
-        assert!(swapped_resolve(&subpass_with(&shared), &[], &dependent).is_err());
+        assert!(twin(&subpass_with(&shared), &[], &dependent).is_err());
         // With independentResolve the swapped pair is allowed; the stencil mode is kept.
-        let independent = swapped_resolve(&subpass_with(&shared), &d32_s8, &support(true, true));
+        let independent = twin(&subpass_with(&shared), &d32_s8, &support(true, true));
         let copy = independent.unwrap().unwrap();
         assert_eq!(
             (copy.depth_resolve_mode, copy.stencil_resolve_mode),
             (M::MAX, M::MIN)
         );
         // A resolve attachment without stencil: the stencil mode is ignored.
-        let copy = swapped_resolve(&subpass_with(&shared), &d32, &dependent)
+        let copy = twin(&subpass_with(&shared), &d32, &dependent)
             .unwrap()
             .unwrap();
         assert_eq!(
@@ -766,7 +758,7 @@ mod tests {
             ..support(true, true)
         };
         let alone = resolve(M::MIN, M::NONE);
-        assert!(swapped_resolve(&subpass_with(&alone), &d32, &no_max).is_err());
+        assert!(twin(&subpass_with(&alone), &d32, &no_max).is_err());
 
         // The resolve structure after another one: found, but not swappable in place.
         let min = resolve(M::MIN, M::NONE);
@@ -780,7 +772,7 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(subpass_resolve(&later).map(|r| r.mode), Some(M::MIN));
-        assert!(swapped_resolve(&later, &d32, &dependent).is_err());
+        assert!(twin(&later, &d32, &dependent).is_err());
 
         let unused = reference(vk::ATTACHMENT_UNUSED);
         let to_unused = vk::SubpassDescriptionDepthStencilResolve {

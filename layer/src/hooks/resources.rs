@@ -11,7 +11,7 @@ use ash::vk;
 use super::{device_state, record};
 use crate::boundary::{guarded, EntryPoint};
 use crate::objects::{self, ImageInfo};
-use crate::policy::{ImageDepth, ImageFacts};
+use crate::policy::{may_be_resolved, promoted_view_format, ImageDepth, ImageFacts};
 use crate::state::DeviceState;
 
 static CREATE_IMAGE: EntryPoint = EntryPoint::new("vkCreateImage");
@@ -77,9 +77,7 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
         tiling: info.tiling,
         flags: info.flags,
         external,
-        partner_kept: info
-            .usage
-            .contains(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT)
+        partner_kept: may_be_resolved(info.usage)
             && state
                 .objects
                 .resolve_partner_kept(info.format, info.extent, info.samples),
@@ -317,7 +315,7 @@ pub unsafe extern "system" fn create_image_view(
             // SAFETY: the application's valid create info.
             let info = unsafe { &*p_create_info };
             let image = state.objects.images.get(&info.image)?;
-            let float = image.promoted.filter(|_| info.format == image.format)?;
+            let float = promoted_view_format(info.format, image.format, image.promoted)?;
             Some(vk::ImageViewCreateInfo {
                 format: float,
                 ..*info

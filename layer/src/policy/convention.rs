@@ -1,7 +1,8 @@
 //! The application's depth convention: whether it renders reversed depth itself
 //! ([`Convention`], decided once per device by [`ConventionEvidence::decide`]), and what revz
 //! observes of it while it records ([`Observed`]: the evidence, the decision, and n / f of the
-//! projections it pushes).
+//! projections it pushes), and where an event commits a reversed image to it
+//! ([`Observed::committed`]: the clear it is decided with).
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 
@@ -219,6 +220,18 @@ impl Observed {
         convention
     }
 
+    /// The depth target revz acts on for `image`, where an event commits it to a convention:
+    /// a pass begin (`image`: reversed where any of its attachments is), or a clear of the
+    /// image. Committing a reversed image decides the convention if it is not yet, from
+    /// `clear`: the depth the event clears it to (for a pass, the first reversed attachment
+    /// it clears), if it clears one. Other images commit nothing.
+    pub fn committed(&self, image: Target, clear: Option<f32>) -> Target {
+        if image == Target::Reversed {
+            self.settle(clear);
+        }
+        self.effective(image)
+    }
+
     /// The depth target revz acts on for an attachment whose image is `target` (settling
     /// the convention, without a clear, where it is not yet decided).
     pub fn effective(&self, target: Target) -> Target {
@@ -369,5 +382,34 @@ mod tests {
         });
         let first = observed.convention().expect("decided");
         assert!(results.iter().all(|&r| r == first), "{results:?}");
+    }
+
+    #[test]
+    fn a_committed_reversed_image_decides_the_convention_with_its_clear() {
+        let app_reversed = || {
+            let observed = Observed::default();
+            observed.note_pipeline_compare_op(vk::CompareOp::GREATER);
+            observed
+        };
+        // Other images commit nothing.
+        let observed = app_reversed();
+        for image in [Target::None, Target::Native] {
+            assert_eq!(observed.committed(image, Some(0.0)), image);
+        }
+        assert_eq!(observed.convention(), None);
+        // A reversed image cleared to 0, with the evidence: the application's own.
+        assert_eq!(
+            observed.committed(Target::Reversed, Some(0.0)),
+            Target::Native
+        );
+        assert_eq!(observed.convention(), Some(Convention::AppReversed));
+        // Without its clear, the same evidence is standard, and stays so.
+        let observed = app_reversed();
+        assert_eq!(observed.committed(Target::Reversed, None), Target::Reversed);
+        assert_eq!(
+            observed.committed(Target::Reversed, Some(0.0)),
+            Target::Reversed
+        );
+        assert_eq!(observed.convention(), Some(Convention::Standard));
     }
 }

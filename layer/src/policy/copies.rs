@@ -1,8 +1,11 @@
 //! Transfers touching a reversed depth image (copies and blits): whether their depth values
 //! are converted, and which way ([`CopyFacts::decide`] into a [`CopyDecision`]), or why one
-//! that should be is not ([`Unconverted`]).
+//! that should be is not ([`Unconverted`]); and which texels a conversion reads and writes
+//! ([`conversion_kind`]).
 
 use std::fmt;
+
+use crate::depth_copy::plan::TexelKind;
 
 /// One end of a copy, blit or resolve, as [`CopyFacts`] sees it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -145,6 +148,30 @@ impl CopyFacts {
     }
 }
 
+/// How one end of a converted copy holds its depth texels, for [`conversion_kind`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Texels {
+    /// A buffer: tightly packed texels of the image's kind.
+    Buffer,
+    /// An image whose depth has this kind in the format revz created it in (the float one of
+    /// a promoted image); `None`: no depth aspect revz knows.
+    Image(Option<TexelKind>),
+}
+
+/// The texel kind a copy's conversion reads and writes: its image's, between an image and a
+/// buffer; between two images, the one kind both have (a depth copy needs one format at both
+/// ends before `VK_KHR_maintenance8`, and a blit is converted through a staged image of the
+/// source's format). `None`: revz cannot convert it (`Unconverted::Regions`).
+pub fn conversion_kind(source: Texels, destination: Texels) -> Option<TexelKind> {
+    match (source, destination) {
+        (Texels::Image(kind), Texels::Buffer) | (Texels::Buffer, Texels::Image(kind)) => kind,
+        (Texels::Image(source), Texels::Image(destination)) => {
+            source.filter(|&kind| destination == Some(kind))
+        }
+        (Texels::Buffer, Texels::Buffer) => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -248,5 +275,28 @@ mod tests {
         for (facts, why) in refusals {
             assert_eq!(facts.decide(), CopyDecision::Unconverted(why));
         }
+    }
+
+    #[test]
+    fn a_conversion_reads_and_writes_one_kind_of_texel() {
+        use TexelKind::{Float32, Unorm16, Unorm24};
+        use Texels::{Buffer, Image};
+        for kind in [Some(Unorm16), Some(Unorm24), Some(Float32), None] {
+            assert_eq!(conversion_kind(Image(kind), Buffer), kind);
+            assert_eq!(conversion_kind(Buffer, Image(kind)), kind);
+            assert_eq!(conversion_kind(Image(kind), Image(kind)), kind);
+            assert_eq!(conversion_kind(Image(kind), Image(None)), None);
+            assert_eq!(conversion_kind(Image(None), Image(kind)), None);
+        }
+        // A promoted image (float) and a UNORM one: two formats.
+        assert_eq!(
+            conversion_kind(Image(Some(Float32)), Image(Some(Unorm24))),
+            None
+        );
+        assert_eq!(
+            conversion_kind(Image(Some(Unorm16)), Image(Some(Unorm24))),
+            None
+        );
+        assert_eq!(conversion_kind(Buffer, Buffer), None);
     }
 }

@@ -1,7 +1,9 @@
 //! Depth images, decided once at `vkCreateImage` for their whole life: whether one is
 //! reversed or native (`DevicePolicy::classify_image`, and [`NativeReason`] why it stays
 //! native), and whether it is created in a float format (`DevicePolicy::promoted_format`, from
-//! [`ImageFacts`], and [`KeptFormat`] why it keeps its own).
+//! [`ImageFacts`], and [`KeptFormat`] why it keeps its own), whether an image may be on one
+//! end of a resolve ([`may_be_resolved`]), and the format a view of a promoted image is made
+//! in ([`promoted_view_format`]).
 
 use std::fmt;
 
@@ -213,6 +215,25 @@ impl DevicePolicy {
         }
         Some(ImageDepth::Reversed)
     }
+}
+
+/// Whether an image of `usage` may be on either end of a render pass's depth resolve (a depth
+/// attachment): only such an image's resolve partner can keep it from being promoted
+/// ([`ImageFacts::partner_kept`]).
+pub fn may_be_resolved(usage: vk::ImageUsageFlags) -> bool {
+    usage.contains(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT)
+}
+
+/// The format a view is made in of an image created in `image_format` and promoted to
+/// `promoted` (`None`: not promoted), where the application asks for `view_format`: a view in
+/// the image's own UNORM format is made in the float one (the only format a depth image's
+/// views can have); `None`: the view is made as asked.
+pub fn promoted_view_format(
+    view_format: vk::Format,
+    image_format: vk::Format,
+    promoted: Option<vk::Format>,
+) -> Option<vk::Format> {
+    promoted.filter(|_| view_format == image_format)
 }
 
 #[cfg(test)]
@@ -442,5 +463,24 @@ mod tests {
             ..settings
         };
         assert!(DevicePolicy::new(&chosen, true).compare_op_variants);
+    }
+
+    #[test]
+    fn views_of_promoted_images_in_their_format_are_made_in_the_float_one() {
+        let (d24, float) = (
+            vk::Format::D24_UNORM_S8_UINT,
+            vk::Format::D32_SFLOAT_S8_UINT,
+        );
+        assert_eq!(promoted_view_format(d24, d24, Some(float)), Some(float));
+        assert_eq!(promoted_view_format(D32, d24, Some(float)), None);
+        assert_eq!(promoted_view_format(d24, d24, None), None);
+    }
+
+    #[test]
+    fn only_depth_attachments_may_be_resolved() {
+        assert!(may_be_resolved(ATTACHMENT));
+        assert!(may_be_resolved(ATTACHMENT | vk::ImageUsageFlags::SAMPLED));
+        assert!(!may_be_resolved(vk::ImageUsageFlags::SAMPLED));
+        assert!(!may_be_resolved(vk::ImageUsageFlags::TRANSFER_DST));
     }
 }

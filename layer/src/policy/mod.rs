@@ -4,25 +4,39 @@
 //! |---|---|---|
 //! | is a depth image reversed or native ([`DevicePolicy::classify_image`]) | format, usage, tiling, settings | `vkCreateImage` |
 //! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
+//! | may an image be on one end of a depth resolve, so that its partner's format counts ([`may_be_resolved`]) | its usage | `vkCreateImage` |
+//! | which format a view of a promoted image is made in ([`promoted_view_format`]) | the view's format, the image's format and whether it was promoted | `vkCreateImageView` (images from `vkCreateImage`) |
 //! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
+//! | does a render pass get a twin with its MIN/MAX depth resolve swapped, and with which mode ([`ResolveSupport::twin_resolve`]) | each subpass's depth resolve mode, the stencil mode where the resolve attachment has stencil, where the resolve structure is in the subpass's chain, the device's resolve properties | `vkCreateRenderPass2` (for the promoted twin too), `vkCreateDevice` |
+//! | how a rendering instance's depth resolve goes down for a reversed attachment, and whether revz can resolve it reversed ([`ResolveSupport::reversed_resolve`]) | its depth resolve mode, the stencil attachment's resolve mode where it has a view, the device's resolve properties | `vkCmdBeginRendering`, `vkCreateDevice` |
+//! | is a framebuffer of promoted depth images, of unpromoted ones, or a mix no pass takes ([`FramebufferStorage::of`]) | whether each of its pass's promotable attachments is a promoted image (imageless: whether its attachment info would be, [`DevicePolicy::promoted_format`]) | `vkCreateFramebuffer` (images from `vkCreateImage`) |
+//! | which render pass a pass begin uses in place of the application's ([`PassTwin::choose`]) | whether the framebuffer was created promoted, whether a reversed attachment is resolved, whether the pass has a swapped-resolve twin | `vkCmdBeginRenderPass*` (framebuffers from `vkCreateFramebuffer`, twins from `vkCreateRenderPass*`) |
+//! | can a render pass's depth resolve be swapped ([`pass_resolve_swappable`]) | its mode, whether the pass has a swapped-resolve twin | framebuffer creation, imageless pass begins |
+//! | which clear a reversed image commits the convention with, and the target revz then acts on ([`Observed::committed`]) | whether the image (or any attachment of a pass) is reversed, the depth the first reversed attachment is cleared to there | `vkCmdBeginRenderPass*`, `vkCmdBeginRendering`, `vkCmdClearDepthStencilImage` (images from `vkCreateImage`) |
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
 //! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
+//! | where a secondary continuing a pass of a depth format draws, without a framebuffer ([`inherited_target`]) | its inheritance's pass (subpass or rendering format) and depth format, the target that pass was last begun with for secondaries, else the format's reversed and native images | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
+//! | whether it draws into a promoted attachment, and which UNORM format draws convert from ([`inherited_promoted`]) | the same, for promotion (the format's promoted and kept images) | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
 //! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
 //! | is a pipeline a candidate for the precise path ([`vertex_stage::precise_candidate`]) | the mode, whether it renders depth, whether its create info defines its shaders | `vkCreateGraphicsPipelines` |
 //! | does a pipeline's vertex stage store reversed depth itself, and of which range ([`vertex_stage::VertexStageFacts::decide`]) | whether its code is given, its stages, the analysis of its vertex entry point (`crate::shader::analysis`), its layout's push-constant ranges and room for the carrier, its clip convention (static or dynamic), its module's `Position` rewrite and what that derives its range from (`crate::shader::position_store`, `crate::shader::derived_range`) | `vkCreateShaderModule` (or inline code, once per distinct code), `vkCreateGraphicsPipelines` |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
 //! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
+//! | which kind of texel a copy's conversion reads and writes ([`conversion_kind`]) | whether each end is a buffer or an image, and the depth texels of each image's format (the float one where promoted) | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
-//! why an image stays native or keeps its format), `resolves.rs` (resolve sources and modes),
-//! `convention.rs` (the application's convention, and what revz observes of it),
-//! `secondaries.rs` (secondaries without a framebuffer), `compare_op.rs` (the dynamic compare
-//! op), `copies.rs` (copies); [`DevicePolicy`] itself (the mode, the carrier, reversed clears)
-//! is here. The rows that name code outside this module are decided there.
+//! why an image stays native or keeps its format; resolve partners, views of promoted images),
+//! `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
+//! pass instances: which twin begins, framebuffers' storage), `convention.rs` (the
+//! application's convention, and what revz observes of it), `secondaries.rs` (secondaries
+//! without a framebuffer, and what their inheritance makes of them), `compare_op.rs` (the
+//! dynamic compare op), `copies.rs` (copies: whether and how they are converted);
+//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that
+//! name code outside this module are decided there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
@@ -40,16 +54,24 @@ mod compare_op;
 mod convention;
 mod copies;
 mod images;
+mod passes;
 mod resolves;
 mod secondaries;
 pub mod vertex_stage;
 
 pub use compare_op::{CompareOpFacts, CompareOpSource};
 pub use convention::{Convention, ConventionEvidence, Observed};
-pub use copies::{CopyDecision, CopyDirection, CopyEnd, CopyFacts, Unconverted};
-pub use images::{ImageDepth, ImageFacts, KeptFormat, NativeReason};
-pub use resolves::{DepthResolve, ResolveSupport};
-pub use secondaries::{secondary_promoted, secondary_target};
+pub use copies::{
+    conversion_kind, CopyDecision, CopyDirection, CopyEnd, CopyFacts, Texels, Unconverted,
+};
+pub use images::{
+    may_be_resolved, promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
+};
+pub use passes::{pass_resolve_swappable, FramebufferStorage, PassTwin};
+pub use resolves::{
+    DepthResolve, ResolveSupport, ReversedResolve, SubpassResolveFacts, TwinResolve,
+};
+pub use secondaries::{inherited_promoted, inherited_target, secondary_promoted, secondary_target};
 
 use revz_math::Target as RewriteTarget;
 

@@ -1,6 +1,8 @@
 //! Multisample depth resolves out of reversed attachments: whether a resolve's source must
-//! become native ([`DepthResolve::demotes_source`]), and which MIN/MAX mode a reversed resolve
-//! uses on the device ([`ResolveSupport::swapped_depth_mode`]).
+//! become native ([`DepthResolve::demotes_source`]), which MIN/MAX mode a reversed resolve
+//! uses on the device ([`ResolveSupport::swapped_depth_mode`]; for a rendering instance,
+//! [`ResolveSupport::reversed_resolve`]), and whether a render pass gets a twin with its
+//! MIN/MAX resolve swapped ([`ResolveSupport::twin_resolve`]).
 
 use ash::vk;
 
@@ -97,6 +99,120 @@ impl ResolveSupport {
                 Err("the device does not allow the swapped depth mode beside the stencil mode")
             }
             _ => Ok(swapped),
+        }
+    }
+}
+
+/// How a reversed attachment's depth resolve goes down, where the resolve is in the command
+/// itself (a rendering instance): as the application declares it, with MIN and MAX swapped,
+/// or not at all reversed ([`ResolveSupport::reversed_resolve`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReversedResolve {
+    /// The mode commutes with the reversal (NONE, SAMPLE_ZERO, AVERAGE): kept.
+    Kept,
+    /// MIN or MAX: resolved with this mode, the other one.
+    Swapped(vk::ResolveModeFlags),
+    /// The device does not allow the swapped mode (beside the stencil mode): the resolve's
+    /// reversed source is made native (`DepthResolve::demotes_source`, for MIN and MAX), so no
+    /// reversed attachment resolves with it.
+    Unswappable,
+}
+
+impl ReversedResolve {
+    /// Whether revz can resolve reversed depth with this resolve ([`DepthResolve::swappable`]).
+    pub fn swappable(self) -> bool {
+        self != ReversedResolve::Unswappable
+    }
+
+    /// The mode a reversed attachment is resolved with where the application asks for
+    /// `app_mode`.
+    pub fn mode(self, app_mode: vk::ResolveModeFlags) -> vk::ResolveModeFlags {
+        match self {
+            ReversedResolve::Swapped(mode) => mode,
+            ReversedResolve::Kept | ReversedResolve::Unswappable => app_mode,
+        }
+    }
+}
+
+impl ResolveSupport {
+    /// How a reversed attachment's resolve with `depth` goes down beside `stencil` (as
+    /// [`Self::swapped_depth_mode`] pairs them): a mode the device allows for the reversed
+    /// values, kept or swapped, or none.
+    pub fn reversed_resolve(
+        &self,
+        depth: vk::ResolveModeFlags,
+        stencil: Option<vk::ResolveModeFlags>,
+    ) -> ReversedResolve {
+        match self.swapped_depth_mode(depth, stencil) {
+            Err(_) => ReversedResolve::Unswappable,
+            Ok(mode) if mode == depth => ReversedResolve::Kept,
+            Ok(mode) => ReversedResolve::Swapped(mode),
+        }
+    }
+}
+
+/// A subpass's depth resolve as its render pass declares it, for
+/// [`ResolveSupport::twin_resolve`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SubpassResolveFacts {
+    /// The depth resolve mode (never NONE).
+    pub mode: vk::ResolveModeFlags,
+    /// The stencil resolve mode, where the spec pairs it with the depth mode (a resolve
+    /// attachment with a stencil component, or one revz cannot find: an index out of range);
+    /// `None`: it is ignored.
+    pub stencil: Option<vk::ResolveModeFlags>,
+    /// The resolve structure comes first in the subpass's `pNext` chain: a copy linked in
+    /// front of the chain then skips the original (elsewhere revz would have to copy
+    /// structures it does not know).
+    pub chained_first: bool,
+}
+
+/// Whether a render pass gets a twin whose MIN/MAX depth resolve is swapped, begun in its
+/// place when the resolved attachment is reversed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TwinResolve {
+    /// No subpass resolves depth with MIN or MAX: nothing to swap.
+    Unneeded,
+    /// A MIN/MAX resolve in a pass of several subpasses: resolve modes count for the
+    /// compatibility of such passes, so no twin could be begun in its place.
+    SeveralSubpasses,
+    /// The pass's one subpass resolves with MIN or MAX, and revz cannot swap it: why.
+    Unswappable(&'static str),
+    /// The twin's subpass resolves depth with this mode (the stencil mode kept).
+    Swapped(vk::ResolveModeFlags),
+}
+
+impl ResolveSupport {
+    /// Whether a render pass whose subpasses resolve depth as `subpasses` says (`None`: no
+    /// depth resolve) gets a swapped-resolve twin. Only a pass of one subpass can have one:
+    /// for such passes resolve modes do not count for compatibility (Vulkan spec, "Render
+    /// Pass Compatibility"), so the twin can be begun with the application's framebuffers,
+    /// pipelines and secondaries. A resolve without a twin makes its reversed source native
+    /// (`NativeReason::UnswappableResolve`).
+    pub fn twin_resolve(
+        &self,
+        subpasses: impl IntoIterator<Item = Option<SubpassResolveFacts>>,
+    ) -> TwinResolve {
+        let (mut count, mut swaps, mut first) = (0usize, false, None);
+        for resolve in subpasses {
+            if count == 0 {
+                first = resolve;
+            }
+            count += 1;
+            swaps |= resolve.is_some_and(|r| flip_resolve_mode(r.mode) != r.mode);
+        }
+        if !swaps {
+            return TwinResolve::Unneeded;
+        }
+        let (1, Some(resolve)) = (count, first) else {
+            return TwinResolve::SeveralSubpasses;
+        };
+        match self.swapped_depth_mode(resolve.mode, resolve.stencil) {
+            Err(why) => TwinResolve::Unswappable(why),
+            Ok(_) if !resolve.chained_first => TwinResolve::Unswappable(
+                "another structure precedes it in the subpass's pNext chain",
+            ),
+            Ok(mode) => TwinResolve::Swapped(mode),
         }
     }
 }
@@ -232,6 +348,89 @@ mod tests {
         assert_eq!(
             ResolveSupport::MINIMAL.swapped_depth_mode(M::SAMPLE_ZERO, Some(M::SAMPLE_ZERO)),
             Ok(M::SAMPLE_ZERO)
+        );
+    }
+
+    #[test]
+    fn only_a_pass_of_one_subpass_with_a_swappable_min_max_resolve_gets_a_twin() {
+        use vk::ResolveModeFlags as M;
+        // independentResolveNone only.
+        let support = supports().nth(1).expect("a support");
+        let resolve = |mode, stencil, chained_first| {
+            Some(SubpassResolveFacts {
+                mode,
+                stencil,
+                chained_first,
+            })
+        };
+        // Nothing to swap: no resolve, or modes that commute with the reversal.
+        assert_eq!(support.twin_resolve([]), TwinResolve::Unneeded);
+        assert_eq!(support.twin_resolve([None, None]), TwinResolve::Unneeded);
+        for mode in [M::SAMPLE_ZERO, M::AVERAGE] {
+            assert_eq!(
+                support.twin_resolve([resolve(mode, None, true)]),
+                TwinResolve::Unneeded
+            );
+        }
+        // MIN or MAX in a pass of several subpasses, in any of them.
+        assert_eq!(
+            support.twin_resolve([None, resolve(M::MIN, None, true)]),
+            TwinResolve::SeveralSubpasses
+        );
+        assert_eq!(
+            support.twin_resolve([resolve(M::MAX, None, true), None]),
+            TwinResolve::SeveralSubpasses
+        );
+        // One subpass: swapped where the device allows it and the structure comes first.
+        assert_eq!(
+            support.twin_resolve([resolve(M::MIN, None, true)]),
+            TwinResolve::Swapped(M::MAX)
+        );
+        assert_eq!(
+            support.twin_resolve([resolve(M::MAX, Some(M::NONE), true)]),
+            TwinResolve::Swapped(M::MIN)
+        );
+        assert!(matches!(
+            support.twin_resolve([resolve(M::MIN, Some(M::MIN), true)]),
+            TwinResolve::Unswappable(_)
+        ));
+        assert_eq!(
+            support.twin_resolve([resolve(M::MIN, None, false)]),
+            TwinResolve::Unswappable("another structure precedes it in the subpass's pNext chain")
+        );
+        // The device's refusal is said before the chain's.
+        assert_eq!(
+            ResolveSupport::MINIMAL.twin_resolve([resolve(M::MIN, None, false)]),
+            TwinResolve::Unswappable("the device does not support the swapped depth mode")
+        );
+    }
+
+    #[test]
+    fn a_reversed_rendering_resolve_is_kept_swapped_or_unswappable() {
+        use vk::ResolveModeFlags as M;
+        // independentResolveNone only.
+        let support = supports().nth(1).expect("a support");
+        for mode in [M::NONE, M::SAMPLE_ZERO, M::AVERAGE] {
+            let resolve = support.reversed_resolve(mode, None);
+            assert_eq!(resolve, ReversedResolve::Kept);
+            assert!(resolve.swappable());
+            assert_eq!(resolve.mode(mode), mode);
+        }
+        for (mode, swapped) in [(M::MIN, M::MAX), (M::MAX, M::MIN)] {
+            let resolve = support.reversed_resolve(mode, Some(M::NONE));
+            assert_eq!(resolve, ReversedResolve::Swapped(swapped));
+            assert!(resolve.swappable());
+            assert_eq!(resolve.mode(mode), swapped);
+            // Beside a resolving stencil mode the swap is not allowed here.
+            let blocked = support.reversed_resolve(mode, Some(mode));
+            assert_eq!(blocked, ReversedResolve::Unswappable);
+            assert!(!blocked.swappable());
+            assert_eq!(blocked.mode(mode), mode);
+        }
+        // A mode the device lacks cannot resolve reversed values either.
+        assert_eq!(
+            ResolveSupport::MINIMAL.reversed_resolve(M::AVERAGE, None),
+            ReversedResolve::Unswappable
         );
     }
 }

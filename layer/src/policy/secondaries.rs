@@ -1,6 +1,9 @@
 //! Secondary command buffers without a framebuffer in their inheritance info: where one
 //! draws ([`secondary_target`]) and whether into a promoted attachment
-//! ([`secondary_promoted`]).
+//! ([`secondary_promoted`]), and what a secondary's inheritance of a pass and depth format
+//! makes of them ([`inherited_target`], [`inherited_promoted`]).
+
+use ash::vk;
 
 use crate::command_state::Target;
 
@@ -40,6 +43,48 @@ pub fn secondary_promoted(remembered: Option<bool>, promoted: usize, kept: usize
     }
 }
 
+/// The depth target a secondary continuing a pass of depth `format` draws into, without a
+/// framebuffer (before the application's convention applies): [`secondary_target`] of the
+/// target that pass was last begun with for secondaries (`remembered`), else of the device's
+/// live images of the format (`images`: how many are reversed and native, asked only where
+/// nothing is remembered). Returns the target and whether it is a guess.
+pub fn inherited_target(
+    format: vk::Format,
+    remembered: Option<Target>,
+    images: impl FnOnce(vk::Format) -> (usize, usize),
+) -> (Target, bool) {
+    let (reversed, native) = match remembered {
+        Some(_) => (0, 0),
+        None => images(format),
+    };
+    secondary_target(remembered, reversed, native)
+}
+
+/// Whether a secondary continuing a pass of depth `format` (`None`: the pass has no depth
+/// attachment) draws into a promoted attachment, without a framebuffer: [`secondary_promoted`]
+/// of how that pass was last begun for secondaries (`remembered`), else of the device's live
+/// images of the format (`images`: how many are promoted and kept, asked only where nothing is
+/// remembered and there is a format). Returns the UNORM depth format draws convert from where
+/// it is promoted (UNDEFINED where the format is not one revz promotes), as
+/// `crate::objects::PassScope::promoted_from`, and whether it is a guess.
+pub fn inherited_promoted(
+    format: Option<vk::Format>,
+    remembered: Option<bool>,
+    images: impl FnOnce(vk::Format) -> (usize, usize),
+) -> (Option<vk::Format>, bool) {
+    let (promoted, kept) = match (remembered, format) {
+        (None, Some(format)) => images(format),
+        _ => (0, 0),
+    };
+    let (promoted, guessed) = secondary_promoted(remembered, promoted, kept);
+    let from = promoted.then(|| {
+        format
+            .filter(|&f| crate::conv::float_depth_format(f).is_some())
+            .unwrap_or(vk::Format::UNDEFINED)
+    });
+    (from, guessed)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -72,5 +117,68 @@ mod tests {
         assert_eq!(secondary_target(None, 0, 2), (Target::Native, false));
         assert_eq!(secondary_target(None, 3, 0), (Target::Reversed, false));
         assert_eq!(secondary_target(None, 0, 0), (Target::None, false));
+    }
+
+    #[test]
+    fn an_inherited_target_counts_the_formats_images_only_where_nothing_is_remembered() {
+        let d32 = vk::Format::D32_SFLOAT;
+        let never = |_| -> (usize, usize) { panic!("counted") };
+        assert_eq!(
+            inherited_target(d32, Some(Target::Native), never),
+            (Target::Native, false)
+        );
+        let mut asked = None;
+        let counted = inherited_target(d32, None, |format| {
+            asked = Some(format);
+            (1, 1)
+        });
+        assert_eq!((counted, asked), ((Target::Reversed, true), Some(d32)));
+        assert_eq!(
+            inherited_target(d32, None, |_| (0, 2)),
+            (Target::Native, false)
+        );
+        assert_eq!(
+            inherited_target(d32, None, |_| (0, 0)),
+            (Target::None, false)
+        );
+    }
+
+    #[test]
+    fn an_inherited_promotion_names_the_unorm_format_draws_convert_from() {
+        let (d24, d32) = (vk::Format::D24_UNORM_S8_UINT, vk::Format::D32_SFLOAT);
+        let never = |_| -> (usize, usize) { panic!("counted") };
+        // Remembered: the images are not counted.
+        assert_eq!(
+            inherited_promoted(Some(d24), Some(true), never),
+            (Some(d24), false)
+        );
+        assert_eq!(
+            inherited_promoted(Some(d24), Some(false), never),
+            (None, false)
+        );
+        // No depth format: nothing to count, and a remembered promotion converts nothing.
+        assert_eq!(inherited_promoted(None, None, never), (None, false));
+        assert_eq!(
+            inherited_promoted(None, Some(true), never),
+            (Some(vk::Format::UNDEFINED), false)
+        );
+        // A format revz does not promote converts nothing either.
+        assert_eq!(
+            inherited_promoted(Some(d32), Some(true), never),
+            (Some(vk::Format::UNDEFINED), false)
+        );
+        // Counted: promoted images only, kept ones only, both (a guess).
+        assert_eq!(
+            inherited_promoted(Some(d24), None, |_| (2, 0)),
+            (Some(d24), false)
+        );
+        assert_eq!(
+            inherited_promoted(Some(d24), None, |_| (0, 2)),
+            (None, false)
+        );
+        assert_eq!(
+            inherited_promoted(Some(d24), None, |_| (1, 1)),
+            (Some(d24), true)
+        );
     }
 }

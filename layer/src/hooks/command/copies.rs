@@ -11,7 +11,9 @@ use crate::depth_copy::plan::{
     plan_blit, plan_buffer_copy, plan_image_copy, DepthMap, ShaderHeader, TexelKind,
 };
 use crate::depth_copy::record::{record, record_blit, Conversion, Drain, Fill};
-use crate::policy::{CopyDecision, CopyDirection, CopyEnd, CopyFacts, Unconverted};
+use crate::policy::{
+    conversion_kind, CopyDecision, CopyDirection, CopyEnd, CopyFacts, Texels, Unconverted,
+};
 
 /// What a copy end is, and how its depth lies in a buffer.
 fn image_end(device: &DeviceState, image: vk::Image) -> (CopyEnd, Option<TexelKind>) {
@@ -143,6 +145,11 @@ fn image_buffer_copy(
         }
         CopyDecision::Convert(direction) => direction,
     };
+    let kind = if to_buffer {
+        conversion_kind(Texels::Image(kind), Texels::Buffer)
+    } else {
+        conversion_kind(Texels::Buffer, Texels::Image(kind))
+    };
     let Some(plan) =
         kind.and_then(|kind| plan_buffer_copy(regions, kind, to_buffer).map(|p| (kind, p)))
     else {
@@ -228,8 +235,7 @@ fn image_image_copy(
         }
         CopyDecision::Convert(direction) => direction,
     };
-    // A depth copy needs one format at both ends (before VK_KHR_maintenance8).
-    let kind = src_kind.filter(|&kind| dst_kind == Some(kind));
+    let kind = conversion_kind(Texels::Image(src_kind), Texels::Image(dst_kind));
     let Some((kind, plan)) =
         kind.and_then(|kind| plan_image_copy(regions, kind).map(|p| (kind, p)))
     else {
@@ -297,7 +303,7 @@ fn image_blit(
         .images
         .get(&src)
         .map(|info| info.format);
-    let kind = src_kind.filter(|&kind| dst_kind == Some(kind));
+    let kind = conversion_kind(Texels::Image(src_kind), Texels::Image(dst_kind));
     let planned = kind
         .zip(format)
         .and_then(|(kind, format)| plan_blit(regions, kind).map(|plan| (kind, format, plan)));

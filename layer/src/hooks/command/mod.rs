@@ -27,9 +27,8 @@ use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{StateSink, Target};
-use crate::conv::{flip_resolve_mode, BiasRepresentation, DepthBias};
+use crate::conv::{BiasRepresentation, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
-use crate::policy::{secondary_target, Convention};
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 

@@ -5,6 +5,7 @@
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
+use crate::policy::PassTwin;
 
 /// The attachments of a render pass instance: the framebuffer's views, or for an imageless
 /// framebuffer those of the begin info.
@@ -87,9 +88,13 @@ fn begin_pass(
             let depth = unsafe { clear.depth_stencil.depth };
             (cleared(index) && images.get(index) == Some(&Target::Reversed)).then_some(depth)
         });
-        if images.contains(&Target::Reversed) {
-            device.observed.settle(reversed_clear);
-        }
+        // The pass commits its reversed attachments (if any) at once.
+        let committed = if images.contains(&Target::Reversed) {
+            Target::Reversed
+        } else {
+            Target::None
+        };
+        device.observed.committed(committed, reversed_clear);
         targets = images
             .into_iter()
             .map(|target| device.observed.effective(target))
@@ -115,7 +120,11 @@ fn begin_pass(
             .promoted_framebuffers
             .get(&begin.framebuffer)
             .is_some();
-        out.render_pass = pass.twin(promoted, resolved_reversed);
+        out.render_pass = pass.twin(PassTwin::choose(
+            promoted,
+            resolved_reversed,
+            pass.swapped_resolve_twin.is_some(),
+        ));
     }
     let scope = PassScope {
         handle: begin.render_pass,
@@ -339,29 +348,27 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         let paired_stencil_mode = unsafe { info.p_stencil_attachment.as_ref() }
             .filter(|s| s.image_view != vk::ImageView::null())
             .map(|s| s.resolve_mode);
-        if let Some(depth) = depth {
-            let swappable = device
+        let resolve = depth.map(|depth| {
+            device
                 .resolve_support
-                .swapped_depth_mode(depth.resolve_mode, paired_stencil_mode)
-                .is_ok();
+                .reversed_resolve(depth.resolve_mode, paired_stencil_mode)
+        });
+        if let (Some(depth), Some(resolve)) = (depth, resolve) {
             device.objects.settle_depth_resolve(
                 depth.image_view,
                 depth.resolve_image_view,
                 depth.resolve_mode,
-                swappable,
+                resolve.swappable(),
             );
         }
         let image = depth.map_or(Target::None, |d| device.objects.view_target(d.image_view));
-        if image == Target::Reversed {
-            // The clear of a reversed attachment settles the convention with its value.
-            let clear = depth
-                .filter(|d| d.load_op == vk::AttachmentLoadOp::CLEAR)
-                // SAFETY: a depth attachment's clear value is the depthStencil member.
-                .map(|d| unsafe { d.clear_value.depth_stencil.depth });
-            device.observed.settle(clear);
-        }
-        let target = device.observed.effective(image);
-        if let (Some(depth), Target::Reversed) = (depth, target) {
+        // The clear of a reversed attachment settles the convention with its value.
+        let clear = depth
+            .filter(|d| d.load_op == vk::AttachmentLoadOp::CLEAR)
+            // SAFETY: a depth attachment's clear value is the depthStencil member.
+            .map(|d| unsafe { d.clear_value.depth_stencil.depth });
+        let target = device.observed.committed(image, clear);
+        if let (Some(depth), Some(resolve), Target::Reversed) = (depth, resolve, target) {
             let mut copy = *depth;
             if copy.load_op == vk::AttachmentLoadOp::CLEAR {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
@@ -372,7 +379,7 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             }
             // Settled above: a reversed attachment that still resolves resolves into a
             // reversed image, with a mode revz may swap.
-            copy.resolve_mode = flip_resolve_mode(copy.resolve_mode);
+            copy.resolve_mode = resolve.mode(copy.resolve_mode);
             depth_copy = Some(copy);
         }
         // A promoted depth (or stencil) view: draws bind the variants made with float

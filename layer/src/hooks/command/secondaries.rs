@@ -174,11 +174,9 @@ pub(super) fn inherited_promotion(
         (SecondaryPass::Rendering(format), Some(format))
     };
     let remembered = device.objects.secondary_promoted.get(&key);
-    let (promoted, kept) = match (remembered, format) {
-        (None, Some(format)) => device.objects.count_promoted(format),
-        _ => (0, 0),
-    };
-    let (promoted, guessed) = crate::policy::secondary_promoted(remembered, promoted, kept);
+    let (promoted, guessed) = crate::policy::inherited_promoted(format, remembered, |format| {
+        device.objects.count_promoted(format)
+    });
     if guessed {
         static MIXED: OnceLock<()> = OnceLock::new();
         MIXED.get_or_init(|| {
@@ -189,11 +187,7 @@ pub(super) fn inherited_promotion(
             )
         });
     }
-    promoted.then(|| {
-        format
-            .filter(|&f| crate::conv::float_depth_format(f).is_some())
-            .unwrap_or(vk::Format::UNDEFINED)
-    })
+    promoted
 }
 
 /// Whether a secondary inherits its viewports from the primary that executes it
@@ -211,13 +205,15 @@ pub(super) fn inherits_viewports(begin: &vk::CommandBufferBeginInfo<'_>) -> bool
 }
 
 /// The depth target a secondary command buffer continues: from the inherited framebuffer when
-/// there is one; otherwise from what the device's depth images of that format are.
+/// there is one; otherwise, knowing its pass and depth format, the target that pass was last
+/// begun with for secondaries, else the device's live depth images of that format
+/// (`crate::policy::inherited_target`; a guess between both kinds is logged once).
 pub(super) fn inherited_target(
     entry: &CommandBufferEntry,
     inheritance: &vk::CommandBufferInheritanceInfo<'_>,
 ) -> Target {
     let device = &entry.device;
-    if inheritance.render_pass != vk::RenderPass::null() {
+    let (key, format) = if inheritance.render_pass != vk::RenderPass::null() {
         let pass = device.objects.render_passes.get(&inheritance.render_pass);
         // An imageless framebuffer names no views: the format decides, as without one.
         let targets: Vec<Target> =
@@ -244,34 +240,31 @@ pub(super) fn inherited_target(
                 .flatten()?;
             p.attachments.get(index as usize).copied()
         });
-        let key = SecondaryPass::Subpass(inheritance.render_pass, inheritance.subpass);
-        return format.map_or(Target::None, |f| format_target(device, key, f));
-    }
-    // Dynamic rendering inheritance names only the formats.
-    // SAFETY: a valid pNext chain (the application's contract).
-    unsafe { chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next) }
+        let Some(format) = format else {
+            return Target::None;
+        };
+        (
+            SecondaryPass::Subpass(inheritance.render_pass, inheritance.subpass),
+            format,
+        )
+    } else {
+        // Dynamic rendering inheritance names only the formats.
+        // SAFETY: a valid pNext chain (the application's contract).
+        let format = unsafe {
+            chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
+        }
         .map(|info| info.depth_attachment_format)
-        .filter(|&format| format != vk::Format::UNDEFINED)
-        .map_or(Target::None, |format| {
-            format_target(device, SecondaryPass::Rendering(format), format)
-        })
-}
-
-/// Without a framebuffer, a secondary knows its pass and depth format: it follows the target
-/// that pass was last begun with for secondaries, else the device's live depth images of that
-/// format (`crate::policy::secondary_target`; a guess between both kinds is logged once).
-pub(super) fn format_target(
-    device: &DeviceState,
-    pass: SecondaryPass,
-    format: vk::Format,
-) -> Target {
-    static MIXED: OnceLock<()> = OnceLock::new();
-    let remembered = device.objects.secondary_targets.get(&pass);
-    let (reversed, native) = match remembered {
-        Some(_) => (0, 0),
-        None => device.objects.count_images(format),
+        .filter(|&format| format != vk::Format::UNDEFINED);
+        let Some(format) = format else {
+            return Target::None;
+        };
+        (SecondaryPass::Rendering(format), format)
     };
-    let (images, guessed) = secondary_target(remembered, reversed, native);
+    static MIXED: OnceLock<()> = OnceLock::new();
+    let remembered = device.objects.secondary_targets.get(&key);
+    let (images, guessed) = crate::policy::inherited_target(format, remembered, |format| {
+        device.objects.count_images(format)
+    });
     if guessed {
         MIXED.get_or_init(|| {
             log::warn!(

@@ -67,7 +67,7 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
             // SAFETY: `rangeCount` ranges.
             let ranges = unsafe { slice(p_ranges, range_count) };
             let clear = clears_depth(ranges).then_some(value.depth);
-            if device.observed.settle(clear) == Convention::Standard {
+            if device.observed.committed(Target::Reversed, clear) == Target::Reversed {
                 value.depth = device.reversed_clear(value.depth);
                 flipped = Some(value);
             }
