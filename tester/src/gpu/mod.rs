@@ -1,0 +1,401 @@
+//! Vulkan bring-up and teardown: the loader entry, the instance (optionally with the Khronos
+//! validation layer and a `VK_EXT_debug_utils` messenger that counts what it reports), physical
+//! device selection, the logical device (with the optional features a scene needs and the
+//! device has, and `VK_EXT_depth_clip_control` or `VK_EXT_graphics_pipeline_library` when a
+//! scene asks for it) and its graphics queue, the memory-type helper and host-visible buffers.
+//!
+//! Files: this one holds the types; `instance.rs` the loader, instance, messenger and device
+//! listing; `device.rs` feature selection and the logical device ([`Gpu::new`]).
+//!
+//! Everything created here is destroyed by `Drop`, in reverse order of creation, so that the
+//! validation layer has nothing to report as leaked at `vkDestroyDevice` / `vkDestroyInstance`.
+
+use std::ffi::{c_void, CStr};
+use std::fmt;
+use std::io::Write as _;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
+
+use anyhow::{anyhow, bail, Context, Result};
+use ash::vk;
+
+use crate::target::ResolveSupport;
+
+/// The Khronos validation layer, enabled through `ppEnabledLayerNames` by `--validation`.
+pub const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Counts the validation messages that make a run fail, shared with the debug messenger
+/// callback through its `pUserData`.
+#[derive(Debug, Default)]
+pub struct ValidationLog {
+    counted: AtomicU32,
+}
+
+impl ValidationLog {
+    /// Number of counted messages so far: every ERROR, and every WARNING of type VALIDATION or
+    /// PERFORMANCE.
+    pub fn count(&self) -> u32 {
+        self.counted.load(Ordering::SeqCst)
+    }
+}
+
+/// The debug-utils callback: counts ERROR messages (any type) and WARNING messages of type
+/// VALIDATION or PERFORMANCE, printing each counted one to stderr; everything else is ignored.
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut c_void,
+) -> vk::Bool32 {
+    let counted = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        Some("ERROR")
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING)
+        && types.intersects(
+            vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+    {
+        Some("WARNING")
+    } else {
+        None
+    };
+    let Some(severity_name) = counted else {
+        return vk::FALSE;
+    };
+    if !user_data.is_null() {
+        // SAFETY: `user_data` is `Arc::as_ptr` of the `ValidationLog` that `InstanceCtx` keeps
+        // alive until after the instance (and with it every messenger) is destroyed.
+        let log = unsafe { &*(user_data as *const ValidationLog) };
+        log.counted.fetch_add(1, Ordering::SeqCst);
+    }
+    // SAFETY: the implementation passes a valid callback-data structure (or null) for the
+    // duration of the call; its strings are null or NUL-terminated.
+    let (id_name, message) = unsafe {
+        match data.as_ref() {
+            Some(data) => (
+                data.message_id_name_as_c_str()
+                    .map_or_else(|| "(no id)".into(), CStr::to_string_lossy),
+                data.message_as_c_str()
+                    .map_or_else(|| "(no message)".into(), CStr::to_string_lossy),
+            ),
+            None => ("(no id)".into(), "(no message)".into()),
+        }
+    };
+    // Never panic inside a callback called from C: ignore a failed write to stderr.
+    let _ = writeln!(
+        std::io::stderr(),
+        "validation: {severity_name} {id_name}: {message}"
+    );
+    vk::FALSE
+}
+
+/// What the tester prints and records about the physical device it renders on.
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    /// `VkPhysicalDeviceProperties::deviceName`.
+    pub name: String,
+    /// `VkPhysicalDeviceDriverProperties::driverName` ("unknown" before Vulkan 1.2).
+    pub driver_name: String,
+    /// `VkPhysicalDeviceDriverProperties::driverInfo`.
+    pub driver_info: String,
+    /// `VkPhysicalDeviceProperties::apiVersion`.
+    pub api_version: u32,
+}
+
+impl DeviceInfo {
+    /// `<driverName> <driverInfo>`.
+    pub fn driver(&self) -> String {
+        if self.driver_info.is_empty() {
+            self.driver_name.clone()
+        } else {
+            format!("{} {}", self.driver_name, self.driver_info)
+        }
+    }
+
+    /// The device's Vulkan version as `major.minor.patch`.
+    pub fn api_version_string(&self) -> String {
+        let v = self.api_version;
+        format!(
+            "{}.{}.{}",
+            vk::api_version_major(v),
+            vk::api_version_minor(v),
+            vk::api_version_patch(v)
+        )
+    }
+}
+
+/// How to bring the GPU up.
+#[derive(Clone, Debug, Default)]
+pub struct GpuOptions {
+    /// Case-insensitive substring of the device name; `None` prefers lavapipe ("llvmpipe").
+    pub device: Option<String>,
+    /// Enable `VK_LAYER_KHRONOS_validation` and count its messages.
+    pub validation: bool,
+    /// With `validation`: enable its synchronization validation too
+    /// (`VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT`).
+    pub sync_validation: bool,
+    /// Optional features to enable where the device has them.
+    pub features: Features,
+    /// The highest Vulkan version to ask for (default: 1.3 where the loader has it, else 1.2).
+    /// Below 1.1 the tester enables `VK_KHR_get_physical_device_properties2` only where a
+    /// requested feature needs it (`depthClipControl`, `graphicsPipelineLibrary`), as a
+    /// Vulkan 1.0 application would.
+    pub max_api_version: Option<u32>,
+}
+
+/// The optional device features the tester may enable (everything else stays off).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    /// `dynamicRendering`: Vulkan 1.3, or `VK_KHR_dynamic_rendering` below it (enabled with
+    /// what it requires).
+    pub dynamic_rendering: bool,
+    /// `vkCmdSetDepthCompareOp`: Vulkan 1.3, or `VK_EXT_extended_dynamic_state`'s
+    /// `extendedDynamicState` below it.
+    pub dynamic_compare_op: bool,
+    /// `vkCreateRenderPass2` with depth/stencil resolves: Vulkan 1.2, or
+    /// `VK_KHR_create_renderpass2` and `VK_KHR_depth_stencil_resolve` below it (not a feature:
+    /// not in [`Features::names`]).
+    pub depth_stencil_resolve: bool,
+    /// `depthBounds`.
+    pub depth_bounds: bool,
+    /// `depthBiasClamp`.
+    pub depth_bias_clamp: bool,
+    /// `VK_EXT_depth_clip_control`'s `depthClipControl` (the extension is enabled with it).
+    pub depth_clip_control: bool,
+    /// `VK_EXT_graphics_pipeline_library`'s `graphicsPipelineLibrary` (the extension and the
+    /// `VK_KHR_pipeline_library` it requires are enabled with it).
+    pub graphics_pipeline_library: bool,
+}
+
+impl Features {
+    /// The Vulkan names of the features that are set, for reports.
+    pub fn names(self) -> Vec<&'static str> {
+        [
+            (self.dynamic_rendering, "dynamicRendering"),
+            (self.dynamic_compare_op, "extendedDynamicState"),
+            (self.depth_bounds, "depthBounds"),
+            (self.depth_bias_clamp, "depthBiasClamp"),
+            (self.depth_clip_control, "depthClipControl"),
+            (self.graphics_pipeline_library, "graphicsPipelineLibrary"),
+        ]
+        .into_iter()
+        .filter_map(|(on, name)| on.then_some(name))
+        .collect()
+    }
+
+    /// The features set in both.
+    pub fn and(self, other: Features) -> Features {
+        Features {
+            dynamic_rendering: self.dynamic_rendering && other.dynamic_rendering,
+            dynamic_compare_op: self.dynamic_compare_op && other.dynamic_compare_op,
+            depth_stencil_resolve: self.depth_stencil_resolve && other.depth_stencil_resolve,
+            depth_bounds: self.depth_bounds && other.depth_bounds,
+            depth_bias_clamp: self.depth_bias_clamp && other.depth_bias_clamp,
+            depth_clip_control: self.depth_clip_control && other.depth_clip_control,
+            graphics_pipeline_library: self.graphics_pipeline_library
+                && other.graphics_pipeline_library,
+        }
+    }
+}
+
+/// Loader entry, instance and (optional) debug messenger; destroyed after the device.
+struct InstanceCtx {
+    // `Drop` below destroys the messenger and the instance explicitly; `entry` (which keeps
+    // libvulkan loaded) and `log` (the messengers' user data) are dropped only after that.
+    entry: ash::Entry,
+    instance: ash::Instance,
+    api_version: u32,
+    /// `VK_KHR_get_physical_device_properties2`, where the instance is below 1.1 and enabled
+    /// it (the features and properties queries beyond Vulkan 1.0 go through it).
+    properties2: Option<ash::khr::get_physical_device_properties2::Instance>,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    log: Arc<ValidationLog>,
+}
+
+/// The instance, the chosen physical device, the logical device and its graphics queue.
+pub struct Gpu {
+    /// The logical device (only the optional features in `enabled`, and the extensions of
+    /// `depthClipControl` and `graphicsPipelineLibrary` when they are among them).
+    pub device: ash::Device,
+    /// A queue of `queue_family` that supports graphics (and therefore transfer).
+    pub queue: vk::Queue,
+    /// The queue family index of `queue`.
+    pub queue_family: u32,
+    /// The chosen physical device.
+    pub physical_device: vk::PhysicalDevice,
+    /// What the tester reports about the device.
+    pub info: DeviceInfo,
+    /// The optional features the device has.
+    pub supported: Features,
+    /// The optional features enabled at device creation (requested and supported).
+    pub enabled: Features,
+    /// The extensions standing in for core commands below their version (see
+    /// [`Gpu::cmd_begin_rendering`] and the methods after it).
+    dynamic_rendering_khr: Option<ash::khr::dynamic_rendering::Device>,
+    extended_dynamic_state: Option<ash::ext::extended_dynamic_state::Device>,
+    create_renderpass2_khr: Option<ash::khr::create_renderpass2::Device>,
+    memory_properties: vk::PhysicalDeviceMemoryProperties,
+    // Dropped after `Drop::drop` has destroyed the device.
+    instance: InstanceCtx,
+}
+
+impl fmt::Debug for Gpu {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Gpu")
+            .field("device", &self.device.handle())
+            .field("queue", &self.queue)
+            .field("queue_family", &self.queue_family)
+            .field("physical_device", &self.physical_device)
+            .field("info", &self.info)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        // SAFETY: the device is idle-waited before destruction; every object created from it
+        // borrows `Gpu` and is therefore already dropped.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_device(None);
+        }
+    }
+}
+
+
+/// A buffer in host-visible, host-coherent memory, persistently mapped.
+pub struct HostBuffer<'a> {
+    device: &'a ash::Device,
+    /// The buffer handle.
+    pub buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    mapped: *mut u8,
+    size: usize,
+}
+
+// SAFETY: `mapped` is owned by the buffer like a boxed byte slice: written only through
+// `&mut self` (`write`) and read through `&self` (`contents`), so the usual borrow rules
+// keep a writer from racing readers on other threads. The Vulkan handles are plain values;
+// the memory stays mapped until `Drop`.
+unsafe impl Send for HostBuffer<'_> {}
+// SAFETY: as above: shared access only reads.
+unsafe impl Sync for HostBuffer<'_> {}
+
+impl fmt::Debug for HostBuffer<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("HostBuffer")
+            .field("buffer", &self.buffer)
+            .field("size", &self.size)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Drop for HostBuffer<'_> {
+    fn drop(&mut self) {
+        // SAFETY: the handles are null or were created from `device`, which outlives `self`;
+        // the GPU is done with them (every submission is fenced before resources drop).
+        // Destroying null handles is a no-op; freeing memory unmaps it.
+        unsafe {
+            self.device.destroy_buffer(self.buffer, None);
+            self.device.free_memory(self.memory, None);
+        }
+    }
+}
+
+impl<'a> HostBuffer<'a> {
+    /// Creates a mapped host-visible coherent buffer of `size` bytes.
+    pub fn new(gpu: &'a Gpu, size: usize, usage: vk::BufferUsageFlags) -> Result<Self> {
+        let mut this = HostBuffer {
+            device: &gpu.device,
+            buffer: vk::Buffer::null(),
+            memory: vk::DeviceMemory::null(),
+            mapped: std::ptr::null_mut(),
+            size,
+        };
+        let info = vk::BufferCreateInfo::default()
+            .size(size as vk::DeviceSize)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid device and create info.
+        this.buffer = unsafe { gpu.device.create_buffer(&info, None) }
+            .with_context(|| format!("vkCreateBuffer ({size} bytes, {usage:?}) failed"))?;
+        // SAFETY: valid buffer.
+        let requirements = unsafe { gpu.device.get_buffer_memory_requirements(this.buffer) };
+        this.memory = gpu.allocate(
+            requirements,
+            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+            vk::MemoryPropertyFlags::empty(),
+        )?;
+        // SAFETY: fresh buffer and memory of a compatible type and sufficient size.
+        unsafe { gpu.device.bind_buffer_memory(this.buffer, this.memory, 0) }
+            .context("vkBindBufferMemory failed")?;
+        // SAFETY: host-visible memory, not mapped yet; mapped for the buffer's lifetime.
+        let mapped = unsafe {
+            gpu.device
+                .map_memory(this.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+        }
+        .context("vkMapMemory failed")?;
+        this.mapped = mapped.cast();
+        Ok(this)
+    }
+
+    /// Copies `bytes` to the start of the buffer (visible to the device at the next submit:
+    /// the memory is coherent).
+    pub fn write(&mut self, bytes: &[u8]) {
+        assert!(
+            bytes.len() <= self.size,
+            "write past the end of a host buffer"
+        );
+        // SAFETY: `mapped` points to at least `size` mapped bytes; no GPU work uses the buffer
+        // while the host writes (writes happen before the submit).
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), self.mapped, bytes.len()) };
+    }
+
+    /// The buffer's contents (coherent memory: valid once the writing submission's fence has
+    /// signalled and a TRANSFER -> HOST barrier was recorded).
+    pub fn contents(&self) -> &[u8] {
+        // SAFETY: `mapped` points to `size` mapped bytes that live as long as `self`; callers
+        // read only after the GPU work writing them has completed.
+        unsafe { std::slice::from_raw_parts(self.mapped, self.size) }
+    }
+}
+
+mod device;
+mod instance;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn feature_names_are_vulkan_names_of_the_set_features() {
+        let all = Features {
+            dynamic_rendering: true,
+            dynamic_compare_op: true,
+            depth_stencil_resolve: true,
+            depth_bounds: true,
+            depth_bias_clamp: true,
+            depth_clip_control: true,
+            graphics_pipeline_library: true,
+        };
+        assert_eq!(
+            all.names(),
+            [
+                "dynamicRendering",
+                "extendedDynamicState",
+                "depthBounds",
+                "depthBiasClamp",
+                "depthClipControl",
+                "graphicsPipelineLibrary"
+            ]
+        );
+        let some = Features {
+            depth_bias_clamp: true,
+            ..Features::default()
+        };
+        assert_eq!(all.and(some), some);
+        assert_eq!(some.names(), ["depthBiasClamp"]);
+        assert!(Features::default().names().is_empty());
+    }
+}
+

@@ -1,0 +1,408 @@
+//! [`Plan::check`]: every rule the renderer relies on, stated over the plan before any Vulkan
+//! call (indices in range, passes balanced, pipelines used in their own pass and subpass,
+//! dynamic state set before the draws that need it).
+
+use super::*;
+
+/// Recording state tracked by [`Plan::check`]: what the Vulkan validity rules depend on.
+#[derive(Clone, Debug, Default)]
+struct CheckState {
+    /// The current pass and subpass.
+    pass: Option<(usize, u32)>,
+    /// The bound pipeline (in this command buffer).
+    pipeline: Option<usize>,
+    /// Dynamic states set since that pipeline was bound: compare op, bias, bounds, viewport.
+    set: [bool; 4],
+    /// The current subpass records secondaries (`Some(true)`) or inline commands.
+    secondary_subpass: Option<bool>,
+    /// Which 4-byte words of push constants have been written in this command buffer, and
+    /// for which push-constant size (binding a pipeline of another size forgets them).
+    pushed: (u32, u32),
+}
+
+
+impl Plan {
+    /// Checks every rule the renderer relies on; `objects` is the scene's object count and
+    /// `has_light` whether it has a light (needed by shadow passes).
+    pub fn check(&self, objects: usize, has_light: bool) -> Result<(), PlanError> {
+        for (i, pipeline) in self.pipelines.iter().enumerate() {
+            let name = pipeline.name;
+            let pass = self.passes.get(pipeline.pass).ok_or_else(|| {
+                PlanError(format!(
+                    "pipeline {i} ({name}) names pass {}",
+                    pipeline.pass
+                ))
+            })?;
+            ensure!(
+                pipeline.subpass < pass.kind.subpass_count(),
+                "pipeline {name}: subpass {} of a pass with {}",
+                pipeline.subpass,
+                pass.kind.subpass_count()
+            );
+            let has_color = pass.has_color(pipeline.subpass);
+            ensure!(
+                has_color == (pipeline.program != Program::DepthOnly),
+                "pipeline {name}: a depth-only program where there is a color attachment, or \
+                 a fragment shader where there is none"
+            );
+            ensure!(
+                pipeline.color_write || pipeline.program != Program::ShadowReceiver,
+                "pipeline {name}: a shadow receiver without color writes"
+            );
+            ensure!(
+                pipeline.program != Program::DepthOnly || !pipeline.color_write,
+                "pipeline {name}: depth-only with color writes"
+            );
+            ensure!(
+                pipeline.program != Program::ShadowReceiver || pass.target == Target::Main,
+                "pipeline {name}: a shadow receiver drawing into the shadow map"
+            );
+            // The renderer makes one set of buffers, with the camera's matrices.
+            ensure!(
+                !pipeline.program.is_buffer_delivery()
+                    || (pass.target == Target::Main
+                        && self.buffer_program() == Some(pipeline.program)),
+                "pipeline {name}: a buffer delivery drawing into the shadow map, or two \
+                 buffer deliveries in one plan"
+            );
+            ensure!(
+                !pipeline.libraries || pass.kind != PassKind::DynamicRendering,
+                "pipeline {name}: library pipelines are built for render passes only (their \
+                 libraries are given the render pass and subpass)"
+            );
+            ensure!(
+                pass.target == Target::Main || pipeline.stencil.is_none(),
+                "pipeline {name}: stencil test on the shadow map (it has no stencil)"
+            );
+            if let Viewport::Static {
+                min_depth,
+                max_depth,
+            } = pipeline.viewport
+            {
+                ensure!(
+                    (0.0..=1.0).contains(&min_depth) && (0.0..=1.0).contains(&max_depth),
+                    "pipeline {name}: viewport depth range outside [0, 1]"
+                );
+            }
+            if let Bounds::Static { min, max } = pipeline.bounds {
+                ensure!(
+                    0.0 <= min && min <= max && max <= 1.0,
+                    "pipeline {name}: bad depth bounds"
+                );
+            }
+        }
+        for (n, pass) in self.passes.iter().enumerate() {
+            let Some(multisample) = pass.multisample else {
+                continue;
+            };
+            let samples = multisample.samples;
+            ensure!(
+                samples.is_power_of_two() && (2..=64).contains(&samples),
+                "pass {n}: {samples} samples (2, 4, 8, 16, 32 or 64)"
+            );
+            ensure!(
+                pass.target == Target::Main,
+                "pass {n}: only the main target is multisampled"
+            );
+            ensure!(
+                pass.kind != PassKind::DepthPrepassSubpasses,
+                "pass {n}: multisampled passes have one subpass"
+            );
+            // The multisampled attachments are transient: nothing of them survives a pass.
+            ensure!(
+                matches!(pass.depth, DepthLoad::Clear(_)) && !pass.load_color,
+                "pass {n}: a multisampled pass clears its attachments (they are transient)"
+            );
+            ensure!(
+                self.passes
+                    .iter()
+                    .filter_map(|p| p.multisample)
+                    .all(|other| other == multisample),
+                "pass {n}: multisampled passes differ in samples or resolve (they share one \
+                 set of attachments)"
+            );
+        }
+        let shadow_receivers = self
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::ShadowReceiver);
+        let shadow_passes = self.passes.iter().any(|p| p.target == Target::Shadow);
+        ensure!(
+            !shadow_passes || has_light,
+            "a shadow pass in a scene without a light"
+        );
+
+        let mut state = CheckState::default();
+        let mut shadow_drawn = false;
+        let mut used_passes = vec![false; self.passes.len()];
+        let mut used_pipelines = vec![false; self.pipelines.len()];
+        for (index, step) in self.steps.iter().enumerate() {
+            let at = |message: String| PlanError(format!("step {index} ({step:?}): {message}"));
+            match step {
+                Step::ClearDepthImage { depth } => {
+                    ensure!(
+                        state.pass.is_none(),
+                        "step {index}: image clear inside a pass"
+                    );
+                    ensure!(
+                        (0.0..=1.0).contains(depth),
+                        "step {index}: depth outside [0, 1]"
+                    );
+                }
+                Step::BeginPass(n) => {
+                    ensure!(state.pass.is_none(), "step {index}: nested pass");
+                    let pass = self
+                        .passes
+                        .get(*n)
+                        .ok_or_else(|| at(format!("no pass {n}")))?;
+                    if pass.target == Target::Main && shadow_receivers {
+                        ensure!(
+                            shadow_drawn,
+                            "step {index}: the main pass samples a shadow map not drawn yet"
+                        );
+                    }
+                    ensure!(
+                        pass.target == Target::Main || !pass.load_color,
+                        "step {index}: the shadow map has no color to load"
+                    );
+                    used_passes[*n] = true;
+                    state.pass = Some((*n, 0));
+                    state.secondary_subpass = None;
+                }
+                Step::NextSubpass => {
+                    let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
+                    ensure!(
+                        subpass + 1 < self.passes[n].kind.subpass_count(),
+                        "step {index}: no next subpass"
+                    );
+                    ensure!(
+                        self.passes[n].kind != PassKind::DynamicRendering,
+                        "step {index}: dynamic rendering has no subpasses"
+                    );
+                    state.pass = Some((n, subpass + 1));
+                    state.secondary_subpass = None;
+                }
+                Step::EndPass => {
+                    let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
+                    ensure!(
+                        subpass + 1 == self.passes[n].kind.subpass_count(),
+                        "step {index}: the pass ends before its last subpass"
+                    );
+                    shadow_drawn |= self.passes[n].target == Target::Shadow;
+                    state.pass = None;
+                }
+                Step::ExecuteSecondaries(lists, _) => {
+                    let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
+                    ensure!(
+                        self.passes[n].kind != PassKind::DynamicRendering,
+                        "step {index}: secondaries are only recorded inside render passes"
+                    );
+                    ensure!(
+                        state.secondary_subpass != Some(false),
+                        "step {index}: inline commands and secondaries in one subpass"
+                    );
+                    ensure!(!lists.is_empty(), "step {index}: no secondary");
+                    state.secondary_subpass = Some(true);
+                    for list in lists {
+                        // Secondaries inherit nothing but the pass: their own binds and state.
+                        let mut inner = CheckState {
+                            pass: Some((n, subpass)),
+                            ..CheckState::default()
+                        };
+                        for step in list {
+                            ensure!(
+                                !matches!(
+                                    step,
+                                    Step::BeginPass(_)
+                                        | Step::EndPass
+                                        | Step::NextSubpass
+                                        | Step::ClearDepthImage { .. }
+                                        | Step::ExecuteSecondaries(..)
+                                ),
+                                "step {index}: {step:?} inside a secondary"
+                            );
+                            self.check_inline(
+                                step,
+                                &mut inner,
+                                objects,
+                                &mut used_pipelines,
+                                index,
+                            )?;
+                        }
+                    }
+                    // The primary's bound pipeline and dynamic state are undefined afterwards.
+                    state.pipeline = None;
+                }
+                _ => {
+                    ensure!(
+                        state.secondary_subpass != Some(true),
+                        "step {index}: inline commands and secondaries in one subpass"
+                    );
+                    state.secondary_subpass = Some(false);
+                    self.check_inline(step, &mut state, objects, &mut used_pipelines, index)?;
+                }
+            }
+        }
+        ensure!(state.pass.is_none(), "the last pass is not ended");
+        if let Some(n) = used_passes.iter().position(|used| !used) {
+            return Err(PlanError(format!("pass {n} is never begun")));
+        }
+        if let Some(n) = used_pipelines.iter().position(|used| !used) {
+            return Err(PlanError(format!(
+                "pipeline {n} ({}) is never bound",
+                self.pipelines[n].name
+            )));
+        }
+        Ok(())
+    }
+
+    /// Checks one step recorded inside a pass (in the primary or a secondary).
+    fn check_inline(
+        &self,
+        step: &Step,
+        state: &mut CheckState,
+        objects: usize,
+        used_pipelines: &mut [bool],
+        index: usize,
+    ) -> Result<(), PlanError> {
+        let at = |message: &str| PlanError(format!("step {index} ({step:?}): {message}"));
+        let (pass_index, subpass) = state.pass.ok_or_else(|| at("outside a pass"))?;
+        let pass = &self.passes[pass_index];
+        let bound = |state: &CheckState| -> Result<&PipelineSpec, PlanError> {
+            state
+                .pipeline
+                .map(|n| &self.pipelines[n])
+                .ok_or_else(|| at("no pipeline bound"))
+        };
+        match step {
+            Step::Bind(n) => {
+                let pipeline = self
+                    .pipelines
+                    .get(*n)
+                    .ok_or_else(|| at("no such pipeline"))?;
+                ensure!(
+                    pass.compatible(&self.passes[pipeline.pass]) && pipeline.subpass == subpass,
+                    "step {index}: pipeline {} is made for another pass or subpass",
+                    pipeline.name
+                );
+                used_pipelines[*n] = true;
+                state.pipeline = Some(*n);
+                state.set = [false; 4];
+                let size = pipeline.program.push_constant_size();
+                if state.pushed.1 != size {
+                    state.pushed = (0, size);
+                }
+            }
+            Step::Push {
+                object,
+                offset,
+                size,
+            } => {
+                ensure!(*object < objects, "step {index}: no object {object}");
+                let declared = bound(state)?.program.push_constant_size();
+                ensure!(
+                    offset % 4 == 0 && size % 4 == 0 && *size > 0 && offset + size <= declared,
+                    "step {index}: push range {offset}+{size} is not 4-aligned inside the \
+                     program's {declared} bytes"
+                );
+                for word in offset / 4..(offset + size) / 4 {
+                    state.pushed.0 |= 1 << word;
+                }
+            }
+            Step::Draw(n) | Step::DrawPushed(n) => {
+                ensure!(*n < objects, "step {index}: no object {n}");
+                let pipeline = bound(state)?;
+                let size = pipeline.program.push_constant_size();
+                let all = if size == 128 {
+                    u32::MAX
+                } else {
+                    (1u32 << (size / 4)) - 1
+                };
+                if matches!(step, Step::Draw(_)) {
+                    state.pushed.0 = all;
+                }
+                ensure!(
+                    state.pushed.0 & all == all,
+                    "step {index}: drawn before all {size} bytes of push constants were pushed"
+                );
+                let needed = [
+                    pipeline.depth_test == DepthTest::Dynamic,
+                    pipeline.bias == Bias::Dynamic,
+                    pipeline.bounds == Bounds::Dynamic,
+                    pipeline.viewport == Viewport::Dynamic,
+                ];
+                for (what, (needed, set)) in
+                    ["compare op", "depth bias", "depth bounds", "viewport"]
+                        .iter()
+                        .zip(needed.iter().zip(state.set))
+                {
+                    ensure!(
+                        !needed || set,
+                        "step {index}: dynamic {what} of {} not set before the draw",
+                        pipeline.name
+                    );
+                }
+            }
+            Step::SetDepthCompareOp(_) => {
+                ensure!(
+                    bound(state)?.depth_test == DepthTest::Dynamic,
+                    "step {index}: the compare op is not dynamic"
+                );
+                state.set[0] = true;
+            }
+            Step::SetDepthBias(_) => {
+                ensure!(
+                    bound(state)?.bias == Bias::Dynamic,
+                    "step {index}: the depth bias is not dynamic"
+                );
+                state.set[1] = true;
+            }
+            Step::SetDepthBounds { min, max } => {
+                ensure!(
+                    bound(state)?.bounds == Bounds::Dynamic,
+                    "step {index}: the depth bounds are not dynamic"
+                );
+                ensure!(
+                    0.0 <= *min && min <= max && *max <= 1.0,
+                    "step {index}: bad depth bounds"
+                );
+                state.set[2] = true;
+            }
+            Step::SetViewport {
+                min_depth,
+                max_depth,
+            } => {
+                ensure!(
+                    bound(state)?.viewport == Viewport::Dynamic,
+                    "step {index}: the viewport is not dynamic"
+                );
+                ensure!(
+                    (0.0..=1.0).contains(min_depth) && (0.0..=1.0).contains(max_depth),
+                    "step {index}: viewport depth range outside [0, 1]"
+                );
+                state.set[3] = true;
+            }
+            Step::ClearDepthRect { rect, depth } => {
+                ensure!(
+                    pass.target == Target::Main,
+                    "step {index}: rectangle clears are for the main target"
+                );
+                let [x0, y0, x1, y1] = *rect;
+                ensure!(
+                    0.0 <= x0 && x0 < x1 && x1 <= 1.0 && 0.0 <= y0 && y0 < y1 && y1 <= 1.0,
+                    "step {index}: bad rectangle"
+                );
+                ensure!(
+                    (0.0..=1.0).contains(depth),
+                    "step {index}: depth outside [0, 1]"
+                );
+            }
+            Step::ClearDepthImage { .. }
+            | Step::BeginPass(_)
+            | Step::NextSubpass
+            | Step::EndPass
+            | Step::ExecuteSecondaries(..) => unreachable!("handled by Plan::check"),
+        }
+        Ok(())
+    }
+}
