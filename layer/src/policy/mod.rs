@@ -15,6 +15,8 @@
 //! | does a pipeline's vertex stage store reversed depth itself, and of which range ([`vertex_stage::VertexStageFacts::decide`]) | whether its code is given, its stages, the analysis of its vertex entry point (`crate::shader::analysis`), its layout's push-constant ranges and room for the carrier, its clip convention (static or dynamic), its module's `Position` rewrite and what that derives its range from (`crate::shader::position_store`, `crate::shader::derived_range`) | `vkCreateShaderModule` (or inline code, once per distinct code), `vkCreateGraphicsPipelines` |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
 //! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
+//! | does a pipeline render depth at all ([`pipelines::renders_depth`]) | whether it has a depth attachment, its static `rasterizerDiscardEnable`, its dynamic states | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
+//! | which of a pipeline's static depth states revz makes dynamic, and whether its compare op comes from a variant ([`pipelines::StaticStateFacts::decide`]) | its dynamic states, depth-stencil state (test, bounds test, compare op), bias enable and representation, static viewports, `compare_op_variants`, `vkCmdSetDepthBias2EXT` | `vkCreateGraphicsPipelines`, `vkCreateDevice` |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
@@ -40,6 +42,7 @@ mod compare_op;
 mod convention;
 mod copies;
 mod images;
+pub mod pipelines;
 mod resolves;
 mod secondaries;
 pub mod vertex_stage;

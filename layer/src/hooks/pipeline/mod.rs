@@ -31,6 +31,10 @@ use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
+use crate::policy::pipelines::{
+    renders_depth, viewports_static, DepthBiasFacts, DepthStencilFacts, StaticStateFacts,
+    StaticStatePlan,
+};
 use crate::policy::vertex_stage::{precise_candidate, Missing, VertexStageFacts};
 use crate::precise::{self, Carrier, ProjectionUse};
 use crate::shader::analysis::{self, Analysis};
@@ -107,9 +111,10 @@ struct Plan {
     depth: PipelineDepth,
     /// Why the pipeline's draws take the flip path (precise modes).
     flip_reason: Option<String>,
-    /// Whether the reversed variant flips the static compare op (the compare op is not made
-    /// dynamic: `DevicePolicy::compare_op_variants`).
-    compare_op_variant: bool,
+    /// What the policy made of its static state: whether it renders depth, the states made
+    /// dynamic, whether the reversed variant flips the static compare op (the compare op is
+    /// not made dynamic: `DevicePolicy::compare_op_variants`), the compare op it tests with.
+    static_state: StaticStatePlan,
     /// The fragment stage (its index) the reversed variant gets rewritten
     /// (`crate::shader::fragment_depth`).
     fragment: Option<(usize, Arc<[u32]>)>,
@@ -120,14 +125,6 @@ struct Plan {
     /// The libraries the create info links, with those that have a reversed variant replaced
     /// by it; `None` when none has one.
     libraries: Option<Vec<vk::Pipeline>>,
-    /// Whether the pipeline's draws can reach a depth attachment: it has one and does not
-    /// statically discard every primitive. Otherwise its viewport and depth state are ignored
-    /// by the spec (possibly dangling) and nothing about its depth matters.
-    renders_depth: bool,
-    /// The static compare op of a pipeline that tests depth (`None` where it does not, or
-    /// where the application sets the compare op dynamically): evidence of the application's
-    /// depth convention (`crate::policy::ConventionEvidence`).
-    tested_compare_op: Option<vk::CompareOp>,
     /// How its promoted variants differ from it, where it draws into promoted attachments.
     promotion: Option<Promotion>,
 }
@@ -166,7 +163,7 @@ const USES_ATTACHMENT_FORMATS: Subsets = Subsets::from_raw(
 impl Plan {
     /// Whether the pipeline gets a variant bound for draws into reversed attachments.
     fn needs_variant(&self) -> bool {
-        self.compare_op_variant || self.fragment.is_some() || self.libraries.is_some()
+        self.static_state.compare_op_variant || self.fragment.is_some() || self.libraries.is_some()
     }
 
     /// The variants the pipeline gets, in the order they are made.
@@ -258,7 +255,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 .map(|info| {
                     let context = context(&state, info);
                     let mut plan = plan(info, &context);
-                    if let Some(op) = plan.tested_compare_op {
+                    if let Some(op) = plan.static_state.tested_compare_op {
                         state.observed.note_pipeline_compare_op(op);
                     }
                     // Even without depth writes, a fragment shader may read FragCoord.z.
@@ -273,7 +270,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     // Pipelines of identified stages or of binaries get no variants: there is
                     // no code revz can change (and, with identifiers, no compiling either).
                     let from_binaries = uses_pipeline_binaries(info);
-                    if from_binaries && plan.renders_depth && state.policy.is_active() {
+                    if from_binaries && plan.static_state.renders_depth && state.policy.is_active()
+                    {
                         static BINARIES: crate::logging::LogOnce = crate::logging::LogOnce::new();
                         BINARIES.log(|| {
                             log::warn!(
@@ -285,7 +283,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         });
                     }
                     let identified = identified || from_binaries;
-                    if state.policy.is_active() && plan.renders_depth && fragment {
+                    if state.policy.is_active() && plan.static_state.renders_depth && fragment {
                         match fragment_stage_rewrite(&state, info) {
                             Some((index, Ok(code))) if !identified => {
                                 plan.fragment = Some((index, code))
@@ -302,10 +300,10 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     // where the flipped state is not found: the application's pipeline would
                     // be taken back every time, so such pipelines (and those linking them) get
                     // none.
-                    plan.compare_op_variant &= !identified;
+                    plan.static_state.compare_op_variant &= !identified;
                     let candidate = precise_candidate(
                         state.policy.rewrite().is_some(),
-                        plan.renders_depth,
+                        plan.static_state.renders_depth,
                         context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS),
                     );
                     if candidate {
@@ -325,7 +323,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         }
                     }
                     inherit_libraries(&mut plan.depth, &linked);
-                    if plan.renders_depth {
+                    if plan.static_state.renders_depth {
                         match library_variants(&state, info, true, false) {
                             Some(_) if identified => plan.depth.unreversed_fragment = true,
                             variants => plan.libraries = variants,
@@ -581,7 +579,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     }
                     (None, None) => {}
                 }
-                if let (Some(profile), true) = (&state.profile, plan.renders_depth) {
+                if let (Some(profile), true) = (&state.profile, plan.static_state.renders_depth) {
                     let (path, projection) = match (&plan.depth.projection, &plan.flip_reason) {
                         (Some(p), _) => (
                             "precise",
@@ -807,7 +805,7 @@ mod tests {
             ..RENDERS_DEPTH
         };
         let planned = plan(&info, &variants);
-        assert!(planned.compare_op_variant);
+        assert!(planned.static_state.compare_op_variant);
         assert_eq!(
             planned
                 .dynamic_states
@@ -826,9 +824,9 @@ mod tests {
             .depth_stencil_state(&equal)
             .rasterization_state(&raster);
         let planned = plan(&info, &variants);
-        assert!(!planned.compare_op_variant);
+        assert!(!planned.static_state.compare_op_variant);
         assert!(planned.dynamic_states.is_none());
-        assert!(!plan(&info, &RENDERS_DEPTH).compare_op_variant);
+        assert!(!plan(&info, &RENDERS_DEPTH).static_state.compare_op_variant);
     }
 
     #[test]
@@ -891,7 +889,7 @@ mod tests {
             .rasterization_state(&discard);
         let discarding = plan(&info, &RENDERS_DEPTH);
         assert!(discarding.dynamic_states.is_none(), "rasterizer discard");
-        assert!(!discarding.renders_depth);
+        assert!(!discarding.static_state.renders_depth);
         assert!(plan(&info, &no_attachment).dynamic_states.is_none());
     }
 
@@ -964,11 +962,11 @@ mod tests {
             ..library(subsets)
         };
         let planned = plan(&info, &variants(Subsets::FRAGMENT_SHADER));
-        assert!(planned.compare_op_variant);
+        assert!(planned.static_state.compare_op_variant);
         assert!(planned.dynamic_states.is_none());
         // The compare op is fragment shader state: other libraries have none to flip.
         let planned = plan(&info, &variants(Subsets::PRE_RASTERIZATION_SHADERS));
-        assert!(!planned.compare_op_variant);
+        assert!(!planned.static_state.compare_op_variant);
     }
 
     #[test]
