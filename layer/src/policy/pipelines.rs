@@ -1,5 +1,7 @@
 //! What revz makes of a graphics pipeline (and of a fragment shader object): which of its
-//! static states become dynamic ([`StaticStateFacts::decide`]).
+//! static states become dynamic ([`StaticStateFacts::decide`]), which variants it gets
+//! ([`VariantFacts::decide`]), and what a fragment stage that computes with depth gets
+//! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`).
 //!
 //! The facts come from `vkCreateGraphicsPipelines`: `crate::hooks::pipeline::plan` reads the
 //! create info (only the state the spec says to read, in its order) and records the static
@@ -156,6 +158,197 @@ impl StaticStateFacts<'_> {
             }
         }
         plan
+    }
+}
+
+/// Whether revz can see the code a pipeline runs: neither a stage given by a shader module
+/// identifier (`VK_EXT_shader_module_identifier`, its own or a linked library's) nor pipeline
+/// binaries (`VK_KHR_pipeline_binary`). Otherwise there is no code to rewrite (a variant of
+/// binaries would be the same pipeline), and with identifiers no compiling either: a variant
+/// could only come from the cache (it keeps `FAIL_ON_PIPELINE_COMPILE_REQUIRED`:
+/// VUID-VkPipelineShaderStageModuleIdentifierCreateInfoEXT-pNext-06851), where the flipped
+/// state is not found, so the application's pipeline would be taken back every time. Such
+/// pipelines (and those linking them) get no variants.
+#[must_use]
+pub fn code_given(identified: bool, from_binaries: bool) -> bool {
+    !(identified || from_binaries)
+}
+
+/// Whether revz looks at a pipeline's fragment stage: the mode is active, the pipeline renders
+/// depth and its create info defines fragment shader state (even without depth writes, a
+/// fragment shader may read `FragCoord.z`).
+#[must_use]
+pub fn examines_fragment(active: bool, renders_depth: bool, defines_fragment_shader: bool) -> bool {
+    active && renders_depth && defines_fragment_shader
+}
+
+/// What revz knows of a fragment stage's code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FragmentStage {
+    /// revz cannot see the code that runs (binary code, identifiers, pipeline binaries): it
+    /// may compute with depth.
+    Unknown,
+    /// It does not compute with depth (or there is no fragment stage).
+    NoDepth,
+    /// It computes with depth, and `crate::shader::fragment_depth` rewrote it.
+    Rewritable,
+    /// It computes with depth in a way the rewrite refuses.
+    CannotRewrite,
+}
+
+/// What a fragment stage gets for draws into reversed attachments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FragmentVariant {
+    /// Nothing: it does not compute with depth.
+    Unchanged,
+    /// A variant with its rewritten code, bound for draws into reversed attachments.
+    Rewritten,
+    /// No variant: it keeps standard depth in reversed attachments (marked, and warned once
+    /// at draw).
+    Unreversed,
+}
+
+impl FragmentStage {
+    /// What the stage gets; `variant_allowed`: revz can make a variant of what holds it (a
+    /// pipeline whose code is given, a shader object that is not part of a linked set).
+    #[must_use]
+    pub fn variant(self, variant_allowed: bool) -> FragmentVariant {
+        match self {
+            FragmentStage::NoDepth => FragmentVariant::Unchanged,
+            FragmentStage::Rewritable if variant_allowed => FragmentVariant::Rewritten,
+            FragmentStage::Unknown | FragmentStage::CannotRewrite | FragmentStage::Rewritable => {
+                FragmentVariant::Unreversed
+            }
+        }
+    }
+}
+
+/// What [`VariantFacts::decide`] reads of a pipeline, gathered at `vkCreateGraphicsPipelines`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VariantFacts {
+    /// The mode acts on depth.
+    pub active: bool,
+    /// [`StaticStatePlan::renders_depth`].
+    pub renders_depth: bool,
+    /// A stage of it, or of a library it links, is given by a shader module identifier.
+    pub identified: bool,
+    /// It is made from pipeline binaries.
+    pub from_binaries: bool,
+    /// Its fragment stage, where revz looks at it ([`examines_fragment`]).
+    pub fragment: Option<FragmentStage>,
+    /// Its static compare op flips and comes from a variant
+    /// ([`StaticStatePlan::compare_op_variant`]).
+    pub compare_op_flips: bool,
+    /// A library it links has a reversed variant (looked up where it renders depth).
+    pub library_variants: bool,
+    /// It draws into promoted attachments (`PromotionFacts::decide`).
+    pub promotion: bool,
+}
+
+/// Which variant of a pipeline to make: for reversed attachments, promoted ones, or both.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VariantKind {
+    pub reversed: bool,
+    pub promoted: bool,
+}
+
+impl VariantKind {
+    pub const REVERSED: VariantKind = VariantKind {
+        reversed: true,
+        promoted: false,
+    };
+    pub const PROMOTED: VariantKind = VariantKind {
+        reversed: false,
+        promoted: true,
+    };
+    pub const PROMOTED_REVERSED: VariantKind = VariantKind {
+        reversed: true,
+        promoted: true,
+    };
+}
+
+/// The variants a pipeline gets, and what it keeps without them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Variants {
+    /// The reversed variant flips the static compare op.
+    pub compare_op: bool,
+    /// The reversed variant has the fragment stage rewritten.
+    pub rewritten_fragment: bool,
+    /// The reversed variant links the linked libraries' reversed variants.
+    pub linked_variants: bool,
+    /// It gets promoted variants.
+    pub promoted: bool,
+    /// It keeps (or links) a fragment shader that may compute with depth, unreversed.
+    pub unreversed_fragment: bool,
+    /// It draws into promoted attachments but gets no promoted variant: its code is not
+    /// given (logged).
+    pub promotion_refused: bool,
+}
+
+impl VariantFacts {
+    /// [`code_given`] of the pipeline.
+    #[must_use]
+    pub fn code_given(&self) -> bool {
+        code_given(self.identified, self.from_binaries)
+    }
+
+    /// Whether to warn that a pipeline's reversed variant cannot be made from its binaries: it
+    /// renders depth in an active mode (known before its fragment stage is looked at, and
+    /// warned then).
+    #[must_use]
+    pub fn warns_of_binaries(&self) -> bool {
+        self.from_binaries && self.renders_depth && self.active
+    }
+
+    /// The variants: none where the code is not given (a fragment stage, or libraries with
+    /// variants, then stay unreversed, and promotion is refused).
+    #[must_use]
+    pub fn decide(&self) -> Variants {
+        let given = self.code_given();
+        let fragment = self.fragment.map(|stage| {
+            // What runs is not the code revz sees.
+            let stage = if given { stage } else { FragmentStage::Unknown };
+            stage.variant(given)
+        });
+        let libraries = self.renders_depth && self.library_variants;
+        Variants {
+            compare_op: self.compare_op_flips && given,
+            rewritten_fragment: fragment == Some(FragmentVariant::Rewritten),
+            linked_variants: libraries && given,
+            promoted: self.promotion && given,
+            unreversed_fragment: fragment == Some(FragmentVariant::Unreversed)
+                || (libraries && !given),
+            promotion_refused: self.promotion && !given,
+        }
+    }
+}
+
+impl Variants {
+    /// Whether the pipeline gets a variant bound for draws into reversed attachments.
+    #[must_use]
+    pub fn reversed(&self) -> bool {
+        self.compare_op || self.rewritten_fragment || self.linked_variants
+    }
+
+    /// Whether the reversed variant holds a fragment stage revz changed (its own, rewritten, or
+    /// the libraries' variants): without that variant the pipeline keeps (or links) the
+    /// unreversed one.
+    #[must_use]
+    pub fn reversed_changes_fragment(&self) -> bool {
+        self.rewritten_fragment || self.linked_variants
+    }
+
+    /// The variants the pipeline gets, in the order they are made.
+    pub fn kinds(&self) -> impl Iterator<Item = VariantKind> {
+        let reversed = self.reversed();
+        let promoted = self.promoted;
+        [
+            (reversed, VariantKind::REVERSED),
+            (promoted, VariantKind::PROMOTED),
+            (reversed && promoted, VariantKind::PROMOTED_REVERSED),
+        ]
+        .into_iter()
+        .filter_map(|(made, kind)| made.then_some(kind))
     }
 }
 
@@ -363,5 +556,207 @@ mod tests {
             ..represented
         };
         assert!(resendable.decide().made_dynamic.contains(States::BIAS));
+    }
+
+    #[test]
+    fn a_fragment_stage_gets_a_variant_only_where_rewritten_and_allowed() {
+        use FragmentStage as S;
+        use FragmentVariant as V;
+        for allowed in [true, false] {
+            assert_eq!(S::NoDepth.variant(allowed), V::Unchanged);
+            assert_eq!(S::Unknown.variant(allowed), V::Unreversed);
+            assert_eq!(S::CannotRewrite.variant(allowed), V::Unreversed);
+        }
+        assert_eq!(S::Rewritable.variant(true), V::Rewritten);
+        assert_eq!(S::Rewritable.variant(false), V::Unreversed);
+    }
+
+    #[test]
+    fn code_is_given_without_identifiers_or_binaries_and_fragments_are_examined_in_depth() {
+        assert!(code_given(false, false));
+        assert!(!code_given(true, false));
+        assert!(!code_given(false, true));
+        assert!(examines_fragment(true, true, true));
+        for facts in [
+            (false, true, true),
+            (true, false, true),
+            (true, true, false),
+        ] {
+            assert!(!examines_fragment(facts.0, facts.1, facts.2));
+        }
+    }
+
+    /// A depth-rendering pipeline of given code that wants every variant.
+    fn wanting_all() -> VariantFacts {
+        VariantFacts {
+            active: true,
+            renders_depth: true,
+            identified: false,
+            from_binaries: false,
+            fragment: Some(FragmentStage::Rewritable),
+            compare_op_flips: true,
+            library_variants: true,
+            promotion: true,
+        }
+    }
+
+    #[test]
+    fn a_pipeline_of_given_code_gets_the_variants_it_needs() {
+        let variants = wanting_all().decide();
+        assert_eq!(
+            variants,
+            Variants {
+                compare_op: true,
+                rewritten_fragment: true,
+                linked_variants: true,
+                promoted: true,
+                unreversed_fragment: false,
+                promotion_refused: false,
+            }
+        );
+        assert!(variants.reversed());
+        assert!(variants.reversed_changes_fragment());
+        assert_eq!(
+            variants.kinds().collect::<Vec<_>>(),
+            [
+                VariantKind::REVERSED,
+                VariantKind::PROMOTED,
+                VariantKind::PROMOTED_REVERSED
+            ]
+        );
+        assert_eq!(VariantFacts::default().decide(), Variants::default());
+        assert_eq!(Variants::default().kinds().count(), 0);
+    }
+
+    #[test]
+    fn each_reason_alone_makes_the_reversed_variant() {
+        let none = VariantFacts {
+            fragment: Some(FragmentStage::NoDepth),
+            compare_op_flips: false,
+            library_variants: false,
+            promotion: false,
+            ..wanting_all()
+        };
+        assert!(!none.decide().reversed());
+        assert!(!none.decide().unreversed_fragment);
+        let compare_op = VariantFacts {
+            compare_op_flips: true,
+            ..none
+        }
+        .decide();
+        assert!(compare_op.reversed());
+        assert!(!compare_op.reversed_changes_fragment());
+        assert_eq!(
+            compare_op.kinds().collect::<Vec<_>>(),
+            [VariantKind::REVERSED]
+        );
+        let fragment = VariantFacts {
+            fragment: Some(FragmentStage::Rewritable),
+            ..none
+        }
+        .decide();
+        assert!(fragment.rewritten_fragment && fragment.reversed_changes_fragment());
+        let libraries = VariantFacts {
+            library_variants: true,
+            ..none
+        }
+        .decide();
+        assert!(libraries.linked_variants && libraries.reversed_changes_fragment());
+        // The libraries' variants count only where the pipeline renders depth.
+        let no_depth = VariantFacts {
+            library_variants: true,
+            renders_depth: false,
+            ..none
+        }
+        .decide();
+        assert!(!no_depth.linked_variants && !no_depth.unreversed_fragment);
+        let promoted = VariantFacts {
+            promotion: true,
+            ..none
+        }
+        .decide();
+        assert_eq!(
+            promoted.kinds().collect::<Vec<_>>(),
+            [VariantKind::PROMOTED]
+        );
+        let refused = VariantFacts {
+            fragment: Some(FragmentStage::CannotRewrite),
+            ..none
+        }
+        .decide();
+        assert!(refused.unreversed_fragment && !refused.reversed());
+        // A fragment stage not looked at is left alone.
+        let unexamined = VariantFacts {
+            fragment: None,
+            ..none
+        }
+        .decide();
+        assert_eq!(unexamined, Variants::default());
+    }
+
+    #[test]
+    fn without_its_code_a_pipeline_gets_no_variant_and_keeps_its_fragment_unreversed() {
+        for facts in [
+            VariantFacts {
+                identified: true,
+                ..wanting_all()
+            },
+            VariantFacts {
+                from_binaries: true,
+                ..wanting_all()
+            },
+        ] {
+            assert!(!facts.code_given());
+            let variants = facts.decide();
+            assert!(!variants.reversed());
+            assert!(!variants.promoted);
+            assert_eq!(variants.kinds().count(), 0);
+            assert!(variants.unreversed_fragment);
+            assert!(variants.promotion_refused);
+            assert_eq!(facts.warns_of_binaries(), facts.from_binaries);
+            // Even a fragment stage that seems not to compute with depth: what runs is not the
+            // code revz sees.
+            let no_depth = VariantFacts {
+                fragment: Some(FragmentStage::NoDepth),
+                library_variants: false,
+                ..facts
+            };
+            assert!(no_depth.decide().unreversed_fragment);
+            // Libraries with variants leave it unreversed too.
+            let libraries = VariantFacts {
+                fragment: None,
+                ..facts
+            };
+            assert!(libraries.decide().unreversed_fragment);
+            let neither = VariantFacts {
+                library_variants: false,
+                ..libraries
+            };
+            assert!(!neither.decide().unreversed_fragment);
+        }
+    }
+
+    #[test]
+    fn binaries_are_warned_of_only_where_they_matter() {
+        let binaries = VariantFacts {
+            from_binaries: true,
+            ..VariantFacts::default()
+        };
+        assert!(!binaries.warns_of_binaries());
+        let active = VariantFacts {
+            active: true,
+            ..binaries
+        };
+        assert!(!active.warns_of_binaries());
+        let rendering = VariantFacts {
+            renders_depth: true,
+            ..active
+        };
+        assert!(rendering.warns_of_binaries());
+        let inactive = VariantFacts {
+            active: false,
+            ..rendering
+        };
+        assert!(!inactive.warns_of_binaries());
     }
 }

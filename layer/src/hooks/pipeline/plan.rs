@@ -346,6 +346,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         vertex: None,
         libraries: None,
         promotion: None,
+        variants: Variants::default(),
     };
     let pre_rasterization = context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
     let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
@@ -436,6 +437,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         vertex: None,
         libraries: None,
         promotion: None,
+        variants: Variants::default(),
     }
 }
 
