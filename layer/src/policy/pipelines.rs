@@ -1,6 +1,7 @@
 //! What revz makes of a graphics pipeline (and of a fragment shader object): which of its
 //! static states become dynamic ([`StaticStateFacts::decide`]), which variants it gets
-//! ([`VariantFacts::decide`]), and what a fragment stage that computes with depth gets
+//! ([`VariantFacts::decide`]), whether it draws into promoted attachments
+//! ([`PromotionFacts::decide`]), and what a fragment stage that computes with depth gets
 //! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`).
 //!
 //! The facts come from `vkCreateGraphicsPipelines`: `crate::hooks::pipeline::plan` reads the
@@ -349,6 +350,72 @@ impl Variants {
         ]
         .into_iter()
         .filter_map(|(made, kind)| made.then_some(kind))
+    }
+}
+
+/// What a pipeline's attachments say of promotion (`DevicePolicy::promoted_format`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PromotionAttachments {
+    /// The subsets its create info defines name no render pass or rendering formats (a
+    /// vertex input library, a link).
+    NotNamed,
+    /// Its render pass is unknown to revz.
+    UnknownPass,
+    /// Its render pass: whether an attachment has a format revz promotes, and whether the pass
+    /// has its promoted twin.
+    Pass { promotable: bool, twin: bool },
+    /// Dynamic rendering: whether its depth or stencil format is one revz promotes.
+    Rendering { promotable: bool },
+}
+
+/// What [`PromotionFacts::decide`] reads, gathered at `vkCreateGraphicsPipelines`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PromotionFacts {
+    /// UNORM depth images are promoted on this device (`DevicePolicy::promote`).
+    pub promote: bool,
+    pub attachments: PromotionAttachments,
+    /// A library it links draws into promoted attachments.
+    pub libraries_promotable: bool,
+}
+
+/// Whether a pipeline draws into promoted attachments, and how its promoted variants differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PipelinePromotion {
+    /// It does not (or revz cannot tell: its render pass is unknown).
+    None,
+    /// Its render pass has promotable attachments but no promoted twin: its draws into
+    /// promoted images use it as it is (logged), and it gets no promoted variants.
+    MissingTwin,
+    /// Its promoted variants are made with its render pass's promoted twin (`twin`), with the
+    /// float rendering formats (`rendering`), and with the linked libraries' promoted variants.
+    Promoted { twin: bool, rendering: bool },
+}
+
+impl PromotionFacts {
+    /// The pipeline's promotion: its render pass has promotable attachments (and their twin),
+    /// its rendering formats are promotable, or a library it links is promoted.
+    #[must_use]
+    pub fn decide(&self) -> PipelinePromotion {
+        if !self.promote {
+            return PipelinePromotion::None;
+        }
+        let (twin, rendering) = match self.attachments {
+            PromotionAttachments::NotNamed
+            | PromotionAttachments::Pass {
+                promotable: false, ..
+            } => (false, false),
+            PromotionAttachments::UnknownPass => return PipelinePromotion::None,
+            PromotionAttachments::Pass { twin: false, .. } => {
+                return PipelinePromotion::MissingTwin
+            }
+            PromotionAttachments::Pass { twin: true, .. } => (true, false),
+            PromotionAttachments::Rendering { promotable } => (false, promotable),
+        };
+        if twin || rendering || self.libraries_promotable {
+            PipelinePromotion::Promoted { twin, rendering }
+        } else {
+            PipelinePromotion::None
+        }
     }
 }
 
@@ -758,5 +825,80 @@ mod tests {
             ..rendering
         };
         assert!(!inactive.warns_of_binaries());
+    }
+
+    #[test]
+    fn a_pipeline_is_promoted_by_its_attachments_or_its_libraries() {
+        use PipelinePromotion as P;
+        use PromotionAttachments as A;
+        let facts = |attachments, libraries_promotable| PromotionFacts {
+            promote: true,
+            attachments,
+            libraries_promotable,
+        };
+        let pass = A::Pass {
+            promotable: true,
+            twin: true,
+        };
+        assert_eq!(
+            facts(pass, false).decide(),
+            P::Promoted {
+                twin: true,
+                rendering: false
+            }
+        );
+        let rendering = A::Rendering { promotable: true };
+        assert_eq!(
+            facts(rendering, false).decide(),
+            P::Promoted {
+                twin: false,
+                rendering: true
+            }
+        );
+        let unpromoted = [
+            A::NotNamed,
+            A::Pass {
+                promotable: false,
+                twin: false,
+            },
+            A::Rendering { promotable: false },
+        ];
+        for attachments in unpromoted {
+            assert_eq!(facts(attachments, false).decide(), P::None);
+            assert_eq!(
+                facts(attachments, true).decide(),
+                P::Promoted {
+                    twin: false,
+                    rendering: false
+                }
+            );
+        }
+        // Without promotion on the device, nothing is.
+        for attachments in [pass, rendering, A::NotNamed] {
+            let off = PromotionFacts {
+                promote: false,
+                ..facts(attachments, true)
+            };
+            assert_eq!(off.decide(), P::None);
+        }
+    }
+
+    #[test]
+    fn an_unknown_pass_or_a_missing_twin_gives_no_promotion_whatever_the_libraries() {
+        use PipelinePromotion as P;
+        use PromotionAttachments as A;
+        for libraries_promotable in [false, true] {
+            let facts = |attachments| PromotionFacts {
+                promote: true,
+                attachments,
+                libraries_promotable,
+            };
+            assert_eq!(facts(A::UnknownPass).decide(), P::None);
+            let missing = A::Pass {
+                promotable: true,
+                twin: false,
+            };
+            assert_eq!(facts(missing).decide(), P::MissingTwin);
+        }
     }
 }

@@ -33,7 +33,8 @@ use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::policy::pipelines::{
     examines_fragment, renders_depth, viewports_static, DepthBiasFacts, DepthStencilFacts,
-    FragmentStage, StaticStateFacts, StaticStatePlan, VariantFacts, VariantKind, Variants,
+    FragmentStage, PipelinePromotion, PromotionAttachments, PromotionFacts, StaticStateFacts,
+    StaticStatePlan, VariantFacts, VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{precise_candidate, Missing, VertexStageFacts};
 use crate::precise::{self, Carrier, ProjectionUse};
@@ -282,7 +283,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         None
                     };
                     facts.library_variants = libraries.is_some();
-                    let promotion = promotion_of(&state, info, context.subsets);
+                    let promotion = promotion_of(&state, info, context.subsets, &linked);
                     facts.promotion = promotion.is_some();
                     plan.depth.promotable |= facts.promotion;
                     let variants = facts.decide();

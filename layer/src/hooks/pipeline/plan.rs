@@ -264,55 +264,69 @@ pub(super) fn projection_of(
     }
 }
 
-/// How the promoted variants of a pipeline differ from it, if it needs them: its render pass
-/// has a promoted twin, its rendering formats are promotable, or a library it links has
-/// promoted variants. Logged where a pipeline needs them and cannot have them.
+/// How the promoted variants of a pipeline differ from it, if it needs them
+/// ([`PromotionFacts::decide`]: its render pass has a promoted twin, its rendering formats are
+/// promotable, or a library it links (`linked`) has promoted variants). Logged where a pipeline
+/// needs them and cannot have them.
 pub(super) fn promotion_of(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
     subsets: Subsets,
+    linked: &[Arc<PipelineDepth>],
 ) -> Option<Promotion> {
-    if !state.policy.promote {
-        return None;
-    }
-    let mut promotion = Promotion::default();
-    let mut promotable = false;
-    if subsets.intersects(USES_ATTACHMENT_FORMATS) {
-        if info.render_pass != vk::RenderPass::null() {
-            let pass = state.objects.render_passes.get(&info.render_pass)?;
-            if (0..pass.attachments.len()).any(|i| pass.promotable(i)) {
-                let Some(twin) = pass.promoted_twin else {
-                    static MISSING: crate::logging::LogOnce = crate::logging::LogOnce::new();
-                    MISSING.log(|| {
-                        log::error!(
-                            "a pipeline of a render pass without its promoted twin: its draws \
-                             into promoted depth images use it as it is, and the driver may \
-                             reject them"
-                        )
-                    });
-                    return None;
-                };
-                promotion.render_pass = Some(twin);
-                promotable = true;
+    let mut twin = None;
+    let attachments = if !subsets.intersects(USES_ATTACHMENT_FORMATS) {
+        PromotionAttachments::NotNamed
+    } else if info.render_pass != vk::RenderPass::null() {
+        match state.objects.render_passes.get(&info.render_pass) {
+            None => PromotionAttachments::UnknownPass,
+            Some(pass) => {
+                twin = pass.promoted_twin;
+                PromotionAttachments::Pass {
+                    promotable: (0..pass.attachments.len()).any(|i| pass.promotable(i)),
+                    twin: twin.is_some(),
+                }
             }
-        } else {
-            // SAFETY: a valid pNext chain (the application's contract).
-            let rendering =
-                unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) };
-            promotion.rendering = rendering.is_some_and(|r| {
+        }
+    } else {
+        // SAFETY: a valid pNext chain (the application's contract).
+        let rendering = unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) };
+        PromotionAttachments::Rendering {
+            promotable: rendering.is_some_and(|r| {
                 [r.depth_attachment_format, r.stencil_attachment_format]
                     .into_iter()
                     .any(|f| crate::conv::float_depth_format(f).is_some())
-            });
-            promotable |= promotion.rendering;
+            }),
         }
+    };
+    let facts = PromotionFacts {
+        promote: state.policy.promote,
+        attachments,
+        libraries_promotable: linked.iter().any(|library| library.promotable),
+    };
+    match facts.decide() {
+        PipelinePromotion::None => None,
+        PipelinePromotion::MissingTwin => {
+            static MISSING: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            MISSING.log(|| {
+                log::error!(
+                    "a pipeline of a render pass without its promoted twin: its draws \
+                     into promoted depth images use it as it is, and the driver may \
+                     reject them"
+                )
+            });
+            None
+        }
+        PipelinePromotion::Promoted {
+            twin: with_twin,
+            rendering,
+        } => Some(Promotion {
+            render_pass: twin.filter(|_| with_twin),
+            rendering,
+            libraries: library_variants(state, info, false, true),
+            reversed_libraries: library_variants(state, info, true, true),
+        }),
     }
-    promotion.libraries = library_variants(state, info, false, true);
-    promotion.reversed_libraries = library_variants(state, info, true, true);
-    promotable |= linked_libraries(state, info)
-        .iter()
-        .any(|library| library.promotable);
-    promotable.then_some(promotion)
 }
 
 /// Plans one create info. Every graphics pipeline gets a [`PipelineDepth`] (at least the
