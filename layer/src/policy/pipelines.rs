@@ -1,8 +1,9 @@
 //! What revz makes of a graphics pipeline (and of a fragment shader object): which of its
 //! static states become dynamic ([`StaticStateFacts::decide`]), which variants it gets
 //! ([`VariantFacts::decide`]), whether it draws into promoted attachments
-//! ([`PromotionFacts::decide`]), and what a fragment stage that computes with depth gets
-//! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`).
+//! ([`PromotionFacts::decide`]), what a fragment stage that computes with depth gets
+//! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`), and which path its
+//! draws take, as logged and shown in the depth profile ([`PipelinePath`]).
 //!
 //! The facts come from `vkCreateGraphicsPipelines`: `crate::hooks::pipeline::plan` reads the
 //! create info (only the state the spec says to read, in its order) and records the static
@@ -12,6 +13,8 @@ use ash::vk;
 
 use crate::command_state::States;
 use crate::conv::flip_compare_op;
+use crate::precise::ProjectionUse;
+use crate::shader::derived_range::MatrixSource;
 
 /// Whether a pipeline's draws can reach a depth attachment: it has one, and does not
 /// statically discard every primitive. Otherwise the spec ignores its viewport and depth
@@ -415,6 +418,68 @@ impl PromotionFacts {
             PipelinePromotion::Promoted { twin, rendering }
         } else {
             PipelinePromotion::None
+        }
+    }
+}
+
+/// Which path a pipeline's draws into reversed attachments take (`crate::policy::vertex_stage`
+/// decided between the precise and the flip path), as logged and shown in the depth profile:
+/// [`PipelinePath::label`] names the path, `Display` says where its projection comes from or
+/// why it takes the flip path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PipelinePath<'a> {
+    /// The precise path, with the projection in its push constants.
+    Pushed(ProjectionUse),
+    /// The precise path, its vertex stage deriving the range from the matrix it loads.
+    Derived(MatrixSource),
+    /// The flip path, for this reason.
+    Flip(&'a str),
+    /// The flip path, no reason given: the mode does not rewrite depth (or the pipeline was no
+    /// candidate for the precise path).
+    NotRewritten,
+}
+
+impl<'a> PipelinePath<'a> {
+    /// The path of a pipeline with a pushed `projection`, a `derived` range, or a `flip_reason`
+    /// (a pushed projection first, then a reason, then a derived range).
+    #[must_use]
+    pub fn of(
+        projection: Option<ProjectionUse>,
+        derived: Option<MatrixSource>,
+        flip_reason: Option<&'a str>,
+    ) -> PipelinePath<'a> {
+        match (projection, flip_reason, derived) {
+            (Some(projection), _, _) => PipelinePath::Pushed(projection),
+            (None, Some(reason), _) => PipelinePath::Flip(reason),
+            (None, None, Some(source)) => PipelinePath::Derived(source),
+            (None, None, None) => PipelinePath::NotRewritten,
+        }
+    }
+
+    /// The path's name in the depth profile: `precise` or `flip`.
+    #[must_use]
+    pub fn label(&self) -> &'static str {
+        match self {
+            PipelinePath::Pushed(_) | PipelinePath::Derived(_) => "precise",
+            PipelinePath::Flip(_) | PipelinePath::NotRewritten => "flip",
+        }
+    }
+}
+
+impl std::fmt::Display for PipelinePath<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PipelinePath::Pushed(projection) => write!(
+                f,
+                "push-constant bytes {}..{}",
+                projection.offset,
+                projection.end()
+            ),
+            PipelinePath::Derived(source) => {
+                write!(f, "{}, fitted by the vertex stage", source.describe())
+            }
+            PipelinePath::Flip(reason) => f.write_str(reason),
+            PipelinePath::NotRewritten => f.write_str("the mode does not rewrite depth"),
         }
     }
 }
@@ -900,5 +965,34 @@ mod tests {
             };
             assert_eq!(facts(missing).decide(), P::MissingTwin);
         }
+    }
+
+    #[test]
+    fn a_pipelines_path_is_named_once_for_the_log_and_the_profile() {
+        let projection = ProjectionUse {
+            offset: 64,
+            stride: 16,
+            storage: revz_math::Storage::ColumnMajor,
+            convention: revz_math::DepthConvention::ZeroToOne,
+        };
+        let derived = Some(MatrixSource::UniformBuffer);
+        let pushed = PipelinePath::of(Some(projection), derived, Some("ignored"));
+        assert_eq!(pushed, PipelinePath::Pushed(projection));
+        assert_eq!(pushed.label(), "precise");
+        assert_eq!(pushed.to_string(), "push-constant bytes 64..128");
+        let flip = PipelinePath::of(None, derived, Some("its code is not given"));
+        assert_eq!(flip, PipelinePath::Flip("its code is not given"));
+        assert_eq!(flip.label(), "flip");
+        assert_eq!(flip.to_string(), "its code is not given");
+        let fitted = PipelinePath::of(None, derived, None);
+        assert_eq!(fitted.label(), "precise");
+        assert_eq!(
+            fitted.to_string(),
+            "a uniform buffer, fitted by the vertex stage"
+        );
+        let neither = PipelinePath::of(None, None, None);
+        assert_eq!(neither, PipelinePath::NotRewritten);
+        assert_eq!(neither.label(), "flip");
+        assert_eq!(neither.to_string(), "the mode does not rewrite depth");
     }
 }

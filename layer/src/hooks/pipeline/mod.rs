@@ -33,8 +33,8 @@ use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::policy::pipelines::{
     examines_fragment, renders_depth, viewports_static, DepthBiasFacts, DepthStencilFacts,
-    FragmentStage, PipelinePromotion, PromotionAttachments, PromotionFacts, StaticStateFacts,
-    StaticStatePlan, VariantFacts, VariantKind, Variants,
+    FragmentStage, PipelinePath, PipelinePromotion, PromotionAttachments, PromotionFacts,
+    StaticStateFacts, StaticStatePlan, VariantFacts, VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{precise_candidate, Missing, VertexStageFacts};
 use crate::precise::{self, Carrier, ProjectionUse};
@@ -520,13 +520,18 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     plan.depth.unreversed_fragment = true;
                 }
 
-                match (&plan.depth.projection, &plan.flip_reason) {
-                    (None, None) if plan.depth.derived_range.is_some() => log::debug!(
+                let path = PipelinePath::of(
+                    plan.depth.projection,
+                    plan.depth.derived_range,
+                    plan.flip_reason.as_deref(),
+                );
+                match path {
+                    PipelinePath::Derived(source) => log::debug!(
                         "pipeline {pipeline:?}: projection from {}: its vertex stage derives \
                          the range from the matrix it loads (precise path)",
-                        plan.depth.derived_range.map_or("?", MatrixSource::describe)
+                        source.describe()
                     ),
-                    (Some(p), _) => log::debug!(
+                    PipelinePath::Pushed(p) => log::debug!(
                         "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
                          ({:?}, {:?}): precise path",
                         p.offset,
@@ -534,33 +539,18 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         p.storage,
                         p.convention
                     ),
-                    (None, Some(reason)) => {
+                    PipelinePath::Flip(reason) => {
                         log::debug!("pipeline {pipeline:?}: flip path ({reason})")
                     }
-                    (None, None) => {}
+                    PipelinePath::NotRewritten => {}
                 }
                 if let (Some(profile), true) = (&state.profile, plan.static_state.renders_depth) {
-                    let (path, projection) = match (&plan.depth.projection, &plan.flip_reason) {
-                        (Some(p), _) => (
-                            "precise",
-                            format!("push-constant bytes {}..{}", p.offset, p.end()),
-                        ),
-                        (None, None) if plan.depth.derived_range.is_some() => (
-                            "precise",
-                            format!(
-                                "{}, fitted by the vertex stage",
-                                plan.depth.derived_range.map_or("?", MatrixSource::describe)
-                            ),
-                        ),
-                        (None, Some(reason)) => ("flip", reason.clone()),
-                        (None, None) => ("flip", "the mode does not rewrite depth".to_owned()),
-                    };
                     profile.pipeline(
                         vk::Handle::as_raw(pipeline),
                         crate::profile::PipelineRecord {
                             kind: "pipeline",
-                            path,
-                            projection,
+                            path: path.label(),
+                            projection: path.to_string(),
                             reversed_variant: plan.depth.reversed_variant.is_some(),
                             promoted_variant: plan.depth.promoted_variant.is_some(),
                         },
