@@ -36,9 +36,11 @@ use crate::policy::pipelines::{
     FragmentStage, PipelinePath, PipelinePromotion, PromotionAttachments, PromotionFacts,
     StaticStateFacts, StaticStatePlan, VariantFacts, VariantKind, Variants,
 };
-use crate::policy::vertex_stage::{precise_candidate, Missing, VertexStageFacts};
+use crate::policy::vertex_stage::{
+    self, precise_candidate, Missing, PositionStore, VertexStageFacts,
+};
 use crate::precise::{self, Carrier, ProjectionUse};
-use crate::shader::analysis::{self, Analysis};
+use crate::shader::analysis;
 use crate::shader::derived_range::MatrixSource;
 use crate::shader::fragment_depth;
 use crate::shader::position_store;
