@@ -5,12 +5,13 @@
 //! `VK_EXT_extended_dynamic_state` at device creation, which requires
 //! `VK_KHR_get_physical_device_properties2` (or Vulkan 1.1) at instance creation: an application
 //! that asks for Vulkan 1.0 gets that instance extension added too
-//! (VUID-vkCreateDevice-ppEnabledExtensionNames-01387). Whether each is added is the policy's
-//! (`crate::policy::instance_needs_properties2`, `crate::policy::extended_dynamic_state_allowed`). What revz adds is revz's, not the
-//! application's: the commands of an added extension are not handed to the application through
-//! `vkGetInstanceProcAddr` or `vkGetDeviceProcAddr` (it did not enable them, and would get null
-//! without revz). Enumeration (`vkEnumerate*ExtensionProperties`) reports what the
-//! implementation offers, which enabling does not change, so it passes through untouched.
+//! (VUID-vkCreateDevice-ppEnabledExtensionNames-01387); whether each is added is the policy's
+//! (`crate::policy::instance_needs_properties2`, `crate::policy::extended_dynamic_state_allowed`).
+//! What revz adds is revz's, not the application's: the commands of an added extension are not
+//! handed to the application through `vkGetInstanceProcAddr` or `vkGetDeviceProcAddr` (it did
+//! not enable them, and would get null without revz). Enumeration
+//! (`vkEnumerate*ExtensionProperties`) reports what the implementation offers, which enabling
+//! does not change, so it passes through untouched.
 
 use std::ffi::{c_char, CStr};
 

@@ -225,8 +225,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         active: state.policy.is_active(),
                         renders_depth: plan.static_state.renders_depth,
                         // A pipeline linking a library of identified stages must keep
-                        // FAIL_ON_PIPELINE_COMPILE_REQUIRED too (VUID-VkPipelineLibraryCreateInfoKHR-
-                        // pLibraries-06855).
+                        // FAIL_ON_PIPELINE_COMPILE_REQUIRED too
+                        // (VUID-VkPipelineLibraryCreateInfoKHR-pLibraries-06855).
                         identified: plan.depth.module_identifiers
                             || linked.iter().any(|library| library.module_identifiers),
                         from_binaries: uses_pipeline_binaries(info),
