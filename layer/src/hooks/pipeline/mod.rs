@@ -9,11 +9,13 @@
 //! gets a reversed variant bound for draws into reversed attachments: a fragment shader library
 //! gets a variant library, and what links it a variant linking that one.
 //!
-//! The module is split by concern: [`plan`] decides what revz does with one create info (the
+//! The module is split by concern: [`plan`] plans what revz does with one create info (the
 //! dynamic states it adds, the precise path, the promoted variants), [`variants`] creates the
 //! reversed and promoted variants and the rewritten vertex stage, [`modules`] analyzes and
 //! rewrites shader modules and reserves the carrier in pipeline layouts; this file holds the
-//! pipeline entry points, which gather, ask the plan and apply it.
+//! pipeline entry points, which gather, ask the plan and apply it. The decisions are the
+//! policy's (`crate::policy::pipelines`, `crate::policy::vertex_stage`): these files gather
+//! their facts, log, and make the driver calls.
 
 mod modules;
 mod plan;

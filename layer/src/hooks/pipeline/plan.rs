@@ -1,7 +1,9 @@
 //! What revz does with one graphics pipeline create info (`super`'s entry points apply it):
 //! the state subsets it defines, the dynamic states revz adds, whether its draws can take the
 //! precise path (a projection in push constants, or a vertex stage that derives its range),
-//! and how its promoted variants differ.
+//! and how its promoted variants differ. These functions read the create info and revz's
+//! objects and ask the policy (`crate::policy::pipelines`, `crate::policy::vertex_stage`),
+//! which decides.
 
 #![allow(clippy::wildcard_imports)]
 
