@@ -5,9 +5,11 @@
 //! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`), and which path its
 //! draws take, as logged and shown in the depth profile ([`PipelinePath`]).
 //!
-//! The facts come from `vkCreateGraphicsPipelines`: `crate::hooks::pipeline::plan` reads the
-//! create info (only the state the spec says to read, in its order) and records the static
-//! values itself; this module only decides.
+//! The facts come from `vkCreateGraphicsPipelines` (`crate::hooks::pipeline` reads the create
+//! info, only the state the spec says to read and in its order, records the static values
+//! itself, and looks up its modules, libraries and render pass) and `vkCreateShadersEXT`
+//! (`crate::hooks::shader_object`); the hooks log and make the driver calls, this module only
+//! decides.
 
 use ash::vk;
 
@@ -88,8 +90,9 @@ pub struct StaticStatePlan {
     pub renders_depth: bool,
     /// The states revz makes dynamic (the application left them static).
     pub made_dynamic: States,
-    /// Whether the reversed variant flips the static compare op (the compare op is not made
-    /// dynamic, and flipping changes it).
+    /// Whether the reversed variant is to flip the static compare op (the compare op is not
+    /// made dynamic, and flipping changes it; whether the variant is made is
+    /// [`Variants::compare_op`]).
     pub compare_op_variant: bool,
     /// The static compare op of a pipeline that tests depth (`None` where it does not, or
     /// where the application sets the compare op dynamically): evidence of the application's
