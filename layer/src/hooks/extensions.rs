@@ -5,17 +5,16 @@
 //! `VK_EXT_extended_dynamic_state` at device creation, which requires
 //! `VK_KHR_get_physical_device_properties2` (or Vulkan 1.1) at instance creation: an application
 //! that asks for Vulkan 1.0 gets that instance extension added too
-//! (VUID-vkCreateDevice-ppEnabledExtensionNames-01387). What revz adds is revz's, not the
-//! application's: the commands of an added extension are not handed to the application through
-//! `vkGetInstanceProcAddr` or `vkGetDeviceProcAddr` (it did not enable them, and would get null
-//! without revz). Enumeration (`vkEnumerate*ExtensionProperties`) reports what the
-//! implementation offers, which enabling does not change, so it passes through untouched.
+//! (VUID-vkCreateDevice-ppEnabledExtensionNames-01387); whether each is added is the policy's
+//! (`crate::policy::instance_needs_properties2`, `crate::policy::extended_dynamic_state_allowed`).
+//! What revz adds is revz's, not the application's: the commands of an added extension are not
+//! handed to the application through `vkGetInstanceProcAddr` or `vkGetDeviceProcAddr` (it did
+//! not enable them, and would get null without revz). Enumeration
+//! (`vkEnumerate*ExtensionProperties`) reports what the implementation offers, which enabling
+//! does not change, so it passes through untouched.
 
 use std::ffi::{c_char, CStr};
 
-use ash::vk;
-
-use crate::config::Mode;
 use crate::ffi;
 
 /// The instance extension `VK_EXT_extended_dynamic_state` requires below Vulkan 1.1.
@@ -65,23 +64,6 @@ pub unsafe fn names<'a>(names: *const *const c_char, count: u32) -> Vec<&'a CStr
         .collect()
 }
 
-/// Whether revz must add `VK_KHR_get_physical_device_properties2` to an instance created with
-/// `api` and the extensions `enabled`: below Vulkan 1.1, in any active mode (a device of it may
-/// need `VK_EXT_extended_dynamic_state`, and which device is not known yet), unless the
-/// application enabled it itself.
-pub fn instance_needs_properties2(mode: Mode, api: u32, enabled: &[&CStr]) -> bool {
-    mode != Mode::Off
-        && api < vk::API_VERSION_1_1
-        && !enabled.contains(&GET_PHYSICAL_DEVICE_PROPERTIES2)
-}
-
-/// Whether a device of an instance created with `api` (and `properties2_enabled`, by the
-/// application or by revz) may enable `VK_EXT_extended_dynamic_state`: the extension's one
-/// dependency.
-pub fn extended_dynamic_state_allowed(api: u32, properties2_enabled: bool) -> bool {
-    api >= vk::API_VERSION_1_1 || properties2_enabled
-}
-
 /// Whether `vkGetInstanceProcAddr` hides `name` from the application: a command of an instance
 /// extension revz added.
 pub fn hides_instance_command(name: &CStr, added_properties2: bool) -> bool {
@@ -112,31 +94,6 @@ pub unsafe fn with_added(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn properties2_is_added_only_below_vulkan_1_1_in_active_modes_where_missing() {
-        use vk::{API_VERSION_1_0 as V10, API_VERSION_1_1 as V11, API_VERSION_1_3 as V13};
-        let none: [&CStr; 0] = [];
-        for mode in [Mode::Flip, Mode::Complementary, Mode::Infinite] {
-            assert!(instance_needs_properties2(mode, V10, &none));
-            assert!(instance_needs_properties2(
-                mode,
-                V10,
-                &[c"VK_EXT_debug_utils"]
-            ));
-            assert!(!instance_needs_properties2(
-                mode,
-                V10,
-                &[c"VK_EXT_debug_utils", GET_PHYSICAL_DEVICE_PROPERTIES2]
-            ));
-            assert!(!instance_needs_properties2(mode, V11, &none));
-            assert!(!instance_needs_properties2(mode, V13, &none));
-        }
-        assert!(!instance_needs_properties2(Mode::Off, V10, &none));
-        assert!(extended_dynamic_state_allowed(V11, false));
-        assert!(extended_dynamic_state_allowed(V10, true));
-        assert!(!extended_dynamic_state_allowed(V10, false));
-    }
 
     #[test]
     fn only_the_commands_of_added_extensions_are_hidden() {

@@ -11,7 +11,10 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::config::{self, layer_settings, AppIdentity, Mode, Settings, Sources};
 use crate::ffi;
 use crate::objects::DeviceObjects;
-use crate::policy::{CompareOpFacts, CompareOpSource, DevicePolicy, ResolveSupport};
+use crate::policy::{
+    extended_dynamic_state_allowed, instance_needs_properties2, CompareOpFacts, CompareOpSource,
+    DevicePolicy, ResolveSupport,
+};
 use crate::state::{DeviceCommands, DeviceState, DispatchKey, InstanceState, DEVICES, INSTANCES};
 use crate::{logging, LAYER_NAME, VERSION};
 
@@ -85,10 +88,10 @@ pub unsafe extern "system" fn create_instance(
                     create_info.enabled_extension_count,
                 )
             };
+            let app_properties2 = app_extensions.contains(&GET_PHYSICAL_DEVICE_PROPERTIES2);
             let added_properties2 =
-                extensions::instance_needs_properties2(settings.mode, api_version, &app_extensions);
-            let properties2_enabled =
-                added_properties2 || app_extensions.contains(&GET_PHYSICAL_DEVICE_PROPERTIES2);
+                instance_needs_properties2(settings.mode, api_version, app_properties2);
+            let properties2_enabled = added_properties2 || app_properties2;
             // The application's create info, or a copy with the instance extension added. The
             // loader's terminator passes each driver only the extensions it supports.
             let names_down = if added_properties2 {
@@ -326,10 +329,7 @@ unsafe fn compare_op_source(
         application_extension: extension && feature,
         application_feature_struct: feature_struct,
         mode_off: instance.settings.mode == Mode::Off,
-        extension_allowed: extensions::extended_dynamic_state_allowed(
-            api,
-            instance.properties2_enabled,
-        ),
+        extension_allowed: extended_dynamic_state_allowed(api, instance.properties2_enabled),
         // Asked only where it decides (it queries the layers below).
         // SAFETY: the caller's contract.
         device_has_extension: &|| unsafe {

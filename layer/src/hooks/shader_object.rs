@@ -36,6 +36,7 @@ use super::pipeline::{first_inline_report, Report};
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::objects::FragmentShader;
+use crate::policy::pipelines::{FragmentStage, FragmentVariant};
 use crate::precise;
 use crate::shader::fragment_depth;
 use crate::state::DeviceState;
@@ -54,51 +55,68 @@ enum Plan {
     Unreversed,
 }
 
-/// The plan of one create info (only fragment shaders get one).
+/// The plan of one create info (only fragment shaders get one): what the policy gives its
+/// code ([`FragmentStage::variant`]; a shader of a linked set gets no variant).
 fn plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
     if info.stage != vk::ShaderStageFlags::FRAGMENT {
         return Plan::Nothing;
     }
-    if info.code_type == vk::ShaderCodeTypeEXT::BINARY {
-        static BINARY: crate::logging::LogOnce = crate::logging::LogOnce::new();
-        BINARY.log(|| {
-            log::warn!(
-                "a fragment shader object is created from binary code: revz cannot read it, so \
-                 if it computes with depth (FragDepth or FragCoord.z), its draws into reversed \
-                 attachments keep standard depth"
-            )
-        });
-        return Plan::Unreversed;
-    }
-    if info.code_type != vk::ShaderCodeTypeEXT::SPIRV {
-        return Plan::Nothing;
-    }
-    // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's contract).
-    let words = unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) };
-    match fragment_depth::reverse_fragment_depth(words) {
-        Ok(None) => Plan::Nothing,
-        Err(reason) => {
-            if first_inline_report(Report::Rewrite, words) {
-                log::warn!(
-                    "a fragment shader object computes with depth in a way revz cannot rewrite \
-                     ({reason}): its draws into reversed attachments keep standard depth"
-                );
+    let (stage, rewritten) = match info.code_type {
+        vk::ShaderCodeTypeEXT::BINARY => (FragmentStage::Unknown, None),
+        vk::ShaderCodeTypeEXT::SPIRV => {
+            // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's
+            // contract).
+            let words = unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) };
+            match fragment_depth::reverse_fragment_depth(words) {
+                Ok(None) => (FragmentStage::NoDepth, None),
+                Ok(Some(code)) => (FragmentStage::Rewritable, Some(code)),
+                Err(reason) => {
+                    if first_inline_report(Report::Rewrite, words) {
+                        log::warn!(
+                            "a fragment shader object computes with depth in a way revz cannot \
+                             rewrite ({reason}): its draws into reversed attachments keep \
+                             standard depth"
+                        );
+                    }
+                    (FragmentStage::CannotRewrite, None)
+                }
+            }
+        }
+        // Code of a type revz does not know: left alone.
+        _ => return Plan::Nothing,
+    };
+    let linked = info.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE);
+    match (stage.variant(!linked), rewritten) {
+        (FragmentVariant::Rewritten, Some(code)) => Plan::Variant(code.into()),
+        (FragmentVariant::Unchanged | FragmentVariant::Rewritten, _) => Plan::Nothing,
+        (FragmentVariant::Unreversed, _) => {
+            match stage {
+                FragmentStage::Unknown => {
+                    static BINARY: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                    BINARY.log(|| {
+                        log::warn!(
+                            "a fragment shader object is created from binary code: revz cannot \
+                             read it, so if it computes with depth (FragDepth or FragCoord.z), \
+                             its draws into reversed attachments keep standard depth"
+                        )
+                    });
+                }
+                FragmentStage::Rewritable => {
+                    static LINKED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                    LINKED.log(|| {
+                        log::warn!(
+                            "a linked fragment shader object (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) \
+                             computes with depth: revz does not re-create linked sets, so its \
+                             draws into reversed attachments keep standard depth (create it \
+                             unlinked to have it reversed)"
+                        )
+                    });
+                }
+                // Logged with the rewrite's reason.
+                FragmentStage::CannotRewrite | FragmentStage::NoDepth => {}
             }
             Plan::Unreversed
         }
-        Ok(Some(_)) if info.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE) => {
-            static LINKED: crate::logging::LogOnce = crate::logging::LogOnce::new();
-            LINKED.log(|| {
-                log::warn!(
-                    "a linked fragment shader object (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) \
-                     computes with depth: revz does not re-create linked sets, so its draws \
-                     into reversed attachments keep standard depth (create it unlinked to have \
-                     it reversed)"
-                )
-            });
-            Plan::Unreversed
-        }
-        Ok(Some(code)) => Plan::Variant(code.into()),
     }
 }
 

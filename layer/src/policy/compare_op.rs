@@ -1,6 +1,30 @@
 //! Where a device's dynamic compare op (`vkCmdSetDepthCompareOp`) comes from: core Vulkan
 //! 1.3, the application's `VK_EXT_extended_dynamic_state`, the extension revz adds, or nowhere
-//! ([`CompareOpSource::decide`], from [`CompareOpFacts`] gathered at `vkCreateDevice`).
+//! ([`CompareOpSource::decide`], from [`CompareOpFacts`] gathered at `vkCreateDevice`); and
+//! whether revz adds the extensions that needs: `VK_KHR_get_physical_device_properties2` to an
+//! instance ([`instance_needs_properties2`], at `vkCreateInstance`), and whether its devices may
+//! have `VK_EXT_extended_dynamic_state` ([`extended_dynamic_state_allowed`]).
+
+use ash::vk;
+
+use crate::config::Mode;
+
+/// Whether revz must add `VK_KHR_get_physical_device_properties2` to an instance created with
+/// `api`, where the application did not enable it itself (`application_enabled`): below Vulkan
+/// 1.1, in any active mode (a device of it may need `VK_EXT_extended_dynamic_state`, and which
+/// device is not known yet).
+#[must_use]
+pub fn instance_needs_properties2(mode: Mode, api: u32, application_enabled: bool) -> bool {
+    mode != Mode::Off && api < vk::API_VERSION_1_1 && !application_enabled
+}
+
+/// Whether a device of an instance created with `api` (and `properties2_enabled`, by the
+/// application or by revz) may enable `VK_EXT_extended_dynamic_state`: the extension's one
+/// dependency.
+#[must_use]
+pub fn extended_dynamic_state_allowed(api: u32, properties2_enabled: bool) -> bool {
+    api >= vk::API_VERSION_1_1 || properties2_enabled
+}
 
 /// Where a device's `vkCmdSetDepthCompareOp` comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -130,5 +154,20 @@ mod tests {
             ..facts(false, false, false, false, true)
         };
         assert_eq!(S::decide(&without), S::Unavailable);
+    }
+
+    #[test]
+    fn properties2_is_added_only_below_vulkan_1_1_in_active_modes_where_missing() {
+        use vk::{API_VERSION_1_0 as V10, API_VERSION_1_1 as V11, API_VERSION_1_3 as V13};
+        for mode in [Mode::Flip, Mode::Complementary, Mode::Infinite] {
+            assert!(instance_needs_properties2(mode, V10, false));
+            assert!(!instance_needs_properties2(mode, V10, true));
+            assert!(!instance_needs_properties2(mode, V11, false));
+            assert!(!instance_needs_properties2(mode, V13, false));
+        }
+        assert!(!instance_needs_properties2(Mode::Off, V10, false));
+        assert!(extended_dynamic_state_allowed(V11, false));
+        assert!(extended_dynamic_state_allowed(V10, true));
+        assert!(!extended_dynamic_state_allowed(V10, false));
     }
 }

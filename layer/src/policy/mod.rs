@@ -20,12 +20,21 @@
 //! | where a secondary continuing a pass of a depth format draws, without a framebuffer ([`inherited_target`]) | its inheritance's pass (subpass or rendering format) and depth format, the target that pass was last begun with for secondaries, else the format's reversed and native images | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
 //! | whether it draws into a promoted attachment, and which UNORM format draws convert from ([`inherited_promoted`]) | the same, for promotion (the format's promoted and kept images) | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
+//! | does revz add `VK_KHR_get_physical_device_properties2` to an instance ([`instance_needs_properties2`]) | the mode, the API version, whether the application enabled it | `vkCreateInstance` |
+//! | may a device of the instance have `VK_EXT_extended_dynamic_state` added ([`extended_dynamic_state_allowed`]) | the API version, whether `VK_KHR_get_physical_device_properties2` is enabled (by the application or revz) | `vkCreateInstance`, `vkCreateDevice` |
 //! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
 //! | is a pipeline a candidate for the precise path ([`vertex_stage::precise_candidate`]) | the mode, whether it renders depth, whether its create info defines its shaders | `vkCreateGraphicsPipelines` |
 //! | does a pipeline's vertex stage store reversed depth itself, and of which range ([`vertex_stage::VertexStageFacts::decide`]) | whether its code is given, its stages, the analysis of its vertex entry point (`crate::shader::analysis`), its layout's push-constant ranges and room for the carrier, its clip convention (static or dynamic), its module's `Position` rewrite and what that derives its range from (`crate::shader::position_store`, `crate::shader::derived_range`) | `vkCreateShaderModule` (or inline code, once per distinct code), `vkCreateGraphicsPipelines` |
+//! | which `Position` rewrite a vertex module gets: the carrier store or the deriving one ([`vertex_stage::position_store`]) | the analysis of its entry points (`crate::shader::analysis`) | `vkCreateShaderModule` (or inline code, once per distinct code) |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
 //! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
 //! | which kind of texel a copy's conversion reads and writes ([`conversion_kind`]) | whether each end is a buffer or an image, and the depth texels of each image's format (the float one where promoted) | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
+//! | does a pipeline render depth at all ([`pipelines::renders_depth`]) | whether it has a depth attachment, its static `rasterizerDiscardEnable`, its dynamic states | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
+//! | which of a pipeline's static depth states revz makes dynamic, and whether its compare op comes from a variant ([`pipelines::StaticStateFacts::decide`]) | its dynamic states, depth-stencil state (test, bounds test, compare op), bias enable and representation, static viewports, `compare_op_variants`, `vkCmdSetDepthBias2EXT` | `vkCreateGraphicsPipelines`, `vkCreateDevice` |
+//! | which variants a pipeline gets: a flipped compare op, a rewritten fragment stage, its libraries' variants, promoted ones; what it keeps without them ([`pipelines::VariantFacts::decide`]) | whether its code is given (module identifiers, its libraries', pipeline binaries: [`pipelines::code_given`]), its fragment stage's rewrite (`crate::shader::fragment_depth`), the static state's plan, its libraries' variants, its promotion | `vkCreateShaderModule` (or inline code), `vkCreateGraphicsPipelines` |
+//! | does a pipeline draw into promoted attachments, and how its promoted variants differ ([`pipelines::PromotionFacts::decide`]) | `promote`, whether its subsets name attachment formats, its render pass (known, promotable attachments, promoted twin) or rendering formats, whether a library it links is promoted | `vkCreateRenderPass*`, `vkCreateGraphicsPipelines` |
+//! | what a fragment stage that computes with depth gets ([`pipelines::FragmentStage::variant`]) | its rewrite or why there is none, whether a variant of what holds it can be made | `vkCreateGraphicsPipelines`, `vkCreateShadersEXT` |
+//! | which path a pipeline's draws take, as logged and in the depth profile ([`pipelines::PipelinePath`]) | its pushed projection, derived range, or flip reason (from [`vertex_stage::VertexStageFacts::decide`] and the rewritten stage's creation) | `vkCreateGraphicsPipelines` |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
@@ -34,8 +43,11 @@
 //! pass instances: which twin begins, framebuffers' storage), `convention.rs` (the
 //! application's convention, and what revz observes of it), `secondaries.rs` (secondaries
 //! without a framebuffer, and what their inheritance makes of them), `compare_op.rs` (the
-//! dynamic compare op), `copies.rs` (copies: whether and how they are converted);
-//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that
+//! dynamic compare op, and the extensions revz adds for it), `copies.rs` (copies: whether and
+//! how they are converted), `pipelines.rs` (pipelines: which static states become dynamic,
+//! which variants are made, promotion, the path a pipeline's draws take, fragment variants of
+//! shader objects), `vertex_stage.rs` (the precise path's vertex stage: candidate, store,
+//! range); [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that
 //! name code outside this module are decided there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
@@ -55,11 +67,14 @@ mod convention;
 mod copies;
 mod images;
 mod passes;
+pub mod pipelines;
 mod resolves;
 mod secondaries;
 pub mod vertex_stage;
 
-pub use compare_op::{CompareOpFacts, CompareOpSource};
+pub use compare_op::{
+    extended_dynamic_state_allowed, instance_needs_properties2, CompareOpFacts, CompareOpSource,
+};
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{
     conversion_kind, CopyDecision, CopyDirection, CopyEnd, CopyFacts, Texels, Unconverted,

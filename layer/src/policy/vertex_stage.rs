@@ -7,6 +7,7 @@
 //! The facts come from `vkCreateShaderModule` (each module's analysis and `Position` rewrite,
 //! or those of inline code, made once per distinct code) and `vkCreateGraphicsPipelines` (the
 //! stages, the clip convention, the layout); `crate::hooks::pipeline::plan` gathers them.
+//! Which `Position` rewrite a module gets ([`position_store`]) is decided here too.
 
 use ash::vk;
 use revz_math::DepthConvention;
@@ -22,6 +23,31 @@ use crate::shader::position_store::Unsupported;
 #[must_use]
 pub fn precise_candidate(mode_rewrites: bool, renders_depth: bool, defines_shaders: bool) -> bool {
     mode_rewrites && renders_depth && defines_shaders
+}
+
+/// Which `Position` rewrite a vertex module gets (in a mode with the precise path, where its
+/// analysis could be read).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PositionStore {
+    /// An entry point has its projection in push constants: the stage stores the carrier's
+    /// depth (`crate::shader::position_store::rewrite_position_store`).
+    Carrier,
+    /// None has: the stage derives its range from the matrix it loads
+    /// (`crate::shader::position_store::rewrite_position_store_deriving`).
+    Deriving,
+}
+
+/// The `Position` rewrite of a module whose entry points were analyzed as `entry_points`.
+#[must_use]
+pub fn position_store<'a>(entry_points: impl IntoIterator<Item = &'a Analysis>) -> PositionStore {
+    if entry_points
+        .into_iter()
+        .any(|analysis| matches!(analysis, Analysis::Projection(_)))
+    {
+        PositionStore::Carrier
+    } else {
+        PositionStore::Deriving
+    }
 }
 
 /// What revz knows of a candidate pipeline's vertex stage.
@@ -317,5 +343,14 @@ mod tests {
         ] {
             assert!(!precise_candidate(facts.0, facts.1, facts.2));
         }
+    }
+
+    #[test]
+    fn a_module_with_a_pushed_projection_stores_the_carrier_and_others_derive() {
+        let pushed = Analysis::Projection(slot());
+        let other = Analysis::NotFromPushConstants;
+        assert_eq!(position_store([&other, &pushed]), PositionStore::Carrier);
+        assert_eq!(position_store([&other]), PositionStore::Deriving);
+        assert_eq!(position_store([]), PositionStore::Deriving);
     }
 }

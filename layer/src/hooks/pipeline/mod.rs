@@ -9,11 +9,13 @@
 //! gets a reversed variant bound for draws into reversed attachments: a fragment shader library
 //! gets a variant library, and what links it a variant linking that one.
 //!
-//! The module is split by concern: [`plan`] decides what revz does with one create info (the
+//! The module is split by concern: [`plan`] plans what revz does with one create info (the
 //! dynamic states it adds, the precise path, the promoted variants), [`variants`] creates the
 //! reversed and promoted variants and the rewritten vertex stage, [`modules`] analyzes and
 //! rewrites shader modules and reserves the carrier in pipeline layouts; this file holds the
-//! pipeline entry points, which gather, ask the plan and apply it.
+//! pipeline entry points, which gather, ask the plan and apply it. The decisions are the
+//! policy's (`crate::policy::pipelines`, `crate::policy::vertex_stage`): these files gather
+//! their facts, log, and make the driver calls.
 
 mod modules;
 mod plan;
@@ -31,9 +33,16 @@ use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
-use crate::policy::vertex_stage::{precise_candidate, Missing, VertexStageFacts};
+use crate::policy::pipelines::{
+    examines_fragment, renders_depth, viewports_static, DepthBiasFacts, DepthStencilFacts,
+    FragmentStage, PipelinePath, PipelinePromotion, PromotionAttachments, PromotionFacts,
+    StaticStateFacts, StaticStatePlan, VariantFacts, VariantKind, Variants,
+};
+use crate::policy::vertex_stage::{
+    self, precise_candidate, Missing, PositionStore, VertexStageFacts,
+};
 use crate::precise::{self, Carrier, ProjectionUse};
-use crate::shader::analysis::{self, Analysis};
+use crate::shader::analysis;
 use crate::shader::derived_range::MatrixSource;
 use crate::shader::fragment_depth;
 use crate::shader::position_store;
@@ -107,9 +116,11 @@ struct Plan {
     depth: PipelineDepth,
     /// Why the pipeline's draws take the flip path (precise modes).
     flip_reason: Option<String>,
-    /// Whether the reversed variant flips the static compare op (the compare op is not made
-    /// dynamic: `DevicePolicy::compare_op_variants`).
-    compare_op_variant: bool,
+    /// What the policy made of its static state: whether it renders depth, the states made
+    /// dynamic, whether its static compare op flips and is to come from a variant (the
+    /// compare op is not made dynamic: `DevicePolicy::compare_op_variants`; [`Variants`] says
+    /// whether the variant is made), the compare op it tests with.
+    static_state: StaticStatePlan,
     /// The fragment stage (its index) the reversed variant gets rewritten
     /// (`crate::shader::fragment_depth`).
     fragment: Option<(usize, Arc<[u32]>)>,
@@ -120,16 +131,10 @@ struct Plan {
     /// The libraries the create info links, with those that have a reversed variant replaced
     /// by it; `None` when none has one.
     libraries: Option<Vec<vk::Pipeline>>,
-    /// Whether the pipeline's draws can reach a depth attachment: it has one and does not
-    /// statically discard every primitive. Otherwise its viewport and depth state are ignored
-    /// by the spec (possibly dangling) and nothing about its depth matters.
-    renders_depth: bool,
-    /// The static compare op of a pipeline that tests depth (`None` where it does not, or
-    /// where the application sets the compare op dynamically): evidence of the application's
-    /// depth convention (`crate::policy::ConventionEvidence`).
-    tested_compare_op: Option<vk::CompareOp>,
-    /// How its promoted variants differ from it, where it draws into promoted attachments.
+    /// How its promoted variants differ from it, where it gets them.
     promotion: Option<Promotion>,
+    /// The variants it gets ([`VariantFacts::decide`]; none until it is asked).
+    variants: Variants,
 }
 
 /// How a pipeline's promoted variants differ from it (`crate::policy::DevicePolicy::
@@ -149,57 +154,12 @@ struct Promotion {
     reversed_libraries: Option<Vec<vk::Pipeline>>,
 }
 
-/// Which variant of a pipeline to make: for reversed attachments, promoted ones, or both.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct VariantKind {
-    reversed: bool,
-    promoted: bool,
-}
-
 /// The subsets whose state includes the render pass or rendering formats.
 const USES_ATTACHMENT_FORMATS: Subsets = Subsets::from_raw(
     Subsets::PRE_RASTERIZATION_SHADERS.as_raw()
         | Subsets::FRAGMENT_SHADER.as_raw()
         | Subsets::FRAGMENT_OUTPUT_INTERFACE.as_raw(),
 );
-
-impl Plan {
-    /// Whether the pipeline gets a variant bound for draws into reversed attachments.
-    fn needs_variant(&self) -> bool {
-        self.compare_op_variant || self.fragment.is_some() || self.libraries.is_some()
-    }
-
-    /// The variants the pipeline gets, in the order they are made.
-    fn variant_kinds(&self) -> impl Iterator<Item = VariantKind> {
-        let reversed = self.needs_variant();
-        let promoted = self.promotion.is_some();
-        [
-            (
-                reversed,
-                VariantKind {
-                    reversed: true,
-                    promoted: false,
-                },
-            ),
-            (
-                promoted,
-                VariantKind {
-                    reversed: false,
-                    promoted: true,
-                },
-            ),
-            (
-                reversed && promoted,
-                VariantKind {
-                    reversed: true,
-                    promoted: true,
-                },
-            ),
-        ]
-        .into_iter()
-        .filter_map(|(made, kind)| made.then_some(kind))
-    }
-}
 
 /// What became of a pipeline's reversed variant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -258,22 +218,26 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 .map(|info| {
                     let context = context(&state, info);
                     let mut plan = plan(info, &context);
-                    if let Some(op) = plan.tested_compare_op {
+                    if let Some(op) = plan.static_state.tested_compare_op {
                         state.observed.note_pipeline_compare_op(op);
                     }
-                    // Even without depth writes, a fragment shader may read FragCoord.z.
-                    let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
                     let linked = linked_libraries(&state, info);
                     plan.depth.module_identifiers = uses_module_identifiers(info);
-                    // A pipeline linking a library of identified stages must keep
-                    // FAIL_ON_PIPELINE_COMPILE_REQUIRED too (VUID-VkPipelineLibraryCreateInfoKHR-
-                    // pLibraries-06855).
-                    let identified = plan.depth.module_identifiers
-                        || linked.iter().any(|library| library.module_identifiers);
-                    // Pipelines of identified stages or of binaries get no variants: there is
-                    // no code revz can change (and, with identifiers, no compiling either).
-                    let from_binaries = uses_pipeline_binaries(info);
-                    if from_binaries && plan.renders_depth && state.policy.is_active() {
+                    let mut facts = VariantFacts {
+                        active: state.policy.is_active(),
+                        renders_depth: plan.static_state.renders_depth,
+                        // A pipeline linking a library of identified stages must keep
+                        // FAIL_ON_PIPELINE_COMPILE_REQUIRED too
+                        // (VUID-VkPipelineLibraryCreateInfoKHR-pLibraries-06855).
+                        identified: plan.depth.module_identifiers
+                            || linked.iter().any(|library| library.module_identifiers),
+                        from_binaries: uses_pipeline_binaries(info),
+                        fragment: None,
+                        compare_op_flips: plan.static_state.compare_op_variant,
+                        library_variants: false,
+                        promotion: false,
+                    };
+                    if facts.warns_of_binaries() {
                         static BINARIES: crate::logging::LogOnce = crate::logging::LogOnce::new();
                         BINARIES.log(|| {
                             log::warn!(
@@ -284,32 +248,24 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                             )
                         });
                     }
-                    let identified = identified || from_binaries;
-                    if state.policy.is_active() && plan.renders_depth && fragment {
-                        match fragment_stage_rewrite(&state, info) {
-                            Some((index, Ok(code))) if !identified => {
-                                plan.fragment = Some((index, code))
-                            }
-                            Some(_) => plan.depth.unreversed_fragment = true,
-                            // Shaders named by identifier have no code to look at.
-                            None if identified => plan.depth.unreversed_fragment = true,
-                            None => {}
-                        }
-                    }
-                    // With identifiers a variant could only come from the cache (it keeps
-                    // FAIL_ON_PIPELINE_COMPILE_REQUIRED:
-                    // VUID-VkPipelineShaderStageModuleIdentifierCreateInfoEXT-pNext-06851),
-                    // where the flipped state is not found: the application's pipeline would
-                    // be taken back every time, so such pipelines (and those linking them) get
-                    // none.
-                    plan.compare_op_variant &= !identified;
+                    let examined = examines_fragment(
+                        facts.active,
+                        facts.renders_depth,
+                        context.subsets.contains(Subsets::FRAGMENT_SHADER),
+                    );
+                    let fragment = examined.then(|| fragment_stage_rewrite(&state, info));
+                    facts.fragment = fragment.as_ref().map(|rewrite| match rewrite {
+                        None => FragmentStage::NoDepth,
+                        Some((_, Ok(_))) => FragmentStage::Rewritable,
+                        Some((_, Err(_))) => FragmentStage::CannotRewrite,
+                    });
                     let candidate = precise_candidate(
                         state.policy.rewrite().is_some(),
-                        plan.renders_depth,
+                        plan.static_state.renders_depth,
                         context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS),
                     );
                     if candidate {
-                        match projection_of(&state, info, !identified) {
+                        match projection_of(&state, info, facts.code_given()) {
                             Ok(stage) => {
                                 plan.depth.projection = stage.projection;
                                 plan.depth.derived_range = stage.derived;
@@ -325,15 +281,29 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         }
                     }
                     inherit_libraries(&mut plan.depth, &linked);
-                    if plan.renders_depth {
-                        match library_variants(&state, info, true, false) {
-                            Some(_) if identified => plan.depth.unreversed_fragment = true,
-                            variants => plan.libraries = variants,
+                    let libraries = if facts.renders_depth {
+                        library_variants(&state, info, true, false)
+                    } else {
+                        None
+                    };
+                    facts.library_variants = libraries.is_some();
+                    let promotion = promotion_of(&state, info, context.subsets, &linked);
+                    facts.promotion = promotion.is_some();
+                    plan.depth.promotable |= facts.promotion;
+                    let variants = facts.decide();
+                    if variants.rewritten_fragment {
+                        if let Some(Some((index, Ok(code)))) = fragment {
+                            plan.fragment = Some((index, code));
                         }
                     }
-                    plan.promotion = promotion_of(&state, info, context.subsets);
-                    plan.depth.promotable |= plan.promotion.is_some();
-                    if identified && plan.promotion.take().is_some() {
+                    if variants.linked_variants {
+                        plan.libraries = libraries;
+                    }
+                    if variants.promoted {
+                        plan.promotion = promotion;
+                    }
+                    plan.depth.unreversed_fragment |= variants.unreversed_fragment;
+                    if variants.promotion_refused {
                         static IDENTIFIED: crate::logging::LogOnce = crate::logging::LogOnce::new();
                         IDENTIFIED.log(|| {
                             log::error!(
@@ -344,6 +314,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                             )
                         });
                     }
+                    plan.variants = variants;
                     Some(plan)
                 })
                 .collect::<Vec<_>>()
@@ -434,7 +405,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         return Vec::new();
                     };
                     let mut made = Vec::new();
-                    for kind in plan.variant_kinds() {
+                    for kind in plan.variants.kinds() {
                         if returned_early {
                             break;
                         }
@@ -533,20 +504,11 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     continue;
                 };
                 plan.depth.handle = pipeline;
-                let variant = made_kind(VariantKind {
-                    reversed: true,
-                    promoted: false,
-                });
+                let variant = made_kind(VariantKind::REVERSED);
                 plan.depth.reversed_variant = variant;
-                plan.depth.promoted_variant = made_kind(VariantKind {
-                    reversed: false,
-                    promoted: true,
-                });
-                plan.depth.promoted_reversed_variant = made_kind(VariantKind {
-                    reversed: true,
-                    promoted: true,
-                });
-                if plan.promotion.is_some() && plan.depth.promoted_variant.is_none() {
+                plan.depth.promoted_variant = made_kind(VariantKind::PROMOTED);
+                plan.depth.promoted_reversed_variant = made_kind(VariantKind::PROMOTED_REVERSED);
+                if plan.variants.promoted && plan.depth.promoted_variant.is_none() {
                     static MISSING: crate::logging::LogOnce = crate::logging::LogOnce::new();
                     MISSING.log(|| {
                         log::error!(
@@ -558,17 +520,22 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 }
                 // Without its variant, a pipeline keeps (or links) the fragment shader that was
                 // to be rewritten.
-                if (plan.fragment.is_some() || plan.libraries.is_some()) && variant.is_none() {
+                if plan.variants.reversed_changes_fragment() && variant.is_none() {
                     plan.depth.unreversed_fragment = true;
                 }
 
-                match (&plan.depth.projection, &plan.flip_reason) {
-                    (None, None) if plan.depth.derived_range.is_some() => log::debug!(
+                let path = PipelinePath::of(
+                    plan.depth.projection,
+                    plan.depth.derived_range,
+                    plan.flip_reason.as_deref(),
+                );
+                match path {
+                    PipelinePath::Derived(source) => log::debug!(
                         "pipeline {pipeline:?}: projection from {}: its vertex stage derives \
                          the range from the matrix it loads (precise path)",
-                        plan.depth.derived_range.map_or("?", MatrixSource::describe)
+                        source.describe()
                     ),
-                    (Some(p), _) => log::debug!(
+                    PipelinePath::Pushed(p) => log::debug!(
                         "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
                          ({:?}, {:?}): precise path",
                         p.offset,
@@ -576,39 +543,24 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         p.storage,
                         p.convention
                     ),
-                    (None, Some(reason)) => {
+                    PipelinePath::Flip(reason) => {
                         log::debug!("pipeline {pipeline:?}: flip path ({reason})")
                     }
-                    (None, None) => {}
+                    PipelinePath::NotRewritten => {}
                 }
-                if let (Some(profile), true) = (&state.profile, plan.renders_depth) {
-                    let (path, projection) = match (&plan.depth.projection, &plan.flip_reason) {
-                        (Some(p), _) => (
-                            "precise",
-                            format!("push-constant bytes {}..{}", p.offset, p.end()),
-                        ),
-                        (None, None) if plan.depth.derived_range.is_some() => (
-                            "precise",
-                            format!(
-                                "{}, fitted by the vertex stage",
-                                plan.depth.derived_range.map_or("?", MatrixSource::describe)
-                            ),
-                        ),
-                        (None, Some(reason)) => ("flip", reason.clone()),
-                        (None, None) => ("flip", "the mode does not rewrite depth".to_owned()),
-                    };
+                if let (Some(profile), true) = (&state.profile, plan.static_state.renders_depth) {
                     profile.pipeline(
                         vk::Handle::as_raw(pipeline),
                         crate::profile::PipelineRecord {
                             kind: "pipeline",
-                            path,
-                            projection,
+                            path: path.label(),
+                            projection: path.to_string(),
                             reversed_variant: plan.depth.reversed_variant.is_some(),
                             promoted_variant: plan.depth.promoted_variant.is_some(),
                         },
                     );
                 }
-                if let (Some(_), Some(variant)) = (&plan.fragment, variant) {
+                if let (true, Some(variant)) = (plan.variants.rewritten_fragment, variant) {
                     log::debug!(
                         "pipeline {pipeline:?}: its fragment shader computes with depth; \
                          {variant:?}, with the shader rewritten, draws into reversed attachments"
@@ -807,7 +759,7 @@ mod tests {
             ..RENDERS_DEPTH
         };
         let planned = plan(&info, &variants);
-        assert!(planned.compare_op_variant);
+        assert!(planned.static_state.compare_op_variant);
         assert_eq!(
             planned
                 .dynamic_states
@@ -826,9 +778,9 @@ mod tests {
             .depth_stencil_state(&equal)
             .rasterization_state(&raster);
         let planned = plan(&info, &variants);
-        assert!(!planned.compare_op_variant);
+        assert!(!planned.static_state.compare_op_variant);
         assert!(planned.dynamic_states.is_none());
-        assert!(!plan(&info, &RENDERS_DEPTH).compare_op_variant);
+        assert!(!plan(&info, &RENDERS_DEPTH).static_state.compare_op_variant);
     }
 
     #[test]
@@ -891,7 +843,7 @@ mod tests {
             .rasterization_state(&discard);
         let discarding = plan(&info, &RENDERS_DEPTH);
         assert!(discarding.dynamic_states.is_none(), "rasterizer discard");
-        assert!(!discarding.renders_depth);
+        assert!(!discarding.static_state.renders_depth);
         assert!(plan(&info, &no_attachment).dynamic_states.is_none());
     }
 
@@ -964,11 +916,11 @@ mod tests {
             ..library(subsets)
         };
         let planned = plan(&info, &variants(Subsets::FRAGMENT_SHADER));
-        assert!(planned.compare_op_variant);
+        assert!(planned.static_state.compare_op_variant);
         assert!(planned.dynamic_states.is_none());
         // The compare op is fragment shader state: other libraries have none to flip.
         let planned = plan(&info, &variants(Subsets::PRE_RASTERIZATION_SHADERS));
-        assert!(!planned.compare_op_variant);
+        assert!(!planned.static_state.compare_op_variant);
     }
 
     #[test]

@@ -72,8 +72,10 @@ pub(super) fn inline_code<'a>(
     Some(unsafe { slice(inline.p_code, (inline.code_size / 4) as u32) })
 }
 
-/// The `Position` rewrite of a vertex module whose analysis found a projection in push
-/// constants (`None` for others: their draws take the flip path anyway).
+/// The `Position` rewrite of a vertex module the policy chose ([`vertex_stage::position_store`]):
+/// the carrier store where an entry point has its projection in push constants, else the
+/// deriving one (`None` without the precise path, or for a module that could not be analyzed:
+/// their draws take the flip path anyway).
 pub(super) fn position_store_of(
     state: &DeviceState,
     analysis: &ModuleAnalysis,
@@ -82,30 +84,28 @@ pub(super) fn position_store_of(
     let offset = state.policy.carrier_offset?;
     let entries = analysis.as_ref().ok()?;
     let no_position = position_store::Unsupported("no Position output");
-    if entries
-        .iter()
-        .any(|(_, a)| matches!(a, Analysis::Projection(_)))
-    {
-        return Some(
+    let rewrite = match vertex_stage::position_store(entries.iter().map(|(_, analysis)| analysis)) {
+        PositionStore::Carrier => {
             position_store::rewrite_position_store(words, offset).and_then(|code| {
                 let code = code.ok_or(no_position)?;
                 Ok(VertexRewrite {
                     code: code.into(),
                     derived: None,
                 })
-            }),
-        );
-    }
-    // No projection in push constants: the stage derives its range from the matrix it loads.
-    Some(
-        position_store::rewrite_position_store_deriving(words, offset).and_then(|code| {
-            let (code, source) = code.ok_or(no_position)?;
-            Ok(VertexRewrite {
-                code: code.into(),
-                derived: Some(source),
             })
-        }),
-    )
+        }
+        // No projection in push constants: the stage derives its range from the matrix it
+        // loads.
+        PositionStore::Deriving => position_store::rewrite_position_store_deriving(words, offset)
+            .and_then(|code| {
+                let (code, source) = code.ok_or(no_position)?;
+                Ok(VertexRewrite {
+                    code: code.into(),
+                    derived: Some(source),
+                })
+            }),
+    };
+    Some(rewrite)
 }
 
 pub unsafe extern "system" fn create_shader_module(

@@ -1,7 +1,9 @@
 //! What revz does with one graphics pipeline create info (`super`'s entry points apply it):
 //! the state subsets it defines, the dynamic states revz adds, whether its draws can take the
 //! precise path (a projection in push constants, or a vertex stage that derives its range),
-//! and how its promoted variants differ.
+//! and how its promoted variants differ. These functions read the create info and revz's
+//! objects and ask the policy (`crate::policy::pipelines`, `crate::policy::vertex_stage`),
+//! which decides.
 
 #![allow(clippy::wildcard_imports)]
 
@@ -264,63 +266,78 @@ pub(super) fn projection_of(
     }
 }
 
-/// How the promoted variants of a pipeline differ from it, if it needs them: its render pass
-/// has a promoted twin, its rendering formats are promotable, or a library it links has
-/// promoted variants. Logged where a pipeline needs them and cannot have them.
+/// How the promoted variants of a pipeline differ from it, if it needs them
+/// ([`PromotionFacts::decide`]: its render pass has a promoted twin, its rendering formats are
+/// promotable, or a library it links (`linked`) has promoted variants). Logged where a pipeline
+/// needs them and cannot have them.
 pub(super) fn promotion_of(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
     subsets: Subsets,
+    linked: &[Arc<PipelineDepth>],
 ) -> Option<Promotion> {
-    if !state.policy.promote {
-        return None;
-    }
-    let mut promotion = Promotion::default();
-    let mut promotable = false;
-    if subsets.intersects(USES_ATTACHMENT_FORMATS) {
-        if info.render_pass != vk::RenderPass::null() {
-            let pass = state.objects.render_passes.get(&info.render_pass)?;
-            if (0..pass.attachments.len()).any(|i| pass.promotable(i)) {
-                let Some(twin) = pass.promoted_twin else {
-                    static MISSING: crate::logging::LogOnce = crate::logging::LogOnce::new();
-                    MISSING.log(|| {
-                        log::error!(
-                            "a pipeline of a render pass without its promoted twin: its draws \
-                             into promoted depth images use it as it is, and the driver may \
-                             reject them"
-                        )
-                    });
-                    return None;
-                };
-                promotion.render_pass = Some(twin);
-                promotable = true;
+    let mut twin = None;
+    let attachments = if !subsets.intersects(USES_ATTACHMENT_FORMATS) {
+        PromotionAttachments::NotNamed
+    } else if info.render_pass != vk::RenderPass::null() {
+        match state.objects.render_passes.get(&info.render_pass) {
+            None => PromotionAttachments::UnknownPass,
+            Some(pass) => {
+                twin = pass.promoted_twin;
+                PromotionAttachments::Pass {
+                    promotable: (0..pass.attachments.len()).any(|i| pass.promotable(i)),
+                    twin: twin.is_some(),
+                }
             }
-        } else {
-            // SAFETY: a valid pNext chain (the application's contract).
-            let rendering =
-                unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) };
-            promotion.rendering = rendering.is_some_and(|r| {
+        }
+    } else {
+        // SAFETY: a valid pNext chain (the application's contract).
+        let rendering = unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) };
+        PromotionAttachments::Rendering {
+            promotable: rendering.is_some_and(|r| {
                 [r.depth_attachment_format, r.stencil_attachment_format]
                     .into_iter()
                     .any(|f| crate::conv::float_depth_format(f).is_some())
-            });
-            promotable |= promotion.rendering;
+            }),
         }
+    };
+    let facts = PromotionFacts {
+        promote: state.policy.promote,
+        attachments,
+        libraries_promotable: linked.iter().any(|library| library.promotable),
+    };
+    match facts.decide() {
+        PipelinePromotion::None => None,
+        PipelinePromotion::MissingTwin => {
+            static MISSING: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            MISSING.log(|| {
+                log::error!(
+                    "a pipeline of a render pass without its promoted twin: its draws \
+                     into promoted depth images use it as it is, and the driver may \
+                     reject them"
+                )
+            });
+            None
+        }
+        PipelinePromotion::Promoted {
+            twin: with_twin,
+            rendering,
+        } => Some(Promotion {
+            render_pass: twin.filter(|_| with_twin),
+            rendering,
+            libraries: library_variants(state, info, false, true),
+            reversed_libraries: library_variants(state, info, true, true),
+        }),
     }
-    promotion.libraries = library_variants(state, info, false, true);
-    promotion.reversed_libraries = library_variants(state, info, true, true);
-    promotable |= linked_libraries(state, info)
-        .iter()
-        .any(|library| library.promotable);
-    promotable.then_some(promotion)
 }
 
 /// Plans one create info. Every graphics pipeline gets a [`PipelineDepth`] (at least the
 /// states the application made dynamic, so that draw time never sends state a pipeline keeps
-/// static); depth-related static state becomes dynamic for pipelines that render depth, in
-/// the subsets the create info defines (viewport and depth bias are pre-rasterization state,
-/// compare op and depth bounds fragment shader state). A linked pipeline adds its libraries'
-/// afterwards ([`inherit_libraries`]).
+/// static); the static values of the subsets the create info defines (viewport and depth bias
+/// are pre-rasterization state, compare op and depth bounds fragment shader state) are read
+/// and recorded where the pipeline renders depth, and the policy says which become dynamic
+/// ([`StaticStateFacts::decide`]). A linked pipeline adds its libraries' afterwards
+/// ([`inherit_libraries`]).
 pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanContext) -> Plan {
     // SAFETY: null or valid (the application's contract).
     let dynamic = unsafe { info.p_dynamic_state.as_ref() };
@@ -328,7 +345,6 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
     let app_states = dynamic.map_or(&[][..], |d| unsafe {
         slice(d.p_dynamic_states, d.dynamic_state_count)
     });
-    let has = |state: vk::DynamicState| app_states.contains(&state);
     let mut depth = PipelineDepth {
         subsets: context.subsets,
         ..PipelineDepth::default()
@@ -341,33 +357,35 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         dynamic_states: None,
         depth,
         flip_reason: None,
-        compare_op_variant: false,
+        static_state: StaticStatePlan::default(),
         fragment: None,
         vertex: None,
         libraries: None,
-        renders_depth: false,
-        tested_compare_op: None,
         promotion: None,
+        variants: Variants::default(),
     };
-    if !context.has_depth_attachment {
-        return unchanged(depth);
-    }
     let pre_rasterization = context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
     let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
-    // SAFETY: the state pointers are null or valid for the subsets the create info defines
-    // (the application's contract; the depth state is read only when the pipeline has a depth
-    // attachment).
-    let (depth_stencil, raster, viewport) = unsafe {
-        // References are made only from pointers the spec says to read (`then_some` would
-        // make them first).
+    // References are made only from pointers the spec says to read (`then_some` would make
+    // them first): the rasterization state first, the depth-stencil and viewport state only
+    // once the pipeline renders depth.
+    let raster = if context.has_depth_attachment && pre_rasterization {
+        // SAFETY: null or valid where the create info defines pre-rasterization state (the
+        // application's contract).
+        unsafe { info.p_rasterization_state.as_ref() }
+    } else {
+        None
+    };
+    let rasterizer_discard = raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE);
+    if !renders_depth(context.has_depth_attachment, rasterizer_discard, app_states) {
+        return unchanged(depth);
+    }
+    // SAFETY: null or valid for the subsets the create info defines, as the pipeline renders
+    // depth (the application's contract).
+    let (depth_stencil, viewport) = unsafe {
         (
             if fragment {
                 info.p_depth_stencil_state.as_ref()
-            } else {
-                None
-            },
-            if pre_rasterization {
-                info.p_rasterization_state.as_ref()
             } else {
                 None
             },
@@ -378,50 +396,19 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
             },
         )
     };
-    if raster.is_some_and(|r| r.rasterizer_discard_enable == vk::TRUE)
-        && !has(vk::DynamicState::RASTERIZER_DISCARD_ENABLE)
-    {
-        return unchanged(depth);
-    }
-    let mut added = Vec::new();
-    let mut compare_op_variant = false;
-    let mut tested_compare_op = None;
+    // The static values, recorded for draw time.
     if let Some(depth_stencil) = depth_stencil {
         depth.compare_op = depth_stencil.depth_compare_op;
         depth.bounds = (
             depth_stencil.min_depth_bounds,
             depth_stencil.max_depth_bounds,
         );
-        let depth_test =
-            depth_stencil.depth_test_enable == vk::TRUE || has(vk::DynamicState::DEPTH_TEST_ENABLE);
-        if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
-            tested_compare_op = Some(depth.compare_op);
-            if !context.compare_op_variants {
-                added.push(vk::DynamicState::DEPTH_COMPARE_OP);
-                depth.injected |= States::COMPARE_OP;
-            } else {
-                compare_op_variant = flip_compare_op(depth.compare_op) != depth.compare_op;
-            }
-        }
-        let bounds = depth_stencil.depth_bounds_test_enable == vk::TRUE
-            || has(vk::DynamicState::DEPTH_BOUNDS_TEST_ENABLE);
-        if bounds && !has(vk::DynamicState::DEPTH_BOUNDS) {
-            added.push(vk::DynamicState::DEPTH_BOUNDS);
-            depth.injected |= States::BOUNDS;
-        }
     }
-    let viewport_dynamic =
-        has(vk::DynamicState::VIEWPORT) || has(vk::DynamicState::VIEWPORT_WITH_COUNT);
-    if let Some(viewport) = viewport.filter(|_| !viewport_dynamic) {
+    if let Some(viewport) = viewport.filter(|_| viewports_static(app_states)) {
         // SAFETY: `viewportCount` viewports when static.
         depth.viewports = unsafe { slice(viewport.p_viewports, viewport.viewport_count) }.to_vec();
-        if !depth.viewports.is_empty() {
-            added.push(vk::DynamicState::VIEWPORT);
-            depth.injected |= States::VIEWPORT;
-        }
     }
     if let Some(raster) = raster {
-        let bias = raster.depth_bias_enable == vk::TRUE || has(vk::DynamicState::DEPTH_BIAS_ENABLE);
         // SAFETY: a valid pNext chain (the application's contract).
         let representation =
             unsafe { chain::find::<vk::DepthBiasRepresentationInfoEXT<'_>>(raster.p_next) }
@@ -432,31 +419,41 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
             slope: raster.depth_bias_slope_factor,
             representation,
         };
-        // A bias with an explicit representation (VK_EXT_depth_bias_control) goes down again
-        // with vkCmdSetDepthBias2EXT and its representation; without that command it cannot,
-        // and the pipeline keeps its static (unflipped) bias.
-        let resendable = representation.is_none() || context.bias_with_representation;
-        if bias && resendable && !has(vk::DynamicState::DEPTH_BIAS) {
-            added.push(vk::DynamicState::DEPTH_BIAS);
-            depth.injected |= States::BIAS;
-        }
     }
-    let dynamic_states = (!added.is_empty()).then(|| {
+    let static_state = StaticStateFacts {
+        has_depth_attachment: context.has_depth_attachment,
+        app_dynamic: app_states,
+        rasterizer_discard,
+        depth_stencil: depth_stencil.map(|ds| DepthStencilFacts {
+            compare_op: ds.depth_compare_op,
+            depth_test_enable: ds.depth_test_enable == vk::TRUE,
+            depth_bounds_test_enable: ds.depth_bounds_test_enable == vk::TRUE,
+        }),
+        depth_bias: raster.map(|r| DepthBiasFacts {
+            enable: r.depth_bias_enable == vk::TRUE,
+            represented: depth.bias.representation.is_some(),
+        }),
+        static_viewports: depth.viewports.len(),
+        compare_op_variants: context.compare_op_variants,
+        bias_with_representation: context.bias_with_representation,
+    }
+    .decide();
+    depth.injected |= static_state.made_dynamic;
+    let dynamic_states = (!static_state.made_dynamic.is_empty()).then(|| {
         let mut states = app_states.to_vec();
-        states.extend(added);
+        states.extend(static_state.added_dynamic_states());
         states
     });
     Plan {
         dynamic_states,
         depth,
         flip_reason: None,
-        compare_op_variant,
+        static_state,
         fragment: None,
         vertex: None,
         libraries: None,
-        renders_depth: true,
-        tested_compare_op,
         promotion: None,
+        variants: Variants::default(),
     }
 }
 

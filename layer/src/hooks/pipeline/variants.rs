@@ -60,7 +60,7 @@ pub(super) fn create_variant(
         Variant::Missing
     };
     let promotion = plan.promotion.as_ref().filter(|_| kind.promoted);
-    let flipped = if plan.compare_op_variant && kind.reversed {
+    let flipped = if plan.variants.compare_op && kind.reversed {
         // SAFETY: non-null (the plan read it) and valid (the application's contract).
         let Some(depth_stencil) = (unsafe { info.p_depth_stencil_state.as_ref() }) else {
             return failed(&"no depth-stencil state");

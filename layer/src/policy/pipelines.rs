@@ -1,0 +1,1001 @@
+//! What revz makes of a graphics pipeline (and of a fragment shader object): which of its
+//! static states become dynamic ([`StaticStateFacts::decide`]), which variants it gets
+//! ([`VariantFacts::decide`]), whether it draws into promoted attachments
+//! ([`PromotionFacts::decide`]), what a fragment stage that computes with depth gets
+//! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`), and which path its
+//! draws take, as logged and shown in the depth profile ([`PipelinePath`]).
+//!
+//! The facts come from `vkCreateGraphicsPipelines` (`crate::hooks::pipeline` reads the create
+//! info, only the state the spec says to read and in its order, records the static values
+//! itself, and looks up its modules, libraries and render pass) and `vkCreateShadersEXT`
+//! (`crate::hooks::shader_object`); the hooks log and make the driver calls, this module only
+//! decides.
+
+use ash::vk;
+
+use crate::command_state::States;
+use crate::conv::flip_compare_op;
+use crate::precise::ProjectionUse;
+use crate::shader::derived_range::MatrixSource;
+
+/// Whether a pipeline's draws can reach a depth attachment: it has one, and does not
+/// statically discard every primitive. Otherwise the spec ignores its viewport and depth
+/// state (possibly dangling), and nothing about its depth matters.
+#[must_use]
+pub fn renders_depth(
+    has_depth_attachment: bool,
+    rasterizer_discard: bool,
+    app_dynamic: &[vk::DynamicState],
+) -> bool {
+    // A discard the application sets dynamically may be off at draw time.
+    let discards =
+        rasterizer_discard && !app_dynamic.contains(&vk::DynamicState::RASTERIZER_DISCARD_ENABLE);
+    has_depth_attachment && !discards
+}
+
+/// Whether a pipeline's viewports are static (the application made neither `VIEWPORT` nor
+/// `VIEWPORT_WITH_COUNT` dynamic): only then are they read, and made dynamic.
+#[must_use]
+pub fn viewports_static(app_dynamic: &[vk::DynamicState]) -> bool {
+    !app_dynamic.contains(&vk::DynamicState::VIEWPORT)
+        && !app_dynamic.contains(&vk::DynamicState::VIEWPORT_WITH_COUNT)
+}
+
+/// What [`StaticStateFacts::decide`] reads of a pipeline's depth-stencil state (given where
+/// the pipeline renders depth and defines fragment shader state).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DepthStencilFacts {
+    pub compare_op: vk::CompareOp,
+    pub depth_test_enable: bool,
+    pub depth_bounds_test_enable: bool,
+}
+
+/// What [`StaticStateFacts::decide`] reads of a pipeline's depth bias (its rasterization
+/// state, given where the pipeline renders depth and defines pre-rasterization state).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DepthBiasFacts {
+    /// `depthBiasEnable`.
+    pub enable: bool,
+    /// The bias has an explicit representation (`VkDepthBiasRepresentationInfoEXT`).
+    pub represented: bool,
+}
+
+/// What revz knows of a pipeline's static depth-related state, gathered by the pipeline hook
+/// from the subsets its create info defines.
+#[derive(Clone, Copy, Debug)]
+pub struct StaticStateFacts<'a> {
+    pub has_depth_attachment: bool,
+    /// The dynamic states the application listed.
+    pub app_dynamic: &'a [vk::DynamicState],
+    /// `rasterizerDiscardEnable` (false where the create info defines no rasterization state).
+    pub rasterizer_discard: bool,
+    /// Its depth-stencil state, where it defines fragment shader state.
+    pub depth_stencil: Option<DepthStencilFacts>,
+    /// Its depth bias, where it defines pre-rasterization state.
+    pub depth_bias: Option<DepthBiasFacts>,
+    /// How many static viewports it has (0 where it defines none, or they are dynamic).
+    pub static_viewports: usize,
+    /// The flipped compare op comes from a pipeline variant, not dynamic state
+    /// (`DevicePolicy::compare_op_variants`).
+    pub compare_op_variants: bool,
+    /// The device has `vkCmdSetDepthBias2EXT`: a bias with an explicit representation can be
+    /// sent again with it.
+    pub bias_with_representation: bool,
+}
+
+/// What revz does with a pipeline's static depth state.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StaticStatePlan {
+    /// Whether its draws can reach a depth attachment ([`renders_depth`]).
+    pub renders_depth: bool,
+    /// The states revz makes dynamic (the application left them static).
+    pub made_dynamic: States,
+    /// Whether the reversed variant is to flip the static compare op (the compare op is not
+    /// made dynamic, and flipping changes it; whether the variant is made is
+    /// [`Variants::compare_op`]).
+    pub compare_op_variant: bool,
+    /// The static compare op of a pipeline that tests depth (`None` where it does not, or
+    /// where the application sets the compare op dynamically): evidence of the application's
+    /// depth convention (`crate::policy::ConventionEvidence`).
+    pub tested_compare_op: Option<vk::CompareOp>,
+}
+
+impl StaticStatePlan {
+    /// The dynamic states revz adds to the application's list, in the order they are added.
+    pub fn added_dynamic_states(&self) -> impl Iterator<Item = vk::DynamicState> {
+        let made = self.made_dynamic;
+        [
+            (States::COMPARE_OP, vk::DynamicState::DEPTH_COMPARE_OP),
+            (States::BOUNDS, vk::DynamicState::DEPTH_BOUNDS),
+            (States::VIEWPORT, vk::DynamicState::VIEWPORT),
+            (States::BIAS, vk::DynamicState::DEPTH_BIAS),
+        ]
+        .into_iter()
+        .filter_map(move |(state, dynamic)| made.contains(state).then_some(dynamic))
+    }
+}
+
+impl StaticStateFacts<'_> {
+    /// Which static states become dynamic: in a pipeline that renders depth, the compare op of
+    /// a depth test (unless it comes from a variant), the bounds of a bounds test, static
+    /// viewports, and an enabled bias (unless its explicit representation cannot be sent
+    /// again). State the application made dynamic is left to it.
+    pub fn decide(&self) -> StaticStatePlan {
+        let has = |state: vk::DynamicState| self.app_dynamic.contains(&state);
+        let mut plan = StaticStatePlan {
+            renders_depth: renders_depth(
+                self.has_depth_attachment,
+                self.rasterizer_discard,
+                self.app_dynamic,
+            ),
+            ..StaticStatePlan::default()
+        };
+        if !plan.renders_depth {
+            return plan;
+        }
+        if let Some(depth_stencil) = self.depth_stencil {
+            let depth_test =
+                depth_stencil.depth_test_enable || has(vk::DynamicState::DEPTH_TEST_ENABLE);
+            if depth_test && !has(vk::DynamicState::DEPTH_COMPARE_OP) {
+                plan.tested_compare_op = Some(depth_stencil.compare_op);
+                if self.compare_op_variants {
+                    plan.compare_op_variant =
+                        flip_compare_op(depth_stencil.compare_op) != depth_stencil.compare_op;
+                } else {
+                    plan.made_dynamic |= States::COMPARE_OP;
+                }
+            }
+            let bounds = depth_stencil.depth_bounds_test_enable
+                || has(vk::DynamicState::DEPTH_BOUNDS_TEST_ENABLE);
+            if bounds && !has(vk::DynamicState::DEPTH_BOUNDS) {
+                plan.made_dynamic |= States::BOUNDS;
+            }
+        }
+        if self.static_viewports > 0 && viewports_static(self.app_dynamic) {
+            plan.made_dynamic |= States::VIEWPORT;
+        }
+        if let Some(bias) = self.depth_bias {
+            let enabled = bias.enable || has(vk::DynamicState::DEPTH_BIAS_ENABLE);
+            // A bias with an explicit representation (VK_EXT_depth_bias_control) goes down
+            // again with vkCmdSetDepthBias2EXT and its representation; without that command it
+            // cannot, and the pipeline keeps its static (unflipped) bias.
+            let resendable = !bias.represented || self.bias_with_representation;
+            if enabled && resendable && !has(vk::DynamicState::DEPTH_BIAS) {
+                plan.made_dynamic |= States::BIAS;
+            }
+        }
+        plan
+    }
+}
+
+/// Whether revz can see the code a pipeline runs: neither a stage given by a shader module
+/// identifier (`VK_EXT_shader_module_identifier`, its own or a linked library's) nor pipeline
+/// binaries (`VK_KHR_pipeline_binary`). Otherwise there is no code to rewrite (a variant of
+/// binaries would be the same pipeline), and with identifiers no compiling either: a variant
+/// could only come from the cache (it keeps `FAIL_ON_PIPELINE_COMPILE_REQUIRED`:
+/// VUID-VkPipelineShaderStageModuleIdentifierCreateInfoEXT-pNext-06851), where the flipped
+/// state is not found, so the application's pipeline would be taken back every time. Such
+/// pipelines (and those linking them) get no variants.
+#[must_use]
+pub fn code_given(identified: bool, from_binaries: bool) -> bool {
+    !(identified || from_binaries)
+}
+
+/// Whether revz looks at a pipeline's fragment stage: the mode is active, the pipeline renders
+/// depth and its create info defines fragment shader state (even without depth writes, a
+/// fragment shader may read `FragCoord.z`).
+#[must_use]
+pub fn examines_fragment(active: bool, renders_depth: bool, defines_fragment_shader: bool) -> bool {
+    active && renders_depth && defines_fragment_shader
+}
+
+/// What revz knows of a fragment stage's code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FragmentStage {
+    /// revz cannot see the code that runs (binary code, identifiers, pipeline binaries): it
+    /// may compute with depth.
+    Unknown,
+    /// It does not compute with depth (or there is no fragment stage).
+    NoDepth,
+    /// It computes with depth, and `crate::shader::fragment_depth` rewrote it.
+    Rewritable,
+    /// It computes with depth in a way the rewrite refuses.
+    CannotRewrite,
+}
+
+/// What a fragment stage gets for draws into reversed attachments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FragmentVariant {
+    /// Nothing: it does not compute with depth.
+    Unchanged,
+    /// A variant with its rewritten code, bound for draws into reversed attachments.
+    Rewritten,
+    /// No variant: it keeps standard depth in reversed attachments (marked, and warned once
+    /// at draw).
+    Unreversed,
+}
+
+impl FragmentStage {
+    /// What the stage gets; `variant_allowed`: revz can make a variant of what holds it (a
+    /// pipeline whose code is given, a shader object that is not part of a linked set).
+    #[must_use]
+    pub fn variant(self, variant_allowed: bool) -> FragmentVariant {
+        match self {
+            FragmentStage::NoDepth => FragmentVariant::Unchanged,
+            FragmentStage::Rewritable if variant_allowed => FragmentVariant::Rewritten,
+            FragmentStage::Unknown | FragmentStage::CannotRewrite | FragmentStage::Rewritable => {
+                FragmentVariant::Unreversed
+            }
+        }
+    }
+}
+
+/// What [`VariantFacts::decide`] reads of a pipeline, gathered at `vkCreateGraphicsPipelines`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VariantFacts {
+    /// The mode acts on depth.
+    pub active: bool,
+    /// [`StaticStatePlan::renders_depth`].
+    pub renders_depth: bool,
+    /// A stage of it, or of a library it links, is given by a shader module identifier.
+    pub identified: bool,
+    /// It is made from pipeline binaries.
+    pub from_binaries: bool,
+    /// Its fragment stage, where revz looks at it ([`examines_fragment`]).
+    pub fragment: Option<FragmentStage>,
+    /// Its static compare op flips and comes from a variant
+    /// ([`StaticStatePlan::compare_op_variant`]).
+    pub compare_op_flips: bool,
+    /// A library it links has a reversed variant (looked up where it renders depth).
+    pub library_variants: bool,
+    /// It draws into promoted attachments (`PromotionFacts::decide`).
+    pub promotion: bool,
+}
+
+/// Which variant of a pipeline to make: for reversed attachments, promoted ones, or both.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VariantKind {
+    pub reversed: bool,
+    pub promoted: bool,
+}
+
+impl VariantKind {
+    pub const REVERSED: VariantKind = VariantKind {
+        reversed: true,
+        promoted: false,
+    };
+    pub const PROMOTED: VariantKind = VariantKind {
+        reversed: false,
+        promoted: true,
+    };
+    pub const PROMOTED_REVERSED: VariantKind = VariantKind {
+        reversed: true,
+        promoted: true,
+    };
+}
+
+/// The variants a pipeline gets, and what it keeps without them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Variants {
+    /// The reversed variant flips the static compare op.
+    pub compare_op: bool,
+    /// The reversed variant has the fragment stage rewritten.
+    pub rewritten_fragment: bool,
+    /// The reversed variant links the linked libraries' reversed variants.
+    pub linked_variants: bool,
+    /// It gets promoted variants.
+    pub promoted: bool,
+    /// It keeps (or links) a fragment shader that may compute with depth, unreversed.
+    pub unreversed_fragment: bool,
+    /// It draws into promoted attachments but gets no promoted variant: its code is not
+    /// given (logged).
+    pub promotion_refused: bool,
+}
+
+impl VariantFacts {
+    /// [`code_given`] of the pipeline.
+    #[must_use]
+    pub fn code_given(&self) -> bool {
+        code_given(self.identified, self.from_binaries)
+    }
+
+    /// Whether to warn that a pipeline's reversed variant cannot be made from its binaries: it
+    /// renders depth in an active mode (known before its fragment stage is looked at, and
+    /// warned then).
+    #[must_use]
+    pub fn warns_of_binaries(&self) -> bool {
+        self.from_binaries && self.renders_depth && self.active
+    }
+
+    /// The variants: none where the code is not given (a fragment stage, or libraries with
+    /// variants, then stay unreversed, and promotion is refused).
+    #[must_use]
+    pub fn decide(&self) -> Variants {
+        let given = self.code_given();
+        let fragment = self.fragment.map(|stage| {
+            // What runs is not the code revz sees.
+            let stage = if given { stage } else { FragmentStage::Unknown };
+            stage.variant(given)
+        });
+        let libraries = self.renders_depth && self.library_variants;
+        Variants {
+            compare_op: self.compare_op_flips && given,
+            rewritten_fragment: fragment == Some(FragmentVariant::Rewritten),
+            linked_variants: libraries && given,
+            promoted: self.promotion && given,
+            unreversed_fragment: fragment == Some(FragmentVariant::Unreversed)
+                || (libraries && !given),
+            promotion_refused: self.promotion && !given,
+        }
+    }
+}
+
+impl Variants {
+    /// Whether the pipeline gets a variant bound for draws into reversed attachments.
+    #[must_use]
+    pub fn reversed(&self) -> bool {
+        self.compare_op || self.rewritten_fragment || self.linked_variants
+    }
+
+    /// Whether the reversed variant holds a fragment stage revz changed (its own, rewritten, or
+    /// the libraries' variants): without that variant the pipeline keeps (or links) the
+    /// unreversed one.
+    #[must_use]
+    pub fn reversed_changes_fragment(&self) -> bool {
+        self.rewritten_fragment || self.linked_variants
+    }
+
+    /// The variants the pipeline gets, in the order they are made.
+    pub fn kinds(&self) -> impl Iterator<Item = VariantKind> {
+        let reversed = self.reversed();
+        let promoted = self.promoted;
+        [
+            (reversed, VariantKind::REVERSED),
+            (promoted, VariantKind::PROMOTED),
+            (reversed && promoted, VariantKind::PROMOTED_REVERSED),
+        ]
+        .into_iter()
+        .filter_map(|(made, kind)| made.then_some(kind))
+    }
+}
+
+/// What a pipeline's attachments say of promotion (`DevicePolicy::promoted_format`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PromotionAttachments {
+    /// The subsets its create info defines name no render pass or rendering formats (a
+    /// vertex input library, a link).
+    NotNamed,
+    /// Its render pass is unknown to revz.
+    UnknownPass,
+    /// Its render pass: whether an attachment has a format revz promotes, and whether the pass
+    /// has its promoted twin.
+    Pass { promotable: bool, twin: bool },
+    /// Dynamic rendering: whether its depth or stencil format is one revz promotes.
+    Rendering { promotable: bool },
+}
+
+/// What [`PromotionFacts::decide`] reads, gathered at `vkCreateGraphicsPipelines`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PromotionFacts {
+    /// UNORM depth images are promoted on this device (`DevicePolicy::promote`).
+    pub promote: bool,
+    pub attachments: PromotionAttachments,
+    /// A library it links draws into promoted attachments.
+    pub libraries_promotable: bool,
+}
+
+/// Whether a pipeline draws into promoted attachments, and how its promoted variants differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PipelinePromotion {
+    /// It does not (or revz cannot tell: its render pass is unknown).
+    None,
+    /// Its render pass has promotable attachments but no promoted twin: its draws into
+    /// promoted images use it as it is (logged), and it gets no promoted variants.
+    MissingTwin,
+    /// Its promoted variants are made with its render pass's promoted twin (`twin`), with the
+    /// float rendering formats (`rendering`), and with the linked libraries' promoted variants.
+    Promoted { twin: bool, rendering: bool },
+}
+
+impl PromotionFacts {
+    /// The pipeline's promotion: its render pass has promotable attachments (and their twin),
+    /// its rendering formats are promotable, or a library it links is promoted.
+    #[must_use]
+    pub fn decide(&self) -> PipelinePromotion {
+        if !self.promote {
+            return PipelinePromotion::None;
+        }
+        let (twin, rendering) = match self.attachments {
+            PromotionAttachments::NotNamed
+            | PromotionAttachments::Pass {
+                promotable: false, ..
+            } => (false, false),
+            PromotionAttachments::UnknownPass => return PipelinePromotion::None,
+            PromotionAttachments::Pass { twin: false, .. } => {
+                return PipelinePromotion::MissingTwin
+            }
+            PromotionAttachments::Pass { twin: true, .. } => (true, false),
+            PromotionAttachments::Rendering { promotable } => (false, promotable),
+        };
+        if twin || rendering || self.libraries_promotable {
+            PipelinePromotion::Promoted { twin, rendering }
+        } else {
+            PipelinePromotion::None
+        }
+    }
+}
+
+/// Which path a pipeline's draws into reversed attachments take (`crate::policy::vertex_stage`
+/// decided between the precise and the flip path), as logged and shown in the depth profile:
+/// [`PipelinePath::label`] names the path, `Display` says where its projection comes from or
+/// why it takes the flip path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PipelinePath<'a> {
+    /// The precise path, with the projection in its push constants.
+    Pushed(ProjectionUse),
+    /// The precise path, its vertex stage deriving the range from the matrix it loads.
+    Derived(MatrixSource),
+    /// The flip path, for this reason.
+    Flip(&'a str),
+    /// The flip path, no reason given: the mode does not rewrite depth (or the pipeline was no
+    /// candidate for the precise path).
+    NotRewritten,
+}
+
+impl<'a> PipelinePath<'a> {
+    /// The path of a pipeline with a pushed `projection`, a `derived` range, or a `flip_reason`
+    /// (a pushed projection first, then a reason, then a derived range).
+    #[must_use]
+    pub fn of(
+        projection: Option<ProjectionUse>,
+        derived: Option<MatrixSource>,
+        flip_reason: Option<&'a str>,
+    ) -> PipelinePath<'a> {
+        match (projection, flip_reason, derived) {
+            (Some(projection), _, _) => PipelinePath::Pushed(projection),
+            (None, Some(reason), _) => PipelinePath::Flip(reason),
+            (None, None, Some(source)) => PipelinePath::Derived(source),
+            (None, None, None) => PipelinePath::NotRewritten,
+        }
+    }
+
+    /// The path's name in the depth profile: `precise` or `flip`.
+    #[must_use]
+    pub fn label(&self) -> &'static str {
+        match self {
+            PipelinePath::Pushed(_) | PipelinePath::Derived(_) => "precise",
+            PipelinePath::Flip(_) | PipelinePath::NotRewritten => "flip",
+        }
+    }
+}
+
+impl std::fmt::Display for PipelinePath<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PipelinePath::Pushed(projection) => write!(
+                f,
+                "push-constant bytes {}..{}",
+                projection.offset,
+                projection.end()
+            ),
+            PipelinePath::Derived(source) => {
+                write!(f, "{}, fitted by the vertex stage", source.describe())
+            }
+            PipelinePath::Flip(reason) => f.write_str(reason),
+            PipelinePath::NotRewritten => f.write_str("the mode does not rewrite depth"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TESTED: DepthStencilFacts = DepthStencilFacts {
+        compare_op: vk::CompareOp::LESS_OR_EQUAL,
+        depth_test_enable: true,
+        depth_bounds_test_enable: true,
+    };
+
+    const BIASED: DepthBiasFacts = DepthBiasFacts {
+        enable: true,
+        represented: false,
+    };
+
+    /// A pipeline that renders depth with every depth state static and enabled.
+    fn all_static() -> StaticStateFacts<'static> {
+        StaticStateFacts {
+            has_depth_attachment: true,
+            app_dynamic: &[],
+            rasterizer_discard: false,
+            depth_stencil: Some(TESTED),
+            depth_bias: Some(BIASED),
+            static_viewports: 1,
+            compare_op_variants: false,
+            bias_with_representation: false,
+        }
+    }
+
+    #[test]
+    fn a_pipeline_renders_depth_with_an_attachment_unless_it_statically_discards() {
+        assert!(renders_depth(true, false, &[]));
+        assert!(!renders_depth(false, false, &[]));
+        assert!(!renders_depth(true, true, &[]));
+        assert!(renders_depth(
+            true,
+            true,
+            &[vk::DynamicState::RASTERIZER_DISCARD_ENABLE]
+        ));
+        assert!(!renders_depth(
+            false,
+            true,
+            &[vk::DynamicState::RASTERIZER_DISCARD_ENABLE]
+        ));
+    }
+
+    #[test]
+    fn every_enabled_static_state_becomes_dynamic_in_order() {
+        let plan = all_static().decide();
+        assert!(plan.renders_depth);
+        assert_eq!(
+            plan.made_dynamic,
+            States::COMPARE_OP | States::BOUNDS | States::VIEWPORT | States::BIAS
+        );
+        assert!(!plan.compare_op_variant);
+        assert_eq!(plan.tested_compare_op, Some(vk::CompareOp::LESS_OR_EQUAL));
+        assert_eq!(
+            plan.added_dynamic_states().collect::<Vec<_>>(),
+            [
+                vk::DynamicState::DEPTH_COMPARE_OP,
+                vk::DynamicState::DEPTH_BOUNDS,
+                vk::DynamicState::VIEWPORT,
+                vk::DynamicState::DEPTH_BIAS,
+            ]
+        );
+    }
+
+    #[test]
+    fn a_pipeline_that_renders_no_depth_keeps_its_state() {
+        for facts in [
+            StaticStateFacts {
+                has_depth_attachment: false,
+                ..all_static()
+            },
+            StaticStateFacts {
+                rasterizer_discard: true,
+                ..all_static()
+            },
+        ] {
+            assert_eq!(facts.decide(), StaticStatePlan::default());
+        }
+        let dynamic_discard = [vk::DynamicState::RASTERIZER_DISCARD_ENABLE];
+        let facts = StaticStateFacts {
+            rasterizer_discard: true,
+            app_dynamic: &dynamic_discard,
+            ..all_static()
+        };
+        assert!(facts.decide().renders_depth);
+    }
+
+    #[test]
+    fn state_the_application_made_dynamic_is_left_to_it() {
+        let app = [
+            vk::DynamicState::DEPTH_COMPARE_OP,
+            vk::DynamicState::DEPTH_BOUNDS,
+            vk::DynamicState::DEPTH_BIAS,
+        ];
+        let facts = StaticStateFacts {
+            app_dynamic: &app,
+            static_viewports: 0,
+            ..all_static()
+        };
+        let plan = facts.decide();
+        assert!(plan.renders_depth);
+        assert!(plan.made_dynamic.is_empty());
+        assert_eq!(plan.added_dynamic_states().count(), 0);
+        // A dynamic compare op is no evidence of the convention.
+        assert_eq!(plan.tested_compare_op, None);
+        for viewport in [
+            vk::DynamicState::VIEWPORT,
+            vk::DynamicState::VIEWPORT_WITH_COUNT,
+        ] {
+            let app = [viewport];
+            assert!(!viewports_static(&app));
+            let facts = StaticStateFacts {
+                app_dynamic: &app,
+                ..all_static()
+            };
+            assert!(!facts.decide().made_dynamic.contains(States::VIEWPORT));
+        }
+        assert!(viewports_static(&[vk::DynamicState::SCISSOR]));
+    }
+
+    #[test]
+    fn disabled_tests_and_bias_stay_static_unless_enabled_dynamically() {
+        let off = StaticStateFacts {
+            depth_stencil: Some(DepthStencilFacts {
+                depth_test_enable: false,
+                depth_bounds_test_enable: false,
+                ..TESTED
+            }),
+            depth_bias: Some(DepthBiasFacts {
+                enable: false,
+                represented: false,
+            }),
+            static_viewports: 0,
+            ..all_static()
+        };
+        let plan = off.decide();
+        assert!(plan.made_dynamic.is_empty());
+        assert_eq!(plan.tested_compare_op, None);
+        let enables = [
+            vk::DynamicState::DEPTH_TEST_ENABLE,
+            vk::DynamicState::DEPTH_BOUNDS_TEST_ENABLE,
+            vk::DynamicState::DEPTH_BIAS_ENABLE,
+        ];
+        let enabled = StaticStateFacts {
+            app_dynamic: &enables,
+            ..off
+        };
+        let plan = enabled.decide();
+        assert_eq!(
+            plan.made_dynamic,
+            States::COMPARE_OP | States::BOUNDS | States::BIAS
+        );
+        assert_eq!(plan.tested_compare_op, Some(vk::CompareOp::LESS_OR_EQUAL));
+        // Without the states of other subsets, nothing of theirs is made dynamic.
+        let none = StaticStateFacts {
+            depth_stencil: None,
+            depth_bias: None,
+            static_viewports: 0,
+            ..all_static()
+        };
+        assert!(none.decide().made_dynamic.is_empty());
+    }
+
+    #[test]
+    fn with_variants_a_flipping_compare_op_stays_static_and_gets_a_variant() {
+        let variants = StaticStateFacts {
+            compare_op_variants: true,
+            ..all_static()
+        };
+        let plan = variants.decide();
+        assert!(plan.compare_op_variant);
+        assert!(!plan.made_dynamic.contains(States::COMPARE_OP));
+        assert_eq!(plan.tested_compare_op, Some(vk::CompareOp::LESS_OR_EQUAL));
+        // EQUAL reads the same reversed: no variant.
+        let equal = StaticStateFacts {
+            depth_stencil: Some(DepthStencilFacts {
+                compare_op: vk::CompareOp::EQUAL,
+                ..TESTED
+            }),
+            ..variants
+        };
+        let plan = equal.decide();
+        assert!(!plan.compare_op_variant);
+        assert_eq!(plan.tested_compare_op, Some(vk::CompareOp::EQUAL));
+    }
+
+    #[test]
+    fn an_explicit_bias_representation_is_made_dynamic_only_where_it_can_be_sent_again() {
+        let represented = StaticStateFacts {
+            depth_bias: Some(DepthBiasFacts {
+                enable: true,
+                represented: true,
+            }),
+            ..all_static()
+        };
+        assert!(!represented.decide().made_dynamic.contains(States::BIAS));
+        let resendable = StaticStateFacts {
+            bias_with_representation: true,
+            ..represented
+        };
+        assert!(resendable.decide().made_dynamic.contains(States::BIAS));
+    }
+
+    #[test]
+    fn a_fragment_stage_gets_a_variant_only_where_rewritten_and_allowed() {
+        use FragmentStage as S;
+        use FragmentVariant as V;
+        for allowed in [true, false] {
+            assert_eq!(S::NoDepth.variant(allowed), V::Unchanged);
+            assert_eq!(S::Unknown.variant(allowed), V::Unreversed);
+            assert_eq!(S::CannotRewrite.variant(allowed), V::Unreversed);
+        }
+        assert_eq!(S::Rewritable.variant(true), V::Rewritten);
+        assert_eq!(S::Rewritable.variant(false), V::Unreversed);
+    }
+
+    #[test]
+    fn code_is_given_without_identifiers_or_binaries_and_fragments_are_examined_in_depth() {
+        assert!(code_given(false, false));
+        assert!(!code_given(true, false));
+        assert!(!code_given(false, true));
+        assert!(examines_fragment(true, true, true));
+        for facts in [
+            (false, true, true),
+            (true, false, true),
+            (true, true, false),
+        ] {
+            assert!(!examines_fragment(facts.0, facts.1, facts.2));
+        }
+    }
+
+    /// A depth-rendering pipeline of given code that wants every variant.
+    fn wanting_all() -> VariantFacts {
+        VariantFacts {
+            active: true,
+            renders_depth: true,
+            identified: false,
+            from_binaries: false,
+            fragment: Some(FragmentStage::Rewritable),
+            compare_op_flips: true,
+            library_variants: true,
+            promotion: true,
+        }
+    }
+
+    #[test]
+    fn a_pipeline_of_given_code_gets_the_variants_it_needs() {
+        let variants = wanting_all().decide();
+        assert_eq!(
+            variants,
+            Variants {
+                compare_op: true,
+                rewritten_fragment: true,
+                linked_variants: true,
+                promoted: true,
+                unreversed_fragment: false,
+                promotion_refused: false,
+            }
+        );
+        assert!(variants.reversed());
+        assert!(variants.reversed_changes_fragment());
+        assert_eq!(
+            variants.kinds().collect::<Vec<_>>(),
+            [
+                VariantKind::REVERSED,
+                VariantKind::PROMOTED,
+                VariantKind::PROMOTED_REVERSED
+            ]
+        );
+        assert_eq!(VariantFacts::default().decide(), Variants::default());
+        assert_eq!(Variants::default().kinds().count(), 0);
+    }
+
+    #[test]
+    fn each_reason_alone_makes_the_reversed_variant() {
+        let none = VariantFacts {
+            fragment: Some(FragmentStage::NoDepth),
+            compare_op_flips: false,
+            library_variants: false,
+            promotion: false,
+            ..wanting_all()
+        };
+        assert!(!none.decide().reversed());
+        assert!(!none.decide().unreversed_fragment);
+        let compare_op = VariantFacts {
+            compare_op_flips: true,
+            ..none
+        }
+        .decide();
+        assert!(compare_op.reversed());
+        assert!(!compare_op.reversed_changes_fragment());
+        assert_eq!(
+            compare_op.kinds().collect::<Vec<_>>(),
+            [VariantKind::REVERSED]
+        );
+        let fragment = VariantFacts {
+            fragment: Some(FragmentStage::Rewritable),
+            ..none
+        }
+        .decide();
+        assert!(fragment.rewritten_fragment && fragment.reversed_changes_fragment());
+        let libraries = VariantFacts {
+            library_variants: true,
+            ..none
+        }
+        .decide();
+        assert!(libraries.linked_variants && libraries.reversed_changes_fragment());
+        // The libraries' variants count only where the pipeline renders depth.
+        let no_depth = VariantFacts {
+            library_variants: true,
+            renders_depth: false,
+            ..none
+        }
+        .decide();
+        assert!(!no_depth.linked_variants && !no_depth.unreversed_fragment);
+        let promoted = VariantFacts {
+            promotion: true,
+            ..none
+        }
+        .decide();
+        assert_eq!(
+            promoted.kinds().collect::<Vec<_>>(),
+            [VariantKind::PROMOTED]
+        );
+        let refused = VariantFacts {
+            fragment: Some(FragmentStage::CannotRewrite),
+            ..none
+        }
+        .decide();
+        assert!(refused.unreversed_fragment && !refused.reversed());
+        // A fragment stage not looked at is left alone.
+        let unexamined = VariantFacts {
+            fragment: None,
+            ..none
+        }
+        .decide();
+        assert_eq!(unexamined, Variants::default());
+    }
+
+    #[test]
+    fn without_its_code_a_pipeline_gets_no_variant_and_keeps_its_fragment_unreversed() {
+        for facts in [
+            VariantFacts {
+                identified: true,
+                ..wanting_all()
+            },
+            VariantFacts {
+                from_binaries: true,
+                ..wanting_all()
+            },
+        ] {
+            assert!(!facts.code_given());
+            let variants = facts.decide();
+            assert!(!variants.reversed());
+            assert!(!variants.promoted);
+            assert_eq!(variants.kinds().count(), 0);
+            assert!(variants.unreversed_fragment);
+            assert!(variants.promotion_refused);
+            assert_eq!(facts.warns_of_binaries(), facts.from_binaries);
+            // Even a fragment stage that seems not to compute with depth: what runs is not the
+            // code revz sees.
+            let no_depth = VariantFacts {
+                fragment: Some(FragmentStage::NoDepth),
+                library_variants: false,
+                ..facts
+            };
+            assert!(no_depth.decide().unreversed_fragment);
+            // Libraries with variants leave it unreversed too.
+            let libraries = VariantFacts {
+                fragment: None,
+                ..facts
+            };
+            assert!(libraries.decide().unreversed_fragment);
+            let neither = VariantFacts {
+                library_variants: false,
+                ..libraries
+            };
+            assert!(!neither.decide().unreversed_fragment);
+        }
+    }
+
+    #[test]
+    fn binaries_are_warned_of_only_where_they_matter() {
+        let binaries = VariantFacts {
+            from_binaries: true,
+            ..VariantFacts::default()
+        };
+        assert!(!binaries.warns_of_binaries());
+        let active = VariantFacts {
+            active: true,
+            ..binaries
+        };
+        assert!(!active.warns_of_binaries());
+        let rendering = VariantFacts {
+            renders_depth: true,
+            ..active
+        };
+        assert!(rendering.warns_of_binaries());
+        let inactive = VariantFacts {
+            active: false,
+            ..rendering
+        };
+        assert!(!inactive.warns_of_binaries());
+    }
+
+    #[test]
+    fn a_pipeline_is_promoted_by_its_attachments_or_its_libraries() {
+        use PipelinePromotion as P;
+        use PromotionAttachments as A;
+        let facts = |attachments, libraries_promotable| PromotionFacts {
+            promote: true,
+            attachments,
+            libraries_promotable,
+        };
+        let pass = A::Pass {
+            promotable: true,
+            twin: true,
+        };
+        assert_eq!(
+            facts(pass, false).decide(),
+            P::Promoted {
+                twin: true,
+                rendering: false
+            }
+        );
+        let rendering = A::Rendering { promotable: true };
+        assert_eq!(
+            facts(rendering, false).decide(),
+            P::Promoted {
+                twin: false,
+                rendering: true
+            }
+        );
+        let unpromoted = [
+            A::NotNamed,
+            A::Pass {
+                promotable: false,
+                twin: false,
+            },
+            A::Rendering { promotable: false },
+        ];
+        for attachments in unpromoted {
+            assert_eq!(facts(attachments, false).decide(), P::None);
+            assert_eq!(
+                facts(attachments, true).decide(),
+                P::Promoted {
+                    twin: false,
+                    rendering: false
+                }
+            );
+        }
+        // Without promotion on the device, nothing is.
+        for attachments in [pass, rendering, A::NotNamed] {
+            let off = PromotionFacts {
+                promote: false,
+                ..facts(attachments, true)
+            };
+            assert_eq!(off.decide(), P::None);
+        }
+    }
+
+    #[test]
+    fn an_unknown_pass_or_a_missing_twin_gives_no_promotion_whatever_the_libraries() {
+        use PipelinePromotion as P;
+        use PromotionAttachments as A;
+        for libraries_promotable in [false, true] {
+            let facts = |attachments| PromotionFacts {
+                promote: true,
+                attachments,
+                libraries_promotable,
+            };
+            assert_eq!(facts(A::UnknownPass).decide(), P::None);
+            let missing = A::Pass {
+                promotable: true,
+                twin: false,
+            };
+            assert_eq!(facts(missing).decide(), P::MissingTwin);
+        }
+    }
+
+    #[test]
+    fn a_pipelines_path_is_named_once_for_the_log_and_the_profile() {
+        let projection = ProjectionUse {
+            offset: 64,
+            stride: 16,
+            storage: revz_math::Storage::ColumnMajor,
+            convention: revz_math::DepthConvention::ZeroToOne,
+        };
+        let derived = Some(MatrixSource::UniformBuffer);
+        let pushed = PipelinePath::of(Some(projection), derived, Some("ignored"));
+        assert_eq!(pushed, PipelinePath::Pushed(projection));
+        assert_eq!(pushed.label(), "precise");
+        assert_eq!(pushed.to_string(), "push-constant bytes 64..128");
+        let flip = PipelinePath::of(None, derived, Some("its code is not given"));
+        assert_eq!(flip, PipelinePath::Flip("its code is not given"));
+        assert_eq!(flip.label(), "flip");
+        assert_eq!(flip.to_string(), "its code is not given");
+        let fitted = PipelinePath::of(None, derived, None);
+        assert_eq!(fitted.label(), "precise");
+        assert_eq!(
+            fitted.to_string(),
+            "a uniform buffer, fitted by the vertex stage"
+        );
+        let neither = PipelinePath::of(None, None, None);
+        assert_eq!(neither, PipelinePath::NotRewritten);
+        assert_eq!(neither.label(), "flip");
+        assert_eq!(neither.to_string(), "the mode does not rewrite depth");
+    }
+}
