@@ -1,7 +1,17 @@
 //! Which optional features a scene gets (those it needs and the device has), and the logical
 //! device with its queue.
 
+use super::instance::device_info;
 use super::*;
+
+/// The device extensions that give Vulkan 1.2's depth/stencil resolves (with
+/// `vkCreateRenderPass2`) below it, in the order they require each other.
+const KHR_DEPTH_STENCIL_RESOLVE: [&CStr; 4] = [
+    ash::khr::multiview::NAME,
+    ash::khr::maintenance2::NAME,
+    ash::khr::create_renderpass2::NAME,
+    ash::khr::depth_stencil_resolve::NAME,
+];
 
 /// The optional features `physical_device` has (`dynamicRendering` and the dynamic compare op
 /// with Vulkan 1.3 or the extensions that give them below it, `depthClipControl` and
@@ -396,4 +406,3 @@ impl Gpu {
             .with_context(|| format!("vkAllocateMemory of {} bytes failed", requirements.size))
     }
 }
-

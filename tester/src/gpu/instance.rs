@@ -14,7 +14,9 @@ impl Drop for InstanceCtx {
     }
 }
 
-pub(super) fn debug_messenger_info(log: &Arc<ValidationLog>) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
+pub(super) fn debug_messenger_info(
+    log: &Arc<ValidationLog>,
+) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
     vk::DebugUtilsMessengerCreateInfoEXT::default()
         .message_severity(
             vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
@@ -145,7 +147,6 @@ impl InstanceCtx {
     }
 }
 
-
 pub(super) fn c_chars_to_string(chars: Result<&CStr, std::ffi::FromBytesUntilNulError>) -> String {
     chars.map_or_else(
         |_| "(invalid)".to_owned(),
@@ -153,7 +154,10 @@ pub(super) fn c_chars_to_string(chars: Result<&CStr, std::ffi::FromBytesUntilNul
     )
 }
 
-pub(super) fn device_info(instance: &InstanceCtx, physical_device: vk::PhysicalDevice) -> DeviceInfo {
+pub(super) fn device_info(
+    instance: &InstanceCtx,
+    physical_device: vk::PhysicalDevice,
+) -> DeviceInfo {
     // SAFETY: `physical_device` was enumerated from this instance.
     let properties = unsafe {
         instance
@@ -231,13 +235,3 @@ impl InstanceCtx {
         }
     }
 }
-
-/// The device extensions that give Vulkan 1.2's depth/stencil resolves (with
-/// `vkCreateRenderPass2`) below it, in the order they require each other.
-const KHR_DEPTH_STENCIL_RESOLVE: [&CStr; 4] = [
-    ash::khr::multiview::NAME,
-    ash::khr::maintenance2::NAME,
-    ash::khr::create_renderpass2::NAME,
-    ash::khr::depth_stencil_resolve::NAME,
-];
-

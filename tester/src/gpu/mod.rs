@@ -262,7 +262,6 @@ impl Drop for Gpu {
     }
 }
 
-
 /// A buffer in host-visible, host-coherent memory, persistently mapped.
 pub struct HostBuffer<'a> {
     device: &'a ash::Device,
@@ -398,4 +397,3 @@ mod tests {
         assert!(Features::default().names().is_empty());
     }
 }
-

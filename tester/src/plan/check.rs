@@ -20,7 +20,6 @@ struct CheckState {
     pushed: (u32, u32),
 }
 
-
 impl Plan {
     /// Checks every rule the renderer relies on; `objects` is the scene's object count and
     /// `has_light` whether it has a light (needed by shadow passes).

@@ -1147,4 +1147,3 @@ mod tests {
         assert!(plan.needs().dynamic_compare_op);
     }
 }
-

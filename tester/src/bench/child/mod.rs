@@ -707,4 +707,3 @@ mod tests {
         assert!(heap_in_use() > 0);
     }
 }
-

@@ -5,7 +5,7 @@
 use super::*;
 
 impl Drop for Bench<'_> {
-    pub(super) fn drop(&mut self) {
+    fn drop(&mut self) {
         let device = &self.gpu.device;
         // SAFETY: every handle was created from `device` (or is null) and the device is idle.
         unsafe {
@@ -88,7 +88,11 @@ impl<'a> Bench<'a> {
     }
 
     /// Creates a pipeline of `kind` from `vertex` (with `scene.frag`).
-    pub(super) fn pipeline(&self, vertex: vk::ShaderModule, kind: PipelineKind) -> Result<vk::Pipeline> {
+    pub(super) fn pipeline(
+        &self,
+        vertex: vk::ShaderModule,
+        kind: PipelineKind,
+    ) -> Result<vk::Pipeline> {
         create_pipeline(
             &self.gpu.device,
             vertex,
@@ -390,4 +394,3 @@ fn create_pipeline(
         .next()
         .ok_or_else(|| anyhow!("vkCreateGraphicsPipelines returned no pipeline"))
 }
-
