@@ -1,8 +1,8 @@
 //! Copies and blits between depth images and buffers: where one end is a reversed image and
 //! the other holds standard depth, the depth regions are converted on the way (`crate::depth_copy`,
 //! decided by `crate::policy::CopyFacts::decide`) and the other regions (stencil) go down as
-//! the application gave them. The compute state the conversion disturbs is followed here
-//! too: compute pipeline and descriptor set binds.
+//! the application gave them. The compute state the conversion disturbs (descriptor set binds,
+//! push descriptors, conditional rendering) is followed in `compute_state.rs`.
 
 #![allow(clippy::wildcard_imports)]
 
@@ -664,120 +664,6 @@ pub unsafe extern "system" fn cmd_copy_image2(
     unsafe { next(buffer, p_info) }
 }
 
-/// `vkCmdBindDescriptorSets`: compute binds are kept, to be bound again after a conversion's
-/// dispatch; graphics binds go straight down.
-pub unsafe extern "system" fn cmd_bind_descriptor_sets(
-    buffer: vk::CommandBuffer,
-    bind_point: vk::PipelineBindPoint,
-    layout: vk::PipelineLayout,
-    first_set: u32,
-    set_count: u32,
-    p_sets: *const vk::DescriptorSet,
-    dynamic_offset_count: u32,
-    p_dynamic_offsets: *const u32,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindDescriptorSets");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        if bind_point == vk::PipelineBindPoint::COMPUTE {
-            // SAFETY: the counts the application gave.
-            let (sets, offsets) = unsafe {
-                (
-                    slice(p_sets, set_count),
-                    slice(p_dynamic_offsets, dynamic_offset_count),
-                )
-            };
-            entry
-                .copies()
-                .compute
-                .bind_sets(layout, first_set, sets, offsets);
-        }
-    });
-    if let Some(device) = device {
-        // SAFETY: calling down with the application's arguments.
-        unsafe {
-            (device.next.fp_v1_0().cmd_bind_descriptor_sets)(
-                buffer,
-                bind_point,
-                layout,
-                first_set,
-                set_count,
-                p_sets,
-                dynamic_offset_count,
-                p_dynamic_offsets,
-            )
-        }
-    }
-}
-
-/// `vkCmdPushDescriptorSetKHR`: compute push descriptors cannot be bound again by revz, so
-/// conversions in this recording are refused from here on.
-pub unsafe extern "system" fn cmd_push_descriptor_set_khr(
-    buffer: vk::CommandBuffer,
-    bind_point: vk::PipelineBindPoint,
-    layout: vk::PipelineLayout,
-    set: u32,
-    count: u32,
-    p_writes: *const vk::WriteDescriptorSet<'_>,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetKHR");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        if bind_point == vk::PipelineBindPoint::COMPUTE {
-            entry.copies().compute.bound_otherwise();
-        }
-    });
-    if let Some(next) = device.and_then(|d| d.commands.push_descriptor_set) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, bind_point, layout, set, count, p_writes) }
-    }
-}
-
-/// `vkCmdBindDescriptorSets2` (`VK_KHR_maintenance6`, Vulkan 1.4): not followed; a compute
-/// bind refuses later conversions in this recording.
-pub unsafe extern "system" fn cmd_bind_descriptor_sets2(
-    buffer: vk::CommandBuffer,
-    p_info: *const vk::BindDescriptorSetsInfoKHR<'_>,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindDescriptorSets2");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        // SAFETY: a valid info (the application's contract).
-        let stages = unsafe { (*p_info).stage_flags };
-        if stages.contains(vk::ShaderStageFlags::COMPUTE) {
-            entry.copies().compute.bound_otherwise();
-        }
-    });
-    if let Some(next) = device.and_then(|d| d.commands.bind_descriptor_sets2) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, p_info) }
-    }
-}
-
-/// `vkCmdSetDescriptorBufferOffsetsEXT`: descriptor buffers are not followed; a compute bind
-/// refuses later conversions in this recording.
-pub unsafe extern "system" fn cmd_set_descriptor_buffer_offsets_ext(
-    buffer: vk::CommandBuffer,
-    bind_point: vk::PipelineBindPoint,
-    layout: vk::PipelineLayout,
-    first_set: u32,
-    count: u32,
-    p_indices: *const u32,
-    p_offsets: *const vk::DeviceSize,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDescriptorBufferOffsetsEXT");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        if bind_point == vk::PipelineBindPoint::COMPUTE {
-            entry.copies().compute.bound_otherwise();
-        }
-    });
-    if let Some(next) = device.and_then(|d| d.commands.set_descriptor_buffer_offsets) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe {
-            next(
-                buffer, bind_point, layout, first_set, count, p_indices, p_offsets,
-            )
-        }
-    }
-}
-
 fn narrow_blit(region: vk::ImageBlit, aspect: vk::ImageAspectFlags) -> vk::ImageBlit {
     let mut region = region;
     region.src_subresource.aspect_mask = aspect;
@@ -870,47 +756,4 @@ pub unsafe extern "system" fn cmd_blit_image2(
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe { next(buffer, p_info) }
-}
-
-/// `vkCmdPushDescriptorSetWithTemplate(KHR)`: a push-descriptor template of the compute bind
-/// point refuses later conversions in this recording (revz cannot push them again).
-pub unsafe extern "system" fn cmd_push_descriptor_set_with_template(
-    buffer: vk::CommandBuffer,
-    template: vk::DescriptorUpdateTemplate,
-    layout: vk::PipelineLayout,
-    set: u32,
-    p_data: *const std::ffi::c_void,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetWithTemplateKHR");
-    let device = with_entry(buffer, &ENTRY, |entry| {
-        if entry.device.copies.pushes_compute(template) {
-            entry.copies().compute.bound_otherwise();
-        }
-    });
-    if let Some(next) = device.and_then(|d| d.commands.push_descriptor_set_with_template) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, template, layout, set, p_data) }
-    }
-}
-
-/// `vkCmdBeginConditionalRenderingEXT`: conversions are refused until it ends.
-pub unsafe extern "system" fn cmd_begin_conditional_rendering(
-    buffer: vk::CommandBuffer,
-    p_begin: *const vk::ConditionalRenderingBeginInfoEXT<'_>,
-) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBeginConditionalRenderingEXT");
-    let device = with_entry(buffer, &ENTRY, |entry| entry.copies().conditional = true);
-    if let Some(next) = device.and_then(|d| d.commands.begin_conditional_rendering) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, p_begin) }
-    }
-}
-
-pub unsafe extern "system" fn cmd_end_conditional_rendering(buffer: vk::CommandBuffer) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndConditionalRenderingEXT");
-    let device = with_entry(buffer, &ENTRY, |entry| entry.copies().conditional = false);
-    if let Some(next) = device.and_then(|d| d.commands.end_conditional_rendering) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer) }
-    }
 }

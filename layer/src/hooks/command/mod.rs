@@ -10,10 +10,12 @@
 //! of a command buffer's state, settling), push constants, the depth state setters, binds and
 //! the profile's draw hooks;
 //! [`passes`] the render pass and dynamic rendering begins, subpasses and ends; [`transfers`]
-//! clears and blits of depth images; [`copies`] copies of depth images (converted where one end
-//! is reversed) and the compute binds they restore; [`secondaries`] command buffer begins
+//! clears of depth images; [`copies`] copies of depth images (converted where one end
+//! is reversed), and blits; [`compute_state`] the compute binds and conditional rendering
+//! they restore or respect; [`secondaries`] command buffer begins
 //! (what a secondary inherits) and `vkCmdExecuteCommands`.
 
+mod compute_state;
 mod copies;
 mod passes;
 mod secondaries;
@@ -32,6 +34,7 @@ use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
+pub use compute_state::*;
 pub use copies::*;
 pub use passes::*;
 pub use secondaries::*;
