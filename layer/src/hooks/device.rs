@@ -29,7 +29,7 @@ pub unsafe extern "system" fn get_device_proc_addr(
             }
             // SAFETY: a non-null device passed to vkGetDeviceProcAddr is live.
             let state = DEVICES.get(unsafe { DispatchKey::of(device) })?;
-            if super::extensions::hides_device_command(name, state.added_extended_dynamic_state) {
+            if crate::policy::hides_device_command(name, state.added_extended_dynamic_state) {
                 return None;
             }
             // SAFETY: calling down the chain with the caller's arguments.

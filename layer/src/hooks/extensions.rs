@@ -9,7 +9,8 @@
 //! (`crate::policy::instance_needs_properties2`, `crate::policy::extended_dynamic_state_allowed`).
 //! What revz adds is revz's, not the application's: the commands of an added extension are not
 //! handed to the application through `vkGetInstanceProcAddr` or `vkGetDeviceProcAddr` (it did
-//! not enable them, and would get null without revz). Enumeration
+//! not enable them, and would get null without revz; `crate::policy::hides_instance_command`,
+//! `crate::policy::hides_device_command`). Enumeration
 //! (`vkEnumerate*ExtensionProperties`) reports what the implementation offers, which enabling
 //! does not change, so it passes through untouched.
 
@@ -21,34 +22,6 @@ use crate::ffi;
 pub const GET_PHYSICAL_DEVICE_PROPERTIES2: &CStr = c"VK_KHR_get_physical_device_properties2";
 /// The device extension that makes the depth compare op dynamic below Vulkan 1.3.
 pub const EXTENDED_DYNAMIC_STATE: &CStr = c"VK_EXT_extended_dynamic_state";
-
-/// The commands of `VK_KHR_get_physical_device_properties2`.
-const GET_PHYSICAL_DEVICE_PROPERTIES2_COMMANDS: [&[u8]; 7] = [
-    b"vkGetPhysicalDeviceFeatures2KHR",
-    b"vkGetPhysicalDeviceProperties2KHR",
-    b"vkGetPhysicalDeviceFormatProperties2KHR",
-    b"vkGetPhysicalDeviceImageFormatProperties2KHR",
-    b"vkGetPhysicalDeviceQueueFamilyProperties2KHR",
-    b"vkGetPhysicalDeviceMemoryProperties2KHR",
-    b"vkGetPhysicalDeviceSparseImageFormatProperties2KHR",
-];
-
-/// The commands of `VK_EXT_extended_dynamic_state` (their EXT names; the core names are the
-/// application's wherever its API version has them).
-const EXTENDED_DYNAMIC_STATE_COMMANDS: [&[u8]; 12] = [
-    b"vkCmdSetCullModeEXT",
-    b"vkCmdSetFrontFaceEXT",
-    b"vkCmdSetPrimitiveTopologyEXT",
-    b"vkCmdSetViewportWithCountEXT",
-    b"vkCmdSetScissorWithCountEXT",
-    b"vkCmdBindVertexBuffers2EXT",
-    b"vkCmdSetDepthTestEnableEXT",
-    b"vkCmdSetDepthWriteEnableEXT",
-    b"vkCmdSetDepthCompareOpEXT",
-    b"vkCmdSetDepthBoundsTestEnableEXT",
-    b"vkCmdSetStencilTestEnableEXT",
-    b"vkCmdSetStencilOpEXT",
-];
 
 /// The extension names of a create info.
 ///
@@ -62,18 +35,6 @@ pub unsafe fn names<'a>(names: *const *const c_char, count: u32) -> Vec<&'a CStr
         // SAFETY: each pointer is a NUL-terminated string (the caller's contract).
         .filter_map(|&name| unsafe { ffi::c_str(name) })
         .collect()
-}
-
-/// Whether `vkGetInstanceProcAddr` hides `name` from the application: a command of an instance
-/// extension revz added.
-pub fn hides_instance_command(name: &CStr, added_properties2: bool) -> bool {
-    added_properties2 && GET_PHYSICAL_DEVICE_PROPERTIES2_COMMANDS.contains(&name.to_bytes())
-}
-
-/// Whether `vkGetDeviceProcAddr` hides `name` from the application: a command of a device
-/// extension revz added.
-pub fn hides_device_command(name: &CStr, added_extended_dynamic_state: bool) -> bool {
-    added_extended_dynamic_state && EXTENDED_DYNAMIC_STATE_COMMANDS.contains(&name.to_bytes())
 }
 
 /// The application's extension list with `added` appended, for the create info passed down.
@@ -94,28 +55,6 @@ pub unsafe fn with_added(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn only_the_commands_of_added_extensions_are_hidden() {
-        assert!(hides_instance_command(
-            c"vkGetPhysicalDeviceFeatures2KHR",
-            true
-        ));
-        assert!(!hides_instance_command(
-            c"vkGetPhysicalDeviceFeatures2KHR",
-            false
-        ));
-        // The core name is the application's at 1.1 and above; at 1.0 the loader answers it.
-        assert!(!hides_instance_command(
-            c"vkGetPhysicalDeviceFeatures2",
-            true
-        ));
-        assert!(hides_device_command(c"vkCmdSetDepthCompareOpEXT", true));
-        assert!(hides_device_command(c"vkCmdSetStencilOpEXT", true));
-        assert!(!hides_device_command(c"vkCmdSetDepthCompareOpEXT", false));
-        assert!(!hides_device_command(c"vkCmdSetDepthCompareOp", true));
-        assert!(!hides_device_command(c"vkCmdDraw", true));
-    }
 
     #[test]
     fn the_added_name_follows_the_application_names() {

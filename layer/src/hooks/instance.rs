@@ -47,7 +47,7 @@ pub unsafe extern "system" fn get_instance_proc_addr(
             }
             // SAFETY: a non-null instance passed to vkGetInstanceProcAddr is live.
             let state = INSTANCES.get(unsafe { DispatchKey::of(instance) })?;
-            if extensions::hides_instance_command(name, state.added_properties2) {
+            if crate::policy::hides_instance_command(name, state.added_properties2) {
                 return None;
             }
             // SAFETY: calling down the chain with the caller's arguments.

@@ -3,7 +3,11 @@
 //! ([`CompareOpSource::decide`], from [`CompareOpFacts`] gathered at `vkCreateDevice`); and
 //! whether revz adds the extensions that needs: `VK_KHR_get_physical_device_properties2` to an
 //! instance ([`instance_needs_properties2`], at `vkCreateInstance`), and whether its devices may
-//! have `VK_EXT_extended_dynamic_state` ([`extended_dynamic_state_allowed`]).
+//! have `VK_EXT_extended_dynamic_state` ([`extended_dynamic_state_allowed`]); and which
+//! commands of what revz added the application does not see ([`hides_instance_command`],
+//! [`hides_device_command`]: the application did not enable those extensions).
+
+use std::ffi::CStr;
 
 use ash::vk;
 
@@ -96,6 +100,46 @@ impl CompareOpSource {
     }
 }
 
+/// The commands of `VK_KHR_get_physical_device_properties2`.
+const GET_PHYSICAL_DEVICE_PROPERTIES2_COMMANDS: [&[u8]; 7] = [
+    b"vkGetPhysicalDeviceFeatures2KHR",
+    b"vkGetPhysicalDeviceProperties2KHR",
+    b"vkGetPhysicalDeviceFormatProperties2KHR",
+    b"vkGetPhysicalDeviceImageFormatProperties2KHR",
+    b"vkGetPhysicalDeviceQueueFamilyProperties2KHR",
+    b"vkGetPhysicalDeviceMemoryProperties2KHR",
+    b"vkGetPhysicalDeviceSparseImageFormatProperties2KHR",
+];
+
+/// The commands of `VK_EXT_extended_dynamic_state` (their EXT names; the core names are the
+/// application's wherever its API version has them).
+const EXTENDED_DYNAMIC_STATE_COMMANDS: [&[u8]; 12] = [
+    b"vkCmdSetCullModeEXT",
+    b"vkCmdSetFrontFaceEXT",
+    b"vkCmdSetPrimitiveTopologyEXT",
+    b"vkCmdSetViewportWithCountEXT",
+    b"vkCmdSetScissorWithCountEXT",
+    b"vkCmdBindVertexBuffers2EXT",
+    b"vkCmdSetDepthTestEnableEXT",
+    b"vkCmdSetDepthWriteEnableEXT",
+    b"vkCmdSetDepthCompareOpEXT",
+    b"vkCmdSetDepthBoundsTestEnableEXT",
+    b"vkCmdSetStencilTestEnableEXT",
+    b"vkCmdSetStencilOpEXT",
+];
+
+/// Whether `vkGetInstanceProcAddr` hides `name` from the application: a command of an instance
+/// extension revz added.
+pub fn hides_instance_command(name: &CStr, added_properties2: bool) -> bool {
+    added_properties2 && GET_PHYSICAL_DEVICE_PROPERTIES2_COMMANDS.contains(&name.to_bytes())
+}
+
+/// Whether `vkGetDeviceProcAddr` hides `name` from the application: a command of a device
+/// extension revz added.
+pub fn hides_device_command(name: &CStr, added_extended_dynamic_state: bool) -> bool {
+    added_extended_dynamic_state && EXTENDED_DYNAMIC_STATE_COMMANDS.contains(&name.to_bytes())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,5 +213,27 @@ mod tests {
         assert!(extended_dynamic_state_allowed(V11, false));
         assert!(extended_dynamic_state_allowed(V10, true));
         assert!(!extended_dynamic_state_allowed(V10, false));
+    }
+
+    #[test]
+    fn only_the_commands_of_added_extensions_are_hidden() {
+        assert!(hides_instance_command(
+            c"vkGetPhysicalDeviceFeatures2KHR",
+            true
+        ));
+        assert!(!hides_instance_command(
+            c"vkGetPhysicalDeviceFeatures2KHR",
+            false
+        ));
+        // The core name is the application's at 1.1 and above; at 1.0 the loader answers it.
+        assert!(!hides_instance_command(
+            c"vkGetPhysicalDeviceFeatures2",
+            true
+        ));
+        assert!(hides_device_command(c"vkCmdSetDepthCompareOpEXT", true));
+        assert!(hides_device_command(c"vkCmdSetStencilOpEXT", true));
+        assert!(!hides_device_command(c"vkCmdSetDepthCompareOpEXT", false));
+        assert!(!hides_device_command(c"vkCmdSetDepthCompareOp", true));
+        assert!(!hides_device_command(c"vkCmdDraw", true));
     }
 }

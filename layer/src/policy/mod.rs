@@ -22,6 +22,7 @@
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
 //! | does revz add `VK_KHR_get_physical_device_properties2` to an instance ([`instance_needs_properties2`]) | the mode, the API version, whether the application enabled it | `vkCreateInstance` |
 //! | may a device of the instance have `VK_EXT_extended_dynamic_state` added ([`extended_dynamic_state_allowed`]) | the API version, whether `VK_KHR_get_physical_device_properties2` is enabled (by the application or revz) | `vkCreateInstance`, `vkCreateDevice` |
+//! | which commands `vkGet*ProcAddr` hides from the application ([`hides_instance_command`], [`hides_device_command`]) | the command's name, whether revz added the extension it belongs to | `vkGetInstanceProcAddr`, `vkGetDeviceProcAddr` (what was added: `vkCreateInstance`, `vkCreateDevice`) |
 //! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
 //! | is a pipeline a candidate for the precise path ([`vertex_stage::precise_candidate`]) | the mode, whether it renders depth, whether its create info defines its shaders | `vkCreateGraphicsPipelines` |
 //! | does a pipeline's vertex stage store reversed depth itself, and of which range ([`vertex_stage::VertexStageFacts::decide`]) | whether its code is given, its stages, the analysis of its vertex entry point (`crate::shader::analysis`), its layout's push-constant ranges and room for the carrier, its clip convention (static or dynamic), its module's `Position` rewrite and what that derives its range from (`crate::shader::position_store`, `crate::shader::derived_range`) | `vkCreateShaderModule` (or inline code, once per distinct code), `vkCreateGraphicsPipelines` |
@@ -73,7 +74,8 @@ mod secondaries;
 pub mod vertex_stage;
 
 pub use compare_op::{
-    extended_dynamic_state_allowed, instance_needs_properties2, CompareOpFacts, CompareOpSource,
+    extended_dynamic_state_allowed, hides_device_command, hides_instance_command,
+    instance_needs_properties2, CompareOpFacts, CompareOpSource,
 };
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{
