@@ -6,7 +6,7 @@
 //! `complementary`, `infinite`), round after round with the variants' order rotated each
 //! round, and compares every variant with no layer *of the same round*: ratios and differences
 //! are the median over rounds of the per-round figures. The children print what they measured
-//! as one JSON object on stdout (`child.rs` has the roles). Timing runs have validation off;
+//! as one JSON object on stdout (`child/` has the roles). Timing runs have validation off;
 //! `--validation` turns it on in every child (for smoke tests, not for figures).
 //!
 //! Outputs: `<out>/bench.json` (every child's figures and the summary), the `speed` table of

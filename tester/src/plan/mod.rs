@@ -1,7 +1,7 @@
 //! What a scene records, as data (no Vulkan): the passes it renders (render passes with one or
 //! two subpasses, dynamic rendering, a shadow-map pass), the pipelines it creates (their depth,
 //! stencil, bias, bounds and viewport state, static or dynamic) and the ordered list of steps
-//! the renderer turns into commands (`render.rs` interprets them one by one).
+//! the renderer turns into commands (`render/` interprets them one by one).
 //!
 //! Design: a scene is data plus this small command language, so that adding a scene never
 //! touches the renderer unless it needs a new kind of command. [`Plan::check`] states every
