@@ -158,7 +158,7 @@ impl DepthLine {
     ///
     /// `None` where an entry is not finite, the w row is zero or w does not vary (affine, per
     /// [`AFFINE_W_TOLERANCE`]), or the depth row is not on the w row within
-    /// [`RESIDUAL_TOLERANCE`]: the cases [`crate::classify`] does not call a projection or
+    /// [`RESIDUAL_TOLERANCE`]: the cases [`crate::classify`](fn@crate::classify) does not call a projection or
     /// calls orthographic. A line with B = 0 or an invalid range is returned: it may still
     /// belong to a known camera.
     #[must_use]
@@ -348,7 +348,7 @@ pub enum CameraMatch {
     /// A perspective depth line that matches no camera and cannot be trusted alone.
     Untrusted,
     /// Not a perspective transform (affine or orthographic, or not a projection):
-    /// [`crate::classify`] says what it is.
+    /// [`crate::classify`](fn@crate::classify) says what it is.
     NotPerspective,
 }
 

@@ -6,11 +6,11 @@
 //! its normalized depth is `D(w) = k + B / w`. The crate
 //!
 //! - reads the 16 float32 values in the member's storage order ([`read_clip_transform`]),
-//! - classifies the matrix ([`classify`]): standard perspective with its recovered (k, B) and
+//! - classifies the matrix ([`classify`](fn@classify)): standard perspective with its recovered (k, B) and
 //!   visible range (n, f, f possibly infinite), orthographic/affine, already reversed, or not
 //!   a projection,
 //! - rewrites a standard perspective to complementary or infinite reversed depth, and an
-//!   orthographic one to its exact finite reversal ([`rewrite`]): the new depth row is
+//!   orthographic one to its exact finite reversal ([`rewrite`](fn@rewrite)): the new depth row is
 //!   `k' * r3 + B' * e3` computed in f64, never `r3 - r2`,
 //! - writes the result back, each entry rounded once ([`write_clip_transform`]).
 //!

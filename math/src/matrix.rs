@@ -37,7 +37,7 @@ pub fn read_clip_transform(values: &[f32; 16], storage: Storage) -> DMat4 {
 /// Writes `m` as 16 float32 values in `storage` order, each entry rounded once to nearest.
 ///
 /// An entry beyond the float32 range becomes an infinity and NaN stays NaN: callers that write
-/// back a rewritten matrix get one from [`crate::rewrite`], which only returns matrices whose
+/// back a rewritten matrix get one from [`crate::rewrite`](fn@crate::rewrite), which only returns matrices whose
 /// entries fit.
 #[must_use]
 pub fn write_clip_transform(m: &DMat4, storage: Storage) -> [f32; 16] {

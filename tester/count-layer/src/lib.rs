@@ -12,7 +12,7 @@
 //! a directory of its own (`manifests/count/`), named after revz's in `VK_ADD_LAYER_PATH`.
 //!
 //! It is a test instrument, not a product: one instance and one device per process (what the
-//! benchmark's children create), the commands in [`COUNTED`] only (what the draw storm records
+//! benchmark's children create), the commands in `COUNTED` only (what the draw storm records
 //! and what revz may send down in its place), and every other command handed out as the next
 //! layer's own. Counting is one relaxed atomic add per command.
 

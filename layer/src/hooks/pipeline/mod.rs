@@ -9,7 +9,7 @@
 //! gets a reversed variant bound for draws into reversed attachments: a fragment shader library
 //! gets a variant library, and what links it a variant linking that one.
 //!
-//! The module is split by concern: [`plan`] plans what revz does with one create info (the
+//! The module is split by concern: [`plan`](mod@plan) plans what revz does with one create info (the
 //! dynamic states it adds, the precise path, the promoted variants), [`variants`] creates the
 //! reversed and promoted variants and the rewritten vertex stage, [`modules`] analyzes and
 //! rewrites shader modules and reserves the carrier in pipeline layouts; this file holds the
@@ -181,7 +181,7 @@ impl Variant {
     }
 }
 
-/// What [`plan`] needs to know beyond the create info.
+/// What [`plan`](fn@plan::plan) needs to know beyond the create info.
 struct PlanContext {
     /// Whether the pipeline renders into a depth attachment; the spec makes
     /// `pDepthStencilState` ignored (possibly dangling) otherwise.

@@ -26,8 +26,8 @@
 //! is refused with a reason, never guessed at; the pipeline's draws then take the flip path.
 //!
 //! # Files
-//! - this file: the entry points and [`Module`], the declarations the rewrite needs;
-//! - `declarations.rs`: the one pass over the words that fills [`Module`];
+//! - this file: the entry points and `Module`, the declarations the rewrite needs;
+//! - `declarations.rs`: the one pass over the words that fills `Module`;
 //! - `body.rs`: what the function bodies do with `Position` (redirected chains, returns, stores);
 //! - `rewrite.rs`: the rewrite proper, which emits the new words.
 
