@@ -14,6 +14,8 @@
 //! | which render pass a pass begin uses in place of the application's ([`PassTwin::choose`]) | whether the framebuffer was created promoted, whether a reversed attachment is resolved, whether the pass has a swapped-resolve twin | `vkCmdBeginRenderPass*` (framebuffers from `vkCreateFramebuffer`, twins from `vkCreateRenderPass*`) |
 //! | can a render pass's depth resolve be swapped ([`pass_resolve_swappable`]) | its mode, whether the pass has a swapped-resolve twin | framebuffer creation, imageless pass begins |
 //! | which clear a reversed image commits the convention with, and the target revz then acts on ([`Observed::committed`]) | whether the image (or any attachment of a pass) is reversed, the depth the first reversed attachment is cleared to there | `vkCmdBeginRenderPass*`, `vkCmdBeginRendering`, `vkCmdClearDepthStencilImage` (images from `vkCreateImage`) |
+//! | which of `vkCmdClearAttachments`' clears flip ([`attachment_clears_flip`], [`flips_attachment_clear`]) | the target draws go to (after the convention), each clear's aspect | `vkCmdClearAttachments` (the target: pass begins, images from `vkCreateImage`) |
+//! | does an image clear write depth, so that its value counts for the convention ([`clears_depth`]) | its ranges' aspects | `vkCmdClearDepthStencilImage` |
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
 //! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
@@ -41,7 +43,8 @@
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
 //! why an image stays native or keeps its format; resolve partners, views of promoted images),
 //! `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
-//! pass instances: which twin begins, framebuffers' storage), `convention.rs` (the
+//! pass instances: which twin begins, framebuffers' storage), `clears.rs` (clears outside pass
+//! begins: which attachment clears flip, which image clears write depth), `convention.rs` (the
 //! application's convention, and what revz observes of it), `secondaries.rs` (secondaries
 //! without a framebuffer, and what their inheritance makes of them), `compare_op.rs` (the
 //! dynamic compare op, and the extensions revz adds for it), `copies.rs` (copies: whether and
@@ -63,6 +66,7 @@
 //! convention is now decided once, from a clear to 0 together with GREATER compare ops or
 //! reversed projections, and never changed.
 
+mod clears;
 mod compare_op;
 mod convention;
 mod copies;
@@ -73,6 +77,7 @@ mod resolves;
 mod secondaries;
 pub mod vertex_stage;
 
+pub use clears::{attachment_clears_flip, clears_depth, flips_attachment_clear};
 pub use compare_op::{
     extended_dynamic_state_allowed, hides_device_command, hides_instance_command,
     instance_needs_properties2, CompareOpFacts, CompareOpSource,
