@@ -12,6 +12,9 @@
 //! | how a rendering instance's depth resolve goes down for a reversed attachment, and whether revz can resolve it reversed ([`ResolveSupport::reversed_resolve`]) | its depth resolve mode, the stencil attachment's resolve mode where it has a view, the device's resolve properties | `vkCmdBeginRendering`, `vkCreateDevice` |
 //! | is a framebuffer of promoted depth images, of unpromoted ones, or a mix no pass takes ([`FramebufferStorage::of`]) | whether each of its pass's promotable attachments is a promoted image (imageless: whether its attachment info would be, [`DevicePolicy::promoted_format`]) | `vkCreateFramebuffer` (images from `vkCreateImage`) |
 //! | which render pass a pass begin uses in place of the application's ([`PassTwin::choose`]) | whether the framebuffer was created promoted, whether a reversed attachment is resolved, whether the pass has a swapped-resolve twin | `vkCmdBeginRenderPass*` (framebuffers from `vkCreateFramebuffer`, twins from `vkCreateRenderPass*`) |
+//! | which target a render pass begin commits ([`pass_committed`]) | whether any of its attachments is reversed | `vkCmdBeginRenderPass*` (framebuffers' and imageless begins' views, images from `vkCreateImage`) |
+//! | which of a pass begin's clear values are of reversed attachments: the first commits the convention, and (after it) they flip ([`clears_reversed`]) | whether the pass clears each attachment's depth, whether it is reversed (as created, then after the convention) | `vkCmdBeginRenderPass*` (load ops from `vkCreateRenderPass*`, images from `vkCreateImage`) |
+//! | does a pass begin resolve a reversed attachment, so that it takes the swapped-resolve twin ([`resolves_reversed`]) | its subpasses' depth resolve sources, whether each attachment is reversed (after the convention) | `vkCmdBeginRenderPass*` (resolves from `vkCreateRenderPass*`, settled at framebuffer creation or the begin) |
 //! | can a render pass's depth resolve be swapped ([`pass_resolve_swappable`]) | its mode, whether the pass has a swapped-resolve twin | framebuffer creation, imageless pass begins |
 //! | which clear a reversed image commits the convention with, and the target revz then acts on ([`Observed::committed`]) | whether the image (or any attachment of a pass) is reversed, the depth the first reversed attachment is cleared to there | `vkCmdBeginRenderPass*`, `vkCmdBeginRendering`, `vkCmdClearDepthStencilImage` (images from `vkCreateImage`) |
 //! | which of `vkCmdClearAttachments`' clears flip ([`attachment_clears_flip`], [`flips_attachment_clear`]) | the target draws go to (after the convention), each clear's aspect | `vkCmdClearAttachments` (the target: pass begins, images from `vkCreateImage`) |
@@ -43,16 +46,17 @@
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
 //! why an image stays native or keeps its format; resolve partners, views of promoted images),
 //! `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
-//! pass instances: which twin begins, framebuffers' storage), `clears.rs` (clears outside pass
-//! begins: which attachment clears flip, which image clears write depth), `convention.rs` (the
-//! application's convention, and what revz observes of it), `secondaries.rs` (secondaries
-//! without a framebuffer, and what their inheritance makes of them), `compare_op.rs` (the
-//! dynamic compare op, and the extensions revz adds for it), `copies.rs` (copies: whether and
-//! how they are converted), `pipelines.rs` (pipelines: which static states become dynamic,
-//! which variants are made, promotion, the path a pipeline's draws take, fragment variants of
-//! shader objects), `vertex_stage.rs` (the precise path's vertex stage: candidate, store,
-//! range); [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that
-//! name code outside this module are decided there.
+//! pass instances: which twin begins, framebuffers' storage, the target, clears and resolves of
+//! a begin), `clears.rs` (clears outside pass begins: which attachment clears flip, which image
+//! clears write depth), `convention.rs` (the application's convention, and what revz observes
+//! of it), `secondaries.rs` (secondaries without a framebuffer, and what their inheritance
+//! makes of them), `compare_op.rs` (the dynamic compare op, and the extensions revz adds for
+//! it), `copies.rs` (copies: whether and how they are converted), `pipelines.rs` (pipelines:
+//! which static states become dynamic, which variants are made, promotion, the path a
+//! pipeline's draws take, fragment variants of shader objects), `vertex_stage.rs` (the precise
+//! path's vertex stage: candidate, store, range); [`DevicePolicy`] itself (the mode, the
+//! carrier, reversed clears) is here. The rows that name code outside this module are decided
+//! there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
@@ -89,7 +93,10 @@ pub use copies::{
 pub use images::{
     may_be_resolved, promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
 };
-pub use passes::{pass_resolve_swappable, FramebufferStorage, PassTwin};
+pub use passes::{
+    clears_reversed, pass_committed, pass_resolve_swappable, resolves_reversed, FramebufferStorage,
+    PassTwin,
+};
 pub use resolves::{
     DepthResolve, ResolveSupport, ReversedResolve, SubpassResolveFacts, TwinResolve,
 };

@@ -1,9 +1,14 @@
 //! Render pass instances and the twins revz begins in their place: the storage a
 //! framebuffer's depth attachments have ([`FramebufferStorage::of`]: promoted or not, or a mix
-//! no pass takes), which twin a pass begin uses ([`PassTwin::choose`]), and whether a pass's
-//! depth resolve can be swapped ([`pass_resolve_swappable`]).
+//! no pass takes), which twin a pass begin uses ([`PassTwin::choose`]), whether a pass's
+//! depth resolve can be swapped ([`pass_resolve_swappable`]), and at a begin: which target it
+//! commits ([`pass_committed`]), which of its clear values are of reversed attachments
+//! ([`clears_reversed`]: the first commits the convention, and they flip), and whether it
+//! resolves a reversed attachment ([`resolves_reversed`]).
 
 use ash::vk;
+
+use crate::command_state::Target;
 
 /// Whether a framebuffer's promotable depth attachments are promoted images: all (it is
 /// created with the pass's promoted twin), none, or some (a mix no pass can take).
@@ -69,9 +74,70 @@ pub fn pass_resolve_swappable(mode: vk::ResolveModeFlags, has_swapped_twin: bool
     !matches!(mode, vk::ResolveModeFlags::MIN | vk::ResolveModeFlags::MAX) || has_swapped_twin
 }
 
+/// The target a render pass begin commits (`crate::policy::Observed::committed`): reversed
+/// where any of its attachments (`images`, as created) is, at once; else none.
+pub fn pass_committed(images: &[Target]) -> Target {
+    if images.contains(&Target::Reversed) {
+        Target::Reversed
+    } else {
+        Target::None
+    }
+}
+
+/// Whether a render pass begin's clear value at an attachment is the depth clear of a reversed
+/// attachment: the pass clears that attachment's depth (`cleared`, from its load op) and the
+/// attachment is reversed (`target`; `None`: the framebuffer has no attachment there). Over the
+/// attachments as created, the first such clear commits the convention with its value; over
+/// them after the convention, each such clear value flips.
+pub fn clears_reversed(cleared: bool, target: Option<Target>) -> bool {
+    cleared && target == Some(Target::Reversed)
+}
+
+/// Whether a render pass begin resolves a reversed attachment: the source of one of its depth
+/// resolves (`sources`, attachment indices) is reversed in `targets` (after the convention).
+/// Sources were settled before (a reversed source resolves into a reversed image), so the pass
+/// begins with its swapped-resolve twin ([`PassTwin::choose`]).
+pub fn resolves_reversed(sources: impl IntoIterator<Item = u32>, targets: &[Target]) -> bool {
+    sources
+        .into_iter()
+        .any(|source| targets.get(source as usize) == Some(&Target::Reversed))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pass_commits_reversed_where_any_attachment_is() {
+        use Target::{Native, None, Reversed};
+        assert_eq!(pass_committed(&[]), None);
+        assert_eq!(pass_committed(&[None, Native]), None);
+        assert_eq!(pass_committed(&[Native, Reversed]), Reversed);
+        assert_eq!(pass_committed(&[Reversed]), Reversed);
+    }
+
+    #[test]
+    fn only_cleared_reversed_attachments_clear_reversed() {
+        assert!(clears_reversed(true, Some(Target::Reversed)));
+        assert!(!clears_reversed(false, Some(Target::Reversed)));
+        for target in [None, Some(Target::None), Some(Target::Native)] {
+            assert!(!clears_reversed(true, target));
+            assert!(!clears_reversed(false, target));
+        }
+    }
+
+    #[test]
+    fn a_pass_resolves_reversed_where_a_resolve_source_is_reversed() {
+        use Target::{Native, Reversed};
+        let targets = [Native, Reversed];
+        assert!(!resolves_reversed([], &targets));
+        assert!(!resolves_reversed([0], &targets));
+        assert!(resolves_reversed([1], &targets));
+        assert!(resolves_reversed([0, 1], &targets));
+        // A source beyond the framebuffer's attachments resolves nothing reversed.
+        assert!(!resolves_reversed([2], &targets));
+        assert!(!resolves_reversed([0], &[]));
+    }
 
     #[test]
     fn a_framebuffer_is_promoted_only_where_all_its_promotable_attachments_are() {
