@@ -1,5 +1,5 @@
-//! What revz makes of a graphics pipeline (and of a fragment shader object): which of its
-//! static states become dynamic ([`StaticStateFacts::decide`]), which variants it gets
+//! What revz makes of a graphics pipeline (and of a fragment shader object): whether it has a
+//! depth attachment ([`has_depth_attachment`]), which of its static states become dynamic ([`StaticStateFacts::decide`]), which variants it gets
 //! ([`VariantFacts::decide`]), whether it draws into promoted attachments
 //! ([`PromotionFacts::decide`]), what a fragment stage that computes with depth gets
 //! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`), and which path its
@@ -17,6 +17,37 @@ use crate::command_state::States;
 use crate::conv::flip_compare_op;
 use crate::precise::ProjectionUse;
 use crate::shader::derived_range::MatrixSource;
+
+/// Where a graphics pipeline create info's attachments come from, and what it says of depth
+/// there (the facts of [`has_depth_attachment`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthAttachmentFacts {
+    /// It names a render pass: whether its subpass has a depth attachment (`false` where the
+    /// pass is unknown or the subpass has none).
+    RenderPass { subpass_depth: bool },
+    /// No render pass, and it defines the fragment output interface: the depth format of its
+    /// `VkPipelineRenderingCreateInfo` (`None`: it chains none).
+    Rendering { depth_format: Option<vk::Format> },
+    /// A library without a render pass or the fragment output interface: it does not say
+    /// which attachments it draws into.
+    NoFragmentOutput,
+}
+
+/// Whether a pipeline (or library) has a depth attachment: its render pass's subpass has one,
+/// or its rendering formats name a depth format. A library without the fragment output
+/// interface counts as having one: it may be linked with output state that renders depth,
+/// and a fragment shader library without the attachment formats must give its depth state
+/// (the spec's rule), so it is planned as rendering depth.
+#[must_use]
+pub fn has_depth_attachment(facts: DepthAttachmentFacts) -> bool {
+    match facts {
+        DepthAttachmentFacts::RenderPass { subpass_depth } => subpass_depth,
+        DepthAttachmentFacts::Rendering { depth_format } => {
+            depth_format.is_some_and(|format| format != vk::Format::UNDEFINED)
+        }
+        DepthAttachmentFacts::NoFragmentOutput => true,
+    }
+}
 
 /// Whether a pipeline's draws can reach a depth attachment: it has one, and does not
 /// statically discard every primitive. Otherwise the spec ignores its viewport and depth
@@ -514,6 +545,25 @@ mod tests {
             compare_op_variants: false,
             bias_with_representation: false,
         }
+    }
+
+    #[test]
+    fn a_depth_attachment_is_the_subpass_or_the_rendering_format_or_assumed_in_a_library() {
+        use DepthAttachmentFacts::{NoFragmentOutput, RenderPass, Rendering};
+        assert!(has_depth_attachment(RenderPass {
+            subpass_depth: true
+        }));
+        assert!(!has_depth_attachment(RenderPass {
+            subpass_depth: false
+        }));
+        assert!(has_depth_attachment(Rendering {
+            depth_format: Some(vk::Format::D32_SFLOAT)
+        }));
+        assert!(!has_depth_attachment(Rendering {
+            depth_format: Some(vk::Format::UNDEFINED)
+        }));
+        assert!(!has_depth_attachment(Rendering { depth_format: None }));
+        assert!(has_depth_attachment(NoFragmentOutput));
     }
 
     #[test]

@@ -34,9 +34,10 @@ use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::policy::pipelines::{
-    examines_fragment, renders_depth, viewports_static, DepthBiasFacts, DepthStencilFacts,
-    FragmentStage, PipelinePath, PipelinePromotion, PromotionAttachments, PromotionFacts,
-    StaticStateFacts, StaticStatePlan, VariantFacts, VariantKind, Variants,
+    examines_fragment, has_depth_attachment, renders_depth, viewports_static, DepthAttachmentFacts,
+    DepthBiasFacts, DepthStencilFacts, FragmentStage, PipelinePath, PipelinePromotion,
+    PromotionAttachments, PromotionFacts, StaticStateFacts, StaticStatePlan, VariantFacts,
+    VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{
     self, precise_candidate, Missing, PositionStore, VertexStageFacts,
