@@ -1,6 +1,6 @@
 //! Depth images, decided once at `vkCreateImage` for their whole life: whether one is
 //! reversed or native (`DevicePolicy::classify_image`, and [`NativeReason`] why it stays
-//! native), and whether it is created in a float format (`DevicePolicy::promoted_format`, from
+//! native; [`ImageDepth::target`] the target that makes it), and whether it is created in a float format (`DevicePolicy::promoted_format`, from
 //! [`ImageFacts`], and [`KeptFormat`] why it keeps its own), whether an image may be on one
 //! end of a resolve ([`may_be_resolved`]), and the format a view of a promoted image is made
 //! in ([`promoted_view_format`]).
@@ -10,6 +10,7 @@ use std::fmt;
 use ash::vk;
 
 use super::DevicePolicy;
+use crate::command_state::Target;
 use crate::config::{Mode, Observable};
 use crate::conv::has_depth;
 
@@ -77,6 +78,17 @@ impl fmt::Display for NativeReason {
 pub enum ImageDepth {
     Reversed,
     Native(NativeReason),
+}
+
+impl ImageDepth {
+    /// The depth target draws into (or copies of) an image of this decision are, before the
+    /// application's convention (`crate::policy::Observed::effective`).
+    pub fn target(self) -> Target {
+        match self {
+            ImageDepth::Reversed => Target::Reversed,
+            ImageDepth::Native(_) => Target::Native,
+        }
+    }
 }
 
 /// What decides whether a depth image can be promoted, besides its format.
@@ -241,6 +253,15 @@ mod tests {
     use super::*;
     use crate::config::{CompareOp, Settings};
     use crate::policy::tests::policy;
+
+    #[test]
+    fn a_reversed_image_is_a_reversed_target_and_a_native_one_native() {
+        assert_eq!(ImageDepth::Reversed.target(), Target::Reversed);
+        assert_eq!(
+            ImageDepth::Native(NativeReason::CopiedFrom).target(),
+            Target::Native
+        );
+    }
 
     const ATTACHMENT_IMAGE: ImageFacts = ImageFacts {
         usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,

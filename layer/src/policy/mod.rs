@@ -34,6 +34,9 @@
 //! | which `Position` rewrite a vertex module gets: the carrier store or the deriving one ([`vertex_stage::position_store`]) | the analysis of its entry points (`crate::shader::analysis`) | `vkCreateShaderModule` (or inline code, once per distinct code) |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
 //! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
+//! | which end of a copy an image is: reversed or native after the convention, unknown images native ([`image_copy_end`], [`ImageDepth::target`]) | whether revz knows the image, its depth decision, the convention | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`, the convention from [`ConventionEvidence::decide`]) |
+//! | which kind of depth texel an image end holds: that of its promoted format where it has one ([`copied_texels`]) | its format, its promoted format | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
+//! | does an image count as single-sampled for a copy; unknown images do ([`single_sampled`]) | whether revz knows it, its sample count | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | which kind of texel a copy's conversion reads and writes ([`conversion_kind`]) | whether each end is a buffer or an image, and the depth texels of each image's format (the float one where promoted) | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | does a pipeline have a depth attachment; a library without the fragment output interface counts as having one ([`pipelines::has_depth_attachment`]) | its render pass's subpass depth attachment, else (with the fragment output interface) its rendering depth format | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
 //! | does a pipeline render depth at all ([`pipelines::renders_depth`]) | whether it has a depth attachment, its static `rasterizerDiscardEnable`, its dynamic states | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
@@ -90,7 +93,8 @@ pub use compare_op::{
 };
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{
-    conversion_kind, CopyDecision, CopyDirection, CopyEnd, CopyFacts, Texels, Unconverted,
+    conversion_kind, copied_texels, image_copy_end, single_sampled, CopyDecision, CopyDirection,
+    CopyEnd, CopyFacts, Texels, Unconverted,
 };
 pub use images::{
     may_be_resolved, promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
