@@ -1,9 +1,10 @@
-//! Depth images, decided once at `vkCreateImage` for their whole life: whether one is
-//! reversed or native (`DevicePolicy::classify_image`, and [`NativeReason`] why it stays
-//! native; [`ImageDepth::target`] the target that makes it), and whether it is created in a float format (`DevicePolicy::promoted_format`, from
-//! [`ImageFacts`], and [`KeptFormat`] why it keeps its own), whether an image may be on one
-//! end of a resolve ([`may_be_resolved`]), and the format a view of a promoted image is made
-//! in ([`promoted_view_format`]).
+//! Depth images, decided once at `vkCreateImage` for their whole life: whether one is reversed
+//! or native (`DevicePolicy::classify_image`, and [`NativeReason`] why it stays native;
+//! [`ImageDepth::target`] the target that makes it), and whether it is created in a float
+//! format (`DevicePolicy::promoted_format`, from [`ImageFacts`], and [`KeptFormat`] why it
+//! keeps its own; `DevicePolicy::may_promote` which images are considered at all), whether an
+//! image may be on one end of a resolve ([`may_be_resolved`]), and the format a view of a
+//! promoted image (or its format list) names ([`promoted_view_format`]).
 
 use std::fmt;
 
@@ -150,6 +151,14 @@ impl fmt::Display for KeptFormat {
 }
 
 impl DevicePolicy {
+    /// Whether an image of `format` is considered for promotion at all: promotion is on and
+    /// the format has a float counterpart. Asked before anything else of its creation (no
+    /// lock, no chain walk) so that every other image goes down as it is; those considered
+    /// are decided by [`DevicePolicy::promoted_format`].
+    pub fn may_promote(&self, format: vk::Format) -> bool {
+        self.promote && crate::conv::float_depth_format(format).is_some()
+    }
+
     /// The float format a depth image is created in instead of its own, or why it keeps its
     /// own (`Ok(None)`: not a promotable format, or promotion is off). Every image that can be
     /// is promoted, reversed or native: a render pass resolves only between images of one
@@ -239,7 +248,8 @@ pub fn may_be_resolved(usage: vk::ImageUsageFlags) -> bool {
 /// The format a view is made in of an image created in `image_format` and promoted to
 /// `promoted` (`None`: not promoted), where the application asks for `view_format`: a view in
 /// the image's own UNORM format is made in the float one (the only format a depth image's
-/// views can have); `None`: the view is made as asked.
+/// views can have); `None`: the view is made as asked. A promoted image's format list
+/// (`VkImageFormatListCreateInfo`) names its formats by the same rule.
 pub fn promoted_view_format(
     view_format: vk::Format,
     image_format: vk::Format,
@@ -261,6 +271,36 @@ mod tests {
             ImageDepth::Native(NativeReason::CopiedFrom).target(),
             Target::Native
         );
+    }
+
+    #[test]
+    fn only_promotable_formats_are_considered_where_promotion_is_on() {
+        let on = policy(Mode::Complementary, Observable::None);
+        assert!(on.promote);
+        let off = DevicePolicy {
+            promote: false,
+            ..on
+        };
+        assert!(on.may_promote(vk::Format::D16_UNORM));
+        assert!(on.may_promote(vk::Format::D24_UNORM_S8_UINT));
+        assert!(!on.may_promote(vk::Format::D32_SFLOAT));
+        assert!(!on.may_promote(vk::Format::R8G8B8A8_UNORM));
+        assert!(!off.may_promote(vk::Format::D16_UNORM));
+    }
+
+    #[test]
+    fn a_view_or_format_list_naming_the_unorm_format_names_the_float_one() {
+        use vk::Format as F;
+        let float = Some(F::D32_SFLOAT);
+        assert_eq!(
+            promoted_view_format(F::D16_UNORM, F::D16_UNORM, float),
+            float
+        );
+        assert_eq!(
+            promoted_view_format(F::R16_UNORM, F::D16_UNORM, float),
+            None
+        );
+        assert_eq!(promoted_view_format(F::D16_UNORM, F::D16_UNORM, None), None);
     }
 
     const ATTACHMENT_IMAGE: ImageFacts = ImageFacts {

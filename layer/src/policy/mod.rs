@@ -3,9 +3,10 @@
 //! | decision | facts it reads | where they come from |
 //! |---|---|---|
 //! | is a depth image reversed or native ([`DevicePolicy::classify_image`]) | format, usage, tiling, settings | `vkCreateImage` |
+//! | is an image considered for promotion at all, before any lock ([`DevicePolicy::may_promote`]) | `promote`, its format | `vkCreateImage` |
 //! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
 //! | may an image be on one end of a depth resolve, so that its partner's format counts ([`may_be_resolved`]) | its usage | `vkCreateImage` |
-//! | which format a view of a promoted image is made in ([`promoted_view_format`]) | the view's format, the image's format and whether it was promoted | `vkCreateImageView` (images from `vkCreateImage`) |
+//! | which format a view of a promoted image is made in, and which formats its format list names ([`promoted_view_format`]) | the view's (or listed) format, the image's format and whether it was promoted | `vkCreateImageView` (images from `vkCreateImage`), `vkCreateImage` |
 //! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
 //! | does a render pass get a twin with its MIN/MAX depth resolve swapped, and with which mode ([`ResolveSupport::twin_resolve`]) | each subpass's depth resolve mode, the stencil mode where the resolve attachment has stencil, where the resolve structure is in the subpass's chain, the device's resolve properties | `vkCreateRenderPass2` (for the promoted twin too), `vkCreateDevice` |
