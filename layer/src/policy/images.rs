@@ -1,7 +1,8 @@
 //! Depth images, decided once at `vkCreateImage` for their whole life: whether one is reversed
 //! or native (`DevicePolicy::classify_image`, and [`NativeReason`] why it stays native;
 //! [`ImageDepth::target`] the target that makes it), and whether it is created in a float
-//! format (`DevicePolicy::promoted_format`, from [`ImageFacts`], and [`KeptFormat`] why it
+//! format (`DevicePolicy::promoted_format`, from [`ImageFacts`] (an imageless framebuffer's
+//! attachments': [`ImageFacts::imageless_attachment`]), and [`KeptFormat`] why it
 //! keeps its own; `DevicePolicy::may_promote` which images are considered at all), whether an
 //! image may be on one end of a resolve ([`may_be_resolved`]), and the format a view of a
 //! promoted image (or its format list) names ([`promoted_view_format`]).
@@ -106,6 +107,24 @@ pub struct ImageFacts {
     /// image, and the other way round), a depth attachment (see
     /// `DeviceObjects::resolve_partner_kept`).
     pub partner_kept: bool,
+}
+
+impl ImageFacts {
+    /// What an imageless framebuffer's attachment info says of the image it will be (its
+    /// `usage` and `flags`): optimal tiling, as for any attachment; nothing external, and no
+    /// partner to keep its format (the info tells neither).
+    pub fn imageless_attachment(
+        usage: vk::ImageUsageFlags,
+        flags: vk::ImageCreateFlags,
+    ) -> ImageFacts {
+        ImageFacts {
+            usage,
+            tiling: vk::ImageTiling::OPTIMAL,
+            flags,
+            external: false,
+            partner_kept: false,
+        }
+    }
 }
 
 /// Why a depth image in a UNORM format keeps it (logged once per reason).
@@ -301,6 +320,22 @@ mod tests {
             None
         );
         assert_eq!(promoted_view_format(F::D16_UNORM, F::D16_UNORM, None), None);
+    }
+
+    #[test]
+    fn an_imageless_attachment_is_an_optimal_image_with_nothing_outside() {
+        let usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+        let flags = vk::ImageCreateFlags::MUTABLE_FORMAT;
+        assert_eq!(
+            ImageFacts::imageless_attachment(usage, flags),
+            ImageFacts {
+                usage,
+                tiling: vk::ImageTiling::OPTIMAL,
+                flags,
+                external: false,
+                partner_kept: false,
+            }
+        );
     }
 
     const ATTACHMENT_IMAGE: ImageFacts = ImageFacts {

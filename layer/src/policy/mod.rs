@@ -11,6 +11,10 @@
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
 //! | does a render pass get a twin with its MIN/MAX depth resolve swapped, and with which mode ([`ResolveSupport::twin_resolve`]) | each subpass's depth resolve mode, the stencil mode where the resolve attachment has stencil, where the resolve structure is in the subpass's chain, the device's resolve properties | `vkCreateRenderPass2` (for the promoted twin too), `vkCreateDevice` |
 //! | how a rendering instance's depth resolve goes down for a reversed attachment, and whether revz can resolve it reversed ([`ResolveSupport::reversed_resolve`]) | its depth resolve mode, the stencil attachment's resolve mode where it has a view, the device's resolve properties | `vkCmdBeginRendering`, `vkCreateDevice` |
+//! | which attachment formats a render pass's promoted twin has: the float ones ([`promoted_twin_format`]) | each attachment's format | `vkCreateRenderPass*` |
+//! | is a framebuffer considered for promotion at all ([`framebuffer_may_be_promoted`]) | `promote`, whether its pass has a promotable attachment | `vkCreateFramebuffer` (render passes from `vkCreateRenderPass*`) |
+//! | what an imageless framebuffer's attachment info says of its image ([`ImageFacts::imageless_attachment`]) | its usage and flags | `vkCreateFramebuffer` |
+//! | which view formats an imageless framebuffer of promoted images lists: the float one for its attachment's UNORM format ([`imageless_view_format`]) | each listed format, the pass's format of the attachment, whether it is promotable | `vkCreateFramebuffer` (render passes from `vkCreateRenderPass*`) |
 //! | is a framebuffer of promoted depth images, of unpromoted ones, or a mix no pass takes ([`FramebufferStorage::of`]) | whether each of its pass's promotable attachments is a promoted image (imageless: whether its attachment info would be, [`DevicePolicy::promoted_format`]) | `vkCreateFramebuffer` (images from `vkCreateImage`) |
 //! | which render pass a pass begin uses in place of the application's ([`PassTwin::choose`]) | whether the framebuffer was created promoted, whether a reversed attachment is resolved, whether the pass has a swapped-resolve twin | `vkCmdBeginRenderPass*` (framebuffers from `vkCreateFramebuffer`, twins from `vkCreateRenderPass*`) |
 //! | which target a render pass begin commits ([`pass_committed`]) | whether any of its attachments is reversed | `vkCmdBeginRenderPass*` (framebuffers' and imageless begins' views, images from `vkCreateImage`) |
@@ -52,19 +56,21 @@
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
-//! why an image stays native or keeps its format; resolve partners, views of promoted images),
-//! `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
-//! pass instances: which twin begins, framebuffers' storage, the target, clears and resolves of
-//! a begin), `clears.rs` (clears outside pass begins: which attachment clears flip, which image
-//! clears write depth), `convention.rs` (the application's convention, and what revz observes
-//! of it), `secondaries.rs` (secondaries without a framebuffer, and what their inheritance
-//! makes of them), `compare_op.rs` (the dynamic compare op, and the extensions revz adds for
-//! it), `copies.rs` (copies: whether and how they are converted), `pipelines.rs` (pipelines:
-//! which static states become dynamic, which variants are made, promotion, the path a
-//! pipeline's draws take, fragment variants of shader objects), `vertex_stage.rs` (the precise
-//! path's vertex stage: candidate, store, range); [`DevicePolicy`] itself (the mode, the
-//! carrier, reversed clears) is here. The rows that name code outside this module are decided
-//! there.
+//! why an image stays native or keeps its format; which images are considered for promotion,
+//! imageless attachments; resolve partners, views of promoted images), `resolves.rs` (resolve
+//! sources and modes, and swapped-resolve twins), `passes.rs` (render pass instances: which
+//! twin begins, framebuffers' storage and promotion, twins' formats, the target, clears and
+//! resolves of a begin), `clears.rs` (clears outside pass begins: which attachment clears flip,
+//! which image clears write depth), `convention.rs` (the application's convention, and what
+//! revz observes of it), `secondaries.rs` (secondaries without a framebuffer, and what their
+//! inheritance makes of them, promotion included), `compare_op.rs` (the dynamic compare op, and
+//! the extensions revz adds for it), `copies.rs` (copies: whether and how they are converted,
+//! and what their image ends are), `pipelines.rs` (pipelines: whether they have a depth
+//! attachment, which static states become dynamic, which variants are made, which are taken
+//! back uncompiled, promotion, the path a pipeline's draws take, fragment variants of shader
+//! objects), `vertex_stage.rs` (the precise path's vertex stage: candidate, store, range);
+//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that name
+//! code outside this module are decided there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
@@ -103,8 +109,8 @@ pub use images::{
     may_be_resolved, promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
 };
 pub use passes::{
-    clears_reversed, pass_committed, pass_resolve_swappable, resolves_reversed, FramebufferStorage,
-    PassTwin,
+    clears_reversed, framebuffer_may_be_promoted, imageless_view_format, pass_committed,
+    pass_resolve_swappable, promoted_twin_format, resolves_reversed, FramebufferStorage, PassTwin,
 };
 pub use resolves::{
     DepthResolve, ResolveSupport, ReversedResolve, SubpassResolveFacts, TwinResolve,

@@ -4,7 +4,10 @@
 //! depth resolve can be swapped ([`pass_resolve_swappable`]), and at a begin: which target it
 //! commits ([`pass_committed`]), which of its clear values are of reversed attachments
 //! ([`clears_reversed`]: the first commits the convention, and they flip), and whether it
-//! resolves a reversed attachment ([`resolves_reversed`]).
+//! resolves a reversed attachment ([`resolves_reversed`]); for promotion: the formats of a
+//! pass's promoted twin ([`promoted_twin_format`]), which framebuffers are considered for it
+//! ([`framebuffer_may_be_promoted`]), and the view formats an imageless one lists
+//! ([`imageless_view_format`]).
 
 use ash::vk;
 
@@ -103,9 +106,88 @@ pub fn resolves_reversed(sources: impl IntoIterator<Item = u32>, targets: &[Targ
         .any(|source| targets.get(source as usize) == Some(&Target::Reversed))
 }
 
+/// The format an attachment of a render pass's promoted twin has in place of the
+/// application's (`format`): the float format of a UNORM depth format, every one (the twin is
+/// begun only over framebuffers of promoted images); `None`: it keeps its format. A pass
+/// without such an attachment has no promoted twin.
+pub fn promoted_twin_format(format: vk::Format) -> Option<vk::Format> {
+    crate::conv::float_depth_format(format)
+}
+
+/// Whether a framebuffer is considered for promotion: promotion is on (`promote`) and its pass
+/// has an attachment revz promotes (`promotable`: each attachment's, asked in order until one
+/// is, and only where promotion is on).
+pub fn framebuffer_may_be_promoted(
+    promote: bool,
+    promotable: impl IntoIterator<Item = bool>,
+) -> bool {
+    promote && promotable.into_iter().any(|promotable| promotable)
+}
+
+/// The format an imageless framebuffer of promoted images lists for an attachment's views, in
+/// place of the application's `view_format`: the float one where it is the pass's UNORM format
+/// of the attachment (`attachment_format`; `None`: the pass has no such attachment) and the
+/// attachment is promotable (`promotable`); else as listed.
+pub fn imageless_view_format(
+    view_format: vk::Format,
+    attachment_format: Option<vk::Format>,
+    promotable: bool,
+) -> vk::Format {
+    match crate::conv::float_depth_format(view_format) {
+        Some(float) if Some(view_format) == attachment_format && promotable => float,
+        _ => view_format,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_promoted_twin_has_the_float_depth_formats() {
+        use vk::Format as F;
+        assert_eq!(promoted_twin_format(F::D16_UNORM), Some(F::D32_SFLOAT));
+        assert_eq!(
+            promoted_twin_format(F::D24_UNORM_S8_UINT),
+            Some(F::D32_SFLOAT_S8_UINT)
+        );
+        assert_eq!(promoted_twin_format(F::D32_SFLOAT), None);
+        assert_eq!(promoted_twin_format(F::R8G8B8A8_UNORM), None);
+    }
+
+    #[test]
+    fn a_framebuffer_is_considered_for_promotion_where_its_pass_is_promotable() {
+        assert!(framebuffer_may_be_promoted(true, [false, true]));
+        assert!(!framebuffer_may_be_promoted(true, [false]));
+        assert!(!framebuffer_may_be_promoted(true, []));
+        assert!(!framebuffer_may_be_promoted(false, [true]));
+    }
+
+    #[test]
+    fn an_imageless_framebuffer_lists_the_float_format_for_its_promotable_unorm_attachment() {
+        use vk::Format as F;
+        let d16 = Some(F::D16_UNORM);
+        assert_eq!(
+            imageless_view_format(F::D16_UNORM, d16, true),
+            F::D32_SFLOAT
+        );
+        assert_eq!(
+            imageless_view_format(F::D16_UNORM, d16, false),
+            F::D16_UNORM
+        );
+        assert_eq!(
+            imageless_view_format(F::D16_UNORM, Some(F::D24_UNORM_S8_UINT), true),
+            F::D16_UNORM
+        );
+        assert_eq!(
+            imageless_view_format(F::D16_UNORM, None, true),
+            F::D16_UNORM
+        );
+        assert_eq!(
+            imageless_view_format(F::R16_UNORM, Some(F::R16_UNORM), true),
+            F::R16_UNORM
+        );
+    }
 
     #[test]
     fn a_pass_commits_reversed_where_any_attachment_is() {
