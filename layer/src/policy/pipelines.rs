@@ -1,10 +1,11 @@
 //! What revz makes of a graphics pipeline (and of a fragment shader object): whether it has a
-//! depth attachment ([`has_depth_attachment`]), which of its static states become dynamic ([`StaticStateFacts::decide`]), which variants it gets
-//! ([`VariantFacts::decide`]), whether it draws into promoted attachments
-//! ([`PromotionFacts::decide`]), what a fragment stage that computes with depth gets
-//! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`), and which path its
-//! draws take, as logged and shown in the depth profile ([`PipelinePath`]); and which of a
-//! batch's pipelines are taken back where a variant needs compiling ([`TakeBack`]).
+//! depth attachment ([`has_depth_attachment`]), which of its static states become dynamic
+//! ([`StaticStateFacts::decide`]), which variants it gets ([`VariantFacts::decide`]), whether
+//! it draws into promoted attachments ([`PromotionFacts::decide`]), what a fragment stage that
+//! computes with depth gets ([`FragmentStage::variant`], shared with
+//! `crate::hooks::shader_object`), and which path its draws take, as logged and shown in the
+//! depth profile ([`PipelinePath`]); and which of a batch's pipelines are taken back where a
+//! variant needs compiling ([`TakeBack`]).
 //!
 //! The facts come from `vkCreateGraphicsPipelines` (`crate::hooks::pipeline` reads the create
 //! info, only the state the spec says to read and in its order, records the static values
