@@ -30,7 +30,10 @@ use crate::chain;
 use crate::conv::{has_depth, has_stencil};
 use crate::hooks::resources::slice;
 use crate::objects::{RenderPassInfo, SubpassResolve};
-use crate::policy::{FramebufferStorage, SubpassResolveFacts, TwinResolve};
+use crate::policy::{
+    framebuffer_may_be_promoted, imageless_view_format, promoted_twin_format, FramebufferStorage,
+    SubpassResolveFacts, TwinResolve,
+};
 use crate::state::DeviceState;
 
 static CREATE_RENDER_PASS: EntryPoint = EntryPoint::new("vkCreateRenderPass");
@@ -178,7 +181,7 @@ fn promoted_attachments<T: Copy>(
     let mut changed = false;
     for attachment in &mut copy {
         let format = format(attachment);
-        if let Some(float) = crate::conv::float_depth_format(*format) {
+        if let Some(float) = promoted_twin_format(*format) {
             *format = float;
             changed = true;
         }
@@ -405,13 +408,7 @@ fn imageless_promoted(
     format: vk::Format,
     attachment: &vk::FramebufferAttachmentImageInfo<'_>,
 ) -> bool {
-    let facts = crate::policy::ImageFacts {
-        usage: attachment.usage,
-        tiling: vk::ImageTiling::OPTIMAL,
-        flags: attachment.flags,
-        external: false,
-        partner_kept: false,
-    };
+    let facts = crate::policy::ImageFacts::imageless_attachment(attachment.usage, attachment.flags);
     let image = vk::ImageCreateInfo {
         flags: attachment.flags,
         image_type: vk::ImageType::TYPE_2D,
@@ -455,7 +452,10 @@ unsafe fn plan_framebuffer<'a>(
     info: &vk::FramebufferCreateInfo<'a>,
     pass: &RenderPassInfo,
 ) -> Option<FramebufferCreation<'a>> {
-    if !state.policy.promote || !(0..pass.attachments.len()).any(|i| pass.promotable(i)) {
+    if !framebuffer_may_be_promoted(
+        state.policy.promote,
+        (0..pass.attachments.len()).map(|i| pass.promotable(i)),
+    ) {
         return None;
     }
     let imageless = info.flags.contains(vk::FramebufferCreateFlags::IMAGELESS);
@@ -529,10 +529,7 @@ unsafe fn plan_framebuffer<'a>(
                 let original = pass.attachments.get(index).copied();
                 formats
                     .iter()
-                    .map(|&f| match crate::conv::float_depth_format(f) {
-                        Some(float) if Some(f) == original && pass.promotable(index) => float,
-                        _ => f,
-                    })
+                    .map(|&f| imageless_view_format(f, original, pass.promotable(index)))
                     .collect()
             })
             .collect();

@@ -64,7 +64,7 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
         promoted: None,
         _chain: None,
     };
-    if !state.policy.promote || crate::conv::float_depth_format(info.format).is_none() {
+    if !state.policy.may_promote(info.format) {
         return unchanged;
     }
     // SAFETY: a valid chain (the application's contract).
@@ -102,7 +102,7 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
             let formats: Vec<vk::Format> =
                 unsafe { slice(list.p_view_formats, list.view_format_count) }
                     .iter()
-                    .map(|&f| if f == info.format { float } else { f })
+                    .map(|&f| promoted_view_format(f, info.format, Some(float)).unwrap_or(f))
                     .collect();
             let replacement = vk::ImageFormatListCreateInfo {
                 view_format_count: formats.len() as u32,

@@ -1,11 +1,40 @@
 //! Transfers touching a reversed depth image (copies and blits): whether their depth values
 //! are converted, and which way ([`CopyFacts::decide`] into a [`CopyDecision`]), or why one
 //! that should be is not ([`Unconverted`]); and which texels a conversion reads and writes
-//! ([`conversion_kind`]).
+//! ([`conversion_kind`]); what each image end of a copy is ([`image_copy_end`],
+//! [`copied_texels`], [`single_sampled`]).
 
 use std::fmt;
 
+use ash::vk;
+
+use crate::command_state::Target;
 use crate::depth_copy::plan::TexelKind;
+
+/// Which end of a copy an image is: reversed where revz knows it (`effective`: `None` where it
+/// does not) and its depth is reversed after the application's convention
+/// (`crate::policy::Observed::effective` of `crate::policy::ImageDepth::target`); native
+/// otherwise, unknown images included.
+pub fn image_copy_end(effective: Option<Target>) -> CopyEnd {
+    match effective {
+        Some(Target::Reversed) => CopyEnd::Reversed,
+        Some(Target::Native | Target::None) | None => CopyEnd::Native,
+    }
+}
+
+/// The kind of depth texel a copy of an image of `format` reads or writes: that of the format
+/// revz created it in, the float one (`promoted`) where it was promoted. `None`: no depth
+/// aspect revz knows.
+pub fn copied_texels(format: vk::Format, promoted: Option<vk::Format>) -> Option<TexelKind> {
+    TexelKind::of(promoted.unwrap_or(format))
+}
+
+/// Whether an image of `samples` (`None`: an image revz does not know) has one sample per
+/// texel. Unknown images count as single-sampled: revz converts only copies with a reversed
+/// end, which it knows.
+pub fn single_sampled(samples: Option<vk::SampleCountFlags>) -> bool {
+    samples.is_none_or(|samples| samples == vk::SampleCountFlags::TYPE_1)
+}
 
 /// One end of a copy, blit or resolve, as [`CopyFacts`] sees it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -175,6 +204,34 @@ pub fn conversion_kind(source: Texels, destination: Texels) -> Option<TexelKind>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_image_end_is_reversed_only_where_it_is_after_the_convention() {
+        assert_eq!(image_copy_end(Some(Target::Reversed)), CopyEnd::Reversed);
+        assert_eq!(image_copy_end(Some(Target::Native)), CopyEnd::Native);
+        assert_eq!(image_copy_end(Some(Target::None)), CopyEnd::Native);
+        assert_eq!(image_copy_end(None), CopyEnd::Native);
+    }
+
+    #[test]
+    fn a_copy_reads_the_texels_of_the_promoted_format_where_there_is_one() {
+        let d16 = TexelKind::of(vk::Format::D16_UNORM);
+        let d32 = TexelKind::of(vk::Format::D32_SFLOAT);
+        assert!(d16.is_some() && d16 != d32);
+        assert_eq!(copied_texels(vk::Format::D16_UNORM, None), d16);
+        assert_eq!(
+            copied_texels(vk::Format::D16_UNORM, Some(vk::Format::D32_SFLOAT)),
+            d32
+        );
+        assert_eq!(copied_texels(vk::Format::R8G8B8A8_UNORM, None), None);
+    }
+
+    #[test]
+    fn unknown_images_count_as_single_sampled() {
+        assert!(single_sampled(None));
+        assert!(single_sampled(Some(vk::SampleCountFlags::TYPE_1)));
+        assert!(!single_sampled(Some(vk::SampleCountFlags::TYPE_4)));
+    }
 
     #[test]
     fn copies_convert_exactly_where_one_end_is_reversed() {

@@ -1,15 +1,18 @@
-//! Depth images, decided once at `vkCreateImage` for their whole life: whether one is
-//! reversed or native (`DevicePolicy::classify_image`, and [`NativeReason`] why it stays
-//! native), and whether it is created in a float format (`DevicePolicy::promoted_format`, from
-//! [`ImageFacts`], and [`KeptFormat`] why it keeps its own), whether an image may be on one
-//! end of a resolve ([`may_be_resolved`]), and the format a view of a promoted image is made
-//! in ([`promoted_view_format`]).
+//! Depth images, decided once at `vkCreateImage` for their whole life: whether one is reversed
+//! or native (`DevicePolicy::classify_image`, and [`NativeReason`] why it stays native;
+//! [`ImageDepth::target`] the target that makes it), and whether it is created in a float
+//! format (`DevicePolicy::promoted_format`, from [`ImageFacts`] (an imageless framebuffer's
+//! attachments': [`ImageFacts::imageless_attachment`]), and [`KeptFormat`] why it
+//! keeps its own; `DevicePolicy::may_promote` which images are considered at all), whether an
+//! image may be on one end of a resolve ([`may_be_resolved`]), and the format a view of a
+//! promoted image (or its format list) names ([`promoted_view_format`]).
 
 use std::fmt;
 
 use ash::vk;
 
 use super::DevicePolicy;
+use crate::command_state::Target;
 use crate::config::{Mode, Observable};
 use crate::conv::has_depth;
 
@@ -79,6 +82,17 @@ pub enum ImageDepth {
     Native(NativeReason),
 }
 
+impl ImageDepth {
+    /// The depth target draws into (or copies of) an image of this decision are, before the
+    /// application's convention (`crate::policy::Observed::effective`).
+    pub fn target(self) -> Target {
+        match self {
+            ImageDepth::Reversed => Target::Reversed,
+            ImageDepth::Native(_) => Target::Native,
+        }
+    }
+}
+
 /// What decides whether a depth image can be promoted, besides its format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImageFacts {
@@ -93,6 +107,24 @@ pub struct ImageFacts {
     /// image, and the other way round), a depth attachment (see
     /// `DeviceObjects::resolve_partner_kept`).
     pub partner_kept: bool,
+}
+
+impl ImageFacts {
+    /// What an imageless framebuffer's attachment info says of the image it will be (its
+    /// `usage` and `flags`): optimal tiling, as for any attachment; nothing external, and no
+    /// partner to keep its format (the info tells neither).
+    pub fn imageless_attachment(
+        usage: vk::ImageUsageFlags,
+        flags: vk::ImageCreateFlags,
+    ) -> ImageFacts {
+        ImageFacts {
+            usage,
+            tiling: vk::ImageTiling::OPTIMAL,
+            flags,
+            external: false,
+            partner_kept: false,
+        }
+    }
 }
 
 /// Why a depth image in a UNORM format keeps it (logged once per reason).
@@ -138,6 +170,14 @@ impl fmt::Display for KeptFormat {
 }
 
 impl DevicePolicy {
+    /// Whether an image of `format` is considered for promotion at all: promotion is on and
+    /// the format has a float counterpart. Asked before anything else of its creation (no
+    /// lock, no chain walk) so that every other image goes down as it is; those considered
+    /// are decided by [`DevicePolicy::promoted_format`].
+    pub fn may_promote(&self, format: vk::Format) -> bool {
+        self.promote && crate::conv::float_depth_format(format).is_some()
+    }
+
     /// The float format a depth image is created in instead of its own, or why it keeps its
     /// own (`Ok(None)`: not a promotable format, or promotion is off). Every image that can be
     /// is promoted, reversed or native: a render pass resolves only between images of one
@@ -227,7 +267,8 @@ pub fn may_be_resolved(usage: vk::ImageUsageFlags) -> bool {
 /// The format a view is made in of an image created in `image_format` and promoted to
 /// `promoted` (`None`: not promoted), where the application asks for `view_format`: a view in
 /// the image's own UNORM format is made in the float one (the only format a depth image's
-/// views can have); `None`: the view is made as asked.
+/// views can have); `None`: the view is made as asked. A promoted image's format list
+/// (`VkImageFormatListCreateInfo`) names its formats by the same rule.
 pub fn promoted_view_format(
     view_format: vk::Format,
     image_format: vk::Format,
@@ -241,6 +282,61 @@ mod tests {
     use super::*;
     use crate::config::{CompareOp, Settings};
     use crate::policy::tests::policy;
+
+    #[test]
+    fn a_reversed_image_is_a_reversed_target_and_a_native_one_native() {
+        assert_eq!(ImageDepth::Reversed.target(), Target::Reversed);
+        assert_eq!(
+            ImageDepth::Native(NativeReason::CopiedFrom).target(),
+            Target::Native
+        );
+    }
+
+    #[test]
+    fn only_promotable_formats_are_considered_where_promotion_is_on() {
+        let on = policy(Mode::Complementary, Observable::None);
+        assert!(on.promote);
+        let off = DevicePolicy {
+            promote: false,
+            ..on
+        };
+        assert!(on.may_promote(vk::Format::D16_UNORM));
+        assert!(on.may_promote(vk::Format::D24_UNORM_S8_UINT));
+        assert!(!on.may_promote(vk::Format::D32_SFLOAT));
+        assert!(!on.may_promote(vk::Format::R8G8B8A8_UNORM));
+        assert!(!off.may_promote(vk::Format::D16_UNORM));
+    }
+
+    #[test]
+    fn a_view_or_format_list_naming_the_unorm_format_names_the_float_one() {
+        use vk::Format as F;
+        let float = Some(F::D32_SFLOAT);
+        assert_eq!(
+            promoted_view_format(F::D16_UNORM, F::D16_UNORM, float),
+            float
+        );
+        assert_eq!(
+            promoted_view_format(F::R16_UNORM, F::D16_UNORM, float),
+            None
+        );
+        assert_eq!(promoted_view_format(F::D16_UNORM, F::D16_UNORM, None), None);
+    }
+
+    #[test]
+    fn an_imageless_attachment_is_an_optimal_image_with_nothing_outside() {
+        let usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+        let flags = vk::ImageCreateFlags::MUTABLE_FORMAT;
+        assert_eq!(
+            ImageFacts::imageless_attachment(usage, flags),
+            ImageFacts {
+                usage,
+                tiling: vk::ImageTiling::OPTIMAL,
+                flags,
+                external: false,
+                partner_kept: false,
+            }
+        );
+    }
 
     const ATTACHMENT_IMAGE: ImageFacts = ImageFacts {
         usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,

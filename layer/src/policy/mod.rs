@@ -3,53 +3,75 @@
 //! | decision | facts it reads | where they come from |
 //! |---|---|---|
 //! | is a depth image reversed or native ([`DevicePolicy::classify_image`]) | format, usage, tiling, settings | `vkCreateImage` |
+//! | is an image considered for promotion at all, before any lock ([`DevicePolicy::may_promote`]) | `promote`, its format | `vkCreateImage` |
 //! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
 //! | may an image be on one end of a depth resolve, so that its partner's format counts ([`may_be_resolved`]) | its usage | `vkCreateImage` |
-//! | which format a view of a promoted image is made in ([`promoted_view_format`]) | the view's format, the image's format and whether it was promoted | `vkCreateImageView` (images from `vkCreateImage`) |
+//! | which format a view of a promoted image is made in, and which formats its format list names ([`promoted_view_format`]) | the view's (or listed) format, the image's format and whether it was promoted | `vkCreateImageView` (images from `vkCreateImage`), `vkCreateImage` |
 //! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
 //! | does a render pass get a twin with its MIN/MAX depth resolve swapped, and with which mode ([`ResolveSupport::twin_resolve`]) | each subpass's depth resolve mode, the stencil mode where the resolve attachment has stencil, where the resolve structure is in the subpass's chain, the device's resolve properties | `vkCreateRenderPass2` (for the promoted twin too), `vkCreateDevice` |
 //! | how a rendering instance's depth resolve goes down for a reversed attachment, and whether revz can resolve it reversed ([`ResolveSupport::reversed_resolve`]) | its depth resolve mode, the stencil attachment's resolve mode where it has a view, the device's resolve properties | `vkCmdBeginRendering`, `vkCreateDevice` |
+//! | which attachment formats a render pass's promoted twin has: the float ones ([`promoted_twin_format`]) | each attachment's format | `vkCreateRenderPass*` |
+//! | is a framebuffer considered for promotion at all ([`framebuffer_may_be_promoted`]) | `promote`, whether its pass has a promotable attachment | `vkCreateFramebuffer` (render passes from `vkCreateRenderPass*`) |
+//! | what an imageless framebuffer's attachment info says of its image ([`ImageFacts::imageless_attachment`]) | its usage and flags | `vkCreateFramebuffer` |
+//! | which view formats an imageless framebuffer of promoted images lists: the float one for its attachment's UNORM format ([`imageless_view_format`]) | each listed format, the pass's format of the attachment, whether it is promotable | `vkCreateFramebuffer` (render passes from `vkCreateRenderPass*`) |
 //! | is a framebuffer of promoted depth images, of unpromoted ones, or a mix no pass takes ([`FramebufferStorage::of`]) | whether each of its pass's promotable attachments is a promoted image (imageless: whether its attachment info would be, [`DevicePolicy::promoted_format`]) | `vkCreateFramebuffer` (images from `vkCreateImage`) |
 //! | which render pass a pass begin uses in place of the application's ([`PassTwin::choose`]) | whether the framebuffer was created promoted, whether a reversed attachment is resolved, whether the pass has a swapped-resolve twin | `vkCmdBeginRenderPass*` (framebuffers from `vkCreateFramebuffer`, twins from `vkCreateRenderPass*`) |
+//! | which target a render pass begin commits ([`pass_committed`]) | whether any of its attachments is reversed | `vkCmdBeginRenderPass*` (framebuffers' and imageless begins' views, images from `vkCreateImage`) |
+//! | which of a pass begin's clear values are of reversed attachments: the first commits the convention, and (after it) they flip ([`clears_reversed`]) | whether the pass clears each attachment's depth, whether it is reversed (as created, then after the convention) | `vkCmdBeginRenderPass*` (load ops from `vkCreateRenderPass*`, images from `vkCreateImage`) |
+//! | does a pass begin resolve a reversed attachment, so that it takes the swapped-resolve twin ([`resolves_reversed`]) | its subpasses' depth resolve sources, whether each attachment is reversed (after the convention) | `vkCmdBeginRenderPass*` (resolves from `vkCreateRenderPass*`, settled at framebuffer creation or the begin) |
 //! | can a render pass's depth resolve be swapped ([`pass_resolve_swappable`]) | its mode, whether the pass has a swapped-resolve twin | framebuffer creation, imageless pass begins |
 //! | which clear a reversed image commits the convention with, and the target revz then acts on ([`Observed::committed`]) | whether the image (or any attachment of a pass) is reversed, the depth the first reversed attachment is cleared to there | `vkCmdBeginRenderPass*`, `vkCmdBeginRendering`, `vkCmdClearDepthStencilImage` (images from `vkCreateImage`) |
+//! | which of `vkCmdClearAttachments`' clears flip ([`attachment_clears_flip`], [`flips_attachment_clear`]) | the target draws go to (after the convention), each clear's aspect | `vkCmdClearAttachments` (the target: pass begins, images from `vkCreateImage`) |
+//! | does an image clear write depth, so that its value counts for the convention ([`clears_depth`]) | its ranges' aspects | `vkCmdClearDepthStencilImage` |
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
 //! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
 //! | where a secondary continuing a pass of a depth format draws, without a framebuffer ([`inherited_target`]) | its inheritance's pass (subpass or rendering format) and depth format, the target that pass was last begun with for secondaries, else the format's reversed and native images | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
 //! | whether it draws into a promoted attachment, and which UNORM format draws convert from ([`inherited_promoted`]) | the same, for promotion (the format's promoted and kept images) | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
+//! | is a secondary's inheritance looked at for promotion: only where revz promotes, for a render pass with a promotable attachment, for rendering with a depth or stencil format revz promotes (and which) ([`inherits_promotion`], [`pass_inherits_promotion`], [`rendering_inherits_promotion`]) | `promote`, the pass's promotable attachments, the inherited rendering formats | `vkBeginCommandBuffer` (render passes from `vkCreateRenderPass*`) |
+//! | which depth and stencil formats a secondary continuing promoted rendering inherits: the float ones ([`promoted_inheritance_format`]) | the inherited rendering formats | `vkBeginCommandBuffer` |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
 //! | does revz add `VK_KHR_get_physical_device_properties2` to an instance ([`instance_needs_properties2`]) | the mode, the API version, whether the application enabled it | `vkCreateInstance` |
 //! | may a device of the instance have `VK_EXT_extended_dynamic_state` added ([`extended_dynamic_state_allowed`]) | the API version, whether `VK_KHR_get_physical_device_properties2` is enabled (by the application or revz) | `vkCreateInstance`, `vkCreateDevice` |
 //! | which commands `vkGet*ProcAddr` hides from the application ([`hides_instance_command`], [`hides_device_command`]) | the command's name, whether revz added the extension it belongs to | `vkGetInstanceProcAddr`, `vkGetDeviceProcAddr` (what was added: `vkCreateInstance`, `vkCreateDevice`) |
 //! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
+//! | which shader modules are analysed: for fragments where revz is active, for the vertex stage where the mode rewrites and the module declares a vertex entry point ([`vertex_stage::analyses_fragment_module`], [`vertex_stage::analyses_vertex_module`]) | the mode, the module's entry points (`crate::shader::scan`) | `vkCreateShaderModule` |
 //! | is a pipeline a candidate for the precise path ([`vertex_stage::precise_candidate`]) | the mode, whether it renders depth, whether its create info defines its shaders | `vkCreateGraphicsPipelines` |
 //! | does a pipeline's vertex stage store reversed depth itself, and of which range ([`vertex_stage::VertexStageFacts::decide`]) | whether its code is given, its stages, the analysis of its vertex entry point (`crate::shader::analysis`), its layout's push-constant ranges and room for the carrier, its clip convention (static or dynamic), its module's `Position` rewrite and what that derives its range from (`crate::shader::position_store`, `crate::shader::derived_range`) | `vkCreateShaderModule` (or inline code, once per distinct code), `vkCreateGraphicsPipelines` |
 //! | which `Position` rewrite a vertex module gets: the carrier store or the deriving one ([`vertex_stage::position_store`]) | the analysis of its entry points (`crate::shader::analysis`) | `vkCreateShaderModule` (or inline code, once per distinct code) |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
 //! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
+//! | which end of a copy an image is: reversed or native after the convention, unknown images native ([`image_copy_end`], [`ImageDepth::target`]) | whether revz knows the image, its depth decision, the convention | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`, the convention from [`ConventionEvidence::decide`]) |
+//! | which kind of depth texel an image end holds: that of its promoted format where it has one ([`copied_texels`]) | its format, its promoted format | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
+//! | does an image count as single-sampled for a copy; unknown images do ([`single_sampled`]) | whether revz knows it, its sample count | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | which kind of texel a copy's conversion reads and writes ([`conversion_kind`]) | whether each end is a buffer or an image, and the depth texels of each image's format (the float one where promoted) | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
+//! | does a pipeline have a depth attachment; a library without the fragment output interface counts as having one ([`pipelines::has_depth_attachment`]) | its render pass's subpass depth attachment, else (with the fragment output interface) its rendering depth format | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
 //! | does a pipeline render depth at all ([`pipelines::renders_depth`]) | whether it has a depth attachment, its static `rasterizerDiscardEnable`, its dynamic states | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
 //! | which of a pipeline's static depth states revz makes dynamic, and whether its compare op comes from a variant ([`pipelines::StaticStateFacts::decide`]) | its dynamic states, depth-stencil state (test, bounds test, compare op), bias enable and representation, static viewports, `compare_op_variants`, `vkCmdSetDepthBias2EXT` | `vkCreateGraphicsPipelines`, `vkCreateDevice` |
 //! | which variants a pipeline gets: a flipped compare op, a rewritten fragment stage, its libraries' variants, promoted ones; what it keeps without them ([`pipelines::VariantFacts::decide`]) | whether its code is given (module identifiers, its libraries', pipeline binaries: [`pipelines::code_given`]), its fragment stage's rewrite (`crate::shader::fragment_depth`), the static state's plan, its libraries' variants, its promotion | `vkCreateShaderModule` (or inline code), `vkCreateGraphicsPipelines` |
+//! | which of a batch's application pipelines revz takes back where a variant needs compiling, and the batch's result then ([`pipelines::TakeBack`], [`pipelines::VariantCompile`]) | per create info: whether a variant came back `PIPELINE_COMPILE_REQUIRED`, whether it asks for `EARLY_RETURN_ON_FAILURE`; the driver's result | `vkCreateGraphicsPipelines` (the variants' creation, then the application's) |
 //! | does a pipeline draw into promoted attachments, and how its promoted variants differ ([`pipelines::PromotionFacts::decide`]) | `promote`, whether its subsets name attachment formats, its render pass (known, promotable attachments, promoted twin) or rendering formats, whether a library it links is promoted | `vkCreateRenderPass*`, `vkCreateGraphicsPipelines` |
 //! | what a fragment stage that computes with depth gets ([`pipelines::FragmentStage::variant`]) | its rewrite or why there is none, whether a variant of what holds it can be made | `vkCreateGraphicsPipelines`, `vkCreateShadersEXT` |
 //! | which path a pipeline's draws take, as logged and in the depth profile ([`pipelines::PipelinePath`]) | its pushed projection, derived range, or flip reason (from [`vertex_stage::VertexStageFacts::decide`] and the rewritten stage's creation) | `vkCreateGraphicsPipelines` |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
-//! why an image stays native or keeps its format; resolve partners, views of promoted images),
-//! `resolves.rs` (resolve sources and modes, and swapped-resolve twins), `passes.rs` (render
-//! pass instances: which twin begins, framebuffers' storage), `convention.rs` (the
-//! application's convention, and what revz observes of it), `secondaries.rs` (secondaries
-//! without a framebuffer, and what their inheritance makes of them), `compare_op.rs` (the
-//! dynamic compare op, and the extensions revz adds for it), `copies.rs` (copies: whether and
-//! how they are converted), `pipelines.rs` (pipelines: which static states become dynamic,
-//! which variants are made, promotion, the path a pipeline's draws take, fragment variants of
-//! shader objects), `vertex_stage.rs` (the precise path's vertex stage: candidate, store,
-//! range); [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that
-//! name code outside this module are decided there.
+//! why an image stays native or keeps its format; which images are considered for promotion,
+//! imageless attachments; resolve partners, views of promoted images), `resolves.rs` (resolve
+//! sources and modes, and swapped-resolve twins), `passes.rs` (render pass instances: which
+//! twin begins, framebuffers' storage and promotion, twins' formats, the target, clears and
+//! resolves of a begin), `clears.rs` (clears outside pass begins: which attachment clears flip,
+//! which image clears write depth), `convention.rs` (the application's convention, and what
+//! revz observes of it), `secondaries.rs` (secondaries without a framebuffer, and what their
+//! inheritance makes of them, promotion included), `compare_op.rs` (the dynamic compare op, and
+//! the extensions revz adds for it), `copies.rs` (copies: whether and how they are converted,
+//! and what their image ends are), `pipelines.rs` (pipelines: whether they have a depth
+//! attachment, which static states become dynamic, which variants are made, which are taken
+//! back uncompiled, promotion, the path a pipeline's draws take, fragment variants of shader
+//! objects), `vertex_stage.rs` (the precise path's vertex stage: candidate, store, range);
+//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that name
+//! code outside this module are decided there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
@@ -63,6 +85,7 @@
 //! convention is now decided once, from a clear to 0 together with GREATER compare ops or
 //! reversed projections, and never changed.
 
+mod clears;
 mod compare_op;
 mod convention;
 mod copies;
@@ -73,22 +96,31 @@ mod resolves;
 mod secondaries;
 pub mod vertex_stage;
 
+pub use clears::{attachment_clears_flip, clears_depth, flips_attachment_clear};
 pub use compare_op::{
     extended_dynamic_state_allowed, hides_device_command, hides_instance_command,
     instance_needs_properties2, CompareOpFacts, CompareOpSource,
 };
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{
-    conversion_kind, CopyDecision, CopyDirection, CopyEnd, CopyFacts, Texels, Unconverted,
+    conversion_kind, copied_texels, image_copy_end, single_sampled, CopyDecision, CopyDirection,
+    CopyEnd, CopyFacts, Texels, Unconverted,
 };
 pub use images::{
     may_be_resolved, promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
 };
-pub use passes::{pass_resolve_swappable, FramebufferStorage, PassTwin};
+pub use passes::{
+    clears_reversed, framebuffer_may_be_promoted, imageless_view_format, pass_committed,
+    pass_resolve_swappable, promoted_twin_format, resolves_reversed, FramebufferStorage, PassTwin,
+};
 pub use resolves::{
     DepthResolve, ResolveSupport, ReversedResolve, SubpassResolveFacts, TwinResolve,
 };
-pub use secondaries::{inherited_promoted, inherited_target, secondary_promoted, secondary_target};
+pub use secondaries::{
+    inherited_promoted, inherited_target, inherits_promotion, pass_inherits_promotion,
+    promoted_inheritance_format, rendering_inherits_promotion, secondary_promoted,
+    secondary_target,
+};
 
 use revz_math::Target as RewriteTarget;
 

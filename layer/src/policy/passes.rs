@@ -1,9 +1,17 @@
 //! Render pass instances and the twins revz begins in their place: the storage a
 //! framebuffer's depth attachments have ([`FramebufferStorage::of`]: promoted or not, or a mix
-//! no pass takes), which twin a pass begin uses ([`PassTwin::choose`]), and whether a pass's
-//! depth resolve can be swapped ([`pass_resolve_swappable`]).
+//! no pass takes), which twin a pass begin uses ([`PassTwin::choose`]), whether a pass's
+//! depth resolve can be swapped ([`pass_resolve_swappable`]), and at a begin: which target it
+//! commits ([`pass_committed`]), which of its clear values are of reversed attachments
+//! ([`clears_reversed`]: the first commits the convention, and they flip), and whether it
+//! resolves a reversed attachment ([`resolves_reversed`]); for promotion: the formats of a
+//! pass's promoted twin ([`promoted_twin_format`]), which framebuffers are considered for it
+//! ([`framebuffer_may_be_promoted`]), and the view formats an imageless one lists
+//! ([`imageless_view_format`]).
 
 use ash::vk;
+
+use crate::command_state::Target;
 
 /// Whether a framebuffer's promotable depth attachments are promoted images: all (it is
 /// created with the pass's promoted twin), none, or some (a mix no pass can take).
@@ -69,9 +77,149 @@ pub fn pass_resolve_swappable(mode: vk::ResolveModeFlags, has_swapped_twin: bool
     !matches!(mode, vk::ResolveModeFlags::MIN | vk::ResolveModeFlags::MAX) || has_swapped_twin
 }
 
+/// The target a render pass begin commits (`crate::policy::Observed::committed`): reversed
+/// where any of its attachments (`images`, as created) is, at once; else none.
+pub fn pass_committed(images: &[Target]) -> Target {
+    if images.contains(&Target::Reversed) {
+        Target::Reversed
+    } else {
+        Target::None
+    }
+}
+
+/// Whether a render pass begin's clear value at an attachment is the depth clear of a reversed
+/// attachment: the pass clears that attachment's depth (`cleared`, from its load op) and the
+/// attachment is reversed (`target`; `None`: the framebuffer has no attachment there). Over the
+/// attachments as created, the first such clear commits the convention with its value; over
+/// them after the convention, each such clear value flips.
+pub fn clears_reversed(cleared: bool, target: Option<Target>) -> bool {
+    cleared && target == Some(Target::Reversed)
+}
+
+/// Whether a render pass begin resolves a reversed attachment: the source of one of its depth
+/// resolves (`sources`, attachment indices) is reversed in `targets` (after the convention).
+/// Sources were settled before (a reversed source resolves into a reversed image), so the pass
+/// begins with its swapped-resolve twin ([`PassTwin::choose`]).
+pub fn resolves_reversed(sources: impl IntoIterator<Item = u32>, targets: &[Target]) -> bool {
+    sources
+        .into_iter()
+        .any(|source| targets.get(source as usize) == Some(&Target::Reversed))
+}
+
+/// The format an attachment of a render pass's promoted twin has in place of the
+/// application's (`format`): the float format of a UNORM depth format, every one (the twin is
+/// begun only over framebuffers of promoted images); `None`: it keeps its format. A pass
+/// without such an attachment has no promoted twin.
+pub fn promoted_twin_format(format: vk::Format) -> Option<vk::Format> {
+    crate::conv::float_depth_format(format)
+}
+
+/// Whether a framebuffer is considered for promotion: promotion is on (`promote`) and its pass
+/// has an attachment revz promotes (`promotable`: each attachment's, asked in order until one
+/// is, and only where promotion is on).
+pub fn framebuffer_may_be_promoted(
+    promote: bool,
+    promotable: impl IntoIterator<Item = bool>,
+) -> bool {
+    promote && promotable.into_iter().any(|promotable| promotable)
+}
+
+/// The format an imageless framebuffer of promoted images lists for an attachment's views, in
+/// place of the application's `view_format`: the float one where it is the pass's UNORM format
+/// of the attachment (`attachment_format`; `None`: the pass has no such attachment) and the
+/// attachment is promotable (`promotable`); else as listed.
+pub fn imageless_view_format(
+    view_format: vk::Format,
+    attachment_format: Option<vk::Format>,
+    promotable: bool,
+) -> vk::Format {
+    match crate::conv::float_depth_format(view_format) {
+        Some(float) if Some(view_format) == attachment_format && promotable => float,
+        _ => view_format,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_promoted_twin_has_the_float_depth_formats() {
+        use vk::Format as F;
+        assert_eq!(promoted_twin_format(F::D16_UNORM), Some(F::D32_SFLOAT));
+        assert_eq!(
+            promoted_twin_format(F::D24_UNORM_S8_UINT),
+            Some(F::D32_SFLOAT_S8_UINT)
+        );
+        assert_eq!(promoted_twin_format(F::D32_SFLOAT), None);
+        assert_eq!(promoted_twin_format(F::R8G8B8A8_UNORM), None);
+    }
+
+    #[test]
+    fn a_framebuffer_is_considered_for_promotion_where_its_pass_is_promotable() {
+        assert!(framebuffer_may_be_promoted(true, [false, true]));
+        assert!(!framebuffer_may_be_promoted(true, [false]));
+        assert!(!framebuffer_may_be_promoted(true, []));
+        assert!(!framebuffer_may_be_promoted(false, [true]));
+    }
+
+    #[test]
+    fn an_imageless_framebuffer_lists_the_float_format_for_its_promotable_unorm_attachment() {
+        use vk::Format as F;
+        let d16 = Some(F::D16_UNORM);
+        assert_eq!(
+            imageless_view_format(F::D16_UNORM, d16, true),
+            F::D32_SFLOAT
+        );
+        assert_eq!(
+            imageless_view_format(F::D16_UNORM, d16, false),
+            F::D16_UNORM
+        );
+        assert_eq!(
+            imageless_view_format(F::D16_UNORM, Some(F::D24_UNORM_S8_UINT), true),
+            F::D16_UNORM
+        );
+        assert_eq!(
+            imageless_view_format(F::D16_UNORM, None, true),
+            F::D16_UNORM
+        );
+        assert_eq!(
+            imageless_view_format(F::R16_UNORM, Some(F::R16_UNORM), true),
+            F::R16_UNORM
+        );
+    }
+
+    #[test]
+    fn a_pass_commits_reversed_where_any_attachment_is() {
+        use Target::{Native, None, Reversed};
+        assert_eq!(pass_committed(&[]), None);
+        assert_eq!(pass_committed(&[None, Native]), None);
+        assert_eq!(pass_committed(&[Native, Reversed]), Reversed);
+        assert_eq!(pass_committed(&[Reversed]), Reversed);
+    }
+
+    #[test]
+    fn only_cleared_reversed_attachments_clear_reversed() {
+        assert!(clears_reversed(true, Some(Target::Reversed)));
+        assert!(!clears_reversed(false, Some(Target::Reversed)));
+        for target in [None, Some(Target::None), Some(Target::Native)] {
+            assert!(!clears_reversed(true, target));
+            assert!(!clears_reversed(false, target));
+        }
+    }
+
+    #[test]
+    fn a_pass_resolves_reversed_where_a_resolve_source_is_reversed() {
+        use Target::{Native, Reversed};
+        let targets = [Native, Reversed];
+        assert!(!resolves_reversed([], &targets));
+        assert!(!resolves_reversed([0], &targets));
+        assert!(resolves_reversed([1], &targets));
+        assert!(resolves_reversed([0, 1], &targets));
+        // A source beyond the framebuffer's attachments resolves nothing reversed.
+        assert!(!resolves_reversed([2], &targets));
+        assert!(!resolves_reversed([0], &[]));
+    }
 
     #[test]
     fn a_framebuffer_is_promoted_only_where_all_its_promotable_attachments_are() {

@@ -1,9 +1,11 @@
-//! What revz makes of a graphics pipeline (and of a fragment shader object): which of its
-//! static states become dynamic ([`StaticStateFacts::decide`]), which variants it gets
-//! ([`VariantFacts::decide`]), whether it draws into promoted attachments
-//! ([`PromotionFacts::decide`]), what a fragment stage that computes with depth gets
-//! ([`FragmentStage::variant`], shared with `crate::hooks::shader_object`), and which path its
-//! draws take, as logged and shown in the depth profile ([`PipelinePath`]).
+//! What revz makes of a graphics pipeline (and of a fragment shader object): whether it has a
+//! depth attachment ([`has_depth_attachment`]), which of its static states become dynamic
+//! ([`StaticStateFacts::decide`]), which variants it gets ([`VariantFacts::decide`]), whether
+//! it draws into promoted attachments ([`PromotionFacts::decide`]), what a fragment stage that
+//! computes with depth gets ([`FragmentStage::variant`], shared with
+//! `crate::hooks::shader_object`), and which path its draws take, as logged and shown in the
+//! depth profile ([`PipelinePath`]); and which of a batch's pipelines are taken back where a
+//! variant needs compiling ([`TakeBack`]).
 //!
 //! The facts come from `vkCreateGraphicsPipelines` (`crate::hooks::pipeline` reads the create
 //! info, only the state the spec says to read and in its order, records the static values
@@ -17,6 +19,37 @@ use crate::command_state::States;
 use crate::conv::flip_compare_op;
 use crate::precise::ProjectionUse;
 use crate::shader::derived_range::MatrixSource;
+
+/// Where a graphics pipeline create info's attachments come from, and what it says of depth
+/// there (the facts of [`has_depth_attachment`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthAttachmentFacts {
+    /// It names a render pass: whether its subpass has a depth attachment (`false` where the
+    /// pass is unknown or the subpass has none).
+    RenderPass { subpass_depth: bool },
+    /// No render pass, and it defines the fragment output interface: the depth format of its
+    /// `VkPipelineRenderingCreateInfo` (`None`: it chains none).
+    Rendering { depth_format: Option<vk::Format> },
+    /// A library without a render pass or the fragment output interface: it does not say
+    /// which attachments it draws into.
+    NoFragmentOutput,
+}
+
+/// Whether a pipeline (or library) has a depth attachment: its render pass's subpass has one,
+/// or its rendering formats name a depth format. A library without the fragment output
+/// interface counts as having one: it may be linked with output state that renders depth,
+/// and a fragment shader library without the attachment formats must give its depth state
+/// (the spec's rule), so it is planned as rendering depth.
+#[must_use]
+pub fn has_depth_attachment(facts: DepthAttachmentFacts) -> bool {
+    match facts {
+        DepthAttachmentFacts::RenderPass { subpass_depth } => subpass_depth,
+        DepthAttachmentFacts::Rendering { depth_format } => {
+            depth_format.is_some_and(|format| format != vk::Format::UNDEFINED)
+        }
+        DepthAttachmentFacts::NoFragmentOutput => true,
+    }
+}
 
 /// Whether a pipeline's draws can reach a depth attachment: it has one, and does not
 /// statically discard every primitive. Otherwise the spec ignores its viewport and depth
@@ -487,9 +520,120 @@ impl std::fmt::Display for PipelinePath<'_> {
     }
 }
 
+/// Whether a create info's variants could be made without compiling, where the application
+/// asked for none (`FAIL_ON_PIPELINE_COMPILE_REQUIRED`): a fact of [`TakeBack`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VariantCompile {
+    /// Its variants were made, not needed, or could not be made (logged).
+    Done,
+    /// One is not in the pipeline cache and needs compiling; `returns_early`: the create info
+    /// asks for its batch to end at its failure (`EARLY_RETURN_ON_FAILURE`).
+    Required { returns_early: bool },
+}
+
+impl VariantCompile {
+    /// Whether the batch ends here, as a driver that failed here would end it: no more
+    /// variants are made, and every later pipeline is taken back ([`TakeBack::takes`]).
+    pub fn ends_batch(self) -> bool {
+        matches!(
+            self,
+            VariantCompile::Required {
+                returns_early: true
+            }
+        )
+    }
+}
+
+/// Which of a batch's application pipelines revz takes back (destroys, and reports as needing
+/// compilation) after the driver created them, create info by create info
+/// ([`TakeBack::takes`]), and the batch's result then ([`TakeBack::result`]). A pipeline whose
+/// variant needs compiling is taken back, so that the application's compiling call (without
+/// `FAIL_ON_PIPELINE_COMPILE_REQUIRED`) makes both and draws never go without their variant;
+/// after one in a create info asking for early return, every later one is taken back too, as
+/// a driver that failed there would not have created them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TakeBack {
+    taken_back: bool,
+    returned_early: bool,
+}
+
+impl TakeBack {
+    /// Whether the pipeline of the next create info (in the batch's order) is taken back.
+    pub fn takes(&mut self, compile: VariantCompile) -> bool {
+        let required = compile != VariantCompile::Done;
+        let takes = required || self.returned_early;
+        self.taken_back |= required;
+        self.returned_early |= compile.ends_batch();
+        takes
+    }
+
+    /// The batch's result, given the driver's (`result`): `PIPELINE_COMPILE_REQUIRED` where a
+    /// pipeline was taken back for its variant and the driver succeeded; else the driver's.
+    pub fn result(&self, result: vk::Result) -> vk::Result {
+        if self.taken_back && result == vk::Result::SUCCESS {
+            vk::Result::PIPELINE_COMPILE_REQUIRED
+        } else {
+            result
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_a_required_compile_in_an_early_returning_info_ends_the_batch() {
+        assert!(!VariantCompile::Done.ends_batch());
+        assert!(!VariantCompile::Required {
+            returns_early: false
+        }
+        .ends_batch());
+        assert!(VariantCompile::Required {
+            returns_early: true
+        }
+        .ends_batch());
+    }
+
+    #[test]
+    fn pipelines_are_taken_back_for_their_variants_and_after_an_early_return() {
+        use VariantCompile::{Done, Required};
+        let takes = |compiles: &[VariantCompile], result: vk::Result| {
+            let mut take_back = TakeBack::default();
+            let taken: Vec<bool> = compiles.iter().map(|&c| take_back.takes(c)).collect();
+            (taken, take_back.result(result))
+        };
+        let success = vk::Result::SUCCESS;
+        let required = vk::Result::PIPELINE_COMPILE_REQUIRED;
+        // Nothing needs compiling: nothing is taken back, the driver's result stands.
+        assert_eq!(takes(&[Done, Done], success), (vec![false, false], success));
+        assert_eq!(
+            takes(&[Done], vk::Result::ERROR_OUT_OF_HOST_MEMORY),
+            (vec![false], vk::Result::ERROR_OUT_OF_HOST_MEMORY)
+        );
+        // Only the one whose variant needs compiling, without early return.
+        let late = Required {
+            returns_early: false,
+        };
+        assert_eq!(
+            takes(&[Done, late, Done], success),
+            (vec![false, true, false], required)
+        );
+        // Every one from an early return on.
+        let early = Required {
+            returns_early: true,
+        };
+        assert_eq!(
+            takes(&[Done, early, Done, Done], success),
+            (vec![false, true, true, true], required)
+        );
+        // The driver's failure stands.
+        assert_eq!(
+            takes(&[late], vk::Result::ERROR_OUT_OF_DEVICE_MEMORY),
+            (vec![true], vk::Result::ERROR_OUT_OF_DEVICE_MEMORY)
+        );
+        assert_eq!(takes(&[late], required), (vec![true], required));
+    }
 
     const TESTED: DepthStencilFacts = DepthStencilFacts {
         compare_op: vk::CompareOp::LESS_OR_EQUAL,
@@ -514,6 +658,25 @@ mod tests {
             compare_op_variants: false,
             bias_with_representation: false,
         }
+    }
+
+    #[test]
+    fn a_depth_attachment_is_the_subpass_or_the_rendering_format_or_assumed_in_a_library() {
+        use DepthAttachmentFacts::{NoFragmentOutput, RenderPass, Rendering};
+        assert!(has_depth_attachment(RenderPass {
+            subpass_depth: true
+        }));
+        assert!(!has_depth_attachment(RenderPass {
+            subpass_depth: false
+        }));
+        assert!(has_depth_attachment(Rendering {
+            depth_format: Some(vk::Format::D32_SFLOAT)
+        }));
+        assert!(!has_depth_attachment(Rendering {
+            depth_format: Some(vk::Format::UNDEFINED)
+        }));
+        assert!(!has_depth_attachment(Rendering { depth_format: None }));
+        assert!(has_depth_attachment(NoFragmentOutput));
     }
 
     #[test]

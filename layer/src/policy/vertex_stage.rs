@@ -7,7 +7,8 @@
 //! The facts come from `vkCreateShaderModule` (each module's analysis and `Position` rewrite,
 //! or those of inline code, made once per distinct code) and `vkCreateGraphicsPipelines` (the
 //! stages, the clip convention, the layout); `crate::hooks::pipeline::plan` gathers them.
-//! Which `Position` rewrite a module gets ([`position_store`]) is decided here too.
+//! Which `Position` rewrite a module gets ([`position_store`]) is decided here too, and which
+//! modules are analysed at all ([`analyses_fragment_module`], [`analyses_vertex_module`]).
 
 use ash::vk;
 use revz_math::DepthConvention;
@@ -16,6 +17,26 @@ use crate::precise::ProjectionUse;
 use crate::shader::analysis::Analysis;
 use crate::shader::derived_range::MatrixSource;
 use crate::shader::position_store::Unsupported;
+
+/// Whether `vkCreateShaderModule` looks at a module's fragment entry points (whether one
+/// computes with depth, `crate::shader::fragment_depth`): only where revz acts on the
+/// device's depth (`active`).
+#[must_use]
+pub fn analyses_fragment_module(active: bool) -> bool {
+    active
+}
+
+/// Whether `vkCreateShaderModule` analyses a module's vertex stage (its projection and
+/// `Position` rewrite): only where the mode rewrites projections (`mode_rewrites`) and the
+/// module declares a vertex entry point (`declares_vertex_entry_point`, scanned only then).
+/// Fragment and compute modules with push constants are not parsed.
+#[must_use]
+pub fn analyses_vertex_module(
+    mode_rewrites: bool,
+    declares_vertex_entry_point: impl FnOnce() -> bool,
+) -> bool {
+    mode_rewrites && declares_vertex_entry_point()
+}
 
 /// Whether a pipeline is a candidate for the precise path at all: the mode rewrites
 /// projections, the pipeline renders depth, and its create info defines the
@@ -162,6 +183,16 @@ impl VertexStageFacts<'_> {
 mod tests {
     use super::*;
     use crate::shader::analysis::ProjectionSlot;
+
+    #[test]
+    fn modules_are_analysed_for_fragments_when_active_and_for_vertices_when_rewriting() {
+        assert!(analyses_fragment_module(true));
+        assert!(!analyses_fragment_module(false));
+        assert!(analyses_vertex_module(true, || true));
+        assert!(!analyses_vertex_module(true, || false));
+        // The module is not scanned where the mode does not rewrite.
+        assert!(!analyses_vertex_module(false, || unreachable!()));
+    }
 
     fn slot() -> ProjectionSlot {
         ProjectionSlot {

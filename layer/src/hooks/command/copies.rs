@@ -12,32 +12,22 @@ use crate::depth_copy::plan::{
 };
 use crate::depth_copy::record::{record, record_blit, Conversion, Drain, Fill};
 use crate::policy::{
-    conversion_kind, CopyDecision, CopyDirection, CopyEnd, CopyFacts, Texels, Unconverted,
+    conversion_kind, copied_texels, image_copy_end, single_sampled, CopyDecision, CopyDirection,
+    CopyEnd, CopyFacts, Texels, Unconverted,
 };
 
 /// What a copy end is, and how its depth lies in a buffer.
 fn image_end(device: &DeviceState, image: vk::Image) -> (CopyEnd, Option<TexelKind>) {
     let Some(info) = device.objects.images.get(&image) else {
-        return (CopyEnd::Native, None);
+        return (image_copy_end(None), None);
     };
-    let end = match device.observed.effective(match info.depth {
-        crate::policy::ImageDepth::Reversed => Target::Reversed,
-        crate::policy::ImageDepth::Native(_) => Target::Native,
-    }) {
-        Target::Reversed => CopyEnd::Reversed,
-        _ => CopyEnd::Native,
-    };
-    (end, TexelKind::of(info.promoted.unwrap_or(info.format)))
+    let end = image_copy_end(Some(device.observed.effective(info.depth.target())));
+    (end, copied_texels(info.format, info.promoted))
 }
 
-/// Whether `image` has one sample per texel (unknown images count as single-sampled: revz
-/// converts only copies with a reversed end, which it knows).
-fn single_sampled(device: &DeviceState, image: vk::Image) -> bool {
-    device
-        .objects
-        .images
-        .get(&image)
-        .is_none_or(|info| info.samples == vk::SampleCountFlags::TYPE_1)
+/// Whether `image` has one sample per texel, as the policy counts it ([`single_sampled`]).
+fn samples_single(device: &DeviceState, image: vk::Image) -> bool {
+    single_sampled(device.objects.images.get(&image).map(|info| info.samples))
 }
 
 /// The decision for a copy between `source` and `destination`.
@@ -68,7 +58,7 @@ fn decide(
         extended,
         multisampled: !images
             .iter()
-            .all(|&image| single_sampled(&entry.device, image)),
+            .all(|&image| samples_single(&entry.device, image)),
     }
     .decide();
     if let (Some(profile), CopyDecision::Unconverted(_)) = (&entry.device.profile, &decision) {

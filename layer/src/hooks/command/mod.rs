@@ -784,26 +784,3 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
         unsafe { next(buffer, p_info) }
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn only_clears_of_the_depth_aspect_say_anything_about_depth() {
-        let range = |aspect_mask| vk::ImageSubresourceRange {
-            aspect_mask,
-            level_count: 1,
-            layer_count: 1,
-            ..Default::default()
-        };
-        use vk::ImageAspectFlags as A;
-        assert!(!clears_depth(&[range(A::STENCIL)]));
-        assert!(!clears_depth(&[]));
-        assert!(clears_depth(&[range(A::DEPTH)]));
-        assert!(clears_depth(&[
-            range(A::STENCIL),
-            range(A::DEPTH | A::STENCIL)
-        ]));
-    }
-}

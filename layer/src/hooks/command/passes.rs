@@ -5,7 +5,7 @@
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
-use crate::policy::PassTwin;
+use crate::policy::{self, PassTwin};
 
 /// The attachments of a render pass instance: the framebuffer's views, or for an imageless
 /// framebuffer those of the begin info.
@@ -86,22 +86,19 @@ fn begin_pass(
         let reversed_clear = clears.iter().enumerate().find_map(|(index, clear)| {
             // SAFETY: a depth attachment's clear value is the depthStencil member.
             let depth = unsafe { clear.depth_stencil.depth };
-            (cleared(index) && images.get(index) == Some(&Target::Reversed)).then_some(depth)
+            policy::clears_reversed(cleared(index), images.get(index).copied()).then_some(depth)
         });
         // The pass commits its reversed attachments (if any) at once.
-        let committed = if images.contains(&Target::Reversed) {
-            Target::Reversed
-        } else {
-            Target::None
-        };
-        device.observed.committed(committed, reversed_clear);
+        device
+            .observed
+            .committed(policy::pass_committed(&images), reversed_clear);
         targets = images
             .into_iter()
             .map(|target| device.observed.effective(target))
             .collect();
         let mut changed = false;
         for (index, clear) in clears.iter_mut().enumerate() {
-            if cleared(index) && targets.get(index) == Some(&Target::Reversed) {
+            if policy::clears_reversed(cleared(index), targets.get(index).copied()) {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
                 unsafe {
                     clear.depth_stencil.depth = device.reversed_clear(clear.depth_stencil.depth)
@@ -112,9 +109,8 @@ fn begin_pass(
         out.clears = changed.then_some(clears);
         // A twin exists only for passes of one subpass; its resolve source was settled above,
         // so a reversed source here resolves into a reversed image.
-        let resolved_reversed = pass
-            .depth_resolves()
-            .any(|(source, _)| targets.get(source as usize) == Some(&Target::Reversed));
+        let resolved_reversed =
+            policy::resolves_reversed(pass.depth_resolves().map(|(source, _)| source), &targets);
         promoted = device
             .objects
             .promoted_framebuffers

@@ -4,6 +4,10 @@
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
+use crate::policy::{
+    inherits_promotion, pass_inherits_promotion, promoted_inheritance_format,
+    rendering_inherits_promotion,
+};
 
 /// A secondary's begin info as it goes down when it continues a promoted pass: its
 /// inheritance names the promoted twin, or the float rendering formats (the copies it points
@@ -31,10 +35,11 @@ fn promoted_inheritance<'a>(
         let rendering = unsafe {
             chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
         }?;
-        let float = |format: vk::Format| crate::conv::float_depth_format(format).unwrap_or(format);
         let replacement = vk::CommandBufferInheritanceRenderingInfo {
-            depth_attachment_format: float(rendering.depth_attachment_format),
-            stencil_attachment_format: float(rendering.stencil_attachment_format),
+            depth_attachment_format: promoted_inheritance_format(rendering.depth_attachment_format),
+            stencil_attachment_format: promoted_inheritance_format(
+                rendering.stencil_attachment_format,
+            ),
             ..*rendering
         };
         // SAFETY: as above; the copies live in the result.
@@ -125,12 +130,12 @@ pub(super) fn inherited_promotion(
     inheritance: &vk::CommandBufferInheritanceInfo<'_>,
 ) -> Option<vk::Format> {
     let device = &entry.device;
-    if !device.policy.promote {
+    if !inherits_promotion(device.policy.promote) {
         return None;
     }
     let (key, format) = if inheritance.render_pass != vk::RenderPass::null() {
         let pass = device.objects.render_passes.get(&inheritance.render_pass)?;
-        if !(0..pass.attachments.len()).any(|i| pass.promotable(i)) {
+        if !pass_inherits_promotion((0..pass.attachments.len()).map(|i| pass.promotable(i))) {
             return None;
         }
         let framebuffer = inheritance.framebuffer;
@@ -165,12 +170,10 @@ pub(super) fn inherited_promotion(
         let rendering = unsafe {
             chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
         }?;
-        let format = [
+        let format = rendering_inherits_promotion(
             rendering.depth_attachment_format,
             rendering.stencil_attachment_format,
-        ]
-        .into_iter()
-        .find(|&f| crate::conv::float_depth_format(f).is_some())?;
+        )?;
         (SecondaryPass::Rendering(format), Some(format))
     };
     let remembered = device.objects.secondary_promoted.get(&key);

@@ -4,6 +4,7 @@
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
+use crate::policy;
 
 pub unsafe extern "system" fn cmd_clear_attachments(
     buffer: vk::CommandBuffer,
@@ -15,13 +16,14 @@ pub unsafe extern "system" fn cmd_clear_attachments(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdClearAttachments");
     let mut copies = Vec::new();
     let device = with_entry(buffer, &ENTRY, |entry| {
-        if entry.state().target() != Target::Reversed {
+        let target = entry.state().target();
+        if !policy::attachment_clears_flip(target) {
             return;
         }
         // SAFETY: `count` attachments.
         copies.extend_from_slice(unsafe { slice(p_attachments, count) });
         for clear in &mut copies {
-            if clear.aspect_mask.contains(vk::ImageAspectFlags::DEPTH) {
+            if policy::flips_attachment_clear(target, clear.aspect_mask) {
                 // SAFETY: a depth clear's value is the depthStencil member.
                 unsafe {
                     clear.clear_value.depth_stencil.depth = entry
@@ -66,7 +68,7 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
             let mut value = unsafe { *p_value };
             // SAFETY: `rangeCount` ranges.
             let ranges = unsafe { slice(p_ranges, range_count) };
-            let clear = clears_depth(ranges).then_some(value.depth);
+            let clear = policy::clears_depth(ranges).then_some(value.depth);
             if device.observed.committed(Target::Reversed, clear) == Target::Reversed {
                 value.depth = device.reversed_clear(value.depth);
                 flipped = Some(value);
@@ -86,12 +88,4 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
             p_ranges,
         )
     }
-}
-
-/// Whether an image clear writes depth: a range of the depth aspect (a stencil-only clear
-/// leaves depth, and says nothing of its convention).
-pub(super) fn clears_depth(ranges: &[vk::ImageSubresourceRange]) -> bool {
-    ranges
-        .iter()
-        .any(|range| range.aspect_mask.contains(vk::ImageAspectFlags::DEPTH))
 }

@@ -34,9 +34,10 @@ use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::policy::pipelines::{
-    examines_fragment, renders_depth, viewports_static, DepthBiasFacts, DepthStencilFacts,
-    FragmentStage, PipelinePath, PipelinePromotion, PromotionAttachments, PromotionFacts,
-    StaticStateFacts, StaticStatePlan, VariantFacts, VariantKind, Variants,
+    examines_fragment, has_depth_attachment, renders_depth, viewports_static, DepthAttachmentFacts,
+    DepthBiasFacts, DepthStencilFacts, FragmentStage, PipelinePath, PipelinePromotion,
+    PromotionAttachments, PromotionFacts, StaticStateFacts, StaticStatePlan, TakeBack,
+    VariantCompile, VariantFacts, VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{
     self, precise_candidate, Missing, PositionStore, VertexStageFacts,
@@ -177,6 +178,17 @@ impl Variant {
         match self {
             Variant::Made(pipeline) => Some(pipeline),
             Variant::Missing | Variant::CompileRequired => None,
+        }
+    }
+
+    /// Whether it needs compiling, and whether `info`, its create info, then asks for early
+    /// return (read only then).
+    fn compile(self, info: &vk::GraphicsPipelineCreateInfo<'_>) -> VariantCompile {
+        match self {
+            Variant::CompileRequired => VariantCompile::Required {
+                returns_early: returns_early(info),
+            },
+            Variant::Missing | Variant::Made(_) => VariantCompile::Done,
         }
     }
 }
@@ -411,7 +423,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         }
                         let variant =
                             create_variant(&state, device, cache, info, dynamic, plan, kind);
-                        returned_early = variant == Variant::CompileRequired && returns_early(info);
+                        returned_early = variant.compile(info).ends_batch();
                         made.push((kind, variant));
                     }
                     made
@@ -582,11 +594,9 @@ pub unsafe extern "system" fn create_graphics_pipelines(
 }
 
 /// Takes back the application's pipelines whose variant needs compiling where the application
-/// asked for none (`FAIL_ON_PIPELINE_COMPILE_REQUIRED`): each is destroyed and reported as
-/// needing compilation too, so that the application's compiling call (without the flag) makes
-/// both, and draws never go without their variant. Where such a create info asks for
-/// `EARLY_RETURN_ON_FAILURE`, the pipelines after it are taken back as well, as a driver that
-/// failed there would not have created them. Returns the batch's result.
+/// asked for none (`FAIL_ON_PIPELINE_COMPILE_REQUIRED`), and those after one asking for
+/// `EARLY_RETURN_ON_FAILURE`, as [`TakeBack`] decides: each is destroyed and reported as
+/// needing compilation too. Returns the batch's result.
 ///
 /// # Safety
 /// `p_pipelines` holds the `infos.len()` handles just created from `infos` with `p_allocator`.
@@ -604,11 +614,9 @@ unsafe fn take_back_uncompiled(
     }
     // SAFETY: the caller's contract (non-null, as `infos` is not empty).
     let pipelines = unsafe { std::slice::from_raw_parts_mut(p_pipelines, infos.len()) };
-    let mut taken_back = false;
-    let mut returned_early = false;
+    let mut take_back = TakeBack::default();
     for ((info, variant), pipeline) in infos.iter().zip(variants).zip(pipelines) {
-        let required = *variant == Variant::CompileRequired;
-        if !required && !returned_early {
+        if !take_back.takes(variant.compile(info)) {
             continue;
         }
         if *pipeline != vk::Pipeline::null() {
@@ -617,14 +625,8 @@ unsafe fn take_back_uncompiled(
             unsafe { (state.next.fp_v1_0().destroy_pipeline)(device, *pipeline, p_allocator) };
             *pipeline = vk::Pipeline::null();
         }
-        taken_back |= required;
-        returned_early |= required && returns_early(info);
     }
-    if taken_back && result == vk::Result::SUCCESS {
-        vk::Result::PIPELINE_COMPILE_REQUIRED
-    } else {
-        result
-    }
+    take_back.result(result)
 }
 
 /// A fragment stage pointed at revz's module of rewritten code: the module (the caller

@@ -130,16 +130,16 @@ pub unsafe extern "system" fn create_shader_module(
             let words = unsafe { slice(info.p_code, (info.code_size / 4) as u32) };
             // SAFETY: valid on success.
             let module = unsafe { *p_module };
-            if state.policy.is_active() {
+            if vertex_stage::analyses_fragment_module(state.policy.is_active()) {
                 if let Some(rewrite) = rewrite_fragment_module(module, words) {
                     state.objects.fragment_depth_modules.insert(module, rewrite);
                 }
             }
             // Only a vertex stage's projection is analyzed (fragment and compute modules
             // with push constants are not parsed).
-            if state.policy.rewrite().is_some()
-                && crate::shader::scan::declares_vertex_entry_point(words)
-            {
+            if vertex_stage::analyses_vertex_module(state.policy.rewrite().is_some(), || {
+                crate::shader::scan::declares_vertex_entry_point(words)
+            }) {
                 let analysis = analyze_vertex_module(module, words);
                 if let Some(rewrite) = position_store_of(&state, &analysis, words) {
                     state.objects.position_stores.insert(module, rewrite);

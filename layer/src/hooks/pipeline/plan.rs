@@ -463,27 +463,32 @@ pub(super) fn context(
     info: &vk::GraphicsPipelineCreateInfo<'_>,
 ) -> PlanContext {
     let subsets = own_subsets(info);
-    let has_depth_attachment = if info.render_pass != vk::RenderPass::null() {
-        state
-            .objects
-            .render_passes
-            .get(&info.render_pass)
-            .and_then(|pass| {
-                pass.subpass_depth
-                    .get(info.subpass as usize)
-                    .copied()
-                    .flatten()
-            })
-            .is_some()
+    let attachment = if info.render_pass != vk::RenderPass::null() {
+        DepthAttachmentFacts::RenderPass {
+            subpass_depth: state
+                .objects
+                .render_passes
+                .get(&info.render_pass)
+                .and_then(|pass| {
+                    pass.subpass_depth
+                        .get(info.subpass as usize)
+                        .copied()
+                        .flatten()
+                })
+                .is_some(),
+        }
     } else if subsets.contains(Subsets::FRAGMENT_OUTPUT_INTERFACE) {
-        // SAFETY: a valid pNext chain (the application's contract).
-        unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) }
-            .is_some_and(|rendering| rendering.depth_attachment_format != vk::Format::UNDEFINED)
+        DepthAttachmentFacts::Rendering {
+            // SAFETY: a valid pNext chain (the application's contract).
+            depth_format: unsafe {
+                chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next)
+            }
+            .map(|rendering| rendering.depth_attachment_format),
+        }
     } else {
-        // A library without the attachment formats: it may render depth, and a fragment
-        // shader library without them must give its depth state (the spec's rule).
-        true
+        DepthAttachmentFacts::NoFragmentOutput
     };
+    let has_depth_attachment = has_depth_attachment(attachment);
     PlanContext {
         has_depth_attachment,
         subsets,
