@@ -450,11 +450,9 @@ impl DeviceObjects {
         let Some(image) = self.views.get(&view) else {
             return Target::None;
         };
-        match self.images.get(&image).map(|info| info.depth) {
-            Some(ImageDepth::Reversed) => Target::Reversed,
-            Some(ImageDepth::Native(_)) => Target::Native,
-            None => Target::None,
-        }
+        self.images
+            .get(&image)
+            .map_or(Target::None, |info| info.depth.target())
     }
 
     /// How many live depth images of `format` are reversed and native.

@@ -277,6 +277,22 @@ pub fn promoted_view_format(
     promoted.filter(|_| view_format == image_format)
 }
 
+/// The first of a rendering's depth and stencil formats that revz promotes (has a float
+/// format for): what a secondary continuing dynamic rendering may draw promoted in, and
+/// whether a pipeline's rendering formats are promotable; `None`: neither is.
+pub fn first_promoted_format(depth: vk::Format, stencil: vk::Format) -> Option<vk::Format> {
+    [depth, stencil]
+        .into_iter()
+        .find(|&format| crate::conv::float_depth_format(format).is_some())
+}
+
+/// The depth or stencil format of promoted dynamic rendering in place of the application's
+/// (a secondary's inheritance, a promoted pipeline variant's rendering formats): its float
+/// format, else the format itself (`UNDEFINED`, or one revz does not promote).
+pub fn promoted_attachment_format(format: vk::Format) -> vk::Format {
+    crate::conv::float_depth_format(format).unwrap_or(format)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -578,5 +594,37 @@ mod tests {
         assert!(may_be_resolved(ATTACHMENT | vk::ImageUsageFlags::SAMPLED));
         assert!(!may_be_resolved(vk::ImageUsageFlags::SAMPLED));
         assert!(!may_be_resolved(vk::ImageUsageFlags::TRANSFER_DST));
+    }
+
+    #[test]
+    fn a_rendering_inheritance_draws_promoted_in_its_first_promotable_format() {
+        use vk::Format as F;
+        assert_eq!(
+            first_promoted_format(F::D16_UNORM, F::UNDEFINED),
+            Some(F::D16_UNORM)
+        );
+        assert_eq!(
+            first_promoted_format(F::UNDEFINED, F::D24_UNORM_S8_UINT),
+            Some(F::D24_UNORM_S8_UINT)
+        );
+        assert_eq!(
+            first_promoted_format(F::D24_UNORM_S8_UINT, F::D24_UNORM_S8_UINT),
+            Some(F::D24_UNORM_S8_UINT)
+        );
+        assert_eq!(first_promoted_format(F::D32_SFLOAT, F::UNDEFINED), None);
+        assert_eq!(first_promoted_format(F::UNDEFINED, F::UNDEFINED), None);
+    }
+
+    #[test]
+    fn a_promoted_inheritance_names_the_float_formats() {
+        use vk::Format as F;
+        assert_eq!(promoted_attachment_format(F::D16_UNORM), F::D32_SFLOAT);
+        assert_eq!(
+            promoted_attachment_format(F::D24_UNORM_S8_UINT),
+            F::D32_SFLOAT_S8_UINT
+        );
+        assert_eq!(promoted_attachment_format(F::UNDEFINED), F::UNDEFINED);
+        assert_eq!(promoted_attachment_format(F::D32_SFLOAT), F::D32_SFLOAT);
+        assert_eq!(promoted_attachment_format(F::S8_UINT), F::S8_UINT);
     }
 }

@@ -29,8 +29,8 @@
 //! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
 //! | where a secondary continuing a pass of a depth format draws, without a framebuffer ([`inherited_target`]) | its inheritance's pass (subpass or rendering format) and depth format, the target that pass was last begun with for secondaries, else the format's reversed and native images | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
 //! | whether it draws into a promoted attachment, and which UNORM format draws convert from ([`inherited_promoted`]) | the same, for promotion (the format's promoted and kept images) | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
-//! | is a secondary's inheritance looked at for promotion: only where revz promotes, for a render pass with a promotable attachment, for rendering with a depth or stencil format revz promotes (and which) ([`inherits_promotion`], [`pass_inherits_promotion`], [`rendering_inherits_promotion`]) | `promote`, the pass's promotable attachments, the inherited rendering formats | `vkBeginCommandBuffer` (render passes from `vkCreateRenderPass*`) |
-//! | which depth and stencil formats a secondary continuing promoted rendering inherits: the float ones ([`promoted_inheritance_format`]) | the inherited rendering formats | `vkBeginCommandBuffer` |
+//! | is a secondary's inheritance looked at for promotion: only where revz promotes, for a render pass with a promotable attachment, for rendering with a depth or stencil format revz promotes (and which) ([`inherits_promotion`], [`pass_inherits_promotion`], [`first_promoted_format`]) | `promote`, the pass's promotable attachments, the inherited rendering formats | `vkBeginCommandBuffer` (render passes from `vkCreateRenderPass*`) |
+//! | which depth and stencil formats promoted dynamic rendering uses: the float ones ([`promoted_attachment_format`]); is a rendering's depth or stencil format promoted, and which first ([`first_promoted_format`]) | the rendering formats | `vkBeginCommandBuffer` (a secondary's inheritance), `vkCreateGraphicsPipelines` (a pipeline's `VkPipelineRenderingCreateInfo`: promotable, and its promoted variant's formats) |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
 //! | does revz add `VK_KHR_get_physical_device_properties2` to an instance ([`instance_needs_properties2`]) | the mode, the API version, whether the application enabled it | `vkCreateInstance` |
 //! | may a device of the instance have `VK_EXT_extended_dynamic_state` added ([`extended_dynamic_state_allowed`]) | the API version, whether `VK_KHR_get_physical_device_properties2` is enabled (by the application or revz) | `vkCreateInstance`, `vkCreateDevice` |
@@ -107,7 +107,8 @@ pub use copies::{
     CopyEnd, CopyFacts, Texels, Unconverted,
 };
 pub use images::{
-    may_be_resolved, promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
+    first_promoted_format, may_be_resolved, promoted_attachment_format, promoted_view_format,
+    ImageDepth, ImageFacts, KeptFormat, NativeReason,
 };
 pub use passes::{
     clears_reversed, framebuffer_may_be_promoted, imageless_view_format, pass_committed,
@@ -118,8 +119,7 @@ pub use resolves::{
 };
 pub use secondaries::{
     inherited_promoted, inherited_target, inherits_promotion, pass_inherits_promotion,
-    promoted_inheritance_format, rendering_inherits_promotion, secondary_promoted,
-    secondary_target,
+    secondary_promoted, secondary_target,
 };
 
 use revz_math::Target as RewriteTarget;

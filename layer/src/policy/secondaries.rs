@@ -2,9 +2,9 @@
 //! draws ([`secondary_target`]) and whether into a promoted attachment
 //! ([`secondary_promoted`]), and what a secondary's inheritance of a pass and depth format
 //! makes of them ([`inherited_target`], [`inherited_promoted`]); which inheritances may
-//! continue a promoted pass at all ([`inherits_promotion`], [`pass_inherits_promotion`],
-//! [`rendering_inherits_promotion`]), and the float formats a promoted one inherits
-//! ([`promoted_inheritance_format`]).
+//! continue a promoted pass at all ([`inherits_promotion`], [`pass_inherits_promotion`]; for
+//! dynamic rendering `crate::policy::first_promoted_format`, and the float formats a promoted
+//! one inherits, `crate::policy::promoted_attachment_format`).
 
 use ash::vk;
 
@@ -101,22 +101,6 @@ pub fn pass_inherits_promotion(promotable: impl IntoIterator<Item = bool>) -> bo
     promotable.into_iter().any(|promotable| promotable)
 }
 
-/// The format a secondary continuing dynamic rendering may draw promoted in: the first of its
-/// inherited depth and stencil formats that revz promotes (has a float format for); `None`:
-/// neither is, so it draws into no promoted attachment.
-pub fn rendering_inherits_promotion(depth: vk::Format, stencil: vk::Format) -> Option<vk::Format> {
-    [depth, stencil]
-        .into_iter()
-        .find(|&format| crate::conv::float_depth_format(format).is_some())
-}
-
-/// The depth or stencil format a secondary continuing promoted dynamic rendering inherits in
-/// place of the application's: its float format, else the format itself (`UNDEFINED`, or one
-/// revz does not promote).
-pub fn promoted_inheritance_format(format: vk::Format) -> vk::Format {
-    crate::conv::float_depth_format(format).unwrap_or(format)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -128,44 +112,6 @@ mod tests {
         assert!(pass_inherits_promotion([false, true]));
         assert!(!pass_inherits_promotion([false, false]));
         assert!(!pass_inherits_promotion([]));
-    }
-
-    #[test]
-    fn a_rendering_inheritance_draws_promoted_in_its_first_promotable_format() {
-        use vk::Format as F;
-        assert_eq!(
-            rendering_inherits_promotion(F::D16_UNORM, F::UNDEFINED),
-            Some(F::D16_UNORM)
-        );
-        assert_eq!(
-            rendering_inherits_promotion(F::UNDEFINED, F::D24_UNORM_S8_UINT),
-            Some(F::D24_UNORM_S8_UINT)
-        );
-        assert_eq!(
-            rendering_inherits_promotion(F::D24_UNORM_S8_UINT, F::D24_UNORM_S8_UINT),
-            Some(F::D24_UNORM_S8_UINT)
-        );
-        assert_eq!(
-            rendering_inherits_promotion(F::D32_SFLOAT, F::UNDEFINED),
-            None
-        );
-        assert_eq!(
-            rendering_inherits_promotion(F::UNDEFINED, F::UNDEFINED),
-            None
-        );
-    }
-
-    #[test]
-    fn a_promoted_inheritance_names_the_float_formats() {
-        use vk::Format as F;
-        assert_eq!(promoted_inheritance_format(F::D16_UNORM), F::D32_SFLOAT);
-        assert_eq!(
-            promoted_inheritance_format(F::D24_UNORM_S8_UINT),
-            F::D32_SFLOAT_S8_UINT
-        );
-        assert_eq!(promoted_inheritance_format(F::UNDEFINED), F::UNDEFINED);
-        assert_eq!(promoted_inheritance_format(F::D32_SFLOAT), F::D32_SFLOAT);
-        assert_eq!(promoted_inheritance_format(F::S8_UINT), F::S8_UINT);
     }
 
     #[test]

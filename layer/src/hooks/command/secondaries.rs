@@ -5,8 +5,7 @@
 
 use super::*;
 use crate::policy::{
-    inherits_promotion, pass_inherits_promotion, promoted_inheritance_format,
-    rendering_inherits_promotion,
+    first_promoted_format, inherits_promotion, pass_inherits_promotion, promoted_attachment_format,
 };
 
 /// A secondary's begin info as it goes down when it continues a promoted pass: its
@@ -36,8 +35,8 @@ fn promoted_inheritance<'a>(
             chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
         }?;
         let replacement = vk::CommandBufferInheritanceRenderingInfo {
-            depth_attachment_format: promoted_inheritance_format(rendering.depth_attachment_format),
-            stencil_attachment_format: promoted_inheritance_format(
+            depth_attachment_format: promoted_attachment_format(rendering.depth_attachment_format),
+            stencil_attachment_format: promoted_attachment_format(
                 rendering.stencil_attachment_format,
             ),
             ..*rendering
@@ -170,7 +169,7 @@ pub(super) fn inherited_promotion(
         let rendering = unsafe {
             chain::find::<vk::CommandBufferInheritanceRenderingInfo<'_>>(inheritance.p_next)
         }?;
-        let format = rendering_inherits_promotion(
+        let format = first_promoted_format(
             rendering.depth_attachment_format,
             rendering.stencil_attachment_format,
         )?;

@@ -295,9 +295,11 @@ pub(super) fn promotion_of(
         let rendering = unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) };
         PromotionAttachments::Rendering {
             promotable: rendering.is_some_and(|r| {
-                [r.depth_attachment_format, r.stencil_attachment_format]
-                    .into_iter()
-                    .any(|f| crate::conv::float_depth_format(f).is_some())
+                crate::policy::first_promoted_format(
+                    r.depth_attachment_format,
+                    r.stencil_attachment_format,
+                )
+                .is_some()
             }),
         }
     };

@@ -107,7 +107,7 @@ pub(super) fn create_variant(
         }
     }
     if promotion.is_some_and(|p| p.rendering) {
-        let float = |format: vk::Format| crate::conv::float_depth_format(format).unwrap_or(format);
+        let float = crate::policy::promoted_attachment_format;
         // SAFETY: as above.
         let rendering = unsafe {
             chain.edit(|rendering: &vk::PipelineRenderingCreateInfo<'_>| {
