@@ -34,29 +34,22 @@ pub unsafe extern "system" fn get_device_proc_addr(
             }
             // SAFETY: calling down the chain with the caller's arguments.
             let next = unsafe { (state.next_get_device_proc_addr)(device, p_name) };
-            // A hook is only handed out for a command the device below provides, and the depth
-            // path's hooks only where the policy acts.
+            // A hook is only handed out for a command the device below provides, and the
+            // command hooks only where the policy says (`DevicePolicy::command_hooks`).
+            let hooks = state.policy.command_hooks(state.profile.is_some());
             let hook = next.and_then(|_| {
-                super::device_command(name).or_else(|| {
-                    let policy = &state.policy;
-                    if !policy.is_active() {
-                        return None;
-                    }
-                    super::depth_path_command(name)
-                        .or_else(|| {
-                            policy
-                                .rewrite()
-                                .and_then(|_| super::precise_path_command(name))
-                        })
-                        .or_else(|| {
-                            // The depth profile counts draws, folds them at submissions and
-                            // closes frames at presents, in every mode. Without it draws are
-                            // the next layer's own.
-                            state.profile.as_ref().and_then(|_| {
-                                super::profile_command(name).or_else(|| super::draw_command(name))
-                            })
-                        })
-                })
+                super::device_command(name)
+                    .or_else(|| hooks.depth_path.then(|| super::depth_path_command(name))?)
+                    .or_else(|| {
+                        hooks
+                            .precise_path
+                            .then(|| super::precise_path_command(name))?
+                    })
+                    .or_else(|| {
+                        hooks.profile.then(|| {
+                            super::profile_command(name).or_else(|| super::draw_command(name))
+                        })?
+                    })
             });
             hook.or(next)
         },

@@ -31,6 +31,7 @@
 //! | whether it draws into a promoted attachment, and which UNORM format draws convert from ([`inherited_promoted`]) | the same, for promotion (the format's promoted and kept images) | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
 //! | is a secondary's inheritance looked at for promotion: only where revz promotes, for a render pass with a promotable attachment, for rendering with a depth or stencil format revz promotes (and which) ([`inherits_promotion`], [`pass_inherits_promotion`], [`first_promoted_format`]) | `promote`, the pass's promotable attachments, the inherited rendering formats | `vkBeginCommandBuffer` (render passes from `vkCreateRenderPass*`) |
 //! | which depth and stencil formats promoted dynamic rendering uses: the float ones ([`promoted_attachment_format`]); is a rendering's depth or stencil format promoted, and which first ([`first_promoted_format`]) | the rendering formats | `vkBeginCommandBuffer` (a secondary's inheritance), `vkCreateGraphicsPipelines` (a pipeline's `VkPipelineRenderingCreateInfo`: promotable, and its promoted variant's formats) |
+//! | which command hooks a device hands out ([`DevicePolicy::command_hooks`]) | the mode, whether the depth profile is on | `vkGetDeviceProcAddr` (settings from `vkCreateDevice`) |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
 //! | does revz add `VK_KHR_get_physical_device_properties2` to an instance ([`instance_needs_properties2`]) | the mode, the API version, whether the application enabled it | `vkCreateInstance` |
 //! | may a device of the instance have `VK_EXT_extended_dynamic_state` added ([`extended_dynamic_state_allowed`]) | the API version, whether `VK_KHR_get_physical_device_properties2` is enabled (by the application or revz) | `vkCreateInstance`, `vkCreateDevice` |
@@ -128,6 +129,17 @@ use crate::command_state::Reversing;
 use crate::config::{CompareOp, FarClip, Mode, Observable, Settings};
 use crate::conv::{flip_depth, Reversal};
 
+/// Which groups of command hooks a device hands out ([`DevicePolicy::command_hooks`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CommandHooks {
+    /// The depth path's: passes, binds, dynamic depth state, clears, copies, secondaries.
+    pub depth_path: bool,
+    /// The precise path's: push constants.
+    pub precise_path: bool,
+    /// The depth profile's: draws, submissions, presents.
+    pub profile: bool,
+}
+
 /// What the policy needs to know about a device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DevicePolicy {
@@ -175,6 +187,20 @@ impl DevicePolicy {
     /// Whether the layer acts on this device's depth at all.
     pub fn is_active(&self) -> bool {
         self.mode != Mode::Off
+    }
+
+    /// Which of revz's command hooks the device hands out (`vkGetDeviceProcAddr`; the device's
+    /// object hooks always are): none where the mode is off, the depth path's in every active
+    /// mode, the precise path's where the mode rewrites projections, and the draw and frame
+    /// hooks only with the depth profile on (`profile`), which counts them: without it draws
+    /// are the next layer's own.
+    pub fn command_hooks(&self, profile: bool) -> CommandHooks {
+        let active = self.is_active();
+        CommandHooks {
+            depth_path: active,
+            precise_path: active && self.rewrite().is_some(),
+            profile: active && profile,
+        }
     }
 
     /// The projection rewrite of the mode, if it has one (flip mode only flips).
@@ -229,6 +255,35 @@ mod tests {
             carrier_offset: None,
             promote: matches!(mode, Mode::Complementary | Mode::Infinite),
         }
+    }
+
+    #[test]
+    fn hooks_are_handed_out_by_mode_and_profile() {
+        let hooks = |mode, profile| policy(mode, Observable::None).command_hooks(profile);
+        let none = CommandHooks {
+            depth_path: false,
+            precise_path: false,
+            profile: false,
+        };
+        assert_eq!(hooks(Mode::Off, true), none);
+        assert_eq!(
+            hooks(Mode::Flip, false),
+            CommandHooks {
+                depth_path: true,
+                ..none
+            }
+        );
+        for mode in [Mode::Complementary, Mode::Infinite] {
+            assert_eq!(
+                hooks(mode, true),
+                CommandHooks {
+                    depth_path: true,
+                    precise_path: true,
+                    profile: true,
+                }
+            );
+        }
+        assert!(hooks(Mode::Flip, true).profile);
     }
 
     #[test]
