@@ -260,11 +260,9 @@ pub unsafe extern "system" fn create_shaders_ext(
                         vk::Handle::as_raw(shader),
                         crate::profile::PipelineRecord {
                             kind: "vertex shader object",
-                            path: if state.policy.is_active() {
-                                "flip"
-                            } else {
-                                "native"
-                            },
+                            path: crate::policy::pipelines::shader_object_vertex_path(
+                                state.policy.is_active(),
+                            ),
                             projection: "not read: the precise path takes pipelines only \
                                          (shader objects are not analyzed)"
                                 .to_owned(),

@@ -55,6 +55,7 @@
 //! | does a pipeline draw into promoted attachments, and how its promoted variants differ ([`pipelines::PromotionFacts::decide`]) | `promote`, whether its subsets name attachment formats, its render pass (known, promotable attachments, promoted twin) or rendering formats, whether a library it links is promoted | `vkCreateRenderPass*`, `vkCreateGraphicsPipelines` |
 //! | what a fragment stage that computes with depth gets ([`pipelines::FragmentStage::variant`]) | its rewrite or why there is none, whether a variant of what holds it can be made | `vkCreateGraphicsPipelines`, `vkCreateShadersEXT` |
 //! | which path a pipeline's draws take, as logged and in the depth profile ([`pipelines::PipelinePath`]) | its pushed projection, derived range, or flip reason (from [`vertex_stage::VertexStageFacts::decide`] and the rewritten stage's creation) | `vkCreateGraphicsPipelines` |
+//! | which path a vertex shader object's draws take, in the depth profile ([`pipelines::shader_object_vertex_path`]) | whether the mode is active | `vkCreateShadersEXT` |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and

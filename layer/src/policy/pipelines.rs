@@ -578,6 +578,18 @@ impl TakeBack {
     }
 }
 
+/// The path a vertex shader object's draws take, as the depth profile shows it: the flip path
+/// where the mode acts on depth (the precise path takes pipelines only: shader objects are not
+/// analyzed), else none ("native").
+#[must_use]
+pub fn shader_object_vertex_path(active: bool) -> &'static str {
+    if active {
+        "flip"
+    } else {
+        "native"
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1160,5 +1172,11 @@ mod tests {
         assert_eq!(neither, PipelinePath::NotRewritten);
         assert_eq!(neither.label(), "flip");
         assert_eq!(neither.to_string(), "the mode does not rewrite depth");
+    }
+
+    #[test]
+    fn vertex_shader_objects_take_the_flip_path_where_the_mode_is_active() {
+        assert_eq!(shader_object_vertex_path(true), "flip");
+        assert_eq!(shader_object_vertex_path(false), "native");
     }
 }
