@@ -91,7 +91,8 @@ pub fn pass_committed(images: &[Target]) -> Target {
 /// attachment: the pass clears that attachment's depth (`cleared`, from its load op) and the
 /// attachment is reversed (`target`; `None`: the framebuffer has no attachment there). Over the
 /// attachments as created, the first such clear commits the convention with its value; over
-/// them after the convention, each such clear value flips.
+/// them after the convention, each such clear value flips. A dynamic rendering's depth
+/// attachment follows the same rule (`vkCmdBeginRendering`).
 pub fn clears_reversed(cleared: bool, target: Option<Target>) -> bool {
     cleared && target == Some(Target::Reversed)
 }

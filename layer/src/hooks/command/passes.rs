@@ -366,7 +366,8 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         let target = device.observed.committed(image, clear);
         if let (Some(depth), Some(resolve), Target::Reversed) = (depth, resolve, target) {
             let mut copy = *depth;
-            if copy.load_op == vk::AttachmentLoadOp::CLEAR {
+            let cleared = copy.load_op == vk::AttachmentLoadOp::CLEAR;
+            if policy::clears_reversed(cleared, Some(target)) {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
                 unsafe {
                     copy.clear_value.depth_stencil.depth =
