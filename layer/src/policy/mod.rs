@@ -71,9 +71,10 @@
 //! and what their image ends are), `pipelines.rs` (pipelines: whether they have a depth
 //! attachment, which static states become dynamic, which variants are made, which are taken
 //! back uncompiled, promotion, the path a pipeline's draws take, fragment variants of shader
-//! objects), `vertex_stage.rs` (the precise path's vertex stage: candidate, store, range);
-//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears) is here. The rows that name
-//! code outside this module are decided there.
+//! objects and the profile's path of vertex ones), `vertex_stage.rs` (the precise path's vertex
+//! stage: candidate, store, range, which modules are analysed);
+//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears, which command hooks a
+//! device hands out) is here. The rows that name code outside this module are decided there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
