@@ -1,16 +1,20 @@
 //! revz: a Vulkan layer that renders unmodified applications with a reversed depth buffer.
 //!
 //! See `shared/DESIGN.md` for the depth math and the per-draw model, and `docs/` for each path.
-//! The crate keeps three concerns apart:
+//! The crate keeps its concerns apart:
 //! - the Vulkan plumbing: [`ffi`] (loader structures), [`boundary`] (no panic crosses into C),
 //!   [`state`] (per-instance/device state keyed by dispatch pointer), [`objects`] (tracked
-//!   objects), [`chain`] (pNext chains) and `hooks` (the intercepted commands, thin and
-//!   mechanical); [`shader`], the SPIR-V readers and rewriters (which push-constant bytes hold
-//!   the projection, the `Position` store rewrite, the in-shader range fit for projections in
-//!   buffers, the fragment depth rewrite);
-//! - the policy: [`policy`] (which images are reversed or promoted, what the application's
-//!   convention is, where secondaries draw) and [`config`] (the settings and where they come
-//!   from);
+//!   objects), [`chain`] (pNext chains), [`depth_copy`] (converted copies of reversed images)
+//!   and `hooks` (the intercepted commands, thin and mechanical); [`shader`], the SPIR-V
+//!   readers and rewriters (which push-constant bytes hold the projection, the `Position`
+//!   store rewrite, the in-shader range fit for projections in buffers, the fragment depth
+//!   rewrite);
+//! - the policy: [`policy`], every decision revz takes, as functions of plain facts (its docs
+//!   hold the table: decision, facts, where they come from: which images are reversed or
+//!   promoted, resolves, the application's convention, the compare op, pipelines' dynamic
+//!   state and variants, which path a pipeline takes, copies, secondaries, which hooks a device
+//!   hands out); the hooks gather the facts, ask, and apply the answer; [`config`] (the
+//!   settings and where they come from);
 //! - the depth math: the `revz-math` crate (pure Rust, no Vulkan), with the per-draw logic in
 //!   [`command_state`] (the draw's path and its depth state), [`precise`] (push-constant shadow
 //!   copy, cameras, the carrier) and [`conv`];
