@@ -13,7 +13,8 @@
 //! transient multisampled attachments resolved into the main color and depth images at its
 //! end, with the depth resolve mode the plan names (`--depth-resolve` sets it).
 //!
-//! Files: this one holds the vocabulary and what is derived from a plan; `check.rs` holds
+//! Files: this one holds the vocabulary and what is derived from a plan (one concern, kept
+//! whole at about 800 lines: each type is read beside the steps that use it); `check.rs` holds
 //! [`Plan::check`], the rules.
 
 use std::fmt;
