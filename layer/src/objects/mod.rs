@@ -90,7 +90,7 @@ impl RenderPassInfo {
     pub fn promotable(&self, index: usize) -> bool {
         self.attachments
             .get(index)
-            .is_some_and(|&format| crate::conv::float_depth_format(format).is_some())
+            .is_some_and(|&format| crate::policy::promotable_format(format))
     }
 
     /// The render pass the policy's choice of twin names (`None`: the application's, or a
@@ -695,7 +695,7 @@ impl PassScope {
             .copied()
             .flatten()
             .and_then(|index| pass.attachments.get(index as usize).copied())
-            .filter(|&format| crate::conv::float_depth_format(format).is_some());
+            .filter(|&format| crate::policy::promotable_format(format));
         Some(format.unwrap_or(vk::Format::UNDEFINED))
     }
 

@@ -175,7 +175,7 @@ impl DevicePolicy {
     /// lock, no chain walk) so that every other image goes down as it is; those considered
     /// are decided by [`DevicePolicy::promoted_format`].
     pub fn may_promote(&self, format: vk::Format) -> bool {
-        self.promote && crate::conv::float_depth_format(format).is_some()
+        self.promote && promotable_format(format)
     }
 
     /// The float format a depth image is created in instead of its own, or why it keeps its
@@ -277,13 +277,21 @@ pub fn promoted_view_format(
     promoted.filter(|_| view_format == image_format)
 }
 
+/// Whether revz promotes depth attachments of `format` (where promotion is on): the UNORM
+/// depth formats, which have a float counterpart (`crate::conv::float_depth_format`). The one
+/// rule behind every "promotable" below and in the render pass, secondary and pipeline
+/// decisions.
+pub fn promotable_format(format: vk::Format) -> bool {
+    crate::conv::float_depth_format(format).is_some()
+}
+
 /// The first of a rendering's depth and stencil formats that revz promotes (has a float
 /// format for): what a secondary continuing dynamic rendering may draw promoted in, and
 /// whether a pipeline's rendering formats are promotable; `None`: neither is.
 pub fn first_promoted_format(depth: vk::Format, stencil: vk::Format) -> Option<vk::Format> {
     [depth, stencil]
         .into_iter()
-        .find(|&format| crate::conv::float_depth_format(format).is_some())
+        .find(|&format| promotable_format(format))
 }
 
 /// The depth or stencil format of promoted dynamic rendering in place of the application's
@@ -626,5 +634,26 @@ mod tests {
         assert_eq!(promoted_attachment_format(F::UNDEFINED), F::UNDEFINED);
         assert_eq!(promoted_attachment_format(F::D32_SFLOAT), F::D32_SFLOAT);
         assert_eq!(promoted_attachment_format(F::S8_UINT), F::S8_UINT);
+    }
+
+    #[test]
+    fn only_unorm_depth_formats_are_promotable() {
+        use vk::Format as F;
+        for format in [
+            F::D16_UNORM,
+            F::X8_D24_UNORM_PACK32,
+            F::D24_UNORM_S8_UINT,
+            F::D16_UNORM_S8_UINT,
+        ] {
+            assert!(promotable_format(format), "{format:?}");
+        }
+        for format in [
+            F::D32_SFLOAT,
+            F::D32_SFLOAT_S8_UINT,
+            F::S8_UINT,
+            F::UNDEFINED,
+        ] {
+            assert!(!promotable_format(format), "{format:?}");
+        }
     }
 }

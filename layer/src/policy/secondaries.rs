@@ -82,7 +82,7 @@ pub fn inherited_promoted(
     let (promoted, guessed) = secondary_promoted(remembered, promoted, kept);
     let from = promoted.then(|| {
         format
-            .filter(|&f| crate::conv::float_depth_format(f).is_some())
+            .filter(|&f| crate::policy::promotable_format(f))
             .unwrap_or(vk::Format::UNDEFINED)
     });
     (from, guessed)
