@@ -29,7 +29,7 @@
 //! | whether such a secondary draws into a promoted attachment ([`secondary_promoted`]) | the same, for promotion | primary begins, `vkCreateImage` |
 //! | where a secondary continuing a pass of a depth format draws, without a framebuffer ([`inherited_target`]) | its inheritance's pass (subpass or rendering format) and depth format, the target that pass was last begun with for secondaries, else the format's reversed and native images | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
 //! | whether it draws into a promoted attachment, and which UNORM format draws convert from ([`inherited_promoted`]) | the same, for promotion (the format's promoted and kept images) | `vkBeginCommandBuffer` (primary begins, `vkCreateImage`) |
-//! | is a secondary's inheritance looked at for promotion: only where revz promotes, for a render pass with a promotable attachment, for rendering with a depth or stencil format revz promotes (and which) ([`inherits_promotion`], [`pass_inherits_promotion`], [`first_promoted_format`]) | `promote`, the pass's promotable attachments, the inherited rendering formats | `vkBeginCommandBuffer` (render passes from `vkCreateRenderPass*`) |
+//! | is a secondary's inheritance looked at for promotion: only where revz promotes, for a render pass with a promotable attachment, for rendering with a depth or stencil format revz promotes (and which) ([`DevicePolicy::promote`], [`pass_promotable`], [`first_promoted_format`]) | `promote`, the pass's promotable attachments, the inherited rendering formats | `vkBeginCommandBuffer` (render passes from `vkCreateRenderPass*`) |
 //! | does revz promote attachments of a format ([`promotable_format`]: the UNORM depth formats) | the format | every promotion decision below; render passes (`crate::objects::RenderPassInfo::promotable`) and pass scopes |
 //! | which depth and stencil formats promoted dynamic rendering uses: the float ones ([`promoted_attachment_format`]); is a rendering's depth or stencil format promoted, and which first ([`first_promoted_format`]) | the rendering formats | `vkBeginCommandBuffer` (a secondary's inheritance), `vkCreateGraphicsPipelines` (a pipeline's `VkPipelineRenderingCreateInfo`: promotable, and its promoted variant's formats) |
 //! | which command hooks a device hands out ([`DevicePolicy::command_hooks`]) | the mode, whether the depth profile is on | `vkGetDeviceProcAddr` (settings from `vkCreateDevice`) |
@@ -116,15 +116,13 @@ pub use images::{
 };
 pub use passes::{
     clears_reversed, framebuffer_may_be_promoted, imageless_view_format, pass_committed,
-    pass_resolve_swappable, promoted_twin_format, resolves_reversed, FramebufferStorage, PassTwin,
+    pass_promotable, pass_resolve_swappable, promoted_twin_format, resolves_reversed,
+    FramebufferStorage, PassTwin,
 };
 pub use resolves::{
     DepthResolve, ResolveSupport, ReversedResolve, SubpassResolveFacts, TwinResolve,
 };
-pub use secondaries::{
-    inherited_promoted, inherited_target, inherits_promotion, pass_inherits_promotion,
-    secondary_promoted, secondary_target,
-};
+pub use secondaries::{inherited_promoted, inherited_target, secondary_promoted, secondary_target};
 
 use revz_math::Target as RewriteTarget;
 

@@ -6,7 +6,7 @@
 //! ([`clears_reversed`]: the first commits the convention, and they flip), and whether it
 //! resolves a reversed attachment ([`resolves_reversed`]); for promotion: the formats of a
 //! pass's promoted twin ([`promoted_twin_format`]), which framebuffers are considered for it
-//! ([`framebuffer_may_be_promoted`]), and the view formats an imageless one lists
+//! ([`framebuffer_may_be_promoted`], [`pass_promotable`]), and the view formats an imageless one lists
 //! ([`imageless_view_format`]).
 
 use ash::vk;
@@ -122,7 +122,14 @@ pub fn framebuffer_may_be_promoted(
     promote: bool,
     promotable: impl IntoIterator<Item = bool>,
 ) -> bool {
-    promote && promotable.into_iter().any(|promotable| promotable)
+    promote && pass_promotable(promotable)
+}
+
+/// Whether a render pass has an attachment revz promotes (`promotable`: each attachment's,
+/// asked in order until one is): the passes a framebuffer, a pipeline or a secondary's
+/// inheritance may be promoted with, where promotion is on.
+pub fn pass_promotable(promotable: impl IntoIterator<Item = bool>) -> bool {
+    promotable.into_iter().any(|promotable| promotable)
 }
 
 /// The format an imageless framebuffer of promoted images lists for an attachment's views, in
@@ -154,6 +161,13 @@ mod tests {
         );
         assert_eq!(promoted_twin_format(F::D32_SFLOAT), None);
         assert_eq!(promoted_twin_format(F::R8G8B8A8_UNORM), None);
+    }
+
+    #[test]
+    fn a_pass_is_promotable_with_any_promotable_attachment() {
+        assert!(pass_promotable([false, true]));
+        assert!(!pass_promotable([false, false]));
+        assert!(!pass_promotable([]));
     }
 
     #[test]

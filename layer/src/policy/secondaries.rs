@@ -1,10 +1,10 @@
 //! Secondary command buffers without a framebuffer in their inheritance info: where one
 //! draws ([`secondary_target`]) and whether into a promoted attachment
 //! ([`secondary_promoted`]), and what a secondary's inheritance of a pass and depth format
-//! makes of them ([`inherited_target`], [`inherited_promoted`]); which inheritances may
-//! continue a promoted pass at all ([`inherits_promotion`], [`pass_inherits_promotion`]; for
-//! dynamic rendering `crate::policy::first_promoted_format`, and the float formats a promoted
-//! one inherits, `crate::policy::promoted_attachment_format`).
+//! makes of them ([`inherited_target`], [`inherited_promoted`]). Which inheritances may
+//! continue a promoted pass at all follows the passes' and formats' rules
+//! (`crate::policy::pass_promotable`, `crate::policy::first_promoted_format`, and the float
+//! formats a promoted one inherits, `crate::policy::promoted_attachment_format`).
 
 use ash::vk;
 
@@ -88,31 +88,9 @@ pub fn inherited_promoted(
     (from, guessed)
 }
 
-/// Whether a secondary's inheritance is looked at for promotion: only on a device that
-/// promotes depth formats (`promote`, `crate::policy::DevicePolicy::promote`); elsewhere no
-/// secondary continues a promoted pass.
-pub fn inherits_promotion(promote: bool) -> bool {
-    promote
-}
-
-/// Whether a secondary continuing a render pass may continue it promoted: the pass has an
-/// attachment revz promotes (`promotable`: each attachment's, asked in order until one is).
-pub fn pass_inherits_promotion(promotable: impl IntoIterator<Item = bool>) -> bool {
-    promotable.into_iter().any(|promotable| promotable)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn inheritances_are_looked_at_for_promotion_only_where_revz_promotes() {
-        assert!(inherits_promotion(true));
-        assert!(!inherits_promotion(false));
-        assert!(pass_inherits_promotion([false, true]));
-        assert!(!pass_inherits_promotion([false, false]));
-        assert!(!pass_inherits_promotion([]));
-    }
 
     #[test]
     fn secondaries_follow_the_pass_then_the_formats_images() {

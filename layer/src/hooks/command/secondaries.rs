@@ -4,9 +4,7 @@
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
-use crate::policy::{
-    first_promoted_format, inherits_promotion, pass_inherits_promotion, promoted_attachment_format,
-};
+use crate::policy::{first_promoted_format, pass_promotable, promoted_attachment_format};
 
 /// A secondary's begin info as it goes down when it continues a promoted pass: its
 /// inheritance names the promoted twin, or the float rendering formats (the copies it points
@@ -129,12 +127,12 @@ pub(super) fn inherited_promotion(
     inheritance: &vk::CommandBufferInheritanceInfo<'_>,
 ) -> Option<vk::Format> {
     let device = &entry.device;
-    if !inherits_promotion(device.policy.promote) {
+    if !device.policy.promote {
         return None;
     }
     let (key, format) = if inheritance.render_pass != vk::RenderPass::null() {
         let pass = device.objects.render_passes.get(&inheritance.render_pass)?;
-        if !pass_inherits_promotion((0..pass.attachments.len()).map(|i| pass.promotable(i))) {
+        if !pass_promotable((0..pass.attachments.len()).map(|i| pass.promotable(i))) {
             return None;
         }
         let framebuffer = inheritance.framebuffer;

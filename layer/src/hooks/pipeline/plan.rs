@@ -285,7 +285,9 @@ pub(super) fn promotion_of(
             Some(pass) => {
                 twin = pass.promoted_twin;
                 PromotionAttachments::Pass {
-                    promotable: (0..pass.attachments.len()).any(|i| pass.promotable(i)),
+                    promotable: crate::policy::pass_promotable(
+                        (0..pass.attachments.len()).map(|i| pass.promotable(i)),
+                    ),
                     twin: twin.is_some(),
                 }
             }
