@@ -6,6 +6,8 @@ use super::PipelineDepth;
 
 /// How many pipelines a recording keeps by handle for its binds.
 pub(super) const KNOWN_PIPELINES: usize = 4;
+// `KnownPipelines::alike` holds a bit per slot.
+const _: () = assert!(KNOWN_PIPELINES <= 8);
 
 /// The graphics pipelines a recording bound, with their depth state (`None`: not tracked),
 /// found by handle: binding one of them again looks nothing up in the device's table (a shared
@@ -18,6 +20,10 @@ pub(super) struct KnownPipelines {
     pub(super) slots: [(vk::Pipeline, Option<std::sync::Arc<PipelineDepth>>); KNOWN_PIPELINES],
     /// The slot the next pipeline not found replaces.
     pub(super) next: usize,
+    /// Which slots settle alike ([`PipelineDepth::settles_like`]): bit `j` of `alike[i]`,
+    /// compared once when either is found, so that a bind between them compares nothing
+    /// (bit `i` of `alike[i]`: slot `i` holds a tracked pipeline).
+    pub(super) alike: [u8; KNOWN_PIPELINES],
 }
 
 impl KnownPipelines {
@@ -50,7 +56,30 @@ impl KnownPipelines {
     ) -> usize {
         let index = self.next;
         self.next = (index + 1) % KNOWN_PIPELINES;
+        let bit = 1u8 << index;
+        let mut alike = 0;
+        for (other, (_, known)) in self.slots.iter().enumerate() {
+            self.alike[other] &= !bit;
+            let like = match (&depth, known) {
+                (Some(depth), Some(known)) if other != index => depth.settles_like(known),
+                _ => false,
+            };
+            if like {
+                self.alike[other] |= bit;
+                alike |= 1 << other;
+            }
+        }
+        if depth.is_some() {
+            alike |= bit;
+        }
+        self.alike[index] = alike;
         self.slots[index] = (handle, depth);
         index
+    }
+
+    /// Whether binding `slot` after `previous` (both found) needs no settle: both tracked
+    /// pipelines that settle alike.
+    pub(super) fn settle_alike(&self, previous: usize, slot: usize) -> bool {
+        self.alike[slot] & (1 << previous) != 0
     }
 }

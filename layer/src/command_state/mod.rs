@@ -570,8 +570,9 @@ impl CommandState {
     /// graphics stages (revz's fragment variant with them).
     pub fn bind_pipeline(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {
         let handle = pipeline.as_ref().map_or(vk::Pipeline::null(), |p| p.handle);
+        let settled = self.settled_bind();
         let slot = self.known.insert(handle, pipeline);
-        self.bind_slot(Some(slot));
+        self.bind_slot(Some(slot), settled);
     }
 
     /// [`Self::bind_pipeline`] of the application's pipeline `handle`, whose depth state
@@ -584,14 +585,44 @@ impl CommandState {
         generation: u64,
         lookup: impl FnOnce() -> Option<std::sync::Arc<PipelineDepth>>,
     ) {
+        let settled = self.settled_bind();
         let slot = self.known.slot(handle, generation, lookup);
-        self.bind_slot(Some(slot));
+        self.bind_slot(Some(slot), settled);
     }
 
-    fn bind_slot(&mut self, slot: Option<usize>) {
+    /// Before a pipeline bind: the slot and handle of the bound pipeline, where everything
+    /// the last settle sent still holds for it (nothing changed since, in a pass where state
+    /// goes down, and no push waits for a compatible pipeline: a bind ends that wait).
+    fn settled_bind(&self) -> Option<(usize, vk::Pipeline)> {
+        let slot = self.bound?;
+        let settled = !self.dirty
+            && self.in_pass
+            && !self.secondary_contents
+            && (!self.pushed_since_bind || self.push_compatible());
+        settled.then(|| (slot, self.known.slots[slot].0))
+    }
+
+    /// Binds `slot`; `settled` is what [`Self::settled_bind`] said before it was looked up.
+    /// Where the newly bound pipeline settles like the one it replaces
+    /// ([`PipelineDepth::settles_like`]), a settle would send nothing: the state stays clean,
+    /// so that the bind goes down alone and its hook takes no second look (binds of pipelines
+    /// that differ only in what revz does not touch, or in what a variant carries).
+    fn bind_slot(&mut self, slot: Option<usize>, settled: Option<(usize, vk::Pipeline)>) {
+        let unchanged = match (slot, settled) {
+            // The previous pipeline's slot still holds it (the lookup may have reused it).
+            // An untracked pipeline may set anything statically: what the application set
+            // goes down again after it.
+            (Some(slot), Some((previous, handle))) => {
+                self.known.slots[previous].0 == handle && self.known.settle_alike(previous, slot)
+            }
+            _ => false,
+        };
         self.bind_graphics(slot);
         self.fragment_shader = (vk::ShaderEXT::null(), None);
         self.shader_variant_bound = false;
+        if unchanged {
+            self.dirty = false;
+        }
     }
 
     /// The bound graphics pipeline's depth state, if it is tracked.

@@ -143,6 +143,40 @@ impl PipelineDepth {
         }
     }
 
+    /// Whether a settle after binding this pipeline in `other`'s place, nothing else changed,
+    /// sends what it sent for `other`: the same states dynamic (so binding it forgets nothing
+    /// revz sent), the same static values where revz made them dynamic, and the same facts
+    /// for the precise path (projection, carrier, derived range, push layout). Compared
+    /// exactly: floats by bits where revz compares what it sent by bits, and a NaN never
+    /// settles like anything (then the state is sent again: the safe answer). Not compared:
+    /// the variants, which the bind itself chooses.
+    pub fn settles_like(&self, other: &PipelineDepth) -> bool {
+        if std::ptr::eq(self, other) {
+            return true;
+        }
+        let injected = self.injected;
+        fn viewport_bits(p: &PipelineDepth) -> impl Iterator<Item = [u32; 6]> + '_ {
+            p.viewports
+                .iter()
+                .map(|v| [v.x, v.y, v.width, v.height, v.min_depth, v.max_depth].map(f32::to_bits))
+        }
+        self.app_dynamic == other.app_dynamic
+            && injected == other.injected
+            && self.unreversed_fragment == other.unreversed_fragment
+            && self.projection == other.projection
+            && self.position_store == other.position_store
+            && self.derived_range == other.derived_range
+            && self.layout == other.layout
+            && (!injected.contains(States::VIEWPORT)
+                || (self.viewports.len() == other.viewports.len()
+                    && viewport_bits(self).eq(viewport_bits(other))))
+            && (!injected.contains(States::COMPARE_OP) || self.compare_op == other.compare_op)
+            && (!injected.contains(States::BIAS) || self.bias == other.bias)
+            && (!injected.contains(States::BOUNDS)
+                || (self.bounds.0.to_bits(), self.bounds.1.to_bits())
+                    == (other.bounds.0.to_bits(), other.bounds.1.to_bits()))
+    }
+
     /// The pipelines revz made for this one (to destroy with it).
     pub fn variants(&self) -> impl Iterator<Item = vk::Pipeline> {
         [

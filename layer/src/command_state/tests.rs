@@ -918,3 +918,161 @@ fn rebinding_pipelines_with_the_same_state_sends_nothing_again() {
     assert_eq!(sink.viewports.len(), 2);
     assert_eq!(sink.compare_ops.len(), 3);
 }
+
+/// A pipeline `handle` with a reversed variant `handle + 1` whose compare op the variant
+/// holds (`compare_op = variants`), its static viewport made dynamic.
+fn compare_op_variant(handle: u64, compare_op: vk::CompareOp) -> Arc<PipelineDepth> {
+    Arc::new(PipelineDepth {
+        injected: States::VIEWPORT,
+        viewports: vec![viewport(0.0, 1.0)],
+        compare_op,
+        handle: vk::Pipeline::from_raw(handle),
+        reversed_variant: Some(vk::Pipeline::from_raw(handle + 1)),
+        ..PipelineDepth::default()
+    })
+}
+
+/// Binds `pipeline` as the hook does: found by handle, then its variant chosen.
+fn bind(state: &mut CommandState, pipeline: &Arc<PipelineDepth>) -> vk::Pipeline {
+    state.bind_pipeline_handle(pipeline.handle, 0, || Some(Arc::clone(pipeline)));
+    state.pipeline_to_bind(pipeline.handle)
+}
+
+#[test]
+fn binds_of_pipelines_that_settle_alike_need_no_settle() {
+    // Two pipelines that differ only in what their variants hold.
+    let less = compare_op_variant(20, vk::CompareOp::LESS);
+    let less_or_equal = compare_op_variant(30, vk::CompareOp::LESS_OR_EQUAL);
+    assert!(less.settles_like(&less_or_equal));
+    let mut state = begun(Target::Reversed);
+    let mut sink = Recorded::default();
+    assert_eq!(bind(&mut state, &less), vk::Pipeline::from_raw(21));
+    state.settle(&mut sink);
+    assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.0)])]);
+    let sent = sink.clone();
+    // Alternating between them: each bind's variant goes down by the hook, and the state
+    // stays clean (a settle would send the same viewport again, which the record drops).
+    for (pipeline, variant) in [(&less_or_equal, 31), (&less, 21), (&less_or_equal, 31)] {
+        assert_eq!(bind(&mut state, pipeline), vk::Pipeline::from_raw(variant));
+        assert!(!state.wants_settle(), "bind of {variant}");
+    }
+    state.settle(&mut sink);
+    assert_eq!(sink, sent);
+    // The state the binds skipped settling is the one they left: a native pass then binds
+    // the last pipeline itself back and sends its own viewport.
+    state.set_target(Target::Native);
+    state.settle(&mut sink);
+    assert_eq!(sink.binds, vec![vk::Pipeline::from_raw(30)]);
+    assert_eq!(
+        sink.viewports,
+        vec![(0, vec![(1.0, 0.0)]), (0, vec![(0.0, 1.0)])]
+    );
+    assert!(sink.compare_ops.is_empty());
+}
+
+#[test]
+fn a_bind_of_a_pipeline_that_settles_otherwise_settles_again() {
+    let dynamic_less = static_pipeline();
+    let dynamic_greater = Arc::new(PipelineDepth {
+        handle: vk::Pipeline::from_raw(40),
+        compare_op: vk::CompareOp::GREATER,
+        ..(*static_pipeline()).clone()
+    });
+    assert!(!dynamic_less.settles_like(&dynamic_greater));
+    let mut state = begun(Target::Reversed);
+    let mut sink = Recorded::default();
+    state.bind_pipeline(Some(Arc::clone(&dynamic_less)));
+    state.settle(&mut sink);
+    bind(&mut state, &dynamic_greater);
+    assert!(state.wants_settle());
+    state.settle(&mut sink);
+    assert_eq!(
+        sink.compare_ops,
+        vec![vk::CompareOp::GREATER, vk::CompareOp::LESS],
+        "each pipeline's flipped compare op"
+    );
+    // An untracked pipeline after a tracked one: what the application set goes down again.
+    state.bind_pipeline_handle(vk::Pipeline::from_raw(50), 0, || None);
+    assert!(state.wants_settle());
+    // And a tracked one after it, alike or not, settles again too.
+    bind(&mut state, &dynamic_greater);
+    assert!(state.wants_settle());
+}
+
+#[test]
+fn a_bind_settles_again_where_the_state_was_not_settled_or_the_previous_slot_was_reused() {
+    let pipelines: Vec<_> = (0..5)
+        .map(|i| compare_op_variant(100 + 10 * i, vk::CompareOp::LESS))
+        .collect();
+    // Not settled since the last change: the bind leaves it to the settle.
+    let mut state = begun(Target::Reversed);
+    bind(&mut state, &pipelines[0]);
+    state.set_compare_op(vk::CompareOp::LESS);
+    bind(&mut state, &pipelines[1]);
+    assert!(state.wants_settle());
+    state.settle(&mut sink_of());
+    // The recording's four slots hold 0..=3 (slot 0 next to be replaced); 0 is bound again,
+    // then 4 replaces the slot of the bound pipeline: nothing to compare it with.
+    for pipeline in &pipelines[..4] {
+        bind(&mut state, pipeline);
+        state.settle(&mut sink_of());
+    }
+    bind(&mut state, &pipelines[0]);
+    assert!(!state.wants_settle());
+    bind(&mut state, &pipelines[4]);
+    assert!(
+        state.wants_settle(),
+        "the previous pipeline's slot was reused"
+    );
+    // Outside a pass nothing is settled, so nothing is clean either.
+    let mut outside = CommandState::default();
+    outside.begin(Target::None, Reversal::Complementary, Cameras::default());
+    bind(&mut outside, &pipelines[0]);
+    bind(&mut outside, &pipelines[1]);
+    outside.set_target(Target::Reversed);
+    assert!(outside.wants_settle());
+}
+
+fn sink_of() -> Recorded {
+    Recorded::default()
+}
+
+#[test]
+fn settles_like_compares_what_revz_sends_and_nan_never_matches() {
+    let base = static_pipeline();
+    let with = |f: &dyn Fn(&mut PipelineDepth)| {
+        let mut p = (*base).clone();
+        f(&mut p);
+        p
+    };
+    assert!(base.settles_like(&with(&|p| p.handle = vk::Pipeline::from_raw(9))));
+    assert!(base.settles_like(&with(
+        &|p| p.reversed_variant = Some(vk::Pipeline::from_raw(9))
+    )));
+    for changed in [
+        with(&|p| p.app_dynamic = States::BOUNDS),
+        with(&|p| p.injected = States::VIEWPORT),
+        with(&|p| p.viewports = vec![viewport(0.0, 0.5)]),
+        with(&|p| p.viewports.push(viewport(0.0, 1.0))),
+        with(&|p| p.compare_op = vk::CompareOp::EQUAL),
+        with(&|p| p.bias.constant = 3.0),
+        with(&|p| p.bias.constant = f32::NAN),
+        with(&|p| p.unreversed_fragment = true),
+        with(&|p| p.layout = vk::PipelineLayout::from_raw(7)),
+        with(&|p| {
+            p.position_store = Some(crate::precise::Carrier {
+                offset: 64,
+                stages: vk::ShaderStageFlags::VERTEX,
+                range_offset: 0,
+            })
+        }),
+    ] {
+        assert!(!base.settles_like(&changed), "{changed:?}");
+        assert!(!changed.settles_like(&base), "{changed:?}");
+    }
+    // A state revz leaves static is not compared: the bind sets it.
+    let bounds_static = with(&|p| p.bounds = (0.2, 0.3));
+    assert!(base.settles_like(&bounds_static));
+    let nan = with(&|p| p.bias.slope = f32::NAN);
+    assert!(!nan.settles_like(&nan.clone()), "a NaN is sent again");
+}

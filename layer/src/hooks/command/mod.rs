@@ -628,11 +628,32 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
     pipeline: vk::Pipeline,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindPipeline");
-    record_then_call::<true, _>(
-        buffer,
-        &ENTRY,
-        |entry| {
-            if bind_point == vk::PipelineBindPoint::GRAPHICS {
+    let bind = |device: &DeviceState, sent: vk::Pipeline| {
+        // SAFETY: calling down with the application's arguments (the pipeline, or its
+        // reversed or promoted variant, created with it and destroyed with it).
+        unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, sent) }
+    };
+    let tracked = objects::with_command_buffer(buffer, |entry| {
+        if bind_point != vk::PipelineBindPoint::GRAPHICS {
+            if bind_point == vk::PipelineBindPoint::COMPUTE {
+                // Bound again after a converted copy's dispatch.
+                guarded(
+                    &ENTRY,
+                    || entry.copies().compute.bind_pipeline(pipeline),
+                    || (),
+                );
+            }
+            bind(&entry.device, pipeline);
+            // Nothing a draw needs changed, but what a caught panic left pending goes now.
+            settle(entry, buffer);
+            return;
+        }
+        // The bind and the settle after it under one lock of the state (binds are on every
+        // frame of the application); the bind goes down once, whatever panics.
+        let called = std::cell::Cell::new(false);
+        guarded(
+            &ENTRY,
+            || {
                 let objects = &entry.device.objects;
                 let generation = objects.pipeline_generation();
                 let mut state = entry.state();
@@ -644,22 +665,31 @@ pub unsafe extern "system" fn cmd_bind_pipeline(
                     state.tally_pipeline(vk::Handle::as_raw(pipeline));
                 }
                 // A reversed variant goes down in the application's pipeline's place.
-                state.pipeline_to_bind(pipeline)
-            } else {
-                if bind_point == vk::PipelineBindPoint::COMPUTE {
-                    // Bound again after a converted copy's dispatch.
-                    entry.copies().compute.bind_pipeline(pipeline);
+                let sent = state.pipeline_to_bind(pipeline);
+                called.set(true);
+                bind(&entry.device, sent);
+                let mut sink = NextLayer {
+                    device: &entry.device,
+                    buffer,
+                };
+                let outcome = state.settle(&mut sink);
+                drop(state);
+                if let Some(outcome) = outcome {
+                    observe(&entry.device, &outcome);
                 }
-                pipeline
-            }
-        },
-        pipeline,
-        |device, sent| {
-            // SAFETY: calling down with the application's arguments (the pipeline, or its
-            // reversed or promoted variant, created with it and destroyed with it).
-            unsafe { (device.next.fp_v1_0().cmd_bind_pipeline)(buffer, bind_point, sent) }
-        },
-    );
+            },
+            || {
+                if !called.get() {
+                    bind(&entry.device, pipeline);
+                }
+            },
+        );
+    });
+    if tracked.is_none() {
+        if let Some(device) = untracked_device(buffer) {
+            bind(&device, pipeline);
+        }
+    }
 }
 
 /// `vkCmdBindShadersEXT`: with shader objects every piece of state is dynamic, so revz emits
