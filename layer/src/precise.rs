@@ -26,6 +26,8 @@
 //!
 //! Pure logic, no Vulkan calls: what must be pushed goes through a [`PushSink`].
 
+use std::mem::MaybeUninit;
+
 use ash::vk;
 use revz_math::{
     read_clip_transform, reversed_coefficients, CameraMatch, Cameras, DepthCoefficients,
@@ -627,16 +629,22 @@ impl PushConstants {
     pub fn folded_bytes<'a>(
         &self,
         folded: &FoldedPush,
-        out: &'a mut [u8; PUSH_CONSTANT_BYTES],
+        out: &'a mut [MaybeUninit<u8>; PUSH_CONSTANT_BYTES],
     ) -> &'a [u8] {
         let (start, end) = (
             folded.offset as usize,
             (folded.offset + folded.size) as usize,
         );
         let carrier_at = end - CARRIER_BYTES as usize;
-        out[..carrier_at - start].copy_from_slice(&self.bytes[start..carrier_at]);
-        out[carrier_at - start..end - start].copy_from_slice(&Carrier::bytes(&folded.carrier));
-        &out[..end - start]
+        let (app, carrier) = out[..end - start].split_at_mut(carrier_at - start);
+        for (out, byte) in app.iter_mut().zip(&self.bytes[start..carrier_at]) {
+            out.write(*byte);
+        }
+        for (out, byte) in carrier.iter_mut().zip(Carrier::bytes(&folded.carrier)) {
+            out.write(byte);
+        }
+        // SAFETY: both parts of the first `end - start` bytes were written just above.
+        unsafe { std::slice::from_raw_parts(out.as_ptr().cast::<u8>(), end - start) }
     }
 
     /// The layout of the application's last push (null before the first).

@@ -431,7 +431,7 @@ impl CommandState {
     pub fn folded_bytes<'a>(
         &self,
         folded: &FoldedPush,
-        out: &'a mut [u8; crate::precise::PUSH_CONSTANT_BYTES],
+        out: &'a mut [std::mem::MaybeUninit<u8>; crate::precise::PUSH_CONSTANT_BYTES],
     ) -> &'a [u8] {
         self.push.folded_bytes(folded, out)
     }

@@ -711,7 +711,7 @@ fn a_push_of_the_carriers_stages_carries_it_when_it_changes() {
     };
     let folded = folded.expect("the carrier goes with the push");
     assert_eq!((folded.offset, folded.size), (0, 128));
-    let mut out = [0xAA; crate::precise::PUSH_CONSTANT_BYTES];
+    let mut out = [std::mem::MaybeUninit::new(0xAA); crate::precise::PUSH_CONSTANT_BYTES];
     let bytes = state.folded_bytes(&folded, &mut out);
     assert_eq!(bytes.len(), 128);
     assert_eq!(bytes[..64], data[..]);

@@ -21,6 +21,7 @@ mod passes;
 mod secondaries;
 mod transfers;
 
+use std::mem::MaybeUninit;
 use std::sync::{Arc, OnceLock};
 
 use ash::vk;
@@ -232,8 +233,9 @@ pub unsafe extern "system" fn cmd_push_constants(
     p_values: *const std::ffi::c_void,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants");
-    // The extended push's bytes, written only where the carrier goes with this push.
-    let mut folded_bytes = [0u8; PUSH_CONSTANT_BYTES];
+    // The extended push's bytes, written only where the carrier goes with this push (left
+    // uninitialized otherwise: most pushes send the application's own bytes).
+    let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
     let tracked = objects::with_command_buffer(buffer, |entry| {
         let folded = guarded(
             &ENTRY,
@@ -278,7 +280,7 @@ fn follow_push(
     stages: vk::ShaderStageFlags,
     offset: u32,
     values: &[u8],
-    out: &mut [u8; PUSH_CONSTANT_BYTES],
+    out: &mut [MaybeUninit<u8>; PUSH_CONSTANT_BYTES],
 ) -> Option<FoldedPush> {
     let mut state = entry.state();
     if layout != state.push_layout() {
@@ -323,7 +325,7 @@ pub unsafe extern "system" fn cmd_push_constants2(
             return;
         }
         // Followed, never extended (the draw sends the carrier): this command is rare.
-        let mut unused = [0u8; PUSH_CONSTANT_BYTES];
+        let mut unused = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
         if follow_push(
             entry,
             info.layout,
