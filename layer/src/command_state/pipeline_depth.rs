@@ -31,6 +31,12 @@ impl States {
         self.0 & other.0 != 0
     }
 
+    /// These states but `other`.
+    #[must_use]
+    pub fn without(self, other: States) -> States {
+        States(self.0 & !other.0)
+    }
+
     pub fn is_empty(self) -> bool {
         self.0 == 0
     }

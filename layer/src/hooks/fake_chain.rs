@@ -525,6 +525,8 @@ pub(super) struct SeenPipeline {
     pub tessellation: usize,
     pub viewport: usize,
     pub rasterization: usize,
+    /// The depth bias (constant, clamp, slope) of a non-null rasterization state.
+    pub depth_bias: Option<(f32, f32, f32)>,
     pub multisample: usize,
     pub depth_stencil: usize,
     /// The depth compare op of a non-null depth-stencil state (the tests pass valid ones).
@@ -601,6 +603,13 @@ pub(super) unsafe fn seen_pipeline(info: &vk::GraphicsPipelineCreateInfo<'_>) ->
             tessellation: info.p_tessellation_state as usize,
             viewport: info.p_viewport_state as usize,
             rasterization: info.p_rasterization_state as usize,
+            depth_bias: info.p_rasterization_state.as_ref().map(|r| {
+                (
+                    r.depth_bias_constant_factor,
+                    r.depth_bias_clamp,
+                    r.depth_bias_slope_factor,
+                )
+            }),
             multisample: info.p_multisample_state as usize,
             depth_stencil: info.p_depth_stencil_state as usize,
             depth_compare_op: info

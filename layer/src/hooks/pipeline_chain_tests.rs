@@ -1303,6 +1303,66 @@ fn with_compare_op_variants_the_variant_flips_the_compare_op_and_rewrites_the_fr
 }
 
 #[test]
+fn with_compare_op_variants_the_variant_holds_the_flipped_bias_and_binds_send_no_bias() {
+    let fx = Fixture::with_settings(&[(c"mode", c"flip"), (c"compare_op", c"variants")]);
+    let vertex = fx.vertex_module();
+    let plain = fx.module(&fragment(PLAIN));
+    let mut app = AppPipeline::of_modules(vertex, plain);
+    app.rasterization.depth_bias_enable = vk::TRUE;
+    app.rasterization.depth_bias_constant_factor = 4.0;
+    app.rasterization.depth_bias_clamp = 0.5;
+    app.rasterization.depth_bias_slope_factor = 2.0;
+    let built = app.build();
+    let info = built.info();
+    let (_, handles) = fx.create_pipelines(std::slice::from_ref(&info), None);
+    let events = fx.events();
+    let [Event::CreateGraphicsPipelines {
+        infos: variant_infos,
+        handles: variant,
+        ..
+    }, Event::CreateGraphicsPipelines {
+        infos: app_infos, ..
+    }] = events.as_slice()
+    else {
+        panic!("the variant, then the application's pipeline: {events:#?}");
+    };
+    // The variant: compare op and bias flipped, both static; the application's pipeline
+    // keeps its own, static too (only the viewport is made dynamic).
+    assert_eq!(
+        variant_infos[0].depth_compare_op,
+        Some(vk::CompareOp::GREATER)
+    );
+    assert_eq!(variant_infos[0].depth_bias, Some((-4.0, -0.5, -2.0)));
+    assert_eq!(app_infos[0].depth_bias, Some((4.0, 0.5, 2.0)));
+    let only_viewport = [vk::DynamicState::SCISSOR, vk::DynamicState::VIEWPORT];
+    assert_eq!(app_infos[0].dynamic_states, only_viewport);
+    assert_eq!(variant_infos[0].dynamic_states, only_viewport);
+    let recorded = fx.recorded(handles[0]);
+    assert_eq!(recorded.reversed_variant, Some(variant[0]));
+    assert!(
+        !recorded
+            .injected
+            .contains(crate::command_state::States::BIAS),
+        "{recorded:?}"
+    );
+
+    // With dynamic compare op there is no variant: the bias is made dynamic, as before.
+    let dynamic = Fixture::with_settings(&[(c"mode", c"flip")]);
+    let vertex = dynamic.vertex_module();
+    let plain = dynamic.module(&fragment(PLAIN));
+    let mut app = AppPipeline::of_modules(vertex, plain);
+    app.rasterization.depth_bias_enable = vk::TRUE;
+    let built = app.build();
+    let (seen, _) = only_app_creation(&{
+        let _ = dynamic.create_pipelines(std::slice::from_ref(&built.info()), None);
+        dynamic.events()
+    });
+    assert!(seen.dynamic_states.contains(&vk::DynamicState::DEPTH_BIAS));
+    fx.finish();
+    dynamic.finish();
+}
+
+#[test]
 fn a_variant_the_app_never_destroyed_goes_with_the_device() {
     let fx = Fixture::new();
     let vertex = fx.vertex_module();

@@ -590,6 +590,39 @@ pub fn shader_object_vertex_path(active: bool) -> &'static str {
     }
 }
 
+/// What decides whether a pipeline's reversed variant holds its depth bias
+/// ([`BiasVariantFacts::variant_holds_bias`]), gathered by the pipeline hook once its variants
+/// are decided.
+#[derive(Clone, Copy, Debug)]
+pub struct BiasVariantFacts {
+    /// The reversed variant flips the static compare op ([`Variants::compare_op`]): there is
+    /// a variant for every draw into a reversed attachment.
+    pub compare_op_variant: bool,
+    /// [`StaticStateFacts::decide`] made its static bias dynamic (to send it flipped).
+    pub bias_made_dynamic: bool,
+    /// It defines every state subset itself and links no library (neither a library nor a
+    /// link): its own rasterization state is the one its draws use.
+    pub complete: bool,
+    /// It may draw into promoted attachments (its render pass or formats are promotable, or
+    /// a library it links is): those draws bind promoted variants, whose bias in float
+    /// units comes from dynamic state.
+    pub promotable: bool,
+}
+
+impl BiasVariantFacts {
+    /// Whether the reversed variant holds the flipped bias statically, and the bias stays
+    /// static (revz makes it dynamic no more): with `compare_op = variants` a bind then needs
+    /// no `vkCmdSetDepthBias` after it, so that the driver gets the application's calls and no
+    /// more (issue #17). Only where every reversed draw binds that variant (a complete
+    /// pipeline with a compare-op variant) and no draw binds a promoted one. Where the
+    /// variant cannot be made, its reversed draws keep the bias unflipped with the compare
+    /// op (logged).
+    #[must_use]
+    pub fn variant_holds_bias(&self) -> bool {
+        self.compare_op_variant && self.bias_made_dynamic && self.complete && !self.promotable
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1178,5 +1211,40 @@ mod tests {
     fn vertex_shader_objects_take_the_flip_path_where_the_mode_is_active() {
         assert_eq!(shader_object_vertex_path(true), "flip");
         assert_eq!(shader_object_vertex_path(false), "native");
+    }
+
+    #[test]
+    fn a_reversed_variant_holds_the_bias_only_where_every_reversed_draw_binds_it() {
+        let holds = BiasVariantFacts {
+            compare_op_variant: true,
+            bias_made_dynamic: true,
+            complete: true,
+            promotable: false,
+        };
+        assert!(holds.variant_holds_bias());
+        for facts in [
+            // Dynamic compare op: no variant, the bias stays dynamic.
+            BiasVariantFacts {
+                compare_op_variant: false,
+                ..holds
+            },
+            // The application sets the bias, or it is off: nothing to hold.
+            BiasVariantFacts {
+                bias_made_dynamic: false,
+                ..holds
+            },
+            // A library or a link: the bias is another create info's.
+            BiasVariantFacts {
+                complete: false,
+                ..holds
+            },
+            // Promoted draws bind promoted variants.
+            BiasVariantFacts {
+                promotable: true,
+                ..holds
+            },
+        ] {
+            assert!(!facts.variant_holds_bias(), "{facts:?}");
+        }
     }
 }

@@ -34,10 +34,10 @@ use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::policy::pipelines::{
-    examines_fragment, has_depth_attachment, renders_depth, viewports_static, DepthAttachmentFacts,
-    DepthBiasFacts, DepthStencilFacts, FragmentStage, PipelinePath, PipelinePromotion,
-    PromotionAttachments, PromotionFacts, StaticStateFacts, StaticStatePlan, TakeBack,
-    VariantCompile, VariantFacts, VariantKind, Variants,
+    examines_fragment, has_depth_attachment, renders_depth, viewports_static, BiasVariantFacts,
+    DepthAttachmentFacts, DepthBiasFacts, DepthStencilFacts, FragmentStage, PipelinePath,
+    PipelinePromotion, PromotionAttachments, PromotionFacts, StaticStateFacts, StaticStatePlan,
+    TakeBack, VariantCompile, VariantFacts, VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{
     self, precise_candidate, Missing, PositionStore, VertexStageFacts,
@@ -136,6 +136,9 @@ struct Plan {
     promotion: Option<Promotion>,
     /// The variants it gets ([`VariantFacts::decide`]; none until it is asked).
     variants: Variants,
+    /// Its reversed variant holds its static depth bias flipped, and the bias stays static
+    /// ([`crate::policy::pipelines::BiasVariantFacts::variant_holds_bias`]).
+    variant_bias: bool,
 }
 
 /// How a pipeline's promoted variants differ from it (`crate::policy::DevicePolicy::
@@ -303,6 +306,18 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     facts.promotion = promotion.is_some();
                     plan.depth.promotable |= facts.promotion;
                     let variants = facts.decide();
+                    let holds_bias = BiasVariantFacts {
+                        compare_op_variant: variants.compare_op,
+                        bias_made_dynamic: plan.static_state.made_dynamic.contains(States::BIAS),
+                        complete: context.subsets == ALL_SUBSETS
+                            && !is_library(info)
+                            && linked.is_empty(),
+                        promotable: plan.depth.promotable,
+                    }
+                    .variant_holds_bias();
+                    if holds_bias {
+                        plan.keep_bias_static(info);
+                    }
                     if variants.rewritten_fragment {
                         if let Some(Some((index, Ok(code)))) = fragment {
                             plan.fragment = Some((index, code));

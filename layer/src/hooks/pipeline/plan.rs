@@ -367,6 +367,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         libraries: None,
         promotion: None,
         variants: Variants::default(),
+        variant_bias: false,
     };
     let pre_rasterization = context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS);
     let fragment = context.subsets.contains(Subsets::FRAGMENT_SHADER);
@@ -443,13 +444,8 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
     }
     .decide();
     depth.injected |= static_state.made_dynamic;
-    let dynamic_states = (!static_state.made_dynamic.is_empty()).then(|| {
-        let mut states = app_states.to_vec();
-        states.extend(static_state.added_dynamic_states());
-        states
-    });
     Plan {
-        dynamic_states,
+        dynamic_states: dynamic_states(app_states, &static_state),
         depth,
         flip_reason: None,
         static_state,
@@ -458,6 +454,38 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         libraries: None,
         promotion: None,
         variants: Variants::default(),
+        variant_bias: false,
+    }
+}
+
+/// The dynamic state list a pipeline is created with: the application's, and the states revz
+/// makes dynamic (`None`: the application's list as it is).
+fn dynamic_states(
+    app_states: &[vk::DynamicState],
+    static_state: &StaticStatePlan,
+) -> Option<Vec<vk::DynamicState>> {
+    (!static_state.made_dynamic.is_empty()).then(|| {
+        let mut states = app_states.to_vec();
+        states.extend(static_state.added_dynamic_states());
+        states
+    })
+}
+
+impl Plan {
+    /// The reversed variant holds the flipped bias
+    /// ([`crate::policy::pipelines::BiasVariantFacts::variant_holds_bias`]): the bias is
+    /// made dynamic no more, in the pipeline and its variants.
+    pub(super) fn keep_bias_static(&mut self, info: &vk::GraphicsPipelineCreateInfo<'_>) {
+        self.variant_bias = true;
+        self.static_state.made_dynamic = self.static_state.made_dynamic.without(States::BIAS);
+        self.depth.injected = self.depth.injected.without(States::BIAS);
+        // SAFETY: null or valid (the application's contract; `plan` read it already).
+        let dynamic = unsafe { info.p_dynamic_state.as_ref() };
+        // SAFETY: `dynamicStateCount` entries.
+        let app_states = dynamic.map_or(&[][..], |d| unsafe {
+            slice(d.p_dynamic_states, d.dynamic_state_count)
+        });
+        self.dynamic_states = dynamic_states(app_states, &self.static_state);
     }
 }
 

@@ -32,7 +32,8 @@ pub(super) fn library_variants(
 }
 
 /// Creates the reversed variant of a pipeline: its create info (with the dynamic states revz
-/// added) with the static depth compare op flipped, the fragment stage rewritten and the
+/// added) with the static depth compare op flipped (and its static depth bias, where the plan
+/// keeps it static), the fragment stage rewritten and the
 /// linked libraries replaced by their variants, as the plan says. Not a derivative (the base
 /// index of the application's batch means nothing in a batch of one), without early return (a
 /// batch of one), and with the application's `FAIL_ON_PIPELINE_COMPILE_REQUIRED`: a variant
@@ -53,8 +54,8 @@ pub(super) fn create_variant(
         FAILED.log(|| {
             log::warn!(
                 "a {kind:?} variant of a pipeline could not be created ({why}): its draws \
-                 into reversed attachments keep its compare op and fragment shader, and into \
-                 promoted ones its attachment formats"
+                 into reversed attachments keep its compare op, depth bias and fragment \
+                 shader, and into promoted ones its attachment formats"
             )
         });
         Variant::Missing
@@ -68,6 +69,23 @@ pub(super) fn create_variant(
         Some(vk::PipelineDepthStencilStateCreateInfo {
             depth_compare_op: flip_compare_op(depth_stencil.depth_compare_op),
             ..*depth_stencil
+        })
+    } else {
+        None
+    };
+    let biased = if plan.variant_bias && kind.reversed {
+        // SAFETY: non-null (the plan read the bias from it) and valid (the application's
+        // contract).
+        let Some(raster) = (unsafe { info.p_rasterization_state.as_ref() }) else {
+            return failed(&"no rasterization state");
+        };
+        // Negated as `DepthBias::flipped` negates a dynamic one; its pNext chain (a bias
+        // representation) is the application's.
+        Some(vk::PipelineRasterizationStateCreateInfo {
+            depth_bias_constant_factor: -raster.depth_bias_constant_factor,
+            depth_bias_clamp: -raster.depth_bias_clamp,
+            depth_bias_slope_factor: -raster.depth_bias_slope_factor,
+            ..*raster
         })
     } else {
         None
@@ -145,6 +163,9 @@ pub(super) fn create_variant(
         p_depth_stencil_state: flipped
             .as_ref()
             .map_or(info.p_depth_stencil_state, |flipped| flipped),
+        p_rasterization_state: biased
+            .as_ref()
+            .map_or(info.p_rasterization_state, |biased| biased),
         p_dynamic_state: dynamic.as_ref().map_or(info.p_dynamic_state, |d| d),
         render_pass: promotion
             .and_then(|p| p.render_pass)
