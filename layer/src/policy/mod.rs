@@ -12,6 +12,9 @@
 //! | does a render pass get a twin with its MIN/MAX depth resolve swapped, and with which mode ([`ResolveSupport::twin_resolve`]) | each subpass's depth resolve mode, the stencil mode where the resolve attachment has stencil, where the resolve structure is in the subpass's chain, the device's resolve properties | `vkCreateRenderPass2` (for the promoted twin too), `vkCreateDevice` |
 //! | how a rendering instance's depth resolve goes down for a reversed attachment, and whether revz can resolve it reversed ([`ResolveSupport::reversed_resolve`]) | its depth resolve mode, the stencil attachment's resolve mode where it has a view, the device's resolve properties | `vkCmdBeginRendering`, `vkCreateDevice` |
 //! | which attachment formats a render pass's promoted twin has: the float ones ([`promoted_twin_format`]) | each attachment's format | `vkCreateRenderPass*` |
+//! | does a render pass get a promoted twin ([`has_promoted_twin`]) | `promote`, whether the twin changes an attachment's format ([`promoted_twin_format`]) | `vkCreateRenderPass*` |
+//! | does a dynamic rendering instance draw into promoted attachments, and which format its draws convert from ([`rendering_promoted_from`]) | whether its depth, then its stencil view is of a promoted image, that view's image's format | `vkCmdBeginRendering` (views from `vkCreateImageView`, images from `vkCreateImage`) |
+//! | which of a render pass's attachments its begins clear the depth of ([`clears_depth_at_begin`]) | each attachment's format and load op | `vkCreateRenderPass*` (read at `vkCmdBeginRenderPass*`) |
 //! | is a framebuffer considered for promotion at all ([`framebuffer_may_be_promoted`]) | `promote`, whether its pass has a promotable attachment | `vkCreateFramebuffer` (render passes from `vkCreateRenderPass*`) |
 //! | what an imageless framebuffer's attachment info says of its image ([`ImageFacts::imageless_attachment`]) | its usage and flags | `vkCreateFramebuffer` |
 //! | which view formats an imageless framebuffer of promoted images lists: the float one for its attachment's UNORM format ([`imageless_view_format`]) | each listed format, the pass's format of the attachment, whether it is promotable | `vkCreateFramebuffer` (render passes from `vkCreateRenderPass*`) |
@@ -23,6 +26,7 @@
 //! | can a render pass's depth resolve be swapped ([`pass_resolve_swappable`]) | its mode, whether the pass has a swapped-resolve twin | framebuffer creation, imageless pass begins |
 //! | which clear a reversed image commits the convention with, and the target revz then acts on ([`Observed::committed`]) | whether the image (or any attachment of a pass) is reversed, the depth the first reversed attachment is cleared to there | `vkCmdBeginRenderPass*`, `vkCmdBeginRendering`, `vkCmdClearDepthStencilImage` (images from `vkCreateImage`) |
 //! | which of `vkCmdClearAttachments`' clears flip ([`attachment_clears_flip`], [`flips_attachment_clear`]) | the target draws go to (after the convention), each clear's aspect | `vkCmdClearAttachments` (the target: pass begins, images from `vkCreateImage`) |
+//! | is an image clear looked at: only a reversed image's commits the convention or flips ([`image_clear_considered`]) | whether the image is reversed | `vkCmdClearDepthStencilImage` (images from `vkCreateImage`) |
 //! | does an image clear write depth, so that its value counts for the convention ([`clears_depth`]) | its ranges' aspects | `vkCmdClearDepthStencilImage` |
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
@@ -56,6 +60,9 @@
 //! | does a pipeline draw into promoted attachments, and how its promoted variants differ ([`pipelines::PromotionFacts::decide`]) | `promote`, whether its subsets name attachment formats, its render pass (known, promotable attachments, promoted twin) or rendering formats, whether a library it links is promoted | `vkCreateRenderPass*`, `vkCreateGraphicsPipelines` |
 //! | what a fragment stage that computes with depth gets ([`pipelines::FragmentStage::variant`]) | its rewrite or why there is none, whether a variant of what holds it can be made | `vkCreateGraphicsPipelines`, `vkCreateShadersEXT` |
 //! | which path a pipeline's draws take, as logged and in the depth profile ([`pipelines::PipelinePath`]) | its pushed projection, derived range, or flip reason (from [`vertex_stage::VertexStageFacts::decide`] and the rewritten stage's creation) | `vkCreateGraphicsPipelines` |
+//! | does a precise pipeline take the flip path after all, its rewritten vertex stage not made, and why ([`vertex_stage::unmade_stage_flip`]) | whether the rewritten stage's module was created | `vkCreateGraphicsPipelines` |
+//! | does the depth profile record a pipeline ([`pipelines::profiles_pipeline`]) | whether it renders depth ([`pipelines::renders_depth`]) | `vkCreateGraphicsPipelines` |
+//! | are shader objects' variants planned at all ([`pipelines::shader_object_variants`]) | whether the mode is active | `vkCreateShadersEXT` |
 //! | which path a vertex shader object's draws take, in the depth profile ([`pipelines::shader_object_vertex_path`]) | whether the mode is active | `vkCreateShadersEXT` |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
@@ -63,17 +70,19 @@
 //! why an image stays native or keeps its format; which images are considered for promotion,
 //! imageless attachments; resolve partners, views of promoted images), `resolves.rs` (resolve
 //! sources and modes, and swapped-resolve twins), `passes.rs` (render pass instances: which
-//! twin begins, framebuffers' storage and promotion, twins' formats, the target, clears and
-//! resolves of a begin), `clears.rs` (clears outside pass begins: which attachment clears flip,
-//! which image clears write depth), `convention.rs` (the application's convention, and what
+//! twin begins, framebuffers' storage and promotion, twins' formats and whether a pass has a
+//! promoted one, the target, clears and resolves of a begin, a rendering's promotion),
+//! `clears.rs` (clears outside pass begins: which attachment clears flip, which image clears
+//! are looked at and which write depth), `convention.rs` (the application's convention, and what
 //! revz observes of it), `secondaries.rs` (secondaries without a framebuffer, and what their
 //! inheritance makes of them, promotion included), `compare_op.rs` (the dynamic compare op, and
 //! the extensions revz adds for it), `copies.rs` (copies: whether and how they are converted,
 //! and what their image ends are), `pipelines.rs` (pipelines: whether they have a depth
 //! attachment, which static states become dynamic, which variants are made, which are taken
 //! back uncompiled, promotion, the path a pipeline's draws take, fragment variants of shader
-//! objects and the profile's path of vertex ones), `vertex_stage.rs` (the precise path's vertex
-//! stage: candidate, store, range, which modules are analysed);
+//! objects and the profile's path of vertex ones, which pipelines the profile records),
+//! `vertex_stage.rs` (the precise path's vertex stage: candidate, store, range, which modules
+//! are analysed, the fallback where the rewritten stage is not made);
 //! [`DevicePolicy`] itself (the mode, the carrier, reversed clears, which command hooks a
 //! device hands out) is here. The rows that name code outside this module are decided there.
 //!
@@ -100,7 +109,9 @@ mod resolves;
 mod secondaries;
 pub mod vertex_stage;
 
-pub use clears::{attachment_clears_flip, clears_depth, flips_attachment_clear};
+pub use clears::{
+    attachment_clears_flip, clears_depth, flips_attachment_clear, image_clear_considered,
+};
 pub use compare_op::{
     extended_dynamic_state_allowed, hides_device_command, hides_instance_command,
     instance_needs_properties2, CompareOpFacts, CompareOpSource,
@@ -115,9 +126,9 @@ pub use images::{
     promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
 };
 pub use passes::{
-    clears_reversed, framebuffer_may_be_promoted, imageless_view_format, pass_committed,
-    pass_promotable, pass_resolve_swappable, promoted_twin_format, resolves_reversed,
-    FramebufferStorage, PassTwin,
+    clears_depth_at_begin, clears_reversed, framebuffer_may_be_promoted, has_promoted_twin,
+    imageless_view_format, pass_committed, pass_promotable, pass_resolve_swappable,
+    promoted_twin_format, rendering_promoted_from, resolves_reversed, FramebufferStorage, PassTwin,
 };
 pub use resolves::{
     DepthResolve, ResolveSupport, ReversedResolve, SubpassResolveFacts, TwinResolve,

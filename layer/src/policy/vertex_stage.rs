@@ -8,7 +8,9 @@
 //! or those of inline code, made once per distinct code) and `vkCreateGraphicsPipelines` (the
 //! stages, the clip convention, the layout); `crate::hooks::pipeline::plan` gathers them.
 //! Which `Position` rewrite a module gets ([`position_store`]) is decided here too, and which
-//! modules are analysed at all ([`analyses_fragment_module`], [`analyses_vertex_module`]).
+//! modules are analysed at all ([`analyses_fragment_module`], [`analyses_vertex_module`]),
+//! and why a pipeline whose rewritten stage could not be made takes the flip path after all
+//! ([`unmade_stage_flip`]).
 
 use ash::vk;
 use revz_math::DepthConvention;
@@ -44,6 +46,16 @@ pub fn analyses_vertex_module(
 #[must_use]
 pub fn precise_candidate(mode_rewrites: bool, renders_depth: bool, defines_shaders: bool) -> bool {
     mode_rewrites && renders_depth && defines_shaders
+}
+
+/// Why a precise pipeline's draws take the flip path after all, where its rewritten vertex
+/// stage could not be made (`made`: its module was created); `None`: it was, and the pipeline
+/// keeps the precise path. Without the stage nothing of the precise path stays: the hook drops
+/// the pipeline's projection, derived range and store with it, as the application's stage
+/// stores its own depth.
+#[must_use]
+pub fn unmade_stage_flip(made: bool) -> Option<&'static str> {
+    (!made).then_some("its rewritten vertex stage could not be made")
 }
 
 /// Which `Position` rewrite a vertex module gets (in a mode with the precise path, where its
@@ -192,6 +204,15 @@ mod tests {
         assert!(!analyses_vertex_module(true, || false));
         // The module is not scanned where the mode does not rewrite.
         assert!(!analyses_vertex_module(false, || unreachable!()));
+    }
+
+    #[test]
+    fn a_pipeline_whose_rewritten_stage_is_not_made_takes_the_flip_path() {
+        assert_eq!(unmade_stage_flip(true), None);
+        assert_eq!(
+            unmade_stage_flip(false),
+            Some("its rewritten vertex stage could not be made")
+        );
     }
 
     fn slot() -> ProjectionSlot {

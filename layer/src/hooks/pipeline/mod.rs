@@ -34,10 +34,10 @@ use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::policy::pipelines::{
-    examines_fragment, has_depth_attachment, renders_depth, viewports_static, DepthAttachmentFacts,
-    DepthBiasFacts, DepthStencilFacts, FragmentStage, PipelinePath, PipelinePromotion,
-    PromotionAttachments, PromotionFacts, StaticStateFacts, StaticStatePlan, TakeBack,
-    VariantCompile, VariantFacts, VariantKind, Variants,
+    examines_fragment, has_depth_attachment, profiles_pipeline, renders_depth, viewports_static,
+    DepthAttachmentFacts, DepthBiasFacts, DepthStencilFacts, FragmentStage, PipelinePath,
+    PipelinePromotion, PromotionAttachments, PromotionFacts, StaticStateFacts, StaticStatePlan,
+    TakeBack, VariantCompile, VariantFacts, VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{
     self, precise_candidate, Missing, PositionStore, VertexStageFacts,
@@ -354,12 +354,11 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         let stage = stages
                             .get_mut(index)
                             .and_then(|stage| rewritten_stage(&state, device, stage, &code));
-                        if stage.is_none() {
+                        if let Some(reason) = vertex_stage::unmade_stage_flip(stage.is_some()) {
                             plan.depth.projection = None;
                             plan.depth.derived_range = None;
                             plan.depth.position_store = None;
-                            plan.flip_reason =
-                                Some("its rewritten vertex stage could not be made".into());
+                            plan.flip_reason = Some(reason.into());
                         }
                         Some((stages, stage?))
                     })
@@ -560,7 +559,10 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     }
                     PipelinePath::NotRewritten => {}
                 }
-                if let (Some(profile), true) = (&state.profile, plan.static_state.renders_depth) {
+                if let (Some(profile), true) = (
+                    &state.profile,
+                    profiles_pipeline(plan.static_state.renders_depth),
+                ) {
                     profile.pipeline(
                         vk::Handle::as_raw(pipeline),
                         crate::profile::PipelineRecord {
