@@ -45,6 +45,7 @@
 //! | which shader modules are analysed: for fragments where revz is active, for the vertex stage where the mode rewrites and the module declares a vertex entry point ([`vertex_stage::analyses_fragment_module`], [`vertex_stage::analyses_vertex_module`]) | the mode, the module's entry points (`crate::shader::scan`) | `vkCreateShaderModule` |
 //! | is a pipeline a candidate for the precise path ([`vertex_stage::precise_candidate`]) | the mode, whether it renders depth, whether its create info defines its shaders | `vkCreateGraphicsPipelines` |
 //! | does a pipeline's vertex stage store reversed depth itself, and of which range ([`vertex_stage::VertexStageFacts::decide`]) | whether its code is given, its stages, the analysis of its vertex entry point (`crate::shader::analysis`), its layout's push-constant ranges and room for the carrier, its clip convention (static or dynamic), its module's `Position` rewrite and what that derives its range from (`crate::shader::position_store`, `crate::shader::derived_range`) | `vkCreateShaderModule` (or inline code, once per distinct code), `vkCreateGraphicsPipelines` |
+//! | why a pipeline whose vertex stage's facts revz lacks takes the flip path ([`vertex_stage::MissingFact::reason`]), and which analysis is its entry point's ([`vertex_stage::entry_point_analysis`]) | whether its vertex module is known and has a `Position` rewrite, whether its inline code has one, whether it has a module or inline code, a vertex stage, a readable module, an entry point name | `vkCreateShaderModule` (or inline code), `vkCreateGraphicsPipelines` |
 //! | which `Position` rewrite a vertex module gets: the carrier store or the deriving one ([`vertex_stage::position_store`]) | the analysis of its entry points (`crate::shader::analysis`) | `vkCreateShaderModule` (or inline code, once per distinct code) |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
 //! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
@@ -52,6 +53,9 @@
 //! | which kind of depth texel an image end holds: that of its promoted format where it has one ([`copied_texels`]) | its format, its promoted format | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | does an image count as single-sampled for a copy; unknown images do ([`single_sampled`]) | whether revz knows it, its sample count | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | which kind of texel a copy's conversion reads and writes ([`conversion_kind`]) | whether each end is a buffer or an image, and the depth texels of each image's format (the float one where promoted) | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
+//! | which state subsets a pipeline create info defines itself ([`libraries::own_subsets`]) | its `VkGraphicsPipelineLibraryCreateInfoEXT`'s subsets, whether it is a library, whether it links libraries | `vkCreateGraphicsPipelines` |
+//! | which of a create info's dynamic states count: those of its own subsets ([`libraries::subset_states`]) | its own subsets | `vkCreateGraphicsPipelines` |
+//! | which library's state a link takes for each subset ([`libraries::inherit_libraries`]) | each linked library's subsets and recorded depth state | `vkCreateGraphicsPipelines` (libraries recorded at their creation) |
 //! | does a pipeline have a depth attachment; a library without the fragment output interface counts as having one ([`pipelines::has_depth_attachment`]) | its render pass's subpass depth attachment, else (with the fragment output interface) its rendering depth format | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
 //! | does a pipeline render depth at all ([`pipelines::renders_depth`]) | whether it has a depth attachment, its static `rasterizerDiscardEnable`, its dynamic states | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
 //! | which of a pipeline's static depth states revz makes dynamic, and whether its compare op comes from a variant ([`pipelines::StaticStateFacts::decide`]) | its dynamic states, depth-stencil state (test, bounds test, compare op), bias enable and representation, static viewports, `compare_op_variants`, `vkCmdSetDepthBias2EXT` | `vkCreateGraphicsPipelines`, `vkCreateDevice` |
@@ -82,7 +86,9 @@
 //! back uncompiled, promotion, the path a pipeline's draws take, fragment variants of shader
 //! objects and the profile's path of vertex ones, which pipelines the profile records),
 //! `vertex_stage.rs` (the precise path's vertex stage: candidate, store, range, which modules
-//! are analysed, the fallback where the rewritten stage is not made);
+//! are analysed, the fallback where the rewritten stage is not made), `libraries.rs` (pipeline
+//! libraries: the subsets a create info defines, which dynamic states count, what a link
+//! inherits);
 //! [`DevicePolicy`] itself (the mode, the carrier, reversed clears, which command hooks a
 //! device hands out) is here. The rows that name code outside this module are decided there.
 //!
@@ -103,6 +109,7 @@ mod compare_op;
 mod convention;
 mod copies;
 mod images;
+pub mod libraries;
 mod passes;
 pub mod pipelines;
 mod resolves;

@@ -10,11 +10,13 @@
 //! Which `Position` rewrite a module gets ([`position_store`]) is decided here too, and which
 //! modules are analysed at all ([`analyses_fragment_module`], [`analyses_vertex_module`]),
 //! and why a pipeline whose rewritten stage could not be made takes the flip path after all
-//! ([`unmade_stage_flip`]).
+//! ([`unmade_stage_flip`]). The facts revz may lack of a stage, and why its draws then take
+//! the flip path, are here too ([`MissingFact`], [`entry_point_analysis`]).
 
 use ash::vk;
 use revz_math::DepthConvention;
 
+use crate::objects::ModuleAnalysis;
 use crate::precise::ProjectionUse;
 use crate::shader::analysis::Analysis;
 use crate::shader::derived_range::MatrixSource;
@@ -106,6 +108,67 @@ pub struct VertexStageFacts<'a> {
     /// Its vertex module's `Position` rewrite: where its stage derives the range from (`None`:
     /// it does not), or why it has none.
     pub rewrite: Result<Option<MatrixSource>, Missing>,
+}
+
+/// A fact revz lacks of a candidate pipeline's vertex stage while it gathers
+/// [`VertexStageFacts`]: each is why its draws take the flip path where
+/// [`VertexStageFacts::decide`] gets to it ([`MissingFact::reason`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MissingFact {
+    /// Its vertex module is not one revz saw created: no analysis.
+    UnknownModule,
+    /// revz holds no `Position` rewrite of its vertex module.
+    ModuleWithoutRewrite,
+    /// revz holds no `Position` rewrite of its inline code.
+    InlineWithoutRewrite,
+    /// Its vertex stage has neither a module nor inline code: no analysis, no rewrite.
+    NoModule,
+    /// It has no vertex stage: no analysis, no rewrite.
+    NoVertexStage,
+    /// naga cannot read its vertex module.
+    UnreadableModule,
+    /// Its vertex stage names no entry point.
+    NoEntryPointName,
+    /// The policy found every fact, yet the layout's carrier, the rewrite or the stage is
+    /// missing (the facts disagree: never expected).
+    Incomplete,
+}
+
+impl MissingFact {
+    /// Why a pipeline lacking this fact takes the flip path, as logged and in the profile.
+    #[must_use]
+    pub fn reason(self) -> &'static str {
+        match self {
+            MissingFact::UnknownModule => "its vertex module is unknown",
+            MissingFact::ModuleWithoutRewrite => "its vertex module has no Position rewrite",
+            MissingFact::InlineWithoutRewrite => "its vertex shader has no rewrite",
+            MissingFact::NoModule => "its vertex shader has no module",
+            MissingFact::NoVertexStage => "it has no vertex stage",
+            MissingFact::UnreadableModule => "naga cannot read its vertex module",
+            MissingFact::NoEntryPointName => "no entry point name",
+            MissingFact::Incomplete => "its vertex stage is incomplete",
+        }
+    }
+}
+
+/// The analysis of a vertex stage's entry point ([`VertexStageFacts::analysis`]) in its
+/// module's (`module`: each vertex entry point's, or why naga could not read the module; `Err`:
+/// why revz has none), by the entry point's name (`name`; `None`: the stage gives none).
+/// `Ok(None)`: the module holds no analysis of that entry point.
+pub fn entry_point_analysis<'a>(
+    module: Result<&'a ModuleAnalysis, &'static str>,
+    name: Option<&[u8]>,
+) -> Result<Option<&'a Analysis>, &'static str> {
+    match module? {
+        Err(_) => Err(MissingFact::UnreadableModule.reason()),
+        Ok(entries) => {
+            let name = name.ok_or(MissingFact::NoEntryPointName.reason())?;
+            Ok(entries
+                .iter()
+                .find(|(entry, _)| entry.as_bytes() == name)
+                .map(|(_, analysis)| analysis))
+        }
+    }
 }
 
 /// Why a vertex module has no `Position` rewrite.
@@ -204,6 +267,53 @@ mod tests {
         assert!(!analyses_vertex_module(true, || false));
         // The module is not scanned where the mode does not rewrite.
         assert!(!analyses_vertex_module(false, || unreachable!()));
+    }
+
+    #[test]
+    fn missing_facts_say_why_the_flip_path_is_taken() {
+        use MissingFact as M;
+        let all = [
+            M::UnknownModule,
+            M::ModuleWithoutRewrite,
+            M::InlineWithoutRewrite,
+            M::NoModule,
+            M::NoVertexStage,
+            M::UnreadableModule,
+            M::NoEntryPointName,
+            M::Incomplete,
+        ];
+        let reasons: std::collections::HashSet<_> = all.iter().map(|m| m.reason()).collect();
+        assert_eq!(reasons.len(), all.len(), "each fact has its own reason");
+        assert_eq!(M::NoVertexStage.reason(), "it has no vertex stage");
+        assert_eq!(M::NoModule.reason(), "its vertex shader has no module");
+    }
+
+    #[test]
+    fn an_entry_points_analysis_is_found_by_its_name() {
+        let module: ModuleAnalysis = Ok(vec![
+            ("main".to_owned(), Analysis::Unreadable("a".into())),
+            ("other".to_owned(), Analysis::Unreadable("b".into())),
+        ]);
+        let found = entry_point_analysis(Ok(&module), Some(b"other"));
+        assert!(matches!(found, Ok(Some(Analysis::Unreadable(r))) if r == "b"));
+        assert!(matches!(
+            entry_point_analysis(Ok(&module), Some(b"missing")),
+            Ok(None)
+        ));
+        assert_eq!(
+            entry_point_analysis(Ok(&module), None).map(|_| ()),
+            Err("no entry point name")
+        );
+        let unreadable: ModuleAnalysis = Err("bad".into());
+        // An unreadable module is said before a missing name.
+        assert_eq!(
+            entry_point_analysis(Ok(&unreadable), None).map(|_| ()),
+            Err("naga cannot read its vertex module")
+        );
+        assert_eq!(
+            entry_point_analysis(Err("its vertex module is unknown"), Some(b"main")).map(|_| ()),
+            Err("its vertex module is unknown")
+        );
     }
 
     #[test]
