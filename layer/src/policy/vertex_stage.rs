@@ -85,6 +85,20 @@ pub fn position_store<'a>(entry_points: impl IntoIterator<Item = &'a Analysis>) 
     }
 }
 
+/// Which `Position` rewrite a vertex module gets ([`position_store`] of its entry points), and
+/// the carrier's offset it stores through; `None`: none, without the precise path
+/// (`carrier_offset`, [`super::DevicePolicy::carrier_offset`]) or for a module whose analysis
+/// could not be read (`entry_points`: `None`), whose pipelines' draws take the flip path
+/// anyway.
+#[must_use]
+pub fn module_position_store<'a>(
+    carrier_offset: Option<u32>,
+    entry_points: Option<impl IntoIterator<Item = &'a Analysis>>,
+) -> Option<(u32, PositionStore)> {
+    let offset = carrier_offset?;
+    Some((offset, position_store(entry_points?)))
+}
+
 /// What revz knows of a candidate pipeline's vertex stage.
 #[derive(Clone, Copy, Debug)]
 pub struct VertexStageFacts<'a> {
@@ -267,6 +281,27 @@ mod tests {
         assert!(!analyses_vertex_module(true, || false));
         // The module is not scanned where the mode does not rewrite.
         assert!(!analyses_vertex_module(false, || unreachable!()));
+    }
+
+    #[test]
+    fn a_module_gets_a_position_store_only_with_the_carrier_and_a_readable_analysis() {
+        let projection = [Analysis::Projection(slot())];
+        let unread = [Analysis::Unreadable("no push constants".into())];
+        assert_eq!(
+            module_position_store(Some(128), Some(&projection)),
+            Some((128, PositionStore::Carrier))
+        );
+        assert_eq!(
+            module_position_store(Some(64), Some(&unread)),
+            Some((64, PositionStore::Deriving))
+        );
+        assert_eq!(
+            module_position_store(Some(64), Some(&[] as &[Analysis])),
+            Some((64, PositionStore::Deriving))
+        );
+        assert_eq!(module_position_store(None, Some(&projection)), None);
+        assert_eq!(module_position_store(Some(64), None::<&[Analysis]>), None);
+        assert_eq!(module_position_store(None, None::<&[Analysis]>), None);
     }
 
     #[test]
