@@ -73,10 +73,9 @@ pub(super) fn inline_code<'a>(
 }
 
 /// The `Position` rewrite of a vertex module the policy chose
-/// ([`vertex_stage::module_position_store`]):
-/// the carrier store where an entry point has its projection in push constants, else the
-/// deriving one (`None` without the precise path, or for a module that could not be analyzed:
-/// their draws take the flip path anyway).
+/// ([`vertex_stage::module_position_store`]): the carrier store where an entry point has its
+/// projection in push constants, else the deriving one (`None` without the precise path, or
+/// for a module that could not be analyzed: their draws take the flip path anyway).
 pub(super) fn position_store_of(
     state: &DeviceState,
     analysis: &ModuleAnalysis,
