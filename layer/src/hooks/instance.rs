@@ -12,8 +12,8 @@ use crate::config::{self, layer_settings, AppIdentity, Mode, Settings, Sources};
 use crate::ffi;
 use crate::objects::DeviceObjects;
 use crate::policy::{
-    extended_dynamic_state_allowed, instance_needs_properties2, CompareOpFacts, CompareOpSource,
-    DevicePolicy, ResolveSupport,
+    self, extended_dynamic_state_allowed, instance_needs_properties2, CompareOpFacts,
+    CompareOpSource, DevicePolicy, ResolveSupport,
 };
 use crate::state::{DeviceCommands, DeviceState, DispatchKey, InstanceState, DEVICES, INSTANCES};
 use crate::{logging, LAYER_NAME, VERSION};
@@ -183,14 +183,12 @@ fn application_json(create_info: &vk::InstanceCreateInfo, api_version: u32) -> s
     })
 }
 
-/// The API version the application asked for; 1.0 when it gave none.
+/// The API version the application asked for ([`policy::requested_api_version`]: 1.0 when
+/// it gave none).
 fn requested_api_version(create_info: &vk::InstanceCreateInfo) -> u32 {
     // SAFETY: `pApplicationInfo` is null or valid.
     let info = unsafe { create_info.p_application_info.as_ref() };
-    match info.map_or(0, |i| i.api_version) {
-        0 => vk::API_VERSION_1_0,
-        version => version,
-    }
+    policy::requested_api_version(info.map_or(0, |i| i.api_version))
 }
 
 /// What a device allows of depth/stencil resolves (`VkPhysicalDeviceDepthStencilResolveProperties`,
@@ -205,7 +203,7 @@ unsafe fn resolve_support(
     physical_device: vk::PhysicalDevice,
     api: u32,
 ) -> ResolveSupport {
-    if api < vk::API_VERSION_1_2 {
+    if !ResolveSupport::queried(api) {
         return ResolveSupport::MINIMAL;
     }
     // SAFETY: querying the next layer for a core 1.1 instance command.
@@ -227,11 +225,11 @@ unsafe fn resolve_support(
     };
     // SAFETY: a live physical device and a valid output chain (core 1.2 structure).
     unsafe { get(physical_device, &mut properties) };
-    ResolveSupport {
-        depth_modes: resolve.supported_depth_resolve_modes | vk::ResolveModeFlags::SAMPLE_ZERO,
-        independent_resolve_none: resolve.independent_resolve_none == vk::TRUE,
-        independent_resolve: resolve.independent_resolve == vk::TRUE,
-    }
+    ResolveSupport::reported(
+        resolve.supported_depth_resolve_modes,
+        resolve.independent_resolve_none == vk::TRUE,
+        resolve.independent_resolve == vk::TRUE,
+    )
 }
 
 /// The physical device's API version (1.0 if the next layer cannot say). Looked up by name
@@ -551,10 +549,11 @@ pub unsafe extern "system" fn create_device(
             };
             // SAFETY: the next layer's vkCreateDevice has this signature.
             let next_create: vk::PFN_vkCreateDevice = unsafe { std::mem::transmute(next_create) };
-            let api = instance
-                .api_version
+            let api = policy::device_api_version(
+                instance.api_version,
                 // SAFETY: a live physical device of this instance.
-                .min(unsafe { device_api_version(&instance, physical_device) });
+                unsafe { device_api_version(&instance, physical_device) },
+            );
             // SAFETY: a live physical device of this instance; the application's create info.
             let source = unsafe { compare_op_source(&instance, physical_device, create_info, api) };
             // SAFETY: a live physical device of this instance.
@@ -614,7 +613,7 @@ pub unsafe extern "system" fn create_device(
             let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op)
                 .with_push_constant_space(limits.max_push_constants_size);
             match source {
-                _ if instance.settings.mode == Mode::Off => {}
+                _ if !source.logged(instance.settings.mode == Mode::Off) => {}
                 CompareOpSource::AddedExtension => log::info!(
                     "device {device:?}: enabled VK_EXT_extended_dynamic_state to make the depth \
                      compare op dynamic"

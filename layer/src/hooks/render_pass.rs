@@ -27,12 +27,12 @@ use ash::vk;
 use super::{device_state, record};
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
-use crate::conv::{has_depth, has_stencil};
+use crate::conv::has_stencil;
 use crate::hooks::resources::slice;
 use crate::objects::{RenderPassInfo, SubpassResolve};
 use crate::policy::{
-    framebuffer_may_be_promoted, imageless_view_format, promoted_twin_format, FramebufferStorage,
-    SubpassResolveFacts, TwinResolve,
+    clears_depth_at_begin, framebuffer_may_be_promoted, has_promoted_twin, imageless_view_format,
+    promoted_twin_format, FramebufferStorage, SubpassResolveFacts, TwinResolve,
 };
 use crate::state::DeviceState;
 
@@ -52,7 +52,7 @@ fn render_pass_info(
     for (format, load_op) in attachments {
         info.attachments.push(format);
         info.depth_cleared
-            .push(has_depth(format) && load_op == vk::AttachmentLoadOp::CLEAR);
+            .push(clears_depth_at_begin(format, load_op));
     }
     for (depth, resolve) in subpasses {
         info.subpass_depth
@@ -172,21 +172,28 @@ fn create_swapped_resolve_twin(
     Some(twin)
 }
 
-/// The attachments with their UNORM depth formats replaced by float ones, if any is.
-fn promoted_attachments<T: Copy>(
-    attachments: &[T],
+/// The attachments of a render pass's promoted twin, where the policy gives it one
+/// ([`has_promoted_twin`]): the application's (`attachments`, read only where promotion is
+/// on) with each UNORM depth format replaced by its float one ([`promoted_twin_format`]).
+fn promoted_attachments<'a, T: Copy + 'a>(
+    promote: bool,
+    attachments: impl FnOnce() -> &'a [T],
     format: impl Fn(&mut T) -> &mut vk::Format,
 ) -> Option<Vec<T>> {
-    let mut copy = attachments.to_vec();
-    let mut changed = false;
-    for attachment in &mut copy {
-        let format = format(attachment);
-        if let Some(float) = promoted_twin_format(*format) {
-            *format = float;
-            changed = true;
+    let mut copy = Vec::new();
+    has_promoted_twin(promote, || {
+        copy = attachments().to_vec();
+        let mut changed = false;
+        for attachment in &mut copy {
+            let format = format(attachment);
+            if let Some(float) = promoted_twin_format(*format) {
+                *format = float;
+                changed = true;
+            }
         }
-    }
-    changed.then_some(copy)
+        changed
+    })
+    .then_some(copy)
 }
 
 /// Logs a twin render pass that could not be created (its framebuffers then keep the
@@ -211,12 +218,12 @@ pub unsafe extern "system" fn create_render_pass(
         || {
             // SAFETY: a valid create info (the application's contract).
             let info = unsafe { &*p_create_info };
-            if !state.policy.promote {
-                return None;
-            }
-            // SAFETY: `attachmentCount` attachments.
-            let attachments = unsafe { slice(info.p_attachments, info.attachment_count) };
-            let promoted = promoted_attachments(attachments, |a| &mut a.format)?;
+            let promoted = promoted_attachments(
+                state.policy.promote,
+                // SAFETY: `attachmentCount` attachments.
+                || unsafe { slice(info.p_attachments, info.attachment_count) },
+                |a| &mut a.format,
+            )?;
             let twin_info = vk::RenderPassCreateInfo {
                 p_attachments: promoted.as_ptr(),
                 ..*info
@@ -292,11 +299,8 @@ pub unsafe extern "system" fn create_render_pass2(
             let swapped = create_swapped_resolve_twin(&state, device, info, next);
             // SAFETY: `attachmentCount` attachments.
             let attachments = unsafe { slice(info.p_attachments, info.attachment_count) };
-            let promoted = state
-                .policy
-                .promote
-                .then(|| promoted_attachments(attachments, |a| &mut a.format))
-                .flatten();
+            let promoted =
+                promoted_attachments(state.policy.promote, || attachments, |a| &mut a.format);
             let (promoted_twin, promoted_swapped) = match promoted {
                 Some(promoted) => {
                     let promoted_info = vk::RenderPassCreateInfo2 {

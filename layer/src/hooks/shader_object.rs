@@ -228,7 +228,7 @@ pub unsafe extern "system" fn create_shaders_ext(
     let variants: Vec<Option<FragmentShader>> = guarded(
         &CREATE_SHADERS,
         || {
-            if !state.policy.is_active() {
+            if !crate::policy::pipelines::shader_object_variants(state.policy.is_active()) {
                 return Vec::new();
             }
             infos

@@ -15,7 +15,10 @@ use ash::vk;
 use rustc_hash::{FxHashMap, FxHashSet};
 
 use crate::command_state::{CommandState, PipelineDepth, Target};
-use crate::policy::{pass_resolve_swappable, DepthResolve, ImageDepth, NativeReason, PassTwin};
+use crate::policy::{
+    follows_demotion, kept_resolve_partner, pass_resolve_swappable, resolved_destination,
+    DepthResolve, ImageDepth, NativeReason, PassTwin, ResolvePartner, ResolvedDestination,
+};
 use crate::precise::Carrier;
 use crate::shader::analysis::Analysis;
 use crate::shader::fragment_depth::Unsupported;
@@ -384,12 +387,12 @@ pub enum SecondaryPass {
 }
 
 impl DeviceObjects {
-    /// The format of a tracked depth view's image.
     /// The raw handle of `view`'s image, 0 for none (the depth profile's key).
     pub fn view_image_raw(&self, view: vk::ImageView) -> u64 {
         self.views.get(&view).map_or(0, vk::Handle::as_raw)
     }
 
+    /// The format of a tracked depth view's image.
     pub fn view_format(&self, view: vk::ImageView) -> Option<vk::Format> {
         let image = self.views.get(&view)?;
         self.images.get(&image).map(|info| info.format)
@@ -415,21 +418,26 @@ impl DeviceObjects {
     }
 
     /// Whether a live depth image that may be resolved with an image of `format`, `extent`
-    /// and `samples` keeps its format: one of the same format and size, multisampled where
-    /// this one is single-sampled and the other way round.
+    /// and `samples` keeps its format, as the policy says of each ([`kept_resolve_partner`]).
     pub fn resolve_partner_kept(
         &self,
         format: vk::Format,
         extent: vk::Extent3D,
         samples: vk::SampleCountFlags,
     ) -> bool {
-        let multisampled = samples != vk::SampleCountFlags::TYPE_1;
+        let image = ResolvePartner {
+            format,
+            extent,
+            samples,
+        };
         let images = self.images.0.read().unwrap_or_else(PoisonError::into_inner);
         images.values().any(|info| {
-            info.format == format
-                && info.extent == extent
-                && (info.samples != vk::SampleCountFlags::TYPE_1) != multisampled
-                && info.promoted.is_none()
+            let other = ResolvePartner {
+                format: info.format,
+                extent: info.extent,
+                samples: info.samples,
+            };
+            kept_resolve_partner(image, other, info.promoted.is_some())
         })
     }
 
@@ -478,10 +486,10 @@ impl DeviceObjects {
         let Some(info) = images.get_mut(&image) else {
             return false;
         };
-        if info.depth != ImageDepth::Reversed {
+        let Some(demoted) = info.depth.demoted(reason) else {
             return false;
-        }
-        info.depth = ImageDepth::Native(reason);
+        };
+        info.depth = demoted;
         if self
             .keep_demotions
             .load(std::sync::atomic::Ordering::Relaxed)
@@ -545,26 +553,24 @@ impl DeviceObjects {
             }
         }
         if let Some(destination_image) = destination_image {
-            if !self.image_reversed(source_image) {
-                // A native source (observable, or made native just above) resolves standard
-                // values: its destination must hold standard depth too.
-                let reason = NativeReason::ResolvedFromNative(source_image);
-                if self.demote(destination_image, reason) {
-                    demoted.push(destination_image);
+            match resolved_destination(source_image, self.image_reversed(source_image)) {
+                ResolvedDestination::Demoted(reason) => {
+                    if self.demote(destination_image, reason) {
+                        demoted.push(destination_image);
+                    }
                 }
-            } else {
-                // Both ends reversed (the rule above keeps a reversed source only into a
-                // reversed destination): remembered, for a later demotion of either end.
-                let pair = (source_image, destination_image);
-                if !self.resolve_pairs.contains(pair) {
-                    self.resolve_pairs.insert(pair);
-                    // Another thread may have made an end native between the checks above and
-                    // the insert, and missed the pair when it followed that demotion.
-                    demoted.extend(
-                        [source_image, destination_image]
-                            .into_iter()
-                            .filter(|&image| !self.image_reversed(image)),
-                    );
+                ResolvedDestination::Paired => {
+                    let pair = (source_image, destination_image);
+                    if !self.resolve_pairs.contains(pair) {
+                        self.resolve_pairs.insert(pair);
+                        // Another thread may have made an end native between the checks above
+                        // and the insert, and missed the pair when it followed that demotion.
+                        demoted.extend(
+                            [source_image, destination_image]
+                                .into_iter()
+                                .filter(|&image| !self.image_reversed(image)),
+                        );
+                    }
                 }
             }
         }
@@ -581,12 +587,8 @@ impl DeviceObjects {
     /// so this ends after at most as many steps as there are pairs.
     fn propagate_demotions(&self, mut worklist: Vec<vk::Image>) {
         while let Some(image) = worklist.pop() {
-            for (source, destination) in self.resolve_pairs.take_touching(image) {
-                let (other, reason) = if source == image {
-                    (destination, NativeReason::ResolvedFromNative(source))
-                } else {
-                    (source, NativeReason::ResolvedIntoNative(destination))
-                };
+            for pair in self.resolve_pairs.take_touching(image) {
+                let (other, reason) = follows_demotion(pair, image);
                 if self.demote(other, reason) {
                     worklist.push(other);
                 }

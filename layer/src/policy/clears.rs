@@ -1,6 +1,7 @@
 //! Clears recorded outside pass begins: which of `vkCmdClearAttachments`' clears flip
-//! ([`attachment_clears_flip`], [`flips_attachment_clear`]), and whether an image clear writes
-//! depth, so that its value says anything of the convention ([`clears_depth`]). Pass begins'
+//! ([`attachment_clears_flip`], [`flips_attachment_clear`]), which image clears revz looks at
+//! ([`image_clear_considered`]), and whether an image clear writes depth, so that its value
+//! says anything of the convention ([`clears_depth`]). Pass begins'
 //! clear values are in `passes.rs`; the flipped value itself is
 //! [`super::DevicePolicy::reversed_clear`].
 
@@ -19,6 +20,14 @@ pub fn attachment_clears_flip(target: Target) -> bool {
 /// value.
 pub fn flips_attachment_clear(target: Target, aspect: vk::ImageAspectFlags) -> bool {
     attachment_clears_flip(target) && aspect.contains(vk::ImageAspectFlags::DEPTH)
+}
+
+/// Whether revz looks at a `vkCmdClearDepthStencilImage` at all: only a clear of a reversed
+/// image (`reversed`, as created) commits the convention or may flip
+/// ([`super::Observed::committed`] commits nothing for other images, and their clears keep
+/// their values), so the clear's value and ranges are read only then.
+pub fn image_clear_considered(reversed: bool) -> bool {
+    reversed
 }
 
 /// Whether an image clear writes depth: a range of the depth aspect (a stencil-only clear
@@ -50,6 +59,12 @@ mod tests {
         ));
         assert!(!flips_attachment_clear(Target::Reversed, A::STENCIL));
         assert!(!flips_attachment_clear(Target::Reversed, A::COLOR));
+    }
+
+    #[test]
+    fn only_clears_of_reversed_images_are_considered() {
+        assert!(image_clear_considered(true));
+        assert!(!image_clear_considered(false));
     }
 
     #[test]

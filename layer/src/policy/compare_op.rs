@@ -5,13 +5,34 @@
 //! instance ([`instance_needs_properties2`], at `vkCreateInstance`), and whether its devices may
 //! have `VK_EXT_extended_dynamic_state` ([`extended_dynamic_state_allowed`]); and which
 //! commands of what revz added the application does not see ([`hides_instance_command`],
-//! [`hides_device_command`]: the application did not enable those extensions).
+//! [`hides_device_command`]: the application did not enable those extensions). The API
+//! versions these read are decided here too: the instance's ([`requested_api_version`]) and a
+//! device's ([`device_api_version`]).
 
 use std::ffi::CStr;
 
 use ash::vk;
 
 use crate::config::Mode;
+
+/// The API version an instance is created with, where the application asks for `requested`
+/// (`VkApplicationInfo::apiVersion`; 0 where it gives no application info): 0 means 1.0 (the
+/// spec's rule).
+#[must_use]
+pub fn requested_api_version(requested: u32) -> u32 {
+    match requested {
+        0 => vk::API_VERSION_1_0,
+        version => version,
+    }
+}
+
+/// The API version revz uses a device with: the smaller of its instance's (`instance`,
+/// [`requested_api_version`]) and its physical device's (`device`): the application may use
+/// no more of the device than it asked the instance for.
+#[must_use]
+pub fn device_api_version(instance: u32, device: u32) -> u32 {
+    instance.min(device)
+}
 
 /// Whether revz must add `VK_KHR_get_physical_device_properties2` to an instance created with
 /// `api`, where the application did not enable it itself (`application_enabled`): below Vulkan
@@ -79,6 +100,19 @@ impl CompareOpSource {
     /// variant): the device provides it and the next layer gave revz the command.
     pub fn is_dynamic(self, command_loaded: bool) -> bool {
         command_loaded && self != CompareOpSource::Unavailable
+    }
+
+    /// Whether `vkCreateDevice` logs where the compare op comes from (at info): only where
+    /// revz acts on the device (`mode_off`: it does not), and only where revz adds the
+    /// extension or none is available (draws then get it from pipeline variants); core and the
+    /// application's extension are as expected.
+    #[must_use]
+    pub fn logged(self, mode_off: bool) -> bool {
+        !mode_off
+            && matches!(
+                self,
+                CompareOpSource::AddedExtension | CompareOpSource::Unavailable
+            )
     }
 
     /// How the device provides a dynamic compare op.
@@ -198,6 +232,30 @@ mod tests {
             ..facts(false, false, false, false, true)
         };
         assert_eq!(S::decide(&without), S::Unavailable);
+    }
+
+    #[test]
+    fn only_an_added_or_missing_compare_op_is_logged_in_active_modes() {
+        use CompareOpSource as S;
+        for source in [S::AddedExtension, S::Unavailable] {
+            assert!(source.logged(false));
+            assert!(!source.logged(true));
+        }
+        for source in [S::Core, S::ApplicationExtension] {
+            assert!(!source.logged(false));
+            assert!(!source.logged(true));
+        }
+    }
+
+    #[test]
+    fn no_api_version_means_1_0_and_a_device_is_used_at_the_smaller_version() {
+        use vk::{API_VERSION_1_0 as V10, API_VERSION_1_2 as V12, API_VERSION_1_3 as V13};
+        assert_eq!(requested_api_version(0), V10);
+        assert_eq!(requested_api_version(V12), V12);
+        assert_eq!(requested_api_version(V10), V10);
+        assert_eq!(device_api_version(V12, V13), V12);
+        assert_eq!(device_api_version(V13, V12), V12);
+        assert_eq!(device_api_version(V13, V13), V13);
     }
 
     #[test]

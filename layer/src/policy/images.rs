@@ -83,6 +83,17 @@ pub enum ImageDepth {
 }
 
 impl ImageDepth {
+    /// The decision an image of this one has once made native for `reason` (a resolve rule,
+    /// `crate::policy::DepthResolve`): only a reversed image changes, for the rest of its life;
+    /// `None`: a native image stays as it is, with its first reason.
+    #[must_use]
+    pub fn demoted(self, reason: NativeReason) -> Option<ImageDepth> {
+        match self {
+            ImageDepth::Reversed => Some(ImageDepth::Native(reason)),
+            ImageDepth::Native(_) => None,
+        }
+    }
+
     /// The depth target draws into (or copies of) an image of this decision are, before the
     /// application's convention (`crate::policy::Observed::effective`).
     pub fn target(self) -> Target {
@@ -262,6 +273,32 @@ impl DevicePolicy {
 /// ([`ImageFacts::partner_kept`]).
 pub fn may_be_resolved(usage: vk::ImageUsageFlags) -> bool {
     usage.contains(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT)
+}
+
+/// What [`kept_resolve_partner`] compares of two depth images.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ResolvePartner {
+    pub format: vk::Format,
+    pub extent: vk::Extent3D,
+    pub samples: vk::SampleCountFlags,
+}
+
+/// Whether a live depth image (`other`, promoted or not: `other_promoted`) may be the resolve
+/// partner of an image being created (`image`) and keeps its format, so that the new image
+/// must keep its own ([`ImageFacts::partner_kept`]): the same format and size, on the other
+/// side of a resolve (multisampled where the new one is single-sampled, and the other way
+/// round), and not promoted.
+#[must_use]
+pub fn kept_resolve_partner(
+    image: ResolvePartner,
+    other: ResolvePartner,
+    other_promoted: bool,
+) -> bool {
+    let multisampled = |samples| samples != vk::SampleCountFlags::TYPE_1;
+    other.format == image.format
+        && other.extent == image.extent
+        && multisampled(other.samples) != multisampled(image.samples)
+        && !other_promoted
 }
 
 /// The format a view is made in of an image created in `image_format` and promoted to
@@ -594,6 +631,60 @@ mod tests {
         assert_eq!(promoted_view_format(d24, d24, Some(float)), Some(float));
         assert_eq!(promoted_view_format(D32, d24, Some(float)), None);
         assert_eq!(promoted_view_format(d24, d24, None), None);
+    }
+
+    #[test]
+    fn a_kept_partner_has_the_format_and_size_on_the_other_side_of_a_resolve() {
+        let extent = vk::Extent3D {
+            width: 64,
+            height: 32,
+            depth: 1,
+        };
+        let single = ResolvePartner {
+            format: vk::Format::D16_UNORM,
+            extent,
+            samples: vk::SampleCountFlags::TYPE_1,
+        };
+        let multi = ResolvePartner {
+            samples: vk::SampleCountFlags::TYPE_4,
+            ..single
+        };
+        assert!(kept_resolve_partner(single, multi, false));
+        assert!(kept_resolve_partner(multi, single, false));
+        // A promoted partner does not keep the new image's format.
+        assert!(!kept_resolve_partner(single, multi, true));
+        // Both on the same side of a resolve.
+        assert!(!kept_resolve_partner(single, single, false));
+        let eight = ResolvePartner {
+            samples: vk::SampleCountFlags::TYPE_8,
+            ..multi
+        };
+        assert!(!kept_resolve_partner(multi, eight, false));
+        // Another format or size.
+        let d24 = ResolvePartner {
+            format: vk::Format::D24_UNORM_S8_UINT,
+            ..multi
+        };
+        assert!(!kept_resolve_partner(single, d24, false));
+        let larger = ResolvePartner {
+            extent: vk::Extent3D {
+                width: 128,
+                ..extent
+            },
+            ..multi
+        };
+        assert!(!kept_resolve_partner(single, larger, false));
+    }
+
+    #[test]
+    fn only_reversed_images_are_demoted() {
+        let reason = NativeReason::UnswappableResolve;
+        assert_eq!(
+            ImageDepth::Reversed.demoted(reason),
+            Some(ImageDepth::Native(reason))
+        );
+        let native = ImageDepth::Native(NativeReason::HostCopied);
+        assert_eq!(native.demoted(reason), None);
     }
 
     #[test]

@@ -6,12 +6,19 @@
 //! | is an image considered for promotion at all, before any lock ([`DevicePolicy::may_promote`]) | `promote`, its format | `vkCreateImage` |
 //! | is a depth image created in a float format ([`DevicePolicy::promoted_format`]) | format, usage, tiling, flags, external memory, the device's support of the float format, settings | `vkCreateImage` (imageless framebuffers: their attachment infos) |
 //! | may an image be on one end of a depth resolve, so that its partner's format counts ([`may_be_resolved`]) | its usage | `vkCreateImage` |
+//! | does a live image keep a new image's format, as its resolve partner that keeps its own ([`kept_resolve_partner`]) | both images' format, extent and samples, whether the live one is promoted | `vkCreateImage` |
 //! | which format a view of a promoted image is made in, and which formats its format list names ([`promoted_view_format`]) | the view's (or listed) format, the image's format and whether it was promoted | `vkCreateImageView` (images from `vkCreateImage`), `vkCreateImage` |
 //! | must a resolve's source become native ([`DepthResolve::demotes_source`]) | resolve mode, destination, swappability | framebuffer creation, pass begins |
+//! | does a resolve's destination become native, or is the pair of reversed ends remembered ([`resolved_destination`]) | whether its source is (still) reversed | framebuffer creation, pass begins (`crate::objects::DeviceObjects::settle_depth_resolve`) |
+//! | which end of a remembered resolve pair follows an end made native, and why ([`follows_demotion`]) | the pair, the end made native | framebuffer creation, pass begins (`crate::objects::DeviceObjects::settle_depth_resolve`) |
+//! | does an image made native change: only a reversed one, for the rest of its life ([`ImageDepth::demoted`]) | its decision | wherever a resolve rule makes it native (`crate::objects::DeviceObjects::demote`) |
 //! | which MIN/MAX mode a reversed resolve uses ([`ResolveSupport::swapped_depth_mode`]) | the device's resolve properties | `vkCreateDevice` |
 //! | does a render pass get a twin with its MIN/MAX depth resolve swapped, and with which mode ([`ResolveSupport::twin_resolve`]) | each subpass's depth resolve mode, the stencil mode where the resolve attachment has stencil, where the resolve structure is in the subpass's chain, the device's resolve properties | `vkCreateRenderPass2` (for the promoted twin too), `vkCreateDevice` |
 //! | how a rendering instance's depth resolve goes down for a reversed attachment, and whether revz can resolve it reversed ([`ResolveSupport::reversed_resolve`]) | its depth resolve mode, the stencil attachment's resolve mode where it has a view, the device's resolve properties | `vkCmdBeginRendering`, `vkCreateDevice` |
 //! | which attachment formats a render pass's promoted twin has: the float ones ([`promoted_twin_format`]) | each attachment's format | `vkCreateRenderPass*` |
+//! | does a render pass get a promoted twin ([`has_promoted_twin`]) | `promote`, whether the twin changes an attachment's format ([`promoted_twin_format`]) | `vkCreateRenderPass*` |
+//! | does a dynamic rendering instance draw into promoted attachments, and which format its draws convert from ([`rendering_promoted_from`]) | whether its depth, then its stencil view is of a promoted image, that view's image's format | `vkCmdBeginRendering` (views from `vkCreateImageView`, images from `vkCreateImage`) |
+//! | which of a render pass's attachments its begins clear the depth of ([`clears_depth_at_begin`]) | each attachment's format and load op | `vkCreateRenderPass*` (read at `vkCmdBeginRenderPass*`) |
 //! | is a framebuffer considered for promotion at all ([`framebuffer_may_be_promoted`]) | `promote`, whether its pass has a promotable attachment | `vkCreateFramebuffer` (render passes from `vkCreateRenderPass*`) |
 //! | what an imageless framebuffer's attachment info says of its image ([`ImageFacts::imageless_attachment`]) | its usage and flags | `vkCreateFramebuffer` |
 //! | which view formats an imageless framebuffer of promoted images lists: the float one for its attachment's UNORM format ([`imageless_view_format`]) | each listed format, the pass's format of the attachment, whether it is promotable | `vkCreateFramebuffer` (render passes from `vkCreateRenderPass*`) |
@@ -23,6 +30,7 @@
 //! | can a render pass's depth resolve be swapped ([`pass_resolve_swappable`]) | its mode, whether the pass has a swapped-resolve twin | framebuffer creation, imageless pass begins |
 //! | which clear a reversed image commits the convention with, and the target revz then acts on ([`Observed::committed`]) | whether the image (or any attachment of a pass) is reversed, the depth the first reversed attachment is cleared to there | `vkCmdBeginRenderPass*`, `vkCmdBeginRendering`, `vkCmdClearDepthStencilImage` (images from `vkCreateImage`) |
 //! | which of `vkCmdClearAttachments`' clears flip ([`attachment_clears_flip`], [`flips_attachment_clear`]) | the target draws go to (after the convention), each clear's aspect | `vkCmdClearAttachments` (the target: pass begins, images from `vkCreateImage`) |
+//! | is an image clear looked at: only a reversed image's commits the convention or flips ([`image_clear_considered`]) | whether the image is reversed | `vkCmdClearDepthStencilImage` (images from `vkCreateImage`) |
 //! | does an image clear write depth, so that its value counts for the convention ([`clears_depth`]) | its ranges' aspects | `vkCmdClearDepthStencilImage` |
 //! | does the application render reversed depth itself ([`ConventionEvidence::decide`], once per device) | the clear of the first committed reversed attachment, compare ops of pipelines and `vkCmdSetDepthCompareOp`, pushed projections | pass begins and image clears, pipeline creation, draws |
 //! | where a secondary without a framebuffer draws ([`secondary_target`]) | the target its pass was last begun with for secondaries, the format's images | primary begins, `vkCreateImage` |
@@ -34,20 +42,28 @@
 //! | which depth and stencil formats promoted dynamic rendering uses: the float ones ([`promoted_attachment_format`]); is a rendering's depth or stencil format promoted, and which first ([`first_promoted_format`]) | the rendering formats | `vkBeginCommandBuffer` (a secondary's inheritance), `vkCreateGraphicsPipelines` (a pipeline's `VkPipelineRenderingCreateInfo`: promotable, and its promoted variant's formats) |
 //! | which command hooks a device hands out ([`DevicePolicy::command_hooks`]) | the mode, whether the depth profile is on | `vkGetDeviceProcAddr` (settings from `vkCreateDevice`) |
 //! | is the precise path available, and where its carrier goes ([`DevicePolicy::carrier_offset`]) | the mode, `maxPushConstantsSize` | `vkCreateDevice` |
+//! | which API version an instance has: 1.0 where the application asks for none ([`requested_api_version`]) | its `VkApplicationInfo::apiVersion` | `vkCreateInstance` |
+//! | which API version revz uses a device with: the smaller of its instance's and its own ([`device_api_version`]) | the instance's API version, the physical device's | `vkCreateInstance`, `vkCreateDevice` |
+//! | is a device asked for its resolve properties, and what it then supports ([`ResolveSupport::queried`], [`ResolveSupport::reported`]; [`ResolveSupport::MINIMAL`] where it is not) | the device's API version, its reported depth resolve modes (SAMPLE_ZERO always added) and independence | `vkCreateDevice` |
 //! | does revz add `VK_KHR_get_physical_device_properties2` to an instance ([`instance_needs_properties2`]) | the mode, the API version, whether the application enabled it | `vkCreateInstance` |
 //! | may a device of the instance have `VK_EXT_extended_dynamic_state` added ([`extended_dynamic_state_allowed`]) | the API version, whether `VK_KHR_get_physical_device_properties2` is enabled (by the application or revz) | `vkCreateInstance`, `vkCreateDevice` |
 //! | which commands `vkGet*ProcAddr` hides from the application ([`hides_instance_command`], [`hides_device_command`]) | the command's name, whether revz added the extension it belongs to | `vkGetInstanceProcAddr`, `vkGetDeviceProcAddr` (what was added: `vkCreateInstance`, `vkCreateDevice`) |
 //! | where the device's dynamic compare op comes from ([`CompareOpSource::decide`]) | the API version, the application's `VK_EXT_extended_dynamic_state` and feature structure, the mode, whether revz may add the extension and the device offers it | `vkCreateDevice` |
+//! | is where the compare op comes from logged: where revz adds the extension or none is available, in active modes ([`CompareOpSource::logged`]) | the source, whether the mode is off | `vkCreateDevice` |
 //! | which shader modules are analysed: for fragments where revz is active, for the vertex stage where the mode rewrites and the module declares a vertex entry point ([`vertex_stage::analyses_fragment_module`], [`vertex_stage::analyses_vertex_module`]) | the mode, the module's entry points (`crate::shader::scan`) | `vkCreateShaderModule` |
 //! | is a pipeline a candidate for the precise path ([`vertex_stage::precise_candidate`]) | the mode, whether it renders depth, whether its create info defines its shaders | `vkCreateGraphicsPipelines` |
 //! | does a pipeline's vertex stage store reversed depth itself, and of which range ([`vertex_stage::VertexStageFacts::decide`]) | whether its code is given, its stages, the analysis of its vertex entry point (`crate::shader::analysis`), its layout's push-constant ranges and room for the carrier, its clip convention (static or dynamic), its module's `Position` rewrite and what that derives its range from (`crate::shader::position_store`, `crate::shader::derived_range`) | `vkCreateShaderModule` (or inline code, once per distinct code), `vkCreateGraphicsPipelines` |
-//! | which `Position` rewrite a vertex module gets: the carrier store or the deriving one ([`vertex_stage::position_store`]) | the analysis of its entry points (`crate::shader::analysis`) | `vkCreateShaderModule` (or inline code, once per distinct code) |
+//! | why a pipeline whose vertex stage's facts revz lacks takes the flip path ([`vertex_stage::MissingFact::reason`]), and which analysis is its entry point's ([`vertex_stage::entry_point_analysis`]) | whether its vertex module is known and has a `Position` rewrite, whether its inline code has one, whether it has a module or inline code, a vertex stage, a readable module, an entry point name | `vkCreateShaderModule` (or inline code), `vkCreateGraphicsPipelines` |
+//! | which `Position` rewrite a vertex module gets: the carrier store or the deriving one ([`vertex_stage::position_store`]), and whether it gets one at all ([`vertex_stage::module_position_store`]) | the carrier's offset (the precise path), whether its analysis could be read, the analysis of its entry points (`crate::shader::analysis`) | `vkCreateShaderModule` (or inline code, once per distinct code) |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
 //! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`) |
 //! | which end of a copy an image is: reversed or native after the convention, unknown images native ([`image_copy_end`], [`ImageDepth::target`]) | whether revz knows the image, its depth decision, the convention | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`, the convention from [`ConventionEvidence::decide`]) |
 //! | which kind of depth texel an image end holds: that of its promoted format where it has one ([`copied_texels`]) | its format, its promoted format | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | does an image count as single-sampled for a copy; unknown images do ([`single_sampled`]) | whether revz knows it, its sample count | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | which kind of texel a copy's conversion reads and writes ([`conversion_kind`]) | whether each end is a buffer or an image, and the depth texels of each image's format (the float one where promoted) | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
+//! | which state subsets a pipeline create info defines itself ([`libraries::own_subsets`]) | its `VkGraphicsPipelineLibraryCreateInfoEXT`'s subsets, whether it is a library, whether it links libraries | `vkCreateGraphicsPipelines` |
+//! | which of a create info's dynamic states count: those of its own subsets ([`libraries::subset_states`]) | its own subsets | `vkCreateGraphicsPipelines` |
+//! | which library's state a link takes for each subset ([`libraries::inherit_libraries`]) | each linked library's subsets and recorded depth state | `vkCreateGraphicsPipelines` (libraries recorded at their creation) |
 //! | does a pipeline have a depth attachment; a library without the fragment output interface counts as having one ([`pipelines::has_depth_attachment`]) | its render pass's subpass depth attachment, else (with the fragment output interface) its rendering depth format | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
 //! | does a pipeline render depth at all ([`pipelines::renders_depth`]) | whether it has a depth attachment, its static `rasterizerDiscardEnable`, its dynamic states | `vkCreateGraphicsPipelines` (render passes from `vkCreateRenderPass*`) |
 //! | which of a pipeline's static depth states revz makes dynamic, and whether its compare op comes from a variant ([`pipelines::StaticStateFacts::decide`]) | its dynamic states, depth-stencil state (test, bounds test, compare op), bias enable and representation, static viewports, `compare_op_variants`, `vkCmdSetDepthBias2EXT` | `vkCreateGraphicsPipelines`, `vkCreateDevice` |
@@ -57,26 +73,35 @@
 //! | does a pipeline draw into promoted attachments, and how its promoted variants differ ([`pipelines::PromotionFacts::decide`]) | `promote`, whether its subsets name attachment formats, its render pass (known, promotable attachments, promoted twin) or rendering formats, whether a library it links is promoted | `vkCreateRenderPass*`, `vkCreateGraphicsPipelines` |
 //! | what a fragment stage that computes with depth gets ([`pipelines::FragmentStage::variant`]) | its rewrite or why there is none, whether a variant of what holds it can be made | `vkCreateGraphicsPipelines`, `vkCreateShadersEXT` |
 //! | which path a pipeline's draws take, as logged and in the depth profile ([`pipelines::PipelinePath`]) | its pushed projection, derived range, or flip reason (from [`vertex_stage::VertexStageFacts::decide`] and the rewritten stage's creation) | `vkCreateGraphicsPipelines` |
+//! | does a precise pipeline take the flip path after all, its rewritten vertex stage not made, and why ([`vertex_stage::unmade_stage_flip`]) | whether the rewritten stage's module was created | `vkCreateGraphicsPipelines` |
+//! | does the depth profile record a pipeline ([`pipelines::profiles_pipeline`]) | whether it renders depth ([`pipelines::renders_depth`]) | `vkCreateGraphicsPipelines` |
+//! | are shader objects' variants planned at all ([`pipelines::shader_object_variants`]) | whether the mode is active | `vkCreateShadersEXT` |
 //! | which path a vertex shader object's draws take, in the depth profile ([`pipelines::shader_object_vertex_path`]) | whether the mode is active | `vkCreateShadersEXT` |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
-//! why an image stays native or keeps its format; which images are considered for promotion,
-//! imageless attachments; resolve partners, views of promoted images), `resolves.rs` (resolve
-//! sources and modes, and swapped-resolve twins), `passes.rs` (render pass instances: which
-//! twin begins, framebuffers' storage and promotion, twins' formats, the target, clears and
-//! resolves of a begin), `clears.rs` (clears outside pass begins: which attachment clears flip,
-//! which image clears write depth), `convention.rs` (the application's convention, and what
-//! revz observes of it), `secondaries.rs` (secondaries without a framebuffer, and what their
-//! inheritance makes of them, promotion included), `compare_op.rs` (the dynamic compare op, and
-//! the extensions revz adds for it), `copies.rs` (copies: whether and how they are converted,
-//! and what their image ends are), `pipelines.rs` (pipelines: whether they have a depth
-//! attachment, which static states become dynamic, which variants are made, which are taken
-//! back uncompiled, promotion, the path a pipeline's draws take, fragment variants of shader
-//! objects and the profile's path of vertex ones), `vertex_stage.rs` (the precise path's vertex
-//! stage: candidate, store, range, which modules are analysed);
-//! [`DevicePolicy`] itself (the mode, the carrier, reversed clears, which command hooks a
-//! device hands out) is here. The rows that name code outside this module are decided there.
+//! why an image stays native or keeps its format, and how a native one changes no more; which
+//! images are considered for promotion, imageless attachments; resolve partners and which keep
+//! an image's format, views of promoted images), `resolves.rs` (resolve sources and modes, what
+//! a resolve makes of its destination and which end of a pair follows a demotion, the device's
+//! resolve support, and swapped-resolve twins), `passes.rs` (render pass instances: which twin
+//! begins, framebuffers' storage and promotion, twins' formats and whether a pass has a
+//! promoted one, the target, clears and resolves of a begin, a rendering's promotion),
+//! `clears.rs` (clears outside pass begins: which attachment clears flip, which image clears
+//! are looked at and which write depth), `convention.rs` (the application's convention, and
+//! what revz observes of it), `secondaries.rs` (secondaries without a framebuffer, and what
+//! their inheritance makes of them, promotion included), `compare_op.rs` (the dynamic compare
+//! op, the extensions revz adds for it, and the API versions they depend on), `copies.rs`
+//! (copies: whether and how they are converted, and what their image ends are), `pipelines.rs`
+//! (pipelines: whether they have a depth attachment, which static states become dynamic, which
+//! variants are made, which are taken back uncompiled, promotion, the path a pipeline's draws
+//! take, which pipelines the profile records, fragment variants of shader objects and the
+//! profile's path of vertex ones), `libraries.rs` (pipeline libraries: the subsets a create
+//! info defines, which of its dynamic states count, what a link inherits), `vertex_stage.rs`
+//! (the precise path's vertex stage: candidate, store, range, which modules are analysed, why
+//! missing facts or an unmade stage take the flip path); [`DevicePolicy`] itself (the mode, the
+//! carrier, reversed clears, which command hooks a device hands out) is here. The rows that
+//! name code outside this module are decided there.
 //!
 //! An image is decided once, at creation, for its whole life: every draw into it must then
 //! follow the same convention (`shared/DESIGN.md` section 2). A depth image the application can
@@ -95,16 +120,20 @@ mod compare_op;
 mod convention;
 mod copies;
 mod images;
+pub mod libraries;
 mod passes;
 pub mod pipelines;
 mod resolves;
 mod secondaries;
 pub mod vertex_stage;
 
-pub use clears::{attachment_clears_flip, clears_depth, flips_attachment_clear};
+pub use clears::{
+    attachment_clears_flip, clears_depth, flips_attachment_clear, image_clear_considered,
+};
 pub use compare_op::{
-    extended_dynamic_state_allowed, hides_device_command, hides_instance_command,
-    instance_needs_properties2, CompareOpFacts, CompareOpSource,
+    device_api_version, extended_dynamic_state_allowed, hides_device_command,
+    hides_instance_command, instance_needs_properties2, requested_api_version, CompareOpFacts,
+    CompareOpSource,
 };
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{
@@ -112,16 +141,18 @@ pub use copies::{
     CopyEnd, CopyFacts, Texels, Unconverted,
 };
 pub use images::{
-    first_promoted_format, may_be_resolved, promotable_format, promoted_attachment_format,
-    promoted_view_format, ImageDepth, ImageFacts, KeptFormat, NativeReason,
+    first_promoted_format, kept_resolve_partner, may_be_resolved, promotable_format,
+    promoted_attachment_format, promoted_view_format, ImageDepth, ImageFacts, KeptFormat,
+    NativeReason, ResolvePartner,
 };
 pub use passes::{
-    clears_reversed, framebuffer_may_be_promoted, imageless_view_format, pass_committed,
-    pass_promotable, pass_resolve_swappable, promoted_twin_format, resolves_reversed,
-    FramebufferStorage, PassTwin,
+    clears_depth_at_begin, clears_reversed, framebuffer_may_be_promoted, has_promoted_twin,
+    imageless_view_format, pass_committed, pass_promotable, pass_resolve_swappable,
+    promoted_twin_format, rendering_promoted_from, resolves_reversed, FramebufferStorage, PassTwin,
 };
 pub use resolves::{
-    DepthResolve, ResolveSupport, ReversedResolve, SubpassResolveFacts, TwinResolve,
+    follows_demotion, resolved_destination, DepthResolve, ResolveSupport, ResolvedDestination,
+    ReversedResolve, SubpassResolveFacts, TwinResolve,
 };
 pub use secondaries::{inherited_promoted, inherited_target, secondary_promoted, secondary_target};
 

@@ -7,7 +7,10 @@
 //! resolves a reversed attachment ([`resolves_reversed`]); for promotion: the formats of a
 //! pass's promoted twin ([`promoted_twin_format`]), which framebuffers are considered for it
 //! ([`framebuffer_may_be_promoted`], [`pass_promotable`]), and the view formats an imageless one lists
-//! ([`imageless_view_format`]).
+//! ([`imageless_view_format`]); at a pass's creation: whether it gets a promoted twin
+//! ([`has_promoted_twin`]) and which of its attachments a begin clears the depth of
+//! ([`clears_depth_at_begin`]); at a rendering begin: the format a promoted instance's draws
+//! convert from ([`rendering_promoted_from`]).
 
 use ash::vk;
 
@@ -115,6 +118,40 @@ pub fn promoted_twin_format(format: vk::Format) -> Option<vk::Format> {
     crate::conv::float_depth_format(format)
 }
 
+/// Whether a render pass gets a promoted twin: promotion is on (`promote`) and the twin
+/// changes the format of one of its attachments (`changes_a_format`: whether
+/// [`promoted_twin_format`] gave any a float format; asked only where promotion is on, as it
+/// reads the pass's attachments). A pass without a UNORM depth attachment needs no twin: its
+/// framebuffers are never promoted.
+pub fn has_promoted_twin(promote: bool, changes_a_format: impl FnOnce() -> bool) -> bool {
+    promote && changes_a_format()
+}
+
+/// Whether a render pass begin clears the depth of an attachment of `format` with `load_op`:
+/// its format has depth and it is loaded with CLEAR (a stencil-only attachment's clear has no
+/// depth, and a depth/stencil one's stencil load op does not count). Recorded per attachment
+/// at the pass's creation, read at its begins ([`clears_reversed`]).
+pub fn clears_depth_at_begin(format: vk::Format, load_op: vk::AttachmentLoadOp) -> bool {
+    crate::conv::has_depth(format) && load_op == vk::AttachmentLoadOp::CLEAR
+}
+
+/// The format a dynamic rendering instance's draws convert from, where it draws into promoted
+/// attachments (their pipelines' and secondaries' promoted variants were made with float
+/// rendering formats): the first of its depth and stencil attachments' views (`views`, in that
+/// order) of a promoted image (`promoted`, asked in order until one is) makes it promoted, with
+/// the format of that view's image (`format`, asked of that view only; UNDEFINED where revz
+/// does not know it). `None`: no view is of a promoted image.
+pub fn rendering_promoted_from<V: Copy>(
+    views: impl IntoIterator<Item = V>,
+    mut promoted: impl FnMut(V) -> bool,
+    format: impl FnOnce(V) -> Option<vk::Format>,
+) -> Option<vk::Format> {
+    views
+        .into_iter()
+        .find(|&view| promoted(view))
+        .map(|view| format(view).unwrap_or(vk::Format::UNDEFINED))
+}
+
 /// Whether a framebuffer is considered for promotion: promotion is on (`promote`) and its pass
 /// has an attachment revz promotes (`promotable`: each attachment's, asked in order until one
 /// is, and only where promotion is on).
@@ -161,6 +198,76 @@ mod tests {
         );
         assert_eq!(promoted_twin_format(F::D32_SFLOAT), None);
         assert_eq!(promoted_twin_format(F::R8G8B8A8_UNORM), None);
+    }
+
+    #[test]
+    fn a_pass_has_a_promoted_twin_where_promotion_is_on_and_a_format_changes() {
+        assert!(has_promoted_twin(true, || true));
+        assert!(!has_promoted_twin(true, || false));
+        // The attachments are not read where promotion is off.
+        assert!(!has_promoted_twin(false, || unreachable!()));
+    }
+
+    #[test]
+    fn a_begin_clears_the_depth_of_depth_attachments_loaded_with_clear() {
+        use vk::AttachmentLoadOp as L;
+        use vk::Format as F;
+        for format in [F::D16_UNORM, F::D32_SFLOAT, F::D24_UNORM_S8_UINT] {
+            assert!(clears_depth_at_begin(format, L::CLEAR));
+            for load_op in [L::LOAD, L::DONT_CARE, L::NONE_EXT] {
+                assert!(!clears_depth_at_begin(format, load_op));
+            }
+        }
+        // Stencil-only and color attachments clear no depth.
+        assert!(!clears_depth_at_begin(F::S8_UINT, L::CLEAR));
+        assert!(!clears_depth_at_begin(F::R8G8B8A8_UNORM, L::CLEAR));
+    }
+
+    #[test]
+    fn the_first_promoted_rendering_view_gives_the_format_draws_convert_from() {
+        use vk::Format as F;
+        // Views: (promoted, format).
+        let views = |views: &[(bool, Option<F>)]| {
+            let mut asked = Vec::new();
+            let mut formats = Vec::new();
+            let from = rendering_promoted_from(
+                views.iter().copied().enumerate(),
+                |(index, (promoted, _))| {
+                    asked.push(index);
+                    promoted
+                },
+                |(index, (_, format))| {
+                    formats.push(index);
+                    format
+                },
+            );
+            (from, asked, formats)
+        };
+        assert_eq!(views(&[]), (None, vec![], vec![]));
+        assert_eq!(
+            views(&[(false, Some(F::D16_UNORM)), (false, Some(F::S8_UINT))]),
+            (None, vec![0, 1], vec![])
+        );
+        // The depth view first: the stencil view is not asked once it is promoted.
+        assert_eq!(
+            views(&[
+                (true, Some(F::D16_UNORM)),
+                (true, Some(F::D24_UNORM_S8_UINT))
+            ]),
+            (Some(F::D16_UNORM), vec![0], vec![0])
+        );
+        assert_eq!(
+            views(&[
+                (false, Some(F::D16_UNORM)),
+                (true, Some(F::D24_UNORM_S8_UINT))
+            ]),
+            (Some(F::D24_UNORM_S8_UINT), vec![0, 1], vec![1])
+        );
+        // A promoted view of an image revz does not know the format of.
+        assert_eq!(
+            views(&[(true, None)]),
+            (Some(F::UNDEFINED), vec![0], vec![0])
+        );
     }
 
     #[test]

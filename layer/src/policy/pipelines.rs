@@ -578,6 +578,21 @@ impl TakeBack {
     }
 }
 
+/// Whether the depth profile records a pipeline (its path and variants): only where it renders
+/// depth ([`renders_depth`]); others draw nothing revz acts on, so their path says nothing.
+#[must_use]
+pub fn profiles_pipeline(renders_depth: bool) -> bool {
+    renders_depth
+}
+
+/// Whether `vkCreateShadersEXT` plans variants of shader objects at all (a fragment one's:
+/// [`FragmentStage::variant`]): only where revz acts on the device's depth (`active`);
+/// elsewhere no code is read and no variant made.
+#[must_use]
+pub fn shader_object_variants(active: bool) -> bool {
+    active
+}
+
 /// The path a vertex shader object's draws take, as the depth profile shows it: the flip path
 /// where the mode acts on depth (the precise path takes pipelines only: shader objects are not
 /// analyzed), else none ("native").
@@ -1205,6 +1220,18 @@ mod tests {
         assert_eq!(neither, PipelinePath::NotRewritten);
         assert_eq!(neither.label(), "flip");
         assert_eq!(neither.to_string(), "the mode does not rewrite depth");
+    }
+
+    #[test]
+    fn the_profile_records_only_pipelines_that_render_depth() {
+        assert!(profiles_pipeline(true));
+        assert!(!profiles_pipeline(false));
+    }
+
+    #[test]
+    fn shader_objects_get_variants_only_where_the_mode_is_active() {
+        assert!(shader_object_variants(true));
+        assert!(!shader_object_variants(false));
     }
 
     #[test]

@@ -2,7 +2,10 @@
 //! become native ([`DepthResolve::demotes_source`]), which MIN/MAX mode a reversed resolve
 //! uses on the device ([`ResolveSupport::swapped_depth_mode`]; for a rendering instance,
 //! [`ResolveSupport::reversed_resolve`]), and whether a render pass gets a twin with its
-//! MIN/MAX resolve swapped ([`ResolveSupport::twin_resolve`]).
+//! MIN/MAX resolve swapped ([`ResolveSupport::twin_resolve`]); what a resolve makes of its
+//! destination ([`resolved_destination`]) and which end of a resolve pair follows a demotion
+//! ([`follows_demotion`]); and what revz reads of a device's resolve support
+//! ([`ResolveSupport::queried`], [`ResolveSupport::reported`]).
 
 use ash::vk;
 
@@ -43,6 +46,45 @@ impl DepthResolve {
     }
 }
 
+/// What a depth resolve between two tracked images makes of its destination, once its source's
+/// own rule is applied ([`DepthResolve::demotes_source`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResolvedDestination {
+    /// A native source (observable, or just made native) resolves standard values: its
+    /// destination must hold standard depth too, for this reason.
+    Demoted(NativeReason),
+    /// Both ends are reversed (a reversed source stays so only into a reversed destination):
+    /// the pair is remembered, for a later demotion of either end ([`follows_demotion`]).
+    Paired,
+}
+
+/// What a resolve from `source` makes of its destination, where the source is still reversed
+/// (`source_reversed`) or not after its own rule.
+#[must_use]
+pub fn resolved_destination(source: vk::Image, source_reversed: bool) -> ResolvedDestination {
+    if source_reversed {
+        ResolvedDestination::Paired
+    } else {
+        ResolvedDestination::Demoted(NativeReason::ResolvedFromNative(source))
+    }
+}
+
+/// The end of a remembered resolve pair (`source`, `destination`: both were reversed) that
+/// follows `demoted`, an end just made native, and why: a destination receives standard
+/// values from a native source, and a source may not resolve reversed values into a native
+/// destination.
+#[must_use]
+pub fn follows_demotion(
+    (source, destination): (vk::Image, vk::Image),
+    demoted: vk::Image,
+) -> (vk::Image, NativeReason) {
+    if source == demoted {
+        (destination, NativeReason::ResolvedFromNative(source))
+    } else {
+        (source, NativeReason::ResolvedIntoNative(destination))
+    }
+}
+
 /// What a device allows of depth/stencil resolves (`VkPhysicalDeviceDepthStencilResolveProperties`),
 /// read at device creation: which depth modes it has, and which pairs of depth and stencil
 /// modes one resolve may combine.
@@ -64,6 +106,29 @@ impl ResolveSupport {
         independent_resolve_none: false,
         independent_resolve: false,
     };
+
+    /// Whether revz asks a device of API version `api` for its resolve properties
+    /// (`VkPhysicalDeviceDepthStencilResolveProperties`, Vulkan 1.2); below it assumes
+    /// [`Self::MINIMAL`].
+    #[must_use]
+    pub fn queried(api: u32) -> bool {
+        api >= vk::API_VERSION_1_2
+    }
+
+    /// The support a device reports: its depth modes (`supported`), with SAMPLE_ZERO always
+    /// (every device with depth resolves has it, whatever it reports), and its independence.
+    #[must_use]
+    pub fn reported(
+        supported: vk::ResolveModeFlags,
+        independent_resolve_none: bool,
+        independent_resolve: bool,
+    ) -> ResolveSupport {
+        ResolveSupport {
+            depth_modes: supported | vk::ResolveModeFlags::SAMPLE_ZERO,
+            independent_resolve_none,
+            independent_resolve,
+        }
+    }
 
     /// Whether one resolve may combine these depth and stencil modes, where the spec pairs
     /// them: equal modes always; one of them NONE with `independentResolveNone`; any pair with
@@ -251,6 +316,29 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_native_source_demotes_its_destination_and_reversed_ends_pair() {
+        use vk::Handle;
+        let (source, destination) = (vk::Image::from_raw(1), vk::Image::from_raw(2));
+        assert_eq!(
+            resolved_destination(source, false),
+            ResolvedDestination::Demoted(NativeReason::ResolvedFromNative(source))
+        );
+        assert_eq!(
+            resolved_destination(source, true),
+            ResolvedDestination::Paired
+        );
+        // A demoted source takes its destination along, and a demoted destination its source.
+        assert_eq!(
+            follows_demotion((source, destination), source),
+            (destination, NativeReason::ResolvedFromNative(source))
+        );
+        assert_eq!(
+            follows_demotion((source, destination), destination),
+            (source, NativeReason::ResolvedIntoNative(destination))
+        );
+    }
+
     /// Every support a device can report: (independentResolveNone, independentResolve).
     fn supports() -> impl Iterator<Item = ResolveSupport> {
         [(false, false), (true, false), (true, true), (false, true)]
@@ -312,6 +400,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn devices_are_asked_from_vulkan_1_2_and_always_have_sample_zero() {
+        use vk::ResolveModeFlags as M;
+        assert!(!ResolveSupport::queried(vk::API_VERSION_1_0));
+        assert!(!ResolveSupport::queried(vk::API_VERSION_1_1));
+        assert!(ResolveSupport::queried(vk::API_VERSION_1_2));
+        assert!(ResolveSupport::queried(vk::API_VERSION_1_3));
+        assert_eq!(
+            ResolveSupport::reported(M::empty(), false, false),
+            ResolveSupport::MINIMAL
+        );
+        assert_eq!(
+            ResolveSupport::reported(M::MIN | M::MAX, true, false),
+            ResolveSupport {
+                depth_modes: M::SAMPLE_ZERO | M::MIN | M::MAX,
+                independent_resolve_none: true,
+                independent_resolve: false,
+            }
+        );
     }
 
     #[test]

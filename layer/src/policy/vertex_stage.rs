@@ -8,11 +8,15 @@
 //! or those of inline code, made once per distinct code) and `vkCreateGraphicsPipelines` (the
 //! stages, the clip convention, the layout); `crate::hooks::pipeline::plan` gathers them.
 //! Which `Position` rewrite a module gets ([`position_store`]) is decided here too, and which
-//! modules are analysed at all ([`analyses_fragment_module`], [`analyses_vertex_module`]).
+//! modules are analysed at all ([`analyses_fragment_module`], [`analyses_vertex_module`]),
+//! and why a pipeline whose rewritten stage could not be made takes the flip path after all
+//! ([`unmade_stage_flip`]). The facts revz may lack of a stage, and why its draws then take
+//! the flip path, are here too ([`MissingFact`], [`entry_point_analysis`]).
 
 use ash::vk;
 use revz_math::DepthConvention;
 
+use crate::objects::ModuleAnalysis;
 use crate::precise::ProjectionUse;
 use crate::shader::analysis::Analysis;
 use crate::shader::derived_range::MatrixSource;
@@ -46,6 +50,16 @@ pub fn precise_candidate(mode_rewrites: bool, renders_depth: bool, defines_shade
     mode_rewrites && renders_depth && defines_shaders
 }
 
+/// Why a precise pipeline's draws take the flip path after all, where its rewritten vertex
+/// stage could not be made (`made`: its module was created); `None`: it was, and the pipeline
+/// keeps the precise path. Without the stage nothing of the precise path stays: the hook drops
+/// the pipeline's projection, derived range and store with it, as the application's stage
+/// stores its own depth.
+#[must_use]
+pub fn unmade_stage_flip(made: bool) -> Option<&'static str> {
+    (!made).then_some("its rewritten vertex stage could not be made")
+}
+
 /// Which `Position` rewrite a vertex module gets (in a mode with the precise path, where its
 /// analysis could be read).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,6 +85,20 @@ pub fn position_store<'a>(entry_points: impl IntoIterator<Item = &'a Analysis>) 
     }
 }
 
+/// Which `Position` rewrite a vertex module gets ([`position_store`] of its entry points), and
+/// the carrier's offset it stores through; `None`: none, without the precise path
+/// (`carrier_offset`, [`super::DevicePolicy::carrier_offset`]) or for a module whose analysis
+/// could not be read (`entry_points`: `None`), whose pipelines' draws take the flip path
+/// anyway.
+#[must_use]
+pub fn module_position_store<'a>(
+    carrier_offset: Option<u32>,
+    entry_points: Option<impl IntoIterator<Item = &'a Analysis>>,
+) -> Option<(u32, PositionStore)> {
+    let offset = carrier_offset?;
+    Some((offset, position_store(entry_points?)))
+}
+
 /// What revz knows of a candidate pipeline's vertex stage.
 #[derive(Clone, Copy, Debug)]
 pub struct VertexStageFacts<'a> {
@@ -94,6 +122,67 @@ pub struct VertexStageFacts<'a> {
     /// Its vertex module's `Position` rewrite: where its stage derives the range from (`None`:
     /// it does not), or why it has none.
     pub rewrite: Result<Option<MatrixSource>, Missing>,
+}
+
+/// A fact revz lacks of a candidate pipeline's vertex stage while it gathers
+/// [`VertexStageFacts`]: each is why its draws take the flip path where
+/// [`VertexStageFacts::decide`] gets to it ([`MissingFact::reason`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MissingFact {
+    /// Its vertex module is not one revz saw created: no analysis.
+    UnknownModule,
+    /// revz holds no `Position` rewrite of its vertex module.
+    ModuleWithoutRewrite,
+    /// revz holds no `Position` rewrite of its inline code.
+    InlineWithoutRewrite,
+    /// Its vertex stage has neither a module nor inline code: no analysis, no rewrite.
+    NoModule,
+    /// It has no vertex stage: no analysis, no rewrite.
+    NoVertexStage,
+    /// naga cannot read its vertex module.
+    UnreadableModule,
+    /// Its vertex stage names no entry point.
+    NoEntryPointName,
+    /// The policy found every fact, yet the layout's carrier, the rewrite or the stage is
+    /// missing (the facts disagree: never expected).
+    Incomplete,
+}
+
+impl MissingFact {
+    /// Why a pipeline lacking this fact takes the flip path, as logged and in the profile.
+    #[must_use]
+    pub fn reason(self) -> &'static str {
+        match self {
+            MissingFact::UnknownModule => "its vertex module is unknown",
+            MissingFact::ModuleWithoutRewrite => "its vertex module has no Position rewrite",
+            MissingFact::InlineWithoutRewrite => "its vertex shader has no rewrite",
+            MissingFact::NoModule => "its vertex shader has no module",
+            MissingFact::NoVertexStage => "it has no vertex stage",
+            MissingFact::UnreadableModule => "naga cannot read its vertex module",
+            MissingFact::NoEntryPointName => "no entry point name",
+            MissingFact::Incomplete => "its vertex stage is incomplete",
+        }
+    }
+}
+
+/// The analysis of a vertex stage's entry point ([`VertexStageFacts::analysis`]) in its
+/// module's (`module`: each vertex entry point's, or why naga could not read the module; `Err`:
+/// why revz has none), by the entry point's name (`name`; `None`: the stage gives none).
+/// `Ok(None)`: the module holds no analysis of that entry point.
+pub fn entry_point_analysis<'a>(
+    module: Result<&'a ModuleAnalysis, &'static str>,
+    name: Option<&[u8]>,
+) -> Result<Option<&'a Analysis>, &'static str> {
+    match module? {
+        Err(_) => Err(MissingFact::UnreadableModule.reason()),
+        Ok(entries) => {
+            let name = name.ok_or(MissingFact::NoEntryPointName.reason())?;
+            Ok(entries
+                .iter()
+                .find(|(entry, _)| entry.as_bytes() == name)
+                .map(|(_, analysis)| analysis))
+        }
+    }
 }
 
 /// Why a vertex module has no `Position` rewrite.
@@ -192,6 +281,83 @@ mod tests {
         assert!(!analyses_vertex_module(true, || false));
         // The module is not scanned where the mode does not rewrite.
         assert!(!analyses_vertex_module(false, || unreachable!()));
+    }
+
+    #[test]
+    fn a_module_gets_a_position_store_only_with_the_carrier_and_a_readable_analysis() {
+        let projection = [Analysis::Projection(slot())];
+        let unread = [Analysis::Unreadable("no push constants".into())];
+        assert_eq!(
+            module_position_store(Some(128), Some(&projection)),
+            Some((128, PositionStore::Carrier))
+        );
+        assert_eq!(
+            module_position_store(Some(64), Some(&unread)),
+            Some((64, PositionStore::Deriving))
+        );
+        assert_eq!(
+            module_position_store(Some(64), Some(&[] as &[Analysis])),
+            Some((64, PositionStore::Deriving))
+        );
+        assert_eq!(module_position_store(None, Some(&projection)), None);
+        assert_eq!(module_position_store(Some(64), None::<&[Analysis]>), None);
+        assert_eq!(module_position_store(None, None::<&[Analysis]>), None);
+    }
+
+    #[test]
+    fn missing_facts_say_why_the_flip_path_is_taken() {
+        use MissingFact as M;
+        let all = [
+            M::UnknownModule,
+            M::ModuleWithoutRewrite,
+            M::InlineWithoutRewrite,
+            M::NoModule,
+            M::NoVertexStage,
+            M::UnreadableModule,
+            M::NoEntryPointName,
+            M::Incomplete,
+        ];
+        let reasons: std::collections::HashSet<_> = all.iter().map(|m| m.reason()).collect();
+        assert_eq!(reasons.len(), all.len(), "each fact has its own reason");
+        assert_eq!(M::NoVertexStage.reason(), "it has no vertex stage");
+        assert_eq!(M::NoModule.reason(), "its vertex shader has no module");
+    }
+
+    #[test]
+    fn an_entry_points_analysis_is_found_by_its_name() {
+        let module: ModuleAnalysis = Ok(vec![
+            ("main".to_owned(), Analysis::Unreadable("a".into())),
+            ("other".to_owned(), Analysis::Unreadable("b".into())),
+        ]);
+        let found = entry_point_analysis(Ok(&module), Some(b"other"));
+        assert!(matches!(found, Ok(Some(Analysis::Unreadable(r))) if r == "b"));
+        assert!(matches!(
+            entry_point_analysis(Ok(&module), Some(b"missing")),
+            Ok(None)
+        ));
+        assert_eq!(
+            entry_point_analysis(Ok(&module), None).map(|_| ()),
+            Err("no entry point name")
+        );
+        let unreadable: ModuleAnalysis = Err("bad".into());
+        // An unreadable module is said before a missing name.
+        assert_eq!(
+            entry_point_analysis(Ok(&unreadable), None).map(|_| ()),
+            Err("naga cannot read its vertex module")
+        );
+        assert_eq!(
+            entry_point_analysis(Err("its vertex module is unknown"), Some(b"main")).map(|_| ()),
+            Err("its vertex module is unknown")
+        );
+    }
+
+    #[test]
+    fn a_pipeline_whose_rewritten_stage_is_not_made_takes_the_flip_path() {
+        assert_eq!(unmade_stage_flip(true), None);
+        assert_eq!(
+            unmade_stage_flip(false),
+            Some("its rewritten vertex stage could not be made")
+        );
     }
 
     fn slot() -> ProjectionSlot {

@@ -25,11 +25,6 @@ fn image_end(device: &DeviceState, image: vk::Image) -> (CopyEnd, Option<TexelKi
     (end, copied_texels(info.format, info.promoted))
 }
 
-/// Whether `image` has one sample per texel, as the policy counts it ([`single_sampled`]).
-fn samples_single(device: &DeviceState, image: vk::Image) -> bool {
-    single_sampled(device.objects.images.get(&image).map(|info| info.samples))
-}
-
 /// The decision for a copy between `source` and `destination`.
 fn decide(
     entry: &CommandBufferEntry,
@@ -56,9 +51,16 @@ fn decide(
         restorable,
         conditional,
         extended,
-        multisampled: !images
-            .iter()
-            .all(|&image| samples_single(&entry.device, image)),
+        multisampled: !images.iter().all(|&image| {
+            single_sampled(
+                entry
+                    .device
+                    .objects
+                    .images
+                    .get(&image)
+                    .map(|info| info.samples),
+            )
+        }),
     }
     .decide();
     if let (Some(profile), CopyDecision::Unconverted(_)) = (&entry.device.profile, &decision) {

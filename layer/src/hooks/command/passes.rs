@@ -383,17 +383,11 @@ pub unsafe extern "system" fn cmd_begin_rendering(
         // rendering formats.
         // SAFETY: null or valid.
         let stencil = unsafe { info.p_stencil_attachment.as_ref() };
-        let promoted = [depth, stencil]
-            .into_iter()
-            .flatten()
-            .map(|a| a.image_view)
-            .find(|&view| device.objects.view_promoted(view).is_some())
-            .map(|view| {
-                device
-                    .objects
-                    .view_format(view)
-                    .unwrap_or(vk::Format::UNDEFINED)
-            });
+        let promoted = policy::rendering_promoted_from(
+            [depth, stencil].into_iter().flatten().map(|a| a.image_view),
+            |view| device.objects.view_promoted(view).is_some(),
+            |view| device.objects.view_format(view),
+        );
         {
             let mut state = entry.state();
             state.set_target(target);

@@ -63,7 +63,7 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
     let mut flipped: Option<vk::ClearDepthStencilValue> = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
         let device = &entry.device;
-        if device.objects.image_reversed(image) {
+        if policy::image_clear_considered(device.objects.image_reversed(image)) {
             // SAFETY: a valid value (the application's contract).
             let mut value = unsafe { *p_value };
             // SAFETY: `rangeCount` ranges.

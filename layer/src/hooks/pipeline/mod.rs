@@ -33,14 +33,15 @@ use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
+use crate::policy::libraries::{self, inherit_libraries, subset_states, Subsets};
 use crate::policy::pipelines::{
-    examines_fragment, has_depth_attachment, renders_depth, viewports_static, BiasVariantFacts,
-    DepthAttachmentFacts, DepthBiasFacts, DepthStencilFacts, FragmentStage, PipelinePath,
-    PipelinePromotion, PromotionAttachments, PromotionFacts, StaticStateFacts, StaticStatePlan,
-    TakeBack, VariantCompile, VariantFacts, VariantKind, Variants,
+    examines_fragment, has_depth_attachment, profiles_pipeline, renders_depth, viewports_static,
+    BiasVariantFacts, DepthAttachmentFacts, DepthBiasFacts, DepthStencilFacts, FragmentStage,
+    PipelinePath, PipelinePromotion, PromotionAttachments, PromotionFacts, StaticStateFacts,
+    StaticStatePlan, TakeBack, VariantCompile, VariantFacts, VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{
-    self, precise_candidate, Missing, PositionStore, VertexStageFacts,
+    self, precise_candidate, Missing, MissingFact, PositionStore, VertexStageFacts,
 };
 use crate::precise::{self, Carrier, ProjectionUse};
 use crate::shader::analysis;
@@ -64,17 +65,6 @@ static CREATE_SHADER_MODULE: EntryPoint = EntryPoint::new("vkCreateShaderModule"
 static DESTROY_SHADER_MODULE: EntryPoint = EntryPoint::new("vkDestroyShaderModule");
 static CREATE_PIPELINE_LAYOUT: EntryPoint = EntryPoint::new("vkCreatePipelineLayout");
 static DESTROY_PIPELINE_LAYOUT: EntryPoint = EntryPoint::new("vkDestroyPipelineLayout");
-
-/// The state subsets of a graphics pipeline (`VK_EXT_graphics_pipeline_library`).
-type Subsets = vk::GraphicsPipelineLibraryFlagsEXT;
-
-/// Every subset: what an ordinary pipeline defines.
-const ALL_SUBSETS: Subsets = Subsets::from_raw(
-    Subsets::VERTEX_INPUT_INTERFACE.as_raw()
-        | Subsets::PRE_RASTERIZATION_SHADERS.as_raw()
-        | Subsets::FRAGMENT_SHADER.as_raw()
-        | Subsets::FRAGMENT_OUTPUT_INTERFACE.as_raw(),
-);
 
 /// What is logged of a shader that revz cannot handle.
 #[derive(Hash)]
@@ -309,7 +299,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     let holds_bias = BiasVariantFacts {
                         compare_op_variant: variants.compare_op,
                         bias_made_dynamic: plan.static_state.made_dynamic.contains(States::BIAS),
-                        complete: context.subsets == ALL_SUBSETS
+                        complete: context.subsets == libraries::ALL_SUBSETS
                             && !is_library(info)
                             && linked.is_empty(),
                         promotable: plan.depth.promotable,
@@ -369,12 +359,11 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         let stage = stages
                             .get_mut(index)
                             .and_then(|stage| rewritten_stage(&state, device, stage, &code));
-                        if stage.is_none() {
+                        if let Some(reason) = vertex_stage::unmade_stage_flip(stage.is_some()) {
                             plan.depth.projection = None;
                             plan.depth.derived_range = None;
                             plan.depth.position_store = None;
-                            plan.flip_reason =
-                                Some("its rewritten vertex stage could not be made".into());
+                            plan.flip_reason = Some(reason.into());
                         }
                         Some((stages, stage?))
                     })
@@ -575,7 +564,10 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     }
                     PipelinePath::NotRewritten => {}
                 }
-                if let (Some(profile), true) = (&state.profile, plan.static_state.renders_depth) {
+                if let (Some(profile), true) = (
+                    &state.profile,
+                    profiles_pipeline(plan.static_state.renders_depth),
+                ) {
                     profile.pipeline(
                         vk::Handle::as_raw(pipeline),
                         crate::profile::PipelineRecord {
@@ -685,6 +677,7 @@ pub unsafe extern "system" fn destroy_pipeline(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::policy::libraries::ALL_SUBSETS;
 
     fn depth_state(test: bool, bounds: bool) -> vk::PipelineDepthStencilStateCreateInfo<'static> {
         vk::PipelineDepthStencilStateCreateInfo {
@@ -938,59 +931,6 @@ mod tests {
         // The compare op is fragment shader state: other libraries have none to flip.
         let planned = plan(&info, &variants(Subsets::PRE_RASTERIZATION_SHADERS));
         assert!(!planned.static_state.compare_op_variant);
-    }
-
-    #[test]
-    fn a_link_takes_each_subsets_state_from_the_library_that_defines_it() {
-        let pre_rasterization = Arc::new(PipelineDepth {
-            subsets: Subsets::PRE_RASTERIZATION_SHADERS,
-            app_dynamic: States::VIEWPORT_WITH_COUNT,
-            injected: States::BIAS,
-            bias: DepthBias {
-                constant: 3.0,
-                clamp: 0.0,
-                slope: 1.0,
-                representation: None,
-            },
-            // What a fragment shader library would own is ignored from this one.
-            compare_op: vk::CompareOp::NEVER,
-            ..PipelineDepth::default()
-        });
-        let fragment = Arc::new(PipelineDepth {
-            subsets: Subsets::FRAGMENT_SHADER,
-            injected: States::COMPARE_OP | States::BOUNDS,
-            compare_op: vk::CompareOp::LESS,
-            bounds: (0.25, 0.5),
-            unreversed_fragment: true,
-            bias: DepthBias {
-                constant: 99.0,
-                clamp: 0.0,
-                slope: 0.0,
-                representation: None,
-            },
-            ..PipelineDepth::default()
-        });
-        let mut link = PipelineDepth::default();
-        inherit_libraries(&mut link, &[pre_rasterization, fragment]);
-        assert_eq!(link.app_dynamic, States::VIEWPORT_WITH_COUNT);
-        assert_eq!(
-            link.injected,
-            States::BIAS | States::COMPARE_OP | States::BOUNDS
-        );
-        assert_eq!(link.bias.constant, 3.0);
-        assert_eq!(link.compare_op, vk::CompareOp::LESS);
-        assert_eq!(link.bounds, (0.25, 0.5));
-        assert!(link.unreversed_fragment);
-
-        // A library that links the two passes their state on to what links it.
-        let mut outer = PipelineDepth::default();
-        inherit_libraries(&mut outer, &[Arc::new(link)]);
-        assert_eq!(
-            outer.subsets,
-            Subsets::PRE_RASTERIZATION_SHADERS | Subsets::FRAGMENT_SHADER
-        );
-        assert_eq!(outer.bias.constant, 3.0);
-        assert_eq!(outer.compare_op, vk::CompareOp::LESS);
     }
 
     #[test]

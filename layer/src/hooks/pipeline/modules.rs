@@ -72,19 +72,24 @@ pub(super) fn inline_code<'a>(
     Some(unsafe { slice(inline.p_code, (inline.code_size / 4) as u32) })
 }
 
-/// The `Position` rewrite of a vertex module the policy chose ([`vertex_stage::position_store`]):
-/// the carrier store where an entry point has its projection in push constants, else the
-/// deriving one (`None` without the precise path, or for a module that could not be analyzed:
-/// their draws take the flip path anyway).
+/// The `Position` rewrite of a vertex module the policy chose
+/// ([`vertex_stage::module_position_store`]): the carrier store where an entry point has its
+/// projection in push constants, else the deriving one (`None` without the precise path, or
+/// for a module that could not be analyzed: their draws take the flip path anyway).
 pub(super) fn position_store_of(
     state: &DeviceState,
     analysis: &ModuleAnalysis,
     words: &[u32],
 ) -> Option<RewrittenVertex> {
-    let offset = state.policy.carrier_offset?;
-    let entries = analysis.as_ref().ok()?;
+    let (offset, store) = vertex_stage::module_position_store(
+        state.policy.carrier_offset,
+        analysis
+            .as_ref()
+            .ok()
+            .map(|entries| entries.iter().map(|(_, analysis)| analysis)),
+    )?;
     let no_position = position_store::Unsupported("no Position output");
-    let rewrite = match vertex_stage::position_store(entries.iter().map(|(_, analysis)| analysis)) {
+    let rewrite = match store {
         PositionStore::Carrier => {
             position_store::rewrite_position_store(words, offset).and_then(|code| {
                 let code = code.ok_or(no_position)?;

@@ -9,9 +9,9 @@
 
 use super::*;
 
-/// The subsets a create info defines itself (not those of the libraries it links): those its
-/// `VkGraphicsPipelineLibraryCreateInfoEXT` names, none for a library or a link without one,
-/// and all of them for an ordinary pipeline.
+/// The subsets a create info defines itself, as the policy reads its chain
+/// ([`libraries::own_subsets`]): its `VkGraphicsPipelineLibraryCreateInfoEXT`'s, else whether
+/// it links libraries and its flags.
 pub(super) fn own_subsets(info: &vk::GraphicsPipelineCreateInfo<'_>) -> Subsets {
     // SAFETY: a valid pNext chain (the application's contract).
     let (named, links) = unsafe {
@@ -20,15 +20,11 @@ pub(super) fn own_subsets(info: &vk::GraphicsPipelineCreateInfo<'_>) -> Subsets 
             chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next),
         )
     };
-    if let Some(named) = named {
-        return named.flags;
-    }
-    let links = links.is_some_and(|links| links.library_count > 0);
-    if is_library(info) || links {
-        Subsets::empty()
-    } else {
-        ALL_SUBSETS
-    }
+    libraries::own_subsets(
+        named.map(|named| named.flags),
+        || links.is_some_and(|links| links.library_count > 0),
+        || is_library(info),
+    )
 }
 
 /// A create info's flags: those of a chained `VkPipelineCreateFlags2CreateInfoKHR`, which
@@ -68,47 +64,6 @@ pub(super) fn linked_libraries(
         .iter()
         .filter_map(|library| state.objects.pipelines.get(library))
         .collect()
-}
-
-/// A linked pipeline's (or a library's that links others) depth state: each subset's from
-/// the library that defines it, with the dynamic states each library recorded for its own
-/// subsets ([`subset_states`]); the linking pipeline defines those subsets from then on.
-pub(super) fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]) {
-    for library in libraries {
-        depth.subsets |= library.subsets;
-        depth.module_identifiers |= library.module_identifiers;
-        depth.promotable |= library.promotable;
-        depth.app_dynamic |= library.app_dynamic;
-        depth.injected |= library.injected;
-        if library.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
-            depth.viewports.clone_from(&library.viewports);
-            depth.bias = library.bias;
-            depth.projection = library.projection;
-            depth.derived_range = library.derived_range;
-            depth.position_store = library.position_store;
-            depth.layout = library.layout;
-        }
-        if library.subsets.contains(Subsets::FRAGMENT_SHADER) {
-            depth.compare_op = library.compare_op;
-            depth.bounds = library.bounds;
-            depth.unreversed_fragment |= library.unreversed_fragment;
-        }
-    }
-}
-
-/// The depth-related states of `subsets`: a dynamic state listed by a create info that does
-/// not define its subset is ignored (the spec's rule for libraries).
-pub(super) fn subset_states(subsets: Subsets) -> States {
-    let mut states = States::NONE;
-    if subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
-        states |= States::VIEWPORT | States::VIEWPORT_WITH_COUNT | States::BIAS;
-        // Depth clip control is viewport state.
-        states |= States::CLIP_CONTROL;
-    }
-    if subsets.contains(Subsets::FRAGMENT_SHADER) {
-        states |= States::COMPARE_OP | States::BOUNDS;
-    }
-    states
 }
 
 /// Whether a stage is given by a shader module identifier
@@ -199,48 +154,42 @@ pub(super) fn projection_of(
                 .objects
                 .vertex_modules
                 .get(&vertex.module)
-                .ok_or("its vertex module is unknown"),
+                .ok_or(MissingFact::UnknownModule.reason()),
             state
                 .objects
                 .position_stores
                 .get(&vertex.module)
-                .ok_or(Missing::NotMade(
-                    "its vertex module has no Position rewrite",
-                )),
+                .ok_or(Missing::NotMade(MissingFact::ModuleWithoutRewrite.reason())),
         ),
         Some(vertex) => match inline_code(vertex) {
             Some(words) => {
                 let (analysis, rewrite) = inline_vertex(state, words);
                 (
                     Ok(analysis),
-                    rewrite.ok_or(Missing::NotMade("its vertex shader has no rewrite")),
+                    rewrite.ok_or(Missing::NotMade(MissingFact::InlineWithoutRewrite.reason())),
                 )
             }
             None => (
-                Err("its vertex shader has no module"),
-                Err(Missing::NotMade("its vertex shader has no module")),
+                Err(MissingFact::NoModule.reason()),
+                Err(Missing::NotMade(MissingFact::NoModule.reason())),
             ),
         },
         None => (
-            Err("it has no vertex stage"),
-            Err(Missing::NotMade("it has no vertex stage")),
+            Err(MissingFact::NoVertexStage.reason()),
+            Err(Missing::NotMade(MissingFact::NoVertexStage.reason())),
         ),
     };
     let rewrite = rewrite.and_then(|r| r.map_err(Missing::Unsupported));
     // SAFETY: a NUL-terminated entry point name, when there is a vertex stage (the
     // application's contract).
     let name = vertex.and_then(|vertex| unsafe { crate::ffi::c_str(vertex.p_name) });
-    let entry = match &analysis {
-        Ok(analysis) => match (analysis.as_ref().as_ref(), name) {
-            (Err(_), _) => Err("naga cannot read its vertex module"),
-            (Ok(_), None) => Err("no entry point name"),
-            (Ok(entries), Some(name)) => Ok(entries
-                .iter()
-                .find(|(entry, _)| entry.as_bytes() == name.to_bytes())
-                .map(|(_, analysis)| analysis)),
-        },
-        Err(reason) => Err(*reason),
-    };
+    let entry = vertex_stage::entry_point_analysis(
+        analysis
+            .as_ref()
+            .map(|analysis| &**analysis)
+            .map_err(|reason| *reason),
+        name.map(std::ffi::CStr::to_bytes),
+    );
     let ranges = state.objects.pipeline_layouts.get(&info.layout);
     let carrier = state.objects.layout_carriers.get(&info.layout);
     let facts = VertexStageFacts {
@@ -262,7 +211,7 @@ pub(super) fn projection_of(
             vertex: (index, rewrite.code),
         }),
         // The policy found them all.
-        _ => Err("its vertex stage is incomplete".into()),
+        _ => Err(MissingFact::Incomplete.reason().into()),
     }
 }
 
