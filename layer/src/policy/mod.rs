@@ -74,6 +74,7 @@
 //! | what a fragment stage that computes with depth gets ([`pipelines::FragmentStage::variant`]) | its rewrite or why there is none, whether a variant of what holds it can be made | `vkCreateGraphicsPipelines`, `vkCreateShadersEXT` |
 //! | which path a pipeline's draws take, as logged and in the depth profile ([`pipelines::PipelinePath`]) | its pushed projection, derived range, or flip reason (from [`vertex_stage::VertexStageFacts::decide`] and the rewritten stage's creation) | `vkCreateGraphicsPipelines` |
 //! | does a precise pipeline take the flip path after all, its rewritten vertex stage not made, and why ([`vertex_stage::unmade_stage_flip`]) | whether the rewritten stage's module was created | `vkCreateGraphicsPipelines` |
+//! | does a pipeline whose reversed variant was not made keep its fragment stage unreversed ([`pipelines::Variants::keeps_unreversed_fragment`]) | whether the variant was to hold a changed fragment stage (rewritten, or the libraries' variants), whether it was created | `vkCreateGraphicsPipelines` |
 //! | does the depth profile record a pipeline ([`pipelines::profiles_pipeline`]) | whether it renders depth ([`pipelines::renders_depth`]) | `vkCreateGraphicsPipelines` |
 //! | are shader objects' variants planned at all ([`pipelines::shader_object_variants`]) | whether the mode is active | `vkCreateShadersEXT` |
 //! | which path a vertex shader object's draws take, in the depth profile ([`pipelines::shader_object_vertex_path`]) | whether the mode is active | `vkCreateShadersEXT` |

@@ -378,6 +378,14 @@ impl Variants {
         self.rewritten_fragment || self.linked_variants
     }
 
+    /// Whether the pipeline's own draws keep (or link) the unreversed fragment stage, its
+    /// reversed variant `made` or not: where that variant was to hold the changed fragment
+    /// stage and could not be made, nothing else reverses the fragment's depth.
+    #[must_use]
+    pub fn keeps_unreversed_fragment(&self, made: bool) -> bool {
+        self.reversed_changes_fragment() && !made
+    }
+
     /// The variants the pipeline gets, in the order they are made.
     pub fn kinds(&self) -> impl Iterator<Item = VariantKind> {
         let reversed = self.reversed();
@@ -1014,6 +1022,13 @@ mod tests {
         }
         .decide();
         assert!(fragment.rewritten_fragment && fragment.reversed_changes_fragment());
+        // Its variant not made: the pipeline keeps the fragment stage unreversed.
+        assert!(fragment.keeps_unreversed_fragment(false));
+        assert!(!fragment.keeps_unreversed_fragment(true));
+        assert!(
+            !compare_op.keeps_unreversed_fragment(false),
+            "no fragment change to miss"
+        );
         let libraries = VariantFacts {
             library_variants: true,
             ..none

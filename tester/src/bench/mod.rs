@@ -13,11 +13,12 @@
 //! `<out>/report.json` and `<out>/report.md` (after the `<!-- speed -->` marker; the rest of
 //! both files belongs to `revz-tester report`), and `<out>/overhead-vs-error.png`.
 
+mod callgrind;
 mod child;
 mod report;
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
@@ -117,9 +118,14 @@ pub struct BenchArgs {
     #[arg(long, value_enum, default_value_t = CompareOp::Dynamic)]
     pub compare_op: CompareOp,
 
-    /// Tiny counts (a smoke run; the figures mean nothing).
+    /// Tiny counts (a smoke run; the figures mean nothing; no instruction counts).
     #[arg(long)]
     pub quick: bool,
+
+    /// Skip the instruction count of the largest storms under callgrind (about a minute;
+    /// done by default where `valgrind` is installed).
+    #[arg(long)]
+    pub no_instructions: bool,
 
     /// Enable the Khronos validation layer in every child (fails on any message; the timings
     /// are then meaningless).
@@ -144,6 +150,7 @@ struct Config {
     repeats: usize,
     compare_op: CompareOp,
     validation: bool,
+    instructions: bool,
 }
 
 impl Config {
@@ -160,6 +167,7 @@ impl Config {
                 repeats: 1,
                 compare_op: args.compare_op,
                 validation: args.validation,
+                instructions: false,
             }
         } else {
             Config {
@@ -173,6 +181,7 @@ impl Config {
                 repeats: args.repeats.max(1),
                 compare_op: args.compare_op,
                 validation: args.validation,
+                instructions: !args.no_instructions && !args.validation,
             }
         }
     }
@@ -255,6 +264,11 @@ enum Job {
     /// no layer: the commands that reach the driver per frame. Counts do not vary, so it runs
     /// in the first round only, and its timings are not used.
     DrawStormCounted(usize, usize),
+    /// The draw storm under callgrind (valgrind's instruction counter), counting the
+    /// recording thread's instructions in the measured frames only: a figure that does not
+    /// vary between runs of the same build, unlike the frame times of a shared machine. Run in
+    /// the first round only, with few frames, where `valgrind` is installed.
+    DrawStormInstructions(usize, usize),
     Micro,
     PipelineStorm,
     DepthCopy,
@@ -267,6 +281,7 @@ impl Job {
             Job::DrawStorm(n, p) => format!("draw-storm-{n}-p{p}"),
             Job::DrawStormProfiled(n, p) => format!("draw-storm-{n}-p{p}-report"),
             Job::DrawStormCounted(n, p) => format!("draw-storm-{n}-p{p}-counted"),
+            Job::DrawStormInstructions(n, p) => format!("draw-storm-{n}-p{p}-instructions"),
             Job::Micro => "micro".into(),
             Job::PipelineStorm => "pipeline-storm".into(),
             Job::DepthCopy => "depth-copy".into(),
@@ -303,6 +318,14 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
     if largest > 0 {
         jobs.push(Job::DrawStormProfiled(largest, config.projections));
         jobs.push(Job::DrawStormCounted(largest, config.projections));
+        if config.instructions && has_valgrind() {
+            jobs.push(Job::DrawStormInstructions(largest, config.projections));
+            if config.projections < largest {
+                jobs.push(Job::DrawStormInstructions(largest, largest));
+            }
+        } else if config.instructions {
+            eprintln!("bench: valgrind not found: no instruction counts");
+        }
     }
     jobs.push(Job::Micro);
     jobs.push(Job::PipelineStorm);
@@ -327,7 +350,12 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
     let mut driver = String::new();
     for round in 0..config.rounds {
         for (j, job) in jobs.iter().enumerate() {
-            if round > 0 && matches!(job, Job::DrawStormCounted(..)) {
+            if round > 0
+                && matches!(
+                    job,
+                    Job::DrawStormCounted(..) | Job::DrawStormInstructions(..)
+                )
+            {
                 continue;
             }
             let mut order = Variant::ALL.to_vec();
@@ -390,17 +418,26 @@ fn run_one(
     variant: Variant,
 ) -> Result<Value> {
     let role = match job {
-        Job::DrawStorm(..) | Job::DrawStormProfiled(..) | Job::DrawStormCounted(..) => "draw-storm",
+        Job::DrawStorm(..)
+        | Job::DrawStormProfiled(..)
+        | Job::DrawStormCounted(..)
+        | Job::DrawStormInstructions(..) => "draw-storm",
         Job::Micro => "micro",
         Job::PipelineStorm => "pipeline-storm",
         Job::DepthCopy => "depth-copy",
         Job::Smoke => "smoke",
     };
     let (draws, projections) = match job {
-        Job::DrawStorm(n, p) | Job::DrawStormProfiled(n, p) | Job::DrawStormCounted(n, p) => {
-            (*n, *p)
-        }
+        Job::DrawStorm(n, p)
+        | Job::DrawStormProfiled(n, p)
+        | Job::DrawStormCounted(n, p)
+        | Job::DrawStormInstructions(n, p) => (*n, *p),
         _ => (1, 1),
+    };
+    // Under callgrind a frame takes some fifty times as long, and its count does not vary.
+    let (frames, warmup) = match job {
+        Job::DrawStormInstructions(..) => (INSTRUCTION_FRAMES, 1),
+        _ => (config.frames, config.warmup),
     };
     let mut owned: Vec<String> = vec![
         "bench".into(),
@@ -409,9 +446,9 @@ fn run_one(
         "--draws".into(),
         draws.to_string(),
         "--frames".into(),
-        config.frames.to_string(),
+        frames.to_string(),
         "--warmup".into(),
-        config.warmup.to_string(),
+        warmup.to_string(),
         "--projections".into(),
         projections.to_string(),
         "--pipelines".into(),
@@ -484,6 +521,14 @@ fn run_one(
             .env("VK_INSTANCE_LAYERS", layers)
             .env("REVZ_COUNT_OUT", &counts);
     }
+    let instructions_out = std::env::temp_dir().join(format!(
+        "revz-bench-callgrind-{}-{}.out",
+        std::process::id(),
+        variant.name()
+    ));
+    if let Job::DrawStormInstructions(..) = job {
+        command = under_callgrind(&command, &instructions_out);
+    }
     let output = command
         .output()
         .with_context(|| format!("cannot start the {} child", job.name()))?;
@@ -515,7 +560,59 @@ fn run_one(
         let _ = std::fs::remove_file(&counts);
         value["result"]["driver_calls"] = last_frame_calls(&text)?;
     }
+    if let Job::DrawStormInstructions(..) = job {
+        let text = std::fs::read_to_string(&instructions_out)
+            .with_context(|| format!("callgrind wrote no {}", instructions_out.display()))?;
+        let _ = std::fs::remove_file(&instructions_out);
+        let total = callgrind_total(&text)?;
+        value["result"]["frame_instructions"] = json!(total as f64 / frames as f64);
+    }
     Ok(value)
+}
+
+/// Measured frames of [`Job::DrawStormInstructions`] (after one warm-up frame).
+const INSTRUCTION_FRAMES: usize = 3;
+
+/// Whether `valgrind` can be run (the instruction count is skipped without it).
+fn has_valgrind() -> bool {
+    std::process::Command::new("valgrind")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// `command` run under callgrind, counting instructions only inside the storm's measured
+/// frames (`child::MEASURED_FRAME_SYMBOL`), the count written to `out`.
+fn under_callgrind(command: &std::process::Command, out: &Path) -> std::process::Command {
+    let mut wrapped = std::process::Command::new("valgrind");
+    wrapped
+        .arg("--tool=callgrind")
+        // The child starts instrumenting at its first measured frame (callgrind.rs): its
+        // set-up runs at valgrind's plain speed.
+        .arg("--instr-atstart=no")
+        .arg(format!("--toggle-collect={}", child::MEASURED_FRAME_SYMBOL))
+        .arg(format!("--callgrind-out-file={}", out.display()))
+        .arg(command.get_program())
+        .args(command.get_args());
+    for (name, value) in command.get_envs() {
+        match value {
+            Some(value) => wrapped.env(name, value),
+            None => wrapped.env_remove(name),
+        };
+    }
+    wrapped
+}
+
+/// The event total of a callgrind output file (its `totals:` line, else `summary:`).
+fn callgrind_total(text: &str) -> Result<u64> {
+    let field = |key: &str| {
+        text.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .and_then(|v| v.split_whitespace().next()?.parse::<u64>().ok())
+    };
+    field("totals:")
+        .or_else(|| field("summary:"))
+        .context("no totals: line in callgrind's output")
 }
 
 /// The benchmark's counting layer (`tester/count-layer`).
@@ -638,6 +735,8 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
     let pipe = Job::PipelineStorm.name();
     let micro = Job::Micro.name();
     let copy = Job::DepthCopy.name();
+    let counted_storm = Job::DrawStormInstructions(largest, config.projections).name();
+    let counted_varying = Job::DrawStormInstructions(largest, largest).name();
     let megapixels = f64::from(child::DEPTH_COPY_SIDE * child::DEPTH_COPY_SIDE) / 1e6;
     Variant::ALL
         .iter()
@@ -675,6 +774,12 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "frame_cpu_ratio_projection_per_draw": paired(samples, &varying, v, rounds, "frame_cpu_ns", ratio),
                 "frame_cpu_ratio_with_report": paired(samples, &profiled, v, rounds, "frame_cpu_ns", ratio),
                 "frame_wall_ratio": paired(samples, &big, v, rounds, "frame_wall_ns", ratio),
+                // The recording thread's instructions per measured frame (callgrind, first
+                // round only: the count does not vary), against no layer's.
+                "frame_instructions_ratio": paired(samples, &counted_storm, v, rounds, "frame_instructions", ratio),
+                "frame_instructions_ratio_projection_per_draw": paired(samples, &counted_varying, v, rounds, "frame_instructions", ratio),
+                "frame_instructions": own(samples, &counted_storm, v, rounds, "frame_instructions"),
+                "frame_instructions_projection_per_draw": own(samples, &counted_varying, v, rounds, "frame_instructions"),
                 "pipeline_creation_ratio": paired(samples, &pipe, v, rounds, "create_wall_ns", ratio),
                 "pipeline_creation_cpu_ratio": paired(samples, &pipe, v, rounds, "create_cpu_ns", ratio),
                 "ns_per_push_constant": paired(samples, &micro, v, rounds, "push_constant_ns", diff),
@@ -739,6 +844,15 @@ mod tests {
         assert_eq!(calls["total"], 12);
         assert!(last_frame_calls("vkCmdDraw=1\n").is_err());
         assert!(last_frame_calls("vkCmdDraw=1\nvkCmdDraw\n").is_err());
+    }
+
+    #[test]
+    fn callgrinds_total_is_its_totals_line_else_its_summary() {
+        let file = "version: 1\nevents: Ir\nsummary: 2800000\nfn=x\n1 5\ntotals: 2800001\n";
+        assert_eq!(callgrind_total(file).unwrap(), 2_800_001);
+        assert_eq!(callgrind_total("events: Ir\nsummary: 7\n").unwrap(), 7);
+        assert!(callgrind_total("events: Ir\n").is_err());
+        assert!(callgrind_total("totals: many\n").is_err());
     }
 
     #[test]

@@ -181,7 +181,8 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
         " frame CPU ratio ({largest}, a projection per draw) | frame CPU ratio ({largest}, depth profile on) |"
     ));
     header.push_str(
-        " frame wall ratio | pipeline creation ratio | ns / push (one camera) | \
+        " frame wall ratio | frame instructions ratio (callgrind) | \
+         frame instructions ratio (a projection per draw) | pipeline creation ratio | ns / push (one camera) | \
          ns / push (a new camera each) | ns / draw | \
          ns / bind | driver calls / frame (largest storm) | depth copy wall ratio (1 MP) | depth copy extra ms / MP | bytes / pipeline | \
          bytes / command buffer | heap growth / frame | mars-patch wrong | sloped-plane wrong | \
@@ -204,10 +205,12 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             ));
         }
         line.push_str(&format!(
-            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             fmt_spread(row, "frame_cpu_ratio_projection_per_draw", 3),
             fmt_spread(row, "frame_cpu_ratio_with_report", 3),
             fmt(&row["frame_wall_ratio"], 3),
+            fmt(&row["frame_instructions_ratio"], 4),
+            fmt(&row["frame_instructions_ratio_projection_per_draw"], 4),
             fmt_spread(row, "pipeline_creation_ratio", 3),
             fmt_spread(row, "ns_per_push_one_camera", 1),
             fmt_spread(row, "ns_per_push_constant", 1),

@@ -534,9 +534,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         )
                     });
                 }
-                // Without its variant, a pipeline keeps (or links) the fragment shader that was
-                // to be rewritten.
-                if plan.variants.reversed_changes_fragment() && variant.is_none() {
+                if plan.variants.keeps_unreversed_fragment(variant.is_some()) {
                     plan.depth.unreversed_fragment = true;
                 }
 
