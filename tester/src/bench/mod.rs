@@ -122,8 +122,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub quick: bool,
 
-    /// Skip the instruction count of the largest storms under callgrind (about a minute;
-    /// done by default where `valgrind` is installed).
+    /// Skip the instruction count of the largest storms under callgrind (about 16 s per
+    /// child, 10 children; done by default where `valgrind` is installed).
     #[arg(long)]
     pub no_instructions: bool,
 
@@ -265,9 +265,10 @@ enum Job {
     /// in the first round only, and its timings are not used.
     DrawStormCounted(usize, usize),
     /// The draw storm under callgrind (valgrind's instruction counter), counting the
-    /// recording thread's instructions in the measured frames only: a figure that does not
-    /// vary between runs of the same build, unlike the frame times of a shared machine. Run in
-    /// the first round only, with few frames, where `valgrind` is installed.
+    /// recording thread's instructions in the measured frames only: a figure that varies far
+    /// less than the frame times of a shared machine (a child's count lands on one of a few
+    /// values up to 4% apart, docs/bench.md). Run in the first round only, with few frames,
+    /// where `valgrind` is installed.
     DrawStormInstructions(usize, usize),
     Micro,
     PipelineStorm,
@@ -434,7 +435,7 @@ fn run_one(
         | Job::DrawStormInstructions(n, p) => (*n, *p),
         _ => (1, 1),
     };
-    // Under callgrind a frame takes some fifty times as long, and its count does not vary.
+    // Under callgrind a frame takes some fifty times as long; a few frames give the count.
     let (frames, warmup) = match job {
         Job::DrawStormInstructions(..) => (INSTRUCTION_FRAMES, 1),
         _ => (config.frames, config.warmup),
@@ -775,7 +776,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "frame_cpu_ratio_with_report": paired(samples, &profiled, v, rounds, "frame_cpu_ns", ratio),
                 "frame_wall_ratio": paired(samples, &big, v, rounds, "frame_wall_ns", ratio),
                 // The recording thread's instructions per measured frame (callgrind, first
-                // round only: the count does not vary), against no layer's.
+                // round only), against no layer's.
                 "frame_instructions_ratio": paired(samples, &counted_storm, v, rounds, "frame_instructions", ratio),
                 "frame_instructions_ratio_projection_per_draw": paired(samples, &counted_varying, v, rounds, "frame_instructions", ratio),
                 "frame_instructions": own(samples, &counted_storm, v, rounds, "frame_instructions"),
