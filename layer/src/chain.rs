@@ -205,6 +205,23 @@ fn known_size(s_type: vk::StructureType) -> Option<usize> {
         .map(|&(_, size)| size)
 }
 
+/// Whether [`splice`] of `T` out of the chain `p_next` would fail although the chain holds a
+/// `T`: a structure of a type revz does not know the size of comes before it.
+///
+/// # Safety
+/// As [`structures`].
+pub unsafe fn splice_blocked<T: vk::TaggedStructure>(p_next: *const c_void) -> bool {
+    let mut unknown_before = false;
+    // SAFETY: the caller's contract.
+    for (s_type, _) in unsafe { pointers(p_next) } {
+        if s_type == T::STRUCTURE_TYPE {
+            return unknown_before;
+        }
+        unknown_before |= known_size(s_type).is_none();
+    }
+    false
+}
+
 /// The chain `p_next` with its first structure of `T`'s type replaced by `replacement`, or
 /// left out when `replacement` is `None`: the structures before it are copied, the
 /// replacement's own `pNext` is ignored (it takes the original's), and the structures after
@@ -394,9 +411,17 @@ mod tests {
                 splice(head, Some(&flags2)).is_none(),
                 "unknown size before it"
             );
+            assert!(splice_blocked::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(
+                head
+            ));
             let missing = vk::PipelineRenderingCreateInfo::default();
             assert!(splice(head, Some(&missing)).is_none(), "not in the chain");
             assert!(splice(std::ptr::null(), Some(&missing)).is_none());
+            // Blocked only where the chain holds the structure after an unknown one.
+            assert!(!splice_blocked::<vk::PipelineRenderingCreateInfo<'_>>(head));
+            let first = (&flags2 as *const vk::PipelineCreateFlags2CreateInfoKHR<'_>).cast();
+            assert!(!splice_blocked::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>(first));
+            assert!(splice(first, Some(&flags2)).is_some());
         }
     }
 

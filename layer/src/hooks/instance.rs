@@ -323,7 +323,7 @@ unsafe fn compare_op_source(
 ) -> CompareOpSource {
     let (extension, feature_struct, feature) = extended_dynamic_state_requested(create_info);
     let facts = CompareOpFacts {
-        core: api >= vk::API_VERSION_1_3,
+        api,
         application_extension: extension && feature,
         application_feature_struct: feature_struct,
         mode_off: instance.settings.mode == Mode::Off,

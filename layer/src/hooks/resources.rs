@@ -40,13 +40,14 @@ struct ImageCreation<'a> {
 /// Logs once per reason why images keep their UNORM format.
 fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
     use crate::policy::KeptFormat;
-    static ONCE: [crate::logging::LogOnce; 5] = [const { crate::logging::LogOnce::new() }; 5];
+    static ONCE: [crate::logging::LogOnce; 6] = [const { crate::logging::LogOnce::new() }; 6];
     let index = match reason {
         KeptFormat::Copied => 0,
         KeptFormat::LaidOutOutside => 1,
         KeptFormat::PlacedMemory => 2,
         KeptFormat::Unsupported => 3,
         KeptFormat::ResolvePartner => 4,
+        KeptFormat::FormatListFixed => 5,
     };
     ONCE[index].log(|| {
         log::info!("depth images such as one in {format:?} keep their format, because {reason}")
@@ -81,6 +82,10 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
             && state
                 .objects
                 .resolve_partner_kept(info.format, info.extent, info.samples),
+        // SAFETY: as above.
+        format_list_fixed: unsafe {
+            crate::chain::splice_blocked::<vk::ImageFormatListCreateInfo<'_>>(info.p_next)
+        },
     };
     let promoted = state.policy.promoted_format(info.format, facts, |float| {
         state.image_formats.supports(info, float)
@@ -111,16 +116,12 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
             };
             // SAFETY: as above; `formats` lives as long as the splice (moved beside it; its
             // buffer does not move).
-            match unsafe { crate::chain::splice(info.p_next, Some(&replacement)) } {
+            let spliced = unsafe { crate::chain::splice(info.p_next, Some(&replacement)) };
+            // Always spliced: the policy keeps the format of an image whose list cannot be
+            // (`ImageFacts::format_list_fixed`).
+            match spliced {
                 Some(spliced) => Some((spliced, formats)),
-                None => {
-                    log::info!(
-                        "depth image in {:?}: not promoted (its format list follows a structure \
-                         revz cannot copy)",
-                        info.format
-                    );
-                    return unchanged;
-                }
+                None => return unchanged,
             }
         }
         None => None,

@@ -683,22 +683,18 @@ pub struct PassScope {
 
 impl PassScope {
     /// What draws of the current subpass know of promotion
-    /// ([`crate::command_state::CommandState::set_promoted`]): `None` outside a promoted twin;
-    /// else the UNORM format of the subpass's depth attachment (UNDEFINED where it has none
-    /// or it is not promoted: the pass is still the twin, but no bias converts).
+    /// ([`crate::command_state::CommandState::set_promoted`]), as the policy decides it from
+    /// the subpass's depth format ([`crate::policy::subpass_promoted_from`]).
     pub fn promoted_from(&self) -> Option<vk::Format> {
-        if !self.promoted {
-            return None;
-        }
+        // A twin is begun only for a pass revz tracks.
         let pass = self.render_pass.as_ref()?;
-        let format = pass
+        let depth_format = pass
             .subpass_depth
             .get(self.subpass)
             .copied()
             .flatten()
-            .and_then(|index| pass.attachments.get(index as usize).copied())
-            .filter(|&format| crate::policy::promotable_format(format));
-        Some(format.unwrap_or(vk::Format::UNDEFINED))
+            .and_then(|index| pass.attachments.get(index as usize).copied());
+        crate::policy::subpass_promoted_from(self.promoted, depth_format)
     }
 
     /// The current subpass's depth attachment view (null: none or not known).

@@ -65,8 +65,9 @@ pub enum CompareOpSource {
 
 /// What [`CompareOpSource::decide`] reads, gathered at `vkCreateDevice`.
 pub struct CompareOpFacts<'a> {
-    /// The application asked for Vulkan 1.3 or later.
-    pub core: bool,
+    /// The API version revz uses the device with ([`crate::policy::device_api_version`]):
+    /// from 1.3 the compare op is core.
+    pub api: u32,
     /// The application enabled the extension and its feature.
     pub application_extension: bool,
     /// The application chained the extension's feature structure (with the feature off: it
@@ -83,7 +84,7 @@ pub struct CompareOpFacts<'a> {
 impl std::fmt::Debug for CompareOpFacts<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("CompareOpFacts")
-            .field("core", &self.core)
+            .field("api", &self.api)
             .field("application_extension", &self.application_extension)
             .field(
                 "application_feature_struct",
@@ -117,7 +118,7 @@ impl CompareOpSource {
 
     /// How the device provides a dynamic compare op.
     pub fn decide(facts: &CompareOpFacts<'_>) -> CompareOpSource {
-        if facts.core {
+        if facts.api >= vk::API_VERSION_1_3 {
             return CompareOpSource::Core;
         }
         if facts.application_extension {
@@ -195,8 +196,12 @@ mod tests {
             asked.set(true);
             true
         };
-        let facts = |core, app, feature_struct, off, allowed| CompareOpFacts {
-            core,
+        let facts = |core: bool, app, feature_struct, off, allowed| CompareOpFacts {
+            api: if core {
+                vk::API_VERSION_1_3
+            } else {
+                vk::API_VERSION_1_2
+            },
             application_extension: app,
             application_feature_struct: feature_struct,
             mode_off: off,
@@ -232,6 +237,11 @@ mod tests {
             ..facts(false, false, false, false, true)
         };
         assert_eq!(S::decide(&without), S::Unavailable);
+        let later = CompareOpFacts {
+            api: vk::make_api_version(0, 1, 4, 0),
+            ..facts(false, false, false, false, true)
+        };
+        assert_eq!(S::decide(&later), S::Core);
     }
 
     #[test]

@@ -118,6 +118,10 @@ pub struct ImageFacts {
     /// image, and the other way round), a depth attachment (see
     /// `DeviceObjects::resolve_partner_kept`).
     pub partner_kept: bool,
+    /// Its create info lists view formats (`VkImageFormatListCreateInfo`) after a structure
+    /// revz cannot copy (`crate::chain::splice_blocked`): the list, which must name the float
+    /// format, cannot be replaced.
+    pub format_list_fixed: bool,
 }
 
 impl ImageFacts {
@@ -134,6 +138,7 @@ impl ImageFacts {
             flags,
             external: false,
             partner_kept: false,
+            format_list_fixed: false,
         }
     }
 }
@@ -155,6 +160,9 @@ pub enum KeptFormat {
     /// An image it may be resolved with keeps its format (a resolve needs one format at both
     /// ends).
     ResolvePartner,
+    /// Its format list cannot be replaced by one naming the float format
+    /// ([`ImageFacts::format_list_fixed`]).
+    FormatListFixed,
 }
 
 impl fmt::Display for KeptFormat {
@@ -175,6 +183,10 @@ impl fmt::Display for KeptFormat {
             KeptFormat::ResolvePartner => {
                 "an image of its format and size it may be resolved with (the other sample \
                  count) keeps its format, and a resolve needs one format at both ends"
+            }
+            KeptFormat::FormatListFixed => {
+                "its format list follows a structure revz cannot copy, so it cannot name the \
+                 float format"
             }
         })
     }
@@ -227,6 +239,9 @@ impl DevicePolicy {
         }
         if !supported(float) {
             return Err(KeptFormat::Unsupported);
+        }
+        if facts.format_list_fixed {
+            return Err(KeptFormat::FormatListFixed);
         }
         Ok(Some(float))
     }
@@ -395,6 +410,7 @@ mod tests {
                 flags,
                 external: false,
                 partner_kept: false,
+                format_list_fixed: false,
             }
         );
     }
@@ -405,6 +421,7 @@ mod tests {
         flags: vk::ImageCreateFlags::empty(),
         external: false,
         partner_kept: false,
+        format_list_fixed: false,
     };
 
     #[test]
@@ -481,6 +498,14 @@ mod tests {
             Err(KeptFormat::Unsupported)
         );
         assert_eq!(asked, Some(vk::Format::D32_SFLOAT_S8_UINT));
+        let fixed_list = ImageFacts {
+            format_list_fixed: true,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, fixed_list, yes),
+            Err(KeptFormat::FormatListFixed)
+        );
         // Float formats and color formats are not promoted, and the device is not asked.
         let never = |_| -> bool { panic!("asked") };
         assert_eq!(

@@ -9,8 +9,8 @@
 //! ([`framebuffer_may_be_promoted`], [`pass_promotable`]), and the view formats an imageless one lists
 //! ([`imageless_view_format`]); at a pass's creation: whether it gets a promoted twin
 //! ([`has_promoted_twin`]) and which of its attachments a begin clears the depth of
-//! ([`clears_depth_at_begin`]); at a rendering begin: the format a promoted instance's draws
-//! convert from ([`rendering_promoted_from`]).
+//! ([`clears_depth_at_begin`]); at a subpass and at a rendering begin: the format a promoted
+//! instance's draws convert from ([`subpass_promoted_from`], [`rendering_promoted_from`]).
 
 use ash::vk;
 
@@ -135,6 +135,22 @@ pub fn clears_depth_at_begin(format: vk::Format, load_op: vk::AttachmentLoadOp) 
     crate::conv::has_depth(format) && load_op == vk::AttachmentLoadOp::CLEAR
 }
 
+/// The format a render pass instance's draws convert from in a subpass: `None` outside a
+/// promoted twin (`promoted`: the pass was begun as its twin); else the UNORM format of the
+/// subpass's depth attachment (`depth_format`), or UNDEFINED where it has none or its format is
+/// not one revz promotes (the pass is still the twin, its pipelines' promoted variants apply,
+/// but no bias converts).
+pub fn subpass_promoted_from(
+    promoted: bool,
+    depth_format: Option<vk::Format>,
+) -> Option<vk::Format> {
+    promoted.then(|| {
+        depth_format
+            .filter(|&format| crate::policy::promotable_format(format))
+            .unwrap_or(vk::Format::UNDEFINED)
+    })
+}
+
 /// The format a dynamic rendering instance's draws convert from, where it draws into promoted
 /// attachments (their pipelines' and secondaries' promoted variants were made with float
 /// rendering formats): the first of its depth and stencil attachments' views (`views`, in that
@@ -221,6 +237,30 @@ mod tests {
         // Stencil-only and color attachments clear no depth.
         assert!(!clears_depth_at_begin(F::S8_UINT, L::CLEAR));
         assert!(!clears_depth_at_begin(F::R8G8B8A8_UNORM, L::CLEAR));
+    }
+
+    #[test]
+    fn a_promoted_subpass_converts_from_its_depth_attachments_unorm_format() {
+        use vk::Format as F;
+        assert_eq!(
+            subpass_promoted_from(false, Some(F::D24_UNORM_S8_UINT)),
+            None
+        );
+        assert_eq!(subpass_promoted_from(false, None), None);
+        assert_eq!(
+            subpass_promoted_from(true, Some(F::D24_UNORM_S8_UINT)),
+            Some(F::D24_UNORM_S8_UINT)
+        );
+        assert_eq!(
+            subpass_promoted_from(true, Some(F::D16_UNORM)),
+            Some(F::D16_UNORM)
+        );
+        // Still the twin, but nothing to convert: no depth attachment, or a float one.
+        assert_eq!(subpass_promoted_from(true, None), Some(F::UNDEFINED));
+        assert_eq!(
+            subpass_promoted_from(true, Some(F::D32_SFLOAT)),
+            Some(F::UNDEFINED)
+        );
     }
 
     #[test]

@@ -46,16 +46,28 @@ pub fn secondary_promoted(remembered: Option<bool>, promoted: usize, kept: usize
     }
 }
 
-/// The depth target a secondary continuing a pass of depth `format` draws into, without a
-/// framebuffer (before the application's convention applies): [`secondary_target`] of the
-/// target that pass was last begun with for secondaries (`remembered`), else of the device's
-/// live images of the format (`images`: how many are reversed and native, asked only where
-/// nothing is remembered). Returns the target and whether it is a guess.
+/// The depth target a secondary continuing a pass draws into (before the application's
+/// convention applies): that of the framebuffer its inheritance names (`framebuffer`: where it
+/// names the framebuffer's views); else, where the pass has a depth `format`,
+/// [`secondary_target`] of the target that pass was last begun with for secondaries
+/// (`remembered`, asked only then), else of the device's live images of the format (`images`:
+/// how many are reversed and native, asked only where nothing is remembered); else none. An
+/// imageless framebuffer names no views (they are given at each begin, and may differ from one
+/// to the next): its pass decides as without a framebuffer. Returns the target and whether it
+/// is a guess.
 pub fn inherited_target(
-    format: vk::Format,
-    remembered: Option<Target>,
+    framebuffer: Option<Target>,
+    format: Option<vk::Format>,
+    remembered: impl FnOnce() -> Option<Target>,
     images: impl FnOnce(vk::Format) -> (usize, usize),
 ) -> (Target, bool) {
+    if let Some(target) = framebuffer {
+        return (target, false);
+    }
+    let Some(format) = format else {
+        return (Target::None, false);
+    };
+    let remembered = remembered();
     let (reversed, native) = match remembered {
         Some(_) => (0, 0),
         None => images(format),
@@ -63,29 +75,37 @@ pub fn inherited_target(
     secondary_target(remembered, reversed, native)
 }
 
-/// Whether a secondary continuing a pass of depth `format` (`None`: the pass has no depth
-/// attachment) draws into a promoted attachment, without a framebuffer: [`secondary_promoted`]
-/// of how that pass was last begun for secondaries (`remembered`), else of the device's live
-/// images of the format (`images`: how many are promoted and kept, asked only where nothing is
-/// remembered and there is a format). Returns the UNORM depth format draws convert from where
-/// it is promoted (UNDEFINED where the format is not one revz promotes), as
-/// `crate::objects::PassScope::promoted_from`, and whether it is a guess.
+/// Whether a secondary continuing a pass draws into a promoted attachment, and the UNORM
+/// depth format its draws convert from ([`crate::policy::subpass_promoted_from`] of its depth
+/// `format`; `None`: the pass has no depth attachment): as the framebuffer its inheritance
+/// names was created (`framebuffer`: whether promoted, where revz tracks it; an imageless one
+/// too, as its attachment infos fixed its storage); else [`secondary_promoted`] of how that
+/// pass was last begun for secondaries (`remembered`, asked only then), else of the device's
+/// live images of the format (`images`: how many are promoted and kept, asked only where
+/// nothing is remembered and there is a format). Returns the format (`None`: not promoted) and
+/// whether it is a guess.
 pub fn inherited_promoted(
+    framebuffer: Option<bool>,
     format: Option<vk::Format>,
-    remembered: Option<bool>,
+    remembered: impl FnOnce() -> Option<bool>,
     images: impl FnOnce(vk::Format) -> (usize, usize),
 ) -> (Option<vk::Format>, bool) {
+    if let Some(promoted) = framebuffer {
+        return (
+            crate::policy::subpass_promoted_from(promoted, format),
+            false,
+        );
+    }
+    let remembered = remembered();
     let (promoted, kept) = match (remembered, format) {
         (None, Some(format)) => images(format),
         _ => (0, 0),
     };
     let (promoted, guessed) = secondary_promoted(remembered, promoted, kept);
-    let from = promoted.then(|| {
-        format
-            .filter(|&f| crate::policy::promotable_format(f))
-            .unwrap_or(vk::Format::UNDEFINED)
-    });
-    (from, guessed)
+    (
+        crate::policy::subpass_promoted_from(promoted, format),
+        guessed,
+    )
 }
 
 #[cfg(test)]
@@ -124,24 +144,43 @@ mod tests {
 
     #[test]
     fn an_inherited_target_counts_the_formats_images_only_where_nothing_is_remembered() {
-        let d32 = vk::Format::D32_SFLOAT;
+        let d32 = Some(vk::Format::D32_SFLOAT);
         let never = |_| -> (usize, usize) { panic!("counted") };
+        let unasked = || -> Option<Target> { panic!("remembered asked") };
         assert_eq!(
-            inherited_target(d32, Some(Target::Native), never),
+            inherited_target(None, d32, || Some(Target::Native), never),
             (Target::Native, false)
         );
         let mut asked = None;
-        let counted = inherited_target(d32, None, |format| {
-            asked = Some(format);
-            (1, 1)
-        });
-        assert_eq!((counted, asked), ((Target::Reversed, true), Some(d32)));
+        let counted = inherited_target(
+            None,
+            d32,
+            || None,
+            |format| {
+                asked = Some(format);
+                (1, 1)
+            },
+        );
+        assert_eq!((counted, asked), ((Target::Reversed, true), d32));
         assert_eq!(
-            inherited_target(d32, None, |_| (0, 2)),
+            inherited_target(None, d32, || None, |_| (0, 2)),
             (Target::Native, false)
         );
         assert_eq!(
-            inherited_target(d32, None, |_| (0, 0)),
+            inherited_target(None, d32, || None, |_| (0, 0)),
+            (Target::None, false)
+        );
+        // A framebuffer that names its views decides; a pass without depth draws into none.
+        assert_eq!(
+            inherited_target(Some(Target::Native), d32, unasked, never),
+            (Target::Native, false)
+        );
+        assert_eq!(
+            inherited_target(Some(Target::None), d32, unasked, never),
+            (Target::None, false)
+        );
+        assert_eq!(
+            inherited_target(None, None, unasked, never),
             (Target::None, false)
         );
     }
@@ -150,37 +189,50 @@ mod tests {
     fn an_inherited_promotion_names_the_unorm_format_draws_convert_from() {
         let (d24, d32) = (vk::Format::D24_UNORM_S8_UINT, vk::Format::D32_SFLOAT);
         let never = |_| -> (usize, usize) { panic!("counted") };
-        // Remembered: the images are not counted.
+        let unasked = || -> Option<bool> { panic!("remembered asked") };
+        // The framebuffer's creation decides where revz tracks it, imageless ones too.
         assert_eq!(
-            inherited_promoted(Some(d24), Some(true), never),
+            inherited_promoted(Some(true), Some(d24), unasked, never),
             (Some(d24), false)
         );
         assert_eq!(
-            inherited_promoted(Some(d24), Some(false), never),
+            inherited_promoted(Some(false), Some(d24), unasked, never),
+            (None, false)
+        );
+        // Remembered: the images are not counted.
+        assert_eq!(
+            inherited_promoted(None, Some(d24), || Some(true), never),
+            (Some(d24), false)
+        );
+        assert_eq!(
+            inherited_promoted(None, Some(d24), || Some(false), never),
             (None, false)
         );
         // No depth format: nothing to count, and a remembered promotion converts nothing.
-        assert_eq!(inherited_promoted(None, None, never), (None, false));
         assert_eq!(
-            inherited_promoted(None, Some(true), never),
+            inherited_promoted(None, None, || None, never),
+            (None, false)
+        );
+        assert_eq!(
+            inherited_promoted(None, None, || Some(true), never),
             (Some(vk::Format::UNDEFINED), false)
         );
         // A format revz does not promote converts nothing either.
         assert_eq!(
-            inherited_promoted(Some(d32), Some(true), never),
+            inherited_promoted(None, Some(d32), || Some(true), never),
             (Some(vk::Format::UNDEFINED), false)
         );
         // Counted: promoted images only, kept ones only, both (a guess).
         assert_eq!(
-            inherited_promoted(Some(d24), None, |_| (2, 0)),
+            inherited_promoted(None, Some(d24), || None, |_| (2, 0)),
             (Some(d24), false)
         );
         assert_eq!(
-            inherited_promoted(Some(d24), None, |_| (0, 2)),
+            inherited_promoted(None, Some(d24), || None, |_| (0, 2)),
             (None, false)
         );
         assert_eq!(
-            inherited_promoted(Some(d24), None, |_| (1, 1)),
+            inherited_promoted(None, Some(d24), || None, |_| (1, 1)),
             (Some(d24), true)
         );
     }

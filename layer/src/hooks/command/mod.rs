@@ -753,12 +753,10 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
     }
 }
 
-/// `vkCmdSetDepthBias2EXT` (`VK_EXT_depth_bias_control`): the bias, with the representation of
-/// a chained `VkDepthBiasRepresentationInfoEXT`, goes through the state machine like
-/// `vkCmdSetDepthBias` (sent for each draw's target with that representation). A chain with
-/// other structures revz cannot keep to send again later: it goes down at once, negated when
-/// the current target is reversed (a target that changes before the draw is not followed:
-/// logged once).
+/// `vkCmdSetDepthBias2EXT` (`VK_EXT_depth_bias_control`): recorded as the policy says
+/// ([`crate::policy::BiasRecording`]): through the state machine like `vkCmdSetDepthBias`
+/// (sent for each draw's target with the chained representation), or down at once for the
+/// current target (logged once).
 pub unsafe extern "system" fn cmd_set_depth_bias2(
     buffer: vk::CommandBuffer,
     p_info: *const vk::DepthBiasInfoEXT<'_>,
@@ -782,10 +780,11 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
         slope: info.depth_bias_slope_factor,
         representation,
     };
+    let recording = crate::policy::BiasRecording::of(only_it);
     let mut flipped = None;
     let taken = recorded(buffer, &ENTRY, |entry| {
         let mut state = entry.state();
-        if only_it {
+        if recording == crate::policy::BiasRecording::PerDraw {
             state.set_bias(bias);
             return;
         }
@@ -801,12 +800,13 @@ pub unsafe extern "system" fn cmd_set_depth_bias2(
         }
         UNKNOWN_CHAIN.log(|| {
             log::info!(
-                "vkCmdSetDepthBias2EXT with structures revz does not know in its chain is                  negated where it is recorded, not per draw"
+                "vkCmdSetDepthBias2EXT with structures revz does not know in its chain is \
+                 negated where it is recorded, not per draw"
             )
         });
     });
     let down = match taken {
-        Ok(()) if only_it => return,
+        Ok(()) if recording == crate::policy::BiasRecording::PerDraw => return,
         Ok(()) => objects::command_buffer(buffer).map(Down::Tracked),
         Err(down) => down,
     };

@@ -120,8 +120,8 @@ pub unsafe extern "system" fn begin_command_buffer(
 }
 
 /// Whether a secondary continues a promoted pass, and the UNORM format of its depth
-/// attachment (as [`PassScope::promoted_from`]): from the inherited framebuffer when there is
-/// one; otherwise from how its pass was last begun for secondaries, or the format's images.
+/// attachment (`crate::policy::inherited_promoted`, from its inherited framebuffer, the pass
+/// and the format's images).
 pub(super) fn inherited_promotion(
     entry: &CommandBufferEntry,
     inheritance: &vk::CommandBufferInheritanceInfo<'_>,
@@ -130,37 +130,24 @@ pub(super) fn inherited_promotion(
     if !device.policy.promote {
         return None;
     }
-    let (key, format) = if inheritance.render_pass != vk::RenderPass::null() {
+    let (framebuffer, key, format) = if inheritance.render_pass != vk::RenderPass::null() {
         let pass = device.objects.render_passes.get(&inheritance.render_pass)?;
         if !pass_promotable((0..pass.attachments.len()).map(|i| pass.promotable(i))) {
             return None;
         }
         let framebuffer = inheritance.framebuffer;
-        let views = device.objects.framebuffers.get(&framebuffer);
-        let format = pass
-            .subpass_depth
-            .get(inheritance.subpass as usize)
-            .copied()
-            .flatten()
-            .and_then(|index| pass.attachments.get(index as usize).copied());
         // Any tracked framebuffer (imageless ones too) says how it was created.
-        if views.is_some() {
-            let promoted = device
+        let created_promoted = device.objects.framebuffers.get(&framebuffer).map(|_| {
+            device
                 .objects
                 .promoted_framebuffers
                 .get(&framebuffer)
-                .is_some();
-            let scope = PassScope {
-                render_pass: Some(pass),
-                subpass: inheritance.subpass as usize,
-                promoted,
-                ..PassScope::default()
-            };
-            return scope.promoted_from();
-        }
+                .is_some()
+        });
         (
+            created_promoted,
             SecondaryPass::Subpass(inheritance.render_pass, inheritance.subpass),
-            format,
+            subpass_depth_format(&pass, inheritance.subpass),
         )
     } else {
         // SAFETY: a valid pNext chain (the application's contract).
@@ -171,23 +158,36 @@ pub(super) fn inherited_promotion(
             rendering.depth_attachment_format,
             rendering.stencil_attachment_format,
         )?;
-        (SecondaryPass::Rendering(format), Some(format))
+        (None, SecondaryPass::Rendering(format), Some(format))
     };
-    let remembered = device.objects.secondary_promoted.get(&key);
-    let (promoted, guessed) = crate::policy::inherited_promoted(format, remembered, |format| {
-        device.objects.count_promoted(format)
-    });
+    let (promoted, guessed) = crate::policy::inherited_promoted(
+        framebuffer,
+        format,
+        || device.objects.secondary_promoted.get(&key),
+        |format| device.objects.count_promoted(format),
+    );
     if guessed {
         static MIXED: OnceLock<()> = OnceLock::new();
         MIXED.get_or_init(|| {
             log::warn!(
-                "a secondary command buffer without a framebuffer draws into {format:?}, which \
+                "a secondary command buffer without a framebuffer draws into {:?}, which \
                  has both promoted and unpromoted images, in a pass not yet begun for \
-                 secondaries: assuming promoted"
+                 secondaries: assuming promoted",
+                format.unwrap_or_default()
             )
         });
     }
     promoted
+}
+
+/// The format of a subpass's depth attachment, if it has one.
+fn subpass_depth_format(pass: &crate::objects::RenderPassInfo, subpass: u32) -> Option<vk::Format> {
+    let index = pass
+        .subpass_depth
+        .get(subpass as usize)
+        .copied()
+        .flatten()?;
+    pass.attachments.get(index as usize).copied()
 }
 
 /// Whether a secondary inherits its viewports from the primary that executes it
@@ -204,47 +204,42 @@ pub(super) fn inherits_viewports(begin: &vk::CommandBufferBeginInfo<'_>) -> bool
     .is_some_and(|info| info.viewport_scissor2_d == vk::TRUE)
 }
 
-/// The depth target a secondary command buffer continues: from the inherited framebuffer when
-/// there is one; otherwise, knowing its pass and depth format, the target that pass was last
-/// begun with for secondaries, else the device's live depth images of that format
-/// (`crate::policy::inherited_target`; a guess between both kinds is logged once).
+/// The depth target a secondary command buffer continues (`crate::policy::inherited_target`,
+/// from its inherited framebuffer's views, the pass and the format's images; a guess between
+/// both kinds is logged once), after the application's convention.
 pub(super) fn inherited_target(
     entry: &CommandBufferEntry,
     inheritance: &vk::CommandBufferInheritanceInfo<'_>,
 ) -> Target {
     let device = &entry.device;
-    let (key, format) = if inheritance.render_pass != vk::RenderPass::null() {
+    let (framebuffer, key, format) = if inheritance.render_pass != vk::RenderPass::null() {
         let pass = device.objects.render_passes.get(&inheritance.render_pass);
-        // An imageless framebuffer names no views: the format decides, as without one.
+        // An imageless framebuffer names no views.
         let targets: Vec<Target> =
             attachment_views(device, inheritance.framebuffer, std::ptr::null())
                 .iter()
                 .map(|&view| device.view_target(view))
                 .collect();
-        if !targets.is_empty() {
-            let scope = PassScope {
+        let format = pass
+            .as_deref()
+            .and_then(|pass| subpass_depth_format(pass, inheritance.subpass));
+        let framebuffer = (!targets.is_empty()).then(|| {
+            PassScope {
                 handle: inheritance.render_pass,
                 render_pass: pass,
                 attachment_targets: targets,
                 attachment_views: None,
                 subpass: inheritance.subpass as usize,
                 promoted: false,
-            };
-            return scope.target();
-        }
-        let format = pass.and_then(|p| {
-            let index = p
-                .subpass_depth
-                .get(inheritance.subpass as usize)
-                .copied()
-                .flatten()?;
-            p.attachments.get(index as usize).copied()
+            }
+            .target()
         });
-        let Some(format) = format else {
-            return Target::None;
-        };
         (
-            SecondaryPass::Subpass(inheritance.render_pass, inheritance.subpass),
+            framebuffer,
+            Some(SecondaryPass::Subpass(
+                inheritance.render_pass,
+                inheritance.subpass,
+            )),
             format,
         )
     } else {
@@ -255,22 +250,22 @@ pub(super) fn inherited_target(
         }
         .map(|info| info.depth_attachment_format)
         .filter(|&format| format != vk::Format::UNDEFINED);
-        let Some(format) = format else {
-            return Target::None;
-        };
-        (SecondaryPass::Rendering(format), format)
+        (None, format.map(SecondaryPass::Rendering), format)
     };
     static MIXED: OnceLock<()> = OnceLock::new();
-    let remembered = device.objects.secondary_targets.get(&key);
-    let (images, guessed) = crate::policy::inherited_target(format, remembered, |format| {
-        device.objects.count_images(format)
-    });
+    let (images, guessed) = crate::policy::inherited_target(
+        framebuffer,
+        format,
+        || key.and_then(|key| device.objects.secondary_targets.get(&key)),
+        |format| device.objects.count_images(format),
+    );
     if guessed {
         MIXED.get_or_init(|| {
             log::warn!(
-                "a secondary command buffer without a framebuffer draws into {format:?}, which \
+                "a secondary command buffer without a framebuffer draws into {:?}, which \
                  has both reversed and native images, in a pass not yet begun for secondaries: \
-                 assuming reversed"
+                 assuming reversed",
+                format.unwrap_or_default()
             )
         });
     }

@@ -79,12 +79,19 @@ pub(super) fn create_variant(
         let Some(raster) = (unsafe { info.p_rasterization_state.as_ref() }) else {
             return failed(&"no rasterization state");
         };
-        // Negated as `DepthBias::flipped` negates a dynamic one; its pNext chain (a bias
-        // representation) is the application's.
+        // Negated as a dynamic one is; its pNext chain (a bias representation) is the
+        // application's.
+        let flipped = crate::conv::DepthBias {
+            constant: raster.depth_bias_constant_factor,
+            clamp: raster.depth_bias_clamp,
+            slope: raster.depth_bias_slope_factor,
+            representation: None,
+        }
+        .flipped();
         Some(vk::PipelineRasterizationStateCreateInfo {
-            depth_bias_constant_factor: -raster.depth_bias_constant_factor,
-            depth_bias_clamp: -raster.depth_bias_clamp,
-            depth_bias_slope_factor: -raster.depth_bias_slope_factor,
+            depth_bias_constant_factor: flipped.constant,
+            depth_bias_clamp: flipped.clamp,
+            depth_bias_slope_factor: flipped.slope,
             ..*raster
         })
     } else {
