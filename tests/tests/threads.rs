@@ -60,7 +60,7 @@ fn stress(harness: &Harness, mode: Option<&str>) -> Render {
         serde_json::json!([]),
         "{report}"
     );
-    // Shown with --nocapture: the figures for the README.
+    // Shown with --nocapture: the figures for docs/testing.md.
     eprintln!(
         "{}: {THREADS} threads x {} frames in {:.2} s",
         mode.unwrap_or("native"),

@@ -16,7 +16,7 @@
 //! The heap is the process's: other tests of this binary run in parallel threads and allocate
 //! too. So the test runs itself again as a child process (`REVZ_LEAK_CHILD=1`) with only this
 //! test, and the child measures. Cycles per kind: `REVZ_STRESS_CYCLES` (default
-//! [`DEFAULT_CYCLES`] = 1e5, about 6 s for all kinds in the debug test build); the README
+//! [`DEFAULT_CYCLES`] = 1e5, about 6 s for all kinds in the debug test build); `docs/testing.md`
 //! records the figures. The child also checks the instrument: one 1-byte allocation kept per
 //! cycle must show as at least 32 bytes per cycle.
 //!
@@ -25,7 +25,7 @@
 //! smallest glibc chunk on 64-bit) per cycle, so by at least 128 KiB over 4096 cycles. The
 //! heap may grow by at most [`BOUND`] (64 KiB) over the whole run of a kind, whatever its
 //! length, and runs are at least [`MIN_CYCLES`] long: a leak of one allocation per cycle
-//! cannot pass. (Measured: 0 bytes for every kind over 1e5 cycles, see the README.)
+//! cannot pass. (Measured: 0 bytes for every kind over 1e5 cycles, see `docs/testing.md`.)
 
 use std::ffi::{c_char, c_void, CStr};
 use std::sync::Arc;
