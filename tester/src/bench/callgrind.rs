@@ -1,11 +1,17 @@
-//! Valgrind's client requests for callgrind, so that the bench's instruction count runs its
-//! child at full speed until the measured frames: callgrind started with
-//! `--instr-atstart=no` instruments nothing until [`start_instrumentation`].
+//! The bench's instruction count under callgrind: in the parent, the child's command wrapped
+//! in `valgrind --tool=callgrind` ([`under_callgrind`]) and the count read back
+//! ([`callgrind_total`]); in the child, valgrind's client requests, so that it runs at full
+//! speed until the measured frames: callgrind started with `--instr-atstart=no` instruments
+//! nothing until [`start_instrumentation`].
 //!
 //! A client request is a no-op instruction sequence that valgrind's JIT recognizes (the
 //! rotations of `rdi` add up to 128 bits; see `valgrind.h`, `__SPECIAL_INSTRUCTION_PREAMBLE`):
 //! outside valgrind it does nothing. Implemented on x86_64 only; elsewhere both calls do
 //! nothing and the count covers whatever callgrind instruments from the start.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
 
 /// `VG_USERREQ_TOOL_BASE('C', 'T')`: callgrind's requests (`callgrind.h`).
 const CALLGRIND_BASE: usize = ((b'C' as usize) << 24) | ((b'T' as usize) << 16);
@@ -20,6 +26,48 @@ pub fn start_instrumentation() {
 /// Callgrind stops instrumenting (nothing outside valgrind).
 pub fn stop_instrumentation() {
     client_request(STOP_INSTRUMENTATION);
+}
+
+/// Whether `valgrind` can be run (the instruction count is skipped without it).
+pub(super) fn has_valgrind() -> bool {
+    std::process::Command::new("valgrind")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// `command` run under callgrind, counting instructions only inside the storm's measured
+/// frames (`super::child::MEASURED_FRAME_SYMBOL`), the count written to `out`.
+pub(super) fn under_callgrind(command: &std::process::Command, out: &Path) -> std::process::Command {
+    let mut wrapped = std::process::Command::new("valgrind");
+    wrapped
+        .arg("--tool=callgrind")
+        // The child starts instrumenting at its first measured frame (callgrind.rs): its
+        // set-up runs at valgrind's plain speed.
+        .arg("--instr-atstart=no")
+        .arg(format!("--toggle-collect={}", super::child::MEASURED_FRAME_SYMBOL))
+        .arg(format!("--callgrind-out-file={}", out.display()))
+        .arg(command.get_program())
+        .args(command.get_args());
+    for (name, value) in command.get_envs() {
+        match value {
+            Some(value) => wrapped.env(name, value),
+            None => wrapped.env_remove(name),
+        };
+    }
+    wrapped
+}
+
+/// The event total of a callgrind output file (its `totals:` line, else `summary:`).
+pub(super) fn callgrind_total(text: &str) -> Result<u64> {
+    let field = |key: &str| {
+        text.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .and_then(|v| v.split_whitespace().next()?.parse::<u64>().ok())
+    };
+    field("totals:")
+        .or_else(|| field("summary:"))
+        .context("no totals: line in callgrind's output")
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -48,9 +96,20 @@ fn client_request(_request: usize) {}
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     #[test]
     fn requests_do_nothing_outside_valgrind() {
         super::start_instrumentation();
         super::stop_instrumentation();
+    }
+
+    #[test]
+    fn callgrinds_total_is_its_totals_line_else_its_summary() {
+        let file = "version: 1\nevents: Ir\nsummary: 2800000\nfn=x\n1 5\ntotals: 2800001\n";
+        assert_eq!(callgrind_total(file).unwrap(), 2_800_001);
+        assert_eq!(callgrind_total("events: Ir\nsummary: 7\n").unwrap(), 7);
+        assert!(callgrind_total("events: Ir\n").is_err());
+        assert!(callgrind_total("totals: many\n").is_err());
     }
 }

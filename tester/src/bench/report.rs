@@ -181,7 +181,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
         " frame CPU ratio ({largest}, a projection per draw) | frame CPU ratio ({largest}, depth profile on) |"
     ));
     header.push_str(
-        " frame wall ratio | frame instructions ratio (callgrind, median of 3) | \
+        " frame wall ratio | frame instructions ratio (callgrind, smallest of 5) | \
          frame instructions ratio (a projection per draw) | pipeline creation ratio | ns / push (one camera) | \
          ns / push (a new camera each) | ns / draw | \
          ns / bind | driver calls / frame (largest storm) | depth copy wall ratio (1 MP) | depth copy extra ms / MP | bytes / pipeline | \
