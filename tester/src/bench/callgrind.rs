@@ -38,14 +38,20 @@ pub(super) fn has_valgrind() -> bool {
 
 /// `command` run under callgrind, counting instructions only inside the storm's measured
 /// frames (`super::child::MEASURED_FRAME_SYMBOL`), the count written to `out`.
-pub(super) fn under_callgrind(command: &std::process::Command, out: &Path) -> std::process::Command {
+pub(super) fn under_callgrind(
+    command: &std::process::Command,
+    out: &Path,
+) -> std::process::Command {
     let mut wrapped = std::process::Command::new("valgrind");
     wrapped
         .arg("--tool=callgrind")
         // The child starts instrumenting at its first measured frame (callgrind.rs): its
         // set-up runs at valgrind's plain speed.
         .arg("--instr-atstart=no")
-        .arg(format!("--toggle-collect={}", super::child::MEASURED_FRAME_SYMBOL))
+        .arg(format!(
+            "--toggle-collect={}",
+            super::child::MEASURED_FRAME_SYMBOL
+        ))
         .arg(format!("--callgrind-out-file={}", out.display()))
         .arg(command.get_program())
         .args(command.get_args());
