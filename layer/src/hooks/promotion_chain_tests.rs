@@ -2076,6 +2076,70 @@ fn secondaries_inheriting_an_imageless_framebuffer_follow_how_it_was_created() {
     fx.finish();
 }
 
+/// An imageless framebuffer fixes its storage at creation but names no views: a secondary
+/// inheriting it continues the promoted twin (its creation decides, `policy::inherited_promoted`)
+/// and draws into the target its pass was last begun with for secondaries
+/// (`policy::inherited_target`), not a guess from the format's images.
+#[test]
+fn a_secondary_inheriting_an_imageless_framebuffer_takes_its_storage_and_its_passs_target() {
+    use crate::command_state::Target;
+    let fx = Fixture::new();
+    let (pass, created) = fx.depth_pass(D24_S8, false);
+    let twin = the_twin(&created, pass).handle;
+    let promoted = fx.imageless_framebuffer(pass, &[(ATTACHMENT, &[D24_S8])]);
+    assert_eq!(promoted.render_pass, twin);
+    // Live images of the format: a reversed attachment, and a sampled (native) one.
+    let (reversed, _) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
+    let (native, native_view) = fx.depth_image(D24_S8, SAMPLED, SINGLE);
+    assert!(fx.state.objects.image_reversed(reversed));
+    assert!(!fx.state.objects.image_reversed(native));
+    let inheritance = vk::CommandBufferInheritanceInfo::default()
+        .render_pass(pass)
+        .subpass(0)
+        .framebuffer(promoted.handle);
+    let inherited = |buffer| {
+        crate::objects::command_buffer(buffer)
+            .expect("tracked")
+            .state()
+            .inherited()
+    };
+    // Before any begin of the pass for secondaries: a guess from the images (reversed), but
+    // the framebuffer's creation already says promoted.
+    let guessed = fx.command_buffer(vk::CommandBufferLevel::SECONDARY);
+    let (seen, _) = fx.begin_secondary(guessed, &inheritance);
+    assert_eq!(seen.render_pass, twin, "the framebuffer's creation decides");
+    assert_eq!(inherited(guessed), Target::Reversed);
+
+    // The pass begun for secondaries over the native image.
+    let views = [native_view];
+    let mut attachments = vk::RenderPassAttachmentBeginInfo::default().attachments(&views);
+    let primary = fx.primary();
+    let clears = [vk::ClearValue::default()];
+    let begin = vk::RenderPassBeginInfo::default()
+        .render_pass(pass)
+        .framebuffer(promoted.handle)
+        .render_area(EXTENT.into())
+        .clear_values(&clears)
+        .push_next(&mut attachments);
+    let contents =
+        vk::SubpassBeginInfo::default().contents(vk::SubpassContents::SECONDARY_COMMAND_BUFFERS);
+    // SAFETY: a recording primary and valid begin and end infos.
+    unsafe {
+        (fx.hooks.cmd_begin_render_pass2)(primary, &begin, &contents);
+        (fx.hooks.cmd_end_render_pass2)(primary, &vk::SubpassEndInfo::default());
+    }
+    assert_eq!(fx.recorded().passes, [twin]);
+    // After it: the pass's remembered target, native, and still the twin.
+    let secondary = fx.command_buffer(vk::CommandBufferLevel::SECONDARY);
+    let (seen, _) = fx.begin_secondary(secondary, &inheritance);
+    assert_eq!(
+        (seen.render_pass, seen.framebuffer),
+        (twin, promoted.handle)
+    );
+    assert_eq!(inherited(secondary), Target::Native);
+    fx.finish();
+}
+
 #[test]
 fn secondaries_continuing_promoted_dynamic_rendering_inherit_float_formats() {
     let fx = Fixture::new();
