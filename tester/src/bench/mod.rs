@@ -488,19 +488,6 @@ fn run_one(
         // caller's is kept.
         command.env("GLIBC_TUNABLES", MALLOC_TUNABLES);
     }
-    if std::env::var_os("REVZ_BENCH_ASLR").is_none() {
-        // The same addresses in every child: caches and TLBs see the same layout in every
-        // variant, so rounds differ by what the variants do, not by where each run's heap and
-        // libraries landed.
-        use std::os::unix::process::CommandExt;
-        // SAFETY: `personality` is async-signal-safe and touches no memory of this process.
-        unsafe {
-            command.pre_exec(|| {
-                libc::personality(libc::ADDR_NO_RANDOMIZE as libc::c_ulong);
-                Ok(())
-            });
-        }
-    }
     let counts = std::env::temp_dir().join(format!(
         "revz-bench-counts-{}-{}.txt",
         std::process::id(),
@@ -530,6 +517,20 @@ fn run_one(
     ));
     if let Job::DrawStormInstructions(..) = job {
         command = callgrind::under_callgrind(&command, &instructions_out);
+    }
+    if std::env::var_os("REVZ_BENCH_ASLR").is_none() {
+        // The same addresses in every child: caches and TLBs see the same layout in every
+        // variant, so rounds differ by what the variants do, not by where each run's heap and
+        // libraries landed. Set on the command that runs, after the callgrind wrap above (a
+        // `pre_exec` is not copied; the personality is inherited across valgrind's exec).
+        use std::os::unix::process::CommandExt;
+        // SAFETY: `personality` is async-signal-safe and touches no memory of this process.
+        unsafe {
+            command.pre_exec(|| {
+                libc::personality(libc::ADDR_NO_RANDOMIZE as libc::c_ulong);
+                Ok(())
+            });
+        }
     }
     let output = command
         .output()
