@@ -596,6 +596,33 @@ impl Fixture {
         );
     }
 
+    /// Begins and ends `pass` over the imageless `framebuffer` with `view` in a new primary,
+    /// its subpass for secondaries (what a secondary without the views then follows).
+    fn begin_imageless_for_secondaries(
+        &self,
+        pass: vk::RenderPass,
+        framebuffer: vk::Framebuffer,
+        view: vk::ImageView,
+    ) {
+        let views = [view];
+        let mut attachments = vk::RenderPassAttachmentBeginInfo::default().attachments(&views);
+        let primary = self.primary();
+        let clears = [vk::ClearValue::default()];
+        let begin = vk::RenderPassBeginInfo::default()
+            .render_pass(pass)
+            .framebuffer(framebuffer)
+            .render_area(EXTENT.into())
+            .clear_values(&clears)
+            .push_next(&mut attachments);
+        let contents = vk::SubpassBeginInfo::default()
+            .contents(vk::SubpassContents::SECONDARY_COMMAND_BUFFERS);
+        // SAFETY: a recording primary and valid begin and end infos.
+        unsafe {
+            (self.hooks.cmd_begin_render_pass2)(primary, &begin, &contents);
+            (self.hooks.cmd_end_render_pass2)(primary, &vk::SubpassEndInfo::default());
+        }
+    }
+
     /// Begins a secondary continuing a render pass as `inheritance` says: what the fake's
     /// begin saw of the inheritance, and whether it was given the application's begin info.
     fn begin_secondary(
@@ -2040,23 +2067,7 @@ fn secondaries_inheriting_an_imageless_framebuffer_follow_how_it_was_created() {
     assert_eq!(kept.render_pass, pass);
     // The pass was last begun for secondaries over the promoted framebuffer.
     let (_, view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
-    let views = [view];
-    let mut attachments = vk::RenderPassAttachmentBeginInfo::default().attachments(&views);
-    let primary = fx.primary();
-    let clears = [vk::ClearValue::default()];
-    let begin = vk::RenderPassBeginInfo::default()
-        .render_pass(pass)
-        .framebuffer(promoted.handle)
-        .render_area(EXTENT.into())
-        .clear_values(&clears)
-        .push_next(&mut attachments);
-    let contents =
-        vk::SubpassBeginInfo::default().contents(vk::SubpassContents::SECONDARY_COMMAND_BUFFERS);
-    // SAFETY: a recording primary and valid begin and end infos.
-    unsafe {
-        (fx.hooks.cmd_begin_render_pass2)(primary, &begin, &contents);
-        (fx.hooks.cmd_end_render_pass2)(primary, &vk::SubpassEndInfo::default());
-    }
+    fx.begin_imageless_for_secondaries(pass, promoted.handle, view);
     assert_eq!(fx.recorded().passes, [twin]);
 
     // A secondary inheriting the framebuffer created with the application's pass must name
@@ -2111,23 +2122,7 @@ fn a_secondary_inheriting_an_imageless_framebuffer_takes_its_storage_and_its_pas
     assert_eq!(inherited(guessed), Target::Reversed);
 
     // The pass begun for secondaries over the native image.
-    let views = [native_view];
-    let mut attachments = vk::RenderPassAttachmentBeginInfo::default().attachments(&views);
-    let primary = fx.primary();
-    let clears = [vk::ClearValue::default()];
-    let begin = vk::RenderPassBeginInfo::default()
-        .render_pass(pass)
-        .framebuffer(promoted.handle)
-        .render_area(EXTENT.into())
-        .clear_values(&clears)
-        .push_next(&mut attachments);
-    let contents =
-        vk::SubpassBeginInfo::default().contents(vk::SubpassContents::SECONDARY_COMMAND_BUFFERS);
-    // SAFETY: a recording primary and valid begin and end infos.
-    unsafe {
-        (fx.hooks.cmd_begin_render_pass2)(primary, &begin, &contents);
-        (fx.hooks.cmd_end_render_pass2)(primary, &vk::SubpassEndInfo::default());
-    }
+    fx.begin_imageless_for_secondaries(pass, promoted.handle, native_view);
     assert_eq!(fx.recorded().passes, [twin]);
     // After it: the pass's remembered target, native, and still the twin.
     let secondary = fx.command_buffer(vk::CommandBufferLevel::SECONDARY);
