@@ -581,8 +581,8 @@ const INSTRUCTION_FRAMES: usize = 3;
 /// 30 children read 2.5-6.2% above their variant's smallest (58-86 more instructions per
 /// draw, in no layer's children as in revz's: work in the driver or the allocator that some
 /// processes do, whatever the layer), the others within 0.05% of it, and each variant's
-/// smallest gave the previous day's lower ratios to 3-4 places. With a high child in three, five children leave
-/// about 1 chance in 400 that a variant's smallest is high.
+/// smallest gave the previous day's lower ratios to 3-4 places. With a high child in three,
+/// five children leave about 1 chance in 400 that a variant's smallest is high.
 const INSTRUCTION_RUNS: usize = 5;
 
 /// The benchmark's counting layer (`tester/count-layer`).
@@ -693,6 +693,30 @@ fn own(samples: &[Sample], job: &str, variant: &str, rounds: usize, key: &str) -
     (!values.is_empty()).then(|| child::median(&values))
 }
 
+/// The smallest and largest instruction count of `variant`'s children of `job` (separate
+/// children, not paired by round), `None` without data.
+fn instruction_spread(
+    samples: &[Sample],
+    job: &str,
+    variant: &str,
+    rounds: usize,
+) -> Option<[f64; 2]> {
+    let values: Vec<f64> = per_round(samples, job, variant, rounds)
+        .into_iter()
+        .filter_map(|r| r?.get("frame_instructions")?.as_f64())
+        .collect();
+    spread(&values)
+}
+
+/// `variant`'s smallest instruction count of `job` against no layer's smallest
+/// ([`INSTRUCTION_RUNS`]: a child's count is never below its variant's, often above).
+fn instruction_ratio(samples: &[Sample], job: &str, variant: &str, rounds: usize) -> Option<f64> {
+    let smallest =
+        |variant: &str| instruction_spread(samples, job, variant, rounds).map(|[min, _]| min);
+    let without = smallest(Variant::NoLayer.name())?;
+    (without > 0.0).then_some(smallest(variant)? / without)
+}
+
 /// One speed row per variant (mode), in `report.json`'s `speed` schema.
 fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) -> Vec<Value> {
     let rounds = config.rounds;
@@ -712,19 +736,9 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
         .iter()
         .map(|variant| {
             let v = variant.name();
-            // Counts of separate children, not paired by round: each variant's smallest
-            // ([`INSTRUCTION_RUNS`]), and the smallest and largest.
-            let own_spread = |job: &str, variant: &str| {
-                let values: Vec<f64> = per_round(samples, job, variant, rounds)
-                    .into_iter()
-                    .filter_map(|r| r?.get("frame_instructions")?.as_f64())
-                    .collect();
-                spread(&values)
-            };
-            let smallest = |job: &str, variant: &str| own_spread(job, variant).map(|[min, _]| min);
-            let smallest_ratio = |job: &str| {
-                Some(ratio(smallest(job, v)?, smallest(job, Variant::NoLayer.name())?))
-            };
+            let own_spread = |job: &str| instruction_spread(samples, job, v, rounds);
+            let smallest = |job: &str| own_spread(job).map(|[min, _]| min);
+            let smallest_ratio = |job: &str| instruction_ratio(samples, job, v, rounds);
             let mut by_draws = BTreeMap::new();
             let mut cpu_ns = BTreeMap::new();
             let mut wall_ns = BTreeMap::new();
@@ -762,10 +776,10 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 // layer's.
                 "frame_instructions_ratio": smallest_ratio(&counted_storm),
                 "frame_instructions_ratio_projection_per_draw": smallest_ratio(&counted_varying),
-                "frame_instructions": smallest(&counted_storm, v),
-                "frame_instructions_spread": own_spread(&counted_storm, v),
-                "frame_instructions_projection_per_draw": smallest(&counted_varying, v),
-                "frame_instructions_projection_per_draw_spread": own_spread(&counted_varying, v),
+                "frame_instructions": smallest(&counted_storm),
+                "frame_instructions_spread": own_spread(&counted_storm),
+                "frame_instructions_projection_per_draw": smallest(&counted_varying),
+                "frame_instructions_projection_per_draw_spread": own_spread(&counted_varying),
                 "frame_instructions_runs": per_round(samples, &counted_storm, v, rounds).iter().flatten().count(),
                 "pipeline_creation_ratio": paired(samples, &pipe, v, rounds, "create_wall_ns", ratio),
                 "pipeline_creation_cpu_ratio": paired(samples, &pipe, v, rounds, "create_cpu_ns", ratio),
@@ -831,6 +845,33 @@ mod tests {
         assert_eq!(calls["total"], 12);
         assert!(last_frame_calls("vkCmdDraw=1\n").is_err());
         assert!(last_frame_calls("vkCmdDraw=1\nvkCmdDraw\n").is_err());
+    }
+
+    #[test]
+    fn the_instruction_ratio_is_of_each_variants_smallest_count() {
+        let sample = |variant, round, count: f64| Sample {
+            job: "storm".into(),
+            variant,
+            round,
+            result: json!({ "frame_instructions": count }),
+        };
+        // No layer's second child and flip's first read high.
+        let samples = [
+            sample("none", 0, 100.0),
+            sample("none", 1, 104.0),
+            sample("none", 2, 100.0),
+            sample("flip", 0, 112.0),
+            sample("flip", 1, 106.0),
+            sample("flip", 2, 106.0),
+        ];
+        assert_eq!(
+            instruction_spread(&samples, "storm", "flip", 3),
+            Some([106.0, 112.0])
+        );
+        let ratio = instruction_ratio(&samples, "storm", "flip", 3).unwrap();
+        assert!((ratio - 1.06).abs() < 1e-12, "{ratio}");
+        assert_eq!(instruction_ratio(&samples, "storm", "none", 3), Some(1.0));
+        assert_eq!(instruction_ratio(&samples, "other", "flip", 3), None);
     }
 
     #[test]
