@@ -53,6 +53,9 @@ pub struct DeviceCopies {
     /// what revz would have to bind again.
     compute_push_templates: crate::objects::Table<vk::DescriptorUpdateTemplate, ()>,
     pipeline: OnceLock<Option<ConvertPipeline>>,
+    /// The pipeline of each [`plan::Specialization`], created at its first conversion
+    /// (`None`: the device refused it).
+    specialized: [OnceLock<Option<vk::Pipeline>>; plan::Specialization::COUNT],
     /// One bit per [`Unconverted`] reason already logged.
     warned: AtomicU8,
 }
@@ -65,13 +68,12 @@ impl std::fmt::Debug for DeviceCopies {
     }
 }
 
-/// revz's compute pipeline and its layouts.
+/// revz's compute pipeline layout and shader module, shared by the specialized pipelines.
 #[derive(Clone, Copy, Debug)]
 pub struct ConvertPipeline {
     pub set_layout: vk::DescriptorSetLayout,
     pub layout: vk::PipelineLayout,
     pub module: vk::ShaderModule,
-    pub pipeline: vk::Pipeline,
 }
 
 impl DeviceCopies {
@@ -98,6 +100,7 @@ impl DeviceCopies {
             pool_families: Default::default(),
             compute_push_templates: Default::default(),
             pipeline: OnceLock::new(),
+            specialized: std::array::from_fn(|_| OnceLock::new()),
             warned: AtomicU8::new(0),
         }
     }
@@ -155,20 +158,43 @@ impl DeviceCopies {
             .or_else(|| find(vk::MemoryPropertyFlags::empty()))
     }
 
-    /// The conversion pipeline, created on first use (`None` if the device refused it:
-    /// logged once, and copies then go down unconverted).
-    pub fn pipeline(&self, device: vk::Device, next: &ash::Device) -> Option<ConvertPipeline> {
+    /// The conversion layouts and module, created on first use (`None` if the device refused
+    /// them: logged once, and copies then go down unconverted).
+    pub fn layouts(&self, device: vk::Device, next: &ash::Device) -> Option<ConvertPipeline> {
         *self.pipeline.get_or_init(|| {
             // SAFETY: a live device; revz's own objects.
-            let created = unsafe { create_pipeline(device, next) };
+            let created = unsafe { create_layouts(device, next) };
             if let Err(result) = created {
                 log::error!(
-                    "cannot create revz's depth conversion pipeline ({result:?}): copies of \
-                     reversed depth images keep reversed values"
+                    "cannot create revz's depth conversion pipeline layout ({result:?}): copies \
+                     of reversed depth images keep reversed values"
                 );
             }
             created.ok()
         })
+    }
+
+    /// The layouts and the pipeline of `specialization`, each created on first use (`None` as
+    /// for [`Self::layouts`], logged once per pipeline).
+    pub fn pipeline(
+        &self,
+        device: vk::Device,
+        next: &ash::Device,
+        specialization: plan::Specialization,
+    ) -> Option<(ConvertPipeline, vk::Pipeline)> {
+        let layouts = self.layouts(device, next)?;
+        let pipeline = self.specialized[specialization.index()].get_or_init(|| {
+            // SAFETY: a live device; revz's own layouts and module.
+            let created = unsafe { create_pipeline(device, next, &layouts, specialization) };
+            if let Err(result) = created {
+                log::error!(
+                    "cannot create revz's depth conversion pipeline for {specialization:?} \
+                     ({result:?}): such copies keep the values they had"
+                );
+            }
+            created.ok()
+        });
+        pipeline.map(|pipeline| (layouts, pipeline))
     }
 
     /// Logs once per reason that copies go down unconverted.
@@ -182,13 +208,20 @@ impl DeviceCopies {
         }
     }
 
-    /// Destroys the pipeline (at `vkDestroyDevice`; the device is idle).
+    /// Destroys the pipelines (at `vkDestroyDevice`; the device is idle).
     pub fn destroy(&self, device: vk::Device, next: &ash::Device) {
+        let v = next.fp_v1_0();
+        for pipeline in self
+            .specialized
+            .iter()
+            .filter_map(|p| p.get().copied().flatten())
+        {
+            // SAFETY: revz's own pipeline, no longer used.
+            unsafe { (v.destroy_pipeline)(device, pipeline, std::ptr::null()) };
+        }
         if let Some(Some(p)) = self.pipeline.get() {
-            let v = next.fp_v1_0();
             // SAFETY: revz's own objects, no longer used.
             unsafe {
-                (v.destroy_pipeline)(device, p.pipeline, std::ptr::null());
                 (v.destroy_shader_module)(device, p.module, std::ptr::null());
                 (v.destroy_pipeline_layout)(device, p.layout, std::ptr::null());
                 (v.destroy_descriptor_set_layout)(device, p.set_layout, std::ptr::null());
@@ -197,12 +230,12 @@ impl DeviceCopies {
     }
 }
 
-/// Creates the conversion pipeline: one storage buffer at set 0, binding 0, no push
+/// Creates the conversion layouts and module: one storage buffer at set 0, binding 0, no push
 /// constants. Whatever was created is destroyed on failure.
 ///
 /// # Safety
 /// `device` must be live and `next` its next layer's table.
-unsafe fn create_pipeline(
+unsafe fn create_layouts(
     device: vk::Device,
     next: &ash::Device,
 ) -> Result<ConvertPipeline, vk::Result> {
@@ -222,16 +255,6 @@ unsafe fn create_pipeline(
     let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
     let mut layout = vk::PipelineLayout::null();
     let mut module = vk::ShaderModule::null();
-    let mut pipeline = vk::Pipeline::null();
-    let destroy_all = |layout, module, pipeline| {
-        // SAFETY: revz's own objects (null handles are ignored).
-        unsafe {
-            (v.destroy_pipeline)(device, pipeline, null);
-            (v.destroy_shader_module)(device, module, null);
-            (v.destroy_pipeline_layout)(device, layout, null);
-            (v.destroy_descriptor_set_layout)(device, set_layout, null);
-        }
-    };
     let result = (|| {
         // SAFETY: as above.
         unsafe { (v.create_pipeline_layout)(device, &layout_info, null, &mut layout) }.result()?;
@@ -239,39 +262,71 @@ unsafe fn create_pipeline(
             .map_err(|_| vk::Result::ERROR_INITIALIZATION_FAILED)?;
         let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
         // SAFETY: as above; the module is valid SPIR-V 1.0 (tested).
-        unsafe { (v.create_shader_module)(device, &module_info, null, &mut module) }.result()?;
-        let stage = vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::COMPUTE)
-            .module(module)
-            .name(c"main");
-        let info = vk::ComputePipelineCreateInfo::default()
-            .stage(stage)
-            .layout(layout);
-        // SAFETY: as above.
-        unsafe {
-            (v.create_compute_pipelines)(
-                device,
-                vk::PipelineCache::null(),
-                1,
-                &info,
-                null,
-                &mut pipeline,
-            )
-        }
-        .result()
+        unsafe { (v.create_shader_module)(device, &module_info, null, &mut module) }.result()
     })();
     match result {
         Ok(()) => Ok(ConvertPipeline {
             set_layout,
             layout,
             module,
-            pipeline,
         }),
         Err(error) => {
-            destroy_all(layout, module, pipeline);
+            // SAFETY: revz's own objects (null handles are ignored).
+            unsafe {
+                (v.destroy_shader_module)(device, module, null);
+                (v.destroy_pipeline_layout)(device, layout, null);
+                (v.destroy_descriptor_set_layout)(device, set_layout, null);
+            }
             Err(error)
         }
     }
+}
+
+/// Creates the conversion pipeline of `specialization` (its three constants).
+///
+/// # Safety
+/// `device` must be live, `next` its next layer's table, and `layouts` created on it.
+unsafe fn create_pipeline(
+    device: vk::Device,
+    next: &ash::Device,
+    layouts: &ConvertPipeline,
+    specialization: plan::Specialization,
+) -> Result<vk::Pipeline, vk::Result> {
+    let v = next.fp_v1_0();
+    let constants = specialization.constants();
+    let entries: [vk::SpecializationMapEntry; 3] =
+        std::array::from_fn(|i| vk::SpecializationMapEntry {
+            constant_id: i as u32,
+            offset: (i * 4) as u32,
+            size: 4,
+        });
+    let data: Vec<u8> = constants.iter().flat_map(|c| c.to_ne_bytes()).collect();
+    let specialization_info = vk::SpecializationInfo::default()
+        .map_entries(&entries)
+        .data(&data);
+    let stage = vk::PipelineShaderStageCreateInfo::default()
+        .stage(vk::ShaderStageFlags::COMPUTE)
+        .module(layouts.module)
+        .name(c"main")
+        .specialization_info(&specialization_info);
+    let info = vk::ComputePipelineCreateInfo::default()
+        .stage(stage)
+        .layout(layouts.layout);
+    let mut pipeline = vk::Pipeline::null();
+    // SAFETY: valid create info (the constants are 32-bit, as the shader declares them: a
+    // bool constant reads a VkBool32) and output.
+    unsafe {
+        (v.create_compute_pipelines)(
+            device,
+            vk::PipelineCache::null(),
+            1,
+            &info,
+            std::ptr::null(),
+            &mut pipeline,
+        )
+    }
+    .result()?;
+    Ok(pipeline)
 }
 
 #[cfg(test)]

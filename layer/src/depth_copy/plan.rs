@@ -47,12 +47,38 @@ impl TexelKind {
         }
     }
 
-    /// The shader's `kind` (`shaders/depth_convert.comp.spvasm`).
+    /// The value of depth 1 in this kind's units (its largest integer, 1 for float).
+    fn unit(self) -> f64 {
+        self.unorm_max().map_or(1.0, f64::from)
+    }
+
+    /// The shader's kind (`SOURCE_KIND`, `DESTINATION_KIND` in
+    /// `shaders/depth_convert.comp.spvasm`).
     fn shader_kind(self) -> u32 {
         match self {
             TexelKind::Unorm16 => 0,
             TexelKind::Unorm24 => 1,
             TexelKind::Float32 => 2,
+        }
+    }
+}
+
+/// What a conversion reads and what it writes: the texels of the copy's source as they lie in
+/// the scratch buffer, and those its destination takes. They differ where one end is a promoted
+/// image (float32 storage) and the other holds the application's own format (a buffer, or an
+/// image that kept its UNORM format).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TexelKinds {
+    pub source: TexelKind,
+    pub destination: TexelKind,
+}
+
+impl TexelKinds {
+    /// One kind at both ends: the conversion is in place.
+    pub fn same(kind: TexelKind) -> TexelKinds {
+        TexelKinds {
+            source: kind,
+            destination: kind,
         }
     }
 }
@@ -65,6 +91,12 @@ pub struct DepthMap {
 }
 
 impl DepthMap {
+    /// Values that keep their convention (only their format changes).
+    pub const IDENTITY: DepthMap = DepthMap {
+        offset: 0.0,
+        scale: 1.0,
+    };
+
     /// From stored (reversed) values to the standard ones the application would have had
     /// without revz: the inverse of `reversal` (d -> 1 - d, or for infinite mode's
     /// v = 1 - (1 - r) d, d = (1 - v) / (1 - r)).
@@ -112,49 +144,100 @@ fn keep_factor(reversal: Reversal) -> f64 {
     }
 }
 
+/// Which of the conversion shader's pipelines a conversion runs: its specialization constants
+/// (the source kind, the destination kind, and the exact flip), so that each pipeline holds
+/// only its own arithmetic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Specialization {
+    pub kinds: TexelKinds,
+    /// UNORM values of one kind flipped d -> 1 - d: a bit complement (`ShaderHeader::mask`).
+    pub complement: bool,
+}
+
+impl Specialization {
+    /// How many there are: three source kinds, three destination kinds, complement or not.
+    pub const COUNT: usize = 18;
+
+    /// Its place among the [`Self::COUNT`] (for a table of pipelines).
+    pub fn index(self) -> usize {
+        let kinds = self.kinds.source.shader_kind() * 3 + self.kinds.destination.shader_kind();
+        kinds as usize * 2 + usize::from(self.complement)
+    }
+
+    /// The values of constants 0, 1 and 2, as `VkSpecializationInfo` reads them.
+    pub fn constants(self) -> [u32; 3] {
+        [
+            self.kinds.source.shader_kind(),
+            self.kinds.destination.shader_kind(),
+            u32::from(self.complement),
+        ]
+    }
+}
+
 /// The header of the conversion shader's buffer (`shaders/depth_convert.comp.spvasm`): 32
-/// bytes before the texels. A word x becomes c0 + c1 * (x + t).
+/// bytes before the texels. A source texel x becomes c0 + c1 * (x + t) / c2 in the
+/// destination's units. `specialization` is not in the header: it picks the pipeline.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShaderHeader {
-    pub kind: u32,
-    /// Words to convert.
-    pub count: u32,
+    /// Texel pairs to convert.
+    pub pairs: u32,
+    /// Word of the first source texel, counted from the first word past the header.
+    pub in_base: u32,
+    /// Word of the first destination texel (`in_base`: in place).
+    pub out_base: u32,
     /// Bits complemented (the exact flip of UNORM values), 0 for the affine map.
     pub mask: u32,
     pub c0: f32,
     pub c1: f32,
     pub t: f32,
+    /// The source's unit where it is UNORM (a division, not a multiplication by its rounded
+    /// reciprocal: u / max correctly rounded is what brings every D24 value back from float32
+    /// unchanged), 1 for float.
+    pub c2: f32,
+    pub specialization: Specialization,
 }
 
 /// Bytes before the first texel in the scratch buffer.
 pub const HEADER_BYTES: u64 = 32;
 
+/// Texel pairs one invocation of the shader converts (`PAIRS_PER_INVOCATION`).
+const PAIRS_PER_INVOCATION: u32 = 4;
+
 impl ShaderHeader {
-    /// The header converting `words` 32-bit words of `kind` with `map`. UNORM values are
-    /// mapped on their integers (the constants times max, computed in f64 before the one
-    /// rounding to float32), so a flip is exact (a bit complement) and infinite mode's maps
-    /// are within one unit. The map offset + scale d is written scale (d - 1) where offset is
-    /// -scale (the maps to standard depth): d - 1 is exact on integers and on floats of
-    /// [0.5, 1], so one multiplication rounds.
-    pub fn new(kind: TexelKind, map: DepthMap, words: u32) -> ShaderHeader {
-        let unit = kind.unorm_max().map_or(1.0, f64::from);
+    /// The header converting the texels of `layout` from `kinds.source` to
+    /// `kinds.destination` with `map`. Values are mapped in the kinds' own units (UNORM
+    /// integers, float depth), the constants computed in f64 before the one rounding to
+    /// float32: a flip between UNORM values of one kind is exact (a bit complement), every
+    /// other map within half a unit of the destination plus one float32 rounding each for the
+    /// product and the quotient. The map offset + scale d is written scale (d - 1) where
+    /// offset is -scale (the maps to standard depth): d - 1 is exact on integers and on floats
+    /// of [0.5, 1].
+    pub fn new(kinds: TexelKinds, map: DepthMap, layout: &ScratchLayout) -> ShaderHeader {
+        let (unit_in, unit_out) = (kinds.source.unit(), kinds.destination.unit());
         let (c0, t) = if map.offset == -map.scale {
-            (0.0, -unit)
+            (0.0, -unit_in)
         } else {
-            (map.offset * unit, 0.0)
+            (map.offset * unit_out, 0.0)
         };
-        let mask = match kind {
-            TexelKind::Unorm16 if map.is_flip() => 0xFFFF_FFFF,
-            TexelKind::Unorm24 if map.is_flip() => 0x00FF_FFFF,
+        let complement = kinds.source == kinds.destination && map.is_flip();
+        let mask = match kinds.source {
+            TexelKind::Unorm16 if complement => 0xFFFF_FFFF,
+            TexelKind::Unorm24 if complement => 0x00FF_FFFF,
             _ => 0,
         };
         ShaderHeader {
-            kind: kind.shader_kind(),
-            count: words,
+            pairs: layout.pairs,
+            in_base: layout.in_base,
+            out_base: layout.out_base,
             mask,
             c0: c0 as f32,
-            c1: map.scale as f32,
+            c1: (map.scale * unit_out) as f32,
             t: t as f32,
+            c2: unit_in as f32,
+            specialization: Specialization {
+                kinds,
+                complement: mask != 0,
+            },
         }
     }
 
@@ -162,12 +245,14 @@ impl ShaderHeader {
     pub fn to_bytes(self) -> [u8; HEADER_BYTES as usize] {
         let mut bytes = [0u8; HEADER_BYTES as usize];
         let words = [
-            self.kind,
-            self.count,
+            self.pairs,
+            self.in_base,
+            self.out_base,
             self.mask,
             self.c0.to_bits(),
             self.c1.to_bits(),
             self.t.to_bits(),
+            self.c2.to_bits(),
         ];
         for (chunk, word) in bytes.chunks_exact_mut(4).zip(words) {
             chunk.copy_from_slice(&word.to_ne_bytes());
@@ -175,27 +260,62 @@ impl ShaderHeader {
         bytes
     }
 
-    /// What the shader computes for one word, on the host (the reference its tests use).
-    pub fn convert_word(self, word: u32) -> u32 {
-        if self.mask != 0 {
-            return word ^ self.mask;
+    /// What the shader computes for one source texel (a UNORM integer, or float bits), on
+    /// the host (the reference its tests use).
+    pub fn convert_texel(self, x: u32) -> u32 {
+        let kinds = self.specialization.kinds;
+        if self.specialization.complement {
+            return x ^ self.mask;
         }
-        let map = |x: f32| self.c0 + self.c1 * (x + self.t);
-        let unorm = |value: u32, max: f32| -> u32 {
-            map(value as f32).round_ties_even().clamp(0.0, max) as u32
+        let x = match kinds.source {
+            TexelKind::Unorm16 => x as f32,
+            TexelKind::Unorm24 => (x & 0x00FF_FFFF) as f32,
+            TexelKind::Float32 => f32::from_bits(x),
         };
-        match self.kind {
-            2 => map(f32::from_bits(word)).clamp(0.0, 1.0).to_bits(),
-            1 => (word & 0xFF00_0000) | unorm(word & 0x00FF_FFFF, 16_777_215.0),
-            _ => (unorm(word >> 16, 65535.0) << 16) | unorm(word & 0xFFFF, 65535.0),
+        let y = self.c0 + self.c1 * (x + self.t) / self.c2;
+        match kinds.destination {
+            TexelKind::Unorm16 => y.round_ties_even().clamp(0.0, 65535.0) as u32,
+            TexelKind::Unorm24 => y.round_ties_even().clamp(0.0, 16_777_215.0) as u32,
+            TexelKind::Float32 => y.clamp(0.0, 1.0).to_bits(),
+        }
+    }
+
+    /// What the shader does to the words past the header, on the host: every pair of source
+    /// texels converted into the destination's words.
+    pub fn convert_words(self, words: &mut [u32]) {
+        let kinds = self.specialization.kinds;
+        for p in 0..self.pairs as usize {
+            let (a, b) = match kinds.source {
+                TexelKind::Unorm16 => {
+                    let w = words[self.in_base as usize + p];
+                    if self.specialization.complement {
+                        words[self.out_base as usize + p] = w ^ self.mask;
+                        continue;
+                    }
+                    (w & 0xFFFF, w >> 16)
+                }
+                _ => (
+                    words[self.in_base as usize + 2 * p],
+                    words[self.in_base as usize + 2 * p + 1],
+                ),
+            };
+            let (a, b) = (self.convert_texel(a), self.convert_texel(b));
+            match kinds.destination {
+                TexelKind::Unorm16 => words[self.out_base as usize + p] = a | (b << 16),
+                _ => {
+                    words[self.out_base as usize + 2 * p] = a;
+                    words[self.out_base as usize + 2 * p + 1] = b;
+                }
+            }
         }
     }
 }
 
-/// The workgroups of a dispatch over `words` words (64 per group; a second dimension past the
-/// 65535 groups every device allows in x).
-pub fn workgroups(words: u32) -> (u32, u32) {
-    let groups = words.div_ceil(64).max(1);
+/// The workgroups of a dispatch over `pairs` texel pairs (64 invocations per group, each
+/// converting [`PAIRS_PER_INVOCATION`]; a second dimension past the 65535 groups every device
+/// allows in x).
+pub fn workgroups(pairs: u32) -> (u32, u32) {
+    let groups = pairs.div_ceil(PAIRS_PER_INVOCATION * 64).max(1);
     let x = groups.min(65535);
     (x, groups.div_ceil(x))
 }
@@ -214,13 +334,14 @@ pub struct BufferRegion {
     pub layers: u32,
 }
 
-/// A region's texels packed tightly in the scratch buffer.
+/// A region's texels packed tightly in the scratch buffer: where the source's texels are
+/// copied in (`input`) and where the destination's are copied out from (`output`; the same
+/// place where both ends have one kind). Byte offsets from the scratch buffer's start, past
+/// the header, 4-aligned as depth copies require.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ScratchRegion {
-    /// Bytes from the scratch buffer's start (past the header, 4-aligned as depth copies
-    /// require).
-    pub offset: u64,
-    pub bytes: u64,
+    pub input: u64,
+    pub output: u64,
 }
 
 /// Where every region of a copy lies in the scratch buffer, and its size.
@@ -229,38 +350,58 @@ pub struct ScratchLayout {
     pub regions: Vec<ScratchRegion>,
     /// Bytes the scratch buffer needs, header included.
     pub size: u64,
-    /// 32-bit words of texels to convert (from the first region to the end).
-    pub words: u32,
+    /// Texel pairs to convert (from the first region to the end).
+    pub pairs: u32,
+    /// Words, past the header, of the first source and the first destination texel.
+    pub in_base: u32,
+    pub out_base: u32,
 }
 
-/// The bytes of a region's texels packed tightly (rows of `width` texels, images of `height`
-/// rows).
-pub fn packed_bytes(extent: vk::Extent3D, layers: u32, kind: TexelKind) -> u64 {
-    u64::from(extent.width)
-        * u64::from(extent.height)
-        * u64::from(extent.depth)
-        * u64::from(layers)
-        * kind.bytes()
+/// Texels of a region (rows of `width` texels, images of `height` rows).
+fn texels(extent: vk::Extent3D, layers: u32) -> u64 {
+    u64::from(extent.width) * u64::from(extent.height) * u64::from(extent.depth) * u64::from(layers)
 }
 
-/// Lays regions of `extents` (extent, layers) out one after another past the header, each
-/// starting on 4 bytes. `None` when the texels would not fit the shader's 32-bit word count.
+/// Lays regions of `extents` (extent, layers) out one after another past the header, each on
+/// an even texel (so that a UNORM16 region starts on 4 bytes and the shader's pairs never
+/// straddle two regions): the source texels, then, where the destination's kind differs, the
+/// destination texels at the same texel positions. `None` when the texels would not fit the
+/// shader's 32-bit word indices.
 pub fn scratch_layout(
     extents: impl IntoIterator<Item = (vk::Extent3D, u32)>,
-    kind: TexelKind,
+    kinds: TexelKinds,
 ) -> Option<ScratchLayout> {
-    let mut offset = HEADER_BYTES;
-    let mut regions = Vec::new();
+    let mut slot = 0u64;
+    let mut starts = Vec::new();
     for (extent, layers) in extents {
-        let bytes = packed_bytes(extent, layers, kind);
-        regions.push(ScratchRegion { offset, bytes });
-        offset = offset.checked_add(bytes)?.checked_next_multiple_of(4)?;
+        starts.push(slot);
+        slot = slot
+            .checked_add(texels(extent, layers))?
+            .checked_next_multiple_of(2)?;
     }
-    let words = u32::try_from((offset - HEADER_BYTES) / 4).ok()?;
+    let input_bytes = slot.checked_mul(kinds.source.bytes())?;
+    let in_place = kinds.source == kinds.destination;
+    let output_start = if in_place {
+        HEADER_BYTES
+    } else {
+        HEADER_BYTES + input_bytes
+    };
+    let regions = starts
+        .iter()
+        .map(|&start| ScratchRegion {
+            input: HEADER_BYTES + start * kinds.source.bytes(),
+            output: output_start + start * kinds.destination.bytes(),
+        })
+        .collect();
+    let size = output_start.checked_add(slot.checked_mul(kinds.destination.bytes())?)?;
+    // Every word index the shader computes fits 32 bits.
+    u32::try_from((size - HEADER_BYTES) / 4).ok()?;
     Some(ScratchLayout {
         regions,
-        size: offset,
-        words,
+        size,
+        pairs: u32::try_from(slot / 2).ok()?,
+        in_base: 0,
+        out_base: ((output_start - HEADER_BYTES) / 4) as u32,
     })
 }
 
@@ -344,17 +485,31 @@ pub struct BufferCopyPlan {
     pub rest: Vec<usize>,
 }
 
-/// Plans a copy between a depth image and a buffer (either way: `to_buffer`). `None` when
-/// no region copies depth, or a region's layer count is not explicit
-/// (`VK_REMAINING_ARRAY_LAYERS`) or its texels do not fit one conversion.
+/// Plans a copy between a depth image and a buffer (either way: `to_buffer`): `image`, the
+/// texels of the image as it is stored (float32 where promoted), `buffer` those of the
+/// application's format, laid out as it said. `None` when no region copies depth, or a
+/// region's layer count is not explicit (`VK_REMAINING_ARRAY_LAYERS`) or its texels do not fit
+/// one conversion.
 pub fn plan_buffer_copy(
     regions: &[vk::BufferImageCopy],
-    kind: TexelKind,
+    image: TexelKind,
+    buffer: TexelKind,
     to_buffer: bool,
 ) -> Option<BufferCopyPlan> {
     let is_depth =
         |r: &vk::BufferImageCopy| r.image_subresource.aspect_mask == vk::ImageAspectFlags::DEPTH;
     let depth: Vec<&vk::BufferImageCopy> = regions.iter().filter(|r| is_depth(r)).collect();
+    let kinds = if to_buffer {
+        TexelKinds {
+            source: image,
+            destination: buffer,
+        }
+    } else {
+        TexelKinds {
+            source: buffer,
+            destination: image,
+        }
+    };
     if depth.is_empty()
         || depth
             .iter()
@@ -366,7 +521,7 @@ pub fn plan_buffer_copy(
         depth
             .iter()
             .map(|r| (r.image_extent, r.image_subresource.layer_count)),
-        kind,
+        kinds,
     )?;
     let mut buffer_copies = Vec::new();
     let image_regions = depth
@@ -380,15 +535,22 @@ pub fn plan_buffer_copy(
                 extent: region.image_extent,
                 layers: region.image_subresource.layer_count,
             };
+            // Out of the image into the input, and from the output to the buffer; or from the
+            // buffer into the input, and out of the output into the image.
+            let (image_side, buffer_side) = if to_buffer {
+                (scratch.input, scratch.output)
+            } else {
+                (scratch.output, scratch.input)
+            };
             row_copies(
                 application,
-                scratch.offset,
-                kind,
+                buffer_side,
+                buffer,
                 to_buffer,
                 &mut buffer_copies,
             );
             vk::BufferImageCopy {
-                buffer_offset: scratch.offset,
+                buffer_offset: image_side,
                 buffer_row_length: 0,
                 buffer_image_height: 0,
                 ..**region
@@ -420,13 +582,22 @@ pub struct ImageCopyPlan {
     pub rest: Vec<(usize, vk::ImageAspectFlags)>,
 }
 
-/// Plans an image copy whose depth must change convention (`None` as for
-/// [`plan_buffer_copy`]).
-pub fn plan_image_copy(regions: &[vk::ImageCopy], kind: TexelKind) -> Option<ImageCopyPlan> {
+/// Plans an image copy whose depth must change convention or format (`kinds`: the texels each
+/// image is stored in). `None` as for [`plan_buffer_copy`], and where the two images are
+/// stored in different formats and a region copies stencil: the application's own copy could
+/// not take it (a depth/stencil copy needs one format at both ends).
+pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<ImageCopyPlan> {
     let depth = vk::ImageAspectFlags::DEPTH;
     let copies_depth = |r: &vk::ImageCopy| r.src_subresource.aspect_mask.contains(depth);
     let converted: Vec<&vk::ImageCopy> = regions.iter().filter(|r| copies_depth(r)).collect();
+    let stencil_between_formats = kinds.source != kinds.destination
+        && regions.iter().any(|r| {
+            r.src_subresource
+                .aspect_mask
+                .contains(vk::ImageAspectFlags::STENCIL)
+        });
     if converted.is_empty()
+        || stencil_between_formats
         || converted
             .iter()
             .any(|r| r.src_subresource.layer_count == vk::REMAINING_ARRAY_LAYERS)
@@ -437,7 +608,7 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kind: TexelKind) -> Option<Ima
         converted
             .iter()
             .map(|r| (r.extent, r.src_subresource.layer_count)),
-        kind,
+        kinds,
     )?;
     let only_depth = |subresource: vk::ImageSubresourceLayers| vk::ImageSubresourceLayers {
         aspect_mask: depth,
@@ -445,16 +616,24 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kind: TexelKind) -> Option<Ima
     };
     let (mut from_source, mut to_destination) = (Vec::new(), Vec::new());
     for (region, scratch) in converted.iter().zip(&layout.regions) {
-        let packed = |subresource, offset| vk::BufferImageCopy {
-            buffer_offset: scratch.offset,
+        let packed = |buffer_offset, subresource, offset| vk::BufferImageCopy {
+            buffer_offset,
             buffer_row_length: 0,
             buffer_image_height: 0,
             image_subresource: only_depth(subresource),
             image_offset: offset,
             image_extent: region.extent,
         };
-        from_source.push(packed(region.src_subresource, region.src_offset));
-        to_destination.push(packed(region.dst_subresource, region.dst_offset));
+        from_source.push(packed(
+            scratch.input,
+            region.src_subresource,
+            region.src_offset,
+        ));
+        to_destination.push(packed(
+            scratch.output,
+            region.dst_subresource,
+            region.dst_offset,
+        ));
     }
     let rest = regions
         .iter()
@@ -476,8 +655,9 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kind: TexelKind) -> Option<Ima
     })
 }
 
-/// A blit whose depth must change convention: each region's source box is copied, converted,
-/// into layers of a staged image of the source's format, and blitted from there (a blit may
+/// A blit whose depth must change convention or format: each region's source box is copied,
+/// converted, into layers of a staged image of the destination's (stored) format, and blitted
+/// from there (a blit may
 /// scale or mirror, so the conversion happens before it, on the texels it reads).
 #[derive(Clone, Debug)]
 pub struct BlitPlan {
@@ -496,13 +676,21 @@ pub struct BlitPlan {
     pub rest: Vec<(usize, vk::ImageAspectFlags)>,
 }
 
-/// Plans a converted blit (`None` where no region blits depth, a region's layer count is not
-/// explicit or its source box is empty).
-pub fn plan_blit(regions: &[vk::ImageBlit], kind: TexelKind) -> Option<BlitPlan> {
+/// Plans a converted blit (`kinds`: the texels the source and the destination are stored in;
+/// `None` where no region blits depth, a region's layer count is not explicit or its source
+/// box is empty, or the two formats differ and a region blits stencil, which the
+/// application's own blit could then not take).
+pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPlan> {
     let depth = vk::ImageAspectFlags::DEPTH;
     let blits_depth = |r: &vk::ImageBlit| r.src_subresource.aspect_mask.contains(depth);
     let converted: Vec<&vk::ImageBlit> = regions.iter().filter(|r| blits_depth(r)).collect();
-    if converted.is_empty() {
+    let stencil_between_formats = kinds.source != kinds.destination
+        && regions.iter().any(|r| {
+            r.src_subresource
+                .aspect_mask
+                .contains(vk::ImageAspectFlags::STENCIL)
+        });
+    if converted.is_empty() || stencil_between_formats {
         return None;
     }
     // Each region's source box: its smallest corner and size.
@@ -537,7 +725,7 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kind: TexelKind) -> Option<BlitPlan>
             .iter()
             .zip(&boxes)
             .map(|(r, (_, extent))| (*extent, r.src_subresource.layer_count)),
-        kind,
+        kinds,
     )?;
     let staged_extent = vk::Extent3D {
         width: boxes.iter().map(|(_, e)| e.width).max()?,
@@ -559,7 +747,7 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kind: TexelKind) -> Option<BlitPlan>
             layer_count: count,
         };
         from_source.push(vk::BufferImageCopy {
-            buffer_offset: scratch.offset,
+            buffer_offset: scratch.input,
             buffer_row_length: 0,
             buffer_image_height: 0,
             image_subresource: source,
@@ -567,6 +755,7 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kind: TexelKind) -> Option<BlitPlan>
             image_extent: *extent,
         });
         to_staged.push(vk::BufferImageCopy {
+            buffer_offset: scratch.output,
             image_subresource: staged,
             image_offset: vk::Offset3D::default(),
             ..from_source[from_source.len() - 1]
@@ -622,30 +811,49 @@ mod tests {
         }
     }
 
+    /// The header of a one-pair conversion from `kinds.source` to `kinds.destination`.
+    fn header(kinds: TexelKinds, map: DepthMap) -> ShaderHeader {
+        let layout = scratch_layout([(extent(2, 1), 1)], kinds).unwrap();
+        ShaderHeader::new(kinds, map, &layout)
+    }
+
+    fn same(kind: TexelKind, map: DepthMap) -> ShaderHeader {
+        header(TexelKinds::same(kind), map)
+    }
+
+    fn kinds(source: TexelKind, destination: TexelKind) -> TexelKinds {
+        TexelKinds {
+            source,
+            destination,
+        }
+    }
+
     #[test]
     fn flips_of_unorm_values_are_exact_bit_complements() {
         let map = DepthMap::to_standard(Reversal::Complementary);
         assert!(map.is_flip());
-        let d16 = ShaderHeader::new(TexelKind::Unorm16, map, 1);
-        assert_eq!(d16.convert_word(0x0000_FFFF), 0xFFFF_0000);
-        assert_eq!(d16.convert_word(0x1234_0001), 0xEDCB_FFFE);
-        let d24 = ShaderHeader::new(TexelKind::Unorm24, map, 1);
+        let d16 = same(TexelKind::Unorm16, map);
+        assert!(d16.specialization.complement);
+        let mut words = [0x1234_0001];
+        d16.convert_words(&mut words);
+        assert_eq!(words, [0xEDCB_FFFE]);
+        let d24 = same(TexelKind::Unorm24, map);
         // The top byte (undefined in X8_D24, not depth) is kept.
-        assert_eq!(d24.convert_word(0xAB00_0001), 0xABFF_FFFE);
+        assert_eq!(d24.convert_texel(0xAB00_0001), 0xABFF_FFFE);
         for u in [0u32, 1, 0x7F_FFFF, 0xFF_FFFE, 0xFF_FFFF] {
-            assert_eq!(d24.convert_word(u), 0xFF_FFFF - u);
+            assert_eq!(d24.convert_texel(u), 0xFF_FFFF - u);
         }
     }
 
     #[test]
     fn float_flips_are_one_rounding_of_one_minus_d() {
-        let header = ShaderHeader::new(
+        let header = same(
             TexelKind::Float32,
             DepthMap::to_standard(Reversal::Complementary),
-            1,
         );
+        assert!(!header.specialization.complement);
         for d in [0.0f32, 1.0, 0.5, 1e-7, 0.999_999_9, 0.3] {
-            let got = f32::from_bits(header.convert_word(d.to_bits()));
+            let got = f32::from_bits(header.convert_texel(d.to_bits()));
             assert_eq!(got, 1.0 - d, "{d}");
         }
     }
@@ -665,65 +873,226 @@ mod tests {
             assert!((out.apply(stored) - d).abs() < 1e-12, "{d}");
         }
         // UNORM24 in infinite mode: within one unit of the f64 inverse.
-        let header = ShaderHeader::new(TexelKind::Unorm24, out, 1);
+        let header = same(TexelKind::Unorm24, out);
         for u in [0u32, 1, 12_345, 8_000_000, 16_777_000, 16_777_215] {
             let exact = out.apply(f64::from(u) / 16_777_215.0) * 16_777_215.0;
-            let got = f64::from(header.convert_word(u));
+            let got = f64::from(header.convert_texel(u));
             assert!((got - exact).abs() <= 1.0, "{u}: {got} vs {exact}");
         }
-        let header = ShaderHeader::new(TexelKind::Unorm16, into, 1);
-        let word = header.convert_word((40_000 << 16) | 7);
+        let header = same(TexelKind::Unorm16, into);
+        let mut words = [(40_000 << 16) | 7];
+        header.convert_words(&mut words);
         let exact = |u: f64| into.apply(u / 65535.0) * 65535.0;
-        assert!((f64::from(word >> 16) - exact(40_000.0)).abs() <= 0.5);
-        assert!((f64::from(word & 0xFFFF) - exact(7.0)).abs() <= 0.5);
+        assert!((f64::from(words[0] >> 16) - exact(40_000.0)).abs() <= 0.5);
+        assert!((f64::from(words[0] & 0xFFFF) - exact(7.0)).abs() <= 0.5);
+    }
+
+    /// A promoted image's float32 read into the application's UNORM bytes rounds to the
+    /// nearest integer, as the device's own conversion would; and the application's UNORM
+    /// bytes written into a promoted image come back as they were, for every value of D16 and
+    /// of D24 (each way one float32 rounding, far from half a unit).
+    #[test]
+    fn promoted_texels_round_trip_through_the_applications_unorm_bytes() {
+        use TexelKind::{Float32, Unorm16, Unorm24};
+        for (unorm, max) in [(Unorm16, 65_535u32), (Unorm24, 16_777_215)] {
+            let into = header(kinds(unorm, Float32), DepthMap::IDENTITY);
+            let out = header(kinds(Float32, unorm), DepthMap::IDENTITY);
+            for u in 0..=max {
+                let stored = into.convert_texel(u);
+                let d = f64::from(f32::from_bits(stored));
+                assert!(
+                    (d - f64::from(u) / f64::from(max)).abs() <= 6e-8,
+                    "{u}: {d}"
+                );
+                assert_eq!(out.convert_texel(stored), u, "{unorm:?} {u}");
+            }
+            // Rounded to the nearest integer, clamped.
+            for (d, u) in [(0.0f32, 0), (1.0, max), (2.0, max), (-1.0, 0)] {
+                assert_eq!(out.convert_texel(d.to_bits()), u, "{d}");
+            }
+            let half = (0.5 + 0.49) / f64::from(max);
+            assert_eq!(out.convert_texel((half as f32).to_bits()), 1);
+        }
+    }
+
+    /// A reversed promoted image read into UNORM bytes: the values are undone and packed in
+    /// one pass, within half a unit and one float32 rounding of the f64 value.
+    #[test]
+    fn reversed_promoted_texels_are_undone_and_packed_in_one_pass() {
+        use TexelKind::{Float32, Unorm16, Unorm24};
+        let maps = [
+            DepthMap::to_standard(Reversal::Complementary),
+            DepthMap::to_standard(Reversal::Infinite {
+                near_over_far: 1e-3,
+            }),
+        ];
+        for map in maps {
+            for (unorm, max) in [(Unorm16, 65_535.0), (Unorm24, 16_777_215.0)] {
+                let out = header(kinds(Float32, unorm), map);
+                for v in [0.0f32, 1e-6, 0.001, 0.25, 0.5, 0.75, 0.999_99, 1.0] {
+                    let exact = map.apply(f64::from(v)) * max;
+                    let got = f64::from(out.convert_texel(v.to_bits()));
+                    assert!(
+                        (got - exact).abs() <= 0.5 + exact * 2.4e-7,
+                        "{map:?} {unorm:?} {v}: {got} vs {exact}"
+                    );
+                }
+                // And back: the application's bytes written into the reversed promoted image.
+                let into = header(
+                    kinds(unorm, Float32),
+                    DepthMap::to_reversed(map_reversal(map)),
+                );
+                for u in [0u32, 1, 1000, (max / 2.0) as u32, max as u32] {
+                    let stored = f32::from_bits(into.convert_texel(u));
+                    let exact = DepthMap::to_reversed(map_reversal(map)).apply(f64::from(u) / max);
+                    assert!((f64::from(stored) - exact).abs() <= 1.2e-7, "{u}");
+                }
+            }
+        }
+    }
+
+    /// The reversal behind a map to standard depth (for the test above).
+    fn map_reversal(map: DepthMap) -> Reversal {
+        if map.is_flip() {
+            Reversal::Complementary
+        } else {
+            Reversal::Infinite {
+                near_over_far: (1.0 - 1.0 / map.offset) as f32,
+            }
+        }
+    }
+
+    /// Pairs of UNORM16 share a word: one invocation writes it whole, from two float32
+    /// source words, and the other way round.
+    #[test]
+    fn unorm16_pairs_are_packed_into_and_unpacked_from_one_word() {
+        use TexelKind::{Float32, Unorm16};
+        let layout = scratch_layout([(extent(3, 1), 1)], kinds(Float32, Unorm16)).unwrap();
+        // Three texels take two pairs: four float32 words in, two words out after them.
+        assert_eq!((layout.pairs, layout.in_base, layout.out_base), (2, 0, 4));
+        let header = ShaderHeader::new(kinds(Float32, Unorm16), DepthMap::IDENTITY, &layout);
+        let mut words = [
+            0.0f32.to_bits(),
+            1.0f32.to_bits(),
+            0.5f32.to_bits(),
+            0.0f32.to_bits(),
+            0,
+            0,
+        ];
+        header.convert_words(&mut words);
+        assert_eq!(&words[4..], [0xFFFF_0000, 0x0000_8000]);
+        let layout = scratch_layout([(extent(3, 1), 1)], kinds(Unorm16, Float32)).unwrap();
+        assert_eq!((layout.pairs, layout.in_base, layout.out_base), (2, 0, 2));
+        let header = ShaderHeader::new(kinds(Unorm16, Float32), DepthMap::IDENTITY, &layout);
+        let mut words = [0xFFFF_0000, 0x0000_8000, 0, 0, 0, 0];
+        header.convert_words(&mut words);
+        let floats: Vec<f32> = words[2..].iter().map(|&w| f32::from_bits(w)).collect();
+        assert_eq!(floats[..3], [0.0, 1.0, 32768.0 / 65535.0]);
+    }
+
+    #[test]
+    fn each_specialization_has_its_own_index() {
+        use TexelKind::{Float32, Unorm16, Unorm24};
+        let mut seen = std::collections::HashSet::new();
+        for source in [Unorm16, Unorm24, Float32] {
+            for destination in [Unorm16, Unorm24, Float32] {
+                for complement in [false, true] {
+                    let specialization = Specialization {
+                        kinds: kinds(source, destination),
+                        complement,
+                    };
+                    assert!(specialization.index() < Specialization::COUNT);
+                    assert!(seen.insert(specialization.index()));
+                    let [s, d, c] = specialization.constants();
+                    assert_eq!(
+                        (s, d, c),
+                        (
+                            source.shader_kind(),
+                            destination.shader_kind(),
+                            u32::from(complement)
+                        )
+                    );
+                }
+            }
+        }
     }
 
     #[test]
     fn headers_are_laid_out_as_the_shader_reads_them() {
         let header = ShaderHeader {
-            kind: 2,
-            count: 7,
+            pairs: 7,
+            in_base: 3,
+            out_base: 9,
             mask: 0,
             c0: 1.0,
             c1: -1.0,
             t: 0.5,
+            c2: 2.0,
+            specialization: Specialization {
+                kinds: TexelKinds::same(TexelKind::Float32),
+                complement: false,
+            },
         };
         let bytes = header.to_bytes();
         let word = |i: usize| u32::from_ne_bytes(bytes[i * 4..i * 4 + 4].try_into().unwrap());
-        assert_eq!([word(0), word(1), word(2)], [2, 7, 0]);
-        assert_eq!(f32::from_bits(word(3)), 1.0);
-        assert_eq!(f32::from_bits(word(4)), -1.0);
-        assert_eq!(f32::from_bits(word(5)), 0.5);
-        assert!(bytes[24..].iter().all(|&b| b == 0));
+        assert_eq!([word(0), word(1), word(2), word(3)], [7, 3, 9, 0]);
+        assert_eq!(f32::from_bits(word(4)), 1.0);
+        assert_eq!(f32::from_bits(word(5)), -1.0);
+        assert_eq!(f32::from_bits(word(6)), 0.5);
+        assert_eq!(f32::from_bits(word(7)), 2.0);
     }
 
     #[test]
     fn wide_dispatches_use_a_second_dimension() {
         assert_eq!(workgroups(1), (1, 1));
-        assert_eq!(workgroups(64 * 65535), (65535, 1));
+        let per_group = PAIRS_PER_INVOCATION * 64;
+        assert_eq!(workgroups(per_group * 65535), (65535, 1));
         let (x, y) = workgroups(u32::MAX);
-        assert!(u64::from(x) * u64::from(y) * 64 >= u64::from(u32::MAX));
+        assert!(u64::from(x) * u64::from(y) * u64::from(per_group) >= u64::from(u32::MAX));
     }
 
     #[test]
-    fn scratch_regions_start_on_four_bytes_past_the_header() {
-        let layout =
-            scratch_layout([(extent(3, 1), 1), (extent(2, 2), 1)], TexelKind::Unorm16).unwrap();
+    fn scratch_regions_start_on_even_texels_past_the_header() {
+        let layout = scratch_layout(
+            [(extent(3, 1), 1), (extent(2, 2), 1)],
+            TexelKinds::same(TexelKind::Unorm16),
+        )
+        .unwrap();
+        // In place: 3 texels (a pair and a half), then 4 from texel 4.
         assert_eq!(
             layout.regions,
             [
                 ScratchRegion {
-                    offset: 32,
-                    bytes: 6
+                    input: 32,
+                    output: 32
                 },
                 ScratchRegion {
-                    offset: 40,
-                    bytes: 8
+                    input: 40,
+                    output: 40
                 }
             ]
         );
-        assert_eq!(layout.size, 48);
-        assert_eq!(layout.words, 4);
+        assert_eq!((layout.size, layout.pairs), (48, 4));
+        // From float32 to UNORM16: the output after the input, at the same texels.
+        let layout = scratch_layout(
+            [(extent(3, 1), 1), (extent(2, 2), 1)],
+            kinds(TexelKind::Float32, TexelKind::Unorm16),
+        )
+        .unwrap();
+        assert_eq!(
+            layout.regions,
+            [
+                ScratchRegion {
+                    input: 32,
+                    output: 64
+                },
+                ScratchRegion {
+                    input: 48,
+                    output: 72
+                }
+            ]
+        );
+        assert_eq!((layout.size, layout.pairs, layout.out_base), (80, 4, 8));
     }
 
     fn layers(aspect: vk::ImageAspectFlags, count: u32) -> vk::ImageSubresourceLayers {
@@ -749,7 +1118,8 @@ mod tests {
             region(vk::ImageAspectFlags::STENCIL, 0),
             region(vk::ImageAspectFlags::DEPTH, 256),
         ];
-        let plan = plan_buffer_copy(&regions, TexelKind::Float32, true).unwrap();
+        let f32 = TexelKind::Float32;
+        let plan = plan_buffer_copy(&regions, f32, f32, true).unwrap();
         assert_eq!(plan.rest, [0]);
         assert_eq!(plan.image_regions.len(), 1);
         let packed = plan.image_regions[0];
@@ -768,12 +1138,31 @@ mod tests {
             .map(|c| (c.src_offset, c.dst_offset, c.size))
             .collect();
         assert_eq!(copies, [(32, 256, 16), (48, 288, 16)]);
-        assert!(plan_buffer_copy(&regions[..1], TexelKind::Float32, true).is_none());
+        assert!(plan_buffer_copy(&regions[..1], f32, f32, true).is_none());
         let remaining = vk::BufferImageCopy {
             image_subresource: layers(vk::ImageAspectFlags::DEPTH, vk::REMAINING_ARRAY_LAYERS),
             ..regions[1]
         };
-        assert!(plan_buffer_copy(&[remaining], TexelKind::Float32, true).is_none());
+        assert!(plan_buffer_copy(&[remaining], f32, f32, true).is_none());
+        // A promoted image read into D16 bytes: the image's float32 words in, the
+        // application's 8-byte rows out after them.
+        let plan = plan_buffer_copy(&regions, f32, TexelKind::Unorm16, true).unwrap();
+        assert_eq!(plan.image_regions[0].buffer_offset, HEADER_BYTES);
+        let copies: Vec<_> = plan
+            .buffer_copies
+            .iter()
+            .map(|c| (c.src_offset, c.dst_offset, c.size))
+            .collect();
+        assert_eq!(copies, [(64, 256, 8), (72, 272, 8)]);
+        // And written from D16 bytes: the buffer's rows in, the float32 words out.
+        let plan = plan_buffer_copy(&regions, f32, TexelKind::Unorm16, false).unwrap();
+        assert_eq!(plan.image_regions[0].buffer_offset, HEADER_BYTES + 16);
+        let copies: Vec<_> = plan
+            .buffer_copies
+            .iter()
+            .map(|c| (c.src_offset, c.dst_offset, c.size))
+            .collect();
+        assert_eq!(copies, [(256, 32, 8), (272, 40, 8)]);
     }
 
     #[test]
@@ -790,7 +1179,8 @@ mod tests {
             extent: extent(4, 4),
         };
         let regions = [region(both), region(vk::ImageAspectFlags::STENCIL)];
-        let plan = plan_image_copy(&regions, TexelKind::Unorm24).unwrap();
+        let d24 = TexelKinds::same(TexelKind::Unorm24);
+        let plan = plan_image_copy(&regions, d24).unwrap();
         assert_eq!(
             plan.rest,
             [
@@ -798,7 +1188,7 @@ mod tests {
                 (1, vk::ImageAspectFlags::STENCIL)
             ]
         );
-        assert_eq!(plan.layout.words, 32);
+        assert_eq!(plan.layout.pairs, 16);
         let (from, to) = (plan.from_source[0], plan.to_destination[0]);
         assert_eq!(
             from.image_subresource.aspect_mask,
@@ -807,7 +1197,21 @@ mod tests {
         assert_eq!(to.image_subresource.base_array_layer, 3);
         assert_eq!((from.buffer_offset, to.buffer_offset), (32, 32));
         assert_eq!(to.image_offset.x, 5);
-        assert!(plan_image_copy(&regions[1..], TexelKind::Unorm24).is_none());
+        assert!(plan_image_copy(&regions[1..], d24).is_none());
+        // Between a promoted image and one that kept D24: the depth goes through the scratch
+        // buffer, converted; a stencil region could not go down (two formats).
+        let apart = kinds(TexelKind::Float32, TexelKind::Unorm24);
+        assert!(plan_image_copy(&regions, apart).is_none());
+        let depth_only = [region(vk::ImageAspectFlags::DEPTH)];
+        let plan = plan_image_copy(&depth_only, apart).unwrap();
+        assert!(plan.rest.is_empty());
+        assert_eq!(
+            (
+                plan.from_source[0].buffer_offset,
+                plan.to_destination[0].buffer_offset
+            ),
+            (32, 32 + 32 * 4)
+        );
     }
 
     #[test]
@@ -820,7 +1224,8 @@ mod tests {
             dst_subresource: layers(vk::ImageAspectFlags::DEPTH, 2),
             dst_offsets: [offset(0, 0, 0), offset(12, 12, 1)],
         };
-        let plan = plan_blit(&[region], TexelKind::Float32).unwrap();
+        let f32 = TexelKinds::same(TexelKind::Float32);
+        let plan = plan_blit(&[region], f32).unwrap();
         assert!(plan.rest.is_empty());
         assert_eq!(
             (plan.staged_extent.width, plan.staged_extent.height),
@@ -832,12 +1237,24 @@ mod tests {
         assert_eq!(plan.blits[0].src_offsets[0].x, 6);
         assert_eq!(plan.blits[0].src_offsets[1].x, 0);
         assert_eq!(plan.blits[0].dst_offsets[1].x, 12);
-        assert_eq!(plan.layout.words, 6 * 6 * 2);
+        assert_eq!(plan.layout.pairs, 6 * 6);
         let empty = vk::ImageBlit {
             src_offsets: [offset(3, 3, 0), offset(3, 9, 1)],
             ..region
         };
-        assert!(plan_blit(&[empty], TexelKind::Float32).is_none());
+        assert!(plan_blit(&[empty], f32).is_none());
+        // Into an image of another format: staged in its format, the stencil refused.
+        let apart = kinds(TexelKind::Float32, TexelKind::Unorm16);
+        let plan = plan_blit(&[region], apart).unwrap();
+        assert_eq!(plan.to_staged[0].buffer_offset, 32 + 6 * 6 * 2 * 4);
+        let both = vk::ImageBlit {
+            src_subresource: layers(
+                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                2,
+            ),
+            ..region
+        };
+        assert!(plan_blit(&[both], apart).is_none());
     }
 
     /// Every byte the application's copy would write is written once, nothing else (padding

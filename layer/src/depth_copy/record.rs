@@ -66,9 +66,13 @@ pub unsafe fn record(
     if !device.copies.fits(conversion.size) {
         return Err(Unconverted::Resources);
     }
-    let pipeline = device
+    let (layouts, pipeline) = device
         .copies
-        .pipeline(device.handle, &device.next)
+        .pipeline(
+            device.handle,
+            &device.next,
+            conversion.header.specialization,
+        )
         .ok_or(Unconverted::Resources)?;
     let slot = copies
         .slot(device, conversion.size)
@@ -176,15 +180,15 @@ pub unsafe fn record(
             vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
         )],
     );
-    let (x, y) = workgroups(conversion.header.count);
+    let (x, y) = workgroups(conversion.header.pairs);
     // SAFETY: revz's pipeline and its set; the application's compute state is bound again
     // below.
     unsafe {
-        (v.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
+        (v.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::COMPUTE, pipeline);
         (v.cmd_bind_descriptor_sets)(
             buffer,
             vk::PipelineBindPoint::COMPUTE,
-            pipeline.layout,
+            layouts.layout,
             0,
             1,
             &set,

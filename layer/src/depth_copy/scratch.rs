@@ -290,7 +290,7 @@ unsafe fn create_slot(device: &DeviceState, size: u64) -> Option<Slot> {
         unsafe { (v.create_descriptor_pool)(handle, &pool_info, null, &mut slot.pool) }.result()?;
         let pipeline = device
             .copies
-            .pipeline(handle, &device.next)
+            .layouts(handle, &device.next)
             .ok_or(vk::Result::ERROR_INITIALIZATION_FAILED)?;
         let layouts = [pipeline.set_layout];
         let set_info = vk::DescriptorSetAllocateInfo::default()

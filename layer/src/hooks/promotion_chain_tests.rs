@@ -47,10 +47,9 @@ const SINGLE: vk::SampleCountFlags = vk::SampleCountFlags::TYPE_1;
 const MULTISAMPLED: vk::SampleCountFlags = vk::SampleCountFlags::TYPE_4;
 /// Only rendered to: promoted, and reversed.
 const ATTACHMENT: vk::ImageUsageFlags = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
-/// Copied to: keeps its UNORM format (copies are not converted), and is still reversed
-/// (`reverse_observable = none` makes only images copied *from* native).
-const COPIED_TO: vk::ImageUsageFlags =
-    vk::ImageUsageFlags::from_raw(ATTACHMENT.as_raw() | vk::ImageUsageFlags::TRANSFER_DST.as_raw());
+/// Aliased memory: an image of these flags keeps its UNORM format (the application places its
+/// memory by the format's sizes) and is still reversed.
+const KEPT_FLAGS: vk::ImageCreateFlags = vk::ImageCreateFlags::ALIAS;
 /// Read by shaders: promoted (a resolve needs one format at both ends), but native.
 const SAMPLED: vk::ImageUsageFlags =
     vk::ImageUsageFlags::from_raw(ATTACHMENT.as_raw() | vk::ImageUsageFlags::SAMPLED.as_raw());
@@ -264,6 +263,21 @@ impl Fixture {
         samples: vk::SampleCountFlags,
     ) -> (vk::Image, vk::ImageView) {
         let info = fake_chain::depth_image_info(format, EXTENT, usage, samples);
+        let (image, _) = self.create_image(&info);
+        (image, self.create_view(image, format).handle)
+    }
+
+    /// A depth attachment as [`Self::depth_image`] makes it, with [`KEPT_FLAGS`]: it keeps its
+    /// UNORM format, and is reversed.
+    fn kept_depth_image(
+        &self,
+        format: vk::Format,
+        samples: vk::SampleCountFlags,
+    ) -> (vk::Image, vk::ImageView) {
+        let info = vk::ImageCreateInfo {
+            flags: KEPT_FLAGS,
+            ..fake_chain::depth_image_info(format, EXTENT, ATTACHMENT, samples)
+        };
         let (image, _) = self.create_image(&info);
         (image, self.create_view(image, format).handle)
     }
@@ -518,10 +532,24 @@ impl Fixture {
         pass: vk::RenderPass,
         attachments: &[(vk::ImageUsageFlags, &[vk::Format])],
     ) -> FramebufferCreated {
+        let flagged: Vec<_> = attachments
+            .iter()
+            .map(|&(usage, formats)| (usage, vk::ImageCreateFlags::empty(), formats))
+            .collect();
+        self.flagged_imageless_framebuffer(pass, &flagged)
+    }
+
+    /// As [`Self::imageless_framebuffer`], with each attachment's image create flags.
+    fn flagged_imageless_framebuffer(
+        &self,
+        pass: vk::RenderPass,
+        attachments: &[(vk::ImageUsageFlags, vk::ImageCreateFlags, &[vk::Format])],
+    ) -> FramebufferCreated {
         let images: Vec<vk::FramebufferAttachmentImageInfo<'_>> = attachments
             .iter()
-            .map(|(usage, formats)| {
+            .map(|(usage, flags, formats)| {
                 vk::FramebufferAttachmentImageInfo::default()
+                    .flags(*flags)
                     .usage(*usage)
                     .width(EXTENT.width)
                     .height(EXTENT.height)
@@ -1182,9 +1210,15 @@ fn images_whose_bytes_are_seen_or_that_the_device_refuses_keep_their_unorm_forma
         p_next: (&mut external as *mut vk::ExternalMemoryImageCreateInfo<'_>).cast(),
         ..attachment
     };
+    // Copied from and to: promoted (copies convert between the formats).
+    for usage in [
+        vk::ImageUsageFlags::TRANSFER_SRC,
+        vk::ImageUsageFlags::TRANSFER_DST,
+    ] {
+        let (image, _) = fx.create_image(&with_usage(usage));
+        assert_eq!(fx.promoted(image), Some(vk::Format::D32_SFLOAT_S8_UINT));
+    }
     let cases = [
-        ("copied from", with_usage(vk::ImageUsageFlags::TRANSFER_SRC)),
-        ("copied to", with_usage(vk::ImageUsageFlags::TRANSFER_DST)),
         (
             "host copies",
             with_usage(vk::ImageUsageFlags::from_raw(0x0040_0000)),
@@ -1409,7 +1443,7 @@ fn a_render_pass2_of_a_unorm_depth_attachment_gets_a_float_twin_begun_over_promo
 
     let (image, promoted_view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
     assert_eq!(fx.promoted(image), Some(D32_S8));
-    let (image, kept_view) = fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    let (image, kept_view) = fx.kept_depth_image(D24_S8, SINGLE);
     assert_eq!(fx.promoted(image), None);
     let promoted = fx.framebuffer(pass, &[promoted_view, color_view()]);
     assert_eq!(promoted.render_pass, twin.handle, "created with the twin");
@@ -1463,7 +1497,7 @@ fn a_first_version_render_pass_of_a_unorm_depth_attachment_gets_a_float_twin_too
         assert_eq!(fx.pass_info(pass).promoted_twin, Some(twin.handle));
 
         let (_, promoted_view) = fx.depth_image(format, ATTACHMENT, SINGLE);
-        let (_, kept_view) = fx.depth_image(format, COPIED_TO, SINGLE);
+        let (_, kept_view) = fx.kept_depth_image(format, SINGLE);
         let promoted = fx.framebuffer(pass, &[promoted_view]);
         assert_eq!(promoted.render_pass, twin.handle);
         let kept = fx.framebuffer(pass, &[kept_view]);
@@ -1617,11 +1651,15 @@ fn an_imageless_framebuffer_of_promotable_attachments_names_float_formats_and_th
 
     // Attachment infos of images that keep their format: the application's pass and create
     // info.
-    let kept = fx.imageless_framebuffer(
+    let kept = fx.flagged_imageless_framebuffer(
         pass,
         &[
-            (COPIED_TO, &[D24_S8]),
-            (vk::ImageUsageFlags::COLOR_ATTACHMENT, &[COLOR]),
+            (ATTACHMENT, KEPT_FLAGS, &[D24_S8]),
+            (
+                vk::ImageUsageFlags::COLOR_ATTACHMENT,
+                vk::ImageCreateFlags::empty(),
+                &[COLOR],
+            ),
         ],
     );
     assert_eq!(kept.render_pass, pass);
@@ -1630,7 +1668,7 @@ fn an_imageless_framebuffer_of_promotable_attachments_names_float_formats_and_th
         kept.image_view_formats,
         Some(vec![vec![D24_S8], vec![COLOR]])
     );
-    let (_, kept_view) = fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    let (_, kept_view) = fx.kept_depth_image(D24_S8, SINGLE);
     let views = [kept_view, color_view()];
     let attachments = vk::RenderPassAttachmentBeginInfo::default().attachments(&views);
     let run = fx.run_pass_with(
@@ -1652,7 +1690,7 @@ fn a_pipeline_of_a_promoted_pass_gets_a_variant_against_the_twin_bound_for_promo
     let (pass, created) = fx.depth_pass(D24_S8, false);
     let twin = the_twin(&created, pass).handle;
     let (_, promoted_view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
-    let (_, kept_view) = fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    let (_, kept_view) = fx.kept_depth_image(D24_S8, SINGLE);
     let promoted = fx.framebuffer(pass, &[promoted_view]).handle;
     let kept = fx.framebuffer(pass, &[kept_view]).handle;
 
@@ -1743,7 +1781,7 @@ fn with_compare_op_variants_each_target_binds_its_own_variant() {
     let (pass, created) = fx.depth_pass(D24_S8, false);
     let twin = the_twin(&created, pass).handle;
     let (_, promoted_view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
-    let (_, kept_view) = fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    let (_, kept_view) = fx.kept_depth_image(D24_S8, SINGLE);
     let (_, native_view) = fx.depth_image(D24_S8, SAMPLED, SINGLE);
     let promoted = fx.framebuffer(pass, &[promoted_view]).handle;
     let kept = fx.framebuffer(pass, &[kept_view]).handle;
@@ -1910,7 +1948,7 @@ fn dynamic_rendering_pipelines_get_a_variant_with_float_formats_bound_for_promot
     assert_eq!(recorded.promoted_variant, Some(variant.handle));
 
     let (_, promoted_view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
-    let (_, kept_view) = fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    let (_, kept_view) = fx.kept_depth_image(D24_S8, SINGLE);
     let buffer = fx.primary();
     let run = fx.run_rendering(buffer, promoted_view, Some(pipeline), false);
     assert_eq!(run.binds, [variant.handle]);
@@ -1952,7 +1990,7 @@ fn secondaries_continuing_a_promoted_pass_inherit_its_twin() {
     let (pass, created) = fx.depth_pass(D24_S8, false);
     let twin = the_twin(&created, pass).handle;
     let (_, promoted_view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
-    let (_, kept_view) = fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    let (_, kept_view) = fx.kept_depth_image(D24_S8, SINGLE);
     let promoted = fx.framebuffer(pass, &[promoted_view]).handle;
     let kept = fx.framebuffer(pass, &[kept_view]).handle;
     let (pipeline, created, _) = fx.pipeline(PipelineTarget::Pass(pass), None, &[]);
@@ -2045,7 +2083,7 @@ fn secondaries_of_a_pass_not_yet_begun_follow_the_images_of_its_depth_format() {
         fx.begin_secondary(secondary, &unnamed).0.render_pass
     };
     assert_eq!(begin(), pass, "no image of the format");
-    fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    fx.kept_depth_image(D24_S8, SINGLE);
     assert_eq!(begin(), pass, "only images that keep the format");
     fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
     assert_eq!(
@@ -2063,7 +2101,7 @@ fn secondaries_inheriting_an_imageless_framebuffer_follow_how_it_was_created() {
     let twin = the_twin(&created, pass).handle;
     let promoted = fx.imageless_framebuffer(pass, &[(ATTACHMENT, &[D24_S8])]);
     assert_eq!(promoted.render_pass, twin);
-    let kept = fx.imageless_framebuffer(pass, &[(COPIED_TO, &[D24_S8])]);
+    let kept = fx.flagged_imageless_framebuffer(pass, &[(ATTACHMENT, KEPT_FLAGS, &[D24_S8])]);
     assert_eq!(kept.render_pass, pass);
     // The pass was last begun for secondaries over the promoted framebuffer.
     let (_, view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
@@ -2139,7 +2177,7 @@ fn a_secondary_inheriting_an_imageless_framebuffer_takes_its_storage_and_its_pas
 fn secondaries_continuing_promoted_dynamic_rendering_inherit_float_formats() {
     let fx = Fixture::new();
     let (_, promoted_view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
-    let (_, kept_view) = fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    let (_, kept_view) = fx.kept_depth_image(D24_S8, SINGLE);
     let (pipeline, created, _) = fx.pipeline(PipelineTarget::Rendering(D24_S8, D24_S8), None, &[]);
     let variant = created[0].handle;
     let colors = [COLOR];
@@ -2211,7 +2249,7 @@ fn constant_depth_bias_on_promoted_d16_targets_is_scaled_to_float_units() {
     let (pass, created) = fx.depth_pass(D16, false);
     let twin = the_twin(&created, pass).handle;
     let (_, promoted_view) = fx.depth_image(D16, ATTACHMENT, SINGLE);
-    let (_, kept_view) = fx.depth_image(D16, COPIED_TO, SINGLE);
+    let (_, kept_view) = fx.kept_depth_image(D16, SINGLE);
     let promoted = fx.framebuffer(pass, &[promoted_view]).handle;
     let kept = fx.framebuffer(pass, &[kept_view]).handle;
     let (pipeline, _, _) = fx.pipeline(PipelineTarget::Pass(pass), Some(-8.0), &[]);
@@ -2286,7 +2324,7 @@ fn a_depth_bias_in_the_formats_units_set_with_a_representation_is_scaled_on_prom
     let fx = Fixture::new();
     let (pass, _) = fx.depth_pass(D16, false);
     let (_, promoted_view) = fx.depth_image(D16, ATTACHMENT, SINGLE);
-    let (_, kept_view) = fx.depth_image(D16, COPIED_TO, SINGLE);
+    let (_, kept_view) = fx.kept_depth_image(D16, SINGLE);
     let promoted = fx.framebuffer(pass, &[promoted_view]).handle;
     let kept = fx.framebuffer(pass, &[kept_view]).handle;
     let (dynamic, _, _) = fx.pipeline(
@@ -2409,9 +2447,9 @@ fn a_framebuffer_mixing_promoted_and_unorm_resolve_images_is_created_as_the_appl
     };
     let (image, promoted_source) = fx.depth_image(X8_D24, ATTACHMENT, MULTISAMPLED);
     assert_eq!(fx.promoted(image), Some(D32));
-    let (image, kept_destination) = fx.depth_image(X8_D24, COPIED_TO, SINGLE);
+    let (image, kept_destination) = fx.kept_depth_image(X8_D24, SINGLE);
     assert_eq!(fx.promoted(image), None);
-    let (image, kept_source) = fx.depth_image(X8_D24, COPIED_TO, MULTISAMPLED);
+    let (image, kept_source) = fx.kept_depth_image(X8_D24, MULTISAMPLED);
     assert_eq!(fx.promoted(image), None);
     let (_, promoted_destination) = fx.depth_image(X8_D24, ATTACHMENT, SINGLE);
 
@@ -2456,7 +2494,7 @@ fn log_child(path: std::ffi::OsString) {
     // did, `KeptFormat::ResolvePartner`).
     let (pass, _) = fx.resolving_pass(D24_S8, vk::ResolveModeFlags::SAMPLE_ZERO);
     let (_, source) = fx.depth_image(D24_S8, ATTACHMENT, MULTISAMPLED);
-    let (_, destination) = fx.depth_image(D24_S8, COPIED_TO, SINGLE);
+    let (_, destination) = fx.kept_depth_image(D24_S8, SINGLE);
     let mixed = fx.framebuffer(pass, &[source, destination]);
     assert_eq!(mixed.render_pass, pass);
     // A second multisampled image now keeps its format: its likely partner does.
@@ -2464,7 +2502,7 @@ fn log_child(path: std::ffi::OsString) {
     let attachment = fake_chain::depth_image_info(D24_S8, EXTENT, ATTACHMENT, SINGLE);
     for info in [
         vk::ImageCreateInfo {
-            usage: COPIED_TO,
+            usage: ATTACHMENT | vk::ImageUsageFlags::from_raw(0x0040_0000),
             ..attachment
         },
         vk::ImageCreateInfo {
@@ -2515,7 +2553,7 @@ fn images_that_keep_their_format_and_mixed_framebuffers_are_logged() {
     let log = std::fs::read_to_string(&path).expect("the child's log file");
     let _ = std::fs::remove_file(&path);
     for expected in [
-        "keep their format, because it is copied from or to",
+        "keep their format, because host image copies read or write it",
         "keep their format, because its memory layout is seen outside",
         "keep their format, because its memory is sparse or aliased",
         "keep their format, because the device does not support the \
@@ -2528,7 +2566,8 @@ fn images_that_keep_their_format_and_mixed_framebuffers_are_logged() {
     }
     // Once per reason.
     assert_eq!(
-        log.matches("because it is copied from or to").count(),
+        log.matches("because host image copies read or write it")
+            .count(),
         1,
         "{log}"
     );

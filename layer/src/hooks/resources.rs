@@ -42,7 +42,7 @@ fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
     use crate::policy::KeptFormat;
     static ONCE: [crate::logging::LogOnce; 6] = [const { crate::logging::LogOnce::new() }; 6];
     let index = match reason {
-        KeptFormat::Copied => 0,
+        KeptFormat::HostCopied => 0,
         KeptFormat::LaidOutOutside => 1,
         KeptFormat::PlacedMemory => 2,
         KeptFormat::Unsupported => 3,

@@ -1,7 +1,7 @@
 //! Transfers touching a reversed depth image (copies and blits): whether their depth values
 //! are converted, and which way ([`CopyFacts::decide`] into a [`CopyDecision`]), or why one
 //! that should be is not ([`Unconverted`]); and which texels a conversion reads and writes
-//! ([`conversion_kind`]); what each image end of a copy is ([`image_copy_end`],
+//! ([`conversion_kinds`]); what each image end of a copy is ([`image_copy_end`],
 //! [`copied_texels`], [`single_sampled`]).
 
 use std::fmt;
@@ -9,7 +9,7 @@ use std::fmt;
 use ash::vk;
 
 use crate::command_state::Target;
-use crate::depth_copy::plan::TexelKind;
+use crate::depth_copy::plan::{TexelKind, TexelKinds};
 
 /// Which end of a copy an image is: reversed where revz knows it (`effective`: `None` where it
 /// does not) and its depth is reversed after the application's convention
@@ -54,6 +54,9 @@ pub enum CopyDirection {
     ToStandard,
     /// Standard values enter a reversed image: revz stores them reversed.
     ToReversed,
+    /// The values keep their convention; only their format changes (a promoted image's
+    /// float32 to or from the application's UNORM format).
+    Keep,
 }
 
 /// Why a copy that should be converted is not (its values keep the source's convention;
@@ -73,7 +76,8 @@ pub enum Unconverted {
     /// Conditional rendering is active: it could discard revz's dispatch and not the copies.
     Conditional,
     /// Its regions or formats: a layer count of `VK_REMAINING_ARRAY_LAYERS`, an empty blit box,
-    /// two depth formats, or more texels than one conversion holds.
+    /// stencil between a promoted and an unpromoted image, or more texels than one conversion
+    /// holds.
     Regions,
     /// Too many texels for one conversion (past the device's `maxStorageBufferRange`), or
     /// revz could not create its conversion pipeline or scratch memory.
@@ -99,8 +103,8 @@ impl fmt::Display for Unconverted {
                 "conditional rendering is active (it could discard revz's dispatch)"
             }
             Unconverted::Regions => {
-                "of its regions or formats (VK_REMAINING_ARRAY_LAYERS, an empty blit box, two \
-                 depth formats, or too many texels)"
+                "of its regions or formats (VK_REMAINING_ARRAY_LAYERS, an empty blit box, \
+                 stencil between a promoted and an unpromoted image, or too many texels)"
             }
             Unconverted::Resources => {
                 "revz could not get the scratch memory, staged image or pipeline for it (or it \
@@ -117,6 +121,11 @@ pub struct CopyFacts {
     pub destination: CopyEnd,
     /// The transfer touches the depth aspect (stencil is never converted).
     pub depth_aspect: bool,
+    /// The depth texels change format on the way: one end is a promoted image (float32
+    /// storage) and the other holds the application's UNORM format (a buffer, or an image
+    /// that kept it). Such a copy is converted whatever the conventions and `copy_values`:
+    /// sent down as it is, it would hand over or take in bytes of the wrong format.
+    pub repack: bool,
     /// The `copy_values` setting.
     pub values: crate::config::CopyValues,
     /// The command buffer's queue family can dispatch compute.
@@ -131,11 +140,11 @@ pub struct CopyFacts {
     pub conditional: bool,
 }
 
-/// The decision for one transfer touching a reversed depth image.
+/// The decision for one transfer touching a reversed or promoted depth image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CopyDecision {
-    /// Nothing to convert: no reversed end, both ends reversed, no depth aspect, or
-    /// `copy_values = stored`.
+    /// Nothing to convert: no depth aspect, or one format at both ends and no reversed end,
+    /// both ends reversed, or `copy_values = stored`.
     Unchanged,
     Convert(CopyDirection),
     /// It should be converted and cannot be: it goes down as it is.
@@ -145,16 +154,23 @@ pub enum CopyDecision {
 impl CopyFacts {
     /// Values change convention exactly where one end is reversed and the other is not:
     /// out of a reversed image into a buffer or a native image they become standard, into a
-    /// reversed image from a buffer or a native image they become reversed.
+    /// reversed image from a buffer or a native image they become reversed (unless
+    /// `copy_values = stored`). Their format changes wherever the texels do ([`Self::repack`]).
     pub fn decide(&self) -> CopyDecision {
         use crate::config::CopyValues;
         let direction = match (self.source, self.destination) {
-            (CopyEnd::Reversed, CopyEnd::Reversed) => return CopyDecision::Unchanged,
-            (CopyEnd::Reversed, _) => CopyDirection::ToStandard,
-            (_, CopyEnd::Reversed) => CopyDirection::ToReversed,
-            _ => return CopyDecision::Unchanged,
+            _ if self.values == CopyValues::Stored => None,
+            (CopyEnd::Reversed, CopyEnd::Reversed) => None,
+            (CopyEnd::Reversed, _) => Some(CopyDirection::ToStandard),
+            (_, CopyEnd::Reversed) => Some(CopyDirection::ToReversed),
+            _ => None,
         };
-        if !self.depth_aspect || self.values == CopyValues::Stored {
+        let direction = match direction {
+            Some(direction) => direction,
+            None if self.repack => CopyDirection::Keep,
+            None => return CopyDecision::Unchanged,
+        };
+        if !self.depth_aspect {
             return CopyDecision::Unchanged;
         }
         let refused = if self.extended {
@@ -177,28 +193,42 @@ impl CopyFacts {
     }
 }
 
-/// How one end of a converted copy holds its depth texels, for [`conversion_kind`].
+/// How one end of a converted copy holds its depth texels, for [`conversion_kinds`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Texels {
-    /// A buffer: tightly packed texels of the image's kind.
-    Buffer,
+    /// A buffer: texels of the application's format (the image's as it created it, not the
+    /// float one revz stores a promoted image in); `None`: no depth aspect revz knows.
+    Buffer(Option<TexelKind>),
     /// An image whose depth has this kind in the format revz created it in (the float one of
     /// a promoted image); `None`: no depth aspect revz knows.
     Image(Option<TexelKind>),
 }
 
-/// The texel kind a copy's conversion reads and writes: its image's, between an image and a
-/// buffer; between two images, the one kind both have (a depth copy needs one format at both
-/// ends before `VK_KHR_maintenance8`, and a blit is converted through a staged image of the
-/// source's format). `None`: revz cannot convert it (`Unconverted::Regions`).
-pub fn conversion_kind(source: Texels, destination: Texels) -> Option<TexelKind> {
-    match (source, destination) {
-        (Texels::Image(kind), Texels::Buffer) | (Texels::Buffer, Texels::Image(kind)) => kind,
-        (Texels::Image(source), Texels::Image(destination)) => {
-            source.filter(|&kind| destination == Some(kind))
+impl Texels {
+    fn kind(self) -> Option<TexelKind> {
+        match self {
+            Texels::Buffer(kind) | Texels::Image(kind) => kind,
         }
-        (Texels::Buffer, Texels::Buffer) => None,
     }
+}
+
+/// The texel kinds a copy's conversion reads and writes: each end's own (a buffer's is the
+/// application's format, an image's the one revz stores it in), so that a promoted image's
+/// float32 is packed into or read from the application's UNORM bytes in the same pass that
+/// converts the values. Between two images of different formats the depth goes through the
+/// scratch buffer and a blit through a staged image of the destination's format. `None`: an
+/// end whose depth revz does not know, or two buffers (`Unconverted::Regions`).
+pub fn conversion_kinds(source: Texels, destination: Texels) -> Option<TexelKinds> {
+    if matches!(
+        (source, destination),
+        (Texels::Buffer(_), Texels::Buffer(_))
+    ) {
+        return None;
+    }
+    Some(TexelKinds {
+        source: source.kind()?,
+        destination: destination.kind()?,
+    })
 }
 
 #[cfg(test)]
@@ -240,6 +270,7 @@ mod tests {
             source,
             destination,
             depth_aspect: true,
+            repack: false,
             values: CopyValues::Standard,
             dispatchable: true,
             restorable: true,
@@ -335,25 +366,92 @@ mod tests {
     }
 
     #[test]
-    fn a_conversion_reads_and_writes_one_kind_of_texel() {
+    fn a_promoted_end_repacks_whatever_the_conventions() {
+        use crate::config::CopyValues;
+        use CopyEnd::{Buffer, Native, Reversed};
+        let facts = |source, destination, values| CopyFacts {
+            source,
+            destination,
+            depth_aspect: true,
+            repack: true,
+            values,
+            dispatchable: true,
+            restorable: true,
+            extended: false,
+            multisampled: false,
+            conditional: false,
+        };
+        let keep = CopyDecision::Convert(CopyDirection::Keep);
+        // A promoted native image read back, or written from a buffer: only the format.
+        assert_eq!(facts(Native, Buffer, CopyValues::Standard).decide(), keep);
+        assert_eq!(facts(Buffer, Native, CopyValues::Standard).decide(), keep);
+        // Both reversed (a promoted image and one that kept its format), and stored values.
+        assert_eq!(
+            facts(Reversed, Reversed, CopyValues::Standard).decide(),
+            keep
+        );
+        assert_eq!(facts(Reversed, Buffer, CopyValues::Stored).decide(), keep);
+        // The convention changes too where one end is reversed.
+        assert_eq!(
+            facts(Reversed, Buffer, CopyValues::Standard).decide(),
+            CopyDecision::Convert(CopyDirection::ToStandard)
+        );
+        // Stencil alone is laid out the same in both formats.
+        let stencil = CopyFacts {
+            depth_aspect: false,
+            ..facts(Native, Buffer, CopyValues::Standard)
+        };
+        assert_eq!(stencil.decide(), CopyDecision::Unchanged);
+        // A repack that cannot be recorded is refused like a conversion.
+        let multisampled = CopyFacts {
+            multisampled: true,
+            ..facts(Native, Native, CopyValues::Standard)
+        };
+        assert_eq!(
+            multisampled.decide(),
+            CopyDecision::Unconverted(Unconverted::Multisampled)
+        );
+    }
+
+    #[test]
+    fn a_conversion_reads_each_end_s_own_texels() {
         use TexelKind::{Float32, Unorm16, Unorm24};
         use Texels::{Buffer, Image};
-        for kind in [Some(Unorm16), Some(Unorm24), Some(Float32), None] {
-            assert_eq!(conversion_kind(Image(kind), Buffer), kind);
-            assert_eq!(conversion_kind(Buffer, Image(kind)), kind);
-            assert_eq!(conversion_kind(Image(kind), Image(kind)), kind);
-            assert_eq!(conversion_kind(Image(kind), Image(None)), None);
-            assert_eq!(conversion_kind(Image(None), Image(kind)), None);
+        let kinds = |source, destination| {
+            Some(TexelKinds {
+                source,
+                destination,
+            })
+        };
+        for kind in [Unorm16, Unorm24, Float32] {
+            assert_eq!(
+                conversion_kinds(Image(Some(kind)), Buffer(Some(kind))),
+                Some(TexelKinds::same(kind))
+            );
+            assert_eq!(
+                conversion_kinds(Image(Some(kind)), Image(Some(kind))),
+                Some(TexelKinds::same(kind))
+            );
+            assert_eq!(conversion_kinds(Image(Some(kind)), Image(None)), None);
+            assert_eq!(conversion_kinds(Image(None), Buffer(Some(kind))), None);
         }
-        // A promoted image (float) and a UNORM one: two formats.
+        // A promoted image read into the application's D16 buffer, and written from D24 bytes.
         assert_eq!(
-            conversion_kind(Image(Some(Float32)), Image(Some(Unorm24))),
-            None
+            conversion_kinds(Image(Some(Float32)), Buffer(Some(Unorm16))),
+            kinds(Float32, Unorm16)
         );
         assert_eq!(
-            conversion_kind(Image(Some(Unorm16)), Image(Some(Unorm24))),
+            conversion_kinds(Buffer(Some(Unorm24)), Image(Some(Float32))),
+            kinds(Unorm24, Float32)
+        );
+        // A promoted image and one that kept its UNORM format.
+        assert_eq!(
+            conversion_kinds(Image(Some(Float32)), Image(Some(Unorm24))),
+            kinds(Float32, Unorm24)
+        );
+        assert_eq!(
+            conversion_kinds(Buffer(Some(Unorm16)), Buffer(Some(Unorm16))),
             None
         );
-        assert_eq!(conversion_kind(Buffer, Buffer), None);
     }
 }

@@ -146,9 +146,11 @@ impl ImageFacts {
 /// Why a depth image in a UNORM format keeps it (logged once per reason).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum KeptFormat {
-    /// Copies read or write its bytes (transfer usage): the application would get float bits
-    /// where it expects UNORM values (and, for D16, twice the bytes).
-    Copied,
+    /// Host image copies (`VK_EXT_host_image_copy`, `HOST_TRANSFER` usage) read or write its
+    /// bytes without a command revz could convert: the host would get float bits where it
+    /// expects UNORM values. (Copies recorded in command buffers are converted,
+    /// `crate::depth_copy`.)
+    HostCopied,
     /// Linear tiling, DRM modifiers or external memory: its memory layout is seen from
     /// outside.
     LaidOutOutside,
@@ -168,9 +170,8 @@ pub enum KeptFormat {
 impl fmt::Display for KeptFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            KeptFormat::Copied => {
-                "it is copied from or to (transfer usage), and copies of promoted images are \
-                 not converted"
+            KeptFormat::HostCopied => {
+                "host image copies read or write it (HOST_TRANSFER), which revz cannot convert"
             }
             KeptFormat::LaidOutOutside => {
                 "its memory layout is seen outside (linear tiling, DRM modifier or external \
@@ -220,10 +221,10 @@ impl DevicePolicy {
         let Some(float) = crate::conv::float_depth_format(format).filter(|_| self.promote) else {
             return Ok(None);
         };
-        let transfer =
-            vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST | HOST_TRANSFER;
-        if facts.usage.intersects(transfer) {
-            return Err(KeptFormat::Copied);
+        // Copies and blits in command buffers are converted between the float storage and
+        // the application's format (`crate::depth_copy`); host image copies are not.
+        if facts.usage.intersects(HOST_TRANSFER) {
+            return Err(KeptFormat::HostCopied);
         }
         if facts.tiling != vk::ImageTiling::OPTIMAL || facts.external {
             return Err(KeptFormat::LaidOutOutside);
@@ -446,17 +447,30 @@ mod tests {
             p.promoted_format(d24, sampled, yes),
             Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
         );
+        // Images copied from and to as well (copies convert between the formats), but not
+        // those host image copies read: revz never sees those.
         for transfer in [
             vk::ImageUsageFlags::TRANSFER_SRC,
             vk::ImageUsageFlags::TRANSFER_DST,
-            vk::ImageUsageFlags::from_raw(0x0040_0000),
+            vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST,
         ] {
             let copied = ImageFacts {
                 usage: ATTACHMENT_IMAGE.usage | transfer,
                 ..ATTACHMENT_IMAGE
             };
-            assert_eq!(p.promoted_format(d24, copied, yes), Err(KeptFormat::Copied));
+            assert_eq!(
+                p.promoted_format(d24, copied, yes),
+                Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
+            );
         }
+        let host_copied = ImageFacts {
+            usage: ATTACHMENT_IMAGE.usage | HOST_TRANSFER,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            p.promoted_format(d24, host_copied, yes),
+            Err(KeptFormat::HostCopied)
+        );
         let linear = ImageFacts {
             tiling: vk::ImageTiling::LINEAR,
             ..ATTACHMENT_IMAGE

@@ -60,11 +60,11 @@
 //! | why a pipeline whose vertex stage's facts revz lacks takes the flip path ([`vertex_stage::MissingFact::reason`]), and which analysis is its entry point's ([`vertex_stage::entry_point_analysis`]) | whether its vertex module is known and has a `Position` rewrite, whether its inline code has one, whether it has a module or inline code, a vertex stage, a readable module, an entry point name | `vkCreateShaderModule` (or inline code), `vkCreateGraphicsPipelines` |
 //! | which `Position` rewrite a vertex module gets: the carrier store or the deriving one ([`vertex_stage::position_store`]), and whether it gets one at all ([`vertex_stage::module_position_store`]) | the carrier's offset (the precise path), whether its analysis could be read, the analysis of its entry points (`crate::shader::analysis`) | `vkCreateShaderModule` (or inline code, once per distinct code) |
 //! | which range a derived draw stores and in which clip convention (`crate::command_state::CommandState::derived_use`) | the mode, the target, the pipeline's dynamic clip convention and its current value | draws |
-//! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures, multisampled images, active conditional rendering | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`, compute bindings from `vkCmdBindPipeline` and `vkCmdBindDescriptorSets`, `vkCmdBeginConditionalRenderingEXT`) |
+//! | is a copy's depth converted, and which way ([`CopyFacts::decide`]) | which end is a reversed image, whether the texels change format (a promoted end against the application's format), the aspect, `copy_values`, whether the command buffer can dispatch and its compute bindings can be restored, extension structures, multisampled images, active conditional rendering | `vkCmdCopy*`, `vkCmdBlitImage*` (image decisions from `vkCreateImage`, pool families from `vkCreateCommandPool`, compute bindings from `vkCmdBindPipeline` and `vkCmdBindDescriptorSets`, `vkCmdBeginConditionalRenderingEXT`) |
 //! | which end of a copy an image is: reversed or native after the convention, unknown images native ([`image_copy_end`], [`ImageDepth::target`]) | whether revz knows the image, its depth decision, the convention | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`, the convention from [`ConventionEvidence::decide`]) |
 //! | which kind of depth texel an image end holds: that of its promoted format where it has one ([`copied_texels`]) | its format, its promoted format | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | does an image count as single-sampled for a copy; unknown images do ([`single_sampled`]) | whether revz knows it, its sample count | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
-//! | which kind of texel a copy's conversion reads and writes ([`conversion_kind`]) | whether each end is a buffer or an image, and the depth texels of each image's format (the float one where promoted) | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
+//! | which kinds of texel a copy's conversion reads and writes ([`conversion_kinds`]) | whether each end is a buffer (the application's format) or an image (the format revz stores it in: the float one where promoted) | `vkCmdCopy*`, `vkCmdBlitImage*` (images from `vkCreateImage`) |
 //! | which state subsets a pipeline create info defines itself ([`libraries::own_subsets`]) | its `VkGraphicsPipelineLibraryCreateInfoEXT`'s subsets, whether it is a library, whether it links libraries | `vkCreateGraphicsPipelines` |
 //! | which of a create info's dynamic states count: those of its own subsets ([`libraries::subset_states`]) | its own subsets | `vkCreateGraphicsPipelines` |
 //! | which library's state a link takes for each subset ([`libraries::inherit_libraries`]) | each linked library's subsets and recorded depth state | `vkCreateGraphicsPipelines` (libraries recorded at their creation) |
@@ -150,7 +150,7 @@ pub use compare_op::{
 };
 pub use convention::{Convention, ConventionEvidence, Observed};
 pub use copies::{
-    conversion_kind, copied_texels, image_copy_end, single_sampled, CopyDecision, CopyDirection,
+    conversion_kinds, copied_texels, image_copy_end, single_sampled, CopyDecision, CopyDirection,
     CopyEnd, CopyFacts, Texels, Unconverted,
 };
 pub use images::{

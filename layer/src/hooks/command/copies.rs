@@ -1,7 +1,8 @@
 //! Copies and blits between depth images and buffers: where one end is a reversed image and
-//! the other holds standard depth, the depth regions are converted on the way (`crate::depth_copy`,
-//! decided by `crate::policy::CopyFacts::decide`) and the other regions (stencil) go down as
-//! the application gave them. The compute state the conversion disturbs (descriptor set binds,
+//! the other holds standard depth, or one end is a promoted image (float32 storage) and the
+//! other holds the application's UNORM format, the depth regions are converted on the way
+//! (`crate::depth_copy`, decided by `crate::policy::CopyFacts::decide`) and the other regions
+//! (stencil) go down as the application gave them. The compute state the conversion disturbs (descriptor set binds,
 //! push descriptors, conditional rendering) is followed in `compute_state.rs`.
 
 #![allow(clippy::wildcard_imports)]
@@ -12,30 +13,58 @@ use crate::depth_copy::plan::{
 };
 use crate::depth_copy::record::{record, record_blit, Conversion, Drain, Fill};
 use crate::policy::{
-    conversion_kind, copied_texels, image_copy_end, single_sampled, CopyDecision, CopyDirection,
+    conversion_kinds, copied_texels, image_copy_end, single_sampled, CopyDecision, CopyDirection,
     CopyEnd, CopyFacts, Texels, Unconverted,
 };
 
-/// What a copy end is, and how its depth lies in a buffer.
-fn image_end(device: &DeviceState, image: vk::Image) -> (CopyEnd, Option<TexelKind>) {
-    let Some(info) = device.objects.images.get(&image) else {
-        return (image_copy_end(None), None);
-    };
-    let end = image_copy_end(Some(device.observed.effective(info.depth.target())));
-    (end, copied_texels(info.format, info.promoted))
+/// One image end of a copy: its convention, and how its depth texels lie in a buffer as revz
+/// stores it (`stored`: float32 where promoted) and as the application made it (`own`).
+#[derive(Clone, Copy, Debug)]
+struct ImageEnd {
+    end: CopyEnd,
+    stored: Option<TexelKind>,
+    own: Option<TexelKind>,
+    /// The format revz created it in (`None`: an image revz does not know).
+    created: Option<vk::Format>,
 }
 
-/// The decision for a copy between `source` and `destination`.
+impl ImageEnd {
+    /// Whether revz stores it in another format than the application's (promoted).
+    fn promoted(self) -> bool {
+        self.stored != self.own
+    }
+}
+
+/// What a copy end is, and how its depth lies in a buffer.
+fn image_end(device: &DeviceState, image: vk::Image) -> ImageEnd {
+    let Some(info) = device.objects.images.get(&image) else {
+        return ImageEnd {
+            end: image_copy_end(None),
+            stored: None,
+            own: None,
+            created: None,
+        };
+    };
+    ImageEnd {
+        end: image_copy_end(Some(device.observed.effective(info.depth.target()))),
+        stored: copied_texels(info.format, info.promoted),
+        own: copied_texels(info.format, None),
+        created: Some(info.promoted.unwrap_or(info.format)),
+    }
+}
+
+/// The decision for a copy between `source` and `destination` (`repack`: the depth texels
+/// change format on the way, `crate::policy::CopyFacts::repack`).
 fn decide(
     entry: &CommandBufferEntry,
-    source: CopyEnd,
-    destination: CopyEnd,
+    (source, destination): (CopyEnd, CopyEnd),
+    repack: bool,
     depth_aspect: bool,
     extended: bool,
     images: &[vk::Image],
 ) -> CopyDecision {
-    if source != CopyEnd::Reversed && destination != CopyEnd::Reversed {
-        // The common case (no reversed end) takes no lock.
+    if source != CopyEnd::Reversed && destination != CopyEnd::Reversed && !repack {
+        // The common case (no reversed or promoted end) takes no lock.
         return CopyDecision::Unchanged;
     }
     let (restorable, conditional) = {
@@ -46,6 +75,7 @@ fn decide(
         source,
         destination,
         depth_aspect,
+        repack,
         values: entry.device.settings.copy_values,
         dispatchable: entry.dispatchable,
         restorable,
@@ -75,6 +105,7 @@ fn depth_map(device: &DeviceState, direction: CopyDirection) -> DepthMap {
     match direction {
         CopyDirection::ToStandard => DepthMap::to_standard(reversal),
         CopyDirection::ToReversed => DepthMap::to_reversed(reversal),
+        CopyDirection::Keep => DepthMap::IDENTITY,
     }
 }
 
@@ -120,16 +151,24 @@ fn image_buffer_copy(
     to_buffer: bool,
     extended: bool,
 ) -> Sent {
-    let (end, kind) = image_end(&entry.device, image);
-    let (source, destination) = if to_buffer {
-        (end, CopyEnd::Buffer)
+    let end = image_end(&entry.device, image);
+    let ends = if to_buffer {
+        (end.end, CopyEnd::Buffer)
     } else {
-        (CopyEnd::Buffer, end)
+        (CopyEnd::Buffer, end.end)
     };
     let depth_aspect = regions
         .iter()
         .any(|r| r.image_subresource.aspect_mask == vk::ImageAspectFlags::DEPTH);
-    let direction = match decide(entry, source, destination, depth_aspect, extended, &[image]) {
+    let decision = decide(
+        entry,
+        ends,
+        end.promoted(),
+        depth_aspect,
+        extended,
+        &[image],
+    );
+    let direction = match decision {
         CopyDecision::Unchanged => return Sent::All,
         CopyDecision::Unconverted(why) => {
             entry.device.copies.warn_unconverted(why);
@@ -137,19 +176,24 @@ fn image_buffer_copy(
         }
         CopyDecision::Convert(direction) => direction,
     };
-    let kind = if to_buffer {
-        conversion_kind(Texels::Image(kind), Texels::Buffer)
+    let (image_texels, buffer_texels) = (Texels::Image(end.stored), Texels::Buffer(end.own));
+    let kinds = if to_buffer {
+        conversion_kinds(image_texels, buffer_texels)
     } else {
-        conversion_kind(Texels::Buffer, Texels::Image(kind))
+        conversion_kinds(buffer_texels, image_texels)
     };
-    let Some(plan) =
-        kind.and_then(|kind| plan_buffer_copy(regions, kind, to_buffer).map(|p| (kind, p)))
-    else {
+    let planned = end
+        .stored
+        .zip(end.own)
+        .zip(kinds)
+        .and_then(|((stored, own), kinds)| {
+            plan_buffer_copy(regions, stored, own, to_buffer).map(|plan| (kinds, plan))
+        });
+    let Some((kinds, plan)) = planned else {
         entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
-    let (kind, plan) = plan;
-    let header = ShaderHeader::new(kind, depth_map(&entry.device, direction), plan.layout.words);
+    let header = ShaderHeader::new(kinds, depth_map(&entry.device, direction), &plan.layout);
     let (fill, drain) = if to_buffer {
         (
             Fill::Image {
@@ -205,21 +249,21 @@ fn image_image_copy(
     regions: &[vk::ImageCopy],
     extended: bool,
 ) -> Sent {
-    let (source, src_kind) = image_end(&entry.device, src);
-    let (destination, dst_kind) = image_end(&entry.device, dst);
+    let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
     let depth_aspect = regions.iter().any(|r| {
         r.src_subresource
             .aspect_mask
             .contains(vk::ImageAspectFlags::DEPTH)
     });
-    let direction = match decide(
+    let decision = decide(
         entry,
-        source,
-        destination,
+        (source.end, destination.end),
+        stored_apart(source, destination),
         depth_aspect,
         extended,
         &[src, dst],
-    ) {
+    );
+    let direction = match decision {
         CopyDecision::Unchanged => return Sent::All,
         CopyDecision::Unconverted(why) => {
             entry.device.copies.warn_unconverted(why);
@@ -227,15 +271,18 @@ fn image_image_copy(
         }
         CopyDecision::Convert(direction) => direction,
     };
-    let kind = conversion_kind(Texels::Image(src_kind), Texels::Image(dst_kind));
-    let Some((kind, plan)) =
-        kind.and_then(|kind| plan_image_copy(regions, kind).map(|p| (kind, p)))
+    let kinds = conversion_kinds(
+        Texels::Image(source.stored),
+        Texels::Image(destination.stored),
+    );
+    let Some((kinds, plan)) =
+        kinds.and_then(|kinds| plan_image_copy(regions, kinds).map(|p| (kinds, p)))
     else {
         entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
     let conversion = Conversion {
-        header: ShaderHeader::new(kind, depth_map(&entry.device, direction), plan.layout.words),
+        header: ShaderHeader::new(kinds, depth_map(&entry.device, direction), &plan.layout),
         size: plan.layout.size,
         fill: Fill::Image {
             image: src,
@@ -267,21 +314,21 @@ fn image_blit(
     regions: &[vk::ImageBlit],
     extended: bool,
 ) -> Sent {
-    let (source, src_kind) = image_end(&entry.device, src);
-    let (destination, dst_kind) = image_end(&entry.device, dst);
+    let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
     let depth_aspect = regions.iter().any(|r| {
         r.src_subresource
             .aspect_mask
             .contains(vk::ImageAspectFlags::DEPTH)
     });
-    let direction = match decide(
+    let decision = decide(
         entry,
-        source,
-        destination,
+        (source.end, destination.end),
+        stored_apart(source, destination),
         depth_aspect,
         extended,
         &[src, dst],
-    ) {
+    );
+    let direction = match decision {
         CopyDecision::Unchanged => return Sent::All,
         CopyDecision::Unconverted(why) => {
             entry.device.copies.warn_unconverted(why);
@@ -289,17 +336,16 @@ fn image_blit(
         }
         CopyDecision::Convert(direction) => direction,
     };
-    let format = entry
-        .device
-        .objects
-        .images
-        .get(&src)
-        .map(|info| info.format);
-    let kind = conversion_kind(Texels::Image(src_kind), Texels::Image(dst_kind));
-    let planned = kind
-        .zip(format)
-        .and_then(|(kind, format)| plan_blit(regions, kind).map(|plan| (kind, format, plan)));
-    let Some((kind, format, plan)) = planned else {
+    // The staged image has the destination's format as revz created it: a depth blit needs
+    // one format at both ends.
+    let kinds = conversion_kinds(
+        Texels::Image(source.stored),
+        Texels::Image(destination.stored),
+    );
+    let planned = kinds
+        .zip(destination.created)
+        .and_then(|(kinds, format)| plan_blit(regions, kinds).map(|plan| (kinds, format, plan)));
+    let Some((kinds, format, plan)) = planned else {
         entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
@@ -311,7 +357,7 @@ fn image_blit(
         return Sent::All;
     };
     let conversion = Conversion {
-        header: ShaderHeader::new(kind, depth_map(device, direction), plan.layout.words),
+        header: ShaderHeader::new(kinds, depth_map(device, direction), &plan.layout),
         size: plan.layout.size,
         fill: Fill::Image {
             image: src,
@@ -350,6 +396,12 @@ fn image_blit(
             Sent::All
         }
     }
+}
+
+/// Whether two images' depth is stored in different formats (one promoted, one not): a copy
+/// or blit between them cannot go down as it is.
+fn stored_apart(source: ImageEnd, destination: ImageEnd) -> bool {
+    source.stored.is_some() && destination.stored.is_some() && source.stored != destination.stored
 }
 
 /// The region count and pointer a hook sends down: the application's, or those of the regions
