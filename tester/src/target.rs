@@ -182,7 +182,14 @@ impl<'a> Attachment<'a> {
         extent: vk::Extent2D,
         samples: vk::SampleCountFlags,
     ) -> Result<Self> {
-        Self::create(gpu, format, Some(aspects), usage, extent, samples)
+        Self::create(
+            gpu,
+            format,
+            Some(aspects),
+            (usage, vk::ImageCreateFlags::empty()),
+            extent,
+            samples,
+        )
     }
 
     /// Creates a 2D single-sample image only copied to and from (no view: `usage` may have
@@ -193,11 +200,22 @@ impl<'a> Attachment<'a> {
         usage: vk::ImageUsageFlags,
         extent: vk::Extent2D,
     ) -> Result<Self> {
+        Self::copied_with_flags(gpu, format, usage, vk::ImageCreateFlags::empty(), extent)
+    }
+
+    /// As [`Self::copied`], with image create `flags`.
+    pub fn copied_with_flags(
+        gpu: &'a Gpu,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        flags: vk::ImageCreateFlags,
+        extent: vk::Extent2D,
+    ) -> Result<Self> {
         Self::create(
             gpu,
             format,
             None,
-            usage,
+            (usage, flags),
             extent,
             vk::SampleCountFlags::TYPE_1,
         )
@@ -207,7 +225,7 @@ impl<'a> Attachment<'a> {
         gpu: &'a Gpu,
         format: vk::Format,
         view_aspects: Option<vk::ImageAspectFlags>,
-        usage: vk::ImageUsageFlags,
+        (usage, flags): (vk::ImageUsageFlags, vk::ImageCreateFlags),
         extent: vk::Extent2D,
         samples: vk::SampleCountFlags,
     ) -> Result<Self> {
@@ -222,6 +240,7 @@ impl<'a> Attachment<'a> {
             extent,
         };
         let info = vk::ImageCreateInfo::default()
+            .flags(flags)
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)
             .extent(vk::Extent3D {

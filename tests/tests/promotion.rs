@@ -1,8 +1,10 @@
 //! End-to-end tests of depth format promotion (issue #15), on lavapipe under the validation
 //! layer: revz creates a D16_UNORM or X8_D24_UNORM_PACK32 depth image as D32_SFLOAT, and a
 //! D24_UNORM_S8_UINT one as D32_SFLOAT_S8_UINT (`promote_depth_formats`, by default in
-//! `complementary` and `infinite`), where the image has optimal tiling and no transfer usage.
-//! Every render here therefore runs with `--no-depth-readback`: the tester then creates its
+//! `complementary` and `infinite`), where the image has optimal tiling and no host image copy
+//! usage (copies in command buffers convert between the formats: `tests/tests/copies.rs`).
+//! Every render here runs with `--no-depth-readback`, so that only promotion differs from the
+//! reference renders: the tester then creates its
 //! depth images (the main one, and the 4x transient one of `msaa-resolve`) as attachments only,
 //! without TRANSFER_SRC or TRANSFER_DST (none of these scenes clears an image with
 //! `vkCmdClearDepthStencilImage`), and only color is read back. The layer's log (`REVZ_LOG=info`,
@@ -29,10 +31,8 @@
 //! - `never_promotes_nothing_and_renders_as_before`: `REVZ_PROMOTE_DEPTH_FORMATS=never` in
 //!   `complementary` (`depth-bias` in the three formats, `stencil`, `msaa-resolve` in D16) logs
 //!   every depth image as `): reversed` with no promotion, and renders colors bit-identical to
-//!   the complementary render revz made before promotion existed: the same scene with depth
-//!   readback allowed (`REVZ_REVERSE_OBSERVABLE=copies`: reversed, and never promoted, its
-//!   TRANSFER_SRC usage forbids it). `msaa-resolve`'s 4x image has no transfer usage even
-//!   then, so its reference is rendered with `never` too.
+//!   the complementary render with depth readback allowed and `never` too
+//!   (`REVZ_REVERSE_OBSERVABLE=copies`: reversed, not promoted).
 //! - `flip_does_not_promote_by_default`: in `flip` mode the default setting (`auto`) promotes
 //!   nothing: every depth image is logged `): reversed`, and the colors are the native ones
 //!   within the flip path's tolerance (`flip_color_tolerance`).
@@ -334,11 +334,10 @@ fn never_promotes_nothing_and_renders_as_before() {
     let mut problems = Vec::new();
     for (scene, p) in cases {
         let case = format!("{scene} {}", p.format);
-        // Before promotion: reversed (copies may be reversed), depth read back, so that its
-        // TRANSFER_SRC usage keeps the format whatever the setting. msaa-resolve's 4x image
-        // has no transfer usage in any render (and the default would promote it and not the
-        // read-back image it is resolved into): only the setting keeps it, so its reference
-        // has `never` too, and what is compared there is the readback's absence.
+        // The reference: reversed (copies may be reversed), depth read back, with `never`
+        // too (since copies convert between the formats, transfer usage no longer keeps an
+        // image's format: only the setting does). What is compared is the readback's absence:
+        // a render without it must show what one with it shows.
         let dir = harness.scratch_dir(&format!("promotion-never-{scene}-{}-before", p.format));
         let mut command = harness.tester(p.format, &dir);
         command.args(["--scene", scene]);
@@ -347,10 +346,8 @@ fn never_promotes_nothing_and_renders_as_before() {
             .env("REVZ_MODE", "complementary")
             .env("REVZ_REVERSE_OBSERVABLE", "copies")
             .env("REVZ_COPY_VALUES", "stored")
-            .env("REVZ_LOG", "info");
-        if depth_images(scene) > 1 {
-            command.env("REVZ_PROMOTE_DEPTH_FORMATS", "never");
-        }
+            .env("REVZ_LOG", "info")
+            .env("REVZ_PROMOTE_DEPTH_FORMATS", "never");
         let before = harness.render(command, &dir);
         let log = before.stderr();
         assert_eq!(before.json()["depth_readback"], true, "{case}");

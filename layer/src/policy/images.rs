@@ -151,6 +151,9 @@ pub enum KeptFormat {
     /// expects UNORM values. (Copies recorded in command buffers are converted,
     /// `crate::depth_copy`.)
     HostCopied,
+    /// It is copied from and `reverse_observable = none` leaves such images exactly as the
+    /// application made them (native, in their own format).
+    CopiedUnobserved,
     /// Linear tiling, DRM modifiers or external memory: its memory layout is seen from
     /// outside.
     LaidOutOutside,
@@ -172,6 +175,10 @@ impl fmt::Display for KeptFormat {
         f.write_str(match self {
             KeptFormat::HostCopied => {
                 "host image copies read or write it (HOST_TRANSFER), which revz cannot convert"
+            }
+            KeptFormat::CopiedUnobserved => {
+                "it is copied from (TRANSFER_SRC) and reverse_observable = none leaves such \
+                 images as the application made them"
             }
             KeptFormat::LaidOutOutside => {
                 "its memory layout is seen outside (linear tiling, DRM modifier or external \
@@ -225,6 +232,11 @@ impl DevicePolicy {
         // the application's format (`crate::depth_copy`); host image copies are not.
         if facts.usage.intersects(HOST_TRANSFER) {
             return Err(KeptFormat::HostCopied);
+        }
+        if facts.usage.contains(vk::ImageUsageFlags::TRANSFER_SRC)
+            && self.observable == Observable::None
+        {
+            return Err(KeptFormat::CopiedUnobserved);
         }
         if facts.tiling != vk::ImageTiling::OPTIMAL || facts.external {
             return Err(KeptFormat::LaidOutOutside);
@@ -449,6 +461,7 @@ mod tests {
         );
         // Images copied from and to as well (copies convert between the formats), but not
         // those host image copies read: revz never sees those.
+        let copies = policy(Mode::Infinite, Observable::Copies);
         for transfer in [
             vk::ImageUsageFlags::TRANSFER_SRC,
             vk::ImageUsageFlags::TRANSFER_DST,
@@ -459,10 +472,20 @@ mod tests {
                 ..ATTACHMENT_IMAGE
             };
             assert_eq!(
-                p.promoted_format(d24, copied, yes),
+                copies.promoted_format(d24, copied, yes),
                 Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
             );
         }
+        // ... unless reverse_observable = none leaves images copied from as they are.
+        let unobserved = policy(Mode::Infinite, Observable::None);
+        let copied_from = ImageFacts {
+            usage: ATTACHMENT_IMAGE.usage | vk::ImageUsageFlags::TRANSFER_SRC,
+            ..ATTACHMENT_IMAGE
+        };
+        assert_eq!(
+            unobserved.promoted_format(d24, copied_from, yes),
+            Err(KeptFormat::CopiedUnobserved)
+        );
         let host_copied = ImageFacts {
             usage: ATTACHMENT_IMAGE.usage | HOST_TRANSFER,
             ..ATTACHMENT_IMAGE

@@ -793,6 +793,11 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "depth_copy_extra_ms": paired(samples, &copy, v, rounds, "copy_wall_ns", |a, b| (a - b) / 1e6),
                 "depth_copy_extra_ms_per_megapixel": paired(samples, &copy, v, rounds, "copy_wall_ns", |a, b| (a - b) / 1e6 / megapixels),
                 "depth_copy_wall_ns": own(samples, &copy, v, rounds, "copy_wall_ns"),
+                // The same of a D24S8 image (promoted in the precise modes: its copy converts
+                // float32 storage back to the application's D24).
+                "depth_copy_d24s8_wall_ratio": paired(samples, &copy, v, rounds, "copy_d24s8_wall_ns", ratio),
+                "depth_copy_d24s8_extra_ms_per_megapixel": paired(samples, &copy, v, rounds, "copy_d24s8_wall_ns", |a, b| (a - b) / 1e6 / megapixels),
+                "depth_copy_d24s8_wall_ns": own(samples, &copy, v, rounds, "copy_d24s8_wall_ns"),
                 "bytes_per_pipeline": paired(samples, &pipe, v, rounds, "heap_per_pipeline", diff),
                 "bytes_per_command_buffer": paired(samples, &big, v, rounds, "heap_per_command_buffer", diff),
                 "heap_growth_per_frame": paired(samples, &big, v, rounds, "heap_growth_per_frame", diff),
@@ -825,6 +830,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                     "ns_per_draw": paired_spread(samples, &micro, v, rounds, "draw_ns", diff),
                     "ns_per_bind": paired_spread(samples, &micro, v, rounds, "bind_ns", diff),
                     "depth_copy_wall_ratio": paired_spread(samples, &copy, v, rounds, "copy_wall_ns", ratio),
+                    "depth_copy_d24s8_wall_ratio": paired_spread(samples, &copy, v, rounds, "copy_d24s8_wall_ns", ratio),
                 },
             })
         })

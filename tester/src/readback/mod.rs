@@ -39,19 +39,37 @@ pub enum DepthRoute {
     /// flips x, a second blit would not be a copy, so the host flips the rows back) into a
     /// second image that shaders may sample (native), then into the host buffer.
     BlitNativeImage,
+    /// `vkCmdCopyImage` of the depth aspect into a second image created with
+    /// `VK_IMAGE_CREATE_ALIAS_BIT`, whose memory the application places by its format's sizes
+    /// (revz keeps its D16/D24 format where it promotes the first), then into the host buffer.
+    UnormImage,
+    /// The mirrored blit of `blit-native-image` of the depth aspect into such an image.
+    BlitUnormImage,
 }
 
 impl DepthRoute {
-    /// The second image's usage, if the route has one.
-    fn image_usage(self) -> Option<vk::ImageUsageFlags> {
+    /// The second image's usage and flags, if the route has one.
+    fn second_image(self) -> Option<(vk::ImageUsageFlags, vk::ImageCreateFlags)> {
         let copied = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+        let none = vk::ImageCreateFlags::empty();
         match self {
             DepthRoute::Direct => None,
-            DepthRoute::Image | DepthRoute::Buffer => Some(copied),
+            DepthRoute::Image | DepthRoute::Buffer => Some((copied, none)),
             DepthRoute::NativeImage | DepthRoute::BlitNativeImage => {
-                Some(copied | vk::ImageUsageFlags::SAMPLED)
+                Some((copied | vk::ImageUsageFlags::SAMPLED, none))
+            }
+            DepthRoute::UnormImage | DepthRoute::BlitUnormImage => {
+                Some((copied, vk::ImageCreateFlags::ALIAS))
             }
         }
+    }
+
+    /// Whether the route blits (mirrored).
+    fn blits(self) -> bool {
+        matches!(
+            self,
+            DepthRoute::BlitNativeImage | DepthRoute::BlitUnormImage
+        )
     }
 }
 
@@ -122,10 +140,10 @@ impl<'a> Readback<'a> {
                     .context("depth read-back buffer")?;
             buffer.write(&vec![PADDING_BYTE; padded * texel]);
             depth_buffer = Some(buffer);
-            if let Some(usage) = options.route.image_usage() {
+            if let Some((usage, flags)) = options.route.second_image() {
                 let format = targets.depth_format;
                 second = Some(
-                    Attachment::copied(gpu, format.vk_format(), usage, extent)
+                    Attachment::copied_with_flags(gpu, format.vk_format(), usage, flags, extent)
                         .context("the depth route's second image")?,
                 );
             }
@@ -314,7 +332,7 @@ impl<'a> Readback<'a> {
                 );
                 copies.buffer_to_image(staging.buffer, second.image, self.region(depth, 0));
             }
-            DepthRoute::BlitNativeImage => {
+            DepthRoute::BlitNativeImage | DepthRoute::BlitUnormImage => {
                 let (w, h) = (self.extent.width as i32, self.extent.height as i32);
                 let corner = |x, y, z| vk::Offset3D { x, y, z };
                 copies.blit(
@@ -384,7 +402,7 @@ impl Readback<'_> {
     fn unpadded(&self, bytes: &[u8]) -> Result<Vec<u8>> {
         let texel = self.depth_format.depth_copy_texel_size();
         let packed = self.without_padding(bytes)?;
-        if self.options.route != DepthRoute::BlitNativeImage {
+        if !self.options.route.blits() {
             return Ok(packed);
         }
         // The blit mirrored x: every row back to front.

@@ -575,20 +575,46 @@ pub struct DepthCopy {
     pub frames: usize,
     /// Texels copied per frame, in millions.
     pub megapixels: f64,
-    /// Median wall time of one frame: record, submit, wait.
+    /// Median wall time of one frame of D32_SFLOAT: record, submit, wait.
     pub copy_wall_ns: f64,
-    /// Median CPU time of the recording thread to record and submit one frame.
+    /// Median CPU time of the recording thread to record and submit one such frame.
     pub copy_cpu_ns: f64,
+    /// The same of D24_UNORM_S8_UINT (its depth aspect copied): the image revz promotes to
+    /// D32_SFLOAT_S8_UINT in the precise modes, whose copy it converts back to D24.
+    pub copy_d24s8_wall_ns: f64,
+    pub copy_d24s8_cpu_ns: f64,
 }
 
 /// Side of the depth image [`depth_copy`] reads back (1024 x 1024: one megapixel).
 pub const DEPTH_COPY_SIDE: u32 = 1024;
 
-/// A depth readback per frame: a D32_SFLOAT image (`TRANSFER_SRC | TRANSFER_DST |
-/// DEPTH_STENCIL_ATTACHMENT`, which revz reverses by default and whose copies it converts)
-/// cleared with `vkCmdClearDepthStencilImage`, then copied into a host buffer with
-/// `vkCmdCopyImageToBuffer`; each frame submitted and waited for.
+/// A depth readback per frame, of a D32_SFLOAT and of a D24_UNORM_S8_UINT image
+/// ([`depth_copy_of`]).
 pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> {
+    let (wall, cpu) = depth_copy_of(gpu, vk::Format::D32_SFLOAT, frames, warmup)?;
+    let (d24s8_wall, d24s8_cpu) =
+        depth_copy_of(gpu, vk::Format::D24_UNORM_S8_UINT, frames, warmup)?;
+    Ok(DepthCopy {
+        frames: frames.max(1),
+        megapixels: f64::from(DEPTH_COPY_SIDE * DEPTH_COPY_SIDE) / 1e6,
+        copy_wall_ns: wall,
+        copy_cpu_ns: cpu,
+        copy_d24s8_wall_ns: d24s8_wall,
+        copy_d24s8_cpu_ns: d24s8_cpu,
+    })
+}
+
+/// A depth readback per frame: an image of `format` (`TRANSFER_SRC | TRANSFER_DST |
+/// DEPTH_STENCIL_ATTACHMENT`, which revz reverses by default, promotes in the precise modes
+/// where it is D24, and whose copies it converts) cleared with `vkCmdClearDepthStencilImage`,
+/// then its depth aspect copied into a host buffer with `vkCmdCopyImageToBuffer`; each frame
+/// submitted and waited for. The medians of the frames' wall and recording CPU times.
+fn depth_copy_of(
+    gpu: &Gpu,
+    format: vk::Format,
+    frames: usize,
+    warmup: usize,
+) -> Result<(f64, f64)> {
     let bench = Bench::new(gpu)?;
     let device = &gpu.device;
     let extent = vk::Extent2D {
@@ -598,11 +624,16 @@ pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> 
     let usage = vk::ImageUsageFlags::TRANSFER_SRC
         | vk::ImageUsageFlags::TRANSFER_DST
         | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
-    let image = Attachment::copied(gpu, vk::Format::D32_SFLOAT, usage, extent)?;
+    let image = Attachment::copied(gpu, format, usage, extent)?;
     let pixels = (DEPTH_COPY_SIDE * DEPTH_COPY_SIDE) as usize;
     let host = HostBuffer::new(gpu, pixels * 4, vk::BufferUsageFlags::TRANSFER_DST)?;
     let cmd = bench.allocate(1)?[0];
-    let range = crate::target::full_range(vk::ImageAspectFlags::DEPTH);
+    let d24s8 = format == vk::Format::D24_UNORM_S8_UINT;
+    let range = crate::target::full_range(if d24s8 {
+        vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
+    } else {
+        vk::ImageAspectFlags::DEPTH
+    });
     let region = vk::BufferImageCopy {
         image_subresource: vk::ImageSubresourceLayers {
             aspect_mask: vk::ImageAspectFlags::DEPTH,
@@ -714,17 +745,20 @@ pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> 
         }
     }
     // The values read back: 0.25 wherever revz reverses and converts (checked so that a
-    // timing of a wrong conversion is not reported).
-    let first = f32::from_ne_bytes(host.contents()[..4].try_into().expect("4 bytes"));
-    if (first - 0.25).abs() > 1e-6 {
-        anyhow::bail!("the depth copy read back {first}, not the 0.25 it was cleared to");
+    // timing of a wrong conversion is not reported); D24 within two units of its grid.
+    let word = u32::from_ne_bytes(host.contents()[..4].try_into().expect("4 bytes"));
+    let (first, tolerance) = if d24s8 {
+        let max = 16_777_215.0;
+        (f64::from(word & 0x00FF_FFFF) / max, 2.0 / max)
+    } else {
+        (f64::from(f32::from_bits(word)), 1e-6)
+    };
+    if (first - 0.25).abs() > tolerance {
+        anyhow::bail!(
+            "the {format:?} depth copy read back {first}, not the 0.25 it was cleared to"
+        );
     }
-    Ok(DepthCopy {
-        frames: wall.len(),
-        megapixels: pixels as f64 / 1e6,
-        copy_wall_ns: median(&wall),
-        copy_cpu_ns: median(&cpu),
-    })
+    Ok((median(&wall), median(&cpu)))
 }
 
 /// A short validated run of every role's recording (tiny counts), submitted once: the smoke
