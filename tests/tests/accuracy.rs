@@ -425,3 +425,60 @@ fn promoted_formats_match_their_float_rows() {
 
 /// How many of `plane-stack`'s 6 distances a promoted row and its float row must both resolve.
 const STACK_DISTANCES_COMPARED: usize = 4;
+
+/// Issue #40: a promotable case read back (its depth image then has TRANSFER_SRC usage, which
+/// kept its UNORM format before copies of promoted images were converted) is promoted all the
+/// same, and its wrong-pixel fraction is its float row's; the depth it reads back is the
+/// standard depth, rounded into its own format.
+#[test]
+fn promoted_formats_read_back_match_their_float_rows() {
+    let harness = Harness::locate();
+    let wrong = |r: &serde_json::Value| r["wrong_pixel_fraction"].as_f64().unwrap();
+    let out = harness.scratch_dir("accuracy-promoted-readback");
+    let mut command = tester(&harness, "report", &out);
+    command.args([
+        "--scenes",
+        "sloped-plane,deep-range,far-objects",
+        "--modes",
+        "complementary,infinite",
+        "--depth-readback-always",
+    ]);
+    let (code, text) = run(command);
+    assert_eq!(code, 0, "{text}");
+    let report = json(&out.join("report.json"));
+    let mut problems = Vec::new();
+    for scene in ["sloped-plane", "deep-range", "far-objects"] {
+        for mode in ["complementary", "infinite"] {
+            for (format, float, promoted) in PROMOTED {
+                let (r, f) = (
+                    row(&report, scene, mode, format),
+                    row(&report, scene, mode, float),
+                );
+                let case = format!("{scene} {mode} {format}");
+                for x in [r, f] {
+                    assert!(x["error"].is_null(), "{case}: {x}");
+                    assert_eq!(x["depth_readback"], true, "{case}: {x}");
+                    assert_eq!(x["depth_reversed"], true, "{case}: {x}");
+                }
+                if r["promoted_format"] != promoted {
+                    problems.push(format!(
+                        "{case}: read back, promoted_format {}, expected {promoted}",
+                        r["promoted_format"]
+                    ));
+                }
+                let (a, b) = (wrong(r), wrong(f));
+                eprintln!("{case} read back: wrong {a:.3e}, {float} {b:.3e}");
+                if (a - b).abs() > 1e-4 {
+                    problems.push(format!(
+                        "{case}: read back, wrong_pixel_fraction {a:.3e}, {float}'s {b:.3e}"
+                    ));
+                }
+            }
+        }
+    }
+    assert!(
+        problems.is_empty(),
+        "promotion with readback:\n  {}",
+        problems.join("\n  ")
+    );
+}

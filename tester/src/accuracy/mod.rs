@@ -9,8 +9,9 @@
 //!
 //! Depth format promotion (issue #15): revz creates a D16, X8_D24 or D24_S8 depth image in a
 //! float format (D32_SFLOAT, D32_SFLOAT_S8_UINT) where its `promote_depth_formats` setting says
-//! so, but only an image without transfer usage: the depth readback's TRANSFER_SRC prevents it.
-//! The cases where promotion can apply ([`promotable`]: those formats in `complementary` and
+//! so; a readback of such an image converts the float values back to the application's UNORM
+//! format (issue #40), which would hide the precision measured here. The cases where promotion
+//! can apply ([`promotable`]: those formats in `complementary` and
 //! `infinite`, the setting's `auto`; every layer mode with `--promote-depth-formats always`)
 //! are therefore rendered with `--no-depth-readback` ([`depth_readback`]; with `never` too, so
 //! that a render with `never` differs from the default's by the setting alone): their color is
@@ -181,9 +182,11 @@ pub fn promotable(mode: Mode, format: DepthFormat, setting: Option<Promotion>) -
 }
 
 /// Whether a case reads its depth image back: not where revz may promote it under `setting` or
-/// under its default (the readback's TRANSFER_SRC usage would keep the image in its format).
+/// under its default, so that what is measured is the stored float precision (a readback of a
+/// promoted image hands over its values rounded into the application's UNORM format, issue #40).
 /// A case the default promotes is rendered without readback under `never` too: `never` then
 /// changes nothing but the setting, and shows what promotion is worth.
+/// (`--depth-readback-always` reads every case back.)
 pub fn depth_readback(mode: Mode, format: DepthFormat, setting: Option<Promotion>) -> bool {
     !(promotable(mode, format, setting) || promotable(mode, format, None))
 }
@@ -223,6 +226,13 @@ pub struct Selection {
     /// rendered without depth readback.
     #[arg(long, value_enum, value_name = "WHEN")]
     pub promote_depth_formats: Option<Promotion>,
+
+    /// Read depth back in every case, promotable ones included (their depth is then the stored
+    /// values rounded into the application's UNORM format by revz's converted copy, not the
+    /// float precision the report measures): shows that a readback no longer changes what
+    /// promotion gives (issue #40).
+    #[arg(long)]
+    pub depth_readback_always: bool,
 }
 
 impl Selection {
@@ -366,7 +376,8 @@ fn run_all(selection: &Selection, out: &Path, width: u32, height: u32) -> Result
                 format,
                 width: w,
                 height: h,
-                depth_readback: depth_readback(mode, format, selection.promote_depth_formats),
+                depth_readback: selection.depth_readback_always
+                    || depth_readback(mode, format, selection.promote_depth_formats),
                 promote_depth_formats: selection.promote_depth_formats,
             };
             // Push renders keep their folder names; the others are prefixed.
