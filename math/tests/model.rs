@@ -638,8 +638,11 @@ proptest! {
 
     /// Where one storage step is small against the distance and the range's ends, stepping
     /// once through the inverse mapping measures the same bucket as bisecting on `quantize`:
-    /// exactly for UNORM, within the factor 4/3 of a float binade boundary (a value at a
-    /// power of two has half the spacing below it).
+    /// exactly for UNORM, and for float within the factor 4/3 either way at a binade boundary:
+    /// a value at a power of two has half the spacing below it, so the bucket that straddles
+    /// the boundary is 1.5 times the smaller step, and the analytic figure, one step of either
+    /// side, is 2/3 or 4/3 of it. (The lower bound was 0.99 until a run drew the logarithmic
+    /// mapping's D = 0.5 at z = sqrt(n f) in a 4-bit-exponent format: 0.667.)
     #[test]
     fn min_separation_matches_brute_force(
         mapping in any_mapping(),
@@ -653,7 +656,11 @@ proptest! {
         prop_assume!(locally_linear);
         let brute = min_separation_brute_force(mapping, format, range, z).expect("in range");
         let ratio = analytic / brute;
-        prop_assert!((0.99..=1.34).contains(&ratio), "{analytic} vs {brute}");
+        let lowest = match format {
+            StorageFormat::Float(_) | StorageFormat::Float32 => 0.66,
+            _ => 0.99,
+        };
+        prop_assert!((lowest..=1.34).contains(&ratio), "{analytic} vs {brute}");
     }
 
     /// Quantizing is idempotent, monotone, and moves a depth by at most half a step (a

@@ -2,8 +2,10 @@
 //! on lavapipe under the validation layer with synchronization validation on.
 //!
 //! - Under the default policy (`reverse_observable = copies`, `copy_values = standard`) the
-//!   tester's read-back depth image is reversed, and every scene in every mode and format
-//!   reads back the depth it has without revz: within [`converted_tolerance`] of the native
+//!   tester's read-back depth image is reversed (and with every other depth image of the scene
+//!   promoted to float32 where the mode promotes: D16 and D24 in `complementary` and
+//!   `infinite`), and every scene in every mode and format reads back the depth it has without
+//!   revz: within [`converted_tolerance`] of the native
 //!   render, colors within [`flip_color_tolerance`]. The hard precision cases (`STRESS`) are
 //!   judged against ground truth by the accuracy tests, not against the native render, whose
 //!   depth and colors they are built to get wrong; their conversion is still checked exactly.
@@ -145,6 +147,32 @@ fn layered(harness: &Harness, scene: &str, format: &str, mode: &str, stored: boo
     harness.render(command, &dir)
 }
 
+/// The Vulkan name of a UNORM format the precise modes promote (`None` for the float ones).
+fn promoted_vk_format(format: &str) -> Option<&'static str> {
+    match format {
+        "d16" => Some("D16_UNORM"),
+        "x8-d24" => Some("X8_D24_UNORM_PACK32"),
+        "d24-s8" => Some("D24_UNORM_S8_UINT"),
+        _ => None,
+    }
+}
+
+/// The layer's creation lines of depth images of `vk_format` that were not promoted (each
+/// promoted one reads `depth image 0x.. (FORMAT, WxH): reversed, promoted to ...`, or
+/// `native, because ...; promoted to ...`), and how many there were in all.
+fn unpromoted_images(log: &str, vk_format: &str) -> (Vec<String>, usize) {
+    let created: Vec<&str> = log
+        .lines()
+        .filter(|line| line.contains("depth image ") && line.contains(&format!("({vk_format}, ")))
+        .collect();
+    let unpromoted = created
+        .iter()
+        .filter(|line| !line.contains("promoted to D32_SFLOAT"))
+        .map(|line| line.to_string())
+        .collect();
+    (unpromoted, created.len())
+}
+
 /// The largest integer of a UNORM format's depth.
 fn unorm_max(format: &str) -> Option<f64> {
     match format {
@@ -197,6 +225,16 @@ fn default_policy_hands_back_native_depth(format: &str) {
                 !log.contains("is not converted"),
                 "{what}: a copy went down unconverted\n{log}"
             );
+            // Issue #40: the read-back image (TRANSFER_SRC) and every other depth image of the
+            // scene is promoted where the mode promotes.
+            if let (Some(vk_format), true) = (promoted_vk_format(format), mode != "flip") {
+                let (unpromoted, created) = unpromoted_images(&log, vk_format);
+                assert!(
+                    created > 0 && unpromoted.is_empty(),
+                    "{what}: {} of {created} depth images not promoted: {unpromoted:?}",
+                    unpromoted.len()
+                );
+            }
             let (depth, stored_depth) = (standard.depth(), stored.depth());
             let reversed = depth
                 .iter()
