@@ -200,6 +200,18 @@ pub fn has_depth(format: vk::Format) -> bool {
     )
 }
 
+/// The depth and stencil aspects a format has.
+pub fn aspects_of(format: vk::Format) -> vk::ImageAspectFlags {
+    let mut aspects = vk::ImageAspectFlags::empty();
+    if has_depth(format) {
+        aspects |= vk::ImageAspectFlags::DEPTH;
+    }
+    if has_stencil(format) {
+        aspects |= vk::ImageAspectFlags::STENCIL;
+    }
+    aspects
+}
+
 /// Whether a format has a stencil aspect (stencil-only or depth/stencil formats).
 pub fn has_stencil(format: vk::Format) -> bool {
     matches!(

@@ -213,6 +213,12 @@ pub struct DeviceCommands {
     pub end_conditional_rendering: Option<vk::PFN_vkCmdEndConditionalRenderingEXT>,
     pub blit_image2: Option<vk::PFN_vkCmdBlitImage2>,
     pub set_depth_bias2: Option<vk::PFN_vkCmdSetDepthBias2EXT>,
+    /// Read twins (issue #39): descriptor writes through templates and descriptor buffers,
+    /// and the synchronization2 barriers that make an image readable.
+    pub update_descriptor_set_with_template: Option<vk::PFN_vkUpdateDescriptorSetWithTemplate>,
+    pub get_descriptor_ext: Option<vk::PFN_vkGetDescriptorEXT>,
+    pub pipeline_barrier2: Option<vk::PFN_vkCmdPipelineBarrier2>,
+    pub wait_events2: Option<vk::PFN_vkCmdWaitEvents2>,
 }
 
 impl DeviceCommands {
@@ -341,6 +347,14 @@ impl DeviceCommands {
             end_conditional_rendering: load!(0, c"vkCmdEndConditionalRenderingEXT"),
             blit_image2: load!(V13, c"vkCmdBlitImage2", c"vkCmdBlitImage2KHR"),
             set_depth_bias2: load!(0, c"vkCmdSetDepthBias2EXT"),
+            update_descriptor_set_with_template: load!(
+                vk::API_VERSION_1_1,
+                c"vkUpdateDescriptorSetWithTemplate",
+                c"vkUpdateDescriptorSetWithTemplateKHR"
+            ),
+            get_descriptor_ext: load!(0, c"vkGetDescriptorEXT"),
+            pipeline_barrier2: load!(V13, c"vkCmdPipelineBarrier2", c"vkCmdPipelineBarrier2KHR"),
+            wait_events2: load!(V13, c"vkCmdWaitEvents2", c"vkCmdWaitEvents2KHR"),
         }
     }
 }

@@ -544,6 +544,12 @@ impl CommandState {
         }
     }
 
+    /// Whether a render pass or rendering instance is open (no transfer or dispatch can be
+    /// recorded).
+    pub fn in_pass(&self) -> bool {
+        self.in_pass
+    }
+
     /// The render pass or rendering instance ended: no draw can be recorded until the next,
     /// and nothing is sent down before it ([`Self::settle`]).
     pub fn leave_pass(&mut self) {

@@ -27,6 +27,7 @@
 pub mod plan;
 pub mod record;
 pub mod scratch;
+pub mod twin;
 
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::OnceLock;

@@ -331,7 +331,7 @@ unsafe fn create_slot(device: &DeviceState, size: u64) -> Option<Slot> {
 ///
 /// # Safety
 /// `device` must be live.
-unsafe fn allocate(
+pub(crate) unsafe fn allocate(
     device: &DeviceState,
     requirements: vk::MemoryRequirements,
 ) -> Result<vk::DeviceMemory, vk::Result> {

@@ -1063,6 +1063,13 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
             vk::PFN_vkGetDeviceImageMemoryRequirements,
             passes::get_device_image_memory_requirements
         ),
+        b"vkGetImageMemoryRequirements" => void_fn!(
+            vk::PFN_vkGetImageMemoryRequirements,
+            passes::get_image_memory_requirements
+        ),
+        b"vkAllocateMemory" => void_fn!(vk::PFN_vkAllocateMemory, passes::allocate_memory),
+        b"vkFreeMemory" => void_fn!(vk::PFN_vkFreeMemory, passes::free_memory),
+        b"vkBindImageMemory" => void_fn!(vk::PFN_vkBindImageMemory, passes::bind_image_memory),
         b"vkCreateRenderPass" => {
             void_fn!(vk::PFN_vkCreateRenderPass, passes::create_render_pass)
         }
@@ -1486,6 +1493,49 @@ mod passes {
             // SAFETY: a valid create info with a valid chain.
             info: unsafe { seen_image(&*p_create_info) },
         });
+        vk::Result::SUCCESS
+    }
+
+    /// `vkGetImageMemoryRequirements`: 256 bytes of any memory type.
+    pub(super) unsafe extern "system" fn get_image_memory_requirements(
+        _: vk::Device,
+        _: vk::Image,
+        p_requirements: *mut vk::MemoryRequirements,
+    ) {
+        // SAFETY: revz's output pointer.
+        unsafe {
+            *p_requirements = vk::MemoryRequirements {
+                size: 256,
+                alignment: 16,
+                memory_type_bits: u32::MAX,
+            }
+        };
+    }
+
+    pub(super) unsafe extern "system" fn allocate_memory(
+        _: vk::Device,
+        _: *const vk::MemoryAllocateInfo,
+        _: *const vk::AllocationCallbacks,
+        p_memory: *mut vk::DeviceMemory,
+    ) -> vk::Result {
+        // SAFETY: revz's output pointer.
+        unsafe { *p_memory = fresh_handle() };
+        vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn free_memory(
+        _: vk::Device,
+        _: vk::DeviceMemory,
+        _: *const vk::AllocationCallbacks,
+    ) {
+    }
+
+    pub(super) unsafe extern "system" fn bind_image_memory(
+        _: vk::Device,
+        _: vk::Image,
+        _: vk::DeviceMemory,
+        _: vk::DeviceSize,
+    ) -> vk::Result {
         vk::Result::SUCCESS
     }
 

@@ -37,6 +37,7 @@ macro_rules! destroy_hook {
 
 pub mod cameras;
 pub mod command;
+pub mod descriptors;
 pub mod device;
 pub mod extensions;
 pub mod instance;
@@ -311,6 +312,29 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             void_fn!(vk::PFN_vkCreateCommandPool, r::create_command_pool)
         }
         b"vkCmdSetDepthBias2EXT" => void_fn!(vk::PFN_vkCmdSetDepthBias2EXT, c::cmd_set_depth_bias2),
+        // Read twins (issue #39): descriptors name the twins' views, and barriers that make a
+        // reversed image readable refresh its twin.
+        b"vkUpdateDescriptorSets" => void_fn!(
+            vk::PFN_vkUpdateDescriptorSets,
+            descriptors::update_descriptor_sets
+        ),
+        b"vkUpdateDescriptorSetWithTemplate" | b"vkUpdateDescriptorSetWithTemplateKHR" => {
+            void_fn!(
+                vk::PFN_vkUpdateDescriptorSetWithTemplate,
+                descriptors::update_descriptor_set_with_template
+            )
+        }
+        b"vkGetDescriptorEXT" => {
+            void_fn!(vk::PFN_vkGetDescriptorEXT, descriptors::get_descriptor_ext)
+        }
+        b"vkCmdPipelineBarrier" => void_fn!(vk::PFN_vkCmdPipelineBarrier, c::cmd_pipeline_barrier),
+        b"vkCmdPipelineBarrier2" | b"vkCmdPipelineBarrier2KHR" => {
+            void_fn!(vk::PFN_vkCmdPipelineBarrier2, c::cmd_pipeline_barrier2)
+        }
+        b"vkCmdWaitEvents" => void_fn!(vk::PFN_vkCmdWaitEvents, c::cmd_wait_events),
+        b"vkCmdWaitEvents2" | b"vkCmdWaitEvents2KHR" => {
+            void_fn!(vk::PFN_vkCmdWaitEvents2, c::cmd_wait_events2)
+        }
         b"vkCmdExecuteCommands" => {
             void_fn!(vk::PFN_vkCmdExecuteCommands, c::cmd_execute_commands)
         }

@@ -50,9 +50,11 @@ const ATTACHMENT: vk::ImageUsageFlags = vk::ImageUsageFlags::DEPTH_STENCIL_ATTAC
 /// Aliased memory: an image of these flags keeps its UNORM format (the application places its
 /// memory by the format's sizes) and is still reversed.
 const KEPT_FLAGS: vk::ImageCreateFlags = vk::ImageCreateFlags::ALIAS;
-/// Read by shaders: promoted (a resolve needs one format at both ends), but native.
-const SAMPLED: vk::ImageUsageFlags =
-    vk::ImageUsageFlags::from_raw(ATTACHMENT.as_raw() | vk::ImageUsageFlags::SAMPLED.as_raw());
+/// Read by shaders as an input attachment (which no read twin serves): promoted (a resolve
+/// needs one format at both ends), but native.
+const READ_IN_PASS: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(
+    ATTACHMENT.as_raw() | vk::ImageUsageFlags::INPUT_ATTACHMENT.as_raw(),
+);
 const COMPLEMENTARY: &[(&CStr, &CStr)] = &[(c"mode", c"complementary")];
 
 hook_set! {
@@ -1142,7 +1144,7 @@ fn attachment_only_unorm_depth_images_are_created_and_viewed_in_float_formats() 
     }
 
     // Sampled images too (a resolve needs one format at both ends); this one is native.
-    let info = fake_chain::depth_image_info(D24_S8, EXTENT, SAMPLED, SINGLE);
+    let info = fake_chain::depth_image_info(D24_S8, EXTENT, READ_IN_PASS, SINGLE);
     let (image, seen) = fx.create_image(&info);
     assert_eq!(seen.format, D32_S8);
     assert!(matches!(
@@ -1782,7 +1784,7 @@ fn with_compare_op_variants_each_target_binds_its_own_variant() {
     let twin = the_twin(&created, pass).handle;
     let (_, promoted_view) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
     let (_, kept_view) = fx.kept_depth_image(D24_S8, SINGLE);
-    let (_, native_view) = fx.depth_image(D24_S8, SAMPLED, SINGLE);
+    let (_, native_view) = fx.depth_image(D24_S8, READ_IN_PASS, SINGLE);
     let promoted = fx.framebuffer(pass, &[promoted_view]).handle;
     let kept = fx.framebuffer(pass, &[kept_view]).handle;
     let native = fx.framebuffer(pass, &[native_view]);
@@ -2139,7 +2141,7 @@ fn a_secondary_inheriting_an_imageless_framebuffer_takes_its_storage_and_its_pas
     assert_eq!(promoted.render_pass, twin);
     // Live images of the format: a reversed attachment, and a sampled (native) one.
     let (reversed, _) = fx.depth_image(D24_S8, ATTACHMENT, SINGLE);
-    let (native, native_view) = fx.depth_image(D24_S8, SAMPLED, SINGLE);
+    let (native, native_view) = fx.depth_image(D24_S8, READ_IN_PASS, SINGLE);
     assert!(fx.state.objects.image_reversed(reversed));
     assert!(!fx.state.objects.image_reversed(native));
     let inheritance = vk::CommandBufferInheritanceInfo::default()

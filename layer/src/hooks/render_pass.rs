@@ -45,14 +45,15 @@ static DESTROY_FRAMEBUFFER: EntryPoint = EntryPoint::new("vkDestroyFramebuffer")
 /// Builds a [`RenderPassInfo`] from attachment formats and load ops, and subpass depth
 /// attachments and depth resolves (the twin is added by the caller).
 fn render_pass_info(
-    attachments: impl Iterator<Item = (vk::Format, vk::AttachmentLoadOp)>,
+    attachments: impl Iterator<Item = (vk::Format, vk::AttachmentLoadOp, vk::ImageLayout)>,
     subpasses: impl Iterator<Item = (Option<u32>, Option<SubpassResolve>)>,
 ) -> RenderPassInfo {
     let mut info = RenderPassInfo::default();
-    for (format, load_op) in attachments {
+    for (format, load_op, final_layout) in attachments {
         info.attachments.push(format);
         info.depth_cleared
             .push(clears_depth_at_begin(format, load_op));
+        info.final_layouts.push(final_layout);
     }
     for (depth, resolve) in subpasses {
         info.subpass_depth
@@ -260,7 +261,9 @@ pub unsafe extern "system" fn create_render_pass(
                 )
             };
             let mut pass = render_pass_info(
-                attachments.iter().map(|a| (a.format, a.load_op)),
+                attachments
+                    .iter()
+                    .map(|a| (a.format, a.load_op, a.final_layout)),
                 subpasses.iter().map(|s| {
                     // SAFETY: null or one valid reference.
                     let depth = unsafe { s.p_depth_stencil_attachment.as_ref() };
@@ -349,7 +352,9 @@ pub unsafe extern "system" fn create_render_pass2(
                 )
             };
             let mut pass = render_pass_info(
-                attachments.iter().map(|a| (a.format, a.load_op)),
+                attachments
+                    .iter()
+                    .map(|a| (a.format, a.load_op, a.final_layout)),
                 subpasses.iter().map(|s| {
                     // SAFETY: null or one valid reference.
                     let depth = unsafe { s.p_depth_stencil_attachment.as_ref() };

@@ -33,6 +33,9 @@ struct ImageCreation<'a> {
     info: vk::ImageCreateInfo<'a>,
     /// The float format, where promoted.
     promoted: Option<vk::Format>,
+    /// The image gets a read twin (`crate::policy::DevicePolicy::reads_through_twin`): it is
+    /// created with `TRANSFER_SRC` usage too, which its refreshes copy from.
+    twin: bool,
     /// The spliced chain (a format list with the float format) and the list it points at.
     _chain: Option<(crate::chain::Spliced, Vec<vk::Format>)>,
 }
@@ -56,14 +59,50 @@ fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
 }
 
 /// Plans the creation of an image: promoted where the policy says so and its chain can be
-/// followed.
+/// followed, and with the usage its read twin's refreshes need where it gets one.
 ///
 /// # Safety
 /// `info` is the application's valid create info.
 unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) -> ImageCreation<'a> {
+    // SAFETY: the caller's contract.
+    let mut creation = unsafe { plan_promotion(state, info) };
+    let twin = state
+        .policy
+        .classify_image(info.format, info.usage, info.tiling, info.samples)
+        == Some(ImageDepth::Reversed)
+        && state
+            .policy
+            .reads_through_twin(info.usage, info.samples, info.tiling);
+    if twin {
+        let with_source = vk::ImageCreateInfo {
+            usage: creation.info.usage | vk::ImageUsageFlags::TRANSFER_SRC,
+            ..creation.info
+        };
+        // The device must allow the image with the added usage (it nearly always does).
+        if info.usage.contains(vk::ImageUsageFlags::TRANSFER_SRC)
+            || state
+                .image_formats
+                .supports(&with_source, with_source.format)
+        {
+            creation.info = with_source;
+            creation.twin = true;
+        }
+    }
+    creation
+}
+
+/// The promotion part of [`plan_image`].
+///
+/// # Safety
+/// `info` is the application's valid create info.
+unsafe fn plan_promotion<'a>(
+    state: &DeviceState,
+    info: &vk::ImageCreateInfo<'a>,
+) -> ImageCreation<'a> {
     let unchanged = ImageCreation {
         info: *info,
         promoted: None,
+        twin: false,
         _chain: None,
     };
     if !state.policy.may_promote(info.format) {
@@ -137,6 +176,7 @@ unsafe fn plan_image<'a>(state: &DeviceState, info: &vk::ImageCreateInfo<'a>) ->
             ..*info
         },
         promoted: Some(float),
+        twin: false,
         _chain: chain,
     }
 }
@@ -174,7 +214,7 @@ pub unsafe extern "system" fn create_image(
     // Unchanged images go down with the application's own pointer.
     let info_down = creation
         .as_ref()
-        .filter(|creation| creation.promoted.is_some())
+        .filter(|creation| creation.promoted.is_some() || creation.twin)
         .map_or(p_create_info, |creation| &creation.info as *const _);
     // SAFETY: calling down with the application's arguments, or its create info with the
     // float format.
@@ -184,15 +224,57 @@ pub unsafe extern "system" fn create_image(
         record(&CREATE_IMAGE, || {
             // SAFETY: valid on success.
             let (info, image) = unsafe { (&*p_create_info, *p_image) };
-            let Some(depth) = state
-                .policy
-                .classify_image(info.format, info.usage, info.tiling)
+            let Some(mut depth) =
+                state
+                    .policy
+                    .classify_image(info.format, info.usage, info.tiling, info.samples)
             else {
                 return;
             };
             let size = info.extent;
             let format = info.format;
             let promoted = creation.as_ref().and_then(|creation| creation.promoted);
+            // Shaders read a reversed image they sample through its read twin.
+            let mut twin = None;
+            let twin_planned = creation.as_ref().is_some_and(|creation| creation.twin);
+            if depth == ImageDepth::Reversed
+                && state
+                    .policy
+                    .reads_through_twin(info.usage, info.samples, info.tiling)
+            {
+                // The image was created with the usage its refreshes need where the twin was
+                // planned (`plan_image`); else it has none, and stays native.
+                twin = if twin_planned {
+                    // SAFETY: a live device and the application's valid create info.
+                    unsafe {
+                        crate::depth_copy::twin::create(&state, info, promoted.unwrap_or(format))
+                    }
+                } else {
+                    None
+                };
+                match twin {
+                    Some(_) => {
+                        state
+                            .objects
+                            .twins
+                            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    }
+                    None => {
+                        log::warn!(
+                            "cannot create the read twin of depth image {image:?}: it stays \
+                             native"
+                        );
+                        depth = ImageDepth::Native(crate::policy::NativeReason::ReadByShaders(
+                            info.usage & vk::ImageUsageFlags::SAMPLED,
+                        ));
+                    }
+                }
+            }
+            let read_twin = if twin.is_some() {
+                ", shaders read its twin"
+            } else {
+                ""
+            };
             let promotion = match promoted {
                 Some(float) => format!(
                     "promoted to {float:?} ({} more bytes)",
@@ -202,12 +284,12 @@ pub unsafe extern "system" fn create_image(
             };
             match (depth, promoted) {
                 (ImageDepth::Reversed, None) => log::info!(
-                    "depth image {image:?} ({format:?}, {}x{}): reversed",
+                    "depth image {image:?} ({format:?}, {}x{}): reversed{read_twin}",
                     size.width,
                     size.height
                 ),
                 (ImageDepth::Reversed, Some(_)) => log::info!(
-                    "depth image {image:?} ({format:?}, {}x{}): reversed, {promotion}",
+                    "depth image {image:?} ({format:?}, {}x{}): reversed, {promotion}{read_twin}",
                     size.width,
                     size.height
                 ),
@@ -248,6 +330,7 @@ pub unsafe extern "system" fn create_image(
                     promoted,
                     extent: info.extent,
                     samples: info.samples,
+                    twin,
                 },
             );
         });
@@ -278,7 +361,7 @@ pub unsafe extern "system" fn get_device_image_memory_requirements(
             let info = unsafe { (*p_info).p_create_info.as_ref() }?;
             // SAFETY: as above.
             let creation = unsafe { plan_image(&state, info) };
-            creation.promoted.map(|_| creation)
+            (creation.promoted.is_some() || creation.twin).then_some(creation)
         },
         || None,
     );
@@ -336,8 +419,29 @@ pub unsafe extern "system" fn create_image_view(
         record(&CREATE_IMAGE_VIEW, || {
             // SAFETY: valid on success.
             let (info, view) = unsafe { (&*p_create_info, *p_view) };
-            if state.objects.images.get(&info.image).is_some() {
-                state.objects.views.insert(view, info.image);
+            let Some(image) = state.objects.images.get(&info.image) else {
+                return;
+            };
+            state.objects.views.insert(view, info.image);
+            if let Some(twin) = &image.twin {
+                // SAFETY: the create info the view was made with, of the twin's image.
+                let made =
+                    unsafe { crate::depth_copy::twin::create_view(&state, &*info_down, twin) };
+                match made {
+                    Some(twin_view) => state.objects.twin_views.insert(
+                        view,
+                        crate::objects::TwinView {
+                            view: twin_view,
+                            image: info.image,
+                            range: info.subresource_range,
+                        },
+                    ),
+                    None => log::warn!(
+                        "cannot create a view of the read twin of depth image {:?}: shaders \
+                         reading view {view:?} read reversed depth",
+                        info.image
+                    ),
+                }
             }
         });
     }
@@ -357,21 +461,56 @@ pub(crate) unsafe fn slice<'a, T>(ptr: *const T, count: u32) -> &'a [T] {
     }
 }
 
-// A destroyed image's handle may come back: its resolve pairs go with it.
-destroy_hook!(
-    destroy_image,
-    DESTROY_IMAGE,
-    vk::Image,
-    images | resolve_pairs,
-    destroy_image
-);
-destroy_hook!(
-    destroy_image_view,
-    DESTROY_IMAGE_VIEW,
-    vk::ImageView,
-    views,
-    destroy_image_view
-);
+/// `vkDestroyImage`: a destroyed image's handle may come back: its resolve pairs go with it,
+/// and its read twin is destroyed (no pending command uses the image, so none uses the twin).
+pub unsafe extern "system" fn destroy_image(
+    device: vk::Device,
+    image: vk::Image,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return;
+    };
+    record(&DESTROY_IMAGE, || {
+        let info = state.objects.images.remove(&image);
+        state.objects.resolve_pairs.remove(&image);
+        if let Some(twin) = info.and_then(|info| info.twin) {
+            // SAFETY: as above.
+            unsafe { crate::depth_copy::twin::destroy(&state, &twin) };
+            state
+                .objects
+                .twins
+                .fetch_sub(1, std::sync::atomic::Ordering::Relaxed);
+        }
+    });
+    // SAFETY: calling down with the application's arguments.
+    unsafe { (state.next.fp_v1_0().destroy_image)(device, image, p_allocator) };
+}
+
+/// `vkDestroyImageView`: the view of the read twin made beside it goes with it.
+pub unsafe extern "system" fn destroy_image_view(
+    device: vk::Device,
+    view: vk::ImageView,
+    p_allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    // SAFETY: `device` is live.
+    let Some(state) = (unsafe { device_state(device) }) else {
+        return;
+    };
+    record(&DESTROY_IMAGE_VIEW, || {
+        state.objects.views.remove(&view);
+        if let Some(twin_view) = state.objects.twin_views.remove(&view) {
+            // SAFETY: revz's view; no pending command uses the application's view, whose
+            // descriptors are the only ones that named it.
+            unsafe {
+                (state.next.fp_v1_0().destroy_image_view)(device, twin_view.view, std::ptr::null())
+            };
+        }
+    });
+    // SAFETY: calling down with the application's arguments.
+    unsafe { (state.next.fp_v1_0().destroy_image_view)(device, view, p_allocator) };
+}
 pub unsafe extern "system" fn allocate_command_buffers(
     device: vk::Device,
     p_allocate_info: *const vk::CommandBufferAllocateInfo<'_>,
@@ -463,6 +602,17 @@ pub unsafe extern "system" fn create_descriptor_update_template(
                 == vk::DescriptorUpdateTemplateType::PUSH_DESCRIPTORS_KHR
                 && info.pipeline_bind_point == vk::PipelineBindPoint::COMPUTE;
             state.copies.note_template(template, compute_push);
+            // SAFETY: `descriptorUpdateEntryCount` entries.
+            let entries = unsafe {
+                slice(
+                    info.p_descriptor_update_entries,
+                    info.descriptor_update_entry_count,
+                )
+            };
+            let entries = super::descriptors::TemplateEntries::of(entries);
+            if entries.writes_images() {
+                state.objects.templates.insert(template, Arc::new(entries));
+            }
         });
     }
     result
@@ -478,7 +628,8 @@ pub unsafe extern "system" fn destroy_descriptor_update_template(
         return;
     };
     record(&DESTROY_DESCRIPTOR_UPDATE_TEMPLATE, || {
-        state.copies.forget_template(template)
+        state.copies.forget_template(template);
+        state.objects.templates.remove(&template);
     });
     if let Some(next) = state.commands.destroy_descriptor_update_template {
         // SAFETY: calling down with the application's arguments.

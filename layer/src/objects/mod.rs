@@ -57,6 +57,33 @@ pub struct ImageInfo {
     /// Its size and sample count (to find its likely resolve partners).
     pub extent: vk::Extent3D,
     pub samples: vk::SampleCountFlags,
+    /// The native image shaders read in its place (`crate::policy::DevicePolicy::reads_through_twin`).
+    pub twin: Option<ReadTwin>,
+}
+
+/// The view of a read twin made beside a view of its image, with what a refresh at the end
+/// of a render pass needs: the image and the view's subresources.
+#[derive(Clone, Copy, Debug)]
+pub struct TwinView {
+    pub view: vk::ImageView,
+    pub image: vk::Image,
+    pub range: vk::ImageSubresourceRange,
+}
+
+/// A reversed image's read twin (issue #39): a native image of the same format (the stored
+/// one: float where promoted), size, mip levels and layers, in revz's own memory, refreshed
+/// with the image's standard values whenever the application makes the image readable, and
+/// read by shaders through views made beside the application's
+/// ([`DeviceObjects::twin_views`]), always in `SHADER_READ_ONLY_OPTIMAL` once refreshed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReadTwin {
+    pub image: vk::Image,
+    pub memory: vk::DeviceMemory,
+    pub extent: vk::Extent3D,
+    pub mip_levels: u32,
+    pub array_layers: u32,
+    /// Every aspect of its format (DEPTH, or DEPTH | STENCIL).
+    pub aspects: vk::ImageAspectFlags,
 }
 
 /// A render pass: each attachment's format and whether its depth is cleared at load, each
@@ -65,6 +92,9 @@ pub struct ImageInfo {
 #[derive(Clone, Debug, Default)]
 pub struct RenderPassInfo {
     pub attachments: Vec<vk::Format>,
+    /// Each attachment's final layout (a read-only one refreshes the read twin of the image
+    /// at the end of the pass).
+    pub final_layouts: Vec<vk::ImageLayout>,
     pub depth_cleared: Vec<bool>,
     pub subpass_depth: Vec<Option<u32>>,
     pub subpass_resolve: Vec<Option<SubpassResolve>>,
@@ -300,6 +330,14 @@ pub struct DeviceObjects {
     pub resolve_pairs: ResolvePairs,
     /// Views of tracked depth images, with the image they show.
     pub views: Table<vk::ImageView, vk::Image>,
+    /// The view of its read twin made beside each view of an image that has one: what
+    /// descriptors hold in its place.
+    pub twin_views: Table<vk::ImageView, TwinView>,
+    /// Live read twins (descriptor writes and barriers look no further while there is none).
+    pub twins: std::sync::atomic::AtomicUsize,
+    /// Each descriptor update template's image entries (`crate::hooks::descriptors`).
+    pub templates:
+        Table<vk::DescriptorUpdateTemplate, Arc<crate::hooks::descriptors::TemplateEntries>>,
     pub render_passes: Table<vk::RenderPass, Arc<RenderPassInfo>>,
     /// Each framebuffer's attachments (empty for an imageless framebuffer).
     pub framebuffers: Table<vk::Framebuffer, Arc<[vk::ImageView]>>,
@@ -791,6 +829,7 @@ mod tests {
                 promoted: None,
                 extent: vk::Extent3D::default(),
                 samples: vk::SampleCountFlags::TYPE_1,
+                twin: None,
             },
         );
         objects.views.insert(view, image);

@@ -259,12 +259,41 @@ impl DevicePolicy {
         Ok(Some(float))
     }
 
-    /// Decides a depth image; `None` for images without a depth aspect (never touched).
+    /// Whether shaders read an image of this usage through a *read twin* (issue #39): a native
+    /// image revz keeps beside the reversed one, refreshed with standard values whenever the
+    /// application makes the image readable, whose views replace the image's in descriptors.
+    /// Under the default `reverse_observable = copies`, for images shaders only sample:
+    /// optimal tiling, one sample (the refresh converts through a buffer, which carries no
+    /// samples), no storage usage (a shader writing the image would write the twin) and no
+    /// input attachment usage (read inside the pass that writes it, where no twin can be
+    /// refreshed).
+    pub fn reads_through_twin(
+        &self,
+        usage: vk::ImageUsageFlags,
+        samples: vk::SampleCountFlags,
+        tiling: vk::ImageTiling,
+    ) -> bool {
+        self.mode != Mode::Off
+            && self.observable == Observable::Copies
+            && usage.contains(vk::ImageUsageFlags::SAMPLED)
+            && !usage.intersects(
+                vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::INPUT_ATTACHMENT
+                    | HOST_TRANSFER,
+            )
+            && samples == vk::SampleCountFlags::TYPE_1
+            && tiling == vk::ImageTiling::OPTIMAL
+    }
+
+    /// Decides a depth image; `None` for images without a depth aspect (never touched). An
+    /// image shaders read is reversed where they read it through a twin
+    /// ([`Self::reads_through_twin`]), native otherwise (unless `reverse_observable = all`).
     pub fn classify_image(
         &self,
         format: vk::Format,
         usage: vk::ImageUsageFlags,
         tiling: vk::ImageTiling,
+        samples: vk::SampleCountFlags,
     ) -> Option<ImageDepth> {
         if !has_depth(format) {
             return None;
@@ -278,7 +307,10 @@ impl DevicePolicy {
                 | vk::ImageUsageFlags::STORAGE
                 | vk::ImageUsageFlags::INPUT_ATTACHMENT);
         let observable = self.observable;
-        if !shader_reads.is_empty() && observable != Observable::All {
+        if !shader_reads.is_empty()
+            && observable != Observable::All
+            && !self.reads_through_twin(usage, samples, tiling)
+        {
             return native(NativeReason::ReadByShaders(shader_reads));
         }
         if usage.contains(vk::ImageUsageFlags::TRANSFER_SRC) && observable == Observable::None {
@@ -371,6 +403,8 @@ mod tests {
     use super::*;
     use crate::config::{CompareOp, Settings};
     use crate::policy::tests::policy;
+
+    const ONE: vk::SampleCountFlags = vk::SampleCountFlags::TYPE_1;
 
     #[test]
     fn a_reversed_image_is_a_reversed_target_and_a_native_one_native() {
@@ -595,13 +629,13 @@ mod tests {
     fn plain_depth_attachments_are_reversed_and_color_is_never_touched() {
         let p = policy(Mode::Flip, Observable::None);
         assert_eq!(
-            p.classify_image(D32, ATTACHMENT, OPTIMAL),
+            p.classify_image(D32, ATTACHMENT, OPTIMAL, ONE),
             Some(ImageDepth::Reversed)
         );
         let color = vk::Format::R8G8B8A8_UNORM;
-        assert_eq!(p.classify_image(color, ATTACHMENT, OPTIMAL), None);
+        assert_eq!(p.classify_image(color, ATTACHMENT, OPTIMAL, ONE), None);
         assert_eq!(
-            p.classify_image(vk::Format::S8_UINT, ATTACHMENT, OPTIMAL),
+            p.classify_image(vk::Format::S8_UINT, ATTACHMENT, OPTIMAL, ONE),
             None
         );
     }
@@ -616,18 +650,41 @@ mod tests {
         let shader_native = Some(ImageDepth::Native(NativeReason::ReadByShaders(
             vk::ImageUsageFlags::SAMPLED,
         )));
-        assert_eq!(none.classify_image(D32, sampled, OPTIMAL), shader_native);
         assert_eq!(
-            none.classify_image(D32, copied, OPTIMAL),
+            none.classify_image(D32, sampled, OPTIMAL, ONE),
+            shader_native
+        );
+        assert_eq!(
+            none.classify_image(D32, copied, OPTIMAL, ONE),
             Some(ImageDepth::Native(NativeReason::CopiedFrom))
         );
-        assert_eq!(copies.classify_image(D32, sampled, OPTIMAL), shader_native);
+        // Sampled images are reversed, read through their twin; what a twin cannot serve stays
+        // native: storage (shaders write it), input attachments, several samples.
         assert_eq!(
-            copies.classify_image(D32, copied, OPTIMAL),
+            copies.classify_image(D32, sampled, OPTIMAL, ONE),
+            Some(ImageDepth::Reversed)
+        );
+        assert!(copies.reads_through_twin(sampled, ONE, OPTIMAL));
+        assert!(!none.reads_through_twin(sampled, ONE, OPTIMAL));
+        assert!(!all.reads_through_twin(sampled, ONE, OPTIMAL));
+        assert!(!copies.reads_through_twin(ATTACHMENT, ONE, OPTIMAL));
+        for (usage, samples) in [
+            (sampled | vk::ImageUsageFlags::STORAGE, ONE),
+            (sampled | vk::ImageUsageFlags::INPUT_ATTACHMENT, ONE),
+            (sampled, vk::SampleCountFlags::TYPE_4),
+        ] {
+            assert!(!copies.reads_through_twin(usage, samples, OPTIMAL));
+            assert!(matches!(
+                copies.classify_image(D32, usage, OPTIMAL, samples),
+                Some(ImageDepth::Native(NativeReason::ReadByShaders(_)))
+            ));
+        }
+        assert_eq!(
+            copies.classify_image(D32, copied, OPTIMAL, ONE),
             Some(ImageDepth::Reversed)
         );
         assert_eq!(
-            all.classify_image(D32, sampled | copied, OPTIMAL),
+            all.classify_image(D32, sampled | copied, OPTIMAL, ONE),
             Some(ImageDepth::Reversed)
         );
     }
@@ -638,17 +695,17 @@ mod tests {
         for observable in [Observable::None, Observable::Copies] {
             let p = policy(Mode::Flip, observable);
             assert_eq!(
-                p.classify_image(D32, ATTACHMENT, vk::ImageTiling::LINEAR),
+                p.classify_image(D32, ATTACHMENT, vk::ImageTiling::LINEAR, ONE),
                 Some(ImageDepth::Native(NativeReason::LinearTiling))
             );
             assert_eq!(
-                p.classify_image(D32, host_copied, OPTIMAL),
+                p.classify_image(D32, host_copied, OPTIMAL, ONE),
                 Some(ImageDepth::Native(NativeReason::HostCopied))
             );
         }
         let all = policy(Mode::Flip, Observable::All);
         assert_eq!(
-            all.classify_image(D32, host_copied, vk::ImageTiling::LINEAR),
+            all.classify_image(D32, host_copied, vk::ImageTiling::LINEAR, ONE),
             Some(ImageDepth::Reversed)
         );
         assert_eq!(
@@ -662,7 +719,7 @@ mod tests {
     fn nothing_is_reversed_when_off_and_variants_stand_in_for_the_dynamic_compare_op() {
         let off = policy(Mode::Off, Observable::All);
         assert_eq!(
-            off.classify_image(D32, ATTACHMENT, OPTIMAL),
+            off.classify_image(D32, ATTACHMENT, OPTIMAL, ONE),
             Some(ImageDepth::Native(NativeReason::ModeOff))
         );
         assert!(!off.is_active());
@@ -673,7 +730,7 @@ mod tests {
         let no_eds = DevicePolicy::new(&settings, false);
         assert!(no_eds.compare_op_variants && no_eds.is_active());
         assert_eq!(
-            no_eds.classify_image(D32, ATTACHMENT, OPTIMAL),
+            no_eds.classify_image(D32, ATTACHMENT, OPTIMAL, ONE),
             Some(ImageDepth::Reversed)
         );
         assert!(!DevicePolicy::new(&settings, true).compare_op_variants);

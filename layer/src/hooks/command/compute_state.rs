@@ -64,13 +64,25 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_khr(
     p_writes: *const vk::WriteDescriptorSet<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetKHR");
+    let mut patched = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
         if bind_point == vk::PipelineBindPoint::COMPUTE {
             entry.copies().compute.bound_otherwise();
         }
+        if crate::hooks::descriptors::any_twin(&entry.device) {
+            // SAFETY: `count` valid writes (the application's contract).
+            patched = unsafe {
+                crate::hooks::descriptors::patch_writes(&entry.device, slice(p_writes, count))
+            };
+        }
     });
+    let (count, p_writes) = match &patched {
+        Some(patched) => (patched.writes.len() as u32, patched.writes.as_ptr()),
+        None => (count, p_writes),
+    };
     if let Some(next) = device.and_then(|d| d.commands.push_descriptor_set) {
-        // SAFETY: calling down with the application's arguments.
+        // SAFETY: calling down with the application's arguments (its writes naming the read
+        // twins' views where they name views of images with one).
         unsafe { next(buffer, bind_point, layout, set, count, p_writes) }
     }
 }
@@ -132,13 +144,20 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_with_template(
     p_data: *const std::ffi::c_void,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetWithTemplateKHR");
+    let mut patched = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
         if entry.device.copies.pushes_compute(template) {
             entry.copies().compute.bound_otherwise();
         }
+        // SAFETY: the application's data for its template.
+        patched = unsafe {
+            crate::hooks::descriptors::patch_template_data(&entry.device, template, p_data)
+        };
     });
+    let p_data = patched.as_ref().map_or(p_data, |copy| copy.as_ptr().cast());
     if let Some(next) = device.and_then(|d| d.commands.push_descriptor_set_with_template) {
-        // SAFETY: calling down with the application's arguments.
+        // SAFETY: calling down with the application's arguments (its data naming the read
+        // twins' views where it names views of images with one).
         unsafe { next(buffer, template, layout, set, p_data) }
     }
 }

@@ -20,6 +20,7 @@ mod copies;
 mod passes;
 mod secondaries;
 mod transfers;
+mod twins;
 
 use std::mem::MaybeUninit;
 use std::sync::{Arc, OnceLock};
@@ -40,6 +41,7 @@ pub use copies::*;
 pub use passes::*;
 pub use secondaries::*;
 pub use transfers::*;
+pub use twins::{cmd_pipeline_barrier, cmd_pipeline_barrier2, cmd_wait_events, cmd_wait_events2};
 
 /// The device of a command buffer revz does not track (slow path: the global registry).
 fn untracked_device(buffer: vk::CommandBuffer) -> Option<Arc<DeviceState>> {

@@ -126,7 +126,7 @@ fn begin_pass(
         handle: begin.render_pass,
         render_pass: pass,
         attachment_targets: targets,
-        attachment_views: device.profile.is_some().then_some(views),
+        attachment_views: Some(views),
         subpass: 0,
         promoted,
     };
@@ -306,9 +306,15 @@ pub unsafe extern "system" fn cmd_next_subpass2(
 
 pub unsafe extern "system" fn cmd_end_render_pass(buffer: vk::CommandBuffer) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRenderPass");
-    if let Some(device) = with_entry(buffer, &ENTRY, end_pass) {
+    let mut refreshes = Vec::new();
+    let down = with_entry(buffer, &ENTRY, |entry| {
+        refreshes = super::twins::pass_end_refreshes(entry);
+        end_pass(entry);
+    });
+    if let Some(device) = &down {
         // SAFETY: calling down with the application's arguments.
-        unsafe { (device.next.fp_v1_0().cmd_end_render_pass)(buffer) }
+        unsafe { (device.next.fp_v1_0().cmd_end_render_pass)(buffer) };
+        super::twins::after_pass_end(&down, buffer, &refreshes);
     }
 }
 
@@ -317,11 +323,15 @@ pub unsafe extern "system" fn cmd_end_render_pass2(
     p_end: *const vk::SubpassEndInfo<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRenderPass2");
-    if let Some(next) =
-        with_entry(buffer, &ENTRY, end_pass).and_then(|d| d.commands.end_render_pass2)
-    {
+    let mut refreshes = Vec::new();
+    let down = with_entry(buffer, &ENTRY, |entry| {
+        refreshes = super::twins::pass_end_refreshes(entry);
+        end_pass(entry);
+    });
+    if let Some(next) = down.as_ref().and_then(|d| d.commands.end_render_pass2) {
         // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, p_end) }
+        unsafe { next(buffer, p_end) };
+        super::twins::after_pass_end(&down, buffer, &refreshes);
     }
 }
 

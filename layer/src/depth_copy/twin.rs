@@ -1,0 +1,434 @@
+//! Read twins (issue #39): what shaders read in place of a reversed depth image.
+//!
+//! A reversed image that shaders sample (`crate::policy::DevicePolicy::reads_through_twin`)
+//! gets a twin at its creation: a native image of the same stored format, size, mip levels and
+//! layers, in revz's own memory. Every view of the image gets a view of the twin beside it,
+//! and descriptors receive the twin's view (`crate::hooks::descriptors`). Whenever the
+//! application makes the image readable after writing it (an image barrier or a
+//! `vkCmdWaitEvents` into a read-only layout, a render pass ending in one:
+//! `crate::hooks::command::twins`), the barrier's subresources are refreshed: copied out of
+//! the image through the conversion of copies ([`super::record`]), mapped back to standard
+//! depth, into the twin; the stencil aspect is copied as it is.
+//!
+//! A refresh, in the application's command buffer, outside a render pass:
+//!
+//! 1. one barrier: everything before (all commands, all memory writes) before the transfer;
+//!    the image from the application's new layout to `TRANSFER_SRC_OPTIMAL`; the twin's
+//!    subresources from `UNDEFINED` (they are overwritten whole) to `TRANSFER_DST_OPTIMAL`;
+//! 2. the depth converted into the twin (a plain copy where the image is native: demoted, or
+//!    the application's own reversed depth), the stencil copied;
+//! 3. one barrier: the image back to the application's layout, the twin to
+//!    `SHADER_READ_ONLY_OPTIMAL`, before every later command.
+//!
+//! Descriptors name the twin in `SHADER_READ_ONLY_OPTIMAL` whatever layout the application
+//! named. A twin subresource is read only after a refresh put it there, unless the
+//! application samples a subresource it never made readable (which it may not either).
+
+use ash::vk;
+
+use super::plan::{plan_image_copy, DepthMap, ShaderHeader, TexelKind, TexelKinds};
+use super::record::{record, Conversion, Drain, Fill};
+use super::scratch::CommandCopies;
+use crate::objects::ReadTwin;
+use crate::policy::Unconverted;
+use crate::state::DeviceState;
+
+/// The layout descriptors name a twin's views in, and the one it is left in after a refresh.
+pub const TWIN_LAYOUT: vk::ImageLayout = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
+
+/// Creates the twin of an image created with `info` in `format` (the stored one), with its
+/// memory; `None` (nothing left behind) where the device refuses.
+///
+/// # Safety
+/// `device` is live; `info` is the application's valid create info.
+pub unsafe fn create(
+    device: &DeviceState,
+    info: &vk::ImageCreateInfo<'_>,
+    format: vk::Format,
+) -> Option<ReadTwin> {
+    let v = device.next.fp_v1_0();
+    let null = std::ptr::null();
+    // The flags views need (cube and 2D-array views of the image); the rest concern memory
+    // the application places, or formats the twin does not have.
+    let flags = info.flags
+        & (vk::ImageCreateFlags::CUBE_COMPATIBLE | vk::ImageCreateFlags::TYPE_2D_ARRAY_COMPATIBLE);
+    let twin_info = vk::ImageCreateInfo {
+        p_next: std::ptr::null(),
+        flags,
+        format,
+        usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+        initial_layout: vk::ImageLayout::UNDEFINED,
+        ..*info
+    };
+    let mut image = vk::Image::null();
+    // SAFETY: a valid create info (the application's, narrowed) and output.
+    if unsafe { (v.create_image)(device.handle, &twin_info, null, &mut image) }
+        != vk::Result::SUCCESS
+    {
+        return None;
+    }
+    let mut requirements = vk::MemoryRequirements::default();
+    // SAFETY: the image just created.
+    unsafe { (v.get_image_memory_requirements)(device.handle, image, &mut requirements) };
+    // SAFETY: a live device.
+    let memory = match unsafe { super::scratch::allocate(device, requirements) } {
+        Ok(memory) => memory,
+        Err(_) => {
+            // SAFETY: revz's image, never used.
+            unsafe { (v.destroy_image)(device.handle, image, null) };
+            return None;
+        }
+    };
+    // SAFETY: fresh image and memory of an allowed type and its size.
+    if unsafe { (v.bind_image_memory)(device.handle, image, memory, 0) } != vk::Result::SUCCESS {
+        // SAFETY: revz's objects, never used.
+        unsafe {
+            (v.destroy_image)(device.handle, image, null);
+            (v.free_memory)(device.handle, memory, null);
+        }
+        return None;
+    }
+    Some(ReadTwin {
+        image,
+        memory,
+        extent: info.extent,
+        mip_levels: info.mip_levels,
+        array_layers: info.array_layers,
+        aspects: crate::conv::aspects_of(format),
+    })
+}
+
+/// Destroys a twin and frees its memory.
+///
+/// # Safety
+/// No pending command buffer uses it (the application destroys its image only then).
+pub unsafe fn destroy(device: &DeviceState, twin: &ReadTwin) {
+    let v = device.next.fp_v1_0();
+    // SAFETY: the caller's contract.
+    unsafe {
+        (v.destroy_image)(device.handle, twin.image, std::ptr::null());
+        (v.free_memory)(device.handle, twin.memory, std::ptr::null());
+    }
+}
+
+/// Creates the view of `twin` beside a view made with `info` (already in the stored format):
+/// the same view of the twin, without the application's extension structures (usage
+/// restrictions, min LOD: the twin is only sampled).
+///
+/// # Safety
+/// `device` is live; `info` is a valid create info of a view of the twin's image.
+pub unsafe fn create_view(
+    device: &DeviceState,
+    info: &vk::ImageViewCreateInfo<'_>,
+    twin: &ReadTwin,
+) -> Option<vk::ImageView> {
+    let twin_info = vk::ImageViewCreateInfo {
+        p_next: std::ptr::null(),
+        image: twin.image,
+        ..*info
+    };
+    let mut view = vk::ImageView::null();
+    // SAFETY: the caller's contract.
+    let result = unsafe {
+        (device.next.fp_v1_0().create_image_view)(
+            device.handle,
+            &twin_info,
+            std::ptr::null(),
+            &mut view,
+        )
+    };
+    (result == vk::Result::SUCCESS).then_some(view)
+}
+
+/// A subresource range with its `VK_REMAINING_*` counts resolved against `twin`, and its
+/// aspects narrowed to the twin's; `None` where it is empty.
+pub fn resolved_range(
+    range: vk::ImageSubresourceRange,
+    twin: &ReadTwin,
+) -> Option<vk::ImageSubresourceRange> {
+    let resolve = |base: u32, count: u32, total: u32| {
+        let left = total.checked_sub(base)?;
+        let count = if count == vk::REMAINING_MIP_LEVELS {
+            left
+        } else {
+            count.min(left)
+        };
+        (count > 0).then_some(count)
+    };
+    let aspects = range.aspect_mask & twin.aspects;
+    if aspects.is_empty() {
+        return None;
+    }
+    Some(vk::ImageSubresourceRange {
+        aspect_mask: aspects,
+        base_mip_level: range.base_mip_level,
+        level_count: resolve(range.base_mip_level, range.level_count, twin.mip_levels)?,
+        base_array_layer: range.base_array_layer,
+        layer_count: resolve(range.base_array_layer, range.layer_count, twin.array_layers)?,
+    })
+}
+
+/// What one refresh copies: the image, the layout the application left it in, and the
+/// subresources.
+#[derive(Clone, Copy, Debug)]
+pub struct Refresh {
+    pub image: vk::Image,
+    pub layout: vk::ImageLayout,
+    pub range: vk::ImageSubresourceRange,
+    pub twin: ReadTwin,
+    /// The texels of the stored format.
+    pub kind: TexelKind,
+    /// The map to standard depth; `None` where the image holds standard depth already.
+    pub map: Option<DepthMap>,
+}
+
+/// The copy regions of `range`'s `aspect` at every mip level (the same subresource at both
+/// ends, the level's size).
+fn level_regions(
+    range: &vk::ImageSubresourceRange,
+    aspect: vk::ImageAspectFlags,
+    extent: vk::Extent3D,
+) -> Vec<vk::ImageCopy> {
+    (range.base_mip_level..range.base_mip_level + range.level_count)
+        .map(|level| {
+            let subresource = vk::ImageSubresourceLayers {
+                aspect_mask: aspect,
+                mip_level: level,
+                base_array_layer: range.base_array_layer,
+                layer_count: range.layer_count,
+            };
+            let side = |size: u32| (size >> level).max(1);
+            vk::ImageCopy {
+                src_subresource: subresource,
+                src_offset: vk::Offset3D::default(),
+                dst_subresource: subresource,
+                dst_offset: vk::Offset3D::default(),
+                extent: vk::Extent3D {
+                    width: side(extent.width),
+                    height: side(extent.height),
+                    depth: side(extent.depth),
+                },
+            }
+        })
+        .collect()
+}
+
+/// Records a refresh of `refresh.twin` from its image, with the barriers around it (see the
+/// module's docs). On `Err` the barriers are recorded all the same (layouts stay consistent)
+/// and the twin's refreshed subresources are undefined.
+///
+/// # Safety
+/// `buffer` is a command buffer of `device` in the recording state, outside a render pass,
+/// and `copies` its scratch.
+pub unsafe fn record_refresh(
+    device: &DeviceState,
+    copies: &mut CommandCopies,
+    buffer: vk::CommandBuffer,
+    refresh: &Refresh,
+) -> Result<(), Unconverted> {
+    let v = device.next.fp_v1_0();
+    let range = refresh.range;
+    let twin_range = vk::ImageSubresourceRange {
+        aspect_mask: refresh.twin.aspects,
+        ..range
+    };
+    let image_barrier = |image, range, old, new, src_access, dst_access| vk::ImageMemoryBarrier {
+        src_access_mask: src_access,
+        dst_access_mask: dst_access,
+        old_layout: old,
+        new_layout: new,
+        src_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+        dst_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+        image,
+        subresource_range: range,
+        ..Default::default()
+    };
+    let barrier = |src_stage, dst_stage, barriers: &[vk::ImageMemoryBarrier<'_>]| {
+        // SAFETY: a recording command buffer outside a render pass (the caller's contract);
+        // the application's image in the layout it left it in, and revz's twin.
+        unsafe {
+            (v.cmd_pipeline_barrier)(
+                buffer,
+                src_stage,
+                dst_stage,
+                vk::DependencyFlags::empty(),
+                0,
+                std::ptr::null(),
+                0,
+                std::ptr::null(),
+                barriers.len() as u32,
+                barriers.as_ptr(),
+            )
+        }
+    };
+    let transfer = vk::PipelineStageFlags::TRANSFER;
+    let all = vk::PipelineStageFlags::ALL_COMMANDS;
+    barrier(
+        all,
+        transfer,
+        &[
+            image_barrier(
+                refresh.image,
+                range,
+                refresh.layout,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                vk::AccessFlags::MEMORY_WRITE,
+                vk::AccessFlags::TRANSFER_READ,
+            ),
+            image_barrier(
+                refresh.twin.image,
+                twin_range,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                vk::AccessFlags::empty(),
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
+        ],
+    );
+    let src_layout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+    let dst_layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+    let copy = |regions: &[vk::ImageCopy]| {
+        // SAFETY: the image and its twin have one format and size; both in transfer layouts.
+        unsafe {
+            (v.cmd_copy_image)(
+                buffer,
+                refresh.image,
+                src_layout,
+                refresh.twin.image,
+                dst_layout,
+                regions.len() as u32,
+                regions.as_ptr(),
+            )
+        }
+    };
+    let mut result = Ok(());
+    if range.aspect_mask.contains(vk::ImageAspectFlags::DEPTH) {
+        let regions = level_regions(&range, vk::ImageAspectFlags::DEPTH, refresh.twin.extent);
+        match refresh.map {
+            None => copy(&regions),
+            Some(map) => {
+                let kinds = TexelKinds::same(refresh.kind);
+                result = match plan_image_copy(&regions, kinds) {
+                    None => Err(Unconverted::Regions),
+                    Some(plan) => {
+                        let conversion = Conversion {
+                            header: ShaderHeader::new(kinds, map, &plan.layout),
+                            size: plan.layout.size,
+                            fill: Fill::Image {
+                                image: refresh.image,
+                                layout: src_layout,
+                                regions: &plan.from_source,
+                            },
+                            drain: Drain::Image {
+                                image: refresh.twin.image,
+                                layout: dst_layout,
+                                regions: &plan.to_destination,
+                            },
+                        };
+                        // SAFETY: the caller's contract.
+                        unsafe { record(device, copies, buffer, &conversion) }
+                    }
+                };
+            }
+        }
+    }
+    if range.aspect_mask.contains(vk::ImageAspectFlags::STENCIL) {
+        copy(&level_regions(
+            &range,
+            vk::ImageAspectFlags::STENCIL,
+            refresh.twin.extent,
+        ));
+    }
+    barrier(
+        transfer,
+        all,
+        &[
+            image_barrier(
+                refresh.image,
+                range,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                refresh.layout,
+                vk::AccessFlags::empty(),
+                vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
+            ),
+            image_barrier(
+                refresh.twin.image,
+                twin_range,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                TWIN_LAYOUT,
+                vk::AccessFlags::TRANSFER_WRITE,
+                vk::AccessFlags::SHADER_READ,
+            ),
+        ],
+    );
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ash::vk::Handle;
+
+    fn twin() -> ReadTwin {
+        ReadTwin {
+            image: vk::Image::from_raw(1),
+            memory: vk::DeviceMemory::from_raw(2),
+            extent: vk::Extent3D {
+                width: 64,
+                height: 32,
+                depth: 1,
+            },
+            mip_levels: 4,
+            array_layers: 6,
+            aspects: vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+        }
+    }
+
+    #[test]
+    fn ranges_resolve_remaining_counts_and_keep_the_twins_aspects() {
+        let range = vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::COLOR,
+            base_mip_level: 1,
+            level_count: vk::REMAINING_MIP_LEVELS,
+            base_array_layer: 2,
+            layer_count: vk::REMAINING_ARRAY_LAYERS,
+        };
+        let resolved = resolved_range(range, &twin()).unwrap();
+        assert_eq!(resolved.aspect_mask, vk::ImageAspectFlags::DEPTH);
+        assert_eq!((resolved.level_count, resolved.layer_count), (3, 4));
+        let past = vk::ImageSubresourceRange {
+            base_mip_level: 4,
+            ..range
+        };
+        assert!(resolved_range(past, &twin()).is_none());
+        let color = vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            ..range
+        };
+        assert!(resolved_range(color, &twin()).is_none());
+    }
+
+    #[test]
+    fn each_level_is_copied_at_its_own_size() {
+        let range = vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            base_mip_level: 1,
+            level_count: 3,
+            base_array_layer: 0,
+            layer_count: 6,
+        };
+        let regions = level_regions(&range, vk::ImageAspectFlags::STENCIL, twin().extent);
+        let sizes: Vec<_> = regions
+            .iter()
+            .map(|r| (r.src_subresource.mip_level, r.extent.width, r.extent.height))
+            .collect();
+        assert_eq!(sizes, [(1, 32, 16), (2, 16, 8), (3, 8, 4)]);
+        assert!(regions.iter().all(|r| {
+            let (s, d) = (r.src_subresource, r.dst_subresource);
+            (s.mip_level, s.base_array_layer, s.layer_count)
+                == (d.mip_level, d.base_array_layer, d.layer_count)
+                && s.aspect_mask == vk::ImageAspectFlags::STENCIL
+                && s.layer_count == 6
+        }));
+    }
+}

@@ -1,0 +1,425 @@
+//! Refreshes of read twins (issue #39, `crate::depth_copy::twin`): where the application
+//! makes a reversed image with a twin readable (an image barrier or `vkCmdWaitEvents` into a
+//! layout shaders read, in either synchronization API, outside a render pass; a render pass
+//! whose final layout for it is one), revz refreshes the twin's subresources right after.
+
+#![allow(clippy::wildcard_imports)]
+
+use super::*;
+use crate::depth_copy::plan::{DepthMap, TexelKind};
+use crate::depth_copy::twin::{record_refresh, resolved_range, Refresh};
+
+/// Whether shaders may read an image in `layout` after a barrier whose second access scope
+/// is `dst_access` (the raw bits of either API's flags: the sampled and shader reads share
+/// their low bits).
+fn readable(layout: vk::ImageLayout, dst_access: u64) -> bool {
+    let shader_reads = vk::AccessFlags2::SHADER_READ.as_raw()
+        | vk::AccessFlags2::SHADER_SAMPLED_READ.as_raw()
+        | vk::AccessFlags2::MEMORY_READ.as_raw();
+    match layout {
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL
+        | vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+        | vk::ImageLayout::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL
+        | vk::ImageLayout::DEPTH_ATTACHMENT_STENCIL_READ_ONLY_OPTIMAL
+        | vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL
+        | vk::ImageLayout::STENCIL_READ_ONLY_OPTIMAL
+        | vk::ImageLayout::READ_ONLY_OPTIMAL => true,
+        vk::ImageLayout::GENERAL => dst_access & shader_reads != 0,
+        _ => false,
+    }
+}
+
+/// Whether an image barrier makes the image readable after it may have been written: into a
+/// readable layout from another one (not from `UNDEFINED`, whose contents nobody may read),
+/// or within one after writes; not a queue family ownership transfer.
+fn makes_readable(
+    old: vk::ImageLayout,
+    new: vk::ImageLayout,
+    src_access: u64,
+    dst_access: u64,
+    (src_family, dst_family): (u32, u32),
+) -> bool {
+    let writes = vk::AccessFlags2::SHADER_WRITE.as_raw()
+        | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw()
+        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw()
+        | vk::AccessFlags2::TRANSFER_WRITE.as_raw()
+        | vk::AccessFlags2::HOST_WRITE.as_raw()
+        | vk::AccessFlags2::MEMORY_WRITE.as_raw()
+        | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw();
+    let transfer_of_ownership = src_family != dst_family
+        && src_family != vk::QUEUE_FAMILY_IGNORED
+        && dst_family != vk::QUEUE_FAMILY_IGNORED;
+    old != vk::ImageLayout::UNDEFINED
+        && readable(new, dst_access)
+        && (old != new || src_access & writes != 0)
+        && !transfer_of_ownership
+}
+
+/// The refresh of `image`'s twin over `range`, now in `layout`; `None` for an image without
+/// a twin, or an empty range.
+fn refresh_of(
+    device: &DeviceState,
+    image: vk::Image,
+    layout: vk::ImageLayout,
+    range: vk::ImageSubresourceRange,
+) -> Option<Refresh> {
+    let info = device.objects.images.get(&image)?;
+    let twin = info.twin?;
+    let range = resolved_range(range, &twin)?;
+    let kind = TexelKind::of(info.promoted.unwrap_or(info.format))?;
+    // The image's depth is reversed where revz stores it so after the application's
+    // convention; shaders read standard values (`copy_values` concerns copies only).
+    let reversed = device.observed.effective(info.depth.target()) == Target::Reversed;
+    let map = reversed.then(|| DepthMap::to_standard(device.reversing().reversal));
+    Some(Refresh {
+        image,
+        layout,
+        range,
+        twin,
+        kind,
+        map,
+    })
+}
+
+/// Logs once that a twin could not be refreshed.
+fn warn_unrefreshed(why: crate::policy::Unconverted) {
+    static ONCE: crate::logging::LogOnce = crate::logging::LogOnce::new();
+    ONCE.log(|| {
+        log::warn!(
+            "a read twin is not refreshed ({why}): shaders read what it held before (logged once)"
+        )
+    });
+}
+
+/// Records `refreshes` after the application's command (outside a render pass).
+fn record_refreshes(down: &Option<Down>, buffer: vk::CommandBuffer, refreshes: &[Refresh]) {
+    static ENTRY: EntryPoint = EntryPoint::new("read twin refresh");
+    let Some(Down::Tracked(entry)) = down else {
+        return;
+    };
+    guarded(
+        &ENTRY,
+        || {
+            for refresh in refreshes {
+                let mut copies = entry.copies();
+                // SAFETY: a recording command buffer of this device, outside a render pass
+                // (checked by the callers); its own scratch.
+                let recorded =
+                    unsafe { record_refresh(&entry.device, &mut copies, buffer, refresh) };
+                if let Err(why) = recorded {
+                    warn_unrefreshed(why);
+                }
+                if let Some(profile) = &entry.device.profile {
+                    profile.copy(recorded.is_ok());
+                }
+            }
+        },
+        || (),
+    );
+}
+
+/// The refreshes `barriers` call for, given as (image, old layout, new layout, range, source
+/// and destination access, queue families); none inside a render pass or while no twin is
+/// alive.
+fn barrier_refreshes(
+    entry: &CommandBufferEntry,
+    barriers: impl Iterator<
+        Item = (
+            vk::Image,
+            vk::ImageLayout,
+            vk::ImageLayout,
+            vk::ImageSubresourceRange,
+            u64,
+            u64,
+            (u32, u32),
+        ),
+    >,
+) -> Vec<Refresh> {
+    let device = &entry.device;
+    if !crate::hooks::descriptors::any_twin(device) || entry.state().in_pass() {
+        return Vec::new();
+    }
+    barriers
+        .filter(|&(_, old, new, _, src, dst, families)| {
+            makes_readable(old, new, src, dst, families)
+        })
+        .filter_map(|(image, _, new, range, ..)| refresh_of(device, image, new, range))
+        .collect()
+}
+
+/// The refreshes a legacy image barrier array calls for.
+///
+/// # Safety
+/// `count` valid barriers at `barriers`.
+unsafe fn legacy_refreshes(
+    entry: &CommandBufferEntry,
+    count: u32,
+    barriers: *const vk::ImageMemoryBarrier<'_>,
+) -> Vec<Refresh> {
+    // SAFETY: the caller's contract.
+    let barriers = unsafe { slice(barriers, count) };
+    barrier_refreshes(
+        entry,
+        barriers.iter().map(|b| {
+            (
+                b.image,
+                b.old_layout,
+                b.new_layout,
+                b.subresource_range,
+                u64::from(b.src_access_mask.as_raw()),
+                u64::from(b.dst_access_mask.as_raw()),
+                (b.src_queue_family_index, b.dst_queue_family_index),
+            )
+        }),
+    )
+}
+
+/// The refreshes a dependency info (synchronization2) calls for.
+///
+/// # Safety
+/// `info` is a valid dependency info.
+unsafe fn dependency_refreshes(
+    entry: &CommandBufferEntry,
+    info: &vk::DependencyInfo<'_>,
+) -> Vec<Refresh> {
+    // SAFETY: the caller's contract.
+    let barriers = unsafe {
+        slice(
+            info.p_image_memory_barriers,
+            info.image_memory_barrier_count,
+        )
+    };
+    barrier_refreshes(
+        entry,
+        barriers.iter().map(|b| {
+            (
+                b.image,
+                b.old_layout,
+                b.new_layout,
+                b.subresource_range,
+                b.src_access_mask.as_raw(),
+                b.dst_access_mask.as_raw(),
+                (b.src_queue_family_index, b.dst_queue_family_index),
+            )
+        }),
+    )
+}
+
+/// The refreshes the end of the current render pass calls for: each attachment with a twin
+/// whose final layout shaders read. Called before the pass's scope is cleared.
+pub(super) fn pass_end_refreshes(entry: &CommandBufferEntry) -> Vec<Refresh> {
+    let device = &entry.device;
+    if !crate::hooks::descriptors::any_twin(device) {
+        return Vec::new();
+    }
+    let scope = entry.scope();
+    let (Some(pass), Some(views)) = (&scope.render_pass, &scope.attachment_views) else {
+        return Vec::new();
+    };
+    views
+        .iter()
+        .zip(&pass.final_layouts)
+        .filter(|&(_, &layout)| readable(layout, 0) || layout == vk::ImageLayout::GENERAL)
+        .filter_map(|(view, &layout)| {
+            let twin_view = device.objects.twin_views.get(view)?;
+            refresh_of(device, twin_view.image, layout, twin_view.range)
+        })
+        .collect()
+}
+
+/// Records the refreshes collected at a render pass's end, after it ended.
+pub(super) fn after_pass_end(
+    down: &Option<Down>,
+    buffer: vk::CommandBuffer,
+    refreshes: &[Refresh],
+) {
+    if !refreshes.is_empty() {
+        record_refreshes(down, buffer, refreshes);
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "system" fn cmd_pipeline_barrier(
+    buffer: vk::CommandBuffer,
+    src_stage: vk::PipelineStageFlags,
+    dst_stage: vk::PipelineStageFlags,
+    dependency: vk::DependencyFlags,
+    memory_count: u32,
+    p_memory: *const vk::MemoryBarrier<'_>,
+    buffer_count: u32,
+    p_buffer: *const vk::BufferMemoryBarrier<'_>,
+    image_count: u32,
+    p_image: *const vk::ImageMemoryBarrier<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPipelineBarrier");
+    let mut refreshes = Vec::new();
+    let down = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: the application's `imageMemoryBarrierCount` barriers.
+        refreshes = unsafe { legacy_refreshes(entry, image_count, p_image) }
+    });
+    if let Some(device) = &down {
+        // SAFETY: calling down with the application's arguments.
+        unsafe {
+            (device.next.fp_v1_0().cmd_pipeline_barrier)(
+                buffer,
+                src_stage,
+                dst_stage,
+                dependency,
+                memory_count,
+                p_memory,
+                buffer_count,
+                p_buffer,
+                image_count,
+                p_image,
+            )
+        };
+        record_refreshes(&down, buffer, &refreshes);
+    }
+}
+
+pub unsafe extern "system" fn cmd_pipeline_barrier2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::DependencyInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPipelineBarrier2");
+    let mut refreshes = Vec::new();
+    let down = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid dependency info (the application's contract).
+        refreshes = unsafe { dependency_refreshes(entry, &*p_info) }
+    });
+    if let Some(next) = down.as_ref().and_then(|d| d.commands.pipeline_barrier2) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_info) };
+        record_refreshes(&down, buffer, &refreshes);
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "system" fn cmd_wait_events(
+    buffer: vk::CommandBuffer,
+    event_count: u32,
+    p_events: *const vk::Event,
+    src_stage: vk::PipelineStageFlags,
+    dst_stage: vk::PipelineStageFlags,
+    memory_count: u32,
+    p_memory: *const vk::MemoryBarrier<'_>,
+    buffer_count: u32,
+    p_buffer: *const vk::BufferMemoryBarrier<'_>,
+    image_count: u32,
+    p_image: *const vk::ImageMemoryBarrier<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdWaitEvents");
+    let mut refreshes = Vec::new();
+    let down = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: the application's `imageMemoryBarrierCount` barriers.
+        refreshes = unsafe { legacy_refreshes(entry, image_count, p_image) }
+    });
+    if let Some(device) = &down {
+        // SAFETY: calling down with the application's arguments.
+        unsafe {
+            (device.next.fp_v1_0().cmd_wait_events)(
+                buffer,
+                event_count,
+                p_events,
+                src_stage,
+                dst_stage,
+                memory_count,
+                p_memory,
+                buffer_count,
+                p_buffer,
+                image_count,
+                p_image,
+            )
+        };
+        record_refreshes(&down, buffer, &refreshes);
+    }
+}
+
+pub unsafe extern "system" fn cmd_wait_events2(
+    buffer: vk::CommandBuffer,
+    event_count: u32,
+    p_events: *const vk::Event,
+    p_infos: *const vk::DependencyInfo<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdWaitEvents2");
+    let mut refreshes = Vec::new();
+    let down = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: `eventCount` valid dependency infos (the application's contract).
+        for info in unsafe { slice(p_infos, event_count) } {
+            // SAFETY: as above.
+            refreshes.extend(unsafe { dependency_refreshes(entry, info) });
+        }
+    });
+    if let Some(next) = down.as_ref().and_then(|d| d.commands.wait_events2) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, event_count, p_events, p_infos) };
+        record_refreshes(&down, buffer, &refreshes);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refreshes_follow_transitions_into_layouts_shaders_read() {
+        let raw = |a: vk::AccessFlags| u64::from(a.as_raw());
+        let write = raw(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE);
+        let read = raw(vk::AccessFlags::SHADER_READ);
+        let same = (vk::QUEUE_FAMILY_IGNORED, vk::QUEUE_FAMILY_IGNORED);
+        use vk::ImageLayout as L;
+        // The usual: attachment to sampled.
+        assert!(makes_readable(
+            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            write,
+            read,
+            same
+        ));
+        assert!(makes_readable(
+            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            L::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+            write,
+            read,
+            same
+        ));
+        // GENERAL only when shaders read after it.
+        assert!(makes_readable(L::GENERAL, L::GENERAL, write, read, same));
+        assert!(!makes_readable(
+            L::GENERAL,
+            L::GENERAL,
+            write,
+            raw(vk::AccessFlags::TRANSFER_READ),
+            same
+        ));
+        // Not readable, undefined contents, nothing written, ownership transfers.
+        assert!(!makes_readable(
+            L::SHADER_READ_ONLY_OPTIMAL,
+            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            read,
+            write,
+            same
+        ));
+        assert!(!makes_readable(
+            L::UNDEFINED,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            0,
+            read,
+            same
+        ));
+        assert!(!makes_readable(
+            L::SHADER_READ_ONLY_OPTIMAL,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            read,
+            read,
+            same
+        ));
+        assert!(!makes_readable(
+            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            write,
+            read,
+            (0, 1)
+        ));
+    }
+}
