@@ -202,6 +202,8 @@ pub struct ImageRecord {
     /// The frame in which a reversed image became native (a resolve from or into a native
     /// image), if it did.
     pub demoted_in_frame: Option<u64>,
+    /// Shaders read it through a read twin (issue #39).
+    pub read_twin: bool,
 }
 
 /// One depth-testing pipeline and its path.
@@ -247,6 +249,11 @@ struct Inner {
     /// down unconverted (why: in `warnings`).
     copies_converted: u64,
     copies_unconverted: u64,
+    /// Read twin refreshes recorded per image (raw handle): how many, and the bytes each
+    /// copied (texels of the stored format over the refreshed subresources); and those that
+    /// could not be recorded.
+    refreshes: HashMap<u64, (u64, u64)>,
+    refreshes_failed: u64,
     /// The device found the application already renders reversed depth: revz leaves every
     /// attachment alone (`crate::policy::Observed`).
     application_reversed: bool,
@@ -438,6 +445,23 @@ impl Profile {
         }
     }
 
+    /// A read twin refresh of `image` was recorded (`bytes` copied), or could not be
+    /// (`None`).
+    pub fn refresh(&self, image: vk::Image, bytes: Option<u64>) {
+        let mut inner = self.inner();
+        match bytes {
+            Some(bytes) => {
+                let entry = inner
+                    .refreshes
+                    .entry(vk::Handle::as_raw(image))
+                    .or_default();
+                entry.0 += 1;
+                entry.1 += bytes;
+            }
+            None => inner.refreshes_failed += 1,
+        }
+    }
+
     /// The application was found to render reversed depth itself.
     pub fn set_application_reversed(&self) {
         self.inner().application_reversed = true;
@@ -474,6 +498,9 @@ impl Profile {
                     "depth": if native_because.is_none() { "reversed" } else { "native" },
                     "reason": native_because,
                     "demoted_in_frame": r.demoted_in_frame,
+                    "read_twin": r.read_twin,
+                    "refreshes_recorded": inner.refreshes.get(handle).map_or(0, |r| r.0),
+                    "bytes_refreshed": inner.refreshes.get(handle).map_or(0, |r| r.1),
                     "draws": inner.by_image.get(handle).copied().unwrap_or_default().json(),
                 })
             })
@@ -545,6 +572,11 @@ impl Profile {
                 "copies_recorded": {
                     "converted": inner.copies_converted,
                     "unconverted": inner.copies_unconverted,
+                },
+                "read_twin_refreshes_recorded": {
+                    "recorded": inner.refreshes.values().map(|r| r.0).sum::<u64>(),
+                    "bytes": inner.refreshes.values().map(|r| r.1).sum::<u64>(),
+                    "failed": inner.refreshes_failed,
                 },
                 "precise_fraction_of_reversed": precise_fraction(&inner.totals),
             }),
@@ -737,6 +769,7 @@ mod tests {
             usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
             native_because: native_because.map(str::to_owned),
             demoted_in_frame: None,
+            read_twin: false,
         }
     }
 

@@ -54,9 +54,12 @@ fn paths(draws: &Value) -> (u64, u64, u64) {
     (n("precise"), n("flip"), n("native"))
 }
 
-/// `VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_INPUT_ATTACHMENT_BIT`: shaders read the image,
-/// so under the default `reverse_observable` its depth stays standard.
-const READ_BY_SHADERS: u64 = 0x4 | 0x80;
+/// `VK_IMAGE_USAGE_SAMPLED_BIT`: shaders sample the image, which under the default
+/// `reverse_observable` they do through its read twin where it has one sample.
+const SAMPLED: u64 = 0x4;
+/// `VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_INPUT_ATTACHMENT_BIT`: shaders read (or
+/// write) the image where no twin can serve them, so its depth stays standard.
+const READ_IN_PASS: u64 = 0x8 | 0x80;
 
 /// What the profile must say of one render, derived from what the tester recorded
 /// (`render.json`'s `recorded`: its depth images with their usage, its draws per pipeline
@@ -64,11 +67,14 @@ const READ_BY_SHADERS: u64 = 0x4 | 0x80;
 /// camera and pipelines), never from the profile itself:
 ///
 /// - every recorded depth image is listed with its format, size and samples; it is native
-///   where shaders read it (SAMPLED or INPUT_ATTACHMENT) or where the application renders
-///   reversed depth itself (a scene that clears to 0), and reversed otherwise;
+///   where shaders read it in a way no read twin serves (storage, input attachment, a
+///   multisampled image sampled) or where the application renders reversed depth itself (a
+///   scene that clears to 0), and reversed otherwise; a sampled single-sampled image has a
+///   read twin (issue #39);
 /// - every draw is counted once, under its image and its pipeline: into a native image it is
 ///   native; into a reversed one it is flip in `flip` mode, and in the precise modes precise,
-///   except the draws of a pipeline with a constant viewport depth (a sky at [1, 1]: no
+///   except the draws into the shadow map (an orthographic light: flip), the draws of a
+///   pipeline with a constant viewport depth (a sky at [1, 1]: no
 ///   precision to gain, flip), of a pipeline that does not test depth (nothing compares its
 ///   depth: flip), and of a program whose push constants fill the 128 bytes (`MvpPair`: no
 ///   room for revz's carrier, flip);
@@ -100,7 +106,14 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
                 "{what}: {field} of {image}"
             );
         }
-        let read_by_shaders = image["usage"].as_u64().unwrap() & READ_BY_SHADERS != 0;
+        // Sampled single-sampled images are read through a read twin (issue #39) and stay
+        // reversed; what a twin cannot serve (storage, input attachments, several samples)
+        // keeps them native.
+        let usage = image["usage"].as_u64().unwrap();
+        let sampled = usage & SAMPLED != 0;
+        let twin = sampled && usage & READ_IN_PASS == 0 && image["samples"] == 1;
+        assert_eq!(listed["read_twin"], twin, "{what}: {listed}");
+        let read_by_shaders = (sampled || usage & READ_IN_PASS != 0) && !twin;
         let native = read_by_shaders || application_reversed;
         assert_eq!(
             listed["depth"],
@@ -111,7 +124,7 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
             native_images.push(image["role"].as_str().unwrap().to_owned());
             let reason = listed["reason"].as_str().unwrap();
             let expected = if read_by_shaders {
-                "SAMPLED"
+                "shaders read it"
             } else {
                 "already renders reversed"
             };
@@ -148,9 +161,12 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
             .is_some_and(|range| range[0] == range[1]);
         let no_room = draws["program"] == "MvpPair";
         let untested = draws["depth_test"] == false;
+        // The shadow map's light is orthographic: an affine projection, whose depth the flip
+        // path reverses as exactly as a rewrite would (`shared/DESIGN.md` section 1).
+        let orthographic = draws["image"] == "shadow";
         let path = if into_native {
             "native"
-        } else if mode == "flip" || constant_depth || no_room || untested {
+        } else if mode == "flip" || constant_depth || no_room || untested || orthographic {
             "flip"
         } else {
             "precise"
@@ -317,10 +333,28 @@ fn a_read_back_depth_image_stays_reversed_its_copies_are_counted_and_the_profile
     let copies = &profile["totals"]["copies_recorded"];
     assert_eq!(copies["converted"], 3, "{copies}");
     assert_eq!(copies["unconverted"], 0, "{copies}");
+    // The shadow map is reversed too, read through its twin (issue #39), refreshed once per
+    // frame at the end of the shadow pass: 512 x 512 D32 texels each time.
+    let images = profile["images"].as_array().unwrap();
+    let map = images
+        .iter()
+        .find(|i| i["width"] == 512)
+        .unwrap_or_else(|| panic!("no shadow map: {images:?}"));
+    assert_eq!(map["depth"], "reversed", "{map}");
+    assert_eq!(map["read_twin"], true, "{map}");
+    assert_eq!(map["refreshes_recorded"], 3, "{map}");
+    assert_eq!(map["bytes_refreshed"], 3 * 512 * 512 * 4, "{map}");
+    let refreshes = &profile["totals"]["read_twin_refreshes_recorded"];
+    assert_eq!(refreshes["recorded"], 3, "{refreshes}");
+    assert_eq!(refreshes["failed"], 0, "{refreshes}");
     let frames = profile["frames"].as_array().unwrap();
     assert_eq!(frames.len(), 3);
     for frame in frames {
-        assert_eq!(frame["precise_fraction_of_reversed"], 1.0, "{frame}");
+        // Every draw is reversed: the main pass's precise, the shadow casters' (an
+        // orthographic light) flip.
+        assert_eq!(frame["draws"]["native"], 0, "{frame}");
+        assert_eq!(frame["draws"]["precise"], frame["draws"]["flip"], "{frame}");
+        assert_eq!(frame["precise_fraction_of_reversed"], 0.5, "{frame}");
         assert_eq!(frame["by_image"].as_array().unwrap().len(), 2, "{frame}");
     }
     // `revz-tester profile` renders it as tables and a chart.

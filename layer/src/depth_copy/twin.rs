@@ -182,6 +182,33 @@ pub struct Refresh {
     pub map: Option<DepthMap>,
 }
 
+impl Refresh {
+    /// The bytes it copies: every refreshed texel of the stored format's depth (and one byte
+    /// of stencil each where it copies stencil too).
+    pub fn bytes(&self) -> u64 {
+        let per_texel = |aspect| match aspect {
+            vk::ImageAspectFlags::DEPTH => self.kind.bytes(),
+            _ => 1,
+        };
+        [vk::ImageAspectFlags::DEPTH, vk::ImageAspectFlags::STENCIL]
+            .into_iter()
+            .filter(|&aspect| self.range.aspect_mask.contains(aspect))
+            .map(|aspect| {
+                level_regions(&self.range, aspect, self.twin.extent)
+                    .iter()
+                    .map(|r| {
+                        u64::from(r.extent.width)
+                            * u64::from(r.extent.height)
+                            * u64::from(r.extent.depth)
+                            * u64::from(r.src_subresource.layer_count)
+                            * per_texel(aspect)
+                    })
+                    .sum::<u64>()
+            })
+            .sum()
+    }
+}
+
 /// The copy regions of `range`'s `aspect` at every mip level (the same subresource at both
 /// ends, the level's size).
 fn level_regions(

@@ -319,6 +319,7 @@ pub unsafe extern "system" fn create_image(
                             ImageDepth::Native(reason) => Some(reason.to_string()),
                         },
                         demoted_in_frame: None,
+                        read_twin: twin.is_some(),
                     },
                 );
             }

@@ -110,7 +110,7 @@ fn record_refreshes(down: &Option<Down>, buffer: vk::CommandBuffer, refreshes: &
                     warn_unrefreshed(why);
                 }
                 if let Some(profile) = &entry.device.profile {
-                    profile.copy(recorded.is_ok());
+                    profile.refresh(refresh.image, recorded.is_ok().then(|| refresh.bytes()));
                 }
             }
         },
