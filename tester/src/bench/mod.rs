@@ -650,6 +650,30 @@ fn paired_rounds(
         .collect()
 }
 
+/// The median over rounds of what a read twin refresh adds to the frame (`refresh_wall_ns`
+/// against no layer's) in units of a native copy of the same megapixel (no layer's copy frame
+/// less its refresh frame, which is the clear alone): `None` without data.
+fn refresh_in_native_copies(
+    samples: &[Sample],
+    job: &str,
+    variant: &str,
+    rounds: usize,
+) -> Option<f64> {
+    let with = per_round(samples, job, variant, rounds);
+    let without = per_round(samples, job, Variant::NoLayer.name(), rounds);
+    let values: Vec<f64> = with
+        .iter()
+        .zip(&without)
+        .filter_map(|(w, n)| {
+            let figure = |sample: &Option<&Value>, key: &str| sample.as_ref()?.get(key)?.as_f64();
+            let added = figure(w, "refresh_wall_ns")? - figure(n, "refresh_wall_ns")?;
+            let copy = figure(n, "copy_wall_ns")? - figure(n, "refresh_wall_ns")?;
+            (copy > 0.0).then(|| added / copy)
+        })
+        .collect();
+    (!values.is_empty()).then(|| child::median(&values))
+}
+
 /// The median over rounds of `f(variant's figure, no layer's figure)`, `None` without data.
 fn paired(
     samples: &[Sample],
@@ -798,6 +822,11 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "depth_copy_d24s8_wall_ratio": paired(samples, &copy, v, rounds, "copy_d24s8_wall_ns", ratio),
                 "depth_copy_d24s8_extra_ms_per_megapixel": paired(samples, &copy, v, rounds, "copy_d24s8_wall_ns", |a, b| (a - b) / 1e6 / megapixels),
                 "depth_copy_d24s8_wall_ns": own(samples, &copy, v, rounds, "copy_d24s8_wall_ns"),
+                // A read twin refresh of the same megapixel (issue #39): what it adds to the
+                // frame, and that in units of a native copy of the same bytes (no layer's copy
+                // frame less its frame without the copy, in the same round).
+                "depth_refresh_extra_ms_per_megapixel": paired(samples, &copy, v, rounds, "refresh_wall_ns", |a, b| (a - b) / 1e6 / megapixels),
+                "depth_refresh_in_native_copies": refresh_in_native_copies(samples, &copy, v, rounds),
                 "bytes_per_pipeline": paired(samples, &pipe, v, rounds, "heap_per_pipeline", diff),
                 "bytes_per_command_buffer": paired(samples, &big, v, rounds, "heap_per_command_buffer", diff),
                 "heap_growth_per_frame": paired(samples, &big, v, rounds, "heap_growth_per_frame", diff),

@@ -142,10 +142,11 @@ pub const SHADOW_BIAS: DepthBias = DepthBias {
 /// (`compareEnable`, LESS_OR_EQUAL) and darkens shadowed surfaces: long shadows fall on the
 /// ground away from the light.
 ///
-/// Layer item: observable depth images stay native. The shadow map is SAMPLED, so its clear
-/// value, compare op, depth bias and viewport must be left alone while the main pass is
-/// reversed. Reversing it hands the shader reversed stored depths: the LESS_OR_EQUAL compare
-/// against standard references then shadows everything (or nothing); negating its bias
+/// Layer item: depth images shaders sample. The shadow map is SAMPLED: revz reverses it (its
+/// clear value, compare op, depth bias and viewport follow) and the receiver samples its read
+/// twin, refreshed with standard depth at the end of the shadow pass (issue #39). A sampler
+/// that read the reversed map would compare reversed stored depths against standard
+/// references with LESS_OR_EQUAL and shadow everything (or nothing); a bias flipped wrong
 /// brings back shadow acne (dark stripes on lit surfaces).
 pub fn shadow_map() -> Scene {
     let camera = overlap_camera();

@@ -583,6 +583,10 @@ pub struct DepthCopy {
     /// D32_SFLOAT_S8_UINT in the precise modes, whose copy it converts back to D24.
     pub copy_d24s8_wall_ns: f64,
     pub copy_d24s8_cpu_ns: f64,
+    /// The same D32 image, also SAMPLED, made readable by shaders after the clear (a barrier
+    /// into `SHADER_READ_ONLY_OPTIMAL`) instead of copied: revz refreshes its read twin
+    /// there (issue #39); without revz the frame is the clear alone.
+    pub refresh_wall_ns: f64,
 }
 
 /// Side of the depth image [`depth_copy`] reads back (1024 x 1024: one megapixel).
@@ -591,9 +595,10 @@ pub const DEPTH_COPY_SIDE: u32 = 1024;
 /// A depth readback per frame, of a D32_SFLOAT and of a D24_UNORM_S8_UINT image
 /// ([`depth_copy_of`]).
 pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> {
-    let (wall, cpu) = depth_copy_of(gpu, vk::Format::D32_SFLOAT, frames, warmup)?;
+    let (wall, cpu) = depth_copy_of(gpu, vk::Format::D32_SFLOAT, false, frames, warmup)?;
     let (d24s8_wall, d24s8_cpu) =
-        depth_copy_of(gpu, vk::Format::D24_UNORM_S8_UINT, frames, warmup)?;
+        depth_copy_of(gpu, vk::Format::D24_UNORM_S8_UINT, false, frames, warmup)?;
+    let (refresh_wall, _) = depth_copy_of(gpu, vk::Format::D32_SFLOAT, true, frames, warmup)?;
     Ok(DepthCopy {
         frames: frames.max(1),
         megapixels: f64::from(DEPTH_COPY_SIDE * DEPTH_COPY_SIDE) / 1e6,
@@ -601,6 +606,7 @@ pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> 
         copy_cpu_ns: cpu,
         copy_d24s8_wall_ns: d24s8_wall,
         copy_d24s8_cpu_ns: d24s8_cpu,
+        refresh_wall_ns: refresh_wall,
     })
 }
 
@@ -609,9 +615,12 @@ pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> 
 /// where it is D24, and whose copies it converts) cleared with `vkCmdClearDepthStencilImage`,
 /// then its depth aspect copied into a host buffer with `vkCmdCopyImageToBuffer`; each frame
 /// submitted and waited for. The medians of the frames' wall and recording CPU times.
+/// `sampled`: the image is SAMPLED too, and the frame ends with a barrier that makes it
+/// readable by fragment shaders instead of the copy (a read twin refresh under revz).
 fn depth_copy_of(
     gpu: &Gpu,
     format: vk::Format,
+    sampled: bool,
     frames: usize,
     warmup: usize,
 ) -> Result<(f64, f64)> {
@@ -624,6 +633,11 @@ fn depth_copy_of(
     let usage = vk::ImageUsageFlags::TRANSFER_SRC
         | vk::ImageUsageFlags::TRANSFER_DST
         | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+    let usage = if sampled {
+        usage | vk::ImageUsageFlags::SAMPLED
+    } else {
+        usage
+    };
     let image = Attachment::copied(gpu, format, usage, extent)?;
     let pixels = (DEPTH_COPY_SIDE * DEPTH_COPY_SIDE) as usize;
     let host = HostBuffer::new(gpu, pixels * 4, vk::BufferUsageFlags::TRANSFER_DST)?;
@@ -700,6 +714,33 @@ fn depth_copy_of(
                 new_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 ..to_clear
             };
+            if sampled {
+                let to_shaders = vk::ImageMemoryBarrier {
+                    dst_access_mask: vk::AccessFlags::SHADER_READ,
+                    new_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                    ..to_copy
+                };
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::FRAGMENT_SHADER,
+                    vk::DependencyFlags::empty(),
+                    &[],
+                    &[],
+                    &[to_shaders],
+                );
+                device
+                    .end_command_buffer(cmd)
+                    .context("vkEndCommandBuffer failed")?;
+                bench.submit(cmd)?;
+                let c1 = thread_cpu_ns();
+                bench.wait()?;
+                if frame >= warmup {
+                    wall.push(w0.elapsed().as_nanos() as f64);
+                    cpu.push((c1 - c0) as f64);
+                }
+                continue;
+            }
             device.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TRANSFER,
@@ -743,6 +784,9 @@ fn depth_copy_of(
             wall.push(w0.elapsed().as_nanos() as f64);
             cpu.push((c1 - c0) as f64);
         }
+    }
+    if sampled {
+        return Ok((median(&wall), median(&cpu)));
     }
     // The values read back: 0.25 wherever revz reverses and converts (checked so that a
     // timing of a wrong conversion is not reported); D24 within two units of its grid.
