@@ -302,6 +302,10 @@ pub(super) enum Event {
     DestroyImage {
         handle: vk::Image,
     },
+    /// `vkUpdateDescriptorSets` (details): each write's image infos (view and layout).
+    UpdateDescriptorSets {
+        image_infos: Vec<Vec<(vk::ImageView, vk::ImageLayout)>>,
+    },
     /// `vkCreateImageView` (details).
     CreateImageView {
         handle: vk::ImageView,
@@ -913,6 +917,38 @@ pub(super) unsafe extern "system" fn fake_cmd_set_depth_compare_op(
 ) {
 }
 
+/// Instances (dispatch tables) whose physical devices report one device-local memory type (for
+/// the read twin tests); the others report none, so revz allocates nothing.
+static WITH_MEMORY: Mutex<Vec<usize>> = Mutex::new(Vec::new());
+
+/// Makes the physical devices of the instance of `table` report one device-local memory type.
+pub(super) fn give_memory(table: &'static u8) {
+    WITH_MEMORY
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .push(key(table));
+}
+
+unsafe extern "system" fn fake_get_physical_device_memory_properties(
+    physical_device: vk::PhysicalDevice,
+    properties: *mut vk::PhysicalDeviceMemoryProperties,
+) {
+    // SAFETY: the fake's physical device.
+    let table = unsafe { key_of(physical_device) };
+    let mut memory = vk::PhysicalDeviceMemoryProperties::default();
+    if WITH_MEMORY
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .contains(&table)
+    {
+        memory.memory_type_count = 1;
+        memory.memory_types[0].property_flags = vk::MemoryPropertyFlags::DEVICE_LOCAL;
+        memory.memory_heap_count = 1;
+    }
+    // SAFETY: revz passes a valid output.
+    unsafe { *properties = memory };
+}
+
 /// Formats the fake's physical devices do not support as images (for the promotion tests),
 /// per instance dispatch table.
 static UNSUPPORTED_IMAGE_FORMATS: Mutex<Vec<(usize, vk::Format)>> = Mutex::new(Vec::new());
@@ -990,6 +1026,10 @@ pub(super) unsafe extern "system" fn fake_get_instance_proc_addr(
         b"vkGetPhysicalDeviceImageFormatProperties" => void_fn!(
             vk::PFN_vkGetPhysicalDeviceImageFormatProperties,
             fake_get_physical_device_image_format_properties
+        ),
+        b"vkGetPhysicalDeviceMemoryProperties" => void_fn!(
+            vk::PFN_vkGetPhysicalDeviceMemoryProperties,
+            fake_get_physical_device_memory_properties
         ),
         b"vkFakeInstanceCommand" => Some(fake_command),
         b"vkGetPhysicalDeviceFeatures2KHR" => Some(fake_command),
@@ -1070,6 +1110,10 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
         b"vkAllocateMemory" => void_fn!(vk::PFN_vkAllocateMemory, passes::allocate_memory),
         b"vkFreeMemory" => void_fn!(vk::PFN_vkFreeMemory, passes::free_memory),
         b"vkBindImageMemory" => void_fn!(vk::PFN_vkBindImageMemory, passes::bind_image_memory),
+        b"vkUpdateDescriptorSets" => void_fn!(
+            vk::PFN_vkUpdateDescriptorSets,
+            passes::update_descriptor_sets
+        ),
         b"vkCreateRenderPass" => {
             void_fn!(vk::PFN_vkCreateRenderPass, passes::create_render_pass)
         }
@@ -1494,6 +1538,35 @@ mod passes {
             info: unsafe { seen_image(&*p_create_info) },
         });
         vk::Result::SUCCESS
+    }
+
+    pub(super) unsafe extern "system" fn update_descriptor_sets(
+        device: vk::Device,
+        write_count: u32,
+        p_writes: *const vk::WriteDescriptorSet,
+        _: u32,
+        _: *const vk::CopyDescriptorSet,
+    ) {
+        // SAFETY: `writeCount` valid writes, each with `descriptorCount` image infos or none.
+        let image_infos = unsafe { std::slice::from_raw_parts(p_writes, write_count as usize) }
+            .iter()
+            .map(|write| {
+                if write.p_image_info.is_null() {
+                    return Vec::new();
+                }
+                // SAFETY: as above.
+                unsafe {
+                    std::slice::from_raw_parts(write.p_image_info, write.descriptor_count as usize)
+                }
+                .iter()
+                .map(|info| (info.image_view, info.image_layout))
+                .collect()
+            })
+            .collect();
+        // SAFETY: the fake's live device.
+        note_detail(unsafe { key_of(device) }, || Event::UpdateDescriptorSets {
+            image_infos,
+        });
     }
 
     /// `vkGetImageMemoryRequirements`: 256 bytes of any memory type.

@@ -87,6 +87,7 @@ hook_set! {
         cmd_set_depth_bias2: c"vkCmdSetDepthBias2EXT" => vk::PFN_vkCmdSetDepthBias2EXT,
         cmd_next_subpass2: c"vkCmdNextSubpass2" => vk::PFN_vkCmdNextSubpass2,
         cmd_draw: c"vkCmdDraw" => vk::PFN_vkCmdDraw,
+        update_descriptor_sets: c"vkUpdateDescriptorSets" => vk::PFN_vkUpdateDescriptorSets,
     }
 }
 
@@ -176,6 +177,8 @@ impl Fixture {
     fn with(settings: &[(&'static CStr, &'static CStr)], refused: &[vk::Format]) -> Fixture {
         let tables = Tables::fresh();
         fake_chain::record_details(tables.device);
+        // Memory for read twins (every image here that shaders sample gets one).
+        fake_chain::give_memory(tables.instance);
         for &format in refused {
             fake_chain::refuse_image_format(tables.instance, format);
         }
@@ -2573,4 +2576,144 @@ fn images_that_keep_their_format_and_mixed_framebuffers_are_logged() {
         1,
         "{log}"
     );
+}
+
+/// Issue #39: a single-sampled depth image shaders sample is reversed and gets a read twin (the
+/// application's image created with TRANSFER_SRC added, then the twin in the same stored
+/// format); each view of it gets a view of the twin; descriptor writes of its views name the
+/// twin's view in `SHADER_READ_ONLY_OPTIMAL` (other views untouched); and the twin's view and
+/// image are destroyed with the application's.
+#[test]
+fn a_sampled_depth_image_gets_a_read_twin_whose_views_descriptors_name() {
+    let fx = Fixture::new();
+    let sampled = ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
+    let info = fake_chain::depth_image_info(D24_S8, EXTENT, sampled, SINGLE);
+    let mut image = vk::Image::null();
+    // SAFETY: a live device and a valid create info.
+    let result = unsafe { (fx.hooks.create_image)(fx.device, &info, std::ptr::null(), &mut image) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    let created: Vec<(vk::Image, SeenImage)> = fx
+        .events()
+        .into_iter()
+        .filter_map(|event| match event {
+            Event::CreateImage { handle, info } => Some((handle, info)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(created.len(), 2, "{created:#?}");
+    let (app, twin) = (&created[0], &created[1]);
+    assert_eq!(app.0, image);
+    assert_eq!(app.1.format, D32_S8, "promoted");
+    assert_eq!(app.1.usage, sampled | vk::ImageUsageFlags::TRANSFER_SRC);
+    assert_eq!(twin.1.format, D32_S8, "the stored format");
+    assert_eq!(
+        twin.1.usage,
+        vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST
+    );
+    let tracked = fx.state.objects.images.get(&image).unwrap();
+    assert_eq!(tracked.depth, crate::policy::ImageDepth::Reversed);
+    assert_eq!(tracked.twin.map(|t| t.image), Some(twin.0));
+
+    let view_info = fake_chain::depth_view_info(image, D24_S8);
+    let mut view = vk::ImageView::null();
+    // SAFETY: a live device and a valid create info.
+    let result =
+        unsafe { (fx.hooks.create_image_view)(fx.device, &view_info, std::ptr::null(), &mut view) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    let views: Vec<(vk::ImageView, vk::Image, vk::Format)> = fx
+        .events()
+        .into_iter()
+        .filter_map(|event| match event {
+            Event::CreateImageView {
+                handle,
+                image,
+                format,
+                ..
+            } => Some((handle, image, format)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(views.len(), 2, "{views:?}");
+    assert_eq!((views[0].0, views[0].1, views[0].2), (view, image, D32_S8));
+    let twin_view = views[1].0;
+    assert_eq!((views[1].1, views[1].2), (twin.0, D32_S8));
+
+    let other = vk::ImageView::from_raw(0x7777);
+    let infos = [
+        vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: view,
+            image_layout: vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+        },
+        vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: other,
+            image_layout: vk::ImageLayout::GENERAL,
+        },
+    ];
+    let write = vk::WriteDescriptorSet {
+        descriptor_count: 2,
+        descriptor_type: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+        p_image_info: infos.as_ptr(),
+        ..Default::default()
+    };
+    // A storage buffer write next to it goes down as it is.
+    let buffer_info = vk::DescriptorBufferInfo::default();
+    let buffers = vk::WriteDescriptorSet {
+        descriptor_count: 1,
+        descriptor_type: vk::DescriptorType::STORAGE_BUFFER,
+        p_buffer_info: &buffer_info,
+        ..Default::default()
+    };
+    let writes = [buffers, write];
+    // SAFETY: a live device and valid writes.
+    unsafe {
+        (fx.hooks.update_descriptor_sets)(
+            fx.device,
+            writes.len() as u32,
+            writes.as_ptr(),
+            0,
+            std::ptr::null(),
+        )
+    };
+    assert_eq!(
+        fx.events(),
+        [Event::UpdateDescriptorSets {
+            image_infos: vec![
+                vec![],
+                vec![
+                    (twin_view, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+                    (other, vk::ImageLayout::GENERAL)
+                ]
+            ]
+        }]
+    );
+    // The application's array is left as it gave it.
+    assert_eq!(infos[0].image_view, view);
+
+    // SAFETY: the view and image, no longer used.
+    unsafe {
+        (fx.hooks.destroy_image_view)(fx.device, view, std::ptr::null());
+        (fx.hooks.destroy_image)(fx.device, image, std::ptr::null());
+    }
+    let destroyed: Vec<Event> = fx
+        .events()
+        .into_iter()
+        .filter(|e| {
+            matches!(
+                e,
+                Event::DestroyImageView { .. } | Event::DestroyImage { .. }
+            )
+        })
+        .collect();
+    assert_eq!(destroyed.len(), 4, "{destroyed:#?}");
+    assert!(destroyed.contains(&Event::DestroyImage { handle: twin.0 }));
+    assert_eq!(
+        fx.state
+            .objects
+            .twins
+            .load(std::sync::atomic::Ordering::Relaxed),
+        0
+    );
+    assert!(fx.state.objects.twin_views.get(&view).is_none());
 }
