@@ -102,10 +102,23 @@ fn record_refreshes(down: &Option<Down>, buffer: vk::CommandBuffer, refreshes: &
         || {
             for refresh in refreshes {
                 let mut copies = entry.copies();
-                // SAFETY: a recording command buffer of this device, outside a render pass
-                // (checked by the callers); its own scratch.
-                let recorded =
-                    unsafe { record_refresh(&entry.device, &mut copies, buffer, refresh) };
+                // What refuses a converted copy refuses a refresh (its dispatch could not be
+                // recorded, or the application's compute state not bound again after it).
+                let refused = if !entry.dispatchable {
+                    Some(crate::policy::Unconverted::NoCompute)
+                } else if !copies.compute.restorable() {
+                    Some(crate::policy::Unconverted::ComputeBindings)
+                } else if copies.conditional {
+                    Some(crate::policy::Unconverted::Conditional)
+                } else {
+                    None
+                };
+                let recorded = match refused {
+                    Some(why) => Err(why),
+                    // SAFETY: a recording command buffer of this device, outside a render
+                    // pass (checked by the callers); its own scratch.
+                    None => unsafe { record_refresh(&entry.device, &mut copies, buffer, refresh) },
+                };
                 if let Err(why) = recorded {
                     warn_unrefreshed(why);
                 }
