@@ -729,50 +729,40 @@ fn depth_copy_of(
                     &[],
                     &[to_shaders],
                 );
-                device
-                    .end_command_buffer(cmd)
-                    .context("vkEndCommandBuffer failed")?;
-                bench.submit(cmd)?;
-                let c1 = thread_cpu_ns();
-                bench.wait()?;
-                if frame >= warmup {
-                    wall.push(w0.elapsed().as_nanos() as f64);
-                    cpu.push((c1 - c0) as f64);
-                }
-                continue;
+            } else {
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::DependencyFlags::empty(),
+                    &[],
+                    &[],
+                    &[to_copy],
+                );
+                device.cmd_copy_image_to_buffer(
+                    cmd,
+                    image.image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    host.buffer,
+                    &[region],
+                );
+                let to_host = vk::BufferMemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .buffer(host.buffer)
+                    .size(vk::WHOLE_SIZE);
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &[],
+                    &[to_host],
+                    &[],
+                );
             }
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[to_copy],
-            );
-            device.cmd_copy_image_to_buffer(
-                cmd,
-                image.image,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                host.buffer,
-                &[region],
-            );
-            let to_host = vk::BufferMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .buffer(host.buffer)
-                .size(vk::WHOLE_SIZE);
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[to_host],
-                &[],
-            );
             device
                 .end_command_buffer(cmd)
                 .context("vkEndCommandBuffer failed")?;
