@@ -516,6 +516,10 @@ pub fn create_pipeline(
             shaders::SHADOW_RECEIVER_VERT,
             Some(shaders::SHADOW_RECEIVER_FRAG),
         ),
+        Program::ShadowReceiverRaw => (
+            shaders::SHADOW_RECEIVER_VERT,
+            Some(shaders::SHADOW_RECEIVER_RAW_FRAG),
+        ),
         Program::RowMajor => (shaders::ROW_MAJOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),

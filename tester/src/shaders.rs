@@ -46,6 +46,9 @@ pub const SHADOW_RECEIVER_VERT: ShaderSource = shader!("shadow_receiver.vert");
 /// `shadow_receiver.frag`: `pc.color` darkened where a comparison sample of the shadow map
 /// says the fragment is shadowed.
 pub const SHADOW_RECEIVER_FRAG: ShaderSource = shader!("shadow_receiver.frag");
+/// `shadow_receiver_raw.frag`: the same darkening from the map's raw depth values (a texel
+/// fetch and a gather through a plain sampler, compared in the shader).
+pub const SHADOW_RECEIVER_RAW_FRAG: ShaderSource = shader!("shadow_receiver_raw.frag");
 
 /// `row_major.vert`: `gl_Position = pc.mvp * vec4(position, 1.0)` with `mvp` decorated
 /// `RowMajor` (its rows consecutive in memory, as HLSL compilers lay matrices out).

@@ -45,7 +45,7 @@ impl Plan {
                  a fragment shader where there is none"
             );
             ensure!(
-                pipeline.color_write || pipeline.program != Program::ShadowReceiver,
+                pipeline.color_write || !pipeline.program.receives_shadow(),
                 "pipeline {name}: a shadow receiver without color writes"
             );
             ensure!(
@@ -53,7 +53,7 @@ impl Plan {
                 "pipeline {name}: depth-only with color writes"
             );
             ensure!(
-                pipeline.program != Program::ShadowReceiver || pass.target == Target::Main,
+                !pipeline.program.receives_shadow() || pass.target == Target::Main,
                 "pipeline {name}: a shadow receiver drawing into the shadow map"
             );
             // The renderer makes one set of buffers, with the camera's matrices.
@@ -121,10 +121,7 @@ impl Plan {
                  set of attachments)"
             );
         }
-        let shadow_receivers = self
-            .pipelines
-            .iter()
-            .any(|p| p.program == Program::ShadowReceiver);
+        let shadow_receivers = self.pipelines.iter().any(|p| p.program.receives_shadow());
         let shadow_passes = self.passes.iter().any(|p| p.target == Target::Shadow);
         ensure!(
             !shadow_passes || has_light,

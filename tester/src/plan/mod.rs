@@ -168,6 +168,10 @@ pub enum Program {
     /// `shadow_receiver.vert|frag`: the flat color darkened where the shadow map says the
     /// surface is shadowed (needs a [`Target::Shadow`] pass before it).
     ShadowReceiver,
+    /// `shadow_receiver.vert` + `shadow_receiver_raw.frag`: the same, from the shadow map's raw
+    /// depth values (a texel fetch and a gather through a plain sampler, compared in the
+    /// shader) instead of a comparison sampler.
+    ShadowReceiverRaw,
     /// `row_major.vert` + `scene.frag`: the MVP in a `RowMajor` push-constant member (its rows
     /// in memory, as HLSL compilers lay it out), flat push-constant color.
     RowMajor,
@@ -256,6 +260,12 @@ impl Program {
         matches!(self, Program::Ubo | Program::UboDynamic | Program::Ssbo)
     }
 
+    /// Whether the program samples the shadow map (needs a [`Target::Shadow`] pass before it,
+    /// and the shadow bindings).
+    pub fn receives_shadow(self) -> bool {
+        matches!(self, Program::ShadowReceiver | Program::ShadowReceiverRaw)
+    }
+
     /// Bytes of push constants the program's shaders declare, all of which a
     /// [`Step::Draw`] pushes: 80 (`mat4` + `vec4 color`), 128 (two `mat4`s), or 0 for the
     /// buffer deliveries. Pipelines of programs with the same size share push-constant state
@@ -268,6 +278,7 @@ impl Program {
             | Program::DepthOnly
             | Program::FragDepth
             | Program::ShadowReceiver
+            | Program::ShadowReceiverRaw
             | Program::RowMajor
             | Program::RowVector
             | Program::LitMvp => 80,

@@ -251,8 +251,20 @@ impl<'a> Renderer<'a> {
             pool: vk::DescriptorPool::null(),
             set: vk::DescriptorSet::null(),
             sampler,
+            plain_sampler: vk::Sampler::null(),
             light,
         });
+        let plain_info = vk::SamplerCreateInfo {
+            compare_enable: vk::FALSE,
+            compare_op: vk::CompareOp::NEVER,
+            address_mode_u: vk::SamplerAddressMode::CLAMP_TO_EDGE,
+            address_mode_v: vk::SamplerAddressMode::CLAMP_TO_EDGE,
+            address_mode_w: vk::SamplerAddressMode::CLAMP_TO_EDGE,
+            ..sampler_info
+        };
+        // SAFETY: valid device and create info.
+        shadow.plain_sampler = unsafe { device.create_sampler(&plain_info, None) }
+            .context("vkCreateSampler (plain) failed")?;
         let bindings = [
             (
                 0,
@@ -266,6 +278,11 @@ impl<'a> Renderer<'a> {
             ),
             (
                 2,
+                vk::DescriptorType::SAMPLER,
+                vk::ShaderStageFlags::FRAGMENT,
+            ),
+            (
+                3,
                 vk::DescriptorType::SAMPLER,
                 vk::ShaderStageFlags::FRAGMENT,
             ),
@@ -284,7 +301,8 @@ impl<'a> Renderer<'a> {
             &mut shadow.set_layout,
             &mut shadow.pool,
         )?;
-        let (set, set_layouts) = (shadow.set, [shadow.set_layout]);
+        let (set, set_layouts, plain_sampler) =
+            (shadow.set, [shadow.set_layout], shadow.plain_sampler);
         let light_buffer = shadow.light.buffer;
 
         let buffer_info = [vk::DescriptorBufferInfo {
@@ -302,6 +320,10 @@ impl<'a> Renderer<'a> {
             image_view: vk::ImageView::null(),
             image_layout: vk::ImageLayout::UNDEFINED,
         }];
+        let plain_sampler_info = [vk::DescriptorImageInfo {
+            sampler: plain_sampler,
+            ..sampler_info[0]
+        }];
         let writes = [
             vk::WriteDescriptorSet::default()
                 .dst_set(set)
@@ -318,6 +340,11 @@ impl<'a> Renderer<'a> {
                 .dst_binding(2)
                 .descriptor_type(vk::DescriptorType::SAMPLER)
                 .image_info(&sampler_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(3)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&plain_sampler_info),
         ];
         // SAFETY: valid set, buffer, view and sampler; the infos match the binding types.
         unsafe { device.update_descriptor_sets(&writes, &[]) };

@@ -69,13 +69,15 @@ impl<'a> SceneBuffers<'a> {
     }
 }
 
-/// What `shadow_receiver` pipelines bind: the light MVPs, the shadow map and its comparison
-/// sampler, in one descriptor set.
+/// What `shadow_receiver` pipelines bind: the light MVPs, the shadow map, its comparison
+/// sampler and a plain one (nearest, no compare: `shadow_receiver_raw.frag`), in one
+/// descriptor set.
 struct ShadowBindings<'a> {
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     set: vk::DescriptorSet,
     sampler: vk::Sampler,
+    plain_sampler: vk::Sampler,
     light: HostBuffer<'a>,
 }
 
@@ -185,6 +187,7 @@ impl Drop for Renderer<'_> {
                 self.device
                     .destroy_descriptor_set_layout(shadow.set_layout, None);
                 self.device.destroy_sampler(shadow.sampler, None);
+                self.device.destroy_sampler(shadow.plain_sampler, None);
             }
             for &framebuffer in &self.framebuffers {
                 self.device.destroy_framebuffer(framebuffer, None);
@@ -373,7 +376,9 @@ impl<'a> Renderer<'a> {
     /// The pipeline layout of `program` and the stages its push constants are pushed for.
     fn layout(&self, program: Program) -> (vk::PipelineLayout, vk::ShaderStageFlags) {
         match program {
-            Program::ShadowReceiver => (self.shadow_layout, PLAIN_PUSH_STAGES),
+            Program::ShadowReceiver | Program::ShadowReceiverRaw => {
+                (self.shadow_layout, PLAIN_PUSH_STAGES)
+            }
             Program::MvpPair => (self.pair_layout, vk::ShaderStageFlags::VERTEX),
             Program::Ubo | Program::UboDynamic | Program::Ssbo => {
                 (self.matrix_layout, vk::ShaderStageFlags::empty())

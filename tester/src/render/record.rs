@@ -442,7 +442,9 @@ impl Recorder<'_> {
                 renderer.pipelines[n],
             );
             let set = match self.plan.pipelines[n].program {
-                Program::ShadowReceiver => renderer.shadow.as_ref().map(|s| s.set),
+                Program::ShadowReceiver | Program::ShadowReceiverRaw => {
+                    renderer.shadow.as_ref().map(|s| s.set)
+                }
                 Program::MvpPair => renderer.colors.as_ref().map(|c| c.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
@@ -531,7 +533,7 @@ impl Recorder<'_> {
         // buffer delivery its objects, with the instance index.
         let first_instance = if matches!(
             program,
-            Program::ShadowReceiver | Program::MvpPair | Program::Ssbo
+            Program::ShadowReceiver | Program::ShadowReceiverRaw | Program::MvpPair | Program::Ssbo
         ) {
             u32::try_from(n).context("object index")?
         } else {

@@ -197,6 +197,7 @@ impl Scene {
             | Program::DepthOnly
             | Program::FragDepth
             | Program::ShadowReceiver
+            | Program::ShadowReceiverRaw
             | Program::LitMvp => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);

@@ -60,11 +60,14 @@ pub enum SceneId {
     Subpasses,
     /// The overlap scene with dynamic rendering, then a second loading pass drawing more.
     DynamicRendering,
-    /// A shadow map (native D32, sampled with a comparison sampler) darkening the ground.
+    /// A shadow map (D32, sampled with a comparison sampler) darkening the ground.
     ShadowMap,
     /// `shadow-map` with both passes drawn from secondaries recorded on threads, half of them
     /// inheriting the render pass without its framebuffer.
     ShadowMapSecondaries,
+    /// `shadow-map` whose receiver reads the map's raw depth (texel fetches and a nearest
+    /// sample through a plain sampler) and compares it in the shader.
+    ShadowMapRaw,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,

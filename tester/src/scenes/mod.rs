@@ -87,6 +87,7 @@ pub const CATALOG: &[Entry] = &[
         "shadow-map-secondaries",
         shadow_map_secondaries,
     ),
+    entry_row(SceneId::ShadowMapRaw, "shadow-map-raw", shadow_map_raw),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,

@@ -184,6 +184,26 @@ pub fn shadow_map() -> Scene {
     b.finish("shadow-map", camera, Some(shadow_light()))
 }
 
+/// `shadow-map-raw`: `shadow-map` whose receiver (`shadow_receiver_raw.frag`) reads the map's
+/// raw depth values, with texel fetches of the four texels around the fragment and a sample
+/// through a plain sampler (nearest, no comparison), and compares them with its light-space
+/// depth itself.
+///
+/// Layer item: shaders reading a depth image's values, not a comparison result (SSAO, fog,
+/// soft particles, Hi-Z read their depth this way). The map is reversed and read through its
+/// read twin (issue #39): every value the shader reads must be the standard one, or the manual
+/// LESS_OR_EQUAL shadows nearly everything.
+pub fn shadow_map_raw() -> Scene {
+    let mut scene = shadow_map();
+    scene.name = "shadow-map-raw";
+    for pipeline in &mut scene.plan.pipelines {
+        if pipeline.program == Program::ShadowReceiver {
+            pipeline.program = Program::ShadowReceiverRaw;
+        }
+    }
+    scene
+}
+
 /// `shadow-map-secondaries`: `shadow-map` with each pass's draws recorded into two secondaries
 /// on two threads, the second of each inheriting the render pass and subpass without the
 /// framebuffer (which the inheritance info may leave null).
