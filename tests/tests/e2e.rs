@@ -196,19 +196,23 @@ flip_scene_tests! {
 /// The shadow map is sampled: it is reversed all the same (its clear, compare op, depth bias
 /// and viewport follow), and the receiver samples its read twin, refreshed with standard
 /// values when the shadow pass ends (issue #39): the shadows land where they do without the
-/// layer (`flip_scene` compares the colors).
+/// layer (`flip_scene` compares the colors), through a comparison sampler (`shadow-map`) and
+/// through texel fetches and a plain sampler whose raw values the shader compares itself
+/// (`shadow-map-raw`: reversed values would shadow nearly everything).
 #[test]
 fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
-    for format in DEPTH_FORMATS {
-        let log = flip_scene("shadow-map", format);
-        assert!(
-            log.contains("D32_SFLOAT, 512x512): reversed, shaders read its twin"),
-            "{format}: {log}"
-        );
-        assert!(
-            !log.contains("read twin is not refreshed"),
-            "{format}: {log}"
-        );
+    for scene in ["shadow-map", "shadow-map-raw"] {
+        for format in DEPTH_FORMATS {
+            let log = flip_scene(scene, format);
+            assert!(
+                log.contains("D32_SFLOAT, 512x512): reversed, shaders read its twin"),
+                "{scene} {format}: {log}"
+            );
+            assert!(
+                !log.contains("read twin is not refreshed"),
+                "{scene} {format}: {log}"
+            );
+        }
     }
 }
 
