@@ -346,8 +346,32 @@ impl<'a> Renderer<'a> {
                 .descriptor_type(vk::DescriptorType::SAMPLER)
                 .image_info(&plain_sampler_info),
         ];
-        // SAFETY: valid set, buffer, view and sampler; the infos match the binding types.
-        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        // `shadow-map-raw` writes its set through a descriptor update template (another of
+        // the paths by which an application hands a depth view to shaders; core since Vulkan
+        // 1.1, so a Vulkan 1.0 render writes it as the others do), every other scene with
+        // `vkUpdateDescriptorSets`.
+        let through_template = gpu.api_version() >= vk::API_VERSION_1_1
+            && scene
+                .plan
+                .pipelines
+                .iter()
+                .any(|p| p.program == crate::plan::Program::ShadowReceiverRaw);
+        if through_template {
+            update_through_template(
+                device,
+                set,
+                set_layouts[0],
+                &ShadowData {
+                    light: buffer_info[0],
+                    map: image_info[0],
+                    sampler: sampler_info[0],
+                    plain_sampler: plain_sampler_info[0],
+                },
+            )?;
+        } else {
+            // SAFETY: valid set, buffer, view and sampler; the infos match the binding types.
+            unsafe { device.update_descriptor_sets(&writes, &[]) };
+        }
 
         let layout_info = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
@@ -396,4 +420,61 @@ fn single_descriptor_set(
         .into_iter()
         .next()
         .ok_or_else(|| anyhow!("vkAllocateDescriptorSets ({what}) returned no set"))
+}
+
+/// The shadow set's descriptors as an update template reads them (bindings 0 to 3).
+#[repr(C)]
+struct ShadowData {
+    light: vk::DescriptorBufferInfo,
+    map: vk::DescriptorImageInfo,
+    sampler: vk::DescriptorImageInfo,
+    plain_sampler: vk::DescriptorImageInfo,
+}
+
+/// Writes the shadow set `set` (of `layout`) with `vkUpdateDescriptorSetWithTemplate`, through a
+/// template made for it and destroyed after.
+fn update_through_template(
+    device: &ash::Device,
+    set: vk::DescriptorSet,
+    layout: vk::DescriptorSetLayout,
+    data: &ShadowData,
+) -> Result<()> {
+    let image = std::mem::size_of::<vk::DescriptorImageInfo>();
+    let entry =
+        |binding: u32, kind: vk::DescriptorType, offset: usize| vk::DescriptorUpdateTemplateEntry {
+            dst_binding: binding,
+            dst_array_element: 0,
+            descriptor_count: 1,
+            descriptor_type: kind,
+            offset,
+            stride: image,
+        };
+    let light = std::mem::size_of::<vk::DescriptorBufferInfo>();
+    let entries = [
+        vk::DescriptorUpdateTemplateEntry {
+            stride: light,
+            ..entry(0, vk::DescriptorType::UNIFORM_BUFFER, 0)
+        },
+        entry(1, vk::DescriptorType::SAMPLED_IMAGE, light),
+        entry(2, vk::DescriptorType::SAMPLER, light + image),
+        entry(3, vk::DescriptorType::SAMPLER, light + 2 * image),
+    ];
+    let info = vk::DescriptorUpdateTemplateCreateInfo::default()
+        .descriptor_update_entries(&entries)
+        .template_type(vk::DescriptorUpdateTemplateType::DESCRIPTOR_SET)
+        .descriptor_set_layout(layout);
+    // SAFETY: valid device and create info (entries within `ShadowData`, of the set layout's
+    // bindings and types).
+    let template = unsafe { device.create_descriptor_update_template(&info, None) }
+        .context("vkCreateDescriptorUpdateTemplate failed")?;
+    // SAFETY: a set of `layout`, and data laid out as the template's entries say.
+    unsafe {
+        device.update_descriptor_set_with_template(
+            set,
+            template,
+            (data as *const ShadowData).cast(),
+        );
+        device.destroy_descriptor_update_template(template, None);
+    }
+    Ok(())
 }

@@ -187,7 +187,7 @@ pub fn shadow_map() -> Scene {
 /// `shadow-map-raw`: `shadow-map` whose receiver (`shadow_receiver_raw.frag`) reads the map's
 /// raw depth values, with texel fetches of the four texels around the fragment and a sample
 /// through a plain sampler (nearest, no comparison), and compares them with its light-space
-/// depth itself.
+/// depth itself. Its descriptor set is written through an update template (Vulkan 1.1 and up).
 ///
 /// Layer item: shaders reading a depth image's values, not a comparison result (SSAO, fog,
 /// soft particles, Hi-Z read their depth this way). The map is reversed and read through its
