@@ -745,6 +745,7 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
             "dynamic-rendering",
             "shadow-map",
             "shadow-map-secondaries",
+            "shadow-map-raw",
             "projection-only",
             "view-projection",
             "model-view-projection-pair",
