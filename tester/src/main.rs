@@ -318,7 +318,12 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         let options = TargetOptions {
             depth_readback,
             clear_depth_image: needs.clear_depth_image,
-            shadow_map: needs.shadow_map,
+            shadow_map: needs.shadow_map.then(|| {
+                scene
+                    .light
+                    .as_ref()
+                    .map_or(target::SHADOW_MAP_FORMAT, |light| light.map_format)
+            }),
             multisample: needs.multisample,
         };
         let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;

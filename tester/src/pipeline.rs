@@ -14,7 +14,7 @@ use crate::plan::{
     StencilTest, StencilWrite, Target, Viewport,
 };
 use crate::shaders::{self, ShaderSource};
-use crate::target::{ResolveModes, COLOR_FORMAT, SHADOW_MAP_FORMAT};
+use crate::target::{ResolveModes, COLOR_FORMAT};
 
 /// `VkCompareOp` of a [`Compare`].
 pub fn map_compare(op: Compare) -> vk::CompareOp {
@@ -127,13 +127,15 @@ pub struct MainFormats {
     pub depth: vk::Format,
     /// Whether it has a stencil aspect.
     pub stencil: bool,
+    /// The shadow map's depth format.
+    pub shadow: vk::Format,
 }
 
 /// Creates the render pass of `pass` (not for [`PassKind::DynamicRendering`]).
 ///
 /// Main target: attachment 0 color, attachment 1 depth(-stencil); the stencil is cleared or
 /// loaded with the depth. Every attachment is stored and ends in its attachment layout (the
-/// read-back transitions it). Shadow map: one D32 attachment ending in
+/// read-back transitions it). Shadow map: one attachment of `main.shadow` ending in
 /// SHADER_READ_ONLY_OPTIMAL, with an outgoing dependency making its writes visible to the
 /// fragment shaders of later passes.
 pub fn create_render_pass(
@@ -185,7 +187,7 @@ pub fn create_render_pass(
             depth_index = 0;
             attachments.push(
                 vk::AttachmentDescription::default()
-                    .format(SHADOW_MAP_FORMAT)
+                    .format(main.shadow)
                     .samples(vk::SampleCountFlags::TYPE_1)
                     .load_op(depth_load)
                     .store_op(vk::AttachmentStoreOp::STORE)

@@ -187,7 +187,7 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
         let options = TargetOptions {
             depth_readback: true,
             clear_depth_image: needs.clear_depth_image,
-            shadow_map: false,
+            shadow_map: None,
             multisample: None,
         };
         let targets = Targets::new(&gpu, args.size, args.size, args.depth_format, options)?;

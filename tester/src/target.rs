@@ -306,8 +306,8 @@ pub struct TargetOptions {
     pub depth_readback: bool,
     /// The depth image is cleared with `vkCmdClearDepthStencilImage` (TRANSFER_DST usage).
     pub clear_depth_image: bool,
-    /// A shadow map is needed.
-    pub shadow_map: bool,
+    /// A shadow map is needed, of this format.
+    pub shadow_map: Option<vk::Format>,
     /// Multisampled attachments are needed (the plan's [`crate::plan::Needs::multisample`]).
     pub multisample: Option<Multisample>,
 }
@@ -576,18 +576,18 @@ impl<'a> Targets<'a> {
             depth_usage,
             extent,
         )?;
-        let shadow = if options.shadow_map {
+        let shadow = if let Some(format) = options.shadow_map {
             require_format(
                 gpu,
-                SHADOW_MAP_FORMAT,
-                "D32_SFLOAT",
+                format,
+                &format!("{format:?}"),
                 vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
                     | vk::FormatFeatureFlags::SAMPLED_IMAGE,
                 "a sampled shadow map",
             )?;
             Some(Attachment::new(
                 gpu,
-                SHADOW_MAP_FORMAT,
+                format,
                 vk::ImageAspectFlags::DEPTH,
                 vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
                 vk::Extent2D {

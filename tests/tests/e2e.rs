@@ -198,14 +198,20 @@ flip_scene_tests! {
 /// values when the shadow pass ends (issue #39): the shadows land where they do without the
 /// layer (`flip_scene` compares the colors), through a comparison sampler (`shadow-map`) and
 /// through texel fetches and a plain sampler whose raw values the shader compares itself
-/// (`shadow-map-raw`: reversed values would shadow nearly everything).
+/// (`shadow-map-raw`: reversed values would shadow nearly everything), and with an X8_D24 map
+/// (`shadow-map-x8-d24`: its twin is UNORM here, float in the precise modes, which the
+/// copies tests render).
 #[test]
 fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
-    for scene in ["shadow-map", "shadow-map-raw"] {
+    for (scene, map) in [
+        ("shadow-map", "D32_SFLOAT"),
+        ("shadow-map-raw", "D32_SFLOAT"),
+        ("shadow-map-x8-d24", "X8_D24_UNORM_PACK32"),
+    ] {
         for format in DEPTH_FORMATS {
             let log = flip_scene(scene, format);
             assert!(
-                log.contains("D32_SFLOAT, 512x512): reversed, shaders read its twin"),
+                log.contains(&format!("{map}, 512x512): reversed, shaders read its twin")),
                 "{scene} {format}: {log}"
             );
             assert!(

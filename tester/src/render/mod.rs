@@ -255,6 +255,10 @@ impl<'a> Renderer<'a> {
         let main = MainFormats {
             depth: targets.depth.format,
             stencil: targets.depth_format.has_stencil(),
+            shadow: targets
+                .shadow
+                .as_ref()
+                .map_or(crate::target::SHADOW_MAP_FORMAT, |shadow| shadow.format),
         };
         for pass in &plan.passes {
             if pass.kind == PassKind::DynamicRendering {

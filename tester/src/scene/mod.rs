@@ -68,6 +68,10 @@ pub enum SceneId {
     /// `shadow-map` whose receiver reads the map's raw depth (texel fetches and a nearest
     /// sample through a plain sampler) and compares it in the shader.
     ShadowMapRaw,
+    /// `shadow-map` with an X8_D24 shadow map (promoted, and read through a float twin, in the
+    /// precise modes).
+    #[value(name = "shadow-map-x8-d24")]
+    ShadowMapX8D24,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,
@@ -225,6 +229,9 @@ pub struct Light {
     pub near: f64,
     /// Far plane distance (> near).
     pub far: f64,
+    /// The shadow map's depth format ([`crate::target::SHADOW_MAP_FORMAT`] unless a scene
+    /// says otherwise).
+    pub map_format: ash::vk::Format,
 }
 
 impl Light {

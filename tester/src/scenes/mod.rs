@@ -88,6 +88,11 @@ pub const CATALOG: &[Entry] = &[
         shadow_map_secondaries,
     ),
     entry_row(SceneId::ShadowMapRaw, "shadow-map-raw", shadow_map_raw),
+    entry_row(
+        SceneId::ShadowMapX8D24,
+        "shadow-map-x8-d24",
+        shadow_map_x8_d24,
+    ),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,

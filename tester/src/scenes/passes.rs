@@ -124,6 +124,7 @@ pub fn shadow_light() -> Light {
         half_extent: 8.0,
         near: 2.0,
         far: 25.0,
+        map_format: crate::target::SHADOW_MAP_FORMAT,
     }
 }
 
@@ -200,6 +201,20 @@ pub fn shadow_map_raw() -> Scene {
         if pipeline.program == Program::ShadowReceiver {
             pipeline.program = Program::ShadowReceiverRaw;
         }
+    }
+    scene
+}
+
+/// `shadow-map-x8-d24`: `shadow-map` with an X8_D24_UNORM_PACK32 shadow map.
+///
+/// Layer item: a UNORM depth image that shaders sample. In `complementary` and `infinite` revz
+/// stores it as D32_SFLOAT (promoted) and reversed, and its read twin is float32 too: the
+/// receiver's comparisons see the standard values, at float resolution.
+pub fn shadow_map_x8_d24() -> Scene {
+    let mut scene = shadow_map();
+    scene.name = "shadow-map-x8-d24";
+    if let Some(light) = &mut scene.light {
+        light.map_format = ash::vk::Format::X8_D24_UNORM_PACK32;
     }
     scene
 }

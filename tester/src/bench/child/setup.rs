@@ -34,7 +34,7 @@ impl<'a> Bench<'a> {
             TargetOptions {
                 depth_readback: false,
                 clear_depth_image: false,
-                shadow_map: false,
+                shadow_map: None,
                 multisample: None,
             },
         )?;
