@@ -51,6 +51,36 @@ pub struct Conversion<'a> {
     pub drain: Drain<'a>,
 }
 
+/// `vkCmdPipelineBarrier` of revz's own barriers (no dependency flags).
+///
+/// # Safety
+/// `buffer` is a command buffer of `device` in the recording state, outside a render pass;
+/// the barriers name revz's objects, or the application's image in the layout it is in.
+pub(super) unsafe fn pipeline_barrier(
+    device: &DeviceState,
+    buffer: vk::CommandBuffer,
+    (src_stage, dst_stage): (vk::PipelineStageFlags, vk::PipelineStageFlags),
+    memory: &[vk::MemoryBarrier<'_>],
+    buffers: &[vk::BufferMemoryBarrier<'_>],
+    images: &[vk::ImageMemoryBarrier<'_>],
+) {
+    // SAFETY: the caller's contract; the counts are the slices'.
+    unsafe {
+        (device.next.fp_v1_0().cmd_pipeline_barrier)(
+            buffer,
+            src_stage,
+            dst_stage,
+            vk::DependencyFlags::empty(),
+            memory.len() as u32,
+            memory.as_ptr(),
+            buffers.len() as u32,
+            buffers.as_ptr(),
+            images.len() as u32,
+            images.as_ptr(),
+        )
+    }
+}
+
 /// Records `conversion` into `buffer`; on `Err` nothing was recorded (the caller sends the
 /// application's command down as it is).
 ///
@@ -92,20 +122,7 @@ pub unsafe fn record(
     let barrier = |src_stage, dst_stage, barriers: &[vk::BufferMemoryBarrier<'_>]| {
         // SAFETY: a recording command buffer outside a render pass (the caller's contract);
         // barriers on revz's own buffer.
-        unsafe {
-            (v.cmd_pipeline_barrier)(
-                buffer,
-                src_stage,
-                dst_stage,
-                vk::DependencyFlags::empty(),
-                0,
-                std::ptr::null(),
-                barriers.len() as u32,
-                barriers.as_ptr(),
-                0,
-                std::ptr::null(),
-            )
-        }
+        unsafe { pipeline_barrier(device, buffer, (src_stage, dst_stage), &[], barriers, &[]) }
     };
     let transfer = vk::PipelineStageFlags::TRANSFER;
     let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
@@ -122,17 +139,13 @@ pub unsafe fn record(
     };
     // SAFETY: as `barrier` above.
     unsafe {
-        (v.cmd_pipeline_barrier)(
+        pipeline_barrier(
+            device,
             buffer,
-            transfer | compute,
-            transfer,
-            vk::DependencyFlags::empty(),
-            1,
-            &before,
-            0,
-            std::ptr::null(),
-            0,
-            std::ptr::null(),
+            (transfer | compute, transfer),
+            &[before],
+            &[],
+            &[],
         )
     };
     let header = conversion.header.to_bytes();
@@ -282,19 +295,16 @@ pub unsafe fn record_blit(
         ..Default::default()
     };
     let barrier = |image_barrier: vk::ImageMemoryBarrier<'_>| {
+        let transfer = vk::PipelineStageFlags::TRANSFER;
         // SAFETY: a recording command buffer outside a render pass; revz's own image.
         unsafe {
-            (v.cmd_pipeline_barrier)(
+            pipeline_barrier(
+                device,
                 buffer,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                0,
-                std::ptr::null(),
-                0,
-                std::ptr::null(),
-                1,
-                &image_barrier,
+                (transfer, transfer),
+                &[],
+                &[],
+                &[image_barrier],
             )
         }
     };

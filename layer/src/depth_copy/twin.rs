@@ -27,7 +27,7 @@
 use ash::vk;
 
 use super::plan::{plan_image_copy, DepthMap, ShaderHeader, TexelKind, TexelKinds};
-use super::record::{record, Conversion, Drain, Fill};
+use super::record::{pipeline_barrier, record, Conversion, Drain, Fill};
 use super::scratch::CommandCopies;
 use crate::objects::ReadTwin;
 use crate::policy::Unconverted;
@@ -273,20 +273,7 @@ pub unsafe fn record_refresh(
     let barrier = |src_stage, dst_stage, barriers: &[vk::ImageMemoryBarrier<'_>]| {
         // SAFETY: a recording command buffer outside a render pass (the caller's contract);
         // the application's image in the layout it left it in, and revz's twin.
-        unsafe {
-            (v.cmd_pipeline_barrier)(
-                buffer,
-                src_stage,
-                dst_stage,
-                vk::DependencyFlags::empty(),
-                0,
-                std::ptr::null(),
-                0,
-                std::ptr::null(),
-                barriers.len() as u32,
-                barriers.as_ptr(),
-            )
-        }
+        unsafe { pipeline_barrier(device, buffer, (src_stage, dst_stage), &[], &[], barriers) }
     };
     let transfer = vk::PipelineStageFlags::TRANSFER;
     let all = vk::PipelineStageFlags::ALL_COMMANDS;

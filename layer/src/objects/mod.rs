@@ -712,7 +712,8 @@ pub struct PassScope {
     pub render_pass: Option<Arc<RenderPassInfo>>,
     /// The depth target of each attachment of the current framebuffer.
     pub attachment_targets: Vec<Target>,
-    /// The framebuffer's attachments (the depth profile names the image draws go to).
+    /// The framebuffer's attachments (the depth profile names the image draws go to; the end
+    /// of the pass refreshes the read twins of those it leaves readable).
     pub attachment_views: Option<Arc<[vk::ImageView]>>,
     pub subpass: usize,
     /// The framebuffer's depth images are promoted: the pass was begun as its promoted twin.

@@ -304,18 +304,21 @@ pub unsafe extern "system" fn cmd_next_subpass2(
     }
 }
 
+/// The end of a render pass: the read twins of attachments it leaves readable are refreshed
+/// right after it (`twins.rs`).
+fn ending_pass(entry: &CommandBufferEntry) -> Vec<crate::depth_copy::twin::Refresh> {
+    let refreshes = super::twins::pass_end_refreshes(entry);
+    end_pass(entry);
+    refreshes
+}
+
 pub unsafe extern "system" fn cmd_end_render_pass(buffer: vk::CommandBuffer) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRenderPass");
-    let mut refreshes = Vec::new();
-    let down = with_entry(buffer, &ENTRY, |entry| {
-        refreshes = super::twins::pass_end_refreshes(entry);
-        end_pass(entry);
-    });
-    if let Some(device) = &down {
+    super::twins::refreshing(buffer, &ENTRY, ending_pass, |device| {
         // SAFETY: calling down with the application's arguments.
         unsafe { (device.next.fp_v1_0().cmd_end_render_pass)(buffer) };
-        super::twins::after_pass_end(&down, buffer, &refreshes);
-    }
+        true
+    });
 }
 
 pub unsafe extern "system" fn cmd_end_render_pass2(
@@ -323,16 +326,14 @@ pub unsafe extern "system" fn cmd_end_render_pass2(
     p_end: *const vk::SubpassEndInfo<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdEndRenderPass2");
-    let mut refreshes = Vec::new();
-    let down = with_entry(buffer, &ENTRY, |entry| {
-        refreshes = super::twins::pass_end_refreshes(entry);
-        end_pass(entry);
-    });
-    if let Some(next) = down.as_ref().and_then(|d| d.commands.end_render_pass2) {
+    super::twins::refreshing(buffer, &ENTRY, ending_pass, |device| {
+        let Some(next) = device.commands.end_render_pass2 else {
+            return false;
+        };
         // SAFETY: calling down with the application's arguments.
         unsafe { next(buffer, p_end) };
-        super::twins::after_pass_end(&down, buffer, &refreshes);
-    }
+        true
+    });
 }
 
 pub unsafe extern "system" fn cmd_begin_rendering(

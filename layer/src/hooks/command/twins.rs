@@ -240,14 +240,21 @@ pub(super) fn pass_end_refreshes(entry: &CommandBufferEntry) -> Vec<Refresh> {
         .collect()
 }
 
-/// Records the refreshes collected at a render pass's end, after it ended.
-pub(super) fn after_pass_end(
-    down: &Option<Down>,
+/// What every refreshing hook does: collects the refreshes `collect` finds (before the
+/// command, while the command buffer's state is the one the command meets), sends the
+/// command down (`send`; `false` where the device lacks it), then records the refreshes.
+pub(super) fn refreshing(
     buffer: vk::CommandBuffer,
-    refreshes: &[Refresh],
+    entry_point: &'static EntryPoint,
+    collect: impl FnOnce(&CommandBufferEntry) -> Vec<Refresh>,
+    send: impl FnOnce(&DeviceState) -> bool,
 ) {
-    if !refreshes.is_empty() {
-        record_refreshes(down, buffer, refreshes);
+    let mut refreshes = Vec::new();
+    let down = with_entry(buffer, entry_point, |entry| refreshes = collect(entry));
+    if let Some(device) = &down {
+        if send(device) && !refreshes.is_empty() {
+            record_refreshes(&down, buffer, &refreshes);
+        }
     }
 }
 
@@ -265,29 +272,30 @@ pub unsafe extern "system" fn cmd_pipeline_barrier(
     p_image: *const vk::ImageMemoryBarrier<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPipelineBarrier");
-    let mut refreshes = Vec::new();
-    let down = with_entry(buffer, &ENTRY, |entry| {
+    refreshing(
+        buffer,
+        &ENTRY,
         // SAFETY: the application's `imageMemoryBarrierCount` barriers.
-        refreshes = unsafe { legacy_refreshes(entry, image_count, p_image) }
-    });
-    if let Some(device) = &down {
-        // SAFETY: calling down with the application's arguments.
-        unsafe {
-            (device.next.fp_v1_0().cmd_pipeline_barrier)(
-                buffer,
-                src_stage,
-                dst_stage,
-                dependency,
-                memory_count,
-                p_memory,
-                buffer_count,
-                p_buffer,
-                image_count,
-                p_image,
-            )
-        };
-        record_refreshes(&down, buffer, &refreshes);
-    }
+        |entry| unsafe { legacy_refreshes(entry, image_count, p_image) },
+        |device| {
+            // SAFETY: calling down with the application's arguments.
+            unsafe {
+                (device.next.fp_v1_0().cmd_pipeline_barrier)(
+                    buffer,
+                    src_stage,
+                    dst_stage,
+                    dependency,
+                    memory_count,
+                    p_memory,
+                    buffer_count,
+                    p_buffer,
+                    image_count,
+                    p_image,
+                )
+            };
+            true
+        },
+    );
 }
 
 pub unsafe extern "system" fn cmd_pipeline_barrier2(
@@ -295,16 +303,20 @@ pub unsafe extern "system" fn cmd_pipeline_barrier2(
     p_info: *const vk::DependencyInfo<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPipelineBarrier2");
-    let mut refreshes = Vec::new();
-    let down = with_entry(buffer, &ENTRY, |entry| {
+    refreshing(
+        buffer,
+        &ENTRY,
         // SAFETY: a valid dependency info (the application's contract).
-        refreshes = unsafe { dependency_refreshes(entry, &*p_info) }
-    });
-    if let Some(next) = down.as_ref().and_then(|d| d.commands.pipeline_barrier2) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, p_info) };
-        record_refreshes(&down, buffer, &refreshes);
-    }
+        |entry| unsafe { dependency_refreshes(entry, &*p_info) },
+        |device| {
+            let Some(next) = device.commands.pipeline_barrier2 else {
+                return false;
+            };
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, p_info) };
+            true
+        },
+    );
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -322,30 +334,31 @@ pub unsafe extern "system" fn cmd_wait_events(
     p_image: *const vk::ImageMemoryBarrier<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdWaitEvents");
-    let mut refreshes = Vec::new();
-    let down = with_entry(buffer, &ENTRY, |entry| {
+    refreshing(
+        buffer,
+        &ENTRY,
         // SAFETY: the application's `imageMemoryBarrierCount` barriers.
-        refreshes = unsafe { legacy_refreshes(entry, image_count, p_image) }
-    });
-    if let Some(device) = &down {
-        // SAFETY: calling down with the application's arguments.
-        unsafe {
-            (device.next.fp_v1_0().cmd_wait_events)(
-                buffer,
-                event_count,
-                p_events,
-                src_stage,
-                dst_stage,
-                memory_count,
-                p_memory,
-                buffer_count,
-                p_buffer,
-                image_count,
-                p_image,
-            )
-        };
-        record_refreshes(&down, buffer, &refreshes);
-    }
+        |entry| unsafe { legacy_refreshes(entry, image_count, p_image) },
+        |device| {
+            // SAFETY: calling down with the application's arguments.
+            unsafe {
+                (device.next.fp_v1_0().cmd_wait_events)(
+                    buffer,
+                    event_count,
+                    p_events,
+                    src_stage,
+                    dst_stage,
+                    memory_count,
+                    p_memory,
+                    buffer_count,
+                    p_buffer,
+                    image_count,
+                    p_image,
+                )
+            };
+            true
+        },
+    );
 }
 
 pub unsafe extern "system" fn cmd_wait_events2(
@@ -355,19 +368,27 @@ pub unsafe extern "system" fn cmd_wait_events2(
     p_infos: *const vk::DependencyInfo<'_>,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdWaitEvents2");
-    let mut refreshes = Vec::new();
-    let down = with_entry(buffer, &ENTRY, |entry| {
-        // SAFETY: `eventCount` valid dependency infos (the application's contract).
-        for info in unsafe { slice(p_infos, event_count) } {
-            // SAFETY: as above.
-            refreshes.extend(unsafe { dependency_refreshes(entry, info) });
-        }
-    });
-    if let Some(next) = down.as_ref().and_then(|d| d.commands.wait_events2) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, event_count, p_events, p_infos) };
-        record_refreshes(&down, buffer, &refreshes);
-    }
+    refreshing(
+        buffer,
+        &ENTRY,
+        |entry| {
+            // SAFETY: `eventCount` valid dependency infos (the application's contract).
+            let infos = unsafe { slice(p_infos, event_count) };
+            infos
+                .iter()
+                // SAFETY: as above.
+                .flat_map(|info| unsafe { dependency_refreshes(entry, info) })
+                .collect()
+        },
+        |device| {
+            let Some(next) = device.commands.wait_events2 else {
+                return false;
+            };
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, event_count, p_events, p_infos) };
+            true
+        },
+    );
 }
 
 #[cfg(test)]
