@@ -23,6 +23,7 @@ mod gpu;
 mod ground_truth;
 mod pipeline;
 mod plan;
+mod precision;
 mod profile;
 mod readback;
 mod render;

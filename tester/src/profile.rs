@@ -15,9 +15,19 @@ use serde_json::Value;
 pub struct ProfileArgs {
     /// The profile revz wrote (`REVZ_REPORT`).
     pub report: PathBuf,
-    /// Also draw the draws per path of each kept frame into this PNG.
+    /// Also draw the draws per path of each kept frame into this PNG (with `--precision`: the
+    /// precision plot instead).
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
+    /// Instead of the tables: for each camera revz recognised, the smallest depth separation
+    /// that resolves at each distance under each policy (none, flip, complementary, infinite)
+    /// and storage (the images' own formats, D24, D32F), from the precision model; the policy
+    /// and storage in force marked.
+    #[arg(long)]
+    pub precision: bool,
+    /// With `--precision`: also write its numbers as JSON into this file.
+    #[arg(long, value_name = "FILE", requires = "precision")]
+    pub json: Option<PathBuf>,
 }
 
 fn read(path: &Path) -> Result<Value> {
@@ -245,6 +255,20 @@ fn chart(profile: &Value, png: &Path) -> Result<()> {
 /// `revz-tester profile`.
 pub fn run(args: &ProfileArgs) -> Result<std::process::ExitCode> {
     let profile = read(&args.report)?;
+    if args.precision {
+        let precision = crate::precision::of_profile(&profile)?;
+        print!("{}", crate::precision::render(&precision));
+        if let Some(json) = &args.json {
+            std::fs::write(json, serde_json::to_string_pretty(&precision)? + "\n")
+                .with_context(|| format!("cannot write {}", json.display()))?;
+            println!("wrote: {}", json.display());
+        }
+        if let Some(png) = &args.png {
+            crate::precision::plot(&precision, png)?;
+            println!("wrote: {}", png.display());
+        }
+        return Ok(std::process::ExitCode::SUCCESS);
+    }
     print!("{}", render_tables(&profile));
     if let Some(png) = &args.png {
         chart(&profile, png)?;
