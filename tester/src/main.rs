@@ -18,6 +18,7 @@
 
 mod accuracy;
 mod bench;
+mod demo;
 mod gl;
 mod gpu;
 mod ground_truth;
@@ -68,6 +69,9 @@ struct Cli {
 /// What else the tester does, beyond rendering one scene (the default).
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// What revz does, in about a minute: the hard cases without and with revz against ground
+    /// truth, the wrong-pixel table, a labelled side-by-side picture, and a quick cost figure.
+    Demo(demo::DemoArgs),
     /// Accuracy report: every hard-case scene in every mode and depth format against ground
     /// truth, the precision model beside it (report.json, report.md, images, plots).
     Report(accuracy::ReportArgs),
@@ -192,6 +196,7 @@ fn main() -> ExitCode {
         }
     };
     let outcome = match &cli.command {
+        Some(Command::Demo(args)) => return report_exit(demo::run(args)),
         Some(Command::Report(args)) => return report_exit(accuracy::report(args)),
         Some(Command::Conformance(args)) => return report_exit(accuracy::conformance(args)),
         Some(Command::Bench(args)) => return report_exit(bench::run(args)),

@@ -2,8 +2,11 @@
 //!
 //! - `setup`: install the system packages revz needs (Vulkan loader, lavapipe, validation).
 //! - `build`: build the layer and the tester, and render the layer manifests next to them.
-//! - `demo`: render the first scene without and with the layer, then the accuracy report and
-//!   the benchmark (release build): print where the images and the report are, and the table.
+//! - `demo`: what revz does, in about a minute after the (release) build: the hard cases
+//!   without and with the layer against ground truth, the wrong-pixel table, a labelled
+//!   side-by-side picture, and a quick cost figure (`revz-tester demo`).
+//! - `report`: the whole accuracy report (every hard case, mode and depth format).
+//! - `bench`: the whole benchmark (every mode against no layer, interleaved in one run).
 //! - `test`: everything `build` does, then the whole test suite, then the fuzz targets for
 //!   30 s each.
 //! - `fuzz`: the fuzz targets alone, for as long as asked.
@@ -36,17 +39,21 @@ enum Task {
         #[arg(long)]
         release: bool,
     },
-    /// Render the first scene on lavapipe without and with the layer, then write the accuracy
-    /// report and run the benchmark (release build) into target/revz-demo/report.
+    /// What revz does, in about a minute after the release build: the hard cases on lavapipe
+    /// without and with the layer against ground truth, the wrong-pixel table, a labelled
+    /// side-by-side picture and a quick cost figure, into target/revz-demo.
     Demo {
-        /// REVZ_MODE for the render with the layer.
-        #[arg(long, default_value = "complementary")]
+        /// REVZ_MODE for the renders with the layer (flip, complementary, infinite).
+        #[arg(long, default_value = "infinite")]
         mode: String,
-        /// Depth format (d16, x8-d24, d24-s8, d32, d32-s8).
-        #[arg(long, default_value = "d32")]
-        depth_format: String,
-        /// Run the benchmark with tiny counts (seconds instead of minutes; the figures then
-        /// mean nothing).
+    },
+    /// The whole accuracy report (release build): every hard case in every mode and depth
+    /// format against ground truth, into target/revz-report (a few minutes).
+    Report,
+    /// The whole benchmark (release build): every mode against no layer, interleaved in one
+    /// run, into target/revz-bench (about 10 minutes on 2 cores; `--quick`: seconds, and the
+    /// figures mean nothing).
+    Bench {
         #[arg(long)]
         quick: bool,
     },
@@ -152,64 +159,54 @@ pub fn build(paths: &Paths, release: bool) -> Result<PathBuf> {
     Ok(explicit)
 }
 
-fn demo(mode: &str, depth_format: &str, quick: bool) -> Result<()> {
+/// A release build, then `revz-tester <args> --out target/<dir>` on it.
+fn release_tester(args: &[&str], dir: &str) -> Result<PathBuf> {
     system::ensure_packages()?;
-    // Release: the benchmark measures the layer as users run it.
+    // Release: the figures measure the layer as users run it.
     let paths = Paths::new(true);
     let explicit = build(&paths, true)?;
-    let out = paths.root.join("target").join("revz-demo");
-    let native = out.join("native");
-    let layered = out.join(format!("revz-{mode}"));
-
-    let tester = |dir: &Path| {
-        let mut command = Command::new(paths.tester());
-        command.args(["--validation", "--depth-format", depth_format, "--out"]);
-        command.arg(dir);
-        command
-    };
-    println!("== without the layer");
-    run_checked(tester(&native))?;
-    println!("== with revz (REVZ_MODE={mode})");
-    let mut with_layer = tester(&layered);
-    with_layer
-        .env("VK_ADD_LAYER_PATH", &explicit)
-        .env("VK_INSTANCE_LAYERS", "VK_LAYER_REVZ_reverse_z")
-        .env("REVZ_MODE", mode)
-        .env("REVZ_LOG", "info");
-    run_checked(with_layer)?;
-
-    println!("== results");
-    for (name, dir) in [("without the layer", &native), ("with revz", &layered)] {
-        println!(
-            "{name:>18}: {}  {}",
-            dir.join("color.png").display(),
-            dir.join("depth.png").display()
-        );
-    }
-    for file in ["color.png", "depth.f32"] {
-        let a = std::fs::read(native.join(file))?;
-        let b = std::fs::read(layered.join(file))?;
-        let verdict = if a == b { "identical" } else { "different" };
-        println!("{file:>18}: {verdict}");
-    }
-
-    let report = out.join("report");
-    println!("== accuracy report (every hard case, mode and depth format against ground truth)");
-    let mut accuracy = Command::new(paths.tester());
-    accuracy.arg("report").arg("--out").arg(&report);
-    run_checked(accuracy)?;
-    println!("== benchmark (every mode against no layer, interleaved in one run)");
-    let mut bench = Command::new(paths.tester());
-    bench.arg("bench").arg("--out").arg(&report);
-    if quick {
-        bench.arg("--quick");
-    }
-    run_checked(bench)?;
-    println!(
-        "report: {} ({})",
-        report.join("report.md").display(),
-        report.join("report.json").display()
+    let out = paths.root.join("target").join(dir);
+    let mut command = Command::new(paths.tester());
+    command
+        .args(args)
+        .arg("--layer-dir")
+        .arg(&explicit)
+        .arg("--out")
+        .arg(&out);
+    let started = std::time::Instant::now();
+    run_checked(command)?;
+    eprintln!(
+        "xtask: {} took {:.0} s after the build",
+        args.first().copied().unwrap_or("revz-tester"),
+        started.elapsed().as_secs_f64()
     );
+    Ok(out)
+}
+
+fn demo(mode: &str) -> Result<()> {
+    let out = release_tester(&["demo", "--mode", mode], "revz-demo")?;
+    println!(
+        "renders and report: {} ({})",
+        out.join("report.md").display(),
+        out.join("images").display()
+    );
+    Ok(())
+}
+
+fn report() -> Result<()> {
+    let out = release_tester(&["report"], "revz-report")?;
+    println!("report: {}", out.join("report.md").display());
+    Ok(())
+}
+
+fn bench(quick: bool) -> Result<()> {
+    let args: &[&str] = if quick {
+        &["bench", "--quick"]
+    } else {
+        &["bench"]
+    };
+    let out = release_tester(args, "revz-bench")?;
+    println!("bench: {}", out.join("bench.json").display());
     Ok(())
 }
 
@@ -271,11 +268,9 @@ fn main() -> Result<()> {
     match Cli::parse().task {
         Task::Setup => system::ensure_packages(),
         Task::Build { release } => build(&Paths::new(release), release).map(drop),
-        Task::Demo {
-            mode,
-            depth_format,
-            quick,
-        } => demo(&mode, &depth_format, quick),
+        Task::Demo { mode } => demo(&mode),
+        Task::Report => report(),
+        Task::Bench { quick } => bench(quick),
         Task::Test { cargo_test_args } => test(&cargo_test_args),
         Task::Fuzz {
             seconds,

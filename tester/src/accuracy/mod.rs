@@ -347,7 +347,12 @@ fn cases(deliveries: &[Delivery], selection: &Selection) -> Vec<(Delivery, Depth
 }
 
 /// Renders and measures every selected case, scene by scene; prints one line per case.
-fn run_all(selection: &Selection, out: &Path, width: u32, height: u32) -> Result<Vec<Measurement>> {
+pub fn run_all(
+    selection: &Selection,
+    out: &Path,
+    width: u32,
+    height: u32,
+) -> Result<Vec<Measurement>> {
     std::fs::create_dir_all(out)?;
     let runner = Runner::locate(selection.layer_dir.as_deref())?;
     let mut results = Vec::new();

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::{anyhow, Context, Result};
-use image::RgbaImage;
+use image::RgbImage;
 use plotters::prelude::*;
 
 use super::measure::{format_name, Measurement};
@@ -23,9 +23,24 @@ fn suffix(delivery: &str) -> String {
     }
 }
 
+/// The width of the row labels left of a sheet's tiles, and the height of the column labels
+/// above them.
+const ROW_LABELS: u32 = 150;
+const COLUMN_LABELS: u32 = 26;
+
+/// What a sheet's row of `mode` shows, as its label says it.
+pub fn mode_label(mode: Mode) -> &'static str {
+    match mode {
+        Mode::None => "without revz",
+        Mode::Flip => "revz flip",
+        Mode::Complementary => "revz complementary",
+        Mode::Infinite => "revz infinite",
+    }
+}
+
 /// `images/<scene>.png` for every scene (`images/<scene>-<delivery>.png` for a buffer
-/// delivery): the expected image, then one row per mode and one column per format. Returns
-/// the paths written, relative to `out`.
+/// delivery): the expected image, then one row per mode and one column per format, each row
+/// and column labelled in the picture. Returns the paths written, relative to `out`.
 pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> {
     let formats = formats_in(results);
     let mut sheets: Vec<(&str, &str)> = Vec::new();
@@ -41,7 +56,7 @@ pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> 
     for (scene, delivery) in sheets {
         let expected = image::open(out.join(format!("renders/{scene}/expected.png")))
             .context("no expected.png")?
-            .to_rgba8();
+            .to_rgb8();
         let (w, h) = expected.dimensions();
         let modes: Vec<Mode> = Mode::ALL
             .into_iter()
@@ -53,13 +68,31 @@ pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> 
             .collect();
         let columns = formats.len().max(1) as u32;
         let rows = 1 + modes.len() as u32;
-        let mut sheet = RgbaImage::from_pixel(
-            columns * (w + GAP) + GAP,
-            rows * (h + GAP) + GAP,
-            image::Rgba([255, 255, 255, 255]),
+        let mut sheet = RgbImage::from_pixel(
+            ROW_LABELS + columns * (w + GAP) + GAP,
+            COLUMN_LABELS + rows * (h + GAP) + GAP,
+            image::Rgb([255, 255, 255]),
         );
-        image::imageops::replace(&mut sheet, &expected, i64::from(GAP), i64::from(GAP));
+        let tile_at = |row: u32, column: u32| {
+            (
+                ROW_LABELS + GAP + column * (w + GAP),
+                COLUMN_LABELS + GAP + row * (h + GAP),
+            )
+        };
+        let (x, y) = tile_at(0, 0);
+        image::imageops::replace(&mut sheet, &expected, i64::from(x), i64::from(y));
+        let mut labels = vec![Label::new(
+            GAP,
+            tile_at(0, 0).1 + h / 2,
+            "ground truth".to_owned(),
+        )];
+        for (c, format) in formats.iter().enumerate() {
+            let (x, _) = tile_at(0, c as u32);
+            labels.push(Label::new(x, 4, format_name(*format).to_owned()));
+        }
         for (r, mode) in modes.iter().enumerate() {
+            let (_, y) = tile_at(r as u32 + 1, 0);
+            labels.push(Label::new(GAP, y + h / 2, mode_label(*mode).to_owned()));
             for (c, format) in formats.iter().enumerate() {
                 let Some(m) = results.iter().find(|m| {
                     m.scene == scene
@@ -72,11 +105,11 @@ pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> 
                 let Ok(tile) = image::open(out.join(&m.dir).join("color.png")) else {
                     continue;
                 };
-                let x = GAP + c as u32 * (w + GAP);
-                let y = GAP + (r as u32 + 1) * (h + GAP);
-                image::imageops::replace(&mut sheet, &tile.to_rgba8(), i64::from(x), i64::from(y));
+                let (x, y) = tile_at(r as u32 + 1, c as u32);
+                image::imageops::replace(&mut sheet, &tile.to_rgb8(), i64::from(x), i64::from(y));
             }
         }
+        draw_labels(&mut sheet, &labels)?;
         let rel = format!("images/{scene}{}.png", suffix(delivery));
         sheet
             .save(out.join(&rel))
@@ -84,6 +117,42 @@ pub fn side_by_side(out: &Path, results: &[Measurement]) -> Result<Vec<String>> 
         written.push(rel);
     }
     Ok(written)
+}
+
+/// A line of text drawn on a picture: its top left corner, in pixels.
+#[derive(Clone, Debug)]
+pub struct Label {
+    pub x: u32,
+    pub y: u32,
+    pub text: String,
+    /// Font size in pixels.
+    pub size: f64,
+}
+
+impl Label {
+    /// A label in the sheets' size.
+    pub fn new(x: u32, y: u32, text: String) -> Label {
+        Label {
+            x,
+            y,
+            text,
+            size: 16.0,
+        }
+    }
+}
+
+/// Draws `labels` in black onto `picture` (the plot font, [`font`]).
+pub fn draw_labels(picture: &mut RgbImage, labels: &[Label]) -> Result<()> {
+    font()?;
+    let (w, h) = picture.dimensions();
+    let root = BitMapBackend::with_buffer(picture.as_mut(), (w, h)).into_drawing_area();
+    for label in labels {
+        let style = ("sans-serif", label.size).into_font().color(&BLACK);
+        root.draw_text(&label.text, &style, (label.x as i32, label.y as i32))
+            .map_err(|e| anyhow!("{e}"))?;
+    }
+    root.present().map_err(|e| anyhow!("{e}"))?;
+    Ok(())
 }
 
 /// Registers the plot font once; a clear error when it is missing.

@@ -18,7 +18,7 @@ mod child;
 mod report;
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
@@ -364,7 +364,7 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
             let len = order.len();
             order.rotate_left((round + j) % len);
             for variant in order {
-                let line = run_one(&runner, args, &config, job, variant)?;
+                let line = run_one(&runner, args.device.as_deref(), &config, job, variant)?;
                 if device.is_empty() {
                     device = line["device"].as_str().unwrap_or("").to_owned();
                     driver = line["driver"].as_str().unwrap_or("").to_owned();
@@ -411,10 +411,92 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The demo's cost figure (`revz-tester demo`): the recording thread's instructions per frame
+/// of a `draws`-draw storm (one camera) under callgrind, `runs` children per variant (no
+/// layer, flip, complementary, infinite), two at a time, each variant's smallest count as a
+/// ratio against no layer's. A child can read a few percent high (see [`INSTRUCTION_RUNS`]):
+/// the bench keeps the smallest of five. `None`: valgrind is not installed.
+pub fn quick_instruction_ratios(
+    layer_dir: Option<&Path>,
+    device: Option<&str>,
+    draws: usize,
+    runs: usize,
+) -> Result<Option<Vec<(Variant, f64)>>> {
+    if !callgrind::has_valgrind() {
+        return Ok(None);
+    }
+    let runner = Runner::locate(layer_dir)?;
+    let config = Config {
+        draws: vec![draws],
+        frames: INSTRUCTION_FRAMES,
+        warmup: 1,
+        projections: 1,
+        rounds: 1,
+        pipelines: 1,
+        calls: 1,
+        repeats: 1,
+        compare_op: CompareOp::Dynamic,
+        validation: false,
+        instructions: true,
+    };
+    let job = Job::DrawStormInstructions(draws, 1);
+    const VARIANTS: [Variant; 4] = [
+        Variant::NoLayer,
+        Variant::Flip,
+        Variant::Complementary,
+        Variant::Infinite,
+    ];
+    let children: Vec<Variant> = (0..runs.max(1)).flat_map(|_| VARIANTS).collect();
+    // Two children at a time: the machines this runs on have two cores, and callgrind runs
+    // its client on one.
+    let counts: Vec<Result<f64>> = std::thread::scope(|scope| {
+        children
+            .chunks(2)
+            .flat_map(|pair| {
+                let handles: Vec<_> = pair
+                    .iter()
+                    .map(|&variant| {
+                        let (runner, config, job) = (&runner, &config, &job);
+                        scope.spawn(move || {
+                            let line = run_one(runner, device, config, job, variant)?;
+                            line["result"]["frame_instructions"]
+                                .as_f64()
+                                .context("no instruction count")
+                        })
+                    })
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| {
+                        h.join()
+                            .unwrap_or_else(|_| Err(anyhow::anyhow!("a child panicked")))
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    });
+    let counts = counts.into_iter().collect::<Result<Vec<f64>>>()?;
+    let smallest = |variant: Variant| {
+        children
+            .iter()
+            .zip(&counts)
+            .filter(|(&v, _)| v == variant)
+            .map(|(_, &count)| count)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let without = smallest(Variant::NoLayer);
+    Ok(Some(
+        VARIANTS
+            .iter()
+            .map(|&variant| (variant, smallest(variant) / without))
+            .collect(),
+    ))
+}
+
 /// Runs one child and returns its JSON line.
 fn run_one(
     runner: &Runner,
-    args: &BenchArgs,
+    device: Option<&str>,
     config: &Config,
     job: &Job,
     variant: Variant,
@@ -460,9 +542,9 @@ fn run_one(
         "--repeats".into(),
         config.repeats.to_string(),
     ];
-    if let Some(device) = &args.device {
+    if let Some(device) = device {
         owned.push("--device".into());
-        owned.push(device.clone());
+        owned.push(device.to_owned());
     }
     if config.validation {
         owned.push("--validation".into());
