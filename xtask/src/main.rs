@@ -11,10 +11,12 @@
 //!   30 s each.
 //! - `fuzz`: the fuzz targets alone, for as long as asked.
 //! - `install` / `uninstall`: the implicit layer for the current user.
+//! - `package`: a Debian package installing the implicit layer system-wide (release build).
 //! - `run`: any program with revz injected, nothing installed.
 
 mod install;
 mod manifest;
+mod package;
 mod system;
 
 use std::path::{Path, PathBuf};
@@ -81,6 +83,10 @@ enum Task {
     /// Run a program with revz injected, without installing anything:
     /// `cargo xtask run --mode infinite -- vkcube`.
     Run(install::RunArgs),
+    /// Build the Debian package (release build) into target/debian: the layer in
+    /// /usr/lib/<multiarch>/ and its implicit manifest in /usr/share/vulkan/implicit_layer.d/,
+    /// active with ENABLE_REVZ=1.
+    Package(package::PackageArgs),
 }
 
 /// Where things are in the workspace and its build output.
@@ -280,5 +286,6 @@ fn main() -> Result<()> {
         Task::Install(choice) => install::install(&choice),
         Task::Uninstall => install::uninstall(),
         Task::Run(args) => install::run(&args),
+        Task::Package(args) => package::package(&args),
     }
 }
