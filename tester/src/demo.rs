@@ -159,12 +159,12 @@ pub fn run(args: &DemoArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn find<'a>(
-    results: &'a [Measurement],
+fn find(
+    results: &[Measurement],
     scene: SceneId,
     format: DepthFormat,
     mode: Mode,
-) -> Option<&'a Measurement> {
+) -> Option<&Measurement> {
     results.iter().find(|m| {
         m.scene == scene.name()
             && m.format == crate::accuracy::measure::format_name(format)

@@ -26,6 +26,10 @@
 //!   With `--promote-depth-formats never` (`REVZ_PROMOTE_DEPTH_FORMATS=never`, the same render
 //!   otherwise) the D24_S8 row names no promoted format and is worse than D32 by 0.1 or more of
 //!   the checked pixels: the comparison would show a layer that does not promote.
+//! - `the_demo_shows_the_point` (issue #43): `revz-tester demo`, what `cargo xtask demo` runs,
+//!   prints the wrong-pixel table of its hard cases (standard depth wrong on at least 1% of
+//!   the checked pixels, revz on at most a tenth of that), writes the labelled picture and
+//!   prints the cost per mode.
 
 use std::path::Path;
 use std::process::Command;
@@ -564,4 +568,55 @@ fn promoted_formats_read_back_match_their_float_rows() {
         "promotion with readback:\n  {}",
         problems.join("\n  ")
     );
+}
+
+/// `revz-tester demo` (issue #43, what `cargo xtask demo` runs after its build): the hard
+/// cases without and with revz in `infinite`, its wrong-pixel table, the labelled picture and
+/// the cost figure. Standard depth shows the wrong object on at least 1% of the checked
+/// pixels in every case, revz on at most a tenth of that; the picture is the two renders
+/// side by side; the cost table names every mode with a ratio above 1 (where valgrind is
+/// installed, as on CI's machines).
+#[test]
+fn the_demo_shows_the_point() {
+    let harness = Harness::locate();
+    let out = harness.scratch_dir("demo");
+    let (code, text) = run(tester(&harness, "demo", &out));
+    assert_eq!(code, 0, "{text}");
+    let report = json(&out.join("report.json"));
+    for scene in ["sloped-plane", "mars-patch", "deep-range", "plane-stack"] {
+        for format in ["d24-s8", "d32"] {
+            let native = row(&report, scene, "none", format)["wrong_pixel_fraction"]
+                .as_f64()
+                .unwrap();
+            let revz = row(&report, scene, "infinite", format)["wrong_pixel_fraction"]
+                .as_f64()
+                .unwrap();
+            assert!(native >= 0.01, "{scene} {format}: {native} without revz");
+            assert!(
+                revz <= native / 10.0,
+                "{scene} {format}: {revz} vs {native}"
+            );
+            assert!(
+                text.contains(&format!("| {scene} | {format} | ")),
+                "no table row {scene} {format}: {text}"
+            );
+        }
+    }
+    let picture = image::open(out.join("demo.png")).expect("demo.png");
+    // Two 160 x 120 renders scaled by 2, 12 px apart, under 72 px of labels.
+    assert_eq!((picture.width(), picture.height()), (676, 324));
+    let has_valgrind = Command::new("valgrind").arg("--version").output().is_ok();
+    if has_valgrind {
+        for mode in ["flip", "complementary", "infinite"] {
+            let ratio: f64 = text
+                .lines()
+                .find_map(|l| l.strip_prefix(&format!("| {mode} | ")))
+                .and_then(|rest| rest.trim_end_matches(" |").parse().ok())
+                .unwrap_or_else(|| panic!("no cost row for {mode}: {text}"));
+            assert!((1.0..4.0).contains(&ratio), "{mode}: {ratio}");
+        }
+    } else {
+        assert!(text.contains("valgrind is not installed"), "{text}");
+    }
+    assert!(text.contains("cargo xtask report"), "{text}");
 }
