@@ -150,8 +150,9 @@ pub struct Row {
 /// What the model says for one camera of the profile.
 #[derive(Clone, Debug, Serialize)]
 pub struct CameraPrecision {
-    /// The camera's index in the profile's `cameras`.
-    pub camera: usize,
+    /// Which camera: `camera <index in the profile's cameras>`, or `given` for the one of
+    /// `--near` / `--far`.
+    pub camera: String,
     pub near: f64,
     /// `None`: the camera's projection has an infinite far plane.
     pub far: Option<f64>,
@@ -160,6 +161,17 @@ pub struct CameraPrecision {
     /// The distances of the columns, in near-plane distances.
     pub distances_over_near: Vec<f64>,
     pub rows: Vec<Row>,
+}
+
+/// A camera the profile does not name, from the command line (`--near`, `--far`): revz reads
+/// cameras from pushed matrices only; a projection in a buffer (OpenGL through Zink, most
+/// engines) has its range fitted by the vertex stage on the device, where revz's host side
+/// never sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GivenCamera {
+    pub near: f64,
+    /// `None`: an infinite far plane.
+    pub far: Option<f64>,
 }
 
 /// The precision tables of a whole profile.
@@ -252,7 +264,7 @@ fn storage_in_force(profile: &Value) -> Option<Storage> {
 /// # Errors
 ///
 /// A camera whose near plane is not positive and finite, or whose far is not beyond it.
-pub fn of_profile(profile: &Value) -> Result<Precision> {
+pub fn of_profile(profile: &Value, given: Option<GivenCamera>) -> Result<Precision> {
     let mode = profile["settings"]
         .as_array()
         .into_iter()
@@ -265,24 +277,32 @@ pub fn of_profile(profile: &Value) -> Result<Precision> {
     let storage_in_force = storage_in_force(profile);
     let storages = storages(profile);
     let mut cameras = Vec::new();
-    for (index, camera) in profile["cameras"]
+    let recognised = profile["cameras"]
         .as_array()
         .into_iter()
         .flatten()
         .enumerate()
-    {
-        let near = camera["near"]
-            .as_f64()
-            .ok_or_else(|| anyhow!("camera {index} has no near plane"))?;
-        let far = camera["far"].as_f64();
-        let app_reversed = camera["direction"] == "Reversed";
+        .map(|(index, camera)| -> Result<(String, f64, Option<f64>, bool)> {
+            let near = camera["near"]
+                .as_f64()
+                .ok_or_else(|| anyhow!("camera {index} has no near plane"))?;
+            Ok((
+                format!("camera {index}"),
+                near,
+                camera["far"].as_f64(),
+                camera["direction"] == "Reversed",
+            ))
+        });
+    let given = given.map(|g| Ok(("given".to_owned(), g.near, g.far, false)));
+    for camera in recognised.chain(given) {
+        let (name, near, far, app_reversed) = camera?;
         let finite = match far {
             Some(far) => VisibleRange::new(near, far),
             None => VisibleRange::infinite(near),
         }
-        .map_err(|e| anyhow!("camera {index}: {e:?}"))?;
+        .map_err(|e| anyhow!("{name}: {e:?}"))?;
         let infinite =
-            VisibleRange::infinite(near).map_err(|e| anyhow!("camera {index}: {e:?}"))?;
+            VisibleRange::infinite(near).map_err(|e| anyhow!("{name}: {e:?}"))?;
         // The simulation's nearer surfaces spread a tenth beyond the distance: the last column
         // leaves that room before a finite far plane.
         let reach = far.map_or(INFINITE_REACH, |far| far / near / 1.1);
@@ -316,7 +336,7 @@ pub fn of_profile(profile: &Value) -> Result<Precision> {
             }
         }
         cameras.push(CameraPrecision {
-            camera: index,
+            camera: name,
             near,
             far,
             app_reversed,
@@ -346,12 +366,15 @@ pub fn render(precision: &Precision) -> String {
          dz = z resolves, or beyond the far plane\n",
     );
     if precision.cameras.is_empty() {
-        out.push_str("\nno camera recognised: revz saw no projection it could read\n");
+        out.push_str(
+            "\nno camera recognised: revz reads cameras from pushed matrices only (a projection \
+             in a buffer has its range fitted on the device); give one with --near and --far\n",
+        );
     }
     for camera in &precision.cameras {
         out.push('\n');
         out.push_str(&format!(
-            "camera {}: near {:.4e}, far {}{}\n",
+            "{}: near {:.4e}, far {}{}\n",
             camera.camera,
             camera.near,
             camera
@@ -415,7 +438,7 @@ pub fn plot(precision: &Precision, png: &Path) -> Result<()> {
         let mut chart = ChartBuilder::on(area)
             .caption(
                 format!(
-                    "camera {} (near {:.3e}, far {}): smallest dz/z resolved, per policy and storage",
+                    "{} (near {:.3e}, far {}): smallest dz/z resolved, per policy and storage",
                     camera.camera,
                     camera.near,
                     camera
@@ -502,7 +525,7 @@ mod tests {
 
     #[test]
     fn every_policy_and_storage_gets_a_row_and_the_run_in_force_is_marked() {
-        let precision = of_profile(&profile("Standard", json!(1000.0))).unwrap();
+        let precision = of_profile(&profile("Standard", json!(1000.0)), None).unwrap();
         assert_eq!(precision.storage_in_force, Some(Storage::D32F));
         let camera = &precision.cameras[0];
         // D24 (the image's own) and D32F, four policies.
@@ -530,7 +553,7 @@ mod tests {
 
     #[test]
     fn reversed_float_depth_beats_standard_float_depth_far_away() {
-        let precision = of_profile(&profile("Standard", json!(1000.0))).unwrap();
+        let precision = of_profile(&profile("Standard", json!(1000.0)), None).unwrap();
         let rows = &precision.cameras[0].rows;
         let at = |policy, storage, column: usize| {
             rows.iter()
@@ -554,7 +577,7 @@ mod tests {
 
     #[test]
     fn an_application_that_reverses_depth_itself_gets_its_own_mapping_under_every_policy() {
-        let precision = of_profile(&profile("Reversed", Value::Null)).unwrap();
+        let precision = of_profile(&profile("Reversed", Value::Null), None).unwrap();
         let camera = &precision.cameras[0];
         assert!(camera.app_reversed);
         let of = |policy| {
@@ -573,7 +596,19 @@ mod tests {
 
     #[test]
     fn a_profile_without_cameras_says_so() {
-        let precision = of_profile(&json!({"settings": [], "images": [], "cameras": []})).unwrap();
+        let empty = json!({"settings": [], "images": [], "cameras": []});
+        let precision = of_profile(&empty, None).unwrap();
         assert!(render(&precision).contains("no camera recognised"));
+        // A camera given on the command line gets its table, with the storages compared.
+        let given = GivenCamera {
+            near: 0.5,
+            far: None,
+        };
+        let precision = of_profile(&empty, Some(given)).unwrap();
+        assert_eq!(precision.cameras.len(), 1);
+        assert_eq!(precision.cameras[0].camera, "given");
+        assert_eq!(precision.cameras[0].far, None);
+        assert_eq!(precision.cameras[0].rows.len(), 8);
+        assert!(render(&precision).contains("given: near 5.0000e-1, far infinite"));
     }
 }

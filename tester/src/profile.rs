@@ -25,6 +25,13 @@ pub struct ProfileArgs {
     /// and storage in force marked.
     #[arg(long)]
     pub precision: bool,
+    /// With `--precision`: one more camera, of this near plane (for a projection revz's
+    /// profile does not name: one in a uniform or storage buffer).
+    #[arg(long, value_name = "N", requires = "precision")]
+    pub near: Option<f64>,
+    /// With `--near`: its far plane (default: infinite).
+    #[arg(long, value_name = "F", requires = "near")]
+    pub far: Option<f64>,
     /// With `--precision`: also write its numbers as JSON into this file.
     #[arg(long, value_name = "FILE", requires = "precision")]
     pub json: Option<PathBuf>,
@@ -256,7 +263,11 @@ fn chart(profile: &Value, png: &Path) -> Result<()> {
 pub fn run(args: &ProfileArgs) -> Result<std::process::ExitCode> {
     let profile = read(&args.report)?;
     if args.precision {
-        let precision = crate::precision::of_profile(&profile)?;
+        let given = args.near.map(|near| crate::precision::GivenCamera {
+            near,
+            far: args.far,
+        });
+        let precision = crate::precision::of_profile(&profile, given)?;
         print!("{}", crate::precision::render(&precision));
         if let Some(json) = &args.json {
             std::fs::write(json, serde_json::to_string_pretty(&precision)? + "\n")
