@@ -282,17 +282,19 @@ pub fn of_profile(profile: &Value, given: Option<GivenCamera>) -> Result<Precisi
         .into_iter()
         .flatten()
         .enumerate()
-        .map(|(index, camera)| -> Result<(String, f64, Option<f64>, bool)> {
-            let near = camera["near"]
-                .as_f64()
-                .ok_or_else(|| anyhow!("camera {index} has no near plane"))?;
-            Ok((
-                format!("camera {index}"),
-                near,
-                camera["far"].as_f64(),
-                camera["direction"] == "Reversed",
-            ))
-        });
+        .map(
+            |(index, camera)| -> Result<(String, f64, Option<f64>, bool)> {
+                let near = camera["near"]
+                    .as_f64()
+                    .ok_or_else(|| anyhow!("camera {index} has no near plane"))?;
+                Ok((
+                    format!("camera {index}"),
+                    near,
+                    camera["far"].as_f64(),
+                    camera["direction"] == "Reversed",
+                ))
+            },
+        );
     let given = given.map(|g| Ok(("given".to_owned(), g.near, g.far, false)));
     for camera in recognised.chain(given) {
         let (name, near, far, app_reversed) = camera?;
@@ -301,8 +303,7 @@ pub fn of_profile(profile: &Value, given: Option<GivenCamera>) -> Result<Precisi
             None => VisibleRange::infinite(near),
         }
         .map_err(|e| anyhow!("{name}: {e:?}"))?;
-        let infinite =
-            VisibleRange::infinite(near).map_err(|e| anyhow!("{name}: {e:?}"))?;
+        let infinite = VisibleRange::infinite(near).map_err(|e| anyhow!("{name}: {e:?}"))?;
         // The simulation's nearer surfaces spread a tenth beyond the distance: the last column
         // leaves that room before a finite far plane.
         let reach = far.map_or(INFINITE_REACH, |far| far / near / 1.1);
@@ -450,7 +451,10 @@ pub fn plot(precision: &Precision, png: &Path) -> Result<()> {
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d((0.8f64..reach * 1.25).log_scale(), (1e-8f64..2.0).log_scale())
+            .build_cartesian_2d(
+                (0.8f64..reach * 1.25).log_scale(),
+                (1e-8f64..2.0).log_scale(),
+            )
             .map_err(|e| anyhow!("{e}"))?;
         chart
             .configure_mesh()
