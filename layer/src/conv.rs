@@ -72,11 +72,22 @@ impl Reversal {
     /// other draw uses: `map(a) - (b - a) + z' (b - a)` is `map(a + D (b - a))`. For the full
     /// range that is [0, 1], z' itself; for the plain flip [1 - b, 1 - a]. (Before issue #21 infinite mode used [1 - b, 1 - a] too, which puts a range that does not
     /// start at 0 r a above the other draws: found by converting copies back.)
+    ///
+    /// A range inside [0, 1] (the only kind without `VK_EXT_depth_range_unrestricted`) keeps its
+    /// image there: the rounding of `map(a) - (b - a)` just below 0 is clamped away. A range
+    /// outside it (the application enabled the extension) goes down as computed, for the
+    /// float depth image that holds such values.
     pub fn precise_viewport(self, viewport: vk::Viewport) -> vk::Viewport {
         let (a, b) = (f64::from(viewport.min_depth), f64::from(viewport.max_depth));
         let top = f64::from(self.depth(viewport.min_depth));
+        let bottom = top - (b - a);
+        let inside = (0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b);
         vk::Viewport {
-            min_depth: (top - (b - a)).clamp(0.0, 1.0) as f32,
+            min_depth: if inside {
+                bottom.clamp(0.0, 1.0)
+            } else {
+                bottom
+            } as f32,
             max_depth: top as f32,
             ..viewport
         }
@@ -465,6 +476,17 @@ mod tests {
                 max_depth: 0.75,
                 ..viewport
             },
+            // VK_EXT_depth_range_unrestricted: ranges outside [0, 1] map as they are.
+            vk::Viewport {
+                min_depth: -0.5,
+                max_depth: 1.5,
+                ..viewport
+            },
+            vk::Viewport {
+                min_depth: 2.0,
+                max_depth: 0.25,
+                ..viewport
+            },
         ] {
             let precise = infinite.precise_viewport(range);
             let (a, b) = (f64::from(range.min_depth), f64::from(range.max_depth));
@@ -481,6 +503,13 @@ mod tests {
         }
         let flip = Reversal::Complementary.viewport(viewport);
         assert_eq!((flip.min_depth, flip.max_depth), (1.0, 0.0));
+        let unrestricted = vk::Viewport {
+            min_depth: -0.5,
+            max_depth: 1.5,
+            ..viewport
+        };
+        let precise = Reversal::Complementary.precise_viewport(unrestricted);
+        assert_eq!((precise.min_depth, precise.max_depth), (-0.5, 1.5));
     }
 
     #[test]

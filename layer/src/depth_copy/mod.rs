@@ -295,7 +295,7 @@ unsafe fn create_pipeline(
 ) -> Result<vk::Pipeline, vk::Result> {
     let v = next.fp_v1_0();
     let constants = specialization.constants();
-    let entries: [vk::SpecializationMapEntry; 3] =
+    let entries: [vk::SpecializationMapEntry; 4] =
         std::array::from_fn(|i| vk::SpecializationMapEntry {
             constant_id: i as u32,
             offset: (i * 4) as u32,

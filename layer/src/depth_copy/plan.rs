@@ -83,11 +83,18 @@ impl TexelKinds {
     }
 }
 
-/// An affine map of depth values, d -> offset + scale * d, in depth units ([0, 1]).
+/// An affine map of depth values, d -> offset + scale * d, in depth units, and whether float
+/// results are clamped to [0, 1].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DepthMap {
     pub offset: f64,
     pub scale: f64,
+    /// Float results clamped to [0, 1] (the shader's `CLAMP_UNIT`): where depth can only be
+    /// there, the clamp takes away the float32 rounding that lands just outside. Not on a
+    /// device that enabled `VK_EXT_depth_range_unrestricted`, whose float depth images hold
+    /// what viewports, clears and fragment shaders put there, outside [0, 1] included
+    /// ([`DepthMap::unrestricted`]). UNORM results are always clamped to their range.
+    pub clamp: bool,
 }
 
 impl DepthMap {
@@ -95,7 +102,17 @@ impl DepthMap {
     pub const IDENTITY: DepthMap = DepthMap {
         offset: 0.0,
         scale: 1.0,
+        clamp: true,
     };
+
+    /// The same map, its float results clamped to [0, 1] unless `unrestricted` (a device that
+    /// enabled `VK_EXT_depth_range_unrestricted`).
+    pub fn unrestricted(self, unrestricted: bool) -> DepthMap {
+        DepthMap {
+            clamp: !unrestricted,
+            ..self
+        }
+    }
 
     /// From stored (reversed) values to the standard ones the application would have had
     /// without revz: the inverse of `reversal` (d -> 1 - d, or for infinite mode's
@@ -105,6 +122,7 @@ impl DepthMap {
         DepthMap {
             offset: 1.0 / keep,
             scale: -1.0 / keep,
+            clamp: true,
         }
     }
 
@@ -114,6 +132,7 @@ impl DepthMap {
         DepthMap {
             offset: 1.0,
             scale: -keep,
+            clamp: true,
         }
     }
 
@@ -122,9 +141,15 @@ impl DepthMap {
         self.offset == 1.0 && self.scale == -1.0
     }
 
-    /// The map applied in f64, clamped to [0, 1] (what the shader computes in float32).
+    /// The map applied in f64, clamped to [0, 1] where [`DepthMap::clamp`] says (what the
+    /// shader computes in float32).
     pub fn apply(self, depth: f64) -> f64 {
-        (self.offset + self.scale * depth).clamp(0.0, 1.0)
+        let mapped = self.offset + self.scale * depth;
+        if self.clamp {
+            mapped.clamp(0.0, 1.0)
+        } else {
+            mapped
+        }
     }
 }
 
@@ -145,31 +170,36 @@ fn keep_factor(reversal: Reversal) -> f64 {
 }
 
 /// Which of the conversion shader's pipelines a conversion runs: its specialization constants
-/// (the source kind, the destination kind, and the exact flip), so that each pipeline holds
-/// only its own arithmetic.
+/// (the source kind, the destination kind, the exact flip, and whether float results are
+/// clamped to [0, 1]), so that each pipeline holds only its own arithmetic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Specialization {
     pub kinds: TexelKinds,
     /// UNORM values of one kind flipped d -> 1 - d: a bit complement (`ShaderHeader::mask`).
     pub complement: bool,
+    /// Float results clamped to [0, 1] ([`DepthMap::clamp`]).
+    pub clamp: bool,
 }
 
 impl Specialization {
-    /// How many there are: three source kinds, three destination kinds, complement or not.
-    pub const COUNT: usize = 18;
+    /// How many there are: three source kinds, three destination kinds, complement or not,
+    /// clamped or not (a device uses one of the last two: whether it enabled
+    /// `VK_EXT_depth_range_unrestricted`).
+    pub const COUNT: usize = 36;
 
     /// Its place among the [`Self::COUNT`] (for a table of pipelines).
     pub fn index(self) -> usize {
         let kinds = self.kinds.source.shader_kind() * 3 + self.kinds.destination.shader_kind();
-        kinds as usize * 2 + usize::from(self.complement)
+        (kinds as usize * 2 + usize::from(self.complement)) * 2 + usize::from(self.clamp)
     }
 
-    /// The values of constants 0, 1 and 2, as `VkSpecializationInfo` reads them.
-    pub fn constants(self) -> [u32; 3] {
+    /// The values of constants 0 to 3, as `VkSpecializationInfo` reads them.
+    pub fn constants(self) -> [u32; 4] {
         [
             self.kinds.source.shader_kind(),
             self.kinds.destination.shader_kind(),
             u32::from(self.complement),
+            u32::from(self.clamp),
         ]
     }
 }
@@ -237,6 +267,7 @@ impl ShaderHeader {
             specialization: Specialization {
                 kinds,
                 complement: mask != 0,
+                clamp: map.clamp,
             },
         }
     }
@@ -276,7 +307,8 @@ impl ShaderHeader {
         match kinds.destination {
             TexelKind::Unorm16 => y.round_ties_even().clamp(0.0, 65535.0) as u32,
             TexelKind::Unorm24 => y.round_ties_even().clamp(0.0, 16_777_215.0) as u32,
-            TexelKind::Float32 => y.clamp(0.0, 1.0).to_bits(),
+            TexelKind::Float32 if self.specialization.clamp => y.clamp(0.0, 1.0).to_bits(),
+            TexelKind::Float32 => y.to_bits(),
         }
     }
 
@@ -991,26 +1023,52 @@ mod tests {
     }
 
     #[test]
+    fn unrestricted_float_depth_converts_without_the_unit_clamp() {
+        // A device that enabled VK_EXT_depth_range_unrestricted: reversed values outside
+        // [0, 1] (a clear to 2.0 stores -1.0, a viewport [0, 1.5] stores down to -0.5) come
+        // back as the application wrote them; elsewhere the clamp stays.
+        let kinds = TexelKinds::same(TexelKind::Float32);
+        let layout = scratch_layout([(extent(4, 1), 1)], kinds).unwrap();
+        let map = DepthMap::to_standard(Reversal::Complementary);
+        let unclamped = ShaderHeader::new(kinds, map.unrestricted(true), &layout);
+        let clamped = ShaderHeader::new(kinds, map.unrestricted(false), &layout);
+        assert!(!unclamped.specialization.clamp && clamped.specialization.clamp);
+        for (stored, standard) in [(-1.0f32, 2.0f32), (-0.5, 1.5), (1.25, -0.25), (0.25, 0.75)] {
+            let x = stored.to_bits();
+            assert_eq!(f32::from_bits(unclamped.convert_texel(x)), standard);
+            assert_eq!(
+                f32::from_bits(clamped.convert_texel(x)),
+                standard.clamp(0.0, 1.0)
+            );
+        }
+        assert_eq!(map.unrestricted(true).apply(-1.0), 2.0);
+        assert_eq!(map.apply(-1.0), 1.0);
+    }
+
+    #[test]
     fn each_specialization_has_its_own_index() {
         use TexelKind::{Float32, Unorm16, Unorm24};
         let mut seen = std::collections::HashSet::new();
         for source in [Unorm16, Unorm24, Float32] {
             for destination in [Unorm16, Unorm24, Float32] {
-                for complement in [false, true] {
+                for (complement, clamp) in
+                    [(false, false), (false, true), (true, false), (true, true)]
+                {
                     let specialization = Specialization {
                         kinds: kinds(source, destination),
                         complement,
+                        clamp,
                     };
                     assert!(specialization.index() < Specialization::COUNT);
                     assert!(seen.insert(specialization.index()));
-                    let [s, d, c] = specialization.constants();
                     assert_eq!(
-                        (s, d, c),
-                        (
+                        specialization.constants(),
+                        [
                             source.shader_kind(),
                             destination.shader_kind(),
-                            u32::from(complement)
-                        )
+                            u32::from(complement),
+                            u32::from(clamp)
+                        ]
                     );
                 }
             }
@@ -1031,6 +1089,7 @@ mod tests {
             specialization: Specialization {
                 kinds: TexelKinds::same(TexelKind::Float32),
                 complement: false,
+                clamp: true,
             },
         };
         let bytes = header.to_bytes();

@@ -22,6 +22,9 @@ use crate::ffi;
 pub const GET_PHYSICAL_DEVICE_PROPERTIES2: &CStr = c"VK_KHR_get_physical_device_properties2";
 /// The device extension that makes the depth compare op dynamic below Vulkan 1.3.
 pub const EXTENDED_DYNAMIC_STATE: &CStr = c"VK_EXT_extended_dynamic_state";
+/// Depth outside [0, 1] in viewports, clears and float depth images
+/// (`crate::policy::DevicePolicy::depth_range_unrestricted`).
+pub const DEPTH_RANGE_UNRESTRICTED: &CStr = c"VK_EXT_depth_range_unrestricted";
 
 /// The extension names of a create info.
 ///

@@ -610,8 +610,17 @@ pub unsafe extern "system" fn create_device(
             let dynamic_compare_op = source.is_dynamic(commands.set_depth_compare_op.is_some());
             // SAFETY: a live physical device of this instance.
             let limits = unsafe { device_properties(&instance, physical_device) }.limits;
+            // SAFETY: the application's extension names.
+            let depth_range_unrestricted = unsafe {
+                extensions::names(
+                    create_info.pp_enabled_extension_names,
+                    create_info.enabled_extension_count,
+                )
+            }
+            .contains(&extensions::DEPTH_RANGE_UNRESTRICTED);
             let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op)
-                .with_push_constant_space(limits.max_push_constants_size);
+                .with_push_constant_space(limits.max_push_constants_size)
+                .with_depth_range_unrestricted(depth_range_unrestricted);
             match source {
                 _ if !source.logged(instance.settings.mode == Mode::Off) => {}
                 CompareOpSource::AddedExtension => log::info!(

@@ -168,6 +168,9 @@ pub enum KeptFormat {
     /// Its format list cannot be replaced by one naming the float format
     /// ([`ImageFacts::format_list_fixed`]).
     FormatListFixed,
+    /// The application enabled `VK_EXT_depth_range_unrestricted`: depth outside [0, 1], which
+    /// its UNORM format clamps, would stay outside in a float one.
+    UnrestrictedDepthRange,
 }
 
 impl fmt::Display for KeptFormat {
@@ -195,6 +198,10 @@ impl fmt::Display for KeptFormat {
             KeptFormat::FormatListFixed => {
                 "its format list follows a structure revz cannot copy, so it cannot name the \
                  float format"
+            }
+            KeptFormat::UnrestrictedDepthRange => {
+                "the application enabled VK_EXT_depth_range_unrestricted: a float format would \
+                 keep depth outside [0, 1] that its UNORM format clamps"
             }
         })
     }
@@ -228,6 +235,9 @@ impl DevicePolicy {
         let Some(float) = crate::conv::float_depth_format(format).filter(|_| self.promote) else {
             return Ok(None);
         };
+        if self.depth_range_unrestricted {
+            return Err(KeptFormat::UnrestrictedDepthRange);
+        }
         // Copies and blits in command buffers are converted between the float storage and
         // the application's format (`crate::depth_copy`); host image copies are not.
         if facts.usage.intersects(HOST_TRANSFER) {
@@ -510,6 +520,19 @@ mod tests {
                 Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
             );
         }
+        // Where the application enabled VK_EXT_depth_range_unrestricted, no image is: a float
+        // format would keep depth outside [0, 1] that the UNORM one clamps.
+        let unrestricted = copies.with_depth_range_unrestricted(true);
+        assert_eq!(
+            unrestricted.promoted_format(d24, ATTACHMENT_IMAGE, yes),
+            Err(KeptFormat::UnrestrictedDepthRange)
+        );
+        assert_eq!(
+            copies
+                .with_depth_range_unrestricted(false)
+                .promoted_format(d24, ATTACHMENT_IMAGE, yes),
+            Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
+        );
         // ... unless reverse_observable = none leaves images copied from as they are.
         let unobserved = policy(Mode::Infinite, Observable::None);
         let copied_from = ImageFacts {

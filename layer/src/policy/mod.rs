@@ -205,6 +205,12 @@ pub struct DevicePolicy {
     /// Whether UNORM depth images are promoted to float formats (`promote_depth_formats` in
     /// this mode).
     pub promote: bool,
+    /// The application enabled `VK_EXT_depth_range_unrestricted`: viewports, clears and
+    /// fragment shaders may put depth outside [0, 1], which a float image keeps and a UNORM
+    /// one clamps. Promotion would change what such an image holds, so UNORM images keep
+    /// their format ([`KeptFormat::UnrestrictedDepthRange`]); copies convert float values
+    /// without clamping them to [0, 1].
+    pub depth_range_unrestricted: bool,
 }
 
 impl DevicePolicy {
@@ -228,6 +234,16 @@ impl DevicePolicy {
             compare_op_variants: settings.compare_op == CompareOp::Variants || !dynamic_compare_op,
             carrier_offset: None,
             promote: settings.promote_depth_formats.applies(settings.mode),
+            depth_range_unrestricted: false,
+        }
+    }
+
+    /// The policy on a device whose application enabled `VK_EXT_depth_range_unrestricted`
+    /// (`enabled`).
+    pub fn with_depth_range_unrestricted(self, enabled: bool) -> DevicePolicy {
+        DevicePolicy {
+            depth_range_unrestricted: enabled,
+            ..self
         }
     }
 
@@ -301,6 +317,7 @@ mod tests {
             compare_op_variants: false,
             carrier_offset: None,
             promote: matches!(mode, Mode::Complementary | Mode::Infinite),
+            depth_range_unrestricted: false,
         }
     }
 

@@ -107,6 +107,7 @@ fn depth_map(device: &DeviceState, direction: CopyDirection) -> DepthMap {
         CopyDirection::ToReversed => DepthMap::to_reversed(reversal),
         CopyDirection::Keep => DepthMap::IDENTITY,
     }
+    .unrestricted(device.policy.depth_range_unrestricted)
 }
 
 /// Records `conversion`; logs why not where it cannot.

@@ -70,7 +70,10 @@ fn refresh_of(
     // The image's depth is reversed where revz stores it so after the application's
     // convention; shaders read standard values (`copy_values` concerns copies only).
     let reversed = device.observed.effective(info.depth.target()) == Target::Reversed;
-    let map = reversed.then(|| DepthMap::to_standard(device.reversing().reversal));
+    let map = reversed.then(|| {
+        DepthMap::to_standard(device.reversing().reversal)
+            .unrestricted(device.policy.depth_range_unrestricted)
+    });
     Some(Refresh {
         image,
         layout,
