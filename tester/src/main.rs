@@ -283,6 +283,8 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             depth_bias_clamp: needs.depth_bias_clamp,
             depth_clip_control: needs.depth_clip_control,
             graphics_pipeline_library: needs.graphics_pipeline_library,
+            depth_range_unrestricted: needs.depth_range_unrestricted,
+            depth_clamp: needs.depth_clamp,
         },
     })?;
     say(&format!(
@@ -308,6 +310,12 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     }
     if needs.depth_clip_control && !gpu.supported.depth_clip_control {
         bail!(lacks("depthClipControl (VK_EXT_depth_clip_control)"));
+    }
+    if needs.depth_range_unrestricted && !gpu.supported.depth_range_unrestricted {
+        bail!(lacks("VK_EXT_depth_range_unrestricted"));
+    }
+    if needs.depth_clamp && !gpu.supported.depth_clamp {
+        bail!(lacks("depthClamp"));
     }
     if needs.graphics_pipeline_library && !gpu.supported.graphics_pipeline_library {
         bail!(lacks(

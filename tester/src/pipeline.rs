@@ -583,6 +583,7 @@ pub fn create_pipeline(
             vk::CullModeFlags::NONE
         })
         .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+        .depth_clamp_enable(spec.depth_clamp)
         .line_width(1.0);
     match spec.bias {
         Bias::Off => {}

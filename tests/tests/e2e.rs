@@ -180,6 +180,9 @@ flip_scene_tests! {
     flip_depth_bias_dynamic: "depth-bias-dynamic", DEPTH_FORMATS;
     flip_viewport_sky: "viewport-sky", DEPTH_FORMATS;
     flip_viewport_split: "viewport-split", DEPTH_FORMATS;
+    // Depth outside [0, 1] (VK_EXT_depth_range_unrestricted): viewports, a clear and a clamped
+    // draw; read back unclamped from the float formats, clamped alike from the UNORM ones.
+    flip_depth_range_unrestricted: "depth-range-unrestricted", DEPTH_FORMATS;
     flip_stencil: "stencil", STENCIL_FORMATS;
     flip_secondary: "secondary", DEPTH_FORMATS;
     // The shadow casters drawn from secondaries without a framebuffer land in the map, which is

@@ -15,6 +15,7 @@
 
 use ash::vk;
 use revz_math::DepthConvention;
+use revz_math::Target as RewriteTarget;
 
 use crate::objects::ModuleAnalysis;
 use crate::precise::ProjectionUse;
@@ -48,6 +49,39 @@ pub fn analyses_vertex_module(
 #[must_use]
 pub fn precise_candidate(mode_rewrites: bool, renders_depth: bool, defines_shaders: bool) -> bool {
     mode_rewrites && renders_depth && defines_shaders
+}
+
+/// Whether a pipeline clamps depth (`depthClampEnable` of its rasterization state).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthClamp {
+    /// Static, off (or no rasterization state).
+    Off,
+    /// Static, on.
+    On,
+    /// Dynamic (`VK_DYNAMIC_STATE_DEPTH_CLAMP_ENABLE_EXT`): either, per draw.
+    Dynamic,
+}
+
+/// Why a pipeline that could take the precise path takes the flip path because it may clamp
+/// depth; `None`: it keeps the precise path. Infinite mode's precise path stores n/w with the
+/// far plane removed, so a clamped fragment beyond the far plane is stored below the far
+/// plane's n/f instead of at it: the order and values of what the application clamps to its
+/// far plane would change. The flip path maps the clamped standard depth, exactly. The
+/// complementary precise path clamps at the far plane's 0, as the application's range
+/// mirrored, and keeps it.
+#[must_use]
+pub fn depth_clamp_flip(target: RewriteTarget, clamp: DepthClamp) -> Option<&'static str> {
+    match (target, clamp) {
+        (RewriteTarget::Infinite, DepthClamp::On) => Some(
+            "it clamps depth (depthClampEnable), which infinite mode's precise path cannot \
+             clamp at the far plane",
+        ),
+        (RewriteTarget::Infinite, DepthClamp::Dynamic) => Some(
+            "its depth clamp is dynamic state, which infinite mode's precise path cannot clamp \
+             at the far plane",
+        ),
+        _ => None,
+    }
 }
 
 /// Why a precise pipeline's draws take the flip path after all, where its rewritten vertex
@@ -272,6 +306,18 @@ impl VertexStageFacts<'_> {
 mod tests {
     use super::*;
     use crate::shader::analysis::ProjectionSlot;
+
+    #[test]
+    fn only_infinite_mode_sends_clamping_pipelines_to_the_flip_path() {
+        for clamp in [DepthClamp::On, DepthClamp::Dynamic] {
+            assert!(depth_clamp_flip(RewriteTarget::Infinite, clamp).is_some());
+            assert_eq!(depth_clamp_flip(RewriteTarget::Complementary, clamp), None);
+        }
+        assert_eq!(
+            depth_clamp_flip(RewriteTarget::Infinite, DepthClamp::Off),
+            None
+        );
+    }
 
     #[test]
     fn modules_are_analysed_for_fragments_when_active_and_for_vertices_when_rewriting() {

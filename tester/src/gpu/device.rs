@@ -92,6 +92,8 @@ pub(super) fn supported_features(
         depth_bias_clamp: core.depth_bias_clamp == vk::TRUE,
         depth_clip_control,
         graphics_pipeline_library,
+        depth_range_unrestricted: has(ash::ext::depth_range_unrestricted::NAME),
+        depth_clamp: core.depth_clamp == vk::TRUE,
     }
 }
 
@@ -178,7 +180,8 @@ impl Gpu {
         // VK_KHR_pipeline_library it requires) for the scenes that need them.
         let core_features = vk::PhysicalDeviceFeatures::default()
             .depth_bounds(enabled.depth_bounds)
-            .depth_bias_clamp(enabled.depth_bias_clamp);
+            .depth_bias_clamp(enabled.depth_bias_clamp)
+            .depth_clamp(enabled.depth_clamp);
         let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(enabled.dynamic_rendering);
         // Below 1.3 (and 1.2), the extensions that stand in for the core commands, as an older
@@ -212,6 +215,9 @@ impl Gpu {
         if enabled.graphics_pipeline_library {
             extensions.push(ash::khr::pipeline_library::NAME.as_ptr());
             extensions.push(ash::ext::graphics_pipeline_library::NAME.as_ptr());
+        }
+        if enabled.depth_range_unrestricted {
+            extensions.push(ash::ext::depth_range_unrestricted::NAME.as_ptr());
         }
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)

@@ -165,6 +165,11 @@ pub struct Features {
     /// `VK_EXT_graphics_pipeline_library`'s `graphicsPipelineLibrary` (the extension and the
     /// `VK_KHR_pipeline_library` it requires are enabled with it).
     pub graphics_pipeline_library: bool,
+    /// `VK_EXT_depth_range_unrestricted` (an extension without a feature): viewport depth
+    /// ranges and clear values outside [0, 1].
+    pub depth_range_unrestricted: bool,
+    /// `depthClamp`.
+    pub depth_clamp: bool,
 }
 
 impl Features {
@@ -177,6 +182,11 @@ impl Features {
             (self.depth_bias_clamp, "depthBiasClamp"),
             (self.depth_clip_control, "depthClipControl"),
             (self.graphics_pipeline_library, "graphicsPipelineLibrary"),
+            (
+                self.depth_range_unrestricted,
+                "VK_EXT_depth_range_unrestricted",
+            ),
+            (self.depth_clamp, "depthClamp"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -194,6 +204,9 @@ impl Features {
             depth_clip_control: self.depth_clip_control && other.depth_clip_control,
             graphics_pipeline_library: self.graphics_pipeline_library
                 && other.graphics_pipeline_library,
+            depth_range_unrestricted: self.depth_range_unrestricted
+                && other.depth_range_unrestricted,
+            depth_clamp: self.depth_clamp && other.depth_clamp,
         }
     }
 }
@@ -376,6 +389,8 @@ mod tests {
             depth_bias_clamp: true,
             depth_clip_control: true,
             graphics_pipeline_library: true,
+            depth_range_unrestricted: true,
+            depth_clamp: true,
         };
         assert_eq!(
             all.names(),
@@ -385,7 +400,9 @@ mod tests {
                 "depthBounds",
                 "depthBiasClamp",
                 "depthClipControl",
-                "graphicsPipelineLibrary"
+                "graphicsPipelineLibrary",
+                "VK_EXT_depth_range_unrestricted",
+                "depthClamp"
             ]
         );
         let some = Features {

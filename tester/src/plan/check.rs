@@ -78,9 +78,11 @@ impl Plan {
                 max_depth,
             } = pipeline.viewport
             {
+                // Outside [0, 1] is allowed: the plan then needs (and the device gets)
+                // VK_EXT_depth_range_unrestricted (`Plan::needs`).
                 ensure!(
-                    (0.0..=1.0).contains(&min_depth) && (0.0..=1.0).contains(&max_depth),
-                    "pipeline {name}: viewport depth range outside [0, 1]"
+                    min_depth.is_finite() && max_depth.is_finite(),
+                    "pipeline {name}: viewport depth range not finite"
                 );
             }
             if let Bounds::Static { min, max } = pipeline.bounds {
@@ -140,10 +142,7 @@ impl Plan {
                         state.pass.is_none(),
                         "step {index}: image clear inside a pass"
                     );
-                    ensure!(
-                        (0.0..=1.0).contains(depth),
-                        "step {index}: depth outside [0, 1]"
-                    );
+                    ensure!(depth.is_finite(), "step {index}: depth not finite");
                 }
                 Step::BeginPass(n) => {
                     ensure!(state.pass.is_none(), "step {index}: nested pass");
@@ -373,8 +372,8 @@ impl Plan {
                     "step {index}: the viewport is not dynamic"
                 );
                 ensure!(
-                    (0.0..=1.0).contains(min_depth) && (0.0..=1.0).contains(max_depth),
-                    "step {index}: viewport depth range outside [0, 1]"
+                    min_depth.is_finite() && max_depth.is_finite(),
+                    "step {index}: viewport depth range not finite"
                 );
                 state.set[3] = true;
             }

@@ -338,6 +338,9 @@ pub struct PipelineSpec {
     /// and are mirrored by the y-down projection), as lit applications draw closed meshes; the
     /// ground truth culls the same triangles. `false`: no culling.
     pub cull_back_faces: bool,
+    /// `depthClampEnable` (needs `depthClamp`): no clipping at the near and far planes,
+    /// fragment depth clamped to the viewport's depth range.
+    pub depth_clamp: bool,
 }
 
 impl PipelineSpec {
@@ -359,6 +362,7 @@ impl PipelineSpec {
             negative_one_to_one: false,
             libraries: false,
             cull_back_faces: false,
+            depth_clamp: false,
         }
     }
 }
@@ -612,6 +616,11 @@ pub struct Needs {
     /// `VK_EXT_graphics_pipeline_library` (and `VK_KHR_pipeline_library`) with
     /// `graphicsPipelineLibrary` (a pipeline is built from libraries).
     pub graphics_pipeline_library: bool,
+    /// `VK_EXT_depth_range_unrestricted`: a viewport depth range or a depth clear value
+    /// outside [0, 1].
+    pub depth_range_unrestricted: bool,
+    /// The `depthClamp` feature (a pipeline clamps depth).
+    pub depth_clamp: bool,
     /// Multisampled attachments of this sample count, resolved with this depth resolve mode
     /// (the device must support both for the formats, and the mode in
     /// `VkPhysicalDeviceDepthStencilResolveProperties`); every multisampled pass of a plan
@@ -735,6 +744,26 @@ impl Plan {
         out
     }
 
+    /// The objects drawn with a depth-clamping pipeline (in the order of their draws): they
+    /// may lie beyond the near or far plane, as clamping draws them.
+    #[cfg(test)]
+    pub fn clamped_objects(&self) -> Vec<usize> {
+        let mut bound: Option<&PipelineSpec> = None;
+        let mut clamped = Vec::new();
+        for step in self.all_steps() {
+            match step {
+                Step::Bind(n) => bound = self.pipelines.get(*n),
+                Step::Draw(object) | Step::DrawPushed(object)
+                    if bound.is_some_and(|p| p.depth_clamp) =>
+                {
+                    clamped.push(*object);
+                }
+                _ => {}
+            }
+        }
+        clamped
+    }
+
     /// What the plan needs from the device and the targets.
     pub fn needs(&self) -> Needs {
         let mut needs = Needs::default();
@@ -744,6 +773,9 @@ impl Plan {
             if pass.kind == PassKind::DynamicRendering {
                 needs.dynamic_rendering = true;
             }
+            if let DepthLoad::Clear(depth) = pass.depth {
+                needs.depth_range_unrestricted |= !(0.0..=1.0).contains(&depth);
+            }
         }
         for pipeline in &self.pipelines {
             needs.stencil |= pipeline.stencil.is_some();
@@ -751,13 +783,32 @@ impl Plan {
             needs.dynamic_compare_op |= pipeline.depth_test == DepthTest::Dynamic;
             needs.depth_clip_control |= pipeline.negative_one_to_one;
             needs.graphics_pipeline_library |= pipeline.libraries;
+            needs.depth_clamp |= pipeline.depth_clamp;
+            if let Viewport::Static {
+                min_depth,
+                max_depth,
+            } = pipeline.viewport
+            {
+                needs.depth_range_unrestricted |=
+                    !(0.0..=1.0).contains(&min_depth) || !(0.0..=1.0).contains(&max_depth);
+            }
             if let Bias::Static(bias) = pipeline.bias {
                 needs.depth_bias_clamp |= bias.clamp != 0.0;
             }
         }
         for step in self.all_steps() {
             match step {
-                Step::ClearDepthImage { .. } => needs.clear_depth_image = true,
+                Step::ClearDepthImage { depth } => {
+                    needs.clear_depth_image = true;
+                    needs.depth_range_unrestricted |= !(0.0..=1.0).contains(depth);
+                }
+                Step::SetViewport {
+                    min_depth,
+                    max_depth,
+                } => {
+                    needs.depth_range_unrestricted |=
+                        !(0.0..=1.0).contains(min_depth) || !(0.0..=1.0).contains(max_depth);
+                }
                 Step::SetDepthBias(bias) => needs.depth_bias_clamp |= bias.clamp != 0.0,
                 Step::ExecuteSecondaries(lists, Recording::MainThread) => {
                     needs.secondaries += lists.len();

@@ -52,6 +52,10 @@ pub enum SceneId {
     /// A first-person weapon at viewport depth [0, 0.1], the world at [0.1, 1], one dynamic
     /// viewport at [0.5, 1].
     ViewportSplit,
+    /// Depth outside [0, 1] (`VK_EXT_depth_range_unrestricted`): a clear to 1.5, the world at
+    /// viewport depth [-20, 1.5], a cube at [1.2, 1.4], and a cube beyond the far plane drawn
+    /// with depth clamping.
+    DepthRangeUnrestricted,
     /// Stencil mask (ref 1) and objects drawn with stencil EQUAL / NOT_EQUAL 1.
     Stencil,
     /// The overlap scene recorded into two secondary command buffers.
@@ -641,7 +645,12 @@ mod tests {
             } else {
                 0.0
             };
-            for object in &scene.objects {
+            let clamped = scene.plan.clamped_objects();
+            for (n, object) in scene.objects.iter().enumerate() {
+                if clamped.contains(&n) {
+                    // Drawn with depth clamping, beyond a plane on purpose.
+                    continue;
+                }
                 let mvp = scene.mvp(object, ASPECT);
                 for p in scene.vertex_positions(object) {
                     let z = ndc(&mvp, p).z;

@@ -73,6 +73,11 @@ pub const CATALOG: &[Entry] = &[
     entry_row(SceneId::DepthBounds, "depth-bounds", depth_bounds),
     entry_row(SceneId::ViewportSky, "viewport-sky", viewport_sky),
     entry_row(SceneId::ViewportSplit, "viewport-split", viewport_split),
+    entry_row(
+        SceneId::DepthRangeUnrestricted,
+        "depth-range-unrestricted",
+        depth_range_unrestricted,
+    ),
     entry_row(SceneId::Stencil, "stencil", stencil),
     entry_row(SceneId::Secondary, "secondary", secondary),
     entry_row(SceneId::Subpasses, "subpasses", subpasses),

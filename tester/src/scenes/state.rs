@@ -567,6 +567,71 @@ pub fn viewport_split() -> Scene {
     b.finish("viewport-split", camera, None)
 }
 
+/// The depths of `depth-range-unrestricted`: the clear value, the world's viewport range, the
+/// squeezed cube's, and the range of the clamped cube beyond the far plane.
+pub const UNRESTRICTED_CLEAR: f32 = 1.5;
+pub const UNRESTRICTED_WORLD: [f32; 2] = [-20.0, 1.5];
+pub const UNRESTRICTED_SQUEEZED: [f32; 2] = [1.2, 1.4];
+pub const UNRESTRICTED_CLAMPED: [f32; 2] = [-20.0, 1.45];
+
+/// `depth-range-unrestricted` (needs `VK_EXT_depth_range_unrestricted` and `depthClamp`): the
+/// overlap scene with depth outside [0, 1] everywhere, as the extension allows. The pass clears
+/// depth to 1.5; the world is drawn with viewport depth [-20, 1.5] (its standard depths 0.967
+/// to 0.991 land on 0.79 to 1.31, across 1); a cube floating in front of the far cube is drawn
+/// at [1.2, 1.4], behind every world surface (about 1.39 and more), so it shows only against
+/// the background (the clear, 1.5); a large cube 150 away, beyond the far plane (100), is drawn
+/// with depth clamping at [-20, 1.45]: not clipped, its depth clamped to 1.45, it shows
+/// against the background too. On a UNORM format every value is clamped to [0, 1] (the clear
+/// to 1, so the squeezed and the clamped cube, at 1, fail LESS against it and vanish).
+///
+/// Layer items: depth outside [0, 1] in viewports (flip path [a, b] -> [1 - a, 1 - b], precise
+/// path unclamped), clears and copies (read back unclamped on a float image); no promotion of
+/// UNORM images on such a device (a float format would keep values the UNORM one clamps); in
+/// infinite mode, UNORM images native and clamping pipelines on the flip path (n/w beyond the
+/// far plane is not clamped at it).
+pub fn depth_range_unrestricted() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let world = b.nearest_first(&camera, overlap_objects());
+    let squeezed = b.object(Object::world(
+        "squeezed cube",
+        Mesh::cuboid(DVec3::splat(0.35)),
+        DMat4::from_translation(DVec3::new(-1.7, 1.95, -1.9)) * DMat4::from_rotation_y(0.5),
+        rgb8(0, 230, 230),
+    ));
+    // 150 from the eye (0, 2, 6), 5 degrees above the horizon, straight ahead: beyond the far
+    // plane, above the scene.
+    let beyond = b.object(Object::world(
+        "cube beyond the far plane",
+        Mesh::cuboid(DVec3::splat(12.0)),
+        DMat4::from_translation(DVec3::new(0.0, 15.0, -140.0)) * DMat4::from_rotation_y(0.3),
+        rgb8(240, 200, 40),
+    ));
+    b.pass(PassSpec::clear(UNRESTRICTED_CLEAR));
+    let ranged = |name, [min_depth, max_depth]: [f32; 2]| PipelineSpec {
+        viewport: Viewport::Static {
+            min_depth,
+            max_depth,
+        },
+        ..PipelineSpec::standard(name, 0)
+    };
+    let world_pipeline = b.pipeline(ranged("world", UNRESTRICTED_WORLD));
+    let squeezed_pipeline = b.pipeline(ranged("squeezed", UNRESTRICTED_SQUEEZED));
+    let clamped = b.pipeline(PipelineSpec {
+        depth_clamp: true,
+        ..ranged("clamped", UNRESTRICTED_CLAMPED)
+    });
+    b.step(Step::BeginPass(0));
+    b.step(Step::Bind(world_pipeline));
+    b.draw(&world);
+    b.step(Step::Bind(squeezed_pipeline));
+    b.step(Step::Draw(squeezed));
+    b.step(Step::Bind(clamped));
+    b.step(Step::Draw(beyond));
+    b.step(Step::EndPass);
+    b.finish("depth-range-unrestricted", camera, None)
+}
+
 /// `stencil` (d24-s8 and d32-s8 only): the render pass clears stencil to 0 (and depth to
 /// 1.0). The ground and two cubes are drawn; then a portal rectangle standing behind the near
 /// cube writes stencil 1 where it passes the depth test (LESS; no color, no depth writes), so

@@ -135,7 +135,12 @@ fn every_vertex_is_within_the_depth_range_of_its_views() {
             let negative_one_to_one =
                 view == View::Camera && scene.camera.projection.negative_one_to_one();
             let lowest = if negative_one_to_one { -1.0 } else { 0.0 };
+            let clamped = scene.plan.clamped_objects();
             for n in drawn_in(&scene, target) {
+                if clamped.contains(&n) {
+                    // Drawn with depth clamping, beyond a plane on purpose.
+                    continue;
+                }
                 for c in clip(&scene, view, n) {
                     let name = scene.objects[n].name;
                     assert!(c.w > 0.0, "{}: {name} behind the eye", scene.name);
@@ -165,6 +170,9 @@ fn needs_follow_from_the_plans() {
     assert!(needs(SceneId::ShadowMap).shadow_map);
     assert_eq!(needs(SceneId::Secondary).secondaries, 2);
     assert_eq!(needs(SceneId::Overlap), crate::plan::Needs::default());
+    let unrestricted = needs(SceneId::DepthRangeUnrestricted);
+    assert!(unrestricted.depth_range_unrestricted && unrestricted.depth_clamp);
+    assert!(!needs(SceneId::ViewportSplit).depth_range_unrestricted);
     for id in [SceneId::MsaaResolve, SceneId::MsaaResolveDynamic] {
         let needs = needs(id);
         assert_eq!(
@@ -183,6 +191,13 @@ fn needs_follow_from_the_plans() {
         }
         if scene.name != "depth-bounds" {
             assert!(!needs.depth_bounds, "{}", scene.name);
+        }
+        if scene.name != "depth-range-unrestricted" {
+            assert!(
+                !needs.depth_range_unrestricted && !needs.depth_clamp,
+                "{}",
+                scene.name
+            );
         }
         assert_eq!(
             needs.multisample.is_some(),

@@ -269,7 +269,13 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         plan.static_state.renders_depth,
                         context.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS),
                     );
-                    if candidate {
+                    let clamp_flip = state.policy.rewrite().and_then(|target| {
+                        // SAFETY: the application's valid create info.
+                        vertex_stage::depth_clamp_flip(target, unsafe { depth_clamp_of(info) })
+                    });
+                    if let (true, Some(reason)) = (candidate, clamp_flip) {
+                        plan.flip_reason = Some(reason.into());
+                    } else if candidate {
                         match projection_of(&state, info, facts.code_given()) {
                             Ok(stage) => {
                                 plan.depth.projection = stage.projection;

@@ -493,3 +493,27 @@ fn inline_vertex(
         (Arc::new(analysis), rewrite)
     })
 }
+
+/// Whether `info`'s pipeline clamps depth: its rasterization state's `depthClampEnable`, or
+/// dynamic state (`VK_DYNAMIC_STATE_DEPTH_CLAMP_ENABLE_EXT`).
+///
+/// # Safety
+/// `info` is the application's valid create info.
+pub(super) unsafe fn depth_clamp_of(
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> crate::policy::vertex_stage::DepthClamp {
+    use crate::policy::vertex_stage::DepthClamp;
+    // SAFETY: null or valid (the caller's contract).
+    let dynamic = unsafe { info.p_dynamic_state.as_ref() }.map_or(&[][..], |d| unsafe {
+        // SAFETY: `dynamicStateCount` entries.
+        slice(d.p_dynamic_states, d.dynamic_state_count)
+    });
+    if dynamic.contains(&vk::DynamicState::DEPTH_CLAMP_ENABLE_EXT) {
+        return DepthClamp::Dynamic;
+    }
+    // SAFETY: null or valid (the caller's contract).
+    match unsafe { info.p_rasterization_state.as_ref() } {
+        Some(r) if r.depth_clamp_enable == vk::TRUE => DepthClamp::On,
+        _ => DepthClamp::Off,
+    }
+}
