@@ -614,6 +614,20 @@ pub struct ImageCopyPlan {
     pub rest: Vec<(usize, vk::ImageAspectFlags)>,
 }
 
+/// The extent one side of an image copy region covers: the region's, except on the 2D side
+/// of a copy between a 3D image and a 2D (array) image (`VK_KHR_maintenance1`), where the
+/// region's depth counts that side's array layers and its own extent is one deep. The 2D side
+/// is the one with several layers (a 3D image's subresource has one); with one layer and one
+/// slice the two readings agree. Slices and layers are packed alike in the scratch buffer, so
+/// slice k of one side meets layer k of the other.
+fn side_extent(extent: vk::Extent3D, side: vk::ImageSubresourceLayers) -> vk::Extent3D {
+    if side.layer_count > 1 && extent.depth == side.layer_count {
+        vk::Extent3D { depth: 1, ..extent }
+    } else {
+        extent
+    }
+}
+
 /// Plans an image copy whose depth must change convention or format (`kinds`: the texels each
 /// image is stored in). `None` as for [`plan_buffer_copy`], and where the two images are
 /// stored in different formats and a region copies stencil: the application's own copy could
@@ -637,9 +651,12 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<I
         return None;
     }
     let layout = scratch_layout(
-        converted
-            .iter()
-            .map(|r| (r.extent, r.src_subresource.layer_count)),
+        converted.iter().map(|r| {
+            (
+                side_extent(r.extent, r.src_subresource),
+                r.src_subresource.layer_count,
+            )
+        }),
         kinds,
     )?;
     let only_depth = |subresource: vk::ImageSubresourceLayers| vk::ImageSubresourceLayers {
@@ -654,7 +671,7 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<I
             buffer_image_height: 0,
             image_subresource: only_depth(subresource),
             image_offset: offset,
-            image_extent: region.extent,
+            image_extent: side_extent(region.extent, subresource),
         };
         from_source.push(packed(
             scratch.input,
@@ -1222,6 +1239,53 @@ mod tests {
             .map(|c| (c.src_offset, c.dst_offset, c.size))
             .collect();
         assert_eq!(copies, [(256, 32, 8), (272, 40, 8)]);
+    }
+
+    #[test]
+    fn copies_between_3d_and_2d_array_images_cover_slices_and_layers_alike() {
+        // VK_KHR_maintenance1: the region's depth counts the 2D side's layers; that side's
+        // own copy is one deep, the 3D side's as deep as the region.
+        let depth = vk::ImageAspectFlags::DEPTH;
+        let slab = vk::Extent3D {
+            width: 4,
+            height: 2,
+            depth: 3,
+        };
+        let kinds = TexelKinds::same(TexelKind::Float32);
+        let three_to_two = vk::ImageCopy {
+            src_subresource: layers(depth, 1),
+            src_offset: vk::Offset3D { x: 0, y: 0, z: 2 },
+            dst_subresource: layers(depth, 3),
+            dst_offset: vk::Offset3D::default(),
+            extent: slab,
+        };
+        let plan = plan_image_copy(&[three_to_two], kinds).unwrap();
+        assert_eq!(plan.layout.pairs, 4 * 2 * 3 / 2);
+        let (from, to) = (plan.from_source[0], plan.to_destination[0]);
+        assert_eq!((from.image_extent, from.image_subresource.layer_count), (slab, 1));
+        assert_eq!(from.image_offset.z, 2);
+        assert_eq!(
+            (to.image_extent, to.image_subresource.layer_count),
+            (vk::Extent3D { depth: 1, ..slab }, 3)
+        );
+        let two_to_three = vk::ImageCopy {
+            src_subresource: layers(depth, 3),
+            dst_subresource: layers(depth, 1),
+            ..three_to_two
+        };
+        let plan = plan_image_copy(&[two_to_three], kinds).unwrap();
+        assert_eq!(plan.layout.pairs, 4 * 2 * 3 / 2);
+        let (from, to) = (plan.from_source[0], plan.to_destination[0]);
+        assert_eq!(from.image_extent.depth, 1);
+        assert_eq!((to.image_extent, to.image_subresource.layer_count), (slab, 1));
+        // 3D to 3D: both sides as deep as the region, one layer each.
+        let three_to_three = vk::ImageCopy {
+            dst_subresource: layers(depth, 1),
+            ..three_to_two
+        };
+        let plan = plan_image_copy(&[three_to_three], kinds).unwrap();
+        assert_eq!(plan.layout.pairs, 4 * 2 * 3 / 2);
+        assert_eq!(plan.to_destination[0].image_extent, slab);
     }
 
     #[test]
