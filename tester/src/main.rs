@@ -465,6 +465,7 @@ fn recorded(
                     } => Some([min_depth, max_depth]),
                     crate::plan::Viewport::Dynamic => None,
                 },
+                depth_clamp: spec.depth_clamp,
                 image: match (target, multisampled) {
                     (Target::Shadow, _) => "shadow",
                     (Target::Main, true) => "multisampled",

@@ -23,6 +23,8 @@ use std::path::Path;
 use anyhow::{anyhow, Result};
 use glam::{DQuat, EulerRot};
 use plotters::prelude::*;
+
+use crate::accuracy::report_images::{legend, separation_chart};
 use revz_math::model::{Camera, Mapping, Simulation, StorageFormat, VertexTransform};
 use revz_math::VisibleRange;
 use serde::Serialize;
@@ -436,34 +438,15 @@ pub fn plot(precision: &Precision, png: &Path) -> Result<()> {
             .copied()
             .unwrap_or(10.0)
             .max(10.0);
-        let mut chart = ChartBuilder::on(area)
-            .caption(
-                format!(
-                    "{} (near {:.3e}, far {}): smallest dz/z resolved, per policy and storage",
-                    camera.camera,
-                    camera.near,
-                    camera
-                        .far
-                        .map_or_else(|| "infinite".to_owned(), |f| format!("{f:.3e}"))
-                ),
-                ("sans-serif", 16),
-            )
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(
-                (0.8f64..reach * 1.25).log_scale(),
-                (1e-8f64..2.0).log_scale(),
-            )
-            .map_err(|e| anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_desc("view distance / near")
-            .y_desc("relative separation dz/z")
-            .x_label_formatter(&|v| format!("{v:.0e}"))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
+        let caption = format!(
+            "{} (near {:.3e}, far {}): smallest dz/z resolved, per policy and storage",
+            camera.camera,
+            camera.near,
+            camera
+                .far
+                .map_or_else(|| "infinite".to_owned(), |f| format!("{f:.3e}"))
+        );
+        let mut chart = separation_chart(area, caption, 16, 0.8..reach * 1.25)?;
         for row in &camera.rows {
             let color = policy_color(row.policy);
             let points: Vec<(f64, f64)> = camera
@@ -499,14 +482,7 @@ pub fn plot(precision: &Precision, png: &Path) -> Result<()> {
                     .map_err(|e| anyhow!("{e}"))?;
             }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 11))
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
+        legend(&mut chart, 11)?;
     }
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())

@@ -78,13 +78,24 @@ fn converted_tolerance(format: &str, mode: &str) -> f32 {
 /// rewritten fragment depth stores 1 - d, not the 1 - (1 - n/f) d of every other draw (n / f is
 /// known only at draw time; `docs/limits.md`), so the `frag-depth` scenes read back within n / f
 /// of the camera (0.1 / 100).
+///
+/// `depth-range-unrestricted` draws its world with viewport depth [-20, 1.5]: the viewport
+/// scales depth, and with it the float32 rounding the precise path's depth differs by, 21.5
+/// times.
 fn known_limit(scene: &str, mode: &str) -> f32 {
     if mode == "infinite" && scene.starts_with("frag-depth") {
         1e-3
+    } else if scene == "depth-range-unrestricted" && mode != "flip" {
+        21.5 * 8.0 / 16_777_216.0
     } else {
         0.0
     }
 }
+
+/// The scenes whose device has `VK_EXT_depth_range_unrestricted` enabled: revz promotes no
+/// UNORM image there (issue #44: a float format would keep depth outside [0, 1] that the UNORM
+/// one clamps), and in infinite mode keeps them native.
+const UNRESTRICTED: [&str; 1] = ["depth-range-unrestricted"];
 
 /// How many color pixels may differ from the native render in a scene without ground truth.
 /// The flip path: [`flip_color_tolerance`]. The precise path computes depth with other float32
@@ -227,7 +238,17 @@ fn default_policy_hands_back_native_depth(format: &str) {
             );
             // Issue #40: the read-back image (TRANSFER_SRC) and every other depth image of the
             // scene is promoted where the mode promotes.
-            if let (Some(vk_format), true) = (promoted_vk_format(format), mode != "flip") {
+            if let (Some(_), true) = (
+                promoted_vk_format(format),
+                UNRESTRICTED.contains(&scene.as_str()),
+            ) {
+                assert!(
+                    !log.contains("promoted to")
+                        && (mode == "flip"
+                            || log.contains("enabled VK_EXT_depth_range_unrestricted")),
+                    "{what}: a UNORM image promoted on a device with unrestricted depth\n{log}"
+                );
+            } else if let (Some(vk_format), true) = (promoted_vk_format(format), mode != "flip") {
                 let (unpromoted, created) = unpromoted_images(&log, vk_format);
                 assert!(
                     created > 0 && unpromoted.is_empty(),

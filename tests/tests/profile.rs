@@ -164,9 +164,13 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
         // The shadow map's light is orthographic: an affine projection, whose depth the flip
         // path reverses as exactly as a rewrite would (`shared/DESIGN.md` section 1).
         let orthographic = draws["image"] == "shadow";
+        // Infinite mode's precise path removes the far plane, which a clamping pipeline clamps
+        // at (issue #44): those take the flip path.
+        let clamped = mode == "infinite" && draws["depth_clamp"] == true;
         let path = if into_native {
             "native"
-        } else if mode == "flip" || constant_depth || no_room || untested || orthographic {
+        } else if mode == "flip" || constant_depth || no_room || untested || orthographic || clamped
+        {
             "flip"
         } else {
             "precise"
@@ -185,6 +189,11 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
             assert_eq!(listed["path"], "flip", "{what}: {listed}");
             let why = listed["projection"].as_str().unwrap();
             assert!(why.contains("no room"), "{what}: {why}");
+        }
+        if clamped {
+            assert_eq!(listed["path"], "flip", "{what}: {listed}");
+            let why = listed["projection"].as_str().unwrap();
+            assert!(why.contains("clamps depth"), "{what}: {why}");
         }
         if delivery != "push" && mode != "flip" {
             let projection = listed["projection"].as_str().unwrap();

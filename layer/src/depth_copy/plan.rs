@@ -1262,7 +1262,10 @@ mod tests {
         let plan = plan_image_copy(&[three_to_two], kinds).unwrap();
         assert_eq!(plan.layout.pairs, 4 * 2 * 3 / 2);
         let (from, to) = (plan.from_source[0], plan.to_destination[0]);
-        assert_eq!((from.image_extent, from.image_subresource.layer_count), (slab, 1));
+        assert_eq!(
+            (from.image_extent, from.image_subresource.layer_count),
+            (slab, 1)
+        );
         assert_eq!(from.image_offset.z, 2);
         assert_eq!(
             (to.image_extent, to.image_subresource.layer_count),
@@ -1277,7 +1280,10 @@ mod tests {
         assert_eq!(plan.layout.pairs, 4 * 2 * 3 / 2);
         let (from, to) = (plan.from_source[0], plan.to_destination[0]);
         assert_eq!(from.image_extent.depth, 1);
-        assert_eq!((to.image_extent, to.image_subresource.layer_count), (slab, 1));
+        assert_eq!(
+            (to.image_extent, to.image_subresource.layer_count),
+            (slab, 1)
+        );
         // 3D to 3D: both sides as deep as the region, one layer each.
         let three_to_three = vk::ImageCopy {
             dst_subresource: layers(depth, 1),

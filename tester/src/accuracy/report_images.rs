@@ -171,6 +171,51 @@ pub fn font() -> Result<()> {
         .map_err(|e| anyhow!(e))
 }
 
+/// A chart of the relative separation dz/z (1e-8 to 2) over the view distance in near-plane
+/// distances (`distances`), both on log axes, its mesh drawn: the accuracy report's plots and
+/// the precision view's (`crate::precision`).
+pub fn separation_chart<'a, DB: DrawingBackend + 'a>(
+    area: &'a DrawingArea<DB, plotters::coord::Shift>,
+    caption: String,
+    caption_size: u32,
+    distances: std::ops::Range<f64>,
+) -> Result<SeparationChart<'a, DB>> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", caption_size))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(distances.log_scale(), (1e-8f64..2.0).log_scale())
+        .map_err(|e| anyhow!("{e}"))?;
+    chart
+        .configure_mesh()
+        .x_desc("view distance / near")
+        .y_desc("relative separation dz/z")
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
+    Ok(chart)
+}
+
+/// What [`separation_chart`] makes.
+pub type SeparationChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+
+/// The series' labels in the upper left of `chart`, in a font of `size` pixels.
+pub fn legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut SeparationChart<'a, DB>,
+    size: u32,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", size))
+        .draw()
+        .map_err(|e| anyhow!("{e}"))
+}
+
 fn mode_color(mode: &str) -> RGBColor {
     match mode {
         "none" => RGBColor(200, 40, 40),
@@ -208,31 +253,15 @@ pub fn plots(out: &Path, results: &[Measurement], rows: &[SeparationRow]) -> Res
         {
             let root = BitMapBackend::new(&path, (720, 480)).into_drawing_area();
             root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
-            let mut chart = ChartBuilder::on(&root)
-                .caption(
-                    format!(
-                        "plane-stack {name}{}: minimum dz/z resolved (points) vs model (lines)",
-                        if delivery == "push" {
-                            String::new()
-                        } else {
-                            format!(" ({delivery})")
-                        }
-                    ),
-                    ("sans-serif", 18),
-                )
-                .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
-                .build_cartesian_2d((3.0f64..3e6).log_scale(), (1e-8f64..2.0).log_scale())
-                .map_err(|e| anyhow!("{e}"))?;
-            chart
-                .configure_mesh()
-                .x_desc("view distance / near")
-                .y_desc("relative separation dz/z")
-                .x_label_formatter(&|v| format!("{v:.0e}"))
-                .y_label_formatter(&|v| format!("{v:.0e}"))
-                .draw()
-                .map_err(|e| anyhow!("{e}"))?;
+            let caption = format!(
+                "plane-stack {name}{}: minimum dz/z resolved (points) vs model (lines)",
+                if delivery == "push" {
+                    String::new()
+                } else {
+                    format!(" ({delivery})")
+                }
+            );
+            let mut chart = separation_chart(&root, caption, 18, 3.0..3e6)?;
             // The storage-only floor (grey), dense.
             let dense: Vec<f64> = (0..=22)
                 .map(|i| 10f64.powf(1.0 + f64::from(i) / 4.0))
@@ -277,14 +306,7 @@ pub fn plots(out: &Path, results: &[Measurement], rows: &[SeparationRow]) -> Res
                     .label(format!("{mode_name}: measured"))
                     .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperLeft)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 12))
-                .draw()
-                .map_err(|e| anyhow!("{e}"))?;
+            legend(&mut chart, 12)?;
             root.present().map_err(|e| anyhow!("{e}"))?;
         }
         written.push(rel);

@@ -181,6 +181,8 @@ pub struct RecordedDraws {
     pub depth_test: bool,
     /// Its static viewport depth range `[min, max]` (null: dynamic).
     pub viewport_depth: Option<[f32; 2]>,
+    /// Whether it clamps depth (`depthClampEnable`).
+    pub depth_clamp: bool,
     /// The role of the depth image (see [`RecordedImage::role`]).
     pub image: &'static str,
     /// Draw commands per frame.
