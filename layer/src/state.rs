@@ -166,6 +166,8 @@ pub struct DeviceCommands {
     pub set_depth_compare_op: Option<vk::PFN_vkCmdSetDepthCompareOp>,
     /// `VK_EXT_extended_dynamic_state3` (Zink's clip convention).
     pub set_depth_clip_negative_one_to_one: Option<vk::PFN_vkCmdSetDepthClipNegativeOneToOneEXT>,
+    /// `VK_EXT_extended_dynamic_state3` or shader objects (Zink makes the clamp dynamic).
+    pub set_depth_clamp_enable: Option<vk::PFN_vkCmdSetDepthClampEnableEXT>,
     pub set_viewport_with_count: Option<vk::PFN_vkCmdSetViewportWithCount>,
     pub begin_render_pass2: Option<vk::PFN_vkCmdBeginRenderPass2>,
     pub next_subpass2: Option<vk::PFN_vkCmdNextSubpass2>,
@@ -288,6 +290,7 @@ impl DeviceCommands {
             // Extension-only draws: their one name is always allowed (version 0).
             draw_mesh_tasks_ext: load!(0, c"vkCmdDrawMeshTasksEXT"),
             set_depth_clip_negative_one_to_one: load!(0, c"vkCmdSetDepthClipNegativeOneToOneEXT"),
+            set_depth_clamp_enable: load!(0, c"vkCmdSetDepthClampEnableEXT"),
             draw_mesh_tasks_indirect_ext: load!(0, c"vkCmdDrawMeshTasksIndirectEXT"),
             draw_mesh_tasks_indirect_count_ext: load!(0, c"vkCmdDrawMeshTasksIndirectCountEXT"),
             draw_mesh_tasks_nv: load!(0, c"vkCmdDrawMeshTasksNV"),

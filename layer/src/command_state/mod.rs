@@ -148,6 +148,8 @@ pub struct CommandState {
     /// The application's `vkCmdSetDepthClipNegativeOneToOneEXT` (with
     /// `States::CLIP_CONTROL` in `app_set`).
     clip_negative_one_to_one: bool,
+    /// `vkCmdSetDepthClampEnableEXT`'s value (with [`States::DEPTH_CLAMP`] in `app_set`).
+    depth_clamp: bool,
     /// Which states the application set with `vkCmdSet*`.
     app_set: States,
     reversing: Reversing,
@@ -207,6 +209,7 @@ impl Default for CommandState {
             bias: DepthBias::default(),
             bounds: (0.0, 1.0),
             clip_negative_one_to_one: false,
+            depth_clamp: false,
             app_set: States::NONE,
             reversing: Reversing::default(),
             push: PushConstants::default(),
@@ -331,9 +334,22 @@ impl CommandState {
         });
     }
 
+    /// Whether the next draw clamps depth with a dynamic clamp (`vkCmdSetDepthClampEnableEXT`)
+    /// in infinite mode, whose precise path removes the far plane it would clamp at: such a
+    /// draw takes the flip path (a static clamp sends the pipeline there at its creation,
+    /// `crate::policy::vertex_stage::depth_clamp_flip`).
+    fn clamps_at_far(&self) -> bool {
+        self.depth_clamp
+            && self.app_set.contains(States::DEPTH_CLAMP)
+            && self.reversing.rewrite == Some(RewriteTarget::Infinite)
+            && self
+                .pipeline()
+                .is_some_and(|p| p.app_dynamic.contains(States::DEPTH_CLAMP))
+    }
+
     /// The projection the bound pipeline's draws would rewrite now, if any.
     fn precise_use(&self) -> Option<(&ProjectionUse, RewriteTarget)> {
-        if self.target != Target::Reversed || self.inherits_viewports {
+        if self.target != Target::Reversed || self.inherits_viewports || self.clamps_at_far() {
             return None;
         }
         let projection = self.pipeline()?.projection.as_ref()?;
@@ -344,7 +360,7 @@ impl CommandState {
     /// draw, if it does (`crate::shader::derived_range`): a reversed attachment, viewports of its own,
     /// a rewriting mode, and a stage that derives its range.
     fn derived_use(&self) -> Option<(RewriteTarget, DepthConvention)> {
-        if self.target != Target::Reversed || self.inherits_viewports {
+        if self.target != Target::Reversed || self.inherits_viewports || self.clamps_at_far() {
             return None;
         }
         let pipeline = self.pipeline()?;
@@ -772,6 +788,14 @@ impl CommandState {
     pub fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
         self.clip_negative_one_to_one = negative_one_to_one;
         self.app_set |= States::CLIP_CONTROL;
+        self.dirty = true;
+    }
+
+    /// `vkCmdSetDepthClampEnableEXT` (followed in infinite mode only, where it can change a
+    /// draw's path).
+    pub fn set_depth_clamp(&mut self, enable: bool) {
+        self.depth_clamp = enable;
+        self.app_set |= States::DEPTH_CLAMP;
         self.dirty = true;
     }
 

@@ -21,7 +21,11 @@ impl States {
     /// `VK_EXT_depth_clip_control`'s convention, set with
     /// `vkCmdSetDepthClipNegativeOneToOneEXT` (Zink's [-1, 1] clip depth).
     pub const CLIP_CONTROL: States = States(32);
-    pub const ALL: States = States(63);
+    /// `depthClampEnable`, set with `vkCmdSetDepthClampEnableEXT`: only followed, never sent
+    /// (infinite mode's precise path cannot clamp at the far plane: such draws take the flip
+    /// path, `CommandState::clamps_at_far`).
+    pub const DEPTH_CLAMP: States = States(64);
+    pub const ALL: States = States(127);
 
     pub fn contains(self, other: States) -> bool {
         self.0 & other.0 == other.0
@@ -50,6 +54,7 @@ impl States {
             vk::DynamicState::DEPTH_BIAS => States::BIAS,
             vk::DynamicState::DEPTH_BOUNDS => States::BOUNDS,
             vk::DynamicState::DEPTH_CLIP_NEGATIVE_ONE_TO_ONE_EXT => States::CLIP_CONTROL,
+            vk::DynamicState::DEPTH_CLAMP_ENABLE_EXT => States::DEPTH_CLAMP,
             _ => States::NONE,
         }
     }

@@ -1076,3 +1076,49 @@ fn settles_like_compares_what_revz_sends_and_nan_never_matches() {
     let nan = with(&|p| p.bias.slope = f32::NAN);
     assert!(!nan.settles_like(&nan.clone()), "a NaN is sent again");
 }
+
+#[test]
+fn an_infinite_mode_draw_that_clamps_depth_dynamically_takes_the_flip_path() {
+    // Zink: the depth clamp is dynamic in every pipeline and enabled for GL_DEPTH_CLAMP.
+    let pipeline = Arc::new(PipelineDepth {
+        app_dynamic: States::DEPTH_CLAMP,
+        ..(*derived_pipeline()).clone()
+    });
+    for (target, precise_while_clamped) in [
+        (RewriteTarget::Infinite, false),
+        (RewriteTarget::Complementary, true),
+    ] {
+        let mut state = precise(target);
+        let reversal = state.reversal();
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.bind_pipeline(Some(Arc::clone(&pipeline)));
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        state.set_depth_clamp(true);
+        state.before_draw(&mut sink);
+        let flip = Carrier::bytes(&FLIP_CARRIER).to_vec();
+        if precise_while_clamped {
+            // Complementary's precise path clamps at the far plane's 0 like the flip path.
+            assert_eq!(state.path(), DrawPath::Precise);
+        } else {
+            assert_eq!(state.path(), DrawPath::Flip);
+            // The rewritten stage stores its own z, which the flip-path viewport maps.
+            assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&flip));
+            assert_eq!(sink.viewports.last(), Some(&(0, vec![(1.0, 0.0)])));
+        }
+        state.set_depth_clamp(false);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+    }
+    // A pipeline whose clamp is static is decided at its creation: the command's value
+    // (for another pipeline) changes nothing here.
+    let mut state = precise(RewriteTarget::Infinite);
+    let reversal = state.reversal();
+    state.begin(Target::Reversed, reversal, Default::default());
+    state.set_depth_clamp(true);
+    state.bind_pipeline(Some(derived_pipeline()));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+}

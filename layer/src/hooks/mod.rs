@@ -425,6 +425,11 @@ pub fn draw_command(name: &CStr) -> vk::PFN_vkVoidFunction {
 pub fn precise_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     match name.to_bytes() {
         b"vkCmdPushConstants" => void_fn!(vk::PFN_vkCmdPushConstants, command::cmd_push_constants),
+        // Only infinite mode's path depends on it (`CommandState::clamps_at_far`).
+        b"vkCmdSetDepthClampEnableEXT" => void_fn!(
+            vk::PFN_vkCmdSetDepthClampEnableEXT,
+            command::cmd_set_depth_clamp_enable
+        ),
         // Vulkan 1.4 core, and VK_KHR_maintenance6 before it.
         b"vkCmdPushConstants2" | b"vkCmdPushConstants2KHR" => {
             void_fn!(vk::PFN_vkCmdPushConstants2KHR, command::cmd_push_constants2)

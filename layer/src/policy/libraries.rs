@@ -51,8 +51,8 @@ pub fn subset_states(subsets: Subsets) -> States {
     let mut states = States::NONE;
     if subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
         states |= States::VIEWPORT | States::VIEWPORT_WITH_COUNT | States::BIAS;
-        // Depth clip control is viewport state.
-        states |= States::CLIP_CONTROL;
+        // Depth clip control is viewport state; the depth clamp rasterization state.
+        states |= States::CLIP_CONTROL | States::DEPTH_CLAMP;
     }
     if subsets.contains(Subsets::FRAGMENT_SHADER) {
         states |= States::COMPARE_OP | States::BOUNDS;

@@ -70,10 +70,10 @@ pub enum DepthClamp {
 /// complementary precise path clamps at the far plane's 0, as the application's range
 /// mirrored, and keeps it.
 ///
-/// A dynamic clamp keeps the precise path: Zink makes it dynamic in every pipeline (extended
-/// dynamic state 3) and almost never enables it, and the flip path for all of them would take
-/// every OpenGL application's precision; a draw with the clamp enabled then sorts fragments
-/// beyond the far plane by distance instead of tying them at it (`docs/limits.md`).
+/// A dynamic clamp keeps the precise path here: Zink makes it dynamic in every pipeline
+/// (extended dynamic state 3) and almost never enables it; the draws recorded with it enabled
+/// take the flip path, decided per draw (`crate::command_state::CommandState`'s
+/// `clamps_at_far`).
 #[must_use]
 pub fn depth_clamp_flip(target: RewriteTarget, clamp: DepthClamp) -> Option<&'static str> {
     match (target, clamp) {

@@ -597,6 +597,30 @@ pub unsafe extern "system" fn cmd_set_depth_clip_negative_one_to_one(
     }
 }
 
+/// `vkCmdSetDepthClampEnableEXT`: followed, so that an infinite-mode draw that clamps takes
+/// the flip path (the precise path has no far plane to clamp at); goes down as it is.
+pub unsafe extern "system" fn cmd_set_depth_clamp_enable(
+    buffer: vk::CommandBuffer,
+    enable: vk::Bool32,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthClampEnableEXT");
+    let down = with_entry(buffer, &ENTRY, |entry| {
+        entry.state().set_depth_clamp(enable == vk::TRUE)
+    });
+    let Some(down) = down else {
+        return;
+    };
+    if let Some(next) = down.commands.set_depth_clamp_enable {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, enable) }
+    }
+    if let Down::Tracked(entry) = &down {
+        // The next draw's path may have changed: its state goes down now, as after every
+        // state command.
+        settle(entry, buffer);
+    }
+}
+
 pub unsafe extern "system" fn cmd_set_depth_bias(
     buffer: vk::CommandBuffer,
     constant: f32,
