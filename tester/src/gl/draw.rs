@@ -36,6 +36,49 @@ void main() {
 }
 ";
 
+/// A post pass that samples the scene's depth (`--post`), as engines and GL programs do (fog,
+/// soft edges, shadow tests): the depth attachment is then a texture, not a renderbuffer, and
+/// a full-screen pass writes a color image from it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PostPass {
+    /// `texelFetch` of the depth texture (no compare), the value spread over the colors:
+    /// `smoothstep(0.95, 1.0, d)` and finer bands, so that a depth off by more than a few
+    /// units shows.
+    Fetch,
+    /// A `sampler2DShadow` (GL_COMPARE_REF_TO_TEXTURE, GL_LEQUAL) against 0.98 with linear
+    /// filtering (a percentage-closer lookup): white where the depth is at least 0.98.
+    Compare,
+}
+
+/// The post pass's full-screen triangle (no vertex buffer: `gl_VertexID`).
+const POST_VERTEX_SHADER: &str = "#version 330 core
+void main() {
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+";
+
+/// [`PostPass::Fetch`]'s fragment shader.
+const POST_FETCH_SHADER: &str = "#version 330 core
+uniform sampler2D u_depth;
+out vec4 color;
+void main() {
+    float d = texelFetch(u_depth, ivec2(gl_FragCoord.xy), 0).r;
+    color = vec4(smoothstep(0.95, 1.0, d), fract(d * 64.0), fract(d * 1024.0), 1.0);
+}
+";
+
+/// [`PostPass::Compare`]'s fragment shader.
+const POST_COMPARE_SHADER: &str = "#version 330 core
+uniform sampler2DShadow u_depth;
+uniform vec2 u_size;
+out vec4 color;
+void main() {
+    float lit = texture(u_depth, vec3(gl_FragCoord.xy / u_size, 0.98));
+    color = vec4(vec3(lit), 1.0);
+}
+";
+
 /// What was rendered and read back.
 #[derive(Debug)]
 pub struct GlFrame {
@@ -43,6 +86,8 @@ pub struct GlFrame {
     pub rgba: Vec<u8>,
     /// Window depth per pixel, row-major, top row first.
     pub depth: Vec<f32>,
+    /// The post pass's color (RGBA8, top row first), where one ran.
+    pub post: Option<Vec<u8>>,
     /// GL_RENDERER.
     pub renderer: String,
     /// GL_VERSION.
@@ -96,7 +141,13 @@ fn drawn(scene: &Scene) -> Result<Vec<usize>> {
 }
 
 /// Renders `scene` at `width` x `height` with the current context's GL and reads it back.
-pub fn render(gl: &glow::Context, scene: &Scene, width: u32, height: u32) -> Result<GlFrame> {
+pub fn render(
+    gl: &glow::Context,
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    post: Option<PostPass>,
+) -> Result<GlFrame> {
     let objects = drawn(scene)?;
     let aspect = f64::from(width) / f64::from(height);
     let (w, h) = (
@@ -110,7 +161,7 @@ pub fn render(gl: &glow::Context, scene: &Scene, width: u32, height: u32) -> Res
     unsafe {
         let renderer = gl.get_parameter_string(glow::RENDERER);
         let version = gl.get_parameter_string(glow::VERSION);
-        let program = link_program(gl)?;
+        let program = link_program(gl, VERTEX_SHADER, FRAGMENT_SHADER)?;
 
         let framebuffer = gl.create_framebuffer().map_err(anyhow::Error::msg)?;
         gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
@@ -123,15 +174,71 @@ pub fn render(gl: &glow::Context, scene: &Scene, width: u32, height: u32) -> Res
             glow::RENDERBUFFER,
             Some(color),
         );
-        let depth = gl.create_renderbuffer().map_err(anyhow::Error::msg)?;
-        gl.bind_renderbuffer(glow::RENDERBUFFER, Some(depth));
-        gl.renderbuffer_storage(glow::RENDERBUFFER, glow::DEPTH_COMPONENT32F, w, h);
-        gl.framebuffer_renderbuffer(
-            glow::FRAMEBUFFER,
-            glow::DEPTH_ATTACHMENT,
-            glow::RENDERBUFFER,
-            Some(depth),
-        );
+        // A renderbuffer, or a texture where a post pass samples it.
+        let (depth, depth_texture) = if post.is_some() {
+            let texture = gl.create_texture().map_err(anyhow::Error::msg)?;
+            gl.bind_texture(glow::TEXTURE_2D, Some(texture));
+            gl.tex_image_2d(
+                glow::TEXTURE_2D,
+                0,
+                glow::DEPTH_COMPONENT32F as i32,
+                w,
+                h,
+                0,
+                glow::DEPTH_COMPONENT,
+                glow::FLOAT,
+                glow::PixelUnpackData::Slice(None),
+            );
+            for (name, value) in [
+                (glow::TEXTURE_MIN_FILTER, glow::NEAREST),
+                (glow::TEXTURE_MAG_FILTER, glow::NEAREST),
+                (glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE),
+                (glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE),
+            ] {
+                gl.tex_parameter_i32(glow::TEXTURE_2D, name, value as i32);
+            }
+            if post == Some(PostPass::Compare) {
+                gl.tex_parameter_i32(
+                    glow::TEXTURE_2D,
+                    glow::TEXTURE_COMPARE_MODE,
+                    glow::COMPARE_REF_TO_TEXTURE as i32,
+                );
+                gl.tex_parameter_i32(
+                    glow::TEXTURE_2D,
+                    glow::TEXTURE_COMPARE_FUNC,
+                    glow::LEQUAL as i32,
+                );
+                gl.tex_parameter_i32(
+                    glow::TEXTURE_2D,
+                    glow::TEXTURE_MIN_FILTER,
+                    glow::LINEAR as i32,
+                );
+                gl.tex_parameter_i32(
+                    glow::TEXTURE_2D,
+                    glow::TEXTURE_MAG_FILTER,
+                    glow::LINEAR as i32,
+                );
+            }
+            gl.framebuffer_texture_2d(
+                glow::FRAMEBUFFER,
+                glow::DEPTH_ATTACHMENT,
+                glow::TEXTURE_2D,
+                Some(texture),
+                0,
+            );
+            (None, Some(texture))
+        } else {
+            let depth = gl.create_renderbuffer().map_err(anyhow::Error::msg)?;
+            gl.bind_renderbuffer(glow::RENDERBUFFER, Some(depth));
+            gl.renderbuffer_storage(glow::RENDERBUFFER, glow::DEPTH_COMPONENT32F, w, h);
+            gl.framebuffer_renderbuffer(
+                glow::FRAMEBUFFER,
+                glow::DEPTH_ATTACHMENT,
+                glow::RENDERBUFFER,
+                Some(depth),
+            );
+            (Some(depth), None)
+        };
         let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
         ensure!(
             status == glow::FRAMEBUFFER_COMPLETE,
@@ -216,12 +323,23 @@ pub fn render(gl: &glow::Context, scene: &Scene, width: u32, height: u32) -> Res
             glow::FLOAT,
             glow::PixelPackData::Slice(Some(&mut depth_bytes)),
         );
+        let post_rgba = match (post, depth_texture) {
+            (Some(pass), Some(texture)) => {
+                Some(post_pass(gl, pass, texture, w, h, pixels).context("the post pass")?)
+            }
+            _ => None,
+        };
         let error = gl.get_error();
 
         gl.delete_buffer(indices);
         gl.delete_buffer(vertices);
         gl.delete_vertex_array(vao);
-        gl.delete_renderbuffer(depth);
+        if let Some(depth) = depth {
+            gl.delete_renderbuffer(depth);
+        }
+        if let Some(texture) = depth_texture {
+            gl.delete_texture(texture);
+        }
         gl.delete_renderbuffer(color);
         gl.delete_framebuffer(framebuffer);
         gl.delete_program(program);
@@ -235,6 +353,7 @@ pub fn render(gl: &glow::Context, scene: &Scene, width: u32, height: u32) -> Res
         Ok(GlFrame {
             rgba: top_row_first(&rgba, row * 4),
             depth: top_row_first(&depth, row),
+            post: post_rgba.map(|p| top_row_first(&p, row * 4)),
             renderer,
             version,
         })
@@ -250,14 +369,72 @@ fn top_row_first<T: Copy>(rows: &[T], row: usize) -> Vec<T> {
 ///
 /// # Safety
 /// The GL context must be current on this thread.
-unsafe fn link_program(gl: &glow::Context) -> Result<glow::Program> {
+/// The post pass: a second framebuffer with an RGBA8 color renderbuffer, the depth texture
+/// bound to unit 0, one full-screen triangle, read back (bottom row first).
+///
+/// # Safety
+/// The caller's context is current; `texture` is the depth texture the scene was drawn into.
+unsafe fn post_pass(
+    gl: &glow::Context,
+    pass: PostPass,
+    texture: glow::Texture,
+    w: i32,
+    h: i32,
+    pixels: usize,
+) -> Result<Vec<u8>> {
+    // SAFETY: the caller's contract; objects made here, slices of the sizes GL writes.
+    unsafe {
+        let fragment = match pass {
+            PostPass::Fetch => POST_FETCH_SHADER,
+            PostPass::Compare => POST_COMPARE_SHADER,
+        };
+        let program = link_program(gl, POST_VERTEX_SHADER, fragment)?;
+        let framebuffer = gl.create_framebuffer().map_err(anyhow::Error::msg)?;
+        gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
+        let color = gl.create_renderbuffer().map_err(anyhow::Error::msg)?;
+        gl.bind_renderbuffer(glow::RENDERBUFFER, Some(color));
+        gl.renderbuffer_storage(glow::RENDERBUFFER, glow::RGBA8, w, h);
+        gl.framebuffer_renderbuffer(
+            glow::FRAMEBUFFER,
+            glow::COLOR_ATTACHMENT0,
+            glow::RENDERBUFFER,
+            Some(color),
+        );
+        gl.disable(glow::DEPTH_TEST);
+        gl.use_program(Some(program));
+        gl.active_texture(glow::TEXTURE0);
+        gl.bind_texture(glow::TEXTURE_2D, Some(texture));
+        gl.uniform_1_i32(gl.get_uniform_location(program, "u_depth").as_ref(), 0);
+        if let Some(size) = gl.get_uniform_location(program, "u_size") {
+            gl.uniform_2_f32(Some(&size), w as f32, h as f32);
+        }
+        gl.draw_arrays(glow::TRIANGLES, 0, 3);
+        gl.finish();
+        let mut rgba = vec![0u8; pixels * 4];
+        gl.read_pixels(
+            0,
+            0,
+            w,
+            h,
+            glow::RGBA,
+            glow::UNSIGNED_BYTE,
+            glow::PixelPackData::Slice(Some(&mut rgba)),
+        );
+        gl.delete_renderbuffer(color);
+        gl.delete_framebuffer(framebuffer);
+        gl.delete_program(program);
+        Ok(rgba)
+    }
+}
+
+unsafe fn link_program(gl: &glow::Context, vertex: &str, fragment: &str) -> Result<glow::Program> {
     // SAFETY: the caller's context is current.
     unsafe {
         let program = gl.create_program().map_err(anyhow::Error::msg)?;
         let mut shaders = Vec::new();
         for (kind, source, name) in [
-            (glow::VERTEX_SHADER, VERTEX_SHADER, "vertex"),
-            (glow::FRAGMENT_SHADER, FRAGMENT_SHADER, "fragment"),
+            (glow::VERTEX_SHADER, vertex, "vertex"),
+            (glow::FRAGMENT_SHADER, fragment, "fragment"),
         ] {
             let shader = gl.create_shader(kind).map_err(anyhow::Error::msg)?;
             gl.shader_source(shader, source);

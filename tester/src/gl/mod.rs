@@ -66,6 +66,12 @@ pub struct GlRenderArgs {
     #[arg(long, value_name = "MODE", value_parser = ["off", "flip", "complementary", "infinite"])]
     pub revz: Option<String>,
 
+    /// After the scene, a pass that samples its depth (the depth attachment is then a texture):
+    /// `fetch` (texelFetch, the value spread over the colors) or `compare` (a shadow sampler
+    /// against 0.98); its color is written to post.png.
+    #[arg(long, value_enum, value_name = "PASS")]
+    pub post: Option<draw::PostPass>,
+
     /// The revz layer's manifest directory [default: manifests/explicit next to this
     /// executable, what `cargo xtask build` writes].
     #[arg(long, value_name = "DIR")]
@@ -198,7 +204,7 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
 
     let frame = {
         let context = context::GlContext::new().context("cannot create an OpenGL context")?;
-        draw::render(&context.gl, &scene, width, height)?
+        draw::render(&context.gl, &scene, width, height, args.post)?
     };
     println!("GL renderer: {} ({})", frame.renderer, frame.version);
     let out = &args.out;
@@ -214,6 +220,16 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
         1.0,
     )?;
     for path in written {
+        println!("wrote: {}", path.display());
+    }
+
+    if let Some(post) = &frame.post {
+        let image = image::RgbaImage::from_raw(width, height, post.clone())
+            .context("the post pass's read-back has the wrong size")?;
+        let path = out.join("post.png");
+        image
+            .save(&path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
         println!("wrote: {}", path.display());
     }
 
