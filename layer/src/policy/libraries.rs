@@ -132,8 +132,11 @@ mod tests {
 
     #[test]
     fn each_subset_owns_its_depth_states() {
-        let pre_rasterization =
-            States::VIEWPORT | States::VIEWPORT_WITH_COUNT | States::BIAS | States::CLIP_CONTROL;
+        let pre_rasterization = States::VIEWPORT
+            | States::VIEWPORT_WITH_COUNT
+            | States::BIAS
+            | States::CLIP_CONTROL
+            | States::DEPTH_CLAMP;
         let fragment = States::COMPARE_OP | States::BOUNDS;
         assert_eq!(
             subset_states(Subsets::PRE_RASTERIZATION_SHADERS),
