@@ -94,6 +94,22 @@ fn sloped_plane_renders_through_zink_on_lavapipe() {
     assert_eq!(m["depth_reversed"], false, "{m}");
 }
 
+/// Runs a `gl-render` command: its stderr, or `None` where EGL or Zink cannot be initialised
+/// here (said on stderr); panics with its output where it failed otherwise.
+fn run_gl_render(mut command: std::process::Command, name: &str) -> Option<String> {
+    let output = command.output().expect("start revz-tester gl-render");
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    if !output.status.success() && stderr.contains("cannot create an OpenGL context") {
+        eprintln!("SKIPPED {name}: EGL or Zink cannot be initialised here:\n{stderr}");
+        return None;
+    }
+    assert!(
+        output.status.success(),
+        "gl-render {name} failed:\n{stderr}"
+    );
+    Some(stderr)
+}
+
 /// `gl-render --zink` of `scene`, through revz in `mode` (with `reverse_observable = all`: Zink
 /// creates every depth image SAMPLED and TRANSFER_SRC, which the default policy keeps native),
 /// or without it: the measurement, or `None` where Zink cannot be initialised.
@@ -109,16 +125,7 @@ fn zink_render(harness: &Harness, scene: &str, mode: Option<&str>) -> Option<ser
             .args(["--revz", mode])
             .env("REVZ_REVERSE_OBSERVABLE", "all");
     }
-    let output = command.output().expect("start revz-tester gl-render");
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    if !output.status.success() && stderr.contains("cannot create an OpenGL context") {
-        eprintln!("SKIPPED {name}: EGL or Zink cannot be initialised here:\n{stderr}");
-        return None;
-    }
-    assert!(
-        output.status.success(),
-        "gl-render {name} failed:\n{stderr}"
-    );
+    let stderr = run_gl_render(command, &name)?;
     if mode.is_some() {
         assert!(
             stderr.contains("its vertex stage derives the range from the matrix it loads"),
@@ -217,16 +224,7 @@ fn zink_post(
             .env("REVZ_REVERSE_OBSERVABLE", observable)
             .env("REVZ_LOG", "info");
     }
-    let output = command.output().expect("start revz-tester gl-render");
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    if !output.status.success() && stderr.contains("cannot create an OpenGL context") {
-        eprintln!("SKIPPED {name}: EGL or Zink cannot be initialised here:\n{stderr}");
-        return None;
-    }
-    assert!(
-        output.status.success(),
-        "gl-render {name} failed:\n{stderr}"
-    );
+    let stderr = run_gl_render(command, &name)?;
     let post = image::open(out.join("post.png"))
         .expect("post.png")
         .to_rgba8();

@@ -163,17 +163,7 @@ pub fn render(
         let version = gl.get_parameter_string(glow::VERSION);
         let program = link_program(gl, VERTEX_SHADER, FRAGMENT_SHADER)?;
 
-        let framebuffer = gl.create_framebuffer().map_err(anyhow::Error::msg)?;
-        gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
-        let color = gl.create_renderbuffer().map_err(anyhow::Error::msg)?;
-        gl.bind_renderbuffer(glow::RENDERBUFFER, Some(color));
-        gl.renderbuffer_storage(glow::RENDERBUFFER, glow::RGBA8, w, h);
-        gl.framebuffer_renderbuffer(
-            glow::FRAMEBUFFER,
-            glow::COLOR_ATTACHMENT0,
-            glow::RENDERBUFFER,
-            Some(color),
-        );
+        let (framebuffer, color) = color_target(gl, w, h)?;
         // A renderbuffer, or a texture where a post pass samples it.
         let (depth, depth_texture) = if post.is_some() {
             let texture = gl.create_texture().map_err(anyhow::Error::msg)?;
@@ -302,17 +292,8 @@ pub fn render(
         gl.finish();
 
         let pixels = (width * height) as usize;
-        let mut rgba = vec![0u8; pixels * 4];
         gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
-        gl.read_pixels(
-            0,
-            0,
-            w,
-            h,
-            glow::RGBA,
-            glow::UNSIGNED_BYTE,
-            glow::PixelPackData::Slice(Some(&mut rgba)),
-        );
+        let rgba = read_rgba(gl, w, h, pixels);
         let mut depth_bytes = vec![0u8; pixels * 4];
         gl.read_pixels(
             0,
@@ -389,6 +370,37 @@ unsafe fn post_pass(
             PostPass::Compare => POST_COMPARE_SHADER,
         };
         let program = link_program(gl, POST_VERTEX_SHADER, fragment)?;
+        let (framebuffer, color) = color_target(gl, w, h)?;
+        gl.disable(glow::DEPTH_TEST);
+        gl.use_program(Some(program));
+        gl.active_texture(glow::TEXTURE0);
+        gl.bind_texture(glow::TEXTURE_2D, Some(texture));
+        gl.uniform_1_i32(gl.get_uniform_location(program, "u_depth").as_ref(), 0);
+        if let Some(size) = gl.get_uniform_location(program, "u_size") {
+            gl.uniform_2_f32(Some(&size), w as f32, h as f32);
+        }
+        gl.draw_arrays(glow::TRIANGLES, 0, 3);
+        gl.finish();
+        let rgba = read_rgba(gl, w, h, pixels);
+        gl.delete_renderbuffer(color);
+        gl.delete_framebuffer(framebuffer);
+        gl.delete_program(program);
+        Ok(rgba)
+    }
+}
+
+/// A framebuffer with an RGBA8 color renderbuffer of `w` x `h` as its color attachment 0,
+/// bound.
+///
+/// # Safety
+/// The caller's context is current.
+unsafe fn color_target(
+    gl: &glow::Context,
+    w: i32,
+    h: i32,
+) -> Result<(glow::Framebuffer, glow::Renderbuffer)> {
+    // SAFETY: the caller's contract; objects made here.
+    unsafe {
         let framebuffer = gl.create_framebuffer().map_err(anyhow::Error::msg)?;
         gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
         let color = gl.create_renderbuffer().map_err(anyhow::Error::msg)?;
@@ -400,17 +412,18 @@ unsafe fn post_pass(
             glow::RENDERBUFFER,
             Some(color),
         );
-        gl.disable(glow::DEPTH_TEST);
-        gl.use_program(Some(program));
-        gl.active_texture(glow::TEXTURE0);
-        gl.bind_texture(glow::TEXTURE_2D, Some(texture));
-        gl.uniform_1_i32(gl.get_uniform_location(program, "u_depth").as_ref(), 0);
-        if let Some(size) = gl.get_uniform_location(program, "u_size") {
-            gl.uniform_2_f32(Some(&size), w as f32, h as f32);
-        }
-        gl.draw_arrays(glow::TRIANGLES, 0, 3);
-        gl.finish();
-        let mut rgba = vec![0u8; pixels * 4];
+        Ok((framebuffer, color))
+    }
+}
+
+/// The bound framebuffer's color, RGBA8, bottom row first (`pixels` = `w` x `h`).
+///
+/// # Safety
+/// The caller's context is current, with a framebuffer of at least `w` x `h` bound.
+unsafe fn read_rgba(gl: &glow::Context, w: i32, h: i32, pixels: usize) -> Vec<u8> {
+    let mut rgba = vec![0u8; pixels * 4];
+    // SAFETY: the caller's contract; the slice holds the w x h RGBA8 pixels GL writes.
+    unsafe {
         gl.read_pixels(
             0,
             0,
@@ -420,11 +433,8 @@ unsafe fn post_pass(
             glow::UNSIGNED_BYTE,
             glow::PixelPackData::Slice(Some(&mut rgba)),
         );
-        gl.delete_renderbuffer(color);
-        gl.delete_framebuffer(framebuffer);
-        gl.delete_program(program);
-        Ok(rgba)
     }
+    rgba
 }
 
 unsafe fn link_program(gl: &glow::Context, vertex: &str, fragment: &str) -> Result<glow::Program> {
