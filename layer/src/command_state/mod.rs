@@ -148,7 +148,7 @@ pub struct CommandState {
     /// The application's `vkCmdSetDepthClipNegativeOneToOneEXT` (with
     /// `States::CLIP_CONTROL` in `app_set`).
     clip_negative_one_to_one: bool,
-    /// `vkCmdSetDepthClampEnableEXT`'s value (with [`States::DEPTH_CLAMP`] in `app_set`).
+    /// `vkCmdSetDepthClampEnableEXT`'s value (false until the application sets it).
     depth_clamp: bool,
     /// Which states the application set with `vkCmdSet*`.
     app_set: States,
@@ -340,7 +340,6 @@ impl CommandState {
     /// `crate::policy::vertex_stage::depth_clamp_flip`).
     fn clamps_at_far(&self) -> bool {
         self.depth_clamp
-            && self.app_set.contains(States::DEPTH_CLAMP)
             && self.reversing.rewrite == Some(RewriteTarget::Infinite)
             && self
                 .pipeline()
@@ -795,7 +794,6 @@ impl CommandState {
     /// draw's path).
     pub fn set_depth_clamp(&mut self, enable: bool) {
         self.depth_clamp = enable;
-        self.app_set |= States::DEPTH_CLAMP;
         self.dirty = true;
     }
 

@@ -81,6 +81,27 @@ pub(super) unsafe fn pipeline_barrier(
     }
 }
 
+/// A layout transition of `range` of `image` on one queue family: the image barriers revz
+/// records around its copies, blits and refreshes.
+pub(super) fn image_barrier(
+    image: vk::Image,
+    range: vk::ImageSubresourceRange,
+    (old_layout, new_layout): (vk::ImageLayout, vk::ImageLayout),
+    (src_access_mask, dst_access_mask): (vk::AccessFlags, vk::AccessFlags),
+) -> vk::ImageMemoryBarrier<'static> {
+    vk::ImageMemoryBarrier {
+        src_access_mask,
+        dst_access_mask,
+        old_layout,
+        new_layout,
+        src_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+        dst_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+        image,
+        subresource_range: range,
+        ..Default::default()
+    }
+}
+
 /// Records `conversion` into `buffer`; on `Err` nothing was recorded (the caller sends the
 /// application's command down as it is).
 ///
@@ -283,16 +304,8 @@ pub unsafe fn record_blit(
         base_array_layer: 0,
         layer_count: vk::REMAINING_ARRAY_LAYERS,
     };
-    let transition = |old, new, src_access, dst_access| vk::ImageMemoryBarrier {
-        src_access_mask: src_access,
-        dst_access_mask: dst_access,
-        old_layout: old,
-        new_layout: new,
-        src_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
-        dst_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
-        image: staged,
-        subresource_range: range,
-        ..Default::default()
+    let transition = |old, new, src_access, dst_access| {
+        image_barrier(staged, range, (old, new), (src_access, dst_access))
     };
     let barrier = |image_barrier: vk::ImageMemoryBarrier<'_>| {
         let transfer = vk::PipelineStageFlags::TRANSFER;

@@ -27,7 +27,7 @@
 use ash::vk;
 
 use super::plan::{plan_image_copy, DepthMap, ShaderHeader, TexelKind, TexelKinds};
-use super::record::{pipeline_barrier, record, Conversion, Drain, Fill};
+use super::record::{image_barrier, pipeline_barrier, record, Conversion, Drain, Fill};
 use super::scratch::CommandCopies;
 use crate::objects::ReadTwin;
 use crate::policy::Unconverted;
@@ -259,16 +259,8 @@ pub unsafe fn record_refresh(
         aspect_mask: refresh.twin.aspects,
         ..range
     };
-    let image_barrier = |image, range, old, new, src_access, dst_access| vk::ImageMemoryBarrier {
-        src_access_mask: src_access,
-        dst_access_mask: dst_access,
-        old_layout: old,
-        new_layout: new,
-        src_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
-        dst_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
-        image,
-        subresource_range: range,
-        ..Default::default()
+    let image_barrier = |image, range, old, new, src_access, dst_access| {
+        image_barrier(image, range, (old, new), (src_access, dst_access))
     };
     let barrier = |src_stage, dst_stage, barriers: &[vk::ImageMemoryBarrier<'_>]| {
         // SAFETY: a recording command buffer outside a render pass (the caller's contract);

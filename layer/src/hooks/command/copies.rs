@@ -100,7 +100,7 @@ fn decide(
 }
 
 /// The map of a conversion in `direction` on this device now.
-fn depth_map(device: &DeviceState, direction: CopyDirection) -> DepthMap {
+pub(super) fn depth_map(device: &DeviceState, direction: CopyDirection) -> DepthMap {
     let reversal = device.reversing().reversal;
     match direction {
         CopyDirection::ToStandard => DepthMap::to_standard(reversal),

@@ -6,7 +6,7 @@
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
-use crate::depth_copy::plan::{DepthMap, TexelKind};
+use crate::depth_copy::plan::TexelKind;
 use crate::depth_copy::twin::{record_refresh, resolved_range, Refresh};
 
 /// Whether shaders may read an image in `layout` after a barrier whose second access scope
@@ -70,10 +70,8 @@ fn refresh_of(
     // The image's depth is reversed where revz stores it so after the application's
     // convention; shaders read standard values (`copy_values` concerns copies only).
     let reversed = device.observed.effective(info.depth.target()) == Target::Reversed;
-    let map = reversed.then(|| {
-        DepthMap::to_standard(device.reversing().reversal)
-            .unrestricted(device.policy.depth_range_unrestricted)
-    });
+    let map = reversed
+        .then(|| super::copies::depth_map(device, crate::policy::CopyDirection::ToStandard));
     Some(Refresh {
         image,
         layout,
