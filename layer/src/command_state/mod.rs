@@ -188,6 +188,11 @@ pub struct CommandState {
     /// (`VK_NV_inherited_viewport_scissor`): its draws take the flip path, the one the
     /// primary sends its viewports for ([`CommandState::flush_viewports_for_secondaries`]).
     inherits_viewports: bool,
+    /// Draws cannot take the precise path whatever their projection: `inherits_viewports`, or
+    /// [`CommandState::clamps_at_far`]. Kept up to date where either changes (a viewport
+    /// inheritance, a bind, `vkCmdSetDepthClampEnableEXT`) so that the push and draw paths
+    /// read one flag.
+    precise_barred: bool,
     /// The current subpass (or rendering instance) records its draws in secondaries: no
     /// state command may be recorded in it.
     secondary_contents: bool,
@@ -225,6 +230,7 @@ impl Default for CommandState {
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
             inherits_viewports: false,
+            precise_barred: false,
             secondary_contents: false,
             in_pass: false,
             dirty: true,
@@ -347,8 +353,9 @@ impl CommandState {
     }
 
     /// The projection the bound pipeline's draws would rewrite now, if any.
+    #[inline]
     fn precise_use(&self) -> Option<(&ProjectionUse, RewriteTarget)> {
-        if self.target != Target::Reversed || self.inherits_viewports || self.clamps_at_far() {
+        if self.target != Target::Reversed || self.precise_barred {
             return None;
         }
         let projection = self.pipeline()?.projection.as_ref()?;
@@ -358,8 +365,9 @@ impl CommandState {
     /// The mode whose depth the bound pipeline's vertex stage derives itself for the next
     /// draw, if it does (`crate::shader::derived_range`): a reversed attachment, viewports of its own,
     /// a rewriting mode, and a stage that derives its range.
+    #[inline]
     fn derived_use(&self) -> Option<(RewriteTarget, DepthConvention)> {
-        if self.target != Target::Reversed || self.inherits_viewports || self.clamps_at_far() {
+        if self.target != Target::Reversed || self.precise_barred {
             return None;
         }
         let pipeline = self.pipeline()?;
@@ -492,6 +500,7 @@ impl CommandState {
 
     /// What the carrier must hold for the next draw, given the outcome of its projection: the
     /// camera's reversed depth line on the precise path, the shader's own z everywhere else.
+    #[inline]
     fn carrier_values(&self, outcome: Option<Outcome>) -> [f32; 4] {
         if let Some((target, convention)) = self.derived_use() {
             return derived_selector(target, convention);
@@ -677,6 +686,12 @@ impl CommandState {
         self.variant_bound = None;
         self.pushed_since_bind = false;
         self.dirty = true;
+        self.bar_precise();
+    }
+
+    /// Recomputes [`Self::precise_barred`](CommandState) after what it depends on changed.
+    fn bar_precise(&mut self) {
+        self.precise_barred = self.inherits_viewports || self.clamps_at_far();
     }
 
     /// A secondary begun with `VkCommandBufferInheritanceViewportScissorInfoNV`
@@ -684,6 +699,7 @@ impl CommandState {
     /// flip path, so its draws take the flip path too.
     pub fn inherit_viewports(&mut self) {
         self.inherits_viewports = true;
+        self.bar_precise();
         self.dirty = true;
     }
 
@@ -794,6 +810,7 @@ impl CommandState {
     /// draw's path).
     pub fn set_depth_clamp(&mut self, enable: bool) {
         self.depth_clamp = enable;
+        self.bar_precise();
         self.dirty = true;
     }
 
