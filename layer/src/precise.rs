@@ -221,10 +221,18 @@ impl std::fmt::Display for NoRoom {
 
 /// The application's push-constant `ranges` with the carrier at `offset` added: the vertex
 /// stage's range extended to cover it (a stage may appear in one range only), or a new range
-/// of the vertex stage where it had none.
+/// where it had none, of the vertex stage and of those of `later_stages` (the tessellation
+/// evaluation and geometry stages the device enabled) that no range of the application names:
+/// a rewritten tessellation evaluation or geometry stage reads the carrier too. An
+/// application's vertex range that names no later stage is extended as it is: adding stages
+/// to it would make the application's own pushes to it invalid, and a separate range of the
+/// later stages over the carrier would keep revz from folding the carrier into the
+/// application's pushes (a driver call per camera); pipelines with a rewritten later stage
+/// and such a layout take the flip path.
 pub fn reserve_carrier(
     ranges: &[vk::PushConstantRange],
     offset: u32,
+    later_stages: vk::ShaderStageFlags,
 ) -> Result<(Vec<vk::PushConstantRange>, Carrier), NoRoom> {
     let end = |r: &vk::PushConstantRange| u64::from(r.offset) + u64::from(r.size);
     if ranges.iter().any(|r| end(r) > u64::from(offset)) {
@@ -248,8 +256,13 @@ pub fn reserve_carrier(
             out[index]
         }
         None => {
+            let named = ranges
+                .iter()
+                .fold(vk::ShaderStageFlags::empty(), |all, r| all | r.stage_flags);
+            let later = later_stages
+                & (vk::ShaderStageFlags::TESSELLATION_EVALUATION | vk::ShaderStageFlags::GEOMETRY);
             let range = vk::PushConstantRange {
-                stage_flags: vk::ShaderStageFlags::VERTEX,
+                stage_flags: vk::ShaderStageFlags::VERTEX | (later & !named),
                 offset,
                 size: CARRIER_BYTES,
             };
@@ -784,7 +797,41 @@ mod tests {
     type Reserved = Result<(Vec<(u32, u32, u32)>, Carrier), NoRoom>;
 
     fn reserved(ranges: &[vk::PushConstantRange]) -> Reserved {
-        reserve_carrier(ranges, 112).map(|(ranges, carrier)| (triples(&ranges), carrier))
+        reserve_carrier(ranges, 112, vk::ShaderStageFlags::empty())
+            .map(|(ranges, carrier)| (triples(&ranges), carrier))
+    }
+
+    #[test]
+    fn a_carrier_range_of_its_own_names_the_later_stages_the_device_enabled() {
+        use vk::ShaderStageFlags as S;
+        let later = S::GEOMETRY | S::TESSELLATION_EVALUATION;
+        let reserve = |ranges: &[vk::PushConstantRange]| {
+            reserve_carrier(ranges, 112, later)
+                .map(|(ranges, carrier)| (triples(&ranges), carrier.stages))
+        };
+        // No push constants (projections in buffers): the carrier reaches every stage that
+        // can store Position.
+        assert_eq!(
+            reserve(&[]),
+            Ok((vec![((VERTEX | later).as_raw(), 112, 16)], VERTEX | later))
+        );
+        // A stage the application's ranges name already is left to its range (a stage may be
+        // in one range only).
+        let (ranges, stages) = reserve(&[range(S::GEOMETRY | FRAGMENT, 0, 16)]).unwrap();
+        assert_eq!(
+            ranges[1],
+            ((VERTEX | S::TESSELLATION_EVALUATION).as_raw(), 112, 16)
+        );
+        assert_eq!(stages, VERTEX | S::TESSELLATION_EVALUATION);
+        // The application's vertex range is extended with its own stages: a geometry stage
+        // it names reads the carrier, one it does not name does not.
+        let (_, stages) = reserve(&[range(VERTEX | S::GEOMETRY, 0, 64)]).unwrap();
+        assert_eq!(stages, VERTEX | S::GEOMETRY);
+        let (_, stages) = reserve(&[range(VERTEX, 0, 64)]).unwrap();
+        assert_eq!(stages, VERTEX);
+        // Tessellation control and fragment stages are never added.
+        let (_, stages) = reserve_carrier(&[], 112, S::ALL_GRAPHICS).unwrap();
+        assert_eq!(stages.stages, VERTEX | later);
     }
 
     #[test]

@@ -618,9 +618,15 @@ pub unsafe extern "system" fn create_device(
                 )
             }
             .contains(&extensions::DEPTH_RANGE_UNRESTRICTED);
+            // SAFETY: the application's create info (its features, or a valid pNext chain).
+            let core_features = unsafe { enabled_core_features(create_info) };
             let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op)
                 .with_push_constant_space(limits.max_push_constants_size)
-                .with_depth_range_unrestricted(depth_range_unrestricted);
+                .with_depth_range_unrestricted(depth_range_unrestricted)
+                .with_shader_stages(
+                    core_features.geometry_shader == vk::TRUE,
+                    core_features.tessellation_shader == vk::TRUE,
+                );
             match source {
                 _ if !source.logged(instance.settings.mode == Mode::Off) => {}
                 CompareOpSource::AddedExtension => log::info!(
@@ -727,4 +733,20 @@ mod tests {
         // SAFETY: null is allowed by the spec.
         unsafe { destroy_instance(vk::Instance::null(), std::ptr::null()) };
     }
+}
+
+/// The core features the application enabled: `pEnabledFeatures`, or the
+/// `VkPhysicalDeviceFeatures2` in its chain (the spec allows one or the other); none when
+/// neither is given.
+///
+/// # Safety
+/// `info` is the application's valid create info.
+unsafe fn enabled_core_features(info: &vk::DeviceCreateInfo<'_>) -> vk::PhysicalDeviceFeatures {
+    // SAFETY: null or valid (the caller's contract).
+    if let Some(features) = unsafe { info.p_enabled_features.as_ref() } {
+        return *features;
+    }
+    // SAFETY: a valid pNext chain (the caller's contract).
+    unsafe { crate::chain::find::<vk::PhysicalDeviceFeatures2<'_>>(info.p_next) }
+        .map_or_else(vk::PhysicalDeviceFeatures::default, |f| f.features)
 }

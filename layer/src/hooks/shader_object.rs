@@ -195,7 +195,7 @@ pub unsafe extern "system" fn create_shaders_ext(
                     let ranges = unsafe {
                         slice(info.p_push_constant_ranges, info.push_constant_range_count)
                     };
-                    precise::reserve_carrier(ranges, offset)
+                    precise::reserve_carrier(ranges, offset, state.policy.carrier_later_stages)
                         .ok()
                         .map(|(ranges, _)| ranges)
                 })

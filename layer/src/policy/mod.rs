@@ -211,6 +211,11 @@ pub struct DevicePolicy {
     /// their format ([`KeptFormat::UnrestrictedDepthRange`]); copies convert float values
     /// without clamping them to [0, 1].
     pub depth_range_unrestricted: bool,
+    /// The stages after the vertex stage whose `Position` revz may rewrite on this device
+    /// (tessellation evaluation and geometry, where the application enabled
+    /// `tessellationShader` and `geometryShader`): a carrier range revz adds to a layout
+    /// names them too (`crate::precise::reserve_carrier`).
+    pub carrier_later_stages: ash::vk::ShaderStageFlags,
 }
 
 impl DevicePolicy {
@@ -235,6 +240,23 @@ impl DevicePolicy {
             carrier_offset: None,
             promote: settings.promote_depth_formats.applies(settings.mode),
             depth_range_unrestricted: false,
+            carrier_later_stages: ash::vk::ShaderStageFlags::empty(),
+        }
+    }
+
+    /// The policy on a device whose application enabled `geometryShader` (`geometry`) and
+    /// `tessellationShader` (`tessellation`).
+    pub fn with_shader_stages(self, geometry: bool, tessellation: bool) -> DevicePolicy {
+        let mut stages = ash::vk::ShaderStageFlags::empty();
+        if geometry {
+            stages |= ash::vk::ShaderStageFlags::GEOMETRY;
+        }
+        if tessellation {
+            stages |= ash::vk::ShaderStageFlags::TESSELLATION_EVALUATION;
+        }
+        DevicePolicy {
+            carrier_later_stages: stages,
+            ..self
         }
     }
 
@@ -318,6 +340,7 @@ mod tests {
             carrier_offset: None,
             promote: matches!(mode, Mode::Complementary | Mode::Infinite),
             depth_range_unrestricted: false,
+            carrier_later_stages: ash::vk::ShaderStageFlags::empty(),
         }
     }
 

@@ -31,16 +31,18 @@ pub fn analyses_fragment_module(active: bool) -> bool {
     active
 }
 
-/// Whether `vkCreateShaderModule` analyses a module's vertex stage (its projection and
-/// `Position` rewrite): only where the mode rewrites projections (`mode_rewrites`) and the
-/// module declares a vertex entry point (`declares_vertex_entry_point`, scanned only then).
-/// Fragment and compute modules with push constants are not parsed.
+/// Whether `vkCreateShaderModule` analyses a module's pre-rasterization stage (its projection
+/// and `Position` rewrite): only where the mode rewrites projections (`mode_rewrites`) and the
+/// module declares an entry point of a stage that can be the last before rasterization, whose
+/// `Position` revz rewrites: vertex, tessellation evaluation or geometry
+/// (`declares_position_stage`, scanned only then). Fragment and compute modules with push
+/// constants are not parsed.
 #[must_use]
 pub fn analyses_vertex_module(
     mode_rewrites: bool,
-    declares_vertex_entry_point: impl FnOnce() -> bool,
+    declares_position_stage: impl FnOnce() -> bool,
 ) -> bool {
-    mode_rewrites && declares_vertex_entry_point()
+    mode_rewrites && declares_position_stage()
 }
 
 /// Whether a pipeline is a candidate for the precise path at all: the mode rewrites
@@ -134,15 +136,62 @@ pub fn module_position_store<'a>(
     Some((offset, position_store(entry_points?)))
 }
 
-/// What revz knows of a candidate pipeline's vertex stage.
+/// The last pre-rasterization stage of a pipeline: the one whose `Position` is rasterized,
+/// and which the precise path rewrites.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LastStage {
+    Vertex,
+    TessellationEvaluation,
+    Geometry,
+    /// Not rewritten: a mesh shader writes a per-vertex array of positions.
+    Mesh,
+}
+
+impl LastStage {
+    /// The last pre-rasterization stage among a pipeline's `stages` (geometry, else
+    /// tessellation evaluation, else mesh or vertex); `None` where it has none of them.
+    #[must_use]
+    pub fn of(stages: impl IntoIterator<Item = vk::ShaderStageFlags>) -> Option<LastStage> {
+        let all = stages
+            .into_iter()
+            .fold(vk::ShaderStageFlags::empty(), |all, stage| all | stage);
+        [
+            (vk::ShaderStageFlags::GEOMETRY, LastStage::Geometry),
+            (
+                vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                LastStage::TessellationEvaluation,
+            ),
+            (vk::ShaderStageFlags::MESH_EXT, LastStage::Mesh),
+            (vk::ShaderStageFlags::VERTEX, LastStage::Vertex),
+        ]
+        .into_iter()
+        .find(|(flag, _)| all.contains(*flag))
+        .map(|(_, stage)| stage)
+    }
+
+    /// The stage's flag.
+    #[must_use]
+    pub fn flag(self) -> vk::ShaderStageFlags {
+        match self {
+            LastStage::Vertex => vk::ShaderStageFlags::VERTEX,
+            LastStage::TessellationEvaluation => vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+            LastStage::Geometry => vk::ShaderStageFlags::GEOMETRY,
+            LastStage::Mesh => vk::ShaderStageFlags::MESH_EXT,
+        }
+    }
+}
+
+/// What revz knows of a candidate pipeline's last pre-rasterization stage (its vertex stage,
+/// or the tessellation evaluation or geometry stage after it).
 #[derive(Clone, Copy, Debug)]
 pub struct VertexStageFacts<'a> {
     /// Its shader code is given (not only module identifiers or a pipeline binary).
     pub code_given: bool,
-    /// A geometry, tessellation or mesh stage comes after (or instead of) the vertex stage.
-    pub later_stage: bool,
-    /// It has a vertex stage.
-    pub has_vertex: bool,
+    /// Its last pre-rasterization stage, if it has one.
+    pub last_stage: Option<LastStage>,
+    /// revz's carrier in its layout is visible to that stage (the layout's range that holds
+    /// the carrier names the stage).
+    pub carrier_reaches_stage: bool,
     /// The analysis of its vertex entry point: `Ok(None)` where the module holds no entry
     /// point analyzed (a module without push constants is not parsed); `Err` where revz could
     /// not get one (unknown module, no code, naga cannot read it, no entry point name).
@@ -245,11 +294,11 @@ impl VertexStageFacts<'_> {
         if !self.code_given {
             return Err("its code is not given (identifiers or binaries)".into());
         }
-        if self.later_stage {
-            return Err("its last pre-rasterization stage is not a vertex shader".into());
-        }
-        if !self.has_vertex {
+        let Some(stage) = self.last_stage else {
             return Err("it has no vertex stage".into());
+        };
+        if stage == LastStage::Mesh {
+            return Err("its last pre-rasterization stage is a mesh shader".into());
         }
         let slot = match self.analysis? {
             Some(Analysis::Projection(slot)) => Some(slot),
@@ -279,6 +328,19 @@ impl VertexStageFacts<'_> {
         };
         if !self.carrier_room {
             return Err("its pipeline layout has no room for revz's push constants".into());
+        }
+        if !self.carrier_reaches_stage {
+            return Err(match stage {
+                LastStage::Geometry => {
+                    "revz's push constants do not reach its geometry stage (its layout's \
+                     vertex push-constant range does not name it)"
+                }
+                _ => {
+                    "revz's push constants do not reach its tessellation evaluation stage \
+                     (its layout's vertex push-constant range does not name it)"
+                }
+            }
+            .into());
         }
         let derived = match self.rewrite {
             Ok(derived) => derived,
@@ -427,8 +489,8 @@ mod tests {
     fn pushed(analysis: &Analysis) -> VertexStageFacts<'_> {
         VertexStageFacts {
             code_given: true,
-            later_stage: false,
-            has_vertex: true,
+            last_stage: Some(LastStage::Vertex),
+            carrier_reaches_stage: true,
             analysis: Ok(Some(analysis)),
             ranges: Some(&RANGES),
             convention: Some(DepthConvention::ZeroToOne),
@@ -471,6 +533,57 @@ mod tests {
     }
 
     #[test]
+    fn the_last_pre_rasterization_stage_is_the_latest_present() {
+        use vk::ShaderStageFlags as S;
+        let of = |stages: &[S]| LastStage::of(stages.iter().copied());
+        assert_eq!(of(&[S::VERTEX, S::FRAGMENT]), Some(LastStage::Vertex));
+        assert_eq!(
+            of(&[
+                S::VERTEX,
+                S::TESSELLATION_CONTROL,
+                S::TESSELLATION_EVALUATION
+            ]),
+            Some(LastStage::TessellationEvaluation)
+        );
+        // A geometry stage follows tessellation, in whatever order the stages are listed.
+        assert_eq!(
+            of(&[S::GEOMETRY, S::TESSELLATION_EVALUATION, S::VERTEX]),
+            Some(LastStage::Geometry)
+        );
+        assert_eq!(of(&[S::TASK_EXT, S::MESH_EXT]), Some(LastStage::Mesh));
+        assert_eq!(of(&[S::FRAGMENT]), None);
+        assert_eq!(LastStage::Geometry.flag(), S::GEOMETRY);
+    }
+
+    #[test]
+    fn a_later_stage_that_derives_its_range_takes_the_precise_path_where_the_carrier_reaches_it() {
+        // naga reads no geometry or tessellation stage: no analysis, the deriving rewrite.
+        for stage in [LastStage::Geometry, LastStage::TessellationEvaluation] {
+            let facts = VertexStageFacts {
+                last_stage: Some(stage),
+                analysis: Ok(None),
+                rewrite: Ok(Some(MatrixSource::UniformBuffer)),
+                ..pushed(&Analysis::NoPushConstants)
+            };
+            assert_eq!(
+                facts.decide(),
+                Ok(VertexRange {
+                    projection: None,
+                    derived: Some(MatrixSource::UniformBuffer)
+                })
+            );
+            let unreached = VertexStageFacts {
+                carrier_reaches_stage: false,
+                ..facts
+            };
+            assert!(unreached
+                .decide()
+                .unwrap_err()
+                .contains("revz's push constants do not reach its"));
+        }
+    }
+
+    #[test]
     fn each_missing_fact_gives_its_reason_in_order() {
         let analysis = Analysis::Projection(slot());
         let base = pushed(&analysis);
@@ -479,25 +592,24 @@ mod tests {
             (
                 VertexStageFacts {
                     code_given: false,
-                    later_stage: true,
+                    last_stage: Some(LastStage::Mesh),
                     ..base
                 },
                 "its code is not given",
             ),
             (
                 VertexStageFacts {
-                    later_stage: true,
-                    has_vertex: false,
-                    ..base
-                },
-                "its last pre-rasterization stage is not a vertex shader",
-            ),
-            (
-                VertexStageFacts {
-                    has_vertex: false,
+                    last_stage: None,
                     ..base
                 },
                 "it has no vertex stage",
+            ),
+            (
+                VertexStageFacts {
+                    last_stage: Some(LastStage::Mesh),
+                    ..base
+                },
+                "its last pre-rasterization stage is a mesh shader",
             ),
             (
                 VertexStageFacts {
@@ -523,9 +635,18 @@ mod tests {
             (
                 VertexStageFacts {
                     carrier_room: false,
+                    carrier_reaches_stage: false,
                     ..base
                 },
                 "no room for revz's push constants",
+            ),
+            (
+                VertexStageFacts {
+                    last_stage: Some(LastStage::Geometry),
+                    carrier_reaches_stage: false,
+                    ..base
+                },
+                "do not reach its geometry stage",
             ),
             (
                 VertexStageFacts {

@@ -37,12 +37,35 @@ pub fn instructions(words: &[u32]) -> Option<Instructions<'_>> {
     (words.len() >= HEADER_WORDS && words[0] == MAGIC).then(|| instructions_at(words, HEADER_WORDS))
 }
 
+/// The execution models of the stages whose `Position` revz rewrites: vertex, tessellation
+/// evaluation and geometry (what can be the last pre-rasterization stage; mesh shaders are not
+/// rewritten).
+pub mod model {
+    pub const VERTEX: u32 = 0;
+    pub const TESSELLATION_EVALUATION: u32 = 2;
+    pub const GEOMETRY: u32 = 3;
+}
+
 /// Whether `words` declare an entry point of the vertex stage (`OpEntryPoint Vertex`): only
-/// such modules can be the last pre-rasterization stage revz analyzes and rewrites (it does
-/// not analyze tessellation, geometry or mesh stages). Malformed words answer `true`, so the
-/// analysis that follows reports them.
+/// such modules are parsed for a projection in push constants (naga reads no tessellation or
+/// geometry stage). Malformed words answer `true`, so the analysis that follows reports them.
 pub fn declares_vertex_entry_point(words: &[u32]) -> bool {
-    const EXECUTION_MODEL_VERTEX: u32 = 0;
+    declares_entry_point(words, |m| m == model::VERTEX)
+}
+
+/// Whether `words` declare an entry point of a stage whose `Position` revz rewrites
+/// ([`model`]): vertex, tessellation evaluation or geometry. Malformed words answer `true`,
+/// so the analysis or rewrite that follows reports them.
+pub fn declares_position_stage_entry_point(words: &[u32]) -> bool {
+    declares_entry_point(words, |m| {
+        matches!(
+            m,
+            model::VERTEX | model::TESSELLATION_EVALUATION | model::GEOMETRY
+        )
+    })
+}
+
+fn declares_entry_point(words: &[u32], wanted: impl Fn(u32) -> bool) -> bool {
     const OP_EXTENSION: u32 = 10;
     const OP_EXT_INST_IMPORT: u32 = 11;
     const OP_MEMORY_MODEL: u32 = 14;
@@ -55,7 +78,7 @@ pub fn declares_vertex_entry_point(words: &[u32]) -> bool {
             return true;
         };
         match instruction.opcode {
-            op::OP_ENTRY_POINT if instruction.operands.first() == Some(&EXECUTION_MODEL_VERTEX) => {
+            op::OP_ENTRY_POINT if instruction.operands.first().is_some_and(|&m| wanted(m)) => {
                 return true
             }
             // Only capabilities, extensions, imports and the memory model come before the
@@ -180,6 +203,8 @@ pub mod op {
     pub const OP_SELECTION_MERGE: u32 = 247;
     pub const OP_SWITCH: u32 = 251;
     pub const OP_RETURN: u32 = 253;
+    pub const OP_EMIT_VERTEX: u32 = 218;
+    pub const OP_EMIT_STREAM_VERTEX: u32 = 220;
     pub const OP_NO_LINE: u32 = 317;
 }
 

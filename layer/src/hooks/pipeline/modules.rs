@@ -50,6 +50,11 @@ pub(super) fn rewrite_fragment_module(
 /// The shader analysis of a module (at its creation, or of SPIR-V chained into a pipeline
 /// stage): a module naga cannot read is logged once, and its draws take the flip path.
 pub(super) fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> ModuleAnalysis {
+    // naga reads no tessellation or geometry stage: such a module's projection is not read on
+    // the CPU, and its stage gets the deriving rewrite (no entry point analyzed).
+    if !crate::shader::scan::declares_vertex_entry_point(words) {
+        return Ok(Vec::new());
+    }
     let analysis = analysis::analyze_vertex_entry_points(words);
     let first = module != vk::ShaderModule::null() || first_inline_report(Report::Analysis, words);
     if let (Err(reason), true) = (&analysis, first) {
@@ -140,10 +145,10 @@ pub unsafe extern "system" fn create_shader_module(
                     state.objects.fragment_depth_modules.insert(module, rewrite);
                 }
             }
-            // Only a vertex stage's projection is analyzed (fragment and compute modules
-            // with push constants are not parsed).
+            // Only the stages that can store the rasterized Position are analyzed and
+            // rewritten (fragment and compute modules with push constants are not parsed).
             if vertex_stage::analyses_vertex_module(state.policy.rewrite().is_some(), || {
-                crate::shader::scan::declares_vertex_entry_point(words)
+                crate::shader::scan::declares_position_stage_entry_point(words)
             }) {
                 let analysis = analyze_vertex_module(module, words);
                 if let Some(rewrite) = position_store_of(&state, &analysis, words) {
@@ -187,7 +192,7 @@ pub unsafe extern "system" fn create_pipeline_layout(
             // SAFETY: `pushConstantRangeCount` ranges.
             let ranges =
                 unsafe { slice(info.p_push_constant_ranges, info.push_constant_range_count) };
-            match precise::reserve_carrier(ranges, offset) {
+            match precise::reserve_carrier(ranges, offset, state.policy.carrier_later_stages) {
                 Ok(reserved) => Some(reserved),
                 Err(reason) => {
                     static NO_ROOM: AtomicBool = AtomicBool::new(false);

@@ -135,12 +135,14 @@ pub(super) fn projection_of(
 ) -> Result<PreciseStage, String> {
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
-    let later = vk::ShaderStageFlags::GEOMETRY
-        | vk::ShaderStageFlags::TESSELLATION_EVALUATION
-        | vk::ShaderStageFlags::MESH_EXT;
-    let vertex_index = stages
-        .iter()
-        .position(|s| s.stage == vk::ShaderStageFlags::VERTEX);
+    // The stage whose Position is rasterized: the vertex stage, or a tessellation evaluation
+    // or geometry stage after it (a mesh stage is refused by the policy).
+    let last_stage = vertex_stage::LastStage::of(stages.iter().map(|s| s.stage));
+    let vertex_index = last_stage.and_then(|last| {
+        stages
+            .iter()
+            .position(|s| s.stage == last.flag() && last != vertex_stage::LastStage::Mesh)
+    });
     let vertex = vertex_index.map(|index| &stages[index]);
     // SAFETY: null or valid (the application's contract).
     let dynamic = unsafe { info.p_dynamic_state.as_ref() }.map_or(&[][..], |d| unsafe {
@@ -194,8 +196,11 @@ pub(super) fn projection_of(
     let carrier = state.objects.layout_carriers.get(&info.layout);
     let facts = VertexStageFacts {
         code_given,
-        later_stage: stages.iter().any(|s| s.stage.intersects(later)),
-        has_vertex: vertex.is_some(),
+        last_stage,
+        carrier_reaches_stage: carrier
+            .as_ref()
+            .zip(last_stage)
+            .is_some_and(|(carrier, last)| carrier.stages.contains(last.flag())),
         analysis: entry,
         ranges: ranges.as_deref(),
         convention: depth_convention(info, dynamic),

@@ -127,8 +127,12 @@ pub struct Leaf {
 /// How `Position` is stored, as [`crate::shader::position_store`]'s body pass saw it.
 #[derive(Debug, Default)]
 pub struct PositionStores {
-    /// Values stored into the whole `Position`.
+    /// Values stored into the whole `Position`, and the word index of each store.
     pub whole: Vec<u32>,
+    pub whole_at: Vec<usize>,
+    /// Word indices of a geometry shader's emits (empty in other stages): a store followed
+    /// by an emit in its own block is emitted before the loop can run the leaf again.
+    pub emits: Vec<usize>,
     /// Components stored alone (`None`: a dynamic or nested index).
     pub components: Vec<Option<u32>>,
     /// `OpCopyMemory` into or out of it.
@@ -160,6 +164,9 @@ pub struct ModuleFacts<'a> {
     pub vectors: &'a HashMap<u32, (u32, u32)>,
     /// 32-bit constants whose word is the bits of 1.0.
     pub ones: &'a HashSet<u32>,
+    /// The stage's inputs are vertex attributes (a vertex shader): a fetch of fewer than four
+    /// components gives w = 1. A later stage's inputs are what the stage before stored.
+    pub inputs_are_attributes: bool,
 }
 
 /// `OpTypeBool`, `BufferBlock`, and the constant opcodes a constant leaf can be, for the

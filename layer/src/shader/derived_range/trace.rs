@@ -81,7 +81,7 @@ impl Defs {
             inputs: module
                 .variables
                 .iter()
-                .filter(|(_, &(_, class))| class == STORAGE_INPUT)
+                .filter(|(_, &(_, class))| module.inputs_are_attributes && class == STORAGE_INPUT)
                 .map(|(&id, _)| id)
                 .collect(),
         };
@@ -151,6 +151,27 @@ impl Defs {
         self.loops
             .iter()
             .any(|&(start, end)| start < at && at < end)
+    }
+
+    /// Whether no block starts between words `from` and `to`.
+    fn same_block(&self, from: usize, to: usize) -> bool {
+        from < to && !self.labels.iter().any(|&label| from < label && label < to)
+    }
+
+    /// Whether a fit right after word `fitted_at` describes every vertex a geometry shader
+    /// emits, though it lies in a loop: each whole store of `Position` follows it in its block
+    /// and is emitted there (an emit after the store, no block between), so no iteration can
+    /// run the leaf again between the store and its emit. A geometry shader's loop over its
+    /// input vertices is the usual place of its projection.
+    fn emitted_where_fitted(&self, stores: &PositionStores, fitted_at: usize) -> bool {
+        !stores.emits.is_empty()
+            && stores.whole_at.iter().all(|&store| {
+                self.same_block(fitted_at, store)
+                    && stores
+                        .emits
+                        .iter()
+                        .any(|&emit| self.same_block(store, emit))
+            })
     }
 
     /// Component count of the vector `id` (by its result type), if known.
@@ -454,7 +475,8 @@ pub fn find(
                         "the vector the projection multiplies may not have w = 1",
                     ));
                 }
-                if defs.in_loop(defs.at[&root].0) {
+                let root_at = defs.at[&root].0;
+                if defs.in_loop(root_at) && !defs.emitted_where_fitted(stores, root_at) {
                     return Err(Unsupported("the projection is applied in a loop"));
                 }
                 return column_leaf(module, &defs, columns, root);
@@ -499,7 +521,7 @@ pub fn find(
                 },
                 _ => MatrixSource::Computed,
             };
-            if defs.in_loop(*at) {
+            if defs.in_loop(*at) && !defs.emitted_where_fitted(stores, *at) {
                 return Err(Unsupported("the projection is loaded in a loop"));
             }
             (Insert::After(*at), source)

@@ -11,7 +11,8 @@ pub(super) struct Body {
     pub(super) redirected: HashSet<u32>,
     /// The pointee types of those chains.
     pub(super) private_pointees: HashSet<u32>,
-    /// `OpReturn`s in vertex entry functions.
+    /// Where the shadow goes to `Position` ([`Module::completes_vertex`]): the `OpReturn`s of
+    /// vertex and tessellation evaluation entry functions, a geometry shader's emits.
     pub(super) returns: usize,
     /// What is stored into `Position` (for the derived range).
     pub(super) stores: PositionStores,
@@ -58,8 +59,11 @@ impl Body {
             };
             match (opcode, operands) {
                 (OP_FUNCTION, &[_, id, ..]) => current_function = id,
-                (OP_RETURN, _) if module.entry_functions.contains(&current_function) => {
+                _ if module.completes_vertex(opcode, current_function) => {
                     body.returns += 1;
+                    if opcode != OP_RETURN {
+                        body.stores.emits.push(at);
+                    }
                 }
                 (OP_FUNCTION_CALL, &[_, _, callee, ..])
                     if module.entry_functions.contains(&callee) =>
@@ -117,6 +121,7 @@ impl Body {
                     }
                     if whole.contains(&pointer) {
                         body.stores.whole.push(value);
+                        body.stores.whole_at.push(at);
                     } else {
                         body.stores
                             .components

@@ -26,9 +26,23 @@ impl Module {
             }
             match (opcode, operands) {
                 (OP_ENTRY_POINT, &[model, function, ..]) => {
-                    if model != EXECUTION_MODEL_VERTEX {
-                        return Err(Unsupported("the module has a non-vertex entry point"));
+                    if !matches!(
+                        model,
+                        scan_model::VERTEX
+                            | scan_model::TESSELLATION_EVALUATION
+                            | scan_model::GEOMETRY
+                    ) {
+                        return Err(Unsupported(
+                            "the module has an entry point of a stage other than vertex, \
+                             tessellation evaluation or geometry",
+                        ));
                     }
+                    if !m.entry_functions.is_empty() && m.model != model {
+                        return Err(Unsupported(
+                            "the module's entry points are of several stages",
+                        ));
+                    }
+                    m.model = model;
                     m.entry_functions.insert(function);
                 }
                 (OP_DECORATE, &[target, DECORATION_BUILT_IN, BUILT_IN_POSITION]) => {
@@ -103,7 +117,19 @@ impl Module {
         Ok(Some(m))
     }
 
-    /// The `Position` of the vertex entry points.
+    /// Whether the instruction `opcode` in function `function` completes an output vertex,
+    /// where the rewrite stores the shadow to `Position`: an entry function's `OpReturn` in a
+    /// vertex or tessellation evaluation shader, any `OpEmitVertex` or `OpEmitStreamVertex` in
+    /// a geometry shader.
+    pub(super) fn completes_vertex(&self, opcode: u32, function: u32) -> bool {
+        if self.model == scan_model::GEOMETRY {
+            matches!(opcode, OP_EMIT_VERTEX | OP_EMIT_STREAM_VERTEX)
+        } else {
+            opcode == OP_RETURN && self.entry_functions.contains(&function)
+        }
+    }
+
+    /// The `Position` of the entry points.
     pub(super) fn position(&self) -> Result<Option<Position>, Unsupported> {
         let mut found = None;
         for (&id, &(ty, class)) in &self.variables {

@@ -4,8 +4,8 @@
 //!
 //! [`rewrite_position_store`] turns the module's `Position` output into a private variable (the
 //! *shadow*) that every load, store and access chain of the shader keeps using unchanged, and
-//! adds, before every `OpReturn` of each vertex entry point, one store of the shadow to the
-//! real `Position` with its z replaced:
+//! adds, where the stage's output vertex is complete, one store of the shadow to the real
+//! `Position` with its z replaced:
 //!
 //! ```text
 //! Position = (x, y, c_z * z + c_w * w + c_1, w)      (c_z, c_w, c_1) = revz's carrier
@@ -22,8 +22,15 @@
 //!
 //! Word manipulation only, no Vulkan and no full parse. What the rewrite does not recognise (a
 //! pointer to `Position` passed to a function, a whole `gl_PerVertex` block stored at once, a
-//! dynamic index into the block, more than one push-constant block, a non-vertex entry point)
+//! dynamic index into the block, more than one push-constant block, an entry point of another
+//! stage than vertex, tessellation evaluation or geometry, or of two of them)
 //! is refused with a reason, never guessed at; the pipeline's draws then take the flip path.
+//!
+//! Where the output vertex is complete depends on the stage (issue #41): before every
+//! `OpReturn` of an entry point in a vertex or tessellation evaluation shader (one vertex per
+//! invocation), before every `OpEmitVertex` / `OpEmitStreamVertex` of a geometry shader (in
+//! any function: each emits the outputs as they are then; its returns emit nothing). Mesh
+//! shaders (per-vertex `Position` arrays) are not rewritten.
 //!
 //! # Files
 //! - this file: the entry points and `Module`, the declarations the rewrite needs;
@@ -37,6 +44,7 @@ use std::fmt;
 use crate::shader::derived_range::{
     self, Fit, Insert, MatrixSource, ModuleFacts, PositionStores, Types,
 };
+use crate::shader::scan::model as scan_model;
 use crate::shader::scan::op::*;
 use crate::shader::scan::{instructions, is_literal, push, Instruction, HEADER_WORDS};
 
@@ -49,11 +57,10 @@ const DECORATION_MATRIX_STRIDE: u32 = 7;
 const DECORATION_BUILT_IN: u32 = 11;
 const DECORATION_OFFSET: u32 = 35;
 const BUILT_IN_POSITION: u32 = 0;
-const EXECUTION_MODEL_VERTEX: u32 = 0;
 /// SPIR-V 1.4: entry point interfaces list every global variable they use.
 const VERSION_1_4: u32 = 0x0001_0400;
 
-/// Why a vertex module cannot get the `Position` rewrite.
+/// Why a module cannot get the `Position` rewrite.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Unsupported(pub &'static str);
 
@@ -64,7 +71,7 @@ impl fmt::Display for Unsupported {
 }
 
 /// The module with its `Position` stores rewritten to read revz's carrier at byte `offset` of
-/// the push constants (16-byte aligned), `None` when no vertex entry point outputs `Position`,
+/// the push constants (16-byte aligned), `None` when no entry point outputs `Position`,
 /// or why it cannot be rewritten. Never panics, never reads past the words.
 pub fn rewrite_position_store(words: &[u32], offset: u32) -> Result<Option<Vec<u32>>, Unsupported> {
     rewrite(words, offset, false).map(|code| code.map(|(code, _)| code))
@@ -109,7 +116,10 @@ enum Position {
 #[derive(Debug, Default)]
 struct Module {
     version: u32,
-    /// Vertex entry points: the entry function ids. Any other execution model refuses.
+    /// The entry points' execution model (`scan::model`: vertex, tessellation evaluation or
+    /// geometry; any other, or two of them, refuses).
+    model: u32,
+    /// The entry function ids.
     entry_functions: HashSet<u32>,
     /// Ids decorated `BuiltIn Position`, and (struct, member) pairs member-decorated so.
     position_ids: HashSet<u32>,

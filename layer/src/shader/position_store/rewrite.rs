@@ -142,7 +142,7 @@ impl Module {
         // leaves the module to the flip path.
         let leaf = if derive {
             if self.entry_functions.len() != 1 {
-                return Err(Unsupported("more than one vertex entry point"));
+                return Err(Unsupported("more than one entry point"));
             }
             let facts = ModuleFacts {
                 functions_at: self.functions_at,
@@ -155,6 +155,7 @@ impl Module {
                 vec4,
                 vectors: &self.vectors,
                 ones: &self.ones,
+                inputs_are_attributes: self.model == scan_model::VERTEX,
             };
             Some(derived_range::find(words, &facts, &body.stores)?)
         } else {
@@ -477,7 +478,7 @@ impl Module {
                         }
                     }
                 }
-                (OP_RETURN, _) if self.entry_functions.contains(&current_function) => {
+                _ if self.completes_vertex(opcode, current_function) => {
                     let [value, carrier_pointer, carrier, c_z, c_w, c_1, z, w, scaled_z, scaled_w, sum, depth, stored] =
                         [0; 13].map(|_| fresh());
                     push(&mut out, OP_LOAD, &[vec4, value, shadow]);

@@ -561,3 +561,118 @@ fn shapes_a_review_found_are_refused_not_rewritten_wrongly() {
             .expect("the input is valid");
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// The last pre-rasterization stage after the vertex stage (issue #41): tessellation evaluation
+// and geometry shaders, from glslang (the tester's own, `shaders/glslang/`, and shapes saved in
+// `test_data/`, each with its GLSL beside it).
+
+/// The words before each instruction with `opcode`: (previous opcode, its operands).
+fn preceding(words: &[u32], opcode: u32) -> Vec<(u32, Vec<u32>)> {
+    let all: Vec<_> = instructions(words)
+        .expect("SPIR-V")
+        .map_while(Result::ok)
+        .map(|i| (i.opcode, i.operands.to_vec()))
+        .collect();
+    all.windows(2)
+        .filter(|pair| pair[1].0 == opcode)
+        .map(|pair| pair[0].clone())
+        .collect()
+}
+
+/// A deriving rewrite of a later stage, checked by spirv-val (naga reads no such stage).
+fn derived_later(words: &[u32]) -> (Vec<u32>, MatrixSource) {
+    let (out, source) = rewrite_position_store_deriving(words, OFFSET)
+        .expect("rewritable")
+        .expect("has a Position");
+    validate(&out);
+    (out, source)
+}
+
+#[test]
+fn a_geometry_shader_stores_reversed_depth_before_each_emit_in_its_loop() {
+    let words = binary(include_bytes!("../../../../shaders/glslang/ubo.geom.spv"));
+    // The projection is loaded in the loop over the input vertices, and each store is emitted
+    // in its own block: the fit describes every emitted vertex.
+    let (out, source) = derived_later(&words);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    let before_emits = preceding(&out, OP_EMIT_VERTEX);
+    assert_eq!(before_emits.len(), 1, "the emit is kept, once");
+    assert!(
+        before_emits.iter().all(|(opcode, _)| *opcode == OP_STORE),
+        "the shadow goes to Position right before the emit"
+    );
+    // The return emits nothing: no store before it.
+    assert!(preceding(&out, OP_RETURN)
+        .iter()
+        .all(|(opcode, _)| *opcode != OP_STORE));
+    // The carrier-only rewrite of it too.
+    let plain = rewrite_position_store(&words, OFFSET).unwrap().unwrap();
+    validate(&plain);
+    assert_carrier(&plain);
+    assert_eq!(preceding(&plain, OP_EMIT_VERTEX)[0].0, OP_STORE);
+}
+
+#[test]
+fn a_tessellation_evaluation_shader_stores_reversed_depth_at_its_return() {
+    let words = binary(include_bytes!("../../../../shaders/glslang/ubo.tese.spv"));
+    let (out, source) = derived_later(&words);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    let before_returns = preceding(&out, OP_RETURN);
+    assert_eq!(before_returns.len(), 1);
+    assert_eq!(before_returns[0].0, OP_STORE);
+}
+
+#[test]
+fn geometry_shaders_with_push_constant_projections_and_viewports_are_fitted() {
+    // An instanced geometry shader, one viewport per invocation, the projection indexed by the
+    // invocation in push constants: the stage fits the matrix it loads.
+    let words = binary(include_bytes!("../test_data/geometry_push_viewports.spv"));
+    // 128 bytes of matrices: the carrier at 240, as on a device with 256 bytes.
+    let (out, source) = rewrite_position_store_deriving(&words, 240)
+        .expect("rewritable")
+        .expect("has a Position");
+    validate(&out);
+    assert_eq!(source, MatrixSource::PushConstants);
+    assert_eq!(preceding(&out, OP_EMIT_VERTEX)[0].0, OP_STORE);
+}
+
+#[test]
+fn geometry_shapes_whose_emitted_depth_the_fit_may_not_describe_are_refused() {
+    let reason = |words: &[u32]| {
+        rewrite_position_store_deriving(words, 240)
+            .map(|r| r.map(|(_, s)| s))
+            .err()
+    };
+    // The store in a branch, the emit after it: an iteration that skips the store emits the
+    // previous iteration's position, which the fit (run again) may not describe.
+    let conditional = binary(include_bytes!("../test_data/geometry_conditional.spv"));
+    assert_eq!(
+        reason(&conditional),
+        Some(Unsupported("the projection is loaded in a loop"))
+    );
+    // `view_proj * gl_in[i].gl_Position`: the vertex stage's position, whose w the module
+    // does not show is 1.
+    let clip_input = binary(include_bytes!("../test_data/geometry_clip_input.spv"));
+    assert_eq!(
+        reason(&clip_input),
+        Some(Unsupported(
+            "the vector the projection multiplies may not have w = 1"
+        ))
+    );
+    // Three emits written out, each with its own load of the matrix: three leaves.
+    let unrolled = binary(include_bytes!("../test_data/geometry_unrolled.spv"));
+    assert_eq!(
+        reason(&unrolled),
+        Some(Unsupported("Position comes from more than one matrix"))
+    );
+    // A module of two stages is not rewritten.
+    let vertex = compile_glsl(naga::ShaderStage::Vertex, UBO_PVM);
+    assert!(crate::shader::scan::declares_position_stage_entry_point(
+        &conditional
+    ));
+    assert!(!crate::shader::scan::declares_vertex_entry_point(
+        &conditional
+    ));
+    assert!(crate::shader::scan::declares_vertex_entry_point(&vertex));
+}

@@ -1,0 +1,26 @@
+#version 450
+// The `ubo-geometry` delivery: the block of ubo.vert, applied in a geometry shader that emits
+// each input triangle as it is, in a loop over its vertices, as geometry shaders are written:
+// gl_Position = ((P * V) * M) * position, the same float32 operations as ubo.vert.
+
+layout(triangles) in;
+layout(triangle_strip, max_vertices = 3) out;
+
+layout(set = 0, binding = 0) uniform Object {
+    mat4 projection;
+    mat4 view;
+    mat4 model;
+    vec4 color;
+} ubo;
+
+layout(location = 0) in vec3 object_position[];
+layout(location = 0) flat out vec4 color;
+
+void main() {
+    for (int i = 0; i < 3; i++) {
+        gl_Position = ubo.projection * ubo.view * ubo.model * vec4(object_position[i], 1.0);
+        color = ubo.color;
+        EmitVertex();
+    }
+    EndPrimitive();
+}
