@@ -285,6 +285,8 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             graphics_pipeline_library: needs.graphics_pipeline_library,
             depth_range_unrestricted: needs.depth_range_unrestricted,
             depth_clamp: needs.depth_clamp,
+            geometry_shader: needs.geometry_shader,
+            tessellation_shader: needs.tessellation_shader,
         },
     })?;
     say(&format!(
@@ -316,6 +318,12 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     }
     if needs.depth_clamp && !gpu.supported.depth_clamp {
         bail!(lacks("depthClamp"));
+    }
+    if needs.geometry_shader && !gpu.supported.geometry_shader {
+        bail!(lacks("geometryShader"));
+    }
+    if needs.tessellation_shader && !gpu.supported.tessellation_shader {
+        bail!(lacks("tessellationShader"));
     }
     if needs.graphics_pipeline_library && !gpu.supported.graphics_pipeline_library {
         bail!(lacks(

@@ -5,7 +5,7 @@
 //! one call or from `VK_EXT_graphics_pipeline_library` libraries linked together), and the
 //! pure maps from the plan's enums to Vulkan's.
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, ensure, Context, Result};
 use ash::vk;
 
 use crate::gpu::Gpu;
@@ -529,7 +529,33 @@ pub fn create_pipeline(
         Program::Ubo => (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::UboDynamic => (shaders::UBO_DYNAMIC_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::Ssbo => (shaders::SSBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::UboGeometry | Program::UboTessellation => {
+            (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG))
+        }
     };
+    // The stages between the vertex and fragment stages, where the program projects there.
+    let later: &[(vk::ShaderStageFlags, shaders::ShaderSource)] = match spec.program {
+        Program::UboGeometry => &[(vk::ShaderStageFlags::GEOMETRY, shaders::UBO_GEOM)],
+        Program::UboTessellation => &[
+            (
+                vk::ShaderStageFlags::TESSELLATION_CONTROL,
+                shaders::PASSTHROUGH_TESC,
+            ),
+            (
+                vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                shaders::UBO_TESE,
+            ),
+        ],
+        _ => &[],
+    };
+    ensure!(
+        later.is_empty() || !spec.libraries,
+        "pipeline libraries are built with a vertex stage alone"
+    );
+    let later_modules = later
+        .iter()
+        .map(|(stage, source)| Ok((*stage, ShaderModule::new(device, source)?)))
+        .collect::<Result<Vec<_>>>()?;
     let vert = ShaderModule::new(device, &vertex)?;
     let frag = fragment
         .map(|source| ShaderModule::new(device, &source))
@@ -545,14 +571,27 @@ pub fn create_pipeline(
             .name(c"main")
     });
     let stages: Vec<_> = std::iter::once(vertex_stage)
+        .chain(later_modules.iter().map(|(stage, module)| {
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(*stage)
+                .module(module.module)
+                .name(c"main")
+        }))
         .chain(fragment_stage)
         .collect();
+    let tessellates = spec.program == Program::UboTessellation;
+    // Each triangle of the index buffer is a patch of three control points.
+    let tessellation = vk::PipelineTessellationStateCreateInfo::default().patch_control_points(3);
     let (bindings, attributes) = position_input();
     let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
         .vertex_binding_descriptions(&bindings)
         .vertex_attribute_descriptions(&attributes);
-    let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let input_assembly =
+        vk::PipelineInputAssemblyStateCreateInfo::default().topology(if tessellates {
+            vk::PrimitiveTopology::PATCH_LIST
+        } else {
+            vk::PrimitiveTopology::TRIANGLE_LIST
+        });
     let (min_depth, max_depth) = match spec.viewport {
         Viewport::Static {
             min_depth,
@@ -732,6 +771,9 @@ pub fn create_pipeline(
         .color_blend_state(&color_blend)
         .dynamic_state(&dynamic_state)
         .layout(target.layout);
+    if tessellates {
+        info = info.tessellation_state(&tessellation);
+    }
     if target.pass.kind == PassKind::DynamicRendering {
         info = info.push_next(&mut rendering);
     } else {

@@ -84,6 +84,35 @@ pub const SSBO_VERT: ShaderSource = shader!("ssbo.vert");
 /// `flat_color.frag`: writes the flat color passed on by the buffer deliveries' vertex shaders.
 pub const FLAT_COLOR_FRAG: ShaderSource = shader!("flat_color.frag");
 
+/// A module compiled by glslang (`shaders/glslang/`: naga's GLSL front end reads no
+/// tessellation or geometry stage), committed beside its source; `glslang_outputs_are_current`
+/// checks them against the source where `glslangValidator` is installed.
+macro_rules! glslang_shader {
+    ($name:literal) => {
+        ShaderSource {
+            name: $name,
+            bytes: include_bytes!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../shaders/glslang/",
+                $name,
+                ".spv"
+            )),
+        }
+    };
+}
+
+/// `ubo_later.vert` (glslang): hands the object-space position on to the stage that projects
+/// it; writes no `gl_Position`.
+pub const UBO_LATER_VERT: ShaderSource = glslang_shader!("ubo_later.vert");
+/// `ubo.geom` (glslang): the `ubo` delivery's `((P * V) * M) * vec4(p, 1.0)` in a geometry
+/// shader, emitting each triangle as it is from a loop over its vertices; passes the color on.
+pub const UBO_GEOM: ShaderSource = glslang_shader!("ubo.geom");
+/// `passthrough.tesc` (glslang): one patch per triangle, every tessellation level 1.
+pub const PASSTHROUGH_TESC: ShaderSource = glslang_shader!("passthrough.tesc");
+/// `ubo.tese` (glslang): the `ubo` delivery's product in a tessellation evaluation shader, at
+/// the patch's corners; passes the color on.
+pub const UBO_TESE: ShaderSource = glslang_shader!("ubo.tese");
+
 /// Every embedded module.
 #[cfg(test)]
 pub const ALL: &[ShaderSource] = &[
@@ -103,6 +132,19 @@ pub const ALL: &[ShaderSource] = &[
     UBO_DYNAMIC_VERT,
     SSBO_VERT,
     FLAT_COLOR_FRAG,
+    UBO_LATER_VERT,
+    UBO_GEOM,
+    PASSTHROUGH_TESC,
+    UBO_TESE,
+];
+
+/// The glslang modules: (source file under `shaders/glslang/`, module).
+#[cfg(test)]
+pub const GLSLANG: &[(&str, ShaderSource)] = &[
+    ("ubo_later.vert", UBO_LATER_VERT),
+    ("ubo.geom", UBO_GEOM),
+    ("passthrough.tesc", PASSTHROUGH_TESC),
+    ("ubo.tese", UBO_TESE),
 ];
 
 #[cfg(test)]
@@ -126,6 +168,40 @@ mod tests {
             "spirv-val failed:\n{}",
             failures.join("\n")
         );
+    }
+
+    /// The committed glslang outputs are what the committed sources compile to (the command
+    /// in `shaders/glslang/README.md`). `glslangValidator` comes with `cargo xtask setup`
+    /// (`glslang-tools`); where it is missing the test says so and checks nothing else.
+    #[test]
+    fn glslang_outputs_are_current() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders/glslang");
+        let scratch = std::env::temp_dir().join(format!("revz-glslang-{}", std::process::id()));
+        std::fs::create_dir_all(&scratch).unwrap();
+        for (source, module) in GLSLANG {
+            let out = scratch.join(format!("{source}.spv"));
+            let run = std::process::Command::new("glslangValidator")
+                .args(["-V", "--target-env", "vulkan1.0", "-o"])
+                .arg(&out)
+                .arg(dir.join(source))
+                .output();
+            let Ok(run) = run else {
+                eprintln!("glslangValidator is not installed: cannot recompile {source}");
+                continue;
+            };
+            assert!(
+                run.status.success(),
+                "{source}: {}",
+                String::from_utf8_lossy(&run.stdout)
+            );
+            let compiled = std::fs::read(&out).unwrap();
+            assert!(
+                compiled == module.bytes,
+                "shaders/glslang/{source}.spv is not what {source} compiles to: rerun the \
+                 command in shaders/glslang/README.md"
+            );
+        }
+        std::fs::remove_dir_all(&scratch).ok();
     }
 
     #[test]
@@ -239,6 +315,10 @@ mod tests {
             (UBO_DYNAMIC_VERT, UNIFORM, 2),
             (SSBO_VERT, STORAGE_BUFFER, 1),
             (FLAT_COLOR_FRAG, UNIFORM, 0),
+            (UBO_LATER_VERT, UNIFORM, 0),
+            (UBO_GEOM, UNIFORM, 1),
+            (PASSTHROUGH_TESC, UNIFORM, 0),
+            (UBO_TESE, UNIFORM, 1),
         ] {
             let words = shader.words().unwrap();
             let classes: Vec<u32> = instructions(&words)
@@ -270,8 +350,24 @@ mod tests {
             .filter(|n| n.ends_with(".vert") || n.ends_with(".frag"))
             .collect();
         sources.sort();
-        let mut embedded: Vec<&str> = ALL.iter().map(|s| s.name).collect();
+        let glslang: Vec<&str> = GLSLANG.iter().map(|(_, s)| s.name).collect();
+        let mut embedded: Vec<&str> = ALL
+            .iter()
+            .map(|s| s.name)
+            .filter(|name| !glslang.contains(name))
+            .collect();
         embedded.sort();
         assert_eq!(sources, embedded);
+        // And every glslang source, under its own directory.
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/glslang");
+        let mut sources: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| !n.ends_with(".spv") && !n.ends_with(".md"))
+            .collect();
+        sources.sort();
+        let mut glslang: Vec<&str> = GLSLANG.iter().map(|(source, _)| *source).collect();
+        glslang.sort();
+        assert_eq!(sources, glslang);
     }
 }

@@ -27,6 +27,15 @@
 //!   differ there. (Measured at 160 x 120: `overlap` is bit-identical in every delivery;
 //!   `ubo` differs from push at 807 pixels of `sloped-plane`, 270 of `mars-patch`, 821 of
 //!   `plane-stack` at 480 x 360.)
+//!
+//!   `ubo-geometry` and `ubo-tessellation` apply `ubo`'s product in a geometry shader and in a
+//!   tessellation evaluation shader (issue #41), compiled by glslang: the same operations as
+//!   `ubo.vert` on the same corners (the tessellation evaluation shader rebuilds each exactly,
+//!   `1 * p + 0 * q + 0 * r`), but another compiler's code and lavapipe's code path for the
+//!   stage, and the tessellator may hand a triangle's corners over in another order: depth
+//!   moves by an ulp here and there (measured: `sloped-plane` and `mars-patch` identical to
+//!   `ubo` through the geometry shader, `overlap` and `plane-stack` not). Both are held to
+//!   `ubo`'s rules.
 //! - `infinite_d32_resolves_the_seed_cases_through_every_buffer_delivery` and
 //!   `infinite_d32_plane_stack_meets_the_float32_floor_through_every_buffer_delivery`
 //!   (`revz-tester report`, revz in `infinite` mode on D32_SFLOAT, depth readback allowed): no
@@ -49,8 +58,16 @@ use revz_tests::{
     BACKGROUND,
 };
 
-/// The buffer deliveries.
-const DELIVERIES: [&str; 3] = ["ubo", "ubo-dynamic", "ssbo"];
+/// The buffer deliveries: three that project in the vertex stage, and `ubo`'s blocks applied in
+/// the last pre-rasterization stage after it (issue #41): a geometry shader, a tessellation
+/// evaluation shader.
+const DELIVERIES: [&str; 5] = [
+    "ubo",
+    "ubo-dynamic",
+    "ssbo",
+    "ubo-geometry",
+    "ubo-tessellation",
+];
 
 /// The clear color of the tester's color attachment (25 / 255 grey), as RGBA8.
 const CLEAR: [u8; 4] = [25, 25, 25, 255];

@@ -21,6 +21,10 @@ pub const PACKAGES: &[(&str, &str)] = &[
     ("vulkan-tools", "vulkaninfo"),
     ("spirv-tools", "spirv-val, which checks the tester's SPIR-V"),
     (
+        "glslang-tools",
+        "glslangValidator, which checks the committed shaders/glslang/*.spv",
+    ),
+    (
         "libegl1",
         "libEGL.so.1 (glvnd), which `revz-tester gl-render` loads",
     ),

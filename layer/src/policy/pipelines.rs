@@ -520,7 +520,7 @@ impl std::fmt::Display for PipelinePath<'_> {
                 projection.end()
             ),
             PipelinePath::Derived(source) => {
-                write!(f, "{}, fitted by the vertex stage", source.describe())
+                write!(f, "{}, fitted by the shader", source.describe())
             }
             PipelinePath::Flip(reason) => f.write_str(reason),
             PipelinePath::NotRewritten => f.write_str("the mode does not rewrite depth"),
@@ -1227,10 +1227,7 @@ mod tests {
         assert_eq!(flip.to_string(), "its code is not given");
         let fitted = PipelinePath::of(None, derived, None);
         assert_eq!(fitted.label(), "precise");
-        assert_eq!(
-            fitted.to_string(),
-            "a uniform buffer, fitted by the vertex stage"
-        );
+        assert_eq!(fitted.to_string(), "a uniform buffer, fitted by the shader");
         let neither = PipelinePath::of(None, None, None);
         assert_eq!(neither, PipelinePath::NotRewritten);
         assert_eq!(neither.label(), "flip");

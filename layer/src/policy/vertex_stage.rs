@@ -169,6 +169,17 @@ impl LastStage {
         .map(|(_, stage)| stage)
     }
 
+    /// The stage's name, as logs say "its ... stage".
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            LastStage::Vertex => "vertex",
+            LastStage::TessellationEvaluation => "tessellation evaluation",
+            LastStage::Geometry => "geometry",
+            LastStage::Mesh => "mesh",
+        }
+    }
+
     /// The stage's flag.
     #[must_use]
     pub fn flag(self) -> vk::ShaderStageFlags {

@@ -93,7 +93,11 @@ pub enum DeliveryChoice {
     UboDynamic,
     /// P * V * M in a storage buffer indexed by the instance.
     Ssbo,
-    /// push, ubo, ubo-dynamic and ssbo.
+    /// The blocks of ubo, applied in a geometry shader.
+    UboGeometry,
+    /// The blocks of ubo, applied in a tessellation evaluation shader.
+    UboTessellation,
+    /// push, ubo, ubo-dynamic, ssbo, ubo-geometry and ubo-tessellation.
     All,
 }
 
@@ -104,6 +108,8 @@ impl DeliveryChoice {
             DeliveryChoice::Ubo => &[Delivery::Ubo],
             DeliveryChoice::UboDynamic => &[Delivery::UboDynamic],
             DeliveryChoice::Ssbo => &[Delivery::Ssbo],
+            DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
+            DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
             DeliveryChoice::All => &Delivery::ALL,
         }
     }

@@ -94,6 +94,8 @@ pub(super) fn supported_features(
         graphics_pipeline_library,
         depth_range_unrestricted: has(ash::ext::depth_range_unrestricted::NAME),
         depth_clamp: core.depth_clamp == vk::TRUE,
+        geometry_shader: core.geometry_shader == vk::TRUE,
+        tessellation_shader: core.tessellation_shader == vk::TRUE,
     }
 }
 
@@ -181,7 +183,9 @@ impl Gpu {
         let core_features = vk::PhysicalDeviceFeatures::default()
             .depth_bounds(enabled.depth_bounds)
             .depth_bias_clamp(enabled.depth_bias_clamp)
-            .depth_clamp(enabled.depth_clamp);
+            .depth_clamp(enabled.depth_clamp)
+            .geometry_shader(enabled.geometry_shader)
+            .tessellation_shader(enabled.tessellation_shader);
         let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(enabled.dynamic_rendering);
         // Below 1.3 (and 1.2), the extensions that stand in for the core commands, as an older

@@ -170,6 +170,10 @@ pub struct Features {
     pub depth_range_unrestricted: bool,
     /// `depthClamp`.
     pub depth_clamp: bool,
+    /// `geometryShader`.
+    pub geometry_shader: bool,
+    /// `tessellationShader`.
+    pub tessellation_shader: bool,
 }
 
 impl Features {
@@ -187,6 +191,8 @@ impl Features {
                 "VK_EXT_depth_range_unrestricted",
             ),
             (self.depth_clamp, "depthClamp"),
+            (self.geometry_shader, "geometryShader"),
+            (self.tessellation_shader, "tessellationShader"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -207,6 +213,8 @@ impl Features {
             depth_range_unrestricted: self.depth_range_unrestricted
                 && other.depth_range_unrestricted,
             depth_clamp: self.depth_clamp && other.depth_clamp,
+            geometry_shader: self.geometry_shader && other.geometry_shader,
+            tessellation_shader: self.tessellation_shader && other.tessellation_shader,
         }
     }
 }
@@ -391,6 +399,8 @@ mod tests {
             graphics_pipeline_library: true,
             depth_range_unrestricted: true,
             depth_clamp: true,
+            geometry_shader: true,
+            tessellation_shader: true,
         };
         assert_eq!(
             all.names(),
@@ -402,7 +412,9 @@ mod tests {
                 "depthClipControl",
                 "graphicsPipelineLibrary",
                 "VK_EXT_depth_range_unrestricted",
-                "depthClamp"
+                "depthClamp",
+                "geometryShader",
+                "tessellationShader"
             ]
         );
         let some = Features {

@@ -201,6 +201,13 @@ pub enum Program {
     /// read-only storage buffer of per-object `{ mat4 mvp; vec4 color }` indexed by
     /// `gl_InstanceIndex` (each object drawn as one instance, firstInstance = its index).
     Ssbo,
+    /// `ubo_later.vert` + `ubo.geom` + `flat_color.frag` (the `ubo-geometry` [`Delivery`]):
+    /// the buffers of [`Program::Ubo`], the product applied in a geometry shader.
+    UboGeometry,
+    /// `ubo_later.vert` + `passthrough.tesc` + `ubo.tese` + `flat_color.frag` (the
+    /// `ubo-tessellation` [`Delivery`]): the buffers of [`Program::Ubo`], the product applied
+    /// in a tessellation evaluation shader (patches of three points, every level 1).
+    UboTessellation,
 }
 
 /// How a scene hands its matrices to the vertex shader (`--delivery`): push constants, as
@@ -221,15 +228,23 @@ pub enum Delivery {
     /// Per-object P * V * M in a storage buffer, indexed by the instance index
     /// ([`Program::Ssbo`]).
     Ssbo,
+    /// The blocks of [`Delivery::Ubo`], applied in a geometry shader
+    /// ([`Program::UboGeometry`]).
+    UboGeometry,
+    /// The blocks of [`Delivery::Ubo`], applied in a tessellation evaluation shader
+    /// ([`Program::UboTessellation`]).
+    UboTessellation,
 }
 
 impl Delivery {
     /// Every delivery, push first.
-    pub const ALL: [Delivery; 4] = [
+    pub const ALL: [Delivery; 6] = [
         Delivery::Push,
         Delivery::Ubo,
         Delivery::UboDynamic,
         Delivery::Ssbo,
+        Delivery::UboGeometry,
+        Delivery::UboTessellation,
     ];
 
     /// The CLI and report name (`push`, `ubo`, `ubo-dynamic`, `ssbo`).
@@ -239,6 +254,8 @@ impl Delivery {
             Delivery::Ubo => "ubo",
             Delivery::UboDynamic => "ubo-dynamic",
             Delivery::Ssbo => "ssbo",
+            Delivery::UboGeometry => "ubo-geometry",
+            Delivery::UboTessellation => "ubo-tessellation",
         }
     }
 
@@ -250,6 +267,8 @@ impl Delivery {
             Delivery::Ubo => Some(Program::Ubo),
             Delivery::UboDynamic => Some(Program::UboDynamic),
             Delivery::Ssbo => Some(Program::Ssbo),
+            Delivery::UboGeometry => Some(Program::UboGeometry),
+            Delivery::UboTessellation => Some(Program::UboTessellation),
         }
     }
 }
@@ -257,7 +276,28 @@ impl Delivery {
 impl Program {
     /// Whether the program reads its matrices and color from buffers (no push constants).
     pub fn is_buffer_delivery(self) -> bool {
-        matches!(self, Program::Ubo | Program::UboDynamic | Program::Ssbo)
+        self.buffers().is_some()
+    }
+
+    /// The buffer delivery whose buffers (blocks, descriptor set and layout) the program
+    /// reads: itself for [`Program::Ubo`], [`Program::UboDynamic`] and [`Program::Ssbo`],
+    /// [`Program::Ubo`] for the programs that apply its product in a later stage; `None` for
+    /// the push-constant programs.
+    pub fn buffers(self) -> Option<Program> {
+        match self {
+            Program::Ubo | Program::UboGeometry | Program::UboTessellation => Some(Program::Ubo),
+            Program::UboDynamic | Program::Ssbo => Some(self),
+            _ => None,
+        }
+    }
+
+    /// The stage that applies the program's matrices (where its buffers are bound).
+    pub fn projecting_stage(self) -> ash::vk::ShaderStageFlags {
+        match self {
+            Program::UboGeometry => ash::vk::ShaderStageFlags::GEOMETRY,
+            Program::UboTessellation => ash::vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+            _ => ash::vk::ShaderStageFlags::VERTEX,
+        }
     }
 
     /// Whether the program samples the shadow map (needs a [`Target::Shadow`] pass before it,
@@ -272,7 +312,11 @@ impl Program {
     /// (their layouts have the same push-constant range).
     pub fn push_constant_size(self) -> u32 {
         match self {
-            Program::Ubo | Program::UboDynamic | Program::Ssbo => 0,
+            Program::Ubo
+            | Program::UboDynamic
+            | Program::Ssbo
+            | Program::UboGeometry
+            | Program::UboTessellation => 0,
             Program::MvpPair => 128,
             Program::Flat
             | Program::DepthOnly
@@ -621,6 +665,11 @@ pub struct Needs {
     pub depth_range_unrestricted: bool,
     /// The `depthClamp` feature (a pipeline clamps depth).
     pub depth_clamp: bool,
+    /// The `geometryShader` feature (a pipeline projects in a geometry shader).
+    pub geometry_shader: bool,
+    /// The `tessellationShader` feature (a pipeline projects in a tessellation evaluation
+    /// shader).
+    pub tessellation_shader: bool,
     /// Multisampled attachments of this sample count, resolved with this depth resolve mode
     /// (the device must support both for the formats, and the mode in
     /// `VkPhysicalDeviceDepthStencilResolveProperties`); every multisampled pass of a plan
@@ -683,6 +732,13 @@ impl Plan {
                  push-constant program has one)",
                 pipeline.name,
                 pipeline.program
+            );
+            ensure!(
+                !pipeline.libraries
+                    || program.projecting_stage() == ash::vk::ShaderStageFlags::VERTEX,
+                "pipeline {} is built from libraries, whose pre-rasterization library the tester \
+                 builds with a vertex stage alone; the {name} delivery projects in a later stage",
+                pipeline.name
             );
             pipeline.program = program;
         }
@@ -784,6 +840,8 @@ impl Plan {
             needs.depth_clip_control |= pipeline.negative_one_to_one;
             needs.graphics_pipeline_library |= pipeline.libraries;
             needs.depth_clamp |= pipeline.depth_clamp;
+            needs.geometry_shader |= pipeline.program == Program::UboGeometry;
+            needs.tessellation_shader |= pipeline.program == Program::UboTessellation;
             if let Viewport::Static {
                 min_depth,
                 max_depth,

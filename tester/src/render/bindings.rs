@@ -162,7 +162,7 @@ impl<'a> Renderer<'a> {
                     .binding(binding)
                     .descriptor_type(kind)
                     .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::VERTEX)
+                    .stage_flags(program.projecting_stage())
             })
             .collect();
         matrices.set = single_descriptor_set(

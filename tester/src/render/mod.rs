@@ -384,9 +384,11 @@ impl<'a> Renderer<'a> {
                 (self.shadow_layout, PLAIN_PUSH_STAGES)
             }
             Program::MvpPair => (self.pair_layout, vk::ShaderStageFlags::VERTEX),
-            Program::Ubo | Program::UboDynamic | Program::Ssbo => {
-                (self.matrix_layout, vk::ShaderStageFlags::empty())
-            }
+            Program::Ubo
+            | Program::UboDynamic
+            | Program::Ssbo
+            | Program::UboGeometry
+            | Program::UboTessellation => (self.matrix_layout, vk::ShaderStageFlags::empty()),
             Program::Flat
             | Program::DepthOnly
             | Program::FragDepth

@@ -508,7 +508,7 @@ impl Recorder<'_> {
             self.push(cmd, n, 0, program.push_constant_size())?;
         }
         let range = self.buffers.draws[n];
-        if matches!(program, Program::Ubo | Program::UboDynamic) {
+        if matches!(program.buffers(), Some(Program::Ubo | Program::UboDynamic)) {
             let matrices = self
                 .renderer
                 .matrices

@@ -143,7 +143,7 @@ impl Scene {
     ///
     /// and nothing for the push-constant programs.
     pub fn object_block(&self, program: Program, object: &Object, aspect: f64) -> Vec<u8> {
-        let matrices: Vec<DMat4> = match program {
+        let matrices: Vec<DMat4> = match program.buffers().unwrap_or(program) {
             Program::Ubo => self.separate_matrices(object, aspect).to_vec(),
             Program::UboDynamic => vec![self.model_split(View::Camera, object, aspect).0],
             Program::Ssbo => vec![self.mvp_in(View::Camera, object, aspect)],
@@ -214,7 +214,11 @@ impl Scene {
                 v.extend(outer.as_mat4().to_cols_array());
                 v
             }
-            Program::Ubo | Program::UboDynamic | Program::Ssbo => Vec::new(),
+            Program::Ubo
+            | Program::UboDynamic
+            | Program::Ssbo
+            | Program::UboGeometry
+            | Program::UboTessellation => Vec::new(),
         };
         debug_assert_eq!(values.len() * 4, program.push_constant_size() as usize);
         values.iter().flat_map(|v| v.to_le_bytes()).collect()
@@ -241,7 +245,7 @@ impl Scene {
         object: &Object,
         aspect: f64,
     ) -> Vec<DMat4> {
-        match (program, object.space) {
+        match (program.buffers().unwrap_or(program), object.space) {
             (Program::MvpPair | Program::UboDynamic, Space::World) => {
                 let (model, outer) = self.model_split(view, object, aspect);
                 vec![outer, model]
@@ -260,7 +264,7 @@ impl Scene {
     /// does not change it): P for [`Program::Ubo`], P * V for [`Program::MvpPair`] and
     /// [`Program::UboDynamic`], the whole clip transform otherwise.
     pub fn pushed_projection(&self, program: Program, object: &Object, aspect: f64) -> [f32; 16] {
-        let outer = match program {
+        let outer = match program.buffers().unwrap_or(program) {
             Program::MvpPair | Program::UboDynamic => {
                 self.model_split(View::Camera, object, aspect).1
             }

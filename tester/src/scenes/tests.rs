@@ -1281,7 +1281,7 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
     for scene in all() {
         let same = scene.with_delivery(Delivery::Push).unwrap();
         assert_eq!(same, scene, "push changes nothing");
-        for delivery in [Delivery::Ubo, Delivery::UboDynamic, Delivery::Ssbo] {
+        for delivery in Delivery::ALL.into_iter().skip(1) {
             let program = delivery.program().unwrap();
             match scene.with_delivery(delivery) {
                 Ok(taken) => {
@@ -1295,7 +1295,21 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                         scene.name
                     );
                     assert_eq!(taken.objects, scene.objects);
-                    assert_eq!(taken.plan.needs(), scene.plan.needs());
+                    // The device features of the stage that projects, and nothing else.
+                    let needs = taken.plan.needs();
+                    assert_eq!(needs.geometry_shader, delivery == Delivery::UboGeometry);
+                    assert_eq!(
+                        needs.tessellation_shader,
+                        delivery == Delivery::UboTessellation
+                    );
+                    assert_eq!(
+                        crate::plan::Needs {
+                            geometry_shader: false,
+                            tessellation_shader: false,
+                            ..needs
+                        },
+                        scene.plan.needs()
+                    );
                     // The ground truth comes from the scene, not the delivery.
                     // (w compared bit for bit: NaN where a pixel is not interior.)
                     let bits = |t: &crate::ground_truth::GroundTruth| {

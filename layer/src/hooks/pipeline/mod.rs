@@ -97,6 +97,8 @@ struct PreciseStage {
     derived: Option<MatrixSource>,
     carrier: Carrier,
     vertex: (usize, Arc<[u32]>),
+    /// The stage rewritten (the last pre-rasterization stage), for the log.
+    stage: vertex_stage::LastStage,
 }
 
 /// What revz does with one create info: the pipeline's depth state for draw time, and the
@@ -119,6 +121,8 @@ struct Plan {
     /// (`crate::shader::position_store`): the precise path. The application's pipeline itself (and
     /// its variant) is created with it: with the flip carrier it stores the shader's own z.
     vertex: Option<(usize, Arc<[u32]>)>,
+    /// Which stage that is (the last pre-rasterization stage), for the log.
+    rewritten_stage: Option<vertex_stage::LastStage>,
     /// The libraries the create info links, with those that have a reversed variant replaced
     /// by it; `None` when none has one.
     libraries: Option<Vec<vk::Pipeline>>,
@@ -287,6 +291,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                                     .unwrap_or_default();
                                 plan.depth.position_store = Some(stage.carrier);
                                 plan.vertex = Some(stage.vertex);
+                                plan.rewritten_stage = Some(stage.stage);
                             }
                             Err(reason) => plan.flip_reason = Some(reason),
                         }
@@ -551,9 +556,12 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 );
                 match path {
                     PipelinePath::Derived(source) => log::debug!(
-                        "pipeline {pipeline:?}: projection from {}: its vertex stage derives \
+                        "pipeline {pipeline:?}: projection from {}: its {} stage derives \
                          the range from the matrix it loads (precise path)",
-                        source.describe()
+                        source.describe(),
+                        plan.rewritten_stage
+                            .unwrap_or(vertex_stage::LastStage::Vertex)
+                            .name()
                     ),
                     PipelinePath::Pushed(p) => log::debug!(
                         "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \

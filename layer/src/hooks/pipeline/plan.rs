@@ -214,6 +214,7 @@ pub(super) fn projection_of(
             derived: range.derived,
             carrier,
             vertex: (index, rewrite.code),
+            stage: last_stage.unwrap_or(vertex_stage::LastStage::Vertex),
         }),
         // The policy found them all.
         _ => Err(MissingFact::Incomplete.reason().into()),
@@ -318,6 +319,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         static_state: StaticStatePlan::default(),
         fragment: None,
         vertex: None,
+        rewritten_stage: None,
         libraries: None,
         promotion: None,
         variants: Variants::default(),
@@ -405,6 +407,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         static_state,
         fragment: None,
         vertex: None,
+        rewritten_stage: None,
         libraries: None,
         promotion: None,
         variants: Variants::default(),
