@@ -579,6 +579,15 @@ impl Profile {
                     "failed": inner.refreshes_failed,
                 },
                 "precise_fraction_of_reversed": precise_fraction(&inner.totals),
+                "flip_reasons": flip_reasons(&inner)
+                    .iter()
+                    .map(|r| json!({
+                        "reason": r.reason,
+                        "pipelines": r.pipelines,
+                        "draws": r.draws,
+                        "fraction_of_draws": r.draws as f64 / inner.totals.total().max(1) as f64,
+                    }))
+                    .collect::<Vec<Value>>(),
             }),
         );
         let mode = self.header["settings"]
@@ -673,9 +682,61 @@ fn significant(value: f64) -> String {
     }
 }
 
+/// Why draws into reversed attachments took the flip path: one reason of the flip pipelines,
+/// or the draws of precise pipelines sent to the flip path one by one.
+#[derive(Debug, PartialEq)]
+struct FlipReason<'a> {
+    reason: &'a str,
+    /// Pipelines (or vertex shader objects) that take the flip path for this reason.
+    pipelines: usize,
+    /// Their draws into reversed attachments.
+    draws: u64,
+}
+
+/// What precise pipelines' draws that took the flip path have in common.
+const PER_DRAW_FLIPS: &str = "draws of precise pipelines sent to the flip path (a matrix \
+    revz cannot trust, a depth clamp enabled, viewports a secondary inherits)";
+
+/// The flip path's draws by reason, most draws first (the profile's `flip_reasons` and the
+/// summary's shares: what would help most). A reason whose pipelines drew nothing is kept,
+/// with 0 draws.
+fn flip_reasons(inner: &Inner) -> Vec<FlipReason<'_>> {
+    let mut reasons: Vec<FlipReason<'_>> = Vec::new();
+    let mut by_flip_pipelines = 0;
+    for (handle, record) in &inner.pipelines {
+        if record.path != "flip" {
+            continue;
+        }
+        let draws = inner.by_pipeline.get(handle).map_or(0, |d| d.flip);
+        by_flip_pipelines += draws;
+        match reasons.iter_mut().find(|r| r.reason == record.projection) {
+            Some(reason) => {
+                reason.pipelines += 1;
+                reason.draws += draws;
+            }
+            None => reasons.push(FlipReason {
+                reason: &record.projection,
+                pipelines: 1,
+                draws,
+            }),
+        }
+    }
+    let per_draw = inner.totals.flip.saturating_sub(by_flip_pipelines);
+    if per_draw > 0 {
+        reasons.push(FlipReason {
+            reason: PER_DRAW_FLIPS,
+            pipelines: 0,
+            draws: per_draw,
+        });
+    }
+    reasons.sort_by(|a, b| b.draws.cmp(&a.draws).then(a.reason.cmp(b.reason)));
+    reasons
+}
+
 /// The line a person reads (the README's "did it work?"), such as `precise 87% of draws
-/// (infinite; camera n=0.1), flip 13% (2 pipelines: ...), native 0% (...); depth images: 1
-/// reversed D32_SFLOAT, 1 native D32_SFLOAT (shaders read it ...)`.
+/// (infinite; camera n=0.1), flip 13% (2 pipelines: <reason> 10%; <reason> 3%), native 0%
+/// (...); depth images: 1 reversed D32_SFLOAT, 1 native D32_SFLOAT (shaders read it ...)`: the
+/// flip path's share of all draws per reason.
 fn summary(inner: &Inner, mode: &str) -> String {
     let d = &inner.totals;
     let total = d.total().max(1) as f64;
@@ -699,19 +760,17 @@ fn summary(inner: &Inner, mode: &str) -> String {
     if fitted {
         precise_how.push("ranges fitted by vertex stages".to_owned());
     }
-    let flip_pipelines: Vec<&PipelineRecord> = inner
-        .pipelines
+    let reasons = flip_reasons(inner);
+    let flip_pipelines: usize = reasons.iter().map(|r| r.pipelines).sum();
+    let shares: Vec<String> = reasons
         .iter()
-        .map(|(_, r)| r)
-        .filter(|r| r.path == "flip")
+        .map(|r| format!("{} {:.0}%", r.reason, percent(r.draws)))
         .collect();
-    let mut flip_reasons: Vec<&str> = flip_pipelines.iter().map(|r| &r.projection[..]).collect();
-    flip_reasons.sort_unstable();
-    flip_reasons.dedup();
-    let flip_how = match flip_pipelines.len() {
-        0 => String::new(),
-        1 => format!(" (1 pipeline: {})", flip_reasons.join("; ")),
-        n => format!(" ({n} pipelines: {})", flip_reasons.join("; ")),
+    let flip_how = match flip_pipelines {
+        0 if shares.is_empty() => String::new(),
+        0 => format!(" ({})", shares.join("; ")),
+        1 => format!(" (1 pipeline: {})", shares.join("; ")),
+        n => format!(" ({n} pipelines: {})", shares.join("; ")),
     };
     // Images grouped by what happened to them and their format.
     let mut groups: Vec<(bool, String, usize, Option<&str>)> = Vec::new();
@@ -853,9 +912,11 @@ mod tests {
         let summary = profile.document()["summary"].as_str().unwrap().to_owned();
         assert_eq!(
             summary,
-            "precise 50% of draws (complementary; camera n=0.1), flip 25%, native 25% (12 \
-             draws, 4 frames); depth images: 1 reversed D32_SFLOAT, 1 native D32_SFLOAT \
-             (shaders read it)"
+            format!(
+                "precise 50% of draws (complementary; camera n=0.1), flip 25% \
+                 ({PER_DRAW_FLIPS} 25%), native 25% (12 draws, 4 frames); depth images: 1 \
+                 reversed D32_SFLOAT, 1 native D32_SFLOAT (shaders read it)"
+            )
         );
         assert_eq!(significant(0.00125), "0.00125");
         assert_eq!(significant(1234.7), "1235");
@@ -864,6 +925,81 @@ mod tests {
         let again: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
         assert_eq!(again["images"][1]["reason"], "shaders read it");
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn flip_draws_are_shared_out_by_reason_most_first() {
+        let mut inner = Inner::default();
+        let flip = |reason: &str| PipelineRecord {
+            kind: "pipeline",
+            path: "flip",
+            projection: reason.into(),
+            reversed_variant: false,
+            promoted_variant: false,
+        };
+        let geometry = "revz's push constants do not reach its geometry stage";
+        let ortho = "Position does not come from a push-constant matrix";
+        inner.pipelines = vec![
+            (1, flip(ortho)),
+            (2, flip(geometry)),
+            (3, flip(geometry)),
+            (
+                4,
+                PipelineRecord {
+                    path: "precise",
+                    ..flip("push-constant bytes 0..64")
+                },
+            ),
+            (5, flip("its code is not given")),
+        ];
+        let draws = |flip, precise| DrawCounts {
+            native: 0,
+            flip,
+            precise,
+        };
+        inner.by_pipeline = [
+            (1, draws(2, 0)),
+            (2, draws(3, 0)),
+            (3, draws(4, 0)),
+            (4, draws(1, 10)),
+        ]
+        .into_iter()
+        .collect();
+        inner.totals = draws(10, 10);
+        let reasons = flip_reasons(&inner);
+        assert_eq!(
+            reasons,
+            [
+                FlipReason {
+                    reason: geometry,
+                    pipelines: 2,
+                    draws: 7
+                },
+                FlipReason {
+                    reason: ortho,
+                    pipelines: 1,
+                    draws: 2
+                },
+                FlipReason {
+                    reason: PER_DRAW_FLIPS,
+                    pipelines: 0,
+                    draws: 1
+                },
+                FlipReason {
+                    reason: "its code is not given",
+                    pipelines: 1,
+                    draws: 0
+                },
+            ]
+        );
+        let line = summary(&inner, "infinite");
+        assert!(
+            line.contains(&format!(
+                "flip 50% (4 pipelines: {geometry} 35%; {ortho} 10%; {PER_DRAW_FLIPS} 5%; its \
+                 code is not given 0%)"
+            )),
+            "{line}"
+        );
     }
 
     #[test]

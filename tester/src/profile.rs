@@ -179,6 +179,29 @@ pub fn render_tables(profile: &Value) -> String {
         );
     }
     let totals = &profile["totals"];
+    let reasons = totals["flip_reasons"].as_array().into_iter().flatten();
+    let mut reasons = reasons.peekable();
+    if reasons.peek().is_some() {
+        // What would help most: the flip path's draws by reason.
+        line(&mut out, String::new());
+        line(
+            &mut out,
+            "| flip path because | pipelines | draws | of all draws |".into(),
+        );
+        line(&mut out, "|---|---|---|---|".into());
+        for r in reasons {
+            line(
+                &mut out,
+                format!(
+                    "| {} | {} | {} | {:.1}% |",
+                    text(&r["reason"]),
+                    text(&r["pipelines"]),
+                    text(&r["draws"]),
+                    100.0 * r["fraction_of_draws"].as_f64().unwrap_or(0.0)
+                ),
+            );
+        }
+    }
     line(&mut out, String::new());
     line(
         &mut out,

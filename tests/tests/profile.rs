@@ -215,6 +215,18 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
         }
     }
     assert_eq!(paths(&profile["totals"]["draws"]), expected, "{what}");
+    // The flip path's draws, shared out by reason (issue #41): all of them, each once.
+    let reasons = profile["totals"]["flip_reasons"]
+        .as_array()
+        .expect("flip_reasons");
+    let by_reason: u64 = reasons.iter().map(|r| r["draws"].as_u64().unwrap()).sum();
+    assert_eq!(by_reason, expected.1, "{what}: {reasons:?}");
+    let flip_pipelines = pipelines.iter().filter(|p| p["path"] == "flip").count();
+    let counted: usize = reasons
+        .iter()
+        .map(|r| r["pipelines"].as_u64().unwrap() as usize)
+        .sum();
+    assert_eq!(counted, flip_pipelines, "{what}: {reasons:?}");
     assert_eq!(profile["totals"]["frames"], frames, "{what}");
     let cameras = profile["cameras"].as_array().expect("cameras");
     let pushed = delivery == "push" && mode != "flip" && !application_reversed;
@@ -313,6 +325,8 @@ fn the_profile_says_what_buffer_deliveries_do() {
         ("sloped-plane", "ubo-dynamic"),
         ("far-objects", "ssbo"),
         ("compare-ops", "ubo"),
+        ("plane-stack", "ubo-geometry"),
+        ("sloped-plane", "ubo-tessellation"),
     ] {
         for mode in ["flip", "complementary", "infinite"] {
             let (render, profile) =
