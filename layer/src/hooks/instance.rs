@@ -698,6 +698,22 @@ pub unsafe extern "system" fn create_device(
     )
 }
 
+/// The core features the application enabled: `pEnabledFeatures`, or the
+/// `VkPhysicalDeviceFeatures2` in its chain (the spec allows one or the other); none when
+/// neither is given.
+///
+/// # Safety
+/// `info` is the application's valid create info.
+unsafe fn enabled_core_features(info: &vk::DeviceCreateInfo<'_>) -> vk::PhysicalDeviceFeatures {
+    // SAFETY: null or valid (the caller's contract).
+    if let Some(features) = unsafe { info.p_enabled_features.as_ref() } {
+        return *features;
+    }
+    // SAFETY: a valid pNext chain (the caller's contract).
+    unsafe { crate::chain::find::<vk::PhysicalDeviceFeatures2<'_>>(info.p_next) }
+        .map_or_else(vk::PhysicalDeviceFeatures::default, |f| f.features)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -733,20 +749,4 @@ mod tests {
         // SAFETY: null is allowed by the spec.
         unsafe { destroy_instance(vk::Instance::null(), std::ptr::null()) };
     }
-}
-
-/// The core features the application enabled: `pEnabledFeatures`, or the
-/// `VkPhysicalDeviceFeatures2` in its chain (the spec allows one or the other); none when
-/// neither is given.
-///
-/// # Safety
-/// `info` is the application's valid create info.
-unsafe fn enabled_core_features(info: &vk::DeviceCreateInfo<'_>) -> vk::PhysicalDeviceFeatures {
-    // SAFETY: null or valid (the caller's contract).
-    if let Some(features) = unsafe { info.p_enabled_features.as_ref() } {
-        return *features;
-    }
-    // SAFETY: a valid pNext chain (the caller's contract).
-    unsafe { crate::chain::find::<vk::PhysicalDeviceFeatures2<'_>>(info.p_next) }
-        .map_or_else(vk::PhysicalDeviceFeatures::default, |f| f.features)
 }
