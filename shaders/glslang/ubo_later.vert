@@ -1,6 +1,6 @@
 #version 450
-// Vertex stage of the `ubo-geometry` and `ubo-tessellation` deliveries: hands the object-space
-// position on to the stage that projects it (ubo.geom, ubo.tese); writes no gl_Position.
+// Vertex stage of the `ubo-tessellation` delivery: hands the object-space position on to the
+// stage that projects it (ubo.tese interpolates it); writes no gl_Position.
 
 layout(location = 0) in vec3 position;
 layout(location = 0) out vec3 object_position;

@@ -529,9 +529,8 @@ pub fn create_pipeline(
         Program::Ubo => (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::UboDynamic => (shaders::UBO_DYNAMIC_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::Ssbo => (shaders::SSBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
-        Program::UboGeometry | Program::UboTessellation => {
-            (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG))
-        }
+        Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::UboTessellation => (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG)),
     };
     // The stages between the vertex and fragment stages, where the program projects there.
     let later: &[(vk::ShaderStageFlags, shaders::ShaderSource)] = match spec.program {

@@ -101,11 +101,15 @@ macro_rules! glslang_shader {
     };
 }
 
-/// `ubo_later.vert` (glslang): hands the object-space position on to the stage that projects
-/// it; writes no `gl_Position`.
+/// `ubo_later.vert` (glslang): hands the object-space position on to the tessellation stages
+/// as a varying; writes no `gl_Position`.
 pub const UBO_LATER_VERT: ShaderSource = glslang_shader!("ubo_later.vert");
-/// `ubo.geom` (glslang): the `ubo` delivery's `((P * V) * M) * vec4(p, 1.0)` in a geometry
-/// shader, emitting each triangle as it is from a loop over its vertices; passes the color on.
+/// `ubo_position.vert` (glslang): `gl_Position = vec4(position, 1.0)`, which the geometry
+/// stage projects.
+pub const UBO_POSITION_VERT: ShaderSource = glslang_shader!("ubo_position.vert");
+/// `ubo.geom` (glslang): the `ubo` delivery's `((P * V) * M) * gl_in[i].gl_Position` in a
+/// geometry shader (the vertex stage's position, w = 1), emitting each triangle as it is from
+/// a loop over its vertices; passes the color on.
 pub const UBO_GEOM: ShaderSource = glslang_shader!("ubo.geom");
 /// `passthrough.tesc` (glslang): one patch per triangle, every tessellation level 1.
 pub const PASSTHROUGH_TESC: ShaderSource = glslang_shader!("passthrough.tesc");
@@ -133,6 +137,7 @@ pub const ALL: &[ShaderSource] = &[
     SSBO_VERT,
     FLAT_COLOR_FRAG,
     UBO_LATER_VERT,
+    UBO_POSITION_VERT,
     UBO_GEOM,
     PASSTHROUGH_TESC,
     UBO_TESE,
@@ -142,6 +147,7 @@ pub const ALL: &[ShaderSource] = &[
 #[cfg(test)]
 pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("ubo_later.vert", UBO_LATER_VERT),
+    ("ubo_position.vert", UBO_POSITION_VERT),
     ("ubo.geom", UBO_GEOM),
     ("passthrough.tesc", PASSTHROUGH_TESC),
     ("ubo.tese", UBO_TESE),
@@ -316,6 +322,7 @@ mod tests {
             (SSBO_VERT, STORAGE_BUFFER, 1),
             (FLAT_COLOR_FRAG, UNIFORM, 0),
             (UBO_LATER_VERT, UNIFORM, 0),
+            (UBO_POSITION_VERT, UNIFORM, 0),
             (UBO_GEOM, UNIFORM, 1),
             (PASSTHROUGH_TESC, UNIFORM, 0),
             (UBO_TESE, UNIFORM, 1),

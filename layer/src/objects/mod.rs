@@ -40,6 +40,9 @@ pub type RewrittenVertex = Result<VertexRewrite, crate::shader::position_store::
 pub struct VertexRewrite {
     pub code: Arc<[u32]>,
     pub derived: Option<crate::shader::derived_range::MatrixSource>,
+    /// The stage projects the previous stage's `Position`: the pipeline takes the precise
+    /// path only where that stage stores w = 1 (`DeviceObjects::position_w_one`).
+    pub needs_input_unit_w: bool,
 }
 
 /// A layout's push-constant ranges as (stages, offset, size), the key of revz's own push
@@ -361,6 +364,11 @@ pub struct DeviceObjects {
     /// Vertex modules with a projection from push constants (precise modes only): rewritten
     /// to store the carrier's depth into `Position` (`crate::shader::position_store`), or why not.
     pub position_stores: Table<vk::ShaderModule, RewrittenVertex>,
+    /// Whether each vertex or tessellation evaluation module stores `Position` with w = 1
+    /// exactly (`crate::shader::position_store::stores_position_w_one`), where the device
+    /// enabled a later stage: what a geometry or tessellation evaluation stage that projects
+    /// `gl_in[i].gl_Position` needs of the stage before.
+    pub position_w_one: Table<vk::ShaderModule, bool>,
     /// SPIR-V chained into vertex stages instead of a module: analyzed and rewritten once per
     /// distinct code, not at every pipeline creation.
     pub inline_vertex: InlineCodes<(Arc<ModuleAnalysis>, Option<RewrittenVertex>)>,

@@ -217,6 +217,10 @@ pub struct VertexStageFacts<'a> {
     /// Its vertex module's `Position` rewrite: where its stage derives the range from (`None`:
     /// it does not), or why it has none.
     pub rewrite: Result<Option<MatrixSource>, Missing>,
+    /// The rewritten stage projects the previous stage's `Position` (`gl_in[i].gl_Position`),
+    /// and whether that stage stores it with w = 1: `None` where the rewrite needs nothing of
+    /// the stage before.
+    pub input_unit_w: Option<bool>,
 }
 
 /// A fact revz lacks of a candidate pipeline's vertex stage while it gathers
@@ -369,6 +373,13 @@ impl VertexStageFacts<'_> {
         if projection.is_none() && derived.is_none() {
             return Err("Position does not come from a push-constant matrix".into());
         }
+        if self.input_unit_w == Some(false) {
+            return Err(format!(
+                "its {} stage projects the previous stage's Position (gl_in[i].gl_Position), \
+                 which that stage does not store as vec4(p, 1.0)",
+                stage.name()
+            ));
+        }
         Ok(VertexRange {
             projection,
             derived,
@@ -507,6 +518,7 @@ mod tests {
             convention: Some(DepthConvention::ZeroToOne),
             carrier_room: true,
             rewrite: Ok(None),
+            input_unit_w: None,
         }
     }
 
@@ -583,6 +595,16 @@ mod tests {
                     derived: Some(MatrixSource::UniformBuffer)
                 })
             );
+            // Projecting gl_in's Position: as the stage before stores it.
+            let projects_input = |w_one| VertexStageFacts {
+                input_unit_w: Some(w_one),
+                ..facts
+            };
+            assert!(projects_input(true).decide().is_ok());
+            assert!(projects_input(false)
+                .decide()
+                .unwrap_err()
+                .contains("projects the previous stage's Position"));
             let unreached = VertexStageFacts {
                 carrier_reaches_stage: false,
                 ..facts

@@ -201,8 +201,9 @@ pub enum Program {
     /// read-only storage buffer of per-object `{ mat4 mvp; vec4 color }` indexed by
     /// `gl_InstanceIndex` (each object drawn as one instance, firstInstance = its index).
     Ssbo,
-    /// `ubo_later.vert` + `ubo.geom` + `flat_color.frag` (the `ubo-geometry` [`Delivery`]):
-    /// the buffers of [`Program::Ubo`], the product applied in a geometry shader.
+    /// `ubo_position.vert` + `ubo.geom` + `flat_color.frag` (the `ubo-geometry` [`Delivery`]):
+    /// the buffers of [`Program::Ubo`], the product applied in a geometry shader to the
+    /// vertex stage's `gl_Position`.
     UboGeometry,
     /// `ubo_later.vert` + `passthrough.tesc` + `ubo.tese` + `flat_color.frag` (the
     /// `ubo-tessellation` [`Delivery`]): the buffers of [`Program::Ubo`], the product applied

@@ -94,27 +94,29 @@ pub(super) fn position_store_of(
             .map(|entries| entries.iter().map(|(_, analysis)| analysis)),
     )?;
     let no_position = position_store::Unsupported("no Position output");
-    let rewrite = match store {
-        PositionStore::Carrier => {
-            position_store::rewrite_position_store(words, offset).and_then(|code| {
-                let code = code.ok_or(no_position)?;
-                Ok(VertexRewrite {
-                    code: code.into(),
-                    derived: None,
-                })
-            })
-        }
-        // No projection in push constants: the stage derives its range from the matrix it
-        // loads.
-        PositionStore::Deriving => position_store::rewrite_position_store_deriving(words, offset)
-            .and_then(|code| {
-                let (code, source) = code.ok_or(no_position)?;
-                Ok(VertexRewrite {
-                    code: code.into(),
-                    derived: Some(source),
-                })
-            }),
-    };
+    let rewrite =
+        match store {
+            PositionStore::Carrier => position_store::rewrite_position_store(words, offset)
+                .and_then(|code| {
+                    let code = code.ok_or(no_position)?;
+                    Ok(VertexRewrite {
+                        code: code.into(),
+                        derived: None,
+                        needs_input_unit_w: false,
+                    })
+                }),
+            // No projection in push constants: the stage derives its range from the matrix it
+            // loads.
+            PositionStore::Deriving => position_store::derive_position_store(words, offset)
+                .and_then(|rewrite| {
+                    let rewrite = rewrite.ok_or(no_position)?;
+                    Ok(VertexRewrite {
+                        code: rewrite.code.into(),
+                        derived: Some(rewrite.source),
+                        needs_input_unit_w: rewrite.assumes_input_unit_w,
+                    })
+                }),
+        };
     Some(rewrite)
 }
 
@@ -154,6 +156,13 @@ pub unsafe extern "system" fn create_shader_module(
                 if let Some(rewrite) = position_store_of(&state, &analysis, words) {
                     state.objects.position_stores.insert(module, rewrite);
                 }
+                // Only where a later stage may read this one's Position.
+                if !state.policy.carrier_later_stages.is_empty() {
+                    state
+                        .objects
+                        .position_w_one
+                        .insert(module, position_store::stores_position_w_one(words));
+                }
                 state
                     .objects
                     .vertex_modules
@@ -168,7 +177,7 @@ destroy_hook!(
     destroy_shader_module,
     DESTROY_SHADER_MODULE,
     vk::ShaderModule,
-    fragment_depth_modules | vertex_modules | position_stores,
+    fragment_depth_modules | vertex_modules | position_stores | position_w_one,
     destroy_shader_module
 );
 

@@ -192,6 +192,14 @@ pub(super) fn projection_of(
             .map_err(|reason| *reason),
         name.map(std::ffi::CStr::to_bytes),
     );
+    // A geometry stage projecting gl_in's Position needs the stage before it (the
+    // tessellation evaluation or vertex stage) to store w = 1.
+    let input_unit_w = match &rewrite {
+        Ok(rewrite) if rewrite.needs_input_unit_w => {
+            Some(prior_stage_w_one(state, stages, last_stage))
+        }
+        _ => None,
+    };
     let ranges = state.objects.pipeline_layouts.get(&info.layout);
     let carrier = state.objects.layout_carriers.get(&info.layout);
     let facts = VertexStageFacts {
@@ -206,6 +214,7 @@ pub(super) fn projection_of(
         convention: depth_convention(info, dynamic),
         carrier_room: carrier.is_some(),
         rewrite: rewrite.as_ref().map(|r| r.derived).map_err(|m| *m),
+        input_unit_w,
     };
     let range = facts.decide()?;
     match (carrier, rewrite, vertex_index) {
@@ -500,6 +509,37 @@ fn inline_vertex(
         let rewrite = position_store_of(state, &analysis, words);
         (Arc::new(analysis), rewrite)
     })
+}
+
+/// Whether the stage before the last pre-rasterization stage `last` (a geometry stage's
+/// tessellation evaluation or vertex stage) stores `Position` with w = 1 exactly
+/// (`DeviceObjects::position_w_one`, or its inline code scanned now). A tessellation
+/// evaluation stage reads the tessellation control stage's output, which revz does not
+/// follow: `false`.
+fn prior_stage_w_one(
+    state: &DeviceState,
+    stages: &[vk::PipelineShaderStageCreateInfo<'_>],
+    last: Option<vertex_stage::LastStage>,
+) -> bool {
+    let prior = match last {
+        Some(vertex_stage::LastStage::Geometry) => {
+            let find = |flag| stages.iter().find(|s| s.stage == flag);
+            find(vk::ShaderStageFlags::TESSELLATION_EVALUATION)
+                .or_else(|| find(vk::ShaderStageFlags::VERTEX))
+        }
+        _ => None,
+    };
+    let Some(prior) = prior else {
+        return false;
+    };
+    if prior.module != vk::ShaderModule::null() {
+        return state
+            .objects
+            .position_w_one
+            .get(&prior.module)
+            .unwrap_or(false);
+    }
+    inline_code(prior).is_some_and(crate::shader::position_store::stores_position_w_one)
 }
 
 /// Whether `info`'s pipeline clamps depth: its rasterization state's `depthClampEnable`, or

@@ -122,6 +122,10 @@ pub struct Leaf {
     pub columns: Option<[u32; 4]>,
     pub insert: Insert,
     pub source: MatrixSource,
+    /// The vector the matrix multiplies is the previous stage's `Position` (`gl_in[i]
+    /// .gl_Position` in a geometry or tessellation evaluation shader): its w is 1 only where
+    /// that stage stores w = 1 ([`stores_unit_w`]), which the pipeline checks.
+    pub assumes_input_unit_w: bool,
 }
 
 /// How `Position` is stored, as [`crate::shader::position_store`]'s body pass saw it.
@@ -140,7 +144,7 @@ pub struct PositionStores {
 }
 
 pub use fit::{Fit, Types, FIT_IDS, RETURN_IDS};
-pub use trace::find;
+pub use trace::{find, stores_unit_w};
 
 /// What [`find`] needs of the module's declarations.
 #[derive(Debug)]
@@ -167,6 +171,11 @@ pub struct ModuleFacts<'a> {
     /// The stage's inputs are vertex attributes (a vertex shader): a fetch of fewer than four
     /// components gives w = 1. A later stage's inputs are what the stage before stored.
     pub inputs_are_attributes: bool,
+    /// Input variables that are arrays of blocks with a `Position` member (`gl_in`): the
+    /// variable and the member's index.
+    pub input_positions: &'a HashMap<u32, u32>,
+    /// 32-bit integer constants: id -> value.
+    pub int_constants: &'a HashMap<u32, u32>,
 }
 
 /// `OpTypeBool`, `BufferBlock`, and the constant opcodes a constant leaf can be, for the

@@ -30,6 +30,11 @@ struct Defs {
     ones: HashSet<u32>,
     /// `Input` variables (vertex attributes: a fetch of fewer than 4 components gives w = 1).
     inputs: HashSet<u32>,
+    /// Input arrays of blocks with a `Position` member, and the member ([`ModuleFacts`]).
+    input_positions: HashMap<u32, u32>,
+    int_constants: HashMap<u32, u32>,
+    /// [`Defs::unit_w`] took a load of the previous stage's `Position` for w = 1.
+    assumed_input_w: std::cell::Cell<bool>,
 }
 
 fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
@@ -84,6 +89,9 @@ impl Defs {
                 .filter(|(_, &(_, class))| module.inputs_are_attributes && class == STORAGE_INPUT)
                 .map(|(&id, _)| id)
                 .collect(),
+            input_positions: module.input_positions.clone(),
+            int_constants: module.int_constants.clone(),
+            assumed_input_w: std::cell::Cell::new(false),
         };
         let mut open_loops: Vec<(u32, usize)> = Vec::new();
         let mut word = HEADER_WORDS;
@@ -182,36 +190,71 @@ impl Defs {
 
     /// Whether the vector a projection multiplies has w = 1 (what `z' = c_w w + c_1` assumes:
     /// the line's constant term is `B * v.w`): `vec4(p, 1.0)`, an attribute, a product of
-    /// such a vector (by affine matrices), through copies, bitcasts and followed variables.
+    /// such a vector (by affine matrices), through copies, bitcasts and followed variables;
+    /// the previous stage's `Position` too, noted in [`Self::assumed_input_w`] for the
+    /// pipeline to check.
     fn unit_w(&self, vector: u32, depth: u32) -> bool {
+        self.unit_w_of(vector, depth, true)
+    }
+
+    /// Whether a value stored into `Position` has w = 1 exactly: `vec4(p, 1.0)` through copies,
+    /// bitcasts and followed variables; neither an input (what it holds is the stage before's
+    /// or the application's data) nor a product (`through_products`: false).
+    fn unit_w_of(&self, vector: u32, depth: u32, through_products: bool) -> bool {
         if depth > 16 {
             return false;
         }
         let vector = self.unwrapped(vector);
-        if let Some((_, terms_w_one)) = self.column_source(vector) {
-            return match terms_w_one {
-                ColumnW::Folded => true,
-                ColumnW::Of(source) => self.unit_w(source, depth + 1),
-            };
+        if through_products {
+            if let Some((_, terms_w_one)) = self.column_source(vector) {
+                return match terms_w_one {
+                    ColumnW::Folded => true,
+                    ColumnW::Of(source) => self.unit_w(source, depth + 1),
+                };
+            }
         }
         let Some((_, opcode, operands)) = self.at.get(&vector) else {
             return false;
         };
+        let next = |id: u32| self.unit_w_of(id, depth + 1, through_products);
         match (*opcode, operands.as_slice()) {
             (OP_COMPOSITE_CONSTRUCT, [.., last]) if operands.len() > 2 => {
                 let last = self.unwrapped(*last);
                 self.ones.contains(&last)
             }
-            (OP_MATRIX_TIMES_VECTOR, &[_, _, _, v]) => self.unit_w(v, depth + 1),
-            (OP_COPY_OBJECT, &[_, _, source]) => self.unit_w(source, depth + 1),
-            (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => self
-                .member(composite, index)
-                .is_some_and(|m| self.unit_w(m, depth + 1)),
+            (OP_MATRIX_TIMES_VECTOR, &[_, _, _, v]) if through_products => next(v),
+            (OP_COPY_OBJECT, &[_, _, source]) => next(source),
+            (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => {
+                self.member(composite, index).is_some_and(next)
+            }
             (OP_LOAD, &[_, _, pointer, ..]) => {
-                self.inputs.contains(&pointer)
-                    || self
-                        .through_local(pointer, self.at_of(vector))
-                        .is_some_and(|stored| self.unit_w(stored, depth + 1))
+                if through_products && self.inputs.contains(&pointer) {
+                    return true;
+                }
+                if through_products && self.is_input_position(pointer) {
+                    self.assumed_input_w.set(true);
+                    return true;
+                }
+                self.through_local(pointer, self.at_of(vector))
+                    .is_some_and(next)
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether `pointer` is `gl_in[i].gl_Position`: an access chain into an input array of
+    /// blocks, at the block's `Position` member.
+    fn is_input_position(&self, pointer: u32) -> bool {
+        match self.at.get(&pointer) {
+            Some((_, OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, operands)) => {
+                match operands.as_slice() {
+                    &[_, _, base, _vertex, member] => {
+                        self.input_positions.get(&base).is_some_and(|&position| {
+                            self.int_constants.get(&member) == Some(&position)
+                        })
+                    }
+                    _ => false,
+                }
             }
             _ => false,
         }
@@ -550,6 +593,7 @@ pub fn find(
         columns: None,
         insert,
         source,
+        assumes_input_unit_w: defs.assumed_input_w.get(),
     })
 }
 
@@ -594,6 +638,7 @@ fn column_leaf(
         columns: Some(columns),
         insert: Insert::After(at),
         source,
+        assumes_input_unit_w: defs.assumed_input_w.get(),
     })
 }
 
@@ -635,4 +680,28 @@ fn buffer_block_of(module: &ModuleFacts<'_>, pointer: u32, defs: &Defs) -> bool 
         }
     }
     false
+}
+
+/// Whether every value the stage stores into `Position` has w = 1 exactly (`vec4(p, 1.0)`,
+/// through copies and variables stored once), with no component stored apart but x and y:
+/// what a geometry or tessellation evaluation stage that projects `gl_in[i].gl_Position`
+/// needs of the stage before it ([`Leaf::assumes_input_unit_w`]). `false` where it stores
+/// none.
+pub fn stores_unit_w(words: &[u32], module: &ModuleFacts<'_>, stores: &PositionStores) -> bool {
+    if stores.copied
+        || stores.whole.is_empty()
+        || stores
+            .components
+            .iter()
+            .any(|index| !matches!(index, Some(0 | 1)))
+    {
+        return false;
+    }
+    let Ok(defs) = Defs::read(words, module) else {
+        return false;
+    };
+    stores
+        .whole
+        .iter()
+        .all(|&value| defs.unit_w_of(value, 0, false))
 }

@@ -154,6 +154,60 @@ impl Module {
         Ok(found)
     }
 
+    /// What [`derived_range::find`] needs of the declarations (`vec4`: `Position`'s type).
+    pub(super) fn facts<'a>(
+        &'a self,
+        vec4: u32,
+        input_positions: &'a HashMap<u32, u32>,
+    ) -> ModuleFacts<'a> {
+        ModuleFacts {
+            functions_at: self.functions_at,
+            variables: &self.variables,
+            global_opcodes: &self.global_opcodes,
+            global_types: &self.global_types,
+            buffer_blocks: &self.buffer_blocks,
+            pointers: &self.pointers,
+            matrices: &self.matrices,
+            vec4,
+            vectors: &self.vectors,
+            ones: &self.ones,
+            inputs_are_attributes: self.model == scan_model::VERTEX,
+            input_positions,
+            int_constants: &self.int_constants,
+        }
+    }
+
+    /// Input variables that are arrays of blocks with a `Position` member (`gl_in` of a
+    /// tessellation or geometry stage), and that member.
+    pub(super) fn input_positions(&self) -> HashMap<u32, u32> {
+        self.variables
+            .iter()
+            .filter(|(_, &(_, class))| class == STORAGE_INPUT)
+            .filter_map(|(&id, &(ty, _))| {
+                let &(_, pointee) = self.pointers.get(&ty)?;
+                let &(element, _) = self.arrays.get(&pointee)?;
+                let &member = self.position_members.get(&element)?;
+                Some((id, member))
+            })
+            .collect()
+    }
+
+    /// The `vec4` type of `position`, where it is one.
+    pub(super) fn position_vec4(&self, position: Position) -> Option<u32> {
+        let vec4 = match position {
+            Position::Variable(var) => {
+                let (ty, _) = *self.variables.get(&var)?;
+                self.pointers.get(&ty)?.1
+            }
+            Position::Member { block, member } => {
+                let (ty, _) = *self.variables.get(&block)?;
+                let pointee = self.pointers.get(&ty)?.1;
+                *self.structs.get(&pointee)?.get(member as usize)?
+            }
+        };
+        self.vec4_float(vec4).map(|_| vec4)
+    }
+
     /// The float type of a 4-vector type.
     pub(super) fn vec4_float(&self, vector: u32) -> Option<u32> {
         match self.vectors.get(&vector) {

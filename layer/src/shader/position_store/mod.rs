@@ -50,6 +50,7 @@ use crate::shader::scan::{instructions, is_literal, push, Instruction, HEADER_WO
 
 const STORAGE_PRIVATE: u32 = 6;
 const STORAGE_OUTPUT: u32 = 3;
+const STORAGE_INPUT: u32 = 1;
 const STORAGE_PUSH_CONSTANT: u32 = 9;
 const DECORATION_BLOCK: u32 = 2;
 const DECORATION_ARRAY_STRIDE: u32 = 6;
@@ -86,12 +87,59 @@ pub fn rewrite_position_store_deriving(
     words: &[u32],
     offset: u32,
 ) -> Result<Option<(Vec<u32>, MatrixSource)>, Unsupported> {
-    rewrite(words, offset, true)
-        .map(|code| code.map(|(code, source)| (code, source.unwrap_or(MatrixSource::Computed))))
+    derive_position_store(words, offset)
+        .map(|rewrite| rewrite.map(|rewrite| (rewrite.code, rewrite.source)))
 }
 
-/// A rewritten module, and the source of the matrix it fits (deriving rewrites).
-type Rewritten = (Vec<u32>, Option<MatrixSource>);
+/// A deriving rewrite ([`derive_position_store`]).
+#[derive(Debug)]
+pub struct DerivingRewrite {
+    pub code: Vec<u32>,
+    /// Where the matrix the stage fits comes from.
+    pub source: MatrixSource,
+    /// The matrix multiplies the previous stage's `Position` (`gl_in[i].gl_Position`): its w
+    /// is 1 only where that stage stores w = 1 ([`stores_position_w_one`]), which the
+    /// pipeline must check.
+    pub assumes_input_unit_w: bool,
+}
+
+/// [`rewrite_position_store_deriving`], with what the rewrite assumes of the stage before.
+pub fn derive_position_store(
+    words: &[u32],
+    offset: u32,
+) -> Result<Option<DerivingRewrite>, Unsupported> {
+    rewrite(words, offset, true).map(|code| {
+        code.map(|(code, leaf)| DerivingRewrite {
+            code,
+            source: leaf.map_or(MatrixSource::Computed, |l| l.source),
+            assumes_input_unit_w: leaf.is_some_and(|l| l.assumes_input_unit_w),
+        })
+    })
+}
+
+/// Whether every value the module's entry point stores into `Position` has w = 1 exactly
+/// (`vec4(p, 1.0)`): what a later stage that projects its `gl_in[i].gl_Position` needs
+/// ([`DerivingRewrite::assumes_input_unit_w`]). `false` for a module revz cannot read, or
+/// that stores no `Position`. Never panics.
+pub fn stores_position_w_one(words: &[u32]) -> bool {
+    let Ok(Some(module)) = Module::read(words) else {
+        return false;
+    };
+    let Ok(Some(position)) = module.position() else {
+        return false;
+    };
+    let Some(vec4) = module.position_vec4(position) else {
+        return false;
+    };
+    let Ok(body) = body::Body::read(&module, words, position) else {
+        return false;
+    };
+    let input_positions = module.input_positions();
+    derived_range::stores_unit_w(words, &module.facts(vec4, &input_positions), &body.stores)
+}
+
+/// A rewritten module, and the leaf its fit reads (deriving rewrites).
+type Rewritten = (Vec<u32>, Option<derived_range::Leaf>);
 
 fn rewrite(words: &[u32], offset: u32, derive: bool) -> Result<Option<Rewritten>, Unsupported> {
     if offset % 16 != 0 {

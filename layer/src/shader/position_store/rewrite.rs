@@ -144,19 +144,8 @@ impl Module {
             if self.entry_functions.len() != 1 {
                 return Err(Unsupported("more than one entry point"));
             }
-            let facts = ModuleFacts {
-                functions_at: self.functions_at,
-                variables: &self.variables,
-                global_opcodes: &self.global_opcodes,
-                global_types: &self.global_types,
-                buffer_blocks: &self.buffer_blocks,
-                pointers: &self.pointers,
-                matrices: &self.matrices,
-                vec4,
-                vectors: &self.vectors,
-                ones: &self.ones,
-                inputs_are_attributes: self.model == scan_model::VERTEX,
-            };
+            let input_positions = self.input_positions();
+            let facts = self.facts(vec4, &input_positions);
             Some(derived_range::find(words, &facts, &body.stores)?)
         } else {
             None
@@ -538,6 +527,6 @@ impl Module {
             return Err(Unsupported("the entry point has no block for the fit"));
         }
         out[3] = bound;
-        Ok((out, fit.map(|f| f.leaf.source)))
+        Ok((out, fit.map(|f| f.leaf)))
     }
 }

@@ -590,12 +590,56 @@ fn derived_later(words: &[u32]) -> (Vec<u32>, MatrixSource) {
 }
 
 #[test]
+fn which_stages_store_position_with_w_one() {
+    let stores = |body: &str| {
+        let source = format!(
+            "#version 450
+            layout(set = 0, binding = 0) uniform Frame {{ mat4 p; }} frame;
+            layout(location = 0) in vec3 position;
+            layout(location = 1) in vec4 attribute;
+            void main() {{ {body} }}"
+        );
+        stores_position_w_one(&compile_glsl(naga::ShaderStage::Vertex, &source))
+    };
+    assert!(stores("gl_Position = vec4(position, 1.0);"));
+    assert!(stores(
+        "vec4 p = vec4(position * 2.0, 1.0); gl_Position = p;"
+    ));
+    // A projection's w, an attribute's data, a w written apart: not shown to be 1.
+    assert!(!stores("gl_Position = frame.p * vec4(position, 1.0);"));
+    assert!(!stores("gl_Position = attribute;"));
+    assert!(!stores(
+        "gl_Position = vec4(position, 1.0); gl_Position.w = attribute.w;"
+    ));
+    assert!(!stores("gl_Position = vec4(position, attribute.w);"));
+    // glslang's vertex stages of the tester's geometry and tessellation deliveries.
+    let position = binary(include_bytes!(
+        "../../../../shaders/glslang/ubo_position.vert.spv"
+    ));
+    assert!(stores_position_w_one(&position));
+    let later = binary(include_bytes!(
+        "../../../../shaders/glslang/ubo_later.vert.spv"
+    ));
+    assert!(!stores_position_w_one(&later));
+    // No Position stored, or not SPIR-V.
+    assert!(!stores("gl_Position.x = position.x;"));
+    assert!(!stores_position_w_one(&[1, 2, 3]));
+}
+
+#[test]
 fn a_geometry_shader_stores_reversed_depth_before_each_emit_in_its_loop() {
     let words = binary(include_bytes!("../../../../shaders/glslang/ubo.geom.spv"));
     // The projection is loaded in the loop over the input vertices, and each store is emitted
     // in its own block: the fit describes every emitted vertex.
     let (out, source) = derived_later(&words);
     assert_eq!(source, MatrixSource::UniformBuffer);
+    // It projects gl_in's Position: the pipeline checks the vertex stage's w.
+    assert!(
+        derive_position_store(&words, OFFSET)
+            .unwrap()
+            .unwrap()
+            .assumes_input_unit_w
+    );
     let before_emits = preceding(&out, OP_EMIT_VERTEX);
     assert_eq!(before_emits.len(), 1, "the emit is kept, once");
     assert!(
@@ -651,15 +695,12 @@ fn geometry_shapes_whose_emitted_depth_the_fit_may_not_describe_are_refused() {
         reason(&conditional),
         Some(Unsupported("the projection is loaded in a loop"))
     );
-    // `view_proj * gl_in[i].gl_Position`: the vertex stage's position, whose w the module
-    // does not show is 1.
+    // `view_proj * gl_in[i].gl_Position`: fitted, on the condition that the stage before
+    // stores w = 1 (the pipeline checks it).
     let clip_input = binary(include_bytes!("../test_data/geometry_clip_input.spv"));
-    assert_eq!(
-        reason(&clip_input),
-        Some(Unsupported(
-            "the vector the projection multiplies may not have w = 1"
-        ))
-    );
+    let rewrite = derive_position_store(&clip_input, 240).unwrap().unwrap();
+    assert!(rewrite.assumes_input_unit_w);
+    validate(&rewrite.code);
     // Three emits written out, each with its own load of the matrix: three leaves.
     let unrolled = binary(include_bytes!("../test_data/geometry_unrolled.spv"));
     assert_eq!(
