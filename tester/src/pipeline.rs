@@ -529,6 +529,7 @@ pub fn create_pipeline(
         Program::Ubo => (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::UboDynamic => (shaders::UBO_DYNAMIC_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::Ssbo => (shaders::SSBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::SsboRows => (shaders::SSBO_ROWS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::UboTessellation => (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG)),
     };

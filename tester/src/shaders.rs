@@ -117,6 +117,11 @@ pub const PASSTHROUGH_TESC: ShaderSource = glslang_shader!("passthrough.tesc");
 /// the patch's corners; passes the color on.
 pub const UBO_TESE: ShaderSource = glslang_shader!("ubo.tese");
 
+/// `ssbo_rows.vert` (glslang): the `ssbo` delivery's matrix stored as its rows and applied as
+/// four dot products, `vec4(dot(r0, p), dot(r1, p), dot(r2, p), dot(r3, p))`; passes the
+/// color on.
+pub const SSBO_ROWS_VERT: ShaderSource = glslang_shader!("ssbo_rows.vert");
+
 /// Every embedded module.
 #[cfg(test)]
 pub const ALL: &[ShaderSource] = &[
@@ -141,6 +146,7 @@ pub const ALL: &[ShaderSource] = &[
     UBO_GEOM,
     PASSTHROUGH_TESC,
     UBO_TESE,
+    SSBO_ROWS_VERT,
 ];
 
 /// The glslang modules: (source file under `shaders/glslang/`, module).
@@ -151,6 +157,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("ubo.geom", UBO_GEOM),
     ("passthrough.tesc", PASSTHROUGH_TESC),
     ("ubo.tese", UBO_TESE),
+    ("ssbo_rows.vert", SSBO_ROWS_VERT),
 ];
 
 #[cfg(test)]
@@ -326,6 +333,7 @@ mod tests {
             (UBO_GEOM, UNIFORM, 1),
             (PASSTHROUGH_TESC, UNIFORM, 0),
             (UBO_TESE, UNIFORM, 1),
+            (SSBO_ROWS_VERT, STORAGE_BUFFER, 1),
         ] {
             let words = shader.words().unwrap();
             let classes: Vec<u32> = instructions(&words)

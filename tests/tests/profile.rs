@@ -327,6 +327,7 @@ fn the_profile_says_what_buffer_deliveries_do() {
         ("compare-ops", "ubo"),
         ("plane-stack", "ubo-geometry"),
         ("sloped-plane", "ubo-tessellation"),
+        ("mars-patch", "ssbo-rows"),
     ] {
         for mode in ["flip", "complementary", "infinite"] {
             let (render, profile) =

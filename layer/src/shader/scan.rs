@@ -170,6 +170,7 @@ pub mod op {
     pub const OP_NAME: u32 = 5;
     pub const OP_MEMBER_NAME: u32 = 6;
     pub const OP_LINE: u32 = 8;
+    pub const OP_EXT_INST_IMPORT: u32 = 11;
     pub const OP_EXT_INST: u32 = 12;
     pub const OP_ENTRY_POINT: u32 = 15;
     pub const OP_EXECUTION_MODE: u32 = 16;

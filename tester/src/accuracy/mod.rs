@@ -93,11 +93,13 @@ pub enum DeliveryChoice {
     UboDynamic,
     /// P * V * M in a storage buffer indexed by the instance.
     Ssbo,
+    /// The storage buffer of ssbo, each matrix as its rows, applied as four dot products.
+    SsboRows,
     /// The blocks of ubo, applied in a geometry shader.
     UboGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
-    /// push, ubo, ubo-dynamic, ssbo, ubo-geometry and ubo-tessellation.
+    /// push, ubo, ubo-dynamic, ssbo, ssbo-rows, ubo-geometry and ubo-tessellation.
     All,
 }
 
@@ -108,6 +110,7 @@ impl DeliveryChoice {
             DeliveryChoice::Ubo => &[Delivery::Ubo],
             DeliveryChoice::UboDynamic => &[Delivery::UboDynamic],
             DeliveryChoice::Ssbo => &[Delivery::Ssbo],
+            DeliveryChoice::SsboRows => &[Delivery::SsboRows],
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
             DeliveryChoice::All => &Delivery::ALL,

@@ -201,6 +201,9 @@ pub enum Program {
     /// read-only storage buffer of per-object `{ mat4 mvp; vec4 color }` indexed by
     /// `gl_InstanceIndex` (each object drawn as one instance, firstInstance = its index).
     Ssbo,
+    /// `ssbo_rows.vert` + `flat_color.frag` (the `ssbo-rows` [`Delivery`]): the buffer of
+    /// [`Program::Ssbo`] with each matrix stored as its rows, applied as four dot products.
+    SsboRows,
     /// `ubo_position.vert` + `ubo.geom` + `flat_color.frag` (the `ubo-geometry` [`Delivery`]):
     /// the buffers of [`Program::Ubo`], the product applied in a geometry shader to the
     /// vertex stage's `gl_Position`.
@@ -229,6 +232,9 @@ pub enum Delivery {
     /// Per-object P * V * M in a storage buffer, indexed by the instance index
     /// ([`Program::Ssbo`]).
     Ssbo,
+    /// The storage buffer of [`Delivery::Ssbo`], each matrix stored as its rows and applied as
+    /// four dot products ([`Program::SsboRows`]).
+    SsboRows,
     /// The blocks of [`Delivery::Ubo`], applied in a geometry shader
     /// ([`Program::UboGeometry`]).
     UboGeometry,
@@ -239,11 +245,12 @@ pub enum Delivery {
 
 impl Delivery {
     /// Every delivery, push first.
-    pub const ALL: [Delivery; 6] = [
+    pub const ALL: [Delivery; 7] = [
         Delivery::Push,
         Delivery::Ubo,
         Delivery::UboDynamic,
         Delivery::Ssbo,
+        Delivery::SsboRows,
         Delivery::UboGeometry,
         Delivery::UboTessellation,
     ];
@@ -255,6 +262,7 @@ impl Delivery {
             Delivery::Ubo => "ubo",
             Delivery::UboDynamic => "ubo-dynamic",
             Delivery::Ssbo => "ssbo",
+            Delivery::SsboRows => "ssbo-rows",
             Delivery::UboGeometry => "ubo-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
         }
@@ -268,6 +276,7 @@ impl Delivery {
             Delivery::Ubo => Some(Program::Ubo),
             Delivery::UboDynamic => Some(Program::UboDynamic),
             Delivery::Ssbo => Some(Program::Ssbo),
+            Delivery::SsboRows => Some(Program::SsboRows),
             Delivery::UboGeometry => Some(Program::UboGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
         }
@@ -288,6 +297,7 @@ impl Program {
         match self {
             Program::Ubo | Program::UboGeometry | Program::UboTessellation => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
+            Program::SsboRows => Some(Program::Ssbo),
             _ => None,
         }
     }
@@ -316,6 +326,7 @@ impl Program {
             Program::Ubo
             | Program::UboDynamic
             | Program::Ssbo
+            | Program::SsboRows
             | Program::UboGeometry
             | Program::UboTessellation => 0,
             Program::MvpPair => 128,

@@ -85,7 +85,7 @@ impl<'a> Renderer<'a> {
         if block == 0 {
             bail!("scene '{}' has no object to draw", scene.name);
         }
-        let (usage, object_type, stride) = match program {
+        let (usage, object_type, stride) = match program.buffers().unwrap_or(program) {
             Program::Ssbo => (
                 vk::BufferUsageFlags::STORAGE_BUFFER,
                 vk::DescriptorType::STORAGE_BUFFER,
@@ -107,7 +107,9 @@ impl<'a> Renderer<'a> {
             }
         };
         let size = usize::try_from(stride * blocks.len() as u64).context("buffer size")?;
-        if program == Program::Ssbo && size as u64 > u64::from(limits.max_storage_buffer_range) {
+        if program.buffers() == Some(Program::Ssbo)
+            && size as u64 > u64::from(limits.max_storage_buffer_range)
+        {
             bail!(
                 "{size} bytes of storage buffer exceed maxStorageBufferRange ({})",
                 limits.max_storage_buffer_range

@@ -387,6 +387,7 @@ impl<'a> Renderer<'a> {
             Program::Ubo
             | Program::UboDynamic
             | Program::Ssbo
+            | Program::SsboRows
             | Program::UboGeometry
             | Program::UboTessellation => (self.matrix_layout, vk::ShaderStageFlags::empty()),
             Program::Flat

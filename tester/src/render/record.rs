@@ -448,7 +448,7 @@ impl Recorder<'_> {
                 Program::MvpPair => renderer.colors.as_ref().map(|c| c.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
-                Program::Ssbo => renderer.matrices.as_ref().map(|m| m.set),
+                Program::Ssbo | Program::SsboRows => renderer.matrices.as_ref().map(|m| m.set),
                 _ => None,
             };
             if let Some(set) = set {
@@ -533,7 +533,11 @@ impl Recorder<'_> {
         // buffer delivery its objects, with the instance index.
         let first_instance = if matches!(
             program,
-            Program::ShadowReceiver | Program::ShadowReceiverRaw | Program::MvpPair | Program::Ssbo
+            Program::ShadowReceiver
+                | Program::ShadowReceiverRaw
+                | Program::MvpPair
+                | Program::Ssbo
+                | Program::SsboRows
         ) {
             u32::try_from(n).context("object index")?
         } else {

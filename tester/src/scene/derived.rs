@@ -139,13 +139,17 @@ impl Scene {
     ///   the color at 64 (80 bytes; the outer matrix is the frame block,
     ///   [`Scene::frame_block`]);
     /// - [`Program::Ssbo`]: the clip transform ([`Scene::mvp_in`]) at 0, the color at 64
-    ///   (80 bytes);
+    ///   (80 bytes); [`Program::SsboRows`]: the same with the matrix's rows at 0, 16, 32, 48;
     ///
     /// and nothing for the push-constant programs.
     pub fn object_block(&self, program: Program, object: &Object, aspect: f64) -> Vec<u8> {
         let matrices: Vec<DMat4> = match program.buffers().unwrap_or(program) {
             Program::Ubo => self.separate_matrices(object, aspect).to_vec(),
             Program::UboDynamic => vec![self.model_split(View::Camera, object, aspect).0],
+            // The rows of the clip transform: its transpose, column-major.
+            Program::Ssbo if program == Program::SsboRows => {
+                vec![self.mvp_in(View::Camera, object, aspect).transpose()]
+            }
             Program::Ssbo => vec![self.mvp_in(View::Camera, object, aspect)],
             _ => return Vec::new(),
         };
@@ -217,6 +221,7 @@ impl Scene {
             Program::Ubo
             | Program::UboDynamic
             | Program::Ssbo
+            | Program::SsboRows
             | Program::UboGeometry
             | Program::UboTessellation => Vec::new(),
         };

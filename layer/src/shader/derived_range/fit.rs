@@ -121,6 +121,13 @@ impl Fit {
         };
         // The depth row a and the w row b of the column-vector matrix.
         let element = |code: &mut Code<'_, F>, row: u32, column: u32| {
+            if let Some(rows) = leaf.rows {
+                return code.typed(
+                    OP_COMPOSITE_EXTRACT,
+                    float,
+                    &[rows[row as usize - 2], column],
+                );
+            }
             if let Some(columns) = leaf.columns {
                 return code.typed(
                     OP_COMPOSITE_EXTRACT,

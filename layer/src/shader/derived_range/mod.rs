@@ -53,6 +53,9 @@ const OP_PHI: u32 = 245;
 const OP_TRANSPOSE: u32 = 84;
 const OP_BITCAST: u32 = 124;
 const OP_COMPOSITE_CONSTRUCT: u32 = 80;
+const OP_DOT: u32 = 148;
+/// `GLSL.std.450`'s `Fma` (`a * b + c`).
+const GLSL_STD_FMA: u32 = 50;
 const OP_F_NEGATE: u32 = 127;
 const OP_F_DIV: u32 = 136;
 const OP_VECTOR_TIMES_MATRIX: u32 = 144;
@@ -118,8 +121,13 @@ pub struct Leaf {
     /// `v * M`: the rows of the column-vector matrix are the leaf's columns.
     pub transposed: bool,
     /// The matrix as four `vec4` columns of a product written out as
-    /// `c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w` (Mesa's NIR, so Zink's SPIR-V).
+    /// `c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w` (Mesa's NIR, so Zink's SPIR-V), each sum
+    /// fused or not.
     pub columns: Option<[u32; 4]>,
+    /// The matrix's depth and w rows as `vec4`s, of a product written out as four dot
+    /// products `vec4(dot(r0, v), dot(r1, v), dot(r2, v), dot(r3, v))` (translated HLSL, D3D
+    /// bytecode's `dp4`).
+    pub rows: Option<[u32; 2]>,
     pub insert: Insert,
     pub source: MatrixSource,
     /// The vector the matrix multiplies is the previous stage's `Position` (`gl_in[i]
@@ -176,6 +184,11 @@ pub struct ModuleFacts<'a> {
     pub input_positions: &'a HashMap<u32, u32>,
     /// 32-bit integer constants: id -> value.
     pub int_constants: &'a HashMap<u32, u32>,
+    /// The `GLSL.std.450` import, if the module has one (`Fma`).
+    pub glsl_std: Option<u32>,
+    /// Constant vectors whose every component is 1.0: a column times one of them is the
+    /// column (an optimizer's `c3 * vec4(v.w)` with `v.w` folded to 1).
+    pub unit_vectors: &'a HashSet<u32>,
 }
 
 /// `OpTypeBool`, `BufferBlock`, and the constant opcodes a constant leaf can be, for the

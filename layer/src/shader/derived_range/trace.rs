@@ -35,6 +35,9 @@ struct Defs {
     int_constants: HashMap<u32, u32>,
     /// [`Defs::unit_w`] took a load of the previous stage's `Position` for w = 1.
     assumed_input_w: std::cell::Cell<bool>,
+    /// The `GLSL.std.450` import.
+    glsl_std: Option<u32>,
+    unit_vectors: HashSet<u32>,
 }
 
 fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
@@ -56,6 +59,8 @@ fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
         | OP_FUNCTION_PARAMETER
         | OP_COMPOSITE_CONSTRUCT
         | OP_COMPOSITE_EXTRACT
+        | OP_DOT
+        | OP_EXT_INST
         | OP_FUNCTION_CALL => operands.get(1).copied(),
         _ => None,
     }
@@ -92,6 +97,8 @@ impl Defs {
             input_positions: module.input_positions.clone(),
             int_constants: module.int_constants.clone(),
             assumed_input_w: std::cell::Cell::new(false),
+            glsl_std: module.glsl_std,
+            unit_vectors: module.unit_vectors.clone(),
         };
         let mut open_loops: Vec<(u32, usize)> = Vec::new();
         let mut word = HEADER_WORDS;
@@ -260,6 +267,25 @@ impl Defs {
         }
     }
 
+    /// The value `id` holds: through copies, bitcasts and loads of variables stored once, as
+    /// [`Self::through_local`] follows them.
+    fn held(&self, mut id: u32) -> u32 {
+        for _ in 0..16 {
+            id = self.unwrapped(id);
+            match self.at.get(&id) {
+                Some((_, OP_COPY_OBJECT, operands)) if operands.len() == 3 => id = operands[2],
+                Some((at, OP_LOAD, operands)) if operands.len() >= 3 => {
+                    match self.through_local(operands[2], *at) {
+                        Some(stored) => id = stored,
+                        None => break,
+                    }
+                }
+                _ => break,
+            }
+        }
+        id
+    }
+
     /// The value a load (at word `load_at`) of a local or private variable stored exactly
     /// once, whole, reads.
     fn through_local(&self, pointer: u32, load_at: usize) -> Option<u32> {
@@ -359,8 +385,9 @@ impl Defs {
         }
     }
 
-    /// The sum's terms (operands of nested `OpFAdd`s, bitcasts looked through).
-    fn terms(&self, id: u32, out: &mut Vec<u32>, depth: u32) -> Option<()> {
+    /// The sum's terms (operands of nested `OpFAdd`s and of `GLSL.std.450` `Fma`s, bitcasts
+    /// looked through): each a product's factors, or a term added alone.
+    fn terms(&self, id: u32, out: &mut Vec<Term>, depth: u32) -> Option<()> {
         if depth > 8 || out.len() > 4 {
             return None;
         }
@@ -369,10 +396,67 @@ impl Defs {
                 self.terms(operands[2], out, depth + 1)?;
                 self.terms(operands[3], out, depth + 1)
             }
-            _ => {
-                out.push(id);
+            // fma(a, b, c) = a * b + c, rounded once.
+            Some((_, OP_EXT_INST, operands))
+                if operands.len() == 7
+                    && Some(operands[2]) == self.glsl_std
+                    && operands[3] == GLSL_STD_FMA =>
+            {
+                out.push(Term::Product(operands[4], operands[5]));
+                self.terms(operands[6], out, depth + 1)
+            }
+            Some((_, OP_F_MUL, operands)) if operands.len() == 4 => {
+                out.push(Term::Product(operands[2], operands[3]));
                 Some(())
             }
+            _ => {
+                out.push(Term::Alone(id));
+                Some(())
+            }
+        }
+    }
+
+    /// `vec4(dot(r0, v), dot(r1, v), dot(r2, v), dot(r3, v))` (each dot's operands in either
+    /// order, through copies and variables stored once): the depth and w rows, the construct
+    /// (where the fit goes) and `v`.
+    fn row_dots(&self, value: u32, depth: u32) -> Option<([u32; 2], u32, u32)> {
+        if depth > 16 {
+            return None;
+        }
+        let value = self.unwrapped(value);
+        let (_, opcode, operands) = self.at.get(&value)?;
+        match (*opcode, operands.as_slice()) {
+            (OP_COMPOSITE_CONSTRUCT, &[_, _, _x, _y, z, w]) => {
+                // Each dot's operands as used, and as the values they hold (a variable's
+                // loads are one value): the held ones tell which operand is shared, the used
+                // ones (which dominate the construct) are what the fit reads.
+                let dot = |id: u32| match self.at.get(&self.unwrapped(id)) {
+                    Some((_, OP_DOT, operands)) if operands.len() == 4 => Some((
+                        [operands[2], operands[3]],
+                        [self.held(operands[2]), self.held(operands[3])],
+                    )),
+                    _ => None,
+                };
+                let ((z, z_held), (w, w_held)) = (dot(z)?, dot(w)?);
+                // The vector both dots share (by index in each), and each one's row.
+                let shared = (0..2)
+                    .flat_map(|i| (0..2).map(move |j| (i, j)))
+                    .find(|&(i, j)| {
+                        z_held[i] == w_held[j]
+                            && z_held[1 - i] != z_held[i]
+                            && w_held[1 - j] != w_held[j]
+                    })?;
+                let (i, j) = shared;
+                Some(([z[1 - i], w[1 - j]], value, z[i]))
+            }
+            (OP_COPY_OBJECT, &[_, _, source]) => self.row_dots(source, depth + 1),
+            (OP_LOAD, &[_, _, pointer, ..]) => {
+                self.row_dots(self.through_local(pointer, self.at_of(value))?, depth + 1)
+            }
+            (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => {
+                self.row_dots(self.member(composite, index)?, depth + 1)
+            }
+            _ => None,
         }
     }
 
@@ -400,17 +484,27 @@ impl Defs {
         let mut vector = None;
         let mut bare = None;
         for term in terms {
-            let product = match self.at.get(&self.unwrapped(term)) {
-                Some((_, OP_F_MUL, operands)) if operands.len() == 4 => {
-                    Some((operands[2], operands[3]))
+            let (x, y) = match term {
+                // A column times vec4(1.0): the column, as added alone.
+                Term::Product(x, y) if self.unit_vectors.contains(&y) => {
+                    if bare.replace(x).is_some() {
+                        return None;
+                    }
+                    continue;
                 }
-                _ => None,
-            };
-            let Some((x, y)) = product else {
-                if bare.replace(term).is_some() {
-                    return None;
+                Term::Product(x, y) if self.unit_vectors.contains(&x) => {
+                    if bare.replace(y).is_some() {
+                        return None;
+                    }
+                    continue;
                 }
-                continue;
+                Term::Product(x, y) => (x, y),
+                Term::Alone(term) => {
+                    if bare.replace(term).is_some() {
+                        return None;
+                    }
+                    continue;
+                }
             };
             let (column, (source, index)) = match (self.splat(x), self.splat(y)) {
                 (None, Some(splat)) => (x, splat),
@@ -483,6 +577,15 @@ impl Defs {
     }
 }
 
+/// A term of a sum ([`Defs::terms`]).
+#[derive(Clone, Copy, Debug)]
+enum Term {
+    /// `x * y`, multiplied alone or fused into an `Fma`.
+    Product(u32, u32),
+    /// Anything else, added as it is.
+    Alone(u32),
+}
+
 /// The w of the vector a column-form product multiplies.
 #[derive(Clone, Copy, Debug)]
 enum ColumnW {
@@ -523,6 +626,18 @@ pub fn find(
                     return Err(Unsupported("the projection is applied in a loop"));
                 }
                 return column_leaf(module, &defs, columns, root);
+            }
+            if let Some((rows, root, vector)) = defs.row_dots(*value, 0) {
+                if !defs.unit_w(vector, 0) {
+                    return Err(Unsupported(
+                        "the vector the projection multiplies may not have w = 1",
+                    ));
+                }
+                let root_at = defs.at[&root].0;
+                if defs.in_loop(root_at) && !defs.emitted_where_fitted(stores, root_at) {
+                    return Err(Unsupported("the projection is applied in a loop"));
+                }
+                return row_leaf(module, &defs, rows, root);
             }
         }
     }
@@ -591,6 +706,7 @@ pub fn find(
         id,
         transposed,
         columns: None,
+        rows: None,
         insert,
         source,
         assumes_input_unit_w: defs.assumed_input_w.get(),
@@ -614,9 +730,50 @@ fn column_leaf(
         return Err(Unsupported("the product's columns are not vec4s"));
     }
     let (at, ..) = defs.at[&root];
-    // Where the first column's values are loaded from.
+    Ok(Leaf {
+        id: 0,
+        transposed: false,
+        columns: Some(columns),
+        rows: None,
+        insert: Insert::After(at),
+        source: values_source(module, defs, columns[0]),
+        assumes_input_unit_w: defs.assumed_input_w.get(),
+    })
+}
+
+/// The leaf of a product written out as four dot products: its depth and w rows, each a
+/// `vec4` of the position's type, the fit after the construct of the dots (which both rows
+/// dominate).
+fn row_leaf(
+    module: &ModuleFacts<'_>,
+    defs: &Defs,
+    rows: [u32; 2],
+    root: u32,
+) -> Result<Leaf, Unsupported> {
+    let typed = |id: u32| {
+        defs.at
+            .get(&id)
+            .is_some_and(|(_, _, operands)| operands.first() == Some(&module.vec4))
+    };
+    if !rows.iter().all(|&r| typed(r)) {
+        return Err(Unsupported("the product's rows are not vec4s"));
+    }
+    let (at, ..) = defs.at[&root];
+    Ok(Leaf {
+        id: 0,
+        transposed: false,
+        columns: None,
+        rows: Some(rows),
+        insert: Insert::After(at),
+        source: values_source(module, defs, rows[0]),
+        assumes_input_unit_w: defs.assumed_input_w.get(),
+    })
+}
+
+/// Where a column's or row's values are loaded from (through bitcasts and constructs).
+fn values_source(module: &ModuleFacts<'_>, defs: &Defs, value: u32) -> MatrixSource {
     let mut source = MatrixSource::Computed;
-    let mut pending = vec![columns[0]];
+    let mut pending = vec![value];
     for _ in 0..16 {
         let Some(id) = pending.pop() else { break };
         match defs.at.get(&id) {
@@ -629,17 +786,14 @@ fn column_leaf(
             Some((_, OP_BITCAST | OP_COMPOSITE_CONSTRUCT, operands)) => {
                 pending.extend(operands.iter().skip(2).rev());
             }
+            // A column or row of a loaded matrix.
+            Some((_, OP_COMPOSITE_EXTRACT, operands)) if operands.len() >= 3 => {
+                pending.push(operands[2]);
+            }
             _ => {}
         }
     }
-    Ok(Leaf {
-        id: 0,
-        transposed: false,
-        columns: Some(columns),
-        insert: Insert::After(at),
-        source,
-        assumes_input_unit_w: defs.assumed_input_w.get(),
-    })
+    source
 }
 
 /// Where a loaded pointer points: the storage class its access chain starts in.

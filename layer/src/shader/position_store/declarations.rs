@@ -45,6 +45,20 @@ impl Module {
                     m.model = model;
                     m.entry_functions.insert(function);
                 }
+                (CONSTANT_COMPOSITE, &[ty, id, ref constituents @ ..])
+                    if !constituents.is_empty()
+                        && constituents.iter().all(|c| m.ones.contains(c)) =>
+                {
+                    m.unit_vectors.insert(id);
+                    m.global_opcodes.insert(id, opcode);
+                    m.global_types.insert(id, ty);
+                }
+                (OP_EXT_INST_IMPORT, &[id, ref name @ ..]) => {
+                    let bytes: Vec<u8> = name.iter().flat_map(|w| w.to_le_bytes()).collect();
+                    if bytes.starts_with(b"GLSL.std.450\0") {
+                        m.glsl_std = Some(id);
+                    }
+                }
                 (OP_DECORATE, &[target, DECORATION_BUILT_IN, BUILT_IN_POSITION]) => {
                     m.position_ids.insert(target);
                 }
@@ -174,6 +188,8 @@ impl Module {
             inputs_are_attributes: self.model == scan_model::VERTEX,
             input_positions,
             int_constants: &self.int_constants,
+            glsl_std: self.glsl_std,
+            unit_vectors: &self.unit_vectors,
         }
     }
 

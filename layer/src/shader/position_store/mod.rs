@@ -51,6 +51,7 @@ use crate::shader::scan::{instructions, is_literal, push, Instruction, HEADER_WO
 const STORAGE_PRIVATE: u32 = 6;
 const STORAGE_OUTPUT: u32 = 3;
 const STORAGE_INPUT: u32 = 1;
+const CONSTANT_COMPOSITE: u32 = 44;
 const STORAGE_PUSH_CONSTANT: u32 = 9;
 const DECORATION_BLOCK: u32 = 2;
 const DECORATION_ARRAY_STRIDE: u32 = 6;
@@ -213,6 +214,10 @@ struct Module {
     buffer_blocks: HashSet<u32>,
     /// 32-bit constants whose word is the bits of 1.0 (`crate::shader::derived_range`'s w = 1 test).
     ones: HashSet<u32>,
+    /// The `GLSL.std.450` extended instruction set (`Fma` in a product written by columns).
+    glsl_std: Option<u32>,
+    /// Constant composites whose every constituent is 1.0.
+    unit_vectors: HashSet<u32>,
 }
 
 mod body;

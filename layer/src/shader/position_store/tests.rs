@@ -717,3 +717,63 @@ fn geometry_shapes_whose_emitted_depth_the_fit_may_not_describe_are_refused() {
     ));
     assert!(crate::shader::scan::declares_vertex_entry_point(&vertex));
 }
+
+#[test]
+fn projections_written_as_dot_products_or_fused_columns_are_fitted() {
+    // glslang -Os: vec4(dot(r0, p), dot(p, r1), dot(r2, p), dot(p, r3)), the rows in a
+    // uniform buffer of vec4s.
+    let rows = binary(include_bytes!("../test_data/rows_dot.spv"));
+    let (out, source) = derived(&rows);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    // The fit reads the depth and w rows: its extractions come from two loaded vec4s.
+    let extracts = with_opcode(&out, OP_COMPOSITE_EXTRACT);
+    let fitted: HashSet<u32> = extracts
+        .iter()
+        .filter(|e| e.len() == 4 && e[3] < 4)
+        .map(|e| e[2])
+        .collect();
+    assert!(fitted.len() >= 2, "{fitted:?}");
+    // glslang -Os: fma(c3, vec4(1.0), fma(c2, p.zzzz, fma(c1, p.yyyy, c0 * p.xxxx))), the
+    // matrix in push constants (a derived rewrite fits it in the stage too).
+    let fused = binary(include_bytes!("../test_data/columns_fma.spv"));
+    let (_, source) = derived(&fused);
+    assert_eq!(source, MatrixSource::PushConstants);
+}
+
+#[test]
+fn dot_products_that_do_not_share_one_vector_or_have_no_unit_w_are_refused() {
+    let refused = |body: &str| {
+        let source = format!(
+            "#version 450
+            layout(set = 0, binding = 0) uniform Frame {{ vec4 rows[4]; }} frame;
+            layout(location = 0) in vec3 position;
+            layout(location = 1) in vec4 other;
+            void main() {{ vec4 p = vec4(position, 1.0); {body} }}"
+        );
+        rewrite_position_store_deriving(&compile_glsl(naga::ShaderStage::Vertex, &source), OFFSET)
+            .err()
+    };
+    // z and w from dots of different vectors: no one matrix.
+    assert!(refused(
+        "gl_Position = vec4(dot(frame.rows[0], p), dot(frame.rows[1], p), \
+         dot(frame.rows[2], p), dot(frame.rows[3], other));"
+    )
+    .is_some());
+    // The vector's w is not shown to be 1.
+    let w = refused(
+        "vec4 q = vec4(position, other.w); gl_Position = vec4(dot(frame.rows[0], q), \
+         dot(frame.rows[1], q), dot(frame.rows[2], q), dot(frame.rows[3], q));",
+    );
+    assert_eq!(
+        w,
+        Some(Unsupported(
+            "the vector the projection multiplies may not have w = 1"
+        ))
+    );
+    // The same through naga's own SPIR-V: fitted.
+    assert!(refused(
+        "gl_Position = vec4(dot(frame.rows[0], p), dot(frame.rows[1], p), \
+         dot(frame.rows[2], p), dot(frame.rows[3], p));"
+    )
+    .is_none());
+}
