@@ -333,7 +333,8 @@ mod tests {
             (UBO_GEOM, UNIFORM, 1),
             (PASSTHROUGH_TESC, UNIFORM, 0),
             (UBO_TESE, UNIFORM, 1),
-            (SSBO_ROWS_VERT, STORAGE_BUFFER, 1),
+            // glslang for Vulkan 1.0 (SPIR-V 1.0): a `BufferBlock` in the Uniform class.
+            (SSBO_ROWS_VERT, UNIFORM, 1),
         ] {
             let words = shader.words().unwrap();
             let classes: Vec<u32> = instructions(&words)
