@@ -54,6 +54,7 @@ const OP_TRANSPOSE: u32 = 84;
 const OP_BITCAST: u32 = 124;
 const OP_COMPOSITE_CONSTRUCT: u32 = 80;
 const OP_DOT: u32 = 148;
+const OP_RETURN_VALUE: u32 = 254;
 /// `GLSL.std.450`'s `Fma` (`a * b + c`).
 const GLSL_STD_FMA: u32 = 50;
 const OP_F_NEGATE: u32 = 127;

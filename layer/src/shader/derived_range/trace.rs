@@ -38,6 +38,9 @@ struct Defs {
     /// The `GLSL.std.450` import.
     glsl_std: Option<u32>,
     unit_vectors: HashSet<u32>,
+    /// Each function's `OpReturnValue` values, and the word indices of the calls of each.
+    returns: HashMap<u32, Vec<u32>>,
+    calls: HashMap<u32, Vec<usize>>,
 }
 
 fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
@@ -99,7 +102,10 @@ impl Defs {
             assumed_input_w: std::cell::Cell::new(false),
             glsl_std: module.glsl_std,
             unit_vectors: module.unit_vectors.clone(),
+            returns: HashMap::new(),
+            calls: HashMap::new(),
         };
+        let mut current_function = 0;
         let mut open_loops: Vec<(u32, usize)> = Vec::new();
         let mut word = HEADER_WORDS;
         for instruction in instructions(words).into_iter().flatten() {
@@ -144,9 +150,17 @@ impl Defs {
                 (OP_COPY_MEMORY, &[target, ..]) => {
                     defs.chained.insert(target);
                 }
-                (OP_FUNCTION_CALL, &[_, _, _, ref arguments @ ..]) => {
+                (OP_FUNCTION_CALL, &[_, _, callee, ref arguments @ ..]) => {
                     // A pointer argument may be written by the callee.
                     defs.chained.extend(arguments.iter().copied());
+                    defs.calls.entry(callee).or_default().push(at);
+                }
+                (OP_FUNCTION, &[_, id, ..]) => current_function = id,
+                (OP_RETURN_VALUE, &[value]) => {
+                    defs.returns
+                        .entry(current_function)
+                        .or_default()
+                        .push(value);
                 }
                 _ => {}
             }
@@ -231,6 +245,7 @@ impl Defs {
             }
             (OP_MATRIX_TIMES_VECTOR, &[_, _, _, v]) if through_products => next(v),
             (OP_COPY_OBJECT, &[_, _, source]) => next(source),
+            (OP_FUNCTION_CALL, &[_, _, callee, ..]) => self.returned(callee).is_some_and(next),
             (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => {
                 self.member(composite, index).is_some_and(next)
             }
@@ -325,6 +340,19 @@ impl Defs {
         }
     }
 
+    /// The value a call returns, where revz can tell which: a function with one
+    /// `OpReturnValue`, called once in the module, outside loops (its fit then describes the
+    /// value the call returned; a function called again could fit another matrix last).
+    fn returned(&self, callee: u32) -> Option<u32> {
+        let &[value] = self.returns.get(&callee)?.as_slice() else {
+            return None;
+        };
+        let &[call] = self.calls.get(&callee)?.as_slice() else {
+            return None;
+        };
+        (!self.in_loop(call)).then_some(value)
+    }
+
     /// The multiply a whole `Position` value comes from: (matrix, transposed, vector).
     fn multiply(&self, value: u32, depth: u32) -> Option<(u32, bool, u32)> {
         if depth > 16 {
@@ -332,6 +360,9 @@ impl Defs {
         }
         let (_, opcode, operands) = self.at.get(&value)?;
         match (*opcode, operands.as_slice()) {
+            (OP_FUNCTION_CALL, &[_, _, callee, ..]) => {
+                self.multiply(self.returned(callee)?, depth + 1)
+            }
             (OP_MATRIX_TIMES_VECTOR, &[_, _, matrix, vector]) => Some((matrix, false, vector)),
             (OP_VECTOR_TIMES_MATRIX, &[_, _, vector, matrix]) => Some((matrix, true, vector)),
             (OP_COPY_OBJECT, &[_, _, source]) => self.multiply(source, depth + 1),
@@ -450,6 +481,9 @@ impl Defs {
                 Some(([z[1 - i], w[1 - j]], value, z[i]))
             }
             (OP_COPY_OBJECT, &[_, _, source]) => self.row_dots(source, depth + 1),
+            (OP_FUNCTION_CALL, &[_, _, callee, ..]) => {
+                self.row_dots(self.returned(callee)?, depth + 1)
+            }
             (OP_LOAD, &[_, _, pointer, ..]) => {
                 self.row_dots(self.through_local(pointer, self.at_of(value))?, depth + 1)
             }

@@ -777,3 +777,18 @@ fn dot_products_that_do_not_share_one_vector_or_have_no_unit_w_are_refused() {
     )
     .is_none());
 }
+
+#[test]
+fn a_projection_applied_in_a_function_called_once_is_fitted() {
+    // glslang -O0: `gl_Position = project(position)`, the product in the callee.
+    let called = binary(include_bytes!("../test_data/function_call.spv"));
+    let (out, source) = derived(&called);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    validate(&out);
+    // Called twice, with different matrices: the fit would describe the last call.
+    let twice = binary(include_bytes!("../test_data/function_called_twice.spv"));
+    assert_eq!(
+        rewrite_position_store_deriving(&twice, OFFSET).err(),
+        Some(Unsupported("Position is not a matrix times a vector"))
+    );
+}
