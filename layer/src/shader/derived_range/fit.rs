@@ -26,6 +26,9 @@ pub struct Fit {
     minus_one: u32,
     /// The fit's instructions, ending with the store of the derived carrier.
     pub code: Vec<u32>,
+    /// The same instructions for each other load of the matrix ([`Leaf::copies`]), renumbered,
+    /// with the word index they go after.
+    pub copies: Vec<(usize, Vec<u32>)>,
     /// The arithmetic results, decorated `NoContraction`.
     exact: Vec<u32>,
 }
@@ -223,7 +226,15 @@ impl Fit {
         // w = 1: the fit ran (the initializer's 0 says it did not, [`Self::select_at_return`]).
         let value = code.typed(OP_COMPOSITE_CONSTRUCT, vec4, &[out_z, out_w, out_1, one.0]);
         push(&mut code.words, OP_STORE, &[derived, value]);
-        let Code { words, exact, .. } = code;
+        let Code {
+            words, mut exact, ..
+        } = code;
+        let copies = leaf
+            .copies
+            .iter()
+            .flatten()
+            .map(|&(copy, at)| (at, renumbered(&words, &mut exact, leaf.id, copy, fresh)))
+            .collect();
         Fit {
             leaf,
             bool_type,
@@ -251,6 +262,7 @@ impl Fit {
             one: one.0,
             minus_one: minus_one.0,
             code: words,
+            copies,
             exact,
         }
     }
@@ -355,4 +367,43 @@ impl Fit {
             selected
         })
     }
+}
+
+/// `code` again with `leaf` replaced by `copy` and every id it defines renumbered (SSA: each id
+/// is defined once in a module); the renumbered arithmetic joins `exact`.
+fn renumbered<F: FnMut() -> u32>(
+    code: &[u32],
+    exact: &mut Vec<u32>,
+    leaf: u32,
+    copy: u32,
+    fresh: &mut F,
+) -> Vec<u32> {
+    let mut map: HashMap<u32, u32> = HashMap::from([(leaf, copy)]);
+    let mut out = Vec::with_capacity(code.len());
+    for instruction in crate::shader::scan::instructions_at(code, 0) {
+        let Ok(Instruction { opcode, operands }) = instruction else {
+            break;
+        };
+        let mut new = operands.to_vec();
+        // Every instruction of the fit but its final store has a result type and id.
+        let defines = opcode != OP_STORE && new.len() >= 2;
+        if defines {
+            let id = fresh();
+            if exact.contains(&new[1]) {
+                exact.push(id);
+            }
+            map.insert(new[1], id);
+            new[1] = id;
+        }
+        for (index, word) in new.iter_mut().enumerate() {
+            if (defines && index <= 1) || crate::shader::scan::is_literal(opcode, index) {
+                continue;
+            }
+            if let Some(&mapped) = map.get(word) {
+                *word = mapped;
+            }
+        }
+        push(&mut out, opcode, &new);
+    }
+    out
 }

@@ -131,11 +131,19 @@ pub struct Leaf {
     pub rows: Option<[u32; 2]>,
     pub insert: Insert,
     pub source: MatrixSource,
+    /// Other loads of the same matrix (the same read-only location, loaded again by code
+    /// written without a loop: a geometry shader's `P * p` before each emit), each with the
+    /// word index of its definition: the fit runs after each of them too. Empty: none.
+    pub copies: [Option<(u32, usize)>; MAX_LEAF_COPIES],
     /// The vector the matrix multiplies is the previous stage's `Position` (`gl_in[i]
     /// .gl_Position` in a geometry or tessellation evaluation shader): its w is 1 only where
     /// that stage stores w = 1 ([`stores_unit_w`]), which the pipeline checks.
     pub assumes_input_unit_w: bool,
 }
+
+/// The most other loads of the matrix a fit is repeated after ([`Leaf::copies`]): a geometry
+/// shader emitting a strip of up to eight vertices written out one by one.
+pub const MAX_LEAF_COPIES: usize = 7;
 
 /// How `Position` is stored, as [`crate::shader::position_store`]'s body pass saw it.
 #[derive(Debug, Default)]

@@ -340,6 +340,32 @@ impl Defs {
         }
     }
 
+    /// Whether `a` and `b` are loads of the same location of a uniform buffer or of push
+    /// constants (the same variable, or access chains of the same base and index ids): the
+    /// same value, which the shader cannot write.
+    fn same_load(&self, module: &ModuleFacts<'_>, a: u32, b: u32) -> bool {
+        let pointer = |id: u32| match self.at.get(&id) {
+            Some((_, OP_LOAD, operands)) if operands.len() >= 3 => Some(operands[2]),
+            _ => None,
+        };
+        let (Some(pa), Some(pb)) = (pointer(a), pointer(b)) else {
+            return false;
+        };
+        let read_only = matches!(
+            source_of(module, self, pa),
+            MatrixSource::UniformBuffer | MatrixSource::PushConstants
+        );
+        let same_place = pa == pb
+            || match (self.at.get(&pa), self.at.get(&pb)) {
+                (
+                    Some((_, OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, x)),
+                    Some((_, OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, y)),
+                ) => x.len() == y.len() && x.len() >= 3 && x[0] == y[0] && x[2..] == y[2..],
+                _ => false,
+            };
+        read_only && same_place
+    }
+
     /// The value a call returns, where revz can tell which: a function with one
     /// `OpReturnValue`, called once in the module, outside loops (its fit then describes the
     /// value the call returned; a function called again could fit another matrix last).
@@ -676,6 +702,7 @@ pub fn find(
         }
     }
     let mut leaf: Option<(u32, bool)> = None;
+    let mut copies: Vec<u32> = Vec::new();
     for &value in &stores.whole {
         let (matrix, transposed, vector) = defs
             .multiply(value, 0)
@@ -686,12 +713,32 @@ pub fn find(
             ));
         }
         let found = defs.leaf(matrix, transposed, 0);
-        if leaf.is_some_and(|l| l != found) {
-            return Err(Unsupported("Position comes from more than one matrix"));
+        match leaf {
+            None => leaf = Some(found),
+            Some(first) if first == found => {}
+            // Another load of the same read-only location: the same matrix.
+            Some((first, first_transposed))
+                if first_transposed == found.1 && defs.same_load(module, first, found.0) =>
+            {
+                if !copies.contains(&found.0) {
+                    copies.push(found.0);
+                }
+            }
+            Some(_) => return Err(Unsupported("Position comes from more than one matrix")),
         }
-        leaf = Some(found);
     }
     let (id, transposed) = leaf.ok_or(Unsupported("Position is never stored whole"))?;
+    if copies.len() > MAX_LEAF_COPIES {
+        return Err(Unsupported("Position comes from more than one matrix"));
+    }
+    let mut copy_slots = [None; MAX_LEAF_COPIES];
+    for (slot, &copy) in copy_slots.iter_mut().zip(&copies) {
+        let (at, ..) = defs.at[&copy];
+        if defs.in_loop(at) && !defs.emitted_where_fitted(stores, at) {
+            return Err(Unsupported("the projection is loaded in a loop"));
+        }
+        *slot = Some((copy, at));
+    }
     // A 4x4 matrix of the position's vec4 columns.
     let matrix_type = match defs.at.get(&id) {
         Some((_, _, operands)) => operands.first().copied(),
@@ -741,6 +788,7 @@ pub fn find(
         transposed,
         columns: None,
         rows: None,
+        copies: copy_slots,
         insert,
         source,
         assumes_input_unit_w: defs.assumed_input_w.get(),
@@ -769,6 +817,7 @@ fn column_leaf(
         transposed: false,
         columns: Some(columns),
         rows: None,
+        copies: [None; MAX_LEAF_COPIES],
         insert: Insert::After(at),
         source: values_source(module, defs, columns[0]),
         assumes_input_unit_w: defs.assumed_input_w.get(),
@@ -798,6 +847,7 @@ fn row_leaf(
         transposed: false,
         columns: None,
         rows: Some(rows),
+        copies: [None; MAX_LEAF_COPIES],
         insert: Insert::After(at),
         source: values_source(module, defs, rows[0]),
         assumes_input_unit_w: defs.assumed_input_w.get(),

@@ -155,7 +155,7 @@ impl Module {
         let needed = 32
             + 16 * body.returns
             + 2 * body.private_pointees.len()
-            + derived_range::FIT_IDS
+            + derived_range::FIT_IDS * (1 + derived_range::MAX_LEAF_COPIES)
             + derived_range::RETURN_IDS * body.returns;
         let mut bound = words[3];
         if bound.checked_add(needed as u32).is_none() {
@@ -520,6 +520,13 @@ impl Module {
             if fit_after == Some(at) {
                 if let Some(fit) = &fit {
                     out.extend_from_slice(&fit.code);
+                }
+            }
+            if let Some(fit) = &fit {
+                for (after, code) in &fit.copies {
+                    if *after == at {
+                        out.extend_from_slice(code);
+                    }
                 }
             }
         }

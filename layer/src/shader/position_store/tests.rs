@@ -701,10 +701,10 @@ fn geometry_shapes_whose_emitted_depth_the_fit_may_not_describe_are_refused() {
     let rewrite = derive_position_store(&clip_input, 240).unwrap().unwrap();
     assert!(rewrite.assumes_input_unit_w);
     validate(&rewrite.code);
-    // Three emits written out, each with its own load of the matrix: three leaves.
-    let unrolled = binary(include_bytes!("../test_data/geometry_unrolled.spv"));
+    // Three emits written out with two matrices: not one line.
+    let two = binary(include_bytes!("../test_data/geometry_two_matrices.spv"));
     assert_eq!(
-        reason(&unrolled),
+        reason(&two),
         Some(Unsupported("Position comes from more than one matrix"))
     );
     // A module of two stages is not rewritten.
@@ -791,4 +791,35 @@ fn a_projection_applied_in_a_function_called_once_is_fitted() {
         rewrite_position_store_deriving(&twice, OFFSET).err(),
         Some(Unsupported("Position is not a matrix times a vector"))
     );
+}
+
+#[test]
+fn a_geometry_shader_written_out_without_a_loop_fits_after_each_load_of_its_matrix() {
+    // Three emits, each with its own load of the same uniform matrix (glslang -O0): the fit
+    // runs after each load, renumbered.
+    let unrolled = binary(include_bytes!("../test_data/geometry_unrolled.spv"));
+    let (out, source) = derived_later(&unrolled);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    let private_stores = |words: &[u32]| {
+        let privates: HashSet<u32> = with_opcode(words, OP_VARIABLE)
+            .into_iter()
+            .filter(|v| v[2] == STORAGE_PRIVATE)
+            .map(|v| v[1])
+            .collect();
+        with_opcode(words, OP_STORE)
+            .iter()
+            .filter(|s| privates.contains(&s[0]))
+            .count()
+    };
+    // Stores straight into private variables: the fits' derived carrier (the shader's own
+    // stores go to the shadow through access chains), three here, one in the looped shader.
+    let (looped, _) = derived_later(&binary(include_bytes!(
+        "../../../../shaders/glslang/ubo.geom.spv"
+    )));
+    assert_eq!(private_stores(&out), 3, "three fits");
+    assert_eq!(private_stores(&looped), 1, "one fit");
+    for (_, before) in preceding(&out, OP_EMIT_VERTEX) {
+        assert!(!before.is_empty());
+    }
+    assert_eq!(preceding(&out, OP_EMIT_VERTEX).len(), 3);
 }
