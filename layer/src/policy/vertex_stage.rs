@@ -347,12 +347,12 @@ impl VertexStageFacts<'_> {
         if !self.carrier_reaches_stage {
             return Err(match stage {
                 LastStage::Geometry => {
-                    "revz's push constants do not reach its geometry stage (its layout's \
-                     vertex push-constant range does not name it)"
+                    "revz's push constants do not reach its geometry stage (the layout's \
+                     push-constant range that holds them does not name it)"
                 }
                 _ => {
                     "revz's push constants do not reach its tessellation evaluation stage \
-                     (its layout's vertex push-constant range does not name it)"
+                     (the layout's push-constant range that holds them does not name it)"
                 }
             }
             .into());

@@ -195,6 +195,8 @@ pub struct ModuleFacts<'a> {
     pub int_constants: &'a HashMap<u32, u32>,
     /// The `GLSL.std.450` import, if the module has one (`Fma`).
     pub glsl_std: Option<u32>,
+    /// The entry points' functions (which run once per invocation).
+    pub entry_functions: &'a HashSet<u32>,
     /// Constant vectors whose every component is 1.0: a column times one of them is the
     /// column (an optimizer's `c3 * vec4(v.w)` with `v.w` folded to 1).
     pub unit_vectors: &'a HashSet<u32>,

@@ -41,6 +41,9 @@ struct Defs {
     /// Each function's `OpReturnValue` values, and the word indices of the calls of each.
     returns: HashMap<u32, Vec<u32>>,
     calls: HashMap<u32, Vec<usize>>,
+    /// Where each function starts (word index, function id), in order.
+    functions: Vec<(usize, u32)>,
+    entry_functions: HashSet<u32>,
 }
 
 fn result_of(opcode: u32, operands: &[u32]) -> Option<u32> {
@@ -104,6 +107,8 @@ impl Defs {
             unit_vectors: module.unit_vectors.clone(),
             returns: HashMap::new(),
             calls: HashMap::new(),
+            functions: Vec::new(),
+            entry_functions: module.entry_functions.clone(),
         };
         let mut current_function = 0;
         let mut open_loops: Vec<(u32, usize)> = Vec::new();
@@ -155,7 +160,10 @@ impl Defs {
                     defs.chained.extend(arguments.iter().copied());
                     defs.calls.entry(callee).or_default().push(at);
                 }
-                (OP_FUNCTION, &[_, id, ..]) => current_function = id,
+                (OP_FUNCTION, &[_, id, ..]) => {
+                    current_function = id;
+                    defs.functions.push((at, id));
+                }
                 (OP_RETURN_VALUE, &[value]) => {
                     defs.returns
                         .entry(current_function)
@@ -180,6 +188,53 @@ impl Defs {
         self.loops
             .iter()
             .any(|&(start, end)| start < at && at < end)
+    }
+
+    /// Whether the instruction at `at` runs at most once per invocation: it lies outside loops
+    /// in an entry function, or in a function called from exactly one place that runs at most
+    /// once. A fit that may run again after the value it describes was stored (a helper called
+    /// in a loop or from two places, the store skipped in the later run) could describe
+    /// another matrix than the stored one.
+    fn runs_once(&self, at: usize) -> bool {
+        let mut at = at;
+        for _ in 0..16 {
+            if self.in_loop(at) {
+                return false;
+            }
+            let Some(&(_, function)) = self.functions.iter().rev().find(|&&(start, _)| start <= at)
+            else {
+                return false;
+            };
+            if self.entry_functions.contains(&function) {
+                return true;
+            }
+            match self.calls.get(&function).map(Vec::as_slice) {
+                Some(&[call]) => at = call,
+                _ => return false,
+            }
+        }
+        false
+    }
+
+    /// Whether a fit right after word `at` describes the stored vertex: it runs once per
+    /// invocation ([`Self::runs_once`]), or each store is emitted in its block
+    /// ([`Self::emitted_where_fitted`]). `in_loop` is the reason given where `at` lies in a
+    /// loop of its own function.
+    fn fitted_once(
+        &self,
+        stores: &PositionStores,
+        at: usize,
+        in_loop: &'static str,
+    ) -> Result<(), Unsupported> {
+        if self.runs_once(at) || self.emitted_where_fitted(stores, at) {
+            Ok(())
+        } else if self.in_loop(at) {
+            Err(Unsupported(in_loop))
+        } else {
+            Err(Unsupported(
+                "the projection is applied in a function that may run more than once",
+            ))
+        }
     }
 
     /// Whether no block starts between words `from` and `to`.
@@ -376,7 +431,7 @@ impl Defs {
         let &[call] = self.calls.get(&callee)?.as_slice() else {
             return None;
         };
-        (!self.in_loop(call)).then_some(value)
+        self.runs_once(call).then_some(value)
     }
 
     /// The multiply a whole `Position` value comes from: (matrix, transposed, vector).
@@ -682,9 +737,7 @@ pub fn find(
                     ));
                 }
                 let root_at = defs.at[&root].0;
-                if defs.in_loop(root_at) && !defs.emitted_where_fitted(stores, root_at) {
-                    return Err(Unsupported("the projection is applied in a loop"));
-                }
+                defs.fitted_once(stores, root_at, "the projection is applied in a loop")?;
                 return column_leaf(module, &defs, columns, root);
             }
             if let Some((rows, root, vector)) = defs.row_dots(*value, 0) {
@@ -694,9 +747,7 @@ pub fn find(
                     ));
                 }
                 let root_at = defs.at[&root].0;
-                if defs.in_loop(root_at) && !defs.emitted_where_fitted(stores, root_at) {
-                    return Err(Unsupported("the projection is applied in a loop"));
-                }
+                defs.fitted_once(stores, root_at, "the projection is applied in a loop")?;
                 return row_leaf(module, &defs, rows, root);
             }
         }
@@ -734,9 +785,7 @@ pub fn find(
     let mut copy_slots = [None; MAX_LEAF_COPIES];
     for (slot, &copy) in copy_slots.iter_mut().zip(&copies) {
         let (at, ..) = defs.at[&copy];
-        if defs.in_loop(at) && !defs.emitted_where_fitted(stores, at) {
-            return Err(Unsupported("the projection is loaded in a loop"));
-        }
+        defs.fitted_once(stores, at, "the projection is loaded in a loop")?;
         *slot = Some((copy, at));
     }
     // A 4x4 matrix of the position's vec4 columns.
@@ -760,9 +809,7 @@ pub fn find(
                 },
                 _ => MatrixSource::Computed,
             };
-            if defs.in_loop(*at) && !defs.emitted_where_fitted(stores, *at) {
-                return Err(Unsupported("the projection is loaded in a loop"));
-            }
+            defs.fitted_once(stores, *at, "the projection is loaded in a loop")?;
             (Insert::After(*at), source)
         }
         None => {

@@ -189,6 +189,7 @@ impl Module {
             input_positions,
             int_constants: &self.int_constants,
             glsl_std: self.glsl_std,
+            entry_functions: &self.entry_functions,
             unit_vectors: &self.unit_vectors,
         }
     }

@@ -823,3 +823,39 @@ fn a_geometry_shader_written_out_without_a_loop_fits_after_each_load_of_its_matr
     }
     assert_eq!(preceding(&out, OP_EMIT_VERTEX).len(), 3);
 }
+
+#[test]
+fn a_fit_in_a_function_that_may_run_again_after_the_store_is_refused() {
+    let reason = |bytes: &[u8]| {
+        rewrite_position_store_deriving(&binary(bytes), OFFSET)
+            .map(|r| r.map(|(_, s)| s))
+            .err()
+    };
+    // Each stores one call's value and runs the projection again (with another matrix)
+    // after it: the fit would describe the later run.
+    for (name, bytes) in [
+        (
+            "a helper called twice, storing once",
+            &include_bytes!("../test_data/function_called_from_a_helper_called_twice.spv")[..],
+        ),
+        (
+            "a private matrix set by a function called twice",
+            &include_bytes!("../test_data/function_private_matrix_set_twice.spv")[..],
+        ),
+        (
+            "a function called in its caller's loop",
+            &include_bytes!("../test_data/function_called_in_a_caller_loop.spv")[..],
+        ),
+        (
+            "a chain of calls in a loop",
+            &include_bytes!("../test_data/function_chain_called_in_a_loop.spv")[..],
+        ),
+    ] {
+        assert!(reason(bytes).is_some(), "{name}: accepted");
+    }
+    // A projection as dot products in a function called once from the entry point: fitted.
+    let (_, source) = derived(&binary(include_bytes!(
+        "../test_data/function_dot_rows_in_a_callee.spv"
+    )));
+    assert_eq!(source, MatrixSource::UniformBuffer);
+}
