@@ -187,6 +187,38 @@ pub struct Carrier {
     /// Where that range starts: a push of the application's with exactly these stages, at or
     /// after it, may be extended to the carrier's bytes ([`PushConstants::fold_carrier`]).
     pub range_offset: u32,
+    /// The stages every push of the application's that reaches bytes `[from, to)` must name
+    /// as well, where the vertex stage's range was extended over another stage's range
+    /// ([`reserve_carrier`]); `None`: none.
+    pub push_patch: Option<PushPatch>,
+}
+
+/// Stages added to the application's pushes that reach bytes `[from, to)`: the vertex range
+/// revz extended to its carrier covers them now, and a push must name every stage whose range
+/// holds a byte it writes (`vkCmdPushConstants`, VUID-01796).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PushPatch {
+    pub from: u32,
+    pub to: u32,
+    pub stages: vk::ShaderStageFlags,
+}
+
+impl PushPatch {
+    /// The stages a push of `size` bytes at `offset` with `stages` goes down with.
+    #[inline]
+    pub fn stages_of(
+        &self,
+        offset: u32,
+        size: u32,
+        stages: vk::ShaderStageFlags,
+    ) -> vk::ShaderStageFlags {
+        let end = u64::from(offset) + u64::from(size);
+        if u64::from(offset) < u64::from(self.to) && end > u64::from(self.from) {
+            stages | self.stages
+        } else {
+            stages
+        }
+    }
 }
 
 /// The carrier's offset on a device with `max_push_constants_size`: the last 16 bytes of the
@@ -202,8 +234,9 @@ pub fn carrier_offset(max_push_constants_size: u32) -> Option<u32> {
 pub enum NoRoom {
     /// The application's ranges reach the carrier's bytes.
     Used,
-    /// Extending the vertex stage's range to the carrier would overlap another stage's range,
-    /// whose pushes would then have to name the vertex stage too.
+    /// Extending the vertex stage's range to the carrier would overlap another stage's range
+    /// that starts below the vertex range: its pushes could write bytes the vertex stage has
+    /// no range for, and could not name it.
     Overlap,
 }
 
@@ -213,7 +246,7 @@ impl std::fmt::Display for NoRoom {
             NoRoom::Used => "the application's push constants use the bytes revz reserves",
             NoRoom::Overlap => {
                 "the vertex stage's push-constant range cannot be extended past another \
-                 stage's range"
+                 stage's range that starts below it"
             }
         })
     }
@@ -229,6 +262,12 @@ impl std::fmt::Display for NoRoom {
 /// later stages over the carrier would keep revz from folding the carrier into the
 /// application's pushes (a driver call per camera); pipelines with a rewritten later stage
 /// and such a layout take the flip path.
+///
+/// Where the vertex range, extended, overlaps another stage's range (a fragment range after
+/// it: `VERTEX 0..64, FRAGMENT 64..80`), it is extended anyway when every range it then
+/// overlaps starts at or after it: the application's pushes that reach the extension go down
+/// naming the vertex range's stages too ([`Carrier::push_patch`]), which the extended range
+/// covers byte for byte. A range starting below the vertex range refuses ([`NoRoom::Overlap`]).
 pub fn reserve_carrier(
     ranges: &[vk::PushConstantRange],
     offset: u32,
@@ -243,14 +282,28 @@ pub fn reserve_carrier(
     let vertex = out
         .iter()
         .position(|r| r.stage_flags.contains(vk::ShaderStageFlags::VERTEX));
+    let mut push_patch = None;
     let range = match vertex {
         Some(index) => {
             let start = end(&out[index]);
-            let overlaps = ranges.iter().enumerate().any(|(other, r)| {
-                other != index && u64::from(r.offset) < u64::from(carrier_end) && end(r) > start
-            });
-            if overlaps {
+            let vertex_offset = out[index].offset;
+            let overlapped: Vec<&vk::PushConstantRange> = ranges
+                .iter()
+                .enumerate()
+                .filter(|&(other, r)| {
+                    other != index && u64::from(r.offset) < u64::from(carrier_end) && end(r) > start
+                })
+                .map(|(_, r)| r)
+                .collect();
+            if overlapped.iter().any(|r| r.offset < vertex_offset) {
                 return Err(NoRoom::Overlap);
+            }
+            if !overlapped.is_empty() {
+                push_patch = Some(PushPatch {
+                    from: start as u32,
+                    to: offset,
+                    stages: out[index].stage_flags,
+                });
             }
             out[index].size = carrier_end - out[index].offset;
             out[index]
@@ -276,6 +329,7 @@ pub fn reserve_carrier(
             offset,
             stages: range.stage_flags,
             range_offset: range.offset,
+            push_patch,
         },
     ))
 }
@@ -622,7 +676,13 @@ impl PushConstants {
         offset: u32,
         values: &[f32; 4],
     ) -> Option<FoldedPush> {
-        if stages != carrier.stages || offset < carrier.range_offset || offset >= carrier.offset {
+        // An extended vertex range over another stage's range (`push_patch`): the folded push
+        // would write that range's bytes without naming its stages.
+        if stages != carrier.stages
+            || offset < carrier.range_offset
+            || offset >= carrier.offset
+            || carrier.push_patch.is_some()
+        {
             return None;
         }
         let end = carrier.offset + CARRIER_BYTES;
@@ -845,13 +905,38 @@ mod tests {
                 offset: 112,
                 stages: VERTEX | FRAGMENT,
                 range_offset: 0,
+                push_patch: None,
             }
         );
         // The same application ranges give the same layout (compatibility is kept).
         assert_eq!(reserved(&shared).expect("room").0, ranges);
-        // A vertex range below a fragment range cannot reach past it.
+        // A vertex range below a fragment range is extended over it; the fragment stage's
+        // pushes that reach the extension name the vertex stage too.
         let split = [range(VERTEX, 0, 64), range(FRAGMENT, 64, 16)];
-        assert_eq!(reserved(&split), Err(NoRoom::Overlap));
+        let (ranges, carrier) = reserved(&split).expect("room");
+        assert_eq!(
+            ranges,
+            triples(&[range(VERTEX, 0, 128), range(FRAGMENT, 64, 16)])
+        );
+        let patch = carrier.push_patch.expect("a patch");
+        assert_eq!((patch.from, patch.to, patch.stages), (64, 112, VERTEX));
+        assert_eq!(patch.stages_of(64, 16, FRAGMENT), VERTEX | FRAGMENT);
+        assert_eq!(
+            patch.stages_of(0, 64, VERTEX),
+            VERTEX,
+            "below the extension"
+        );
+        assert_eq!(patch.stages_of(0, 80, VERTEX | FRAGMENT), VERTEX | FRAGMENT);
+        // Folding the carrier into a vertex push would write the fragment range's bytes.
+        let shadow = PushConstants::default();
+        assert_eq!(
+            shadow.fold_carrier(&carrier, VERTEX, 0, &FLIP_CARRIER),
+            None
+        );
+        // A range starting below the vertex range: its pushes could write bytes the vertex
+        // stage has no range for.
+        let below_vertex = [range(FRAGMENT, 0, 80), range(VERTEX, 16, 48)];
+        assert_eq!(reserved(&below_vertex), Err(NoRoom::Overlap));
         // The fragment range below the vertex one is fine.
         let below = [range(FRAGMENT, 0, 16), range(VERTEX, 16, 64)];
         let (ranges, carrier) = reserved(&below).expect("room");

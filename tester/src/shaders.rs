@@ -122,6 +122,13 @@ pub const UBO_TESE: ShaderSource = glslang_shader!("ubo.tese");
 /// color on.
 pub const SSBO_ROWS_VERT: ShaderSource = glslang_shader!("ssbo_rows.vert");
 
+/// `split_mvp.vert` (glslang): `scene.vert` with only the matrix in its push constants
+/// (bytes 0..64, the vertex stage's own range).
+pub const SPLIT_MVP_VERT: ShaderSource = glslang_shader!("split_mvp.vert");
+/// `split_color.frag` (glslang): `scene.frag` reading the color at bytes 64..80 (the fragment
+/// stage's own range).
+pub const SPLIT_COLOR_FRAG: ShaderSource = glslang_shader!("split_color.frag");
+
 /// Every embedded module.
 #[cfg(test)]
 pub const ALL: &[ShaderSource] = &[
@@ -147,6 +154,8 @@ pub const ALL: &[ShaderSource] = &[
     PASSTHROUGH_TESC,
     UBO_TESE,
     SSBO_ROWS_VERT,
+    SPLIT_MVP_VERT,
+    SPLIT_COLOR_FRAG,
 ];
 
 /// The glslang modules: (source file under `shaders/glslang/`, module).
@@ -158,6 +167,8 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("passthrough.tesc", PASSTHROUGH_TESC),
     ("ubo.tese", UBO_TESE),
     ("ssbo_rows.vert", SSBO_ROWS_VERT),
+    ("split_mvp.vert", SPLIT_MVP_VERT),
+    ("split_color.frag", SPLIT_COLOR_FRAG),
 ];
 
 #[cfg(test)]

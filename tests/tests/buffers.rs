@@ -62,11 +62,13 @@ use revz_tests::{
     BACKGROUND,
 };
 
-/// The buffer deliveries: four that project in the vertex stage (`ssbo-rows` as four dot
-/// products of the matrix's rows, issue #41), and `ubo`'s blocks applied in the last
-/// pre-rasterization stage after it (issue #41): a geometry shader, a tessellation evaluation
-/// shader.
-const DELIVERIES: [&str; 6] = [
+/// The deliveries other than push: `push-split` (push's constants in a range per stage, the
+/// vertex stage's first: revz extends it over the fragment stage's, issue #41), four buffer
+/// deliveries that project in the vertex stage (`ssbo-rows` as four dot products of the
+/// matrix's rows, issue #41), and `ubo`'s blocks applied in the last pre-rasterization stage
+/// after it (issue #41): a geometry shader, a tessellation evaluation shader.
+const DELIVERIES: [&str; 7] = [
+    "push-split",
     "ubo",
     "ubo-dynamic",
     "ssbo",
@@ -216,7 +218,7 @@ fn difference(push: &Render, buffer: &Render, truth: &GroundTruth) -> BufferDiff
 /// (see the module documentation).
 fn same_arithmetic(scene: &str, delivery: &str) -> bool {
     match delivery {
-        "ssbo" => true,
+        "ssbo" | "push-split" => true,
         "ubo-dynamic" => matches!(scene, "sloped-plane" | "mars-patch" | "plane-stack"),
         _ => false,
     }

@@ -195,7 +195,8 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
             let why = listed["projection"].as_str().unwrap();
             assert!(why.contains("clamps depth"), "{what}: {why}");
         }
-        if delivery != "push" && mode != "flip" {
+        let pushes = matches!(delivery, "push" | "push-split");
+        if !pushes && mode != "flip" {
             let projection = listed["projection"].as_str().unwrap();
             assert!(projection.contains("fitted"), "{what}: {listed}");
         }
@@ -229,7 +230,8 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
     assert_eq!(counted, flip_pipelines, "{what}: {reasons:?}");
     assert_eq!(profile["totals"]["frames"], frames, "{what}");
     let cameras = profile["cameras"].as_array().expect("cameras");
-    let pushed = delivery == "push" && mode != "flip" && !application_reversed;
+    let pushed =
+        matches!(delivery, "push" | "push-split") && mode != "flip" && !application_reversed;
     if !pushed || expected.0 == 0 {
         assert!(cameras.is_empty(), "{what}: {cameras:?}");
     } else {
@@ -328,6 +330,7 @@ fn the_profile_says_what_buffer_deliveries_do() {
         ("plane-stack", "ubo-geometry"),
         ("sloped-plane", "ubo-tessellation"),
         ("mars-patch", "ssbo-rows"),
+        ("plane-stack", "push-split"),
     ] {
         for mode in ["flip", "complementary", "infinite"] {
             let (render, profile) =

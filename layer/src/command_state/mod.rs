@@ -175,6 +175,9 @@ pub struct CommandState {
     /// ([`PipelineDepth::layout`] of its pipelines; null: unknown), to tell whether that
     /// layout is push-compatible with the bound pipeline.
     push_pusher: vk::PipelineLayout,
+    /// The stages the application's pushes with its last push layout must name as well
+    /// (`crate::precise::PushPatch`), if that layout needs any.
+    push_patch: Option<crate::precise::PushPatch>,
     /// The application pushed since the last graphics bind: with a layout the bound pipeline
     /// is not compatible with, it pushes for the next pipeline, and revz's carrier must not
     /// go down over its bytes now (it goes with the next compatible push or bind).
@@ -226,6 +229,7 @@ impl Default for CommandState {
             promoted_from: None,
             carrier_held: None,
             push_pusher: vk::PipelineLayout::null(),
+            push_patch: None,
             pushed_since_bind: false,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
@@ -388,8 +392,28 @@ impl CommandState {
 
     /// The application's next push uses a layout whose push ranges revz's layout `pusher`
     /// has (null: unknown); called before [`Self::push_constants`] when the layout changes.
-    pub fn note_push_pusher(&mut self, pusher: vk::PipelineLayout) {
+    pub fn note_push_pusher(
+        &mut self,
+        pusher: vk::PipelineLayout,
+        patch: Option<crate::precise::PushPatch>,
+    ) {
         self.push_pusher = pusher;
+        self.push_patch = patch;
+    }
+
+    /// The stages an application's push of `size` bytes at `offset` with `stages`, with the
+    /// layout last noted ([`Self::note_push_pusher`]), goes down with.
+    #[inline]
+    pub fn push_stages(
+        &self,
+        offset: u32,
+        size: u32,
+        stages: vk::ShaderStageFlags,
+    ) -> vk::ShaderStageFlags {
+        match &self.push_patch {
+            Some(patch) => patch.stages_of(offset, size, stages),
+            None => stages,
+        }
     }
 
     /// The application's last push layout, null before its first push.

@@ -449,6 +449,7 @@ fn projection_pipeline() -> Arc<PipelineDepth> {
             offset: 112,
             stages: vk::ShaderStageFlags::VERTEX,
             range_offset: 0,
+            push_patch: None,
         }),
         handle: vk::Pipeline::from_raw(APP_PIPELINE),
         ..(*static_pipeline()).clone()
@@ -544,7 +545,7 @@ fn a_push_for_another_pipeline_is_never_overwritten_by_the_carrier() {
     let mut sink = Recorded::default();
     state.settle(&mut sink);
     assert_eq!(sink.pushed.len(), 1, "the selector, with revz's layout");
-    state.note_push_pusher(vk::PipelineLayout::null());
+    state.note_push_pusher(vk::PipelineLayout::null(), None);
     let (_, folded) = state.push_constants(layout(), OTHER_STAGES, 0, &[0; 128]);
     assert!(
         folded.is_none(),
@@ -567,7 +568,7 @@ fn a_push_for_another_pipeline_is_never_overwritten_by_the_carrier() {
     );
     assert_eq!(state.path(), DrawPath::Precise);
     // A push with a layout of the pipeline's own ranges is compatible: folded as before.
-    state.note_push_pusher(vk::PipelineLayout::from_raw(9));
+    state.note_push_pusher(vk::PipelineLayout::from_raw(9), None);
     state.push_constants(vk::PipelineLayout::from_raw(30), OTHER_STAGES, 0, &[0; 16]);
     state.settle(&mut sink);
     assert_eq!(state.path(), DrawPath::Precise);
@@ -1064,6 +1065,7 @@ fn settles_like_compares_what_revz_sends_and_nan_never_matches() {
                 offset: 64,
                 stages: vk::ShaderStageFlags::VERTEX,
                 range_offset: 0,
+                push_patch: None,
             })
         }),
     ] {
@@ -1121,4 +1123,26 @@ fn an_infinite_mode_draw_that_clamps_depth_dynamically_takes_the_flip_path() {
     let mut sink = Recorded::default();
     state.before_draw(&mut sink);
     assert_eq!(state.path(), DrawPath::Precise);
+}
+
+#[test]
+fn pushes_reaching_an_extended_vertex_range_name_its_stages() {
+    // A layout whose vertex range revz extended over the fragment range (VERTEX 0..64,
+    // FRAGMENT 64..80, the carrier at 112): the fragment stage's pushes reach the extension.
+    let patch = crate::precise::PushPatch {
+        from: 64,
+        to: 112,
+        stages: vk::ShaderStageFlags::VERTEX,
+    };
+    let mut state = precise(RewriteTarget::Infinite);
+    let fragment = vk::ShaderStageFlags::FRAGMENT;
+    let vertex = vk::ShaderStageFlags::VERTEX;
+    // Before a layout with a patch is noted: as the application sent them.
+    assert_eq!(state.push_stages(64, 16, fragment), fragment);
+    state.note_push_pusher(vk::PipelineLayout::from_raw(9), Some(patch));
+    assert_eq!(state.push_stages(64, 16, fragment), fragment | vertex);
+    assert_eq!(state.push_stages(0, 64, vertex), vertex);
+    // Another layout, without one.
+    state.note_push_pusher(vk::PipelineLayout::from_raw(10), None);
+    assert_eq!(state.push_stages(64, 16, fragment), fragment);
 }

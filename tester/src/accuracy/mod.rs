@@ -95,11 +95,13 @@ pub enum DeliveryChoice {
     Ssbo,
     /// The storage buffer of ssbo, each matrix as its rows, applied as four dot products.
     SsboRows,
+    /// The push constants of push, in a range per stage.
+    PushSplit,
     /// The blocks of ubo, applied in a geometry shader.
     UboGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
-    /// push, ubo, ubo-dynamic, ssbo, ssbo-rows, ubo-geometry and ubo-tessellation.
+    /// push, push-split, ubo, ubo-dynamic, ssbo, ssbo-rows, ubo-geometry and ubo-tessellation.
     All,
 }
 
@@ -111,6 +113,7 @@ impl DeliveryChoice {
             DeliveryChoice::UboDynamic => &[Delivery::UboDynamic],
             DeliveryChoice::Ssbo => &[Delivery::Ssbo],
             DeliveryChoice::SsboRows => &[Delivery::SsboRows],
+            DeliveryChoice::PushSplit => &[Delivery::PushSplit],
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
             DeliveryChoice::All => &Delivery::ALL,

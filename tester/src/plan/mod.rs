@@ -201,6 +201,10 @@ pub enum Program {
     /// read-only storage buffer of per-object `{ mat4 mvp; vec4 color }` indexed by
     /// `gl_InstanceIndex` (each object drawn as one instance, firstInstance = its index).
     Ssbo,
+    /// `split_mvp.vert` + `split_color.frag` (the `push-split` [`Delivery`]): the push
+    /// constants of [`Program::Flat`] in two ranges, the matrix at 0..64 for the vertex stage,
+    /// the color at 64..80 for the fragment stage (each push split along them).
+    SplitPush,
     /// `ssbo_rows.vert` + `flat_color.frag` (the `ssbo-rows` [`Delivery`]): the buffer of
     /// [`Program::Ssbo`] with each matrix stored as its rows, applied as four dot products.
     SsboRows,
@@ -235,6 +239,8 @@ pub enum Delivery {
     /// The storage buffer of [`Delivery::Ssbo`], each matrix stored as its rows and applied as
     /// four dot products ([`Program::SsboRows`]).
     SsboRows,
+    /// The push constants of [`Delivery::Push`] in a range per stage ([`Program::SplitPush`]).
+    PushSplit,
     /// The blocks of [`Delivery::Ubo`], applied in a geometry shader
     /// ([`Program::UboGeometry`]).
     UboGeometry,
@@ -245,8 +251,9 @@ pub enum Delivery {
 
 impl Delivery {
     /// Every delivery, push first.
-    pub const ALL: [Delivery; 7] = [
+    pub const ALL: [Delivery; 8] = [
         Delivery::Push,
+        Delivery::PushSplit,
         Delivery::Ubo,
         Delivery::UboDynamic,
         Delivery::Ssbo,
@@ -263,6 +270,7 @@ impl Delivery {
             Delivery::UboDynamic => "ubo-dynamic",
             Delivery::Ssbo => "ssbo",
             Delivery::SsboRows => "ssbo-rows",
+            Delivery::PushSplit => "push-split",
             Delivery::UboGeometry => "ubo-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
         }
@@ -277,6 +285,7 @@ impl Delivery {
             Delivery::UboDynamic => Some(Program::UboDynamic),
             Delivery::Ssbo => Some(Program::Ssbo),
             Delivery::SsboRows => Some(Program::SsboRows),
+            Delivery::PushSplit => Some(Program::SplitPush),
             Delivery::UboGeometry => Some(Program::UboGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
         }
@@ -337,7 +346,8 @@ impl Program {
             | Program::ShadowReceiverRaw
             | Program::RowMajor
             | Program::RowVector
-            | Program::LitMvp => 80,
+            | Program::LitMvp
+            | Program::SplitPush => 80,
         }
     }
 
@@ -760,9 +770,11 @@ impl Plan {
                  holds the camera's only"
             )));
         }
+        // The split push constants take partial pushes too (each split along the ranges).
         if let Some(step) = plan
             .all_steps()
             .into_iter()
+            .filter(|_| program.is_buffer_delivery())
             .find(|s| matches!(s, Step::Push { .. } | Step::DrawPushed(_)))
         {
             return Err(PlanError(format!(

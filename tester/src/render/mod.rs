@@ -124,6 +124,8 @@ pub struct Renderer<'a> {
     /// 128 bytes of vertex push constants and the color descriptor set (null without an
     /// [`Program::MvpPair`] pipeline).
     pair_layout: vk::PipelineLayout,
+    /// The [`Program::SplitPush`] layout ([`SPLIT_PUSH_CONSTANT_RANGES`]).
+    split_layout: vk::PipelineLayout,
     colors: Option<ColorBindings<'a>>,
     /// The buffer-delivery pipelines' layout (no push constants; null without one).
     matrix_layout: vk::PipelineLayout,
@@ -170,6 +172,7 @@ impl Drop for Renderer<'_> {
                 .destroy_pipeline_layout(self.shadow_layout, None);
             self.device.destroy_pipeline_layout(self.plain_layout, None);
             self.device.destroy_pipeline_layout(self.pair_layout, None);
+            self.device.destroy_pipeline_layout(self.split_layout, None);
             self.device
                 .destroy_pipeline_layout(self.matrix_layout, None);
             if let Some(matrices) = &self.matrices {
@@ -212,6 +215,21 @@ const PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange 
     size: 80,
 }];
 
+/// The push-constant ranges of the [`Program::SplitPush`] layout: the matrix for the vertex
+/// stage, the color for the fragment stage.
+pub(crate) const SPLIT_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 2] = [
+    vk::PushConstantRange {
+        stage_flags: vk::ShaderStageFlags::VERTEX,
+        offset: 0,
+        size: 64,
+    },
+    vk::PushConstantRange {
+        stage_flags: vk::ShaderStageFlags::FRAGMENT,
+        offset: 64,
+        size: 16,
+    },
+];
+
 /// The push-constant range of the [`Program::MvpPair`] layout: two matrices, vertex stage only.
 const PAIR_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
     stage_flags: vk::ShaderStageFlags::VERTEX,
@@ -239,6 +257,7 @@ impl<'a> Renderer<'a> {
             shadow_layout: vk::PipelineLayout::null(),
             shadow: None,
             pair_layout: vk::PipelineLayout::null(),
+            split_layout: vk::PipelineLayout::null(),
             colors: None,
             matrix_layout: vk::PipelineLayout::null(),
             matrices: None,
@@ -313,6 +332,17 @@ impl<'a> Renderer<'a> {
         // SAFETY: valid device and create info.
         this.plain_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
             .context("vkCreatePipelineLayout failed")?;
+        if plan
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::SplitPush)
+        {
+            let layout_info = vk::PipelineLayoutCreateInfo::default()
+                .push_constant_ranges(&SPLIT_PUSH_CONSTANT_RANGES);
+            // SAFETY: valid device and create info.
+            this.split_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+                .context("vkCreatePipelineLayout (split push constants) failed")?;
+        }
         if needs.shadow_map {
             this.create_shadow_bindings(gpu, targets, scene)?;
         }
@@ -396,6 +426,8 @@ impl<'a> Renderer<'a> {
             | Program::RowMajor
             | Program::RowVector
             | Program::LitMvp => (self.plain_layout, PLAIN_PUSH_STAGES),
+            // Pushed per range ([`SPLIT_PUSH_CONSTANT_RANGES`]), each with its own stage.
+            Program::SplitPush => (self.split_layout, vk::ShaderStageFlags::empty()),
         }
     }
 

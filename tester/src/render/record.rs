@@ -488,6 +488,28 @@ impl Recorder<'_> {
             .get(offset as usize..(offset + size) as usize)
             .ok_or_else(|| anyhow!("push range {offset}+{size} outside the constants"))?;
         let (layout, stages) = self.renderer.layout(program);
+        if program == Program::SplitPush {
+            // One push per range the bytes reach, each naming its range's stage.
+            for range in super::SPLIT_PUSH_CONSTANT_RANGES {
+                let start = offset.max(range.offset);
+                let end = (offset + size).min(range.offset + range.size);
+                if start < end {
+                    let part = &bytes[(start - offset) as usize..(end - offset) as usize];
+                    // SAFETY: `cmd` is recording; the layout is the bound pipeline's, whose
+                    // range of this stage holds exactly these bytes.
+                    unsafe {
+                        self.device().cmd_push_constants(
+                            cmd,
+                            layout,
+                            range.stage_flags,
+                            start,
+                            part,
+                        )
+                    };
+                }
+            }
+            return Ok(());
+        }
         // SAFETY: `cmd` is recording; the layout is the bound pipeline's, whose push-constant
         // range covers these 4-aligned bytes for exactly these stages (plan check).
         unsafe {

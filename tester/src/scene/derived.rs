@@ -202,7 +202,8 @@ impl Scene {
             | Program::FragDepth
             | Program::ShadowReceiver
             | Program::ShadowReceiverRaw
-            | Program::LitMvp => {
+            | Program::LitMvp
+            | Program::SplitPush => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

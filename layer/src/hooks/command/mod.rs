@@ -239,14 +239,14 @@ pub unsafe extern "system" fn cmd_push_constants(
     // uninitialized otherwise: most pushes send the application's own bytes).
     let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
     let tracked = objects::with_command_buffer(buffer, |entry| {
-        let folded = guarded(
+        let (folded, stages) = guarded(
             &ENTRY,
             || {
                 // SAFETY: `size` bytes of values (the application's contract).
                 let values = unsafe { slice(p_values.cast::<u8>(), size) };
                 follow_push(entry, layout, stages, offset, values, &mut folded_bytes)
             },
-            || None,
+            || (None, stages),
         );
         let (offset, size, p_sent) = match folded {
             Some(f) => (f.offset, f.size, folded_bytes.as_ptr().cast()),
@@ -263,7 +263,14 @@ pub unsafe extern "system" fn cmd_push_constants(
     });
     if tracked.is_none() {
         if let Some(device) = untracked_device(buffer) {
-            // SAFETY: calling down with the application's arguments.
+            // The stages of a vertex range revz extended over the bytes, as for tracked ones.
+            let stages = device
+                .objects
+                .layout_carriers
+                .get(&layout)
+                .and_then(|carrier| carrier.push_patch)
+                .map_or(stages, |patch| patch.stages_of(offset, size, stages));
+            // SAFETY: calling down with the application's arguments (and those stages).
             unsafe {
                 (device.next.fp_v1_0().cmd_push_constants)(
                     buffer, layout, stages, offset, size, p_values,
@@ -275,7 +282,8 @@ pub unsafe extern "system" fn cmd_push_constants(
 
 /// Follows a push of the application's: the shadow copy and the outcome for the bound
 /// pipeline's projection; returns the push to send in its place, if the carrier goes with it,
-/// with its bytes written into `out`.
+/// with its bytes written into `out`, and the stages to send it with (the application's, and
+/// those of a vertex range revz extended over the bytes it writes: `crate::precise::PushPatch`).
 fn follow_push(
     entry: &CommandBufferEntry,
     layout: vk::PipelineLayout,
@@ -283,20 +291,21 @@ fn follow_push(
     offset: u32,
     values: &[u8],
     out: &mut [MaybeUninit<u8>; PUSH_CONSTANT_BYTES],
-) -> Option<FoldedPush> {
+) -> (Option<FoldedPush>, vk::ShaderStageFlags) {
     let mut state = entry.state();
     if layout != state.push_layout() {
-        // Whether this layout is push-compatible with the bound pipeline's (one lookup per
-        // change of layout, not per push).
-        let pusher = entry
-            .device
-            .objects
-            .layout_pushers
+        // Whether this layout is push-compatible with the bound pipeline's, and the stages
+        // its pushes must name (one lookup per change of layout, not per push).
+        let objects = &entry.device.objects;
+        let pusher = objects.layout_pushers.get(&layout).unwrap_or_default();
+        let patch = objects
+            .layout_carriers
             .get(&layout)
-            .unwrap_or_default();
-        state.note_push_pusher(pusher);
+            .and_then(|carrier| carrier.push_patch);
+        state.note_push_pusher(pusher, patch);
     }
-    let (outcome, folded) = state.push_constants(layout, stages, offset, values);
+    let sent_stages = state.push_stages(offset, values.len() as u32, stages);
+    let (outcome, folded) = state.push_constants(layout, sent_stages, offset, values);
     if let Some(folded) = &folded {
         state.folded_bytes(folded, out);
     }
@@ -304,7 +313,7 @@ fn follow_push(
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
     }
-    folded
+    (folded, sent_stages)
 }
 
 /// `vkCmdPushConstants2` (Vulkan 1.4) and `vkCmdPushConstants2KHR`: followed like
@@ -316,6 +325,7 @@ pub unsafe extern "system" fn cmd_push_constants2(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants2");
     // SAFETY: a valid info (the application's contract).
     let info = unsafe { *p_info };
+    let mut sent_stages = info.stage_flags;
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: `size` bytes of values.
         let values = unsafe { slice(info.p_values.cast::<u8>(), info.size) };
@@ -328,24 +338,29 @@ pub unsafe extern "system" fn cmd_push_constants2(
         }
         // Followed, never extended (the draw sends the carrier): this command is rare.
         let mut unused = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
-        if follow_push(
+        let (folded, stages) = follow_push(
             entry,
             info.layout,
             info.stage_flags,
             info.offset,
             values,
             &mut unused,
-        )
-        .is_some()
-        {
+        );
+        if folded.is_some() {
             entry.state().unfold();
         }
+        sent_stages = stages;
     });
     let Some(next) = device.as_ref().and_then(|d| d.commands.push_constants2) else {
         return;
     };
-    // SAFETY: calling down with the application's arguments.
-    unsafe { next(buffer, p_info) };
+    let patched = vk::PushConstantsInfoKHR {
+        stage_flags: sent_stages,
+        ..info
+    };
+    // SAFETY: calling down with the application's arguments (its stages, and those of a
+    // vertex range revz extended over the bytes it writes).
+    unsafe { next(buffer, &patched) };
     settle_down(&device, buffer);
 }
 
