@@ -184,8 +184,11 @@ pub struct Carrier {
     /// The stages a push of exactly the carrier's bytes must name: those of the range that
     /// holds them.
     pub stages: vk::ShaderStageFlags,
-    /// Where that range starts: a push of the application's with exactly these stages, at or
-    /// after it, may be extended to the carrier's bytes ([`PushConstants::fold_carrier`]).
+    /// Where a push of the application's with exactly these stages may start to be extended to
+    /// the carrier's bytes ([`PushConstants::fold_carrier`]): the start of the range that
+    /// holds the carrier, or past the end of every other stage's range inside it (a folded
+    /// push must not write another range's bytes without naming its stages). Derived from the
+    /// reserved ranges only, so layouts compatible for push constants agree on it.
     pub range_offset: u32,
     /// The stages every push of the application's that reaches bytes `[from, to)` must name
     /// as well, where the vertex stage's range was extended over another stage's range
@@ -234,20 +237,12 @@ pub fn carrier_offset(max_push_constants_size: u32) -> Option<u32> {
 pub enum NoRoom {
     /// The application's ranges reach the carrier's bytes.
     Used,
-    /// Extending the vertex stage's range to the carrier would overlap another stage's range
-    /// that starts below the vertex range: its pushes could write bytes the vertex stage has
-    /// no range for, and could not name it.
-    Overlap,
 }
 
 impl std::fmt::Display for NoRoom {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
             NoRoom::Used => "the application's push constants use the bytes revz reserves",
-            NoRoom::Overlap => {
-                "the vertex stage's push-constant range cannot be extended past another \
-                 stage's range that starts below it"
-            }
         })
     }
 }
@@ -264,10 +259,12 @@ impl std::fmt::Display for NoRoom {
 /// and such a layout take the flip path.
 ///
 /// Where the vertex range, extended, overlaps another stage's range (a fragment range after
-/// it: `VERTEX 0..64, FRAGMENT 64..80`), it is extended anyway when every range it then
-/// overlaps starts at or after it: the application's pushes that reach the extension go down
-/// naming the vertex range's stages too ([`Carrier::push_patch`]), which the extended range
-/// covers byte for byte. A range starting below the vertex range refuses ([`NoRoom::Overlap`]).
+/// it: `VERTEX 0..64, FRAGMENT 64..80`), it is extended anyway: the application's pushes that
+/// reach the extension go down naming the vertex range's stages too ([`Carrier::push_patch`]).
+/// Every such push was valid on the application's layout, so it writes no byte of the
+/// original vertex range (it would have had to name the vertex stage, which has no byte
+/// outside that range): it lies inside the extension, which the extended range covers byte
+/// for byte (found in review: a range starting below the vertex range is no exception).
 pub fn reserve_carrier(
     ranges: &[vk::PushConstantRange],
     offset: u32,
@@ -286,19 +283,10 @@ pub fn reserve_carrier(
     let range = match vertex {
         Some(index) => {
             let start = end(&out[index]);
-            let vertex_offset = out[index].offset;
-            let overlapped: Vec<&vk::PushConstantRange> = ranges
-                .iter()
-                .enumerate()
-                .filter(|&(other, r)| {
-                    other != index && u64::from(r.offset) < u64::from(carrier_end) && end(r) > start
-                })
-                .map(|(_, r)| r)
-                .collect();
-            if overlapped.iter().any(|r| r.offset < vertex_offset) {
-                return Err(NoRoom::Overlap);
-            }
-            if !overlapped.is_empty() {
+            let overlapped = ranges.iter().enumerate().any(|(other, r)| {
+                other != index && u64::from(r.offset) < u64::from(carrier_end) && end(r) > start
+            });
+            if overlapped {
                 push_patch = Some(PushPatch {
                     from: start as u32,
                     to: offset,
@@ -323,12 +311,20 @@ pub fn reserve_carrier(
             range
         }
     };
+    // A folded push starts past every other range inside the carrier's range.
+    let range_end = u64::from(range.offset) + u64::from(range.size);
+    let fold_from = out
+        .iter()
+        .filter(|r| r.stage_flags != range.stage_flags)
+        .filter(|r| u64::from(r.offset) < range_end && end(r) > u64::from(range.offset))
+        .map(|r| end(r) as u32)
+        .fold(range.offset, u32::max);
     Ok((
         out,
         Carrier {
             offset,
             stages: range.stage_flags,
-            range_offset: range.offset,
+            range_offset: fold_from,
             push_patch,
         },
     ))
@@ -676,13 +672,9 @@ impl PushConstants {
         offset: u32,
         values: &[f32; 4],
     ) -> Option<FoldedPush> {
-        // An extended vertex range over another stage's range (`push_patch`): the folded push
-        // would write that range's bytes without naming its stages.
-        if stages != carrier.stages
-            || offset < carrier.range_offset
-            || offset >= carrier.offset
-            || carrier.push_patch.is_some()
-        {
+        // `range_offset` lies past every other stage's range inside the carrier's: a folded
+        // push writes no byte of another range.
+        if stages != carrier.stages || offset < carrier.range_offset || offset >= carrier.offset {
             return None;
         }
         let end = carrier.offset + CARRIER_BYTES;
@@ -933,10 +925,38 @@ mod tests {
             shadow.fold_carrier(&carrier, VERTEX, 0, &FLIP_CARRIER),
             None
         );
-        // A range starting below the vertex range: its pushes could write bytes the vertex
-        // stage has no range for.
+        // A range starting below the vertex range and reaching past it: its valid pushes that
+        // reach the extension lie inside it (found in review), so it is extended too.
         let below_vertex = [range(FRAGMENT, 0, 80), range(VERTEX, 16, 48)];
-        assert_eq!(reserved(&below_vertex), Err(NoRoom::Overlap));
+        let (ranges, carrier) = reserved(&below_vertex).expect("room");
+        assert_eq!(
+            ranges,
+            triples(&[range(FRAGMENT, 0, 80), range(VERTEX, 16, 112)])
+        );
+        let patch = carrier.push_patch.expect("a patch");
+        assert_eq!((patch.from, patch.to), (64, 112));
+        assert_eq!(
+            carrier.range_offset, 80,
+            "folds start past the fragment range"
+        );
+        // A fragment range nested in the vertex range: no patch (its pushes name the vertex
+        // stage already), but a push of the vertex stage alone folded from 0 would write the
+        // fragment range's bytes without naming it (found in review): folds start past it.
+        let nested = [range(VERTEX, 0, 80), range(FRAGMENT, 64, 16)];
+        let (ranges, carrier) = reserved(&nested).expect("room");
+        assert_eq!(
+            ranges,
+            triples(&[range(VERTEX, 0, 128), range(FRAGMENT, 64, 16)])
+        );
+        assert_eq!(carrier.push_patch, None);
+        assert_eq!(carrier.range_offset, 80);
+        assert_eq!(
+            shadow.fold_carrier(&carrier, VERTEX, 0, &FLIP_CARRIER),
+            None
+        );
+        assert!(shadow
+            .fold_carrier(&carrier, VERTEX, 96, &FLIP_CARRIER)
+            .is_some());
         // The fragment range below the vertex one is fine.
         let below = [range(FRAGMENT, 0, 16), range(VERTEX, 16, 64)];
         let (ranges, carrier) = reserved(&below).expect("room");

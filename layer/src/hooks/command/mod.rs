@@ -246,7 +246,10 @@ pub unsafe extern "system" fn cmd_push_constants(
                 let values = unsafe { slice(p_values.cast::<u8>(), size) };
                 follow_push(entry, layout, stages, offset, values, &mut folded_bytes)
             },
-            || (None, stages),
+            || {
+                let patched = patched_stages(&entry.device, layout, offset, size, stages);
+                (None, patched)
+            },
         );
         let (offset, size, p_sent) = match folded {
             Some(f) => (f.offset, f.size, folded_bytes.as_ptr().cast()),
@@ -264,12 +267,7 @@ pub unsafe extern "system" fn cmd_push_constants(
     if tracked.is_none() {
         if let Some(device) = untracked_device(buffer) {
             // The stages of a vertex range revz extended over the bytes, as for tracked ones.
-            let stages = device
-                .objects
-                .layout_carriers
-                .get(&layout)
-                .and_then(|carrier| carrier.push_patch)
-                .map_or(stages, |patch| patch.stages_of(offset, size, stages));
+            let stages = patched_stages(&device, layout, offset, size, stages);
             // SAFETY: calling down with the application's arguments (and those stages).
             unsafe {
                 (device.next.fp_v1_0().cmd_push_constants)(
@@ -278,6 +276,25 @@ pub unsafe extern "system" fn cmd_push_constants(
             }
         }
     }
+}
+
+/// The stages an application's push with `layout` goes down with where revz's layout
+/// extended a vertex range over the bytes it writes (`crate::precise::PushPatch`), looked up
+/// in the device's tables: the path of untracked command buffers and of a push whose
+/// following failed (tracked pushes take it from the command buffer's state).
+fn patched_stages(
+    device: &DeviceState,
+    layout: vk::PipelineLayout,
+    offset: u32,
+    size: u32,
+    stages: vk::ShaderStageFlags,
+) -> vk::ShaderStageFlags {
+    device
+        .objects
+        .layout_carriers
+        .get(&layout)
+        .and_then(|carrier| carrier.push_patch)
+        .map_or(stages, |patch| patch.stages_of(offset, size, stages))
 }
 
 /// Follows a push of the application's: the shadow copy and the outcome for the bound
@@ -325,7 +342,7 @@ pub unsafe extern "system" fn cmd_push_constants2(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants2");
     // SAFETY: a valid info (the application's contract).
     let info = unsafe { *p_info };
-    let mut sent_stages = info.stage_flags;
+    let mut sent_stages = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: `size` bytes of values.
         let values = unsafe { slice(info.p_values.cast::<u8>(), info.size) };
@@ -349,13 +366,20 @@ pub unsafe extern "system" fn cmd_push_constants2(
         if folded.is_some() {
             entry.state().unfold();
         }
-        sent_stages = stages;
+        sent_stages = Some(stages);
     });
     let Some(next) = device.as_ref().and_then(|d| d.commands.push_constants2) else {
         return;
     };
+    // Untracked, a layout in pNext (the application's own ranges: unpatched), or a push whose
+    // following failed: from the device's tables.
+    let stages = sent_stages.unwrap_or_else(|| {
+        device.as_ref().map_or(info.stage_flags, |d| {
+            patched_stages(d, info.layout, info.offset, info.size, info.stage_flags)
+        })
+    });
     let patched = vk::PushConstantsInfoKHR {
-        stage_flags: sent_stages,
+        stage_flags: stages,
         ..info
     };
     // SAFETY: calling down with the application's arguments (its stages, and those of a
