@@ -218,9 +218,10 @@ pub struct Selection {
     #[arg(long, value_enum, value_delimiter = ',')]
     pub formats: Vec<DepthFormat>,
 
-    /// Projection deliveries (comma-separated): push, ubo, ubo-dynamic, ssbo, or all. The
-    /// buffer deliveries are rendered for sloped-plane, mars-patch, plane-stack, deep-range and
-    /// far-objects. Default: push.
+    /// Projection deliveries (comma-separated): push, push-split, ubo, ubo-dynamic, ssbo,
+    /// ssbo-rows, ubo-geometry, ubo-tessellation, or all. The deliveries other than push are
+    /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.
+    /// Default: push.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "DELIVERIES")]
     pub deliveries: Vec<DeliveryChoice>,
 
