@@ -207,6 +207,13 @@ pub struct PushPatch {
 }
 
 impl PushPatch {
+    /// No patch: an empty byte range.
+    pub const NONE: PushPatch = PushPatch {
+        from: 0,
+        to: 0,
+        stages: vk::ShaderStageFlags::empty(),
+    };
+
     /// The stages a push of `size` bytes at `offset` with `stages` goes down with.
     #[inline]
     pub fn stages_of(

@@ -176,8 +176,9 @@ pub struct CommandState {
     /// layout is push-compatible with the bound pipeline.
     push_pusher: vk::PipelineLayout,
     /// The stages the application's pushes with its last push layout must name as well
-    /// (`crate::precise::PushPatch`), if that layout needs any.
-    push_patch: Option<crate::precise::PushPatch>,
+    /// (`crate::precise::PushPatch`; [`crate::precise::PushPatch::NONE`] where that layout
+    /// needs none: one compare per push, no branch on an option).
+    push_patch: crate::precise::PushPatch,
     /// The application pushed since the last graphics bind: with a layout the bound pipeline
     /// is not compatible with, it pushes for the next pipeline, and revz's carrier must not
     /// go down over its bytes now (it goes with the next compatible push or bind).
@@ -229,7 +230,7 @@ impl Default for CommandState {
             promoted_from: None,
             carrier_held: None,
             push_pusher: vk::PipelineLayout::null(),
-            push_patch: None,
+            push_patch: crate::precise::PushPatch::NONE,
             pushed_since_bind: false,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
@@ -398,7 +399,7 @@ impl CommandState {
         patch: Option<crate::precise::PushPatch>,
     ) {
         self.push_pusher = pusher;
-        self.push_patch = patch;
+        self.push_patch = patch.unwrap_or(crate::precise::PushPatch::NONE);
     }
 
     /// The stages an application's push of `size` bytes at `offset` with `stages`, with the
@@ -410,10 +411,7 @@ impl CommandState {
         size: u32,
         stages: vk::ShaderStageFlags,
     ) -> vk::ShaderStageFlags {
-        match &self.push_patch {
-            Some(patch) => patch.stages_of(offset, size, stages),
-            None => stages,
-        }
+        self.push_patch.stages_of(offset, size, stages)
     }
 
     /// The application's last push layout, null before its first push.

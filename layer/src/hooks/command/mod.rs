@@ -239,18 +239,34 @@ pub unsafe extern "system" fn cmd_push_constants(
     // uninitialized otherwise: most pushes send the application's own bytes).
     let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
     let tracked = objects::with_command_buffer(buffer, |entry| {
-        let (folded, stages) = guarded(
+        let mut followed = stages;
+        let failed = std::cell::Cell::new(false);
+        let folded = guarded(
             &ENTRY,
             || {
                 // SAFETY: `size` bytes of values (the application's contract).
                 let values = unsafe { slice(p_values.cast::<u8>(), size) };
-                follow_push(entry, layout, stages, offset, values, &mut folded_bytes)
+                follow_push(
+                    entry,
+                    layout,
+                    &mut followed,
+                    offset,
+                    values,
+                    &mut folded_bytes,
+                )
             },
             || {
-                let patched = patched_stages(&entry.device, layout, offset, size, stages);
-                (None, patched)
+                failed.set(true);
+                None
             },
         );
+        // A push whose following failed (its stages possibly not patched): from the device's
+        // tables.
+        let stages = if failed.get() {
+            patched_stages(&entry.device, layout, offset, size, stages)
+        } else {
+            followed
+        };
         let (offset, size, p_sent) = match folded {
             Some(f) => (f.offset, f.size, folded_bytes.as_ptr().cast()),
             None => (offset, size, p_values),
@@ -299,16 +315,17 @@ fn patched_stages(
 
 /// Follows a push of the application's: the shadow copy and the outcome for the bound
 /// pipeline's projection; returns the push to send in its place, if the carrier goes with it,
-/// with its bytes written into `out`, and the stages to send it with (the application's, and
-/// those of a vertex range revz extended over the bytes it writes: `crate::precise::PushPatch`).
+/// with its bytes written into `out`; `stages` become those to send it with (the application's,
+/// and those of a vertex range revz extended over the bytes it writes:
+/// `crate::precise::PushPatch`).
 fn follow_push(
     entry: &CommandBufferEntry,
     layout: vk::PipelineLayout,
-    stages: vk::ShaderStageFlags,
+    stages: &mut vk::ShaderStageFlags,
     offset: u32,
     values: &[u8],
     out: &mut [MaybeUninit<u8>; PUSH_CONSTANT_BYTES],
-) -> (Option<FoldedPush>, vk::ShaderStageFlags) {
+) -> Option<FoldedPush> {
     let mut state = entry.state();
     if layout != state.push_layout() {
         // Whether this layout is push-compatible with the bound pipeline's, and the stages
@@ -321,8 +338,8 @@ fn follow_push(
             .and_then(|carrier| carrier.push_patch);
         state.note_push_pusher(pusher, patch);
     }
-    let sent_stages = state.push_stages(offset, values.len() as u32, stages);
-    let (outcome, folded) = state.push_constants(layout, sent_stages, offset, values);
+    *stages = state.push_stages(offset, values.len() as u32, *stages);
+    let (outcome, folded) = state.push_constants(layout, *stages, offset, values);
     if let Some(folded) = &folded {
         state.folded_bytes(folded, out);
     }
@@ -330,7 +347,7 @@ fn follow_push(
     if let Some(outcome) = outcome {
         observe(&entry.device, &outcome);
     }
-    (folded, sent_stages)
+    folded
 }
 
 /// `vkCmdPushConstants2` (Vulkan 1.4) and `vkCmdPushConstants2KHR`: followed like
@@ -355,10 +372,11 @@ pub unsafe extern "system" fn cmd_push_constants2(
         }
         // Followed, never extended (the draw sends the carrier): this command is rare.
         let mut unused = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
-        let (folded, stages) = follow_push(
+        let mut stages = info.stage_flags;
+        let folded = follow_push(
             entry,
             info.layout,
-            info.stage_flags,
+            &mut stages,
             info.offset,
             values,
             &mut unused,
