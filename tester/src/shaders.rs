@@ -111,6 +111,9 @@ pub const UBO_POSITION_VERT: ShaderSource = glslang_shader!("ubo_position.vert")
 /// geometry shader (the vertex stage's position, w = 1), emitting each triangle as it is from
 /// a loop over its vertices; passes the color on.
 pub const UBO_GEOM: ShaderSource = glslang_shader!("ubo.geom");
+/// `push.geom` (glslang): `scene.vert`'s push constants, `pc.mvp * gl_in[i].gl_Position` in a
+/// geometry shader (the vertex stage's position, w = 1), emitted in a loop.
+pub const PUSH_GEOM: ShaderSource = glslang_shader!("push.geom");
 /// `passthrough.tesc` (glslang): one patch per triangle, every tessellation level 1.
 pub const PASSTHROUGH_TESC: ShaderSource = glslang_shader!("passthrough.tesc");
 /// `ubo.tese` (glslang): the `ubo` delivery's product in a tessellation evaluation shader, at
@@ -151,6 +154,7 @@ pub const ALL: &[ShaderSource] = &[
     UBO_LATER_VERT,
     UBO_POSITION_VERT,
     UBO_GEOM,
+    PUSH_GEOM,
     PASSTHROUGH_TESC,
     UBO_TESE,
     SSBO_ROWS_VERT,
@@ -164,6 +168,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("ubo_later.vert", UBO_LATER_VERT),
     ("ubo_position.vert", UBO_POSITION_VERT),
     ("ubo.geom", UBO_GEOM),
+    ("push.geom", PUSH_GEOM),
     ("passthrough.tesc", PASSTHROUGH_TESC),
     ("ubo.tese", UBO_TESE),
     ("ssbo_rows.vert", SSBO_ROWS_VERT),

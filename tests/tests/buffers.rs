@@ -63,12 +63,14 @@ use revz_tests::{
 };
 
 /// The deliveries other than push: `push-split` (push's constants in a range per stage, the
-/// vertex stage's first: revz extends it over the fragment stage's, issue #41), four buffer
+/// vertex stage's first: revz extends it over the fragment stage's, issue #41),
+/// `push-geometry` (push's constants applied in a geometry shader, issue #41), four buffer
 /// deliveries that project in the vertex stage (`ssbo-rows` as four dot products of the
 /// matrix's rows, issue #41), and `ubo`'s blocks applied in the last pre-rasterization stage
 /// after it (issue #41): a geometry shader, a tessellation evaluation shader.
-const DELIVERIES: [&str; 7] = [
+const DELIVERIES: [&str; 8] = [
     "push-split",
+    "push-geometry",
     "ubo",
     "ubo-dynamic",
     "ssbo",

@@ -331,6 +331,7 @@ fn the_profile_says_what_buffer_deliveries_do() {
         ("sloped-plane", "ubo-tessellation"),
         ("mars-patch", "ssbo-rows"),
         ("plane-stack", "push-split"),
+        ("sloped-plane", "push-geometry"),
     ] {
         for mode in ["flip", "complementary", "infinite"] {
             let (render, profile) =

@@ -97,11 +97,14 @@ pub enum DeliveryChoice {
     SsboRows,
     /// The push constants of push, in a range per stage.
     PushSplit,
+    /// The push constants of push, applied in a geometry shader.
+    PushGeometry,
     /// The blocks of ubo, applied in a geometry shader.
     UboGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
-    /// push, push-split, ubo, ubo-dynamic, ssbo, ssbo-rows, ubo-geometry and ubo-tessellation.
+    /// push, push-split, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ubo-geometry and
+    /// ubo-tessellation.
     All,
 }
 
@@ -114,6 +117,7 @@ impl DeliveryChoice {
             DeliveryChoice::Ssbo => &[Delivery::Ssbo],
             DeliveryChoice::SsboRows => &[Delivery::SsboRows],
             DeliveryChoice::PushSplit => &[Delivery::PushSplit],
+            DeliveryChoice::PushGeometry => &[Delivery::PushGeometry],
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
             DeliveryChoice::All => &Delivery::ALL,
@@ -218,7 +222,8 @@ pub struct Selection {
     #[arg(long, value_enum, value_delimiter = ',')]
     pub formats: Vec<DepthFormat>,
 
-    /// Projection deliveries (comma-separated): push, push-split, ubo, ubo-dynamic, ssbo,
+    /// Projection deliveries (comma-separated): push, push-split, push-geometry, ubo,
+    /// ubo-dynamic, ssbo,
     /// ssbo-rows, ubo-geometry, ubo-tessellation, or all. The deliveries other than push are
     /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.
     /// Default: push.

@@ -205,6 +205,10 @@ pub enum Program {
     /// constants of [`Program::Flat`] in two ranges, the matrix at 0..64 for the vertex stage,
     /// the color at 64..80 for the fragment stage (each push split along them).
     SplitPush,
+    /// `ubo_position.vert` + `push.geom` + `scene.frag` (the `push-geometry` [`Delivery`]): the
+    /// push constants of [`Program::Flat`], the matrix applied in a geometry shader; one range
+    /// for the vertex, geometry and fragment stages.
+    PushGeometry,
     /// `ssbo_rows.vert` + `flat_color.frag` (the `ssbo-rows` [`Delivery`]): the buffer of
     /// [`Program::Ssbo`] with each matrix stored as its rows, applied as four dot products.
     SsboRows,
@@ -241,6 +245,9 @@ pub enum Delivery {
     SsboRows,
     /// The push constants of [`Delivery::Push`] in a range per stage ([`Program::SplitPush`]).
     PushSplit,
+    /// The push constants of [`Delivery::Push`], applied in a geometry shader
+    /// ([`Program::PushGeometry`]).
+    PushGeometry,
     /// The blocks of [`Delivery::Ubo`], applied in a geometry shader
     /// ([`Program::UboGeometry`]).
     UboGeometry,
@@ -251,9 +258,10 @@ pub enum Delivery {
 
 impl Delivery {
     /// Every delivery, push first.
-    pub const ALL: [Delivery; 8] = [
+    pub const ALL: [Delivery; 9] = [
         Delivery::Push,
         Delivery::PushSplit,
+        Delivery::PushGeometry,
         Delivery::Ubo,
         Delivery::UboDynamic,
         Delivery::Ssbo,
@@ -271,6 +279,7 @@ impl Delivery {
             Delivery::Ssbo => "ssbo",
             Delivery::SsboRows => "ssbo-rows",
             Delivery::PushSplit => "push-split",
+            Delivery::PushGeometry => "push-geometry",
             Delivery::UboGeometry => "ubo-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
         }
@@ -286,6 +295,7 @@ impl Delivery {
             Delivery::Ssbo => Some(Program::Ssbo),
             Delivery::SsboRows => Some(Program::SsboRows),
             Delivery::PushSplit => Some(Program::SplitPush),
+            Delivery::PushGeometry => Some(Program::PushGeometry),
             Delivery::UboGeometry => Some(Program::UboGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
         }
@@ -314,7 +324,7 @@ impl Program {
     /// The stage that applies the program's matrices (where its buffers are bound).
     pub fn projecting_stage(self) -> ash::vk::ShaderStageFlags {
         match self {
-            Program::UboGeometry => ash::vk::ShaderStageFlags::GEOMETRY,
+            Program::UboGeometry | Program::PushGeometry => ash::vk::ShaderStageFlags::GEOMETRY,
             Program::UboTessellation => ash::vk::ShaderStageFlags::TESSELLATION_EVALUATION,
             _ => ash::vk::ShaderStageFlags::VERTEX,
         }
@@ -347,7 +357,8 @@ impl Program {
             | Program::RowMajor
             | Program::RowVector
             | Program::LitMvp
-            | Program::SplitPush => 80,
+            | Program::SplitPush
+            | Program::PushGeometry => 80,
         }
     }
 
@@ -864,7 +875,10 @@ impl Plan {
             needs.depth_clip_control |= pipeline.negative_one_to_one;
             needs.graphics_pipeline_library |= pipeline.libraries;
             needs.depth_clamp |= pipeline.depth_clamp;
-            needs.geometry_shader |= pipeline.program == Program::UboGeometry;
+            needs.geometry_shader |= matches!(
+                pipeline.program,
+                Program::UboGeometry | Program::PushGeometry
+            );
             needs.tessellation_shader |= pipeline.program == Program::UboTessellation;
             if let Viewport::Static {
                 min_depth,

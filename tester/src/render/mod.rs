@@ -126,6 +126,8 @@ pub struct Renderer<'a> {
     pair_layout: vk::PipelineLayout,
     /// The [`Program::SplitPush`] layout ([`SPLIT_PUSH_CONSTANT_RANGES`]).
     split_layout: vk::PipelineLayout,
+    /// The [`Program::PushGeometry`] layout (one range, [`GEOMETRY_PUSH_STAGES`]).
+    geometry_layout: vk::PipelineLayout,
     colors: Option<ColorBindings<'a>>,
     /// The buffer-delivery pipelines' layout (no push constants; null without one).
     matrix_layout: vk::PipelineLayout,
@@ -174,6 +176,8 @@ impl Drop for Renderer<'_> {
             self.device.destroy_pipeline_layout(self.pair_layout, None);
             self.device.destroy_pipeline_layout(self.split_layout, None);
             self.device
+                .destroy_pipeline_layout(self.geometry_layout, None);
+            self.device
                 .destroy_pipeline_layout(self.matrix_layout, None);
             if let Some(matrices) = &self.matrices {
                 self.device.destroy_descriptor_pool(matrices.pool, None);
@@ -214,6 +218,14 @@ const PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange 
     offset: 0,
     size: 80,
 }];
+
+/// The stages of the [`Program::PushGeometry`] layout's one range: the geometry stage applies
+/// the matrix, the fragment stage reads the color (the vertex stage declares none).
+const GEOMETRY_PUSH_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
+    vk::ShaderStageFlags::VERTEX.as_raw()
+        | vk::ShaderStageFlags::GEOMETRY.as_raw()
+        | vk::ShaderStageFlags::FRAGMENT.as_raw(),
+);
 
 /// The push-constant ranges of the [`Program::SplitPush`] layout: the matrix for the vertex
 /// stage, the color for the fragment stage.
@@ -258,6 +270,7 @@ impl<'a> Renderer<'a> {
             shadow: None,
             pair_layout: vk::PipelineLayout::null(),
             split_layout: vk::PipelineLayout::null(),
+            geometry_layout: vk::PipelineLayout::null(),
             colors: None,
             matrix_layout: vk::PipelineLayout::null(),
             matrices: None,
@@ -342,6 +355,21 @@ impl<'a> Renderer<'a> {
             // SAFETY: valid device and create info.
             this.split_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
                 .context("vkCreatePipelineLayout (split push constants) failed")?;
+        }
+        if plan
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::PushGeometry)
+        {
+            let ranges = [vk::PushConstantRange {
+                stage_flags: GEOMETRY_PUSH_STAGES,
+                offset: 0,
+                size: 80,
+            }];
+            let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges);
+            // SAFETY: valid device and create info.
+            this.geometry_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+                .context("vkCreatePipelineLayout (geometry push constants) failed")?;
         }
         if needs.shadow_map {
             this.create_shadow_bindings(gpu, targets, scene)?;
@@ -428,6 +456,7 @@ impl<'a> Renderer<'a> {
             | Program::LitMvp => (self.plain_layout, PLAIN_PUSH_STAGES),
             // Pushed per range ([`SPLIT_PUSH_CONSTANT_RANGES`]), each with its own stage.
             Program::SplitPush => (self.split_layout, vk::ShaderStageFlags::empty()),
+            Program::PushGeometry => (self.geometry_layout, GEOMETRY_PUSH_STAGES),
         }
     }
 

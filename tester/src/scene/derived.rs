@@ -203,7 +203,8 @@ impl Scene {
             | Program::ShadowReceiver
             | Program::ShadowReceiverRaw
             | Program::LitMvp
-            | Program::SplitPush => {
+            | Program::SplitPush
+            | Program::PushGeometry => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

@@ -1297,7 +1297,10 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                     assert_eq!(taken.objects, scene.objects);
                     // The device features of the stage that projects, and nothing else.
                     let needs = taken.plan.needs();
-                    assert_eq!(needs.geometry_shader, delivery == Delivery::UboGeometry);
+                    assert_eq!(
+                        needs.geometry_shader,
+                        matches!(delivery, Delivery::UboGeometry | Delivery::PushGeometry)
+                    );
                     assert_eq!(
                         needs.tessellation_shader,
                         delivery == Delivery::UboTessellation
