@@ -34,6 +34,20 @@ const VERTEX_SEEDS: &[&[u8]] = seed_files!(
     "row_vector.vert.spv",
 );
 
+/// glslang modules of the later stages and translated shapes the `Position` rewrite follows
+/// (issue #41): the tester's geometry and tessellation stages, and the unit tests' shapes.
+const LATER_STAGE_SEEDS: &[&[u8]] = &[
+    include_bytes!("../../../shaders/glslang/ubo.geom.spv"),
+    include_bytes!("../../../shaders/glslang/push.geom.spv"),
+    include_bytes!("../../../shaders/glslang/ubo.tese.spv"),
+    include_bytes!("../../../shaders/glslang/ssbo_rows.vert.spv"),
+    include_bytes!("../shader/test_data/geometry_unrolled.spv"),
+    include_bytes!("../shader/test_data/geometry_push_viewports.spv"),
+    include_bytes!("../shader/test_data/rows_dot.spv"),
+    include_bytes!("../shader/test_data/columns_fma.spv"),
+    include_bytes!("../shader/test_data/function_call.spv"),
+];
+
 const FRAGMENT_SEEDS: &[&[u8]] = seed_files!(
     "frag_depth.frag.spv",
     "fog.frag.spv",
@@ -441,7 +455,7 @@ pub fn vertex_target() -> Target {
         name: "vertex_analysis",
         extension: "spv",
         seeds: seeds(
-            VERTEX_SEEDS,
+            &[VERTEX_SEEDS, LATER_STAGE_SEEDS].concat(),
             ShaderStage::Vertex,
             &[
                 include_str!("../../../shaders/scene.vert"),
@@ -663,7 +677,7 @@ pub fn run_vertex() {
     if report.replay {
         return;
     }
-    assert!(report.cases as usize >= VERTEX_SEEDS.len());
+    assert!(report.cases as usize >= VERTEX_SEEDS.len() + LATER_STAGE_SEEDS.len());
     assert!(VERTEX_PROJECTIONS.get() > 0, "no seed has a projection");
 }
 
