@@ -738,7 +738,7 @@ pub fn find(
                 }
                 let root_at = defs.at[&root].0;
                 defs.fitted_once(stores, root_at, "the projection is applied in a loop")?;
-                return column_leaf(module, &defs, columns, root);
+                return written_out_leaf(module, &defs, WrittenOut::Columns(columns), root);
             }
             if let Some((rows, root, vector)) = defs.row_dots(*value, 0) {
                 if !defs.unit_w(vector, 0) {
@@ -748,7 +748,7 @@ pub fn find(
                 }
                 let root_at = defs.at[&root].0;
                 defs.fitted_once(stores, root_at, "the projection is applied in a loop")?;
-                return row_leaf(module, &defs, rows, root);
+                return written_out_leaf(module, &defs, WrittenOut::Rows(rows), root);
             }
         }
     }
@@ -842,61 +842,50 @@ pub fn find(
     })
 }
 
-/// The leaf of a product written out by columns: each a `vec4` of the position's type, the fit
-/// after the sum's root (which every column dominates).
-fn column_leaf(
-    module: &ModuleFacts<'_>,
-    defs: &Defs,
-    columns: [u32; 4],
-    root: u32,
-) -> Result<Leaf, Unsupported> {
-    let typed = |id: u32| {
-        defs.at
-            .get(&id)
-            .is_some_and(|(_, _, operands)| operands.first() == Some(&module.vec4))
-    };
-    if !columns.iter().all(|&c| typed(c)) {
-        return Err(Unsupported("the product's columns are not vec4s"));
-    }
-    let (at, ..) = defs.at[&root];
-    Ok(Leaf {
-        id: 0,
-        transposed: false,
-        columns: Some(columns),
-        rows: None,
-        copies: [None; MAX_LEAF_COPIES],
-        insert: Insert::After(at),
-        source: values_source(module, defs, columns[0]),
-        assumes_input_unit_w: defs.assumed_input_w.get(),
-    })
+/// What a product written out by vectors gives the fit.
+#[derive(Clone, Copy, Debug)]
+enum WrittenOut {
+    /// Its four columns (`c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w`).
+    Columns([u32; 4]),
+    /// Its depth and w rows (`vec4(dot(r0, v), dot(r1, v), dot(r2, v), dot(r3, v))`).
+    Rows([u32; 2]),
 }
 
-/// The leaf of a product written out as four dot products: its depth and w rows, each a
-/// `vec4` of the position's type, the fit after the construct of the dots (which both rows
-/// dominate).
-fn row_leaf(
+/// The leaf of a product written out by vectors: each a `vec4` of the position's type, the fit
+/// after the product's root (the sum, or the construct of the dots), which every vector
+/// dominates.
+fn written_out_leaf(
     module: &ModuleFacts<'_>,
     defs: &Defs,
-    rows: [u32; 2],
+    written: WrittenOut,
     root: u32,
 ) -> Result<Leaf, Unsupported> {
+    let (vectors, refusal): (&[u32], _) = match &written {
+        WrittenOut::Columns(columns) => (columns, "the product's columns are not vec4s"),
+        WrittenOut::Rows(rows) => (rows, "the product's rows are not vec4s"),
+    };
     let typed = |id: u32| {
         defs.at
             .get(&id)
             .is_some_and(|(_, _, operands)| operands.first() == Some(&module.vec4))
     };
-    if !rows.iter().all(|&r| typed(r)) {
-        return Err(Unsupported("the product's rows are not vec4s"));
+    if !vectors.iter().all(|&v| typed(v)) {
+        return Err(Unsupported(refusal));
     }
     let (at, ..) = defs.at[&root];
+    let source = values_source(module, defs, vectors[0]);
+    let (columns, rows) = match written {
+        WrittenOut::Columns(columns) => (Some(columns), None),
+        WrittenOut::Rows(rows) => (None, Some(rows)),
+    };
     Ok(Leaf {
         id: 0,
         transposed: false,
-        columns: None,
-        rows: Some(rows),
+        columns,
+        rows,
         copies: [None; MAX_LEAF_COPIES],
         insert: Insert::After(at),
-        source: values_source(module, defs, rows[0]),
+        source,
         assumes_input_unit_w: defs.assumed_input_w.get(),
     })
 }
