@@ -757,7 +757,13 @@ fn summary(inner: &Inner, mode: &str) -> String {
         1 => precise_how.push(format!("camera n={}", nears[0])),
         n => precise_how.push(format!("{n} cameras n={}", nears.join(", "))),
     }
-    if fitted {
+    if fitted && mode == "infinite" && nears.is_empty() {
+        // `command_state::Reversing::derived_target`: with no n / f on the CPU, what the
+        // copies and twins map back with, deriving stages store 1 - D.
+        precise_how.push(
+            "ranges fitted by vertex stages, complementary depth: no camera pushed".to_owned(),
+        );
+    } else if fitted {
         precise_how.push("ranges fitted by vertex stages".to_owned());
     }
     let reasons = flip_reasons(inner);
@@ -998,6 +1004,38 @@ mod tests {
                 "flip 50% (4 pipelines: {geometry} 35%; {ortho} 10%; {PER_DRAW_FLIPS} 5%; its \
                  code is not given 0%)"
             )),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn fitted_ranges_in_infinite_mode_without_a_camera_are_said_to_store_complementary_depth() {
+        let mut inner = Inner::default();
+        inner.pipelines = vec![(
+            1,
+            PipelineRecord {
+                kind: "pipeline",
+                path: "precise",
+                projection: "a uniform buffer, fitted by the shader".into(),
+                reversed_variant: false,
+                promoted_variant: false,
+            },
+        )];
+        inner.totals = DrawCounts {
+            native: 0,
+            flip: 0,
+            precise: 4,
+        };
+        let line = summary(&inner, "infinite");
+        assert!(
+            line.contains(
+                "(infinite; ranges fitted by vertex stages, complementary depth: no camera pushed)"
+            ),
+            "{line}"
+        );
+        let line = summary(&inner, "complementary");
+        assert!(
+            line.contains("(complementary; ranges fitted by vertex stages)"),
             "{line}"
         );
     }

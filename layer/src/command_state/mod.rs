@@ -103,6 +103,29 @@ pub struct Reversing {
     pub reversal: Reversal,
 }
 
+impl Reversing {
+    /// What a vertex stage that derives its range (`crate::shader::derived_range`) stores.
+    ///
+    /// In infinite mode with no n / f known to the CPU (no camera pushed yet, or none ever:
+    /// every projection in a buffer, as through Zink), the stage stores complementary depth
+    /// 1 - D, not n / w. Everything else on the attachment maps with n / f = 0 then (flip-path
+    /// viewports, clears, bounds, and copies and read twin refreshes converting back), and for
+    /// that map 1 - D is exact where n / w is (1 - n / f) D off: what shaders and copies read
+    /// comes back standard. With n / f = 0 both maps agree where the far plane is at infinity,
+    /// and complementary keeps the application's far plane, as the flip path does.
+    #[inline]
+    pub fn derived_target(&self) -> Option<RewriteTarget> {
+        match (self.rewrite?, self.reversal) {
+            (RewriteTarget::Infinite, Reversal::Infinite { near_over_far })
+                if near_over_far == 0.0 =>
+            {
+                Some(RewriteTarget::Complementary)
+            }
+            (target, _) => Some(target),
+        }
+    }
+}
+
 impl Default for Reversing {
     fn default() -> Self {
         Reversing {
@@ -388,7 +411,7 @@ impl CommandState {
         } else {
             DepthConvention::ZeroToOne
         };
-        Some((self.reversing.rewrite?, convention))
+        Some((self.reversing.derived_target()?, convention))
     }
 
     /// The application's next push uses a layout whose push ranges revz's layout `pusher`
@@ -540,7 +563,9 @@ impl CommandState {
         {
             if !same_near_over_far(*r, *near_over_far) {
                 *r = *near_over_far;
-                // Only flip-path viewports and depth bounds depend on it.
+                // Only flip-path viewports and depth bounds depend on it (and what a stage that
+                // derives its range stores, [`Reversing::derived_target`]; such a pipeline
+                // has no pushed projection to learn from, so its bind settles again).
                 let bounds = self
                     .pipeline()
                     .is_some_and(|p| (p.app_dynamic | p.injected).contains(States::BOUNDS));

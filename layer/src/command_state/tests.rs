@@ -483,11 +483,30 @@ fn derived_pipeline() -> Arc<PipelineDepth> {
 
 #[test]
 fn a_stage_deriving_its_range_gets_the_selector_with_its_own_layout_and_no_push_of_its_own() {
-    for (target, selector) in [
-        (RewriteTarget::Complementary, 1.0f32),
-        (RewriteTarget::Infinite, 2.0),
+    // Infinite mode stores n / w only where the CPU knows the n / f everything else on the
+    // attachment maps with; without one (no camera pushed), complementary depth.
+    let known = Reversal::Infinite {
+        near_over_far: 0.01,
+    };
+    for (target, reversal, selector) in [
+        (
+            RewriteTarget::Complementary,
+            Reversal::Complementary,
+            1.0f32,
+        ),
+        (RewriteTarget::Infinite, known, 2.0),
+        (
+            RewriteTarget::Infinite,
+            Reversal::Infinite { near_over_far: 0.0 },
+            1.0,
+        ),
     ] {
-        let reversal = precise(target).reversal();
+        let precise = |target| {
+            CommandState::new(Reversing {
+                rewrite: Some(target),
+                reversal,
+            })
+        };
         let mut state = precise(target);
         state.begin(Target::Reversed, reversal, Default::default());
         state.bind_pipeline(Some(derived_pipeline()));
@@ -581,8 +600,13 @@ fn a_dynamic_minus_one_to_one_convention_is_converted_by_the_stage_and_set_to_ze
         app_dynamic: States::CLIP_CONTROL,
         ..(*derived_pipeline()).clone()
     });
-    let mut state = precise(RewriteTarget::Infinite);
-    let reversal = state.reversal();
+    let reversal = Reversal::Infinite {
+        near_over_far: 0.01,
+    };
+    let mut state = CommandState::new(Reversing {
+        rewrite: Some(RewriteTarget::Infinite),
+        reversal,
+    });
     state.begin(Target::Reversed, reversal, Default::default());
     state.bind_pipeline(Some(pipeline));
     state.set_clip_negative_one_to_one(true);
@@ -1145,4 +1169,35 @@ fn pushes_reaching_an_extended_vertex_range_name_its_stages() {
     // Another layout, without one.
     state.note_push_pusher(vk::PipelineLayout::from_raw(10), None);
     assert_eq!(state.push_stages(64, 16, fragment), fragment);
+}
+
+#[test]
+fn infinite_mode_without_a_known_near_over_far_derives_complementary_depth() {
+    let unknown = Reversing {
+        rewrite: Some(RewriteTarget::Infinite),
+        reversal: Reversal::Infinite { near_over_far: 0.0 },
+    };
+    assert_eq!(unknown.derived_target(), Some(RewriteTarget::Complementary));
+    let known = Reversing {
+        reversal: Reversal::Infinite {
+            near_over_far: 1e-3,
+        },
+        ..unknown
+    };
+    assert_eq!(known.derived_target(), Some(RewriteTarget::Infinite));
+    let complementary = Reversing {
+        rewrite: Some(RewriteTarget::Complementary),
+        reversal: Reversal::Complementary,
+    };
+    assert_eq!(
+        complementary.derived_target(),
+        Some(RewriteTarget::Complementary)
+    );
+    assert_eq!(Reversing::default().derived_target(), None);
+    // With n / f = 0, what the attachment's other state and the copies map with, the stored
+    // 1 - D converts back to D exactly.
+    for d in [0.0f32, 0.25, 0.999, 1.0] {
+        let stored = 1.0 - d;
+        assert_eq!(unknown.reversal.depth(d), stored);
+    }
 }
