@@ -1010,21 +1010,23 @@ mod tests {
 
     #[test]
     fn fitted_ranges_in_infinite_mode_without_a_camera_are_said_to_store_complementary_depth() {
-        let mut inner = Inner::default();
-        inner.pipelines = vec![(
-            1,
-            PipelineRecord {
-                kind: "pipeline",
-                path: "precise",
-                projection: "a uniform buffer, fitted by the shader".into(),
-                reversed_variant: false,
-                promoted_variant: false,
+        let inner = Inner {
+            pipelines: vec![(
+                1,
+                PipelineRecord {
+                    kind: "pipeline",
+                    path: "precise",
+                    projection: "a uniform buffer, fitted by the shader".into(),
+                    reversed_variant: false,
+                    promoted_variant: false,
+                },
+            )],
+            totals: DrawCounts {
+                native: 0,
+                flip: 0,
+                precise: 4,
             },
-        )];
-        inner.totals = DrawCounts {
-            native: 0,
-            flip: 0,
-            precise: 4,
+            ..Default::default()
         };
         let line = summary(&inner, "infinite");
         assert!(

@@ -116,9 +116,7 @@ impl Reversing {
     #[inline]
     pub fn derived_target(&self) -> Option<RewriteTarget> {
         match (self.rewrite?, self.reversal) {
-            (RewriteTarget::Infinite, Reversal::Infinite { near_over_far })
-                if near_over_far == 0.0 =>
-            {
+            (RewriteTarget::Infinite, Reversal::Infinite { near_over_far: 0.0 }) => {
                 Some(RewriteTarget::Complementary)
             }
             (target, _) => Some(target),
