@@ -153,6 +153,23 @@ impl DeviceState {
     pub fn reversed_clear(&self, depth: f32) -> f32 {
         self.policy.reversed_clear(depth, &self.observed)
     }
+
+    /// A depth clear value on the reversed `image`: with the n / f of the camera that last
+    /// drew into it where revz knows one, else with n / f = 0 (no far plane). Never another
+    /// camera's: with `far_clip = keep`, a main view cleared to its shadow light's n / f (0.08
+    /// against the camera's 0.01) lost every fragment (the `shadow-map-perspective` scene).
+    pub fn reversed_clear_of(&self, image: Option<vk::Image>, depth: f32) -> f32 {
+        let near_over_far = image
+            .and_then(|image| self.objects.near_over_far.get(&image))
+            .unwrap_or(0.0);
+        self.policy.reversed_clear_at(depth, near_over_far)
+    }
+
+    /// The map of standard depth onto the reversed `image` (its camera's, where known).
+    pub fn reversal_of(&self, image: vk::Image) -> crate::conv::Reversal {
+        self.policy
+            .reversal_of(self.objects.near_over_far.get(&image), &self.observed)
+    }
 }
 
 /// `vkCmdEndRendering2KHR` / `vkCmdEndRendering2EXT`: the command buffer and a

@@ -203,13 +203,15 @@ flip_scene_tests! {
 /// through texel fetches and a plain sampler whose raw values the shader compares itself
 /// (`shadow-map-raw`: reversed values would shadow nearly everything), and with an X8_D24 map
 /// (`shadow-map-x8-d24`: its twin is UNORM here, float in the precise modes, which the
-/// copies tests render).
+/// copies tests render), and lit by a spot light (`shadow-map-perspective`: a perspective
+/// shadow pass, whose map the precise modes store with the light's own n / w).
 #[test]
 fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
     for (scene, map) in [
         ("shadow-map", "D32_SFLOAT"),
         ("shadow-map-raw", "D32_SFLOAT"),
         ("shadow-map-x8-d24", "X8_D24_UNORM_PACK32"),
+        ("shadow-map-perspective", "D32_SFLOAT"),
     ] {
         for format in DEPTH_FORMATS {
             let log = flip_scene(scene, format);

@@ -554,6 +554,9 @@ scene_tests! {
     secondary: "secondary";
     dynamic_rendering: "dynamic-rendering";
     shadow_map: "shadow-map";
+    // A spot light: the shadow casters take the precise path with the light's projection, a
+    // second camera; the map's twin is refreshed with the light's n / f in `infinite`.
+    shadow_map_perspective: "shadow-map-perspective";
     // The pushed MVP feeds the lighting too (issue #14): only the store to Position may change.
     lit_mvp: "lit-mvp";
 }
@@ -772,4 +775,39 @@ fn deep_range_meets_the_float32_floor() {
 fn far_objects_store_the_cameras_n_over_w_at_every_decade() {
     // `FAR_DISTANCES` of the tester's `far-objects`: 10 n to 1e6 n.
     stores_the_cameras_n_over_w("far-objects", &[1.0, 10.0, 100.0, 1e3, 1e4, 1e5]);
+}
+
+/// Two perspective cameras in a frame (`shadow-map-perspective`: a spot light's shadow pass,
+/// then the main view), three frames, `infinite` with `far_clip = keep`: each depth image is
+/// cleared with the n / f of the camera that draws into it (remembered when its pass ends),
+/// never with the other's. Before, the main view was cleared to the light's n / f (0.08,
+/// against the camera's n / w of 0.01 to 0.05) and lost every fragment. Colors bit-identical
+/// to the render without the layer, with no validation message.
+#[test]
+fn each_depth_image_is_cleared_with_its_own_cameras_far_plane() {
+    let harness = Harness::locate();
+    let scene = "shadow-map-perspective";
+    let frames = ["--frames", "3"];
+    let dir = harness.scratch_dir("precise-two-cameras-native");
+    let mut command = harness.tester("d32", &dir);
+    command.args(["--scene", scene]).args(SIZE).args(frames);
+    let native = harness.render(command, &dir);
+    for far_clip in ["keep", "remove"] {
+        let dir = harness.scratch_dir(&format!("precise-two-cameras-{far_clip}"));
+        let mut command = harness.tester("d32", &dir);
+        command.args(["--scene", scene]).args(SIZE).args(frames);
+        harness
+            .with_layer(&mut command)
+            .env("REVZ_MODE", "infinite")
+            .env("REVZ_FAR_CLIP", far_clip)
+            .env("REVZ_LOG", "info");
+        let layered = harness.render(command, &dir);
+        let differ = revz_tests::differing_pixels(&native.color(), &layered.color());
+        assert_eq!(
+            differ,
+            0,
+            "{scene} in infinite, far_clip = {far_clip}, 3 frames: {differ} pixels differ\n{}",
+            layered.stderr()
+        );
+    }
 }

@@ -305,6 +305,18 @@ impl CommandState {
         self.reversing.reversal
     }
 
+    /// Infinite mode: a pass begins into a reversed image whose draws' camera had this n / f
+    /// (remembered when a pass into it last ended): its flip-path state follows that camera
+    /// until a projection pushed in the pass tells another.
+    pub fn enter_camera(&mut self, near_over_far: f32) {
+        if let Reversal::Infinite { near_over_far: r } = &mut self.reversing.reversal {
+            if !same_near_over_far(*r, near_over_far) {
+                *r = near_over_far;
+                self.dirty = true;
+            }
+        }
+    }
+
     /// The path the last draw took.
     pub fn path(&self) -> DrawPath {
         self.path

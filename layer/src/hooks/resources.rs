@@ -476,6 +476,7 @@ pub unsafe extern "system" fn destroy_image(
     };
     record(&DESTROY_IMAGE, || {
         let info = state.objects.images.remove(&image);
+        state.objects.near_over_far.remove(&image);
         state.objects.resolve_pairs.remove(&image);
         if let Some(twin) = info.and_then(|info| info.twin) {
             // SAFETY: as above.

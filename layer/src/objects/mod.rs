@@ -329,6 +329,12 @@ impl ResolvePairs {
 #[derive(Debug, Default)]
 pub struct DeviceObjects {
     pub images: Table<vk::Image, ImageInfo>,
+    /// Infinite mode: the n / f of the camera whose draws last went into each reversed image,
+    /// as its command buffer knew it when the render pass or rendering instance ended. Its
+    /// clears, the flip-path draws of a pass into it before a projection is pushed, and its
+    /// copies and read twin refreshes map with it, not with another camera's (a spot light's
+    /// shadow map beside the main view). Removed with the image.
+    pub near_over_far: Table<vk::Image, f32>,
     /// Resolves seen between reversed images, to carry a later demotion across them.
     pub resolve_pairs: ResolvePairs,
     /// Views of tracked depth images, with the image they show.
@@ -726,6 +732,9 @@ pub struct PassScope {
     pub subpass: usize,
     /// The framebuffer's depth images are promoted: the pass was begun as its promoted twin.
     pub promoted: bool,
+    /// Its reversed depth images (the n / f of the draws into them is remembered when the
+    /// pass ends: [`DeviceObjects::near_over_far`]).
+    pub reversed_images: Vec<vk::Image>,
 }
 
 impl PassScope {

@@ -319,10 +319,25 @@ impl DevicePolicy {
     /// beyond the far plane lose against the clear (seed 001); a clear is recorded before the
     /// projections of its pass are pushed, so n / f is the last one seen.
     pub fn reversed_clear(&self, depth: f32, observed: &Observed) -> f32 {
+        self.reversed_clear_at(depth, observed.near_over_far())
+    }
+
+    /// [`Self::reversed_clear`] of an image whose draws' camera has this n / f (the image's
+    /// own: [`crate::objects::DeviceObjects::near_over_far`]).
+    pub fn reversed_clear_at(&self, depth: f32, near_over_far: f32) -> f32 {
         match self.mode {
             Mode::Infinite if depth == 1.0 && self.far_clip == FarClip::Remove => 0.0,
-            Mode::Infinite => self.reversal(observed).depth(depth),
+            Mode::Infinite => Reversal::Infinite { near_over_far }.depth(depth),
             _ => flip_depth(depth),
+        }
+    }
+
+    /// The map of standard depth onto an image whose draws' camera has `near_over_far`
+    /// (`None`: not known for the image; the device's last seen).
+    pub fn reversal_of(&self, near_over_far: Option<f32>, observed: &Observed) -> Reversal {
+        match (self.mode, near_over_far) {
+            (Mode::Infinite, Some(near_over_far)) => Reversal::Infinite { near_over_far },
+            _ => self.reversal(observed),
         }
     }
 }
@@ -371,6 +386,38 @@ mod tests {
             );
         }
         assert!(hooks(Mode::Flip, true).profile);
+    }
+
+    #[test]
+    fn an_images_own_camera_decides_its_clear_and_its_map_in_infinite_mode() {
+        let observed = Observed::default();
+        // The device last saw a spot light's n / f; the image was drawn by the main camera.
+        observed.note_near_over_far(0.08);
+        let keep = DevicePolicy {
+            far_clip: FarClip::Keep,
+            ..policy(Mode::Infinite, Observable::None)
+        };
+        assert_eq!(keep.reversed_clear_at(1.0, 0.01), 0.01);
+        assert_eq!(keep.reversed_clear_at(1.0, 0.0), 0.0);
+        assert_eq!(
+            keep.reversal_of(Some(0.01), &observed),
+            Reversal::Infinite {
+                near_over_far: 0.01
+            }
+        );
+        // Not known for the image: the device's last seen.
+        assert_eq!(
+            keep.reversal_of(None, &observed),
+            Reversal::Infinite {
+                near_over_far: 0.08
+            }
+        );
+        let complementary = policy(Mode::Complementary, Observable::None);
+        assert_eq!(
+            complementary.reversal_of(Some(0.01), &observed),
+            Reversal::Complementary
+        );
+        assert_eq!(complementary.reversed_clear_at(0.25, 0.01), 0.75);
     }
 
     #[test]

@@ -76,6 +76,8 @@ pub enum SceneId {
     /// precise modes).
     #[value(name = "shadow-map-x8-d24")]
     ShadowMapX8D24,
+    /// `shadow-map` lit by a spot light: a perspective shadow pass, a second camera.
+    ShadowMapPerspective,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,
@@ -227,8 +229,11 @@ pub struct Light {
     pub target: DVec3,
     /// Up direction (world; not parallel to the view direction).
     pub up: DVec3,
-    /// Half the width and height of the orthographic box.
+    /// Half the width and height of the orthographic box; for a perspective light, of its
+    /// frustum at the distance of `target`.
     pub half_extent: f64,
+    /// A spot light's perspective projection instead of an orthographic one.
+    pub perspective: bool,
     /// Near plane distance.
     pub near: f64,
     /// Far plane distance (> near).
@@ -239,12 +244,16 @@ pub struct Light {
 }
 
 impl Light {
-    /// World -> light clip space: orthographic, z = 0 at `near`, 1 at `far`.
+    /// World -> light clip space: orthographic or perspective, z = 0 at `near`, 1 at `far`.
     pub fn view_projection(&self) -> DMat4 {
         let h = self.half_extent;
-        vulkan_y_flip()
-            * proj::directx::orthographic(-h, h, -h, h, self.near, self.far)
-            * view::look_at_mat4(self.eye, self.target, self.up)
+        let projection = if self.perspective {
+            let fov_y = 2.0 * (h / (self.target - self.eye).length()).atan();
+            proj::directx::perspective(fov_y, 1.0, self.near, self.far)
+        } else {
+            proj::directx::orthographic(-h, h, -h, h, self.near, self.far)
+        };
+        vulkan_y_flip() * projection * view::look_at_mat4(self.eye, self.target, self.up)
     }
 }
 
@@ -253,7 +262,7 @@ impl Light {
 pub enum View {
     /// The camera's perspective (main passes).
     Camera,
-    /// The light's orthographic projection (shadow passes).
+    /// The light's projection (shadow passes).
     Light,
 }
 

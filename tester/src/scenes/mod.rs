@@ -98,6 +98,11 @@ pub const CATALOG: &[Entry] = &[
         "shadow-map-x8-d24",
         shadow_map_x8_d24,
     ),
+    entry_row(
+        SceneId::ShadowMapPerspective,
+        "shadow-map-perspective",
+        shadow_map_perspective,
+    ),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,

@@ -122,6 +122,7 @@ pub fn shadow_light() -> Light {
         target: DVec3::new(0.0, 0.0, 0.0),
         up: DVec3::Y,
         half_extent: 8.0,
+        perspective: false,
         near: 2.0,
         far: 25.0,
         map_format: crate::target::SHADOW_MAP_FORMAT,
@@ -215,6 +216,22 @@ pub fn shadow_map_x8_d24() -> Scene {
     scene.name = "shadow-map-x8-d24";
     if let Some(light) = &mut scene.light {
         light.map_format = ash::vk::Format::X8_D24_UNORM_PACK32;
+    }
+    scene
+}
+
+/// `shadow-map-perspective`: `shadow-map` lit by a spot light, whose shadow pass projects in
+/// perspective (near 2, far 25, the frustum 16 units across at the point looked at).
+///
+/// Layer item: a second perspective camera in the frame. The shadow casters take the precise
+/// path with the light's projection, the main pass with the camera's: in `infinite` mode the
+/// map stores the light's n / w, and its read twin must be refreshed with the light's n / f,
+/// not the camera's (issue #39's "perspective light").
+pub fn shadow_map_perspective() -> Scene {
+    let mut scene = shadow_map();
+    scene.name = "shadow-map-perspective";
+    if let Some(light) = &mut scene.light {
+        light.perspective = true;
     }
     scene
 }

@@ -99,15 +99,30 @@ fn decide(
     decision
 }
 
-/// The map of a conversion in `direction` on this device now.
-pub(super) fn depth_map(device: &DeviceState, direction: CopyDirection) -> DepthMap {
-    let reversal = device.reversing().reversal;
+/// The map of a conversion in `direction` on this device now, for the reversed `image` (the
+/// source of a copy to standard values, the destination of one to reversed values): its own
+/// camera's where revz knows it ([`crate::objects::DeviceObjects::near_over_far`]).
+pub(super) fn depth_map(
+    device: &DeviceState,
+    direction: CopyDirection,
+    image: vk::Image,
+) -> DepthMap {
+    let reversal = device.reversal_of(image);
     match direction {
         CopyDirection::ToStandard => DepthMap::to_standard(reversal),
         CopyDirection::ToReversed => DepthMap::to_reversed(reversal),
         CopyDirection::Keep => DepthMap::IDENTITY,
     }
     .unrestricted(device.policy.depth_range_unrestricted)
+}
+
+/// The reversed end of a copy between two images in `direction`: the source where values
+/// leave revz, the destination where they enter it.
+fn reversed_end(direction: CopyDirection, src: vk::Image, dst: vk::Image) -> vk::Image {
+    match direction {
+        CopyDirection::ToStandard => src,
+        CopyDirection::ToReversed | CopyDirection::Keep => dst,
+    }
 }
 
 /// Records `conversion`; logs why not where it cannot.
@@ -194,7 +209,11 @@ fn image_buffer_copy(
         entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
-    let header = ShaderHeader::new(kinds, depth_map(&entry.device, direction), &plan.layout);
+    let header = ShaderHeader::new(
+        kinds,
+        depth_map(&entry.device, direction, image),
+        &plan.layout,
+    );
     let (fill, drain) = if to_buffer {
         (
             Fill::Image {
@@ -283,7 +302,11 @@ fn image_image_copy(
         return Sent::All;
     };
     let conversion = Conversion {
-        header: ShaderHeader::new(kinds, depth_map(&entry.device, direction), &plan.layout),
+        header: ShaderHeader::new(
+            kinds,
+            depth_map(&entry.device, direction, reversed_end(direction, src, dst)),
+            &plan.layout,
+        ),
         size: plan.layout.size,
         fill: Fill::Image {
             image: src,
@@ -358,7 +381,11 @@ fn image_blit(
         return Sent::All;
     };
     let conversion = Conversion {
-        header: ShaderHeader::new(kinds, depth_map(device, direction), &plan.layout),
+        header: ShaderHeader::new(
+            kinds,
+            depth_map(device, direction, reversed_end(direction, src, dst)),
+            &plan.layout,
+        ),
         size: plan.layout.size,
         fill: Fill::Image {
             image: src,

@@ -70,6 +70,7 @@ fn begin_pass(
     let views = attachment_views(device, begin.framebuffer, begin.p_next);
     let mut out = PassBegin::default();
     let mut targets = Vec::new();
+    let mut reversed_images = Vec::new();
     let mut promoted = false;
     if let Some(pass) = &pass {
         // Ordinary framebuffers were settled at creation; imageless ones only now.
@@ -96,12 +97,22 @@ fn begin_pass(
             .into_iter()
             .map(|target| device.observed.effective(target))
             .collect();
+        let image_of = |index: usize| {
+            views
+                .get(index)
+                .and_then(|view| device.objects.views.get(view))
+        };
+        reversed_images = (0..targets.len())
+            .filter(|&index| targets[index] == Target::Reversed)
+            .filter_map(image_of)
+            .collect();
         let mut changed = false;
         for (index, clear) in clears.iter_mut().enumerate() {
             if policy::clears_reversed(cleared(index), targets.get(index).copied()) {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
                 unsafe {
-                    clear.depth_stencil.depth = device.reversed_clear(clear.depth_stencil.depth)
+                    clear.depth_stencil.depth =
+                        device.reversed_clear_of(image_of(index), clear.depth_stencil.depth)
                 };
                 changed = true;
             }
@@ -129,9 +140,11 @@ fn begin_pass(
         attachment_views: Some(views),
         subpass: 0,
         promoted,
+        reversed_images,
     };
     {
         let mut state = entry.state();
+        enter_cameras(device, &mut state, &scope.reversed_images);
         state.set_target(scope.target());
         state.set_promoted(scope.promoted_from());
         tally_image(entry, &mut state, scope.depth_view());
@@ -260,7 +273,41 @@ fn tally_image(
     }
 }
 
+/// Infinite mode: a pass begins into reversed images whose draws' camera revz remembers.
+fn enter_cameras(
+    device: &DeviceState,
+    state: &mut crate::command_state::CommandState,
+    images: &[vk::Image],
+) {
+    if let Some(near_over_far) = images
+        .iter()
+        .find_map(|image| device.objects.near_over_far.get(image))
+    {
+        state.enter_camera(near_over_far);
+    }
+}
+
+/// Infinite mode: the n / f the command buffer's draws into the pass's reversed images used
+/// (the last projection it learned), remembered for their later clears, copies and refreshes
+/// ([`crate::objects::DeviceObjects::near_over_far`]). Nothing where it learned none.
+fn remember_cameras(entry: &CommandBufferEntry) {
+    let crate::conv::Reversal::Infinite { near_over_far } = entry.state().reversal() else {
+        return;
+    };
+    if near_over_far == 0.0 {
+        return;
+    }
+    let objects = &entry.device.objects;
+    for image in &entry.scope().reversed_images {
+        let known = objects.near_over_far.get(image);
+        if !known.is_some_and(|r| crate::command_state::same_near_over_far(r, near_over_far)) {
+            objects.near_over_far.insert(*image, near_over_far);
+        }
+    }
+}
+
 pub(super) fn end_pass(entry: &CommandBufferEntry) {
+    remember_cameras(entry);
     *entry.scope() = PassScope::default();
     let mut state = entry.state();
     tally_image(entry, &mut state, vk::ImageView::null());
@@ -307,6 +354,8 @@ pub unsafe extern "system" fn cmd_next_subpass2(
 /// The end of a render pass: the read twins of attachments it leaves readable are refreshed
 /// right after it (`twins.rs`).
 fn ending_pass(entry: &CommandBufferEntry) -> Vec<crate::depth_copy::twin::Refresh> {
+    // The refreshes map with the camera of the pass's draws.
+    remember_cameras(entry);
     let refreshes = super::twins::pass_end_refreshes(entry);
     end_pass(entry);
     refreshes
@@ -375,14 +424,17 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             // SAFETY: a depth attachment's clear value is the depthStencil member.
             .map(|d| unsafe { d.clear_value.depth_stencil.depth });
         let target = device.observed.committed(image, clear);
+        let reversed_image = depth
+            .filter(|_| target == Target::Reversed)
+            .and_then(|d| device.objects.views.get(&d.image_view));
         if let (Some(depth), Some(resolve), Target::Reversed) = (depth, resolve, target) {
             let mut copy = *depth;
             let cleared = copy.load_op == vk::AttachmentLoadOp::CLEAR;
             if policy::clears_reversed(cleared, Some(target)) {
                 // SAFETY: a depth attachment's clear value is the depthStencil member.
                 unsafe {
-                    copy.clear_value.depth_stencil.depth =
-                        device.reversed_clear(copy.clear_value.depth_stencil.depth)
+                    copy.clear_value.depth_stencil.depth = device
+                        .reversed_clear_of(reversed_image, copy.clear_value.depth_stencil.depth)
                 };
             }
             // Settled above: a reversed attachment that still resolves resolves into a
@@ -399,8 +451,12 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             |view| device.objects.view_promoted(view).is_some(),
             |view| device.objects.view_format(view),
         );
+        entry.scope().reversed_images = reversed_image.into_iter().collect();
         {
             let mut state = entry.state();
+            if let Some(image) = reversed_image {
+                enter_cameras(device, &mut state, &[image]);
+            }
             state.set_target(target);
             state.set_promoted(promoted);
             tally_image(

@@ -231,6 +231,7 @@ pub(super) fn inherited_target(
                 attachment_views: None,
                 subpass: inheritance.subpass as usize,
                 promoted: false,
+                reversed_images: Vec::new(),
             }
             .target()
         });

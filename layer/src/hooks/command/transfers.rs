@@ -16,10 +16,18 @@ pub unsafe extern "system" fn cmd_clear_attachments(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdClearAttachments");
     let mut copies = Vec::new();
     let device = with_entry(buffer, &ENTRY, |entry| {
-        let target = entry.state().target();
+        let (target, reversal) = {
+            let state = entry.state();
+            (state.target(), state.reversal())
+        };
         if !policy::attachment_clears_flip(target) {
             return;
         }
+        // Inside the pass: the camera its draws use now.
+        let near_over_far = match reversal {
+            crate::conv::Reversal::Infinite { near_over_far } => near_over_far,
+            crate::conv::Reversal::Complementary => 0.0,
+        };
         // SAFETY: `count` attachments.
         copies.extend_from_slice(unsafe { slice(p_attachments, count) });
         for clear in &mut copies {
@@ -28,7 +36,8 @@ pub unsafe extern "system" fn cmd_clear_attachments(
                 unsafe {
                     clear.clear_value.depth_stencil.depth = entry
                         .device
-                        .reversed_clear(clear.clear_value.depth_stencil.depth)
+                        .policy
+                        .reversed_clear_at(clear.clear_value.depth_stencil.depth, near_over_far)
                 };
             }
         }
@@ -70,7 +79,7 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
             let ranges = unsafe { slice(p_ranges, range_count) };
             let clear = policy::clears_depth(ranges).then_some(value.depth);
             if device.observed.committed(Target::Reversed, clear) == Target::Reversed {
-                value.depth = device.reversed_clear(value.depth);
+                value.depth = device.reversed_clear_of(Some(image), value.depth);
                 flipped = Some(value);
             }
         }

@@ -71,7 +71,7 @@ fn refresh_of(
     // convention; shaders read standard values (`copy_values` concerns copies only).
     let reversed = device.observed.effective(info.depth.target()) == Target::Reversed;
     let map = reversed
-        .then(|| super::copies::depth_map(device, crate::policy::CopyDirection::ToStandard));
+        .then(|| super::copies::depth_map(device, crate::policy::CopyDirection::ToStandard, image));
     Some(Refresh {
         image,
         layout,
