@@ -718,9 +718,12 @@ impl Fixture {
             }
             Kind::Images => {
                 let image = self.depth_image(vk::SampleCountFlags::TYPE_1);
+                // As a pass into it would have left it: its camera's n / f remembered.
+                objects.near_over_far.insert(image, 0.01);
                 // SAFETY: a live device, objects it created, each destroyed once and not used afterwards.
                 unsafe { (self.hooks.destroy_image)(device, image, none) };
                 assert!(objects.images.get(&image).is_none());
+                assert!(objects.near_over_far.get(&image).is_none());
             }
             Kind::ImageViews => {
                 let view = self.depth_view(self.image);
@@ -839,6 +842,7 @@ impl Fixture {
         let objects = &self.state.objects;
         let counts = [
             ("images", objects.images.count()),
+            ("image cameras", objects.near_over_far.count()),
             ("resolve pairs", objects.resolve_pairs.count()),
             ("views", objects.views.count()),
             ("render passes", objects.render_passes.count()),
