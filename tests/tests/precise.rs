@@ -778,7 +778,7 @@ fn far_objects_store_the_cameras_n_over_w_at_every_decade() {
 }
 
 /// Two perspective cameras in a frame (`shadow-map-perspective`: a spot light's shadow pass,
-/// then the main view), three frames, `infinite` with `far_clip = keep`: each depth image is
+/// then the main view; and the same drawn from secondaries), three frames, `infinite` with `far_clip = keep`: each depth image is
 /// cleared with the n / f of the camera that draws into it (remembered when its pass ends),
 /// never with the other's. Before, the main view was cleared to the light's n / f (0.08,
 /// against the camera's n / w of 0.01 to 0.05) and lost every fragment. Colors bit-identical
@@ -786,14 +786,24 @@ fn far_objects_store_the_cameras_n_over_w_at_every_decade() {
 #[test]
 fn each_depth_image_is_cleared_with_its_own_cameras_far_plane() {
     let harness = Harness::locate();
-    let scene = "shadow-map-perspective";
+    // The second scene records each pass's draws in secondaries on two threads: the primary
+    // learns the cameras from the secondaries it executes.
+    for scene in [
+        "shadow-map-perspective",
+        "shadow-map-perspective-secondaries",
+    ] {
+        cleared_with_its_own_camera(&harness, scene);
+    }
+}
+
+fn cleared_with_its_own_camera(harness: &Harness, scene: &str) {
     let frames = ["--frames", "3"];
-    let dir = harness.scratch_dir("precise-two-cameras-native");
+    let dir = harness.scratch_dir(&format!("precise-two-cameras-{scene}-native"));
     let mut command = harness.tester("d32", &dir);
     command.args(["--scene", scene]).args(SIZE).args(frames);
     let native = harness.render(command, &dir);
     for far_clip in ["keep", "remove"] {
-        let dir = harness.scratch_dir(&format!("precise-two-cameras-{far_clip}"));
+        let dir = harness.scratch_dir(&format!("precise-two-cameras-{scene}-{far_clip}"));
         let mut command = harness.tester("d32", &dir);
         command.args(["--scene", scene]).args(SIZE).args(frames);
         harness

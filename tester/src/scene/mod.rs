@@ -78,6 +78,8 @@ pub enum SceneId {
     ShadowMapX8D24,
     /// `shadow-map` lit by a spot light: a perspective shadow pass, a second camera.
     ShadowMapPerspective,
+    /// `shadow-map-perspective` with each pass's draws in secondaries.
+    ShadowMapPerspectiveSecondaries,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,

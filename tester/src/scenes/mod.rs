@@ -103,6 +103,11 @@ pub const CATALOG: &[Entry] = &[
         "shadow-map-perspective",
         shadow_map_perspective,
     ),
+    entry_row(
+        SceneId::ShadowMapPerspectiveSecondaries,
+        "shadow-map-perspective-secondaries",
+        shadow_map_perspective_secondaries,
+    ),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,

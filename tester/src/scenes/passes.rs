@@ -245,8 +245,28 @@ pub fn shadow_map_perspective() -> Scene {
 /// format draws the shadow casters reversed into the native map, so no shadow lands. The render
 /// must be `shadow-map`'s.
 pub fn shadow_map_secondaries() -> Scene {
-    let mut scene = shadow_map();
-    scene.name = "shadow-map-secondaries";
+    in_secondaries(shadow_map(), "shadow-map-secondaries")
+}
+
+/// `shadow-map-perspective-secondaries`: `shadow-map-perspective` recorded as
+/// `shadow-map-secondaries` is.
+///
+/// Layer item: in `infinite` mode the primary learns no camera of its own (its passes are
+/// drawn from secondaries): the n / f the shadow map and the main view remember at the end
+/// of their passes, which their next clears and the map's refresh use, is the one the
+/// executed secondaries' draws used.
+pub fn shadow_map_perspective_secondaries() -> Scene {
+    in_secondaries(
+        shadow_map_perspective(),
+        "shadow-map-perspective-secondaries",
+    )
+}
+
+/// `scene` (one of the shadow-map scenes: passes of a bind and draws) with each pass's draws
+/// recorded into two secondaries on two threads, the second inheriting the render pass
+/// without the framebuffer.
+fn in_secondaries(mut scene: Scene, name: &'static str) -> Scene {
+    scene.name = name;
     let mut steps = Vec::new();
     let mut lists: Vec<Vec<Step>> = Vec::new();
     for step in std::mem::take(&mut scene.plan.steps) {

@@ -763,6 +763,7 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
             "shadow-map-raw",
             "shadow-map-x8-d24",
             "shadow-map-perspective",
+            "shadow-map-perspective-secondaries",
             "projection-only",
             "view-projection",
             "model-view-projection-pair",

@@ -291,7 +291,17 @@ pub unsafe extern "system" fn cmd_execute_commands(
                     state.add_executed(&recorded.state());
                 }
             }
-            let assumed = objects::command_buffer(secondary).map(|s| s.state().inherited());
+            let recorded = objects::command_buffer(secondary);
+            // Infinite mode: the camera the secondary's draws used last is the pass's now
+            // (what the pass's images remember when it ends, `passes::remember_cameras`).
+            if let Some(crate::conv::Reversal::Infinite { near_over_far }) =
+                recorded.as_ref().map(|s| s.state().reversal())
+            {
+                if near_over_far != 0.0 {
+                    state.enter_camera(near_over_far);
+                }
+            }
+            let assumed = recorded.map(|s| s.state().inherited());
             if matches!(assumed, Some(a) if a != target && a != Target::None && target != Target::None)
             {
                 MISMATCH.log(|| {
