@@ -226,6 +226,9 @@ pub struct DeviceCommands {
     pub bind_descriptor_sets2: Option<vk::PFN_vkCmdBindDescriptorSets2KHR>,
     pub set_descriptor_buffer_offsets: Option<vk::PFN_vkCmdSetDescriptorBufferOffsetsEXT>,
     pub push_descriptor_set_with_template: Option<vk::PFN_vkCmdPushDescriptorSetWithTemplateKHR>,
+    /// `VK_KHR_maintenance6` (Vulkan 1.4): the push-descriptor commands taking an info.
+    pub push_descriptor_set2: Option<vk::PFN_vkCmdPushDescriptorSet2KHR>,
+    pub push_descriptor_set_with_template2: Option<vk::PFN_vkCmdPushDescriptorSetWithTemplate2KHR>,
     pub create_descriptor_update_template: Option<vk::PFN_vkCreateDescriptorUpdateTemplate>,
     pub destroy_descriptor_update_template: Option<vk::PFN_vkDestroyDescriptorUpdateTemplate>,
     pub begin_conditional_rendering: Option<vk::PFN_vkCmdBeginConditionalRenderingEXT>,
@@ -352,6 +355,16 @@ impl DeviceCommands {
                 V14,
                 c"vkCmdPushDescriptorSetWithTemplate",
                 c"vkCmdPushDescriptorSetWithTemplateKHR"
+            ),
+            push_descriptor_set2: load!(
+                V14,
+                c"vkCmdPushDescriptorSet2",
+                c"vkCmdPushDescriptorSet2KHR"
+            ),
+            push_descriptor_set_with_template2: load!(
+                V14,
+                c"vkCmdPushDescriptorSetWithTemplate2",
+                c"vkCmdPushDescriptorSetWithTemplate2KHR"
             ),
             create_descriptor_update_template: load!(
                 vk::API_VERSION_1_1,

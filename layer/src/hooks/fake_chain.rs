@@ -306,6 +306,11 @@ pub(super) enum Event {
     UpdateDescriptorSets {
         image_infos: Vec<Vec<(vk::ImageView, vk::ImageLayout)>>,
     },
+    /// `vkCmdPushDescriptorSet2KHR` (details): its set and each write's image infos.
+    PushDescriptorSet2 {
+        set: u32,
+        image_infos: Vec<Vec<(vk::ImageView, vk::ImageLayout)>>,
+    },
     /// `vkCreateImageView` (details).
     CreateImageView {
         handle: vk::ImageView,
@@ -1110,6 +1115,10 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
         b"vkAllocateMemory" => void_fn!(vk::PFN_vkAllocateMemory, passes::allocate_memory),
         b"vkFreeMemory" => void_fn!(vk::PFN_vkFreeMemory, passes::free_memory),
         b"vkBindImageMemory" => void_fn!(vk::PFN_vkBindImageMemory, passes::bind_image_memory),
+        b"vkCmdPushDescriptorSet2KHR" => void_fn!(
+            vk::PFN_vkCmdPushDescriptorSet2KHR,
+            passes::cmd_push_descriptor_set2
+        ),
         b"vkUpdateDescriptorSets" => void_fn!(
             vk::PFN_vkUpdateDescriptorSets,
             passes::update_descriptor_sets
@@ -1540,15 +1549,33 @@ mod passes {
         vk::Result::SUCCESS
     }
 
-    pub(super) unsafe extern "system" fn update_descriptor_sets(
-        device: vk::Device,
-        write_count: u32,
-        p_writes: *const vk::WriteDescriptorSet,
-        _: u32,
-        _: *const vk::CopyDescriptorSet,
+    /// `vkCmdPushDescriptorSet2KHR`: notes its set and image infos.
+    pub(super) unsafe extern "system" fn cmd_push_descriptor_set2(
+        buffer: vk::CommandBuffer,
+        p_info: *const vk::PushDescriptorSetInfoKHR<'_>,
     ) {
-        // SAFETY: `writeCount` valid writes, each with `descriptorCount` image infos or none.
-        let image_infos = unsafe { std::slice::from_raw_parts(p_writes, write_count as usize) }
+        // SAFETY: a valid info.
+        let info = unsafe { &*p_info };
+        // SAFETY: its writes.
+        let image_infos =
+            unsafe { image_infos(info.descriptor_write_count, info.p_descriptor_writes) };
+        // SAFETY: a live command buffer of the fake.
+        note_detail(unsafe { key_of(buffer) }, || Event::PushDescriptorSet2 {
+            set: info.set,
+            image_infos,
+        });
+    }
+
+    /// Each write's image infos (view and layout).
+    ///
+    /// # Safety
+    /// `count` valid writes, each with `descriptorCount` image infos or none.
+    unsafe fn image_infos(
+        count: u32,
+        p_writes: *const vk::WriteDescriptorSet,
+    ) -> Vec<Vec<(vk::ImageView, vk::ImageLayout)>> {
+        // SAFETY: the caller's contract.
+        unsafe { std::slice::from_raw_parts(p_writes, count as usize) }
             .iter()
             .map(|write| {
                 if write.p_image_info.is_null() {
@@ -1562,7 +1589,18 @@ mod passes {
                 .map(|info| (info.image_view, info.image_layout))
                 .collect()
             })
-            .collect();
+            .collect()
+    }
+
+    pub(super) unsafe extern "system" fn update_descriptor_sets(
+        device: vk::Device,
+        write_count: u32,
+        p_writes: *const vk::WriteDescriptorSet,
+        _: u32,
+        _: *const vk::CopyDescriptorSet,
+    ) {
+        // SAFETY: `writeCount` valid writes, each with `descriptorCount` image infos or none.
+        let image_infos = unsafe { image_infos(write_count, p_writes) };
         // SAFETY: the fake's live device.
         note_detail(unsafe { key_of(device) }, || Event::UpdateDescriptorSets {
             image_infos,

@@ -276,6 +276,16 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             vk::PFN_vkCmdPushDescriptorSetKHR,
             c::cmd_push_descriptor_set_khr
         ),
+        b"vkCmdPushDescriptorSet2" | b"vkCmdPushDescriptorSet2KHR" => void_fn!(
+            vk::PFN_vkCmdPushDescriptorSet2KHR,
+            c::cmd_push_descriptor_set2
+        ),
+        b"vkCmdPushDescriptorSetWithTemplate2" | b"vkCmdPushDescriptorSetWithTemplate2KHR" => {
+            void_fn!(
+                vk::PFN_vkCmdPushDescriptorSetWithTemplate2KHR,
+                c::cmd_push_descriptor_set_with_template2
+            )
+        }
         b"vkCmdBindDescriptorSets2" | b"vkCmdBindDescriptorSets2KHR" => void_fn!(
             vk::PFN_vkCmdBindDescriptorSets2KHR,
             c::cmd_bind_descriptor_sets2

@@ -88,6 +88,7 @@ hook_set! {
         cmd_next_subpass2: c"vkCmdNextSubpass2" => vk::PFN_vkCmdNextSubpass2,
         cmd_draw: c"vkCmdDraw" => vk::PFN_vkCmdDraw,
         update_descriptor_sets: c"vkUpdateDescriptorSets" => vk::PFN_vkUpdateDescriptorSets,
+        cmd_push_descriptor_set2: c"vkCmdPushDescriptorSet2KHR" => vk::PFN_vkCmdPushDescriptorSet2KHR,
     }
 }
 
@@ -2689,6 +2690,31 @@ fn a_sampled_depth_image_gets_a_read_twin_whose_views_descriptors_name() {
         }]
     );
     // The application's array is left as it gave it.
+    assert_eq!(infos[0].image_view, view);
+    // Pushed through `vkCmdPushDescriptorSet2KHR` (`VK_KHR_maintenance6`): the same.
+    let buffer = fx.primary();
+    let push = vk::PushDescriptorSetInfoKHR {
+        stage_flags: vk::ShaderStageFlags::FRAGMENT,
+        set: 1,
+        descriptor_write_count: writes.len() as u32,
+        p_descriptor_writes: writes.as_ptr(),
+        ..Default::default()
+    };
+    // SAFETY: a recording command buffer and a valid info.
+    unsafe { (fx.hooks.cmd_push_descriptor_set2)(buffer, &push) };
+    assert_eq!(
+        fx.events(),
+        [Event::PushDescriptorSet2 {
+            set: 1,
+            image_infos: vec![
+                vec![],
+                vec![
+                    (twin_view, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+                    (other, vk::ImageLayout::GENERAL)
+                ]
+            ]
+        }]
+    );
     assert_eq!(infos[0].image_view, view);
 
     // SAFETY: the view and image, no longer used.

@@ -162,6 +162,96 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_with_template(
     }
 }
 
+/// `vkCmdPushDescriptorSet2` (`VK_KHR_maintenance6`): [`cmd_push_descriptor_set_khr`] with its
+/// arguments in an info (whose chain goes down as it is).
+pub unsafe extern "system" fn cmd_push_descriptor_set2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::PushDescriptorSetInfoKHR<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSet2");
+    let mut patched = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid info (the application's contract).
+        let info = unsafe { &*p_info };
+        if info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE) {
+            entry.copies().compute.bound_otherwise();
+        }
+        if crate::hooks::descriptors::any_twin(&entry.device) {
+            // SAFETY: `descriptorWriteCount` valid writes (the application's contract).
+            patched = unsafe {
+                crate::hooks::descriptors::patch_writes(
+                    &entry.device,
+                    slice(info.p_descriptor_writes, info.descriptor_write_count),
+                )
+            };
+        }
+    });
+    let Some(next) = device.and_then(|d| d.commands.push_descriptor_set2) else {
+        return;
+    };
+    match &patched {
+        Some(patched) => {
+            // SAFETY: a valid info (the application's contract).
+            let info = vk::PushDescriptorSetInfoKHR {
+                descriptor_write_count: patched.writes.len() as u32,
+                p_descriptor_writes: patched.writes.as_ptr(),
+                ..unsafe { *p_info }
+            };
+            // SAFETY: the application's info, its writes naming the read twins' views where
+            // they name views of images with one.
+            unsafe { next(buffer, &info) }
+        }
+        // SAFETY: calling down with the application's arguments.
+        None => unsafe { next(buffer, p_info) },
+    }
+}
+
+/// `vkCmdPushDescriptorSetWithTemplate2` (`VK_KHR_maintenance6`):
+/// [`cmd_push_descriptor_set_with_template`] with its arguments in an info.
+pub unsafe extern "system" fn cmd_push_descriptor_set_with_template2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::PushDescriptorSetWithTemplateInfoKHR<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetWithTemplate2");
+    let mut patched = None;
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid info (the application's contract).
+        let info = unsafe { &*p_info };
+        if entry
+            .device
+            .copies
+            .pushes_compute(info.descriptor_update_template)
+        {
+            entry.copies().compute.bound_otherwise();
+        }
+        // SAFETY: the application's data for its template.
+        patched = unsafe {
+            crate::hooks::descriptors::patch_template_data(
+                &entry.device,
+                info.descriptor_update_template,
+                info.p_data,
+            )
+        };
+    });
+    let Some(next) = device.and_then(|d| d.commands.push_descriptor_set_with_template2) else {
+        return;
+    };
+    match &patched {
+        Some(copy) => {
+            // SAFETY: a valid info (the application's contract).
+            let info = vk::PushDescriptorSetWithTemplateInfoKHR {
+                p_data: copy.as_ptr().cast(),
+                ..unsafe { *p_info }
+            };
+            // SAFETY: the application's info, its data naming the read twins' views where it
+            // names views of images with one.
+            unsafe { next(buffer, &info) }
+        }
+        // SAFETY: calling down with the application's arguments.
+        None => unsafe { next(buffer, p_info) },
+    }
+}
+
 /// `vkCmdBeginConditionalRenderingEXT`: conversions are refused until it ends.
 pub unsafe extern "system" fn cmd_begin_conditional_rendering(
     buffer: vk::CommandBuffer,
