@@ -174,6 +174,11 @@ pub struct CommandState {
     /// Which states the application set with `vkCmdSet*`.
     app_set: States,
     reversing: Reversing,
+    /// Infinite mode: the n / f in `reversing` is a camera of this recording's draws (a
+    /// projection it pushed, or the one the pass's image remembered), not just the device's
+    /// last seen at its begin, which may be another camera's. Only such an n / f is
+    /// remembered for an image ([`Self::camera`]).
+    camera_known: bool,
     push: PushConstants,
     /// The path the emitted state is for.
     path: DrawPath,
@@ -242,6 +247,7 @@ impl Default for CommandState {
             depth_clamp: false,
             app_set: States::NONE,
             reversing: Reversing::default(),
+            camera_known: false,
             push: PushConstants::default(),
             path: DrawPath::Native,
             draws: DrawTally::default(),
@@ -310,10 +316,23 @@ impl CommandState {
     /// until a projection pushed in the pass tells another.
     pub fn enter_camera(&mut self, near_over_far: f32) {
         if let Reversal::Infinite { near_over_far: r } = &mut self.reversing.reversal {
+            self.camera_known = true;
             if !same_near_over_far(*r, near_over_far) {
                 *r = near_over_far;
                 self.dirty = true;
             }
+        }
+    }
+
+    /// Infinite mode: the n / f of this recording's draws now, where it is a camera they use
+    /// (learned from a pushed projection, or entered from an image); `None` where it is only
+    /// the device's last seen at the begin, or 0.
+    pub fn camera(&self) -> Option<f32> {
+        match self.reversing.reversal {
+            Reversal::Infinite { near_over_far } if self.camera_known && near_over_far != 0.0 => {
+                Some(near_over_far)
+            }
+            _ => None,
         }
     }
 
@@ -571,6 +590,7 @@ impl CommandState {
         if let (Outcome::Rewritten { near_over_far, .. }, Reversal::Infinite { near_over_far: r }) =
             (outcome, &mut self.reversing.reversal)
         {
+            self.camera_known = true;
             if !same_near_over_far(*r, *near_over_far) {
                 *r = *near_over_far;
                 // Only flip-path viewports and depth bounds depend on it (and what a stage that

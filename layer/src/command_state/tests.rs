@@ -891,6 +891,8 @@ fn a_projection_pushed_outside_the_render_pass_is_classified_at_the_draw() {
     };
     assert!((near_over_far - 0.01).abs() < 1e-6);
     assert_eq!(state.reversal(), Reversal::Infinite { near_over_far });
+    // A camera of this recording's draws: what the pass's image remembers.
+    assert_eq!(state.camera(), Some(near_over_far));
 
     // A flip-path pipeline in the same pass: nothing pushed, and its viewport maps
     // standard depth to n / w: [0, 1] -> [1, n / f].
@@ -1200,4 +1202,37 @@ fn infinite_mode_without_a_known_near_over_far_derives_complementary_depth() {
         let stored = 1.0 - d;
         assert_eq!(unknown.reversal.depth(d), stored);
     }
+}
+
+#[test]
+fn only_a_camera_of_the_recordings_draws_is_one_an_image_remembers() {
+    // Begun with the device's last seen n / f (maybe another camera's): not one.
+    let seen = Reversal::Infinite {
+        near_over_far: 0.08,
+    };
+    let mut state = precise(RewriteTarget::Infinite);
+    state.begin(Target::Reversed, seen, Default::default());
+    assert_eq!(state.camera(), None);
+    // Entered from the pass's image: its own.
+    state.enter_camera(0.01);
+    assert_eq!(state.camera(), Some(0.01));
+    assert_eq!(
+        state.reversal(),
+        Reversal::Infinite {
+            near_over_far: 0.01
+        }
+    );
+    // A new recording starts without one again.
+    state.begin(Target::Reversed, seen, Default::default());
+    assert_eq!(state.camera(), None);
+    // Not in the other modes.
+    let mut complementary = precise(RewriteTarget::Complementary);
+    complementary.begin(
+        Target::Reversed,
+        Reversal::Complementary,
+        Default::default(),
+    );
+    complementary.enter_camera(0.01);
+    assert_eq!(complementary.camera(), None);
+    assert_eq!(complementary.reversal(), Reversal::Complementary);
 }

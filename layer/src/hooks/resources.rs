@@ -324,6 +324,9 @@ pub unsafe extern "system" fn create_image(
                     },
                 );
             }
+            // A handle the driver reuses starts with no camera (a pass into the destroyed
+            // image may have remembered one after its destroy was recorded).
+            state.objects.near_over_far.remove(&image);
             state.objects.images.insert(
                 image,
                 ImageInfo {

@@ -242,6 +242,14 @@ pub(super) fn subpass_key(scope: &PassScope) -> Option<SecondaryPass> {
 }
 
 pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
+    let device = &entry.device;
+    // Infinite mode: the subpass ending leaves its depth image the camera of its draws (not
+    // restamped at the pass's end with a later subpass's); the next one's image brings its own.
+    let leaving = device.objects.views.get(&entry.scope().depth_view());
+    if let Some(image) = leaving {
+        remember_camera_of(entry, &[image]);
+        entry.scope().reversed_images.retain(|&i| i != image);
+    }
     let (target, promoted, key, view) = {
         let mut scope = entry.scope();
         scope.subpass += 1;
@@ -252,8 +260,12 @@ pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer
             scope.depth_view(),
         )
     };
+    let entering = device.objects.views.get(&view);
     {
         let mut state = entry.state();
+        if let Some(image) = entering {
+            enter_cameras(device, &mut state, &[image]);
+        }
         state.set_target(target);
         state.set_promoted(promoted);
         tally_image(entry, &mut state, view);
@@ -291,14 +303,31 @@ fn enter_cameras(
 /// (the last projection it learned), remembered for their later clears, copies and refreshes
 /// ([`crate::objects::DeviceObjects::near_over_far`]). Nothing where it learned none.
 fn remember_cameras(entry: &CommandBufferEntry) {
-    let crate::conv::Reversal::Infinite { near_over_far } = entry.state().reversal() else {
+    let (mut images, view) = {
+        let mut scope = entry.scope();
+        (
+            std::mem::take(&mut scope.reversed_images),
+            scope.depth_view(),
+        )
+    };
+    // The last subpass's depth image (an earlier subpass's stamp was taken at its end).
+    if let Some(image) = entry.device.objects.views.get(&view) {
+        if !images.contains(&image) {
+            images.push(image);
+        }
+    }
+    remember_camera_of(entry, &images);
+}
+
+/// [`remember_cameras`] for `images`: only a camera this recording's draws use (learned from
+/// a pushed projection, entered from an image, or taken from executed secondaries), never
+/// the device's last seen at the begin, which may be another camera's.
+fn remember_camera_of(entry: &CommandBufferEntry, images: &[vk::Image]) {
+    let Some(near_over_far) = entry.state().camera() else {
         return;
     };
-    if near_over_far == 0.0 {
-        return;
-    }
     let objects = &entry.device.objects;
-    for image in &entry.scope().reversed_images {
+    for image in images {
         let known = objects.near_over_far.get(image);
         if !known.is_some_and(|r| crate::command_state::same_near_over_far(r, near_over_far)) {
             objects.near_over_far.insert(*image, near_over_far);

@@ -99,6 +99,14 @@ pub unsafe extern "system" fn begin_command_buffer(
             None => revz_math::Cameras::default(),
         };
         state.begin(target, entry.device.reversing().reversal, cameras);
+        // Infinite mode: a secondary continuing a pass into an image whose camera revz
+        // remembers starts from it (its flip-path state and clears), as the pass did.
+        if let Some(near_over_far) = inheritance
+            .and_then(|i| inherited_depth_image(entry, i))
+            .and_then(|image| entry.device.objects.near_over_far.get(&image))
+        {
+            state.enter_camera(near_over_far);
+        }
         if continues {
             // Inside the pass it continues, with or without a depth attachment.
             state.set_target(target);
@@ -207,6 +215,29 @@ pub(super) fn inherits_viewports(begin: &vk::CommandBufferBeginInfo<'_>) -> bool
 /// The depth target a secondary command buffer continues (`crate::policy::inherited_target`,
 /// from its inherited framebuffer's views, the pass and the format's images; a guess between
 /// both kinds is logged once), after the application's convention.
+/// The depth image of the subpass a secondary continues, where its inheritance names the
+/// framebuffer (not an imageless one).
+fn inherited_depth_image(
+    entry: &CommandBufferEntry,
+    inheritance: &vk::CommandBufferInheritanceInfo<'_>,
+) -> Option<vk::Image> {
+    let device = &entry.device;
+    if inheritance.render_pass == vk::RenderPass::null()
+        || inheritance.framebuffer == vk::Framebuffer::null()
+    {
+        return None;
+    }
+    let pass = device.objects.render_passes.get(&inheritance.render_pass)?;
+    let index = pass
+        .subpass_depth
+        .get(inheritance.subpass as usize)
+        .copied()
+        .flatten()?;
+    let views = attachment_views(device, inheritance.framebuffer, std::ptr::null());
+    let view = views.get(index as usize)?;
+    device.objects.views.get(view)
+}
+
 pub(super) fn inherited_target(
     entry: &CommandBufferEntry,
     inheritance: &vk::CommandBufferInheritanceInfo<'_>,
@@ -293,13 +324,10 @@ pub unsafe extern "system" fn cmd_execute_commands(
             }
             let recorded = objects::command_buffer(secondary);
             // Infinite mode: the camera the secondary's draws used last is the pass's now
-            // (what the pass's images remember when it ends, `passes::remember_cameras`).
-            if let Some(crate::conv::Reversal::Infinite { near_over_far }) =
-                recorded.as_ref().map(|s| s.state().reversal())
-            {
-                if near_over_far != 0.0 {
-                    state.enter_camera(near_over_far);
-                }
+            // (what the pass's images remember when it ends, `passes::remember_cameras`), where
+            // the secondary knew one (not the device's last seen at its begin).
+            if let Some(near_over_far) = recorded.as_ref().and_then(|s| s.state().camera()) {
+                state.enter_camera(near_over_far);
             }
             let assumed = recorded.map(|s| s.state().inherited());
             if matches!(assumed, Some(a) if a != target && a != Target::None && target != Target::None)
