@@ -165,10 +165,18 @@ impl DeviceState {
         self.policy.reversed_clear_at(depth, near_over_far)
     }
 
-    /// The map of standard depth onto the reversed `image` (its camera's, where known).
-    pub fn reversal_of(&self, image: vk::Image) -> crate::conv::Reversal {
-        self.policy
-            .reversal_of(self.objects.near_over_far.get(&image), &self.observed)
+    /// The map of standard depth onto the reversed `image`: its camera's where revz remembers
+    /// one, else `recording`'s (the map the draws of the recording that copies or refreshes
+    /// it use; another thread may have moved the device's last seen since).
+    pub fn reversal_of(
+        &self,
+        image: vk::Image,
+        recording: crate::conv::Reversal,
+    ) -> crate::conv::Reversal {
+        match self.objects.near_over_far.get(&image) {
+            Some(near_over_far) => self.policy.reversal_of(Some(near_over_far), &self.observed),
+            None => recording,
+        }
     }
 }
 

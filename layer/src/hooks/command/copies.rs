@@ -99,15 +99,22 @@ fn decide(
     decision
 }
 
-/// The map of a conversion in `direction` on this device now, for the reversed `image` (the
+/// The map of a conversion in `direction` recorded into `entry`, for the reversed `image` (the
 /// source of a copy to standard values, the destination of one to reversed values): its own
-/// camera's where revz knows it ([`crate::objects::DeviceObjects::near_over_far`]).
-pub(super) fn depth_map(
+/// camera's where revz knows it ([`crate::objects::DeviceObjects::near_over_far`]), else the
+/// recording's. (The state's lock must not be held.)
+fn depth_map(entry: &CommandBufferEntry, direction: CopyDirection, image: vk::Image) -> DepthMap {
+    depth_map_with(&entry.device, direction, image, entry.state().reversal())
+}
+
+/// [`depth_map`] given the recording's map.
+pub(super) fn depth_map_with(
     device: &DeviceState,
     direction: CopyDirection,
     image: vk::Image,
+    recording: crate::conv::Reversal,
 ) -> DepthMap {
-    let reversal = device.reversal_of(image);
+    let reversal = device.reversal_of(image, recording);
     match direction {
         CopyDirection::ToStandard => DepthMap::to_standard(reversal),
         CopyDirection::ToReversed => DepthMap::to_reversed(reversal),
@@ -209,11 +216,7 @@ fn image_buffer_copy(
         entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
-    let header = ShaderHeader::new(
-        kinds,
-        depth_map(&entry.device, direction, image),
-        &plan.layout,
-    );
+    let header = ShaderHeader::new(kinds, depth_map(entry, direction, image), &plan.layout);
     let (fill, drain) = if to_buffer {
         (
             Fill::Image {
@@ -304,7 +307,7 @@ fn image_image_copy(
     let conversion = Conversion {
         header: ShaderHeader::new(
             kinds,
-            depth_map(&entry.device, direction, reversed_end(direction, src, dst)),
+            depth_map(entry, direction, reversed_end(direction, src, dst)),
             &plan.layout,
         ),
         size: plan.layout.size,
@@ -383,7 +386,7 @@ fn image_blit(
     let conversion = Conversion {
         header: ShaderHeader::new(
             kinds,
-            depth_map(device, direction, reversed_end(direction, src, dst)),
+            depth_map(entry, direction, reversed_end(direction, src, dst)),
             &plan.layout,
         ),
         size: plan.layout.size,

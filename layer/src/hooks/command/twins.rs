@@ -62,6 +62,7 @@ fn refresh_of(
     image: vk::Image,
     layout: vk::ImageLayout,
     range: vk::ImageSubresourceRange,
+    recording: crate::conv::Reversal,
 ) -> Option<Refresh> {
     let info = device.objects.images.get(&image)?;
     let twin = info.twin?;
@@ -70,8 +71,14 @@ fn refresh_of(
     // The image's depth is reversed where revz stores it so after the application's
     // convention; shaders read standard values (`copy_values` concerns copies only).
     let reversed = device.observed.effective(info.depth.target()) == Target::Reversed;
-    let map = reversed
-        .then(|| super::copies::depth_map(device, crate::policy::CopyDirection::ToStandard, image));
+    let map = reversed.then(|| {
+        super::copies::depth_map_with(
+            device,
+            crate::policy::CopyDirection::ToStandard,
+            image,
+            recording,
+        )
+    });
     Some(Refresh {
         image,
         layout,
@@ -150,14 +157,22 @@ fn barrier_refreshes(
     >,
 ) -> Vec<Refresh> {
     let device = &entry.device;
-    if !crate::hooks::descriptors::any_twin(device) || entry.state().in_pass() {
+    // While no twin is alive: one load, no lock.
+    if !crate::hooks::descriptors::any_twin(device) {
+        return Vec::new();
+    }
+    let (in_pass, recording) = {
+        let state = entry.state();
+        (state.in_pass(), state.reversal())
+    };
+    if in_pass {
         return Vec::new();
     }
     barriers
         .filter(|&(_, old, new, _, src, dst, families)| {
             makes_readable(old, new, src, dst, families)
         })
-        .filter_map(|(image, _, new, range, ..)| refresh_of(device, image, new, range))
+        .filter_map(|(image, _, new, range, ..)| refresh_of(device, image, new, range, recording))
         .collect()
 }
 
@@ -226,6 +241,8 @@ pub(super) fn pass_end_refreshes(entry: &CommandBufferEntry) -> Vec<Refresh> {
     if !crate::hooks::descriptors::any_twin(device) {
         return Vec::new();
     }
+    // Before the scope's lock (the state's is never taken under it).
+    let recording = entry.state().reversal();
     let scope = entry.scope();
     let (Some(pass), Some(views)) = (&scope.render_pass, &scope.attachment_views) else {
         return Vec::new();
@@ -236,7 +253,7 @@ pub(super) fn pass_end_refreshes(entry: &CommandBufferEntry) -> Vec<Refresh> {
         .filter(|&(_, &layout)| readable(layout, 0) || layout == vk::ImageLayout::GENERAL)
         .filter_map(|(view, &layout)| {
             let twin_view = device.objects.twin_views.get(view)?;
-            refresh_of(device, twin_view.image, layout, twin_view.range)
+            refresh_of(device, twin_view.image, layout, twin_view.range, recording)
         })
         .collect()
 }
