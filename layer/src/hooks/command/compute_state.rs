@@ -53,6 +53,44 @@ pub unsafe extern "system" fn cmd_bind_descriptor_sets(
     }
 }
 
+/// What the push-descriptor commands do with writes (`vkCmdPushDescriptorSet`, `...2`): a
+/// push to the compute bind point refuses later conversions in this recording (revz cannot
+/// push it again); writes naming views of images with a read twin name the twins' views.
+///
+/// # Safety
+/// `writes` are the application's valid writes.
+unsafe fn pushed_writes<'a>(
+    entry: &CommandBufferEntry,
+    compute: bool,
+    writes: &[vk::WriteDescriptorSet<'a>],
+) -> Option<crate::hooks::descriptors::PatchedWrites<'a>> {
+    if compute {
+        entry.copies().compute.bound_otherwise();
+    }
+    if !crate::hooks::descriptors::any_twin(&entry.device) {
+        return None;
+    }
+    // SAFETY: the caller's contract.
+    unsafe { crate::hooks::descriptors::patch_writes(&entry.device, writes) }
+}
+
+/// [`pushed_writes`] for the template push commands (`vkCmdPushDescriptorSetWithTemplate`,
+/// `...2`): the application's data, copied and patched where it names such views.
+///
+/// # Safety
+/// `data` is the application's valid data for `template`.
+unsafe fn pushed_template_data(
+    entry: &CommandBufferEntry,
+    template: vk::DescriptorUpdateTemplate,
+    data: *const std::ffi::c_void,
+) -> Option<Vec<u64>> {
+    if entry.device.copies.pushes_compute(template) {
+        entry.copies().compute.bound_otherwise();
+    }
+    // SAFETY: the caller's contract.
+    unsafe { crate::hooks::descriptors::patch_template_data(&entry.device, template, data) }
+}
+
 /// `vkCmdPushDescriptorSetKHR`: compute push descriptors cannot be bound again by revz, so
 /// conversions in this recording are refused from here on.
 pub unsafe extern "system" fn cmd_push_descriptor_set_khr(
@@ -66,15 +104,9 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_khr(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetKHR");
     let mut patched = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
-        if bind_point == vk::PipelineBindPoint::COMPUTE {
-            entry.copies().compute.bound_otherwise();
-        }
-        if crate::hooks::descriptors::any_twin(&entry.device) {
-            // SAFETY: `count` valid writes (the application's contract).
-            patched = unsafe {
-                crate::hooks::descriptors::patch_writes(&entry.device, slice(p_writes, count))
-            };
-        }
+        let compute = bind_point == vk::PipelineBindPoint::COMPUTE;
+        // SAFETY: `count` valid writes (the application's contract).
+        patched = unsafe { pushed_writes(entry, compute, slice(p_writes, count)) };
     });
     let (count, p_writes) = match &patched {
         Some(patched) => (patched.writes.len() as u32, patched.writes.as_ptr()),
@@ -146,13 +178,8 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_with_template(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetWithTemplateKHR");
     let mut patched = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
-        if entry.device.copies.pushes_compute(template) {
-            entry.copies().compute.bound_otherwise();
-        }
         // SAFETY: the application's data for its template.
-        patched = unsafe {
-            crate::hooks::descriptors::patch_template_data(&entry.device, template, p_data)
-        };
+        patched = unsafe { pushed_template_data(entry, template, p_data) };
     });
     let p_data = patched.as_ref().map_or(p_data, |copy| copy.as_ptr().cast());
     if let Some(next) = device.and_then(|d| d.commands.push_descriptor_set_with_template) {
@@ -173,18 +200,11 @@ pub unsafe extern "system" fn cmd_push_descriptor_set2(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid info (the application's contract).
         let info = unsafe { &*p_info };
-        if info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE) {
-            entry.copies().compute.bound_otherwise();
-        }
-        if crate::hooks::descriptors::any_twin(&entry.device) {
-            // SAFETY: `descriptorWriteCount` valid writes (the application's contract).
-            patched = unsafe {
-                crate::hooks::descriptors::patch_writes(
-                    &entry.device,
-                    slice(info.p_descriptor_writes, info.descriptor_write_count),
-                )
-            };
-        }
+        let compute = info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE);
+        // SAFETY: `descriptorWriteCount` valid writes (the application's contract).
+        let writes = unsafe { slice(info.p_descriptor_writes, info.descriptor_write_count) };
+        // SAFETY: as above.
+        patched = unsafe { pushed_writes(entry, compute, writes) };
     });
     let Some(next) = device.and_then(|d| d.commands.push_descriptor_set2) else {
         return;
@@ -217,21 +237,9 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_with_template2(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid info (the application's contract).
         let info = unsafe { &*p_info };
-        if entry
-            .device
-            .copies
-            .pushes_compute(info.descriptor_update_template)
-        {
-            entry.copies().compute.bound_otherwise();
-        }
         // SAFETY: the application's data for its template.
-        patched = unsafe {
-            crate::hooks::descriptors::patch_template_data(
-                &entry.device,
-                info.descriptor_update_template,
-                info.p_data,
-            )
-        };
+        patched =
+            unsafe { pushed_template_data(entry, info.descriptor_update_template, info.p_data) };
     });
     let Some(next) = device.and_then(|d| d.commands.push_descriptor_set_with_template2) else {
         return;
