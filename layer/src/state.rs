@@ -160,7 +160,7 @@ impl DeviceState {
     /// against the camera's 0.01) lost every fragment (the `shadow-map-perspective` scene).
     pub fn reversed_clear_of(&self, image: Option<vk::Image>, depth: f32) -> f32 {
         let near_over_far = image
-            .and_then(|image| self.objects.near_over_far.get(&image))
+            .and_then(|image| self.image_camera(image))
             .unwrap_or(0.0);
         self.policy.reversed_clear_at(depth, near_over_far)
     }
@@ -173,10 +173,26 @@ impl DeviceState {
         image: vk::Image,
         recording: crate::conv::Reversal,
     ) -> crate::conv::Reversal {
-        match self.objects.near_over_far.get(&image) {
+        match self.image_camera(image) {
             Some(near_over_far) => self.policy.reversal_of(Some(near_over_far), &self.observed),
             None => recording,
         }
+    }
+
+    /// Infinite mode: the n / f of the camera whose draws last went into `image`, where revz
+    /// remembers one ([`DeviceObjects::near_over_far`]). In the other modes nothing is
+    /// remembered, and nothing is looked up (no lock).
+    pub fn image_camera(&self, image: vk::Image) -> Option<f32> {
+        if !self.remembers_cameras() {
+            return None;
+        }
+        self.objects.near_over_far.get(&image)
+    }
+
+    /// Whether images remember their camera's n / f (infinite mode only): elsewhere the hooks
+    /// look nothing up for it.
+    pub fn remembers_cameras(&self) -> bool {
+        self.policy.mode == crate::config::Mode::Infinite
     }
 }
 

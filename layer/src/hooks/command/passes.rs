@@ -97,9 +97,11 @@ fn begin_pass(
             .into_iter()
             .map(|target| device.observed.effective(target))
             .collect();
+        let remembers = device.remembers_cameras();
         let image_of = |index: usize| {
             views
                 .get(index)
+                .filter(|_| remembers)
                 .and_then(|view| device.objects.views.get(view))
         };
         reversed_images = (0..targets.len())
@@ -243,9 +245,12 @@ pub(super) fn subpass_key(scope: &PassScope) -> Option<SecondaryPass> {
 
 pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer, secondary: bool) {
     let device = &entry.device;
+    let remembers = device.remembers_cameras();
     // Infinite mode: the subpass ending leaves its depth image the camera of its draws (not
     // restamped at the pass's end with a later subpass's); the next one's image brings its own.
-    let leaving = device.objects.views.get(&entry.scope().depth_view());
+    let leaving = remembers
+        .then(|| device.objects.views.get(&entry.scope().depth_view()))
+        .flatten();
     if let Some(image) = leaving {
         remember_camera_of(entry, &[image]);
         entry.scope().reversed_images.retain(|&i| i != image);
@@ -260,7 +265,7 @@ pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer
             scope.depth_view(),
         )
     };
-    let entering = device.objects.views.get(&view);
+    let entering = remembers.then(|| device.objects.views.get(&view)).flatten();
     {
         let mut state = entry.state();
         if let Some(image) = entering {
@@ -285,16 +290,14 @@ fn tally_image(
     }
 }
 
-/// Infinite mode: a pass begins into reversed images whose draws' camera revz remembers.
-fn enter_cameras(
+/// Infinite mode: a pass (or a secondary continuing one) begins into reversed images whose
+/// draws' camera revz remembers.
+pub(super) fn enter_cameras(
     device: &DeviceState,
     state: &mut crate::command_state::CommandState,
     images: &[vk::Image],
 ) {
-    if let Some(near_over_far) = images
-        .iter()
-        .find_map(|image| device.objects.near_over_far.get(image))
-    {
+    if let Some(near_over_far) = images.iter().find_map(|&image| device.image_camera(image)) {
         state.enter_camera(near_over_far);
     }
 }
@@ -303,6 +306,9 @@ fn enter_cameras(
 /// (the last projection it learned), remembered for their later clears, copies and refreshes
 /// ([`crate::objects::DeviceObjects::near_over_far`]). Nothing where it learned none.
 fn remember_cameras(entry: &CommandBufferEntry) {
+    if !entry.device.remembers_cameras() {
+        return;
+    }
     let (mut images, view) = {
         let mut scope = entry.scope();
         (
@@ -323,6 +329,10 @@ fn remember_cameras(entry: &CommandBufferEntry) {
 /// a pushed projection, entered from an image, or taken from executed secondaries), never
 /// the device's last seen at the begin, which may be another camera's.
 fn remember_camera_of(entry: &CommandBufferEntry, images: &[vk::Image]) {
+    // Only infinite mode remembers (and the other modes take no lock here).
+    if images.is_empty() || !entry.device.remembers_cameras() {
+        return;
+    }
     let Some(near_over_far) = entry.state().camera() else {
         return;
     };
@@ -454,7 +464,7 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             .map(|d| unsafe { d.clear_value.depth_stencil.depth });
         let target = device.observed.committed(image, clear);
         let reversed_image = depth
-            .filter(|_| target == Target::Reversed)
+            .filter(|_| target == Target::Reversed && device.remembers_cameras())
             .and_then(|d| device.objects.views.get(&d.image_view));
         if let (Some(depth), Some(resolve), Target::Reversed) = (depth, resolve, target) {
             let mut copy = *depth;

@@ -101,11 +101,11 @@ pub unsafe extern "system" fn begin_command_buffer(
         state.begin(target, entry.device.reversing().reversal, cameras);
         // Infinite mode: a secondary continuing a pass into an image whose camera revz
         // remembers starts from it (its flip-path state and clears), as the pass did.
-        if let Some(near_over_far) = inheritance
+        if let Some(image) = inheritance
+            .filter(|_| entry.device.remembers_cameras())
             .and_then(|i| inherited_depth_image(entry, i))
-            .and_then(|image| entry.device.objects.near_over_far.get(&image))
         {
-            state.enter_camera(near_over_far);
+            super::passes::enter_cameras(&entry.device, &mut state, &[image]);
         }
         if continues {
             // Inside the pass it continues, with or without a depth attachment.
