@@ -346,6 +346,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
                     .as_ref()
                     .map_or(target::SHADOW_MAP_FORMAT, |light| light.map_format)
             }),
+            sampled_depth: needs.sampled_depth,
             multisample: needs.multisample,
         };
         let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;
@@ -477,7 +478,9 @@ fn recorded(
                 image: match (target, multisampled) {
                     (Target::Shadow, _) => "shadow",
                     (Target::Main, true) => "multisampled",
-                    (Target::Main, false) => "main",
+                    (Target::Main | Target::SoftParticles, false) => "main",
+                    // The census counts no draw of a pass without a depth attachment.
+                    (Target::Post, _) | (Target::SoftParticles, true) => "none",
                 },
                 draws,
             }

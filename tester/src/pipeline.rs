@@ -183,6 +183,46 @@ pub fn create_render_pass(
                     .final_layout(ds_layout),
             );
         }
+        Target::SoftParticles | Target::Post => {
+            attachments.push(
+                vk::AttachmentDescription::default()
+                    .format(COLOR_FORMAT)
+                    .samples(vk::SampleCountFlags::TYPE_1)
+                    .load_op(vk::AttachmentLoadOp::LOAD)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+                    .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+                    .initial_layout(color_layout)
+                    .final_layout(color_layout),
+            );
+            depth_index = 1;
+            if pass.target == Target::SoftParticles {
+                // Loaded and kept (STORE_OP_NONE: nothing writes it in the read-only layout,
+                // and a STORE would count as a write after the samples), entered from the
+                // attachment layout by the pass itself and left read-only. The plan's needs
+                // ask for dynamic rendering, which brings STORE_OP_NONE below Vulkan 1.3.
+                let kept = if main.stencil {
+                    vk::AttachmentLoadOp::LOAD
+                } else {
+                    vk::AttachmentLoadOp::DONT_CARE
+                };
+                attachments.push(
+                    vk::AttachmentDescription::default()
+                        .format(main.depth)
+                        .samples(vk::SampleCountFlags::TYPE_1)
+                        .load_op(vk::AttachmentLoadOp::LOAD)
+                        .store_op(vk::AttachmentStoreOp::NONE)
+                        .stencil_load_op(kept)
+                        .stencil_store_op(if main.stencil {
+                            vk::AttachmentStoreOp::NONE
+                        } else {
+                            vk::AttachmentStoreOp::DONT_CARE
+                        })
+                        .initial_layout(ds_layout)
+                        .final_layout(vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL),
+                );
+            }
+        }
         Target::Shadow => {
             depth_index = 0;
             attachments.push(
@@ -204,12 +244,20 @@ pub fn create_render_pass(
     }];
     let depth_ref = vk::AttachmentReference {
         attachment: depth_index,
-        layout: ds_layout,
+        layout: if pass.target == Target::SoftParticles {
+            vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+        } else {
+            ds_layout
+        },
     };
     let subpass = |color: bool| {
-        let description = vk::SubpassDescription::default()
-            .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
-            .depth_stencil_attachment(&depth_ref);
+        let description =
+            vk::SubpassDescription::default().pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS);
+        let description = if pass.target == Target::Post {
+            description
+        } else {
+            description.depth_stencil_attachment(&depth_ref)
+        };
         if color {
             description.color_attachments(&color_refs)
         } else {
@@ -251,6 +299,29 @@ pub fn create_render_pass(
             src_access_mask: vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
             dst_access_mask: depth_access,
             dependency_flags: vk::DependencyFlags::BY_REGION,
+        });
+    }
+    if matches!(pass.target, Target::SoftParticles | Target::Post) {
+        // Earlier passes' depth writes (and the barrier into SHADER_READ_ONLY_OPTIMAL of a
+        // post pass) before this pass's fragment shaders sample the depth; the samples before
+        // later depth writes and copies (the next frame's main pass, the read-back).
+        dependencies.push(vk::SubpassDependency {
+            src_subpass: vk::SUBPASS_EXTERNAL,
+            dst_subpass: 0,
+            src_stage_mask: depth_stages,
+            dst_stage_mask: vk::PipelineStageFlags::FRAGMENT_SHADER,
+            src_access_mask: vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+            dst_access_mask: vk::AccessFlags::SHADER_READ,
+            dependency_flags: vk::DependencyFlags::empty(),
+        });
+        dependencies.push(vk::SubpassDependency {
+            src_subpass: 0,
+            dst_subpass: vk::SUBPASS_EXTERNAL,
+            src_stage_mask: vk::PipelineStageFlags::FRAGMENT_SHADER | depth_stages,
+            dst_stage_mask: depth_stages | vk::PipelineStageFlags::TRANSFER,
+            src_access_mask: vk::AccessFlags::empty(),
+            dst_access_mask: vk::AccessFlags::empty(),
+            dependency_flags: vk::DependencyFlags::empty(),
         });
     }
     if pass.target == Target::Shadow {
@@ -523,6 +594,11 @@ pub fn create_pipeline(
             Some(shaders::SHADOW_RECEIVER_RAW_FRAG),
         ),
         Program::RowMajor => (shaders::ROW_MAJOR_VERT, Some(shaders::SCENE_FRAG)),
+        Program::SoftParticle => (
+            shaders::SOFT_PARTICLE_VERT,
+            Some(shaders::SOFT_PARTICLE_FRAG),
+        ),
+        Program::DepthPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_POST_FRAG)),
         Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),
         Program::LitMvp => (shaders::LIT_MVP_VERT, Some(shaders::LIT_MVP_FRAG)),

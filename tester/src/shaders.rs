@@ -132,6 +132,16 @@ pub const SPLIT_MVP_VERT: ShaderSource = glslang_shader!("split_mvp.vert");
 /// stage's own range).
 pub const SPLIT_COLOR_FRAG: ShaderSource = glslang_shader!("split_color.frag");
 
+/// `soft_particle.vert`: `scene.vert`, with the clip position kept in a local, stored and its
+/// w (the view distance) handed on.
+pub const SOFT_PARTICLE_VERT: ShaderSource = shader!("soft_particle.vert");
+/// `soft_particle.frag`: `pc.color` faded where the scene's depth (a texel fetch of the main
+/// depth image, attached read-only) lies close behind the particle.
+pub const SOFT_PARTICLE_FRAG: ShaderSource = shader!("soft_particle.frag");
+/// `depth_post.frag` (glslang, for `textureGather`): the bottom quarter of the image shaded by
+/// the main depth's view distance, read with a texel fetch, a bilinear sample and a gather.
+pub const DEPTH_POST_FRAG: ShaderSource = glslang_shader!("depth_post.frag");
+
 /// Every embedded module.
 #[cfg(test)]
 pub const ALL: &[ShaderSource] = &[
@@ -160,6 +170,9 @@ pub const ALL: &[ShaderSource] = &[
     SSBO_ROWS_VERT,
     SPLIT_MVP_VERT,
     SPLIT_COLOR_FRAG,
+    SOFT_PARTICLE_VERT,
+    SOFT_PARTICLE_FRAG,
+    DEPTH_POST_FRAG,
 ];
 
 /// The glslang modules: (source file under `shaders/glslang/`, module).
@@ -174,6 +187,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("ssbo_rows.vert", SSBO_ROWS_VERT),
     ("split_mvp.vert", SPLIT_MVP_VERT),
     ("split_color.frag", SPLIT_COLOR_FRAG),
+    ("depth_post.frag", DEPTH_POST_FRAG),
 ];
 
 #[cfg(test)]
@@ -294,7 +308,7 @@ mod tests {
     }
 
     #[test]
-    fn only_the_frag_depth_shader_writes_and_reads_depth() {
+    fn only_the_frag_depth_shader_writes_and_reads_depth_and_the_depth_readers_their_fragment() {
         const OP_EXECUTION_MODE: u32 = 16;
         const OP_DECORATE: u32 = 71;
         const DEPTH_REPLACING: u32 = 12;
@@ -323,9 +337,12 @@ mod tests {
                 "{}",
                 shader.name
             );
+            // The depth readers use `gl_FragCoord.xy` to find their texel (never its z).
+            let reads_depth_image =
+                [SOFT_PARTICLE_FRAG.name, DEPTH_POST_FRAG.name].contains(&shader.name);
             assert_eq!(
                 has(OP_DECORATE, &[BUILT_IN, FRAG_COORD]),
-                frag_depth,
+                frag_depth || reads_depth_image,
                 "{}",
                 shader.name
             );

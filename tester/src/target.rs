@@ -114,6 +114,19 @@ fn require_format(
     Ok(())
 }
 
+/// Whether the device filters `format` linearly in optimal tiling (lavapipe 22.3 does not for
+/// depth formats; most GPUs do).
+pub fn filters_linearly(gpu: &Gpu, format: vk::Format) -> bool {
+    // SAFETY: valid physical device of this instance.
+    let properties = unsafe {
+        gpu.instance()
+            .get_physical_device_format_properties(gpu.physical_device, format)
+    };
+    properties
+        .optimal_tiling_features
+        .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR)
+}
+
 /// One device-local image with its memory and view.
 pub struct Attachment<'a> {
     device: &'a ash::Device,
@@ -122,6 +135,9 @@ pub struct Attachment<'a> {
     memory: vk::DeviceMemory,
     /// A view of the whole image (all its aspects).
     pub view: vk::ImageView,
+    /// A view of its depth aspect alone, which shaders sample ([`Self::add_depth_view`]; null
+    /// until then).
+    pub depth_view: vk::ImageView,
     /// The image format.
     pub format: vk::Format,
     /// What it was created with (`render.json`'s `recorded`).
@@ -146,6 +162,7 @@ impl Drop for Attachment<'_> {
         // and no GPU work using them is pending. Destroying null handles is a no-op.
         unsafe {
             self.device.destroy_image_view(self.view, None);
+            self.device.destroy_image_view(self.depth_view, None);
             self.device.destroy_image(self.image, None);
             self.device.free_memory(self.memory, None);
         }
@@ -234,6 +251,7 @@ impl<'a> Attachment<'a> {
             image: vk::Image::null(),
             memory: vk::DeviceMemory::null(),
             view: vk::ImageView::null(),
+            depth_view: vk::ImageView::null(),
             format,
             usage,
             samples,
@@ -283,6 +301,24 @@ impl<'a> Attachment<'a> {
     }
 }
 
+impl Attachment<'_> {
+    /// Creates [`Self::depth_view`]: a view of the depth aspect alone (a sampled view of a
+    /// depth-stencil image may name one aspect only).
+    pub fn add_depth_view(&mut self) -> Result<()> {
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(self.image)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(self.format)
+            .subresource_range(full_range(vk::ImageAspectFlags::DEPTH));
+        // SAFETY: valid image bound to memory, view matching its format and depth aspect.
+        self.depth_view =
+            unsafe { self.device.create_image_view(&view_info, None) }.with_context(|| {
+                format!("vkCreateImageView ({:?}, depth aspect) failed", self.format)
+            })?;
+        Ok(())
+    }
+}
+
 /// The whole (single mip, single layer) subresource range of `aspects`.
 pub fn full_range(aspects: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
     vk::ImageSubresourceRange {
@@ -308,6 +344,8 @@ pub struct TargetOptions {
     pub clear_depth_image: bool,
     /// A shadow map is needed, of this format.
     pub shadow_map: Option<vk::Format>,
+    /// The depth image is sampled (SAMPLED usage, a depth-aspect view).
+    pub sampled_depth: bool,
     /// Multisampled attachments are needed (the plan's [`crate::plan::Needs::multisample`]).
     pub multisample: Option<Multisample>,
 }
@@ -554,6 +592,10 @@ impl<'a> Targets<'a> {
             depth_usage |= vk::ImageUsageFlags::TRANSFER_DST;
             depth_features |= vk::FormatFeatureFlags::TRANSFER_DST;
         }
+        if options.sampled_depth {
+            depth_usage |= vk::ImageUsageFlags::SAMPLED;
+            depth_features |= vk::FormatFeatureFlags::SAMPLED_IMAGE;
+        }
         require_format(
             gpu,
             depth_format.vk_format(),
@@ -569,13 +611,16 @@ impl<'a> Targets<'a> {
             vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
             extent,
         )?;
-        let depth = Attachment::new(
+        let mut depth = Attachment::new(
             gpu,
             depth_format.vk_format(),
             depth_format.aspects(),
             depth_usage,
             extent,
         )?;
+        if options.sampled_depth {
+            depth.add_depth_view()?;
+        }
         let shadow = if let Some(format) = options.shadow_map {
             require_format(
                 gpu,

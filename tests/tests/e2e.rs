@@ -227,6 +227,97 @@ fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
     }
 }
 
+/// Pixels of `b` whose channels differ from `a`'s by more than `levels` (of 255).
+fn pixels_off_by_more_than(a: &image::RgbaImage, b: &image::RgbaImage, levels: u8) -> usize {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.pixels()
+        .zip(b.pixels())
+        .filter(|(x, y)| x.0.iter().zip(y.0).any(|(p, q)| p.abs_diff(q) > levels))
+        .count()
+}
+
+/// `depth-reads` (issue #39): the main depth image, which soft particles sample while it is
+/// attached read-only and a post pass samples afterwards (texel fetch, sampler, gather), is
+/// reversed and read through its twin in every mode and depth format, with zero validation
+/// messages (synchronization validation included), and the colors are the native render's:
+/// the particles' fades and the post band are computed from the depth the shaders read, so
+/// reversed values, or a twin not refreshed before the particles' pass, change thousands of
+/// pixels. The twin is refreshed once per frame (before the particles' pass: its implicit
+/// transition into the read-only layout makes the image readable; nothing writes it until
+/// the barrier into the post pass's layout, which refreshes nothing).
+///
+/// The reference: the native render of the same format, but in the precise modes for the
+/// UNORM formats, which revz promotes to float, the native D32 render (D16 under revz renders
+/// as native D32 does, not as native D16). Allowed: channels 1 level off (float rounding of
+/// the depth converted back, in the fades), and per format the pixels where a particle meets
+/// a surface closer than the depth resolution (2 for float depth, seen 1; the flip path's
+/// D16 allowance otherwise).
+#[test]
+fn depth_reads_sample_standard_depth_through_the_twin() {
+    let harness = Harness::locate();
+    let frames = "2";
+    let native = |format: &str| {
+        let dir = harness.scratch_dir(&format!("depth-reads-{format}-native"));
+        let mut command = harness.tester(format, &dir);
+        command.args(["--scene", "depth-reads", "--sync-validation"]);
+        harness.render(command, &dir).color()
+    };
+    let native_d32 = native("d32");
+    for format in DEPTH_FORMATS {
+        let own = native(format);
+        for mode in ["flip", "complementary", "infinite"] {
+            let name = format!("depth-reads-{format}-{mode}");
+            let dir = harness.scratch_dir(&name);
+            let report = dir.join("profile.json");
+            let mut command = harness.tester(format, &dir);
+            command.args([
+                "--scene",
+                "depth-reads",
+                "--sync-validation",
+                "--frames",
+                frames,
+            ]);
+            harness
+                .with_layer(&mut command)
+                .env("REVZ_MODE", mode)
+                .env("REVZ_LOG", "info")
+                .env("REVZ_REPORT", &report);
+            let render = harness.render(command, &dir);
+            let log = render.stderr();
+            assert!(log.contains("shaders read its twin"), "{name}: {log}");
+            let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
+            let reference = if promoted { &native_d32 } else { &own };
+            let color = render.color();
+            let loose = pixels_off_by_more_than(reference, &color, 1);
+            let bound = if promoted || format != "d16" {
+                2
+            } else {
+                flip_color_tolerance(format)
+            };
+            assert!(
+                loose <= bound,
+                "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
+            );
+            assert!(
+                differing_pixels(reference, &color) <= 200,
+                "{name}: {} pixels differ",
+                differing_pixels(reference, &color)
+            );
+            let profile: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
+                    .expect("a JSON profile");
+            let image = &profile["images"][0];
+            assert_eq!(image["read_twin"], true, "{name}: {image}");
+            assert_eq!(image["depth"], "reversed", "{name}: {image}");
+            assert_eq!(
+                image["refreshes_recorded"].as_u64(),
+                frames.parse().ok(),
+                "{name}: one refresh a frame: {image}"
+            );
+        }
+    }
+}
+
 /// The depth resolve modes lavapipe supports (`supportedDepthResolveModes`; MIN and MAX are
 /// for real GPUs).
 const LAVAPIPE_DEPTH_RESOLVES: [&str; 2] = ["sample-zero", "average"];

@@ -52,7 +52,7 @@ fn refused(_version: &str, scene: &str) -> Option<&'static str> {
 /// rendering, the dynamic compare op and depth resolves) make the tester, as a Vulkan 1.0
 /// application, enable `VK_KHR_get_physical_device_properties2` itself: revz then has nothing
 /// to add.
-const ENABLE_PROPERTIES2_THEMSELVES: [&str; 7] = [
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 8] = [
     "opengl-depth",
     "pipeline-library",
     "frag-depth-library",
@@ -60,6 +60,9 @@ const ENABLE_PROPERTIES2_THEMSELVES: [&str; 7] = [
     "dynamic-rendering",
     "msaa-resolve",
     "msaa-resolve-dynamic",
+    // VK_ATTACHMENT_STORE_OP_NONE for its read-only depth attachment, through
+    // VK_KHR_dynamic_rendering below 1.3.
+    "depth-reads",
 ];
 
 /// The scenes that set the compare op dynamically: below 1.3 the tester enables

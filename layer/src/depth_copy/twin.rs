@@ -307,6 +307,16 @@ pub unsafe fn record_refresh(
             )
         }
     };
+    // The stencil first: lavapipe (Mesa 22.3) copies a D32_SFLOAT_S8_UINT image's stencil
+    // aspect as whole texels, depth included, so the depth written after it must be the last
+    // write (the conversion's own barriers order the two transfers).
+    if range.aspect_mask.contains(vk::ImageAspectFlags::STENCIL) {
+        copy(&level_regions(
+            &range,
+            vk::ImageAspectFlags::STENCIL,
+            refresh.twin.extent,
+        ));
+    }
     let mut result = Ok(());
     if range.aspect_mask.contains(vk::ImageAspectFlags::DEPTH) {
         let regions = level_regions(&range, vk::ImageAspectFlags::DEPTH, refresh.twin.extent);
@@ -337,13 +347,6 @@ pub unsafe fn record_refresh(
                 };
             }
         }
-    }
-    if range.aspect_mask.contains(vk::ImageAspectFlags::STENCIL) {
-        copy(&level_regions(
-            &range,
-            vk::ImageAspectFlags::STENCIL,
-            refresh.twin.extent,
-        ));
     }
     barrier(
         transfer,

@@ -30,6 +30,7 @@ use crate::chain;
 use crate::conv::has_stencil;
 use crate::hooks::resources::slice;
 use crate::objects::{RenderPassInfo, SubpassResolve};
+use crate::policy::twins::AttachmentUse;
 use crate::policy::{
     clears_depth_at_begin, framebuffer_may_be_promoted, has_promoted_twin, imageless_view_format,
     promoted_twin_format, FramebufferStorage, SubpassResolveFacts, TwinResolve,
@@ -42,18 +43,67 @@ static DESTROY_RENDER_PASS: EntryPoint = EntryPoint::new("vkDestroyRenderPass");
 static CREATE_FRAMEBUFFER: EntryPoint = EntryPoint::new("vkCreateFramebuffer");
 static DESTROY_FRAMEBUFFER: EntryPoint = EntryPoint::new("vkDestroyFramebuffer");
 
-/// Builds a [`RenderPassInfo`] from attachment formats and load ops, and subpass depth
-/// attachments and depth resolves (the twin is added by the caller).
+/// One attachment as [`render_pass_info`] reads it.
+struct AttachmentFacts {
+    format: vk::Format,
+    load_op: vk::AttachmentLoadOp,
+    stencil_load_op: vk::AttachmentLoadOp,
+    initial: vk::ImageLayout,
+    final_layout: vk::ImageLayout,
+}
+
+impl AttachmentFacts {
+    fn of(a: &vk::AttachmentDescription) -> Self {
+        AttachmentFacts {
+            format: a.format,
+            load_op: a.load_op,
+            stencil_load_op: a.stencil_load_op,
+            initial: a.initial_layout,
+            final_layout: a.final_layout,
+        }
+    }
+
+    fn of2(a: &vk::AttachmentDescription2<'_>) -> Self {
+        AttachmentFacts {
+            format: a.format,
+            load_op: a.load_op,
+            stencil_load_op: a.stencil_load_op,
+            initial: a.initial_layout,
+            final_layout: a.final_layout,
+        }
+    }
+}
+
+/// Builds a [`RenderPassInfo`] from its attachments, each subpass's depth attachment and depth
+/// resolve, and every attachment reference as (attachment, layout) in subpass order (the twin
+/// render passes are added by the caller).
 fn render_pass_info(
-    attachments: impl Iterator<Item = (vk::Format, vk::AttachmentLoadOp, vk::ImageLayout)>,
+    attachments: &[AttachmentFacts],
     subpasses: impl Iterator<Item = (Option<u32>, Option<SubpassResolve>)>,
+    references: impl Iterator<Item = (u32, vk::ImageLayout)>,
 ) -> RenderPassInfo {
     let mut info = RenderPassInfo::default();
-    for (format, load_op, final_layout) in attachments {
-        info.attachments.push(format);
+    let mut uses: Vec<AttachmentUse> = attachments
+        .iter()
+        .map(|a| AttachmentUse {
+            initial: a.initial,
+            final_layout: a.final_layout,
+            depth_cleared: a.load_op == vk::AttachmentLoadOp::CLEAR,
+            stencil_cleared: has_stencil(a.format)
+                && a.stencil_load_op == vk::AttachmentLoadOp::CLEAR,
+            references: Vec::new(),
+        })
+        .collect();
+    for (attachment, layout) in references {
+        if let Some(used) = uses.get_mut(attachment as usize) {
+            used.references.push(layout);
+        }
+    }
+    for (a, used) in attachments.iter().zip(&uses) {
+        info.attachments.push(a.format);
         info.depth_cleared
-            .push(clears_depth_at_begin(format, load_op));
-        info.final_layouts.push(final_layout);
+            .push(clears_depth_at_begin(a.format, a.load_op));
+        info.twin_refreshes.push(used.refreshes());
     }
     for (depth, resolve) in subpasses {
         info.subpass_depth
@@ -61,6 +111,79 @@ fn render_pass_info(
         info.subpass_resolve.push(resolve);
     }
     info
+}
+
+/// Every attachment reference of a `vkCreateRenderPass` subpass, as (attachment, layout).
+///
+/// # Safety
+/// A valid subpass description.
+unsafe fn references_of(subpass: &vk::SubpassDescription) -> Vec<(u32, vk::ImageLayout)> {
+    // SAFETY: arrays sized by their counts; the resolve array has the color count, or is null.
+    let (inputs, colors, resolves) = unsafe {
+        (
+            slice(subpass.p_input_attachments, subpass.input_attachment_count),
+            slice(subpass.p_color_attachments, subpass.color_attachment_count),
+            slice(
+                subpass.p_resolve_attachments,
+                subpass.color_attachment_count,
+            ),
+        )
+    };
+    // SAFETY: null or one valid reference.
+    let depth = unsafe { subpass.p_depth_stencil_attachment.as_ref() };
+    inputs
+        .iter()
+        .chain(colors)
+        .chain(resolves)
+        .chain(depth)
+        .filter(|r| r.attachment != vk::ATTACHMENT_UNUSED)
+        .map(|r| (r.attachment, r.layout))
+        .collect()
+}
+
+/// Every attachment reference of a `vkCreateRenderPass2` subpass, as (attachment, layout):
+/// the separate stencil layout of a depth-stencil or input reference counts as a use too,
+/// and so does the depth resolve attachment.
+///
+/// # Safety
+/// A valid subpass description.
+unsafe fn references_of2(subpass: &vk::SubpassDescription2<'_>) -> Vec<(u32, vk::ImageLayout)> {
+    // SAFETY: arrays sized by their counts; the resolve array has the color count, or is null.
+    let (inputs, colors, resolves) = unsafe {
+        (
+            slice(subpass.p_input_attachments, subpass.input_attachment_count),
+            slice(subpass.p_color_attachments, subpass.color_attachment_count),
+            slice(
+                subpass.p_resolve_attachments,
+                subpass.color_attachment_count,
+            ),
+        )
+    };
+    // SAFETY: null or one valid reference.
+    let depth = unsafe { subpass.p_depth_stencil_attachment.as_ref() };
+    // SAFETY: as above.
+    let depth_resolve = depth_resolve_of(subpass)
+        .and_then(|r| unsafe { r.p_depth_stencil_resolve_attachment.as_ref() });
+    let mut out = Vec::new();
+    for r in inputs
+        .iter()
+        .chain(colors)
+        .chain(resolves)
+        .chain(depth)
+        .chain(depth_resolve)
+    {
+        if r.attachment == vk::ATTACHMENT_UNUSED {
+            continue;
+        }
+        out.push((r.attachment, r.layout));
+        // SAFETY: a valid pNext chain (the application's contract).
+        let stencil: Option<&vk::AttachmentReferenceStencilLayout<'_>> =
+            unsafe { chain::find(r.p_next) };
+        if let Some(stencil) = stencil {
+            out.push((r.attachment, stencil.stencil_layout));
+        }
+    }
+    out
 }
 
 /// The depth resolve structure in a subpass's pNext chain, if any.
@@ -260,15 +383,16 @@ pub unsafe extern "system" fn create_render_pass(
                     slice(info.p_subpasses, info.subpass_count),
                 )
             };
+            let facts: Vec<AttachmentFacts> = attachments.iter().map(AttachmentFacts::of).collect();
             let mut pass = render_pass_info(
-                attachments
-                    .iter()
-                    .map(|a| (a.format, a.load_op, a.final_layout)),
+                &facts,
                 subpasses.iter().map(|s| {
                     // SAFETY: null or one valid reference.
                     let depth = unsafe { s.p_depth_stencil_attachment.as_ref() };
                     (depth.map(|r| r.attachment), None)
                 }),
+                // SAFETY: valid subpass descriptions (the application's contract).
+                subpasses.iter().flat_map(|s| unsafe { references_of(s) }),
             );
             pass.promoted_twin = promoted_twin;
             // SAFETY: valid on success.
@@ -351,15 +475,17 @@ pub unsafe extern "system" fn create_render_pass2(
                     slice(info.p_subpasses, info.subpass_count),
                 )
             };
+            let facts: Vec<AttachmentFacts> =
+                attachments.iter().map(AttachmentFacts::of2).collect();
             let mut pass = render_pass_info(
-                attachments
-                    .iter()
-                    .map(|a| (a.format, a.load_op, a.final_layout)),
+                &facts,
                 subpasses.iter().map(|s| {
                     // SAFETY: null or one valid reference.
                     let depth = unsafe { s.p_depth_stencil_attachment.as_ref() };
                     (depth.map(|r| r.attachment), subpass_resolve(s))
                 }),
+                // SAFETY: valid subpass descriptions (the application's contract).
+                subpasses.iter().flat_map(|s| unsafe { references_of2(s) }),
             );
             pass.swapped_resolve_twin = twin;
             pass.promoted_twin = promoted_twin;

@@ -95,9 +95,9 @@ pub struct ReadTwin {
 #[derive(Clone, Debug, Default)]
 pub struct RenderPassInfo {
     pub attachments: Vec<vk::Format>,
-    /// Each attachment's final layout (a read-only one refreshes the read twin of the image
-    /// at the end of the pass).
-    pub final_layouts: Vec<vk::ImageLayout>,
+    /// Where each attachment's read twin is refreshed, if its image has one: before the pass
+    /// (a first use that reads it) and after it (left readable after writes).
+    pub twin_refreshes: Vec<crate::policy::twins::PassRefresh>,
     pub depth_cleared: Vec<bool>,
     pub subpass_depth: Vec<Option<u32>>,
     pub subpass_resolve: Vec<Option<SubpassResolve>>,

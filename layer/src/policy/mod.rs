@@ -88,6 +88,8 @@
 //! | which path a vertex shader object's draws take, in the depth profile ([`pipelines::shader_object_vertex_path`]) | whether the mode is active | `vkCreateShadersEXT` |
 //! | is a `vkCmdSetDepthBias2EXT` sent for each draw's target or once where it is recorded ([`BiasRecording::of`]) | whether its chain holds nothing but a `VkDepthBiasRepresentationInfoEXT` | `vkCmdSetDepthBias2EXT` |
 //! | which bias a draw sends: in float units where its attachment is promoted, negated where it is reversed (`crate::conv::DepthBias::for_attachment`) | the application's bias and representation, the target, the promoted attachment's UNORM format | `vkCmdSetDepthBias*`, pipelines' static bias, pass and rendering begins |
+//! | does an image barrier refresh a read twin: into a layout shaders read from one the image may have been written in ([`twins::barrier_refreshes`]) | its old and new layouts, access masks and queue families | `vkCmdPipelineBarrier*`, `vkCmdWaitEvents*` (twins from `vkCreateImage`) |
+//! | where a render pass instance refreshes an attachment's twin: before it, where its first use reads it; after it, where it leaves it readable after writes ([`twins::AttachmentUse::refreshes`]) | the attachment's initial and final layouts, load ops, the layout of each reference to it | `vkCreateRenderPass*` (read at `vkCmdBeginRenderPass*` and `vkCmdEndRenderPass*`) |
 //! | which path a draw takes | its target, its pipeline's projection and rewritten store, its matrix's camera | `crate::command_state` (per draw, from these facts) |
 //!
 //! Each decision lives in the file of its concern: `images.rs` (the two image decisions, and
@@ -110,7 +112,8 @@
 //! profile's path of vertex ones), `libraries.rs` (pipeline libraries: the subsets a create
 //! info defines, which of its dynamic states count, what a link inherits), `vertex_stage.rs`
 //! (the precise path's vertex stage: candidate, store, range, which modules are analysed, why
-//! missing facts or an unmade stage take the flip path); [`DevicePolicy`] itself (the mode, the
+//! missing facts or an unmade stage take the flip path), `twins.rs` (when read twins are
+//! refreshed); [`DevicePolicy`] itself (the mode, the
 //! carrier, reversed clears, which command hooks a device hands out) is here. The rows that
 //! name code outside this module are decided there.
 //!
@@ -137,6 +140,7 @@ mod passes;
 pub mod pipelines;
 mod resolves;
 mod secondaries;
+pub mod twins;
 pub mod vertex_stage;
 
 pub use bias::BiasRecording;

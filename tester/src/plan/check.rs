@@ -130,8 +130,21 @@ impl Plan {
             "a shadow pass in a scene without a light"
         );
 
+        for (n, pass) in self.passes.iter().enumerate() {
+            if matches!(pass.target, Target::SoftParticles | Target::Post) {
+                ensure!(
+                    pass.kind == PassKind::RenderPass
+                        && pass.depth == DepthLoad::Load
+                        && pass.load_color,
+                    "pass {n}: a pass reading the main depth is a one-subpass render pass that \
+                     loads it and the color"
+                );
+            }
+        }
         let mut state = CheckState::default();
         let mut shadow_drawn = false;
+        // Where the main depth image is between passes: in its attachment layout, or sampled.
+        let mut depth_layout = DepthLayout::Attachment;
         let mut used_passes = vec![false; self.passes.len()];
         let mut used_pipelines = vec![false; self.pipelines.len()];
         for (index, step) in self.steps.iter().enumerate() {
@@ -143,6 +156,21 @@ impl Plan {
                         "step {index}: image clear inside a pass"
                     );
                     ensure!(depth.is_finite(), "step {index}: depth not finite");
+                    ensure!(
+                        depth_layout == DepthLayout::Attachment,
+                        "step {index}: the main depth image is not in its attachment layout"
+                    );
+                }
+                Step::MainDepthLayout { from, to } => {
+                    ensure!(
+                        state.pass.is_none(),
+                        "step {index}: a depth layout barrier inside a pass"
+                    );
+                    ensure!(
+                        *from == depth_layout && from != to,
+                        "step {index}: the main depth image is {depth_layout:?}"
+                    );
+                    depth_layout = *to;
                 }
                 Step::BeginPass(n) => {
                     ensure!(state.pass.is_none(), "step {index}: nested pass");
@@ -157,8 +185,17 @@ impl Plan {
                         );
                     }
                     ensure!(
-                        pass.target == Target::Main || !pass.load_color,
+                        pass.target != Target::Shadow || !pass.load_color,
                         "step {index}: the shadow map has no color to load"
+                    );
+                    let sampled = if pass.target == Target::Post {
+                        DepthLayout::Sampled
+                    } else {
+                        DepthLayout::Attachment
+                    };
+                    ensure!(
+                        pass.target == Target::Shadow || depth_layout == sampled,
+                        "step {index}: the main depth image is {depth_layout:?} at the pass"
                     );
                     used_passes[*n] = true;
                     state.pass = Some((*n, 0));
@@ -184,6 +221,9 @@ impl Plan {
                         "step {index}: the pass ends before its last subpass"
                     );
                     shadow_drawn |= self.passes[n].target == Target::Shadow;
+                    if self.passes[n].target == Target::SoftParticles {
+                        depth_layout = DepthLayout::ReadOnly;
+                    }
                     state.pass = None;
                 }
                 Step::ExecuteSecondaries(lists, _) => {
@@ -212,6 +252,7 @@ impl Plan {
                                         | Step::EndPass
                                         | Step::NextSubpass
                                         | Step::ClearDepthImage { .. }
+                                        | Step::MainDepthLayout { .. }
                                         | Step::ExecuteSecondaries(..)
                                 ),
                                 "step {index}: {step:?} inside a secondary"
@@ -239,6 +280,10 @@ impl Plan {
             }
         }
         ensure!(state.pass.is_none(), "the last pass is not ended");
+        ensure!(
+            depth_layout == DepthLayout::Attachment,
+            "the main depth image is not left in its attachment layout (the read-back's)"
+        );
         if let Some(n) = used_passes.iter().position(|used| !used) {
             return Err(PlanError(format!("pass {n} is never begun")));
         }
@@ -393,6 +438,7 @@ impl Plan {
                 );
             }
             Step::ClearDepthImage { .. }
+            | Step::MainDepthLayout { .. }
             | Step::BeginPass(_)
             | Step::NextSubpass
             | Step::EndPass

@@ -220,6 +220,15 @@ pub enum Program {
     /// `ubo-tessellation` [`Delivery`]): the buffers of [`Program::Ubo`], the product applied
     /// in a tessellation evaluation shader (patches of three points, every level 1).
     UboTessellation,
+    /// `soft_particle.vert|frag`: the push constants of [`Program::Flat`], the flat color faded
+    /// where the scene's depth, read from the main depth image with a texel fetch, lies close
+    /// behind the fragment (needs a [`Target::SoftParticles`] pass: the depth attached
+    /// read-only while it is sampled).
+    SoftParticle,
+    /// `scene.vert` + `depth_post.frag` (glslang): the bottom quarter of the image shaded by
+    /// the main depth's view distance, read with a texel fetch, a bilinear sample and a gather
+    /// (drawn over a full-screen quad in a [`Target::Post`] pass).
+    DepthPost,
 }
 
 /// How a scene hands its matrices to the vertex shader (`--delivery`): push constants, as
@@ -358,7 +367,9 @@ impl Program {
             | Program::RowVector
             | Program::LitMvp
             | Program::SplitPush
-            | Program::PushGeometry => 80,
+            | Program::PushGeometry
+            | Program::SoftParticle
+            | Program::DepthPost => 80,
         }
     }
 
@@ -452,6 +463,15 @@ pub enum Target {
     /// A D32_SFLOAT shadow map with SAMPLED usage, no color (sampled by
     /// [`Program::ShadowReceiver`]); drawn with the scene's light.
     Shadow,
+    /// The color attachment (loaded) and the main depth image attached read-only (loaded;
+    /// entered from `DEPTH_STENCIL_ATTACHMENT_OPTIMAL` into `DEPTH_STENCIL_READ_ONLY_OPTIMAL`
+    /// by the render pass itself, and left there), which its pipelines test against and
+    /// sample at once ([`Program::SoftParticle`]). The main depth image gets SAMPLED usage.
+    SoftParticles,
+    /// The color attachment (loaded) alone, while the main depth image is sampled in
+    /// `SHADER_READ_ONLY_OPTIMAL` ([`Program::DepthPost`]): a [`Step::MainDepthLayout`] puts it
+    /// there before and back after. The main depth image gets SAMPLED usage.
+    Post,
 }
 
 /// How a pass is begun.
@@ -556,7 +576,7 @@ impl PassSpec {
 
     /// Whether `subpass` of this pass has a color attachment.
     pub fn has_color(&self, subpass: u32) -> bool {
-        self.target == Target::Main
+        self.target != Target::Shadow
             && !(self.kind == PassKind::DepthPrepassSubpasses && subpass == 0)
     }
 
@@ -636,10 +656,30 @@ pub enum Step {
         /// The depth clear value.
         depth: f32,
     },
+    /// An image barrier of the main depth image (outside any pass) from one layout to
+    /// another, ordering the accesses of the first before those of the second.
+    MainDepthLayout {
+        /// Its layout before.
+        from: DepthLayout,
+        /// Its layout after.
+        to: DepthLayout,
+    },
     /// Records each list into its own secondary command buffer (RENDER_PASS_CONTINUE,
     /// inheriting the current render pass, subpass and framebuffer) and executes them all with
     /// one `vkCmdExecuteCommands`. It must be the only kind of step in its subpass.
     ExecuteSecondaries(Vec<Vec<Step>>, Recording),
+}
+
+/// A layout of the main depth image between passes, with the accesses made in it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthLayout {
+    /// `DEPTH_STENCIL_ATTACHMENT_OPTIMAL`: depth tests and writes.
+    Attachment,
+    /// `DEPTH_STENCIL_READ_ONLY_OPTIMAL`: tested and sampled (where a
+    /// [`Target::SoftParticles`] pass leaves it).
+    ReadOnly,
+    /// `SHADER_READ_ONLY_OPTIMAL`: sampled by fragment shaders.
+    Sampled,
 }
 
 /// How the secondaries of a [`Step::ExecuteSecondaries`] are recorded.
@@ -674,7 +714,8 @@ pub struct Needs {
     pub stencil: bool,
     /// The `depthBounds` feature.
     pub depth_bounds: bool,
-    /// The `dynamicRendering` feature (Vulkan 1.3).
+    /// The `dynamicRendering` feature (Vulkan 1.3), or `VK_ATTACHMENT_STORE_OP_NONE`, which
+    /// comes with it (a [`Target::SoftParticles`] pass).
     pub dynamic_rendering: bool,
     /// `vkCmdSetDepthCompareOp` (Vulkan 1.3, or `VK_EXT_extended_dynamic_state`).
     pub dynamic_compare_op: bool,
@@ -684,6 +725,8 @@ pub struct Needs {
     pub clear_depth_image: bool,
     /// The shadow-map target.
     pub shadow_map: bool,
+    /// The main depth image is sampled ([`Target::SoftParticles`], [`Target::Post`]).
+    pub sampled_depth: bool,
     /// Number of secondary command buffers recorded on the main thread (from the main pool;
     /// threaded ones come from their threads' own pools).
     pub secondaries: usize,
@@ -860,6 +903,11 @@ impl Plan {
         let mut needs = Needs::default();
         for pass in &self.passes {
             needs.shadow_map |= pass.target == Target::Shadow;
+            needs.sampled_depth |= matches!(pass.target, Target::SoftParticles | Target::Post);
+            // The read-only depth attachment is stored with VK_ATTACHMENT_STORE_OP_NONE (a
+            // STORE would write it while it is sampled), which comes with dynamic rendering
+            // (Vulkan 1.3, or VK_KHR_dynamic_rendering below it).
+            needs.dynamic_rendering |= pass.target == Target::SoftParticles;
             needs.multisample = needs.multisample.or(pass.multisample);
             if pass.kind == PassKind::DynamicRendering {
                 needs.dynamic_rendering = true;
@@ -938,6 +986,10 @@ impl Plan {
                         else {
                             continue;
                         };
+                        // A post pass draws into no depth image.
+                        if spec.target == Target::Post {
+                            continue;
+                        }
                         let key = (pipeline, spec.target, spec.multisample.is_some());
                         match out.iter_mut().find(|e| (e.0, e.1, e.2) == key) {
                             Some(entry) => entry.3 += 1,

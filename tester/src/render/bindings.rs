@@ -385,6 +385,121 @@ impl<'a> Renderer<'a> {
     }
 }
 
+impl Renderer<'_> {
+    /// Creates the depth-read bindings ([`DepthReadBindings`]) and their pipeline layout (the
+    /// set, and the 80-byte push constants).
+    pub(super) fn create_depth_read_bindings(
+        &mut self,
+        gpu: &Gpu,
+        targets: &Targets<'_>,
+    ) -> Result<()> {
+        let device = self.device;
+        let view = targets.depth.depth_view;
+        if view == vk::ImageView::null() {
+            bail!("the scene samples the main depth but it has no depth view");
+        }
+        let nearest_info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::NEAREST)
+            .min_filter(vk::Filter::NEAREST)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .min_lod(0.0)
+            .max_lod(0.0);
+        // SAFETY: valid device and create info.
+        let nearest = unsafe { device.create_sampler(&nearest_info, None) }
+            .context("vkCreateSampler (nearest) failed")?;
+        // Stored at once (null handles filled in below) so that `Drop` destroys whatever was
+        // made, even if a later step fails.
+        let reads = self.depth_read.insert(DepthReadBindings {
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            read_only_set: vk::DescriptorSet::null(),
+            sampled_set: vk::DescriptorSet::null(),
+            nearest,
+            linear: vk::Sampler::null(),
+        });
+        // Where the device filters the depth format linearly; nearest otherwise (lavapipe
+        // 22.3), which still samples through `texture`, not a fetch.
+        let filter = if crate::target::filters_linearly(gpu, targets.depth.format) {
+            vk::Filter::LINEAR
+        } else {
+            vk::Filter::NEAREST
+        };
+        let linear_info = nearest_info.mag_filter(filter).min_filter(filter);
+        // SAFETY: valid device and create info.
+        reads.linear = unsafe { device.create_sampler(&linear_info, None) }
+            .context("vkCreateSampler (linear) failed")?;
+        let bindings = [
+            (0, vk::DescriptorType::SAMPLED_IMAGE),
+            (1, vk::DescriptorType::SAMPLER),
+            (2, vk::DescriptorType::SAMPLER),
+        ]
+        .map(|(binding, kind)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(binding)
+                .descriptor_type(kind)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
+        });
+        let sets = descriptor_sets(
+            device,
+            &bindings,
+            2,
+            "main depth",
+            &mut reads.set_layout,
+            &mut reads.pool,
+        )?;
+        (reads.read_only_set, reads.sampled_set) = (sets[0], sets[1]);
+        let sampler_infos = [reads.nearest, reads.linear].map(|sampler| vk::DescriptorImageInfo {
+            sampler,
+            image_view: vk::ImageView::null(),
+            image_layout: vk::ImageLayout::UNDEFINED,
+        });
+        for (set, layout) in [
+            (
+                reads.read_only_set,
+                vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+            ),
+            (reads.sampled_set, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+        ] {
+            let image_info = [vk::DescriptorImageInfo {
+                sampler: vk::Sampler::null(),
+                image_view: view,
+                image_layout: layout,
+            }];
+            let writes = [
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(0)
+                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                    .image_info(&image_info),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(1)
+                    .descriptor_type(vk::DescriptorType::SAMPLER)
+                    .image_info(&sampler_infos[..1]),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(2)
+                    .descriptor_type(vk::DescriptorType::SAMPLER)
+                    .image_info(&sampler_infos[1..]),
+            ];
+            // SAFETY: valid set, view and samplers; the infos match the binding types.
+            unsafe { device.update_descriptor_sets(&writes, &[]) };
+        }
+        let set_layouts = [reads.set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&PUSH_CONSTANT_RANGES);
+        // SAFETY: valid device and create info.
+        self.depth_read_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (depth reads) failed")?;
+        Ok(())
+    }
+}
+
 /// Creates a descriptor set layout of `bindings`, a pool with room for one set of it, and that
 /// set. Each handle is stored as soon as it exists (`set_layout`, `pool`), so that the owner's
 /// `Drop` destroys whatever was made when a later step fails.
@@ -395,6 +510,21 @@ fn single_descriptor_set(
     set_layout: &mut vk::DescriptorSetLayout,
     pool: &mut vk::DescriptorPool,
 ) -> Result<vk::DescriptorSet> {
+    descriptor_sets(device, bindings, 1, what, set_layout, pool)?
+        .into_iter()
+        .next()
+        .ok_or_else(|| anyhow!("vkAllocateDescriptorSets ({what}) returned no set"))
+}
+
+/// As [`single_descriptor_set`], with room for and `count` sets of the layout.
+fn descriptor_sets(
+    device: &ash::Device,
+    bindings: &[vk::DescriptorSetLayoutBinding<'_>],
+    count: u32,
+    what: &str,
+    set_layout: &mut vk::DescriptorSetLayout,
+    pool: &mut vk::DescriptorPool,
+) -> Result<Vec<vk::DescriptorSet>> {
     let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(bindings);
     // SAFETY: valid device and create info.
     *set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
@@ -403,25 +533,22 @@ fn single_descriptor_set(
         .iter()
         .map(|b| vk::DescriptorPoolSize {
             ty: b.descriptor_type,
-            descriptor_count: b.descriptor_count,
+            descriptor_count: b.descriptor_count * count,
         })
         .collect();
     let pool_info = vk::DescriptorPoolCreateInfo::default()
-        .max_sets(1)
+        .max_sets(count)
         .pool_sizes(&sizes);
     // SAFETY: valid device and create info.
     *pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
         .with_context(|| format!("vkCreateDescriptorPool ({what}) failed"))?;
-    let set_layouts = [*set_layout];
+    let set_layouts = vec![*set_layout; count as usize];
     let allocate_info = vk::DescriptorSetAllocateInfo::default()
         .descriptor_pool(*pool)
         .set_layouts(&set_layouts);
-    // SAFETY: valid pool with room for one set of this layout.
+    // SAFETY: valid pool with room for `count` sets of this layout.
     unsafe { device.allocate_descriptor_sets(&allocate_info) }
-        .with_context(|| format!("vkAllocateDescriptorSets ({what}) failed"))?
-        .into_iter()
-        .next()
-        .ok_or_else(|| anyhow!("vkAllocateDescriptorSets ({what}) returned no set"))
+        .with_context(|| format!("vkAllocateDescriptorSets ({what}) failed"))
 }
 
 /// The shadow set's descriptors as an update template reads them (bindings 0 to 3).

@@ -81,6 +81,20 @@ struct ShadowBindings<'a> {
     light: HostBuffer<'a>,
 }
 
+/// What the programs that sample the main depth bind ([`Program::SoftParticle`],
+/// [`Program::DepthPost`]): its depth-aspect view, a nearest and a linear sampler (nearest
+/// where the device does not filter the depth format linearly), in two sets
+/// of one layout, which name the view in the layout each pass samples it in.
+struct DepthReadBindings {
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    /// `DEPTH_STENCIL_READ_ONLY_OPTIMAL` (attached read-only) and `SHADER_READ_ONLY_OPTIMAL`.
+    read_only_set: vk::DescriptorSet,
+    sampled_set: vk::DescriptorSet,
+    nearest: vk::Sampler,
+    linear: vk::Sampler,
+}
+
 /// What `mvp_pair` pipelines bind: the object colors, in one descriptor set.
 struct ColorBindings<'a> {
     set_layout: vk::DescriptorSetLayout,
@@ -121,6 +135,9 @@ pub struct Renderer<'a> {
     /// Push constants and the shadow descriptor set (null without a shadow map).
     shadow_layout: vk::PipelineLayout,
     shadow: Option<ShadowBindings<'a>>,
+    /// Push constants and the depth-read set (null without a pass reading the main depth).
+    depth_read_layout: vk::PipelineLayout,
+    depth_read: Option<DepthReadBindings>,
     /// 128 bytes of vertex push constants and the color descriptor set (null without an
     /// [`Program::MvpPair`] pipeline).
     pair_layout: vk::PipelineLayout,
@@ -196,6 +213,15 @@ impl Drop for Renderer<'_> {
                 self.device.destroy_sampler(shadow.sampler, None);
                 self.device.destroy_sampler(shadow.plain_sampler, None);
             }
+            self.device
+                .destroy_pipeline_layout(self.depth_read_layout, None);
+            if let Some(reads) = &self.depth_read {
+                self.device.destroy_descriptor_pool(reads.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(reads.set_layout, None);
+                self.device.destroy_sampler(reads.nearest, None);
+                self.device.destroy_sampler(reads.linear, None);
+            }
             for &framebuffer in &self.framebuffers {
                 self.device.destroy_framebuffer(framebuffer, None);
             }
@@ -268,6 +294,8 @@ impl<'a> Renderer<'a> {
             plain_layout: vk::PipelineLayout::null(),
             shadow_layout: vk::PipelineLayout::null(),
             shadow: None,
+            depth_read_layout: vk::PipelineLayout::null(),
+            depth_read: None,
             pair_layout: vk::PipelineLayout::null(),
             split_layout: vk::PipelineLayout::null(),
             geometry_layout: vk::PipelineLayout::null(),
@@ -320,6 +348,10 @@ impl<'a> Renderer<'a> {
                 (Target::Main, None) => {
                     (vec![targets.color.view, targets.depth.view], targets.extent)
                 }
+                (Target::SoftParticles, _) => {
+                    (vec![targets.color.view, targets.depth.view], targets.extent)
+                }
+                (Target::Post, _) => (vec![targets.color.view], targets.extent),
                 (Target::Shadow, _) => (
                     vec![shadow_view(targets)?],
                     vk::Extent2D {
@@ -373,6 +405,9 @@ impl<'a> Renderer<'a> {
         }
         if needs.shadow_map {
             this.create_shadow_bindings(gpu, targets, scene)?;
+        }
+        if needs.sampled_depth {
+            this.create_depth_read_bindings(gpu, targets)?;
         }
         if plan.pipelines.iter().any(|p| p.program == Program::MvpPair) {
             let limit = gpu.limits().max_push_constants_size;
@@ -457,6 +492,9 @@ impl<'a> Renderer<'a> {
             // Pushed per range ([`SPLIT_PUSH_CONSTANT_RANGES`]), each with its own stage.
             Program::SplitPush => (self.split_layout, vk::ShaderStageFlags::empty()),
             Program::PushGeometry => (self.geometry_layout, GEOMETRY_PUSH_STAGES),
+            Program::SoftParticle | Program::DepthPost => {
+                (self.depth_read_layout, PLAIN_PUSH_STAGES)
+            }
         }
     }
 
@@ -572,7 +610,7 @@ fn multisampled_targets<'t, 'a>(targets: &'t Targets<'a>) -> Result<&'t Multisam
 /// The size of a pass's target.
 fn target_extent(target: Target, main: vk::Extent2D) -> vk::Extent2D {
     match target {
-        Target::Main => main,
+        Target::Main | Target::SoftParticles | Target::Post => main,
         Target::Shadow => vk::Extent2D {
             width: SHADOW_MAP_SIZE,
             height: SHADOW_MAP_SIZE,

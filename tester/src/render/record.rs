@@ -2,6 +2,7 @@
 //! secondaries (on the main thread or one thread each with its own command pool).
 
 use super::*;
+use crate::plan::DepthLayout;
 
 impl Drop for Recorder<'_> {
     fn drop(&mut self) {
@@ -52,6 +53,7 @@ impl Recorder<'_> {
             };
             match step {
                 Step::ClearDepthImage { depth } => self.clear_depth_image(cmd, *depth),
+                Step::MainDepthLayout { from, to } => self.main_depth_layout(cmd, *from, *to),
                 Step::BeginPass(n) => self.begin_pass(cmd, *n, contents)?,
                 Step::NextSubpass => {
                     self.subpass += 1;
@@ -185,6 +187,61 @@ impl Recorder<'_> {
         }
     }
 
+    /// A barrier of the main depth image from layout `from` to `to` (plan check: outside a
+    /// pass, from the layout it is in): depth tests and writes before fragment shader reads,
+    /// or those reads before depth tests, writes and the read-back's copy.
+    fn main_depth_layout(&self, cmd: vk::CommandBuffer, from: DepthLayout, to: DepthLayout) {
+        let depth_stages = vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+            | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+        let depth_access = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+            | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
+        let side = |layout| match layout {
+            DepthLayout::Attachment => (
+                vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                depth_stages,
+                depth_access,
+            ),
+            DepthLayout::ReadOnly => (
+                vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+                vk::PipelineStageFlags::FRAGMENT_SHADER | depth_stages,
+                vk::AccessFlags::SHADER_READ | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ,
+            ),
+            DepthLayout::Sampled => (
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                vk::PipelineStageFlags::FRAGMENT_SHADER,
+                vk::AccessFlags::SHADER_READ,
+            ),
+        };
+        let (old_layout, src_stage, src_access) = side(from);
+        let (new_layout, mut dst_stage, mut dst_access) = side(to);
+        if to == DepthLayout::Attachment {
+            dst_stage |= vk::PipelineStageFlags::TRANSFER;
+            dst_access |= vk::AccessFlags::TRANSFER_READ;
+        }
+        let barrier = vk::ImageMemoryBarrier::default()
+            .src_access_mask(src_access)
+            .dst_access_mask(dst_access)
+            .old_layout(old_layout)
+            .new_layout(new_layout)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(self.targets.depth.image)
+            .subresource_range(full_range(self.targets.depth_format.aspects()));
+        // SAFETY: `cmd` is a recording primary outside any pass; the image is in `from`'s
+        // layout (plan check).
+        unsafe {
+            self.device().cmd_pipeline_barrier(
+                cmd,
+                src_stage,
+                dst_stage,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier],
+            )
+        };
+    }
+
     fn begin_pass(
         &mut self,
         cmd: vk::CommandBuffer,
@@ -218,6 +275,8 @@ impl Recorder<'_> {
             (Target::Main, Some(_)) => vec![color_clear, depth_clear, color_clear, depth_clear],
             (Target::Main, None) => vec![color_clear, depth_clear],
             (Target::Shadow, _) => vec![depth_clear],
+            // Loaded: no clear values are read.
+            (Target::SoftParticles | Target::Post, _) => Vec::new(),
         };
         let begin = vk::RenderPassBeginInfo::default()
             .render_pass(self.renderer.render_passes[n])
@@ -446,6 +505,8 @@ impl Recorder<'_> {
                     renderer.shadow.as_ref().map(|s| s.set)
                 }
                 Program::MvpPair => renderer.colors.as_ref().map(|c| c.set),
+                Program::SoftParticle => renderer.depth_read.as_ref().map(|r| r.read_only_set),
+                Program::DepthPost => renderer.depth_read.as_ref().map(|r| r.sampled_set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
                 Program::Ssbo | Program::SsboRows => renderer.matrices.as_ref().map(|m| m.set),

@@ -204,7 +204,9 @@ impl Scene {
             | Program::ShadowReceiverRaw
             | Program::LitMvp
             | Program::SplitPush
-            | Program::PushGeometry => {
+            | Program::PushGeometry
+            | Program::SoftParticle
+            | Program::DepthPost => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

@@ -80,6 +80,9 @@ pub enum SceneId {
     ShadowMapPerspective,
     /// `shadow-map-perspective` with each pass's draws in secondaries.
     ShadowMapPerspectiveSecondaries,
+    /// The overlap scene, then soft particles (the depth attached read-only and sampled at
+    /// once) and a post pass sampling the depth (fetch, bilinear, gather).
+    DepthReads,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,

@@ -24,9 +24,9 @@ use glam::{DMat4, DVec3};
 
 use crate::accuracy::scenes as accuracy;
 use crate::plan::{
-    Bias, Bounds, Compare, DepthBias, DepthLoad, DepthTest, Multisample, PassKind, PassSpec,
-    PipelineSpec, Plan, Program, Recording, ResolveMode, StencilTest, StencilWrite, Step, Target,
-    Viewport,
+    Bias, Bounds, Compare, DepthBias, DepthLayout, DepthLoad, DepthTest, Multisample, PassKind,
+    PassSpec, PipelineSpec, Plan, Program, Recording, ResolveMode, StencilTest, StencilWrite, Step,
+    Target, Viewport,
 };
 use crate::scene::{
     grounded_cube, overlap, overlap_camera, overlap_objects, rgb8, Camera, Light, Mesh, Object,
@@ -108,6 +108,7 @@ pub const CATALOG: &[Entry] = &[
         "shadow-map-perspective-secondaries",
         shadow_map_perspective_secondaries,
     ),
+    entry_row(SceneId::DepthReads, "depth-reads", depth_reads),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,

@@ -565,3 +565,85 @@ pub fn pipeline_library() -> Scene {
     b.step(Step::EndPass);
     b.finish("pipeline-library", camera, None)
 }
+
+/// `depth-reads`: the overlap scene, then two passes that read its depth as engines do.
+/// First soft particles: three camera-facing quads (smoke in front of the near cube, mist
+/// through the middle one, haze before the far one), drawn in a pass that attaches the main
+/// depth read-only (the render pass moves it from the attachment layout into
+/// `DEPTH_STENCIL_READ_ONLY_OPTIMAL` and leaves it there) with LESS and no writes, while their
+/// fragment shader fetches the same depth to fade each particle where the scene lies close
+/// behind it. Then a barrier into `SHADER_READ_ONLY_OPTIMAL` and a post pass of a full-screen
+/// quad (color only) that overwrites the bottom quarter of the image with a shade of the
+/// depth's view distance, read with a texel fetch, a bilinear sample and a gather side by
+/// side. A barrier puts the depth back into its attachment layout for the read-back.
+///
+/// Layer item (issue #39): a depth image that shaders read after the pass that writes it is
+/// reversed, and its read twin holds the standard values whenever they read: refreshed before
+/// the soft particles' pass begins (its implicit transition makes the image readable inside
+/// the pass, where no refresh can be recorded), and not again at the barrier into the post
+/// pass's layout (nothing wrote the image while it was read-only). Reversed values would fade
+/// every particle and shade the band wrong; a stale twin (the previous frame's) would too.
+pub fn depth_reads() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    let particle = |name, x, y, z, half_width, half_height, color| {
+        Object::world(
+            name,
+            Mesh::rect_xy(x, y, half_width, half_height),
+            DMat4::from_translation(DVec3::new(0.0, 0.0, z)),
+            color,
+        )
+    };
+    let particles = b.nearest_first(
+        &camera,
+        vec![
+            particle("smoke", -0.75, 0.4, 2.2, 0.9, 0.5, rgb8(225, 225, 235)),
+            particle("mist", 0.35, 0.6, 0.5, 1.2, 0.7, rgb8(200, 230, 255)),
+            particle("haze", -0.55, 1.0, -3.0, 1.6, 1.0, rgb8(255, 220, 180)),
+        ],
+    );
+    let band = b.object(Object::full_screen("depth band", [1.0; 4]));
+    let main = b.pass(PassSpec::clear(1.0));
+    let loaded = |target| PassSpec {
+        target,
+        depth: DepthLoad::Load,
+        load_color: true,
+        ..PassSpec::clear(1.0)
+    };
+    let soft = b.pass(loaded(Target::SoftParticles));
+    let post = b.pass(loaded(Target::Post));
+    let flat = b.pipeline(PipelineSpec::standard("flat", main));
+    let particles_pipeline = b.pipeline(PipelineSpec {
+        program: Program::SoftParticle,
+        depth_write: false,
+        ..PipelineSpec::standard("soft particles", soft)
+    });
+    let shade = b.pipeline(PipelineSpec {
+        program: Program::DepthPost,
+        depth_test: DepthTest::Off,
+        depth_write: false,
+        ..PipelineSpec::standard("depth band", post)
+    });
+    b.step(Step::BeginPass(main));
+    b.step(Step::Bind(flat));
+    b.draw(&objects);
+    b.step(Step::EndPass);
+    b.step(Step::BeginPass(soft));
+    b.step(Step::Bind(particles_pipeline));
+    b.draw(&particles);
+    b.step(Step::EndPass);
+    b.step(Step::MainDepthLayout {
+        from: DepthLayout::ReadOnly,
+        to: DepthLayout::Sampled,
+    });
+    b.step(Step::BeginPass(post));
+    b.step(Step::Bind(shade));
+    b.draw(&[band]);
+    b.step(Step::EndPass);
+    b.step(Step::MainDepthLayout {
+        from: DepthLayout::Sampled,
+        to: DepthLayout::Attachment,
+    });
+    b.finish("depth-reads", camera, None)
+}

@@ -36,6 +36,8 @@ struct PassBegin {
     /// framebuffer of promoted images, with swapped MIN/MAX depth resolves when the resolved
     /// attachment is reversed, or both.
     render_pass: Option<vk::RenderPass>,
+    /// The read twins refreshed before the pass begins (`twins::pass_begin_refreshes`).
+    refreshes: Vec<crate::depth_copy::twin::Refresh>,
 }
 
 impl PassBegin {
@@ -73,6 +75,7 @@ fn begin_pass(
     let mut reversed_images = Vec::new();
     let mut promoted = false;
     if let Some(pass) = &pass {
+        out.refreshes = super::twins::pass_begin_refreshes(entry, pass, &views);
         // Ordinary framebuffers were settled at creation; imageless ones only now.
         device.objects.settle_pass_resolves(pass, &views);
         let images: Vec<Target> = views
@@ -169,6 +172,9 @@ pub unsafe extern "system" fn cmd_begin_render_pass(
         // SAFETY: a valid begin info (the application's contract).
         pass_begin = begin_pass(entry, buffer, unsafe { &*p_begin }, contents);
     });
+    if !pass_begin.refreshes.is_empty() {
+        super::twins::record_refreshes(&device, buffer, &pass_begin.refreshes);
+    }
     let Some(down) = device else { return };
     // SAFETY: a valid begin info.
     let replaced = pass_begin.apply(unsafe { &*p_begin });
@@ -198,6 +204,9 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
     let Some(next) = device.as_ref().and_then(|d| d.commands.begin_render_pass2) else {
         return;
     };
+    if !pass_begin.refreshes.is_empty() {
+        super::twins::record_refreshes(&device, buffer, &pass_begin.refreshes);
+    }
     // SAFETY: a valid begin info.
     let replaced = pass_begin.apply(unsafe { &*p_begin });
     let p_begin = if pass_begin.changes_anything() {

@@ -1,59 +1,16 @@
 //! Refreshes of read twins (issue #39, `crate::depth_copy::twin`): where the application
-//! makes a reversed image with a twin readable (an image barrier or `vkCmdWaitEvents` into a
-//! layout shaders read, in either synchronization API, outside a render pass; a render pass
-//! whose final layout for it is one), revz refreshes the twin's subresources right after.
+//! makes a reversed image with a twin readable after it may have been written (an image
+//! barrier or `vkCmdWaitEvents` into a layout shaders read, in either synchronization API,
+//! outside a render pass; a render pass whose final layout for it is one; a render pass whose
+//! first use of it reads it), revz refreshes the twin's subresources right after the command
+//! (before it, for a pass's begin). What calls for one is decided in `crate::policy::twins`.
 
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
 use crate::depth_copy::plan::TexelKind;
 use crate::depth_copy::twin::{record_refresh, resolved_range, Refresh};
-
-/// Whether shaders may read an image in `layout` after a barrier whose second access scope
-/// is `dst_access` (the raw bits of either API's flags: the sampled and shader reads share
-/// their low bits).
-fn readable(layout: vk::ImageLayout, dst_access: u64) -> bool {
-    let shader_reads = vk::AccessFlags2::SHADER_READ.as_raw()
-        | vk::AccessFlags2::SHADER_SAMPLED_READ.as_raw()
-        | vk::AccessFlags2::MEMORY_READ.as_raw();
-    match layout {
-        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL
-        | vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL
-        | vk::ImageLayout::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL
-        | vk::ImageLayout::DEPTH_ATTACHMENT_STENCIL_READ_ONLY_OPTIMAL
-        | vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL
-        | vk::ImageLayout::STENCIL_READ_ONLY_OPTIMAL
-        | vk::ImageLayout::READ_ONLY_OPTIMAL => true,
-        vk::ImageLayout::GENERAL => dst_access & shader_reads != 0,
-        _ => false,
-    }
-}
-
-/// Whether an image barrier makes the image readable after it may have been written: into a
-/// readable layout from another one (not from `UNDEFINED`, whose contents nobody may read),
-/// or within one after writes; not a queue family ownership transfer.
-fn makes_readable(
-    old: vk::ImageLayout,
-    new: vk::ImageLayout,
-    src_access: u64,
-    dst_access: u64,
-    (src_family, dst_family): (u32, u32),
-) -> bool {
-    let writes = vk::AccessFlags2::SHADER_WRITE.as_raw()
-        | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw()
-        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw()
-        | vk::AccessFlags2::TRANSFER_WRITE.as_raw()
-        | vk::AccessFlags2::HOST_WRITE.as_raw()
-        | vk::AccessFlags2::MEMORY_WRITE.as_raw()
-        | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw();
-    let transfer_of_ownership = src_family != dst_family
-        && src_family != vk::QUEUE_FAMILY_IGNORED
-        && dst_family != vk::QUEUE_FAMILY_IGNORED;
-    old != vk::ImageLayout::UNDEFINED
-        && readable(new, dst_access)
-        && (old != new || src_access & writes != 0)
-        && !transfer_of_ownership
-}
+use crate::policy::twins;
 
 /// The refresh of `image`'s twin over `range`, now in `layout`; `None` for an image without
 /// a twin, or an empty range.
@@ -100,7 +57,11 @@ fn warn_unrefreshed(why: crate::policy::Unconverted) {
 }
 
 /// Records `refreshes` after the application's command (outside a render pass).
-fn record_refreshes(down: &Option<Down>, buffer: vk::CommandBuffer, refreshes: &[Refresh]) {
+pub(super) fn record_refreshes(
+    down: &Option<Down>,
+    buffer: vk::CommandBuffer,
+    refreshes: &[Refresh],
+) {
     static ENTRY: EntryPoint = EntryPoint::new("read twin refresh");
     let Some(Down::Tracked(entry)) = down else {
         return;
@@ -170,7 +131,7 @@ fn barrier_refreshes(
     }
     barriers
         .filter(|&(_, old, new, _, src, dst, families)| {
-            makes_readable(old, new, src, dst, families)
+            twins::barrier_refreshes(old, new, src, dst, families)
         })
         .filter_map(|(image, _, new, range, ..)| refresh_of(device, image, new, range, recording))
         .collect()
@@ -235,7 +196,8 @@ unsafe fn dependency_refreshes(
 }
 
 /// The refreshes the end of the current render pass calls for: each attachment with a twin
-/// whose final layout shaders read. Called before the pass's scope is cleared.
+/// the pass leaves readable after it may have written it ([`twins::PassRefresh::at_end`]).
+/// Called before the pass's scope is cleared.
 pub(super) fn pass_end_refreshes(entry: &CommandBufferEntry) -> Vec<Refresh> {
     let device = &entry.device;
     if !crate::hooks::descriptors::any_twin(device) {
@@ -247,11 +209,40 @@ pub(super) fn pass_end_refreshes(entry: &CommandBufferEntry) -> Vec<Refresh> {
     let (Some(pass), Some(views)) = (&scope.render_pass, &scope.attachment_views) else {
         return Vec::new();
     };
+    attachment_refreshes(device, views, pass, recording, |refresh| refresh.at_end)
+}
+
+/// The refreshes a render pass begin calls for before it goes down: each attachment with a
+/// twin that the pass's first use of reads, in a layout it enters from one it may have been
+/// written in ([`twins::PassRefresh::at_begin`]): the read-only depth attachment of soft
+/// particles, sampled while it is tested. `views`: the begin's attachment views.
+pub(super) fn pass_begin_refreshes(
+    entry: &CommandBufferEntry,
+    pass: &crate::objects::RenderPassInfo,
+    views: &[vk::ImageView],
+) -> Vec<Refresh> {
+    let device = &entry.device;
+    if !crate::hooks::descriptors::any_twin(device) {
+        return Vec::new();
+    }
+    let recording = entry.state().reversal();
+    attachment_refreshes(device, views, pass, recording, |refresh| refresh.at_begin)
+}
+
+/// The refreshes of the attachments of `pass` (begun over `views`) that `when` picks a layout
+/// for.
+fn attachment_refreshes(
+    device: &DeviceState,
+    views: &[vk::ImageView],
+    pass: &crate::objects::RenderPassInfo,
+    recording: crate::conv::Reversal,
+    when: impl Fn(twins::PassRefresh) -> Option<vk::ImageLayout>,
+) -> Vec<Refresh> {
     views
         .iter()
-        .zip(&pass.final_layouts)
-        .filter(|&(_, &layout)| readable(layout, 0) || layout == vk::ImageLayout::GENERAL)
-        .filter_map(|(view, &layout)| {
+        .zip(&pass.twin_refreshes)
+        .filter_map(|(view, &refresh)| {
+            let layout = when(refresh)?;
             let twin_view = device.objects.twin_views.get(view)?;
             refresh_of(device, twin_view.image, layout, twin_view.range, recording)
         })
@@ -407,71 +398,4 @@ pub unsafe extern "system" fn cmd_wait_events2(
             true
         },
     );
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn refreshes_follow_transitions_into_layouts_shaders_read() {
-        let raw = |a: vk::AccessFlags| u64::from(a.as_raw());
-        let write = raw(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE);
-        let read = raw(vk::AccessFlags::SHADER_READ);
-        let same = (vk::QUEUE_FAMILY_IGNORED, vk::QUEUE_FAMILY_IGNORED);
-        use vk::ImageLayout as L;
-        // The usual: attachment to sampled.
-        assert!(makes_readable(
-            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-            L::SHADER_READ_ONLY_OPTIMAL,
-            write,
-            read,
-            same
-        ));
-        assert!(makes_readable(
-            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-            L::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
-            write,
-            read,
-            same
-        ));
-        // GENERAL only when shaders read after it.
-        assert!(makes_readable(L::GENERAL, L::GENERAL, write, read, same));
-        assert!(!makes_readable(
-            L::GENERAL,
-            L::GENERAL,
-            write,
-            raw(vk::AccessFlags::TRANSFER_READ),
-            same
-        ));
-        // Not readable, undefined contents, nothing written, ownership transfers.
-        assert!(!makes_readable(
-            L::SHADER_READ_ONLY_OPTIMAL,
-            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-            read,
-            write,
-            same
-        ));
-        assert!(!makes_readable(
-            L::UNDEFINED,
-            L::SHADER_READ_ONLY_OPTIMAL,
-            0,
-            read,
-            same
-        ));
-        assert!(!makes_readable(
-            L::SHADER_READ_ONLY_OPTIMAL,
-            L::SHADER_READ_ONLY_OPTIMAL,
-            read,
-            read,
-            same
-        ));
-        assert!(!makes_readable(
-            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-            L::SHADER_READ_ONLY_OPTIMAL,
-            write,
-            read,
-            (0, 1)
-        ));
-    }
 }

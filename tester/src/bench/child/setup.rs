@@ -35,6 +35,7 @@ impl<'a> Bench<'a> {
                 depth_readback: false,
                 clear_depth_image: false,
                 shadow_map: None,
+                sampled_depth: false,
                 multisample: None,
             },
         )?;

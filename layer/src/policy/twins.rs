@@ -1,0 +1,379 @@
+//! When a read twin is refreshed (issue #39, `crate::depth_copy::twin`): the image barriers
+//! and render pass instances that make a reversed image readable by shaders after it may have
+//! been written. Pure functions of layouts, access masks and a render pass's attachment uses;
+//! the hooks (`crate::hooks::command::twins`, `crate::hooks::render_pass`) hand them the facts.
+//!
+//! The rule that keeps refreshes to what was written: a twin is refreshed whenever its image
+//! enters a layout shaders read from one that could have been written, so nothing needs
+//! refreshing while the image leaves one read-only layout for another (nothing can write an
+//! image in a read-only layout, and it was refreshed when it entered it).
+
+use ash::vk;
+
+/// Whether shaders may read an image in `layout` after a barrier whose second access scope
+/// is `dst_access` (the raw bits of either API's flags: the sampled and shader reads share
+/// their low bits; 0 where no barrier is involved, as at the end of a render pass).
+pub fn shader_readable(layout: vk::ImageLayout, dst_access: u64) -> bool {
+    let shader_reads = vk::AccessFlags2::SHADER_READ.as_raw()
+        | vk::AccessFlags2::SHADER_SAMPLED_READ.as_raw()
+        | vk::AccessFlags2::MEMORY_READ.as_raw();
+    match layout {
+        vk::ImageLayout::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL
+        | vk::ImageLayout::DEPTH_ATTACHMENT_STENCIL_READ_ONLY_OPTIMAL => true,
+        vk::ImageLayout::GENERAL => dst_access & shader_reads != 0,
+        other => read_only(other),
+    }
+}
+
+/// Whether `layout` is one shaders read in which nothing can write either aspect of a depth
+/// image (no attachment, transfer or storage write is allowed in it). The mixed layouts
+/// (`DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL` and its mirror) let one aspect be written,
+/// and the twin holds both: they are not read-only here.
+pub fn read_only(layout: vk::ImageLayout) -> bool {
+    matches!(
+        layout,
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL
+            | vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+            | vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL
+            | vk::ImageLayout::STENCIL_READ_ONLY_OPTIMAL
+            | vk::ImageLayout::READ_ONLY_OPTIMAL
+    )
+}
+
+/// Whether an image barrier refreshes the twin: it makes the image readable by shaders
+/// ([`shader_readable`]) after it may have been written: from a layout other than `UNDEFINED`
+/// (whose contents nobody may read) and other than a read-only one (entered with a refresh,
+/// and written by nothing since), into another layout or within one after writes; not a
+/// queue family ownership transfer. Access masks are the raw bits of either API's flags.
+pub fn barrier_refreshes(
+    old: vk::ImageLayout,
+    new: vk::ImageLayout,
+    src_access: u64,
+    dst_access: u64,
+    (src_family, dst_family): (u32, u32),
+) -> bool {
+    let writes = vk::AccessFlags2::SHADER_WRITE.as_raw()
+        | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw()
+        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw()
+        | vk::AccessFlags2::TRANSFER_WRITE.as_raw()
+        | vk::AccessFlags2::HOST_WRITE.as_raw()
+        | vk::AccessFlags2::MEMORY_WRITE.as_raw()
+        | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw();
+    let transfer_of_ownership = src_family != dst_family
+        && src_family != vk::QUEUE_FAMILY_IGNORED
+        && dst_family != vk::QUEUE_FAMILY_IGNORED;
+    old != vk::ImageLayout::UNDEFINED
+        && !read_only(old)
+        && shader_readable(new, dst_access)
+        && (old != new || src_access & writes != 0)
+        && !transfer_of_ownership
+}
+
+/// How a render pass uses one of its attachments, as `vkCreateRenderPass*` describes it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AttachmentUse {
+    /// `initialLayout`.
+    pub initial: vk::ImageLayout,
+    /// `finalLayout`.
+    pub final_layout: vk::ImageLayout,
+    /// Whether its depth load op is `CLEAR`, a write at the start of the pass.
+    pub depth_cleared: bool,
+    /// Whether its stencil load op is `CLEAR` (where it has a stencil aspect).
+    pub stencil_cleared: bool,
+    /// The layout of each reference to it, in subpass order (input, color, resolve and
+    /// depth-stencil references, and the separate stencil layout where one is given).
+    pub references: Vec<vk::ImageLayout>,
+}
+
+/// Where a render pass instance refreshes an attachment's twin.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PassRefresh {
+    /// Before the pass begins, with the image in this layout (its initial one): the pass's
+    /// first use of it is a read-only layout, so shaders in the pass read it as it was when
+    /// the pass began.
+    pub at_begin: Option<vk::ImageLayout>,
+    /// After the pass ends, with the image in this layout (its final one).
+    pub at_end: Option<vk::ImageLayout>,
+}
+
+impl AttachmentUse {
+    /// Where the pass refreshes the twin of this attachment's image.
+    ///
+    /// At the begin: where the first subpass that uses it reads it in a read-only layout it
+    /// was not already in, from a layout it may have been written in (no refresh inside a
+    /// pass is possible, and its implicit transition makes it readable there). At the end:
+    /// where the final layout is one shaders read and the pass may have written it (a clear,
+    /// a reference in a layout other than a read-only one), or it leaves a layout it may
+    /// have been written in without a refresh at the begin (an attachment no subpass uses).
+    pub fn refreshes(&self) -> PassRefresh {
+        let writable_before =
+            self.initial != vk::ImageLayout::UNDEFINED && !read_only(self.initial);
+        let first_use = self.references.first().copied();
+        let at_begin = (writable_before
+            && !self.depth_cleared
+            && first_use.is_some_and(|layout| read_only(layout) || layout_reads_depth(layout)))
+        .then_some(self.initial);
+        let written = self.depth_cleared
+            || self.stencil_cleared
+            || self.references.iter().any(|&layout| !read_only(layout));
+        let unrefreshed_before = writable_before && first_use.is_none();
+        let at_end = (shader_readable(self.final_layout, 0)
+            || self.final_layout == vk::ImageLayout::GENERAL)
+            .then_some(self.final_layout)
+            .filter(|_| written || unrefreshed_before);
+        PassRefresh { at_begin, at_end }
+    }
+}
+
+/// Whether the depth aspect is read-only in `layout` while the stencil may be written (a
+/// pass sampling depth while testing stencil): the depth shaders read must be refreshed at
+/// the begin, and the stencil written makes the end refresh too.
+fn layout_reads_depth(layout: vk::ImageLayout) -> bool {
+    layout == vk::ImageLayout::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vk::ImageLayout as L;
+
+    const SAME: (u32, u32) = (vk::QUEUE_FAMILY_IGNORED, vk::QUEUE_FAMILY_IGNORED);
+
+    fn raw(access: vk::AccessFlags) -> u64 {
+        u64::from(access.as_raw())
+    }
+
+    #[test]
+    fn barriers_refresh_transitions_into_layouts_shaders_read() {
+        let write = raw(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE);
+        let read = raw(vk::AccessFlags::SHADER_READ);
+        // The usual: attachment to sampled, to read-only attachment.
+        assert!(barrier_refreshes(
+            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            write,
+            read,
+            SAME
+        ));
+        assert!(barrier_refreshes(
+            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            L::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+            write,
+            read,
+            SAME
+        ));
+        assert!(barrier_refreshes(
+            L::TRANSFER_DST_OPTIMAL,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            raw(vk::AccessFlags::TRANSFER_WRITE),
+            read,
+            SAME
+        ));
+        // Stencil written in a mixed layout: the twin's stencil changed.
+        assert!(barrier_refreshes(
+            L::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            write,
+            read,
+            SAME
+        ));
+        // GENERAL only when shaders read after it.
+        assert!(barrier_refreshes(L::GENERAL, L::GENERAL, write, read, SAME));
+        assert!(!barrier_refreshes(
+            L::GENERAL,
+            L::GENERAL,
+            write,
+            raw(vk::AccessFlags::TRANSFER_READ),
+            SAME
+        ));
+    }
+
+    #[test]
+    fn barriers_refresh_nothing_unwritten_unreadable_or_transferred() {
+        let write = raw(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE);
+        let read = raw(vk::AccessFlags::SHADER_READ);
+        // Not readable afterwards.
+        assert!(!barrier_refreshes(
+            L::SHADER_READ_ONLY_OPTIMAL,
+            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            read,
+            write,
+            SAME
+        ));
+        // Undefined contents.
+        assert!(!barrier_refreshes(
+            L::UNDEFINED,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            0,
+            read,
+            SAME
+        ));
+        // From one read-only layout to another (soft particles, then a post pass): nothing
+        // wrote it since it entered the first, where it was refreshed.
+        for old in [
+            L::SHADER_READ_ONLY_OPTIMAL,
+            L::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+            L::DEPTH_READ_ONLY_OPTIMAL,
+            L::READ_ONLY_OPTIMAL,
+        ] {
+            for new in [
+                L::SHADER_READ_ONLY_OPTIMAL,
+                L::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+            ] {
+                assert!(!barrier_refreshes(old, new, write, read, SAME), "{old:?}");
+            }
+        }
+        // An ownership transfer.
+        assert!(!barrier_refreshes(
+            L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            L::SHADER_READ_ONLY_OPTIMAL,
+            write,
+            read,
+            (0, 1)
+        ));
+    }
+
+    fn attachment(initial: L, cleared: bool, references: &[L], final_layout: L) -> PassRefresh {
+        AttachmentUse {
+            initial,
+            final_layout,
+            depth_cleared: cleared,
+            stencil_cleared: false,
+            references: references.to_vec(),
+        }
+        .refreshes()
+    }
+
+    #[test]
+    fn passes_refresh_at_the_end_what_they_may_have_written() {
+        // A shadow pass: cleared, written, left sampled.
+        assert_eq!(
+            attachment(
+                L::UNDEFINED,
+                true,
+                &[L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL],
+                L::SHADER_READ_ONLY_OPTIMAL
+            ),
+            PassRefresh {
+                at_begin: None,
+                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL)
+            }
+        );
+        // A main pass left as an attachment: nothing shaders read.
+        assert_eq!(
+            attachment(
+                L::UNDEFINED,
+                true,
+                &[L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL],
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL
+            ),
+            PassRefresh::default()
+        );
+        // Written in a subpass, read in the next (input attachment), left sampled.
+        assert_eq!(
+            attachment(
+                L::UNDEFINED,
+                true,
+                &[
+                    L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                    L::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+                ],
+                L::SHADER_READ_ONLY_OPTIMAL
+            )
+            .at_end,
+            Some(L::SHADER_READ_ONLY_OPTIMAL)
+        );
+        // In no subpass: left readable from a layout it may have been written in.
+        assert_eq!(
+            attachment(
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                false,
+                &[],
+                L::SHADER_READ_ONLY_OPTIMAL
+            ),
+            PassRefresh {
+                at_begin: None,
+                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL)
+            }
+        );
+    }
+
+    #[test]
+    fn passes_that_read_their_depth_refresh_it_at_the_begin_only() {
+        // Soft particles: the main depth loaded read-only while it is sampled, left sampled.
+        assert_eq!(
+            attachment(
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                false,
+                &[L::DEPTH_STENCIL_READ_ONLY_OPTIMAL],
+                L::SHADER_READ_ONLY_OPTIMAL
+            ),
+            PassRefresh {
+                at_begin: Some(L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
+                at_end: None
+            }
+        );
+        // Already read-only when the pass begins: refreshed when it entered that layout.
+        assert_eq!(
+            attachment(
+                L::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+                false,
+                &[L::DEPTH_STENCIL_READ_ONLY_OPTIMAL],
+                L::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+            ),
+            PassRefresh::default()
+        );
+        // Depth read while the stencil is written: both ends.
+        assert_eq!(
+            attachment(
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                false,
+                &[L::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL],
+                L::SHADER_READ_ONLY_OPTIMAL
+            ),
+            PassRefresh {
+                at_begin: Some(L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
+                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL)
+            }
+        );
+        // The same with the stencil cleared (light volumes marked in the stencil): the depth
+        // loaded is read.
+        let stencil_marked = AttachmentUse {
+            initial: L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            final_layout: L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            depth_cleared: false,
+            stencil_cleared: true,
+            references: vec![L::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL],
+        };
+        assert_eq!(
+            stencil_marked.refreshes(),
+            PassRefresh {
+                at_begin: Some(L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
+                at_end: None
+            }
+        );
+        // Written first: nothing to read at the begin.
+        assert_eq!(
+            attachment(
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                false,
+                &[
+                    L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                    L::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+                ],
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL
+            ),
+            PassRefresh::default()
+        );
+        // Fresh contents are nobody's to read.
+        assert_eq!(
+            attachment(
+                L::UNDEFINED,
+                false,
+                &[L::DEPTH_STENCIL_READ_ONLY_OPTIMAL],
+                L::SHADER_READ_ONLY_OPTIMAL
+            ),
+            PassRefresh::default()
+        );
+    }
+}
