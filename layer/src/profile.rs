@@ -738,7 +738,14 @@ fn flip_reasons(inner: &Inner) -> Vec<FlipReason<'_>> {
 /// (...); depth images: 1 reversed D32_SFLOAT, 1 native D32_SFLOAT (shaders read it ...)`: the
 /// flip path's share of all draws per reason.
 fn summary(inner: &Inner, mode: &str) -> String {
-    let d = &inner.totals;
+    // The shares are of the draws into depth images: a pass without one (post processing,
+    // UI) has no depth to reverse, and is counted apart.
+    let outside = inner.by_image.get(&0).copied().unwrap_or_default();
+    let d = &DrawCounts {
+        native: inner.totals.native.saturating_sub(outside.native),
+        flip: inner.totals.flip.saturating_sub(outside.flip),
+        precise: inner.totals.precise.saturating_sub(outside.precise),
+    };
     let total = d.total().max(1) as f64;
     let percent = |n: u64| 100.0 * n as f64 / total;
     let nears: Vec<String> = inner
@@ -799,9 +806,13 @@ fn summary(inner: &Inner, mode: &str) -> String {
         })
         .collect();
     let frames = inner.frame_index;
+    let without = match outside.total() {
+        0 => String::new(),
+        n => format!(", {n} more without a depth image"),
+    };
     format!(
-        "precise {:.0}% of draws ({}), flip {:.0}%{flip_how}, native {:.0}% ({} draws, {frames} \
-         frame{}); depth images: {}",
+        "precise {:.0}% of draws ({}), flip {:.0}%{flip_how}, native {:.0}% ({} draws{without}, \
+         {frames} frame{}); depth images: {}",
         percent(d.precise),
         precise_how.join("; "),
         percent(d.flip),

@@ -165,6 +165,11 @@ struct RenderArgs {
     #[arg(long)]
     copy2: bool,
 
+    /// The image-to-image copies of `--depth-route image|native-image` copy every aspect of a
+    /// depth-stencil format (the stencil too), not the depth aspect alone.
+    #[arg(long)]
+    copy_all_aspects: bool,
+
     /// Do not read the depth image back: it is created without TRANSFER_SRC usage, and
     /// depth.png / depth.f32 are not written (render.json says "depth_readback": false).
     #[arg(long)]
@@ -358,6 +363,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             route: cli.depth_route,
             row_padding: cli.depth_row_padding,
             copy2: cli.copy2,
+            all_aspects: cli.copy_all_aspects,
         };
         let readback = Readback::new(&gpu, &targets, depth_readback, options)?;
         let renderer = Renderer::new(&gpu, &targets, &scene)?;

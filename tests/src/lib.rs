@@ -228,6 +228,15 @@ pub fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
     a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count()
 }
 
+/// Pixels of `b` whose channels differ from `a`'s by more than `levels` (of 255).
+pub fn pixels_off_by_more_than(a: &image::RgbaImage, b: &image::RgbaImage, levels: u8) -> usize {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.pixels()
+        .zip(b.pixels())
+        .filter(|(x, y)| x.0.iter().zip(y.0).any(|(p, q)| p.abs_diff(q) > levels))
+        .count()
+}
+
 /// The resolution bound within which a flip-path depth equals 1 - the native depth, per
 /// format: the rasterizer computes the flipped value from vertex depths that carry the
 /// standard mapping's float32 rounding near 1 (about 6e-8), and fixed-point formats round

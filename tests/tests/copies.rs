@@ -28,8 +28,8 @@
 use std::process::Command;
 
 use revz_tests::{
-    differing_pixels, flip_color_tolerance, flip_tolerance, unexplained_color_differences, Harness,
-    Render,
+    differing_pixels, flip_color_tolerance, flip_tolerance, pixels_off_by_more_than,
+    unexplained_color_differences, Harness, Render,
 };
 
 /// The scenes built to defeat standard depth (the accuracy report's): their native render is
@@ -43,6 +43,10 @@ const STRESS: [&str; 7] = [
     "decal-bias",
     "far-objects",
 ];
+
+/// The scenes whose colors are shaded from the depth their shaders sample (`depth-reads`:
+/// soft particles' fades, a band of view distances).
+const SHADED_FROM_DEPTH: [&str; 1] = ["depth-reads"];
 
 const REVERSING_MODES: [&str; 3] = ["flip", "complementary", "infinite"];
 
@@ -293,7 +297,16 @@ fn default_policy_hands_back_native_depth(format: &str) {
                 native_depth[at]
             );
             let color = standard.color();
-            if native.dir.join("expected-id.u16").exists() {
+            if SHADED_FROM_DEPTH.contains(&scene.as_str()) {
+                // Colors computed from the depth shaders read: the depth converted back to
+                // standard values rounds a level or two of them differently.
+                let colors = pixels_off_by_more_than(&native_color, &color, 2);
+                assert!(
+                    colors <= color_tolerance(format, mode),
+                    "{what}: {colors} color pixels differ from the native render by more \
+                     than 2 levels"
+                );
+            } else if native.dir.join("expected-id.u16").exists() {
                 // Where the ground truth says which surface is nearest, a differing pixel
                 // must show it (a tie the native render resolved with less precision).
                 let unexplained =
@@ -369,7 +382,7 @@ fn default_policy_hands_back_native_depth_d32_s8() {
 #[test]
 fn every_copy_route_reads_back_what_the_direct_copy_does() {
     let harness = Harness::locate();
-    let routes: [&[&str]; 10] = [
+    let routes: [&[&str]; 13] = [
         &["--depth-route", "unorm-image"],
         &["--depth-route", "blit-unorm-image"],
         &["--depth-route", "blit-native-image"],
@@ -386,6 +399,17 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
         ],
         &["--depth-route", "native-image", "--copy2"],
         &["--depth-row-padding", "5", "--copy2"],
+        // Both aspects of a depth-stencil image in one region: between reversed images as it
+        // is, and converted into a native one (the stencil goes down before the converted
+        // depth: lavapipe writes the depth too when it copies the stencil alone).
+        &["--depth-route", "image", "--copy-all-aspects"],
+        &["--depth-route", "native-image", "--copy-all-aspects"],
+        &[
+            "--depth-route",
+            "native-image",
+            "--copy-all-aspects",
+            "--copy2",
+        ],
     ];
     for format in revz_tests::DEPTH_FORMATS {
         // The device's own blit may round (lavapipe blits D24 through float32, one unit off
@@ -429,6 +453,15 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
                 "{format} {mode}: the read-back image was not reversed\n{log}"
             );
             for (i, args) in routes.iter().enumerate() {
+                // The stencil of a promoted image (D24S8 stored as D32S8) cannot be copied into
+                // an image that keeps D24S8 (`docs/limits.md`): not asked of revz here.
+                let promoted = mode != "flip" && format == "d24-s8";
+                if promoted
+                    && args.contains(&"native-image")
+                    && args.contains(&"--copy-all-aspects")
+                {
+                    continue;
+                }
                 let routed = render(&i.to_string(), args);
                 let log = routed.stderr();
                 assert!(!log.contains("is not converted"), "{args:?}: {log}");

@@ -4,8 +4,8 @@
 use std::process::Command;
 
 use revz_tests::{
-    differing_depths, differing_pixels, flip_color_tolerance, flip_tolerance, Harness,
-    DEPTH_FORMATS, LAYER_NAME, MODES,
+    differing_depths, differing_pixels, flip_color_tolerance, flip_tolerance,
+    pixels_off_by_more_than, Harness, DEPTH_FORMATS, LAYER_NAME, MODES,
 };
 
 /// Renders `format` natively, then through the layer in every mode with
@@ -225,15 +225,6 @@ fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
             );
         }
     }
-}
-
-/// Pixels of `b` whose channels differ from `a`'s by more than `levels` (of 255).
-fn pixels_off_by_more_than(a: &image::RgbaImage, b: &image::RgbaImage, levels: u8) -> usize {
-    assert_eq!(a.dimensions(), b.dimensions());
-    a.pixels()
-        .zip(b.pixels())
-        .filter(|(x, y)| x.0.iter().zip(y.0).any(|(p, q)| p.abs_diff(q) > levels))
-        .count()
 }
 
 /// `depth-reads` (issue #39): the main depth image, which soft particles sample while it is

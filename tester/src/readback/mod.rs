@@ -29,15 +29,17 @@ pub enum DepthRoute {
     /// `vkCmdCopyImage` into a second depth image (TRANSFER_SRC | TRANSFER_DST, which revz
     /// reverses by default), then into the host buffer.
     Image,
-    /// The same through a second image that shaders may sample (SAMPLED: revz keeps it
-    /// native), so the image copy crosses conventions.
+    /// The same through a second image that shaders read as an input attachment
+    /// (INPUT_ATTACHMENT: revz keeps it native; a SAMPLED one would be reversed and read
+    /// through its twin), so the image copy crosses conventions.
     NativeImage,
     /// `vkCmdCopyImageToBuffer` into a device buffer, `vkCmdCopyBufferToImage` into a second
     /// depth image, then into the host buffer: a round trip through the application's bytes.
     Buffer,
     /// `vkCmdBlitImage` (same size, NEAREST, mirrored in x and back by the read: the blit
     /// flips x, a second blit would not be a copy, so the host flips the rows back) into a
-    /// second image that shaders may sample (native), then into the host buffer.
+    /// second image that shaders read as an input attachment (native), then into the host
+    /// buffer.
     BlitNativeImage,
     /// `vkCmdCopyImage` of the depth aspect into a second image created with
     /// `VK_IMAGE_CREATE_ALIAS_BIT`, whose memory the application places by its format's sizes
@@ -56,7 +58,7 @@ impl DepthRoute {
             DepthRoute::Direct => None,
             DepthRoute::Image | DepthRoute::Buffer => Some((copied, none)),
             DepthRoute::NativeImage | DepthRoute::BlitNativeImage => {
-                Some((copied | vk::ImageUsageFlags::SAMPLED, none))
+                Some((copied | vk::ImageUsageFlags::INPUT_ATTACHMENT, none))
             }
             DepthRoute::UnormImage | DepthRoute::BlitUnormImage => {
                 Some((copied, vk::ImageCreateFlags::ALIAS))
@@ -84,6 +86,10 @@ pub struct DepthReadback {
     pub row_padding: u32,
     /// Record the copies with the `*2` commands (`vkCmdCopyImageToBuffer2`, ...; Vulkan 1.3).
     pub copy2: bool,
+    /// The image-to-image copies of the `image` and `native-image` routes name every aspect
+    /// of a depth-stencil format (the stencil too), as applications copying a whole
+    /// depth-stencil image do; the depth aspect alone otherwise.
+    pub all_aspects: bool,
 }
 
 /// What the host buffer's row padding holds before and after the render.
@@ -346,17 +352,27 @@ impl<'a> Readback<'a> {
                     },
                 );
             }
-            _ => copies.image_to_image(
-                image,
-                second.image,
-                vk::ImageCopy {
-                    src_subresource: layers,
-                    src_offset: vk::Offset3D::default(),
-                    dst_subresource: layers,
-                    dst_offset: vk::Offset3D::default(),
-                    extent: self.region(depth, 0).image_extent,
-                },
-            ),
+            _ => {
+                let layers = if self.options.all_aspects {
+                    vk::ImageSubresourceLayers {
+                        aspect_mask: self.depth_format.aspects(),
+                        ..layers
+                    }
+                } else {
+                    layers
+                };
+                copies.image_to_image(
+                    image,
+                    second.image,
+                    vk::ImageCopy {
+                        src_subresource: layers,
+                        src_offset: vk::Offset3D::default(),
+                        dst_subresource: layers,
+                        dst_offset: vk::Offset3D::default(),
+                        extent: self.region(depth, 0).image_extent,
+                    },
+                )
+            }
         }
         copies.barrier(
             vk::BufferMemoryBarrier::default(),

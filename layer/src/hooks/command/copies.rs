@@ -260,7 +260,14 @@ fn image_buffer_copy(
 }
 
 /// Converts the depth of an image copy between conventions, if the policy says so. (The
-/// arguments are the command's own, plus whether it is extended.)
+/// arguments are the command's own, plus whether it is extended, and `send_first`, which sends
+/// the given regions down narrowed to the given aspects.)
+///
+/// Where a conversion is recorded, the regions' other aspects (the stencil of depth-stencil
+/// images) go down through `send_first` before it: lavapipe 22.3 writes the depth aspect too
+/// when it copies only the stencil of a `D24_UNORM_S8_UINT` or `D32_SFLOAT_S8_UINT` image from
+/// image to image, so the converted depth must be the last write. Nothing is then left to
+/// send, unless the conversion could not be recorded: its depth regions go down as they are.
 #[allow(clippy::too_many_arguments)]
 fn image_image_copy(
     entry: &CommandBufferEntry,
@@ -271,6 +278,7 @@ fn image_image_copy(
     dst_layout: vk::ImageLayout,
     regions: &[vk::ImageCopy],
     extended: bool,
+    send_first: &mut dyn FnMut(&[(usize, vk::ImageAspectFlags)]),
 ) -> Sent {
     let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
     let depth_aspect = regions.iter().any(|r| {
@@ -322,10 +330,24 @@ fn image_image_copy(
             regions: &plan.to_destination,
         },
     };
-    if !convert(entry, buffer, &conversion) {
-        return Sent::All;
+    if !plan.rest.is_empty() {
+        send_first(&plan.rest);
     }
-    Sent::Rest(plan.rest)
+    if !convert(entry, buffer, &conversion) {
+        return Sent::Rest(depth_parts(regions));
+    }
+    Sent::Rest(Vec::new())
+}
+
+/// The depth aspect of each region that copies it, as (index, `DEPTH`).
+fn depth_parts(regions: &[vk::ImageCopy]) -> Vec<(usize, vk::ImageAspectFlags)> {
+    let depth = vk::ImageAspectFlags::DEPTH;
+    regions
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.src_subresource.aspect_mask.contains(depth))
+        .map(|(i, _)| (i, depth))
+        .collect()
 }
 
 /// Converts the depth of a blit between conventions, if the policy says so: the source boxes
@@ -543,8 +565,36 @@ pub unsafe extern "system" fn cmd_copy_image(
     let regions = unsafe { slice(p_regions, count) };
     let mut left = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
+        let next = entry.device.next.fp_v1_0().cmd_copy_image;
+        let mut send_first = |first: &[(usize, vk::ImageAspectFlags)]| {
+            let first: Vec<vk::ImageCopy> = first
+                .iter()
+                .map(|&(i, aspect)| narrow_image(regions[i], aspect))
+                .collect();
+            // SAFETY: the application's command with some of its regions, narrowed to the
+            // aspects they copy besides depth.
+            unsafe {
+                next(
+                    buffer,
+                    src,
+                    src_layout,
+                    dst,
+                    dst_layout,
+                    first.len() as u32,
+                    first.as_ptr(),
+                )
+            };
+        };
         let sent = image_image_copy(
-            entry, buffer, src, src_layout, dst, dst_layout, regions, false,
+            entry,
+            buffer,
+            src,
+            src_layout,
+            dst,
+            dst_layout,
+            regions,
+            false,
+            &mut send_first,
         );
         left = regions_left(regions, &sent, narrow_image);
     });
@@ -702,9 +752,33 @@ pub unsafe extern "system" fn cmd_copy_image2(
     // SAFETY: `regionCount` regions.
     let regions2 = unsafe { slice(info.p_regions, info.region_count) };
     let mut left = None;
+    let narrow = |r: &mut vk::ImageCopy2<'_>, aspect| {
+        r.src_subresource.aspect_mask = aspect;
+        r.dst_subresource.aspect_mask = aspect;
+    };
     let device = with_entry(buffer, &ENTRY, |entry| {
         let (regions, chained): (Vec<_>, Vec<_>) = regions2.iter().map(image_region).unzip();
         let extended = !info.p_next.is_null() || chained.contains(&true);
+        let next = entry.device.commands.copy_image2;
+        let mut send_first = |first: &[(usize, vk::ImageAspectFlags)]| {
+            let Some(next) = next else { return };
+            let first: Vec<vk::ImageCopy2<'_>> = first
+                .iter()
+                .map(|&(i, aspect)| {
+                    let mut region = regions2[i];
+                    narrow(&mut region, aspect);
+                    region
+                })
+                .collect();
+            let first_info = vk::CopyImageInfo2 {
+                region_count: first.len() as u32,
+                p_regions: first.as_ptr(),
+                ..*info
+            };
+            // SAFETY: the application's command with some of its regions, narrowed to the
+            // aspects they copy besides depth.
+            unsafe { next(buffer, &first_info) };
+        };
         let sent = image_image_copy(
             entry,
             buffer,
@@ -714,11 +788,9 @@ pub unsafe extern "system" fn cmd_copy_image2(
             info.dst_image_layout,
             &regions,
             extended,
+            &mut send_first,
         );
-        left = regions2_left(regions2, &sent, |r, aspect| {
-            r.src_subresource.aspect_mask = aspect;
-            r.dst_subresource.aspect_mask = aspect;
-        });
+        left = regions2_left(regions2, &sent, narrow);
     });
     let Some(next) = device.and_then(|d| d.commands.copy_image2) else {
         return;
