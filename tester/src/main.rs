@@ -292,6 +292,8 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             depth_clamp: needs.depth_clamp,
             geometry_shader: needs.geometry_shader,
             tessellation_shader: needs.tessellation_shader,
+            // Optional: a post pass pushes its descriptors where the device can.
+            push_descriptor: needs.sampled_depth,
         },
     })?;
     say(&format!(

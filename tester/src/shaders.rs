@@ -142,6 +142,12 @@ pub const SOFT_PARTICLE_FRAG: ShaderSource = shader!("soft_particle.frag");
 /// the main depth's view distance, read with a texel fetch, a bilinear sample and a gather.
 pub const DEPTH_POST_FRAG: ShaderSource = glslang_shader!("depth_post.frag");
 
+/// `depth_tiles.comp` (glslang: `tester/build.rs` compiles no compute stage): each 4 x 4
+/// tile's nearest and farthest depth of the main depth image, into a storage buffer.
+pub const DEPTH_TILES_COMP: ShaderSource = glslang_shader!("depth_tiles.comp");
+/// `depth_tiles_post.frag`: the top quarter of the image shaded from those tiles.
+pub const DEPTH_TILES_POST_FRAG: ShaderSource = shader!("depth_tiles_post.frag");
+
 /// Every embedded module.
 #[cfg(test)]
 pub const ALL: &[ShaderSource] = &[
@@ -173,6 +179,8 @@ pub const ALL: &[ShaderSource] = &[
     SOFT_PARTICLE_VERT,
     SOFT_PARTICLE_FRAG,
     DEPTH_POST_FRAG,
+    DEPTH_TILES_COMP,
+    DEPTH_TILES_POST_FRAG,
 ];
 
 /// The glslang modules: (source file under `shaders/glslang/`, module).
@@ -188,6 +196,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("split_mvp.vert", SPLIT_MVP_VERT),
     ("split_color.frag", SPLIT_COLOR_FRAG),
     ("depth_post.frag", DEPTH_POST_FRAG),
+    ("depth_tiles.comp", DEPTH_TILES_COMP),
 ];
 
 #[cfg(test)]
@@ -338,8 +347,12 @@ mod tests {
                 shader.name
             );
             // The depth readers use `gl_FragCoord.xy` to find their texel (never its z).
-            let reads_depth_image =
-                [SOFT_PARTICLE_FRAG.name, DEPTH_POST_FRAG.name].contains(&shader.name);
+            let reads_depth_image = [
+                SOFT_PARTICLE_FRAG.name,
+                DEPTH_POST_FRAG.name,
+                DEPTH_TILES_POST_FRAG.name,
+            ]
+            .contains(&shader.name);
             assert_eq!(
                 has(OP_DECORATE, &[BUILT_IN, FRAG_COORD]),
                 frag_depth || reads_depth_image,

@@ -228,7 +228,9 @@ fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
 }
 
 /// `depth-reads` (issue #39): the main depth image, which soft particles sample while it is
-/// attached read-only and a post pass samples afterwards (texel fetch, sampler, gather), is
+/// attached read-only (a descriptor set written with `vkUpdateDescriptorSets`) and a post pass
+/// samples afterwards (texel fetch, sampler, gather; descriptors pushed with
+/// `vkCmdPushDescriptorSetKHR`), is
 /// reversed and read through its twin in every mode and depth format, with zero validation
 /// messages (synchronization validation included), and the colors are the native render's:
 /// the particles' fades and the post band are computed from the depth the shaders read, so
@@ -276,6 +278,13 @@ fn depth_reads_sample_standard_depth_through_the_twin() {
             let render = harness.render(command, &dir);
             let log = render.stderr();
             assert!(log.contains("shaders read its twin"), "{name}: {log}");
+            // The post pass pushes its descriptors (lavapipe has VK_KHR_push_descriptor): the
+            // pushed view is the twin's, or the band would shade reversed depth.
+            let features = render.json()["features"].to_string();
+            assert!(
+                features.contains("VK_KHR_push_descriptor"),
+                "{name}: {features}"
+            );
             let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
             let reference = if promoted { &native_d32 } else { &own };
             let color = render.color();

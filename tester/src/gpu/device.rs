@@ -96,6 +96,9 @@ pub(super) fn supported_features(
         depth_clamp: core.depth_clamp == vk::TRUE,
         geometry_shader: core.geometry_shader == vk::TRUE,
         tessellation_shader: core.tessellation_shader == vk::TRUE,
+        // It requires VK_KHR_get_physical_device_properties2 below 1.1 (enabled with the
+        // instance where asked for).
+        push_descriptor: has(ash::khr::push_descriptor::NAME),
     }
 }
 
@@ -109,7 +112,8 @@ impl Gpu {
             || f.graphics_pipeline_library
             || f.dynamic_rendering
             || f.dynamic_compare_op
-            || f.depth_stencil_resolve;
+            || f.depth_stencil_resolve
+            || f.push_descriptor;
         let instance = InstanceCtx::new(
             options.validation,
             options.sync_validation,
@@ -223,6 +227,9 @@ impl Gpu {
         if enabled.depth_range_unrestricted {
             extensions.push(ash::ext::depth_range_unrestricted::NAME.as_ptr());
         }
+        if enabled.push_descriptor {
+            extensions.push(ash::khr::push_descriptor::NAME.as_ptr());
+        }
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_features(&core_features)
@@ -264,7 +271,11 @@ impl Gpu {
             .then(|| ash::ext::extended_dynamic_state::Device::new(&instance.instance, &device));
         let create_renderpass2_khr = resolve_extensions
             .then(|| ash::khr::create_renderpass2::Device::new(&instance.instance, &device));
+        let push_descriptor_khr = enabled
+            .push_descriptor
+            .then(|| ash::khr::push_descriptor::Device::new(&instance.instance, &device));
         Ok(Gpu {
+            push_descriptor_khr,
             dynamic_rendering_khr,
             extended_dynamic_state,
             create_renderpass2_khr,
@@ -283,6 +294,27 @@ impl Gpu {
     /// The Vulkan instance.
     pub fn instance(&self) -> &ash::Instance {
         &self.instance.instance
+    }
+
+    /// `vkCmdPushDescriptorSetKHR`; `false` where `VK_KHR_push_descriptor` is not enabled
+    /// (nothing recorded).
+    ///
+    /// # Safety
+    /// As `vkCmdPushDescriptorSetKHR`.
+    pub unsafe fn cmd_push_descriptor_set(
+        &self,
+        cmd: vk::CommandBuffer,
+        layout: vk::PipelineLayout,
+        writes: &[vk::WriteDescriptorSet<'_>],
+    ) -> bool {
+        let Some(khr) = &self.push_descriptor_khr else {
+            return false;
+        };
+        // SAFETY: the caller's contract; the extension is enabled where it is loaded.
+        unsafe {
+            khr.cmd_push_descriptor_set(cmd, vk::PipelineBindPoint::GRAPHICS, layout, 0, writes)
+        };
+        true
     }
 
     /// `vkCmdBeginRendering`, or its KHR name below Vulkan 1.3.

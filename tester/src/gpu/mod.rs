@@ -174,6 +174,8 @@ pub struct Features {
     pub geometry_shader: bool,
     /// `tessellationShader`.
     pub tessellation_shader: bool,
+    /// `VK_KHR_push_descriptor` (an extension without a feature): `vkCmdPushDescriptorSetKHR`.
+    pub push_descriptor: bool,
 }
 
 impl Features {
@@ -193,6 +195,7 @@ impl Features {
             (self.depth_clamp, "depthClamp"),
             (self.geometry_shader, "geometryShader"),
             (self.tessellation_shader, "tessellationShader"),
+            (self.push_descriptor, "VK_KHR_push_descriptor"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -215,6 +218,7 @@ impl Features {
             depth_clamp: self.depth_clamp && other.depth_clamp,
             geometry_shader: self.geometry_shader && other.geometry_shader,
             tessellation_shader: self.tessellation_shader && other.tessellation_shader,
+            push_descriptor: self.push_descriptor && other.push_descriptor,
         }
     }
 }
@@ -255,6 +259,7 @@ pub struct Gpu {
     dynamic_rendering_khr: Option<ash::khr::dynamic_rendering::Device>,
     extended_dynamic_state: Option<ash::ext::extended_dynamic_state::Device>,
     create_renderpass2_khr: Option<ash::khr::create_renderpass2::Device>,
+    push_descriptor_khr: Option<ash::khr::push_descriptor::Device>,
     memory_properties: vk::PhysicalDeviceMemoryProperties,
     // Dropped after `Drop::drop` has destroyed the device.
     instance: InstanceCtx,
@@ -401,6 +406,7 @@ mod tests {
             depth_clamp: true,
             geometry_shader: true,
             tessellation_shader: true,
+            push_descriptor: true,
         };
         assert_eq!(
             all.names(),
@@ -414,7 +420,8 @@ mod tests {
                 "VK_EXT_depth_range_unrestricted",
                 "depthClamp",
                 "geometryShader",
-                "tessellationShader"
+                "tessellationShader",
+                "VK_KHR_push_descriptor"
             ]
         );
         let some = Features {

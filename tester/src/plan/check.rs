@@ -161,6 +161,16 @@ impl Plan {
                         "step {index}: the main depth image is not in its attachment layout"
                     );
                 }
+                Step::BuildDepthTiles => {
+                    ensure!(
+                        state.pass.is_none(),
+                        "step {index}: a dispatch inside a pass"
+                    );
+                    ensure!(
+                        depth_layout == DepthLayout::Sampled,
+                        "step {index}: the main depth image is not sampled"
+                    );
+                }
                 Step::MainDepthLayout { from, to } => {
                     ensure!(
                         state.pass.is_none(),
@@ -253,6 +263,7 @@ impl Plan {
                                         | Step::NextSubpass
                                         | Step::ClearDepthImage { .. }
                                         | Step::MainDepthLayout { .. }
+                                        | Step::BuildDepthTiles
                                         | Step::ExecuteSecondaries(..)
                                 ),
                                 "step {index}: {step:?} inside a secondary"
@@ -439,6 +450,7 @@ impl Plan {
             }
             Step::ClearDepthImage { .. }
             | Step::MainDepthLayout { .. }
+            | Step::BuildDepthTiles
             | Step::BeginPass(_)
             | Step::NextSubpass
             | Step::EndPass

@@ -229,6 +229,10 @@ pub enum Program {
     /// the main depth's view distance, read with a texel fetch, a bilinear sample and a gather
     /// (drawn over a full-screen quad in a [`Target::Post`] pass).
     DepthPost,
+    /// `scene.vert` + `depth_tiles_post.frag`: the top quarter of the image shaded from the
+    /// depth pyramid level a [`Step::BuildDepthTiles`] built (each 4 x 4 tile's nearest and
+    /// farthest depth), in a [`Target::Post`] pass.
+    DepthTiles,
 }
 
 /// How a scene hands its matrices to the vertex shader (`--delivery`): push constants, as
@@ -369,7 +373,8 @@ impl Program {
             | Program::SplitPush
             | Program::PushGeometry
             | Program::SoftParticle
-            | Program::DepthPost => 80,
+            | Program::DepthPost
+            | Program::DepthTiles => 80,
         }
     }
 
@@ -664,6 +669,11 @@ pub enum Step {
         /// Its layout after.
         to: DepthLayout,
     },
+    /// A compute dispatch (outside any pass, the main depth image sampled) that builds a depth
+    /// pyramid level from the main depth (`depth_tiles.comp`: each 4 x 4 tile's nearest and
+    /// farthest depth, into a storage buffer), then a barrier making it visible to fragment
+    /// shaders ([`Program::DepthTiles`]).
+    BuildDepthTiles,
     /// Records each list into its own secondary command buffer (RENDER_PASS_CONTINUE,
     /// inheriting the current render pass, subpass and framebuffer) and executes them all with
     /// one `vkCmdExecuteCommands`. It must be the only kind of step in its subpass.
@@ -727,6 +737,8 @@ pub struct Needs {
     pub shadow_map: bool,
     /// The main depth image is sampled ([`Target::SoftParticles`], [`Target::Post`]).
     pub sampled_depth: bool,
+    /// A compute pass builds depth tiles ([`Step::BuildDepthTiles`]).
+    pub depth_tiles: bool,
     /// Number of secondary command buffers recorded on the main thread (from the main pool;
     /// threaded ones come from their threads' own pools).
     pub secondaries: usize,
@@ -954,6 +966,7 @@ impl Plan {
                         !(0.0..=1.0).contains(min_depth) || !(0.0..=1.0).contains(max_depth);
                 }
                 Step::SetDepthBias(bias) => needs.depth_bias_clamp |= bias.clamp != 0.0,
+                Step::BuildDepthTiles => needs.depth_tiles = true,
                 Step::ExecuteSecondaries(lists, Recording::MainThread) => {
                     needs.secondaries += lists.len();
                 }

@@ -414,6 +414,7 @@ impl Renderer<'_> {
         // made, even if a later step fails.
         let reads = self.depth_read.insert(DepthReadBindings {
             set_layout: vk::DescriptorSetLayout::null(),
+            push_set_layout: vk::DescriptorSetLayout::null(),
             pool: vk::DescriptorPool::null(),
             read_only_set: vk::DescriptorSet::null(),
             sampled_set: vk::DescriptorSet::null(),
@@ -489,13 +490,146 @@ impl Renderer<'_> {
             // SAFETY: valid set, view and samplers; the infos match the binding types.
             unsafe { device.update_descriptor_sets(&writes, &[]) };
         }
-        let set_layouts = [reads.set_layout];
+        if gpu.enabled.push_descriptor {
+            let info = vk::DescriptorSetLayoutCreateInfo::default()
+                .flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR)
+                .bindings(&bindings);
+            // SAFETY: valid device (with VK_KHR_push_descriptor) and create info.
+            reads.push_set_layout = unsafe { device.create_descriptor_set_layout(&info, None) }
+                .context("vkCreateDescriptorSetLayout (pushed main depth) failed")?;
+        }
+        let (set_layout, push_set_layout) = (reads.set_layout, reads.push_set_layout);
+        let pipeline_layout = |set_layout: vk::DescriptorSetLayout| {
+            let set_layouts = [set_layout];
+            let layout_info = vk::PipelineLayoutCreateInfo::default()
+                .set_layouts(&set_layouts)
+                .push_constant_ranges(&PUSH_CONSTANT_RANGES);
+            // SAFETY: valid device and create info.
+            unsafe { device.create_pipeline_layout(&layout_info, None) }
+                .context("vkCreatePipelineLayout (depth reads) failed")
+        };
+        self.depth_read_layout = pipeline_layout(set_layout)?;
+        if push_set_layout != vk::DescriptorSetLayout::null() {
+            self.depth_push_layout = pipeline_layout(push_set_layout)?;
+        }
+        Ok(())
+    }
+}
+
+impl<'a> Renderer<'a> {
+    /// Creates the depth pyramid's bindings ([`TileBindings`]), its compute pipeline and the
+    /// layout of [`Program::DepthTiles`] pipelines. Needs the depth-read bindings (their
+    /// nearest sampler).
+    pub(super) fn create_tile_bindings(
+        &mut self,
+        gpu: &'a Gpu,
+        targets: &Targets<'_>,
+    ) -> Result<()> {
+        let device = self.device;
+        let nearest =
+            self.depth_read.as_ref().map(|r| r.nearest).ok_or_else(|| {
+                anyhow!("the depth tiles are built without a pass sampling depth")
+            })?;
+        let count = (targets.extent.width / 4, targets.extent.height / 4);
+        let size = (count.0 * count.1) as usize * 8;
+        let tiles = HostBuffer::new(gpu, size.max(8), vk::BufferUsageFlags::STORAGE_BUFFER)
+            .context("depth tiles buffer")?;
+        let tiles = self.depth_tiles.insert(TileBindings {
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            tiles,
+            count,
+            compute_layout: vk::PipelineLayout::null(),
+            compute: vk::Pipeline::null(),
+        });
+        let stages = vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::FRAGMENT;
+        let bindings = [
+            (0, vk::DescriptorType::SAMPLED_IMAGE),
+            (1, vk::DescriptorType::SAMPLER),
+            (2, vk::DescriptorType::STORAGE_BUFFER),
+        ]
+        .map(|(binding, kind)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(binding)
+                .descriptor_type(kind)
+                .descriptor_count(1)
+                .stage_flags(stages)
+        });
+        tiles.set = single_descriptor_set(
+            device,
+            &bindings,
+            "depth tiles",
+            &mut tiles.set_layout,
+            &mut tiles.pool,
+        )?;
+        let image_info = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: targets.depth.depth_view,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }];
+        let sampler_info = [vk::DescriptorImageInfo {
+            sampler: nearest,
+            image_view: vk::ImageView::null(),
+            image_layout: vk::ImageLayout::UNDEFINED,
+        }];
+        let buffer_info = [vk::DescriptorBufferInfo {
+            buffer: tiles.tiles.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let writes = [
+            vk::WriteDescriptorSet::default()
+                .dst_set(tiles.set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&image_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(tiles.set)
+                .dst_binding(1)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&sampler_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(tiles.set)
+                .dst_binding(2)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .buffer_info(&buffer_info),
+        ];
+        // SAFETY: valid set, view, sampler and buffer; the infos match the binding types.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        let set_layouts = [tiles.set_layout];
+        let compute_layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        // SAFETY: valid device and create info.
+        tiles.compute_layout = unsafe { device.create_pipeline_layout(&compute_layout_info, None) }
+            .context("vkCreatePipelineLayout (depth tiles) failed")?;
+        let words = crate::shaders::DEPTH_TILES_COMP.words()?;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: valid device and SPIR-V (checked by the shader tests).
+        let module = unsafe { device.create_shader_module(&module_info, None) }
+            .context("vkCreateShaderModule (depth tiles) failed")?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(tiles.compute_layout);
+        // SAFETY: valid device, module and layout.
+        let created =
+            unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
+        // SAFETY: the module is no longer needed once the pipeline is created (or failed).
+        unsafe { device.destroy_shader_module(module, None) };
+        tiles.compute = created
+            .map_err(|(_, e)| anyhow!("vkCreateComputePipelines (depth tiles) failed: {e}"))?
+            .into_iter()
+            .next()
+            .ok_or_else(|| anyhow!("vkCreateComputePipelines returned no pipeline"))?;
         let layout_info = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
             .push_constant_ranges(&PUSH_CONSTANT_RANGES);
         // SAFETY: valid device and create info.
-        self.depth_read_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
-            .context("vkCreatePipelineLayout (depth reads) failed")?;
+        self.tiles_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (depth tiles shading) failed")?;
         Ok(())
     }
 }

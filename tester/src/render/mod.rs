@@ -87,12 +87,30 @@ struct ShadowBindings<'a> {
 /// of one layout, which name the view in the layout each pass samples it in.
 struct DepthReadBindings {
     set_layout: vk::DescriptorSetLayout,
+    /// The same bindings in a push-descriptor set layout (`VK_KHR_push_descriptor`, where the
+    /// device has it): the post pass pushes them instead of binding `sampled_set`; null
+    /// otherwise.
+    push_set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     /// `DEPTH_STENCIL_READ_ONLY_OPTIMAL` (attached read-only) and `SHADER_READ_ONLY_OPTIMAL`.
     read_only_set: vk::DescriptorSet,
     sampled_set: vk::DescriptorSet,
     nearest: vk::Sampler,
     linear: vk::Sampler,
+}
+
+/// What the depth pyramid's compute pass and [`Program::DepthTiles`] bind: the main depth's
+/// depth view (sampled), a nearest sampler and the tiles' storage buffer, in one set of a
+/// layout both stages see; the compute pipeline and both pipeline layouts.
+struct TileBindings<'a> {
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    tiles: HostBuffer<'a>,
+    /// (tiles across, tiles down).
+    count: (u32, u32),
+    compute_layout: vk::PipelineLayout,
+    compute: vk::Pipeline,
 }
 
 /// What `mvp_pair` pipelines bind: the object colors, in one descriptor set.
@@ -137,7 +155,13 @@ pub struct Renderer<'a> {
     shadow: Option<ShadowBindings<'a>>,
     /// Push constants and the depth-read set (null without a pass reading the main depth).
     depth_read_layout: vk::PipelineLayout,
+    /// Push constants and the pushed depth-read set ([`Program::DepthPost`] where the device
+    /// has `VK_KHR_push_descriptor`; null otherwise).
+    depth_push_layout: vk::PipelineLayout,
     depth_read: Option<DepthReadBindings>,
+    /// Push constants and the tiles' set ([`Program::DepthTiles`]; null without it).
+    tiles_layout: vk::PipelineLayout,
+    depth_tiles: Option<TileBindings<'a>>,
     /// 128 bytes of vertex push constants and the color descriptor set (null without an
     /// [`Program::MvpPair`] pipeline).
     pair_layout: vk::PipelineLayout,
@@ -215,10 +239,23 @@ impl Drop for Renderer<'_> {
             }
             self.device
                 .destroy_pipeline_layout(self.depth_read_layout, None);
+            self.device
+                .destroy_pipeline_layout(self.depth_push_layout, None);
+            self.device.destroy_pipeline_layout(self.tiles_layout, None);
+            if let Some(tiles) = &self.depth_tiles {
+                self.device.destroy_pipeline(tiles.compute, None);
+                self.device
+                    .destroy_pipeline_layout(tiles.compute_layout, None);
+                self.device.destroy_descriptor_pool(tiles.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(tiles.set_layout, None);
+            }
             if let Some(reads) = &self.depth_read {
                 self.device.destroy_descriptor_pool(reads.pool, None);
                 self.device
                     .destroy_descriptor_set_layout(reads.set_layout, None);
+                self.device
+                    .destroy_descriptor_set_layout(reads.push_set_layout, None);
                 self.device.destroy_sampler(reads.nearest, None);
                 self.device.destroy_sampler(reads.linear, None);
             }
@@ -295,7 +332,10 @@ impl<'a> Renderer<'a> {
             shadow_layout: vk::PipelineLayout::null(),
             shadow: None,
             depth_read_layout: vk::PipelineLayout::null(),
+            depth_push_layout: vk::PipelineLayout::null(),
             depth_read: None,
+            tiles_layout: vk::PipelineLayout::null(),
+            depth_tiles: None,
             pair_layout: vk::PipelineLayout::null(),
             split_layout: vk::PipelineLayout::null(),
             geometry_layout: vk::PipelineLayout::null(),
@@ -409,6 +449,9 @@ impl<'a> Renderer<'a> {
         if needs.sampled_depth {
             this.create_depth_read_bindings(gpu, targets)?;
         }
+        if needs.depth_tiles {
+            this.create_tile_bindings(gpu, targets)?;
+        }
         if plan.pipelines.iter().any(|p| p.program == Program::MvpPair) {
             let limit = gpu.limits().max_push_constants_size;
             if limit < 128 {
@@ -492,9 +535,13 @@ impl<'a> Renderer<'a> {
             // Pushed per range ([`SPLIT_PUSH_CONSTANT_RANGES`]), each with its own stage.
             Program::SplitPush => (self.split_layout, vk::ShaderStageFlags::empty()),
             Program::PushGeometry => (self.geometry_layout, GEOMETRY_PUSH_STAGES),
+            Program::DepthPost if self.depth_push_layout != vk::PipelineLayout::null() => {
+                (self.depth_push_layout, PLAIN_PUSH_STAGES)
+            }
             Program::SoftParticle | Program::DepthPost => {
                 (self.depth_read_layout, PLAIN_PUSH_STAGES)
             }
+            Program::DepthTiles => (self.tiles_layout, PLAIN_PUSH_STAGES),
         }
     }
 

@@ -54,6 +54,7 @@ impl Recorder<'_> {
             match step {
                 Step::ClearDepthImage { depth } => self.clear_depth_image(cmd, *depth),
                 Step::MainDepthLayout { from, to } => self.main_depth_layout(cmd, *from, *to),
+                Step::BuildDepthTiles => self.build_depth_tiles(cmd)?,
                 Step::BeginPass(n) => self.begin_pass(cmd, *n, contents)?,
                 Step::NextSubpass => {
                     self.subpass += 1;
@@ -208,7 +209,7 @@ impl Recorder<'_> {
             ),
             DepthLayout::Sampled => (
                 vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                vk::PipelineStageFlags::FRAGMENT_SHADER,
+                vk::PipelineStageFlags::FRAGMENT_SHADER | vk::PipelineStageFlags::COMPUTE_SHADER,
                 vk::AccessFlags::SHADER_READ,
             ),
         };
@@ -239,6 +240,90 @@ impl Recorder<'_> {
                 &[],
                 &[barrier],
             )
+        };
+    }
+
+    /// The depth pyramid's dispatch ([`Step::BuildDepthTiles`]), then a barrier ordering its
+    /// writes before fragment shader reads (and the next frame's dispatch after those reads,
+    /// which the frames' fences already do).
+    fn build_depth_tiles(&self, cmd: vk::CommandBuffer) -> Result<()> {
+        let tiles = self
+            .renderer
+            .depth_tiles
+            .as_ref()
+            .ok_or_else(|| anyhow!("no depth tile bindings"))?;
+        let groups = |n: u32| n.div_ceil(8);
+        let barrier = vk::BufferMemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+            .dst_access_mask(vk::AccessFlags::SHADER_READ)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .buffer(tiles.tiles.buffer)
+            .size(vk::WHOLE_SIZE);
+        // SAFETY: `cmd` is a recording primary outside any pass; the set matches the compute
+        // layout, the main depth is in SHADER_READ_ONLY_OPTIMAL (plan check).
+        unsafe {
+            let device = self.device();
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, tiles.compute);
+            device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                tiles.compute_layout,
+                0,
+                &[tiles.set],
+                &[],
+            );
+            device.cmd_dispatch(cmd, groups(tiles.count.0), groups(tiles.count.1), 1);
+            device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::PipelineStageFlags::FRAGMENT_SHADER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[barrier],
+                &[],
+            );
+        }
+        Ok(())
+    }
+
+    /// Pushes the post pass's descriptors (`vkCmdPushDescriptorSetKHR`, another way an
+    /// application hands a depth view to shaders): the main depth's depth view in
+    /// `SHADER_READ_ONLY_OPTIMAL` and the two samplers.
+    fn push_depth_descriptors(&self, cmd: vk::CommandBuffer) {
+        let Some(reads) = &self.renderer.depth_read else {
+            return;
+        };
+        let image_info = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: self.targets.depth.depth_view,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }];
+        let samplers = [reads.nearest, reads.linear].map(|sampler| vk::DescriptorImageInfo {
+            sampler,
+            image_view: vk::ImageView::null(),
+            image_layout: vk::ImageLayout::UNDEFINED,
+        });
+        let writes = [
+            vk::WriteDescriptorSet::default()
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&image_info),
+            vk::WriteDescriptorSet::default()
+                .dst_binding(1)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&samplers[..1]),
+            vk::WriteDescriptorSet::default()
+                .dst_binding(2)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&samplers[1..]),
+        ];
+        // SAFETY: `cmd` is recording with the post pipeline (of the push-descriptor layout)
+        // bound; the view and samplers are live, the infos match the binding types.
+        unsafe {
+            self.renderer
+                .gpu
+                .cmd_push_descriptor_set(cmd, self.renderer.depth_push_layout, &writes)
         };
     }
 
@@ -506,7 +591,12 @@ impl Recorder<'_> {
                 }
                 Program::MvpPair => renderer.colors.as_ref().map(|c| c.set),
                 Program::SoftParticle => renderer.depth_read.as_ref().map(|r| r.read_only_set),
+                Program::DepthPost if renderer.depth_push_layout != vk::PipelineLayout::null() => {
+                    self.push_depth_descriptors(cmd);
+                    None
+                }
                 Program::DepthPost => renderer.depth_read.as_ref().map(|r| r.sampled_set),
+                Program::DepthTiles => renderer.depth_tiles.as_ref().map(|t| t.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
                 Program::Ssbo | Program::SsboRows => renderer.matrices.as_ref().map(|m| m.set),

@@ -206,7 +206,8 @@ impl Scene {
             | Program::SplitPush
             | Program::PushGeometry
             | Program::SoftParticle
-            | Program::DepthPost => {
+            | Program::DepthPost
+            | Program::DepthTiles => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

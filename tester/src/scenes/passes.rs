@@ -572,10 +572,12 @@ pub fn pipeline_library() -> Scene {
 /// depth read-only (the render pass moves it from the attachment layout into
 /// `DEPTH_STENCIL_READ_ONLY_OPTIMAL` and leaves it there) with LESS and no writes, while their
 /// fragment shader fetches the same depth to fade each particle where the scene lies close
-/// behind it. Then a barrier into `SHADER_READ_ONLY_OPTIMAL` and a post pass of a full-screen
-/// quad (color only) that overwrites the bottom quarter of the image with a shade of the
-/// depth's view distance, read with a texel fetch, a bilinear sample and a gather side by
-/// side. A barrier puts the depth back into its attachment layout for the read-back.
+/// behind it. Then a barrier into `SHADER_READ_ONLY_OPTIMAL`, a compute pass that builds a
+/// depth pyramid level from it (each 4 x 4 tile's nearest and farthest depth, as Hi-Z
+/// occlusion culling does), and a post pass of full-screen quads (color only) that overwrite
+/// the bottom quarter of the image with a shade of the depth's view distance, read with a
+/// texel fetch, a bilinear sample and a gather side by side, and the top quarter with a shade
+/// of the tiles. A barrier puts the depth back into its attachment layout for the read-back.
 ///
 /// Layer item (issue #39): a depth image that shaders read after the pass that writes it is
 /// reversed, and its read twin holds the standard values whenever they read: refreshed before
@@ -625,6 +627,12 @@ pub fn depth_reads() -> Scene {
         depth_write: false,
         ..PipelineSpec::standard("depth band", post)
     });
+    let tiles = b.pipeline(PipelineSpec {
+        program: Program::DepthTiles,
+        depth_test: DepthTest::Off,
+        depth_write: false,
+        ..PipelineSpec::standard("depth tiles band", post)
+    });
     b.step(Step::BeginPass(main));
     b.step(Step::Bind(flat));
     b.draw(&objects);
@@ -637,8 +645,11 @@ pub fn depth_reads() -> Scene {
         from: DepthLayout::ReadOnly,
         to: DepthLayout::Sampled,
     });
+    b.step(Step::BuildDepthTiles);
     b.step(Step::BeginPass(post));
     b.step(Step::Bind(shade));
+    b.draw(&[band]);
+    b.step(Step::Bind(tiles));
     b.draw(&[band]);
     b.step(Step::EndPass);
     b.step(Step::MainDepthLayout {
