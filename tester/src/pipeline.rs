@@ -600,6 +600,7 @@ pub fn create_pipeline(
         ),
         Program::DepthPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_POST_FRAG)),
         Program::DepthTiles => (shaders::SCENE_VERT, Some(shaders::DEPTH_TILES_POST_FRAG)),
+        Program::StencilPost => (shaders::SCENE_VERT, Some(shaders::STENCIL_POST_FRAG)),
         Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),
         Program::LitMvp => (shaders::LIT_MVP_VERT, Some(shaders::LIT_MVP_FRAG)),

@@ -145,8 +145,14 @@ pub const DEPTH_POST_FRAG: ShaderSource = glslang_shader!("depth_post.frag");
 /// `depth_tiles.comp` (glslang: `tester/build.rs` compiles no compute stage): each 4 x 4
 /// tile's nearest and farthest depth of the main depth image, into a storage buffer.
 pub const DEPTH_TILES_COMP: ShaderSource = glslang_shader!("depth_tiles.comp");
-/// `depth_tiles_post.frag`: the top quarter of the image shaded from those tiles.
-pub const DEPTH_TILES_POST_FRAG: ShaderSource = shader!("depth_tiles_post.frag");
+/// `depth_tiles_post.frag` (glslang: its storage buffer is a `BufferBlock` in the Uniform
+/// class, which Vulkan 1.0 takes without `VK_KHR_storage_buffer_storage_class`): the top
+/// quarter of the image shaded from those tiles.
+pub const DEPTH_TILES_POST_FRAG: ShaderSource = glslang_shader!("depth_tiles_post.frag");
+
+/// `stencil_post.frag`: a band across the middle of the image shaded by the main depth-stencil
+/// image's stencil value and depth (texel fetches of each aspect).
+pub const STENCIL_POST_FRAG: ShaderSource = shader!("stencil_post.frag");
 
 /// Every embedded module.
 #[cfg(test)]
@@ -181,6 +187,7 @@ pub const ALL: &[ShaderSource] = &[
     DEPTH_POST_FRAG,
     DEPTH_TILES_COMP,
     DEPTH_TILES_POST_FRAG,
+    STENCIL_POST_FRAG,
 ];
 
 /// The glslang modules: (source file under `shaders/glslang/`, module).
@@ -197,6 +204,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("split_color.frag", SPLIT_COLOR_FRAG),
     ("depth_post.frag", DEPTH_POST_FRAG),
     ("depth_tiles.comp", DEPTH_TILES_COMP),
+    ("depth_tiles_post.frag", DEPTH_TILES_POST_FRAG),
 ];
 
 #[cfg(test)]
@@ -351,6 +359,7 @@ mod tests {
                 SOFT_PARTICLE_FRAG.name,
                 DEPTH_POST_FRAG.name,
                 DEPTH_TILES_POST_FRAG.name,
+                STENCIL_POST_FRAG.name,
             ]
             .contains(&shader.name);
             assert_eq!(

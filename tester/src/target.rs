@@ -138,6 +138,9 @@ pub struct Attachment<'a> {
     /// A view of its depth aspect alone, which shaders sample ([`Self::add_depth_view`]; null
     /// until then).
     pub depth_view: vk::ImageView,
+    /// A view of its stencil aspect alone, where it has one and shaders sample it (null
+    /// otherwise).
+    pub stencil_view: vk::ImageView,
     /// The image format.
     pub format: vk::Format,
     /// What it was created with (`render.json`'s `recorded`).
@@ -163,6 +166,7 @@ impl Drop for Attachment<'_> {
         unsafe {
             self.device.destroy_image_view(self.view, None);
             self.device.destroy_image_view(self.depth_view, None);
+            self.device.destroy_image_view(self.stencil_view, None);
             self.device.destroy_image(self.image, None);
             self.device.free_memory(self.memory, None);
         }
@@ -252,6 +256,7 @@ impl<'a> Attachment<'a> {
             memory: vk::DeviceMemory::null(),
             view: vk::ImageView::null(),
             depth_view: vk::ImageView::null(),
+            stencil_view: vk::ImageView::null(),
             format,
             usage,
             samples,
@@ -302,21 +307,39 @@ impl<'a> Attachment<'a> {
 }
 
 impl Attachment<'_> {
-    /// Creates [`Self::depth_view`]: a view of the depth aspect alone (a sampled view of a
-    /// depth-stencil image may name one aspect only).
+    /// Creates [`Self::depth_view`] (and [`Self::stencil_view`] where the format has
+    /// stencil): views of one aspect each (a sampled view of a depth-stencil image may name
+    /// one aspect only).
     pub fn add_depth_view(&mut self) -> Result<()> {
-        let view_info = vk::ImageViewCreateInfo::default()
-            .image(self.image)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(self.format)
-            .subresource_range(full_range(vk::ImageAspectFlags::DEPTH));
-        // SAFETY: valid image bound to memory, view matching its format and depth aspect.
-        self.depth_view =
+        let view = |aspect| {
+            let view_info = vk::ImageViewCreateInfo::default()
+                .image(self.image)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(self.format)
+                .subresource_range(full_range(aspect));
+            // SAFETY: valid image bound to memory, view matching its format and an aspect it
+            // has.
             unsafe { self.device.create_image_view(&view_info, None) }.with_context(|| {
-                format!("vkCreateImageView ({:?}, depth aspect) failed", self.format)
-            })?;
+                format!("vkCreateImageView ({:?}, {aspect:?}) failed", self.format)
+            })
+        };
+        self.depth_view = view(vk::ImageAspectFlags::DEPTH)?;
+        if format_has_stencil(self.format) {
+            self.stencil_view = view(vk::ImageAspectFlags::STENCIL)?;
+        }
         Ok(())
     }
+}
+
+/// Whether `format` has a stencil aspect.
+pub fn format_has_stencil(format: vk::Format) -> bool {
+    matches!(
+        format,
+        vk::Format::D16_UNORM_S8_UINT
+            | vk::Format::D24_UNORM_S8_UINT
+            | vk::Format::D32_SFLOAT_S8_UINT
+            | vk::Format::S8_UINT
+    )
 }
 
 /// The whole (single mip, single layer) subresource range of `aspects`.

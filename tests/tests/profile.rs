@@ -17,7 +17,11 @@ fn profiled(harness: &Harness, scene: &str, delivery: &str, mode: &str) -> Optio
     let report = dir.join("revz-profile.json");
     std::fs::remove_file(&report).ok();
     // The stencil scene needs a stencil aspect; every other scene renders D32.
-    let format = if scene == "stencil" { "d32-s8" } else { "d32" };
+    let format = if matches!(scene, "stencil" | "stencil-reads") {
+        "d32-s8"
+    } else {
+        "d32"
+    };
     let mut command = harness.tester(format, &dir);
     command
         .args([

@@ -48,11 +48,11 @@ fn refused(_version: &str, scene: &str) -> Option<&'static str> {
 }
 
 /// The scenes whose device extensions (`VK_EXT_depth_clip_control`,
-/// `VK_EXT_graphics_pipeline_library`, and below their core versions the extensions of dynamic
+/// `VK_EXT_graphics_pipeline_library`, `VK_KHR_push_descriptor`, and below their core versions the extensions of dynamic
 /// rendering, the dynamic compare op and depth resolves) make the tester, as a Vulkan 1.0
 /// application, enable `VK_KHR_get_physical_device_properties2` itself: revz then has nothing
 /// to add.
-const ENABLE_PROPERTIES2_THEMSELVES: [&str; 8] = [
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 9] = [
     "opengl-depth",
     "pipeline-library",
     "frag-depth-library",
@@ -61,8 +61,10 @@ const ENABLE_PROPERTIES2_THEMSELVES: [&str; 8] = [
     "msaa-resolve",
     "msaa-resolve-dynamic",
     // VK_ATTACHMENT_STORE_OP_NONE for its read-only depth attachment, through
-    // VK_KHR_dynamic_rendering below 1.3.
+    // VK_KHR_dynamic_rendering below 1.3, and VK_KHR_push_descriptor (asked for by the scenes
+    // with a post pass, used where the device has it).
     "depth-reads",
+    "stencil-reads",
 ];
 
 /// The scenes that set the compare op dynamically: below 1.3 the tester enables
@@ -72,7 +74,11 @@ const ENABLE_EXTENDED_DYNAMIC_STATE_THEMSELVES: [&str; 1] = ["compare-ops-dynami
 /// Renders `scene` through the layer in `mode` at `version`; `Err` with the tester's error
 /// where it refused the scene.
 fn render(harness: &Harness, scene: &str, mode: &str, version: &str) -> Result<Render, String> {
-    let format = if scene == "stencil" { "d32-s8" } else { "d32" };
+    let format = if matches!(scene, "stencil" | "stencil-reads") {
+        "d32-s8"
+    } else {
+        "d32"
+    };
     let dir = harness.scratch_dir(&format!("versions-{scene}-{mode}-{version}"));
     let mut command = harness.tester(format, &dir);
     command.args(["--scene", scene, "--vulkan", version]);

@@ -233,6 +233,10 @@ pub enum Program {
     /// depth pyramid level a [`Step::BuildDepthTiles`] built (each 4 x 4 tile's nearest and
     /// farthest depth), in a [`Target::Post`] pass.
     DepthTiles,
+    /// `scene.vert` + `stencil_post.frag`: a band across the middle of the image shaded by the main
+    /// depth-stencil image's stencil value and depth (texel fetches of each aspect), in a
+    /// [`Target::Post`] pass (needs a depth format with stencil).
+    StencilPost,
 }
 
 /// How a scene hands its matrices to the vertex shader (`--delivery`): push constants, as
@@ -374,7 +378,8 @@ impl Program {
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost
-            | Program::DepthTiles => 80,
+            | Program::DepthTiles
+            | Program::StencilPost => 80,
         }
     }
 
@@ -929,7 +934,7 @@ impl Plan {
             }
         }
         for pipeline in &self.pipelines {
-            needs.stencil |= pipeline.stencil.is_some();
+            needs.stencil |= pipeline.stencil.is_some() || pipeline.program == Program::StencilPost;
             needs.depth_bounds |= pipeline.bounds != Bounds::Off;
             needs.dynamic_compare_op |= pipeline.depth_test == DepthTest::Dynamic;
             needs.depth_clip_control |= pipeline.negative_one_to_one;

@@ -432,10 +432,13 @@ impl Renderer<'_> {
         // SAFETY: valid device and create info.
         reads.linear = unsafe { device.create_sampler(&linear_info, None) }
             .context("vkCreateSampler (linear) failed")?;
+        // Binding 3, the stencil aspect's view, is written where the format has stencil (only
+        // `stencil_post.frag` reads it, in scenes that need a stencil format).
         let bindings = [
             (0, vk::DescriptorType::SAMPLED_IMAGE),
             (1, vk::DescriptorType::SAMPLER),
             (2, vk::DescriptorType::SAMPLER),
+            (3, vk::DescriptorType::SAMPLED_IMAGE),
         ]
         .map(|(binding, kind)| {
             vk::DescriptorSetLayoutBinding::default()
@@ -489,6 +492,21 @@ impl Renderer<'_> {
             ];
             // SAFETY: valid set, view and samplers; the infos match the binding types.
             unsafe { device.update_descriptor_sets(&writes, &[]) };
+            let stencil = targets.depth.stencil_view;
+            if stencil != vk::ImageView::null() {
+                let stencil_info = [vk::DescriptorImageInfo {
+                    sampler: vk::Sampler::null(),
+                    image_view: stencil,
+                    image_layout: layout,
+                }];
+                let write = vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(3)
+                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                    .image_info(&stencil_info);
+                // SAFETY: valid set and view; the info matches the binding type.
+                unsafe { device.update_descriptor_sets(&[write], &[]) };
+            }
         }
         if gpu.enabled.push_descriptor {
             let info = vk::DescriptorSetLayoutCreateInfo::default()

@@ -538,7 +538,7 @@ impl<'a> Renderer<'a> {
             Program::DepthPost if self.depth_push_layout != vk::PipelineLayout::null() => {
                 (self.depth_push_layout, PLAIN_PUSH_STAGES)
             }
-            Program::SoftParticle | Program::DepthPost => {
+            Program::SoftParticle | Program::DepthPost | Program::StencilPost => {
                 (self.depth_read_layout, PLAIN_PUSH_STAGES)
             }
             Program::DepthTiles => (self.tiles_layout, PLAIN_PUSH_STAGES),

@@ -595,7 +595,9 @@ impl Recorder<'_> {
                     self.push_depth_descriptors(cmd);
                     None
                 }
-                Program::DepthPost => renderer.depth_read.as_ref().map(|r| r.sampled_set),
+                Program::DepthPost | Program::StencilPost => {
+                    renderer.depth_read.as_ref().map(|r| r.sampled_set)
+                }
                 Program::DepthTiles => renderer.depth_tiles.as_ref().map(|t| t.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.

@@ -207,7 +207,8 @@ impl Scene {
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost
-            | Program::DepthTiles => {
+            | Program::DepthTiles
+            | Program::StencilPost => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

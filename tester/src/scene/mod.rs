@@ -83,6 +83,9 @@ pub enum SceneId {
     /// The overlap scene, then soft particles (the depth attached read-only and sampled at
     /// once) and a post pass sampling the depth (fetch, bilinear, gather).
     DepthReads,
+    /// The overlap scene with stencil writes, then a post pass sampling the depth-stencil
+    /// image's stencil and depth aspects.
+    StencilReads,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,

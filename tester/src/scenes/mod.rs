@@ -109,6 +109,7 @@ pub const CATALOG: &[Entry] = &[
         shadow_map_perspective_secondaries,
     ),
     entry_row(SceneId::DepthReads, "depth-reads", depth_reads),
+    entry_row(SceneId::StencilReads, "stencil-reads", stencil_reads),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,

@@ -658,3 +658,65 @@ pub fn depth_reads() -> Scene {
     });
     b.finish("depth-reads", camera, None)
 }
+
+/// `stencil-reads`: the overlap scene drawn with stencil writes (the ground marks 2, every
+/// other object 1, where it passes the depth test), then a barrier into
+/// `SHADER_READ_ONLY_OPTIMAL` and a post pass that overwrites a band across the middle of the
+/// image (cubes, ground and background) with a shade of the stencil value and the depth's view distance, each read with a texel
+/// fetch of its own aspect's view. Depth formats with stencil only.
+///
+/// Layer item (issue #39): the stencil aspect of a reversed depth-stencil image that shaders
+/// sample. Its read twin holds the stencil as it is and the depth converted: on lavapipe a
+/// stencil-only image copy writes the depth too, so the refresh must copy the stencil first.
+pub fn stencil_reads() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let (ground, others): (Vec<Object>, Vec<Object>) = overlap_objects()
+        .into_iter()
+        .partition(|o| o.name == "ground");
+    let others = b.nearest_first(&camera, others);
+    let ground = b.nearest_first(&camera, ground);
+    let band = b.object(Object::full_screen("stencil band", [1.0; 4]));
+    let main = b.pass(PassSpec::clear(1.0));
+    let post = b.pass(PassSpec {
+        target: Target::Post,
+        depth: DepthLoad::Load,
+        load_color: true,
+        ..PassSpec::clear(1.0)
+    });
+    let marking = |name, reference| PipelineSpec {
+        stencil: Some(StencilTest {
+            compare: Compare::Always,
+            reference,
+            on_pass: StencilWrite::Replace,
+        }),
+        ..PipelineSpec::standard(name, main)
+    };
+    let objects_pipeline = b.pipeline(marking("objects, stencil 1", 1));
+    let ground_pipeline = b.pipeline(marking("ground, stencil 2", 2));
+    let shade = b.pipeline(PipelineSpec {
+        program: Program::StencilPost,
+        depth_test: DepthTest::Off,
+        depth_write: false,
+        ..PipelineSpec::standard("stencil band", post)
+    });
+    b.step(Step::BeginPass(main));
+    b.step(Step::Bind(objects_pipeline));
+    b.draw(&others);
+    b.step(Step::Bind(ground_pipeline));
+    b.draw(&ground);
+    b.step(Step::EndPass);
+    b.step(Step::MainDepthLayout {
+        from: DepthLayout::Attachment,
+        to: DepthLayout::Sampled,
+    });
+    b.step(Step::BeginPass(post));
+    b.step(Step::Bind(shade));
+    b.draw(&[band]);
+    b.step(Step::EndPass);
+    b.step(Step::MainDepthLayout {
+        from: DepthLayout::Sampled,
+        to: DepthLayout::Attachment,
+    });
+    b.finish("stencil-reads", camera, None)
+}
