@@ -186,10 +186,17 @@ fn needs_follow_from_the_plans() {
         );
         assert_eq!(needs.dynamic_rendering, id == SceneId::MsaaResolveDynamic);
     }
+    let reads = needs(SceneId::DepthReads);
+    assert!(reads.sampled_depth && reads.depth_tiles && reads.dynamic_rendering);
+    let stencil_reads = needs(SceneId::StencilReads);
+    assert!(stencil_reads.sampled_depth && stencil_reads.stencil && !stencil_reads.depth_tiles);
     for scene in all() {
         let needs = scene.plan.needs();
-        if scene.name != "stencil" {
+        if !matches!(scene.name, "stencil" | "stencil-reads") {
             assert!(!needs.stencil, "{}", scene.name);
+        }
+        if !matches!(scene.name, "depth-reads" | "stencil-reads") {
+            assert!(!needs.sampled_depth && !needs.depth_tiles, "{}", scene.name);
         }
         if scene.name != "depth-bounds" {
             assert!(!needs.depth_bounds, "{}", scene.name);

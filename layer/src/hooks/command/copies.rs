@@ -259,6 +259,10 @@ fn image_buffer_copy(
     )
 }
 
+/// Sends the application's regions given as (index, aspects) down at once, narrowed to those
+/// aspects ([`image_image_copy`]).
+type SendFirst<'a> = &'a mut dyn FnMut(&[(usize, vk::ImageAspectFlags)]);
+
 /// Converts the depth of an image copy between conventions, if the policy says so. (The
 /// arguments are the command's own, plus whether it is extended, and `send_first`, which sends
 /// the given regions down narrowed to the given aspects.)
@@ -278,7 +282,7 @@ fn image_image_copy(
     dst_layout: vk::ImageLayout,
     regions: &[vk::ImageCopy],
     extended: bool,
-    send_first: &mut dyn FnMut(&[(usize, vk::ImageAspectFlags)]),
+    send_first: SendFirst<'_>,
 ) -> Sent {
     let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
     let depth_aspect = regions.iter().any(|r| {
