@@ -113,32 +113,47 @@ fn render_pass_info(
     info
 }
 
+/// The references of a subpass's arrays, in order: input, color, resolve (as many as color,
+/// or none where the pointer is null), depth-stencil (none where null).
+///
+/// # Safety
+/// The pointers and counts of a valid subpass description.
+unsafe fn subpass_references<'a, R: 'a>(
+    (inputs, input_count): (*const R, u32),
+    (colors, color_count): (*const R, u32),
+    resolves: *const R,
+    depth: *const R,
+) -> impl Iterator<Item = &'a R> {
+    // SAFETY: the caller's contract: arrays sized by their counts, the resolve array by the
+    // color count (or null), the depth-stencil reference one element (or null).
+    let (inputs, colors, resolves, depth) = unsafe {
+        (
+            slice(inputs, input_count),
+            slice(colors, color_count),
+            slice(resolves, color_count),
+            depth.as_ref(),
+        )
+    };
+    inputs.iter().chain(colors).chain(resolves).chain(depth)
+}
+
 /// Every attachment reference of a `vkCreateRenderPass` subpass, as (attachment, layout).
 ///
 /// # Safety
 /// A valid subpass description.
 unsafe fn references_of(subpass: &vk::SubpassDescription) -> Vec<(u32, vk::ImageLayout)> {
-    // SAFETY: arrays sized by their counts; the resolve array has the color count, or is null.
-    let (inputs, colors, resolves) = unsafe {
-        (
-            slice(subpass.p_input_attachments, subpass.input_attachment_count),
-            slice(subpass.p_color_attachments, subpass.color_attachment_count),
-            slice(
-                subpass.p_resolve_attachments,
-                subpass.color_attachment_count,
-            ),
+    // SAFETY: a valid subpass description (the caller's contract).
+    unsafe {
+        subpass_references(
+            (subpass.p_input_attachments, subpass.input_attachment_count),
+            (subpass.p_color_attachments, subpass.color_attachment_count),
+            subpass.p_resolve_attachments,
+            subpass.p_depth_stencil_attachment,
         )
-    };
-    // SAFETY: null or one valid reference.
-    let depth = unsafe { subpass.p_depth_stencil_attachment.as_ref() };
-    inputs
-        .iter()
-        .chain(colors)
-        .chain(resolves)
-        .chain(depth)
-        .filter(|r| r.attachment != vk::ATTACHMENT_UNUSED)
-        .map(|r| (r.attachment, r.layout))
-        .collect()
+    }
+    .filter(|r| r.attachment != vk::ATTACHMENT_UNUSED)
+    .map(|r| (r.attachment, r.layout))
+    .collect()
 }
 
 /// Every attachment reference of a `vkCreateRenderPass2` subpass, as (attachment, layout):
@@ -148,30 +163,20 @@ unsafe fn references_of(subpass: &vk::SubpassDescription) -> Vec<(u32, vk::Image
 /// # Safety
 /// A valid subpass description.
 unsafe fn references_of2(subpass: &vk::SubpassDescription2<'_>) -> Vec<(u32, vk::ImageLayout)> {
-    // SAFETY: arrays sized by their counts; the resolve array has the color count, or is null.
-    let (inputs, colors, resolves) = unsafe {
-        (
-            slice(subpass.p_input_attachments, subpass.input_attachment_count),
-            slice(subpass.p_color_attachments, subpass.color_attachment_count),
-            slice(
-                subpass.p_resolve_attachments,
-                subpass.color_attachment_count,
-            ),
+    // SAFETY: a valid subpass description (the caller's contract).
+    let references = unsafe {
+        subpass_references(
+            (subpass.p_input_attachments, subpass.input_attachment_count),
+            (subpass.p_color_attachments, subpass.color_attachment_count),
+            subpass.p_resolve_attachments,
+            subpass.p_depth_stencil_attachment,
         )
     };
     // SAFETY: null or one valid reference.
-    let depth = unsafe { subpass.p_depth_stencil_attachment.as_ref() };
-    // SAFETY: as above.
     let depth_resolve = depth_resolve_of(subpass)
         .and_then(|r| unsafe { r.p_depth_stencil_resolve_attachment.as_ref() });
     let mut out = Vec::new();
-    for r in inputs
-        .iter()
-        .chain(colors)
-        .chain(resolves)
-        .chain(depth)
-        .chain(depth_resolve)
-    {
+    for r in references.chain(depth_resolve) {
         if r.attachment == vk::ATTACHMENT_UNUSED {
             continue;
         }
@@ -756,6 +761,67 @@ pub unsafe extern "system" fn create_framebuffer(
 mod tests {
     use super::*;
     use crate::policy::ResolveSupport;
+
+    /// Every reference of a subpass counts, in order, unused ones left out; a
+    /// `vkCreateRenderPass2` subpass's separate stencil layout and depth resolve attachment too
+    /// (what decides where a read twin is refreshed: `policy::twins`).
+    #[test]
+    fn subpass_references_name_every_attachment_use_with_its_layout() {
+        use vk::ImageLayout as L;
+        let reference = |attachment, layout| vk::AttachmentReference { attachment, layout };
+        let inputs = [reference(3, L::SHADER_READ_ONLY_OPTIMAL)];
+        let colors = [
+            reference(0, L::COLOR_ATTACHMENT_OPTIMAL),
+            reference(vk::ATTACHMENT_UNUSED, L::UNDEFINED),
+        ];
+        let resolves = [
+            reference(1, L::COLOR_ATTACHMENT_OPTIMAL),
+            reference(vk::ATTACHMENT_UNUSED, L::UNDEFINED),
+        ];
+        let depth = reference(2, L::DEPTH_STENCIL_READ_ONLY_OPTIMAL);
+        let subpass = vk::SubpassDescription::default()
+            .input_attachments(&inputs)
+            .color_attachments(&colors)
+            .resolve_attachments(&resolves)
+            .depth_stencil_attachment(&depth);
+        // SAFETY: a valid subpass description of live locals.
+        let found = unsafe { references_of(&subpass) };
+        assert_eq!(
+            found,
+            [
+                (3, L::SHADER_READ_ONLY_OPTIMAL),
+                (0, L::COLOR_ATTACHMENT_OPTIMAL),
+                (1, L::COLOR_ATTACHMENT_OPTIMAL),
+                (2, L::DEPTH_STENCIL_READ_ONLY_OPTIMAL),
+            ]
+        );
+
+        let mut stencil_layout = vk::AttachmentReferenceStencilLayout::default()
+            .stencil_layout(L::STENCIL_ATTACHMENT_OPTIMAL);
+        let depth2 = vk::AttachmentReference2::default()
+            .attachment(0)
+            .layout(L::DEPTH_READ_ONLY_OPTIMAL)
+            .push_next(&mut stencil_layout);
+        let resolved = vk::AttachmentReference2::default()
+            .attachment(1)
+            .layout(L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
+        let mut resolve = vk::SubpassDescriptionDepthStencilResolve::default()
+            .depth_resolve_mode(vk::ResolveModeFlags::SAMPLE_ZERO)
+            .depth_stencil_resolve_attachment(&resolved);
+        let subpass2 = vk::SubpassDescription2::default()
+            .depth_stencil_attachment(&depth2)
+            .push_next(&mut resolve);
+        // SAFETY: as above.
+        let found = unsafe { references_of2(&subpass2) };
+        assert_eq!(
+            found,
+            [
+                (0, L::DEPTH_READ_ONLY_OPTIMAL),
+                (0, L::STENCIL_ATTACHMENT_OPTIMAL),
+                (1, L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
+            ]
+        );
+    }
 
     use vk::ResolveModeFlags as M;
 
