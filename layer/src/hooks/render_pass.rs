@@ -104,6 +104,8 @@ fn render_pass_info(
         info.depth_cleared
             .push(clears_depth_at_begin(a.format, a.load_op));
         info.twin_refreshes.push(used.refreshes());
+        info.read_after_written_inside
+            .push(used.read_after_written_inside());
     }
     for (depth, resolve) in subpasses {
         info.subpass_depth

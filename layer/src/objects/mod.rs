@@ -98,6 +98,10 @@ pub struct RenderPassInfo {
     /// Where each attachment's read twin is refreshed, if its image has one: before the pass
     /// (a first use that reads it) and after it (left readable after writes).
     pub twin_refreshes: Vec<crate::policy::twins::PassRefresh>,
+    /// Whether each attachment may be read by shaders in a subpass after an earlier one wrote
+    /// it (`crate::policy::twins::AttachmentUse::read_after_written_inside`): a twin read
+    /// there holds what the image held when the pass began.
+    pub read_after_written_inside: Vec<bool>,
     pub depth_cleared: Vec<bool>,
     pub subpass_depth: Vec<Option<u32>>,
     pub subpass_resolve: Vec<Option<SubpassResolve>>,

@@ -125,6 +125,23 @@ impl AttachmentUse {
     }
 }
 
+impl AttachmentUse {
+    /// Whether a subpass uses the attachment in a layout shaders may read it in after an
+    /// earlier subpass of the same pass may have written it: shaders sampling it there read
+    /// its twin as it was when the pass began (no refresh can be recorded inside a pass).
+    pub fn read_after_written_inside(&self) -> bool {
+        let mut written = self.depth_cleared || self.stencil_cleared;
+        for &layout in &self.references {
+            let readable = shader_readable(layout, 0) || layout == vk::ImageLayout::GENERAL;
+            if written && readable {
+                return true;
+            }
+            written |= !read_only(layout);
+        }
+        false
+    }
+}
+
 /// Whether the depth aspect is read-only in `layout` while the stencil may be written (a
 /// pass sampling depth while testing stencil): the depth shaders read must be refreshed at
 /// the begin, and the stencil written makes the end refresh too.
@@ -296,6 +313,38 @@ mod tests {
                 at_end: Some(L::SHADER_READ_ONLY_OPTIMAL)
             }
         );
+    }
+
+    #[test]
+    fn reads_after_writes_inside_a_pass_are_found() {
+        let used = |cleared, references: &[L]| AttachmentUse {
+            initial: L::UNDEFINED,
+            final_layout: L::SHADER_READ_ONLY_OPTIMAL,
+            depth_cleared: cleared,
+            stencil_cleared: false,
+            references: references.to_vec(),
+        };
+        // A depth pre-pass, then a subpass testing it read-only (where it may be sampled).
+        assert!(used(
+            true,
+            &[
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                L::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+            ]
+        )
+        .read_after_written_inside());
+        // Cleared, then read-only at once.
+        assert!(used(true, &[L::DEPTH_STENCIL_READ_ONLY_OPTIMAL]).read_after_written_inside());
+        // Written in every subpass, or only read: nothing read after a write inside.
+        assert!(!used(
+            true,
+            &[
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL
+            ]
+        )
+        .read_after_written_inside());
+        assert!(!used(false, &[L::DEPTH_STENCIL_READ_ONLY_OPTIMAL]).read_after_written_inside());
     }
 
     #[test]

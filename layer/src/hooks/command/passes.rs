@@ -76,6 +76,7 @@ fn begin_pass(
     let mut promoted = false;
     if let Some(pass) = &pass {
         out.refreshes = super::twins::pass_begin_refreshes(entry, pass, &views);
+        super::twins::warn_reads_inside(entry, pass, &views);
         // Ordinary framebuffers were settled at creation; imageless ones only now.
         device.objects.settle_pass_resolves(pass, &views);
         let images: Vec<Target> = views

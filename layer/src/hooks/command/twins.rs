@@ -229,6 +229,34 @@ pub(super) fn pass_begin_refreshes(
     attachment_refreshes(device, views, pass, recording, |refresh| refresh.at_begin)
 }
 
+/// Logs once where a render pass begins over an image with a twin that a subpass may sample
+/// after an earlier subpass wrote it: no refresh can be recorded inside a pass, so such reads
+/// see the image as it was when the pass began.
+pub(super) fn warn_reads_inside(
+    entry: &CommandBufferEntry,
+    pass: &crate::objects::RenderPassInfo,
+    views: &[vk::ImageView],
+) {
+    let device = &entry.device;
+    if !crate::hooks::descriptors::any_twin(device) {
+        return;
+    }
+    let stale = views
+        .iter()
+        .zip(&pass.read_after_written_inside)
+        .any(|(view, &inside)| inside && device.objects.twin_views.get(view).is_some());
+    if stale {
+        static ONCE: crate::logging::LogOnce = crate::logging::LogOnce::new();
+        ONCE.log(|| {
+            log::warn!(
+                "a render pass writes a depth image shaders sample in one subpass and may read \
+                 it in a later one: shaders sampling it there read its read twin as it was when \
+                 the pass began (no refresh can be recorded inside a pass; logged once)"
+            )
+        });
+    }
+}
+
 /// The refreshes of the attachments of `pass` (begun over `views`) that `when` picks a layout
 /// for.
 fn attachment_refreshes(
