@@ -601,7 +601,8 @@ pub fn plan_buffer_copy(
 }
 
 /// A copy between two depth images of different conventions, split: the depth aspect of each
-/// region goes through the scratch buffer, the rest (stencil) goes down.
+/// region goes through the scratch buffer (and the stencil, between two stored formats), the
+/// rest (stencil) goes down.
 #[derive(Clone, Debug)]
 pub struct ImageCopyPlan {
     pub layout: ScratchLayout,
@@ -629,9 +630,9 @@ fn side_extent(extent: vk::Extent3D, side: vk::ImageSubresourceLayers) -> vk::Ex
 }
 
 /// Plans an image copy whose depth must change convention or format (`kinds`: the texels each
-/// image is stored in). `None` as for [`plan_buffer_copy`], and where the two images are
-/// stored in different formats and a region copies stencil: the application's own copy could
-/// not take it (a depth/stencil copy needs one format at both ends).
+/// image is stored in). `None` as for [`plan_buffer_copy`]. Where the two images are stored in
+/// different formats (one promoted, one not) the stencil goes through the scratch buffer as
+/// well, as it is: an image copy of it between the two formats would be invalid.
 pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<ImageCopyPlan> {
     let depth = vk::ImageAspectFlags::DEPTH;
     let copies_depth = |r: &vk::ImageCopy| r.src_subresource.aspect_mask.contains(depth);
@@ -642,15 +643,22 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<I
                 .aspect_mask
                 .contains(vk::ImageAspectFlags::STENCIL)
         });
+    let through_scratch = |r: &&vk::ImageCopy| {
+        copies_depth(r)
+            || (stencil_between_formats
+                && r.src_subresource
+                    .aspect_mask
+                    .contains(vk::ImageAspectFlags::STENCIL))
+    };
     if converted.is_empty()
-        || stencil_between_formats
-        || converted
+        || regions
             .iter()
+            .filter(through_scratch)
             .any(|r| r.src_subresource.layer_count == vk::REMAINING_ARRAY_LAYERS)
     {
         return None;
     }
-    let layout = scratch_layout(
+    let mut layout = scratch_layout(
         converted.iter().map(|r| {
             (
                 side_extent(r.extent, r.src_subresource),
@@ -684,14 +692,53 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<I
             region.dst_offset,
         ));
     }
+    let stencil = vk::ImageAspectFlags::STENCIL;
+    if stencil_between_formats {
+        // Between two formats the stencil cannot go down as an image copy: it goes through
+        // the scratch too, 1 byte a texel in both formats, after the converted texels (on
+        // 4-byte offsets, as depth/stencil buffer copies need), as it is. Its drain comes
+        // before the depth's: a stencil write must not be the last to touch a texel's depth.
+        let mut offset = layout.size.checked_next_multiple_of(4)?;
+        let mut stencil_drains = Vec::new();
+        for region in regions
+            .iter()
+            .filter(|r| r.src_subresource.aspect_mask.contains(stencil))
+        {
+            let side =
+                |subresource: vk::ImageSubresourceLayers, image_offset| vk::BufferImageCopy {
+                    buffer_offset: offset,
+                    buffer_row_length: 0,
+                    buffer_image_height: 0,
+                    image_subresource: vk::ImageSubresourceLayers {
+                        aspect_mask: stencil,
+                        ..subresource
+                    },
+                    image_offset,
+                    image_extent: side_extent(region.extent, subresource),
+                };
+            from_source.push(side(region.src_subresource, region.src_offset));
+            stencil_drains.push(side(region.dst_subresource, region.dst_offset));
+            let bytes = texels(
+                side_extent(region.extent, region.src_subresource),
+                region.src_subresource.layer_count,
+            );
+            offset = offset.checked_add(bytes)?.checked_next_multiple_of(4)?;
+        }
+        stencil_drains.append(&mut to_destination);
+        to_destination = stencil_drains;
+        layout.size = offset;
+    }
     let rest = regions
         .iter()
         .enumerate()
         .filter_map(|(i, region)| {
-            let left = region.src_subresource.aspect_mask & !depth;
+            let mut left = region.src_subresource.aspect_mask & !depth;
+            if stencil_between_formats {
+                left &= !stencil;
+            }
             match (copies_depth(region), left.is_empty()) {
-                (false, _) => Some((i, region.src_subresource.aspect_mask)),
-                (true, false) => Some((i, left)),
+                (false, true) => None,
+                (false, false) | (true, false) => Some((i, left)),
                 (true, true) => None,
             }
         })
@@ -1328,9 +1375,34 @@ mod tests {
         assert_eq!(to.image_offset.x, 5);
         assert!(plan_image_copy(&regions[1..], d24).is_none());
         // Between a promoted image and one that kept D24: the depth goes through the scratch
-        // buffer, converted; a stencil region could not go down (two formats).
+        // buffer, converted, and so does the stencil (it could not go down between two
+        // formats): past the converted texels (header 32, 2 x 16 float texels in, as many
+        // D24 words out), 1 byte a texel, each region on 4 bytes; drained before the depth.
         let apart = kinds(TexelKind::Float32, TexelKind::Unorm24);
-        assert!(plan_image_copy(&regions, apart).is_none());
+        let plan = plan_image_copy(&regions, apart).unwrap();
+        assert!(plan.rest.is_empty(), "{:?}", plan.rest);
+        let stencil_start = 32 + 2 * 32 * 4;
+        let aspects = |copies: &[vk::BufferImageCopy]| -> Vec<(vk::ImageAspectFlags, u64)> {
+            copies
+                .iter()
+                .map(|c| (c.image_subresource.aspect_mask, c.buffer_offset))
+                .collect()
+        };
+        let (d, st) = (vk::ImageAspectFlags::DEPTH, vk::ImageAspectFlags::STENCIL);
+        assert_eq!(
+            aspects(&plan.from_source),
+            [(d, 32), (st, stencil_start), (st, stencil_start + 32)]
+        );
+        assert_eq!(
+            aspects(&plan.to_destination),
+            [
+                (st, stencil_start),
+                (st, stencil_start + 32),
+                (d, 32 + 32 * 4)
+            ]
+        );
+        assert_eq!(plan.to_destination[0].image_subresource.base_array_layer, 3);
+        assert_eq!(plan.layout.size, stencil_start + 64);
         let depth_only = [region(vk::ImageAspectFlags::DEPTH)];
         let plan = plan_image_copy(&depth_only, apart).unwrap();
         assert!(plan.rest.is_empty());
