@@ -222,7 +222,10 @@ pub(super) fn pass_begin_refreshes(
     views: &[vk::ImageView],
 ) -> Vec<Refresh> {
     let device = &entry.device;
-    if !crate::hooks::descriptors::any_twin(device) {
+    // Most passes read no attachment first: no lock then.
+    if !crate::hooks::descriptors::any_twin(device)
+        || pass.twin_refreshes.iter().all(|r| r.at_begin.is_none())
+    {
         return Vec::new();
     }
     let recording = entry.state().reversal();
