@@ -307,9 +307,10 @@ pub unsafe fn record_refresh(
             )
         }
     };
-    // The stencil first: lavapipe (Mesa 22.3) copies a D32_SFLOAT_S8_UINT image's stencil
-    // aspect as whole texels, depth included, so the depth written after it must be the last
-    // write (the conversion's own barriers order the two transfers).
+    // The stencil first: lavapipe (Mesa 22.3) copies the stencil aspect of a
+    // D24_UNORM_S8_UINT or D32_SFLOAT_S8_UINT image as whole texels, depth included, so the
+    // converted depth must be the last write (the conversion's own barriers order the two
+    // transfers).
     if range.aspect_mask.contains(vk::ImageAspectFlags::STENCIL) {
         copy(&level_regions(
             &range,

@@ -75,10 +75,11 @@ fn begin_pass(
     let mut reversed_images = Vec::new();
     let mut promoted = false;
     if let Some(pass) = &pass {
-        out.refreshes = super::twins::pass_begin_refreshes(entry, pass, &views);
-        super::twins::warn_reads_inside(entry, pass, &views);
         // Ordinary framebuffers were settled at creation; imageless ones only now.
         device.objects.settle_pass_resolves(pass, &views);
+        // After the settle: an image it made native is refreshed as native.
+        out.refreshes = super::twins::pass_begin_refreshes(entry, pass, &views);
+        super::twins::warn_reads_inside(entry, pass, &views);
         let images: Vec<Target> = views
             .iter()
             .map(|&v| device.objects.view_target(v))
