@@ -50,6 +50,8 @@ struct AttachmentFacts {
     stencil_load_op: vk::AttachmentLoadOp,
     initial: vk::ImageLayout,
     final_layout: vk::ImageLayout,
+    /// `VkAttachmentDescriptionStencilLayout` (initial, final), where chained.
+    stencil_layouts: Option<(vk::ImageLayout, vk::ImageLayout)>,
 }
 
 impl AttachmentFacts {
@@ -60,16 +62,23 @@ impl AttachmentFacts {
             stencil_load_op: a.stencil_load_op,
             initial: a.initial_layout,
             final_layout: a.final_layout,
+            stencil_layouts: None,
         }
     }
 
     fn of2(a: &vk::AttachmentDescription2<'_>) -> Self {
+        // SAFETY: a valid pNext chain (the application's contract).
+        let stencil: Option<&vk::AttachmentDescriptionStencilLayout<'_>> =
+            unsafe { chain::find(a.p_next) };
         AttachmentFacts {
             format: a.format,
             load_op: a.load_op,
             stencil_load_op: a.stencil_load_op,
             initial: a.initial_layout,
             final_layout: a.final_layout,
+            stencil_layouts: stencil
+                .filter(|_| has_stencil(a.format))
+                .map(|s| (s.stencil_initial_layout, s.stencil_final_layout)),
         }
     }
 }
@@ -92,6 +101,7 @@ fn render_pass_info(
             stencil_cleared: has_stencil(a.format)
                 && a.stencil_load_op == vk::AttachmentLoadOp::CLEAR,
             references: Vec::new(),
+            stencil_layouts: a.stencil_layouts,
         })
         .collect();
     for (attachment, layout) in references {
@@ -763,6 +773,46 @@ pub unsafe extern "system" fn create_framebuffer(
 mod tests {
     use super::*;
     use crate::policy::ResolveSupport;
+
+    /// A `vkCreateRenderPass2` attachment's separate stencil layouts are read (for a format
+    /// with stencil), and make its twin's aspects refresh apart.
+    #[test]
+    fn separate_stencil_layouts_of_an_attachment_are_read() {
+        use vk::ImageLayout as L;
+        let mut stencil = vk::AttachmentDescriptionStencilLayout::default()
+            .stencil_initial_layout(L::UNDEFINED)
+            .stencil_final_layout(L::STENCIL_ATTACHMENT_OPTIMAL);
+        let attachment = vk::AttachmentDescription2::default()
+            .format(vk::Format::D32_SFLOAT_S8_UINT)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .stencil_load_op(vk::AttachmentLoadOp::CLEAR)
+            .initial_layout(L::UNDEFINED)
+            .final_layout(L::DEPTH_READ_ONLY_OPTIMAL)
+            .push_next(&mut stencil);
+        let facts = AttachmentFacts::of2(&attachment);
+        assert_eq!(
+            facts.stencil_layouts,
+            Some((L::UNDEFINED, L::STENCIL_ATTACHMENT_OPTIMAL))
+        );
+        let info = render_pass_info(
+            &[facts],
+            [(Some(0), None)].into_iter(),
+            [(0, L::DEPTH_ATTACHMENT_OPTIMAL)].into_iter(),
+        );
+        assert_eq!(
+            info.twin_refreshes[0].at(crate::policy::twins::PassMoment::End),
+            [
+                Some((vk::ImageAspectFlags::DEPTH, L::DEPTH_READ_ONLY_OPTIMAL)),
+                None
+            ]
+        );
+        // A depth-only format ignores them.
+        let depth_only = vk::AttachmentDescription2 {
+            format: vk::Format::D32_SFLOAT,
+            ..attachment
+        };
+        assert_eq!(AttachmentFacts::of2(&depth_only).stencil_layouts, None);
+    }
 
     /// Every reference of a subpass counts, in order, unused ones left out; a
     /// `vkCreateRenderPass2` subpass's separate stencil layout and depth resolve attachment too

@@ -83,6 +83,9 @@ pub struct AttachmentUse {
     /// The layout of each reference to it, in subpass order (input, color, resolve and
     /// depth-stencil references, and the separate stencil layout where one is given).
     pub references: Vec<vk::ImageLayout>,
+    /// The stencil aspect's own initial and final layouts
+    /// (`VkAttachmentDescriptionStencilLayout`), where given.
+    pub stencil_layouts: Option<(vk::ImageLayout, vk::ImageLayout)>,
 }
 
 /// Where a render pass instance refreshes an attachment's twin.
@@ -94,6 +97,43 @@ pub struct PassRefresh {
     pub at_begin: Option<vk::ImageLayout>,
     /// After the pass ends, with the image in this layout (its final one).
     pub at_end: Option<vk::ImageLayout>,
+    /// Where the stencil aspect has layouts of its own: its refreshes (before, after), apart
+    /// from the depth aspect's (`at_begin`, `at_end` then concern the depth aspect only).
+    pub stencil_apart: Option<(Option<vk::ImageLayout>, Option<vk::ImageLayout>)>,
+}
+
+/// When a render pass instance refreshes twins: before it begins, or after it ends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassMoment {
+    Begin,
+    End,
+}
+
+impl PassRefresh {
+    /// The refreshes at `moment`, as (aspects, layout the image is in): all of the view's
+    /// aspects at once, or depth and stencil apart where the stencil has its own layouts.
+    pub fn at(&self, moment: PassMoment) -> [Option<(vk::ImageAspectFlags, vk::ImageLayout)>; 2] {
+        let pick = |(begin, end): (Option<vk::ImageLayout>, Option<vk::ImageLayout>)| match moment {
+            PassMoment::Begin => begin,
+            PassMoment::End => end,
+        };
+        let depth = pick((self.at_begin, self.at_end));
+        match self.stencil_apart {
+            None => [
+                depth.map(|layout| {
+                    (
+                        vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                        layout,
+                    )
+                }),
+                None,
+            ],
+            Some(stencil) => [
+                depth.map(|layout| (vk::ImageAspectFlags::DEPTH, layout)),
+                pick(stencil).map(|layout| (vk::ImageAspectFlags::STENCIL, layout)),
+            ],
+        }
+    }
 }
 
 impl AttachmentUse {
@@ -105,23 +145,46 @@ impl AttachmentUse {
     /// where the final layout is one shaders read and the pass may have written it (a clear,
     /// a reference in a layout other than a read-only one), or it leaves a layout it may
     /// have been written in without a refresh at the begin (an attachment no subpass uses).
+    /// Where the stencil has layouts of its own, its aspect follows the same rules with them
+    /// (and its own clear).
     pub fn refreshes(&self) -> PassRefresh {
-        let writable_before =
-            self.initial != vk::ImageLayout::UNDEFINED && !read_only(self.initial);
+        let (at_begin, at_end) =
+            self.refreshes_between(self.initial, self.final_layout, self.depth_cleared);
+        let stencil_apart = self
+            .stencil_layouts
+            .filter(|&layouts| layouts != (self.initial, self.final_layout))
+            .map(|(initial, final_layout)| {
+                self.refreshes_between(initial, final_layout, self.stencil_cleared)
+            });
+        PassRefresh {
+            at_begin,
+            at_end,
+            stencil_apart,
+        }
+    }
+
+    /// (before, after) for an aspect entering the pass in `initial` and leaving it in
+    /// `final_layout`, cleared at the begin where `cleared`.
+    fn refreshes_between(
+        &self,
+        initial: vk::ImageLayout,
+        final_layout: vk::ImageLayout,
+        cleared: bool,
+    ) -> (Option<vk::ImageLayout>, Option<vk::ImageLayout>) {
+        let writable_before = initial != vk::ImageLayout::UNDEFINED && !read_only(initial);
         let first_use = self.references.first().copied();
         let at_begin = (writable_before
-            && !self.depth_cleared
+            && !cleared
             && first_use.is_some_and(|layout| read_only(layout) || layout_reads_depth(layout)))
-        .then_some(self.initial);
+        .then_some(initial);
         let written = self.depth_cleared
             || self.stencil_cleared
             || self.references.iter().any(|&layout| !read_only(layout));
         let unrefreshed_before = writable_before && first_use.is_none();
-        let at_end = (shader_readable(self.final_layout, 0)
-            || self.final_layout == vk::ImageLayout::GENERAL)
-            .then_some(self.final_layout)
+        let at_end = (shader_readable(final_layout, 0) || final_layout == vk::ImageLayout::GENERAL)
+            .then_some(final_layout)
             .filter(|_| written || unrefreshed_before);
-        PassRefresh { at_begin, at_end }
+        (at_begin, at_end)
     }
 }
 
@@ -257,6 +320,7 @@ mod tests {
             depth_cleared: cleared,
             stencil_cleared: false,
             references: references.to_vec(),
+            stencil_layouts: None,
         }
         .refreshes()
     }
@@ -273,7 +337,8 @@ mod tests {
             ),
             PassRefresh {
                 at_begin: None,
-                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL)
+                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL),
+                stencil_apart: None,
             }
         );
         // A main pass left as an attachment: nothing shaders read.
@@ -310,8 +375,60 @@ mod tests {
             ),
             PassRefresh {
                 at_begin: None,
-                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL)
+                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL),
+                stencil_apart: None,
             }
+        );
+    }
+
+    /// `VK_KHR_separate_depth_stencil_layouts`: a depth aspect left sampled while the stencil
+    /// stays an attachment is refreshed alone, in its own layout; the stencil's aspect with
+    /// its own layouts where they call for it.
+    #[test]
+    fn separate_stencil_layouts_refresh_each_aspect_in_its_own_layout() {
+        let used = AttachmentUse {
+            initial: L::UNDEFINED,
+            final_layout: L::DEPTH_READ_ONLY_OPTIMAL,
+            depth_cleared: true,
+            stencil_cleared: true,
+            references: vec![L::DEPTH_ATTACHMENT_OPTIMAL, L::STENCIL_ATTACHMENT_OPTIMAL],
+            stencil_layouts: Some((L::UNDEFINED, L::STENCIL_ATTACHMENT_OPTIMAL)),
+        };
+        let refresh = used.refreshes();
+        assert_eq!(
+            refresh.at(PassMoment::End),
+            [
+                Some((vk::ImageAspectFlags::DEPTH, L::DEPTH_READ_ONLY_OPTIMAL)),
+                None
+            ]
+        );
+        assert_eq!(refresh.at(PassMoment::Begin), [None, None]);
+        let both_sampled = AttachmentUse {
+            stencil_layouts: Some((L::UNDEFINED, L::STENCIL_READ_ONLY_OPTIMAL)),
+            ..used.clone()
+        };
+        assert_eq!(
+            both_sampled.refreshes().at(PassMoment::End),
+            [
+                Some((vk::ImageAspectFlags::DEPTH, L::DEPTH_READ_ONLY_OPTIMAL)),
+                Some((vk::ImageAspectFlags::STENCIL, L::STENCIL_READ_ONLY_OPTIMAL))
+            ]
+        );
+        // Stencil layouts equal to the depth's: one refresh of every aspect.
+        let same = AttachmentUse {
+            final_layout: L::SHADER_READ_ONLY_OPTIMAL,
+            stencil_layouts: Some((L::UNDEFINED, L::SHADER_READ_ONLY_OPTIMAL)),
+            ..used
+        };
+        assert_eq!(
+            same.refreshes().at(PassMoment::End),
+            [
+                Some((
+                    vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                    L::SHADER_READ_ONLY_OPTIMAL
+                )),
+                None
+            ]
         );
     }
 
@@ -323,6 +440,7 @@ mod tests {
             depth_cleared: cleared,
             stencil_cleared: false,
             references: references.to_vec(),
+            stencil_layouts: None,
         };
         // A depth pre-pass, then a subpass testing it read-only (where it may be sampled).
         assert!(used(
@@ -359,7 +477,8 @@ mod tests {
             ),
             PassRefresh {
                 at_begin: Some(L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
-                at_end: None
+                at_end: None,
+                stencil_apart: None,
             }
         );
         // Already read-only when the pass begins: refreshed when it entered that layout.
@@ -382,7 +501,8 @@ mod tests {
             ),
             PassRefresh {
                 at_begin: Some(L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
-                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL)
+                at_end: Some(L::SHADER_READ_ONLY_OPTIMAL),
+                stencil_apart: None,
             }
         );
         // The same with the stencil cleared (light volumes marked in the stencil): the depth
@@ -393,12 +513,14 @@ mod tests {
             depth_cleared: false,
             stencil_cleared: true,
             references: vec![L::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL],
+            stencil_layouts: None,
         };
         assert_eq!(
             stencil_marked.refreshes(),
             PassRefresh {
                 at_begin: Some(L::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
-                at_end: None
+                at_end: None,
+                stencil_apart: None,
             }
         );
         // Written first: nothing to read at the begin.

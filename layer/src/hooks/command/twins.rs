@@ -209,7 +209,7 @@ pub(super) fn pass_end_refreshes(entry: &CommandBufferEntry) -> Vec<Refresh> {
     let (Some(pass), Some(views)) = (&scope.render_pass, &scope.attachment_views) else {
         return Vec::new();
     };
-    attachment_refreshes(device, views, pass, recording, |refresh| refresh.at_end)
+    attachment_refreshes(device, views, pass, recording, twins::PassMoment::End)
 }
 
 /// The refreshes a render pass begin calls for before it goes down: each attachment with a
@@ -224,12 +224,15 @@ pub(super) fn pass_begin_refreshes(
     let device = &entry.device;
     // Most passes read no attachment first: no lock then.
     if !crate::hooks::descriptors::any_twin(device)
-        || pass.twin_refreshes.iter().all(|r| r.at_begin.is_none())
+        || pass
+            .twin_refreshes
+            .iter()
+            .all(|r| r.at(twins::PassMoment::Begin) == [None, None])
     {
         return Vec::new();
     }
     let recording = entry.state().reversal();
-    attachment_refreshes(device, views, pass, recording, |refresh| refresh.at_begin)
+    attachment_refreshes(device, views, pass, recording, twins::PassMoment::Begin)
 }
 
 /// Logs once where a render pass begins over an image with a twin that a subpass may sample
@@ -260,24 +263,43 @@ pub(super) fn warn_reads_inside(
     }
 }
 
-/// The refreshes of the attachments of `pass` (begun over `views`) that `when` picks a layout
-/// for.
+/// The refreshes of the attachments of `pass` (begun over `views`) at `moment`: each view's
+/// subresources, in the layout its image is in then (its aspects apart where the stencil has
+/// layouts of its own).
 fn attachment_refreshes(
     device: &DeviceState,
     views: &[vk::ImageView],
     pass: &crate::objects::RenderPassInfo,
     recording: crate::conv::Reversal,
-    when: impl Fn(twins::PassRefresh) -> Option<vk::ImageLayout>,
+    moment: twins::PassMoment,
 ) -> Vec<Refresh> {
-    views
-        .iter()
-        .zip(&pass.twin_refreshes)
-        .filter_map(|(view, &refresh)| {
-            let layout = when(refresh)?;
-            let twin_view = device.objects.twin_views.get(view)?;
-            refresh_of(device, twin_view.image, layout, twin_view.range, recording)
-        })
-        .collect()
+    let mut out = Vec::new();
+    for (view, refresh) in views.iter().zip(&pass.twin_refreshes) {
+        let parts = refresh.at(moment);
+        if parts == [None, None] {
+            continue;
+        }
+        let Some(twin_view) = device.objects.twin_views.get(view) else {
+            continue;
+        };
+        for (aspects, layout) in parts.into_iter().flatten() {
+            let range = vk::ImageSubresourceRange {
+                aspect_mask: twin_view.range.aspect_mask & aspects,
+                ..twin_view.range
+            };
+            if range.aspect_mask.is_empty() {
+                continue;
+            }
+            out.extend(refresh_of(
+                device,
+                twin_view.image,
+                layout,
+                range,
+                recording,
+            ));
+        }
+    }
+    out
 }
 
 /// What every refreshing hook does: collects the refreshes `collect` finds (before the
