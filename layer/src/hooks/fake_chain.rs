@@ -306,6 +306,13 @@ pub(super) enum Event {
     UpdateDescriptorSets {
         image_infos: Vec<Vec<(vk::ImageView, vk::ImageLayout)>>,
     },
+    /// `vkCmdCopyImage` (details): its images and each region's source and destination
+    /// aspects.
+    CopyImage {
+        src: vk::Image,
+        dst: vk::Image,
+        aspects: Vec<(vk::ImageAspectFlags, vk::ImageAspectFlags)>,
+    },
     /// `vkCmdPushDescriptorSet2KHR` (details): its set and each write's image infos.
     PushDescriptorSet2 {
         set: u32,
@@ -1119,6 +1126,7 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_passes(
             vk::PFN_vkCmdPushDescriptorSet2KHR,
             passes::cmd_push_descriptor_set2
         ),
+        b"vkCmdCopyImage" => void_fn!(vk::PFN_vkCmdCopyImage, passes::cmd_copy_image),
         b"vkUpdateDescriptorSets" => void_fn!(
             vk::PFN_vkUpdateDescriptorSets,
             passes::update_descriptor_sets
@@ -1547,6 +1555,31 @@ mod passes {
             info: unsafe { seen_image(&*p_create_info) },
         });
         vk::Result::SUCCESS
+    }
+
+    /// `vkCmdCopyImage`: notes its images and regions' aspects.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) unsafe extern "system" fn cmd_copy_image(
+        buffer: vk::CommandBuffer,
+        src: vk::Image,
+        _src_layout: vk::ImageLayout,
+        dst: vk::Image,
+        _dst_layout: vk::ImageLayout,
+        count: u32,
+        p_regions: *const vk::ImageCopy,
+    ) {
+        // SAFETY: `count` regions.
+        let regions = unsafe { std::slice::from_raw_parts(p_regions, count as usize) };
+        let aspects = regions
+            .iter()
+            .map(|r| (r.src_subresource.aspect_mask, r.dst_subresource.aspect_mask))
+            .collect();
+        // SAFETY: a live command buffer of the fake.
+        note_detail(unsafe { key_of(buffer) }, || Event::CopyImage {
+            src,
+            dst,
+            aspects,
+        });
     }
 
     /// `vkCmdPushDescriptorSet2KHR`: notes its set and image infos.

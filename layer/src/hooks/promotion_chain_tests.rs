@@ -89,6 +89,7 @@ hook_set! {
         cmd_draw: c"vkCmdDraw" => vk::PFN_vkCmdDraw,
         update_descriptor_sets: c"vkUpdateDescriptorSets" => vk::PFN_vkUpdateDescriptorSets,
         cmd_push_descriptor_set2: c"vkCmdPushDescriptorSet2KHR" => vk::PFN_vkCmdPushDescriptorSet2KHR,
+        cmd_copy_image: c"vkCmdCopyImage" => vk::PFN_vkCmdCopyImage,
     }
 }
 
@@ -2738,4 +2739,80 @@ fn a_sampled_depth_image_gets_a_read_twin_whose_views_descriptors_name() {
         0
     );
     assert!(fx.state.objects.twin_views.get(&view).is_none());
+}
+
+/// In infinite mode a copy of depth between two reversed images goes down as it is, and the
+/// destination then holds depth stored with the source's n / f: revz remembers the source's
+/// camera for it (its later clears, copies and read twin refreshes map with it). A copy of the
+/// stencil alone moves no depth and changes nothing.
+#[test]
+fn a_copy_between_reversed_images_hands_the_source_camera_to_the_destination() {
+    let fx = Fixture::with(&[(c"mode", c"infinite")], &[]);
+    let copied = ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+    let info = fake_chain::depth_image_info(D32_S8, EXTENT, copied, SINGLE);
+    let (source, _) = fx.create_image(&info);
+    let (destination, _) = fx.create_image(&info);
+    fx.events();
+    let objects = &fx.state.objects;
+    assert!(objects.image_reversed(source) && objects.image_reversed(destination));
+    objects.near_over_far.insert(source, 0.002);
+    objects.near_over_far.insert(destination, 0.25);
+    let buffer = fx.primary();
+    let region = |aspect| vk::ImageCopy {
+        src_subresource: vk::ImageSubresourceLayers {
+            aspect_mask: aspect,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        },
+        src_offset: vk::Offset3D::default(),
+        dst_subresource: vk::ImageSubresourceLayers {
+            aspect_mask: aspect,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        },
+        dst_offset: vk::Offset3D::default(),
+        extent: vk::Extent3D {
+            width: EXTENT.width,
+            height: EXTENT.height,
+            depth: 1,
+        },
+    };
+    let copy = |aspect| {
+        let regions = [region(aspect)];
+        // SAFETY: a recording command buffer, live images in transfer layouts, one region.
+        unsafe {
+            (fx.hooks.cmd_copy_image)(
+                buffer,
+                source,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                destination,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                1,
+                regions.as_ptr(),
+            )
+        };
+    };
+    copy(vk::ImageAspectFlags::STENCIL);
+    assert_eq!(objects.near_over_far.get(&destination), Some(0.25));
+    let both = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+    copy(both);
+    assert_eq!(objects.near_over_far.get(&destination), Some(0.002));
+    // Both went down as the application gave them.
+    assert_eq!(
+        fx.events(),
+        [
+            Event::CopyImage {
+                src: source,
+                dst: destination,
+                aspects: vec![(vk::ImageAspectFlags::STENCIL, vk::ImageAspectFlags::STENCIL)]
+            },
+            Event::CopyImage {
+                src: source,
+                dst: destination,
+                aspects: vec![(both, both)]
+            }
+        ]
+    );
 }

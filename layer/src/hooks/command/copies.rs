@@ -299,7 +299,15 @@ fn image_image_copy(
         &[src, dst],
     );
     let direction = match decision {
-        CopyDecision::Unchanged => return Sent::All,
+        CopyDecision::Unchanged => {
+            carry_camera(
+                entry,
+                (source.end, src),
+                (destination.end, dst),
+                depth_aspect,
+            );
+            return Sent::All;
+        }
         CopyDecision::Unconverted(why) => {
             entry.device.copies.warn_unconverted(why);
             return Sent::All;
@@ -340,7 +348,38 @@ fn image_image_copy(
     if !convert(entry, buffer, &conversion) {
         return Sent::Rest(depth_parts(regions));
     }
+    if direction == CopyDirection::Keep {
+        // Repacked between two reversed images (one promoted): the stored values move as
+        // they are.
+        carry_camera(entry, (source.end, src), (destination.end, dst), true);
+    }
     Sent::Rest(Vec::new())
+}
+
+/// A copy or blit of depth that goes down as it is between two reversed images moves depth
+/// stored with the source's n / f (infinite mode) into the destination: the destination's
+/// later clears, copies and read twin refreshes map with the source's n / f from then on
+/// (in recording order, as every remembered camera; the last copy into an image wins where
+/// several with other cameras fill parts of it). Nothing where the source has none
+/// remembered, or outside infinite mode.
+fn carry_camera(
+    entry: &CommandBufferEntry,
+    (source_end, source): (CopyEnd, vk::Image),
+    (destination_end, destination): (CopyEnd, vk::Image),
+    copies_depth: bool,
+) {
+    let device = &entry.device;
+    if !copies_depth
+        || source == destination
+        || (source_end, destination_end) != (CopyEnd::Reversed, CopyEnd::Reversed)
+        || !device.remembers_cameras()
+    {
+        return;
+    }
+    let objects = &device.objects;
+    if let Some(near_over_far) = objects.near_over_far.get(&source) {
+        objects.near_over_far.insert(destination, near_over_far);
+    }
 }
 
 /// The depth aspect of each region that copies it, as (index, `DEPTH`).
@@ -382,7 +421,15 @@ fn image_blit(
         &[src, dst],
     );
     let direction = match decision {
-        CopyDecision::Unchanged => return Sent::All,
+        CopyDecision::Unchanged => {
+            carry_camera(
+                entry,
+                (source.end, src),
+                (destination.end, dst),
+                depth_aspect,
+            );
+            return Sent::All;
+        }
         CopyDecision::Unconverted(why) => {
             entry.device.copies.warn_unconverted(why);
             return Sent::All;
