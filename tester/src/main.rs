@@ -354,6 +354,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
                     .map_or(target::SHADOW_MAP_FORMAT, |light| light.map_format)
             }),
             sampled_depth: needs.sampled_depth,
+            input_depth: needs.input_depth,
             multisample: needs.multisample,
         };
         let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;

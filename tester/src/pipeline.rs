@@ -129,6 +129,9 @@ pub struct MainFormats {
     pub stencil: bool,
     /// The shadow map's depth format.
     pub shadow: vk::Format,
+    /// Whether render passes can name the aspect an input attachment reads
+    /// (`VkRenderPassInputAttachmentAspectCreateInfo`: Vulkan 1.1).
+    pub input_aspects: bool,
 }
 
 /// Creates the render pass of `pass` (not for [`PassKind::DynamicRendering`]).
@@ -138,6 +141,12 @@ pub struct MainFormats {
 /// read-back transitions it). Shadow map: one attachment of `main.shadow` ending in
 /// SHADER_READ_ONLY_OPTIMAL, with an outgoing dependency making its writes visible to the
 /// fragment shaders of later passes.
+///
+/// [`PassKind::DepthInputSubpasses`]: subpass 1 has the color attachment and the depth as
+/// input attachment 0 in `DEPTH_STENCIL_READ_ONLY_OPTIMAL` (its depth aspect named with
+/// `VkRenderPassInputAttachmentAspectCreateInfo`), and where the kind says so the same
+/// attachment as its read-only depth-stencil attachment; the depth ends in its attachment
+/// layout like every main pass's.
 pub fn create_render_pass(
     device: &ash::Device,
     pass: &PassSpec,
@@ -250,23 +259,36 @@ pub fn create_render_pass(
             ds_layout
         },
     };
-    let subpass = |color: bool| {
+    // The depth read as an input attachment: the same layout for its read-only depth-stencil
+    // use in that subpass, where it has one.
+    let read_only_depth_ref = vk::AttachmentReference {
+        attachment: depth_index,
+        layout: vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+    };
+    let input_refs = [read_only_depth_ref];
+    let subpass = |n: u32| {
         let description =
             vk::SubpassDescription::default().pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS);
-        let description = if pass.target == Target::Post {
+        let description = if !pass.has_depth(n) {
             description
+        } else if pass.reads_depth_input(n) {
+            description.depth_stencil_attachment(&read_only_depth_ref)
         } else {
             description.depth_stencil_attachment(&depth_ref)
         };
-        if color {
+        let description = if pass.reads_depth_input(n) {
+            description.input_attachments(&input_refs)
+        } else {
+            description
+        };
+        if pass.has_color(n) {
             description.color_attachments(&color_refs)
         } else {
             description
         }
     };
-    let subpasses: Vec<vk::SubpassDescription<'_>> = (0..pass.kind.subpass_count())
-        .map(|n| subpass(pass.has_color(n)))
-        .collect();
+    let subpasses: Vec<vk::SubpassDescription<'_>> =
+        (0..pass.kind.subpass_count()).map(subpass).collect();
 
     let attachment_stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
         | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
@@ -298,6 +320,31 @@ pub fn create_render_pass(
             dst_stage_mask: depth_stages,
             src_access_mask: vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
             dst_access_mask: depth_access,
+            dependency_flags: vk::DependencyFlags::BY_REGION,
+        });
+    }
+    if pass.kind.reads_depth_input() {
+        // Subpass 0's depth writes before subpass 1's input attachment reads (and depth tests,
+        // where the depth stays attached) and the layout change into the read-only layout;
+        // its color writes before subpass 1's (the same pixels: by region).
+        let (tests, test_reads) = if pass.has_depth(1) {
+            (depth_stages, vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ)
+        } else {
+            (vk::PipelineStageFlags::empty(), vk::AccessFlags::empty())
+        };
+        dependencies.push(vk::SubpassDependency {
+            src_subpass: 0,
+            dst_subpass: 1,
+            src_stage_mask: depth_stages | vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+            dst_stage_mask: vk::PipelineStageFlags::FRAGMENT_SHADER
+                | tests
+                | vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+            src_access_mask: vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE
+                | vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+            dst_access_mask: vk::AccessFlags::INPUT_ATTACHMENT_READ
+                | test_reads
+                | vk::AccessFlags::COLOR_ATTACHMENT_READ
+                | vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
             dependency_flags: vk::DependencyFlags::BY_REGION,
         });
     }
@@ -335,10 +382,29 @@ pub fn create_render_pass(
             dependency_flags: vk::DependencyFlags::empty(),
         });
     }
-    let info = vk::RenderPassCreateInfo::default()
+    // Input attachment 0 of subpass 1 reads the depth aspect alone (of a depth-stencil format
+    // it would otherwise name both aspects, and the descriptor's view has only one).
+    let input_aspects = [vk::InputAttachmentAspectReference {
+        subpass: 1,
+        input_attachment_index: 0,
+        aspect_mask: vk::ImageAspectFlags::DEPTH,
+    }];
+    let mut input_aspect_info =
+        vk::RenderPassInputAttachmentAspectCreateInfo::default().aspect_references(&input_aspects);
+    let mut info = vk::RenderPassCreateInfo::default()
         .attachments(&attachments)
         .subpasses(&subpasses)
         .dependencies(&dependencies);
+    if pass.kind.reads_depth_input() {
+        ensure!(
+            main.input_aspects || !main.stencil,
+            "reading the depth aspect of a depth-stencil image as an input attachment needs \
+             Vulkan 1.1 (VkRenderPassInputAttachmentAspectCreateInfo)"
+        );
+        if main.input_aspects {
+            info = info.push_next(&mut input_aspect_info);
+        }
+    }
     // SAFETY: valid device; the create info refers to live locals.
     unsafe { device.create_render_pass(&info, None) }.context("vkCreateRenderPass failed")
 }
@@ -601,6 +667,7 @@ pub fn create_pipeline(
         Program::DepthPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_POST_FRAG)),
         Program::DepthTiles => (shaders::SCENE_VERT, Some(shaders::DEPTH_TILES_POST_FRAG)),
         Program::StencilPost => (shaders::SCENE_VERT, Some(shaders::STENCIL_POST_FRAG)),
+        Program::DepthInput => (shaders::SCENE_VERT, Some(shaders::DEPTH_INPUT_FRAG)),
         Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),
         Program::LitMvp => (shaders::LIT_MVP_VERT, Some(shaders::LIT_MVP_FRAG)),

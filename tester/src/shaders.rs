@@ -150,6 +150,10 @@ pub const DEPTH_TILES_COMP: ShaderSource = glslang_shader!("depth_tiles.comp");
 /// quarter of the image shaded from those tiles.
 pub const DEPTH_TILES_POST_FRAG: ShaderSource = glslang_shader!("depth_tiles_post.frag");
 
+/// `depth_input.frag` (glslang): the fragments drawn shaded by the main depth's view distance,
+/// read as an input attachment (`subpassLoad`) in the subpass after the one that wrote it.
+pub const DEPTH_INPUT_FRAG: ShaderSource = glslang_shader!("depth_input.frag");
+
 /// `stencil_post.frag`: a band across the middle of the image shaded by the main depth-stencil
 /// image's stencil value and depth (texel fetches of each aspect).
 pub const STENCIL_POST_FRAG: ShaderSource = shader!("stencil_post.frag");
@@ -187,6 +191,7 @@ pub const ALL: &[ShaderSource] = &[
     DEPTH_POST_FRAG,
     DEPTH_TILES_COMP,
     DEPTH_TILES_POST_FRAG,
+    DEPTH_INPUT_FRAG,
     STENCIL_POST_FRAG,
 ];
 
@@ -205,6 +210,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("depth_post.frag", DEPTH_POST_FRAG),
     ("depth_tiles.comp", DEPTH_TILES_COMP),
     ("depth_tiles_post.frag", DEPTH_TILES_POST_FRAG),
+    ("depth_input.frag", DEPTH_INPUT_FRAG),
 ];
 
 #[cfg(test)]

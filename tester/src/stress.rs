@@ -189,6 +189,7 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
             clear_depth_image: needs.clear_depth_image,
             shadow_map: None,
             sampled_depth: false,
+            input_depth: false,
             multisample: None,
         };
         let targets = Targets::new(&gpu, args.size, args.size, args.depth_format, options)?;

@@ -369,6 +369,9 @@ pub struct TargetOptions {
     pub shadow_map: Option<vk::Format>,
     /// The depth image is sampled (SAMPLED usage, a depth-aspect view).
     pub sampled_depth: bool,
+    /// The depth image is read as an input attachment (INPUT_ATTACHMENT usage, a
+    /// depth-aspect view).
+    pub input_depth: bool,
     /// Multisampled attachments are needed (the plan's [`crate::plan::Needs::multisample`]).
     pub multisample: Option<Multisample>,
 }
@@ -619,6 +622,10 @@ impl<'a> Targets<'a> {
             depth_usage |= vk::ImageUsageFlags::SAMPLED;
             depth_features |= vk::FormatFeatureFlags::SAMPLED_IMAGE;
         }
+        if options.input_depth {
+            // An input attachment needs no format feature beyond the attachment's own.
+            depth_usage |= vk::ImageUsageFlags::INPUT_ATTACHMENT;
+        }
         require_format(
             gpu,
             depth_format.vk_format(),
@@ -641,7 +648,7 @@ impl<'a> Targets<'a> {
             depth_usage,
             extent,
         )?;
-        if options.sampled_depth {
+        if options.sampled_depth || options.input_depth {
             depth.add_depth_view()?;
         }
         let shadow = if let Some(format) = options.shadow_map {

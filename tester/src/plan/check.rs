@@ -45,6 +45,28 @@ impl Plan {
                  a fragment shader where there is none"
             );
             ensure!(
+                (pipeline.program == Program::DepthInput)
+                    == pass.reads_depth_input(pipeline.subpass),
+                "pipeline {name}: the depth-input program is for subpass 1 of a pass that \
+                 reads the depth as an input attachment, and that subpass draws with it alone"
+            );
+            if pass.reads_depth_input(pipeline.subpass) {
+                ensure!(
+                    pass.target == Target::Main && !pipeline.depth_write,
+                    "pipeline {name}: the depth is read-only while it is an input attachment"
+                );
+            }
+            if !pass.has_depth(pipeline.subpass) {
+                ensure!(
+                    pipeline.depth_test == DepthTest::Off
+                        && pipeline.stencil.is_none()
+                        && pipeline.bounds == Bounds::Off
+                        && pipeline.bias == Bias::Off,
+                    "pipeline {name}: depth or stencil state in a subpass without a depth \
+                     attachment"
+                );
+            }
+            ensure!(
                 pipeline.color_write || !pipeline.program.receives_shadow(),
                 "pipeline {name}: a shadow receiver without color writes"
             );
@@ -106,7 +128,7 @@ impl Plan {
                 "pass {n}: only the main target is multisampled"
             );
             ensure!(
-                pass.kind != PassKind::DepthPrepassSubpasses,
+                pass.kind.subpass_count() == 1,
                 "pass {n}: multisampled passes have one subpass"
             );
             // The multisampled attachments are transient: nothing of them survives a pass.
@@ -131,6 +153,12 @@ impl Plan {
         );
 
         for (n, pass) in self.passes.iter().enumerate() {
+            ensure!(
+                !pass.kind.reads_depth_input()
+                    || (pass.target == Target::Main && pass.multisample.is_none()),
+                "pass {n}: the depth is read as an input attachment of the main target's \
+                 single-sample pass"
+            );
             if matches!(pass.target, Target::SoftParticles | Target::Post) {
                 ensure!(
                     pass.kind == PassKind::RenderPass

@@ -237,6 +237,10 @@ pub enum Program {
     /// depth-stencil image's stencil value and depth (texel fetches of each aspect), in a
     /// [`Target::Post`] pass (needs a depth format with stencil).
     StencilPost,
+    /// `scene.vert` + `depth_input.frag` (glslang): the fragments drawn shaded by the main
+    /// depth's view distance, read as an input attachment (`subpassLoad`) in subpass 1 of a
+    /// [`PassKind::DepthInputSubpasses`] pass, where subpass 0 wrote it.
+    DepthInput,
 }
 
 /// How a scene hands its matrices to the vertex shader (`--delivery`): push constants, as
@@ -379,7 +383,8 @@ impl Program {
             | Program::SoftParticle
             | Program::DepthPost
             | Program::DepthTiles
-            | Program::StencilPost => 80,
+            | Program::StencilPost
+            | Program::DepthInput => 80,
         }
     }
 
@@ -495,6 +500,18 @@ pub enum PassKind {
     /// color attachment (depth pre-pass), subpass 1 has both; a subpass dependency orders
     /// subpass 0's depth writes before subpass 1's depth tests.
     DepthPrepassSubpasses,
+    /// `vkCmdBeginRenderPass` (main target), two subpasses, as deferred renderers read depth:
+    /// subpass 0 draws into the color and the depth attachment; subpass 1 draws into the same
+    /// color attachment and reads the depth as an input attachment
+    /// (`DEPTH_STENCIL_READ_ONLY_OPTIMAL`, its depth aspect: [`Program::DepthInput`]), with
+    /// the depth also attached read-only (tested, never written) where `depth_attached`, and
+    /// no depth attachment otherwise. A subpass dependency orders subpass 0's depth and color
+    /// writes before subpass 1's reads, tests and color writes. The main depth image gets
+    /// INPUT_ATTACHMENT usage.
+    DepthInputSubpasses {
+        /// Subpass 1 keeps the depth as its (read-only) depth-stencil attachment too.
+        depth_attached: bool,
+    },
     /// `vkCmdBeginRendering` (Vulkan 1.3 `dynamicRendering`).
     DynamicRendering,
 }
@@ -503,9 +520,14 @@ impl PassKind {
     /// Number of subpasses.
     pub fn subpass_count(self) -> u32 {
         match self {
-            PassKind::DepthPrepassSubpasses => 2,
+            PassKind::DepthPrepassSubpasses | PassKind::DepthInputSubpasses { .. } => 2,
             PassKind::RenderPass | PassKind::DynamicRendering => 1,
         }
+    }
+
+    /// Whether the pass reads the main depth as an input attachment in its subpass 1.
+    pub fn reads_depth_input(self) -> bool {
+        matches!(self, PassKind::DepthInputSubpasses { .. })
     }
 }
 
@@ -588,6 +610,21 @@ impl PassSpec {
     pub fn has_color(&self, subpass: u32) -> bool {
         self.target != Target::Shadow
             && !(self.kind == PassKind::DepthPrepassSubpasses && subpass == 0)
+    }
+
+    /// Whether `subpass` of this pass has a depth(-stencil) attachment (written or read-only).
+    pub fn has_depth(&self, subpass: u32) -> bool {
+        self.target != Target::Post
+            && !(self.kind
+                == PassKind::DepthInputSubpasses {
+                    depth_attached: false,
+                }
+                && subpass == 1)
+    }
+
+    /// Whether `subpass` of this pass reads the main depth as an input attachment.
+    pub fn reads_depth_input(&self, subpass: u32) -> bool {
+        self.kind.reads_depth_input() && subpass == 1
     }
 
     /// Whether a pipeline made for `other` can be used in this pass (same attachments, sample
@@ -742,6 +779,9 @@ pub struct Needs {
     pub shadow_map: bool,
     /// The main depth image is sampled ([`Target::SoftParticles`], [`Target::Post`]).
     pub sampled_depth: bool,
+    /// The main depth image is read as an input attachment
+    /// ([`PassKind::DepthInputSubpasses`]): INPUT_ATTACHMENT usage and a depth-aspect view.
+    pub input_depth: bool,
     /// A compute pass builds depth tiles ([`Step::BuildDepthTiles`]).
     pub depth_tiles: bool,
     /// Number of secondary command buffers recorded on the main thread (from the main pool;
@@ -926,6 +966,7 @@ impl Plan {
             // (Vulkan 1.3, or VK_KHR_dynamic_rendering below it).
             needs.dynamic_rendering |= pass.target == Target::SoftParticles;
             needs.multisample = needs.multisample.or(pass.multisample);
+            needs.input_depth |= pass.kind.reads_depth_input();
             if pass.kind == PassKind::DynamicRendering {
                 needs.dynamic_rendering = true;
             }
@@ -989,23 +1030,30 @@ impl Plan {
         fn walk(
             plan: &Plan,
             steps: &[Step],
-            pass: &mut Option<usize>,
+            pass: &mut Option<(usize, u32)>,
             bound: &mut Option<usize>,
             out: &mut Vec<(usize, Target, bool, usize)>,
         ) {
             for step in steps {
                 match step {
-                    Step::BeginPass(n) => *pass = Some(*n),
+                    Step::BeginPass(n) => *pass = Some((*n, 0)),
+                    Step::NextSubpass => {
+                        if let Some((_, subpass)) = pass {
+                            *subpass += 1;
+                        }
+                    }
                     Step::EndPass => *pass = None,
                     Step::Bind(n) => *bound = Some(*n),
                     Step::Draw(_) | Step::DrawPushed(_) => {
-                        let (Some(pipeline), Some(spec)) =
-                            (*bound, pass.and_then(|n| plan.passes.get(n)))
-                        else {
+                        let (Some(pipeline), Some((spec, subpass))) = (
+                            *bound,
+                            pass.and_then(|(n, s)| plan.passes.get(n).map(|p| (p, s))),
+                        ) else {
                             continue;
                         };
-                        // A post pass draws into no depth image.
-                        if spec.target == Target::Post {
+                        // A post pass, or a subpass without a depth attachment, draws into no
+                        // depth image.
+                        if !spec.has_depth(subpass) {
                             continue;
                         }
                         let key = (pipeline, spec.target, spec.multisample.is_some());

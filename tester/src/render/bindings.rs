@@ -534,6 +534,57 @@ impl Renderer<'_> {
     }
 }
 
+impl Renderer<'_> {
+    /// Creates the input-attachment bindings ([`InputBindings`]: one `INPUT_ATTACHMENT`
+    /// descriptor for the fragment stage, the main depth's depth-aspect view in
+    /// `DEPTH_STENCIL_READ_ONLY_OPTIMAL`) and the layout of [`Program::DepthInput`] pipelines
+    /// (the set, and the 80-byte push constants).
+    pub(super) fn create_input_bindings(&mut self, targets: &Targets<'_>) -> Result<()> {
+        let device = self.device;
+        let view = targets.depth.depth_view;
+        if view == vk::ImageView::null() {
+            bail!("the scene reads the main depth as an input attachment but it has no depth view");
+        }
+        let input = self.depth_input.insert(InputBindings {
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+        });
+        let bindings = [vk::DescriptorSetLayoutBinding::default()
+            .binding(0)
+            .descriptor_type(vk::DescriptorType::INPUT_ATTACHMENT)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+        input.set = single_descriptor_set(
+            device,
+            &bindings,
+            "depth input attachment",
+            &mut input.set_layout,
+            &mut input.pool,
+        )?;
+        let image_info = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: view,
+            image_layout: vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+        }];
+        let writes = [vk::WriteDescriptorSet::default()
+            .dst_set(input.set)
+            .dst_binding(0)
+            .descriptor_type(vk::DescriptorType::INPUT_ATTACHMENT)
+            .image_info(&image_info)];
+        // SAFETY: valid set and view; the info matches the binding type.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        let set_layouts = [input.set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&PUSH_CONSTANT_RANGES);
+        // SAFETY: valid device and create info.
+        self.input_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .context("vkCreatePipelineLayout (depth input attachment) failed")?;
+        Ok(())
+    }
+}
+
 impl<'a> Renderer<'a> {
     /// Creates the depth pyramid's bindings ([`TileBindings`]), its compute pipeline and the
     /// layout of [`Program::DepthTiles`] pipelines. Needs the depth-read bindings (their

@@ -99,6 +99,15 @@ struct DepthReadBindings {
     linear: vk::Sampler,
 }
 
+/// What [`Program::DepthInput`] binds: the main depth's depth-aspect view as an input
+/// attachment in `DEPTH_STENCIL_READ_ONLY_OPTIMAL`, in one set written with
+/// `vkUpdateDescriptorSets`.
+struct InputBindings {
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+}
+
 /// What the depth pyramid's compute pass and [`Program::DepthTiles`] bind: the main depth's
 /// depth view (sampled), a nearest sampler and the tiles' storage buffer, in one set of a
 /// layout both stages see; the compute pipeline and both pipeline layouts.
@@ -159,6 +168,9 @@ pub struct Renderer<'a> {
     /// has `VK_KHR_push_descriptor`; null otherwise).
     depth_push_layout: vk::PipelineLayout,
     depth_read: Option<DepthReadBindings>,
+    /// Push constants and the input-attachment set ([`Program::DepthInput`]; null without it).
+    input_layout: vk::PipelineLayout,
+    depth_input: Option<InputBindings>,
     /// Push constants and the tiles' set ([`Program::DepthTiles`]; null without it).
     tiles_layout: vk::PipelineLayout,
     depth_tiles: Option<TileBindings<'a>>,
@@ -242,6 +254,12 @@ impl Drop for Renderer<'_> {
             self.device
                 .destroy_pipeline_layout(self.depth_push_layout, None);
             self.device.destroy_pipeline_layout(self.tiles_layout, None);
+            self.device.destroy_pipeline_layout(self.input_layout, None);
+            if let Some(input) = &self.depth_input {
+                self.device.destroy_descriptor_pool(input.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(input.set_layout, None);
+            }
             if let Some(tiles) = &self.depth_tiles {
                 self.device.destroy_pipeline(tiles.compute, None);
                 self.device
@@ -334,6 +352,8 @@ impl<'a> Renderer<'a> {
             depth_read_layout: vk::PipelineLayout::null(),
             depth_push_layout: vk::PipelineLayout::null(),
             depth_read: None,
+            input_layout: vk::PipelineLayout::null(),
+            depth_input: None,
             tiles_layout: vk::PipelineLayout::null(),
             depth_tiles: None,
             pair_layout: vk::PipelineLayout::null(),
@@ -359,6 +379,7 @@ impl<'a> Renderer<'a> {
                 .shadow
                 .as_ref()
                 .map_or(crate::target::SHADOW_MAP_FORMAT, |shadow| shadow.format),
+            input_aspects: gpu.api_version() >= vk::API_VERSION_1_1,
         };
         for pass in &plan.passes {
             if pass.kind == PassKind::DynamicRendering {
@@ -452,6 +473,9 @@ impl<'a> Renderer<'a> {
         if needs.depth_tiles {
             this.create_tile_bindings(gpu, targets)?;
         }
+        if needs.input_depth {
+            this.create_input_bindings(targets)?;
+        }
         if plan.pipelines.iter().any(|p| p.program == Program::MvpPair) {
             let limit = gpu.limits().max_push_constants_size;
             if limit < 128 {
@@ -542,6 +566,7 @@ impl<'a> Renderer<'a> {
                 (self.depth_read_layout, PLAIN_PUSH_STAGES)
             }
             Program::DepthTiles => (self.tiles_layout, PLAIN_PUSH_STAGES),
+            Program::DepthInput => (self.input_layout, PLAIN_PUSH_STAGES),
         }
     }
 

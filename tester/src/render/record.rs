@@ -599,6 +599,7 @@ impl Recorder<'_> {
                     renderer.depth_read.as_ref().map(|r| r.sampled_set)
                 }
                 Program::DepthTiles => renderer.depth_tiles.as_ref().map(|t| t.set),
+                Program::DepthInput => renderer.depth_input.as_ref().map(|i| i.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
                 Program::Ssbo | Program::SsboRows => renderer.matrices.as_ref().map(|m| m.set),

@@ -208,7 +208,8 @@ impl Scene {
             | Program::SoftParticle
             | Program::DepthPost
             | Program::DepthTiles
-            | Program::StencilPost => {
+            | Program::StencilPost
+            | Program::DepthInput => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

@@ -86,6 +86,13 @@ pub enum SceneId {
     /// The overlap scene with stencil writes, then a post pass sampling the depth-stencil
     /// image's stencil and depth aspects.
     StencilReads,
+    /// The overlap scene, then a later subpass of the same render pass reading its depth as
+    /// an input attachment (`subpassLoad`) to shade the bottom quarter, without a depth
+    /// attachment.
+    DeferredDepth,
+    /// `deferred-depth` with the depth also attached read-only in the later subpass, the band
+    /// drawn at a fixed depth with LESS_OR_EQUAL.
+    DeferredDepthTested,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,

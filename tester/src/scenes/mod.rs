@@ -110,6 +110,12 @@ pub const CATALOG: &[Entry] = &[
     ),
     entry_row(SceneId::DepthReads, "depth-reads", depth_reads),
     entry_row(SceneId::StencilReads, "stencil-reads", stencil_reads),
+    entry_row(SceneId::DeferredDepth, "deferred-depth", deferred_depth),
+    entry_row(
+        SceneId::DeferredDepthTested,
+        "deferred-depth-tested",
+        deferred_depth_tested,
+    ),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,

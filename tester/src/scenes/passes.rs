@@ -720,3 +720,89 @@ pub fn stencil_reads() -> Scene {
     });
     b.finish("stencil-reads", camera, None)
 }
+
+/// A band of the deferred-depth scenes: a clip-space quad over a quarter of the image's
+/// height (clip y in [center - 0.25, center + 0.25], Vulkan's y down) at clip depth `z`.
+fn quarter_band(name: &'static str, center: f64, z: f64) -> Object {
+    Object {
+        model: DMat4::from_translation(DVec3::new(0.0, center, 0.0))
+            * DMat4::from_scale(DVec3::new(1.0, 0.25, 1.0)),
+        mesh: Mesh::clip_quad(z),
+        ..Object::full_screen(name, [1.0; 4])
+    }
+}
+
+/// The overlap scene in subpass 0 of a [`PassKind::DepthInputSubpasses`] render pass, then in
+/// subpass 1 `band` drawn with [`Program::DepthInput`] (the depth read as an input attachment)
+/// and `depth_test` (the depth attached read-only where it is not `Off`).
+fn deferred_depth_scene(name: &'static str, band: Object, depth_test: DepthTest) -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    let band = b.object(band);
+    let pass = b.pass(PassSpec {
+        kind: PassKind::DepthInputSubpasses {
+            depth_attached: depth_test != DepthTest::Off,
+        },
+        ..PassSpec::clear(1.0)
+    });
+    let flat = b.pipeline(PipelineSpec::standard("flat", pass));
+    let shade = b.pipeline(PipelineSpec {
+        subpass: 1,
+        program: Program::DepthInput,
+        depth_test,
+        depth_write: false,
+        ..PipelineSpec::standard("depth input band", pass)
+    });
+    b.step(Step::BeginPass(pass));
+    b.step(Step::Bind(flat));
+    b.draw(&objects);
+    b.step(Step::NextSubpass);
+    b.step(Step::Bind(shade));
+    b.draw(&[band]);
+    b.step(Step::EndPass);
+    b.finish(name, camera, None)
+}
+
+/// `deferred-depth`: the overlap scene drawn in subpass 0 of a render pass, then subpass 1 of
+/// the same pass reads its depth as an input attachment, as deferred renderers do (a
+/// `subpassLoad` in the fragment shader, the attachment in `DEPTH_STENCIL_READ_ONLY_OPTIMAL`,
+/// its depth aspect named with `VkRenderPassInputAttachmentAspectCreateInfo`, the descriptor
+/// written with `vkUpdateDescriptorSets`): subpass 1 has no depth attachment, only the color
+/// and the input attachment, and a quad over the bottom quarter of the image (the ground; no
+/// depth test) shades it with the depth's view distance, as `depth-reads`' post pass does.
+///
+/// Layer item: depth read as an input attachment in the render pass that writes it, where no
+/// read twin can be refreshed. Reversed values read as they are would shade the band wrong
+/// (view distances near the near plane instead of the scene's).
+pub fn deferred_depth() -> Scene {
+    deferred_depth_scene(
+        "deferred-depth",
+        quarter_band("depth input band", 0.75, 0.5),
+        DepthTest::Off,
+    )
+}
+
+/// The clip depth of `deferred-depth-tested`'s band: behind every surface of the overlap
+/// scene (the far end of the ground lies at depth 0.996) and in front of the cleared
+/// background (1.0), with margins far above every format's resolution (checked in the unit
+/// tests), so that the test never ties.
+pub const DEFERRED_BAND_DEPTH: f64 = 0.999;
+
+/// `deferred-depth-tested`: `deferred-depth` with the depth also attached read-only in
+/// subpass 1 (the same attachment as the input attachment, both in
+/// `DEPTH_STENCIL_READ_ONLY_OPTIMAL`) and the band over the top quarter of the image (the far
+/// cube, the slab, the middle cube's top, the far ground and the background) drawn at clip
+/// depth [`DEFERRED_BAND_DEPTH`] with GREATER (no writes): the surfaces in front of the band
+/// are shaded with their view distance, the background is left as it is.
+///
+/// Layer item: as `deferred-depth`, and a depth test against the attachment the shader reads
+/// at once: the band's fixed depth and its compare op reversed with the attachment (left
+/// standard, the band would shade the background and leave the surfaces).
+pub fn deferred_depth_tested() -> Scene {
+    deferred_depth_scene(
+        "deferred-depth-tested",
+        quarter_band("tested depth input band", -0.75, DEFERRED_BAND_DEPTH),
+        DepthTest::Static(Compare::Greater),
+    )
+}

@@ -190,8 +190,25 @@ fn needs_follow_from_the_plans() {
     assert!(reads.sampled_depth && reads.depth_tiles && reads.dynamic_rendering);
     let stencil_reads = needs(SceneId::StencilReads);
     assert!(stencil_reads.sampled_depth && stencil_reads.stencil && !stencil_reads.depth_tiles);
+    for id in [SceneId::DeferredDepth, SceneId::DeferredDepthTested] {
+        // An input attachment, nothing sampled, and no feature beyond Vulkan 1.0's.
+        assert_eq!(
+            needs(id),
+            crate::plan::Needs {
+                input_depth: true,
+                ..crate::plan::Needs::default()
+            },
+            "{id:?}"
+        );
+    }
     for scene in all() {
         let needs = scene.plan.needs();
+        assert_eq!(
+            needs.input_depth,
+            scene.name.starts_with("deferred-depth"),
+            "{}",
+            scene.name
+        );
         if !matches!(scene.name, "stencil" | "stencil-reads") {
             assert!(!needs.stencil, "{}", scene.name);
         }
@@ -225,9 +242,16 @@ fn overlap_based_scenes_keep_the_overlap_geometry() {
         SceneId::Subpasses,
         SceneId::MsaaResolve,
         SceneId::MsaaResolveDynamic,
+        SceneId::DeferredDepth,
+        SceneId::DeferredDepthTested,
     ] {
         let scene = id.build();
-        let mut names: Vec<&str> = scene.objects.iter().map(|o| o.name).collect();
+        let mut names: Vec<&str> = scene
+            .objects
+            .iter()
+            .map(|o| o.name)
+            .filter(|name| !name.contains("depth input band"))
+            .collect();
         let mut expected: Vec<&str> = overlap.objects.iter().map(|o| o.name).collect();
         names.sort_unstable();
         expected.sort_unstable();
@@ -310,6 +334,70 @@ fn clear_values_never_tie_with_a_surface() {
         // The middle cube draws with 0.985, not with 0.98.
         let (lo, hi) = depth_range_of(&scene, "middle cube");
         assert!(lo > 0.98 + MARGIN && hi < 0.985 - MARGIN, "{lo} {hi}");
+    }
+}
+
+/// The deferred-depth scenes: the overlap scene in subpass 0, one band in subpass 1 (over the
+/// bottom or the top quarter) drawn with the input-attachment program, whose subpass has a
+/// depth attachment only where it tests depth; the tested band lies behind every surface and
+/// in front of the cleared background, never within a margin of either.
+#[test]
+fn deferred_depth_bands_read_the_depth_subpass_0_wrote() {
+    for (scene, tested, rows) in [
+        (deferred_depth(), false, [0.5, 1.0]),
+        (deferred_depth_tested(), true, [-1.0, -0.5]),
+    ] {
+        let pass = &scene.plan.passes[0];
+        assert_eq!(
+            pass.kind,
+            PassKind::DepthInputSubpasses {
+                depth_attached: tested
+            },
+            "{}",
+            scene.name
+        );
+        assert!(pass.has_depth(0) && pass.has_depth(1) == tested);
+        assert!(!pass.reads_depth_input(0) && pass.reads_depth_input(1));
+        let band = scene.objects.len() - 1;
+        assert_eq!(drawn_in(&scene, Target::Main).last(), Some(&band));
+        let shade = &scene.plan.pipelines[1];
+        assert_eq!((shade.subpass, shade.program), (1, Program::DepthInput));
+        assert!(!shade.depth_write);
+        let ([x_lo, y_lo], [x_hi, y_hi]) = screen_box(&scene, scene.objects[band].name);
+        assert_eq!([x_lo, x_hi], [-1.0, 1.0], "{}", scene.name);
+        assert_eq!([y_lo, y_hi], rows, "{}", scene.name);
+        // The census counts the band only where its subpass has the depth attached.
+        let census = scene.plan.draw_census();
+        assert_eq!(
+            census.iter().map(|c| c.3).sum::<usize>(),
+            scene.objects.len() - usize::from(!tested),
+            "{}",
+            scene.name
+        );
+        if tested {
+            assert_eq!(
+                shade.depth_test,
+                DepthTest::Static(Compare::Greater),
+                "{}",
+                scene.name
+            );
+            let band_depth = depth_range(&scene, band);
+            assert_eq!(band_depth.0, band_depth.1);
+            // (The vertex buffer holds it rounded to float32.)
+            assert_eq!(band_depth.0, f64::from(DEFERRED_BAND_DEPTH as f32));
+            assert!(DEFERRED_BAND_DEPTH < f64::from(scene.plan.main_clear_depth()) - MARGIN);
+            for n in 0..band {
+                let (_, far) = depth_range(&scene, n);
+                assert!(
+                    far < DEFERRED_BAND_DEPTH - MARGIN,
+                    "{}: {} reaches depth {far}",
+                    scene.name,
+                    scene.objects[n].name
+                );
+            }
+        } else {
+            assert_eq!(shade.depth_test, DepthTest::Off);
+        }
     }
 }
 

@@ -36,6 +36,7 @@ impl<'a> Bench<'a> {
                 clear_depth_image: false,
                 shadow_map: None,
                 sampled_depth: false,
+                input_depth: false,
                 multisample: None,
             },
         )?;
