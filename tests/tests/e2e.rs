@@ -1121,3 +1121,91 @@ fn lit_mvp_colors_are_the_native_ones_in_every_mode() {
     }
     assert!(problems.is_empty(), "lit-mvp:\n  {}", problems.join("\n  "));
 }
+
+/// `deferred-depth` and `deferred-depth-tested`: the main depth, written in subpass 0 of a
+/// render pass, is read as an input attachment (`subpassLoad`, the attachment in
+/// `DEPTH_STENCIL_READ_ONLY_OPTIMAL`, its depth aspect named with
+/// `VkRenderPassInputAttachmentAspectCreateInfo`) by the fragment shader of subpass 1, which
+/// shades a band of the image with the depth's view distance; subpass 1 has no depth
+/// attachment (`deferred-depth`), or keeps the same attachment read-only and draws its band
+/// at a fixed depth with GREATER (`deferred-depth-tested`). In every depth format and mode,
+/// with zero validation messages (synchronization validation included), the colors are the
+/// native render's: the layer hands the shader standard depth (converting what it reads
+/// where the image is reversed) and reverses the band's fixed depth and compare op with the
+/// attachment. The profile says the image is reversed in `flip` and `complementary`, and
+/// native in `infinite` (whose n / f the shader could not undo: input-attachment images stay
+/// native there).
+///
+/// The reference, allowances and bounds are those of
+/// `depth_reads_sample_standard_depth_through_the_twin`: the native render of the same
+/// format, or the native D32 render where the precise modes promote a UNORM format; channels 1
+/// level off allowed (the depth converted back, in the shading), and per format a few pixels
+/// more than that.
+#[test]
+fn deferred_depth_reads_standard_depth_through_input_attachments() {
+    let harness = Harness::locate();
+    let frames = "2";
+    let mut problems = Vec::new();
+    for scene in ["deferred-depth", "deferred-depth-tested"] {
+        let native = |format: &str| {
+            let dir = harness.scratch_dir(&format!("{scene}-{format}-native"));
+            let mut command = harness.tester(format, &dir);
+            command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
+            let render = harness.render(command, &dir);
+            // INPUT_ATTACHMENT usage on the main depth image.
+            let usage = render.json()["recorded"]["depth_images"][0]["usage"]
+                .as_u64()
+                .expect("the depth image's usage");
+            assert_ne!(usage & 0x80, 0, "{scene} {format}: usage {usage:#x}");
+            render.color()
+        };
+        let native_d32 = native("d32");
+        for format in DEPTH_FORMATS {
+            let own = native(format);
+            for mode in ["flip", "complementary", "infinite"] {
+                let name = format!("{scene}-{format}-{mode}");
+                let dir = harness.scratch_dir(&name);
+                let report = dir.join("profile.json");
+                let mut command = harness.tester(format, &dir);
+                command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
+                harness
+                    .with_layer(&mut command)
+                    .env("REVZ_MODE", mode)
+                    .env("REVZ_LOG", "info")
+                    .env("REVZ_REPORT", &report);
+                let render = harness.render(command, &dir);
+                let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
+                let reference = if promoted { &native_d32 } else { &own };
+                let color = render.color();
+                let loose = pixels_off_by_more_than(reference, &color, 1);
+                let bound = if promoted || format != "d16" {
+                    2
+                } else {
+                    flip_color_tolerance(format)
+                };
+                if loose > bound {
+                    problems.push(format!(
+                        "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
+                    ));
+                }
+                let differing = differing_pixels(reference, &color);
+                if differing > 200 {
+                    problems.push(format!("{name}: {differing} pixels differ"));
+                }
+                let profile: serde_json::Value =
+                    serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
+                        .expect("a JSON profile");
+                let image = &profile["images"][0];
+                let expected = if mode == "infinite" {
+                    "native"
+                } else {
+                    "reversed"
+                };
+                if image["depth"] != expected {
+                    problems.push(format!("{name}: not {expected}: {image}"));
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
