@@ -722,20 +722,24 @@ pub fn stencil_reads() -> Scene {
 }
 
 /// A band of the deferred-depth scenes: a clip-space quad over a quarter of the image's
-/// height (clip y in [center - 0.25, center + 0.25], Vulkan's y down) at clip depth `z`.
-fn quarter_band(name: &'static str, center: f64, z: f64) -> Object {
+/// height (clip y in [center - 0.25, center + 0.25], Vulkan's y down) at clip depth 0.5.
+fn quarter_band(name: &'static str, center: f64) -> Object {
     Object {
         model: DMat4::from_translation(DVec3::new(0.0, center, 0.0))
             * DMat4::from_scale(DVec3::new(1.0, 0.25, 1.0)),
-        mesh: Mesh::clip_quad(z),
         ..Object::full_screen(name, [1.0; 4])
     }
 }
 
 /// The overlap scene in subpass 0 of a [`PassKind::DepthInputSubpasses`] render pass, then in
-/// subpass 1 `band` drawn with [`Program::DepthInput`] (the depth read as an input attachment)
-/// and `depth_test` (the depth attached read-only where it is not `Off`).
-fn deferred_depth_scene(name: &'static str, band: Object, depth_test: DepthTest) -> Scene {
+/// subpass 1 `band` drawn with [`Program::DepthInput`] (the depth read as an input attachment),
+/// `depth_test` (the depth attached read-only where it is not `Off`) and `viewport`.
+fn deferred_depth_scene(
+    name: &'static str,
+    band: Object,
+    depth_test: DepthTest,
+    viewport: Viewport,
+) -> Scene {
     let camera = overlap_camera();
     let mut b = Builder::default();
     let objects = b.nearest_first(&camera, overlap_objects());
@@ -752,6 +756,7 @@ fn deferred_depth_scene(name: &'static str, band: Object, depth_test: DepthTest)
         program: Program::DepthInput,
         depth_test,
         depth_write: false,
+        viewport,
         ..PipelineSpec::standard("depth input band", pass)
     });
     b.step(Step::BeginPass(pass));
@@ -778,12 +783,13 @@ fn deferred_depth_scene(name: &'static str, band: Object, depth_test: DepthTest)
 pub fn deferred_depth() -> Scene {
     deferred_depth_scene(
         "deferred-depth",
-        quarter_band("depth input band", 0.75, 0.5),
+        quarter_band("depth input band", 0.75),
         DepthTest::Off,
+        Viewport::FULL,
     )
 }
 
-/// The clip depth of `deferred-depth-tested`'s band: behind every surface of the overlap
+/// The depth of `deferred-depth-tested`'s band (its viewport's depth range, [d, d]): behind every surface of the overlap
 /// scene (the far end of the ground lies at depth 0.996) and in front of the cleared
 /// background (1.0), with margins far above every format's resolution (checked in the unit
 /// tests), so that the test never ties.
@@ -792,9 +798,10 @@ pub const DEFERRED_BAND_DEPTH: f64 = 0.999;
 /// `deferred-depth-tested`: `deferred-depth` with the depth also attached read-only in
 /// subpass 1 (the same attachment as the input attachment, both in
 /// `DEPTH_STENCIL_READ_ONLY_OPTIMAL`) and the band over the top quarter of the image (the far
-/// cube, the slab, the middle cube's top, the far ground and the background) drawn at clip
-/// depth [`DEFERRED_BAND_DEPTH`] with GREATER (no writes): the surfaces in front of the band
-/// are shaded with their view distance, the background is left as it is.
+/// cube, the slab, the middle cube's top, the far ground and the background) drawn at depth
+/// [`DEFERRED_BAND_DEPTH`] (a static viewport depth range [d, d], as skies are drawn) with
+/// GREATER (no writes): the surfaces in front of the band are shaded with their view
+/// distance, the background is left as it is.
 ///
 /// Layer item: as `deferred-depth`, and a depth test against the attachment the shader reads
 /// at once: the band's fixed depth and its compare op reversed with the attachment (left
@@ -802,7 +809,11 @@ pub const DEFERRED_BAND_DEPTH: f64 = 0.999;
 pub fn deferred_depth_tested() -> Scene {
     deferred_depth_scene(
         "deferred-depth-tested",
-        quarter_band("tested depth input band", -0.75, DEFERRED_BAND_DEPTH),
+        quarter_band("tested depth input band", -0.75),
         DepthTest::Static(Compare::Greater),
+        Viewport::Static {
+            min_depth: DEFERRED_BAND_DEPTH as f32,
+            max_depth: DEFERRED_BAND_DEPTH as f32,
+        },
     )
 }
