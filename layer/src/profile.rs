@@ -219,6 +219,9 @@ pub struct PipelineRecord {
     pub projection: String,
     pub reversed_variant: bool,
     pub promoted_variant: bool,
+    /// Its fragment shader reads depth through input attachments, and its variants convert
+    /// what it reads (`crate::shader::input_depth`).
+    pub converts_depth_inputs: bool,
 }
 
 #[derive(Debug, Default)]
@@ -516,6 +519,7 @@ impl Profile {
                     "projection": r.projection,
                     "reversed_variant": r.reversed_variant,
                     "promoted_variant": r.promoted_variant,
+                    "converts_depth_inputs": r.converts_depth_inputs,
                     "draws": inner.by_pipeline.get(handle).copied().unwrap_or_default().json(),
                 })
             })
@@ -874,6 +878,7 @@ mod tests {
                 projection: "push-constant bytes 0..64".into(),
                 reversed_variant: false,
                 promoted_variant: false,
+                converts_depth_inputs: false,
             },
         );
         // Draws per submission: native 1, flip 1, precise 2.
@@ -953,6 +958,7 @@ mod tests {
             projection: reason.into(),
             reversed_variant: false,
             promoted_variant: false,
+            converts_depth_inputs: false,
         };
         let geometry = "revz's push constants do not reach its geometry stage";
         let ortho = "Position does not come from a push-constant matrix";
@@ -1030,6 +1036,7 @@ mod tests {
                     projection: "a uniform buffer, fitted by the shader".into(),
                     reversed_variant: false,
                     promoted_variant: false,
+                    converts_depth_inputs: false,
                 },
             )],
             totals: DrawCounts {

@@ -61,9 +61,13 @@ fn paths(draws: &Value) -> (u64, u64, u64) {
 /// `VK_IMAGE_USAGE_SAMPLED_BIT`: shaders sample the image, which under the default
 /// `reverse_observable` they do through its read twin where it has one sample.
 const SAMPLED: u64 = 0x4;
-/// `VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_INPUT_ATTACHMENT_BIT`: shaders read (or
-/// write) the image where no twin can serve them, so its depth stays standard.
-const READ_IN_PASS: u64 = 0x8 | 0x80;
+/// `VK_IMAGE_USAGE_STORAGE_BIT`: shaders write the image, which no twin can serve: its depth
+/// stays standard.
+const STORAGE: u64 = 0x8;
+/// `VK_IMAGE_USAGE_INPUT_ATTACHMENT_BIT`: shaders read the image inside the pass that writes
+/// it; revz converts those reads in the shader in `flip` and `complementary`, and keeps the
+/// image native in `infinite`.
+const INPUT_ATTACHMENT: u64 = 0x80;
 
 /// What the profile must say of one render, derived from what the tester recorded
 /// (`render.json`'s `recorded`: its depth images with their usage, its draws per pipeline
@@ -71,7 +75,8 @@ const READ_IN_PASS: u64 = 0x8 | 0x80;
 /// camera and pipelines), never from the profile itself:
 ///
 /// - every recorded depth image is listed with its format, size and samples; it is native
-///   where shaders read it in a way no read twin serves (storage, input attachment, a
+///   where shaders read it in a way neither a read twin nor a shader rewrite serves (storage,
+///   an input attachment in `infinite` mode, a
 ///   multisampled image sampled) or where the application renders reversed depth itself (a
 ///   scene that clears to 0), and reversed otherwise; a sampled single-sampled image has a
 ///   read twin (issue #39);
@@ -111,13 +116,17 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
             );
         }
         // Sampled single-sampled images are read through a read twin (issue #39) and stay
-        // reversed; what a twin cannot serve (storage, input attachments, several samples)
-        // keeps them native.
+        // reversed; input attachments too, their reads converted in the shader, but in
+        // infinite mode; storage images and multisampled sampled images stay native.
         let usage = image["usage"].as_u64().unwrap();
         let sampled = usage & SAMPLED != 0;
-        let twin = sampled && usage & READ_IN_PASS == 0 && image["samples"] == 1;
+        let storage = usage & STORAGE != 0;
+        let input = usage & INPUT_ATTACHMENT != 0;
+        let reads_follow =
+            !storage && (!sampled || image["samples"] == 1) && (!input || mode != "infinite");
+        let twin = sampled && reads_follow;
         assert_eq!(listed["read_twin"], twin, "{what}: {listed}");
-        let read_by_shaders = (sampled || usage & READ_IN_PASS != 0) && !twin;
+        let read_by_shaders = (sampled || storage || input) && !reads_follow;
         let native = read_by_shaders || application_reversed;
         assert_eq!(
             listed["depth"],

@@ -191,6 +191,9 @@ pub struct CommandState {
     emitted: Emitted,
     /// The variant revz bound in the bound pipeline's place (`None`: the application's).
     variant_bound: Option<vk::Pipeline>,
+    /// The current subpass reads a reversed depth image through an input attachment: its
+    /// pipelines' input variants apply ([`PipelineDepth::variant_for`]).
+    reversed_inputs: bool,
     /// The UNORM format the current depth attachment was created with, when revz promoted
     /// it to float: draws bind promoted variants, and constant depth bias is converted.
     promoted_from: Option<vk::Format>,
@@ -254,6 +257,7 @@ impl Default for CommandState {
             executed_matches: Vec::new(),
             emitted: Emitted::default(),
             variant_bound: None,
+            reversed_inputs: false,
             promoted_from: None,
             carrier_held: None,
             push_pusher: vk::PipelineLayout::null(),
@@ -645,6 +649,15 @@ impl CommandState {
         }
     }
 
+    /// Whether the current subpass reads a reversed depth image through an input attachment
+    /// (render pass begin, next subpass, a secondary continuing a pass).
+    pub fn set_reversed_inputs(&mut self, reversed_inputs: bool) {
+        if self.reversed_inputs != reversed_inputs {
+            self.reversed_inputs = reversed_inputs;
+            self.dirty = true;
+        }
+    }
+
     /// Whether a render pass or rendering instance is open (no transfer or dispatch can be
     /// recorded).
     pub fn in_pass(&self) -> bool {
@@ -655,6 +668,7 @@ impl CommandState {
     /// and nothing is sent down before it ([`Self::settle`]).
     pub fn leave_pass(&mut self) {
         self.in_pass = false;
+        self.reversed_inputs = false;
         if self.target != Target::None {
             self.target = Target::None;
             self.dirty = true;
@@ -668,7 +682,11 @@ impl CommandState {
         let Some(pipeline) = self.pipeline().filter(|_| self.in_pass) else {
             return app;
         };
-        let wanted = pipeline.variant_for(self.target == Target::Reversed, self.promoted());
+        let wanted = pipeline.variant_for(
+            self.target == Target::Reversed,
+            self.promoted(),
+            self.reversed_inputs,
+        );
         self.variant_bound = wanted;
         wanted.unwrap_or(app)
     }
@@ -1015,7 +1033,8 @@ impl CommandState {
             });
         }
         if let Some(p) = bound {
-            let wanted = p.variant_for(reversed, self.promoted_from.is_some());
+            let wanted =
+                p.variant_for(reversed, self.promoted_from.is_some(), self.reversed_inputs);
             if wanted != self.variant_bound {
                 sink.bind_pipeline(wanted.unwrap_or(p.handle));
                 self.variant_bound = wanted;

@@ -114,6 +114,13 @@ pub struct PipelineDepth {
     /// The promoted variant with the reversed variant's changes, where the pipeline has both;
     /// draws into promoted reversed attachments.
     pub promoted_reversed_variant: Option<vk::Pipeline>,
+    /// For a pipeline whose fragment stage reads depth through input attachments
+    /// (`crate::shader::input_depth`): the pipeline with those reads converted and nothing
+    /// else changed, bound for draws whose subpass reads reversed depth as an input but does
+    /// not draw into a reversed depth attachment (the reversed variants convert the reads
+    /// too); and the same for the promoted twin of its render pass.
+    pub input_variant: Option<vk::Pipeline>,
+    pub promoted_input_variant: Option<vk::Pipeline>,
     /// Where the vertex stage's projection is in the push constants, if it comes from there
     /// and its draws can take the precise path (its vertex stage stores the carrier's depth:
     /// [`PipelineDepth::position_store`]).
@@ -144,13 +151,21 @@ pub struct PipelineDepth {
 
 impl PipelineDepth {
     /// The variant revz binds in the pipeline's place for a draw into a `reversed` and
-    /// `promoted` attachment (`None`: the pipeline itself).
-    pub fn variant_for(&self, reversed: bool, promoted: bool) -> Option<vk::Pipeline> {
-        match (promoted && self.promotable, reversed) {
-            (false, false) => None,
-            (false, true) => self.reversed_variant,
-            (true, false) => self.promoted_variant,
-            (true, true) => self.promoted_reversed_variant.or(self.promoted_variant),
+    /// `promoted` attachment, in a subpass whose input attachments read reversed depth
+    /// (`reversed_inputs`) or not (`None`: the pipeline itself).
+    pub fn variant_for(
+        &self,
+        reversed: bool,
+        promoted: bool,
+        reversed_inputs: bool,
+    ) -> Option<vk::Pipeline> {
+        match (promoted && self.promotable, reversed, reversed_inputs) {
+            (false, false, false) => None,
+            (false, false, true) => self.input_variant,
+            (false, true, _) => self.reversed_variant,
+            (true, false, false) => self.promoted_variant,
+            (true, false, true) => self.promoted_input_variant.or(self.promoted_variant),
+            (true, true, _) => self.promoted_reversed_variant.or(self.promoted_variant),
         }
     }
 
@@ -194,6 +209,8 @@ impl PipelineDepth {
             self.reversed_variant,
             self.promoted_variant,
             self.promoted_reversed_variant,
+            self.input_variant,
+            self.promoted_input_variant,
         ]
         .into_iter()
         .flatten()

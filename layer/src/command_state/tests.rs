@@ -108,6 +108,8 @@ fn static_pipeline() -> Arc<PipelineDepth> {
         promotable: false,
         promoted_variant: None,
         promoted_reversed_variant: None,
+        input_variant: None,
+        promoted_input_variant: None,
         projection: None,
         position_store: None,
         derived_range: None,

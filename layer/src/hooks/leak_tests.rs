@@ -849,6 +849,7 @@ impl Fixture {
             ("framebuffers", objects.framebuffers.count()),
             ("pipelines", objects.pipelines.count()),
             ("fragment modules", objects.fragment_depth_modules.count()),
+            ("input modules", objects.input_modules.count()),
             ("vertex modules", objects.vertex_modules.count()),
             ("pipeline layouts", objects.pipeline_layouts.count()),
             ("pools", objects.pools.count()),

@@ -360,6 +360,66 @@ impl Fixture {
         pass
     }
 
+    /// A deferred render pass (D32 attachment 0, color attachment 1): subpass 0 renders both,
+    /// subpass 1 reads the depth as input attachment 0 and renders color, subpass 2 the same
+    /// with the depth attached read-only too.
+    fn deferred_render_pass(&self) -> vk::RenderPass {
+        let attachments = [
+            vk::AttachmentDescription2::default()
+                .format(D32)
+                .samples(vk::SampleCountFlags::TYPE_1)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .final_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
+            vk::AttachmentDescription2::default()
+                .format(COLOR)
+                .samples(vk::SampleCountFlags::TYPE_1)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .final_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
+        ];
+        let depth = vk::AttachmentReference2::default()
+            .attachment(0)
+            .layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+            .aspect_mask(vk::ImageAspectFlags::DEPTH);
+        let read_only = vk::AttachmentReference2::default()
+            .attachment(0)
+            .layout(vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL)
+            .aspect_mask(vk::ImageAspectFlags::DEPTH);
+        let input = [read_only];
+        let color = [vk::AttachmentReference2::default()
+            .attachment(1)
+            .layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .aspect_mask(vk::ImageAspectFlags::COLOR)];
+        let subpasses = [
+            vk::SubpassDescription2::default()
+                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+                .color_attachments(&color)
+                .depth_stencil_attachment(&depth),
+            vk::SubpassDescription2::default()
+                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+                .input_attachments(&input)
+                .color_attachments(&color),
+            vk::SubpassDescription2::default()
+                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+                .input_attachments(&input)
+                .color_attachments(&color)
+                .depth_stencil_attachment(&read_only),
+        ];
+        let info = vk::RenderPassCreateInfo2::default()
+            .attachments(&attachments)
+            .subpasses(&subpasses);
+        let mut pass = vk::RenderPass::null();
+        // SAFETY: a live device and a valid create info.
+        let result = unsafe {
+            (self.hooks.create_render_pass2)(self.device, &info, std::ptr::null(), &mut pass)
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        self.passes.borrow_mut().push(pass);
+        self.events();
+        pass
+    }
+
     /// Destroys everything through the hooks, checks revz forgot it and that the device's
     /// destruction sends down exactly `at_device_destruction` before the device itself (revz's
     /// own objects the application left), then destroys the device and the instance and
@@ -2119,5 +2179,105 @@ fn a_pipeline_made_from_pipeline_binaries_gets_no_variant() {
         "the variant, then the application's pipeline"
     );
     assert!(fx.recorded(handles[0]).reversed_variant.is_some());
+    fx.finish();
+}
+
+/// The variants (code, handle) created before the application's pipeline, which comes last.
+fn variants_then_app(events: &[Event]) -> (Vec<(Vec<u32>, vk::Pipeline)>, vk::Pipeline) {
+    let (app, variants) = events.split_last().expect("events");
+    let Event::CreateGraphicsPipelines { handles, .. } = app else {
+        panic!("the application's pipeline last: {events:#?}");
+    };
+    let made = variants
+        .chunks(3)
+        .map(|chunk| match chunk {
+            [Event::CreateShaderModule { handle, code, .. }, Event::CreateGraphicsPipelines {
+                infos,
+                handles,
+                ..
+            }, Event::DestroyShaderModule {
+                handle: destroyed, ..
+            }] => {
+                assert_eq!(handle, destroyed);
+                assert_eq!(infos[0].stages[1].module, *handle, "the variant's fragment stage");
+                (code.clone(), handles[0])
+            }
+            _ => panic!("a module, a variant, the module destroyed: {events:#?}"),
+        })
+        .collect();
+    (made, handles[0])
+}
+
+#[test]
+fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let words = test_spirv::depth_input_fragment();
+    let module = fx.module(&words);
+    let pass = fx.deferred_render_pass();
+    let converted = crate::shader::input_depth::reverse_input_depth(&words, &[0])
+        .unwrap()
+        .unwrap();
+    validate(&converted);
+    let mut app = AppPipeline::of_modules(vertex, module);
+
+    // Subpass 1 reads depth as an input and has no depth attachment: an input variant only.
+    app.subpass = Some((pass, 1));
+    let built = app.build();
+    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (variants, handle) = variants_then_app(&fx.events());
+    let [(code, input)] = variants.as_slice() else {
+        panic!("one variant: {variants:?}");
+    };
+    assert_eq!(*code, converted);
+    let recorded = fx.recorded(handle);
+    assert_eq!(recorded.input_variant, Some(*input));
+    assert_eq!(recorded.reversed_variant, None);
+    assert_eq!(recorded.variant_for(false, false, true), Some(*input));
+    assert_eq!(recorded.variant_for(false, false, false), None);
+    assert!(!recorded.unreversed_fragment);
+
+    // Subpass 2 has the depth attached too: the reversed variant converts the reads as well.
+    app.subpass = Some((pass, 2));
+    let built = app.build();
+    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (variants, handle) = variants_then_app(&fx.events());
+    let [(reversed_code, reversed), (input_code, input)] = variants.as_slice() else {
+        panic!("two variants: {variants:?}");
+    };
+    assert_eq!((reversed_code, input_code), (&converted, &converted));
+    let recorded = fx.recorded(handle);
+    assert_eq!(recorded.reversed_variant, Some(*reversed));
+    assert_eq!(recorded.input_variant, Some(*input));
+    assert_eq!(recorded.variant_for(true, false, true), Some(*reversed));
+    assert_eq!(recorded.variant_for(false, false, true), Some(*input));
+
+    // Subpass 0 reads no input: nothing to convert (its depth is dynamic state in flip mode).
+    app.subpass = Some((pass, 0));
+    let built = app.build();
+    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (_, handle) = only_app_creation(&fx.events());
+    assert_eq!(fx.recorded(handle).input_variant, None);
+    fx.finish();
+}
+
+#[test]
+fn input_reads_are_not_converted_in_infinite_mode() {
+    // Infinite mode keeps images read as input attachments native: nothing to convert.
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite")]);
+    let vertex = fx.vertex_module();
+    let module = fx.module(&test_spirv::depth_input_fragment());
+    assert!(fx.state.objects.input_modules.get(&module).is_none());
+    let pass = fx.deferred_render_pass();
+    let mut app = AppPipeline::of_modules(vertex, module);
+    app.subpass = Some((pass, 1));
+    let built = app.build();
+    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (_, handle) = only_app_creation(&fx.events());
+    assert_eq!(fx.recorded(handle).input_variant, None);
     fx.finish();
 }

@@ -50,11 +50,10 @@ const ATTACHMENT: vk::ImageUsageFlags = vk::ImageUsageFlags::DEPTH_STENCIL_ATTAC
 /// Aliased memory: an image of these flags keeps its UNORM format (the application places its
 /// memory by the format's sizes) and is still reversed.
 const KEPT_FLAGS: vk::ImageCreateFlags = vk::ImageCreateFlags::ALIAS;
-/// Read by shaders as an input attachment (which no read twin serves): promoted (a resolve
-/// needs one format at both ends), but native.
-const READ_IN_PASS: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(
-    ATTACHMENT.as_raw() | vk::ImageUsageFlags::INPUT_ATTACHMENT.as_raw(),
-);
+/// Read by shaders as a storage image (which no read twin serves, and no shader rewrite
+/// converts): promoted (a resolve needs one format at both ends), but native.
+const READ_IN_PASS: vk::ImageUsageFlags =
+    vk::ImageUsageFlags::from_raw(ATTACHMENT.as_raw() | vk::ImageUsageFlags::STORAGE.as_raw());
 const COMPLEMENTARY: &[(&CStr, &CStr)] = &[(c"mode", c"complementary")];
 
 hook_set! {

@@ -29,7 +29,7 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::conv::has_stencil;
 use crate::hooks::resources::slice;
-use crate::objects::{RenderPassInfo, SubpassResolve};
+use crate::objects::{DepthInput, RenderPassInfo, SubpassResolve};
 use crate::policy::twins::AttachmentUse;
 use crate::policy::{
     clears_depth_at_begin, framebuffer_may_be_promoted, has_promoted_twin, imageless_view_format,
@@ -123,6 +123,28 @@ fn render_pass_info(
         info.subpass_resolve.push(resolve);
     }
     info
+}
+
+/// Each subpass's input attachments that read depth, from each subpass's input references as
+/// (attachment, aspect given for it: empty where none is).
+fn depth_inputs(
+    formats: &[vk::Format],
+    subpasses: impl Iterator<Item = Vec<(u32, vk::ImageAspectFlags)>>,
+) -> Vec<Vec<DepthInput>> {
+    subpasses
+        .map(|inputs| {
+            (0u32..)
+                .zip(inputs)
+                .filter(|&(_, (attachment, aspect))| {
+                    crate::policy::reads_depth_input(
+                        formats.get(attachment as usize).copied(),
+                        aspect,
+                    )
+                })
+                .map(|(index, (attachment, _))| DepthInput { index, attachment })
+                .collect()
+        })
+        .collect()
 }
 
 /// The references of a subpass's arrays, in order: input, color, resolve (as many as color,
@@ -411,6 +433,31 @@ pub unsafe extern "system" fn create_render_pass(
                 // SAFETY: valid subpass descriptions (the application's contract).
                 subpasses.iter().flat_map(|s| unsafe { references_of(s) }),
             );
+            // SAFETY: a valid pNext chain (the application's contract).
+            let aspects = unsafe {
+                chain::find::<vk::RenderPassInputAttachmentAspectCreateInfo<'_>>(info.p_next)
+            }
+            // SAFETY: `aspectReferenceCount` references.
+            .map_or(&[][..], |a| unsafe {
+                slice(a.p_aspect_references, a.aspect_reference_count)
+            });
+            pass.subpass_depth_inputs = depth_inputs(
+                &pass.attachments,
+                (0u32..).zip(subpasses).map(|(n, s)| {
+                    // SAFETY: `inputAttachmentCount` references.
+                    let inputs = unsafe { slice(s.p_input_attachments, s.input_attachment_count) };
+                    (0u32..)
+                        .zip(inputs)
+                        .map(|(index, r)| {
+                            let aspect = aspects
+                                .iter()
+                                .find(|a| a.subpass == n && a.input_attachment_index == index)
+                                .map_or(vk::ImageAspectFlags::empty(), |a| a.aspect_mask);
+                            (r.attachment, aspect)
+                        })
+                        .collect()
+                }),
+            );
             pass.promoted_twin = promoted_twin;
             // SAFETY: valid on success.
             let handle = unsafe { *p_render_pass };
@@ -503,6 +550,16 @@ pub unsafe extern "system" fn create_render_pass2(
                 }),
                 // SAFETY: valid subpass descriptions (the application's contract).
                 subpasses.iter().flat_map(|s| unsafe { references_of2(s) }),
+            );
+            pass.subpass_depth_inputs = depth_inputs(
+                &pass.attachments,
+                subpasses.iter().map(|s| {
+                    // SAFETY: `inputAttachmentCount` references.
+                    unsafe { slice(s.p_input_attachments, s.input_attachment_count) }
+                        .iter()
+                        .map(|r| (r.attachment, r.aspect_mask))
+                        .collect()
+                }),
             );
             pass.swapped_resolve_twin = twin;
             pass.promoted_twin = promoted_twin;

@@ -268,6 +268,7 @@ pub unsafe extern "system" fn create_shaders_ext(
                                 .to_owned(),
                             reversed_variant: false,
                             promoted_variant: false,
+                            converts_depth_inputs: false,
                         },
                     );
                 }

@@ -104,6 +104,10 @@ pub struct RenderPassInfo {
     pub read_after_written_inside: Vec<bool>,
     pub depth_cleared: Vec<bool>,
     pub subpass_depth: Vec<Option<u32>>,
+    /// Each subpass's input attachments that read depth (`crate::policy::reads_depth_input`):
+    /// the fragment shaders of its pipelines convert what they read where the attachment is
+    /// reversed (`crate::shader::input_depth`).
+    pub subpass_depth_inputs: Vec<Vec<DepthInput>>,
     pub subpass_resolve: Vec<Option<SubpassResolve>>,
     /// The same render pass with MIN and MAX depth resolves swapped, begun in its place when
     /// the resolved attachment is reversed. Only single-subpass passes have one: resolve modes
@@ -116,6 +120,14 @@ pub struct RenderPassInfo {
     /// twin.
     pub promoted_twin: Option<vk::RenderPass>,
     pub promoted_swapped_twin: Option<vk::RenderPass>,
+}
+
+/// An input attachment of a subpass that reads depth: its input attachment index (what a
+/// shader's `InputAttachmentIndex` names) and the render pass attachment it reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DepthInput {
+    pub index: u32,
+    pub attachment: u32,
 }
 
 /// A subpass's depth resolve: the attachment resolved into and the depth mode (never NONE).
@@ -384,6 +396,11 @@ pub struct DeviceObjects {
     pub inline_vertex: InlineCodes<(Arc<ModuleAnalysis>, Option<RewrittenVertex>)>,
     /// SPIR-V chained into fragment stages: rewritten once per distinct code.
     pub inline_fragment: InlineCodes<Option<ReversedFragment>>,
+    /// The code of fragment modules that declare input attachments, where the policy converts
+    /// depth read through them (`crate::policy::DevicePolicy::converts_input_reads`): which
+    /// input attachment reads depth is known only with a pipeline's render pass, so their
+    /// rewrite (`crate::shader::input_depth`) is made at pipeline creation.
+    pub input_modules: Table<vk::ShaderModule, Arc<[u32]>>,
     /// Fragment shader objects (`VK_EXT_shader_object`) that compute with depth, or whose code
     /// revz cannot read: each one's reversed variant, or that it keeps standard depth
     /// (`crate::hooks::shader_object`). Other shader objects have no entry.
@@ -755,6 +772,29 @@ impl PassScope {
             .flatten()
             .and_then(|index| pass.attachments.get(index as usize).copied());
         crate::policy::subpass_promoted_from(self.promoted, depth_format)
+    }
+
+    /// Whether the current subpass reads a reversed depth image through an input attachment
+    /// (its pipelines' input variants convert the reads), and whether one it reads that way
+    /// is native while its depth attachment is reversed (the reversed variants convert every
+    /// depth input read: logged by the caller).
+    pub fn depth_inputs(&self) -> (bool, bool) {
+        let Some(inputs) = self
+            .render_pass
+            .as_ref()
+            .and_then(|pass| pass.subpass_depth_inputs.get(self.subpass))
+        else {
+            return (false, false);
+        };
+        let target = |input: &DepthInput| {
+            self.attachment_targets
+                .get(input.attachment as usize)
+                .copied()
+                .unwrap_or_default()
+        };
+        let reversed = inputs.iter().any(|i| target(i) == Target::Reversed);
+        let native = inputs.iter().any(|i| target(i) == Target::Native);
+        (reversed, native && self.target() == Target::Reversed)
     }
 
     /// The current subpass's depth attachment view (null: none or not known).

@@ -282,11 +282,11 @@ impl DevicePolicy {
     /// Whether shaders read an image of this usage through a *read twin* (issue #39): a native
     /// image revz keeps beside the reversed one, refreshed with standard values whenever the
     /// application makes the image readable, whose views replace the image's in descriptors.
-    /// Under the default `reverse_observable = copies`, for images shaders only sample:
-    /// optimal tiling, one sample (the refresh converts through a buffer, which carries no
-    /// samples), no storage usage (a shader writing the image would write the twin) and no
-    /// input attachment usage (read inside the pass that writes it, where no twin can be
-    /// refreshed).
+    /// Under the default `reverse_observable = copies`, for images shaders sample: optimal
+    /// tiling, one sample (the refresh converts through a buffer, which carries no samples)
+    /// and no storage usage (a shader writing the image would write the twin). Input
+    /// attachment reads of such an image are converted in the reading shader instead
+    /// ([`Self::converts_input_reads`]).
     pub fn reads_through_twin(
         &self,
         usage: vk::ImageUsageFlags,
@@ -296,18 +296,42 @@ impl DevicePolicy {
         self.mode != Mode::Off
             && self.observable == Observable::Copies
             && usage.contains(vk::ImageUsageFlags::SAMPLED)
-            && !usage.intersects(
-                vk::ImageUsageFlags::STORAGE
-                    | vk::ImageUsageFlags::INPUT_ATTACHMENT
-                    | HOST_TRANSFER,
-            )
+            && !usage.intersects(vk::ImageUsageFlags::STORAGE | HOST_TRANSFER)
             && samples == vk::SampleCountFlags::TYPE_1
             && tiling == vk::ImageTiling::OPTIMAL
     }
 
+    /// Whether reads of reversed depth through input attachments (`subpassLoad`, inside the
+    /// render pass that may write it, where no twin can be refreshed) are converted in the
+    /// reading fragment shader (`crate::shader::input_depth`): under `reverse_observable =
+    /// copies`, in the modes whose attachments hold `1 - D`, which a shader undoes without
+    /// knowing the camera (flip, complementary). Infinite mode stores `n / w`, whose inverse
+    /// needs the camera's n/f at draw time: images read as input attachments stay native
+    /// there.
+    pub fn converts_input_reads(&self) -> bool {
+        self.observable == Observable::Copies
+            && matches!(self.mode, Mode::Flip | Mode::Complementary)
+    }
+
+    /// Whether shaders can read an image of this usage and remain correct once it is reversed:
+    /// sampled through a twin ([`Self::reads_through_twin`]), read as an input attachment
+    /// converted in the shader ([`Self::converts_input_reads`]), and never as a storage image.
+    fn shader_reads_follow(
+        &self,
+        usage: vk::ImageUsageFlags,
+        samples: vk::SampleCountFlags,
+        tiling: vk::ImageTiling,
+    ) -> bool {
+        !usage.contains(vk::ImageUsageFlags::STORAGE)
+            && (!usage.contains(vk::ImageUsageFlags::SAMPLED)
+                || self.reads_through_twin(usage, samples, tiling))
+            && (!usage.contains(vk::ImageUsageFlags::INPUT_ATTACHMENT)
+                || self.converts_input_reads())
+    }
+
     /// Decides a depth image; `None` for images without a depth aspect (never touched). An
-    /// image shaders read is reversed where they read it through a twin
-    /// ([`Self::reads_through_twin`]), native otherwise (unless `reverse_observable = all`).
+    /// image shaders read is reversed where every way they read it follows
+    /// ([`Self::shader_reads_follow`]), native otherwise (unless `reverse_observable = all`).
     pub fn classify_image(
         &self,
         format: vk::Format,
@@ -329,7 +353,7 @@ impl DevicePolicy {
         let observable = self.observable;
         if !shader_reads.is_empty()
             && observable != Observable::All
-            && !self.reads_through_twin(usage, samples, tiling)
+            && !self.shader_reads_follow(usage, samples, tiling)
         {
             return native(NativeReason::ReadByShaders(shader_reads));
         }
@@ -703,6 +727,55 @@ mod tests {
     }
 
     #[test]
+    fn input_attachments_are_reversed_where_the_reading_shader_converts() {
+        let input = ATTACHMENT | vk::ImageUsageFlags::INPUT_ATTACHMENT;
+        let both = input | vk::ImageUsageFlags::SAMPLED;
+        let four = vk::SampleCountFlags::TYPE_4;
+        for mode in [Mode::Flip, Mode::Complementary] {
+            let p = policy(mode, Observable::Copies);
+            assert!(p.converts_input_reads());
+            // Multisampled input attachments too: nothing is refreshed for them.
+            for samples in [ONE, four] {
+                assert_eq!(
+                    p.classify_image(D32, input, OPTIMAL, samples),
+                    Some(ImageDepth::Reversed),
+                    "{mode:?}"
+                );
+            }
+            // Sampled as well: the twin serves the samples, the shader the input reads.
+            assert_eq!(
+                p.classify_image(D32, both, OPTIMAL, ONE),
+                Some(ImageDepth::Reversed)
+            );
+            assert!(p.reads_through_twin(both, ONE, OPTIMAL));
+            // Multisampled and sampled: no twin can serve the samples.
+            assert!(matches!(
+                p.classify_image(D32, both, OPTIMAL, four),
+                Some(ImageDepth::Native(NativeReason::ReadByShaders(_)))
+            ));
+            // Storage images are written by shaders: native whatever else.
+            assert!(matches!(
+                p.classify_image(D32, input | vk::ImageUsageFlags::STORAGE, OPTIMAL, ONE),
+                Some(ImageDepth::Native(NativeReason::ReadByShaders(_)))
+            ));
+        }
+        // Infinite mode stores n / w: a shader cannot undo it without the camera's n/f.
+        let infinite = policy(Mode::Infinite, Observable::Copies);
+        assert!(!infinite.converts_input_reads());
+        assert!(matches!(
+            infinite.classify_image(D32, input, OPTIMAL, ONE),
+            Some(ImageDepth::Native(NativeReason::ReadByShaders(_)))
+        ));
+        // `none` keeps them native, `all` reverses them raw.
+        assert!(!policy(Mode::Flip, Observable::None).converts_input_reads());
+        assert!(!policy(Mode::Flip, Observable::All).converts_input_reads());
+        assert_eq!(
+            policy(Mode::Infinite, Observable::All).classify_image(D32, input, OPTIMAL, ONE),
+            Some(ImageDepth::Reversed)
+        );
+    }
+
+    #[test]
     fn observable_images_follow_the_setting() {
         let sampled = ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
         let copied = ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
@@ -721,7 +794,7 @@ mod tests {
             Some(ImageDepth::Native(NativeReason::CopiedFrom))
         );
         // Sampled images are reversed, read through their twin; what a twin cannot serve stays
-        // native: storage (shaders write it), input attachments, several samples.
+        // native: storage (shaders write it), several samples.
         assert_eq!(
             copies.classify_image(D32, sampled, OPTIMAL, ONE),
             Some(ImageDepth::Reversed)
@@ -732,7 +805,6 @@ mod tests {
         assert!(!copies.reads_through_twin(ATTACHMENT, ONE, OPTIMAL));
         for (usage, samples) in [
             (sampled | vk::ImageUsageFlags::STORAGE, ONE),
-            (sampled | vk::ImageUsageFlags::INPUT_ATTACHMENT, ONE),
             (sampled, vk::SampleCountFlags::TYPE_4),
         ] {
             assert!(!copies.reads_through_twin(usage, samples, OPTIMAL));

@@ -165,8 +165,8 @@ pub use images::{
 pub use passes::{
     clears_depth_at_begin, clears_reversed, framebuffer_may_be_promoted, has_promoted_twin,
     imageless_view_format, pass_committed, pass_promotable, pass_resolve_swappable,
-    promoted_twin_format, rendering_promoted_from, resolves_reversed, subpass_promoted_from,
-    FramebufferStorage, PassTwin,
+    promoted_twin_format, reads_depth_input, rendering_promoted_from, resolves_reversed,
+    subpass_promoted_from, FramebufferStorage, PassTwin,
 };
 pub use resolves::{
     follows_demotion, resolved_destination, DepthResolve, ResolveSupport, ResolvedDestination,

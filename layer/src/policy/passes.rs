@@ -135,6 +135,14 @@ pub fn clears_depth_at_begin(format: vk::Format, load_op: vk::AttachmentLoadOp) 
     crate::conv::has_depth(format) && load_op == vk::AttachmentLoadOp::CLEAR
 }
 
+/// Whether an input attachment reference reads depth: an attachment with a depth aspect,
+/// referenced with the depth aspect (`aspect` empty: not given, which reads every aspect of
+/// the view; a shader reading it as floats reads depth).
+pub fn reads_depth_input(format: Option<vk::Format>, aspect: vk::ImageAspectFlags) -> bool {
+    format.is_some_and(crate::conv::has_depth)
+        && (aspect.is_empty() || aspect.contains(vk::ImageAspectFlags::DEPTH))
+}
+
 /// The format a render pass instance's draws convert from in a subpass: `None` outside a
 /// promoted twin (`promoted`: the pass was begun as its twin); else the UNORM format of the
 /// subpass's depth attachment (`depth_format`), or UNDEFINED where it has none or its format is

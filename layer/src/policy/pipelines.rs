@@ -283,27 +283,48 @@ pub struct VariantFacts {
     pub library_variants: bool,
     /// It draws into promoted attachments (`PromotionFacts::decide`).
     pub promotion: bool,
+    /// Its fragment stage reads depth through input attachments of its subpass, and
+    /// `crate::shader::input_depth` rewrote it to convert what it reads.
+    pub converts_inputs: bool,
+    /// Its subpass (or rendering) has a depth attachment: its draws may go to a reversed one.
+    pub depth_attachment: bool,
 }
 
-/// Which variant of a pipeline to make: for reversed attachments, promoted ones, or both.
+/// Which variant of a pipeline to make: for reversed attachments, promoted ones, or both; or,
+/// for a pipeline that reads depth through input attachments, for reversed input attachments
+/// where the depth attachment is not reversed (`inputs`: only the reads are converted).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct VariantKind {
     pub reversed: bool,
     pub promoted: bool,
+    pub inputs: bool,
 }
 
 impl VariantKind {
     pub const REVERSED: VariantKind = VariantKind {
         reversed: true,
         promoted: false,
+        inputs: false,
     };
     pub const PROMOTED: VariantKind = VariantKind {
         reversed: false,
         promoted: true,
+        inputs: false,
     };
     pub const PROMOTED_REVERSED: VariantKind = VariantKind {
         reversed: true,
         promoted: true,
+        inputs: false,
+    };
+    pub const INPUTS: VariantKind = VariantKind {
+        reversed: false,
+        promoted: false,
+        inputs: true,
+    };
+    pub const PROMOTED_INPUTS: VariantKind = VariantKind {
+        reversed: false,
+        promoted: true,
+        inputs: true,
     };
 }
 
@@ -323,6 +344,14 @@ pub struct Variants {
     /// It draws into promoted attachments but gets no promoted variant: its code is not
     /// given (logged).
     pub promotion_refused: bool,
+    /// Its fragment stage converts the depth it reads through input attachments in its
+    /// reversed variants (those for a reversed depth attachment, which its subpass's reversed
+    /// input attachments are as a rule) and in its input variants (for reversed input
+    /// attachments beside a native or no depth attachment).
+    pub converted_inputs: bool,
+    /// Its subpass has a depth attachment (a reversed variant converting its input reads is
+    /// needed only then).
+    pub depth_attachment: bool,
 }
 
 impl VariantFacts {
@@ -359,6 +388,8 @@ impl VariantFacts {
             unreversed_fragment: fragment == Some(FragmentVariant::Unreversed)
                 || (libraries && !given),
             promotion_refused: self.promotion && !given,
+            converted_inputs: self.converts_inputs && given,
+            depth_attachment: self.depth_attachment,
         }
     }
 }
@@ -367,7 +398,10 @@ impl Variants {
     /// Whether the pipeline gets a variant bound for draws into reversed attachments.
     #[must_use]
     pub fn reversed(&self) -> bool {
-        self.compare_op || self.rewritten_fragment || self.linked_variants
+        self.compare_op
+            || self.rewritten_fragment
+            || self.linked_variants
+            || (self.converted_inputs && self.depth_attachment)
     }
 
     /// Whether the reversed variant holds a fragment stage revz changed (its own, rewritten, or
@@ -375,7 +409,9 @@ impl Variants {
     /// unreversed one.
     #[must_use]
     pub fn reversed_changes_fragment(&self) -> bool {
-        self.rewritten_fragment || self.linked_variants
+        self.rewritten_fragment
+            || self.linked_variants
+            || (self.converted_inputs && self.depth_attachment)
     }
 
     /// Whether the pipeline's own draws keep (or link) the unreversed fragment stage, its
@@ -390,10 +426,13 @@ impl Variants {
     pub fn kinds(&self) -> impl Iterator<Item = VariantKind> {
         let reversed = self.reversed();
         let promoted = self.promoted;
+        let inputs = self.converted_inputs;
         [
             (reversed, VariantKind::REVERSED),
             (promoted, VariantKind::PROMOTED),
             (reversed && promoted, VariantKind::PROMOTED_REVERSED),
+            (inputs, VariantKind::INPUTS),
+            (inputs && promoted, VariantKind::PROMOTED_INPUTS),
         ]
         .into_iter()
         .filter_map(|(made, kind)| made.then_some(kind))
@@ -963,7 +1002,59 @@ mod tests {
             compare_op_flips: true,
             library_variants: true,
             promotion: true,
+            converts_inputs: false,
+            depth_attachment: true,
         }
+    }
+
+    #[test]
+    fn pipelines_reading_depth_inputs_get_input_variants() {
+        let reads = VariantFacts {
+            active: true,
+            renders_depth: false,
+            fragment: Some(FragmentStage::NoDepth),
+            converts_inputs: true,
+            ..VariantFacts::default()
+        };
+        // No depth attachment: only the input variants (and their promoted form).
+        let alone = reads.decide();
+        assert!(alone.converted_inputs && !alone.reversed());
+        assert!(!alone.keeps_unreversed_fragment(false));
+        assert_eq!(alone.kinds().collect::<Vec<_>>(), [VariantKind::INPUTS]);
+        let promoted = VariantFacts {
+            promotion: true,
+            ..reads
+        }
+        .decide();
+        assert_eq!(
+            promoted.kinds().collect::<Vec<_>>(),
+            [
+                VariantKind::PROMOTED,
+                VariantKind::INPUTS,
+                VariantKind::PROMOTED_INPUTS
+            ]
+        );
+        // Beside a depth attachment: the reversed variant converts the reads too, and must be
+        // made for them.
+        let beside = VariantFacts {
+            depth_attachment: true,
+            ..reads
+        }
+        .decide();
+        assert!(beside.reversed() && beside.reversed_changes_fragment());
+        assert!(beside.keeps_unreversed_fragment(false));
+        assert_eq!(
+            beside.kinds().collect::<Vec<_>>(),
+            [VariantKind::REVERSED, VariantKind::INPUTS]
+        );
+        // Code revz cannot see gets none.
+        let identified = VariantFacts {
+            identified: true,
+            ..reads
+        }
+        .decide();
+        assert!(!identified.converted_inputs);
+        assert_eq!(identified.kinds().count(), 0);
     }
 
     #[test]
@@ -978,6 +1069,8 @@ mod tests {
                 promoted: true,
                 unreversed_fragment: false,
                 promotion_refused: false,
+                converted_inputs: false,
+                depth_attachment: true,
             }
         );
         assert!(variants.reversed());
@@ -1064,7 +1157,13 @@ mod tests {
             ..none
         }
         .decide();
-        assert_eq!(unexamined, Variants::default());
+        assert_eq!(
+            unexamined,
+            Variants {
+                depth_attachment: none.depth_attachment,
+                ..Variants::default()
+            }
+        );
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! | [`position_store`] (`declarations.rs`, `body.rs`, `rewrite.rs`) | the `Position` store rewrite: the stage stores depth on the carrier's line |
 //! | [`derived_range`] | the in-shader fit of the range for projections in uniform or storage buffers |
 //! | [`fragment_depth`] | the rewrite of fragment shaders that compute with or write depth |
+//! | [`input_depth`] | the rewrite of fragment shaders that read depth as an input attachment |
 //!
 //! Which pipelines get which rewrite is decided in `crate::policy`; when modules are read and
 //! rewritten (once per module or distinct inline code) in `crate::hooks::pipeline`.
@@ -15,6 +16,7 @@
 pub mod analysis;
 pub mod derived_range;
 pub mod fragment_depth;
+pub mod input_depth;
 pub mod position_store;
 pub mod scan;
 #[cfg(test)]

@@ -95,6 +95,42 @@ pub fn refused_fragment() -> Vec<u32> {
     words
 }
 
+/// A deferred lighting shader as glslang writes it: `subpassLoad` of a float input attachment
+/// at input attachment index 0 (depth, in the tests' render passes) into the color output.
+pub fn depth_input_fragment() -> Vec<u32> {
+    assemble(
+        "OpCapability Shader
+        OpCapability InputAttachment
+        OpMemoryModel Logical GLSL450
+        OpEntryPoint Fragment %main \"main\" %out
+        OpExecutionMode %main OriginUpperLeft
+        OpDecorate %out Location 0
+        OpDecorate %depth InputAttachmentIndex 0
+        OpDecorate %depth DescriptorSet 0
+        OpDecorate %depth Binding 0
+        %void = OpTypeVoid
+        %fn = OpTypeFunction %void
+        %float = OpTypeFloat 32
+        %int = OpTypeInt 32 1
+        %v4 = OpTypeVector %float 4
+        %v2i = OpTypeVector %int 2
+        %zero = OpConstant %int 0
+        %origin = OpConstantComposite %v2i %zero %zero
+        %image = OpTypeImage %float SubpassData 0 0 0 2 Unknown
+        %pimage = OpTypePointer UniformConstant %image
+        %depth = OpVariable %pimage UniformConstant
+        %pout = OpTypePointer Output %v4
+        %out = OpVariable %pout Output
+        %main = OpFunction %void None %fn
+        %entry = OpLabel
+        %d = OpLoad %image %depth
+        %r = OpImageRead %v4 %d %origin
+        OpStore %out %r
+        OpReturn
+        OpFunctionEnd",
+    )
+}
+
 /// spirv-val accepts `words` (Vulkan 1.1 environment).
 pub fn validate(words: &[u32]) {
     use spirv_tools::val::{self, Validator as _};

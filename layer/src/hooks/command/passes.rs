@@ -154,6 +154,7 @@ fn begin_pass(
         enter_cameras(device, &mut state, &scope.reversed_images);
         state.set_target(scope.target());
         state.set_promoted(scope.promoted_from());
+        state.set_reversed_inputs(reads_reversed_inputs(&scope));
         tally_image(entry, &mut state, scope.depth_view());
     }
     let key = subpass_key(&scope);
@@ -266,7 +267,7 @@ pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer
         remember_camera_of(entry, &[image]);
         entry.scope().reversed_images.retain(|&i| i != image);
     }
-    let (target, promoted, key, view) = {
+    let (target, promoted, key, view, reversed_inputs) = {
         let mut scope = entry.scope();
         scope.subpass += 1;
         (
@@ -274,6 +275,7 @@ pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer
             scope.promoted_from(),
             subpass_key(&scope),
             scope.depth_view(),
+            reads_reversed_inputs(&scope),
         )
     };
     let entering = remembers.then(|| device.objects.views.get(&view)).flatten();
@@ -284,9 +286,29 @@ pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer
         }
         state.set_target(target);
         state.set_promoted(promoted);
+        state.set_reversed_inputs(reversed_inputs);
         tally_image(entry, &mut state, view);
     }
     enter_contents(entry, buffer, secondary, key);
+}
+
+/// Whether the scope's subpass reads a reversed depth image through an input attachment
+/// ([`PassScope::depth_inputs`]). A native one read beside a reversed depth attachment is
+/// logged once: the reversed variant bound for that attachment converts every depth input
+/// read, so that one reads `1 - d`.
+pub(super) fn reads_reversed_inputs(scope: &PassScope) -> bool {
+    let (reversed, native_beside_reversed) = scope.depth_inputs();
+    if native_beside_reversed {
+        static MIXED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+        MIXED.log(|| {
+            log::warn!(
+                "a subpass reads a native depth image through an input attachment beside a \
+                 reversed depth attachment: its shaders read 1 - d from it (make both images \
+                 alike: e.g. neither storage nor multisampled and sampled)"
+            )
+        });
+    }
+    reversed
 }
 
 /// Where the device keeps a depth profile: draws from now on are counted as into `view`'s

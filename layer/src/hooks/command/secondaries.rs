@@ -79,6 +79,7 @@ pub unsafe extern "system" fn begin_command_buffer(
         // SAFETY: null or valid; only read for secondaries continuing a render pass.
         let inheritance = unsafe { begin.p_inheritance_info.as_ref() }.filter(|_| continues);
         let target = inheritance.map_or(Target::None, |i| inherited_target(entry, i));
+        let reversed_inputs = inheritance.is_some_and(|i| inherited_reversed_inputs(entry, i));
         let promoted = inheritance.and_then(|i| inherited_promotion(entry, i));
         if let (Some(_), Some(inheritance)) = (promoted, inheritance) {
             promoted_begin = promoted_inheritance(&entry.device, begin, inheritance);
@@ -110,6 +111,7 @@ pub unsafe extern "system" fn begin_command_buffer(
         if continues {
             // Inside the pass it continues, with or without a depth attachment.
             state.set_target(target);
+            state.set_reversed_inputs(reversed_inputs);
         }
         state.set_promoted(promoted);
         if entry.secondary && inherits_viewports(begin) {
@@ -236,6 +238,54 @@ fn inherited_depth_image(
     let views = attachment_views(device, inheritance.framebuffer, std::ptr::null());
     let view = views.get(index as usize)?;
     device.objects.views.get(view)
+}
+
+/// Whether a secondary continuing a subpass reads a reversed depth image through an input
+/// attachment: from its inherited framebuffer where it names one; else assumed where the
+/// policy reverses images read so (logged once).
+fn inherited_reversed_inputs(
+    entry: &CommandBufferEntry,
+    inheritance: &vk::CommandBufferInheritanceInfo<'_>,
+) -> bool {
+    let device = &entry.device;
+    if inheritance.render_pass == vk::RenderPass::null() {
+        return false;
+    }
+    let Some(pass) = device.objects.render_passes.get(&inheritance.render_pass) else {
+        return false;
+    };
+    let reads_depth = pass
+        .subpass_depth_inputs
+        .get(inheritance.subpass as usize)
+        .is_some_and(|inputs| !inputs.is_empty());
+    if !reads_depth {
+        return false;
+    }
+    let views = attachment_views(device, inheritance.framebuffer, std::ptr::null());
+    if views.is_empty() {
+        static ASSUMED: OnceLock<()> = OnceLock::new();
+        ASSUMED.get_or_init(|| {
+            log::warn!(
+                "a secondary command buffer without a framebuffer reads depth through an \
+                 input attachment: assuming the image is reversed (as revz makes such images \
+                 where it converts their reads)"
+            )
+        });
+        return device.policy.converts_input_reads();
+    }
+    let scope = PassScope {
+        handle: inheritance.render_pass,
+        attachment_targets: views
+            .iter()
+            .map(|&view| device.observed.effective(device.view_target(view)))
+            .collect(),
+        render_pass: Some(pass),
+        attachment_views: None,
+        subpass: inheritance.subpass as usize,
+        promoted: false,
+        reversed_images: Vec::new(),
+    };
+    super::passes::reads_reversed_inputs(&scope)
 }
 
 pub(super) fn inherited_target(

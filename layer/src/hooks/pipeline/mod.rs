@@ -115,8 +115,12 @@ struct Plan {
     /// whether the variant is made), the compare op it tests with.
     static_state: StaticStatePlan,
     /// The fragment stage (its index) the reversed variant gets rewritten
-    /// (`crate::shader::fragment_depth`).
+    /// (`crate::shader::fragment_depth`, and `crate::shader::input_depth` where it reads depth
+    /// through input attachments).
     fragment: Option<(usize, Arc<[u32]>)>,
+    /// The fragment stage the input variants get: its reads of depth through input attachments
+    /// converted, nothing else changed.
+    input_fragment: Option<(usize, Arc<[u32]>)>,
     /// The vertex stage (its index) rewritten to store the carrier's depth
     /// (`crate::shader::position_store`): the precise path. The application's pipeline itself (and
     /// its variant) is created with it: with the flip carrier it stores the shader's own z.
@@ -245,6 +249,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         compare_op_flips: plan.static_state.compare_op_variant,
                         library_variants: false,
                         promotion: false,
+                        converts_inputs: false,
+                        depth_attachment: context.has_depth_attachment,
                     };
                     if facts.warns_of_binaries() {
                         static BINARIES: crate::logging::LogOnce = crate::logging::LogOnce::new();
@@ -306,6 +312,31 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     let promotion = promotion_of(&state, info, context.subsets, &linked);
                     facts.promotion = promotion.is_some();
                     plan.depth.promotable |= facts.promotion;
+                    // Depth read through input attachments: converted in the fragment stage
+                    // (not followed into pipeline libraries, logged).
+                    let inputs = context
+                        .subsets
+                        .contains(Subsets::FRAGMENT_SHADER)
+                        .then(|| depth_input_stage(&state, info))
+                        .flatten();
+                    let inputs = match inputs {
+                        Some(_) if is_library(info) || !linked.is_empty() => {
+                            static LIBRARY: crate::logging::LogOnce =
+                                crate::logging::LogOnce::new();
+                            LIBRARY.log(|| {
+                                log::warn!(
+                                    "a pipeline library reads depth through input \
+                                     attachments: revz does not convert those reads in \
+                                     libraries, so they read reversed depth where the \
+                                     attachment is reversed"
+                                )
+                            });
+                            None
+                        }
+                        Some(stage) => stage.convert(&stage.code).map(|code| (stage, code)),
+                        None => None,
+                    };
+                    facts.converts_inputs = inputs.is_some();
                     let variants = facts.decide();
                     let holds_bias = BiasVariantFacts {
                         compare_op_variant: variants.compare_op,
@@ -323,6 +354,18 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         if let Some(Some((index, Ok(code)))) = fragment {
                             plan.fragment = Some((index, code));
                         }
+                    }
+                    if let (true, Some((stage, code))) = (variants.converted_inputs, inputs) {
+                        // The reversed variants convert the reads too, in the stage the
+                        // fragment depth rewrite made where there is one.
+                        let reversed = match &plan.fragment {
+                            Some((_, rewritten)) => stage.convert(rewritten),
+                            None => Some(code.clone()),
+                        };
+                        if let Some(reversed) = reversed {
+                            plan.fragment = Some((stage.index, reversed));
+                        }
+                        plan.input_fragment = Some((stage.index, code));
                     }
                     if variants.linked_variants {
                         plan.libraries = libraries;
@@ -535,6 +578,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 plan.depth.reversed_variant = variant;
                 plan.depth.promoted_variant = made_kind(VariantKind::PROMOTED);
                 plan.depth.promoted_reversed_variant = made_kind(VariantKind::PROMOTED_REVERSED);
+                plan.depth.input_variant = made_kind(VariantKind::INPUTS);
+                plan.depth.promoted_input_variant = made_kind(VariantKind::PROMOTED_INPUTS);
                 if plan.variants.promoted && plan.depth.promoted_variant.is_none() {
                     static MISSING: crate::logging::LogOnce = crate::logging::LogOnce::new();
                     MISSING.log(|| {
@@ -578,7 +623,8 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 }
                 if let (Some(profile), true) = (
                     &state.profile,
-                    profiles_pipeline(plan.static_state.renders_depth),
+                    profiles_pipeline(plan.static_state.renders_depth)
+                        || plan.variants.converted_inputs,
                 ) {
                     profile.pipeline(
                         vk::Handle::as_raw(pipeline),
@@ -588,7 +634,17 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                             projection: path.to_string(),
                             reversed_variant: plan.depth.reversed_variant.is_some(),
                             promoted_variant: plan.depth.promoted_variant.is_some(),
+                            converts_depth_inputs: plan.variants.converted_inputs,
                         },
+                    );
+                }
+                if plan.variants.converted_inputs {
+                    log::debug!(
+                        "pipeline {pipeline:?}: its fragment shader reads depth through input \
+                         attachments; {:?} (reversed depth attachment) and {:?} (reversed \
+                         inputs only) convert what it reads",
+                        plan.depth.reversed_variant,
+                        plan.depth.input_variant
                     );
                 }
                 if let (true, Some(variant)) = (plan.variants.rewritten_fragment, variant) {

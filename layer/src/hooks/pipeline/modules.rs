@@ -30,6 +30,81 @@ pub(super) fn fragment_stage_rewrite(
     Some((index, rewrite))
 }
 
+/// The fragment stage of a pipeline whose subpass reads depth through input attachments
+/// (`RenderPassInfo::subpass_depth_inputs`) and whose code declares input attachments: its
+/// index, its code and the input attachment indices that read depth. `None` where the policy
+/// converts no input reads, the pipeline names no render pass (dynamic rendering reads input
+/// attachments only with `VK_KHR_dynamic_rendering_local_read`, which revz does not follow)
+/// or its subpass reads no depth.
+pub(super) fn depth_input_stage(
+    state: &DeviceState,
+    info: &vk::GraphicsPipelineCreateInfo<'_>,
+) -> Option<DepthInputStage> {
+    if !state.policy.converts_input_reads() || info.render_pass == vk::RenderPass::null() {
+        return None;
+    }
+    let pass = state.objects.render_passes.get(&info.render_pass)?;
+    let indices: Vec<u32> = pass
+        .subpass_depth_inputs
+        .get(info.subpass as usize)?
+        .iter()
+        .map(|input| input.index)
+        .collect();
+    if indices.is_empty() {
+        return None;
+    }
+    // SAFETY: `stageCount` stages (the application's contract).
+    let stages = unsafe { slice(info.p_stages, info.stage_count) };
+    let (index, stage) = stages
+        .iter()
+        .enumerate()
+        .find(|(_, stage)| stage.stage == vk::ShaderStageFlags::FRAGMENT)?;
+    let code: Arc<[u32]> = if stage.module != vk::ShaderModule::null() {
+        state.objects.input_modules.get(&stage.module)?
+    } else {
+        let words = inline_code(stage)?;
+        if !crate::shader::input_depth::reads_input_attachments(words) {
+            return None;
+        }
+        Arc::from(words)
+    };
+    Some(DepthInputStage {
+        index,
+        code,
+        indices,
+    })
+}
+
+/// A fragment stage that may read depth through input attachments
+/// ([`depth_input_stage`]).
+pub(super) struct DepthInputStage {
+    pub index: usize,
+    pub code: Arc<[u32]>,
+    /// The input attachment indices of its subpass that read depth.
+    pub indices: Vec<u32>,
+}
+
+impl DepthInputStage {
+    /// `code` with the depth it reads through input attachments converted (`None`: it reads
+    /// none). One that cannot be rewritten is logged once.
+    pub fn convert(&self, code: &[u32]) -> Option<Arc<[u32]>> {
+        match crate::shader::input_depth::reverse_input_depth(code, &self.indices) {
+            Ok(converted) => converted.map(Arc::from),
+            Err(reason) => {
+                static REFUSED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                REFUSED.log(|| {
+                    log::warn!(
+                        "a fragment shader reads depth through an input attachment in a way \
+                         revz cannot rewrite ({reason}): it reads reversed depth where the \
+                         attachment is reversed"
+                    )
+                });
+                None
+            }
+        }
+    }
+}
+
 /// A fragment module rewritten for reversed attachments, `None` when it does not compute
 /// with depth. One that cannot be rewritten is logged (once per module).
 pub(super) fn rewrite_fragment_module(
@@ -147,6 +222,11 @@ pub unsafe extern "system" fn create_shader_module(
                     state.objects.fragment_depth_modules.insert(module, rewrite);
                 }
             }
+            if state.policy.converts_input_reads()
+                && crate::shader::input_depth::reads_input_attachments(words)
+            {
+                state.objects.input_modules.insert(module, Arc::from(words));
+            }
             // Only the stages that can store the rasterized Position are analyzed and
             // rewritten (fragment and compute modules with push constants are not parsed).
             if vertex_stage::analyses_vertex_module(state.policy.rewrite().is_some(), || {
@@ -177,7 +257,7 @@ destroy_hook!(
     destroy_shader_module,
     DESTROY_SHADER_MODULE,
     vk::ShaderModule,
-    fragment_depth_modules | vertex_modules | position_stores | position_w_one,
+    fragment_depth_modules | vertex_modules | position_stores | position_w_one | input_modules,
     destroy_shader_module
 );
 

@@ -24,7 +24,7 @@ pub(super) fn library_variants(
         .map(|library| {
             let depth = state.objects.pipelines.get(library);
             depth
-                .and_then(|depth| depth.variant_for(reversed, promoted))
+                .and_then(|depth| depth.variant_for(reversed, promoted, false))
                 .unwrap_or(*library)
         })
         .collect();
@@ -149,7 +149,13 @@ pub(super) fn create_variant(
     }
     // SAFETY: `stageCount` stages (the application's contract).
     let mut stages = unsafe { slice(info.p_stages, info.stage_count) }.to_vec();
-    let fragment = plan.fragment.as_ref().filter(|_| kind.reversed);
+    let fragment = if kind.reversed {
+        plan.fragment.as_ref()
+    } else if kind.inputs {
+        plan.input_fragment.as_ref()
+    } else {
+        None
+    };
     let rewritten = match fragment {
         Some((index, code)) => {
             let Some(rewritten) = rewritten_stage(state, device, &mut stages[*index], code) else {
