@@ -40,6 +40,10 @@ use crate::policy::Unconverted;
 /// they agree).
 pub const SHADER: &[u8] = include_bytes!("depth_convert.spv");
 
+/// The per-sample conversion of multisampled read twins (`depth_convert_ms.comp`, compiled
+/// with glslang; a test checks it is current).
+pub const MS_SHADER: &[u8] = include_bytes!("depth_convert_ms.comp.spv");
+
 /// What a device needs to convert copies: its memory types and compute-capable queue
 /// families (read at `vkCreateDevice`), and the conversion pipeline (created at the first
 /// conversion).
@@ -57,6 +61,8 @@ pub struct DeviceCopies {
     /// The pipeline of each [`plan::Specialization`], created at its first conversion
     /// (`None`: the device refused it).
     specialized: [OnceLock<Option<vk::Pipeline>>; plan::Specialization::COUNT],
+    /// The refresh pipeline of multisampled read twins, created at its first refresh.
+    multisampled: OnceLock<Option<MultisampledConvert>>,
     /// One bit per [`Unconverted`] reason already logged.
     warned: AtomicU8,
 }
@@ -67,6 +73,17 @@ impl std::fmt::Debug for DeviceCopies {
             .field("compute_families", &self.compute_families)
             .finish_non_exhaustive()
     }
+}
+
+/// The refresh of multisampled read twins (`depth_convert_ms.comp`): set 0 is the copy
+/// conversion's (the scratch buffer, whose first 16 bytes hold the map), set 1 the image's
+/// depth (a sampled image) and its twin (a storage image).
+#[derive(Clone, Copy, Debug)]
+pub struct MultisampledConvert {
+    pub set_layout: vk::DescriptorSetLayout,
+    pub layout: vk::PipelineLayout,
+    pub module: vk::ShaderModule,
+    pub pipeline: vk::Pipeline,
 }
 
 /// revz's compute pipeline layout and shader module, shared by the specialized pipelines.
@@ -102,6 +119,7 @@ impl DeviceCopies {
             compute_push_templates: Default::default(),
             pipeline: OnceLock::new(),
             specialized: std::array::from_fn(|_| OnceLock::new()),
+            multisampled: OnceLock::new(),
             warned: AtomicU8::new(0),
         }
     }
@@ -198,6 +216,27 @@ impl DeviceCopies {
         pipeline.map(|pipeline| (layouts, pipeline))
     }
 
+    /// The refresh pipeline of multisampled twins, created on first use (`None` if the device
+    /// refused it: logged once, and such twins are then not refreshed).
+    pub fn multisampled(
+        &self,
+        device: vk::Device,
+        next: &ash::Device,
+    ) -> Option<MultisampledConvert> {
+        let layouts = self.layouts(device, next)?;
+        *self.multisampled.get_or_init(|| {
+            // SAFETY: a live device; revz's own layouts.
+            let created = unsafe { create_multisampled(device, next, &layouts) };
+            if let Err(result) = created {
+                log::error!(
+                    "cannot create revz's refresh pipeline of multisampled read twins \
+                     ({result:?}): shaders reading them read what they last held"
+                );
+            }
+            created.ok()
+        })
+    }
+
     /// Logs once per reason that copies go down unconverted.
     pub fn warn_unconverted(&self, why: Unconverted) {
         let bit = 1u8 << (why as u8);
@@ -219,6 +258,15 @@ impl DeviceCopies {
         {
             // SAFETY: revz's own pipeline, no longer used.
             unsafe { (v.destroy_pipeline)(device, pipeline, std::ptr::null()) };
+        }
+        if let Some(Some(m)) = self.multisampled.get() {
+            // SAFETY: revz's own objects, no longer used.
+            unsafe {
+                (v.destroy_pipeline)(device, m.pipeline, std::ptr::null());
+                (v.destroy_shader_module)(device, m.module, std::ptr::null());
+                (v.destroy_pipeline_layout)(device, m.layout, std::ptr::null());
+                (v.destroy_descriptor_set_layout)(device, m.set_layout, std::ptr::null());
+            }
         }
         if let Some(Some(p)) = self.pipeline.get() {
             // SAFETY: revz's own objects, no longer used.
@@ -277,6 +325,87 @@ unsafe fn create_layouts(
                 (v.destroy_shader_module)(device, module, null);
                 (v.destroy_pipeline_layout)(device, layout, null);
                 (v.destroy_descriptor_set_layout)(device, set_layout, null);
+            }
+            Err(error)
+        }
+    }
+}
+
+/// Creates the refresh pipeline of multisampled twins over the copy conversion's set layout.
+/// Whatever was created is destroyed on failure.
+///
+/// # Safety
+/// `device` must be live, `next` its next layer's table, and `base` created on it.
+unsafe fn create_multisampled(
+    device: vk::Device,
+    next: &ash::Device,
+    base: &ConvertPipeline,
+) -> Result<MultisampledConvert, vk::Result> {
+    let v = next.fp_v1_0();
+    let null = std::ptr::null();
+    let bindings = [
+        vk::DescriptorSetLayoutBinding::default()
+            .binding(0)
+            .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::COMPUTE),
+        vk::DescriptorSetLayoutBinding::default()
+            .binding(1)
+            .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::COMPUTE),
+    ];
+    let set_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+    let mut made = MultisampledConvert {
+        set_layout: vk::DescriptorSetLayout::null(),
+        layout: vk::PipelineLayout::null(),
+        module: vk::ShaderModule::null(),
+        pipeline: vk::Pipeline::null(),
+    };
+    let result = (|| {
+        // SAFETY: valid create infos and outputs (here and below).
+        unsafe { (v.create_descriptor_set_layout)(device, &set_info, null, &mut made.set_layout) }
+            .result()?;
+        let set_layouts = [base.set_layout, made.set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        // SAFETY: as above.
+        unsafe { (v.create_pipeline_layout)(device, &layout_info, null, &mut made.layout) }
+            .result()?;
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(MS_SHADER))
+            .map_err(|_| vk::Result::ERROR_INITIALIZATION_FAILED)?;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: as above; the module is valid SPIR-V 1.0 (tested).
+        unsafe { (v.create_shader_module)(device, &module_info, null, &mut made.module) }
+            .result()?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(made.module)
+            .name(c"main");
+        let info = vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(made.layout);
+        // SAFETY: as above.
+        unsafe {
+            (v.create_compute_pipelines)(
+                device,
+                vk::PipelineCache::null(),
+                1,
+                &info,
+                null,
+                &mut made.pipeline,
+            )
+        }
+        .result()
+    })();
+    match result {
+        Ok(()) => Ok(made),
+        Err(error) => {
+            // SAFETY: revz's own objects (null handles are ignored).
+            unsafe {
+                (v.destroy_pipeline)(device, made.pipeline, null);
+                (v.destroy_shader_module)(device, made.module, null);
+                (v.destroy_pipeline_layout)(device, made.layout, null);
+                (v.destroy_descriptor_set_layout)(device, made.set_layout, null);
             }
             Err(error)
         }
@@ -363,6 +492,42 @@ mod tests {
             bytes == SHADER,
             "layer/src/depth_copy/depth_convert.spv is stale: run \
              REVZ_BLESS=1 cargo test -p revz-layer the_embedded_shader"
+        );
+    }
+
+    /// The embedded refresh shader of multisampled twins is its GLSL source compiled by
+    /// glslang (where `glslangValidator` is installed: `cargo xtask setup`), and valid for
+    /// Vulkan 1.0.
+    #[test]
+    fn the_embedded_multisampled_shader_is_its_source_compiled() {
+        use spirv_tools::val::{self, Validator};
+        use spirv_tools::TargetEnv;
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(MS_SHADER)).unwrap();
+        val::create(Some(TargetEnv::Vulkan_1_0))
+            .validate(&words, None)
+            .unwrap_or_else(|e| panic!("the multisampled refresh shader does not validate: {e}"));
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/src/depth_copy");
+        let out = std::env::temp_dir().join(format!("revz-ms-{}.spv", std::process::id()));
+        let run = std::process::Command::new("glslangValidator")
+            .args(["-V", "--target-env", "vulkan1.0", "-o"])
+            .arg(&out)
+            .arg(format!("{dir}/depth_convert_ms.comp"))
+            .output();
+        let Ok(run) = run else {
+            eprintln!("glslangValidator is not installed: cannot recompile the shader");
+            return;
+        };
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stdout)
+        );
+        let compiled = std::fs::read(&out).unwrap();
+        std::fs::remove_file(&out).ok();
+        assert!(
+            compiled == MS_SHADER,
+            "layer/src/depth_copy/depth_convert_ms.comp.spv is stale: recompile it (the command \
+             in depth_convert_ms.comp)"
         );
     }
 

@@ -23,13 +23,25 @@
 //! Descriptors name the twin in `SHADER_READ_ONLY_OPTIMAL` whatever layout the application
 //! named. A twin subresource is read only after a refresh put it there, unless the
 //! application samples a subresource it never made readable (which it may not either).
+//!
+//! A **multisampled** image cannot be copied through a buffer, so its twin is refreshed per
+//! sample by a compute pass instead (`depth_convert_ms.comp`): the twin is an `R32_SFLOAT`
+//! image of as many samples (storage and sampled), which shaders read as they read a depth
+//! image (the depth in the first component: a multisampled image is only fetched, never
+//! filtered or compared); the dispatch fetches every sample of the image's depth through a
+//! view of revz's own and stores it mapped back to standard depth. Views of the image's depth
+//! get views of the twin; its stencil is read from the image itself (never reversed). The
+//! refresh: one barrier (the image from the application's layout to
+//! `SHADER_READ_ONLY_OPTIMAL`, the twin from `UNDEFINED` to `GENERAL`), the map written into
+//! the command buffer's scratch buffer, the dispatch, one barrier back (the twin to
+//! `SHADER_READ_ONLY_OPTIMAL`), and the application's compute state bound again.
 
 use ash::vk;
 
 use super::plan::{plan_image_copy, DepthMap, ShaderHeader, TexelKind, TexelKinds};
 use super::record::{image_barrier, pipeline_barrier, record, Conversion, Drain, Fill};
 use super::scratch::CommandCopies;
-use crate::objects::ReadTwin;
+use crate::objects::{MultisampledBindings, ReadTwin};
 use crate::policy::Unconverted;
 use crate::state::DeviceState;
 
@@ -52,11 +64,24 @@ pub unsafe fn create(
     // the application places, or formats the twin does not have.
     let flags = info.flags
         & (vk::ImageCreateFlags::CUBE_COMPATIBLE | vk::ImageCreateFlags::TYPE_2D_ARRAY_COMPATIBLE);
+    let multisampled = info.samples != vk::SampleCountFlags::TYPE_1;
     let twin_info = vk::ImageCreateInfo {
         p_next: std::ptr::null(),
-        flags,
-        format,
-        usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+        flags: if multisampled {
+            vk::ImageCreateFlags::empty()
+        } else {
+            flags
+        },
+        format: if multisampled {
+            MULTISAMPLED_FORMAT
+        } else {
+            format
+        },
+        usage: if multisampled {
+            vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::STORAGE
+        } else {
+            vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST
+        },
         initial_layout: vk::ImageLayout::UNDEFINED,
         ..*info
     };
@@ -88,14 +113,147 @@ pub unsafe fn create(
         }
         return None;
     }
+    let image_aspects = crate::conv::aspects_of(format);
     Some(ReadTwin {
         image,
         memory,
         extent: info.extent,
         mip_levels: info.mip_levels,
         array_layers: info.array_layers,
-        aspects: crate::conv::aspects_of(format),
+        aspects: if multisampled {
+            vk::ImageAspectFlags::DEPTH
+        } else {
+            image_aspects
+        },
+        image_aspects,
+        samples: info.samples,
     })
+}
+
+/// The format of a multisampled twin: depth in the first component, as shaders read a depth
+/// image.
+pub const MULTISAMPLED_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
+
+/// Creates what the refresh of a multisampled twin binds, for `image` (its memory bound: the
+/// application makes views only then) stored in `format`. `None` (nothing left behind) where
+/// the device refuses; the twin is then never refreshed (logged by the caller).
+///
+/// # Safety
+/// `device` is live; `image` is the application's image of `twin`, bound to its memory.
+pub unsafe fn create_multisampled_bindings(
+    device: &DeviceState,
+    image: vk::Image,
+    format: vk::Format,
+    twin: &ReadTwin,
+) -> Option<MultisampledBindings> {
+    let multisampled = device.copies.multisampled(device.handle, &device.next)?;
+    let v = device.next.fp_v1_0();
+    let null = std::ptr::null();
+    let mut made = MultisampledBindings {
+        pool: vk::DescriptorPool::null(),
+        set: vk::DescriptorSet::null(),
+        depth_view: vk::ImageView::null(),
+        twin_view: vk::ImageView::null(),
+    };
+    let layers = |aspect_mask| vk::ImageSubresourceRange {
+        aspect_mask,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: twin.array_layers,
+    };
+    let result = (|| {
+        let depth_info = vk::ImageViewCreateInfo::default()
+            .image(image)
+            .view_type(vk::ImageViewType::TYPE_2D_ARRAY)
+            .format(format)
+            .subresource_range(layers(vk::ImageAspectFlags::DEPTH));
+        // SAFETY: valid create infos and outputs (here and below); the image has memory.
+        unsafe { (v.create_image_view)(device.handle, &depth_info, null, &mut made.depth_view) }
+            .result()?;
+        let twin_info = vk::ImageViewCreateInfo {
+            image: twin.image,
+            format: MULTISAMPLED_FORMAT,
+            subresource_range: layers(vk::ImageAspectFlags::COLOR),
+            ..depth_info
+        };
+        // SAFETY: as above.
+        unsafe { (v.create_image_view)(device.handle, &twin_info, null, &mut made.twin_view) }
+            .result()?;
+        let sizes = [
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: 1,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_IMAGE,
+                descriptor_count: 1,
+            },
+        ];
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: as above.
+        unsafe { (v.create_descriptor_pool)(device.handle, &pool_info, null, &mut made.pool) }
+            .result()?;
+        let set_layouts = [multisampled.set_layout];
+        let allocate = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(made.pool)
+            .set_layouts(&set_layouts);
+        // SAFETY: as above.
+        unsafe { (v.allocate_descriptor_sets)(device.handle, &allocate, &mut made.set) }
+            .result()?;
+        let depth = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: made.depth_view,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }];
+        let storage = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: made.twin_view,
+            image_layout: vk::ImageLayout::GENERAL,
+        }];
+        let writes = [
+            vk::WriteDescriptorSet::default()
+                .dst_set(made.set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&depth),
+            vk::WriteDescriptorSet::default()
+                .dst_set(made.set)
+                .dst_binding(1)
+                .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                .image_info(&storage),
+        ];
+        // SAFETY: revz's own set, views and layout, never in use yet.
+        unsafe {
+            (v.update_descriptor_sets)(device.handle, 2, writes.as_ptr(), 0, std::ptr::null());
+        }
+        Ok::<(), vk::Result>(())
+    })();
+    match result {
+        Ok(()) => Some(made),
+        Err(_) => {
+            // SAFETY: revz's own objects, never used (null handles are ignored).
+            unsafe { destroy_multisampled_bindings(device, &made) };
+            None
+        }
+    }
+}
+
+/// Destroys what [`create_multisampled_bindings`] made.
+///
+/// # Safety
+/// No pending command buffer uses them (the application destroys its image only then).
+pub unsafe fn destroy_multisampled_bindings(device: &DeviceState, made: &MultisampledBindings) {
+    let v = device.next.fp_v1_0();
+    let null = std::ptr::null();
+    // SAFETY: the caller's contract; the pool frees its set.
+    unsafe {
+        (v.destroy_descriptor_pool)(device.handle, made.pool, null);
+        (v.destroy_image_view)(device.handle, made.twin_view, null);
+        (v.destroy_image_view)(device.handle, made.depth_view, null);
+    }
 }
 
 /// Destroys a twin and frees its memory.
@@ -113,7 +271,8 @@ pub unsafe fn destroy(device: &DeviceState, twin: &ReadTwin) {
 
 /// Creates the view of `twin` beside a view made with `info` (already in the stored format):
 /// the same view of the twin, without the application's extension structures (usage
-/// restrictions, min LOD: the twin is only sampled).
+/// restrictions, min LOD: the twin is only sampled); of a multisampled twin, the same view in
+/// its color format (see [`twin_reads`]: only views of the depth aspect get one).
 ///
 /// # Safety
 /// `device` is live; `info` is a valid create info of a view of the twin's image.
@@ -122,10 +281,24 @@ pub unsafe fn create_view(
     info: &vk::ImageViewCreateInfo<'_>,
     twin: &ReadTwin,
 ) -> Option<vk::ImageView> {
-    let twin_info = vk::ImageViewCreateInfo {
-        p_next: std::ptr::null(),
-        image: twin.image,
-        ..*info
+    let twin_info = if twin.multisampled() {
+        // Its depth, as the first component of the twin's color.
+        vk::ImageViewCreateInfo {
+            p_next: std::ptr::null(),
+            image: twin.image,
+            format: MULTISAMPLED_FORMAT,
+            subresource_range: vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                ..info.subresource_range
+            },
+            ..*info
+        }
+    } else {
+        vk::ImageViewCreateInfo {
+            p_next: std::ptr::null(),
+            image: twin.image,
+            ..*info
+        }
     };
     let mut view = vk::ImageView::null();
     // SAFETY: the caller's contract.
@@ -138,6 +311,13 @@ pub unsafe fn create_view(
         )
     };
     (result == vk::Result::SUCCESS).then_some(view)
+}
+
+/// Whether shaders read a view of `aspects` of the image of `twin` through the twin: every
+/// view of a single-sampled twin's image; of a multisampled one's, views of its depth (its
+/// stencil is read from the image itself).
+pub fn twin_reads(twin: &ReadTwin, aspects: vk::ImageAspectFlags) -> bool {
+    !twin.multisampled() || aspects.contains(vk::ImageAspectFlags::DEPTH)
 }
 
 /// A subresource range with its `VK_REMAINING_*` counts resolved against `twin`, and its
@@ -253,6 +433,10 @@ pub unsafe fn record_refresh(
     buffer: vk::CommandBuffer,
     refresh: &Refresh,
 ) -> Result<(), Unconverted> {
+    if refresh.twin.multisampled() {
+        // SAFETY: the caller's contract.
+        return unsafe { record_multisampled_refresh(device, copies, buffer, refresh) };
+    }
     let v = device.next.fp_v1_0();
     let range = refresh.range;
     let twin_range = vk::ImageSubresourceRange {
@@ -374,10 +558,175 @@ pub unsafe fn record_refresh(
     result
 }
 
+/// The first 16 bytes of the scratch buffer the refresh of a multisampled twin reads
+/// (`depth_convert_ms.comp`'s `Header`): the map's scale and offset (float32), whether results
+/// stay unclamped, and the first layer of the dispatch.
+pub fn multisampled_header(map: Option<DepthMap>, base_layer: u32) -> [u8; 16] {
+    let map = map.unwrap_or(DepthMap::IDENTITY);
+    let words = [
+        (map.scale as f32).to_bits(),
+        (map.offset as f32).to_bits(),
+        u32::from(!map.clamp),
+        base_layer,
+    ];
+    let mut bytes = [0; 16];
+    for (chunk, word) in bytes.chunks_exact_mut(4).zip(words) {
+        chunk.copy_from_slice(&word.to_ne_bytes());
+    }
+    bytes
+}
+
+/// Records the refresh of a multisampled twin (the module's docs). Nothing where the image has
+/// no view yet (so no shader can read it).
+///
+/// # Safety
+/// As [`record_refresh`].
+unsafe fn record_multisampled_refresh(
+    device: &DeviceState,
+    copies: &mut CommandCopies,
+    buffer: vk::CommandBuffer,
+    refresh: &Refresh,
+) -> Result<(), Unconverted> {
+    let Some(bindings) = device.objects.multisampled_twins.get(&refresh.image) else {
+        return Ok(());
+    };
+    let convert = device
+        .copies
+        .multisampled(device.handle, &device.next)
+        .ok_or(Unconverted::Resources)?;
+    let slot = copies.slot(device, 16).ok_or(Unconverted::Resources)?;
+    let (scratch, scratch_set) = (slot.buffer, slot.set);
+    let v = device.next.fp_v1_0();
+    let layers = |aspect_mask| vk::ImageSubresourceRange {
+        aspect_mask,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: refresh.range.base_array_layer,
+        layer_count: refresh.range.layer_count,
+    };
+    let image_range = layers(refresh.twin.image_aspects);
+    let twin_range = layers(vk::ImageAspectFlags::COLOR);
+    let read = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
+    let transfer = vk::PipelineStageFlags::TRANSFER;
+    let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
+    let all = vk::PipelineStageFlags::ALL_COMMANDS;
+    // Everything before (the application's writes of the image, earlier uses of the scratch
+    // buffer) before the header's write and the dispatch.
+    let before = vk::MemoryBarrier {
+        src_access_mask: vk::AccessFlags::MEMORY_WRITE,
+        dst_access_mask: vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::SHADER_READ,
+        ..Default::default()
+    };
+    // SAFETY: a recording command buffer outside a render pass (the caller's contract), the
+    // application's image in the layout it left it in, and revz's twin, scratch buffer,
+    // pipeline and sets (every call in this block).
+    unsafe {
+        pipeline_barrier(
+            device,
+            buffer,
+            (all, transfer | compute),
+            &[before],
+            &[],
+            &[
+                image_barrier(
+                    refresh.image,
+                    image_range,
+                    (refresh.layout, read),
+                    (vk::AccessFlags::MEMORY_WRITE, vk::AccessFlags::SHADER_READ),
+                ),
+                image_barrier(
+                    refresh.twin.image,
+                    twin_range,
+                    (vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL),
+                    (vk::AccessFlags::empty(), vk::AccessFlags::SHADER_WRITE),
+                ),
+            ],
+        );
+        let header = multisampled_header(refresh.map, refresh.range.base_array_layer);
+        (v.cmd_update_buffer)(buffer, scratch, 0, 16, header.as_ptr().cast());
+        let written = vk::BufferMemoryBarrier {
+            src_access_mask: vk::AccessFlags::TRANSFER_WRITE,
+            dst_access_mask: vk::AccessFlags::SHADER_READ,
+            src_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+            dst_queue_family_index: vk::QUEUE_FAMILY_IGNORED,
+            buffer: scratch,
+            offset: 0,
+            size: vk::WHOLE_SIZE,
+            ..Default::default()
+        };
+        pipeline_barrier(device, buffer, (transfer, compute), &[], &[written], &[]);
+        (v.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::COMPUTE, convert.pipeline);
+        let sets = [scratch_set, bindings.set];
+        (v.cmd_bind_descriptor_sets)(
+            buffer,
+            vk::PipelineBindPoint::COMPUTE,
+            convert.layout,
+            0,
+            sets.len() as u32,
+            sets.as_ptr(),
+            0,
+            std::ptr::null(),
+        );
+        let groups = |size: u32| size.div_ceil(8);
+        (v.cmd_dispatch)(
+            buffer,
+            groups(refresh.twin.extent.width),
+            groups(refresh.twin.extent.height),
+            refresh.range.layer_count,
+        );
+        pipeline_barrier(
+            device,
+            buffer,
+            (compute, all),
+            &[],
+            &[],
+            &[
+                image_barrier(
+                    refresh.image,
+                    image_range,
+                    (read, refresh.layout),
+                    (
+                        vk::AccessFlags::empty(),
+                        vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
+                    ),
+                ),
+                image_barrier(
+                    refresh.twin.image,
+                    twin_range,
+                    (vk::ImageLayout::GENERAL, TWIN_LAYOUT),
+                    (vk::AccessFlags::SHADER_WRITE, vk::AccessFlags::SHADER_READ),
+                ),
+            ],
+        );
+        copies.compute.restore(device, buffer);
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use ash::vk::Handle;
+
+    #[test]
+    fn the_multisampled_header_holds_the_map_in_float32() {
+        let words = |bytes: [u8; 16]| -> [u32; 4] {
+            std::array::from_fn(|i| u32::from_ne_bytes(bytes[4 * i..4 * i + 4].try_into().unwrap()))
+        };
+        let flip = words(multisampled_header(
+            Some(DepthMap::to_standard(crate::conv::Reversal::Complementary)),
+            3,
+        ));
+        assert_eq!(flip, [(-1.0f32).to_bits(), 1.0f32.to_bits(), 0, 3]);
+        // Standard depth already: copied as it is.
+        assert_eq!(
+            words(multisampled_header(None, 0)),
+            [1.0f32.to_bits(), 0, 0, 0]
+        );
+        let unclamped =
+            DepthMap::to_standard(crate::conv::Reversal::Complementary).unrestricted(true);
+        assert_eq!(words(multisampled_header(Some(unclamped), 0))[2], 1);
+    }
 
     fn twin() -> ReadTwin {
         ReadTwin {
@@ -391,6 +740,8 @@ mod tests {
             mip_levels: 4,
             array_layers: 6,
             aspects: vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+            image_aspects: vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+            samples: vk::SampleCountFlags::TYPE_1,
         }
     }
 

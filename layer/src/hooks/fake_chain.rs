@@ -1012,6 +1012,15 @@ unsafe extern "system" fn fake_get_physical_device_image_format_properties(
     vk::Result::SUCCESS
 }
 
+/// The fake's physical devices have no optional core feature (so revz enables none).
+unsafe extern "system" fn fake_get_physical_device_features(
+    _: vk::PhysicalDevice,
+    features: *mut vk::PhysicalDeviceFeatures,
+) {
+    // SAFETY: revz passes a valid output.
+    unsafe { *features = vk::PhysicalDeviceFeatures::default() };
+}
+
 /// The fake layer's `vkGetInstanceProcAddr`.
 pub(super) unsafe extern "system" fn fake_get_instance_proc_addr(
     _: vk::Instance,
@@ -1042,6 +1051,10 @@ pub(super) unsafe extern "system" fn fake_get_instance_proc_addr(
         b"vkGetPhysicalDeviceMemoryProperties" => void_fn!(
             vk::PFN_vkGetPhysicalDeviceMemoryProperties,
             fake_get_physical_device_memory_properties
+        ),
+        b"vkGetPhysicalDeviceFeatures" => void_fn!(
+            vk::PFN_vkGetPhysicalDeviceFeatures,
+            fake_get_physical_device_features
         ),
         b"vkFakeInstanceCommand" => Some(fake_command),
         b"vkGetPhysicalDeviceFeatures2KHR" => Some(fake_command),

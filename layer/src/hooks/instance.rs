@@ -573,17 +573,69 @@ pub unsafe extern "system" fn create_device(
             } else {
                 Vec::new()
             };
+            // Multisampled read twins are written per sample by a storage image: the feature
+            // is enabled where the device has it and revz would use it.
+            let multisampled_twins = if instance.settings.mode != Mode::Off
+                && instance.settings.reverse_observable == crate::config::Observable::Copies
+            {
+                // SAFETY: a live physical device of this instance.
+                unsafe { multisampled_twin_samples(&instance, physical_device) }
+            } else {
+                vk::SampleCountFlags::empty()
+            };
+            // SAFETY: the application's create info.
+            let app_features = unsafe { enabled_core_features(create_info) };
+            let enable_storage_multisample = !multisampled_twins.is_empty()
+                && app_features.shader_storage_image_multisample == vk::FALSE;
+            let mut features_down = vk::PhysicalDeviceFeatures {
+                shader_storage_image_multisample: vk::TRUE,
+                ..app_features
+            };
+            let mut chain_down = crate::chain::Spliced::of(create_info.p_next);
+            let mut with_features = *create_info;
+            let mut multisampled_twins = multisampled_twins;
+            if enable_storage_multisample {
+                if create_info.p_enabled_features.is_null() {
+                    // SAFETY: the application's valid pNext chain, alive until the call.
+                    let spliced = unsafe {
+                        chain_down.edit(|f: &vk::PhysicalDeviceFeatures2<'_>| {
+                            Some(vk::PhysicalDeviceFeatures2 {
+                                features: features_down,
+                                ..*f
+                            })
+                        })
+                    };
+                    // SAFETY: as above.
+                    let has_features2 = unsafe {
+                        crate::chain::find::<vk::PhysicalDeviceFeatures2<'_>>(create_info.p_next)
+                    }
+                    .is_some();
+                    if spliced.is_err() {
+                        // An unknown structure before the features: enable nothing.
+                        multisampled_twins = vk::SampleCountFlags::empty();
+                    } else if !has_features2 {
+                        features_down = vk::PhysicalDeviceFeatures {
+                            shader_storage_image_multisample: vk::TRUE,
+                            ..vk::PhysicalDeviceFeatures::default()
+                        };
+                        with_features.p_enabled_features = &features_down;
+                    }
+                } else {
+                    with_features.p_enabled_features = &features_down;
+                }
+                with_features.p_next = chain_down.head();
+            }
             let mut features = vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT::default();
-            let mut with_extension = *create_info;
+            let mut with_extension = with_features;
             if added_extended_dynamic_state {
                 features.extended_dynamic_state = vk::TRUE;
-                features.p_next = create_info.p_next.cast_mut();
+                features.p_next = with_features.p_next.cast_mut();
                 with_extension.p_next =
                     (&features as *const vk::PhysicalDeviceExtendedDynamicStateFeaturesEXT).cast();
                 with_extension.enabled_extension_count = names_down.len() as u32;
                 with_extension.pp_enabled_extension_names = names_down.as_ptr();
             }
-            let p_create_info = if added_extended_dynamic_state {
+            let p_create_info = if added_extended_dynamic_state || enable_storage_multisample {
                 &with_extension
             } else {
                 p_create_info
@@ -626,7 +678,14 @@ pub unsafe extern "system" fn create_device(
                 .with_shader_stages(
                     core_features.geometry_shader == vk::TRUE,
                     core_features.tessellation_shader == vk::TRUE,
+                )
+                .with_multisampled_twins(multisampled_twins);
+            if enable_storage_multisample && !multisampled_twins.is_empty() {
+                log::info!(
+                    "device {device:?}: enabled shaderStorageImageMultisample for the read \
+                     twins of multisampled depth images"
                 );
+            }
             match source {
                 _ if !source.logged(instance.settings.mode == Mode::Off) => {}
                 CompareOpSource::AddedExtension => log::info!(
@@ -696,6 +755,42 @@ pub unsafe extern "system" fn create_device(
         },
         || vk::Result::ERROR_INITIALIZATION_FAILED,
     )
+}
+
+/// The sample counts of multisampled depth images whose read twin the device can write per
+/// sample: it has `shaderStorageImageMultisample`, and `R32_SFLOAT` 2D optimal images of
+/// storage and sampled usage with those counts (more than one sample).
+///
+/// # Safety
+/// `physical_device` is a live physical device of `instance`.
+unsafe fn multisampled_twin_samples(
+    instance: &InstanceState,
+    physical_device: vk::PhysicalDevice,
+) -> vk::SampleCountFlags {
+    let v = instance.next.fp_v1_0();
+    let mut features = vk::PhysicalDeviceFeatures::default();
+    // SAFETY: the caller's contract; valid output.
+    unsafe { (v.get_physical_device_features)(physical_device, &mut features) };
+    if features.shader_storage_image_multisample == vk::FALSE {
+        return vk::SampleCountFlags::empty();
+    }
+    let mut properties = vk::ImageFormatProperties::default();
+    // SAFETY: as above.
+    let result = unsafe {
+        (v.get_physical_device_image_format_properties)(
+            physical_device,
+            crate::depth_copy::twin::MULTISAMPLED_FORMAT,
+            vk::ImageType::TYPE_2D,
+            vk::ImageTiling::OPTIMAL,
+            vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::STORAGE,
+            vk::ImageCreateFlags::empty(),
+            &mut properties,
+        )
+    };
+    if result != vk::Result::SUCCESS {
+        return vk::SampleCountFlags::empty();
+    }
+    properties.sample_counts & !vk::SampleCountFlags::TYPE_1
 }
 
 /// The core features the application enabled: `pEnabledFeatures`, or the

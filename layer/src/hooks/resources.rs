@@ -428,7 +428,30 @@ pub unsafe extern "system" fn create_image_view(
                 return;
             };
             state.objects.views.insert(view, info.image);
-            if let Some(twin) = &image.twin {
+            if let Some(twin) = image.twin.filter(|twin| twin.multisampled()) {
+                // The refresh of a multisampled twin reads the image through a view of revz's
+                // own, made at the image's first view (its memory is bound by then).
+                if state.objects.multisampled_twins.get(&info.image).is_none() {
+                    let stored = image.promoted.unwrap_or(image.format);
+                    // SAFETY: the application's live image, bound to memory, and its twin.
+                    let made = unsafe {
+                        crate::depth_copy::twin::create_multisampled_bindings(
+                            &state, info.image, stored, &twin,
+                        )
+                    };
+                    match made {
+                        Some(made) => state.objects.multisampled_twins.insert(info.image, made),
+                        None => log::warn!(
+                            "cannot make the refresh of the read twin of multisampled depth \
+                             image {:?}: shaders reading it read what its twin last held",
+                            info.image
+                        ),
+                    }
+                }
+            }
+            if let Some(twin) = image.twin.as_ref().filter(|twin| {
+                crate::depth_copy::twin::twin_reads(twin, info.subresource_range.aspect_mask)
+            }) {
                 // SAFETY: the create info the view was made with, of the twin's image.
                 let made =
                     unsafe { crate::depth_copy::twin::create_view(&state, &*info_down, twin) };
@@ -481,6 +504,10 @@ pub unsafe extern "system" fn destroy_image(
         let info = state.objects.images.remove(&image);
         state.objects.near_over_far.remove(&image);
         state.objects.resolve_pairs.remove(&image);
+        if let Some(made) = state.objects.multisampled_twins.remove(&image) {
+            // SAFETY: revz's objects; no pending command uses the image, so none uses them.
+            unsafe { crate::depth_copy::twin::destroy_multisampled_bindings(&state, &made) };
+        }
         if let Some(twin) = info.and_then(|info| info.twin) {
             // SAFETY: as above.
             unsafe { crate::depth_copy::twin::destroy(&state, &twin) };

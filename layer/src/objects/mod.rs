@@ -85,8 +85,33 @@ pub struct ReadTwin {
     pub extent: vk::Extent3D,
     pub mip_levels: u32,
     pub array_layers: u32,
-    /// Every aspect of its format (DEPTH, or DEPTH | STENCIL).
+    /// The aspects of the image it serves (DEPTH, or DEPTH | STENCIL; DEPTH alone for a
+    /// multisampled twin, whose image's stencil shaders read from the image itself).
     pub aspects: vk::ImageAspectFlags,
+    /// Every aspect of the image's format (what a layout transition of it must name).
+    pub image_aspects: vk::ImageAspectFlags,
+    /// The image's samples: a multisampled twin is an `R32_SFLOAT` image of as many samples,
+    /// refreshed per sample by a compute pass (`crate::depth_copy::twin`).
+    pub samples: vk::SampleCountFlags,
+}
+
+impl ReadTwin {
+    /// Whether it is a multisampled twin (see [`ReadTwin::samples`]).
+    pub fn multisampled(&self) -> bool {
+        self.samples != vk::SampleCountFlags::TYPE_1
+    }
+}
+
+/// What the refresh of a multisampled twin binds (`crate::depth_copy::twin`): a view of the
+/// image's depth aspect (every layer, sampled) and of the twin (every layer, storage) in a
+/// descriptor set of revz's own pool. Made at the image's first view, once its memory is
+/// bound; destroyed with the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MultisampledBindings {
+    pub pool: vk::DescriptorPool,
+    pub set: vk::DescriptorSet,
+    pub depth_view: vk::ImageView,
+    pub twin_view: vk::ImageView,
 }
 
 /// A render pass: each attachment's format and whether its depth is cleared at load, each
@@ -358,6 +383,8 @@ pub struct DeviceObjects {
     /// The view of its read twin made beside each view of an image that has one: what
     /// descriptors hold in its place.
     pub twin_views: Table<vk::ImageView, TwinView>,
+    /// The refresh bindings of each image with a multisampled twin, from its first view on.
+    pub multisampled_twins: Table<vk::Image, MultisampledBindings>,
     /// Live read twins (descriptor writes and barriers look no further while there is none).
     pub twins: std::sync::atomic::AtomicUsize,
     /// Each descriptor update template's image entries (`crate::hooks::descriptors`).

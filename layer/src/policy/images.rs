@@ -283,7 +283,8 @@ impl DevicePolicy {
     /// image revz keeps beside the reversed one, refreshed with standard values whenever the
     /// application makes the image readable, whose views replace the image's in descriptors.
     /// Under the default `reverse_observable = copies`, for images shaders sample: optimal
-    /// tiling, one sample (the refresh converts through a buffer, which carries no samples)
+    /// tiling, one sample (the refresh converts through a buffer) or a sample count whose
+    /// twin the device can write per sample ([`DevicePolicy::multisampled_twin_samples`]),
     /// and no storage usage (a shader writing the image would write the twin). Input
     /// attachment reads of such an image are converted in the reading shader instead
     /// ([`Self::converts_input_reads`]).
@@ -297,7 +298,8 @@ impl DevicePolicy {
             && self.observable == Observable::Copies
             && usage.contains(vk::ImageUsageFlags::SAMPLED)
             && !usage.intersects(vk::ImageUsageFlags::STORAGE | HOST_TRANSFER)
-            && samples == vk::SampleCountFlags::TYPE_1
+            && (samples == vk::SampleCountFlags::TYPE_1
+                || self.multisampled_twin_samples.contains(samples))
             && tiling == vk::ImageTiling::OPTIMAL
     }
 
@@ -724,6 +726,35 @@ mod tests {
                 Some(ImageDepth::Reversed)
             );
         }
+    }
+
+    #[test]
+    fn multisampled_sampled_images_get_a_twin_where_the_device_can_write_one_per_sample() {
+        let sampled = ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
+        let four = vk::SampleCountFlags::TYPE_4;
+        let eight = vk::SampleCountFlags::TYPE_8;
+        let p = policy(Mode::Complementary, Observable::Copies)
+            .with_multisampled_twins(four | vk::SampleCountFlags::TYPE_1);
+        assert_eq!(
+            p.multisampled_twin_samples, four,
+            "one sample is not a multisampled twin"
+        );
+        assert!(p.reads_through_twin(sampled, four, OPTIMAL));
+        assert_eq!(
+            p.classify_image(D32, sampled, OPTIMAL, four),
+            Some(ImageDepth::Reversed)
+        );
+        // A count the device cannot write per sample: native, as on a device without the
+        // feature.
+        assert!(!p.reads_through_twin(sampled, eight, OPTIMAL));
+        assert!(matches!(
+            p.classify_image(D32, sampled, OPTIMAL, eight),
+            Some(ImageDepth::Native(NativeReason::ReadByShaders(_)))
+        ));
+        // Storage usage still keeps it native; `none` and `all` make no twin.
+        assert!(!p.reads_through_twin(sampled | vk::ImageUsageFlags::STORAGE, four, OPTIMAL));
+        let none = policy(Mode::Complementary, Observable::None).with_multisampled_twins(four);
+        assert!(!none.reads_through_twin(sampled, four, OPTIMAL));
     }
 
     #[test]

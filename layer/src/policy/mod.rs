@@ -220,6 +220,11 @@ pub struct DevicePolicy {
     /// `tessellationShader` and `geometryShader`): a carrier range revz adds to a layout
     /// names them too (`crate::precise::reserve_carrier`).
     pub carrier_later_stages: ash::vk::ShaderStageFlags,
+    /// The sample counts of multisampled depth images shaders may sample through a read twin
+    /// (`crate::depth_copy::twin`: an `R32_SFLOAT` twin written per sample by a compute pass):
+    /// those the device offers for storage and sampled `R32_SFLOAT` images, where it has
+    /// `shaderStorageImageMultisample` (revz enables it). Empty: such images stay native.
+    pub multisampled_twin_samples: ash::vk::SampleCountFlags,
 }
 
 impl DevicePolicy {
@@ -245,6 +250,16 @@ impl DevicePolicy {
             promote: settings.promote_depth_formats.applies(settings.mode),
             depth_range_unrestricted: false,
             carrier_later_stages: ash::vk::ShaderStageFlags::empty(),
+            multisampled_twin_samples: ash::vk::SampleCountFlags::empty(),
+        }
+    }
+
+    /// The policy on a device whose multisampled depth images of `samples` can have a read
+    /// twin ([`DevicePolicy::multisampled_twin_samples`]).
+    pub fn with_multisampled_twins(self, samples: ash::vk::SampleCountFlags) -> DevicePolicy {
+        DevicePolicy {
+            multisampled_twin_samples: samples & !ash::vk::SampleCountFlags::TYPE_1,
+            ..self
         }
     }
 
@@ -360,6 +375,7 @@ mod tests {
             promote: matches!(mode, Mode::Complementary | Mode::Infinite),
             depth_range_unrestricted: false,
             carrier_later_stages: ash::vk::ShaderStageFlags::empty(),
+            multisampled_twin_samples: ash::vk::SampleCountFlags::empty(),
         }
     }
 
