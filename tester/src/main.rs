@@ -356,6 +356,8 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             sampled_depth: needs.sampled_depth,
             input_depth: needs.input_depth,
             multisample: needs.multisample,
+            depth_subresources: needs.depth_subresources,
+            depth_blits: needs.depth_blits,
         };
         let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;
@@ -487,9 +489,13 @@ fn recorded(
                 image: match (target, multisampled) {
                     (Target::Shadow, _) => "shadow",
                     (Target::Main, true) => "multisampled",
-                    (Target::Main | Target::SoftParticles, false) => "main",
+                    // A depth slice is another mip level or array layer of the main image.
+                    (Target::Main | Target::SoftParticles | Target::DepthSlice { .. }, false) => {
+                        "main"
+                    }
                     // The census counts no draw of a pass without a depth attachment.
-                    (Target::Post, _) | (Target::SoftParticles, true) => "none",
+                    (Target::Post, _)
+                    | (Target::SoftParticles | Target::DepthSlice { .. }, true) => "none",
                 },
                 draws,
             }

@@ -142,6 +142,9 @@ pub struct MainFormats {
 /// SHADER_READ_ONLY_OPTIMAL, with an outgoing dependency making its writes visible to the
 /// fragment shaders of later passes.
 ///
+/// Depth slice ([`Target::DepthSlice`]): one attachment of `main.depth` (the view of one mip
+/// level and array layer of the main depth image), no color, ending in its attachment layout.
+///
 /// [`PassKind::DepthInputSubpasses`]: subpass 1 has the color attachment and the depth as
 /// input attachment 0 in `DEPTH_STENCIL_READ_ONLY_OPTIMAL` (its depth aspect named with
 /// `VkRenderPassInputAttachmentAspectCreateInfo`), and where the kind says so the same
@@ -231,6 +234,30 @@ pub fn create_render_pass(
                         .final_layout(vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL),
                 );
             }
+        }
+        Target::DepthSlice { .. } => {
+            // One mip level and layer of the main depth image, no color: cleared or loaded,
+            // stored, left in its attachment layout (a barrier makes it readable).
+            depth_index = 0;
+            attachments.push(
+                vk::AttachmentDescription::default()
+                    .format(main.depth)
+                    .samples(vk::SampleCountFlags::TYPE_1)
+                    .load_op(depth_load)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .stencil_load_op(if main.stencil {
+                        depth_load
+                    } else {
+                        vk::AttachmentLoadOp::DONT_CARE
+                    })
+                    .stencil_store_op(if main.stencil {
+                        vk::AttachmentStoreOp::STORE
+                    } else {
+                        vk::AttachmentStoreOp::DONT_CARE
+                    })
+                    .initial_layout(initial_layout(depth_load, ds_layout))
+                    .final_layout(ds_layout),
+            );
         }
         Target::Shadow => {
             depth_index = 0;
@@ -414,7 +441,9 @@ pub fn create_render_pass(
 /// cleared and not stored (transient), resolved at the end of the subpass into attachment 2
 /// (the main color image, `pResolveAttachments`) and attachment 3 (the main depth image,
 /// `VkSubpassDescriptionDepthStencilResolve` with `resolve`'s modes). The resolve attachments
-/// are stored and end in their attachment layouts (the read-back transitions them).
+/// are stored and end in their attachment layouts (the read-back transitions them). Where the
+/// pass keeps its depth for shaders ([`crate::plan::Multisample::sampled_depth`]), the depth
+/// attachment is stored (stencil too) and not resolved: three attachments.
 pub fn create_resolving_render_pass(
     gpu: &Gpu,
     pass: &PassSpec,
@@ -430,6 +459,19 @@ pub fn create_resolving_render_pass(
         vk::AttachmentLoadOp::DONT_CARE
     };
     let stencil_resolved = main.stencil && resolve.stencil != vk::ResolveModeFlags::NONE;
+    // A depth kept for shaders is stored (stencil too), not resolved.
+    let kept = pass.multisample.is_some_and(|m| m.sampled_depth);
+    let (depth_store, stencil_store) = match (kept, main.stencil) {
+        (true, true) => (vk::AttachmentStoreOp::STORE, vk::AttachmentStoreOp::STORE),
+        (true, false) => (
+            vk::AttachmentStoreOp::STORE,
+            vk::AttachmentStoreOp::DONT_CARE,
+        ),
+        (false, _) => (
+            vk::AttachmentStoreOp::DONT_CARE,
+            vk::AttachmentStoreOp::DONT_CARE,
+        ),
+    };
     // Written only by the resolve: their previous contents do not matter.
     let resolved = |format, stencil_store| {
         vk::AttachmentDescription2::default()
@@ -455,9 +497,9 @@ pub fn create_resolving_render_pass(
             .format(main.depth)
             .samples(samples)
             .load_op(map_depth_load(pass.depth))
-            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .store_op(depth_store)
             .stencil_load_op(stencil_load)
-            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .stencil_store_op(stencil_store)
             .initial_layout(vk::ImageLayout::UNDEFINED)
             .final_layout(ds_layout),
         resolved(COLOR_FORMAT, vk::AttachmentStoreOp::DONT_CARE).final_layout(color_layout),
@@ -490,12 +532,22 @@ pub fn create_resolving_render_pass(
         .depth_resolve_mode(resolve.depth)
         .stencil_resolve_mode(resolve.stencil)
         .depth_stencil_resolve_attachment(&depth_resolve_ref);
-    let subpasses = [vk::SubpassDescription2::default()
+    let subpass = vk::SubpassDescription2::default()
         .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
         .color_attachments(&color_refs)
         .resolve_attachments(&resolve_refs)
-        .depth_stencil_attachment(&depth_ref)
-        .push_next(&mut depth_resolve)];
+        .depth_stencil_attachment(&depth_ref);
+    // A kept depth: the color is resolved, the depth is not (no resolve attachment for it).
+    let subpasses = if kept {
+        [subpass]
+    } else {
+        [subpass.push_next(&mut depth_resolve)]
+    };
+    let attachments = if kept {
+        &attachments[..3]
+    } else {
+        &attachments[..]
+    };
 
     let attachment_stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
         | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
@@ -517,7 +569,7 @@ pub fn create_resolving_render_pass(
                 | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ,
         )];
     let info = vk::RenderPassCreateInfo2::default()
-        .attachments(&attachments)
+        .attachments(attachments)
         .subpasses(&subpasses)
         .dependencies(&dependencies);
     // SAFETY: the device has the command (Vulkan 1.2, or the extension: checked with the
@@ -668,6 +720,9 @@ pub fn create_pipeline(
         Program::DepthTiles => (shaders::SCENE_VERT, Some(shaders::DEPTH_TILES_POST_FRAG)),
         Program::StencilPost => (shaders::SCENE_VERT, Some(shaders::STENCIL_POST_FRAG)),
         Program::DepthInput => (shaders::SCENE_VERT, Some(shaders::DEPTH_INPUT_FRAG)),
+        Program::DepthMipsPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_MIPS_POST_FRAG)),
+        Program::DepthLayersPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_LAYERS_POST_FRAG)),
+        Program::DepthPostMs => (shaders::SCENE_VERT, Some(shaders::DEPTH_POST_MS_FRAG)),
         Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),
         Program::LitMvp => (shaders::LIT_MVP_VERT, Some(shaders::LIT_MVP_FRAG)),

@@ -154,6 +154,19 @@ pub const DEPTH_TILES_POST_FRAG: ShaderSource = glslang_shader!("depth_tiles_pos
 /// read as an input attachment (`subpassLoad`) in the subpass after the one that wrote it.
 pub const DEPTH_INPUT_FRAG: ShaderSource = glslang_shader!("depth_input.frag");
 
+/// `depth_mips_post.frag` (glslang: naga's GLSL front end lacks
+/// `GL_EXT_samplerless_texture_functions`): the bottom quarter of the image shaded by the view
+/// distance of mip level 1 of the main depth, the top quarter by that of level 2.
+pub const DEPTH_MIPS_POST_FRAG: ShaderSource = glslang_shader!("depth_mips_post.frag");
+/// `depth_layers_post.frag` (glslang): the bottom quarter of the image shaded by the view
+/// distance of array layer 0 of the main depth, the quarter above it by that of layer 1
+/// (a `texture2DArray`).
+pub const DEPTH_LAYERS_POST_FRAG: ShaderSource = glslang_shader!("depth_layers_post.frag");
+/// `depth_post_ms.frag` (glslang): the bottom 45% of the image shaded by the view
+/// distances of the nearest and farthest of each pixel's samples of a multisampled depth image
+/// (texel fetches of each sample of a `texture2DMS`).
+pub const DEPTH_POST_MS_FRAG: ShaderSource = glslang_shader!("depth_post_ms.frag");
+
 /// `stencil_post.frag`: a band across the middle of the image shaded by the main depth-stencil
 /// image's stencil value and depth (texel fetches of each aspect).
 pub const STENCIL_POST_FRAG: ShaderSource = shader!("stencil_post.frag");
@@ -192,6 +205,9 @@ pub const ALL: &[ShaderSource] = &[
     DEPTH_TILES_COMP,
     DEPTH_TILES_POST_FRAG,
     DEPTH_INPUT_FRAG,
+    DEPTH_MIPS_POST_FRAG,
+    DEPTH_LAYERS_POST_FRAG,
+    DEPTH_POST_MS_FRAG,
     STENCIL_POST_FRAG,
 ];
 
@@ -211,6 +227,9 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("depth_tiles.comp", DEPTH_TILES_COMP),
     ("depth_tiles_post.frag", DEPTH_TILES_POST_FRAG),
     ("depth_input.frag", DEPTH_INPUT_FRAG),
+    ("depth_mips_post.frag", DEPTH_MIPS_POST_FRAG),
+    ("depth_layers_post.frag", DEPTH_LAYERS_POST_FRAG),
+    ("depth_post_ms.frag", DEPTH_POST_MS_FRAG),
 ];
 
 #[cfg(test)]
@@ -366,6 +385,9 @@ mod tests {
                 DEPTH_POST_FRAG.name,
                 DEPTH_TILES_POST_FRAG.name,
                 STENCIL_POST_FRAG.name,
+                DEPTH_POST_MS_FRAG.name,
+                DEPTH_MIPS_POST_FRAG.name,
+                DEPTH_LAYERS_POST_FRAG.name,
             ]
             .contains(&shader.name);
             assert_eq!(

@@ -191,6 +191,8 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
             sampled_depth: false,
             input_depth: false,
             multisample: None,
+            depth_subresources: Default::default(),
+            depth_blits: false,
         };
         let targets = Targets::new(&gpu, args.size, args.size, args.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;

@@ -15,7 +15,7 @@ use ash::vk;
 use clap::ValueEnum;
 
 use crate::gpu::Gpu;
-use crate::plan::{Multisample, ResolveMode};
+use crate::plan::{DepthSubresources, Multisample, ResolveMode};
 
 /// The color attachment format.
 pub const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -133,14 +133,22 @@ pub struct Attachment<'a> {
     /// The image.
     pub image: vk::Image,
     memory: vk::DeviceMemory,
-    /// A view of the whole image (all its aspects).
+    /// A view of all its aspects, of mip level 0 and array layer 0 (the whole image but for
+    /// the main depth image of a plan with [`Target::DepthSlice`](crate::plan::Target) passes).
     pub view: vk::ImageView,
     /// A view of its depth aspect alone, which shaders sample ([`Self::add_depth_view`]; null
-    /// until then).
+    /// until then): every mip level and array layer (a 2D-array view where it has several
+    /// layers).
     pub depth_view: vk::ImageView,
     /// A view of its stencil aspect alone, where it has one and shaders sample it (null
-    /// otherwise).
+    /// otherwise), of the same subresources.
     pub stencil_view: vk::ImageView,
+    /// Where it has several mip levels or array layers: a view of all its aspects per level
+    /// and layer (index `level * layers + layer`), each an attachment of its own
+    /// ([`Self::slice_view`]); empty otherwise.
+    slice_views: Vec<vk::ImageView>,
+    /// Its mip levels and array layers.
+    pub subresources: DepthSubresources,
     /// The image format.
     pub format: vk::Format,
     /// What it was created with (`render.json`'s `recorded`).
@@ -167,6 +175,9 @@ impl Drop for Attachment<'_> {
             self.device.destroy_image_view(self.view, None);
             self.device.destroy_image_view(self.depth_view, None);
             self.device.destroy_image_view(self.stencil_view, None);
+            for &view in &self.slice_views {
+                self.device.destroy_image_view(view, None);
+            }
             self.device.destroy_image(self.image, None);
             self.device.free_memory(self.memory, None);
         }
@@ -208,9 +219,45 @@ impl<'a> Attachment<'a> {
             format,
             Some(aspects),
             (usage, vk::ImageCreateFlags::empty()),
-            extent,
+            (extent, DepthSubresources::default()),
             samples,
         )
+    }
+
+    /// Creates a 2D single-sample image of `format` with `usage` and `subresources` (mip
+    /// levels of the extent halved from level to level, array layers), its memory, a view of
+    /// `aspects` of level 0 layer 0 ([`Self::view`]) and, where it has several subresources,
+    /// one such view per level and layer ([`Self::slice_view`]).
+    pub fn with_subresources(
+        gpu: &'a Gpu,
+        format: vk::Format,
+        aspects: vk::ImageAspectFlags,
+        usage: vk::ImageUsageFlags,
+        extent: vk::Extent2D,
+        subresources: DepthSubresources,
+    ) -> Result<Self> {
+        let mut this = Self::create(
+            gpu,
+            format,
+            Some(aspects),
+            (usage, vk::ImageCreateFlags::empty()),
+            (extent, subresources),
+            vk::SampleCountFlags::TYPE_1,
+        )?;
+        if !subresources.is_single() {
+            for level in 0..subresources.levels {
+                for layer in 0..subresources.layers {
+                    let range = vk::ImageSubresourceRange {
+                        base_mip_level: level,
+                        base_array_layer: layer,
+                        ..full_range(aspects)
+                    };
+                    let view = this.create_view(vk::ImageViewType::TYPE_2D, range)?;
+                    this.slice_views.push(view);
+                }
+            }
+        }
+        Ok(this)
     }
 
     /// Creates a 2D single-sample image only copied to and from (no view: `usage` may have
@@ -237,7 +284,7 @@ impl<'a> Attachment<'a> {
             format,
             None,
             (usage, flags),
-            extent,
+            (extent, DepthSubresources::default()),
             vk::SampleCountFlags::TYPE_1,
         )
     }
@@ -247,7 +294,7 @@ impl<'a> Attachment<'a> {
         format: vk::Format,
         view_aspects: Option<vk::ImageAspectFlags>,
         (usage, flags): (vk::ImageUsageFlags, vk::ImageCreateFlags),
-        extent: vk::Extent2D,
+        (extent, subresources): (vk::Extent2D, DepthSubresources),
         samples: vk::SampleCountFlags,
     ) -> Result<Self> {
         let mut this = Attachment {
@@ -257,6 +304,8 @@ impl<'a> Attachment<'a> {
             view: vk::ImageView::null(),
             depth_view: vk::ImageView::null(),
             stencil_view: vk::ImageView::null(),
+            slice_views: Vec::new(),
+            subresources,
             format,
             usage,
             samples,
@@ -271,8 +320,8 @@ impl<'a> Attachment<'a> {
                 height: extent.height,
                 depth: 1,
             })
-            .mip_levels(1)
-            .array_layers(1)
+            .mip_levels(subresources.levels)
+            .array_layers(subresources.layers)
             .samples(samples)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(usage)
@@ -307,27 +356,89 @@ impl<'a> Attachment<'a> {
 }
 
 impl Attachment<'_> {
+    /// A view of `range` of the image, of `view_type`.
+    fn create_view(
+        &self,
+        view_type: vk::ImageViewType,
+        range: vk::ImageSubresourceRange,
+    ) -> Result<vk::ImageView> {
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(self.image)
+            .view_type(view_type)
+            .format(self.format)
+            .subresource_range(range);
+        // SAFETY: valid image bound to memory, view matching its format and subresources it
+        // has.
+        unsafe { self.device.create_image_view(&view_info, None) }
+            .with_context(|| format!("vkCreateImageView ({:?}, {range:?}) failed", self.format))
+    }
+
     /// Creates [`Self::depth_view`] (and [`Self::stencil_view`] where the format has
     /// stencil): views of one aspect each (a sampled view of a depth-stencil image may name
-    /// one aspect only).
+    /// one aspect only), of every level and layer.
     pub fn add_depth_view(&mut self) -> Result<()> {
-        let view = |aspect| {
-            let view_info = vk::ImageViewCreateInfo::default()
-                .image(self.image)
-                .view_type(vk::ImageViewType::TYPE_2D)
-                .format(self.format)
-                .subresource_range(full_range(aspect));
-            // SAFETY: valid image bound to memory, view matching its format and an aspect it
-            // has.
-            unsafe { self.device.create_image_view(&view_info, None) }.with_context(|| {
-                format!("vkCreateImageView ({:?}, {aspect:?}) failed", self.format)
-            })
+        let view_type = if self.subresources.layers > 1 {
+            vk::ImageViewType::TYPE_2D_ARRAY
+        } else {
+            vk::ImageViewType::TYPE_2D
         };
-        self.depth_view = view(vk::ImageAspectFlags::DEPTH)?;
+        let depth = self.range(vk::ImageAspectFlags::DEPTH);
+        self.depth_view = self.create_view(view_type, depth)?;
         if format_has_stencil(self.format) {
-            self.stencil_view = view(vk::ImageAspectFlags::STENCIL)?;
+            let stencil = self.range(vk::ImageAspectFlags::STENCIL);
+            self.stencil_view = self.create_view(view_type, stencil)?;
         }
         Ok(())
+    }
+
+    /// Every mip level and array layer of `aspects`.
+    pub fn range(&self, aspects: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange {
+            level_count: self.subresources.levels,
+            layer_count: self.subresources.layers,
+            ..full_range(aspects)
+        }
+    }
+
+    /// Mip level `level` (every array layer) of `aspects`.
+    pub fn level_range(
+        &self,
+        aspects: vk::ImageAspectFlags,
+        level: u32,
+    ) -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange {
+            base_mip_level: level,
+            layer_count: self.subresources.layers,
+            ..full_range(aspects)
+        }
+    }
+
+    /// The attachment view of mip level `level`, array layer `layer` (all aspects): [`Self::view`]
+    /// for level 0 layer 0; `None` for a subresource the image does not have.
+    pub fn slice_view(&self, level: u32, layer: u32) -> Option<vk::ImageView> {
+        if (level, layer) == (0, 0) {
+            return Some(self.view);
+        }
+        let DepthSubresources { levels, layers } = self.subresources;
+        if level >= levels || layer >= layers {
+            return None;
+        }
+        self.slice_views
+            .get((level * layers + layer) as usize)
+            .copied()
+    }
+
+    /// The size of mip level `level`.
+    pub fn level_extent(&self, level: u32) -> vk::Extent2D {
+        level_extent(self.extent, level)
+    }
+}
+
+/// The size of mip level `level` of an image of `extent` (halved per level, at least 1).
+pub fn level_extent(extent: vk::Extent2D, level: u32) -> vk::Extent2D {
+    vk::Extent2D {
+        width: (extent.width >> level).max(1),
+        height: (extent.height >> level).max(1),
     }
 }
 
@@ -374,6 +485,12 @@ pub struct TargetOptions {
     pub input_depth: bool,
     /// Multisampled attachments are needed (the plan's [`crate::plan::Needs::multisample`]).
     pub multisample: Option<Multisample>,
+    /// The depth image's mip levels and array layers (the plan's
+    /// [`crate::plan::Needs::depth_subresources`]).
+    pub depth_subresources: DepthSubresources,
+    /// The depth image is blitted from level to level (TRANSFER_SRC and TRANSFER_DST usage,
+    /// BLIT_SRC and BLIT_DST features).
+    pub depth_blits: bool,
 }
 
 /// `VkResolveModeFlagBits` of a [`ResolveMode`].
@@ -481,9 +598,11 @@ pub struct MultisampledTargets<'a> {
     /// image.
     pub color: Attachment<'a>,
     /// The chosen depth format, DEPTH_STENCIL_ATTACHMENT | TRANSIENT_ATTACHMENT (never read
-    /// back, never copied), resolved into the main depth image.
+    /// back, never copied), resolved into the main depth image; or, where the plan keeps it
+    /// for shaders ([`Multisample::sampled_depth`]), DEPTH_STENCIL_ATTACHMENT | SAMPLED with a
+    /// depth-aspect view ([`Attachment::depth_view`]), not resolved.
     pub depth: Attachment<'a>,
-    /// How it is resolved.
+    /// How it is resolved (NONE for both aspects where it is kept).
     pub resolve: ResolveModes,
 }
 
@@ -530,6 +649,16 @@ fn check_multisample(
             );
         }
     }
+    if multisample.sampled_depth {
+        let counts = limits.sampled_image_depth_sample_counts;
+        if !counts.contains(samples) {
+            bail!(
+                "device '{device}' cannot sample depth images of {} samples per pixel \
+                 (sampledImageDepthSampleCounts {counts:?})",
+                multisample.samples
+            );
+        }
+    }
     for (format, name, usage) in [
         (
             COLOR_FORMAT,
@@ -539,8 +668,7 @@ fn check_multisample(
         (
             depth_format.vk_format(),
             depth_format.vk_name(),
-            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
-                | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+            multisampled_depth_usage(multisample),
         ),
     ] {
         // SAFETY: valid physical device of this instance.
@@ -564,11 +692,84 @@ fn check_multisample(
             );
         }
     }
+    if multisample.sampled_depth {
+        let none = vk::ResolveModeFlags::NONE;
+        return Ok((
+            samples,
+            ResolveModes {
+                depth: none,
+                stencil: none,
+            },
+        ));
+    }
     let resolve = gpu
         .resolve_support()
         .modes(multisample.depth_resolve, depth_format)
         .map_err(|why| anyhow::anyhow!("device '{device}' {why}"))?;
     Ok((samples, resolve))
+}
+
+/// The usage of the multisampled depth attachment: transient where it is resolved, sampled
+/// where shaders read it after its pass.
+fn multisampled_depth_usage(multisample: Multisample) -> vk::ImageUsageFlags {
+    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+        | if multisample.sampled_depth {
+            vk::ImageUsageFlags::SAMPLED
+        } else {
+            vk::ImageUsageFlags::TRANSIENT_ATTACHMENT
+        }
+}
+
+/// Fails with a clear message unless the device makes depth images of `depth_format` with
+/// `usage` and `subresources` (mip levels down to the last one's size, array layers).
+fn check_subresources(
+    gpu: &Gpu,
+    depth_format: DepthFormat,
+    usage: vk::ImageUsageFlags,
+    extent: vk::Extent2D,
+    subresources: DepthSubresources,
+) -> Result<()> {
+    if subresources.is_single() {
+        return Ok(());
+    }
+    let DepthSubresources { levels, layers } = subresources;
+    let largest = extent.width.max(extent.height);
+    if levels > 32 - largest.leading_zeros() {
+        bail!(
+            "a {}x{} depth image has fewer than {levels} mip levels",
+            extent.width,
+            extent.height
+        );
+    }
+    // SAFETY: valid physical device of this instance.
+    let properties = unsafe {
+        gpu.instance().get_physical_device_image_format_properties(
+            gpu.physical_device,
+            depth_format.vk_format(),
+            vk::ImageType::TYPE_2D,
+            vk::ImageTiling::OPTIMAL,
+            usage,
+            vk::ImageCreateFlags::empty(),
+        )
+    }
+    .with_context(|| {
+        format!(
+            "device '{}' cannot make {} images with {usage:?}",
+            gpu.info.name,
+            depth_format.vk_name()
+        )
+    })?;
+    if levels > properties.max_mip_levels || layers > properties.max_array_layers {
+        bail!(
+            "device '{}' cannot make {} images of {levels} mip levels and {layers} array layers \
+             (maxMipLevels {}, maxArrayLayers {})",
+            gpu.info.name,
+            depth_format.vk_name(),
+            properties.max_mip_levels,
+            properties.max_array_layers
+        );
+    }
+    Ok(())
 }
 
 /// The offscreen color and depth attachments (and the shadow map, if any).
@@ -622,6 +823,10 @@ impl<'a> Targets<'a> {
             depth_usage |= vk::ImageUsageFlags::SAMPLED;
             depth_features |= vk::FormatFeatureFlags::SAMPLED_IMAGE;
         }
+        if options.depth_blits {
+            depth_usage |= vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+            depth_features |= vk::FormatFeatureFlags::BLIT_SRC | vk::FormatFeatureFlags::BLIT_DST;
+        }
         if options.input_depth {
             // An input attachment needs no format feature beyond the attachment's own.
             depth_usage |= vk::ImageUsageFlags::INPUT_ATTACHMENT;
@@ -634,6 +839,13 @@ impl<'a> Targets<'a> {
             "a depth attachment",
         )?;
         let extent = vk::Extent2D { width, height };
+        check_subresources(
+            gpu,
+            depth_format,
+            depth_usage,
+            extent,
+            options.depth_subresources,
+        )?;
         let color = Attachment::new(
             gpu,
             COLOR_FORMAT,
@@ -641,12 +853,13 @@ impl<'a> Targets<'a> {
             vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
             extent,
         )?;
-        let mut depth = Attachment::new(
+        let mut depth = Attachment::with_subresources(
             gpu,
             depth_format.vk_format(),
             depth_format.aspects(),
             depth_usage,
             extent,
+            options.depth_subresources,
         )?;
         if options.sampled_depth || options.input_depth {
             depth.add_depth_view()?;
@@ -676,6 +889,17 @@ impl<'a> Targets<'a> {
         let multisampled = match options.multisample {
             Some(multisample) => {
                 let (samples, resolve) = check_multisample(gpu, depth_format, multisample)?;
+                let mut depth = Attachment::with_samples(
+                    gpu,
+                    depth_format.vk_format(),
+                    depth_format.aspects(),
+                    multisampled_depth_usage(multisample),
+                    extent,
+                    samples,
+                )?;
+                if multisample.sampled_depth {
+                    depth.add_depth_view()?;
+                }
                 Some(MultisampledTargets {
                     samples,
                     color: Attachment::with_samples(
@@ -687,15 +911,7 @@ impl<'a> Targets<'a> {
                         extent,
                         samples,
                     )?,
-                    depth: Attachment::with_samples(
-                        gpu,
-                        depth_format.vk_format(),
-                        depth_format.aspects(),
-                        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
-                            | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
-                        extent,
-                        samples,
-                    )?,
+                    depth,
                     resolve,
                 })
             }

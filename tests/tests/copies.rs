@@ -46,7 +46,14 @@ const STRESS: [&str; 7] = [
 
 /// The scenes whose colors are shaded from the depth their shaders sample (`depth-reads`:
 /// soft particles' fades, a band of view distances).
-const SHADED_FROM_DEPTH: [&str; 3] = ["depth-reads", "deferred-depth", "deferred-depth-tested"];
+const SHADED_FROM_DEPTH: [&str; 6] = [
+    "depth-reads",
+    "deferred-depth",
+    "deferred-depth-tested",
+    "depth-reads-msaa",
+    "depth-mips",
+    "depth-layers",
+];
 
 const REVERSING_MODES: [&str; 3] = ["flip", "complementary", "infinite"];
 

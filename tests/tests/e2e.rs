@@ -1209,3 +1209,192 @@ fn deferred_depth_reads_standard_depth_through_input_attachments() {
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+/// `depth-reads-msaa`: the overlap scene drawn at 4x MSAA into a depth image kept for shaders
+/// (SAMPLED usage, not resolved), which a post pass reads per sample
+/// (`texelFetch(sampler2DMS(..), pixel, s)` for each of the four samples) to shade the bottom
+/// 45% of the image from the nearest and the farthest sample's view distance. In every depth
+/// format and mode, with zero validation messages (synchronization validation included), the
+/// colors are the native render's, and the profile says the 4x image is reversed and read
+/// through its twin (refreshed per sample: a copy through a buffer carries no samples).
+/// Meaningful: with `reverse_observable = all` (the raw reversed values handed to shaders) the
+/// whole band is wrong.
+///
+/// The reference, allowances and bounds are those of
+/// `depth_reads_sample_standard_depth_through_the_twin`: the native render of the same
+/// format, or the native D32 render where the precise modes promote a UNORM format; channels 1
+/// level off allowed (the depth converted back, in the shading), and per format a few pixels
+/// more than that.
+#[test]
+fn multisampled_depth_reads_standard_depth_per_sample() {
+    let harness = Harness::locate();
+    let scene = "depth-reads-msaa";
+    let frames = "2";
+    let mut problems = Vec::new();
+    let native = |format: &str| {
+        let dir = harness.scratch_dir(&format!("{scene}-{format}-native"));
+        let mut command = harness.tester(format, &dir);
+        command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
+        let render = harness.render(command, &dir);
+        let json = render.json();
+        assert_eq!(json["multisample"]["samples"], 4, "{format}: {json}");
+        assert_eq!(
+            json["multisample"]["depth_resolve"], "NONE",
+            "{format}: {json}"
+        );
+        // SAMPLED usage on the 4x depth image, which is not transient.
+        let images = json["recorded"]["depth_images"]
+            .as_array()
+            .expect("the depth images");
+        let multisampled = images
+            .iter()
+            .find(|image| image["role"] == "multisampled")
+            .expect("the multisampled depth image");
+        let usage = multisampled["usage"].as_u64().expect("its usage");
+        assert_eq!(usage & 0xC4, 0x04, "{format}: usage {usage:#x}");
+        render.color()
+    };
+    let native_d32 = native("d32");
+    for format in DEPTH_FORMATS {
+        let own = native(format);
+        for mode in ["flip", "complementary", "infinite"] {
+            let name = format!("{scene}-{format}-{mode}");
+            let dir = harness.scratch_dir(&name);
+            let report = dir.join("profile.json");
+            let mut command = harness.tester(format, &dir);
+            command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
+            harness
+                .with_layer(&mut command)
+                .env("REVZ_MODE", mode)
+                .env("REVZ_LOG", "info")
+                .env("REVZ_REPORT", &report);
+            let render = harness.render(command, &dir);
+            let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
+            let reference = if promoted { &native_d32 } else { &own };
+            let color = render.color();
+            let loose = pixels_off_by_more_than(reference, &color, 1);
+            let bound = if promoted || format != "d16" {
+                2
+            } else {
+                flip_color_tolerance(format)
+            };
+            if loose > bound {
+                problems.push(format!(
+                    "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
+                ));
+            }
+            let differing = differing_pixels(reference, &color);
+            if differing > 200 {
+                problems.push(format!("{name}: {differing} pixels differ"));
+            }
+            let profile: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
+                    .expect("a JSON profile");
+            let Some(image) = profile["images"]
+                .as_array()
+                .and_then(|images| images.iter().find(|image| image["samples"] == 4))
+            else {
+                problems.push(format!(
+                    "{name}: no 4-sample image in the profile: {profile}"
+                ));
+                continue;
+            };
+            if image["depth"] != "reversed" || image["read_twin"] != true {
+                problems.push(format!("{name}: not reversed with a read twin: {image}"));
+            }
+        }
+    }
+    // The raw reversed values, handed to the shader, shade the whole band wrong.
+    let dir = harness.scratch_dir(&format!("{scene}-d32-complementary-observable"));
+    let mut command = harness.tester("d32", &dir);
+    command.args(["--scene", scene, "--frames", frames]);
+    harness
+        .with_layer(&mut command)
+        .env("REVZ_MODE", "complementary")
+        .env("REVZ_REVERSE_OBSERVABLE", "all");
+    let raw = pixels_off_by_more_than(&native_d32, &harness.render(command, &dir).color(), 16);
+    if raw < 20_000 {
+        problems.push(format!(
+            "reverse_observable = all: only {raw} pixels differ by more than 16 levels"
+        ));
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// `depth-mips` and `depth-layers` (issue #39): a depth image of three mip levels (level 0
+/// rendered, levels 1 and 2 blitted from the level above, each level made readable by a
+/// barrier of its own) and one of two array layers (each rendered through a view of its
+/// layer), sampled by a post pass that shades bands from levels 1 and 2, or from layers 0
+/// and 1. With the layer, in every reversing mode and depth format: the image is reversed and
+/// read through its twin (refreshed per level: three refreshes a frame for the mip chain, one
+/// for both layers), zero validation messages (synchronization validation included), and the
+/// colors are the native render's (of the same format; native D32 where the precise modes
+/// promote D16, X8_D24 and D24S8), within `depth-reads`' bounds.
+#[test]
+fn depth_mips_and_layers_sample_standard_depth_through_the_twin() {
+    let harness = Harness::locate();
+    let frames = "2";
+    let mut problems = Vec::new();
+    for (scene, refreshes_per_frame) in [("depth-mips", 3), ("depth-layers", 1)] {
+        let native = |format: &str| {
+            let dir = harness.scratch_dir(&format!("{scene}-{format}-native"));
+            let mut command = harness.tester(format, &dir);
+            command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
+            harness.render(command, &dir).color()
+        };
+        let native_d32 = native("d32");
+        for format in DEPTH_FORMATS {
+            let own = native(format);
+            for mode in ["flip", "complementary", "infinite"] {
+                let name = format!("{scene}-{format}-{mode}");
+                let dir = harness.scratch_dir(&name);
+                let report = dir.join("profile.json");
+                let mut command = harness.tester(format, &dir);
+                command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
+                harness
+                    .with_layer(&mut command)
+                    .env("REVZ_MODE", mode)
+                    .env("REVZ_LOG", "info")
+                    .env("REVZ_REPORT", &report);
+                let render = harness.render(command, &dir);
+                let log = render.stderr();
+                if !log.contains("shaders read its twin") {
+                    problems.push(format!("{name}: no read twin in the log"));
+                }
+                let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
+                let reference = if promoted { &native_d32 } else { &own };
+                let color = render.color();
+                let loose = pixels_off_by_more_than(reference, &color, 1);
+                let bound = if promoted || format != "d16" {
+                    2
+                } else {
+                    flip_color_tolerance(format)
+                };
+                if loose > bound {
+                    problems.push(format!(
+                        "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
+                    ));
+                }
+                let differing = differing_pixels(reference, &color);
+                if differing > 200 {
+                    problems.push(format!("{name}: {differing} pixels differ"));
+                }
+                let profile: serde_json::Value =
+                    serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
+                        .expect("a JSON profile");
+                let image = &profile["images"][0];
+                if image["depth"] != "reversed" || image["read_twin"] != true {
+                    problems.push(format!("{name}: not reversed with a read twin: {image}"));
+                }
+                let expected = refreshes_per_frame * frames.parse::<u64>().expect("frames");
+                if image["refreshes_recorded"].as_u64() != Some(expected) {
+                    problems.push(format!(
+                        "{name}: {expected} refreshes expected ({refreshes_per_frame} a frame): \
+                         {image}"
+                    ));
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}

@@ -44,6 +44,26 @@ impl Plan {
                 "pipeline {name}: a depth-only program where there is a color attachment, or \
                  a fragment shader where there is none"
             );
+            let slices = self.needs().depth_subresources;
+            match pipeline.program {
+                Program::DepthMipsPost => ensure!(
+                    pass.target == Target::Post && slices.levels >= 3,
+                    "pipeline {name}: the mip chain's post program samples levels 1 and 2 in a \
+                     post pass"
+                ),
+                Program::DepthLayersPost => ensure!(
+                    pass.target == Target::Post && slices.layers >= 2,
+                    "pipeline {name}: the layers' post program samples layers 0 and 1 in a post \
+                     pass"
+                ),
+                Program::DepthPostMs => ensure!(
+                    pass.target == Target::Post
+                        && self.needs().multisample.is_some_and(|m| m.sampled_depth),
+                    "pipeline {name}: the multisampled depth's post program samples the depth \
+                     a multisampled pass kept, in a post pass"
+                ),
+                _ => {}
+            }
             ensure!(
                 (pipeline.program == Program::DepthInput)
                     == pass.reads_depth_input(pipeline.subpass),
@@ -137,6 +157,10 @@ impl Plan {
                 "pass {n}: a multisampled pass clears its attachments (they are transient)"
             );
             ensure!(
+                !multisample.sampled_depth || pass.kind == PassKind::RenderPass,
+                "pass {n}: a multisampled depth kept for shaders is rendered in a render pass"
+            );
+            ensure!(
                 self.passes
                     .iter()
                     .filter_map(|p| p.multisample)
@@ -159,6 +183,13 @@ impl Plan {
                 "pass {n}: the depth is read as an input attachment of the main target's \
                  single-sample pass"
             );
+            if let Target::DepthSlice { .. } = pass.target {
+                ensure!(
+                    pass.kind == PassKind::RenderPass && pass.multisample.is_none(),
+                    "pass {n}: a depth slice is rendered in a one-subpass single-sample render \
+                     pass"
+                );
+            }
             if matches!(pass.target, Target::SoftParticles | Target::Post) {
                 ensure!(
                     pass.kind == PassKind::RenderPass
@@ -171,8 +202,17 @@ impl Plan {
         }
         let mut state = CheckState::default();
         let mut shadow_drawn = false;
-        // Where the main depth image is between passes: in its attachment layout, or sampled.
-        let mut depth_layout = DepthLayout::Attachment;
+        // Where each mip level of the main depth image is between passes: in its attachment
+        // layout, or sampled.
+        let levels = self.needs().depth_subresources.levels as usize;
+        let mut depth_layout = vec![DepthLayout::Attachment; levels];
+        // Where the multisampled depth a multisampled pass keeps is between passes.
+        let mut multisampled_layout = DepthLayout::Attachment;
+        let post_samples_main = self.post_samples_main_depth();
+        let post_samples_multisampled = self
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::DepthPostMs);
         let mut used_passes = vec![false; self.passes.len()];
         let mut used_pipelines = vec![false; self.pipelines.len()];
         for (index, step) in self.steps.iter().enumerate() {
@@ -185,7 +225,7 @@ impl Plan {
                     );
                     ensure!(depth.is_finite(), "step {index}: depth not finite");
                     ensure!(
-                        depth_layout == DepthLayout::Attachment,
+                        depth_layout[0] == DepthLayout::Attachment,
                         "step {index}: the main depth image is not in its attachment layout"
                     );
                 }
@@ -195,7 +235,7 @@ impl Plan {
                         "step {index}: a dispatch inside a pass"
                     );
                     ensure!(
-                        depth_layout == DepthLayout::Sampled,
+                        depth_layout[0] == DepthLayout::Sampled,
                         "step {index}: the main depth image is not sampled"
                     );
                 }
@@ -205,10 +245,57 @@ impl Plan {
                         "step {index}: a depth layout barrier inside a pass"
                     );
                     ensure!(
-                        *from == depth_layout && from != to,
-                        "step {index}: the main depth image is {depth_layout:?}"
+                        depth_layout.iter().all(|layout| layout == from)
+                            && from != to
+                            && *from != DepthLayout::Undefined
+                            && *to != DepthLayout::Undefined,
+                        "step {index}: the main depth image's levels are {depth_layout:?}"
                     );
-                    depth_layout = *to;
+                    depth_layout.fill(*to);
+                }
+                Step::MultisampledDepthLayout { from, to } => {
+                    ensure!(
+                        state.pass.is_none(),
+                        "step {index}: a depth layout barrier inside a pass"
+                    );
+                    ensure!(
+                        self.needs().multisample.is_some_and(|m| m.sampled_depth),
+                        "step {index}: no multisampled pass keeps its depth"
+                    );
+                    ensure!(
+                        multisampled_layout == *from
+                            && from != to
+                            && *from != DepthLayout::ReadOnly
+                            && *to != DepthLayout::ReadOnly,
+                        "step {index}: the multisampled depth image is {multisampled_layout:?}"
+                    );
+                    multisampled_layout = *to;
+                }
+                Step::DepthLevelLayout { level, from, to } => {
+                    ensure!(
+                        state.pass.is_none(),
+                        "step {index}: a depth layout barrier inside a pass"
+                    );
+                    let current = depth_layout[*level as usize];
+                    // From UNDEFINED: whatever it holds is discarded.
+                    ensure!(
+                        (current == *from || *from == DepthLayout::Undefined)
+                            && from != to
+                            && *to != DepthLayout::Undefined,
+                        "step {index}: level {level} of the main depth image is {current:?}"
+                    );
+                    depth_layout[*level as usize] = *to;
+                }
+                Step::BlitDepthLevel { level } => {
+                    ensure!(state.pass.is_none(), "step {index}: a blit inside a pass");
+                    let level = *level as usize;
+                    ensure!(
+                        level > 0
+                            && depth_layout[level - 1] == DepthLayout::TransferSrc
+                            && depth_layout[level] == DepthLayout::TransferDst,
+                        "step {index}: blits a level from the one below it, in TRANSFER_SRC \
+                         and TRANSFER_DST (the levels are {depth_layout:?})"
+                    );
                 }
                 Step::BeginPass(n) => {
                     ensure!(state.pass.is_none(), "step {index}: nested pass");
@@ -226,14 +313,34 @@ impl Plan {
                         pass.target != Target::Shadow || !pass.load_color,
                         "step {index}: the shadow map has no color to load"
                     );
-                    let sampled = if pass.target == Target::Post {
-                        DepthLayout::Sampled
-                    } else {
-                        DepthLayout::Attachment
+                    // The levels the pass attaches must be attachments, those it samples sampled.
+                    let (attached, sampled): (Option<u32>, Vec<u32>) = match pass.target {
+                        Target::Shadow => (None, Vec::new()),
+                        Target::Post if !post_samples_main => (None, Vec::new()),
+                        Target::Post => (None, (0..levels as u32).collect()),
+                        Target::Main | Target::SoftParticles => (Some(0), Vec::new()),
+                        Target::DepthSlice { level, .. } => (Some(level), Vec::new()),
                     };
                     ensure!(
-                        pass.target == Target::Shadow || depth_layout == sampled,
-                        "step {index}: the main depth image is {depth_layout:?} at the pass"
+                        attached.is_none_or(|level| {
+                            depth_layout[level as usize] == DepthLayout::Attachment
+                        }) && sampled
+                            .iter()
+                            .all(|&level| depth_layout[level as usize] == DepthLayout::Sampled),
+                        "step {index}: the main depth image's levels are {depth_layout:?} at the \
+                         pass"
+                    );
+                    // A post pass reads the kept multisampled depth sampled; a multisampled
+                    // pass draws into it in its attachment layout.
+                    let multisampled_expected = match pass.target {
+                        Target::Post if post_samples_multisampled => Some(DepthLayout::Sampled),
+                        _ if pass.multisample.is_some() => Some(DepthLayout::Attachment),
+                        _ => None,
+                    };
+                    ensure!(
+                        multisampled_expected.is_none_or(|l| l == multisampled_layout),
+                        "step {index}: the multisampled depth image is {multisampled_layout:?} \
+                         at the pass"
                     );
                     used_passes[*n] = true;
                     state.pass = Some((*n, 0));
@@ -260,7 +367,7 @@ impl Plan {
                     );
                     shadow_drawn |= self.passes[n].target == Target::Shadow;
                     if self.passes[n].target == Target::SoftParticles {
-                        depth_layout = DepthLayout::ReadOnly;
+                        depth_layout[0] = DepthLayout::ReadOnly;
                     }
                     state.pass = None;
                 }
@@ -291,6 +398,9 @@ impl Plan {
                                         | Step::NextSubpass
                                         | Step::ClearDepthImage { .. }
                                         | Step::MainDepthLayout { .. }
+                                        | Step::DepthLevelLayout { .. }
+                                        | Step::BlitDepthLevel { .. }
+                                        | Step::MultisampledDepthLayout { .. }
                                         | Step::BuildDepthTiles
                                         | Step::ExecuteSecondaries(..)
                                 ),
@@ -320,8 +430,12 @@ impl Plan {
         }
         ensure!(state.pass.is_none(), "the last pass is not ended");
         ensure!(
-            depth_layout == DepthLayout::Attachment,
+            depth_layout.iter().all(|&l| l == DepthLayout::Attachment),
             "the main depth image is not left in its attachment layout (the read-back's)"
+        );
+        ensure!(
+            multisampled_layout == DepthLayout::Attachment,
+            "the multisampled depth image is not left in its attachment layout"
         );
         if let Some(n) = used_passes.iter().position(|used| !used) {
             return Err(PlanError(format!("pass {n} is never begun")));
@@ -478,6 +592,9 @@ impl Plan {
             }
             Step::ClearDepthImage { .. }
             | Step::MainDepthLayout { .. }
+            | Step::DepthLevelLayout { .. }
+            | Step::BlitDepthLevel { .. }
+            | Step::MultisampledDepthLayout { .. }
             | Step::BuildDepthTiles
             | Step::BeginPass(_)
             | Step::NextSubpass

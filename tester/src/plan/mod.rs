@@ -241,6 +241,21 @@ pub enum Program {
     /// depth's view distance, read as an input attachment (`subpassLoad`) in subpass 1 of a
     /// [`PassKind::DepthInputSubpasses`] pass, where subpass 0 wrote it.
     DepthInput,
+    /// `scene.vert` + `depth_mips_post.frag` (glslang): the bottom quarter of the image shaded
+    /// by the view distance of mip level 1 of the main depth, the top quarter by that of level
+    /// 2 (texel fetches through a view of the whole mip chain, which [`Step::BlitDepthLevel`]s
+    /// filled), in a [`Target::Post`] pass.
+    DepthMipsPost,
+    /// `scene.vert` + `depth_layers_post.frag` (glslang): the bottom quarter of the image
+    /// shaded by the view distance of array layer 0 of the main depth, the quarter above it by
+    /// that of layer 1 (texel fetches through a 2D-array view of both layers), in a
+    /// [`Target::Post`] pass.
+    DepthLayersPost,
+    /// `scene.vert` + `depth_post_ms.frag` (glslang): the bottom 45% of the image shaded
+    /// by the view distances of the nearest and the farthest of each pixel's samples of the
+    /// multisampled depth a [`Multisample::sampled_depth`] pass kept (texel fetches of each
+    /// sample through a `texture2DMS`), in a [`Target::Post`] pass.
+    DepthPostMs,
 }
 
 /// How a scene hands its matrices to the vertex shader (`--delivery`): push constants, as
@@ -384,7 +399,10 @@ impl Program {
             | Program::DepthPost
             | Program::DepthTiles
             | Program::StencilPost
-            | Program::DepthInput => 80,
+            | Program::DepthInput
+            | Program::DepthMipsPost
+            | Program::DepthLayersPost
+            | Program::DepthPostMs => 80,
         }
     }
 
@@ -487,6 +505,19 @@ pub enum Target {
     /// `SHADER_READ_ONLY_OPTIMAL` ([`Program::DepthPost`]): a [`Step::MainDepthLayout`] puts it
     /// there before and back after. The main depth image gets SAMPLED usage.
     Post,
+    /// One mip level and array layer of the main depth image alone, as the depth attachment
+    /// of a pass without color ([`Program::DepthOnly`] pipelines; through a view of that
+    /// subresource, at that level's size): how engines render the cascades or views of a
+    /// layered depth image. Cleared or loaded, left in its attachment layout. The main depth
+    /// image gets as many mip levels and array layers as the plan's slices name
+    /// ([`Needs::depth_subresources`]); level 0 layer 0 is the one [`Target::Main`] renders
+    /// into and the read-back reads.
+    DepthSlice {
+        /// The mip level.
+        level: u32,
+        /// The array layer.
+        layer: u32,
+    },
 }
 
 /// How a pass is begun.
@@ -574,8 +605,13 @@ impl ResolveMode {
 pub struct Multisample {
     /// Samples per pixel: a power of two from 2 to 64 (`VkSampleCountFlagBits`).
     pub samples: u32,
-    /// How the depth attachment is resolved.
+    /// How the depth attachment is resolved (unless `sampled_depth`).
     pub depth_resolve: ResolveMode,
+    /// The depth attachment is not resolved but kept (stored, with SAMPLED usage instead of
+    /// TRANSIENT_ATTACHMENT), for shaders to read each of its samples after the pass
+    /// ([`Program::DepthPostMs`], after a [`Step::MultisampledDepthLayout`]); the color is
+    /// resolved all the same. Render passes of the main target only.
+    pub sampled_depth: bool,
 }
 
 /// One pass over a target.
@@ -608,8 +644,9 @@ impl PassSpec {
 
     /// Whether `subpass` of this pass has a color attachment.
     pub fn has_color(&self, subpass: u32) -> bool {
-        self.target != Target::Shadow
-            && !(self.kind == PassKind::DepthPrepassSubpasses && subpass == 0)
+        let depth_only_target = matches!(self.target, Target::Shadow | Target::DepthSlice { .. });
+        let depth_prepass = self.kind == PassKind::DepthPrepassSubpasses && subpass == 0;
+        !(depth_only_target || depth_prepass)
     }
 
     /// Whether `subpass` of this pass has a depth(-stencil) attachment (written or read-only).
@@ -703,13 +740,43 @@ pub enum Step {
         /// The depth clear value.
         depth: f32,
     },
-    /// An image barrier of the main depth image (outside any pass) from one layout to
-    /// another, ordering the accesses of the first before those of the second.
+    /// An image barrier of the main depth image (outside any pass; every mip level and array
+    /// layer) from one layout to another, ordering the accesses of the first before those of
+    /// the second.
     MainDepthLayout {
         /// Its layout before.
         from: DepthLayout,
         /// Its layout after.
         to: DepthLayout,
+    },
+    /// An image barrier of one mip level of the main depth image (all its layers; outside any
+    /// pass) from one layout to another, as [`Step::MainDepthLayout`] does for the whole
+    /// image: what an application records between the levels of a depth pyramid. Only this
+    /// step may start from [`DepthLayout::Undefined`] (the level's contents discarded).
+    DepthLevelLayout {
+        /// The mip level.
+        level: u32,
+        /// Its layout before.
+        from: DepthLayout,
+        /// Its layout after.
+        to: DepthLayout,
+    },
+    /// An image barrier of the multisampled depth image a [`Multisample::sampled_depth`] pass
+    /// keeps (outside any pass) from one layout to another, as [`Step::MainDepthLayout`] does
+    /// for the main depth image.
+    MultisampledDepthLayout {
+        /// Its layout before.
+        from: DepthLayout,
+        /// Its layout after.
+        to: DepthLayout,
+    },
+    /// `vkCmdBlitImage` of mip level `level - 1` of the main depth image (in
+    /// `TRANSFER_SRC_OPTIMAL`) into level `level` (in `TRANSFER_DST_OPTIMAL`), the whole of
+    /// each, NEAREST (depth blits must be), the depth aspect alone, every layer: how engines
+    /// fill the lower levels of a depth chain without a shader.
+    BlitDepthLevel {
+        /// The level written (at least 1).
+        level: u32,
     },
     /// A compute dispatch (outside any pass, the main depth image sampled) that builds a depth
     /// pyramid level from the main depth (`depth_tiles.comp`: each 4 x 4 tile's nearest and
@@ -732,6 +799,13 @@ pub enum DepthLayout {
     ReadOnly,
     /// `SHADER_READ_ONLY_OPTIMAL`: sampled by fragment shaders.
     Sampled,
+    /// `TRANSFER_SRC_OPTIMAL`: blitted from ([`Step::BlitDepthLevel`]).
+    TransferSrc,
+    /// `TRANSFER_DST_OPTIMAL`: blitted into ([`Step::BlitDepthLevel`]).
+    TransferDst,
+    /// `UNDEFINED`, as the layout a [`Step::DepthLevelLayout`] leaves: the level's contents
+    /// are discarded (a barrier from any layout).
+    Undefined,
 }
 
 /// How the secondaries of a [`Step::ExecuteSecondaries`] are recorded.
@@ -808,6 +882,38 @@ pub struct Needs {
     /// `VkPhysicalDeviceDepthStencilResolveProperties`); every multisampled pass of a plan
     /// shares them.
     pub multisample: Option<Multisample>,
+    /// The mip levels and array layers of the main depth image: one each, or as many as its
+    /// [`Target::DepthSlice`] passes, [`Step::DepthLevelLayout`] barriers and
+    /// [`Step::BlitDepthLevel`]s name.
+    pub depth_subresources: DepthSubresources,
+    /// The main depth image is blitted from level to level ([`Step::BlitDepthLevel`]):
+    /// TRANSFER_SRC and TRANSFER_DST usage, BLIT_SRC and BLIT_DST features.
+    pub depth_blits: bool,
+}
+
+/// The mip levels and array layers of the main depth image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DepthSubresources {
+    /// `mipLevels` (at least 1).
+    pub levels: u32,
+    /// `arrayLayers` (at least 1).
+    pub layers: u32,
+}
+
+impl Default for DepthSubresources {
+    fn default() -> Self {
+        DepthSubresources {
+            levels: 1,
+            layers: 1,
+        }
+    }
+}
+
+impl DepthSubresources {
+    /// Whether the image has more than one subresource per aspect.
+    pub fn is_single(self) -> bool {
+        self.levels == 1 && self.layers == 1
+    }
 }
 
 /// Why a plan is malformed.
@@ -911,11 +1017,27 @@ impl Plan {
             .passes
             .iter_mut()
             .filter_map(|p| p.multisample.as_mut())
+            .filter(|m| !m.sampled_depth)
         {
             multisample.depth_resolve = mode;
             any = true;
         }
         any
+    }
+
+    /// Whether the plan's [`Target::Post`] passes sample the main depth image: unless every
+    /// pipeline made for one reads the multisampled depth instead ([`Program::DepthPostMs`]).
+    pub fn post_samples_main_depth(&self) -> bool {
+        let mut post = self
+            .pipelines
+            .iter()
+            .filter(|p| {
+                self.passes
+                    .get(p.pass)
+                    .is_some_and(|q| q.target == Target::Post)
+            })
+            .peekable();
+        post.peek().is_none() || post.any(|p| p.program != Program::DepthPostMs)
     }
 
     /// Every step, with the steps inside secondaries, in recording order.
@@ -960,13 +1082,19 @@ impl Plan {
         let mut needs = Needs::default();
         for pass in &self.passes {
             needs.shadow_map |= pass.target == Target::Shadow;
-            needs.sampled_depth |= matches!(pass.target, Target::SoftParticles | Target::Post);
+            needs.sampled_depth |= pass.target == Target::SoftParticles
+                || (pass.target == Target::Post && self.post_samples_main_depth());
             // The read-only depth attachment is stored with VK_ATTACHMENT_STORE_OP_NONE (a
             // STORE would write it while it is sampled), which comes with dynamic rendering
             // (Vulkan 1.3, or VK_KHR_dynamic_rendering below it).
             needs.dynamic_rendering |= pass.target == Target::SoftParticles;
             needs.multisample = needs.multisample.or(pass.multisample);
             needs.input_depth |= pass.kind.reads_depth_input();
+            if let Target::DepthSlice { level, layer } = pass.target {
+                let slices = &mut needs.depth_subresources;
+                slices.levels = slices.levels.max(level + 1);
+                slices.layers = slices.layers.max(layer + 1);
+            }
             if pass.kind == PassKind::DynamicRendering {
                 needs.dynamic_rendering = true;
             }
@@ -1013,6 +1141,15 @@ impl Plan {
                 }
                 Step::SetDepthBias(bias) => needs.depth_bias_clamp |= bias.clamp != 0.0,
                 Step::BuildDepthTiles => needs.depth_tiles = true,
+                Step::DepthLevelLayout { level, .. } => {
+                    let slices = &mut needs.depth_subresources;
+                    slices.levels = slices.levels.max(level + 1);
+                }
+                Step::BlitDepthLevel { level } => {
+                    let slices = &mut needs.depth_subresources;
+                    slices.levels = slices.levels.max(level + 1);
+                    needs.depth_blits = true;
+                }
                 Step::ExecuteSecondaries(lists, Recording::MainThread) => {
                     needs.secondaries += lists.len();
                 }
@@ -1287,6 +1424,7 @@ mod tests {
         let multisample = Multisample {
             samples: 4,
             depth_resolve: ResolveMode::SampleZero,
+            sampled_depth: false,
         };
         let mut plan = Plan::single_pass(1);
         assert!(!plan.set_depth_resolve(ResolveMode::Average));

@@ -585,6 +585,96 @@ impl Renderer<'_> {
     }
 }
 
+impl Renderer<'_> {
+    /// Creates the bindings of [`Program::DepthPostMs`] ([`MultisampledReadBindings`]: the
+    /// multisampled depth's depth-aspect view in `SHADER_READ_ONLY_OPTIMAL` and a nearest
+    /// sampler) and its pipeline layout (the set, and the 80-byte push constants).
+    pub(super) fn create_multisampled_read_bindings(
+        &mut self,
+        targets: &Targets<'_>,
+    ) -> Result<()> {
+        let device = self.device;
+        let view = targets
+            .multisampled
+            .as_ref()
+            .map_or(vk::ImageView::null(), |ms| ms.depth.depth_view);
+        if view == vk::ImageView::null() {
+            bail!("the scene samples a multisampled depth image that no multisampled pass keeps");
+        }
+        let sampler_info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::NEAREST)
+            .min_filter(vk::Filter::NEAREST)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .min_lod(0.0)
+            .max_lod(0.0);
+        // SAFETY: valid device and create info.
+        let sampler = unsafe { device.create_sampler(&sampler_info, None) }
+            .context("vkCreateSampler (multisampled depth) failed")?;
+        // Stored at once (null handles filled in below) so that `Drop` destroys whatever was
+        // made, even if a later step fails.
+        let reads = self.multisampled_read.insert(MultisampledReadBindings {
+            set_layout: vk::DescriptorSetLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            sampler,
+        });
+        let bindings = [
+            (0, vk::DescriptorType::SAMPLED_IMAGE),
+            (1, vk::DescriptorType::SAMPLER),
+        ]
+        .map(|(binding, kind)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(binding)
+                .descriptor_type(kind)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
+        });
+        reads.set = single_descriptor_set(
+            device,
+            &bindings,
+            "multisampled depth",
+            &mut reads.set_layout,
+            &mut reads.pool,
+        )?;
+        let image_info = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: view,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }];
+        let sampler_info = [vk::DescriptorImageInfo {
+            sampler: reads.sampler,
+            image_view: vk::ImageView::null(),
+            image_layout: vk::ImageLayout::UNDEFINED,
+        }];
+        let writes = [
+            vk::WriteDescriptorSet::default()
+                .dst_set(reads.set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&image_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(reads.set)
+                .dst_binding(1)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&sampler_info),
+        ];
+        // SAFETY: valid set, view and sampler; the infos match the binding types.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        let set_layouts = [reads.set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&PUSH_CONSTANT_RANGES);
+        // SAFETY: valid device and create info.
+        self.multisampled_read_layout =
+            unsafe { device.create_pipeline_layout(&layout_info, None) }
+                .context("vkCreatePipelineLayout (multisampled depth reads) failed")?;
+        Ok(())
+    }
+}
+
 impl<'a> Renderer<'a> {
     /// Creates the depth pyramid's bindings ([`TileBindings`]), its compute pipeline and the
     /// layout of [`Program::DepthTiles`] pipelines. Needs the depth-read bindings (their

@@ -99,6 +99,16 @@ struct DepthReadBindings {
     linear: vk::Sampler,
 }
 
+/// What [`Program::DepthPostMs`] binds: the depth-aspect view of the multisampled depth a
+/// multisampled pass kept, in `SHADER_READ_ONLY_OPTIMAL` (binding 0, a sampled image) and a
+/// nearest sampler (binding 1), in one set written with `vkUpdateDescriptorSets`.
+struct MultisampledReadBindings {
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    sampler: vk::Sampler,
+}
+
 /// What [`Program::DepthInput`] binds: the main depth's depth-aspect view as an input
 /// attachment in `DEPTH_STENCIL_READ_ONLY_OPTIMAL`, in one set written with
 /// `vkUpdateDescriptorSets`.
@@ -171,6 +181,10 @@ pub struct Renderer<'a> {
     /// Push constants and the input-attachment set ([`Program::DepthInput`]; null without it).
     input_layout: vk::PipelineLayout,
     depth_input: Option<InputBindings>,
+    /// Push constants and the multisampled depth's set ([`Program::DepthPostMs`]; null without
+    /// it).
+    multisampled_read_layout: vk::PipelineLayout,
+    multisampled_read: Option<MultisampledReadBindings>,
     /// Push constants and the tiles' set ([`Program::DepthTiles`]; null without it).
     tiles_layout: vk::PipelineLayout,
     depth_tiles: Option<TileBindings<'a>>,
@@ -255,6 +269,14 @@ impl Drop for Renderer<'_> {
                 .destroy_pipeline_layout(self.depth_push_layout, None);
             self.device.destroy_pipeline_layout(self.tiles_layout, None);
             self.device.destroy_pipeline_layout(self.input_layout, None);
+            self.device
+                .destroy_pipeline_layout(self.multisampled_read_layout, None);
+            if let Some(reads) = &self.multisampled_read {
+                self.device.destroy_descriptor_pool(reads.pool, None);
+                self.device
+                    .destroy_descriptor_set_layout(reads.set_layout, None);
+                self.device.destroy_sampler(reads.sampler, None);
+            }
             if let Some(input) = &self.depth_input {
                 self.device.destroy_descriptor_pool(input.pool, None);
                 self.device
@@ -354,6 +376,8 @@ impl<'a> Renderer<'a> {
             depth_read: None,
             input_layout: vk::PipelineLayout::null(),
             depth_input: None,
+            multisampled_read_layout: vk::PipelineLayout::null(),
+            multisampled_read: None,
             tiles_layout: vk::PipelineLayout::null(),
             depth_tiles: None,
             pair_layout: vk::PipelineLayout::null(),
@@ -397,6 +421,11 @@ impl<'a> Renderer<'a> {
             };
             this.render_passes.push(render_pass);
             let (views, extent) = match (pass.target, multisampled) {
+                // A kept depth is not resolved: no resolve attachment for it.
+                (Target::Main, Some(ms)) if pass.multisample.is_some_and(|m| m.sampled_depth) => (
+                    vec![ms.color.view, ms.depth.view, targets.color.view],
+                    targets.extent,
+                ),
                 (Target::Main, Some(ms)) => (
                     vec![
                         ms.color.view,
@@ -413,6 +442,12 @@ impl<'a> Renderer<'a> {
                     (vec![targets.color.view, targets.depth.view], targets.extent)
                 }
                 (Target::Post, _) => (vec![targets.color.view], targets.extent),
+                (Target::DepthSlice { level, layer }, _) => (
+                    vec![targets.depth.slice_view(level, layer).ok_or_else(|| {
+                        anyhow!("the main depth image has no level {level} layer {layer}")
+                    })?],
+                    targets.depth.level_extent(level),
+                ),
                 (Target::Shadow, _) => (
                     vec![shadow_view(targets)?],
                     vk::Extent2D {
@@ -475,6 +510,13 @@ impl<'a> Renderer<'a> {
         }
         if needs.input_depth {
             this.create_input_bindings(targets)?;
+        }
+        if plan
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::DepthPostMs)
+        {
+            this.create_multisampled_read_bindings(targets)?;
         }
         if plan.pipelines.iter().any(|p| p.program == Program::MvpPair) {
             let limit = gpu.limits().max_push_constants_size;
@@ -562,11 +604,14 @@ impl<'a> Renderer<'a> {
             Program::DepthPost if self.depth_push_layout != vk::PipelineLayout::null() => {
                 (self.depth_push_layout, PLAIN_PUSH_STAGES)
             }
-            Program::SoftParticle | Program::DepthPost | Program::StencilPost => {
-                (self.depth_read_layout, PLAIN_PUSH_STAGES)
-            }
+            Program::SoftParticle
+            | Program::DepthPost
+            | Program::StencilPost
+            | Program::DepthMipsPost
+            | Program::DepthLayersPost => (self.depth_read_layout, PLAIN_PUSH_STAGES),
             Program::DepthTiles => (self.tiles_layout, PLAIN_PUSH_STAGES),
             Program::DepthInput => (self.input_layout, PLAIN_PUSH_STAGES),
+            Program::DepthPostMs => (self.multisampled_read_layout, PLAIN_PUSH_STAGES),
         }
     }
 
@@ -683,6 +728,7 @@ fn multisampled_targets<'t, 'a>(targets: &'t Targets<'a>) -> Result<&'t Multisam
 fn target_extent(target: Target, main: vk::Extent2D) -> vk::Extent2D {
     match target {
         Target::Main | Target::SoftParticles | Target::Post => main,
+        Target::DepthSlice { level, .. } => crate::target::level_extent(main, level),
         Target::Shadow => vk::Extent2D {
             width: SHADOW_MAP_SIZE,
             height: SHADOW_MAP_SIZE,

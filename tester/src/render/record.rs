@@ -53,7 +53,24 @@ impl Recorder<'_> {
             };
             match step {
                 Step::ClearDepthImage { depth } => self.clear_depth_image(cmd, *depth),
-                Step::MainDepthLayout { from, to } => self.main_depth_layout(cmd, *from, *to),
+                Step::MainDepthLayout { from, to } => {
+                    let range = self
+                        .targets
+                        .depth
+                        .range(self.targets.depth_format.aspects());
+                    self.main_depth_layout(cmd, range, *from, *to);
+                }
+                Step::MultisampledDepthLayout { from, to } => {
+                    let image = multisampled_targets(self.targets)?.depth.image;
+                    let range = full_range(self.targets.depth_format.aspects());
+                    self.depth_layout_barrier(cmd, image, range, *from, *to);
+                }
+                Step::DepthLevelLayout { level, from, to } => {
+                    let aspects = self.targets.depth_format.aspects();
+                    let range = self.targets.depth.level_range(aspects, *level);
+                    self.main_depth_layout(cmd, range, *from, *to);
+                }
+                Step::BlitDepthLevel { level } => self.blit_depth_level(cmd, *level),
                 Step::BuildDepthTiles => self.build_depth_tiles(cmd)?,
                 Step::BeginPass(n) => self.begin_pass(cmd, *n, contents)?,
                 Step::NextSubpass => {
@@ -188,10 +205,29 @@ impl Recorder<'_> {
         }
     }
 
-    /// A barrier of the main depth image from layout `from` to `to` (plan check: outside a
-    /// pass, from the layout it is in): depth tests and writes before fragment shader reads,
-    /// or those reads before depth tests, writes and the read-back's copy.
-    fn main_depth_layout(&self, cmd: vk::CommandBuffer, from: DepthLayout, to: DepthLayout) {
+    /// A barrier of `range` of the main depth image from layout `from` to `to` (plan check:
+    /// outside a pass, from the layout it is in): depth tests and writes before fragment
+    /// shader reads, or those reads before depth tests, writes and the read-back's copy.
+    fn main_depth_layout(
+        &self,
+        cmd: vk::CommandBuffer,
+        range: vk::ImageSubresourceRange,
+        from: DepthLayout,
+        to: DepthLayout,
+    ) {
+        self.depth_layout_barrier(cmd, self.targets.depth.image, range, from, to);
+    }
+
+    /// A barrier of `range` of depth image `image` from layout `from` to `to`, as
+    /// [`Self::main_depth_layout`] describes.
+    fn depth_layout_barrier(
+        &self,
+        cmd: vk::CommandBuffer,
+        image: vk::Image,
+        range: vk::ImageSubresourceRange,
+        from: DepthLayout,
+        to: DepthLayout,
+    ) {
         let depth_stages = vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
             | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
         let depth_access = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
@@ -212,6 +248,23 @@ impl Recorder<'_> {
                 vk::PipelineStageFlags::FRAGMENT_SHADER | vk::PipelineStageFlags::COMPUTE_SHADER,
                 vk::AccessFlags::SHADER_READ,
             ),
+            DepthLayout::TransferSrc => (
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_READ,
+            ),
+            DepthLayout::TransferDst => (
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
+            // Contents discarded: only earlier accesses of any kind to wait for (the
+            // previous frame's, which its fence ordered), none to make visible.
+            DepthLayout::Undefined => (
+                vk::ImageLayout::UNDEFINED,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::AccessFlags::empty(),
+            ),
         };
         let (old_layout, src_stage, src_access) = side(from);
         let (new_layout, mut dst_stage, mut dst_access) = side(to);
@@ -226,9 +279,9 @@ impl Recorder<'_> {
             .new_layout(new_layout)
             .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
             .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(self.targets.depth.image)
-            .subresource_range(full_range(self.targets.depth_format.aspects()));
-        // SAFETY: `cmd` is a recording primary outside any pass; the image is in `from`'s
+            .image(image)
+            .subresource_range(range);
+        // SAFETY: `cmd` is a recording primary outside any pass; the range is in `from`'s
         // layout (plan check).
         unsafe {
             self.device().cmd_pipeline_barrier(
@@ -239,6 +292,47 @@ impl Recorder<'_> {
                 &[],
                 &[],
                 &[barrier],
+            )
+        };
+    }
+
+    /// `vkCmdBlitImage` of mip level `level - 1` of the main depth image into level `level`
+    /// (plan check: outside a pass, in TRANSFER_SRC_OPTIMAL and TRANSFER_DST_OPTIMAL), the
+    /// whole of each, NEAREST, depth aspect, every layer.
+    fn blit_depth_level(&self, cmd: vk::CommandBuffer, level: u32) {
+        let depth = &self.targets.depth;
+        let layers = |mip_level| vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            mip_level,
+            base_array_layer: 0,
+            layer_count: depth.subresources.layers,
+        };
+        let corner = |mip_level| {
+            let extent = depth.level_extent(mip_level);
+            vk::Offset3D {
+                x: extent.width as i32,
+                y: extent.height as i32,
+                z: 1,
+            }
+        };
+        let region = vk::ImageBlit {
+            src_subresource: layers(level - 1),
+            src_offsets: [vk::Offset3D::default(), corner(level - 1)],
+            dst_subresource: layers(level),
+            dst_offsets: [vk::Offset3D::default(), corner(level)],
+        };
+        // SAFETY: `cmd` is a recording primary outside any pass; the image has TRANSFER_SRC
+        // and TRANSFER_DST usage and BLIT features (the plan's needs asked for them); the two
+        // levels are distinct and in the layouts named (plan check).
+        unsafe {
+            self.device().cmd_blit_image(
+                cmd,
+                depth.image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                depth.image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+                vk::Filter::NEAREST,
             )
         };
     }
@@ -356,10 +450,14 @@ impl Recorder<'_> {
             return self.begin_rendering(cmd, n, color_clear, depth_clear);
         }
         let clear_values = match (pass.target, pass.multisample) {
-            // The multisampled attachments are cleared; their resolve attachments are not.
+            // The multisampled attachments are cleared; their resolve attachments are not (a
+            // kept depth has none).
+            (Target::Main, Some(m)) if m.sampled_depth => {
+                vec![color_clear, depth_clear, color_clear]
+            }
             (Target::Main, Some(_)) => vec![color_clear, depth_clear, color_clear, depth_clear],
             (Target::Main, None) => vec![color_clear, depth_clear],
-            (Target::Shadow, _) => vec![depth_clear],
+            (Target::Shadow | Target::DepthSlice { .. }, _) => vec![depth_clear],
             // Loaded: no clear values are read.
             (Target::SoftParticles | Target::Post, _) => Vec::new(),
         };
@@ -595,11 +693,13 @@ impl Recorder<'_> {
                     self.push_depth_descriptors(cmd);
                     None
                 }
-                Program::DepthPost | Program::StencilPost => {
-                    renderer.depth_read.as_ref().map(|r| r.sampled_set)
-                }
+                Program::DepthPost
+                | Program::StencilPost
+                | Program::DepthMipsPost
+                | Program::DepthLayersPost => renderer.depth_read.as_ref().map(|r| r.sampled_set),
                 Program::DepthTiles => renderer.depth_tiles.as_ref().map(|t| t.set),
                 Program::DepthInput => renderer.depth_input.as_ref().map(|i| i.set),
+                Program::DepthPostMs => renderer.multisampled_read.as_ref().map(|r| r.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
                 Program::Ssbo | Program::SsboRows => renderer.matrices.as_ref().map(|m| m.set),

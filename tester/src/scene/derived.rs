@@ -209,7 +209,10 @@ impl Scene {
             | Program::DepthPost
             | Program::DepthTiles
             | Program::StencilPost
-            | Program::DepthInput => {
+            | Program::DepthInput
+            | Program::DepthMipsPost
+            | Program::DepthLayersPost
+            | Program::DepthPostMs => {
                 let mut v = mvp.as_mat4().to_cols_array().to_vec();
                 v.extend(object.color);
                 v

@@ -93,11 +93,23 @@ pub enum SceneId {
     /// `deferred-depth` with the depth also attached read-only in the later subpass, the band
     /// drawn at a fixed depth with LESS_OR_EQUAL.
     DeferredDepthTested,
+    /// The overlap scene into mip level 0 of a depth image of 3 levels, levels 1 and 2 built
+    /// from the level below by a fragment shader writing `gl_FragDepth` (each level sampled
+    /// after a barrier of that level alone), then a post pass shading bands from levels 1
+    /// and 2.
+    DepthMips,
+    /// The overlap scene into layer 0 of a 2-layer depth image, the same scene with the near
+    /// cube moved into layer 1 (depth only), then a post pass shading a band from each layer
+    /// through a 2D-array view.
+    DepthLayers,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,
     /// The same with dynamic rendering's `resolveMode` / `resolveImageView`.
     MsaaResolveDynamic,
+    /// The overlap scene at 4x MSAA with its depth kept (sampled, not resolved), then a post
+    /// pass shading the bottom 45% from each pixel's four depth samples.
+    DepthReadsMsaa,
     /// A fragment shader writing `gl_FragDepth = 0.5 + 0.5 * gl_FragCoord.z`: a near card
     /// pushed behind a farther one, in front of a far wall.
     FragDepth,

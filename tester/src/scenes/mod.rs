@@ -116,11 +116,18 @@ pub const CATALOG: &[Entry] = &[
         "deferred-depth-tested",
         deferred_depth_tested,
     ),
+    entry_row(SceneId::DepthMips, "depth-mips", depth_mips),
+    entry_row(SceneId::DepthLayers, "depth-layers", depth_layers),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,
         "msaa-resolve-dynamic",
         msaa_resolve_dynamic,
+    ),
+    entry_row(
+        SceneId::DepthReadsMsaa,
+        "depth-reads-msaa",
+        depth_reads_msaa,
     ),
     entry_row(SceneId::FragDepth, "frag-depth", frag_depth),
     entry_row(

@@ -343,10 +343,88 @@ fn msaa_scene(name: &'static str, kind: PassKind) -> Scene {
         multisample: Some(Multisample {
             samples: MSAA_SAMPLES,
             depth_resolve: ResolveMode::SampleZero,
+            sampled_depth: false,
         }),
         ..PassSpec::clear(1.0)
     };
     scene
+}
+
+/// `depth-reads-msaa`: the overlap scene drawn twice, in this order:
+/// - into the main color and depth images (single-sample, the standard pipeline, color writes
+///   off): the depth the tester reads back (a multisampled image cannot be copied to a
+///   buffer);
+/// - at 4x MSAA in a `vkCreateRenderPass2` render pass, as `msaa-resolve` draws it, whose
+///   color is resolved (AVERAGE) into the main color image, the image read back, but whose
+///   depth attachment is kept: stored, not resolved, with SAMPLED usage (not transient);
+///
+/// then a barrier of the 4x depth image into `SHADER_READ_ONLY_OPTIMAL` and a post pass (the
+/// main color loaded, no depth attachment) whose full-screen quad overwrites the bottom
+/// quarter of the image (the ground, the cubes' feet and their silhouettes against it) with
+/// a shade of the view distances of each pixel's four depth samples, read with
+/// `texelFetch(sampler2DMS(..), pixel, s)` for each sample s ([`Program::DepthPostMs`],
+/// `depth_post_ms.frag`): red from the nearest sample, green from the farthest, blue from
+/// their spread (silhouette pixels, whose samples cover two surfaces). A barrier puts the 4x
+/// depth back into its attachment layout. SSAO and edge detection on MSAA depth read it this
+/// way, and so does OpenGL through Zink with multisampled depth textures.
+///
+/// Layer item: a multisampled depth image that shaders sample. Reversed, its read twin must
+/// hold the standard value of every sample (a refresh per sample; a copy through a buffer
+/// carries none), refreshed at the barrier into the shader's layout. Reversed values read as
+/// they are shade the band as if everything lay at the near plane; a twin holding one
+/// sample's value (or a resolve's) everywhere loses the silhouettes' spread.
+pub fn depth_reads_msaa() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    let band = b.object(Object::full_screen("multisampled depth band", [1.0; 4]));
+    let main = b.pass(PassSpec::clear(1.0));
+    let multisampled = b.pass(PassSpec {
+        multisample: Some(Multisample {
+            samples: MSAA_SAMPLES,
+            depth_resolve: ResolveMode::SampleZero,
+            sampled_depth: true,
+        }),
+        ..PassSpec::clear(1.0)
+    });
+    let post = b.pass(PassSpec {
+        target: Target::Post,
+        depth: DepthLoad::Load,
+        load_color: true,
+        ..PassSpec::clear(1.0)
+    });
+    let read_back = b.pipeline(PipelineSpec {
+        color_write: false,
+        ..PipelineSpec::standard("flat, depth read back", main)
+    });
+    let flat = b.pipeline(PipelineSpec::standard("flat, 4x", multisampled));
+    let shade = b.pipeline(PipelineSpec {
+        program: Program::DepthPostMs,
+        depth_test: DepthTest::Off,
+        depth_write: false,
+        ..PipelineSpec::standard("multisampled depth band", post)
+    });
+    b.step(Step::BeginPass(main));
+    b.step(Step::Bind(read_back));
+    b.draw(&objects);
+    b.step(Step::EndPass);
+    b.step(Step::BeginPass(multisampled));
+    b.step(Step::Bind(flat));
+    b.draw(&objects);
+    b.step(Step::EndPass);
+    b.step(Step::MultisampledDepthLayout {
+        from: DepthLayout::Attachment,
+        to: DepthLayout::Sampled,
+    });
+    b.step(Step::BeginPass(post));
+    b.step(Step::Bind(shade));
+    b.draw(&[band]);
+    b.step(Step::EndPass);
+    b.step(Step::MultisampledDepthLayout {
+        from: DepthLayout::Sampled,
+        to: DepthLayout::Attachment,
+    });
+    b.finish("depth-reads-msaa", camera, None)
 }
 
 /// A rectangle facing the eye of `camera` at view distance `distance` (so its depth is the same
@@ -816,4 +894,176 @@ pub fn deferred_depth_tested() -> Scene {
             max_depth: DEFERRED_BAND_DEPTH as f32,
         },
     )
+}
+
+/// The mip levels of `depth-mips`' depth image (256 x 256, 128 x 128, 64 x 64 at the
+/// tester's usual size).
+pub const DEPTH_MIP_LEVELS: u32 = 3;
+
+/// `depth-mips`: the overlap scene rendered into mip level 0 of a depth image of
+/// [`DEPTH_MIP_LEVELS`] levels, whose lower levels the application then fills the way engines
+/// fill a depth chain without a shader: per level N, level N - 1 into `TRANSFER_SRC_OPTIMAL`,
+/// level N (its contents discarded) into `TRANSFER_DST_OPTIMAL`, a `vkCmdBlitImage` of level
+/// N - 1 into level N (NEAREST, as depth blits must be: one texel of each 2 x 2 block), then
+/// a barrier of level N - 1 alone into `SHADER_READ_ONLY_OPTIMAL`; the last level goes there
+/// last, by a barrier of its own. Then a post pass overwrites the bottom quarter of the image
+/// with a shade of level 1's view distance and the top quarter with level 2's
+/// ([`Program::DepthMipsPost`], texel fetches through a view of the whole chain, written with
+/// `vkUpdateDescriptorSets`), and a barrier of the whole chain puts it back into its
+/// attachment layout for the read-back (of level 0).
+///
+/// (A fragment shader that builds each level, writing `gl_FragDepth` from texel fetches of a
+/// view of the level below while a view of its own level is the depth attachment, is how
+/// engines build a depth pyramid too; lavapipe 22.3 crashes on it: any draw whose fragment
+/// shader reads one level of the image whose other level is the pass's depth attachment
+/// faults in its rasterizer thread, natively.)
+///
+/// Layer item (issue #39): a reversed depth image of several mip levels read through its
+/// twin, refreshed level by level (each barrier's level alone, after that level was written:
+/// level 0 by the render pass, levels 1 and 2 by a blit), and blits between the levels of a
+/// reversed image, which must copy reversed values as they are. A refresh of the wrong level,
+/// or of level 0 alone, leaves a band shading stale or unwritten depth; reversed values read
+/// shade both bands wrong.
+pub fn depth_mips() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    let band = b.object(Object::full_screen("depth mips band", [1.0; 4]));
+    let main = b.pass(PassSpec::clear(1.0));
+    let post = b.pass(PassSpec {
+        target: Target::Post,
+        depth: DepthLoad::Load,
+        load_color: true,
+        ..PassSpec::clear(1.0)
+    });
+    let flat = b.pipeline(PipelineSpec::standard("flat", main));
+    let shade = b.pipeline(PipelineSpec {
+        program: Program::DepthMipsPost,
+        depth_test: DepthTest::Off,
+        depth_write: false,
+        ..PipelineSpec::standard("depth mips bands", post)
+    });
+    b.step(Step::BeginPass(main));
+    b.step(Step::Bind(flat));
+    b.draw(&objects);
+    b.step(Step::EndPass);
+    let barrier = |level, from, to| Step::DepthLevelLayout { level, from, to };
+    b.step(barrier(
+        0,
+        DepthLayout::Attachment,
+        DepthLayout::TransferSrc,
+    ));
+    for level in 1..DEPTH_MIP_LEVELS {
+        b.step(barrier(
+            level,
+            DepthLayout::Undefined,
+            DepthLayout::TransferDst,
+        ));
+        b.step(Step::BlitDepthLevel { level });
+        b.step(barrier(
+            level - 1,
+            DepthLayout::TransferSrc,
+            DepthLayout::Sampled,
+        ));
+        let next = if level + 1 < DEPTH_MIP_LEVELS {
+            DepthLayout::TransferSrc
+        } else {
+            DepthLayout::Sampled
+        };
+        b.step(barrier(level, DepthLayout::TransferDst, next));
+    }
+    b.step(Step::BeginPass(post));
+    b.step(Step::Bind(shade));
+    b.step(Step::Draw(band));
+    b.step(Step::EndPass);
+    b.step(Step::MainDepthLayout {
+        from: DepthLayout::Sampled,
+        to: DepthLayout::Attachment,
+    });
+    b.finish("depth-mips", camera, None)
+}
+
+/// Where `depth-layers` moves the near cube in its layer 1: to the right of the middle cube's
+/// front (x 1.1 instead of -0.75), at the same distance.
+pub const MOVED_NEAR_CUBE_X: f64 = 1.1;
+
+/// `depth-layers`: a depth image of two array layers (a 2D array, as a cascaded shadow map or
+/// the two views of a stereo renderer are): the overlap scene rendered into layer 0 (the main
+/// pass, with color), then the same scene with the near cube moved to the right
+/// ([`MOVED_NEAR_CUBE_X`]) into layer 1 by a depth-only render pass (cleared, LESS), each
+/// through a view of its layer alone as the pass's depth attachment. Then a barrier of the
+/// whole image (both layers) into `SHADER_READ_ONLY_OPTIMAL` and a post pass that overwrites
+/// the bottom quarter of the image with a shade of layer 0's view distance and the quarter
+/// above it with layer 1's ([`Program::DepthLayersPost`], texel fetches through a 2D-array
+/// view of both layers, written with `vkUpdateDescriptorSets`): the near cube shows on the
+/// left in the first band's rows, on the right in the second's. A barrier of both layers puts
+/// the image back into its attachment layout for the read-back (of layer 0).
+///
+/// Layer item (issue #39): a reversed layered depth image read through its twin, whose
+/// refresh must convert every layer the barrier names (layer 1 was written by a pass of its
+/// own, with no color): a twin refreshed for layer 0 alone shades the second band from a stale
+/// or unwritten layer; reversed values shade both bands wrong.
+pub fn depth_layers() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let objects = b.nearest_first(&camera, overlap_objects());
+    let moved = b.object(grounded_cube(
+        "moved near cube",
+        NEAR_CUBE_HALF,
+        MOVED_NEAR_CUBE_X,
+        1.9,
+        0.35,
+        rgb8(230, 30, 30),
+    ));
+    let mut second: Vec<usize> = objects
+        .iter()
+        .copied()
+        .filter(|&n| b.objects[n].name != "near cube")
+        .collect();
+    second.push(moved);
+    let band = b.object(Object::full_screen("depth layers band", [1.0; 4]));
+    let main = b.pass(PassSpec::clear(1.0));
+    let layer = b.pass(PassSpec {
+        target: Target::DepthSlice { level: 0, layer: 1 },
+        ..PassSpec::clear(1.0)
+    });
+    let post = b.pass(PassSpec {
+        target: Target::Post,
+        depth: DepthLoad::Load,
+        load_color: true,
+        ..PassSpec::clear(1.0)
+    });
+    let flat = b.pipeline(PipelineSpec::standard("flat", main));
+    let depth_only = b.pipeline(PipelineSpec {
+        program: Program::DepthOnly,
+        color_write: false,
+        ..PipelineSpec::standard("layer 1, depth only", layer)
+    });
+    let shade = b.pipeline(PipelineSpec {
+        program: Program::DepthLayersPost,
+        depth_test: DepthTest::Off,
+        depth_write: false,
+        ..PipelineSpec::standard("depth layers bands", post)
+    });
+    b.step(Step::BeginPass(main));
+    b.step(Step::Bind(flat));
+    b.draw(&objects);
+    b.step(Step::EndPass);
+    b.step(Step::BeginPass(layer));
+    b.step(Step::Bind(depth_only));
+    b.draw(&second);
+    b.step(Step::EndPass);
+    b.step(Step::MainDepthLayout {
+        from: DepthLayout::Attachment,
+        to: DepthLayout::Sampled,
+    });
+    b.step(Step::BeginPass(post));
+    b.step(Step::Bind(shade));
+    b.step(Step::Draw(band));
+    b.step(Step::EndPass);
+    b.step(Step::MainDepthLayout {
+        from: DepthLayout::Sampled,
+        to: DepthLayout::Attachment,
+    });
+    b.finish("depth-layers", camera, None)
 }

@@ -110,7 +110,16 @@ fn every_plan_is_valid_and_draws_every_object() {
             .check(scene.objects.len(), scene.light.is_some())
             .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
         let mut drawn: Vec<usize> = drawn_in(&scene, Target::Main);
-        for target in [Target::Shadow, Target::SoftParticles, Target::Post] {
+        let slices = scene
+            .plan
+            .passes
+            .iter()
+            .map(|p| p.target)
+            .filter(|t| matches!(t, Target::DepthSlice { .. }));
+        for target in [Target::Shadow, Target::SoftParticles, Target::Post]
+            .into_iter()
+            .chain(slices)
+        {
             drawn.extend(drawn_in(&scene, target));
         }
         for n in 0..scene.objects.len() {
@@ -182,12 +191,17 @@ fn needs_follow_from_the_plans() {
             Some(Multisample {
                 samples: MSAA_SAMPLES,
                 depth_resolve: ResolveMode::SampleZero,
+                sampled_depth: false,
             })
         );
         assert_eq!(needs.dynamic_rendering, id == SceneId::MsaaResolveDynamic);
     }
     let reads = needs(SceneId::DepthReads);
     assert!(reads.sampled_depth && reads.depth_tiles && reads.dynamic_rendering);
+    for id in [SceneId::DepthMips, SceneId::DepthLayers] {
+        let needs = needs(id);
+        assert!(needs.sampled_depth && !needs.depth_tiles, "{id:?}");
+    }
     let stencil_reads = needs(SceneId::StencilReads);
     assert!(stencil_reads.sampled_depth && stencil_reads.stencil && !stencil_reads.depth_tiles);
     for id in [SceneId::DeferredDepth, SceneId::DeferredDepthTested] {
@@ -212,9 +226,26 @@ fn needs_follow_from_the_plans() {
         if !matches!(scene.name, "stencil" | "stencil-reads") {
             assert!(!needs.stencil, "{}", scene.name);
         }
-        if !matches!(scene.name, "depth-reads" | "stencil-reads") {
+        if !matches!(
+            scene.name,
+            "depth-reads" | "stencil-reads" | "depth-mips" | "depth-layers"
+        ) {
             assert!(!needs.sampled_depth && !needs.depth_tiles, "{}", scene.name);
         }
+        // One level and layer but where a scene names more; blits only between levels.
+        let subresources = match scene.name {
+            "depth-mips" => (DEPTH_MIP_LEVELS, 1),
+            "depth-layers" => (1, 2),
+            _ => (1, 1),
+        };
+        let got = needs.depth_subresources;
+        assert_eq!((got.levels, got.layers), subresources, "{}", scene.name);
+        assert_eq!(
+            needs.depth_blits,
+            scene.name == "depth-mips",
+            "{}",
+            scene.name
+        );
         if scene.name != "depth-bounds" {
             assert!(!needs.depth_bounds, "{}", scene.name);
         }
@@ -227,7 +258,7 @@ fn needs_follow_from_the_plans() {
         }
         assert_eq!(
             needs.multisample.is_some(),
-            scene.name.starts_with("msaa-"),
+            scene.name.starts_with("msaa-") || scene.name == "depth-reads-msaa",
             "{}",
             scene.name
         );
@@ -265,6 +296,78 @@ fn overlap_based_scenes_keep_the_overlap_geometry() {
         assert_eq!(scene.camera, overlap.camera, "{}", scene.name);
         assert_eq!(scene.plan.steps, overlap.plan.steps, "{}", scene.name);
     }
+}
+
+/// `depth-reads-msaa`: the overlap objects (each drawn once into the single-sample main
+/// images and once at 4x MSAA), a 4x depth kept for shaders (not resolved, so the main depth
+/// is not sampled), read by the post pass between barriers into and out of the sampled layout.
+#[test]
+fn depth_reads_msaa_samples_the_kept_multisampled_depth() {
+    let overlap = overlap();
+    let scene = depth_reads_msaa();
+    let names: Vec<&str> = scene.objects.iter().map(|o| o.name).collect();
+    let expected: Vec<&str> = overlap.objects.iter().map(|o| o.name).collect();
+    assert_eq!(names[..expected.len()].len(), expected.len());
+    for name in &expected {
+        assert_eq!(
+            names.iter().filter(|n| *n == name).count(),
+            1,
+            "{name} in {names:?}"
+        );
+    }
+    assert_eq!(scene.objects.len(), expected.len() + 1);
+    let needs = scene.plan.needs();
+    assert_eq!(
+        needs.multisample,
+        Some(Multisample {
+            samples: MSAA_SAMPLES,
+            depth_resolve: ResolveMode::SampleZero,
+            sampled_depth: true,
+        })
+    );
+    assert!(!needs.sampled_depth && !needs.depth_tiles && !needs.dynamic_rendering);
+    let draws = |pass: usize| {
+        let mut current = None;
+        scene
+            .plan
+            .steps
+            .iter()
+            .filter(|step| {
+                if let Step::BeginPass(n) = step {
+                    current = Some(*n);
+                }
+                current == Some(pass) && matches!(step, Step::Draw(_))
+            })
+            .count()
+    };
+    assert_eq!(
+        (draws(0), draws(1), draws(2)),
+        (expected.len(), expected.len(), 1)
+    );
+    assert!(scene.plan.passes[1]
+        .multisample
+        .is_some_and(|m| m.sampled_depth));
+    assert_eq!(scene.plan.passes[2].target, Target::Post);
+    let layouts: Vec<&Step> = scene
+        .plan
+        .steps
+        .iter()
+        .filter(|s| matches!(s, Step::MultisampledDepthLayout { .. }))
+        .collect();
+    assert_eq!(layouts.len(), 2);
+    // `--depth-resolve` applies to no pass: the depth is not resolved.
+    let mut plan = scene.plan.clone();
+    assert!(!plan.set_depth_resolve(ResolveMode::Average));
+    // The post pass needs the multisampled depth in the sampled layout.
+    let mut broken = scene.plan.clone();
+    broken
+        .steps
+        .retain(|s| !matches!(s, Step::MultisampledDepthLayout { .. }));
+    assert!(broken.check(scene.objects.len(), false).is_err());
+    // And a multisampled pass that keeps its depth is a render pass.
+    let mut broken = scene.plan.clone();
+    broken.passes[1].kind = PassKind::DynamicRendering;
+    assert!(broken.check(scene.objects.len(), false).is_err());
 }
 
 #[test]
@@ -867,6 +970,10 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
             "shadow-map-perspective-secondaries",
             // Its later passes write no depth.
             "depth-reads",
+            // Their later passes and blits write other levels and layers than the one read
+            // back.
+            "depth-mips",
+            "depth-layers",
             "projection-only",
             "view-projection",
             "model-view-projection-pair",
@@ -1516,4 +1623,57 @@ fn buffer_blocks_hold_the_delivered_matrices_rounded_once() {
             .push_constants(Program::Ubo, &scene.objects[0], aspect)
             .is_empty());
     }
+}
+
+/// `depth-mips`: the overlap scene into level 0, each lower level blitted from the one above
+/// it (TRANSFER_SRC into TRANSFER_DST) and put into SHADER_READ_ONLY_OPTIMAL by a barrier of
+/// its own, once nothing reads it as a transfer source any more; `depth-layers`: layer 1
+/// drawn depth-only with the near cube moved, both layers sampled after one barrier.
+#[test]
+fn depth_mips_and_layers_render_and_sample_every_level_and_layer() {
+    let scene = depth_mips();
+    let into_sampled: Vec<u32> = scene
+        .plan
+        .steps
+        .iter()
+        .filter_map(|step| match step {
+            Step::DepthLevelLayout {
+                level,
+                to: DepthLayout::Sampled,
+                ..
+            } => Some(*level),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(into_sampled, [0, 1, 2]);
+    let blits: Vec<u32> = scene
+        .plan
+        .steps
+        .iter()
+        .filter_map(|step| match step {
+            Step::BlitDepthLevel { level } => Some(*level),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(blits, [1, 2]);
+    assert_eq!(
+        drawn_in(&scene, Target::Main).len(),
+        overlap().objects.len()
+    );
+
+    let scene = depth_layers();
+    let layer = Target::DepthSlice { level: 0, layer: 1 };
+    let second: Vec<&str> = drawn_in(&scene, layer)
+        .into_iter()
+        .map(|n| scene.objects[n].name)
+        .collect();
+    assert!(second.contains(&"moved near cube") && !second.contains(&"near cube"));
+    assert_eq!(second.len(), overlap().objects.len());
+    // The moved cube stands right of the image's center, the near cube left of it, both
+    // reaching into the rows layer 1's band shades (NDC y in [0, 0.5]).
+    let (moved_lo, moved_hi) = screen_box(&scene, "moved near cube");
+    let (near_lo, near_hi) = screen_box(&scene, "near cube");
+    assert!(moved_lo[0] > 0.0 && near_hi[0] < 0.0);
+    assert!(moved_hi[1] > 0.0 && near_hi[1] > 0.0);
+    assert!(moved_lo[1] < 0.5 && near_lo[1] < 0.5);
 }

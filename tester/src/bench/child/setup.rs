@@ -38,6 +38,8 @@ impl<'a> Bench<'a> {
                 sampled_depth: false,
                 input_depth: false,
                 multisample: None,
+                depth_subresources: Default::default(),
+                depth_blits: false,
             },
         )?;
         let mut vertices = HostBuffer::new(gpu, 36, vk::BufferUsageFlags::VERTEX_BUFFER)?;
