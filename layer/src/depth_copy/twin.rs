@@ -364,8 +364,17 @@ pub struct Refresh {
 
 impl Refresh {
     /// The bytes it copies: every refreshed texel of the stored format's depth (and one byte
-    /// of stencil each where it copies stencil too).
+    /// of stencil each where it copies stencil too); of a multisampled twin, 4 bytes per
+    /// sample of depth (it holds `R32_SFLOAT`; its stencil is not copied).
     pub fn bytes(&self) -> u64 {
+        if self.twin.multisampled() {
+            let extent = self.twin.extent;
+            return u64::from(extent.width)
+                * u64::from(extent.height)
+                * u64::from(self.range.layer_count)
+                * u64::from(self.twin.samples.as_raw())
+                * 4;
+        }
         let per_texel = |aspect| match aspect {
             vk::ImageAspectFlags::DEPTH => self.kind.bytes(),
             _ => 1,
@@ -707,6 +716,31 @@ unsafe fn record_multisampled_refresh(
 mod tests {
     use super::*;
     use ash::vk::Handle;
+
+    #[test]
+    fn a_multisampled_refresh_counts_four_bytes_per_sample() {
+        let twin = ReadTwin {
+            aspects: vk::ImageAspectFlags::DEPTH,
+            mip_levels: 1,
+            samples: vk::SampleCountFlags::TYPE_4,
+            ..twin()
+        };
+        let refresh = Refresh {
+            image: vk::Image::from_raw(3),
+            layout: TWIN_LAYOUT,
+            range: vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::DEPTH,
+                base_mip_level: 0,
+                level_count: 1,
+                base_array_layer: 1,
+                layer_count: 2,
+            },
+            twin,
+            kind: TexelKind::of(vk::Format::D24_UNORM_S8_UINT).unwrap(),
+            map: None,
+        };
+        assert_eq!(refresh.bytes(), 64 * 32 * 2 * 4 * 4);
+    }
 
     #[test]
     fn the_multisampled_header_holds_the_map_in_float32() {

@@ -304,7 +304,7 @@ pub(super) fn reads_reversed_inputs(scope: &PassScope) -> bool {
             log::warn!(
                 "a subpass reads a native depth image through an input attachment beside a \
                  reversed depth attachment: its shaders read 1 - d from it (make both images \
-                 alike: e.g. neither storage nor multisampled and sampled)"
+                 alike: e.g. neither a storage image)"
             )
         });
     }
