@@ -332,3 +332,222 @@ fn zink_reads_depth_back_as_it_does_without_revz() {
         );
     }
 }
+
+/// `gl-render --zink --post PASS` of `overlap` (`blit` or `mipmap`: depth a GL program derives
+/// from the scene's depth, read back and sampled), without revz or through it in `mode` under
+/// the default policy (`reverse_observable = copies`, `copy_values = standard`, which
+/// `gl-render` otherwise sets to `stored`): the output directory and the layer's log, or
+/// `None` where Zink cannot be initialised.
+fn zink_post_outputs(
+    harness: &Harness,
+    pass: &str,
+    mode: Option<&str>,
+) -> Option<(std::path::PathBuf, String)> {
+    let name = format!("zink-post-{pass}-{}-default", mode.unwrap_or("none"));
+    let out = harness.scratch_dir(&name);
+    let mut command = revz_tests::clean_command(&harness.tester);
+    command
+        .args([
+            "gl-render",
+            "--zink",
+            "--scene",
+            "overlap",
+            "--post",
+            pass,
+            "--out",
+        ])
+        .arg(&out);
+    if let Some(mode) = mode {
+        command
+            .args(["--revz", mode])
+            .env("REVZ_REVERSE_OBSERVABLE", "copies")
+            .env("REVZ_COPY_VALUES", "standard")
+            .env("REVZ_LOG", "info");
+    }
+    let stderr = run_gl_render(command, &name)?;
+    Some((out, stderr))
+}
+
+/// A `.f32` file `gl-render` wrote (little-endian float32s).
+fn read_f32(path: &std::path::Path) -> Vec<f32> {
+    std::fs::read(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect()
+}
+
+/// A PNG `gl-render` wrote.
+fn read_png(path: &std::path::Path) -> image::RgbaImage {
+    image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_rgba8()
+}
+
+/// The largest difference between two depth read-backs of the same size.
+fn worst_difference(a: &[f32], b: &[f32]) -> f32 {
+    assert_eq!(a.len(), b.len(), "depth read-backs of different sizes");
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max)
+}
+
+/// Times the layer's log says a depth image is reversed with a read twin.
+fn twins_logged(log: &str) -> usize {
+    log.matches("reversed, shaders read its twin").count()
+}
+
+/// Compares a `--post blit|mipmap` run through revz in `mode` with the run without it: the
+/// post images (more than 16 pixels more than 2 levels apart) and the depth read back (more
+/// than 2 float32 ulps below 1, 2.4e-7, from the run without revz); what differs, said.
+fn post_outputs_differ(
+    native: &std::path::Path,
+    with: &std::path::Path,
+    pass: &str,
+    mode: &str,
+    images: &[&str],
+    depths: &[&str],
+) -> Vec<String> {
+    let mut problems = Vec::new();
+    for file in images {
+        let apart = far_apart(&read_png(&native.join(file)), &read_png(&with.join(file)));
+        eprintln!("zink post {pass} {mode} {file}: {apart} of 65,536 pixels apart");
+        if apart > 16 {
+            problems.push(format!("{mode} {file}: {apart} pixels differ"));
+        }
+    }
+    for file in depths {
+        let (a, b) = (read_f32(&native.join(file)), read_f32(&with.join(file)));
+        let worst = worst_difference(&a, &b);
+        let off = a
+            .iter()
+            .zip(&b)
+            .filter(|(x, y)| (*x - *y).abs() > 2.4e-7)
+            .count();
+        eprintln!(
+            "zink post {pass} {mode} {file}: worst difference {worst:e}, {off} of {} values \
+             off by more than 2.4e-7",
+            a.len()
+        );
+        if worst > 2.4e-7 {
+            problems.push(format!(
+                "{mode} {file}: depth read back {worst:e} from the run without revz ({off} of \
+                 {} values)",
+                a.len()
+            ));
+        }
+    }
+    problems
+}
+
+/// Issue #39 through Zink: `glBlitFramebuffer` of depth (GL_NEAREST) into another depth
+/// texture, as it is and mirrored, read back with glReadPixels and sampled by a fetch pass,
+/// gives what it gives without revz, in every mode under the default policy: the scene's depth
+/// image and both destinations are reversed with read twins (Mesa 22.3's Zink turns the
+/// same-size blit into `vkCmdCopyImage` and the mirrored one into `vkCmdBlitImage`, both
+/// between reversed images, which revz passes down as they are; the read-backs are converted
+/// copies to a buffer, the fetches read the twins refreshed at the move to
+/// `SHADER_READ_ONLY_OPTIMAL`).
+#[test]
+fn zink_blits_depth_as_it_does_without_revz() {
+    let harness = Harness::locate();
+    let Some((native, _)) = zink_post_outputs(&harness, "blit", None) else {
+        return;
+    };
+    // The GL program did what it says: the copy is the scene's depth, the mirror its mirror.
+    let depth = read_f32(&native.join("depth.f32"));
+    let copy = read_f32(&native.join("blit-depth.f32"));
+    let mirrored = read_f32(&native.join("blit-mirrored-depth.f32"));
+    assert_eq!(
+        copy, depth,
+        "the blit without revz is not the scene's depth"
+    );
+    let width = 256;
+    let unmirrored: Vec<f32> = mirrored
+        .chunks_exact(width)
+        .flat_map(|row| row.iter().rev().copied())
+        .collect();
+    assert_eq!(unmirrored, depth, "the mirrored blit is not the mirror");
+    assert!(depth.iter().any(|&d| d < 0.99), "the scene drew nothing");
+
+    let mut problems = Vec::new();
+    for mode in ["flip", "complementary", "infinite"] {
+        let (with, log) = zink_post_outputs(&harness, "blit", Some(mode)).expect("Zink ran");
+        let twins = twins_logged(&log);
+        if twins < 3 {
+            problems.push(format!(
+                "{mode}: {twins} depth images reversed with a twin, not the scene's and both \
+                 blits'\n{log}"
+            ));
+        }
+        problems.extend(post_outputs_differ(
+            &native,
+            &with,
+            "blit",
+            mode,
+            &["post.png", "post-mirrored.png"],
+            &["depth.f32", "blit-depth.f32", "blit-mirrored-depth.f32"],
+        ));
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// Issue #39 through Zink: `glGenerateMipmap` of the scene's depth texture (a full chain from
+/// glTexStorage2D, GL_NEAREST_MIPMAP_NEAREST), level 1 read back with glReadPixels and sampled
+/// by a fetch pass (`texelFetch(.., 1)`), gives what it gives without revz, in every mode
+/// under the default policy, the depth image reversed with a read twin. Mesa 22.3's Zink
+/// generates the levels with u_blitter: one draw per level whose fragment shader samples the
+/// level above and writes gl_FragDepth (its average: the 2 x 2 mean within 4.5e-8), the image
+/// in `VK_IMAGE_LAYOUT_ATTACHMENT_FEEDBACK_LOOP_OPTIMAL_EXT`, sampled and attached at once.
+/// Measured with the layer of a4b0bac: fails in every mode (level 1 reads back 0.0 for all
+/// 16,384 texels, every post pixel off): no barrier into or within that layout refreshes the
+/// twin (`policy::twins::shader_readable` does not count it), so u_blitter's draws sample the
+/// twin never refreshed, and the levels they write (gl_FragDepth, converted by the rewritten
+/// fragment shader) hold the reversed 0. Each level's draw samples the level the previous one
+/// wrote, behind a barrier whose access is attachment reads and writes only.
+#[test]
+fn zink_generates_depth_mipmaps_as_it_does_without_revz() {
+    let harness = Harness::locate();
+    let Some((native, _)) = zink_post_outputs(&harness, "mipmap", None) else {
+        return;
+    };
+    // Level 1 without revz lies within each 2 x 2 block of level 0 (a filtered reduction).
+    let depth = read_f32(&native.join("depth.f32"));
+    let level1 = read_f32(&native.join("mip1-depth.f32"));
+    let (width, half) = (256, 128);
+    assert_eq!(level1.len(), half * half);
+    for (i, &d) in level1.iter().enumerate() {
+        let (x, y) = (2 * (i % half), 2 * (i / half));
+        let block = [
+            depth[y * width + x],
+            depth[y * width + x + 1],
+            depth[(y + 1) * width + x],
+            depth[(y + 1) * width + x + 1],
+        ];
+        let (lo, hi) = block
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        assert!(
+            d >= lo - 1e-6 && d <= hi + 1e-6,
+            "level 1 texel {i} is {d}, outside its level-0 block {block:?}"
+        );
+    }
+
+    let mut problems = Vec::new();
+    for mode in ["flip", "complementary", "infinite"] {
+        let (with, log) = zink_post_outputs(&harness, "mipmap", Some(mode)).expect("Zink ran");
+        if twins_logged(&log) == 0 {
+            problems.push(format!("{mode}: the depth image is not reversed\n{log}"));
+        }
+        problems.extend(post_outputs_differ(
+            &native,
+            &with,
+            "mipmap",
+            mode,
+            &["post.png"],
+            &["depth.f32", "mip1-depth.f32"],
+        ));
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}

@@ -48,6 +48,16 @@ pub enum PostPass {
     /// A `sampler2DShadow` (GL_COMPARE_REF_TO_TEXTURE, GL_LEQUAL) against 0.98 with linear
     /// filtering (a percentage-closer lookup): white where the depth is at least 0.98.
     Compare,
+    /// `glBlitFramebuffer` of the depth (GL_DEPTH_BUFFER_BIT, GL_NEAREST) into a depth-only
+    /// framebuffer of another depth texture of the same size, and mirrored (x flipped) into a
+    /// third; each read back with glReadPixels (`blit-depth.f32`, `blit-mirrored-depth.f32`)
+    /// and sampled as `fetch` does (`post.png`, `post-mirrored.png`).
+    Blit,
+    /// The depth texture has a full mip chain (glTexStorage2D,
+    /// GL_NEAREST_MIPMAP_NEAREST); after the scene, glGenerateMipmap, then level 1 read back
+    /// with glReadPixels (`mip1-depth.f32`, half the size) and sampled with
+    /// `texelFetch(.., 1)` as `fetch` does, each level-1 texel over 2 x 2 pixels (`post.png`).
+    Mipmap,
 }
 
 /// The post pass's full-screen triangle (no vertex buffer: `gl_VertexID`).
@@ -64,6 +74,18 @@ uniform sampler2D u_depth;
 out vec4 color;
 void main() {
     float d = texelFetch(u_depth, ivec2(gl_FragCoord.xy), 0).r;
+    color = vec4(smoothstep(0.95, 1.0, d), fract(d * 64.0), fract(d * 1024.0), 1.0);
+}
+";
+
+/// [`PostPass::Mipmap`]'s fragment shader: [`POST_FETCH_SHADER`] at level `u_level`, each of
+/// its texels over 2^`u_level` x 2^`u_level` pixels.
+const POST_FETCH_LEVEL_SHADER: &str = "#version 330 core
+uniform sampler2D u_depth;
+uniform int u_level;
+out vec4 color;
+void main() {
+    float d = texelFetch(u_depth, ivec2(gl_FragCoord.xy) >> u_level, u_level).r;
     color = vec4(smoothstep(0.95, 1.0, d), fract(d * 64.0), fract(d * 1024.0), 1.0);
 }
 ";
@@ -86,12 +108,35 @@ pub struct GlFrame {
     pub rgba: Vec<u8>,
     /// Window depth per pixel, row-major, top row first.
     pub depth: Vec<f32>,
-    /// The post pass's color (RGBA8, top row first), where one ran.
-    pub post: Option<Vec<u8>>,
+    /// The post passes' colors, where one ran.
+    pub post: Vec<PostImage>,
+    /// Depth the post pass made and read back (`--post blit`: the blits' destinations;
+    /// `--post mipmap`: level 1).
+    pub post_depth: Vec<PostDepth>,
     /// GL_RENDERER.
     pub renderer: String,
     /// GL_VERSION.
     pub version: String,
+}
+
+/// One post pass's color, the size of the render.
+#[derive(Debug)]
+pub struct PostImage {
+    /// The file it goes to (`post.png`, ...).
+    pub file: &'static str,
+    /// RGBA8, row-major, top row first.
+    pub rgba: Vec<u8>,
+}
+
+/// Depth a post pass made, as glReadPixels(GL_DEPTH_COMPONENT, GL_FLOAT) returns it.
+#[derive(Debug)]
+pub struct PostDepth {
+    /// The file it goes to (`blit-depth.f32`, ...).
+    pub file: &'static str,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first.
+    pub depth: Vec<f32>,
 }
 
 /// The matrices one object's draw sets: (u_projection, u_view, u_model), each rounded once
@@ -166,27 +211,18 @@ pub fn render(
         let (framebuffer, color) = color_target(gl, w, h)?;
         // A renderbuffer, or a texture where a post pass samples it.
         let (depth, depth_texture) = if post.is_some() {
-            let texture = gl.create_texture().map_err(anyhow::Error::msg)?;
-            gl.bind_texture(glow::TEXTURE_2D, Some(texture));
-            gl.tex_image_2d(
-                glow::TEXTURE_2D,
-                0,
-                glow::DEPTH_COMPONENT32F as i32,
-                w,
-                h,
-                0,
-                glow::DEPTH_COMPONENT,
-                glow::FLOAT,
-                glow::PixelUnpackData::Slice(None),
-            );
-            for (name, value) in [
-                (glow::TEXTURE_MIN_FILTER, glow::NEAREST),
-                (glow::TEXTURE_MAG_FILTER, glow::NEAREST),
-                (glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE),
-                (glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE),
-            ] {
-                gl.tex_parameter_i32(glow::TEXTURE_2D, name, value as i32);
-            }
+            let texture = if post == Some(PostPass::Mipmap) {
+                let levels = mip_levels(w, h);
+                let texture = depth_texture(gl, w, h, levels)?;
+                gl.tex_parameter_i32(
+                    glow::TEXTURE_2D,
+                    glow::TEXTURE_MIN_FILTER,
+                    glow::NEAREST_MIPMAP_NEAREST as i32,
+                );
+                texture
+            } else {
+                depth_texture(gl, w, h, 1)?
+            };
             if post == Some(PostPass::Compare) {
                 gl.tex_parameter_i32(
                     glow::TEXTURE_2D,
@@ -304,11 +340,11 @@ pub fn render(
             glow::FLOAT,
             glow::PixelPackData::Slice(Some(&mut depth_bytes)),
         );
-        let post_rgba = match (post, depth_texture) {
+        let (post_images, post_depth) = match (post, depth_texture) {
             (Some(pass), Some(texture)) => {
-                Some(post_pass(gl, pass, texture, w, h, pixels).context("the post pass")?)
+                post_passes(gl, pass, framebuffer, texture, w, h).context("the post pass")?
             }
-            _ => None,
+            _ => (Vec::new(), Vec::new()),
         };
         let error = gl.get_error();
 
@@ -334,7 +370,8 @@ pub fn render(
         Ok(GlFrame {
             rgba: top_row_first(&rgba, row * 4),
             depth: top_row_first(&depth, row),
-            post: post_rgba.map(|p| top_row_first(&p, row * 4)),
+            post: post_images,
+            post_depth,
             renderer,
             version,
         })
@@ -346,29 +383,219 @@ fn top_row_first<T: Copy>(rows: &[T], row: usize) -> Vec<T> {
     rows.chunks_exact(row).rev().flatten().copied().collect()
 }
 
-/// Compiles and links the two shaders.
+/// The levels of a full mip chain of `w` x `h`.
+fn mip_levels(w: i32, h: i32) -> i32 {
+    let largest = w.max(h).max(1);
+    32 - largest.leading_zeros() as i32
+}
+
+/// A GL_DEPTH_COMPONENT32F texture of `w` x `h` with `levels` levels (glTexStorage2D where
+/// more than one, glTexImage2D otherwise), nearest filtering, clamped, bound to TEXTURE_2D.
 ///
 /// # Safety
-/// The GL context must be current on this thread.
-/// The post pass: a second framebuffer with an RGBA8 color renderbuffer, the depth texture
-/// bound to unit 0, one full-screen triangle, read back (bottom row first).
+/// The caller's context is current.
+unsafe fn depth_texture(gl: &glow::Context, w: i32, h: i32, levels: i32) -> Result<glow::Texture> {
+    // SAFETY: the caller's contract; the texture is made here.
+    unsafe {
+        let texture = gl.create_texture().map_err(anyhow::Error::msg)?;
+        gl.bind_texture(glow::TEXTURE_2D, Some(texture));
+        if levels > 1 {
+            gl.tex_storage_2d(glow::TEXTURE_2D, levels, glow::DEPTH_COMPONENT32F, w, h);
+        } else {
+            gl.tex_image_2d(
+                glow::TEXTURE_2D,
+                0,
+                glow::DEPTH_COMPONENT32F as i32,
+                w,
+                h,
+                0,
+                glow::DEPTH_COMPONENT,
+                glow::FLOAT,
+                glow::PixelUnpackData::Slice(None),
+            );
+        }
+        for (name, value) in [
+            (glow::TEXTURE_MIN_FILTER, glow::NEAREST),
+            (glow::TEXTURE_MAG_FILTER, glow::NEAREST),
+            (glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE),
+            (glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE),
+        ] {
+            gl.tex_parameter_i32(glow::TEXTURE_2D, name, value as i32);
+        }
+        Ok(texture)
+    }
+}
+
+/// A depth-only framebuffer of `texture`'s `level` (no color: draw and read buffers NONE),
+/// bound to GL_FRAMEBUFFER.
 ///
 /// # Safety
-/// The caller's context is current; `texture` is the depth texture the scene was drawn into.
-unsafe fn post_pass(
+/// The caller's context is current; `texture` is a depth texture with that level.
+unsafe fn depth_framebuffer(
+    gl: &glow::Context,
+    texture: glow::Texture,
+    level: i32,
+) -> Result<glow::Framebuffer> {
+    // SAFETY: the caller's contract; the framebuffer is made here.
+    unsafe {
+        let framebuffer = gl.create_framebuffer().map_err(anyhow::Error::msg)?;
+        gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
+        gl.framebuffer_texture_2d(
+            glow::FRAMEBUFFER,
+            glow::DEPTH_ATTACHMENT,
+            glow::TEXTURE_2D,
+            Some(texture),
+            level,
+        );
+        gl.draw_buffer(glow::NONE);
+        gl.read_buffer(glow::NONE);
+        let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
+        ensure!(
+            status == glow::FRAMEBUFFER_COMPLETE,
+            "depth-only framebuffer incomplete (0x{status:x})"
+        );
+        Ok(framebuffer)
+    }
+}
+
+/// The depth of the framebuffer bound to GL_READ_FRAMEBUFFER (`w` x `h`) as
+/// glReadPixels(GL_DEPTH_COMPONENT, GL_FLOAT) returns it, top row first.
+///
+/// # Safety
+/// The caller's context is current, with a framebuffer of at least `w` x `h` bound for reading.
+unsafe fn read_depth(gl: &glow::Context, w: i32, h: i32) -> Vec<f32> {
+    let mut bytes = vec![0u8; w as usize * h as usize * 4];
+    // SAFETY: the caller's contract; the slice holds the w x h floats GL writes.
+    unsafe {
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
+        gl.read_pixels(
+            0,
+            0,
+            w,
+            h,
+            glow::DEPTH_COMPONENT,
+            glow::FLOAT,
+            glow::PixelPackData::Slice(Some(&mut bytes)),
+        );
+    }
+    let depth: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    top_row_first(&depth, w as usize)
+}
+
+/// What `pass` makes after the scene: its colors and the depth it reads back.
+///
+/// # Safety
+/// The caller's context is current; `scene_framebuffer` is the scene's framebuffer and
+/// `texture` its depth texture (with a full mip chain for [`PostPass::Mipmap`]).
+unsafe fn post_passes(
     gl: &glow::Context,
     pass: PostPass,
+    scene_framebuffer: glow::Framebuffer,
     texture: glow::Texture,
     w: i32,
     h: i32,
-    pixels: usize,
+) -> Result<(Vec<PostImage>, Vec<PostDepth>)> {
+    let image = |file, rgba: Vec<u8>| PostImage {
+        file,
+        rgba: top_row_first(&rgba, w as usize * 4),
+    };
+    // SAFETY: the caller's contract; objects made here.
+    unsafe {
+        match pass {
+            PostPass::Fetch | PostPass::Compare => {
+                let fragment = if pass == PostPass::Fetch {
+                    POST_FETCH_SHADER
+                } else {
+                    POST_COMPARE_SHADER
+                };
+                let rgba = post_pass(gl, fragment, texture, 0, w, h)?;
+                Ok((vec![image("post.png", rgba)], Vec::new()))
+            }
+            PostPass::Blit => {
+                let (mut images, mut depths) = (Vec::new(), Vec::new());
+                for (mirrored, post_file, depth_file) in [
+                    (false, "post.png", "blit-depth.f32"),
+                    (true, "post-mirrored.png", "blit-mirrored-depth.f32"),
+                ] {
+                    let copy = depth_texture(gl, w, h, 1)?;
+                    let framebuffer = depth_framebuffer(gl, copy, 0)?;
+                    gl.bind_framebuffer(glow::READ_FRAMEBUFFER, Some(scene_framebuffer));
+                    gl.bind_framebuffer(glow::DRAW_FRAMEBUFFER, Some(framebuffer));
+                    let (x0, x1) = if mirrored { (w, 0) } else { (0, w) };
+                    gl.blit_framebuffer(
+                        0,
+                        0,
+                        w,
+                        h,
+                        x0,
+                        0,
+                        x1,
+                        h,
+                        glow::DEPTH_BUFFER_BIT,
+                        glow::NEAREST,
+                    );
+                    gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
+                    gl.finish();
+                    depths.push(PostDepth {
+                        file: depth_file,
+                        width: w as u32,
+                        height: h as u32,
+                        depth: read_depth(gl, w, h),
+                    });
+                    let rgba = post_pass(gl, POST_FETCH_SHADER, copy, 0, w, h)?;
+                    images.push(image(post_file, rgba));
+                    gl.delete_framebuffer(framebuffer);
+                    gl.delete_texture(copy);
+                }
+                Ok((images, depths))
+            }
+            PostPass::Mipmap => {
+                gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+                gl.active_texture(glow::TEXTURE0);
+                gl.bind_texture(glow::TEXTURE_2D, Some(texture));
+                gl.generate_mipmap(glow::TEXTURE_2D);
+                let error = gl.get_error();
+                ensure!(
+                    error == glow::NO_ERROR,
+                    "glGenerateMipmap of the GL_DEPTH_COMPONENT32F texture: GL error 0x{error:x}"
+                );
+                let (lw, lh) = ((w >> 1).max(1), (h >> 1).max(1));
+                let framebuffer = depth_framebuffer(gl, texture, 1)?;
+                gl.finish();
+                let depth = PostDepth {
+                    file: "mip1-depth.f32",
+                    width: lw as u32,
+                    height: lh as u32,
+                    depth: read_depth(gl, lw, lh),
+                };
+                gl.delete_framebuffer(framebuffer);
+                let rgba = post_pass(gl, POST_FETCH_LEVEL_SHADER, texture, 1, w, h)?;
+                Ok((vec![image("post.png", rgba)], vec![depth]))
+            }
+        }
+    }
+}
+
+/// A post pass: a second framebuffer with an RGBA8 color renderbuffer, the depth texture
+/// bound to unit 0, one full-screen triangle of `fragment`, read back (bottom row first).
+///
+/// # Safety
+/// The caller's context is current; `texture` is a depth texture (with `level` where
+/// `fragment` reads `u_level`).
+unsafe fn post_pass(
+    gl: &glow::Context,
+    fragment: &str,
+    texture: glow::Texture,
+    level: i32,
+    w: i32,
+    h: i32,
 ) -> Result<Vec<u8>> {
+    let pixels = w as usize * h as usize;
     // SAFETY: the caller's contract; objects made here, slices of the sizes GL writes.
     unsafe {
-        let fragment = match pass {
-            PostPass::Fetch => POST_FETCH_SHADER,
-            PostPass::Compare => POST_COMPARE_SHADER,
-        };
         let program = link_program(gl, POST_VERTEX_SHADER, fragment)?;
         let (framebuffer, color) = color_target(gl, w, h)?;
         gl.disable(glow::DEPTH_TEST);
@@ -378,6 +605,9 @@ unsafe fn post_pass(
         gl.uniform_1_i32(gl.get_uniform_location(program, "u_depth").as_ref(), 0);
         if let Some(size) = gl.get_uniform_location(program, "u_size") {
             gl.uniform_2_f32(Some(&size), w as f32, h as f32);
+        }
+        if let Some(u_level) = gl.get_uniform_location(program, "u_level") {
+            gl.uniform_1_i32(Some(&u_level), level);
         }
         gl.draw_arrays(glow::TRIANGLES, 0, 3);
         gl.finish();
@@ -437,6 +667,10 @@ unsafe fn read_rgba(gl: &glow::Context, w: i32, h: i32, pixels: usize) -> Vec<u8
     rgba
 }
 
+/// Compiles and links the two shaders.
+///
+/// # Safety
+/// The GL context must be current on this thread.
 unsafe fn link_program(gl: &glow::Context, vertex: &str, fragment: &str) -> Result<glow::Program> {
     // SAFETY: the caller's context is current.
     unsafe {

@@ -21,7 +21,7 @@ pub mod draw;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{bail, ensure, Context as _, Result};
 use serde::Serialize;
 
 use crate::accuracy::measure::{self, Measurement, Truth};
@@ -67,8 +67,12 @@ pub struct GlRenderArgs {
     pub revz: Option<String>,
 
     /// After the scene, a pass that samples its depth (the depth attachment is then a texture):
-    /// `fetch` (texelFetch, the value spread over the colors) or `compare` (a shadow sampler
-    /// against 0.98); its color is written to post.png.
+    /// `fetch` (texelFetch, the value spread over the colors), `compare` (a shadow sampler
+    /// against 0.98), `blit` (glBlitFramebuffer of the depth into another depth texture, and
+    /// mirrored into a third, each read back and fetched: blit-depth.f32,
+    /// blit-mirrored-depth.f32, post-mirrored.png) or `mipmap` (glGenerateMipmap of the depth
+    /// texture, level 1 read back and fetched: mip1-depth.f32, half size); its color is
+    /// written to post.png.
     #[arg(long, value_enum, value_name = "PASS")]
     pub post: Option<draw::PostPass>,
 
@@ -223,14 +227,23 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
         println!("wrote: {}", path.display());
     }
 
-    if let Some(post) = &frame.post {
-        let image = image::RgbaImage::from_raw(width, height, post.clone())
+    for post in &frame.post {
+        let image = image::RgbaImage::from_raw(width, height, post.rgba.clone())
             .context("the post pass's read-back has the wrong size")?;
-        let path = out.join("post.png");
+        let path = out.join(post.file);
         image
             .save(&path)
             .with_context(|| format!("cannot write {}", path.display()))?;
         println!("wrote: {}", path.display());
+    }
+    for post in &frame.post_depth {
+        ensure!(
+            post.depth.len() == post.width as usize * post.height as usize,
+            "{}: the read-back has the wrong size",
+            post.file
+        );
+        let bytes: Vec<u8> = post.depth.iter().flat_map(|d| d.to_le_bytes()).collect();
+        write(&out.join(post.file), &bytes)?;
     }
 
     let truth = Truth::new(args.scene, width, height)?;
