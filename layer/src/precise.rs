@@ -476,9 +476,17 @@ pub struct PushConstants {
     /// The layout of the application's last push (compatible with the bound pipeline's for
     /// push constants, or the application's draws would be invalid).
     layout: vk::PipelineLayout,
-    /// The last classification: its input (bits, storage, convention, the cameras'
-    /// generation) and outcome. Consecutive draws often push the same projection.
-    last: Option<([u32; 16], Storage, DepthConvention, u64, Outcome)>,
+    /// The last classification: its input (bits, storage, convention, the target it was
+    /// rewritten for, the cameras' generation) and outcome. Consecutive draws often push the
+    /// same projection.
+    last: Option<(
+        [u32; 16],
+        Storage,
+        DepthConvention,
+        RewriteTarget,
+        u64,
+        Outcome,
+    )>,
     /// The camera the last classified matrix belonged to, for the next matrices of the same
     /// camera (P * V * M of each object: other bits, same line).
     same_camera: Option<SameCamera>,
@@ -580,10 +588,12 @@ impl PushConstants {
         }
         let values = use_.read(&self.bytes);
         let bits = values.map(f32::to_bits);
-        if let Some((last_bits, storage, convention, generation, outcome)) = &self.last {
+        if let Some((last_bits, storage, convention, last_target, generation, outcome)) = &self.last
+        {
             if same_bits(last_bits, &bits)
                 && *storage == use_.storage
                 && *convention == use_.convention
+                && *last_target == target
                 && *generation == self.generation
             {
                 return Some(*outcome);
@@ -642,6 +652,7 @@ impl PushConstants {
             bits,
             use_.storage,
             use_.convention,
+            target,
             self.generation,
             outcome,
         ));

@@ -186,7 +186,17 @@ impl DeviceState {
         if !self.remembers_cameras() {
             return None;
         }
+        if self.stores_complementary(image) {
+            // Complementary depth: the map of n / f = 0, whatever camera drew it.
+            return Some(0.0);
+        }
         self.objects.near_over_far.get(&image)
+    }
+
+    /// Infinite mode: whether `image` stores complementary depth
+    /// (`crate::policy::DevicePolicy::stores_complementary`).
+    pub fn stores_complementary(&self, image: vk::Image) -> bool {
+        self.remembers_cameras() && self.objects.complementary_images.get(&image).is_some()
     }
 
     /// Whether images remember their camera's n / f (infinite mode only): elsewhere the hooks

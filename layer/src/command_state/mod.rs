@@ -194,6 +194,11 @@ pub struct CommandState {
     /// The current subpass reads a reversed depth image through an input attachment: its
     /// pipelines' input variants apply ([`PipelineDepth::variant_for`]).
     reversed_inputs: bool,
+    /// Infinite mode: the current depth image stores complementary depth (it is read as an
+    /// input attachment, whose conversion in the reading shader cannot know n/f:
+    /// `crate::policy::DevicePolicy::stores_complementary`). Its draws map as complementary
+    /// mode does ([`CommandState::target_reversing`]).
+    complementary_target: bool,
     /// The UNORM format the current depth attachment was created with, when revz promoted
     /// it to float: draws bind promoted variants, and constant depth bias is converted.
     promoted_from: Option<vk::Format>,
@@ -258,6 +263,7 @@ impl Default for CommandState {
             emitted: Emitted::default(),
             variant_bound: None,
             reversed_inputs: false,
+            complementary_target: false,
             promoted_from: None,
             carrier_held: None,
             push_pusher: vk::PipelineLayout::null(),
@@ -313,6 +319,32 @@ impl CommandState {
     /// The map of standard depth onto this command buffer's reversed attachments.
     pub fn reversal(&self) -> Reversal {
         self.reversing.reversal
+    }
+
+    /// How draws into the current target are reversed: the command buffer's
+    /// ([`Self::reversal`]), or complementary mode's where the target stores complementary
+    /// depth in infinite mode ([`Self::set_complementary_target`]). The camera it learned
+    /// stays the command buffer's for its other targets.
+    #[inline]
+    fn target_reversing(&self) -> Reversing {
+        if self.complementary_target {
+            Reversing {
+                rewrite: self.reversing.rewrite.map(|_| RewriteTarget::Complementary),
+                reversal: Reversal::Complementary,
+            }
+        } else {
+            self.reversing
+        }
+    }
+
+    /// Infinite mode: whether the current depth image stores complementary depth (render pass
+    /// begin, next subpass, rendering begin, a secondary continuing a pass).
+    pub fn set_complementary_target(&mut self, complementary: bool) {
+        if self.complementary_target != complementary {
+            self.complementary_target = complementary;
+            self.bar_precise();
+            self.dirty = true;
+        }
     }
 
     /// Infinite mode: a pass begins into a reversed image whose draws' camera had this n / f
@@ -407,7 +439,7 @@ impl CommandState {
     /// `crate::policy::vertex_stage::depth_clamp_flip`).
     fn clamps_at_far(&self) -> bool {
         self.depth_clamp
-            && self.reversing.rewrite == Some(RewriteTarget::Infinite)
+            && self.target_reversing().rewrite == Some(RewriteTarget::Infinite)
             && self
                 .pipeline()
                 .is_some_and(|p| p.app_dynamic.contains(States::DEPTH_CLAMP))
@@ -420,7 +452,7 @@ impl CommandState {
             return None;
         }
         let projection = self.pipeline()?.projection.as_ref()?;
-        Some((projection, self.reversing.rewrite?))
+        Some((projection, self.target_reversing().rewrite?))
     }
 
     /// The mode whose depth the bound pipeline's vertex stage derives itself for the next
@@ -444,7 +476,7 @@ impl CommandState {
         } else {
             DepthConvention::ZeroToOne
         };
-        Some((self.reversing.derived_target()?, convention))
+        Some((self.target_reversing().derived_target()?, convention))
     }
 
     /// The application's next push uses a layout whose push ranges revz's layout `pusher`
@@ -669,6 +701,7 @@ impl CommandState {
     pub fn leave_pass(&mut self) {
         self.in_pass = false;
         self.reversed_inputs = false;
+        self.set_complementary_target(false);
         if self.target != Target::None {
             self.target = Target::None;
             self.dirty = true;
@@ -826,12 +859,13 @@ impl CommandState {
         } else {
             DrawPath::Native
         };
+        let reversal = self.target_reversing().reversal;
         let sink = &mut Filtered {
             sink,
             last: &mut self.emitted,
         };
         self.viewports
-            .emit(sink, path, self.reversing.reversal, self.app_set, None);
+            .emit(sink, path, reversal, self.app_set, None);
         // The next draw of this command buffer decides its own path again.
         self.dirty = true;
     }
@@ -1013,6 +1047,7 @@ impl CommandState {
         // Only what changed since it was last sent goes down (closures below capture only
         // the fields they read, so the record is borrowed apart from them).
         // The bound pipeline, borrowed apart from the fields written below.
+        let reversal = self.target_reversing().reversal;
         let bound = self
             .bound
             .and_then(|slot| self.known.slots[slot].1.as_ref());
@@ -1021,7 +1056,6 @@ impl CommandState {
             last: &mut self.emitted,
         };
         let reversed = self.target == Target::Reversed;
-        let reversal = self.reversing.reversal;
         if reversed && bound.is_some_and(|p| p.unreversed_fragment) {
             static WARNED: crate::logging::LogOnce = crate::logging::LogOnce::new();
             WARNED.log(|| {

@@ -1238,3 +1238,34 @@ fn only_a_camera_of_the_recordings_draws_is_one_an_image_remembers() {
     assert_eq!(complementary.camera(), None);
     assert_eq!(complementary.reversal(), Reversal::Complementary);
 }
+
+#[test]
+fn an_infinite_mode_target_of_complementary_depth_is_drawn_as_complementary_mode_draws() {
+    // An image read as an input attachment stores 1 - D in infinite mode: a stage that
+    // derives its range stores complementary depth there (selector 1), while the recording's
+    // camera (n / f = 0.01) stays what its other targets map with.
+    let reversal = Reversal::Infinite {
+        near_over_far: 0.01,
+    };
+    let mut state = CommandState::new(Reversing {
+        rewrite: Some(RewriteTarget::Infinite),
+        reversal,
+    });
+    state.begin(Target::Reversed, reversal, Default::default());
+    state.bind_pipeline(Some(derived_pipeline()));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    let infinite = Carrier::bytes(&[0.0, 0.0, 0.0, 2.0]).to_vec();
+    assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&infinite));
+    state.set_complementary_target(true);
+    state.before_draw(&mut sink);
+    let complementary = Carrier::bytes(&[0.0, 0.0, 0.0, 1.0]).to_vec();
+    assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&complementary));
+    assert_eq!(state.reversal(), reversal, "the recording's camera is kept");
+    assert_eq!(state.target_reversing().reversal, Reversal::Complementary);
+    // Leaving the pass ends it: the next target maps with the camera again.
+    state.leave_pass();
+    state.set_target(Target::Reversed);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&infinite));
+}

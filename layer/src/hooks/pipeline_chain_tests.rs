@@ -2265,19 +2265,30 @@ fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
 }
 
 #[test]
-fn input_reads_are_not_converted_in_infinite_mode() {
-    // Infinite mode keeps images read as input attachments native: nothing to convert.
+fn input_reads_are_converted_in_infinite_mode_too() {
+    // Infinite mode stores complementary depth in images read as input attachments: their
+    // reads convert as in the other modes.
     let fx = Fixture::with_settings(&[(c"mode", c"infinite")]);
     let vertex = fx.vertex_module();
-    let module = fx.module(&test_spirv::depth_input_fragment());
-    assert!(fx.state.objects.input_modules.get(&module).is_none());
+    let words = test_spirv::depth_input_fragment();
+    let module = fx.module(&words);
+    assert!(fx.state.objects.input_modules.get(&module).is_some());
     let pass = fx.deferred_render_pass();
     let mut app = AppPipeline::of_modules(vertex, module);
     app.subpass = Some((pass, 1));
     let built = app.build();
     let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
     assert_eq!(result, vk::Result::SUCCESS);
-    let (_, handle) = only_app_creation(&fx.events());
-    assert_eq!(fx.recorded(handle).input_variant, None);
+    let (variants, handle) = variants_then_app(&fx.events());
+    let [(code, input)] = variants.as_slice() else {
+        panic!("one variant: {variants:?}");
+    };
+    assert_eq!(
+        *code,
+        crate::shader::input_depth::reverse_input_depth(&words, &[0])
+            .unwrap()
+            .unwrap()
+    );
+    assert_eq!(fx.recorded(handle).input_variant, Some(*input));
     fx.finish();
 }

@@ -271,10 +271,17 @@ pub unsafe extern "system" fn create_image(
                     }
                 }
             }
-            let read_twin = if twin.is_some() {
-                ", shaders read its twin"
-            } else {
-                ""
+            // Infinite mode: an image read as an input attachment stores complementary depth.
+            let complementary =
+                depth == ImageDepth::Reversed && state.policy.stores_complementary(info.usage);
+            let read_twin = match (twin.is_some(), complementary) {
+                (true, true) => {
+                    ", shaders read its twin; stores complementary depth (read as an input \
+                     attachment)"
+                }
+                (true, false) => ", shaders read its twin",
+                (false, true) => ", stores complementary depth (read as an input attachment)",
+                (false, false) => "",
             };
             let promotion = match promoted {
                 Some(float) => format!(
@@ -327,6 +334,11 @@ pub unsafe extern "system" fn create_image(
             // A handle the driver reuses starts with no camera (a pass into the destroyed
             // image may have remembered one after its destroy was recorded).
             state.objects.near_over_far.remove(&image);
+            if complementary {
+                state.objects.complementary_images.insert(image, ());
+            } else {
+                state.objects.complementary_images.remove(&image);
+            }
             state.objects.images.insert(
                 image,
                 ImageInfo {
@@ -503,6 +515,7 @@ pub unsafe extern "system" fn destroy_image(
     record(&DESTROY_IMAGE, || {
         let info = state.objects.images.remove(&image);
         state.objects.near_over_far.remove(&image);
+        state.objects.complementary_images.remove(&image);
         state.objects.resolve_pairs.remove(&image);
         if let Some(made) = state.objects.multisampled_twins.remove(&image) {
             // SAFETY: revz's objects; no pending command uses the image, so none uses them.

@@ -383,6 +383,9 @@ pub struct DeviceObjects {
     /// The view of its read twin made beside each view of an image that has one: what
     /// descriptors hold in its place.
     pub twin_views: Table<vk::ImageView, TwinView>,
+    /// Infinite mode: the images that store complementary depth
+    /// (`crate::policy::DevicePolicy::stores_complementary`: read as input attachments).
+    pub complementary_images: Table<vk::Image, ()>,
     /// The refresh bindings of each image with a multisampled twin, from its first view on.
     pub multisampled_twins: Table<vk::Image, MultisampledBindings>,
     /// Live read twins (descriptor writes and barriers look no further while there is none).

@@ -306,13 +306,22 @@ impl DevicePolicy {
     /// Whether reads of reversed depth through input attachments (`subpassLoad`, inside the
     /// render pass that may write it, where no twin can be refreshed) are converted in the
     /// reading fragment shader (`crate::shader::input_depth`): under `reverse_observable =
-    /// copies`, in the modes whose attachments hold `1 - D`, which a shader undoes without
-    /// knowing the camera (flip, complementary). Infinite mode stores `n / w`, whose inverse
-    /// needs the camera's n/f at draw time: images read as input attachments stay native
-    /// there.
+    /// copies`, in every mode. The shader undoes `1 - D` without knowing the camera; in
+    /// infinite mode such images store complementary depth for that
+    /// ([`Self::stores_complementary`]).
     pub fn converts_input_reads(&self) -> bool {
-        self.observable == Observable::Copies
-            && matches!(self.mode, Mode::Flip | Mode::Complementary)
+        self.observable == Observable::Copies && self.mode != Mode::Off
+    }
+
+    /// Infinite mode: whether an image of this usage stores complementary depth (`1 - D`, with
+    /// the far plane) instead of `n / w`: images read as input attachments, whose reading
+    /// shader can only undo `1 - D` (`n / w = 1 - (1 - n/f) D` needs the camera's n/f, known
+    /// only at draw time). Their draws, clears, copies and refreshes map as complementary
+    /// mode does.
+    pub fn stores_complementary(&self, usage: vk::ImageUsageFlags) -> bool {
+        self.mode == Mode::Infinite
+            && self.converts_input_reads()
+            && usage.contains(vk::ImageUsageFlags::INPUT_ATTACHMENT)
     }
 
     /// Whether shaders can read an image of this usage and remain correct once it is reversed:
@@ -790,13 +799,17 @@ mod tests {
                 Some(ImageDepth::Native(NativeReason::ReadByShaders(_)))
             ));
         }
-        // Infinite mode stores n / w: a shader cannot undo it without the camera's n/f.
+        // Infinite mode stores n / w, which a shader cannot undo without the camera's n/f:
+        // images read as input attachments store complementary depth there.
         let infinite = policy(Mode::Infinite, Observable::Copies);
-        assert!(!infinite.converts_input_reads());
-        assert!(matches!(
+        assert!(infinite.converts_input_reads());
+        assert_eq!(
             infinite.classify_image(D32, input, OPTIMAL, ONE),
-            Some(ImageDepth::Native(NativeReason::ReadByShaders(_)))
-        ));
+            Some(ImageDepth::Reversed)
+        );
+        assert!(infinite.stores_complementary(input));
+        assert!(!infinite.stores_complementary(ATTACHMENT | vk::ImageUsageFlags::SAMPLED));
+        assert!(!policy(Mode::Complementary, Observable::Copies).stores_complementary(input));
         // `none` keeps them native, `all` reverses them raw.
         assert!(!policy(Mode::Flip, Observable::None).converts_input_reads());
         assert!(!policy(Mode::Flip, Observable::All).converts_input_reads());

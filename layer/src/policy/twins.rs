@@ -18,8 +18,13 @@ pub fn shader_readable(layout: vk::ImageLayout, dst_access: u64) -> bool {
         | vk::AccessFlags2::SHADER_SAMPLED_READ.as_raw()
         | vk::AccessFlags2::MEMORY_READ.as_raw();
     match layout {
+        // The feedback loop layout (`VK_EXT_attachment_feedback_loop_layout`) is where an
+        // image is attached and sampled at once: Zink generates depth mipmaps there, each
+        // level drawn from the one above, with barriers within the layout between levels that
+        // name attachment accesses only.
         vk::ImageLayout::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL
-        | vk::ImageLayout::DEPTH_ATTACHMENT_STENCIL_READ_ONLY_OPTIMAL => true,
+        | vk::ImageLayout::DEPTH_ATTACHMENT_STENCIL_READ_ONLY_OPTIMAL
+        | vk::ImageLayout::ATTACHMENT_FEEDBACK_LOOP_OPTIMAL_EXT => true,
         vk::ImageLayout::GENERAL => dst_access & shader_reads != 0,
         other => read_only(other),
     }
@@ -256,6 +261,23 @@ mod tests {
             write,
             read,
             SAME
+        ));
+        // The feedback loop layout (Zink's depth mipmaps): entered, and within it after each
+        // level's writes, whatever the barrier says comes next; not without writes.
+        let feedback = L::ATTACHMENT_FEEDBACK_LOOP_OPTIMAL_EXT;
+        let attachment = raw(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ);
+        assert!(barrier_refreshes(
+            L::TRANSFER_SRC_OPTIMAL,
+            feedback,
+            raw(vk::AccessFlags::TRANSFER_WRITE),
+            attachment,
+            SAME
+        ));
+        assert!(barrier_refreshes(
+            feedback, feedback, write, attachment, SAME
+        ));
+        assert!(!barrier_refreshes(
+            feedback, feedback, attachment, attachment, SAME
         ));
         // GENERAL only when shaders read after it.
         assert!(barrier_refreshes(L::GENERAL, L::GENERAL, write, read, SAME));

@@ -377,7 +377,22 @@ fn carry_camera(
         return;
     }
     let objects = &device.objects;
-    if let Some(near_over_far) = objects.near_over_far.get(&source) {
+    // An image of complementary depth maps as n / f = 0 (`DeviceState::image_camera`).
+    let camera = device.image_camera(source);
+    if device.stores_complementary(destination) {
+        if camera.is_some_and(|r| r != 0.0) {
+            static MIXED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            MIXED.log(|| {
+                log::warn!(
+                    "depth of n / w is copied as it is into an image read as an input \
+                     attachment, which stores complementary depth in infinite mode: its \
+                     shaders and copies read it off by up to n / f"
+                )
+            });
+        }
+        return;
+    }
+    if let Some(near_over_far) = camera {
         objects.near_over_far.insert(destination, near_over_far);
     }
 }

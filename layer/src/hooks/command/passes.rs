@@ -153,6 +153,7 @@ fn begin_pass(
         let mut state = entry.state();
         enter_cameras(device, &mut state, &scope.reversed_images);
         state.set_target(scope.target());
+        state.set_complementary_target(complementary_target(device, scope.depth_view()));
         state.set_promoted(scope.promoted_from());
         state.set_reversed_inputs(reads_reversed_inputs(&scope));
         tally_image(entry, &mut state, scope.depth_view());
@@ -285,11 +286,24 @@ pub(super) fn next_subpass(entry: &CommandBufferEntry, buffer: vk::CommandBuffer
             enter_cameras(device, &mut state, &[image]);
         }
         state.set_target(target);
+        state.set_complementary_target(complementary_target(device, view));
         state.set_promoted(promoted);
         state.set_reversed_inputs(reversed_inputs);
         tally_image(entry, &mut state, view);
     }
     enter_contents(entry, buffer, secondary, key);
+}
+
+/// Infinite mode: whether the depth attachment `view` (null: none) is of an image that stores
+/// complementary depth (`DeviceState::stores_complementary`); no lookup in the other modes.
+pub(super) fn complementary_target(device: &DeviceState, view: vk::ImageView) -> bool {
+    device.remembers_cameras()
+        && view != vk::ImageView::null()
+        && device
+            .objects
+            .views
+            .get(&view)
+            .is_some_and(|image| device.stores_complementary(image))
 }
 
 /// Whether the scope's subpass reads a reversed depth image through an input attachment
@@ -330,7 +344,13 @@ pub(super) fn enter_cameras(
     state: &mut crate::command_state::CommandState,
     images: &[vk::Image],
 ) {
-    if let Some(near_over_far) = images.iter().find_map(|&image| device.image_camera(image)) {
+    // An image of complementary depth has no camera to enter (its draws map as complementary
+    // mode does: `CommandState::set_complementary_target`).
+    let camera = images
+        .iter()
+        .filter(|&&image| !device.stores_complementary(image))
+        .find_map(|&image| device.image_camera(image));
+    if let Some(near_over_far) = camera {
         state.enter_camera(near_over_far);
     }
 }
@@ -370,7 +390,10 @@ fn remember_camera_of(entry: &CommandBufferEntry, images: &[vk::Image]) {
         return;
     };
     let objects = &entry.device.objects;
-    for image in images {
+    for image in images
+        .iter()
+        .filter(|&&i| !entry.device.stores_complementary(i))
+    {
         let known = objects.near_over_far.get(image);
         if !known.is_some_and(|r| crate::command_state::same_near_over_far(r, near_over_far)) {
             objects.near_over_far.insert(*image, near_over_far);
@@ -530,6 +553,9 @@ pub unsafe extern "system" fn cmd_begin_rendering(
                 enter_cameras(device, &mut state, &[image]);
             }
             state.set_target(target);
+            state.set_complementary_target(
+                reversed_image.is_some_and(|image| device.stores_complementary(image)),
+            );
             state.set_promoted(promoted);
             tally_image(
                 entry,

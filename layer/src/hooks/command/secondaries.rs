@@ -112,6 +112,13 @@ pub unsafe extern "system" fn begin_command_buffer(
             // Inside the pass it continues, with or without a depth attachment.
             state.set_target(target);
             state.set_reversed_inputs(reversed_inputs);
+            // Infinite mode: its depth image stores complementary depth (known only from an
+            // inherited framebuffer).
+            let complementary = inheritance
+                .filter(|_| entry.device.remembers_cameras())
+                .and_then(|i| inherited_depth_image(entry, i))
+                .is_some_and(|image| entry.device.stores_complementary(image));
+            state.set_complementary_target(complementary);
         }
         state.set_promoted(promoted);
         if entry.secondary && inherits_viewports(begin) {
