@@ -136,6 +136,16 @@ impl DepthMap {
         }
     }
 
+    /// This map followed by `next` (`next`'s clamp applies to the result).
+    #[must_use]
+    pub fn then(self, next: DepthMap) -> DepthMap {
+        DepthMap {
+            offset: next.offset + next.scale * self.offset,
+            scale: next.scale * self.scale,
+            clamp: next.clamp,
+        }
+    }
+
     /// Whether this is d -> 1 - d (exact on UNORM integers as a bit complement).
     pub fn is_flip(self) -> bool {
         self.offset == 1.0 && self.scale == -1.0
@@ -952,6 +962,26 @@ mod tests {
             let got = f32::from_bits(header.convert_texel(d.to_bits()));
             assert_eq!(got, 1.0 - d, "{d}");
         }
+    }
+
+    #[test]
+    fn a_remap_leaves_one_map_for_the_other() {
+        // Infinite mode's n / w into an image of complementary depth, and back.
+        let infinite = Reversal::Infinite {
+            near_over_far: 1e-3,
+        };
+        let complementary = Reversal::Infinite { near_over_far: 0.0 };
+        let there = DepthMap::to_standard(infinite).then(DepthMap::to_reversed(complementary));
+        let back = DepthMap::to_standard(complementary).then(DepthMap::to_reversed(infinite));
+        for d in [0.0f32, 0.25, 0.5, 0.999, 1.0] {
+            let stored = f64::from(infinite.depth(d));
+            let moved = there.apply(stored);
+            assert!((moved - (1.0 - f64::from(d))).abs() < 1e-7, "{d}: {moved}");
+            assert!((back.apply(moved) - stored).abs() < 1e-7, "{d}");
+        }
+        assert!(there.clamp);
+        let unclamped = DepthMap::IDENTITY.then(DepthMap::IDENTITY.unrestricted(true));
+        assert!(!unclamped.clamp);
     }
 
     #[test]

@@ -57,6 +57,10 @@ pub enum CopyDirection {
     /// The values keep their convention; only their format changes (a promoted image's
     /// float32 to or from the application's UNORM format).
     Keep,
+    /// Between two reversed images of different maps (infinite mode: one stores complementary
+    /// depth, `crate::policy::DevicePolicy::stores_complementary`): the values leave the
+    /// source's map for the destination's.
+    Remap,
 }
 
 /// Why a copy that should be converted is not (its values keep the source's convention;
@@ -138,6 +142,8 @@ pub struct CopyFacts {
     pub multisampled: bool,
     /// Conditional rendering is active where it is recorded.
     pub conditional: bool,
+    /// Both ends are reversed images whose maps differ ([`CopyDirection::Remap`]).
+    pub remaps: bool,
 }
 
 /// The decision for one transfer touching a reversed or promoted depth image.
@@ -160,6 +166,7 @@ impl CopyFacts {
         use crate::config::CopyValues;
         let direction = match (self.source, self.destination) {
             _ if self.values == CopyValues::Stored => None,
+            (CopyEnd::Reversed, CopyEnd::Reversed) if self.remaps => Some(CopyDirection::Remap),
             (CopyEnd::Reversed, CopyEnd::Reversed) => None,
             (CopyEnd::Reversed, _) => Some(CopyDirection::ToStandard),
             (_, CopyEnd::Reversed) => Some(CopyDirection::ToReversed),
@@ -277,6 +284,7 @@ mod tests {
             extended: false,
             multisampled: false,
             conditional: false,
+            remaps: false,
         };
         use CopyEnd::{Buffer, Native, Reversed};
         let table = [
@@ -312,6 +320,24 @@ mod tests {
                 "{source:?} -> {destination:?}"
             );
         }
+        // Two reversed images of different maps (infinite mode, one of complementary depth):
+        // converted from one map to the other, unless the values are copied as stored.
+        let remapped = CopyFacts {
+            remaps: true,
+            ..facts(Reversed, Reversed)
+        };
+        assert_eq!(
+            remapped.decide(),
+            CopyDecision::Convert(CopyDirection::Remap)
+        );
+        assert_eq!(
+            CopyFacts {
+                values: CopyValues::Stored,
+                ..remapped
+            }
+            .decide(),
+            CopyDecision::Unchanged
+        );
         let out = facts(Reversed, Buffer);
         let stencil = CopyFacts {
             depth_aspect: false,
@@ -380,6 +406,7 @@ mod tests {
             extended: false,
             multisampled: false,
             conditional: false,
+            remaps: false,
         };
         let keep = CopyDecision::Convert(CopyDirection::Keep);
         // A promoted native image read back, or written from a buffer: only the format.

@@ -81,6 +81,11 @@ fn decide(
         restorable,
         conditional,
         extended,
+        // Infinite mode: between an image of complementary depth and one of n / w.
+        remaps: matches!(images, [src, dst]
+            if (source, destination) == (CopyEnd::Reversed, CopyEnd::Reversed)
+                && entry.device.stores_complementary(*src)
+                    != entry.device.stores_complementary(*dst)),
         multisampled: !images.iter().all(|&image| {
             single_sampled(
                 entry
@@ -118,17 +123,29 @@ pub(super) fn depth_map_with(
     match direction {
         CopyDirection::ToStandard => DepthMap::to_standard(reversal),
         CopyDirection::ToReversed => DepthMap::to_reversed(reversal),
-        CopyDirection::Keep => DepthMap::IDENTITY,
+        // One image has one map: a remap takes two ([`copy_map`]).
+        CopyDirection::Keep | CopyDirection::Remap => DepthMap::IDENTITY,
     }
     .unrestricted(device.policy.depth_range_unrestricted)
 }
 
-/// The reversed end of a copy between two images in `direction`: the source where values
-/// leave revz, the destination where they enter it.
-fn reversed_end(direction: CopyDirection, src: vk::Image, dst: vk::Image) -> vk::Image {
+/// The map of a conversion in `direction` between the images `src` and `dst`: that of its
+/// reversed end (the source where values leave revz, the destination where they enter it),
+/// or for a remap the source's map back to standard depth followed by the destination's.
+fn copy_map(
+    entry: &CommandBufferEntry,
+    direction: CopyDirection,
+    src: vk::Image,
+    dst: vk::Image,
+) -> DepthMap {
     match direction {
-        CopyDirection::ToStandard => src,
-        CopyDirection::ToReversed | CopyDirection::Keep => dst,
+        CopyDirection::ToStandard => depth_map(entry, direction, src),
+        CopyDirection::ToReversed | CopyDirection::Keep => depth_map(entry, direction, dst),
+        CopyDirection::Remap => depth_map(entry, CopyDirection::ToStandard, src).then(depth_map(
+            entry,
+            CopyDirection::ToReversed,
+            dst,
+        )),
     }
 }
 
@@ -325,11 +342,7 @@ fn image_image_copy(
         return Sent::All;
     };
     let conversion = Conversion {
-        header: ShaderHeader::new(
-            kinds,
-            depth_map(entry, direction, reversed_end(direction, src, dst)),
-            &plan.layout,
-        ),
+        header: ShaderHeader::new(kinds, copy_map(entry, direction, src, dst), &plan.layout),
         size: plan.layout.size,
         fill: Fill::Image {
             image: src,
@@ -472,11 +485,7 @@ fn image_blit(
         return Sent::All;
     };
     let conversion = Conversion {
-        header: ShaderHeader::new(
-            kinds,
-            depth_map(entry, direction, reversed_end(direction, src, dst)),
-            &plan.layout,
-        ),
+        header: ShaderHeader::new(kinds, copy_map(entry, direction, src, dst), &plan.layout),
         size: plan.layout.size,
         fill: Fill::Image {
             image: src,
