@@ -30,19 +30,19 @@ pub enum DepthRoute {
     /// reverses by default), then into the host buffer.
     Image,
     /// The same through a second image that shaders read as an input attachment
-    /// (INPUT_ATTACHMENT: revz keeps it native in `infinite` mode, where the image copy then
-    /// crosses conventions; in `flip` and `complementary` it is reversed since session 24,
-    /// its input reads converted in the shader, and the copy goes between reversed images. A
-    /// SAMPLED one would be reversed and read through its twin; lavapipe has no storage or
-    /// linear depth images, the other usages that keep an image native).
+    /// (INPUT_ATTACHMENT). Until session 24 revz kept it native, and the copy crossed
+    /// conventions; now it is reversed (its input reads converted in the shader), and in
+    /// `infinite` mode it stores complementary depth, so the copy crosses maps there (n / w
+    /// into 1 - D). lavapipe has no storage or linear depth images, the usages that still
+    /// keep an image native.
     NativeImage,
     /// `vkCmdCopyImageToBuffer` into a device buffer, `vkCmdCopyBufferToImage` into a second
     /// depth image, then into the host buffer: a round trip through the application's bytes.
     Buffer,
     /// `vkCmdBlitImage` (same size, NEAREST, mirrored in x and back by the read: the blit
     /// flips x, a second blit would not be a copy, so the host flips the rows back) into a
-    /// second image that shaders read as an input attachment (native in `infinite` mode: see
-    /// `NativeImage`), then into the host buffer.
+    /// second image that shaders read as an input attachment (see `NativeImage`), then into
+    /// the host buffer.
     BlitNativeImage,
     /// `vkCmdCopyImage` of the depth aspect into a second image created with
     /// `VK_IMAGE_CREATE_ALIAS_BIT`, whose memory the application places by its format's sizes
