@@ -52,7 +52,7 @@ fn refused(_version: &str, scene: &str) -> Option<&'static str> {
 /// rendering, the dynamic compare op and depth resolves) make the tester, as a Vulkan 1.0
 /// application, enable `VK_KHR_get_physical_device_properties2` itself: revz then has nothing
 /// to add.
-const ENABLE_PROPERTIES2_THEMSELVES: [&str; 9] = [
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 12] = [
     "opengl-depth",
     "pipeline-library",
     "frag-depth-library",
@@ -65,6 +65,9 @@ const ENABLE_PROPERTIES2_THEMSELVES: [&str; 9] = [
     // with a post pass, used where the device has it).
     "depth-reads",
     "stencil-reads",
+    "depth-mips",
+    "depth-layers",
+    "depth-reads-msaa",
 ];
 
 /// The scenes that set the compare op dynamically: below 1.3 the tester enables
