@@ -1122,6 +1122,63 @@ fn lit_mvp_colors_are_the_native_ones_in_every_mode() {
     assert!(problems.is_empty(), "lit-mvp:\n  {}", problems.join("\n  "));
 }
 
+/// A depth-read scene rendered with the layer in `mode` (`REVZ_LOG=info`, its depth profile
+/// written), under synchronization validation for `frames` frames: the render and the profile.
+fn layered_reads(
+    harness: &Harness,
+    scene: &str,
+    format: &str,
+    mode: &str,
+    frames: &str,
+) -> (revz_tests::Render, serde_json::Value) {
+    let name = format!("{scene}-{format}-{mode}");
+    let dir = harness.scratch_dir(&name);
+    let report = dir.join("profile.json");
+    let mut command = harness.tester(format, &dir);
+    command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
+    harness
+        .with_layer(&mut command)
+        .env("REVZ_MODE", mode)
+        .env("REVZ_LOG", "info")
+        .env("REVZ_REPORT", &report);
+    let render = harness.render(command, &dir);
+    let profile = serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
+        .expect("a JSON profile");
+    (render, profile)
+}
+
+/// The colors of a depth-read scene against the native render, as
+/// `depth_reads_sample_standard_depth_through_the_twin` allows them: the reference is the
+/// native render of the same format (`own`), or the native D32 one where the precise modes
+/// promote a UNORM format; at most 2 pixels (flip D16: its tolerance) off by more than 1
+/// level, and at most 200 differing.
+fn read_color_problems(
+    name: &str,
+    (format, mode): (&str, &str),
+    (own, native_d32): (&image::RgbaImage, &image::RgbaImage),
+    color: &image::RgbaImage,
+) -> Vec<String> {
+    let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
+    let reference = if promoted { native_d32 } else { own };
+    let mut problems = Vec::new();
+    let loose = pixels_off_by_more_than(reference, color, 1);
+    let bound = if promoted || format != "d16" {
+        2
+    } else {
+        flip_color_tolerance(format)
+    };
+    if loose > bound {
+        problems.push(format!(
+            "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
+        ));
+    }
+    let differing = differing_pixels(reference, color);
+    if differing > 200 {
+        problems.push(format!("{name}: {differing} pixels differ"));
+    }
+    problems
+}
+
 /// `deferred-depth` and `deferred-depth-tested`: the main depth, written in subpass 0 of a
 /// render pass, is read as an input attachment (`subpassLoad`, the attachment in
 /// `DEPTH_STENCIL_READ_ONLY_OPTIMAL`, its depth aspect named with
@@ -1163,37 +1220,13 @@ fn deferred_depth_reads_standard_depth_through_input_attachments() {
             let own = native(format);
             for mode in ["flip", "complementary", "infinite"] {
                 let name = format!("{scene}-{format}-{mode}");
-                let dir = harness.scratch_dir(&name);
-                let report = dir.join("profile.json");
-                let mut command = harness.tester(format, &dir);
-                command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
-                harness
-                    .with_layer(&mut command)
-                    .env("REVZ_MODE", mode)
-                    .env("REVZ_LOG", "info")
-                    .env("REVZ_REPORT", &report);
-                let render = harness.render(command, &dir);
-                let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
-                let reference = if promoted { &native_d32 } else { &own };
-                let color = render.color();
-                let loose = pixels_off_by_more_than(reference, &color, 1);
-                let bound = if promoted || format != "d16" {
-                    2
-                } else {
-                    flip_color_tolerance(format)
-                };
-                if loose > bound {
-                    problems.push(format!(
-                        "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
-                    ));
-                }
-                let differing = differing_pixels(reference, &color);
-                if differing > 200 {
-                    problems.push(format!("{name}: {differing} pixels differ"));
-                }
-                let profile: serde_json::Value =
-                    serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
-                        .expect("a JSON profile");
+                let (render, profile) = layered_reads(&harness, scene, format, mode, frames);
+                problems.extend(read_color_problems(
+                    &name,
+                    (format, mode),
+                    (&own, &native_d32),
+                    &render.color(),
+                ));
                 let image = &profile["images"][0];
                 if image["depth"] != "reversed" {
                     problems.push(format!("{name}: not reversed: {image}"));
@@ -1256,37 +1289,13 @@ fn multisampled_depth_reads_standard_depth_per_sample() {
         let own = native(format);
         for mode in ["flip", "complementary", "infinite"] {
             let name = format!("{scene}-{format}-{mode}");
-            let dir = harness.scratch_dir(&name);
-            let report = dir.join("profile.json");
-            let mut command = harness.tester(format, &dir);
-            command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
-            harness
-                .with_layer(&mut command)
-                .env("REVZ_MODE", mode)
-                .env("REVZ_LOG", "info")
-                .env("REVZ_REPORT", &report);
-            let render = harness.render(command, &dir);
-            let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
-            let reference = if promoted { &native_d32 } else { &own };
-            let color = render.color();
-            let loose = pixels_off_by_more_than(reference, &color, 1);
-            let bound = if promoted || format != "d16" {
-                2
-            } else {
-                flip_color_tolerance(format)
-            };
-            if loose > bound {
-                problems.push(format!(
-                    "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
-                ));
-            }
-            let differing = differing_pixels(reference, &color);
-            if differing > 200 {
-                problems.push(format!("{name}: {differing} pixels differ"));
-            }
-            let profile: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
-                    .expect("a JSON profile");
+            let (render, profile) = layered_reads(&harness, scene, format, mode, frames);
+            problems.extend(read_color_problems(
+                &name,
+                (format, mode),
+                (&own, &native_d32),
+                &render.color(),
+            ));
             let Some(image) = profile["images"]
                 .as_array()
                 .and_then(|images| images.iter().find(|image| image["samples"] == 4))
@@ -1344,41 +1353,16 @@ fn depth_mips_and_layers_sample_standard_depth_through_the_twin() {
             let own = native(format);
             for mode in ["flip", "complementary", "infinite"] {
                 let name = format!("{scene}-{format}-{mode}");
-                let dir = harness.scratch_dir(&name);
-                let report = dir.join("profile.json");
-                let mut command = harness.tester(format, &dir);
-                command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
-                harness
-                    .with_layer(&mut command)
-                    .env("REVZ_MODE", mode)
-                    .env("REVZ_LOG", "info")
-                    .env("REVZ_REPORT", &report);
-                let render = harness.render(command, &dir);
-                let log = render.stderr();
-                if !log.contains("shaders read its twin") {
+                let (render, profile) = layered_reads(&harness, scene, format, mode, frames);
+                if !render.stderr().contains("shaders read its twin") {
                     problems.push(format!("{name}: no read twin in the log"));
                 }
-                let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
-                let reference = if promoted { &native_d32 } else { &own };
-                let color = render.color();
-                let loose = pixels_off_by_more_than(reference, &color, 1);
-                let bound = if promoted || format != "d16" {
-                    2
-                } else {
-                    flip_color_tolerance(format)
-                };
-                if loose > bound {
-                    problems.push(format!(
-                        "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
-                    ));
-                }
-                let differing = differing_pixels(reference, &color);
-                if differing > 200 {
-                    problems.push(format!("{name}: {differing} pixels differ"));
-                }
-                let profile: serde_json::Value =
-                    serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
-                        .expect("a JSON profile");
+                problems.extend(read_color_problems(
+                    &name,
+                    (format, mode),
+                    (&own, &native_d32),
+                    &render.color(),
+                ));
                 let image = &profile["images"][0];
                 if image["depth"] != "reversed" || image["read_twin"] != true {
                     problems.push(format!("{name}: not reversed with a read twin: {image}"));

@@ -315,6 +315,25 @@ impl Fixture {
     /// A render pass of a D32 depth attachment and a color attachment: subpass 0 renders both,
     /// subpass 1 only color.
     fn render_pass(&self) -> vk::RenderPass {
+        let depth = vk::AttachmentReference2::default()
+            .attachment(0)
+            .layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+            .aspect_mask(vk::ImageAspectFlags::DEPTH);
+        let color = [color_reference()];
+        self.render_pass_of(&[
+            vk::SubpassDescription2::default()
+                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+                .color_attachments(&color)
+                .depth_stencil_attachment(&depth),
+            vk::SubpassDescription2::default()
+                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+                .color_attachments(&color),
+        ])
+    }
+
+    /// A render pass of `subpasses` over a D32 attachment 0 and a color attachment 1, created
+    /// through the hook.
+    fn render_pass_of(&self, subpasses: &[vk::SubpassDescription2<'_>]) -> vk::RenderPass {
         let attachments = [
             vk::AttachmentDescription2::default()
                 .format(D32)
@@ -329,26 +348,9 @@ impl Fixture {
                 .store_op(vk::AttachmentStoreOp::STORE)
                 .final_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
         ];
-        let depth = vk::AttachmentReference2::default()
-            .attachment(0)
-            .layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-            .aspect_mask(vk::ImageAspectFlags::DEPTH);
-        let color = [vk::AttachmentReference2::default()
-            .attachment(1)
-            .layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .aspect_mask(vk::ImageAspectFlags::COLOR)];
-        let subpasses = [
-            vk::SubpassDescription2::default()
-                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
-                .color_attachments(&color)
-                .depth_stencil_attachment(&depth),
-            vk::SubpassDescription2::default()
-                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
-                .color_attachments(&color),
-        ];
         let info = vk::RenderPassCreateInfo2::default()
             .attachments(&attachments)
-            .subpasses(&subpasses);
+            .subpasses(subpasses);
         let mut pass = vk::RenderPass::null();
         // SAFETY: a live device and a valid create info.
         let result = unsafe {
@@ -364,60 +366,28 @@ impl Fixture {
     /// subpass 1 reads the depth as input attachment 0 and renders color, subpass 2 the same
     /// with the depth attached read-only too.
     fn deferred_render_pass(&self) -> vk::RenderPass {
-        let attachments = [
-            vk::AttachmentDescription2::default()
-                .format(D32)
-                .samples(vk::SampleCountFlags::TYPE_1)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::STORE)
-                .final_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
-            vk::AttachmentDescription2::default()
-                .format(COLOR)
-                .samples(vk::SampleCountFlags::TYPE_1)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::STORE)
-                .final_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
-        ];
         let depth = vk::AttachmentReference2::default()
             .attachment(0)
             .layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
             .aspect_mask(vk::ImageAspectFlags::DEPTH);
-        let read_only = vk::AttachmentReference2::default()
-            .attachment(0)
-            .layout(vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL)
-            .aspect_mask(vk::ImageAspectFlags::DEPTH);
-        let input = [read_only];
-        let color = [vk::AttachmentReference2::default()
-            .attachment(1)
-            .layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .aspect_mask(vk::ImageAspectFlags::COLOR)];
-        let subpasses = [
-            vk::SubpassDescription2::default()
-                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
-                .color_attachments(&color)
-                .depth_stencil_attachment(&depth),
-            vk::SubpassDescription2::default()
-                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
-                .input_attachments(&input)
-                .color_attachments(&color),
-            vk::SubpassDescription2::default()
-                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
-                .input_attachments(&input)
-                .color_attachments(&color)
-                .depth_stencil_attachment(&read_only),
-        ];
-        let info = vk::RenderPassCreateInfo2::default()
-            .attachments(&attachments)
-            .subpasses(&subpasses);
-        let mut pass = vk::RenderPass::null();
-        // SAFETY: a live device and a valid create info.
-        let result = unsafe {
-            (self.hooks.create_render_pass2)(self.device, &info, std::ptr::null(), &mut pass)
+        let read_only = vk::AttachmentReference2 {
+            layout: vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+            ..depth
         };
-        assert_eq!(result, vk::Result::SUCCESS);
-        self.passes.borrow_mut().push(pass);
-        self.events();
-        pass
+        let input = [read_only];
+        let color = [color_reference()];
+        let subpass = || {
+            vk::SubpassDescription2::default()
+                .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+                .color_attachments(&color)
+        };
+        self.render_pass_of(&[
+            subpass().depth_stencil_attachment(&depth),
+            subpass().input_attachments(&input),
+            subpass()
+                .input_attachments(&input)
+                .depth_stencil_attachment(&read_only),
+        ])
     }
 
     /// Destroys everything through the hooks, checks revz forgot it and that the device's
@@ -476,6 +446,14 @@ impl Fixture {
     fn finish(self) {
         self.finish_with(&[]);
     }
+}
+
+/// The color attachment (1) of the tests' render passes.
+fn color_reference() -> vk::AttachmentReference2<'static> {
+    vk::AttachmentReference2::default()
+        .attachment(1)
+        .layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .aspect_mask(vk::ImageAspectFlags::COLOR)
 }
 
 /// A pipeline revz created a variant for, and what the fake saw of both.

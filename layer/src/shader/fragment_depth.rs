@@ -23,7 +23,7 @@ use std::fmt;
 
 use crate::shader::scan::op::*;
 use crate::shader::scan::{
-    instructions, instructions_at, is_literal, push, Instruction, HEADER_WORDS,
+    instructions, instructions_at, is_literal, push, FreshIds, Instruction, HEADER_WORDS,
 };
 
 const DECORATION_BUILT_IN: u32 = 11;
@@ -176,15 +176,9 @@ impl Module {
 
         // One constant, and at most three ids per edit.
         let needed = 1 + 3 * body.edits();
-        let mut bound = u32::try_from(needed)
-            .ok()
-            .and_then(|needed| words[3].checked_add(needed))
-            .map(|_| words[3])
-            .ok_or(Unsupported("its id bound leaves no room"))?;
-        let mut fresh = || {
-            bound += 1;
-            bound - 1
-        };
+        let mut ids =
+            FreshIds::new(words, needed).ok_or(Unsupported("its id bound leaves no room"))?;
+        let mut fresh = || ids.take();
         let one = fresh();
         let mut out = Vec::with_capacity(words.len() + 16 * body.edits());
         out.extend_from_slice(&words[..HEADER_WORDS]);
@@ -235,7 +229,7 @@ impl Module {
                 _ => push(&mut out, opcode, operands),
             }
         }
-        out[3] = bound;
+        out[3] = ids.bound();
         Ok(Some(out))
     }
 }

@@ -23,7 +23,7 @@ use std::collections::{HashMap, HashSet};
 use crate::shader::fragment_depth::Unsupported;
 use crate::shader::scan::op::*;
 use crate::shader::scan::{
-    instructions, instructions_at, is_literal, push, Instruction, HEADER_WORDS,
+    instructions, instructions_at, is_literal, push, FreshIds, Instruction, HEADER_WORDS,
 };
 
 const OP_TYPE_IMAGE: u32 = 25;
@@ -209,15 +209,9 @@ impl Module {
         }
         // One constant, and at most three ids per read.
         let needed = 1 + 3 * reads.len();
-        let mut bound = u32::try_from(needed)
-            .ok()
-            .and_then(|needed| words[3].checked_add(needed))
-            .map(|_| words[3])
-            .ok_or(Unsupported("its id bound leaves no room"))?;
-        let mut fresh = || {
-            bound += 1;
-            bound - 1
-        };
+        let mut ids =
+            FreshIds::new(words, needed).ok_or(Unsupported("its id bound leaves no room"))?;
+        let mut fresh = || ids.take();
         let one = fresh();
         let mut out = Vec::with_capacity(words.len() + 16 * reads.len());
         out.extend_from_slice(&words[..self.functions_at]);
@@ -249,7 +243,7 @@ impl Module {
                 _ => push(&mut out, opcode, operands),
             }
         }
-        out[3] = bound;
+        out[3] = ids.bound();
         Ok(Some(out))
     }
 }

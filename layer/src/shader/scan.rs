@@ -231,6 +231,36 @@ pub fn is_literal(opcode: u32, index: usize) -> bool {
     }
 }
 
+/// Ids past a module's bound, handed out one at a time by the word-level rewriters; the new
+/// bound goes into the rewritten header once every id is taken ([`FreshIds::bound`]).
+#[derive(Debug)]
+pub struct FreshIds {
+    next: u32,
+}
+
+impl FreshIds {
+    /// Room for `needed` ids past the bound of `words` (whose header was read), or `None`
+    /// where the bound would overflow.
+    pub fn new(words: &[u32], needed: usize) -> Option<FreshIds> {
+        let bound = *words.get(3)?;
+        u32::try_from(needed)
+            .ok()
+            .and_then(|needed| bound.checked_add(needed))
+            .map(|_| FreshIds { next: bound })
+    }
+
+    /// The next id.
+    pub fn take(&mut self) -> u32 {
+        self.next += 1;
+        self.next - 1
+    }
+
+    /// The module's bound with every id taken.
+    pub fn bound(&self) -> u32 {
+        self.next
+    }
+}
+
 /// Appends one instruction to `out`.
 pub fn push(out: &mut Vec<u32>, opcode: u32, operands: &[u32]) {
     out.push(((operands.len() as u32 + 1) << 16) | opcode);
