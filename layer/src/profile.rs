@@ -212,7 +212,8 @@ pub struct PipelineRecord {
     /// `pipeline`, or `vertex shader object` (`VK_EXT_shader_object`: its draws are counted
     /// under the vertex stage's shader).
     pub kind: &'static str,
-    /// `precise`, `flip` (reversed draws), with why.
+    /// `precise`, `flip` (reversed draws), with why; `none` for a pipeline that renders no
+    /// depth, listed for the depth it reads through input attachments.
     pub path: &'static str,
     /// Where its projection comes from: push-constant bytes, a buffer the stage fits from, or
     /// why neither.

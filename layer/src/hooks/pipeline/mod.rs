@@ -626,12 +626,24 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     profiles_pipeline(plan.static_state.renders_depth)
                         || plan.variants.converted_inputs,
                 ) {
+                    // A pipeline listed only for the depth it reads through input
+                    // attachments draws no depth: no path, and no flip reason.
+                    let (path_label, projection) = if plan.static_state.renders_depth {
+                        (path.label(), path.to_string())
+                    } else {
+                        (
+                            "none",
+                            "renders no depth (listed for the depth it reads through input \
+                             attachments)"
+                                .to_owned(),
+                        )
+                    };
                     profile.pipeline(
                         vk::Handle::as_raw(pipeline),
                         crate::profile::PipelineRecord {
                             kind: "pipeline",
-                            path: path.label(),
-                            projection: path.to_string(),
+                            path: path_label,
+                            projection,
                             reversed_variant: plan.depth.reversed_variant.is_some(),
                             promoted_variant: plan.depth.promoted_variant.is_some(),
                             converts_depth_inputs: plan.variants.converted_inputs,
