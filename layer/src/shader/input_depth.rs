@@ -257,14 +257,8 @@ mod tests {
     /// input at index 0, depth at index 1, a stencil input (integers) at index 2, and the
     /// output's red from depth, green from color, blue from stencil.
     fn deferred(body: &str) -> Vec<u32> {
-        let text = format!(
-            "OpCapability Shader
-             OpCapability InputAttachment
-             OpMemoryModel Logical GLSL450
-             OpEntryPoint Fragment %main \"main\" %out
-             OpExecutionMode %main OriginUpperLeft
-             OpDecorate %out Location 0
-             OpDecorate %albedo InputAttachmentIndex 0
+        test_spirv::input_attachment_fragment(
+            "OpDecorate %albedo InputAttachmentIndex 0
              OpDecorate %albedo DescriptorSet 0
              OpDecorate %albedo Binding 0
              OpDecorate %depth InputAttachmentIndex 1
@@ -272,33 +266,15 @@ mod tests {
              OpDecorate %depth Binding 1
              OpDecorate %stencil InputAttachmentIndex 2
              OpDecorate %stencil DescriptorSet 0
-             OpDecorate %stencil Binding 2
-             %void = OpTypeVoid
-             %fn = OpTypeFunction %void
-             %float = OpTypeFloat 32
-             %uint = OpTypeInt 32 0
-             %int = OpTypeInt 32 1
-             %v4 = OpTypeVector %float 4
-             %uv4 = OpTypeVector %uint 4
-             %v2i = OpTypeVector %int 2
-             %zero = OpConstant %int 0
-             %origin = OpConstantComposite %v2i %zero %zero
-             %fimage = OpTypeImage %float SubpassData 0 0 0 2 Unknown
+             OpDecorate %stencil Binding 2",
+            "%uv4 = OpTypeVector %uint 4
              %uimage = OpTypeImage %uint SubpassData 0 0 0 2 Unknown
-             %pf = OpTypePointer UniformConstant %fimage
              %pu = OpTypePointer UniformConstant %uimage
              %albedo = OpVariable %pf UniformConstant
              %depth = OpVariable %pf UniformConstant
-             %stencil = OpVariable %pu UniformConstant
-             %pout = OpTypePointer Output %v4
-             %out = OpVariable %pout Output
-             %main = OpFunction %void None %fn
-             %entry = OpLabel
-             {body}
-             OpReturn
-             OpFunctionEnd"
-        );
-        test_spirv::assemble(&text)
+             %stencil = OpVariable %pu UniformConstant",
+            body,
+        )
     }
 
     const READS: &str = "%a = OpLoad %fimage %albedo
@@ -400,41 +376,19 @@ mod tests {
 
     #[test]
     fn arrays_of_input_attachments_that_may_hold_depth_are_refused() {
-        let text = "OpCapability Shader
-             OpCapability InputAttachment
-             OpMemoryModel Logical GLSL450
-             OpEntryPoint Fragment %main \"main\" %out
-             OpExecutionMode %main OriginUpperLeft
-             OpDecorate %out Location 0
-             OpDecorate %inputs InputAttachmentIndex 0
+        let words = test_spirv::input_attachment_fragment(
+            "OpDecorate %inputs InputAttachmentIndex 0
              OpDecorate %inputs DescriptorSet 0
-             OpDecorate %inputs Binding 0
-             %void = OpTypeVoid
-             %fn = OpTypeFunction %void
-             %float = OpTypeFloat 32
-             %uint = OpTypeInt 32 0
-             %int = OpTypeInt 32 1
-             %v4 = OpTypeVector %float 4
-             %v2i = OpTypeVector %int 2
-             %zero = OpConstant %int 0
-             %two = OpConstant %uint 2
-             %origin = OpConstantComposite %v2i %zero %zero
-             %fimage = OpTypeImage %float SubpassData 0 0 0 2 Unknown
+             OpDecorate %inputs Binding 0",
+            "%two = OpConstant %uint 2
              %array = OpTypeArray %fimage %two
              %pa = OpTypePointer UniformConstant %array
-             %pf = OpTypePointer UniformConstant %fimage
-             %inputs = OpVariable %pa UniformConstant
-             %pout = OpTypePointer Output %v4
-             %out = OpVariable %pout Output
-             %main = OpFunction %void None %fn
-             %entry = OpLabel
-             %p = OpAccessChain %pf %inputs %zero
+             %inputs = OpVariable %pa UniformConstant",
+            "%p = OpAccessChain %pf %inputs %zero
              %d = OpLoad %fimage %p
              %dr = OpImageRead %v4 %d %origin
-             OpStore %out %dr
-             OpReturn
-             OpFunctionEnd";
-        let words = test_spirv::assemble(text);
+             OpStore %out %dr",
+        );
         assert!(reverse_input_depth(&words, &[1]).is_err());
         assert_eq!(reverse_input_depth(&words, &[]), Ok(None));
     }

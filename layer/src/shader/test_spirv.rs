@@ -95,39 +95,52 @@ pub fn refused_fragment() -> Vec<u32> {
     words
 }
 
-/// A deferred lighting shader as glslang writes it: `subpassLoad` of a float input attachment
-/// at input attachment index 0 (depth, in the tests' render passes) into the color output.
-pub fn depth_input_fragment() -> Vec<u32> {
-    assemble(
+/// A fragment shader reading input attachments, in SPIR-V assembly as glslang writes
+/// `subpassLoad`: the shared preamble (a `vec4` output `%out`, the types `%float`, `%uint`,
+/// `%int`, `%v4`, `%v2i`, the texel `%origin`, the float subpass image `%fimage` and its pointer
+/// `%pf`), then `decorations`, `declarations` and `body` as the entry point's only block.
+pub fn input_attachment_fragment(decorations: &str, declarations: &str, body: &str) -> Vec<u32> {
+    assemble(&format!(
         "OpCapability Shader
         OpCapability InputAttachment
         OpMemoryModel Logical GLSL450
         OpEntryPoint Fragment %main \"main\" %out
         OpExecutionMode %main OriginUpperLeft
         OpDecorate %out Location 0
-        OpDecorate %depth InputAttachmentIndex 0
-        OpDecorate %depth DescriptorSet 0
-        OpDecorate %depth Binding 0
+        {decorations}
         %void = OpTypeVoid
         %fn = OpTypeFunction %void
         %float = OpTypeFloat 32
+        %uint = OpTypeInt 32 0
         %int = OpTypeInt 32 1
         %v4 = OpTypeVector %float 4
         %v2i = OpTypeVector %int 2
         %zero = OpConstant %int 0
         %origin = OpConstantComposite %v2i %zero %zero
-        %image = OpTypeImage %float SubpassData 0 0 0 2 Unknown
-        %pimage = OpTypePointer UniformConstant %image
-        %depth = OpVariable %pimage UniformConstant
+        %fimage = OpTypeImage %float SubpassData 0 0 0 2 Unknown
+        %pf = OpTypePointer UniformConstant %fimage
+        {declarations}
         %pout = OpTypePointer Output %v4
         %out = OpVariable %pout Output
         %main = OpFunction %void None %fn
         %entry = OpLabel
-        %d = OpLoad %image %depth
-        %r = OpImageRead %v4 %d %origin
-        OpStore %out %r
+        {body}
         OpReturn
-        OpFunctionEnd",
+        OpFunctionEnd"
+    ))
+}
+
+/// A deferred lighting shader: `subpassLoad` of a float input attachment at input attachment
+/// index 0 (depth, in the tests' render passes) into the color output.
+pub fn depth_input_fragment() -> Vec<u32> {
+    input_attachment_fragment(
+        "OpDecorate %depth InputAttachmentIndex 0
+        OpDecorate %depth DescriptorSet 0
+        OpDecorate %depth Binding 0",
+        "%depth = OpVariable %pf UniformConstant",
+        "%d = OpLoad %fimage %depth
+        %r = OpImageRead %v4 %d %origin
+        OpStore %out %r",
     )
 }
 
