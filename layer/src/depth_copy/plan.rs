@@ -219,12 +219,13 @@ impl Specialization {
 /// destination's units. `specialization` is not in the header: it picks the pipeline.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShaderHeader {
-    /// Texel pairs to convert.
-    pub pairs: u32,
-    /// Word of the first source texel, counted from the first word past the header.
-    pub in_base: u32,
-    /// Word of the first destination texel (`in_base`: in place).
-    pub out_base: u32,
+    /// Blocks of [`TEXELS_PER_BLOCK`] texels to convert.
+    pub blocks: u32,
+    /// Quad (16 bytes) of the first source texel, counted from the first quad past the
+    /// header.
+    pub in_quad: u32,
+    /// Quad of the first destination texel (`in_quad`: in place).
+    pub out_quad: u32,
     /// Bits complemented (the exact flip of UNORM values), 0 for the affine map.
     pub mask: u32,
     pub c0: f32,
@@ -240,8 +241,12 @@ pub struct ShaderHeader {
 /// Bytes before the first texel in the scratch buffer.
 pub const HEADER_BYTES: u64 = 32;
 
-/// Texel pairs one invocation of the shader converts (`PAIRS_PER_INVOCATION`).
-const PAIRS_PER_INVOCATION: u32 = 4;
+/// Texels one invocation of the shader converts: whole quads of words in and out (one of
+/// UNORM16, two of the other kinds). A CPU device (lavapipe) reads and writes storage buffers
+/// one invocation at a time and pays per access, not per byte, so a quad per access is what
+/// makes the conversion cheap there (session 25: the dispatch took 40% of the time words
+/// a texel took, pairs did before).
+pub const TEXELS_PER_BLOCK: u64 = 8;
 
 impl ShaderHeader {
     /// The header converting the texels of `layout` from `kinds.source` to
@@ -266,9 +271,9 @@ impl ShaderHeader {
             _ => 0,
         };
         ShaderHeader {
-            pairs: layout.pairs,
-            in_base: layout.in_base,
-            out_base: layout.out_base,
+            blocks: layout.blocks,
+            in_quad: layout.in_quad,
+            out_quad: layout.out_quad,
             mask,
             c0: c0 as f32,
             c1: (map.scale * unit_out) as f32,
@@ -286,9 +291,9 @@ impl ShaderHeader {
     pub fn to_bytes(self) -> [u8; HEADER_BYTES as usize] {
         let mut bytes = [0u8; HEADER_BYTES as usize];
         let words = [
-            self.pairs,
-            self.in_base,
-            self.out_base,
+            self.blocks,
+            self.in_quad,
+            self.out_quad,
             self.mask,
             self.c0.to_bits(),
             self.c1.to_bits(),
@@ -322,42 +327,42 @@ impl ShaderHeader {
         }
     }
 
-    /// What the shader does to the words past the header, on the host: every pair of source
-    /// texels converted into the destination's words.
+    /// What the shader does to the words past the header, on the host: every block of source
+    /// texels converted into the destination's words (texel i of a UNORM16 block in the low
+    /// half of its word i / 2 where i is even, the high half where odd; one word a texel of
+    /// the other kinds).
     pub fn convert_words(self, words: &mut [u32]) {
         let kinds = self.specialization.kinds;
-        for p in 0..self.pairs as usize {
-            let (a, b) = match kinds.source {
-                TexelKind::Unorm16 => {
-                    let w = words[self.in_base as usize + p];
-                    if self.specialization.complement {
-                        words[self.out_base as usize + p] = w ^ self.mask;
-                        continue;
-                    }
-                    (w & 0xFFFF, w >> 16)
-                }
-                _ => (
-                    words[self.in_base as usize + 2 * p],
-                    words[self.in_base as usize + 2 * p + 1],
-                ),
+        let block = TEXELS_PER_BLOCK as usize;
+        let (source, destination) = (self.in_quad as usize * 4, self.out_quad as usize * 4);
+        for texel in 0..self.blocks as usize * block {
+            let x = match kinds.source {
+                TexelKind::Unorm16 => (words[source + texel / 2] >> (16 * (texel % 2))) & 0xFFFF,
+                _ => words[source + texel],
             };
-            let (a, b) = (self.convert_texel(a), self.convert_texel(b));
+            let y = self.convert_texel(x);
             match kinds.destination {
-                TexelKind::Unorm16 => words[self.out_base as usize + p] = a | (b << 16),
-                _ => {
-                    words[self.out_base as usize + 2 * p] = a;
-                    words[self.out_base as usize + 2 * p + 1] = b;
+                TexelKind::Unorm16 => {
+                    let word = &mut words[destination + texel / 2];
+                    let shift = 16 * (texel % 2);
+                    // A complement keeps no bit apart: both halves complemented as a word.
+                    *word = (*word & !(0xFFFF << shift)) | ((y & 0xFFFF) << shift);
                 }
+                _ => words[destination + texel] = y,
             }
         }
     }
 }
 
-/// The workgroups of a dispatch over `pairs` texel pairs (64 invocations per group, each
-/// converting [`PAIRS_PER_INVOCATION`]; a second dimension past the 65535 groups every device
-/// allows in x).
-pub fn workgroups(pairs: u32) -> (u32, u32) {
-    let groups = pairs.div_ceil(PAIRS_PER_INVOCATION * 64).max(1);
+/// Blocks one invocation converts in turn (`BLOCKS_PER_INVOCATION`): fewer workgroups, and
+/// the header read once for all of them.
+const BLOCKS_PER_INVOCATION: u32 = 4;
+
+/// The workgroups of a dispatch over `blocks` blocks of texels (64 invocations per group,
+/// each converting [`BLOCKS_PER_INVOCATION`]; a second dimension past the 65535 groups every
+/// device allows in x).
+pub fn workgroups(blocks: u32) -> (u32, u32) {
+    let groups = blocks.div_ceil(BLOCKS_PER_INVOCATION * 64).max(1);
     let x = groups.min(65535);
     (x, groups.div_ceil(x))
 }
@@ -392,11 +397,12 @@ pub struct ScratchLayout {
     pub regions: Vec<ScratchRegion>,
     /// Bytes the scratch buffer needs, header included.
     pub size: u64,
-    /// Texel pairs to convert (from the first region to the end).
-    pub pairs: u32,
-    /// Words, past the header, of the first source and the first destination texel.
-    pub in_base: u32,
-    pub out_base: u32,
+    /// Blocks of [`TEXELS_PER_BLOCK`] texels to convert (from the first region to the end).
+    pub blocks: u32,
+    /// Quads (16 bytes), past the header, of the first source and the first destination
+    /// texel.
+    pub in_quad: u32,
+    pub out_quad: u32,
 }
 
 /// Texels of a region (rows of `width` texels, images of `height` rows).
@@ -405,10 +411,11 @@ fn texels(extent: vk::Extent3D, layers: u32) -> u64 {
 }
 
 /// Lays regions of `extents` (extent, layers) out one after another past the header, each on
-/// an even texel (so that a UNORM16 region starts on 4 bytes and the shader's pairs never
-/// straddle two regions): the source texels, then, where the destination's kind differs, the
-/// destination texels at the same texel positions. `None` when the texels would not fit the
-/// shader's 32-bit word indices.
+/// a whole block of texels (so that every region starts on a quad and the shader's blocks
+/// never straddle two regions; the texels past a region's end to its block's end are
+/// converted and never copied): the source texels, then, where the destination's kind
+/// differs, the destination texels at the same texel positions. `None` when the texels would
+/// not fit the shader's 32-bit word indices.
 pub fn scratch_layout(
     extents: impl IntoIterator<Item = (vk::Extent3D, u32)>,
     kinds: TexelKinds,
@@ -419,7 +426,7 @@ pub fn scratch_layout(
         starts.push(slot);
         slot = slot
             .checked_add(texels(extent, layers))?
-            .checked_next_multiple_of(2)?;
+            .checked_next_multiple_of(TEXELS_PER_BLOCK)?;
     }
     let input_bytes = slot.checked_mul(kinds.source.bytes())?;
     let in_place = kinds.source == kinds.destination;
@@ -441,9 +448,9 @@ pub fn scratch_layout(
     Some(ScratchLayout {
         regions,
         size,
-        pairs: u32::try_from(slot / 2).ok()?,
-        in_base: 0,
-        out_base: ((output_start - HEADER_BYTES) / 4) as u32,
+        blocks: u32::try_from(slot / TEXELS_PER_BLOCK).ok()?,
+        in_quad: 0,
+        out_quad: ((output_start - HEADER_BYTES) / 16) as u32,
     })
 }
 
@@ -940,9 +947,9 @@ mod tests {
         assert!(map.is_flip());
         let d16 = same(TexelKind::Unorm16, map);
         assert!(d16.specialization.complement);
-        let mut words = [0x1234_0001];
+        let mut words = [0x1234_0001, 0, 0, 0];
         d16.convert_words(&mut words);
-        assert_eq!(words, [0xEDCB_FFFE]);
+        assert_eq!(words[0], 0xEDCB_FFFE);
         let d24 = same(TexelKind::Unorm24, map);
         // The top byte (undefined in X8_D24, not depth) is kept.
         assert_eq!(d24.convert_texel(0xAB00_0001), 0xABFF_FFFE);
@@ -1006,7 +1013,7 @@ mod tests {
             assert!((got - exact).abs() <= 1.0, "{u}: {got} vs {exact}");
         }
         let header = same(TexelKind::Unorm16, into);
-        let mut words = [(40_000 << 16) | 7];
+        let mut words = [(40_000 << 16) | 7, 0, 0, 0];
         header.convert_words(&mut words);
         let exact = |u: f64| into.apply(u / 65535.0) * 65535.0;
         assert!((f64::from(words[0] >> 16) - exact(40_000.0)).abs() <= 0.5);
@@ -1088,31 +1095,27 @@ mod tests {
         }
     }
 
-    /// Pairs of UNORM16 share a word: one invocation writes it whole, from two float32
-    /// source words, and the other way round.
+    /// Pairs of UNORM16 share a word: one invocation writes a block's words whole, from
+    /// two quads of float32 source words, and the other way round.
     #[test]
     fn unorm16_pairs_are_packed_into_and_unpacked_from_one_word() {
         use TexelKind::{Float32, Unorm16};
         let layout = scratch_layout([(extent(3, 1), 1)], kinds(Float32, Unorm16)).unwrap();
-        // Three texels take two pairs: four float32 words in, two words out after them.
-        assert_eq!((layout.pairs, layout.in_base, layout.out_base), (2, 0, 4));
+        // Three texels take one block: eight float32 words (two quads) in, four words (one
+        // quad) out after them.
+        assert_eq!((layout.blocks, layout.in_quad, layout.out_quad), (1, 0, 2));
         let header = ShaderHeader::new(kinds(Float32, Unorm16), DepthMap::IDENTITY, &layout);
-        let mut words = [
-            0.0f32.to_bits(),
-            1.0f32.to_bits(),
-            0.5f32.to_bits(),
-            0.0f32.to_bits(),
-            0,
-            0,
-        ];
+        let mut words = [0u32; 12];
+        words[..3].copy_from_slice(&[0.0f32.to_bits(), 1.0f32.to_bits(), 0.5f32.to_bits()]);
         header.convert_words(&mut words);
-        assert_eq!(&words[4..], [0xFFFF_0000, 0x0000_8000]);
+        assert_eq!(&words[8..10], [0xFFFF_0000, 0x0000_8000]);
         let layout = scratch_layout([(extent(3, 1), 1)], kinds(Unorm16, Float32)).unwrap();
-        assert_eq!((layout.pairs, layout.in_base, layout.out_base), (2, 0, 2));
+        assert_eq!((layout.blocks, layout.in_quad, layout.out_quad), (1, 0, 1));
         let header = ShaderHeader::new(kinds(Unorm16, Float32), DepthMap::IDENTITY, &layout);
-        let mut words = [0xFFFF_0000, 0x0000_8000, 0, 0, 0, 0];
+        let mut words = [0u32; 12];
+        words[..2].copy_from_slice(&[0xFFFF_0000, 0x0000_8000]);
         header.convert_words(&mut words);
-        let floats: Vec<f32> = words[2..].iter().map(|&w| f32::from_bits(w)).collect();
+        let floats: Vec<f32> = words[4..].iter().map(|&w| f32::from_bits(w)).collect();
         assert_eq!(floats[..3], [0.0, 1.0, 32768.0 / 65535.0]);
     }
 
@@ -1172,9 +1175,9 @@ mod tests {
     #[test]
     fn headers_are_laid_out_as_the_shader_reads_them() {
         let header = ShaderHeader {
-            pairs: 7,
-            in_base: 3,
-            out_base: 9,
+            blocks: 7,
+            in_quad: 3,
+            out_quad: 9,
             mask: 0,
             c0: 1.0,
             c1: -1.0,
@@ -1198,20 +1201,20 @@ mod tests {
     #[test]
     fn wide_dispatches_use_a_second_dimension() {
         assert_eq!(workgroups(1), (1, 1));
-        let per_group = PAIRS_PER_INVOCATION * 64;
+        let per_group = BLOCKS_PER_INVOCATION * 64;
         assert_eq!(workgroups(per_group * 65535), (65535, 1));
         let (x, y) = workgroups(u32::MAX);
         assert!(u64::from(x) * u64::from(y) * u64::from(per_group) >= u64::from(u32::MAX));
     }
 
     #[test]
-    fn scratch_regions_start_on_even_texels_past_the_header() {
+    fn scratch_regions_start_on_whole_blocks_past_the_header() {
         let layout = scratch_layout(
             [(extent(3, 1), 1), (extent(2, 2), 1)],
             TexelKinds::same(TexelKind::Unorm16),
         )
         .unwrap();
-        // In place: 3 texels (a pair and a half), then 4 from texel 4.
+        // In place: 3 texels (part of a block), then 4 from texel 8.
         assert_eq!(
             layout.regions,
             [
@@ -1220,12 +1223,12 @@ mod tests {
                     output: 32
                 },
                 ScratchRegion {
-                    input: 40,
-                    output: 40
+                    input: 48,
+                    output: 48
                 }
             ]
         );
-        assert_eq!((layout.size, layout.pairs), (48, 4));
+        assert_eq!((layout.size, layout.blocks), (64, 2));
         // From float32 to UNORM16: the output after the input, at the same texels.
         let layout = scratch_layout(
             [(extent(3, 1), 1), (extent(2, 2), 1)],
@@ -1237,15 +1240,15 @@ mod tests {
             [
                 ScratchRegion {
                     input: 32,
-                    output: 64
+                    output: 96
                 },
                 ScratchRegion {
-                    input: 48,
-                    output: 72
+                    input: 64,
+                    output: 112
                 }
             ]
         );
-        assert_eq!((layout.size, layout.pairs, layout.out_base), (80, 4, 8));
+        assert_eq!((layout.size, layout.blocks, layout.out_quad), (128, 2, 4));
     }
 
     fn layers(aspect: vk::ImageAspectFlags, count: u32) -> vk::ImageSubresourceLayers {
@@ -1337,7 +1340,7 @@ mod tests {
             extent: slab,
         };
         let plan = plan_image_copy(&[three_to_two], kinds).unwrap();
-        assert_eq!(plan.layout.pairs, 4 * 2 * 3 / 2);
+        assert_eq!(plan.layout.blocks, 4 * 2 * 3 / 8);
         let (from, to) = (plan.from_source[0], plan.to_destination[0]);
         assert_eq!(
             (from.image_extent, from.image_subresource.layer_count),
@@ -1354,7 +1357,7 @@ mod tests {
             ..three_to_two
         };
         let plan = plan_image_copy(&[two_to_three], kinds).unwrap();
-        assert_eq!(plan.layout.pairs, 4 * 2 * 3 / 2);
+        assert_eq!(plan.layout.blocks, 4 * 2 * 3 / 8);
         let (from, to) = (plan.from_source[0], plan.to_destination[0]);
         assert_eq!(from.image_extent.depth, 1);
         assert_eq!(
@@ -1367,7 +1370,7 @@ mod tests {
             ..three_to_two
         };
         let plan = plan_image_copy(&[three_to_three], kinds).unwrap();
-        assert_eq!(plan.layout.pairs, 4 * 2 * 3 / 2);
+        assert_eq!(plan.layout.blocks, 4 * 2 * 3 / 8);
         assert_eq!(plan.to_destination[0].image_extent, slab);
     }
 
@@ -1394,7 +1397,7 @@ mod tests {
                 (1, vk::ImageAspectFlags::STENCIL)
             ]
         );
-        assert_eq!(plan.layout.pairs, 16);
+        assert_eq!(plan.layout.blocks, 4 * 4 * 2 / 8);
         let (from, to) = (plan.from_source[0], plan.to_destination[0]);
         assert_eq!(
             from.image_subresource.aspect_mask,
@@ -1468,7 +1471,7 @@ mod tests {
         assert_eq!(plan.blits[0].src_offsets[0].x, 6);
         assert_eq!(plan.blits[0].src_offsets[1].x, 0);
         assert_eq!(plan.blits[0].dst_offsets[1].x, 12);
-        assert_eq!(plan.layout.pairs, 6 * 6);
+        assert_eq!(plan.layout.blocks, 6 * 6 * 2 / 8);
         let empty = vk::ImageBlit {
             src_offsets: [offset(3, 3, 0), offset(3, 9, 1)],
             ..region

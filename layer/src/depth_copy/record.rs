@@ -214,7 +214,7 @@ pub unsafe fn record(
             vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
         )],
     );
-    let (x, y) = workgroups(conversion.header.pairs);
+    let (x, y) = workgroups(conversion.header.blocks);
     // SAFETY: revz's pipeline and its set; the application's compute state is bound again
     // below.
     unsafe {

@@ -732,14 +732,17 @@ fn paired_rounds(
         .collect()
 }
 
-/// The median over rounds of what a read twin refresh adds to the frame (`refresh_wall_ns`
-/// against no layer's) in units of a native copy of the same megapixel (no layer's copy frame
-/// less its refresh frame, which is the clear alone): `None` without data.
+/// The median over rounds of what a read twin refresh adds to the frame (`key`, a refresh
+/// frame's wall time, against no layer's) in units of a native copy of the same bytes: `copies`
+/// times no layer's copy of one single-sample megapixel (its copy frame less its refresh frame,
+/// which is the clear alone). `None` without data.
 fn refresh_in_native_copies(
     samples: &[Sample],
     job: &str,
     variant: &str,
     rounds: usize,
+    key: &str,
+    copies: f64,
 ) -> Option<f64> {
     let with = per_round(samples, job, variant, rounds);
     let without = per_round(samples, job, Variant::NoLayer.name(), rounds);
@@ -748,8 +751,8 @@ fn refresh_in_native_copies(
         .zip(&without)
         .filter_map(|(w, n)| {
             let figure = |sample: &Option<&Value>, key: &str| sample.as_ref()?.get(key)?.as_f64();
-            let added = figure(w, "refresh_wall_ns")? - figure(n, "refresh_wall_ns")?;
-            let copy = figure(n, "copy_wall_ns")? - figure(n, "refresh_wall_ns")?;
+            let added = figure(w, key)? - figure(n, key)?;
+            let copy = copies * (figure(n, "copy_wall_ns")? - figure(n, "refresh_wall_ns")?);
             (copy > 0.0).then(|| added / copy)
         })
         .collect();
@@ -908,7 +911,12 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 // frame, and that in units of a native copy of the same bytes (no layer's copy
                 // frame less its frame without the copy, in the same round).
                 "depth_refresh_extra_ms_per_megapixel": paired(samples, &copy, v, rounds, "refresh_wall_ns", |a, b| (a - b) / 1e6 / megapixels),
-                "depth_refresh_in_native_copies": refresh_in_native_copies(samples, &copy, v, rounds),
+                "depth_refresh_in_native_copies": refresh_in_native_copies(samples, &copy, v, rounds, "refresh_wall_ns", 1.0),
+                // The same of a 4-sample image (a multisampled twin, refreshed per sample by a
+                // compute pass): per megapixel of pixels, and in native copies of its bytes
+                // (four single-sample megapixels).
+                "depth_refresh_msaa_extra_ms_per_megapixel": paired(samples, &copy, v, rounds, "refresh_msaa_wall_ns", |a, b| (a - b) / 1e6 / megapixels),
+                "depth_refresh_msaa_in_native_copies": refresh_in_native_copies(samples, &copy, v, rounds, "refresh_msaa_wall_ns", f64::from(child::DEPTH_COPY_MSAA_SAMPLES)),
                 "bytes_per_pipeline": paired(samples, &pipe, v, rounds, "heap_per_pipeline", diff),
                 "bytes_per_command_buffer": paired(samples, &big, v, rounds, "heap_per_command_buffer", diff),
                 "heap_growth_per_frame": paired(samples, &big, v, rounds, "heap_growth_per_frame", diff),

@@ -186,6 +186,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
          ns / push (a new camera each) | ns / draw | \
          ns / bind | driver calls / frame (largest storm) | depth copy wall ratio (1 MP, D32) | depth copy extra ms / MP | \
          depth copy wall ratio (1 MP, D24S8) | read twin refresh extra ms / MP | refresh in native copies | \
+         4-sample refresh extra ms / MP | 4-sample refresh in native copies | \
          bytes / pipeline | \
          bytes / command buffer | heap growth / frame | mars-patch wrong | sloped-plane wrong | \
          min separation at 1e4 n |\n",
@@ -207,7 +208,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             ));
         }
         line.push_str(&format!(
-            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             fmt_spread(row, "frame_cpu_ratio_projection_per_draw", 3),
             fmt_spread(row, "frame_cpu_ratio_with_report", 3),
             fmt(&row["frame_wall_ratio"], 3),
@@ -224,6 +225,8 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             fmt_spread(row, "depth_copy_d24s8_wall_ratio", 3),
             fmt(&row["depth_refresh_extra_ms_per_megapixel"], 2),
             fmt(&row["depth_refresh_in_native_copies"], 2),
+            fmt(&row["depth_refresh_msaa_extra_ms_per_megapixel"], 2),
+            fmt(&row["depth_refresh_msaa_in_native_copies"], 2),
             fmt(&row["bytes_per_pipeline"], 0),
             fmt(&row["bytes_per_command_buffer"], 0),
             fmt(&row["heap_growth_per_frame"], 0),

@@ -587,7 +587,14 @@ pub struct DepthCopy {
     /// into `SHADER_READ_ONLY_OPTIMAL`) instead of copied: revz refreshes its read twin
     /// there (issue #39); without revz the frame is the clear alone.
     pub refresh_wall_ns: f64,
+    /// The same refresh of a 4-sample D32 image (a multisampled twin, refreshed per sample by
+    /// a compute pass); `None` where the device has no such image.
+    #[serde(default)]
+    pub refresh_msaa_wall_ns: Option<f64>,
 }
+
+/// Samples per pixel of the multisampled image [`depth_copy`] refreshes.
+pub const DEPTH_COPY_MSAA_SAMPLES: u32 = 4;
 
 /// Side of the depth image [`depth_copy`] reads back (1024 x 1024: one megapixel).
 pub const DEPTH_COPY_SIDE: u32 = 1024;
@@ -595,10 +602,37 @@ pub const DEPTH_COPY_SIDE: u32 = 1024;
 /// A depth readback per frame, of a D32_SFLOAT and of a D24_UNORM_S8_UINT image
 /// ([`depth_copy_of`]).
 pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> {
-    let (wall, cpu) = depth_copy_of(gpu, vk::Format::D32_SFLOAT, false, frames, warmup)?;
-    let (d24s8_wall, d24s8_cpu) =
-        depth_copy_of(gpu, vk::Format::D24_UNORM_S8_UINT, false, frames, warmup)?;
-    let (refresh_wall, _) = depth_copy_of(gpu, vk::Format::D32_SFLOAT, true, frames, warmup)?;
+    let single = vk::SampleCountFlags::TYPE_1;
+    let d32 = vk::Format::D32_SFLOAT;
+    let (wall, cpu) = depth_copy_of(gpu, d32, (false, single), frames, warmup)?;
+    let (d24s8_wall, d24s8_cpu) = depth_copy_of(
+        gpu,
+        vk::Format::D24_UNORM_S8_UINT,
+        (false, single),
+        frames,
+        warmup,
+    )?;
+    let (refresh_wall, _) = depth_copy_of(gpu, d32, (true, single), frames, warmup)?;
+    let msaa = vk::SampleCountFlags::from_raw(DEPTH_COPY_MSAA_SAMPLES);
+    // SAFETY: a live physical device.
+    let msaa_supported = unsafe {
+        gpu.instance().get_physical_device_image_format_properties(
+            gpu.physical_device,
+            d32,
+            vk::ImageType::TYPE_2D,
+            vk::ImageTiling::OPTIMAL,
+            vk::ImageUsageFlags::TRANSFER_DST
+                | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                | vk::ImageUsageFlags::SAMPLED,
+            vk::ImageCreateFlags::empty(),
+        )
+    }
+    .is_ok_and(|properties| properties.sample_counts.contains(msaa));
+    let refresh_msaa_wall = if msaa_supported {
+        Some(depth_copy_of(gpu, d32, (true, msaa), frames, warmup)?.0)
+    } else {
+        None
+    };
     Ok(DepthCopy {
         frames: frames.max(1),
         megapixels: f64::from(DEPTH_COPY_SIDE * DEPTH_COPY_SIDE) / 1e6,
@@ -607,6 +641,7 @@ pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> 
         copy_d24s8_wall_ns: d24s8_wall,
         copy_d24s8_cpu_ns: d24s8_cpu,
         refresh_wall_ns: refresh_wall,
+        refresh_msaa_wall_ns: refresh_msaa_wall,
     })
 }
 
@@ -616,11 +651,13 @@ pub fn depth_copy(gpu: &Gpu, frames: usize, warmup: usize) -> Result<DepthCopy> 
 /// then its depth aspect copied into a host buffer with `vkCmdCopyImageToBuffer`; each frame
 /// submitted and waited for. The medians of the frames' wall and recording CPU times.
 /// `sampled`: the image is SAMPLED too, and the frame ends with a barrier that makes it
-/// readable by fragment shaders instead of the copy (a read twin refresh under revz).
+/// readable by fragment shaders instead of the copy (a read twin refresh under revz); it has
+/// `samples` samples per pixel then (and a view, made before any frame: revz makes what a
+/// multisampled twin's refresh binds at the image's first view).
 fn depth_copy_of(
     gpu: &Gpu,
     format: vk::Format,
-    sampled: bool,
+    (sampled, samples): (bool, vk::SampleCountFlags),
     frames: usize,
     warmup: usize,
 ) -> Result<(f64, f64)> {
@@ -638,7 +675,18 @@ fn depth_copy_of(
     } else {
         usage
     };
-    let image = Attachment::copied(gpu, format, usage, extent)?;
+    let image = if samples == vk::SampleCountFlags::TYPE_1 {
+        Attachment::copied(gpu, format, usage, extent)?
+    } else {
+        Attachment::with_samples(
+            gpu,
+            format,
+            vk::ImageAspectFlags::DEPTH,
+            usage,
+            extent,
+            samples,
+        )?
+    };
     let pixels = (DEPTH_COPY_SIDE * DEPTH_COPY_SIDE) as usize;
     let host = HostBuffer::new(gpu, pixels * 4, vk::BufferUsageFlags::TRANSFER_DST)?;
     let cmd = bench.allocate(1)?[0];
