@@ -942,9 +942,18 @@ pub fn create_pipeline(
         // The executable pipeline: the four libraries linked (no link-time optimization),
         // with the same layout.
         let mut linked = vk::PipelineLibraryCreateInfoKHR::default().libraries(&guard.pipelines);
-        let info = vk::GraphicsPipelineCreateInfo::default()
+        let mut info = vk::GraphicsPipelineCreateInfo::default()
             .layout(target.layout)
             .push_next(&mut linked);
+        if spec.program == Program::DepthInput {
+            // A link whose fragment shader reads input attachments names the render pass and
+            // subpass too (VUID-VkGraphicsPipelineCreateInfo-renderPass-06061), and the
+            // validation layers then ask for the multisample state (06631).
+            info = info
+                .render_pass(target.render_pass)
+                .subpass(spec.subpass)
+                .multisample_state(&multisample);
+        }
         let what = format!("{}: link of its libraries", spec.name);
         let pipeline = create_one(device, &info, &what)?;
         return Ok(BuiltPipeline {

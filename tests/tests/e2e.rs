@@ -1185,7 +1185,11 @@ fn read_color_problems(
 /// `VkRenderPassInputAttachmentAspectCreateInfo`) by the fragment shader of subpass 1, which
 /// shades a band of the image with the depth's view distance; subpass 1 has no depth
 /// attachment (`deferred-depth`), or keeps the same attachment read-only and draws its band
-/// at a fixed depth with GREATER (`deferred-depth-tested`). In every depth format and mode,
+/// at a fixed depth with GREATER (`deferred-depth-tested`); both again with every pipeline
+/// linked from `VK_EXT_graphics_pipeline_library` libraries (`-library`: the fragment shader
+/// library's variants convert the reads, and the links' variants link them; before session 25
+/// the libraries' reads went unconverted, 16,384 pixels of the band wrong in `flip`). In every
+/// depth format and mode,
 /// with zero validation messages (synchronization validation included), the colors are the
 /// native render's: the layer hands the shader standard depth (converting what it reads
 /// where the image is reversed) and reverses the band's fixed depth and compare op with the
@@ -1202,7 +1206,12 @@ fn deferred_depth_reads_standard_depth_through_input_attachments() {
     let harness = Harness::locate();
     let frames = "2";
     let mut problems = Vec::new();
-    for scene in ["deferred-depth", "deferred-depth-tested"] {
+    for scene in [
+        "deferred-depth",
+        "deferred-depth-tested",
+        "deferred-depth-library",
+        "deferred-depth-tested-library",
+    ] {
         let native = |format: &str| {
             let dir = harness.scratch_dir(&format!("{scene}-{format}-native"));
             let mut command = harness.tester(format, &dir);

@@ -2177,7 +2177,9 @@ fn variants_then_app(events: &[Event]) -> (Vec<(Vec<u32>, vk::Pipeline)>, vk::Pi
                 handle: destroyed, ..
             }] => {
                 assert_eq!(handle, destroyed);
-                assert_eq!(infos[0].stages[1].module, *handle, "the variant's fragment stage");
+                // The fragment stage is the last (of a pipeline, or alone in a library).
+                let fragment = infos[0].stages.last().expect("stages").module;
+                assert_eq!(fragment, *handle, "the variant's fragment stage");
                 (code.clone(), handles[0])
             }
             _ => panic!("a module, a variant, the module destroyed: {events:#?}"),
@@ -2240,6 +2242,78 @@ fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
     let (_, handle) = only_app_creation(&fx.events());
     assert_eq!(fx.recorded(handle).input_variant, None);
     fx.finish();
+}
+
+#[test]
+fn a_fragment_shader_library_reading_depth_inputs_gets_an_input_variant_its_links_link() {
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let words = test_spirv::depth_input_fragment();
+    let module = fx.module(&words);
+    let pass = fx.deferred_render_pass();
+    let converted = crate::shader::input_depth::reverse_input_depth(&words, &[0])
+        .unwrap()
+        .unwrap();
+    let mut app = AppPipeline::of_modules(vertex, module);
+    // Subpass 1 reads depth as an input and has no depth attachment.
+    app.subpass = Some((pass, 1));
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+
+    let (_, pre) = fx.create_pipelines(&[libraries.pre_rasterization_info()], None);
+    let (_, pre_handle) = only_app_creation(&fx.events());
+    assert_eq!(pre, [pre_handle]);
+
+    // The fragment shader library: an input variant library with the reads converted.
+    let (result, handles) = fx.create_pipelines(&[libraries.fragment_info()], None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (variants, fragment) = variants_then_app(&fx.events());
+    assert_eq!(handles, [fragment]);
+    let [(code, input_library)] = variants.as_slice() else {
+        panic!("one variant: {variants:?}");
+    };
+    assert_eq!(*code, converted);
+    assert_eq!(fx.recorded(fragment).input_variant, Some(*input_library));
+
+    // Its link, with and without the render pass and subpass (which a link of a fragment
+    // shader reading input attachments must name: VUID-VkGraphicsPipelineCreateInfo-
+    // renderPass-06061): an input variant linking the library's input variant, the rest as
+    // they are, and no reversed variant (no library has one).
+    let linked = [pre_handle, fragment];
+    let links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&linked);
+    let named = vk::GraphicsPipelineCreateInfo {
+        render_pass: pass,
+        subpass: 1,
+        ..link_info(&links)
+    };
+    for link in [named, link_info(&links)] {
+        check_input_link(&fx, &link, &linked, *input_library);
+    }
+    fx.finish();
+}
+
+fn check_input_link(
+    fx: &Fixture,
+    link: &vk::GraphicsPipelineCreateInfo<'_>,
+    linked: &[vk::Pipeline],
+    input_library: vk::Pipeline,
+) {
+    let (pre_handle, fragment) = (linked[0], linked[1]);
+    assert_ne!(fragment, input_library);
+    let (result, handles) = fx.create_pipelines(std::slice::from_ref(link), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (variant_info, variant, app_info, app_link) = variant_link_creation(&fx.events());
+    assert_eq!(handles, [app_link]);
+    assert_eq!(variant_info.libraries, [pre_handle, input_library]);
+    assert_eq!(
+        app_info.libraries, linked,
+        "the application's link is its own"
+    );
+    let recorded = fx.recorded(app_link);
+    assert_eq!(recorded.input_variant, Some(variant));
+    assert_eq!(recorded.reversed_variant, None);
+    assert_eq!(recorded.variant_for(false, false, true), Some(variant));
+    assert_eq!(recorded.variant_for(false, false, false), None);
 }
 
 #[test]

@@ -93,6 +93,10 @@ pub enum SceneId {
     /// `deferred-depth` with the depth also attached read-only in the later subpass, the band
     /// drawn at a fixed depth with LESS_OR_EQUAL.
     DeferredDepthTested,
+    /// `deferred-depth` and `deferred-depth-tested` with every pipeline built from
+    /// `VK_EXT_graphics_pipeline_library` libraries linked together.
+    DeferredDepthLibrary,
+    DeferredDepthTestedLibrary,
     /// The overlap scene into mip level 0 of a depth image of 3 levels, levels 1 and 2 built
     /// from the level below by a fragment shader writing `gl_FragDepth` (each level sampled
     /// after a barrier of that level alone), then a post pass shading bands from levels 1

@@ -116,6 +116,16 @@ pub const CATALOG: &[Entry] = &[
         "deferred-depth-tested",
         deferred_depth_tested,
     ),
+    entry_row(
+        SceneId::DeferredDepthLibrary,
+        "deferred-depth-library",
+        deferred_depth_library,
+    ),
+    entry_row(
+        SceneId::DeferredDepthTestedLibrary,
+        "deferred-depth-tested-library",
+        deferred_depth_tested_library,
+    ),
     entry_row(SceneId::DepthMips, "depth-mips", depth_mips),
     entry_row(SceneId::DepthLayers, "depth-layers", depth_layers),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),

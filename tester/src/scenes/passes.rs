@@ -815,8 +815,8 @@ fn quarter_band(name: &'static str, center: f64) -> Object {
 fn deferred_depth_scene(
     name: &'static str,
     band: Object,
-    depth_test: DepthTest,
-    viewport: Viewport,
+    (depth_test, viewport): (DepthTest, Viewport),
+    libraries: bool,
 ) -> Scene {
     let camera = overlap_camera();
     let mut b = Builder::default();
@@ -828,13 +828,17 @@ fn deferred_depth_scene(
         },
         ..PassSpec::clear(1.0)
     });
-    let flat = b.pipeline(PipelineSpec::standard("flat", pass));
+    let flat = b.pipeline(PipelineSpec {
+        libraries,
+        ..PipelineSpec::standard("flat", pass)
+    });
     let shade = b.pipeline(PipelineSpec {
         subpass: 1,
         program: Program::DepthInput,
         depth_test,
         depth_write: false,
         viewport,
+        libraries,
         ..PipelineSpec::standard("depth input band", pass)
     });
     b.step(Step::BeginPass(pass));
@@ -862,8 +866,24 @@ pub fn deferred_depth() -> Scene {
     deferred_depth_scene(
         "deferred-depth",
         quarter_band("depth input band", 0.75),
-        DepthTest::Off,
-        Viewport::FULL,
+        (DepthTest::Off, Viewport::FULL),
+        false,
+    )
+}
+
+/// `deferred-depth-library` (needs `VK_EXT_graphics_pipeline_library`): [`deferred_depth`]
+/// with every pipeline built from four libraries linked together, as in [`pipeline_library`].
+///
+/// Layer item: a fragment shader library reading depth through an input attachment. The
+/// layer must give that library a variant converting the reads and link it into a variant of
+/// the linked pipeline, bound where the subpass reads reversed depth; a layer that links the
+/// application's library shades the band with reversed values.
+pub fn deferred_depth_library() -> Scene {
+    deferred_depth_scene(
+        "deferred-depth-library",
+        quarter_band("depth input band", 0.75),
+        (DepthTest::Off, Viewport::FULL),
+        true,
     )
 }
 
@@ -885,14 +905,29 @@ pub const DEFERRED_BAND_DEPTH: f64 = 0.999;
 /// at once: the band's fixed depth and its compare op reversed with the attachment (left
 /// standard, the band would shade the background and leave the surfaces).
 pub fn deferred_depth_tested() -> Scene {
+    deferred_depth_tested_built("deferred-depth-tested", false)
+}
+
+/// `deferred-depth-tested-library` (needs `VK_EXT_graphics_pipeline_library`):
+/// [`deferred_depth_tested`] with every pipeline built from libraries linked together: the
+/// band's pipeline links a fragment shader library that reads the depth and tests against it
+/// at once (its reversed variant converts the reads and flips the compare op).
+pub fn deferred_depth_tested_library() -> Scene {
+    deferred_depth_tested_built("deferred-depth-tested-library", true)
+}
+
+fn deferred_depth_tested_built(name: &'static str, libraries: bool) -> Scene {
     deferred_depth_scene(
-        "deferred-depth-tested",
+        name,
         quarter_band("tested depth input band", -0.75),
-        DepthTest::Static(Compare::Greater),
-        Viewport::Static {
-            min_depth: DEFERRED_BAND_DEPTH as f32,
-            max_depth: DEFERRED_BAND_DEPTH as f32,
-        },
+        (
+            DepthTest::Static(Compare::Greater),
+            Viewport::Static {
+                min_depth: DEFERRED_BAND_DEPTH as f32,
+                max_depth: DEFERRED_BAND_DEPTH as f32,
+            },
+        ),
+        libraries,
     )
 }
 

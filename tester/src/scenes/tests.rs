@@ -642,7 +642,13 @@ fn pipeline_library_builds_every_pipeline_from_static_libraries() {
     for other in all() {
         assert_eq!(
             other.plan.needs().graphics_pipeline_library,
-            ["pipeline-library", "frag-depth-library"].contains(&other.name),
+            [
+                "pipeline-library",
+                "frag-depth-library",
+                "deferred-depth-library",
+                "deferred-depth-tested-library"
+            ]
+            .contains(&other.name),
             "{}",
             other.name
         );

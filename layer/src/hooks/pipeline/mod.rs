@@ -130,6 +130,10 @@ struct Plan {
     /// The libraries the create info links, with those that have a reversed variant replaced
     /// by it; `None` when none has one.
     libraries: Option<Vec<vk::Pipeline>>,
+    /// The libraries the create info links, with those that have an input variant (a fragment
+    /// shader library converting the depth it reads through input attachments) replaced by
+    /// it: what its input variant links. `None` when none has one.
+    input_libraries: Option<Vec<vk::Pipeline>>,
     /// How its promoted variants differ from it, where it gets them.
     promotion: Option<Promotion>,
     /// The variants it gets ([`VariantFacts::decide`]; none until it is asked).
@@ -154,6 +158,8 @@ struct Promotion {
     /// ones (`None`: no library has one).
     libraries: Option<Vec<vk::Pipeline>>,
     reversed_libraries: Option<Vec<vk::Pipeline>>,
+    /// The same with their promoted input variants.
+    input_libraries: Option<Vec<vk::Pipeline>>,
 }
 
 /// The subsets whose state includes the render pass or rendering formats.
@@ -304,31 +310,34 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     }
                     inherit_libraries(&mut plan.depth, &linked);
                     let libraries = if facts.renders_depth {
-                        library_variants(&state, info, true, false)
+                        library_variants(&state, info, VariantKind::REVERSED)
                     } else {
                         None
                     };
+                    // A link of a fragment shader library that converts the depth it reads
+                    // through input attachments: its input variant links the library's.
+                    let input_libraries = library_variants(&state, info, VariantKind::INPUTS);
                     facts.library_variants = libraries.is_some();
                     let promotion = promotion_of(&state, info, context.subsets, &linked);
                     facts.promotion = promotion.is_some();
                     plan.depth.promotable |= facts.promotion;
                     // Depth read through input attachments: converted in the fragment stage
-                    // (not followed into pipeline libraries, logged).
+                    // (of the pipeline, or of the fragment shader library it is; a link
+                    // links that library's variants).
                     let inputs = context
                         .subsets
                         .contains(Subsets::FRAGMENT_SHADER)
                         .then(|| depth_input_stage(&state, info))
                         .flatten();
                     let inputs = match inputs {
-                        Some(_) if is_library(info) || !linked.is_empty() => {
-                            static LIBRARY: crate::logging::LogOnce =
-                                crate::logging::LogOnce::new();
-                            LIBRARY.log(|| {
+                        Some(_) if !linked.is_empty() => {
+                            static LINKED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                            LINKED.log(|| {
                                 log::warn!(
-                                    "a pipeline library reads depth through input \
-                                     attachments: revz does not convert those reads in \
-                                     libraries, so they read reversed depth where the \
-                                     attachment is reversed"
+                                    "a pipeline that links libraries defines a fragment stage \
+                                     reading depth through input attachments: revz does not \
+                                     convert those reads there, so they read reversed depth \
+                                     where the attachment is reversed"
                                 )
                             });
                             None
@@ -336,7 +345,14 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         Some(stage) => stage.convert(&stage.code).map(|code| (stage, code)),
                         None => None,
                     };
-                    facts.converts_inputs = inputs.is_some();
+                    facts.converts_inputs = inputs.is_some() || input_libraries.is_some();
+                    if inputs.is_none() {
+                        // Reads converted in a linked library only: the link's reversed
+                        // variant is the one linking the libraries' reversed variants (which
+                        // convert them where their subpass has a depth attachment), none of
+                        // its own for them.
+                        facts.depth_attachment = false;
+                    }
                     let variants = facts.decide();
                     let holds_bias = BiasVariantFacts {
                         compare_op_variant: variants.compare_op,
@@ -369,6 +385,9 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     }
                     if variants.linked_variants {
                         plan.libraries = libraries;
+                    }
+                    if variants.converted_inputs {
+                        plan.input_libraries = input_libraries;
                     }
                     if variants.promoted {
                         plan.promotion = promotion;

@@ -293,8 +293,9 @@ pub(super) fn promotion_of(
         } => Some(Promotion {
             render_pass: twin.filter(|_| with_twin),
             rendering,
-            libraries: library_variants(state, info, false, true),
-            reversed_libraries: library_variants(state, info, true, true),
+            libraries: library_variants(state, info, VariantKind::PROMOTED),
+            reversed_libraries: library_variants(state, info, VariantKind::PROMOTED_REVERSED),
+            input_libraries: library_variants(state, info, VariantKind::PROMOTED_INPUTS),
         }),
     }
 }
@@ -331,6 +332,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         vertex: None,
         rewritten_stage: None,
         libraries: None,
+        input_libraries: None,
         promotion: None,
         variants: Variants::default(),
         variant_bias: false,
@@ -420,6 +422,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         vertex: None,
         rewritten_stage: None,
         libraries: None,
+        input_libraries: None,
         promotion: None,
         variants: Variants::default(),
         variant_bias: false,

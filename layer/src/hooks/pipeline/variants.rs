@@ -6,14 +6,13 @@
 
 use super::*;
 
-/// The libraries a create info links, with each that has a variant for draws into `reversed`
-/// and `promoted` attachments replaced by it: that variant of a link links the libraries'
-/// variants. `None` when none has one.
+/// The libraries a create info links, with each that has a variant of `kind` replaced by it
+/// (for draws into reversed or promoted attachments, or beside reversed input attachments):
+/// that variant of a link links the libraries' variants. `None` when none has one.
 pub(super) fn library_variants(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
-    reversed: bool,
-    promoted: bool,
+    kind: VariantKind,
 ) -> Option<Vec<vk::Pipeline>> {
     // SAFETY: a valid pNext chain (the application's contract).
     let links = unsafe { chain::find::<vk::PipelineLibraryCreateInfoKHR<'_>>(info.p_next) }?;
@@ -24,7 +23,7 @@ pub(super) fn library_variants(
         .map(|library| {
             let depth = state.objects.pipelines.get(library);
             depth
-                .and_then(|depth| depth.variant_for(reversed, promoted, false))
+                .and_then(|depth| depth.variant_for(kind.reversed, kind.promoted, kind.inputs))
                 .unwrap_or(*library)
         })
         .collect();
@@ -115,9 +114,14 @@ pub(super) fn create_variant(
     if flags2.is_err() {
         return failed(&"an unknown structure precedes its flags2");
     }
+    // An input variant links the libraries' input variants (the reversed variants convert
+    // input reads too).
+    let inputs_only = kind.inputs && !kind.reversed;
     let libraries = match (promotion, kind.reversed) {
+        (Some(promotion), _) if inputs_only => &promotion.input_libraries,
         (Some(promotion), false) => &promotion.libraries,
         (Some(promotion), true) => &promotion.reversed_libraries,
+        (None, _) if inputs_only => &plan.input_libraries,
         (None, _) => &plan.libraries,
     };
     if let Some(libraries) = libraries {
