@@ -1188,8 +1188,11 @@ fn read_color_problems(
 /// at a fixed depth with GREATER (`deferred-depth-tested`); both again with every pipeline
 /// linked from `VK_EXT_graphics_pipeline_library` libraries (`-library`: the fragment shader
 /// library's variants convert the reads, and the links' variants link them; before session 25
-/// the libraries' reads went unconverted, 16,384 pixels of the band wrong in `flip`). In every
-/// depth format and mode,
+/// the libraries' reads went unconverted, 16,384 pixels of the band wrong in `flip`); and with
+/// subpass 0 drawn from two secondaries, one without its framebuffer
+/// (`deferred-depth-secondaries`: in `infinite` it learns from the render pass that the image
+/// stores complementary depth; before session 25 it assumed `n / w`, 1,032 pixels wrong). In
+/// every depth format and mode,
 /// with zero validation messages (synchronization validation included), the colors are the
 /// native render's: the layer hands the shader standard depth (converting what it reads
 /// where the image is reversed) and reverses the band's fixed depth and compare op with the
@@ -1211,6 +1214,7 @@ fn deferred_depth_reads_standard_depth_through_input_attachments() {
         "deferred-depth-tested",
         "deferred-depth-library",
         "deferred-depth-tested-library",
+        "deferred-depth-secondaries",
     ] {
         let native = |format: &str| {
             let dir = harness.scratch_dir(&format!("{scene}-{format}-native"));

@@ -337,6 +337,12 @@ impl CommandState {
         }
     }
 
+    /// Infinite mode: whether the current depth image stores complementary depth
+    /// ([`Self::set_complementary_target`]).
+    pub fn complementary_target(&self) -> bool {
+        self.complementary_target
+    }
+
     /// Infinite mode: whether the current depth image stores complementary depth (render pass
     /// begin, next subpass, rendering begin, a secondary continuing a pass).
     pub fn set_complementary_target(&mut self, complementary: bool) {

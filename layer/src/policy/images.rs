@@ -324,6 +324,21 @@ impl DevicePolicy {
             && usage.contains(vk::ImageUsageFlags::INPUT_ATTACHMENT)
     }
 
+    /// Infinite mode: whether a secondary command buffer continuing a subpass without naming
+    /// its framebuffer draws into complementary depth, where all revz knows of the image is
+    /// whether its render pass reads that subpass's depth attachment through an input
+    /// attachment (`depth_read_as_input`, in any subpass). Where it does, the image has
+    /// `INPUT_ATTACHMENT` usage (the spec requires it of an input attachment's image), so
+    /// it stores complementary depth wherever such images do; where it does not, the image may
+    /// still have that usage (read as an input in another pass): `None`, unknown (the
+    /// secondary then assumes `n / w`, logged by the caller).
+    pub fn secondary_stores_complementary(&self, depth_read_as_input: bool) -> Option<bool> {
+        if !self.stores_complementary(vk::ImageUsageFlags::INPUT_ATTACHMENT) {
+            return Some(false);
+        }
+        depth_read_as_input.then_some(true)
+    }
+
     /// Whether shaders can read an image of this usage and remain correct once it is reversed:
     /// sampled through a twin ([`Self::reads_through_twin`]), read as an input attachment
     /// converted in the shader ([`Self::converts_input_reads`]), and never as a storage image.
@@ -810,6 +825,19 @@ mod tests {
         assert!(infinite.stores_complementary(input));
         assert!(!infinite.stores_complementary(ATTACHMENT | vk::ImageUsageFlags::SAMPLED));
         assert!(!policy(Mode::Complementary, Observable::Copies).stores_complementary(input));
+        // A secondary without its framebuffer: complementary where its pass reads the depth
+        // attachment as an input (its image has the usage), unknown elsewhere, and never
+        // outside infinite mode.
+        assert_eq!(infinite.secondary_stores_complementary(true), Some(true));
+        assert_eq!(infinite.secondary_stores_complementary(false), None);
+        for other in [
+            policy(Mode::Complementary, Observable::Copies),
+            policy(Mode::Infinite, Observable::None),
+            policy(Mode::Infinite, Observable::All),
+        ] {
+            assert_eq!(other.secondary_stores_complementary(true), Some(false));
+            assert_eq!(other.secondary_stores_complementary(false), Some(false));
+        }
         // `none` keeps them native, `all` reverses them raw.
         assert!(!policy(Mode::Flip, Observable::None).converts_input_reads());
         assert!(!policy(Mode::Flip, Observable::All).converts_input_reads());

@@ -97,6 +97,9 @@ pub enum SceneId {
     /// `VK_EXT_graphics_pipeline_library` libraries linked together.
     DeferredDepthLibrary,
     DeferredDepthTestedLibrary,
+    /// `deferred-depth` with subpass 0's draws recorded into two secondaries on two threads,
+    /// the second inheriting the render pass and subpass without the framebuffer.
+    DeferredDepthSecondaries,
     /// The overlap scene into mip level 0 of a depth image of 3 levels, levels 1 and 2 built
     /// from the level below by a fragment shader writing `gl_FragDepth` (each level sampled
     /// after a barrier of that level alone), then a post pass shading bands from levels 1

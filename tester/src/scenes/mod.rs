@@ -126,6 +126,11 @@ pub const CATALOG: &[Entry] = &[
         "deferred-depth-tested-library",
         deferred_depth_tested_library,
     ),
+    entry_row(
+        SceneId::DeferredDepthSecondaries,
+        "deferred-depth-secondaries",
+        deferred_depth_secondaries,
+    ),
     entry_row(SceneId::DepthMips, "depth-mips", depth_mips),
     entry_row(SceneId::DepthLayers, "depth-layers", depth_layers),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),

@@ -871,6 +871,44 @@ pub fn deferred_depth() -> Scene {
     )
 }
 
+/// `deferred-depth-secondaries`: [`deferred_depth`] with subpass 0's draws recorded into two
+/// secondary command buffers on two threads, the second inheriting the render pass and
+/// subpass without the framebuffer (which the inheritance info may leave null); subpass 1
+/// inline.
+///
+/// Layer item: in `infinite` mode an image read as an input attachment stores complementary
+/// depth, which a secondary must know to draw into it; without its framebuffer, only the
+/// render pass tells (it reads that depth attachment as an input, so its image has the
+/// usage). A secondary that assumed `n / w` would store its objects in another convention
+/// than the other's: the depth test between them and the band's shading go wrong.
+pub fn deferred_depth_secondaries() -> Scene {
+    let mut scene = deferred_depth();
+    scene.name = "deferred-depth-secondaries";
+    let mut steps = Vec::new();
+    let mut lists: Vec<Vec<Step>> = Vec::new();
+    let mut geometry = true;
+    for step in std::mem::take(&mut scene.plan.steps) {
+        match step {
+            Step::Bind(_) if geometry => lists = vec![vec![step.clone()], vec![step]],
+            Step::Draw(_) if geometry => {
+                let shortest = usize::from(lists[1].len() < lists[0].len());
+                lists[shortest].push(step);
+            }
+            Step::NextSubpass if geometry => {
+                geometry = false;
+                steps.push(Step::ExecuteSecondaries(
+                    std::mem::take(&mut lists),
+                    Recording::ThreadPerSecondaryOddWithoutFramebuffer,
+                ));
+                steps.push(step);
+            }
+            other => steps.push(other),
+        }
+    }
+    scene.plan.steps = steps;
+    scene
+}
+
 /// `deferred-depth-library` (needs `VK_EXT_graphics_pipeline_library`): [`deferred_depth`]
 /// with every pipeline built from four libraries linked together, as in [`pipeline_library`].
 ///

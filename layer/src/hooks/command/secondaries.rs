@@ -112,12 +112,11 @@ pub unsafe extern "system" fn begin_command_buffer(
             // Inside the pass it continues, with or without a depth attachment.
             state.set_target(target);
             state.set_reversed_inputs(reversed_inputs);
-            // Infinite mode: its depth image stores complementary depth (known only from an
-            // inherited framebuffer).
+            // Infinite mode: its depth image stores complementary depth (from an inherited
+            // framebuffer, else from what its render pass reads).
             let complementary = inheritance
                 .filter(|_| entry.device.remembers_cameras())
-                .and_then(|i| inherited_depth_image(entry, i))
-                .is_some_and(|image| entry.device.stores_complementary(image));
+                .is_some_and(|i| inherited_complementary(entry, i));
             state.set_complementary_target(complementary);
         }
         state.set_promoted(promoted);
@@ -247,6 +246,56 @@ fn inherited_depth_image(
     device.objects.views.get(view)
 }
 
+/// Infinite mode: whether the depth image of the subpass a secondary continues stores
+/// complementary depth: from its inherited framebuffer where it names one; else from its
+/// render pass (`crate::policy::DevicePolicy::secondary_stores_complementary`: where the pass
+/// reads that depth attachment through an input attachment), assumed not where that cannot
+/// tell (logged once, where the device has such images at all).
+fn inherited_complementary(
+    entry: &CommandBufferEntry,
+    inheritance: &vk::CommandBufferInheritanceInfo<'_>,
+) -> bool {
+    let device = &entry.device;
+    if inheritance.framebuffer != vk::Framebuffer::null() {
+        return inherited_depth_image(entry, inheritance)
+            .is_some_and(|image| device.stores_complementary(image));
+    }
+    let Some(pass) = device.objects.render_passes.get(&inheritance.render_pass) else {
+        return false;
+    };
+    let Some(depth) = pass
+        .subpass_depth
+        .get(inheritance.subpass as usize)
+        .copied()
+        .flatten()
+    else {
+        return false;
+    };
+    let read_as_input = pass
+        .subpass_depth_inputs
+        .iter()
+        .flatten()
+        .any(|input| input.attachment == depth);
+    match device.policy.secondary_stores_complementary(read_as_input) {
+        Some(complementary) => complementary,
+        None => {
+            if !device.objects.complementary_images.is_empty() {
+                static ASSUMED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                ASSUMED.log(|| {
+                    log::warn!(
+                        "infinite mode: a secondary command buffer without a framebuffer \
+                         draws into a depth attachment its render pass never reads as an \
+                         input attachment: assuming it stores n / w, not the complementary \
+                         depth of images read as input attachments (give secondaries their \
+                         framebuffer in the inheritance info)"
+                    )
+                });
+            }
+            false
+        }
+    }
+}
+
 /// Whether a secondary continuing a subpass reads a reversed depth image through an input
 /// attachment: from its inherited framebuffer where it names one; else assumed where the
 /// policy reverses images read so (logged once).
@@ -368,9 +417,11 @@ pub unsafe extern "system" fn cmd_execute_commands(
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdExecuteCommands");
     static MISMATCH: crate::logging::LogOnce = crate::logging::LogOnce::new();
+    static CONVENTION: crate::logging::LogOnce = crate::logging::LogOnce::new();
     let device = with_entry(buffer, &ENTRY, |entry| {
         let mut state = entry.state();
         let target = state.target();
+        let complementary = state.complementary_target();
         // A secondary decided its depth target at its begin; it can only be checked here.
         // SAFETY: `count` command buffers.
         for &secondary in unsafe { slice(p_buffers, count) } {
@@ -385,6 +436,28 @@ pub unsafe extern "system" fn cmd_execute_commands(
             // the secondary knew one (not the device's last seen at its begin).
             if let Some(near_over_far) = recorded.as_ref().and_then(|s| s.state().camera()) {
                 state.enter_camera(near_over_far);
+            }
+            if let Some(secondary) = &recorded {
+                let stored = secondary.state().complementary_target();
+                if entry.device.remembers_cameras()
+                    && target == Target::Reversed
+                    && stored != complementary
+                {
+                    CONVENTION.log(|| {
+                        log::warn!(
+                            "infinite mode: a secondary command buffer recorded for {} depth \
+                             runs where the depth image stores {}: its depth does not match \
+                             the pass's (give secondaries their framebuffer in the inheritance \
+                             info)",
+                            if stored { "complementary" } else { "n / w" },
+                            if complementary {
+                                "complementary depth"
+                            } else {
+                                "n / w"
+                            }
+                        )
+                    });
+                }
             }
             let assumed = recorded.map(|s| s.state().inherited());
             if matches!(assumed, Some(a) if a != target && a != Target::None && target != Target::None)
