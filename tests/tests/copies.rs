@@ -46,13 +46,17 @@ const STRESS: [&str; 7] = [
 
 /// The scenes whose colors are shaded from the depth their shaders sample (`depth-reads`:
 /// soft particles' fades, a band of view distances).
-const SHADED_FROM_DEPTH: [&str; 6] = [
+const SHADED_FROM_DEPTH: [&str; 10] = [
     "depth-reads",
     "deferred-depth",
     "deferred-depth-tested",
+    "deferred-depth-library",
+    "deferred-depth-tested-library",
+    "deferred-depth-secondaries",
     "depth-reads-msaa",
     "depth-mips",
     "depth-layers",
+    "depth-layers-stepwise",
 ];
 
 const REVERSING_MODES: [&str; 3] = ["flip", "complementary", "infinite"];

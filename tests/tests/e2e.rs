@@ -1191,7 +1191,7 @@ fn read_color_problems(
 /// the libraries' reads went unconverted, 16,384 pixels of the band wrong in `flip`); and with
 /// subpass 0 drawn from two secondaries, one without its framebuffer
 /// (`deferred-depth-secondaries`: in `infinite` it learns from the render pass that the image
-/// stores complementary depth; before session 25 it assumed `n / w`, 1,032 pixels wrong). In
+/// stores complementary depth; before session 25 it assumed `n / w`: 17,178 pixels wrong in D32). In
 /// every depth format and mode,
 /// with zero validation messages (synchronization validation included), the colors are the
 /// native render's: the layer hands the shader standard depth (converting what it reads
@@ -1349,12 +1349,24 @@ fn multisampled_depth_reads_standard_depth_per_sample() {
 /// for both layers), zero validation messages (synchronization validation included), and the
 /// colors are the native render's (of the same format; native D32 where the precise modes
 /// promote D16, X8_D24 and D24S8), within `depth-reads`' bounds.
+///
+/// `depth-layers-stepwise` renders layer 1 twice, each time followed by a barrier of both
+/// layers: the second refresh converts layer 1 alone (session 25: a refresh covers only what
+/// the recording wrote since it last refreshed), so its frames refresh three layers' bytes,
+/// where `depth-layers` refreshes two (and the colors are still the native render's: a refresh
+/// that skipped layer 1 would shade its band from the first render).
 #[test]
 fn depth_mips_and_layers_sample_standard_depth_through_the_twin() {
     let harness = Harness::locate();
     let frames = "2";
     let mut problems = Vec::new();
-    for (scene, refreshes_per_frame) in [("depth-mips", 3), ("depth-layers", 1)] {
+    // Bytes refreshed over the frames of `depth-layers`, per format and mode.
+    let mut layers_bytes = std::collections::HashMap::new();
+    for (scene, refreshes_per_frame) in [
+        ("depth-mips", 3),
+        ("depth-layers", 1),
+        ("depth-layers-stepwise", 2),
+    ] {
         let native = |format: &str| {
             let dir = harness.scratch_dir(&format!("{scene}-{format}-native"));
             let mut command = harness.tester(format, &dir);
@@ -1386,6 +1398,22 @@ fn depth_mips_and_layers_sample_standard_depth_through_the_twin() {
                         "{name}: {expected} refreshes expected ({refreshes_per_frame} a frame): \
                          {image}"
                     ));
+                }
+                let bytes = image["bytes_refreshed"].as_u64().unwrap_or(0);
+                match scene {
+                    "depth-layers" => {
+                        layers_bytes.insert((format, mode), bytes);
+                    }
+                    "depth-layers-stepwise" => {
+                        let two_layers = layers_bytes.get(&(format, mode)).copied();
+                        if two_layers.map(|two| two * 3 / 2) != Some(bytes) {
+                            problems.push(format!(
+                                "{name}: {bytes} bytes refreshed, expected three layers' \
+                                 ({two_layers:?} for two)"
+                            ));
+                        }
+                    }
+                    _ => {}
                 }
             }
         }

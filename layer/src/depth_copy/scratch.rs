@@ -129,6 +129,9 @@ pub struct CommandCopies {
     /// Conditional rendering is active (begun here, or inherited by a secondary): it could
     /// discard revz's dispatch while the copies around it run.
     pub conditional: bool,
+    /// What this recording refreshed of read twins and has not written since: later
+    /// refreshes skip it.
+    pub ledger: crate::policy::twins::RefreshLedger,
 }
 
 impl CommandCopies {
@@ -144,6 +147,7 @@ impl CommandCopies {
         self.used = 0;
         self.compute = ComputeBindings::default();
         self.conditional = false;
+        self.ledger.forget();
     }
 
     fn destroy_staged(&mut self, device: &DeviceState) {

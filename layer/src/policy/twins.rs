@@ -217,8 +217,273 @@ fn layout_reads_depth(layout: vk::ImageLayout) -> bool {
     layout == vk::ImageLayout::DEPTH_READ_ONLY_STENCIL_ATTACHMENT_OPTIMAL
 }
 
+/// What one command buffer has refreshed of its images' twins and not written since: a later
+/// refresh there skips those subresources (issue #39: refresh only what was written). Only the
+/// command buffer's own commands are known, so a subresource it has not refreshed itself counts
+/// as written (it may have been before the recording began, or by a secondary it executed).
+///
+/// A refresh keeps the aspects its barrier names (a depth/stencil image's layout transitions
+/// name both, unless separate layouts are enabled) and narrows its mip levels and layers to the
+/// smallest box around those still to refresh: a cube map drawn face by face, each face followed
+/// by a barrier of all six, refreshes six faces at the first barrier and one at each later one.
+#[derive(Clone, Debug, Default)]
+pub struct RefreshLedger {
+    images: Vec<(vk::Image, CleanSubresources)>,
+}
+
+/// The subresources of one image refreshed since they were last written: a bit per aspect
+/// (depth, stencil), mip level and array layer.
+#[derive(Clone, Debug)]
+struct CleanSubresources {
+    levels: u32,
+    layers: u32,
+    bits: Vec<u64>,
+}
+
+impl CleanSubresources {
+    fn new(levels: u32, layers: u32) -> CleanSubresources {
+        let count = 2 * levels as usize * layers as usize;
+        CleanSubresources {
+            levels,
+            layers,
+            bits: vec![0; count.div_ceil(64)],
+        }
+    }
+
+    /// The bit indices of `range`'s depth and stencil subresources (counts resolved against
+    /// the image; empty past its end).
+    fn indices(
+        &self,
+        range: vk::ImageSubresourceRange,
+    ) -> impl Iterator<Item = (usize, u32, u32)> + '_ {
+        let resolve = |base: u32, count: u32, total: u32| {
+            let end = if count == vk::REMAINING_MIP_LEVELS {
+                total
+            } else {
+                base.saturating_add(count).min(total)
+            };
+            base.min(end)..end
+        };
+        let levels = resolve(range.base_mip_level, range.level_count, self.levels);
+        let layers = resolve(range.base_array_layer, range.layer_count, self.layers);
+        let aspects = [vk::ImageAspectFlags::DEPTH, vk::ImageAspectFlags::STENCIL]
+            .into_iter()
+            .enumerate()
+            .filter(move |(_, aspect)| range.aspect_mask.contains(*aspect))
+            .map(|(index, _)| index);
+        let (levels_total, layers_total) = (self.levels as usize, self.layers as usize);
+        aspects.flat_map(move |aspect| {
+            let layers = layers.clone();
+            levels.clone().flat_map(move |level| {
+                layers.clone().map(move |layer| {
+                    let index =
+                        (aspect * levels_total + level as usize) * layers_total + layer as usize;
+                    (index, level, layer)
+                })
+            })
+        })
+    }
+
+    fn is_clean(&self, index: usize) -> bool {
+        self.bits[index / 64] & (1 << (index % 64)) != 0
+    }
+
+    fn set(&mut self, index: usize, clean: bool) {
+        let bit = 1 << (index % 64);
+        if clean {
+            self.bits[index / 64] |= bit;
+        } else {
+            self.bits[index / 64] &= !bit;
+        }
+    }
+}
+
+impl RefreshLedger {
+    /// What of `range` (of `image`) a refresh must still cover: `range` narrowed to the mip
+    /// levels and layers around the subresources not refreshed since written (its aspects
+    /// kept), `None` where every one is.
+    pub fn to_refresh(
+        &self,
+        image: vk::Image,
+        range: vk::ImageSubresourceRange,
+    ) -> Option<vk::ImageSubresourceRange> {
+        let Some((_, clean)) = self.images.iter().find(|(i, _)| *i == image) else {
+            return Some(range);
+        };
+        let mut levels = (u32::MAX, 0);
+        let mut layers = (u32::MAX, 0);
+        for (index, level, layer) in clean.indices(range) {
+            if !clean.is_clean(index) {
+                levels = (levels.0.min(level), levels.1.max(level + 1));
+                layers = (layers.0.min(layer), layers.1.max(layer + 1));
+            }
+        }
+        (levels.0 < levels.1).then(|| vk::ImageSubresourceRange {
+            base_mip_level: levels.0,
+            level_count: levels.1 - levels.0,
+            base_array_layer: layers.0,
+            layer_count: layers.1 - layers.0,
+            ..range
+        })
+    }
+
+    /// `range` of `image` (of `levels` x `layers`) was refreshed.
+    pub fn refreshed(
+        &mut self,
+        image: vk::Image,
+        range: vk::ImageSubresourceRange,
+        (levels, layers): (u32, u32),
+    ) {
+        let position = match self.images.iter().position(|(i, _)| *i == image) {
+            Some(position) => position,
+            None => {
+                self.images
+                    .push((image, CleanSubresources::new(levels, layers)));
+                self.images.len() - 1
+            }
+        };
+        let clean = &mut self.images[position].1;
+        let indices: Vec<usize> = clean.indices(range).map(|(index, ..)| index).collect();
+        for index in indices {
+            clean.set(index, true);
+        }
+    }
+
+    /// `range` of `image` may have been written (an attachment of a render pass begun).
+    pub fn written(&mut self, image: vk::Image, range: vk::ImageSubresourceRange) {
+        if let Some((_, clean)) = self.images.iter_mut().find(|(i, _)| *i == image) {
+            let indices: Vec<usize> = clean.indices(range).map(|(index, ..)| index).collect();
+            for index in indices {
+                clean.set(index, false);
+            }
+        }
+    }
+
+    /// Any subresource of `image` may have been written (a transfer into it).
+    pub fn written_all(&mut self, image: vk::Image) {
+        self.images.retain(|(i, _)| *i != image);
+    }
+
+    /// Anything may have been written (secondaries executed, a new recording).
+    pub fn forget(&mut self) {
+        self.images.clear();
+    }
+
+    /// Whether nothing is known clean (then writes need not be noted).
+    pub fn is_empty(&self) -> bool {
+        self.images.is_empty()
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    /// A range as a comparable tuple (ash's has no `PartialEq`).
+    fn key(
+        range: Option<vk::ImageSubresourceRange>,
+    ) -> Option<(vk::ImageAspectFlags, u32, u32, u32, u32)> {
+        range.map(|r| {
+            (
+                r.aspect_mask,
+                r.base_mip_level,
+                r.level_count,
+                r.base_array_layer,
+                r.layer_count,
+            )
+        })
+    }
+
+    #[test]
+    fn a_ledger_narrows_refreshes_to_what_was_written_since() {
+        use vk::Handle;
+        let image = vk::Image::from_raw(7);
+        let both = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+        let all = vk::ImageSubresourceRange {
+            aspect_mask: both,
+            base_mip_level: 0,
+            level_count: vk::REMAINING_MIP_LEVELS,
+            base_array_layer: 0,
+            layer_count: vk::REMAINING_ARRAY_LAYERS,
+        };
+        let face = |layer: u32| vk::ImageSubresourceRange {
+            base_array_layer: layer,
+            layer_count: 1,
+            level_count: 1,
+            ..all
+        };
+        let mut ledger = RefreshLedger::default();
+        // Nothing known: the whole range.
+        assert_eq!(key(ledger.to_refresh(image, all)), key(Some(all)));
+        ledger.refreshed(image, all, (1, 6));
+        assert!(!ledger.is_empty());
+        // Refreshed and not written since: nothing.
+        assert_eq!(key(ledger.to_refresh(image, all)), None);
+        // A face drawn: that face alone, with the barrier's aspects.
+        ledger.written(image, face(3));
+        assert_eq!(key(ledger.to_refresh(image, all)), key(Some(face(3))));
+        // Two faces: the box around them.
+        ledger.written(image, face(1));
+        assert_eq!(key(ledger.to_refresh(image, all)), Some((both, 0, 1, 1, 3)));
+        // A barrier naming a clean face refreshes nothing.
+        assert_eq!(key(ledger.to_refresh(image, face(0))), None);
+        ledger.refreshed(image, all, (1, 6));
+        assert_eq!(key(ledger.to_refresh(image, all)), None);
+        // The stencil written alone (separate layouts): a depth barrier still has nothing,
+        // a stencil one has that layer.
+        let stencil = vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::STENCIL,
+            ..face(2)
+        };
+        ledger.written(image, stencil);
+        let only = |aspect_mask| vk::ImageSubresourceRange { aspect_mask, ..all };
+        assert_eq!(
+            key(ledger.to_refresh(image, only(vk::ImageAspectFlags::DEPTH))),
+            None
+        );
+        assert_eq!(
+            key(ledger.to_refresh(image, only(vk::ImageAspectFlags::STENCIL))),
+            key(Some(stencil))
+        );
+        // A transfer into it, or executed secondaries: everything again.
+        ledger.written_all(image);
+        assert_eq!(key(ledger.to_refresh(image, all)), key(Some(all)));
+        ledger.refreshed(image, all, (1, 6));
+        ledger.forget();
+        assert_eq!(key(ledger.to_refresh(image, all)), key(Some(all)));
+        // Another image is unaffected by this one's entries.
+        ledger.refreshed(image, all, (1, 6));
+        assert_eq!(
+            key(ledger.to_refresh(vk::Image::from_raw(8), all)),
+            key(Some(all))
+        );
+    }
+
+    #[test]
+    fn a_ledger_tracks_mip_levels_apart() {
+        use vk::Handle;
+        let image = vk::Image::from_raw(9);
+        let level = |level: u32| vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            base_mip_level: level,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: 2,
+        };
+        let chain = vk::ImageSubresourceRange {
+            level_count: 4,
+            ..level(0)
+        };
+        let mut ledger = RefreshLedger::default();
+        ledger.refreshed(image, chain, (4, 2));
+        ledger.written(image, level(2));
+        assert_eq!(key(ledger.to_refresh(image, chain)), key(Some(level(2))));
+        // Ranges past the image's end cover nothing there.
+        let past = vk::ImageSubresourceRange {
+            base_mip_level: 5,
+            ..level(0)
+        };
+        assert_eq!(key(ledger.to_refresh(image, past)), None);
+    }
+
     use super::*;
     use vk::ImageLayout as L;
 

@@ -109,6 +109,9 @@ pub enum SceneId {
     /// cube moved into layer 1 (depth only), then a post pass shading a band from each layer
     /// through a 2D-array view.
     DepthLayers,
+    /// `depth-layers` with layer 1 rendered twice, each time followed by a barrier of both
+    /// layers into `SHADER_READ_ONLY_OPTIMAL`.
+    DepthLayersStepwise,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,

@@ -133,6 +133,11 @@ pub const CATALOG: &[Entry] = &[
     ),
     entry_row(SceneId::DepthMips, "depth-mips", depth_mips),
     entry_row(SceneId::DepthLayers, "depth-layers", depth_layers),
+    entry_row(
+        SceneId::DepthLayersStepwise,
+        "depth-layers-stepwise",
+        depth_layers_stepwise,
+    ),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,

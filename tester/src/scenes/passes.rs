@@ -885,19 +885,26 @@ pub fn deferred_depth_secondaries() -> Scene {
     let mut scene = deferred_depth();
     scene.name = "deferred-depth-secondaries";
     let mut steps = Vec::new();
-    let mut lists: Vec<Vec<Step>> = Vec::new();
+    let mut bind = None;
+    let mut draws = Vec::new();
     let mut geometry = true;
     for step in std::mem::take(&mut scene.plan.steps) {
         match step {
-            Step::Bind(_) if geometry => lists = vec![vec![step.clone()], vec![step]],
-            Step::Draw(_) if geometry => {
-                let shortest = usize::from(lists[1].len() < lists[0].len());
-                lists[shortest].push(step);
-            }
+            Step::Bind(_) if geometry => bind = Some(step),
+            Step::Draw(_) if geometry => draws.push(step),
             Step::NextSubpass if geometry => {
                 geometry = false;
+                // The first half of the draws, then the second: executed in order, the
+                // objects are drawn in the order the inline scene draws them (nearest
+                // first), so that depth ties resolve alike.
+                let bind = bind.take().expect("subpass 0 binds its pipeline");
+                let second = draws.split_off(draws.len().div_ceil(2));
+                let lists = [std::mem::take(&mut draws), second]
+                    .into_iter()
+                    .map(|half| std::iter::once(bind.clone()).chain(half).collect())
+                    .collect();
                 steps.push(Step::ExecuteSecondaries(
-                    std::mem::take(&mut lists),
+                    lists,
                     Recording::ThreadPerSecondaryOddWithoutFramebuffer,
                 ));
                 steps.push(step);
@@ -1077,6 +1084,25 @@ pub const MOVED_NEAR_CUBE_X: f64 = 1.1;
 /// own, with no color): a twin refreshed for layer 0 alone shades the second band from a stale
 /// or unwritten layer; reversed values shade both bands wrong.
 pub fn depth_layers() -> Scene {
+    depth_layers_built("depth-layers", false)
+}
+
+/// `depth-layers-stepwise`: [`depth_layers`], with layer 1 first rendered as layer 0 is (the
+/// near cube in place) and both layers made readable (a barrier of the whole image into
+/// `SHADER_READ_ONLY_OPTIMAL`) and back before the main pass's layer 0 result stands and layer
+/// 1 is rendered again with the near cube moved; the second barrier of both layers makes them
+/// readable for the post pass, as before.
+///
+/// Layer item (issue #39, refresh only what was written): the second refresh needs layer 1
+/// alone (layer 0 was refreshed by the first barrier and not written since: the main pass
+/// writes it before the first barrier). A layer that skips layer 1 there shades the second
+/// band from the first render (the near cube in place); one that refreshes both layers again
+/// is correct, at twice the cost.
+pub fn depth_layers_stepwise() -> Scene {
+    depth_layers_built("depth-layers-stepwise", true)
+}
+
+fn depth_layers_built(name: &'static str, stepwise: bool) -> Scene {
     let camera = overlap_camera();
     let mut b = Builder::default();
     let objects = b.nearest_first(&camera, overlap_objects());
@@ -1118,10 +1144,28 @@ pub fn depth_layers() -> Scene {
         depth_write: false,
         ..PipelineSpec::standard("depth layers bands", post)
     });
+    if stepwise {
+        // Layer 1 first as layer 0 is (the near cube in place), both layers made readable
+        // and back: the twin holds both.
+        b.step(Step::BeginPass(layer));
+        b.step(Step::Bind(depth_only));
+        b.draw(&objects);
+        b.step(Step::EndPass);
+    }
     b.step(Step::BeginPass(main));
     b.step(Step::Bind(flat));
     b.draw(&objects);
     b.step(Step::EndPass);
+    if stepwise {
+        b.step(Step::MainDepthLayout {
+            from: DepthLayout::Attachment,
+            to: DepthLayout::Sampled,
+        });
+        b.step(Step::MainDepthLayout {
+            from: DepthLayout::Sampled,
+            to: DepthLayout::Attachment,
+        });
+    }
     b.step(Step::BeginPass(layer));
     b.step(Step::Bind(depth_only));
     b.draw(&second);
@@ -1138,5 +1182,5 @@ pub fn depth_layers() -> Scene {
         from: DepthLayout::Sampled,
         to: DepthLayout::Attachment,
     });
-    b.finish("depth-layers", camera, None)
+    b.finish(name, camera, None)
 }

@@ -228,14 +228,18 @@ fn needs_follow_from_the_plans() {
         }
         if !matches!(
             scene.name,
-            "depth-reads" | "stencil-reads" | "depth-mips" | "depth-layers"
+            "depth-reads"
+                | "stencil-reads"
+                | "depth-mips"
+                | "depth-layers"
+                | "depth-layers-stepwise"
         ) {
             assert!(!needs.sampled_depth && !needs.depth_tiles, "{}", scene.name);
         }
         // One level and layer but where a scene names more; blits only between levels.
         let subresources = match scene.name {
             "depth-mips" => (DEPTH_MIP_LEVELS, 1),
-            "depth-layers" => (1, 2),
+            "depth-layers" | "depth-layers-stepwise" => (1, 2),
             _ => (1, 1),
         };
         let got = needs.depth_subresources;
@@ -980,6 +984,7 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
             // back.
             "depth-mips",
             "depth-layers",
+            "depth-layers-stepwise",
             "projection-only",
             "view-projection",
             "model-view-projection-pair",

@@ -191,6 +191,9 @@ fn image_buffer_copy(
     to_buffer: bool,
     extended: bool,
 ) -> Sent {
+    if !to_buffer {
+        super::twins::note_written_image(entry, image);
+    }
     let end = image_end(&entry.device, image);
     let ends = if to_buffer {
         (end.end, CopyEnd::Buffer)
@@ -301,6 +304,7 @@ fn image_image_copy(
     extended: bool,
     send_first: SendFirst<'_>,
 ) -> Sent {
+    super::twins::note_written_image(entry, dst);
     let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
     let depth_aspect = regions.iter().any(|r| {
         r.src_subresource
@@ -434,6 +438,7 @@ fn image_blit(
     regions: &[vk::ImageBlit],
     extended: bool,
 ) -> Sent {
+    super::twins::note_written_image(entry, dst);
     let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
     let depth_aspect = regions.iter().any(|r| {
         r.src_subresource

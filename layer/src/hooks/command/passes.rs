@@ -38,9 +38,27 @@ struct PassBegin {
     render_pass: Option<vk::RenderPass>,
     /// The read twins refreshed before the pass begins (`twins::pass_begin_refreshes`).
     refreshes: Vec<crate::depth_copy::twin::Refresh>,
+    /// The attachment views the pass may write, noted after those refreshes
+    /// (`twins::note_written_views`; only while a twin is alive).
+    written: Vec<vk::ImageView>,
 }
 
 impl PassBegin {
+    /// Records the refreshes before the pass, then notes its attachments as written.
+    fn record_refreshes(&self, device: &Option<Down>, buffer: vk::CommandBuffer) {
+        if !self.refreshes.is_empty() {
+            super::twins::record_refreshes(device, buffer, &self.refreshes);
+        }
+        if let (false, Some(Down::Tracked(entry))) = (self.written.is_empty(), device) {
+            static ENTRY: EntryPoint = EntryPoint::new("render pass writes");
+            guarded(
+                &ENTRY,
+                || super::twins::note_written_views(entry, &self.written),
+                || (),
+            );
+        }
+    }
+
     /// The begin info to pass down: the application's, or a copy with revz's values.
     fn apply<'a>(&'a self, begin: &vk::RenderPassBeginInfo<'a>) -> vk::RenderPassBeginInfo<'a> {
         let mut copy = *begin;
@@ -79,6 +97,9 @@ fn begin_pass(
         device.objects.settle_pass_resolves(pass, &views);
         // After the settle: an image it made native is refreshed as native.
         out.refreshes = super::twins::pass_begin_refreshes(entry, pass, &views);
+        if crate::hooks::descriptors::any_twin(device) {
+            out.written = views.to_vec();
+        }
         super::twins::warn_reads_inside(entry, pass, &views);
         let images: Vec<Target> = views
             .iter()
@@ -176,9 +197,7 @@ pub unsafe extern "system" fn cmd_begin_render_pass(
         // SAFETY: a valid begin info (the application's contract).
         pass_begin = begin_pass(entry, buffer, unsafe { &*p_begin }, contents);
     });
-    if !pass_begin.refreshes.is_empty() {
-        super::twins::record_refreshes(&device, buffer, &pass_begin.refreshes);
-    }
+    pass_begin.record_refreshes(&device, buffer);
     let Some(down) = device else { return };
     // SAFETY: a valid begin info.
     let replaced = pass_begin.apply(unsafe { &*p_begin });
@@ -208,9 +227,7 @@ pub unsafe extern "system" fn cmd_begin_render_pass2(
     let Some(next) = device.as_ref().and_then(|d| d.commands.begin_render_pass2) else {
         return;
     };
-    if !pass_begin.refreshes.is_empty() {
-        super::twins::record_refreshes(&device, buffer, &pass_begin.refreshes);
-    }
+    pass_begin.record_refreshes(&device, buffer);
     // SAFETY: a valid begin info.
     let replaced = pass_begin.apply(unsafe { &*p_begin });
     let p_begin = if pass_begin.changes_anything() {
@@ -547,6 +564,15 @@ pub unsafe extern "system" fn cmd_begin_rendering(
             |view| device.objects.view_format(view),
         );
         entry.scope().reversed_images = reversed_image.into_iter().collect();
+        if crate::hooks::descriptors::any_twin(device) {
+            let written: Vec<vk::ImageView> = [depth, stencil]
+                .into_iter()
+                .flatten()
+                .flat_map(|a| [a.image_view, a.resolve_image_view])
+                .filter(|&view| view != vk::ImageView::null())
+                .collect();
+            super::twins::note_written_views(entry, &written);
+        }
         {
             let mut state = entry.state();
             if let Some(image) = reversed_image {

@@ -419,6 +419,8 @@ pub unsafe extern "system" fn cmd_execute_commands(
     static MISMATCH: crate::logging::LogOnce = crate::logging::LogOnce::new();
     static CONVENTION: crate::logging::LogOnce = crate::logging::LogOnce::new();
     let device = with_entry(buffer, &ENTRY, |entry| {
+        // Secondaries may write any image: the next refreshes cover everything again.
+        super::twins::note_written_anything(entry);
         let mut state = entry.state();
         let target = state.target();
         let complementary = state.complementary_target();

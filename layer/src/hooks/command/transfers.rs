@@ -71,6 +71,7 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdClearDepthStencilImage");
     let mut flipped: Option<vk::ClearDepthStencilValue> = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
+        super::twins::note_written_image(entry, image);
         let device = &entry.device;
         if policy::image_clear_considered(device.objects.image_reversed(image)) {
             // SAFETY: a valid value (the application's contract).

@@ -56,6 +56,34 @@ fn warn_unrefreshed(why: crate::policy::Unconverted) {
     });
 }
 
+/// Notes that the application's `views` may be written from now on (the attachments of a
+/// render pass or rendering instance begun): the next refresh of their twins in this
+/// recording covers their subresources again. Nothing while the recording refreshed nothing.
+pub(super) fn note_written_views(entry: &CommandBufferEntry, views: &[vk::ImageView]) {
+    let mut copies = entry.copies();
+    if copies.ledger.is_empty() {
+        return;
+    }
+    for view in views {
+        if let Some(twin_view) = entry.device.objects.twin_views.get(view) {
+            copies.ledger.written(twin_view.image, twin_view.range);
+        }
+    }
+}
+
+/// Notes that any subresource of `image` may be written from now on (a transfer into it).
+pub(super) fn note_written_image(entry: &CommandBufferEntry, image: vk::Image) {
+    let mut copies = entry.copies();
+    if !copies.ledger.is_empty() {
+        copies.ledger.written_all(image);
+    }
+}
+
+/// Notes that anything may have been written (secondaries executed).
+pub(super) fn note_written_anything(entry: &CommandBufferEntry) {
+    entry.copies().ledger.forget();
+}
+
 /// Records `refreshes` after the application's command (outside a render pass).
 pub(super) fn record_refreshes(
     down: &Option<Down>,
@@ -71,6 +99,12 @@ pub(super) fn record_refreshes(
         || {
             for refresh in refreshes {
                 let mut copies = entry.copies();
+                // Only what this recording has not refreshed since it may have written it.
+                let Some(range) = copies.ledger.to_refresh(refresh.image, refresh.range) else {
+                    continue;
+                };
+                let narrowed = Refresh { range, ..*refresh };
+                let refresh = &narrowed;
                 // What refuses a converted copy refuses a refresh (its dispatch could not be
                 // recorded, or the application's compute state not bound again after it).
                 let refused = if !entry.dispatchable {
@@ -88,8 +122,13 @@ pub(super) fn record_refreshes(
                     // pass (checked by the callers); its own scratch.
                     None => unsafe { record_refresh(&entry.device, &mut copies, buffer, refresh) },
                 };
-                if let Err(why) = recorded {
-                    warn_unrefreshed(why);
+                match recorded {
+                    Ok(()) => copies.ledger.refreshed(
+                        refresh.image,
+                        refresh.range,
+                        (refresh.twin.mip_levels, refresh.twin.array_layers),
+                    ),
+                    Err(why) => warn_unrefreshed(why),
                 }
                 if let Some(profile) = &entry.device.profile {
                     profile.refresh(refresh.image, recorded.is_ok().then(|| refresh.bytes()));
