@@ -268,6 +268,7 @@ pub struct DeviceCommands {
     pub begin_conditional_rendering: Option<vk::PFN_vkCmdBeginConditionalRenderingEXT>,
     pub end_conditional_rendering: Option<vk::PFN_vkCmdEndConditionalRenderingEXT>,
     pub blit_image2: Option<vk::PFN_vkCmdBlitImage2>,
+    pub resolve_image2: Option<vk::PFN_vkCmdResolveImage2>,
     pub set_depth_bias2: Option<vk::PFN_vkCmdSetDepthBias2EXT>,
     /// Read twins (issue #39): descriptor writes through templates and descriptor buffers,
     /// and the synchronization2 barriers that make an image readable.
@@ -413,6 +414,7 @@ impl DeviceCommands {
             begin_conditional_rendering: load!(0, c"vkCmdBeginConditionalRenderingEXT"),
             end_conditional_rendering: load!(0, c"vkCmdEndConditionalRenderingEXT"),
             blit_image2: load!(V13, c"vkCmdBlitImage2", c"vkCmdBlitImage2KHR"),
+            resolve_image2: load!(V13, c"vkCmdResolveImage2", c"vkCmdResolveImage2KHR"),
             set_depth_bias2: load!(0, c"vkCmdSetDepthBias2EXT"),
             update_descriptor_set_with_template: load!(
                 vk::API_VERSION_1_1,

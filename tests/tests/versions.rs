@@ -52,10 +52,12 @@ fn refused(_version: &str, scene: &str) -> Option<&'static str> {
 /// rendering, the dynamic compare op and depth resolves) make the tester, as a Vulkan 1.0
 /// application, enable `VK_KHR_get_physical_device_properties2` itself: revz then has nothing
 /// to add.
-const ENABLE_PROPERTIES2_THEMSELVES: [&str; 12] = [
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 15] = [
     "opengl-depth",
     "pipeline-library",
     "frag-depth-library",
+    "deferred-depth-library",
+    "deferred-depth-tested-library",
     "compare-ops-dynamic",
     "dynamic-rendering",
     "msaa-resolve",
@@ -67,6 +69,7 @@ const ENABLE_PROPERTIES2_THEMSELVES: [&str; 12] = [
     "stencil-reads",
     "depth-mips",
     "depth-layers",
+    "depth-layers-stepwise",
     "depth-reads-msaa",
 ];
 

@@ -430,8 +430,10 @@ fn level_regions(
 }
 
 /// Records a refresh of `refresh.twin` from its image, with the barriers around it (see the
-/// module's docs). On `Err` the barriers are recorded all the same (layouts stay consistent)
-/// and the twin's refreshed subresources are undefined.
+/// module's docs): `Ok(true)`, or `Ok(false)` where there is nothing to record yet (a
+/// multisampled twin whose image has no view, so no shader can read it). On `Err` the barriers
+/// are recorded all the same (layouts stay consistent) and the twin's refreshed subresources
+/// are undefined.
 ///
 /// # Safety
 /// `buffer` is a command buffer of `device` in the recording state, outside a render pass,
@@ -441,7 +443,7 @@ pub unsafe fn record_refresh(
     copies: &mut CommandCopies,
     buffer: vk::CommandBuffer,
     refresh: &Refresh,
-) -> Result<(), Unconverted> {
+) -> Result<bool, Unconverted> {
     if refresh.twin.multisampled() {
         // SAFETY: the caller's contract.
         return unsafe { record_multisampled_refresh(device, copies, buffer, refresh) };
@@ -564,7 +566,7 @@ pub unsafe fn record_refresh(
             ),
         ],
     );
-    result
+    result.map(|()| true)
 }
 
 /// The first 16 bytes of the scratch buffer the refresh of a multisampled twin reads
@@ -595,9 +597,9 @@ unsafe fn record_multisampled_refresh(
     copies: &mut CommandCopies,
     buffer: vk::CommandBuffer,
     refresh: &Refresh,
-) -> Result<(), Unconverted> {
+) -> Result<bool, Unconverted> {
     let Some(bindings) = device.objects.multisampled_twins.get(&refresh.image) else {
-        return Ok(());
+        return Ok(false);
     };
     let convert = device
         .copies
@@ -709,7 +711,7 @@ unsafe fn record_multisampled_refresh(
         );
         copies.compute.restore(device, buffer);
     }
-    Ok(())
+    Ok(true)
 }
 
 #[cfg(test)]

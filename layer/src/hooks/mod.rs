@@ -261,6 +261,12 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdBlitImage2" | b"vkCmdBlitImage2KHR" => {
             void_fn!(vk::PFN_vkCmdBlitImage2, c::cmd_blit_image2)
         }
+        // Resolves go down as they are; a depth resolve (`VK_KHR_maintenance10`) writes its
+        // destination, which a read twin refresh must cover again.
+        b"vkCmdResolveImage" => void_fn!(vk::PFN_vkCmdResolveImage, c::cmd_resolve_image),
+        b"vkCmdResolveImage2" | b"vkCmdResolveImage2KHR" => {
+            void_fn!(vk::PFN_vkCmdResolveImage2, c::cmd_resolve_image2)
+        }
         b"vkCmdCopyImageToBuffer" => {
             void_fn!(vk::PFN_vkCmdCopyImageToBuffer, c::cmd_copy_image_to_buffer)
         }

@@ -89,6 +89,10 @@ fn begin_pass(
     let pass = device.objects.render_passes.get(&begin.render_pass);
     let views = attachment_views(device, begin.framebuffer, begin.p_next);
     let mut out = PassBegin::default();
+    // What the pass may write, known or not (noted after its begin refreshes).
+    if crate::hooks::descriptors::any_twin(device) {
+        out.written = views.to_vec();
+    }
     let mut targets = Vec::new();
     let mut reversed_images = Vec::new();
     let mut promoted = false;
@@ -97,9 +101,6 @@ fn begin_pass(
         device.objects.settle_pass_resolves(pass, &views);
         // After the settle: an image it made native is refreshed as native.
         out.refreshes = super::twins::pass_begin_refreshes(entry, pass, &views);
-        if crate::hooks::descriptors::any_twin(device) {
-            out.written = views.to_vec();
-        }
         super::twins::warn_reads_inside(entry, pass, &views);
         let images: Vec<Target> = views
             .iter()

@@ -260,8 +260,24 @@ fn inherited_complementary(
         return inherited_depth_image(entry, inheritance)
             .is_some_and(|image| device.stores_complementary(image));
     }
+    let assumed = || {
+        if !device.objects.complementary_images.is_empty() {
+            static ASSUMED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            ASSUMED.log(|| {
+                log::warn!(
+                    "infinite mode: a secondary command buffer continues a render pass without \
+                     its framebuffer, or dynamic rendering, into a depth attachment revz cannot \
+                     tell apart: assuming it stores n / w, not the complementary depth of \
+                     images read as input attachments (a render pass that reads that \
+                     attachment as an input, or the framebuffer in the inheritance info, tells)"
+                )
+            });
+        }
+        false
+    };
     let Some(pass) = device.objects.render_passes.get(&inheritance.render_pass) else {
-        return false;
+        // Dynamic rendering (no render pass) or an unknown one.
+        return assumed();
     };
     let Some(depth) = pass
         .subpass_depth
@@ -276,24 +292,10 @@ fn inherited_complementary(
         .iter()
         .flatten()
         .any(|input| input.attachment == depth);
-    match device.policy.secondary_stores_complementary(read_as_input) {
-        Some(complementary) => complementary,
-        None => {
-            if !device.objects.complementary_images.is_empty() {
-                static ASSUMED: crate::logging::LogOnce = crate::logging::LogOnce::new();
-                ASSUMED.log(|| {
-                    log::warn!(
-                        "infinite mode: a secondary command buffer without a framebuffer \
-                         draws into a depth attachment its render pass never reads as an \
-                         input attachment: assuming it stores n / w, not the complementary \
-                         depth of images read as input attachments (give secondaries their \
-                         framebuffer in the inheritance info)"
-                    )
-                });
-            }
-            false
-        }
-    }
+    device
+        .policy
+        .secondary_stores_complementary(read_as_input)
+        .unwrap_or_else(assumed)
 }
 
 /// Whether a secondary continuing a subpass reads a reversed depth image through an input
@@ -449,8 +451,9 @@ pub unsafe extern "system" fn cmd_execute_commands(
                         log::warn!(
                             "infinite mode: a secondary command buffer recorded for {} depth \
                              runs where the depth image stores {}: its depth does not match \
-                             the pass's (give secondaries their framebuffer in the inheritance \
-                             info)",
+                             the pass's (give secondaries continuing a render pass their \
+                             framebuffer in the inheritance info; draw into images read as \
+                             input attachments from primaries where rendering is dynamic)",
                             if stored { "complementary" } else { "n / w" },
                             if complementary {
                                 "complementary depth"

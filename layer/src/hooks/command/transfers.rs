@@ -1,5 +1,6 @@
 //! Clears of depth images: clear values of reversed images are flipped. Copies and blits are
-//! converted in [`super::copies`].
+//! converted in [`super::copies`]. Resolves go down as they are, their destinations noted as
+//! written for read twin refreshes.
 
 #![allow(clippy::wildcard_imports)]
 
@@ -98,4 +99,46 @@ pub unsafe extern "system" fn cmd_clear_depth_stencil_image(
             p_ranges,
         )
     }
+}
+
+/// `vkCmdResolveImage`: goes down as it is; its destination is noted as written for read twin
+/// refreshes (a depth resolve of `VK_KHR_maintenance10` may write a depth image with one).
+pub unsafe extern "system" fn cmd_resolve_image(
+    buffer: vk::CommandBuffer,
+    src: vk::Image,
+    src_layout: vk::ImageLayout,
+    dst: vk::Image,
+    dst_layout: vk::ImageLayout,
+    count: u32,
+    p_regions: *const vk::ImageResolve,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdResolveImage");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        super::twins::note_written_image(entry, dst);
+    });
+    let Some(device) = device else { return };
+    // SAFETY: calling down with the application's arguments.
+    unsafe {
+        (device.next.fp_v1_0().cmd_resolve_image)(
+            buffer, src, src_layout, dst, dst_layout, count, p_regions,
+        )
+    }
+}
+
+/// `vkCmdResolveImage2`: as [`cmd_resolve_image`].
+pub unsafe extern "system" fn cmd_resolve_image2(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::ResolveImageInfo2<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdResolveImage2");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid info (the application's contract).
+        let dst = unsafe { (*p_info).dst_image };
+        super::twins::note_written_image(entry, dst);
+    });
+    let Some(next) = device.and_then(|d| d.commands.resolve_image2) else {
+        return;
+    };
+    // SAFETY: calling down with the application's arguments.
+    unsafe { next(buffer, p_info) }
 }

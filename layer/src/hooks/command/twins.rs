@@ -64,9 +64,13 @@ pub(super) fn note_written_views(entry: &CommandBufferEntry, views: &[vk::ImageV
     if copies.ledger.is_empty() {
         return;
     }
+    let objects = &entry.device.objects;
     for view in views {
-        if let Some(twin_view) = entry.device.objects.twin_views.get(view) {
+        if let Some(twin_view) = objects.twin_views.get(view) {
             copies.ledger.written(twin_view.image, twin_view.range);
+        } else if let Some(image) = objects.views.get(view) {
+            // A view whose twin view could not be made: all of its image.
+            copies.ledger.written_all(image);
         }
     }
 }
@@ -123,11 +127,14 @@ pub(super) fn record_refreshes(
                     None => unsafe { record_refresh(&entry.device, &mut copies, buffer, refresh) },
                 };
                 match recorded {
-                    Ok(()) => copies.ledger.refreshed(
+                    // Recorded: clean until written again.
+                    Ok(true) => copies.ledger.refreshed(
                         refresh.image,
                         refresh.range,
                         (refresh.twin.mip_levels, refresh.twin.array_layers),
                     ),
+                    // Nothing to record yet (a multisampled twin whose image has no view).
+                    Ok(false) => continue,
                     Err(why) => warn_unrefreshed(why),
                 }
                 if let Some(profile) = &entry.device.profile {
