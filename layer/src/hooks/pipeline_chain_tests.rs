@@ -2188,16 +2188,39 @@ fn variants_then_app(events: &[Event]) -> (Vec<(Vec<u32>, vk::Pipeline)>, vk::Pi
     (made, handles[0])
 }
 
+/// A deferred render pass (`Fixture::deferred_render_pass`) and a fragment module reading its
+/// depth as input attachment 0, with that module's code as revz converts it.
+struct DepthInputs {
+    vertex: vk::ShaderModule,
+    module: vk::ShaderModule,
+    pass: vk::RenderPass,
+    converted: Vec<u32>,
+}
+
+impl DepthInputs {
+    fn of(fx: &Fixture) -> DepthInputs {
+        let words = test_spirv::depth_input_fragment();
+        let converted = crate::shader::input_depth::reverse_input_depth(&words, &[0])
+            .unwrap()
+            .unwrap();
+        DepthInputs {
+            vertex: fx.vertex_module(),
+            module: fx.module(&words),
+            pass: fx.deferred_render_pass(),
+            converted,
+        }
+    }
+}
+
 #[test]
 fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
     let fx = Fixture::new();
-    let vertex = fx.vertex_module();
-    let words = test_spirv::depth_input_fragment();
-    let module = fx.module(&words);
-    let pass = fx.deferred_render_pass();
-    let converted = crate::shader::input_depth::reverse_input_depth(&words, &[0])
-        .unwrap()
-        .unwrap();
+    let DepthInputs {
+        vertex,
+        module,
+        pass,
+        converted,
+    } = DepthInputs::of(&fx);
     validate(&converted);
     let mut app = AppPipeline::of_modules(vertex, module);
 
@@ -2247,13 +2270,12 @@ fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
 #[test]
 fn a_fragment_shader_library_reading_depth_inputs_gets_an_input_variant_its_links_link() {
     let fx = Fixture::new();
-    let vertex = fx.vertex_module();
-    let words = test_spirv::depth_input_fragment();
-    let module = fx.module(&words);
-    let pass = fx.deferred_render_pass();
-    let converted = crate::shader::input_depth::reverse_input_depth(&words, &[0])
-        .unwrap()
-        .unwrap();
+    let DepthInputs {
+        vertex,
+        module,
+        pass,
+        converted,
+    } = DepthInputs::of(&fx);
     let mut app = AppPipeline::of_modules(vertex, module);
     // Subpass 1 reads depth as an input and has no depth attachment.
     app.subpass = Some((pass, 1));
@@ -2321,11 +2343,13 @@ fn input_reads_are_converted_in_infinite_mode_too() {
     // Infinite mode stores complementary depth in images read as input attachments: their
     // reads convert as in the other modes.
     let fx = Fixture::with_settings(&[(c"mode", c"infinite")]);
-    let vertex = fx.vertex_module();
-    let words = test_spirv::depth_input_fragment();
-    let module = fx.module(&words);
+    let DepthInputs {
+        vertex,
+        module,
+        pass,
+        converted,
+    } = DepthInputs::of(&fx);
     assert!(fx.state.objects.input_modules.get(&module).is_some());
-    let pass = fx.deferred_render_pass();
     let mut app = AppPipeline::of_modules(vertex, module);
     app.subpass = Some((pass, 1));
     let built = app.build();
@@ -2335,12 +2359,7 @@ fn input_reads_are_converted_in_infinite_mode_too() {
     let [(code, input)] = variants.as_slice() else {
         panic!("one variant: {variants:?}");
     };
-    assert_eq!(
-        *code,
-        crate::shader::input_depth::reverse_input_depth(&words, &[0])
-            .unwrap()
-            .unwrap()
-    );
+    assert_eq!(*code, converted);
     assert_eq!(fx.recorded(handle).input_variant, Some(*input));
     fx.finish();
 }
