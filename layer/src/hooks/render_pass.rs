@@ -127,6 +127,18 @@ fn render_pass_info(
 
 /// Each subpass's input attachments that read depth, from each subpass's input references as
 /// (attachment, aspect given for it: empty where none is).
+/// Whether each of `count` attachments is referenced by some subpass's input attachments
+/// (`subpasses`: each one's referenced attachments, `VK_ATTACHMENT_UNUSED` among them).
+fn input_attachments(count: usize, subpasses: impl Iterator<Item = Vec<u32>>) -> Vec<bool> {
+    let mut referenced = vec![false; count];
+    for attachment in subpasses.flatten() {
+        if let Some(slot) = referenced.get_mut(attachment as usize) {
+            *slot = true;
+        }
+    }
+    referenced
+}
+
 fn depth_inputs(
     formats: &[vk::Format],
     subpasses: impl Iterator<Item = Vec<(u32, vk::ImageAspectFlags)>>,
@@ -441,6 +453,16 @@ pub unsafe extern "system" fn create_render_pass(
             .map_or(&[][..], |a| unsafe {
                 slice(a.p_aspect_references, a.aspect_reference_count)
             });
+            pass.input_attachments = input_attachments(
+                pass.attachments.len(),
+                subpasses.iter().map(|s| {
+                    // SAFETY: `inputAttachmentCount` references.
+                    unsafe { slice(s.p_input_attachments, s.input_attachment_count) }
+                        .iter()
+                        .map(|r| r.attachment)
+                        .collect()
+                }),
+            );
             pass.subpass_depth_inputs = depth_inputs(
                 &pass.attachments,
                 (0u32..).zip(subpasses).map(|(n, s)| {
@@ -550,6 +572,16 @@ pub unsafe extern "system" fn create_render_pass2(
                 }),
                 // SAFETY: valid subpass descriptions (the application's contract).
                 subpasses.iter().flat_map(|s| unsafe { references_of2(s) }),
+            );
+            pass.input_attachments = input_attachments(
+                pass.attachments.len(),
+                subpasses.iter().map(|s| {
+                    // SAFETY: `inputAttachmentCount` references.
+                    unsafe { slice(s.p_input_attachments, s.input_attachment_count) }
+                        .iter()
+                        .map(|r| r.attachment)
+                        .collect()
+                }),
             );
             pass.subpass_depth_inputs = depth_inputs(
                 &pass.attachments,
@@ -830,6 +862,18 @@ pub unsafe extern "system" fn create_framebuffer(
 mod tests {
     use super::*;
     use crate::policy::ResolveSupport;
+
+    /// Attachments referenced as input attachments by any subpass, whatever aspect is read:
+    /// unused references and indices past the attachments count for nothing.
+    #[test]
+    fn input_attachments_are_those_any_subpass_references() {
+        let subpasses = [vec![], vec![2, vk::ATTACHMENT_UNUSED], vec![0, 2, 7]];
+        assert_eq!(
+            input_attachments(4, subpasses.into_iter()),
+            [true, false, true, false]
+        );
+        assert_eq!(input_attachments(2, std::iter::empty()), [false, false]);
+    }
 
     /// A `vkCreateRenderPass2` attachment's separate stencil layouts are read (for a format
     /// with stencil), and make its twin's aspects refresh apart.

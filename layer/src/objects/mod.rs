@@ -133,6 +133,10 @@ pub struct RenderPassInfo {
     /// the fragment shaders of its pipelines convert what they read where the attachment is
     /// reversed (`crate::shader::input_depth`).
     pub subpass_depth_inputs: Vec<Vec<DepthInput>>,
+    /// Whether each attachment is an input attachment of some subpass (any aspect): its
+    /// image then has `INPUT_ATTACHMENT` usage, which the spec requires of every image a
+    /// subpass reads so.
+    pub input_attachments: Vec<bool>,
     pub subpass_resolve: Vec<Option<SubpassResolve>>,
     /// The same render pass with MIN and MAX depth resolves swapped, begun in its place when
     /// the resolved attachment is reversed. Only single-subpass passes have one: resolve modes

@@ -326,8 +326,9 @@ impl DevicePolicy {
 
     /// Infinite mode: whether a secondary command buffer continuing a subpass without naming
     /// its framebuffer draws into complementary depth, where all revz knows of the image is
-    /// whether its render pass reads that subpass's depth attachment through an input
-    /// attachment (`depth_read_as_input`, in any subpass). Where it does, the image has
+    /// whether its render pass references that subpass's depth attachment as an input
+    /// attachment (`depth_read_as_input`, in any subpass, of any aspect). Where it does, the
+    /// image has
     /// `INPUT_ATTACHMENT` usage (the spec requires it of an input attachment's image), so
     /// it stores complementary depth wherever such images do; where it does not, the image may
     /// still have that usage (read as an input in another pass): `None`, unknown (the

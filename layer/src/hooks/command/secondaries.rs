@@ -248,9 +248,9 @@ fn inherited_depth_image(
 
 /// Infinite mode: whether the depth image of the subpass a secondary continues stores
 /// complementary depth: from its inherited framebuffer where it names one; else from its
-/// render pass (`crate::policy::DevicePolicy::secondary_stores_complementary`: where the pass
-/// reads that depth attachment through an input attachment), assumed not where that cannot
-/// tell (logged once, where the device has such images at all).
+/// render pass (`crate::policy::DevicePolicy::secondary_stores_complementary`: where some
+/// subpass references that attachment as an input attachment, of any aspect), assumed not
+/// where that cannot tell (logged once, where the device has such images at all).
 fn inherited_complementary(
     entry: &CommandBufferEntry,
     inheritance: &vk::CommandBufferInheritanceInfo<'_>,
@@ -287,11 +287,12 @@ fn inherited_complementary(
     else {
         return false;
     };
+    // Read as an input in any subpass, of any aspect: its image has the usage.
     let read_as_input = pass
-        .subpass_depth_inputs
-        .iter()
-        .flatten()
-        .any(|input| input.attachment == depth);
+        .input_attachments
+        .get(depth as usize)
+        .copied()
+        .unwrap_or(false);
     device
         .policy
         .secondary_stores_complementary(read_as_input)
