@@ -127,6 +127,23 @@ fn render_pass_info(
 
 /// Each subpass's input attachments that read depth, from each subpass's input references as
 /// (attachment, aspect given for it: empty where none is).
+/// Records what a render pass's subpasses read as input attachments (each subpass's
+/// references, as (attachment, aspect)): the attachments referenced at all
+/// (`RenderPassInfo::input_attachments`) and, per subpass, the references that read depth.
+fn record_inputs(
+    pass: &mut RenderPassInfo,
+    subpasses: impl Iterator<Item = Vec<(u32, vk::ImageAspectFlags)>>,
+) {
+    let subpasses: Vec<Vec<(u32, vk::ImageAspectFlags)>> = subpasses.collect();
+    pass.input_attachments = input_attachments(
+        pass.attachments.len(),
+        subpasses
+            .iter()
+            .map(|inputs| inputs.iter().map(|&(attachment, _)| attachment).collect()),
+    );
+    pass.subpass_depth_inputs = depth_inputs(&pass.attachments, subpasses.into_iter());
+}
+
 /// Whether each of `count` attachments is referenced by some subpass's input attachments
 /// (`subpasses`: each one's referenced attachments, `VK_ATTACHMENT_UNUSED` among them).
 fn input_attachments(count: usize, subpasses: impl Iterator<Item = Vec<u32>>) -> Vec<bool> {
@@ -453,18 +470,8 @@ pub unsafe extern "system" fn create_render_pass(
             .map_or(&[][..], |a| unsafe {
                 slice(a.p_aspect_references, a.aspect_reference_count)
             });
-            pass.input_attachments = input_attachments(
-                pass.attachments.len(),
-                subpasses.iter().map(|s| {
-                    // SAFETY: `inputAttachmentCount` references.
-                    unsafe { slice(s.p_input_attachments, s.input_attachment_count) }
-                        .iter()
-                        .map(|r| r.attachment)
-                        .collect()
-                }),
-            );
-            pass.subpass_depth_inputs = depth_inputs(
-                &pass.attachments,
+            record_inputs(
+                &mut pass,
                 (0u32..).zip(subpasses).map(|(n, s)| {
                     // SAFETY: `inputAttachmentCount` references.
                     let inputs = unsafe { slice(s.p_input_attachments, s.input_attachment_count) };
@@ -573,18 +580,8 @@ pub unsafe extern "system" fn create_render_pass2(
                 // SAFETY: valid subpass descriptions (the application's contract).
                 subpasses.iter().flat_map(|s| unsafe { references_of2(s) }),
             );
-            pass.input_attachments = input_attachments(
-                pass.attachments.len(),
-                subpasses.iter().map(|s| {
-                    // SAFETY: `inputAttachmentCount` references.
-                    unsafe { slice(s.p_input_attachments, s.input_attachment_count) }
-                        .iter()
-                        .map(|r| r.attachment)
-                        .collect()
-                }),
-            );
-            pass.subpass_depth_inputs = depth_inputs(
-                &pass.attachments,
+            record_inputs(
+                &mut pass,
                 subpasses.iter().map(|s| {
                     // SAFETY: `inputAttachmentCount` references.
                     unsafe { slice(s.p_input_attachments, s.input_attachment_count) }
