@@ -114,19 +114,22 @@ impl ProjectionUse {
     }
 
     /// The 16 floats in storage order (vector by vector: one bounds check per vector on this
-    /// per-push path; `end() <= PUSH_CONSTANT_BYTES` by construction).
+    /// per-push path; `end() <= PUSH_CONSTANT_BYTES` by construction, so no vector is ever
+    /// missing: one would read as zeros).
+    #[inline]
     fn read(&self, bytes: &[u8; PUSH_CONSTANT_BYTES]) -> [f32; 16] {
-        let mut values = [0.0; 16];
-        for (vector, out) in values.chunks_exact_mut(4).enumerate() {
-            let at = self.offset as usize + vector * self.stride as usize;
-            let Some(stored) = bytes.get(at..at + 16) else {
-                continue;
-            };
-            for (value, word) in out.iter_mut().zip(stored.chunks_exact(4)) {
-                *value = f32::from_ne_bytes([word[0], word[1], word[2], word[3]]);
-            }
-        }
-        values
+        let vector = |index: usize| -> [u8; 16] {
+            let at = self.offset as usize + index * self.stride as usize;
+            bytes
+                .get(at..at + 16)
+                .and_then(|stored| stored.try_into().ok())
+                .unwrap_or([0; 16])
+        };
+        let vectors = [vector(0), vector(1), vector(2), vector(3)];
+        std::array::from_fn(|i| {
+            let word = &vectors[i / 4][(i % 4) * 4..(i % 4) * 4 + 4];
+            f32::from_ne_bytes([word[0], word[1], word[2], word[3]])
+        })
     }
 }
 
@@ -582,22 +585,12 @@ impl PushConstants {
     /// The outcome for `use_` on the current values, or `None` when the application has not
     /// pushed all of its bytes.
     pub fn outcome(&mut self, use_: &ProjectionUse, target: RewriteTarget) -> Option<Outcome> {
-        let mask = word_mask(use_.offset as usize, use_.end() as usize);
-        if self.written & mask != mask {
+        if !self.holds(use_) {
             return None;
         }
         let values = use_.read(&self.bytes);
-        let bits = values.map(f32::to_bits);
-        if let Some((last_bits, storage, convention, last_target, generation, outcome)) = &self.last
-        {
-            if same_bits(last_bits, &bits)
-                && *storage == use_.storage
-                && *convention == use_.convention
-                && *last_target == target
-                && *generation == self.generation
-            {
-                return Some(*outcome);
-            }
+        if let Some(outcome) = self.known(&values, use_, target) {
+            return Some(outcome);
         }
         // The camera of the last classified matrix, where this one can be its.
         let same = self.same_camera.filter(|same| {
@@ -605,19 +598,15 @@ impl PushConstants {
                 && same.convention == use_.convention
                 && same.target == target
         });
-        // The line, computed at most once, and not at all for the same camera's next matrix
-        // that the sufficient test recognizes (most pushes of a frame).
-        let mut line = None;
-        let mut line_of =
-            || *line.get_or_insert_with(|| DepthLine::of_stored(&values, use_.storage));
-        // The same camera's matrix: its line agrees with the camera's and does not improve it
-        // (what the full search would conclude).
+        let line = DepthLine::of_stored(&values, use_.storage);
+        // The same camera's matrix that the sufficient test ([`Self::known`]) did not
+        // recognize: its line agrees with the camera's and does not improve it (what the full
+        // search would conclude).
         let matched = same.filter(|same| {
-            same.line.surely_holds(&values, use_.storage)
-                || line_of().is_some_and(|line| {
-                    same.line.agrees_with(&line)
-                        && line.relative_b_error() >= same.line.relative_b_error()
-                })
+            line.is_some_and(|line| {
+                same.line.agrees_with(&line)
+                    && line.relative_b_error() >= same.line.relative_b_error()
+            })
         });
         let outcome = match matched {
             Some(same) => {
@@ -626,7 +615,6 @@ impl PushConstants {
                 same.outcome
             }
             None => {
-                let line = line_of();
                 let (outcome, changed, camera) =
                     classify_line(line, use_.convention, target, &mut self.cameras);
                 if changed.is_some() {
@@ -648,15 +636,105 @@ impl PushConstants {
                 outcome
             }
         };
+        self.remember(&values, use_, target, outcome);
+        Some(outcome)
+    }
+
+    /// [`Self::outcome`] where it needs no search: the application has pushed every byte of
+    /// `use_`, and the matrix is the last one classified or surely the same camera's as it
+    /// ([`DepthLine::surely_holds`]); `None` otherwise (nothing changed then). The push
+    /// shortcut's question (`crate::command_state`): a few hundred instructions less than the
+    /// search, which computes the matrix's line.
+    #[inline]
+    pub fn known_outcome(
+        &mut self,
+        use_: &ProjectionUse,
+        target: RewriteTarget,
+    ) -> Option<Outcome> {
+        if !self.holds(use_) {
+            return None;
+        }
+        let values = use_.read(&self.bytes);
+        self.known(&values, use_, target)
+    }
+
+    /// The outcome of the current values of `use_` where they are the last classified (what a
+    /// settle just used), without classifying or counting anything; `None` otherwise.
+    pub fn settled_outcome(&self, use_: &ProjectionUse, target: RewriteTarget) -> Option<Outcome> {
+        if !self.holds(use_) {
+            return None;
+        }
+        let bits = use_.read(&self.bytes).map(f32::to_bits);
+        let (last_bits, storage, convention, last_target, generation, outcome) =
+            self.last.as_ref()?;
+        (same_bits(last_bits, &bits)
+            && *storage == use_.storage
+            && *convention == use_.convention
+            && *last_target == target
+            && *generation == self.generation)
+            .then_some(*outcome)
+    }
+
+    /// Whether the application pushed every byte of `use_`.
+    #[inline]
+    fn holds(&self, use_: &ProjectionUse) -> bool {
+        let mask = word_mask(use_.offset as usize, use_.end() as usize);
+        self.written & mask == mask
+    }
+
+    /// The outcome of `values` where no search is needed: the last classification's, for the
+    /// same bits under the same conditions; the last camera's, for a matrix that surely agrees
+    /// with its line and does not improve it (counted as that camera's match).
+    #[inline]
+    fn known(
+        &mut self,
+        values: &[f32; 16],
+        use_: &ProjectionUse,
+        target: RewriteTarget,
+    ) -> Option<Outcome> {
+        let bits = values.map(f32::to_bits);
+        if let Some((last_bits, storage, convention, last_target, generation, outcome)) = &self.last
+        {
+            if same_bits(last_bits, &bits)
+                && *storage == use_.storage
+                && *convention == use_.convention
+                && *last_target == target
+                && *generation == self.generation
+            {
+                return Some(*outcome);
+            }
+        }
+        let same = self.same_camera.filter(|same| {
+            same.generation == self.generation
+                && same.convention == use_.convention
+                && same.target == target
+        })?;
+        if !same.line.surely_holds(values, use_.storage) {
+            return None;
+        }
+        self.cameras.touch(same.index);
+        self.count_match(Some(same.index));
+        self.remember(values, use_, target, same.outcome);
+        Some(same.outcome)
+    }
+
+    /// `values` were classified as `outcome` (the next push of the same bits is not again).
+    #[inline]
+    fn remember(
+        &mut self,
+        values: &[f32; 16],
+        use_: &ProjectionUse,
+        target: RewriteTarget,
+        outcome: Outcome,
+    ) {
         self.last = Some((
-            bits,
+            values.map(f32::to_bits),
             use_.storage,
             use_.convention,
             target,
             self.generation,
             outcome,
         ));
-        Some(outcome)
     }
 
     fn count_match(&mut self, camera: Option<usize>) {

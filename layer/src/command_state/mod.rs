@@ -43,6 +43,7 @@ mod app_viewports;
 mod emission;
 mod known_pipelines;
 pub mod pipeline_depth;
+mod push_shortcut;
 #[cfg(test)]
 mod tests;
 
@@ -50,6 +51,7 @@ use app_viewports::AppViewports;
 use emission::{Emitted, Filtered};
 use known_pipelines::KnownPipelines;
 pub use pipeline_depth::{PipelineDepth, States, MAX_VIEWPORTS};
+use push_shortcut::PushShortcut;
 
 /// The depth attachment draws currently go to.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -238,6 +240,9 @@ pub struct CommandState {
     /// secondary that continues one. State is only sent down here ([`Self::settle`]).
     in_pass: bool,
     dirty: bool,
+    /// What a push does to the settled state, where it changes nothing revz sends
+    /// ([`push_shortcut`]); `None` where unknown.
+    shortcut: Option<PushShortcut>,
 }
 
 impl Default for CommandState {
@@ -276,6 +281,7 @@ impl Default for CommandState {
             secondary_contents: false,
             in_pass: false,
             dirty: true,
+            shortcut: None,
         }
     }
 }
@@ -363,6 +369,7 @@ impl CommandState {
                 *r = near_over_far;
                 self.dirty = true;
             }
+            self.drop_shortcut();
         }
     }
 
@@ -494,6 +501,7 @@ impl CommandState {
     ) {
         self.push_pusher = pusher;
         self.push_patch = patch.unwrap_or(crate::precise::PushPatch::NONE);
+        self.drop_shortcut();
     }
 
     /// The stages an application's push of `size` bytes at `offset` with `stages`, with the
@@ -542,13 +550,19 @@ impl CommandState {
         }
         self.push.push(layout, offset, data);
         self.pushed_since_bind = true;
-        let Some((use_, target)) = self.precise_use().map(|(p, t)| (*p, t)) else {
-            return (None, self.fold(layout, stages, offset, None));
-        };
+        // The bound pipeline's projection, where this push writes some of its bytes.
         let end = u64::from(offset) + data.len() as u64;
-        if end <= u64::from(use_.offset) || u64::from(use_.end()) <= u64::from(offset) {
-            return (None, self.fold(layout, stages, offset, None));
-        }
+        let written = self
+            .precise_use()
+            .map(|(use_, target)| (*use_, target))
+            .filter(|(use_, _)| {
+                u64::from(offset) < u64::from(use_.end()) && u64::from(use_.offset) < end
+            });
+        let Some((use_, target)) = written else {
+            let folded = self.fold(layout, stages, offset, None);
+            self.refresh_shortcut();
+            return (None, folded);
+        };
         let outcome = self.push.outcome(&use_, target);
         match outcome {
             Some(outcome) => {
@@ -563,7 +577,9 @@ impl CommandState {
             }
             None => self.dirty = true,
         }
-        (outcome, self.fold(layout, stages, offset, outcome))
+        let folded = self.fold(layout, stages, offset, outcome);
+        self.refresh_shortcut();
+        (outcome, folded)
     }
 
     /// The bytes of a push [`Self::push_constants`] just returned, written into `out`.
@@ -786,6 +802,7 @@ impl CommandState {
         self.shader_variant_bound = false;
         if unchanged {
             self.dirty = false;
+            self.refresh_shortcut();
         }
     }
 
@@ -1041,6 +1058,7 @@ impl CommandState {
         };
         self.emit(sink);
         self.dirty = false;
+        self.refresh_shortcut();
         outcome
     }
 

@@ -1269,3 +1269,121 @@ fn an_infinite_mode_target_of_complementary_depth_is_drawn_as_complementary_mode
     state.before_draw(&mut sink);
     assert_eq!(sink.pushed.last().map(|p| &p.1), Some(&infinite));
 }
+
+/// The push shortcut changes nothing the full path would not: in random recordings (pushes of
+/// two cameras' P * V * M, of bytes beside the projection and of a second layout; binds of
+/// pipelines with and without a pushed projection; target changes and draws), every push the
+/// shortcut takes leaves the state as the full path (`push_constants` then a settle) leaves a
+/// copy of it, byte for byte of its debug form, and neither sends anything for it. Most pushes
+/// of the same camera must take it.
+#[test]
+fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
+    use glam::dcamera::rh::{proj::vulkan, view::look_at_mat4};
+    use glam::{DMat4, DVec3};
+    let cameras = [
+        (DVec3::new(30.0, 20.0, 50.0), 0.1, 100.0),
+        (DVec3::new(-400.0, 15.0, 90.0), 0.5, 5.0e4),
+    ];
+    let mvp = |camera: usize, at: DVec3| -> Vec<u8> {
+        let (eye, near, far) = cameras[camera];
+        let view = look_at_mat4(eye, DVec3::ZERO, DVec3::Y);
+        (vulkan::perspective(1.0, 1.5, near, far) * view * DMat4::from_translation(at))
+            .as_mat4()
+            .to_cols_array()
+            .iter()
+            .flat_map(|v| v.to_ne_bytes())
+            .collect()
+    };
+    let flip_only = Arc::new(PipelineDepth {
+        projection: None,
+        handle: vk::Pipeline::from_raw(APP_PIPELINE + 1),
+        ..(*projection_pipeline()).clone()
+    });
+    let pipelines = [projection_pipeline(), flip_only, static_pipeline()];
+    let layouts = [layout(), vk::PipelineLayout::from_raw(4)];
+    for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
+        let mut state = precise(target);
+        let reversal = precise(target).reversal();
+        state.begin(Target::Reversed, reversal, Cameras::default());
+        state.bind_pipeline(Some(Arc::clone(&pipelines[0])));
+        let mut random = 0x9e37_79b9_7f4a_7c15u64;
+        let (mut taken, mut same_camera_pushes) = (0, 0);
+        for step in 0..4000 {
+            random ^= random << 13;
+            random ^= random >> 7;
+            random ^= random << 17;
+            let pick = random % 100;
+            let mut sink = Recorded::default();
+            if pick < 80 {
+                let camera = usize::from(step % 400 >= 300);
+                let at = DVec3::new(
+                    (random >> 8) as f64 % 40.0 - 20.0,
+                    (random >> 20) as f64 % 10.0,
+                    -((random >> 32) as f64 % 60.0),
+                );
+                let (layout, offset, bytes) = match random % 23 {
+                    0 => (layouts[1], 0, mvp(camera, at)),
+                    1 | 2 => (layouts[0], 64, vec![7; 16]),
+                    3 => (layouts[0], 32, mvp(camera, at)[..16].to_vec()),
+                    _ => (layouts[0], 0, mvp(camera, at)),
+                };
+                let stages = if random % 5 == 0 {
+                    vk::ShaderStageFlags::VERTEX
+                } else {
+                    OTHER_STAGES
+                };
+                same_camera_pushes += usize::from(offset == 0 && layout == layouts[0]);
+                let mut full = state.clone();
+                if layout != full.push_layout() {
+                    full.note_push_pusher(vk::PipelineLayout::null(), None);
+                }
+                let full_stages = full.push_stages(offset, bytes.len() as u32, stages);
+                let (_, folded) = full.push_constants(layout, full_stages, offset, &bytes);
+                let mut full_sink = Recorded::default();
+                full.settle(&mut full_sink);
+                match state.push_shortcut(layout, stages, offset, &bytes) {
+                    Some(sent) => {
+                        taken += 1;
+                        assert_eq!(sent, full_stages, "step {step}");
+                        assert!(folded.is_none(), "step {step}: the full path folds");
+                        assert_eq!(full_sink, Recorded::default(), "step {step}");
+                        state.settle(&mut sink);
+                        assert_eq!(sink, Recorded::default(), "step {step}");
+                        assert_eq!(format!("{state:?}"), format!("{full:?}"), "step {step}");
+                    }
+                    None => {
+                        // The full path after the shortcut declined ends where it ends alone
+                        // (what the shortcut did is what it does first, or fills its cache).
+                        if layout != state.push_layout() {
+                            state.note_push_pusher(vk::PipelineLayout::null(), None);
+                        }
+                        let stages = state.push_stages(offset, bytes.len() as u32, stages);
+                        let (_, after) = state.push_constants(layout, stages, offset, &bytes);
+                        state.settle(&mut sink);
+                        assert_eq!((after, &sink), (folded, &full_sink), "step {step}");
+                        assert_eq!(format!("{state:?}"), format!("{full:?}"), "step {step}");
+                    }
+                }
+            } else if pick < 88 {
+                let pipeline = &pipelines[(random >> 9) as usize % pipelines.len()];
+                state.bind_pipeline(Some(Arc::clone(pipeline)));
+                state.settle(&mut sink);
+            } else if pick < 91 {
+                let to = if random % 2 == 0 {
+                    Target::Native
+                } else {
+                    Target::Reversed
+                };
+                state.set_target(to);
+                state.settle(&mut sink);
+            } else {
+                state.before_draw(&mut sink);
+            }
+        }
+        eprintln!("{target:?}: {taken} shortcuts, {same_camera_pushes} projection pushes");
+        assert!(
+            taken * 10 >= same_camera_pushes * 6,
+            "{target:?}: {taken} shortcuts of {same_camera_pushes} pushes of a projection"
+        );
+    }
+}

@@ -37,6 +37,23 @@ impl CommandBufferEntry {
         }
     }
 
+    /// [`CommandState::push_shortcut`]: the push followed without the full path where it
+    /// changes nothing revz sends. It leaves what [`Self::settle_wanted`] says as it was (it
+    /// changes nothing a settle reads), so it does not write that flag.
+    #[inline]
+    pub fn push_shortcut(
+        &self,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        data: &[u8],
+    ) -> Option<vk::ShaderStageFlags> {
+        self.state
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push_shortcut(layout, stages, offset, data)
+    }
+
     /// Whether a settle may have something to send (false: it would send nothing).
     #[inline]
     pub fn settle_wanted(&self) -> bool {

@@ -239,6 +239,27 @@ pub unsafe extern "system" fn cmd_push_constants(
     // uninitialized otherwise: most pushes send the application's own bytes).
     let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
     let tracked = objects::with_command_buffer(buffer, |entry| {
+        // Most pushes change nothing revz sends (the same camera's next matrix, bytes beside
+        // the projection): a few compares, and the push goes down as it came.
+        let shortcut = guarded(
+            &ENTRY,
+            || {
+                // SAFETY: `size` bytes of values (the application's contract).
+                let values = unsafe { slice(p_values.cast::<u8>(), size) };
+                entry.push_shortcut(layout, stages, offset, values)
+            },
+            || None,
+        );
+        if let Some(stages) = shortcut {
+            // SAFETY: calling down with the application's arguments (and the stages of a
+            // vertex range revz extended over the bytes it writes).
+            unsafe {
+                (entry.device.next.fp_v1_0().cmd_push_constants)(
+                    buffer, layout, stages, offset, size, p_values,
+                )
+            };
+            return;
+        }
         let mut followed = stages;
         let failed = std::cell::Cell::new(false);
         let folded = guarded(
