@@ -206,12 +206,13 @@ impl DepthLine {
         // Entries far from overflow and underflow in the products below.
         const LARGEST: f32 = 1e18;
         const MARGIN: f64 = 1.0 - 1e-6;
-        // |v| <= LARGEST for all 16, without a branch per entry: the largest magnitude's bits
-        // (a NaN's exceed every finite value's and infinity's).
-        let largest_bits = values
-            .iter()
-            .fold(0, |largest, v| largest.max(v.to_bits() & 0x7fff_ffff));
-        if largest_bits > LARGEST.to_bits() {
+        // |v| <= LARGEST for all 16 (the full search refuses a matrix with any entry not
+        // finite), without a branch per entry: a compare of the magnitude's bits (a NaN's
+        // exceed every finite value's and infinity's) that vectorizes.
+        let too_large = values.iter().fold(false, |any, v| {
+            any | ((v.to_bits() & 0x7fff_ffff) > LARGEST.to_bits())
+        });
+        if too_large {
             return false;
         }
         let v = |i: usize| f64::from(values[i]);
