@@ -502,6 +502,9 @@ pub struct PushConstants {
     /// Per camera slot of `cameras`, the matrices classified as that camera's in this
     /// recording (the depth profile; a matrix pushed again unchanged is not counted again).
     matches: [u32; revz_math::MAX_CAMERAS],
+    /// [`Self::known_outcome`] found no answer for the current values: the next
+    /// [`Self::outcome`] (the full path of the same push) searches at once.
+    search_next: bool,
 }
 
 impl Default for PushConstants {
@@ -516,6 +519,7 @@ impl Default for PushConstants {
             generation: 0,
             changed: false,
             matches: [0; revz_math::MAX_CAMERAS],
+            search_next: false,
         }
     }
 }
@@ -589,8 +593,12 @@ impl PushConstants {
             return None;
         }
         let values = use_.read(&self.bytes);
-        if let Some(outcome) = self.known(&values, use_, target) {
-            return Some(outcome);
+        // Where the push shortcut just asked `known` of these values, it answered nothing.
+        let searched = std::mem::take(&mut self.search_next);
+        if !searched {
+            if let Some(outcome) = self.known(&values, use_, target) {
+                return Some(outcome);
+            }
         }
         // The camera of the last classified matrix, where this one can be its.
         let same = self.same_camera.filter(|same| {
@@ -655,7 +663,9 @@ impl PushConstants {
             return None;
         }
         let values = use_.read(&self.bytes);
-        self.known(&values, use_, target)
+        let known = self.known(&values, use_, target);
+        self.search_next = known.is_none();
+        known
     }
 
     /// The outcome of the current values of `use_` where they are the last classified (what a

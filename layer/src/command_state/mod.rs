@@ -560,7 +560,7 @@ impl CommandState {
             });
         let Some((use_, target)) = written else {
             let folded = self.fold(layout, stages, offset, None);
-            self.refresh_shortcut();
+            self.refresh_shortcut(None);
             return (None, folded);
         };
         let outcome = self.push.outcome(&use_, target);
@@ -578,7 +578,14 @@ impl CommandState {
             None => self.dirty = true,
         }
         let folded = self.fold(layout, stages, offset, outcome);
-        self.refresh_shortcut();
+        if folded.is_none() {
+            self.refresh_shortcut(outcome);
+        } else {
+            // The carrier changed with this push (a new camera): the next push is likely
+            // another (a projection per draw), and the shortcut would only cost; the same
+            // camera's next push refreshes it (on this path, without a search).
+            self.drop_shortcut();
+        }
         (outcome, folded)
     }
 
@@ -802,7 +809,7 @@ impl CommandState {
         self.shader_variant_bound = false;
         if unchanged {
             self.dirty = false;
-            self.refresh_shortcut();
+            self.refresh_shortcut(None);
         }
     }
 
@@ -1058,7 +1065,7 @@ impl CommandState {
         };
         self.emit(sink);
         self.dirty = false;
-        self.refresh_shortcut();
+        self.refresh_shortcut(outcome);
         outcome
     }
 

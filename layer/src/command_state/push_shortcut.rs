@@ -40,7 +40,9 @@ pub(super) struct PushShortcut {
 impl CommandState {
     /// The shortcut for the state as it is now, if it is settled and a push with its last
     /// layout can leave it so (the module docs); `None` otherwise.
-    fn shortcut_now(&self) -> Option<PushShortcut> {
+    /// `classified`: the outcome of the projection's current values where the caller just
+    /// classified them (found again from the last classification otherwise).
+    fn shortcut_now(&self, classified: Option<Outcome>) -> Option<PushShortcut> {
         let layout = self.push.layout();
         if self.dirty || layout == vk::PipelineLayout::null() || !self.push_compatible() {
             return None;
@@ -60,7 +62,10 @@ impl CommandState {
         let projection = match precise {
             None => None,
             Some((use_, target)) => {
-                let outcome = self.push.settled_outcome(&use_, target)?;
+                let outcome = match classified {
+                    Some(outcome) => outcome,
+                    None => self.push.settled_outcome(&use_, target)?,
+                };
                 let path = match outcome {
                     Outcome::Rewritten { .. } => DrawPath::Precise,
                     _ => DrawPath::Flip,
@@ -83,10 +88,11 @@ impl CommandState {
     }
 
     /// Writes down the shortcut where the state may have just settled (the end of a settle,
-    /// of the full push path, of a bind that left the state settled).
+    /// of the full push path, of a bind that left the state settled); `classified` as for
+    /// [`Self::shortcut_now`].
     #[inline]
-    pub(super) fn refresh_shortcut(&mut self) {
-        self.shortcut = self.shortcut_now();
+    pub(super) fn refresh_shortcut(&mut self, classified: Option<Outcome>) {
+        self.shortcut = self.shortcut_now(classified);
     }
 
     /// `vkCmdPushConstants` of `data` at `offset` with `layout` and `stages`, where the
@@ -118,6 +124,12 @@ impl CommandState {
         }
         self.pushed_since_bind = true;
         Some(self.push_stages(offset, data.len() as u32, stages))
+    }
+
+    /// Whether a push may take the shortcut (it has one).
+    #[inline]
+    pub fn has_push_shortcut(&self) -> bool {
+        self.shortcut.is_some()
     }
 
     /// Drops the shortcut (state it reads changed without marking the state dirty).

@@ -16,6 +16,11 @@ pub struct CommandBufferEntry {
     /// when its lock was last released: a hook after which nothing is pending settles without
     /// taking the lock again (one load). Written only under the state's lock.
     settle_wanted: AtomicBool,
+    /// Whether the state has a push shortcut ([`CommandState::has_push_shortcut`]), as it
+    /// was when its lock was last released: a push tries the shortcut only where it may
+    /// answer (a frame of a new camera per push never takes the lock for it). Written only
+    /// under the state's lock.
+    shortcut_ready: AtomicBool,
     pub scope: Mutex<PassScope>,
     /// Its pool's queue family can dispatch compute (converted copies need it).
     pub dispatchable: bool,
@@ -34,12 +39,14 @@ impl CommandBufferEntry {
         StateGuard {
             state: self.state.lock().unwrap_or_else(PoisonError::into_inner),
             settle_wanted: &self.settle_wanted,
+            shortcut_ready: &self.shortcut_ready,
         }
     }
 
-    /// [`CommandState::push_shortcut`]: the push followed without the full path where it
-    /// changes nothing revz sends. It leaves what [`Self::settle_wanted`] says as it was (it
-    /// changes nothing a settle reads), so it does not write that flag.
+    /// [`CommandState::push_shortcut`], where the state may have one: the push followed
+    /// without the full path where it changes nothing revz sends. It changes nothing a
+    /// settle reads, so it leaves [`Self::settle_wanted`] as it was; a shortcut it declines
+    /// stays (the full path that follows refreshes or drops it).
     #[inline]
     pub fn push_shortcut(
         &self,
@@ -48,6 +55,9 @@ impl CommandBufferEntry {
         offset: u32,
         data: &[u8],
     ) -> Option<vk::ShaderStageFlags> {
+        if !self.shortcut_ready.load(Ordering::Relaxed) {
+            return None;
+        }
         self.state
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
@@ -70,6 +80,7 @@ impl CommandBufferEntry {
 pub struct StateGuard<'a> {
     state: MutexGuard<'a, CommandState>,
     settle_wanted: &'a AtomicBool,
+    shortcut_ready: &'a AtomicBool,
 }
 
 impl std::ops::Deref for StateGuard<'_> {
@@ -90,6 +101,8 @@ impl Drop for StateGuard<'_> {
     fn drop(&mut self) {
         self.settle_wanted
             .store(self.state.wants_settle(), Ordering::Relaxed);
+        self.shortcut_ready
+            .store(self.state.has_push_shortcut(), Ordering::Relaxed);
     }
 }
 
@@ -122,6 +135,7 @@ pub fn track_command_buffers(
                 secondary: level == vk::CommandBufferLevel::SECONDARY,
                 state: Mutex::new(CommandState::new(device.reversing())),
                 settle_wanted: AtomicBool::new(false),
+                shortcut_ready: AtomicBool::new(false),
                 scope: Mutex::new(PassScope::default()),
                 dispatchable,
                 copies: Default::default(),
