@@ -730,6 +730,7 @@ pub fn create_pipeline(
         Program::UboDynamic => (shaders::UBO_DYNAMIC_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::Ssbo => (shaders::SSBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SsboRows => (shaders::SSBO_ROWS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::SsboRegisters => (shaders::SSBO_REGISTERS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SplitPush => (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG)),
         Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::PushGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::SCENE_FRAG)),

@@ -125,6 +125,11 @@ pub const UBO_TESE: ShaderSource = glslang_shader!("ubo.tese");
 /// color on.
 pub const SSBO_ROWS_VERT: ShaderSource = glslang_shader!("ssbo_rows.vert");
 
+/// `ssbo_registers.vert` (glslang): `ssbo_rows.vert`'s rows applied as D3D bytecode
+/// translators write it: a private output register written one component at a time by four
+/// dot products in a function the entry point calls, then copied into `gl_Position`.
+pub const SSBO_REGISTERS_VERT: ShaderSource = glslang_shader!("ssbo_registers.vert");
+
 /// `split_mvp.vert` (glslang): `scene.vert` with only the matrix in its push constants
 /// (bytes 0..64, the vertex stage's own range).
 pub const SPLIT_MVP_VERT: ShaderSource = glslang_shader!("split_mvp.vert");
@@ -197,6 +202,7 @@ pub const ALL: &[ShaderSource] = &[
     PASSTHROUGH_TESC,
     UBO_TESE,
     SSBO_ROWS_VERT,
+    SSBO_REGISTERS_VERT,
     SPLIT_MVP_VERT,
     SPLIT_COLOR_FRAG,
     SOFT_PARTICLE_VERT,
@@ -221,6 +227,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("passthrough.tesc", PASSTHROUGH_TESC),
     ("ubo.tese", UBO_TESE),
     ("ssbo_rows.vert", SSBO_ROWS_VERT),
+    ("ssbo_registers.vert", SSBO_REGISTERS_VERT),
     ("split_mvp.vert", SPLIT_MVP_VERT),
     ("split_color.frag", SPLIT_COLOR_FRAG),
     ("depth_post.frag", DEPTH_POST_FRAG),
@@ -418,6 +425,7 @@ mod tests {
             (UBO_TESE, UNIFORM, 1),
             // glslang for Vulkan 1.0 (SPIR-V 1.0): a `BufferBlock` in the Uniform class.
             (SSBO_ROWS_VERT, UNIFORM, 1),
+            (SSBO_REGISTERS_VERT, UNIFORM, 1),
         ] {
             let words = shader.words().unwrap();
             let classes: Vec<u32> = instructions(&words)

@@ -357,6 +357,7 @@ fn the_profile_says_what_buffer_deliveries_do() {
         ("plane-stack", "ubo-geometry"),
         ("sloped-plane", "ubo-tessellation"),
         ("mars-patch", "ssbo-rows"),
+        ("far-objects", "ssbo-registers"),
         ("plane-stack", "push-split"),
         ("sloped-plane", "push-geometry"),
     ] {

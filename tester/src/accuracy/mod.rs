@@ -95,6 +95,9 @@ pub enum DeliveryChoice {
     Ssbo,
     /// The storage buffer of ssbo, each matrix as its rows, applied as four dot products.
     SsboRows,
+    /// The rows of ssbo-rows, applied as DXVK writes a D3D vertex shader (an output register
+    /// written one component at a time).
+    SsboRegisters,
     /// The push constants of push, in a range per stage.
     PushSplit,
     /// The push constants of push, applied in a geometry shader.
@@ -103,8 +106,8 @@ pub enum DeliveryChoice {
     UboGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
-    /// push, push-split, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ubo-geometry and
-    /// ubo-tessellation.
+    /// push, push-split, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers,
+    /// ubo-geometry and ubo-tessellation.
     All,
 }
 
@@ -116,6 +119,7 @@ impl DeliveryChoice {
             DeliveryChoice::UboDynamic => &[Delivery::UboDynamic],
             DeliveryChoice::Ssbo => &[Delivery::Ssbo],
             DeliveryChoice::SsboRows => &[Delivery::SsboRows],
+            DeliveryChoice::SsboRegisters => &[Delivery::SsboRegisters],
             DeliveryChoice::PushSplit => &[Delivery::PushSplit],
             DeliveryChoice::PushGeometry => &[Delivery::PushGeometry],
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
@@ -224,7 +228,7 @@ pub struct Selection {
 
     /// Projection deliveries (comma-separated): push, push-split, push-geometry, ubo,
     /// ubo-dynamic, ssbo,
-    /// ssbo-rows, ubo-geometry, ubo-tessellation, or all. The deliveries other than push are
+    /// ssbo-rows, ssbo-registers, ubo-geometry, ubo-tessellation, or all. The deliveries other than push are
     /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.
     /// Default: push.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "DELIVERIES")]

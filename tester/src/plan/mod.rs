@@ -212,6 +212,11 @@ pub enum Program {
     /// `ssbo_rows.vert` + `flat_color.frag` (the `ssbo-rows` [`Delivery`]): the buffer of
     /// [`Program::Ssbo`] with each matrix stored as its rows, applied as four dot products.
     SsboRows,
+    /// `ssbo_registers.vert` + `flat_color.frag` (the `ssbo-registers` [`Delivery`]): the
+    /// buffer of [`Program::SsboRows`], applied as D3D bytecode translators write it (a
+    /// private output register written one component at a time, copied into `gl_Position` by
+    /// the entry point after it calls the shader's function).
+    SsboRegisters,
     /// `ubo_position.vert` + `ubo.geom` + `flat_color.frag` (the `ubo-geometry` [`Delivery`]):
     /// the buffers of [`Program::Ubo`], the product applied in a geometry shader to the
     /// vertex stage's `gl_Position`.
@@ -279,6 +284,9 @@ pub enum Delivery {
     /// The storage buffer of [`Delivery::Ssbo`], each matrix stored as its rows and applied as
     /// four dot products ([`Program::SsboRows`]).
     SsboRows,
+    /// The buffer of [`Delivery::SsboRows`], applied as DXVK writes a D3D vertex shader: each
+    /// dot product stored into one component of a private register ([`Program::SsboRegisters`]).
+    SsboRegisters,
     /// The push constants of [`Delivery::Push`] in a range per stage ([`Program::SplitPush`]).
     PushSplit,
     /// The push constants of [`Delivery::Push`], applied in a geometry shader
@@ -294,7 +302,7 @@ pub enum Delivery {
 
 impl Delivery {
     /// Every delivery, push first.
-    pub const ALL: [Delivery; 9] = [
+    pub const ALL: [Delivery; 10] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushGeometry,
@@ -302,6 +310,7 @@ impl Delivery {
         Delivery::UboDynamic,
         Delivery::Ssbo,
         Delivery::SsboRows,
+        Delivery::SsboRegisters,
         Delivery::UboGeometry,
         Delivery::UboTessellation,
     ];
@@ -314,6 +323,7 @@ impl Delivery {
             Delivery::UboDynamic => "ubo-dynamic",
             Delivery::Ssbo => "ssbo",
             Delivery::SsboRows => "ssbo-rows",
+            Delivery::SsboRegisters => "ssbo-registers",
             Delivery::PushSplit => "push-split",
             Delivery::PushGeometry => "push-geometry",
             Delivery::UboGeometry => "ubo-geometry",
@@ -330,6 +340,7 @@ impl Delivery {
             Delivery::UboDynamic => Some(Program::UboDynamic),
             Delivery::Ssbo => Some(Program::Ssbo),
             Delivery::SsboRows => Some(Program::SsboRows),
+            Delivery::SsboRegisters => Some(Program::SsboRegisters),
             Delivery::PushSplit => Some(Program::SplitPush),
             Delivery::PushGeometry => Some(Program::PushGeometry),
             Delivery::UboGeometry => Some(Program::UboGeometry),
@@ -352,7 +363,7 @@ impl Program {
         match self {
             Program::Ubo | Program::UboGeometry | Program::UboTessellation => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
-            Program::SsboRows => Some(Program::Ssbo),
+            Program::SsboRows | Program::SsboRegisters => Some(Program::Ssbo),
             _ => None,
         }
     }
@@ -382,6 +393,7 @@ impl Program {
             | Program::UboDynamic
             | Program::Ssbo
             | Program::SsboRows
+            | Program::SsboRegisters
             | Program::UboGeometry
             | Program::UboTessellation => 0,
             Program::MvpPair => 128,

@@ -590,6 +590,7 @@ impl<'a> Renderer<'a> {
             | Program::UboDynamic
             | Program::Ssbo
             | Program::SsboRows
+            | Program::SsboRegisters
             | Program::UboGeometry
             | Program::UboTessellation => (self.matrix_layout, vk::ShaderStageFlags::empty()),
             Program::Flat

@@ -702,7 +702,9 @@ impl Recorder<'_> {
                 Program::DepthPostMs => renderer.multisampled_read.as_ref().map(|r| r.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
-                Program::Ssbo | Program::SsboRows => renderer.matrices.as_ref().map(|m| m.set),
+                Program::Ssbo | Program::SsboRows | Program::SsboRegisters => {
+                    renderer.matrices.as_ref().map(|m| m.set)
+                }
                 _ => None,
             };
             if let Some(set) = set {
@@ -814,6 +816,7 @@ impl Recorder<'_> {
                 | Program::MvpPair
                 | Program::Ssbo
                 | Program::SsboRows
+                | Program::SsboRegisters
         ) {
             u32::try_from(n).context("object index")?
         } else {

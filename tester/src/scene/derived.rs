@@ -139,7 +139,8 @@ impl Scene {
     ///   the color at 64 (80 bytes; the outer matrix is the frame block,
     ///   [`Scene::frame_block`]);
     /// - [`Program::Ssbo`]: the clip transform ([`Scene::mvp_in`]) at 0, the color at 64
-    ///   (80 bytes); [`Program::SsboRows`]: the same with the matrix's rows at 0, 16, 32, 48;
+    ///   (80 bytes); [`Program::SsboRows`] and [`Program::SsboRegisters`]: the same with the
+    ///   matrix's rows at 0, 16, 32, 48;
     ///
     /// and nothing for the push-constant programs.
     pub fn object_block(&self, program: Program, object: &Object, aspect: f64) -> Vec<u8> {
@@ -147,7 +148,7 @@ impl Scene {
             Program::Ubo => self.separate_matrices(object, aspect).to_vec(),
             Program::UboDynamic => vec![self.model_split(View::Camera, object, aspect).0],
             // The rows of the clip transform: its transpose, column-major.
-            Program::Ssbo if program == Program::SsboRows => {
+            Program::Ssbo if matches!(program, Program::SsboRows | Program::SsboRegisters) => {
                 vec![self.mvp_in(View::Camera, object, aspect).transpose()]
             }
             Program::Ssbo => vec![self.mvp_in(View::Camera, object, aspect)],
@@ -232,6 +233,7 @@ impl Scene {
             | Program::UboDynamic
             | Program::Ssbo
             | Program::SsboRows
+            | Program::SsboRegisters
             | Program::UboGeometry
             | Program::UboTessellation => Vec::new(),
         };

@@ -22,6 +22,17 @@ struct Defs {
     /// Variables reached through an access chain (a component may be written apart), or used
     /// other than as the pointer of a load or a store: never followed.
     chained: HashSet<u32>,
+    /// Access chains of one constant index into a followed variable (a component of a
+    /// vector register, as D3D translators write one): chain -> (variable, component).
+    component_chains: HashMap<u32, (u32, u32)>,
+    /// Stores through those chains: (variable, component) -> (value, word index).
+    component_stores: HashMap<(u32, u32), Vec<(u32, usize)>>,
+    /// Followed variables used other than as the pointer of a load or a store or the base
+    /// of a component chain, or whose component chains are used other than as the pointer of
+    /// a store or a load: their components are not only what is stored through the chains.
+    escaped: HashSet<u32>,
+    /// Every `Input` variable (never written by the shader: two loads of one read the same).
+    input_variables: HashSet<u32>,
     /// Component counts of vector types.
     counts: HashMap<u32, u32>,
     /// Word ranges of loop constructs (from an `OpLoopMerge` to its merge block's label).
@@ -85,6 +96,15 @@ impl Defs {
                 .map(|(&id, _)| id)
                 .collect(),
             chained: HashSet::new(),
+            component_chains: HashMap::new(),
+            component_stores: HashMap::new(),
+            escaped: HashSet::new(),
+            input_variables: module
+                .variables
+                .iter()
+                .filter(|(_, &(_, class))| class == STORAGE_INPUT)
+                .map(|(&id, _)| id)
+                .collect(),
             initialized: HashSet::new(),
             labels: Vec::new(),
             counts: module
@@ -123,13 +143,31 @@ impl Defs {
             }
             // A followed variable used other than as the pointer of a load or a store (an
             // alias, an argument, a debug reference): its value is not only what is stored.
+            // A component chain: one constant index into a followed variable.
+            let component_chain = matches!(opcode, OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN)
+                && operands.len() == 4
+                && defs.followed.contains(&operands[2])
+                && defs.int_constants.contains_key(&operands[3]);
             if opcode != OP_VARIABLE {
                 for (index, operand) in operands.iter().enumerate() {
                     let pointer_use = matches!((opcode, index), (OP_LOAD, 2) | (OP_STORE, 0));
                     if !pointer_use && defs.followed.contains(operand) {
                         defs.chained.insert(*operand);
+                        if !(component_chain && index == 2) {
+                            defs.escaped.insert(*operand);
+                        }
+                    }
+                    if !pointer_use {
+                        if let Some(&(variable, _)) = defs.component_chains.get(operand) {
+                            defs.escaped.insert(variable);
+                        }
                     }
                 }
+            }
+            if component_chain {
+                let component = defs.int_constants[&operands[3]];
+                defs.component_chains
+                    .insert(operands[1], (operands[2], component));
             }
             match (opcode, operands) {
                 (OP_LOOP_MERGE, &[merge, ..]) => open_loops.push((merge, at)),
@@ -146,9 +184,15 @@ impl Defs {
                         defs.initialized.insert(id);
                     }
                 }
-                (OP_STORE, &[pointer, value, ..]) => {
-                    defs.stores.entry(pointer).or_default().push((value, at));
-                }
+                (OP_STORE, &[pointer, value, ..]) => match defs.component_chains.get(&pointer) {
+                    Some(&component) => {
+                        defs.component_stores
+                            .entry(component)
+                            .or_default()
+                            .push((value, at));
+                    }
+                    None => defs.stores.entry(pointer).or_default().push((value, at)),
+                },
                 (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[_, _, base, ..]) => {
                     defs.chained.insert(base);
                 }
@@ -379,6 +423,43 @@ impl Defs {
         Some(value)
     }
 
+    /// The values a load (at word `load_at`) of a vector variable reads in its z and w, where
+    /// the shader writes the variable only component by component (D3D translators write a
+    /// register so: `dp4 o0.z, v0, cb0[2]` is a dot product stored through an access chain to
+    /// `o0`'s third component), each of z and w exactly once; with the same ordering rule as
+    /// [`Self::through_local`] (an initialized variable's stores earlier in the load's block).
+    fn assembled(&self, pointer: u32, load_at: usize) -> Option<[u32; 2]> {
+        if !self.followed.contains(&pointer)
+            || self.escaped.contains(&pointer)
+            || self.stores.contains_key(&pointer)
+        {
+            return None;
+        }
+        let component = |index: u32| {
+            let &[(value, store_at)] = self.component_stores.get(&(pointer, index))?.as_slice()
+            else {
+                return None;
+            };
+            if self.initialized.contains(&pointer) && !self.same_block(store_at, load_at) {
+                return None;
+            }
+            Some(value)
+        };
+        Some([component(2)?, component(3)?])
+    }
+
+    /// Whether two held values ([`Self::held`]) are the same: one id, or two loads of one
+    /// `Input` variable (which the shader cannot write).
+    fn same_held(&self, a: u32, b: u32) -> bool {
+        let input_loaded = |id: u32| match self.at.get(&id) {
+            Some((_, OP_LOAD, operands)) if operands.len() >= 3 => {
+                Some(operands[2]).filter(|p| self.input_variables.contains(p))
+            }
+            _ => None,
+        };
+        a == b || input_loaded(a).is_some_and(|p| input_loaded(b) == Some(p))
+    }
+
     /// The word index of `id`'s definition (0 where unknown).
     fn at_of(&self, id: u32) -> usize {
         self.at.get(&id).map_or(0, |(at, ..)| *at)
@@ -538,41 +619,64 @@ impl Defs {
         let value = self.unwrapped(value);
         let (_, opcode, operands) = self.at.get(&value)?;
         match (*opcode, operands.as_slice()) {
-            (OP_COMPOSITE_CONSTRUCT, &[_, _, _x, _y, z, w]) => {
-                // Each dot's operands as used, and as the values they hold (a variable's
-                // loads are one value): the held ones tell which operand is shared, the used
-                // ones (which dominate the construct) are what the fit reads.
-                let dot = |id: u32| match self.at.get(&self.unwrapped(id)) {
-                    Some((_, OP_DOT, operands)) if operands.len() == 4 => Some((
-                        [operands[2], operands[3]],
-                        [self.held(operands[2]), self.held(operands[3])],
-                    )),
-                    _ => None,
-                };
-                let ((z, z_held), (w, w_held)) = (dot(z)?, dot(w)?);
-                // The vector both dots share (by index in each), and each one's row.
-                let shared = (0..2)
-                    .flat_map(|i| (0..2).map(move |j| (i, j)))
-                    .find(|&(i, j)| {
-                        z_held[i] == w_held[j]
-                            && z_held[1 - i] != z_held[i]
-                            && w_held[1 - j] != w_held[j]
-                    })?;
-                let (i, j) = shared;
-                Some(([z[1 - i], w[1 - j]], value, z[i]))
-            }
+            (OP_COMPOSITE_CONSTRUCT, &[_, _, _x, _y, z, w]) => self.dot_rows(z, w, value),
             (OP_COPY_OBJECT, &[_, _, source]) => self.row_dots(source, depth + 1),
             (OP_FUNCTION_CALL, &[_, _, callee, ..]) => {
                 self.row_dots(self.returned(callee)?, depth + 1)
             }
             (OP_LOAD, &[_, _, pointer, ..]) => {
-                self.row_dots(self.through_local(pointer, self.at_of(value))?, depth + 1)
+                let load_at = self.at_of(value);
+                if let Some(stored) = self.through_local(pointer, load_at) {
+                    return self.row_dots(stored, depth + 1);
+                }
+                // A register written component by component: the fit goes after the later
+                // of the two dot products (in one block, so that both rows are defined
+                // there; the loaded value may be in another function, which the fit's
+                // private variable reaches).
+                let [z, w] = self.assembled(pointer, load_at)?;
+                let (z_dot, w_dot) = (self.unwrapped(z), self.unwrapped(w));
+                let (z_at, w_at) = (self.at_of(z_dot), self.at_of(w_dot));
+                let (first, last, root) = if z_at < w_at {
+                    (z_at, w_at, w_dot)
+                } else {
+                    (w_at, z_at, z_dot)
+                };
+                if !self.same_block(first, last) {
+                    return None;
+                }
+                self.dot_rows(z, w, root)
             }
             (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => {
                 self.row_dots(self.member(composite, index)?, depth + 1)
             }
             _ => None,
         }
+    }
+
+    /// [`Self::row_dots`] of the dot products `z` and `w` (the position's depth and w), the
+    /// fit placed after `root`.
+    fn dot_rows(&self, z: u32, w: u32, root: u32) -> Option<([u32; 2], u32, u32)> {
+        // Each dot's operands as used, and as the values they hold (a variable's loads are
+        // one value): the held ones tell which operand is shared, the used ones (which
+        // dominate the fit) are what the fit reads.
+        let dot = |id: u32| match self.at.get(&self.unwrapped(id)) {
+            Some((_, OP_DOT, operands)) if operands.len() == 4 => Some((
+                [operands[2], operands[3]],
+                [self.held(operands[2]), self.held(operands[3])],
+            )),
+            _ => None,
+        };
+        let ((z, z_held), (w, w_held)) = (dot(z)?, dot(w)?);
+        // The vector both dots share (by index in each), and each one's row.
+        let shared = (0..2)
+            .flat_map(|i| (0..2).map(move |j| (i, j)))
+            .find(|&(i, j)| {
+                self.same_held(z_held[i], w_held[j])
+                    && !self.same_held(z_held[1 - i], z_held[i])
+                    && !self.same_held(w_held[1 - j], w_held[j])
+            })?;
+        let (i, j) = shared;
+        Some(([z[1 - i], w[1 - j]], root, z[i]))
     }
 
     /// `c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w` (any order of the terms, `c3` alone where

@@ -859,3 +859,55 @@ fn a_fit_in_a_function_that_may_run_again_after_the_store_is_refused() {
     )));
     assert_eq!(source, MatrixSource::UniformBuffer);
 }
+
+/// As D3D bytecode translators (DXVK) write a vertex shader: the output register a private
+/// `vec4` written one component at a time by dot products with a constant buffer's `vec4`
+/// rows, in a function the entry point calls before it copies the register into `Position`
+/// (glslang, `-O0`: each dot loads the input again). Fitted after the later dot product; a
+/// register whose z or w is written twice, also written whole, or reached otherwise than
+/// through its components is refused.
+#[test]
+fn a_register_written_component_by_component_is_fitted() {
+    let (out, source) = derived(&binary(include_bytes!(
+        "../test_data/components_assembled.spv"
+    )));
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    // The fit reads the depth and w rows: extractions from two loaded vec4s.
+    let fitted: HashSet<u32> = with_opcode(&out, OP_COMPOSITE_EXTRACT)
+        .iter()
+        .filter(|e| e.len() == 4 && e[3] < 4)
+        .map(|e| e[2])
+        .collect();
+    assert!(fitted.len() >= 2, "{fitted:?}");
+    let outcome = |body: &str| {
+        let source = format!(
+            "#version 450
+            layout(set = 0, binding = 0) uniform Frame {{ vec4 rows[4]; }} frame;
+            layout(location = 0) in vec4 v0;
+            vec4 o0;
+            void main() {{ {body} gl_Position = o0; }}"
+        );
+        rewrite_position_store_deriving(&compile_glsl(naga::ShaderStage::Vertex, &source), OFFSET)
+            .map(|r| r.map(|(_, s)| s))
+    };
+    let rows = "o0.x = dot(v0, frame.rows[0]); o0.y = dot(v0, frame.rows[1]);
+        o0.z = dot(v0, frame.rows[2]); o0.w = dot(frame.rows[3], v0);";
+    assert_eq!(
+        outcome(rows).ok().flatten(),
+        Some(MatrixSource::UniformBuffer),
+        "naga's SPIR-V of the same"
+    );
+    for (name, body) in [
+        (
+            "z written twice",
+            format!("{rows} o0.z = dot(v0, frame.rows[1]);"),
+        ),
+        ("also written whole", format!("o0 = vec4(0.0); {rows}")),
+        (
+            "a row of another vector",
+            rows.replace("dot(frame.rows[3], v0)", "dot(frame.rows[3], v0.yxzw)"),
+        ),
+    ] {
+        assert!(outcome(&body).is_err(), "{name}: accepted");
+    }
+}
