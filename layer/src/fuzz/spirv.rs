@@ -41,6 +41,8 @@ const LATER_STAGE_SEEDS: &[&[u8]] = &[
     include_bytes!("../../../shaders/glslang/push.geom.spv"),
     include_bytes!("../../../shaders/glslang/ubo.tese.spv"),
     include_bytes!("../../../shaders/glslang/ssbo_rows.vert.spv"),
+    include_bytes!("../../../shaders/glslang/ssbo_registers.vert.spv"),
+    include_bytes!("../shader/test_data/components_assembled.spv"),
     include_bytes!("../shader/test_data/geometry_unrolled.spv"),
     include_bytes!("../shader/test_data/geometry_push_viewports.spv"),
     include_bytes!("../shader/test_data/rows_dot.spv"),
