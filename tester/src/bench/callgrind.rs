@@ -15,6 +15,8 @@ use anyhow::{Context, Result};
 
 /// `VG_USERREQ_TOOL_BASE('C', 'T')`: callgrind's requests (`callgrind.h`).
 const CALLGRIND_BASE: usize = ((b'C' as usize) << 24) | ((b'T' as usize) << 16);
+const DUMP_STATS: usize = CALLGRIND_BASE;
+const ZERO_STATS: usize = CALLGRIND_BASE + 1;
 const START_INSTRUMENTATION: usize = CALLGRIND_BASE + 4;
 const STOP_INSTRUMENTATION: usize = CALLGRIND_BASE + 5;
 
@@ -26,6 +28,61 @@ pub fn start_instrumentation() {
 /// Callgrind stops instrumenting (nothing outside valgrind).
 pub fn stop_instrumentation() {
     client_request(STOP_INSTRUMENTATION);
+}
+
+/// Callgrind's counters start again from zero (nothing outside valgrind).
+pub fn zero_stats() {
+    client_request(ZERO_STATS);
+}
+
+/// Callgrind writes what it counted since the last dump or zeroing as the next part of its
+/// output (`<out>.1`, `<out>.2`, ...; nothing outside valgrind).
+pub fn dump_stats() {
+    client_request(DUMP_STATS);
+}
+
+/// `command` run under callgrind with instrumentation off until the child starts it, every
+/// part it dumps ([`dump_stats`]) written beside `out` ([`dumped_totals`]).
+pub(super) fn under_callgrind_dumps(
+    command: &std::process::Command,
+    out: &Path,
+) -> std::process::Command {
+    let mut wrapped = std::process::Command::new("valgrind");
+    wrapped
+        .arg("--tool=callgrind")
+        .arg("--instr-atstart=no")
+        .arg(format!("--callgrind-out-file={}", out.display()))
+        .arg(command.get_program())
+        .args(command.get_args());
+    for (name, value) in command.get_envs() {
+        match value {
+            Some(value) => wrapped.env(name, value),
+            None => wrapped.env_remove(name),
+        };
+    }
+    wrapped
+}
+
+/// The totals of the parts a child dumped under [`under_callgrind_dumps`], in order (each
+/// part file removed once read; the part written at the child's exit is not one of them: it
+/// follows the last dump).
+pub(super) fn dumped_totals(out: &Path, parts: usize) -> Result<Vec<u64>> {
+    let mut totals = Vec::with_capacity(parts);
+    for part in 1..=parts {
+        let path = std::path::PathBuf::from(format!("{}.{part}", out.display()));
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("callgrind wrote no {}", path.display()))?;
+        totals.push(callgrind_total(&text)?);
+    }
+    // Every part, the exit's included.
+    for part in 1.. {
+        let path = std::path::PathBuf::from(format!("{}.{part}", out.display()));
+        if std::fs::remove_file(&path).is_err() {
+            break;
+        }
+    }
+    let _ = std::fs::remove_file(out);
+    Ok(totals)
 }
 
 /// Whether `valgrind` can be run (the instruction count is skipped without it).
@@ -107,7 +164,31 @@ mod tests {
     #[test]
     fn requests_do_nothing_outside_valgrind() {
         super::start_instrumentation();
+        super::zero_stats();
+        super::dump_stats();
         super::stop_instrumentation();
+    }
+
+    #[test]
+    fn dumped_parts_are_read_in_order_and_every_part_is_removed() {
+        let dir = std::env::temp_dir().join(format!("revz-callgrind-parts-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("micro.out");
+        for (part, total) in [(1, 30), (2, 10), (3, 99)] {
+            std::fs::write(
+                format!("{}.{part}", out.display()),
+                format!("summary: {total}\n"),
+            )
+            .unwrap();
+        }
+        std::fs::write(&out, "summary: 5\n").unwrap();
+        assert_eq!(dumped_totals(&out, 2).unwrap(), vec![30, 10]);
+        assert!(
+            std::fs::read_dir(&dir).unwrap().next().is_none(),
+            "parts left"
+        );
+        assert!(dumped_totals(&out, 1).is_err());
+        std::fs::remove_dir(&dir).unwrap();
     }
 
     #[test]

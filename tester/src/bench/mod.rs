@@ -272,6 +272,10 @@ enum Job {
     /// the smallest count is kept; with few frames, where `valgrind` is installed.
     DrawStormInstructions(usize, usize),
     Micro,
+    /// The micro-benchmark under callgrind: each loop's instructions per call (every loop a
+    /// part the child dumps), in the first [`MICRO_INSTRUCTION_RUNS`] rounds, with
+    /// [`MICRO_INSTRUCTION_CALLS`] calls a loop.
+    MicroInstructions,
     PipelineStorm,
     DepthCopy,
     Smoke,
@@ -285,6 +289,7 @@ impl Job {
             Job::DrawStormCounted(n, p) => format!("draw-storm-{n}-p{p}-counted"),
             Job::DrawStormInstructions(n, p) => format!("draw-storm-{n}-p{p}-instructions"),
             Job::Micro => "micro".into(),
+            Job::MicroInstructions => "micro-instructions".into(),
             Job::PipelineStorm => "pipeline-storm".into(),
             Job::DepthCopy => "depth-copy".into(),
             Job::Smoke => "smoke".into(),
@@ -330,6 +335,9 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
         }
     }
     jobs.push(Job::Micro);
+    if config.instructions && callgrind::has_valgrind() {
+        jobs.push(Job::MicroInstructions);
+    }
     jobs.push(Job::PipelineStorm);
     jobs.push(Job::DepthCopy);
     if config.validation {
@@ -355,6 +363,7 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
             let runs = match job {
                 Job::DrawStormCounted(..) => 1,
                 Job::DrawStormInstructions(..) => INSTRUCTION_RUNS,
+                Job::MicroInstructions => MICRO_INSTRUCTION_RUNS,
                 _ => config.rounds,
             };
             if round >= runs {
@@ -506,7 +515,7 @@ fn run_one(
         | Job::DrawStormProfiled(..)
         | Job::DrawStormCounted(..)
         | Job::DrawStormInstructions(..) => "draw-storm",
-        Job::Micro => "micro",
+        Job::Micro | Job::MicroInstructions => "micro",
         Job::PipelineStorm => "pipeline-storm",
         Job::DepthCopy => "depth-copy",
         Job::Smoke => "smoke",
@@ -523,6 +532,11 @@ fn run_one(
         Job::DrawStormInstructions(..) => (INSTRUCTION_FRAMES, 1),
         _ => (config.frames, config.warmup),
     };
+    // Under callgrind, fewer calls a loop and two repeats (each loop's smaller count kept).
+    let (calls, repeats) = match job {
+        Job::MicroInstructions => (MICRO_INSTRUCTION_CALLS, MICRO_INSTRUCTION_REPEATS),
+        _ => (config.calls, config.repeats),
+    };
     let mut owned: Vec<String> = vec![
         "bench".into(),
         "--child".into(),
@@ -538,9 +552,9 @@ fn run_one(
         "--pipelines".into(),
         config.pipelines.to_string(),
         "--calls".into(),
-        config.calls.to_string(),
+        calls.to_string(),
         "--repeats".into(),
-        config.repeats.to_string(),
+        repeats.to_string(),
     ];
     if let Some(device) = device {
         owned.push("--device".into());
@@ -600,6 +614,9 @@ fn run_one(
     if let Job::DrawStormInstructions(..) = job {
         command = callgrind::under_callgrind(&command, &instructions_out);
     }
+    if let Job::MicroInstructions = job {
+        command = callgrind::under_callgrind_dumps(&command, &instructions_out);
+    }
     if std::env::var_os("REVZ_BENCH_ASLR").is_none() {
         // The same addresses in every child: caches and TLBs see the same layout in every
         // variant, so rounds differ by what the variants do, not by where each run's heap and
@@ -652,8 +669,33 @@ fn run_one(
         let total = callgrind::callgrind_total(&text)?;
         value["result"]["frame_instructions"] = json!(total as f64 / frames as f64);
     }
+    if let Job::MicroInstructions = job {
+        let loops = child::MICRO_LOOPS.len();
+        let totals = callgrind::dumped_totals(&instructions_out, loops * repeats)?;
+        for (index, name) in child::MICRO_LOOPS.iter().enumerate() {
+            let smallest = totals
+                .iter()
+                .skip(index)
+                .step_by(loops)
+                .copied()
+                .min()
+                .unwrap_or(0);
+            value["result"][format!("{name}_instructions")] =
+                json!(smallest as f64 / calls.max(1) as f64);
+        }
+    }
     Ok(value)
 }
+
+/// Children of [`Job::MicroInstructions`] per variant (the first rounds'); each loop's
+/// smallest count per call is kept.
+const MICRO_INSTRUCTION_RUNS: usize = 3;
+
+/// Calls per loop of [`Job::MicroInstructions`] (callgrind runs some fifty times slower).
+const MICRO_INSTRUCTION_CALLS: usize = 10_000;
+
+/// Repeats of each loop in one [`Job::MicroInstructions`] child.
+const MICRO_INSTRUCTION_REPEATS: usize = 2;
 
 /// Measured frames of [`Job::DrawStormInstructions`] (after one warm-up frame).
 const INSTRUCTION_FRAMES: usize = 3;
@@ -826,6 +868,19 @@ fn instruction_ratio(samples: &[Sample], job: &str, variant: &str, rounds: usize
     (without > 0.0).then_some(smallest(variant)? / without)
 }
 
+/// `variant`'s smallest `field` over the children of `job` less no layer's smallest (a count
+/// per call: a child's count is never below its variant's, sometimes above).
+fn smallest_difference(samples: &[Sample], job: &str, variant: &str, field: &str) -> Option<f64> {
+    let smallest = |variant: &str| {
+        samples
+            .iter()
+            .filter(|s| s.job == job && s.variant == variant)
+            .filter_map(|s| s.result.get(field)?.as_f64())
+            .reduce(f64::min)
+    };
+    Some(smallest(variant)? - smallest(Variant::NoLayer.name())?)
+}
+
 /// One speed row per variant (mode), in `report.json`'s `speed` schema.
 fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) -> Vec<Value> {
     let rounds = config.rounds;
@@ -837,6 +892,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
     let diff = |a: f64, b: f64| a - b;
     let pipe = Job::PipelineStorm.name();
     let micro = Job::Micro.name();
+    let micro_counted = Job::MicroInstructions.name();
     let copy = Job::DepthCopy.name();
     let counted_storm = Job::DrawStormInstructions(largest, config.projections).name();
     let counted_varying = Job::DrawStormInstructions(largest, largest).name();
@@ -896,6 +952,12 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "ns_per_push_one_camera": paired(samples, &micro, v, rounds, "push_one_camera_ns", diff),
                 "ns_per_draw": paired(samples, &micro, v, rounds, "draw_ns", diff),
                 "ns_per_bind": paired(samples, &micro, v, rounds, "bind_ns", diff),
+                // The micro-benchmark's calls under callgrind: instructions per call more than
+                // no layer's (each variant's smallest count per loop).
+                "instructions_per_push_one_camera": smallest_difference(samples, &micro_counted, v, "push_one_camera_instructions"),
+                "instructions_per_push_new_camera": smallest_difference(samples, &micro_counted, v, "push_instructions"),
+                "instructions_per_draw": smallest_difference(samples, &micro_counted, v, "draw_instructions"),
+                "instructions_per_bind": smallest_difference(samples, &micro_counted, v, "bind_instructions"),
                 // A converted depth copy: the frame's wall time against no layer, and what it
                 // adds per copy and per megapixel.
                 "depth_copy_wall_ratio": paired(samples, &copy, v, rounds, "copy_wall_ns", ratio),
@@ -970,6 +1032,34 @@ mod tests {
         assert_eq!(calls["total"], 12);
         assert!(last_frame_calls("vkCmdDraw=1\n").is_err());
         assert!(last_frame_calls("vkCmdDraw=1\nvkCmdDraw\n").is_err());
+    }
+
+    #[test]
+    fn a_micro_loops_instructions_are_each_variants_smallest_less_no_layers() {
+        let sample = |variant, round, push: f64| Sample {
+            job: "micro-instructions".into(),
+            variant,
+            round,
+            result: json!({ "push_instructions": push }),
+        };
+        let samples = [
+            sample("none", 0, 500.0),
+            sample("none", 1, 480.0),
+            sample("flip", 0, 530.0),
+            sample("flip", 1, 560.0),
+        ];
+        let difference =
+            smallest_difference(&samples, "micro-instructions", "flip", "push_instructions");
+        assert_eq!(difference, Some(50.0));
+        assert_eq!(
+            smallest_difference(
+                &samples,
+                "micro-instructions",
+                "infinite",
+                "push_instructions"
+            ),
+            None
+        );
     }
 
     #[test]

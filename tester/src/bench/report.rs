@@ -184,7 +184,8 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
         " frame wall ratio | frame instructions ratio (callgrind, smallest of 5) | \
          frame instructions ratio (a projection per draw) | pipeline creation ratio | ns / push (one camera) | \
          ns / push (a new camera each) | ns / draw | \
-         ns / bind | driver calls / frame (largest storm) | depth copy wall ratio (1 MP, D32) | depth copy extra ms / MP | \
+         ns / bind | instructions / push (one camera) | instructions / push (a new camera each) | \
+         instructions / draw | instructions / bind | driver calls / frame (largest storm) | depth copy wall ratio (1 MP, D32) | depth copy extra ms / MP | \
          depth copy wall ratio (1 MP, D24S8) | read twin refresh extra ms / MP | refresh in native copies | \
          4-sample refresh extra ms / MP | 4-sample refresh in native copies | \
          bytes / pipeline | \
@@ -208,7 +209,7 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             ));
         }
         line.push_str(&format!(
-            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             fmt_spread(row, "frame_cpu_ratio_projection_per_draw", 3),
             fmt_spread(row, "frame_cpu_ratio_with_report", 3),
             fmt(&row["frame_wall_ratio"], 3),
@@ -219,6 +220,10 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             fmt_spread(row, "ns_per_push_constant", 1),
             fmt_spread(row, "ns_per_draw", 1),
             fmt_spread(row, "ns_per_bind", 1),
+            fmt(&row["instructions_per_push_one_camera"], 0),
+            fmt(&row["instructions_per_push_new_camera"], 0),
+            fmt(&row["instructions_per_draw"], 0),
+            fmt(&row["instructions_per_bind"], 0),
             fmt(&row["driver_calls_per_frame"], 0),
             fmt_spread(row, "depth_copy_wall_ratio", 3),
             fmt(&row["depth_copy_extra_ms_per_megapixel"], 2),

@@ -483,6 +483,10 @@ pub fn pipeline_storm(gpu: &Gpu, count: usize, repeats: usize) -> Result<Pipelin
     })
 }
 
+/// The micro-benchmark's loops, in the order [`micro`] runs (and, under callgrind, dumps)
+/// them.
+pub const MICRO_LOOPS: [&str; 4] = ["push", "push_one_camera", "draw", "bind"];
+
 /// What a micro-benchmark child measured: thread CPU ns per call, each loop's best of
 /// `repeats`.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
@@ -499,7 +503,9 @@ pub struct Micro {
 /// The micro-benchmark: `calls` pushes (a different perspective MVP each), `calls` pushes of
 /// one camera's MVPs (a model matrix each), `calls` draws with
 /// nothing changed, `calls` binds alternating two pipelines, in a render pass on the reversed
-/// attachment with the MVP pipeline bound; each loop timed alone, `repeats` times.
+/// attachment with the MVP pipeline bound; each loop timed alone, `repeats` times. Under
+/// callgrind (the bench's [`MICRO_LOOPS`] instruction counts) each loop is one dumped part:
+/// counters zeroed before it, dumped after it, in this order, every repeat.
 pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
     let mut bench = Bench::new(gpu)?;
     bench.standard_pipelines()?;
@@ -520,6 +526,13 @@ pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
         .collect();
     let cmd = bench.allocate(1)?[0];
     let (mut push, mut push_one, mut draw, mut bind) = (f64::MAX, f64::MAX, f64::MAX, f64::MAX);
+    // Outside valgrind these do nothing.
+    super::callgrind::start_instrumentation();
+    let counted = |run: &mut dyn FnMut()| {
+        super::callgrind::zero_stats();
+        run();
+        super::callgrind::dump_stats();
+    };
     let per_call = |c0: u64, c1: u64| (c1 - c0) as f64 / calls.max(1) as f64;
     for _ in 0..repeats.max(1) {
         // SAFETY: `cmd` is not pending (never submitted).
@@ -530,33 +543,41 @@ pub fn micro(gpu: &Gpu, calls: usize, repeats: usize) -> Result<Micro> {
         // SAFETY: `cmd` is recording inside the render pass; pipelines and layout alive.
         unsafe {
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, a);
-            let c0 = thread_cpu_ns();
-            for m in &mvps {
-                device.cmd_push_constants(cmd, bench.layout, PUSH_STAGES, 0, m);
-            }
-            let c1 = thread_cpu_ns();
-            push = push.min(per_call(c0, c1));
-            let c0 = thread_cpu_ns();
-            for m in &one_camera {
-                device.cmd_push_constants(cmd, bench.layout, PUSH_STAGES, 0, m);
-            }
-            let c1 = thread_cpu_ns();
-            push_one = push_one.min(per_call(c0, c1));
+            counted(&mut || {
+                let c0 = thread_cpu_ns();
+                for m in &mvps {
+                    device.cmd_push_constants(cmd, bench.layout, PUSH_STAGES, 0, m);
+                }
+                let c1 = thread_cpu_ns();
+                push = push.min(per_call(c0, c1));
+            });
+            counted(&mut || {
+                let c0 = thread_cpu_ns();
+                for m in &one_camera {
+                    device.cmd_push_constants(cmd, bench.layout, PUSH_STAGES, 0, m);
+                }
+                let c1 = thread_cpu_ns();
+                push_one = push_one.min(per_call(c0, c1));
+            });
             // The first draw after the pushes settles whatever is pending.
             device.cmd_draw(cmd, 3, 1, 0, 0);
-            let c0 = thread_cpu_ns();
-            for _ in 0..calls {
-                device.cmd_draw(cmd, 3, 1, 0, 0);
-            }
-            let c1 = thread_cpu_ns();
-            draw = draw.min(per_call(c0, c1));
-            let c0 = thread_cpu_ns();
-            for i in 0..calls {
-                let p = if i % 2 == 0 { b } else { a };
-                device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p);
-            }
-            let c1 = thread_cpu_ns();
-            bind = bind.min(per_call(c0, c1));
+            counted(&mut || {
+                let c0 = thread_cpu_ns();
+                for _ in 0..calls {
+                    device.cmd_draw(cmd, 3, 1, 0, 0);
+                }
+                let c1 = thread_cpu_ns();
+                draw = draw.min(per_call(c0, c1));
+            });
+            counted(&mut || {
+                let c0 = thread_cpu_ns();
+                for i in 0..calls {
+                    let p = if i % 2 == 0 { b } else { a };
+                    device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p);
+                }
+                let c1 = thread_cpu_ns();
+                bind = bind.min(per_call(c0, c1));
+            });
         }
         bench.end(cmd)?;
     }
