@@ -540,7 +540,6 @@ struct SameCamera {
     outcome: Outcome,
 }
 
-/// The 4-byte words `[start, end)` covers (both clamped to [`PUSH_CONSTANT_BYTES`]).
 /// Whether two matrices' bits are equal, compared without a call (`==` on the arrays calls
 /// `memcmp`, a tenth of a push's cost in a profile).
 #[inline]
@@ -548,17 +547,15 @@ fn same_bits(a: &[u32; 16], b: &[u32; 16]) -> bool {
     a.iter().zip(b).fold(0, |differ, (x, y)| differ | (x ^ y)) == 0
 }
 
+/// The 4-byte words `[start, end)` covers (both clamped to [`PUSH_CONSTANT_BYTES`]).
+#[inline]
 fn word_mask(start: usize, end: usize) -> u64 {
     let (first, last) = (start / 4, end.div_ceil(4).min(64));
     if first >= last {
         return 0;
     }
-    let upper = if last == 64 {
-        u64::MAX
-    } else {
-        (1u64 << last) - 1
-    };
-    upper & !((1u64 << first) - 1)
+    // 0 < last <= 64 and first < 64 here: both shifts are in range.
+    (u64::MAX >> (64 - last)) & (u64::MAX << first)
 }
 
 impl PushConstants {
@@ -714,7 +711,8 @@ impl PushConstants {
                 return Some(*outcome);
             }
         }
-        let same = self.same_camera.filter(|same| {
+        // By reference: the camera's line and outcome are most of a cache line.
+        let same = self.same_camera.as_ref().filter(|same| {
             same.generation == self.generation
                 && same.convention == use_.convention
                 && same.target == target
@@ -722,10 +720,11 @@ impl PushConstants {
         if !same.line.surely_holds(values, use_.storage) {
             return None;
         }
-        self.cameras.touch(same.index);
-        self.count_match(Some(same.index));
-        self.remember(values, use_, target, same.outcome);
-        Some(same.outcome)
+        let (index, outcome) = (same.index, same.outcome);
+        self.cameras.touch(index);
+        self.count_match(Some(index));
+        self.remember(values, use_, target, outcome);
+        Some(outcome)
     }
 
     /// `values` were classified as `outcome` (the next push of the same bits is not again).

@@ -109,12 +109,13 @@ impl CommandState {
         offset: u32,
         data: &[u8],
     ) -> Option<vk::ShaderStageFlags> {
-        let shortcut = self.shortcut?;
-        if self.dirty || layout != shortcut.layout {
-            return None;
-        }
+        // Copied out (the shadow is written below): the layout, and the projection's use.
+        let projection = match &self.shortcut {
+            Some(shortcut) if !self.dirty && layout == shortcut.layout => shortcut.projection,
+            _ => return None,
+        };
         self.push.push(layout, offset, data);
-        if let Some((use_, target, outcome)) = &shortcut.projection {
+        if let Some((use_, target, outcome)) = &projection {
             let end = u64::from(offset) + data.len() as u64;
             let writes_it =
                 u64::from(offset) < u64::from(use_.end()) && u64::from(use_.offset) < end;
