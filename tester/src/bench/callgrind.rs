@@ -47,20 +47,7 @@ pub(super) fn under_callgrind_dumps(
     command: &std::process::Command,
     out: &Path,
 ) -> std::process::Command {
-    let mut wrapped = std::process::Command::new("valgrind");
-    wrapped
-        .arg("--tool=callgrind")
-        .arg("--instr-atstart=no")
-        .arg(format!("--callgrind-out-file={}", out.display()))
-        .arg(command.get_program())
-        .args(command.get_args());
-    for (name, value) in command.get_envs() {
-        match value {
-            Some(value) => wrapped.env(name, value),
-            None => wrapped.env_remove(name),
-        };
-    }
-    wrapped
+    callgrind_wrapping(command, out, None)
 }
 
 /// The totals of the parts a child dumped under [`under_callgrind_dumps`], in order (each
@@ -99,16 +86,25 @@ pub(super) fn under_callgrind(
     command: &std::process::Command,
     out: &Path,
 ) -> std::process::Command {
+    let toggle = format!("--toggle-collect={}", super::child::MEASURED_FRAME_SYMBOL);
+    callgrind_wrapping(command, out, Some(&toggle))
+}
+
+/// `valgrind --tool=callgrind` running `command` (its program, arguments and environment),
+/// instrumenting only from the child's [`start_instrumentation`] on (its set-up runs at
+/// valgrind's plain speed), writing to `out`, with `toggle` (collecting only inside a
+/// function) where given.
+fn callgrind_wrapping(
+    command: &std::process::Command,
+    out: &Path,
+    toggle: Option<&str>,
+) -> std::process::Command {
     let mut wrapped = std::process::Command::new("valgrind");
+    wrapped.arg("--tool=callgrind").arg("--instr-atstart=no");
+    if let Some(toggle) = toggle {
+        wrapped.arg(toggle);
+    }
     wrapped
-        .arg("--tool=callgrind")
-        // The child starts instrumenting at its first measured frame (callgrind.rs): its
-        // set-up runs at valgrind's plain speed.
-        .arg("--instr-atstart=no")
-        .arg(format!(
-            "--toggle-collect={}",
-            super::child::MEASURED_FRAME_SYMBOL
-        ))
         .arg(format!("--callgrind-out-file={}", out.display()))
         .arg(command.get_program())
         .args(command.get_args());
