@@ -17,7 +17,11 @@
 //! read either marks the state dirty (and settling refreshes the shortcut) or happens on the
 //! full push path and in [`CommandState::settle`], which refresh it at their end; the few
 //! that do neither ([`CommandState::enter_camera`], [`CommandState::note_push_pusher`]) drop
-//! it.
+//! it. A full push that changed the carrier (a new camera) drops it too: the next push is
+//! likely another new camera (a projection per draw), for which keeping it would only cost.
+//! The command buffer's entry mirrors whether there is one in a flag beside `settle_wanted`
+//! (`crate::objects::CommandBufferEntry::push_shortcut`), so a push without one takes no
+//! lock for it.
 
 use ash::vk;
 use revz_math::Target as RewriteTarget;
