@@ -243,6 +243,10 @@ pub struct CommandState {
     /// What a push does to the settled state, where it changes nothing revz sends
     /// ([`push_shortcut`]); `None` where unknown.
     shortcut: Option<PushShortcut>,
+    /// The last full push changed the carrier (a new camera): settles do not write the
+    /// shortcut down until a push keeps it (a frame of a new camera per push would only pay
+    /// for it).
+    carrier_churn: bool,
 }
 
 impl Default for CommandState {
@@ -282,6 +286,7 @@ impl Default for CommandState {
             in_pass: false,
             dirty: true,
             shortcut: None,
+            carrier_churn: false,
         }
     }
 }
@@ -578,14 +583,11 @@ impl CommandState {
             None => self.dirty = true,
         }
         let folded = self.fold(layout, stages, offset, outcome);
-        if folded.is_none() {
-            self.refresh_shortcut(outcome);
-        } else {
-            // The carrier changed with this push (a new camera): the next push is likely
-            // another (a projection per draw), and the shortcut would only cost; the same
-            // camera's next push refreshes it (on this path, without a search).
-            self.drop_shortcut();
-        }
+        // Where the carrier changed with this push (a new camera), the next push is likely
+        // another (a projection per draw), and the shortcut would only cost: the same
+        // camera's next push writes it down (on this path, without a search).
+        self.carrier_churn = folded.is_some();
+        self.refresh_shortcut(outcome);
         (outcome, folded)
     }
 

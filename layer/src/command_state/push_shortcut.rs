@@ -17,8 +17,9 @@
 //! read either marks the state dirty (and settling refreshes the shortcut) or happens on the
 //! full push path and in [`CommandState::settle`], which refresh it at their end; the few
 //! that do neither ([`CommandState::enter_camera`], [`CommandState::note_push_pusher`]) drop
-//! it. A full push that changed the carrier (a new camera) drops it too: the next push is
-//! likely another new camera (a projection per draw), for which keeping it would only cost.
+//! it. A full push that changed the carrier (a new camera) drops it too, and settles do not
+//! write it down again until a full push keeps the carrier: the next push is likely another
+//! new camera (a projection per draw), for which keeping it would only cost.
 //! The command buffer's entry mirrors whether there is one in a flag beside `settle_wanted`
 //! (`crate::objects::CommandBufferEntry::push_shortcut`), so a push without one takes no
 //! lock for it.
@@ -96,7 +97,11 @@ impl CommandState {
     /// [`Self::shortcut_now`].
     #[inline]
     pub(super) fn refresh_shortcut(&mut self, classified: Option<Outcome>) {
-        self.shortcut = self.shortcut_now(classified);
+        self.shortcut = if self.carrier_churn {
+            None
+        } else {
+            self.shortcut_now(classified)
+        };
     }
 
     /// `vkCmdPushConstants` of `data` at `offset` with `layout` and `stages`, where the
