@@ -1272,7 +1272,9 @@ fn an_infinite_mode_target_of_complementary_depth_is_drawn_as_complementary_mode
 
 /// The push shortcut changes nothing the full path would not: in random recordings (pushes of
 /// two cameras' P * V * M, of bytes beside the projection and of a second layout; binds of
-/// pipelines with and without a pushed projection; target changes and draws), every push the
+/// pipelines with and without a pushed projection, and of one whose stage derives its range;
+/// target changes, cameras entered from images, complementary targets, and draws), every
+/// push the
 /// shortcut takes leaves the state as the full path (`push_constants` then a settle) leaves a
 /// copy of it, byte for byte of its debug form, and neither sends anything for it. Most pushes
 /// of the same camera must take it.
@@ -1299,7 +1301,12 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
         handle: vk::Pipeline::from_raw(APP_PIPELINE + 1),
         ..(*projection_pipeline()).clone()
     });
-    let pipelines = [projection_pipeline(), flip_only, static_pipeline()];
+    let pipelines = [
+        projection_pipeline(),
+        flip_only,
+        static_pipeline(),
+        derived_pipeline(),
+    ];
     let layouts = [layout(), vk::PipelineLayout::from_raw(4)];
     for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
         let mut state = precise(target);
@@ -1375,6 +1382,15 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
                     Target::Reversed
                 };
                 state.set_target(to);
+                state.settle(&mut sink);
+            } else if pick < 93 {
+                // A pass into an image that remembered a camera, or one storing complementary
+                // depth (infinite mode).
+                if random % 2 == 0 {
+                    state.enter_camera([0.001, 1e-5][(random >> 5) as usize % 2]);
+                } else {
+                    state.set_complementary_target((random >> 5) % 2 == 0);
+                }
                 state.settle(&mut sink);
             } else {
                 state.before_draw(&mut sink);
