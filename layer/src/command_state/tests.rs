@@ -1274,10 +1274,9 @@ fn an_infinite_mode_target_of_complementary_depth_is_drawn_as_complementary_mode
 /// two cameras' P * V * M, of bytes beside the projection and of a second layout; binds of
 /// pipelines with and without a pushed projection, and of one whose stage derives its range;
 /// target changes, cameras entered from images, complementary targets, and draws), every
-/// push the
-/// shortcut takes leaves the state as the full path (`push_constants` then a settle) leaves a
-/// copy of it, byte for byte of its debug form, and neither sends anything for it. Most pushes
-/// of the same camera must take it.
+/// push the shortcut takes leaves the state as the full path (`push_constants` then a settle)
+/// leaves a copy of it, byte for byte of its debug form, and neither sends anything for it.
+/// Most pushes of the same camera must take it.
 #[test]
 fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
     use glam::dcamera::rh::{proj::vulkan, view::look_at_mat4};
