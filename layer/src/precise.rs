@@ -1215,5 +1215,12 @@ mod tests {
         assert_eq!(word_mask(0, 10_000), u64::MAX);
         assert_eq!(word_mask(300, 400), 0);
         assert_eq!(word_mask(2, 5), 0b11);
+        // Every byte range up to past the followed bytes, against the words' bits one by one.
+        for start in 0..=300usize {
+            for end in start..=300 {
+                let words = (start / 4..end.div_ceil(4).min(64)).fold(0u64, |m, w| m | 1 << w);
+                assert_eq!(word_mask(start, end), words, "[{start}, {end})");
+            }
+        }
     }
 }
