@@ -2160,6 +2160,20 @@ fn a_pipeline_made_from_pipeline_binaries_gets_no_variant() {
     fx.finish();
 }
 
+/// Creates `app` for subpass `subpass` of `pass`, which must succeed: the events it caused.
+fn created_in_subpass(
+    fx: &Fixture,
+    app: &mut AppPipeline,
+    pass: vk::RenderPass,
+    subpass: u32,
+) -> Vec<Event> {
+    app.subpass = Some((pass, subpass));
+    let built = app.build();
+    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    fx.events()
+}
+
 /// The variants (code, handle) created before the application's pipeline, which comes last.
 fn variants_then_app(events: &[Event]) -> (Vec<(Vec<u32>, vk::Pipeline)>, vk::Pipeline) {
     let (app, variants) = events.split_last().expect("events");
@@ -2225,11 +2239,7 @@ fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
     let mut app = AppPipeline::of_modules(vertex, module);
 
     // Subpass 1 reads depth as an input and has no depth attachment: an input variant only.
-    app.subpass = Some((pass, 1));
-    let built = app.build();
-    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let (variants, handle) = variants_then_app(&fx.events());
+    let (variants, handle) = variants_then_app(&created_in_subpass(&fx, &mut app, pass, 1));
     let [(code, input)] = variants.as_slice() else {
         panic!("one variant: {variants:?}");
     };
@@ -2242,11 +2252,7 @@ fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
     assert!(!recorded.unreversed_fragment);
 
     // Subpass 2 has the depth attached too: the reversed variant converts the reads as well.
-    app.subpass = Some((pass, 2));
-    let built = app.build();
-    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let (variants, handle) = variants_then_app(&fx.events());
+    let (variants, handle) = variants_then_app(&created_in_subpass(&fx, &mut app, pass, 2));
     let [(reversed_code, reversed), (input_code, input)] = variants.as_slice() else {
         panic!("two variants: {variants:?}");
     };
@@ -2258,11 +2264,7 @@ fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
     assert_eq!(recorded.variant_for(false, false, true), Some(*input));
 
     // Subpass 0 reads no input: nothing to convert (its depth is dynamic state in flip mode).
-    app.subpass = Some((pass, 0));
-    let built = app.build();
-    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let (_, handle) = only_app_creation(&fx.events());
+    let (_, handle) = only_app_creation(&created_in_subpass(&fx, &mut app, pass, 0));
     assert_eq!(fx.recorded(handle).input_variant, None);
     fx.finish();
 }
@@ -2351,11 +2353,7 @@ fn input_reads_are_converted_in_infinite_mode_too() {
     } = DepthInputs::of(&fx);
     assert!(fx.state.objects.input_modules.get(&module).is_some());
     let mut app = AppPipeline::of_modules(vertex, module);
-    app.subpass = Some((pass, 1));
-    let built = app.build();
-    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let (variants, handle) = variants_then_app(&fx.events());
+    let (variants, handle) = variants_then_app(&created_in_subpass(&fx, &mut app, pass, 1));
     let [(code, input)] = variants.as_slice() else {
         panic!("one variant: {variants:?}");
     };
