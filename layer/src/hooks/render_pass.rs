@@ -125,8 +125,6 @@ fn render_pass_info(
     info
 }
 
-/// Each subpass's input attachments that read depth, from each subpass's input references as
-/// (attachment, aspect given for it: empty where none is).
 /// Records what a render pass's subpasses read as input attachments (each subpass's
 /// references, as (attachment, aspect)): the attachments referenced at all
 /// (`RenderPassInfo::input_attachments`) and, per subpass, the references that read depth.
@@ -156,6 +154,8 @@ fn input_attachments(count: usize, subpasses: impl Iterator<Item = Vec<u32>>) ->
     referenced
 }
 
+/// Each subpass's input attachments that read depth, from each subpass's input references as
+/// (attachment, aspect given for it: empty where none is).
 fn depth_inputs(
     formats: &[vk::Format],
     subpasses: impl Iterator<Item = Vec<(u32, vk::ImageAspectFlags)>>,

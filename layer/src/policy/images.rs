@@ -328,11 +328,10 @@ impl DevicePolicy {
     /// its framebuffer draws into complementary depth, where all revz knows of the image is
     /// whether its render pass references that subpass's depth attachment as an input
     /// attachment (`depth_read_as_input`, in any subpass, of any aspect). Where it does, the
-    /// image has
-    /// `INPUT_ATTACHMENT` usage (the spec requires it of an input attachment's image), so
-    /// it stores complementary depth wherever such images do; where it does not, the image may
-    /// still have that usage (read as an input in another pass): `None`, unknown (the
-    /// secondary then assumes `n / w`, logged by the caller).
+    /// image has `INPUT_ATTACHMENT` usage (the spec requires it of an input attachment's
+    /// image), so it stores complementary depth wherever such images do; where it does not,
+    /// the image may still have that usage (read as an input in another pass): `None`, unknown
+    /// (the secondary then assumes `n / w`, logged by the caller).
     pub fn secondary_stores_complementary(&self, depth_read_as_input: bool) -> Option<bool> {
         if !self.stores_complementary(vk::ImageUsageFlags::INPUT_ATTACHMENT) {
             return Some(false);

@@ -240,7 +240,9 @@ pub unsafe extern "system" fn cmd_push_constants(
     let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
     let tracked = objects::with_command_buffer(buffer, |entry| {
         // Most pushes change nothing revz sends (the same camera's next matrix, bytes beside
-        // the projection): a few compares, and the push goes down as it came.
+        // the projection): a few compares, and the push goes down as it came. Its own closure
+        // and call down, not the full path's: folded into that closure, with the settle after
+        // it, a push of one camera measured 27 instructions more (micro child, callgrind).
         let shortcut = guarded(
             &ENTRY,
             || {
