@@ -17,7 +17,8 @@
 //! - Every copy route (`--depth-route`: image to image, to a native image, to an image that
 //!   keeps its UNORM format while the first is promoted, a round trip through a buffer into
 //!   another reversed image, mirrored blits into a native and into a UNORM image, padded buffer
-//!   rows, the `*2` commands) reads back what the direct copy does: exactly, but for the
+//!   rows, the `*2` commands, a slice of a 3D image, a blit of a 3D box several slices deep into
+//!   a 3D image that keeps its UNORM format) reads back what the direct copy does: exactly, but for the
 //!   device's blit rounding, infinite mode's round trips, and promoted images read back through
 //!   a second image or a buffer (rounded into the UNORM grid twice: within one step).
 //!
@@ -393,7 +394,7 @@ fn default_policy_hands_back_native_depth_d32_s8() {
 #[test]
 fn every_copy_route_reads_back_what_the_direct_copy_does() {
     let harness = Harness::locate();
-    let routes: [&[&str]; 14] = [
+    let routes: [&[&str]; 17] = [
         &["--depth-route", "unorm-image"],
         &["--depth-route", "blit-unorm-image"],
         &["--depth-route", "blit-native-image"],
@@ -424,6 +425,12 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
             "--copy-all-aspects",
             "--copy2",
         ],
+        // 3D depth images (issue #44): a 2D image into a slice, read back from its z offset;
+        // a blit of a box two slices deep into a 3D image that keeps the UNORM format
+        // (converted through a 3D staged image where the first is promoted).
+        &["--depth-route", "volume"],
+        &["--depth-route", "blit-unorm-volume"],
+        &["--depth-route", "blit-unorm-volume", "--copy2"],
     ];
     for format in revz_tests::DEPTH_FORMATS {
         // The device's own blit may round (lavapipe blits D24 through float32, one unit off
@@ -486,8 +493,10 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
                 // within one step of the grid; in infinite mode the map scales the first
                 // rounding by 1 / (1 - n/f) before the second, so within two (measured: 1.004
                 // steps at most, d16 through a UNORM image).
-                let twice_rounded =
-                    mode != "flip" && args.iter().any(|a| a.ends_with("image") || *a == "buffer");
+                let twice_rounded = mode != "flip"
+                    && args
+                        .iter()
+                        .any(|a| a.ends_with("image") || a.ends_with("volume") || *a == "buffer");
                 // Float: one rounding each way, within one ulp of [0.5, 1) (2^-23).
                 let step = match unorm_max(format) {
                     Some(max) if twice_rounded => {

@@ -769,17 +769,23 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<I
 }
 
 /// A blit whose depth must change convention or format: each region's source box is copied,
-/// converted, into layers of a staged image of the destination's (stored) format, and blitted
-/// from there (a blit may
-/// scale or mirror, so the conversion happens before it, on the texels it reads).
+/// converted, into a staged image of the destination's (stored) format, and blitted from there
+/// (a blit may scale or mirror, so the conversion happens before it, on the texels it reads).
+/// The staged image is 2D with each region in layers of its own, or 3D where a box is more than
+/// one slice deep (a 3D source), each region in slices of its own.
 #[derive(Clone, Debug)]
 pub struct BlitPlan {
     pub layout: ScratchLayout,
     /// Source image -> scratch, one per converted region (its box, tightly packed).
     pub from_source: Vec<vk::BufferImageCopy>,
-    /// Scratch -> staged image: region i at the origin of its own layers.
+    /// Scratch -> staged image: region i at the origin of its own layers (slices where the
+    /// staged image is 3D).
     pub to_staged: Vec<vk::BufferImageCopy>,
-    /// The staged image's size (the largest box) and layers (every region's, in turn).
+    /// The staged image's type: 3D where a source box is several slices deep (a 3D source
+    /// image's), which a 2D image's layers cannot hold in one copy; 2D otherwise.
+    pub staged_type: vk::ImageType,
+    /// The staged image's size (the largest box; in 3D as deep as every region's slices in
+    /// turn) and layers (every region's in turn in 2D, one in 3D).
     pub staged_extent: vk::Extent3D,
     pub staged_layers: u32,
     /// The depth blits, from the staged image.
@@ -840,24 +846,52 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPla
             .map(|(r, (_, extent))| (*extent, r.src_subresource.layer_count)),
         kinds,
     )?;
+    // A box several slices deep comes from a 3D image, whose subresources have one layer: the
+    // staged image is 3D, the regions one after the other in depth.
+    let volume = boxes.iter().any(|(_, e)| e.depth > 1);
+    if volume && converted.iter().any(|r| r.src_subresource.layer_count != 1) {
+        return None;
+    }
     let staged_extent = vk::Extent3D {
         width: boxes.iter().map(|(_, e)| e.width).max()?,
         height: boxes.iter().map(|(_, e)| e.height).max()?,
-        depth: 1,
+        depth: if volume {
+            boxes
+                .iter()
+                .try_fold(0u32, |sum, (_, e)| sum.checked_add(e.depth))?
+        } else {
+            1
+        },
     };
     let (mut from_source, mut to_staged, mut blits) = (Vec::new(), Vec::new(), Vec::new());
-    let mut base = 0;
+    // The next free layer (2D) or slice (3D) of the staged image.
+    let mut base = 0u32;
     for ((region, (lo, extent)), scratch) in converted.iter().zip(&boxes).zip(&layout.regions) {
         let count = region.src_subresource.layer_count;
         let source = vk::ImageSubresourceLayers {
             aspect_mask: depth,
             ..region.src_subresource
         };
-        let staged = vk::ImageSubresourceLayers {
-            aspect_mask: depth,
-            mip_level: 0,
-            base_array_layer: base,
-            layer_count: count,
+        let (staged, staged_z) = if volume {
+            (
+                vk::ImageSubresourceLayers {
+                    aspect_mask: depth,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                },
+                i32::try_from(base).ok()?,
+            )
+        } else {
+            (
+                vk::ImageSubresourceLayers {
+                    aspect_mask: depth,
+                    mip_level: 0,
+                    base_array_layer: base,
+                    layer_count: count,
+                },
+                0,
+            )
         };
         from_source.push(vk::BufferImageCopy {
             buffer_offset: scratch.input,
@@ -870,13 +904,17 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPla
         to_staged.push(vk::BufferImageCopy {
             buffer_offset: scratch.output,
             image_subresource: staged,
-            image_offset: vk::Offset3D::default(),
+            image_offset: vk::Offset3D {
+                x: 0,
+                y: 0,
+                z: staged_z,
+            },
             ..from_source[from_source.len() - 1]
         });
         let shift = |o: vk::Offset3D| vk::Offset3D {
             x: o.x - lo.x,
             y: o.y - lo.y,
-            z: o.z - lo.z,
+            z: o.z - lo.z + staged_z,
         };
         blits.push(vk::ImageBlit {
             src_subresource: staged,
@@ -887,7 +925,7 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPla
             },
             dst_offsets: region.dst_offsets,
         });
-        base = base.checked_add(count)?;
+        base = base.checked_add(if volume { extent.depth } else { count })?;
     }
     let rest = regions
         .iter()
@@ -905,8 +943,13 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPla
         layout,
         from_source,
         to_staged,
+        staged_type: if volume {
+            vk::ImageType::TYPE_3D
+        } else {
+            vk::ImageType::TYPE_2D
+        },
         staged_extent,
-        staged_layers: base,
+        staged_layers: if volume { 1 } else { base },
         blits,
         rest,
     })
@@ -1489,6 +1532,69 @@ mod tests {
             ..region
         };
         assert!(plan_blit(&[both], apart).is_none());
+    }
+
+    /// A 3D source's boxes several slices deep are staged in a 3D image, one region after the
+    /// other in depth (a 2D image's layers cannot take a deep box in one copy); a box one slice
+    /// deep keeps the 2D staged image.
+    #[test]
+    fn deep_boxes_of_a_3d_source_are_staged_in_a_3d_image() {
+        let offset = |x, y, z| vk::Offset3D { x, y, z };
+        let deep = vk::ImageBlit {
+            src_subresource: layers(vk::ImageAspectFlags::DEPTH, 1),
+            // Mirrored in x, slices 1 to 3 of the source.
+            src_offsets: [offset(8, 0, 1), offset(0, 4, 4)],
+            dst_subresource: layers(vk::ImageAspectFlags::DEPTH, 1),
+            dst_offsets: [offset(0, 0, 0), offset(8, 4, 3)],
+        };
+        let thin = vk::ImageBlit {
+            src_offsets: [offset(0, 0, 5), offset(2, 2, 6)],
+            dst_offsets: [offset(0, 0, 3), offset(2, 2, 4)],
+            ..deep
+        };
+        let f32 = TexelKinds::same(TexelKind::Float32);
+        let plan = plan_blit(&[deep, thin], f32).unwrap();
+        assert_eq!(plan.staged_type, vk::ImageType::TYPE_3D);
+        assert_eq!(plan.staged_layers, 1);
+        assert_eq!(
+            (
+                plan.staged_extent.width,
+                plan.staged_extent.height,
+                plan.staged_extent.depth
+            ),
+            (8, 4, 4)
+        );
+        // Region 0 in slices 0..3, region 1 in slice 3.
+        assert_eq!(plan.from_source[0].image_offset, offset(0, 0, 1));
+        assert_eq!(plan.from_source[0].image_extent.depth, 3);
+        assert_eq!(plan.to_staged[0].image_offset, offset(0, 0, 0));
+        assert_eq!(plan.to_staged[1].image_offset, offset(0, 0, 3));
+        assert_eq!(plan.to_staged[1].image_subresource.layer_count, 1);
+        assert_eq!(
+            plan.blits[0].src_offsets,
+            [offset(8, 0, 0), offset(0, 4, 3)]
+        );
+        assert_eq!(
+            plan.blits[1].src_offsets,
+            [offset(0, 0, 3), offset(2, 2, 4)]
+        );
+        assert_eq!(plan.blits[1].dst_offsets, thin.dst_offsets);
+        // 96 texels, then 4 on a block of their own.
+        assert_eq!(plan.layout.blocks, 8 * 4 * 3 / TEXELS_PER_BLOCK as u32 + 1);
+        // Alone, a box one slice deep keeps the 2D staged image.
+        let plan = plan_blit(&[thin], f32).unwrap();
+        assert_eq!(plan.staged_type, vk::ImageType::TYPE_2D);
+        assert_eq!(plan.to_staged[0].image_offset, offset(0, 0, 0));
+        assert_eq!(
+            plan.blits[0].src_offsets,
+            [offset(0, 0, 0), offset(2, 2, 1)]
+        );
+        // A deep box cannot come from several layers (a 3D image has one).
+        let layered = vk::ImageBlit {
+            src_subresource: layers(vk::ImageAspectFlags::DEPTH, 2),
+            ..deep
+        };
+        assert!(plan_blit(&[layered], f32).is_none());
     }
 
     /// Every byte the application's copy would write is written once, nothing else (padding

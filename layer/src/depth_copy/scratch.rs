@@ -161,19 +161,20 @@ impl CommandCopies {
         }
     }
 
-    /// A device-local 2D image of `format`, `extent` and `layers` for a converted blit to read
-    /// from (TRANSFER_SRC | TRANSFER_DST), kept until the command buffer is recorded again.
+    /// A device-local image of `image_type` (2D, or 3D for a 3D source's deep boxes),
+    /// `format`, `extent` and `layers` for a converted blit to read from (TRANSFER_SRC |
+    /// TRANSFER_DST), kept until the command buffer is recorded again.
     pub fn staged_image(
         &mut self,
         device: &DeviceState,
-        format: vk::Format,
+        (image_type, format): (vk::ImageType, vk::Format),
         extent: vk::Extent3D,
         layers: u32,
     ) -> Option<vk::Image> {
         let v = device.next.fp_v1_0();
         let null = std::ptr::null();
         let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
+            .image_type(image_type)
             .format(format)
             .extent(extent)
             .mip_levels(1)

@@ -50,6 +50,16 @@ pub enum DepthRoute {
     UnormImage,
     /// The mirrored blit of `blit-native-image` of the depth aspect into such an image.
     BlitUnormImage,
+    /// `vkCmdCopyImage` into slice 1 of a 3D depth image two slices deep (TRANSFER_SRC |
+    /// TRANSFER_DST: reversed, and promoted where the mode promotes, as the first), then that
+    /// slice into the host buffer (issue #44: copies of 3D depth images).
+    Volume,
+    /// The same copy into both slices of the 3D image, then the mirrored blit of its whole
+    /// box, both slices at once, into a second 3D image created with
+    /// `VK_IMAGE_CREATE_ALIAS_BIT` (which keeps its D16/D24 format where revz promotes the
+    /// first), and that image's slice 1 into the host buffer: a blit whose source box is
+    /// several slices deep.
+    BlitUnormVolume,
 }
 
 impl DepthRoute {
@@ -58,7 +68,7 @@ impl DepthRoute {
         let copied = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
         let none = vk::ImageCreateFlags::empty();
         match self {
-            DepthRoute::Direct => None,
+            DepthRoute::Direct | DepthRoute::Volume | DepthRoute::BlitUnormVolume => None,
             DepthRoute::Image | DepthRoute::Buffer => Some((copied, none)),
             DepthRoute::NativeImage | DepthRoute::BlitNativeImage => {
                 Some((copied | vk::ImageUsageFlags::INPUT_ATTACHMENT, none))
@@ -73,8 +83,93 @@ impl DepthRoute {
     fn blits(self) -> bool {
         matches!(
             self,
-            DepthRoute::BlitNativeImage | DepthRoute::BlitUnormImage
+            DepthRoute::BlitNativeImage | DepthRoute::BlitUnormImage | DepthRoute::BlitUnormVolume
         )
+    }
+
+    /// The 3D images of the route (their create flags), if it has them: the one the depth is
+    /// copied into first, then the one it is blitted into.
+    fn volumes(self) -> &'static [vk::ImageCreateFlags] {
+        const PLAIN: vk::ImageCreateFlags = vk::ImageCreateFlags::empty();
+        match self {
+            DepthRoute::Volume => &[PLAIN],
+            DepthRoute::BlitUnormVolume => &[PLAIN, vk::ImageCreateFlags::ALIAS],
+            _ => &[],
+        }
+    }
+}
+
+/// The slices of the routes' 3D images.
+const VOLUME_SLICES: u32 = 2;
+
+/// A 3D depth image of a route ([`DepthRoute::volumes`]): TRANSFER_SRC | TRANSFER_DST,
+/// [`VOLUME_SLICES`] slices deep, no view.
+struct Volume<'a> {
+    device: &'a ash::Device,
+    image: vk::Image,
+    memory: vk::DeviceMemory,
+}
+
+impl<'a> Volume<'a> {
+    fn new(
+        gpu: &'a Gpu,
+        format: vk::Format,
+        flags: vk::ImageCreateFlags,
+        extent: vk::Extent2D,
+    ) -> Result<Self> {
+        let mut this = Volume {
+            device: &gpu.device,
+            image: vk::Image::null(),
+            memory: vk::DeviceMemory::null(),
+        };
+        let info = vk::ImageCreateInfo::default()
+            .flags(flags)
+            .image_type(vk::ImageType::TYPE_3D)
+            .format(format)
+            .extent(vk::Extent3D {
+                width: extent.width,
+                height: extent.height,
+                depth: VOLUME_SLICES,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: valid device and create info.
+        this.image = unsafe { gpu.device.create_image(&info, None) }
+            .with_context(|| format!("vkCreateImage (3D, {format:?}) failed"))?;
+        // SAFETY: valid image.
+        let requirements = unsafe { gpu.device.get_image_memory_requirements(this.image) };
+        this.memory = gpu.allocate(
+            requirements,
+            vk::MemoryPropertyFlags::empty(),
+            vk::MemoryPropertyFlags::DEVICE_LOCAL,
+        )?;
+        // SAFETY: fresh image and memory of a compatible type and sufficient size.
+        unsafe { gpu.device.bind_image_memory(this.image, this.memory, 0) }
+            .context("vkBindImageMemory failed")?;
+        Ok(this)
+    }
+}
+
+impl std::fmt::Debug for Volume<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Volume")
+            .field("image", &self.image)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Drop for Volume<'_> {
+    fn drop(&mut self) {
+        // SAFETY: handles of `device` (null or created by it), no GPU work pending.
+        unsafe {
+            self.device.destroy_image(self.image, None);
+            self.device.free_memory(self.memory, None);
+        }
     }
 }
 
@@ -109,6 +204,8 @@ pub struct Readback<'a> {
     options: DepthReadback,
     /// The route's second depth image.
     second: Option<Attachment<'a>>,
+    /// The route's 3D images ([`DepthRoute::volumes`]).
+    volumes: Vec<Volume<'a>>,
     /// The `buffer` route's device buffer.
     staging: Option<HostBuffer<'a>>,
 }
@@ -143,6 +240,7 @@ impl<'a> Readback<'a> {
         let extent = targets.extent;
         let padded = (extent.width + options.row_padding) as usize * extent.height as usize;
         let (mut depth_buffer, mut second, mut staging) = (None, None, None);
+        let mut volumes = Vec::new();
         if depth {
             let mut buffer =
                 HostBuffer::new(gpu, padded * texel, vk::BufferUsageFlags::TRANSFER_DST)
@@ -154,6 +252,13 @@ impl<'a> Readback<'a> {
                 second = Some(
                     Attachment::copied_with_flags(gpu, format.vk_format(), usage, flags, extent)
                         .context("the depth route's second image")?,
+                );
+            }
+            for &flags in options.route.volumes() {
+                let format = targets.depth_format.vk_format();
+                volumes.push(
+                    Volume::new(gpu, format, flags, extent)
+                        .context("the depth route's 3D image")?,
                 );
             }
             if options.route == DepthRoute::Buffer {
@@ -171,6 +276,7 @@ impl<'a> Readback<'a> {
             depth_format: targets.depth_format,
             options,
             second,
+            volumes,
             staging,
         })
     }
@@ -219,6 +325,19 @@ impl<'a> Readback<'a> {
                     .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                     .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                     .image(second.image)
+                    .subresource_range(full_range(targets.depth_format.aspects())),
+            );
+        }
+        for volume in &self.volumes {
+            // Written first, by a copy or a blit.
+            to_transfer.push(
+                vk::ImageMemoryBarrier::default()
+                    .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .old_layout(vk::ImageLayout::UNDEFINED)
+                    .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(volume.image)
                     .subresource_range(full_range(targets.depth_format.aspects())),
             );
         }
@@ -317,6 +436,10 @@ impl<'a> Readback<'a> {
             cmd,
             copy2: self.options.copy2,
         };
+        if !self.volumes.is_empty() {
+            self.record_volumes(&copies, image, host, padded);
+            return;
+        }
         let Some(second) = &self.second else {
             copies.image_to_buffer(image, host, self.region(depth, padded));
             return;
@@ -392,6 +515,65 @@ impl<'a> Readback<'a> {
             ),
         );
         copies.image_to_buffer(second.image, host, self.region(depth, padded));
+    }
+
+    /// The 3D routes: the depth aspect of `image` into slice 1 of the first 3D image (both
+    /// slices for `blit-unorm-volume`, which then blits them into the second, mirrored), and
+    /// slice 1 of the last 3D image into `host` with `padded` texels a row.
+    fn record_volumes(&self, copies: &Copies<'_>, image: vk::Image, host: vk::Buffer, padded: u32) {
+        let depth = vk::ImageAspectFlags::DEPTH;
+        let layers = self.region(depth, 0).image_subresource;
+        let into_slice = |z| vk::ImageCopy {
+            src_subresource: layers,
+            src_offset: vk::Offset3D::default(),
+            dst_subresource: layers,
+            dst_offset: vk::Offset3D { x: 0, y: 0, z },
+            extent: self.region(depth, 0).image_extent,
+        };
+        let written = |volume: &Volume<'_>| {
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
+                .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(volume.image)
+                .subresource_range(full_range(self.depth_format.aspects()))
+        };
+        let first = &self.volumes[0];
+        let slices: &[i32] = if self.volumes.len() > 1 {
+            &[0, 1]
+        } else {
+            &[1]
+        };
+        for &z in slices {
+            copies.image_to_image(image, first.image, into_slice(z));
+        }
+        copies.barrier(vk::BufferMemoryBarrier::default(), Some(written(first)));
+        let last = self.volumes.last().expect("a 3D route has a 3D image");
+        if let Some(second) = self.volumes.get(1) {
+            let (w, h, d) = (
+                self.extent.width as i32,
+                self.extent.height as i32,
+                VOLUME_SLICES as i32,
+            );
+            let corner = |x, y, z| vk::Offset3D { x, y, z };
+            copies.blit(
+                first.image,
+                second.image,
+                vk::ImageBlit {
+                    src_subresource: layers,
+                    src_offsets: [corner(w, 0, 0), corner(0, h, d)],
+                    dst_subresource: layers,
+                    dst_offsets: [corner(0, 0, 0), corner(w, h, d)],
+                },
+            );
+            copies.barrier(vk::BufferMemoryBarrier::default(), Some(written(second)));
+        }
+        let mut region = self.region(depth, padded);
+        region.image_offset.z = 1;
+        copies.image_to_buffer(last.image, host, region);
     }
 
     /// The read-back contents (call only after the render's fence has signalled).

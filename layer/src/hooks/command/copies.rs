@@ -484,8 +484,12 @@ fn image_blit(
     };
     let device = &entry.device;
     let mut copies = entry.copies();
-    let Some(staged) = copies.staged_image(device, format, plan.staged_extent, plan.staged_layers)
-    else {
+    let Some(staged) = copies.staged_image(
+        device,
+        (plan.staged_type, format),
+        plan.staged_extent,
+        plan.staged_layers,
+    ) else {
         device.copies.warn_unconverted(Unconverted::Resources);
         return Sent::All;
     };
