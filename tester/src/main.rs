@@ -33,6 +33,7 @@ mod scenes;
 mod shaders;
 mod stress;
 mod target;
+mod transfers;
 mod variants;
 
 use std::path::{Path, PathBuf};
@@ -90,6 +91,10 @@ enum Command {
     /// revz's depth profile (`REVZ_REPORT`) as tables, and a bar chart of the draws per path
     /// per frame (`--png`).
     Profile(profile::ProfileArgs),
+    /// Copies and blits of depth images that are only ever copied (2D and 3D, every aspect,
+    /// layouts apart), as a conformance suite's copy groups make them; writes the
+    /// destination's depth and stencil for comparison with and without revz.
+    Transfers(transfers::TransferArgs),
     /// The scenes `--scene` takes, one per line (for test drivers).
     Scenes,
 }
@@ -208,6 +213,7 @@ fn main() -> ExitCode {
         Some(Command::StressThreads(args)) => return report_exit(stress::run(args)),
         Some(Command::GlRender(args)) => return report_exit(gl::run(args)),
         Some(Command::Profile(args)) => return report_exit(profile::run(args)),
+        Some(Command::Transfers(args)) => return report_exit(transfers::run(args)),
         Some(Command::Scenes) => {
             for entry in scenes::CATALOG {
                 println!("{}", entry.name);
@@ -284,6 +290,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             dynamic_rendering: needs.dynamic_rendering,
             dynamic_compare_op: needs.dynamic_compare_op,
             depth_stencil_resolve: needs.multisample.is_some(),
+            separate_depth_stencil_layouts: false,
             depth_bounds: needs.depth_bounds,
             depth_bias_clamp: needs.depth_bias_clamp,
             depth_clip_control: needs.depth_clip_control,

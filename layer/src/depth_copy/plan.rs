@@ -226,7 +226,12 @@ pub struct ShaderHeader {
     pub in_quad: u32,
     /// Quad of the first destination texel (`in_quad`: in place).
     pub out_quad: u32,
-    /// Bits complemented (the exact flip of UNORM values), 0 for the affine map.
+    /// Bits complemented (the exact flip of UNORM values), 0 for the affine map. For the flip
+    /// of float values into UNORM ones, 1: the shader then unflips, reading a float back as
+    /// the integer whose flip into float it is where a neighbour of the rounded value is one
+    /// (a D24 value stored in a promoted image as (max - u) / max, rounded once, is up to half
+    /// a unit from u once flipped back in float32: rounding alone got 1 in 3,000 of them one
+    /// unit off, measured on lavapipe; unflipped, every one comes back).
     pub mask: u32,
     pub c0: f32,
     pub c1: f32,
@@ -265,9 +270,15 @@ impl ShaderHeader {
             (map.offset * unit_out, 0.0)
         };
         let complement = kinds.source == kinds.destination && map.is_flip();
+        // A float's flip into UNORM values: the word asks the shader to unflip
+        // ([`ShaderHeader::mask`]).
+        let unflip = kinds.source == TexelKind::Float32
+            && kinds.destination.unorm_max().is_some()
+            && map.is_flip();
         let mask = match kinds.source {
             TexelKind::Unorm16 if complement => 0xFFFF_FFFF,
             TexelKind::Unorm24 if complement => 0x00FF_FFFF,
+            TexelKind::Float32 if unflip => 1,
             _ => 0,
         };
         ShaderHeader {
@@ -281,7 +292,7 @@ impl ShaderHeader {
             c2: unit_in as f32,
             specialization: Specialization {
                 kinds,
-                complement: mask != 0,
+                complement: mask != 0 && !unflip,
                 clamp: map.clamp,
             },
         }
@@ -319,9 +330,21 @@ impl ShaderHeader {
             TexelKind::Float32 => f32::from_bits(x),
         };
         let y = self.c0 + self.c1 * (x + self.t) / self.c2;
+        let unorm = |top: f32| {
+            let mut v = y.round_ties_even().clamp(0.0, top);
+            if kinds.source == TexelKind::Float32 && self.mask != 0 {
+                // The shader's unflip: the neighbour whose flip is x, where one is.
+                for candidate in [(v - 1.0).max(0.0), (v + 1.0).min(top)] {
+                    if (top - candidate) / top == x {
+                        v = candidate;
+                    }
+                }
+            }
+            v as u32
+        };
         match kinds.destination {
-            TexelKind::Unorm16 => y.round_ties_even().clamp(0.0, 65535.0) as u32,
-            TexelKind::Unorm24 => y.round_ties_even().clamp(0.0, 16_777_215.0) as u32,
+            TexelKind::Unorm16 => unorm(65535.0),
+            TexelKind::Unorm24 => unorm(16_777_215.0),
             TexelKind::Float32 if self.specialization.clamp => y.clamp(0.0, 1.0).to_bits(),
             TexelKind::Float32 => y.to_bits(),
         }
@@ -1089,6 +1112,46 @@ mod tests {
             let half = (0.5 + 0.49) / f64::from(max);
             assert_eq!(out.convert_texel((half as f32).to_bits()), 1);
         }
+    }
+
+    /// Every UNORM value written into a reversed promoted image (complementary: flipped into
+    /// float32, one rounding) reads back unchanged: the unflip finds the integer the float came
+    /// from (without it, 1 in 3,000 D24 values of [0.25, 0.5] came back one unit off). And a
+    /// float the flip never wrote reads back within half a unit of its f64 value, plus a unit
+    /// where the unflip took a neighbour.
+    #[test]
+    fn unorm_values_flipped_into_float_storage_read_back_unchanged() {
+        use TexelKind::{Float32, Unorm16, Unorm24};
+        for (unorm, max) in [(Unorm16, 65_535u32), (Unorm24, 16_777_215)] {
+            let into = header(
+                kinds(unorm, Float32),
+                DepthMap::to_reversed(Reversal::Complementary),
+            );
+            let out = header(
+                kinds(Float32, unorm),
+                DepthMap::to_standard(Reversal::Complementary),
+            );
+            assert_eq!(into.mask, 0);
+            assert_eq!(out.mask, 1);
+            for u in 0..=max {
+                let stored = into.convert_texel(u);
+                assert_eq!(out.convert_texel(stored), u, "{unorm:?} {u}");
+            }
+            for v in [0.0f32, 1e-7, 0.3, 0.3333333, 0.5, 0.7, 1.0] {
+                let exact = (1.0 - f64::from(v)) * f64::from(max);
+                let got = f64::from(out.convert_texel(v.to_bits()));
+                assert!(
+                    (got - exact).abs() <= 1.5,
+                    "{unorm:?} {v}: {got} vs {exact}"
+                );
+            }
+        }
+        // Maps other than the flip are not unflipped.
+        let infinite = DepthMap::to_standard(Reversal::Infinite {
+            near_over_far: 1e-3,
+        });
+        assert_eq!(header(kinds(Float32, Unorm24), infinite).mask, 0);
+        assert_eq!(header(kinds(Float32, Unorm24), DepthMap::IDENTITY).mask, 0);
     }
 
     /// A reversed promoted image read into UNORM bytes: the values are undone and packed in

@@ -84,10 +84,19 @@ pub(super) fn supported_features(
         graphics_pipeline_library = instance.features2(physical_device, &mut features2)
             && library.graphics_pipeline_library == vk::TRUE;
     }
+    // Vulkan 1.2 core only (the tester does not enable VK_KHR_separate_depth_stencil_layouts).
+    let mut separate_depth_stencil_layouts = false;
+    if api >= vk::API_VERSION_1_2 {
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut features12);
+        separate_depth_stencil_layouts = instance.features2(physical_device, &mut features2)
+            && features12.separate_depth_stencil_layouts == vk::TRUE;
+    }
     Features {
         dynamic_rendering,
         dynamic_compare_op,
         depth_stencil_resolve,
+        separate_depth_stencil_layouts,
         depth_bounds: core.depth_bounds == vk::TRUE,
         depth_bias_clamp: core.depth_bias_clamp == vk::TRUE,
         depth_clip_control,
@@ -236,6 +245,11 @@ impl Gpu {
             .enabled_extension_names(&extensions);
         if enabled.dynamic_rendering && vulkan_1_3 {
             device_create_info = device_create_info.push_next(&mut features13);
+        }
+        let mut features12 =
+            vk::PhysicalDeviceVulkan12Features::default().separate_depth_stencil_layouts(true);
+        if enabled.separate_depth_stencil_layouts {
+            device_create_info = device_create_info.push_next(&mut features12);
         }
         if rendering_extension {
             device_create_info = device_create_info.push_next(&mut rendering_khr);

@@ -156,6 +156,9 @@ pub struct Features {
     /// `VK_KHR_create_renderpass2` and `VK_KHR_depth_stencil_resolve` below it (not a feature:
     /// not in [`Features::names`]).
     pub depth_stencil_resolve: bool,
+    /// `separateDepthStencilLayouts` (Vulkan 1.2): barriers and layouts of one aspect of a
+    /// depth/stencil image.
+    pub separate_depth_stencil_layouts: bool,
     /// `depthBounds`.
     pub depth_bounds: bool,
     /// `depthBiasClamp`.
@@ -184,6 +187,10 @@ impl Features {
         [
             (self.dynamic_rendering, "dynamicRendering"),
             (self.dynamic_compare_op, "extendedDynamicState"),
+            (
+                self.separate_depth_stencil_layouts,
+                "separateDepthStencilLayouts",
+            ),
             (self.depth_bounds, "depthBounds"),
             (self.depth_bias_clamp, "depthBiasClamp"),
             (self.depth_clip_control, "depthClipControl"),
@@ -208,6 +215,8 @@ impl Features {
             dynamic_rendering: self.dynamic_rendering && other.dynamic_rendering,
             dynamic_compare_op: self.dynamic_compare_op && other.dynamic_compare_op,
             depth_stencil_resolve: self.depth_stencil_resolve && other.depth_stencil_resolve,
+            separate_depth_stencil_layouts: self.separate_depth_stencil_layouts
+                && other.separate_depth_stencil_layouts,
             depth_bounds: self.depth_bounds && other.depth_bounds,
             depth_bias_clamp: self.depth_bias_clamp && other.depth_bias_clamp,
             depth_clip_control: self.depth_clip_control && other.depth_clip_control,
@@ -398,6 +407,7 @@ mod tests {
             dynamic_rendering: true,
             dynamic_compare_op: true,
             depth_stencil_resolve: true,
+            separate_depth_stencil_layouts: true,
             depth_bounds: true,
             depth_bias_clamp: true,
             depth_clip_control: true,
@@ -413,6 +423,7 @@ mod tests {
             [
                 "dynamicRendering",
                 "extendedDynamicState",
+                "separateDepthStencilLayouts",
                 "depthBounds",
                 "depthBiasClamp",
                 "depthClipControl",
