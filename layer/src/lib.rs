@@ -42,6 +42,7 @@ pub mod precise;
 pub mod profile;
 pub mod shader;
 pub mod state;
+pub mod vk_ext;
 
 use std::ffi::c_char;
 

@@ -217,6 +217,8 @@ pub struct DeviceCommands {
     pub set_depth_compare_op: Option<vk::PFN_vkCmdSetDepthCompareOp>,
     /// `VK_EXT_extended_dynamic_state3` (Zink's clip convention).
     pub set_depth_clip_negative_one_to_one: Option<vk::PFN_vkCmdSetDepthClipNegativeOneToOneEXT>,
+    /// `VK_EXT_depth_clamp_control`.
+    pub set_depth_clamp_range: Option<crate::vk_ext::PfnCmdSetDepthClampRange>,
     /// `VK_EXT_extended_dynamic_state3` or shader objects (Zink makes the clamp dynamic).
     pub set_depth_clamp_enable: Option<vk::PFN_vkCmdSetDepthClampEnableEXT>,
     pub set_viewport_with_count: Option<vk::PFN_vkCmdSetViewportWithCount>,
@@ -345,6 +347,7 @@ impl DeviceCommands {
             // Extension-only draws: their one name is always allowed (version 0).
             draw_mesh_tasks_ext: load!(0, c"vkCmdDrawMeshTasksEXT"),
             set_depth_clip_negative_one_to_one: load!(0, c"vkCmdSetDepthClipNegativeOneToOneEXT"),
+            set_depth_clamp_range: load!(0, c"vkCmdSetDepthClampRangeEXT"),
             set_depth_clamp_enable: load!(0, c"vkCmdSetDepthClampEnableEXT"),
             draw_mesh_tasks_indirect_ext: load!(0, c"vkCmdDrawMeshTasksIndirectEXT"),
             draw_mesh_tasks_indirect_count_ext: load!(0, c"vkCmdDrawMeshTasksIndirectCountEXT"),

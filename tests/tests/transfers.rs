@@ -42,7 +42,14 @@ fn transfer(
     let mut command = revz_tests::clean_command(&harness.tester);
     command
         .args(["transfers", "--validation", "--sync-validation"])
-        .args(["--device", "llvmpipe", "--depth-format", format, "--case", case])
+        .args([
+            "--device",
+            "llvmpipe",
+            "--depth-format",
+            format,
+            "--case",
+            case,
+        ])
         .arg("--out")
         .arg(&dir);
     if let Some(mode) = mode {
@@ -92,7 +99,10 @@ fn copies_and_blits_of_transfer_only_images_read_back_as_without_revz() {
                     reversed >= 2,
                     "{case} {format} {mode}: the images were not reversed\n{log}"
                 );
-                assert!(!log.contains("is not converted"), "{case} {format} {mode}: {log}");
+                assert!(
+                    !log.contains("is not converted"),
+                    "{case} {format} {mode}: {log}"
+                );
                 assert_eq!(stencil, native_stencil, "{case} {format} {mode}: stencil");
                 let off: Vec<(usize, f32, f32)> = depth
                     .iter()

@@ -20,6 +20,9 @@ pub(super) struct Emitted {
     pub(super) bias: Option<DepthBias>,
     pub(super) bounds: Option<(u32, u32)>,
     pub(super) clip_negative_one_to_one: Option<bool>,
+    /// The last clamp range call: `Some(None)` the viewport's range, `Some(Some(bits))` a
+    /// user-defined one.
+    pub(super) clamp_range: Option<Option<(u32, u32)>>,
 }
 
 impl Emitted {
@@ -39,6 +42,9 @@ impl Emitted {
         }
         if !dynamic.contains(States::CLIP_CONTROL) {
             self.clip_negative_one_to_one = None;
+        }
+        if !dynamic.contains(States::CLAMP_RANGE) {
+            self.clamp_range = None;
         }
     }
 }
@@ -156,6 +162,14 @@ impl<S: StateSink> StateSink for Filtered<'_, S> {
         if self.last.clip_negative_one_to_one != Some(negative_one_to_one) {
             self.last.clip_negative_one_to_one = Some(negative_one_to_one);
             self.sink.set_clip_negative_one_to_one(negative_one_to_one);
+        }
+    }
+
+    fn set_clamp_range(&mut self, range: Option<(f32, f32)>) {
+        let bits = range.map(|(min, max)| (min.to_bits(), max.to_bits()));
+        if self.last.clamp_range != Some(bits) {
+            self.last.clamp_range = Some(bits);
+            self.sink.set_clamp_range(range);
         }
     }
 

@@ -144,6 +144,8 @@ pub trait StateSink: PushSink {
     fn set_bounds(&mut self, min: f32, max: f32);
     /// `vkCmdSetDepthClipNegativeOneToOneEXT`.
     fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool);
+    /// `vkCmdSetDepthClampRangeEXT`: the viewport's range (`None`) or a user-defined one.
+    fn set_clamp_range(&mut self, range: Option<(f32, f32)>);
     /// Binds a graphics pipeline (a compare-op variant, or the application's pipeline back).
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline);
     /// Binds a shader object to the fragment stage (a reversed variant, or the application's
@@ -171,6 +173,9 @@ pub struct CommandState {
     /// The application's `vkCmdSetDepthClipNegativeOneToOneEXT` (with
     /// `States::CLIP_CONTROL` in `app_set`).
     clip_negative_one_to_one: bool,
+    /// The clamp range the application set (`States::CLAMP_RANGE` in `app_set`): `None` the
+    /// viewport's, else a user-defined one.
+    clamp_range: Option<(f32, f32)>,
     /// `vkCmdSetDepthClampEnableEXT`'s value (false until the application sets it).
     depth_clamp: bool,
     /// Which states the application set with `vkCmdSet*`.
@@ -261,6 +266,7 @@ impl Default for CommandState {
             bias: DepthBias::default(),
             bounds: (0.0, 1.0),
             clip_negative_one_to_one: false,
+            clamp_range: None,
             depth_clamp: false,
             app_set: States::NONE,
             reversing: Reversing::default(),
@@ -960,6 +966,14 @@ impl CommandState {
         self.dirty = true;
     }
 
+    /// `vkCmdSetDepthClampRangeEXT`: the viewport's range (`None`) or a user-defined one,
+    /// sent at draws mapped like the depth bounds where the draw stores reversed depth.
+    pub fn set_clamp_range(&mut self, range: Option<(f32, f32)>) {
+        self.clamp_range = range;
+        self.app_set |= States::CLAMP_RANGE;
+        self.dirty = true;
+    }
+
     /// `vkCmdSetDepthClipNegativeOneToOneEXT`.
     pub fn set_clip_negative_one_to_one(&mut self, negative_one_to_one: bool) {
         self.clip_negative_one_to_one = negative_one_to_one;
@@ -1177,6 +1191,24 @@ impl CommandState {
                 (min, max)
             };
             sink.set_bounds(min, max);
+        }
+        if let Some(app) = pick(States::CLAMP_RANGE) {
+            // Revz makes a pipeline's clamp range dynamic only where it is user-defined.
+            let range = if app {
+                self.clamp_range
+            } else {
+                pipeline.map(|p| p.clamp_range)
+            };
+            // A clamp range holds depth values as stored: reversed, the same map as the
+            // bounds (in infinite mode a clamping draw takes the flip path, whose map it is).
+            let range = range.map(|(min, max)| {
+                if reversed {
+                    reversal.bounds(min, max)
+                } else {
+                    (min, max)
+                }
+            });
+            sink.set_clamp_range(range);
         }
     }
 }

@@ -25,7 +25,10 @@ impl States {
     /// (infinite mode's precise path cannot clamp at the far plane: such draws take the flip
     /// path, `CommandState::clamps_at_far`).
     pub const DEPTH_CLAMP: States = States(64);
-    pub const ALL: States = States(127);
+    /// `VK_EXT_depth_clamp_control`'s clamp range, set with `vkCmdSetDepthClampRangeEXT`: a
+    /// user-defined range is a pair of depth values, mapped like the depth bounds.
+    pub const CLAMP_RANGE: States = States(128);
+    pub const ALL: States = States(255);
 
     pub fn contains(self, other: States) -> bool {
         self.0 & other.0 == other.0
@@ -55,6 +58,7 @@ impl States {
             vk::DynamicState::DEPTH_BOUNDS => States::BOUNDS,
             vk::DynamicState::DEPTH_CLIP_NEGATIVE_ONE_TO_ONE_EXT => States::CLIP_CONTROL,
             vk::DynamicState::DEPTH_CLAMP_ENABLE_EXT => States::DEPTH_CLAMP,
+            crate::vk_ext::DYNAMIC_STATE_DEPTH_CLAMP_RANGE => States::CLAMP_RANGE,
             _ => States::NONE,
         }
     }
@@ -94,6 +98,9 @@ pub struct PipelineDepth {
     pub compare_op: vk::CompareOp,
     pub bias: DepthBias,
     pub bounds: (f32, f32),
+    /// The user-defined depth clamp range of its `VkPipelineViewportDepthClampControlCreateInfoEXT`
+    /// (`VK_EXT_depth_clamp_control`), where revz made it dynamic ([`States::CLAMP_RANGE`]).
+    pub clamp_range: (f32, f32),
     /// The fragment stage computes with depth (`FragDepth`, `FragCoord.z`) and no reversed
     /// variant rewrites it: draws into reversed attachments keep standard depth there.
     pub unreversed_fragment: bool,
@@ -201,6 +208,9 @@ impl PipelineDepth {
             && (!injected.contains(States::BOUNDS)
                 || (self.bounds.0.to_bits(), self.bounds.1.to_bits())
                     == (other.bounds.0.to_bits(), other.bounds.1.to_bits()))
+            && (!injected.contains(States::CLAMP_RANGE)
+                || (self.clamp_range.0.to_bits(), self.clamp_range.1.to_bits())
+                    == (other.clamp_range.0.to_bits(), other.clamp_range.1.to_bits()))
     }
 
     /// The pipelines revz made for this one (to destroy with it).

@@ -18,6 +18,7 @@ struct Recorded {
     /// The layout and bytes of each push.
     pushed: Vec<(vk::PipelineLayout, Vec<u8>)>,
     clip_conventions: Vec<bool>,
+    clamp_ranges: Vec<Option<(f32, f32)>>,
     binds: Vec<vk::Pipeline>,
     shader_binds: Vec<vk::ShaderEXT>,
 }
@@ -63,6 +64,9 @@ impl StateSink for Recorded {
     fn set_bounds(&mut self, min: f32, max: f32) {
         self.bounds.push((min, max));
     }
+    fn set_clamp_range(&mut self, range: Option<(f32, f32)>) {
+        self.clamp_ranges.push(range);
+    }
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
         self.binds.push(pipeline);
     }
@@ -102,6 +106,7 @@ fn static_pipeline() -> Arc<PipelineDepth> {
             representation: None,
         },
         bounds: (0.0, 1.0),
+        clamp_range: (0.0, 1.0),
         unreversed_fragment: false,
         handle: vk::Pipeline::null(),
         reversed_variant: None,
@@ -338,6 +343,49 @@ fn static_state_is_emitted_flipped_for_a_reversed_target_once() {
             ..Default::default()
         }
     );
+}
+
+/// `VK_EXT_depth_clamp_control`: a user-defined clamp range holds depth values, sent mapped
+/// like the bounds where the draw stores reversed depth and as it is where not; the viewport's
+/// range goes down as such; a pipeline's static range revz made dynamic is sent at its bind.
+#[test]
+fn clamp_ranges_are_depth_values_mapped_for_reversed_draws() {
+    let mut state = begun(Target::Reversed);
+    state.bind_pipeline(Some(Arc::new(PipelineDepth {
+        app_dynamic: States::CLAMP_RANGE,
+        ..PipelineDepth::default()
+    })));
+    state.set_clamp_range(Some((0.25, 0.5)));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.clamp_ranges, vec![Some((0.5, 0.75))]);
+    state.set_target(Target::Native);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.clamp_ranges.last(), Some(&Some((0.25, 0.5))));
+    state.set_clamp_range(None);
+    state.before_draw(&mut sink);
+    assert_eq!(sink.clamp_ranges.last(), Some(&None));
+    // Not sent again unchanged.
+    let sent = sink.clamp_ranges.len();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.clamp_ranges.len(), sent);
+
+    let mut state = begun(Target::Reversed);
+    state.bind_pipeline(Some(Arc::new(PipelineDepth {
+        injected: States::CLAMP_RANGE,
+        clamp_range: (0.0, 0.125),
+        ..PipelineDepth::default()
+    })));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.clamp_ranges, vec![Some((0.875, 1.0))]);
+    // A pipeline that leaves the range to the viewport sends none.
+    let mut state = begun(Target::Reversed);
+    state.bind_pipeline(Some(Arc::new(PipelineDepth::default())));
+    state.set_clamp_range(Some((0.25, 0.5)));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert!(sink.clamp_ranges.is_empty());
 }
 
 #[test]

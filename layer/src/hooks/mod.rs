@@ -239,6 +239,10 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             c::cmd_set_depth_clip_negative_one_to_one
         ),
         b"vkCmdSetDepthBounds" => void_fn!(vk::PFN_vkCmdSetDepthBounds, c::cmd_set_depth_bounds),
+        b"vkCmdSetDepthClampRangeEXT" => void_fn!(
+            crate::vk_ext::PfnCmdSetDepthClampRange,
+            c::cmd_set_depth_clamp_range
+        ),
         b"vkCmdClearAttachments" => {
             void_fn!(vk::PFN_vkCmdClearAttachments, c::cmd_clear_attachments)
         }

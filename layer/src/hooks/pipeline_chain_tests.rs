@@ -1400,6 +1400,70 @@ fn with_compare_op_variants_the_variant_holds_the_flipped_bias_and_binds_send_no
     dynamic.finish();
 }
 
+/// `VK_EXT_depth_clamp_control`: a pipeline whose viewport state chains a user-defined clamp
+/// range gets the range as dynamic state (the chain goes down as it is), and its static range
+/// is recorded for draw time; one that leaves the range to the viewport, or sets it
+/// dynamically, keeps its list.
+#[test]
+fn a_user_defined_clamp_range_is_made_dynamic_and_recorded() {
+    use crate::command_state::States;
+    use crate::vk_ext::{
+        DepthClampRange, PipelineViewportDepthClampControlCreateInfo,
+        DEPTH_CLAMP_MODE_USER_DEFINED_RANGE, DEPTH_CLAMP_MODE_VIEWPORT_RANGE,
+        DYNAMIC_STATE_DEPTH_CLAMP_RANGE,
+    };
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let plain = fx.module(&fragment(PLAIN));
+    let range = DepthClampRange {
+        min_depth_clamp: 0.25,
+        max_depth_clamp: 0.5,
+    };
+    let create = |mode: i32, app_dynamic: &[vk::DynamicState]| {
+        let control = PipelineViewportDepthClampControlCreateInfo {
+            s_type:
+                <PipelineViewportDepthClampControlCreateInfo as vk::TaggedStructure>::STRUCTURE_TYPE,
+            p_next: std::ptr::null(),
+            depth_clamp_mode: mode,
+            p_depth_clamp_range: &range,
+        };
+        let mut app = AppPipeline::of_modules(vertex, plain);
+        app.dynamic_states.extend_from_slice(app_dynamic);
+        let mut built = app.build();
+        built.viewport.p_next =
+            (&control as *const PipelineViewportDepthClampControlCreateInfo).cast();
+        let (_, handles) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
+        let (seen, _) = only_app_creation(&fx.events());
+        (seen, fx.recorded(handles[0]))
+    };
+    let (seen, recorded) = create(DEPTH_CLAMP_MODE_USER_DEFINED_RANGE, &[]);
+    assert_eq!(
+        seen.dynamic_states.last(),
+        Some(&DYNAMIC_STATE_DEPTH_CLAMP_RANGE)
+    );
+    assert!(recorded.injected.contains(States::CLAMP_RANGE));
+    assert_eq!(recorded.clamp_range, (0.25, 0.5));
+    let (seen, recorded) = create(DEPTH_CLAMP_MODE_VIEWPORT_RANGE, &[]);
+    assert!(!seen
+        .dynamic_states
+        .contains(&DYNAMIC_STATE_DEPTH_CLAMP_RANGE));
+    assert!(!recorded.injected.contains(States::CLAMP_RANGE));
+    let (seen, recorded) = create(
+        DEPTH_CLAMP_MODE_USER_DEFINED_RANGE,
+        &[DYNAMIC_STATE_DEPTH_CLAMP_RANGE],
+    );
+    assert_eq!(
+        seen.dynamic_states
+            .iter()
+            .filter(|&&s| s == DYNAMIC_STATE_DEPTH_CLAMP_RANGE)
+            .count(),
+        1
+    );
+    assert!(recorded.app_dynamic.contains(States::CLAMP_RANGE));
+    assert!(!recorded.injected.contains(States::CLAMP_RANGE));
+    fx.finish();
+}
+
 #[test]
 fn a_variant_the_app_never_destroyed_goes_with_the_device() {
     let fx = Fixture::new();

@@ -43,16 +43,17 @@ pub fn own_subsets(
 }
 
 /// The depth-related states of `subsets`: a dynamic state listed by a create info that does
-/// not define its subset is ignored (the spec's rule for libraries). Viewports, depth bias and
-/// depth clip control are pre-rasterization state; the compare op and depth bounds fragment
+/// not define its subset is ignored (the spec's rule for libraries). Viewports, depth bias,
+/// depth clip control, the depth clamp and its range are pre-rasterization state; the compare op and depth bounds fragment
 /// shader state.
 #[must_use]
 pub fn subset_states(subsets: Subsets) -> States {
     let mut states = States::NONE;
     if subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
         states |= States::VIEWPORT | States::VIEWPORT_WITH_COUNT | States::BIAS;
-        // Depth clip control is viewport state; the depth clamp rasterization state.
-        states |= States::CLIP_CONTROL | States::DEPTH_CLAMP;
+        // Depth clip control and the clamp range are viewport state; the depth clamp
+        // rasterization state.
+        states |= States::CLIP_CONTROL | States::DEPTH_CLAMP | States::CLAMP_RANGE;
     }
     if subsets.contains(Subsets::FRAGMENT_SHADER) {
         states |= States::COMPARE_OP | States::BOUNDS;
@@ -64,7 +65,7 @@ pub fn subset_states(subsets: Subsets) -> States {
 /// the library that defines it, with the dynamic states each library recorded for its own
 /// subsets ([`subset_states`]); the linking pipeline defines those subsets from then on.
 /// What every library says (module identifiers, promotion, dynamic states, an unreversed
-/// fragment stage) adds up; pre-rasterization state (viewports, bias, the precise path's
+/// fragment stage) adds up; pre-rasterization state (viewports, bias, clamp range, the precise path's
 /// projection, range, store and layout) comes from the library that defines it, as does
 /// fragment shader state (compare op, bounds).
 pub fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDepth>]) {
@@ -77,6 +78,7 @@ pub fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDep
         if library.subsets.contains(Subsets::PRE_RASTERIZATION_SHADERS) {
             depth.viewports.clone_from(&library.viewports);
             depth.bias = library.bias;
+            depth.clamp_range = library.clamp_range;
             depth.projection = library.projection;
             depth.derived_range = library.derived_range;
             depth.position_store = library.position_store;
@@ -136,7 +138,8 @@ mod tests {
             | States::VIEWPORT_WITH_COUNT
             | States::BIAS
             | States::CLIP_CONTROL
-            | States::DEPTH_CLAMP;
+            | States::DEPTH_CLAMP
+            | States::CLAMP_RANGE;
         let fragment = States::COMPARE_OP | States::BOUNDS;
         assert_eq!(
             subset_states(Subsets::PRE_RASTERIZATION_SHADERS),

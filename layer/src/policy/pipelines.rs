@@ -114,6 +114,9 @@ pub struct StaticStateFacts<'a> {
     /// The device has `vkCmdSetDepthBias2EXT`: a bias with an explicit representation can be
     /// sent again with it.
     pub bias_with_representation: bool,
+    /// Its viewport state chains a user-defined depth clamp range
+    /// (`VkPipelineViewportDepthClampControlCreateInfoEXT`, `VK_EXT_depth_clamp_control`).
+    pub user_clamp_range: bool,
 }
 
 /// What revz does with a pipeline's static depth state.
@@ -142,6 +145,10 @@ impl StaticStatePlan {
             (States::BOUNDS, vk::DynamicState::DEPTH_BOUNDS),
             (States::VIEWPORT, vk::DynamicState::VIEWPORT),
             (States::BIAS, vk::DynamicState::DEPTH_BIAS),
+            (
+                States::CLAMP_RANGE,
+                crate::vk_ext::DYNAMIC_STATE_DEPTH_CLAMP_RANGE,
+            ),
         ]
         .into_iter()
         .filter_map(move |(state, dynamic)| made.contains(state).then_some(dynamic))
@@ -151,8 +158,10 @@ impl StaticStatePlan {
 impl StaticStateFacts<'_> {
     /// Which static states become dynamic: in a pipeline that renders depth, the compare op of
     /// a depth test (unless it comes from a variant), the bounds of a bounds test, static
-    /// viewports, and an enabled bias (unless its explicit representation cannot be sent
-    /// again). State the application made dynamic is left to it.
+    /// viewports, an enabled bias (unless its explicit representation cannot be sent
+    /// again), and a user-defined depth clamp range (depth values, mapped as the bounds: the
+    /// range is read whether or not the clamp is enabled, which may be dynamic). State the
+    /// application made dynamic is left to it.
     pub fn decide(&self) -> StaticStatePlan {
         let has = |state: vk::DynamicState| self.app_dynamic.contains(&state);
         let mut plan = StaticStatePlan {
@@ -196,6 +205,9 @@ impl StaticStateFacts<'_> {
             if enabled && resendable && !has(vk::DynamicState::DEPTH_BIAS) {
                 plan.made_dynamic |= States::BIAS;
             }
+        }
+        if self.user_clamp_range && !has(crate::vk_ext::DYNAMIC_STATE_DEPTH_CLAMP_RANGE) {
+            plan.made_dynamic |= States::CLAMP_RANGE;
         }
         plan
     }
@@ -764,6 +776,7 @@ mod tests {
             static_viewports: 1,
             compare_op_variants: false,
             bias_with_representation: false,
+            user_clamp_range: false,
         }
     }
 
@@ -821,6 +834,38 @@ mod tests {
                 vk::DynamicState::VIEWPORT,
                 vk::DynamicState::DEPTH_BIAS,
             ]
+        );
+    }
+
+    /// A user-defined clamp range (`VK_EXT_depth_clamp_control`) holds depth values: made
+    /// dynamic (last in the list) unless the application set it dynamically, and kept where
+    /// the pipeline renders no depth.
+    #[test]
+    fn a_user_defined_clamp_range_becomes_dynamic() {
+        let facts = StaticStateFacts {
+            user_clamp_range: true,
+            ..all_static()
+        };
+        let plan = facts.decide();
+        assert!(plan.made_dynamic.contains(States::CLAMP_RANGE));
+        assert_eq!(
+            plan.added_dynamic_states().last(),
+            Some(crate::vk_ext::DYNAMIC_STATE_DEPTH_CLAMP_RANGE)
+        );
+        let app = [crate::vk_ext::DYNAMIC_STATE_DEPTH_CLAMP_RANGE];
+        let app_set = StaticStateFacts {
+            app_dynamic: &app,
+            ..facts
+        };
+        assert!(!app_set.decide().made_dynamic.contains(States::CLAMP_RANGE));
+        let no_depth = StaticStateFacts {
+            has_depth_attachment: false,
+            ..facts
+        };
+        assert!(no_depth.decide().made_dynamic.is_empty());
+        assert_eq!(
+            States::of_dynamic(crate::vk_ext::DYNAMIC_STATE_DEPTH_CLAMP_RANGE),
+            States::CLAMP_RANGE
         );
     }
 

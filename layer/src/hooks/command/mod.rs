@@ -146,6 +146,26 @@ impl StateSink for NextLayer<'_> {
         }
     }
 
+    fn set_clamp_range(&mut self, range: Option<(f32, f32)>) {
+        use crate::vk_ext::{
+            DepthClampRange, DEPTH_CLAMP_MODE_USER_DEFINED_RANGE, DEPTH_CLAMP_MODE_VIEWPORT_RANGE,
+        };
+        // Only sent where the application set a clamp range or created a pipeline with one,
+        // so the device has the command.
+        if let Some(set) = self.device.commands.set_depth_clamp_range {
+            let range = range.map(|(min, max)| DepthClampRange {
+                min_depth_clamp: min,
+                max_depth_clamp: max,
+            });
+            let (mode, pointer) = match &range {
+                Some(range) => (DEPTH_CLAMP_MODE_USER_DEFINED_RANGE, range as *const _),
+                None => (DEPTH_CLAMP_MODE_VIEWPORT_RANGE, std::ptr::null()),
+            };
+            // SAFETY: as above; a range that lives through the call.
+            unsafe { set(self.buffer, mode, pointer) }
+        }
+    }
+
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
         // SAFETY: as above; a live pipeline (the application's, or its variant, destroyed
         // with it).
@@ -727,6 +747,30 @@ pub unsafe extern "system" fn cmd_set_depth_bounds(buffer: vk::CommandBuffer, mi
     if let Err(Some(device)) = taken {
         // SAFETY: calling down with the application's arguments.
         unsafe { (device.next.fp_v1_0().cmd_set_depth_bounds)(buffer, min, max) }
+    }
+}
+
+pub unsafe extern "system" fn cmd_set_depth_clamp_range(
+    buffer: vk::CommandBuffer,
+    mode: i32,
+    p_range: *const crate::vk_ext::DepthClampRange,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthClampRangeEXT");
+    let range = match mode {
+        // SAFETY: a valid range where the mode is user-defined (the application's contract;
+        // the viewport's range reads none).
+        crate::vk_ext::DEPTH_CLAMP_MODE_USER_DEFINED_RANGE => unsafe { p_range.as_ref() },
+        _ => None,
+    };
+    // Any other mode (the spec has two) or a user-defined one without its range, both
+    // invalid, count as the viewport's range.
+    let range = range.map(|r| (r.min_depth_clamp, r.max_depth_clamp));
+    let taken = recorded(buffer, &ENTRY, |entry| entry.state().set_clamp_range(range));
+    if let Err(Some(device)) = taken {
+        if let Some(next) = device.commands.set_depth_clamp_range {
+            // SAFETY: calling down with the application's arguments.
+            unsafe { next(buffer, mode, p_range) }
+        }
     }
 }
 

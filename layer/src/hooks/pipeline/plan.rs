@@ -377,6 +377,27 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
             depth_stencil.max_depth_bounds,
         );
     }
+    // A user-defined clamp range (VK_EXT_depth_clamp_control) where the application left it
+    // static: depth values, mapped at draw time.
+    let app_clamp_range = app_states.contains(&crate::vk_ext::DYNAMIC_STATE_DEPTH_CLAMP_RANGE);
+    let clamp_range = viewport.filter(|_| !app_clamp_range).and_then(|viewport| {
+        // SAFETY: a valid pNext chain (the application's contract), and the range it points to
+        // where the mode is user-defined and the range static.
+        unsafe {
+            let control = chain::find::<crate::vk_ext::PipelineViewportDepthClampControlCreateInfo>(
+                viewport.p_next,
+            )?;
+            // The range is read only in that mode (the spec ignores the pointer otherwise).
+            if control.depth_clamp_mode == crate::vk_ext::DEPTH_CLAMP_MODE_USER_DEFINED_RANGE {
+                control.p_depth_clamp_range.as_ref()
+            } else {
+                None
+            }
+        }
+    });
+    if let Some(range) = clamp_range {
+        depth.clamp_range = (range.min_depth_clamp, range.max_depth_clamp);
+    }
     if let Some(viewport) = viewport.filter(|_| viewports_static(app_states)) {
         // SAFETY: `viewportCount` viewports when static.
         depth.viewports = unsafe { slice(viewport.p_viewports, viewport.viewport_count) }.to_vec();
@@ -409,6 +430,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         static_viewports: depth.viewports.len(),
         compare_op_variants: context.compare_op_variants,
         bias_with_representation: context.bias_with_representation,
+        user_clamp_range: clamp_range.is_some(),
     }
     .decide();
     depth.injected |= static_state.made_dynamic;
