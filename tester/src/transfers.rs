@@ -1,8 +1,10 @@
 //! `revz-tester transfers`: depth images that are only ever copied, as a conformance suite's
 //! copy and blit groups use them (issue #44). Two images with TRANSFER_SRC | TRANSFER_DST
-//! usage and no other (revz reverses them by default, and promotes D16/D24 storage in the
-//! precise modes): the source uploaded from a buffer with depth values of full mantissas (and
-//! a stencil pattern), the destination with depth 1 and stencil 255; then one copy or blit of
+//! usage and no other (revz keeps them native; `--attachment` adds DEPTH_STENCIL_ATTACHMENT to
+//! the 2D ones, which revz then reverses, and promotes D16/D24 storage in the precise modes;
+//! so does `REVZ_REVERSE_OBSERVABLE=all` with every image): the source uploaded from a buffer
+//! (depth values of full mantissas, a stencil pattern), the destination with depth 1 and
+//! stencil 255; then one copy or blit of
 //! every aspect the format has (2D and 3D images, boxes downscaled, mirrored and 1:1, or with
 //! each aspect's layout set apart under `separateDepthStencilLayouts`); then the whole destination read back into a buffer.
 //!
@@ -94,6 +96,11 @@ pub struct TransferArgs {
     /// With `--validation`: synchronization validation too.
     #[arg(long)]
     sync_validation: bool,
+    /// Give the 2D images DEPTH_STENCIL_ATTACHMENT usage too (3D images keep transfer usage
+    /// only): revz then reverses them (and promotes D16/D24 storage in the precise modes),
+    /// where it keeps images that are no attachment native.
+    #[arg(long)]
+    attachment: bool,
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
@@ -107,6 +114,7 @@ struct TransferReport {
     depth_format: &'static str,
     case: &'static str,
     texels: usize,
+    attachment: bool,
     validation_messages: u32,
 }
 
@@ -136,7 +144,7 @@ pub fn run(args: &TransferArgs) -> Result<std::process::ExitCode> {
         bail!("the device lacks separateDepthStencilLayouts");
     }
     let (depth, stencil) = {
-        let transfer = Transfer::new(&gpu, format, case)?;
+        let transfer = Transfer::new(&gpu, format, case, args.attachment)?;
         transfer.run()?
     };
     let texels = depth.len();
@@ -156,6 +164,7 @@ pub fn run(args: &TransferArgs) -> Result<std::process::ExitCode> {
         depth_format: format.vk_name(),
         case: case.name(),
         texels,
+        attachment: args.attachment,
         validation_messages: messages,
     };
     std::fs::write(
@@ -179,13 +188,23 @@ struct Image<'a> {
 }
 
 impl<'a> Image<'a> {
-    fn new(gpu: &'a Gpu, format: vk::Format, extent: vk::Extent3D) -> Result<Self> {
+    /// A 3D image where `extent` is deeper than 1, else 2D (with DEPTH_STENCIL_ATTACHMENT usage
+    /// too where `attachment`).
+    fn new(
+        gpu: &'a Gpu,
+        format: vk::Format,
+        extent: vk::Extent3D,
+        attachment: bool,
+    ) -> Result<Self> {
         let image_type = if extent.depth > 1 {
             vk::ImageType::TYPE_3D
         } else {
             vk::ImageType::TYPE_2D
         };
-        let usage = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+        let mut usage = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+        if attachment && image_type == vk::ImageType::TYPE_2D {
+            usage |= vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+        }
         // SAFETY: a physical device of this instance.
         let supported = unsafe {
             gpu.instance().get_physical_device_image_format_properties(
@@ -198,7 +217,7 @@ impl<'a> Image<'a> {
             )
         };
         if supported.is_err() {
-            bail!("the device has no {image_type:?} images of {format:?} with transfer usage");
+            bail!("the device has no {image_type:?} images of {format:?} with usage {usage:?}");
         }
         let info = vk::ImageCreateInfo::default()
             .image_type(image_type)
@@ -270,12 +289,21 @@ fn offset(x: i32, y: i32, z: i32) -> vk::Offset3D {
     vk::Offset3D { x, y, z }
 }
 
-/// The source's depth texels: values of full mantissas spread over [0, 1] (a hash of the
-/// texel's index), in the buffer layout of `format`'s depth aspect.
+/// The source's depth texels: a hash of the texel's index, in the buffer layout of `format`'s
+/// depth aspect; for float formats values of full mantissas in [2^-12, 1) (every bit of a
+/// float32 in use, where a flip to 1 - d and back would lose the low ones), for UNORM formats
+/// every integer equally likely.
 fn depth_texels(format: DepthFormat, count: usize) -> Vec<u8> {
     let value = |i: usize| {
-        let hashed = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40;
-        hashed as f64 / f64::from(1u32 << 24)
+        let hashed = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        match format {
+            DepthFormat::D32 | DepthFormat::D32S8 => {
+                let mantissa = (hashed >> 41) as u32 & 0x7F_FFFF;
+                let exponent = 126 - (hashed >> 20) as u32 % 12;
+                f64::from(f32::from_bits(exponent << 23 | mantissa))
+            }
+            _ => (hashed >> 40) as f64 / f64::from(1u32 << 24),
+        }
     };
     (0..count)
         .flat_map(|i| texel_bytes(format, value(i)))
@@ -307,10 +335,15 @@ struct Transfer<'a> {
 }
 
 impl<'a> Transfer<'a> {
-    fn new(gpu: &'a Gpu, format: DepthFormat, case: TransferCase) -> Result<Self> {
+    fn new(
+        gpu: &'a Gpu,
+        format: DepthFormat,
+        case: TransferCase,
+        attachment: bool,
+    ) -> Result<Self> {
         let (from, to) = case.extents();
-        let source = Image::new(gpu, format.vk_format(), from)?;
-        let destination = Image::new(gpu, format.vk_format(), to)?;
+        let source = Image::new(gpu, format.vk_format(), from, attachment)?;
+        let destination = Image::new(gpu, format.vk_format(), to, attachment)?;
         let (n, m) = (source.texels(), destination.texels());
         let texel = format.depth_copy_texel_size();
         let upload = |bytes: &[u8]| -> Result<HostBuffer<'a>> {

@@ -1,18 +1,24 @@
 //! Depth images that are only ever copied, as a conformance suite's copy and blit groups use
-//! them (issue #44; `revz-tester transfers`): two images with transfer usage only, the source
-//! uploaded from a buffer (depth values of full mantissas, a stencil pattern), one copy or
-//! blit of every aspect, the destination read back into a buffer. revz reverses such images by
-//! default (and stores D16/D24 as float32 in the precise modes), so the upload converts into
-//! the reversed image, the copy or blit goes down as it is (or through revz's staged image),
-//! and the read-back converts back.
+//! them (issue #44; `revz-tester transfers`): a source uploaded from a buffer (depth values of
+//! full mantissas, a stencil pattern), one copy or blit of every aspect (2D and 3D images,
+//! boxes downscaled, mirrored and 1:1, the aspects' layouts set apart), the destination read
+//! back into a buffer. In every mode and format, with the validation layer and synchronization
+//! validation: zero messages, and the stencil read back bit for bit as without revz, in three
+//! configurations:
 //!
-//! In every mode and format, with the validation layer and synchronization validation: zero
-//! messages, both images logged as reversed, the stencil read back bit for bit as without
-//! revz, and the depth too, but for blits of D24: lavapipe blits D24 through float32 and is
-//! itself one unit off the uploaded value at some texels, where revz's blit (of complemented
-//! values, or of float32 storage) rounds otherwise: within one unit of the native blit there
-//! (a conformance suite allows a D24 blit one unit). Copies of D24 through float32 storage
-//! come back exactly: the read-back unflips (`ShaderHeader::mask`).
+//! - **Transfer usage only** (the suite's images): revz keeps such images native and in their
+//!   format (no draw can store depth in them): every texel reads back bit for bit as without
+//!   revz.
+//! - **`--attachment`**: the 2D images may be depth attachments, so revz reverses them (and
+//!   stores D16/D24 as float32 in the precise modes); the upload converts into them and the
+//!   read-back back. D16 and D24 come back exactly (the read-back unflips the float,
+//!   `ShaderHeader::mask`); float32 within half an ulp of [0.5, 1) (1 - d rounds d's low bits
+//!   below 0.5: the inherent cost of reversing values the application uploads). Blits of D24
+//!   within one unit: lavapipe blits D24 through float32 and is itself one unit off the
+//!   uploaded value at some texels, where its blit of reversed values rounds elsewhere.
+//! - **`REVZ_REVERSE_OBSERVABLE=all`**, transfer usage only: every image reversed, 3D ones
+//!   included, so that their conversions run (3D to 2D copies, blits of boxes several slices
+//!   deep through a 3D staged image): as `--attachment`.
 
 use revz_tests::Harness;
 
@@ -30,33 +36,44 @@ fn cases() -> Vec<(&'static str, Vec<&'static str>)> {
     ]
 }
 
+/// Which images the case makes, and what revz is asked to reverse.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Images {
+    TransferOnly,
+    Attachment,
+    ObservableAll,
+}
+
 /// Runs the case; its depth (f32 a texel), stencil (empty without one) and stderr.
 fn transfer(
     harness: &Harness,
-    case: &str,
-    format: &str,
+    (case, format): (&str, &str),
     mode: Option<&str>,
+    images: Images,
 ) -> (Vec<f32>, Vec<u8>, String) {
-    let name = format!("transfers-{case}-{format}-{}", mode.unwrap_or("none"));
+    let name = format!(
+        "transfers-{case}-{format}-{}-{images:?}",
+        mode.unwrap_or("none")
+    );
     let dir = harness.scratch_dir(&name);
     let mut command = revz_tests::clean_command(&harness.tester);
     command
         .args(["transfers", "--validation", "--sync-validation"])
-        .args([
-            "--device",
-            "llvmpipe",
-            "--depth-format",
-            format,
-            "--case",
-            case,
-        ])
+        .args(["--device", "llvmpipe", "--depth-format", format])
+        .args(["--case", case])
         .arg("--out")
         .arg(&dir);
+    if images == Images::Attachment {
+        command.arg("--attachment");
+    }
     if let Some(mode) = mode {
         harness
             .with_layer(&mut command)
             .env("REVZ_MODE", mode)
             .env("REVZ_LOG", "info");
+        if images == Images::ObservableAll {
+            command.env("REVZ_REVERSE_OBSERVABLE", "all");
+        }
     }
     let output = command.output().expect("start revz-tester");
     let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
@@ -74,51 +91,94 @@ fn transfer(
     (depth, stencil, stderr)
 }
 
+/// How many of the case's two images revz reverses, and how many it keeps native as no depth
+/// attachment.
+fn expected_images(case: &str, images: Images) -> (usize, usize) {
+    match images {
+        Images::TransferOnly => (0, 2),
+        Images::ObservableAll => (2, 0),
+        // The 3D source is no attachment.
+        Images::Attachment if case == "copy-3d-to-2d" => (1, 1),
+        Images::Attachment => (2, 0),
+    }
+}
+
+/// How far a texel may read back from the run without revz: see the module's points.
+fn allowed(case: &str, format: &str, images: Images) -> f32 {
+    if images == Images::TransferOnly {
+        return 0.0;
+    }
+    if format.contains("d24") && case.starts_with("blit") {
+        1.0 / 16_777_215.0 * 1.001
+    } else if format.starts_with("d32") {
+        // Half an ulp of [0.5, 1).
+        2f32.powi(-25) * 1.001
+    } else {
+        0.0
+    }
+}
+
 #[test]
 fn copies_and_blits_of_transfer_only_images_read_back_as_without_revz() {
     let harness = Harness::locate();
     for (case, formats) in cases() {
         for format in formats {
-            let (native_depth, native_stencil, _) = transfer(&harness, case, format, None);
+            let (native_depth, native_stencil, _) =
+                transfer(&harness, (case, format), None, Images::TransferOnly);
             assert!(native_depth.len() >= 4096, "{case} {format}");
             assert_eq!(
                 native_stencil.is_empty(),
                 !format.ends_with("s8"),
                 "{case} {format}"
             );
-            let d24 = format.contains("d24");
-            let allowed = if d24 && case.starts_with("blit") {
-                1.0 / 16_777_215.0 * 1.001
-            } else {
-                0.0
-            };
-            for mode in MODES {
-                let (depth, stencil, log) = transfer(&harness, case, format, Some(mode));
-                let reversed = log.matches("): reversed").count();
-                assert!(
-                    reversed >= 2,
-                    "{case} {format} {mode}: the images were not reversed\n{log}"
-                );
-                assert!(
-                    !log.contains("is not converted"),
-                    "{case} {format} {mode}: {log}"
-                );
-                assert_eq!(stencil, native_stencil, "{case} {format} {mode}: stencil");
-                let off: Vec<(usize, f32, f32)> = depth
-                    .iter()
-                    .zip(&native_depth)
-                    .enumerate()
-                    .filter(|(_, (a, b))| (*a - *b).abs() > allowed || (allowed == 0.0 && a != b))
-                    .map(|(i, (a, b))| (i, *a, *b))
-                    .collect();
-                assert!(
-                    off.is_empty(),
-                    "{case} {format} {mode}: {} of {} texels read back otherwise than without \
-                     revz (allowed {allowed:e}); first (texel, revz, native): {:?}",
-                    off.len(),
-                    depth.len(),
-                    &off[..off.len().min(5)]
-                );
+            for images in [
+                Images::TransferOnly,
+                Images::Attachment,
+                Images::ObservableAll,
+            ] {
+                if images == Images::Attachment && matches!(case, "copy-3d" | "blit-3d") {
+                    // No 2D image: transfer usage only, above.
+                    continue;
+                }
+                let allowed = allowed(case, format, images);
+                for mode in MODES {
+                    let what = format!("{case} {format} {mode} {images:?}");
+                    let (depth, stencil, log) =
+                        transfer(&harness, (case, format), Some(mode), images);
+                    let seen = (
+                        log.matches("): reversed").count(),
+                        log.matches("): native, because it is no depth attachment")
+                            .count(),
+                    );
+                    assert_eq!(
+                        seen,
+                        expected_images(case, images),
+                        "{what}: images reversed, kept native\n{log}"
+                    );
+                    if images == Images::TransferOnly {
+                        assert!(!log.contains("promoted to"), "{what}: promoted\n{log}");
+                    }
+                    assert!(!log.contains("is not converted"), "{what}: {log}");
+                    assert_eq!(stencil, native_stencil, "{what}: stencil");
+                    let off: Vec<(usize, f32, f32)> = depth
+                        .iter()
+                        .zip(&native_depth)
+                        .enumerate()
+                        .filter(|(_, (a, b))| {
+                            (*a - *b).abs() > allowed
+                                || (allowed == 0.0 && a.to_bits() != b.to_bits())
+                        })
+                        .map(|(i, (a, b))| (i, *a, *b))
+                        .collect();
+                    assert!(
+                        off.is_empty(),
+                        "{what}: {} of {} texels read back otherwise than without revz \
+                         (allowed {allowed:e}); first (texel, revz, native): {:?}",
+                        off.len(),
+                        depth.len(),
+                        &off[..off.len().min(5)]
+                    );
+                }
             }
         }
     }

@@ -28,6 +28,11 @@ pub enum NativeReason {
     ReadByShaders(vk::ImageUsageFlags),
     /// It is copied from (transfer source).
     CopiedFrom,
+    /// It cannot be a depth attachment (no `DEPTH_STENCIL_ATTACHMENT` usage): no draw ever
+    /// stores depth in it. Its values are the application's (uploads, clears, copies, which
+    /// revz converts where the other end is reversed), and reversing them could only round
+    /// them (1 - d in float32 loses d's low bits below 0.5).
+    NotAnAttachment,
     /// Linear tiling: the host can read it.
     LinearTiling,
     /// Host image copies (`VK_EXT_host_image_copy`) read or write it: revz does not convert
@@ -63,6 +68,10 @@ impl fmt::Display for NativeReason {
             NativeReason::CopiedFrom => {
                 f.write_str("it is copied from (TRANSFER_SRC); see reverse_observable")
             }
+            NativeReason::NotAnAttachment => f.write_str(
+                "it is no depth attachment (no DEPTH_STENCIL_ATTACHMENT usage): its values are \
+                 the application's",
+            ),
             NativeReason::LinearTiling => f.write_str("linear tiling (host-readable)"),
             NativeReason::HostCopied => {
                 f.write_str("host image copies read it (HOST_TRANSFER), which are not converted")
@@ -156,6 +165,9 @@ impl ImageFacts {
 /// Why a depth image in a UNORM format keeps it (logged once per reason).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum KeptFormat {
+    /// It cannot be a depth attachment (no `DEPTH_STENCIL_ATTACHMENT` usage): no draw stores
+    /// depth in it, so float storage would gain nothing and cost a conversion at every copy.
+    NotAnAttachment,
     /// Host image copies (`VK_EXT_host_image_copy`, `HOST_TRANSFER` usage) read or write its
     /// bytes without a command revz could convert: the host would get float bits where it
     /// expects UNORM values. (Copies recorded in command buffers are converted,
@@ -186,6 +198,10 @@ pub enum KeptFormat {
 impl fmt::Display for KeptFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
+            KeptFormat::NotAnAttachment => {
+                "it is no depth attachment (no DEPTH_STENCIL_ATTACHMENT usage): float storage \
+                 would gain nothing"
+            }
             KeptFormat::HostCopied => {
                 "host image copies read or write it (HOST_TRANSFER), which revz cannot convert"
             }
@@ -245,6 +261,12 @@ impl DevicePolicy {
         let Some(float) = crate::conv::float_depth_format(format).filter(|_| self.promote) else {
             return Ok(None);
         };
+        if !facts
+            .usage
+            .contains(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT)
+        {
+            return Err(KeptFormat::NotAnAttachment);
+        }
         if self.depth_range_unrestricted {
             return Err(KeptFormat::UnrestrictedDepthRange);
         }
@@ -377,6 +399,11 @@ impl DevicePolicy {
                 | vk::ImageUsageFlags::STORAGE
                 | vk::ImageUsageFlags::INPUT_ATTACHMENT);
         let observable = self.observable;
+        if !usage.contains(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT)
+            && observable != Observable::All
+        {
+            return native(NativeReason::NotAnAttachment);
+        }
         if !shader_reads.is_empty()
             && observable != Observable::All
             && !self.shader_reads_follow(usage, samples, tiling)
@@ -560,6 +587,21 @@ mod tests {
             p.promoted_format(vk::Format::D16_UNORM, ATTACHMENT_IMAGE, yes),
             Ok(Some(vk::Format::D32_SFLOAT))
         );
+        // An image that is no depth attachment gains nothing from float storage: uploaded
+        // textures, transfer-only images.
+        for usage in [
+            vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST,
+            vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+        ] {
+            let facts = ImageFacts {
+                usage,
+                ..ATTACHMENT_IMAGE
+            };
+            assert_eq!(
+                p.promoted_format(d24, facts, yes),
+                Err(KeptFormat::NotAnAttachment)
+            );
+        }
         // Sampled images too (native ones): a resolve needs one format at both ends.
         let sampled = ImageFacts {
             usage: ATTACHMENT_IMAGE.usage | vk::ImageUsageFlags::SAMPLED,
@@ -726,6 +768,45 @@ mod tests {
         assert_eq!(
             p.classify_image(vk::Format::S8_UINT, ATTACHMENT, OPTIMAL, ONE),
             None
+        );
+    }
+
+    /// An image that cannot be a depth attachment keeps the application's values (copies into
+    /// and out of it convert where the other end is reversed): transfer-only images as a
+    /// conformance suite's copies make them, and depth textures uploaded for sampling. Only
+    /// `reverse_observable = all` reverses them still.
+    #[test]
+    fn images_that_are_no_depth_attachment_stay_native() {
+        let transfer = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+        let texture = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+        for mode in [Mode::Flip, Mode::Complementary, Mode::Infinite] {
+            for observable in [Observable::Copies, Observable::None] {
+                let p = policy(mode, observable);
+                for usage in [transfer, texture] {
+                    assert_eq!(
+                        p.classify_image(D32, usage, OPTIMAL, ONE),
+                        Some(ImageDepth::Native(NativeReason::NotAnAttachment)),
+                        "{mode:?} {observable:?} {usage:?}"
+                    );
+                }
+                assert_eq!(
+                    p.classify_image(D32, transfer | ATTACHMENT, OPTIMAL, ONE),
+                    Some(ImageDepth::Reversed)
+                        .filter(|_| observable == Observable::Copies)
+                        .or(Some(ImageDepth::Native(NativeReason::CopiedFrom))),
+                    "{mode:?} {observable:?}"
+                );
+            }
+            let all = policy(mode, Observable::All);
+            assert_eq!(
+                all.classify_image(D32, transfer, OPTIMAL, ONE),
+                Some(ImageDepth::Reversed)
+            );
+        }
+        let off = policy(Mode::Off, Observable::Copies);
+        assert_eq!(
+            off.classify_image(D32, transfer, OPTIMAL, ONE),
+            Some(ImageDepth::Native(NativeReason::ModeOff))
         );
     }
 
