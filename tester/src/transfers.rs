@@ -9,7 +9,8 @@
 //! each aspect's layout set apart under `separateDepthStencilLayouts`); then the whole destination read back into a buffer.
 //!
 //! Writes `depth.f32` (the destination's depth, decoded), `stencil.u8` (its stencil, for
-//! stencil formats) and `transfers.json`; exits 2 on validation messages. The test compares
+//! stencil formats), `aspects.u8` (per texel, the aspects the regions write: bit 0 depth, bit 1
+//! stencil) and `transfers.json`; exits 2 on validation messages. The test compares
 //! the files with and without revz: a copy must hand back the bytes it hands back without it.
 
 use std::path::PathBuf;
@@ -45,6 +46,11 @@ pub enum TransferCase {
     /// 12.
     #[value(name = "blit-3d")]
     Blit3d,
+    /// 3D 16x16x16 into 2D 64x64, one blit: the whole source squeezed into one slice (a box
+    /// sixteen slices deep into one, mirrored in z for depth), one per aspect, and slices 0, 5,
+    /// 10 and 15 of the depth 1:1.
+    #[value(name = "blit-3d-to-2d")]
+    Blit3dTo2d,
 }
 
 impl TransferCase {
@@ -55,6 +61,7 @@ impl TransferCase {
             TransferCase::Copy3d => "copy-3d",
             TransferCase::Copy3dTo2d => "copy-3d-to-2d",
             TransferCase::Blit3d => "blit-3d",
+            TransferCase::Blit3dTo2d => "blit-3d-to-2d",
         }
     }
 
@@ -73,7 +80,7 @@ impl TransferCase {
         match self {
             TransferCase::Blit | TransferCase::BlitSeparateLayouts => (square, square),
             TransferCase::Copy3d | TransferCase::Blit3d => (cube, cube),
-            TransferCase::Copy3dTo2d => (cube, square),
+            TransferCase::Copy3dTo2d | TransferCase::Blit3dTo2d => (cube, square),
         }
     }
 }
@@ -143,9 +150,10 @@ pub fn run(args: &TransferArgs) -> Result<std::process::ExitCode> {
     if case == TransferCase::BlitSeparateLayouts && !gpu.enabled.separate_depth_stencil_layouts {
         bail!("the device lacks separateDepthStencilLayouts");
     }
-    let (depth, stencil) = {
+    let (depth, stencil, aspects) = {
         let transfer = Transfer::new(&gpu, format, case, args.attachment)?;
-        transfer.run()?
+        let (depth, stencil) = transfer.run()?;
+        (depth, stencil, transfer.written_aspects())
     };
     let texels = depth.len();
     let info = gpu.info.clone();
@@ -158,6 +166,7 @@ pub fn run(args: &TransferArgs) -> Result<std::process::ExitCode> {
     if let Some(stencil) = &stencil {
         std::fs::write(out.join("stencil.u8"), stencil).context("writing stencil.u8")?;
     }
+    std::fs::write(out.join("aspects.u8"), aspects).context("writing aspects.u8")?;
     let report = TransferReport {
         device: info.name.clone(),
         driver: info.driver(),
@@ -319,6 +328,12 @@ fn texel_bytes(format: DepthFormat, d: f64) -> Vec<u8> {
         }
         DepthFormat::D32 | DepthFormat::D32S8 => (d as f32).to_le_bytes().to_vec(),
     }
+}
+
+/// A case's blits or copies (one of the two is empty).
+struct Regions {
+    blits: Vec<vk::ImageBlit>,
+    copies: Vec<vk::ImageCopy>,
 }
 
 /// The two images, their upload and read-back buffers, a command pool and a fence.
@@ -580,15 +595,9 @@ impl<'a> Transfer<'a> {
         }
     }
 
-    /// The case's copy or blit, with the images in `src_layout` and `dst_layout`.
-    fn record_case(
-        &self,
-        cmd: vk::CommandBuffer,
-        src_layout: vk::ImageLayout,
-        dst_layout: vk::ImageLayout,
-    ) {
-        let device = &self.gpu.device;
-        let (src, dst) = (self.source.image, self.destination.image);
+    /// The case's regions: every aspect the format has, one set of regions each (depth,
+    /// stencil, both, for blits; depth and stencil for copies).
+    fn regions(&self) -> Regions {
         let depth = vk::ImageAspectFlags::DEPTH;
         let mut aspect_sets = vec![depth];
         if self.format.has_stencil() {
@@ -601,46 +610,34 @@ impl<'a> Transfer<'a> {
             dst_subresource: layers(aspects),
             dst_offsets: to,
         };
+        let mut blits = Vec::new();
+        let mut copies = Vec::new();
         match self.case {
             TransferCase::Blit | TransferCase::BlitSeparateLayouts => {
                 let whole = [offset(0, 0, 0), offset(64, 64, 1)];
                 let mirrored = [offset(64, 64, 0), offset(0, 0, 1)];
-                let mut regions = Vec::new();
                 for (k, &aspects) in aspect_sets.iter().enumerate() {
                     let x = 16 * k as i32;
-                    regions.push(blit(
+                    blits.push(blit(
                         whole,
                         [offset(x, 0, 0), offset(x + 16, 16, 1)],
                         aspects,
                     ));
-                    regions.push(blit(
+                    blits.push(blit(
                         mirrored,
                         [offset(x, 16, 0), offset(x + 16, 32, 1)],
                         aspects,
                     ));
                     let block = [offset(8 * k as i32, 40, 0), offset(8 * k as i32 + 8, 48, 1)];
-                    regions.push(blit(
+                    blits.push(blit(
                         block,
                         [offset(x, 48, 0), offset(x + 8, 56, 1)],
                         aspects,
                     ));
                 }
-                // SAFETY: both images in the layouts named, regions inside them, NEAREST.
-                unsafe {
-                    device.cmd_blit_image(
-                        cmd,
-                        src,
-                        src_layout,
-                        dst,
-                        dst_layout,
-                        &regions,
-                        vk::Filter::NEAREST,
-                    )
-                }
             }
             TransferCase::Blit3d => {
                 let whole = [offset(0, 0, 0), offset(16, 16, 16)];
-                let mut regions = Vec::new();
                 for (k, &aspects) in aspect_sets.iter().enumerate() {
                     let x = 4 * k as i32;
                     let to = [offset(x, 0, 0), offset(x + 4, 4, 4)];
@@ -649,33 +646,43 @@ impl<'a> Transfer<'a> {
                     } else {
                         whole
                     };
-                    regions.push(blit(from, to, aspects));
+                    blits.push(blit(from, to, aspects));
                 }
                 for z in [0, 4, 8, 12] {
-                    regions.push(blit(
+                    blits.push(blit(
                         [offset(4, 4, z), offset(8, 8, z + 4)],
                         [offset(12, 8, z), offset(16, 12, z + 4)],
                         depth,
                     ));
                 }
-                // SAFETY: as above.
-                unsafe {
-                    device.cmd_blit_image(
-                        cmd,
-                        src,
-                        src_layout,
-                        dst,
-                        dst_layout,
-                        &regions,
-                        vk::Filter::NEAREST,
-                    )
+            }
+            TransferCase::Blit3dTo2d => {
+                for (k, &aspects) in aspect_sets.iter().enumerate() {
+                    let x = 16 * k as i32;
+                    let from = if aspects == depth {
+                        [offset(0, 0, 16), offset(16, 16, 0)]
+                    } else {
+                        [offset(0, 0, 0), offset(16, 16, 16)]
+                    };
+                    blits.push(blit(
+                        from,
+                        [offset(x, 0, 0), offset(x + 16, 16, 1)],
+                        aspects,
+                    ));
+                }
+                for (k, z) in [0, 5, 10, 15].into_iter().enumerate() {
+                    let x = 16 * k as i32;
+                    blits.push(blit(
+                        [offset(0, 0, z), offset(16, 16, z + 1)],
+                        [offset(x, 32, 0), offset(x + 16, 48, 1)],
+                        depth,
+                    ));
                 }
             }
             TransferCase::Copy3d => {
-                let mut regions = Vec::new();
                 for &aspects in &aspect_sets[..aspect_sets.len().min(2)] {
                     for i in [0, 4, 8, 12] {
-                        regions.push(vk::ImageCopy {
+                        copies.push(vk::ImageCopy {
                             src_subresource: layers(aspects),
                             src_offset: offset(i / 2, i / 4, 12 - i),
                             dst_subresource: layers(aspects),
@@ -688,14 +695,11 @@ impl<'a> Transfer<'a> {
                         });
                     }
                 }
-                // SAFETY: as above; regions inside both images, none overlapping.
-                unsafe { device.cmd_copy_image(cmd, src, src_layout, dst, dst_layout, &regions) }
             }
             TransferCase::Copy3dTo2d => {
-                let mut regions = Vec::new();
                 for &aspects in &aspect_sets[..aspect_sets.len().min(2)] {
                     for z in 0..16 {
-                        regions.push(vk::ImageCopy {
+                        copies.push(vk::ImageCopy {
                             src_subresource: layers(aspects),
                             src_offset: offset(0, 0, z),
                             dst_subresource: layers(aspects),
@@ -708,9 +712,79 @@ impl<'a> Transfer<'a> {
                         });
                     }
                 }
-                // SAFETY: as above (VK_KHR_maintenance1 is core in 1.1: a 3D slice into a 2D
-                // image's layer).
-                unsafe { device.cmd_copy_image(cmd, src, src_layout, dst, dst_layout, &regions) }
+            }
+        }
+        Regions { blits, copies }
+    }
+
+    /// Per destination texel, the aspects the case's regions write: bit 0 depth, bit 1
+    /// stencil (`aspects.u8`). Where a region writes one aspect of a depth/stencil texel alone,
+    /// lavapipe's blits write the other too (both aspects of a packed D24_S8 texel: not what
+    /// the spec says), and what lands there is the driver's choice: the test compares each
+    /// aspect where a region writes it, or none does.
+    fn written_aspects(&self) -> Vec<u8> {
+        let extent = self.destination.extent;
+        let (w, h) = (extent.width as usize, extent.height as usize);
+        let mut mask = vec![0u8; self.destination.texels()];
+        let mut mark = |lo: vk::Offset3D, hi: vk::Offset3D, aspects: vk::ImageAspectFlags| {
+            let bits = u8::from(aspects.contains(vk::ImageAspectFlags::DEPTH))
+                | u8::from(aspects.contains(vk::ImageAspectFlags::STENCIL)) << 1;
+            for z in lo.z..hi.z {
+                for y in lo.y..hi.y {
+                    for x in lo.x..hi.x {
+                        mask[(z as usize * h + y as usize) * w + x as usize] |= bits;
+                    }
+                }
+            }
+        };
+        let Regions { blits, copies } = self.regions();
+        for b in &blits {
+            let [a, c] = b.dst_offsets;
+            let lo = offset(a.x.min(c.x), a.y.min(c.y), a.z.min(c.z));
+            let hi = offset(a.x.max(c.x), a.y.max(c.y), a.z.max(c.z));
+            mark(lo, hi, b.dst_subresource.aspect_mask);
+        }
+        for c in &copies {
+            let o = c.dst_offset;
+            // A 3D slice into a 2D image is one deep there.
+            let depth = if extent.depth > 1 { c.extent.depth } else { 1 };
+            let hi = offset(
+                o.x + c.extent.width as i32,
+                o.y + c.extent.height as i32,
+                o.z + depth as i32,
+            );
+            mark(o, hi, c.dst_subresource.aspect_mask);
+        }
+        mask
+    }
+
+    /// The case's copy or blit, with the images in `src_layout` and `dst_layout`.
+    fn record_case(
+        &self,
+        cmd: vk::CommandBuffer,
+        src_layout: vk::ImageLayout,
+        dst_layout: vk::ImageLayout,
+    ) {
+        let device = &self.gpu.device;
+        let (src, dst) = (self.source.image, self.destination.image);
+        let Regions { blits, copies } = self.regions();
+        // SAFETY: both images in the layouts named, regions inside them (none overlapping in
+        // the destination but where they name other aspects), NEAREST for depth/stencil;
+        // a 3D slice into a 2D image is VK_KHR_maintenance1's, core in 1.1.
+        unsafe {
+            if !blits.is_empty() {
+                device.cmd_blit_image(
+                    cmd,
+                    src,
+                    src_layout,
+                    dst,
+                    dst_layout,
+                    &blits,
+                    vk::Filter::NEAREST,
+                );
+            }
+            if !copies.is_empty() {
+                device.cmd_copy_image(cmd, src, src_layout, dst, dst_layout, &copies);
             }
         }
     }

@@ -17,8 +17,9 @@
 //! - Every copy route (`--depth-route`: image to image, to a native image, to an image that
 //!   keeps its UNORM format while the first is promoted, a round trip through a buffer into
 //!   another reversed image, mirrored blits into a native and into a UNORM image, padded buffer
-//!   rows, the `*2` commands, a slice of a 3D image, a blit of a 3D box several slices deep into
-//!   a 3D image that keeps its UNORM format) reads back what the direct copy does: exactly, but for the
+//!   rows, the `*2` commands, an image with transfer usage only (native: issue #44), a slice of
+//!   a 3D image, a blit of a 3D box several slices deep) reads back what the direct copy does:
+//!   exactly, but for the
 //!   device's blit rounding, infinite mode's round trips, and promoted images read back through
 //!   a second image or a buffer (rounded into the UNORM grid twice: within one step).
 //!
@@ -389,12 +390,15 @@ fn default_policy_hands_back_native_depth_d32_s8() {
     default_policy_hands_back_native_depth("d32-s8");
 }
 
+/// A route's marker for `REVZ_REVERSE_OBSERVABLE=all`.
+const REVERSE_ALL: &str = "reverse-all";
+
 /// The copy routes, each against the direct copy of the same mode: bit-identical, but for the
 /// device's own blit rounding and infinite mode's round trips (below).
 #[test]
 fn every_copy_route_reads_back_what_the_direct_copy_does() {
     let harness = Harness::locate();
-    let routes: [&[&str]; 17] = [
+    let routes: [&[&str]; 19] = [
         &["--depth-route", "unorm-image"],
         &["--depth-route", "blit-unorm-image"],
         &["--depth-route", "blit-native-image"],
@@ -429,8 +433,13 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
         // a blit of a box two slices deep into a 3D image that keeps the UNORM format
         // (converted through a 3D staged image where the first is promoted).
         &["--depth-route", "volume"],
+        // Into an image with transfer usage only, which revz keeps native and in its format.
+        &["--depth-route", "transfer-image"],
         &["--depth-route", "blit-unorm-volume"],
         &["--depth-route", "blit-unorm-volume", "--copy2"],
+        // Every image reversed, the 3D ones too: the blit converts through a 3D staged image
+        // where the first 3D image is promoted.
+        &["--depth-route", "blit-unorm-volume", REVERSE_ALL],
     ];
     for format in revz_tests::DEPTH_FORMATS {
         // The device's own blit may round (lavapipe blits D24 through float32, one unit off
@@ -460,11 +469,15 @@ fn every_copy_route_reads_back_what_the_direct_copy_does() {
             let render = |name: &str, args: &[&str]| {
                 let dir = harness.scratch_dir(&format!("copies-route-{format}-{mode}-{name}"));
                 let mut command = tester(&harness, format, &dir, &["--scene", "overlap"]);
-                command.args(args);
+                // REVERSE_ALL is no tester argument: REVZ_REVERSE_OBSERVABLE=all.
+                command.args(args.iter().filter(|&&a| a != REVERSE_ALL));
                 harness
                     .with_layer(&mut command)
                     .env("REVZ_MODE", mode)
                     .env("REVZ_LOG", "info");
+                if args.contains(&REVERSE_ALL) {
+                    command.env("REVZ_REVERSE_OBSERVABLE", "all");
+                }
                 harness.render(command, &dir)
             };
             let direct = render("direct", &[]);

@@ -802,7 +802,8 @@ pub struct BlitPlan {
     /// Source image -> scratch, one per converted region (its box, tightly packed).
     pub from_source: Vec<vk::BufferImageCopy>,
     /// Scratch -> staged image: region i at the origin of its own layers (slices where the
-    /// staged image is 3D).
+    /// staged image is 3D). With the stencil staged too, its copies first (`from_source`
+    /// lists them last).
     pub to_staged: Vec<vk::BufferImageCopy>,
     /// The staged image's type: 3D where a source box is several slices deep (a 3D source
     /// image's), which a 2D image's layers cannot hold in one copy; 2D otherwise.
@@ -819,26 +820,39 @@ pub struct BlitPlan {
 }
 
 /// Plans a converted blit (`kinds`: the texels the source and the destination are stored in;
-/// `None` where no region blits depth, a region's layer count is not explicit or its source
-/// box is empty, or the two formats differ and a region blits stencil, which the
-/// application's own blit could then not take).
-pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPlan> {
+/// `None` where no region blits depth, or a staged region's layer count is not explicit or its
+/// source box is empty). With `stage_stencil` (both formats have stencil, and a region of the
+/// blit names it, so it is in the layout the blit names) each box's stencil goes into the
+/// staged image too, through the scratch as it is: a driver that blits whole depth/stencil
+/// texels (lavapipe writes the stencil of a depth-only blit of D24_S8) then writes the
+/// source's stencil, as the application's blit would, not the staged image's undefined one.
+/// Where the two formats differ (one promoted) and a region blits stencil, the application's
+/// blit of it would be invalid (a depth/stencil blit needs one format at both ends): revz
+/// stages every region that names stencil and blits all of their aspects itself.
+pub fn plan_blit(
+    regions: &[vk::ImageBlit],
+    kinds: TexelKinds,
+    stage_stencil: bool,
+) -> Option<BlitPlan> {
     let depth = vk::ImageAspectFlags::DEPTH;
-    let blits_depth = |r: &vk::ImageBlit| r.src_subresource.aspect_mask.contains(depth);
-    let converted: Vec<&vk::ImageBlit> = regions.iter().filter(|r| blits_depth(r)).collect();
-    let stencil_between_formats = kinds.source != kinds.destination
-        && regions.iter().any(|r| {
-            r.src_subresource
-                .aspect_mask
-                .contains(vk::ImageAspectFlags::STENCIL)
-        });
-    if converted.is_empty() || stencil_between_formats {
+    let stencil = vk::ImageAspectFlags::STENCIL;
+    let names = |r: &vk::ImageBlit, aspect| r.src_subresource.aspect_mask.contains(aspect);
+    if !regions.iter().any(|r| names(r, depth)) {
         return None;
     }
-    // Each region's source box: its smallest corner and size.
-    let boxes: Vec<(vk::Offset3D, vk::Extent3D)> = converted
+    let take_stencil =
+        kinds.source != kinds.destination && regions.iter().any(|r| names(r, stencil));
+    let stage_stencil = stage_stencil || take_stencil;
+    // The regions revz blits from its staged image, with their index.
+    let staged_regions: Vec<(usize, &vk::ImageBlit)> = regions
         .iter()
-        .map(|r| {
+        .enumerate()
+        .filter(|(_, r)| names(r, depth) || (take_stencil && names(r, stencil)))
+        .collect();
+    // Each region's source box: its smallest corner and size.
+    let boxes: Vec<(vk::Offset3D, vk::Extent3D)> = staged_regions
+        .iter()
+        .map(|(_, r)| {
             let [a, b] = r.src_offsets;
             let lo = vk::Offset3D {
                 x: a.x.min(b.x),
@@ -853,28 +867,34 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPla
             (lo, extent)
         })
         .collect();
-    if converted
+    if staged_regions
         .iter()
-        .any(|r| r.src_subresource.layer_count == vk::REMAINING_ARRAY_LAYERS)
+        .any(|(_, r)| r.src_subresource.layer_count == vk::REMAINING_ARRAY_LAYERS)
         || boxes
             .iter()
             .any(|(_, e)| e.width == 0 || e.height == 0 || e.depth == 0)
     {
         return None;
     }
-    let layout = scratch_layout(
-        converted
-            .iter()
-            .zip(&boxes)
-            .map(|(r, (_, extent))| (*extent, r.src_subresource.layer_count)),
-        kinds,
-    )?;
     // A box several slices deep comes from a 3D image, whose subresources have one layer: the
     // staged image is 3D, the regions one after the other in depth.
     let volume = boxes.iter().any(|(_, e)| e.depth > 1);
-    if volume && converted.iter().any(|r| r.src_subresource.layer_count != 1) {
+    if volume
+        && staged_regions
+            .iter()
+            .any(|(_, r)| r.src_subresource.layer_count != 1)
+    {
         return None;
     }
+    // Every staged region has its place in the scratch (a stencil-only one's texels are
+    // converted for nothing, never copied), so that the places line up with the regions.
+    let mut layout = scratch_layout(
+        staged_regions
+            .iter()
+            .zip(&boxes)
+            .map(|((_, r), (_, extent))| (*extent, r.src_subresource.layer_count)),
+        kinds,
+    )?;
     let staged_extent = vk::Extent3D {
         width: boxes.iter().map(|(_, e)| e.width).max()?,
         height: boxes.iter().map(|(_, e)| e.height).max()?,
@@ -887,14 +907,14 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPla
         },
     };
     let (mut from_source, mut to_staged, mut blits) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut stencil_fills, mut stencil_drains) = (Vec::new(), Vec::new());
+    let mut stencil_offset = layout.size.checked_next_multiple_of(4)?;
     // The next free layer (2D) or slice (3D) of the staged image.
     let mut base = 0u32;
-    for ((region, (lo, extent)), scratch) in converted.iter().zip(&boxes).zip(&layout.regions) {
+    for (((_, region), (lo, extent)), scratch) in
+        staged_regions.iter().zip(&boxes).zip(&layout.regions)
+    {
         let count = region.src_subresource.layer_count;
-        let source = vk::ImageSubresourceLayers {
-            aspect_mask: depth,
-            ..region.src_subresource
-        };
         let (staged, staged_z) = if volume {
             (
                 vk::ImageSubresourceLayers {
@@ -916,15 +936,18 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPla
                 0,
             )
         };
-        from_source.push(vk::BufferImageCopy {
+        let fill = vk::BufferImageCopy {
             buffer_offset: scratch.input,
             buffer_row_length: 0,
             buffer_image_height: 0,
-            image_subresource: source,
+            image_subresource: vk::ImageSubresourceLayers {
+                aspect_mask: depth,
+                ..region.src_subresource
+            },
             image_offset: *lo,
             image_extent: *extent,
-        });
-        to_staged.push(vk::BufferImageCopy {
+        };
+        let drain = vk::BufferImageCopy {
             buffer_offset: scratch.output,
             image_subresource: staged,
             image_offset: vk::Offset3D {
@@ -932,34 +955,72 @@ pub fn plan_blit(regions: &[vk::ImageBlit], kinds: TexelKinds) -> Option<BlitPla
                 y: 0,
                 z: staged_z,
             },
-            ..from_source[from_source.len() - 1]
-        });
+            ..fill
+        };
+        if names(region, depth) {
+            from_source.push(fill);
+            to_staged.push(drain);
+        }
+        if stage_stencil {
+            // After the converted texels, on 4-byte offsets (as depth/stencil buffer copies
+            // need), 1 byte a texel, as it is.
+            let with_stencil = |copy: vk::BufferImageCopy| vk::BufferImageCopy {
+                buffer_offset: stencil_offset,
+                image_subresource: vk::ImageSubresourceLayers {
+                    aspect_mask: stencil,
+                    ..copy.image_subresource
+                },
+                ..copy
+            };
+            stencil_fills.push(with_stencil(fill));
+            stencil_drains.push(with_stencil(drain));
+            let bytes = texels(*extent, fill.image_subresource.layer_count);
+            stencil_offset = stencil_offset
+                .checked_add(bytes)?
+                .checked_next_multiple_of(4)?;
+        }
         let shift = |o: vk::Offset3D| vk::Offset3D {
             x: o.x - lo.x,
             y: o.y - lo.y,
             z: o.z - lo.z + staged_z,
         };
+        // What revz blits: the depth, and where it takes the stencil the region's aspects.
+        let aspect_mask = if take_stencil {
+            region.src_subresource.aspect_mask & (depth | stencil)
+        } else {
+            depth
+        };
         blits.push(vk::ImageBlit {
-            src_subresource: staged,
+            src_subresource: vk::ImageSubresourceLayers {
+                aspect_mask,
+                ..staged
+            },
             src_offsets: region.src_offsets.map(shift),
             dst_subresource: vk::ImageSubresourceLayers {
-                aspect_mask: depth,
+                aspect_mask,
                 ..region.dst_subresource
             },
             dst_offsets: region.dst_offsets,
         });
         base = base.checked_add(if volume { extent.depth } else { count })?;
     }
+    if stage_stencil {
+        // The stencil drains first: a stencil write must not be the last to touch a texel's
+        // depth (lavapipe writes both).
+        from_source.append(&mut stencil_fills);
+        stencil_drains.append(&mut to_staged);
+        to_staged = stencil_drains;
+        layout.size = stencil_offset;
+    }
+    let taken = if take_stencil { depth | stencil } else { depth };
     let rest = regions
         .iter()
         .enumerate()
         .filter_map(|(i, region)| {
-            let left = region.src_subresource.aspect_mask & !depth;
-            match (blits_depth(region), left.is_empty()) {
-                (false, _) => Some((i, region.src_subresource.aspect_mask)),
-                (true, false) => Some((i, left)),
-                (true, true) => None,
-            }
+            let aspects = region.src_subresource.aspect_mask;
+            let staged = staged_regions.iter().any(|&(j, _)| j == i);
+            let left = if staged { aspects & !taken } else { aspects };
+            (!left.is_empty()).then_some((i, left))
         })
         .collect();
     Some(BlitPlan {
@@ -1565,7 +1626,7 @@ mod tests {
             dst_offsets: [offset(0, 0, 0), offset(12, 12, 1)],
         };
         let f32 = TexelKinds::same(TexelKind::Float32);
-        let plan = plan_blit(&[region], f32).unwrap();
+        let plan = plan_blit(&[region], f32, false).unwrap();
         assert!(plan.rest.is_empty());
         assert_eq!(
             (plan.staged_extent.width, plan.staged_extent.height),
@@ -1582,19 +1643,58 @@ mod tests {
             src_offsets: [offset(3, 3, 0), offset(3, 9, 1)],
             ..region
         };
-        assert!(plan_blit(&[empty], f32).is_none());
-        // Into an image of another format: staged in its format, the stencil refused.
+        assert!(plan_blit(&[empty], f32, false).is_none());
+        // Into an image of another format: staged in its format.
         let apart = kinds(TexelKind::Float32, TexelKind::Unorm16);
-        let plan = plan_blit(&[region], apart).unwrap();
+        let plan = plan_blit(&[region], apart, false).unwrap();
         assert_eq!(plan.to_staged[0].buffer_offset, 32 + 6 * 6 * 2 * 4);
+        // The stencil between two formats (D32_S8 storage, a D24_S8 image that kept its
+        // format) cannot go down as the application's blit: revz stages it and blits both
+        // aspects itself, a stencil-only region too, leaving nothing to the application.
+        let both_aspects = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
         let both = vk::ImageBlit {
-            src_subresource: layers(
-                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
-                2,
-            ),
+            src_subresource: layers(both_aspects, 2),
+            dst_subresource: layers(both_aspects, 2),
             ..region
         };
-        assert!(plan_blit(&[both], apart).is_none());
+        let stencil_only = vk::ImageBlit {
+            src_subresource: layers(vk::ImageAspectFlags::STENCIL, 2),
+            dst_subresource: layers(vk::ImageAspectFlags::STENCIL, 2),
+            ..region
+        };
+        let d24 = kinds(TexelKind::Float32, TexelKind::Unorm24);
+        let plan = plan_blit(&[both, stencil_only], d24, false).unwrap();
+        assert!(plan.rest.is_empty(), "{:?}", plan.rest);
+        let blitted: Vec<_> = plan
+            .blits
+            .iter()
+            .map(|b| (b.src_subresource.aspect_mask, b.dst_subresource.aspect_mask))
+            .collect();
+        assert_eq!(
+            blitted,
+            [
+                (both_aspects, both_aspects),
+                (vk::ImageAspectFlags::STENCIL, vk::ImageAspectFlags::STENCIL)
+            ]
+        );
+        // Depth fills for the one region naming depth, stencil fills for both; the stencil
+        // drains first, into each region's own layers.
+        let aspects = |copies: &[vk::BufferImageCopy]| -> Vec<vk::ImageAspectFlags> {
+            copies
+                .iter()
+                .map(|c| c.image_subresource.aspect_mask)
+                .collect()
+        };
+        let (d, s) = (vk::ImageAspectFlags::DEPTH, vk::ImageAspectFlags::STENCIL);
+        assert_eq!(aspects(&plan.from_source), [d, s, s]);
+        assert_eq!(aspects(&plan.to_staged), [s, s, d]);
+        assert_eq!(plan.to_staged[1].image_subresource.base_array_layer, 2);
+        assert_eq!(plan.blits[1].src_subresource.base_array_layer, 2);
+        assert_eq!(plan.staged_layers, 4);
+        // Between one format, a stencil-only region is the application's.
+        let same = TexelKinds::same(TexelKind::Unorm24);
+        let plan = plan_blit(&[both, stencil_only], same, false).unwrap();
+        assert_eq!(plan.rest, [(0, s), (1, s)]);
     }
 
     /// A 3D source's boxes several slices deep are staged in a 3D image, one region after the
@@ -1616,7 +1716,7 @@ mod tests {
             ..deep
         };
         let f32 = TexelKinds::same(TexelKind::Float32);
-        let plan = plan_blit(&[deep, thin], f32).unwrap();
+        let plan = plan_blit(&[deep, thin], f32, false).unwrap();
         assert_eq!(plan.staged_type, vk::ImageType::TYPE_3D);
         assert_eq!(plan.staged_layers, 1);
         assert_eq!(
@@ -1645,7 +1745,7 @@ mod tests {
         // 96 texels, then 4 on a block of their own.
         assert_eq!(plan.layout.blocks, 8 * 4 * 3 / TEXELS_PER_BLOCK as u32 + 1);
         // Alone, a box one slice deep keeps the 2D staged image.
-        let plan = plan_blit(&[thin], f32).unwrap();
+        let plan = plan_blit(&[thin], f32, false).unwrap();
         assert_eq!(plan.staged_type, vk::ImageType::TYPE_2D);
         assert_eq!(plan.to_staged[0].image_offset, offset(0, 0, 0));
         assert_eq!(
@@ -1657,7 +1757,48 @@ mod tests {
             src_subresource: layers(vk::ImageAspectFlags::DEPTH, 2),
             ..deep
         };
-        assert!(plan_blit(&[layered], f32).is_none());
+        assert!(plan_blit(&[layered], f32, false).is_none());
+    }
+
+    /// With the stencil staged, each box's stencil goes from the source into the scratch past
+    /// the converted texels (4-byte offsets, 1 byte a texel) and into the staged image before
+    /// the depth; the blits and what is left to the application are unchanged.
+    #[test]
+    fn a_staged_stencil_follows_each_box_into_the_staged_image_first() {
+        let offset = |x, y, z| vk::Offset3D { x, y, z };
+        let region = vk::ImageBlit {
+            src_subresource: layers(
+                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                1,
+            ),
+            src_offsets: [offset(0, 0, 0), offset(5, 3, 1)],
+            dst_subresource: layers(
+                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                1,
+            ),
+            dst_offsets: [offset(0, 0, 0), offset(10, 6, 1)],
+        };
+        let kinds = TexelKinds::same(TexelKind::Unorm24);
+        let plain = plan_blit(&[region], kinds, false).unwrap();
+        let staged = plan_blit(&[region], kinds, true).unwrap();
+        assert_eq!(format!("{:?}", staged.blits), format!("{:?}", plain.blits));
+        assert_eq!(staged.rest, plain.rest);
+        assert_eq!(staged.from_source.len(), 2);
+        let stencil = vk::ImageAspectFlags::STENCIL;
+        let (fill, drain) = (staged.from_source[1], staged.to_staged[0]);
+        assert_eq!(fill.image_subresource.aspect_mask, stencil);
+        assert_eq!(drain.image_subresource.aspect_mask, stencil);
+        assert_eq!(fill.buffer_offset, plain.layout.size.next_multiple_of(4));
+        assert_eq!(drain.buffer_offset, fill.buffer_offset);
+        assert_eq!(fill.image_extent, plain.from_source[0].image_extent);
+        assert_eq!(
+            format!("{:?}", staged.to_staged[1]),
+            format!("{:?}", plain.to_staged[0])
+        );
+        assert_eq!(
+            staged.layout.size,
+            fill.buffer_offset + (5 * 3u64).next_multiple_of(4)
+        );
     }
 
     /// Every byte the application's copy would write is written once, nothing else (padding

@@ -79,9 +79,8 @@ pub enum Unconverted {
     Multisampled,
     /// Conditional rendering is active: it could discard revz's dispatch and not the copies.
     Conditional,
-    /// Its regions or formats: a layer count of `VK_REMAINING_ARRAY_LAYERS`, an empty blit box,
-    /// stencil between a promoted and an unpromoted image, or more texels than one conversion
-    /// holds.
+    /// Its regions: a layer count of `VK_REMAINING_ARRAY_LAYERS`, an empty blit box, or more
+    /// texels than one conversion holds.
     Regions,
     /// Too many texels for one conversion (past the device's `maxStorageBufferRange`), or
     /// revz could not create its conversion pipeline or scratch memory.
@@ -107,8 +106,8 @@ impl fmt::Display for Unconverted {
                 "conditional rendering is active (it could discard revz's dispatch)"
             }
             Unconverted::Regions => {
-                "of its regions or formats (VK_REMAINING_ARRAY_LAYERS, an empty blit box, \
-                 stencil between a promoted and an unpromoted image, or too many texels)"
+                "of its regions (VK_REMAINING_ARRAY_LAYERS, an empty blit box, or too many \
+                 texels)"
             }
             Unconverted::Resources => {
                 "revz could not get the scratch memory, staged image or pipeline for it (or it \

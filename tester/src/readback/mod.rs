@@ -26,16 +26,21 @@ pub enum DepthRoute {
     /// `vkCmdCopyImageToBuffer` into the host buffer.
     #[default]
     Direct,
-    /// `vkCmdCopyImage` into a second depth image (TRANSFER_SRC | TRANSFER_DST, which revz
-    /// reverses by default), then into the host buffer.
+    /// `vkCmdCopyImage` into a second depth image (DEPTH_STENCIL_ATTACHMENT | TRANSFER_SRC |
+    /// TRANSFER_DST, which revz reverses by default: the copy goes down as it is), then into
+    /// the host buffer. The second images of the routes below that name no other usage have
+    /// these too.
     Image,
     /// The same through a second image that shaders read as an input attachment
-    /// (INPUT_ATTACHMENT). Until session 24 revz kept it native, and the copy crossed
+    /// (INPUT_ATTACHMENT too). Until session 24 revz kept it native, and the copy crossed
     /// conventions; now it is reversed (its input reads converted in the shader), and in
     /// `infinite` mode it stores complementary depth, so the copy crosses maps there (n / w
     /// into 1 - D). lavapipe has no storage or linear depth images, the usages that still
-    /// keep an image native.
+    /// keep an attachment native.
     NativeImage,
+    /// `vkCmdCopyImage` into a second depth image with transfer usage only, which revz keeps
+    /// native and in its format (no depth attachment, issue #44): the copy into it converts.
+    TransferImage,
     /// `vkCmdCopyImageToBuffer` into a device buffer, `vkCmdCopyBufferToImage` into a second
     /// depth image, then into the host buffer: a round trip through the application's bytes.
     Buffer,
@@ -51,24 +56,27 @@ pub enum DepthRoute {
     /// The mirrored blit of `blit-native-image` of the depth aspect into such an image.
     BlitUnormImage,
     /// `vkCmdCopyImage` into slice 1 of a 3D depth image two slices deep (TRANSFER_SRC |
-    /// TRANSFER_DST: reversed, and promoted where the mode promotes, as the first), then that
-    /// slice into the host buffer (issue #44: copies of 3D depth images).
+    /// TRANSFER_DST: no depth attachment, so native and in its format; the copy converts into
+    /// the slice), then that slice into the host buffer (issue #44: copies of 3D depth images).
     Volume,
     /// The same copy into both slices of the 3D image, then the mirrored blit of its whole
     /// box, both slices at once, into a second 3D image created with
-    /// `VK_IMAGE_CREATE_ALIAS_BIT` (which keeps its D16/D24 format where revz promotes the
-    /// first), and that image's slice 1 into the host buffer: a blit whose source box is
-    /// several slices deep.
+    /// `VK_IMAGE_CREATE_ALIAS_BIT`, and that image's slice 1 into the host buffer: a blit whose
+    /// source box is several slices deep (both native: it goes down as it is; with
+    /// `REVZ_REVERSE_OBSERVABLE=all` both are reversed and the first promoted, and it converts
+    /// through a 3D staged image).
     BlitUnormVolume,
 }
 
 impl DepthRoute {
     /// The second image's usage and flags, if the route has one.
     fn second_image(self) -> Option<(vk::ImageUsageFlags, vk::ImageCreateFlags)> {
-        let copied = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+        let transfer = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+        let copied = transfer | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
         let none = vk::ImageCreateFlags::empty();
         match self {
             DepthRoute::Direct | DepthRoute::Volume | DepthRoute::BlitUnormVolume => None,
+            DepthRoute::TransferImage => Some((transfer, none)),
             DepthRoute::Image | DepthRoute::Buffer => Some((copied, none)),
             DepthRoute::NativeImage | DepthRoute::BlitNativeImage => {
                 Some((copied | vk::ImageUsageFlags::INPUT_ATTACHMENT, none))

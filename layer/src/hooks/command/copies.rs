@@ -426,7 +426,10 @@ fn depth_parts(regions: &[vk::ImageCopy]) -> Vec<(usize, vk::ImageAspectFlags)> 
 }
 
 /// Converts the depth of a blit between conventions, if the policy says so: the source boxes
-/// are converted into a staged image, which is blitted in their place.
+/// are converted into a staged image, which is blitted in their place. The application's
+/// regions' other aspects go down first (`send_first`, as for image copies): a driver that
+/// blits whole depth/stencil texels (lavapipe, D24_S8) writes the depth of a stencil blit too,
+/// which must not land after the converted depth.
 #[allow(clippy::too_many_arguments)]
 fn image_blit(
     entry: &CommandBufferEntry,
@@ -437,6 +440,7 @@ fn image_blit(
     dst_layout: vk::ImageLayout,
     regions: &[vk::ImageBlit],
     extended: bool,
+    send_first: SendFirst<'_>,
 ) -> Sent {
     super::twins::note_written_image(entry, dst);
     let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
@@ -475,9 +479,17 @@ fn image_blit(
         Texels::Image(source.stored),
         Texels::Image(destination.stored),
     );
-    let planned = kinds
-        .zip(destination.created)
-        .and_then(|(kinds, format)| plan_blit(regions, kinds).map(|plan| (kinds, format, plan)));
+    // The stencil is staged too where the blit names it (it is then in the layout the blit
+    // names, which a depth-only blit says nothing of under separate depth/stencil layouts).
+    let names_stencil = regions.iter().any(|r| {
+        r.src_subresource
+            .aspect_mask
+            .contains(vk::ImageAspectFlags::STENCIL)
+    });
+    let planned = kinds.zip(destination.created).and_then(|(kinds, format)| {
+        let stage_stencil = names_stencil && crate::conv::has_stencil(format);
+        plan_blit(regions, kinds, stage_stencil).map(|plan| (kinds, format, plan))
+    });
     let Some((kinds, format, plan)) = planned else {
         entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
@@ -512,6 +524,9 @@ fn image_blit(
     } else {
         vk::ImageAspectFlags::DEPTH
     };
+    if !plan.rest.is_empty() {
+        send_first(&plan.rest);
+    }
     // SAFETY: a recording command buffer of this device outside a render pass (blits are only
     // allowed there); its own scratch and a staged image made for this blit.
     let recorded = unsafe {
@@ -527,12 +542,25 @@ fn image_blit(
         )
     };
     match recorded {
-        Ok(()) => Sent::Rest(plan.rest),
+        Ok(()) => Sent::Rest(Vec::new()),
         Err(why) => {
+            // The other aspects went down already: the depth goes down as it is.
             device.copies.warn_unconverted(why);
-            Sent::All
+            Sent::Rest(blit_depth_parts(regions))
         }
     }
+}
+
+/// The depth aspect of the regions that blit it (what is left to send when the other aspects
+/// went down first and the conversion failed).
+fn blit_depth_parts(regions: &[vk::ImageBlit]) -> Vec<(usize, vk::ImageAspectFlags)> {
+    let depth = vk::ImageAspectFlags::DEPTH;
+    regions
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.src_subresource.aspect_mask.contains(depth))
+        .map(|(i, _)| (i, depth))
+        .collect()
 }
 
 /// Whether two images' depth is stored in different formats (one promoted, one not): a copy
@@ -917,8 +945,37 @@ pub unsafe extern "system" fn cmd_blit_image(
     let regions = unsafe { slice(p_regions, count) };
     let mut left = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
+        let next = entry.device.next.fp_v1_0().cmd_blit_image;
+        let mut send_first = |first: &[(usize, vk::ImageAspectFlags)]| {
+            let first: Vec<vk::ImageBlit> = first
+                .iter()
+                .map(|&(i, aspect)| narrow_blit(regions[i], aspect))
+                .collect();
+            // SAFETY: the application's command with some of its regions, narrowed to the
+            // aspects they blit besides depth.
+            unsafe {
+                next(
+                    buffer,
+                    src,
+                    src_layout,
+                    dst,
+                    dst_layout,
+                    first.len() as u32,
+                    first.as_ptr(),
+                    filter,
+                )
+            };
+        };
         let sent = image_blit(
-            entry, buffer, src, src_layout, dst, dst_layout, regions, false,
+            entry,
+            buffer,
+            src,
+            src_layout,
+            dst,
+            dst_layout,
+            regions,
+            false,
+            &mut send_first,
         );
         left = regions_left(regions, &sent, narrow_blit);
     });
@@ -955,6 +1012,27 @@ pub unsafe extern "system" fn cmd_blit_image2(
             })
             .collect();
         let extended = !info.p_next.is_null() || regions2.iter().any(|r| !r.p_next.is_null());
+        let next = entry.device.commands.blit_image2;
+        let mut send_first = |first: &[(usize, vk::ImageAspectFlags)]| {
+            let Some(next) = next else { return };
+            let first: Vec<vk::ImageBlit2<'_>> = first
+                .iter()
+                .map(|&(i, aspect)| {
+                    let mut region = regions2[i];
+                    region.src_subresource.aspect_mask = aspect;
+                    region.dst_subresource.aspect_mask = aspect;
+                    region
+                })
+                .collect();
+            let first_info = vk::BlitImageInfo2 {
+                region_count: first.len() as u32,
+                p_regions: first.as_ptr(),
+                ..*info
+            };
+            // SAFETY: the application's command with some of its regions, narrowed to the
+            // aspects they blit besides depth.
+            unsafe { next(buffer, &first_info) };
+        };
         let sent = image_blit(
             entry,
             buffer,
@@ -964,6 +1042,7 @@ pub unsafe extern "system" fn cmd_blit_image2(
             info.dst_image_layout,
             &regions,
             extended,
+            &mut send_first,
         );
         left = regions2_left(regions2, &sent, |r, aspect| {
             r.src_subresource.aspect_mask = aspect;
