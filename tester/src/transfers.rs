@@ -51,6 +51,14 @@ pub enum TransferCase {
     /// 10 and 15 of the depth 1:1.
     #[value(name = "blit-3d-to-2d")]
     Blit3dTo2d,
+    /// `copy-3d-to-2d` of the stencil aspect alone (stencil formats only): with
+    /// `--attachment` in the precise modes, between a 3D image that keeps D24_S8 and a 2D one
+    /// stored as D32_S8, which cannot go down as it is.
+    #[value(name = "copy-stencil-3d-to-2d")]
+    CopyStencil3dTo2d,
+    /// `blit-3d-to-2d` of the stencil aspect alone (stencil formats only).
+    #[value(name = "blit-stencil-3d-to-2d")]
+    BlitStencil3dTo2d,
 }
 
 impl TransferCase {
@@ -62,6 +70,8 @@ impl TransferCase {
             TransferCase::Copy3dTo2d => "copy-3d-to-2d",
             TransferCase::Blit3d => "blit-3d",
             TransferCase::Blit3dTo2d => "blit-3d-to-2d",
+            TransferCase::CopyStencil3dTo2d => "copy-stencil-3d-to-2d",
+            TransferCase::BlitStencil3dTo2d => "blit-stencil-3d-to-2d",
         }
     }
 
@@ -80,7 +90,10 @@ impl TransferCase {
         match self {
             TransferCase::Blit | TransferCase::BlitSeparateLayouts => (square, square),
             TransferCase::Copy3d | TransferCase::Blit3d => (cube, cube),
-            TransferCase::Copy3dTo2d | TransferCase::Blit3dTo2d => (cube, square),
+            TransferCase::Copy3dTo2d
+            | TransferCase::Blit3dTo2d
+            | TransferCase::CopyStencil3dTo2d
+            | TransferCase::BlitStencil3dTo2d => (cube, square),
         }
     }
 }
@@ -129,7 +142,13 @@ struct TransferReport {
 pub fn run(args: &TransferArgs) -> Result<std::process::ExitCode> {
     let format = args.depth_format;
     let case = args.case;
-    if case == TransferCase::BlitSeparateLayouts && !format.has_stencil() {
+    let stencil_only = matches!(
+        case,
+        TransferCase::BlitSeparateLayouts
+            | TransferCase::CopyStencil3dTo2d
+            | TransferCase::BlitStencil3dTo2d
+    );
+    if stencil_only && !format.has_stencil() {
         bail!(
             "case {} needs a depth format with a stencil aspect (d24-s8 or d32-s8)",
             case.name()
@@ -599,8 +618,14 @@ impl<'a> Transfer<'a> {
     /// stencil, both, for blits; depth and stencil for copies).
     fn regions(&self) -> Regions {
         let depth = vk::ImageAspectFlags::DEPTH;
+        let stencil_alone = matches!(
+            self.case,
+            TransferCase::CopyStencil3dTo2d | TransferCase::BlitStencil3dTo2d
+        );
         let mut aspect_sets = vec![depth];
-        if self.format.has_stencil() {
+        if stencil_alone {
+            aspect_sets = vec![vk::ImageAspectFlags::STENCIL];
+        } else if self.format.has_stencil() {
             aspect_sets.push(vk::ImageAspectFlags::STENCIL);
             aspect_sets.push(depth | vk::ImageAspectFlags::STENCIL);
         }
@@ -656,7 +681,7 @@ impl<'a> Transfer<'a> {
                     ));
                 }
             }
-            TransferCase::Blit3dTo2d => {
+            TransferCase::Blit3dTo2d | TransferCase::BlitStencil3dTo2d => {
                 for (k, &aspects) in aspect_sets.iter().enumerate() {
                     let x = 16 * k as i32;
                     let from = if aspects == depth {
@@ -675,7 +700,7 @@ impl<'a> Transfer<'a> {
                     blits.push(blit(
                         [offset(0, 0, z), offset(16, 16, z + 1)],
                         [offset(x, 32, 0), offset(x + 16, 48, 1)],
-                        depth,
+                        aspect_sets[0],
                     ));
                 }
             }
@@ -696,7 +721,7 @@ impl<'a> Transfer<'a> {
                     }
                 }
             }
-            TransferCase::Copy3dTo2d => {
+            TransferCase::Copy3dTo2d | TransferCase::CopyStencil3dTo2d => {
                 for &aspects in &aspect_sets[..aspect_sets.len().min(2)] {
                     for z in 0..16 {
                         copies.push(vk::ImageCopy {

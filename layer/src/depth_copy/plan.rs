@@ -690,7 +690,8 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<I
                     .aspect_mask
                     .contains(vk::ImageAspectFlags::STENCIL))
     };
-    if converted.is_empty()
+    // Stencil alone between two formats goes through the scratch without depth to convert.
+    if (converted.is_empty() && !stencil_between_formats)
         || regions
             .iter()
             .filter(through_scratch)
@@ -820,7 +821,7 @@ pub struct BlitPlan {
 }
 
 /// Plans a converted blit (`kinds`: the texels the source and the destination are stored in;
-/// `None` where no region blits depth, or a staged region's layer count is not explicit or its
+/// `None` where no region blits depth and none stencil between two formats, or a staged region's layer count is not explicit or its
 /// source box is empty). With `stage_stencil` (both formats have stencil, and a region of the
 /// blit names it, so it is in the layout the blit names) each box's stencil goes into the
 /// staged image too, through the scratch as it is: a driver that blits whole depth/stencil
@@ -837,11 +838,12 @@ pub fn plan_blit(
     let depth = vk::ImageAspectFlags::DEPTH;
     let stencil = vk::ImageAspectFlags::STENCIL;
     let names = |r: &vk::ImageBlit, aspect| r.src_subresource.aspect_mask.contains(aspect);
-    if !regions.iter().any(|r| names(r, depth)) {
-        return None;
-    }
     let take_stencil =
         kinds.source != kinds.destination && regions.iter().any(|r| names(r, stencil));
+    // Stencil alone between two formats is staged without depth to convert.
+    if !regions.iter().any(|r| names(r, depth)) && !take_stencil {
+        return None;
+    }
     let stage_stencil = stage_stencil || take_stencil;
     // The regions revz blits from its staged image, with their index.
     let staged_regions: Vec<(usize, &vk::ImageBlit)> = regions
@@ -1758,6 +1760,46 @@ mod tests {
             ..deep
         };
         assert!(plan_blit(&[layered], f32, false).is_none());
+    }
+
+    /// The stencil alone between two formats (a D24_S8 image that kept its format, one stored
+    /// as D32_S8) goes through the scratch with nothing to convert: copies drain it into the
+    /// destination, blits stage it and blit it themselves; between one format it is the
+    /// application's (no plan).
+    #[test]
+    fn stencil_alone_between_two_formats_goes_through_the_scratch() {
+        let stencil = vk::ImageAspectFlags::STENCIL;
+        let apart = kinds(TexelKind::Unorm24, TexelKind::Float32);
+        let copy = vk::ImageCopy {
+            src_subresource: layers(stencil, 1),
+            src_offset: vk::Offset3D::default(),
+            dst_subresource: layers(stencil, 1),
+            dst_offset: vk::Offset3D { x: 2, y: 0, z: 0 },
+            extent: extent(3, 2),
+        };
+        let plan = plan_image_copy(&[copy], apart).unwrap();
+        assert_eq!(plan.layout.blocks, 0);
+        assert!(plan.rest.is_empty());
+        assert_eq!(plan.from_source.len(), 1);
+        assert_eq!(plan.from_source[0].image_subresource.aspect_mask, stencil);
+        assert_eq!(plan.to_destination[0].image_offset.x, 2);
+        assert!(plan_image_copy(&[copy], TexelKinds::same(TexelKind::Unorm24)).is_none());
+        let offset = |x, y, z| vk::Offset3D { x, y, z };
+        let blit = vk::ImageBlit {
+            src_subresource: layers(stencil, 1),
+            src_offsets: [offset(0, 0, 0), offset(4, 4, 1)],
+            dst_subresource: layers(stencil, 1),
+            dst_offsets: [offset(0, 0, 0), offset(2, 2, 1)],
+        };
+        let plan = plan_blit(&[blit], apart, true).unwrap();
+        // Its place in the scratch is converted for nothing: no depth is filled or drained.
+        assert_eq!(plan.from_source.len(), 1);
+        assert_eq!(plan.from_source[0].image_subresource.aspect_mask, stencil);
+        assert!(plan.rest.is_empty());
+        assert_eq!(plan.blits[0].dst_subresource.aspect_mask, stencil);
+        assert_eq!(plan.to_staged.len(), 1);
+        assert_eq!(plan.to_staged[0].image_subresource.aspect_mask, stencil);
+        assert!(plan_blit(&[blit], TexelKinds::same(TexelKind::Unorm24), true).is_none());
     }
 
     /// With the stencil staged, each box's stencil goes from the source into the scratch past

@@ -124,6 +124,10 @@ pub struct CopyFacts {
     pub destination: CopyEnd,
     /// The transfer touches the depth aspect (stencil is never converted).
     pub depth_aspect: bool,
+    /// The transfer moves stencil between two images stored in different formats (one
+    /// promoted): it cannot go down as it is, and goes through revz's scratch as it is, with
+    /// the depth or alone.
+    pub stencil_apart: bool,
     /// The depth texels change format on the way: one end is a promoted image (float32
     /// storage) and the other holds the application's UNORM format (a buffer, or an image
     /// that kept it). Such a copy is converted whatever the conventions and `copy_values`:
@@ -176,7 +180,7 @@ impl CopyFacts {
             None if self.repack => CopyDirection::Keep,
             None => return CopyDecision::Unchanged,
         };
-        if !self.depth_aspect {
+        if !self.depth_aspect && !self.stencil_apart {
             return CopyDecision::Unchanged;
         }
         let refused = if self.extended {
@@ -276,6 +280,7 @@ mod tests {
             source,
             destination,
             depth_aspect: true,
+            stencil_apart: false,
             repack: false,
             values: CopyValues::Standard,
             dispatchable: true,
@@ -343,6 +348,17 @@ mod tests {
             ..out
         };
         assert_eq!(stencil.decide(), CopyDecision::Unchanged);
+        // Stencil alone between a promoted image and one that kept its format: moved by revz.
+        let stencil_apart = CopyFacts {
+            depth_aspect: false,
+            stencil_apart: true,
+            repack: true,
+            ..facts(Reversed, Reversed)
+        };
+        assert_eq!(
+            stencil_apart.decide(),
+            CopyDecision::Convert(CopyDirection::Keep)
+        );
         let stored = CopyFacts {
             values: CopyValues::Stored,
             ..out
@@ -398,6 +414,7 @@ mod tests {
             source,
             destination,
             depth_aspect: true,
+            stencil_apart: false,
             repack: true,
             values,
             dispatchable: true,

@@ -59,7 +59,7 @@ fn decide(
     entry: &CommandBufferEntry,
     (source, destination): (CopyEnd, CopyEnd),
     repack: bool,
-    depth_aspect: bool,
+    (depth_aspect, stencil_apart): (bool, bool),
     extended: bool,
     images: &[vk::Image],
 ) -> CopyDecision {
@@ -75,6 +75,7 @@ fn decide(
         source,
         destination,
         depth_aspect,
+        stencil_apart,
         repack,
         values: entry.device.settings.copy_values,
         dispatchable: entry.dispatchable,
@@ -207,7 +208,7 @@ fn image_buffer_copy(
         entry,
         ends,
         end.promoted(),
-        depth_aspect,
+        (depth_aspect, false),
         extended,
         &[image],
     );
@@ -311,11 +312,18 @@ fn image_image_copy(
             .aspect_mask
             .contains(vk::ImageAspectFlags::DEPTH)
     });
+    // Stencil between two storage formats (one promoted) cannot go down as it is.
+    let stencil_apart = stored_apart(source, destination)
+        && regions.iter().any(|r| {
+            r.src_subresource
+                .aspect_mask
+                .contains(vk::ImageAspectFlags::STENCIL)
+        });
     let decision = decide(
         entry,
         (source.end, destination.end),
         stored_apart(source, destination),
-        depth_aspect,
+        (depth_aspect, stencil_apart),
         extended,
         &[src, dst],
     );
@@ -449,11 +457,18 @@ fn image_blit(
             .aspect_mask
             .contains(vk::ImageAspectFlags::DEPTH)
     });
+    // Stencil between two storage formats (one promoted) cannot go down as it is.
+    let stencil_apart = stored_apart(source, destination)
+        && regions.iter().any(|r| {
+            r.src_subresource
+                .aspect_mask
+                .contains(vk::ImageAspectFlags::STENCIL)
+        });
     let decision = decide(
         entry,
         (source.end, destination.end),
         stored_apart(source, destination),
-        depth_aspect,
+        (depth_aspect, stencil_apart),
         extended,
         &[src, dst],
     );
