@@ -307,18 +307,11 @@ fn image_image_copy(
 ) -> Sent {
     super::twins::note_written_image(entry, dst);
     let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
-    let depth_aspect = regions.iter().any(|r| {
-        r.src_subresource
-            .aspect_mask
-            .contains(vk::ImageAspectFlags::DEPTH)
-    });
+    let subresources = || regions.iter().map(|r| r.src_subresource);
+    let depth_aspect = names_aspect(subresources(), vk::ImageAspectFlags::DEPTH);
+    let names_stencil = names_aspect(subresources(), vk::ImageAspectFlags::STENCIL);
     // Stencil between two storage formats (one promoted) cannot go down as it is.
-    let stencil_apart = stored_apart(source, destination)
-        && regions.iter().any(|r| {
-            r.src_subresource
-                .aspect_mask
-                .contains(vk::ImageAspectFlags::STENCIL)
-        });
+    let stencil_apart = stored_apart(source, destination) && names_stencil;
     let decision = decide(
         entry,
         (source.end, destination.end),
@@ -452,18 +445,11 @@ fn image_blit(
 ) -> Sent {
     super::twins::note_written_image(entry, dst);
     let (source, destination) = (image_end(&entry.device, src), image_end(&entry.device, dst));
-    let depth_aspect = regions.iter().any(|r| {
-        r.src_subresource
-            .aspect_mask
-            .contains(vk::ImageAspectFlags::DEPTH)
-    });
+    let subresources = || regions.iter().map(|r| r.src_subresource);
+    let depth_aspect = names_aspect(subresources(), vk::ImageAspectFlags::DEPTH);
+    let names_stencil = names_aspect(subresources(), vk::ImageAspectFlags::STENCIL);
     // Stencil between two storage formats (one promoted) cannot go down as it is.
-    let stencil_apart = stored_apart(source, destination)
-        && regions.iter().any(|r| {
-            r.src_subresource
-                .aspect_mask
-                .contains(vk::ImageAspectFlags::STENCIL)
-        });
+    let stencil_apart = stored_apart(source, destination) && names_stencil;
     let decision = decide(
         entry,
         (source.end, destination.end),
@@ -496,11 +482,6 @@ fn image_blit(
     );
     // The stencil is staged too where the blit names it (it is then in the layout the blit
     // names, which a depth-only blit says nothing of under separate depth/stencil layouts).
-    let names_stencil = regions.iter().any(|r| {
-        r.src_subresource
-            .aspect_mask
-            .contains(vk::ImageAspectFlags::STENCIL)
-    });
     let planned = kinds.zip(destination.created).and_then(|(kinds, format)| {
         let stage_stencil = names_stencil && crate::conv::has_stencil(format);
         plan_blit(regions, kinds, stage_stencil).map(|plan| (kinds, format, plan))
@@ -559,23 +540,41 @@ fn image_blit(
     match recorded {
         Ok(()) => Sent::Rest(Vec::new()),
         Err(why) => {
-            // The other aspects went down already: the depth goes down as it is.
+            // The other aspects went down already: what revz took goes down as it is.
             device.copies.warn_unconverted(why);
-            Sent::Rest(blit_depth_parts(regions))
+            Sent::Rest(taken_parts(regions, &plan.rest))
         }
     }
 }
 
-/// The depth aspect of the regions that blit it (what is left to send when the other aspects
-/// went down first and the conversion failed).
-fn blit_depth_parts(regions: &[vk::ImageBlit]) -> Vec<(usize, vk::ImageAspectFlags)> {
-    let depth = vk::ImageAspectFlags::DEPTH;
+/// The aspects of each region that revz took from the application's blit (all but those in
+/// `rest`, which went down first): what is left to send where the conversion failed.
+fn taken_parts(
+    regions: &[vk::ImageBlit],
+    rest: &[(usize, vk::ImageAspectFlags)],
+) -> Vec<(usize, vk::ImageAspectFlags)> {
     regions
         .iter()
         .enumerate()
-        .filter(|(_, r)| r.src_subresource.aspect_mask.contains(depth))
-        .map(|(i, _)| (i, depth))
+        .filter_map(|(i, region)| {
+            let sent = rest
+                .iter()
+                .filter(|&&(j, _)| j == i)
+                .fold(vk::ImageAspectFlags::empty(), |all, &(_, aspects)| {
+                    all | aspects
+                });
+            let taken = region.src_subresource.aspect_mask & !sent;
+            (!taken.is_empty()).then_some((i, taken))
+        })
         .collect()
+}
+
+/// Whether any of `subresources` names `aspect`.
+fn names_aspect(
+    mut subresources: impl Iterator<Item = vk::ImageSubresourceLayers>,
+    aspect: vk::ImageAspectFlags,
+) -> bool {
+    subresources.any(|subresource| subresource.aspect_mask.contains(aspect))
 }
 
 /// Whether two images' depth is stored in different formats (one promoted, one not): a copy
@@ -1081,4 +1080,33 @@ pub unsafe extern "system" fn cmd_blit_image2(
     };
     // SAFETY: calling down with the application's arguments (its depth regions converted).
     unsafe { next(buffer, p_info) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where a converted blit fails after the application's other aspects went down, what revz
+    /// took goes down: each region's aspects but those already sent.
+    #[test]
+    fn a_failed_blit_sends_what_revz_took() {
+        let (d, s) = (vk::ImageAspectFlags::DEPTH, vk::ImageAspectFlags::STENCIL);
+        let region = |aspect_mask| vk::ImageBlit {
+            src_subresource: vk::ImageSubresourceLayers {
+                aspect_mask,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let regions = [region(d | s), region(s), region(d)];
+        // The stencil of the first two went down first.
+        assert_eq!(taken_parts(&regions, &[(0, s), (1, s)]), [(0, d), (2, d)]);
+        // Stencil taken too (between two formats): everything is left.
+        assert_eq!(taken_parts(&regions, &[]), [(0, d | s), (1, s), (2, d)]);
+        assert!(names_aspect(regions.iter().map(|r| r.src_subresource), s));
+        assert!(!names_aspect(
+            std::iter::once(regions[2].src_subresource),
+            s
+        ));
+    }
 }
