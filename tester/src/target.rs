@@ -167,6 +167,103 @@ impl fmt::Debug for Attachment<'_> {
     }
 }
 
+/// An image with its memory bound and no view: the copy routes' 3D images
+/// (`crate::readback`) and `revz-tester transfers`' images, 2D or 3D (by `extent.depth`),
+/// optimal tiling, one level, layer and sample.
+pub struct BoundImage<'a> {
+    device: &'a ash::Device,
+    pub image: vk::Image,
+    memory: vk::DeviceMemory,
+    pub extent: vk::Extent3D,
+}
+
+impl fmt::Debug for BoundImage<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("BoundImage")
+            .field("image", &self.image)
+            .field("extent", &self.extent)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a> BoundImage<'a> {
+    /// A 3D image where `extent` is deeper than 1, else 2D, of `format`, `usage` and `flags`;
+    /// an error where the device has no such image.
+    pub fn new(
+        gpu: &'a Gpu,
+        format: vk::Format,
+        (usage, flags): (vk::ImageUsageFlags, vk::ImageCreateFlags),
+        extent: vk::Extent3D,
+    ) -> Result<Self> {
+        let image_type = if extent.depth > 1 {
+            vk::ImageType::TYPE_3D
+        } else {
+            vk::ImageType::TYPE_2D
+        };
+        // SAFETY: a physical device of this instance.
+        let supported = unsafe {
+            gpu.instance().get_physical_device_image_format_properties(
+                gpu.physical_device,
+                format,
+                image_type,
+                vk::ImageTiling::OPTIMAL,
+                usage,
+                flags,
+            )
+        };
+        if supported.is_err() {
+            anyhow::bail!("the device has no {image_type:?} images of {format:?} with {usage:?}");
+        }
+        let mut this = BoundImage {
+            device: &gpu.device,
+            image: vk::Image::null(),
+            memory: vk::DeviceMemory::null(),
+            extent,
+        };
+        let info = vk::ImageCreateInfo::default()
+            .flags(flags)
+            .image_type(image_type)
+            .format(format)
+            .extent(extent)
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: valid device and create info.
+        this.image = unsafe { gpu.device.create_image(&info, None) }
+            .with_context(|| format!("vkCreateImage ({image_type:?}, {format:?}) failed"))?;
+        // SAFETY: valid image.
+        let requirements = unsafe { gpu.device.get_image_memory_requirements(this.image) };
+        this.memory = gpu.allocate(
+            requirements,
+            vk::MemoryPropertyFlags::empty(),
+            vk::MemoryPropertyFlags::DEVICE_LOCAL,
+        )?;
+        // SAFETY: fresh image and memory of a compatible type and sufficient size.
+        unsafe { gpu.device.bind_image_memory(this.image, this.memory, 0) }
+            .context("vkBindImageMemory failed")?;
+        Ok(this)
+    }
+
+    /// Its texels.
+    pub fn texels(&self) -> usize {
+        (self.extent.width * self.extent.height * self.extent.depth) as usize
+    }
+}
+
+impl Drop for BoundImage<'_> {
+    fn drop(&mut self) {
+        // SAFETY: handles of `device` (null or created by it), no GPU work pending.
+        unsafe {
+            self.device.destroy_image(self.image, None);
+            self.device.free_memory(self.memory, None);
+        }
+    }
+}
+
 impl Drop for Attachment<'_> {
     fn drop(&mut self) {
         // SAFETY: the handles are null or were created from `device` (which outlives `self`),

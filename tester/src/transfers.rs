@@ -21,7 +21,7 @@ use serde::Serialize;
 
 use crate::gpu::{Features, Gpu, GpuOptions, HostBuffer};
 use crate::readback::decode_depth;
-use crate::target::DepthFormat;
+use crate::target::{BoundImage, DepthFormat};
 
 /// What is copied, and how.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -207,101 +207,28 @@ pub fn run(args: &TransferArgs) -> Result<std::process::ExitCode> {
     Ok(std::process::ExitCode::SUCCESS)
 }
 
-/// A transfer-only depth image and its memory.
-struct Image<'a> {
-    device: &'a ash::Device,
-    image: vk::Image,
-    memory: vk::DeviceMemory,
+/// A region of the whole image's `aspect`, tightly packed in a buffer.
+fn whole(image: &BoundImage<'_>, aspect: vk::ImageAspectFlags) -> vk::BufferImageCopy {
+    vk::BufferImageCopy {
+        image_subresource: layers(aspect),
+        image_extent: image.extent,
+        ..Default::default()
+    }
+}
+
+/// A case's image: 3D where `extent` is deeper than 1, else 2D, with transfer usage and, for
+/// a 2D one where `attachment`, DEPTH_STENCIL_ATTACHMENT usage too.
+fn image<'a>(
+    gpu: &'a Gpu,
+    format: vk::Format,
     extent: vk::Extent3D,
-}
-
-impl<'a> Image<'a> {
-    /// A 3D image where `extent` is deeper than 1, else 2D (with DEPTH_STENCIL_ATTACHMENT usage
-    /// too where `attachment`).
-    fn new(
-        gpu: &'a Gpu,
-        format: vk::Format,
-        extent: vk::Extent3D,
-        attachment: bool,
-    ) -> Result<Self> {
-        let image_type = if extent.depth > 1 {
-            vk::ImageType::TYPE_3D
-        } else {
-            vk::ImageType::TYPE_2D
-        };
-        let mut usage = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
-        if attachment && image_type == vk::ImageType::TYPE_2D {
-            usage |= vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
-        }
-        // SAFETY: a physical device of this instance.
-        let supported = unsafe {
-            gpu.instance().get_physical_device_image_format_properties(
-                gpu.physical_device,
-                format,
-                image_type,
-                vk::ImageTiling::OPTIMAL,
-                usage,
-                vk::ImageCreateFlags::empty(),
-            )
-        };
-        if supported.is_err() {
-            bail!("the device has no {image_type:?} images of {format:?} with usage {usage:?}");
-        }
-        let info = vk::ImageCreateInfo::default()
-            .image_type(image_type)
-            .format(format)
-            .extent(extent)
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .initial_layout(vk::ImageLayout::UNDEFINED);
-        let mut this = Image {
-            device: &gpu.device,
-            image: vk::Image::null(),
-            memory: vk::DeviceMemory::null(),
-            extent,
-        };
-        // SAFETY: valid device and create info.
-        this.image = unsafe { gpu.device.create_image(&info, None) }
-            .with_context(|| format!("vkCreateImage ({image_type:?}, {format:?}) failed"))?;
-        // SAFETY: valid image.
-        let requirements = unsafe { gpu.device.get_image_memory_requirements(this.image) };
-        this.memory = gpu.allocate(
-            requirements,
-            vk::MemoryPropertyFlags::empty(),
-            vk::MemoryPropertyFlags::DEVICE_LOCAL,
-        )?;
-        // SAFETY: fresh image and memory of a compatible type and sufficient size.
-        unsafe { gpu.device.bind_image_memory(this.image, this.memory, 0) }
-            .context("vkBindImageMemory failed")?;
-        Ok(this)
+    attachment: bool,
+) -> Result<BoundImage<'a>> {
+    let mut usage = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+    if attachment && extent.depth == 1 {
+        usage |= vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
     }
-
-    fn texels(&self) -> usize {
-        (self.extent.width * self.extent.height * self.extent.depth) as usize
-    }
-
-    /// A buffer copy region of the whole image's `aspect`, tightly packed.
-    fn whole(&self, aspect: vk::ImageAspectFlags) -> vk::BufferImageCopy {
-        vk::BufferImageCopy {
-            image_subresource: layers(aspect),
-            image_extent: self.extent,
-            ..Default::default()
-        }
-    }
-}
-
-impl Drop for Image<'_> {
-    fn drop(&mut self) {
-        // SAFETY: handles of `device` (null or created by it), no GPU work pending.
-        unsafe {
-            self.device.destroy_image(self.image, None);
-            self.device.free_memory(self.memory, None);
-        }
-    }
+    BoundImage::new(gpu, format, (usage, vk::ImageCreateFlags::empty()), extent)
 }
 
 fn layers(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceLayers {
@@ -360,8 +287,8 @@ struct Transfer<'a> {
     gpu: &'a Gpu,
     format: DepthFormat,
     case: TransferCase,
-    source: Image<'a>,
-    destination: Image<'a>,
+    source: BoundImage<'a>,
+    destination: BoundImage<'a>,
     /// Uploads: source depth, source stencil, destination depth, destination stencil.
     uploads: [HostBuffer<'a>; 4],
     depth_out: HostBuffer<'a>,
@@ -376,8 +303,8 @@ impl<'a> Transfer<'a> {
         attachment: bool,
     ) -> Result<Self> {
         let (from, to) = case.extents();
-        let source = Image::new(gpu, format.vk_format(), from, attachment)?;
-        let destination = Image::new(gpu, format.vk_format(), to, attachment)?;
+        let source = image(gpu, format.vk_format(), from, attachment)?;
+        let destination = image(gpu, format.vk_format(), to, attachment)?;
         let (n, m) = (source.texels(), destination.texels());
         let texel = format.depth_copy_texel_size();
         let upload = |bytes: &[u8]| -> Result<HostBuffer<'a>> {
@@ -531,7 +458,7 @@ impl<'a> Transfer<'a> {
                         buffer.buffer,
                         image.image,
                         dst_layout,
-                        &[image.whole(aspect)],
+                        &[whole(image, aspect)],
                     )
                 }
             };
@@ -593,7 +520,7 @@ impl<'a> Transfer<'a> {
                     self.destination.image,
                     read_layout,
                     out.buffer,
-                    &[self.destination.whole(aspect)],
+                    &[whole(&self.destination, aspect)],
                 )
             };
         }

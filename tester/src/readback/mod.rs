@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use crate::gpu::{Gpu, HostBuffer};
 use crate::ground_truth::GroundTruthReport;
-use crate::target::{full_range, Attachment, DepthFormat, Targets};
+use crate::target::{full_range, Attachment, BoundImage, DepthFormat, Targets};
 
 /// How the depth aspect reaches the host (`--depth-route`): the copies an application makes
 /// of a depth image, for revz's conversion of copies (issue #21). Every route must deliver
@@ -107,79 +107,8 @@ impl DepthRoute {
     }
 }
 
-/// The slices of the routes' 3D images.
+/// The slices of the routes' 3D images (TRANSFER_SRC | TRANSFER_DST, no view).
 const VOLUME_SLICES: u32 = 2;
-
-/// A 3D depth image of a route ([`DepthRoute::volumes`]): TRANSFER_SRC | TRANSFER_DST,
-/// [`VOLUME_SLICES`] slices deep, no view.
-struct Volume<'a> {
-    device: &'a ash::Device,
-    image: vk::Image,
-    memory: vk::DeviceMemory,
-}
-
-impl<'a> Volume<'a> {
-    fn new(
-        gpu: &'a Gpu,
-        format: vk::Format,
-        flags: vk::ImageCreateFlags,
-        extent: vk::Extent2D,
-    ) -> Result<Self> {
-        let mut this = Volume {
-            device: &gpu.device,
-            image: vk::Image::null(),
-            memory: vk::DeviceMemory::null(),
-        };
-        let info = vk::ImageCreateInfo::default()
-            .flags(flags)
-            .image_type(vk::ImageType::TYPE_3D)
-            .format(format)
-            .extent(vk::Extent3D {
-                width: extent.width,
-                height: extent.height,
-                depth: VOLUME_SLICES,
-            })
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .initial_layout(vk::ImageLayout::UNDEFINED);
-        // SAFETY: valid device and create info.
-        this.image = unsafe { gpu.device.create_image(&info, None) }
-            .with_context(|| format!("vkCreateImage (3D, {format:?}) failed"))?;
-        // SAFETY: valid image.
-        let requirements = unsafe { gpu.device.get_image_memory_requirements(this.image) };
-        this.memory = gpu.allocate(
-            requirements,
-            vk::MemoryPropertyFlags::empty(),
-            vk::MemoryPropertyFlags::DEVICE_LOCAL,
-        )?;
-        // SAFETY: fresh image and memory of a compatible type and sufficient size.
-        unsafe { gpu.device.bind_image_memory(this.image, this.memory, 0) }
-            .context("vkBindImageMemory failed")?;
-        Ok(this)
-    }
-}
-
-impl std::fmt::Debug for Volume<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Volume")
-            .field("image", &self.image)
-            .finish_non_exhaustive()
-    }
-}
-
-impl Drop for Volume<'_> {
-    fn drop(&mut self) {
-        // SAFETY: handles of `device` (null or created by it), no GPU work pending.
-        unsafe {
-            self.device.destroy_image(self.image, None);
-            self.device.free_memory(self.memory, None);
-        }
-    }
-}
 
 /// How the depth is read back: its route, the padding of the host buffer's rows, and which
 /// copy commands record it.
@@ -213,7 +142,7 @@ pub struct Readback<'a> {
     /// The route's second depth image.
     second: Option<Attachment<'a>>,
     /// The route's 3D images ([`DepthRoute::volumes`]).
-    volumes: Vec<Volume<'a>>,
+    volumes: Vec<BoundImage<'a>>,
     /// The `buffer` route's device buffer.
     staging: Option<HostBuffer<'a>>,
 }
@@ -264,8 +193,15 @@ impl<'a> Readback<'a> {
             }
             for &flags in options.route.volumes() {
                 let format = targets.depth_format.vk_format();
+                let transfer =
+                    vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+                let deep = vk::Extent3D {
+                    width: extent.width,
+                    height: extent.height,
+                    depth: VOLUME_SLICES,
+                };
                 volumes.push(
-                    Volume::new(gpu, format, flags, extent)
+                    BoundImage::new(gpu, format, (transfer, flags), deep)
                         .context("the depth route's 3D image")?,
                 );
             }
@@ -538,7 +474,7 @@ impl<'a> Readback<'a> {
             dst_offset: vk::Offset3D { x: 0, y: 0, z },
             extent: self.region(depth, 0).image_extent,
         };
-        let written = |volume: &Volume<'_>| {
+        let written = |volume: &BoundImage<'_>| {
             vk::ImageMemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
                 .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
