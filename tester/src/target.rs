@@ -167,6 +167,24 @@ impl fmt::Debug for Attachment<'_> {
     }
 }
 
+/// Device-local memory allocated for `image` and bound to it (the caller frees it).
+fn bind_memory(gpu: &Gpu, image: vk::Image) -> Result<vk::DeviceMemory> {
+    // SAFETY: a valid image of this device.
+    let requirements = unsafe { gpu.device.get_image_memory_requirements(image) };
+    let memory = gpu.allocate(
+        requirements,
+        vk::MemoryPropertyFlags::empty(),
+        vk::MemoryPropertyFlags::DEVICE_LOCAL,
+    )?;
+    // SAFETY: fresh memory of a compatible type and sufficient size, an image not yet bound.
+    if let Err(e) = unsafe { gpu.device.bind_image_memory(image, memory, 0) } {
+        // SAFETY: the memory was allocated above and is bound to nothing.
+        unsafe { gpu.device.free_memory(memory, None) };
+        return Err(e).context("vkBindImageMemory failed");
+    }
+    Ok(memory)
+}
+
 /// An image with its memory bound and no view: the copy routes' 3D images
 /// (`crate::readback`) and `revz-tester transfers`' images, 2D or 3D (by `extent.depth`),
 /// optimal tiling, one level, layer and sample.
@@ -235,16 +253,7 @@ impl<'a> BoundImage<'a> {
         // SAFETY: valid device and create info.
         this.image = unsafe { gpu.device.create_image(&info, None) }
             .with_context(|| format!("vkCreateImage ({image_type:?}, {format:?}) failed"))?;
-        // SAFETY: valid image.
-        let requirements = unsafe { gpu.device.get_image_memory_requirements(this.image) };
-        this.memory = gpu.allocate(
-            requirements,
-            vk::MemoryPropertyFlags::empty(),
-            vk::MemoryPropertyFlags::DEVICE_LOCAL,
-        )?;
-        // SAFETY: fresh image and memory of a compatible type and sufficient size.
-        unsafe { gpu.device.bind_image_memory(this.image, this.memory, 0) }
-            .context("vkBindImageMemory failed")?;
+        this.memory = bind_memory(gpu, this.image)?;
         Ok(this)
     }
 
@@ -427,16 +436,7 @@ impl<'a> Attachment<'a> {
         // SAFETY: valid device and create info.
         this.image = unsafe { gpu.device.create_image(&info, None) }
             .with_context(|| format!("vkCreateImage ({format:?}) failed"))?;
-        // SAFETY: valid image.
-        let requirements = unsafe { gpu.device.get_image_memory_requirements(this.image) };
-        this.memory = gpu.allocate(
-            requirements,
-            vk::MemoryPropertyFlags::empty(),
-            vk::MemoryPropertyFlags::DEVICE_LOCAL,
-        )?;
-        // SAFETY: fresh image and memory of a compatible type and sufficient size.
-        unsafe { gpu.device.bind_image_memory(this.image, this.memory, 0) }
-            .context("vkBindImageMemory failed")?;
+        this.memory = bind_memory(gpu, this.image)?;
         let Some(aspects) = view_aspects else {
             return Ok(this);
         };

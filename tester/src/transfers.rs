@@ -462,32 +462,23 @@ impl<'a> Transfer<'a> {
                     )
                 }
             };
-            if self.case == TransferCase::BlitSeparateLayouts {
-                // Each aspect's layout apart: the stencil leaves UNDEFINED after the depth is
-                // written, as an application uploading the aspects in turn does.
-                for aspect in self.aspects() {
-                    self.transition(cmd, image.image, aspect, (undefined, dst_layout));
-                    upload(
-                        if aspect == vk::ImageAspectFlags::DEPTH {
-                            depth
-                        } else {
-                            stencil
-                        },
-                        aspect,
-                    );
-                }
-            } else {
+            // With separate layouts each aspect's layout is set apart: the stencil leaves
+            // UNDEFINED after the depth is written, as an application uploading the aspects in
+            // turn does.
+            let apart = self.case == TransferCase::BlitSeparateLayouts;
+            if !apart {
                 self.transition(cmd, image.image, all, (undefined, dst_layout));
-                for aspect in self.aspects() {
-                    upload(
-                        if aspect == vk::ImageAspectFlags::DEPTH {
-                            depth
-                        } else {
-                            stencil
-                        },
-                        aspect,
-                    );
+            }
+            for aspect in self.aspects() {
+                if apart {
+                    self.transition(cmd, image.image, aspect, (undefined, dst_layout));
                 }
+                let data = if aspect == vk::ImageAspectFlags::DEPTH {
+                    depth
+                } else {
+                    stencil
+                };
+                upload(data, aspect);
             }
         }
         // The GENERAL layout, which a conformance suite also copies in, draws the validation

@@ -259,8 +259,9 @@ impl<'a> Readback<'a> {
                     .subresource_range(full_range(targets.depth_format.aspects())),
             );
         }
-        if let Some(second) = &self.second {
-            // The route's second image: written first, by a copy.
+        // The route's second image and 3D images: written first, by a copy or a blit.
+        let routed = self.second.iter().map(|second| second.image);
+        for image in routed.chain(self.volumes.iter().map(|volume| volume.image)) {
             to_transfer.push(
                 vk::ImageMemoryBarrier::default()
                     .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
@@ -268,20 +269,7 @@ impl<'a> Readback<'a> {
                     .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
                     .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                     .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(second.image)
-                    .subresource_range(full_range(targets.depth_format.aspects())),
-            );
-        }
-        for volume in &self.volumes {
-            // Written first, by a copy or a blit.
-            to_transfer.push(
-                vk::ImageMemoryBarrier::default()
-                    .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                    .old_layout(vk::ImageLayout::UNDEFINED)
-                    .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(volume.image)
+                    .image(image)
                     .subresource_range(full_range(targets.depth_format.aspects())),
             );
         }
