@@ -390,6 +390,25 @@ pub fn workgroups(blocks: u32) -> (u32, u32) {
     (x, groups.div_ceil(x))
 }
 
+/// `subresource` with an explicit layer count: `VK_REMAINING_ARRAY_LAYERS`
+/// (`VK_KHR_maintenance5`) counts from its base layer to the last of an image of
+/// `array_layers` (`None`: an image revz does not know, left as it is, which the plans then
+/// refuse).
+pub fn explicit_layers(
+    subresource: vk::ImageSubresourceLayers,
+    array_layers: Option<u32>,
+) -> vk::ImageSubresourceLayers {
+    match array_layers {
+        Some(layers) if subresource.layer_count == vk::REMAINING_ARRAY_LAYERS => {
+            vk::ImageSubresourceLayers {
+                layer_count: layers.saturating_sub(subresource.base_array_layer),
+                ..subresource
+            }
+        }
+        _ => subresource,
+    }
+}
+
 /// One region of a copy between an image's depth aspect and a buffer, as the application
 /// gave it (`VkBufferImageCopy`): where its texels are in the application's buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1800,6 +1819,23 @@ mod tests {
         assert_eq!(plan.to_staged.len(), 1);
         assert_eq!(plan.to_staged[0].image_subresource.aspect_mask, stencil);
         assert!(plan_blit(&[blit], TexelKinds::same(TexelKind::Unorm24), true).is_none());
+    }
+
+    #[test]
+    fn remaining_array_layers_count_to_the_last_layer() {
+        let remaining = vk::ImageSubresourceLayers {
+            base_array_layer: 2,
+            ..layers(vk::ImageAspectFlags::DEPTH, vk::REMAINING_ARRAY_LAYERS)
+        };
+        assert_eq!(explicit_layers(remaining, Some(6)).layer_count, 4);
+        assert_eq!(explicit_layers(remaining, Some(6)).base_array_layer, 2);
+        // Unknown image: left, for the plans to refuse.
+        assert_eq!(
+            explicit_layers(remaining, None).layer_count,
+            vk::REMAINING_ARRAY_LAYERS
+        );
+        let explicit = layers(vk::ImageAspectFlags::DEPTH, 3);
+        assert_eq!(explicit_layers(explicit, Some(6)).layer_count, 3);
     }
 
     /// With the stencil staged, each box's stencil goes from the source into the scratch past

@@ -348,6 +348,7 @@ pub unsafe extern "system" fn create_image(
                     promoted,
                     extent: info.extent,
                     samples: info.samples,
+                    array_layers: info.array_layers,
                     twin,
                 },
             );

@@ -60,6 +60,8 @@ pub struct ImageInfo {
     /// Its size and sample count (to find its likely resolve partners).
     pub extent: vk::Extent3D,
     pub samples: vk::SampleCountFlags,
+    /// Its array layers (a copy region's `VK_REMAINING_ARRAY_LAYERS` counts to the last).
+    pub array_layers: u32,
     /// The native image shaders read in its place (`crate::policy::DevicePolicy::reads_through_twin`).
     pub twin: Option<ReadTwin>,
 }
@@ -925,6 +927,7 @@ mod tests {
                 promoted: None,
                 extent: vk::Extent3D::default(),
                 samples: vk::SampleCountFlags::TYPE_1,
+                array_layers: 1,
                 twin: None,
             },
         );

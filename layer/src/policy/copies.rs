@@ -79,8 +79,8 @@ pub enum Unconverted {
     Multisampled,
     /// Conditional rendering is active: it could discard revz's dispatch and not the copies.
     Conditional,
-    /// Its regions: a layer count of `VK_REMAINING_ARRAY_LAYERS`, an empty blit box, or more
-    /// texels than one conversion holds.
+    /// Its regions: an empty blit box, more texels than one conversion holds, or a layer count
+    /// of `VK_REMAINING_ARRAY_LAYERS` of an image revz does not know.
     Regions,
     /// Too many texels for one conversion (past the device's `maxStorageBufferRange`), or
     /// revz could not create its conversion pipeline or scratch memory.

@@ -9,7 +9,8 @@
 
 use super::*;
 use crate::depth_copy::plan::{
-    plan_blit, plan_buffer_copy, plan_image_copy, DepthMap, ShaderHeader, TexelKind,
+    explicit_layers, plan_blit, plan_buffer_copy, plan_image_copy, DepthMap, ShaderHeader,
+    TexelKind,
 };
 use crate::depth_copy::record::{record, record_blit, Conversion, Drain, Fill};
 use crate::policy::{
@@ -26,6 +27,8 @@ struct ImageEnd {
     own: Option<TexelKind>,
     /// The format revz created it in (`None`: an image revz does not know).
     created: Option<vk::Format>,
+    /// Its array layers (`None`: an image revz does not know).
+    layers: Option<u32>,
 }
 
 impl ImageEnd {
@@ -43,6 +46,7 @@ fn image_end(device: &DeviceState, image: vk::Image) -> ImageEnd {
             stored: None,
             own: None,
             created: None,
+            layers: None,
         };
     };
     ImageEnd {
@@ -50,6 +54,7 @@ fn image_end(device: &DeviceState, image: vk::Image) -> ImageEnd {
         stored: copied_texels(info.format, info.promoted),
         own: copied_texels(info.format, None),
         created: Some(info.promoted.unwrap_or(info.format)),
+        layers: Some(info.array_layers),
     }
 }
 
@@ -231,7 +236,15 @@ fn image_buffer_copy(
         .zip(end.own)
         .zip(kinds)
         .and_then(|((stored, own), kinds)| {
-            plan_buffer_copy(regions, stored, own, to_buffer).map(|plan| (kinds, plan))
+            // Region for region, their layer counts explicit.
+            let explicit: Vec<vk::BufferImageCopy> = regions
+                .iter()
+                .map(|r| vk::BufferImageCopy {
+                    image_subresource: explicit_layers(r.image_subresource, end.layers),
+                    ..*r
+                })
+                .collect();
+            plan_buffer_copy(&explicit, stored, own, to_buffer).map(|plan| (kinds, plan))
         });
     let Some((kinds, plan)) = planned else {
         entry.device.copies.warn_unconverted(Unconverted::Regions);
@@ -340,9 +353,18 @@ fn image_image_copy(
         Texels::Image(source.stored),
         Texels::Image(destination.stored),
     );
-    let Some((kinds, plan)) =
-        kinds.and_then(|kinds| plan_image_copy(regions, kinds).map(|p| (kinds, p)))
-    else {
+    let Some((kinds, plan)) = kinds.and_then(|kinds| {
+        // Region for region, their layer counts explicit.
+        let explicit: Vec<vk::ImageCopy> = regions
+            .iter()
+            .map(|r| vk::ImageCopy {
+                src_subresource: explicit_layers(r.src_subresource, source.layers),
+                dst_subresource: explicit_layers(r.dst_subresource, destination.layers),
+                ..*r
+            })
+            .collect();
+        plan_image_copy(&explicit, kinds).map(|p| (kinds, p))
+    }) else {
         entry.device.copies.warn_unconverted(Unconverted::Regions);
         return Sent::All;
     };
@@ -484,7 +506,16 @@ fn image_blit(
     // names, which a depth-only blit says nothing of under separate depth/stencil layouts).
     let planned = kinds.zip(destination.created).and_then(|(kinds, format)| {
         let stage_stencil = names_stencil && crate::conv::has_stencil(format);
-        plan_blit(regions, kinds, stage_stencil).map(|plan| (kinds, format, plan))
+        // Region for region, their layer counts explicit.
+        let explicit: Vec<vk::ImageBlit> = regions
+            .iter()
+            .map(|r| vk::ImageBlit {
+                src_subresource: explicit_layers(r.src_subresource, source.layers),
+                dst_subresource: explicit_layers(r.dst_subresource, destination.layers),
+                ..*r
+            })
+            .collect();
+        plan_blit(&explicit, kinds, stage_stencil).map(|plan| (kinds, format, plan))
     });
     let Some((kinds, format, plan)) = planned else {
         entry.device.copies.warn_unconverted(Unconverted::Regions);
