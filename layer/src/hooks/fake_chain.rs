@@ -285,6 +285,11 @@ pub(super) enum Event {
         slope: f32,
         representation: Option<vk::DepthBiasRepresentationEXT>,
     },
+    /// `vkCmdSetDepthClampRangeEXT`: the mode, and the range where it is user-defined.
+    SetDepthClampRange {
+        mode: i32,
+        range: Option<(f32, f32)>,
+    },
     /// `vkCmdNextSubpass2`.
     NextSubpass2,
     /// `vkGetDeviceImageMemoryRequirements`: the format of the image asked about.
@@ -1236,6 +1241,10 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_pipelines(
                 pipelines::cmd_set_depth_bias2
             )
         }
+        b"vkCmdSetDepthClampRangeEXT" => void_fn!(
+            crate::vk_ext::PfnCmdSetDepthClampRange,
+            pipelines::cmd_set_depth_clamp_range
+        ),
         b"vkCmdSetViewport" => void_fn!(vk::PFN_vkCmdSetViewport, pipelines::cmd_set_viewport),
         b"vkCmdSetDepthBounds" => {
             void_fn!(vk::PFN_vkCmdSetDepthBounds, pipelines::cmd_set_depth_bounds)
@@ -1482,6 +1491,18 @@ mod pipelines {
             clamp,
             slope,
         };
+        // SAFETY: the fake's live command buffer.
+        note(unsafe { key_of(buffer) }, event);
+    }
+
+    pub(super) unsafe extern "system" fn cmd_set_depth_clamp_range(
+        buffer: vk::CommandBuffer,
+        mode: i32,
+        p_range: *const crate::vk_ext::DepthClampRange,
+    ) {
+        // SAFETY: null or a valid range (revz passes one where the mode is user-defined).
+        let range = unsafe { p_range.as_ref() }.map(|r| (r.min_depth_clamp, r.max_depth_clamp));
+        let event = Event::SetDepthClampRange { mode, range };
         // SAFETY: the fake's live command buffer.
         note(unsafe { key_of(buffer) }, event);
     }

@@ -84,6 +84,8 @@ hook_set! {
         cmd_bind_pipeline: c"vkCmdBindPipeline" => vk::PFN_vkCmdBindPipeline,
         cmd_set_depth_bias: c"vkCmdSetDepthBias" => vk::PFN_vkCmdSetDepthBias,
         cmd_set_depth_bias2: c"vkCmdSetDepthBias2EXT" => vk::PFN_vkCmdSetDepthBias2EXT,
+        cmd_set_depth_clamp_range: c"vkCmdSetDepthClampRangeEXT"
+            => crate::vk_ext::PfnCmdSetDepthClampRange,
         cmd_next_subpass2: c"vkCmdNextSubpass2" => vk::PFN_vkCmdNextSubpass2,
         cmd_draw: c"vkCmdDraw" => vk::PFN_vkCmdDraw,
         update_descriptor_sets: c"vkUpdateDescriptorSets" => vk::PFN_vkUpdateDescriptorSets,
@@ -127,6 +129,8 @@ struct Recorded {
     passes: Vec<vk::RenderPass>,
     binds: Vec<vk::Pipeline>,
     biases: Vec<[f32; 3]>,
+    /// `vkCmdSetDepthClampRangeEXT`'s mode and user-defined range.
+    clamp_ranges: Vec<(i32, Option<(f32, f32)>)>,
 }
 
 /// One pipeline creation the fake saw (one create info per call).
@@ -695,6 +699,9 @@ impl Fixture {
                     clamp,
                     slope,
                 } => recorded.biases.push([constant, clamp, slope]),
+                Event::SetDepthClampRange { mode, range } => {
+                    recorded.clamp_ranges.push((mode, range))
+                }
                 Event::EndRenderPass2
                 | Event::EndRenderPass
                 | Event::NextSubpass2
@@ -2322,6 +2329,61 @@ fn constant_depth_bias_on_promoted_d16_targets_is_scaled_to_float_units() {
     let (d24_pipeline, _, _) = fx.pipeline(PipelineTarget::Pass(d24_pass), Some(-8.0), &[]);
     let run = fx.run_pass(buffer, d24_pass, d24.handle, Some(d24_pipeline));
     assert_eq!(run.biases, [[8.0, 0.0, 0.0]]);
+    fx.finish();
+}
+
+/// `vkCmdSetDepthClampRangeEXT` through revz's hook: a user-defined range set in a pass into a
+/// reversed attachment goes down mapped like the depth bounds ([min, max] -> [1 - max,
+/// 1 - min]) before the draw; the viewport's range goes down as it is.
+#[test]
+fn a_clamp_range_set_in_a_reversed_pass_goes_down_mapped() {
+    use crate::vk_ext::{
+        DepthClampRange, DEPTH_CLAMP_MODE_USER_DEFINED_RANGE, DEPTH_CLAMP_MODE_VIEWPORT_RANGE,
+        DYNAMIC_STATE_DEPTH_CLAMP_RANGE,
+    };
+    let fx = Fixture::new();
+    let (pass, _) = fx.depth_pass(D32, false);
+    let (_, view) = fx.depth_image(D32, ATTACHMENT, SINGLE);
+    let framebuffer = fx.framebuffer(pass, &[view]).handle;
+    let (pipeline, _, _) = fx.pipeline(
+        PipelineTarget::Pass(pass),
+        None,
+        &[DYNAMIC_STATE_DEPTH_CLAMP_RANGE],
+    );
+    let buffer = fx.primary();
+    let range = DepthClampRange {
+        min_depth_clamp: 0.25,
+        max_depth_clamp: 0.5,
+    };
+    let run = fx.run_pass_with(buffer, pass, framebuffer, std::ptr::null(), |fx| {
+        // SAFETY: a recording primary in a pass; a valid range.
+        unsafe {
+            (fx.hooks.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::GRAPHICS, pipeline);
+            (fx.hooks.cmd_set_depth_clamp_range)(
+                buffer,
+                DEPTH_CLAMP_MODE_USER_DEFINED_RANGE,
+                &range,
+            );
+        }
+        fx.bind_and_draw(buffer, None, None);
+    });
+    assert_eq!(
+        run.clamp_ranges,
+        [(DEPTH_CLAMP_MODE_USER_DEFINED_RANGE, Some((0.5, 0.75)))]
+    );
+    let run = fx.run_pass_with(buffer, pass, framebuffer, std::ptr::null(), |fx| {
+        // SAFETY: as above; the viewport's range reads no pointer.
+        unsafe {
+            (fx.hooks.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::GRAPHICS, pipeline);
+            (fx.hooks.cmd_set_depth_clamp_range)(
+                buffer,
+                DEPTH_CLAMP_MODE_VIEWPORT_RANGE,
+                std::ptr::null(),
+            );
+        }
+        fx.bind_and_draw(buffer, None, None);
+    });
+    assert_eq!(run.clamp_ranges, [(DEPTH_CLAMP_MODE_VIEWPORT_RANGE, None)]);
     fx.finish();
 }
 
