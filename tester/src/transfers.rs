@@ -1,17 +1,17 @@
 //! `revz-tester transfers`: depth images that are only ever copied, as a conformance suite's
 //! copy and blit groups use them (issue #44). Two images with TRANSFER_SRC | TRANSFER_DST
-//! usage and no other (revz keeps them native; `--attachment` adds DEPTH_STENCIL_ATTACHMENT to
-//! the 2D ones, which revz then reverses, and promotes D16/D24 storage in the precise modes;
-//! so does `REVZ_REVERSE_OBSERVABLE=all` with every image): the source uploaded from a buffer
-//! (depth values of full mantissas, a stencil pattern), the destination with depth 1 and
-//! stencil 255; then one copy or blit of
-//! every aspect the format has (2D and 3D images, boxes downscaled, mirrored and 1:1, or with
-//! each aspect's layout set apart under `separateDepthStencilLayouts`); then the whole destination read back into a buffer.
+//! usage and no other, which revz keeps native. `--attachment` adds DEPTH_STENCIL_ATTACHMENT
+//! to the 2D ones, which revz then reverses (and stores D16/D24 as float32 in the precise
+//! modes); `REVZ_REVERSE_OBSERVABLE=all` reverses every image. The source is uploaded from a
+//! buffer (depth values of full mantissas, a stencil pattern), the destination with depth 1
+//! and stencil 255; then one copy or blit of every aspect the format has (2D and 3D images,
+//! boxes downscaled, mirrored and 1:1, or with each aspect's layout set apart under
+//! `separateDepthStencilLayouts`); then the whole destination is read back into a buffer.
 //!
 //! Writes `depth.f32` (the destination's depth, decoded), `stencil.u8` (its stencil, for
 //! stencil formats), `aspects.u8` (per texel, the aspects the regions write: bit 0 depth, bit 1
-//! stencil) and `transfers.json`; exits 2 on validation messages. The test compares
-//! the files with and without revz: a copy must hand back the bytes it hands back without it.
+//! stencil) and `transfers.json`; exits 2 on validation messages. `tests/tests/transfers.rs`
+//! compares the files with and without revz.
 
 use std::path::PathBuf;
 
