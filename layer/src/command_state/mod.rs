@@ -1193,7 +1193,7 @@ impl CommandState {
             sink.set_bounds(min, max);
         }
         if let Some(app) = pick(States::CLAMP_RANGE) {
-            // Revz makes a pipeline's clamp range dynamic only where it is user-defined.
+            // revz makes a pipeline's clamp range dynamic only where it is user-defined.
             let range = if app {
                 self.clamp_range
             } else {
