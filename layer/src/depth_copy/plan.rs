@@ -825,9 +825,6 @@ pub struct BlitPlan {
     /// staged image is 3D). With the stencil staged too, its copies first (`from_source`
     /// lists them last).
     pub to_staged: Vec<vk::BufferImageCopy>,
-    /// The staged image's type: 3D where a source box is several slices deep (a 3D source
-    /// image's), which a 2D image's layers cannot hold in one copy; 2D otherwise.
-    pub staged_type: vk::ImageType,
     /// The staged image's size (the largest box; in 3D as deep as every region's slices in
     /// turn) and layers (every region's in turn in 2D, one in 3D).
     pub staged_extent: vk::Extent3D,
@@ -837,6 +834,19 @@ pub struct BlitPlan {
     /// The application's regions still sent down with the aspects left to them, as for
     /// [`ImageCopyPlan::rest`].
     pub rest: Vec<(usize, vk::ImageAspectFlags)>,
+}
+
+impl BlitPlan {
+    /// The staged image's type: 3D where a source box is several slices deep (a 3D source
+    /// image's; the staged extent is then as deep as every region's slices), which a 2D
+    /// image's layers cannot hold in one copy; 2D otherwise.
+    pub fn staged_type(&self) -> vk::ImageType {
+        if self.staged_extent.depth > 1 {
+            vk::ImageType::TYPE_3D
+        } else {
+            vk::ImageType::TYPE_2D
+        }
+    }
 }
 
 /// Plans a converted blit (`kinds`: the texels the source and the destination are stored in;
@@ -1048,11 +1058,6 @@ pub fn plan_blit(
         layout,
         from_source,
         to_staged,
-        staged_type: if volume {
-            vk::ImageType::TYPE_3D
-        } else {
-            vk::ImageType::TYPE_2D
-        },
         staged_extent,
         staged_layers: if volume { 1 } else { base },
         blits,
@@ -1738,7 +1743,7 @@ mod tests {
         };
         let f32 = TexelKinds::same(TexelKind::Float32);
         let plan = plan_blit(&[deep, thin], f32, false).unwrap();
-        assert_eq!(plan.staged_type, vk::ImageType::TYPE_3D);
+        assert_eq!(plan.staged_type(), vk::ImageType::TYPE_3D);
         assert_eq!(plan.staged_layers, 1);
         assert_eq!(
             (
@@ -1767,7 +1772,7 @@ mod tests {
         assert_eq!(plan.layout.blocks, 8 * 4 * 3 / TEXELS_PER_BLOCK as u32 + 1);
         // Alone, a box one slice deep keeps the 2D staged image.
         let plan = plan_blit(&[thin], f32, false).unwrap();
-        assert_eq!(plan.staged_type, vk::ImageType::TYPE_2D);
+        assert_eq!(plan.staged_type(), vk::ImageType::TYPE_2D);
         assert_eq!(plan.to_staged[0].image_offset, offset(0, 0, 0));
         assert_eq!(
             plan.blits[0].src_offsets,

@@ -525,7 +525,7 @@ fn image_blit(
     let mut copies = entry.copies();
     let Some(staged) = copies.staged_image(
         device,
-        (plan.staged_type, format),
+        (plan.staged_type(), format),
         plan.staged_extent,
         plan.staged_layers,
     ) else {
@@ -632,12 +632,20 @@ fn regions_left<R: Copy>(
 ) -> Option<Vec<R>> {
     match sent {
         Sent::All => None,
-        Sent::Rest(rest) => Some(
-            rest.iter()
-                .map(|&(i, aspect)| narrow(regions[i], aspect))
-                .collect(),
-        ),
+        Sent::Rest(rest) => Some(narrowed(regions, rest, narrow)),
     }
+}
+
+/// The application's regions `parts` names, each narrowed to its aspects.
+fn narrowed<R: Copy>(
+    regions: &[R],
+    parts: &[(usize, vk::ImageAspectFlags)],
+    narrow: impl Fn(R, vk::ImageAspectFlags) -> R,
+) -> Vec<R> {
+    parts
+        .iter()
+        .map(|&(i, aspect)| narrow(regions[i], aspect))
+        .collect()
 }
 
 fn narrow_buffer_image(
@@ -724,10 +732,7 @@ pub unsafe extern "system" fn cmd_copy_image(
     let device = with_entry(buffer, &ENTRY, |entry| {
         let next = entry.device.next.fp_v1_0().cmd_copy_image;
         let mut send_first = |first: &[(usize, vk::ImageAspectFlags)]| {
-            let first: Vec<vk::ImageCopy> = first
-                .iter()
-                .map(|&(i, aspect)| narrow_image(regions[i], aspect))
-                .collect();
+            let first = narrowed(regions, first, narrow_image);
             // SAFETY: the application's command with some of its regions, narrowed to the
             // aspects they copy besides depth.
             unsafe {
@@ -919,14 +924,10 @@ pub unsafe extern "system" fn cmd_copy_image2(
         let next = entry.device.commands.copy_image2;
         let mut send_first = |first: &[(usize, vk::ImageAspectFlags)]| {
             let Some(next) = next else { return };
-            let first: Vec<vk::ImageCopy2<'_>> = first
-                .iter()
-                .map(|&(i, aspect)| {
-                    let mut region = regions2[i];
-                    narrow(&mut region, aspect);
-                    region
-                })
-                .collect();
+            let first = narrowed(regions2, first, |mut region, aspect| {
+                narrow(&mut region, aspect);
+                region
+            });
             let first_info = vk::CopyImageInfo2 {
                 region_count: first.len() as u32,
                 p_regions: first.as_ptr(),
@@ -968,6 +969,11 @@ pub unsafe extern "system" fn cmd_copy_image2(
     unsafe { next(buffer, p_info) }
 }
 
+fn narrow_blit2(region: &mut vk::ImageBlit2<'_>, aspect: vk::ImageAspectFlags) {
+    region.src_subresource.aspect_mask = aspect;
+    region.dst_subresource.aspect_mask = aspect;
+}
+
 fn narrow_blit(region: vk::ImageBlit, aspect: vk::ImageAspectFlags) -> vk::ImageBlit {
     let mut region = region;
     region.src_subresource.aspect_mask = aspect;
@@ -992,10 +998,7 @@ pub unsafe extern "system" fn cmd_blit_image(
     let device = with_entry(buffer, &ENTRY, |entry| {
         let next = entry.device.next.fp_v1_0().cmd_blit_image;
         let mut send_first = |first: &[(usize, vk::ImageAspectFlags)]| {
-            let first: Vec<vk::ImageBlit> = first
-                .iter()
-                .map(|&(i, aspect)| narrow_blit(regions[i], aspect))
-                .collect();
+            let first = narrowed(regions, first, narrow_blit);
             // SAFETY: the application's command with some of its regions, narrowed to the
             // aspects they blit besides depth.
             unsafe {
@@ -1060,15 +1063,10 @@ pub unsafe extern "system" fn cmd_blit_image2(
         let next = entry.device.commands.blit_image2;
         let mut send_first = |first: &[(usize, vk::ImageAspectFlags)]| {
             let Some(next) = next else { return };
-            let first: Vec<vk::ImageBlit2<'_>> = first
-                .iter()
-                .map(|&(i, aspect)| {
-                    let mut region = regions2[i];
-                    region.src_subresource.aspect_mask = aspect;
-                    region.dst_subresource.aspect_mask = aspect;
-                    region
-                })
-                .collect();
+            let first = narrowed(regions2, first, |mut region, aspect| {
+                narrow_blit2(&mut region, aspect);
+                region
+            });
             let first_info = vk::BlitImageInfo2 {
                 region_count: first.len() as u32,
                 p_regions: first.as_ptr(),
@@ -1089,10 +1087,7 @@ pub unsafe extern "system" fn cmd_blit_image2(
             extended,
             &mut send_first,
         );
-        left = regions2_left(regions2, &sent, |r, aspect| {
-            r.src_subresource.aspect_mask = aspect;
-            r.dst_subresource.aspect_mask = aspect;
-        });
+        left = regions2_left(regions2, &sent, narrow_blit2);
     });
     let Some(next) = device.and_then(|d| d.commands.blit_image2) else {
         return;
