@@ -755,38 +755,27 @@ pub fn plan_image_copy(regions: &[vk::ImageCopy], kinds: TexelKinds) -> Option<I
     let stencil = vk::ImageAspectFlags::STENCIL;
     if stencil_between_formats {
         // Between two formats the stencil cannot go down as an image copy: it goes through
-        // the scratch too, 1 byte a texel in both formats, after the converted texels (on
-        // 4-byte offsets, as depth/stencil buffer copies need), as it is. Its drain comes
-        // before the depth's: a stencil write must not be the last to touch a texel's depth.
-        let mut offset = layout.size.checked_next_multiple_of(4)?;
-        let mut stencil_drains = Vec::new();
-        for region in regions
+        // the scratch too.
+        let side = |region: &vk::ImageCopy, subresource: vk::ImageSubresourceLayers, offset| {
+            vk::BufferImageCopy {
+                buffer_offset: 0,
+                buffer_row_length: 0,
+                buffer_image_height: 0,
+                image_subresource: subresource,
+                image_offset: offset,
+                image_extent: side_extent(region.extent, subresource),
+            }
+        };
+        let sides = regions
             .iter()
             .filter(|r| r.src_subresource.aspect_mask.contains(stencil))
-        {
-            let side =
-                |subresource: vk::ImageSubresourceLayers, image_offset| vk::BufferImageCopy {
-                    buffer_offset: offset,
-                    buffer_row_length: 0,
-                    buffer_image_height: 0,
-                    image_subresource: vk::ImageSubresourceLayers {
-                        aspect_mask: stencil,
-                        ..subresource
-                    },
-                    image_offset,
-                    image_extent: side_extent(region.extent, subresource),
-                };
-            from_source.push(side(region.src_subresource, region.src_offset));
-            stencil_drains.push(side(region.dst_subresource, region.dst_offset));
-            let bytes = texels(
-                side_extent(region.extent, region.src_subresource),
-                region.src_subresource.layer_count,
-            );
-            offset = offset.checked_add(bytes)?.checked_next_multiple_of(4)?;
-        }
-        stencil_drains.append(&mut to_destination);
-        to_destination = stencil_drains;
-        layout.size = offset;
+            .map(|r| {
+                (
+                    side(r, r.src_subresource, r.src_offset),
+                    side(r, r.dst_subresource, r.dst_offset),
+                )
+            });
+        stencil_through_scratch(sides, &mut layout, &mut from_source, &mut to_destination)?;
     }
     let rest = regions
         .iter()
@@ -834,6 +823,42 @@ pub struct BlitPlan {
     /// The application's regions still sent down with the aspects left to them, as for
     /// [`ImageCopyPlan::rest`].
     pub rest: Vec<(usize, vk::ImageAspectFlags)>,
+}
+
+/// Moves the stencil of `sides` (each the copy of a region's box out of an image into the
+/// scratch and the copy back into an image, whose aspect and buffer offset are set here)
+/// through the scratch as it is: 1 byte a texel, past `layout`'s texels on 4-byte offsets (as
+/// depth/stencil buffer copies need), which `layout` grows to hold. The fills go after
+/// `fills`; the drains before `drains`: a stencil write must not be the last to touch a
+/// texel's depth (lavapipe writes both aspects of a packed texel). `None` past `u64`.
+fn stencil_through_scratch(
+    sides: impl IntoIterator<Item = (vk::BufferImageCopy, vk::BufferImageCopy)>,
+    layout: &mut ScratchLayout,
+    fills: &mut Vec<vk::BufferImageCopy>,
+    drains: &mut Vec<vk::BufferImageCopy>,
+) -> Option<()> {
+    let mut offset = layout.size.checked_next_multiple_of(4)?;
+    let mut stencil_drains = Vec::new();
+    for (fill, drain) in sides {
+        let stencil = |copy: vk::BufferImageCopy| vk::BufferImageCopy {
+            buffer_offset: offset,
+            image_subresource: vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::STENCIL,
+                ..copy.image_subresource
+            },
+            ..copy
+        };
+        fills.push(stencil(fill));
+        stencil_drains.push(stencil(drain));
+        let bytes = texels(fill.image_extent, fill.image_subresource.layer_count);
+        offset = offset.checked_add(bytes)?.checked_next_multiple_of(4)?;
+    }
+    if !stencil_drains.is_empty() {
+        stencil_drains.append(drains);
+        *drains = stencil_drains;
+        layout.size = offset;
+    }
+    Some(())
 }
 
 impl BlitPlan {
@@ -938,8 +963,8 @@ pub fn plan_blit(
         },
     };
     let (mut from_source, mut to_staged, mut blits) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut stencil_fills, mut stencil_drains) = (Vec::new(), Vec::new());
-    let mut stencil_offset = layout.size.checked_next_multiple_of(4)?;
+    // The boxes whose stencil is staged too: their fill and drain.
+    let mut stencil_sides = Vec::new();
     // The next free layer (2D) or slice (3D) of the staged image.
     let mut base = 0u32;
     for (((_, region), (lo, extent)), scratch) in
@@ -993,22 +1018,7 @@ pub fn plan_blit(
             to_staged.push(drain);
         }
         if stage_stencil {
-            // After the converted texels, on 4-byte offsets (as depth/stencil buffer copies
-            // need), 1 byte a texel, as it is.
-            let with_stencil = |copy: vk::BufferImageCopy| vk::BufferImageCopy {
-                buffer_offset: stencil_offset,
-                image_subresource: vk::ImageSubresourceLayers {
-                    aspect_mask: stencil,
-                    ..copy.image_subresource
-                },
-                ..copy
-            };
-            stencil_fills.push(with_stencil(fill));
-            stencil_drains.push(with_stencil(drain));
-            let bytes = texels(*extent, fill.image_subresource.layer_count);
-            stencil_offset = stencil_offset
-                .checked_add(bytes)?
-                .checked_next_multiple_of(4)?;
+            stencil_sides.push((fill, drain));
         }
         let shift = |o: vk::Offset3D| vk::Offset3D {
             x: o.x - lo.x,
@@ -1035,14 +1045,7 @@ pub fn plan_blit(
         });
         base = base.checked_add(if volume { extent.depth } else { count })?;
     }
-    if stage_stencil {
-        // The stencil drains first: a stencil write must not be the last to touch a texel's
-        // depth (lavapipe writes both).
-        from_source.append(&mut stencil_fills);
-        stencil_drains.append(&mut to_staged);
-        to_staged = stencil_drains;
-        layout.size = stencil_offset;
-    }
+    stencil_through_scratch(stencil_sides, &mut layout, &mut from_source, &mut to_staged)?;
     let taken = if take_stencil { depth | stencil } else { depth };
     let rest = regions
         .iter()
