@@ -434,19 +434,23 @@ impl<'a> Readback<'a> {
         }
         copies.barrier(
             vk::BufferMemoryBarrier::default(),
-            Some(
-                vk::ImageMemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
-                    .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                    .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(second.image)
-                    .subresource_range(full_range(self.depth_format.aspects())),
-            ),
+            Some(self.written_to_read(second.image)),
         );
         copies.image_to_buffer(second.image, host, self.region(depth, padded));
+    }
+
+    /// The barrier of a route's image written by a transfer (TRANSFER_DST_OPTIMAL) and read by
+    /// the next (TRANSFER_SRC_OPTIMAL), every aspect.
+    fn written_to_read(&self, image: vk::Image) -> vk::ImageMemoryBarrier<'static> {
+        vk::ImageMemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
+            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+            .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image)
+            .subresource_range(full_range(self.depth_format.aspects()))
     }
 
     /// The 3D routes: the depth aspect of `image` into slice 1 of the first 3D image (both
@@ -462,17 +466,7 @@ impl<'a> Readback<'a> {
             dst_offset: vk::Offset3D { x: 0, y: 0, z },
             extent: self.region(depth, 0).image_extent,
         };
-        let written = |volume: &BoundImage<'_>| {
-            vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
-                .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(volume.image)
-                .subresource_range(full_range(self.depth_format.aspects()))
-        };
+        let written = |volume: &BoundImage<'_>| self.written_to_read(volume.image);
         let first = &self.volumes[0];
         let slices: &[i32] = if self.volumes.len() > 1 {
             &[0, 1]
