@@ -2,7 +2,7 @@
 
 use ash::vk;
 
-use super::PipelineDepth;
+use super::{PipelineDepth, States};
 
 /// How many pipelines a recording keeps by handle for its binds.
 pub(super) const KNOWN_PIPELINES: usize = 4;
@@ -20,10 +20,12 @@ pub(super) struct KnownPipelines {
     pub(super) slots: [(vk::Pipeline, Option<std::sync::Arc<PipelineDepth>>); KNOWN_PIPELINES],
     /// The slot the next pipeline not found replaces.
     pub(super) next: usize,
-    /// Which slots settle alike ([`PipelineDepth::settles_like`]): bit `j` of `alike[i]`,
-    /// compared once when either is found, so that a bind between them compares nothing
-    /// (bit `i` of `alike[i]`: slot `i` holds a tracked pipeline).
+    /// Which slots settle alike but for static values ([`PipelineDepth::values_apart`]):
+    /// bit `j` of `alike[i]`, compared once when either is found, so that a bind between them
+    /// compares nothing (bit `i` of `alike[i]`: slot `i` holds a tracked pipeline).
     pub(super) alike: [u8; KNOWN_PIPELINES],
+    /// For slots alike: the states whose values differ between them (`apart[i][j]`).
+    pub(super) apart: [[States; KNOWN_PIPELINES]; KNOWN_PIPELINES],
 }
 
 impl KnownPipelines {
@@ -60,26 +62,30 @@ impl KnownPipelines {
         let mut alike = 0;
         for (other, (_, known)) in self.slots.iter().enumerate() {
             self.alike[other] &= !bit;
-            let like = match (&depth, known) {
-                (Some(depth), Some(known)) if other != index => depth.settles_like(known),
-                _ => false,
+            let apart = match (&depth, known) {
+                (Some(depth), Some(known)) if other != index => depth.values_apart(known),
+                _ => None,
             };
-            if like {
+            if let Some(apart) = apart {
                 self.alike[other] |= bit;
                 alike |= 1 << other;
+                self.apart[other][index] = apart;
+                self.apart[index][other] = apart;
             }
         }
         if depth.is_some() {
             alike |= bit;
+            self.apart[index][index] = States::NONE;
         }
         self.alike[index] = alike;
         self.slots[index] = (handle, depth);
         index
     }
 
-    /// Whether binding `slot` after `previous` (both found) needs no settle: both tracked
-    /// pipelines that settle alike.
-    pub(super) fn settle_alike(&self, previous: usize, slot: usize) -> bool {
-        self.alike[slot] & (1 << previous) != 0
+    /// What binding `slot` after `previous` (both found) needs sent: `Some` of the states
+    /// whose static values differ between two tracked pipelines that otherwise settle alike
+    /// (nothing: no settle); `None`: a full settle.
+    pub(super) fn values_apart(&self, previous: usize, slot: usize) -> Option<States> {
+        (self.alike[slot] & (1 << previous) != 0).then(|| self.apart[slot][previous])
     }
 }

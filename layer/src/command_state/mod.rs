@@ -245,6 +245,9 @@ pub struct CommandState {
     /// secondary that continues one. State is only sent down here ([`Self::settle`]).
     in_pass: bool,
     dirty: bool,
+    /// States whose values a bind changed where the state stayed settled otherwise
+    /// ([`PipelineDepth::values_apart`]): the next settle evaluates these alone.
+    values_pending: States,
     /// What a push does to the settled state, where it changes nothing revz sends
     /// ([`push_shortcut`]); `None` where unknown.
     shortcut: Option<PushShortcut>,
@@ -291,6 +294,7 @@ impl Default for CommandState {
             secondary_contents: false,
             in_pass: false,
             dirty: true,
+            values_pending: States::NONE,
             shortcut: None,
             carrier_churn: false,
         }
@@ -798,26 +802,30 @@ impl CommandState {
     }
 
     /// Binds `slot`; `settled` is what [`Self::settled_bind`] said before it was looked up.
-    /// Where the newly bound pipeline settles like the one it replaces
-    /// ([`PipelineDepth::settles_like`]), a settle would send nothing: the state stays clean,
-    /// so that the bind goes down alone and its hook takes no second look (binds of pipelines
-    /// that differ only in what revz does not touch, or in what a variant carries).
+    /// Where the newly bound pipeline settles like the one it replaces but for the static
+    /// values of states revz made dynamic ([`PipelineDepth::values_apart`]), the state stays
+    /// settled and the next settle evaluates those states alone: a bind between pipelines that
+    /// differ only in what revz does not touch, or in what a variant carries, goes down alone
+    /// and its hook takes no second look; one between a LESS and a LESS_OR_EQUAL pipeline
+    /// sends the flipped compare op and nothing else.
     fn bind_slot(&mut self, slot: Option<usize>, settled: Option<(usize, vk::Pipeline)>) {
-        let unchanged = match (slot, settled) {
+        let apart = match (slot, settled) {
             // The previous pipeline's slot still holds it (the lookup may have reused it).
             // An untracked pipeline may set anything statically: what the application set
             // goes down again after it.
-            (Some(slot), Some((previous, handle))) => {
-                self.known.slots[previous].0 == handle && self.known.settle_alike(previous, slot)
+            (Some(slot), Some((previous, handle))) if self.known.slots[previous].0 == handle => {
+                self.known.values_apart(previous, slot)
             }
-            _ => false,
+            _ => None,
         };
         self.bind_graphics(slot);
         self.fragment_shader = (vk::ShaderEXT::null(), None);
         self.shader_variant_bound = false;
-        if unchanged {
+        if let Some(apart) = apart {
+            // The push shortcut stays as it was: what it read of the pipeline (its
+            // projection, carrier and layout) is the previous one's, and nothing else changed.
             self.dirty = false;
-            self.refresh_shortcut(None);
+            self.values_pending |= apart;
         }
     }
 
@@ -1004,11 +1012,17 @@ impl CommandState {
         outcome
     }
 
+    /// Makes the next settle a full one (tests compare it with the shorter ones).
+    #[cfg(test)]
+    pub(crate) fn mark_dirty(&mut self) {
+        self.dirty = true;
+    }
+
     /// Whether [`Self::settle`] would send anything: state changed since the last settle, in a
     /// pass where draws are recorded inline.
     #[inline]
     pub fn wants_settle(&self) -> bool {
-        self.dirty && self.in_pass && !self.secondary_contents
+        (self.dirty || !self.values_pending.is_empty()) && self.in_pass && !self.secondary_contents
     }
 
     /// After a command that may change what the next draw needs (a bind, a push, a state
@@ -1022,6 +1036,13 @@ impl CommandState {
         if !self.wants_settle() {
             return None;
         }
+        if !self.dirty {
+            // Only values a bind changed (`bind_slot`): nothing else a settle reads did.
+            let pending = std::mem::replace(&mut self.values_pending, States::NONE);
+            self.emit_values(sink, pending);
+            return None;
+        }
+        self.values_pending = States::NONE;
         let outcome = match self.precise_use().map(|(p, t)| (*p, t)) {
             Some((use_, target)) => self.push.outcome(&use_, target),
             None => None,
@@ -1086,20 +1107,14 @@ impl CommandState {
     }
 
     fn emit(&mut self, sink: &mut impl StateSink) {
-        let converted = self.path == DrawPath::Precise
-            && matches!(
-                self.derived_use(),
-                Some((_, DepthConvention::NegativeOneToOne))
-            );
-        // Only what changed since it was last sent goes down (closures below capture only
-        // the fields they read, so the record is borrowed apart from them).
-        // The bound pipeline, borrowed apart from the fields written below.
+        // Only what changed since it was last sent goes down. The bound pipeline, borrowed
+        // apart from the fields written below.
         let reversal = self.target_reversing().reversal;
         let bound = self
             .bound
             .and_then(|slot| self.known.slots[slot].1.as_ref());
-        let sink = &mut Filtered {
-            sink,
+        let filtered = &mut Filtered {
+            sink: &mut *sink,
             last: &mut self.emitted,
         };
         let reversed = self.target == Target::Reversed;
@@ -1117,7 +1132,7 @@ impl CommandState {
             let wanted =
                 p.variant_for(reversed, self.promoted_from.is_some(), self.reversed_inputs);
             if wanted != self.variant_bound {
-                sink.bind_pipeline(wanted.unwrap_or(p.handle));
+                filtered.bind_pipeline(wanted.unwrap_or(p.handle));
                 self.variant_bound = wanted;
             }
         }
@@ -1125,7 +1140,7 @@ impl CommandState {
             (shader, Some(FragmentShader::Reversed(variant)))
                 if reversed != self.shader_variant_bound =>
             {
-                sink.bind_fragment_shader(if reversed { variant } else { shader });
+                filtered.bind_fragment_shader(if reversed { variant } else { shader });
                 self.shader_variant_bound = reversed;
             }
             (_, Some(FragmentShader::Unreversed)) if reversed => {
@@ -1141,14 +1156,38 @@ impl CommandState {
             }
             _ => {}
         }
+        let (from_app, pipeline) = match bound {
+            Some(p) => (self.app_set & p.app_dynamic, Some(&**p)),
+            None => (self.app_set, None),
+        };
+        self.viewports
+            .emit(filtered, self.path, reversal, from_app, pipeline);
+        self.emit_values(sink, States::ALL);
+    }
+
+    /// The depth states whose values come from the application or the bound pipeline
+    /// (compare op, bias, clip convention, bounds, clamp range), those of `only`: each goes down
+    /// where its value changed since it was last sent.
+    fn emit_values(&mut self, sink: &mut impl StateSink, only: States) {
+        let converted = self.path == DrawPath::Precise
+            && matches!(
+                self.derived_use(),
+                Some((_, DepthConvention::NegativeOneToOne))
+            );
+        let reversal = self.target_reversing().reversal;
+        let bound = self
+            .bound
+            .and_then(|slot| self.known.slots[slot].1.as_ref());
+        let sink = &mut Filtered {
+            sink,
+            last: &mut self.emitted,
+        };
+        let reversed = self.target == Target::Reversed;
         let (from_app, injected, pipeline) = match bound {
             Some(p) => (self.app_set & p.app_dynamic, p.injected, Some(&**p)),
             None => (self.app_set, States::NONE, None),
         };
-
-        self.viewports
-            .emit(sink, self.path, reversal, from_app, pipeline);
-
+        let (from_app, injected) = (from_app & only, injected & only);
         let pick = |state: States| {
             if from_app.contains(state) {
                 Some(true)

@@ -29,6 +29,9 @@ impl States {
     /// user-defined range is a pair of depth values, mapped like the depth bounds.
     pub const CLAMP_RANGE: States = States(128);
     pub const ALL: States = States(255);
+    /// The states whose values a bind may change without a full settle
+    /// ([`PipelineDepth::values_apart`]).
+    pub const VALUES: States = States(4 | 8 | 16 | 128);
 
     pub fn contains(self, other: States) -> bool {
         self.0 & other.0 == other.0
@@ -177,15 +180,25 @@ impl PipelineDepth {
     }
 
     /// Whether a settle after binding this pipeline in `other`'s place, nothing else changed,
-    /// sends what it sent for `other`: the same states dynamic (so binding it forgets nothing
-    /// revz sent), the same static values where revz made them dynamic, and the same facts
-    /// for the precise path (projection, carrier, derived range, push layout). Compared
-    /// exactly: floats by bits where revz compares what it sent by bits, and a NaN never
-    /// settles like anything (then the state is sent again: the safe answer). Not compared:
-    /// the variants, which the bind itself chooses.
+    /// sends what it sent for `other`: [`Self::values_apart`] of nothing.
     pub fn settles_like(&self, other: &PipelineDepth) -> bool {
+        self.values_apart(other) == Some(States::NONE)
+    }
+
+    /// What a settle after binding this pipeline in `other`'s place, nothing else changed,
+    /// sends that it did not send for `other`: `Some` of the states revz made dynamic whose
+    /// static values differ (compare op, bias, bounds, clamp range), where the two agree in
+    /// everything else a settle reads: the same states dynamic (so binding it forgets nothing
+    /// revz sent), the same viewports where revz made them dynamic, and the same facts for the
+    /// precise path (projection, carrier, derived range, push layout). `None`: a full settle.
+    /// A bind between two such pipelines re-evaluates only those states (issue #42: a LESS
+    /// and a LESS_OR_EQUAL pipeline, the commonest pair, differ in nothing else). Compared
+    /// exactly: floats by bits where revz compares what it sent by bits, and a NaN always
+    /// differs (the state is evaluated again: the safe answer). Not compared: the variants,
+    /// which the bind itself chooses.
+    pub fn values_apart(&self, other: &PipelineDepth) -> Option<States> {
         if std::ptr::eq(self, other) {
-            return true;
+            return Some(States::NONE);
         }
         let injected = self.injected;
         fn viewport_bits(p: &PipelineDepth) -> impl Iterator<Item = [u32; 6]> + '_ {
@@ -193,7 +206,7 @@ impl PipelineDepth {
                 .iter()
                 .map(|v| [v.x, v.y, v.width, v.height, v.min_depth, v.max_depth].map(f32::to_bits))
         }
-        self.app_dynamic == other.app_dynamic
+        let alike = self.app_dynamic == other.app_dynamic
             && injected == other.injected
             && self.unreversed_fragment == other.unreversed_fragment
             && self.projection == other.projection
@@ -202,15 +215,29 @@ impl PipelineDepth {
             && self.layout == other.layout
             && (!injected.contains(States::VIEWPORT)
                 || (self.viewports.len() == other.viewports.len()
-                    && viewport_bits(self).eq(viewport_bits(other))))
-            && (!injected.contains(States::COMPARE_OP) || self.compare_op == other.compare_op)
-            && (!injected.contains(States::BIAS) || self.bias == other.bias)
-            && (!injected.contains(States::BOUNDS)
-                || (self.bounds.0.to_bits(), self.bounds.1.to_bits())
-                    == (other.bounds.0.to_bits(), other.bounds.1.to_bits()))
-            && (!injected.contains(States::CLAMP_RANGE)
-                || (self.clamp_range.0.to_bits(), self.clamp_range.1.to_bits())
-                    == (other.clamp_range.0.to_bits(), other.clamp_range.1.to_bits()))
+                    && viewport_bits(self).eq(viewport_bits(other))));
+        if !alike {
+            return None;
+        }
+        // Two floats that certainly settle alike: the same bits, no NaN.
+        let same = |(a, b): (f32, f32), (c, d): (f32, f32)| {
+            (a.to_bits(), b.to_bits()) == (c.to_bits(), d.to_bits()) && !a.is_nan() && !b.is_nan()
+        };
+        let mut apart = States::NONE;
+        if self.compare_op != other.compare_op {
+            apart |= States::COMPARE_OP;
+        }
+        if self.bias != other.bias {
+            apart |= States::BIAS;
+        }
+        if !same(self.bounds, other.bounds) {
+            apart |= States::BOUNDS;
+        }
+        if !same(self.clamp_range, other.clamp_range) {
+            apart |= States::CLAMP_RANGE;
+        }
+        // Static values of states the application sets (or revz leaves static) are not sent.
+        Some(apart & injected & States::VALUES)
     }
 
     /// The pipelines revz made for this one (to destroy with it).

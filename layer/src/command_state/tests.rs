@@ -1156,6 +1156,140 @@ fn settles_like_compares_what_revz_sends_and_nan_never_matches() {
 }
 
 #[test]
+fn values_apart_names_the_states_whose_static_values_differ() {
+    let base = static_pipeline();
+    let with = |f: &dyn Fn(&mut PipelineDepth)| {
+        let mut p = (*base).clone();
+        f(&mut p);
+        p
+    };
+    let apart = |p: &PipelineDepth| {
+        let there = base.values_apart(p);
+        assert_eq!(there, p.values_apart(&base), "symmetric: {p:?}");
+        there
+    };
+    assert_eq!(
+        apart(&with(&|p| p.handle = vk::Pipeline::from_raw(9))),
+        Some(States::NONE)
+    );
+    assert_eq!(
+        apart(&with(&|p| p.compare_op = vk::CompareOp::LESS_OR_EQUAL)),
+        Some(States::COMPARE_OP)
+    );
+    assert_eq!(
+        apart(&with(&|p| {
+            p.compare_op = vk::CompareOp::GREATER;
+            p.bias.slope = 1.0;
+        })),
+        Some(States::COMPARE_OP | States::BIAS)
+    );
+    // Injected bounds and clamp ranges, by bits; a NaN always differs.
+    let ranged = with(&|p| {
+        p.injected |= States::BOUNDS | States::CLAMP_RANGE;
+        p.bounds = (0.25, 0.5);
+    });
+    let mut other = ranged.clone();
+    other.clamp_range = (0.0, -0.0);
+    assert_eq!(ranged.values_apart(&other), Some(States::CLAMP_RANGE));
+    other.bounds = (0.25, f32::NAN);
+    assert_eq!(
+        ranged.values_apart(&other),
+        Some(States::BOUNDS | States::CLAMP_RANGE)
+    );
+    let nan = other.clone();
+    assert_eq!(nan.values_apart(&other), Some(States::BOUNDS));
+    // Values of states revz leaves static are the bind's: nothing to send.
+    assert_eq!(apart(&with(&|p| p.bounds = (0.2, 0.3))), Some(States::NONE));
+    // Anything else a settle reads: a full settle.
+    for changed in [
+        with(&|p| p.viewports = vec![viewport(0.0, 0.5)]),
+        with(&|p| p.injected = States::VIEWPORT),
+        with(&|p| p.layout = vk::PipelineLayout::from_raw(7)),
+    ] {
+        assert_eq!(apart(&changed), None, "{changed:?}");
+    }
+}
+
+#[test]
+fn a_bind_of_a_pipeline_apart_only_in_values_sends_those_values_alone() {
+    // The bench's pair: a LESS and a LESS_OR_EQUAL pipeline, compare op and bias made
+    // dynamic by revz, the same projection and carrier.
+    let with = |handle: u64, op: vk::CompareOp, slope: f32| {
+        Arc::new(PipelineDepth {
+            handle: vk::Pipeline::from_raw(handle),
+            compare_op: op,
+            bias: DepthBias {
+                slope,
+                ..static_pipeline().bias
+            },
+            ..(*projection_pipeline()).clone()
+        })
+    };
+    let less = with(60, vk::CompareOp::LESS, -2.0);
+    let less_or_equal = with(70, vk::CompareOp::LESS_OR_EQUAL, -2.0);
+    let biased = with(80, vk::CompareOp::LESS, -4.0);
+    let mut state = precise(RewriteTarget::Complementary);
+    state.begin(
+        Target::Reversed,
+        Reversal::Complementary,
+        Cameras::default(),
+    );
+    let mut sink = Recorded::default();
+    bind(&mut state, &less);
+    state.push_constants(
+        layout(),
+        vk::ShaderStageFlags::VERTEX,
+        0,
+        &perspective_bytes(),
+    );
+    state.settle(&mut sink);
+    // A push of the same bits takes the shortcut the settle wrote down.
+    state.push_constants(
+        layout(),
+        vk::ShaderStageFlags::VERTEX,
+        0,
+        &perspective_bytes(),
+    );
+    state.settle(&mut sink);
+    let settled = sink.clone();
+    assert_eq!(settled.compare_ops, vec![vk::CompareOp::GREATER]);
+    assert_eq!(state.path(), DrawPath::Precise);
+    for (pipeline, op, slope) in [
+        (&less_or_equal, vk::CompareOp::GREATER_OR_EQUAL, None),
+        (&less, vk::CompareOp::GREATER, None),
+        (&biased, vk::CompareOp::GREATER, Some(4.0)),
+        (&less_or_equal, vk::CompareOp::GREATER_OR_EQUAL, Some(2.0)),
+    ] {
+        let before = sink.clone();
+        bind(&mut state, pipeline);
+        assert!(state.wants_settle());
+        assert!(state.has_push_shortcut(), "the push shortcut stays");
+        state.settle(&mut sink);
+        assert!(!state.wants_settle());
+        let mut expected = before.clone();
+        if before.compare_ops.last() != Some(&op) {
+            expected.compare_ops.push(op);
+        }
+        if let Some(slope) = slope {
+            expected.biases.push(DepthBias {
+                slope,
+                ..*before.biases.last().unwrap()
+            });
+        }
+        assert_eq!(
+            sink, expected,
+            "only the values that changed, after binding {pipeline:?}"
+        );
+        assert_eq!(state.path(), DrawPath::Precise);
+    }
+    // What the values path left is what a full settle finds: nothing more to send.
+    state.set_compare_op(vk::CompareOp::NEVER);
+    let before = sink.clone();
+    state.settle(&mut sink);
+    assert_eq!(sink, before);
+}
+
+#[test]
 fn an_infinite_mode_draw_that_clamps_depth_dynamically_takes_the_flip_path() {
     // Zink: the depth clamp is dynamic in every pipeline and enabled for GL_DEPTH_CLAMP.
     let pipeline = Arc::new(PipelineDepth {
@@ -1348,11 +1482,18 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
         handle: vk::Pipeline::from_raw(APP_PIPELINE + 1),
         ..(*projection_pipeline()).clone()
     });
+    // Apart from the first only in values (a bind between them keeps the shortcut).
+    let less_or_equal = Arc::new(PipelineDepth {
+        compare_op: vk::CompareOp::LESS_OR_EQUAL,
+        handle: vk::Pipeline::from_raw(APP_PIPELINE + 2),
+        ..(*projection_pipeline()).clone()
+    });
     let pipelines = [
         projection_pipeline(),
         flip_only,
         static_pipeline(),
         derived_pipeline(),
+        less_or_equal,
     ];
     let layouts = [layout(), vk::PipelineLayout::from_raw(4)];
     for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
@@ -1421,7 +1562,13 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
             } else if pick < 88 {
                 let pipeline = &pipelines[(random >> 9) as usize % pipelines.len()];
                 state.bind_pipeline(Some(Arc::clone(pipeline)));
+                // A bind that left the state settled sends what a full settle would.
+                let mut full = state.clone();
+                full.mark_dirty();
+                let mut full_sink = Recorded::default();
+                full.settle(&mut full_sink);
                 state.settle(&mut sink);
+                assert_eq!(sink, full_sink, "step {step}");
             } else if pick < 91 {
                 let to = if random % 2 == 0 {
                     Target::Native
