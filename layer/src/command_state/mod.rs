@@ -818,15 +818,21 @@ impl CommandState {
             }
             _ => None,
         };
-        self.bind_graphics(slot);
+        match apart {
+            Some(apart) => {
+                // What `bind_graphics` would change besides the slot is the same for both
+                // pipelines (the states they make dynamic, what bars the precise path), and
+                // the push shortcut stays as it was: what it read of the pipeline (its
+                // projection, carrier and layout) is the previous one's.
+                self.bound = slot;
+                self.variant_bound = None;
+                self.pushed_since_bind = false;
+                self.values_pending |= apart;
+            }
+            None => self.bind_graphics(slot),
+        }
         self.fragment_shader = (vk::ShaderEXT::null(), None);
         self.shader_variant_bound = false;
-        if let Some(apart) = apart {
-            // The push shortcut stays as it was: what it read of the pipeline (its
-            // projection, carrier and layout) is the previous one's, and nothing else changed.
-            self.dirty = false;
-            self.values_pending |= apart;
-        }
     }
 
     /// The bound graphics pipeline's depth state, if it is tracked.
@@ -1012,10 +1018,16 @@ impl CommandState {
         outcome
     }
 
-    /// Makes the next settle a full one (tests compare it with the shorter ones).
+    /// [`Self::bind_pipeline`] whose next settle is a full one whatever the pipeline bound
+    /// before (tests compare it with the shorter ones).
     #[cfg(test)]
-    pub(crate) fn mark_dirty(&mut self) {
-        self.dirty = true;
+    pub(crate) fn bind_pipeline_unsettled(
+        &mut self,
+        pipeline: Option<std::sync::Arc<PipelineDepth>>,
+    ) {
+        let handle = pipeline.as_ref().map_or(vk::Pipeline::null(), |p| p.handle);
+        let slot = self.known.insert(handle, pipeline);
+        self.bind_slot(Some(slot), None);
     }
 
     /// Whether [`Self::settle`] would send anything: state changed since the last settle, in a
@@ -1169,25 +1181,31 @@ impl CommandState {
     /// (compare op, bias, clip convention, bounds, clamp range), those of `only`: each goes down
     /// where its value changed since it was last sent.
     fn emit_values(&mut self, sink: &mut impl StateSink, only: States) {
-        let converted = self.path == DrawPath::Precise
-            && matches!(
-                self.derived_use(),
-                Some((_, DepthConvention::NegativeOneToOne))
-            );
-        let reversal = self.target_reversing().reversal;
         let bound = self
             .bound
             .and_then(|slot| self.known.slots[slot].1.as_ref());
-        let sink = &mut Filtered {
-            sink,
-            last: &mut self.emitted,
-        };
-        let reversed = self.target == Target::Reversed;
         let (from_app, injected, pipeline) = match bound {
             Some(p) => (self.app_set & p.app_dynamic, p.injected, Some(&**p)),
             None => (self.app_set, States::NONE, None),
         };
         let (from_app, injected) = (from_app & only, injected & only);
+        // Evaluated only where a state sent reads them (a bind's settle evaluates one state).
+        let converted = from_app.contains(States::CLIP_CONTROL)
+            && self.path == DrawPath::Precise
+            && matches!(
+                self.derived_use(),
+                Some((_, DepthConvention::NegativeOneToOne))
+            );
+        let reversal = if (from_app | injected).intersects(States::BOUNDS | States::CLAMP_RANGE) {
+            self.target_reversing().reversal
+        } else {
+            Reversal::Complementary
+        };
+        let reversed = self.target == Target::Reversed;
+        let sink = &mut Filtered {
+            sink,
+            last: &mut self.emitted,
+        };
         let pick = |state: States| {
             if from_app.contains(state) {
                 Some(true)

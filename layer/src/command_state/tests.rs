@@ -1502,7 +1502,7 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
         state.begin(Target::Reversed, reversal, Cameras::default());
         state.bind_pipeline(Some(Arc::clone(&pipelines[0])));
         let mut random = 0x9e37_79b9_7f4a_7c15u64;
-        let (mut taken, mut same_camera_pushes) = (0, 0);
+        let (mut taken, mut same_camera_pushes, mut values_binds) = (0, 0, 0);
         for step in 0..4000 {
             random ^= random << 13;
             random ^= random >> 7;
@@ -1561,14 +1561,26 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
                 }
             } else if pick < 88 {
                 let pipeline = &pipelines[(random >> 9) as usize % pipelines.len()];
-                state.bind_pipeline(Some(Arc::clone(pipeline)));
-                // A bind that left the state settled sends what a full settle would.
+                // A bind that leaves the state settled sends what a full settle after the
+                // bind would, and leaves the state as that does.
                 let mut full = state.clone();
-                full.mark_dirty();
+                full.bind_pipeline_unsettled(Some(Arc::clone(pipeline)));
                 let mut full_sink = Recorded::default();
                 full.settle(&mut full_sink);
+                state.bind_pipeline(Some(Arc::clone(pipeline)));
+                values_binds += usize::from(!state.dirty);
                 state.settle(&mut sink);
                 assert_eq!(sink, full_sink, "step {step}");
+                let without_shortcut = |state: &CommandState| {
+                    let mut state = state.clone();
+                    state.drop_shortcut();
+                    format!("{state:?}")
+                };
+                assert_eq!(
+                    without_shortcut(&state),
+                    without_shortcut(&full),
+                    "step {step}"
+                );
             } else if pick < 91 {
                 let to = if random % 2 == 0 {
                     Target::Native
@@ -1590,7 +1602,14 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
                 state.before_draw(&mut sink);
             }
         }
-        eprintln!("{target:?}: {taken} shortcuts, {same_camera_pushes} projection pushes");
+        eprintln!(
+            "{target:?}: {taken} shortcuts, {same_camera_pushes} projection pushes, \
+             {values_binds} binds kept settled"
+        );
+        assert!(
+            values_binds >= 20,
+            "{target:?}: {values_binds} binds kept settled"
+        );
         assert!(
             taken * 10 >= same_camera_pushes * 6,
             "{target:?}: {taken} shortcuts of {same_camera_pushes} pushes of a projection"
