@@ -1082,7 +1082,7 @@ fn inline_spirv_first_in_the_stage_chain_is_skipped_by_the_variant_stage() {
     assert_eq!(app_stage.p_next, inline_address, "the application's chain");
     assert_eq!(app_stage.inline_code.as_deref(), Some(words.as_slice()));
     // Rewritten once for this code, kept for the next pipeline that chains it.
-    assert_eq!(fx.state.objects.inline_fragment.len(), 1);
+    assert_eq!(fx.state.objects.fragment_codes.len(), 1);
     fx.finish();
 }
 
@@ -2423,5 +2423,50 @@ fn input_reads_are_converted_in_infinite_mode_too() {
     };
     assert_eq!(*code, converted);
     assert_eq!(fx.recorded(handle).input_variant, Some(*input));
+    fx.finish();
+}
+
+#[test]
+fn modules_of_code_seen_before_are_analyzed_once_and_get_the_same_rewrites() {
+    // An application creating a module per pipeline from the same code: the analysis and
+    // the rewrites are made at the first module and looked up for the others, even after
+    // the first one is destroyed.
+    let fx = Fixture::with_settings(&[(c"mode", c"complementary")]);
+    let projected = test_spirv::compile_glsl(
+        naga::ShaderStage::Vertex,
+        "#version 450
+        layout(push_constant) uniform PushConstants { mat4 mvp; } pc;
+        layout(location = 0) in vec3 position;
+        void main() { gl_Position = pc.mvp * vec4(position, 1.0); }",
+    );
+    let objects = &fx.state.objects;
+    let first = fx.module(&projected);
+    let rewrite_of = |module| match objects.position_stores.get(&module) {
+        Some(Ok(rewrite)) => rewrite.code,
+        other => panic!("no Position rewrite: {other:?}"),
+    };
+    let first_code = rewrite_of(first);
+    let first_analysis = objects.vertex_modules.get(&first).expect("analyzed");
+    let second = fx.module(&projected);
+    assert_ne!(first, second);
+    assert!(
+        Arc::ptr_eq(&rewrite_of(second), &first_code),
+        "the same rewrite"
+    );
+    assert!(Arc::ptr_eq(
+        &objects.vertex_modules.get(&second).expect("analyzed"),
+        &first_analysis
+    ));
+    // SAFETY: a live device and a module it created.
+    unsafe { (fx.hooks.destroy_shader_module)(fx.device, first, std::ptr::null()) };
+    fx.events();
+    fx.modules.borrow_mut().retain(|&m| m != first);
+    assert!(objects.position_stores.get(&first).is_none());
+    let third = fx.module(&projected);
+    assert!(Arc::ptr_eq(&rewrite_of(third), &first_code));
+    assert_eq!(objects.vertex_codes.len(), 1, "one code analyzed");
+    // Other code is analyzed for itself.
+    fx.vertex_module();
+    assert_eq!(objects.vertex_codes.len(), 2);
     fx.finish();
 }

@@ -8,7 +8,7 @@
 //! (`command_buffers.rs`).
 
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError, RwLock};
 
 use ash::vk;
@@ -226,10 +226,15 @@ impl<K: std::hash::Hash + Eq, V: Clone> Table<K, V> {
     }
 
     pub fn insert(&self, key: K, value: V) {
+        self.replace(key, value);
+    }
+
+    /// [`Self::insert`], returning the value it replaced.
+    pub fn replace(&self, key: K, value: V) -> Option<V> {
         self.0
             .write()
             .unwrap_or_else(PoisonError::into_inner)
-            .insert(key, value);
+            .insert(key, value)
     }
 
     pub fn remove(&self, key: &K) -> Option<V> {
@@ -270,18 +275,28 @@ impl<K: std::hash::Hash + Eq, V: Clone> Default for Table<K, V> {
     }
 }
 
-/// What revz made of SPIR-V chained into pipeline stages (`VkShaderModuleCreateInfo` in a
-/// stage's `pNext`), by the code's hash. Each entry keeps its words, compared on a hit, so a
-/// hash collision is a miss. Inline code has no destroy: at most [`InlineCodes::CAPACITY`]
-/// codes are kept, and past that each creation does the work again.
+/// What revz made of SPIR-V, by the code's content: shader modules (their analysis and
+/// rewrites made at creation) and SPIR-V chained into pipeline stages
+/// (`VkShaderModuleCreateInfo` in a stage's `pNext`). Applications create modules of the same
+/// code again and again (a module per pipeline from a cached blob, translation layers per
+/// variant): the code is analyzed once (issue #42). Each entry keeps its words, compared on a
+/// hit, so a hash collision is a miss. Entries outlive their modules (the code may come back);
+/// at most [`CodeCache::CAPACITY`] codes and [`CodeCache::BUDGET_WORDS`] words are kept, and
+/// past that each creation does the work again.
 #[derive(Debug)]
-pub struct InlineCodes<T>(Table<u64, Arc<InlineCode<T>>>);
+pub struct CodeCache<T> {
+    codes: Table<u64, Arc<CachedCode<T>>>,
+    /// The words the entries hold.
+    words: AtomicUsize,
+}
 
 /// One kept code: its words and what was made of them.
-type InlineCode<T> = (Arc<[u32]>, T);
+type CachedCode<T> = (Arc<[u32]>, T);
 
-impl<T: Clone> InlineCodes<T> {
+impl<T: Clone> CodeCache<T> {
     pub const CAPACITY: usize = 1024;
+    /// 16 MiB of code.
+    pub const BUDGET_WORDS: usize = 4 << 20;
 
     /// What `make` makes of `words`, made once per distinct code.
     pub fn get_or_make(&self, words: &[u32], make: impl FnOnce() -> T) -> T {
@@ -289,21 +304,30 @@ impl<T: Clone> InlineCodes<T> {
         let mut hasher = rustc_hash::FxHasher::default();
         words.hash(&mut hasher);
         let key = hasher.finish();
-        if let Some(hit) = self.0.get(&key) {
+        if let Some(hit) = self.codes.get(&key) {
             if *hit.0 == *words {
                 return hit.1.clone();
             }
         }
         let made = make();
-        if self.0.len() < Self::CAPACITY {
-            self.0.insert(key, Arc::new((words.into(), made.clone())));
+        let kept = self.words.load(Ordering::Relaxed);
+        if self.codes.len() < Self::CAPACITY && kept + words.len() <= Self::BUDGET_WORDS {
+            // A replaced entry (a collision, or two threads making the same code) gives its
+            // words back.
+            let replaced = self
+                .codes
+                .replace(key, Arc::new((words.into(), made.clone())));
+            self.words.fetch_add(words.len(), Ordering::Relaxed);
+            if let Some(replaced) = replaced {
+                self.words.fetch_sub(replaced.0.len(), Ordering::Relaxed);
+            }
         }
         made
     }
 
     /// How many distinct codes are kept.
     pub fn len(&self) -> usize {
-        self.0.len()
+        self.codes.len()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -311,9 +335,12 @@ impl<T: Clone> InlineCodes<T> {
     }
 }
 
-impl<T: Clone> Default for InlineCodes<T> {
+impl<T: Clone> Default for CodeCache<T> {
     fn default() -> Self {
-        InlineCodes(Table::new())
+        CodeCache {
+            codes: Table::new(),
+            words: AtomicUsize::new(0),
+        }
     }
 }
 
@@ -427,11 +454,13 @@ pub struct DeviceObjects {
     /// enabled a later stage: what a geometry or tessellation evaluation stage that projects
     /// `gl_in[i].gl_Position` needs of the stage before.
     pub position_w_one: Table<vk::ShaderModule, bool>,
-    /// SPIR-V chained into vertex stages instead of a module: analyzed and rewritten once per
-    /// distinct code, not at every pipeline creation.
-    pub inline_vertex: InlineCodes<(Arc<ModuleAnalysis>, Option<RewrittenVertex>)>,
-    /// SPIR-V chained into fragment stages: rewritten once per distinct code.
-    pub inline_fragment: InlineCodes<Option<ReversedFragment>>,
+    /// The code of vertex modules and of SPIR-V chained into vertex stages instead of a
+    /// module: analyzed and rewritten once per distinct code, not at every module or pipeline
+    /// creation.
+    pub vertex_codes: CodeCache<(Arc<ModuleAnalysis>, Option<RewrittenVertex>)>,
+    /// SPIR-V chained into fragment stages: rewritten once per distinct code (a module's is
+    /// rewritten at its creation, one pass over its words).
+    pub fragment_codes: CodeCache<Option<ReversedFragment>>,
     /// The code of fragment modules that declare input attachments, where the policy converts
     /// depth read through them (`crate::policy::DevicePolicy::converts_input_reads`): which
     /// input attachment reads depth is known only with a pipeline's render pass, so their
@@ -900,7 +929,7 @@ mod tests {
 
     #[test]
     fn inline_code_is_made_once_per_distinct_code() {
-        let codes: InlineCodes<usize> = InlineCodes::default();
+        let codes: CodeCache<usize> = CodeCache::default();
         let made = std::cell::Cell::new(0);
         let make = |words: &[u32]| {
             codes.get_or_make(words, || {
@@ -913,6 +942,26 @@ mod tests {
         assert_eq!(made.get(), 1, "the same code again: kept");
         assert_eq!(make(&[1, 2, 4, 5]), 4);
         assert_eq!((made.get(), codes.len()), (2, 2));
+    }
+
+    #[test]
+    fn codes_past_the_word_budget_are_made_each_time() {
+        let codes: CodeCache<usize> = CodeCache::default();
+        let made = std::cell::Cell::new(0);
+        let make = |words: &[u32]| {
+            codes.get_or_make(words, || {
+                made.set(made.get() + 1);
+                words.len()
+            })
+        };
+        let half = CodeCache::<usize>::BUDGET_WORDS / 2 + 1;
+        let (a, b) = (vec![1; half], vec![2; half]);
+        assert_eq!(make(&a), half);
+        assert_eq!(make(&b), half);
+        assert_eq!(make(&b), half);
+        assert_eq!((made.get(), codes.len()), (3, 1), "b does not fit beside a");
+        assert_eq!(make(&a), half);
+        assert_eq!(made.get(), 3, "a is kept");
     }
 
     /// A tracked D32 image with handle `raw`, and a view of it (handle `raw + 100`).

@@ -98,6 +98,11 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 200)]
     pub pipelines: usize,
 
+    /// A pipeline-storm child (hidden): every vertex module of the same code, as applications
+    /// that create a module per pipeline from one blob do.
+    #[arg(long, hide = true)]
+    pub repeated_code: bool,
+
     /// Calls per loop in the micro-benchmark.
     #[arg(long, default_value_t = 100_000)]
     pub calls: usize,
@@ -218,6 +223,7 @@ fn run_child(args: &BenchArgs, role: Role) -> Result<ExitCode> {
             &gpu,
             config.pipelines,
             config.repeats,
+            args.repeated_code,
         )?)?,
         Role::Micro => serde_json::to_value(child::micro(&gpu, config.calls, config.repeats)?)?,
         Role::DepthCopy => {
@@ -277,6 +283,8 @@ enum Job {
     /// [`MICRO_INSTRUCTION_CALLS`] calls a loop.
     MicroInstructions,
     PipelineStorm,
+    /// The pipeline storm with every vertex module of one code (revz analyzes it once).
+    PipelineStormRepeated,
     DepthCopy,
     Smoke,
 }
@@ -291,6 +299,7 @@ impl Job {
             Job::Micro => "micro".into(),
             Job::MicroInstructions => "micro-instructions".into(),
             Job::PipelineStorm => "pipeline-storm".into(),
+            Job::PipelineStormRepeated => "pipeline-storm-repeated-code".into(),
             Job::DepthCopy => "depth-copy".into(),
             Job::Smoke => "smoke".into(),
         }
@@ -339,6 +348,7 @@ fn run_parent(args: &BenchArgs) -> Result<ExitCode> {
         jobs.push(Job::MicroInstructions);
     }
     jobs.push(Job::PipelineStorm);
+    jobs.push(Job::PipelineStormRepeated);
     jobs.push(Job::DepthCopy);
     if config.validation {
         jobs.push(Job::Smoke);
@@ -516,7 +526,7 @@ fn run_one(
         | Job::DrawStormCounted(..)
         | Job::DrawStormInstructions(..) => "draw-storm",
         Job::Micro | Job::MicroInstructions => "micro",
-        Job::PipelineStorm => "pipeline-storm",
+        Job::PipelineStorm | Job::PipelineStormRepeated => "pipeline-storm",
         Job::DepthCopy => "depth-copy",
         Job::Smoke => "smoke",
     };
@@ -562,6 +572,9 @@ fn run_one(
     }
     if config.validation {
         owned.push("--validation".into());
+    }
+    if let Job::PipelineStormRepeated = job {
+        owned.push("--repeated-code".into());
     }
     let argv: Vec<&str> = owned.iter().map(String::as_str).collect();
     let profile_dir =
@@ -891,6 +904,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
     let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
     let diff = |a: f64, b: f64| a - b;
     let pipe = Job::PipelineStorm.name();
+    let pipe_repeated = Job::PipelineStormRepeated.name();
     let micro = Job::Micro.name();
     let micro_counted = Job::MicroInstructions.name();
     let copy = Job::DepthCopy.name();
@@ -948,6 +962,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                 "frame_instructions_runs": per_round(samples, &counted_storm, v, rounds).iter().flatten().count(),
                 "pipeline_creation_ratio": paired(samples, &pipe, v, rounds, "create_wall_ns", ratio),
                 "pipeline_creation_cpu_ratio": paired(samples, &pipe, v, rounds, "create_cpu_ns", ratio),
+                "pipeline_creation_ratio_repeated_code": paired(samples, &pipe_repeated, v, rounds, "create_wall_ns", ratio),
                 "ns_per_push_constant": paired(samples, &micro, v, rounds, "push_constant_ns", diff),
                 "ns_per_push_one_camera": paired(samples, &micro, v, rounds, "push_one_camera_ns", diff),
                 "ns_per_draw": paired(samples, &micro, v, rounds, "draw_ns", diff),
@@ -1006,6 +1021,7 @@ fn summarize(samples: &[Sample], config: &Config, device: &str, driver: &str) ->
                     "frame_cpu_ratio": paired_spread(samples, &big, v, rounds, "frame_cpu_ns", ratio),
                     "frame_cpu_ratio_projection_per_draw": paired_spread(samples, &varying, v, rounds, "frame_cpu_ns", ratio),
                     "pipeline_creation_ratio": paired_spread(samples, &pipe, v, rounds, "create_wall_ns", ratio),
+                    "pipeline_creation_ratio_repeated_code": paired_spread(samples, &pipe_repeated, v, rounds, "create_wall_ns", ratio),
                     "ns_per_push_constant": paired_spread(samples, &micro, v, rounds, "push_constant_ns", diff),
                     "ns_per_push_one_camera": paired_spread(samples, &micro, v, rounds, "push_one_camera_ns", diff),
                     "ns_per_draw": paired_spread(samples, &micro, v, rounds, "draw_ns", diff),

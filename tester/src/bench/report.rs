@@ -182,7 +182,8 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
     ));
     header.push_str(
         " frame wall ratio | frame instructions ratio (callgrind, smallest of 5) | \
-         frame instructions ratio (a projection per draw) | pipeline creation ratio | ns / push (one camera) | \
+         frame instructions ratio (a projection per draw) | pipeline creation ratio | \
+         pipeline creation ratio (one code) | ns / push (one camera) | \
          ns / push (a new camera each) | ns / draw | \
          ns / bind | instructions / push (one camera) | instructions / push (a new camera each) | \
          instructions / draw | instructions / bind | driver calls / frame (largest storm) | depth copy wall ratio (1 MP, D32) | depth copy extra ms / MP | \
@@ -209,13 +210,14 @@ fn table(device: &str, driver: &str, compare_op: &str, rows: &[Value], draws: &[
             ));
         }
         line.push_str(&format!(
-            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            " {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             fmt_spread(row, "frame_cpu_ratio_projection_per_draw", 3),
             fmt_spread(row, "frame_cpu_ratio_with_report", 3),
             fmt(&row["frame_wall_ratio"], 3),
             fmt(&row["frame_instructions_ratio"], 4),
             fmt(&row["frame_instructions_ratio_projection_per_draw"], 4),
             fmt_spread(row, "pipeline_creation_ratio", 3),
+            fmt_spread(row, "pipeline_creation_ratio_repeated_code", 3),
             fmt_spread(row, "ns_per_push_one_camera", 1),
             fmt_spread(row, "ns_per_push_constant", 1),
             fmt_spread(row, "ns_per_draw", 1),

@@ -23,7 +23,7 @@ pub(super) fn fragment_stage_rewrite(
         state.objects.fragment_depth_modules.get(&stage.module)?
     } else {
         let words = inline_code(stage)?;
-        state.objects.inline_fragment.get_or_make(words, || {
+        state.objects.fragment_codes.get_or_make(words, || {
             rewrite_fragment_module(vk::ShaderModule::null(), words)
         })?
     };
@@ -141,6 +141,21 @@ pub(super) fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> 
     analysis
 }
 
+/// The analysis and `Position` rewrite of vertex stage code (a module's, `module`, or SPIR-V
+/// chained into a stage, `module` null), made once per distinct code
+/// (`DeviceObjects::vertex_codes`; what is logged about the code names the first module).
+pub(super) fn vertex_code(
+    state: &DeviceState,
+    module: vk::ShaderModule,
+    words: &[u32],
+) -> (Arc<ModuleAnalysis>, Option<RewrittenVertex>) {
+    state.objects.vertex_codes.get_or_make(words, || {
+        let analysis = analyze_vertex_module(module, words);
+        let rewrite = position_store_of(state, &analysis, words);
+        (Arc::new(analysis), rewrite)
+    })
+}
+
 /// The SPIR-V chained into a stage instead of a module (`VkShaderModuleCreateInfo` in its
 /// `pNext`), if any.
 pub(super) fn inline_code<'a>(
@@ -217,6 +232,7 @@ pub unsafe extern "system" fn create_shader_module(
             let words = unsafe { slice(info.p_code, (info.code_size / 4) as u32) };
             // SAFETY: valid on success.
             let module = unsafe { *p_module };
+            // One pass over the words: not worth keeping the code for.
             if vertex_stage::analyses_fragment_module(state.policy.is_active()) {
                 if let Some(rewrite) = rewrite_fragment_module(module, words) {
                     state.objects.fragment_depth_modules.insert(module, rewrite);
@@ -229,11 +245,13 @@ pub unsafe extern "system" fn create_shader_module(
             }
             // Only the stages that can store the rasterized Position are analyzed and
             // rewritten (fragment and compute modules with push constants are not parsed).
+            // The naga analysis and the rewrite are made once per distinct code
+            // (`DeviceObjects::vertex_codes`): a module of code seen before is looked up.
             if vertex_stage::analyses_vertex_module(state.policy.rewrite().is_some(), || {
                 crate::shader::scan::declares_position_stage_entry_point(words)
             }) {
-                let analysis = analyze_vertex_module(module, words);
-                if let Some(rewrite) = position_store_of(&state, &analysis, words) {
+                let (analysis, rewrite) = vertex_code(&state, module, words);
+                if let Some(rewrite) = rewrite {
                     state.objects.position_stores.insert(module, rewrite);
                 }
                 // Only where a later stage may read this one's Position.
@@ -243,10 +261,7 @@ pub unsafe extern "system" fn create_shader_module(
                         .position_w_one
                         .insert(module, position_store::stores_position_w_one(words));
                 }
-                state
-                    .objects
-                    .vertex_modules
-                    .insert(module, Arc::new(analysis));
+                state.objects.vertex_modules.insert(module, analysis);
             }
         });
     }

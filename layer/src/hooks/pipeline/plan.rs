@@ -523,7 +523,7 @@ pub(super) fn context(
 }
 
 /// The analysis and `Position` rewrite of SPIR-V chained into a vertex stage, made once per
-/// distinct code (`DeviceObjects::inline_vertex`).
+/// distinct code (`DeviceObjects::vertex_codes`).
 fn inline_vertex(
     state: &DeviceState,
     words: &[u32],
@@ -531,11 +531,7 @@ fn inline_vertex(
     Arc<crate::objects::ModuleAnalysis>,
     Option<crate::objects::RewrittenVertex>,
 ) {
-    state.objects.inline_vertex.get_or_make(words, || {
-        let analysis = analyze_vertex_module(vk::ShaderModule::null(), words);
-        let rewrite = position_store_of(state, &analysis, words);
-        (Arc::new(analysis), rewrite)
-    })
+    super::modules::vertex_code(state, vk::ShaderModule::null(), words)
 }
 
 /// Whether the stage before the last pre-rasterization stage `last` (a geometry stage's

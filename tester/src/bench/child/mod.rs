@@ -421,13 +421,20 @@ pub struct PipelineStorm {
 }
 
 /// The pipeline storm: `count` pipelines, each from its own vertex module, created `repeats`
-/// times (new modules each time; the pipelines are destroyed between repeats).
-pub fn pipeline_storm(gpu: &Gpu, count: usize, repeats: usize) -> Result<PipelineStorm> {
+/// times (new modules each time; the pipelines are destroyed between repeats). The modules'
+/// code differs (an unused constant each), or with `repeated_code` is one code, not that of
+/// the first pipeline created before the measurement.
+pub fn pipeline_storm(
+    gpu: &Gpu,
+    count: usize,
+    repeats: usize,
+    repeated_code: bool,
+) -> Result<PipelineStorm> {
     let mut bench = Bench::new(gpu)?;
     let base = shaders::SCENE_VERT.words()?;
     let repeats = repeats.max(1);
     let modules: Vec<Vec<u32>> = (0..count * repeats)
-        .map(|i| with_unused_constant(&base, 1000.0 + i as f32))
+        .map(|i| with_unused_constant(&base, 1000.0 + if repeated_code { 0.0 } else { i as f32 }))
         .collect::<Result<_>>()?;
     // One pipeline first, so that one-time costs (the driver's and the layer's first
     // pipeline) are not counted.
@@ -868,7 +875,8 @@ fn depth_copy_of(
 /// test's check that what the benchmark records is valid Vulkan.
 pub fn smoke(gpu: &Gpu) -> Result<()> {
     draw_storm(gpu, 40, 2, 1, 1)?;
-    pipeline_storm(gpu, 3, 2)?;
+    pipeline_storm(gpu, 3, 2, false)?;
+    pipeline_storm(gpu, 3, 2, true)?;
     micro(gpu, 50, 1)?;
     let mut bench = Bench::new(gpu)?;
     bench.standard_pipelines()?;
