@@ -814,16 +814,25 @@ impl CommandState {
             // An untracked pipeline may set anything statically: what the application set
             // goes down again after it.
             (Some(slot), Some((previous, handle))) if self.known.slots[previous].0 == handle => {
-                self.known.values_apart(previous, slot)
+                self.known
+                    .values_apart(previous, slot)
+                    .map(|apart| (slot, apart))
             }
             _ => None,
         };
         match apart {
-            Some(apart) => {
-                // What `bind_graphics` would change besides the slot is the same for both
-                // pipelines (the states they make dynamic, what bars the precise path), and
-                // the push shortcut stays as it was: what it read of the pipeline (its
-                // projection, carrier and layout) is the previous one's.
+            Some((index, apart)) => {
+                // What bars the precise path is the same for both pipelines (they make the
+                // same states dynamic), and the push shortcut stays as it was: what it read of
+                // the pipeline (its projection, carrier and layout) is the previous one's.
+                // What was sent of the states the pipeline sets statically is forgotten again:
+                // the bind overwrites them, and something may have sent them since the
+                // previous bind (the viewports flushed for secondaries; found in review).
+                let dynamic = self.known.slots[index]
+                    .1
+                    .as_ref()
+                    .map_or(States::NONE, |p| p.app_dynamic | p.injected);
+                self.emitted.forget_static(dynamic);
                 self.bound = slot;
                 self.variant_bound = None;
                 self.pushed_since_bind = false;

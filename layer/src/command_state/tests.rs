@@ -1114,14 +1114,17 @@ fn sink_of() -> Recorded {
     Recorded::default()
 }
 
+/// [`static_pipeline`] changed by `change`.
+fn static_pipeline_with(change: &dyn Fn(&mut PipelineDepth)) -> PipelineDepth {
+    let mut pipeline = (*static_pipeline()).clone();
+    change(&mut pipeline);
+    pipeline
+}
+
 #[test]
 fn settles_like_compares_what_revz_sends_and_nan_never_matches() {
     let base = static_pipeline();
-    let with = |f: &dyn Fn(&mut PipelineDepth)| {
-        let mut p = (*base).clone();
-        f(&mut p);
-        p
-    };
+    let with = static_pipeline_with;
     assert!(base.settles_like(&with(&|p| p.handle = vk::Pipeline::from_raw(9))));
     assert!(base.settles_like(&with(
         &|p| p.reversed_variant = Some(vk::Pipeline::from_raw(9))
@@ -1158,11 +1161,7 @@ fn settles_like_compares_what_revz_sends_and_nan_never_matches() {
 #[test]
 fn values_apart_names_the_states_whose_static_values_differ() {
     let base = static_pipeline();
-    let with = |f: &dyn Fn(&mut PipelineDepth)| {
-        let mut p = (*base).clone();
-        f(&mut p);
-        p
-    };
+    let with = static_pipeline_with;
     let apart = |p: &PipelineDepth| {
         let there = base.values_apart(p);
         assert_eq!(there, p.values_apart(&base), "symmetric: {p:?}");
@@ -1287,6 +1286,51 @@ fn a_bind_of_a_pipeline_apart_only_in_values_sends_those_values_alone() {
     let before = sink.clone();
     state.settle(&mut sink);
     assert_eq!(sink, before);
+}
+
+#[test]
+fn a_bind_kept_settled_forgets_what_was_sent_of_the_states_its_pipeline_sets_statically() {
+    // Found in review: viewports flushed for secondaries (a subpass of secondaries that
+    // executed none) are remembered as sent; a bind of a pipeline with static viewports
+    // overwrites them even where it keeps the state settled, so a later pipeline with dynamic
+    // viewports must get the application's again.
+    let static_viewports = |handle: u64, op| {
+        Arc::new(PipelineDepth {
+            injected: States::COMPARE_OP,
+            viewports: vec![viewport(0.0, 0.5)],
+            compare_op: op,
+            handle: vk::Pipeline::from_raw(handle),
+            ..PipelineDepth::default()
+        })
+    };
+    let (a, b) = (
+        static_viewports(200, vk::CompareOp::LESS),
+        static_viewports(210, vk::CompareOp::LESS_OR_EQUAL),
+    );
+    let dynamic = Arc::new(PipelineDepth {
+        app_dynamic: States::VIEWPORT,
+        handle: vk::Pipeline::from_raw(220),
+        ..PipelineDepth::default()
+    });
+    let mut state = begun(Target::Reversed);
+    let mut sink = Recorded::default();
+    state.set_viewports(0, &[viewport(0.0, 1.0)]);
+    bind(&mut state, &a);
+    state.settle(&mut sink);
+    state.flush_viewports_for_secondaries(&mut sink);
+    assert_eq!(sink.viewports, vec![(0, vec![(1.0, 0.0)])]);
+    state.settle(&mut sink);
+    bind(&mut state, &b);
+    assert!(!state.dirty, "kept settled");
+    state.settle(&mut sink);
+    bind(&mut state, &dynamic);
+    state.set_viewports(0, &[viewport(0.0, 1.0)]);
+    state.settle(&mut sink);
+    assert_eq!(
+        sink.viewports,
+        vec![(0, vec![(1.0, 0.0)]), (0, vec![(1.0, 0.0)])],
+        "the application's viewports again, after b's static ones"
+    );
 }
 
 #[test]
@@ -1488,18 +1532,39 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
         handle: vk::Pipeline::from_raw(APP_PIPELINE + 2),
         ..(*projection_pipeline()).clone()
     });
+    // Viewports the application sets (sent for secondaries too, below).
+    let dynamic_viewports = Arc::new(PipelineDepth {
+        app_dynamic: States::VIEWPORT,
+        injected: States::COMPARE_OP | States::BIAS,
+        handle: vk::Pipeline::from_raw(APP_PIPELINE + 3),
+        ..(*projection_pipeline()).clone()
+    });
+    // Static viewports revz leaves static, a pair apart only in its compare op.
+    let viewports_static = |handle: u64, op| {
+        Arc::new(PipelineDepth {
+            injected: States::COMPARE_OP,
+            viewports: vec![viewport(0.0, 0.5)],
+            compare_op: op,
+            handle: vk::Pipeline::from_raw(handle),
+            ..PipelineDepth::default()
+        })
+    };
     let pipelines = [
         projection_pipeline(),
         flip_only,
         static_pipeline(),
         derived_pipeline(),
         less_or_equal,
+        dynamic_viewports,
+        viewports_static(APP_PIPELINE + 4, vk::CompareOp::LESS),
+        viewports_static(APP_PIPELINE + 5, vk::CompareOp::GREATER),
     ];
     let layouts = [layout(), vk::PipelineLayout::from_raw(4)];
     for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
         let mut state = precise(target);
         let reversal = precise(target).reversal();
         state.begin(Target::Reversed, reversal, Cameras::default());
+        state.set_viewports(0, &[viewport(0.0, 1.0)]);
         state.bind_pipeline(Some(Arc::clone(&pipelines[0])));
         let mut random = 0x9e37_79b9_7f4a_7c15u64;
         let (mut taken, mut same_camera_pushes, mut values_binds) = (0, 0, 0);
@@ -1597,6 +1662,13 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
                 } else {
                     state.set_complementary_target((random >> 5) % 2 == 0);
                 }
+                state.settle(&mut sink);
+            } else if pick < 95 {
+                // The application's viewports, and down for secondaries (remembered as
+                // sent).
+                let max_depth = if random % 2 == 0 { 1.0 } else { 0.75 };
+                state.set_viewports(0, &[viewport(0.0, max_depth)]);
+                state.flush_viewports_for_secondaries(&mut sink);
                 state.settle(&mut sink);
             } else {
                 state.before_draw(&mut sink);

@@ -280,9 +280,11 @@ impl<K: std::hash::Hash + Eq, V: Clone> Default for Table<K, V> {
 /// (`VkShaderModuleCreateInfo` in a stage's `pNext`). Applications create modules of the same
 /// code again and again (a module per pipeline from a cached blob, translation layers per
 /// variant): the code is analyzed once (issue #42). Each entry keeps its words, compared on a
-/// hit, so a hash collision is a miss. Entries outlive their modules (the code may come back);
-/// at most [`CodeCache::CAPACITY`] codes and [`CodeCache::BUDGET_WORDS`] words are kept, and
-/// past that each creation does the work again.
+/// hit, so a hash collision is a miss. Entries outlive their modules (the code may come back)
+/// until the device is destroyed: at most [`CodeCache::CAPACITY`] codes (modules and chained
+/// SPIR-V together) and [`CodeCache::BUDGET_WORDS`] words of their code are kept, with what was
+/// made of them (about as much again: the rewrite), and past that each creation does the work
+/// again.
 #[derive(Debug)]
 pub struct CodeCache<T> {
     codes: Table<u64, Arc<CachedCode<T>>>,
@@ -311,13 +313,16 @@ impl<T: Clone> CodeCache<T> {
         }
         let made = make();
         let kept = self.words.load(Ordering::Relaxed);
-        if self.codes.len() < Self::CAPACITY && kept + words.len() <= Self::BUDGET_WORDS {
-            // A replaced entry (a collision, or two threads making the same code) gives its
-            // words back.
+        if self.codes.len() < Self::CAPACITY
+            && kept.saturating_add(words.len()) <= Self::BUDGET_WORDS
+        {
+            // Counted before the entry is in the table, so that a thread replacing it (a
+            // collision, or two threads making the same code) gives back words already
+            // counted. Threads inserting at once may overshoot the budget a little.
+            self.words.fetch_add(words.len(), Ordering::Relaxed);
             let replaced = self
                 .codes
                 .replace(key, Arc::new((words.into(), made.clone())));
-            self.words.fetch_add(words.len(), Ordering::Relaxed);
             if let Some(replaced) = replaced {
                 self.words.fetch_sub(replaced.0.len(), Ordering::Relaxed);
             }
@@ -927,16 +932,18 @@ mod tests {
         assert_ne!(objects.pipeline_generation(), before);
     }
 
+    /// `codes.get_or_make` of `words`, counting in `made` the codes made.
+    fn made_once(codes: &CodeCache<usize>, made: &std::cell::Cell<usize>, words: &[u32]) -> usize {
+        codes.get_or_make(words, || {
+            made.set(made.get() + 1);
+            words.len()
+        })
+    }
+
     #[test]
-    fn inline_code_is_made_once_per_distinct_code() {
-        let codes: CodeCache<usize> = CodeCache::default();
-        let made = std::cell::Cell::new(0);
-        let make = |words: &[u32]| {
-            codes.get_or_make(words, || {
-                made.set(made.get() + 1);
-                words.len()
-            })
-        };
+    fn code_is_made_once_per_distinct_code() {
+        let (codes, made) = (CodeCache::default(), std::cell::Cell::new(0));
+        let make = |words: &[u32]| made_once(&codes, &made, words);
         assert_eq!(make(&[1, 2, 3]), 3);
         assert_eq!(make(&[1, 2, 3]), 3);
         assert_eq!(made.get(), 1, "the same code again: kept");
@@ -946,14 +953,8 @@ mod tests {
 
     #[test]
     fn codes_past_the_word_budget_are_made_each_time() {
-        let codes: CodeCache<usize> = CodeCache::default();
-        let made = std::cell::Cell::new(0);
-        let make = |words: &[u32]| {
-            codes.get_or_make(words, || {
-                made.set(made.get() + 1);
-                words.len()
-            })
-        };
+        let (codes, made) = (CodeCache::default(), std::cell::Cell::new(0));
+        let make = |words: &[u32]| made_once(&codes, &made, words);
         let half = CodeCache::<usize>::BUDGET_WORDS / 2 + 1;
         let (a, b) = (vec![1; half], vec![2; half]);
         assert_eq!(make(&a), half);
