@@ -186,11 +186,12 @@ impl PipelineDepth {
     }
 
     /// What a settle after binding this pipeline in `other`'s place, nothing else changed,
-    /// sends that it did not send for `other`: `Some` of the states revz made dynamic whose
-    /// static values differ (compare op, bias, bounds, clamp range), where the two agree in
-    /// everything else a settle reads: the same states dynamic (so binding it forgets nothing
-    /// revz sent), the same viewports where revz made them dynamic, and the same facts for the
-    /// precise path (projection, carrier, derived range, push layout). `None`: a full settle.
+    /// sends that it did not send for `other`: `Some` of the value states (compare op, bias,
+    /// bounds, clamp range) revz made dynamic in either whose static values differ or that
+    /// only one makes dynamic, where the two agree in everything else a settle reads: the same
+    /// states dynamic for the application, the same viewports made dynamic or not (and the
+    /// same ones where revz made them dynamic), and the same facts for the precise path
+    /// (projection, carrier, derived range, push layout). `None`: a full settle.
     /// A bind between two such pipelines re-evaluates only those states (issue #42: a LESS
     /// and a LESS_OR_EQUAL pipeline, the commonest pair, differ in nothing else). Compared
     /// exactly: floats by bits where revz compares what it sent by bits, and a NaN always
@@ -200,14 +201,19 @@ impl PipelineDepth {
         if std::ptr::eq(self, other) {
             return Some(States::NONE);
         }
-        let injected = self.injected;
+        // Which of the value states revz made dynamic may differ too: one made dynamic in one
+        // pipeline only is evaluated again (sent where it is dynamic now; where it is static
+        // now, the bind sets it and what was sent of it is forgotten). A pipeline with depth
+        // bias and one without, the commonest such pair.
+        let injected = self.injected & other.injected;
+        let injected_apart = States(self.injected.0 ^ other.injected.0);
         fn viewport_bits(p: &PipelineDepth) -> impl Iterator<Item = [u32; 6]> + '_ {
             p.viewports
                 .iter()
                 .map(|v| [v.x, v.y, v.width, v.height, v.min_depth, v.max_depth].map(f32::to_bits))
         }
         let alike = self.app_dynamic == other.app_dynamic
-            && injected == other.injected
+            && injected_apart.without(States::VALUES).is_empty()
             && self.unreversed_fragment == other.unreversed_fragment
             && self.projection == other.projection
             && self.position_store == other.position_store
@@ -236,8 +242,9 @@ impl PipelineDepth {
         if !same(self.clamp_range, other.clamp_range) {
             apart |= States::CLAMP_RANGE;
         }
-        // Static values of states the application sets (or revz leaves static) are not sent.
-        Some(apart & injected & States::VALUES)
+        // Static values of states the application sets (or revz leaves static in both) are
+        // not sent.
+        Some((apart & injected & States::VALUES) | injected_apart)
     }
 
     /// The pipelines revz made for this one (to destroy with it).

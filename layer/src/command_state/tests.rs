@@ -1199,10 +1199,24 @@ fn values_apart_names_the_states_whose_static_values_differ() {
     assert_eq!(nan.values_apart(&other), Some(States::BOUNDS));
     // Values of states revz leaves static are the bind's: nothing to send.
     assert_eq!(apart(&with(&|p| p.bounds = (0.2, 0.3))), Some(States::NONE));
+    // A value state made dynamic in one of them only (a pipeline without depth bias beside
+    // one with it): evaluated again.
+    assert_eq!(
+        apart(&with(&|p| p.injected = States::VIEWPORT)),
+        Some(States::COMPARE_OP | States::BIAS)
+    );
+    assert_eq!(
+        apart(&with(&|p| {
+            p.injected = States::VIEWPORT | States::COMPARE_OP;
+            p.compare_op = vk::CompareOp::EQUAL;
+        })),
+        Some(States::COMPARE_OP | States::BIAS)
+    );
     // Anything else a settle reads: a full settle.
     for changed in [
         with(&|p| p.viewports = vec![viewport(0.0, 0.5)]),
-        with(&|p| p.injected = States::VIEWPORT),
+        with(&|p| p.injected = States::COMPARE_OP | States::BIAS),
+        with(&|p| p.app_dynamic = States::BIAS),
         with(&|p| p.layout = vk::PipelineLayout::from_raw(7)),
     ] {
         assert_eq!(apart(&changed), None, "{changed:?}");
@@ -1281,6 +1295,28 @@ fn a_bind_of_a_pipeline_apart_only_in_values_sends_those_values_alone() {
         );
         assert_eq!(state.path(), DrawPath::Precise);
     }
+    // A pipeline whose bias revz leaves static (no depth bias): the bind sets its bias, and
+    // the biased pipeline after it gets its own sent again.
+    let unbiased = Arc::new(PipelineDepth {
+        injected: States::VIEWPORT | States::COMPARE_OP,
+        handle: vk::Pipeline::from_raw(90),
+        ..(*less).clone()
+    });
+    let before = sink.clone();
+    bind(&mut state, &unbiased);
+    assert!(!state.dirty, "kept settled");
+    state.settle(&mut sink);
+    let mut expected = before.clone();
+    expected.compare_ops.push(vk::CompareOp::GREATER);
+    assert_eq!(sink, expected, "the compare op only");
+    bind(&mut state, &less_or_equal);
+    state.settle(&mut sink);
+    expected.compare_ops.push(vk::CompareOp::GREATER_OR_EQUAL);
+    expected.biases.push(*before.biases.last().unwrap());
+    assert_eq!(
+        sink, expected,
+        "the bias again after the bind that set it statically"
+    );
     // What the values path left is what a full settle finds: nothing more to send.
     state.set_compare_op(vk::CompareOp::NEVER);
     let before = sink.clone();
@@ -1549,12 +1585,21 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
             ..PipelineDepth::default()
         })
     };
+    // Without depth bias (revz leaves it static): apart from the first in the states made
+    // dynamic, a bind between them keeps the shortcut too.
+    let unbiased = Arc::new(PipelineDepth {
+        injected: States::VIEWPORT | States::COMPARE_OP,
+        compare_op: vk::CompareOp::GREATER_OR_EQUAL,
+        handle: vk::Pipeline::from_raw(APP_PIPELINE + 6),
+        ..(*projection_pipeline()).clone()
+    });
     let pipelines = [
         projection_pipeline(),
         flip_only,
         static_pipeline(),
         derived_pipeline(),
         less_or_equal,
+        unbiased,
         dynamic_viewports,
         viewports_static(APP_PIPELINE + 4, vk::CompareOp::LESS),
         viewports_static(APP_PIPELINE + 5, vk::CompareOp::GREATER),
