@@ -814,28 +814,20 @@ impl CommandState {
             // An untracked pipeline may set anything statically: what the application set
             // goes down again after it.
             (Some(slot), Some((previous, handle))) if self.known.slots[previous].0 == handle => {
-                self.known
-                    .values_apart(previous, slot)
-                    .map(|apart| (slot, apart))
+                self.known.values_apart(previous, slot)
             }
             _ => None,
         };
         match apart {
-            Some((index, apart)) => {
-                // What bars the precise path is the same for both pipelines (they make the
-                // same states dynamic), and the push shortcut stays as it was: what it read of
-                // the pipeline (its projection, carrier and layout) is the previous one's.
-                // What was sent of the states the pipeline sets statically is forgotten again:
-                // the bind overwrites them, and something may have sent them since the
-                // previous bind (the viewports flushed for secondaries; found in review).
-                let dynamic = self.known.slots[index]
-                    .1
-                    .as_ref()
-                    .map_or(States::NONE, |p| p.app_dynamic | p.injected);
-                self.emitted.forget_static(dynamic);
-                self.bound = slot;
-                self.variant_bound = None;
-                self.pushed_since_bind = false;
+            Some(apart) => {
+                // The state stays settled: what bars the precise path is the same for both
+                // pipelines (the application makes the same states dynamic), and the push
+                // shortcut stays as it was: what it read of the pipeline (its projection,
+                // carrier and layout) is the previous one's. What was sent of the states the
+                // pipeline sets statically is still forgotten: something may have sent them
+                // since the previous bind (the viewports flushed for secondaries; found in
+                // review).
+                self.take_static_state(slot);
                 self.values_pending |= apart;
             }
             None => self.bind_graphics(slot),
@@ -866,16 +858,22 @@ impl CommandState {
 
     /// A pipeline (`None`: untracked, or shader objects) becomes the source of static state.
     fn bind_graphics(&mut self, slot: Option<usize>) {
+        self.take_static_state(slot);
+        self.dirty = true;
+        self.bar_precise();
+    }
+
+    /// The pipeline in `slot` is bound: what was sent of the states it sets statically is
+    /// overwritten (an untracked pipeline, or shader objects, may set anything statically),
+    /// no variant is bound yet, and the application has pushed nothing since.
+    fn take_static_state(&mut self, slot: Option<usize>) {
         self.bound = slot;
-        // An untracked pipeline (or shader objects) may set anything statically.
         let dynamic = self
             .pipeline()
             .map_or(States::NONE, |p| p.app_dynamic | p.injected);
         self.emitted.forget_static(dynamic);
         self.variant_bound = None;
         self.pushed_since_bind = false;
-        self.dirty = true;
-        self.bar_precise();
     }
 
     /// Recomputes [`Self::precise_barred`](CommandState) after what it depends on changed.
