@@ -48,12 +48,16 @@ fn quick_bench_writes_valid_reports() {
     let speed = bench["speed"].as_array().expect("speed rows");
     let modes: Vec<&str> = speed.iter().map(|r| r["mode"].as_str().unwrap()).collect();
     assert_eq!(modes, ["none", "off", "flip", "complementary", "infinite"]);
-    // 8 measurements (2 storms, the storm with a projection per draw, the storm with the depth
-    // profile on, the storm over the counting layer, micro, pipelines, a converted depth copy)
-    // + the validated smoke role, in 5 variants.
-    assert_eq!(bench["samples"].as_array().unwrap().len(), 45);
+    // 9 measurements (2 storms, the storm with a projection per draw, the storm with the depth
+    // profile on, the storm over the counting layer, micro, pipelines of distinct codes and of
+    // one code, a converted depth copy) + the validated smoke role, in 5 variants.
+    assert_eq!(bench["samples"].as_array().unwrap().len(), 50);
     for row in bench["speed"].as_array().unwrap() {
         assert!(row.get("frame_cpu_ratio_with_report").is_some(), "{row}");
+        assert!(
+            row["pipeline_creation_ratio_repeated_code"].is_number(),
+            "{row}"
+        );
         assert!(row["depth_copy_wall_ratio"].is_number(), "{row}");
     }
     // What reaches the driver (the counting layer below revz): exactly the application's
