@@ -20,11 +20,12 @@ pub(super) struct KnownPipelines {
     pub(super) slots: [(vk::Pipeline, Option<std::sync::Arc<PipelineDepth>>); KNOWN_PIPELINES],
     /// The slot the next pipeline not found replaces.
     pub(super) next: usize,
-    /// Which slots settle alike but for static values ([`PipelineDepth::values_apart`]):
+    /// Which slots settle alike but for value states ([`PipelineDepth::values_apart`]):
     /// bit `j` of `alike[i]`, compared once when either is found, so that a bind between them
     /// compares nothing (bit `i` of `alike[i]`: slot `i` holds a tracked pipeline).
     pub(super) alike: [u8; KNOWN_PIPELINES],
-    /// For slots alike: the states whose values differ between them (`apart[i][j]`).
+    /// For slots alike: the value states a bind between them evaluates again (`apart[i][j]`,
+    /// [`PipelineDepth::values_apart`]).
     pub(super) apart: [[States; KNOWN_PIPELINES]; KNOWN_PIPELINES],
 }
 
@@ -82,9 +83,9 @@ impl KnownPipelines {
         index
     }
 
-    /// What binding `slot` after `previous` (both found) needs sent: `Some` of the states
-    /// whose static values differ between two tracked pipelines that otherwise settle alike
-    /// (nothing: no settle); `None`: a full settle.
+    /// What binding `slot` after `previous` (both found) needs evaluated again: `Some` of the
+    /// value states apart between two tracked pipelines that otherwise settle alike
+    /// ([`PipelineDepth::values_apart`]; nothing: no settle); `None`: a full settle.
     pub(super) fn values_apart(&self, previous: usize, slot: usize) -> Option<States> {
         (self.alike[slot] & (1 << previous) != 0).then(|| self.apart[slot][previous])
     }

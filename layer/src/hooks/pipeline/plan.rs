@@ -165,7 +165,9 @@ pub(super) fn projection_of(
         ),
         Some(vertex) => match inline_code(vertex) {
             Some(words) => {
-                let (analysis, rewrite) = inline_vertex(state, words);
+                // Made once per distinct code (`DeviceObjects::vertex_codes`).
+                let (analysis, rewrite) =
+                    super::modules::vertex_code(state, vk::ShaderModule::null(), words);
                 (
                     Ok(analysis),
                     rewrite.ok_or(Missing::NotMade(MissingFact::InlineWithoutRewrite.reason())),
@@ -520,18 +522,6 @@ pub(super) fn context(
         compare_op_variants: state.policy.compare_op_variants,
         bias_with_representation: state.commands.set_depth_bias2.is_some(),
     }
-}
-
-/// The analysis and `Position` rewrite of SPIR-V chained into a vertex stage, made once per
-/// distinct code (`DeviceObjects::vertex_codes`).
-fn inline_vertex(
-    state: &DeviceState,
-    words: &[u32],
-) -> (
-    Arc<crate::objects::ModuleAnalysis>,
-    Option<crate::objects::RewrittenVertex>,
-) {
-    super::modules::vertex_code(state, vk::ShaderModule::null(), words)
 }
 
 /// Whether the stage before the last pre-rasterization stage `last` (a geometry stage's
