@@ -38,11 +38,21 @@ pub struct Fit {
 pub struct Types {
     pub float: u32,
     pub vec4: u32,
-    /// Pointer to a push-constant `vec4`, the push-constant variable, and the carrier's
-    /// member index constant.
-    pub push_vec4: u32,
-    pub push_variable: u32,
-    pub carrier_index: u32,
+    pub carrier: CarrierIds,
+}
+
+/// How the rewritten code gets revz's carrier `vec4`.
+#[derive(Clone, Copy, Debug)]
+pub enum CarrierIds {
+    /// Loaded from push constants: the pointer type to a push-constant `vec4`, the
+    /// push-constant variable, and the carrier's member index constant.
+    Pushed {
+        push_vec4: u32,
+        push_variable: u32,
+        carrier_index: u32,
+    },
+    /// A constant composite (a variant's baked carrier).
+    Constant(u32),
 }
 
 /// A builder of float instructions that records the arithmetic results.
@@ -112,9 +122,7 @@ impl Fit {
         let Types {
             float,
             vec4,
-            push_vec4,
-            push_variable,
-            carrier_index,
+            carrier,
         } = types;
         let mut code = Code {
             words: Vec::new(),
@@ -183,8 +191,18 @@ impl Fit {
         // The selector (the pushed carrier's w): 1 and 3 complementary, 2 and 4 infinite; 3
         // and 4 for a line in [-1, 1] clip depth, converted to [0, 1]
         // (`revz_math::shader_fit::zero_to_one`).
-        let pointer = code.typed(OP_ACCESS_CHAIN, push_vec4, &[push_variable, carrier_index]);
-        let carrier = code.typed(OP_LOAD, vec4, &[pointer]);
+        let carrier = match carrier {
+            CarrierIds::Pushed {
+                push_vec4,
+                push_variable,
+                carrier_index,
+            } => {
+                let pointer =
+                    code.typed(OP_ACCESS_CHAIN, push_vec4, &[push_variable, carrier_index]);
+                code.typed(OP_LOAD, vec4, &[pointer])
+            }
+            CarrierIds::Constant(id) => id,
+        };
         let selector = code.typed(OP_COMPOSITE_EXTRACT, float, &[carrier, 3]);
         let gl = code.typed(
             OP_F_ORD_GREATER_THAN,

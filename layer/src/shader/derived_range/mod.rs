@@ -160,7 +160,7 @@ pub struct PositionStores {
     pub copied: bool,
 }
 
-pub use fit::{Fit, Types, FIT_IDS, RETURN_IDS};
+pub use fit::{CarrierIds, Fit, Types, FIT_IDS, RETURN_IDS};
 pub use trace::{find, stores_unit_w};
 
 /// What [`find`] needs of the module's declarations.

@@ -42,7 +42,7 @@ use std::collections::{HashMap, HashSet};
 use std::fmt;
 
 use crate::shader::derived_range::{
-    self, Fit, Insert, MatrixSource, ModuleFacts, PositionStores, Types,
+    self, CarrierIds, Fit, Insert, MatrixSource, ModuleFacts, PositionStores, Types,
 };
 use crate::shader::scan::model as scan_model;
 use crate::shader::scan::op::*;
@@ -76,7 +76,19 @@ impl fmt::Display for Unsupported {
 /// the push constants (16-byte aligned), `None` when no entry point outputs `Position`,
 /// or why it cannot be rewritten. Never panics, never reads past the words.
 pub fn rewrite_position_store(words: &[u32], offset: u32) -> Result<Option<Vec<u32>>, Unsupported> {
-    rewrite(words, offset, false).map(|code| code.map(|(code, _)| code))
+    rewrite(words, CarrierRead::Pushed(offset), false).map(|code| code.map(|(code, _)| code))
+}
+
+/// Where a rewritten stage reads revz's carrier.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CarrierRead {
+    /// The 16 bytes revz reserves at this offset of the push constants (16-byte aligned),
+    /// appended to the module's push-constant block: revz pushes each draw's values.
+    Pushed(u32),
+    /// A constant of the code: the values of one kind of draw, baked into a pipeline variant
+    /// (issue #41: a layout whose push constants leave no room for the pushed carrier). The
+    /// module's push-constant block is left as it is.
+    Baked([f32; 4]),
 }
 
 /// [`rewrite_position_store`] for a module whose projection revz cannot read on the CPU: the
@@ -109,7 +121,17 @@ pub fn derive_position_store(
     words: &[u32],
     offset: u32,
 ) -> Result<Option<DerivingRewrite>, Unsupported> {
-    rewrite(words, offset, true).map(|code| {
+    derive_position_store_reading(words, CarrierRead::Pushed(offset))
+}
+
+/// [`derive_position_store`] with the carrier read from `carrier`: [`CarrierRead::Baked`]
+/// makes the stage of a variant that stores the derived depth its selector names (w: 1
+/// complementary, 2 infinite) without any push constant of revz's.
+pub fn derive_position_store_reading(
+    words: &[u32],
+    carrier: CarrierRead,
+) -> Result<Option<DerivingRewrite>, Unsupported> {
+    rewrite(words, carrier, true).map(|code| {
         code.map(|(code, leaf)| DerivingRewrite {
             code,
             source: leaf.map_or(MatrixSource::Computed, |l| l.source),
@@ -142,14 +164,18 @@ pub fn stores_position_w_one(words: &[u32]) -> bool {
 /// A rewritten module, and the leaf its fit reads (deriving rewrites).
 type Rewritten = (Vec<u32>, Option<derived_range::Leaf>);
 
-fn rewrite(words: &[u32], offset: u32, derive: bool) -> Result<Option<Rewritten>, Unsupported> {
-    if offset % 16 != 0 {
+fn rewrite(
+    words: &[u32],
+    carrier: CarrierRead,
+    derive: bool,
+) -> Result<Option<Rewritten>, Unsupported> {
+    if matches!(carrier, CarrierRead::Pushed(offset) if offset % 16 != 0) {
         return Err(Unsupported("the carrier offset is not 16-byte aligned"));
     }
     let Some(module) = Module::read(words)? else {
         return Ok(None);
     };
-    module.rewrite(words, offset, derive).map(Some)
+    module.rewrite(words, carrier, derive).map(Some)
 }
 
 /// Where the shader's `Position` lives.

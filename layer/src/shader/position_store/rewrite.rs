@@ -10,9 +10,14 @@ impl Module {
     pub(super) fn rewrite(
         &self,
         words: &[u32],
-        offset: u32,
+        carrier: CarrierRead,
         derive: bool,
     ) -> Result<Rewritten, Unsupported> {
+        // A baked carrier leaves the push constants alone: no member appended, no block.
+        let pushed_offset = match carrier {
+            CarrierRead::Pushed(offset) => Some(offset),
+            CarrierRead::Baked(_) => None,
+        };
         let Some(position) = self.position()? else {
             return Err(Unsupported("no Position output"));
         };
@@ -51,9 +56,9 @@ impl Module {
             .filter(|(_, &(_, class))| class == STORAGE_PUSH_CONSTANT)
             .map(|(&id, _)| id)
             .collect();
-        let app_block = match push_variables.as_slice() {
-            [] => None,
-            [variable] => {
+        let app_block = match (pushed_offset, push_variables.as_slice()) {
+            (None, _) | (Some(_), []) => None,
+            (Some(offset), [variable]) => {
                 let (ty, _) = self.variables[variable];
                 let &(_, block) = self
                     .pointers
@@ -91,7 +96,7 @@ impl Module {
                 }
                 Some((*variable, block, members.len() as u32))
             }
-            _ => return Err(Unsupported("more than one push-constant block")),
+            (Some(_), _) => return Err(Unsupported("more than one push-constant block")),
         };
         // A push-constant block declared before `vec4` (Zink's) cannot take a `vec4` member
         // where it is: the block, its pointer types and its variable move to the end of the
@@ -152,7 +157,7 @@ impl Module {
         };
 
         // Fresh ids.
-        let needed = 32
+        let needed = 36
             + 16 * body.returns
             + 2 * body.private_pointees.len()
             + derived_range::FIT_IDS * (1 + derived_range::MAX_LEAF_COPIES)
@@ -189,16 +194,31 @@ impl Module {
         let push_vec4 = self.pointer_of.get(&(STORAGE_PUSH_CONSTANT, vec4)).copied();
         let (push_vec4, new_push_vec4) = match push_vec4 {
             Some(id) => (id, false),
-            None => (fresh(), true),
+            None if pushed_offset.is_some() => (fresh(), true),
+            None => (0, false),
         };
         let (push_variable, push_block, carrier_member, new_block) = match app_block {
             Some((variable, block, members)) => (variable, block, members, None),
-            None => {
+            None if pushed_offset.is_some() => {
                 let (block, pointer, variable) = (fresh(), fresh(), fresh());
                 (variable, block, 0, Some(pointer))
             }
+            None => (0, 0, 0, None),
         };
         let carrier_index = fresh();
+        // A baked carrier: its four float constants and the composite of them.
+        let baked = match carrier {
+            CarrierRead::Baked(values) => Some((values, [0; 4].map(|_| fresh()), fresh())),
+            CarrierRead::Pushed(_) => None,
+        };
+        let carrier_ids = match baked {
+            Some((_, _, composite)) => CarrierIds::Constant(composite),
+            None => CarrierIds::Pushed {
+                push_vec4,
+                push_variable,
+                carrier_index,
+            },
+        };
         // The shadow: for a variable, the variable itself (now private) and a new output in
         // its place; for a block member, a new private variable.
         let (shadow, output) = match position {
@@ -217,9 +237,7 @@ impl Module {
         let types = Types {
             float,
             vec4,
-            push_vec4,
-            push_variable,
-            carrier_index,
+            carrier: carrier_ids,
         };
         let fit = leaf.map(|leaf| Fit::new(leaf, self.bool_type, types, &mut fresh));
         let fit_after = match fit.as_ref().map(|f| f.leaf.insert) {
@@ -258,11 +276,13 @@ impl Module {
                 if new_block.is_some() {
                     push(&mut out, OP_DECORATE, &[push_block, DECORATION_BLOCK]);
                 }
-                push(
-                    &mut out,
-                    OP_MEMBER_DECORATE,
-                    &[push_block, carrier_member, DECORATION_OFFSET, offset],
-                );
+                if let Some(offset) = pushed_offset {
+                    push(
+                        &mut out,
+                        OP_MEMBER_DECORATE,
+                        &[push_block, carrier_member, DECORATION_OFFSET, offset],
+                    );
+                }
                 if let Some(fit) = &fit {
                     fit.decorations(&mut out);
                 }
@@ -323,7 +343,17 @@ impl Module {
                         &[pointer, push_variable, STORAGE_PUSH_CONSTANT],
                     );
                 }
-                push(&mut out, OP_CONSTANT, &[int, carrier_index, carrier_member]);
+                match baked {
+                    None => push(&mut out, OP_CONSTANT, &[int, carrier_index, carrier_member]),
+                    Some((values, ids, composite)) => {
+                        for (id, value) in ids.into_iter().zip(values) {
+                            push(&mut out, OP_CONSTANT, &[float, id, value.to_bits()]);
+                        }
+                        let mut operands = vec![vec4, composite];
+                        operands.extend_from_slice(&ids);
+                        push(&mut out, CONSTANT_COMPOSITE, &operands);
+                    }
+                }
                 if let Some((id, member)) = member_index {
                     push(&mut out, OP_CONSTANT, &[int, id, member]);
                 }
@@ -396,7 +426,9 @@ impl Module {
                         if let Some(fit) = &fit {
                             operands.push(fit.derived);
                         }
-                        if new_block.is_some() || !interface.contains(&push_variable) {
+                        if pushed_offset.is_some()
+                            && (new_block.is_some() || !interface.contains(&push_variable))
+                        {
                             operands.push(push_variable);
                         }
                     }
@@ -471,12 +503,18 @@ impl Module {
                     let [value, carrier_pointer, carrier, c_z, c_w, c_1, z, w, scaled_z, scaled_w, sum, depth, stored] =
                         [0; 13].map(|_| fresh());
                     push(&mut out, OP_LOAD, &[vec4, value, shadow]);
-                    push(
-                        &mut out,
-                        OP_ACCESS_CHAIN,
-                        &[push_vec4, carrier_pointer, push_variable, carrier_index],
-                    );
-                    push(&mut out, OP_LOAD, &[vec4, carrier, carrier_pointer]);
+                    let carrier = match carrier_ids {
+                        CarrierIds::Pushed { .. } => {
+                            push(
+                                &mut out,
+                                OP_ACCESS_CHAIN,
+                                &[push_vec4, carrier_pointer, push_variable, carrier_index],
+                            );
+                            push(&mut out, OP_LOAD, &[vec4, carrier, carrier_pointer]);
+                            carrier
+                        }
+                        CarrierIds::Constant(composite) => composite,
+                    };
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_z, carrier, 0]);
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_w, carrier, 1]);
                     push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_1, carrier, 2]);

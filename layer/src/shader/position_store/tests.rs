@@ -911,3 +911,95 @@ fn a_register_written_component_by_component_is_fitted() {
         assert!(outcome(&body).is_err(), "{name}: accepted");
     }
 }
+
+/// `scene.vert`'s projection with push constants that fill 128 bytes (a tint array after the
+/// matrix): no room for revz's carrier at [`OFFSET`].
+const PUSH_FULL: &str = "#version 450
+    layout(push_constant) uniform PushConstants { mat4 mvp; vec4 tint[4]; } pc;
+    layout(location = 0) in vec3 position;
+    layout(location = 0) out vec4 color;
+    void main() {
+        gl_Position = pc.mvp * vec4(position, 1.0);
+        color = pc.tint[3];
+    }";
+
+#[test]
+fn a_baked_carrier_leaves_the_push_constants_as_they_are() {
+    let words = compile_glsl(naga::ShaderStage::Vertex, PUSH_FULL);
+    // The pushed carrier has no room.
+    assert_eq!(
+        derive_position_store(&words, OFFSET).unwrap_err(),
+        Unsupported("the push-constant block reaches revz's carrier bytes")
+    );
+    let baked = [1.0, 0.0, 0.0, 1.0];
+    let rewrite = derive_position_store_reading(&words, CarrierRead::Baked(baked))
+        .expect("rewritable")
+        .expect("has a Position");
+    assert_eq!(rewrite.source, MatrixSource::PushConstants);
+    let out = rewrite.code;
+    validate(&out);
+    naga::front::spv::Frontend::new(out.iter().copied(), &Default::default())
+        .parse()
+        .expect("naga reads the rewritten module");
+    // The application's block, its members and their offsets, unchanged; no other block.
+    let blocks = |words: &[u32]| {
+        let decorated: Vec<u32> = with_opcode(words, OP_DECORATE)
+            .into_iter()
+            .filter(|d| d[1] == DECORATION_BLOCK)
+            .map(|d| d[0])
+            .collect();
+        let structs: Vec<Vec<u32>> = with_opcode(words, OP_TYPE_STRUCT)
+            .into_iter()
+            .filter(|s| decorated.contains(&s[0]))
+            .collect();
+        let offsets: Vec<Vec<u32>> = with_opcode(words, OP_MEMBER_DECORATE)
+            .into_iter()
+            .filter(|d| d[2] == DECORATION_OFFSET)
+            .collect();
+        (structs, offsets)
+    };
+    assert_eq!(blocks(&out), blocks(&words));
+    let push_variables = |words: &[u32]| {
+        with_opcode(words, OP_VARIABLE)
+            .into_iter()
+            .filter(|v| v[2] == STORAGE_PUSH_CONSTANT)
+            .count()
+    };
+    assert_eq!(push_variables(&out), 1);
+    // The carrier is a constant composite of the baked values, and nothing loads one from
+    // push constants: the only push-constant access chains are the application's matrix and
+    // tint.
+    let constants: std::collections::HashMap<u32, u32> = with_opcode(&out, OP_CONSTANT)
+        .into_iter()
+        .filter(|c| c.len() == 3)
+        .map(|c| (c[1], c[2]))
+        .collect();
+    let baked_bits = baked.map(f32::to_bits);
+    let composite = with_opcode(&out, CONSTANT_COMPOSITE)
+        .into_iter()
+        .find(|c| {
+            c.len() == 6
+                && c[2..]
+                    .iter()
+                    .map(|id| constants.get(id).copied())
+                    .eq(baked_bits.iter().map(|&b| Some(b)))
+        })
+        .expect("the baked carrier");
+    let loads_of_composite = with_opcode(&out, OP_COMPOSITE_EXTRACT)
+        .into_iter()
+        .filter(|e| e[2] == composite[1])
+        .count();
+    assert!(loads_of_composite >= 4, "the stores read the baked carrier");
+    let push_chains = |words: &[u32]| {
+        let variables: Vec<u32> = with_opcode(words, OP_VARIABLE)
+            .into_iter()
+            .filter(|v| v[2] == STORAGE_PUSH_CONSTANT)
+            .map(|v| v[1])
+            .collect();
+        with_opcode(words, OP_ACCESS_CHAIN)
+            .into_iter()
+            .filter(|c| variables.contains(&c[2]))
+            .count()
+    };
+    assert_eq!(push_chains(&out), push_chains(&words));
+}
