@@ -756,11 +756,11 @@ impl CommandState {
         let Some(pipeline) = self.pipeline().filter(|_| self.in_pass) else {
             return app;
         };
-        let wanted = pipeline.variant_for(
-            self.target == Target::Reversed,
-            self.promoted(),
-            self.reversed_inputs,
-        );
+        // A pipeline with the carrier baked into its reversed variants: those where its draws
+        // will take the precise path ([`Self::settle`]).
+        let reversed = self.target == Target::Reversed
+            && (!pipeline.baked || self.derived_use().is_some());
+        let wanted = pipeline.variant_for(reversed, self.promoted(), self.reversed_inputs);
         self.variant_bound = wanted;
         wanted.unwrap_or(app)
     }
@@ -1109,8 +1109,10 @@ impl CommandState {
             }
             _ => false,
         };
+        let baked = self.pipeline().is_some_and(|p| p.baked);
         self.path = match (self.target, outcome) {
-            (Target::Reversed, _) if carrier_ready && self.derived_use().is_some() => {
+            // The carrier pushed, or baked into the reversed variants bound for it.
+            (Target::Reversed, _) if (carrier_ready || baked) && self.derived_use().is_some() => {
                 DrawPath::Precise
             }
             (Target::Reversed, Some(Outcome::Rewritten { .. })) if carrier_ready => {
@@ -1148,8 +1150,14 @@ impl CommandState {
             });
         }
         if let Some(p) = bound {
-            let wanted =
-                p.variant_for(reversed, self.promoted_from.is_some(), self.reversed_inputs);
+            // A pipeline whose reversed variants have the carrier baked in: those only for
+            // precise-path draws (the flip path needs the application's stage).
+            let reversed_variant = reversed && (!p.baked || self.path == DrawPath::Precise);
+            let wanted = p.variant_for(
+                reversed_variant,
+                self.promoted_from.is_some(),
+                self.reversed_inputs,
+            );
             if wanted != self.variant_bound {
                 filtered.bind_pipeline(wanted.unwrap_or(p.handle));
                 self.variant_bound = wanted;

@@ -144,6 +144,11 @@ pub struct PipelineDepth {
     /// constants: `crate::shader::derived_range`), and where that matrix comes from: its draws into
     /// reversed attachments push the selector of the mode instead of a camera's values.
     pub derived_range: Option<MatrixSource>,
+    /// The layout has no room for the carrier: the pipeline keeps the application's stage,
+    /// and its reversed variants (`reversed_variant`, `promoted_reversed_variant`) have the
+    /// stage that derives its range with the carrier baked in (complementary depth), bound
+    /// for its precise-path draws only; nothing is pushed for it (issue #41).
+    pub baked: bool,
     /// revz's own layout with the pipeline layout's push-constant ranges
     /// (`crate::objects::DeviceObjects::layout_pushers`): what revz pushes the carrier with
     /// for a stage that derives its range (the application may push nothing for it, or last
@@ -218,6 +223,7 @@ impl PipelineDepth {
             && self.projection == other.projection
             && self.position_store == other.position_store
             && self.derived_range == other.derived_range
+            && self.baked == other.baked
             && self.layout == other.layout
             && (!injected.contains(States::VIEWPORT)
                 || (self.viewports.len() == other.viewports.len()

@@ -118,6 +118,7 @@ fn static_pipeline() -> Arc<PipelineDepth> {
         projection: None,
         position_store: None,
         derived_range: None,
+        baked: false,
         layout: vk::PipelineLayout::null(),
         subsets: vk::GraphicsPipelineLibraryFlagsEXT::empty(),
         module_identifiers: false,
@@ -600,6 +601,102 @@ fn a_stage_deriving_its_range_gets_the_selector_with_its_own_layout_and_no_push_
         inherited.before_draw(&mut sink);
         assert_eq!(inherited.path(), DrawPath::Flip);
     }
+}
+
+/// A pipeline (20) whose layout has no room for the carrier: its reversed variant (21) and
+/// promoted reversed variant (23) have the carrier baked in, its promoted variant (22) not.
+fn baked_pipeline() -> Arc<PipelineDepth> {
+    Arc::new(PipelineDepth {
+        projection: None,
+        position_store: None,
+        derived_range: Some(MatrixSource::PushConstants),
+        baked: true,
+        layout: vk::PipelineLayout::null(),
+        handle: vk::Pipeline::from_raw(20),
+        reversed_variant: Some(vk::Pipeline::from_raw(21)),
+        promotable: true,
+        promoted_variant: Some(vk::Pipeline::from_raw(22)),
+        promoted_reversed_variant: Some(vk::Pipeline::from_raw(23)),
+        app_dynamic: States::DEPTH_CLAMP,
+        ..(*projection_pipeline()).clone()
+    })
+}
+
+#[test]
+fn a_stage_with_the_carrier_baked_in_is_bound_for_precise_draws_only_and_nothing_is_pushed() {
+    for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
+        let mut state = precise(target);
+        let reversal = state.reversal();
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.bind_pipeline(Some(baked_pipeline()));
+        assert_eq!(
+            state.pipeline_to_bind(vk::Pipeline::from_raw(20)),
+            vk::Pipeline::from_raw(21),
+            "the baked variant goes down in the bind's place"
+        );
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert!(sink.pushed.is_empty(), "no push: the layout has no room");
+        assert!(sink.binds.is_empty(), "bound with the bind");
+        assert_eq!(sink.viewports, vec![(0, vec![(0.0, 1.0)])]);
+        assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
+
+        // Into a native attachment: the application's pipeline and its own stage.
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Native);
+        assert_eq!(sink.binds, vec![vk::Pipeline::from_raw(20)]);
+        // Into a promoted reversed one: the promoted variant with the baked stage.
+        state.set_target(Target::Reversed);
+        state.set_promoted(Some(vk::Format::D24_UNORM_S8_UINT));
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert_eq!(sink.binds.last(), Some(&vk::Pipeline::from_raw(23)));
+        assert!(sink.pushed.is_empty());
+
+        // A secondary inheriting viewports takes the flip path: the stages that store
+        // the shader's own z (the baked one would store reversed depth the flip-path
+        // viewport reverses again).
+        let mut inherited = precise(target);
+        inherited.begin(Target::Reversed, reversal, Default::default());
+        inherited.inherit_viewports();
+        inherited.bind_pipeline(Some(baked_pipeline()));
+        assert_eq!(
+            inherited.pipeline_to_bind(vk::Pipeline::from_raw(20)),
+            vk::Pipeline::from_raw(20)
+        );
+        let mut sink = Recorded::default();
+        inherited.before_draw(&mut sink);
+        assert_eq!(inherited.path(), DrawPath::Flip);
+        assert!(sink.binds.is_empty(), "the application's pipeline stays bound");
+        assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
+        inherited.set_promoted(Some(vk::Format::D24_UNORM_S8_UINT));
+        inherited.before_draw(&mut sink);
+        assert_eq!(sink.binds, vec![vk::Pipeline::from_raw(22)]);
+    }
+    // Infinite mode: a dynamic depth clamp turned on sends the draws to the flip path (the
+    // far plane is gone on the precise one), and with them the application's stage.
+    let mut state = precise(RewriteTarget::Infinite);
+    let reversal = state.reversal();
+    state.begin(Target::Reversed, reversal, Default::default());
+    state.bind_pipeline(Some(baked_pipeline()));
+    state.pipeline_to_bind(vk::Pipeline::from_raw(20));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    state.set_depth_clamp(true);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    assert_eq!(sink.binds, vec![vk::Pipeline::from_raw(20)]);
+    state.set_depth_clamp(false);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(
+        sink.binds,
+        vec![vk::Pipeline::from_raw(20), vk::Pipeline::from_raw(21)]
+    );
+    assert!(sink.pushed.is_empty());
 }
 
 #[test]

@@ -302,13 +302,29 @@ impl<T: Clone> CodeCache<T> {
 
     /// What `make` makes of `words`, made once per distinct code.
     pub fn get_or_make(&self, words: &[u32], make: impl FnOnce() -> T) -> T {
+        self.lookup(words, make, false).1
+    }
+
+    /// [`Self::get_or_make`], with the words as kept (shared with the cache where it keeps
+    /// them): for what is made of the code later, at pipeline creation.
+    pub fn get_or_make_kept(&self, words: &[u32], make: impl FnOnce() -> T) -> (Arc<[u32]>, T) {
+        let (kept, made) = self.lookup(words, make, true);
+        (kept.unwrap_or_else(|| words.into()), made)
+    }
+
+    fn lookup(
+        &self,
+        words: &[u32],
+        make: impl FnOnce() -> T,
+        keep: bool,
+    ) -> (Option<Arc<[u32]>>, T) {
         use std::hash::{Hash, Hasher};
         let mut hasher = rustc_hash::FxHasher::default();
         words.hash(&mut hasher);
         let key = hasher.finish();
         if let Some(hit) = self.codes.get(&key) {
             if *hit.0 == *words {
-                return hit.1.clone();
+                return (keep.then(|| hit.0.clone()), hit.1.clone());
             }
         }
         let made = make();
@@ -320,14 +336,16 @@ impl<T: Clone> CodeCache<T> {
             // collision, or two threads making the same code) gives back words already
             // counted. Threads inserting at once may overshoot the budget a little.
             self.words.fetch_add(words.len(), Ordering::Relaxed);
+            let shared: Arc<[u32]> = words.into();
             let replaced = self
                 .codes
-                .replace(key, Arc::new((words.into(), made.clone())));
+                .replace(key, Arc::new((shared.clone(), made.clone())));
             if let Some(replaced) = replaced {
                 self.words.fetch_sub(replaced.0.len(), Ordering::Relaxed);
             }
+            return (keep.then_some(shared), made);
         }
-        made
+        (None, made)
     }
 
     /// How many distinct codes are kept.
@@ -459,6 +477,11 @@ pub struct DeviceObjects {
     /// enabled a later stage: what a geometry or tessellation evaluation stage that projects
     /// `gl_in[i].gl_Position` needs of the stage before.
     pub position_w_one: Table<vk::ShaderModule, bool>,
+    /// The code of each vertex module analyzed (precise modes only; shared with
+    /// [`Self::vertex_codes`] where it keeps the code): a pipeline whose layout has no room
+    /// for the pushed carrier gets a variant with the carrier baked into this code, made at
+    /// its creation (issue #41).
+    pub vertex_words: Table<vk::ShaderModule, Arc<[u32]>>,
     /// The code of vertex modules and of SPIR-V chained into vertex stages instead of a
     /// module: analyzed and rewritten once per distinct code, not at every module or pipeline
     /// creation.

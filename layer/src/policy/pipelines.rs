@@ -364,6 +364,23 @@ pub struct Variants {
     /// Its subpass has a depth attachment (a reversed variant converting its input reads is
     /// needed only then).
     pub depth_attachment: bool,
+    /// Its reversed variants have the last pre-rasterization stage with revz's carrier baked
+    /// in ([`baked_stage_conflict`] found nothing against it): its layout has no room for the
+    /// pushed carrier, and the variants are bound for its precise-path draws only.
+    pub baked_vertex: bool,
+}
+
+/// Why a pipeline whose layout has no room for the carrier cannot take the precise path with
+/// the carrier baked into its reversed variants: they would change something else too (a
+/// flipped static compare op or depth bias, a rewritten fragment stage, linked libraries'
+/// variants, converted input reads), which its flip-path draws into reversed attachments
+/// need as well, and those draws bind it without the baked stage.
+#[must_use]
+pub fn baked_stage_conflict(variants: &Variants, variant_holds_bias: bool) -> Option<&'static str> {
+    (variants.reversed() || variant_holds_bias).then_some(
+        "its pipeline layout has no room for revz's push constants, and its reversed variant \
+         already changes its compare op, depth bias, fragment stage or libraries",
+    )
 }
 
 impl VariantFacts {
@@ -402,6 +419,7 @@ impl VariantFacts {
             promotion_refused: self.promotion && !given,
             converted_inputs: self.converts_inputs && given,
             depth_attachment: self.depth_attachment,
+            baked_vertex: false,
         }
     }
 }
@@ -410,7 +428,8 @@ impl Variants {
     /// Whether the pipeline gets a variant bound for draws into reversed attachments.
     #[must_use]
     pub fn reversed(&self) -> bool {
-        self.compare_op
+        self.baked_vertex
+            || self.compare_op
             || self.rewritten_fragment
             || self.linked_variants
             || (self.converted_inputs && self.depth_attachment)
@@ -1116,6 +1135,7 @@ mod tests {
                 promotion_refused: false,
                 converted_inputs: false,
                 depth_attachment: true,
+                baked_vertex: false,
             }
         );
         assert!(variants.reversed());

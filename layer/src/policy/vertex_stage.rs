@@ -214,6 +214,12 @@ pub struct VertexStageFacts<'a> {
     pub convention: Option<DepthConvention>,
     /// Its layout has room for revz's carrier.
     pub carrier_room: bool,
+    /// Where its layout has no room: the deriving rewrite of its stage with the carrier baked
+    /// in (`crate::shader::position_store::CarrierRead::Baked`), which its reversed variants
+    /// get, and where that stage's matrix comes from; or why there is none. `None` where it
+    /// was not made (the layout has room, or the pipeline is a library or links libraries,
+    /// whose variants link stages revz cannot replace).
+    pub baked: Option<Result<MatrixSource, &'a str>>,
     /// Its vertex module's `Position` rewrite: where its stage derives the range from (`None`:
     /// it does not), or why it has none.
     pub rewrite: Result<Option<MatrixSource>, Missing>,
@@ -300,6 +306,10 @@ pub struct VertexRange {
     pub projection: Option<ProjectionUse>,
     /// The matrix the stage loads and fits itself.
     pub derived: Option<MatrixSource>,
+    /// The stage fits it with the carrier baked into the reversed variants' code: the
+    /// layout has no room for the pushed one, and the application's pipeline keeps its own
+    /// stage (issue #41).
+    pub baked: bool,
 }
 
 impl VertexStageFacts<'_> {
@@ -322,6 +332,9 @@ impl VertexStageFacts<'_> {
             // rewrite has its single vertex entry point.
             Some(_) | None => None,
         };
+        if !self.carrier_room {
+            return self.decide_baked(stage);
+        }
         let projection = match slot {
             Some(slot) => {
                 let ranges = self.ranges.ok_or("its pipeline layout is unknown")?;
@@ -341,9 +354,6 @@ impl VertexStageFacts<'_> {
             }
             None => None,
         };
-        if !self.carrier_room {
-            return Err("its pipeline layout has no room for revz's push constants".into());
-        }
         if !self.carrier_reaches_stage {
             return Err(match stage {
                 LastStage::Geometry => {
@@ -373,6 +383,46 @@ impl VertexStageFacts<'_> {
         if projection.is_none() && derived.is_none() {
             return Err("Position does not come from a push-constant matrix".into());
         }
+        self.unit_w_checked(stage)?;
+        Ok(VertexRange {
+            projection,
+            derived,
+            baked: false,
+        })
+    }
+
+    /// The precise path of a pipeline whose layout has no room for the carrier: its stage
+    /// fits the matrix it loads (from push constants too) with the carrier baked into the
+    /// reversed variants' code. That needs the [0, 1] clip depth fixed in the pipeline (a
+    /// baked selector cannot follow a dynamic convention) and the baked rewrite.
+    fn decide_baked(&self, stage: LastStage) -> Result<VertexRange, String> {
+        const NO_ROOM: &str = "its pipeline layout has no room for revz's push constants";
+        match self.convention {
+            Some(DepthConvention::ZeroToOne) => {}
+            Some(DepthConvention::NegativeOneToOne) => {
+                return Err(format!("{NO_ROOM}, and its clip depth is [-1, 1]"))
+            }
+            None => return Err(format!("{NO_ROOM}, and its depth clip convention is dynamic")),
+        }
+        let derived = match &self.baked {
+            None => return Err(NO_ROOM.into()),
+            Some(Err(reason)) => {
+                return Err(format!(
+                    "{NO_ROOM}, and its {} stage cannot derive its range ({reason})",
+                    stage.name()
+                ))
+            }
+            Some(Ok(source)) => *source,
+        };
+        self.unit_w_checked(stage)?;
+        Ok(VertexRange {
+            projection: None,
+            derived: Some(derived),
+            baked: true,
+        })
+    }
+
+    fn unit_w_checked(&self, stage: LastStage) -> Result<(), String> {
         if self.input_unit_w == Some(false) {
             return Err(format!(
                 "its {} stage projects the previous stage's Position (gl_in[i].gl_Position), \
@@ -380,10 +430,7 @@ impl VertexStageFacts<'_> {
                 stage.name()
             ));
         }
-        Ok(VertexRange {
-            projection,
-            derived,
-        })
+        Ok(())
     }
 }
 
@@ -517,6 +564,7 @@ mod tests {
             ranges: Some(&RANGES),
             convention: Some(DepthConvention::ZeroToOne),
             carrier_room: true,
+            baked: None,
             rewrite: Ok(None),
             input_unit_w: None,
         }
@@ -541,7 +589,8 @@ mod tests {
             facts.decide(),
             Ok(VertexRange {
                 projection: None,
-                derived: Some(MatrixSource::UniformBuffer)
+                derived: Some(MatrixSource::UniformBuffer),
+                baked: false,
             })
         );
         // Without the rewrite's fit there is nothing to store depth with.
@@ -592,7 +641,8 @@ mod tests {
                 facts.decide(),
                 Ok(VertexRange {
                     projection: None,
-                    derived: Some(MatrixSource::UniformBuffer)
+                    derived: Some(MatrixSource::UniformBuffer),
+                    baked: false,
                 })
             );
             // Projecting gl_in's Position: as the stage before stores it.

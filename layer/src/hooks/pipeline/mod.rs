@@ -38,7 +38,8 @@ use crate::policy::pipelines::{
     examines_fragment, has_depth_attachment, profiles_pipeline, renders_depth, viewports_static,
     BiasVariantFacts, DepthAttachmentFacts, DepthBiasFacts, DepthStencilFacts, FragmentStage,
     PipelinePath, PipelinePromotion, PromotionAttachments, PromotionFacts, StaticStateFacts,
-    StaticStatePlan, TakeBack, VariantCompile, VariantFacts, VariantKind, Variants,
+    baked_stage_conflict, StaticStatePlan, TakeBack, VariantCompile, VariantFacts, VariantKind,
+    Variants,
 };
 use crate::policy::vertex_stage::{
     self, precise_candidate, Missing, MissingFact, PositionStore, VertexStageFacts,
@@ -49,7 +50,7 @@ use crate::shader::derived_range::MatrixSource;
 use crate::shader::fragment_depth;
 use crate::shader::position_store;
 use crate::state::DeviceState;
-use revz_math::DepthConvention;
+use revz_math::{DepthConvention, Target as RewriteTarget};
 
 use modules::*;
 use plan::*;
@@ -95,7 +96,9 @@ pub(super) fn first_inline_report(report: Report, words: &[u32]) -> bool {
 struct PreciseStage {
     projection: Option<ProjectionUse>,
     derived: Option<MatrixSource>,
-    carrier: Carrier,
+    /// `None`: the layout has no room for it, and `vertex` has it baked in (for the
+    /// reversed variants only).
+    carrier: Option<Carrier>,
     vertex: (usize, Arc<[u32]>),
     /// The stage rewritten (the last pre-rasterization stage), for the log.
     stage: vertex_stage::LastStage,
@@ -127,6 +130,10 @@ struct Plan {
     vertex: Option<(usize, Arc<[u32]>)>,
     /// Which stage that is (the last pre-rasterization stage), for the log.
     rewritten_stage: Option<vertex_stage::LastStage>,
+    /// Where the layout has no room for the carrier: that stage (its index) with the carrier
+    /// baked in, which the reversed variants get instead (`PipelineDepth::baked`); the
+    /// application's pipeline keeps its own.
+    baked_vertex: Option<(usize, Arc<[u32]>)>,
     /// The libraries the create info links, with those that have a reversed variant replaced
     /// by it; `None` when none has one.
     libraries: Option<Vec<vk::Pipeline>>,
@@ -292,7 +299,10 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     if let (true, Some(reason)) = (candidate, clamp_flip) {
                         plan.flip_reason = Some(reason.into());
                     } else if candidate {
-                        match projection_of(&state, info, facts.code_given()) {
+                        let bakeable = context.subsets == libraries::ALL_SUBSETS
+                            && !is_library(info)
+                            && linked.is_empty();
+                        match projection_of(&state, info, facts.code_given(), bakeable) {
                             Ok(stage) => {
                                 plan.depth.projection = stage.projection;
                                 plan.depth.derived_range = stage.derived;
@@ -301,9 +311,14 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                                     .layout_pushers
                                     .get(&info.layout)
                                     .unwrap_or_default();
-                                plan.depth.position_store = Some(stage.carrier);
-                                plan.vertex = Some(stage.vertex);
+                                plan.depth.position_store = stage.carrier;
                                 plan.rewritten_stage = Some(stage.stage);
+                                if stage.carrier.is_some() {
+                                    plan.vertex = Some(stage.vertex);
+                                } else {
+                                    plan.depth.baked = true;
+                                    plan.baked_vertex = Some(stage.vertex);
+                                }
                             }
                             Err(reason) => plan.flip_reason = Some(reason),
                         }
@@ -365,6 +380,18 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     .variant_holds_bias();
                     if holds_bias {
                         plan.keep_bias_static(info);
+                    }
+                    let mut variants = variants;
+                    if plan.depth.baked {
+                        match baked_stage_conflict(&variants, holds_bias) {
+                            Some(reason) => {
+                                plan.depth.baked = false;
+                                plan.depth.derived_range = None;
+                                plan.baked_vertex = None;
+                                plan.flip_reason = Some(reason.into());
+                            }
+                            None => variants.baked_vertex = true,
+                        }
                     }
                     if variants.rewritten_fragment {
                         if let Some(Some((index, Ok(code)))) = fragment {
@@ -612,6 +639,18 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 if plan.variants.keeps_unreversed_fragment(variant.is_some()) {
                     plan.depth.unreversed_fragment = true;
                 }
+                let baked_missing = plan.depth.reversed_variant.is_none()
+                    || (plan.variants.promoted && plan.depth.promoted_reversed_variant.is_none());
+                if plan.depth.baked && baked_missing {
+                    // Its precise-path draws would store the application's stage's depth.
+                    plan.depth.baked = false;
+                    plan.depth.derived_range = None;
+                    plan.flip_reason = Some(
+                        "its pipeline layout has no room for revz's push constants, and its \
+                         reversed variant with the carrier baked in could not be made"
+                            .into(),
+                    );
+                }
 
                 let path = PipelinePath::of(
                     plan.depth.projection,
@@ -621,11 +660,17 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 match path {
                     PipelinePath::Derived(source) => log::debug!(
                         "pipeline {pipeline:?}: projection from {}: its {} stage derives \
-                         the range from the matrix it loads (precise path)",
+                         the range from the matrix it loads (precise path{})",
                         source.describe(),
                         plan.rewritten_stage
                             .unwrap_or(vertex_stage::LastStage::Vertex)
-                            .name()
+                            .name(),
+                        if plan.depth.baked {
+                            "; its layout has no room for revz's push constants, so its \
+                             reversed variants have the carrier baked in"
+                        } else {
+                            ""
+                        }
                     ),
                     PipelinePath::Pushed(p) => log::debug!(
                         "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \

@@ -149,11 +149,32 @@ pub(super) fn vertex_code(
     module: vk::ShaderModule,
     words: &[u32],
 ) -> (Arc<ModuleAnalysis>, Option<RewrittenVertex>) {
-    state.objects.vertex_codes.get_or_make(words, || {
-        let analysis = analyze_vertex_module(module, words);
-        let rewrite = position_store_of(state, &analysis, words);
-        (Arc::new(analysis), rewrite)
-    })
+    state
+        .objects
+        .vertex_codes
+        .get_or_make(words, || make_vertex_code(state, module, words))
+}
+
+/// [`vertex_code`], with the words as the cache keeps them.
+fn vertex_code_kept(
+    state: &DeviceState,
+    module: vk::ShaderModule,
+    words: &[u32],
+) -> (Arc<[u32]>, (Arc<ModuleAnalysis>, Option<RewrittenVertex>)) {
+    state
+        .objects
+        .vertex_codes
+        .get_or_make_kept(words, || make_vertex_code(state, module, words))
+}
+
+fn make_vertex_code(
+    state: &DeviceState,
+    module: vk::ShaderModule,
+    words: &[u32],
+) -> (Arc<ModuleAnalysis>, Option<RewrittenVertex>) {
+    let analysis = analyze_vertex_module(module, words);
+    let rewrite = position_store_of(state, &analysis, words);
+    (Arc::new(analysis), rewrite)
 }
 
 /// The SPIR-V chained into a stage instead of a module (`VkShaderModuleCreateInfo` in its
@@ -250,7 +271,8 @@ pub unsafe extern "system" fn create_shader_module(
             if vertex_stage::analyses_vertex_module(state.policy.rewrite().is_some(), || {
                 crate::shader::scan::declares_position_stage_entry_point(words)
             }) {
-                let (analysis, rewrite) = vertex_code(&state, module, words);
+                let (kept, (analysis, rewrite)) = vertex_code_kept(&state, module, words);
+                state.objects.vertex_words.insert(module, kept);
                 if let Some(rewrite) = rewrite {
                     state.objects.position_stores.insert(module, rewrite);
                 }
@@ -272,7 +294,12 @@ destroy_hook!(
     destroy_shader_module,
     DESTROY_SHADER_MODULE,
     vk::ShaderModule,
-    fragment_depth_modules | vertex_modules | position_stores | position_w_one | input_modules,
+    fragment_depth_modules
+        | vertex_modules
+        | position_stores
+        | position_w_one
+        | vertex_words
+        | input_modules,
     destroy_shader_module
 );
 

@@ -132,6 +132,7 @@ pub(super) fn projection_of(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
     code_given: bool,
+    bakeable: bool,
 ) -> Result<PreciseStage, String> {
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
@@ -204,6 +205,41 @@ pub(super) fn projection_of(
     };
     let ranges = state.objects.pipeline_layouts.get(&info.layout);
     let carrier = state.objects.layout_carriers.get(&info.layout);
+    // No room for the carrier in the layout: the stage with the carrier baked in, for the
+    // reversed variants (complete pipelines only: a library's variants are linked by
+    // pipelines revz cannot give another stage).
+    let baked = match (&carrier, vertex) {
+        (None, Some(vertex)) if bakeable && code_given => {
+            let words = if vertex.module != vk::ShaderModule::null() {
+                state.objects.vertex_words.get(&vertex.module)
+            } else {
+                inline_code(vertex).map(Arc::from)
+            };
+            words.map(|words| {
+                let selector = crate::command_state::derived_selector(
+                    RewriteTarget::Complementary,
+                    DepthConvention::ZeroToOne,
+                );
+                let rewrite = position_store::derive_position_store_reading(
+                    &words,
+                    position_store::CarrierRead::Baked(selector),
+                );
+                match rewrite {
+                    Ok(Some(rewrite)) => Ok(rewrite),
+                    Ok(None) => Err("no Position output"),
+                    Err(position_store::Unsupported(reason)) => Err(reason),
+                }
+            })
+        }
+        _ => None,
+    };
+    let input_unit_w = match (&carrier, &baked) {
+        (None, Some(Ok(rewrite))) if rewrite.assumes_input_unit_w => {
+            Some(prior_stage_w_one(state, stages, last_stage))
+        }
+        (None, _) => None,
+        _ => input_unit_w,
+    };
     let facts = VertexStageFacts {
         code_given,
         last_stage,
@@ -215,17 +251,28 @@ pub(super) fn projection_of(
         ranges: ranges.as_deref(),
         convention: depth_convention(info, dynamic),
         carrier_room: carrier.is_some(),
+        baked: baked
+            .as_ref()
+            .map(|b| b.as_ref().map(|r| r.source).map_err(|reason| *reason)),
         rewrite: rewrite.as_ref().map(|r| r.derived).map_err(|m| *m),
         input_unit_w,
     };
     let range = facts.decide()?;
-    match (carrier, rewrite, vertex_index) {
-        (Some(carrier), Ok(rewrite), Some(index)) => Ok(PreciseStage {
+    let stage = last_stage.unwrap_or(vertex_stage::LastStage::Vertex);
+    match (carrier, rewrite, baked, vertex_index) {
+        (_, _, Some(Ok(baked)), Some(index)) if range.baked => Ok(PreciseStage {
+            projection: None,
+            derived: range.derived,
+            carrier: None,
+            vertex: (index, baked.code.into()),
+            stage,
+        }),
+        (Some(carrier), Ok(rewrite), _, Some(index)) => Ok(PreciseStage {
             projection: range.projection,
             derived: range.derived,
-            carrier,
+            carrier: Some(carrier),
             vertex: (index, rewrite.code),
-            stage: last_stage.unwrap_or(vertex_stage::LastStage::Vertex),
+            stage,
         }),
         // The policy found them all.
         _ => Err(MissingFact::Incomplete.reason().into()),
@@ -333,6 +380,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         input_fragment: None,
         vertex: None,
         rewritten_stage: None,
+        baked_vertex: None,
         libraries: None,
         input_libraries: None,
         promotion: None,
@@ -445,6 +493,7 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         input_fragment: None,
         vertex: None,
         rewritten_stage: None,
+        baked_vertex: None,
         libraries: None,
         input_libraries: None,
         promotion: None,

@@ -32,7 +32,8 @@ pub(super) fn library_variants(
 
 /// Creates the reversed variant of a pipeline: its create info (with the dynamic states revz
 /// added) with the static depth compare op flipped (and its static depth bias, where the plan
-/// keeps it static), the fragment stage rewritten and the
+/// keeps it static), the fragment stage rewritten, the stage with the carrier baked in where
+/// the layout has no room for it, and the
 /// linked libraries replaced by their variants, as the plan says. Not a derivative (the base
 /// index of the application's batch means nothing in a batch of one), without early return (a
 /// batch of one), and with the application's `FAIL_ON_PIPELINE_COMPILE_REQUIRED`: a variant
@@ -169,6 +170,27 @@ pub(super) fn create_variant(
         }
         None => None,
     };
+    // A layout without room for the carrier: the reversed variants' last pre-rasterization
+    // stage has it baked in (`PipelineDepth::baked`).
+    let baked = match plan.baked_vertex.as_ref().filter(|_| kind.reversed) {
+        Some((index, code)) => {
+            let Some(baked) = rewritten_stage(state, device, &mut stages[*index], code) else {
+                if let Some(RewrittenStage { module, .. }) = rewritten {
+                    // SAFETY: revz's own module, in no pipeline yet.
+                    unsafe {
+                        (state.next.fp_v1_0().destroy_shader_module)(
+                            device,
+                            module,
+                            std::ptr::null(),
+                        )
+                    };
+                }
+                return failed(&"its stage with the carrier baked in could not be made");
+            };
+            Some(baked)
+        }
+        None => None,
+    };
     let variant_info = vk::GraphicsPipelineCreateInfo {
         p_next: chain.head(),
         flags: info.flags
@@ -203,7 +225,7 @@ pub(super) fn create_variant(
             &mut variant,
         )
     };
-    if let Some(RewrittenStage { module, .. }) = rewritten {
+    for RewrittenStage { module, .. } in rewritten.into_iter().chain(baked) {
         // SAFETY: revz's own module; a pipeline no longer needs its modules once created.
         unsafe { (state.next.fp_v1_0().destroy_shader_module)(device, module, std::ptr::null()) };
     }
