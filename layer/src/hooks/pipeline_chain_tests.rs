@@ -19,6 +19,7 @@ use ash::vk::{self, Handle};
 use super::fake_chain::{self, seen_pipeline, Event, PipelineOutcome, SeenPipeline, Tables};
 use super::{device, pipeline};
 use crate::command_state::PipelineDepth;
+use crate::shader::derived_range::MatrixSource;
 use crate::shader::fragment_depth::reverse_fragment_depth;
 use crate::shader::test_spirv::{
     self, fragment, refused_fragment, validate, FRAG_DEPTH, PLAIN, VERTEX,
@@ -2468,5 +2469,66 @@ fn modules_of_code_seen_before_are_analyzed_once_and_get_the_same_rewrites() {
     // Other code is analyzed for itself.
     fx.vertex_module();
     assert_eq!(objects.vertex_codes.len(), 2);
+    fx.finish();
+}
+
+#[test]
+fn a_layout_without_room_for_the_carrier_gets_the_stage_with_the_carrier_baked_into_its_variant() {
+    // revz never saw the tests' layout created, so it holds no carrier for it: the case of a
+    // layout whose push constants leave no room (`NoRoom::Used`), as for a vertex stage
+    // whose push-constant block fills 128 bytes.
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite")]);
+    let words = test_spirv::compile_glsl(
+        naga::ShaderStage::Vertex,
+        "#version 450
+        layout(push_constant) uniform PushConstants { mat4 mvp; vec4 tint[4]; } pc;
+        layout(location = 0) in vec3 position;
+        void main() { gl_Position = pc.mvp * vec4(position, 1.0); }",
+    );
+    let vertex = fx.module(&words);
+    let fragment_module = fx.module(&fragment(PLAIN));
+    let app = AppPipeline::of_modules(vertex, fragment_module);
+    let built = app.build();
+    let made = fx.create_with_variant(&built.info(), None);
+    // The variant's vertex stage is the temporary module: the deriving rewrite with the
+    // carrier baked in (complementary depth); the application's pipeline keeps its module.
+    let selector = crate::command_state::derived_selector(
+        revz_math::Target::Complementary,
+        revz_math::DepthConvention::ZeroToOne,
+    );
+    let baked = crate::shader::position_store::derive_position_store_reading(
+        &words,
+        crate::shader::position_store::CarrierRead::Baked(selector),
+    )
+    .expect("rewritable")
+    .expect("has a Position");
+    assert_eq!(made.code, baked.code);
+    validate(&made.code);
+    assert_eq!(made.variant_info.stages[0].module, made.temporary);
+    assert_eq!(made.app_info.stages[0].module, vertex);
+    assert_eq!(made.variant_info.stages[1].module, fragment_module);
+    // The compare op stays dynamic in both: the flip-path draws bind the application's
+    // pipeline and flip it there.
+    assert_eq!(made.variant_info.dynamic_states, EXTENDED);
+    assert_eq!(made.app_info.dynamic_states, EXTENDED);
+    let recorded = fx.recorded(made.app);
+    assert!(recorded.baked);
+    assert_eq!(recorded.position_store, None, "nothing pushed");
+    assert_eq!(recorded.projection, None);
+    assert_eq!(recorded.derived_range, Some(MatrixSource::PushConstants));
+
+    // A dynamic clip convention cannot take a baked selector: the flip path, no variant.
+    let mut dynamic_clip = AppPipeline::of_modules(vertex, fragment_module);
+    dynamic_clip
+        .dynamic_states
+        .push(vk::DynamicState::DEPTH_CLIP_NEGATIVE_ONE_TO_ONE_EXT);
+    let built = dynamic_clip.build();
+    let (result, handles) = fx.create_pipelines(&[built.info()], None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    only_app_creation(&fx.events());
+    let recorded = fx.recorded(handles[0]);
+    assert!(!recorded.baked);
+    assert_eq!(recorded.reversed_variant, None);
+    assert_eq!(recorded.derived_range, None);
     fx.finish();
 }

@@ -1122,6 +1122,45 @@ mod tests {
     }
 
     #[test]
+    fn a_baked_stage_goes_only_where_the_reversed_variant_changes_nothing_else() {
+        let none = VariantFacts {
+            compare_op_flips: false,
+            fragment: Some(FragmentStage::NoDepth),
+            library_variants: false,
+            converts_inputs: false,
+            ..wanting_all()
+        }
+        .decide();
+        assert!(!none.reversed());
+        assert_eq!(baked_stage_conflict(&none, false), None);
+        assert!(baked_stage_conflict(&none, true).is_some(), "a static bias flipped");
+        let mut baked = none;
+        baked.baked_vertex = true;
+        assert!(baked.reversed());
+        let kinds: Vec<_> = baked.kinds().collect();
+        assert_eq!(
+            kinds,
+            [
+                VariantKind::REVERSED,
+                VariantKind::PROMOTED,
+                VariantKind::PROMOTED_REVERSED
+            ]
+        );
+        for facts in [
+            VariantFacts {
+                compare_op_flips: true,
+                ..wanting_all()
+            },
+            VariantFacts {
+                fragment: Some(FragmentStage::Rewritable),
+                ..wanting_all()
+            },
+        ] {
+            assert!(baked_stage_conflict(&facts.decide(), false).is_some());
+        }
+    }
+
+    #[test]
     fn a_pipeline_of_given_code_gets_the_variants_it_needs() {
         let variants = wanting_all().decide();
         assert_eq!(

@@ -605,6 +605,79 @@ mod tests {
     }
 
     #[test]
+    fn a_layout_without_room_takes_the_precise_path_with_the_carrier_baked_in() {
+        let analysis = Analysis::Projection(slot());
+        let no_room = VertexStageFacts {
+            carrier_room: false,
+            carrier_reaches_stage: false,
+            ranges: None,
+            baked: Some(Ok(MatrixSource::PushConstants)),
+            ..pushed(&analysis)
+        };
+        assert_eq!(
+            no_room.decide(),
+            Ok(VertexRange {
+                projection: None,
+                derived: Some(MatrixSource::PushConstants),
+                baked: true,
+            })
+        );
+        // What keeps it on the flip path, each with its reason.
+        for (facts, reason) in [
+            (
+                VertexStageFacts {
+                    baked: None,
+                    ..no_room
+                },
+                "its pipeline layout has no room for revz's push constants",
+            ),
+            (
+                VertexStageFacts {
+                    baked: Some(Err("two stores")),
+                    ..no_room
+                },
+                "its pipeline layout has no room for revz's push constants, and its vertex \
+                 stage cannot derive its range (two stores)",
+            ),
+            (
+                VertexStageFacts {
+                    convention: None,
+                    ..no_room
+                },
+                "its pipeline layout has no room for revz's push constants, and its depth \
+                 clip convention is dynamic",
+            ),
+            (
+                VertexStageFacts {
+                    convention: Some(DepthConvention::NegativeOneToOne),
+                    ..no_room
+                },
+                "its pipeline layout has no room for revz's push constants, and its clip \
+                 depth is [-1, 1]",
+            ),
+        ] {
+            assert_eq!(facts.decide().unwrap_err(), reason);
+        }
+        let projects_input = VertexStageFacts {
+            last_stage: Some(LastStage::Geometry),
+            input_unit_w: Some(false),
+            ..no_room
+        };
+        assert!(projects_input
+            .decide()
+            .unwrap_err()
+            .contains("does not store as vec4(p, 1.0)"));
+        // A layout with room never takes it, whatever was made.
+        let room = VertexStageFacts {
+            carrier_room: true,
+            carrier_reaches_stage: true,
+            ranges: Some(&RANGES),
+            ..no_room
+        };
+        assert!(!room.decide().unwrap().baked);
+    }
+
+    #[test]
     fn the_last_pre_rasterization_stage_is_the_latest_present() {
         use vk::ShaderStageFlags as S;
         let of = |stages: &[S]| LastStage::of(stages.iter().copied());
