@@ -731,7 +731,9 @@ pub fn create_pipeline(
         Program::Ssbo => (shaders::SSBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SsboRows => (shaders::SSBO_ROWS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SsboRegisters => (shaders::SSBO_REGISTERS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
-        Program::SplitPush => (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG)),
+        Program::SplitPush | Program::FullPush => {
+            (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG))
+        }
         Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::PushGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::SCENE_FRAG)),
         Program::UboTessellation => (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG)),

@@ -60,6 +60,7 @@
 //! 1 - D ~ 1e-4, stored to 6e-8), on `overlap` by about 2e-5.
 
 use revz_math::precision::{float32_gamma, F32_UNIT_ROUNDOFF};
+use revz_math::shader_fit::fit_in_shader;
 use revz_math::{
     classify, read_clip_transform, CameraMatch, Cameras, DepthConvention, DepthLine, Storage,
 };
@@ -561,29 +562,70 @@ scene_tests! {
     lit_mvp: "lit-mvp";
 }
 
+/// The range a stage that derives it fits from each object's pushed projection (column-major
+/// float32): `revz_math::shader_fit::fit_in_shader`'s `k` and `B`, exactly as the stage
+/// computes them, as (n, f) = (-B / k, B / (1 - k)).
+fn fitted_ranges(truth: &GroundTruth) -> Vec<(f64, f64)> {
+    truth
+        .objects
+        .iter()
+        .map(|object| {
+            let m = &object.pushed_projection;
+            let row = |r: usize| [m[r], m[4 + r], m[8 + r], m[12 + r]];
+            let line = fit_in_shader(row(2), row(3)).expect("the stage's fit accepts it");
+            let (k, b) = (f64::from(line.k), f64::from(line.b));
+            (-b / k, b / (1.0 - k))
+        })
+        .collect()
+}
+
 /// `model-view-projection-pair` pushes 128 bytes, all of lavapipe's push-constant space:
-/// revz's carrier has no room, so its draws take the flip path (logged): the native colors, and
-/// depth 1 - native.
+/// revz's carrier has no room (logged), so the vertex stage fits `view_proj` itself, with the
+/// carrier baked into the pipeline's reversed variant (issue #41). That stage stores
+/// complementary depth of the range it fits in both precise modes (no camera is pushed where
+/// revz could read it): the native colors, that mapping of the ground truth within the floor,
+/// and the cleared background at 0.
 #[test]
-fn a_full_push_constant_space_takes_the_flip_path() {
+fn a_full_push_constant_space_takes_the_precise_path_with_the_carrier_baked_in() {
     let harness = Harness::locate();
     let scene = "model-view-projection-pair";
     let native = render(&harness, "full", scene, "d32", None);
-    let layered = render(&harness, "full", scene, "d32", Some(COMPLEMENTARY));
-    assert!(
-        layered.stderr().contains("no room for revz's 16 bytes"),
-        "{}",
-        layered.stderr()
-    );
-    assert_eq!(differing_pixels(&native.color(), &layered.color()), 0);
-    let worst = native
-        .depth()
-        .iter()
-        .zip(layered.depth())
-        .map(|(n, f)| ((1.0 - f64::from(*n)) - f64::from(f)).abs())
-        .fold(0.0, f64::max);
-    // One float32 step near 1 (2^-23), and the rounding of 1 - native.
-    assert!(worst <= 1.8e-7, "depth is not 1 - native: {worst:e}");
+    let truth = native.ground_truth();
+    let ranges = fitted_ranges(&truth);
+    let mut problems = Vec::new();
+    for case in [COMPLEMENTARY, INFINITE] {
+        let label = case.label();
+        let layered = render(&harness, "full", scene, "d32", Some(case));
+        let log = layered.stderr();
+        if !log.contains("no room for revz's 16 bytes") || !log.contains("): reversed") {
+            problems.push(format!("{label}: not reversed with no room logged: {log}"));
+        }
+        let unexplained = unexplained_color_differences(&native.color(), &layered.color(), &truth);
+        if !unexplained.is_empty() {
+            problems.push(format!(
+                "{label}: colors differ: {}",
+                unexplained.join("; ")
+            ));
+        }
+        let comparison = compare(&layered, &truth, "d32", |object| {
+            let index = truth
+                .objects
+                .iter()
+                .position(|o| std::ptr::eq(o, object))
+                .expect("an object of this ground truth");
+            let (near, far) = ranges[index];
+            Mapping::new(Kind::Complementary, near, far)
+        });
+        eprintln!("{}", describe(&label, &comparison));
+        if !comparison.holds() {
+            problems.push(describe(&label, &comparison));
+        }
+        let depth = layered.depth();
+        if truth.open_background().iter().any(|&at| depth[at] != 0.0) {
+            problems.push(format!("{label}: the background is not cleared to 0"));
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
 /// The flip path renders `view-projection` correctly (same colors, depth = 1 - native) but

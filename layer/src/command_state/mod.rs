@@ -758,8 +758,8 @@ impl CommandState {
         };
         // A pipeline with the carrier baked into its reversed variants: those where its draws
         // will take the precise path ([`Self::settle`]).
-        let reversed = self.target == Target::Reversed
-            && (!pipeline.baked || self.derived_use().is_some());
+        let reversed =
+            self.target == Target::Reversed && (!pipeline.baked || self.derived_use().is_some());
         let wanted = pipeline.variant_for(reversed, self.promoted(), self.reversed_inputs);
         self.variant_bound = wanted;
         wanted.unwrap_or(app)

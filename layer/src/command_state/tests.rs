@@ -669,7 +669,10 @@ fn a_stage_with_the_carrier_baked_in_is_bound_for_precise_draws_only_and_nothing
         let mut sink = Recorded::default();
         inherited.before_draw(&mut sink);
         assert_eq!(inherited.path(), DrawPath::Flip);
-        assert!(sink.binds.is_empty(), "the application's pipeline stays bound");
+        assert!(
+            sink.binds.is_empty(),
+            "the application's pipeline stays bound"
+        );
         assert_eq!(sink.compare_ops, vec![vk::CompareOp::GREATER]);
         inherited.set_promoted(Some(vk::Format::D24_UNORM_S8_UINT));
         inherited.before_draw(&mut sink);

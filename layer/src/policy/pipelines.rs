@@ -1133,7 +1133,10 @@ mod tests {
         .decide();
         assert!(!none.reversed());
         assert_eq!(baked_stage_conflict(&none, false), None);
-        assert!(baked_stage_conflict(&none, true).is_some(), "a static bias flipped");
+        assert!(
+            baked_stage_conflict(&none, true).is_some(),
+            "a static bias flipped"
+        );
         let mut baked = none;
         baked.baked_vertex = true;
         assert!(baked.reversed());

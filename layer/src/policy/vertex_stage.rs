@@ -402,7 +402,11 @@ impl VertexStageFacts<'_> {
             Some(DepthConvention::NegativeOneToOne) => {
                 return Err(format!("{NO_ROOM}, and its clip depth is [-1, 1]"))
             }
-            None => return Err(format!("{NO_ROOM}, and its depth clip convention is dynamic")),
+            None => {
+                return Err(format!(
+                    "{NO_ROOM}, and its depth clip convention is dynamic"
+                ))
+            }
         }
         let derived = match &self.baked {
             None => return Err(NO_ROOM.into()),

@@ -100,13 +100,15 @@ pub enum DeliveryChoice {
     SsboRegisters,
     /// The push constants of push, in a range per stage.
     PushSplit,
+    /// The push constants of push-split, the fragment stage's range to byte 128.
+    PushFull,
     /// The push constants of push, applied in a geometry shader.
     PushGeometry,
     /// The blocks of ubo, applied in a geometry shader.
     UboGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
-    /// push, push-split, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers,
+    /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers,
     /// ubo-geometry and ubo-tessellation.
     All,
 }
@@ -121,6 +123,7 @@ impl DeliveryChoice {
             DeliveryChoice::SsboRows => &[Delivery::SsboRows],
             DeliveryChoice::SsboRegisters => &[Delivery::SsboRegisters],
             DeliveryChoice::PushSplit => &[Delivery::PushSplit],
+            DeliveryChoice::PushFull => &[Delivery::PushFull],
             DeliveryChoice::PushGeometry => &[Delivery::PushGeometry],
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
@@ -226,7 +229,7 @@ pub struct Selection {
     #[arg(long, value_enum, value_delimiter = ',')]
     pub formats: Vec<DepthFormat>,
 
-    /// Projection deliveries (comma-separated): push, push-split, push-geometry, ubo,
+    /// Projection deliveries (comma-separated): push, push-split, push-full, push-geometry, ubo,
     /// ubo-dynamic, ssbo,
     /// ssbo-rows, ssbo-registers, ubo-geometry, ubo-tessellation, or all. The deliveries other than push are
     /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.

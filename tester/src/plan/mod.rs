@@ -205,6 +205,10 @@ pub enum Program {
     /// constants of [`Program::Flat`] in two ranges, the matrix at 0..64 for the vertex stage,
     /// the color at 64..80 for the fragment stage (each push split along them).
     SplitPush,
+    /// The shaders and push constants of [`Program::SplitPush`] with the fragment stage's range
+    /// at 64..128 (the `push-full` [`Delivery`]): the layout's ranges fill a 128-byte device's
+    /// push constants, leaving no room for revz's carrier there.
+    FullPush,
     /// `ubo_position.vert` + `push.geom` + `scene.frag` (the `push-geometry` [`Delivery`]): the
     /// push constants of [`Program::Flat`], the matrix applied in a geometry shader; one range
     /// for the vertex, geometry and fragment stages.
@@ -289,6 +293,9 @@ pub enum Delivery {
     SsboRegisters,
     /// The push constants of [`Delivery::Push`] in a range per stage ([`Program::SplitPush`]).
     PushSplit,
+    /// The push constants of [`Delivery::PushSplit`] in ranges that fill 128 bytes
+    /// ([`Program::FullPush`]).
+    PushFull,
     /// The push constants of [`Delivery::Push`], applied in a geometry shader
     /// ([`Program::PushGeometry`]).
     PushGeometry,
@@ -302,9 +309,10 @@ pub enum Delivery {
 
 impl Delivery {
     /// Every delivery, push first.
-    pub const ALL: [Delivery; 10] = [
+    pub const ALL: [Delivery; 11] = [
         Delivery::Push,
         Delivery::PushSplit,
+        Delivery::PushFull,
         Delivery::PushGeometry,
         Delivery::Ubo,
         Delivery::UboDynamic,
@@ -325,6 +333,7 @@ impl Delivery {
             Delivery::SsboRows => "ssbo-rows",
             Delivery::SsboRegisters => "ssbo-registers",
             Delivery::PushSplit => "push-split",
+            Delivery::PushFull => "push-full",
             Delivery::PushGeometry => "push-geometry",
             Delivery::UboGeometry => "ubo-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
@@ -342,6 +351,7 @@ impl Delivery {
             Delivery::SsboRows => Some(Program::SsboRows),
             Delivery::SsboRegisters => Some(Program::SsboRegisters),
             Delivery::PushSplit => Some(Program::SplitPush),
+            Delivery::PushFull => Some(Program::FullPush),
             Delivery::PushGeometry => Some(Program::PushGeometry),
             Delivery::UboGeometry => Some(Program::UboGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
@@ -406,6 +416,7 @@ impl Program {
             | Program::RowVector
             | Program::LitMvp
             | Program::SplitPush
+            | Program::FullPush
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost

@@ -193,6 +193,8 @@ pub struct Renderer<'a> {
     pair_layout: vk::PipelineLayout,
     /// The [`Program::SplitPush`] layout ([`SPLIT_PUSH_CONSTANT_RANGES`]).
     split_layout: vk::PipelineLayout,
+    /// The [`Program::FullPush`] layout ([`FULL_PUSH_CONSTANT_RANGES`]).
+    full_layout: vk::PipelineLayout,
     /// The [`Program::PushGeometry`] layout (one range, [`GEOMETRY_PUSH_STAGES`]).
     geometry_layout: vk::PipelineLayout,
     colors: Option<ColorBindings<'a>>,
@@ -242,6 +244,7 @@ impl Drop for Renderer<'_> {
             self.device.destroy_pipeline_layout(self.plain_layout, None);
             self.device.destroy_pipeline_layout(self.pair_layout, None);
             self.device.destroy_pipeline_layout(self.split_layout, None);
+            self.device.destroy_pipeline_layout(self.full_layout, None);
             self.device
                 .destroy_pipeline_layout(self.geometry_layout, None);
             self.device
@@ -330,6 +333,28 @@ const GEOMETRY_PUSH_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_ra
         | vk::ShaderStageFlags::FRAGMENT.as_raw(),
 );
 
+/// The push-constant ranges of a program pushed per range ([`Program::SplitPush`],
+/// [`Program::FullPush`]); `None` for the others.
+pub(crate) fn split_ranges(program: Program) -> Option<&'static [vk::PushConstantRange]> {
+    match program {
+        Program::SplitPush => Some(&SPLIT_PUSH_CONSTANT_RANGES),
+        Program::FullPush => Some(&FULL_PUSH_CONSTANT_RANGES),
+        _ => None,
+    }
+}
+
+/// The push-constant ranges of the [`Program::FullPush`] layout: [`SPLIT_PUSH_CONSTANT_RANGES`]
+/// with the fragment stage's range to byte 128 (the shader reads 64..80), as applications
+/// that give a stage the rest of a 128-byte device's push constants lay them out.
+pub(crate) const FULL_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 2] = [
+    SPLIT_PUSH_CONSTANT_RANGES[0],
+    vk::PushConstantRange {
+        stage_flags: vk::ShaderStageFlags::FRAGMENT,
+        offset: 64,
+        size: 64,
+    },
+];
+
 /// The push-constant ranges of the [`Program::SplitPush`] layout: the matrix for the vertex
 /// stage, the color for the fragment stage.
 pub(crate) const SPLIT_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 2] = [
@@ -382,6 +407,7 @@ impl<'a> Renderer<'a> {
             depth_tiles: None,
             pair_layout: vk::PipelineLayout::null(),
             split_layout: vk::PipelineLayout::null(),
+            full_layout: vk::PipelineLayout::null(),
             geometry_layout: vk::PipelineLayout::null(),
             colors: None,
             matrix_layout: vk::PipelineLayout::null(),
@@ -483,6 +509,17 @@ impl<'a> Renderer<'a> {
             // SAFETY: valid device and create info.
             this.split_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
                 .context("vkCreatePipelineLayout (split push constants) failed")?;
+        }
+        if plan
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::FullPush)
+        {
+            let layout_info = vk::PipelineLayoutCreateInfo::default()
+                .push_constant_ranges(&FULL_PUSH_CONSTANT_RANGES);
+            // SAFETY: valid device and create info.
+            this.full_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+                .context("vkCreatePipelineLayout (push constants filling 128 bytes) failed")?;
         }
         if plan
             .pipelines
@@ -601,6 +638,7 @@ impl<'a> Renderer<'a> {
             | Program::LitMvp => (self.plain_layout, PLAIN_PUSH_STAGES),
             // Pushed per range ([`SPLIT_PUSH_CONSTANT_RANGES`]), each with its own stage.
             Program::SplitPush => (self.split_layout, vk::ShaderStageFlags::empty()),
+            Program::FullPush => (self.full_layout, vk::ShaderStageFlags::empty()),
             Program::PushGeometry => (self.geometry_layout, GEOMETRY_PUSH_STAGES),
             Program::DepthPost if self.depth_push_layout != vk::PipelineLayout::null() => {
                 (self.depth_push_layout, PLAIN_PUSH_STAGES)

@@ -744,9 +744,9 @@ impl Recorder<'_> {
             .get(offset as usize..(offset + size) as usize)
             .ok_or_else(|| anyhow!("push range {offset}+{size} outside the constants"))?;
         let (layout, stages) = self.renderer.layout(program);
-        if program == Program::SplitPush {
+        if let Some(ranges) = super::split_ranges(program) {
             // One push per range the bytes reach, each naming its range's stage.
-            for range in super::SPLIT_PUSH_CONSTANT_RANGES {
+            for &range in ranges {
                 let start = offset.max(range.offset);
                 let end = (offset + size).min(range.offset + range.size);
                 if start < end {

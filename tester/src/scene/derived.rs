@@ -205,6 +205,7 @@ impl Scene {
             | Program::ShadowReceiverRaw
             | Program::LitMvp
             | Program::SplitPush
+            | Program::FullPush
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost

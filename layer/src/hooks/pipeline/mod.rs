@@ -35,11 +35,11 @@ use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
 use crate::policy::libraries::{self, inherit_libraries, subset_states, Subsets};
 use crate::policy::pipelines::{
-    examines_fragment, has_depth_attachment, profiles_pipeline, renders_depth, viewports_static,
-    BiasVariantFacts, DepthAttachmentFacts, DepthBiasFacts, DepthStencilFacts, FragmentStage,
-    PipelinePath, PipelinePromotion, PromotionAttachments, PromotionFacts, StaticStateFacts,
-    baked_stage_conflict, StaticStatePlan, TakeBack, VariantCompile, VariantFacts, VariantKind,
-    Variants,
+    baked_stage_conflict, examines_fragment, has_depth_attachment, profiles_pipeline,
+    renders_depth, viewports_static, BiasVariantFacts, DepthAttachmentFacts, DepthBiasFacts,
+    DepthStencilFacts, FragmentStage, PipelinePath, PipelinePromotion, PromotionAttachments,
+    PromotionFacts, StaticStateFacts, StaticStatePlan, TakeBack, VariantCompile, VariantFacts,
+    VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{
     self, precise_candidate, Missing, MissingFact, PositionStore, VertexStageFacts,

@@ -330,8 +330,10 @@ pub unsafe extern "system" fn create_pipeline_layout(
                     if !NO_ROOM.swap(true, Ordering::Relaxed) {
                         log::info!(
                             "a pipeline layout has no room for revz's 16 bytes of push \
-                             constants at offset {offset} ({reason}): its pipelines' draws into \
-                             reversed attachments take the flip path"
+                             constants at offset {offset} ({reason}): its pipelines' stages \
+                             fit their range from the matrix they load, with the carrier baked \
+                             into their reversed variants (where that fails, their draws into \
+                             reversed attachments take the flip path)"
                         );
                     }
                     None
