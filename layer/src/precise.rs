@@ -242,7 +242,8 @@ pub fn carrier_offset(max_push_constants_size: u32) -> Option<u32> {
     (space >= 128).then(|| space - CARRIER_BYTES)
 }
 
-/// Why a layout has no carrier (its pipelines' draws take the flip path).
+/// Why a layout has no carrier (its pipelines get the carrier baked into their reversed
+/// variants instead, `crate::shader::position_store::CarrierRead::Baked`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NoRoom {
     /// The application's ranges reach the carrier's bytes.

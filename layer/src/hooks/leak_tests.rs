@@ -851,6 +851,7 @@ impl Fixture {
             ("fragment modules", objects.fragment_depth_modules.count()),
             ("input modules", objects.input_modules.count()),
             ("vertex modules", objects.vertex_modules.count()),
+            ("vertex module code", objects.vertex_words.count()),
             ("pipeline layouts", objects.pipeline_layouts.count()),
             ("pools", objects.pools.count()),
             ("command buffers", objects::tracked_command_buffers()),
