@@ -179,8 +179,8 @@ impl<S: StateSink> StateSink for Filtered<'_, S> {
         self.sink.bind_pipeline(pipeline);
     }
 
-    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT) {
+    fn bind_shader(&mut self, stage: vk::ShaderStageFlags, shader: vk::ShaderEXT) {
         // Shader objects have no static state.
-        self.sink.bind_fragment_shader(shader);
+        self.sink.bind_shader(stage, shader);
     }
 }

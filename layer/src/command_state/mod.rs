@@ -33,7 +33,7 @@ use ash::vk;
 use revz_math::{Cameras, DepthConvention, Target as RewriteTarget};
 
 use crate::conv::{flip_compare_op, DepthBias, Reversal};
-use crate::objects::FragmentShader;
+use crate::objects::{FragmentShader, PositionShader};
 use crate::precise::{
     Carrier, FoldedPush, Outcome, ProjectionUse, PushConstants, PushSink, FLIP_CARRIER,
 };
@@ -135,6 +135,14 @@ impl Default for Reversing {
     }
 }
 
+/// The shader stages whose `Position` may be rasterized, latest last: with shader objects the
+/// last of them bound is (where no mesh shader is).
+pub const POSITION_STAGES: [vk::ShaderStageFlags; 3] = [
+    vk::ShaderStageFlags::VERTEX,
+    vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+    vk::ShaderStageFlags::GEOMETRY,
+];
+
 /// Where [`CommandState::before_draw`] sends state (the next layer, in production).
 pub trait StateSink: PushSink {
     fn set_viewports(&mut self, first: u32, viewports: &[vk::Viewport]);
@@ -150,7 +158,9 @@ pub trait StateSink: PushSink {
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline);
     /// Binds a shader object to the fragment stage (a reversed variant, or the application's
     /// shader back).
-    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT);
+    /// Binds a shader object to `stage` (a variant revz made, or the application's shader
+    /// back).
+    fn bind_shader(&mut self, stage: vk::ShaderStageFlags, shader: vk::ShaderEXT);
 }
 
 /// Depth state of one command buffer while it records.
@@ -229,6 +239,16 @@ pub struct CommandState {
     fragment_shader: (vk::ShaderEXT, Option<FragmentShader>),
     /// Whether revz bound the bound fragment shader object's reversed variant in its place.
     shader_variant_bound: bool,
+    /// The shader objects the application bound to the vertex, tessellation evaluation and
+    /// geometry stages ([`POSITION_STAGES`]; null: none), and what revz knows of them where
+    /// they store `Position` (precise modes).
+    position_shaders: [(vk::ShaderEXT, Option<PositionShader>); 3],
+    /// A shader object is bound to the mesh stage: no pre-rasterization shader of
+    /// `position_shaders` is rasterized.
+    mesh_shader_bound: bool,
+    /// The stage (index in [`POSITION_STAGES`]) whose application shader revz replaced by its
+    /// baked variant, and that variant.
+    position_variant_bound: Option<(usize, vk::ShaderEXT)>,
     /// A secondary that inherits its viewports from the primary that executes it
     /// (`VK_NV_inherited_viewport_scissor`): its draws take the flip path, the one the
     /// primary sends its viewports for ([`CommandState::flush_viewports_for_secondaries`]).
@@ -289,6 +309,9 @@ impl Default for CommandState {
             pushed_since_bind: false,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
+            position_shaders: [(vk::ShaderEXT::null(), None); 3],
+            mesh_shader_bound: false,
+            position_variant_bound: None,
             inherits_viewports: false,
             precise_barred: false,
             secondary_contents: false,
@@ -466,11 +489,12 @@ impl CommandState {
     /// draw takes the flip path (a static clamp sends the pipeline there at its creation,
     /// `crate::policy::vertex_stage::depth_clamp_flip`).
     fn clamps_at_far(&self) -> bool {
+        // With shader objects (no pipeline) the clamp is always dynamic.
         self.depth_clamp
             && self.target_reversing().rewrite == Some(RewriteTarget::Infinite)
             && self
                 .pipeline()
-                .is_some_and(|p| p.app_dynamic.contains(States::DEPTH_CLAMP))
+                .is_none_or(|p| p.app_dynamic.contains(States::DEPTH_CLAMP))
     }
 
     /// The projection the bound pipeline's draws would rewrite now, if any.
@@ -491,20 +515,48 @@ impl CommandState {
         if self.target != Target::Reversed || self.precise_barred {
             return None;
         }
-        let pipeline = self.pipeline()?;
-        pipeline.derived_range?;
-        // A dynamic [-1, 1] clip convention (Zink): the stage converts its fitted line, and
-        // revz sets [0, 1] for the draw ([`Self::emit`]), where reversed depth near 0 keeps
-        // float32's resolution.
-        let convention = if pipeline.app_dynamic.contains(States::CLIP_CONTROL)
-            && self.app_set.contains(States::CLIP_CONTROL)
-            && self.clip_negative_one_to_one
-        {
-            DepthConvention::NegativeOneToOne
-        } else {
-            DepthConvention::ZeroToOne
+        let negative_one_to_one =
+            self.app_set.contains(States::CLIP_CONTROL) && self.clip_negative_one_to_one;
+        let convention = match self.pipeline() {
+            Some(pipeline) => {
+                pipeline.derived_range?;
+                // A dynamic [-1, 1] clip convention (Zink): the stage converts its fitted
+                // line, and revz sets [0, 1] for the draw ([`Self::emit`]), where reversed
+                // depth near 0 keeps float32's resolution.
+                if pipeline.app_dynamic.contains(States::CLIP_CONTROL) && negative_one_to_one {
+                    DepthConvention::NegativeOneToOne
+                } else {
+                    DepthConvention::ZeroToOne
+                }
+            }
+            // Shader objects: a baked variant of the last pre-rasterization stage, which
+            // stores [0, 1] depth (its selector cannot follow a [-1, 1] convention).
+            None => {
+                self.baked_shader()?;
+                if negative_one_to_one {
+                    return None;
+                }
+                DepthConvention::ZeroToOne
+            }
         };
         Some((self.target_reversing().derived_target()?, convention))
+    }
+
+    /// With shader objects bound: the last pre-rasterization stage's (index in
+    /// [`POSITION_STAGES`]), the application's shader there, and its variant with the
+    /// carrier baked in, where it has one (no mesh shader bound).
+    fn baked_shader(&self) -> Option<(usize, vk::ShaderEXT, vk::ShaderEXT)> {
+        if self.mesh_shader_bound {
+            return None;
+        }
+        let last = self
+            .position_shaders
+            .iter()
+            .rposition(|(shader, _)| *shader != vk::ShaderEXT::null())?;
+        match self.position_shaders[last] {
+            (shader, Some(PositionShader::Baked(variant))) => Some((last, shader, variant)),
+            _ => None,
+        }
     }
 
     /// The application's next push uses a layout whose push ranges revz's layout `pusher`
@@ -834,6 +886,9 @@ impl CommandState {
         }
         self.fragment_shader = (vk::ShaderEXT::null(), None);
         self.shader_variant_bound = false;
+        self.position_shaders = [(vk::ShaderEXT::null(), None); 3];
+        self.mesh_shader_bound = false;
+        self.position_variant_bound = None;
     }
 
     /// The bound graphics pipeline's depth state, if it is tracked.
@@ -846,13 +901,35 @@ impl CommandState {
     /// `vkCmdBindShadersEXT`: the bound pipeline is replaced. `fragment` is the shader object
     /// the call binds to the fragment stage (null: it unbinds the stage) and what revz knows of
     /// it, when the call names that stage; the fragment stage is left as it is otherwise (a
-    /// variant revz bound stays in place of the application's shader).
-    pub fn bind_shaders(&mut self, fragment: Option<(vk::ShaderEXT, Option<FragmentShader>)>) {
+    /// variant revz bound stays in place of the application's shader). The same for the
+    /// stages of [`POSITION_STAGES`] (`position`, each where the call names it) and whether the
+    /// mesh stage gets a shader (`mesh`, where the call names it).
+    pub fn bind_shaders(
+        &mut self,
+        fragment: Option<(vk::ShaderEXT, Option<FragmentShader>)>,
+        position: [Option<(vk::ShaderEXT, Option<PositionShader>)>; 3],
+        mesh: Option<bool>,
+    ) {
         self.bind_graphics(None);
         if let Some(fragment) = fragment {
             // The application's bind goes down after this: its shader is the one bound now.
             self.fragment_shader = fragment;
             self.shader_variant_bound = false;
+        }
+        for (stage, bound) in position.into_iter().enumerate() {
+            if let Some(bound) = bound {
+                self.position_shaders[stage] = bound;
+                if self
+                    .position_variant_bound
+                    .is_some_and(|(at, _)| at == stage)
+                {
+                    // The application's bind replaces revz's variant there.
+                    self.position_variant_bound = None;
+                }
+            }
+        }
+        if let Some(mesh) = mesh {
+            self.mesh_shader_bound = mesh;
         }
     }
 
@@ -936,6 +1013,7 @@ impl CommandState {
         self.emitted = Emitted::default();
         self.variant_bound = None;
         self.shader_variant_bound = false;
+        self.position_variant_bound = None;
         self.dirty = true;
     }
 
@@ -1109,7 +1187,10 @@ impl CommandState {
             }
             _ => false,
         };
-        let baked = self.pipeline().is_some_and(|p| p.baked);
+        let baked = match self.pipeline() {
+            Some(pipeline) => pipeline.baked,
+            None => self.baked_shader().is_some(),
+        };
         self.path = match (self.target, outcome) {
             // The carrier pushed, or baked into the reversed variants bound for it.
             (Target::Reversed, _) if (carrier_ready || baked) && self.derived_use().is_some() => {
@@ -1131,6 +1212,15 @@ impl CommandState {
         // Only what changed since it was last sent goes down. The bound pipeline, borrowed
         // apart from the fields written below.
         let reversal = self.target_reversing().reversal;
+        let reversed = self.target == Target::Reversed;
+        // With shader objects: the last pre-rasterization stage's baked variant, for a
+        // precise-path draw (the flip path needs the application's shader).
+        let position_wanted = if reversed && self.path == DrawPath::Precise {
+            self.baked_shader()
+                .map(|(stage, _, variant)| (stage, variant))
+        } else {
+            None
+        };
         let bound = self
             .bound
             .and_then(|slot| self.known.slots[slot].1.as_ref());
@@ -1138,7 +1228,6 @@ impl CommandState {
             sink: &mut *sink,
             last: &mut self.emitted,
         };
-        let reversed = self.target == Target::Reversed;
         if reversed && bound.is_some_and(|p| p.unreversed_fragment) {
             static WARNED: crate::logging::LogOnce = crate::logging::LogOnce::new();
             WARNED.log(|| {
@@ -1167,7 +1256,10 @@ impl CommandState {
             (shader, Some(FragmentShader::Reversed(variant)))
                 if reversed != self.shader_variant_bound =>
             {
-                filtered.bind_fragment_shader(if reversed { variant } else { shader });
+                filtered.bind_shader(
+                    vk::ShaderStageFlags::FRAGMENT,
+                    if reversed { variant } else { shader },
+                );
                 self.shader_variant_bound = reversed;
             }
             (_, Some(FragmentShader::Unreversed)) if reversed => {
@@ -1182,6 +1274,19 @@ impl CommandState {
                 });
             }
             _ => {}
+        }
+        if position_wanted != self.position_variant_bound {
+            // The application's shader back where revz's variant of another stage was bound
+            // (or none is wanted), then the variant wanted.
+            if let Some((stage, _)) = self.position_variant_bound {
+                if position_wanted.map(|(wanted, _)| wanted) != Some(stage) {
+                    filtered.bind_shader(POSITION_STAGES[stage], self.position_shaders[stage].0);
+                }
+            }
+            if let Some((stage, variant)) = position_wanted {
+                filtered.bind_shader(POSITION_STAGES[stage], variant);
+            }
+            self.position_variant_bound = position_wanted;
         }
         let (from_app, pipeline) = match bound {
             Some(p) => (self.app_set & p.app_dynamic, Some(&**p)),

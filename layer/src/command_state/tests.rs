@@ -5,6 +5,7 @@ use std::sync::Arc;
 use ash::vk::Handle;
 
 use super::*;
+use crate::objects::PositionShader;
 use crate::shader::derived_range::MatrixSource;
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -21,6 +22,8 @@ struct Recorded {
     clamp_ranges: Vec<Option<(f32, f32)>>,
     binds: Vec<vk::Pipeline>,
     shader_binds: Vec<vk::ShaderEXT>,
+    /// Binds of vertex, tessellation evaluation and geometry shader objects.
+    position_shader_binds: Vec<(vk::ShaderStageFlags, vk::ShaderEXT)>,
 }
 
 impl PushSink for Recorded {
@@ -70,8 +73,12 @@ impl StateSink for Recorded {
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
         self.binds.push(pipeline);
     }
-    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT) {
-        self.shader_binds.push(shader);
+    fn bind_shader(&mut self, stage: vk::ShaderStageFlags, shader: vk::ShaderEXT) {
+        if stage == vk::ShaderStageFlags::FRAGMENT {
+            self.shader_binds.push(shader);
+        } else {
+            self.position_shader_binds.push((stage, shader));
+        }
     }
 }
 
@@ -251,7 +258,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
     let variant = vk::ShaderEXT::from_raw(21);
     let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
     let mut state = begun(Target::Reversed);
-    state.bind_shaders(fragment);
+    state.bind_shaders(fragment, [None; 3], None);
     let mut sink = Recorded::default();
     state.before_draw(&mut sink);
     state.before_draw(&mut sink);
@@ -263,7 +270,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
     assert!(sink.binds.is_empty());
 
     // Binding other stages leaves the variant in place of the application's shader.
-    state.bind_shaders(None);
+    state.bind_shaders(None, [None; 3], None);
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant]);
 
@@ -275,7 +282,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
 
     // The application binds its shader again (it goes down): native draws need nothing,
     // reversed ones the variant again.
-    state.bind_shaders(fragment);
+    state.bind_shaders(fragment, [None; 3], None);
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant, shader]);
     state.set_target(Target::Reversed);
@@ -289,6 +296,77 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
 }
 
 #[test]
+fn a_baked_vertex_shader_object_takes_the_precise_path_where_it_is_the_last_stage() {
+    let vertex = vk::ShaderEXT::from_raw(40);
+    let variant = vk::ShaderEXT::from_raw(41);
+    let baked = Some((vertex, Some(PositionShader::Baked(variant))));
+    let stage = vk::ShaderStageFlags::VERTEX;
+    for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
+        let mut state = precise(target);
+        let reversal = state.reversal();
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.bind_shaders(None, [baked, None, None], None);
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert_eq!(sink.position_shader_binds, [(stage, variant)], "once");
+        assert!(sink.pushed.is_empty(), "nothing pushed");
+        // A [-1, 1] clip convention: the flip path, the application's shader back.
+        state.set_clip_negative_one_to_one(true);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip);
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, vertex)));
+        state.set_clip_negative_one_to_one(false);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, variant)));
+        // A geometry shader without a variant is rasterized: the flip path; unbound again
+        // (null), the vertex stage's variant comes back.
+        let geometry = vk::ShaderEXT::from_raw(42);
+        state.bind_shaders(None, [None, None, Some((geometry, None))], None);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip);
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, vertex)));
+        state.bind_shaders(
+            None,
+            [None, None, Some((vk::ShaderEXT::null(), None))],
+            None,
+        );
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        // A mesh shader bound: nothing of these stages is rasterized.
+        state.bind_shaders(None, [None; 3], Some(true));
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip);
+        state.bind_shaders(None, [None; 3], Some(false));
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        // A pipeline bound replaces the shader objects: no shader bound back.
+        let sent = sink.position_shader_binds.len();
+        state.bind_pipeline(Some(static_pipeline()));
+        state.before_draw(&mut sink);
+        assert_eq!(sink.position_shader_binds.len(), sent);
+        assert_eq!(state.path(), DrawPath::Flip);
+    }
+    // Infinite mode: a depth clamp turned on (always dynamic with shader objects) sends the
+    // draws to the flip path.
+    let mut state = precise(RewriteTarget::Infinite);
+    let reversal = state.reversal();
+    state.begin(Target::Reversed, reversal, Default::default());
+    state.bind_shaders(None, [baked, None, None], None);
+    let mut sink = Recorded::default();
+    state.set_depth_clamp(true);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    assert!(sink.position_shader_binds.is_empty());
+    state.set_depth_clamp(false);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(sink.position_shader_binds, [(stage, variant)]);
+}
+
+#[test]
 fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
     let shader = vk::ShaderEXT::from_raw(30);
     let variant = vk::ShaderEXT::from_raw(31);
@@ -297,13 +375,13 @@ fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
     let mut sink = Recorded::default();
 
     // Unbound (null): nothing to swap.
-    state.bind_shaders(fragment);
-    state.bind_shaders(Some((vk::ShaderEXT::null(), None)));
+    state.bind_shaders(fragment, [None; 3], None);
+    state.bind_shaders(Some((vk::ShaderEXT::null(), None)), [None; 3], None);
     state.before_draw(&mut sink);
     assert!(sink.shader_binds.is_empty());
 
     // A pipeline bound after the variant unbinds it: native draws bind nothing back.
-    state.bind_shaders(fragment);
+    state.bind_shaders(fragment, [None; 3], None);
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant]);
     state.bind_pipeline(Some(static_pipeline()));
@@ -315,7 +393,7 @@ fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
     // Shaders without a variant (plain, or marked unreversed) are never swapped.
     for depth in [None, Some(FragmentShader::Unreversed)] {
         state.set_target(Target::Reversed);
-        state.bind_shaders(Some((shader, depth)));
+        state.bind_shaders(Some((shader, depth)), [None; 3], None);
         state.before_draw(&mut sink);
         state.set_target(Target::Native);
         state.before_draw(&mut sink);

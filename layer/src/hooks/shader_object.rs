@@ -35,10 +35,12 @@ use super::device_state;
 use super::pipeline::{first_inline_report, Report};
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
-use crate::objects::FragmentShader;
-use crate::policy::pipelines::{FragmentStage, FragmentVariant};
+use crate::objects::{FragmentShader, PositionShader};
+use crate::policy::pipelines::{
+    FragmentStage, FragmentVariant, ShaderObjectPlan, ShaderObjectPosition,
+};
 use crate::precise;
-use crate::shader::fragment_depth;
+use crate::shader::{fragment_depth, position_store};
 use crate::state::DeviceState;
 
 static CREATE_SHADERS: EntryPoint = EntryPoint::new("vkCreateShadersEXT");
@@ -47,17 +49,51 @@ static DESTROY_SHADER: EntryPoint = EntryPoint::new("vkDestroyShaderEXT");
 /// What revz makes of one shader create info.
 #[derive(Debug)]
 enum Plan {
-    /// Not a fragment shader that computes with depth: nothing.
+    /// Neither a fragment shader that computes with depth nor, in a precise mode, a
+    /// pre-rasterization shader that stores `Position`: nothing.
     Nothing,
-    /// A reversed variant of the rewritten code.
+    /// A fragment shader's reversed variant of the rewritten code.
     Variant(Arc<[u32]>),
-    /// It computes with depth (or may, binary code) but gets no variant.
+    /// A fragment shader that computes with depth (or may, binary code) but gets no variant.
     Unreversed,
+    /// A vertex, tessellation evaluation or geometry shader's variant of its code with the
+    /// carrier baked in (`PositionShader::Baked`).
+    Baked(Arc<[u32]>),
+    /// Such a shader whose draws take the flip path.
+    PositionFlip,
 }
 
-/// The plan of one create info (only fragment shaders get one): what the policy gives its
-/// code ([`FragmentStage::variant`]; a shader of a linked set gets no variant).
-fn plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
+/// What revz made of one create info.
+#[derive(Clone, Copy, Debug)]
+enum Made {
+    Fragment(FragmentShader),
+    Position(PositionShader),
+}
+
+impl Made {
+    fn variant(self) -> Option<vk::ShaderEXT> {
+        match self {
+            Made::Fragment(fragment) => fragment.variant(),
+            Made::Position(position) => position.variant(),
+        }
+    }
+}
+
+/// The stages whose `Position` may be the rasterized one.
+const POSITION_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
+    vk::ShaderStageFlags::VERTEX.as_raw()
+        | vk::ShaderStageFlags::TESSELLATION_EVALUATION.as_raw()
+        | vk::ShaderStageFlags::GEOMETRY.as_raw(),
+);
+
+/// The plan of one create info: a fragment shader's from what the policy gives its code
+/// ([`FragmentStage::variant`]; a shader of a linked set gets no variant), a
+/// pre-rasterization shader's, where the mode rewrites (`rewriting`), from
+/// [`ShaderObjectPosition::decide`].
+fn plan(info: &vk::ShaderCreateInfoEXT<'_>, rewriting: bool) -> Plan {
+    if rewriting && POSITION_STAGES.contains(info.stage) && !info.stage.is_empty() {
+        return position_plan(info);
+    }
     if info.stage != vk::ShaderStageFlags::FRAGMENT {
         return Plan::Nothing;
     }
@@ -120,15 +156,70 @@ fn plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
     }
 }
 
-/// Creates the reversed variant of a fragment shader object: its create info with the code
-/// replaced by `code`, through the next layer, without an allocator (revz's own object).
-/// [`FragmentShader::Unreversed`] when it cannot be made (logged once).
+/// The plan of a vertex, tessellation evaluation or geometry shader in a precise mode: the
+/// deriving `Position` rewrite of its code with the carrier baked in (complementary depth, as
+/// for a pipeline layout without room for the carrier), as the policy decides.
+fn position_plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
+    let spirv = match info.code_type {
+        vk::ShaderCodeTypeEXT::SPIRV => true,
+        vk::ShaderCodeTypeEXT::BINARY => false,
+        _ => return Plan::Nothing,
+    };
+    let linked = info.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE);
+    let words = spirv.then(|| {
+        // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's contract).
+        unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) }
+    });
+    let rewrite = match words.filter(|_| !linked) {
+        Some(words) => {
+            let selector = crate::command_state::derived_selector(
+                revz_math::Target::Complementary,
+                revz_math::DepthConvention::ZeroToOne,
+            );
+            position_store::derive_position_store_reading(
+                words,
+                position_store::CarrierRead::Baked(selector),
+            )
+            .map_err(|position_store::Unsupported(reason)| reason)
+        }
+        None => Ok(None),
+    };
+    let facts = ShaderObjectPosition {
+        spirv,
+        linked,
+        rewrite: rewrite
+            .as_ref()
+            .map(|r| r.as_ref().map(|r| r.assumes_input_unit_w))
+            .map_err(|reason| *reason),
+    };
+    match (facts.decide(), rewrite) {
+        (ShaderObjectPlan::Baked, Ok(Some(rewrite))) => Plan::Baked(rewrite.code.into()),
+        (ShaderObjectPlan::Flip(reason), _) => {
+            let first = words.is_none_or(|w| first_inline_report(Report::Analysis, w));
+            if first {
+                log::info!(
+                    "a {:?} shader object's draws into reversed attachments take the flip path \
+                     ({reason})",
+                    info.stage
+                );
+            }
+            Plan::PositionFlip
+        }
+        _ => Plan::Nothing,
+    }
+}
+
+/// Creates a variant of a shader object: its create info with the code replaced by `code`,
+/// through the next layer, without an allocator (revz's own object). `None` when it cannot
+/// be made (logged once, with what that costs: `lost`).
 fn create_variant(
     device: vk::Device,
     next: vk::PFN_vkCreateShadersEXT,
     info: &vk::ShaderCreateInfoEXT<'_>,
     code: &[u32],
-) -> FragmentShader {
+    failed: &'static crate::logging::LogOnce,
+    lost: &str,
+) -> Option<vk::ShaderEXT> {
     let variant_info = vk::ShaderCreateInfoEXT {
         code_size: std::mem::size_of_val(code),
         p_code: code.as_ptr().cast(),
@@ -139,16 +230,15 @@ fn create_variant(
     // handle written.
     let result = unsafe { next(device, 1, &variant_info, std::ptr::null(), &mut variant) };
     if result == vk::Result::SUCCESS && variant != vk::ShaderEXT::null() {
-        return FragmentShader::Reversed(variant);
+        return Some(variant);
     }
-    static FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
-    FAILED.log(|| {
+    failed.log(|| {
         log::warn!(
-            "the reversed variant of a fragment shader object could not be created \
-             ({result:?}): its draws into reversed attachments keep standard depth"
+            "the variant of a {:?} shader object could not be created ({result:?}): {lost}",
+            info.stage
         )
     });
-    FragmentShader::Unreversed
+    None
 }
 
 /// Destroys a shader object of revz's own through the next layer.
@@ -225,18 +315,43 @@ pub unsafe extern "system" fn create_shaders_ext(
     };
     // Before the application's call (see the module comment): each create info's variant, or
     // its mark; `None` for shaders revz leaves alone.
-    let variants: Vec<Option<FragmentShader>> = guarded(
+    let variants: Vec<Option<Made>> = guarded(
         &CREATE_SHADERS,
         || {
             if !crate::policy::pipelines::shader_object_variants(state.policy.is_active()) {
                 return Vec::new();
             }
+            static FRAGMENT_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            static POSITION_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+            let rewriting = state.policy.rewrite().is_some();
             infos
                 .iter()
-                .map(|info| match plan(info) {
+                .map(|info| match plan(info, rewriting) {
                     Plan::Nothing => None,
-                    Plan::Unreversed => Some(FragmentShader::Unreversed),
-                    Plan::Variant(code) => Some(create_variant(device, next, info, &code)),
+                    Plan::Unreversed => Some(Made::Fragment(FragmentShader::Unreversed)),
+                    Plan::Variant(code) => Some(Made::Fragment(
+                        create_variant(
+                            device,
+                            next,
+                            info,
+                            &code,
+                            &FRAGMENT_FAILED,
+                            "its draws into reversed attachments keep standard depth",
+                        )
+                        .map_or(FragmentShader::Unreversed, FragmentShader::Reversed),
+                    )),
+                    Plan::Baked(code) => Some(Made::Position(
+                        create_variant(
+                            device,
+                            next,
+                            info,
+                            &code,
+                            &POSITION_FAILED,
+                            "its draws into reversed attachments take the flip path",
+                        )
+                        .map_or(PositionShader::Flip, PositionShader::Baked),
+                    )),
+                    Plan::PositionFlip => Some(Made::Position(PositionShader::Flip)),
                 })
                 .collect()
         },
@@ -256,17 +371,25 @@ pub unsafe extern "system" fn create_shaders_ext(
                 // SAFETY: `count` handles written (checked above).
                 let shader = unsafe { *p_shaders.add(index) };
                 if info.stage == vk::ShaderStageFlags::VERTEX && shader != vk::ShaderEXT::null() {
+                    let baked = matches!(
+                        variants.get(index),
+                        Some(Some(Made::Position(PositionShader::Baked(_))))
+                    );
                     profile.pipeline(
                         vk::Handle::as_raw(shader),
                         crate::profile::PipelineRecord {
                             kind: "vertex shader object",
                             path: crate::policy::pipelines::shader_object_vertex_path(
                                 state.policy.is_active(),
+                                baked,
                             ),
-                            projection: "not read: the precise path takes pipelines only \
-                                         (shader objects are not analyzed)"
-                                .to_owned(),
-                            reversed_variant: false,
+                            projection: if baked {
+                                "fitted by the shader, the carrier baked into its variant"
+                            } else {
+                                "not fitted: the flip path (the log says why)"
+                            }
+                            .to_owned(),
+                            reversed_variant: baked,
                             promoted_variant: false,
                             converts_depth_inputs: false,
                         },
@@ -283,13 +406,28 @@ pub unsafe extern "system" fn create_shaders_ext(
                 vk::ShaderEXT::null()
             };
             if shader != vk::ShaderEXT::null() {
-                if let FragmentShader::Reversed(variant) = depth {
-                    log::debug!(
-                        "fragment shader object {shader:?} computes with depth; {variant:?}, \
-                         with its code rewritten, draws into reversed attachments"
-                    );
+                match depth {
+                    Made::Fragment(fragment) => {
+                        if let FragmentShader::Reversed(variant) = fragment {
+                            log::debug!(
+                                "fragment shader object {shader:?} computes with depth; \
+                                 {variant:?}, with its code rewritten, draws into reversed \
+                                 attachments"
+                            );
+                        }
+                        state.objects.fragment_shaders.insert(shader, fragment);
+                    }
+                    Made::Position(position) => {
+                        if let PositionShader::Baked(variant) = position {
+                            log::debug!(
+                                "shader object {shader:?}: {variant:?}, its code fitting the \
+                                 matrix it loads with the carrier baked in, stores its depth \
+                                 for precise-path draws"
+                            );
+                        }
+                        state.objects.position_shaders.insert(shader, position);
+                    }
                 }
-                state.objects.fragment_shaders.insert(shader, depth);
             } else if let Some(variant) = depth.variant() {
                 // SAFETY: revz's own object, never handed out.
                 unsafe { destroy_down(&state, device, variant) };
@@ -309,12 +447,17 @@ pub unsafe extern "system" fn destroy_shader_ext(
         return;
     };
     super::record(&DESTROY_SHADER, || {
-        let variant = state
+        let fragment = state
             .objects
             .fragment_shaders
             .remove(&shader)
             .and_then(FragmentShader::variant);
-        if let Some(variant) = variant {
+        let position = state
+            .objects
+            .position_shaders
+            .remove(&shader)
+            .and_then(PositionShader::variant);
+        for variant in fragment.into_iter().chain(position) {
             // SAFETY: revz's own object, in use only where the application's shader was.
             unsafe { destroy_down(&state, device, variant) };
         }

@@ -14,7 +14,7 @@ use std::sync::Arc;
 use ash::vk::{self, Handle};
 
 use super::fake_chain::{self, hook_set, Event, SeenShader, Tables};
-use crate::objects::FragmentShader;
+use crate::objects::{FragmentShader, PositionShader};
 use crate::shader::fragment_depth::reverse_fragment_depth;
 use crate::shader::test_spirv::{fragment, refused_fragment, validate, vertex, FRAG_DEPTH, PLAIN};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
@@ -208,7 +208,13 @@ impl Fixture {
     fn finish_with(self, at_device_destruction: &[Event]) {
         let allocator = vk::AllocationCallbacks::default();
         for &shader in self.shaders.borrow().iter() {
-            let variant = self.recorded(shader).and_then(FragmentShader::variant);
+            let variant = self
+                .recorded(shader)
+                .and_then(FragmentShader::variant)
+                .or_else(|| {
+                    let position = self.state.objects.position_shaders.get(&shader);
+                    position.and_then(PositionShader::variant)
+                });
             // SAFETY: the fixture's shader object, not in use, destroyed once.
             unsafe { (self.hooks.destroy_shader)(self.device, shader, &allocator) };
             let mut expected: Vec<Event> = variant
@@ -224,6 +230,7 @@ impl Fixture {
             });
             assert_eq!(self.events(), expected);
             assert_eq!(self.recorded(shader), None);
+            assert_eq!(self.state.objects.position_shaders.get(&shader), None);
         }
         // SAFETY: the fixture's objects, no longer in use.
         let device_events = unsafe {
@@ -553,4 +560,128 @@ fn mode_off_hands_out_the_next_layers_shader_object_commands() {
     let device_events =
         unsafe { fake_chain::tear_down(fx.tables, fx.instance, fx.physical, fx.device) };
     assert_eq!(device_events, [Event::DestroyDevice]);
+}
+
+/// A vertex shader projecting with a pushed matrix.
+const PROJECTING: &str = "#version 450
+    layout(push_constant) uniform PushConstants { mat4 mvp; } pc;
+    layout(location = 0) in vec3 position;
+    void main() { gl_Position = pc.mvp * vec4(position, 1.0); }";
+
+#[test]
+fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_precise_draws() {
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
+    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
+    let plain = fragment(PLAIN);
+    let infos = [
+        shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting),
+        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &plain),
+    ];
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(
+        events.len(),
+        2,
+        "the variant, then the application's: {events:#?}"
+    );
+    let (_, variant_infos, variant_allocator, variant_handles) = app_creation(&events[0]);
+    let (_, app_infos, _, app_handles) = app_creation(&events[1]);
+    assert_eq!(app_handles, handles);
+    assert!(!variant_allocator);
+    // The variant: the vertex create info (with revz's carrier range, as the application's)
+    // and the code fitting the pushed matrix with the carrier baked in.
+    let selector = crate::command_state::derived_selector(
+        revz_math::Target::Complementary,
+        revz_math::DepthConvention::ZeroToOne,
+    );
+    let baked = crate::shader::position_store::derive_position_store_reading(
+        &projecting,
+        crate::shader::position_store::CarrierRead::Baked(selector),
+    )
+    .expect("rewritable")
+    .expect("stores Position")
+    .code;
+    validate(&baked);
+    assert_eq!(
+        variant_infos,
+        [SeenShader {
+            code: bytes(&baked),
+            ..app_infos[0].clone()
+        }]
+    );
+    let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&vertex),
+        Some(PositionShader::Baked(variant))
+    );
+    assert_eq!(fx.recorded(frag), None);
+
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let native =
+        fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED);
+    let buffer = fx.command_buffer();
+    fx.bind(buffer, &[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]);
+    fx.render(buffer, reversed, 2);
+    fx.render(buffer, native, 1);
+    fx.render(buffer, reversed, 1);
+    // The application binds its vertex shader again: the variant goes down again once.
+    fx.bind(buffer, &[VERTEX_STAGE], &[vertex]);
+    fx.render(buffer, reversed, 2);
+    // A geometry shader of the application's after it is the last stage: the application's
+    // vertex shader back, and the flip path.
+    let geometry = vk::ShaderEXT::from_raw(0x6E0);
+    fx.bind(buffer, &[vk::ShaderStageFlags::GEOMETRY], &[geometry]);
+    fx.render(buffer, reversed, 1);
+    let bind = |stages: &[vk::ShaderStageFlags], shaders: &[vk::ShaderEXT]| Event::BindShaders {
+        stages: stages.to_vec(),
+        shaders: shaders.to_vec(),
+    };
+    let events = fx.events();
+    let binds: Vec<&Event> = events
+        .iter()
+        .filter(|e| matches!(e, Event::BindShaders { .. }))
+        .collect();
+    assert_eq!(
+        binds,
+        [
+            &bind(&[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]),
+            &bind(&[VERTEX_STAGE], &[variant]),
+            &bind(&[VERTEX_STAGE], &[vertex]),
+            &bind(&[VERTEX_STAGE], &[variant]),
+            &bind(&[VERTEX_STAGE], &[vertex]),
+            &bind(&[VERTEX_STAGE], &[variant]),
+            &bind(&[vk::ShaderStageFlags::GEOMETRY], &[geometry]),
+            &bind(&[VERTEX_STAGE], &[vertex]),
+        ]
+    );
+    fx.free(buffer);
+
+    // Linked and binary vertex shaders get no variant: their draws take the flip path.
+    let linked = [
+        link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting)),
+        link(shader_info(
+            FRAGMENT_STAGE,
+            vk::ShaderStageFlags::empty(),
+            &plain,
+        )),
+    ];
+    let (result, handles) = fx.create(&linked);
+    assert_eq!(result, vk::Result::SUCCESS);
+    assert_eq!(fx.events().len(), 1, "the application's call alone");
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&handles[0]),
+        Some(PositionShader::Flip)
+    );
+    let binary = vk::ShaderCreateInfoEXT {
+        code_type: vk::ShaderCodeTypeEXT::BINARY,
+        ..shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting)
+    };
+    let (_, handles) = fx.create(&[binary]);
+    assert_eq!(fx.events().len(), 1);
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&handles[0]),
+        Some(PositionShader::Flip)
+    );
+    fx.finish();
 }

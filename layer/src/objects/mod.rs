@@ -498,6 +498,10 @@ pub struct DeviceObjects {
     /// revz cannot read: each one's reversed variant, or that it keeps standard depth
     /// (`crate::hooks::shader_object`). Other shader objects have no entry.
     pub fragment_shaders: Table<vk::ShaderEXT, FragmentShader>,
+    /// Vertex, tessellation evaluation and geometry shader objects that store `Position`
+    /// (precise modes only): each one's variant with the carrier baked in, or that its draws
+    /// take the flip path (`crate::hooks::shader_object`).
+    pub position_shaders: Table<vk::ShaderEXT, PositionShader>,
     /// Each pipeline layout's push-constant ranges as the application gave them (precise
     /// modes only).
     pub pipeline_layouts: Table<vk::PipelineLayout, Arc<[vk::PushConstantRange]>>,
@@ -541,6 +545,28 @@ impl FragmentShader {
         match self {
             FragmentShader::Reversed(variant) => Some(variant),
             FragmentShader::Unreversed => None,
+        }
+    }
+}
+
+/// A vertex, tessellation evaluation or geometry shader object (precise modes), as draws into
+/// reversed attachments see it where it is the last pre-rasterization stage bound (issue #41,
+/// `crate::policy::pipelines::ShaderObjectPosition`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PositionShader {
+    /// The shader object of its code with the carrier baked in (revz's own), bound in its
+    /// place for precise-path draws: it stores complementary depth of the range it fits.
+    Baked(vk::ShaderEXT),
+    /// No variant: its draws into reversed attachments take the flip path.
+    Flip,
+}
+
+impl PositionShader {
+    /// The variant, if there is one.
+    pub fn variant(self) -> Option<vk::ShaderEXT> {
+        match self {
+            PositionShader::Baked(variant) => Some(variant),
+            PositionShader::Flip => None,
         }
     }
 }
@@ -763,8 +789,9 @@ impl DeviceObjects {
     }
 
     /// Destroys the objects revz created on the device's behalf (swapped-resolve twins of
-    /// render passes, reversed variants of pipelines and of fragment shader objects the
-    /// application did not destroy), before the device goes.
+    /// render passes, reversed variants of pipelines and of fragment shader objects, and baked
+    /// variants of pre-rasterization shader objects, the application did not destroy), before
+    /// the device goes.
     pub fn destroy_own_objects(
         &self,
         device: vk::Device,
@@ -776,8 +803,21 @@ impl DeviceObjects {
             .0
             .read()
             .unwrap_or_else(PoisonError::into_inner);
+        let position_shaders = self
+            .position_shaders
+            .0
+            .read()
+            .unwrap_or_else(PoisonError::into_inner);
         if let Some(destroy) = commands.destroy_shader_ext {
-            for variant in shaders.values().filter_map(|shader| shader.variant()) {
+            let variants = shaders
+                .values()
+                .filter_map(|shader| shader.variant())
+                .chain(
+                    position_shaders
+                        .values()
+                        .filter_map(|shader| shader.variant()),
+                );
+            for variant in variants {
                 // SAFETY: revz's own object; the device is idle.
                 unsafe { destroy(device, variant, std::ptr::null()) };
             }

@@ -671,15 +671,70 @@ pub fn shader_object_variants(active: bool) -> bool {
     active
 }
 
-/// The path a vertex shader object's draws take, as the depth profile shows it: the flip path
-/// where the mode acts on depth (the precise path takes pipelines only: shader objects are not
-/// analyzed), else none ("native").
+/// The path a vertex shader object's draws take, as the depth profile shows it: where the
+/// mode acts on depth, the precise path where it has a variant with the carrier baked in
+/// (`baked`, [`ShaderObjectPosition::decide`]), else the flip path; none ("native") elsewhere.
 #[must_use]
-pub fn shader_object_vertex_path(active: bool) -> &'static str {
-    if active {
-        "flip"
-    } else {
-        "native"
+pub fn shader_object_vertex_path(active: bool, baked: bool) -> &'static str {
+    match (active, baked) {
+        (false, _) => "native",
+        (true, true) => "precise",
+        (true, false) => "flip",
+    }
+}
+
+/// What revz knows of a vertex, tessellation evaluation or geometry shader object at its
+/// creation in a precise mode (issue #41): shader objects carry no pipeline layout revz could
+/// look a projection up in per draw, so such a shader takes the route of a layout without
+/// room for the carrier: a variant of its code that fits the matrix it loads, with the
+/// carrier baked in (`crate::shader::position_store::CarrierRead::Baked`), bound in its place
+/// for precise-path draws where it is the last pre-rasterization stage bound.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShaderObjectPosition<'a> {
+    /// Its code is SPIR-V (not binary).
+    pub spirv: bool,
+    /// It is part of a linked set (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`).
+    pub linked: bool,
+    /// The baked rewrite of its code: `Ok(None)` where it stores no `Position`, `Ok(Some(w))`
+    /// where it does, `w` whether it projects the previous stage's `Position` (whose w = 1
+    /// revz cannot check across separately bound shaders); or why it cannot be rewritten.
+    pub rewrite: Result<Option<bool>, &'a str>,
+}
+
+/// [`ShaderObjectPosition::decide`]'s answer.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ShaderObjectPlan {
+    /// Nothing to do: it stores no `Position`.
+    Nothing,
+    /// A variant with the carrier baked in.
+    Baked,
+    /// Its draws into reversed attachments take the flip path, for this reason.
+    Flip(String),
+}
+
+impl ShaderObjectPosition<'_> {
+    #[must_use]
+    pub fn decide(&self) -> ShaderObjectPlan {
+        if !self.spirv {
+            return ShaderObjectPlan::Flip("its code is binary".into());
+        }
+        if self.linked {
+            return ShaderObjectPlan::Flip(
+                "it is part of a linked set (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT), which revz \
+                 does not re-create"
+                    .into(),
+            );
+        }
+        match self.rewrite {
+            Ok(None) => ShaderObjectPlan::Nothing,
+            Ok(Some(false)) => ShaderObjectPlan::Baked,
+            Ok(Some(true)) => ShaderObjectPlan::Flip(
+                "it projects the previous stage's Position (gl_in[i].gl_Position), whose w = 1 \
+                 revz cannot check across shader objects"
+                    .into(),
+            ),
+            Err(reason) => ShaderObjectPlan::Flip(format!("it cannot derive its range ({reason})")),
+        }
     }
 }
 
@@ -1453,9 +1508,56 @@ mod tests {
     }
 
     #[test]
-    fn vertex_shader_objects_take_the_flip_path_where_the_mode_is_active() {
-        assert_eq!(shader_object_vertex_path(true), "flip");
-        assert_eq!(shader_object_vertex_path(false), "native");
+    fn vertex_shader_objects_take_the_precise_path_where_they_have_a_baked_variant() {
+        assert_eq!(shader_object_vertex_path(true, true), "precise");
+        assert_eq!(shader_object_vertex_path(true, false), "flip");
+        assert_eq!(shader_object_vertex_path(false, false), "native");
+        assert_eq!(shader_object_vertex_path(false, true), "native");
+    }
+
+    #[test]
+    fn pre_rasterization_shader_objects_get_a_baked_variant_where_their_code_allows() {
+        let unlinked = ShaderObjectPosition {
+            spirv: true,
+            linked: false,
+            rewrite: Ok(Some(false)),
+        };
+        assert_eq!(unlinked.decide(), ShaderObjectPlan::Baked);
+        let decide = |facts: ShaderObjectPosition<'_>| match facts.decide() {
+            ShaderObjectPlan::Flip(reason) => reason,
+            other => panic!("{other:?}"),
+        };
+        assert!(decide(ShaderObjectPosition {
+            spirv: false,
+            rewrite: Ok(None),
+            ..unlinked
+        })
+        .contains("binary"));
+        assert!(decide(ShaderObjectPosition {
+            linked: true,
+            ..unlinked
+        })
+        .contains("linked set"));
+        assert!(decide(ShaderObjectPosition {
+            rewrite: Ok(Some(true)),
+            ..unlinked
+        })
+        .contains("gl_in"));
+        assert_eq!(
+            decide(ShaderObjectPosition {
+                rewrite: Err("two stores"),
+                ..unlinked
+            }),
+            "it cannot derive its range (two stores)"
+        );
+        assert_eq!(
+            ShaderObjectPosition {
+                rewrite: Ok(None),
+                ..unlinked
+            }
+            .decide(),
+            ShaderObjectPlan::Nothing
+        );
     }
 
     #[test]

@@ -30,7 +30,7 @@ use ash::vk;
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
-use crate::command_state::{StateSink, Target};
+use crate::command_state::{StateSink, Target, POSITION_STAGES};
 use crate::conv::{BiasRepresentation, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
@@ -178,12 +178,12 @@ impl StateSink for NextLayer<'_> {
         }
     }
 
-    fn bind_fragment_shader(&mut self, shader: vk::ShaderEXT) {
+    fn bind_shader(&mut self, stage: vk::ShaderStageFlags, shader: vk::ShaderEXT) {
         // Only shader objects of this device get here, so it has the command.
         if let Some(bind) = self.device.commands.bind_shaders_ext {
             // SAFETY: as above; a live shader object (the application's, or its variant,
-            // destroyed with it) of the fragment stage.
-            unsafe { bind(self.buffer, 1, &vk::ShaderStageFlags::FRAGMENT, &shader) }
+            // destroyed with it) of `stage`.
+            unsafe { bind(self.buffer, 1, &stage, &shader) }
         }
     }
 }
@@ -858,21 +858,34 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
         // SAFETY: `count` stages, and `count` shaders unless null (then every stage is
         // unbound).
         let stages = unsafe { slice(p_stages, count) };
-        let fragment = stages
-            .iter()
-            .position(|&stage| stage == vk::ShaderStageFlags::FRAGMENT)
-            .map(|index| {
-                let shader = if p_shaders.is_null() {
+        // The shader the call binds to `stage`, where it names it (null: unbound).
+        let bound_to = |stage: vk::ShaderStageFlags| {
+            stages.iter().position(|&s| s == stage).map(|index| {
+                if p_shaders.is_null() {
                     vk::ShaderEXT::null()
                 } else {
                     // SAFETY: as above; `index` is below `count`.
                     unsafe { *p_shaders.add(index) }
-                };
+                }
+            })
+        };
+        let objects = &entry.device.objects;
+        let fragment = bound_to(vk::ShaderStageFlags::FRAGMENT).map(|shader| {
+            let depth = (shader != vk::ShaderEXT::null())
+                .then(|| objects.fragment_shaders.get(&shader))
+                .flatten();
+            (shader, depth)
+        });
+        let position = POSITION_STAGES.map(|stage| {
+            bound_to(stage).map(|shader| {
                 let depth = (shader != vk::ShaderEXT::null())
-                    .then(|| entry.device.objects.fragment_shaders.get(&shader))
+                    .then(|| objects.position_shaders.get(&shader))
                     .flatten();
                 (shader, depth)
-            });
+            })
+        });
+        let mesh =
+            bound_to(vk::ShaderStageFlags::MESH_EXT).map(|shader| shader != vk::ShaderEXT::null());
         if stages.contains(&vk::ShaderStageFlags::COMPUTE) {
             // A compute shader object: revz's dispatch would unbind it, and it does not bind
             // shader objects again.
@@ -881,7 +894,7 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
         // Only graphics stages replace the bound graphics pipeline.
         if stages.iter().any(|&s| s != vk::ShaderStageFlags::COMPUTE) {
             let mut state = entry.state();
-            state.bind_shaders(fragment);
+            state.bind_shaders(fragment, position, mesh);
             let vertex = stages
                 .iter()
                 .position(|&stage| stage == vk::ShaderStageFlags::VERTEX);

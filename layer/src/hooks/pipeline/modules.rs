@@ -148,30 +148,29 @@ pub(super) fn vertex_code(
     state: &DeviceState,
     module: vk::ShaderModule,
     words: &[u32],
-) -> (Arc<ModuleAnalysis>, Option<RewrittenVertex>) {
+) -> VertexCode {
     state
         .objects
         .vertex_codes
         .get_or_make(words, || make_vertex_code(state, module, words))
 }
 
+/// What is made of vertex stage code: its analysis and its `Position` rewrite.
+type VertexCode = (Arc<ModuleAnalysis>, Option<RewrittenVertex>);
+
 /// [`vertex_code`], with the words as the cache keeps them.
 fn vertex_code_kept(
     state: &DeviceState,
     module: vk::ShaderModule,
     words: &[u32],
-) -> (Arc<[u32]>, (Arc<ModuleAnalysis>, Option<RewrittenVertex>)) {
+) -> (Arc<[u32]>, VertexCode) {
     state
         .objects
         .vertex_codes
         .get_or_make_kept(words, || make_vertex_code(state, module, words))
 }
 
-fn make_vertex_code(
-    state: &DeviceState,
-    module: vk::ShaderModule,
-    words: &[u32],
-) -> (Arc<ModuleAnalysis>, Option<RewrittenVertex>) {
+fn make_vertex_code(state: &DeviceState, module: vk::ShaderModule, words: &[u32]) -> VertexCode {
     let analysis = analyze_vertex_module(module, words);
     let rewrite = position_store_of(state, &analysis, words);
     (Arc::new(analysis), rewrite)
