@@ -546,6 +546,9 @@ pub enum PipelinePath<'a> {
     Pushed(ProjectionUse),
     /// The precise path, its vertex stage deriving the range from the matrix it loads.
     Derived(MatrixSource),
+    /// The same with the carrier baked into its reversed variants (its layout has no room for
+    /// the pushed one).
+    Baked(MatrixSource),
     /// The flip path, for this reason.
     Flip(&'a str),
     /// The flip path, no reason given: the mode does not rewrite depth (or the pipeline was no
@@ -554,17 +557,20 @@ pub enum PipelinePath<'a> {
 }
 
 impl<'a> PipelinePath<'a> {
-    /// The path of a pipeline with a pushed `projection`, a `derived` range, or a `flip_reason`
-    /// (a pushed projection first, then a reason, then a derived range).
+    /// The path of a pipeline with a pushed `projection`, a `derived` range (`baked` into its
+    /// variants or not), or a `flip_reason` (a pushed projection first, then a reason, then a
+    /// derived range).
     #[must_use]
     pub fn of(
         projection: Option<ProjectionUse>,
         derived: Option<MatrixSource>,
+        baked: bool,
         flip_reason: Option<&'a str>,
     ) -> PipelinePath<'a> {
         match (projection, flip_reason, derived) {
             (Some(projection), _, _) => PipelinePath::Pushed(projection),
             (None, Some(reason), _) => PipelinePath::Flip(reason),
+            (None, None, Some(source)) if baked => PipelinePath::Baked(source),
             (None, None, Some(source)) => PipelinePath::Derived(source),
             (None, None, None) => PipelinePath::NotRewritten,
         }
@@ -574,7 +580,9 @@ impl<'a> PipelinePath<'a> {
     #[must_use]
     pub fn label(&self) -> &'static str {
         match self {
-            PipelinePath::Pushed(_) | PipelinePath::Derived(_) => "precise",
+            PipelinePath::Pushed(_) | PipelinePath::Derived(_) | PipelinePath::Baked(_) => {
+                "precise"
+            }
             PipelinePath::Flip(_) | PipelinePath::NotRewritten => "flip",
         }
     }
@@ -592,6 +600,12 @@ impl std::fmt::Display for PipelinePath<'_> {
             PipelinePath::Derived(source) => {
                 write!(f, "{}, fitted by the shader", source.describe())
             }
+            PipelinePath::Baked(source) => write!(
+                f,
+                "{}, fitted by the shader with the carrier baked into its reversed variants \
+                 (no room in its layout)",
+                source.describe()
+            ),
             PipelinePath::Flip(reason) => f.write_str(reason),
             PipelinePath::NotRewritten => f.write_str("the mode does not rewrite depth"),
         }
@@ -1478,18 +1492,25 @@ mod tests {
             convention: revz_math::DepthConvention::ZeroToOne,
         };
         let derived = Some(MatrixSource::UniformBuffer);
-        let pushed = PipelinePath::of(Some(projection), derived, Some("ignored"));
+        let pushed = PipelinePath::of(Some(projection), derived, false, Some("ignored"));
         assert_eq!(pushed, PipelinePath::Pushed(projection));
         assert_eq!(pushed.label(), "precise");
         assert_eq!(pushed.to_string(), "push-constant bytes 64..128");
-        let flip = PipelinePath::of(None, derived, Some("its code is not given"));
+        let flip = PipelinePath::of(None, derived, true, Some("its code is not given"));
         assert_eq!(flip, PipelinePath::Flip("its code is not given"));
         assert_eq!(flip.label(), "flip");
         assert_eq!(flip.to_string(), "its code is not given");
-        let fitted = PipelinePath::of(None, derived, None);
+        let fitted = PipelinePath::of(None, derived, false, None);
         assert_eq!(fitted.label(), "precise");
         assert_eq!(fitted.to_string(), "a uniform buffer, fitted by the shader");
-        let neither = PipelinePath::of(None, None, None);
+        let baked = PipelinePath::of(None, derived, true, None);
+        assert_eq!(baked.label(), "precise");
+        assert_eq!(
+            baked.to_string(),
+            "a uniform buffer, fitted by the shader with the carrier baked into its reversed \
+             variants (no room in its layout)"
+        );
+        let neither = PipelinePath::of(None, None, false, None);
         assert_eq!(neither, PipelinePath::NotRewritten);
         assert_eq!(neither.label(), "flip");
         assert_eq!(neither.to_string(), "the mode does not rewrite depth");

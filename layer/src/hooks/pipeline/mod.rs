@@ -655,10 +655,11 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                 let path = PipelinePath::of(
                     plan.depth.projection,
                     plan.depth.derived_range,
+                    plan.depth.baked,
                     plan.flip_reason.as_deref(),
                 );
                 match path {
-                    PipelinePath::Derived(source) => log::debug!(
+                    PipelinePath::Derived(source) | PipelinePath::Baked(source) => log::debug!(
                         "pipeline {pipeline:?}: projection from {}: its {} stage derives \
                          the range from the matrix it loads (precise path{})",
                         source.describe(),
