@@ -435,6 +435,23 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
         Ok(None) => "unchanged".to_owned(),
         Err(reason) => reason.0.to_owned(),
     };
+    // And with the carrier baked in (a layout without room for it, a shader object): the
+    // module's push-constant block is left as it is.
+    let baked = crate::shader::position_store::CarrierRead::Baked([0.0, 0.0, 0.0, 1.0]);
+    let baked = match crate::shader::position_store::derive_position_store_reading(&words, baked)
+    {
+        Ok(Some(rewrite)) => {
+            if validates(&words).is_ok() {
+                if let Err(message) = validates(&rewrite.code) {
+                    return Err(format!("the baked rewrite of a valid module: {message}"));
+                }
+                VERTEX_STORES_VALIDATED.add();
+            }
+            format!("baked, from {:?}", rewrite.source)
+        }
+        Ok(None) => "unchanged".to_owned(),
+        Err(reason) => reason.0.to_owned(),
+    };
     let entries_shape = match &entries {
         Ok(list) => list
             .iter()
@@ -449,6 +466,7 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
         entries_shape,
         stored,
         derived,
+        baked,
     )))
 }
 
