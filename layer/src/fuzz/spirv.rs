@@ -438,8 +438,7 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
     // And with the carrier baked in (a layout without room for it, a shader object): the
     // module's push-constant block is left as it is.
     let baked = crate::shader::position_store::CarrierRead::Baked([0.0, 0.0, 0.0, 1.0]);
-    let baked = match crate::shader::position_store::derive_position_store_reading(&words, baked)
-    {
+    let baked = match crate::shader::position_store::derive_position_store_reading(&words, baked) {
         Ok(Some(rewrite)) => {
             if validates(&words).is_ok() {
                 if let Err(message) = validates(&rewrite.code) {

@@ -2532,3 +2532,78 @@ fn a_layout_without_room_for_the_carrier_gets_the_stage_with_the_carrier_baked_i
     assert_eq!(recorded.derived_range, None);
     fx.finish();
 }
+
+#[test]
+fn a_baked_pipeline_whose_variant_fails_keeps_no_variant_with_the_baked_stage() {
+    // A layout without room, a promotable format: the reversed (baked) and promoted variants
+    // are made, the promoted reversed one fails. The pipeline takes the flip path, and the
+    // baked variant must not stay to be bound for its flip-path draws (found in review).
+    let fx = Fixture::with_settings(&[(c"mode", c"complementary")]);
+    let words = test_spirv::compile_glsl(
+        naga::ShaderStage::Vertex,
+        "#version 450
+        layout(push_constant) uniform PushConstants { mat4 mvp; vec4 tint[4]; } pc;
+        layout(location = 0) in vec3 position;
+        void main() { gl_Position = pc.mvp * vec4(position, 1.0); }",
+    );
+    let vertex = fx.module(&words);
+    let fragment_module = fx.module(&fragment(PLAIN));
+    let mut app = AppPipeline::of_modules(vertex, fragment_module);
+    app.depth_format = vk::Format::D24_UNORM_S8_UINT;
+    let built = app.build();
+    fake_chain::script_pipeline_creations(
+        fx.tables.device,
+        [
+            PipelineOutcome::success(),
+            PipelineOutcome::success(),
+            PipelineOutcome::failure(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY),
+        ],
+    );
+    let (result, handles) = fx.create_pipelines(&[built.info()], None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    let made: Vec<vk::Pipeline> = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::CreateGraphicsPipelines {
+                result: vk::Result::SUCCESS,
+                handles: made,
+                ..
+            } => Some(made[0]),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        made.len(),
+        3,
+        "two variants and the application's: {events:#?}"
+    );
+    let (baked, promoted) = (made[0], made[1]);
+    assert!(
+        events.contains(&Event::DestroyPipeline {
+            handle: baked,
+            allocator: false,
+        }),
+        "the baked variant is destroyed: {events:#?}"
+    );
+    let recorded = fx.recorded(handles[0]);
+    assert!(recorded.promotable);
+    assert!(!recorded.baked);
+    assert_eq!(recorded.derived_range, None);
+    assert_eq!(recorded.reversed_variant, None);
+    assert_eq!(recorded.promoted_reversed_variant, None);
+    assert_eq!(recorded.promoted_variant, Some(promoted));
+    // A draw into a reversed attachment binds the application's pipeline.
+    let mut state = crate::command_state::CommandState::new(crate::command_state::Reversing {
+        rewrite: Some(revz_math::Target::Complementary),
+        reversal: crate::conv::Reversal::Complementary,
+    });
+    state.begin(
+        crate::command_state::Target::Reversed,
+        crate::conv::Reversal::Complementary,
+        Default::default(),
+    );
+    state.bind_pipeline(Some(recorded));
+    assert_eq!(state.pipeline_to_bind(handles[0]), handles[0]);
+    fx.finish();
+}

@@ -643,6 +643,19 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                     || (plan.variants.promoted && plan.depth.promoted_reversed_variant.is_none());
                 if plan.depth.baked && baked_missing {
                     // Its precise-path draws would store the application's stage's depth.
+                    // The variants made hold nothing but the baked stage (no other change
+                    // was allowed beside it, `baked_stage_conflict`): bound for the flip
+                    // path they would store reversed depth reversed again, so they go
+                    // (found in review).
+                    let made = [
+                        plan.depth.reversed_variant.take(),
+                        plan.depth.promoted_reversed_variant.take(),
+                    ];
+                    for variant in made.into_iter().flatten() {
+                        // SAFETY: revz's own object, never handed out.
+                        unsafe { destroy_pipeline_down(&state, device, variant) };
+                    }
+                    plan.variants.baked_vertex = false;
                     plan.depth.baked = false;
                     plan.depth.derived_range = None;
                     plan.flip_reason = Some(
