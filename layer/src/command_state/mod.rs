@@ -542,6 +542,16 @@ impl CommandState {
         Some((self.target_reversing().derived_target()?, convention))
     }
 
+    /// Whether the next draw's last pre-rasterization stage can be one with the carrier baked
+    /// in (the bound pipeline's variants, or the bound shader objects'): such a stage stores
+    /// complementary depth on the precise path, and nothing is pushed for it.
+    fn draws_baked(&self) -> bool {
+        match self.pipeline() {
+            Some(pipeline) => pipeline.baked,
+            None => self.baked_shader().is_some(),
+        }
+    }
+
     /// With shader objects bound: the last pre-rasterization stage's (index in
     /// [`POSITION_STAGES`]), the application's shader there, and its variant with the
     /// carrier baked in, where it has one (no mesh shader bound).
@@ -1187,10 +1197,7 @@ impl CommandState {
             }
             _ => false,
         };
-        let baked = match self.pipeline() {
-            Some(pipeline) => pipeline.baked,
-            None => self.baked_shader().is_some(),
-        };
+        let baked = self.draws_baked();
         self.path = match (self.target, outcome) {
             // The carrier pushed, or baked into the reversed variants bound for it.
             (Target::Reversed, _) if (carrier_ready || baked) && self.derived_use().is_some() => {
@@ -1316,7 +1323,11 @@ impl CommandState {
                 self.derived_use(),
                 Some((_, DepthConvention::NegativeOneToOne))
             );
-        let reversal = if (from_app | injected).intersects(States::BOUNDS | States::CLAMP_RANGE) {
+        // A precise-path draw of a stage with the carrier baked in stores complementary depth
+        // whatever n / f is known (found in review).
+        let reversal = if (from_app | injected).intersects(States::BOUNDS | States::CLAMP_RANGE)
+            && !(self.path == DrawPath::Precise && self.draws_baked())
+        {
             self.target_reversing().reversal
         } else {
             Reversal::Complementary

@@ -681,6 +681,35 @@ fn a_stage_deriving_its_range_gets_the_selector_with_its_own_layout_and_no_push_
     }
 }
 
+#[test]
+fn depth_bounds_of_a_baked_precise_draw_map_as_complementary_depth() {
+    // Infinite mode with a camera's n / f known: flip-path state maps with it, but a stage
+    // with the carrier baked in stores complementary depth (found in review).
+    let reversal = Reversal::Infinite {
+        near_over_far: 0.01,
+    };
+    let mut state = CommandState::new(Reversing {
+        rewrite: Some(RewriteTarget::Infinite),
+        reversal,
+    });
+    state.begin(Target::Reversed, reversal, Default::default());
+    let bounded = Arc::new(PipelineDepth {
+        injected: States::VIEWPORT | States::BOUNDS,
+        bounds: (0.25, 0.5),
+        ..(*baked_pipeline()).clone()
+    });
+    state.bind_pipeline(Some(Arc::clone(&bounded)));
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(sink.bounds, vec![(0.5, 0.75)]);
+    // On the flip path (a clamp turned on) the same bounds map with n / f.
+    state.set_depth_clamp(true);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    assert_eq!(sink.bounds.last(), Some(&reversal.bounds(0.25, 0.5)));
+}
+
 /// A pipeline (20) whose layout has no room for the carrier: its reversed variant (21) and
 /// promoted reversed variant (23) have the carrier baked in, its promoted variant (22) not.
 fn baked_pipeline() -> Arc<PipelineDepth> {

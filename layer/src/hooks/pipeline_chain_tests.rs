@@ -2530,6 +2530,8 @@ fn a_layout_without_room_for_the_carrier_gets_the_stage_with_the_carrier_baked_i
     assert!(!recorded.baked);
     assert_eq!(recorded.reversed_variant, None);
     assert_eq!(recorded.derived_range, None);
+    // The code was rewritten once for both pipelines.
+    assert_eq!(fx.state.objects.baked_codes.len(), 1);
     fx.finish();
 }
 

@@ -45,6 +45,18 @@ pub struct VertexRewrite {
     pub needs_input_unit_w: bool,
 }
 
+/// A stage's code with the carrier baked in (`crate::shader::position_store::CarrierRead::
+/// Baked`): the last pre-rasterization stage of the reversed variants of a pipeline whose
+/// layout has no room for the pushed carrier.
+#[derive(Clone, Debug)]
+pub struct BakedStage {
+    pub code: Arc<[u32]>,
+    /// Where the matrix it fits comes from.
+    pub source: crate::shader::derived_range::MatrixSource,
+    /// It projects the previous stage's `Position`, whose w = 1 the pipeline must check.
+    pub assumes_input_unit_w: bool,
+}
+
 /// A layout's push-constant ranges as (stages, offset, size), the key of revz's own push
 /// layouts.
 pub type PushRanges = Vec<(u32, u32, u32)>;
@@ -482,6 +494,9 @@ pub struct DeviceObjects {
     /// for the pushed carrier gets a variant with the carrier baked into this code, made at
     /// its creation (issue #41).
     pub vertex_words: Table<vk::ShaderModule, Arc<[u32]>>,
+    /// The rewrites with the carrier baked in made of those codes (and of SPIR-V chained into
+    /// stages), once per distinct code, or why there is none.
+    pub baked_codes: CodeCache<Result<BakedStage, &'static str>>,
     /// The code of vertex modules and of SPIR-V chained into vertex stages instead of a
     /// module: analyzed and rewritten once per distinct code, not at every module or pipeline
     /// creation.

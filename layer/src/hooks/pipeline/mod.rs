@@ -32,7 +32,9 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
-use crate::objects::{ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite};
+use crate::objects::{
+    BakedStage, ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite,
+};
 use crate::policy::libraries::{self, inherit_libraries, subset_states, Subsets};
 use crate::policy::pipelines::{
     baked_stage_conflict, examines_fragment, has_depth_attachment, profiles_pipeline,
