@@ -827,6 +827,26 @@ impl CommandState {
         wanted.unwrap_or(app)
     }
 
+    /// `vkCmdBindShadersEXT`, after [`Self::bind_shaders`]: the stage (index in
+    /// [`POSITION_STAGES`]) and baked variant to send down in place of the application's
+    /// shader of the last pre-rasterization stage, where the next draw will take the precise
+    /// path ([`Self::settle`]), as [`Self::pipeline_to_bind`] does for pipelines. The caller
+    /// says whether it sent it ([`Self::position_variant_sent`]).
+    pub fn position_shader_to_bind(&self) -> Option<(usize, vk::ShaderEXT)> {
+        if !self.in_pass {
+            return None;
+        }
+        let (stage, _, variant) = self.baked_shader()?;
+        self.derived_use()?;
+        Some((stage, variant))
+    }
+
+    /// The application's `vkCmdBindShadersEXT` went down with `variant` in its shader's place
+    /// at `stage` ([`Self::position_shader_to_bind`]).
+    pub fn position_variant_sent(&mut self, stage: usize, variant: vk::ShaderEXT) {
+        self.position_variant_bound = Some((stage, variant));
+    }
+
     /// `vkCmdBindPipeline` with a graphics pipeline: it unbinds the shader objects bound to
     /// graphics stages (revz's fragment variant with them).
     pub fn bind_pipeline(&mut self, pipeline: Option<std::sync::Arc<PipelineDepth>>) {

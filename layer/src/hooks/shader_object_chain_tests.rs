@@ -655,6 +655,45 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
             &bind(&[VERTEX_STAGE], &[vertex]),
         ]
     );
+    // Bound inside a pass into a reversed attachment: the variant goes down in the
+    // application's shader's place, and nothing after it.
+    fx.bind(
+        buffer,
+        &[vk::ShaderStageFlags::GEOMETRY],
+        &[vk::ShaderEXT::null()],
+    );
+    let depth = vk::RenderingAttachmentInfo::default()
+        .image_view(reversed)
+        .image_layout(LAYOUT)
+        .load_op(vk::AttachmentLoadOp::LOAD)
+        .store_op(vk::AttachmentStoreOp::STORE);
+    let rendering = vk::RenderingInfo::default()
+        .render_area(EXTENT.into())
+        .layer_count(1)
+        .depth_attachment(&depth);
+    fx.events();
+    // SAFETY: a recording primary command buffer and a valid rendering info.
+    unsafe { (fx.hooks.cmd_begin_rendering)(buffer, &rendering) };
+    fx.bind(buffer, &[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]);
+    // SAFETY: as above.
+    unsafe {
+        (fx.hooks.cmd_draw)(buffer, 3, 1, 0, 0);
+        (fx.hooks.cmd_end_rendering)(buffer);
+    }
+    let binds: Vec<Event> = fx
+        .events()
+        .into_iter()
+        .filter(|e| matches!(e, Event::BindShaders { .. }))
+        .collect();
+    assert_eq!(
+        binds,
+        [
+            bind(&[VERTEX_STAGE], &[variant]),
+            bind(&[VERTEX_STAGE, FRAGMENT_STAGE], &[variant, frag]),
+        ],
+        "the begin binds the variant back (the geometry stage is gone), the application's \
+         bind goes down with it in place"
+    );
     fx.free(buffer);
 
     // Linked and binary vertex shaders get no variant: their draws take the flip path.

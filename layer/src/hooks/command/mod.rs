@@ -854,6 +854,11 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
     p_shaders: *const vk::ShaderEXT,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindShadersEXT");
+    // The shaders sent down, where revz's baked variant takes the place of the application's
+    // shader in the call (at most this many stages: a call naming more goes down as it is,
+    // the variant bound by the settle after it).
+    const MOST: usize = 8;
+    let mut substituted: Option<[vk::ShaderEXT; MOST]> = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: `count` stages, and `count` shaders unless null (then every stage is
         // unbound).
@@ -895,6 +900,23 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
         if stages.iter().any(|&s| s != vk::ShaderStageFlags::COMPUTE) {
             let mut state = entry.state();
             state.bind_shaders(fragment, position, mesh);
+            // The variant in the application's shader's place where the next draw takes the
+            // precise path, instead of the application's shader and then the variant.
+            let at = state
+                .position_shader_to_bind()
+                .and_then(|(stage, variant)| {
+                    let index = stages.iter().position(|&s| s == POSITION_STAGES[stage])?;
+                    (stages.len() <= MOST && !p_shaders.is_null())
+                        .then_some((index, stage, variant))
+                });
+            if let Some((index, stage, variant)) = at {
+                let mut shaders = [vk::ShaderEXT::null(); MOST];
+                // SAFETY: `count` shaders (not null, checked above), at most `MOST`.
+                shaders[..stages.len()].copy_from_slice(unsafe { slice(p_shaders, count) });
+                shaders[index] = variant;
+                substituted = Some(shaders);
+                state.position_variant_sent(stage, variant);
+            }
             let vertex = stages
                 .iter()
                 .position(|&stage| stage == vk::ShaderStageFlags::VERTEX);
@@ -910,8 +932,10 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
         }
     });
     if let Some(next) = device.as_ref().and_then(|d| d.commands.bind_shaders_ext) {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, count, p_stages, p_shaders) };
+        let p_sent = substituted.as_ref().map_or(p_shaders, |s| s.as_ptr());
+        // SAFETY: calling down with the application's arguments (with revz's variant of the
+        // last pre-rasterization stage in its shader's place).
+        unsafe { next(buffer, count, p_stages, p_sent) };
         settle_down(&device, buffer);
     }
 }
