@@ -315,18 +315,20 @@ pub unsafe extern "system" fn create_shaders_ext(
     };
     // Before the application's call (see the module comment): each create info's variant, or
     // its mark; `None` for shaders revz leaves alone.
-    let variants: Vec<Option<Made>> = guarded(
+    // Filled one create info at a time, so that a panic caught partway keeps what was made
+    // before it (recorded, and destroyed with its shader, like the others).
+    let made: std::cell::RefCell<Vec<Option<Made>>> = std::cell::RefCell::default();
+    guarded(
         &CREATE_SHADERS,
         || {
             if !crate::policy::pipelines::shader_object_variants(state.policy.is_active()) {
-                return Vec::new();
+                return;
             }
             static FRAGMENT_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
             static POSITION_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
             let rewriting = state.policy.rewrite().is_some();
-            infos
-                .iter()
-                .map(|info| match plan(info, rewriting) {
+            for info in infos {
+                let one = match plan(info, rewriting) {
                     Plan::Nothing => None,
                     Plan::Unreversed => Some(Made::Fragment(FragmentShader::Unreversed)),
                     Plan::Variant(code) => Some(Made::Fragment(
@@ -352,11 +354,13 @@ pub unsafe extern "system" fn create_shaders_ext(
                         .map_or(PositionShader::Flip, PositionShader::Baked),
                     )),
                     Plan::PositionFlip => Some(Made::Position(PositionShader::Flip)),
-                })
-                .collect()
+                };
+                made.borrow_mut().push(one);
+            }
         },
-        Vec::new,
+        || (),
     );
+    let variants = made.into_inner();
     // SAFETY: calling down with the application's arguments (push-constant ranges with revz's
     // carrier reserved).
     let result = unsafe { next(device, count, p_create_infos, p_allocator, p_shaders) };
