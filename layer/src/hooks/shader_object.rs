@@ -40,7 +40,7 @@ use crate::policy::pipelines::{
     FragmentStage, FragmentVariant, ShaderObjectPlan, ShaderObjectPosition,
 };
 use crate::precise;
-use crate::shader::{fragment_depth, position_store};
+use crate::shader::fragment_depth;
 use crate::state::DeviceState;
 
 static CREATE_SHADERS: EntryPoint = EntryPoint::new("vkCreateShadersEXT");
@@ -88,11 +88,12 @@ const POSITION_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
 
 /// The plan of one create info: a fragment shader's from what the policy gives its code
 /// ([`FragmentStage::variant`]; a shader of a linked set gets no variant), a
-/// pre-rasterization shader's, where the mode rewrites (`rewriting`), from
+/// pre-rasterization shader's, where the mode rewrites, from
 /// [`ShaderObjectPosition::decide`].
-fn plan(info: &vk::ShaderCreateInfoEXT<'_>, rewriting: bool) -> Plan {
+fn plan(state: &DeviceState, info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
+    let rewriting = state.policy.rewrite().is_some();
     if rewriting && POSITION_STAGES.contains(info.stage) && !info.stage.is_empty() {
-        return position_plan(info);
+        return position_plan(state, info);
     }
     if info.stage != vk::ShaderStageFlags::FRAGMENT {
         return Plan::Nothing;
@@ -159,7 +160,7 @@ fn plan(info: &vk::ShaderCreateInfoEXT<'_>, rewriting: bool) -> Plan {
 /// The plan of a vertex, tessellation evaluation or geometry shader in a precise mode: the
 /// deriving `Position` rewrite of its code with the carrier baked in (complementary depth, as
 /// for a pipeline layout without room for the carrier), as the policy decides.
-fn position_plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
+fn position_plan(state: &DeviceState, info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
     let spirv = match info.code_type {
         vk::ShaderCodeTypeEXT::SPIRV => true,
         vk::ShaderCodeTypeEXT::BINARY => false,
@@ -171,17 +172,7 @@ fn position_plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
         unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) }
     });
     let rewrite = match words.filter(|_| !linked) {
-        Some(words) => {
-            let selector = crate::command_state::derived_selector(
-                revz_math::Target::Complementary,
-                revz_math::DepthConvention::ZeroToOne,
-            );
-            position_store::derive_position_store_reading(
-                words,
-                position_store::CarrierRead::Baked(selector),
-            )
-            .map_err(|position_store::Unsupported(reason)| reason)
-        }
+        Some(words) => super::pipeline::baked_code(state, words),
         None => Ok(None),
     };
     let facts = ShaderObjectPosition {
@@ -193,7 +184,7 @@ fn position_plan(info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
             .map_err(|reason| *reason),
     };
     match (facts.decide(), rewrite) {
-        (ShaderObjectPlan::Baked, Ok(Some(rewrite))) => Plan::Baked(rewrite.code.into()),
+        (ShaderObjectPlan::Baked, Ok(Some(rewrite))) => Plan::Baked(rewrite.code),
         (ShaderObjectPlan::Flip(reason), _) => {
             let first = words.is_none_or(|w| first_inline_report(Report::Analysis, w));
             if first {
@@ -326,9 +317,8 @@ pub unsafe extern "system" fn create_shaders_ext(
             }
             static FRAGMENT_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
             static POSITION_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
-            let rewriting = state.policy.rewrite().is_some();
             for info in infos {
-                let one = match plan(info, rewriting) {
+                let one = match plan(&state, info) {
                     Plan::Nothing => None,
                     Plan::Unreversed => Some(Made::Fragment(FragmentShader::Unreversed)),
                     Plan::Variant(code) => Some(Made::Fragment(

@@ -496,7 +496,7 @@ pub struct DeviceObjects {
     pub vertex_words: Table<vk::ShaderModule, Arc<[u32]>>,
     /// The rewrites with the carrier baked in made of those codes (and of SPIR-V chained into
     /// stages), once per distinct code, or why there is none.
-    pub baked_codes: CodeCache<Result<BakedStage, &'static str>>,
+    pub baked_codes: CodeCache<Result<Option<BakedStage>, &'static str>>,
     /// The code of vertex modules and of SPIR-V chained into vertex stages instead of a
     /// module: analyzed and rewritten once per distinct code, not at every module or pipeline
     /// creation.

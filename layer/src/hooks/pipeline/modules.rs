@@ -176,6 +176,33 @@ fn make_vertex_code(state: &DeviceState, module: vk::ShaderModule, words: &[u32]
     (Arc::new(analysis), rewrite)
 }
 
+/// The deriving `Position` rewrite of last pre-rasterization stage code with the carrier baked
+/// in (complementary depth: `crate::shader::position_store::CarrierRead::Baked`), made once
+/// per distinct code (`DeviceObjects::baked_codes`): the stage of the reversed variants of a
+/// pipeline whose layout has no room for the pushed carrier, and of a shader object's variant.
+/// `Ok(None)` where the code stores no `Position`.
+pub(crate) fn baked_code(
+    state: &DeviceState,
+    words: &[u32],
+) -> Result<Option<BakedStage>, &'static str> {
+    state.objects.baked_codes.get_or_make(words, || {
+        let selector = crate::command_state::derived_selector(
+            RewriteTarget::Complementary,
+            DepthConvention::ZeroToOne,
+        );
+        let rewrite = position_store::derive_position_store_reading(
+            words,
+            position_store::CarrierRead::Baked(selector),
+        )
+        .map_err(|position_store::Unsupported(reason)| reason)?;
+        Ok(rewrite.map(|rewrite| BakedStage {
+            code: rewrite.code.into(),
+            source: rewrite.source,
+            assumes_input_unit_w: rewrite.assumes_input_unit_w,
+        }))
+    })
+}
+
 /// The SPIR-V chained into a stage instead of a module (`VkShaderModuleCreateInfo` in its
 /// `pNext`), if any.
 pub(super) fn inline_code<'a>(

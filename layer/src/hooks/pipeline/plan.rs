@@ -215,13 +215,7 @@ pub(super) fn projection_of(
             } else {
                 inline_code(vertex).map(Arc::from)
             };
-            // Made once per distinct code (`DeviceObjects::baked_codes`).
-            words.map(|words| {
-                state
-                    .objects
-                    .baked_codes
-                    .get_or_make(&words, || baked_stage(&words))
-            })
+            words.map(|words| baked_code(state, &words)?.ok_or("no Position output"))
         }
         _ => None,
     };
@@ -268,28 +262,6 @@ pub(super) fn projection_of(
         }),
         // The policy found them all.
         _ => Err(MissingFact::Incomplete.reason().into()),
-    }
-}
-
-/// The deriving `Position` rewrite of `words` with the carrier baked in (complementary depth:
-/// `crate::shader::position_store::CarrierRead::Baked`), for the reversed variants of a
-/// pipeline whose layout has no room for the pushed carrier, or why there is none.
-fn baked_stage(words: &[u32]) -> Result<BakedStage, &'static str> {
-    let selector = crate::command_state::derived_selector(
-        RewriteTarget::Complementary,
-        DepthConvention::ZeroToOne,
-    );
-    match position_store::derive_position_store_reading(
-        words,
-        position_store::CarrierRead::Baked(selector),
-    ) {
-        Ok(Some(rewrite)) => Ok(BakedStage {
-            code: rewrite.code.into(),
-            source: rewrite.source,
-            assumes_input_unit_w: rewrite.assumes_input_unit_w,
-        }),
-        Ok(None) => Err("no Position output"),
-        Err(position_store::Unsupported(reason)) => Err(reason),
     }
 }
 
