@@ -249,6 +249,9 @@ pub struct CommandState {
     /// The stage (index in [`POSITION_STAGES`]) whose application shader revz replaced by its
     /// baked variant, and that variant.
     position_variant_bound: Option<(usize, vk::ShaderEXT)>,
+    /// Graphics shader objects were bound since the last pipeline bind: the fields above hold
+    /// something a pipeline bind must forget.
+    shader_objects: bool,
     /// A secondary that inherits its viewports from the primary that executes it
     /// (`VK_NV_inherited_viewport_scissor`): its draws take the flip path, the one the
     /// primary sends its viewports for ([`CommandState::flush_viewports_for_secondaries`]).
@@ -312,6 +315,7 @@ impl Default for CommandState {
             position_shaders: [(vk::ShaderEXT::null(), None); 3],
             mesh_shader_bound: false,
             position_variant_bound: None,
+            shader_objects: false,
             inherits_viewports: false,
             precise_barred: false,
             secondary_contents: false,
@@ -914,11 +918,16 @@ impl CommandState {
             }
             None => self.bind_graphics(slot),
         }
-        self.fragment_shader = (vk::ShaderEXT::null(), None);
-        self.shader_variant_bound = false;
-        self.position_shaders = [(vk::ShaderEXT::null(), None); 3];
-        self.mesh_shader_bound = false;
-        self.position_variant_bound = None;
+        // The pipeline replaces the shader objects bound to graphics stages (checked first:
+        // a bind is a hot path, and most recordings bind no shader object).
+        if self.shader_objects {
+            self.shader_objects = false;
+            self.fragment_shader = (vk::ShaderEXT::null(), None);
+            self.shader_variant_bound = false;
+            self.position_shaders = [(vk::ShaderEXT::null(), None); 3];
+            self.mesh_shader_bound = false;
+            self.position_variant_bound = None;
+        }
     }
 
     /// The bound graphics pipeline's depth state, if it is tracked.
@@ -941,6 +950,7 @@ impl CommandState {
         mesh: Option<bool>,
     ) {
         self.bind_graphics(None);
+        self.shader_objects = true;
         if let Some(fragment) = fragment {
             // The application's bind goes down after this: its shader is the one bound now.
             self.fragment_shader = fragment;

@@ -2472,12 +2472,10 @@ fn modules_of_code_seen_before_are_analyzed_once_and_get_the_same_rewrites() {
     fx.finish();
 }
 
-#[test]
-fn a_layout_without_room_for_the_carrier_gets_the_stage_with_the_carrier_baked_into_its_variant() {
-    // revz never saw the tests' layout created, so it holds no carrier for it: the case of a
-    // layout whose push constants leave no room (`NoRoom::Used`), as for a vertex stage
-    // whose push-constant block fills 128 bytes.
-    let fx = Fixture::with_settings(&[(c"mode", c"infinite")]);
+/// A vertex module projecting with a pushed matrix in a push-constant block of 128 bytes (no
+/// room for revz's carrier on a 128-byte device), and a plain fragment module: the vertex
+/// code and both modules.
+fn full_push_modules(fx: &Fixture) -> (Vec<u32>, vk::ShaderModule, vk::ShaderModule) {
     let words = test_spirv::compile_glsl(
         naga::ShaderStage::Vertex,
         "#version 450
@@ -2487,23 +2485,22 @@ fn a_layout_without_room_for_the_carrier_gets_the_stage_with_the_carrier_baked_i
     );
     let vertex = fx.module(&words);
     let fragment_module = fx.module(&fragment(PLAIN));
+    (words, vertex, fragment_module)
+}
+
+#[test]
+fn a_layout_without_room_for_the_carrier_gets_the_stage_with_the_carrier_baked_into_its_variant() {
+    // revz never saw the tests' layout created, so it holds no carrier for it: the case of a
+    // layout whose push constants leave no room (`NoRoom::Used`), as for a vertex stage
+    // whose push-constant block fills 128 bytes.
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite")]);
+    let (words, vertex, fragment_module) = full_push_modules(&fx);
     let app = AppPipeline::of_modules(vertex, fragment_module);
     let built = app.build();
     let made = fx.create_with_variant(&built.info(), None);
     // The variant's vertex stage is the temporary module: the deriving rewrite with the
     // carrier baked in (complementary depth); the application's pipeline keeps its module.
-    let selector = crate::command_state::derived_selector(
-        revz_math::Target::Complementary,
-        revz_math::DepthConvention::ZeroToOne,
-    );
-    let baked = crate::shader::position_store::derive_position_store_reading(
-        &words,
-        crate::shader::position_store::CarrierRead::Baked(selector),
-    )
-    .expect("rewritable")
-    .expect("has a Position");
-    assert_eq!(made.code, baked.code);
-    validate(&made.code);
+    assert_eq!(made.code, test_spirv::baked(&words));
     assert_eq!(made.variant_info.stages[0].module, made.temporary);
     assert_eq!(made.app_info.stages[0].module, vertex);
     assert_eq!(made.variant_info.stages[1].module, fragment_module);
@@ -2541,15 +2538,7 @@ fn a_baked_pipeline_whose_variant_fails_keeps_no_variant_with_the_baked_stage() 
     // are made, the promoted reversed one fails. The pipeline takes the flip path, and the
     // baked variant must not stay to be bound for its flip-path draws (found in review).
     let fx = Fixture::with_settings(&[(c"mode", c"complementary")]);
-    let words = test_spirv::compile_glsl(
-        naga::ShaderStage::Vertex,
-        "#version 450
-        layout(push_constant) uniform PushConstants { mat4 mvp; vec4 tint[4]; } pc;
-        layout(location = 0) in vec3 position;
-        void main() { gl_Position = pc.mvp * vec4(position, 1.0); }",
-    );
-    let vertex = fx.module(&words);
-    let fragment_module = fx.module(&fragment(PLAIN));
+    let (words, vertex, fragment_module) = full_push_modules(&fx);
     let mut app = AppPipeline::of_modules(vertex, fragment_module);
     app.depth_format = vk::Format::D24_UNORM_S8_UINT;
     let built = app.build();

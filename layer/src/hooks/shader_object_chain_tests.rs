@@ -591,18 +591,7 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     assert!(!variant_allocator);
     // The variant: the vertex create info (with revz's carrier range, as the application's)
     // and the code fitting the pushed matrix with the carrier baked in.
-    let selector = crate::command_state::derived_selector(
-        revz_math::Target::Complementary,
-        revz_math::DepthConvention::ZeroToOne,
-    );
-    let baked = crate::shader::position_store::derive_position_store_reading(
-        &projecting,
-        crate::shader::position_store::CarrierRead::Baked(selector),
-    )
-    .expect("rewritable")
-    .expect("stores Position")
-    .code;
-    validate(&baked);
+    let baked = crate::shader::test_spirv::baked(&projecting);
     assert_eq!(
         variant_infos,
         [SeenShader {

@@ -61,6 +61,24 @@ pub fn vertex() -> Vec<u32> {
     compile_glsl(naga::ShaderStage::Vertex, VERTEX)
 }
 
+/// `words` rewritten as revz's variants with the carrier baked in have it (complementary
+/// depth of the range the stage fits), checked by spirv-val.
+pub fn baked(words: &[u32]) -> Vec<u32> {
+    let selector = crate::command_state::derived_selector(
+        revz_math::Target::Complementary,
+        revz_math::DepthConvention::ZeroToOne,
+    );
+    let code = crate::shader::position_store::derive_position_store_reading(
+        words,
+        crate::shader::position_store::CarrierRead::Baked(selector),
+    )
+    .expect("rewritable")
+    .expect("stores Position")
+    .code;
+    validate(&code);
+    code
+}
+
 /// A fragment shader that stores `FragDepth` and reads it back: the rewrite refuses it.
 pub fn refused_fragment() -> Vec<u32> {
     let text = "OpCapability Shader
