@@ -2538,7 +2538,7 @@ fn a_baked_pipeline_whose_variant_fails_keeps_no_variant_with_the_baked_stage() 
     // are made, the promoted reversed one fails. The pipeline takes the flip path, and the
     // baked variant must not stay to be bound for its flip-path draws (found in review).
     let fx = Fixture::with_settings(&[(c"mode", c"complementary")]);
-    let (words, vertex, fragment_module) = full_push_modules(&fx);
+    let (_, vertex, fragment_module) = full_push_modules(&fx);
     let mut app = AppPipeline::of_modules(vertex, fragment_module);
     app.depth_format = vk::Format::D24_UNORM_S8_UINT;
     let built = app.build();
