@@ -731,6 +731,7 @@ pub fn create_pipeline(
         Program::Ssbo => (shaders::SSBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SsboRows => (shaders::SSBO_ROWS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SsboRegisters => (shaders::SSBO_REGISTERS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::SsboColumns => (shaders::SSBO_COLUMNS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SplitPush | Program::FullPush => {
             (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG))
         }

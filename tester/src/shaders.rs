@@ -130,6 +130,11 @@ pub const SSBO_ROWS_VERT: ShaderSource = glslang_shader!("ssbo_rows.vert");
 /// dot products in a function the entry point calls, then copied into `gl_Position`.
 pub const SSBO_REGISTERS_VERT: ShaderSource = glslang_shader!("ssbo_registers.vert");
 
+/// `ssbo_columns.vert` (glslang): `ssbo.vert`'s buffer applied as fxc's `mul(v, M)` and D3D
+/// bytecode translators write it: a register reassigned by a multiply and three
+/// multiply-adds of the matrix's columns by splats of the input.
+pub const SSBO_COLUMNS_VERT: ShaderSource = glslang_shader!("ssbo_columns.vert");
+
 /// `split_mvp.vert` (glslang): `scene.vert` with only the matrix in its push constants
 /// (bytes 0..64, the vertex stage's own range).
 pub const SPLIT_MVP_VERT: ShaderSource = glslang_shader!("split_mvp.vert");
@@ -203,6 +208,7 @@ pub const ALL: &[ShaderSource] = &[
     UBO_TESE,
     SSBO_ROWS_VERT,
     SSBO_REGISTERS_VERT,
+    SSBO_COLUMNS_VERT,
     SPLIT_MVP_VERT,
     SPLIT_COLOR_FRAG,
     SOFT_PARTICLE_VERT,
@@ -228,6 +234,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("ubo.tese", UBO_TESE),
     ("ssbo_rows.vert", SSBO_ROWS_VERT),
     ("ssbo_registers.vert", SSBO_REGISTERS_VERT),
+    ("ssbo_columns.vert", SSBO_COLUMNS_VERT),
     ("split_mvp.vert", SPLIT_MVP_VERT),
     ("split_color.frag", SPLIT_COLOR_FRAG),
     ("depth_post.frag", DEPTH_POST_FRAG),
@@ -426,6 +433,7 @@ mod tests {
             // glslang for Vulkan 1.0 (SPIR-V 1.0): a `BufferBlock` in the Uniform class.
             (SSBO_ROWS_VERT, UNIFORM, 1),
             (SSBO_REGISTERS_VERT, UNIFORM, 1),
+            (SSBO_COLUMNS_VERT, UNIFORM, 1),
         ] {
             let words = shader.words().unwrap();
             let classes: Vec<u32> = instructions(&words)

@@ -98,6 +98,9 @@ pub enum DeliveryChoice {
     /// The rows of ssbo-rows, applied as DXVK writes a D3D vertex shader (an output register
     /// written one component at a time).
     SsboRegisters,
+    /// The buffer of ssbo, applied as fxc's `mul(v, M)` and DXVK write it (a register
+    /// reassigned by multiply-adds of the columns).
+    SsboColumns,
     /// The push constants of push, in a range per stage.
     PushSplit,
     /// The push constants of push-split, the fragment stage's range to byte 128.
@@ -108,7 +111,7 @@ pub enum DeliveryChoice {
     UboGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
-    /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers,
+    /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns,
     /// ubo-geometry and ubo-tessellation.
     All,
 }
@@ -122,6 +125,7 @@ impl DeliveryChoice {
             DeliveryChoice::Ssbo => &[Delivery::Ssbo],
             DeliveryChoice::SsboRows => &[Delivery::SsboRows],
             DeliveryChoice::SsboRegisters => &[Delivery::SsboRegisters],
+            DeliveryChoice::SsboColumns => &[Delivery::SsboColumns],
             DeliveryChoice::PushSplit => &[Delivery::PushSplit],
             DeliveryChoice::PushFull => &[Delivery::PushFull],
             DeliveryChoice::PushGeometry => &[Delivery::PushGeometry],
@@ -231,7 +235,7 @@ pub struct Selection {
 
     /// Projection deliveries (comma-separated): push, push-split, push-full, push-geometry, ubo,
     /// ubo-dynamic, ssbo,
-    /// ssbo-rows, ssbo-registers, ubo-geometry, ubo-tessellation, or all. The deliveries other than push are
+    /// ssbo-rows, ssbo-registers, ssbo-columns, ubo-geometry, ubo-tessellation, or all. The deliveries other than push are
     /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.
     /// Default: push.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "DELIVERIES")]

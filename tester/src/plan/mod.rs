@@ -221,6 +221,10 @@ pub enum Program {
     /// private output register written one component at a time, copied into `gl_Position` by
     /// the entry point after it calls the shader's function).
     SsboRegisters,
+    /// `ssbo_columns.vert` + `flat_color.frag` (the `ssbo-columns` [`Delivery`]): the buffer of
+    /// [`Program::Ssbo`] applied as fxc's `mul(v, M)` and DXVK write it (a register reassigned
+    /// by a multiply and three multiply-adds of the columns by splats).
+    SsboColumns,
     /// `ubo_position.vert` + `ubo.geom` + `flat_color.frag` (the `ubo-geometry` [`Delivery`]):
     /// the buffers of [`Program::Ubo`], the product applied in a geometry shader to the
     /// vertex stage's `gl_Position`.
@@ -291,6 +295,9 @@ pub enum Delivery {
     /// The buffer of [`Delivery::SsboRows`], applied as DXVK writes a D3D vertex shader: each
     /// dot product stored into one component of a private register ([`Program::SsboRegisters`]).
     SsboRegisters,
+    /// The buffer of [`Delivery::Ssbo`], applied as fxc's `mul(v, M)` and DXVK write it
+    /// ([`Program::SsboColumns`]).
+    SsboColumns,
     /// The push constants of [`Delivery::Push`] in a range per stage ([`Program::SplitPush`]).
     PushSplit,
     /// The push constants of [`Delivery::PushSplit`] in ranges that fill 128 bytes
@@ -309,7 +316,7 @@ pub enum Delivery {
 
 impl Delivery {
     /// Every delivery, push first.
-    pub const ALL: [Delivery; 11] = [
+    pub const ALL: [Delivery; 12] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -319,6 +326,7 @@ impl Delivery {
         Delivery::Ssbo,
         Delivery::SsboRows,
         Delivery::SsboRegisters,
+        Delivery::SsboColumns,
         Delivery::UboGeometry,
         Delivery::UboTessellation,
     ];
@@ -332,6 +340,7 @@ impl Delivery {
             Delivery::Ssbo => "ssbo",
             Delivery::SsboRows => "ssbo-rows",
             Delivery::SsboRegisters => "ssbo-registers",
+            Delivery::SsboColumns => "ssbo-columns",
             Delivery::PushSplit => "push-split",
             Delivery::PushFull => "push-full",
             Delivery::PushGeometry => "push-geometry",
@@ -350,6 +359,7 @@ impl Delivery {
             Delivery::Ssbo => Some(Program::Ssbo),
             Delivery::SsboRows => Some(Program::SsboRows),
             Delivery::SsboRegisters => Some(Program::SsboRegisters),
+            Delivery::SsboColumns => Some(Program::SsboColumns),
             Delivery::PushSplit => Some(Program::SplitPush),
             Delivery::PushFull => Some(Program::FullPush),
             Delivery::PushGeometry => Some(Program::PushGeometry),
@@ -373,7 +383,9 @@ impl Program {
         match self {
             Program::Ubo | Program::UboGeometry | Program::UboTessellation => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
-            Program::SsboRows | Program::SsboRegisters => Some(Program::Ssbo),
+            Program::SsboRows | Program::SsboRegisters | Program::SsboColumns => {
+                Some(Program::Ssbo)
+            }
             _ => None,
         }
     }
@@ -404,6 +416,7 @@ impl Program {
             | Program::Ssbo
             | Program::SsboRows
             | Program::SsboRegisters
+            | Program::SsboColumns
             | Program::UboGeometry
             | Program::UboTessellation => 0,
             Program::MvpPair => 128,

@@ -628,6 +628,7 @@ impl<'a> Renderer<'a> {
             | Program::Ssbo
             | Program::SsboRows
             | Program::SsboRegisters
+            | Program::SsboColumns
             | Program::UboGeometry
             | Program::UboTessellation => (self.matrix_layout, vk::ShaderStageFlags::empty()),
             Program::Flat

@@ -702,9 +702,10 @@ impl Recorder<'_> {
                 Program::DepthPostMs => renderer.multisampled_read.as_ref().map(|r| r.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
-                Program::Ssbo | Program::SsboRows | Program::SsboRegisters => {
-                    renderer.matrices.as_ref().map(|m| m.set)
-                }
+                Program::Ssbo
+                | Program::SsboRows
+                | Program::SsboRegisters
+                | Program::SsboColumns => renderer.matrices.as_ref().map(|m| m.set),
                 _ => None,
             };
             if let Some(set) = set {
@@ -817,6 +818,7 @@ impl Recorder<'_> {
                 | Program::Ssbo
                 | Program::SsboRows
                 | Program::SsboRegisters
+                | Program::SsboColumns
         ) {
             u32::try_from(n).context("object index")?
         } else {

@@ -235,6 +235,7 @@ impl Scene {
             | Program::Ssbo
             | Program::SsboRows
             | Program::SsboRegisters
+            | Program::SsboColumns
             | Program::UboGeometry
             | Program::UboTessellation => Vec::new(),
         };

@@ -401,12 +401,28 @@ impl Defs {
     }
 
     /// The value a load (at word `load_at`) of a local or private variable stored exactly
-    /// once, whole, reads.
+    /// once, whole, reads; or, for one stored whole more than once (a register reassigned, as
+    /// D3D translators write `mul r0, ..; mad r0, .., r0`, and glslang `-O0` a local), the
+    /// last store before the load in the load's own block, where no call lies between them (a
+    /// function called may store a private variable too).
     fn through_local(&self, pointer: u32, load_at: usize) -> Option<u32> {
         if !self.followed.contains(&pointer) || self.chained.contains(&pointer) {
             return None;
         }
-        let &[(value, store_at)] = self.stores.get(&pointer)?.as_slice() else {
+        let stores = self.stores.get(&pointer)?;
+        if stores.len() > 1 {
+            let &(value, store_at) = stores
+                .iter()
+                .filter(|&&(_, at)| self.same_block(at, load_at))
+                .max_by_key(|&&(_, at)| at)?;
+            let call_between = self
+                .calls
+                .values()
+                .flatten()
+                .any(|&call| store_at < call && call < load_at);
+            return (!call_between).then_some(value);
+        }
+        let &[(value, store_at)] = stores.as_slice() else {
             return None;
         };
         if self.initialized.contains(&pointer) {
@@ -602,11 +618,35 @@ impl Defs {
                 out.push(Term::Product(operands[2], operands[3]));
                 Some(())
             }
+            // A partial sum kept in a register (`mad r0, v0.xxxx, cb0[0], r0`): the value a
+            // store in the load's own block left there, whose terms are then defined where
+            // the load is (the fit after the sum's root can use them).
+            Some((load_at, OP_LOAD, operands)) if operands.len() >= 3 => {
+                match self.through_local_in_block(operands[2], *load_at) {
+                    Some(stored) => self.terms(stored, out, depth + 1),
+                    None => {
+                        out.push(Term::Alone(id));
+                        Some(())
+                    }
+                }
+            }
             _ => {
                 out.push(Term::Alone(id));
                 Some(())
             }
         }
+    }
+
+    /// [`Self::through_local`], where the store it follows lies in the load's own block.
+    fn through_local_in_block(&self, pointer: u32, load_at: usize) -> Option<u32> {
+        let stored = self.through_local(pointer, load_at)?;
+        let store_at = self
+            .stores
+            .get(&pointer)?
+            .iter()
+            .find(|&&(value, at)| value == stored && self.same_block(at, load_at))?
+            .1;
+        (store_at < load_at).then_some(stored)
     }
 
     /// `vec4(dot(r0, v), dot(r1, v), dot(r2, v), dot(r3, v))` (each dot's operands in either
@@ -730,7 +770,12 @@ impl Defs {
                 (Some(splat), None) => (y, splat),
                 _ => return None,
             };
-            if vector.replace(source).is_some_and(|v| v != source) {
+            // One vector (loads of one `Input` variable, or of a variable stored once, are one:
+            // each splat may load it again).
+            if vector
+                .replace(source)
+                .is_some_and(|v| !self.same_held(self.held(v), self.held(source)))
+            {
                 return None;
             }
             if columns[index as usize].replace(column).is_some() {

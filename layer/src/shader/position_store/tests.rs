@@ -1003,3 +1003,30 @@ fn a_baked_carrier_leaves_the_push_constants_as_they_are() {
     };
     assert_eq!(push_chains(&out), push_chains(&words));
 }
+
+/// fxc's `mul(v, M)` as D3D bytecode translators (DXVK) write it, compiled by glslang: a
+/// register reassigned by a multiply and three multiply-adds of the matrix's columns by splats
+/// of the input; as written, with a block boundary before the register's last load.
+const REGISTER_SPLIT: &str = include_str!("../test_data/register_reassigned_split.spvasm");
+
+#[test]
+fn a_register_reassigned_by_multiply_adds_of_the_columns_is_fitted() {
+    let whole = REGISTER_SPLIT.replace(
+        "               OpBranch %split\n      %split = OpLabel\n",
+        "",
+    );
+    assert_ne!(whole, REGISTER_SPLIT);
+    let (out, source) = derived(&assemble(&whole));
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    validate(&out);
+    // The tester's `ssbo-columns` (glslang, a storage buffer, the instance's matrix).
+    let glslang = include_bytes!("../../../../shaders/glslang/ssbo_columns.vert.spv");
+    let (out, source) = derived(&binary(glslang));
+    assert_eq!(source, MatrixSource::StorageBuffer);
+    validate(&out);
+    // The last load in a block of its own reads no store of its block: refused.
+    assert_eq!(
+        derive_position_store(&assemble(REGISTER_SPLIT), OFFSET).unwrap_err(),
+        Unsupported("Position is not a matrix times a vector")
+    );
+}
