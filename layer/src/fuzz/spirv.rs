@@ -42,6 +42,7 @@ const LATER_STAGE_SEEDS: &[&[u8]] = &[
     include_bytes!("../../../shaders/glslang/ubo.tese.spv"),
     include_bytes!("../../../shaders/glslang/ssbo_rows.vert.spv"),
     include_bytes!("../../../shaders/glslang/ssbo_registers.vert.spv"),
+    include_bytes!("../../../shaders/glslang/ssbo_columns.vert.spv"),
     include_bytes!("../shader/test_data/components_assembled.spv"),
     include_bytes!("../shader/test_data/geometry_unrolled.spv"),
     include_bytes!("../shader/test_data/geometry_push_viewports.spv"),
