@@ -156,8 +156,6 @@ pub trait StateSink: PushSink {
     fn set_clamp_range(&mut self, range: Option<(f32, f32)>);
     /// Binds a graphics pipeline (a compare-op variant, or the application's pipeline back).
     fn bind_pipeline(&mut self, pipeline: vk::Pipeline);
-    /// Binds a shader object to the fragment stage (a reversed variant, or the application's
-    /// shader back).
     /// Binds a shader object to `stage` (a variant revz made, or the application's shader
     /// back).
     fn bind_shader(&mut self, stage: vk::ShaderStageFlags, shader: vk::ShaderEXT);
@@ -560,7 +558,7 @@ impl CommandState {
     /// [`POSITION_STAGES`]), the application's shader there, and its variant with the
     /// carrier baked in, where it has one (no mesh shader bound).
     fn baked_shader(&self) -> Option<(usize, vk::ShaderEXT, vk::ShaderEXT)> {
-        if self.mesh_shader_bound {
+        if !self.shader_objects || self.mesh_shader_bound {
             return None;
         }
         let last = self
@@ -1227,10 +1225,11 @@ impl CommandState {
             }
             _ => false,
         };
-        let baked = self.draws_baked();
         self.path = match (self.target, outcome) {
             // The carrier pushed, or baked into the reversed variants bound for it.
-            (Target::Reversed, _) if (carrier_ready || baked) && self.derived_use().is_some() => {
+            (Target::Reversed, _)
+                if (carrier_ready || self.draws_baked()) && self.derived_use().is_some() =>
+            {
                 DrawPath::Precise
             }
             (Target::Reversed, Some(Outcome::Rewritten { .. })) if carrier_ready => {

@@ -79,20 +79,13 @@ impl Made {
     }
 }
 
-/// The stages whose `Position` may be the rasterized one.
-const POSITION_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
-    vk::ShaderStageFlags::VERTEX.as_raw()
-        | vk::ShaderStageFlags::TESSELLATION_EVALUATION.as_raw()
-        | vk::ShaderStageFlags::GEOMETRY.as_raw(),
-);
-
 /// The plan of one create info: a fragment shader's from what the policy gives its code
 /// ([`FragmentStage::variant`]; a shader of a linked set gets no variant), a
 /// pre-rasterization shader's, where the mode rewrites, from
 /// [`ShaderObjectPosition::decide`].
 fn plan(state: &DeviceState, info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
     let rewriting = state.policy.rewrite().is_some();
-    if rewriting && POSITION_STAGES.contains(info.stage) && !info.stage.is_empty() {
+    if rewriting && crate::command_state::POSITION_STAGES.contains(&info.stage) {
         return position_plan(state, info);
     }
     if info.stage != vk::ShaderStageFlags::FRAGMENT {

@@ -290,14 +290,26 @@ fn app_creation(event: &Event) -> (usize, &[SeenShader], bool, &[vk::ShaderEXT])
     }
 }
 
-/// The vertex and FragDepth fragment shader objects, created unlinked; returns their handles
-/// and the fragment's variant (checked to be of the rewritten code, before the app's call).
-fn create_depth_pair(fx: &Fixture) -> (vk::ShaderEXT, vk::ShaderEXT, vk::ShaderEXT) {
-    let vertex = vertex();
-    let frag = fragment(FRAG_DEPTH);
+/// A vertex and a fragment shader object of `vertex` and `fragment` code, created unlinked in
+/// one call where one of them gets a variant: checks that the call succeeded and that two
+/// calls reached the fake, the variant's then the application's (with its allocator; its
+/// create infos as they are where `unchanged`: in a precise mode revz reserves its carrier's
+/// push-constant range in a copy). Returns the handles, the variant's create infos (as the
+/// fake saw them) and handles, and the application's create infos as the fake saw them.
+fn create_pair_with_variant(
+    fx: &Fixture,
+    vertex: &[u32],
+    fragment: &[u32],
+    unchanged: bool,
+) -> (
+    Vec<vk::ShaderEXT>,
+    Vec<SeenShader>,
+    Vec<vk::ShaderEXT>,
+    Vec<SeenShader>,
+) {
     let infos = [
-        shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &vertex),
-        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &frag),
+        shader_info(VERTEX_STAGE, FRAGMENT_STAGE, vertex),
+        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), fragment),
     ];
     let (result, handles) = fx.create(&infos);
     assert_eq!(result, vk::Result::SUCCESS);
@@ -310,16 +322,34 @@ fn create_depth_pair(fx: &Fixture) -> (vk::ShaderEXT, vk::ShaderEXT, vk::ShaderE
     let (variant_address, variant_infos, variant_allocator, variant_handles) =
         app_creation(&events[0]);
     let (app_address, app_infos, app_allocator, app_handles) = app_creation(&events[1]);
-    // The application's call went down unchanged.
-    assert_eq!(app_address, infos.as_ptr() as usize);
-    // SAFETY: valid create infos.
-    let expected: Vec<SeenShader> = infos.iter().map(|i| unsafe { SeenShader::of(i) }).collect();
-    assert_eq!(app_infos, expected);
+    if unchanged {
+        // The application's call went down unchanged.
+        assert_eq!(app_address, infos.as_ptr() as usize);
+        // SAFETY: valid create infos.
+        let expected: Vec<SeenShader> =
+            infos.iter().map(|i| unsafe { SeenShader::of(i) }).collect();
+        assert_eq!(app_infos, expected);
+    }
     assert!(app_allocator);
     assert_eq!(app_handles, handles);
-    // The variant: the fragment create info with only its code replaced, no allocator.
+    // The variant: its own create info, no allocator.
     assert_ne!(variant_address, infos.as_ptr() as usize);
     assert!(!variant_allocator);
+    (
+        handles,
+        variant_infos.to_vec(),
+        variant_handles.to_vec(),
+        app_infos.to_vec(),
+    )
+}
+
+/// The vertex and FragDepth fragment shader objects, created unlinked; returns their handles
+/// and the fragment's variant (checked to be of the rewritten code, before the app's call).
+fn create_depth_pair(fx: &Fixture) -> (vk::ShaderEXT, vk::ShaderEXT, vk::ShaderEXT) {
+    let frag = fragment(FRAG_DEPTH);
+    let (handles, variant_infos, variant_handles, expected) =
+        create_pair_with_variant(fx, &vertex(), &frag, true);
+    // The variant: the fragment create info with only its code replaced.
     let rewritten = reverse_fragment_depth(&frag)
         .expect("rewritable")
         .expect("computes with depth");
@@ -573,22 +603,8 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
     let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
     let plain = fragment(PLAIN);
-    let infos = [
-        shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting),
-        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &plain),
-    ];
-    let (result, handles) = fx.create(&infos);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(
-        events.len(),
-        2,
-        "the variant, then the application's: {events:#?}"
-    );
-    let (_, variant_infos, variant_allocator, variant_handles) = app_creation(&events[0]);
-    let (_, app_infos, _, app_handles) = app_creation(&events[1]);
-    assert_eq!(app_handles, handles);
-    assert!(!variant_allocator);
+    let (handles, variant_infos, variant_handles, app_infos) =
+        create_pair_with_variant(&fx, &projecting, &plain, false);
     // The variant: the vertex create info (with revz's carrier range, as the application's)
     // and the code fitting the pushed matrix with the carrier baked in.
     let baked = crate::shader::test_spirv::baked(&projecting);
