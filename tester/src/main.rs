@@ -299,6 +299,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             depth_clamp: needs.depth_clamp,
             geometry_shader: needs.geometry_shader,
             tessellation_shader: needs.tessellation_shader,
+            shader_object: needs.shader_object,
             // Optional: a post pass pushes its descriptors where the device can.
             push_descriptor: needs.sampled_depth,
         },
@@ -339,6 +340,12 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     if needs.tessellation_shader && !gpu.supported.tessellation_shader {
         bail!(lacks("tessellationShader"));
     }
+    if needs.shader_object && !gpu.supported.shader_object {
+        bail!(lacks(
+            "shaderObject (VK_EXT_shader_object on Vulkan 1.3; lavapipe has it from Mesa 23.1 \
+             on: `cargo xtask setup` extracts a newer lavapipe into target/lavapipe-backports)"
+        ));
+    }
     if needs.graphics_pipeline_library && !gpu.supported.graphics_pipeline_library {
         bail!(lacks(
             "graphicsPipelineLibrary (VK_EXT_graphics_pipeline_library with \
@@ -346,6 +353,10 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         ));
     }
     let features = gpu.enabled.names();
+    let validation_skipped = gpu.validation_skipped().map(str::to_owned);
+    if let Some(why) = &validation_skipped {
+        say(&format!("validation: {why}"));
+    }
 
     // Every Vulkan object lives inside this block and is destroyed when it ends (in reverse
     // order of creation); only host data leaves it.
@@ -432,6 +443,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         width: frame.width,
         height: frame.height,
         validation_messages: messages,
+        validation_skipped,
         features,
         depth_readback,
         stencil_readback: false,

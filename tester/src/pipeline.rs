@@ -700,7 +700,9 @@ pub fn create_pipeline(
     target: PipelineTarget<'_>,
 ) -> Result<BuiltPipeline> {
     let (vertex, fragment) = match spec.program {
-        Program::Flat => (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG)),
+        // A pipeline of the shader-object program's shaders (the renderer binds them as
+        // shader objects instead).
+        Program::Flat | Program::ShaderObjects => (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG)),
         Program::DepthOnly => (shaders::SCENE_VERT, None),
         Program::FragDepth => (shaders::SCENE_VERT, Some(shaders::FRAG_DEPTH_FRAG)),
         Program::ShadowReceiver => (

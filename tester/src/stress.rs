@@ -255,6 +255,7 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
         width: first.width,
         height: first.height,
         validation_messages: messages,
+        validation_skipped: None,
         features: Vec::new(),
         depth_readback: true,
         stencil_readback: false,

@@ -85,6 +85,26 @@ impl Harness {
         harness
     }
 
+    /// The driver manifest of the newer lavapipe `cargo xtask setup` extracts beside the
+    /// system's on Debian 12 (`target/lavapipe-backports`), for what Mesa 22.3's lavapipe
+    /// lacks (`VK_EXT_shader_object`); `None` where there is none (a system whose own
+    /// lavapipe is new enough renders those tests itself).
+    pub fn newer_lavapipe(&self) -> Option<PathBuf> {
+        let target = self.tester.parent()?.parent()?;
+        let icd = target.join("lavapipe-backports/lvp_icd.json");
+        icd.exists().then_some(icd)
+    }
+
+    /// `command` rendering on [`Harness::newer_lavapipe`] where there is one.
+    pub fn on_newer_lavapipe<'a>(&self, command: &'a mut Command) -> &'a mut Command {
+        if let Some(icd) = self.newer_lavapipe() {
+            command
+                .env("VK_DRIVER_FILES", &icd)
+                .env("VK_ICD_FILENAMES", &icd);
+        }
+        command
+    }
+
     /// A fresh, empty directory for one test's files.
     pub fn scratch_dir(&self, name: &str) -> PathBuf {
         let dir = self.scratch.join(name);

@@ -1,6 +1,7 @@
 //! `cargo xtask`: the one driver for building, demonstrating and testing revz.
 //!
-//! - `setup`: install the system packages revz needs (Vulkan loader, lavapipe, validation).
+//! - `setup`: install the system packages revz needs (Vulkan loader, lavapipe, validation),
+//!   and a newer lavapipe beside the system's for the shader-object tests.
 //! - `build`: build the layer and the tester, and render the layer manifests next to them.
 //! - `demo`: what revz does, in about a minute after the (release) build: the hard cases
 //!   without and with the layer against ground truth, the wrong-pixel table, a labelled
@@ -34,7 +35,9 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Task {
-    /// Install the system packages revz needs (apt-get; prints the command if it cannot).
+    /// Install the system packages revz needs (apt-get; prints the command if it cannot), and
+    /// on Debian 12 extract a newer lavapipe (bookworm-backports) into
+    /// target/lavapipe-backports for the tests that need VK_EXT_shader_object.
     Setup,
     /// Build the layer and the tester and write the layer manifests.
     Build {
@@ -107,6 +110,13 @@ impl Paths {
             .unwrap_or_else(|| root.join("target"));
         let profile_dir = target.join(if release { "release" } else { "debug" });
         Paths { root, profile_dir }
+    }
+
+    /// The build's target directory (above the profile's).
+    pub fn target(&self) -> PathBuf {
+        self.profile_dir
+            .parent()
+            .map_or_else(|| self.root.join("target"), Path::to_path_buf)
     }
 
     pub fn library(&self) -> PathBuf {
@@ -216,8 +226,16 @@ fn bench(quick: bool) -> Result<()> {
     Ok(())
 }
 
-fn test(extra: &[String]) -> Result<()> {
+/// The system packages, and the newer lavapipe the shader-object tests render on
+/// ([`system::ensure_newer_lavapipe`]).
+fn setup() -> Result<()> {
     system::ensure_packages()?;
+    system::ensure_newer_lavapipe(&Paths::new(false).target());
+    Ok(())
+}
+
+fn test(extra: &[String]) -> Result<()> {
+    setup()?;
     let paths = Paths::new(false);
     build(&paths, false)?;
     let mut command = cargo();
@@ -272,7 +290,7 @@ fn fuzz(paths: &Paths, seconds: u64, release: bool, target: Option<&str>) -> Res
 
 fn main() -> Result<()> {
     match Cli::parse().task {
-        Task::Setup => system::ensure_packages(),
+        Task::Setup => setup(),
         Task::Build { release } => build(&Paths::new(release), release).map(drop),
         Task::Demo { mode } => demo(&mode),
         Task::Report => report(),

@@ -120,3 +120,121 @@ pub fn ensure_packages() -> Result<()> {
     }
     Ok(())
 }
+
+/// Where [`ensure_newer_lavapipe`] keeps its driver, under the build's target directory.
+pub const NEWER_LAVAPIPE_DIR: &str = "lavapipe-backports";
+/// The driver manifest (ICD JSON) of the newer lavapipe, in [`NEWER_LAVAPIPE_DIR`].
+pub const NEWER_LAVAPIPE_ICD: &str = "lvp_icd.json";
+/// The Debian suite the newer lavapipe comes from, and the suite of the system it runs on.
+const BACKPORTS_SUITE: &str = "bookworm-backports";
+
+/// A newer lavapipe than the system's, beside it and not installed: Debian 12's
+/// `mesa-vulkan-drivers` from `bookworm-backports` (Mesa 25.0, built against the same
+/// LLVM 15), downloaded with a private apt state and extracted under
+/// `<target>/lavapipe-backports/root`, with a driver manifest naming its library by its full
+/// path. The tests that need what Mesa 22.3's lavapipe lacks (`VK_EXT_shader_object`) select it
+/// with `VK_DRIVER_FILES`; everything else keeps rendering on the system's driver.
+///
+/// Done once (kept while the manifest and library exist). Returns the manifest, or `None`
+/// with a message where this is not Debian 12 (a newer system's own lavapipe has these
+/// extensions already) or the download fails.
+pub fn ensure_newer_lavapipe(target: &std::path::Path) -> Option<std::path::PathBuf> {
+    let dir = target.join(NEWER_LAVAPIPE_DIR);
+    let icd = dir.join(NEWER_LAVAPIPE_ICD);
+    let library = dir.join("root/usr/lib/x86_64-linux-gnu/libvulkan_lvp.so");
+    if icd.exists() && library.exists() {
+        return Some(icd);
+    }
+    let os_release = std::fs::read_to_string("/etc/os-release").unwrap_or_default();
+    if !os_release.lines().any(|l| l == "VERSION_CODENAME=bookworm") || !is_root() {
+        eprintln!(
+            "xtask: not fetching a newer lavapipe (Debian 12 as root only): the shader-object \
+             tests render on the system's lavapipe, which needs VK_EXT_shader_object"
+        );
+        return None;
+    }
+    match fetch_newer_lavapipe(&dir, &library, &icd) {
+        Ok(()) => Some(icd),
+        Err(e) => {
+            eprintln!("xtask: could not fetch the newer lavapipe: {e:#}");
+            None
+        }
+    }
+}
+
+fn fetch_newer_lavapipe(
+    dir: &std::path::Path,
+    library: &std::path::Path,
+    icd: &std::path::Path,
+) -> Result<()> {
+    use anyhow::Context;
+    let apt = dir.join("apt");
+    for sub in ["lists/partial", "cache/archives/partial", "download"] {
+        std::fs::create_dir_all(apt.join(sub))?;
+    }
+    let sources = apt.join("backports.sources");
+    std::fs::write(
+        &sources,
+        format!(
+            "Types: deb\nURIs: http://deb.debian.org/debian\nSuites: {BACKPORTS_SUITE}\n\
+             Components: main\n"
+        ),
+    )?;
+    // Private sources, lists and cache: the system's apt configuration is left as it is.
+    let options = [
+        format!("Dir::Etc::SourceList={}", sources.display()),
+        "Dir::Etc::SourceParts=-".to_owned(),
+        format!("Dir::State::Lists={}", apt.join("lists").display()),
+        format!("Dir::Cache={}", apt.join("cache").display()),
+        "APT::Sandbox::User=root".to_owned(),
+    ];
+    let with_options = |command: &mut Command| {
+        for option in &options {
+            command.arg("-o").arg(option);
+        }
+    };
+    let mut update = Command::new("apt-get");
+    with_options(&mut update);
+    update.arg("update");
+    run_command(update, "apt-get update (bookworm-backports)")?;
+    let download_dir = apt.join("download");
+    let mut download = Command::new("apt-get");
+    with_options(&mut download);
+    download.current_dir(&download_dir).args([
+        "download",
+        &format!("mesa-vulkan-drivers/{BACKPORTS_SUITE}"),
+    ]);
+    run_command(download, "apt-get download mesa-vulkan-drivers")?;
+    let deb = std::fs::read_dir(&download_dir)?
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .find(|path| path.extension().is_some_and(|e| e == "deb"))
+        .context("apt-get download left no .deb")?;
+    let root = dir.join("root");
+    let mut extract = Command::new("dpkg-deb");
+    extract.arg("-x").arg(&deb).arg(&root);
+    run_command(extract, "dpkg-deb -x")?;
+    if !library.exists() {
+        bail!("{} holds no {}", deb.display(), library.display());
+    }
+    let manifest = format!(
+        "{{\n    \"file_format_version\": \"1.0.0\",\n    \"ICD\": {{\n        \
+         \"library_path\": \"{}\",\n        \"api_version\": \"1.3.0\"\n    }}\n}}\n",
+        library.display()
+    );
+    std::fs::write(icd, manifest)?;
+    eprintln!(
+        "xtask: newer lavapipe from {} in {}",
+        deb.file_name().unwrap_or_default().to_string_lossy(),
+        root.display()
+    );
+    Ok(())
+}
+
+fn run_command(mut command: Command, what: &str) -> Result<()> {
+    eprintln!("xtask: {what}");
+    let status = command.env("DEBIAN_FRONTEND", "noninteractive").status()?;
+    if !status.success() {
+        bail!("{what} failed ({status})");
+    }
+    Ok(())
+}

@@ -458,6 +458,7 @@ mod tests {
             wrong_pixel_fraction: 5e-4,
             depth_reversed: depth_readback.then_some(true),
             validation_messages: 0,
+            validation_skipped: None,
             error: None,
             dir: String::new(),
             cells: Vec::new(),

@@ -85,6 +85,10 @@ pub struct Measurement {
     pub depth_reversed: Option<bool>,
     /// Validation messages the child counted.
     pub validation_messages: u32,
+    /// Why the child rendered without validation (a validation layer older than an extension
+    /// the case needs: `render.json`'s `validation_skipped`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_skipped: Option<String>,
     /// Why the render failed, if it did (validation messages included).
     pub error: Option<String>,
     /// The render's folder, relative to the output folder.
@@ -128,6 +132,7 @@ impl Measurement {
             wrong_pixel_fraction: 1.0,
             depth_reversed: None,
             validation_messages: 0,
+            validation_skipped: None,
             error: None,
             dir: String::new(),
             cells: Vec::new(),
@@ -326,6 +331,7 @@ pub fn measure(
     m.device = json["device"].as_str().unwrap_or("").to_string();
     m.driver = json["driver"].as_str().unwrap_or("").to_string();
     m.validation_messages = json["validation_messages"].as_u64().unwrap_or(0) as u32;
+    m.validation_skipped = json["validation_skipped"].as_str().map(str::to_owned);
     if code == Some(2) || m.validation_messages > 0 {
         m.error = Some(format!(
             "{} validation message(s) (see {dir}/log.txt)",

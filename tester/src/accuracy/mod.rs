@@ -111,8 +111,11 @@ pub enum DeliveryChoice {
     UboGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
+    /// The push constants of push, the flat program bound as vertex and fragment shader
+    /// objects (needs VK_EXT_shader_object).
+    ShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns,
-    /// ubo-geometry and ubo-tessellation.
+    /// ubo-geometry and ubo-tessellation (not shader-objects, which needs an extension).
     All,
 }
 
@@ -131,7 +134,8 @@ impl DeliveryChoice {
             DeliveryChoice::PushGeometry => &[Delivery::PushGeometry],
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
-            DeliveryChoice::All => &Delivery::ALL,
+            DeliveryChoice::ShaderObjects => &[Delivery::ShaderObjects],
+            DeliveryChoice::All => Delivery::PORTABLE,
         }
     }
 }

@@ -108,6 +108,14 @@ pub(super) fn supported_features(
         // It requires VK_KHR_get_physical_device_properties2 below 1.1 (enabled with the
         // instance where asked for).
         push_descriptor: has(ash::khr::push_descriptor::NAME),
+        shader_object: vulkan_1_3 && dynamic_rendering && {
+            let mut objects = vk::PhysicalDeviceShaderObjectFeaturesEXT::default();
+            let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut objects);
+            // Chained only where the device has the extension.
+            has(ash::ext::shader_object::NAME)
+                && instance.features2(physical_device, &mut features2)
+                && objects.shader_object == vk::TRUE
+        },
     }
 }
 
@@ -128,6 +136,7 @@ impl Gpu {
             options.sync_validation,
             options.max_api_version,
             extension_features,
+            options.features.shader_object,
         )?;
 
         // SAFETY: valid instance.
@@ -184,7 +193,9 @@ impl Gpu {
             info.api_version >= vk::API_VERSION_1_3 && instance.api_version >= vk::API_VERSION_1_3;
         let supported =
             supported_features(&instance, physical_device, info.api_version, vulkan_1_3);
-        let enabled = options.features.and(supported);
+        let mut enabled = options.features.and(supported);
+        // Shader objects need dynamic rendering enabled (VK_EXT_shader_object's dependency).
+        enabled.dynamic_rendering |= enabled.shader_object;
 
         let priorities = [1.0f32];
         let queue_infos = [vk::DeviceQueueCreateInfo::default()
@@ -239,6 +250,11 @@ impl Gpu {
         if enabled.push_descriptor {
             extensions.push(ash::khr::push_descriptor::NAME.as_ptr());
         }
+        if enabled.shader_object {
+            extensions.push(ash::ext::shader_object::NAME.as_ptr());
+        }
+        let mut shader_object =
+            vk::PhysicalDeviceShaderObjectFeaturesEXT::default().shader_object(true);
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_features(&core_features)
@@ -262,6 +278,9 @@ impl Gpu {
         }
         if enabled.graphics_pipeline_library {
             device_create_info = device_create_info.push_next(&mut library);
+        }
+        if enabled.shader_object {
+            device_create_info = device_create_info.push_next(&mut shader_object);
         }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {
@@ -288,7 +307,11 @@ impl Gpu {
         let push_descriptor_khr = enabled
             .push_descriptor
             .then(|| ash::khr::push_descriptor::Device::new(&instance.instance, &device));
+        let shader_object = enabled
+            .shader_object
+            .then(|| ash::ext::shader_object::Device::new(&instance.instance, &device));
         Ok(Gpu {
+            shader_object,
             push_descriptor_khr,
             dynamic_rendering_khr,
             extended_dynamic_state,
@@ -422,6 +445,12 @@ impl Gpu {
 
     /// The counter of validation messages (shared: still readable after `Gpu` is dropped,
     /// which is when the messages about leaks would come).
+    /// Why validation, asked for, was left out of this instance (a validation layer older
+    /// than an extension the device enables); `None` where it runs or was not asked for.
+    pub fn validation_skipped(&self) -> Option<&str> {
+        self.instance.validation_skipped.as_deref()
+    }
+
     pub fn validation_log(&self) -> Arc<ValidationLog> {
         Arc::clone(&self.instance.log)
     }

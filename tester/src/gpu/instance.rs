@@ -33,12 +33,17 @@ pub(super) fn debug_messenger_info(
 
 impl InstanceCtx {
     /// `extension_features`: features of device extensions will be asked for (below Vulkan 1.1
-    /// their queries need `VK_KHR_get_physical_device_properties2`).
+    /// their queries need `VK_KHR_get_physical_device_properties2`). `shader_object`: the
+    /// device will enable `VK_EXT_shader_object`; a validation layer older than the extension
+    /// (1.3.246) is then left out, and why is kept in `validation_skipped`: it rejects the
+    /// extension's feature structure and hides the dynamic state commands it brings, so it
+    /// could only count its own confusion.
     pub(super) fn new(
         validation: bool,
         sync_validation: bool,
         max_api_version: Option<u32>,
         extension_features: bool,
+        shader_object: bool,
     ) -> Result<Self> {
         // SAFETY: loading libvulkan.so.1 runs its initialisers; the loader is a well-behaved
         // shared library and `Entry` keeps it loaded for as long as it lives.
@@ -57,6 +62,8 @@ impl InstanceCtx {
         .min(max_api_version.unwrap_or(vk::API_VERSION_1_3));
 
         let log = Arc::new(ValidationLog::default());
+        let mut validation = validation;
+        let mut validation_skipped = None;
         let mut layers: Vec<*const std::ffi::c_char> = Vec::new();
         let mut extensions: Vec<*const std::ffi::c_char> = Vec::new();
         if validation {
@@ -65,13 +72,26 @@ impl InstanceCtx {
                 .context("vkEnumerateInstanceLayerProperties failed")?;
             let found = available
                 .iter()
-                .any(|layer| layer.layer_name_as_c_str() == Ok(VALIDATION_LAYER));
-            if !found {
+                .find(|layer| layer.layer_name_as_c_str() == Ok(VALIDATION_LAYER));
+            let Some(found) = found else {
                 bail!(
                     "VK_LAYER_KHRONOS_validation not found: install vulkan-validationlayers \
                      (apt-get install vulkan-validationlayers)"
                 );
+            };
+            let shader_object_known = vk::make_api_version(0, 1, 3, 246);
+            if shader_object && found.spec_version < shader_object_known {
+                validation = false;
+                validation_skipped = Some(format!(
+                    "VK_LAYER_KHRONOS_validation {}.{}.{} predates VK_EXT_shader_object \
+                     (1.3.246): this render ran without it",
+                    vk::api_version_major(found.spec_version),
+                    vk::api_version_minor(found.spec_version),
+                    vk::api_version_patch(found.spec_version)
+                ));
             }
+        }
+        if validation {
             layers.push(VALIDATION_LAYER.as_ptr());
 
             let debug_utils = ash::ext::debug_utils::NAME;
@@ -134,6 +154,7 @@ impl InstanceCtx {
             properties2,
             debug: None,
             log,
+            validation_skipped,
         };
         if validation {
             let loader = ash::ext::debug_utils::Instance::new(&ctx.entry, &ctx.instance);

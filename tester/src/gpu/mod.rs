@@ -179,6 +179,11 @@ pub struct Features {
     pub tessellation_shader: bool,
     /// `VK_KHR_push_descriptor` (an extension without a feature): `vkCmdPushDescriptorSetKHR`.
     pub push_descriptor: bool,
+    /// `VK_EXT_shader_object`'s `shaderObject` (Vulkan 1.3 only: the tester enables it with
+    /// `dynamicRendering`, which the extension requires): pipelines of the flat program bound
+    /// as vertex and fragment shader objects with their state set dynamically
+    /// ([`crate::plan::Program::ShaderObjects`]).
+    pub shader_object: bool,
 }
 
 impl Features {
@@ -203,6 +208,7 @@ impl Features {
             (self.geometry_shader, "geometryShader"),
             (self.tessellation_shader, "tessellationShader"),
             (self.push_descriptor, "VK_KHR_push_descriptor"),
+            (self.shader_object, "shaderObject"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -228,6 +234,7 @@ impl Features {
             geometry_shader: self.geometry_shader && other.geometry_shader,
             tessellation_shader: self.tessellation_shader && other.tessellation_shader,
             push_descriptor: self.push_descriptor && other.push_descriptor,
+            shader_object: self.shader_object && other.shader_object,
         }
     }
 }
@@ -244,6 +251,8 @@ struct InstanceCtx {
     properties2: Option<ash::khr::get_physical_device_properties2::Instance>,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     log: Arc<ValidationLog>,
+    /// Why validation was asked for and left out ([`InstanceCtx::new`]'s `shader_object`).
+    validation_skipped: Option<String>,
 }
 
 /// The instance, the chosen physical device, the logical device and its graphics queue.
@@ -269,6 +278,8 @@ pub struct Gpu {
     extended_dynamic_state: Option<ash::ext::extended_dynamic_state::Device>,
     create_renderpass2_khr: Option<ash::khr::create_renderpass2::Device>,
     push_descriptor_khr: Option<ash::khr::push_descriptor::Device>,
+    /// `VK_EXT_shader_object`'s commands, where `enabled.shader_object`.
+    pub shader_object: Option<ash::ext::shader_object::Device>,
     memory_properties: vk::PhysicalDeviceMemoryProperties,
     // Dropped after `Drop::drop` has destroyed the device.
     instance: InstanceCtx,
@@ -417,6 +428,7 @@ mod tests {
             geometry_shader: true,
             tessellation_shader: true,
             push_descriptor: true,
+            shader_object: true,
         };
         assert_eq!(
             all.names(),
@@ -432,7 +444,8 @@ mod tests {
                 "depthClamp",
                 "geometryShader",
                 "tessellationShader",
-                "VK_KHR_push_descriptor"
+                "VK_KHR_push_descriptor",
+                "shaderObject"
             ]
         );
         let some = Features {

@@ -209,6 +209,12 @@ pub enum Program {
     /// at 64..128 (the `push-full` [`Delivery`]): the layout's ranges fill a 128-byte device's
     /// push constants, leaving no room for revz's carrier there.
     FullPush,
+    /// The shaders and push constants of [`Program::Flat`] as unlinked vertex and fragment
+    /// shader objects (`VK_EXT_shader_object`, the `shader-objects` [`Delivery`]): a bind of
+    /// such a pipeline binds the two shaders (null for the other stages) and sets every state
+    /// of its [`PipelineSpec`] with the dynamic state commands, as engines built on shader
+    /// objects do. Needs the `shaderObject` feature (lavapipe from Mesa 23.1 on).
+    ShaderObjects,
     /// `ubo_position.vert` + `push.geom` + `scene.frag` (the `push-geometry` [`Delivery`]): the
     /// push constants of [`Program::Flat`], the matrix applied in a geometry shader; one range
     /// for the vertex, geometry and fragment stages.
@@ -312,11 +318,15 @@ pub enum Delivery {
     /// The blocks of [`Delivery::Ubo`], applied in a tessellation evaluation shader
     /// ([`Program::UboTessellation`]).
     UboTessellation,
+    /// The push constants of [`Delivery::Push`], the flat program bound as shader objects
+    /// ([`Program::ShaderObjects`]; needs `VK_EXT_shader_object`).
+    ShaderObjects,
 }
 
 impl Delivery {
-    /// Every delivery, push first.
-    pub const ALL: [Delivery; 12] = [
+    /// Every delivery, push first, and the one that needs an extension
+    /// ([`Delivery::ShaderObjects`]) last.
+    pub const ALL: [Delivery; 13] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -329,7 +339,15 @@ impl Delivery {
         Delivery::SsboColumns,
         Delivery::UboGeometry,
         Delivery::UboTessellation,
+        Delivery::ShaderObjects,
     ];
+
+    /// The deliveries every Vulkan 1.0 device with the core features renders: all but the
+    /// last of [`Delivery::ALL`].
+    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last() {
+        Some((_, portable)) => portable,
+        None => &[],
+    };
 
     /// The CLI and report name (`push`, `ubo`, `ubo-dynamic`, `ssbo`).
     pub fn name(self) -> &'static str {
@@ -346,6 +364,7 @@ impl Delivery {
             Delivery::PushGeometry => "push-geometry",
             Delivery::UboGeometry => "ubo-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
+            Delivery::ShaderObjects => "shader-objects",
         }
     }
 
@@ -365,6 +384,7 @@ impl Delivery {
             Delivery::PushGeometry => Some(Program::PushGeometry),
             Delivery::UboGeometry => Some(Program::UboGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
+            Delivery::ShaderObjects => Some(Program::ShaderObjects),
         }
     }
 }
@@ -430,6 +450,7 @@ impl Program {
             | Program::LitMvp
             | Program::SplitPush
             | Program::FullPush
+            | Program::ShaderObjects
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost
@@ -913,6 +934,8 @@ pub struct Needs {
     /// The `tessellationShader` feature (a pipeline projects in a tessellation evaluation
     /// shader).
     pub tessellation_shader: bool,
+    /// `VK_EXT_shader_object`'s `shaderObject` (a pipeline is bound as shader objects).
+    pub shader_object: bool,
     /// Multisampled attachments of this sample count, resolved with this depth resolve mode
     /// (the device must support both for the formats, and the mode in
     /// `VkPhysicalDeviceDepthStencilResolveProperties`); every multisampled pass of a plan
@@ -1013,6 +1036,13 @@ impl Plan {
                     || program.projecting_stage() == ash::vk::ShaderStageFlags::VERTEX,
                 "pipeline {} is built from libraries, whose pre-rasterization library the tester \
                  builds with a vertex stage alone; the {name} delivery projects in a later stage",
+                pipeline.name
+            );
+            ensure!(
+                program != Program::ShaderObjects
+                    || (pipeline.viewport != Viewport::Dynamic && !pipeline.libraries),
+                "pipeline {} has a dynamic viewport or is built from libraries; the {name} \
+                 delivery sets every state at its bind",
                 pipeline.name
             );
             pipeline.program = program;
@@ -1150,6 +1180,7 @@ impl Plan {
                 Program::UboGeometry | Program::PushGeometry
             );
             needs.tessellation_shader |= pipeline.program == Program::UboTessellation;
+            needs.shader_object |= pipeline.program == Program::ShaderObjects;
             if let Viewport::Static {
                 min_depth,
                 max_depth,

@@ -109,6 +109,10 @@ pub struct RenderReport {
     pub height: u32,
     /// Counted validation messages (0 without `--validation`).
     pub validation_messages: u32,
+    /// Why `--validation` was left out of this render (a validation layer older than an
+    /// extension the scene needs); absent where it ran or was not asked for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation_skipped: Option<String>,
     /// The optional device features enabled for the scene (Vulkan names).
     pub features: Vec<&'static str>,
     /// Whether the depth image was read back (false with `--no-depth-readback`).

@@ -214,6 +214,9 @@ pub struct Renderer<'a> {
     fence: vk::Fence,
     extent: vk::Extent2D,
     bias_clamp: bool,
+    /// The shaders of [`Program::ShaderObjects`] (its pipelines have a null handle in
+    /// `pipelines`); `None` without that program.
+    shader_objects: Option<shader_objects::ShaderObjects>,
 }
 
 impl fmt::Debug for Renderer<'_> {
@@ -238,6 +241,9 @@ impl Drop for Renderer<'_> {
             self.device.destroy_command_pool(self.command_pool, None);
             for &pipeline in self.pipelines.iter().chain(&self.libraries) {
                 self.device.destroy_pipeline(pipeline, None);
+            }
+            if let Some(objects) = &self.shader_objects {
+                objects.destroy(self.gpu);
             }
             self.device
                 .destroy_pipeline_layout(self.shadow_layout, None);
@@ -421,6 +427,7 @@ impl<'a> Renderer<'a> {
             fence: vk::Fence::null(),
             extent: targets.extent,
             bias_clamp: gpu.enabled.depth_bias_clamp,
+            shader_objects: None,
         };
         let main = MainFormats {
             depth: targets.depth.format,
@@ -567,7 +574,22 @@ impl<'a> Renderer<'a> {
             this.create_matrix_bindings(gpu, scene, program, aspect)?;
         }
 
+        if plan
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::ShaderObjects)
+        {
+            this.shader_objects = Some(shader_objects::ShaderObjects::new(
+                gpu,
+                &PUSH_CONSTANT_RANGES,
+            )?);
+        }
         for spec in &plan.pipelines {
+            if spec.program == Program::ShaderObjects {
+                // Bound as shader objects (`record.rs`).
+                this.pipelines.push(vk::Pipeline::null());
+                continue;
+            }
             let pass = &plan.passes[spec.pass];
             let (layout, _) = this.layout(spec.program);
             let built = create_pipeline(
@@ -636,7 +658,8 @@ impl<'a> Renderer<'a> {
             | Program::FragDepth
             | Program::RowMajor
             | Program::RowVector
-            | Program::LitMvp => (self.plain_layout, PLAIN_PUSH_STAGES),
+            | Program::LitMvp
+            | Program::ShaderObjects => (self.plain_layout, PLAIN_PUSH_STAGES),
             // Pushed per range ([`SPLIT_PUSH_CONSTANT_RANGES`]), each with its own stage.
             Program::SplitPush => (self.split_layout, vk::ShaderStageFlags::empty()),
             Program::FullPush => (self.full_layout, vk::ShaderStageFlags::empty()),
@@ -800,3 +823,4 @@ struct Recorder<'r> {
 
 mod bindings;
 mod record;
+mod shader_objects;

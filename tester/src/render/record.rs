@@ -675,6 +675,20 @@ impl Recorder<'_> {
     fn bind(&mut self, cmd: vk::CommandBuffer, n: usize) {
         self.pipeline = Some(n);
         let renderer = self.renderer;
+        let spec = &self.plan.pipelines[n];
+        if let (Program::ShaderObjects, Some(objects)) = (spec.program, &renderer.shader_objects) {
+            let pass = &self.plan.passes[spec.pass];
+            let target = super::shader_objects::BindTarget {
+                extent: self.current_extent(),
+                samples: vk::SampleCountFlags::from_raw(pass.samples()),
+                has_color: pass.has_color(spec.subpass),
+                bias_clamp: renderer.bias_clamp,
+            };
+            // SAFETY: `cmd` is recording inside a pass compatible with the spec's (plan
+            // check), on the renderer's device.
+            unsafe { objects.bind(renderer.gpu, cmd, spec, &target) };
+            return;
+        }
         // SAFETY: `cmd` is inside a pass compatible with the pipeline (plan check); the
         // descriptor set matches the shadow layout's only set.
         unsafe {

@@ -206,6 +206,7 @@ impl Scene {
             | Program::LitMvp
             | Program::SplitPush
             | Program::FullPush
+            | Program::ShaderObjects
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost

@@ -1528,10 +1528,12 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                         needs.tessellation_shader,
                         delivery == Delivery::UboTessellation
                     );
+                    assert_eq!(needs.shader_object, delivery == Delivery::ShaderObjects);
                     assert_eq!(
                         crate::plan::Needs {
                             geometry_shader: false,
                             tessellation_shader: false,
+                            shader_object: false,
                             ..needs
                         },
                         scene.plan.needs()

@@ -1,0 +1,257 @@
+//! [`Program::ShaderObjects`]: the flat program's shaders as unlinked vertex and fragment
+//! shader objects (`VK_EXT_shader_object`), and its "pipeline" bind: the two shaders bound
+//! (every other graphics stage the device has bound to null), then every state a
+//! [`PipelineSpec`] bakes into a pipeline set with the dynamic state commands, as an engine
+//! built on shader objects does at each material change. States a spec leaves dynamic
+//! (compare op, bias values, bounds values) are left to the plan's steps, as for pipelines.
+//!
+//! What the spec would set is set with exactly the values `crate::pipeline::create_pipeline`
+//! bakes, so a render with this program draws what the flat program's pipelines draw.
+
+use anyhow::{Context, Result};
+use ash::vk;
+
+use crate::gpu::Gpu;
+use crate::pipeline::{full_viewport, map_compare, position_input};
+use crate::plan::{Bias, Bounds, DepthTest, PipelineSpec, StencilTest, StencilWrite, Viewport};
+use crate::shaders::{self, ShaderSource};
+
+/// The two shader objects, destroyed with the renderer ([`ShaderObjects::destroy`]).
+pub(super) struct ShaderObjects {
+    vertex: vk::ShaderEXT,
+    fragment: vk::ShaderEXT,
+}
+
+/// What a bind needs to know of the pass beside the spec.
+pub(super) struct BindTarget {
+    pub extent: vk::Extent2D,
+    pub samples: vk::SampleCountFlags,
+    /// The subpass has a color attachment (one blend state set).
+    pub has_color: bool,
+    /// The `depthBiasClamp` feature is enabled (a static bias's clamp applies).
+    pub bias_clamp: bool,
+}
+
+impl ShaderObjects {
+    /// `scene.vert` and `scene.frag` as unlinked shader objects with the push-constant range
+    /// of the flat program's layout (`ranges`), no descriptor set.
+    pub(super) fn new(gpu: &Gpu, ranges: &[vk::PushConstantRange]) -> Result<ShaderObjects> {
+        let objects = gpu
+            .shader_object
+            .as_ref()
+            .context("the shader-objects program needs VK_EXT_shader_object enabled")?;
+        let create =
+            |stage: vk::ShaderStageFlags, next: vk::ShaderStageFlags, source: &ShaderSource| {
+                let words = source.words()?;
+                let info = vk::ShaderCreateInfoEXT::default()
+                    .stage(stage)
+                    .next_stage(next)
+                    .code_type(vk::ShaderCodeTypeEXT::SPIRV)
+                    .code(bytes_of(&words))
+                    .name(c"main")
+                    .push_constant_ranges(ranges);
+                // SAFETY: valid SPIR-V of this stage (checked at build time), a live device.
+                let created = unsafe { objects.create_shaders(std::slice::from_ref(&info), None) };
+                created
+                    .map_err(|(_, e)| e)
+                    .with_context(|| format!("vkCreateShadersEXT ({}) failed", source.name))
+                    .map(|shaders| shaders[0])
+            };
+        let vertex = create(
+            vk::ShaderStageFlags::VERTEX,
+            vk::ShaderStageFlags::FRAGMENT,
+            &shaders::SCENE_VERT,
+        )?;
+        let fragment = create(
+            vk::ShaderStageFlags::FRAGMENT,
+            vk::ShaderStageFlags::empty(),
+            &shaders::SCENE_FRAG,
+        )
+        .inspect_err(|_| {
+            // SAFETY: created above, never used.
+            unsafe { objects.destroy_shader(vertex, None) }
+        })?;
+        Ok(ShaderObjects { vertex, fragment })
+    }
+
+    /// Destroys both shaders (the device is idle).
+    pub(super) fn destroy(&self, gpu: &Gpu) {
+        if let Some(objects) = &gpu.shader_object {
+            // SAFETY: created from this device, no longer in use.
+            unsafe {
+                objects.destroy_shader(self.vertex, None);
+                objects.destroy_shader(self.fragment, None);
+            }
+        }
+    }
+
+    /// Binds the shaders for `spec` and sets every state its pipeline would bake (module
+    /// docs).
+    ///
+    /// # Safety
+    /// `cmd` is recording inside a pass compatible with `target`, on `gpu`'s device.
+    pub(super) unsafe fn bind(
+        &self,
+        gpu: &Gpu,
+        cmd: vk::CommandBuffer,
+        spec: &PipelineSpec,
+        target: &BindTarget,
+    ) {
+        let Some(objects) = &gpu.shader_object else {
+            return;
+        };
+        let device = &gpu.device;
+        let enabled = gpu.enabled;
+        // Every graphics stage the device has is bound: the two shaders, null for the others.
+        let mut stages = vec![vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::FRAGMENT];
+        let mut shaders = vec![self.vertex, self.fragment];
+        if enabled.geometry_shader {
+            stages.push(vk::ShaderStageFlags::GEOMETRY);
+            shaders.push(vk::ShaderEXT::null());
+        }
+        if enabled.tessellation_shader {
+            stages.extend([
+                vk::ShaderStageFlags::TESSELLATION_CONTROL,
+                vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+            ]);
+            shaders.extend([vk::ShaderEXT::null(); 2]);
+        }
+        let (bindings, attributes) = position_input();
+        let binding = vk::VertexInputBindingDescription2EXT::default()
+            .binding(bindings[0].binding)
+            .stride(bindings[0].stride)
+            .input_rate(bindings[0].input_rate)
+            .divisor(1);
+        let attribute = vk::VertexInputAttributeDescription2EXT::default()
+            .location(attributes[0].location)
+            .binding(attributes[0].binding)
+            .format(attributes[0].format)
+            .offset(attributes[0].offset);
+        // SAFETY: the caller's contract; every command below is VK_EXT_shader_object's or core
+        // 1.3 (the tester enables shader objects only on 1.3), with values valid for the
+        // device's enabled features.
+        unsafe {
+            objects.cmd_bind_shaders(cmd, &stages, &shaders);
+            objects.cmd_set_vertex_input(cmd, &[binding], &[attribute]);
+            device.cmd_set_primitive_topology(cmd, vk::PrimitiveTopology::TRIANGLE_LIST);
+            device.cmd_set_primitive_restart_enable(cmd, false);
+            if let Viewport::Static {
+                min_depth,
+                max_depth,
+            } = spec.viewport
+            {
+                device.cmd_set_viewport_with_count(
+                    cmd,
+                    &[full_viewport(target.extent, min_depth, max_depth)],
+                );
+            }
+            device.cmd_set_scissor_with_count(
+                cmd,
+                &[vk::Rect2D {
+                    offset: vk::Offset2D { x: 0, y: 0 },
+                    extent: target.extent,
+                }],
+            );
+            device.cmd_set_rasterizer_discard_enable(cmd, false);
+            objects.cmd_set_polygon_mode(cmd, vk::PolygonMode::FILL);
+            objects.cmd_set_rasterization_samples(cmd, target.samples);
+            objects.cmd_set_sample_mask(cmd, target.samples, &[u32::MAX]);
+            objects.cmd_set_alpha_to_coverage_enable(cmd, false);
+            device.cmd_set_cull_mode(
+                cmd,
+                if spec.cull_back_faces {
+                    vk::CullModeFlags::BACK
+                } else {
+                    vk::CullModeFlags::NONE
+                },
+            );
+            device.cmd_set_front_face(cmd, vk::FrontFace::COUNTER_CLOCKWISE);
+            if enabled.depth_clamp {
+                objects.cmd_set_depth_clamp_enable(cmd, spec.depth_clamp);
+            }
+            if enabled.depth_clip_control {
+                objects.cmd_set_depth_clip_negative_one_to_one(cmd, spec.negative_one_to_one);
+            }
+            // Depth: the test, its compare op where static, writes.
+            device.cmd_set_depth_test_enable(cmd, spec.depth_test != DepthTest::Off);
+            match spec.depth_test {
+                DepthTest::Off => device.cmd_set_depth_compare_op(cmd, vk::CompareOp::ALWAYS),
+                DepthTest::Static(op) => device.cmd_set_depth_compare_op(cmd, map_compare(op)),
+                DepthTest::Dynamic => {}
+            }
+            device.cmd_set_depth_write_enable(cmd, spec.depth_write);
+            // Bias: enabled, and its factors where static.
+            device.cmd_set_depth_bias_enable(cmd, spec.bias != Bias::Off);
+            if let Bias::Static(bias) = spec.bias {
+                let clamp = if target.bias_clamp { bias.clamp } else { 0.0 };
+                device.cmd_set_depth_bias(cmd, bias.constant, clamp, bias.slope);
+            }
+            // Bounds: enabled (with the feature), and the range where static.
+            if enabled.depth_bounds {
+                device.cmd_set_depth_bounds_test_enable(cmd, spec.bounds != Bounds::Off);
+                if let Bounds::Static { min, max } = spec.bounds {
+                    device.cmd_set_depth_bounds(cmd, min, max);
+                }
+            }
+            device.cmd_set_stencil_test_enable(cmd, spec.stencil.is_some());
+            if let Some(test) = spec.stencil {
+                set_stencil(device, cmd, test);
+            }
+            if target.has_color {
+                objects.cmd_set_color_blend_enable(cmd, 0, &[vk::FALSE]);
+                objects.cmd_set_color_blend_equation(
+                    cmd,
+                    0,
+                    &[vk::ColorBlendEquationEXT::default()
+                        .src_color_blend_factor(vk::BlendFactor::ONE)
+                        .dst_color_blend_factor(vk::BlendFactor::ZERO)
+                        .color_blend_op(vk::BlendOp::ADD)
+                        .src_alpha_blend_factor(vk::BlendFactor::ONE)
+                        .dst_alpha_blend_factor(vk::BlendFactor::ZERO)
+                        .alpha_blend_op(vk::BlendOp::ADD)],
+                );
+                objects.cmd_set_color_write_mask(
+                    cmd,
+                    0,
+                    &[if spec.color_write {
+                        vk::ColorComponentFlags::RGBA
+                    } else {
+                        vk::ColorComponentFlags::empty()
+                    }],
+                );
+            }
+        }
+    }
+}
+
+/// The stencil state of `test` on both faces, as `depth_stencil_state` bakes it.
+///
+/// # Safety
+/// `cmd` is recording on `device`.
+unsafe fn set_stencil(device: &ash::Device, cmd: vk::CommandBuffer, test: StencilTest) {
+    let both = vk::StencilFaceFlags::FRONT_AND_BACK;
+    let pass = match test.on_pass {
+        StencilWrite::Keep => vk::StencilOp::KEEP,
+        StencilWrite::Replace => vk::StencilOp::REPLACE,
+    };
+    // SAFETY: the caller's contract.
+    unsafe {
+        device.cmd_set_stencil_op(
+            cmd,
+            both,
+            vk::StencilOp::KEEP,
+            pass,
+            vk::StencilOp::KEEP,
+            map_compare(test.compare),
+        );
+        device.cmd_set_stencil_compare_mask(cmd, both, 0xff);
+        device.cmd_set_stencil_write_mask(cmd, both, 0xff);
+        device.cmd_set_stencil_reference(cmd, both, test.reference);
+    }
+}
+
+/// The bytes of SPIR-V words.
+fn bytes_of(words: &[u32]) -> &[u8] {
+    // SAFETY: any u32 is 4 initialized bytes; u8 has no alignment requirement.
+    unsafe { std::slice::from_raw_parts(words.as_ptr().cast(), std::mem::size_of_val(words)) }
+}
