@@ -300,6 +300,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             geometry_shader: needs.geometry_shader,
             tessellation_shader: needs.tessellation_shader,
             shader_object: needs.shader_object,
+            mesh_shader: needs.mesh_shader,
             // Optional: a post pass pushes its descriptors where the device can.
             push_descriptor: needs.sampled_depth,
         },
@@ -350,6 +351,12 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         bail!(lacks(
             "graphicsPipelineLibrary (VK_EXT_graphics_pipeline_library with \
              VK_KHR_pipeline_library)"
+        ));
+    }
+    if needs.mesh_shader && !gpu.supported.mesh_shader {
+        bail!(lacks(
+            "meshShader (VK_EXT_mesh_shader on Vulkan 1.3; lavapipe has it from Mesa 23.3 on: \
+             `cargo xtask setup` extracts a newer lavapipe into target/lavapipe-backports)"
         ));
     }
     let features = gpu.enabled.names();

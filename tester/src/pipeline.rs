@@ -703,6 +703,8 @@ pub fn create_pipeline(
         // A pipeline of the shader-object program's shaders (the renderer binds them as
         // shader objects instead).
         Program::Flat | Program::ShaderObjects => (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG)),
+        // The mesh stage in the vertex stage's place (`first_stage` below).
+        Program::Mesh => (shaders::MESH_MESH, Some(shaders::SCENE_FRAG)),
         Program::DepthOnly => (shaders::SCENE_VERT, None),
         Program::FragDepth => (shaders::SCENE_VERT, Some(shaders::FRAG_DEPTH_FRAG)),
         Program::ShadowReceiver => (
@@ -769,8 +771,14 @@ pub fn create_pipeline(
     let frag = fragment
         .map(|source| ShaderModule::new(device, &source))
         .transpose()?;
+    let meshes = spec.program == Program::Mesh;
+    let first_stage = if meshes {
+        vk::ShaderStageFlags::MESH_EXT
+    } else {
+        vk::ShaderStageFlags::VERTEX
+    };
     let vertex_stage = vk::PipelineShaderStageCreateInfo::default()
-        .stage(vk::ShaderStageFlags::VERTEX)
+        .stage(first_stage)
         .module(vert.module)
         .name(c"main");
     let fragment_stage = frag.as_ref().map(|frag| {
@@ -980,8 +988,6 @@ pub fn create_pipeline(
         });
     let mut info = vk::GraphicsPipelineCreateInfo::default()
         .stages(&stages)
-        .vertex_input_state(&vertex_input)
-        .input_assembly_state(&input_assembly)
         .viewport_state(&viewport_state)
         .rasterization_state(&rasterization)
         .multisample_state(&multisample)
@@ -989,6 +995,12 @@ pub fn create_pipeline(
         .color_blend_state(&color_blend)
         .dynamic_state(&dynamic_state)
         .layout(target.layout);
+    // A mesh pipeline has no vertex input nor input assembly.
+    if !meshes {
+        info = info
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&input_assembly);
+    }
     if tessellates {
         info = info.tessellation_state(&tessellation);
     }

@@ -135,6 +135,11 @@ pub const SSBO_REGISTERS_VERT: ShaderSource = glslang_shader!("ssbo_registers.ve
 /// multiply-adds of the matrix's columns by splats of the input.
 pub const SSBO_COLUMNS_VERT: ShaderSource = glslang_shader!("ssbo_columns.vert");
 
+/// `mesh.mesh` (glslang, SPIR-V 1.5 for Vulkan 1.2: `VK_EXT_mesh_shader`): `scene.vert`'s push
+/// constants and product in a mesh shader, each workgroup 32 triangles of the draw fetched
+/// from the scene's index and position arrays in storage buffers (the `mesh` delivery).
+pub const MESH_MESH: ShaderSource = glslang_shader!("mesh.mesh");
+
 /// `split_mvp.vert` (glslang): `scene.vert` with only the matrix in its push constants
 /// (bytes 0..64, the vertex stage's own range).
 pub const SPLIT_MVP_VERT: ShaderSource = glslang_shader!("split_mvp.vert");
@@ -209,6 +214,7 @@ pub const ALL: &[ShaderSource] = &[
     SSBO_ROWS_VERT,
     SSBO_REGISTERS_VERT,
     SSBO_COLUMNS_VERT,
+    MESH_MESH,
     SPLIT_MVP_VERT,
     SPLIT_COLOR_FRAG,
     SOFT_PARTICLE_VERT,
@@ -235,6 +241,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("ssbo_rows.vert", SSBO_ROWS_VERT),
     ("ssbo_registers.vert", SSBO_REGISTERS_VERT),
     ("ssbo_columns.vert", SSBO_COLUMNS_VERT),
+    ("mesh.mesh", MESH_MESH),
     ("split_mvp.vert", SPLIT_MVP_VERT),
     ("split_color.frag", SPLIT_COLOR_FRAG),
     ("depth_post.frag", DEPTH_POST_FRAG),
@@ -255,9 +262,15 @@ mod tests {
     #[test]
     fn every_module_passes_spirv_val() {
         let validator = val::create(Some(TargetEnv::Vulkan_1_1));
+        // Mesh shaders need SPIR-V 1.4 (Vulkan 1.2 on).
+        let validator_1_2 = val::create(Some(TargetEnv::Vulkan_1_2));
         let mut failures = Vec::new();
         for shader in ALL {
             let words = shader.words().expect("readable SPIR-V");
+            let validator = match target_env(shader.name) {
+                "vulkan1.2" => &validator_1_2,
+                _ => &validator,
+            };
             if let Err(error) = validator.validate(&words, None) {
                 failures.push(format!("{}: {error}", shader.name));
             }
@@ -280,7 +293,7 @@ mod tests {
         for (source, module) in GLSLANG {
             let out = scratch.join(format!("{source}.spv"));
             let run = std::process::Command::new("glslangValidator")
-                .args(["-V", "--target-env", "vulkan1.0", "-o"])
+                .args(["-V", "--target-env", target_env(source), "-o"])
                 .arg(&out)
                 .arg(dir.join(source))
                 .output();
@@ -301,6 +314,16 @@ mod tests {
             );
         }
         std::fs::remove_dir_all(&scratch).ok();
+    }
+
+    /// The `--target-env` a glslang source compiles for: Vulkan 1.0, and 1.2 for mesh shaders
+    /// (`shaders/glslang/README.md`).
+    fn target_env(source: &str) -> &'static str {
+        if source.ends_with(".mesh") {
+            "vulkan1.2"
+        } else {
+            "vulkan1.0"
+        }
     }
 
     #[test]

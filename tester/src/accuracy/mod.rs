@@ -114,8 +114,11 @@ pub enum DeliveryChoice {
     /// The push constants of push, the flat program bound as vertex and fragment shader
     /// objects (needs VK_EXT_shader_object).
     ShaderObjects,
+    /// The push constants of push, applied in a mesh shader (needs VK_EXT_mesh_shader).
+    Mesh,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns,
-    /// ubo-geometry and ubo-tessellation (not shader-objects, which needs an extension).
+    /// ubo-geometry and ubo-tessellation (not shader-objects nor mesh, which need an
+    /// extension).
     All,
 }
 
@@ -135,6 +138,7 @@ impl DeliveryChoice {
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
             DeliveryChoice::ShaderObjects => &[Delivery::ShaderObjects],
+            DeliveryChoice::Mesh => &[Delivery::Mesh],
             DeliveryChoice::All => Delivery::PORTABLE,
         }
     }

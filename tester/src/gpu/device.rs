@@ -116,6 +116,14 @@ pub(super) fn supported_features(
                 && instance.features2(physical_device, &mut features2)
                 && objects.shader_object == vk::TRUE
         },
+        mesh_shader: vulkan_1_3 && {
+            let mut mesh = vk::PhysicalDeviceMeshShaderFeaturesEXT::default();
+            let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut mesh);
+            // Chained only where the device has the extension.
+            has(ash::ext::mesh_shader::NAME)
+                && instance.features2(physical_device, &mut features2)
+                && mesh.mesh_shader == vk::TRUE
+        },
     }
 }
 
@@ -255,6 +263,10 @@ impl Gpu {
         }
         let mut shader_object =
             vk::PhysicalDeviceShaderObjectFeaturesEXT::default().shader_object(true);
+        if enabled.mesh_shader {
+            extensions.push(ash::ext::mesh_shader::NAME.as_ptr());
+        }
+        let mut mesh_shader = vk::PhysicalDeviceMeshShaderFeaturesEXT::default().mesh_shader(true);
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_features(&core_features)
@@ -281,6 +293,9 @@ impl Gpu {
         }
         if enabled.shader_object {
             device_create_info = device_create_info.push_next(&mut shader_object);
+        }
+        if enabled.mesh_shader {
+            device_create_info = device_create_info.push_next(&mut mesh_shader);
         }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {
@@ -310,8 +325,12 @@ impl Gpu {
         let shader_object = enabled
             .shader_object
             .then(|| ash::ext::shader_object::Device::new(&instance.instance, &device));
+        let mesh_shader = enabled
+            .mesh_shader
+            .then(|| ash::ext::mesh_shader::Device::new(&instance.instance, &device));
         Ok(Gpu {
             shader_object,
+            mesh_shader,
             push_descriptor_khr,
             dynamic_rendering_khr,
             extended_dynamic_state,

@@ -184,6 +184,9 @@ pub struct Features {
     /// as vertex and fragment shader objects with their state set dynamically
     /// ([`crate::plan::Program::ShaderObjects`]).
     pub shader_object: bool,
+    /// `VK_EXT_mesh_shader`'s `meshShader` (Vulkan 1.3 only; no task shaders): pipelines of
+    /// [`crate::plan::Program::Mesh`].
+    pub mesh_shader: bool,
 }
 
 impl Features {
@@ -209,6 +212,7 @@ impl Features {
             (self.tessellation_shader, "tessellationShader"),
             (self.push_descriptor, "VK_KHR_push_descriptor"),
             (self.shader_object, "shaderObject"),
+            (self.mesh_shader, "meshShader"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -235,6 +239,7 @@ impl Features {
             tessellation_shader: self.tessellation_shader && other.tessellation_shader,
             push_descriptor: self.push_descriptor && other.push_descriptor,
             shader_object: self.shader_object && other.shader_object,
+            mesh_shader: self.mesh_shader && other.mesh_shader,
         }
     }
 }
@@ -280,6 +285,8 @@ pub struct Gpu {
     push_descriptor_khr: Option<ash::khr::push_descriptor::Device>,
     /// `VK_EXT_shader_object`'s commands, where `enabled.shader_object`.
     pub shader_object: Option<ash::ext::shader_object::Device>,
+    /// `VK_EXT_mesh_shader`'s commands, where `enabled.mesh_shader`.
+    pub mesh_shader: Option<ash::ext::mesh_shader::Device>,
     memory_properties: vk::PhysicalDeviceMemoryProperties,
     // Dropped after `Drop::drop` has destroyed the device.
     instance: InstanceCtx,
@@ -429,6 +436,7 @@ mod tests {
             tessellation_shader: true,
             push_descriptor: true,
             shader_object: true,
+            mesh_shader: true,
         };
         assert_eq!(
             all.names(),
@@ -445,7 +453,8 @@ mod tests {
                 "geometryShader",
                 "tessellationShader",
                 "VK_KHR_push_descriptor",
-                "shaderObject"
+                "shaderObject",
+                "meshShader"
             ]
         );
         let some = Features {

@@ -215,6 +215,12 @@ pub enum Program {
     /// of its [`PipelineSpec`] with the dynamic state commands, as engines built on shader
     /// objects do. Needs the `shaderObject` feature (lavapipe from Mesa 23.1 on).
     ShaderObjects,
+    /// `mesh.mesh` (glslang) + `scene.frag` (the `mesh` [`Delivery`]): the push constants and
+    /// product of [`Program::Flat`] in a mesh shader (`VK_EXT_mesh_shader`, no task shader),
+    /// which fetches each draw's triangles from the scene's index and position arrays in
+    /// storage buffers; the draw's index range follows the color in the push constants
+    /// (bytes 80..92). Needs the `meshShader` feature (lavapipe from Mesa 23.3 on).
+    Mesh,
     /// `ubo_position.vert` + `push.geom` + `scene.frag` (the `push-geometry` [`Delivery`]): the
     /// push constants of [`Program::Flat`], the matrix applied in a geometry shader; one range
     /// for the vertex, geometry and fragment stages.
@@ -321,12 +327,15 @@ pub enum Delivery {
     /// The push constants of [`Delivery::Push`], the flat program bound as shader objects
     /// ([`Program::ShaderObjects`]; needs `VK_EXT_shader_object`).
     ShaderObjects,
+    /// The push constants of [`Delivery::Push`], applied in a mesh shader
+    /// ([`Program::Mesh`]; needs `VK_EXT_mesh_shader`).
+    Mesh,
 }
 
 impl Delivery {
-    /// Every delivery, push first, and the one that needs an extension
-    /// ([`Delivery::ShaderObjects`]) last.
-    pub const ALL: [Delivery; 13] = [
+    /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
+    /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
+    pub const ALL: [Delivery; 14] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -340,12 +349,13 @@ impl Delivery {
         Delivery::UboGeometry,
         Delivery::UboTessellation,
         Delivery::ShaderObjects,
+        Delivery::Mesh,
     ];
 
     /// The deliveries every Vulkan 1.0 device with the core features renders: all but the
-    /// last of [`Delivery::ALL`].
-    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last() {
-        Some((_, portable)) => portable,
+    /// last two of [`Delivery::ALL`].
+    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<2>() {
+        Some((portable, _)) => portable,
         None => &[],
     };
 
@@ -365,6 +375,7 @@ impl Delivery {
             Delivery::UboGeometry => "ubo-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
             Delivery::ShaderObjects => "shader-objects",
+            Delivery::Mesh => "mesh",
         }
     }
 
@@ -385,6 +396,7 @@ impl Delivery {
             Delivery::UboGeometry => Some(Program::UboGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
             Delivery::ShaderObjects => Some(Program::ShaderObjects),
+            Delivery::Mesh => Some(Program::Mesh),
         }
     }
 }
@@ -451,6 +463,7 @@ impl Program {
             | Program::SplitPush
             | Program::FullPush
             | Program::ShaderObjects
+            | Program::Mesh
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost
@@ -936,6 +949,8 @@ pub struct Needs {
     pub tessellation_shader: bool,
     /// `VK_EXT_shader_object`'s `shaderObject` (a pipeline is bound as shader objects).
     pub shader_object: bool,
+    /// `VK_EXT_mesh_shader`'s `meshShader` (a pipeline projects in a mesh shader).
+    pub mesh_shader: bool,
     /// Multisampled attachments of this sample count, resolved with this depth resolve mode
     /// (the device must support both for the formats, and the mode in
     /// `VkPhysicalDeviceDepthStencilResolveProperties`); every multisampled pass of a plan
@@ -1036,6 +1051,12 @@ impl Plan {
                     || program.projecting_stage() == ash::vk::ShaderStageFlags::VERTEX,
                 "pipeline {} is built from libraries, whose pre-rasterization library the tester \
                  builds with a vertex stage alone; the {name} delivery projects in a later stage",
+                pipeline.name
+            );
+            ensure!(
+                program != Program::Mesh || !pipeline.libraries,
+                "pipeline {} is built from libraries, whose pre-rasterization library the tester \
+                 builds with a vertex stage",
                 pipeline.name
             );
             ensure!(
@@ -1181,6 +1202,7 @@ impl Plan {
             );
             needs.tessellation_shader |= pipeline.program == Program::UboTessellation;
             needs.shader_object |= pipeline.program == Program::ShaderObjects;
+            needs.mesh_shader |= pipeline.program == Program::Mesh;
             if let Viewport::Static {
                 min_depth,
                 max_depth,

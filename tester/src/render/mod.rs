@@ -217,6 +217,8 @@ pub struct Renderer<'a> {
     /// The shaders of [`Program::ShaderObjects`] (its pipelines have a null handle in
     /// `pipelines`); `None` without that program.
     shader_objects: Option<shader_objects::ShaderObjects>,
+    /// What [`Program::Mesh`] binds (its layout among them); `None` without that program.
+    mesh: Option<mesh::MeshBindings<'a>>,
 }
 
 impl fmt::Debug for Renderer<'_> {
@@ -244,6 +246,9 @@ impl Drop for Renderer<'_> {
             }
             if let Some(objects) = &self.shader_objects {
                 objects.destroy(self.gpu);
+            }
+            if let Some(mesh) = &self.mesh {
+                mesh.destroy(self.device);
             }
             self.device
                 .destroy_pipeline_layout(self.shadow_layout, None);
@@ -428,6 +433,7 @@ impl<'a> Renderer<'a> {
             extent: targets.extent,
             bias_clamp: gpu.enabled.depth_bias_clamp,
             shader_objects: None,
+            mesh: None,
         };
         let main = MainFormats {
             depth: targets.depth.format,
@@ -574,6 +580,9 @@ impl<'a> Renderer<'a> {
             this.create_matrix_bindings(gpu, scene, program, aspect)?;
         }
 
+        if plan.pipelines.iter().any(|p| p.program == Program::Mesh) {
+            this.mesh = Some(mesh::MeshBindings::new(gpu, scene)?);
+        }
         if plan
             .pipelines
             .iter()
@@ -660,6 +669,12 @@ impl<'a> Renderer<'a> {
             | Program::RowVector
             | Program::LitMvp
             | Program::ShaderObjects => (self.plain_layout, PLAIN_PUSH_STAGES),
+            Program::Mesh => (
+                self.mesh
+                    .as_ref()
+                    .map_or(vk::PipelineLayout::null(), |m| m.layout),
+                mesh::MESH_PUSH_STAGES,
+            ),
             // Pushed per range ([`SPLIT_PUSH_CONSTANT_RANGES`]), each with its own stage.
             Program::SplitPush => (self.split_layout, vk::ShaderStageFlags::empty()),
             Program::FullPush => (self.full_layout, vk::ShaderStageFlags::empty()),
@@ -822,5 +837,6 @@ struct Recorder<'r> {
 }
 
 mod bindings;
+mod mesh;
 mod record;
 mod shader_objects;

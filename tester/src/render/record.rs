@@ -714,6 +714,7 @@ impl Recorder<'_> {
                 Program::DepthTiles => renderer.depth_tiles.as_ref().map(|t| t.set),
                 Program::DepthInput => renderer.depth_input.as_ref().map(|i| i.set),
                 Program::DepthPostMs => renderer.multisampled_read.as_ref().map(|r| r.set),
+                Program::Mesh => renderer.mesh.as_ref().map(|m| m.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
                 Program::Ssbo
@@ -838,6 +839,29 @@ impl Recorder<'_> {
         } else {
             0
         };
+        if program == Program::Mesh {
+            let (layout, stages) = self.renderer.layout(program);
+            let meshes = self
+                .renderer
+                .gpu
+                .mesh_shader
+                .as_ref()
+                .ok_or_else(|| anyhow!("the mesh program needs VK_EXT_mesh_shader enabled"))?;
+            // SAFETY: `cmd` is recording inside a pass with the mesh pipeline bound, its set
+            // bound and its first 80 bytes pushed; the range's bytes follow them in the
+            // layout's one range; the workgroups read indices inside the draw's range.
+            unsafe {
+                self.device().cmd_push_constants(
+                    cmd,
+                    layout,
+                    stages,
+                    super::mesh::DRAW_RANGE_OFFSET,
+                    &super::mesh::draw_range_bytes(range),
+                );
+                meshes.cmd_draw_mesh_tasks(cmd, super::mesh::workgroups(range), 1, 1);
+            }
+            return Ok(());
+        }
         // SAFETY: `cmd` is recording inside a pass with a bound pipeline and its push
         // constants written (plan check); the draw range indexes the bound buffers.
         unsafe {

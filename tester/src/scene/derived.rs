@@ -207,6 +207,7 @@ impl Scene {
             | Program::SplitPush
             | Program::FullPush
             | Program::ShaderObjects
+            | Program::Mesh
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost

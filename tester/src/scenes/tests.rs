@@ -1529,11 +1529,13 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                         delivery == Delivery::UboTessellation
                     );
                     assert_eq!(needs.shader_object, delivery == Delivery::ShaderObjects);
+                    assert_eq!(needs.mesh_shader, delivery == Delivery::Mesh);
                     assert_eq!(
                         crate::plan::Needs {
                             geometry_shader: false,
                             tessellation_shader: false,
                             shader_object: false,
+                            mesh_shader: false,
                             ..needs
                         },
                         scene.plan.needs()
