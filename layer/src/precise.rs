@@ -259,10 +259,11 @@ impl std::fmt::Display for NoRoom {
 }
 
 /// The application's push-constant `ranges` with the carrier at `offset` added: the vertex
-/// stage's range extended to cover it (a stage may appear in one range only), or a new range
+/// stage's range extended to cover it (a stage may appear in one range only; where no range
+/// names the vertex stage, the mesh stage's: a mesh pipeline's layout), or a new range
 /// where it had none, of the vertex stage and of those of `later_stages` (the tessellation
-/// evaluation and geometry stages the device enabled) that no range of the application names:
-/// a rewritten tessellation evaluation or geometry stage reads the carrier too. An
+/// evaluation, geometry and mesh stages the device enabled) that no range of the application
+/// names: a rewritten tessellation evaluation, geometry or mesh stage reads the carrier too. An
 /// application's vertex range that names no later stage is extended as it is: adding stages
 /// to it would make the application's own pushes to it invalid, and a separate range of the
 /// later stages over the carrier would keep revz from folding the carrier into the
@@ -289,7 +290,11 @@ pub fn reserve_carrier(
     let mut out = ranges.to_vec();
     let vertex = out
         .iter()
-        .position(|r| r.stage_flags.contains(vk::ShaderStageFlags::VERTEX));
+        .position(|r| r.stage_flags.contains(vk::ShaderStageFlags::VERTEX))
+        .or_else(|| {
+            out.iter()
+                .position(|r| r.stage_flags.contains(vk::ShaderStageFlags::MESH_EXT))
+        });
     let mut push_patch = None;
     let range = match vertex {
         Some(index) => {
@@ -312,7 +317,9 @@ pub fn reserve_carrier(
                 .iter()
                 .fold(vk::ShaderStageFlags::empty(), |all, r| all | r.stage_flags);
             let later = later_stages
-                & (vk::ShaderStageFlags::TESSELLATION_EVALUATION | vk::ShaderStageFlags::GEOMETRY);
+                & (vk::ShaderStageFlags::TESSELLATION_EVALUATION
+                    | vk::ShaderStageFlags::GEOMETRY
+                    | vk::ShaderStageFlags::MESH_EXT);
             let range = vk::PushConstantRange {
                 stage_flags: vk::ShaderStageFlags::VERTEX | (later & !named),
                 offset,

@@ -672,12 +672,20 @@ pub unsafe extern "system" fn create_device(
             .contains(&extensions::DEPTH_RANGE_UNRESTRICTED);
             // SAFETY: the application's create info (its features, or a valid pNext chain).
             let core_features = unsafe { enabled_core_features(create_info) };
+            // SAFETY: a valid pNext chain (the application's contract).
+            let mesh_shader = unsafe {
+                crate::chain::find::<vk::PhysicalDeviceMeshShaderFeaturesEXT<'_>>(
+                    create_info.p_next,
+                )
+            }
+            .is_some_and(|features| features.mesh_shader == vk::TRUE);
             let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op)
                 .with_push_constant_space(limits.max_push_constants_size)
                 .with_depth_range_unrestricted(depth_range_unrestricted)
                 .with_shader_stages(
                     core_features.geometry_shader == vk::TRUE,
                     core_features.tessellation_shader == vk::TRUE,
+                    mesh_shader,
                 )
                 .with_multisampled_twins(multisampled_twins);
             if enable_storage_multisample && !multisampled_twins.is_empty() {

@@ -215,10 +215,10 @@ pub struct DevicePolicy {
     /// their format ([`KeptFormat::UnrestrictedDepthRange`]); copies convert float values
     /// without clamping them to [0, 1].
     pub depth_range_unrestricted: bool,
-    /// The stages after the vertex stage whose `Position` revz may rewrite on this device
-    /// (tessellation evaluation and geometry, where the application enabled
-    /// `tessellationShader` and `geometryShader`): a carrier range revz adds to a layout
-    /// names them too (`crate::precise::reserve_carrier`).
+    /// The stages other than the vertex stage whose `Position` revz may rewrite on this
+    /// device (tessellation evaluation, geometry and mesh, where the application enabled
+    /// `tessellationShader`, `geometryShader` and `meshShader`): a carrier range revz adds to a
+    /// layout names them too (`crate::precise::reserve_carrier`).
     pub carrier_later_stages: ash::vk::ShaderStageFlags,
     /// The sample counts of multisampled depth images shaders may sample through a read twin
     /// (`crate::depth_copy::twin`: an `R32_SFLOAT` twin written per sample by a compute pass):
@@ -263,15 +263,23 @@ impl DevicePolicy {
         }
     }
 
-    /// The policy on a device whose application enabled `geometryShader` (`geometry`) and
-    /// `tessellationShader` (`tessellation`).
-    pub fn with_shader_stages(self, geometry: bool, tessellation: bool) -> DevicePolicy {
+    /// The policy on a device whose application enabled `geometryShader` (`geometry`),
+    /// `tessellationShader` (`tessellation`) and `VK_EXT_mesh_shader`'s `meshShader` (`mesh`).
+    pub fn with_shader_stages(
+        self,
+        geometry: bool,
+        tessellation: bool,
+        mesh: bool,
+    ) -> DevicePolicy {
         let mut stages = ash::vk::ShaderStageFlags::empty();
         if geometry {
             stages |= ash::vk::ShaderStageFlags::GEOMETRY;
         }
         if tessellation {
             stages |= ash::vk::ShaderStageFlags::TESSELLATION_EVALUATION;
+        }
+        if mesh {
+            stages |= ash::vk::ShaderStageFlags::MESH_EXT;
         }
         DevicePolicy {
             carrier_later_stages: stages,

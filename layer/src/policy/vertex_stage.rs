@@ -34,7 +34,7 @@ pub fn analyses_fragment_module(active: bool) -> bool {
 /// Whether `vkCreateShaderModule` analyses a module's pre-rasterization stage (its projection
 /// and `Position` rewrite): only where the mode rewrites projections (`mode_rewrites`) and the
 /// module declares an entry point of a stage that can be the last before rasterization, whose
-/// `Position` revz rewrites: vertex, tessellation evaluation or geometry
+/// `Position` revz rewrites: vertex, tessellation evaluation, geometry or mesh
 /// (`declares_position_stage`, scanned only then). Fragment and compute modules with push
 /// constants are not parsed.
 #[must_use]
@@ -143,7 +143,8 @@ pub enum LastStage {
     Vertex,
     TessellationEvaluation,
     Geometry,
-    /// Not rewritten: a mesh shader writes a per-vertex array of positions.
+    /// A mesh shader (`VK_EXT_mesh_shader`): it writes a per-vertex array of positions, each
+    /// rewritten where it is stored (`crate::shader::position_store`).
     Mesh,
 }
 
@@ -322,9 +323,6 @@ impl VertexStageFacts<'_> {
         let Some(stage) = self.last_stage else {
             return Err("it has no vertex stage".into());
         };
-        if stage == LastStage::Mesh {
-            return Err("its last pre-rasterization stage is a mesh shader".into());
-        }
         let slot = match self.analysis? {
             Some(Analysis::Projection(slot)) => Some(slot),
             Some(Analysis::Unreadable(reason)) => return Err(reason.clone()),
@@ -358,6 +356,10 @@ impl VertexStageFacts<'_> {
             return Err(match stage {
                 LastStage::Geometry => {
                     "revz's push constants do not reach its geometry stage (the layout's \
+                     push-constant range that holds them does not name it)"
+                }
+                LastStage::Mesh => {
+                    "revz's push constants do not reach its mesh stage (the layout's \
                      push-constant range that holds them does not name it)"
                 }
                 _ => {
@@ -706,8 +708,13 @@ mod tests {
 
     #[test]
     fn a_later_stage_that_derives_its_range_takes_the_precise_path_where_the_carrier_reaches_it() {
-        // naga reads no geometry or tessellation stage: no analysis, the deriving rewrite.
-        for stage in [LastStage::Geometry, LastStage::TessellationEvaluation] {
+        // naga reads no geometry, tessellation or mesh stage: no analysis, the deriving
+        // rewrite.
+        for stage in [
+            LastStage::Geometry,
+            LastStage::TessellationEvaluation,
+            LastStage::Mesh,
+        ] {
             let facts = VertexStageFacts {
                 last_stage: Some(stage),
                 analysis: Ok(None),
@@ -763,13 +770,6 @@ mod tests {
                     ..base
                 },
                 "it has no vertex stage",
-            ),
-            (
-                VertexStageFacts {
-                    last_stage: Some(LastStage::Mesh),
-                    ..base
-                },
-                "its last pre-rasterization stage is a mesh shader",
             ),
             (
                 VertexStageFacts {

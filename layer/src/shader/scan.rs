@@ -38,12 +38,14 @@ pub fn instructions(words: &[u32]) -> Option<Instructions<'_>> {
 }
 
 /// The execution models of the stages whose `Position` revz rewrites: vertex, tessellation
-/// evaluation and geometry (what can be the last pre-rasterization stage; mesh shaders are not
-/// rewritten).
+/// evaluation, geometry and mesh (what can be the last pre-rasterization stage; NVIDIA's
+/// mesh shaders are not rewritten).
 pub mod model {
     pub const VERTEX: u32 = 0;
     pub const TESSELLATION_EVALUATION: u32 = 2;
     pub const GEOMETRY: u32 = 3;
+    /// `MeshEXT` (`VK_EXT_mesh_shader`).
+    pub const MESH_EXT: u32 = 5365;
 }
 
 /// Whether `words` declare an entry point of the vertex stage (`OpEntryPoint Vertex`): only
@@ -54,13 +56,13 @@ pub fn declares_vertex_entry_point(words: &[u32]) -> bool {
 }
 
 /// Whether `words` declare an entry point of a stage whose `Position` revz rewrites
-/// ([`model`]): vertex, tessellation evaluation or geometry. Malformed words answer `true`,
-/// so the analysis or rewrite that follows reports them.
+/// ([`model`]): vertex, tessellation evaluation, geometry or mesh. Malformed words answer
+/// `true`, so the analysis or rewrite that follows reports them.
 pub fn declares_position_stage_entry_point(words: &[u32]) -> bool {
     declares_entry_point(words, |m| {
         matches!(
             m,
-            model::VERTEX | model::TESSELLATION_EVALUATION | model::GEOMETRY
+            model::VERTEX | model::TESSELLATION_EVALUATION | model::GEOMETRY | model::MESH_EXT
         )
     })
 }

@@ -137,13 +137,10 @@ pub(super) fn projection_of(
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
     // The stage whose Position is rasterized: the vertex stage, or a tessellation evaluation
-    // or geometry stage after it (a mesh stage is refused by the policy).
+    // or geometry stage after it, or a mesh stage.
     let last_stage = vertex_stage::LastStage::of(stages.iter().map(|s| s.stage));
-    let vertex_index = last_stage.and_then(|last| {
-        stages
-            .iter()
-            .position(|s| s.stage == last.flag() && last != vertex_stage::LastStage::Mesh)
-    });
+    let vertex_index =
+        last_stage.and_then(|last| stages.iter().position(|s| s.stage == last.flag()));
     let vertex = vertex_index.map(|index| &stages[index]);
     // SAFETY: null or valid (the application's contract).
     let dynamic = unsafe { info.p_dynamic_state.as_ref() }.map_or(&[][..], |d| unsafe {

@@ -158,6 +158,9 @@ pub struct PositionStores {
     pub components: Vec<Option<u32>>,
     /// `OpCopyMemory` into or out of it.
     pub copied: bool,
+    /// Each whole store is rewritten where it is (a mesh shader's vertices): a fit describes
+    /// the stored vertex where it precedes the store in the store's block.
+    pub at_store: bool,
 }
 
 pub use fit::{CarrierIds, Fit, Types, FIT_IDS, RETURN_IDS};

@@ -270,7 +270,10 @@ impl Defs {
         at: usize,
         in_loop: &'static str,
     ) -> Result<(), Unsupported> {
-        if self.runs_once(at) || self.emitted_where_fitted(stores, at) {
+        if self.runs_once(at)
+            || self.emitted_where_fitted(stores, at)
+            || self.stored_where_fitted(stores, at)
+        {
             Ok(())
         } else if self.in_loop(at) {
             Err(Unsupported(in_loop))
@@ -300,6 +303,20 @@ impl Defs {
                         .iter()
                         .any(|&emit| self.same_block(store, emit))
             })
+    }
+
+    /// Whether a fit right after word `fitted_at` describes every vertex a mesh shader stores,
+    /// though it lies in a loop: each store is rewritten where it is
+    /// ([`PositionStores::at_store`]) and follows the fit in its block, so no iteration can run
+    /// the leaf again between the fit and the store. A mesh shader's loop over the vertices
+    /// its invocation writes is the usual place of its projection.
+    fn stored_where_fitted(&self, stores: &PositionStores, fitted_at: usize) -> bool {
+        stores.at_store
+            && !stores.whole_at.is_empty()
+            && stores
+                .whole_at
+                .iter()
+                .all(|&store| self.same_block(fitted_at, store))
     }
 
     /// Component count of the vector `id` (by its result type), if known.

@@ -1,5 +1,6 @@
 //! What the function bodies of a module do with `Position`: the access chains that point into
-//! it, the returns of vertex entry points, and what is stored into it.
+//! it, the returns of vertex entry points, and what is stored into it (where a mesh shader
+//! stores a vertex's `Position`, each store).
 
 use super::*;
 
@@ -16,6 +17,9 @@ pub(super) struct Body {
     pub(super) returns: usize,
     /// What is stored into `Position` (for the derived range).
     pub(super) stores: PositionStores,
+    /// A mesh shader's stores of a whole vertex `Position` (word indices): each is rewritten
+    /// where it is ([`Position::MeshVertices`]), and counted in `returns`.
+    pub(super) store_sites: HashSet<usize>,
 }
 
 impl Body {
@@ -28,13 +32,17 @@ impl Body {
         // Pointers into the shadow: the variable (which becomes it), or what chains into the
         // block's Position member.
         let mut shadowed: HashSet<u32> = HashSet::new();
-        let block = match position {
+        let (block, mesh) = match position {
             Position::Variable(var) => {
                 shadowed.insert(var);
-                None
+                (None, None)
             }
-            Position::Member { block, member } => Some((block, member)),
+            Position::Member { block, member } => (Some((block, member)), None),
+            Position::MeshVertices { array, member } => (None, Some((array, member))),
         };
+        body.stores.at_store = mesh.is_some();
+        // Pointers to one mesh vertex's whole Position.
+        let mut vertex_positions: HashSet<u32> = HashSet::new();
         // Pointers to the whole Position, and to one component (its constant index, `None`
         // for a dynamic or nested one).
         let mut whole: HashSet<u32> = shadowed.clone();
@@ -59,6 +67,49 @@ impl Body {
             };
             match (opcode, operands) {
                 (OP_FUNCTION, &[_, id, ..]) => current_function = id,
+                (
+                    OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN,
+                    &[_, result, base, _, ref rest @ ..],
+                ) if Some(base) == mesh.map(|(array, _)| array) => {
+                    let (_, member) = mesh.expect("matched");
+                    let constant = |id: &u32| module.int_constants.get(id).copied();
+                    match (member, rest) {
+                        // The vertex's Position itself (a block's member, or the element).
+                        (Some(member), [index]) if constant(index) == Some(member) => {
+                            vertex_positions.insert(result);
+                        }
+                        (None, []) => {
+                            vertex_positions.insert(result);
+                        }
+                        (Some(member), [index, ..]) if constant(index) == Some(member) => {
+                            return Err(Unsupported(
+                                "a component of a mesh vertex's Position is stored on its own",
+                            ))
+                        }
+                        (None, [_, ..]) => {
+                            return Err(Unsupported(
+                                "a component of a mesh vertex's Position is stored on its own",
+                            ))
+                        }
+                        // Another member of the vertex's block (PointSize, ClipDistance).
+                        (Some(_), [index, ..]) if constant(index).is_some() => {}
+                        (Some(_), [_, ..]) => {
+                            return Err(Unsupported("a mesh vertex's block is indexed dynamically"))
+                        }
+                        (Some(_), []) => {
+                            return Err(Unsupported("a mesh vertex's block is used whole"))
+                        }
+                    }
+                }
+                (OP_LOAD, &[_, _, pointer, ..]) if vertex_positions.contains(&pointer) => {
+                    return Err(Unsupported("a mesh vertex's Position is read back"));
+                }
+                (OP_STORE, &[pointer, value, ..]) if vertex_positions.contains(&pointer) => {
+                    body.stores.whole.push(value);
+                    body.stores.whole_at.push(at);
+                    body.store_sites.insert(at);
+                    body.returns += 1;
+                }
                 _ if module.completes_vertex(opcode, current_function) => {
                     body.returns += 1;
                     if opcode != OP_RETURN {
@@ -134,8 +185,12 @@ impl Body {
                     body.stores.copied = true;
                 }
                 _ => {
-                    let uses =
-                        |id: u32| shadowed.contains(&id) || block.is_some_and(|(b, _)| b == id);
+                    let uses = |id: u32| {
+                        shadowed.contains(&id)
+                            || block.is_some_and(|(b, _)| b == id)
+                            || mesh.is_some_and(|(array, _)| array == id)
+                            || vertex_positions.contains(&id)
+                    };
                     if ids_of().any(uses) {
                         return Err(Unsupported(
                             "Position is used other than by loads, stores and access chains",

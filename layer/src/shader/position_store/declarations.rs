@@ -31,10 +31,11 @@ impl Module {
                         scan_model::VERTEX
                             | scan_model::TESSELLATION_EVALUATION
                             | scan_model::GEOMETRY
+                            | scan_model::MESH_EXT
                     ) {
                         return Err(Unsupported(
                             "the module has an entry point of a stage other than vertex, \
-                             tessellation evaluation or geometry",
+                             tessellation evaluation, geometry or mesh",
                         ));
                     }
                     if !m.entry_functions.is_empty() && m.model != model {
@@ -135,11 +136,13 @@ impl Module {
     /// where the rewrite stores the shadow to `Position`: an entry function's `OpReturn` in a
     /// vertex or tessellation evaluation shader, any `OpEmitVertex` or `OpEmitStreamVertex` in
     /// a geometry shader.
+    /// A mesh shader has no such instruction: each vertex's `Position` is rewritten where it
+    /// is stored ([`Position::MeshVertices`]).
     pub(super) fn completes_vertex(&self, opcode: u32, function: u32) -> bool {
-        if self.model == scan_model::GEOMETRY {
-            matches!(opcode, OP_EMIT_VERTEX | OP_EMIT_STREAM_VERTEX)
-        } else {
-            opcode == OP_RETURN && self.entry_functions.contains(&function)
+        match self.model {
+            scan_model::GEOMETRY => matches!(opcode, OP_EMIT_VERTEX | OP_EMIT_STREAM_VERTEX),
+            scan_model::MESH_EXT => false,
+            _ => opcode == OP_RETURN && self.entry_functions.contains(&function),
         }
     }
 
@@ -153,7 +156,26 @@ impl Module {
             let Some(&(_, pointee)) = self.pointers.get(&ty) else {
                 continue;
             };
-            let this = if self.position_ids.contains(&id) {
+            let this = if self.model == scan_model::MESH_EXT {
+                // Per-vertex arrays: of blocks with a Position member, or of Positions.
+                let element = self.arrays.get(&pointee).map(|&(element, _)| element);
+                match element.and_then(|e| self.position_members.get(&e)) {
+                    Some(&member) => Position::MeshVertices {
+                        array: id,
+                        member: Some(member),
+                    },
+                    None if self.position_ids.contains(&id) && element.is_some() => {
+                        Position::MeshVertices {
+                            array: id,
+                            member: None,
+                        }
+                    }
+                    None if self.position_ids.contains(&id) => {
+                        return Err(Unsupported("a mesh shader's Position is not an array"))
+                    }
+                    None => continue,
+                }
+            } else if self.position_ids.contains(&id) {
                 Position::Variable(id)
             } else if let Some(&member) = self.position_members.get(&pointee) {
                 Position::Member { block: id, member }
@@ -220,6 +242,14 @@ impl Module {
                 let (ty, _) = *self.variables.get(&block)?;
                 let pointee = self.pointers.get(&ty)?.1;
                 *self.structs.get(&pointee)?.get(member as usize)?
+            }
+            Position::MeshVertices { array, member } => {
+                let (ty, _) = *self.variables.get(&array)?;
+                let (element, _) = *self.arrays.get(&self.pointers.get(&ty)?.1)?;
+                match member {
+                    Some(member) => *self.structs.get(&element)?.get(member as usize)?,
+                    None => element,
+                }
             }
         };
         self.vec4_float(vec4).map(|_| vec4)

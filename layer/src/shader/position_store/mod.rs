@@ -185,6 +185,12 @@ enum Position {
     Variable(u32),
     /// Member `member` of an output block (`gl_PerVertex`, glslang): the block variable.
     Member { block: u32, member: u32 },
+    /// A mesh shader's per-vertex output array: member `member` of each block of it
+    /// (`gl_MeshVerticesEXT`, glslang), or each element itself where `member` is `None` (an
+    /// array of `vec4` decorated `BuiltIn Position`, DXC). Each vertex's `Position` is
+    /// rewritten where it is stored whole: a mesh shader's invocations share their outputs,
+    /// so no invocation has a vertex complete at any one instruction.
+    MeshVertices { array: u32, member: Option<u32> },
 }
 
 /// The declarations the rewrite needs, from one pass over the words.

@@ -1,6 +1,6 @@
 //! The rewrite proper: from the declarations and the bodies, the new words (the shadow, the
-//! carrier member, the stores before each return, and for deriving rewrites the fit of
-//! `crate::shader::derived_range`).
+//! carrier member, the stores before each return, a mesh shader's stores rewritten where they
+//! are, and for deriving rewrites the fit of `crate::shader::derived_range`).
 
 use super::body::Body;
 use super::declarations::{declaration_ids, result_id};
@@ -43,6 +43,12 @@ impl Module {
                     .unwrap_or(0);
                 (out_pointer, vec4)
             }
+            // Stored through the shader's own pointers: no output pointer of revz's.
+            Position::MeshVertices { .. } => (
+                0,
+                self.position_vec4(position)
+                    .ok_or(Unsupported("a mesh shader's Position is not a vec4"))?,
+            ),
         };
         let float = self
             .vec4_float(vec4)
@@ -224,12 +230,14 @@ impl Module {
         let (shadow, output) = match position {
             Position::Variable(var) => (var, fresh()),
             Position::Member { block, .. } => (fresh(), block),
+            Position::MeshVertices { .. } => (0, 0),
         };
         let member_index = match position {
             Position::Member { member, .. } => Some((fresh(), member)),
-            Position::Variable(_) => None,
+            Position::Variable(_) | Position::MeshVertices { .. } => None,
         };
-        let out_vec4 = if out_pointer != 0 {
+        let mesh_vertices = matches!(position, Position::MeshVertices { .. });
+        let out_vec4 = if out_pointer != 0 || mesh_vertices {
             (out_pointer, false)
         } else {
             (fresh(), true)
@@ -379,6 +387,16 @@ impl Module {
                             &[private_vec4, shadow, STORAGE_PRIVATE],
                         );
                     }
+                    // No shadow; the fit's private variable needs the pointer type.
+                    Position::MeshVertices { .. } => {
+                        if new_private_vec4 {
+                            push(
+                                &mut out,
+                                OP_TYPE_POINTER,
+                                &[private_vec4, STORAGE_PRIVATE, vec4],
+                            );
+                        }
+                    }
                 }
                 if let Some(fit) = &fit {
                     fit.declarations(&mut out, float, vec4, private_vec4);
@@ -499,46 +517,19 @@ impl Module {
                         }
                     }
                 }
+                (OP_STORE, &[pointer, value, ref rest @ ..])
+                    if in_functions && body.store_sites.contains(&at) =>
+                {
+                    // A mesh vertex's Position, rewritten where it is stored.
+                    let stored = stored_depth(&mut out, &mut fresh, value, types, fit.as_ref());
+                    let mut store = vec![pointer, stored];
+                    store.extend_from_slice(rest);
+                    push(&mut out, opcode, &store);
+                }
                 _ if self.completes_vertex(opcode, current_function) => {
-                    let [value, carrier_pointer, carrier, c_z, c_w, c_1, z, w, scaled_z, scaled_w, sum, depth, stored] =
-                        [0; 13].map(|_| fresh());
+                    let value = fresh();
                     push(&mut out, OP_LOAD, &[vec4, value, shadow]);
-                    let carrier = match carrier_ids {
-                        CarrierIds::Pushed { .. } => {
-                            push(
-                                &mut out,
-                                OP_ACCESS_CHAIN,
-                                &[push_vec4, carrier_pointer, push_variable, carrier_index],
-                            );
-                            push(&mut out, OP_LOAD, &[vec4, carrier, carrier_pointer]);
-                            carrier
-                        }
-                        CarrierIds::Constant(composite) => composite,
-                    };
-                    push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_z, carrier, 0]);
-                    push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_w, carrier, 1]);
-                    push(&mut out, OP_COMPOSITE_EXTRACT, &[float, c_1, carrier, 2]);
-                    let [c_z, c_w, c_1] = match &fit {
-                        Some(fit) => fit.select_at_return(
-                            &mut out,
-                            types,
-                            carrier,
-                            [c_z, c_w, c_1],
-                            &mut fresh,
-                        ),
-                        None => [c_z, c_w, c_1],
-                    };
-                    push(&mut out, OP_COMPOSITE_EXTRACT, &[float, z, value, 2]);
-                    push(&mut out, OP_COMPOSITE_EXTRACT, &[float, w, value, 3]);
-                    push(&mut out, OP_F_MUL, &[float, scaled_z, c_z, z]);
-                    push(&mut out, OP_F_MUL, &[float, scaled_w, c_w, w]);
-                    push(&mut out, OP_F_ADD, &[float, sum, scaled_z, scaled_w]);
-                    push(&mut out, OP_F_ADD, &[float, depth, sum, c_1]);
-                    push(
-                        &mut out,
-                        OP_COMPOSITE_INSERT,
-                        &[vec4, stored, depth, value, 2],
-                    );
+                    let stored = stored_depth(&mut out, &mut fresh, value, types, fit.as_ref());
                     match member_index {
                         Some((index, _)) => {
                             let pointer = fresh();
@@ -574,4 +565,50 @@ impl Module {
         out[3] = bound;
         Ok((out, fit.map(|f| f.leaf)))
     }
+}
+
+/// Emits `value` with its z replaced by `c_z * z + c_w * w + c_1` of revz's carrier (loaded
+/// from the push constants, or the baked constant; the fit's values where a deriving rewrite's
+/// selector picks them), and returns the id of the `vec4` to store.
+fn stored_depth<F: FnMut() -> u32>(
+    out: &mut Vec<u32>,
+    fresh: &mut F,
+    value: u32,
+    types: Types,
+    fit: Option<&Fit>,
+) -> u32 {
+    let Types { float, vec4, .. } = types;
+    let [carrier_pointer, carrier, c_z, c_w, c_1, z, w, scaled_z, scaled_w, sum, depth, stored] =
+        [0; 12].map(|_| fresh());
+    let carrier = match types.carrier {
+        CarrierIds::Pushed {
+            push_vec4,
+            push_variable,
+            carrier_index,
+        } => {
+            push(
+                out,
+                OP_ACCESS_CHAIN,
+                &[push_vec4, carrier_pointer, push_variable, carrier_index],
+            );
+            push(out, OP_LOAD, &[vec4, carrier, carrier_pointer]);
+            carrier
+        }
+        CarrierIds::Constant(composite) => composite,
+    };
+    push(out, OP_COMPOSITE_EXTRACT, &[float, c_z, carrier, 0]);
+    push(out, OP_COMPOSITE_EXTRACT, &[float, c_w, carrier, 1]);
+    push(out, OP_COMPOSITE_EXTRACT, &[float, c_1, carrier, 2]);
+    let [c_z, c_w, c_1] = match fit {
+        Some(fit) => fit.select_at_return(out, types, carrier, [c_z, c_w, c_1], fresh),
+        None => [c_z, c_w, c_1],
+    };
+    push(out, OP_COMPOSITE_EXTRACT, &[float, z, value, 2]);
+    push(out, OP_COMPOSITE_EXTRACT, &[float, w, value, 3]);
+    push(out, OP_F_MUL, &[float, scaled_z, c_z, z]);
+    push(out, OP_F_MUL, &[float, scaled_w, c_w, w]);
+    push(out, OP_F_ADD, &[float, sum, scaled_z, scaled_w]);
+    push(out, OP_F_ADD, &[float, depth, sum, c_1]);
+    push(out, OP_COMPOSITE_INSERT, &[vec4, stored, depth, value, 2]);
+    stored
 }

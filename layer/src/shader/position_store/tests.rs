@@ -1030,3 +1030,75 @@ fn a_register_reassigned_by_multiply_adds_of_the_columns_is_fitted() {
         Unsupported("Position is not a matrix times a vector")
     );
 }
+
+/// spirv-val for Vulkan 1.2 (mesh shaders need SPIR-V 1.4).
+fn validate_1_2(words: &[u32]) {
+    val::create(Some(TargetEnv::Vulkan_1_2))
+        .validate(words, None)
+        .unwrap_or_else(|e| panic!("spirv-val rejects the module: {e}"));
+}
+
+#[test]
+fn a_mesh_shader_stores_reversed_depth_where_it_stores_each_vertex() {
+    // The tester's mesh delivery (glslang): each invocation projects its triangle's three
+    // corners in a loop, the matrix loaded from push constants in the loop's body.
+    let words = binary(include_bytes!("../../../../shaders/glslang/mesh.mesh.spv"));
+    let rewrite = derive_position_store(&words, OFFSET)
+        .expect("rewritable")
+        .expect("has a Position");
+    validate_1_2(&rewrite.code);
+    assert_eq!(rewrite.source, MatrixSource::PushConstants);
+    assert!(!rewrite.assumes_input_unit_w);
+    // Every store of a vertex's Position stores the rewritten value: a composite insert of
+    // the new depth right before it, and the store of the original value is gone.
+    let stores = with_opcode(&rewrite.code, OP_STORE);
+    let inserted: Vec<u32> = with_opcode(&rewrite.code, OP_COMPOSITE_INSERT)
+        .iter()
+        .map(|i| i[1])
+        .collect();
+    let position_stores: Vec<_> = stores.iter().filter(|s| inserted.contains(&s[1])).collect();
+    assert_eq!(position_stores.len(), 1, "one store in the corner loop");
+    assert_eq!(
+        preceding(&rewrite.code, OP_STORE)
+            .iter()
+            .filter(|(opcode, _)| *opcode == OP_COMPOSITE_INSERT)
+            .count(),
+        1
+    );
+    // Nothing is stored at the return (no shadow), and the interface lists the fit's variable.
+    assert!(preceding(&rewrite.code, OP_RETURN)
+        .iter()
+        .all(|(opcode, _)| *opcode != OP_STORE));
+    // The carrier-only and the baked rewrites of it too.
+    let plain = rewrite_position_store(&words, OFFSET).unwrap().unwrap();
+    validate_1_2(&plain);
+    assert_carrier(&plain);
+    let baked = derive_position_store_reading(&words, CarrierRead::Baked([0.0, 0.0, 0.0, 1.0]))
+        .unwrap()
+        .unwrap();
+    validate_1_2(&baked.code);
+}
+
+#[test]
+fn mesh_shaders_whose_stored_depth_the_rewrite_cannot_follow_are_refused() {
+    let reason = |bytes: &[u8]| {
+        derive_position_store(&binary(bytes), OFFSET)
+            .map(|r| r.map(|r| r.source))
+            .err()
+    };
+    assert_eq!(
+        reason(include_bytes!("../test_data/mesh_component_store.spv")),
+        Some(Unsupported(
+            "a component of a mesh vertex's Position is stored on its own"
+        ))
+    );
+    assert_eq!(
+        reason(include_bytes!("../test_data/mesh_read_back.spv")),
+        Some(Unsupported("a mesh vertex's Position is read back"))
+    );
+    // A store in a block after the matrix's: another iteration could load it again between.
+    assert_eq!(
+        reason(include_bytes!("../test_data/mesh_two_stores.spv")),
+        Some(Unsupported("the projection is loaded in a loop"))
+    );
+}
