@@ -206,8 +206,9 @@ pub enum Program {
     /// the color at 64..80 for the fragment stage (each push split along them).
     SplitPush,
     /// The shaders and push constants of [`Program::SplitPush`] with the fragment stage's range
-    /// at 64..128 (the `push-full` [`Delivery`]): the layout's ranges fill a 128-byte device's
-    /// push constants, leaving no room for revz's carrier there.
+    /// from 64 to the device's last byte (the `push-full` [`Delivery`]): the layout's ranges
+    /// fill the device's push constants (128 bytes on lavapipe 22.3, 256 on 25.0), leaving no
+    /// room for revz's carrier.
     FullPush,
     /// The shaders and push constants of [`Program::Flat`] as unlinked vertex and fragment
     /// shader objects (`VK_EXT_shader_object`, the `shader-objects` [`Delivery`]): a bind of

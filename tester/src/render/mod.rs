@@ -354,9 +354,11 @@ pub(crate) fn split_ranges(program: Program) -> Option<&'static [vk::PushConstan
     }
 }
 
-/// The push-constant ranges of the [`Program::FullPush`] layout: [`SPLIT_PUSH_CONSTANT_RANGES`]
+/// The push-constant ranges of the [`Program::FullPush`] pushes: [`SPLIT_PUSH_CONSTANT_RANGES`]
 /// with the fragment stage's range to byte 128 (the shader reads 64..80), as applications
-/// that give a stage the rest of a 128-byte device's push constants lay them out.
+/// that give a stage the rest of a 128-byte device's push constants lay them out. Its layout
+/// runs the fragment range to the device's `maxPushConstantsSize` ([`full_push_ranges`]), so
+/// that no device leaves room for revz's carrier.
 pub(crate) const FULL_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 2] = [
     SPLIT_PUSH_CONSTANT_RANGES[0],
     vk::PushConstantRange {
@@ -365,6 +367,20 @@ pub(crate) const FULL_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 2] = [
         size: 64,
     },
 ];
+
+/// The [`Program::FullPush`] layout's ranges on a device with `max_push_constants_size`
+/// bytes (at least the 128 Vulkan guarantees): [`FULL_PUSH_CONSTANT_RANGES`] with the fragment
+/// stage's range to the device's last byte.
+fn full_push_ranges(max_push_constants_size: u32) -> [vk::PushConstantRange; 2] {
+    let [vertex, fragment] = FULL_PUSH_CONSTANT_RANGES;
+    [
+        vertex,
+        vk::PushConstantRange {
+            size: max_push_constants_size.max(128) - fragment.offset,
+            ..fragment
+        },
+    ]
+}
 
 /// The push-constant ranges of the [`Program::SplitPush`] layout: the matrix for the vertex
 /// stage, the color for the fragment stage.
@@ -528,11 +544,11 @@ impl<'a> Renderer<'a> {
             .iter()
             .any(|p| p.program == Program::FullPush)
         {
-            let layout_info = vk::PipelineLayoutCreateInfo::default()
-                .push_constant_ranges(&FULL_PUSH_CONSTANT_RANGES);
+            let ranges = full_push_ranges(gpu.limits().max_push_constants_size);
+            let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges);
             // SAFETY: valid device and create info.
             this.full_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
-                .context("vkCreatePipelineLayout (push constants filling 128 bytes) failed")?;
+                .context("vkCreatePipelineLayout (push constants filling the device's) failed")?;
         }
         if plan
             .pipelines
