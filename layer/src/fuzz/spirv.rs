@@ -35,7 +35,8 @@ const VERTEX_SEEDS: &[&[u8]] = seed_files!(
 );
 
 /// glslang modules of the later stages and translated shapes the `Position` rewrite follows
-/// (issue #41): the tester's geometry and tessellation stages, and the unit tests' shapes.
+/// (issue #41): the tester's geometry, tessellation and mesh stages, and the unit tests'
+/// shapes.
 const LATER_STAGE_SEEDS: &[&[u8]] = &[
     include_bytes!("../../../shaders/glslang/ubo.geom.spv"),
     include_bytes!("../../../shaders/glslang/push.geom.spv"),
@@ -43,6 +44,8 @@ const LATER_STAGE_SEEDS: &[&[u8]] = &[
     include_bytes!("../../../shaders/glslang/ssbo_rows.vert.spv"),
     include_bytes!("../../../shaders/glslang/ssbo_registers.vert.spv"),
     include_bytes!("../../../shaders/glslang/ssbo_columns.vert.spv"),
+    include_bytes!("../../../shaders/glslang/mesh.mesh.spv"),
+    include_bytes!("../shader/test_data/mesh_two_stores.spv"),
     include_bytes!("../shader/test_data/components_assembled.spv"),
     include_bytes!("../shader/test_data/geometry_unrolled.spv"),
     include_bytes!("../shader/test_data/geometry_push_viewports.spv"),

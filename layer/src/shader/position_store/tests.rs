@@ -1102,3 +1102,28 @@ fn mesh_shaders_whose_stored_depth_the_rewrite_cannot_follow_are_refused() {
         Some(Unsupported("the projection is loaded in a loop"))
     );
 }
+
+#[test]
+fn a_mesh_shader_with_an_array_of_positions_as_dxc_writes_it_is_rewritten_where_it_stores() {
+    use spirv_tools::assembler::{self, Assembler as _};
+    let text = include_str!("../test_data/mesh_position_array.spvasm");
+    let words = assembler::create(Some(TargetEnv::Vulkan_1_2))
+        .assemble(text, assembler::AssemblerOptions::default())
+        .expect("assembles")
+        .as_words()
+        .to_vec();
+    validate_1_2(&words);
+    let rewrite = derive_position_store(&words, OFFSET)
+        .expect("rewritable")
+        .expect("has a Position");
+    validate_1_2(&rewrite.code);
+    assert_eq!(rewrite.source, MatrixSource::PushConstants);
+    // The one store of a corner's position stores the rewritten value.
+    assert_eq!(
+        preceding(&rewrite.code, OP_STORE)
+            .iter()
+            .filter(|(opcode, _)| *opcode == OP_COMPOSITE_INSERT)
+            .count(),
+        1
+    );
+}
