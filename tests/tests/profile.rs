@@ -88,7 +88,9 @@ const INPUT_ATTACHMENT: u64 = 0x80;
 ///   depth: flip); a program whose push constants fill the 128 bytes (`MvpPair`: no room for
 ///   revz's carrier) takes the precise path with the range its stage fits (issue #41);
 /// - the cameras: none in `flip` mode or for buffer deliveries (their range is fitted by the
-///   vertex stage); in the precise modes with push constants, each camera's near plane is
+///   vertex stage); in the precise modes with push constants (read on the CPU from a vertex
+///   stage's, and from a geometry stage's that loads the matrix whole: `push-geometry`, whose
+///   stage also fits it, issue #41), each camera's near plane is
 ///   the one a pushed float32 matrix holds (computed in f64 by the tester), near the scene's,
 ///   and together the cameras matched at least one matrix and no more than the draws.
 fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Value) {
@@ -258,7 +260,7 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
         .unwrap()
         .iter()
         .any(|d| d["program"] != "MvpPair");
-    let pushed = matches!(delivery, "push" | "push-split")
+    let pushed = matches!(delivery, "push" | "push-split" | "push-geometry")
         && mode != "flip"
         && !application_reversed
         && cpu_projections;

@@ -717,13 +717,16 @@ impl CommandState {
     /// camera's reversed depth line on the precise path, the shader's own z everywhere else.
     #[inline]
     fn carrier_values(&self, outcome: Option<Outcome>) -> [f32; 4] {
+        // A projection the CPU classified as a camera's: its line (selector 0, which a stage
+        // that also derives its range keeps: issue #41, a later stage's push-constant matrix).
+        if let (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) = (self.target, outcome)
+        {
+            return carrier;
+        }
         if let Some((target, convention)) = self.derived_use() {
             return derived_selector(target, convention);
         }
-        match (self.target, outcome) {
-            (Target::Reversed, Some(Outcome::Rewritten { carrier, .. })) => carrier,
-            _ => FLIP_CARRIER,
-        }
+        FLIP_CARRIER
     }
 
     /// Infinite mode: a rewritten projection tells n / f, which flip-path state follows.

@@ -1940,3 +1940,52 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
         );
     }
 }
+
+/// A pipeline whose later stage fits the matrix it loads from push-constant bytes 0..64, which
+/// the CPU classifies too (issue #41: a mesh, geometry or tessellation evaluation stage's
+/// push-constant projection).
+fn classified_and_derived_pipeline() -> Arc<PipelineDepth> {
+    Arc::new(PipelineDepth {
+        derived_range: Some(MatrixSource::PushConstants),
+        ..(*projection_pipeline()).clone()
+    })
+}
+
+#[test]
+fn a_stage_fitting_a_pushed_matrix_the_cpu_classifies_gets_the_cameras_line_else_its_fit() {
+    for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
+        let mut state = precise(target);
+        let reversal = state.reversal();
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.bind_pipeline(Some(classified_and_derived_pipeline()));
+        // A camera's projection: its line (selector 0, the stage keeps it), as a vertex
+        // stage's pushed projection gets.
+        state.push_constants(layout(), OTHER_STAGES, 0, &perspective_bytes());
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        let (_, carrier) = sink.pushed.last().expect("the carrier goes down").clone();
+        let values: Vec<f32> = carrier
+            .chunks_exact(4)
+            .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        assert_eq!(values[3], 0.0, "selector 0: the pushed line");
+        assert_ne!(values[1..3], [0.0, 0.0], "the camera's k and B");
+        // An affine matrix (no camera): the stage's own fit, its selector.
+        let mut affine = [0u8; 64];
+        for (i, v) in [
+            1.0f32, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5, 1.0,
+        ]
+        .iter()
+        .enumerate()
+        {
+            affine[i * 4..i * 4 + 4].copy_from_slice(&v.to_ne_bytes());
+        }
+        state.push_constants(layout(), OTHER_STAGES, 0, &affine);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        let (_, carrier) = sink.pushed.last().unwrap().clone();
+        let selector = f32::from_ne_bytes(carrier[12..16].try_into().unwrap());
+        assert!(selector >= 1.0, "the fit's selector: {selector}");
+    }
+}

@@ -40,6 +40,10 @@ pub type RewrittenVertex = Result<VertexRewrite, crate::shader::position_store::
 pub struct VertexRewrite {
     pub code: Arc<[u32]>,
     pub derived: Option<crate::shader::derived_range::MatrixSource>,
+    /// Where a deriving rewrite's matrix lies in the push constants, where the stage loads it
+    /// whole from a member of its block: the CPU can classify it as it does a vertex stage's
+    /// projection (`crate::shader::derived_range::Leaf::push_slot`).
+    pub push_slot: Option<crate::shader::analysis::ProjectionSlot>,
     /// The stage projects the previous stage's `Position`: the pipeline takes the precise
     /// path only where that stage stores w = 1 (`DeviceObjects::position_w_one`).
     pub needs_input_unit_w: bool,

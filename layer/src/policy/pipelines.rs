@@ -544,6 +544,9 @@ impl PromotionFacts {
 pub enum PipelinePath<'a> {
     /// The precise path, with the projection in its push constants.
     Pushed(ProjectionUse),
+    /// The same, read by a stage that also fits the matrix itself where it is no camera's (a
+    /// later stage's push-constant projection, issue #41).
+    PushedAndFitted(ProjectionUse),
     /// The precise path, its vertex stage deriving the range from the matrix it loads.
     Derived(MatrixSource),
     /// The same with the carrier baked into its reversed variants (its layout has no room for
@@ -568,7 +571,8 @@ impl<'a> PipelinePath<'a> {
         flip_reason: Option<&'a str>,
     ) -> PipelinePath<'a> {
         match (projection, flip_reason, derived) {
-            (Some(projection), _, _) => PipelinePath::Pushed(projection),
+            (Some(projection), _, Some(_)) => PipelinePath::PushedAndFitted(projection),
+            (Some(projection), _, None) => PipelinePath::Pushed(projection),
             (None, Some(reason), _) => PipelinePath::Flip(reason),
             (None, None, Some(source)) if baked => PipelinePath::Baked(source),
             (None, None, Some(source)) => PipelinePath::Derived(source),
@@ -580,9 +584,10 @@ impl<'a> PipelinePath<'a> {
     #[must_use]
     pub fn label(&self) -> &'static str {
         match self {
-            PipelinePath::Pushed(_) | PipelinePath::Derived(_) | PipelinePath::Baked(_) => {
-                "precise"
-            }
+            PipelinePath::Pushed(_)
+            | PipelinePath::PushedAndFitted(_)
+            | PipelinePath::Derived(_)
+            | PipelinePath::Baked(_) => "precise",
             PipelinePath::Flip(_) | PipelinePath::NotRewritten => "flip",
         }
     }
@@ -594,6 +599,13 @@ impl std::fmt::Display for PipelinePath<'_> {
             PipelinePath::Pushed(projection) => write!(
                 f,
                 "push-constant bytes {}..{}",
+                projection.offset,
+                projection.end()
+            ),
+            PipelinePath::PushedAndFitted(projection) => write!(
+                f,
+                "push-constant bytes {}..{}, fitted by the shader where they hold no camera's \
+                 projection",
                 projection.offset,
                 projection.end()
             ),
@@ -1492,10 +1504,18 @@ mod tests {
             convention: revz_math::DepthConvention::ZeroToOne,
         };
         let derived = Some(MatrixSource::UniformBuffer);
-        let pushed = PipelinePath::of(Some(projection), derived, false, Some("ignored"));
+        let pushed = PipelinePath::of(Some(projection), None, false, Some("ignored"));
         assert_eq!(pushed, PipelinePath::Pushed(projection));
         assert_eq!(pushed.label(), "precise");
         assert_eq!(pushed.to_string(), "push-constant bytes 64..128");
+        let both = PipelinePath::of(Some(projection), derived, false, None);
+        assert_eq!(both, PipelinePath::PushedAndFitted(projection));
+        assert_eq!(both.label(), "precise");
+        assert_eq!(
+            both.to_string(),
+            "push-constant bytes 64..128, fitted by the shader where they hold no camera's \
+             projection"
+        );
         let flip = PipelinePath::of(None, derived, true, Some("its code is not given"));
         assert_eq!(flip, PipelinePath::Flip("its code is not given"));
         assert_eq!(flip.label(), "flip");

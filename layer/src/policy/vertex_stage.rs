@@ -19,7 +19,7 @@ use revz_math::Target as RewriteTarget;
 
 use crate::objects::ModuleAnalysis;
 use crate::precise::ProjectionUse;
-use crate::shader::analysis::Analysis;
+use crate::shader::analysis::{Analysis, ProjectionSlot};
 use crate::shader::derived_range::MatrixSource;
 use crate::shader::position_store::Unsupported;
 
@@ -224,6 +224,11 @@ pub struct VertexStageFacts<'a> {
     /// Its vertex module's `Position` rewrite: where its stage derives the range from (`None`:
     /// it does not), or why it has none.
     pub rewrite: Result<Option<MatrixSource>, Missing>,
+    /// Where the matrix a deriving rewrite fits lies in the push constants, where the stage
+    /// loads it whole from a member of its block (`None` otherwise): a stage naga does not
+    /// read (tessellation evaluation, geometry, mesh) gets its projection classified on the
+    /// CPU from it too, the fit kept for the matrices that do not classify.
+    pub derived_slot: Option<ProjectionSlot>,
     /// The rewritten stage projects the previous stage's `Position` (`gl_in[i].gl_Position`),
     /// and whether that stage stores it with w = 1: `None` where the rewrite needs nothing of
     /// the stage before.
@@ -385,6 +390,14 @@ impl VertexStageFacts<'_> {
         if projection.is_none() && derived.is_none() {
             return Err("Position does not come from a push-constant matrix".into());
         }
+        // A stage that fits a matrix it loads whole from push constants: the CPU classifies
+        // it too (the camera's range where it finds one, the fit otherwise), where the
+        // layout's ranges and a static convention let it read the bytes.
+        let projection = projection.or_else(|| {
+            let (slot, convention, ranges) = (self.derived_slot?, self.convention?, self.ranges?);
+            derived?;
+            ProjectionUse::new(&slot, convention, ranges).ok()
+        });
         self.unit_w_checked(stage)?;
         Ok(VertexRange {
             projection,
@@ -573,6 +586,7 @@ mod tests {
             baked: None,
             rewrite: Ok(None),
             input_unit_w: None,
+            derived_slot: None,
         }
     }
 
@@ -582,6 +596,44 @@ mod tests {
         let range = pushed(&analysis).decide().unwrap();
         assert_eq!(range.projection.map(|p| p.offset), Some(0));
         assert_eq!(range.derived, None);
+    }
+
+    #[test]
+    fn a_later_stage_fitting_a_pushed_matrix_gets_it_classified_where_the_cpu_can_read_it() {
+        for stage in [
+            LastStage::Mesh,
+            LastStage::Geometry,
+            LastStage::TessellationEvaluation,
+        ] {
+            let facts = VertexStageFacts {
+                last_stage: Some(stage),
+                analysis: Ok(None),
+                rewrite: Ok(Some(MatrixSource::PushConstants)),
+                derived_slot: Some(slot()),
+                ..pushed(&Analysis::NoPushConstants)
+            };
+            let range = facts.decide().unwrap();
+            assert_eq!(range.projection.map(|p| p.offset), Some(0), "{stage:?}");
+            assert_eq!(range.derived, Some(MatrixSource::PushConstants));
+            // A dynamic convention, or bytes outside the layout's ranges: the fit alone.
+            for unreadable in [
+                VertexStageFacts {
+                    convention: None,
+                    ..facts
+                },
+                VertexStageFacts {
+                    derived_slot: Some(ProjectionSlot {
+                        offset: 64,
+                        ..slot()
+                    }),
+                    ..facts
+                },
+            ] {
+                let range = unreadable.decide().unwrap();
+                assert_eq!(range.projection, None, "{stage:?}");
+                assert_eq!(range.derived, Some(MatrixSource::PushConstants));
+            }
+        }
     }
 
     #[test]

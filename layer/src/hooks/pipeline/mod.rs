@@ -697,6 +697,18 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         p.storage,
                         p.convention
                     ),
+                    PipelinePath::PushedAndFitted(p) => log::debug!(
+                        "pipeline {pipeline:?}: projection at push-constant bytes {}..{} \
+                         ({:?}, {:?}), read by its {} stage, which derives the range from \
+                         the matrix it loads where it is no camera's (precise path)",
+                        p.offset,
+                        p.end(),
+                        p.storage,
+                        p.convention,
+                        plan.rewritten_stage
+                            .unwrap_or(vertex_stage::LastStage::Vertex)
+                            .name(),
+                    ),
                     PipelinePath::Flip(reason) => {
                         log::debug!("pipeline {pipeline:?}: flip path ({reason})")
                     }

@@ -239,6 +239,7 @@ pub(super) fn position_store_of(
                     Ok(VertexRewrite {
                         code: code.into(),
                         derived: None,
+                        push_slot: None,
                         needs_input_unit_w: false,
                     })
                 }),
@@ -250,6 +251,7 @@ pub(super) fn position_store_of(
                     Ok(VertexRewrite {
                         code: rewrite.code.into(),
                         derived: Some(rewrite.source),
+                        push_slot: rewrite.push_slot,
                         needs_input_unit_w: rewrite.assumes_input_unit_w,
                     })
                 }),

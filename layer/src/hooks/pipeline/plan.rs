@@ -238,6 +238,7 @@ pub(super) fn projection_of(
             .as_ref()
             .map(|b| b.as_ref().map(|r| r.source).map_err(|reason| *reason)),
         rewrite: rewrite.as_ref().map(|r| r.derived).map_err(|m| *m),
+        derived_slot: rewrite.as_ref().ok().and_then(|r| r.push_slot),
         input_unit_w,
     };
     let range = facts.decide()?;

@@ -131,6 +131,11 @@ pub struct Leaf {
     pub rows: Option<[u32; 2]>,
     pub insert: Insert,
     pub source: MatrixSource,
+    /// Where the matrix lies in the push constants, where the stage loads it whole from a
+    /// member of its push-constant block (a constant access chain, no array index): the CPU
+    /// can read it from the pushed bytes as it reads a vertex stage's
+    /// (`crate::shader::analysis`, which reads no later stage). `None` otherwise.
+    pub push_slot: Option<crate::shader::analysis::ProjectionSlot>,
     /// Other loads of the same matrix (the same read-only location, loaded again by code
     /// written without a loop: a geometry shader's `P * p` before each emit), each with the
     /// word index of its definition: the fit runs after each of them too. Empty: none.
@@ -196,6 +201,11 @@ pub struct ModuleFacts<'a> {
     pub input_positions: &'a HashMap<u32, u32>,
     /// 32-bit integer constants: id -> value.
     pub int_constants: &'a HashMap<u32, u32>,
+    /// Member decorations: (struct, member) -> `Offset` / `MatrixStride`; the members
+    /// decorated `RowMajor`.
+    pub member_offsets: &'a HashMap<(u32, u32), u32>,
+    pub member_matrix_strides: &'a HashMap<(u32, u32), u32>,
+    pub row_major_members: &'a HashSet<(u32, u32)>,
     /// The `GLSL.std.450` import, if the module has one (`Fma`).
     pub glsl_std: Option<u32>,
     /// The entry points' functions (which run once per invocation).

@@ -959,13 +959,17 @@ pub fn find(
         Some((_, _, operands)) => operands.first().copied(),
         None => None,
     };
+    let mut push_slot = None;
     let (insert, source) = match defs.at.get(&id) {
         Some((at, opcode, operands)) => {
             let source = match (*opcode, operands.as_slice()) {
                 (OP_PHI | OP_FUNCTION_PARAMETER, _) => {
                     return Err(Unsupported("the matrix is a phi or a parameter"))
                 }
-                (OP_LOAD, &[_, _, pointer, ..]) => source_of(module, &defs, pointer),
+                (OP_LOAD, &[_, _, pointer, ..]) => {
+                    push_slot = push_constant_slot(module, &defs, pointer, transposed);
+                    source_of(module, &defs, pointer)
+                }
                 // A matrix member of a loaded block (naga loads the whole block).
                 (OP_COMPOSITE_EXTRACT, &[_, _, composite, ..]) => match defs.at.get(&composite) {
                     Some((_, OP_LOAD, loaded)) => loaded
@@ -1004,7 +1008,41 @@ pub fn find(
         copies: copy_slots,
         insert,
         source,
+        push_slot,
         assumes_input_unit_w: defs.assumed_input_w.get(),
+    })
+}
+
+/// Where a matrix loaded through `pointer` lies in the push constants: `pointer` is a constant
+/// access chain to one member of a push-constant block (no array index), with an offset and a
+/// matrix stride. `transposed` (`v * M`): the matrix used is the loaded one's transpose, whose
+/// rows are the loaded one's columns. The caller checks the matrix is 4x4.
+fn push_constant_slot(
+    module: &ModuleFacts<'_>,
+    defs: &Defs,
+    pointer: u32,
+    transposed: bool,
+) -> Option<crate::shader::analysis::ProjectionSlot> {
+    let (_, opcode, operands) = defs.at.get(&pointer)?;
+    let &[_, _, base, index] = operands.as_slice() else {
+        return None;
+    };
+    if !matches!(*opcode, OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN) {
+        return None;
+    }
+    let &(variable_type, class) = module.variables.get(&base)?;
+    if class != STORAGE_PUSH_CONSTANT {
+        return None;
+    }
+    let &(_, block) = module.pointers.get(&variable_type)?;
+    let member = *module.int_constants.get(&index)?;
+    let key = (block, member);
+    Some(crate::shader::analysis::ProjectionSlot {
+        offset: *module.member_offsets.get(&key)?,
+        matrix_stride: *module.member_matrix_strides.get(&key)?,
+        row_major: module.row_major_members.contains(&key) != transposed,
+        columns: 4,
+        rows: 4,
     })
 }
 
@@ -1052,6 +1090,7 @@ fn written_out_leaf(
         copies: [None; MAX_LEAF_COPIES],
         insert: Insert::After(at),
         source,
+        push_slot: None,
         assumes_input_unit_w: defs.assumed_input_w.get(),
     })
 }

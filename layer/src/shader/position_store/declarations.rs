@@ -72,6 +72,9 @@ impl Module {
                 (OP_MEMBER_DECORATE, &[ty, member, DECORATION_OFFSET, offset]) => {
                     m.member_offsets.insert((ty, member), offset);
                 }
+                (OP_MEMBER_DECORATE, &[ty, member, DECORATION_ROW_MAJOR]) => {
+                    m.row_major_members.insert((ty, member));
+                }
                 (OP_MEMBER_DECORATE, &[ty, member, DECORATION_MATRIX_STRIDE, stride]) => {
                     m.member_matrix_strides.insert((ty, member), stride);
                 }
@@ -210,6 +213,9 @@ impl Module {
             inputs_are_attributes: self.model == scan_model::VERTEX,
             input_positions,
             int_constants: &self.int_constants,
+            member_offsets: &self.member_offsets,
+            member_matrix_strides: &self.member_matrix_strides,
+            row_major_members: &self.row_major_members,
             glsl_std: self.glsl_std,
             entry_functions: &self.entry_functions,
             unit_vectors: &self.unit_vectors,

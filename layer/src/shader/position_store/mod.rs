@@ -57,6 +57,7 @@ const DECORATION_BLOCK: u32 = 2;
 const DECORATION_ARRAY_STRIDE: u32 = 6;
 const DECORATION_MATRIX_STRIDE: u32 = 7;
 const DECORATION_BUILT_IN: u32 = 11;
+const DECORATION_ROW_MAJOR: u32 = 4;
 const DECORATION_OFFSET: u32 = 35;
 const BUILT_IN_POSITION: u32 = 0;
 /// SPIR-V 1.4: entry point interfaces list every global variable they use.
@@ -110,6 +111,9 @@ pub struct DerivingRewrite {
     pub code: Vec<u32>,
     /// Where the matrix the stage fits comes from.
     pub source: MatrixSource,
+    /// Where it lies in the push constants, where the stage loads it whole from a member of
+    /// its push-constant block ([`derived_range::Leaf::push_slot`]).
+    pub push_slot: Option<crate::shader::analysis::ProjectionSlot>,
     /// The matrix multiplies the previous stage's `Position` (`gl_in[i].gl_Position`): its w
     /// is 1 only where that stage stores w = 1 ([`stores_position_w_one`]), which the
     /// pipeline must check.
@@ -135,6 +139,7 @@ pub fn derive_position_store_reading(
         code.map(|(code, leaf)| DerivingRewrite {
             code,
             source: leaf.map_or(MatrixSource::Computed, |l| l.source),
+            push_slot: leaf.and_then(|l| l.push_slot),
             assumes_input_unit_w: leaf.is_some_and(|l| l.assumes_input_unit_w),
         })
     })
@@ -226,6 +231,8 @@ struct Module {
     /// Member decorations: (struct, member) -> Offset / MatrixStride; type -> ArrayStride.
     member_offsets: HashMap<(u32, u32), u32>,
     member_matrix_strides: HashMap<(u32, u32), u32>,
+    /// Members decorated `RowMajor`.
+    row_major_members: HashSet<(u32, u32)>,
     array_strides: HashMap<u32, u32>,
     /// Where each id is declared (word index), for declaration-order checks.
     declared_at: HashMap<u32, usize>,

@@ -1127,3 +1127,39 @@ fn a_mesh_shader_with_an_array_of_positions_as_dxc_writes_it_is_rewritten_where_
         1
     );
 }
+
+#[test]
+fn a_matrix_loaded_whole_from_a_push_constant_member_is_located_for_the_cpu() {
+    let slot = |words: &[u32]| {
+        derive_position_store(words, OFFSET)
+            .expect("rewritable")
+            .expect("has a Position")
+            .push_slot
+    };
+    let column_major = Some(crate::shader::analysis::ProjectionSlot {
+        offset: 0,
+        matrix_stride: 16,
+        row_major: false,
+        columns: 4,
+        rows: 4,
+    });
+    // The mesh and geometry deliveries: `pc.mvp` at byte 0 of their push-constant block.
+    let mesh = binary(include_bytes!("../../../../shaders/glslang/mesh.mesh.spv"));
+    assert_eq!(slot(&mesh), column_major);
+    let geometry = binary(include_bytes!("../../../../shaders/glslang/push.geom.spv"));
+    assert_eq!(slot(&geometry), column_major);
+    // A uniform buffer's matrix, and push constants indexed by the invocation: none.
+    let ubo = binary(include_bytes!("../../../../shaders/glslang/ubo.geom.spv"));
+    assert_eq!(slot(&ubo), None);
+    let indexed = binary(include_bytes!("../test_data/geometry_push_viewports.spv"));
+    let indexed = derive_position_store(&indexed, 240).unwrap().unwrap();
+    assert_eq!(indexed.push_slot, None);
+    // A row-major member read as `v * M`: the matrix used is its transpose, whose rows are
+    // the member's columns.
+    let row_major_vector = binary(include_bytes!("../test_data/row_major_vector_push.spv"));
+    let found = slot(&row_major_vector).expect("located");
+    assert!(
+        !found.row_major,
+        "rows of the member, columns of the matrix used"
+    );
+}
