@@ -1810,6 +1810,11 @@ fn the_push_shortcut_leaves_the_state_as_the_full_path_does() {
         dynamic_viewports,
         viewports_static(APP_PIPELINE + 4, vk::CompareOp::LESS),
         viewports_static(APP_PIPELINE + 5, vk::CompareOp::GREATER),
+        // A later stage whose pushed projection the CPU classifies, its fit kept (issue #41).
+        Arc::new(PipelineDepth {
+            handle: vk::Pipeline::from_raw(APP_PIPELINE + 7),
+            ..(*classified_and_derived_pipeline()).clone()
+        }),
     ];
     let layouts = [layout(), vk::PipelineLayout::from_raw(4)];
     for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
