@@ -504,6 +504,46 @@ pub fn compare_depth(
     result
 }
 
+/// What is wrong with `layered`, a render of `native`'s scene through revz, where it must keep
+/// the native colors: its depth attachment not reversed (its log says so per image), or
+/// colors that differ where the ground truth does not explain it
+/// ([`unexplained_color_differences`]). `what` names the case in the problems and in the
+/// record printed (shown with `--nocapture`).
+pub fn native_colors_problems(
+    native: &Render,
+    layered: &Render,
+    truth: &GroundTruth,
+    what: &str,
+) -> Vec<String> {
+    let mut problems = Vec::new();
+    let log = layered.stderr();
+    if !log.contains("): reversed") {
+        problems.push(format!(
+            "{what}: the depth attachment was not reversed: {log}"
+        ));
+    }
+    let (a, b) = (native.color(), layered.color());
+    let unexplained = unexplained_color_differences(&a, &b, truth);
+    eprintln!(
+        "{what}: {} color pixels differ from the native render, {} unexplained",
+        differing_pixels(&a, &b),
+        unexplained.len()
+    );
+    if !unexplained.is_empty() {
+        problems.push(format!(
+            "{what}: {} pixels differ where the ground truth does not explain it: {}",
+            unexplained.len(),
+            unexplained
+                .iter()
+                .take(8)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+    }
+    problems
+}
+
 /// The pixels where `layered`'s colors differ from `native`'s that the ground truth does not
 /// explain, described. A difference is explained at a pixel that is not interior (a silhouette
 /// or an intersection line: two surfaces meet near its center) where `layered` shows the

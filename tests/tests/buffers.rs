@@ -57,10 +57,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use revz_tests::{
-    clean_command, differing_pixels, unexplained_color_differences, GroundTruth, Harness, Render,
-    BACKGROUND,
-};
+use revz_tests::{clean_command, native_colors_problems, GroundTruth, Harness, Render, BACKGROUND};
 
 /// The deliveries other than push: `push-split` (push's constants in a range per stage, the
 /// vertex stage's first: revz extends it over the fragment stage's, issue #41), `push-full`
@@ -437,33 +434,8 @@ fn overlap_keeps_the_native_colors_in_every_mode() {
         let truth = native.ground_truth();
         for mode in ["flip", "complementary", "infinite"] {
             let layered = render(&harness, scene, delivery, Some(mode));
-            if !layered.stderr().contains("): reversed") {
-                problems.push(format!(
-                    "{delivery} {mode}: the depth attachment was not reversed: {}",
-                    layered.stderr()
-                ));
-            }
-            let (a, b) = (native.color(), layered.color());
-            let unexplained = unexplained_color_differences(&a, &b, &truth);
-            eprintln!(
-                "overlap {delivery} {mode}: {} color pixels differ from the native render, {} \
-                 unexplained",
-                differing_pixels(&a, &b),
-                unexplained.len()
-            );
-            if !unexplained.is_empty() {
-                problems.push(format!(
-                    "{delivery} {mode}: {} pixels differ where the ground truth does not \
-                     explain it: {}",
-                    unexplained.len(),
-                    unexplained
-                        .iter()
-                        .take(8)
-                        .cloned()
-                        .collect::<Vec<_>>()
-                        .join("; ")
-                ));
-            }
+            let what = format!("overlap {delivery} {mode}");
+            problems.extend(native_colors_problems(&native, &layered, &truth, &what));
         }
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
