@@ -55,9 +55,10 @@ impl<'a> Renderer<'a> {
             .buffer_info(&buffer_info)];
         // SAFETY: valid set and buffer; the info matches the binding type.
         unsafe { device.update_descriptor_sets(&writes, &[]) };
+        let ranges = super::pair_push_constant_ranges(gpu.limits().max_push_constants_size);
         let layout_info = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
-            .push_constant_ranges(&PAIR_PUSH_CONSTANT_RANGES);
+            .push_constant_ranges(&ranges);
         // SAFETY: valid device and create info.
         self.pair_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
             .context("vkCreatePipelineLayout (model-view-projection pair) failed")?;

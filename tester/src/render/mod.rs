@@ -397,12 +397,19 @@ pub(crate) const SPLIT_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 2] = [
     },
 ];
 
-/// The push-constant range of the [`Program::MvpPair`] layout: two matrices, vertex stage only.
-const PAIR_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
-    stage_flags: vk::ShaderStageFlags::VERTEX,
-    offset: 0,
-    size: 128,
-}];
+/// The push-constant range of the [`Program::MvpPair`] layout on a device with
+/// `max_push_constants_size` bytes: two matrices (128 bytes), vertex stage only, the range
+/// running to the device's last byte, so that, as on a 128-byte device, the layout leaves no
+/// room for revz's carrier on any device (lavapipe 25.0 has 256 bytes).
+pub(super) fn pair_push_constant_ranges(
+    max_push_constants_size: u32,
+) -> [vk::PushConstantRange; 1] {
+    [vk::PushConstantRange {
+        stage_flags: vk::ShaderStageFlags::VERTEX,
+        offset: 0,
+        size: max_push_constants_size.max(128),
+    }]
+}
 
 impl<'a> Renderer<'a> {
     /// The pipelines, one per plan pipeline.
