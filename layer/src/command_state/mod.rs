@@ -136,11 +136,13 @@ impl Default for Reversing {
 }
 
 /// The shader stages whose `Position` may be rasterized, latest last: with shader objects the
-/// last of them bound is (where no mesh shader is).
-pub const POSITION_STAGES: [vk::ShaderStageFlags; 3] = [
+/// last of them bound is (a mesh shader, where one is bound: the others are then unbound for
+/// any valid draw).
+pub const POSITION_STAGES: [vk::ShaderStageFlags; 4] = [
     vk::ShaderStageFlags::VERTEX,
     vk::ShaderStageFlags::TESSELLATION_EVALUATION,
     vk::ShaderStageFlags::GEOMETRY,
+    vk::ShaderStageFlags::MESH_EXT,
 ];
 
 /// Where [`CommandState::before_draw`] sends state (the next layer, in production).
@@ -237,13 +239,10 @@ pub struct CommandState {
     fragment_shader: (vk::ShaderEXT, Option<FragmentShader>),
     /// Whether revz bound the bound fragment shader object's reversed variant in its place.
     shader_variant_bound: bool,
-    /// The shader objects the application bound to the vertex, tessellation evaluation and
-    /// geometry stages ([`POSITION_STAGES`]; null: none), and what revz knows of them where
-    /// they store `Position` (precise modes).
-    position_shaders: [(vk::ShaderEXT, Option<PositionShader>); 3],
-    /// A shader object is bound to the mesh stage: no pre-rasterization shader of
-    /// `position_shaders` is rasterized.
-    mesh_shader_bound: bool,
+    /// The shader objects the application bound to the vertex, tessellation evaluation,
+    /// geometry and mesh stages ([`POSITION_STAGES`]; null: none), and what revz knows of them
+    /// where they store `Position` (precise modes).
+    position_shaders: [(vk::ShaderEXT, Option<PositionShader>); POSITION_STAGES.len()],
     /// The stage (index in [`POSITION_STAGES`]) whose application shader revz replaced by its
     /// baked variant, and that variant.
     position_variant_bound: Option<(usize, vk::ShaderEXT)>,
@@ -310,8 +309,7 @@ impl Default for CommandState {
             pushed_since_bind: false,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
-            position_shaders: [(vk::ShaderEXT::null(), None); 3],
-            mesh_shader_bound: false,
+            position_shaders: [(vk::ShaderEXT::null(), None); POSITION_STAGES.len()],
             position_variant_bound: None,
             shader_objects: false,
             inherits_viewports: false,
@@ -556,9 +554,9 @@ impl CommandState {
 
     /// With shader objects bound: the last pre-rasterization stage's (index in
     /// [`POSITION_STAGES`]), the application's shader there, and its variant with the
-    /// carrier baked in, where it has one (no mesh shader bound).
+    /// carrier baked in, where it has one.
     fn baked_shader(&self) -> Option<(usize, vk::ShaderEXT, vk::ShaderEXT)> {
-        if !self.shader_objects || self.mesh_shader_bound {
+        if !self.shader_objects {
             return None;
         }
         let last = self
@@ -925,8 +923,7 @@ impl CommandState {
             self.shader_objects = false;
             self.fragment_shader = (vk::ShaderEXT::null(), None);
             self.shader_variant_bound = false;
-            self.position_shaders = [(vk::ShaderEXT::null(), None); 3];
-            self.mesh_shader_bound = false;
+            self.position_shaders = [(vk::ShaderEXT::null(), None); POSITION_STAGES.len()];
             self.position_variant_bound = None;
         }
     }
@@ -942,13 +939,11 @@ impl CommandState {
     /// the call binds to the fragment stage (null: it unbinds the stage) and what revz knows of
     /// it, when the call names that stage; the fragment stage is left as it is otherwise (a
     /// variant revz bound stays in place of the application's shader). The same for the
-    /// stages of [`POSITION_STAGES`] (`position`, each where the call names it) and whether the
-    /// mesh stage gets a shader (`mesh`, where the call names it).
+    /// stages of [`POSITION_STAGES`] (`position`, each where the call names it).
     pub fn bind_shaders(
         &mut self,
         fragment: Option<(vk::ShaderEXT, Option<FragmentShader>)>,
-        position: [Option<(vk::ShaderEXT, Option<PositionShader>)>; 3],
-        mesh: Option<bool>,
+        position: [Option<(vk::ShaderEXT, Option<PositionShader>)>; POSITION_STAGES.len()],
     ) {
         self.bind_graphics(None);
         self.shader_objects = true;
@@ -968,9 +963,6 @@ impl CommandState {
                     self.position_variant_bound = None;
                 }
             }
-        }
-        if let Some(mesh) = mesh {
-            self.mesh_shader_bound = mesh;
         }
     }
 

@@ -258,7 +258,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
     let variant = vk::ShaderEXT::from_raw(21);
     let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
     let mut state = begun(Target::Reversed);
-    state.bind_shaders(fragment, [None; 3], None);
+    state.bind_shaders(fragment, [None; 4]);
     let mut sink = Recorded::default();
     state.before_draw(&mut sink);
     state.before_draw(&mut sink);
@@ -270,7 +270,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
     assert!(sink.binds.is_empty());
 
     // Binding other stages leaves the variant in place of the application's shader.
-    state.bind_shaders(None, [None; 3], None);
+    state.bind_shaders(None, [None; 4]);
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant]);
 
@@ -282,7 +282,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
 
     // The application binds its shader again (it goes down): native draws need nothing,
     // reversed ones the variant again.
-    state.bind_shaders(fragment, [None; 3], None);
+    state.bind_shaders(fragment, [None; 4]);
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant, shader]);
     state.set_target(Target::Reversed);
@@ -305,7 +305,7 @@ fn a_baked_vertex_shader_object_takes_the_precise_path_where_it_is_the_last_stag
         let mut state = precise(target);
         let reversal = state.reversal();
         state.begin(Target::Reversed, reversal, Default::default());
-        state.bind_shaders(None, [baked, None, None], None);
+        state.bind_shaders(None, [baked, None, None, None]);
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
         state.before_draw(&mut sink);
@@ -324,22 +324,50 @@ fn a_baked_vertex_shader_object_takes_the_precise_path_where_it_is_the_last_stag
         // A geometry shader without a variant is rasterized: the flip path; unbound again
         // (null), the vertex stage's variant comes back.
         let geometry = vk::ShaderEXT::from_raw(42);
-        state.bind_shaders(None, [None, None, Some((geometry, None))], None);
+        state.bind_shaders(None, [None, None, Some((geometry, None)), None]);
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Flip);
         assert_eq!(sink.position_shader_binds.last(), Some(&(stage, vertex)));
         state.bind_shaders(
             None,
-            [None, None, Some((vk::ShaderEXT::null(), None))],
-            None,
+            [None, None, Some((vk::ShaderEXT::null(), None)), None],
         );
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
-        // A mesh shader bound: nothing of these stages is rasterized.
-        state.bind_shaders(None, [None; 3], Some(true));
+        // A mesh shader without a variant bound: it is rasterized, the flip path; unbound
+        // again, the vertex stage's variant comes back.
+        let mesh = vk::ShaderEXT::from_raw(43);
+        state.bind_shaders(None, [None, None, None, Some((mesh, None))]);
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Flip);
-        state.bind_shaders(None, [None; 3], Some(false));
+        state.bind_shaders(
+            None,
+            [None, None, None, Some((vk::ShaderEXT::null(), None))],
+        );
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        // A mesh shader with a variant (the vertex stage left bound: the mesh stage is the
+        // one rasterized): its variant, bound in its place.
+        let mesh_variant = vk::ShaderEXT::from_raw(44);
+        state.bind_shaders(
+            None,
+            [
+                None,
+                None,
+                None,
+                Some((mesh, Some(PositionShader::Baked(mesh_variant)))),
+            ],
+        );
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert_eq!(
+            sink.position_shader_binds.last(),
+            Some(&(vk::ShaderStageFlags::MESH_EXT, mesh_variant))
+        );
+        state.bind_shaders(
+            None,
+            [None, None, None, Some((vk::ShaderEXT::null(), None))],
+        );
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
         // A pipeline bound replaces the shader objects: no shader bound back.
@@ -354,7 +382,7 @@ fn a_baked_vertex_shader_object_takes_the_precise_path_where_it_is_the_last_stag
     let mut state = precise(RewriteTarget::Infinite);
     let reversal = state.reversal();
     state.begin(Target::Reversed, reversal, Default::default());
-    state.bind_shaders(None, [baked, None, None], None);
+    state.bind_shaders(None, [baked, None, None, None]);
     let mut sink = Recorded::default();
     state.set_depth_clamp(true);
     state.before_draw(&mut sink);
@@ -375,13 +403,13 @@ fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
     let mut sink = Recorded::default();
 
     // Unbound (null): nothing to swap.
-    state.bind_shaders(fragment, [None; 3], None);
-    state.bind_shaders(Some((vk::ShaderEXT::null(), None)), [None; 3], None);
+    state.bind_shaders(fragment, [None; 4]);
+    state.bind_shaders(Some((vk::ShaderEXT::null(), None)), [None; 4]);
     state.before_draw(&mut sink);
     assert!(sink.shader_binds.is_empty());
 
     // A pipeline bound after the variant unbinds it: native draws bind nothing back.
-    state.bind_shaders(fragment, [None; 3], None);
+    state.bind_shaders(fragment, [None; 4]);
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant]);
     state.bind_pipeline(Some(static_pipeline()));
@@ -393,7 +421,7 @@ fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
     // Shaders without a variant (plain, or marked unreversed) are never swapped.
     for depth in [None, Some(FragmentShader::Unreversed)] {
         state.set_target(Target::Reversed);
-        state.bind_shaders(Some((shader, depth)), [None; 3], None);
+        state.bind_shaders(Some((shader, depth)), [None; 4]);
         state.before_draw(&mut sink);
         state.set_target(Target::Native);
         state.before_draw(&mut sink);

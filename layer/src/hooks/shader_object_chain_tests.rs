@@ -729,3 +729,60 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     );
     fx.finish();
 }
+
+#[test]
+fn a_mesh_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_precise_draws() {
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
+    let mesh_words: Vec<u32> = include_bytes!("../../../shaders/glslang/mesh.mesh.spv")
+        .chunks_exact(4)
+        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        .collect();
+    let plain = fragment(PLAIN);
+    let mesh_stage = vk::ShaderStageFlags::MESH_EXT;
+    let infos = [
+        shader_info(mesh_stage, FRAGMENT_STAGE, &mesh_words),
+        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &plain),
+    ];
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(events.len(), 2, "the variant, then the application's");
+    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
+    // The mesh stage's code fitting the pushed matrix, the carrier baked in: each vertex's
+    // Position rewritten where it is stored.
+    let selector = crate::command_state::derived_selector(
+        revz_math::Target::Complementary,
+        revz_math::DepthConvention::ZeroToOne,
+    );
+    let baked = crate::shader::position_store::derive_position_store_reading(
+        &mesh_words,
+        crate::shader::position_store::CarrierRead::Baked(selector),
+    )
+    .unwrap()
+    .unwrap()
+    .code;
+    assert_eq!(variant_infos.len(), 1);
+    assert_eq!(variant_infos[0].code, bytes(&baked));
+    let (mesh, frag, variant) = (handles[0], handles[1], variant_handles[0]);
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&mesh),
+        Some(PositionShader::Baked(variant))
+    );
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let buffer = fx.command_buffer();
+    fx.bind(buffer, &[mesh_stage, FRAGMENT_STAGE], &[mesh, frag]);
+    fx.render(buffer, reversed, 1);
+    let binds: Vec<Event> = fx
+        .events()
+        .into_iter()
+        .filter(|e| matches!(e, Event::BindShaders { .. }))
+        .collect();
+    assert_eq!(
+        binds.last(),
+        Some(&Event::BindShaders {
+            stages: vec![mesh_stage],
+            shaders: vec![variant],
+        }),
+        "the mesh stage's variant in its place for the precise draw: {binds:?}"
+    );
+}

@@ -889,8 +889,6 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
                 (shader, depth)
             })
         });
-        let mesh =
-            bound_to(vk::ShaderStageFlags::MESH_EXT).map(|shader| shader != vk::ShaderEXT::null());
         if stages.contains(&vk::ShaderStageFlags::COMPUTE) {
             // A compute shader object: revz's dispatch would unbind it, and it does not bind
             // shader objects again.
@@ -899,7 +897,7 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
         // Only graphics stages replace the bound graphics pipeline.
         if stages.iter().any(|&s| s != vk::ShaderStageFlags::COMPUTE) {
             let mut state = entry.state();
-            state.bind_shaders(fragment, position, mesh);
+            state.bind_shaders(fragment, position);
             // The variant in the application's shader's place where the next draw takes the
             // precise path, instead of the application's shader and then the variant.
             let at = state
