@@ -704,7 +704,9 @@ pub fn create_pipeline(
         // shader objects instead).
         Program::Flat | Program::ShaderObjects => (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG)),
         // The mesh stage in the vertex stage's place (`first_stage` below).
-        Program::Mesh => (shaders::MESH_MESH, Some(shaders::SCENE_FRAG)),
+        Program::Mesh | Program::MeshShaderObjects => {
+            (shaders::MESH_MESH, Some(shaders::SCENE_FRAG))
+        }
         Program::DepthOnly => (shaders::SCENE_VERT, None),
         Program::FragDepth => (shaders::SCENE_VERT, Some(shaders::FRAG_DEPTH_FRAG)),
         Program::ShadowReceiver => (
@@ -771,7 +773,7 @@ pub fn create_pipeline(
     let frag = fragment
         .map(|source| ShaderModule::new(device, &source))
         .transpose()?;
-    let meshes = spec.program == Program::Mesh;
+    let meshes = matches!(spec.program, Program::Mesh | Program::MeshShaderObjects);
     let first_stage = if meshes {
         vk::ShaderStageFlags::MESH_EXT
     } else {

@@ -9,7 +9,11 @@
 //!   (`VK_EXT_mesh_shader`, `shaders/glslang/mesh.mesh`) that fetches each draw's triangles
 //!   from storage buffers and stores each vertex's `gl_MeshVerticesEXT[i].gl_Position` in a
 //!   loop. revz rewrites each such store where it is, with the range the stage fits from the
-//!   matrix it loads (`layer/src/shader/position_store`).
+//!   matrix it loads (`layer/src/shader/position_store`), and classifies that pushed matrix on
+//!   the CPU as it does a vertex stage's.
+//! - `--delivery mesh-shader-objects` binds that mesh shader as a shader object (both
+//!   extensions), which gets a variant with its carrier baked in as a vertex shader object
+//!   does.
 //!
 //! These render on the newer lavapipe `cargo xtask setup` extracts beside the system's on
 //! Debian 12 (Mesa 25.0 from bookworm-backports, [`Harness::newer_lavapipe`]), or on the
@@ -48,13 +52,28 @@ use std::process::Command;
 use revz_tests::{clean_command, differing_pixels, native_colors_problems, Harness, Render};
 
 /// The deliveries, and the debug log line that says a precise-path stage was made for each.
-const DELIVERIES: [(&str, &str); 2] = [
+const DELIVERIES: [(&str, &str); 3] = [
     ("shader-objects", "stores its depth for precise-path draws"),
     (
         "mesh",
         "its mesh stage, which derives the range from the matrix it loads",
     ),
+    (
+        "mesh-shader-objects",
+        "stores its depth for precise-path draws",
+    ),
 ];
+
+/// Whether `delivery` binds shader objects (rendered without the installed validation layer,
+/// which predates them).
+fn binds_shader_objects(delivery: &str) -> bool {
+    delivery.ends_with("shader-objects")
+}
+
+/// Whether `delivery` projects in a mesh shader (whose rounding lavapipe makes its own).
+fn meshes(delivery: &str) -> bool {
+    delivery.starts_with("mesh")
+}
 
 /// What the tester says where it left validation out ([`Harness`] renders ask for it).
 const SKIPPED: &str = "predates VK_EXT_shader_object";
@@ -103,7 +122,7 @@ fn render(harness: &Harness, scene: &str, delivery: &str, mode: Option<&str>) ->
 fn assert_validation_accounted(delivery: &str, skipped: &serde_json::Value, what: &str) {
     match skipped.as_str() {
         None => {}
-        Some(why) if delivery == "shader-objects" => assert!(why.contains(SKIPPED), "{what}"),
+        Some(why) if binds_shader_objects(delivery) => assert!(why.contains(SKIPPED), "{what}"),
         Some(_) => panic!("validation skipped: {what}"),
     }
 }
@@ -119,7 +138,7 @@ fn without_the_layer_the_extension_deliveries_render_the_pipelines_image() {
             assert_eq!(a.len(), b.len());
             let ulps = |x: f32, y: f32| (i64::from(x.to_bits()) - i64::from(y.to_bits())).abs();
             let differing: Vec<usize> = (0..a.len()).filter(|&i| a[i] != b[i]).collect();
-            if delivery == "mesh" {
+            if meshes(delivery) {
                 assert!(
                     differing.iter().all(|&i| ulps(a[i], b[i]) <= 2),
                     "{scene} mesh: depth more than 2 ulps apart"
@@ -163,7 +182,10 @@ fn report(harness: &Harness, out: &Path) -> serde_json::Value {
         .args(["--scenes", &SCENES.join(",")])
         .args(["--modes", "none,flip,complementary,infinite"])
         .args(["--formats", "d16,x8-d24,d24-s8,d32,d32-s8"])
-        .args(["--deliveries", "push,shader-objects,mesh"]);
+        .args([
+            "--deliveries",
+            "push,shader-objects,mesh,mesh-shader-objects",
+        ]);
     harness.on_newer_lavapipe(&mut command);
     let output = command.output().expect("start revz-tester report");
     let text = format!(
@@ -216,7 +238,7 @@ fn the_extension_deliveries_take_the_precise_path_in_every_precise_mode_and_form
                         // shader's, within its ulps: module docs).
                         "none" | "flip"
                             if (own - pipelines).abs()
-                                > if delivery == "mesh" {
+                                > if meshes(delivery) {
                                     0.02 * pipelines
                                 } else {
                                     0.0

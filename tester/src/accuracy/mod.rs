@@ -116,9 +116,11 @@ pub enum DeliveryChoice {
     ShaderObjects,
     /// The push constants of push, applied in a mesh shader (needs VK_EXT_mesh_shader).
     Mesh,
+    /// mesh's shader as a shader object (needs VK_EXT_shader_object and VK_EXT_mesh_shader).
+    MeshShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns,
-    /// ubo-geometry and ubo-tessellation (not shader-objects nor mesh, which need an
-    /// extension).
+    /// ubo-geometry and ubo-tessellation (not shader-objects, mesh nor mesh-shader-objects,
+    /// which need extensions).
     All,
 }
 
@@ -139,6 +141,7 @@ impl DeliveryChoice {
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
             DeliveryChoice::ShaderObjects => &[Delivery::ShaderObjects],
             DeliveryChoice::Mesh => &[Delivery::Mesh],
+            DeliveryChoice::MeshShaderObjects => &[Delivery::MeshShaderObjects],
             DeliveryChoice::All => Delivery::PORTABLE,
         }
     }

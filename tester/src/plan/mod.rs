@@ -222,6 +222,11 @@ pub enum Program {
     /// storage buffers; the draw's index range follows the color in the push constants
     /// (bytes 80..92). Needs the `meshShader` feature (lavapipe from Mesa 23.3 on).
     Mesh,
+    /// The shaders and push constants of [`Program::Mesh`] as unlinked mesh and fragment
+    /// shader objects (the `mesh-shader-objects` [`Delivery`]), bound as
+    /// [`Program::ShaderObjects`] binds its own (the vertex stage null). Needs `shaderObject`
+    /// and `meshShader`.
+    MeshShaderObjects,
     /// `ubo_position.vert` + `push.geom` + `scene.frag` (the `push-geometry` [`Delivery`]): the
     /// push constants of [`Program::Flat`], the matrix applied in a geometry shader; one range
     /// for the vertex, geometry and fragment stages.
@@ -331,12 +336,15 @@ pub enum Delivery {
     /// The push constants of [`Delivery::Push`], applied in a mesh shader
     /// ([`Program::Mesh`]; needs `VK_EXT_mesh_shader`).
     Mesh,
+    /// [`Delivery::Mesh`]'s mesh shader as a shader object ([`Program::MeshShaderObjects`];
+    /// needs both extensions).
+    MeshShaderObjects,
 }
 
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 14] = [
+    pub const ALL: [Delivery; 15] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -351,11 +359,12 @@ impl Delivery {
         Delivery::UboTessellation,
         Delivery::ShaderObjects,
         Delivery::Mesh,
+        Delivery::MeshShaderObjects,
     ];
 
     /// The deliveries every Vulkan 1.0 device with the core features renders: all but the
-    /// last two of [`Delivery::ALL`].
-    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<2>() {
+    /// last three of [`Delivery::ALL`].
+    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<3>() {
         Some((portable, _)) => portable,
         None => &[],
     };
@@ -377,6 +386,7 @@ impl Delivery {
             Delivery::UboTessellation => "ubo-tessellation",
             Delivery::ShaderObjects => "shader-objects",
             Delivery::Mesh => "mesh",
+            Delivery::MeshShaderObjects => "mesh-shader-objects",
         }
     }
 
@@ -398,6 +408,7 @@ impl Delivery {
             Delivery::UboTessellation => Some(Program::UboTessellation),
             Delivery::ShaderObjects => Some(Program::ShaderObjects),
             Delivery::Mesh => Some(Program::Mesh),
+            Delivery::MeshShaderObjects => Some(Program::MeshShaderObjects),
         }
     }
 }
@@ -465,6 +476,7 @@ impl Program {
             | Program::FullPush
             | Program::ShaderObjects
             | Program::Mesh
+            | Program::MeshShaderObjects
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost
@@ -1055,13 +1067,14 @@ impl Plan {
                 pipeline.name
             );
             ensure!(
-                program != Program::Mesh || !pipeline.libraries,
+                !matches!(program, Program::Mesh | Program::MeshShaderObjects)
+                    || !pipeline.libraries,
                 "pipeline {} is built from libraries, whose pre-rasterization library the tester \
                  builds with a vertex stage",
                 pipeline.name
             );
             ensure!(
-                program != Program::ShaderObjects
+                !matches!(program, Program::ShaderObjects | Program::MeshShaderObjects)
                     || (pipeline.viewport != Viewport::Dynamic && !pipeline.libraries),
                 "pipeline {} has a dynamic viewport or is built from libraries; the {name} \
                  delivery sets every state at its bind",
@@ -1202,8 +1215,12 @@ impl Plan {
                 Program::UboGeometry | Program::PushGeometry
             );
             needs.tessellation_shader |= pipeline.program == Program::UboTessellation;
-            needs.shader_object |= pipeline.program == Program::ShaderObjects;
-            needs.mesh_shader |= pipeline.program == Program::Mesh;
+            needs.shader_object |= matches!(
+                pipeline.program,
+                Program::ShaderObjects | Program::MeshShaderObjects
+            );
+            needs.mesh_shader |=
+                matches!(pipeline.program, Program::Mesh | Program::MeshShaderObjects);
             if let Viewport::Static {
                 min_depth,
                 max_depth,

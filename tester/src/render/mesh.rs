@@ -20,7 +20,7 @@ const WORKGROUP_TRIANGLES: u32 = 32;
 
 /// The push-constant range of the mesh layout: `{ mat4 mvp; vec4 color; uint first_index;
 /// uint triangle_count; int vertex_offset; }`.
-const MESH_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
+pub(super) const MESH_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantRange {
     stage_flags: MESH_PUSH_STAGES,
     offset: 0,
     size: DRAW_RANGE_OFFSET + 12,
@@ -31,7 +31,8 @@ const MESH_PUSH_CONSTANT_RANGES: [vk::PushConstantRange; 1] = [vk::PushConstantR
 pub(super) struct MeshBindings<'a> {
     pub layout: vk::PipelineLayout,
     pub set: vk::DescriptorSet,
-    set_layout: vk::DescriptorSetLayout,
+    /// The set's layout (the mesh shader objects are created with it).
+    pub set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     _positions: HostBuffer<'a>,
     _indices: HostBuffer<'a>,

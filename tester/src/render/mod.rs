@@ -217,6 +217,8 @@ pub struct Renderer<'a> {
     /// The shaders of [`Program::ShaderObjects`] (its pipelines have a null handle in
     /// `pipelines`); `None` without that program.
     shader_objects: Option<shader_objects::ShaderObjects>,
+    /// The shaders of [`Program::MeshShaderObjects`], likewise.
+    mesh_shader_objects: Option<shader_objects::ShaderObjects>,
     /// What [`Program::Mesh`] binds (its layout among them); `None` without that program.
     mesh: Option<mesh::MeshBindings<'a>>,
 }
@@ -244,7 +246,7 @@ impl Drop for Renderer<'_> {
             for &pipeline in self.pipelines.iter().chain(&self.libraries) {
                 self.device.destroy_pipeline(pipeline, None);
             }
-            if let Some(objects) = &self.shader_objects {
+            for objects in self.shader_objects.iter().chain(&self.mesh_shader_objects) {
                 objects.destroy(self.gpu);
             }
             if let Some(mesh) = &self.mesh {
@@ -456,6 +458,7 @@ impl<'a> Renderer<'a> {
             extent: targets.extent,
             bias_clamp: gpu.enabled.depth_bias_clamp,
             shader_objects: None,
+            mesh_shader_objects: None,
             mesh: None,
         };
         let main = MainFormats {
@@ -603,8 +606,25 @@ impl<'a> Renderer<'a> {
             this.create_matrix_bindings(gpu, scene, program, aspect)?;
         }
 
-        if plan.pipelines.iter().any(|p| p.program == Program::Mesh) {
+        if plan
+            .pipelines
+            .iter()
+            .any(|p| matches!(p.program, Program::Mesh | Program::MeshShaderObjects))
+        {
             this.mesh = Some(mesh::MeshBindings::new(gpu, scene)?);
+        }
+        if let (Some(mesh), true) = (
+            &this.mesh,
+            plan.pipelines
+                .iter()
+                .any(|p| p.program == Program::MeshShaderObjects),
+        ) {
+            this.mesh_shader_objects = Some(shader_objects::ShaderObjects::new(
+                gpu,
+                Program::MeshShaderObjects,
+                &mesh::MESH_PUSH_CONSTANT_RANGES,
+                &[mesh.set_layout],
+            )?);
         }
         if plan
             .pipelines
@@ -613,11 +633,16 @@ impl<'a> Renderer<'a> {
         {
             this.shader_objects = Some(shader_objects::ShaderObjects::new(
                 gpu,
+                Program::ShaderObjects,
                 &PUSH_CONSTANT_RANGES,
+                &[],
             )?);
         }
         for spec in &plan.pipelines {
-            if spec.program == Program::ShaderObjects {
+            if matches!(
+                spec.program,
+                Program::ShaderObjects | Program::MeshShaderObjects
+            ) {
                 // Bound as shader objects (`record.rs`).
                 this.pipelines.push(vk::Pipeline::null());
                 continue;
@@ -692,7 +717,7 @@ impl<'a> Renderer<'a> {
             | Program::RowVector
             | Program::LitMvp
             | Program::ShaderObjects => (self.plain_layout, PLAIN_PUSH_STAGES),
-            Program::Mesh => (
+            Program::Mesh | Program::MeshShaderObjects => (
                 self.mesh
                     .as_ref()
                     .map_or(vk::PipelineLayout::null(), |m| m.layout),

@@ -676,7 +676,12 @@ impl Recorder<'_> {
         self.pipeline = Some(n);
         let renderer = self.renderer;
         let spec = &self.plan.pipelines[n];
-        if let (Program::ShaderObjects, Some(objects)) = (spec.program, &renderer.shader_objects) {
+        let objects = match spec.program {
+            Program::ShaderObjects => renderer.shader_objects.as_ref(),
+            Program::MeshShaderObjects => renderer.mesh_shader_objects.as_ref(),
+            _ => None,
+        };
+        if let Some(objects) = objects {
             let pass = &self.plan.passes[spec.pass];
             let target = super::shader_objects::BindTarget {
                 extent: self.current_extent(),
@@ -685,8 +690,20 @@ impl Recorder<'_> {
                 bias_clamp: renderer.bias_clamp,
             };
             // SAFETY: `cmd` is recording inside a pass compatible with the spec's (plan
-            // check), on the renderer's device.
-            unsafe { objects.bind(renderer.gpu, cmd, spec, &target) };
+            // check), on the renderer's device; the mesh set matches the shaders' layout.
+            unsafe {
+                objects.bind(renderer.gpu, cmd, spec, &target);
+                if let (Program::MeshShaderObjects, Some(mesh)) = (spec.program, &renderer.mesh) {
+                    self.device().cmd_bind_descriptor_sets(
+                        cmd,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        mesh.layout,
+                        0,
+                        &[mesh.set],
+                        &[],
+                    );
+                }
+            }
             return;
         }
         // SAFETY: `cmd` is inside a pass compatible with the pipeline (plan check); the
@@ -839,7 +856,7 @@ impl Recorder<'_> {
         } else {
             0
         };
-        if program == Program::Mesh {
+        if matches!(program, Program::Mesh | Program::MeshShaderObjects) {
             let (layout, stages) = self.renderer.layout(program);
             let meshes = self
                 .renderer

@@ -1,5 +1,6 @@
 //! [`Program::ShaderObjects`]: the flat program's shaders as unlinked vertex and fragment
-//! shader objects (`VK_EXT_shader_object`), and its "pipeline" bind: the two shaders bound
+//! shader objects (`VK_EXT_shader_object`), and [`Program::MeshShaderObjects`]: the mesh
+//! program's as mesh and fragment ones; and their "pipeline" bind: the two shaders bound
 //! (every other graphics stage the device has bound to null), then every state a
 //! [`PipelineSpec`] bakes into a pipeline set with the dynamic state commands, as an engine
 //! built on shader objects does at each material change. States a spec leaves dynamic
@@ -13,12 +14,16 @@ use ash::vk;
 
 use crate::gpu::Gpu;
 use crate::pipeline::{full_viewport, map_compare, position_input};
-use crate::plan::{Bias, Bounds, DepthTest, PipelineSpec, StencilTest, StencilWrite, Viewport};
+use crate::plan::{
+    Bias, Bounds, DepthTest, PipelineSpec, Program, StencilTest, StencilWrite, Viewport,
+};
 use crate::shaders::{self, ShaderSource};
 
 /// The two shader objects, destroyed with the renderer ([`ShaderObjects::destroy`]).
 pub(super) struct ShaderObjects {
-    vertex: vk::ShaderEXT,
+    /// The vertex or mesh stage's (`first_stage`).
+    first: vk::ShaderEXT,
+    first_stage: vk::ShaderStageFlags,
     fragment: vk::ShaderEXT,
 }
 
@@ -33,9 +38,15 @@ pub(super) struct BindTarget {
 }
 
 impl ShaderObjects {
-    /// `scene.vert` and `scene.frag` as unlinked shader objects with the push-constant range
-    /// of the flat program's layout (`ranges`), no descriptor set.
-    pub(super) fn new(gpu: &Gpu, ranges: &[vk::PushConstantRange]) -> Result<ShaderObjects> {
+    /// The shaders of `program` (`scene.vert`, or `mesh.mesh` for
+    /// [`Program::MeshShaderObjects`], and `scene.frag`) as unlinked shader objects with the
+    /// push-constant ranges and descriptor set layouts of the program's layout.
+    pub(super) fn new(
+        gpu: &Gpu,
+        program: Program,
+        ranges: &[vk::PushConstantRange],
+        set_layouts: &[vk::DescriptorSetLayout],
+    ) -> Result<ShaderObjects> {
         let objects = gpu
             .shader_object
             .as_ref()
@@ -49,7 +60,8 @@ impl ShaderObjects {
                     .code_type(vk::ShaderCodeTypeEXT::SPIRV)
                     .code(bytes_of(&words))
                     .name(c"main")
-                    .push_constant_ranges(ranges);
+                    .push_constant_ranges(ranges)
+                    .set_layouts(set_layouts);
                 // SAFETY: valid SPIR-V of this stage (checked at build time), a live device.
                 let created = unsafe { objects.create_shaders(std::slice::from_ref(&info), None) };
                 created
@@ -57,11 +69,11 @@ impl ShaderObjects {
                     .with_context(|| format!("vkCreateShadersEXT ({}) failed", source.name))
                     .map(|shaders| shaders[0])
             };
-        let vertex = create(
-            vk::ShaderStageFlags::VERTEX,
-            vk::ShaderStageFlags::FRAGMENT,
-            &shaders::SCENE_VERT,
-        )?;
+        let (first_stage, first_source) = match program {
+            Program::MeshShaderObjects => (vk::ShaderStageFlags::MESH_EXT, &shaders::MESH_MESH),
+            _ => (vk::ShaderStageFlags::VERTEX, &shaders::SCENE_VERT),
+        };
+        let first = create(first_stage, vk::ShaderStageFlags::FRAGMENT, first_source)?;
         let fragment = create(
             vk::ShaderStageFlags::FRAGMENT,
             vk::ShaderStageFlags::empty(),
@@ -69,9 +81,13 @@ impl ShaderObjects {
         )
         .inspect_err(|_| {
             // SAFETY: created above, never used.
-            unsafe { objects.destroy_shader(vertex, None) }
+            unsafe { objects.destroy_shader(first, None) }
         })?;
-        Ok(ShaderObjects { vertex, fragment })
+        Ok(ShaderObjects {
+            first,
+            first_stage,
+            fragment,
+        })
     }
 
     /// Destroys both shaders (the device is idle).
@@ -79,7 +95,7 @@ impl ShaderObjects {
         if let Some(objects) = &gpu.shader_object {
             // SAFETY: created from this device, no longer in use.
             unsafe {
-                objects.destroy_shader(self.vertex, None);
+                objects.destroy_shader(self.first, None);
                 objects.destroy_shader(self.fragment, None);
             }
         }
@@ -102,9 +118,21 @@ impl ShaderObjects {
         };
         let device = &gpu.device;
         let enabled = gpu.enabled;
-        // Every graphics stage the device has is bound: the two shaders, null for the others.
-        let mut stages = vec![vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::FRAGMENT];
-        let mut shaders = vec![self.vertex, self.fragment];
+        // Every graphics stage the device has is bound: the two shaders, null for the others
+        // (the vertex stage where the mesh stage has the shader, and the reverse).
+        let mut stages = vec![self.first_stage, vk::ShaderStageFlags::FRAGMENT];
+        let mut shaders = vec![self.first, self.fragment];
+        let other = if self.first_stage == vk::ShaderStageFlags::MESH_EXT {
+            Some(vk::ShaderStageFlags::VERTEX)
+        } else {
+            enabled
+                .mesh_shader
+                .then_some(vk::ShaderStageFlags::MESH_EXT)
+        };
+        if let Some(other) = other {
+            stages.push(other);
+            shaders.push(vk::ShaderEXT::null());
+        }
         if enabled.geometry_shader {
             stages.push(vk::ShaderStageFlags::GEOMETRY);
             shaders.push(vk::ShaderEXT::null());

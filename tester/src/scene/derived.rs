@@ -208,6 +208,7 @@ impl Scene {
             | Program::FullPush
             | Program::ShaderObjects
             | Program::Mesh
+            | Program::MeshShaderObjects
             | Program::PushGeometry
             | Program::SoftParticle
             | Program::DepthPost

@@ -1528,8 +1528,17 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                         needs.tessellation_shader,
                         delivery == Delivery::UboTessellation
                     );
-                    assert_eq!(needs.shader_object, delivery == Delivery::ShaderObjects);
-                    assert_eq!(needs.mesh_shader, delivery == Delivery::Mesh);
+                    assert_eq!(
+                        needs.shader_object,
+                        matches!(
+                            delivery,
+                            Delivery::ShaderObjects | Delivery::MeshShaderObjects
+                        )
+                    );
+                    assert_eq!(
+                        needs.mesh_shader,
+                        matches!(delivery, Delivery::Mesh | Delivery::MeshShaderObjects)
+                    );
                     assert_eq!(
                         crate::plan::Needs {
                             geometry_shader: false,
