@@ -105,6 +105,33 @@ impl Harness {
         command
     }
 
+    /// `revz-tester report` on lavapipe with the explicit revz layer's manifests, into `out`,
+    /// with `args` (scenes, modes, formats, deliveries), on [`Harness::newer_lavapipe`] where
+    /// `newer_lavapipe`; panics with its output unless it exits 0. Its `report.json`.
+    pub fn report(&self, out: &Path, args: &[&str], newer_lavapipe: bool) -> serde_json::Value {
+        let mut command = clean_command(&self.tester);
+        command
+            .arg("report")
+            .arg("--out")
+            .arg(out)
+            .args(["--device", "llvmpipe"])
+            .arg("--layer-dir")
+            .arg(&self.explicit_manifest_dir)
+            .args(args);
+        if newer_lavapipe {
+            self.on_newer_lavapipe(&mut command);
+        }
+        let output = command.output().expect("start revz-tester report");
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&output.stdout),
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert_eq!(output.status.code(), Some(0), "{text}");
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report.json"))
+            .expect("JSON")
+    }
+
     /// A fresh, empty directory for one test's files.
     pub fn scratch_dir(&self, name: &str) -> PathBuf {
         let dir = self.scratch.join(name);

@@ -55,9 +55,8 @@
 //!   precise-path tests), with no validation message.
 
 use std::path::Path;
-use std::process::Command;
 
-use revz_tests::{clean_command, native_colors_problems, GroundTruth, Harness, Render, BACKGROUND};
+use revz_tests::{native_colors_problems, GroundTruth, Harness, Render, BACKGROUND};
 
 /// The deliveries other than push: `push-split` (push's constants in a range per stage, the
 /// vertex stage's first: revz extends it over the fragment stage's, issue #41), `push-full`
@@ -301,32 +300,18 @@ fn without_the_layer_the_buffer_deliveries_render_the_push_image() {
 /// `revz-tester report` on D32 in `infinite` mode, every buffer delivery, into `out`; its
 /// `report.json`.
 fn infinite_report(harness: &Harness, scenes: &str, out: &Path) -> serde_json::Value {
-    let mut command: Command = clean_command(&harness.tester);
-    command
-        .arg("report")
-        .arg("--out")
-        .arg(out)
-        .args(["--device", "llvmpipe"])
-        .arg("--layer-dir")
-        .arg(&harness.explicit_manifest_dir)
-        .args([
-            "--scenes",
-            scenes,
-            "--modes",
-            "infinite",
-            "--formats",
-            "d32",
-        ])
-        .args(["--deliveries", &DELIVERIES.join(",")]);
-    let output = command.output().expect("start revz-tester report");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
-    assert_eq!(output.status.code(), Some(0), "{text}");
-    let path = out.join("report.json");
-    serde_json::from_slice(&std::fs::read(&path).expect("report.json")).expect("JSON")
+    let deliveries = DELIVERIES.join(",");
+    let args = [
+        "--scenes",
+        scenes,
+        "--modes",
+        "infinite",
+        "--formats",
+        "d32",
+        "--deliveries",
+        &deliveries,
+    ];
+    harness.report(out, &args, false)
 }
 
 /// The report's row of (scene, delivery), infinite D32.

@@ -47,9 +47,8 @@
 //!   log line of the precise path in the precise modes.
 
 use std::path::Path;
-use std::process::Command;
 
-use revz_tests::{clean_command, differing_pixels, native_colors_problems, Harness, Render};
+use revz_tests::{differing_pixels, native_colors_problems, Harness, Render};
 
 /// The deliveries, and the debug log line that says a precise-path stage was made for each.
 const DELIVERIES: [(&str, &str); 3] = [
@@ -171,31 +170,18 @@ fn without_the_layer_the_extension_deliveries_render_the_pipelines_image() {
 }
 
 fn report(harness: &Harness, out: &Path) -> serde_json::Value {
-    let mut command: Command = clean_command(&harness.tester);
-    command
-        .arg("report")
-        .arg("--out")
-        .arg(out)
-        .args(["--device", "llvmpipe"])
-        .arg("--layer-dir")
-        .arg(&harness.explicit_manifest_dir)
-        .args(["--scenes", &SCENES.join(",")])
-        .args(["--modes", "none,flip,complementary,infinite"])
-        .args(["--formats", "d16,x8-d24,d24-s8,d32,d32-s8"])
-        .args([
-            "--deliveries",
-            "push,shader-objects,mesh,mesh-shader-objects",
-        ]);
-    harness.on_newer_lavapipe(&mut command);
-    let output = command.output().expect("start revz-tester report");
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
-    assert_eq!(output.status.code(), Some(0), "{text}");
-    serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report.json"))
-        .expect("JSON")
+    let scenes = SCENES.join(",");
+    let args = [
+        "--scenes",
+        &scenes,
+        "--modes",
+        "none,flip,complementary,infinite",
+        "--formats",
+        "d16,x8-d24,d24-s8,d32,d32-s8",
+        "--deliveries",
+        "push,shader-objects,mesh,mesh-shader-objects",
+    ];
+    harness.report(out, &args, true)
 }
 
 #[test]

@@ -93,6 +93,14 @@ impl Fixture {
         fake_chain::take_events(self.tables.device)
     }
 
+    /// The `vkCmdBindShadersEXT` calls that reached the fake since the last look.
+    fn shader_binds(&self) -> Vec<Event> {
+        self.events()
+            .into_iter()
+            .filter(|e| matches!(e, Event::BindShaders { .. }))
+            .collect()
+    }
+
     /// What revz recorded of a shader object.
     fn recorded(&self, shader: vk::ShaderEXT) -> Option<FragmentShader> {
         self.state.objects.fragment_shaders.get(&shader)
@@ -518,11 +526,7 @@ fn draws_into_a_reversed_attachment_bind_the_variant_once_and_native_ones_the_ap
     fx.bind(buffer, &[FRAGMENT_STAGE], &[vk::ShaderEXT::null()]);
     fx.render(buffer, native, 1);
     fx.render(buffer, reversed, 1);
-    let binds = fx
-        .events()
-        .into_iter()
-        .filter(|e| matches!(e, Event::BindShaders { .. }))
-        .count();
+    let binds = fx.shader_binds().len();
     assert_eq!(binds, 1, "only the application's unbind");
     fx.free(buffer);
     fx.finish();
@@ -685,11 +689,7 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
         (fx.hooks.cmd_draw)(buffer, 3, 1, 0, 0);
         (fx.hooks.cmd_end_rendering)(buffer);
     }
-    let binds: Vec<Event> = fx
-        .events()
-        .into_iter()
-        .filter(|e| matches!(e, Event::BindShaders { .. }))
-        .collect();
+    let binds = fx.shader_binds();
     assert_eq!(
         binds,
         [
@@ -772,11 +772,7 @@ fn a_mesh_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_precis
     let buffer = fx.command_buffer();
     fx.bind(buffer, &[mesh_stage, FRAGMENT_STAGE], &[mesh, frag]);
     fx.render(buffer, reversed, 1);
-    let binds: Vec<Event> = fx
-        .events()
-        .into_iter()
-        .filter(|e| matches!(e, Event::BindShaders { .. }))
-        .collect();
+    let binds = fx.shader_binds();
     assert_eq!(
         binds.last(),
         Some(&Event::BindShaders {
