@@ -841,6 +841,16 @@ impl CommandState {
         }
         let (stage, _, variant) = self.baked_shader()?;
         self.derived_use()?;
+        // revz's variant of another stage is bound (a mesh shader bound after a vertex
+        // shader's variant went down): the settle puts the application's shader back there
+        // before it binds this one ([`Self::emit`]); substituting here would leave it
+        // (found in review).
+        if self
+            .position_variant_bound
+            .is_some_and(|(bound, _)| bound != stage)
+        {
+            return None;
+        }
         Some((stage, variant))
     }
 

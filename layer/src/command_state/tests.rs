@@ -2022,3 +2022,48 @@ fn a_stage_fitting_a_pushed_matrix_the_cpu_classifies_gets_the_cameras_line_else
         assert!(selector >= 1.0, "the fit's selector: {selector}");
     }
 }
+
+#[test]
+fn a_mesh_shader_bound_over_a_vertex_shaders_variant_gets_the_vertex_shader_put_back() {
+    // Found in review: the mesh shader's variant substituted in the application's bind left
+    // the vertex stage's variant bound, which later native or flip-path draws would run.
+    let (vertex, vertex_variant) = (vk::ShaderEXT::from_raw(40), vk::ShaderEXT::from_raw(41));
+    let (mesh, mesh_variant) = (vk::ShaderEXT::from_raw(43), vk::ShaderEXT::from_raw(44));
+    let (vertex_stage, mesh_stage) = (vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::MESH_EXT);
+    let mut state = precise(RewriteTarget::Complementary);
+    let reversal = state.reversal();
+    state.begin(Target::Reversed, reversal, Default::default());
+    let baked = |shader, variant| Some((shader, Some(PositionShader::Baked(variant))));
+    state.bind_shaders(None, [baked(vertex, vertex_variant), None, None, None]);
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(sink.position_shader_binds, [(vertex_stage, vertex_variant)]);
+    // The mesh shader's bind goes down as the application made it: not substituted.
+    state.bind_shaders(None, [None, None, None, baked(mesh, mesh_variant)]);
+    assert_eq!(state.position_shader_to_bind(), None);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(
+        sink.position_shader_binds[1..],
+        [(vertex_stage, vertex), (mesh_stage, mesh_variant)],
+        "the vertex shader back, then the mesh shader's variant"
+    );
+    // The mesh stage unbound by the application (its bind replaces revz's variant there):
+    // the vertex stage's variant again, with the settle (the call names no vertex stage).
+    state.bind_shaders(
+        None,
+        [None, None, None, Some((vk::ShaderEXT::null(), None))],
+    );
+    state.before_draw(&mut sink);
+    assert_eq!(
+        sink.position_shader_binds[3..],
+        [(vertex_stage, vertex_variant)]
+    );
+    // Into a native attachment: the application's vertex shader.
+    state.set_target(Target::Native);
+    state.before_draw(&mut sink);
+    assert_eq!(
+        sink.position_shader_binds.last(),
+        Some(&(vertex_stage, vertex))
+    );
+}

@@ -367,9 +367,15 @@ impl VertexStageFacts<'_> {
                     "revz's push constants do not reach its mesh stage (the layout's \
                      push-constant range that holds them does not name it)"
                 }
-                _ => {
+                LastStage::TessellationEvaluation => {
                     "revz's push constants do not reach its tessellation evaluation stage \
                      (the layout's push-constant range that holds them does not name it)"
+                }
+                // A vertex stage in a layout whose carrier went into a mesh range (found in
+                // review: a layout with a mesh range and no vertex range).
+                LastStage::Vertex => {
+                    "revz's push constants do not reach its vertex stage (the layout's \
+                     push-constant range that holds them does not name it)"
                 }
             }
             .into());
