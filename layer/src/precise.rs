@@ -113,6 +113,11 @@ impl ProjectionUse {
         self.offset + 3 * self.stride + 16
     }
 
+    /// The 4-byte words of push-constant bytes the matrix spans.
+    fn words(&self) -> u64 {
+        word_mask(self.offset as usize, self.end() as usize)
+    }
+
     /// The 16 floats in storage order (vector by vector: one bounds check per vector on this
     /// per-push path; `end() <= PUSH_CONSTANT_BYTES` by construction, so no vector is ever
     /// missing: one would read as zeros).
@@ -487,17 +492,12 @@ pub struct PushConstants {
     /// The layout of the application's last push (compatible with the bound pipeline's for
     /// push constants, or the application's draws would be invalid).
     layout: vk::PipelineLayout,
-    /// The last classification: its input (bits, storage, convention, the target it was
-    /// rewritten for, the cameras' generation) and outcome. Consecutive draws often push the
-    /// same projection.
-    last: Option<(
-        [u32; 16],
-        Storage,
-        DepthConvention,
-        RewriteTarget,
-        u64,
-        Outcome,
-    )>,
+    /// The last search ([`Self::outcome`]): what it depended on besides the matrix's bits,
+    /// its outcome and camera. A matrix pushed again (one projection for many draws, the
+    /// camera's own best matrix) is not searched again.
+    last: Option<(ClassifyInput, Outcome, Option<usize>)>,
+    /// The last searched matrix (meaningful where `last` is `Some`; compared by bits).
+    last_values: [f32; 16],
     /// The camera the last classified matrix belonged to, for the next matrices of the same
     /// camera (P * V * M of each object: other bits, same line).
     same_camera: Option<SameCamera>,
@@ -507,10 +507,13 @@ pub struct PushConstants {
     generation: u64,
     /// A camera was found or improved since [`PushConstants::take_changed`] last asked.
     changed: bool,
-    /// Per camera slot of `cameras`, the matrices classified as that camera's in this
-    /// recording (the depth profile; a matrix pushed again unchanged is not counted again).
+    /// Per camera slot of `cameras`, the pushed matrices classified as that camera's in this
+    /// recording (the depth profile): a push's matrix counts once, however many binds classify
+    /// it again; pushed again, it counts again.
     matches: [u32; revz_math::MAX_CAMERAS],
-    /// [`Self::known_outcome`] found no answer for the current values: the next
+    /// The words pushed since a classification last counted them ([`Self::count_match`]).
+    uncounted: u64,
+    /// [`Self::keeps`] found no answer for the current values: the next
     /// [`Self::outcome`] (the full path of the same push) searches at once.
     search_next: bool,
 }
@@ -522,12 +525,14 @@ impl Default for PushConstants {
             written: 0,
             layout: vk::PipelineLayout::null(),
             last: None,
+            last_values: [0.0; 16],
             same_camera: None,
             cameras: Cameras::default(),
             generation: 0,
             changed: false,
             matches: [0; revz_math::MAX_CAMERAS],
             search_next: false,
+            uncounted: 0,
         }
     }
 }
@@ -548,11 +553,72 @@ struct SameCamera {
     outcome: Outcome,
 }
 
+/// What a classification of a matrix depends on besides its bits: a matrix of the same bits
+/// classifies the same where these are the same.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ClassifyInput {
+    storage: Storage,
+    convention: DepthConvention,
+    target: RewriteTarget,
+    /// The cameras' generation.
+    generation: u64,
+}
+
+/// What the push shortcut (`crate::command_state`) checks a pushed matrix against, prepared
+/// where the state settles ([`PushConstants::probe`]) so that a push does only the compares
+/// that depend on its bytes ([`PushConstants::keeps`]). Valid until the next search (the
+/// full path, which prepares a new one where the state settles again).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShortcutProbe {
+    use_: ProjectionUse,
+    /// One past the matrix's last byte.
+    end: u32,
+    /// The 4-byte words of the matrix.
+    words: u64,
+    /// The outcome the state settled with: the one a push must keep.
+    outcome: Outcome,
+    same: SameForProbe,
+    last: LastForProbe,
+}
+
+/// The same-camera answer of [`PushConstants::known`] for a probe.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum SameForProbe {
+    /// No camera to ask.
+    None,
+    /// A camera (index, best line) whose matrices keep the probe's outcome.
+    Keeps(usize, DepthLine),
+    /// A camera whose matrices classify as another outcome.
+    Other,
+}
+
+/// The last search's answer of [`PushConstants::known`] for a probe (its bits).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum LastForProbe {
+    /// No search, or one with another input.
+    None,
+    /// The probe's outcome, of this camera.
+    Keeps(Option<usize>),
+    /// Another outcome.
+    Other,
+}
+
+impl ShortcutProbe {
+    /// Whether bytes `[offset, offset + size)` touch the matrix.
+    #[inline]
+    pub fn touched_by(&self, offset: u32, size: usize) -> bool {
+        offset < self.end && u64::from(self.use_.offset) < u64::from(offset) + size as u64
+    }
+}
+
 /// Whether two matrices' bits are equal, compared without a call (`==` on the arrays calls
 /// `memcmp`, a tenth of a push's cost in a profile).
 #[inline]
-fn same_bits(a: &[u32; 16], b: &[u32; 16]) -> bool {
-    a.iter().zip(b).fold(0, |differ, (x, y)| differ | (x ^ y)) == 0
+fn same_bits(a: &[f32; 16], b: &[f32; 16]) -> bool {
+    a.iter()
+        .zip(b)
+        .fold(0, |differ, (x, y)| differ | (x.to_bits() ^ y.to_bits()))
+        == 0
 }
 
 /// The 4-byte words `[start, end)` covers (both clamped to [`PUSH_CONSTANT_BYTES`]).
@@ -598,10 +664,13 @@ impl PushConstants {
             return None;
         }
         let values = use_.read(&self.bytes);
-        // Where the push shortcut just asked `known` of these values, it answered nothing.
+        let input = self.input(use_, target);
+        // Where the push shortcut just asked `keeps` of these values, it found no answer.
         let searched = std::mem::take(&mut self.search_next);
         if !searched {
-            if let Some(outcome) = self.known(&values, use_, target) {
+            let same = self.same_camera_for(&input);
+            if let Some((outcome, camera)) = self.known(&values, same.as_ref(), &input) {
+                self.count_match(camera, use_.words());
                 return Some(outcome);
             }
         }
@@ -621,12 +690,8 @@ impl PushConstants {
                     && line.relative_b_error() >= same.line.relative_b_error()
             })
         });
-        let outcome = match matched {
-            Some(same) => {
-                self.cameras.touch(same.index);
-                self.count_match(Some(same.index));
-                same.outcome
-            }
+        let (outcome, camera) = match matched {
+            Some(same) => (same.outcome, Some(same.index)),
             None => {
                 let (outcome, changed, camera) =
                     classify_line(line, use_.convention, target, &mut self.cameras);
@@ -634,7 +699,6 @@ impl PushConstants {
                     self.generation += 1;
                     self.changed = true;
                 }
-                self.count_match(camera);
                 self.same_camera = camera.and_then(|index| {
                     let (.., line) = self.cameras.camera(index)?;
                     Some(SameCamera {
@@ -646,117 +710,165 @@ impl PushConstants {
                         outcome,
                     })
                 });
-                outcome
+                (outcome, camera)
             }
         };
-        self.remember(&values, use_, target, outcome);
+        self.count_match(camera, use_.words());
+        self.last_values = values;
+        self.last = Some((self.input(use_, target), outcome, camera));
         Some(outcome)
     }
 
-    /// [`Self::outcome`] where it needs no search: the application has pushed every byte of
-    /// `use_`, and the matrix is the last one classified or surely the same camera's as it
-    /// ([`DepthLine::surely_holds`]); `None` otherwise (nothing changed then). The push
-    /// shortcut's question (`crate::command_state`): a few hundred instructions less than the
-    /// search, which computes the matrix's line.
+    /// What a classification of `use_` for `target` depends on besides the matrix's bits.
     #[inline]
-    pub fn known_outcome(
-        &mut self,
-        use_: &ProjectionUse,
-        target: RewriteTarget,
-    ) -> Option<Outcome> {
-        if !self.holds(use_) {
-            return None;
+    fn input(&self, use_: &ProjectionUse, target: RewriteTarget) -> ClassifyInput {
+        ClassifyInput {
+            storage: use_.storage,
+            convention: use_.convention,
+            target,
+            generation: self.generation,
         }
-        let values = use_.read(&self.bytes);
-        let known = self.known(&values, use_, target);
-        self.search_next = known.is_none();
-        known
     }
 
-    /// The outcome of the current values of `use_` where they are the last classified (what a
-    /// settle just used), without classifying or counting anything; `None` otherwise.
+    /// The camera of the last classified matrix, its best line and its matrices' outcome,
+    /// where a matrix classified with `input` can be its.
+    fn same_camera_for(&self, input: &ClassifyInput) -> Option<(usize, DepthLine, Outcome)> {
+        self.same_camera
+            .as_ref()
+            .filter(|same| {
+                same.generation == input.generation
+                    && same.convention == input.convention
+                    && same.target == input.target
+            })
+            .map(|same| (same.index, same.line, same.outcome))
+    }
+
+    /// The outcome the next [`Self::outcome`] gives the current values of `use_` without a
+    /// search, where it needs none; nothing is counted.
     pub fn settled_outcome(&self, use_: &ProjectionUse, target: RewriteTarget) -> Option<Outcome> {
         if !self.holds(use_) {
             return None;
         }
-        let bits = use_.read(&self.bytes).map(f32::to_bits);
-        let (last_bits, storage, convention, last_target, generation, outcome) =
-            self.last.as_ref()?;
-        (same_bits(last_bits, &bits)
-            && *storage == use_.storage
-            && *convention == use_.convention
-            && *last_target == target
-            && *generation == self.generation)
-            .then_some(*outcome)
+        let values = use_.read(&self.bytes);
+        let input = self.input(use_, target);
+        let same = self.same_camera_for(&input);
+        self.known(&values, same.as_ref(), &input)
+            .map(|(outcome, _)| outcome)
+    }
+
+    /// The push shortcut's probe for `use_` rewritten for `target` with the settled
+    /// `outcome` ([`ShortcutProbe`], [`Self::keeps`]).
+    pub fn probe(
+        &self,
+        use_: &ProjectionUse,
+        target: RewriteTarget,
+        outcome: Outcome,
+    ) -> ShortcutProbe {
+        let input = self.input(use_, target);
+        let same = match self.same_camera_for(&input) {
+            Some((index, line, same)) if same == outcome => SameForProbe::Keeps(index, line),
+            Some(_) => SameForProbe::Other,
+            None => SameForProbe::None,
+        };
+        let last = match &self.last {
+            Some((last_input, last, camera)) if *last_input == input => {
+                if *last == outcome {
+                    LastForProbe::Keeps(*camera)
+                } else {
+                    LastForProbe::Other
+                }
+            }
+            _ => LastForProbe::None,
+        };
+        ShortcutProbe {
+            use_: *use_,
+            end: use_.end(),
+            words: use_.words(),
+            outcome,
+            same,
+            last,
+        }
+    }
+
+    /// Whether the current values of the probe's matrix (just pushed) keep its outcome
+    /// without a search: what [`Self::known`] answers, with the compares that do not depend
+    /// on the values made in [`Self::probe`] (counted as [`Self::outcome`] counts it).
+    /// `false` changes nothing but what the full path of the same push then skips (the
+    /// search for an answer this found not to exist).
+    #[inline]
+    pub fn keeps(&mut self, probe: &ShortcutProbe) -> bool {
+        if self.written & probe.words != probe.words {
+            return false;
+        }
+        let values = probe.use_.read(&self.bytes);
+        match probe.same {
+            SameForProbe::Keeps(index, line) => {
+                if line.surely_holds(&values, probe.use_.storage) {
+                    self.count_match(Some(index), probe.words);
+                    return true;
+                }
+            }
+            // `known` may answer another outcome: the full path finds out.
+            SameForProbe::Other => return false,
+            SameForProbe::None => {}
+        }
+        match probe.last {
+            LastForProbe::Keeps(camera) if same_bits(&self.last_values, &values) => {
+                self.count_match(camera, probe.words);
+                true
+            }
+            LastForProbe::Other if same_bits(&self.last_values, &values) => false,
+            _ => {
+                self.search_next = true;
+                false
+            }
+        }
     }
 
     /// Whether the application pushed every byte of `use_`.
     #[inline]
     fn holds(&self, use_: &ProjectionUse) -> bool {
-        let mask = word_mask(use_.offset as usize, use_.end() as usize);
+        let mask = use_.words();
         self.written & mask == mask
     }
 
-    /// The outcome of `values` where no search is needed: the last classification's, for the
-    /// same bits under the same conditions; the last camera's, for a matrix that surely agrees
-    /// with its line and does not improve it (counted as that camera's match).
+    /// The outcome of `values` (classified with `input`) and its camera where no search is
+    /// needed: the camera `same`'s ([`Self::same_camera_for`]) for a matrix that surely
+    /// agrees with its line and does not improve it ([`DepthLine::surely_holds`]: about 150
+    /// instructions, first because most pushes are such matrices); the last search's, for
+    /// its matrix's bits under the same input. The two agree where both answer: a search
+    /// leaves `same_camera` as the camera it found, with its outcome.
     #[inline]
     fn known(
-        &mut self,
+        &self,
         values: &[f32; 16],
-        use_: &ProjectionUse,
-        target: RewriteTarget,
-    ) -> Option<Outcome> {
-        let bits = values.map(f32::to_bits);
-        if let Some((last_bits, storage, convention, last_target, generation, outcome)) = &self.last
-        {
-            if same_bits(last_bits, &bits)
-                && *storage == use_.storage
-                && *convention == use_.convention
-                && *last_target == target
-                && *generation == self.generation
-            {
-                return Some(*outcome);
+        same: Option<&(usize, DepthLine, Outcome)>,
+        input: &ClassifyInput,
+    ) -> Option<(Outcome, Option<usize>)> {
+        if let Some((index, line, outcome)) = same {
+            if line.surely_holds(values, input.storage) {
+                return Some((*outcome, Some(*index)));
             }
         }
-        // By reference: the camera's line and outcome are most of a cache line.
-        let same = self.same_camera.as_ref().filter(|same| {
-            same.generation == self.generation
-                && same.convention == use_.convention
-                && same.target == target
-        })?;
-        if !same.line.surely_holds(values, use_.storage) {
-            return None;
-        }
-        let (index, outcome) = (same.index, same.outcome);
-        self.cameras.touch(index);
-        self.count_match(Some(index));
-        self.remember(values, use_, target, outcome);
-        Some(outcome)
+        let (last_input, outcome, camera) = self.last.as_ref()?;
+        (last_input == input && same_bits(&self.last_values, values)).then_some((*outcome, *camera))
     }
 
-    /// `values` were classified as `outcome` (the next push of the same bits is not again).
+    /// The matrix in `words` classified as `camera`'s: where it was pushed since it last
+    /// counted, the camera was used now (the table's least recently used camera makes room
+    /// for a new one) and counts it (the depth profile). A settle that classifies the same
+    /// matrix again (after a bind) changes neither, so a bind that leaves the state settled
+    /// without classifying leaves it as that settle would.
     #[inline]
-    fn remember(
-        &mut self,
-        values: &[f32; 16],
-        use_: &ProjectionUse,
-        target: RewriteTarget,
-        outcome: Outcome,
-    ) {
-        self.last = Some((
-            values.map(f32::to_bits),
-            use_.storage,
-            use_.convention,
-            target,
-            self.generation,
-            outcome,
-        ));
-    }
-
-    fn count_match(&mut self, camera: Option<usize>) {
-        if let Some(count) = camera.and_then(|index| self.matches.get_mut(index)) {
-            *count = count.saturating_add(1);
+    fn count_match(&mut self, camera: Option<usize>, words: u64) {
+        if let Some(index) = camera {
+            if self.uncounted & words != 0 {
+                self.uncounted &= !words;
+                self.cameras.touch(index);
+                if let Some(count) = self.matches.get_mut(index) {
+                    *count = count.saturating_add(1);
+                }
+            }
         }
     }
 
@@ -769,7 +881,9 @@ impl PushConstants {
         if let Some(shadow) = self.bytes.get_mut(start..end.min(PUSH_CONSTANT_BYTES)) {
             shadow.copy_from_slice(&data[..shadow.len()]);
         }
-        self.written |= word_mask(start, end);
+        let words = word_mask(start, end);
+        self.written |= words;
+        self.uncounted |= words;
     }
 
     /// The application's push of `stages` at `offset` (already followed by [`Self::push`]),

@@ -8,8 +8,8 @@
 //! settled, the two answers [`CommandState::push_constants`] would give: a push that misses
 //! the bound pipeline's projection changes nothing revz sends; one that writes it changes
 //! nothing as long as its matrix classifies as the settled outcome
-//! ([`crate::precise::PushConstants::known_outcome`]: the last matrix's bits, or surely the
-//! same camera's). [`CommandState::push_shortcut`] checks those answers still apply and
+//! ([`crate::precise::PushConstants::keeps`]: the last matrix's bits, or surely the same
+//! camera's). [`CommandState::push_shortcut`] checks those answers still apply and
 //! follows the push; anything else takes the full path, which the shortcut leaves exactly as
 //! it would have found it (a test runs both on every push of random recordings).
 //!
@@ -25,21 +25,20 @@
 //! lock for it.
 
 use ash::vk;
-use revz_math::Target as RewriteTarget;
 
 use super::{CommandState, DrawPath};
 use crate::conv::Reversal;
-use crate::precise::{Outcome, ProjectionUse};
+use crate::precise::{Outcome, ShortcutProbe};
 
 /// The answers of [`CommandState::push_constants`] for a settled state (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct PushShortcut {
     /// The application's last push layout: pushes with another go the full way.
     layout: vk::PipelineLayout,
-    /// The bound pipeline's projection, where its draws would rewrite it, and the outcome the
+    /// The bound pipeline's projection, where its draws would rewrite it, with the outcome the
     /// state settled with; a push writing any of its bytes keeps the state only with that
     /// outcome.
-    projection: Option<(ProjectionUse, RewriteTarget, Outcome)>,
+    projection: Option<ShortcutProbe>,
 }
 
 impl CommandState {
@@ -86,7 +85,7 @@ impl CommandState {
                 if !learnt || path != self.path || !carrier_kept(Some(outcome)) {
                     return None;
                 }
-                Some((use_, target, outcome))
+                Some(self.push.probe(&use_, target, outcome))
             }
         };
         Some(PushShortcut { layout, projection })
@@ -118,17 +117,13 @@ impl CommandState {
         offset: u32,
         data: &[u8],
     ) -> Option<vk::ShaderStageFlags> {
-        // Copied out (the shadow is written below): the layout, and the projection's use.
-        let projection = match &self.shortcut {
-            Some(shortcut) if !self.dirty && layout == shortcut.layout => shortcut.projection,
+        let shortcut = match &self.shortcut {
+            Some(shortcut) if !self.dirty && layout == shortcut.layout => shortcut,
             _ => return None,
         };
         self.push.push(layout, offset, data);
-        if let Some((use_, target, outcome)) = &projection {
-            let end = u64::from(offset) + data.len() as u64;
-            let writes_it =
-                u64::from(offset) < u64::from(use_.end()) && u64::from(use_.offset) < end;
-            if writes_it && self.push.known_outcome(use_, *target) != Some(*outcome) {
+        if let Some(probe) = &shortcut.projection {
+            if probe.touched_by(offset, data.len()) && !self.push.keeps(probe) {
                 return None;
             }
         }

@@ -3,6 +3,7 @@
 //! lookup on every recorded command, where a thread-local cache answers repeated lookups from
 //! the thread that records (the usual case) without touching the shared table.
 
+use super::recording_lock::{RecordingGuard, RecordingLock};
 use super::*;
 
 /// What revz keeps for one command buffer.
@@ -11,7 +12,7 @@ pub struct CommandBufferEntry {
     pub device: Arc<DeviceState>,
     /// Secondary command buffers may inherit a render pass; primaries never do.
     pub secondary: bool,
-    state: Mutex<CommandState>,
+    state: RecordingLock<CommandState>,
     /// Whether the state has depth state to send ([`CommandState::wants_settle`]), as it was
     /// when its lock was last released: a hook after which nothing is pending settles without
     /// taking the lock again (one load). Written only under the state's lock.
@@ -37,7 +38,7 @@ impl CommandBufferEntry {
     /// command buffer at a time).
     pub fn state(&self) -> StateGuard<'_> {
         StateGuard {
-            state: self.state.lock().unwrap_or_else(PoisonError::into_inner),
+            state: self.state.lock(),
             settle_wanted: &self.settle_wanted,
             shortcut_ready: &self.shortcut_ready,
         }
@@ -60,7 +61,6 @@ impl CommandBufferEntry {
         }
         self.state
             .lock()
-            .unwrap_or_else(PoisonError::into_inner)
             .push_shortcut(layout, stages, offset, data)
     }
 
@@ -78,7 +78,7 @@ impl CommandBufferEntry {
 /// A locked [`CommandState`]; on release it notes whether a settle has anything to send.
 #[derive(Debug)]
 pub struct StateGuard<'a> {
-    state: MutexGuard<'a, CommandState>,
+    state: RecordingGuard<'a, CommandState>,
     settle_wanted: &'a AtomicBool,
     shortcut_ready: &'a AtomicBool,
 }
@@ -133,7 +133,7 @@ pub fn track_command_buffers(
             Arc::new(CommandBufferEntry {
                 device: Arc::clone(device),
                 secondary: level == vk::CommandBufferLevel::SECONDARY,
-                state: Mutex::new(CommandState::new(device.reversing())),
+                state: RecordingLock::new(CommandState::new(device.reversing())),
                 settle_wanted: AtomicBool::new(false),
                 shortcut_ready: AtomicBool::new(false),
                 scope: Mutex::new(PassScope::default()),

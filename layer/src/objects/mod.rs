@@ -992,6 +992,7 @@ impl DeviceObjects {
 }
 
 mod command_buffers;
+mod recording_lock;
 
 pub use command_buffers::*;
 

@@ -254,75 +254,39 @@ pub unsafe extern "system" fn cmd_push_constants(
     size: u32,
     p_values: *const std::ffi::c_void,
 ) {
-    static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushConstants");
-    // The extended push's bytes, written only where the carrier goes with this push (left
-    // uninitialized otherwise: most pushes send the application's own bytes).
-    let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
-    let tracked = objects::with_command_buffer(buffer, |entry| {
-        // Most pushes change nothing revz sends (the same camera's next matrix, bytes beside
-        // the projection): a few compares, and the push goes down as it came. Its own closure
-        // and call down, not the full path's: folded into that closure, with the settle after
-        // it, a push of one camera measured 27 instructions more (micro child, callgrind).
-        let shortcut = guarded(
-            &ENTRY,
-            || {
-                // SAFETY: `size` bytes of values (the application's contract).
-                let values = unsafe { slice(p_values.cast::<u8>(), size) };
-                entry.push_shortcut(layout, stages, offset, values)
-            },
-            || None,
-        );
-        if let Some(stages) = shortcut {
-            // SAFETY: calling down with the application's arguments (and the stages of a
-            // vertex range revz extended over the bytes it writes).
-            unsafe {
-                (entry.device.next.fp_v1_0().cmd_push_constants)(
-                    buffer, layout, stages, offset, size, p_values,
-                )
-            };
-            return;
-        }
-        let mut followed = stages;
-        let failed = std::cell::Cell::new(false);
-        let folded = guarded(
-            &ENTRY,
-            || {
-                // SAFETY: `size` bytes of values (the application's contract).
-                let values = unsafe { slice(p_values.cast::<u8>(), size) };
-                follow_push(
-                    entry,
-                    layout,
-                    &mut followed,
-                    offset,
-                    values,
-                    &mut folded_bytes,
-                )
-            },
-            || {
-                failed.set(true);
-                None
-            },
-        );
-        // A push whose following failed (its stages possibly not patched): from the device's
-        // tables.
-        let stages = if failed.get() {
-            patched_stages(&entry.device, layout, offset, size, stages)
-        } else {
-            followed
-        };
-        let (offset, size, p_sent) = match folded {
-            Some(f) => (f.offset, f.size, folded_bytes.as_ptr().cast()),
-            None => (offset, size, p_values),
-        };
-        // SAFETY: calling down with the application's arguments (its values extended to the
-        // carrier's bytes, which the layout's range of `stages` holds).
-        unsafe {
-            (entry.device.next.fp_v1_0().cmd_push_constants)(
-                buffer, layout, stages, offset, size, p_sent,
-            )
-        };
-        settle(entry, buffer);
-    });
+    let tracked = objects::with_command_buffer(
+        buffer,
+        #[inline(always)]
+        |entry| {
+            // Most pushes change nothing revz sends (the same camera's next matrix, bytes
+            // beside the projection): a few compares, and the push goes down as it came. Inline
+            // here, the full path in its own function: the hook's arguments stay in registers
+            // on this path (the closure, not inlined, took 25 instructions a push to pass
+            // them; micro child, callgrind).
+            let shortcut = guarded(
+                &PUSH_CONSTANTS,
+                || {
+                    // SAFETY: `size` bytes of values (the application's contract).
+                    let values = unsafe { slice(p_values.cast::<u8>(), size) };
+                    entry.push_shortcut(layout, stages, offset, values)
+                },
+                || None,
+            );
+            match shortcut {
+                // SAFETY: calling down with the application's arguments (and the stages of a
+                // vertex range revz extended over the bytes it writes).
+                Some(stages) => unsafe {
+                    (entry.device.next.fp_v1_0().cmd_push_constants)(
+                        buffer, layout, stages, offset, size, p_values,
+                    )
+                },
+                // SAFETY: the hook's arguments.
+                None => unsafe {
+                    push_constants_in_full(entry, buffer, layout, stages, offset, size, p_values)
+                },
+            }
+        },
+    );
     if tracked.is_none() {
         if let Some(device) = untracked_device(buffer) {
             // The stages of a vertex range revz extended over the bytes, as for tracked ones.
@@ -335,6 +299,69 @@ pub unsafe extern "system" fn cmd_push_constants(
             }
         }
     }
+}
+
+static PUSH_CONSTANTS: EntryPoint = EntryPoint::new("vkCmdPushConstants");
+
+/// [`cmd_push_constants`] of a tracked command buffer where the push shortcut did not answer:
+/// the push is followed ([`follow_push`]), goes down (extended to the carrier where its value
+/// changes with this push), and the state settles.
+///
+/// # Safety
+/// The arguments of `vkCmdPushConstants`.
+#[inline(never)]
+unsafe fn push_constants_in_full(
+    entry: &CommandBufferEntry,
+    buffer: vk::CommandBuffer,
+    layout: vk::PipelineLayout,
+    stages: vk::ShaderStageFlags,
+    offset: u32,
+    size: u32,
+    p_values: *const std::ffi::c_void,
+) {
+    // The extended push's bytes, written only where the carrier goes with this push (left
+    // uninitialized otherwise: most pushes send the application's own bytes).
+    let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
+    let mut followed = stages;
+    let failed = std::cell::Cell::new(false);
+    let folded = guarded(
+        &PUSH_CONSTANTS,
+        || {
+            // SAFETY: `size` bytes of values (the application's contract).
+            let values = unsafe { slice(p_values.cast::<u8>(), size) };
+            follow_push(
+                entry,
+                layout,
+                &mut followed,
+                offset,
+                values,
+                &mut folded_bytes,
+            )
+        },
+        || {
+            failed.set(true);
+            None
+        },
+    );
+    // A push whose following failed (its stages possibly not patched): from the device's
+    // tables.
+    let stages = if failed.get() {
+        patched_stages(&entry.device, layout, offset, size, stages)
+    } else {
+        followed
+    };
+    let (offset, size, p_sent) = match folded {
+        Some(f) => (f.offset, f.size, folded_bytes.as_ptr().cast()),
+        None => (offset, size, p_values),
+    };
+    // SAFETY: calling down with the application's arguments (its values extended to the
+    // carrier's bytes, which the layout's range of `stages` holds).
+    unsafe {
+        (entry.device.next.fp_v1_0().cmd_push_constants)(
+            buffer, layout, stages, offset, size, p_sent,
+        )
+    };
+    settle(entry, buffer);
 }
 
 /// The stages an application's push with `layout` goes down with where revz's layout
