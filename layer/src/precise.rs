@@ -660,38 +660,36 @@ impl PushConstants {
     /// The outcome for `use_` on the current values, or `None` when the application has not
     /// pushed all of its bytes.
     pub fn outcome(&mut self, use_: &ProjectionUse, target: RewriteTarget) -> Option<Outcome> {
-        if !self.holds(use_) {
+        let words = use_.words();
+        if self.written & words != words {
             return None;
         }
         let values = use_.read(&self.bytes);
         let input = self.input(use_, target);
         // Where the push shortcut just asked `keeps` of these values, it found no answer.
         let searched = std::mem::take(&mut self.search_next);
+        // The camera of the last classified matrix, where this one can be its.
+        let same = self.same_camera_for(&input);
         if !searched {
-            let same = self.same_camera_for(&input);
-            if let Some((outcome, camera)) = self.known(&values, same.as_ref(), &input) {
-                self.count_match(camera, use_.words());
+            if let Some((outcome, camera)) = self.known(&values, same, &input) {
+                self.count_match(camera, words);
                 return Some(outcome);
             }
         }
-        // The camera of the last classified matrix, where this one can be its.
-        let same = self.same_camera.filter(|same| {
-            same.generation == self.generation
-                && same.convention == use_.convention
-                && same.target == target
-        });
         let line = DepthLine::of_stored(&values, use_.storage);
         // The same camera's matrix that the sufficient test ([`Self::known`]) did not
         // recognize: its line agrees with the camera's and does not improve it (what the full
         // search would conclude).
-        let matched = same.filter(|same| {
-            line.is_some_and(|line| {
-                same.line.agrees_with(&line)
-                    && line.relative_b_error() >= same.line.relative_b_error()
+        let matched = same
+            .filter(|same| {
+                line.is_some_and(|line| {
+                    same.line.agrees_with(&line)
+                        && line.relative_b_error() >= same.line.relative_b_error()
+                })
             })
-        });
+            .map(|same| (same.outcome, Some(same.index)));
         let (outcome, camera) = match matched {
-            Some(same) => (same.outcome, Some(same.index)),
+            Some(matched) => matched,
             None => {
                 let (outcome, changed, camera) =
                     classify_line(line, use_.convention, target, &mut self.cameras);
@@ -713,7 +711,7 @@ impl PushConstants {
                 (outcome, camera)
             }
         };
-        self.count_match(camera, use_.words());
+        self.count_match(camera, words);
         self.last_values = values;
         self.last = Some((self.input(use_, target), outcome, camera));
         Some(outcome)
@@ -730,17 +728,14 @@ impl PushConstants {
         }
     }
 
-    /// The camera of the last classified matrix, its best line and its matrices' outcome,
-    /// where a matrix classified with `input` can be its.
-    fn same_camera_for(&self, input: &ClassifyInput) -> Option<(usize, DepthLine, Outcome)> {
-        self.same_camera
-            .as_ref()
-            .filter(|same| {
-                same.generation == input.generation
-                    && same.convention == input.convention
-                    && same.target == input.target
-            })
-            .map(|same| (same.index, same.line, same.outcome))
+    /// The camera of the last classified matrix, where a matrix classified with `input` can
+    /// be its.
+    fn same_camera_for(&self, input: &ClassifyInput) -> Option<&SameCamera> {
+        self.same_camera.as_ref().filter(|same| {
+            same.generation == input.generation
+                && same.convention == input.convention
+                && same.target == input.target
+        })
     }
 
     /// The outcome the next [`Self::outcome`] gives the current values of `use_` without a
@@ -751,8 +746,7 @@ impl PushConstants {
         }
         let values = use_.read(&self.bytes);
         let input = self.input(use_, target);
-        let same = self.same_camera_for(&input);
-        self.known(&values, same.as_ref(), &input)
+        self.known(&values, self.same_camera_for(&input), &input)
             .map(|(outcome, _)| outcome)
     }
 
@@ -766,7 +760,7 @@ impl PushConstants {
     ) -> ShortcutProbe {
         let input = self.input(use_, target);
         let same = match self.same_camera_for(&input) {
-            Some((index, line, same)) if same == outcome => SameForProbe::Keeps(index, line),
+            Some(same) if same.outcome == outcome => SameForProbe::Keeps(same.index, same.line),
             Some(_) => SameForProbe::Other,
             None => SameForProbe::None,
         };
@@ -801,10 +795,10 @@ impl PushConstants {
             return false;
         }
         let values = probe.use_.read(&self.bytes);
-        match probe.same {
+        match &probe.same {
             SameForProbe::Keeps(index, line) => {
                 if line.surely_holds(&values, probe.use_.storage) {
-                    self.count_match(Some(index), probe.words);
+                    self.count_match(Some(*index), probe.words);
                     return true;
                 }
             }
@@ -842,12 +836,12 @@ impl PushConstants {
     fn known(
         &self,
         values: &[f32; 16],
-        same: Option<&(usize, DepthLine, Outcome)>,
+        same: Option<&SameCamera>,
         input: &ClassifyInput,
     ) -> Option<(Outcome, Option<usize>)> {
-        if let Some((index, line, outcome)) = same {
-            if line.surely_holds(values, input.storage) {
-                return Some((*outcome, Some(*index)));
+        if let Some(same) = same {
+            if same.line.surely_holds(values, input.storage) {
+                return Some((same.outcome, Some(same.index)));
             }
         }
         let (last_input, outcome, camera) = self.last.as_ref()?;

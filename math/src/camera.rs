@@ -202,6 +202,7 @@ impl DepthLine {
     /// terms, and its off-line part at most `|e|`; each test below is one of these bounds
     /// multiplied through by `|w|^2`.
     #[must_use]
+    #[inline]
     pub fn surely_holds(&self, values: &[f32; 16], storage: Storage) -> bool {
         // Entries far from overflow and underflow in the products below.
         const LARGEST: f32 = 1e18;

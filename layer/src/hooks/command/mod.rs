@@ -265,7 +265,8 @@ pub unsafe extern "system" fn cmd_push_constants(
             // them; micro child, callgrind).
             let shortcut = guarded(
                 &PUSH_CONSTANTS,
-                || {
+                // By value: the arguments go into the closure, not pointers to their copies.
+                move || {
                     // SAFETY: `size` bytes of values (the application's contract).
                     let values = unsafe { slice(p_values.cast::<u8>(), size) };
                     entry.push_shortcut(layout, stages, offset, values)
