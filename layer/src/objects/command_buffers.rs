@@ -64,6 +64,13 @@ impl CommandBufferEntry {
             .push_shortcut(layout, stages, offset, data)
     }
 
+    /// Whether the state had a push shortcut when its lock was last released (a push may
+    /// then try [`Self::push_shortcut`]).
+    #[inline]
+    pub fn has_push_shortcut(&self) -> bool {
+        self.shortcut_ready.load(Ordering::Relaxed)
+    }
+
     /// Whether a settle may have something to send (false: it would send nothing).
     #[inline]
     pub fn settle_wanted(&self) -> bool {

@@ -263,17 +263,20 @@ pub unsafe extern "system" fn cmd_push_constants(
             // here, the full path in its own function: the hook's arguments stay in registers
             // on this path (the closure, not inlined, took 25 instructions a push to pass
             // them; micro child, callgrind).
-            let shortcut = guarded(
-                &PUSH_CONSTANTS,
-                // By value: the arguments go into the closure, not pointers to their copies.
-                move || {
-                    // SAFETY: `size` bytes of values (the application's contract).
-                    let values = unsafe { slice(p_values.cast::<u8>(), size) };
-                    entry.push_shortcut(layout, stages, offset, values)
-                },
-                || None,
-            );
-            match shortcut {
+            // Without a shortcut (a new camera each push), not even the guarded call.
+            let shortcut = entry.has_push_shortcut().then(|| {
+                guarded(
+                    &PUSH_CONSTANTS,
+                    // By value: the arguments go into the closure, not pointers to their copies.
+                    move || {
+                        // SAFETY: `size` bytes of values (the application's contract).
+                        let values = unsafe { slice(p_values.cast::<u8>(), size) };
+                        entry.push_shortcut(layout, stages, offset, values)
+                    },
+                    || None,
+                )
+            });
+            match shortcut.flatten() {
                 // SAFETY: calling down with the application's arguments (and the stages of a
                 // vertex range revz extended over the bytes it writes).
                 Some(stages) => unsafe {
