@@ -644,11 +644,7 @@ impl CommandState {
         match outcome {
             Some(outcome) => {
                 self.learn(&outcome);
-                let path = match outcome {
-                    Outcome::Rewritten { .. } => DrawPath::Precise,
-                    _ => DrawPath::Flip,
-                };
-                if path != self.path {
+                if self.pushed_path(&outcome) != self.path {
                     self.dirty = true;
                 }
             }
@@ -661,6 +657,21 @@ impl CommandState {
         self.carrier_churn = folded.is_some();
         self.refresh_shortcut(outcome);
         (outcome, folded)
+    }
+
+    /// The path a settle gives the next draw where the bound pipeline's projection (of a
+    /// reversed target) classifies as `outcome` and the carrier goes down: precise for a
+    /// camera's projection, and for any matrix a stage that also fits its range gets (its
+    /// fit: issue #41, a later stage's push-constant projection); flip otherwise. What a push
+    /// and the push shortcut compare with the path held: the settle's rule
+    /// ([`Self::settle`]), or every other such push would mark the state dirty.
+    #[inline]
+    pub(super) fn pushed_path(&self, outcome: &Outcome) -> DrawPath {
+        match outcome {
+            Outcome::Rewritten { .. } => DrawPath::Precise,
+            _ if self.derived_use().is_some() => DrawPath::Precise,
+            _ => DrawPath::Flip,
+        }
     }
 
     /// The bytes of a push [`Self::push_constants`] just returned, written into `out`.

@@ -70,10 +70,7 @@ impl CommandState {
                     Some(outcome) => outcome,
                     None => self.push.settled_outcome(&use_, target)?,
                 };
-                let path = match outcome {
-                    Outcome::Rewritten { .. } => DrawPath::Precise,
-                    _ => DrawPath::Flip,
-                };
+                let path = self.pushed_path(&outcome);
                 // `learn` of it must change nothing, the path must stay, and the carrier too.
                 let learnt = match (outcome, self.reversing.reversal) {
                     (

@@ -2020,6 +2020,30 @@ fn a_stage_fitting_a_pushed_matrix_the_cpu_classifies_gets_the_cameras_line_else
         let (_, carrier) = sink.pushed.last().unwrap().clone();
         let selector = f32::from_ne_bytes(carrier[12..16].try_into().unwrap());
         assert!(selector >= 1.0, "the fit's selector: {selector}");
+        // The next affine matrices (a shadow pass's objects) keep the fit's path: each is
+        // classified (no camera), but the state stays settled and nothing is sent (found in
+        // review: each marked the state dirty, its path computed as flip); the same matrix
+        // again takes the push shortcut.
+        let sent = sink.clone();
+        for step in 1..4u8 {
+            let mut next = affine;
+            next[48..52].copy_from_slice(&f32::from(step).to_ne_bytes());
+            let (outcome, folded) = state.push_constants(layout(), OTHER_STAGES, 0, &next);
+            assert_eq!(
+                (outcome, folded),
+                (Some(Outcome::Unchanged), None),
+                "step {step}"
+            );
+            assert!(!state.wants_settle(), "step {step}");
+            assert_eq!(
+                state.push_shortcut(layout(), OTHER_STAGES, 0, &next),
+                Some(OTHER_STAGES),
+                "step {step}"
+            );
+        }
+        state.before_draw(&mut sink);
+        assert_eq!(sink, sent);
+        assert_eq!(state.path(), DrawPath::Precise);
     }
 }
 
