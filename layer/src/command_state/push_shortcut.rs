@@ -26,7 +26,7 @@
 
 use ash::vk;
 
-use super::{CommandState, DrawPath};
+use super::CommandState;
 use crate::conv::Reversal;
 use crate::precise::{Outcome, ShortcutProbe};
 
