@@ -286,7 +286,17 @@ pub unsafe extern "system" fn cmd_push_constants(
                 },
                 // SAFETY: the hook's arguments.
                 None => unsafe {
-                    push_constants_in_full(entry, buffer, layout, stages, offset, size, p_values)
+                    push_constants_in_full(
+                        entry,
+                        AppPush {
+                            buffer,
+                            layout,
+                            stages,
+                            offset,
+                            size,
+                            p_values,
+                        },
+                    )
                 },
             }
         },
@@ -307,22 +317,33 @@ pub unsafe extern "system" fn cmd_push_constants(
 
 static PUSH_CONSTANTS: EntryPoint = EntryPoint::new("vkCmdPushConstants");
 
-/// [`cmd_push_constants`] of a tracked command buffer where the push shortcut did not answer:
-/// the push is followed ([`follow_push`]), goes down (extended to the carrier where its value
-/// changes with this push), and the state settles.
-///
-/// # Safety
-/// The arguments of `vkCmdPushConstants`.
-#[inline(never)]
-unsafe fn push_constants_in_full(
-    entry: &CommandBufferEntry,
+/// The arguments of an application's `vkCmdPushConstants`.
+#[derive(Clone, Copy)]
+struct AppPush {
     buffer: vk::CommandBuffer,
     layout: vk::PipelineLayout,
     stages: vk::ShaderStageFlags,
     offset: u32,
     size: u32,
     p_values: *const std::ffi::c_void,
-) {
+}
+
+/// [`cmd_push_constants`] of a tracked command buffer where the push shortcut did not answer:
+/// the push is followed ([`follow_push`]), goes down (extended to the carrier where its value
+/// changes with this push), and the state settles.
+///
+/// # Safety
+/// `push` holds the arguments of the application's `vkCmdPushConstants`.
+#[inline(never)]
+unsafe fn push_constants_in_full(entry: &CommandBufferEntry, push: AppPush) {
+    let AppPush {
+        buffer,
+        layout,
+        stages,
+        offset,
+        size,
+        p_values,
+    } = push;
     // The extended push's bytes, written only where the carrier goes with this push (left
     // uninitialized otherwise: most pushes send the application's own bytes).
     let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
