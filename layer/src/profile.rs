@@ -209,8 +209,9 @@ pub struct ImageRecord {
 /// One depth-testing pipeline and its path.
 #[derive(Clone, Debug)]
 pub struct PipelineRecord {
-    /// `pipeline`, or `vertex shader object` (`VK_EXT_shader_object`: its draws are counted
-    /// under the vertex stage's shader).
+    /// `pipeline`, or `vertex shader object` (`tessellation evaluation`, `geometry`, `mesh`:
+    /// `VK_EXT_shader_object`, whose draws are counted under the last pre-rasterization
+    /// stage's shader bound).
     pub kind: &'static str,
     /// `precise`, `flip` (reversed draws), with why; `none` for a pipeline that renders no
     /// depth, listed for the depth it reads through input attachments.

@@ -552,6 +552,16 @@ impl CommandState {
         }
     }
 
+    /// With shader objects bound: the application's shader of the last pre-rasterization
+    /// stage bound (the depth profile files the draws under it).
+    pub fn last_position_shader(&self) -> Option<vk::ShaderEXT> {
+        self.position_shaders
+            .iter()
+            .rev()
+            .map(|&(shader, _)| shader)
+            .find(|&shader| shader != vk::ShaderEXT::null())
+    }
+
     /// With shader objects bound: the last pre-rasterization stage's (index in
     /// [`POSITION_STAGES`]), the application's shader there, and its variant with the
     /// carrier baked in, where it has one.

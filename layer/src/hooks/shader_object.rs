@@ -357,7 +357,16 @@ pub unsafe extern "system" fn create_shaders_ext(
             for (index, info) in infos.iter().enumerate() {
                 // SAFETY: `count` handles written (checked above).
                 let shader = unsafe { *p_shaders.add(index) };
-                if info.stage == vk::ShaderStageFlags::VERTEX && shader != vk::ShaderEXT::null() {
+                let kind = match info.stage {
+                    vk::ShaderStageFlags::VERTEX => "vertex shader object",
+                    vk::ShaderStageFlags::TESSELLATION_EVALUATION => {
+                        "tessellation evaluation shader object"
+                    }
+                    vk::ShaderStageFlags::GEOMETRY => "geometry shader object",
+                    vk::ShaderStageFlags::MESH_EXT => "mesh shader object",
+                    _ => continue,
+                };
+                if shader != vk::ShaderEXT::null() {
                     let baked = matches!(
                         variants.get(index),
                         Some(Some(Made::Position(PositionShader::Baked(_))))
@@ -365,7 +374,7 @@ pub unsafe extern "system" fn create_shaders_ext(
                     profile.pipeline(
                         vk::Handle::as_raw(shader),
                         crate::profile::PipelineRecord {
-                            kind: "vertex shader object",
+                            kind,
                             path: crate::policy::pipelines::shader_object_vertex_path(
                                 state.policy.is_active(),
                                 baked,

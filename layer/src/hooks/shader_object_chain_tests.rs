@@ -782,3 +782,57 @@ fn a_mesh_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_precis
         "the mesh stage's variant in its place for the precise draw: {binds:?}"
     );
 }
+
+#[test]
+fn the_depth_profile_lists_a_mesh_shader_object_and_files_its_draws_under_it() {
+    // Found in review: only vertex shader objects were listed, and only vertex binds filed
+    // the draws that follow.
+    let report =
+        std::env::temp_dir().join(format!("revz-mesh-objects-{}.json", std::process::id()));
+    let report_value =
+        std::ffi::CString::new(report.to_str().expect("a UTF-8 temporary path")).expect("no NUL");
+    // Leaked: the settings table takes `'static` strings.
+    let report_value: &'static CStr = Box::leak(report_value.into_boxed_c_str());
+    let fx = Fixture::with_settings(&[
+        (c"mode", c"infinite"),
+        (c"reverse_observable", c"none"),
+        (c"report", report_value),
+    ]);
+    let mesh_words: Vec<u32> = include_bytes!("../../../shaders/glslang/mesh.mesh.spv")
+        .chunks_exact(4)
+        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        .collect();
+    let plain = fragment(PLAIN);
+    let mesh_stage = vk::ShaderStageFlags::MESH_EXT;
+    let (result, handles) = fx.create(&[
+        shader_info(mesh_stage, FRAGMENT_STAGE, &mesh_words),
+        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &plain),
+    ]);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (mesh, frag) = (handles[0], handles[1]);
+    let profile = fx.state.profile.as_ref().expect("the profile is on");
+    let document = profile.document();
+    let listed: Vec<_> = document["pipelines"]
+        .as_array()
+        .expect("pipelines")
+        .iter()
+        .filter(|p| p["kind"] == "mesh shader object")
+        .map(|p| (p["handle"].clone(), p["path"].clone()))
+        .collect();
+    assert_eq!(listed.len(), 1, "{document}");
+    assert_eq!(listed[0].1, "precise");
+    // Bound after the vertex stage is unbound: the draws go under the mesh shader.
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let buffer = fx.command_buffer();
+    fx.bind(
+        buffer,
+        &[vk::ShaderStageFlags::VERTEX, mesh_stage, FRAGMENT_STAGE],
+        &[vk::ShaderEXT::null(), mesh, frag],
+    );
+    let entry = crate::objects::command_buffer(buffer).expect("tracked");
+    assert_eq!(entry.state().last_position_shader(), Some(mesh));
+    fx.render(buffer, reversed, 1);
+    fx.events();
+    fx.finish();
+    let _ = std::fs::remove_file(report);
+}

@@ -967,16 +967,12 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
                 substituted = Some(shaders);
                 state.position_variant_sent(stage, variant);
             }
-            let vertex = stages
-                .iter()
-                .position(|&stage| stage == vk::ShaderStageFlags::VERTEX);
-            if let (Some(index), true) = (vertex, entry.device.profile.is_some()) {
-                let shader = if p_shaders.is_null() {
-                    0
-                } else {
-                    // SAFETY: as above; `index` is below `count`.
-                    vk::Handle::as_raw(unsafe { *p_shaders.add(index) })
-                };
+            // The depth profile files the draws under the last pre-rasterization stage's
+            // shader (vertex, tessellation evaluation, geometry or mesh), as it has recorded
+            // each of them at creation.
+            let binds_position = stages.iter().any(|stage| POSITION_STAGES.contains(stage));
+            if binds_position && entry.device.profile.is_some() {
+                let shader = state.last_position_shader().map_or(0, vk::Handle::as_raw);
                 state.tally_pipeline(shader);
             }
         }
