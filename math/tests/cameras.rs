@@ -1013,6 +1013,44 @@ fn the_least_recently_used_camera_is_evicted() {
     assert!(!observe(&mut cameras, 2).1);
 }
 
+/// A line that agrees with two cameras belongs to the most recently used of them.
+#[test]
+fn a_line_agreeing_with_two_cameras_belongs_to_the_most_recently_used() {
+    // Two trusted lines of one k, their B apart by more than both bounds; a third between
+    // them, within both.
+    let line = |b: f64| DepthLine {
+        k: 1.001,
+        b,
+        k_error: 1e-6,
+        b_error: 0.01,
+    };
+    let mut cameras = Cameras::new();
+    let index_of = |m: CameraMatch| match m {
+        CameraMatch::Camera { index, .. } => index,
+        other => panic!("{other:?}"),
+    };
+    let first = index_of(cameras.observe_line(line(-0.10), ZERO_TO_ONE));
+    let second = index_of(cameras.observe_line(line(-0.13), ZERO_TO_ONE));
+    assert_ne!(first, second);
+    let between = line(-0.115);
+    assert_eq!(cameras.find(&between, ZERO_TO_ONE), Some(second));
+    cameras.touch(first);
+    assert_eq!(cameras.find(&between, ZERO_TO_ONE), Some(first));
+    // Five more cameras leave one free slot, which the next takes; then the least recently
+    // used (`second`) makes room.
+    for i in 0..MAX_CAMERAS - 3 {
+        index_of(cameras.observe_line(line(-1.0 - i as f64), ZERO_TO_ONE));
+    }
+    assert_eq!(cameras.len(), MAX_CAMERAS - 1);
+    let last = index_of(cameras.observe_line(line(-50.0), ZERO_TO_ONE));
+    assert_eq!(cameras.len(), MAX_CAMERAS);
+    assert!(![first, second].contains(&last));
+    assert_eq!(
+        index_of(cameras.observe_line(line(-60.0), ZERO_TO_ONE)),
+        second
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // 6. The deep-range scene
 
