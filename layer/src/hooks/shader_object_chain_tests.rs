@@ -730,14 +730,18 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     fx.finish();
 }
 
+/// The tester's mesh shader (`shaders/glslang/mesh.mesh`), compiled by glslang.
+fn mesh_shader_words() -> Vec<u32> {
+    include_bytes!("../../../shaders/glslang/mesh.mesh.spv")
+        .chunks_exact(4)
+        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        .collect()
+}
+
 #[test]
 fn a_mesh_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_precise_draws() {
     let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
-    let mesh_words: Vec<u32> = include_bytes!("../../../shaders/glslang/mesh.mesh.spv")
-        .chunks_exact(4)
-        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-        .collect();
-    let plain = fragment(PLAIN);
+    let (mesh_words, plain) = (mesh_shader_words(), fragment(PLAIN));
     let mesh_stage = vk::ShaderStageFlags::MESH_EXT;
     let infos = [
         shader_info(mesh_stage, FRAGMENT_STAGE, &mesh_words),
@@ -798,11 +802,7 @@ fn the_depth_profile_lists_a_mesh_shader_object_and_files_its_draws_under_it() {
         (c"reverse_observable", c"none"),
         (c"report", report_value),
     ]);
-    let mesh_words: Vec<u32> = include_bytes!("../../../shaders/glslang/mesh.mesh.spv")
-        .chunks_exact(4)
-        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-        .collect();
-    let plain = fragment(PLAIN);
+    let (mesh_words, plain) = (mesh_shader_words(), fragment(PLAIN));
     let mesh_stage = vk::ShaderStageFlags::MESH_EXT;
     let (result, handles) = fx.create(&[
         shader_info(mesh_stage, FRAGMENT_STAGE, &mesh_words),

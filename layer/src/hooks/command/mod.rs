@@ -336,14 +336,8 @@ struct AppPush {
 /// `push` holds the arguments of the application's `vkCmdPushConstants`.
 #[inline(never)]
 unsafe fn push_constants_in_full(entry: &CommandBufferEntry, push: AppPush) {
-    let AppPush {
-        buffer,
-        layout,
-        stages,
-        offset,
-        size,
-        p_values,
-    } = push;
+    let (buffer, layout, offset, size) = (push.buffer, push.layout, push.offset, push.size);
+    let (stages, p_values) = (push.stages, push.p_values);
     // The extended push's bytes, written only where the carrier goes with this push (left
     // uninitialized otherwise: most pushes send the application's own bytes).
     let mut folded_bytes = [MaybeUninit::<u8>::uninit(); PUSH_CONSTANT_BYTES];
