@@ -652,6 +652,15 @@ impl PushConstants {
         &self.matches
     }
 
+    /// The next [`Self::outcome`] searches at once, without asking [`Self::known`]: for a
+    /// caller that expects a new camera, which the same-camera test would only decline (the
+    /// search gives every answer `known` gives: a matrix that surely holds the camera's line
+    /// agrees with it and does not improve it, and the last search's matrix again finds what
+    /// it found).
+    pub fn search_next(&mut self) {
+        self.search_next = true;
+    }
+
     /// Whether a camera was found or improved since last asked.
     pub fn take_changed(&mut self) -> bool {
         std::mem::take(&mut self.changed)

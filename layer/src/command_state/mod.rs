@@ -650,6 +650,11 @@ impl CommandState {
             self.refresh_shortcut(None);
             return (None, folded);
         };
+        if self.carrier_churn {
+            // The last push brought a new camera: this one likely does too (a projection per
+            // draw), which the same-camera test would only decline.
+            self.push.search_next();
+        }
         let outcome = self.push.outcome(&use_, target);
         match outcome {
             Some(outcome) => {
