@@ -552,14 +552,18 @@ impl CommandState {
         }
     }
 
+    /// With shader objects bound: the last pre-rasterization stage bound (index in
+    /// [`POSITION_STAGES`]).
+    fn last_position_stage(&self) -> Option<usize> {
+        self.position_shaders
+            .iter()
+            .rposition(|(shader, _)| *shader != vk::ShaderEXT::null())
+    }
+
     /// With shader objects bound: the application's shader of the last pre-rasterization
     /// stage bound (the depth profile files the draws under it).
     pub fn last_position_shader(&self) -> Option<vk::ShaderEXT> {
-        self.position_shaders
-            .iter()
-            .rev()
-            .map(|&(shader, _)| shader)
-            .find(|&shader| shader != vk::ShaderEXT::null())
+        Some(self.position_shaders[self.last_position_stage()?].0)
     }
 
     /// With shader objects bound: the last pre-rasterization stage's (index in
@@ -569,10 +573,7 @@ impl CommandState {
         if !self.shader_objects {
             return None;
         }
-        let last = self
-            .position_shaders
-            .iter()
-            .rposition(|(shader, _)| *shader != vk::ShaderEXT::null())?;
+        let last = self.last_position_stage()?;
         match self.position_shaders[last] {
             (shader, Some(PositionShader::Baked(variant))) => Some((last, shader, variant)),
             _ => None,

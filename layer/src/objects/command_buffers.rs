@@ -44,10 +44,11 @@ impl CommandBufferEntry {
         }
     }
 
-    /// [`CommandState::push_shortcut`], where the state may have one: the push followed
-    /// without the full path where it changes nothing revz sends. It changes nothing a
-    /// settle reads, so it leaves [`Self::settle_wanted`] as it was; a shortcut it declines
-    /// stays (the full path that follows refreshes or drops it).
+    /// [`CommandState::push_shortcut`]: the push followed without the full path where it
+    /// changes nothing revz sends (callers ask [`Self::has_push_shortcut`] first, so that a
+    /// push without one takes no lock). It changes nothing a settle reads, so it leaves
+    /// [`Self::settle_wanted`] as it was; a shortcut it declines stays (the full path that
+    /// follows refreshes or drops it).
     #[inline]
     pub fn push_shortcut(
         &self,
@@ -56,9 +57,6 @@ impl CommandBufferEntry {
         offset: u32,
         data: &[u8],
     ) -> Option<vk::ShaderStageFlags> {
-        if !self.shortcut_ready.load(Ordering::Relaxed) {
-            return None;
-        }
         self.state
             .lock()
             .push_shortcut(layout, stages, offset, data)
