@@ -309,7 +309,7 @@ impl Default for CommandState {
             pushed_since_bind: false,
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
-            position_shaders: [(vk::ShaderEXT::null(), None); POSITION_STAGES.len()],
+            position_shaders: std::array::from_fn(|_| (vk::ShaderEXT::null(), None)),
             position_variant_bound: None,
             shader_objects: false,
             inherits_viewports: false,
@@ -503,7 +503,17 @@ impl CommandState {
         if self.target != Target::Reversed || self.precise_barred {
             return None;
         }
-        let projection = self.pipeline()?.projection.as_ref()?;
+        let projection = self.stage_facts()?.projection.as_ref()?;
+        // A vertex shader object's projection is classified for [0, 1] clip depth: a draw the
+        // application set to [-1, 1] (`vkCmdSetDepthClipNegativeOneToOneEXT`) takes the flip
+        // path. (A pipeline's is classified for its static convention; one whose convention
+        // is dynamic has no projection to classify.)
+        if self.shader_objects
+            && self.clip_negative_one_to_one
+            && self.app_set.contains(States::CLIP_CONTROL)
+        {
+            return None;
+        }
         Some((projection, self.target_reversing().rewrite?))
     }
 
@@ -517,7 +527,7 @@ impl CommandState {
         }
         let negative_one_to_one =
             self.app_set.contains(States::CLIP_CONTROL) && self.clip_negative_one_to_one;
-        let convention = match self.pipeline() {
+        let convention = match self.stage_facts() {
             Some(pipeline) => {
                 pipeline.derived_range?;
                 // A dynamic [-1, 1] clip convention (Zink): the stage converts its fitted
@@ -529,8 +539,9 @@ impl CommandState {
                     DepthConvention::ZeroToOne
                 }
             }
-            // Shader objects: a baked variant of the last pre-rasterization stage, which
-            // stores [0, 1] depth (its selector cannot follow a [-1, 1] convention).
+            // Shader objects without a pushed route: a baked variant of the last
+            // pre-rasterization stage, which stores [0, 1] depth (its selector cannot follow a
+            // [-1, 1] convention).
             None => {
                 self.baked_shader()?;
                 if negative_one_to_one {
@@ -546,7 +557,7 @@ impl CommandState {
     /// in (the bound pipeline's variants, or the bound shader objects'): such a stage stores
     /// complementary depth on the precise path, and nothing is pushed for it.
     fn draws_baked(&self) -> bool {
-        match self.pipeline() {
+        match self.stage_facts() {
             Some(pipeline) => pipeline.baked,
             None => self.baked_shader().is_some(),
         }
@@ -574,10 +585,38 @@ impl CommandState {
             return None;
         }
         let last = self.last_position_stage()?;
-        match self.position_shaders[last] {
-            (shader, Some(PositionShader::Baked(variant))) => Some((last, shader, variant)),
+        match &self.position_shaders[last] {
+            (shader, Some(PositionShader::Baked(variant))) => Some((last, *shader, *variant)),
             _ => None,
         }
+    }
+
+    /// With shader objects bound: the last pre-rasterization stage (index in
+    /// [`POSITION_STAGES`]) and revz's variant of its shader, baked or reading the pushed
+    /// carrier, where it has one: what precise-path draws bind there.
+    fn position_variant(&self) -> Option<(usize, vk::ShaderEXT)> {
+        if !self.shader_objects {
+            return None;
+        }
+        let last = self.last_position_stage()?;
+        let variant = self.position_shaders[last].1.as_ref()?.variant()?;
+        Some((last, variant))
+    }
+
+    /// What the precise path reads of the last pre-rasterization stage (its projection, the
+    /// carrier, a derived range, the layout revz pushes with): the bound pipeline's facts, or
+    /// with shader objects bound, those of the last stage's shader where it takes the pushed
+    /// route ([`PositionShader::Pushed`]; `None` for a baked or flip shader, whose route
+    /// [`Self::baked_shader`] gives).
+    #[inline]
+    fn stage_facts(&self) -> Option<&std::sync::Arc<PipelineDepth>> {
+        if self.shader_objects {
+            return match &self.position_shaders[self.last_position_stage()?] {
+                (_, Some(PositionShader::Pushed { depth, .. })) => Some(depth),
+                _ => None,
+            };
+        }
+        self.pipeline()
     }
 
     /// The application's next push uses a layout whose push ranges revz's layout `pusher`
@@ -613,7 +652,7 @@ impl CommandState {
     /// pipeline's (unknown counts as compatible: pipelines without revz's layout).
     fn push_compatible(&self) -> bool {
         let own = self
-            .pipeline()
+            .stage_facts()
             .map_or(vk::PipelineLayout::null(), |p| p.layout);
         own == vk::PipelineLayout::null() || self.push_pusher == own
     }
@@ -715,7 +754,7 @@ impl CommandState {
         offset: u32,
         outcome: Option<Outcome>,
     ) -> Option<FoldedPush> {
-        let carrier = self.pipeline()?.position_store?;
+        let carrier = self.stage_facts()?.position_store?;
         if !self.push_compatible() {
             // A push for another pipeline: the carrier goes with a later push or bind.
             return None;
@@ -766,7 +805,7 @@ impl CommandState {
                 // derives its range stores, [`Reversing::derived_target`]; such a pipeline
                 // has no pushed projection to learn from, so its bind settles again).
                 let bounds = self
-                    .pipeline()
+                    .stage_facts()
                     .is_some_and(|p| (p.app_dynamic | p.injected).contains(States::BOUNDS));
                 if self.path != DrawPath::Precise || bounds {
                     self.dirty = true;
@@ -866,8 +905,13 @@ impl CommandState {
         if !self.in_pass {
             return None;
         }
-        let (stage, _, variant) = self.baked_shader()?;
-        self.derived_use()?;
+        let (stage, variant) = self.position_variant()?;
+        // A baked variant where its stage derives the draw's depth; one reading the pushed
+        // carrier where the draw will likely classify its projection as a camera's (the
+        // settle binds the application's shader back where it does not).
+        if self.derived_use().is_none() && self.precise_use().is_none() {
+            return None;
+        }
         // revz's variant of another stage is bound (a mesh shader bound after a vertex
         // shader's variant went down): the settle puts the application's shader back there
         // before it binds this one ([`Self::emit`]); substituting here would leave it
@@ -960,7 +1004,7 @@ impl CommandState {
             self.shader_objects = false;
             self.fragment_shader = (vk::ShaderEXT::null(), None);
             self.shader_variant_bound = false;
-            self.position_shaders = [(vk::ShaderEXT::null(), None); POSITION_STAGES.len()];
+            self.position_shaders = std::array::from_fn(|_| (vk::ShaderEXT::null(), None));
             self.position_variant_bound = None;
         }
     }
@@ -1221,14 +1265,16 @@ impl CommandState {
         // attachments too: it goes down (when it changed) with the application's push layout,
         // which the bound pipeline's is compatible with. Before the application's first push
         // there is none, and its own push constants are undefined as well.
-        let store = self.pipeline().and_then(|p| p.position_store);
+        let store = self.stage_facts().and_then(|p| p.position_store);
         // A stage that derives its range: revz's own layout with the pipeline's push ranges
         // (the application may push nothing for it, or last pushed with another pipeline's
         // layout). Before the application's first push, the same.
         let own = self
-            .pipeline()
+            .stage_facts()
             .map_or(vk::PipelineLayout::null(), |p| p.layout);
-        let derived = self.pipeline().is_some_and(|p| p.derived_range.is_some());
+        let derived = self
+            .stage_facts()
+            .is_some_and(|p| p.derived_range.is_some());
         // Since the bind, the application pushed with a layout this pipeline is not
         // compatible with: it pushes for the next pipeline, and the carrier would overwrite
         // its bytes. It waits for the next compatible push or bind (the pipeline's draws take
@@ -1284,8 +1330,7 @@ impl CommandState {
         // With shader objects: the last pre-rasterization stage's baked variant, for a
         // precise-path draw (the flip path needs the application's shader).
         let position_wanted = if reversed && self.path == DrawPath::Precise {
-            self.baked_shader()
-                .map(|(stage, _, variant)| (stage, variant))
+            self.position_variant()
         } else {
             None
         };

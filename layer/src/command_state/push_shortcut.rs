@@ -52,7 +52,9 @@ impl CommandState {
             return None;
         }
         let precise = self.precise_use().map(|(use_, target)| (*use_, target));
-        let position_store = self.pipeline().is_some_and(|p| p.position_store.is_some());
+        let position_store = self
+            .stage_facts()
+            .is_some_and(|p| p.position_store.is_some());
         // What `fold` sends for an outcome: nothing where the carrier held is what it wants.
         let carrier_kept = |outcome: Option<Outcome>| {
             let values = self.carrier_values(outcome).map(f32::to_bits);

@@ -258,7 +258,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
     let variant = vk::ShaderEXT::from_raw(21);
     let fragment = Some((shader, Some(FragmentShader::Reversed(variant))));
     let mut state = begun(Target::Reversed);
-    state.bind_shaders(fragment, [None; 4]);
+    state.bind_shaders(fragment, Default::default());
     let mut sink = Recorded::default();
     state.before_draw(&mut sink);
     state.before_draw(&mut sink);
@@ -270,7 +270,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
     assert!(sink.binds.is_empty());
 
     // Binding other stages leaves the variant in place of the application's shader.
-    state.bind_shaders(None, [None; 4]);
+    state.bind_shaders(None, Default::default());
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant]);
 
@@ -282,7 +282,7 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
 
     // The application binds its shader again (it goes down): native draws need nothing,
     // reversed ones the variant again.
-    state.bind_shaders(fragment, [None; 4]);
+    state.bind_shaders(fragment, Default::default());
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant, shader]);
     state.set_target(Target::Reversed);
@@ -305,7 +305,7 @@ fn a_baked_vertex_shader_object_takes_the_precise_path_where_it_is_the_last_stag
         let mut state = precise(target);
         let reversal = state.reversal();
         state.begin(Target::Reversed, reversal, Default::default());
-        state.bind_shaders(None, [baked, None, None, None]);
+        state.bind_shaders(None, [baked.clone(), None, None, None]);
         let mut sink = Recorded::default();
         state.before_draw(&mut sink);
         state.before_draw(&mut sink);
@@ -403,13 +403,13 @@ fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
     let mut sink = Recorded::default();
 
     // Unbound (null): nothing to swap.
-    state.bind_shaders(fragment, [None; 4]);
-    state.bind_shaders(Some((vk::ShaderEXT::null(), None)), [None; 4]);
+    state.bind_shaders(fragment, Default::default());
+    state.bind_shaders(Some((vk::ShaderEXT::null(), None)), Default::default());
     state.before_draw(&mut sink);
     assert!(sink.shader_binds.is_empty());
 
     // A pipeline bound after the variant unbinds it: native draws bind nothing back.
-    state.bind_shaders(fragment, [None; 4]);
+    state.bind_shaders(fragment, Default::default());
     state.before_draw(&mut sink);
     assert_eq!(sink.shader_binds, [variant]);
     state.bind_pipeline(Some(static_pipeline()));
@@ -421,7 +421,7 @@ fn unbinding_the_fragment_shader_or_binding_a_pipeline_forgets_its_variant() {
     // Shaders without a variant (plain, or marked unreversed) are never swapped.
     for depth in [None, Some(FragmentShader::Unreversed)] {
         state.set_target(Target::Reversed);
-        state.bind_shaders(Some((shader, depth)), [None; 4]);
+        state.bind_shaders(Some((shader, depth)), Default::default());
         state.before_draw(&mut sink);
         state.set_target(Target::Native);
         state.before_draw(&mut sink);
@@ -2090,4 +2090,124 @@ fn a_mesh_shader_bound_over_a_vertex_shaders_variant_gets_the_vertex_shader_put_
         sink.position_shader_binds.last(),
         Some(&(vertex_stage, vertex))
     );
+}
+
+/// A vertex shader object of the pushed route: its projection at push-constant bytes 0..64
+/// and the carrier at 112, pushed with revz's layout of its ranges (`own`).
+fn pushed_shader(variant: vk::ShaderEXT, own: vk::PipelineLayout) -> PositionShader {
+    PositionShader::Pushed {
+        variant,
+        depth: Arc::new(PipelineDepth {
+            app_dynamic: States::ALL,
+            injected: States::NONE,
+            handle: vk::Pipeline::null(),
+            layout: own,
+            ..(*projection_pipeline()).clone()
+        }),
+    }
+}
+
+#[test]
+fn a_pushed_vertex_shader_object_classifies_its_projection_and_binds_its_variant_for_precise_draws()
+{
+    let vertex = vk::ShaderEXT::from_raw(50);
+    let variant = vk::ShaderEXT::from_raw(51);
+    let own = vk::PipelineLayout::from_raw(9);
+    let stage = vk::ShaderStageFlags::VERTEX;
+    let pushed = Some((vertex, Some(pushed_shader(variant, own))));
+    let camera = perspective_bytes();
+    // An orthographic matrix (a shadow pass's): no camera, the flip path.
+    let ortho: Vec<u8> =
+        glam::dcamera::rh::proj::vulkan::orthographic(-1.0, 1.0, -1.0, 1.0, 0.5, 50.0)
+            .as_mat4()
+            .to_cols_array()
+            .iter()
+            .flat_map(|v| v.to_ne_bytes())
+            .collect();
+    for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
+        let mut state = precise(target);
+        let reversal = state.reversal();
+        state.begin(Target::Reversed, reversal, Default::default());
+        state.bind_shaders(None, [pushed.clone(), None, None, None]);
+        state.set_compare_op(vk::CompareOp::LESS);
+        // Pushed with a layout whose ranges revz's layout has (compatible).
+        state.note_push_pusher(own, None);
+        let (outcome, _) = state.push_constants(layout(), OTHER_STAGES, 0, &camera);
+        let Some(Outcome::Rewritten { carrier, .. }) = outcome else {
+            panic!("{target:?}: the camera's projection classified: {outcome:?}");
+        };
+        let mut sink = Recorded::default();
+        state.before_draw(&mut sink);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise, "{target:?}");
+        // The camera's carrier, once, with the application's push layout; the variant that
+        // reads it, once.
+        assert_eq!(
+            sink.pushed,
+            [(layout(), Carrier::bytes(&carrier).to_vec())],
+            "{target:?}"
+        );
+        assert_eq!(sink.position_shader_binds, [(stage, variant)], "{target:?}");
+        assert_eq!(sink.compare_ops.last(), Some(&vk::CompareOp::GREATER));
+        // The next object's matrix of the same camera: nothing sent.
+        state.push_constants(layout(), OTHER_STAGES, 0, &camera);
+        state.before_draw(&mut sink);
+        assert_eq!(sink.pushed.len(), 1);
+        assert_eq!(sink.position_shader_binds.len(), 1);
+        // An orthographic matrix: the flip path, with the application's shader back (its
+        // code stores its own z; the carrier is not read).
+        state.push_constants(layout(), OTHER_STAGES, 0, &ortho);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip, "{target:?}");
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, vertex)));
+        state.push_constants(layout(), OTHER_STAGES, 0, &camera);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise, "{target:?}");
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, variant)));
+        // A [-1, 1] clip convention set by the application: the projection was classified
+        // for [0, 1], so the flip path.
+        state.set_clip_negative_one_to_one(true);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip, "{target:?}");
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, vertex)));
+        state.set_clip_negative_one_to_one(false);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise, "{target:?}");
+        // A geometry shader without a variant after it is rasterized: the flip path, the
+        // application's vertex shader bound.
+        let geometry = vk::ShaderEXT::from_raw(52);
+        state.bind_shaders(None, [None, None, Some((geometry, None)), None]);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip, "{target:?}");
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, vertex)));
+        state.bind_shaders(
+            None,
+            [None, None, Some((vk::ShaderEXT::null(), None)), None],
+        );
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise, "{target:?}");
+        // A native attachment: the application's shader, the application's depth state.
+        state.set_target(Target::Native);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Native);
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, vertex)));
+        // A pipeline bound replaces the shader objects: the pipeline's facts again.
+        state.set_target(Target::Reversed);
+        state.bind_pipeline(Some(static_pipeline()));
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Flip, "{target:?}");
+    }
+    // Pushed before any push of the application's: the carrier waits for the projection, and
+    // the draw takes the flip path with the application's shader.
+    let mut state = precise(RewriteTarget::Complementary);
+    state.begin(
+        Target::Reversed,
+        Reversal::Complementary,
+        Default::default(),
+    );
+    state.bind_shaders(None, [pushed, None, None, None]);
+    let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    assert!(sink.position_shader_binds.is_empty());
 }

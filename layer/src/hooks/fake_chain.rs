@@ -254,6 +254,22 @@ pub(super) enum Event {
         stages: Vec<vk::ShaderStageFlags>,
         shaders: Vec<vk::ShaderEXT>,
     },
+    /// `vkCreatePipelineLayout` (shader-object devices): its push-constant ranges as
+    /// `(stages, offset, size)`.
+    CreatePipelineLayout {
+        handle: vk::PipelineLayout,
+        ranges: Vec<(vk::ShaderStageFlags, u32, u32)>,
+    },
+    DestroyPipelineLayout {
+        handle: vk::PipelineLayout,
+    },
+    /// `vkCmdPushConstants` (shader-object devices).
+    PushConstants {
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        bytes: Vec<u8>,
+    },
     /// `vkCreateRenderPass` (the first version): its attachments' formats.
     CreateRenderPass {
         handle: vk::RenderPass,
@@ -1275,6 +1291,18 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_shader_objec
                 shader_objects::cmd_bind_shaders
             )
         }
+        b"vkCreatePipelineLayout" => void_fn!(
+            vk::PFN_vkCreatePipelineLayout,
+            shader_objects::create_pipeline_layout
+        ),
+        b"vkDestroyPipelineLayout" => void_fn!(
+            vk::PFN_vkDestroyPipelineLayout,
+            shader_objects::destroy_pipeline_layout
+        ),
+        b"vkCmdPushConstants" => void_fn!(
+            vk::PFN_vkCmdPushConstants,
+            shader_objects::cmd_push_constants
+        ),
         // SAFETY: forwarding the caller's arguments.
         _ => unsafe { fake_get_device_proc_addr_with_pipelines(device, name) },
     }
@@ -1323,6 +1351,68 @@ pub(super) mod shader_objects {
         };
         note(table, event);
         result
+    }
+
+    pub(in crate::hooks) unsafe extern "system" fn create_pipeline_layout(
+        device: vk::Device,
+        p_create_info: *const vk::PipelineLayoutCreateInfo,
+        _: *const vk::AllocationCallbacks,
+        p_layout: *mut vk::PipelineLayout,
+    ) -> vk::Result {
+        // SAFETY: a valid create info and its `pushConstantRangeCount` ranges.
+        let ranges = unsafe {
+            let info = &*p_create_info;
+            crate::hooks::resources::slice(
+                info.p_push_constant_ranges,
+                info.push_constant_range_count,
+            )
+        }
+        .iter()
+        .map(|r| (r.stage_flags, r.offset, r.size))
+        .collect();
+        let handle = fresh_handle();
+        // SAFETY: room for the handle.
+        unsafe { *p_layout = handle };
+        // SAFETY: the fake's live device.
+        note(
+            unsafe { key_of(device) },
+            Event::CreatePipelineLayout { handle, ranges },
+        );
+        vk::Result::SUCCESS
+    }
+
+    pub(in crate::hooks) unsafe extern "system" fn destroy_pipeline_layout(
+        device: vk::Device,
+        handle: vk::PipelineLayout,
+        _: *const vk::AllocationCallbacks,
+    ) {
+        // SAFETY: the fake's live device.
+        note(
+            unsafe { key_of(device) },
+            Event::DestroyPipelineLayout { handle },
+        );
+    }
+
+    pub(in crate::hooks) unsafe extern "system" fn cmd_push_constants(
+        buffer: vk::CommandBuffer,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        offset: u32,
+        size: u32,
+        p_values: *const std::ffi::c_void,
+    ) {
+        // SAFETY: `size` bytes of values.
+        let bytes = unsafe { crate::hooks::resources::slice(p_values.cast::<u8>(), size) }.to_vec();
+        // SAFETY: the fake's live command buffer.
+        note(
+            unsafe { key_of(buffer) },
+            Event::PushConstants {
+                layout,
+                stages,
+                offset,
+                bytes,
+            },
+        );
     }
 
     pub(in crate::hooks) unsafe extern "system" fn destroy_shader(

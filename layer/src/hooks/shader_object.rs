@@ -1,9 +1,16 @@
 //! Shader objects (`VK_EXT_shader_object`): a fragment shader object that computes with depth
 //! (writes `FragDepth` or reads `FragCoord.z`) gets a reversed variant, the shader object of
 //! its code rewritten by [`crate::shader::fragment_depth`], which draws into reversed attachments bind
-//! in its place ([`crate::command_state`], from `vkCmdBindShadersEXT`).
+//! in its place ([`crate::command_state`], from `vkCmdBindShadersEXT`). In a precise mode a
+//! pre-rasterization shader that stores `Position` gets a variant its precise-path draws bind
+//! (`crate::objects::PositionShader`, as [`ShaderObjectPosition`] decides): a vertex shader
+//! with revz's carrier in its ranges one storing `Position` through the pushed carrier, with a
+//! pipeline's facts for the state machine ([`pushed_route`]); the others one with the carrier
+//! baked in.
 //!
-//! - The application's `vkCreateShadersEXT` goes down unchanged. Variants are created before
+//! - The application's `vkCreateShadersEXT` goes down with revz's carrier reserved in every
+//!   create info's push-constant ranges, as in pipeline layouts (so that the layouts the
+//!   application pushes with stay compatible), and otherwise unchanged. Variants are created before
 //!   it, one call per variant, from the application's create info with only the code replaced
 //!   (its chain, flags, layouts, push constant ranges and specialization kept, no allocator):
 //!   should a structure of that shared chain be written by creation (as creation feedback is
@@ -35,13 +42,18 @@ use super::device_state;
 use super::pipeline::{first_inline_report, Report};
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
+use crate::command_state::{PipelineDepth, States};
 use crate::objects::{FragmentShader, PositionShader};
 use crate::policy::pipelines::{
-    FragmentStage, FragmentVariant, ShaderObjectPlan, ShaderObjectPosition,
+    FragmentStage, FragmentVariant, PipelinePath, ShaderObjectPlan, ShaderObjectPosition,
+};
+use crate::policy::vertex_stage::{
+    entry_point_analysis, LastStage, Missing, MissingFact, VertexStageFacts,
 };
 use crate::precise;
 use crate::shader::fragment_depth;
 use crate::state::DeviceState;
+use revz_math::DepthConvention;
 
 static CREATE_SHADERS: EntryPoint = EntryPoint::new("vkCreateShadersEXT");
 static DESTROY_SHADER: EntryPoint = EntryPoint::new("vkDestroyShaderEXT");
@@ -56,22 +68,25 @@ enum Plan {
     Variant(Arc<[u32]>),
     /// A fragment shader that computes with depth (or may, binary code) but gets no variant.
     Unreversed,
-    /// A vertex, tessellation evaluation or geometry shader's variant of its code with the
-    /// carrier baked in (`PositionShader::Baked`).
+    /// A vertex shader's variant of its code storing `Position` through the pushed carrier,
+    /// and what draws need of it (`PositionShader::Pushed`).
+    Pushed(Arc<[u32]>, Box<PipelineDepth>),
+    /// A vertex, tessellation evaluation, geometry or mesh shader's variant of its code with
+    /// the carrier baked in (`PositionShader::Baked`).
     Baked(Arc<[u32]>),
     /// Such a shader whose draws take the flip path.
     PositionFlip,
 }
 
 /// What revz made of one create info.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 enum Made {
     Fragment(FragmentShader),
     Position(PositionShader),
 }
 
 impl Made {
-    fn variant(self) -> Option<vk::ShaderEXT> {
+    fn variant(&self) -> Option<vk::ShaderEXT> {
         match self {
             Made::Fragment(fragment) => fragment.variant(),
             Made::Position(position) => position.variant(),
@@ -79,14 +94,28 @@ impl Made {
     }
 }
 
+/// The push-constant ranges a create info gives (the application's, before revz reserved its
+/// carrier in them).
+fn app_ranges<'a>(info: &vk::ShaderCreateInfoEXT<'a>) -> &'a [vk::PushConstantRange] {
+    // SAFETY: `pushConstantRangeCount` ranges (the application's contract).
+    unsafe { slice(info.p_push_constant_ranges, info.push_constant_range_count) }
+}
+
 /// The plan of one create info: a fragment shader's from what the policy gives its code
 /// ([`FragmentStage::variant`]; a shader of a linked set gets no variant), a
 /// pre-rasterization shader's, where the mode rewrites, from
-/// [`ShaderObjectPosition::decide`].
-fn plan(state: &DeviceState, info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
+/// [`ShaderObjectPosition::decide`]. `info` has revz's carrier reserved in its ranges where
+/// `reserved` says so; `ranges` are the application's.
+fn plan(
+    state: &DeviceState,
+    device: vk::Device,
+    info: &vk::ShaderCreateInfoEXT<'_>,
+    ranges: &[vk::PushConstantRange],
+    reserved: Option<&Reserved>,
+) -> Plan {
     let rewriting = state.policy.rewrite().is_some();
     if rewriting && crate::command_state::POSITION_STAGES.contains(&info.stage) {
-        return position_plan(state, info);
+        return position_plan(state, device, info, ranges, reserved);
     }
     if info.stage != vk::ShaderStageFlags::FRAGMENT {
         return Plan::Nothing;
@@ -150,10 +179,21 @@ fn plan(state: &DeviceState, info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
     }
 }
 
-/// The plan of a vertex, tessellation evaluation or geometry shader in a precise mode: the
-/// deriving `Position` rewrite of its code with the carrier baked in (complementary depth, as
-/// for a pipeline layout without room for the carrier), as the policy decides.
-fn position_plan(state: &DeviceState, info: &vk::ShaderCreateInfoEXT<'_>) -> Plan {
+/// A create info's push-constant ranges with revz's carrier reserved, and where it lies.
+type Reserved = (Vec<vk::PushConstantRange>, precise::Carrier);
+
+/// The plan of a vertex, tessellation evaluation, geometry or mesh shader in a precise mode, as
+/// the policy decides ([`ShaderObjectPosition`]): a vertex shader whose ranges hold the carrier
+/// takes a pipeline's vertex stage's route where it gives a precise range ([`pushed_route`]);
+/// otherwise the deriving `Position` rewrite of its code with the carrier baked in
+/// (complementary depth, as for a pipeline layout without room for the carrier).
+fn position_plan(
+    state: &DeviceState,
+    device: vk::Device,
+    info: &vk::ShaderCreateInfoEXT<'_>,
+    ranges: &[vk::PushConstantRange],
+    reserved: Option<&Reserved>,
+) -> Plan {
     let spirv = match info.code_type {
         vk::ShaderCodeTypeEXT::SPIRV => true,
         vk::ShaderCodeTypeEXT::BINARY => false,
@@ -164,26 +204,43 @@ fn position_plan(state: &DeviceState, info: &vk::ShaderCreateInfoEXT<'_>) -> Pla
         // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's contract).
         unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) }
     });
-    let rewrite = match words.filter(|_| !linked) {
-        Some(words) => super::pipeline::baked_code(state, words),
-        None => Ok(None),
+    let pushed = match (words, reserved) {
+        (Some(words), Some(reserved)) if !linked && info.stage == vk::ShaderStageFlags::VERTEX => {
+            Some(pushed_route(state, device, info, words, ranges, reserved))
+        }
+        _ => None,
+    };
+    // The baked rewrite, made only where the pushed route does not apply.
+    let rewrite = match (words.filter(|_| !linked), &pushed) {
+        (_, Some(Ok(_))) | (None, _) => Ok(None),
+        (Some(words), _) => super::pipeline::baked_code(state, words),
     };
     let facts = ShaderObjectPosition {
         spirv,
         linked,
+        pushed: pushed
+            .as_ref()
+            .map(|route| route.as_ref().map(|_| ()).map_err(String::as_str)),
         rewrite: rewrite
             .as_ref()
             .map(|r| r.as_ref().map(|r| r.assumes_input_unit_w))
             .map_err(|reason| *reason),
     };
-    match (facts.decide(), rewrite) {
-        (ShaderObjectPlan::Baked, Ok(Some(rewrite))) => Plan::Baked(rewrite.code),
-        (ShaderObjectPlan::Flip(reason), _) => {
+    match (facts.decide(), pushed, rewrite) {
+        (ShaderObjectPlan::Pushed, Some(Ok((code, depth))), _) => {
+            Plan::Pushed(code, Box::new(depth))
+        }
+        (ShaderObjectPlan::Baked, _, Ok(Some(rewrite))) => Plan::Baked(rewrite.code),
+        (ShaderObjectPlan::Flip(reason), pushed, _) => {
             let first = words.is_none_or(|w| first_inline_report(Report::Analysis, w));
             if first {
+                let as_vertex = match pushed {
+                    Some(Err(pushed)) => format!("; with revz's pushed carrier: {pushed}"),
+                    _ => String::new(),
+                };
                 log::info!(
                     "a {:?} shader object's draws into reversed attachments take the flip path \
-                     ({reason})",
+                     ({reason}{as_vertex})",
                     info.stage
                 );
             }
@@ -191,6 +248,64 @@ fn position_plan(state: &DeviceState, info: &vk::ShaderCreateInfoEXT<'_>) -> Pla
         }
         _ => Plan::Nothing,
     }
+}
+
+/// A vertex shader object's route as a pipeline's vertex stage (issue #41): its analysis and
+/// `Position` rewrite reading the pushed carrier (made once per distinct code, as for inline
+/// code of pipelines), what [`VertexStageFacts::decide`] makes of them with the application's
+/// ranges (`ranges`) and revz's carrier in them (`reserved`), and revz's layout of those
+/// ranges, which the carrier goes down with where the application pushes nothing. The clip
+/// depth is taken as [0, 1]: draws the application sets to [-1, 1] take the flip path
+/// (`crate::command_state`). `Err`: why the route does not apply.
+fn pushed_route(
+    state: &DeviceState,
+    device: vk::Device,
+    info: &vk::ShaderCreateInfoEXT<'_>,
+    words: &[u32],
+    ranges: &[vk::PushConstantRange],
+    (reserved_ranges, carrier): &Reserved,
+) -> Result<(Arc<[u32]>, PipelineDepth), String> {
+    let (analysis, rewrite) = super::pipeline::vertex_code(state, vk::ShaderModule::null(), words);
+    let rewrite = rewrite
+        .ok_or(Missing::NotMade(MissingFact::InlineWithoutRewrite.reason()))
+        .and_then(|r| r.map_err(Missing::Unsupported));
+    // SAFETY: a NUL-terminated entry point name (the application's contract).
+    let name = unsafe { crate::ffi::c_str(info.p_name) };
+    let facts = VertexStageFacts {
+        code_given: true,
+        last_stage: Some(LastStage::Vertex),
+        carrier_reaches_stage: carrier.stages.contains(vk::ShaderStageFlags::VERTEX),
+        analysis: entry_point_analysis(Ok(&analysis), name.map(std::ffi::CStr::to_bytes)),
+        ranges: Some(ranges),
+        convention: Some(DepthConvention::ZeroToOne),
+        carrier_room: true,
+        baked: None,
+        rewrite: rewrite.as_ref().map(|r| r.derived).map_err(|m| *m),
+        derived_slot: rewrite.as_ref().ok().and_then(|r| r.push_slot),
+        // A vertex stage's input is its attributes, whose w the rewrite checks itself.
+        input_unit_w: rewrite
+            .as_ref()
+            .is_ok_and(|r| r.needs_input_unit_w)
+            .then_some(false),
+    };
+    let range = facts.decide()?;
+    let code = rewrite
+        .map_err(|_| MissingFact::Incomplete.reason().to_owned())?
+        .code;
+    let layout = super::pipeline::push_layout(state, device, reserved_ranges)
+        .ok_or("revz's pipeline layout of its push-constant ranges could not be made")?;
+    Ok((
+        code,
+        PipelineDepth {
+            // Every state of a draw with shader objects is dynamic.
+            app_dynamic: States::ALL,
+            projection: range.projection,
+            position_store: Some(*carrier),
+            derived_range: range.derived,
+            layout,
+            ..PipelineDepth::default()
+        },
+    ))
 }
 
 /// Creates a variant of a shader object: its create info with the code replaced by `code`,
@@ -256,7 +371,7 @@ pub unsafe extern "system" fn create_shaders_ext(
     // Shader objects give their push-constant ranges themselves: they get revz's carrier
     // reserved as pipeline layouts do (`crate::precise::reserve_carrier`), so that they stay
     // compatible with the layouts the application pushes with.
-    let reserved: Vec<Option<Vec<vk::PushConstantRange>>> = guarded(
+    let reserved: Vec<Option<Reserved>> = guarded(
         &CREATE_SHADERS,
         || {
             let Some(offset) = state.policy.carrier_offset else {
@@ -269,9 +384,7 @@ pub unsafe extern "system" fn create_shaders_ext(
                     let ranges = unsafe {
                         slice(info.p_push_constant_ranges, info.push_constant_range_count)
                     };
-                    precise::reserve_carrier(ranges, offset, state.policy.carrier_later_stages)
-                        .ok()
-                        .map(|(ranges, _)| ranges)
+                    precise::reserve_carrier(ranges, offset, state.policy.carrier_later_stages).ok()
                 })
                 .collect()
         },
@@ -282,7 +395,7 @@ pub unsafe extern "system" fn create_shaders_ext(
         .enumerate()
         .map(
             |(index, info)| match reserved.get(index).and_then(Option::as_ref) {
-                Some(ranges) => vk::ShaderCreateInfoEXT {
+                Some((ranges, _)) => vk::ShaderCreateInfoEXT {
                     push_constant_range_count: ranges.len() as u32,
                     p_push_constant_ranges: ranges.as_ptr(),
                     ..*info
@@ -310,8 +423,15 @@ pub unsafe extern "system" fn create_shaders_ext(
             }
             static FRAGMENT_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
             static POSITION_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
-            for info in infos {
-                let one = match plan(&state, info) {
+            for (index, info) in infos.iter().enumerate() {
+                let reserved = reserved.get(index).and_then(Option::as_ref);
+                let one = match plan(
+                    &state,
+                    device,
+                    info,
+                    app_ranges(&app_infos[index]),
+                    reserved,
+                ) {
                     Plan::Nothing => None,
                     Plan::Unreversed => Some(Made::Fragment(FragmentShader::Unreversed)),
                     Plan::Variant(code) => Some(Made::Fragment(
@@ -324,6 +444,22 @@ pub unsafe extern "system" fn create_shaders_ext(
                             "its draws into reversed attachments keep standard depth",
                         )
                         .map_or(FragmentShader::Unreversed, FragmentShader::Reversed),
+                    )),
+                    Plan::Pushed(code, depth) => Some(Made::Position(
+                        create_variant(
+                            device,
+                            next,
+                            info,
+                            &code,
+                            &POSITION_FAILED,
+                            "its draws into reversed attachments take the flip path",
+                        )
+                        .map_or(PositionShader::Flip, |variant| {
+                            PositionShader::Pushed {
+                                variant,
+                                depth: Arc::new(*depth),
+                            }
+                        }),
                     )),
                     Plan::Baked(code) => Some(Made::Position(
                         create_variant(
@@ -367,25 +503,31 @@ pub unsafe extern "system" fn create_shaders_ext(
                     _ => continue,
                 };
                 if shader != vk::ShaderEXT::null() {
-                    let baked = matches!(
-                        variants.get(index),
-                        Some(Some(Made::Position(PositionShader::Baked(_))))
-                    );
+                    let position = match variants.get(index) {
+                        Some(Some(Made::Position(position))) => Some(position),
+                        _ => None,
+                    };
+                    let projection = match position {
+                        Some(PositionShader::Pushed { depth, .. }) => {
+                            PipelinePath::of(depth.projection, depth.derived_range, false, None)
+                                .to_string()
+                        }
+                        Some(PositionShader::Baked(_)) => {
+                            "fitted by the shader, the carrier baked into its variant".to_owned()
+                        }
+                        _ => "not fitted: the flip path (the log says why)".to_owned(),
+                    };
+                    let variant = position.is_some_and(|p| p.variant().is_some());
                     profile.pipeline(
                         vk::Handle::as_raw(shader),
                         crate::profile::PipelineRecord {
                             kind,
                             path: crate::policy::pipelines::shader_object_vertex_path(
                                 state.policy.is_active(),
-                                baked,
+                                variant,
                             ),
-                            projection: if baked {
-                                "fitted by the shader, the carrier baked into its variant"
-                            } else {
-                                "not fitted: the flip path (the log says why)"
-                            }
-                            .to_owned(),
-                            reversed_variant: baked,
+                            projection,
+                            reversed_variant: variant,
                             promoted_variant: false,
                             converts_depth_inputs: false,
                         },
@@ -393,8 +535,8 @@ pub unsafe extern "system" fn create_shaders_ext(
                 }
             }
         }
-        for (index, depth) in variants.iter().enumerate() {
-            let Some(depth) = *depth else { continue };
+        for (index, depth) in variants.into_iter().enumerate() {
+            let Some(depth) = depth else { continue };
             let shader = if written {
                 // SAFETY: `count` handles written (checked above).
                 unsafe { *p_shaders.add(index) }
@@ -414,12 +556,24 @@ pub unsafe extern "system" fn create_shaders_ext(
                         state.objects.fragment_shaders.insert(shader, fragment);
                     }
                     Made::Position(position) => {
-                        if let PositionShader::Baked(variant) = position {
-                            log::debug!(
+                        match &position {
+                            PositionShader::Pushed { variant, depth } => log::debug!(
+                                "shader object {shader:?}: {variant:?}, its code storing \
+                                 Position through revz's pushed carrier, stores its depth for \
+                                 precise-path draws ({})",
+                                PipelinePath::of(
+                                    depth.projection,
+                                    depth.derived_range,
+                                    false,
+                                    None
+                                )
+                            ),
+                            PositionShader::Baked(variant) => log::debug!(
                                 "shader object {shader:?}: {variant:?}, its code fitting the \
                                  matrix it loads with the carrier baked in, stores its depth \
                                  for precise-path draws"
-                            );
+                            ),
+                            PositionShader::Flip => {}
                         }
                         state.objects.position_shaders.insert(shader, position);
                     }
@@ -452,7 +606,7 @@ pub unsafe extern "system" fn destroy_shader_ext(
             .objects
             .position_shaders
             .remove(&shader)
-            .and_then(PositionShader::variant);
+            .and_then(|position| position.variant());
         for variant in fragment.into_iter().chain(position) {
             // SAFETY: revz's own object, in use only where the application's shader was.
             unsafe { destroy_down(&state, device, variant) };

@@ -44,6 +44,8 @@ hook_set! {
         cmd_begin_rendering: c"vkCmdBeginRendering" => vk::PFN_vkCmdBeginRendering,
         cmd_end_rendering: c"vkCmdEndRendering" => vk::PFN_vkCmdEndRendering,
         cmd_draw: c"vkCmdDraw" => vk::PFN_vkCmdDraw,
+        create_pipeline_layout: c"vkCreatePipelineLayout" => vk::PFN_vkCreatePipelineLayout,
+        cmd_push_constants: c"vkCmdPushConstants" => vk::PFN_vkCmdPushConstants,
     }
 }
 
@@ -221,7 +223,7 @@ impl Fixture {
                 .and_then(FragmentShader::variant)
                 .or_else(|| {
                     let position = self.state.objects.position_shaders.get(&shader);
-                    position.and_then(PositionShader::variant)
+                    position.and_then(|p| p.variant())
                 });
             // SAFETY: the fixture's shader object, not in use, destroyed once.
             unsafe { (self.hooks.destroy_shader)(self.device, shader, &allocator) };
@@ -728,6 +730,169 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
         Some(PositionShader::Flip)
     );
     fx.finish();
+}
+
+#[test]
+fn a_vertex_shader_object_with_push_constant_ranges_takes_the_pipelines_per_camera_route() {
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
+    let offset = fx.state.policy.carrier_offset.expect("a carrier offset");
+    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
+    let plain = fragment(PLAIN);
+    let app_ranges = [vk::PushConstantRange {
+        stage_flags: VERTEX_STAGE,
+        offset: 0,
+        size: 64,
+    }];
+    let reserved = vec![(VERTEX_STAGE, 0, offset + 16)];
+    // The application's pipeline layout of the same ranges, which it pushes with: revz
+    // reserves its carrier there too, and makes its own layout of those ranges.
+    let mut app_layout = vk::PipelineLayout::null();
+    let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&app_ranges);
+    // SAFETY: a live device, a valid create info, room for the handle.
+    let result = unsafe {
+        (fx.hooks.create_pipeline_layout)(
+            fx.device,
+            &layout_info,
+            std::ptr::null(),
+            &mut app_layout,
+        )
+    };
+    assert_eq!(result, vk::Result::SUCCESS);
+    let own = match &fx.events()[..] {
+        [Event::CreatePipelineLayout { handle, ranges }, Event::CreatePipelineLayout {
+            handle: own,
+            ranges: own_ranges,
+        }] if *handle == app_layout && *ranges == reserved && *own_ranges == reserved => *own,
+        other => panic!("the application's layout and revz's, both reserved: {other:#?}"),
+    };
+
+    // One call for the vertex shader's variant, then the application's, both with the
+    // carrier reserved in their ranges; the variant's code stores Position through the pushed
+    // carrier, as a pipeline's vertex stage does.
+    let infos = [
+        shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting).push_constant_ranges(&app_ranges),
+        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &plain)
+            .push_constant_ranges(&app_ranges),
+    ];
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(
+        events.len(),
+        2,
+        "the variant, then the application's: {events:#?}"
+    );
+    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
+    let (_, app_infos, _, _) = app_creation(&events[1]);
+    let carrier_code = crate::shader::position_store::rewrite_position_store(&projecting, offset)
+        .expect("rewritable")
+        .expect("stores Position");
+    validate(&carrier_code);
+    assert_eq!(
+        variant_infos,
+        [SeenShader {
+            code: bytes(&carrier_code),
+            ..app_infos[0].clone()
+        }]
+    );
+    for info in app_infos {
+        // revz's copy of the ranges, with the carrier reserved (`reserve_carrier`).
+        assert_ne!(info.push_constant_ranges, app_ranges.as_ptr() as usize);
+    }
+    let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
+    match fx.state.objects.position_shaders.get(&vertex) {
+        Some(PositionShader::Pushed {
+            variant: recorded,
+            depth,
+        }) => {
+            assert_eq!(recorded, variant);
+            assert_eq!(depth.projection.map(|p| p.offset), Some(0));
+            assert_eq!(depth.position_store.map(|c| c.offset), Some(offset));
+            assert_eq!(depth.layout, own);
+        }
+        other => panic!("the pushed route: {other:?}"),
+    }
+
+    // A draw into a reversed attachment after the camera's matrix is pushed: the carrier
+    // holds the camera's infinite-mode line (n / w), and the variant is bound for it.
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let buffer = fx.command_buffer();
+    fx.bind(buffer, &[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]);
+    let (near, far) = (0.5, 50.0);
+    let projection = glam::dcamera::rh::proj::vulkan::perspective(1.0, 1.5, near, far);
+    let matrix: Vec<u8> = projection
+        .as_mat4()
+        .to_cols_array()
+        .iter()
+        .flat_map(|v| v.to_ne_bytes())
+        .collect();
+    // SAFETY: a recording command buffer, the application's layout, 64 bytes.
+    unsafe {
+        (fx.hooks.cmd_push_constants)(
+            buffer,
+            app_layout,
+            VERTEX_STAGE,
+            0,
+            matrix.len() as u32,
+            matrix.as_ptr().cast(),
+        )
+    };
+    fx.render(buffer, reversed, 2);
+    let events = fx.events();
+    // The carrier's bytes as last pushed (the application's push extended to them, or a
+    // push of their own), with a layout of the reserved ranges.
+    let mut carrier = None;
+    for event in &events {
+        if let Event::PushConstants {
+            layout,
+            offset: at,
+            bytes,
+            ..
+        } = event
+        {
+            assert!(*layout == app_layout || *layout == own, "{event:?}");
+            let end = *at as usize + bytes.len();
+            if *at <= offset && end >= offset as usize + 16 {
+                let from = (offset - at) as usize;
+                carrier = Some(
+                    bytes[from..from + 16]
+                        .chunks_exact(4)
+                        .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
+                        .collect::<Vec<f32>>(),
+                );
+            }
+        }
+    }
+    let carrier = carrier.expect("the carrier pushed");
+    let range = revz_math::VisibleRange::new(near, far).expect("a range");
+    let expected = revz_math::reversed_coefficients(
+        range,
+        revz_math::Target::Infinite,
+        revz_math::DepthConvention::ZeroToOne,
+    );
+    assert_eq!(carrier[0], 0.0);
+    assert!((f64::from(carrier[1]) - expected.k).abs() <= 1e-5 * expected.k.abs().max(1.0));
+    assert!((f64::from(carrier[2]) - expected.b).abs() <= 1e-5 * expected.b.abs().max(1e-3));
+    let binds: Vec<&Event> = events
+        .iter()
+        .filter(|e| matches!(e, Event::BindShaders { .. }))
+        .collect();
+    assert_eq!(
+        binds,
+        [
+            &Event::BindShaders {
+                stages: vec![VERTEX_STAGE, FRAGMENT_STAGE],
+                shaders: vec![vertex, frag],
+            },
+            &Event::BindShaders {
+                stages: vec![VERTEX_STAGE],
+                shaders: vec![variant],
+            },
+        ],
+        "the variant once, for both draws"
+    );
+    fx.free(buffer);
+    fx.finish_with(&[Event::DestroyPipelineLayout { handle: own }]);
 }
 
 /// The tester's mesh shader (`shaders/glslang/mesh.mesh`), compiled by glslang.

@@ -568,11 +568,21 @@ impl FragmentShader {
     }
 }
 
-/// A vertex, tessellation evaluation or geometry shader object (precise modes), as draws into
-/// reversed attachments see it where it is the last pre-rasterization stage bound (issue #41,
-/// `crate::policy::pipelines::ShaderObjectPosition`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A vertex, tessellation evaluation, geometry or mesh shader object (precise modes), as draws
+/// into reversed attachments see it where it is the last pre-rasterization stage bound (issue
+/// #41, `crate::policy::pipelines::ShaderObjectPosition`).
+#[derive(Clone, Debug)]
 pub enum PositionShader {
+    /// A vertex shader object whose push-constant ranges hold revz's carrier: `variant`, the
+    /// shader object of its code rewritten to store `Position` through the pushed carrier
+    /// (revz's own), is bound in its place for precise-path draws, and `depth` says for the
+    /// state machine what a pipeline's facts say of its vertex stage (where its projection
+    /// is, the carrier, the layout revz pushes it with), so that its draws take the pipelines'
+    /// per-camera path.
+    Pushed {
+        variant: vk::ShaderEXT,
+        depth: std::sync::Arc<crate::command_state::PipelineDepth>,
+    },
     /// The shader object of its code with the carrier baked in (revz's own), bound in its
     /// place for precise-path draws: it stores complementary depth of the range it fits.
     Baked(vk::ShaderEXT),
@@ -580,11 +590,31 @@ pub enum PositionShader {
     Flip,
 }
 
+/// Shaders of the pushed route compare by their variant and the same facts (one `Arc`).
+impl PartialEq for PositionShader {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (
+                PositionShader::Pushed { variant, depth },
+                PositionShader::Pushed {
+                    variant: other_variant,
+                    depth: other_depth,
+                },
+            ) => variant == other_variant && std::sync::Arc::ptr_eq(depth, other_depth),
+            (PositionShader::Baked(a), PositionShader::Baked(b)) => a == b,
+            (PositionShader::Flip, PositionShader::Flip) => true,
+            _ => false,
+        }
+    }
+}
+
 impl PositionShader {
     /// The variant, if there is one.
-    pub fn variant(self) -> Option<vk::ShaderEXT> {
+    pub fn variant(&self) -> Option<vk::ShaderEXT> {
         match self {
-            PositionShader::Baked(variant) => Some(variant),
+            PositionShader::Pushed { variant, .. } | PositionShader::Baked(variant) => {
+                Some(*variant)
+            }
             PositionShader::Flip => None,
         }
     }

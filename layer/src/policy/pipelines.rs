@@ -697,30 +697,41 @@ pub fn shader_object_variants(active: bool) -> bool {
     active
 }
 
-/// The path a vertex shader object's draws take, as the depth profile shows it: where the
-/// mode acts on depth, the precise path where it has a variant with the carrier baked in
-/// (`baked`, [`ShaderObjectPosition::decide`]), else the flip path; none ("native") elsewhere.
+/// The path a pre-rasterization shader object's draws take, as the depth profile shows it:
+/// where the mode acts on depth, the precise path where it has a variant (reading the pushed
+/// carrier or with the carrier baked in, `variant`, [`ShaderObjectPosition::decide`]), else
+/// the flip path; none ("native") elsewhere.
 #[must_use]
-pub fn shader_object_vertex_path(active: bool, baked: bool) -> &'static str {
-    match (active, baked) {
+pub fn shader_object_vertex_path(active: bool, variant: bool) -> &'static str {
+    match (active, variant) {
         (false, _) => "native",
         (true, true) => "precise",
         (true, false) => "flip",
     }
 }
 
-/// What revz knows of a vertex, tessellation evaluation or geometry shader object at its
-/// creation in a precise mode (issue #41): shader objects carry no pipeline layout revz could
-/// look a projection up in per draw, so such a shader takes the route of a layout without
-/// room for the carrier: a variant of its code that fits the matrix it loads, with the
-/// carrier baked in (`crate::shader::position_store::CarrierRead::Baked`), bound in its place
-/// for precise-path draws where it is the last pre-rasterization stage bound.
+/// What revz knows of a vertex, tessellation evaluation, geometry or mesh shader object at its
+/// creation in a precise mode (issue #41). Its variant, bound in its place for precise-path
+/// draws where it is the last pre-rasterization stage bound, takes one of two routes:
+/// - a vertex shader whose push-constant ranges got revz's carrier (as a pipeline layout's
+///   do, `crate::precise::reserve_carrier`) takes a pipeline's per-camera route: the variant
+///   stores `Position` through the pushed carrier, and its draws classify the pushed
+///   projection on the CPU (or push the selector where it fits the matrix it loads);
+/// - otherwise the route of a pipeline layout without room for the carrier: a variant of its
+///   code that fits the matrix it loads, with the carrier baked in
+///   (`crate::shader::position_store::CarrierRead::Baked`): complementary depth, the range
+///   fitted per object.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ShaderObjectPosition<'a> {
     /// Its code is SPIR-V (not binary).
     pub spirv: bool,
     /// It is part of a linked set (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`).
     pub linked: bool,
+    /// A vertex shader with the carrier in its push-constant ranges: what
+    /// [`crate::policy::vertex_stage::VertexStageFacts::decide`] made of it as a pipeline's
+    /// vertex stage (`Ok`: a precise range), or why it refused; `None` where the route does not
+    /// apply (another stage, no room for the carrier).
+    pub pushed: Option<Result<(), &'a str>>,
     /// The baked rewrite of its code: `Ok(None)` where it stores no `Position`, `Ok(Some(w))`
     /// where it does, `w` whether it projects the previous stage's `Position` (whose w = 1
     /// revz cannot check across separately bound shaders); or why it cannot be rewritten.
@@ -732,6 +743,8 @@ pub struct ShaderObjectPosition<'a> {
 pub enum ShaderObjectPlan {
     /// Nothing to do: it stores no `Position`.
     Nothing,
+    /// A variant reading the pushed carrier, with a pipeline's per-camera route.
+    Pushed,
     /// A variant with the carrier baked in.
     Baked,
     /// Its draws into reversed attachments take the flip path, for this reason.
@@ -750,6 +763,11 @@ impl ShaderObjectPosition<'_> {
                  does not re-create"
                     .into(),
             );
+        }
+        // The pushed route where it applies; where it refuses, the baked one may still fit the
+        // stage's matrix (naga cannot read the code, say).
+        if let Some(Ok(())) = self.pushed {
+            return ShaderObjectPlan::Pushed;
         }
         match self.rewrite {
             Ok(None) => ShaderObjectPlan::Nothing,
@@ -1561,6 +1579,7 @@ mod tests {
         let unlinked = ShaderObjectPosition {
             spirv: true,
             linked: false,
+            pushed: None,
             rewrite: Ok(Some(false)),
         };
         assert_eq!(unlinked.decide(), ShaderObjectPlan::Baked);
@@ -1599,6 +1618,44 @@ mod tests {
             .decide(),
             ShaderObjectPlan::Nothing
         );
+    }
+
+    #[test]
+    fn vertex_shader_objects_with_the_carrier_take_the_pushed_route_where_it_gives_a_range() {
+        let pushed = ShaderObjectPosition {
+            spirv: true,
+            linked: false,
+            pushed: Some(Ok(())),
+            rewrite: Ok(Some(false)),
+        };
+        assert_eq!(pushed.decide(), ShaderObjectPlan::Pushed);
+        // Refused there: the baked route where the deriving rewrite fits the stage.
+        let refused = ShaderObjectPosition {
+            pushed: Some(Err("Position does not come from a push-constant matrix")),
+            ..pushed
+        };
+        assert_eq!(refused.decide(), ShaderObjectPlan::Baked);
+        assert!(matches!(
+            ShaderObjectPosition {
+                rewrite: Err("two stores"),
+                ..refused
+            }
+            .decide(),
+            ShaderObjectPlan::Flip(_)
+        ));
+        // Neither binary code nor a linked set can have a variant bound alone.
+        for facts in [
+            ShaderObjectPosition {
+                spirv: false,
+                ..pushed
+            },
+            ShaderObjectPosition {
+                linked: true,
+                ..pushed
+            },
+        ] {
+            assert!(matches!(facts.decide(), ShaderObjectPlan::Flip(_)));
+        }
     }
 
     #[test]

@@ -58,7 +58,7 @@ use modules::*;
 use plan::*;
 use variants::*;
 
-pub(crate) use modules::baked_code;
+pub(crate) use modules::{baked_code, push_layout, vertex_code};
 pub use modules::{
     create_pipeline_layout, create_shader_module, destroy_pipeline_layout, destroy_shader_module,
 };

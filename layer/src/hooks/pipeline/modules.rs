@@ -144,7 +144,7 @@ pub(super) fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> 
 /// The analysis and `Position` rewrite of vertex stage code (a module's, `module`, or SPIR-V
 /// chained into a stage, `module` null), made once per distinct code
 /// (`DeviceObjects::vertex_codes`; what is logged about the code names the first module).
-pub(super) fn vertex_code(
+pub(crate) fn vertex_code(
     state: &DeviceState,
     module: vk::ShaderModule,
     words: &[u32],
@@ -418,7 +418,7 @@ destroy_hook!(
 
 /// revz's own pipeline layout with `ranges` (and no descriptor sets), made once per set of
 /// ranges (`crate::objects::DeviceObjects::layout_pushers`).
-fn push_layout(
+pub(crate) fn push_layout(
     state: &DeviceState,
     device: vk::Device,
     ranges: &[vk::PushConstantRange],
