@@ -503,17 +503,10 @@ impl CommandState {
         if self.target != Target::Reversed || self.precise_barred {
             return None;
         }
-        let projection = self.stage_facts()?.projection.as_ref()?;
-        // A vertex shader object's projection is classified for [0, 1] clip depth: a draw the
-        // application set to [-1, 1] (`vkCmdSetDepthClipNegativeOneToOneEXT`) takes the flip
-        // path. (A pipeline's is classified for its static convention; one whose convention
-        // is dynamic has no projection to classify.)
-        if self.shader_objects
-            && self.clip_negative_one_to_one
-            && self.app_set.contains(States::CLIP_CONTROL)
-        {
-            return None;
-        }
+        let projection = match self.bound {
+            Some(slot) => self.known.slots[slot].1.as_ref()?.projection.as_ref()?,
+            None => self.shader_projection()?,
+        };
         Some((projection, self.target_reversing().rewrite?))
     }
 
@@ -608,15 +601,40 @@ impl CommandState {
     /// with shader objects bound, those of the last stage's shader where it takes the pushed
     /// route ([`PositionShader::Pushed`]; `None` for a baked or flip shader, whose route
     /// [`Self::baked_shader`] gives).
+    /// A pipeline bound costs nothing more than [`Self::pipeline`]: with shader objects bound
+    /// no pipeline is (`bound` is `None`), and only then are the shaders looked at.
     #[inline]
     fn stage_facts(&self) -> Option<&std::sync::Arc<PipelineDepth>> {
-        if self.shader_objects {
-            return match &self.position_shaders[self.last_position_stage()?] {
-                (_, Some(PositionShader::Pushed { depth, .. })) => Some(depth),
-                _ => None,
-            };
+        match self.bound {
+            Some(slot) => self.known.slots[slot].1.as_ref(),
+            None => self.shader_facts(),
         }
-        self.pipeline()
+    }
+
+    /// [`Self::stage_facts`] with shader objects bound (cold: most recordings bind pipelines).
+    #[cold]
+    #[inline(never)]
+    fn shader_facts(&self) -> Option<&std::sync::Arc<PipelineDepth>> {
+        if !self.shader_objects {
+            return None;
+        }
+        match &self.position_shaders[self.last_position_stage()?] {
+            (_, Some(PositionShader::Pushed { depth, .. })) => Some(depth),
+            _ => None,
+        }
+    }
+
+    /// The projection of the pushed route's vertex shader object bound last, where the draw
+    /// can classify it: it was classified for [0, 1] clip depth, so a draw the application set
+    /// to [-1, 1] (`vkCmdSetDepthClipNegativeOneToOneEXT`) takes the flip path. (A pipeline's
+    /// is classified for its static convention; one whose convention is dynamic has none.)
+    #[cold]
+    #[inline(never)]
+    fn shader_projection(&self) -> Option<&ProjectionUse> {
+        if self.clip_negative_one_to_one && self.app_set.contains(States::CLIP_CONTROL) {
+            return None;
+        }
+        self.shader_facts()?.projection.as_ref()
     }
 
     /// The application's next push uses a layout whose push ranges revz's layout `pusher`
@@ -1265,16 +1283,13 @@ impl CommandState {
         // attachments too: it goes down (when it changed) with the application's push layout,
         // which the bound pipeline's is compatible with. Before the application's first push
         // there is none, and its own push constants are undefined as well.
-        let store = self.stage_facts().and_then(|p| p.position_store);
         // A stage that derives its range: revz's own layout with the pipeline's push ranges
-        // (the application may push nothing for it, or last pushed with another pipeline's
-        // layout). Before the application's first push, the same.
-        let own = self
-            .stage_facts()
-            .map_or(vk::PipelineLayout::null(), |p| p.layout);
-        let derived = self
-            .stage_facts()
-            .is_some_and(|p| p.derived_range.is_some());
+        // (`own`: the application may push nothing for it, or last pushed with another
+        // pipeline's layout). Before the application's first push, the same.
+        let (store, own, derived) = match self.stage_facts() {
+            Some(p) => (p.position_store, p.layout, p.derived_range.is_some()),
+            None => (None, vk::PipelineLayout::null(), false),
+        };
         // Since the bind, the application pushed with a layout this pipeline is not
         // compatible with: it pushes for the next pipeline, and the carrier would overwrite
         // its bytes. It waits for the next compatible push or bind (the pipeline's draws take
