@@ -3,10 +3,10 @@
 //! its code rewritten by [`crate::shader::fragment_depth`], which draws into reversed attachments bind
 //! in its place ([`crate::command_state`], from `vkCmdBindShadersEXT`). In a precise mode a
 //! pre-rasterization shader that stores `Position` gets a variant its precise-path draws bind
-//! (`crate::objects::PositionShader`, as [`ShaderObjectPosition`] decides): a vertex shader
-//! with revz's carrier in its ranges one storing `Position` through the pushed carrier, with a
-//! pipeline's facts for the state machine ([`pushed_route`]); the others one with the carrier
-//! baked in.
+//! (`crate::objects::PositionShader`, as [`ShaderObjectPosition`] decides): one with revz's
+//! carrier in its ranges, where its stage reads it, one storing `Position` through the pushed
+//! carrier, with a pipeline's facts for the state machine ([`pushed_route`]); the others one
+//! with the carrier baked in.
 //!
 //! - The application's `vkCreateShadersEXT` goes down with revz's carrier reserved in every
 //!   create info's push-constant ranges, as in pipeline layouts (so that the layouts the
@@ -68,8 +68,8 @@ enum Plan {
     Variant(Arc<[u32]>),
     /// A fragment shader that computes with depth (or may, binary code) but gets no variant.
     Unreversed,
-    /// A vertex shader's variant of its code storing `Position` through the pushed carrier,
-    /// and what draws need of it (`PositionShader::Pushed`).
+    /// A pre-rasterization shader's variant of its code storing `Position` through the pushed
+    /// carrier, and what draws need of it (`PositionShader::Pushed`).
     Pushed(Arc<[u32]>, Box<PipelineDepth>),
     /// A vertex, tessellation evaluation, geometry or mesh shader's variant of its code with
     /// the carrier baked in (`PositionShader::Baked`).
@@ -183,8 +183,8 @@ fn plan(
 type Reserved = (Vec<vk::PushConstantRange>, precise::Carrier);
 
 /// The plan of a vertex, tessellation evaluation, geometry or mesh shader in a precise mode, as
-/// the policy decides ([`ShaderObjectPosition`]): a vertex shader whose ranges hold the carrier
-/// takes a pipeline's vertex stage's route where it gives a precise range ([`pushed_route`]);
+/// the policy decides ([`ShaderObjectPosition`]): a shader whose ranges hold the carrier takes a
+/// pipeline's last stage's route where it gives a precise range ([`pushed_route`]);
 /// otherwise the deriving `Position` rewrite of its code with the carrier baked in
 /// (complementary depth, as for a pipeline layout without room for the carrier).
 fn position_plan(
@@ -205,7 +205,7 @@ fn position_plan(
         unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) }
     });
     let pushed = match (words, reserved) {
-        (Some(words), Some(reserved)) if !linked && info.stage == vk::ShaderStageFlags::VERTEX => {
+        (Some(words), Some(reserved)) if !linked => {
             Some(pushed_route(state, device, info, words, ranges, reserved))
         }
         _ => None,
@@ -250,13 +250,18 @@ fn position_plan(
     }
 }
 
-/// A vertex shader object's route as a pipeline's vertex stage (issue #41): its analysis and
-/// `Position` rewrite reading the pushed carrier (made once per distinct code, as for inline
-/// code of pipelines), what [`VertexStageFacts::decide`] makes of them with the application's
-/// ranges (`ranges`) and revz's carrier in them (`reserved`), and revz's layout of those
-/// ranges, which the carrier goes down with where the application pushes nothing. The clip
-/// depth is taken as [0, 1]: draws the application sets to [-1, 1] take the flip path
-/// (`crate::command_state`). `Err`: why the route does not apply.
+/// A pre-rasterization shader object's route as a pipeline's last pre-rasterization stage
+/// (issue #41): its analysis and `Position` rewrite reading the pushed carrier (made once per
+/// distinct code, as for inline code of pipelines: a vertex stage's projection in push
+/// constants read by naga, any stage's matrix fitted where it loads it, and located for the
+/// CPU where it loads it whole from a push-constant member), what
+/// [`VertexStageFacts::decide`] makes of them with the application's ranges (`ranges`) and
+/// revz's carrier in them (`reserved`), and revz's layout of those ranges, which the carrier
+/// goes down with where the application pushes nothing. The clip depth is taken as [0, 1]:
+/// draws the application sets to [-1, 1] take the flip path where the CPU classifies the
+/// projection (`crate::command_state`). A stage that projects the previous stage's
+/// `Position` is refused (that stage's w = 1 cannot be checked across separately bound
+/// shaders). `Err`: why the route does not apply.
 fn pushed_route(
     state: &DeviceState,
     device: vk::Device,
@@ -271,10 +276,11 @@ fn pushed_route(
         .and_then(|r| r.map_err(Missing::Unsupported));
     // SAFETY: a NUL-terminated entry point name (the application's contract).
     let name = unsafe { crate::ffi::c_str(info.p_name) };
+    let last_stage = LastStage::of([info.stage]);
     let facts = VertexStageFacts {
         code_given: true,
-        last_stage: Some(LastStage::Vertex),
-        carrier_reaches_stage: carrier.stages.contains(vk::ShaderStageFlags::VERTEX),
+        last_stage,
+        carrier_reaches_stage: last_stage.is_some_and(|last| carrier.stages.contains(last.flag())),
         analysis: entry_point_analysis(Ok(&analysis), name.map(std::ffi::CStr::to_bytes)),
         ranges: Some(ranges),
         convention: Some(DepthConvention::ZeroToOne),
@@ -282,7 +288,7 @@ fn pushed_route(
         baked: None,
         rewrite: rewrite.as_ref().map(|r| r.derived).map_err(|m| *m),
         derived_slot: rewrite.as_ref().ok().and_then(|r| r.push_slot),
-        // A vertex stage's input is its attributes, whose w the rewrite checks itself.
+        // The previous stage's Position, where the stage projects it: not known here.
         input_unit_w: rewrite
             .as_ref()
             .is_ok_and(|r| r.needs_input_unit_w)

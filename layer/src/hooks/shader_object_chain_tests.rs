@@ -819,60 +819,16 @@ fn a_vertex_shader_object_with_push_constant_ranges_takes_the_pipelines_per_came
     let buffer = fx.command_buffer();
     fx.bind(buffer, &[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]);
     let (near, far) = (0.5, 50.0);
-    let projection = glam::dcamera::rh::proj::vulkan::perspective(1.0, 1.5, near, far);
-    let matrix: Vec<u8> = projection
-        .as_mat4()
-        .to_cols_array()
-        .iter()
-        .flat_map(|v| v.to_ne_bytes())
-        .collect();
-    // SAFETY: a recording command buffer, the application's layout, 64 bytes.
-    unsafe {
-        (fx.hooks.cmd_push_constants)(
-            buffer,
-            app_layout,
-            VERTEX_STAGE,
-            0,
-            matrix.len() as u32,
-            matrix.as_ptr().cast(),
-        )
-    };
+    push(
+        &fx,
+        buffer,
+        app_layout,
+        VERTEX_STAGE,
+        &camera_matrix(near, far),
+    );
     fx.render(buffer, reversed, 2);
     let events = fx.events();
-    // The carrier's bytes as last pushed (the application's push extended to them, or a
-    // push of their own), with a layout of the reserved ranges.
-    let mut carrier = None;
-    for event in &events {
-        if let Event::PushConstants {
-            layout,
-            offset: at,
-            bytes,
-            ..
-        } = event
-        {
-            assert!(*layout == app_layout || *layout == own, "{event:?}");
-            let end = *at as usize + bytes.len();
-            if *at <= offset && end >= offset as usize + 16 {
-                let from = (offset - at) as usize;
-                carrier = Some(
-                    bytes[from..from + 16]
-                        .chunks_exact(4)
-                        .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
-                        .collect::<Vec<f32>>(),
-                );
-            }
-        }
-    }
-    let carrier = carrier.expect("the carrier pushed");
-    let range = revz_math::VisibleRange::new(near, far).expect("a range");
-    let expected = revz_math::reversed_coefficients(
-        range,
-        revz_math::Target::Infinite,
-        revz_math::DepthConvention::ZeroToOne,
-    );
-    assert_eq!(carrier[0], 0.0);
-    assert!((f64::from(carrier[1]) - expected.k).abs() <= 1e-5 * expected.k.abs().max(1.0));
-    assert!((f64::from(carrier[2]) - expected.b).abs() <= 1e-5 * expected.b.abs().max(1e-3));
+    assert_camera_carrier(&events, offset, &[app_layout, own], near, far);
     let binds: Vec<&Event> = events
         .iter()
         .filter(|e| matches!(e, Event::BindShaders { .. }))
@@ -893,6 +849,87 @@ fn a_vertex_shader_object_with_push_constant_ranges_takes_the_pipelines_per_came
     );
     fx.free(buffer);
     fx.finish_with(&[Event::DestroyPipelineLayout { handle: own }]);
+}
+
+/// The bytes of a perspective camera's projection (`near`, `far`), as pushed.
+fn camera_matrix(near: f64, far: f64) -> Vec<u8> {
+    glam::dcamera::rh::proj::vulkan::perspective(1.0, 1.5, near, far)
+        .as_mat4()
+        .to_cols_array()
+        .iter()
+        .flat_map(|v| v.to_ne_bytes())
+        .collect()
+}
+
+/// Pushes `bytes` at 0 with `layout` and `stages` through revz.
+fn push(
+    fx: &Fixture,
+    buffer: vk::CommandBuffer,
+    layout: vk::PipelineLayout,
+    stages: vk::ShaderStageFlags,
+    bytes: &[u8],
+) {
+    // SAFETY: a recording command buffer, the application's layout, its bytes.
+    unsafe {
+        (fx.hooks.cmd_push_constants)(
+            buffer,
+            layout,
+            stages,
+            0,
+            bytes.len() as u32,
+            bytes.as_ptr().cast(),
+        )
+    };
+}
+
+/// Checks that the carrier's bytes (at `offset`) as last pushed in `events` (the
+/// application's push extended to them, or a push of their own, with one of `layouts`) hold
+/// the infinite-mode line of the camera `near`, `far`: `(0, k, b, 0)`.
+fn assert_camera_carrier(
+    events: &[Event],
+    offset: u32,
+    layouts: &[vk::PipelineLayout],
+    near: f64,
+    far: f64,
+) {
+    let mut carrier = None;
+    for event in events {
+        if let Event::PushConstants {
+            layout,
+            offset: at,
+            bytes,
+            ..
+        } = event
+        {
+            assert!(layouts.contains(layout), "{event:?}");
+            let end = *at as usize + bytes.len();
+            if *at <= offset && end >= offset as usize + 16 {
+                let from = (offset - at) as usize;
+                carrier = Some(
+                    bytes[from..from + 16]
+                        .chunks_exact(4)
+                        .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
+                        .collect::<Vec<f32>>(),
+                );
+            }
+        }
+    }
+    let carrier = carrier.expect("the carrier pushed");
+    let range = revz_math::VisibleRange::new(near, far).expect("a range");
+    let expected = revz_math::reversed_coefficients(
+        range,
+        revz_math::Target::Infinite,
+        revz_math::DepthConvention::ZeroToOne,
+    );
+    assert_eq!((carrier[0], carrier[3]), (0.0, 0.0), "{carrier:?}");
+    assert!(
+        (f64::from(carrier[1]) - expected.k).abs() <= 1e-5 * expected.k.abs().max(1.0),
+        "{carrier:?} against {expected:?}"
+    );
+    assert!(
+        (f64::from(carrier[2]) - expected.b).abs() <= 1e-5 * expected.b.abs().max(1e-3),
+        "{carrier:?} against {expected:?}"
+    );
 }
 
 /// The tester's mesh shader (`shaders/glslang/mesh.mesh`), compiled by glslang.
@@ -1000,4 +1037,92 @@ fn the_depth_profile_lists_a_mesh_shader_object_and_files_its_draws_under_it() {
     fx.events();
     fx.finish();
     let _ = std::fs::remove_file(report);
+}
+
+#[test]
+fn a_mesh_shader_object_with_the_carrier_in_its_mesh_range_takes_the_pipelines_route() {
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
+    let offset = fx.state.policy.carrier_offset.expect("a carrier offset");
+    let (mesh_words, plain) = (mesh_shader_words(), fragment(PLAIN));
+    let mesh_stage = vk::ShaderStageFlags::MESH_EXT;
+    // The application's range of the mesh and fragment stages (no vertex range): revz's
+    // carrier goes into it, where the mesh stage reads it.
+    let stages = mesh_stage | FRAGMENT_STAGE;
+    let app_ranges = [vk::PushConstantRange {
+        stage_flags: stages,
+        offset: 0,
+        size: 96,
+    }];
+    let mut app_layout = vk::PipelineLayout::null();
+    let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&app_ranges);
+    // SAFETY: a live device, a valid create info, room for the handle.
+    let result = unsafe {
+        (fx.hooks.create_pipeline_layout)(
+            fx.device,
+            &layout_info,
+            std::ptr::null(),
+            &mut app_layout,
+        )
+    };
+    assert_eq!(result, vk::Result::SUCCESS);
+    let own = match &fx.events()[..] {
+        [_, Event::CreatePipelineLayout { handle, ranges }] => {
+            assert_eq!(*ranges, [(stages, 0, offset + 16)]);
+            *handle
+        }
+        other => panic!("the application's layout and revz's: {other:#?}"),
+    };
+    let infos = [
+        shader_info(mesh_stage, FRAGMENT_STAGE, &mesh_words).push_constant_ranges(&app_ranges),
+        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &plain)
+            .push_constant_ranges(&app_ranges),
+    ];
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(events.len(), 2, "the variant, then the application's");
+    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
+    // The deriving rewrite reading the pushed carrier (each vertex's Position rewritten where
+    // it is stored), as a mesh pipeline's stage.
+    let rewrite = crate::shader::position_store::derive_position_store(&mesh_words, offset)
+        .expect("rewritable")
+        .expect("stores Position");
+    assert_eq!(variant_infos.len(), 1);
+    assert_eq!(variant_infos[0].code, bytes(&rewrite.code));
+    let (mesh, frag, variant) = (handles[0], handles[1], variant_handles[0]);
+    match fx.state.objects.position_shaders.get(&mesh) {
+        Some(PositionShader::Pushed {
+            variant: recorded,
+            depth,
+        }) => {
+            assert_eq!(recorded, variant);
+            // Its matrix located for the CPU (`pc.mvp`), and fitted in the stage otherwise.
+            assert_eq!(depth.projection.map(|p| p.offset), Some(0));
+            assert!(depth.derived_range.is_some());
+            assert_eq!(depth.layout, own);
+        }
+        other => panic!("the pushed route: {other:?}"),
+    }
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let buffer = fx.command_buffer();
+    fx.bind(buffer, &[mesh_stage, FRAGMENT_STAGE], &[mesh, frag]);
+    let (near, far) = (0.25, 400.0);
+    push(&fx, buffer, app_layout, stages, &camera_matrix(near, far));
+    fx.render(buffer, reversed, 1);
+    let events = fx.events();
+    assert_camera_carrier(&events, offset, &[app_layout, own], near, far);
+    let binds: Vec<&Event> = events
+        .iter()
+        .filter(|e| matches!(e, Event::BindShaders { .. }))
+        .collect();
+    assert_eq!(
+        binds.last(),
+        Some(&&Event::BindShaders {
+            stages: vec![mesh_stage],
+            shaders: vec![variant],
+        }),
+        "the mesh stage's variant in its place for the precise draw: {binds:?}"
+    );
+    fx.free(buffer);
+    fx.finish_with(&[Event::DestroyPipelineLayout { handle: own }]);
 }

@@ -573,10 +573,10 @@ impl FragmentShader {
 /// #41, `crate::policy::pipelines::ShaderObjectPosition`).
 #[derive(Clone, Debug)]
 pub enum PositionShader {
-    /// A vertex shader object whose push-constant ranges hold revz's carrier: `variant`, the
+    /// A shader object whose push-constant ranges hold revz's carrier: `variant`, the
     /// shader object of its code rewritten to store `Position` through the pushed carrier
     /// (revz's own), is bound in its place for precise-path draws, and `depth` says for the
-    /// state machine what a pipeline's facts say of its vertex stage (where its projection
+    /// state machine what a pipeline's facts say of its last stage (where its projection
     /// is, the carrier, the layout revz pushes it with), so that its draws take the pipelines'
     /// per-camera path.
     Pushed {

@@ -713,10 +713,11 @@ pub fn shader_object_vertex_path(active: bool, variant: bool) -> &'static str {
 /// What revz knows of a vertex, tessellation evaluation, geometry or mesh shader object at its
 /// creation in a precise mode (issue #41). Its variant, bound in its place for precise-path
 /// draws where it is the last pre-rasterization stage bound, takes one of two routes:
-/// - a vertex shader whose push-constant ranges got revz's carrier (as a pipeline layout's
-///   do, `crate::precise::reserve_carrier`) takes a pipeline's per-camera route: the variant
-///   stores `Position` through the pushed carrier, and its draws classify the pushed
-///   projection on the CPU (or push the selector where it fits the matrix it loads);
+/// - a shader whose push-constant ranges got revz's carrier (as a pipeline layout's do,
+///   `crate::precise::reserve_carrier`) where its stage reads it takes a pipeline's
+///   per-camera route: the variant stores `Position` through the pushed carrier, and its draws
+///   classify the pushed projection on the CPU (or push the selector where it fits the matrix
+///   it loads);
 /// - otherwise the route of a pipeline layout without room for the carrier: a variant of its
 ///   code that fits the matrix it loads, with the carrier baked in
 ///   (`crate::shader::position_store::CarrierRead::Baked`): complementary depth, the range
@@ -727,10 +728,10 @@ pub struct ShaderObjectPosition<'a> {
     pub spirv: bool,
     /// It is part of a linked set (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`).
     pub linked: bool,
-    /// A vertex shader with the carrier in its push-constant ranges: what
+    /// A shader with the carrier in its push-constant ranges: what
     /// [`crate::policy::vertex_stage::VertexStageFacts::decide`] made of it as a pipeline's
-    /// vertex stage (`Ok`: a precise range), or why it refused; `None` where the route does not
-    /// apply (another stage, no room for the carrier).
+    /// last pre-rasterization stage (`Ok`: a precise range), or why it refused; `None` where
+    /// the route does not apply (binary or linked code, no room for the carrier).
     pub pushed: Option<Result<(), &'a str>>,
     /// The baked rewrite of its code: `Ok(None)` where it stores no `Position`, `Ok(Some(w))`
     /// where it does, `w` whether it projects the previous stage's `Position` (whose w = 1
