@@ -105,6 +105,20 @@ impl Harness {
         command
     }
 
+    /// The newer Zink `cargo xtask setup` extracts beside the newer lavapipe (Mesa 25.0's
+    /// OpenGL drivers, `xtask/src/system.rs`), where it did.
+    pub fn newer_zink(&self) -> Option<NewerZink> {
+        let icd = self.newer_lavapipe()?;
+        let dir = icd.parent()?.to_path_buf();
+        let egl = dir.join("zink_egl_vendor.json");
+        let libraries = dir.join("root/usr/lib/x86_64-linux-gnu");
+        (egl.exists() && libraries.join("dri/zink_dri.so").exists()).then_some(NewerZink {
+            icd,
+            egl,
+            libraries,
+        })
+    }
+
     /// `revz-tester report` on lavapipe with the explicit revz layer's manifests, into `out`,
     /// with `args` (scenes, modes, formats, deliveries), on [`Harness::newer_lavapipe`] where
     /// `newer_lavapipe`; panics with its output unless it exits 0. Its `report.json`.
@@ -195,6 +209,30 @@ pub fn clean_command(program: &Path) -> Command {
         command.env_remove(name);
     }
     command
+}
+
+/// Mesa 25.0's Zink and lavapipe, beside the system's ([`Harness::newer_zink`]).
+#[derive(Clone, Debug)]
+pub struct NewerZink {
+    /// The newer lavapipe's driver manifest.
+    pub icd: PathBuf,
+    /// The EGL vendor manifest of its libEGL.
+    pub egl: PathBuf,
+    /// Its libraries (libgallium, libEGL_mesa, libgbm), and its `dri/` drivers.
+    pub libraries: PathBuf,
+}
+
+impl NewerZink {
+    /// `command`, a `revz-tester gl-render` with its subcommand given, rendering through this
+    /// Zink on this lavapipe.
+    pub fn apply<'a>(&self, command: &'a mut Command) -> &'a mut Command {
+        command
+            .arg("--icd")
+            .arg(&self.icd)
+            .env("LD_LIBRARY_PATH", &self.libraries)
+            .env("LIBGL_DRIVERS_PATH", self.libraries.join("dri"))
+            .env("__EGL_VENDOR_LIBRARY_FILENAMES", &self.egl)
+    }
 }
 
 /// One finished tester run.

@@ -7,7 +7,48 @@
 
 use std::collections::HashMap;
 
-use revz_tests::Harness;
+use revz_tests::{Harness, NewerZink};
+
+/// The Zinks the tests render through: the system's (Mesa 22.3 on Debian 12), and Mesa 25.0's
+/// on its lavapipe where `cargo xtask setup` extracted them beside the system's
+/// ([`Harness::newer_zink`]): a newer Zink drives Vulkan otherwise (its shaders, its
+/// pipelines, its copies), as the applications' users run it.
+#[derive(Clone, Debug)]
+enum Zink {
+    System,
+    Newer(NewerZink),
+}
+
+impl Zink {
+    fn all(harness: &Harness) -> Vec<Zink> {
+        let mut all = vec![Zink::System];
+        match harness.newer_zink() {
+            Some(newer) => all.push(Zink::Newer(newer)),
+            None => {
+                eprintln!("no newer Zink here (cargo xtask setup, Debian 12): the system's alone")
+            }
+        }
+        all
+    }
+
+    /// Its part of a scratch directory's name.
+    fn label(&self) -> &'static str {
+        match self {
+            Zink::System => "",
+            Zink::Newer(_) => "-mesa25",
+        }
+    }
+
+    /// `revz-tester gl-render --zink` through this Zink, in a clean environment.
+    fn command(&self, harness: &Harness) -> std::process::Command {
+        let mut command = revz_tests::clean_command(&harness.tester);
+        command.args(["gl-render", "--zink"]);
+        if let Zink::Newer(newer) = self {
+            newer.apply(&mut command);
+        }
+        command
+    }
+}
 
 /// The clear color `revz-tester` renders into (25/255 grey).
 const CLEAR: [u8; 4] = [25, 25, 25, 255];
@@ -26,9 +67,16 @@ fn histogram(image: &image::RgbaImage) -> HashMap<[u8; 4], usize> {
 #[test]
 fn sloped_plane_renders_through_zink_on_lavapipe() {
     let harness = Harness::locate();
-    let out = harness.scratch_dir("zink-sloped-plane");
-    let output = revz_tests::clean_command(&harness.tester)
-        .args(["gl-render", "--zink", "--scene", "sloped-plane", "--out"])
+    for zink in Zink::all(&harness) {
+        sloped_plane_renders(&harness, &zink);
+    }
+}
+
+fn sloped_plane_renders(harness: &Harness, zink: &Zink) {
+    let out = harness.scratch_dir(&format!("zink-sloped-plane{}", zink.label()));
+    let output = zink
+        .command(harness)
+        .args(["--scene", "sloped-plane", "--out"])
         .arg(&out)
         .output()
         .expect("start revz-tester gl-render");
@@ -46,8 +94,9 @@ fn sloped_plane_renders_through_zink_on_lavapipe() {
         return;
     }
     assert!(output.status.success(), "gl-render failed\n{context}");
+    // "zink (llvmpipe ..." (Mesa 22.3), "zink Vulkan 1.4(llvmpipe ..." (25.0).
     assert!(
-        stdout.contains("GL renderer: zink (llvmpipe"),
+        stdout.contains("GL renderer: zink") && stdout.contains("(llvmpipe"),
         "not Zink on lavapipe\n{context}"
     );
 
@@ -113,13 +162,16 @@ fn run_gl_render(mut command: std::process::Command, name: &str) -> Option<Strin
 /// `gl-render --zink` of `scene`, through revz in `mode` (with `reverse_observable = all`: Zink
 /// creates every depth image SAMPLED and TRANSFER_SRC, which the default policy keeps native),
 /// or without it: the measurement, or `None` where Zink cannot be initialised.
-fn zink_render(harness: &Harness, scene: &str, mode: Option<&str>) -> Option<serde_json::Value> {
-    let name = format!("zink-{scene}-{}", mode.unwrap_or("none"));
+fn zink_render(
+    harness: &Harness,
+    zink: &Zink,
+    scene: &str,
+    mode: Option<&str>,
+) -> Option<serde_json::Value> {
+    let name = format!("zink-{scene}-{}{}", mode.unwrap_or("none"), zink.label());
     let out = harness.scratch_dir(&name);
-    let mut command = revz_tests::clean_command(&harness.tester);
-    command
-        .args(["gl-render", "--zink", "--scene", scene, "--out"])
-        .arg(&out);
+    let mut command = zink.command(harness);
+    command.args(["--scene", scene, "--out"]).arg(&out);
     if let Some(mode) = mode {
         command
             .args(["--revz", mode])
@@ -141,11 +193,17 @@ fn zink_render(harness: &Harness, scene: &str, mode: Option<&str>) -> Option<ser
 
 #[test]
 fn zink_gets_the_precise_gain_through_revz() {
+    let harness = Harness::locate();
+    for zink in Zink::all(&harness) {
+        precise_gain(&harness, &zink);
+    }
+}
+
+fn precise_gain(harness: &Harness, zink: &Zink) {
     // The OpenGL program's uniforms reach revz in a uniform buffer of uints, its products
     // written out column by column, its [-1, 1] clip depth set dynamically: the deriving
     // stage fits the projection's columns and converts the line, and revz sets [0, 1].
-    let harness = Harness::locate();
-    let Some(native) = zink_render(&harness, "sloped-plane", None) else {
+    let Some(native) = zink_render(harness, zink, "sloped-plane", None) else {
         return;
     };
     let wrong = |m: &serde_json::Value| m["wrong_pixels"].as_u64().unwrap();
@@ -154,20 +212,21 @@ fn zink_gets_the_precise_gain_through_revz() {
         "standard depth loses some of the red square: {native}"
     );
     for mode in ["complementary", "infinite"] {
-        let m = zink_render(&harness, "sloped-plane", Some(mode)).expect("Zink ran above");
+        let m = zink_render(harness, zink, "sloped-plane", Some(mode)).expect("Zink ran above");
         assert_eq!(m["depth_reversed"], true, "{m}");
         assert_eq!(
             wrong(&m),
             0,
-            "sloped-plane through Zink and revz {mode}: {m}"
+            "sloped-plane through Zink{} and revz {mode}: {m}",
+            zink.label()
         );
     }
     // plane-stack: the minimum separation at every distance near float32's floor (the
     // precision model's 2.0e-7 for reversed float depth; measured 1.8e-7 to 5.6e-7 through
     // Zink, where Mesa multiplies P * (V * (M * v)) in float32), against 5.6e-7 to 3.2e-2
     // without revz.
-    let native = zink_render(&harness, "plane-stack", None).expect("Zink ran above");
-    let m = zink_render(&harness, "plane-stack", Some("infinite")).expect("Zink ran above");
+    let native = zink_render(harness, zink, "plane-stack", None).expect("Zink ran above");
+    let m = zink_render(harness, zink, "plane-stack", Some("infinite")).expect("Zink ran above");
     let separations = |m: &serde_json::Value| -> Vec<(f64, f64)> {
         m["min_rel_separation"]
             .as_array()
@@ -186,8 +245,9 @@ fn zink_gets_the_precise_gain_through_revz() {
     for ((distance, reversed), (_, standard)) in with.iter().zip(&without) {
         assert!(
             *reversed <= 4.0 * 2.0e-7,
-            "plane-stack at {distance} n through Zink and revz: {reversed:e} (without revz \
-             {standard:e})"
+            "plane-stack at {distance} n through Zink{} and revz: {reversed:e} (without revz \
+             {standard:e})",
+            zink.label()
         );
     }
     assert!(without.last().unwrap().1 > 100.0 * with.last().unwrap().1);
@@ -198,25 +258,18 @@ fn zink_gets_the_precise_gain_through_revz() {
 /// the post pass's color and the layer's log, or `None` where Zink cannot be initialised.
 fn zink_post(
     harness: &Harness,
+    zink: &Zink,
     pass: &str,
     mode: Option<(&str, &str)>,
 ) -> Option<(image::RgbaImage, String)> {
     let name = match mode {
         Some((mode, observable)) => format!("zink-post-{pass}-{mode}-{observable}"),
         None => format!("zink-post-{pass}-none"),
-    };
+    } + zink.label();
     let out = harness.scratch_dir(&name);
-    let mut command = revz_tests::clean_command(&harness.tester);
+    let mut command = zink.command(harness);
     command
-        .args([
-            "gl-render",
-            "--zink",
-            "--scene",
-            "overlap",
-            "--post",
-            pass,
-            "--out",
-        ])
+        .args(["--scene", "overlap", "--post", pass, "--out"])
         .arg(&out);
     if let Some((mode, observable)) = mode {
         command
@@ -251,25 +304,37 @@ fn far_apart(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
 #[test]
 fn zink_shaders_sample_standard_depth_through_the_read_twin() {
     let harness = Harness::locate();
+    for zink in Zink::all(&harness) {
+        sample_standard_depth(&harness, &zink);
+    }
+}
+
+fn sample_standard_depth(harness: &Harness, zink: &Zink) {
+    let label = zink.label();
     for pass in ["fetch", "compare"] {
-        let Some((native, _)) = zink_post(&harness, pass, None) else {
+        let Some((native, _)) = zink_post(harness, zink, pass, None) else {
             return;
         };
         for mode in ["flip", "complementary", "infinite"] {
-            let (post, log) = zink_post(&harness, pass, Some((mode, "copies"))).expect("Zink ran");
+            let (post, log) =
+                zink_post(harness, zink, pass, Some((mode, "copies"))).expect("Zink ran");
             assert!(
                 log.contains("reversed, shaders read its twin"),
                 "{mode}: {log}"
             );
             let apart = far_apart(&native, &post);
-            eprintln!("zink post {pass} {mode}: {apart} of 65,536 pixels apart");
-            assert!(apart <= 16, "{pass} {mode}: {apart} pixels differ\n{log}");
+            eprintln!("zink{label} post {pass} {mode}: {apart} of 65,536 pixels apart");
+            assert!(
+                apart <= 16,
+                "{pass} {mode}{label}: {apart} pixels differ\n{log}"
+            );
         }
-        let (raw, _) = zink_post(&harness, pass, Some(("complementary", "all"))).expect("Zink ran");
+        let (raw, _) =
+            zink_post(harness, zink, pass, Some(("complementary", "all"))).expect("Zink ran");
         let apart = far_apart(&native, &raw);
         assert!(
             apart > 65_536 / 20,
-            "{pass}: reading the reversed values changed only {apart} pixels"
+            "{pass}{label}: reading the reversed values changed only {apart} pixels"
         );
     }
 }
@@ -278,13 +343,15 @@ fn zink_shaders_sample_standard_depth_through_the_read_twin() {
 /// returns it (`depth.f32`), without revz or through it in `mode` under the default policy
 /// (`reverse_observable = copies`, `copy_values = standard`, which `gl-render` otherwise sets
 /// to `stored` for its measurements), or `None` where Zink cannot be initialised.
-fn zink_read_depth(harness: &Harness, mode: Option<&str>) -> Option<(Vec<f32>, String)> {
-    let name = format!("zink-read-depth-{}", mode.unwrap_or("none"));
+fn zink_read_depth(
+    harness: &Harness,
+    zink: &Zink,
+    mode: Option<&str>,
+) -> Option<(Vec<f32>, String)> {
+    let name = format!("zink-read-depth-{}{}", mode.unwrap_or("none"), zink.label());
     let out = harness.scratch_dir(&name);
-    let mut command = revz_tests::clean_command(&harness.tester);
-    command
-        .args(["gl-render", "--zink", "--scene", "overlap", "--out"])
-        .arg(&out);
+    let mut command = zink.command(harness);
+    command.args(["--scene", "overlap", "--out"]).arg(&out);
     if let Some(mode) = mode {
         command
             .args(["--revz", mode])
@@ -310,11 +377,18 @@ fn zink_read_depth(harness: &Harness, mode: Option<&str>) -> Option<(Vec<f32>, S
 #[test]
 fn zink_reads_depth_back_as_it_does_without_revz() {
     let harness = Harness::locate();
-    let Some((native, _)) = zink_read_depth(&harness, None) else {
+    for zink in Zink::all(&harness) {
+        reads_depth_back(&harness, &zink);
+    }
+}
+
+fn reads_depth_back(harness: &Harness, zink: &Zink) {
+    let label = zink.label();
+    let Some((native, _)) = zink_read_depth(harness, zink, None) else {
         return;
     };
     for mode in ["flip", "complementary", "infinite"] {
-        let (depth, log) = zink_read_depth(&harness, Some(mode)).expect("Zink ran");
+        let (depth, log) = zink_read_depth(harness, zink, Some(mode)).expect("Zink ran");
         assert!(
             log.contains("reversed, shaders read its twin"),
             "{mode}: the depth image is not reversed\n{log}"
@@ -325,10 +399,10 @@ fn zink_reads_depth_back_as_it_does_without_revz() {
             .zip(&depth)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0f32, f32::max);
-        eprintln!("zink glReadPixels depth {mode}: worst difference {worst:e}");
+        eprintln!("zink{label} glReadPixels depth {mode}: worst difference {worst:e}");
         assert!(
             worst <= 2.4e-7,
-            "{mode}: depth read back {worst:e} from the run without revz\n{log}"
+            "{mode}{label}: depth read back {worst:e} from the run without revz\n{log}"
         );
     }
 }
@@ -340,22 +414,19 @@ fn zink_reads_depth_back_as_it_does_without_revz() {
 /// `None` where Zink cannot be initialised.
 fn zink_post_outputs(
     harness: &Harness,
+    zink: &Zink,
     pass: &str,
     mode: Option<&str>,
 ) -> Option<(std::path::PathBuf, String)> {
-    let name = format!("zink-post-{pass}-{}-default", mode.unwrap_or("none"));
+    let name = format!(
+        "zink-post-{pass}-{}-default{}",
+        mode.unwrap_or("none"),
+        zink.label()
+    );
     let out = harness.scratch_dir(&name);
-    let mut command = revz_tests::clean_command(&harness.tester);
+    let mut command = zink.command(harness);
     command
-        .args([
-            "gl-render",
-            "--zink",
-            "--scene",
-            "overlap",
-            "--post",
-            pass,
-            "--out",
-        ])
+        .args(["--scene", "overlap", "--post", pass, "--out"])
         .arg(&out);
     if let Some(mode) = mode {
         command
@@ -452,7 +523,13 @@ fn post_outputs_differ(
 #[test]
 fn zink_blits_depth_as_it_does_without_revz() {
     let harness = Harness::locate();
-    let Some((native, _)) = zink_post_outputs(&harness, "blit", None) else {
+    for zink in Zink::all(&harness) {
+        blits_depth(&harness, &zink);
+    }
+}
+
+fn blits_depth(harness: &Harness, zink: &Zink) {
+    let Some((native, _)) = zink_post_outputs(harness, zink, "blit", None) else {
         return;
     };
     // The GL program did what it says: the copy is the scene's depth, the mirror its mirror.
@@ -473,7 +550,7 @@ fn zink_blits_depth_as_it_does_without_revz() {
 
     let mut problems = Vec::new();
     for mode in ["flip", "complementary", "infinite"] {
-        let (with, log) = zink_post_outputs(&harness, "blit", Some(mode)).expect("Zink ran");
+        let (with, log) = zink_post_outputs(harness, zink, "blit", Some(mode)).expect("Zink ran");
         let twins = twins_logged(&log);
         if twins < 3 {
             problems.push(format!(
@@ -485,7 +562,7 @@ fn zink_blits_depth_as_it_does_without_revz() {
             &native,
             &with,
             "blit",
-            mode,
+            &format!("{mode}{}", zink.label()),
             &["post.png", "post-mirrored.png"],
             &["depth.f32", "blit-depth.f32", "blit-mirrored-depth.f32"],
         ));
@@ -509,7 +586,13 @@ fn zink_blits_depth_as_it_does_without_revz() {
 #[test]
 fn zink_generates_depth_mipmaps_as_it_does_without_revz() {
     let harness = Harness::locate();
-    let Some((native, _)) = zink_post_outputs(&harness, "mipmap", None) else {
+    for zink in Zink::all(&harness) {
+        generates_depth_mipmaps(&harness, &zink);
+    }
+}
+
+fn generates_depth_mipmaps(harness: &Harness, zink: &Zink) {
+    let Some((native, _)) = zink_post_outputs(harness, zink, "mipmap", None) else {
         return;
     };
     // Level 1 without revz lies within each 2 x 2 block of level 0 (a filtered reduction).
@@ -536,7 +619,7 @@ fn zink_generates_depth_mipmaps_as_it_does_without_revz() {
 
     let mut problems = Vec::new();
     for mode in ["flip", "complementary", "infinite"] {
-        let (with, log) = zink_post_outputs(&harness, "mipmap", Some(mode)).expect("Zink ran");
+        let (with, log) = zink_post_outputs(harness, zink, "mipmap", Some(mode)).expect("Zink ran");
         if twins_logged(&log) == 0 {
             problems.push(format!("{mode}: the depth image is not reversed\n{log}"));
         }
@@ -544,7 +627,7 @@ fn zink_generates_depth_mipmaps_as_it_does_without_revz() {
             &native,
             &with,
             "mipmap",
-            mode,
+            &format!("{mode}{}", zink.label()),
             &["post.png"],
             &["depth.f32", "mip1-depth.f32"],
         ));

@@ -226,11 +226,14 @@ fn bench(quick: bool) -> Result<()> {
     Ok(())
 }
 
-/// The system packages, and the newer lavapipe the shader-object tests render on
-/// ([`system::ensure_newer_lavapipe`]).
+/// The system packages, the newer lavapipe the shader-object tests render on
+/// ([`system::ensure_newer_lavapipe`]), and the newer Zink beside it
+/// ([`system::ensure_newer_zink`]).
 fn setup() -> Result<()> {
     system::ensure_packages()?;
-    system::ensure_newer_lavapipe(&Paths::new(false).target());
+    let target = Paths::new(false).target();
+    system::ensure_newer_lavapipe(&target);
+    system::ensure_newer_zink(&target);
     Ok(())
 }
 

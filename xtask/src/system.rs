@@ -162,6 +162,98 @@ pub fn ensure_newer_lavapipe(target: &std::path::Path) -> Option<std::path::Path
     }
 }
 
+/// Mesa 25.0's OpenGL drivers from `bookworm-backports` beside [`ensure_newer_lavapipe`]'s
+/// Vulkan driver, in the same root: `mesa-libgallium`, `libgl1-mesa-dri`, `libegl-mesa0` and
+/// `libgbm1`, and an EGL vendor manifest naming that libEGL by its full path
+/// ([`NEWER_ZINK_EGL`]). The Zink tests render through this newer Zink too (on the newer
+/// lavapipe), whose Vulkan use differs from 22.3's, with `LD_LIBRARY_PATH`,
+/// `LIBGL_DRIVERS_PATH` and `__EGL_VENDOR_LIBRARY_FILENAMES` (`tests/src/lib.rs`).
+///
+/// Done once (kept while the manifest and Zink's driver exist), only where the newer lavapipe
+/// is; a failure is reported and leaves the Zink tests on the system's Zink alone.
+pub fn ensure_newer_zink(target: &std::path::Path) {
+    let dir = target.join(NEWER_LAVAPIPE_DIR);
+    let libs = dir.join("root/usr/lib/x86_64-linux-gnu");
+    let (egl, zink) = (dir.join(NEWER_ZINK_EGL), libs.join("dri/zink_dri.so"));
+    if egl.exists() && zink.exists() {
+        return;
+    }
+    if !dir.join(NEWER_LAVAPIPE_ICD).exists() {
+        return;
+    }
+    let packages = [
+        "mesa-libgallium",
+        "libgl1-mesa-dri",
+        "libegl-mesa0",
+        "libgbm1",
+    ];
+    let fetched = backports_extract(&dir, &packages).and_then(|()| {
+        let library = libs.join("libEGL_mesa.so.0");
+        if !zink.exists() || !library.exists() {
+            bail!(
+                "the packages hold no {} or {}",
+                zink.display(),
+                library.display()
+            );
+        }
+        let manifest = format!(
+            "{{\n    \"file_format_version\": \"1.0.0\",\n    \"ICD\": {{\n        \
+             \"library_path\": \"{}\"\n    }}\n}}\n",
+            library.display()
+        );
+        std::fs::write(&egl, manifest)?;
+        Ok(())
+    });
+    match fetched {
+        Ok(()) => eprintln!("xtask: newer Zink (Mesa 25.0) in {}", libs.display()),
+        Err(e) => eprintln!("xtask: could not fetch the newer Zink: {e:#}"),
+    }
+}
+
+/// The EGL vendor manifest of the newer Zink's libEGL, in [`NEWER_LAVAPIPE_DIR`].
+pub const NEWER_ZINK_EGL: &str = "zink_egl_vendor.json";
+
+/// Downloads `packages` from `bookworm-backports` with [`fetch_newer_lavapipe`]'s private apt
+/// state (its lists updated already) and extracts them into `<dir>/root`.
+fn backports_extract(dir: &std::path::Path, packages: &[&str]) -> Result<()> {
+    let apt = dir.join("apt");
+    let download_dir = apt.join("zink-download");
+    std::fs::create_dir_all(&download_dir)?;
+    let mut download = Command::new("apt-get");
+    for option in apt_options(&apt) {
+        download.arg("-o").arg(option);
+    }
+    download
+        .current_dir(&download_dir)
+        .arg("download")
+        .args(packages.iter().map(|p| format!("{p}/{BACKPORTS_SUITE}")));
+    run_command(download, "apt-get download (newer Zink)")?;
+    for entry in std::fs::read_dir(&download_dir)? {
+        let deb = entry?.path();
+        if deb.extension().is_some_and(|e| e == "deb") {
+            let mut extract = Command::new("dpkg-deb");
+            extract.arg("-x").arg(&deb).arg(dir.join("root"));
+            run_command(extract, "dpkg-deb -x")?;
+        }
+    }
+    Ok(())
+}
+
+/// apt's options for the private state under `apt` (sources, lists, cache): the system's apt
+/// configuration is left as it is.
+fn apt_options(apt: &std::path::Path) -> [String; 5] {
+    [
+        format!(
+            "Dir::Etc::SourceList={}",
+            apt.join("backports.sources").display()
+        ),
+        "Dir::Etc::SourceParts=-".to_owned(),
+        format!("Dir::State::Lists={}", apt.join("lists").display()),
+        format!("Dir::Cache={}", apt.join("cache").display()),
+        "APT::Sandbox::User=root".to_owned(),
+    ]
+}
+
 fn fetch_newer_lavapipe(
     dir: &std::path::Path,
     library: &std::path::Path,
@@ -181,13 +273,7 @@ fn fetch_newer_lavapipe(
         ),
     )?;
     // Private sources, lists and cache: the system's apt configuration is left as it is.
-    let options = [
-        format!("Dir::Etc::SourceList={}", sources.display()),
-        "Dir::Etc::SourceParts=-".to_owned(),
-        format!("Dir::State::Lists={}", apt.join("lists").display()),
-        format!("Dir::Cache={}", apt.join("cache").display()),
-        "APT::Sandbox::User=root".to_owned(),
-    ];
+    let options = apt_options(&apt);
     let with_options = |command: &mut Command| {
         for option in &options {
             command.arg("-o").arg(option);

@@ -60,6 +60,13 @@ pub struct GlRenderArgs {
     #[arg(long)]
     pub zink: bool,
 
+    /// The Vulkan driver manifest Zink renders on [default: the system's lavapipe,
+    /// lvp_icd*.json in the standard ICD directories]: a newer lavapipe, say (`cargo xtask
+    /// setup` extracts Mesa 25.0's beside Debian 12's, with Mesa 25.0's Zink:
+    /// tests/tests/zink.rs).
+    #[arg(long, value_name = "JSON")]
+    pub icd: Option<PathBuf>,
+
     /// Inject revz in this mode under Zink (implies --zink): VK_ADD_LAYER_PATH,
     /// VK_INSTANCE_LAYERS, REVZ_MODE; REVZ_LOG=debug, REVZ_REVERSE_OBSERVABLE=copies and
     /// REVZ_COPY_VALUES=stored (the stored depth is what is judged) unless already set.
@@ -138,7 +145,10 @@ fn set_environment(args: &GlRenderArgs) -> Result<()> {
     if !(args.zink || args.revz.is_some()) {
         return Ok(());
     }
-    let icd = lavapipe_icd()?;
+    let icd = match &args.icd {
+        Some(icd) => icd.clone(),
+        None => lavapipe_icd()?,
+    };
     std::env::set_var("MESA_LOADER_DRIVER_OVERRIDE", "zink");
     std::env::set_var("GALLIUM_DRIVER", "zink");
     // Zink picks a CPU Vulkan device only when asked for software rendering.
