@@ -132,6 +132,57 @@ impl GlContext {
     }
 }
 
+/// `ARB_separate_shader_objects`' entry points, which `glow` does not load: what a separable
+/// program and a program pipeline need (`gl-render --separable`).
+#[derive(Clone, Copy)]
+pub struct SeparateShaderObjects {
+    pub program_parameteri: unsafe extern "system" fn(program: u32, name: u32, value: i32),
+    pub gen_program_pipelines: unsafe extern "system" fn(count: i32, pipelines: *mut u32),
+    pub bind_program_pipeline: unsafe extern "system" fn(pipeline: u32),
+    pub use_program_stages: unsafe extern "system" fn(pipeline: u32, stages: u32, program: u32),
+}
+
+impl std::fmt::Debug for SeparateShaderObjects {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SeparateShaderObjects")
+            .finish_non_exhaustive()
+    }
+}
+
+impl GlContext {
+    /// The current context's `ARB_separate_shader_objects` entry points (core in OpenGL 4.1;
+    /// Mesa exposes the extension in 3.3 core contexts).
+    pub fn separate_shader_objects(&self) -> Result<SeparateShaderObjects> {
+        let load = |name: &str| {
+            self.egl
+                .get_proc_address(name)
+                .with_context(|| format!("{name} is not available"))
+        };
+        // SAFETY: eglGetProcAddress's functions of these names have these signatures
+        // (ARB_separate_shader_objects).
+        unsafe {
+            Ok(SeparateShaderObjects {
+                program_parameteri: std::mem::transmute::<
+                    extern "system" fn(),
+                    unsafe extern "system" fn(u32, u32, i32),
+                >(load("glProgramParameteri")?),
+                gen_program_pipelines: std::mem::transmute::<
+                    extern "system" fn(),
+                    unsafe extern "system" fn(i32, *mut u32),
+                >(load("glGenProgramPipelines")?),
+                bind_program_pipeline: std::mem::transmute::<
+                    extern "system" fn(),
+                    unsafe extern "system" fn(u32),
+                >(load("glBindProgramPipeline")?),
+                use_program_stages: std::mem::transmute::<
+                    extern "system" fn(),
+                    unsafe extern "system" fn(u32, u32, u32),
+                >(load("glUseProgramStages")?),
+            })
+        }
+    }
+}
+
 impl Drop for GlContext {
     fn drop(&mut self) {
         let _ = self.egl.make_current(self.display, None, None, None);

@@ -27,6 +27,43 @@ void main() {
 }
 ";
 
+/// [`VERTEX_SHADER`] for a separable program (`--separable`): `gl_PerVertex` redeclared, as
+/// separable programs need for the built-ins they write.
+pub const SEPARABLE_VERTEX_SHADER: &str = "#version 330 core
+#extension GL_ARB_separate_shader_objects : require
+layout(location = 0) in vec3 position;
+uniform mat4 u_projection;
+uniform mat4 u_view;
+uniform mat4 u_model;
+out gl_PerVertex { vec4 gl_Position; };
+void main() {
+    gl_Position = u_projection * u_view * u_model * vec4(position, 1.0);
+}
+";
+
+/// [`FRAGMENT_SHADER`] for a separable program.
+pub const SEPARABLE_FRAGMENT_SHADER: &str = "#version 330 core
+#extension GL_ARB_separate_shader_objects : require
+uniform vec4 u_color;
+out vec4 color;
+void main() {
+    color = u_color;
+}
+";
+
+/// The scene's shaders: one program, or (`--separable`) a separable program per stage in a
+/// program pipeline, as `ARB_separate_shader_objects` applications do (Zink compiles such
+/// shaders on their own first: with `VK_EXT_shader_object`, as shader objects).
+#[derive(Clone, Copy, Debug)]
+enum ScenePrograms {
+    Linked(glow::Program),
+    Separate {
+        vertex: glow::Program,
+        fragment: glow::Program,
+        pipeline: u32,
+    },
+}
+
 /// The fragment shader: each object's flat color.
 pub const FRAGMENT_SHADER: &str = "#version 330 core
 uniform vec4 u_color;
@@ -186,12 +223,14 @@ fn drawn(scene: &Scene) -> Result<Vec<usize>> {
 }
 
 /// Renders `scene` at `width` x `height` with the current context's GL and reads it back.
+/// With `separable`, the scene's stages are separable programs in a program pipeline.
 pub fn render(
     gl: &glow::Context,
     scene: &Scene,
     width: u32,
     height: u32,
     post: Option<PostPass>,
+    separable: Option<&super::context::SeparateShaderObjects>,
 ) -> Result<GlFrame> {
     let objects = drawn(scene)?;
     let aspect = f64::from(width) / f64::from(height);
@@ -206,7 +245,24 @@ pub fn render(
     unsafe {
         let renderer = gl.get_parameter_string(glow::RENDERER);
         let version = gl.get_parameter_string(glow::VERSION);
-        let program = link_program(gl, VERTEX_SHADER, FRAGMENT_SHADER)?;
+        let programs = match separable {
+            None => ScenePrograms::Linked(link_program(gl, VERTEX_SHADER, FRAGMENT_SHADER)?),
+            Some(sso) => {
+                let vertex = link_separable(gl, sso, glow::VERTEX_SHADER, SEPARABLE_VERTEX_SHADER)?;
+                let fragment =
+                    link_separable(gl, sso, glow::FRAGMENT_SHADER, SEPARABLE_FRAGMENT_SHADER)?;
+                let mut pipeline = 0;
+                (sso.gen_program_pipelines)(1, &mut pipeline);
+                ensure!(pipeline != 0, "glGenProgramPipelines made none");
+                (sso.use_program_stages)(pipeline, glow::VERTEX_SHADER_BIT, vertex.0.get());
+                (sso.use_program_stages)(pipeline, glow::FRAGMENT_SHADER_BIT, fragment.0.get());
+                ScenePrograms::Separate {
+                    vertex,
+                    fragment,
+                    pipeline,
+                }
+            }
+        };
 
         let (framebuffer, color) = color_target(gl, w, h)?;
         // A renderbuffer, or a texture where a post pass samples it.
@@ -300,22 +356,57 @@ pub fn render(
         gl.clear_depth(1.0);
         gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
 
-        gl.use_program(Some(program));
-        let uniform = |name: &str| gl.get_uniform_location(program, name);
+        // The programs holding the matrices' and the color's uniforms.
+        let (matrix_program, color_program) = match programs {
+            ScenePrograms::Linked(program) => {
+                gl.use_program(Some(program));
+                (program, program)
+            }
+            ScenePrograms::Separate {
+                vertex,
+                fragment,
+                pipeline,
+            } => {
+                gl.use_program(None);
+                if let Some(sso) = separable {
+                    (sso.bind_program_pipeline)(pipeline);
+                }
+                (vertex, fragment)
+            }
+        };
         let (u_projection, u_view, u_model, u_color) = (
-            uniform("u_projection"),
-            uniform("u_view"),
-            uniform("u_model"),
-            uniform("u_color"),
+            gl.get_uniform_location(matrix_program, "u_projection"),
+            gl.get_uniform_location(matrix_program, "u_view"),
+            gl.get_uniform_location(matrix_program, "u_model"),
+            gl.get_uniform_location(color_program, "u_color"),
         );
         for n in objects {
             let object = &scene.objects[n];
             let [p, v, m] = matrices(scene, object.space, object.model, aspect)?;
             let cols = |m: DMat4| m.as_mat4().to_cols_array();
-            gl.uniform_matrix_4_f32_slice(u_projection.as_ref(), false, &cols(p));
-            gl.uniform_matrix_4_f32_slice(u_view.as_ref(), false, &cols(v));
-            gl.uniform_matrix_4_f32_slice(u_model.as_ref(), false, &cols(m));
-            gl.uniform_4_f32_slice(u_color.as_ref(), &object.color);
+            // A linked program's uniforms set as before `--separable` existed (the bound
+            // program's); separable programs' by name (`glProgramUniform*`).
+            let linked = matches!(programs, ScenePrograms::Linked(_));
+            let matrix = |location: &Option<glow::UniformLocation>, values: &[f32]| {
+                if linked {
+                    gl.uniform_matrix_4_f32_slice(location.as_ref(), false, values);
+                } else {
+                    gl.program_uniform_matrix_4_f32_slice(
+                        matrix_program,
+                        location.as_ref(),
+                        false,
+                        values,
+                    );
+                }
+            };
+            matrix(&u_projection, &cols(p));
+            matrix(&u_view, &cols(v));
+            matrix(&u_model, &cols(m));
+            if linked {
+                gl.uniform_4_f32_slice(u_color.as_ref(), &object.color);
+            } else {
+                gl.program_uniform_4_f32_slice(color_program, u_color.as_ref(), &object.color);
+            }
             let range = geometry.draws[n];
             gl.draw_elements_base_vertex(
                 glow::TRIANGLES,
@@ -359,7 +450,16 @@ pub fn render(
         }
         gl.delete_renderbuffer(color);
         gl.delete_framebuffer(framebuffer);
-        gl.delete_program(program);
+        match programs {
+            ScenePrograms::Linked(program) => gl.delete_program(program),
+            ScenePrograms::Separate {
+                vertex, fragment, ..
+            } => {
+                // The pipeline stays with the context, destroyed with it.
+                gl.delete_program(vertex);
+                gl.delete_program(fragment);
+            }
+        }
         ensure!(error == glow::NO_ERROR, "GL error 0x{error:x}");
 
         let row = width as usize;
@@ -665,6 +765,46 @@ unsafe fn read_rgba(gl: &glow::Context, w: i32, h: i32, pixels: usize) -> Vec<u8
         );
     }
     rgba
+}
+
+/// Compiles `source` as a separable program of one stage (`kind`).
+///
+/// # Safety
+/// The GL context must be current on this thread.
+unsafe fn link_separable(
+    gl: &glow::Context,
+    sso: &super::context::SeparateShaderObjects,
+    kind: u32,
+    source: &str,
+) -> Result<glow::Program> {
+    // SAFETY: the caller's context is current.
+    unsafe {
+        let shader = gl.create_shader(kind).map_err(anyhow::Error::msg)?;
+        gl.shader_source(shader, source);
+        gl.compile_shader(shader);
+        if !gl.get_shader_compile_status(shader) {
+            bail!(
+                "a separable shader does not compile: {}",
+                gl.get_shader_info_log(shader)
+            );
+        }
+        let program = gl.create_program().map_err(anyhow::Error::msg)?;
+        (sso.program_parameteri)(program.0.get(), glow::PROGRAM_SEPARABLE, 1);
+        gl.attach_shader(program, shader);
+        if kind == glow::VERTEX_SHADER {
+            gl.bind_attrib_location(program, 0, "position");
+        }
+        gl.link_program(program);
+        gl.detach_shader(program, shader);
+        gl.delete_shader(shader);
+        if !gl.get_program_link_status(program) {
+            bail!(
+                "a separable program does not link: {}",
+                gl.get_program_info_log(program)
+            );
+        }
+        Ok(program)
+    }
 }
 
 /// Compiles and links the two shaders.

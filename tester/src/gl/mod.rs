@@ -60,6 +60,14 @@ pub struct GlRenderArgs {
     #[arg(long)]
     pub zink: bool,
 
+    /// Draw the scene with a separable program per stage in a program pipeline
+    /// (`ARB_separate_shader_objects`), as engines that mix shader stages do: Zink from Mesa
+    /// 24 on compiles such stages on their own first, as unlinked shader objects where the
+    /// Vulkan driver has `VK_EXT_shader_object` (Mesa 25.0's lavapipe), and links a pipeline
+    /// in the background.
+    #[arg(long)]
+    pub separable: bool,
+
     /// The Vulkan driver manifest Zink renders on [default: the system's lavapipe,
     /// lvp_icd*.json in the standard ICD directories]: a newer lavapipe, say (`cargo xtask
     /// setup` extracts Mesa 25.0's beside Debian 12's, with Mesa 25.0's Zink:
@@ -218,7 +226,19 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
 
     let frame = {
         let context = context::GlContext::new().context("cannot create an OpenGL context")?;
-        draw::render(&context.gl, &scene, width, height, args.post)?
+        let separable = if args.separable {
+            Some(context.separate_shader_objects()?)
+        } else {
+            None
+        };
+        draw::render(
+            &context.gl,
+            &scene,
+            width,
+            height,
+            args.post,
+            separable.as_ref(),
+        )?
     };
     println!("GL renderer: {} ({})", frame.renderer, frame.version);
     let out = &args.out;
