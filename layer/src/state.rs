@@ -221,6 +221,8 @@ pub struct DeviceCommands {
     pub set_depth_clamp_range: Option<crate::vk_ext::PfnCmdSetDepthClampRange>,
     /// `VK_EXT_extended_dynamic_state3` or shader objects (Zink makes the clamp dynamic).
     pub set_depth_clamp_enable: Option<vk::PFN_vkCmdSetDepthClampEnableEXT>,
+    /// `VK_EXT_extended_dynamic_state3` or shader objects (with `VK_EXT_depth_clip_enable`).
+    pub set_depth_clip_enable: Option<vk::PFN_vkCmdSetDepthClipEnableEXT>,
     pub set_viewport_with_count: Option<vk::PFN_vkCmdSetViewportWithCount>,
     pub begin_render_pass2: Option<vk::PFN_vkCmdBeginRenderPass2>,
     pub next_subpass2: Option<vk::PFN_vkCmdNextSubpass2>,
@@ -349,6 +351,7 @@ impl DeviceCommands {
             set_depth_clip_negative_one_to_one: load!(0, c"vkCmdSetDepthClipNegativeOneToOneEXT"),
             set_depth_clamp_range: load!(0, c"vkCmdSetDepthClampRangeEXT"),
             set_depth_clamp_enable: load!(0, c"vkCmdSetDepthClampEnableEXT"),
+            set_depth_clip_enable: load!(0, c"vkCmdSetDepthClipEnableEXT"),
             draw_mesh_tasks_indirect_ext: load!(0, c"vkCmdDrawMeshTasksIndirectEXT"),
             draw_mesh_tasks_indirect_count_ext: load!(0, c"vkCmdDrawMeshTasksIndirectCountEXT"),
             draw_mesh_tasks_nv: load!(0, c"vkCmdDrawMeshTasksNV"),

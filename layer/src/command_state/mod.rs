@@ -50,7 +50,7 @@ mod tests;
 use app_viewports::AppViewports;
 use emission::{Emitted, Filtered};
 use known_pipelines::KnownPipelines;
-pub use pipeline_depth::{PipelineDepth, States, MAX_VIEWPORTS};
+pub use pipeline_depth::{DepthClip, PipelineDepth, States, MAX_VIEWPORTS};
 use push_shortcut::PushShortcut;
 
 /// The depth attachment draws currently go to.
@@ -188,6 +188,8 @@ pub struct CommandState {
     clamp_range: Option<(f32, f32)>,
     /// `vkCmdSetDepthClampEnableEXT`'s value (false until the application sets it).
     depth_clamp: bool,
+    /// `vkCmdSetDepthClipEnableEXT`'s value (`None` until the application sets it).
+    depth_clip: Option<bool>,
     /// Which states the application set with `vkCmdSet*`.
     app_set: States,
     reversing: Reversing,
@@ -291,6 +293,7 @@ impl Default for CommandState {
             clip_negative_one_to_one: false,
             clamp_range: None,
             depth_clamp: false,
+            depth_clip: None,
             app_set: States::NONE,
             reversing: Reversing::default(),
             camera_known: false,
@@ -484,17 +487,27 @@ impl CommandState {
         });
     }
 
-    /// Whether the next draw clamps depth with a dynamic clamp (`vkCmdSetDepthClampEnableEXT`)
-    /// in infinite mode, whose precise path removes the far plane it would clamp at: such a
-    /// draw takes the flip path (a static clamp sends the pipeline there at its creation,
-    /// `crate::policy::vertex_stage::depth_clamp_flip`).
+    /// Whether the next draw clamps depth without clipping it in infinite mode, whose precise
+    /// path removes the far plane it would clamp at: such a draw takes the flip path. The
+    /// clamp is the pipeline's static one or the application's dynamic value
+    /// (`vkCmdSetDepthClampEnableEXT`), the clipping its static state, the dynamic value
+    /// (`vkCmdSetDepthClipEnableEXT`), or the spec's default (clipped where not clamped). A
+    /// static clamp without clipping sends the pipeline to the flip path at its creation
+    /// already (`crate::policy::vertex_stage::depth_clamp_flip`); a clamp with clipping on
+    /// (D3D translators') changes no depth the precise path stores.
     fn clamps_at_far(&self) -> bool {
-        // With shader objects (no pipeline) the clamp is always dynamic.
-        self.depth_clamp
-            && self.target_reversing().rewrite == Some(RewriteTarget::Infinite)
-            && self
-                .pipeline()
-                .is_none_or(|p| p.app_dynamic.contains(States::DEPTH_CLAMP))
+        if self.target_reversing().rewrite != Some(RewriteTarget::Infinite) {
+            return false;
+        }
+        // With shader objects (no pipeline) both are dynamic.
+        let (clamp, clip) = match self.pipeline() {
+            Some(p) if !p.app_dynamic.contains(States::DEPTH_CLAMP) => {
+                (p.static_clamp, p.depth_clip)
+            }
+            Some(p) => (self.depth_clamp, p.depth_clip),
+            None => (self.depth_clamp, DepthClip::Dynamic),
+        };
+        clamp && !clip.clips(clamp, self.depth_clip)
     }
 
     /// The projection the bound pipeline's draws would rewrite now, if any.
@@ -1216,6 +1229,14 @@ impl CommandState {
     /// draw's path).
     pub fn set_depth_clamp(&mut self, enable: bool) {
         self.depth_clamp = enable;
+        self.bar_precise();
+        self.dirty = true;
+    }
+
+    /// `vkCmdSetDepthClipEnableEXT` (followed in infinite mode only: whether a clamping draw
+    /// clips, and so keeps the precise path).
+    pub fn set_depth_clip(&mut self, enable: bool) {
+        self.depth_clip = Some(enable);
         self.bar_precise();
         self.dirty = true;
     }

@@ -87,6 +87,33 @@ impl std::ops::BitAnd for States {
     }
 }
 
+/// How a pipeline clips depth (`VK_EXT_depth_clip_enable`): with its clamp, whether an
+/// infinite-mode draw clamps at a far plane the precise path removed
+/// (`CommandState::clamps_at_far`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DepthClip {
+    /// No `VkPipelineRasterizationDepthClipStateCreateInfoEXT`: depth is clipped exactly where
+    /// it is not clamped (the spec's default).
+    #[default]
+    Implied,
+    /// Its `depthClipEnable`, static.
+    Static(bool),
+    /// `VK_DYNAMIC_STATE_DEPTH_CLIP_ENABLE_EXT`: `vkCmdSetDepthClipEnableEXT`'s value.
+    Dynamic,
+}
+
+impl DepthClip {
+    /// Whether depth is clipped, where it is clamped or not (`clamp`) and the application last
+    /// set dynamic clipping to `dynamic` (`None`: never; the spec's default applies then).
+    pub fn clips(self, clamp: bool, dynamic: Option<bool>) -> bool {
+        match self {
+            DepthClip::Implied => !clamp,
+            DepthClip::Static(clips) => clips,
+            DepthClip::Dynamic => dynamic.unwrap_or(!clamp),
+        }
+    }
+}
+
 /// The most viewports revz tracks (`maxViewports` is 16 on every current driver).
 pub const MAX_VIEWPORTS: usize = 16;
 
@@ -104,6 +131,11 @@ pub struct PipelineDepth {
     /// The user-defined depth clamp range of its `VkPipelineViewportDepthClampControlCreateInfoEXT`
     /// (`VK_EXT_depth_clamp_control`), where revz made it dynamic ([`States::CLAMP_RANGE`]).
     pub clamp_range: (f32, f32),
+    /// Its static `depthClampEnable` (read where the application did not make the clamp
+    /// dynamic, [`States::DEPTH_CLAMP`]).
+    pub static_clamp: bool,
+    /// How it clips depth.
+    pub depth_clip: DepthClip,
     /// The fragment stage computes with depth (`FragDepth`, `FragCoord.z`) and no reversed
     /// variant rewrites it: draws into reversed attachments keep standard depth there.
     pub unreversed_fragment: bool,
@@ -218,6 +250,8 @@ impl PipelineDepth {
                 .map(|v| [v.x, v.y, v.width, v.height, v.min_depth, v.max_depth].map(f32::to_bits))
         }
         let alike = self.app_dynamic == other.app_dynamic
+            && self.static_clamp == other.static_clamp
+            && self.depth_clip == other.depth_clip
             && injected_apart.without(States::VALUES).is_empty()
             && self.unreversed_fragment == other.unreversed_fragment
             && self.projection == other.projection

@@ -114,6 +114,8 @@ fn static_pipeline() -> Arc<PipelineDepth> {
         },
         bounds: (0.0, 1.0),
         clamp_range: (0.0, 1.0),
+        static_clamp: false,
+        depth_clip: DepthClip::Implied,
         unreversed_fragment: false,
         handle: vk::Pipeline::null(),
         reversed_variant: None,
@@ -1646,6 +1648,81 @@ fn an_infinite_mode_draw_that_clamps_depth_dynamically_takes_the_flip_path() {
     state.set_depth_clamp(true);
     state.bind_pipeline(Some(derived_pipeline()));
     let mut sink = Recorded::default();
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+}
+
+#[test]
+fn an_infinite_mode_draw_that_clamps_depth_and_clips_it_keeps_the_precise_path() {
+    // D3D translators: the clamp on with clipping kept on, statically (vkd3d) or dynamically.
+    let static_clip = Arc::new(PipelineDepth {
+        static_clamp: true,
+        depth_clip: DepthClip::Static(true),
+        ..(*derived_pipeline()).clone()
+    });
+    let dynamic_clip = Arc::new(PipelineDepth {
+        static_clamp: true,
+        depth_clip: DepthClip::Dynamic,
+        ..(*derived_pipeline()).clone()
+    });
+    let begun_infinite = || {
+        let mut state = precise(RewriteTarget::Infinite);
+        let reversal = state.reversal();
+        state.begin(Target::Reversed, reversal, Default::default());
+        state
+    };
+    let mut sink = Recorded::default();
+    let mut state = begun_infinite();
+    state.bind_pipeline(Some(Arc::clone(&static_clip)));
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    // Clipping set dynamically: the value decides, per draw.
+    let mut state = begun_infinite();
+    state.bind_pipeline(Some(Arc::clone(&dynamic_clip)));
+    state.set_depth_clip(true);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    state.set_depth_clip(false);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    state.set_depth_clip(true);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    // A pipeline that clamps without clipping (static, the spec's default) after one that
+    // clips: the flip path, though every other state is alike (the bind's short settle must
+    // not keep the precise path).
+    let unclipped = Arc::new(PipelineDepth {
+        static_clamp: true,
+        depth_clip: DepthClip::Implied,
+        ..(*derived_pipeline()).clone()
+    });
+    let mut state = begun_infinite();
+    state.bind_pipeline(Some(Arc::clone(&static_clip)));
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    state.bind_pipeline(Some(unclipped));
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    // Shader objects: both dynamic; clipping unset follows the spec's default (off where
+    // clamped).
+    let pushed = Some((
+        vk::ShaderEXT::from_raw(60),
+        Some(PositionShader::Pushed {
+            variant: vk::ShaderEXT::from_raw(61),
+            depth: Arc::new(PipelineDepth {
+                app_dynamic: States::ALL,
+                ..(*derived_pipeline()).clone()
+            }),
+        }),
+    ));
+    let mut state = begun_infinite();
+    state.bind_shaders(None, [pushed, None, None, None]);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    state.set_depth_clamp(true);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    state.set_depth_clip(true);
     state.before_draw(&mut sink);
     assert_eq!(state.path(), DrawPath::Precise);
 }

@@ -450,6 +450,10 @@ pub fn precise_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             vk::PFN_vkCmdSetDepthClampEnableEXT,
             command::cmd_set_depth_clamp_enable
         ),
+        b"vkCmdSetDepthClipEnableEXT" => void_fn!(
+            vk::PFN_vkCmdSetDepthClipEnableEXT,
+            command::cmd_set_depth_clip_enable
+        ),
         // Vulkan 1.4 core, and VK_KHR_maintenance6 before it.
         b"vkCmdPushConstants2" | b"vkCmdPushConstants2KHR" => {
             void_fn!(vk::PFN_vkCmdPushConstants2KHR, command::cmd_push_constants2)

@@ -79,6 +79,8 @@ pub fn inherit_libraries(depth: &mut PipelineDepth, libraries: &[Arc<PipelineDep
             depth.viewports.clone_from(&library.viewports);
             depth.bias = library.bias;
             depth.clamp_range = library.clamp_range;
+            depth.static_clamp = library.static_clamp;
+            depth.depth_clip = library.depth_clip;
             depth.projection = library.projection;
             depth.derived_range = library.derived_range;
             depth.position_store = library.position_store;

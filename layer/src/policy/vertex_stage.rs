@@ -53,14 +53,22 @@ pub fn precise_candidate(mode_rewrites: bool, renders_depth: bool, defines_shade
     mode_rewrites && renders_depth && defines_shaders
 }
 
-/// Whether a pipeline clamps depth (`depthClampEnable` of its rasterization state).
+/// Whether a pipeline clamps depth (`depthClampEnable` of its rasterization state) without
+/// clipping it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DepthClamp {
     /// Static, off (or no rasterization state).
     Off,
-    /// Static, on.
+    /// Static, on, and depth clipping off with it (the spec's default where no
+    /// `VkPipelineRasterizationDepthClipStateCreateInfoEXT` says otherwise).
     On,
-    /// Dynamic (`VK_DYNAMIC_STATE_DEPTH_CLAMP_ENABLE_EXT`): either, per draw.
+    /// Static, on, with depth clipping kept on (`VK_EXT_depth_clip_enable`'s
+    /// `depthClipEnable = VK_TRUE`): what D3D translators (DXVK, vkd3d) set for every pipeline,
+    /// as Direct3D clamps depth to the viewport range after clipping. Clipped primitives'
+    /// depths lie inside the range already, so the clamp changes none of them.
+    OnClipped,
+    /// Dynamic (`VK_DYNAMIC_STATE_DEPTH_CLAMP_ENABLE_EXT`), or on with dynamic depth clipping
+    /// (`VK_DYNAMIC_STATE_DEPTH_CLIP_ENABLE_EXT`): either, per draw.
     Dynamic,
 }
 
@@ -72,9 +80,15 @@ pub enum DepthClamp {
 /// complementary precise path clamps at the far plane's 0, as the application's range
 /// mirrored, and keeps it.
 ///
+/// A clamp with depth clipping kept on keeps the precise path: clipping removes what lies
+/// beyond the planes before the clamp, and infinite mode's stored n/w lies in (0, 1] for
+/// everything in front of the near plane, inside the (mirrored) viewport range the clamp
+/// clamps to (measured: `vkd3d-gears`, whose every pipeline clamps with clipping on, took the
+/// flip path before).
+///
 /// A dynamic clamp keeps the precise path here: Zink makes it dynamic in every pipeline
 /// (extended dynamic state 3) and almost never enables it; the draws recorded with it enabled
-/// take the flip path, decided per draw (`crate::command_state::CommandState`'s
+/// and clipping off take the flip path, decided per draw (`crate::command_state::CommandState`'s
 /// `clamps_at_far`).
 #[must_use]
 pub fn depth_clamp_flip(target: RewriteTarget, clamp: DepthClamp) -> Option<&'static str> {
@@ -467,11 +481,17 @@ mod tests {
     #[test]
     fn only_infinite_mode_sends_clamping_pipelines_to_the_flip_path() {
         assert!(depth_clamp_flip(RewriteTarget::Infinite, DepthClamp::On).is_some());
-        for clamp in [DepthClamp::On, DepthClamp::Dynamic, DepthClamp::Off] {
+        for clamp in [
+            DepthClamp::On,
+            DepthClamp::OnClipped,
+            DepthClamp::Dynamic,
+            DepthClamp::Off,
+        ] {
             assert_eq!(depth_clamp_flip(RewriteTarget::Complementary, clamp), None);
         }
-        // Zink's pipelines all have a dynamic clamp: they keep the precise path.
-        for clamp in [DepthClamp::Off, DepthClamp::Dynamic] {
+        // Zink's pipelines all have a dynamic clamp, D3D translators' a clamp with clipping
+        // kept on: they keep the precise path.
+        for clamp in [DepthClamp::Off, DepthClamp::Dynamic, DepthClamp::OnClipped] {
             assert_eq!(depth_clamp_flip(RewriteTarget::Infinite, clamp), None);
         }
     }

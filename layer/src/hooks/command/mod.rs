@@ -767,6 +767,29 @@ pub unsafe extern "system" fn cmd_set_depth_clamp_enable(
     }
 }
 
+/// `vkCmdSetDepthClipEnableEXT`: followed, so that an infinite-mode draw that clamps depth
+/// keeps the precise path where it clips too (D3D translators' state); goes down as it is.
+pub unsafe extern "system" fn cmd_set_depth_clip_enable(
+    buffer: vk::CommandBuffer,
+    enable: vk::Bool32,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthClipEnableEXT");
+    let down = with_entry(buffer, &ENTRY, |entry| {
+        entry.state().set_depth_clip(enable == vk::TRUE)
+    });
+    let Some(down) = down else {
+        return;
+    };
+    if let Some(next) = down.commands.set_depth_clip_enable {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, enable) }
+    }
+    if let Down::Tracked(entry) = &down {
+        // The next draw's path may have changed: its state goes down now.
+        settle(entry, buffer);
+    }
+}
+
 pub unsafe extern "system" fn cmd_set_depth_bias(
     buffer: vk::CommandBuffer,
     constant: f32,

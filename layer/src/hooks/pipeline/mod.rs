@@ -30,7 +30,7 @@ use super::device_state;
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
-use crate::command_state::{PipelineDepth, States};
+use crate::command_state::{DepthClip, PipelineDepth, States};
 use crate::conv::{flip_compare_op, BiasRepresentation, DepthBias};
 use crate::objects::{
     BakedStage, ModuleAnalysis, ReversedFragment, RewrittenVertex, VertexRewrite,

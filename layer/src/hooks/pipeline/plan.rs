@@ -437,6 +437,11 @@ pub(super) fn plan(info: &vk::GraphicsPipelineCreateInfo<'_>, context: &PlanCont
         depth.viewports = unsafe { slice(viewport.p_viewports, viewport.viewport_count) }.to_vec();
     }
     if let Some(raster) = raster {
+        // Whether draws clamp depth without clipping it (infinite mode's precise path cannot
+        // clamp at a far plane: `CommandState::clamps_at_far`).
+        depth.static_clamp = raster.depth_clamp_enable == vk::TRUE;
+        // SAFETY: the application's valid rasterization state.
+        depth.depth_clip = unsafe { depth_clip_of(raster, app_states) };
         // SAFETY: a valid pNext chain (the application's contract).
         let representation =
             unsafe { chain::find::<vk::DepthBiasRepresentationInfoEXT<'_>>(raster.p_next) }
@@ -588,8 +593,10 @@ fn prior_stage_w_one(
     inline_code(prior).is_some_and(crate::shader::position_store::stores_position_w_one)
 }
 
-/// Whether `info`'s pipeline clamps depth: its rasterization state's `depthClampEnable`, or
-/// dynamic state (`VK_DYNAMIC_STATE_DEPTH_CLAMP_ENABLE_EXT`).
+/// Whether `info`'s pipeline clamps depth without clipping it: its rasterization state's
+/// `depthClampEnable` and its `VkPipelineRasterizationDepthClipStateCreateInfoEXT`, or dynamic
+/// state (`VK_DYNAMIC_STATE_DEPTH_CLAMP_ENABLE_EXT`, or `..._DEPTH_CLIP_ENABLE_EXT` with the
+/// clamp on).
 ///
 /// # Safety
 /// `info` is the application's valid create info.
@@ -607,7 +614,35 @@ pub(super) unsafe fn depth_clamp_of(
     }
     // SAFETY: null or valid (the caller's contract).
     match unsafe { info.p_rasterization_state.as_ref() } {
-        Some(r) if r.depth_clamp_enable == vk::TRUE => DepthClamp::On,
+        Some(r) if r.depth_clamp_enable == vk::TRUE => {
+            // SAFETY: null or valid (the caller's contract).
+            match unsafe { depth_clip_of(r, dynamic) } {
+                DepthClip::Dynamic => DepthClamp::Dynamic,
+                DepthClip::Static(true) => DepthClamp::OnClipped,
+                DepthClip::Static(false) | DepthClip::Implied => DepthClamp::On,
+            }
+        }
         _ => DepthClamp::Off,
+    }
+}
+
+/// How a rasterization state clips depth (`VK_EXT_depth_clip_enable`), with the pipeline's
+/// `dynamic` states.
+///
+/// # Safety
+/// `raster` is the application's valid rasterization state.
+pub(super) unsafe fn depth_clip_of(
+    raster: &vk::PipelineRasterizationStateCreateInfo<'_>,
+    dynamic: &[vk::DynamicState],
+) -> DepthClip {
+    if dynamic.contains(&vk::DynamicState::DEPTH_CLIP_ENABLE_EXT) {
+        return DepthClip::Dynamic;
+    }
+    // SAFETY: a valid pNext chain (the caller's contract).
+    match unsafe {
+        chain::find::<vk::PipelineRasterizationDepthClipStateCreateInfoEXT<'_>>(raster.p_next)
+    } {
+        Some(clip) => DepthClip::Static(clip.depth_clip_enable == vk::TRUE),
+        None => DepthClip::Implied,
     }
 }

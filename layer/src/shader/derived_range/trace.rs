@@ -150,7 +150,12 @@ impl Defs {
                 && defs.int_constants.contains_key(&operands[3]);
             if opcode != OP_VARIABLE {
                 for (index, operand) in operands.iter().enumerate() {
-                    let pointer_use = matches!((opcode, index), (OP_LOAD, 2) | (OP_STORE, 0));
+                    // A copy's source is read, as a load's pointer is (vkd3d-shader copies
+                    // registers into outputs).
+                    let pointer_use = matches!(
+                        (opcode, index),
+                        (OP_LOAD, 2) | (OP_STORE, 0) | (OP_COPY_MEMORY, 1)
+                    );
                     if !pointer_use && defs.followed.contains(operand) {
                         defs.chained.insert(*operand);
                         if !(component_chain && index == 2) {
@@ -423,8 +428,11 @@ impl Defs {
     /// last store before the load in the load's own block, where no call lies between them (a
     /// function called may store a private variable too).
     fn through_local(&self, pointer: u32, load_at: usize) -> Option<u32> {
-        if !self.followed.contains(&pointer) || self.chained.contains(&pointer) {
+        if !self.followed.contains(&pointer) {
             return None;
+        }
+        if self.chained.contains(&pointer) {
+            return self.whole_over_components(pointer, load_at);
         }
         let stores = self.stores.get(&pointer)?;
         if stores.len() > 1 {
@@ -454,6 +462,32 @@ impl Defs {
             }
         }
         Some(value)
+    }
+
+    /// [`Self::through_local`] of a register also written one component at a time (Wine's
+    /// vkd3d-shader: `r0.x = ...` through a constant-index access chain, later `r0 = fma(...)`
+    /// whole): the value of the last whole store before the load in the load's own block,
+    /// where no component store and no call lies between them, and the variable is used by
+    /// nothing but loads, stores and such chains.
+    fn whole_over_components(&self, pointer: u32, load_at: usize) -> Option<u32> {
+        if self.escaped.contains(&pointer) {
+            return None;
+        }
+        let &(value, store_at) = self
+            .stores
+            .get(&pointer)?
+            .iter()
+            .filter(|&&(_, at)| self.same_block(at, load_at))
+            .max_by_key(|&&(_, at)| at)?;
+        let between = |at: usize| store_at < at && at < load_at;
+        let component_between = self
+            .component_stores
+            .iter()
+            .filter(|(&(variable, _), _)| variable == pointer)
+            .flat_map(|(_, stores)| stores)
+            .any(|&(_, at)| between(at));
+        let call_between = self.calls.values().flatten().any(|&call| between(call));
+        (!component_between && !call_between).then_some(value)
     }
 
     /// The values a load (at word `load_at`) of a vector variable reads in its z and w, where
@@ -787,13 +821,12 @@ impl Defs {
                 (Some(splat), None) => (y, splat),
                 _ => return None,
             };
-            // One vector (loads of one `Input` variable, or of a variable stored once, are one:
-            // each splat may load it again).
-            if vector
-                .replace(source)
-                .is_some_and(|v| !self.same_held(self.held(v), self.held(source)))
-            {
-                return None;
+            // The splats may come from different vectors: the product is the matrix times the
+            // vector of their components (vkd3d-shader's gears: x and y from a register a
+            // rotation wrote, z and w from the input), and only its w, the one column 3 takes,
+            // must be 1 for the fitted line.
+            if index == 3 {
+                vector = Some(source);
             }
             if columns[index as usize].replace(column).is_some() {
                 return None;
@@ -872,7 +905,8 @@ enum Term {
 enum ColumnW {
     /// The product's last column is added alone: its w was 1, folded by the compiler.
     Folded,
-    /// The vector the splats come from.
+    /// The vector the splat of the last column comes from (the other splats may come from
+    /// others).
     Of(u32),
 }
 

@@ -150,6 +150,7 @@ pub fn derive_position_store_reading(
 /// ([`DerivingRewrite::assumes_input_unit_w`]). `false` for a module revz cannot read, or
 /// that stores no `Position`. Never panics.
 pub fn stores_position_w_one(words: &[u32]) -> bool {
+    let words = &*copies::position_copies_as_stores(words);
     let Ok(Some(module)) = Module::read(words) else {
         return false;
     };
@@ -177,10 +178,11 @@ fn rewrite(
     if matches!(carrier, CarrierRead::Pushed(offset) if offset % 16 != 0) {
         return Err(Unsupported("the carrier offset is not 16-byte aligned"));
     }
-    let Some(module) = Module::read(words)? else {
+    let words = copies::position_copies_as_stores(words);
+    let Some(module) = Module::read(&words)? else {
         return Ok(None);
     };
-    module.rewrite(words, carrier, derive).map(Some)
+    module.rewrite(&words, carrier, derive).map(Some)
 }
 
 /// Where the shader's `Position` lives.
@@ -260,6 +262,7 @@ struct Module {
 }
 
 mod body;
+mod copies;
 mod declarations;
 mod rewrite;
 

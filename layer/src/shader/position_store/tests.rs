@@ -1163,3 +1163,54 @@ fn a_matrix_loaded_whole_from_a_push_constant_member_is_located_for_the_cpu() {
         "rows of the member, columns of the matrix used"
     );
 }
+
+/// A vertex shader in the shape Wine's vkd3d-shader writes D3D bytecode (its `vkd3d-gears`
+/// demo's, measured: refused as "Position is copied as memory" before session 32): registers
+/// written a component at a time and then whole, splats from two vectors, the output register
+/// `OpCopyMemory`'d into `Position`.
+const REGISTER_COPIED: &str = include_str!("../test_data/register_copied.spvasm");
+
+#[test]
+fn a_register_copied_into_position_as_vkd3d_shader_writes_it_is_fitted() {
+    let words = assemble(REGISTER_COPIED);
+    let (out, source) = derived(&words);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    // The copy into Position became a load and a store (rewritten); the other output's copy
+    // is left as it was.
+    assert_eq!(with_opcode(&words, OP_COPY_MEMORY).len(), 2);
+    assert_eq!(with_opcode(&out, OP_COPY_MEMORY).len(), 1);
+    // The carrier-only rewrite (a projection the CPU reads) follows the copy too.
+    let plain = rewrite_position_store(&words, OFFSET).unwrap().unwrap();
+    validate(&plain);
+    assert_carrier(&plain);
+    // A component store between the register's last whole store and the copy: what is copied
+    // is not the product's value.
+    let between = REGISTER_COPIED.replace(
+        "               OpCopyMemory %o0 %r0\n",
+        "               OpStore %r0x %vx\n               OpCopyMemory %o0 %r0\n",
+    );
+    assert_ne!(between, REGISTER_COPIED);
+    assert_eq!(
+        derive_position_store(&assemble(&between), OFFSET).unwrap_err(),
+        Unsupported("Position is not a matrix times a vector")
+    );
+    // The last column's splat from a register whose w is not known to be 1: refused.
+    let register_w = REGISTER_COPIED.replace(
+        "%wwww = OpVectorShuffle %vec4 %l6 %l6 3 3 3 3",
+        "%wwww = OpVectorShuffle %vec4 %l2 %l2 3 3 3 3",
+    );
+    assert_ne!(register_w, REGISTER_COPIED);
+    assert_eq!(
+        derive_position_store(&assemble(&register_w), OFFSET).unwrap_err(),
+        Unsupported("the vector the projection multiplies may not have w = 1")
+    );
+    // A copy of another type, or with memory operands, is left as a copy: refused as before.
+    let aligned = REGISTER_COPIED.replace(
+        "               OpCopyMemory %o0 %r0\n",
+        "               OpCopyMemory %o0 %r0 Aligned 16\n",
+    );
+    assert_eq!(
+        derive_position_store(&assemble(&aligned), OFFSET).unwrap_err(),
+        Unsupported("Position is copied as memory")
+    );
+}
