@@ -297,6 +297,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             graphics_pipeline_library: needs.graphics_pipeline_library,
             depth_range_unrestricted: needs.depth_range_unrestricted,
             depth_clamp: needs.depth_clamp,
+            depth_clip_enable: needs.depth_clip_enable,
             geometry_shader: needs.geometry_shader,
             tessellation_shader: needs.tessellation_shader,
             shader_object: needs.shader_object,
@@ -334,6 +335,9 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     }
     if needs.depth_clamp && !gpu.supported.depth_clamp {
         bail!(lacks("depthClamp"));
+    }
+    if needs.depth_clip_enable && !gpu.supported.depth_clip_enable {
+        bail!(lacks("depthClipEnable (VK_EXT_depth_clip_enable)"));
     }
     if needs.geometry_shader && !gpu.supported.geometry_shader {
         bail!(lacks("geometryShader"));

@@ -738,6 +738,7 @@ pub fn create_pipeline(
         Program::SsboRows => (shaders::SSBO_ROWS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SsboRegisters => (shaders::SSBO_REGISTERS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SsboColumns => (shaders::SSBO_COLUMNS_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::SsboVkd3d => (shaders::SSBO_VKD3D_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::SplitPush | Program::FullPush => {
             (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG))
         }
@@ -841,8 +842,15 @@ pub fn create_pipeline(
             vk::CullModeFlags::NONE
         })
         .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
-        .depth_clamp_enable(spec.depth_clamp)
+        .depth_clamp_enable(spec.depth_clamp || spec.program.clamps_with_clip())
         .line_width(1.0);
+    // D3D's rasterizer state: the clamp on, clipping kept on (the device has
+    // VK_EXT_depth_clip_enable enabled for such programs: `Needs::depth_clip_enable`).
+    let mut depth_clip =
+        vk::PipelineRasterizationDepthClipStateCreateInfoEXT::default().depth_clip_enable(true);
+    if spec.program.clamps_with_clip() {
+        rasterization = rasterization.push_next(&mut depth_clip);
+    }
     match spec.bias {
         Bias::Off => {}
         Bias::Dynamic => rasterization = rasterization.depth_bias_enable(true),

@@ -135,6 +135,29 @@ pub const SSBO_REGISTERS_VERT: ShaderSource = glslang_shader!("ssbo_registers.ve
 /// multiply-adds of the matrix's columns by splats of the input.
 pub const SSBO_COLUMNS_VERT: ShaderSource = glslang_shader!("ssbo_columns.vert");
 
+/// A module written as SPIR-V assembly (`shaders/spvasm/`: a translator's shape, not a
+/// compiler's), committed assembled beside its source; `spvasm_outputs_are_current` checks
+/// them against the source where `spirv-as` is installed.
+macro_rules! spvasm_shader {
+    ($name:literal) => {
+        ShaderSource {
+            name: $name,
+            bytes: include_bytes!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../shaders/spvasm/",
+                $name,
+                ".spv"
+            )),
+        }
+    };
+}
+
+/// `ssbo_vkd3d.vert.spvasm`: `ssbo.vert`'s buffer applied in the shape Wine's vkd3d-shader
+/// writes a translated D3D vertex shader: registers written a component at a time and then
+/// whole by multiply-adds of the columns by splats of two registers, the output register
+/// copied into `Position` with `OpCopyMemory`; passes the color on.
+pub const SSBO_VKD3D_VERT: ShaderSource = spvasm_shader!("ssbo_vkd3d.vert");
+
 /// `mesh.mesh` (glslang, SPIR-V 1.5 for Vulkan 1.2: `VK_EXT_mesh_shader`): `scene.vert`'s push
 /// constants and product in a mesh shader, each workgroup 32 triangles of the draw fetched
 /// from the scene's index and position arrays in storage buffers (the `mesh` delivery).
@@ -312,6 +335,48 @@ mod tests {
                 "shaders/glslang/{source}.spv is not what {source} compiles to: rerun the \
                  command in shaders/glslang/README.md"
             );
+        }
+        std::fs::remove_dir_all(&scratch).ok();
+    }
+
+    /// The modules written as SPIR-V assembly (`shaders/spvasm/`), committed assembled.
+    const SPVASM: [(&str, ShaderSource); 1] = [("ssbo_vkd3d.vert.spvasm", SSBO_VKD3D_VERT)];
+
+    #[test]
+    fn spvasm_outputs_are_current() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders/spvasm");
+        let scratch = std::env::temp_dir().join(format!("revz-spvasm-{}", std::process::id()));
+        std::fs::create_dir_all(&scratch).unwrap();
+        for (source, module) in SPVASM {
+            let out = scratch.join(format!("{source}.spv"));
+            let run = std::process::Command::new("spirv-as")
+                .args(["--target-env", "vulkan1.0", "-o"])
+                .arg(&out)
+                .arg(dir.join(source))
+                .output();
+            let Ok(run) = run else {
+                eprintln!("spirv-as is not installed: cannot reassemble {source}");
+                continue;
+            };
+            assert!(
+                run.status.success(),
+                "{source}: {}",
+                String::from_utf8_lossy(&run.stderr)
+            );
+            let assembled = std::fs::read(&out).unwrap();
+            assert!(
+                assembled == module.bytes,
+                "shaders/spvasm/{}.spv is not what {source} assembles to: rerun the command in \
+                 shaders/spvasm/README.md",
+                source.trim_end_matches(".spvasm")
+            );
+            // And it is valid for Vulkan 1.0.
+            let valid = std::process::Command::new("spirv-val")
+                .args(["--target-env", "vulkan1.0"])
+                .arg(&out)
+                .status()
+                .unwrap();
+            assert!(valid.success(), "{source} does not validate");
         }
         std::fs::remove_dir_all(&scratch).ok();
     }

@@ -101,6 +101,9 @@ pub enum DeliveryChoice {
     /// The buffer of ssbo, applied as fxc's `mul(v, M)` and DXVK write it (a register
     /// reassigned by multiply-adds of the columns).
     SsboColumns,
+    /// The buffer of ssbo, applied as Wine's vkd3d-shader writes a D3D vertex shader, with
+    /// D3D's depth clamp and clipping (needs VK_EXT_depth_clip_enable).
+    SsboVkd3d,
     /// The push constants of push, in a range per stage.
     PushSplit,
     /// The push constants of push-split, the fragment stage's range to byte 128.
@@ -118,7 +121,7 @@ pub enum DeliveryChoice {
     Mesh,
     /// mesh's shader as a shader object (needs VK_EXT_shader_object and VK_EXT_mesh_shader).
     MeshShaderObjects,
-    /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns,
+    /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns, ssbo-vkd3d,
     /// ubo-geometry and ubo-tessellation (not shader-objects, mesh nor mesh-shader-objects,
     /// which need extensions).
     All,
@@ -134,6 +137,7 @@ impl DeliveryChoice {
             DeliveryChoice::SsboRows => &[Delivery::SsboRows],
             DeliveryChoice::SsboRegisters => &[Delivery::SsboRegisters],
             DeliveryChoice::SsboColumns => &[Delivery::SsboColumns],
+            DeliveryChoice::SsboVkd3d => &[Delivery::SsboVkd3d],
             DeliveryChoice::PushSplit => &[Delivery::PushSplit],
             DeliveryChoice::PushFull => &[Delivery::PushFull],
             DeliveryChoice::PushGeometry => &[Delivery::PushGeometry],

@@ -76,6 +76,14 @@ pub(super) fn supported_features(
         depth_clip_control = instance.features2(physical_device, &mut features2)
             && clip.depth_clip_control == vk::TRUE;
     }
+    let mut depth_clip_enable = false;
+    if has(ash::ext::depth_clip_enable::NAME) {
+        let mut clip = vk::PhysicalDeviceDepthClipEnableFeaturesEXT::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut clip);
+        // The device has the extension whose features structure is chained.
+        depth_clip_enable = instance.features2(physical_device, &mut features2)
+            && clip.depth_clip_enable == vk::TRUE;
+    }
     let mut graphics_pipeline_library = false;
     if has(ash::ext::graphics_pipeline_library::NAME) && has(ash::khr::pipeline_library::NAME) {
         let mut library = vk::PhysicalDeviceGraphicsPipelineLibraryFeaturesEXT::default();
@@ -103,6 +111,7 @@ pub(super) fn supported_features(
         graphics_pipeline_library,
         depth_range_unrestricted: has(ash::ext::depth_range_unrestricted::NAME),
         depth_clamp: core.depth_clamp == vk::TRUE,
+        depth_clip_enable,
         geometry_shader: core.geometry_shader == vk::TRUE,
         tessellation_shader: core.tessellation_shader == vk::TRUE,
         // It requires VK_KHR_get_physical_device_properties2 below 1.1 (enabled with the
@@ -134,6 +143,7 @@ impl Gpu {
         // VK_KHR_get_physical_device_properties2, which the extensions also require.
         let f = &options.features;
         let extension_features = f.depth_clip_control
+            || f.depth_clip_enable
             || f.graphics_pipeline_library
             || f.dynamic_rendering
             || f.dynamic_compare_op
@@ -210,7 +220,8 @@ impl Gpu {
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
         // Only the optional features the scene asked for and the device has, and no extension
-        // but VK_EXT_depth_clip_control and VK_EXT_graphics_pipeline_library (with the
+        // but VK_EXT_depth_clip_control, VK_EXT_depth_clip_enable and
+        // VK_EXT_graphics_pipeline_library (with the
         // VK_KHR_pipeline_library it requires) for the scenes that need them.
         let core_features = vk::PhysicalDeviceFeatures::default()
             .depth_bounds(enabled.depth_bounds)
@@ -233,6 +244,8 @@ impl Gpu {
             api < vk::API_VERSION_1_2 && (enabled.depth_stencil_resolve || rendering_extension);
         let mut clip_control =
             vk::PhysicalDeviceDepthClipControlFeaturesEXT::default().depth_clip_control(true);
+        let mut clip_enable =
+            vk::PhysicalDeviceDepthClipEnableFeaturesEXT::default().depth_clip_enable(true);
         let mut library = vk::PhysicalDeviceGraphicsPipelineLibraryFeaturesEXT::default()
             .graphics_pipeline_library(true);
         let mut extensions = Vec::new();
@@ -247,6 +260,9 @@ impl Gpu {
         }
         if enabled.depth_clip_control {
             extensions.push(ash::ext::depth_clip_control::NAME.as_ptr());
+        }
+        if enabled.depth_clip_enable {
+            extensions.push(ash::ext::depth_clip_enable::NAME.as_ptr());
         }
         if enabled.graphics_pipeline_library {
             extensions.push(ash::khr::pipeline_library::NAME.as_ptr());
@@ -287,6 +303,9 @@ impl Gpu {
         }
         if enabled.depth_clip_control {
             device_create_info = device_create_info.push_next(&mut clip_control);
+        }
+        if enabled.depth_clip_enable {
+            device_create_info = device_create_info.push_next(&mut clip_enable);
         }
         if enabled.graphics_pipeline_library {
             device_create_info = device_create_info.push_next(&mut library);

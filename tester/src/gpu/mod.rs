@@ -173,6 +173,9 @@ pub struct Features {
     pub depth_range_unrestricted: bool,
     /// `depthClamp`.
     pub depth_clamp: bool,
+    /// `VK_EXT_depth_clip_enable`'s `depthClipEnable` (the extension is enabled with it):
+    /// pipelines that clamp depth and keep clipping it, as D3D translators make every one.
+    pub depth_clip_enable: bool,
     /// `geometryShader`.
     pub geometry_shader: bool,
     /// `tessellationShader`.
@@ -208,6 +211,7 @@ impl Features {
                 "VK_EXT_depth_range_unrestricted",
             ),
             (self.depth_clamp, "depthClamp"),
+            (self.depth_clip_enable, "depthClipEnable"),
             (self.geometry_shader, "geometryShader"),
             (self.tessellation_shader, "tessellationShader"),
             (self.push_descriptor, "VK_KHR_push_descriptor"),
@@ -235,6 +239,7 @@ impl Features {
             depth_range_unrestricted: self.depth_range_unrestricted
                 && other.depth_range_unrestricted,
             depth_clamp: self.depth_clamp && other.depth_clamp,
+            depth_clip_enable: self.depth_clip_enable && other.depth_clip_enable,
             geometry_shader: self.geometry_shader && other.geometry_shader,
             tessellation_shader: self.tessellation_shader && other.tessellation_shader,
             push_descriptor: self.push_descriptor && other.push_descriptor,
@@ -432,6 +437,7 @@ mod tests {
             graphics_pipeline_library: true,
             depth_range_unrestricted: true,
             depth_clamp: true,
+            depth_clip_enable: true,
             geometry_shader: true,
             tessellation_shader: true,
             push_descriptor: true,
@@ -450,6 +456,7 @@ mod tests {
                 "graphicsPipelineLibrary",
                 "VK_EXT_depth_range_unrestricted",
                 "depthClamp",
+                "depthClipEnable",
                 "geometryShader",
                 "tessellationShader",
                 "VK_KHR_push_descriptor",

@@ -243,6 +243,13 @@ pub enum Program {
     /// [`Program::Ssbo`] applied as fxc's `mul(v, M)` and DXVK write it (a register reassigned
     /// by a multiply and three multiply-adds of the columns by splats).
     SsboColumns,
+    /// `shaders/spvasm/ssbo_vkd3d.vert` + `flat_color.frag` (the `ssbo-vkd3d` [`Delivery`]):
+    /// the buffer of [`Program::Ssbo`] applied in the shape Wine's vkd3d-shader writes a D3D
+    /// vertex shader (registers written a component at a time then whole, multiply-adds of
+    /// the columns by splats of two registers, the output register `OpCopyMemory`'d into
+    /// `Position`), with D3D's rasterizer state: the depth clamp on and depth clipping kept on
+    /// (`VK_EXT_depth_clip_enable`).
+    SsboVkd3d,
     /// `ubo_position.vert` + `ubo.geom` + `flat_color.frag` (the `ubo-geometry` [`Delivery`]):
     /// the buffers of [`Program::Ubo`], the product applied in a geometry shader to the
     /// vertex stage's `gl_Position`.
@@ -316,6 +323,10 @@ pub enum Delivery {
     /// The buffer of [`Delivery::Ssbo`], applied as fxc's `mul(v, M)` and DXVK write it
     /// ([`Program::SsboColumns`]).
     SsboColumns,
+    /// The buffer of [`Delivery::Ssbo`], applied as Wine's vkd3d-shader writes a D3D vertex
+    /// shader, with D3D's depth clamp and clip state ([`Program::SsboVkd3d`]; needs
+    /// `depthClamp` and `VK_EXT_depth_clip_enable`).
+    SsboVkd3d,
     /// The push constants of [`Delivery::Push`] in a range per stage ([`Program::SplitPush`]).
     PushSplit,
     /// The push constants of [`Delivery::PushSplit`] in ranges that fill 128 bytes
@@ -344,7 +355,7 @@ pub enum Delivery {
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 15] = [
+    pub const ALL: [Delivery; 16] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -355,6 +366,7 @@ impl Delivery {
         Delivery::SsboRows,
         Delivery::SsboRegisters,
         Delivery::SsboColumns,
+        Delivery::SsboVkd3d,
         Delivery::UboGeometry,
         Delivery::UboTessellation,
         Delivery::ShaderObjects,
@@ -379,6 +391,7 @@ impl Delivery {
             Delivery::SsboRows => "ssbo-rows",
             Delivery::SsboRegisters => "ssbo-registers",
             Delivery::SsboColumns => "ssbo-columns",
+            Delivery::SsboVkd3d => "ssbo-vkd3d",
             Delivery::PushSplit => "push-split",
             Delivery::PushFull => "push-full",
             Delivery::PushGeometry => "push-geometry",
@@ -401,6 +414,7 @@ impl Delivery {
             Delivery::SsboRows => Some(Program::SsboRows),
             Delivery::SsboRegisters => Some(Program::SsboRegisters),
             Delivery::SsboColumns => Some(Program::SsboColumns),
+            Delivery::SsboVkd3d => Some(Program::SsboVkd3d),
             Delivery::PushSplit => Some(Program::SplitPush),
             Delivery::PushFull => Some(Program::FullPush),
             Delivery::PushGeometry => Some(Program::PushGeometry),
@@ -414,6 +428,12 @@ impl Delivery {
 }
 
 impl Program {
+    /// Whether the program's pipelines have D3D's rasterizer state, which translators give
+    /// every pipeline: the depth clamp on with depth clipping kept on (`VK_EXT_depth_clip_enable`).
+    pub fn clamps_with_clip(self) -> bool {
+        self == Program::SsboVkd3d
+    }
+
     /// Whether the program reads its matrices and color from buffers (no push constants).
     pub fn is_buffer_delivery(self) -> bool {
         self.buffers().is_some()
@@ -427,9 +447,10 @@ impl Program {
         match self {
             Program::Ubo | Program::UboGeometry | Program::UboTessellation => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
-            Program::SsboRows | Program::SsboRegisters | Program::SsboColumns => {
-                Some(Program::Ssbo)
-            }
+            Program::SsboRows
+            | Program::SsboRegisters
+            | Program::SsboColumns
+            | Program::SsboVkd3d => Some(Program::Ssbo),
             _ => None,
         }
     }
@@ -461,6 +482,7 @@ impl Program {
             | Program::SsboRows
             | Program::SsboRegisters
             | Program::SsboColumns
+            | Program::SsboVkd3d
             | Program::UboGeometry
             | Program::UboTessellation => 0,
             Program::MvpPair => 128,
@@ -955,6 +977,9 @@ pub struct Needs {
     pub depth_range_unrestricted: bool,
     /// The `depthClamp` feature (a pipeline clamps depth).
     pub depth_clamp: bool,
+    /// `VK_EXT_depth_clip_enable`'s `depthClipEnable`: a pipeline clamps depth and keeps
+    /// clipping it ([`Program::SsboVkd3d`], D3D's rasterizer state).
+    pub depth_clip_enable: bool,
     /// The `geometryShader` feature (a pipeline projects in a geometry shader).
     pub geometry_shader: bool,
     /// The `tessellationShader` feature (a pipeline projects in a tessellation evaluation
@@ -1209,7 +1234,8 @@ impl Plan {
             needs.dynamic_compare_op |= pipeline.depth_test == DepthTest::Dynamic;
             needs.depth_clip_control |= pipeline.negative_one_to_one;
             needs.graphics_pipeline_library |= pipeline.libraries;
-            needs.depth_clamp |= pipeline.depth_clamp;
+            needs.depth_clamp |= pipeline.depth_clamp || pipeline.program.clamps_with_clip();
+            needs.depth_clip_enable |= pipeline.program.clamps_with_clip();
             needs.geometry_shader |= matches!(
                 pipeline.program,
                 Program::UboGeometry | Program::PushGeometry

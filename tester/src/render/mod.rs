@@ -708,6 +708,7 @@ impl<'a> Renderer<'a> {
             | Program::SsboRows
             | Program::SsboRegisters
             | Program::SsboColumns
+            | Program::SsboVkd3d
             | Program::UboGeometry
             | Program::UboTessellation => (self.matrix_layout, vk::ShaderStageFlags::empty()),
             Program::Flat

@@ -737,7 +737,8 @@ impl Recorder<'_> {
                 Program::Ssbo
                 | Program::SsboRows
                 | Program::SsboRegisters
-                | Program::SsboColumns => renderer.matrices.as_ref().map(|m| m.set),
+                | Program::SsboColumns
+                | Program::SsboVkd3d => renderer.matrices.as_ref().map(|m| m.set),
                 _ => None,
             };
             if let Some(set) = set {
@@ -851,6 +852,7 @@ impl Recorder<'_> {
                 | Program::SsboRows
                 | Program::SsboRegisters
                 | Program::SsboColumns
+                | Program::SsboVkd3d
         ) {
             u32::try_from(n).context("object index")?
         } else {

@@ -239,6 +239,7 @@ impl Scene {
             | Program::SsboRows
             | Program::SsboRegisters
             | Program::SsboColumns
+            | Program::SsboVkd3d
             | Program::UboGeometry
             | Program::UboTessellation => Vec::new(),
         };

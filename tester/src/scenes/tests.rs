@@ -1539,15 +1539,21 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                         needs.mesh_shader,
                         matches!(delivery, Delivery::Mesh | Delivery::MeshShaderObjects)
                     );
+                    // D3D's rasterizer state: the clamp with clipping kept on.
+                    assert_eq!(needs.depth_clip_enable, delivery == Delivery::SsboVkd3d);
+                    assert!(!needs.depth_clip_enable || needs.depth_clamp);
+                    let scene_needs = scene.plan.needs();
                     assert_eq!(
                         crate::plan::Needs {
                             geometry_shader: false,
                             tessellation_shader: false,
                             shader_object: false,
                             mesh_shader: false,
+                            depth_clip_enable: false,
+                            depth_clamp: scene_needs.depth_clamp,
                             ..needs
                         },
-                        scene.plan.needs()
+                        scene_needs
                     );
                     // The ground truth comes from the scene, not the delivery.
                     // (w compared bit for bit: NaN where a pixel is not interior.)
