@@ -743,47 +743,12 @@ fn a_vertex_shader_object_with_push_constant_ranges_takes_the_pipelines_per_came
         offset: 0,
         size: 64,
     }];
-    let reserved = vec![(VERTEX_STAGE, 0, offset + 16)];
-    // The application's pipeline layout of the same ranges, which it pushes with: revz
-    // reserves its carrier there too, and makes its own layout of those ranges.
-    let mut app_layout = vk::PipelineLayout::null();
-    let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&app_ranges);
-    // SAFETY: a live device, a valid create info, room for the handle.
-    let result = unsafe {
-        (fx.hooks.create_pipeline_layout)(
-            fx.device,
-            &layout_info,
-            std::ptr::null(),
-            &mut app_layout,
-        )
-    };
-    assert_eq!(result, vk::Result::SUCCESS);
-    let own = match &fx.events()[..] {
-        [Event::CreatePipelineLayout { handle, ranges }, Event::CreatePipelineLayout {
-            handle: own,
-            ranges: own_ranges,
-        }] if *handle == app_layout && *ranges == reserved && *own_ranges == reserved => *own,
-        other => panic!("the application's layout and revz's, both reserved: {other:#?}"),
-    };
-
+    let (app_layout, own) = create_layouts(&fx, &app_ranges, VERTEX_STAGE, offset);
     // One call for the vertex shader's variant, then the application's, both with the
     // carrier reserved in their ranges; the variant's code stores Position through the pushed
     // carrier, as a pipeline's vertex stage does.
-    let infos = [
-        shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting).push_constant_ranges(&app_ranges),
-        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &plain)
-            .push_constant_ranges(&app_ranges),
-    ];
-    let (result, handles) = fx.create(&infos);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(
-        events.len(),
-        2,
-        "the variant, then the application's: {events:#?}"
-    );
-    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
-    let (_, app_infos, _, _) = app_creation(&events[1]);
+    let (handles, variant_infos, variant_handles, app_infos) =
+        create_with_ranges(&fx, VERTEX_STAGE, &projecting, &plain, &app_ranges);
     let carrier_code = crate::shader::position_store::rewrite_position_store(&projecting, offset)
         .expect("rewritable")
         .expect("stores Position");
@@ -849,6 +814,79 @@ fn a_vertex_shader_object_with_push_constant_ranges_takes_the_pipelines_per_came
     );
     fx.free(buffer);
     fx.finish_with(&[Event::DestroyPipelineLayout { handle: own }]);
+}
+
+/// The application's pipeline layout of `ranges` (one range of `stages` from 0), created
+/// through revz, which it pushes with: checks that it and revz's own layout of the same
+/// ranges (what revz pushes its carrier with) went down with the carrier reserved at
+/// `offset`; returns both.
+fn create_layouts(
+    fx: &Fixture,
+    ranges: &[vk::PushConstantRange],
+    stages: vk::ShaderStageFlags,
+    offset: u32,
+) -> (vk::PipelineLayout, vk::PipelineLayout) {
+    let reserved = vec![(stages, 0, offset + 16)];
+    let mut app_layout = vk::PipelineLayout::null();
+    let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(ranges);
+    // SAFETY: a live device, a valid create info, room for the handle.
+    let result = unsafe {
+        (fx.hooks.create_pipeline_layout)(
+            fx.device,
+            &layout_info,
+            std::ptr::null(),
+            &mut app_layout,
+        )
+    };
+    assert_eq!(result, vk::Result::SUCCESS);
+    match &fx.events()[..] {
+        [Event::CreatePipelineLayout { handle, ranges }, Event::CreatePipelineLayout {
+            handle: own,
+            ranges: own_ranges,
+        }] if *handle == app_layout && *ranges == reserved && *own_ranges == reserved => {
+            (app_layout, *own)
+        }
+        other => panic!("the application's layout and revz's, both reserved: {other:#?}"),
+    }
+}
+
+/// A `stage` shader object of `code` and a fragment one of `fragment`, both with `ranges`,
+/// created unlinked in one call where the first gets a variant: checks that two calls reached
+/// the fake, the variant's then the application's. Returns the handles, the variant's create
+/// infos and handles, and the application's create infos, as the fake saw them.
+fn create_with_ranges(
+    fx: &Fixture,
+    stage: vk::ShaderStageFlags,
+    code: &[u32],
+    fragment: &[u32],
+    ranges: &[vk::PushConstantRange],
+) -> (
+    Vec<vk::ShaderEXT>,
+    Vec<SeenShader>,
+    Vec<vk::ShaderEXT>,
+    Vec<SeenShader>,
+) {
+    let infos = [
+        shader_info(stage, FRAGMENT_STAGE, code).push_constant_ranges(ranges),
+        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), fragment)
+            .push_constant_ranges(ranges),
+    ];
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(
+        events.len(),
+        2,
+        "the variant, then the application's: {events:#?}"
+    );
+    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
+    let (_, app_infos, _, _) = app_creation(&events[1]);
+    (
+        handles,
+        variant_infos.to_vec(),
+        variant_handles.to_vec(),
+        app_infos.to_vec(),
+    )
 }
 
 /// The bytes of a perspective camera's projection (`near`, `far`), as pushed.
@@ -1053,35 +1091,9 @@ fn a_mesh_shader_object_with_the_carrier_in_its_mesh_range_takes_the_pipelines_r
         offset: 0,
         size: 96,
     }];
-    let mut app_layout = vk::PipelineLayout::null();
-    let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&app_ranges);
-    // SAFETY: a live device, a valid create info, room for the handle.
-    let result = unsafe {
-        (fx.hooks.create_pipeline_layout)(
-            fx.device,
-            &layout_info,
-            std::ptr::null(),
-            &mut app_layout,
-        )
-    };
-    assert_eq!(result, vk::Result::SUCCESS);
-    let own = match &fx.events()[..] {
-        [_, Event::CreatePipelineLayout { handle, ranges }] => {
-            assert_eq!(*ranges, [(stages, 0, offset + 16)]);
-            *handle
-        }
-        other => panic!("the application's layout and revz's: {other:#?}"),
-    };
-    let infos = [
-        shader_info(mesh_stage, FRAGMENT_STAGE, &mesh_words).push_constant_ranges(&app_ranges),
-        shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), &plain)
-            .push_constant_ranges(&app_ranges),
-    ];
-    let (result, handles) = fx.create(&infos);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(events.len(), 2, "the variant, then the application's");
-    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
+    let (app_layout, own) = create_layouts(&fx, &app_ranges, stages, offset);
+    let (handles, variant_infos, variant_handles, _) =
+        create_with_ranges(&fx, mesh_stage, &mesh_words, &plain, &app_ranges);
     // The deriving rewrite reading the pushed carrier (each vertex's Position rewritten where
     // it is stored), as a mesh pipeline's stage.
     let rewrite = crate::shader::position_store::derive_position_store(&mesh_words, offset)

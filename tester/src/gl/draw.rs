@@ -767,6 +767,55 @@ unsafe fn read_rgba(gl: &glow::Context, w: i32, h: i32, pixels: usize) -> Vec<u8
     rgba
 }
 
+/// Compiles `source` as a shader of `kind` (`name` says which in the error).
+///
+/// # Safety
+/// The GL context must be current on this thread.
+unsafe fn compile(gl: &glow::Context, kind: u32, source: &str, name: &str) -> Result<glow::Shader> {
+    // SAFETY: the caller's context is current.
+    unsafe {
+        let shader = gl.create_shader(kind).map_err(anyhow::Error::msg)?;
+        gl.shader_source(shader, source);
+        gl.compile_shader(shader);
+        if !gl.get_shader_compile_status(shader) {
+            bail!(
+                "the {name} shader does not compile: {}",
+                gl.get_shader_info_log(shader)
+            );
+        }
+        Ok(shader)
+    }
+}
+
+/// Links `shaders` into `program` (the position attribute at location 0), releases them, and
+/// checks the link (`what` names the program in the error).
+///
+/// # Safety
+/// The GL context must be current on this thread; `shaders` are its, compiled.
+unsafe fn link(
+    gl: &glow::Context,
+    program: glow::Program,
+    shaders: &[glow::Shader],
+    what: &str,
+) -> Result<glow::Program> {
+    // SAFETY: the caller's context is current.
+    unsafe {
+        for &shader in shaders {
+            gl.attach_shader(program, shader);
+        }
+        gl.bind_attrib_location(program, 0, "position");
+        gl.link_program(program);
+        for &shader in shaders {
+            gl.detach_shader(program, shader);
+            gl.delete_shader(shader);
+        }
+        if !gl.get_program_link_status(program) {
+            bail!("{what} does not link: {}", gl.get_program_info_log(program));
+        }
+        Ok(program)
+    }
+}
+
 /// Compiles `source` as a separable program of one stage (`kind`).
 ///
 /// # Safety
@@ -779,31 +828,10 @@ unsafe fn link_separable(
 ) -> Result<glow::Program> {
     // SAFETY: the caller's context is current.
     unsafe {
-        let shader = gl.create_shader(kind).map_err(anyhow::Error::msg)?;
-        gl.shader_source(shader, source);
-        gl.compile_shader(shader);
-        if !gl.get_shader_compile_status(shader) {
-            bail!(
-                "a separable shader does not compile: {}",
-                gl.get_shader_info_log(shader)
-            );
-        }
+        let shader = compile(gl, kind, source, "separable")?;
         let program = gl.create_program().map_err(anyhow::Error::msg)?;
         (sso.program_parameteri)(program.0.get(), glow::PROGRAM_SEPARABLE, 1);
-        gl.attach_shader(program, shader);
-        if kind == glow::VERTEX_SHADER {
-            gl.bind_attrib_location(program, 0, "position");
-        }
-        gl.link_program(program);
-        gl.detach_shader(program, shader);
-        gl.delete_shader(shader);
-        if !gl.get_program_link_status(program) {
-            bail!(
-                "a separable program does not link: {}",
-                gl.get_program_info_log(program)
-            );
-        }
-        Ok(program)
+        link(gl, program, &[shader], "a separable program")
     }
 }
 
@@ -815,36 +843,11 @@ unsafe fn link_program(gl: &glow::Context, vertex: &str, fragment: &str) -> Resu
     // SAFETY: the caller's context is current.
     unsafe {
         let program = gl.create_program().map_err(anyhow::Error::msg)?;
-        let mut shaders = Vec::new();
-        for (kind, source, name) in [
-            (glow::VERTEX_SHADER, vertex, "vertex"),
-            (glow::FRAGMENT_SHADER, fragment, "fragment"),
-        ] {
-            let shader = gl.create_shader(kind).map_err(anyhow::Error::msg)?;
-            gl.shader_source(shader, source);
-            gl.compile_shader(shader);
-            if !gl.get_shader_compile_status(shader) {
-                bail!(
-                    "the {name} shader does not compile: {}",
-                    gl.get_shader_info_log(shader)
-                );
-            }
-            gl.attach_shader(program, shader);
-            shaders.push(shader);
-        }
-        gl.bind_attrib_location(program, 0, "position");
-        gl.link_program(program);
-        for shader in shaders {
-            gl.detach_shader(program, shader);
-            gl.delete_shader(shader);
-        }
-        if !gl.get_program_link_status(program) {
-            bail!(
-                "the program does not link: {}",
-                gl.get_program_info_log(program)
-            );
-        }
-        Ok(program)
+        let shaders = [
+            compile(gl, glow::VERTEX_SHADER, vertex, "vertex")?,
+            compile(gl, glow::FRAGMENT_SHADER, fragment, "fragment")?,
+        ];
+        link(gl, program, &shaders, "the program")
     }
 }
 

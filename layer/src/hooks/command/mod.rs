@@ -30,7 +30,7 @@ use ash::vk;
 use super::resources::slice;
 use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
-use crate::command_state::{StateSink, Target, POSITION_STAGES};
+use crate::command_state::{CommandState, StateSink, Target, POSITION_STAGES};
 use crate::conv::{BiasRepresentation, DepthBias};
 use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
@@ -750,20 +750,11 @@ pub unsafe extern "system" fn cmd_set_depth_clamp_enable(
     enable: vk::Bool32,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthClampEnableEXT");
-    let down = with_entry(buffer, &ENTRY, |entry| {
-        entry.state().set_depth_clamp(enable == vk::TRUE)
-    });
-    let Some(down) = down else {
-        return;
-    };
-    if let Some(next) = down.commands.set_depth_clamp_enable {
-        // SAFETY: calling down with the application's arguments.
-        unsafe { next(buffer, enable) }
-    }
-    if let Down::Tracked(entry) = &down {
-        // The next draw's path may have changed: its state goes down now, as after every
-        // state command.
-        settle(entry, buffer);
+    // SAFETY: the application's arguments.
+    unsafe {
+        follow_switch(buffer, &ENTRY, enable, CommandState::set_depth_clamp, |c| {
+            c.set_depth_clamp_enable
+        })
     }
 }
 
@@ -774,18 +765,39 @@ pub unsafe extern "system" fn cmd_set_depth_clip_enable(
     enable: vk::Bool32,
 ) {
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDepthClipEnableEXT");
-    let down = with_entry(buffer, &ENTRY, |entry| {
-        entry.state().set_depth_clip(enable == vk::TRUE)
+    // SAFETY: the application's arguments.
+    unsafe {
+        follow_switch(buffer, &ENTRY, enable, CommandState::set_depth_clip, |c| {
+            c.set_depth_clip_enable
+        })
+    }
+}
+
+/// A dynamic switch revz only follows (the depth clamp, depth clipping): the state machine
+/// records it (`follow`), the command goes down as it is (`next` of the device's commands),
+/// and the next draw's state after it, as after every state command (its path may have
+/// changed).
+///
+/// # Safety
+/// `buffer` is the application's command buffer, recording.
+unsafe fn follow_switch(
+    buffer: vk::CommandBuffer,
+    entry_point: &'static EntryPoint,
+    enable: vk::Bool32,
+    follow: fn(&mut CommandState, bool),
+    next: impl FnOnce(&crate::state::DeviceCommands) -> Option<vk::PFN_vkCmdSetDepthClampEnableEXT>,
+) {
+    let down = with_entry(buffer, entry_point, |entry| {
+        follow(&mut entry.state(), enable == vk::TRUE)
     });
     let Some(down) = down else {
         return;
     };
-    if let Some(next) = down.commands.set_depth_clip_enable {
+    if let Some(next) = next(&down.commands) {
         // SAFETY: calling down with the application's arguments.
         unsafe { next(buffer, enable) }
     }
     if let Down::Tracked(entry) = &down {
-        // The next draw's path may have changed: its state goes down now.
         settle(entry, buffer);
     }
 }
