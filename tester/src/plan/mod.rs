@@ -374,7 +374,8 @@ impl Delivery {
         Delivery::MeshShaderObjects,
     ];
 
-    /// The deliveries every Vulkan 1.0 device with the core features renders: all but the
+    /// The deliveries a Vulkan 1.0 device with the core features renders (`ssbo-vkd3d` also
+    /// needs `VK_EXT_depth_clip_enable`, which lavapipe has from Mesa 22.3 on): all but the
     /// last three of [`Delivery::ALL`].
     pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<3>() {
         Some((portable, _)) => portable,
