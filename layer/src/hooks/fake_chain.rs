@@ -263,6 +263,9 @@ pub(super) enum Event {
     DestroyPipelineLayout {
         handle: vk::PipelineLayout,
     },
+    /// `vkCmdSetDepthClampEnableEXT` and `vkCmdSetDepthClipEnableEXT` (shader-object devices).
+    SetDepthClampEnable(bool),
+    SetDepthClipEnable(bool),
     /// `vkCmdPushConstants` (shader-object devices).
     PushConstants {
         layout: vk::PipelineLayout,
@@ -1303,6 +1306,14 @@ pub(super) unsafe extern "system" fn fake_get_device_proc_addr_with_shader_objec
             vk::PFN_vkCmdPushConstants,
             shader_objects::cmd_push_constants
         ),
+        b"vkCmdSetDepthClampEnableEXT" => void_fn!(
+            vk::PFN_vkCmdSetDepthClampEnableEXT,
+            shader_objects::cmd_set_depth_clamp_enable
+        ),
+        b"vkCmdSetDepthClipEnableEXT" => void_fn!(
+            vk::PFN_vkCmdSetDepthClipEnableEXT,
+            shader_objects::cmd_set_depth_clip_enable
+        ),
         // SAFETY: forwarding the caller's arguments.
         _ => unsafe { fake_get_device_proc_addr_with_pipelines(device, name) },
     }
@@ -1390,6 +1401,28 @@ pub(super) mod shader_objects {
         note(
             unsafe { key_of(device) },
             Event::DestroyPipelineLayout { handle },
+        );
+    }
+
+    pub(in crate::hooks) unsafe extern "system" fn cmd_set_depth_clamp_enable(
+        buffer: vk::CommandBuffer,
+        enable: vk::Bool32,
+    ) {
+        // SAFETY: the fake's live command buffer.
+        note(
+            unsafe { key_of(buffer) },
+            Event::SetDepthClampEnable(enable == vk::TRUE),
+        );
+    }
+
+    pub(in crate::hooks) unsafe extern "system" fn cmd_set_depth_clip_enable(
+        buffer: vk::CommandBuffer,
+        enable: vk::Bool32,
+    ) {
+        // SAFETY: the fake's live command buffer.
+        note(
+            unsafe { key_of(buffer) },
+            Event::SetDepthClipEnable(enable == vk::TRUE),
         );
     }
 

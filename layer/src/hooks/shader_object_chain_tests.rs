@@ -46,6 +46,8 @@ hook_set! {
         cmd_draw: c"vkCmdDraw" => vk::PFN_vkCmdDraw,
         create_pipeline_layout: c"vkCreatePipelineLayout" => vk::PFN_vkCreatePipelineLayout,
         cmd_push_constants: c"vkCmdPushConstants" => vk::PFN_vkCmdPushConstants,
+        cmd_set_depth_clamp_enable: c"vkCmdSetDepthClampEnableEXT" => vk::PFN_vkCmdSetDepthClampEnableEXT,
+        cmd_set_depth_clip_enable: c"vkCmdSetDepthClipEnableEXT" => vk::PFN_vkCmdSetDepthClipEnableEXT,
     }
 }
 
@@ -1134,6 +1136,76 @@ fn a_mesh_shader_object_with_the_carrier_in_its_mesh_range_takes_the_pipelines_r
             shaders: vec![variant],
         }),
         "the mesh stage's variant in its place for the precise draw: {binds:?}"
+    );
+    fx.free(buffer);
+    fx.finish_with(&[Event::DestroyPipelineLayout { handle: own }]);
+}
+
+#[test]
+fn an_infinite_mode_clamp_without_clipping_binds_the_app_shader_and_clipping_brings_the_variant_back(
+) {
+    // D3D translators' dynamic state through the hooks: each command goes down as it is, and
+    // decides whether the vertex shader object's precise variant is bound (infinite mode's
+    // precise path has no far plane to clamp at).
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
+    let offset = fx.state.policy.carrier_offset.expect("a carrier offset");
+    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
+    let plain = fragment(PLAIN);
+    let app_ranges = [vk::PushConstantRange {
+        stage_flags: VERTEX_STAGE,
+        offset: 0,
+        size: 64,
+    }];
+    let (app_layout, own) = create_layouts(&fx, &app_ranges, VERTEX_STAGE, offset);
+    let (handles, _, variant_handles, _) =
+        create_with_ranges(&fx, VERTEX_STAGE, &projecting, &plain, &app_ranges);
+    let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let buffer = fx.command_buffer();
+    fx.bind(buffer, &[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]);
+    push(
+        &fx,
+        buffer,
+        app_layout,
+        VERTEX_STAGE,
+        &camera_matrix(0.5, 50.0),
+    );
+    let vertex_bound = |events: &[Event]| {
+        events.iter().rev().find_map(|e| match e {
+            Event::BindShaders { stages, shaders } => stages
+                .iter()
+                .position(|&s| s == VERTEX_STAGE)
+                .map(|i| shaders[i]),
+            _ => None,
+        })
+    };
+    fx.render(buffer, reversed, 1);
+    assert_eq!(vertex_bound(&fx.events()), Some(variant), "precise");
+    // SAFETY: a recording command buffer.
+    unsafe { (fx.hooks.cmd_set_depth_clamp_enable)(buffer, vk::TRUE) };
+    fx.render(buffer, reversed, 1);
+    let events = fx.events();
+    assert!(
+        events.contains(&Event::SetDepthClampEnable(true)),
+        "{events:#?}"
+    );
+    assert_eq!(
+        vertex_bound(&events),
+        Some(vertex),
+        "clamped, not clipped: flip"
+    );
+    // SAFETY: as above.
+    unsafe { (fx.hooks.cmd_set_depth_clip_enable)(buffer, vk::TRUE) };
+    fx.render(buffer, reversed, 1);
+    let events = fx.events();
+    assert!(
+        events.contains(&Event::SetDepthClipEnable(true)),
+        "{events:#?}"
+    );
+    assert_eq!(
+        vertex_bound(&events),
+        Some(variant),
+        "clamped and clipped: precise"
     );
     fx.free(buffer);
     fx.finish_with(&[Event::DestroyPipelineLayout { handle: own }]);
