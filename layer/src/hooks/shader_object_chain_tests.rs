@@ -737,20 +737,20 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
 #[test]
 fn a_vertex_shader_object_with_push_constant_ranges_takes_the_pipelines_per_camera_route() {
     let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
-    let offset = fx.state.policy.carrier_offset.expect("a carrier offset");
-    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
-    let plain = fragment(PLAIN);
-    let app_ranges = [vk::PushConstantRange {
-        stage_flags: VERTEX_STAGE,
-        offset: 0,
-        size: 64,
-    }];
-    let (app_layout, own) = create_layouts(&fx, &app_ranges, VERTEX_STAGE, offset);
     // One call for the vertex shader's variant, then the application's, both with the
     // carrier reserved in their ranges; the variant's code stores Position through the pushed
     // carrier, as a pipeline's vertex stage does.
-    let (handles, variant_infos, variant_handles, app_infos) =
-        create_with_ranges(&fx, VERTEX_STAGE, &projecting, &plain, &app_ranges);
+    let PushedPair {
+        offset,
+        projecting,
+        app_ranges,
+        app_layout,
+        own,
+        handles,
+        variant_infos,
+        variant_handles,
+        app_infos,
+    } = pushed_pair(&fx);
     let carrier_code = crate::shader::position_store::rewrite_position_store(&projecting, offset)
         .expect("rewritable")
         .expect("stores Position");
@@ -889,6 +889,51 @@ fn create_with_ranges(
         variant_handles.to_vec(),
         app_infos.to_vec(),
     )
+}
+
+/// [`pushed_pair`]'s shaders and what revz made of them.
+struct PushedPair {
+    /// revz's carrier offset on the fixture's device.
+    offset: u32,
+    /// The vertex shader's code (`PROJECTING`, its matrix at push-constant bytes 0..64).
+    projecting: Vec<u32>,
+    app_ranges: [vk::PushConstantRange; 1],
+    /// The application's pipeline layout of `app_ranges`, and revz's own of the same ranges.
+    app_layout: vk::PipelineLayout,
+    own: vk::PipelineLayout,
+    /// As [`create_with_ranges`] returns them.
+    handles: Vec<vk::ShaderEXT>,
+    variant_infos: Vec<SeenShader>,
+    variant_handles: Vec<vk::ShaderEXT>,
+    app_infos: Vec<SeenShader>,
+}
+
+/// A vertex shader object projecting its pushed matrix and a plain fragment one, with the
+/// vertex stage's range 0..64, created through revz after the application's pipeline layout
+/// of that range ([`create_layouts`], [`create_with_ranges`]): the pushed route's setup.
+fn pushed_pair(fx: &Fixture) -> PushedPair {
+    let offset = fx.state.policy.carrier_offset.expect("a carrier offset");
+    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
+    let plain = fragment(PLAIN);
+    let app_ranges = [vk::PushConstantRange {
+        stage_flags: VERTEX_STAGE,
+        offset: 0,
+        size: 64,
+    }];
+    let (app_layout, own) = create_layouts(fx, &app_ranges, VERTEX_STAGE, offset);
+    let (handles, variant_infos, variant_handles, app_infos) =
+        create_with_ranges(fx, VERTEX_STAGE, &projecting, &plain, &app_ranges);
+    PushedPair {
+        offset,
+        projecting,
+        app_ranges,
+        app_layout,
+        own,
+        handles,
+        variant_infos,
+        variant_handles,
+        app_infos,
+    }
 }
 
 /// The bytes of a perspective camera's projection (`near`, `far`), as pushed.
@@ -1148,17 +1193,13 @@ fn an_infinite_mode_clamp_without_clipping_binds_the_app_shader_and_clipping_bri
     // decides whether the vertex shader object's precise variant is bound (infinite mode's
     // precise path has no far plane to clamp at).
     let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
-    let offset = fx.state.policy.carrier_offset.expect("a carrier offset");
-    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
-    let plain = fragment(PLAIN);
-    let app_ranges = [vk::PushConstantRange {
-        stage_flags: VERTEX_STAGE,
-        offset: 0,
-        size: 64,
-    }];
-    let (app_layout, own) = create_layouts(&fx, &app_ranges, VERTEX_STAGE, offset);
-    let (handles, _, variant_handles, _) =
-        create_with_ranges(&fx, VERTEX_STAGE, &projecting, &plain, &app_ranges);
+    let PushedPair {
+        app_layout,
+        own,
+        handles,
+        variant_handles,
+        ..
+    } = pushed_pair(&fx);
     let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
     let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
     let buffer = fx.command_buffer();
