@@ -83,6 +83,7 @@ pub unsafe extern "system" fn destroy_device(
                 }
                 crate::objects::forget_device_command_buffers(&state.objects);
                 state.copies.destroy(device, &state.next);
+                destroy_leaked_twins(state);
                 state
                     .objects
                     .destroy_own_objects(device, &state.next, &state.commands);
@@ -99,4 +100,31 @@ pub unsafe extern "system" fn destroy_device(
         },
         || (),
     )
+}
+
+/// The read twins (and their views and multisampled refresh bindings) of images the
+/// application never destroyed: revz's own objects, destroyed before the device so that the
+/// application's leak (Zink leaves some depth images to `vkDestroyDevice`) does not become
+/// revz's too (the validation layer lists every object alive there).
+fn destroy_leaked_twins(state: &crate::state::DeviceState) {
+    let objects = &state.objects;
+    let v = state.next.fp_v1_0();
+    for twin_view in objects.twin_views.take_all() {
+        // SAFETY: revz's view; the device is idle (the application's contract for
+        // vkDestroyDevice).
+        unsafe { (v.destroy_image_view)(state.handle, twin_view.view, std::ptr::null()) };
+    }
+    for made in objects.multisampled_twins.take_all() {
+        // SAFETY: as above.
+        unsafe { crate::depth_copy::twin::destroy_multisampled_bindings(state, &made) };
+    }
+    for twin in objects
+        .images
+        .take_all()
+        .iter()
+        .filter_map(|image| image.twin)
+    {
+        // SAFETY: as above.
+        unsafe { crate::depth_copy::twin::destroy(state, &twin) };
+    }
 }

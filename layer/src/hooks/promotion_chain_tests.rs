@@ -2877,3 +2877,60 @@ fn a_copy_between_reversed_images_hands_the_source_camera_to_the_destination() {
         ]
     );
 }
+
+/// A device destroyed while the application still holds a sampled depth image and a view of
+/// it (Zink leaves some to `vkDestroyDevice`): revz destroys the read twin's view and image
+/// (and frees its memory) before the device goes down, so that the application's leak is not
+/// revz's too.
+#[test]
+fn a_read_twin_of_an_image_left_to_the_device_destruction_goes_before_the_device() {
+    let fx = Fixture::new();
+    let sampled = ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
+    let info = fake_chain::depth_image_info(D32, EXTENT, sampled, SINGLE);
+    let (mut image, mut view) = (vk::Image::null(), vk::ImageView::null());
+    // SAFETY: a live device and valid create infos.
+    unsafe {
+        let result = (fx.hooks.create_image)(fx.device, &info, std::ptr::null(), &mut image);
+        assert_eq!(result, vk::Result::SUCCESS);
+        let view_info = fake_chain::depth_view_info(image, D32);
+        let result =
+            (fx.hooks.create_image_view)(fx.device, &view_info, std::ptr::null(), &mut view);
+        assert_eq!(result, vk::Result::SUCCESS);
+    }
+    let created = fx.events();
+    let twin = created
+        .iter()
+        .filter_map(|event| match event {
+            Event::CreateImage { handle, .. } if *handle != image => Some(*handle),
+            _ => None,
+        })
+        .next()
+        .expect("the sampled image's read twin");
+    let twin_view = created
+        .iter()
+        .filter_map(|event| match event {
+            Event::CreateImageView { handle, .. } if *handle != view => Some(*handle),
+            _ => None,
+        })
+        .next()
+        .expect("the view of the twin beside the application's");
+    let Fixture {
+        tables,
+        instance,
+        physical,
+        device,
+        state,
+        ..
+    } = fx;
+    drop(state);
+    // SAFETY: the fixture's objects; the application's image and view are left alive.
+    let device_events = unsafe { fake_chain::tear_down(tables, instance, physical, device) };
+    assert_eq!(
+        device_events,
+        [
+            Event::DestroyImageView { handle: twin_view },
+            Event::DestroyImage { handle: twin },
+            Event::DestroyDevice
+        ]
+    );
+}

@@ -253,6 +253,13 @@ impl<K: std::hash::Hash + Eq, V: Clone> Table<K, V> {
             .insert(key, value)
     }
 
+    /// Empties the table, returning what it held (at device destruction: what the
+    /// application never destroyed).
+    pub fn take_all(&self) -> Vec<V> {
+        let mut map = self.0.write().unwrap_or_else(PoisonError::into_inner);
+        map.drain().map(|(_, value)| value).collect()
+    }
+
     pub fn remove(&self, key: &K) -> Option<V> {
         self.0
             .write()
