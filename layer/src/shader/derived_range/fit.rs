@@ -140,11 +140,11 @@ impl Fit {
                 );
             }
             if let Some(columns) = leaf.columns {
-                return code.typed(
-                    OP_COMPOSITE_EXTRACT,
-                    float,
-                    &[columns[column as usize], row],
-                );
+                return match columns.get(column as usize) {
+                    Some(vector) => code.typed(OP_COMPOSITE_EXTRACT, float, &[vector, row]),
+                    // A column the compiler dropped (its component was 0): zeros.
+                    None => zero.0,
+                };
             }
             let indices = if leaf.transposed {
                 [row, column]

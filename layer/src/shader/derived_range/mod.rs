@@ -104,6 +104,33 @@ impl MatrixSource {
     }
 }
 
+/// The columns of a matrix-vector product written out by columns ([`Leaf::columns`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Columns {
+    /// The columns multiplying x, y and z, in any order (the fitted line reads them only
+    /// through sums over all three); `None` for one the compiler dropped with a component it
+    /// knew to be 0 (`vec4(p.x, p.y, 0.0, 1.0)`): a column of zeros.
+    pub xyz: [Option<u32>; 3],
+    /// The column multiplying w (1: added alone, or times a w shown to be 1).
+    pub w: u32,
+}
+
+impl Columns {
+    /// The columns the product has, x to w.
+    pub fn present(&self) -> impl Iterator<Item = u32> + '_ {
+        self.xyz.iter().flatten().copied().chain([self.w])
+    }
+
+    /// Column `index` (0 to 3), `None` where it is a column of zeros.
+    #[must_use]
+    pub fn get(&self, index: usize) -> Option<u32> {
+        match index {
+            0..=2 => self.xyz[index],
+            _ => Some(self.w),
+        }
+    }
+}
+
 /// Where the fit goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Insert {
@@ -121,10 +148,10 @@ pub struct Leaf {
     pub id: u32,
     /// `v * M`: the rows of the column-vector matrix are the leaf's columns.
     pub transposed: bool,
-    /// The matrix as four `vec4` columns of a product written out as
+    /// The matrix as the `vec4` columns of a product written out as
     /// `c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w` (Mesa's NIR, so Zink's SPIR-V), each sum
     /// fused or not.
-    pub columns: Option<[u32; 4]>,
+    pub columns: Option<Columns>,
     /// The matrix's depth and w rows as `vec4`s, of a product written out as four dot
     /// products `vec4(dot(r0, v), dot(r1, v), dot(r2, v), dot(r3, v))` (translated HLSL, D3D
     /// bytecode's `dp4`).

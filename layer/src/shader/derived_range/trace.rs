@@ -617,25 +617,32 @@ impl Defs {
         id
     }
 
-    /// The component a splat repeats (`v.xxxx` as a shuffle or a construct of one extract)
-    /// and the vector it comes from.
-    fn splat(&self, id: u32) -> Option<(u32, u32)> {
-        match self.at.get(&self.unwrapped(id))? {
+    /// What a splat repeats: a component of a vector (`v.xxxx` as a shuffle or a construct of
+    /// one extract), or any other scalar (a construct of four copies of it: Mesa's NIR splats
+    /// a component the shader computed, `vec4(p.x, p.y + f(p), p.z, 1.0)`, so).
+    fn splat(&self, id: u32) -> Option<Splat> {
+        let id = self.unwrapped(id);
+        match self.at.get(&id)? {
             // A component of the first vector (a larger index selects from the second).
             (_, OP_VECTOR_SHUFFLE, operands) => match operands.as_slice() {
                 &[_, _, first, _, i, j, k, l]
                     if i == j && j == k && k == l && i < self.components(first)?.min(4) =>
                 {
-                    Some((self.unwrapped(first), i))
+                    Some(Splat::Component(self.unwrapped(first), i))
                 }
                 _ => None,
             },
             (_, OP_COMPOSITE_CONSTRUCT, operands) => match operands.as_slice() {
-                &[_, _, a, b, c, d] if a == b && b == c && c == d => match self.at.get(&a)? {
-                    (_, OP_COMPOSITE_EXTRACT, e)
+                &[_, _, a, b, c, d] if a == b && b == c && c == d => match self.at.get(&a) {
+                    Some((_, OP_COMPOSITE_EXTRACT, e))
                         if e.len() == 4 && e[3] < self.components(e[2])?.min(4) =>
                     {
-                        Some((self.unwrapped(e[2]), e[3]))
+                        Some(Splat::Component(self.unwrapped(e[2]), e[3]))
+                    }
+                    // A scalar (never a vector: four vectors would construct a matrix or a
+                    // longer vector, which the caller's vec4 product cannot take).
+                    _ if self.components(a).is_none() && self.components(id) == Some(4) => {
+                        Some(Splat::Scalar)
                     }
                     _ => None,
                 },
@@ -772,25 +779,29 @@ impl Defs {
 
     /// `c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w` (any order of the terms, `c3` alone where
     /// `v.w` was folded to 1): the columns, and the sum's root (where the fit goes).
-    fn column_product(&self, value: u32) -> Option<([u32; 4], u32)> {
+    fn column_product(&self, value: u32) -> Option<(Columns, u32)> {
         self.column_parts(value)
             .map(|(columns, root, _)| (columns, root))
     }
 
     /// [`Self::column_product`]'s vector: its w folded to 1, or the vector the splats take
     /// their components from.
-    fn column_source(&self, value: u32) -> Option<([u32; 4], ColumnW)> {
+    fn column_source(&self, value: u32) -> Option<(Columns, ColumnW)> {
         self.column_parts(value).map(|(columns, _, w)| (columns, w))
     }
 
-    fn column_parts(&self, value: u32) -> Option<([u32; 4], u32, ColumnW)> {
+    fn column_parts(&self, value: u32) -> Option<(Columns, u32, ColumnW)> {
         let root = self.unwrapped(value);
         let mut terms = Vec::new();
         self.terms(value, &mut terms, 0)?;
-        if terms.len() != 4 {
+        // Three terms: a component the compiler knew to be 0 dropped with its column
+        // (`vec4(p.x, p.y, 0.0, 1.0)`).
+        if !(3..=4).contains(&terms.len()) {
             return None;
         }
         let mut columns = [None; 4];
+        // Columns times splats of scalars the shader computed, placed below.
+        let mut unplaced = Vec::new();
         let mut vector = None;
         let mut bare = None;
         for term in terms {
@@ -816,18 +827,26 @@ impl Defs {
                     continue;
                 }
             };
-            let (column, (source, index)) = match (self.splat(x), self.splat(y)) {
+            let (column, splat) = match (self.splat(x), self.splat(y)) {
                 (None, Some(splat)) => (x, splat),
                 (Some(splat), None) => (y, splat),
                 _ => return None,
             };
-            // The splats may come from different vectors: the product is the matrix times the
-            // vector of their components (vkd3d-shader's gears: x and y from a register a
-            // rotation wrote, z and w from the input), and only its w, the one column 3 takes,
-            // must be 1 for the fitted line.
-            if index == 3 {
-                vector = Some(source);
-            }
+            let index = match splat {
+                // The splats may come from different vectors: the product is the matrix times
+                // the vector of their components (vkd3d-shader's gears: x and y from a
+                // register a rotation wrote, z and w from the input), and only its w, the one
+                // column 3 takes, must be 1 for the fitted line.
+                Splat::Component(source, 3) => {
+                    vector = Some(source);
+                    3
+                }
+                Splat::Component(_, index) => index,
+                Splat::Scalar => {
+                    unplaced.push(column);
+                    continue;
+                }
+            };
             if columns[index as usize].replace(column).is_some() {
                 return None;
             }
@@ -838,11 +857,22 @@ impl Defs {
                 return None;
             }
         }
-        let columns = [columns[0]?, columns[1]?, columns[2]?, columns[3]?];
+        // A splat of a computed scalar multiplies x, y or z: the fitted line reads columns 0
+        // to 2 only through sums over all three (`<r2.xyz, r3.xyz>`, `|r3.xyz|`), so which
+        // free place each takes does not matter. The w column must be known (added alone, or
+        // a splat of a w): a computed scalar there could be anything.
+        for column in unplaced {
+            *columns[..3].iter_mut().find(|c| c.is_none())? = Some(column);
+        }
+        let w_column = columns[3]?;
         let w = if folded {
             ColumnW::Folded
         } else {
             ColumnW::Of(vector?)
+        };
+        let columns = Columns {
+            xyz: [columns[0], columns[1], columns[2]],
+            w: w_column,
         };
         self.at.contains_key(&root).then_some((columns, root, w))
     }
@@ -898,6 +928,15 @@ enum Term {
     Product(u32, u32),
     /// Anything else, added as it is.
     Alone(u32),
+}
+
+/// What a splat multiplying a column repeats ([`Defs::splat`]).
+#[derive(Clone, Copy, Debug)]
+enum Splat {
+    /// Component `.1` of vector `.0`: the column's index.
+    Component(u32, u32),
+    /// A scalar the shader computed: x, y or z of the vector the matrix multiplies.
+    Scalar,
 }
 
 /// The w of the vector a column-form product multiplies.
@@ -1083,8 +1122,8 @@ fn push_constant_slot(
 /// What a product written out by vectors gives the fit.
 #[derive(Clone, Copy, Debug)]
 enum WrittenOut {
-    /// Its four columns (`c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w`).
-    Columns([u32; 4]),
+    /// Its columns (`c0 * v.x + c1 * v.y + c2 * v.z + c3 * v.w`).
+    Columns(Columns),
     /// Its depth and w rows (`vec4(dot(r0, v), dot(r1, v), dot(r2, v), dot(r3, v))`).
     Rows([u32; 2]),
 }
@@ -1098,9 +1137,12 @@ fn written_out_leaf(
     written: WrittenOut,
     root: u32,
 ) -> Result<Leaf, Unsupported> {
-    let (vectors, refusal): (&[u32], _) = match &written {
-        WrittenOut::Columns(columns) => (columns, "the product's columns are not vec4s"),
-        WrittenOut::Rows(rows) => (rows, "the product's rows are not vec4s"),
+    let (vectors, refusal): (Vec<u32>, _) = match &written {
+        WrittenOut::Columns(columns) => (
+            columns.present().collect(),
+            "the product's columns are not vec4s",
+        ),
+        WrittenOut::Rows(rows) => (rows.to_vec(), "the product's rows are not vec4s"),
     };
     let typed = |id: u32| {
         defs.at
