@@ -202,9 +202,27 @@ fn zink_render(
     scene: &str,
     mode: Option<&str>,
 ) -> Option<serde_json::Value> {
-    let name = format!("zink-{scene}-{}{}", mode.unwrap_or("none"), zink.label());
+    zink_render_with(harness, zink, scene, mode, &[])
+}
+
+/// [`zink_render`] with more `gl-render` arguments (`args`, which also name its scratch
+/// directory).
+fn zink_render_with(
+    harness: &Harness,
+    zink: &Zink,
+    scene: &str,
+    mode: Option<&str>,
+    args: &[&str],
+) -> Option<serde_json::Value> {
+    let name = format!(
+        "zink-{scene}-{}{}{}",
+        mode.unwrap_or("none"),
+        zink.label(),
+        args.concat()
+    );
     let out = harness.scratch_dir(&name);
     let mut command = zink.command(harness);
+    command.args(args);
     command.args(["--scene", scene, "--out"]).arg(&out);
     if let Some(mode) = mode {
         command
@@ -285,6 +303,40 @@ fn precise_gain(harness: &Harness, zink: &Zink) {
         );
     }
     assert!(without.last().unwrap().1 > 100.0 * with.last().unwrap().1);
+}
+
+#[test]
+fn zink_gets_the_precise_gain_for_a_position_built_from_computed_components() {
+    // `vec4(position.x, position.y + u_zero * position.x, position.z, 1.0)` (glmark2's
+    // `conditionals`, `function` and `loop` build theirs so): Mesa's NIR multiplies the
+    // matrix's column by a splat of the computed y, no component of a vector. revz fitted no
+    // such product before session 33 (the flip path: 4.0% of sloped-plane wrong in
+    // `infinite`, as without revz).
+    let harness = Harness::locate();
+    for zink in Zink::all(&harness) {
+        // A separable program has no such form here (`gl-render` refuses the two together).
+        if matches!(zink, Zink::NewerShaderObjects(_)) {
+            continue;
+        }
+        let computed = ["--computed-position"];
+        let Some(native) = zink_render_with(&harness, &zink, "sloped-plane", None, &computed)
+        else {
+            return;
+        };
+        let wrong = |m: &serde_json::Value| m["wrong_pixels"].as_u64().unwrap();
+        assert!(wrong(&native) > 0, "standard depth loses some: {native}");
+        for mode in ["complementary", "infinite"] {
+            let m = zink_render_with(&harness, &zink, "sloped-plane", Some(mode), &computed)
+                .expect("Zink ran above");
+            assert_eq!(m["depth_reversed"], true, "{m}");
+            assert_eq!(
+                wrong(&m),
+                0,
+                "sloped-plane with a computed position through Zink{} and revz {mode}: {m}",
+                zink.label()
+            );
+        }
+    }
 }
 
 /// `gl-render --zink --post PASS` of `overlap` (the depth attachment a texture a second pass

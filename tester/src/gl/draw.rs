@@ -27,6 +27,21 @@ void main() {
 }
 ";
 
+/// [`VERTEX_SHADER`] with the position built from a component it computes (`gl-render
+/// --computed-position`): `u_zero` is never set, so GL's 0 (the same position, bit for bit,
+/// for finite coordinates), which no compiler can fold.
+pub const COMPUTED_POSITION_VERTEX_SHADER: &str = "#version 330 core
+layout(location = 0) in vec3 position;
+uniform mat4 u_projection;
+uniform mat4 u_view;
+uniform mat4 u_model;
+uniform float u_zero;
+void main() {
+    vec4 p = vec4(position.x, position.y + u_zero * position.x, position.z, 1.0);
+    gl_Position = u_projection * u_view * u_model * p;
+}
+";
+
 /// [`VERTEX_SHADER`] for a separable program (`--separable`): `gl_PerVertex` redeclared, as
 /// separable programs need for the built-ins they write.
 pub const SEPARABLE_VERTEX_SHADER: &str = "#version 330 core
@@ -223,7 +238,8 @@ fn drawn(scene: &Scene) -> Result<Vec<usize>> {
 }
 
 /// Renders `scene` at `width` x `height` with the current context's GL and reads it back.
-/// With `separable`, the scene's stages are separable programs in a program pipeline.
+/// With `separable`, the scene's stages are separable programs in a program pipeline; with
+/// `computed_position`, the vertex shader is [`COMPUTED_POSITION_VERTEX_SHADER`].
 pub fn render(
     gl: &glow::Context,
     scene: &Scene,
@@ -231,6 +247,7 @@ pub fn render(
     height: u32,
     post: Option<PostPass>,
     separable: Option<&super::context::SeparateShaderObjects>,
+    computed_position: bool,
 ) -> Result<GlFrame> {
     let objects = drawn(scene)?;
     let aspect = f64::from(width) / f64::from(height);
@@ -246,7 +263,14 @@ pub fn render(
         let renderer = gl.get_parameter_string(glow::RENDERER);
         let version = gl.get_parameter_string(glow::VERSION);
         let programs = match separable {
-            None => ScenePrograms::Linked(link_program(gl, VERTEX_SHADER, FRAGMENT_SHADER)?),
+            None => {
+                let vertex = if computed_position {
+                    COMPUTED_POSITION_VERTEX_SHADER
+                } else {
+                    VERTEX_SHADER
+                };
+                ScenePrograms::Linked(link_program(gl, vertex, FRAGMENT_SHADER)?)
+            }
             Some(sso) => {
                 let vertex = link_separable(gl, sso, glow::VERTEX_SHADER, SEPARABLE_VERTEX_SHADER)?;
                 let fragment =

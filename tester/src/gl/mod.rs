@@ -68,6 +68,13 @@ pub struct GlRenderArgs {
     #[arg(long)]
     pub separable: bool,
 
+    /// The vertex shader builds the position it projects from components it computed
+    /// (`vec4(position.x, position.y + u_zero * position.x, position.z, 1.0)`, `u_zero` left
+    /// 0), as glmark2's `conditionals`, `function` and `loop` scenes do: Mesa's NIR splats the
+    /// computed y for its column, not a component of a vector. Not with `--separable`.
+    #[arg(long, conflicts_with = "separable")]
+    pub computed_position: bool,
+
     /// The Vulkan driver manifest Zink renders on [default: the system's lavapipe,
     /// lvp_icd*.json in the standard ICD directories]: a newer lavapipe, say (`cargo xtask
     /// setup` extracts Mesa 25.0's beside Debian 12's, with Mesa 25.0's Zink:
@@ -238,6 +245,7 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
             height,
             args.post,
             separable.as_ref(),
+            args.computed_position,
         )?
     };
     println!("GL renderer: {} ({})", frame.renderer, frame.version);

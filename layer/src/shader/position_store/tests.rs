@@ -476,40 +476,96 @@ fn a_store_to_position_z_refuses_and_one_to_y_does_not() {
     );
 }
 
+/// Zink's SPIR-V 1.5 (assembled for Vulkan 1.2).
+fn zink_module(text: &str) -> Vec<u32> {
+    use spirv_tools::assembler::{self, Assembler as _};
+    assembler::create(Some(TargetEnv::Vulkan_1_2))
+        .assemble(text, assembler::AssemblerOptions::default())
+        .expect("Zink's module assembles")
+        .as_words()
+        .to_vec()
+}
+
+/// Validates SPIR-V 1.5 with the Vulkan memory model and scalar block layout (Zink's uint
+/// arrays): Vulkan 1.2's rules with scalarBlockLayout.
+fn validate_zink(words: &[u32]) {
+    let options = val::ValidatorOptions {
+        scalar_block_layout: true,
+        ..Default::default()
+    };
+    val::create(Some(TargetEnv::Vulkan_1_2))
+        .validate(words, Some(options))
+        .unwrap_or_else(|e| panic!("spirv-val rejects the module: {e}"));
+}
+
 #[test]
 fn zinks_column_by_column_product_is_fitted_from_the_projections_columns() {
     // Zink's vertex stage for `u_projection * u_view * u_model * vec4(position, 1)`: uniforms
     // as uint loads bitcast to vec4 columns, each product written out as column FMuls by
     // splats summed with FAdds (tester/src/gl/zink_vertex.spvasm.txt).
-    use spirv_tools::assembler::{self, Assembler as _};
-    let words = assembler::create(Some(TargetEnv::Vulkan_1_2))
-        .assemble(
-            include_str!("../test_data/zink_vertex.spvasm"),
-            assembler::AssemblerOptions::default(),
-        )
-        .expect("Zink's module assembles")
-        .as_words()
-        .to_vec();
+    let words = zink_module(include_str!("../test_data/zink_vertex.spvasm"));
     let (out, source) = rewrite_position_store_deriving(&words, OFFSET)
         .expect("rewritable")
         .expect("has a Position");
-    // SPIR-V 1.5 with the Vulkan memory model and scalar block layout (Zink's uint arrays):
-    // Vulkan 1.2's rules with scalarBlockLayout.
-    let vulkan_1_2 = |words: &[u32]| {
-        let options = val::ValidatorOptions {
-            scalar_block_layout: true,
-            ..Default::default()
-        };
-        val::create(Some(TargetEnv::Vulkan_1_2))
-            .validate(words, Some(options))
-            .unwrap_or_else(|e| panic!("spirv-val rejects the module: {e}"))
-    };
-    vulkan_1_2(&words);
-    vulkan_1_2(&out);
+    validate_zink(&words);
+    validate_zink(&out);
     assert_eq!(source, MatrixSource::UniformBuffer);
     assert!(with_opcode(&out, OP_DECORATE)
         .iter()
         .any(|d| d.get(1) == Some(&42)));
+}
+
+#[test]
+fn zinks_products_of_computed_components_and_of_a_dropped_column_are_fitted() {
+    // `vec4(p.x, p.y + u_zero * p.x, p.z, 1.0)`: column 1 times a splat of a computed scalar;
+    // `vec4(p.x, p.y, 0.0, 1.0)`: the z column dropped (glmark2 through Zink: conditionals,
+    // function, loop; shadow). Both took the flip path before session 33 ("Position is not a
+    // matrix times a vector").
+    for (name, text) in [
+        (
+            "computed component",
+            include_str!("../test_data/zink_computed_component.spvasm"),
+        ),
+        (
+            "dropped column",
+            include_str!("../test_data/zink_dropped_column.spvasm"),
+        ),
+    ] {
+        let words = zink_module(text);
+        let (out, source) = rewrite_position_store_deriving(&words, OFFSET)
+            .unwrap_or_else(|e| panic!("{name}: {e:?}"))
+            .expect("has a Position");
+        validate_zink(&words);
+        validate_zink(&out);
+        assert_eq!(source, MatrixSource::UniformBuffer, "{name}");
+    }
+    // The w column times a splat of a computed scalar (`vec4(p.xyz, fract(p.x))`, say): the
+    // vector's w is not shown to be 1, so nothing is fitted. Made from the dropped-column
+    // module: its innermost product's w column, added alone there, multiplied by a splat of
+    // `fract(p.x)`.
+    let dropped = include_str!("../test_data/zink_dropped_column.spvasm");
+    let bare = "        %104 = OpBitcast %v4float %102\n";
+    assert!(dropped.contains(bare), "the innermost product's w column");
+    let scaled = dropped.replacen(
+        bare,
+        "       %w_bits = OpCompositeExtract %uint %34 0\n\
+         %w_x = OpBitcast %float %w_bits\n\
+         %w_fract = OpExtInst %float %1 Fract %w_x\n\
+         %w_u = OpBitcast %uint %w_fract\n\
+         %w_splat_u = OpCompositeConstruct %v4uint %w_u %w_u %w_u %w_u\n\
+         %w_splat = OpBitcast %v4float %w_splat_u\n\
+         %w_column = OpBitcast %v4float %102\n\
+         %104 = OpFMul %v4float %w_column %w_splat\n",
+        1,
+    );
+    let words = zink_module(&scaled);
+    validate_zink(&words);
+    assert_eq!(
+        rewrite_position_store_deriving(&words, OFFSET).map(|r| r.map(|(_, s)| s)),
+        Err(Unsupported(
+            "the vector the projection multiplies may not have w = 1"
+        ))
+    );
 }
 
 /// glslang output saved as binary (`layer/src/test_data/*.spv`).
