@@ -138,16 +138,18 @@ pub fn position_store<'a>(entry_points: impl IntoIterator<Item = &'a Analysis>) 
 
 /// Which `Position` rewrite a vertex module gets ([`position_store`] of its entry points), and
 /// the carrier's offset it stores through; `None`: none, without the precise path
-/// (`carrier_offset`, [`super::DevicePolicy::carrier_offset`]) or for a module whose analysis
-/// could not be read (`entry_points`: `None`), whose pipelines' draws take the flip path
-/// anyway.
+/// (`carrier_offset`, [`super::DevicePolicy::carrier_offset`]). A module naga could not read
+/// (`entry_points`: `None`) gets the deriving one, which reads the words itself.
 #[must_use]
 pub fn module_position_store<'a>(
     carrier_offset: Option<u32>,
     entry_points: Option<impl IntoIterator<Item = &'a Analysis>>,
 ) -> Option<(u32, PositionStore)> {
     let offset = carrier_offset?;
-    Some((offset, position_store(entry_points?)))
+    Some((
+        offset,
+        entry_points.map_or(PositionStore::Deriving, position_store),
+    ))
 }
 
 /// The last pre-rasterization stage of a pipeline: the one whose `Position` is rasterized,
@@ -342,12 +344,20 @@ impl VertexStageFacts<'_> {
         let Some(stage) = self.last_stage else {
             return Err("it has no vertex stage".into());
         };
-        let slot = match self.analysis? {
-            Some(Analysis::Projection(slot)) => Some(slot),
-            Some(Analysis::Unreadable(reason)) => return Err(reason.clone()),
+        // Where naga cannot read the module, no projection is read on the CPU, but the
+        // deriving rewrite (word-level: it needs no naga) may still fit the matrix the stage
+        // loads (Zink's module of glmark2's `terrain`); `unread` says why for the flip path
+        // where it cannot.
+        let (slot, unread) = match self.analysis {
+            Ok(Some(Analysis::Projection(slot))) => (Some(slot), None),
+            Ok(Some(Analysis::Unreadable(reason))) => (None, Some(reason.as_str())),
             // Not from push constants, or a module without push constants; the deriving
             // rewrite has its single vertex entry point.
-            Some(_) | None => None,
+            Ok(Some(_) | None) => (None, None),
+            Err(reason) if reason == MissingFact::UnreadableModule.reason() => {
+                (None, Some("its module as a whole"))
+            }
+            Err(reason) => return Err(reason.into()),
         };
         if !self.carrier_room {
             return self.decide_baked(stage);
@@ -400,6 +410,13 @@ impl VertexStageFacts<'_> {
             Err(Missing::Unsupported(reason)) if projection.is_some() => {
                 return Err(format!("its Position store cannot be rewritten ({reason})"))
             }
+            Err(Missing::Unsupported(reason)) if unread.is_some() => {
+                return Err(format!(
+                    "naga cannot read its vertex module ({}), and its vertex stage cannot \
+                     derive its range ({reason})",
+                    unread.unwrap_or_default()
+                ))
+            }
             Err(Missing::Unsupported(reason)) => {
                 return Err(format!(
                     "its projection is not in push constants, and its vertex stage cannot \
@@ -408,7 +425,10 @@ impl VertexStageFacts<'_> {
             }
         };
         if projection.is_none() && derived.is_none() {
-            return Err("Position does not come from a push-constant matrix".into());
+            return Err(match unread {
+                Some(reason) => format!("naga cannot read its vertex module ({reason})"),
+                None => "Position does not come from a push-constant matrix".into(),
+            });
         }
         // A stage that fits a matrix it loads whole from push constants: the CPU classifies
         // it too (the camera's range where it finds one, the fit otherwise), where the
@@ -507,7 +527,8 @@ mod tests {
     }
 
     #[test]
-    fn a_module_gets_a_position_store_only_with_the_carrier_and_a_readable_analysis() {
+    fn a_module_gets_a_position_store_with_the_carrier_the_deriving_one_where_naga_cannot_read_it()
+    {
         let projection = [Analysis::Projection(slot())];
         let unread = [Analysis::Unreadable("no push constants".into())];
         assert_eq!(
@@ -523,7 +544,11 @@ mod tests {
             Some((64, PositionStore::Deriving))
         );
         assert_eq!(module_position_store(None, Some(&projection)), None);
-        assert_eq!(module_position_store(Some(64), None::<&[Analysis]>), None);
+        // naga could not read the module: the deriving rewrite, which needs no naga.
+        assert_eq!(
+            module_position_store(Some(64), None::<&[Analysis]>),
+            Some((64, PositionStore::Deriving))
+        );
         assert_eq!(module_position_store(None, None::<&[Analysis]>), None);
     }
 
@@ -785,6 +810,36 @@ mod tests {
     }
 
     #[test]
+    fn a_vertex_module_naga_cannot_read_takes_the_deriving_route() {
+        // Zink's module of glmark2's `terrain` (naga: "invalid id"): the module as a whole, or
+        // the entry point's analysis; the deriving rewrite reads the words itself.
+        let entry_unread = Analysis::Unreadable("invalid id %359".into());
+        for analysis in [
+            Err(MissingFact::UnreadableModule.reason()),
+            Ok(Some(&entry_unread)),
+        ] {
+            let facts = VertexStageFacts {
+                analysis,
+                rewrite: Ok(Some(MatrixSource::UniformBuffer)),
+                ..pushed(&Analysis::NoPushConstants)
+            };
+            let range = facts.decide().expect("the derived route");
+            assert_eq!(range.derived, Some(MatrixSource::UniformBuffer));
+            assert_eq!(range.projection, None);
+        }
+        // Other missing facts still say why.
+        let facts = VertexStageFacts {
+            analysis: Err(MissingFact::UnknownModule.reason()),
+            rewrite: Ok(Some(MatrixSource::UniformBuffer)),
+            ..pushed(&Analysis::NoPushConstants)
+        };
+        assert_eq!(
+            facts.decide().unwrap_err(),
+            MissingFact::UnknownModule.reason()
+        );
+    }
+
+    #[test]
     fn a_later_stage_that_derives_its_range_takes_the_precise_path_where_the_carrier_reaches_it() {
         // naga reads no geometry, tessellation or mesh stage: no analysis, the deriving
         // rewrite.
@@ -852,9 +907,11 @@ mod tests {
             (
                 VertexStageFacts {
                     analysis: Err("naga cannot read its vertex module"),
+                    rewrite: Err(Missing::Unsupported(Unsupported("two stores"))),
                     ..base
                 },
-                "naga cannot read",
+                "naga cannot read its vertex module (its module as a whole), and its vertex \
+                 stage cannot derive its range (two stores)",
             ),
             (
                 VertexStageFacts {
@@ -908,7 +965,10 @@ mod tests {
             assert!(got.contains(expected), "{got:?} does not say {expected:?}");
         }
         let unreadable = Analysis::Unreadable("a loop".into());
-        assert_eq!(reason(pushed(&unreadable)), "a loop");
+        assert_eq!(
+            reason(pushed(&unreadable)),
+            "naga cannot read its vertex module (a loop)"
+        );
     }
 
     #[test]

@@ -123,7 +123,8 @@ pub(super) fn rewrite_fragment_module(
 }
 
 /// The shader analysis of a module (at its creation, or of SPIR-V chained into a pipeline
-/// stage): a module naga cannot read is logged once, and its draws take the flip path.
+/// stage): a module naga cannot read is logged once; its projection is then not read on the
+/// CPU, and its stage gets the deriving rewrite (which needs no naga).
 pub(super) fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> ModuleAnalysis {
     // naga reads no tessellation or geometry stage: such a module's projection is not read on
     // the CPU, and its stage gets the deriving rewrite (no entry point analyzed).
@@ -134,8 +135,9 @@ pub(super) fn analyze_vertex_module(module: vk::ShaderModule, words: &[u32]) -> 
     let first = module != vk::ShaderModule::null() || first_inline_report(Report::Analysis, words);
     if let (Err(reason), true) = (&analysis, first) {
         log::warn!(
-            "shader module {module:?} cannot be analyzed ({reason}): its draws into reversed \
-             attachments take the flip path"
+            "shader module {module:?} cannot be analyzed ({reason}): no projection is read \
+             from its push constants on the CPU; its stage derives its range where it can, \
+             and its draws into reversed attachments take the flip path where it cannot"
         );
     }
     analysis
