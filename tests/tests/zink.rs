@@ -309,9 +309,9 @@ fn precise_gain(harness: &Harness, zink: &Zink) {
 fn zink_gets_the_precise_gain_for_a_position_built_from_computed_components() {
     // `vec4(position.x, position.y + u_zero * position.x, position.z, 1.0)` (glmark2's
     // `conditionals`, `function` and `loop` build theirs so): Mesa's NIR multiplies the
-    // matrix's column by a splat of the computed y, no component of a vector. revz fitted no
-    // such product before session 33 (the flip path: 4.0% of sloped-plane wrong in
-    // `infinite`, as without revz).
+    // matrix's column by a splat of the computed y, no component of a vector; and an offset
+    // of w 0 added before the projection (glmark2's `terrain`). revz fitted neither before
+    // session 33 (the flip path: 4.0% of sloped-plane wrong in `infinite`, as without revz).
     let harness = Harness::locate();
     for zink in Zink::all(&harness) {
         // A separable program has no such form here (`gl-render` refuses the two together).

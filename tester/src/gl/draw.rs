@@ -27,9 +27,10 @@ void main() {
 }
 ";
 
-/// [`VERTEX_SHADER`] with the position built from a component it computes (`gl-render
-/// --computed-position`): `u_zero` is never set, so GL's 0 (the same position, bit for bit,
-/// for finite coordinates), which no compiler can fold.
+/// [`VERTEX_SHADER`] with the position built from a component it computes, and an offset of
+/// w 0 added before the projection (`gl-render --computed-position`): `u_zero` is never set,
+/// so GL's 0 (the same position, bit for bit, for finite coordinates), which no compiler can
+/// fold.
 pub const COMPUTED_POSITION_VERTEX_SHADER: &str = "#version 330 core
 layout(location = 0) in vec3 position;
 uniform mat4 u_projection;
@@ -38,7 +39,8 @@ uniform mat4 u_model;
 uniform float u_zero;
 void main() {
     vec4 p = vec4(position.x, position.y + u_zero * position.x, position.z, 1.0);
-    gl_Position = u_projection * u_view * u_model * p;
+    vec4 offset = vec4(u_zero * position, 0.0);
+    gl_Position = u_projection * (u_view * u_model * p + offset);
 }
 ";
 

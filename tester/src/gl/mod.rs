@@ -71,7 +71,9 @@ pub struct GlRenderArgs {
     /// The vertex shader builds the position it projects from components it computed
     /// (`vec4(position.x, position.y + u_zero * position.x, position.z, 1.0)`, `u_zero` left
     /// 0), as glmark2's `conditionals`, `function` and `loop` scenes do: Mesa's NIR splats the
-    /// computed y for its column, not a component of a vector. Not with `--separable`.
+    /// computed y for its column, not a component of a vector; and adds an offset of w 0 in
+    /// view space before the projection (`vec4(u_zero * position, 0.0)`), as glmark2's
+    /// `terrain` displaces its vertices. Not with `--separable`.
     #[arg(long, conflicts_with = "separable")]
     pub computed_position: bool,
 

@@ -220,6 +220,8 @@ pub struct ModuleFacts<'a> {
     pub vectors: &'a HashMap<u32, (u32, u32)>,
     /// 32-bit constants whose word is the bits of 1.0.
     pub ones: &'a HashSet<u32>,
+    /// 32-bit constants whose word is 0 (+0.0, or Zink's uint 0 bitcast to it).
+    pub zeros: &'a HashSet<u32>,
     /// The stage's inputs are vertex attributes (a vertex shader): a fetch of fewer than four
     /// components gives w = 1. A later stage's inputs are what the stage before stored.
     pub inputs_are_attributes: bool,

@@ -39,6 +39,8 @@ struct Defs {
     loops: Vec<(usize, usize)>,
     /// Constants whose one word is the bits of 1.0 (a float, or Zink's uint bitcast to one).
     ones: HashSet<u32>,
+    /// Constants whose one word is 0: +0.0, or Zink's uint 0 bitcast to it.
+    zeros: HashSet<u32>,
     /// `Input` variables (vertex attributes: a fetch of fewer than 4 components gives w = 1).
     inputs: HashSet<u32>,
     /// Input arrays of blocks with a `Position` member, and the member ([`ModuleFacts`]).
@@ -114,6 +116,7 @@ impl Defs {
                 .collect(),
             loops: Vec::new(),
             ones: module.ones.clone(),
+            zeros: module.zeros.clone(),
             inputs: module
                 .variables
                 .iter()
@@ -365,6 +368,9 @@ impl Defs {
                 self.ones.contains(&last)
             }
             (OP_MATRIX_TIMES_VECTOR, &[_, _, _, v]) if through_products => next(v),
+            // An offset whose w is 0 added to the position (`vec4(n * d, 0.0) + p`, a
+            // displacement along the normal): w + 0 is w, exactly.
+            (OP_F_ADD, &[_, _, a, b]) => (self.zero_w(a) && next(b)) || (self.zero_w(b) && next(a)),
             (OP_COPY_OBJECT, &[_, _, source]) => next(source),
             (OP_FUNCTION_CALL, &[_, _, callee, ..]) => self.returned(callee).is_some_and(next),
             (OP_COMPOSITE_EXTRACT, &[_, _, composite, index]) => {
@@ -381,6 +387,16 @@ impl Defs {
                 self.through_local(pointer, self.at_of(vector))
                     .is_some_and(next)
             }
+            _ => false,
+        }
+    }
+
+    /// Whether `vector` is a construct whose last component is the constant +0.0.
+    fn zero_w(&self, vector: u32) -> bool {
+        match self.at.get(&self.unwrapped(vector)) {
+            Some((_, OP_COMPOSITE_CONSTRUCT, operands)) if operands.len() > 2 => operands
+                .last()
+                .is_some_and(|&last| self.zeros.contains(&self.unwrapped(last))),
             _ => false,
         }
     }

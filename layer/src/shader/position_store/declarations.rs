@@ -110,6 +110,9 @@ impl Module {
                     if value == 1.0f32.to_bits() {
                         m.ones.insert(id);
                     }
+                    if value == 0 {
+                        m.zeros.insert(id);
+                    }
                 }
                 (OP_VARIABLE, &[ty, id, class, ..]) => {
                     m.variables.insert(id, (ty, class));
@@ -210,6 +213,7 @@ impl Module {
             vec4,
             vectors: &self.vectors,
             ones: &self.ones,
+            zeros: &self.zeros,
             inputs_are_attributes: self.model == scan_model::VERTEX,
             input_positions,
             int_constants: &self.int_constants,

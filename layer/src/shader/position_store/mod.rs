@@ -255,6 +255,9 @@ struct Module {
     buffer_blocks: HashSet<u32>,
     /// 32-bit constants whose word is the bits of 1.0 (`crate::shader::derived_range`'s w = 1 test).
     ones: HashSet<u32>,
+    /// 32-bit constants whose word is 0, the bits of +0.0 (the w of an offset added to a
+    /// position keeps its w).
+    zeros: HashSet<u32>,
     /// The `GLSL.std.450` extended instruction set (`Fma` in a product written by columns).
     glsl_std: Option<u32>,
     /// Constant composites whose every constituent is 1.0.

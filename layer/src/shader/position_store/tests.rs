@@ -365,6 +365,35 @@ const UBO_PVM: &str = "#version 450
         color = ubo.color;
     }";
 
+/// An offset whose w is 0 added to the position the projection multiplies (a displacement
+/// along the normal in view space, as glmark2's `terrain` does): its w stays 1.
+#[test]
+fn an_offset_of_w_zero_keeps_the_projected_vector_s_w() {
+    let displaced = |w: &str| {
+        format!(
+            "#version 450
+    layout(set = 0, binding = 0) uniform Object {{ mat4 projection; mat4 view; float d; }} ubo;
+    layout(location = 0) in vec3 position;
+    layout(location = 1) in vec3 normal;
+    void main() {{
+        vec4 p = ubo.view * vec4(position, 1.0);
+        gl_Position = ubo.projection * (vec4(normal * ubo.d, {w}) + p);
+    }}"
+        )
+    };
+    let words = compile_glsl(naga::ShaderStage::Vertex, &displaced("0.0"));
+    let (_, source) = derived(&words);
+    assert_eq!(source, MatrixSource::UniformBuffer);
+    // A w of 0.5 added: the vector's w is 1.5.
+    let words = compile_glsl(naga::ShaderStage::Vertex, &displaced("0.5"));
+    assert_eq!(
+        derive_position_store(&words, OFFSET).map(|r| r.map(|r| r.source)),
+        Err(Unsupported(
+            "the vector the projection multiplies may not have w = 1"
+        ))
+    );
+}
+
 #[test]
 fn a_uniform_buffer_projection_is_fitted_from_its_outermost_factor() {
     let words = compile_glsl(naga::ShaderStage::Vertex, UBO_PVM);
@@ -529,6 +558,10 @@ fn zinks_products_of_computed_components_and_of_a_dropped_column_are_fitted() {
         (
             "dropped column",
             include_str!("../test_data/zink_dropped_column.spvasm"),
+        ),
+        (
+            "an offset of w 0",
+            include_str!("../test_data/zink_offset_w_zero.spvasm"),
         ),
     ] {
         let words = zink_module(text);
