@@ -500,6 +500,10 @@ pub struct DeviceObjects {
     /// enabled a later stage: what a geometry or tessellation evaluation stage that projects
     /// `gl_in[i].gl_Position` needs of the stage before.
     pub position_w_one: Table<vk::ShaderModule, bool>,
+    /// Whether each geometry module only passes `gl_in[i].gl_Position` through
+    /// (`crate::shader::position_store::passes_position_through`), where the device enabled
+    /// geometry shaders: the stage before it is then the one the precise path rewrites.
+    pub position_passthrough: Table<vk::ShaderModule, bool>,
     /// The code of each vertex module analyzed (precise modes only; shared with
     /// [`Self::vertex_codes`] where it keeps the code): a pipeline whose layout has no room
     /// for the pushed carrier gets a variant with the carrier baked into this code, made at

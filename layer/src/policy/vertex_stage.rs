@@ -165,6 +165,28 @@ pub enum LastStage {
 }
 
 impl LastStage {
+    /// The stage whose `Position` store the precise path rewrites among a pipeline's `stages`:
+    /// the last pre-rasterization stage ([`Self::of`]), but the stage before a geometry stage
+    /// that only passes the positions it receives through (`geometry_passes_through`: it
+    /// stores `gl_in[i].gl_Position` as it is and reads no z of it otherwise). Its copies keep
+    /// the line `z = k w + B` the stage before stores on, so that stage's rewrite reaches the
+    /// rasterizer unchanged (a wireframe overlay, a layered pass).
+    #[must_use]
+    pub fn rewritten(
+        stages: &[vk::ShaderStageFlags],
+        geometry_passes_through: impl FnOnce() -> bool,
+    ) -> Option<LastStage> {
+        match LastStage::of(stages.iter().copied()) {
+            Some(LastStage::Geometry) if geometry_passes_through() => LastStage::of(
+                stages
+                    .iter()
+                    .copied()
+                    .filter(|&stage| stage != vk::ShaderStageFlags::GEOMETRY),
+            ),
+            last => last,
+        }
+    }
+
     /// The last pre-rasterization stage among a pipeline's `stages` (geometry, else
     /// tessellation evaluation, else mesh or vertex); `None` where it has none of them.
     #[must_use]
@@ -807,6 +829,35 @@ mod tests {
         assert_eq!(of(&[S::TASK_EXT, S::MESH_EXT]), Some(LastStage::Mesh));
         assert_eq!(of(&[S::FRAGMENT]), None);
         assert_eq!(LastStage::Geometry.flag(), S::GEOMETRY);
+    }
+
+    #[test]
+    fn a_geometry_stage_passing_positions_through_hands_the_rewrite_to_the_stage_before() {
+        use vk::ShaderStageFlags as S;
+        let geometry = [S::VERTEX, S::GEOMETRY, S::FRAGMENT];
+        let tessellated = [
+            S::VERTEX,
+            S::TESSELLATION_CONTROL,
+            S::TESSELLATION_EVALUATION,
+            S::GEOMETRY,
+        ];
+        assert_eq!(
+            LastStage::rewritten(&geometry, || true),
+            Some(LastStage::Vertex)
+        );
+        assert_eq!(
+            LastStage::rewritten(&tessellated, || true),
+            Some(LastStage::TessellationEvaluation)
+        );
+        assert_eq!(
+            LastStage::rewritten(&geometry, || false),
+            Some(LastStage::Geometry)
+        );
+        // Only a geometry stage is asked.
+        assert_eq!(
+            LastStage::rewritten(&[S::VERTEX, S::FRAGMENT], || unreachable!()),
+            Some(LastStage::Vertex)
+        );
     }
 
     #[test]

@@ -55,6 +55,12 @@ pub fn declares_vertex_entry_point(words: &[u32]) -> bool {
     declares_entry_point(words, |m| m == model::VERTEX)
 }
 
+/// Whether `words` declare an entry point of the geometry stage. Malformed words answer `true`
+/// (what follows reads them and says so).
+pub fn declares_geometry_entry_point(words: &[u32]) -> bool {
+    declares_entry_point(words, |m| m == model::GEOMETRY)
+}
+
 /// Whether `words` declare an entry point of a stage whose `Position` revz rewrites
 /// ([`model`]): vertex, tessellation evaluation, geometry or mesh. Malformed words answer
 /// `true`, so the analysis or rewrite that follows reports them.

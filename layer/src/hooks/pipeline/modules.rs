@@ -313,6 +313,17 @@ pub unsafe extern "system" fn create_shader_module(
                         .position_w_one
                         .insert(module, position_store::stores_position_w_one(words));
                 }
+                if state
+                    .policy
+                    .carrier_later_stages
+                    .contains(vk::ShaderStageFlags::GEOMETRY)
+                    && crate::shader::scan::declares_geometry_entry_point(words)
+                {
+                    state
+                        .objects
+                        .position_passthrough
+                        .insert(module, position_store::passes_position_through(words));
+                }
                 state.objects.vertex_modules.insert(module, analysis);
             }
         });
@@ -328,6 +339,7 @@ destroy_hook!(
         | vertex_modules
         | position_stores
         | position_w_one
+        | position_passthrough
         | vertex_words
         | input_modules,
     destroy_shader_module

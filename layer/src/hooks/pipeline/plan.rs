@@ -137,8 +137,11 @@ pub(super) fn projection_of(
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
     // The stage whose Position is rasterized: the vertex stage, or a tessellation evaluation
-    // or geometry stage after it, or a mesh stage.
-    let last_stage = vertex_stage::LastStage::of(stages.iter().map(|s| s.stage));
+    // or geometry stage after it, or a mesh stage; the stage before a geometry stage that only
+    // passes its positions through.
+    let flags: Vec<vk::ShaderStageFlags> = stages.iter().map(|s| s.stage).collect();
+    let last_stage =
+        vertex_stage::LastStage::rewritten(&flags, || geometry_passes_through(state, stages));
     let vertex_index =
         last_stage.and_then(|last| stages.iter().position(|s| s.stage == last.flag()));
     let vertex = vertex_index.map(|index| &stages[index]);
@@ -560,6 +563,28 @@ pub(super) fn context(
         compare_op_variants: state.policy.compare_op_variants,
         bias_with_representation: state.commands.set_depth_bias2.is_some(),
     }
+}
+
+/// Whether a pipeline's geometry stage only passes `gl_in[i].gl_Position` through
+/// (`DeviceObjects::position_passthrough`, or its inline code scanned now).
+fn geometry_passes_through(
+    state: &DeviceState,
+    stages: &[vk::PipelineShaderStageCreateInfo<'_>],
+) -> bool {
+    let Some(geometry) = stages
+        .iter()
+        .find(|s| s.stage == vk::ShaderStageFlags::GEOMETRY)
+    else {
+        return false;
+    };
+    if geometry.module != vk::ShaderModule::null() {
+        return state
+            .objects
+            .position_passthrough
+            .get(&geometry.module)
+            .unwrap_or(false);
+    }
+    inline_code(geometry).is_some_and(crate::shader::position_store::passes_position_through)
 }
 
 /// Whether the stage before the last pre-rasterization stage `last` (a geometry stage's

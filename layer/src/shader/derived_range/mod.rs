@@ -196,7 +196,7 @@ pub struct PositionStores {
 }
 
 pub use fit::{CarrierIds, Fit, Types, FIT_IDS, RETURN_IDS};
-pub use trace::{find, stores_unit_w};
+pub use trace::{find, passes_input_position_through, stores_unit_w};
 
 /// What [`find`] needs of the module's declarations.
 #[derive(Debug)]

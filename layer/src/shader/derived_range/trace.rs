@@ -1276,3 +1276,123 @@ pub fn stores_unit_w(words: &[u32], module: &ModuleFacts<'_>, stores: &PositionS
         .iter()
         .all(|&value| defs.unit_w_of(value, 0, false))
 }
+
+/// Whether the stage only passes the previous stage's `Position` through: it stores
+/// `gl_in[i].gl_Position` as loaded (through copies and bitcasts) into every whole `Position`
+/// it stores, stores no component apart, and reads no z of those positions otherwise (x, y and
+/// w it may: a wireframe overlay's edge distances, a culling test). Such a geometry stage
+/// rasterizes the positions the stage before it stored, so that stage's `Position` rewrite
+/// reaches the rasterizer unchanged: a copy keeps the line `z = k w + B` the rewrite stores on.
+/// `false` where it stores none, reads a position through anything else (a variable, a
+/// function, arithmetic), or reaches `gl_in` whole.
+pub fn passes_input_position_through(
+    words: &[u32],
+    module: &ModuleFacts<'_>,
+    stores: &PositionStores,
+) -> bool {
+    if stores.copied || stores.whole.is_empty() || !stores.components.is_empty() {
+        return false;
+    }
+    let Ok(defs) = Defs::read(words, module) else {
+        return false;
+    };
+    let position_stores: HashSet<usize> = stores.whole_at.iter().copied().collect();
+    // Values that hold an input `Position`: its loads, their copies and bitcasts.
+    let mut held: HashSet<u32> = HashSet::new();
+    // Pointers to an input `Position` (loaded whole) or to one of its components other than z.
+    let mut pointers: HashSet<u32> = HashSet::new();
+    let mut word = HEADER_WORDS;
+    for instruction in instructions(words).into_iter().flatten() {
+        let Ok(Instruction { opcode, operands }) = instruction else {
+            return false;
+        };
+        let at = word;
+        word += operands.len() + 1;
+        if at < module.functions_at {
+            continue;
+        }
+        match (opcode, operands) {
+            // An access chain into `gl_in`: to a vertex's `Position`, or to one of its
+            // components (a constant other than z); to another member, nothing of it.
+            (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[_, id, base, ref indices @ ..])
+                if defs.input_positions.contains_key(&base) =>
+            {
+                let position = defs.input_positions[&base];
+                match *indices {
+                    [_vertex, member] if defs.int_constants.get(&member) == Some(&position) => {
+                        pointers.insert(id);
+                    }
+                    [_vertex, member, component]
+                        if defs.int_constants.get(&member) == Some(&position) =>
+                    {
+                        match defs.int_constants.get(&component) {
+                            Some(&c) if c != 2 => {
+                                pointers.insert(id);
+                            }
+                            _ => return false,
+                        }
+                    }
+                    [_vertex, member, ..]
+                        if defs
+                            .int_constants
+                            .get(&member)
+                            .is_some_and(|&m| m != position) => {}
+                    // A vertex's block whole, or a member index that is not constant.
+                    _ => return false,
+                }
+                continue;
+            }
+            (OP_LOAD, &[_, id, pointer, ..]) if pointers.contains(&pointer) => {
+                // A whole position is followed; a component (x, y or w) is an ordinary value.
+                if defs.is_input_position(pointer) {
+                    held.insert(id);
+                }
+                continue;
+            }
+            (OP_COPY_OBJECT | OP_BITCAST, &[_, id, source]) if held.contains(&source) => {
+                held.insert(id);
+                continue;
+            }
+            (OP_STORE, &[pointer, value, ..]) if held.contains(&value) => {
+                if !position_stores.contains(&at) || pointers.contains(&pointer) {
+                    return false;
+                }
+                continue;
+            }
+            (OP_COMPOSITE_EXTRACT, &[_, _, composite, ref indices @ ..])
+                if held.contains(&composite) =>
+            {
+                if !matches!(indices, [0 | 1 | 3]) {
+                    return false;
+                }
+                continue;
+            }
+            (OP_VECTOR_SHUFFLE, &[_, _, first, second, ref components @ ..])
+                if held.contains(&first) || held.contains(&second) =>
+            {
+                let Some(first_count) = defs.components(first) else {
+                    return false;
+                };
+                let reads_z = components.iter().any(|&c| {
+                    (held.contains(&first) && c == 2)
+                        || (held.contains(&second) && c.checked_sub(first_count) == Some(2))
+                });
+                if reads_z {
+                    return false;
+                }
+                continue;
+            }
+            _ => {}
+        }
+        // Any other use of a held position or of a pointer to one (an argument, arithmetic,
+        // a store into a variable), or of `gl_in` itself: not only passed through.
+        if operands.iter().any(|operand| {
+            held.contains(operand)
+                || pointers.contains(operand)
+                || defs.input_positions.contains_key(operand)
+        }) {
+            return false;
+        }
+    }
+    stores.whole.iter().all(|value| held.contains(value))
+}

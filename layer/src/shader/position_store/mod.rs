@@ -167,6 +167,32 @@ pub fn stores_position_w_one(words: &[u32]) -> bool {
     derived_range::stores_unit_w(words, &module.facts(vec4, &input_positions), &body.stores)
 }
 
+/// Whether the module's entry point only passes the previous stage's `Position` through
+/// (`derived_range::passes_input_position_through`): a geometry stage that copies
+/// `gl_in[i].gl_Position` into each vertex it emits, reading no z of it otherwise. `false` for a
+/// module revz cannot read, or that stores no `Position`. Never panics.
+pub fn passes_position_through(words: &[u32]) -> bool {
+    let words = &*copies::position_copies_as_stores(words);
+    let Ok(Some(module)) = Module::read(words) else {
+        return false;
+    };
+    let Ok(Some(position)) = module.position() else {
+        return false;
+    };
+    let Some(vec4) = module.position_vec4(position) else {
+        return false;
+    };
+    let Ok(body) = body::Body::read(&module, words, position) else {
+        return false;
+    };
+    let input_positions = module.input_positions();
+    derived_range::passes_input_position_through(
+        words,
+        &module.facts(vec4, &input_positions),
+        &body.stores,
+    )
+}
+
 /// A rewritten module, and the leaf its fit reads (deriving rewrites).
 type Rewritten = (Vec<u32>, Option<derived_range::Leaf>);
 

@@ -1303,3 +1303,39 @@ fn a_register_copied_into_position_as_vkd3d_shader_writes_it_is_fitted() {
         Unsupported("Position is copied as memory")
     );
 }
+
+/// A geometry stage that only passes `gl_in[i].gl_Position` through (glslang): the stage before
+/// it is the one to rewrite. Reading x, y and w of the positions (a wireframe overlay's edge
+/// distances) keeps it so; reading z, or emitting a computed position, does not.
+#[test]
+fn a_geometry_stage_passing_the_positions_through_is_told_from_one_that_computes_with_them() {
+    let passes = |bytes: &[u8]| passes_position_through(&binary(bytes));
+    assert!(passes(include_bytes!(
+        "../test_data/geometry_passthrough.spv"
+    )));
+    assert!(passes(include_bytes!(
+        "../test_data/geometry_wireframe.spv"
+    )));
+    assert!(!passes(include_bytes!("../test_data/geometry_reads_z.spv")));
+    assert!(!passes(include_bytes!(
+        "../test_data/geometry_midpoint.spv"
+    )));
+    // A geometry stage that projects its input (`view_proj * gl_in[i].gl_Position`), and a
+    // vertex stage: neither passes positions through.
+    assert!(!passes(include_bytes!(
+        "../test_data/geometry_clip_input.spv"
+    )));
+    assert!(!passes_position_through(&compile_glsl(
+        naga::ShaderStage::Vertex,
+        UBO_PVM
+    )));
+    // Malformed words: no.
+    assert!(!passes_position_through(&[
+        0x0723_0203,
+        0x0001_0000,
+        0,
+        10,
+        0,
+        0xffff_0001
+    ]));
+}
