@@ -743,12 +743,16 @@ pub fn create_pipeline(
             (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG))
         }
         Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::UboPassthroughGeometry => (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::PushGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::SCENE_FRAG)),
         Program::UboTessellation => (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG)),
     };
     // The stages between the vertex and fragment stages, where the program projects there.
     let later: &[(vk::ShaderStageFlags, shaders::ShaderSource)] = match spec.program {
         Program::UboGeometry => &[(vk::ShaderStageFlags::GEOMETRY, shaders::UBO_GEOM)],
+        Program::UboPassthroughGeometry => {
+            &[(vk::ShaderStageFlags::GEOMETRY, shaders::PASSTHROUGH_GEOM)]
+        }
         Program::PushGeometry => &[(vk::ShaderStageFlags::GEOMETRY, shaders::PUSH_GEOM)],
         Program::UboTessellation => &[
             (

@@ -111,6 +111,9 @@ pub const UBO_POSITION_VERT: ShaderSource = glslang_shader!("ubo_position.vert")
 /// geometry shader (the vertex stage's position, w = 1), emitting each triangle as it is from
 /// a loop over its vertices; passes the color on.
 pub const UBO_GEOM: ShaderSource = glslang_shader!("ubo.geom");
+/// `passthrough.geom` (glslang): passes each triangle of `ubo.vert`'s projected positions
+/// through as it is (`gl_Position = gl_in[i].gl_Position`), with its color.
+pub const PASSTHROUGH_GEOM: ShaderSource = glslang_shader!("passthrough.geom");
 /// `push.geom` (glslang): `scene.vert`'s push constants, `pc.mvp * gl_in[i].gl_Position` in a
 /// geometry shader (the vertex stage's position, w = 1), emitted in a loop.
 pub const PUSH_GEOM: ShaderSource = glslang_shader!("push.geom");
@@ -231,6 +234,7 @@ pub const ALL: &[ShaderSource] = &[
     UBO_LATER_VERT,
     UBO_POSITION_VERT,
     UBO_GEOM,
+    PASSTHROUGH_GEOM,
     PUSH_GEOM,
     PASSTHROUGH_TESC,
     UBO_TESE,
@@ -258,6 +262,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("ubo_later.vert", UBO_LATER_VERT),
     ("ubo_position.vert", UBO_POSITION_VERT),
     ("ubo.geom", UBO_GEOM),
+    ("passthrough.geom", PASSTHROUGH_GEOM),
     ("push.geom", PUSH_GEOM),
     ("passthrough.tesc", PASSTHROUGH_TESC),
     ("ubo.tese", UBO_TESE),
@@ -516,6 +521,7 @@ mod tests {
             (UBO_LATER_VERT, UNIFORM, 0),
             (UBO_POSITION_VERT, UNIFORM, 0),
             (UBO_GEOM, UNIFORM, 1),
+            (PASSTHROUGH_GEOM, UNIFORM, 0),
             (PASSTHROUGH_TESC, UNIFORM, 0),
             (UBO_TESE, UNIFORM, 1),
             // glslang for Vulkan 1.0 (SPIR-V 1.0): a `BufferBlock` in the Uniform class.

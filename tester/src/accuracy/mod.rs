@@ -112,6 +112,8 @@ pub enum DeliveryChoice {
     PushGeometry,
     /// The blocks of ubo, applied in a geometry shader.
     UboGeometry,
+    /// ubo, its projected positions passed through a geometry shader.
+    UboPassthroughGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
     /// The push constants of push, the flat program bound as vertex and fragment shader
@@ -122,7 +124,8 @@ pub enum DeliveryChoice {
     /// mesh's shader as a shader object (needs VK_EXT_shader_object and VK_EXT_mesh_shader).
     MeshShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns, ssbo-vkd3d,
-    /// ubo-geometry and ubo-tessellation (not shader-objects, mesh nor mesh-shader-objects,
+    /// ubo-geometry, ubo-passthrough-geometry and ubo-tessellation (not shader-objects, mesh nor
+    /// mesh-shader-objects,
     /// which need extensions).
     All,
 }
@@ -142,6 +145,7 @@ impl DeliveryChoice {
             DeliveryChoice::PushFull => &[Delivery::PushFull],
             DeliveryChoice::PushGeometry => &[Delivery::PushGeometry],
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
+            DeliveryChoice::UboPassthroughGeometry => &[Delivery::UboPassthroughGeometry],
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
             DeliveryChoice::ShaderObjects => &[Delivery::ShaderObjects],
             DeliveryChoice::Mesh => &[Delivery::Mesh],
@@ -250,7 +254,8 @@ pub struct Selection {
 
     /// Projection deliveries (comma-separated): push, push-split, push-full, push-geometry, ubo,
     /// ubo-dynamic, ssbo,
-    /// ssbo-rows, ssbo-registers, ssbo-columns, ubo-geometry, ubo-tessellation, or all. The deliveries other than push are
+    /// ssbo-rows, ssbo-registers, ssbo-columns, ubo-geometry, ubo-passthrough-geometry,
+    /// ubo-tessellation, or all. The deliveries other than push are
     /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.
     /// Default: push.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "DELIVERIES")]

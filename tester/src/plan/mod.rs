@@ -254,6 +254,10 @@ pub enum Program {
     /// the buffers of [`Program::Ubo`], the product applied in a geometry shader to the
     /// vertex stage's `gl_Position`.
     UboGeometry,
+    /// `ubo.vert` + `passthrough.geom` + `flat_color.frag` (the `ubo-passthrough-geometry`
+    /// [`Delivery`]): [`Program::Ubo`], its projected positions passed through a geometry
+    /// shader as they are.
+    UboPassthroughGeometry,
     /// `ubo_later.vert` + `passthrough.tesc` + `ubo.tese` + `flat_color.frag` (the
     /// `ubo-tessellation` [`Delivery`]): the buffers of [`Program::Ubo`], the product applied
     /// in a tessellation evaluation shader (patches of three points, every level 1).
@@ -338,6 +342,9 @@ pub enum Delivery {
     /// The blocks of [`Delivery::Ubo`], applied in a geometry shader
     /// ([`Program::UboGeometry`]).
     UboGeometry,
+    /// [`Delivery::Ubo`]'s projected positions passed through a geometry shader as they are
+    /// ([`Program::UboPassthroughGeometry`]).
+    UboPassthroughGeometry,
     /// The blocks of [`Delivery::Ubo`], applied in a tessellation evaluation shader
     /// ([`Program::UboTessellation`]).
     UboTessellation,
@@ -355,7 +362,7 @@ pub enum Delivery {
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 16] = [
+    pub const ALL: [Delivery; 17] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -368,6 +375,7 @@ impl Delivery {
         Delivery::SsboColumns,
         Delivery::SsboVkd3d,
         Delivery::UboGeometry,
+        Delivery::UboPassthroughGeometry,
         Delivery::UboTessellation,
         Delivery::ShaderObjects,
         Delivery::Mesh,
@@ -397,6 +405,7 @@ impl Delivery {
             Delivery::PushFull => "push-full",
             Delivery::PushGeometry => "push-geometry",
             Delivery::UboGeometry => "ubo-geometry",
+            Delivery::UboPassthroughGeometry => "ubo-passthrough-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
             Delivery::ShaderObjects => "shader-objects",
             Delivery::Mesh => "mesh",
@@ -420,6 +429,7 @@ impl Delivery {
             Delivery::PushFull => Some(Program::FullPush),
             Delivery::PushGeometry => Some(Program::PushGeometry),
             Delivery::UboGeometry => Some(Program::UboGeometry),
+            Delivery::UboPassthroughGeometry => Some(Program::UboPassthroughGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
             Delivery::ShaderObjects => Some(Program::ShaderObjects),
             Delivery::Mesh => Some(Program::Mesh),
@@ -446,7 +456,10 @@ impl Program {
     /// the push-constant programs.
     pub fn buffers(self) -> Option<Program> {
         match self {
-            Program::Ubo | Program::UboGeometry | Program::UboTessellation => Some(Program::Ubo),
+            Program::Ubo
+            | Program::UboGeometry
+            | Program::UboPassthroughGeometry
+            | Program::UboTessellation => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
             Program::SsboRows
             | Program::SsboRegisters
@@ -485,6 +498,7 @@ impl Program {
             | Program::SsboColumns
             | Program::SsboVkd3d
             | Program::UboGeometry
+            | Program::UboPassthroughGeometry
             | Program::UboTessellation => 0,
             Program::MvpPair => 128,
             Program::Flat
@@ -1239,7 +1253,7 @@ impl Plan {
             needs.depth_clip_enable |= pipeline.program.clamps_with_clip();
             needs.geometry_shader |= matches!(
                 pipeline.program,
-                Program::UboGeometry | Program::PushGeometry
+                Program::UboGeometry | Program::UboPassthroughGeometry | Program::PushGeometry
             );
             needs.tessellation_shader |= pipeline.program == Program::UboTessellation;
             needs.shader_object |= matches!(

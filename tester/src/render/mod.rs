@@ -710,6 +710,7 @@ impl<'a> Renderer<'a> {
             | Program::SsboColumns
             | Program::SsboVkd3d
             | Program::UboGeometry
+            | Program::UboPassthroughGeometry
             | Program::UboTessellation => (self.matrix_layout, vk::ShaderStageFlags::empty()),
             Program::Flat
             | Program::DepthOnly

@@ -241,6 +241,7 @@ impl Scene {
             | Program::SsboColumns
             | Program::SsboVkd3d
             | Program::UboGeometry
+            | Program::UboPassthroughGeometry
             | Program::UboTessellation => Vec::new(),
         };
         debug_assert_eq!(values.len() * 4, program.push_constant_size() as usize);

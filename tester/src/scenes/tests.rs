@@ -1522,7 +1522,12 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                     let needs = taken.plan.needs();
                     assert_eq!(
                         needs.geometry_shader,
-                        matches!(delivery, Delivery::UboGeometry | Delivery::PushGeometry)
+                        matches!(
+                            delivery,
+                            Delivery::UboGeometry
+                                | Delivery::UboPassthroughGeometry
+                                | Delivery::PushGeometry
+                        )
                     );
                     assert_eq!(
                         needs.tessellation_shader,
