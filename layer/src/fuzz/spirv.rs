@@ -52,6 +52,8 @@ const LATER_STAGE_SEEDS: &[&[u8]] = &[
     include_bytes!("../shader/test_data/rows_dot.spv"),
     include_bytes!("../shader/test_data/columns_fma.spv"),
     include_bytes!("../shader/test_data/function_call.spv"),
+    include_bytes!("../../../shaders/glslang/passthrough.geom.spv"),
+    include_bytes!("../shader/test_data/geometry_wireframe.spv"),
 ];
 
 const FRAGMENT_SEEDS: &[&[u8]] = seed_files!(
@@ -455,6 +457,10 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
         Ok(None) => "unchanged".to_owned(),
         Err(reason) => reason.0.to_owned(),
     };
+    // The facts a later stage's pipeline asks of a module never panic either (and a module
+    // that passes its positions through stores some).
+    let w_one = crate::shader::position_store::stores_position_w_one(&words);
+    let passes = crate::shader::position_store::passes_position_through(&words);
     let entries_shape = match &entries {
         Ok(list) => list
             .iter()
@@ -470,6 +476,8 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
         stored,
         derived,
         baked,
+        w_one,
+        passes,
     )))
 }
 
