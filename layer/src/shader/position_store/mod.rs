@@ -150,21 +150,7 @@ pub fn derive_position_store_reading(
 /// ([`DerivingRewrite::assumes_input_unit_w`]). `false` for a module revz cannot read, or
 /// that stores no `Position`. Never panics.
 pub fn stores_position_w_one(words: &[u32]) -> bool {
-    let words = &*copies::position_copies_as_stores(words);
-    let Ok(Some(module)) = Module::read(words) else {
-        return false;
-    };
-    let Ok(Some(position)) = module.position() else {
-        return false;
-    };
-    let Some(vec4) = module.position_vec4(position) else {
-        return false;
-    };
-    let Ok(body) = body::Body::read(&module, words, position) else {
-        return false;
-    };
-    let input_positions = module.input_positions();
-    derived_range::stores_unit_w(words, &module.facts(vec4, &input_positions), &body.stores)
+    position_stores_answer(words, derived_range::stores_unit_w)
 }
 
 /// Whether the module's entry point only passes the previous stage's `Position` through
@@ -172,6 +158,19 @@ pub fn stores_position_w_one(words: &[u32]) -> bool {
 /// `gl_in[i].gl_Position` into each vertex it emits, reading no z of it otherwise. `false` for a
 /// module revz cannot read, or that stores no `Position`. Never panics.
 pub fn passes_position_through(words: &[u32]) -> bool {
+    position_stores_answer(words, derived_range::passes_input_position_through)
+}
+
+/// What `question` answers of the module's `Position` stores (its copies taken as stores);
+/// `false` for a module revz cannot read, or that stores no `Position`.
+fn position_stores_answer(
+    words: &[u32],
+    question: impl FnOnce(
+        &[u32],
+        &derived_range::ModuleFacts<'_>,
+        &derived_range::PositionStores,
+    ) -> bool,
+) -> bool {
     let words = &*copies::position_copies_as_stores(words);
     let Ok(Some(module)) = Module::read(words) else {
         return false;
@@ -186,11 +185,7 @@ pub fn passes_position_through(words: &[u32]) -> bool {
         return false;
     };
     let input_positions = module.input_positions();
-    derived_range::passes_input_position_through(
-        words,
-        &module.facts(vec4, &input_positions),
-        &body.stores,
-    )
+    question(words, &module.facts(vec4, &input_positions), &body.stores)
 }
 
 /// A rewritten module, and the leaf its fit reads (deriving rewrites).
