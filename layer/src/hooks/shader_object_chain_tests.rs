@@ -1222,26 +1222,29 @@ fn an_infinite_mode_clamp_without_clipping_binds_the_app_shader_and_clipping_bri
     };
     fx.render(buffer, reversed, 1);
     assert_eq!(vertex_bound(&fx.events()), Some(variant), "precise");
-    // SAFETY: a recording command buffer.
-    unsafe { (fx.hooks.cmd_set_depth_clamp_enable)(buffer, vk::TRUE) };
-    fx.render(buffer, reversed, 1);
-    let events = fx.events();
-    assert!(
-        events.contains(&Event::SetDepthClampEnable(true)),
-        "{events:#?}"
+    // Turns a switch on through its hook and renders: what went down, the switch's command
+    // among it as the application made it.
+    let switched_on = |set: unsafe extern "system" fn(vk::CommandBuffer, vk::Bool32),
+                       sent: Event| {
+        // SAFETY: a recording command buffer.
+        unsafe { set(buffer, vk::TRUE) };
+        fx.render(buffer, reversed, 1);
+        let events = fx.events();
+        assert!(events.contains(&sent), "{events:#?}");
+        events
+    };
+    let events = switched_on(
+        fx.hooks.cmd_set_depth_clamp_enable,
+        Event::SetDepthClampEnable(true),
     );
     assert_eq!(
         vertex_bound(&events),
         Some(vertex),
         "clamped, not clipped: flip"
     );
-    // SAFETY: as above.
-    unsafe { (fx.hooks.cmd_set_depth_clip_enable)(buffer, vk::TRUE) };
-    fx.render(buffer, reversed, 1);
-    let events = fx.events();
-    assert!(
-        events.contains(&Event::SetDepthClipEnable(true)),
-        "{events:#?}"
+    let events = switched_on(
+        fx.hooks.cmd_set_depth_clip_enable,
+        Event::SetDepthClipEnable(true),
     );
     assert_eq!(
         vertex_bound(&events),

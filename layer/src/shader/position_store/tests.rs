@@ -1272,34 +1272,36 @@ fn a_register_copied_into_position_as_vkd3d_shader_writes_it_is_fitted() {
     let plain = rewrite_position_store(&words, OFFSET).unwrap().unwrap();
     validate(&plain);
     assert_carrier(&plain);
+    // Why the deriving rewrite refuses the module with `from` replaced by `to` (which must
+    // change it).
+    let refusal = |from: &str, to: &str| {
+        let edited = REGISTER_COPIED.replace(from, to);
+        assert_ne!(edited, REGISTER_COPIED);
+        derive_position_store(&assemble(&edited), OFFSET).unwrap_err()
+    };
     // A component store between the register's last whole store and the copy: what is copied
     // is not the product's value.
-    let between = REGISTER_COPIED.replace(
-        "               OpCopyMemory %o0 %r0\n",
-        "               OpStore %r0x %vx\n               OpCopyMemory %o0 %r0\n",
-    );
-    assert_ne!(between, REGISTER_COPIED);
     assert_eq!(
-        derive_position_store(&assemble(&between), OFFSET).unwrap_err(),
+        refusal(
+            "               OpCopyMemory %o0 %r0\n",
+            "               OpStore %r0x %vx\n               OpCopyMemory %o0 %r0\n",
+        ),
         Unsupported("Position is not a matrix times a vector")
     );
     // The last column's splat from a register whose w is not known to be 1: refused.
-    let register_w = REGISTER_COPIED.replace(
-        "%wwww = OpVectorShuffle %vec4 %l6 %l6 3 3 3 3",
-        "%wwww = OpVectorShuffle %vec4 %l2 %l2 3 3 3 3",
-    );
-    assert_ne!(register_w, REGISTER_COPIED);
     assert_eq!(
-        derive_position_store(&assemble(&register_w), OFFSET).unwrap_err(),
+        refusal(
+            "%wwww = OpVectorShuffle %vec4 %l6 %l6 3 3 3 3",
+            "%wwww = OpVectorShuffle %vec4 %l2 %l2 3 3 3 3",
+        ),
         Unsupported("the vector the projection multiplies may not have w = 1")
     );
     // A copy of another type, or with memory operands, is left as a copy: refused as before.
-    let aligned = REGISTER_COPIED.replace(
-        "               OpCopyMemory %o0 %r0\n",
-        "               OpCopyMemory %o0 %r0 Aligned 16\n",
-    );
     assert_eq!(
-        derive_position_store(&assemble(&aligned), OFFSET).unwrap_err(),
+        refusal(
+            "               OpCopyMemory %o0 %r0\n",
+            "               OpCopyMemory %o0 %r0 Aligned 16\n",
+        ),
         Unsupported("Position is copied as memory")
     );
 }
