@@ -702,7 +702,9 @@ pub fn create_pipeline(
     let (vertex, fragment) = match spec.program {
         // A pipeline of the shader-object program's shaders (the renderer binds them as
         // shader objects instead).
-        Program::Flat | Program::ShaderObjects => (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG)),
+        Program::Flat | Program::ShaderObjects | Program::LinkedShaderObjects => {
+            (shaders::SCENE_VERT, Some(shaders::SCENE_FRAG))
+        }
         // The mesh stage in the vertex stage's place (`first_stage` below).
         Program::Mesh | Program::MeshShaderObjects => {
             (shaders::MESH_MESH, Some(shaders::SCENE_FRAG))

@@ -6,6 +6,11 @@
 //!   carrier as a pipeline layout's do, so revz gives the vertex shader a variant storing
 //!   `Position` through the pushed carrier (`layer/src/hooks/shader_object.rs`), binds it for
 //!   precise-path draws and classifies each pushed matrix on the CPU, as for pipelines.
+//! - `--delivery linked-shader-objects` creates those two shaders linked, in one
+//!   `vkCreateShadersEXT` call with `VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`: revz sends the set
+//!   down unlinked (and its variant with it), so that its vertex shader's variant can be bound
+//!   alone; the renders are `shader-objects`' (session 34; before, a linked set took the flip
+//!   path).
 //! - `--delivery mesh` applies the flat program's pushed MVP in a mesh shader
 //!   (`VK_EXT_mesh_shader`, `shaders/glslang/mesh.mesh`) that fetches each draw's triangles
 //!   from storage buffers and stores each vertex's `gl_MeshVerticesEXT[i].gl_Position` in a
@@ -54,8 +59,12 @@ use std::path::Path;
 use revz_tests::{differing_pixels, native_colors_problems, Harness, Render};
 
 /// The deliveries, and the debug log line that says a precise-path stage was made for each.
-const DELIVERIES: [(&str, &str); 3] = [
+const DELIVERIES: [(&str, &str); 4] = [
     ("shader-objects", "stores its depth for precise-path draws"),
+    (
+        "linked-shader-objects",
+        "stores its depth for precise-path draws",
+    ),
     (
         "mesh",
         "its mesh stage, which derives the range from the matrix it loads",
@@ -76,7 +85,7 @@ fn binds_shader_objects(delivery: &str) -> bool {
 /// theirs, in every mode.
 fn pipeline_twin(delivery: &str) -> Option<&'static str> {
     match delivery {
-        "shader-objects" => Some("push"),
+        "shader-objects" | "linked-shader-objects" => Some("push"),
         "mesh-shader-objects" => Some("mesh"),
         _ => None,
     }
@@ -192,7 +201,7 @@ fn report(harness: &Harness, out: &Path) -> serde_json::Value {
         "--formats",
         "d16,x8-d24,d24-s8,d32,d32-s8",
         "--deliveries",
-        "push,shader-objects,mesh,mesh-shader-objects",
+        "push,shader-objects,linked-shader-objects,mesh,mesh-shader-objects",
     ];
     harness.report(out, &args, true)
 }

@@ -18,14 +18,18 @@
 //!   application's handles and result are never touched. A variant whose application shader
 //!   was not created is destroyed again; the application's handles are only read on `SUCCESS`
 //!   and `INCOMPATIBLE_SHADER_BINARY_EXT`, where every one is written.
-//! - Linked shaders (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`) get no variant: the stages of a
-//!   linked set are compiled together and must be bound together, so a fragment variant would
-//!   need the whole set re-created (variants of every stage) and every stage of it swapped at
-//!   draw time, tracked per stage and per command buffer; an application that binds one stage
-//!   of the set alone would have revz break the rule the application kept. Such a fragment
-//!   shader that computes with depth keeps standard depth in reversed attachments (marked,
-//!   warned once at draw, as a pipeline's unreversed fragment shader is). Linking is an
-//!   optimization the application can turn off.
+//! - Linked shaders (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`): the stages of a linked set are
+//!   compiled together and must be bound together, so a variant of one could not be bound in
+//!   its place alone. Where some shader of the set gets a variant, the call goes down unlinked
+//!   (its variants too: `policy::pipelines::LinkedSet`), and every shader of it is then an
+//!   unlinked one like the others. Linking is an optimization: the shaders compute the same,
+//!   and an application that binds every shader of its set (as it must) binds valid unlinked
+//!   shaders, each with the `nextStage` the link required. A set with tessellation stages
+//!   keeps its link (their tessellation modes may be declared in the control stage alone):
+//!   such a fragment shader that computes with depth keeps standard depth in reversed
+//!   attachments (marked, warned once at draw, as a pipeline's unreversed fragment shader
+//!   is), and its last pre-rasterization stage takes the flip path. Linked binary code keeps
+//!   its link too (nothing of it can be rewritten).
 //! - Binary code (`VK_SHADER_CODE_TYPE_BINARY_EXT`) cannot be read or rewritten: binary fragment
 //!   shaders get no variant and are marked as keeping standard depth (they may not compute
 //!   with depth at all; logged once).
@@ -45,7 +49,7 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::command_state::{PipelineDepth, States};
 use crate::objects::{FragmentShader, PositionShader};
 use crate::policy::pipelines::{
-    FragmentStage, FragmentVariant, PipelinePath, ShaderObjectPlan, ShaderObjectPosition,
+    FragmentStage, FragmentVariant, LinkedSet, PipelinePath, ShaderObjectPlan, ShaderObjectPosition,
 };
 use crate::policy::vertex_stage::{
     entry_point_analysis, LastStage, Missing, MissingFact, VertexStageFacts,
@@ -78,6 +82,13 @@ enum Plan {
     PositionFlip,
 }
 
+impl Plan {
+    /// Whether the plan makes a variant of the shader.
+    fn makes_variant(&self) -> bool {
+        matches!(self, Plan::Variant(_) | Plan::Pushed(..) | Plan::Baked(_))
+    }
+}
+
 /// What revz made of one create info.
 #[derive(Clone, Debug)]
 enum Made {
@@ -101,8 +112,24 @@ fn app_ranges<'a>(info: &vk::ShaderCreateInfoEXT<'a>) -> &'a [vk::PushConstantRa
     unsafe { slice(info.p_push_constant_ranges, info.push_constant_range_count) }
 }
 
+/// Whether a create info is part of its call's linked set.
+fn is_linked(info: &vk::ShaderCreateInfoEXT<'_>) -> bool {
+    info.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE)
+}
+
+/// The linked set of a `vkCreateShadersEXT` call's create infos (empty stages where the call
+/// links nothing).
+fn linked_set(infos: &[vk::ShaderCreateInfoEXT<'_>]) -> LinkedSet {
+    let linked = || infos.iter().filter(|info| is_linked(info));
+    LinkedSet {
+        stages: linked().fold(vk::ShaderStageFlags::empty(), |all, info| all | info.stage),
+        spirv: linked().all(|info| info.code_type == vk::ShaderCodeTypeEXT::SPIRV),
+    }
+}
+
 /// The plan of one create info: a fragment shader's from what the policy gives its code
-/// ([`FragmentStage::variant`]; a shader of a linked set gets no variant), a
+/// ([`FragmentStage::variant`]; a shader of a set that keeps its link, `linked`, gets no
+/// variant), a
 /// pre-rasterization shader's, where the mode rewrites, from
 /// [`ShaderObjectPosition::decide`]. `info` has revz's carrier reserved in its ranges where
 /// `reserved` says so; `ranges` are the application's.
@@ -112,10 +139,11 @@ fn plan(
     info: &vk::ShaderCreateInfoEXT<'_>,
     ranges: &[vk::PushConstantRange],
     reserved: Option<&Reserved>,
+    linked: bool,
 ) -> Plan {
     let rewriting = state.policy.rewrite().is_some();
     if rewriting && crate::command_state::POSITION_STAGES.contains(&info.stage) {
-        return position_plan(state, device, info, ranges, reserved);
+        return position_plan(state, device, info, ranges, reserved, linked);
     }
     if info.stage != vk::ShaderStageFlags::FRAGMENT {
         return Plan::Nothing;
@@ -144,7 +172,6 @@ fn plan(
         // Code of a type revz does not know: left alone.
         _ => return Plan::Nothing,
     };
-    let linked = info.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE);
     match (stage.variant(!linked), rewritten) {
         (FragmentVariant::Rewritten, Some(code)) => Plan::Variant(code.into()),
         (FragmentVariant::Unchanged | FragmentVariant::Rewritten, _) => Plan::Nothing,
@@ -164,8 +191,9 @@ fn plan(
                     static LINKED: crate::logging::LogOnce = crate::logging::LogOnce::new();
                     LINKED.log(|| {
                         log::warn!(
-                            "a linked fragment shader object (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) \
-                             computes with depth: revz does not re-create linked sets, so its \
+                            "a fragment shader object linked with tessellation stages \
+                             (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) computes with depth: revz \
+                             keeps such sets linked, so its \
                              draws into reversed attachments keep standard depth (create it \
                              unlinked to have it reversed)"
                         )
@@ -193,13 +221,13 @@ fn position_plan(
     info: &vk::ShaderCreateInfoEXT<'_>,
     ranges: &[vk::PushConstantRange],
     reserved: Option<&Reserved>,
+    linked: bool,
 ) -> Plan {
     let spirv = match info.code_type {
         vk::ShaderCodeTypeEXT::SPIRV => true,
         vk::ShaderCodeTypeEXT::BINARY => false,
         _ => return Plan::Nothing,
     };
-    let linked = info.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE);
     let words = spirv.then(|| {
         // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's contract).
         unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) }
@@ -396,7 +424,7 @@ pub unsafe extern "system" fn create_shaders_ext(
         },
         Vec::new,
     );
-    let modified: Vec<vk::ShaderCreateInfoEXT<'_>> = app_infos
+    let mut modified: Vec<vk::ShaderCreateInfoEXT<'_>> = app_infos
         .iter()
         .enumerate()
         .map(
@@ -410,8 +438,54 @@ pub unsafe extern "system" fn create_shaders_ext(
             },
         )
         .collect();
+    // The call's linked set: planned as unlinked shaders where it may go down unlinked, and
+    // sent unlinked where one of its shaders then gets a variant (`LinkedSet::unlinks`), so
+    // that each variant can be bound in its shader's place alone.
+    let linked_set = linked_set(app_infos);
+    let keeps_link = !linked_set.stages.is_empty() && !linked_set.may_unlink();
+    // Each create info's plan (before any variant is made).
+    let plans: Vec<Plan> = guarded(
+        &CREATE_SHADERS,
+        || {
+            if !crate::policy::pipelines::shader_object_variants(state.policy.is_active()) {
+                return Vec::new();
+            }
+            modified
+                .iter()
+                .enumerate()
+                .map(|(index, info)| {
+                    let reserved = reserved.get(index).and_then(Option::as_ref);
+                    let linked = keeps_link && is_linked(info);
+                    plan(
+                        &state,
+                        device,
+                        info,
+                        app_ranges(&app_infos[index]),
+                        reserved,
+                        linked,
+                    )
+                })
+                .collect()
+        },
+        Vec::new,
+    );
+    let unlink = linked_set.unlinks(plans.iter().any(Plan::makes_variant));
+    if unlink {
+        static UNLINKED: crate::logging::LogOnce = crate::logging::LogOnce::new();
+        UNLINKED.log(|| {
+            log::info!(
+                "shader objects created linked (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) go down \
+                 unlinked, so that revz can bind its variants of them one stage at a time for \
+                 draws into reversed attachments (linking lets the driver optimize across the \
+                 stages; the shaders compute the same without it)"
+            )
+        });
+        for info in &mut modified {
+            info.flags &= !vk::ShaderCreateFlagsEXT::LINK_STAGE;
+        }
+    }
     let infos = &modified[..];
-    let p_create_infos = if reserved.is_empty() {
+    let p_create_infos = if reserved.is_empty() && !unlink {
         p_create_infos
     } else {
         modified.as_ptr()
@@ -424,20 +498,10 @@ pub unsafe extern "system" fn create_shaders_ext(
     guarded(
         &CREATE_SHADERS,
         || {
-            if !crate::policy::pipelines::shader_object_variants(state.policy.is_active()) {
-                return;
-            }
             static FRAGMENT_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
             static POSITION_FAILED: crate::logging::LogOnce = crate::logging::LogOnce::new();
-            for (index, info) in infos.iter().enumerate() {
-                let reserved = reserved.get(index).and_then(Option::as_ref);
-                let one = match plan(
-                    &state,
-                    device,
-                    info,
-                    app_ranges(&app_infos[index]),
-                    reserved,
-                ) {
+            for (info, plan) in infos.iter().zip(plans) {
+                let one = match plan {
                     Plan::Nothing => None,
                     Plan::Unreversed => Some(Made::Fragment(FragmentShader::Unreversed)),
                     Plan::Variant(code) => Some(Made::Fragment(

@@ -394,6 +394,75 @@ fn a_frag_depth_fragment_shader_object_gets_a_variant_of_rewritten_code_before_t
 }
 
 #[test]
+fn a_linked_fragment_shader_computing_with_depth_gets_its_variant() {
+    let fx = Fixture::new();
+    let (vertex, frag, plain) = (vertex(), fragment(FRAG_DEPTH), fragment(PLAIN));
+    let infos = [
+        link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &vertex)),
+        link(shader_info(
+            FRAGMENT_STAGE,
+            vk::ShaderStageFlags::empty(),
+            &frag,
+        )),
+    ];
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(
+        events.len(),
+        2,
+        "the variant's call, then the application's"
+    );
+    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
+    let (app_address, app_infos, _, _) = app_creation(&events[1]);
+    // Both go down unlinked, each create info otherwise the application's.
+    assert_ne!(app_address, infos.as_ptr() as usize);
+    let unlinked: Vec<SeenShader> = infos
+        .iter()
+        .map(|info| SeenShader {
+            flags: vk::ShaderCreateFlagsEXT::empty(),
+            // SAFETY: valid create infos.
+            ..unsafe { SeenShader::of(info) }
+        })
+        .collect();
+    assert_eq!(app_infos, unlinked);
+    let rewritten = reverse_fragment_depth(&frag)
+        .expect("rewritable")
+        .expect("computes with depth");
+    assert_eq!(
+        variant_infos,
+        [SeenShader {
+            code: bytes(&rewritten),
+            ..unlinked[1].clone()
+        }]
+    );
+    assert_eq!(
+        fx.recorded(handles[1]),
+        Some(FragmentShader::Reversed(variant_handles[0]))
+    );
+    // A linked pair revz makes no variant of keeps its link.
+    let linked_plain = [
+        link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &vertex)),
+        link(shader_info(
+            FRAGMENT_STAGE,
+            vk::ShaderStageFlags::empty(),
+            &plain,
+        )),
+    ];
+    let (result, _) = fx.create(&linked_plain);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(events.len(), 1, "the application's call alone");
+    let (address, ..) = app_creation(&events[0]);
+    assert_eq!(
+        address,
+        linked_plain.as_ptr() as usize,
+        "as the application made it"
+    );
+    fx.finish();
+}
+
+#[test]
 fn plain_linked_binary_and_refused_fragment_shaders_get_no_variant() {
     let fx = Fixture::new();
     let vertex = vertex();
@@ -416,8 +485,24 @@ fn plain_linked_binary_and_refused_fragment_shaders_get_no_variant() {
             None,
         ),
         (
+            // A set with tessellation stages keeps its link (a set without them goes down
+            // unlinked: `a_linked_fragment_shader_computing_with_depth_gets_its_variant`).
             vec![
-                link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &vertex)),
+                link(shader_info(
+                    VERTEX_STAGE,
+                    vk::ShaderStageFlags::TESSELLATION_CONTROL,
+                    &vertex,
+                )),
+                link(shader_info(
+                    vk::ShaderStageFlags::TESSELLATION_CONTROL,
+                    vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                    &vertex,
+                )),
+                link(shader_info(
+                    vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                    FRAGMENT_STAGE,
+                    &vertex,
+                )),
                 link(shader_info(
                     FRAGMENT_STAGE,
                     vk::ShaderStageFlags::empty(),
@@ -705,7 +790,9 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     );
     fx.free(buffer);
 
-    // Linked and binary vertex shaders get no variant: their draws take the flip path.
+    // A linked pair goes down unlinked, and so does its variant's call (a call of one linked
+    // shader is invalid): its vertex shader gets its variant as an unlinked one does, bound
+    // alone in its place for precise-path draws.
     let linked = [
         link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting)),
         link(shader_info(
@@ -716,9 +803,77 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     ];
     let (result, handles) = fx.create(&linked);
     assert_eq!(result, vk::Result::SUCCESS);
-    assert_eq!(fx.events().len(), 1, "the application's call alone");
+    let events = fx.events();
     assert_eq!(
-        fx.state.objects.position_shaders.get(&handles[0]),
+        events.len(),
+        2,
+        "the variant's call, then the application's"
+    );
+    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
+    let (_, app_infos, _, app_handles) = app_creation(&events[1]);
+    assert_eq!(app_handles, handles);
+    assert_eq!(app_infos.len(), 2);
+    for (seen, given) in app_infos.iter().zip(&linked) {
+        assert_eq!(seen.flags, vk::ShaderCreateFlagsEXT::empty(), "unlinked");
+        assert_eq!(seen.stage, given.stage);
+        assert_eq!(
+            seen.next_stage, given.next_stage,
+            "the next stage the link required"
+        );
+        // SAFETY: a valid create info.
+        assert_eq!(seen.code, unsafe { SeenShader::of(given) }.code);
+    }
+    assert_eq!(
+        variant_infos,
+        [SeenShader {
+            code: bytes(&baked),
+            ..app_infos[0].clone()
+        }]
+    );
+    let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&vertex),
+        Some(PositionShader::Baked(variant))
+    );
+    let buffer = fx.command_buffer();
+    fx.bind(buffer, &[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]);
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds(),
+        [
+            bind(&[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]),
+            bind(&[VERTEX_STAGE], &[variant]),
+        ]
+    );
+    fx.free(buffer);
+    // A set with tessellation stages keeps its link: no variant, the flip path.
+    let tessellated = [
+        link(shader_info(
+            VERTEX_STAGE,
+            vk::ShaderStageFlags::TESSELLATION_CONTROL,
+            &projecting,
+        )),
+        link(shader_info(
+            vk::ShaderStageFlags::TESSELLATION_CONTROL,
+            vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+            &plain,
+        )),
+        link(shader_info(
+            vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+            FRAGMENT_STAGE,
+            &projecting,
+        )),
+    ];
+    let (result, handles) = fx.create(&tessellated);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(events.len(), 1, "the application's call alone");
+    let (_, app_infos, _, _) = app_creation(&events[0]);
+    assert!(app_infos
+        .iter()
+        .all(|info| info.flags == vk::ShaderCreateFlagsEXT::LINK_STAGE));
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&handles[2]),
         Some(PositionShader::Flip)
     );
     let binary = vk::ShaderCreateInfoEXT {

@@ -697,6 +697,40 @@ pub fn shader_object_variants(active: bool) -> bool {
     active
 }
 
+/// A `vkCreateShadersEXT` call's linked set (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`: the
+/// shaders are compiled together and must be bound together), as revz sees it before the call.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LinkedSet {
+    /// The stages of the shaders created linked (empty: the call links nothing).
+    pub stages: vk::ShaderStageFlags,
+    /// Their code is SPIR-V (a linked set's code types are all the same).
+    pub spirv: bool,
+}
+
+impl LinkedSet {
+    /// Whether the set may go down unlinked, so that its shaders get variants bound one stage
+    /// at a time as unlinked shaders do (linking lets the driver optimize across the stages;
+    /// the shaders compute the same without it, and a valid use of the linked set binds
+    /// every shader of it, which stays valid unlinked: each keeps the `nextStage` the link
+    /// required). Not binary code (revz cannot read or rewrite it, so nothing is gained),
+    /// and not a set with tessellation stages, whose tessellation modes may be declared in
+    /// the control stage alone where the two are linked.
+    #[must_use]
+    pub fn may_unlink(&self) -> bool {
+        let tessellation = vk::ShaderStageFlags::TESSELLATION_CONTROL
+            | vk::ShaderStageFlags::TESSELLATION_EVALUATION;
+        !self.stages.is_empty() && self.spirv && !self.stages.intersects(tessellation)
+    }
+
+    /// Whether the call goes down unlinked: where it may ([`Self::may_unlink`]) and some
+    /// shader of it gets a variant (`variant_wanted`, decided as for unlinked shaders); a set
+    /// revz would make no variant of keeps its link.
+    #[must_use]
+    pub fn unlinks(&self, variant_wanted: bool) -> bool {
+        variant_wanted && self.may_unlink()
+    }
+}
+
 /// The path a pre-rasterization shader object's draws take, as the depth profile shows it:
 /// where the mode acts on depth, the precise path where it has a variant (reading the pushed
 /// carrier or with the carrier baked in, `variant`, [`ShaderObjectPosition::decide`]), else
@@ -726,7 +760,8 @@ pub fn shader_object_vertex_path(active: bool, variant: bool) -> &'static str {
 pub struct ShaderObjectPosition<'a> {
     /// Its code is SPIR-V (not binary).
     pub spirv: bool,
-    /// It is part of a linked set (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`).
+    /// It is part of a linked set (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`) that keeps its
+    /// link ([`LinkedSet::may_unlink`]: one with tessellation stages).
     pub linked: bool,
     /// A shader with the carrier in its push-constant ranges: what
     /// [`crate::policy::vertex_stage::VertexStageFacts::decide`] made of it as a pipeline's
@@ -760,8 +795,8 @@ impl ShaderObjectPosition<'_> {
         }
         if self.linked {
             return ShaderObjectPlan::Flip(
-                "it is part of a linked set (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT), which revz \
-                 does not re-create"
+                "it is part of a linked set (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) with \
+                 tessellation stages, which revz keeps linked"
                     .into(),
             );
         }
@@ -1565,6 +1600,62 @@ mod tests {
     fn shader_objects_get_variants_only_where_the_mode_is_active() {
         assert!(shader_object_variants(true));
         assert!(!shader_object_variants(false));
+    }
+
+    #[test]
+    fn a_linked_set_goes_down_unlinked_only_where_a_variant_is_wanted_and_it_may() {
+        let stages = |flags: &[vk::ShaderStageFlags]| {
+            flags
+                .iter()
+                .fold(vk::ShaderStageFlags::empty(), |all, &s| all | s)
+        };
+        let (vertex, fragment, geometry) = (
+            vk::ShaderStageFlags::VERTEX,
+            vk::ShaderStageFlags::FRAGMENT,
+            vk::ShaderStageFlags::GEOMETRY,
+        );
+        let (mesh, task) = (
+            vk::ShaderStageFlags::MESH_EXT,
+            vk::ShaderStageFlags::TASK_EXT,
+        );
+        for set in [
+            stages(&[vertex, fragment]),
+            stages(&[vertex, geometry, fragment]),
+            stages(&[task, mesh, fragment]),
+            stages(&[vertex]),
+        ] {
+            let linked = LinkedSet {
+                stages: set,
+                spirv: true,
+            };
+            assert!(linked.unlinks(true), "{set:?}");
+            // Nothing to gain: the link stays.
+            assert!(!linked.unlinks(false), "{set:?}");
+            // Binary code cannot be rewritten.
+            let binary = LinkedSet {
+                spirv: false,
+                ..linked
+            };
+            assert!(!binary.unlinks(true), "{set:?}");
+        }
+        // Tessellation modes may live in the control stage alone of a linked pair.
+        for tessellation in [
+            vk::ShaderStageFlags::TESSELLATION_CONTROL,
+            vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+        ] {
+            let linked = LinkedSet {
+                stages: stages(&[vertex, tessellation, fragment]),
+                spirv: true,
+            };
+            assert!(!linked.may_unlink());
+            assert!(!linked.unlinks(true));
+        }
+        // A call that links nothing has nothing to unlink.
+        assert!(!LinkedSet {
+            stages: vk::ShaderStageFlags::empty(),
+            spirv: true
+        }
+        .unlinks(true));
     }
 
     #[test]

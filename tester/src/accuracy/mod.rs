@@ -123,10 +123,11 @@ pub enum DeliveryChoice {
     Mesh,
     /// mesh's shader as a shader object (needs VK_EXT_shader_object and VK_EXT_mesh_shader).
     MeshShaderObjects,
+    /// shader-objects' shaders created linked in one call (needs VK_EXT_shader_object).
+    LinkedShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns, ssbo-vkd3d,
-    /// ubo-geometry, ubo-passthrough-geometry and ubo-tessellation (not shader-objects, mesh nor
-    /// mesh-shader-objects,
-    /// which need extensions).
+    /// ubo-geometry, ubo-passthrough-geometry and ubo-tessellation (not shader-objects, mesh,
+    /// mesh-shader-objects nor linked-shader-objects, which need extensions).
     All,
 }
 
@@ -150,6 +151,7 @@ impl DeliveryChoice {
             DeliveryChoice::ShaderObjects => &[Delivery::ShaderObjects],
             DeliveryChoice::Mesh => &[Delivery::Mesh],
             DeliveryChoice::MeshShaderObjects => &[Delivery::MeshShaderObjects],
+            DeliveryChoice::LinkedShaderObjects => &[Delivery::LinkedShaderObjects],
             DeliveryChoice::All => Delivery::PORTABLE,
         }
     }

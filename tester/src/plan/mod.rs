@@ -227,6 +227,10 @@ pub enum Program {
     /// [`Program::ShaderObjects`] binds its own (the vertex stage null). Needs `shaderObject`
     /// and `meshShader`.
     MeshShaderObjects,
+    /// The shaders of [`Program::ShaderObjects`] created linked, in one `vkCreateShadersEXT`
+    /// call with `VK_SHADER_CREATE_LINK_STAGE_BIT_EXT` (the `linked-shader-objects`
+    /// [`Delivery`]), and bound as that program binds them.
+    LinkedShaderObjects,
     /// `ubo_position.vert` + `push.geom` + `scene.frag` (the `push-geometry` [`Delivery`]): the
     /// push constants of [`Program::Flat`], the matrix applied in a geometry shader; one range
     /// for the vertex, geometry and fragment stages.
@@ -357,12 +361,15 @@ pub enum Delivery {
     /// [`Delivery::Mesh`]'s mesh shader as a shader object ([`Program::MeshShaderObjects`];
     /// needs both extensions).
     MeshShaderObjects,
+    /// [`Delivery::ShaderObjects`]' shaders created as one linked set
+    /// ([`Program::LinkedShaderObjects`]; needs `VK_EXT_shader_object`).
+    LinkedShaderObjects,
 }
 
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 17] = [
+    pub const ALL: [Delivery; 18] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -380,12 +387,13 @@ impl Delivery {
         Delivery::ShaderObjects,
         Delivery::Mesh,
         Delivery::MeshShaderObjects,
+        Delivery::LinkedShaderObjects,
     ];
 
     /// The deliveries a Vulkan 1.0 device with the core features renders (`ssbo-vkd3d` also
     /// needs `VK_EXT_depth_clip_enable`, which lavapipe has from Mesa 22.3 on): all but the
-    /// last three of [`Delivery::ALL`].
-    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<3>() {
+    /// last four of [`Delivery::ALL`].
+    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<4>() {
         Some((portable, _)) => portable,
         None => &[],
     };
@@ -410,6 +418,7 @@ impl Delivery {
             Delivery::ShaderObjects => "shader-objects",
             Delivery::Mesh => "mesh",
             Delivery::MeshShaderObjects => "mesh-shader-objects",
+            Delivery::LinkedShaderObjects => "linked-shader-objects",
         }
     }
 
@@ -434,6 +443,7 @@ impl Delivery {
             Delivery::ShaderObjects => Some(Program::ShaderObjects),
             Delivery::Mesh => Some(Program::Mesh),
             Delivery::MeshShaderObjects => Some(Program::MeshShaderObjects),
+            Delivery::LinkedShaderObjects => Some(Program::LinkedShaderObjects),
         }
     }
 }
@@ -512,6 +522,7 @@ impl Program {
             | Program::SplitPush
             | Program::FullPush
             | Program::ShaderObjects
+            | Program::LinkedShaderObjects
             | Program::Mesh
             | Program::MeshShaderObjects
             | Program::PushGeometry
@@ -1114,8 +1125,12 @@ impl Plan {
                 pipeline.name
             );
             ensure!(
-                !matches!(program, Program::ShaderObjects | Program::MeshShaderObjects)
-                    || (pipeline.viewport != Viewport::Dynamic && !pipeline.libraries),
+                !matches!(
+                    program,
+                    Program::ShaderObjects
+                        | Program::LinkedShaderObjects
+                        | Program::MeshShaderObjects
+                ) || (pipeline.viewport != Viewport::Dynamic && !pipeline.libraries),
                 "pipeline {} has a dynamic viewport or is built from libraries; the {name} \
                  delivery sets every state at its bind",
                 pipeline.name
@@ -1258,7 +1273,7 @@ impl Plan {
             needs.tessellation_shader |= pipeline.program == Program::UboTessellation;
             needs.shader_object |= matches!(
                 pipeline.program,
-                Program::ShaderObjects | Program::MeshShaderObjects
+                Program::ShaderObjects | Program::LinkedShaderObjects | Program::MeshShaderObjects
             );
             needs.mesh_shader |=
                 matches!(pipeline.program, Program::Mesh | Program::MeshShaderObjects);

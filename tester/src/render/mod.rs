@@ -214,8 +214,8 @@ pub struct Renderer<'a> {
     fence: vk::Fence,
     extent: vk::Extent2D,
     bias_clamp: bool,
-    /// The shaders of [`Program::ShaderObjects`] (its pipelines have a null handle in
-    /// `pipelines`); `None` without that program.
+    /// The shaders of [`Program::ShaderObjects`] or [`Program::LinkedShaderObjects`] (its
+    /// pipelines have a null handle in `pipelines`); `None` without that program.
     shader_objects: Option<shader_objects::ShaderObjects>,
     /// The shaders of [`Program::MeshShaderObjects`], likewise.
     mesh_shader_objects: Option<shader_objects::ShaderObjects>,
@@ -626,14 +626,15 @@ impl<'a> Renderer<'a> {
                 &[mesh.set_layout],
             )?);
         }
-        if plan
-            .pipelines
-            .iter()
-            .any(|p| p.program == Program::ShaderObjects)
-        {
+        if let Some(program) = plan.pipelines.iter().map(|p| p.program).find(|&program| {
+            matches!(
+                program,
+                Program::ShaderObjects | Program::LinkedShaderObjects
+            )
+        }) {
             this.shader_objects = Some(shader_objects::ShaderObjects::new(
                 gpu,
-                Program::ShaderObjects,
+                program,
                 &PUSH_CONSTANT_RANGES,
                 &[],
             )?);
@@ -641,7 +642,7 @@ impl<'a> Renderer<'a> {
         for spec in &plan.pipelines {
             if matches!(
                 spec.program,
-                Program::ShaderObjects | Program::MeshShaderObjects
+                Program::ShaderObjects | Program::LinkedShaderObjects | Program::MeshShaderObjects
             ) {
                 // Bound as shader objects (`record.rs`).
                 this.pipelines.push(vk::Pipeline::null());
@@ -718,7 +719,8 @@ impl<'a> Renderer<'a> {
             | Program::RowMajor
             | Program::RowVector
             | Program::LitMvp
-            | Program::ShaderObjects => (self.plain_layout, PLAIN_PUSH_STAGES),
+            | Program::ShaderObjects
+            | Program::LinkedShaderObjects => (self.plain_layout, PLAIN_PUSH_STAGES),
             Program::Mesh | Program::MeshShaderObjects => (
                 self.mesh
                     .as_ref()

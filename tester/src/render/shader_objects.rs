@@ -1,5 +1,6 @@
 //! [`Program::ShaderObjects`]: the flat program's shaders as unlinked vertex and fragment
-//! shader objects (`VK_EXT_shader_object`), and [`Program::MeshShaderObjects`]: the mesh
+//! shader objects (`VK_EXT_shader_object`), [`Program::LinkedShaderObjects`]: the same two
+//! created linked in one call, and [`Program::MeshShaderObjects`]: the mesh
 //! program's as mesh and fragment ones; and their "pipeline" bind: the two shaders bound
 //! (every other graphics stage the device has bound to null), then every state a
 //! [`PipelineSpec`] bakes into a pipeline set with the dynamic state commands, as an engine
@@ -17,7 +18,26 @@ use crate::pipeline::{full_viewport, map_compare, position_input};
 use crate::plan::{
     Bias, Bounds, DepthTest, PipelineSpec, Program, StencilTest, StencilWrite, Viewport,
 };
-use crate::shaders::{self, ShaderSource};
+use crate::shaders;
+
+/// The create info of a shader object of `words` at `stage`, followed by `next`, with the
+/// program's push-constant ranges and descriptor set layouts.
+fn create_info<'a>(
+    stage: vk::ShaderStageFlags,
+    next: vk::ShaderStageFlags,
+    words: &'a [u32],
+    ranges: &'a [vk::PushConstantRange],
+    set_layouts: &'a [vk::DescriptorSetLayout],
+) -> vk::ShaderCreateInfoEXT<'a> {
+    vk::ShaderCreateInfoEXT::default()
+        .stage(stage)
+        .next_stage(next)
+        .code_type(vk::ShaderCodeTypeEXT::SPIRV)
+        .code(bytes_of(words))
+        .name(c"main")
+        .push_constant_ranges(ranges)
+        .set_layouts(set_layouts)
+}
 
 /// The two shader objects, destroyed with the renderer ([`ShaderObjects::destroy`]).
 pub(super) struct ShaderObjects {
@@ -39,8 +59,9 @@ pub(super) struct BindTarget {
 
 impl ShaderObjects {
     /// The shaders of `program` (`scene.vert`, or `mesh.mesh` for
-    /// [`Program::MeshShaderObjects`], and `scene.frag`) as unlinked shader objects with the
-    /// push-constant ranges and descriptor set layouts of the program's layout.
+    /// [`Program::MeshShaderObjects`], and `scene.frag`) as shader objects with the
+    /// push-constant ranges and descriptor set layouts of the program's layout: unlinked, or
+    /// for [`Program::LinkedShaderObjects`] linked in one call.
     pub(super) fn new(
         gpu: &Gpu,
         program: Program,
@@ -51,35 +72,50 @@ impl ShaderObjects {
             .shader_object
             .as_ref()
             .context("the shader-objects program needs VK_EXT_shader_object enabled")?;
-        let create =
-            |stage: vk::ShaderStageFlags, next: vk::ShaderStageFlags, source: &ShaderSource| {
-                let words = source.words()?;
-                let info = vk::ShaderCreateInfoEXT::default()
-                    .stage(stage)
-                    .next_stage(next)
-                    .code_type(vk::ShaderCodeTypeEXT::SPIRV)
-                    .code(bytes_of(&words))
-                    .name(c"main")
-                    .push_constant_ranges(ranges)
-                    .set_layouts(set_layouts);
-                // SAFETY: valid SPIR-V of this stage (checked at build time), a live device.
-                let created = unsafe { objects.create_shaders(std::slice::from_ref(&info), None) };
-                created
-                    .map_err(|(_, e)| e)
-                    .with_context(|| format!("vkCreateShadersEXT ({}) failed", source.name))
-                    .map(|shaders| shaders[0])
-            };
+        let info = |stage, next, words| create_info(stage, next, words, ranges, set_layouts);
         let (first_stage, first_source) = match program {
             Program::MeshShaderObjects => (vk::ShaderStageFlags::MESH_EXT, &shaders::MESH_MESH),
             _ => (vk::ShaderStageFlags::VERTEX, &shaders::SCENE_VERT),
         };
-        let first = create(first_stage, vk::ShaderStageFlags::FRAGMENT, first_source)?;
-        let fragment = create(
+        let first_words = first_source.words()?;
+        let fragment_words = shaders::SCENE_FRAG.words()?;
+        let fragment_info = info(
             vk::ShaderStageFlags::FRAGMENT,
             vk::ShaderStageFlags::empty(),
-            &shaders::SCENE_FRAG,
-        )
-        .inspect_err(|_| {
+            &fragment_words,
+        );
+        let first_info = info(first_stage, vk::ShaderStageFlags::FRAGMENT, &first_words);
+        if program == Program::LinkedShaderObjects {
+            // One call, both linked.
+            let linked = [first_info, fragment_info]
+                .map(|info| info.flags(vk::ShaderCreateFlagsEXT::LINK_STAGE));
+            // SAFETY: valid SPIR-V of these stages (checked at build time), a live device.
+            let created = unsafe { objects.create_shaders(&linked, None) };
+            let shaders = created
+                .map_err(|(shaders, e)| {
+                    for shader in shaders.into_iter().filter(|s| *s != vk::ShaderEXT::null()) {
+                        // SAFETY: created above, never used.
+                        unsafe { objects.destroy_shader(shader, None) };
+                    }
+                    e
+                })
+                .context("vkCreateShadersEXT (linked scene.vert and scene.frag) failed")?;
+            return Ok(ShaderObjects {
+                first: shaders[0],
+                first_stage,
+                fragment: shaders[1],
+            });
+        }
+        let create = |info: &vk::ShaderCreateInfoEXT<'_>, name: &str| {
+            // SAFETY: valid SPIR-V of this stage (checked at build time), a live device.
+            let created = unsafe { objects.create_shaders(std::slice::from_ref(info), None) };
+            created
+                .map_err(|(_, e)| e)
+                .with_context(|| format!("vkCreateShadersEXT ({name}) failed"))
+                .map(|shaders| shaders[0])
+        };
+        let first = create(&first_info, first_source.name)?;
+        let fragment = create(&fragment_info, shaders::SCENE_FRAG.name).inspect_err(|_| {
             // SAFETY: created above, never used.
             unsafe { objects.destroy_shader(first, None) }
         })?;

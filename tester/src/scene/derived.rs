@@ -207,6 +207,7 @@ impl Scene {
             | Program::SplitPush
             | Program::FullPush
             | Program::ShaderObjects
+            | Program::LinkedShaderObjects
             | Program::Mesh
             | Program::MeshShaderObjects
             | Program::PushGeometry

@@ -1537,7 +1537,9 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                         needs.shader_object,
                         matches!(
                             delivery,
-                            Delivery::ShaderObjects | Delivery::MeshShaderObjects
+                            Delivery::ShaderObjects
+                                | Delivery::MeshShaderObjects
+                                | Delivery::LinkedShaderObjects
                         )
                     );
                     assert_eq!(
