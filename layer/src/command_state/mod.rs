@@ -570,11 +570,20 @@ impl CommandState {
     }
 
     /// With shader objects bound: the last pre-rasterization stage bound (index in
-    /// [`POSITION_STAGES`]).
+    /// [`POSITION_STAGES`]) that stores the positions rasterized: a geometry shader that
+    /// passes them through ([`PositionShader::PassesThrough`]) leaves it the stage bound
+    /// before it.
     fn last_position_stage(&self) -> Option<usize> {
-        self.position_shaders
-            .iter()
-            .rposition(|(shader, _)| *shader != vk::ShaderEXT::null())
+        let bound = |shaders: &[(vk::ShaderEXT, Option<PositionShader>)]| {
+            shaders
+                .iter()
+                .rposition(|(shader, _)| *shader != vk::ShaderEXT::null())
+        };
+        let last = bound(&self.position_shaders)?;
+        match self.position_shaders[last].1 {
+            Some(PositionShader::PassesThrough) => bound(&self.position_shaders[..last]),
+            _ => Some(last),
+        }
     }
 
     /// With shader objects bound: the application's shader of the last pre-rasterization

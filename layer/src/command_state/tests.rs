@@ -336,6 +336,34 @@ fn a_baked_vertex_shader_object_takes_the_precise_path_where_it_is_the_last_stag
         );
         state.before_draw(&mut sink);
         assert_eq!(state.path(), DrawPath::Precise);
+        // A geometry shader that passes the positions through: the vertex stage's variant
+        // stores them, and stays bound (nothing sent); the geometry shader is left alone.
+        let sent = sink.position_shader_binds.len();
+        state.bind_shaders(
+            None,
+            [
+                None,
+                None,
+                Some((geometry, Some(PositionShader::PassesThrough))),
+                None,
+            ],
+        );
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert_eq!(sink.position_shader_binds.len(), sent);
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, variant)));
+        // The application binds its vertex shader again: the variant goes down in its place.
+        state.bind_shaders(None, [baked.clone(), None, None, None]);
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
+        assert_eq!(sink.position_shader_binds.last(), Some(&(stage, variant)));
+        assert_eq!(sink.position_shader_binds.len(), sent + 1);
+        state.bind_shaders(
+            None,
+            [None, None, Some((vk::ShaderEXT::null(), None)), None],
+        );
+        state.before_draw(&mut sink);
+        assert_eq!(state.path(), DrawPath::Precise);
         // A mesh shader without a variant bound: it is rasterized, the flip path; unbound
         // again, the vertex stage's variant comes back.
         let mesh = vk::ShaderEXT::from_raw(43);

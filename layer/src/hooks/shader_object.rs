@@ -80,6 +80,8 @@ enum Plan {
     Baked(Arc<[u32]>),
     /// Such a shader whose draws take the flip path.
     PositionFlip,
+    /// A geometry shader passing the positions through (`PositionShader::PassesThrough`).
+    PassesThrough,
 }
 
 impl Plan {
@@ -253,8 +255,13 @@ fn position_plan(
             .as_ref()
             .map(|r| r.as_ref().map(|r| r.assumes_input_unit_w))
             .map_err(|reason| *reason),
+        // Asked only where no route of its own applies (the module is read once more).
+        passes_through: info.stage == vk::ShaderStageFlags::GEOMETRY
+            && rewrite.is_err()
+            && words.is_some_and(crate::shader::position_store::passes_position_through),
     };
     match (facts.decide(), pushed, rewrite) {
+        (ShaderObjectPlan::PassesThrough, ..) => Plan::PassesThrough,
         (ShaderObjectPlan::Pushed, Some(Ok((code, depth))), _) => {
             Plan::Pushed(code, Box::new(depth))
         }
@@ -543,6 +550,7 @@ pub unsafe extern "system" fn create_shaders_ext(
                         .map_or(PositionShader::Flip, PositionShader::Baked),
                     )),
                     Plan::PositionFlip => Some(Made::Position(PositionShader::Flip)),
+                    Plan::PassesThrough => Some(Made::Position(PositionShader::PassesThrough)),
                 };
                 made.borrow_mut().push(one);
             }
@@ -584,6 +592,9 @@ pub unsafe extern "system" fn create_shaders_ext(
                         }
                         Some(PositionShader::Baked(_)) => {
                             "fitted by the shader, the carrier baked into its variant".to_owned()
+                        }
+                        Some(PositionShader::PassesThrough) => {
+                            "passed through from the stage before it".to_owned()
                         }
                         _ => "not fitted: the flip path (the log says why)".to_owned(),
                     };
@@ -642,6 +653,11 @@ pub unsafe extern "system" fn create_shaders_ext(
                                 "shader object {shader:?}: {variant:?}, its code fitting the \
                                  matrix it loads with the carrier baked in, stores its depth \
                                  for precise-path draws"
+                            ),
+                            PositionShader::PassesThrough => log::debug!(
+                                "geometry shader object {shader:?} passes the positions of the \
+                                 stage before it through: that stage's variant stores the depth \
+                                 of precise-path draws"
                             ),
                             PositionShader::Flip => {}
                         }

@@ -1409,3 +1409,77 @@ fn an_infinite_mode_clamp_without_clipping_binds_the_app_shader_and_clipping_bri
     fx.free(buffer);
     fx.finish_with(&[Event::DestroyPipelineLayout { handle: own }]);
 }
+
+/// SPIR-V words of a binary module's bytes.
+fn words_of(bytes: &[u8]) -> Vec<u32> {
+    bytes
+        .chunks_exact(4)
+        .map(|word| u32::from_le_bytes([word[0], word[1], word[2], word[3]]))
+        .collect()
+}
+
+#[test]
+fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_bound() {
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
+    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
+    let plain = fragment(PLAIN);
+    let (handles, _, variant_handles, _) =
+        create_pair_with_variant(&fx, &projecting, &plain, false);
+    let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
+    let geometry = vk::ShaderStageFlags::GEOMETRY;
+    // glslang's pass-through geometry shader: no variant of its own, marked.
+    let passthrough = words_of(include_bytes!(
+        "../shader/test_data/geometry_passthrough.spv"
+    ));
+    let (result, created) = fx.create(&[shader_info(geometry, FRAGMENT_STAGE, &passthrough)]);
+    assert_eq!(result, vk::Result::SUCCESS);
+    assert_eq!(fx.events().len(), 1, "the application's call alone");
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&created[0]),
+        Some(PositionShader::PassesThrough)
+    );
+    // One that reads the positions' z for something else: the flip path.
+    let reads_z = words_of(include_bytes!("../shader/test_data/geometry_reads_z.spv"));
+    let (_, refused) = fx.create(&[shader_info(geometry, FRAGMENT_STAGE, &reads_z)]);
+    fx.events();
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&refused[0]),
+        Some(PositionShader::Flip)
+    );
+    // Drawn with the pass-through shader after the vertex shader: the vertex shader's
+    // variant goes down for precise-path draws, the geometry shader stays the application's.
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let buffer = fx.command_buffer();
+    fx.bind(
+        buffer,
+        &[VERTEX_STAGE, geometry, FRAGMENT_STAGE],
+        &[vertex, created[0], frag],
+    );
+    fx.render(buffer, reversed, 1);
+    let bind = |stages: &[vk::ShaderStageFlags], shaders: &[vk::ShaderEXT]| Event::BindShaders {
+        stages: stages.to_vec(),
+        shaders: shaders.to_vec(),
+    };
+    assert_eq!(
+        fx.shader_binds(),
+        [
+            bind(
+                &[VERTEX_STAGE, geometry, FRAGMENT_STAGE],
+                &[vertex, created[0], frag]
+            ),
+            bind(&[VERTEX_STAGE], &[variant]),
+        ]
+    );
+    // The geometry shader that reads z in its place: the application's vertex shader back.
+    fx.bind(buffer, &[geometry], &[refused[0]]);
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds(),
+        [
+            bind(&[geometry], &[refused[0]]),
+            bind(&[VERTEX_STAGE], &[vertex]),
+        ]
+    );
+    fx.free(buffer);
+    fx.finish();
+}

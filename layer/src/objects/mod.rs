@@ -599,6 +599,11 @@ pub enum PositionShader {
     Baked(vk::ShaderEXT),
     /// No variant: its draws into reversed attachments take the flip path.
     Flip,
+    /// A geometry shader that stores `gl_in[i].gl_Position` as it is into every vertex it
+    /// emits (`crate::shader::position_store::passes_position_through`): no variant of its
+    /// own; the stage bound before it is the one precise-path draws bind a variant of, whose
+    /// depth it copies.
+    PassesThrough,
 }
 
 /// Shaders of the pushed route compare by their variant and the same facts (one `Arc`).
@@ -613,7 +618,8 @@ impl PartialEq for PositionShader {
                 },
             ) => variant == other_variant && std::sync::Arc::ptr_eq(depth, other_depth),
             (PositionShader::Baked(a), PositionShader::Baked(b)) => a == b,
-            (PositionShader::Flip, PositionShader::Flip) => true,
+            (PositionShader::Flip, PositionShader::Flip)
+            | (PositionShader::PassesThrough, PositionShader::PassesThrough) => true,
             _ => false,
         }
     }
@@ -626,7 +632,7 @@ impl PositionShader {
             PositionShader::Pushed { variant, .. } | PositionShader::Baked(variant) => {
                 Some(*variant)
             }
-            PositionShader::Flip => None,
+            PositionShader::Flip | PositionShader::PassesThrough => None,
         }
     }
 }

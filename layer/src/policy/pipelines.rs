@@ -772,6 +772,9 @@ pub struct ShaderObjectPosition<'a> {
     /// where it does, `w` whether it projects the previous stage's `Position` (whose w = 1
     /// revz cannot check across separately bound shaders); or why it cannot be rewritten.
     pub rewrite: Result<Option<bool>, &'a str>,
+    /// A geometry shader that stores `gl_in[i].gl_Position` as it is into every vertex it
+    /// emits (`crate::shader::position_store::passes_position_through`).
+    pub passes_through: bool,
 }
 
 /// [`ShaderObjectPosition::decide`]'s answer.
@@ -783,6 +786,9 @@ pub enum ShaderObjectPlan {
     Pushed,
     /// A variant with the carrier baked in.
     Baked,
+    /// No variant: a geometry shader passing the positions through, which leaves the
+    /// rewrite to the stage bound before it (`crate::objects::PositionShader::PassesThrough`).
+    PassesThrough,
     /// Its draws into reversed attachments take the flip path, for this reason.
     Flip(String),
 }
@@ -813,6 +819,8 @@ impl ShaderObjectPosition<'_> {
                  revz cannot check across shader objects"
                     .into(),
             ),
+            // It computes no position of its own: the stage before it stores them.
+            Err(_) if self.passes_through => ShaderObjectPlan::PassesThrough,
             Err(reason) => ShaderObjectPlan::Flip(format!("it cannot derive its range ({reason})")),
         }
     }
@@ -1673,6 +1681,7 @@ mod tests {
             linked: false,
             pushed: None,
             rewrite: Ok(Some(false)),
+            passes_through: false,
         };
         assert_eq!(unlinked.decide(), ShaderObjectPlan::Baked);
         let decide = |facts: ShaderObjectPosition<'_>| match facts.decide() {
@@ -1710,6 +1719,35 @@ mod tests {
             .decide(),
             ShaderObjectPlan::Nothing
         );
+        // A geometry shader passing the positions through, which fits no matrix of its own:
+        // the stage before it is rewritten.
+        assert_eq!(
+            ShaderObjectPosition {
+                rewrite: Err("Position is not a matrix times a vector"),
+                passes_through: true,
+                ..unlinked
+            }
+            .decide(),
+            ShaderObjectPlan::PassesThrough
+        );
+        // Not where it is binary or linked (its code could not be read, its set not bound
+        // apart).
+        for facts in [
+            ShaderObjectPosition {
+                spirv: false,
+                rewrite: Err("binary"),
+                passes_through: true,
+                ..unlinked
+            },
+            ShaderObjectPosition {
+                linked: true,
+                rewrite: Err("not a product"),
+                passes_through: true,
+                ..unlinked
+            },
+        ] {
+            assert!(matches!(facts.decide(), ShaderObjectPlan::Flip(_)));
+        }
     }
 
     #[test]
@@ -1719,6 +1757,7 @@ mod tests {
             linked: false,
             pushed: Some(Ok(())),
             rewrite: Ok(Some(false)),
+            passes_through: false,
         };
         assert_eq!(pushed.decide(), ShaderObjectPlan::Pushed);
         // Refused there: the baked route where the deriving rewrite fits the stage.
