@@ -720,3 +720,69 @@ fn generates_depth_mipmaps(harness: &Harness, zink: &Zink) {
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+/// `gl-render --zink --reversed-z` of `scene`, through revz in `mode` or without it: the
+/// color and depth read back, and the layer's log; `None` where Zink cannot be initialised.
+fn zink_reversed_z(
+    harness: &Harness,
+    zink: &Zink,
+    scene: &str,
+    mode: Option<&str>,
+) -> Option<(image::RgbaImage, Vec<f32>, String)> {
+    let name = format!(
+        "zink-reversed-z-{scene}-{}{}",
+        mode.unwrap_or("none"),
+        zink.label()
+    );
+    let out = harness.scratch_dir(&name);
+    let mut command = zink.command(harness);
+    command
+        .args(["--reversed-z", "--scene", scene, "--out"])
+        .arg(&out);
+    if let Some(mode) = mode {
+        command.args(["--revz", mode]);
+    }
+    let stderr = run_gl_render(command, &name)?;
+    Some((
+        read_png(&out.join("color.png")),
+        read_f32(&out.join("depth.f32")),
+        stderr,
+    ))
+}
+
+/// An OpenGL application that renders reversed depth itself (`gl-render --reversed-z`:
+/// `glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE)`, `glClearDepth(0)`, `GL_GREATER`, a
+/// complementary projection into a float32 depth buffer), as piglit's
+/// `arb_clip_control-depth-precision` does: revz leaves its depth alone in every mode, the
+/// color and depth read back bit for bit those of the run without revz. Zink creates its
+/// pipelines and sets its compare ops at the first draw, after the first clear, so revz saw
+/// nothing but that clear to 0 when it decided the convention; before session 34 it decided
+/// standard and reversed the application's depth again (D32 `sloped-plane` 14.3% and
+/// `plane-stack` 31.5% wrong in `complementary` and `infinite`, against 0 and 1.08% without
+/// revz).
+#[test]
+fn zink_leaves_an_application_that_reverses_depth_itself_alone() {
+    let harness = Harness::locate();
+    for zink in Zink::all(&harness) {
+        for scene in ["sloped-plane", "plane-stack"] {
+            let Some((color, depth, _)) = zink_reversed_z(&harness, &zink, scene, None) else {
+                return;
+            };
+            for mode in ["flip", "complementary", "infinite"] {
+                let what = format!("{scene} {mode} through Zink{}", zink.label());
+                let (revz_color, revz_depth, log) =
+                    zink_reversed_z(&harness, &zink, scene, Some(mode)).expect("Zink ran above");
+                assert!(
+                    log.contains("the application already uses reversed depth"),
+                    "{what}: revz did not see the application's own reversal:\n{log}"
+                );
+                assert!(revz_color == color, "{what}: the colors differ");
+                assert_eq!(
+                    worst_difference(&depth, &revz_depth),
+                    0.0,
+                    "{what}: the depth differs"
+                );
+            }
+        }
+    }
+}

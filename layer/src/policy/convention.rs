@@ -39,12 +39,22 @@ impl ConventionEvidence {
     /// (a render pass or rendering begin, an image clear, a secondary's begin); `clear`: the
     /// depth that event clears the attachment to, if it clears it.
     ///
-    /// Reversed only on strong evidence, never on one signal alone: a clear to 0, and at least
-    /// one of "more GREATER than LESS compare ops" and "reversed projections pushed", and
-    /// neither contradicted (more LESS than GREATER, or only standard projections). One
-    /// reversed-looking matrix (rounding in a P*V*M far from the camera), a clear to 0 alone
-    /// (a shadow map cleared to 0 for a MAX reduction) or an application that clears to 0 but
-    /// tests LESS stay standard.
+    /// Reversed on a clear to 0 that nothing contradicts (more LESS than GREATER compare ops,
+    /// or only standard projections pushed), where what was seen supports it (more GREATER
+    /// than LESS, or reversed projections) or nothing was seen at all. One reversed-looking
+    /// matrix (rounding in a P*V*M far from the camera) or GREATER compare ops without a clear
+    /// to 0, an application that clears to 0 but tests LESS, and a tie of the compare ops
+    /// stay standard.
+    ///
+    /// A clear to 0 before anything else: translation layers (Zink for OpenGL, DXVK and
+    /// vkd3d for Direct3D) create their pipelines and set their compare ops at the first
+    /// draw, after the clear, so an application rendering reversed depth through them shows
+    /// nothing else when its first depth image is cleared (`glClipControl` with
+    /// `glClearDepth(0)` and `GL_GREATER`: piglit's `arb_clip_control-depth-precision`,
+    /// `gl-render --reversed-z`). Taken as standard it would have its depth reversed again,
+    /// which in float32 loses what its own reversal gained; taken as reversed, a standard
+    /// application that clears to 0 first (rare: nothing passes a LESS test there) is merely
+    /// left alone.
     pub fn decide(&self, clear: Option<f32>) -> Convention {
         use std::cmp::Ordering::{Greater, Less};
         let compare = self.greater_compare_ops.cmp(&self.less_compare_ops);
@@ -53,7 +63,8 @@ impl ConventionEvidence {
             (false, true) => Less,
             _ => std::cmp::Ordering::Equal,
         };
-        let supported = compare == Greater || camera == Greater;
+        let nothing_seen = *self == ConventionEvidence::default();
+        let supported = compare == Greater || camera == Greater || nothing_seen;
         let contradicted = compare == Less || camera == Less;
         if clear == Some(0.0) && supported && !contradicted {
             Convention::AppReversed
@@ -328,8 +339,7 @@ mod tests {
             reversed_projection: true,
             ..none
         };
-        // A clear to 0 alone, GREATER alone, a reversed camera alone: standard.
-        assert_eq!(decide(none, Some(0.0)), Convention::Standard);
+        // GREATER alone, a reversed camera alone: standard.
         assert_eq!(decide(greater, Some(1.0)), Convention::Standard);
         assert_eq!(decide(greater, None), Convention::Standard);
         assert_eq!(decide(camera, None), Convention::Standard);
@@ -362,6 +372,42 @@ mod tests {
             ..none
         };
         assert_eq!(decide(tie, Some(0.0)), Convention::Standard);
+    }
+
+    #[test]
+    fn a_clear_to_0_before_anything_else_is_a_translated_reversed_application() {
+        // What Zink, DXVK and vkd3d show at their first clear: nothing else.
+        let none = ConventionEvidence::default();
+        assert_eq!(none.decide(Some(0.0)), Convention::AppReversed);
+        // Any other clear, or none, stays standard.
+        for clear in [Some(1.0), Some(0.5), None] {
+            assert_eq!(none.decide(clear), Convention::Standard, "{clear:?}");
+        }
+        // Anything seen that contradicts it, or that is a tie, keeps it standard.
+        for seen in [
+            ConventionEvidence {
+                less_compare_ops: 1,
+                ..none
+            },
+            ConventionEvidence {
+                standard_projection: true,
+                ..none
+            },
+            ConventionEvidence {
+                greater_compare_ops: 1,
+                less_compare_ops: 1,
+                ..none
+            },
+        ] {
+            assert_eq!(seen.decide(Some(0.0)), Convention::Standard, "{seen:?}");
+        }
+        // Decided so once, the device leaves its reversed images native.
+        let observed = Observed::default();
+        assert_eq!(
+            observed.committed(Target::Reversed, Some(0.0)),
+            Target::Native
+        );
+        assert_eq!(observed.convention(), Some(Convention::AppReversed));
     }
 
     #[test]

@@ -183,6 +183,21 @@ impl GlContext {
     }
 }
 
+/// `glClipControl` (`ARB_clip_control`, core in OpenGL 4.5), which `glow` does not load.
+pub type ClipControl = unsafe extern "system" fn(origin: u32, depth: u32);
+
+impl GlContext {
+    /// The current context's `glClipControl` (`gl-render --reversed-z`).
+    pub fn clip_control(&self) -> Result<ClipControl> {
+        let function = self
+            .egl
+            .get_proc_address("glClipControl")
+            .context("glClipControl is not available")?;
+        // SAFETY: eglGetProcAddress's glClipControl has this signature (ARB_clip_control).
+        Ok(unsafe { std::mem::transmute::<extern "system" fn(), ClipControl>(function) })
+    }
+}
+
 impl Drop for GlContext {
     fn drop(&mut self) {
         let _ = self.egl.make_current(self.display, None, None, None);

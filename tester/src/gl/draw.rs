@@ -207,6 +207,23 @@ pub fn matrices(scene: &Scene, space: Space, model: DMat4, aspect: f64) -> Resul
     })
 }
 
+/// The projection of `gl-render --reversed-z`: the scene camera's onto depth in [0, 1]
+/// (`GL_ZERO_TO_ONE`, y up), complemented: near at 1, far at 0 (clip z = w - z of the
+/// standard one), as applications that reverse depth themselves write it.
+pub fn reversed_projection(scene: &Scene, aspect: f64) -> DMat4 {
+    let camera = &scene.camera;
+    let mut projection = proj::directx::perspective(camera.fov_y, aspect, camera.near, camera.far);
+    for column in [
+        &mut projection.x_axis,
+        &mut projection.y_axis,
+        &mut projection.z_axis,
+        &mut projection.w_axis,
+    ] {
+        column.z = column.w - column.z;
+    }
+    projection
+}
+
 /// The objects drawn, in draw order: refuses scenes that do more than GL_LESS into depth
 /// cleared to 1 with the flat program and no culling (the ground truth's rule, and what this
 /// program draws).
@@ -241,7 +258,10 @@ fn drawn(scene: &Scene) -> Result<Vec<usize>> {
 
 /// Renders `scene` at `width` x `height` with the current context's GL and reads it back.
 /// With `separable`, the scene's stages are separable programs in a program pipeline; with
-/// `computed_position`, the vertex shader is [`COMPUTED_POSITION_VERTEX_SHADER`].
+/// `computed_position`, the vertex shader is [`COMPUTED_POSITION_VERTEX_SHADER`]; with
+/// `reversed_z` (the context's `glClipControl`), the application's own reversed depth
+/// ([`reversed_projection`], a clear to 0, `GL_GREATER`).
+#[allow(clippy::too_many_arguments)]
 pub fn render(
     gl: &glow::Context,
     scene: &Scene,
@@ -250,6 +270,7 @@ pub fn render(
     post: Option<PostPass>,
     separable: Option<&super::context::SeparateShaderObjects>,
     computed_position: bool,
+    reversed_z: Option<super::context::ClipControl>,
 ) -> Result<GlFrame> {
     let objects = drawn(scene)?;
     let aspect = f64::from(width) / f64::from(height);
@@ -375,11 +396,20 @@ pub fn render(
         gl.viewport(0, 0, w, h);
         gl.disable(glow::DITHER);
         gl.enable(glow::DEPTH_TEST);
-        gl.depth_func(glow::LESS);
         gl.depth_mask(true);
         let [r, g, b, a] = crate::render::CLEAR_COLOR;
         gl.clear_color(r, g, b, a);
-        gl.clear_depth(1.0);
+        match reversed_z {
+            Some(clip_control) => {
+                clip_control(glow::LOWER_LEFT, glow::ZERO_TO_ONE);
+                gl.depth_func(glow::GREATER);
+                gl.clear_depth(0.0);
+            }
+            None => {
+                gl.depth_func(glow::LESS);
+                gl.clear_depth(1.0);
+            }
+        }
         gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
 
         // The programs holding the matrices' and the color's uniforms.
@@ -409,6 +439,11 @@ pub fn render(
         for n in objects {
             let object = &scene.objects[n];
             let [p, v, m] = matrices(scene, object.space, object.model, aspect)?;
+            let p = if reversed_z.is_some() {
+                reversed_projection(scene, aspect)
+            } else {
+                p
+            };
             let cols = |m: DMat4| m.as_mat4().to_cols_array();
             // A linked program's uniforms set as before `--separable` existed (the bound
             // program's); separable programs' by name (`glProgramUniform*`).

@@ -77,6 +77,14 @@ pub struct GlRenderArgs {
     #[arg(long, conflicts_with = "separable")]
     pub computed_position: bool,
 
+    /// Render reversed depth as OpenGL applications do themselves: `glClipControl(GL_LOWER_LEFT,
+    /// GL_ZERO_TO_ONE)`, `glClearDepth(0)`, `GL_GREATER`, and a projection onto complementary
+    /// depth in [0, 1] (near 1, far 0) into the float32 depth buffer. revz must leave such an
+    /// application's depth alone (it decides so at its first clear to 0: Zink creates its
+    /// pipelines only at the first draw). Not with `--post`.
+    #[arg(long, conflicts_with = "post")]
+    pub reversed_z: bool,
+
     /// The Vulkan driver manifest Zink renders on [default: the system's lavapipe,
     /// lvp_icd*.json in the standard ICD directories]: a newer lavapipe, say (`cargo xtask
     /// setup` extracts Mesa 25.0's beside Debian 12's, with Mesa 25.0's Zink:
@@ -240,6 +248,11 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
         } else {
             None
         };
+        let clip_control = if args.reversed_z {
+            Some(context.clip_control()?)
+        } else {
+            None
+        };
         draw::render(
             &context.gl,
             &scene,
@@ -248,6 +261,7 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
             args.post,
             separable.as_ref(),
             args.computed_position,
+            clip_control,
         )?
     };
     println!("GL renderer: {} ({})", frame.renderer, frame.version);
