@@ -18,6 +18,7 @@
 mod install;
 mod manifest;
 mod package;
+mod piglit;
 mod system;
 
 use std::path::{Path, PathBuf};
@@ -86,6 +87,11 @@ enum Task {
     /// Run a program with revz injected, without installing anything:
     /// `cargo xtask run --mode infinite -- vkcube`.
     Run(install::RunArgs),
+    /// piglit's OpenGL depth tests through Zink on lavapipe (Debian's `piglit`, installed
+    /// if missing: 2 GB), without revz and in each mode, on the system's Zink and Mesa
+    /// 25.0's where `setup` extracted it: which results revz changes, into
+    /// target/revz-piglit (release build; minutes).
+    Piglit(piglit::PiglitArgs),
     /// Build the Debian package (release build) into target/debian: the layer in
     /// /usr/lib/<multiarch>/ and its implicit manifest in /usr/share/vulkan/implicit_layer.d/,
     /// active with ENABLE_REVZ=1.
@@ -308,5 +314,6 @@ fn main() -> Result<()> {
         Task::Uninstall => install::uninstall(),
         Task::Run(args) => install::run(&args),
         Task::Package(args) => package::package(&args),
+        Task::Piglit(args) => piglit::piglit(&args),
     }
 }

@@ -92,9 +92,15 @@ pub fn ensure_packages() -> Result<()> {
         );
         return Ok(());
     }
-    let missing: Vec<&str> = PACKAGES
+    install_missing(&PACKAGES.iter().map(|(name, _)| *name).collect::<Vec<_>>())
+}
+
+/// Installs those of `packages` that are missing (Debian: `apt-get`, as root or through
+/// password-less sudo; otherwise the command to run, and an error).
+pub fn install_missing(packages: &[&str]) -> Result<()> {
+    let missing: Vec<&str> = packages
         .iter()
-        .map(|(name, _)| *name)
+        .copied()
         .filter(|name| !is_installed(name))
         .collect();
     if missing.is_empty() {
