@@ -45,6 +45,36 @@ pub struct PiglitArgs {
     /// Tests run at once [default: the CPUs].
     #[arg(long)]
     jobs: Option<usize>,
+    /// Every run under the Khronos validation layer (below revz, so that it checks what revz
+    /// sends): the summary also lists the validation messages (by VUID) a test has with revz
+    /// beyond those it has without. Several times slower.
+    #[arg(long)]
+    validation: bool,
+}
+
+/// One run's result (`pass`, `fail`, `skip`, or `crash(...)`), and its validation messages
+/// counted by VUID (none where validation was off).
+#[derive(Debug, Clone, Default)]
+struct Outcome {
+    result: String,
+    messages: BTreeMap<String, usize>,
+}
+
+/// The VUIDs named in `text`, counted (each message names its VUID more than once: counted
+/// once per line).
+fn vuids(text: &str) -> BTreeMap<String, usize> {
+    let mut counts = BTreeMap::new();
+    for line in text.lines() {
+        let Some(at) = line.find("VUID") else {
+            continue;
+        };
+        let vuid: String = line[at..]
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '-' || *c == '_')
+            .collect();
+        *counts.entry(vuid).or_default() += 1;
+    }
+    counts
 }
 
 /// One piglit test: its name and its command line (program and arguments).
@@ -136,8 +166,15 @@ fn depth_tests(xml: &str) -> Vec<PiglitTest> {
         .collect()
 }
 
-/// The result one run of `test` printed, or `crash` (with its exit status) where none.
-fn run_one(test: &PiglitTest, zink: &Zink, layer: &Path, mode: Option<&str>) -> String {
+/// What one run of `test` printed: its result, or `crash` (with its exit status) where none;
+/// with `validation`, under the validation layer, its messages.
+fn run_one(
+    test: &PiglitTest,
+    zink: &Zink,
+    layer: &Path,
+    mode: Option<&str>,
+    validation: bool,
+) -> Outcome {
     let mut command = Command::new("timeout");
     command
         .arg(TIMEOUT_SECONDS)
@@ -155,23 +192,46 @@ fn run_one(test: &PiglitTest, zink: &Zink, layer: &Path, mode: Option<&str>) -> 
     for variable in ["VK_INSTANCE_LAYERS", "REVZ_MODE", "REVZ_CONFIG"] {
         command.env_remove(variable);
     }
+    // The first layer named is the nearest to the application: revz above validation.
+    let layers = match (mode, validation) {
+        (Some(_), true) => "VK_LAYER_REVZ_reverse_z:VK_LAYER_KHRONOS_validation",
+        (Some(_), false) => "VK_LAYER_REVZ_reverse_z",
+        (None, true) => "VK_LAYER_KHRONOS_validation",
+        (None, false) => "",
+    };
+    if !layers.is_empty() {
+        command.env("VK_INSTANCE_LAYERS", layers);
+    }
     if let Some(mode) = mode {
         command
             .env("VK_ADD_LAYER_PATH", layer)
-            .env("VK_INSTANCE_LAYERS", "VK_LAYER_REVZ_reverse_z")
             .env("REVZ_MODE", mode);
     }
     let Ok(output) = command.output() else {
-        return "crash(not started)".into();
+        return Outcome {
+            result: "crash(not started)".into(),
+            ..Outcome::default()
+        };
     };
     let text = String::from_utf8_lossy(&output.stdout);
     let marker = "PIGLIT: {\"result\": \"";
-    text.rfind(marker)
+    let result = text
+        .rfind(marker)
         .and_then(|at| {
             let rest = &text[at + marker.len()..];
             rest.find('"').map(|end| rest[..end].to_owned())
         })
-        .unwrap_or_else(|| format!("crash({})", output.status))
+        .unwrap_or_else(|| format!("crash({})", output.status));
+    let messages = if validation {
+        let mut messages = vuids(&text);
+        for (vuid, n) in vuids(&String::from_utf8_lossy(&output.stderr)) {
+            *messages.entry(vuid).or_default() += n;
+        }
+        messages
+    } else {
+        BTreeMap::new()
+    };
+    Outcome { result, messages }
 }
 
 /// The Zinks here: the system's, and Mesa 25.0's where `cargo xtask setup` extracted it.
@@ -200,7 +260,7 @@ fn zinks(paths: &Paths) -> Vec<Zink> {
 }
 
 /// Every (Zink, variant, test) result; variants are `none` and the modes.
-type Results = BTreeMap<String, BTreeMap<String, BTreeMap<String, String>>>;
+type Results = BTreeMap<String, BTreeMap<String, BTreeMap<String, Outcome>>>;
 
 pub fn piglit(args: &PiglitArgs) -> Result<()> {
     system::ensure_packages()?;
@@ -235,7 +295,7 @@ pub fn piglit(args: &PiglitArgs) -> Result<()> {
                     scope.spawn(|| loop {
                         let index = next.fetch_add(1, Ordering::Relaxed);
                         let Some(test) = tests.get(index) else { break };
-                        let result = run_one(test, &zink, &layer, mode);
+                        let result = run_one(test, &zink, &layer, mode, args.validation);
                         results
                             .lock()
                             .expect("no panic holds it")
@@ -259,9 +319,32 @@ pub fn piglit(args: &PiglitArgs) -> Result<()> {
     let results = results.into_inner().expect("no panic holds it");
     let out = paths.root.join("target/revz-piglit");
     std::fs::create_dir_all(&out)?;
+    let json: serde_json::Value = results
+        .iter()
+        .map(|(zink, variants)| {
+            let variants: serde_json::Map<String, serde_json::Value> = variants
+                .iter()
+                .map(|(variant, tests)| {
+                    let tests: serde_json::Map<String, serde_json::Value> = tests
+                        .iter()
+                        .map(|(test, o)| {
+                            let value = serde_json::json!({
+                                "result": o.result,
+                                "messages": o.messages,
+                            });
+                            (test.clone(), value)
+                        })
+                        .collect();
+                    (variant.clone(), tests.into())
+                })
+                .collect();
+            (zink.clone(), variants.into())
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into();
     std::fs::write(
         out.join("results.json"),
-        serde_json::to_string_pretty(&results)? + "\n",
+        serde_json::to_string_pretty(&json)? + "\n",
     )?;
     let summary = summary(&results, &variants);
     std::fs::write(out.join("summary.md"), &summary)?;
@@ -276,12 +359,13 @@ fn summary(results: &Results, variants: &[Option<&str>]) -> String {
         "| Zink | revz | tests | pass | fail | skip | other |\n|---|---|---|---|---|---|---|\n",
     );
     let mut changed = String::new();
+    let mut messages = String::new();
     for (zink, by_variant) in results {
         for variant in variants.iter().map(|m| m.unwrap_or("none")) {
             let Some(tests) = by_variant.get(variant) else {
                 continue;
             };
-            let count = |r: &str| tests.values().filter(|v| *v == r).count();
+            let count = |r: &str| tests.values().filter(|o| o.result == r).count();
             let (pass, fail, skip) = (count("pass"), count("fail"), count("skip"));
             text += &format!(
                 "| {zink} | {variant} | {} | {pass} | {fail} | {skip} | {} |\n",
@@ -297,15 +381,35 @@ fn summary(results: &Results, variants: &[Option<&str>]) -> String {
                 .iter()
                 .flatten()
                 .filter_map(|mode| {
-                    let result = by_variant.get(*mode)?.get(test)?;
-                    (result != without).then(|| format!("{mode} {result}"))
+                    let outcome = by_variant.get(*mode)?.get(test)?;
+                    (outcome.result != without.result).then(|| format!("{mode} {}", outcome.result))
                 })
                 .collect();
             if !with.is_empty() {
                 changed += &format!(
-                    "- {zink}: `{test}`: {without} without revz; {}\n",
+                    "- {zink}: `{test}`: {} without revz; {}\n",
+                    without.result,
                     with.join(", ")
                 );
+            }
+            let added: Vec<String> = variants
+                .iter()
+                .flatten()
+                .filter_map(|mode| {
+                    let outcome = by_variant.get(*mode)?.get(test)?;
+                    let more: Vec<String> = outcome
+                        .messages
+                        .iter()
+                        .filter_map(|(vuid, &n)| {
+                            let before = without.messages.get(vuid).copied().unwrap_or(0);
+                            (n > before).then(|| format!("{vuid} +{}", n - before))
+                        })
+                        .collect();
+                    (!more.is_empty()).then(|| format!("{mode}: {}", more.join(", ")))
+                })
+                .collect();
+            if !added.is_empty() {
+                messages += &format!("- {zink}: `{test}`: {}\n", added.join("; "));
             }
         }
     }
@@ -314,6 +418,10 @@ fn summary(results: &Results, variants: &[Option<&str>]) -> String {
     } else {
         text += "\nResults revz changes:\n\n";
         text += &changed;
+    }
+    if !messages.is_empty() {
+        text += "\nValidation messages a test has with revz beyond those it has without:\n\n";
+        text += &messages;
     }
     text
 }
@@ -361,10 +469,25 @@ mod tests {
     fn the_summary_counts_and_lists_what_revz_changes() {
         let mut results = Results::new();
         let zink = results.entry("Z".into()).or_default();
-        for (variant, a, b) in [("none", "pass", "skip"), ("infinite", "fail", "skip")] {
+        let outcome = |result: &str, messages: &[(&str, usize)]| Outcome {
+            result: result.into(),
+            messages: messages.iter().map(|&(v, n)| (v.to_owned(), n)).collect(),
+        };
+        for (variant, a, b) in [
+            (
+                "none",
+                outcome("pass", &[]),
+                outcome("skip", &[("VUID-x", 2)]),
+            ),
+            (
+                "infinite",
+                outcome("fail", &[]),
+                outcome("skip", &[("VUID-x", 3), ("VUID-y", 1)]),
+            ),
+        ] {
             let tests = zink.entry(variant.into()).or_default();
-            tests.insert("t1".into(), a.into());
-            tests.insert("t2".into(), b.into());
+            tests.insert("t1".into(), a);
+            tests.insert("t2".into(), b);
         }
         let text = summary(&results, &[None, Some("infinite")]);
         assert!(text.contains("| Z | none | 2 | 1 | 0 | 1 | 0 |"), "{text}");
@@ -376,6 +499,22 @@ mod tests {
             text.contains("- Z: `t1`: pass without revz; infinite fail"),
             "{text}"
         );
-        assert!(!text.contains("`t2`"), "{text}");
+        assert!(
+            text.contains("- Z: `t2`: infinite: VUID-x +1, VUID-y +1"),
+            "{text}"
+        );
+        assert!(!text.contains("`t2`: skip"), "{text}");
+    }
+
+    #[test]
+    fn validation_messages_are_counted_by_vuid_once_per_line() {
+        let text =
+            "Validation Error: [ VUID-vkCmdDraw-None-02859 ] ... (VUID-vkCmdDraw-None-02859)\n\
+                    ok\nValidation Error: [ VUID_Undefined ] x\n\
+                    Validation Error: [ VUID-vkCmdDraw-None-02859 ] again\n";
+        let counts = vuids(text);
+        assert_eq!(counts.get("VUID-vkCmdDraw-None-02859"), Some(&2));
+        assert_eq!(counts.get("VUID_Undefined"), Some(&1));
+        assert_eq!(counts.len(), 2);
     }
 }
