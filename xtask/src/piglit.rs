@@ -42,6 +42,14 @@ pub struct PiglitArgs {
     /// Only the tests whose piglit name contains this.
     #[arg(long)]
     filter: Option<String>,
+    /// Every test of the profile (7,741), not only those about depth: revz must change
+    /// nothing else (an hour or more per Zink and variant on 2 cores).
+    #[arg(long)]
+    all_tests: bool,
+    /// The Zinks: `system` (Mesa 22.3 on Debian 12), `newer` (Mesa 25.0, where `cargo xtask
+    /// setup` extracted it).
+    #[arg(long, value_delimiter = ',', default_value = "system,newer")]
+    zinks: Vec<String>,
     /// Tests run at once [default: the CPUs].
     #[arg(long)]
     jobs: Option<usize>,
@@ -86,6 +94,8 @@ struct PiglitTest {
 
 /// A Zink to run the tests through: its label and the environment selecting it.
 struct Zink {
+    /// Its name in `--zinks`.
+    name: &'static str,
     label: &'static str,
     env: Vec<(&'static str, std::ffi::OsString)>,
 }
@@ -152,11 +162,17 @@ fn python_list(text: &str) -> Option<Vec<String>> {
 
 /// The depth tests of `xml` (the profile's text).
 fn depth_tests(xml: &str) -> Vec<PiglitTest> {
+    profile_tests(xml, about_depth)
+}
+
+/// The tests of `xml` (the profile's text) whose name `wanted` accepts, GLX ones left out
+/// (they need an X server).
+fn profile_tests(xml: &str, wanted: impl Fn(&str) -> bool) -> Vec<PiglitTest> {
     xml.split("<Test ")
         .skip(1)
         .filter_map(|test| {
             let name = attribute(test, "name")?;
-            if !about_depth(&name) {
+            if name.starts_with("glx@") || !wanted(&name) {
                 return None;
             }
             let option = test.find("name=\"command\"")?;
@@ -237,6 +253,7 @@ fn run_one(
 /// The Zinks here: the system's, and Mesa 25.0's where `cargo xtask setup` extracted it.
 fn zinks(paths: &Paths) -> Vec<Zink> {
     let mut zinks = vec![Zink {
+        name: "system",
         label: "Mesa 22.3 (system)",
         env: Vec::new(),
     }];
@@ -246,6 +263,7 @@ fn zinks(paths: &Paths) -> Vec<Zink> {
     let libraries = dir.join("root/usr/lib/x86_64-linux-gnu");
     if icd.exists() && egl.exists() && libraries.join("dri/zink_dri.so").exists() {
         zinks.push(Zink {
+            name: "newer",
             label: "Mesa 25.0 (bookworm-backports)",
             env: vec![
                 ("VK_DRIVER_FILES", icd.clone().into()),
@@ -270,7 +288,12 @@ pub fn piglit(args: &PiglitArgs) -> Result<()> {
         .arg(&profile)
         .output()
         .with_context(|| format!("reading {}", profile.display()))?;
-    let mut tests = depth_tests(&String::from_utf8_lossy(&xml.stdout));
+    let xml = String::from_utf8_lossy(&xml.stdout);
+    let mut tests = if args.all_tests {
+        profile_tests(&xml, |_| true)
+    } else {
+        depth_tests(&xml)
+    };
     if let Some(filter) = &args.filter {
         tests.retain(|t| t.name.contains(filter.as_str()));
     }
@@ -287,7 +310,10 @@ pub fn piglit(args: &PiglitArgs) -> Result<()> {
         .collect();
     let started = std::time::Instant::now();
     let results: Mutex<Results> = Mutex::default();
-    for zink in zinks(&paths) {
+    for zink in zinks(&paths)
+        .into_iter()
+        .filter(|z| args.zinks.iter().any(|n| n == z.name))
+    {
         for &mode in &variants {
             let next = AtomicUsize::new(0);
             std::thread::scope(|scope| {
