@@ -302,6 +302,61 @@ fn app_creation(event: &Event) -> (usize, &[SeenShader], bool, &[vk::ShaderEXT])
     }
 }
 
+/// A vertex and a fragment shader object of `vertex` and `fragment` code created linked in
+/// one call where one of them gets a variant: checks that the call succeeded, and that the
+/// variant's call and then the application's reached the fake, both unlinked (the
+/// application's create infos otherwise as it made them, its `nextStage` the one the link
+/// required). Returns the handles, the variant's create infos and handles, and the
+/// application's create infos as the fake saw them.
+fn create_linked_pair_with_variant(
+    fx: &Fixture,
+    vertex: &[u32],
+    fragment: &[u32],
+) -> (
+    Vec<vk::ShaderEXT>,
+    Vec<SeenShader>,
+    Vec<vk::ShaderEXT>,
+    Vec<SeenShader>,
+) {
+    let infos = [
+        link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, vertex)),
+        link(shader_info(
+            FRAGMENT_STAGE,
+            vk::ShaderStageFlags::empty(),
+            fragment,
+        )),
+    ];
+    let (result, handles) = fx.create(&infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(
+        events.len(),
+        2,
+        "the variant's call, then the application's"
+    );
+    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
+    let (app_address, app_infos, _, app_handles) = app_creation(&events[1]);
+    assert_ne!(app_address, infos.as_ptr() as usize, "a copy goes down");
+    assert_eq!(app_handles, handles);
+    assert_eq!(app_infos.len(), 2);
+    for (seen, given) in app_infos.iter().zip(&infos) {
+        // SAFETY: a valid create info.
+        let given = unsafe { SeenShader::of(given) };
+        assert_eq!(seen.flags, vk::ShaderCreateFlagsEXT::empty(), "unlinked");
+        assert_eq!(
+            (seen.stage, seen.next_stage, &seen.code),
+            (given.stage, given.next_stage, &given.code),
+            "the application's shader, with the next stage the link required"
+        );
+    }
+    (
+        handles,
+        variant_infos.to_vec(),
+        variant_handles.to_vec(),
+        app_infos.to_vec(),
+    )
+}
+
 /// A vertex and a fragment shader object of `vertex` and `fragment` code, created unlinked in
 /// one call where one of them gets a variant: checks that the call succeeded and that two
 /// calls reached the fake, the variant's then the application's (with its allocator; its
@@ -397,35 +452,8 @@ fn a_frag_depth_fragment_shader_object_gets_a_variant_of_rewritten_code_before_t
 fn a_linked_fragment_shader_computing_with_depth_gets_its_variant() {
     let fx = Fixture::new();
     let (vertex, frag, plain) = (vertex(), fragment(FRAG_DEPTH), fragment(PLAIN));
-    let infos = [
-        link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &vertex)),
-        link(shader_info(
-            FRAGMENT_STAGE,
-            vk::ShaderStageFlags::empty(),
-            &frag,
-        )),
-    ];
-    let (result, handles) = fx.create(&infos);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(
-        events.len(),
-        2,
-        "the variant's call, then the application's"
-    );
-    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
-    let (app_address, app_infos, _, _) = app_creation(&events[1]);
-    // Both go down unlinked, each create info otherwise the application's.
-    assert_ne!(app_address, infos.as_ptr() as usize);
-    let unlinked: Vec<SeenShader> = infos
-        .iter()
-        .map(|info| SeenShader {
-            flags: vk::ShaderCreateFlagsEXT::empty(),
-            // SAFETY: valid create infos.
-            ..unsafe { SeenShader::of(info) }
-        })
-        .collect();
-    assert_eq!(app_infos, unlinked);
+    let (handles, variant_infos, variant_handles, app_infos) =
+        create_linked_pair_with_variant(&fx, &vertex, &frag);
     let rewritten = reverse_fragment_depth(&frag)
         .expect("rewritable")
         .expect("computes with depth");
@@ -433,7 +461,7 @@ fn a_linked_fragment_shader_computing_with_depth_gets_its_variant() {
         variant_infos,
         [SeenShader {
             code: bytes(&rewritten),
-            ..unlinked[1].clone()
+            ..app_infos[1].clone()
         }]
     );
     assert_eq!(
@@ -793,36 +821,8 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     // A linked pair goes down unlinked, and so does its variant's call (a call of one linked
     // shader is invalid): its vertex shader gets its variant as an unlinked one does, bound
     // alone in its place for precise-path draws.
-    let linked = [
-        link(shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting)),
-        link(shader_info(
-            FRAGMENT_STAGE,
-            vk::ShaderStageFlags::empty(),
-            &plain,
-        )),
-    ];
-    let (result, handles) = fx.create(&linked);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(
-        events.len(),
-        2,
-        "the variant's call, then the application's"
-    );
-    let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
-    let (_, app_infos, _, app_handles) = app_creation(&events[1]);
-    assert_eq!(app_handles, handles);
-    assert_eq!(app_infos.len(), 2);
-    for (seen, given) in app_infos.iter().zip(&linked) {
-        assert_eq!(seen.flags, vk::ShaderCreateFlagsEXT::empty(), "unlinked");
-        assert_eq!(seen.stage, given.stage);
-        assert_eq!(
-            seen.next_stage, given.next_stage,
-            "the next stage the link required"
-        );
-        // SAFETY: a valid create info.
-        assert_eq!(seen.code, unsafe { SeenShader::of(given) }.code);
-    }
+    let (handles, variant_infos, variant_handles, app_infos) =
+        create_linked_pair_with_variant(&fx, &projecting, &plain);
     assert_eq!(
         variant_infos,
         [SeenShader {
