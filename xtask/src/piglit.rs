@@ -42,8 +42,8 @@ pub struct PiglitArgs {
     /// Only the tests whose piglit name contains this.
     #[arg(long)]
     filter: Option<String>,
-    /// Every test of the profile (7,741), not only those about depth: revz must change
-    /// nothing else (an hour or more per Zink and variant on 2 cores).
+    /// Every test of the profile (7,636 without GLX), not only those about depth: revz must
+    /// change nothing else (about 15 minutes per Zink and variant on 2 cores).
     #[arg(long)]
     all_tests: bool,
     /// The Zinks: `system` (Mesa 22.3 on Debian 12), `newer` (Mesa 25.0, where `cargo xtask
