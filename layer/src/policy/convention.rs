@@ -46,10 +46,10 @@ impl ConventionEvidence {
     /// to 0, an application that clears to 0 but tests LESS, and a tie of the compare ops
     /// stay standard.
     ///
-    /// A clear to 0 before anything else: translation layers (Zink for OpenGL, DXVK and
-    /// vkd3d for Direct3D) create their pipelines and set their compare ops at the first
-    /// draw, after the clear, so an application rendering reversed depth through them shows
-    /// nothing else when its first depth image is cleared (`glClipControl` with
+    /// A clear to 0 before anything else: translation layers that create their pipelines and
+    /// set their compare ops at the first draw, after the clear (Zink for OpenGL; DXVK for
+    /// Direct3D 11 where its pipeline cache is cold), show nothing else of an application
+    /// rendering reversed depth when its first depth image is cleared (`glClipControl` with
     /// `glClearDepth(0)` and `GL_GREATER`: piglit's `arb_clip_control-depth-precision`,
     /// `gl-render --reversed-z`). Taken as standard it would have its depth reversed again,
     /// which in float32 loses what its own reversal gained; taken as reversed, a standard
@@ -376,7 +376,8 @@ mod tests {
 
     #[test]
     fn a_clear_to_0_before_anything_else_is_a_translated_reversed_application() {
-        // What Zink, DXVK and vkd3d show at their first clear: nothing else.
+        // What Zink (and DXVK with a cold pipeline cache) shows at its first clear: nothing
+        // else.
         let none = ConventionEvidence::default();
         assert_eq!(none.decide(Some(0.0)), Convention::AppReversed);
         // Any other clear, or none, stays standard.
