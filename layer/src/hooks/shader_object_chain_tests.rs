@@ -280,6 +280,27 @@ fn bytemuck_bytes(words: &[u32]) -> &[u8] {
     unsafe { std::slice::from_raw_parts(words.as_ptr().cast(), std::mem::size_of_val(words)) }
 }
 
+/// A vertex, tessellation control and tessellation evaluation shader of `code` (in that
+/// order) created linked, the evaluation stage followed by the fragment stage.
+fn linked_tessellation<'a>(code: [&'a [u32]; 3]) -> Vec<vk::ShaderCreateInfoEXT<'a>> {
+    let stages = [
+        (VERTEX_STAGE, vk::ShaderStageFlags::TESSELLATION_CONTROL),
+        (
+            vk::ShaderStageFlags::TESSELLATION_CONTROL,
+            vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+        ),
+        (
+            vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+            FRAGMENT_STAGE,
+        ),
+    ];
+    stages
+        .into_iter()
+        .zip(code)
+        .map(|((stage, next), code)| link(shader_info(stage, next, code)))
+        .collect()
+}
+
 /// `info` linked with the other shaders of its call.
 fn link(info: vk::ShaderCreateInfoEXT<'_>) -> vk::ShaderCreateInfoEXT<'_> {
     info.flags(vk::ShaderCreateFlagsEXT::LINK_STAGE)
@@ -515,28 +536,15 @@ fn plain_linked_binary_and_refused_fragment_shaders_get_no_variant() {
         (
             // A set with tessellation stages keeps its link (a set without them goes down
             // unlinked: `a_linked_fragment_shader_computing_with_depth_gets_its_variant`).
-            vec![
-                link(shader_info(
-                    VERTEX_STAGE,
-                    vk::ShaderStageFlags::TESSELLATION_CONTROL,
-                    &vertex,
-                )),
-                link(shader_info(
-                    vk::ShaderStageFlags::TESSELLATION_CONTROL,
-                    vk::ShaderStageFlags::TESSELLATION_EVALUATION,
-                    &vertex,
-                )),
-                link(shader_info(
-                    vk::ShaderStageFlags::TESSELLATION_EVALUATION,
-                    FRAGMENT_STAGE,
-                    &vertex,
-                )),
-                link(shader_info(
+            {
+                let mut set = linked_tessellation([&vertex, &vertex, &vertex]);
+                set.push(link(shader_info(
                     FRAGMENT_STAGE,
                     vk::ShaderStageFlags::empty(),
                     &depth,
-                )),
-            ],
+                )));
+                set
+            },
             Some(FragmentShader::Unreversed),
         ),
         (vec![binary_info], Some(FragmentShader::Unreversed)),
@@ -847,23 +855,7 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     );
     fx.free(buffer);
     // A set with tessellation stages keeps its link: no variant, the flip path.
-    let tessellated = [
-        link(shader_info(
-            VERTEX_STAGE,
-            vk::ShaderStageFlags::TESSELLATION_CONTROL,
-            &projecting,
-        )),
-        link(shader_info(
-            vk::ShaderStageFlags::TESSELLATION_CONTROL,
-            vk::ShaderStageFlags::TESSELLATION_EVALUATION,
-            &plain,
-        )),
-        link(shader_info(
-            vk::ShaderStageFlags::TESSELLATION_EVALUATION,
-            FRAGMENT_STAGE,
-            &projecting,
-        )),
-    ];
+    let tessellated = linked_tessellation([&projecting, &plain, &projecting]);
     let (result, handles) = fx.create(&tessellated);
     assert_eq!(result, vk::Result::SUCCESS);
     let events = fx.events();

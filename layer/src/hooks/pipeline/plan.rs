@@ -577,14 +577,24 @@ fn geometry_passes_through(
     else {
         return false;
     };
-    if geometry.module != vk::ShaderModule::null() {
-        return state
-            .objects
-            .position_passthrough
-            .get(&geometry.module)
-            .unwrap_or(false);
+    module_fact(
+        geometry,
+        &state.objects.position_passthrough,
+        crate::shader::position_store::passes_position_through,
+    )
+}
+
+/// What `scan` answers of `stage`'s code: for a module, as it was recorded at the module's
+/// creation (`recorded`; `false` where it was not); for inline code, scanned now.
+fn module_fact(
+    stage: &vk::PipelineShaderStageCreateInfo<'_>,
+    recorded: &crate::objects::Table<vk::ShaderModule, bool>,
+    scan: fn(&[u32]) -> bool,
+) -> bool {
+    if stage.module != vk::ShaderModule::null() {
+        return recorded.get(&stage.module).unwrap_or(false);
     }
-    inline_code(geometry).is_some_and(crate::shader::position_store::passes_position_through)
+    inline_code(stage).is_some_and(scan)
 }
 
 /// Whether the stage before the last pre-rasterization stage `last` (a geometry stage's
@@ -605,17 +615,13 @@ fn prior_stage_w_one(
         }
         _ => None,
     };
-    let Some(prior) = prior else {
-        return false;
-    };
-    if prior.module != vk::ShaderModule::null() {
-        return state
-            .objects
-            .position_w_one
-            .get(&prior.module)
-            .unwrap_or(false);
-    }
-    inline_code(prior).is_some_and(crate::shader::position_store::stores_position_w_one)
+    prior.is_some_and(|prior| {
+        module_fact(
+            prior,
+            &state.objects.position_w_one,
+            crate::shader::position_store::stores_position_w_one,
+        )
+    })
 }
 
 /// Whether `info`'s pipeline clamps depth without clipping it: its rasterization state's
