@@ -202,8 +202,8 @@ flip_scene_tests! {
 /// layer (`flip_scene` compares the colors), through a comparison sampler (`shadow-map`) and
 /// through texel fetches and a plain sampler whose raw values the shader compares itself
 /// (`shadow-map-raw`: reversed values would shadow nearly everything), and with an X8_D24 map
-/// (`shadow-map-x8-d24`: its twin is UNORM here, float in the precise modes, which the
-/// copies tests render), and lit by a spot light (`shadow-map-perspective`: a perspective
+/// (`shadow-map-x8-d24`: its twin is X8_D24, the image promoted to float in the precise modes,
+/// which the copies tests render), and lit by a spot light (`shadow-map-perspective`: a perspective
 /// shadow pass, whose map the precise modes store with the light's own n / w).
 #[test]
 fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
@@ -239,12 +239,15 @@ fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
 /// transition into the read-only layout makes the image readable; nothing writes it until
 /// the barrier into the post pass's layout, which refreshes nothing).
 ///
-/// The reference: the native render of the same format, but in the precise modes for the
-/// UNORM formats, which revz promotes to float, the native D32 render (D16 under revz renders
-/// as native D32 does, not as native D16). Allowed: channels 1 level off (float rounding of
-/// the depth converted back, in the fades), and per format the pixels where a particle meets
-/// a surface closer than the depth resolution (2 for float depth, seen 1; the flip path's
-/// D16 allowance otherwise).
+/// The reference: the native render of the same format, the UNORM formats revz promotes to
+/// float in the precise modes included (their read twin is UNORM: the particles fade with the
+/// depth the application's format holds; before session 35 the twin was float32, and D16
+/// renders matched native D32's instead). Allowed: channels 1 level off (rounding of the
+/// depth converted back, in the fades), and per format the pixels where a particle meets a
+/// surface closer than the depth resolution (2, seen 1; D16: the flip path's allowance, and
+/// where promoted, [`read_color_problems`]' wider one, with the ground-truth check that
+/// explains it: the D16 values revz hands back are the f64 truth rounded at least as often as
+/// lavapipe's own D16 rasterization's).
 #[test]
 fn depth_reads_sample_standard_depth_through_the_twin() {
     let harness = Harness::locate();
@@ -253,11 +256,11 @@ fn depth_reads_sample_standard_depth_through_the_twin() {
         let dir = harness.scratch_dir(&format!("depth-reads-{format}-native"));
         let mut command = harness.tester(format, &dir);
         command.args(["--scene", "depth-reads", "--sync-validation"]);
-        harness.render(command, &dir).color()
+        let render = harness.render(command, &dir);
+        (render.color(), render.depth())
     };
-    let native_d32 = native("d32");
     for format in DEPTH_FORMATS {
-        let own = native(format);
+        let (own, own_depth) = native(format);
         for mode in ["flip", "complementary", "infinite"] {
             let name = format!("depth-reads-{format}-{mode}");
             let dir = harness.scratch_dir(&name);
@@ -285,24 +288,23 @@ fn depth_reads_sample_standard_depth_through_the_twin() {
                 features.contains("VK_KHR_push_descriptor"),
                 "{name}: {features}"
             );
-            let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
-            let reference = if promoted { &native_d32 } else { &own };
-            let color = render.color();
-            let loose = pixels_off_by_more_than(reference, &color, 1);
-            let bound = if promoted || format != "d16" {
-                2
-            } else {
-                flip_color_tolerance(format)
-            };
-            assert!(
-                loose <= bound,
-                "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
-            );
-            assert!(
-                differing_pixels(reference, &color) <= 200,
-                "{name}: {} pixels differ",
-                differing_pixels(reference, &color)
-            );
+            let problems = read_color_problems(&name, (format, mode), &own, &render.color());
+            assert!(problems.is_empty(), "{}", problems.join("\n"));
+            if promoted_d16(format, mode) {
+                // What shaders read is what copies read back (one conversion into D16): the
+                // f64 truth rounded to D16 at least as often as without revz.
+                let truth = render.ground_truth();
+                let (with, without) = (
+                    rounds_the_truth(&render.depth(), &truth),
+                    rounds_the_truth(&own_depth, &truth),
+                );
+                eprintln!(
+                    "{name}: D16 read back as the rounded truth at {with} of {} interior pixels \
+                     ({without} without revz)",
+                    truth.interior()
+                );
+                assert!(with >= without, "{name}: {with} < {without}");
+            }
             let profile: serde_json::Value =
                 serde_json::from_str(&std::fs::read_to_string(&report).expect("the profile"))
                     .expect("a JSON profile");
@@ -323,8 +325,10 @@ fn depth_reads_sample_standard_depth_through_the_twin() {
 /// validation messages, and the band shaded from both aspects is the native render's: the
 /// twin keeps the stencil as it is (a refresh that copied the stencil after the converted
 /// depth left lavapipe's twin with raw reversed depth; one that lost the stencil would shade
-/// the band as background). Reference: the native render of the same format; in the precise
-/// modes the D24S8 image is promoted (stored as D32S8), whose native render is the reference.
+/// the band as background). Reference: the native render of the same format, in the precise
+/// modes too, where the D24S8 image is promoted (stored as D32S8) and its twin is D24S8, its
+/// stencil carried through the conversion with the depth (before session 35 the twin was
+/// D32S8, and native D32S8's render the reference).
 #[test]
 fn stencil_reads_sample_the_stencil_and_depth_of_the_twin() {
     let harness = Harness::locate();
@@ -334,7 +338,6 @@ fn stencil_reads_sample_the_stencil_and_depth_of_the_twin() {
         command.args(["--scene", "stencil-reads", "--sync-validation"]);
         harness.render(command, &dir).color()
     };
-    let native_d32_s8 = native("d32-s8");
     for format in STENCIL_FORMATS {
         let own = native(format);
         for mode in ["flip", "complementary", "infinite"] {
@@ -349,15 +352,14 @@ fn stencil_reads_sample_the_stencil_and_depth_of_the_twin() {
             let render = harness.render(command, &dir);
             let log = render.stderr();
             assert!(log.contains("shaders read its twin"), "{name}: {log}");
-            let promoted = mode != "flip" && format == "d24-s8";
-            let reference = if promoted { &native_d32_s8 } else { &own };
             let color = render.color();
-            let loose = pixels_off_by_more_than(reference, &color, 1);
+            let loose = pixels_off_by_more_than(&own, &color, 1);
             assert!(
                 loose <= 2,
                 "{name}: {loose} pixels differ by more than 1 level"
             );
-            let differing = differing_pixels(reference, &color);
+            let differing = differing_pixels(&own, &color);
+            eprintln!("{name}: {loose} pixels off by more than 1 level, {differing} differing");
             assert!(differing <= 20, "{name}: {differing} pixels differ");
         }
     }
@@ -1147,26 +1149,77 @@ fn layered_reads(
     (render, profile)
 }
 
-/// The colors of a depth-read scene against the native render, as
-/// `depth_reads_sample_standard_depth_through_the_twin` allows them: the reference is the
-/// native render of the same format (`own`), or the native D32 one where the precise modes
-/// promote a UNORM format; at most 2 pixels (flip D16: its tolerance) off by more than 1
-/// level, and at most 200 differing.
+/// The colors of a depth-read scene against the native render of the same format, as
+/// `depth_reads_sample_standard_depth_through_the_twin` allows them: at most 2 pixels (D16:
+/// its flip tolerance) off by more than 1 level, and at most 200 differing. Where the precise
+/// modes promote a UNORM format, shaders still read the application's format (the read twin
+/// is UNORM; an input attachment's reads are converted in the shader), so the reference is
+/// that format's render too (before session 35 it was native D32's, as the twin was float32).
+/// Whether the precise modes promote `format` as D16 (its twin then holds D16 values rounded
+/// from revz's float32 depth).
+fn promoted_d16(format: &str, mode: &str) -> bool {
+    format == "d16" && mode != "flip"
+}
+
+/// Interior pixels whose D16 depth read back is the scene's f64 depth (standard [0, 1]
+/// depth, `far / (far - near) * (1 - near / w)`) rounded to D16.
+fn rounds_the_truth(depth: &[f32], truth: &revz_tests::GroundTruth) -> usize {
+    let (near, far) = (truth.near, truth.far);
+    depth
+        .iter()
+        .zip(&truth.w)
+        .filter(|(_, w)| w.is_finite())
+        .filter(|(&d, &w)| {
+            let exact = far / (far - near) * (1.0 - near / w);
+            (f64::from(d) * 65535.0).round() == (exact * 65535.0).round()
+        })
+        .count()
+}
+
+/// The reference of a scene whose shaders read depth as float32 where the precise modes
+/// promote a UNORM format (input attachments, converted in the reading shader; multisampled
+/// images, whose twin is `R32_SFLOAT`): the native D32 render there, else the native render of
+/// the same format (`own`). Their reads are not rounded to the application's UNORM format
+/// (docs/limits.md).
+fn float_read_reference<'a>(
+    format: &str,
+    mode: &str,
+    own: &'a image::RgbaImage,
+    native_d32: &'a image::RgbaImage,
+) -> &'a image::RgbaImage {
+    let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
+    if promoted {
+        native_d32
+    } else {
+        own
+    }
+}
+
+///
+/// A promoted D16 image's twin holds its float32 depth rounded to D16, which differs from
+/// lavapipe's own D16 rasterization by one unit at about 1% of `depth-reads`' pixels (571 of
+/// 56,184 covered; revz's value is the f64 truth rounded at 545 of them, lavapipe's at 26),
+/// and one D16 unit near the far plane moves a fade by several levels: there 64 pixels may be
+/// more than 1 level off (measured 47 in `depth-reads`, 15 in `depth-mips`).
 fn read_color_problems(
     name: &str,
     (format, mode): (&str, &str),
-    (own, native_d32): (&image::RgbaImage, &image::RgbaImage),
+    reference: &image::RgbaImage,
     color: &image::RgbaImage,
 ) -> Vec<String> {
-    let promoted = mode != "flip" && ["d16", "x8-d24", "d24-s8"].contains(&format);
-    let reference = if promoted { native_d32 } else { own };
     let mut problems = Vec::new();
     let loose = pixels_off_by_more_than(reference, color, 1);
-    let bound = if promoted || format != "d16" {
-        2
-    } else {
+    let bound = if promoted_d16(format, mode) {
+        64
+    } else if format == "d16" {
         flip_color_tolerance(format)
+    } else {
+        2
     };
+    eprintln!(
+        "{name}: {loose} pixels off by more than 1 level, {} differing",
+        differing_pixels(reference, color)
+    );
     if loose > bound {
         problems.push(format!(
             "{name}: {loose} pixels differ by more than 1 level (bound {bound})"
@@ -1237,7 +1290,7 @@ fn deferred_depth_reads_standard_depth_through_input_attachments() {
                 problems.extend(read_color_problems(
                     &name,
                     (format, mode),
-                    (&own, &native_d32),
+                    float_read_reference(format, mode, &own, &native_d32),
                     &render.color(),
                 ));
                 let image = &profile["images"][0];
@@ -1306,7 +1359,7 @@ fn multisampled_depth_reads_standard_depth_per_sample() {
             problems.extend(read_color_problems(
                 &name,
                 (format, mode),
-                (&own, &native_d32),
+                float_read_reference(format, mode, &own, &native_d32),
                 &render.color(),
             ));
             let Some(image) = profile["images"]
@@ -1347,8 +1400,8 @@ fn multisampled_depth_reads_standard_depth_per_sample() {
 /// and 1. With the layer, in every reversing mode and depth format: the image is reversed and
 /// read through its twin (refreshed per level: three refreshes a frame for the mip chain, one
 /// for both layers), zero validation messages (synchronization validation included), and the
-/// colors are the native render's (of the same format; native D32 where the precise modes
-/// promote D16, X8_D24 and D24S8), within `depth-reads`' bounds.
+/// colors are the native render's of the same format (the promoted formats' twins are UNORM),
+/// within `depth-reads`' bounds.
 ///
 /// `depth-layers-stepwise` renders layer 1 twice, each time followed by a barrier of both
 /// layers: the second refresh converts layer 1 alone (session 25: a refresh covers only what
@@ -1373,7 +1426,6 @@ fn depth_mips_and_layers_sample_standard_depth_through_the_twin() {
             command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
             harness.render(command, &dir).color()
         };
-        let native_d32 = native("d32");
         for format in DEPTH_FORMATS {
             let own = native(format);
             for mode in ["flip", "complementary", "infinite"] {
@@ -1385,7 +1437,7 @@ fn depth_mips_and_layers_sample_standard_depth_through_the_twin() {
                 problems.extend(read_color_problems(
                     &name,
                     (format, mode),
-                    (&own, &native_d32),
+                    &own,
                     &render.color(),
                 ));
                 let image = &profile["images"][0];

@@ -721,6 +721,93 @@ fn generates_depth_mipmaps(harness: &Harness, zink: &Zink) {
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
+/// The texels of OpenGL's UNORM depth textures read back exactly through Zink (found by
+/// piglit's `depth-tex-compare`, docs/piglit.md): `gl-render --post texels` fills a
+/// GL_DEPTH_COMPONENT16, a GL_DEPTH_COMPONENT24 and a GL_DEPTH24_STENCIL8 texture with
+/// known texels (glTexImage2D: copies into images revz promotes to float32 and reverses in the
+/// precise modes) and reads each texel with `texelFetch` and with shadow lookups (GL_LEQUAL,
+/// GL_GEQUAL) against its own value. Through revz, under the default policy, in every mode,
+/// every value read is bit for bit the one read without revz: the read twin of a promoted
+/// image has the application's UNORM format, refreshed by a float32-to-UNORM conversion.
+/// Measured with a float32 twin (session 34's layer): in `complementary` and `infinite`
+/// 27,122 of 65,536 D16 texels and 57,349 of 65,536 D24 ones fetched an ulp apart, and
+/// 13,548-40,965 lookups per format flipped between 0 and 1. The ground truth without revz:
+/// each texel fetched within an ulp of its f64 value (`k / (2^bits - 1)`), and every lookup
+/// against a reference equal to the fetched texel passes.
+#[test]
+fn zink_shaders_read_the_texels_of_unorm_depth_textures_as_without_revz() {
+    let harness = Harness::locate();
+    for zink in Zink::all(&harness) {
+        if matches!(zink, Zink::NewerShaderObjects(_)) {
+            // Texture reads: the same path as Mesa 25.0's Zink without separable programs.
+            continue;
+        }
+        reads_texels(&harness, &zink);
+    }
+}
+
+fn reads_texels(harness: &Harness, zink: &Zink) {
+    let files = ["texels-d16.f32", "texels-d24.f32", "texels-d24s8.f32"];
+    let Some((native, _)) = zink_post_outputs(harness, zink, "texels", None) else {
+        return;
+    };
+    for file in files {
+        let values = read_f32(&native.join(file));
+        assert_eq!(values.len(), 256 * 256 * 4, "{file}");
+        for texel in values.chunks_exact(4) {
+            let [fetched, less_equal, greater_equal, reference] = texel else {
+                unreachable!()
+            };
+            let ulp = f32::EPSILON * reference.max(f32::MIN_POSITIVE);
+            assert!(
+                (fetched - reference).abs() <= ulp,
+                "{file}{}: fetched {fetched} for {reference}",
+                zink.label()
+            );
+            // Against the fetched value itself one of the two holds whatever the rounding.
+            assert!(
+                *less_equal == 1.0 || *greater_equal == 1.0,
+                "{file}{}: {texel:?}",
+                zink.label()
+            );
+        }
+    }
+    let mut problems = Vec::new();
+    for mode in ["flip", "complementary", "infinite"] {
+        let (with, log) = zink_post_outputs(harness, zink, "texels", Some(mode)).expect("Zink ran");
+        if !log.contains("D16_UNORM, 256x256): reversed")
+            || log.matches("shaders read its twin").count() < 4
+            || (mode != "flip" && !log.contains("promoted to D32_SFLOAT_S8_UINT"))
+        {
+            problems.push(format!(
+                "{mode}{}: the textures are not reversed with twins (promoted in the precise \
+                 modes)\n{log}",
+                zink.label()
+            ));
+        }
+        for file in files {
+            let (a, b) = (read_f32(&native.join(file)), read_f32(&with.join(file)));
+            let apart = a
+                .iter()
+                .zip(&b)
+                .filter(|(x, y)| x.to_bits() != y.to_bits())
+                .count();
+            eprintln!(
+                "zink texels {mode}{} {file}: {apart} of {} values differ",
+                zink.label(),
+                a.len()
+            );
+            if apart > 0 {
+                problems.push(format!(
+                    "{mode}{} {file}: {apart} values differ from the run without revz",
+                    zink.label()
+                ));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
 /// `gl-render --zink --reversed-z` of `scene`, through revz in `mode` or without it: the
 /// color and depth read back, and the layer's log; `None` where Zink cannot be initialised.
 fn zink_reversed_z(

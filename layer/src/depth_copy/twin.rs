@@ -1,8 +1,12 @@
 //! Read twins (issue #39): what shaders read in place of a reversed depth image.
 //!
 //! A reversed image that shaders sample (`crate::policy::DevicePolicy::reads_through_twin`)
-//! gets a twin at its creation: a native image of the same stored format, size, mip levels and
-//! layers, in revz's own memory. Every view of the image gets a view of the twin beside it,
+//! gets a twin at its creation: a native image of the application's format, size, mip levels
+//! and layers, in revz's own memory. A promoted image's twin is UNORM: a shader reads the
+//! texel the application's format would hold (a float32 twin would give `1 - (1 - d)`, up to
+//! an ulp from the UNORM value `d`: a comparison against a reference equal to the texel, as
+//! OpenGL's conformance tests make, fails), and the refresh converts float32 to UNORM through
+//! the conversion of copies, the stencil with it. Every view of the image gets a view of the twin beside it,
 //! and descriptors receive the twin's view (`crate::hooks::descriptors`). Whenever the
 //! application makes the image readable after writing it (an image barrier or a
 //! `vkCmdWaitEvents` into a read-only layout, a render pass ending in one:
@@ -38,7 +42,7 @@
 
 use ash::vk;
 
-use super::plan::{plan_image_copy, DepthMap, ShaderHeader, TexelKind, TexelKinds};
+use super::plan::{plan_image_copy, DepthMap, ShaderHeader, TexelKinds};
 use super::record::{image_barrier, pipeline_barrier, record, Conversion, Drain, Fill};
 use super::scratch::CommandCopies;
 use crate::objects::{MultisampledBindings, ReadTwin};
@@ -48,12 +52,32 @@ use crate::state::DeviceState;
 /// The layout descriptors name a twin's views in, and the one it is left in after a refresh.
 pub const TWIN_LAYOUT: vk::ImageLayout = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
 
-/// Creates the twin of an image created with `info` in `format` (the stored one), with its
-/// memory; `None` (nothing left behind) where the device refuses.
+/// Creates the twin of an image created with `info` and stored in `stored` (the float format
+/// where revz promoted it), with its memory: in the application's format, or in the stored
+/// one where the device refuses that (a UNORM format without transfer writes); `None`
+/// (nothing left behind) where the device refuses both.
 ///
 /// # Safety
 /// `device` is live; `info` is the application's valid create info.
 pub unsafe fn create(
+    device: &DeviceState,
+    info: &vk::ImageCreateInfo<'_>,
+    stored: vk::Format,
+) -> Option<ReadTwin> {
+    // SAFETY: the caller's contract.
+    unsafe { create_in(device, info, info.format) }.or_else(|| {
+        // SAFETY: as above.
+        (stored != info.format)
+            .then(|| unsafe { create_in(device, info, stored) })
+            .flatten()
+    })
+}
+
+/// [`create`] in `format` (single-sampled twins; a multisampled twin is `R32_SFLOAT`).
+///
+/// # Safety
+/// As [`create`].
+unsafe fn create_in(
     device: &DeviceState,
     info: &vk::ImageCreateInfo<'_>,
     format: vk::Format,
@@ -117,6 +141,7 @@ pub unsafe fn create(
     Some(ReadTwin {
         image,
         memory,
+        format: twin_info.format,
         extent: info.extent,
         mip_levels: info.mip_levels,
         array_layers: info.array_layers,
@@ -269,10 +294,10 @@ pub unsafe fn destroy(device: &DeviceState, twin: &ReadTwin) {
     }
 }
 
-/// Creates the view of `twin` beside a view made with `info` (already in the stored format):
-/// the same view of the twin, without the application's extension structures (usage
-/// restrictions, min LOD: the twin is only sampled); of a multisampled twin, the same view in
-/// its color format (see [`twin_reads`]: only views of the depth aspect get one).
+/// Creates the view of `twin` beside a view made with `info`: the same view of the twin in
+/// the twin's format, without the application's extension structures (usage restrictions,
+/// min LOD: the twin is only sampled); of a multisampled twin, in its color format (see
+/// [`twin_reads`]: only views of the depth aspect get one).
 ///
 /// # Safety
 /// `device` is live; `info` is a valid create info of a view of the twin's image.
@@ -297,6 +322,7 @@ pub unsafe fn create_view(
         vk::ImageViewCreateInfo {
             p_next: std::ptr::null(),
             image: twin.image,
+            format: twin.format,
             ..*info
         }
     };
@@ -356,8 +382,9 @@ pub struct Refresh {
     pub layout: vk::ImageLayout,
     pub range: vk::ImageSubresourceRange,
     pub twin: ReadTwin,
-    /// The texels of the stored format.
-    pub kind: TexelKind,
+    /// The texels of the stored format, and of the twin's (they differ where the image is
+    /// promoted: float32 into UNORM).
+    pub kinds: TexelKinds,
     /// The map to standard depth; `None` where the image holds standard depth already.
     pub map: Option<DepthMap>,
 }
@@ -376,7 +403,7 @@ impl Refresh {
                 * 4;
         }
         let per_texel = |aspect| match aspect {
-            vk::ImageAspectFlags::DEPTH => self.kind.bytes(),
+            vk::ImageAspectFlags::DEPTH => self.kinds.source.bytes(),
             _ => 1,
         };
         [vk::ImageAspectFlags::DEPTH, vk::ImageAspectFlags::STENCIL]
@@ -502,48 +529,56 @@ pub unsafe fn record_refresh(
             )
         }
     };
-    // The stencil first: lavapipe (Mesa 22.3) copies the stencil aspect of a
-    // D24_UNORM_S8_UINT or D32_SFLOAT_S8_UINT image as whole texels, depth included, so the
-    // converted depth must be the last write (the conversion's own barriers order the two
-    // transfers).
-    if range.aspect_mask.contains(vk::ImageAspectFlags::STENCIL) {
-        copy(&level_regions(
-            &range,
-            vk::ImageAspectFlags::STENCIL,
-            refresh.twin.extent,
-        ));
-    }
-    let mut result = Ok(());
-    if range.aspect_mask.contains(vk::ImageAspectFlags::DEPTH) {
-        let regions = level_regions(&range, vk::ImageAspectFlags::DEPTH, refresh.twin.extent);
-        match refresh.map {
-            None => copy(&regions),
-            Some(map) => {
-                let kinds = TexelKinds::same(refresh.kind);
-                result = match plan_image_copy(&regions, kinds) {
-                    None => Err(Unconverted::Regions),
-                    Some(plan) => {
-                        let conversion = Conversion {
-                            header: ShaderHeader::new(kinds, map, &plan.layout),
-                            size: plan.layout.size,
-                            fill: Fill::Image {
-                                image: refresh.image,
-                                layout: src_layout,
-                                regions: &plan.from_source,
-                            },
-                            drain: Drain::Image {
-                                image: refresh.twin.image,
-                                layout: dst_layout,
-                                regions: &plan.to_destination,
-                            },
-                        };
-                        // SAFETY: the caller's contract.
-                        unsafe { record(device, copies, buffer, &conversion) }
-                    }
-                };
-            }
+    let mut convert = |regions: &[vk::ImageCopy], map| match plan_image_copy(regions, refresh.kinds)
+    {
+        None => Err(Unconverted::Regions),
+        Some(plan) => {
+            let conversion = Conversion {
+                header: ShaderHeader::new(refresh.kinds, map, &plan.layout),
+                size: plan.layout.size,
+                fill: Fill::Image {
+                    image: refresh.image,
+                    layout: src_layout,
+                    regions: &plan.from_source,
+                },
+                drain: Drain::Image {
+                    image: refresh.twin.image,
+                    layout: dst_layout,
+                    regions: &plan.to_destination,
+                },
+            };
+            // SAFETY: the caller's contract.
+            unsafe { record(device, copies, buffer, &conversion) }
         }
-    }
+    };
+    let regions_of = |aspect| level_regions(&range, aspect, refresh.twin.extent);
+    let (depth, stencil) = (vk::ImageAspectFlags::DEPTH, vk::ImageAspectFlags::STENCIL);
+    let result = if refresh.kinds.source != refresh.kinds.destination {
+        // A promoted image into its UNORM twin: both aspects through the conversion (no image
+        // copy goes between two formats), the depth converted even where it is standard.
+        let regions: Vec<vk::ImageCopy> = [depth, stencil]
+            .into_iter()
+            .filter(|&aspect| range.aspect_mask.contains(aspect))
+            .flat_map(regions_of)
+            .collect();
+        convert(&regions, refresh.map.unwrap_or(DepthMap::IDENTITY))
+    } else {
+        // The stencil first: lavapipe (Mesa 22.3) copies the stencil aspect of a
+        // D24_UNORM_S8_UINT or D32_SFLOAT_S8_UINT image as whole texels, depth included, so
+        // the converted depth must be the last write (the conversion's own barriers order the
+        // two transfers).
+        if range.aspect_mask.contains(stencil) {
+            copy(&regions_of(stencil));
+        }
+        match (range.aspect_mask.contains(depth), refresh.map) {
+            (false, _) => Ok(()),
+            (true, None) => {
+                copy(&regions_of(depth));
+                Ok(())
+            }
+            (true, Some(map)) => convert(&regions_of(depth), map),
+        }
+    };
     barrier(
         transfer,
         all,
@@ -717,6 +752,7 @@ unsafe fn record_multisampled_refresh(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::depth_copy::plan::TexelKind;
     use ash::vk::Handle;
 
     #[test]
@@ -738,7 +774,10 @@ mod tests {
                 layer_count: 2,
             },
             twin,
-            kind: TexelKind::of(vk::Format::D24_UNORM_S8_UINT).unwrap(),
+            kinds: TexelKinds {
+                source: TexelKind::Float32,
+                destination: TexelKind::Float32,
+            },
             map: None,
         };
         assert_eq!(refresh.bytes(), 64 * 32 * 2 * 4 * 4);
@@ -768,6 +807,7 @@ mod tests {
         ReadTwin {
             image: vk::Image::from_raw(1),
             memory: vk::DeviceMemory::from_raw(2),
+            format: vk::Format::D24_UNORM_S8_UINT,
             extent: vk::Extent3D {
                 width: 64,
                 height: 32,

@@ -712,6 +712,20 @@ impl PipelineOutcome {
 static PIPELINE_OUTCOMES: Mutex<Vec<(usize, PipelineOutcome)>> = Mutex::new(Vec::new());
 static SHADER_MODULE_RESULTS: Mutex<Vec<(usize, vk::Result)>> = Mutex::new(Vec::new());
 static SHADER_OBJECT_RESULTS: Mutex<Vec<(usize, vk::Result)>> = Mutex::new(Vec::new());
+static IMAGE_RESULTS: Mutex<Vec<(usize, vk::Result)>> = Mutex::new(Vec::new());
+
+/// Scripts the results of the next calls of the fake `vkCreateImage` for the device of
+/// `table`, in order (a failed call writes a null handle and notes nothing).
+pub(super) fn script_image_creations(
+    table: &'static u8,
+    results: impl IntoIterator<Item = vk::Result>,
+) {
+    let key = key(table);
+    IMAGE_RESULTS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .extend(results.into_iter().map(|result| (key, result)));
+}
 
 /// Scripts the results of the next calls of the fake `vkCreateShadersEXT` for the device of
 /// `table`, in order (a failed call writes null handles).
@@ -1702,11 +1716,18 @@ mod passes {
         _: *const vk::AllocationCallbacks,
         p_image: *mut vk::Image,
     ) -> vk::Result {
+        // SAFETY: the fake's live device.
+        let table = unsafe { key_of(device) };
+        let result = next_scripted(&IMAGE_RESULTS, table).unwrap_or(vk::Result::SUCCESS);
+        if result != vk::Result::SUCCESS {
+            // SAFETY: revz passes the application's output pointer through.
+            unsafe { *p_image = vk::Image::null() };
+            return result;
+        }
         let handle = fresh_handle();
         // SAFETY: revz passes the application's output pointer through.
         unsafe { *p_image = handle };
-        // SAFETY: the fake's live device.
-        note_detail(unsafe { key_of(device) }, || Event::CreateImage {
+        note_detail(table, || Event::CreateImage {
             handle,
             // SAFETY: a valid create info with a valid chain.
             info: unsafe { seen_image(&*p_create_info) },

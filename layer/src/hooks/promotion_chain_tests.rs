@@ -2642,8 +2642,9 @@ fn images_that_keep_their_format_and_mixed_framebuffers_are_logged() {
 }
 
 /// Issue #39: a single-sampled depth image shaders sample is reversed and gets a read twin (the
-/// application's image created with TRANSFER_SRC added, then the twin in the same stored
-/// format); each view of it gets a view of the twin; descriptor writes of its views name the
+/// application's image created with TRANSFER_SRC added, then the twin in the application's
+/// format: a promoted image's shaders read UNORM texels); each view of it gets a view of the
+/// twin in that format; descriptor writes of its views name the
 /// twin's view in `SHADER_READ_ONLY_OPTIMAL` (other views untouched); and the twin's view and
 /// image are destroyed with the application's.
 #[test]
@@ -2668,7 +2669,7 @@ fn a_sampled_depth_image_gets_a_read_twin_whose_views_descriptors_name() {
     assert_eq!(app.0, image);
     assert_eq!(app.1.format, D32_S8, "promoted");
     assert_eq!(app.1.usage, sampled | vk::ImageUsageFlags::TRANSFER_SRC);
-    assert_eq!(twin.1.format, D32_S8, "the stored format");
+    assert_eq!(twin.1.format, D24_S8, "the application's format");
     assert_eq!(
         twin.1.usage,
         vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST
@@ -2699,7 +2700,7 @@ fn a_sampled_depth_image_gets_a_read_twin_whose_views_descriptors_name() {
     assert_eq!(views.len(), 2, "{views:?}");
     assert_eq!((views[0].0, views[0].1, views[0].2), (view, image, D32_S8));
     let twin_view = views[1].0;
-    assert_eq!((views[1].1, views[1].2), (twin.0, D32_S8));
+    assert_eq!((views[1].1, views[1].2), (twin.0, D24_S8));
 
     let other = vk::ImageView::from_raw(0x7777);
     let infos = [
@@ -2800,6 +2801,62 @@ fn a_sampled_depth_image_gets_a_read_twin_whose_views_descriptors_name() {
         0
     );
     assert!(fx.state.objects.twin_views.get(&view).is_none());
+}
+
+/// A device that refuses the read twin of a promoted image in the application's UNORM format
+/// (a D24 format without transfer writes, say) gets the twin in the stored float format, its
+/// views in that format too: shaders then read float32 texels (up to an ulp from the UNORM
+/// ones), which beats keeping the image native.
+#[test]
+fn a_twin_the_device_refuses_in_the_application_format_is_made_in_the_stored_one() {
+    let fx = Fixture::new();
+    let sampled = ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
+    let info = fake_chain::depth_image_info(D24_S8, EXTENT, sampled, SINGLE);
+    // The application's image, then its twin in D24_S8 refused, then in D32_S8.
+    fake_chain::script_image_creations(
+        fx.tables.device,
+        [vk::Result::SUCCESS, vk::Result::ERROR_FORMAT_NOT_SUPPORTED],
+    );
+    let mut image = vk::Image::null();
+    // SAFETY: a live device and a valid create info.
+    let result = unsafe { (fx.hooks.create_image)(fx.device, &info, std::ptr::null(), &mut image) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    fx.images.borrow_mut().push(image);
+    let formats: Vec<vk::Format> = fx
+        .events()
+        .into_iter()
+        .filter_map(|event| match event {
+            Event::CreateImage { info, .. } => Some(info.format),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        formats,
+        [D32_S8, D32_S8],
+        "the image promoted, its twin stored alike"
+    );
+    let tracked = fx.state.objects.images.get(&image).unwrap();
+    assert_eq!(tracked.depth, crate::policy::ImageDepth::Reversed);
+    let twin = tracked.twin.expect("a twin");
+    assert_eq!(twin.format, D32_S8);
+
+    let view_info = fake_chain::depth_view_info(image, D24_S8);
+    let mut view = vk::ImageView::null();
+    // SAFETY: a live device and a valid create info.
+    let result =
+        unsafe { (fx.hooks.create_image_view)(fx.device, &view_info, std::ptr::null(), &mut view) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    fx.views.borrow_mut().push(view);
+    let formats: Vec<(vk::Image, vk::Format)> = fx
+        .events()
+        .into_iter()
+        .filter_map(|event| match event {
+            Event::CreateImageView { image, format, .. } => Some((image, format)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(formats, [(image, D32_S8), (twin.image, D32_S8)]);
+    assert!(fx.state.objects.twin_views.get(&view).is_some());
 }
 
 /// In infinite mode a copy of depth between two reversed images goes down as it is, and the

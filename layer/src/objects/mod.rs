@@ -91,15 +91,19 @@ pub struct TwinView {
     pub range: vk::ImageSubresourceRange,
 }
 
-/// A reversed image's read twin (issue #39): a native image of the same format (the stored
-/// one: float where promoted), size, mip levels and layers, in revz's own memory, refreshed
-/// with the image's standard values whenever the application makes the image readable, and
-/// read by shaders through views made beside the application's
-/// ([`DeviceObjects::twin_views`]), always in `SHADER_READ_ONLY_OPTIMAL` once refreshed.
+/// A reversed image's read twin (issue #39): a native image of the application's format (a
+/// promoted image's twin is UNORM, so that shaders read the texels the application's format
+/// holds), size, mip levels and layers, in revz's own memory, refreshed with the image's
+/// standard values whenever the application makes the image readable, and read by shaders
+/// through views made beside the application's ([`DeviceObjects::twin_views`]), always in
+/// `SHADER_READ_ONLY_OPTIMAL` once refreshed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ReadTwin {
     pub image: vk::Image,
     pub memory: vk::DeviceMemory,
+    /// The twin's own format: the application's (the stored float one only where the device
+    /// refused a twin in the application's format), `R32_SFLOAT` for a multisampled twin.
+    pub format: vk::Format,
     pub extent: vk::Extent3D,
     pub mip_levels: u32,
     pub array_layers: u32,

@@ -112,7 +112,56 @@ pub enum PostPass {
     /// with glReadPixels (`mip1-depth.f32`, half the size) and sampled with
     /// `texelFetch(.., 1)` as `fetch` does, each level-1 texel over 2 x 2 pixels (`post.png`).
     Mipmap,
+    /// Depth textures of the UNORM formats (GL_DEPTH_COMPONENT16, GL_DEPTH_COMPONENT24,
+    /// GL_DEPTH24_STENCIL8), the size of the render, filled by glTexImage2D with known texels
+    /// ([`texel_value`]) and read by one pass per format into an RGBA32F target: the texel
+    /// fetched (`texelFetch`), a shadow lookup with GL_LEQUAL and one with GL_GEQUAL against
+    /// the texel's own value as the reference (1 where the texel reads as what was uploaded,
+    /// as piglit's `depth-tex-compare` checks), and that reference; read back as float32
+    /// (`texels-d16.f32`, `texels-d24.f32`, `texels-d24s8.f32`, four values a texel, top row
+    /// first). The scene's depth is not read.
+    Texels,
 }
+
+/// The UNORM depth formats [`PostPass::Texels`] fills: (file, internal format, bits).
+pub const TEXEL_FORMATS: [(&str, u32, u32); 3] = [
+    ("texels-d16.f32", glow::DEPTH_COMPONENT16, 16),
+    ("texels-d24.f32", glow::DEPTH_COMPONENT24, 24),
+    ("texels-d24s8.f32", glow::DEPTH24_STENCIL8, 24),
+];
+
+/// The UNORM value of texel `index` of a [`PostPass::Texels`] texture of `bits`: 0, 1, 2, the
+/// largest and the one below it first, then a multiplicative hash spread over the whole
+/// range (every high and low bit pattern shows up).
+pub fn texel_value(index: u32, bits: u32) -> u32 {
+    let max = (1u32 << bits) - 1;
+    match index {
+        0..=2 => index,
+        3 => max,
+        4 => max - 1,
+        _ => index.wrapping_mul(2_654_435_761) >> (32 - bits),
+    }
+}
+
+/// [`PostPass::Texels`]'s fragment shader: the same texture bound to three units (through
+/// sampler objects: no compare, GL_LEQUAL, GL_GEQUAL), the reference values in a fourth.
+const POST_TEXELS_SHADER: &str = "#version 330 core
+uniform sampler2D u_depth;
+uniform sampler2DShadow u_less_equal;
+uniform sampler2DShadow u_greater_equal;
+uniform sampler2D u_reference;
+out vec4 result;
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    float reference = texelFetch(u_reference, p, 0).r;
+    vec2 uv = (vec2(p) + 0.5) / vec2(textureSize(u_depth, 0));
+    result = vec4(
+        texelFetch(u_depth, p, 0).r,
+        texture(u_less_equal, vec3(uv, reference)),
+        texture(u_greater_equal, vec3(uv, reference)),
+        reference);
+}
+";
 
 /// The post pass's full-screen triangle (no vertex buffer: `gl_VertexID`).
 const POST_VERTEX_SHADER: &str = "#version 330 core
@@ -165,7 +214,7 @@ pub struct GlFrame {
     /// The post passes' colors, where one ran.
     pub post: Vec<PostImage>,
     /// Depth the post pass made and read back (`--post blit`: the blits' destinations;
-    /// `--post mipmap`: level 1).
+    /// `--post mipmap`: level 1), or the values it read (`--post texels`).
     pub post_depth: Vec<PostDepth>,
     /// GL_RENDERER.
     pub renderer: String,
@@ -182,13 +231,16 @@ pub struct PostImage {
     pub rgba: Vec<u8>,
 }
 
-/// Depth a post pass made, as glReadPixels(GL_DEPTH_COMPONENT, GL_FLOAT) returns it.
+/// Depth a post pass made, as glReadPixels(GL_DEPTH_COMPONENT, GL_FLOAT) returns it (or
+/// `components` float32 values a pixel, as [`PostPass::Texels`] reads them).
 #[derive(Debug)]
 pub struct PostDepth {
     /// The file it goes to (`blit-depth.f32`, ...).
     pub file: &'static str,
     pub width: u32,
     pub height: u32,
+    /// Values per pixel: 1, or 4 for [`PostPass::Texels`].
+    pub components: u32,
     /// Row-major, top row first.
     pub depth: Vec<f32>,
 }
@@ -704,6 +756,7 @@ unsafe fn post_passes(
                         file: depth_file,
                         width: w as u32,
                         height: h as u32,
+                        components: 1,
                         depth: read_depth(gl, w, h),
                     });
                     let rgba = post_pass(gl, POST_FETCH_SHADER, copy, 0, w, h)?;
@@ -730,13 +783,176 @@ unsafe fn post_passes(
                     file: "mip1-depth.f32",
                     width: lw as u32,
                     height: lh as u32,
+                    components: 1,
                     depth: read_depth(gl, lw, lh),
                 };
                 gl.delete_framebuffer(framebuffer);
                 let rgba = post_pass(gl, POST_FETCH_LEVEL_SHADER, texture, 1, w, h)?;
                 Ok((vec![image("post.png", rgba)], vec![depth]))
             }
+            PostPass::Texels => {
+                let mut read = Vec::new();
+                for (file, internal_format, bits) in TEXEL_FORMATS {
+                    let values = texels_pass(gl, internal_format, bits, w, h)
+                        .with_context(|| format!("the texels of {file}"))?;
+                    read.push(PostDepth {
+                        file,
+                        width: w as u32,
+                        height: h as u32,
+                        components: 4,
+                        depth: top_row_first(&values, w as usize * 4),
+                    });
+                }
+                Ok((Vec::new(), read))
+            }
         }
+    }
+}
+
+/// One format of [`PostPass::Texels`]: the texture filled, read by the pass, its RGBA32F
+/// target read back (bottom row first).
+///
+/// # Safety
+/// The caller's context is current.
+unsafe fn texels_pass(
+    gl: &glow::Context,
+    internal_format: u32,
+    bits: u32,
+    w: i32,
+    h: i32,
+) -> Result<Vec<f32>> {
+    let texels = w as u32 * h as u32;
+    let max = f64::from((1u32 << bits) - 1);
+    let references: Vec<f32> = (0..texels)
+        .map(|i| (f64::from(texel_value(i, bits)) / max) as f32)
+        .collect();
+    let bytes = |words: &[u32]| -> Vec<u8> { words.iter().flat_map(|w| w.to_ne_bytes()).collect() };
+    // SAFETY: the caller's contract; objects made here, slices of the sizes GL reads or writes.
+    unsafe {
+        gl.pixel_store_i32(glow::UNPACK_ALIGNMENT, 4);
+        let texture = gl.create_texture().map_err(anyhow::Error::msg)?;
+        gl.active_texture(glow::TEXTURE0);
+        gl.bind_texture(glow::TEXTURE_2D, Some(texture));
+        // The stencil format takes its depth packed with a stencil byte (exact integers); the
+        // others their values as floats, which GL rounds to the nearest UNORM integer: the
+        // uploaded one, within 2^-25 of it.
+        let (format, kind, data) = if internal_format == glow::DEPTH24_STENCIL8 {
+            let packed: Vec<u32> = (0..texels)
+                .map(|i| (texel_value(i, bits) << 8) | (i & 0xFF))
+                .collect();
+            (glow::DEPTH_STENCIL, glow::UNSIGNED_INT_24_8, bytes(&packed))
+        } else {
+            let floats: Vec<u32> = references.iter().map(|r| r.to_bits()).collect();
+            (glow::DEPTH_COMPONENT, glow::FLOAT, bytes(&floats))
+        };
+        gl.tex_image_2d(
+            glow::TEXTURE_2D,
+            0,
+            internal_format as i32,
+            w,
+            h,
+            0,
+            format,
+            kind,
+            glow::PixelUnpackData::Slice(Some(&data)),
+        );
+        let reference = gl.create_texture().map_err(anyhow::Error::msg)?;
+        gl.active_texture(glow::TEXTURE3);
+        gl.bind_texture(glow::TEXTURE_2D, Some(reference));
+        let reference_bytes: Vec<u8> = references.iter().flat_map(|r| r.to_ne_bytes()).collect();
+        gl.tex_image_2d(
+            glow::TEXTURE_2D,
+            0,
+            glow::R32F as i32,
+            w,
+            h,
+            0,
+            glow::RED,
+            glow::FLOAT,
+            glow::PixelUnpackData::Slice(Some(&reference_bytes)),
+        );
+        let mut samplers = Vec::new();
+        for compare in [None, Some(glow::LEQUAL), Some(glow::GEQUAL), None] {
+            let sampler = gl.create_sampler().map_err(anyhow::Error::msg)?;
+            for (name, value) in [
+                (glow::TEXTURE_MIN_FILTER, glow::NEAREST),
+                (glow::TEXTURE_MAG_FILTER, glow::NEAREST),
+                (glow::TEXTURE_WRAP_S, glow::CLAMP_TO_EDGE),
+                (glow::TEXTURE_WRAP_T, glow::CLAMP_TO_EDGE),
+            ] {
+                gl.sampler_parameter_i32(sampler, name, value as i32);
+            }
+            if let Some(func) = compare {
+                gl.sampler_parameter_i32(
+                    sampler,
+                    glow::TEXTURE_COMPARE_MODE,
+                    glow::COMPARE_REF_TO_TEXTURE as i32,
+                );
+                gl.sampler_parameter_i32(sampler, glow::TEXTURE_COMPARE_FUNC, func as i32);
+            }
+            samplers.push(sampler);
+        }
+        for (unit, sampler) in samplers.iter().enumerate() {
+            gl.bind_sampler(unit as u32, Some(*sampler));
+            if unit < 3 {
+                gl.active_texture(glow::TEXTURE0 + unit as u32);
+                gl.bind_texture(glow::TEXTURE_2D, Some(texture));
+            }
+        }
+        let program = link_program(gl, POST_VERTEX_SHADER, POST_TEXELS_SHADER)?;
+        gl.use_program(Some(program));
+        for (unit, name) in ["u_depth", "u_less_equal", "u_greater_equal", "u_reference"]
+            .into_iter()
+            .enumerate()
+        {
+            gl.uniform_1_i32(gl.get_uniform_location(program, name).as_ref(), unit as i32);
+        }
+        let framebuffer = gl.create_framebuffer().map_err(anyhow::Error::msg)?;
+        gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
+        let target = gl.create_renderbuffer().map_err(anyhow::Error::msg)?;
+        gl.bind_renderbuffer(glow::RENDERBUFFER, Some(target));
+        gl.renderbuffer_storage(glow::RENDERBUFFER, glow::RGBA32F, w, h);
+        gl.framebuffer_renderbuffer(
+            glow::FRAMEBUFFER,
+            glow::COLOR_ATTACHMENT0,
+            glow::RENDERBUFFER,
+            Some(target),
+        );
+        let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
+        ensure!(
+            status == glow::FRAMEBUFFER_COMPLETE,
+            "RGBA32F framebuffer incomplete (0x{status:x})"
+        );
+        gl.disable(glow::DEPTH_TEST);
+        gl.draw_arrays(glow::TRIANGLES, 0, 3);
+        gl.finish();
+        let mut read = vec![0u8; texels as usize * 16];
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+        gl.read_pixels(
+            0,
+            0,
+            w,
+            h,
+            glow::RGBA,
+            glow::FLOAT,
+            glow::PixelPackData::Slice(Some(&mut read)),
+        );
+        let error = gl.get_error();
+        for (unit, sampler) in samplers.into_iter().enumerate() {
+            gl.bind_sampler(unit as u32, None);
+            gl.delete_sampler(sampler);
+        }
+        gl.active_texture(glow::TEXTURE0);
+        gl.delete_renderbuffer(target);
+        gl.delete_framebuffer(framebuffer);
+        gl.delete_program(program);
+        gl.delete_texture(reference);
+        gl.delete_texture(texture);
+        ensure!(error == glow::NO_ERROR, "GL error 0x{error:x}");
+        Ok(read
+            .chunks_exact(4)
+            .map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
+            .collect())
     }
 }
 

@@ -102,9 +102,11 @@ pub struct GlRenderArgs {
     /// `fetch` (texelFetch, the value spread over the colors), `compare` (a shadow sampler
     /// against 0.98), `blit` (glBlitFramebuffer of the depth into another depth texture, and
     /// mirrored into a third, each read back and fetched: blit-depth.f32,
-    /// blit-mirrored-depth.f32, post-mirrored.png) or `mipmap` (glGenerateMipmap of the depth
+    /// blit-mirrored-depth.f32, post-mirrored.png), `mipmap` (glGenerateMipmap of the depth
     /// texture, level 1 read back and fetched: mip1-depth.f32, half size); its color is
-    /// written to post.png.
+    /// written to post.png. Or `texels`: D16, D24 and D24S8 textures filled with known texels
+    /// and read by fetches and shadow lookups (texels-d16.f32, texels-d24.f32,
+    /// texels-d24s8.f32: fetched, LEQUAL, GEQUAL, reference, a texel).
     #[arg(long, value_enum, value_name = "PASS")]
     pub post: Option<draw::PostPass>,
 
@@ -292,7 +294,8 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
     }
     for post in &frame.post_depth {
         ensure!(
-            post.depth.len() == post.width as usize * post.height as usize,
+            post.depth.len()
+                == post.width as usize * post.height as usize * post.components as usize,
             "{}: the read-back has the wrong size",
             post.file
         );

@@ -72,8 +72,8 @@ pub enum SceneId {
     /// `shadow-map` whose receiver reads the map's raw depth (texel fetches and a nearest
     /// sample through a plain sampler) and compares it in the shader.
     ShadowMapRaw,
-    /// `shadow-map` with an X8_D24 shadow map (promoted, and read through a float twin, in the
-    /// precise modes).
+    /// `shadow-map` with an X8_D24 shadow map (promoted in the precise modes, and read through
+    /// its X8_D24 twin).
     #[value(name = "shadow-map-x8-d24")]
     ShadowMapX8D24,
     /// `shadow-map` lit by a spot light: a perspective shadow pass, a second camera.

@@ -8,7 +8,7 @@
 #![allow(clippy::wildcard_imports)]
 
 use super::*;
-use crate::depth_copy::plan::TexelKind;
+use crate::depth_copy::plan::{TexelKind, TexelKinds};
 use crate::depth_copy::twin::{record_refresh, resolved_range, Refresh};
 use crate::policy::twins;
 
@@ -24,7 +24,16 @@ fn refresh_of(
     let info = device.objects.images.get(&image)?;
     let twin = info.twin?;
     let range = resolved_range(range, &twin)?;
-    let kind = TexelKind::of(info.promoted.unwrap_or(info.format))?;
+    // A multisampled twin holds float32 depth (`R32_SFLOAT`); a single-sampled one the
+    // application's format, or the stored one where the device refused that.
+    let kinds = TexelKinds {
+        source: TexelKind::of(info.promoted.unwrap_or(info.format))?,
+        destination: if twin.multisampled() {
+            TexelKind::Float32
+        } else {
+            TexelKind::of(twin.format)?
+        },
+    };
     // The image's depth is reversed where revz stores it so after the application's
     // convention; shaders read standard values (`copy_values` concerns copies only).
     let reversed = device.observed.effective(info.depth.target()) == Target::Reversed;
@@ -41,7 +50,7 @@ fn refresh_of(
         layout,
         range,
         twin,
-        kind,
+        kinds,
         map,
     })
 }
