@@ -102,7 +102,7 @@ fn converted_tolerance(format: &str, mode: &str) -> f32 {
 fn known_limit(scene: &str, mode: &str) -> f32 {
     if mode == "infinite" && scene.starts_with("frag-depth") {
         1e-3
-    } else if scene == "depth-range-unrestricted" && mode != "flip" {
+    } else if scene.starts_with("depth-range-unrestricted") && mode != "flip" {
         21.5 * 8.0 / 16_777_216.0
     } else {
         0.0
@@ -111,8 +111,11 @@ fn known_limit(scene: &str, mode: &str) -> f32 {
 
 /// The scenes whose device has `VK_EXT_depth_range_unrestricted` enabled: revz promotes no
 /// UNORM image there (issue #44: a float format would keep depth outside [0, 1] that the UNORM
-/// one clamps), and in infinite mode keeps them native.
-const UNRESTRICTED: [&str; 1] = ["depth-range-unrestricted"];
+/// one clamps), and in infinite mode reverses depth as complementary mode does.
+const UNRESTRICTED: [&str; 2] = [
+    "depth-range-unrestricted",
+    "depth-range-unrestricted-clear-one",
+];
 
 /// How many color pixels may differ from the native render in a scene without ground truth.
 /// The flip path: [`flip_color_tolerance`]. The precise path computes depth with other float32
@@ -278,13 +281,25 @@ fn default_policy_hands_back_native_depth(format: &str) {
                 .iter()
                 .zip(&stored_depth)
                 .any(|(a, b)| a.to_bits() != b.to_bits());
+            let unrestricted = UNRESTRICTED.contains(&scene.as_str());
+            if unrestricted {
+                // Every image reversed, in infinite mode as complementary mode reverses
+                // (before session 35 UNORM images stayed native there, and a clear of 1 let
+                // D32 surfaces beyond the far plane show: 43 pixels).
+                assert!(reversed, "{what}: not reversed\n{log}");
+                assert_eq!(
+                    mode == "infinite",
+                    log.contains("infinite mode reverses depth as complementary mode does"),
+                    "{what}\n{log}"
+                );
+            }
             if !reversed {
                 // The read-back image is not reversed (the application renders reversed
                 // depth itself): nothing may change.
                 assert_eq!(depth, native_depth, "{what}: a native image changed\n{log}");
                 continue;
             }
-            if mode != "infinite" {
+            if mode != "infinite" || unrestricted {
                 let promoted = log.contains("promoted to D32_SFLOAT");
                 assert_complement(format, promoted, &depth, &stored_depth, &what);
             }

@@ -183,6 +183,7 @@ flip_scene_tests! {
     // Depth outside [0, 1] (VK_EXT_depth_range_unrestricted): viewports, a clear and a clamped
     // draw; read back unclamped from the float formats, clamped alike from the UNORM ones.
     flip_depth_range_unrestricted: "depth-range-unrestricted", DEPTH_FORMATS;
+    flip_depth_range_unrestricted_clear_one: "depth-range-unrestricted-clear-one", DEPTH_FORMATS;
     flip_stencil: "stencil", STENCIL_FORMATS;
     flip_secondary: "secondary", DEPTH_FORMATS;
     // The shadow casters drawn from secondaries without a framebuffer land in the map, which is

@@ -2,25 +2,30 @@
 //!
 //! A reversed image that shaders sample (`crate::policy::DevicePolicy::reads_through_twin`)
 //! gets a twin at its creation: a native image of the application's format, size, mip levels
-//! and layers, in revz's own memory. A promoted image's twin is UNORM: a shader reads the
-//! texel the application's format would hold (a float32 twin would give `1 - (1 - d)`, up to
-//! an ulp from the UNORM value `d`: a comparison against a reference equal to the texel, as
-//! OpenGL's conformance tests make, fails), and the refresh converts float32 to UNORM through
-//! the conversion of copies, the stencil with it. Every view of the image gets a view of the twin beside it,
-//! and descriptors receive the twin's view (`crate::hooks::descriptors`). Whenever the
+//! and layers, in revz's own memory. Every view of the image gets a view of the twin beside
+//! it, and descriptors receive the twin's view (`crate::hooks::descriptors`). Whenever the
 //! application makes the image readable after writing it (an image barrier or a
 //! `vkCmdWaitEvents` into a read-only layout, a render pass ending in one:
 //! `crate::hooks::command::twins`), the barrier's subresources are refreshed: copied out of
 //! the image through the conversion of copies ([`super::record`]), mapped back to standard
 //! depth, into the twin; the stencil aspect is copied as it is.
 //!
+//! A promoted image's twin is UNORM (the application's D16 / D24 format), so that a shader
+//! reads the texel the application's format would hold: a float32 twin gives `1 - (1 - d)`,
+//! up to an ulp from the UNORM value `d`, and a comparison against a reference equal to the
+//! texel (as OpenGL's conformance tests make) then fails. Its refresh converts float32 into
+//! UNORM through the conversion of copies, the stencil going through revz's scratch buffer
+//! with the depth (no image copy goes between two formats); where the image holds standard
+//! depth, the conversion only changes the format.
+//!
 //! A refresh, in the application's command buffer, outside a render pass:
 //!
 //! 1. one barrier: everything before (all commands, all memory writes) before the transfer;
 //!    the image from the application's new layout to `TRANSFER_SRC_OPTIMAL`; the twin's
 //!    subresources from `UNDEFINED` (they are overwritten whole) to `TRANSFER_DST_OPTIMAL`;
-//! 2. the depth converted into the twin (a plain copy where the image is native: demoted, or
-//!    the application's own reversed depth), the stencil copied;
+//! 2. the depth converted into the twin (a plain copy where the image is native in the
+//!    twin's format: demoted, or the application's own reversed depth), the stencil copied
+//!    (converted with the depth into a promoted image's twin);
 //! 3. one barrier: the image back to the application's layout, the twin to
 //!    `SHADER_READ_ONLY_OPTIMAL`, before every later command.
 //!

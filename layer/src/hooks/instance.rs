@@ -688,6 +688,13 @@ pub unsafe extern "system" fn create_device(
                     mesh_shader,
                 )
                 .with_multisampled_twins(multisampled_twins);
+            if policy.mode != instance.settings.mode {
+                log::info!(
+                    "device {device:?}: the application enabled VK_EXT_depth_range_unrestricted: \
+                     infinite mode reverses depth as complementary mode does here (its n / w \
+                     cannot follow clears, viewports and clamps beyond the far plane)"
+                );
+            }
             if enable_storage_multisample && !multisampled_twins.is_empty() {
                 log::info!(
                     "device {device:?}: enabled shaderStorageImageMultisample for the read \

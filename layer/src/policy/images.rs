@@ -38,12 +38,6 @@ pub enum NativeReason {
     /// Host image copies (`VK_EXT_host_image_copy`) read or write it: revz does not convert
     /// those.
     HostCopied,
-    /// A UNORM image in infinite mode on a device whose application enabled
-    /// `VK_EXT_depth_range_unrestricted`: depth beyond 1, which the format clamps to 1 (the
-    /// far plane), would be stored below infinite mode's n/f instead and pass depth tests that
-    /// the far plane fails. Float images hold such depth unclamped, and the flip of the other
-    /// modes commutes with the clamp.
-    UnrestrictedUnorm,
     /// A render pass resolves it into a depth image that is not reversed: the resolved values
     /// must be standard ones. Decided when the resolve is first seen (framebuffer creation, or
     /// the begin of an imageless or dynamic rendering instance), or when the destination is
@@ -76,10 +70,6 @@ impl fmt::Display for NativeReason {
             NativeReason::HostCopied => {
                 f.write_str("host image copies read it (HOST_TRANSFER), which are not converted")
             }
-            NativeReason::UnrestrictedUnorm => f.write_str(
-                "the application enabled VK_EXT_depth_range_unrestricted, and infinite mode's \
-                 map does not commute with this UNORM format's clamp at 1",
-            ),
             NativeReason::ResolvedIntoNative(destination) => {
                 write!(f, "it is resolved into native depth image {destination:?}")
             }
@@ -420,12 +410,6 @@ impl DevicePolicy {
         }
         if usage.contains(HOST_TRANSFER) && observable != Observable::All {
             return native(NativeReason::HostCopied);
-        }
-        if self.mode == Mode::Infinite
-            && self.depth_range_unrestricted
-            && crate::conv::float_depth_format(format).is_some()
-        {
-            return native(NativeReason::UnrestrictedUnorm);
         }
         Some(ImageDepth::Reversed)
     }
@@ -811,21 +795,26 @@ mod tests {
     }
 
     #[test]
-    fn unrestricted_depth_keeps_unorm_images_native_in_infinite_mode_only() {
+    fn unrestricted_depth_reverses_every_image_and_makes_infinite_mode_complementary() {
         let d24 = vk::Format::D24_UNORM_S8_UINT;
         for mode in [Mode::Flip, Mode::Complementary, Mode::Infinite] {
             let p = policy(mode, Observable::Copies).with_depth_range_unrestricted(true);
-            assert_eq!(
-                p.classify_image(D32, ATTACHMENT, OPTIMAL, ONE),
-                Some(ImageDepth::Reversed)
-            );
-            let unorm = if mode == Mode::Infinite {
-                Some(ImageDepth::Native(NativeReason::UnrestrictedUnorm))
-            } else {
-                Some(ImageDepth::Reversed)
+            for format in [D32, d24] {
+                assert_eq!(
+                    p.classify_image(format, ATTACHMENT, OPTIMAL, ONE),
+                    Some(ImageDepth::Reversed),
+                    "{mode:?} {format:?}"
+                );
+            }
+            // Infinite mode's n / w does not commute with depth beyond 1 (a clamp at 1, a
+            // clear of 1 that fragments beyond the far plane fail): 1 - D does.
+            let expected = match mode {
+                Mode::Infinite => Mode::Complementary,
+                mode => mode,
             };
-            assert_eq!(p.classify_image(d24, ATTACHMENT, OPTIMAL, ONE), unorm);
+            assert_eq!(p.mode, expected);
             let restricted = policy(mode, Observable::Copies);
+            assert_eq!(restricted.mode, mode);
             assert_eq!(
                 restricted.classify_image(d24, ATTACHMENT, OPTIMAL, ONE),
                 Some(ImageDepth::Reversed)

@@ -288,10 +288,20 @@ impl DevicePolicy {
     }
 
     /// The policy on a device whose application enabled `VK_EXT_depth_range_unrestricted`
-    /// (`enabled`).
+    /// (`enabled`). Infinite mode reverses depth there as complementary mode does (`1 - D`,
+    /// the far plane kept): its `n / w` is no map of depth values alone, and cannot follow
+    /// what the extension lets an application do with them (clear values, viewport ranges
+    /// and clamps beyond 1, a clear of exactly 1 that fragments beyond the far plane fail;
+    /// a UNORM format's clamp at 1), where `1 - D` commutes with all of it. Such a device
+    /// gets complementary precision: float32 depth reversed, the far plane kept.
     pub fn with_depth_range_unrestricted(self, enabled: bool) -> DevicePolicy {
+        let mode = match self.mode {
+            Mode::Infinite if enabled => Mode::Complementary,
+            mode => mode,
+        };
         DevicePolicy {
             depth_range_unrestricted: enabled,
+            mode,
             ..self
         }
     }

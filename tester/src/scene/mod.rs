@@ -56,6 +56,8 @@ pub enum SceneId {
     /// viewport depth [-20, 1.5], a cube at [1.2, 1.4], and a cube beyond the far plane drawn
     /// with depth clamping.
     DepthRangeUnrestricted,
+    /// The same cleared to 1.0: what its viewport carries beyond 1 vanishes.
+    DepthRangeUnrestrictedClearOne,
     /// Stencil mask (ref 1) and objects drawn with stencil EQUAL / NOT_EQUAL 1.
     Stencil,
     /// The overlap scene recorded into two secondary command buffers.

@@ -78,6 +78,11 @@ pub const CATALOG: &[Entry] = &[
         "depth-range-unrestricted",
         depth_range_unrestricted,
     ),
+    entry_row(
+        SceneId::DepthRangeUnrestrictedClearOne,
+        "depth-range-unrestricted-clear-one",
+        depth_range_unrestricted_clear_one,
+    ),
     entry_row(SceneId::Stencil, "stencil", stencil),
     entry_row(SceneId::Secondary, "secondary", secondary),
     entry_row(SceneId::Subpasses, "subpasses", subpasses),

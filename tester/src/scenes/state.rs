@@ -587,9 +587,26 @@ pub const UNRESTRICTED_CLAMPED: [f32; 2] = [-20.0, 1.45];
 /// Layer items: depth outside [0, 1] in viewports (flip path [a, b] -> [1 - a, 1 - b], precise
 /// path unclamped), clears and copies (read back unclamped on a float image); no promotion of
 /// UNORM images on such a device (a float format would keep values the UNORM one clamps); in
-/// infinite mode, UNORM images native and clamping pipelines on the flip path (n/w beyond the
-/// far plane is not clamped at it).
+/// infinite mode, depth stored as complementary mode stores it (infinite mode's n / w cannot
+/// follow depth beyond 1: [`depth_range_unrestricted_clear_one`]).
 pub fn depth_range_unrestricted() -> Scene {
+    unrestricted_scene("depth-range-unrestricted", UNRESTRICTED_CLEAR)
+}
+
+/// `depth-range-unrestricted-clear-one`: `depth-range-unrestricted` cleared to 1.0. The world's
+/// surfaces whose depth its viewport [-20, 1.5] carries beyond 1 (the far part of the ground
+/// and the far cube) fail LESS against the clear and vanish, as do the squeezed cube
+/// ([1.2, 1.4]) and the clamped one (1.45).
+///
+/// Layer item: infinite mode without a far plane would store the clear as 0 and n / w for
+/// those surfaces, which then pass: on a device with `VK_EXT_depth_range_unrestricted` revz
+/// stores depth as complementary mode does, far plane kept, in infinite mode too.
+pub fn depth_range_unrestricted_clear_one() -> Scene {
+    unrestricted_scene("depth-range-unrestricted-clear-one", 1.0)
+}
+
+/// The scene of [`depth_range_unrestricted`], named `name`, cleared to `clear`.
+fn unrestricted_scene(name: &'static str, clear: f32) -> Scene {
     let camera = overlap_camera();
     let mut b = Builder::default();
     let world = b.nearest_first(&camera, overlap_objects());
@@ -607,7 +624,7 @@ pub fn depth_range_unrestricted() -> Scene {
         DMat4::from_translation(DVec3::new(0.0, 15.0, -140.0)) * DMat4::from_rotation_y(0.3),
         rgb8(240, 200, 40),
     ));
-    b.pass(PassSpec::clear(UNRESTRICTED_CLEAR));
+    b.pass(PassSpec::clear(clear));
     let ranged = |name, [min_depth, max_depth]: [f32; 2]| PipelineSpec {
         viewport: Viewport::Static {
             min_depth,
@@ -629,7 +646,7 @@ pub fn depth_range_unrestricted() -> Scene {
     b.step(Step::Bind(clamped));
     b.step(Step::Draw(beyond));
     b.step(Step::EndPass);
-    b.finish("depth-range-unrestricted", camera, None)
+    b.finish(name, camera, None)
 }
 
 /// `stencil` (d24-s8 and d32-s8 only): the render pass clears stencil to 0 (and depth to
