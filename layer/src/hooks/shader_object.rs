@@ -25,7 +25,9 @@
 //!   unlinked one like the others. Linking is an optimization: the shaders compute the same,
 //!   and an application that binds every shader of its set (as it must) binds valid unlinked
 //!   shaders, each with the `nextStage` the link required. A set with tessellation stages
-//!   keeps its link (their tessellation modes may be declared in the control stage alone):
+//!   goes down unlinked only where its evaluation shader declares every tessellation mode
+//!   itself (subdivision, spacing, vertex order: linked, the control stage may hold some
+//!   alone; `policy::pipelines::tessellation_stands_alone`); otherwise it keeps its link, and
 //!   such a fragment shader that computes with depth keeps standard depth in reversed
 //!   attachments (marked, warned once at draw, as a pipeline's unreversed fragment shader
 //!   is), and its last pre-rasterization stage takes the flip path. Linked binary code keeps
@@ -49,13 +51,15 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::command_state::{PipelineDepth, States};
 use crate::objects::{FragmentShader, PositionShader};
 use crate::policy::pipelines::{
-    FragmentStage, FragmentVariant, LinkedSet, PipelinePath, ShaderObjectPlan, ShaderObjectPosition,
+    tessellation_stands_alone, FragmentStage, FragmentVariant, LinkedSet, PipelinePath,
+    ShaderObjectPlan, ShaderObjectPosition,
 };
 use crate::policy::vertex_stage::{
     entry_point_analysis, LastStage, Missing, MissingFact, VertexStageFacts,
 };
 use crate::precise;
 use crate::shader::fragment_depth;
+use crate::shader::scan::TessellationModes;
 use crate::state::DeviceState;
 use revz_math::DepthConvention;
 
@@ -123,9 +127,30 @@ fn is_linked(info: &vk::ShaderCreateInfoEXT<'_>) -> bool {
 /// links nothing).
 fn linked_set(infos: &[vk::ShaderCreateInfoEXT<'_>]) -> LinkedSet {
     let linked = || infos.iter().filter(|info| is_linked(info));
+    let spirv = linked().all(|info| info.code_type == vk::ShaderCodeTypeEXT::SPIRV);
+    // The tessellation modes of the linked shader of `stage` (read only for SPIR-V sets with
+    // tessellation stages).
+    let modes = |stage| {
+        let info = linked().find(|info| info.stage == stage)?;
+        // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's contract).
+        let words = unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) };
+        crate::shader::scan::tessellation_modes(words)
+    };
+    let stages = linked().fold(vk::ShaderStageFlags::empty(), |all, info| all | info.stage);
+    let tessellation_stands_alone = spirv
+        && stages.contains(vk::ShaderStageFlags::TESSELLATION_EVALUATION)
+        && tessellation_stands_alone(
+            modes(vk::ShaderStageFlags::TESSELLATION_CONTROL).or_else(|| {
+                // No linked control stage: nothing the evaluation stage could lean on.
+                (!stages.contains(vk::ShaderStageFlags::TESSELLATION_CONTROL))
+                    .then(TessellationModes::default)
+            }),
+            modes(vk::ShaderStageFlags::TESSELLATION_EVALUATION),
+        );
     LinkedSet {
-        stages: linked().fold(vk::ShaderStageFlags::empty(), |all, info| all | info.stage),
-        spirv: linked().all(|info| info.code_type == vk::ShaderCodeTypeEXT::SPIRV),
+        stages,
+        spirv,
+        tessellation_stands_alone,
     }
 }
 

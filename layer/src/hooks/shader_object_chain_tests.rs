@@ -1475,3 +1475,146 @@ fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_
     fx.free(buffer);
     fx.finish();
 }
+
+/// `words` with every `OpExecutionMode` of `mode` removed.
+fn without_mode(words: &[u32], mode: u32) -> Vec<u32> {
+    let mut out = words[..crate::shader::scan::HEADER_WORDS].to_vec();
+    let mut at = crate::shader::scan::HEADER_WORDS;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        let instruction = &words[at..at + count];
+        let is_mode = instruction[0] & 0xffff == crate::shader::scan::op::OP_EXECUTION_MODE
+            && instruction.get(2) == Some(&mode);
+        if !is_mode {
+            out.extend_from_slice(instruction);
+        }
+        at += count;
+    }
+    out
+}
+
+/// `words` with `OpExecutionMode %entry mode` added after its first execution mode (whose
+/// entry point it names).
+fn with_mode(words: &[u32], mode: u32) -> Vec<u32> {
+    let mut out = words[..crate::shader::scan::HEADER_WORDS].to_vec();
+    let mut at = crate::shader::scan::HEADER_WORDS;
+    let mut added = false;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        let instruction = &words[at..at + count];
+        out.extend_from_slice(instruction);
+        if !added && instruction[0] & 0xffff == crate::shader::scan::op::OP_EXECUTION_MODE {
+            crate::shader::scan::push(
+                &mut out,
+                crate::shader::scan::op::OP_EXECUTION_MODE,
+                &[instruction[1], mode],
+            );
+            added = true;
+        }
+        at += count;
+    }
+    assert!(added, "no execution mode to add beside");
+    out
+}
+
+/// Issue #41: a linked set with tessellation stages goes down unlinked where a shader of it
+/// gets a variant and its evaluation shader declares every tessellation mode itself
+/// (glslang's: `ubo.tese` declares triangles, equal spacing and counter-clockwise order,
+/// `passthrough.tesc` only its output vertices): both calls unlinked, each shader keeping the
+/// `nextStage` its link required, and the evaluation shader, whose projection comes from a
+/// uniform buffer, gets its variant with the carrier baked in, bound for precise draws. Where
+/// the control shader alone declares the spacing (as HLSL hull shaders make it), the set
+/// keeps its link and the evaluation shader the flip path.
+#[test]
+fn a_linked_tessellation_set_whose_evaluation_shader_stands_alone_goes_down_unlinked() {
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
+    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
+    let plain = fragment(PLAIN);
+    let control = words_of(include_bytes!(
+        "../../../shaders/glslang/passthrough.tesc.spv"
+    ));
+    let evaluation = words_of(include_bytes!("../../../shaders/glslang/ubo.tese.spv"));
+    let set = |control: &[u32], evaluation: &[u32]| {
+        let mut set = linked_tessellation([&projecting, control, evaluation]);
+        set.push(link(shader_info(
+            FRAGMENT_STAGE,
+            vk::ShaderStageFlags::empty(),
+            &plain,
+        )));
+        // Owned copies: the infos borrow the codes below.
+        set.into_iter()
+            .map(|info| {
+                // SAFETY: the code slices the infos were made from.
+                let code = unsafe {
+                    std::slice::from_raw_parts(info.p_code.cast::<u32>(), info.code_size / 4)
+                };
+                (info.stage, info.next_stage, code.to_vec())
+            })
+            .collect::<Vec<_>>()
+    };
+    let create = |codes: &[(vk::ShaderStageFlags, vk::ShaderStageFlags, Vec<u32>)]| {
+        let infos: Vec<_> = codes
+            .iter()
+            .map(|(stage, next, code)| link(shader_info(*stage, *next, code)))
+            .collect();
+        let (result, handles) = fx.create(&infos);
+        assert_eq!(result, vk::Result::SUCCESS);
+        (handles, fx.events())
+    };
+    let evaluation_stage = vk::ShaderStageFlags::TESSELLATION_EVALUATION;
+
+    let (handles, events) = create(&set(&control, &evaluation));
+    let (_, app_infos, _, _) = app_creation(events.last().expect("the application's call"));
+    assert!(
+        app_infos
+            .iter()
+            .all(|info| info.flags == vk::ShaderCreateFlagsEXT::empty()),
+        "the application's call unlinked: {app_infos:#?}"
+    );
+    assert_eq!(
+        app_infos
+            .iter()
+            .map(|info| (info.stage, info.next_stage))
+            .collect::<Vec<_>>(),
+        [
+            (VERTEX_STAGE, vk::ShaderStageFlags::TESSELLATION_CONTROL),
+            (vk::ShaderStageFlags::TESSELLATION_CONTROL, evaluation_stage),
+            (evaluation_stage, FRAGMENT_STAGE),
+            (FRAGMENT_STAGE, vk::ShaderStageFlags::empty()),
+        ],
+        "each keeps the nextStage its link required"
+    );
+    let variants: Vec<&SeenShader> = events[..events.len() - 1]
+        .iter()
+        .flat_map(|event| app_creation(event).1)
+        .collect();
+    assert!(
+        variants
+            .iter()
+            .all(|info| info.flags == vk::ShaderCreateFlagsEXT::empty()),
+        "the variants' calls unlinked too: {variants:#?}"
+    );
+    assert!(variants.iter().any(|info| info.stage == evaluation_stage));
+    assert!(matches!(
+        fx.state.objects.position_shaders.get(&handles[2]),
+        Some(PositionShader::Baked(_))
+    ));
+
+    // The spacing declared by the control shader alone: the link stays, the flip path.
+    const SPACING_EQUAL: u32 = 1;
+    let split = set(
+        &with_mode(&control, SPACING_EQUAL),
+        &without_mode(&evaluation, SPACING_EQUAL),
+    );
+    let (handles, events) = create(&split);
+    assert_eq!(events.len(), 1, "the application's call alone: {events:#?}");
+    let (_, app_infos, _, _) = app_creation(&events[0]);
+    assert!(app_infos
+        .iter()
+        .all(|info| info.flags == vk::ShaderCreateFlagsEXT::LINK_STAGE));
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&handles[2]),
+        Some(PositionShader::Flip)
+    );
+    fx.finish();
+}

@@ -19,6 +19,7 @@ use crate::command_state::States;
 use crate::conv::flip_compare_op;
 use crate::precise::ProjectionUse;
 use crate::shader::derived_range::MatrixSource;
+use crate::shader::scan::TessellationModes;
 
 /// Where a graphics pipeline create info's attachments come from, and what it says of depth
 /// there (the facts of [`has_depth_attachment`]).
@@ -705,6 +706,34 @@ pub struct LinkedSet {
     pub stages: vk::ShaderStageFlags,
     /// Their code is SPIR-V (a linked set's code types are all the same).
     pub spirv: bool,
+    /// Its tessellation evaluation shader declares every tessellation mode the set's
+    /// tessellation control shader declares ([`tessellation_stands_alone`]); `false` where
+    /// the set has no tessellation stages.
+    pub tessellation_stands_alone: bool,
+}
+
+/// Whether a linked tessellation evaluation shader of `evaluation`'s modes computes the same
+/// unlinked, beside a control shader of `control`'s: it declares its subdivision, spacing and
+/// vertex order itself (linked, the two stages' modes combine, and the control stage may hold
+/// some alone; an unlinked evaluation shader must declare its subdivision, and the spacing
+/// and order it does not declare would no longer come from the control stage), the same as
+/// the control stage where that declares them too, and point mode where the control stage
+/// asks for it. `None` (modes that could not be read) stands for nothing.
+#[must_use]
+pub fn tessellation_stands_alone(
+    control: Option<TessellationModes>,
+    evaluation: Option<TessellationModes>,
+) -> bool {
+    let (Some(control), Some(evaluation)) = (control, evaluation) else {
+        return false;
+    };
+    let agrees = |own: Option<u32>, other: Option<u32>| {
+        own.is_some() && other.is_none_or(|o| Some(o) == own)
+    };
+    agrees(evaluation.subdivision, control.subdivision)
+        && agrees(evaluation.spacing, control.spacing)
+        && agrees(evaluation.order, control.order)
+        && (evaluation.point_mode || !control.point_mode)
 }
 
 impl LinkedSet {
@@ -713,13 +742,15 @@ impl LinkedSet {
     /// the shaders compute the same without it, and a valid use of the linked set binds
     /// every shader of it, which stays valid unlinked: each keeps the `nextStage` the link
     /// required). Not binary code (revz cannot read or rewrite it, so nothing is gained),
-    /// and not a set with tessellation stages, whose tessellation modes may be declared in
-    /// the control stage alone where the two are linked.
+    /// and a set with tessellation stages only where its evaluation shader stands alone
+    /// ([`tessellation_stands_alone`]: linked, the two stages may split their modes).
     #[must_use]
     pub fn may_unlink(&self) -> bool {
         let tessellation = vk::ShaderStageFlags::TESSELLATION_CONTROL
             | vk::ShaderStageFlags::TESSELLATION_EVALUATION;
-        !self.stages.is_empty() && self.spirv && !self.stages.intersects(tessellation)
+        !self.stages.is_empty()
+            && self.spirv
+            && (!self.stages.intersects(tessellation) || self.tessellation_stands_alone)
     }
 
     /// Whether the call goes down unlinked: where it may ([`Self::may_unlink`]) and some
@@ -761,7 +792,8 @@ pub struct ShaderObjectPosition<'a> {
     /// Its code is SPIR-V (not binary).
     pub spirv: bool,
     /// It is part of a linked set (`VK_SHADER_CREATE_LINK_STAGE_BIT_EXT`) that keeps its
-    /// link ([`LinkedSet::may_unlink`]: one with tessellation stages).
+    /// link ([`LinkedSet::may_unlink`]: one with tessellation stages whose evaluation shader
+    /// does not stand alone).
     pub linked: bool,
     /// A shader with the carrier in its push-constant ranges: what
     /// [`crate::policy::vertex_stage::VertexStageFacts::decide`] made of it as a pipeline's
@@ -802,7 +834,8 @@ impl ShaderObjectPosition<'_> {
         if self.linked {
             return ShaderObjectPlan::Flip(
                 "it is part of a linked set (VK_SHADER_CREATE_LINK_STAGE_BIT_EXT) with \
-                 tessellation stages, which revz keeps linked"
+                 tessellation stages whose control shader declares tessellation modes its \
+                 evaluation shader does not, which revz keeps linked"
                     .into(),
             );
         }
@@ -1635,6 +1668,7 @@ mod tests {
             let linked = LinkedSet {
                 stages: set,
                 spirv: true,
+                tessellation_stands_alone: false,
             };
             assert!(linked.unlinks(true), "{set:?}");
             // Nothing to gain: the link stays.
@@ -1646,7 +1680,8 @@ mod tests {
             };
             assert!(!binary.unlinks(true), "{set:?}");
         }
-        // Tessellation modes may live in the control stage alone of a linked pair.
+        // Tessellation modes may live in the control stage alone of a linked pair: such a set
+        // unlinks only where its evaluation stage stands alone.
         for tessellation in [
             vk::ShaderStageFlags::TESSELLATION_CONTROL,
             vk::ShaderStageFlags::TESSELLATION_EVALUATION,
@@ -1654,16 +1689,72 @@ mod tests {
             let linked = LinkedSet {
                 stages: stages(&[vertex, tessellation, fragment]),
                 spirv: true,
+                tessellation_stands_alone: false,
             };
             assert!(!linked.may_unlink());
             assert!(!linked.unlinks(true));
+            let alone = LinkedSet {
+                tessellation_stands_alone: true,
+                ..linked
+            };
+            assert!(alone.unlinks(true));
+            assert!(!alone.unlinks(false));
         }
         // A call that links nothing has nothing to unlink.
         assert!(!LinkedSet {
             stages: vk::ShaderStageFlags::empty(),
-            spirv: true
+            spirv: true,
+            tessellation_stands_alone: true,
         }
         .unlinks(true));
+    }
+
+    #[test]
+    fn an_evaluation_stage_stands_alone_where_it_declares_every_mode_itself() {
+        let modes = |subdivision, spacing, order, point_mode| {
+            Some(TessellationModes {
+                subdivision,
+                spacing,
+                order,
+                point_mode,
+            })
+        };
+        let full = modes(Some(22), Some(1), Some(5), false);
+        // glslang's usual split: everything in the evaluation stage, the control stage only
+        // its output vertices.
+        assert!(tessellation_stands_alone(
+            modes(None, None, None, false),
+            full
+        ));
+        // Declared in both, alike.
+        assert!(tessellation_stands_alone(full, full));
+        // Spacing or order in the control stage alone (HLSL's hull shader attributes, as
+        // DXC writes them): linked, they are the evaluation stage's too; unlinked, not.
+        for evaluation in [
+            modes(Some(22), None, Some(5), false),
+            modes(Some(22), Some(1), None, false),
+            modes(None, Some(1), Some(5), false),
+        ] {
+            assert!(
+                !tessellation_stands_alone(full, evaluation),
+                "{evaluation:?}"
+            );
+        }
+        // Disagreeing stages, point mode asked by the control stage alone, unread modes.
+        assert!(!tessellation_stands_alone(
+            modes(Some(24), None, None, false),
+            full
+        ));
+        assert!(!tessellation_stands_alone(
+            modes(None, None, None, true),
+            full
+        ));
+        assert!(tessellation_stands_alone(
+            modes(None, None, None, true),
+            modes(Some(22), Some(1), Some(5), true)
+        ));
+        assert!(!tessellation_stands_alone(None, full));
+        assert!(!tessellation_stands_alone(full, None));
     }
 
     #[test]

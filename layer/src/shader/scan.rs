@@ -269,6 +269,50 @@ impl FreshIds {
     }
 }
 
+/// The tessellation execution modes a module declares (SPIR-V's `OpExecutionMode`), each
+/// category as its mode number: what a tessellation control and evaluation stage may split
+/// between them where they are linked, and what an evaluation stage alone must hold unlinked.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TessellationModes {
+    /// `Triangles` (22), `Quads` (24) or `Isolines` (25).
+    pub subdivision: Option<u32>,
+    /// `SpacingEqual` (1), `SpacingFractionalEven` (2) or `SpacingFractionalOdd` (3).
+    pub spacing: Option<u32>,
+    /// `VertexOrderCw` (4) or `VertexOrderCcw` (5).
+    pub order: Option<u32>,
+    /// `PointMode` (10).
+    pub point_mode: bool,
+}
+
+/// The tessellation modes `words` declare; `None` for words that are no SPIR-V module, are
+/// malformed, or declare one category twice with different modes (several entry points:
+/// which one a shader uses is not looked at).
+pub fn tessellation_modes(words: &[u32]) -> Option<TessellationModes> {
+    let mut modes = TessellationModes::default();
+    let set = |slot: &mut Option<u32>, mode: u32| match *slot {
+        Some(old) if old != mode => None,
+        _ => {
+            *slot = Some(mode);
+            Some(())
+        }
+    };
+    for instruction in instructions(words)? {
+        let instruction = instruction.ok()?;
+        if instruction.opcode != op::OP_EXECUTION_MODE {
+            continue;
+        }
+        let &mode = instruction.operands.get(1)?;
+        match mode {
+            22 | 24 | 25 => set(&mut modes.subdivision, mode)?,
+            1..=3 => set(&mut modes.spacing, mode)?,
+            4 | 5 => set(&mut modes.order, mode)?,
+            10 => modes.point_mode = true,
+            _ => {}
+        }
+    }
+    Some(modes)
+}
+
 /// Appends one instruction to `out`.
 pub fn push(out: &mut Vec<u32>, opcode: u32, operands: &[u32]) {
     out.push(((operands.len() as u32 + 1) << 16) | opcode);
@@ -283,6 +327,57 @@ mod tests {
         let mut words = vec![MAGIC, 0x0001_0000, 0, 100, 0];
         words.extend_from_slice(body);
         words
+    }
+
+    #[test]
+    fn tessellation_modes_are_read_per_category() {
+        let mode = |entry: u32, mode: u32| [(3 << 16) | op::OP_EXECUTION_MODE, entry, mode];
+        let words = module(&[mode(1, 22), mode(1, 1), mode(1, 5), mode(1, 10)].concat());
+        assert_eq!(
+            tessellation_modes(&words),
+            Some(TessellationModes {
+                subdivision: Some(22),
+                spacing: Some(1),
+                order: Some(5),
+                point_mode: true,
+            })
+        );
+        // Output vertices (26) and the other modes are no tessellation category.
+        let words = module(&[(4 << 16) | op::OP_EXECUTION_MODE, 1, 26, 3]);
+        assert_eq!(
+            tessellation_modes(&words),
+            Some(TessellationModes::default())
+        );
+        // Two entry points that disagree, malformed words, no module.
+        let words = module(&[mode(1, 22), mode(2, 24)].concat());
+        assert_eq!(tessellation_modes(&words), None);
+        assert_eq!(tessellation_modes(&module(&[0])), None);
+        assert_eq!(tessellation_modes(&[1, 2, 3]), None);
+        // glslang's: the evaluation stage of the tester's `ubo-tessellation` declares all
+        // three categories, its control stage none.
+        let bytes = include_bytes!("../../../shaders/glslang/ubo.tese.spv");
+        let words: Vec<u32> = bytes
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        assert_eq!(
+            tessellation_modes(&words),
+            Some(TessellationModes {
+                subdivision: Some(22),
+                spacing: Some(1),
+                order: Some(5),
+                point_mode: false,
+            })
+        );
+        let bytes = include_bytes!("../../../shaders/glslang/passthrough.tesc.spv");
+        let words: Vec<u32> = bytes
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        assert_eq!(
+            tessellation_modes(&words),
+            Some(TessellationModes::default())
+        );
     }
 
     #[test]
