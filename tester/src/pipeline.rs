@@ -747,7 +747,9 @@ pub fn create_pipeline(
         Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::UboPassthroughGeometry => (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
         Program::PushGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::SCENE_FRAG)),
-        Program::UboTessellation => (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::UboTessellation | Program::LinkedTessellationShaderObjects => {
+            (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG))
+        }
     };
     // The stages between the vertex and fragment stages, where the program projects there.
     let later: &[(vk::ShaderStageFlags, shaders::ShaderSource)] = match spec.program {
@@ -756,7 +758,7 @@ pub fn create_pipeline(
             &[(vk::ShaderStageFlags::GEOMETRY, shaders::PASSTHROUGH_GEOM)]
         }
         Program::PushGeometry => &[(vk::ShaderStageFlags::GEOMETRY, shaders::PUSH_GEOM)],
-        Program::UboTessellation => &[
+        Program::UboTessellation | Program::LinkedTessellationShaderObjects => &[
             (
                 vk::ShaderStageFlags::TESSELLATION_CONTROL,
                 shaders::PASSTHROUGH_TESC,
@@ -805,7 +807,10 @@ pub fn create_pipeline(
         }))
         .chain(fragment_stage)
         .collect();
-    let tessellates = spec.program == Program::UboTessellation;
+    let tessellates = matches!(
+        spec.program,
+        Program::UboTessellation | Program::LinkedTessellationShaderObjects
+    );
     // Each triangle of the index buffer is a patch of three control points.
     let tessellation = vk::PipelineTessellationStateCreateInfo::default().patch_control_points(3);
     let (bindings, attributes) = position_input();

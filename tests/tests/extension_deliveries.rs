@@ -20,6 +20,13 @@
 //! - `--delivery mesh-shader-objects` binds that mesh shader as a shader object (both
 //!   extensions), which takes the same pushed route: a variant fitting the matrix it loads
 //!   and reading the pushed carrier, its matrix classified on the CPU where it is a camera's.
+//! - `--delivery linked-tessellation-shader-objects` creates `ubo-tessellation`'s four shaders
+//!   (the projection in a uniform buffer, applied in the tessellation evaluation shader) as
+//!   one linked set of shader objects: its evaluation shader declares every tessellation mode
+//!   itself (glslang's), so revz sends the set down unlinked and gives the evaluation shader
+//!   its variant with the carrier baked in (session 35; before, a linked set with tessellation
+//!   stages kept its link and took the flip path). Its images are the `ubo-tessellation`
+//!   pipelines', without revz and in every mode.
 //!
 //! These render on the newer lavapipe `cargo xtask setup` extracts beside the system's on
 //! Debian 12 (Mesa 25.0 from bookworm-backports, [`Harness::newer_lavapipe`]), or on the
@@ -31,8 +38,8 @@
 //! validation included, with no message.
 //!
 //! - `without_the_layer_the_extension_deliveries_render_the_pipelines_image`: the scenes'
-//!   images are those of the flat program's pipelines: bit for bit through shader objects
-//!   (the same shaders); through the mesh shader, lavapipe's code for the mesh stage rounds
+//!   images are those of the flat program's pipelines (`ubo-tessellation`'s for the tessellated
+//!   shader objects): bit for bit through shader objects (the same shaders); through the mesh shader, lavapipe's code for the mesh stage rounds
 //!   some products differently, so depth may move by an ulp or two at a few pixels (measured:
 //!   188 of 19,200 pixels of `plane-stack`, 1 or 2 ulps), while colors stay the same
 //!   (`sloped-plane`, `overlap`), except on `plane-stack`, whose planes lie closer than
@@ -59,7 +66,7 @@ use std::path::Path;
 use revz_tests::{differing_pixels, native_colors_problems, Harness, Render};
 
 /// The deliveries, and the debug log line that says a precise-path stage was made for each.
-const DELIVERIES: [(&str, &str); 4] = [
+const DELIVERIES: [(&str, &str); 5] = [
     ("shader-objects", "stores its depth for precise-path draws"),
     (
         "linked-shader-objects",
@@ -71,6 +78,10 @@ const DELIVERIES: [(&str, &str); 4] = [
     ),
     (
         "mesh-shader-objects",
+        "stores its depth for precise-path draws",
+    ),
+    (
+        "linked-tessellation-shader-objects",
         "stores its depth for precise-path draws",
     ),
 ];
@@ -87,7 +98,18 @@ fn pipeline_twin(delivery: &str) -> Option<&'static str> {
     match delivery {
         "shader-objects" | "linked-shader-objects" => Some("push"),
         "mesh-shader-objects" => Some("mesh"),
+        "linked-tessellation-shader-objects" => Some("ubo-tessellation"),
         _ => None,
+    }
+}
+
+/// The pipelines whose image `delivery` renders without revz and in `flip`: the
+/// `ubo-tessellation` pipelines for the tessellated shader objects (the same shaders), the
+/// flat program's (`push`) for the others.
+fn reference_pipelines(delivery: &str) -> &'static str {
+    match delivery {
+        "linked-tessellation-shader-objects" => "ubo-tessellation",
+        _ => "push",
     }
 }
 
@@ -152,8 +174,13 @@ fn assert_validation_accounted(delivery: &str, skipped: &serde_json::Value, what
 fn without_the_layer_the_extension_deliveries_render_the_pipelines_image() {
     let harness = Harness::locate();
     for scene in ["sloped-plane", "plane-stack", "overlap"] {
-        let pipelines = render(&harness, scene, "push", None);
+        let push = render(&harness, scene, "push", None);
+        let tessellation = render(&harness, scene, "ubo-tessellation", None);
         for (delivery, _) in DELIVERIES {
+            let pipelines = match reference_pipelines(delivery) {
+                "push" => &push,
+                _ => &tessellation,
+            };
             let other = render(&harness, scene, delivery, None);
             let (a, b) = (pipelines.depth(), other.depth());
             assert_eq!(a.len(), b.len());
@@ -201,7 +228,8 @@ fn report(harness: &Harness, out: &Path) -> serde_json::Value {
         "--formats",
         "d16,x8-d24,d24-s8,d32,d32-s8",
         "--deliveries",
-        "push,shader-objects,linked-shader-objects,mesh,mesh-shader-objects",
+        "push,shader-objects,linked-shader-objects,mesh,mesh-shader-objects,ubo-tessellation,\
+         linked-tessellation-shader-objects",
     ];
     harness.report(out, &args, true)
 }
@@ -235,7 +263,8 @@ fn the_extension_deliveries_take_the_precise_path_in_every_precise_mode_and_form
                     assert!(r["checked_pixels"].as_u64().unwrap() > 3000, "{what}: {r}");
                     assert_validation_accounted(delivery, &r["validation_skipped"], &what);
                     let own = fraction(r);
-                    let pipelines = fraction(find(scene, "push", mode, format));
+                    let pipelines =
+                        fraction(find(scene, reference_pipelines(delivery), mode, format));
                     let native = fraction(find(scene, delivery, "none", format));
                     eprintln!(
                         "{what}: {own:.3e} wrong (pipelines {pipelines:.3e}, no revz \

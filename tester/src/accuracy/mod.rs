@@ -125,9 +125,13 @@ pub enum DeliveryChoice {
     MeshShaderObjects,
     /// shader-objects' shaders created linked in one call (needs VK_EXT_shader_object).
     LinkedShaderObjects,
+    /// ubo-tessellation's shaders as shader objects created linked in one call (needs
+    /// VK_EXT_shader_object and tessellationShader).
+    LinkedTessellationShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns, ssbo-vkd3d,
     /// ubo-geometry, ubo-passthrough-geometry and ubo-tessellation (not shader-objects, mesh,
-    /// mesh-shader-objects nor linked-shader-objects, which need extensions).
+    /// mesh-shader-objects, linked-shader-objects nor linked-tessellation-shader-objects,
+    /// which need extensions).
     All,
 }
 
@@ -152,6 +156,9 @@ impl DeliveryChoice {
             DeliveryChoice::Mesh => &[Delivery::Mesh],
             DeliveryChoice::MeshShaderObjects => &[Delivery::MeshShaderObjects],
             DeliveryChoice::LinkedShaderObjects => &[Delivery::LinkedShaderObjects],
+            DeliveryChoice::LinkedTessellationShaderObjects => {
+                &[Delivery::LinkedTessellationShaderObjects]
+            }
             DeliveryChoice::All => Delivery::PORTABLE,
         }
     }

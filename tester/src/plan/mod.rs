@@ -266,6 +266,10 @@ pub enum Program {
     /// `ubo-tessellation` [`Delivery`]): the buffers of [`Program::Ubo`], the product applied
     /// in a tessellation evaluation shader (patches of three points, every level 1).
     UboTessellation,
+    /// [`Program::UboTessellation`]'s four shaders as shader objects created linked in one
+    /// call (the `linked-tessellation-shader-objects` [`Delivery`]; needs
+    /// `VK_EXT_shader_object` and `tessellationShader`), every state set at the bind.
+    LinkedTessellationShaderObjects,
     /// `soft_particle.vert|frag`: the push constants of [`Program::Flat`], the flat color faded
     /// where the scene's depth, read from the main depth image with a texel fetch, lies close
     /// behind the fragment (needs a [`Target::SoftParticles`] pass: the depth attached
@@ -364,12 +368,15 @@ pub enum Delivery {
     /// [`Delivery::ShaderObjects`]' shaders created as one linked set
     /// ([`Program::LinkedShaderObjects`]; needs `VK_EXT_shader_object`).
     LinkedShaderObjects,
+    /// [`Delivery::UboTessellation`]'s shaders created as one linked set of shader objects
+    /// ([`Program::LinkedTessellationShaderObjects`]; needs `VK_EXT_shader_object`).
+    LinkedTessellationShaderObjects,
 }
 
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 18] = [
+    pub const ALL: [Delivery; 19] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -388,12 +395,13 @@ impl Delivery {
         Delivery::Mesh,
         Delivery::MeshShaderObjects,
         Delivery::LinkedShaderObjects,
+        Delivery::LinkedTessellationShaderObjects,
     ];
 
     /// The deliveries a Vulkan 1.0 device with the core features renders (`ssbo-vkd3d` also
     /// needs `VK_EXT_depth_clip_enable`, which lavapipe has from Mesa 22.3 on): all but the
-    /// last four of [`Delivery::ALL`].
-    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<4>() {
+    /// last five of [`Delivery::ALL`].
+    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<5>() {
         Some((portable, _)) => portable,
         None => &[],
     };
@@ -419,6 +427,7 @@ impl Delivery {
             Delivery::Mesh => "mesh",
             Delivery::MeshShaderObjects => "mesh-shader-objects",
             Delivery::LinkedShaderObjects => "linked-shader-objects",
+            Delivery::LinkedTessellationShaderObjects => "linked-tessellation-shader-objects",
         }
     }
 
@@ -444,11 +453,26 @@ impl Delivery {
             Delivery::Mesh => Some(Program::Mesh),
             Delivery::MeshShaderObjects => Some(Program::MeshShaderObjects),
             Delivery::LinkedShaderObjects => Some(Program::LinkedShaderObjects),
+            Delivery::LinkedTessellationShaderObjects => {
+                Some(Program::LinkedTessellationShaderObjects)
+            }
         }
     }
 }
 
 impl Program {
+    /// Whether the program's shaders are bound as shader objects (`VK_EXT_shader_object`)
+    /// in place of its pipelines.
+    pub fn binds_shader_objects(self) -> bool {
+        matches!(
+            self,
+            Program::ShaderObjects
+                | Program::LinkedShaderObjects
+                | Program::MeshShaderObjects
+                | Program::LinkedTessellationShaderObjects
+        )
+    }
+
     /// Whether the program's pipelines have D3D's rasterizer state, which translators give
     /// every pipeline: the depth clamp on with depth clipping kept on (`VK_EXT_depth_clip_enable`).
     pub fn clamps_with_clip(self) -> bool {
@@ -469,7 +493,8 @@ impl Program {
             Program::Ubo
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
-            | Program::UboTessellation => Some(Program::Ubo),
+            | Program::UboTessellation
+            | Program::LinkedTessellationShaderObjects => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
             Program::SsboRows
             | Program::SsboRegisters
@@ -483,7 +508,9 @@ impl Program {
     pub fn projecting_stage(self) -> ash::vk::ShaderStageFlags {
         match self {
             Program::UboGeometry | Program::PushGeometry => ash::vk::ShaderStageFlags::GEOMETRY,
-            Program::UboTessellation => ash::vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+            Program::UboTessellation | Program::LinkedTessellationShaderObjects => {
+                ash::vk::ShaderStageFlags::TESSELLATION_EVALUATION
+            }
             _ => ash::vk::ShaderStageFlags::VERTEX,
         }
     }
@@ -509,7 +536,8 @@ impl Program {
             | Program::SsboVkd3d
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
-            | Program::UboTessellation => 0,
+            | Program::UboTessellation
+            | Program::LinkedTessellationShaderObjects => 0,
             Program::MvpPair => 128,
             Program::Flat
             | Program::DepthOnly
@@ -1130,6 +1158,7 @@ impl Plan {
                     Program::ShaderObjects
                         | Program::LinkedShaderObjects
                         | Program::MeshShaderObjects
+                        | Program::LinkedTessellationShaderObjects
                 ) || (pipeline.viewport != Viewport::Dynamic && !pipeline.libraries),
                 "pipeline {} has a dynamic viewport or is built from libraries; the {name} \
                  delivery sets every state at its bind",
@@ -1270,11 +1299,11 @@ impl Plan {
                 pipeline.program,
                 Program::UboGeometry | Program::UboPassthroughGeometry | Program::PushGeometry
             );
-            needs.tessellation_shader |= pipeline.program == Program::UboTessellation;
-            needs.shader_object |= matches!(
+            needs.tessellation_shader |= matches!(
                 pipeline.program,
-                Program::ShaderObjects | Program::LinkedShaderObjects | Program::MeshShaderObjects
+                Program::UboTessellation | Program::LinkedTessellationShaderObjects
             );
+            needs.shader_object |= pipeline.program.binds_shader_objects();
             needs.mesh_shader |=
                 matches!(pipeline.program, Program::Mesh | Program::MeshShaderObjects);
             if let Viewport::Static {

@@ -214,8 +214,9 @@ pub struct Renderer<'a> {
     fence: vk::Fence,
     extent: vk::Extent2D,
     bias_clamp: bool,
-    /// The shaders of [`Program::ShaderObjects`] or [`Program::LinkedShaderObjects`] (its
-    /// pipelines have a null handle in `pipelines`); `None` without that program.
+    /// The shaders of [`Program::ShaderObjects`], [`Program::LinkedShaderObjects`] or
+    /// [`Program::LinkedTessellationShaderObjects`] (its pipelines have a null handle in
+    /// `pipelines`); `None` without that program.
     shader_objects: Option<shader_objects::ShaderObjects>,
     /// The shaders of [`Program::MeshShaderObjects`], likewise.
     mesh_shader_objects: Option<shader_objects::ShaderObjects>,
@@ -629,21 +630,31 @@ impl<'a> Renderer<'a> {
         if let Some(program) = plan.pipelines.iter().map(|p| p.program).find(|&program| {
             matches!(
                 program,
-                Program::ShaderObjects | Program::LinkedShaderObjects
+                Program::ShaderObjects
+                    | Program::LinkedShaderObjects
+                    | Program::LinkedTessellationShaderObjects
             )
         }) {
+            // The tessellated set reads the buffer delivery's blocks, without push constants.
+            let (ranges, set_layouts): (&[vk::PushConstantRange], Vec<vk::DescriptorSetLayout>) =
+                if program == Program::LinkedTessellationShaderObjects {
+                    let matrices = this
+                        .matrices
+                        .as_ref()
+                        .context("the tessellated shader objects read the ubo delivery's blocks")?;
+                    (&[], vec![matrices.set_layout])
+                } else {
+                    (&PUSH_CONSTANT_RANGES, Vec::new())
+                };
             this.shader_objects = Some(shader_objects::ShaderObjects::new(
                 gpu,
                 program,
-                &PUSH_CONSTANT_RANGES,
-                &[],
+                ranges,
+                &set_layouts,
             )?);
         }
         for spec in &plan.pipelines {
-            if matches!(
-                spec.program,
-                Program::ShaderObjects | Program::LinkedShaderObjects | Program::MeshShaderObjects
-            ) {
+            if spec.program.binds_shader_objects() {
                 // Bound as shader objects (`record.rs`).
                 this.pipelines.push(vk::Pipeline::null());
                 continue;
@@ -712,7 +723,10 @@ impl<'a> Renderer<'a> {
             | Program::SsboVkd3d
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
-            | Program::UboTessellation => (self.matrix_layout, vk::ShaderStageFlags::empty()),
+            | Program::UboTessellation
+            | Program::LinkedTessellationShaderObjects => {
+                (self.matrix_layout, vk::ShaderStageFlags::empty())
+            }
             Program::Flat
             | Program::DepthOnly
             | Program::FragDepth

@@ -677,9 +677,9 @@ impl Recorder<'_> {
         let renderer = self.renderer;
         let spec = &self.plan.pipelines[n];
         let objects = match spec.program {
-            Program::ShaderObjects | Program::LinkedShaderObjects => {
-                renderer.shader_objects.as_ref()
-            }
+            Program::ShaderObjects
+            | Program::LinkedShaderObjects
+            | Program::LinkedTessellationShaderObjects => renderer.shader_objects.as_ref(),
             Program::MeshShaderObjects => renderer.mesh_shader_objects.as_ref(),
             _ => None,
         };

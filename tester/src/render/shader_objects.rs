@@ -1,7 +1,8 @@
 //! [`Program::ShaderObjects`]: the flat program's shaders as unlinked vertex and fragment
 //! shader objects (`VK_EXT_shader_object`), [`Program::LinkedShaderObjects`]: the same two
-//! created linked in one call, and [`Program::MeshShaderObjects`]: the mesh
-//! program's as mesh and fragment ones; and their "pipeline" bind: the two shaders bound
+//! created linked in one call, [`Program::MeshShaderObjects`]: the mesh
+//! program's as mesh and fragment ones, and [`Program::LinkedTessellationShaderObjects`]:
+//! `ubo-tessellation`'s four created linked in one call; and their "pipeline" bind: the shaders bound
 //! (every other graphics stage the device has bound to null), then every state a
 //! [`PipelineSpec`] bakes into a pipeline set with the dynamic state commands, as an engine
 //! built on shader objects does at each material change. States a spec leaves dynamic
@@ -39,12 +40,10 @@ fn create_info<'a>(
         .set_layouts(set_layouts)
 }
 
-/// The two shader objects, destroyed with the renderer ([`ShaderObjects::destroy`]).
+/// The program's shader objects, destroyed with the renderer ([`ShaderObjects::destroy`]).
 pub(super) struct ShaderObjects {
-    /// The vertex or mesh stage's (`first_stage`).
-    first: vk::ShaderEXT,
-    first_stage: vk::ShaderStageFlags,
-    fragment: vk::ShaderEXT,
+    /// Each shader with its stage, in pipeline order (vertex or mesh first, fragment last).
+    shaders: Vec<(vk::ShaderStageFlags, vk::ShaderEXT)>,
 }
 
 /// What a bind needs to know of the pass beside the spec.
@@ -57,11 +56,40 @@ pub(super) struct BindTarget {
     pub bias_clamp: bool,
 }
 
+/// The stages and code of `program`'s shaders, in pipeline order.
+fn program_shaders(program: Program) -> Vec<(vk::ShaderStageFlags, shaders::ShaderSource)> {
+    let fragment = vk::ShaderStageFlags::FRAGMENT;
+    match program {
+        Program::MeshShaderObjects => vec![
+            (vk::ShaderStageFlags::MESH_EXT, shaders::MESH_MESH),
+            (fragment, shaders::SCENE_FRAG),
+        ],
+        Program::LinkedTessellationShaderObjects => vec![
+            (vk::ShaderStageFlags::VERTEX, shaders::UBO_LATER_VERT),
+            (
+                vk::ShaderStageFlags::TESSELLATION_CONTROL,
+                shaders::PASSTHROUGH_TESC,
+            ),
+            (
+                vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                shaders::UBO_TESE,
+            ),
+            (fragment, shaders::FLAT_COLOR_FRAG),
+        ],
+        _ => vec![
+            (vk::ShaderStageFlags::VERTEX, shaders::SCENE_VERT),
+            (fragment, shaders::SCENE_FRAG),
+        ],
+    }
+}
+
 impl ShaderObjects {
-    /// The shaders of `program` (`scene.vert`, or `mesh.mesh` for
-    /// [`Program::MeshShaderObjects`], and `scene.frag`) as shader objects with the
+    /// The shaders of `program` (`scene.vert` and `scene.frag`; `mesh.mesh` and `scene.frag`
+    /// for [`Program::MeshShaderObjects`]; `ubo-tessellation`'s four for
+    /// [`Program::LinkedTessellationShaderObjects`]) as shader objects with the
     /// push-constant ranges and descriptor set layouts of the program's layout: unlinked, or
-    /// for [`Program::LinkedShaderObjects`] linked in one call.
+    /// for [`Program::LinkedShaderObjects`] and [`Program::LinkedTessellationShaderObjects`]
+    /// linked in one call.
     pub(super) fn new(
         gpu: &Gpu,
         program: Program,
@@ -72,69 +100,88 @@ impl ShaderObjects {
             .shader_object
             .as_ref()
             .context("the shader-objects program needs VK_EXT_shader_object enabled")?;
-        let info = |stage, next, words| create_info(stage, next, words, ranges, set_layouts);
-        let (first_stage, first_source) = match program {
-            Program::MeshShaderObjects => (vk::ShaderStageFlags::MESH_EXT, &shaders::MESH_MESH),
-            _ => (vk::ShaderStageFlags::VERTEX, &shaders::SCENE_VERT),
+        let sources = program_shaders(program);
+        let words = sources
+            .iter()
+            .map(|(_, source)| source.words())
+            .collect::<Result<Vec<_>>>()?;
+        let names: Vec<&str> = sources.iter().map(|(_, source)| source.name).collect();
+        // Each stage followed by the next one of the program (none after the fragment stage).
+        let infos: Vec<vk::ShaderCreateInfoEXT<'_>> = sources
+            .iter()
+            .zip(&words)
+            .enumerate()
+            .map(|(i, ((stage, _), words))| {
+                let next = sources
+                    .get(i + 1)
+                    .map_or(vk::ShaderStageFlags::empty(), |(next, _)| *next);
+                create_info(*stage, next, words, ranges, set_layouts)
+            })
+            .collect();
+        let destroy_all = |shaders: &[vk::ShaderEXT]| {
+            for shader in shaders.iter().filter(|s| **s != vk::ShaderEXT::null()) {
+                // SAFETY: created above, never used.
+                unsafe { objects.destroy_shader(*shader, None) };
+            }
         };
-        let first_words = first_source.words()?;
-        let fragment_words = shaders::SCENE_FRAG.words()?;
-        let fragment_info = info(
-            vk::ShaderStageFlags::FRAGMENT,
-            vk::ShaderStageFlags::empty(),
-            &fragment_words,
+        let linked = matches!(
+            program,
+            Program::LinkedShaderObjects | Program::LinkedTessellationShaderObjects
         );
-        let first_info = info(first_stage, vk::ShaderStageFlags::FRAGMENT, &first_words);
-        if program == Program::LinkedShaderObjects {
-            // One call, both linked.
-            let linked = [first_info, fragment_info]
-                .map(|info| info.flags(vk::ShaderCreateFlagsEXT::LINK_STAGE));
+        let shaders = if linked {
+            // One call, all linked.
+            let linked: Vec<_> = infos
+                .iter()
+                .map(|info| info.flags(vk::ShaderCreateFlagsEXT::LINK_STAGE))
+                .collect();
             // SAFETY: valid SPIR-V of these stages (checked at build time), a live device.
             let created = unsafe { objects.create_shaders(&linked, None) };
-            let shaders = created
+            created
                 .map_err(|(shaders, e)| {
-                    for shader in shaders.into_iter().filter(|s| *s != vk::ShaderEXT::null()) {
-                        // SAFETY: created above, never used.
-                        unsafe { objects.destroy_shader(shader, None) };
-                    }
+                    destroy_all(&shaders);
                     e
                 })
-                .context("vkCreateShadersEXT (linked scene.vert and scene.frag) failed")?;
-            return Ok(ShaderObjects {
-                first: shaders[0],
-                first_stage,
-                fragment: shaders[1],
-            });
-        }
-        let create = |info: &vk::ShaderCreateInfoEXT<'_>, name: &str| {
-            // SAFETY: valid SPIR-V of this stage (checked at build time), a live device.
-            let created = unsafe { objects.create_shaders(std::slice::from_ref(info), None) };
-            created
-                .map_err(|(_, e)| e)
-                .with_context(|| format!("vkCreateShadersEXT ({name}) failed"))
-                .map(|shaders| shaders[0])
+                .with_context(|| format!("vkCreateShadersEXT (linked {})", names.join(", ")))?
+        } else {
+            let mut shaders = Vec::new();
+            for (info, name) in infos.iter().zip(&names) {
+                // SAFETY: valid SPIR-V of this stage (checked at build time), a live device.
+                let created = unsafe { objects.create_shaders(std::slice::from_ref(info), None) };
+                match created {
+                    Ok(created) => shaders.push(created[0]),
+                    Err((_, e)) => {
+                        destroy_all(&shaders);
+                        return Err(e)
+                            .with_context(|| format!("vkCreateShadersEXT ({name}) failed"));
+                    }
+                }
+            }
+            shaders
         };
-        let first = create(&first_info, first_source.name)?;
-        let fragment = create(&fragment_info, shaders::SCENE_FRAG.name).inspect_err(|_| {
-            // SAFETY: created above, never used.
-            unsafe { objects.destroy_shader(first, None) }
-        })?;
         Ok(ShaderObjects {
-            first,
-            first_stage,
-            fragment,
+            shaders: sources
+                .iter()
+                .map(|(stage, _)| *stage)
+                .zip(shaders)
+                .collect(),
         })
     }
 
-    /// Destroys both shaders (the device is idle).
+    /// Destroys the shaders (the device is idle).
     pub(super) fn destroy(&self, gpu: &Gpu) {
         if let Some(objects) = &gpu.shader_object {
-            // SAFETY: created from this device, no longer in use.
-            unsafe {
-                objects.destroy_shader(self.first, None);
-                objects.destroy_shader(self.fragment, None);
+            for &(_, shader) in &self.shaders {
+                // SAFETY: created from this device, no longer in use.
+                unsafe { objects.destroy_shader(shader, None) };
             }
         }
+    }
+
+    /// Whether the shaders include tessellation stages.
+    fn tessellates(&self) -> bool {
+        self.shaders
+            .iter()
+            .any(|(stage, _)| *stage == vk::ShaderStageFlags::TESSELLATION_EVALUATION)
     }
 
     /// Binds the shaders for `spec` and sets every state its pipeline would bake (module
@@ -154,32 +201,29 @@ impl ShaderObjects {
         };
         let device = &gpu.device;
         let enabled = gpu.enabled;
-        // Every graphics stage the device has is bound: the two shaders, null for the others
-        // (the vertex stage where the mesh stage has the shader, and the reverse).
-        let mut stages = vec![self.first_stage, vk::ShaderStageFlags::FRAGMENT];
-        let mut shaders = vec![self.first, self.fragment];
-        let other = if self.first_stage == vk::ShaderStageFlags::MESH_EXT {
-            Some(vk::ShaderStageFlags::VERTEX)
-        } else {
-            enabled
-                .mesh_shader
-                .then_some(vk::ShaderStageFlags::MESH_EXT)
-        };
-        if let Some(other) = other {
-            stages.push(other);
-            shaders.push(vk::ShaderEXT::null());
+        // Every graphics stage the device has is bound: the program's shaders, null for the
+        // others (the vertex stage where the mesh stage has the shader, and the reverse).
+        let (mut stages, mut shaders): (Vec<_>, Vec<_>) = self.shaders.iter().copied().unzip();
+        let mut others = vec![vk::ShaderStageFlags::VERTEX];
+        if enabled.mesh_shader {
+            others.push(vk::ShaderStageFlags::MESH_EXT);
         }
         if enabled.geometry_shader {
-            stages.push(vk::ShaderStageFlags::GEOMETRY);
-            shaders.push(vk::ShaderEXT::null());
+            others.push(vk::ShaderStageFlags::GEOMETRY);
         }
         if enabled.tessellation_shader {
-            stages.extend([
+            others.extend([
                 vk::ShaderStageFlags::TESSELLATION_CONTROL,
                 vk::ShaderStageFlags::TESSELLATION_EVALUATION,
             ]);
-            shaders.extend([vk::ShaderEXT::null(); 2]);
         }
+        for other in others {
+            if !stages.contains(&other) {
+                stages.push(other);
+                shaders.push(vk::ShaderEXT::null());
+            }
+        }
+        let tessellates = self.tessellates();
         let (bindings, attributes) = position_input();
         let binding = vk::VertexInputBindingDescription2EXT::default()
             .binding(bindings[0].binding)
@@ -197,7 +241,18 @@ impl ShaderObjects {
         unsafe {
             objects.cmd_bind_shaders(cmd, &stages, &shaders);
             objects.cmd_set_vertex_input(cmd, &[binding], &[attribute]);
-            device.cmd_set_primitive_topology(cmd, vk::PrimitiveTopology::TRIANGLE_LIST);
+            if tessellates {
+                // Each triangle of the index buffer a patch of three control points, as the
+                // `ubo-tessellation` pipelines have it.
+                device.cmd_set_primitive_topology(cmd, vk::PrimitiveTopology::PATCH_LIST);
+                objects.cmd_set_patch_control_points(cmd, 3);
+                objects.cmd_set_tessellation_domain_origin(
+                    cmd,
+                    vk::TessellationDomainOrigin::UPPER_LEFT,
+                );
+            } else {
+                device.cmd_set_primitive_topology(cmd, vk::PrimitiveTopology::TRIANGLE_LIST);
+            }
             device.cmd_set_primitive_restart_enable(cmd, false);
             if let Viewport::Static {
                 min_depth,

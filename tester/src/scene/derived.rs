@@ -243,7 +243,8 @@ impl Scene {
             | Program::SsboVkd3d
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
-            | Program::UboTessellation => Vec::new(),
+            | Program::UboTessellation
+            | Program::LinkedTessellationShaderObjects => Vec::new(),
         };
         debug_assert_eq!(values.len() * 4, program.push_constant_size() as usize);
         values.iter().flat_map(|v| v.to_le_bytes()).collect()

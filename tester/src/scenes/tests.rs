@@ -1531,7 +1531,10 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                     );
                     assert_eq!(
                         needs.tessellation_shader,
-                        delivery == Delivery::UboTessellation
+                        matches!(
+                            delivery,
+                            Delivery::UboTessellation | Delivery::LinkedTessellationShaderObjects
+                        )
                     );
                     assert_eq!(
                         needs.shader_object,
@@ -1540,6 +1543,7 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                             Delivery::ShaderObjects
                                 | Delivery::MeshShaderObjects
                                 | Delivery::LinkedShaderObjects
+                                | Delivery::LinkedTessellationShaderObjects
                         )
                     );
                     assert_eq!(
