@@ -745,7 +745,9 @@ pub fn create_pipeline(
             (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG))
         }
         Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
-        Program::UboPassthroughGeometry => (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::UboPassthroughGeometry | Program::PassthroughGeometryShaderObjects => {
+            (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG))
+        }
         Program::PushGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::SCENE_FRAG)),
         Program::UboTessellation | Program::LinkedTessellationShaderObjects => {
             (shaders::UBO_LATER_VERT, Some(shaders::FLAT_COLOR_FRAG))
@@ -754,7 +756,7 @@ pub fn create_pipeline(
     // The stages between the vertex and fragment stages, where the program projects there.
     let later: &[(vk::ShaderStageFlags, shaders::ShaderSource)] = match spec.program {
         Program::UboGeometry => &[(vk::ShaderStageFlags::GEOMETRY, shaders::UBO_GEOM)],
-        Program::UboPassthroughGeometry => {
+        Program::UboPassthroughGeometry | Program::PassthroughGeometryShaderObjects => {
             &[(vk::ShaderStageFlags::GEOMETRY, shaders::PASSTHROUGH_GEOM)]
         }
         Program::PushGeometry => &[(vk::ShaderStageFlags::GEOMETRY, shaders::PUSH_GEOM)],

@@ -27,6 +27,11 @@
 //!   its variant with the carrier baked in (session 35; before, a linked set with tessellation
 //!   stages kept its link and took the flip path). Its images are the `ubo-tessellation`
 //!   pipelines', without revz and in every mode.
+//! - `--delivery passthrough-geometry-shader-objects` binds `ubo-passthrough-geometry`'s three
+//!   shaders as unlinked shader objects: the geometry shader passes the vertex shader's
+//!   positions through, so revz leaves it as it is and binds the vertex shader's variant for
+//!   precise-path draws (session 34, rendered since session 35). Its images are the
+//!   `ubo-passthrough-geometry` pipelines', without revz and in every mode.
 //!
 //! These render on the newer lavapipe `cargo xtask setup` extracts beside the system's on
 //! Debian 12 (Mesa 25.0 from bookworm-backports, [`Harness::newer_lavapipe`]), or on the
@@ -38,8 +43,8 @@
 //! validation included, with no message.
 //!
 //! - `without_the_layer_the_extension_deliveries_render_the_pipelines_image`: the scenes'
-//!   images are those of the flat program's pipelines (`ubo-tessellation`'s for the tessellated
-//!   shader objects): bit for bit through shader objects (the same shaders); through the mesh shader, lavapipe's code for the mesh stage rounds
+//!   images are those of the flat program's pipelines (those of the same shaders for the
+//!   buffer deliveries' shader objects): bit for bit through shader objects (the same shaders); through the mesh shader, lavapipe's code for the mesh stage rounds
 //!   some products differently, so depth may move by an ulp or two at a few pixels (measured:
 //!   188 of 19,200 pixels of `plane-stack`, 1 or 2 ulps), while colors stay the same
 //!   (`sloped-plane`, `overlap`), except on `plane-stack`, whose planes lie closer than
@@ -66,7 +71,7 @@ use std::path::Path;
 use revz_tests::{differing_pixels, native_colors_problems, Harness, Render};
 
 /// The deliveries, and the debug log line that says a precise-path stage was made for each.
-const DELIVERIES: [(&str, &str); 5] = [
+const DELIVERIES: [(&str, &str); 6] = [
     ("shader-objects", "stores its depth for precise-path draws"),
     (
         "linked-shader-objects",
@@ -84,6 +89,10 @@ const DELIVERIES: [(&str, &str); 5] = [
         "linked-tessellation-shader-objects",
         "stores its depth for precise-path draws",
     ),
+    (
+        "passthrough-geometry-shader-objects",
+        "passes the positions of the stage before it through",
+    ),
 ];
 
 /// Whether `delivery` binds shader objects (rendered without the installed validation layer,
@@ -99,16 +108,18 @@ fn pipeline_twin(delivery: &str) -> Option<&'static str> {
         "shader-objects" | "linked-shader-objects" => Some("push"),
         "mesh-shader-objects" => Some("mesh"),
         "linked-tessellation-shader-objects" => Some("ubo-tessellation"),
+        "passthrough-geometry-shader-objects" => Some("ubo-passthrough-geometry"),
         _ => None,
     }
 }
 
-/// The pipelines whose image `delivery` renders without revz and in `flip`: the
-/// `ubo-tessellation` pipelines for the tessellated shader objects (the same shaders), the
-/// flat program's (`push`) for the others.
+/// The pipelines whose image `delivery` renders without revz and in `flip`: those of the same
+/// shaders for the buffer deliveries' shader objects, the flat program's (`push`) for the
+/// others.
 fn reference_pipelines(delivery: &str) -> &'static str {
     match delivery {
         "linked-tessellation-shader-objects" => "ubo-tessellation",
+        "passthrough-geometry-shader-objects" => "ubo-passthrough-geometry",
         _ => "push",
     }
 }
@@ -174,13 +185,17 @@ fn assert_validation_accounted(delivery: &str, skipped: &serde_json::Value, what
 fn without_the_layer_the_extension_deliveries_render_the_pipelines_image() {
     let harness = Harness::locate();
     for scene in ["sloped-plane", "plane-stack", "overlap"] {
-        let push = render(&harness, scene, "push", None);
-        let tessellation = render(&harness, scene, "ubo-tessellation", None);
+        let references: Vec<(&str, Render)> =
+            ["push", "ubo-tessellation", "ubo-passthrough-geometry"]
+                .into_iter()
+                .map(|pipelines| (pipelines, render(&harness, scene, pipelines, None)))
+                .collect();
         for (delivery, _) in DELIVERIES {
-            let pipelines = match reference_pipelines(delivery) {
-                "push" => &push,
-                _ => &tessellation,
-            };
+            let pipelines = references
+                .iter()
+                .find(|(name, _)| *name == reference_pipelines(delivery))
+                .map(|(_, render)| render)
+                .expect("the reference pipelines' render");
             let other = render(&harness, scene, delivery, None);
             let (a, b) = (pipelines.depth(), other.depth());
             assert_eq!(a.len(), b.len());
@@ -229,7 +244,8 @@ fn report(harness: &Harness, out: &Path) -> serde_json::Value {
         "d16,x8-d24,d24-s8,d32,d32-s8",
         "--deliveries",
         "push,shader-objects,linked-shader-objects,mesh,mesh-shader-objects,ubo-tessellation,\
-         linked-tessellation-shader-objects",
+         linked-tessellation-shader-objects,ubo-passthrough-geometry,\
+         passthrough-geometry-shader-objects",
     ];
     harness.report(out, &args, true)
 }

@@ -128,10 +128,13 @@ pub enum DeliveryChoice {
     /// ubo-tessellation's shaders as shader objects created linked in one call (needs
     /// VK_EXT_shader_object and tessellationShader).
     LinkedTessellationShaderObjects,
+    /// ubo-passthrough-geometry's shaders as unlinked shader objects (needs
+    /// VK_EXT_shader_object and geometryShader).
+    PassthroughGeometryShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns, ssbo-vkd3d,
     /// ubo-geometry, ubo-passthrough-geometry and ubo-tessellation (not shader-objects, mesh,
-    /// mesh-shader-objects, linked-shader-objects nor linked-tessellation-shader-objects,
-    /// which need extensions).
+    /// mesh-shader-objects, linked-shader-objects, linked-tessellation-shader-objects nor
+    /// passthrough-geometry-shader-objects, which need extensions).
     All,
 }
 
@@ -158,6 +161,9 @@ impl DeliveryChoice {
             DeliveryChoice::LinkedShaderObjects => &[Delivery::LinkedShaderObjects],
             DeliveryChoice::LinkedTessellationShaderObjects => {
                 &[Delivery::LinkedTessellationShaderObjects]
+            }
+            DeliveryChoice::PassthroughGeometryShaderObjects => {
+                &[Delivery::PassthroughGeometryShaderObjects]
             }
             DeliveryChoice::All => Delivery::PORTABLE,
         }

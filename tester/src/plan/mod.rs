@@ -270,6 +270,10 @@ pub enum Program {
     /// call (the `linked-tessellation-shader-objects` [`Delivery`]; needs
     /// `VK_EXT_shader_object` and `tessellationShader`), every state set at the bind.
     LinkedTessellationShaderObjects,
+    /// [`Program::UboPassthroughGeometry`]'s three shaders as unlinked shader objects (the
+    /// `passthrough-geometry-shader-objects` [`Delivery`]; needs `VK_EXT_shader_object` and
+    /// `geometryShader`), every state set at the bind.
+    PassthroughGeometryShaderObjects,
     /// `soft_particle.vert|frag`: the push constants of [`Program::Flat`], the flat color faded
     /// where the scene's depth, read from the main depth image with a texel fetch, lies close
     /// behind the fragment (needs a [`Target::SoftParticles`] pass: the depth attached
@@ -371,12 +375,15 @@ pub enum Delivery {
     /// [`Delivery::UboTessellation`]'s shaders created as one linked set of shader objects
     /// ([`Program::LinkedTessellationShaderObjects`]; needs `VK_EXT_shader_object`).
     LinkedTessellationShaderObjects,
+    /// [`Delivery::UboPassthroughGeometry`]'s shaders as unlinked shader objects
+    /// ([`Program::PassthroughGeometryShaderObjects`]; needs `VK_EXT_shader_object`).
+    PassthroughGeometryShaderObjects,
 }
 
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 19] = [
+    pub const ALL: [Delivery; 20] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -396,12 +403,13 @@ impl Delivery {
         Delivery::MeshShaderObjects,
         Delivery::LinkedShaderObjects,
         Delivery::LinkedTessellationShaderObjects,
+        Delivery::PassthroughGeometryShaderObjects,
     ];
 
     /// The deliveries a Vulkan 1.0 device with the core features renders (`ssbo-vkd3d` also
     /// needs `VK_EXT_depth_clip_enable`, which lavapipe has from Mesa 22.3 on): all but the
-    /// last five of [`Delivery::ALL`].
-    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<5>() {
+    /// last six of [`Delivery::ALL`].
+    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<6>() {
         Some((portable, _)) => portable,
         None => &[],
     };
@@ -428,6 +436,7 @@ impl Delivery {
             Delivery::MeshShaderObjects => "mesh-shader-objects",
             Delivery::LinkedShaderObjects => "linked-shader-objects",
             Delivery::LinkedTessellationShaderObjects => "linked-tessellation-shader-objects",
+            Delivery::PassthroughGeometryShaderObjects => "passthrough-geometry-shader-objects",
         }
     }
 
@@ -456,6 +465,9 @@ impl Delivery {
             Delivery::LinkedTessellationShaderObjects => {
                 Some(Program::LinkedTessellationShaderObjects)
             }
+            Delivery::PassthroughGeometryShaderObjects => {
+                Some(Program::PassthroughGeometryShaderObjects)
+            }
         }
     }
 }
@@ -470,6 +482,7 @@ impl Program {
                 | Program::LinkedShaderObjects
                 | Program::MeshShaderObjects
                 | Program::LinkedTessellationShaderObjects
+                | Program::PassthroughGeometryShaderObjects
         )
     }
 
@@ -494,7 +507,8 @@ impl Program {
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
-            | Program::LinkedTessellationShaderObjects => Some(Program::Ubo),
+            | Program::LinkedTessellationShaderObjects
+            | Program::PassthroughGeometryShaderObjects => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
             Program::SsboRows
             | Program::SsboRegisters
@@ -537,7 +551,8 @@ impl Program {
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
-            | Program::LinkedTessellationShaderObjects => 0,
+            | Program::LinkedTessellationShaderObjects
+            | Program::PassthroughGeometryShaderObjects => 0,
             Program::MvpPair => 128,
             Program::Flat
             | Program::DepthOnly
@@ -1159,6 +1174,7 @@ impl Plan {
                         | Program::LinkedShaderObjects
                         | Program::MeshShaderObjects
                         | Program::LinkedTessellationShaderObjects
+                        | Program::PassthroughGeometryShaderObjects
                 ) || (pipeline.viewport != Viewport::Dynamic && !pipeline.libraries),
                 "pipeline {} has a dynamic viewport or is built from libraries; the {name} \
                  delivery sets every state at its bind",
@@ -1297,7 +1313,10 @@ impl Plan {
             needs.depth_clip_enable |= pipeline.program.clamps_with_clip();
             needs.geometry_shader |= matches!(
                 pipeline.program,
-                Program::UboGeometry | Program::UboPassthroughGeometry | Program::PushGeometry
+                Program::UboGeometry
+                    | Program::UboPassthroughGeometry
+                    | Program::PushGeometry
+                    | Program::PassthroughGeometryShaderObjects
             );
             needs.tessellation_shader |= matches!(
                 pipeline.program,

@@ -214,8 +214,9 @@ pub struct Renderer<'a> {
     fence: vk::Fence,
     extent: vk::Extent2D,
     bias_clamp: bool,
-    /// The shaders of [`Program::ShaderObjects`], [`Program::LinkedShaderObjects`] or
-    /// [`Program::LinkedTessellationShaderObjects`] (its pipelines have a null handle in
+    /// The shaders of [`Program::ShaderObjects`], [`Program::LinkedShaderObjects`],
+    /// [`Program::LinkedTessellationShaderObjects`] or
+    /// [`Program::PassthroughGeometryShaderObjects`] (its pipelines have a null handle in
     /// `pipelines`); `None` without that program.
     shader_objects: Option<shader_objects::ShaderObjects>,
     /// The shaders of [`Program::MeshShaderObjects`], likewise.
@@ -633,11 +634,12 @@ impl<'a> Renderer<'a> {
                 Program::ShaderObjects
                     | Program::LinkedShaderObjects
                     | Program::LinkedTessellationShaderObjects
+                    | Program::PassthroughGeometryShaderObjects
             )
         }) {
-            // The tessellated set reads the buffer delivery's blocks, without push constants.
+            // The buffer delivery's shaders read its blocks, without push constants.
             let (ranges, set_layouts): (&[vk::PushConstantRange], Vec<vk::DescriptorSetLayout>) =
-                if program == Program::LinkedTessellationShaderObjects {
+                if program.is_buffer_delivery() {
                     let matrices = this
                         .matrices
                         .as_ref()
@@ -724,7 +726,8 @@ impl<'a> Renderer<'a> {
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
-            | Program::LinkedTessellationShaderObjects => {
+            | Program::LinkedTessellationShaderObjects
+            | Program::PassthroughGeometryShaderObjects => {
                 (self.matrix_layout, vk::ShaderStageFlags::empty())
             }
             Program::Flat

@@ -679,7 +679,8 @@ impl Recorder<'_> {
         let objects = match spec.program {
             Program::ShaderObjects
             | Program::LinkedShaderObjects
-            | Program::LinkedTessellationShaderObjects => renderer.shader_objects.as_ref(),
+            | Program::LinkedTessellationShaderObjects
+            | Program::PassthroughGeometryShaderObjects => renderer.shader_objects.as_ref(),
             Program::MeshShaderObjects => renderer.mesh_shader_objects.as_ref(),
             _ => None,
         };

@@ -2,7 +2,9 @@
 //! shader objects (`VK_EXT_shader_object`), [`Program::LinkedShaderObjects`]: the same two
 //! created linked in one call, [`Program::MeshShaderObjects`]: the mesh
 //! program's as mesh and fragment ones, and [`Program::LinkedTessellationShaderObjects`]:
-//! `ubo-tessellation`'s four created linked in one call; and their "pipeline" bind: the shaders bound
+//! `ubo-tessellation`'s four created linked in one call, and
+//! [`Program::PassthroughGeometryShaderObjects`]: `ubo-passthrough-geometry`'s three unlinked;
+//! and their "pipeline" bind: the shaders bound
 //! (every other graphics stage the device has bound to null), then every state a
 //! [`PipelineSpec`] bakes into a pipeline set with the dynamic state commands, as an engine
 //! built on shader objects does at each material change. States a spec leaves dynamic
@@ -74,6 +76,11 @@ fn program_shaders(program: Program) -> Vec<(vk::ShaderStageFlags, shaders::Shad
                 vk::ShaderStageFlags::TESSELLATION_EVALUATION,
                 shaders::UBO_TESE,
             ),
+            (fragment, shaders::FLAT_COLOR_FRAG),
+        ],
+        Program::PassthroughGeometryShaderObjects => vec![
+            (vk::ShaderStageFlags::VERTEX, shaders::UBO_VERT),
+            (vk::ShaderStageFlags::GEOMETRY, shaders::PASSTHROUGH_GEOM),
             (fragment, shaders::FLAT_COLOR_FRAG),
         ],
         _ => vec![

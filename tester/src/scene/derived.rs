@@ -244,7 +244,8 @@ impl Scene {
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
-            | Program::LinkedTessellationShaderObjects => Vec::new(),
+            | Program::LinkedTessellationShaderObjects
+            | Program::PassthroughGeometryShaderObjects => Vec::new(),
         };
         debug_assert_eq!(values.len() * 4, program.push_constant_size() as usize);
         values.iter().flat_map(|v| v.to_le_bytes()).collect()

@@ -1526,6 +1526,7 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                             delivery,
                             Delivery::UboGeometry
                                 | Delivery::UboPassthroughGeometry
+                                | Delivery::PassthroughGeometryShaderObjects
                                 | Delivery::PushGeometry
                         )
                     );
@@ -1544,6 +1545,7 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                                 | Delivery::MeshShaderObjects
                                 | Delivery::LinkedShaderObjects
                                 | Delivery::LinkedTessellationShaderObjects
+                                | Delivery::PassthroughGeometryShaderObjects
                         )
                     );
                     assert_eq!(
