@@ -688,7 +688,7 @@ pub unsafe extern "system" fn create_device(
                     mesh_shader,
                 )
                 .with_multisampled_twins(multisampled_twins);
-            if policy.mode != instance.settings.mode {
+            if depth_range_unrestricted && instance.settings.mode == Mode::Infinite {
                 log::info!(
                     "device {device:?}: the application enabled VK_EXT_depth_range_unrestricted: \
                      infinite mode reverses depth as complementary mode does here (its n / w \
