@@ -98,6 +98,9 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
     let recorded = &render["recorded"];
     let frames = recorded["frames"].as_u64().unwrap();
     let application_reversed = render["clear_depth"].as_f64() == Some(0.0);
+    let unrestricted = render["features"]
+        .as_array()
+        .is_some_and(|f| f.iter().any(|f| f == "VK_EXT_depth_range_unrestricted"));
     let images = profile["images"].as_array().expect("images");
     let mut native_images = Vec::new();
     for image in recorded["depth_images"].as_array().unwrap() {
@@ -185,8 +188,9 @@ fn check(scene: &str, delivery: &str, mode: &str, render: &Value, profile: &Valu
         let orthographic =
             draws["image"] == "shadow" && !scene.starts_with("shadow-map-perspective");
         // Infinite mode's precise path removes the far plane, which a clamping pipeline clamps
-        // at (issue #44): those take the flip path.
-        let clamped = mode == "infinite" && draws["depth_clamp"] == true;
+        // at (issue #44): those take the flip path. Not on a device that enabled
+        // VK_EXT_depth_range_unrestricted, where infinite mode reverses as complementary does.
+        let clamped = mode == "infinite" && draws["depth_clamp"] == true && !unrestricted;
         let path = if into_native {
             "native"
         } else if mode == "flip" || constant_depth || untested || orthographic || clamped {
