@@ -858,16 +858,7 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     let tessellated = linked_tessellation([&projecting, &plain, &projecting]);
     let (result, handles) = fx.create(&tessellated);
     assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(events.len(), 1, "the application's call alone");
-    let (_, app_infos, _, _) = app_creation(&events[0]);
-    assert!(app_infos
-        .iter()
-        .all(|info| info.flags == vk::ShaderCreateFlagsEXT::LINK_STAGE));
-    assert_eq!(
-        fx.state.objects.position_shaders.get(&handles[2]),
-        Some(PositionShader::Flip)
-    );
+    assert_link_kept_on_the_flip_path(&fx, &fx.events(), handles[2]);
     let binary = vk::ShaderCreateInfoEXT {
         code_type: vk::ShaderCodeTypeEXT::BINARY,
         ..shader_info(VERTEX_STAGE, FRAGMENT_STAGE, &projecting)
@@ -1166,10 +1157,7 @@ fn assert_camera_carrier(
 
 /// The tester's mesh shader (`shaders/glslang/mesh.mesh`), compiled by glslang.
 fn mesh_shader_words() -> Vec<u32> {
-    include_bytes!("../../../shaders/glslang/mesh.mesh.spv")
-        .chunks_exact(4)
-        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-        .collect()
+    crate::shader::test_spirv::words(include_bytes!("../../../shaders/glslang/mesh.mesh.spv"))
 }
 
 #[test]
@@ -1403,12 +1391,6 @@ fn an_infinite_mode_clamp_without_clipping_binds_the_app_shader_and_clipping_bri
 }
 
 /// SPIR-V words of a binary module's bytes.
-fn words_of(bytes: &[u8]) -> Vec<u32> {
-    bytes
-        .chunks_exact(4)
-        .map(|word| u32::from_le_bytes([word[0], word[1], word[2], word[3]]))
-        .collect()
-}
 
 #[test]
 fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_bound() {
@@ -1420,7 +1402,7 @@ fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_
     let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
     let geometry = vk::ShaderStageFlags::GEOMETRY;
     // glslang's pass-through geometry shader: no variant of its own, marked.
-    let passthrough = words_of(include_bytes!(
+    let passthrough = crate::shader::test_spirv::words(include_bytes!(
         "../shader/test_data/geometry_passthrough.spv"
     ));
     let (result, created) = fx.create(&[shader_info(geometry, FRAGMENT_STAGE, &passthrough)]);
@@ -1431,7 +1413,9 @@ fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_
         Some(PositionShader::PassesThrough)
     );
     // One that reads the positions' z for something else: the flip path.
-    let reads_z = words_of(include_bytes!("../shader/test_data/geometry_reads_z.spv"));
+    let reads_z = crate::shader::test_spirv::words(include_bytes!(
+        "../shader/test_data/geometry_reads_z.spv"
+    ));
     let (_, refused) = fx.create(&[shader_info(geometry, FRAGMENT_STAGE, &reads_z)]);
     fx.events();
     assert_eq!(
@@ -1474,6 +1458,21 @@ fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_
     );
     fx.free(buffer);
     fx.finish();
+}
+
+/// Checks that a linked set's creation (`events`) went down as the application's call alone,
+/// every create info still linked, and that its last pre-rasterization shader (`last`) takes
+/// the flip path.
+fn assert_link_kept_on_the_flip_path(fx: &Fixture, events: &[Event], last: vk::ShaderEXT) {
+    assert_eq!(events.len(), 1, "the application's call alone: {events:#?}");
+    let (_, app_infos, _, _) = app_creation(&events[0]);
+    assert!(app_infos
+        .iter()
+        .all(|info| info.flags == vk::ShaderCreateFlagsEXT::LINK_STAGE));
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&last),
+        Some(PositionShader::Flip)
+    );
 }
 
 /// `words` with every `OpExecutionMode` of `mode` removed.
@@ -1530,10 +1529,11 @@ fn a_linked_tessellation_set_whose_evaluation_shader_stands_alone_goes_down_unli
     let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
     let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
     let plain = fragment(PLAIN);
-    let control = words_of(include_bytes!(
+    let control = crate::shader::test_spirv::words(include_bytes!(
         "../../../shaders/glslang/passthrough.tesc.spv"
     ));
-    let evaluation = words_of(include_bytes!("../../../shaders/glslang/ubo.tese.spv"));
+    let evaluation =
+        crate::shader::test_spirv::words(include_bytes!("../../../shaders/glslang/ubo.tese.spv"));
     let set = |control: &[u32], evaluation: &[u32]| {
         let mut set = linked_tessellation([&projecting, control, evaluation]);
         set.push(link(shader_info(
@@ -1607,14 +1607,6 @@ fn a_linked_tessellation_set_whose_evaluation_shader_stands_alone_goes_down_unli
         &without_mode(&evaluation, SPACING_EQUAL),
     );
     let (handles, events) = create(&split);
-    assert_eq!(events.len(), 1, "the application's call alone: {events:#?}");
-    let (_, app_infos, _, _) = app_creation(&events[0]);
-    assert!(app_infos
-        .iter()
-        .all(|info| info.flags == vk::ShaderCreateFlagsEXT::LINK_STAGE));
-    assert_eq!(
-        fx.state.objects.position_shaders.get(&handles[2]),
-        Some(PositionShader::Flip)
-    );
+    assert_link_kept_on_the_flip_path(&fx, &events, handles[2]);
     fx.finish();
 }

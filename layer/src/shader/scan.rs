@@ -355,11 +355,8 @@ mod tests {
         assert_eq!(tessellation_modes(&[1, 2, 3]), None);
         // glslang's: the evaluation stage of the tester's `ubo-tessellation` declares all
         // three categories, its control stage none.
-        let bytes = include_bytes!("../../../shaders/glslang/ubo.tese.spv");
-        let words: Vec<u32> = bytes
-            .chunks_exact(4)
-            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
+        let glslang = |bytes: &[u8]| crate::shader::test_spirv::words(bytes);
+        let words = glslang(include_bytes!("../../../shaders/glslang/ubo.tese.spv"));
         assert_eq!(
             tessellation_modes(&words),
             Some(TessellationModes {
@@ -369,11 +366,9 @@ mod tests {
                 point_mode: false,
             })
         );
-        let bytes = include_bytes!("../../../shaders/glslang/passthrough.tesc.spv");
-        let words: Vec<u32> = bytes
-            .chunks_exact(4)
-            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
+        let words = glslang(include_bytes!(
+            "../../../shaders/glslang/passthrough.tesc.spv"
+        ));
         assert_eq!(
             tessellation_modes(&words),
             Some(TessellationModes::default())

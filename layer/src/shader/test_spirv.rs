@@ -4,6 +4,15 @@
 use spirv_tools::assembler::{self, Assembler as _};
 use spirv_tools::TargetEnv;
 
+/// SPIR-V saved as binary (glslang's `.spv` files, `include_bytes!`'d): its little-endian
+/// words.
+pub fn words(bytes: &[u8]) -> Vec<u32> {
+    bytes
+        .chunks_exact(4)
+        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        .collect()
+}
+
 /// Compiles GLSL of `stage` with naga's front end and SPIR-V back end.
 pub fn compile_glsl(stage: naga::ShaderStage, source: &str) -> Vec<u32> {
     let mut frontend = naga::front::glsl::Frontend::default();

@@ -603,10 +603,7 @@ fn zinks_products_of_computed_components_and_of_a_dropped_column_are_fitted() {
 
 /// glslang output saved as binary (`layer/src/test_data/*.spv`).
 fn binary(bytes: &[u8]) -> Vec<u32> {
-    bytes
-        .chunks_exact(4)
-        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-        .collect()
+    crate::shader::test_spirv::words(bytes)
 }
 
 #[test]
