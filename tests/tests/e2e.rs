@@ -203,9 +203,9 @@ flip_scene_tests! {
 /// layer (`flip_scene` compares the colors), through a comparison sampler (`shadow-map`) and
 /// through texel fetches and a plain sampler whose raw values the shader compares itself
 /// (`shadow-map-raw`: reversed values would shadow nearly everything), and with an X8_D24 map
-/// (`shadow-map-x8-d24`: its twin is X8_D24, the image promoted to float in the precise modes,
-/// which the copies tests render), and lit by a spot light (`shadow-map-perspective`: a perspective
-/// shadow pass, whose map the precise modes store with the light's own n / w).
+/// (`shadow-map-x8-d24`: its twin is X8_D24, the image promoted to float in the precise
+/// modes, which the copies tests render), and lit by a spot light (`shadow-map-perspective`:
+/// a perspective shadow pass, whose map the precise modes store with the light's own n / w).
 #[test]
 fn flip_shadow_map_is_reversed_and_sampled_through_its_twin() {
     for (scene, map) in [
