@@ -114,6 +114,12 @@ unsafe fn create_in(
         initial_layout: vk::ImageLayout::UNDEFINED,
         ..*info
     };
+    // The device must allow a single-sampled twin's format with the twin's usage (a UNORM
+    // depth format without transfer writes would not); a multisampled twin's format and usage
+    // were asked for at device creation (`DevicePolicy::multisampled_twin_samples`).
+    if !multisampled && !device.image_formats.supports(&twin_info, twin_info.format) {
+        return None;
+    }
     let mut image = vk::Image::null();
     // SAFETY: a valid create info (the application's, narrowed) and output.
     if unsafe { (v.create_image)(device.handle, &twin_info, null, &mut image) }

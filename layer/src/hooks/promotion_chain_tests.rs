@@ -2804,19 +2804,32 @@ fn a_sampled_depth_image_gets_a_read_twin_whose_views_descriptors_name() {
 }
 
 /// A device that refuses the read twin of a promoted image in the application's UNORM format
-/// (a D24 format without transfer writes, say) gets the twin in the stored float format, its
-/// views in that format too: shaders then read float32 texels (up to an ulp from the UNORM
-/// ones), which beats keeping the image native.
+/// (a D24 format without transfer writes, say: as `vkGetPhysicalDeviceImageFormatProperties`
+/// answers, or as `vkCreateImage` fails) gets the twin in the stored float format, its views
+/// in that format too: shaders then read float32 texels (up to an ulp from the UNORM ones),
+/// which beats keeping the image native.
 #[test]
 fn a_twin_the_device_refuses_in_the_application_format_is_made_in_the_stored_one() {
-    let fx = Fixture::new();
+    // Refused by the format query, then by the creation itself.
+    for query_refuses in [true, false] {
+        let refused: &[vk::Format] = if query_refuses { &[D24_S8] } else { &[] };
+        let fx = Fixture::with(COMPLEMENTARY, refused);
+        if !query_refuses {
+            // The application's image, then its twin in D24_S8 refused, then in D32_S8.
+            fake_chain::script_image_creations(
+                fx.tables.device,
+                [vk::Result::SUCCESS, vk::Result::ERROR_FORMAT_NOT_SUPPORTED],
+            );
+        }
+        a_twin_in_the_stored_format(&fx);
+    }
+}
+
+/// The body of [`a_twin_the_device_refuses_in_the_application_format_is_made_in_the_stored_one`]
+/// on `fx`, whose device refuses a D24_S8 twin.
+fn a_twin_in_the_stored_format(fx: &Fixture) {
     let sampled = ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
     let info = fake_chain::depth_image_info(D24_S8, EXTENT, sampled, SINGLE);
-    // The application's image, then its twin in D24_S8 refused, then in D32_S8.
-    fake_chain::script_image_creations(
-        fx.tables.device,
-        [vk::Result::SUCCESS, vk::Result::ERROR_FORMAT_NOT_SUPPORTED],
-    );
     let mut image = vk::Image::null();
     // SAFETY: a live device and a valid create info.
     let result = unsafe { (fx.hooks.create_image)(fx.device, &info, std::ptr::null(), &mut image) };
