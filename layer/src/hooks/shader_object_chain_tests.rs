@@ -323,6 +323,24 @@ fn app_creation(event: &Event) -> (usize, &[SeenShader], bool, &[vk::ShaderEXT])
     }
 }
 
+/// Creates `infos` in one call where one of them gets a variant: checks that the call
+/// succeeded and that two calls reached the fake, the variant's then the application's;
+/// returns the handles and those two events.
+fn create_with_one_variant(
+    fx: &Fixture,
+    infos: &[vk::ShaderCreateInfoEXT<'_>],
+) -> (Vec<vk::ShaderEXT>, Vec<Event>) {
+    let (result, handles) = fx.create(infos);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(
+        events.len(),
+        2,
+        "the variant's call, then the application's: {events:#?}"
+    );
+    (handles, events)
+}
+
 /// A vertex and a fragment shader object of `vertex` and `fragment` code created linked in
 /// one call where one of them gets a variant: checks that the call succeeded, and that the
 /// variant's call and then the application's reached the fake, both unlinked (the
@@ -347,14 +365,7 @@ fn create_linked_pair_with_variant(
             fragment,
         )),
     ];
-    let (result, handles) = fx.create(&infos);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(
-        events.len(),
-        2,
-        "the variant's call, then the application's"
-    );
+    let (handles, events) = create_with_one_variant(fx, &infos);
     let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
     let (app_address, app_infos, _, app_handles) = app_creation(&events[1]);
     assert_ne!(app_address, infos.as_ptr() as usize, "a copy goes down");
@@ -399,14 +410,7 @@ fn create_pair_with_variant(
         shader_info(VERTEX_STAGE, FRAGMENT_STAGE, vertex),
         shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), fragment),
     ];
-    let (result, handles) = fx.create(&infos);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(
-        events.len(),
-        2,
-        "the variant, then the application's: {events:#?}"
-    );
+    let (handles, events) = create_with_one_variant(fx, &infos);
     let (variant_address, variant_infos, variant_allocator, variant_handles) =
         app_creation(&events[0]);
     let (app_address, app_infos, app_allocator, app_handles) = app_creation(&events[1]);
@@ -1011,14 +1015,7 @@ fn create_with_ranges(
         shader_info(FRAGMENT_STAGE, vk::ShaderStageFlags::empty(), fragment)
             .push_constant_ranges(ranges),
     ];
-    let (result, handles) = fx.create(&infos);
-    assert_eq!(result, vk::Result::SUCCESS);
-    let events = fx.events();
-    assert_eq!(
-        events.len(),
-        2,
-        "the variant, then the application's: {events:#?}"
-    );
+    let (handles, events) = create_with_one_variant(fx, &infos);
     let (_, variant_infos, _, variant_handles) = app_creation(&events[0]);
     let (_, app_infos, _, _) = app_creation(&events[1]);
     (
