@@ -263,6 +263,12 @@ pub struct DeviceCommands {
     pub push_descriptor_set: Option<vk::PFN_vkCmdPushDescriptorSetKHR>,
     pub bind_descriptor_sets2: Option<vk::PFN_vkCmdBindDescriptorSets2KHR>,
     pub set_descriptor_buffer_offsets: Option<vk::PFN_vkCmdSetDescriptorBufferOffsetsEXT>,
+    /// `VK_EXT_descriptor_buffer`'s other commands that bind compute descriptors (followed,
+    /// and replayed in their first form after a conversion's dispatch).
+    pub set_descriptor_buffer_offsets2: Option<vk::PFN_vkCmdSetDescriptorBufferOffsets2EXT>,
+    pub bind_embedded_samplers: Option<vk::PFN_vkCmdBindDescriptorBufferEmbeddedSamplersEXT>,
+    pub bind_embedded_samplers2: Option<vk::PFN_vkCmdBindDescriptorBufferEmbeddedSamplers2EXT>,
+    pub bind_descriptor_buffers: Option<vk::PFN_vkCmdBindDescriptorBuffersEXT>,
     pub push_descriptor_set_with_template: Option<vk::PFN_vkCmdPushDescriptorSetWithTemplateKHR>,
     /// `VK_KHR_maintenance6` (Vulkan 1.4): the push-descriptor commands taking an info.
     pub push_descriptor_set2: Option<vk::PFN_vkCmdPushDescriptorSet2KHR>,
@@ -392,6 +398,10 @@ impl DeviceCommands {
                 c"vkCmdBindDescriptorSets2KHR"
             ),
             set_descriptor_buffer_offsets: load!(0, c"vkCmdSetDescriptorBufferOffsetsEXT"),
+            set_descriptor_buffer_offsets2: load!(0, c"vkCmdSetDescriptorBufferOffsets2EXT"),
+            bind_embedded_samplers: load!(0, c"vkCmdBindDescriptorBufferEmbeddedSamplersEXT"),
+            bind_embedded_samplers2: load!(0, c"vkCmdBindDescriptorBufferEmbeddedSamplers2EXT"),
+            bind_descriptor_buffers: load!(0, c"vkCmdBindDescriptorBuffersEXT"),
             push_descriptor_set_with_template: load!(
                 V14,
                 c"vkCmdPushDescriptorSetWithTemplate",

@@ -39,7 +39,7 @@ mod variants;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 use crate::gpu::{Features, Gpu, GpuOptions};
@@ -186,6 +186,14 @@ struct RenderArgs {
     #[arg(long, value_name = "VERSION", value_parser = ["1.0", "1.1", "1.2", "1.3"])]
     vulkan: Option<String>,
 
+    /// Bind the depth pyramid's compute pipeline and descriptors at the start of the
+    /// recording, with descriptor sets or a descriptor buffer (`VK_EXT_descriptor_buffer`,
+    /// Vulkan 1.3: lavapipe has it from Mesa 23.x on), so that its dispatch after the passes
+    /// binds nothing: what the layer's conversions in between disturb, it must bind again.
+    /// Only depth-reads builds a depth pyramid.
+    #[arg(long, value_enum, value_name = "DESCRIPTORS")]
+    bind_tiles_first: Option<crate::plan::TileDescriptors>,
+
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", required = true)]
     out: Option<PathBuf>,
@@ -257,6 +265,12 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         .build()
         .with_delivery(cli.delivery)
         .map_err(anyhow::Error::msg)?;
+    if let Some(descriptors) = cli.bind_tiles_first {
+        scene.plan = scene
+            .plan
+            .with_tiles_bound_first(descriptors)
+            .map_err(|e| anyhow!("scene '{}': {e}", scene.name))?;
+    }
     let depth_resolve = cli.depth_resolve.unwrap_or(ResolveMode::SampleZero);
     if !scene.plan.set_depth_resolve(depth_resolve) && cli.depth_resolve.is_some() {
         bail!(
@@ -302,6 +316,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             tessellation_shader: needs.tessellation_shader,
             shader_object: needs.shader_object,
             mesh_shader: needs.mesh_shader,
+            descriptor_buffer: needs.descriptor_buffer,
             // Optional: a post pass pushes its descriptors where the device can.
             push_descriptor: needs.sampled_depth,
         },
@@ -361,6 +376,11 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         bail!(lacks(
             "meshShader (VK_EXT_mesh_shader on Vulkan 1.3; lavapipe has it from Mesa 23.3 on: \
              `cargo xtask setup` extracts a newer lavapipe into target/lavapipe-backports)"
+        ));
+    }
+    if needs.descriptor_buffer && !gpu.supported.descriptor_buffer {
+        bail!(lacks(
+            "descriptorBuffer with bufferDeviceAddress (VK_EXT_descriptor_buffer on Vulkan 1.3:              `cargo xtask setup` extracts a newer lavapipe into target/lavapipe-backports)"
         ));
     }
     let features = gpu.enabled.names();

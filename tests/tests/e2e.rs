@@ -321,6 +321,96 @@ fn depth_reads_sample_standard_depth_through_the_twin() {
     }
 }
 
+/// `depth-reads` with its depth pyramid's compute pipeline and descriptors bound at the start
+/// of the recording (`--bind-tiles-first`), as a frame whose culling pass binds its compute
+/// state first: the dispatch after the passes binds nothing, so the compute state revz's
+/// refreshes disturb (their conversion is a dispatch) must be bound again after them. With
+/// descriptor sets, and with a descriptor buffer (`VK_EXT_descriptor_buffer`, on the newer
+/// lavapipe: what vkd3d-proton binds for every dispatch, and Zink on drivers with the
+/// extension), whose view of the depth image `vkGetDescriptorEXT` makes the read twin's. In
+/// every mode, D32 and D24S8 (promoted in the precise modes), with zero validation messages
+/// (synchronization validation included), no refresh or copy is left unconverted, the colors
+/// are those of `depth-reads` through revz, to the pixel, and so the native render's within
+/// `depth-reads`' bound, and the native render itself is `depth-reads`' (the early bind
+/// changes nothing without revz). Before session 36
+/// revz could not bind descriptor buffer offsets again and refused every conversion after
+/// them: D32 `infinite` 40,719 pixels wrong, the twin never refreshed (a layout error from
+/// validation), the depth read back reversed.
+#[test]
+fn depth_reads_whose_compute_state_is_bound_first_keep_it_across_refreshes() {
+    let harness = Harness::locate();
+    let mut problems = Vec::new();
+    for descriptors in ["sets", "buffer"] {
+        for format in ["d32", "d24-s8"] {
+            let render = |mode: Option<&str>, bind_first: bool| {
+                let name = format!(
+                    "depth-reads-{}-{format}-{}",
+                    if bind_first { descriptors } else { "plain" },
+                    mode.unwrap_or("native")
+                );
+                let dir = harness.scratch_dir(&name);
+                let mut command = harness.tester(format, &dir);
+                command.args([
+                    "--scene",
+                    "depth-reads",
+                    "--sync-validation",
+                    "--frames",
+                    "2",
+                ]);
+                if bind_first {
+                    command.args(["--bind-tiles-first", descriptors]);
+                }
+                if descriptors == "buffer" {
+                    harness.on_newer_lavapipe(&mut command);
+                }
+                if let Some(mode) = mode {
+                    harness
+                        .with_layer(&mut command)
+                        .env("REVZ_MODE", mode)
+                        .env("REVZ_LOG", "info");
+                }
+                (name, harness.render(command, &dir))
+            };
+            let (_, plain) = render(None, false);
+            let (name, native) = render(None, true);
+            let differing = differing_pixels(&plain.color(), &native.color());
+            if differing != 0 {
+                problems.push(format!(
+                    "{name}: {differing} pixels differ from depth-reads'"
+                ));
+            }
+            if descriptors == "buffer" {
+                let features = native.json()["features"].to_string();
+                assert!(features.contains("descriptorBuffer"), "{name}: {features}");
+            }
+            for mode in ["flip", "complementary", "infinite"] {
+                let (name, layered) = render(Some(mode), true);
+                let log = layered.stderr();
+                if log.contains("not refreshed") || log.contains("not converted") {
+                    problems.push(format!("{name}: a conversion was refused: {log}"));
+                }
+                // What revz hands the shaders does not depend on when the application bound
+                // its compute state: the render of `depth-reads` through revz, to the pixel.
+                let (_, layered_plain) = render(Some(mode), false);
+                let differing = differing_pixels(&layered_plain.color(), &layered.color());
+                if differing != 0 {
+                    problems.push(format!(
+                        "{name}: {differing} pixels differ from depth-reads' through revz"
+                    ));
+                }
+                // And that render is the native one within `depth-reads`' bound (Mesa 25.0's
+                // lavapipe rounds more fades one level apart than Mesa 22.3's: 211 pixels in
+                // D24S8 `infinite`, against 125, none more than one level).
+                let loose = pixels_off_by_more_than(&native.color(), &layered.color(), 1);
+                if loose > 2 {
+                    problems.push(format!("{name}: {loose} pixels off by more than one level"));
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
 /// `stencil-reads` (issue #39): a depth-stencil image whose stencil aspect a post pass samples
 /// (beside its depth) is reversed and read through its twin in every mode, with zero
 /// validation messages, and the band shaded from both aspects is the native render's: the

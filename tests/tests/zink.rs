@@ -425,6 +425,72 @@ fn sample_standard_depth(harness: &Harness, zink: &Zink) {
     }
 }
 
+/// An OpenGL program that runs a compute shader (a storage buffer written, as a culling or
+/// particle pass would) before it draws and again before it samples its depth texture, in one
+/// frame (`gl-render --compute-first --post fetch|compare`): Zink binds its compute
+/// descriptors before the barrier at which revz refreshes the read twin, in one command
+/// buffer. On Mesa 25.0's Zink those are descriptor buffers (`vkCmdSetDescriptorBufferOffsetsEXT`
+/// on lavapipe 25.0, as on every driver with `VK_EXT_descriptor_buffer`), which revz binds
+/// again after its conversion's dispatch since session 36; before, it refused the refresh and
+/// the post pass read a twin never written: every pixel of `fetch` and 36,231 of `compare`
+/// apart, in every mode (session 35's layer, measured). Now within
+/// `zink_shaders_sample_standard_depth_through_the_read_twin`'s bound in every mode, on both
+/// Zinks, and the compute pass's words are what its dispatches wrote (`gl-render` checks them).
+#[test]
+fn zink_shaders_sample_depth_after_a_compute_pass_as_without_revz() {
+    let harness = Harness::locate();
+    for zink in Zink::all(&harness) {
+        let label = zink.label();
+        for pass in ["fetch", "compare"] {
+            let run = |mode: Option<&str>| {
+                let name = format!("zink-compute-{pass}-{}{label}", mode.unwrap_or("none"));
+                let out = harness.scratch_dir(&name);
+                let mut command = zink.command(&harness);
+                command
+                    .args([
+                        "--scene",
+                        "overlap",
+                        "--compute-first",
+                        "--post",
+                        pass,
+                        "--out",
+                    ])
+                    .arg(&out);
+                if let Some(mode) = mode {
+                    command
+                        .args(["--revz", mode])
+                        .env("REVZ_REVERSE_OBSERVABLE", "copies")
+                        .env("REVZ_LOG", "info");
+                }
+                let log = run_gl_render(command, &name)?;
+                let post = image::open(out.join("post.png"))
+                    .expect("post.png")
+                    .to_rgba8();
+                Some((post, log))
+            };
+            let Some((native, _)) = run(None) else {
+                break;
+            };
+            for mode in ["flip", "complementary", "infinite"] {
+                let (post, log) = run(Some(mode)).expect("Zink ran");
+                assert!(
+                    log.contains("reversed, shaders read its twin"),
+                    "{mode}{label}: {log}"
+                );
+                assert!(!log.contains("not refreshed"), "{mode}{label}: {log}");
+                let apart = far_apart(&native, &post);
+                eprintln!(
+                    "zink{label} compute, post {pass} {mode}: {apart} of 65,536 pixels apart"
+                );
+                assert!(
+                    apart <= 16,
+                    "{pass} {mode}{label}: {apart} pixels differ\n{log}"
+                );
+            }
+        }
+    }
+}
+
 /// `gl-render --zink` of `overlap`'s depth as `glReadPixels(GL_DEPTH_COMPONENT, GL_FLOAT)`
 /// returns it (`depth.f32`), without revz or through it in `mode` under the default policy
 /// (`reverse_observable = copies`, `copy_values = standard`, which `gl-render` otherwise sets

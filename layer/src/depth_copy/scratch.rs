@@ -22,31 +22,59 @@ pub struct Slot {
     capacity: u64,
 }
 
-/// `vkCmdBindDescriptorSets` of the compute bind point, as the application called it.
-#[derive(Clone, Debug, PartialEq, Eq)]
-struct SetBind {
-    layout: vk::PipelineLayout,
-    first: u32,
-    sets: Vec<vk::DescriptorSet>,
-    dynamic_offsets: Vec<u32>,
+/// What one of the application's compute descriptor binds binds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum BindKind {
+    /// `vkCmdBindDescriptorSets` (or `vkCmdBindDescriptorSets2`): `values` holds the sets'
+    /// handles, then the dynamic offsets.
+    Sets { dynamic_offsets: u32 },
+    /// `vkCmdSetDescriptorBufferOffsetsEXT` (or its `2` form): `values` holds the buffer
+    /// indices, then the offsets.
+    BufferOffsets,
+    /// `vkCmdBindDescriptorBufferEmbeddedSamplersEXT` (or its `2` form): one set, no values.
+    EmbeddedSamplers,
 }
 
-impl SetBind {
-    fn covers(&self, other: &SetBind) -> bool {
-        let end = |bind: &SetBind| u64::from(bind.first) + bind.sets.len() as u64;
-        self.first <= other.first && end(other) <= end(self)
+/// One of the application's compute descriptor binds, as revz replays it on the compute bind
+/// point (in the command's first form, whichever form the application called).
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct ComputeBind {
+    kind: BindKind,
+    layout: vk::PipelineLayout,
+    first: u32,
+    /// Sets it binds from `first`.
+    count: u32,
+    /// The arrays of the call, widened to 64 bits, one after the other ([`BindKind`]).
+    values: Vec<u64>,
+}
+
+impl ComputeBind {
+    fn end(&self) -> u64 {
+        u64::from(self.first) + u64::from(self.count)
+    }
+
+    /// Whether this bind defines every set `other` defined: `other` no longer shapes the state.
+    fn covers(&self, other: &ComputeBind) -> bool {
+        self.first <= other.first && other.end() <= self.end()
+    }
+
+    /// Whether it sets offsets into the bound descriptor buffers (which binding other buffers
+    /// makes invalid).
+    fn uses_buffer_bindings(&self) -> bool {
+        self.kind == BindKind::BufferOffsets
     }
 }
 
-/// The application's compute pipeline and descriptor sets in one command buffer.
+/// The application's compute pipeline and descriptor bindings in one command buffer.
 #[derive(Debug, Default)]
 pub struct ComputeBindings {
     pipeline: vk::Pipeline,
     /// The binds that still define some set, in the order they were made: replaying them
     /// rebuilds the same state, disturbances included.
-    binds: Vec<SetBind>,
-    /// Compute descriptors were bound another way (push descriptors, descriptor buffers,
-    /// `vkCmdBindDescriptorSets2`): revz cannot restore them.
+    binds: Vec<ComputeBind>,
+    /// Compute descriptors were bound a way revz cannot replay (push descriptors, a bind
+    /// without a layout handle or with a `pNext` chain, a compute shader object): revz cannot
+    /// restore them.
     unrestorable: bool,
 }
 
@@ -59,6 +87,7 @@ impl ComputeBindings {
         self.pipeline = pipeline;
     }
 
+    /// `vkCmdBindDescriptorSets` of the compute bind point.
     pub fn bind_sets(
         &mut self,
         layout: vk::PipelineLayout,
@@ -66,13 +95,79 @@ impl ComputeBindings {
         sets: &[vk::DescriptorSet],
         dynamic_offsets: &[u32],
     ) {
-        let bind = SetBind {
+        let kind = BindKind::Sets {
+            dynamic_offsets: dynamic_offsets.len() as u32,
+        };
+        let values = sets
+            .iter()
+            .map(|&set| vk::Handle::as_raw(set))
+            .chain(dynamic_offsets.iter().map(|&o| u64::from(o)));
+        self.push(kind, layout, (first, sets.len() as u32), values);
+    }
+
+    /// `vkCmdSetDescriptorBufferOffsetsEXT` of the compute bind point: sets `first..` take
+    /// `offsets` into the descriptor buffers bound at `indices`.
+    pub fn set_buffer_offsets(
+        &mut self,
+        layout: vk::PipelineLayout,
+        first: u32,
+        indices: &[u32],
+        offsets: &[vk::DeviceSize],
+    ) {
+        if indices.len() != offsets.len() {
+            self.bound_otherwise();
+            return;
+        }
+        let values = indices
+            .iter()
+            .map(|&i| u64::from(i))
+            .chain(offsets.iter().copied());
+        let count = indices.len() as u32;
+        self.push(BindKind::BufferOffsets, layout, (first, count), values);
+    }
+
+    /// `vkCmdBindDescriptorBufferEmbeddedSamplersEXT` of the compute bind point.
+    pub fn bind_embedded_samplers(&mut self, layout: vk::PipelineLayout, set: u32) {
+        let none = std::iter::empty();
+        self.push(BindKind::EmbeddedSamplers, layout, (set, 1), none);
+    }
+
+    /// `vkCmdBindDescriptorBuffersEXT`: the offsets set into the buffers bound before are no
+    /// longer valid (the spec), so they are not replayed.
+    pub fn bind_descriptor_buffers(&mut self) {
+        self.binds.retain(|bind| !bind.uses_buffer_bindings());
+    }
+
+    /// Keeps a bind of `count` sets from `first`, dropping the earlier binds it covers. The
+    /// storage of one of those is reused: an application that binds the same sets at every
+    /// dispatch allocates nothing here after its first.
+    fn push(
+        &mut self,
+        kind: BindKind,
+        layout: vk::PipelineLayout,
+        (first, count): (u32, u32),
+        values: impl Iterator<Item = u64>,
+    ) {
+        let mut bind = ComputeBind {
+            kind,
             layout,
             first,
-            sets: sets.to_vec(),
-            dynamic_offsets: dynamic_offsets.to_vec(),
+            count,
+            values: Vec::new(),
         };
-        self.binds.retain(|earlier| !bind.covers(earlier));
+        let mut index = 0;
+        while index < self.binds.len() {
+            if bind.covers(&self.binds[index]) {
+                let earlier = self.binds.remove(index);
+                if bind.values.capacity() == 0 {
+                    bind.values = earlier.values;
+                }
+            } else {
+                index += 1;
+            }
+        }
+        bind.values.clear();
+        bind.values.extend(values);
         self.binds.push(bind);
         if self.binds.len() > MAX_BINDS {
             self.binds.clear();
@@ -95,24 +190,58 @@ impl ComputeBindings {
     /// `buffer` must be recording, on `device`.
     pub unsafe fn restore(&self, device: &DeviceState, buffer: vk::CommandBuffer) {
         let v = device.next.fp_v1_0();
+        let compute = vk::PipelineBindPoint::COMPUTE;
         if self.pipeline != vk::Pipeline::null() {
             // SAFETY: the application's pipeline, bound by it in this command buffer.
-            unsafe { (v.cmd_bind_pipeline)(buffer, vk::PipelineBindPoint::COMPUTE, self.pipeline) };
+            unsafe { (v.cmd_bind_pipeline)(buffer, compute, self.pipeline) };
         }
         for bind in &self.binds {
-            // SAFETY: the application's own bind, replayed in order.
-            unsafe {
-                (v.cmd_bind_descriptor_sets)(
-                    buffer,
-                    vk::PipelineBindPoint::COMPUTE,
-                    bind.layout,
-                    bind.first,
-                    bind.sets.len() as u32,
-                    bind.sets.as_ptr(),
-                    bind.dynamic_offsets.len() as u32,
-                    bind.dynamic_offsets.as_ptr(),
-                )
-            };
+            let (layout, first, count) = (bind.layout, bind.first, bind.count as usize);
+            let (head, tail) = bind.values.split_at(count.min(bind.values.len()));
+            match bind.kind {
+                BindKind::Sets { .. } => {
+                    let sets: Vec<vk::DescriptorSet> =
+                        head.iter().map(|&raw| vk::Handle::from_raw(raw)).collect();
+                    let offsets: Vec<u32> = tail.iter().map(|&o| o as u32).collect();
+                    // SAFETY: the application's own bind, replayed in order.
+                    unsafe {
+                        (v.cmd_bind_descriptor_sets)(
+                            buffer,
+                            compute,
+                            layout,
+                            first,
+                            sets.len() as u32,
+                            sets.as_ptr(),
+                            offsets.len() as u32,
+                            offsets.as_ptr(),
+                        )
+                    };
+                }
+                BindKind::BufferOffsets => {
+                    let indices: Vec<u32> = head.iter().map(|&i| i as u32).collect();
+                    if let Some(set_offsets) = device.commands.set_descriptor_buffer_offsets {
+                        // SAFETY: the application's own offsets, into the descriptor buffers
+                        // it bound (revz binds none), replayed in order.
+                        unsafe {
+                            set_offsets(
+                                buffer,
+                                compute,
+                                layout,
+                                first,
+                                indices.len() as u32,
+                                indices.as_ptr(),
+                                tail.as_ptr(),
+                            )
+                        };
+                    }
+                }
+                BindKind::EmbeddedSamplers => {
+                    if let Some(bind_samplers) = device.commands.bind_embedded_samplers {
+                        // SAFETY: the application's own bind, replayed in order.
+                        unsafe { bind_samplers(buffer, compute, layout, first) };
+                    }
+                }
+            }
         }
     }
 }
@@ -393,8 +522,79 @@ mod tests {
         );
         compute.bind_sets(layout, 0, &sets(&[4, 5]), &[]);
         assert_eq!(compute.binds.len(), 1);
-        assert_eq!(compute.binds[0].sets, sets(&[4, 5]));
+        assert_eq!(compute.binds[0].values, [4, 5]);
         assert!(compute.restorable());
+    }
+
+    #[test]
+    fn descriptor_buffer_offsets_and_embedded_samplers_are_kept_beside_sets_in_order() {
+        let layout = vk::PipelineLayout::from_raw(9);
+        let mut compute = ComputeBindings::default();
+        compute.bind_sets(layout, 0, &sets(&[1]), &[32]);
+        compute.set_buffer_offsets(layout, 1, &[0, 1], &[256, 512]);
+        compute.bind_embedded_samplers(layout, 3);
+        let kinds: Vec<BindKind> = compute.binds.iter().map(|b| b.kind).collect();
+        assert_eq!(
+            kinds,
+            [
+                BindKind::Sets { dynamic_offsets: 1 },
+                BindKind::BufferOffsets,
+                BindKind::EmbeddedSamplers
+            ]
+        );
+        assert_eq!(compute.binds[0].values, [1, 32]);
+        assert_eq!(compute.binds[1].values, [0, 1, 256, 512]);
+        assert_eq!((compute.binds[2].first, compute.binds[2].count), (3, 1));
+        // Offsets over sets 0 to 2 replace the sets bound at 0 and the offsets at 1..3.
+        compute.set_buffer_offsets(layout, 0, &[0, 0, 0], &[0, 64, 128]);
+        let kept: Vec<(BindKind, u32)> = compute.binds.iter().map(|b| (b.kind, b.first)).collect();
+        assert_eq!(
+            kept,
+            [
+                (BindKind::EmbeddedSamplers, 3),
+                (BindKind::BufferOffsets, 0)
+            ]
+        );
+        assert!(compute.restorable());
+    }
+
+    #[test]
+    fn binding_descriptor_buffers_drops_the_offsets_into_the_earlier_ones() {
+        let layout = vk::PipelineLayout::from_raw(9);
+        let mut compute = ComputeBindings::default();
+        compute.set_buffer_offsets(layout, 0, &[0], &[64]);
+        compute.bind_embedded_samplers(layout, 1);
+        compute.bind_sets(layout, 2, &sets(&[7]), &[]);
+        compute.bind_descriptor_buffers();
+        let kinds: Vec<BindKind> = compute.binds.iter().map(|b| b.kind).collect();
+        assert_eq!(
+            kinds,
+            [
+                BindKind::EmbeddedSamplers,
+                BindKind::Sets { dynamic_offsets: 0 }
+            ]
+        );
+        assert!(compute.restorable());
+    }
+
+    #[test]
+    fn a_bind_that_covers_an_earlier_one_reuses_its_storage() {
+        let layout = vk::PipelineLayout::from_raw(9);
+        let mut compute = ComputeBindings::default();
+        compute.set_buffer_offsets(layout, 0, &[0, 1], &[64, 128]);
+        let storage = compute.binds[0].values.as_ptr();
+        compute.set_buffer_offsets(layout, 0, &[1, 0], &[0, 32]);
+        assert_eq!(compute.binds.len(), 1);
+        assert_eq!(compute.binds[0].values, [1, 0, 0, 32]);
+        assert_eq!(compute.binds[0].values.as_ptr(), storage, "reallocated");
+    }
+
+    #[test]
+    fn offsets_whose_arrays_differ_in_length_are_not_restorable() {
+        let layout = vk::PipelineLayout::from_raw(9);
+        let mut compute = ComputeBindings::default();
+        compute.set_buffer_offsets(layout, 0, &[0, 1], &[64]);
+        assert!(!compute.restorable());
     }
 
     #[test]

@@ -304,6 +304,22 @@ pub fn depth_path_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             vk::PFN_vkCmdSetDescriptorBufferOffsetsEXT,
             c::cmd_set_descriptor_buffer_offsets_ext
         ),
+        b"vkCmdSetDescriptorBufferOffsets2EXT" => void_fn!(
+            vk::PFN_vkCmdSetDescriptorBufferOffsets2EXT,
+            c::cmd_set_descriptor_buffer_offsets2_ext
+        ),
+        b"vkCmdBindDescriptorBufferEmbeddedSamplersEXT" => void_fn!(
+            vk::PFN_vkCmdBindDescriptorBufferEmbeddedSamplersEXT,
+            c::cmd_bind_descriptor_buffer_embedded_samplers_ext
+        ),
+        b"vkCmdBindDescriptorBufferEmbeddedSamplers2EXT" => void_fn!(
+            vk::PFN_vkCmdBindDescriptorBufferEmbeddedSamplers2EXT,
+            c::cmd_bind_descriptor_buffer_embedded_samplers2_ext
+        ),
+        b"vkCmdBindDescriptorBuffersEXT" => void_fn!(
+            vk::PFN_vkCmdBindDescriptorBuffersEXT,
+            c::cmd_bind_descriptor_buffers_ext
+        ),
         b"vkCmdPushDescriptorSetWithTemplate" | b"vkCmdPushDescriptorSetWithTemplateKHR" => {
             void_fn!(
                 vk::PFN_vkCmdPushDescriptorSetWithTemplateKHR,

@@ -323,6 +323,7 @@ pub fn render(
     separable: Option<&super::context::SeparateShaderObjects>,
     computed_position: bool,
     reversed_z: Option<super::context::ClipControl>,
+    compute_first: bool,
 ) -> Result<GlFrame> {
     let objects = drawn(scene)?;
     let aspect = f64::from(width) / f64::from(height);
@@ -463,6 +464,13 @@ pub fn render(
             }
         }
         gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
+        let compute = if compute_first {
+            let writer = ComputeWriter::new(gl)?;
+            writer.dispatch(gl);
+            Some(writer)
+        } else {
+            None
+        };
 
         // The programs holding the matrices' and the color's uniforms.
         let (matrix_program, color_program) = match programs {
@@ -529,7 +537,20 @@ pub fn render(
                 range.vertex_offset,
             );
         }
+        // With `compute_first`, the post pass follows the draws in the same batch (after the
+        // compute pass's second dispatch), as a frame's SSAO pass would: Zink then records the
+        // depth's barrier and revz's refresh after its compute binds in one command buffer
+        // (the scene read back first, a batch of its own, would let Zink hoist the barrier
+        // into its barrier command buffer, where no compute state is bound).
+        let early_post = match (compute.as_ref(), post, depth_texture) {
+            (Some(compute), Some(pass), Some(texture)) => Some(
+                post_passes(gl, pass, framebuffer, texture, (w, h), Some(compute))
+                    .context("the post pass")?,
+            ),
+            _ => None,
+        };
         gl.finish();
+        gl.bind_framebuffer(glow::FRAMEBUFFER, Some(framebuffer));
 
         let pixels = (width * height) as usize;
         gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
@@ -544,13 +565,19 @@ pub fn render(
             glow::FLOAT,
             glow::PixelPackData::Slice(Some(&mut depth_bytes)),
         );
-        let (post_images, post_depth) = match (post, depth_texture) {
-            (Some(pass), Some(texture)) => {
-                post_passes(gl, pass, framebuffer, texture, w, h).context("the post pass")?
+        let (post_images, post_depth) = match (early_post, post, depth_texture) {
+            (Some(made), _, _) => made,
+            (None, Some(pass), Some(texture)) => {
+                post_passes(gl, pass, framebuffer, texture, (w, h), None)
+                    .context("the post pass")?
             }
             _ => (Vec::new(), Vec::new()),
         };
         let error = gl.get_error();
+        if let Some(compute) = compute {
+            compute.check(gl)?;
+            compute.delete(gl);
+        }
 
         gl.delete_buffer(indices);
         gl.delete_buffer(vertices);
@@ -588,6 +615,118 @@ pub fn render(
             renderer,
             version,
         })
+    }
+}
+
+/// `--compute-first`'s compute pass: a GL 4.3 compute shader that adds
+/// `COMPUTE_STEP + i` to word `i` of a storage buffer (zeroed at its creation) at each
+/// dispatch, as a culling or particle pass before a frame's draws would; [`Self::check`] reads
+/// the buffer back after the frame and fails unless every dispatch's sums are there (the
+/// compute state Zink bound, and revz's restoring of it, worked).
+struct ComputeWriter {
+    program: glow::Program,
+    buffer: glow::Buffer,
+    dispatches: std::cell::Cell<u32>,
+}
+
+/// Words of [`ComputeWriter`]'s buffer (one work group).
+const COMPUTE_WORDS: usize = 64;
+/// What each dispatch adds to every word, besides the word's index.
+const COMPUTE_STEP: u32 = 1000;
+
+const COMPUTE_SHADER: &str = "#version 430 core
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) buffer Words { uint words[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    words[i] += 1000u + i; // COMPUTE_STEP
+}
+";
+
+impl ComputeWriter {
+    /// # Safety
+    /// The caller's context is current.
+    unsafe fn new(gl: &glow::Context) -> Result<ComputeWriter> {
+        // SAFETY: the caller's contract; objects made here.
+        unsafe {
+            let shader = compile(gl, glow::COMPUTE_SHADER, COMPUTE_SHADER, "compute")?;
+            let program = gl.create_program().map_err(anyhow::Error::msg)?;
+            gl.attach_shader(program, shader);
+            gl.link_program(program);
+            gl.delete_shader(shader);
+            if !gl.get_program_link_status(program) {
+                let log = gl.get_program_info_log(program);
+                gl.delete_program(program);
+                bail!("compute program link failed: {log}");
+            }
+            let buffer = gl.create_buffer().map_err(anyhow::Error::msg)?;
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(buffer));
+            gl.buffer_data_u8_slice(
+                glow::SHADER_STORAGE_BUFFER,
+                &[0u8; COMPUTE_WORDS * 4],
+                glow::DYNAMIC_READ,
+            );
+            Ok(ComputeWriter {
+                program,
+                buffer,
+                dispatches: std::cell::Cell::new(0),
+            })
+        }
+    }
+
+    /// One dispatch; the program and buffer bound for it, the draw's program left to the
+    /// caller to bind again (`post_pass` binds its own after).
+    ///
+    /// # Safety
+    /// The caller's context is current.
+    unsafe fn dispatch(&self, gl: &glow::Context) {
+        // SAFETY: the caller's contract; objects of this writer.
+        unsafe {
+            let previous = gl.get_parameter_i32(glow::CURRENT_PROGRAM);
+            gl.use_program(Some(self.program));
+            gl.bind_buffer_base(glow::SHADER_STORAGE_BUFFER, 0, Some(self.buffer));
+            gl.dispatch_compute(1, 1, 1);
+            gl.memory_barrier(glow::SHADER_STORAGE_BARRIER_BIT | glow::BUFFER_UPDATE_BARRIER_BIT);
+            let previous = u32::try_from(previous)
+                .ok()
+                .and_then(std::num::NonZeroU32::new)
+                .map(glow::NativeProgram);
+            gl.use_program(previous);
+        }
+        self.dispatches.set(self.dispatches.get() + 1);
+    }
+
+    /// Fails unless word `i` holds `dispatches * (COMPUTE_STEP + i)`.
+    ///
+    /// # Safety
+    /// The caller's context is current.
+    unsafe fn check(&self, gl: &glow::Context) -> Result<()> {
+        let mut bytes = [0u8; COMPUTE_WORDS * 4];
+        // SAFETY: the caller's contract; a buffer of this size.
+        unsafe {
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(self.buffer));
+            gl.get_buffer_sub_data(glow::SHADER_STORAGE_BUFFER, 0, &mut bytes);
+        }
+        let dispatches = self.dispatches.get();
+        for (i, word) in bytes.chunks_exact(4).enumerate() {
+            let got = u32::from_le_bytes([word[0], word[1], word[2], word[3]]);
+            let want = dispatches * (COMPUTE_STEP + i as u32);
+            ensure!(
+                got == want,
+                "the compute pass's word {i} reads {got} after {dispatches} dispatches, not {want}"
+            );
+        }
+        Ok(())
+    }
+
+    /// # Safety
+    /// The caller's context is current.
+    unsafe fn delete(self, gl: &glow::Context) {
+        // SAFETY: the caller's contract; objects of this writer.
+        unsafe {
+            gl.delete_buffer(self.buffer);
+            gl.delete_program(self.program);
+        }
     }
 }
 
@@ -708,8 +847,8 @@ unsafe fn post_passes(
     pass: PostPass,
     scene_framebuffer: glow::Framebuffer,
     texture: glow::Texture,
-    w: i32,
-    h: i32,
+    (w, h): (i32, i32),
+    compute: Option<&ComputeWriter>,
 ) -> Result<(Vec<PostImage>, Vec<PostDepth>)> {
     let image = |file, rgba: Vec<u8>| PostImage {
         file,
@@ -724,7 +863,7 @@ unsafe fn post_passes(
                 } else {
                     POST_COMPARE_SHADER
                 };
-                let rgba = post_pass(gl, fragment, texture, 0, w, h)?;
+                let rgba = post_pass(gl, fragment, texture, (0, w, h), compute)?;
                 Ok((vec![image("post.png", rgba)], Vec::new()))
             }
             PostPass::Blit => {
@@ -759,7 +898,7 @@ unsafe fn post_passes(
                         components: 1,
                         depth: read_depth(gl, w, h),
                     });
-                    let rgba = post_pass(gl, POST_FETCH_SHADER, copy, 0, w, h)?;
+                    let rgba = post_pass(gl, POST_FETCH_SHADER, copy, (0, w, h), compute)?;
                     images.push(image(post_file, rgba));
                     gl.delete_framebuffer(framebuffer);
                     gl.delete_texture(copy);
@@ -787,7 +926,7 @@ unsafe fn post_passes(
                     depth: read_depth(gl, lw, lh),
                 };
                 gl.delete_framebuffer(framebuffer);
-                let rgba = post_pass(gl, POST_FETCH_LEVEL_SHADER, texture, 1, w, h)?;
+                let rgba = post_pass(gl, POST_FETCH_LEVEL_SHADER, texture, (1, w, h), compute)?;
                 Ok((vec![image("post.png", rgba)], vec![depth]))
             }
             PostPass::Texels => {
@@ -966,15 +1105,17 @@ unsafe fn post_pass(
     gl: &glow::Context,
     fragment: &str,
     texture: glow::Texture,
-    level: i32,
-    w: i32,
-    h: i32,
+    (level, w, h): (i32, i32, i32),
+    compute: Option<&ComputeWriter>,
 ) -> Result<Vec<u8>> {
     let pixels = w as usize * h as usize;
     // SAFETY: the caller's contract; objects made here, slices of the sizes GL writes.
     unsafe {
         let program = link_program(gl, POST_VERTEX_SHADER, fragment)?;
         let (framebuffer, color) = color_target(gl, w, h)?;
+        if let Some(compute) = compute {
+            compute.dispatch(gl);
+        }
         gl.disable(glow::DEPTH_TEST);
         gl.use_program(Some(program));
         gl.active_texture(glow::TEXTURE0);

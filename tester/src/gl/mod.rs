@@ -77,6 +77,14 @@ pub struct GlRenderArgs {
     #[arg(long, conflicts_with = "separable")]
     pub computed_position: bool,
 
+    /// A compute shader (GL 4.3) writes a storage buffer before the scene draws and again
+    /// before each post pass draws, in the same batch: Zink binds its compute descriptors
+    /// (descriptor buffers on a driver with `VK_EXT_descriptor_buffer`) before revz converts
+    /// the depth for the post pass. The buffer is read back and checked
+    /// (`compute-first.u32`).
+    #[arg(long)]
+    pub compute_first: bool,
+
     /// Render reversed depth as OpenGL applications do themselves: `glClipControl(GL_LOWER_LEFT,
     /// GL_ZERO_TO_ONE)`, `glClearDepth(0)`, `GL_GREATER`, and a projection onto complementary
     /// depth in [0, 1] (near 1, far 0) into the float32 depth buffer. revz must leave such an
@@ -264,6 +272,7 @@ pub fn run(args: &GlRenderArgs) -> Result<ExitCode> {
             separable.as_ref(),
             args.computed_position,
             clip_control,
+            args.compute_first,
         )?
     };
     println!("GL renderer: {} ({})", frame.renderer, frame.version);

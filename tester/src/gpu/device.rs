@@ -133,6 +133,18 @@ pub(super) fn supported_features(
                 && instance.features2(physical_device, &mut features2)
                 && mesh.mesh_shader == vk::TRUE
         },
+        descriptor_buffer: vulkan_1_3 && {
+            let mut buffers = vk::PhysicalDeviceDescriptorBufferFeaturesEXT::default();
+            let mut features12 = vk::PhysicalDeviceVulkan12Features::default();
+            let mut features2 = vk::PhysicalDeviceFeatures2::default()
+                .push_next(&mut buffers)
+                .push_next(&mut features12);
+            // Chained only where the device has the extension.
+            has(ash::ext::descriptor_buffer::NAME)
+                && instance.features2(physical_device, &mut features2)
+                && buffers.descriptor_buffer == vk::TRUE
+                && features12.buffer_device_address == vk::TRUE
+        },
     }
 }
 
@@ -283,6 +295,11 @@ impl Gpu {
             extensions.push(ash::ext::mesh_shader::NAME.as_ptr());
         }
         let mut mesh_shader = vk::PhysicalDeviceMeshShaderFeaturesEXT::default().mesh_shader(true);
+        if enabled.descriptor_buffer {
+            extensions.push(ash::ext::descriptor_buffer::NAME.as_ptr());
+        }
+        let mut descriptor_buffer =
+            vk::PhysicalDeviceDescriptorBufferFeaturesEXT::default().descriptor_buffer(true);
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_features(&core_features)
@@ -290,9 +307,10 @@ impl Gpu {
         if enabled.dynamic_rendering && vulkan_1_3 {
             device_create_info = device_create_info.push_next(&mut features13);
         }
-        let mut features12 =
-            vk::PhysicalDeviceVulkan12Features::default().separate_depth_stencil_layouts(true);
-        if enabled.separate_depth_stencil_layouts {
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default()
+            .separate_depth_stencil_layouts(enabled.separate_depth_stencil_layouts)
+            .buffer_device_address(enabled.descriptor_buffer);
+        if enabled.separate_depth_stencil_layouts || enabled.descriptor_buffer {
             device_create_info = device_create_info.push_next(&mut features12);
         }
         if rendering_extension {
@@ -315,6 +333,9 @@ impl Gpu {
         }
         if enabled.mesh_shader {
             device_create_info = device_create_info.push_next(&mut mesh_shader);
+        }
+        if enabled.descriptor_buffer {
+            device_create_info = device_create_info.push_next(&mut descriptor_buffer);
         }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {
@@ -347,7 +368,24 @@ impl Gpu {
         let mesh_shader = enabled
             .mesh_shader
             .then(|| ash::ext::mesh_shader::Device::new(&instance.instance, &device));
+        let descriptor_buffer = enabled.descriptor_buffer.then(|| {
+            let mut properties = vk::PhysicalDeviceDescriptorBufferPropertiesEXT::default();
+            let mut properties2 =
+                vk::PhysicalDeviceProperties2::default().push_next(&mut properties);
+            // SAFETY: a Vulkan 1.3 instance and device that has the extension.
+            unsafe {
+                instance
+                    .instance
+                    .get_physical_device_properties2(physical_device, &mut properties2)
+            };
+            properties.p_next = std::ptr::null_mut();
+            (
+                ash::ext::descriptor_buffer::Device::new(&instance.instance, &device),
+                properties,
+            )
+        });
         Ok(Gpu {
+            descriptor_buffer,
             shader_object,
             mesh_shader,
             push_descriptor_khr,
@@ -512,6 +550,22 @@ impl Gpu {
         required: vk::MemoryPropertyFlags,
         preferred: vk::MemoryPropertyFlags,
     ) -> Result<vk::DeviceMemory> {
+        self.allocate_with(
+            requirements,
+            required,
+            preferred,
+            vk::MemoryAllocateFlags::empty(),
+        )
+    }
+
+    /// [`Self::allocate`] with `VkMemoryAllocateFlagsInfo`'s `flags` (none: no structure).
+    pub fn allocate_with(
+        &self,
+        requirements: vk::MemoryRequirements,
+        required: vk::MemoryPropertyFlags,
+        preferred: vk::MemoryPropertyFlags,
+        flags: vk::MemoryAllocateFlags,
+    ) -> Result<vk::DeviceMemory> {
         let type_index = self
             .memory_type(requirements.memory_type_bits, required | preferred)
             .or_else(|| self.memory_type(requirements.memory_type_bits, required))
@@ -521,9 +575,13 @@ impl Gpu {
                     requirements.memory_type_bits
                 )
             })?;
-        let info = vk::MemoryAllocateInfo::default()
+        let mut flags_info = vk::MemoryAllocateFlagsInfo::default().flags(flags);
+        let mut info = vk::MemoryAllocateInfo::default()
             .allocation_size(requirements.size)
             .memory_type_index(type_index);
+        if !flags.is_empty() {
+            info = info.push_next(&mut flags_info);
+        }
         // SAFETY: valid device, a memory type index reported by the device.
         unsafe { self.device.allocate_memory(&info, None) }
             .with_context(|| format!("vkAllocateMemory of {} bytes failed", requirements.size))

@@ -190,6 +190,11 @@ pub struct Features {
     /// `VK_EXT_mesh_shader`'s `meshShader` (Vulkan 1.3 only; no task shaders): pipelines of
     /// [`crate::plan::Program::Mesh`].
     pub mesh_shader: bool,
+    /// `VK_EXT_descriptor_buffer`'s `descriptorBuffer` with `bufferDeviceAddress` (Vulkan 1.3
+    /// only): the depth pyramid's compute descriptors in a descriptor buffer
+    /// ([`crate::plan::TileDescriptors::Buffer`]), as vkd3d-proton and Zink bind every
+    /// descriptor where the driver has it.
+    pub descriptor_buffer: bool,
 }
 
 impl Features {
@@ -217,6 +222,7 @@ impl Features {
             (self.push_descriptor, "VK_KHR_push_descriptor"),
             (self.shader_object, "shaderObject"),
             (self.mesh_shader, "meshShader"),
+            (self.descriptor_buffer, "descriptorBuffer"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -245,6 +251,7 @@ impl Features {
             push_descriptor: self.push_descriptor && other.push_descriptor,
             shader_object: self.shader_object && other.shader_object,
             mesh_shader: self.mesh_shader && other.mesh_shader,
+            descriptor_buffer: self.descriptor_buffer && other.descriptor_buffer,
         }
     }
 }
@@ -292,6 +299,11 @@ pub struct Gpu {
     pub shader_object: Option<ash::ext::shader_object::Device>,
     /// `VK_EXT_mesh_shader`'s commands, where `enabled.mesh_shader`.
     pub mesh_shader: Option<ash::ext::mesh_shader::Device>,
+    /// `VK_EXT_descriptor_buffer`'s commands and properties, where `enabled.descriptor_buffer`.
+    pub descriptor_buffer: Option<(
+        ash::ext::descriptor_buffer::Device,
+        vk::PhysicalDeviceDescriptorBufferPropertiesEXT<'static>,
+    )>,
     memory_properties: vk::PhysicalDeviceMemoryProperties,
     // Dropped after `Drop::drop` has destroyed the device.
     instance: InstanceCtx,
@@ -378,10 +390,17 @@ impl<'a> HostBuffer<'a> {
             .with_context(|| format!("vkCreateBuffer ({size} bytes, {usage:?}) failed"))?;
         // SAFETY: valid buffer.
         let requirements = unsafe { gpu.device.get_buffer_memory_requirements(this.buffer) };
-        this.memory = gpu.allocate(
+        // A buffer whose address shaders or descriptors take needs memory with addresses.
+        let flags = if usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS) {
+            vk::MemoryAllocateFlags::DEVICE_ADDRESS
+        } else {
+            vk::MemoryAllocateFlags::empty()
+        };
+        this.memory = gpu.allocate_with(
             requirements,
             vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
             vk::MemoryPropertyFlags::empty(),
+            flags,
         )?;
         // SAFETY: fresh buffer and memory of a compatible type and sufficient size.
         unsafe { gpu.device.bind_buffer_memory(this.buffer, this.memory, 0) }
@@ -406,6 +425,13 @@ impl<'a> HostBuffer<'a> {
         // SAFETY: `mapped` points to at least `size` mapped bytes; no GPU work uses the buffer
         // while the host writes (writes happen before the submit).
         unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), self.mapped, bytes.len()) };
+    }
+
+    /// The buffer's device address (a buffer made with `SHADER_DEVICE_ADDRESS` usage).
+    pub fn address(&self) -> vk::DeviceAddress {
+        let info = vk::BufferDeviceAddressInfo::default().buffer(self.buffer);
+        // SAFETY: a live buffer of this device; the caller made it with the usage.
+        unsafe { self.device.get_buffer_device_address(&info) }
     }
 
     /// The buffer's contents (coherent memory: valid once the writing submission's fence has
@@ -443,6 +469,7 @@ mod tests {
             push_descriptor: true,
             shader_object: true,
             mesh_shader: true,
+            descriptor_buffer: true,
         };
         assert_eq!(
             all.names(),
@@ -461,7 +488,8 @@ mod tests {
                 "tessellationShader",
                 "VK_KHR_push_descriptor",
                 "shaderObject",
-                "meshShader"
+                "meshShader",
+                "descriptorBuffer"
             ]
         );
         let some = Features {

@@ -229,6 +229,12 @@ impl Plan {
                         "step {index}: the main depth image is not in its attachment layout"
                     );
                 }
+                Step::BindDepthTiles(_) => {
+                    ensure!(
+                        state.pass.is_none(),
+                        "step {index}: a compute bind inside a pass"
+                    );
+                }
                 Step::BuildDepthTiles => {
                     ensure!(
                         state.pass.is_none(),
@@ -402,6 +408,7 @@ impl Plan {
                                         | Step::BlitDepthLevel { .. }
                                         | Step::MultisampledDepthLayout { .. }
                                         | Step::BuildDepthTiles
+                                        | Step::BindDepthTiles(_)
                                         | Step::ExecuteSecondaries(..)
                                 ),
                                 "step {index}: {step:?} inside a secondary"
@@ -596,6 +603,7 @@ impl Plan {
             | Step::BlitDepthLevel { .. }
             | Step::MultisampledDepthLayout { .. }
             | Step::BuildDepthTiles
+            | Step::BindDepthTiles(_)
             | Step::BeginPass(_)
             | Step::NextSubpass
             | Step::EndPass

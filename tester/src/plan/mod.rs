@@ -957,6 +957,12 @@ pub enum Step {
     /// farthest depth, into a storage buffer), then a barrier making it visible to fragment
     /// shaders ([`Program::DepthTiles`]).
     BuildDepthTiles,
+    /// Binds the depth pyramid's compute pipeline and descriptors (outside any pass), as a
+    /// frame whose culling pass binds its compute state first: each later
+    /// [`Step::BuildDepthTiles`] of the recording dispatches without binding again, so revz's
+    /// conversions in between (read twin refreshes) must bind that state again after their
+    /// own dispatch (`--bind-tiles-first`).
+    BindDepthTiles(TileDescriptors),
     /// Records each list into its own secondary command buffer (RENDER_PASS_CONTINUE,
     /// inheriting the current render pass, subpass and framebuffer) and executes them all with
     /// one `vkCmdExecuteCommands`. It must be the only kind of step in its subpass.
@@ -1007,6 +1013,17 @@ pub struct Plan {
     pub steps: Vec<Step>,
 }
 
+/// How [`Step::BindDepthTiles`] binds the depth pyramid's compute descriptors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum TileDescriptors {
+    /// A descriptor set (`vkCmdBindDescriptorSets`).
+    Sets,
+    /// A descriptor buffer (`VK_EXT_descriptor_buffer`: `vkGetDescriptorEXT` at creation,
+    /// `vkCmdBindDescriptorBuffersEXT` and `vkCmdSetDescriptorBufferOffsetsEXT`), as
+    /// vkd3d-proton, and Zink on a driver with the extension, bind every descriptor.
+    Buffer,
+}
+
 /// What a plan needs from the device and the targets, derived from the plan itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Needs {
@@ -1032,6 +1049,9 @@ pub struct Needs {
     pub input_depth: bool,
     /// A compute pass builds depth tiles ([`Step::BuildDepthTiles`]).
     pub depth_tiles: bool,
+    /// `VK_EXT_descriptor_buffer` (the depth pyramid's descriptors in a descriptor buffer:
+    /// [`TileDescriptors::Buffer`]).
+    pub descriptor_buffer: bool,
     /// Number of secondary command buffers recorded on the main thread (from the main pool;
     /// threaded ones come from their threads' own pools).
     pub secondaries: usize,
@@ -1202,6 +1222,19 @@ impl Plan {
         Ok(plan)
     }
 
+    /// The plan with the depth pyramid's compute state bound by its first step
+    /// ([`Step::BindDepthTiles`] with `descriptors`): its dispatches then bind nothing. Only
+    /// plans that build depth tiles take it.
+    pub fn with_tiles_bound_first(&self, descriptors: TileDescriptors) -> Result<Plan, PlanError> {
+        ensure!(
+            self.steps.contains(&Step::BuildDepthTiles),
+            "the plan builds no depth tiles (only depth-reads does)"
+        );
+        let mut plan = self.clone();
+        plan.steps.insert(0, Step::BindDepthTiles(descriptors));
+        Ok(plan)
+    }
+
     /// The buffer delivery program of the plan's pipelines, if one uses one.
     pub fn buffer_program(&self) -> Option<Program> {
         self.pipelines
@@ -1352,6 +1385,10 @@ impl Plan {
                 }
                 Step::SetDepthBias(bias) => needs.depth_bias_clamp |= bias.clamp != 0.0,
                 Step::BuildDepthTiles => needs.depth_tiles = true,
+                Step::BindDepthTiles(descriptors) => {
+                    needs.depth_tiles = true;
+                    needs.descriptor_buffer |= *descriptors == TileDescriptors::Buffer;
+                }
                 Step::DepthLevelLayout { level, .. } => {
                     let slices = &mut needs.depth_subresources;
                     slices.levels = slices.levels.max(level + 1);

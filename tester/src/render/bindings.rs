@@ -678,12 +678,14 @@ impl Renderer<'_> {
 
 impl<'a> Renderer<'a> {
     /// Creates the depth pyramid's bindings ([`TileBindings`]), its compute pipeline and the
-    /// layout of [`Program::DepthTiles`] pipelines. Needs the depth-read bindings (their
-    /// nearest sampler).
+    /// layout of [`Program::DepthTiles`] pipelines; with `descriptor_buffer`, the compute
+    /// pipeline takes its descriptors from a descriptor buffer ([`TileDescriptorBuffer`]).
+    /// Needs the depth-read bindings (their nearest sampler).
     pub(super) fn create_tile_bindings(
         &mut self,
         gpu: &'a Gpu,
         targets: &Targets<'_>,
+        descriptor_buffer: bool,
     ) -> Result<()> {
         let device = self.device;
         let nearest =
@@ -692,8 +694,12 @@ impl<'a> Renderer<'a> {
             })?;
         let count = (targets.extent.width / 4, targets.extent.height / 4);
         let size = (count.0 * count.1) as usize * 8;
-        let tiles = HostBuffer::new(gpu, size.max(8), vk::BufferUsageFlags::STORAGE_BUFFER)
-            .context("depth tiles buffer")?;
+        let usage = if descriptor_buffer {
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+        } else {
+            vk::BufferUsageFlags::STORAGE_BUFFER
+        };
+        let tiles = HostBuffer::new(gpu, size.max(8), usage).context("depth tiles buffer")?;
         let tiles = self.depth_tiles.insert(TileBindings {
             set_layout: vk::DescriptorSetLayout::null(),
             pool: vk::DescriptorPool::null(),
@@ -702,17 +708,18 @@ impl<'a> Renderer<'a> {
             count,
             compute_layout: vk::PipelineLayout::null(),
             compute: vk::Pipeline::null(),
+            descriptor_buffer: None,
         });
         let stages = vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::FRAGMENT;
-        let bindings = [
-            (0, vk::DescriptorType::SAMPLED_IMAGE),
-            (1, vk::DescriptorType::SAMPLER),
-            (2, vk::DescriptorType::STORAGE_BUFFER),
-        ]
-        .map(|(binding, kind)| {
+        let kinds = [
+            vk::DescriptorType::SAMPLED_IMAGE,
+            vk::DescriptorType::SAMPLER,
+            vk::DescriptorType::STORAGE_BUFFER,
+        ];
+        let bindings = [0, 1, 2].map(|binding| {
             vk::DescriptorSetLayoutBinding::default()
                 .binding(binding)
-                .descriptor_type(kind)
+                .descriptor_type(kinds[binding as usize])
                 .descriptor_count(1)
                 .stage_flags(stages)
         });
@@ -758,7 +765,15 @@ impl<'a> Renderer<'a> {
         // SAFETY: valid set, view, sampler and buffer; the infos match the binding types.
         unsafe { device.update_descriptor_sets(&writes, &[]) };
         let set_layouts = [tiles.set_layout];
-        let compute_layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        let mut compute_set_layouts = set_layouts;
+        if descriptor_buffer {
+            let buffer =
+                tile_descriptor_buffer(gpu, &bindings, (&image_info, nearest, &tiles.tiles))?;
+            compute_set_layouts = [buffer.set_layout];
+            tiles.descriptor_buffer = Some(buffer);
+        }
+        let compute_layout_info =
+            vk::PipelineLayoutCreateInfo::default().set_layouts(&compute_set_layouts);
         // SAFETY: valid device and create info.
         tiles.compute_layout = unsafe { device.create_pipeline_layout(&compute_layout_info, None) }
             .context("vkCreatePipelineLayout (depth tiles) failed")?;
@@ -771,7 +786,13 @@ impl<'a> Renderer<'a> {
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(c"main");
+        let flags = if descriptor_buffer {
+            vk::PipelineCreateFlags::DESCRIPTOR_BUFFER_EXT
+        } else {
+            vk::PipelineCreateFlags::empty()
+        };
         let info = vk::ComputePipelineCreateInfo::default()
+            .flags(flags)
             .stage(stage)
             .layout(tiles.compute_layout);
         // SAFETY: valid device, module and layout.
@@ -791,6 +812,86 @@ impl<'a> Renderer<'a> {
         self.tiles_layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
             .context("vkCreatePipelineLayout (depth tiles shading) failed")?;
         Ok(())
+    }
+}
+
+/// The depth pyramid's compute descriptors in a descriptor buffer: a set layout of `bindings`
+/// made for descriptor buffers, and a buffer holding, at the offsets the device gives, the
+/// descriptors of the main depth's view (`image`: revz hands back its read twin's), the
+/// nearest sampler and the tiles buffer (by its address).
+fn tile_descriptor_buffer<'a>(
+    gpu: &'a Gpu,
+    bindings: &[vk::DescriptorSetLayoutBinding<'_>; 3],
+    (image, sampler, tiles): (&[vk::DescriptorImageInfo; 1], vk::Sampler, &HostBuffer<'_>),
+) -> Result<TileDescriptorBuffer<'a>> {
+    let device = &gpu.device;
+    let (commands, properties) = gpu
+        .descriptor_buffer
+        .as_ref()
+        .ok_or_else(|| anyhow!("descriptor buffers are not enabled"))?;
+    let info = vk::DescriptorSetLayoutCreateInfo::default()
+        .flags(vk::DescriptorSetLayoutCreateFlags::DESCRIPTOR_BUFFER_EXT)
+        .bindings(bindings);
+    // SAFETY: valid device and create info (descriptorBuffer enabled).
+    let set_layout = unsafe { device.create_descriptor_set_layout(&info, None) }
+        .context("vkCreateDescriptorSetLayout (depth tiles, descriptor buffer) failed")?;
+    let made = (|| {
+        // SAFETY: a set layout made for descriptor buffers.
+        let size = unsafe { commands.get_descriptor_set_layout_size(set_layout) } as usize;
+        let mut descriptors = HostBuffer::new(gpu, size.max(16), TILE_DESCRIPTOR_BUFFER_USAGE)
+            .context("depth tiles descriptor buffer")?;
+        let address = vk::DescriptorAddressInfoEXT::default()
+            .address(tiles.address())
+            .range(tiles.contents().len() as vk::DeviceSize);
+        let mut bytes = vec![0u8; size];
+        for binding in bindings {
+            let (data, length) = match binding.descriptor_type {
+                vk::DescriptorType::SAMPLED_IMAGE => (
+                    vk::DescriptorDataEXT {
+                        p_sampled_image: image.as_ptr(),
+                    },
+                    properties.sampled_image_descriptor_size,
+                ),
+                vk::DescriptorType::SAMPLER => (
+                    vk::DescriptorDataEXT {
+                        p_sampler: &sampler,
+                    },
+                    properties.sampler_descriptor_size,
+                ),
+                _ => (
+                    vk::DescriptorDataEXT {
+                        p_storage_buffer: &address,
+                    },
+                    properties.storage_buffer_descriptor_size,
+                ),
+            };
+            // SAFETY: a binding of the layout.
+            let offset = unsafe {
+                commands.get_descriptor_set_layout_binding_offset(set_layout, binding.binding)
+            } as usize;
+            let slot = bytes
+                .get_mut(offset..offset + length)
+                .ok_or_else(|| anyhow!("binding {} lies past the set's size", binding.binding))?;
+            let get = vk::DescriptorGetInfoEXT::default()
+                .ty(binding.descriptor_type)
+                .data(data);
+            // SAFETY: the data points at live infos of the binding's type; `slot` is the
+            // descriptor's size.
+            unsafe { commands.get_descriptor(&get, slot) };
+        }
+        descriptors.write(&bytes);
+        Ok(descriptors)
+    })();
+    match made {
+        Ok(descriptors) => Ok(TileDescriptorBuffer {
+            set_layout,
+            descriptors,
+        }),
+        Err(e) => {
+            // SAFETY: made above, used by nothing yet.
+            unsafe { device.destroy_descriptor_set_layout(set_layout, None) };
+            Err(e)
+        }
     }
 }
 

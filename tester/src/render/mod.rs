@@ -130,6 +130,28 @@ struct TileBindings<'a> {
     count: (u32, u32),
     compute_layout: vk::PipelineLayout,
     compute: vk::Pipeline,
+    /// Where the compute pass takes its descriptors from a descriptor buffer
+    /// ([`crate::plan::TileDescriptors::Buffer`]): `compute_layout` has its set layout, and
+    /// the compute pipeline is a descriptor buffer one (the fragment stage that reads the
+    /// tiles keeps `set`).
+    descriptor_buffer: Option<TileDescriptorBuffer<'a>>,
+}
+
+/// How the depth pyramid's descriptor buffer is made and bound: it holds sampler and resource
+/// descriptors (one binding of both kinds).
+const TILE_DESCRIPTOR_BUFFER_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::RESOURCE_DESCRIPTOR_BUFFER_EXT.as_raw()
+        | vk::BufferUsageFlags::SAMPLER_DESCRIPTOR_BUFFER_EXT.as_raw()
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
+);
+
+/// The depth pyramid's compute descriptors in a descriptor buffer: the same three bindings
+/// (the main depth's view, the nearest sampler, the tiles), written with `vkGetDescriptorEXT`.
+struct TileDescriptorBuffer<'a> {
+    /// Made with `DESCRIPTOR_BUFFER_BIT_EXT`.
+    set_layout: vk::DescriptorSetLayout,
+    /// The descriptors (`RESOURCE_` and `SAMPLER_DESCRIPTOR_BUFFER_BIT_EXT` usage).
+    descriptors: HostBuffer<'a>,
 }
 
 /// What `mvp_pair` pipelines bind: the object colors, in one descriptor set.
@@ -304,6 +326,10 @@ impl Drop for Renderer<'_> {
                 self.device.destroy_pipeline(tiles.compute, None);
                 self.device
                     .destroy_pipeline_layout(tiles.compute_layout, None);
+                if let Some(buffer) = &tiles.descriptor_buffer {
+                    self.device
+                        .destroy_descriptor_set_layout(buffer.set_layout, None);
+                }
                 self.device.destroy_descriptor_pool(tiles.pool, None);
                 self.device
                     .destroy_descriptor_set_layout(tiles.set_layout, None);
@@ -584,7 +610,7 @@ impl<'a> Renderer<'a> {
             this.create_depth_read_bindings(gpu, targets)?;
         }
         if needs.depth_tiles {
-            this.create_tile_bindings(gpu, targets)?;
+            this.create_tile_bindings(gpu, targets, needs.descriptor_buffer)?;
         }
         if needs.input_depth {
             this.create_input_bindings(targets)?;
@@ -825,6 +851,7 @@ impl<'a> Renderer<'a> {
             subpass: 0,
             pipeline: None,
             next_secondary: 0,
+            tiles_bound: false,
             thread_pools: Vec::new(),
         };
         recorder.bind_geometry(cmd);
@@ -899,6 +926,9 @@ struct Recorder<'r> {
     pipeline: Option<usize>,
     /// The next unused secondary command buffer.
     next_secondary: usize,
+    /// The depth pyramid's compute state was bound by this recording
+    /// ([`crate::plan::Step::BindDepthTiles`]): its dispatches bind nothing.
+    tiles_bound: bool,
     /// The command pools created by recording threads; destroyed when the recorder is dropped,
     /// which [`Renderer::render`] does only after the submission's fence (or on an error path,
     /// after waiting for the device to be idle).

@@ -72,6 +72,10 @@ impl Recorder<'_> {
                 }
                 Step::BlitDepthLevel { level } => self.blit_depth_level(cmd, *level),
                 Step::BuildDepthTiles => self.build_depth_tiles(cmd)?,
+                Step::BindDepthTiles(_) => {
+                    self.bind_depth_tiles(cmd)?;
+                    self.tiles_bound = true;
+                }
                 Step::BeginPass(n) => self.begin_pass(cmd, *n, contents)?,
                 Step::NextSubpass => {
                     self.subpass += 1;
@@ -337,7 +341,56 @@ impl Recorder<'_> {
         };
     }
 
-    /// The depth pyramid's dispatch ([`Step::BuildDepthTiles`]), then a barrier ordering its
+    /// Binds the depth pyramid's compute pipeline and its descriptors: its descriptor set, or
+    /// its descriptor buffer and offset ([`crate::plan::TileDescriptors::Buffer`]).
+    fn bind_depth_tiles(&self, cmd: vk::CommandBuffer) -> Result<()> {
+        let tiles = self
+            .renderer
+            .depth_tiles
+            .as_ref()
+            .ok_or_else(|| anyhow!("no depth tile bindings"))?;
+        let device = self.device();
+        let compute = vk::PipelineBindPoint::COMPUTE;
+        // SAFETY: `cmd` is a recording primary outside any pass; the pipeline and its layout
+        // are alive, the set or descriptor buffer matches the layout.
+        unsafe {
+            device.cmd_bind_pipeline(cmd, compute, tiles.compute);
+            match &tiles.descriptor_buffer {
+                None => device.cmd_bind_descriptor_sets(
+                    cmd,
+                    compute,
+                    tiles.compute_layout,
+                    0,
+                    &[tiles.set],
+                    &[],
+                ),
+                Some(buffer) => {
+                    let (commands, _) = self
+                        .renderer
+                        .gpu
+                        .descriptor_buffer
+                        .as_ref()
+                        .ok_or_else(|| anyhow!("descriptor buffers are not enabled"))?;
+                    let binding = vk::DescriptorBufferBindingInfoEXT::default()
+                        .address(buffer.descriptors.address())
+                        .usage(TILE_DESCRIPTOR_BUFFER_USAGE);
+                    commands.cmd_bind_descriptor_buffers(cmd, &[binding]);
+                    commands.cmd_set_descriptor_buffer_offsets(
+                        cmd,
+                        compute,
+                        tiles.compute_layout,
+                        0,
+                        &[0],
+                        &[0],
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The depth pyramid's dispatch ([`Step::BuildDepthTiles`]), its state bound first unless
+    /// this recording bound it already ([`Step::BindDepthTiles`]), then a barrier ordering its
     /// writes before fragment shader reads (and the next frame's dispatch after those reads,
     /// which the frames' fences already do).
     fn build_depth_tiles(&self, cmd: vk::CommandBuffer) -> Result<()> {
@@ -346,6 +399,9 @@ impl Recorder<'_> {
             .depth_tiles
             .as_ref()
             .ok_or_else(|| anyhow!("no depth tile bindings"))?;
+        if !self.tiles_bound {
+            self.bind_depth_tiles(cmd)?;
+        }
         let groups = |n: u32| n.div_ceil(8);
         let barrier = vk::BufferMemoryBarrier::default()
             .src_access_mask(vk::AccessFlags::SHADER_WRITE)
@@ -354,19 +410,10 @@ impl Recorder<'_> {
             .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
             .buffer(tiles.tiles.buffer)
             .size(vk::WHOLE_SIZE);
-        // SAFETY: `cmd` is a recording primary outside any pass; the set matches the compute
-        // layout, the main depth is in SHADER_READ_ONLY_OPTIMAL (plan check).
+        // SAFETY: `cmd` is a recording primary outside any pass; the compute state is bound,
+        // the main depth is in SHADER_READ_ONLY_OPTIMAL (plan check).
         unsafe {
             let device = self.device();
-            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, tiles.compute);
-            device.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                tiles.compute_layout,
-                0,
-                &[tiles.set],
-                &[],
-            );
             device.cmd_dispatch(cmd, groups(tiles.count.0), groups(tiles.count.1), 1);
             device.cmd_pipeline_barrier(
                 cmd,
@@ -1045,6 +1092,7 @@ impl Recorder<'_> {
                             subpass,
                             pipeline: None,
                             next_secondary: 0,
+                            tiles_bound: false,
                             thread_pools: Vec::new(),
                         };
                         scope.spawn(move || recorder.record_on_own_pool(list, framebuffer))

@@ -1,8 +1,9 @@
 //! The compute state a depth copy's conversion disturbs, followed so that it can be restored
-//! after revz's dispatch: compute descriptor set binds (kept to bind again), push descriptors
-//! and descriptor buffers of the compute bind point (which refuse later conversions in the
-//! recording, as revz cannot set them again), and conditional rendering (no conversion inside
-//! it). The conversions themselves are in `copies.rs`.
+//! after revz's dispatch: compute descriptor set binds and descriptor buffer offsets and
+//! embedded samplers (kept to bind again, `crate::depth_copy::ComputeBindings`), push
+//! descriptors of the compute bind point and binds revz cannot replay (which refuse later
+//! conversions in the recording), and conditional rendering (no conversion inside it). The
+//! conversions themselves are in `copies.rs`.
 
 #![allow(clippy::wildcard_imports)]
 
@@ -119,8 +120,10 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_khr(
     }
 }
 
-/// `vkCmdBindDescriptorSets2` (`VK_KHR_maintenance6`, Vulkan 1.4): not followed; a compute
-/// bind refuses later conversions in this recording.
+/// `vkCmdBindDescriptorSets2` (`VK_KHR_maintenance6`, Vulkan 1.4): a compute bind is kept as
+/// `vkCmdBindDescriptorSets`'s, where it names its layout and chains nothing (a layout given
+/// in the chain, `dynamicPipelineLayout`, cannot be replayed: later conversions in this
+/// recording are refused).
 pub unsafe extern "system" fn cmd_bind_descriptor_sets2(
     buffer: vk::CommandBuffer,
     p_info: *const vk::BindDescriptorSetsInfoKHR<'_>,
@@ -128,10 +131,25 @@ pub unsafe extern "system" fn cmd_bind_descriptor_sets2(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindDescriptorSets2");
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid info (the application's contract).
-        let stages = unsafe { (*p_info).stage_flags };
-        if stages.contains(vk::ShaderStageFlags::COMPUTE) {
-            entry.copies().compute.bound_otherwise();
+        let info = unsafe { &*p_info };
+        if !info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE) {
+            return;
         }
+        let mut copies = entry.copies();
+        if info.layout == vk::PipelineLayout::null() || !info.p_next.is_null() {
+            copies.compute.bound_otherwise();
+            return;
+        }
+        // SAFETY: the counts the application gave.
+        let (sets, offsets) = unsafe {
+            (
+                slice(info.p_descriptor_sets, info.descriptor_set_count),
+                slice(info.p_dynamic_offsets, info.dynamic_offset_count),
+            )
+        };
+        copies
+            .compute
+            .bind_sets(info.layout, info.first_set, sets, offsets);
     });
     if let Some(next) = device.and_then(|d| d.commands.bind_descriptor_sets2) {
         // SAFETY: calling down with the application's arguments.
@@ -139,8 +157,11 @@ pub unsafe extern "system" fn cmd_bind_descriptor_sets2(
     }
 }
 
-/// `vkCmdSetDescriptorBufferOffsetsEXT`: descriptor buffers are not followed; a compute bind
-/// refuses later conversions in this recording.
+/// `vkCmdSetDescriptorBufferOffsetsEXT`: compute offsets are kept, to be set again after a
+/// conversion's dispatch (revz's own descriptor set bind makes them invalid; the descriptor
+/// buffers the application bound stay bound, as revz binds none). What Zink records for every
+/// compute dispatch on a driver with `VK_EXT_descriptor_buffer`, and vkd3d-proton for every
+/// dispatch.
 pub unsafe extern "system" fn cmd_set_descriptor_buffer_offsets_ext(
     buffer: vk::CommandBuffer,
     bind_point: vk::PipelineBindPoint,
@@ -153,7 +174,12 @@ pub unsafe extern "system" fn cmd_set_descriptor_buffer_offsets_ext(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDescriptorBufferOffsetsEXT");
     let device = with_entry(buffer, &ENTRY, |entry| {
         if bind_point == vk::PipelineBindPoint::COMPUTE {
-            entry.copies().compute.bound_otherwise();
+            // SAFETY: the counts the application gave.
+            let (indices, offsets) = unsafe { (slice(p_indices, count), slice(p_offsets, count)) };
+            entry
+                .copies()
+                .compute
+                .set_buffer_offsets(layout, first_set, indices, offsets);
         }
     });
     if let Some(next) = device.and_then(|d| d.commands.set_descriptor_buffer_offsets) {
@@ -163,6 +189,116 @@ pub unsafe extern "system" fn cmd_set_descriptor_buffer_offsets_ext(
                 buffer, bind_point, layout, first_set, count, p_indices, p_offsets,
             )
         }
+    }
+}
+
+/// `vkCmdSetDescriptorBufferOffsets2EXT` (`VK_KHR_maintenance6`): compute offsets kept as
+/// [`cmd_set_descriptor_buffer_offsets_ext`]'s, where the info names its layout and chains
+/// nothing (otherwise later conversions in this recording are refused).
+pub unsafe extern "system" fn cmd_set_descriptor_buffer_offsets2_ext(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::SetDescriptorBufferOffsetsInfoEXT<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdSetDescriptorBufferOffsets2EXT");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid info (the application's contract).
+        let info = unsafe { &*p_info };
+        if !info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE) {
+            return;
+        }
+        let mut copies = entry.copies();
+        let replayable = info.layout != vk::PipelineLayout::null()
+            && info.p_next.is_null()
+            && entry
+                .device
+                .commands
+                .set_descriptor_buffer_offsets
+                .is_some();
+        if !replayable {
+            copies.compute.bound_otherwise();
+            return;
+        }
+        // SAFETY: the counts the application gave.
+        let (indices, offsets) = unsafe {
+            (
+                slice(info.p_buffer_indices, info.set_count),
+                slice(info.p_offsets, info.set_count),
+            )
+        };
+        copies
+            .compute
+            .set_buffer_offsets(info.layout, info.first_set, indices, offsets);
+    });
+    if let Some(next) = device.and_then(|d| d.commands.set_descriptor_buffer_offsets2) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_info) }
+    }
+}
+
+/// `vkCmdBindDescriptorBufferEmbeddedSamplersEXT`: a compute bind is kept, to be bound again
+/// after a conversion's dispatch.
+pub unsafe extern "system" fn cmd_bind_descriptor_buffer_embedded_samplers_ext(
+    buffer: vk::CommandBuffer,
+    bind_point: vk::PipelineBindPoint,
+    layout: vk::PipelineLayout,
+    set: u32,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindDescriptorBufferEmbeddedSamplersEXT");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        if bind_point == vk::PipelineBindPoint::COMPUTE {
+            entry.copies().compute.bind_embedded_samplers(layout, set);
+        }
+    });
+    if let Some(next) = device.and_then(|d| d.commands.bind_embedded_samplers) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, bind_point, layout, set) }
+    }
+}
+
+/// `vkCmdBindDescriptorBufferEmbeddedSamplers2EXT` (`VK_KHR_maintenance6`): kept as
+/// [`cmd_bind_descriptor_buffer_embedded_samplers_ext`]'s where the info names its layout and
+/// chains nothing (otherwise later conversions in this recording are refused).
+pub unsafe extern "system" fn cmd_bind_descriptor_buffer_embedded_samplers2_ext(
+    buffer: vk::CommandBuffer,
+    p_info: *const vk::BindDescriptorBufferEmbeddedSamplersInfoEXT<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindDescriptorBufferEmbeddedSamplers2EXT");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        // SAFETY: a valid info (the application's contract).
+        let info = unsafe { &*p_info };
+        if !info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE) {
+            return;
+        }
+        let mut copies = entry.copies();
+        let replayable = info.layout != vk::PipelineLayout::null()
+            && info.p_next.is_null()
+            && entry.device.commands.bind_embedded_samplers.is_some();
+        if replayable {
+            copies.compute.bind_embedded_samplers(info.layout, info.set);
+        } else {
+            copies.compute.bound_otherwise();
+        }
+    });
+    if let Some(next) = device.and_then(|d| d.commands.bind_embedded_samplers2) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, p_info) }
+    }
+}
+
+/// `vkCmdBindDescriptorBuffersEXT`: the offsets set into the buffers bound before are no
+/// longer valid, and are not set again after a conversion's dispatch.
+pub unsafe extern "system" fn cmd_bind_descriptor_buffers_ext(
+    buffer: vk::CommandBuffer,
+    count: u32,
+    p_infos: *const vk::DescriptorBufferBindingInfoEXT<'_>,
+) {
+    static ENTRY: EntryPoint = EntryPoint::new("vkCmdBindDescriptorBuffersEXT");
+    let device = with_entry(buffer, &ENTRY, |entry| {
+        entry.copies().compute.bind_descriptor_buffers();
+    });
+    if let Some(next) = device.and_then(|d| d.commands.bind_descriptor_buffers) {
+        // SAFETY: calling down with the application's arguments.
+        unsafe { next(buffer, count, p_infos) }
     }
 }
 
