@@ -71,7 +71,8 @@ pub enum Unconverted {
     /// dispatch, and copies into a depth aspect need graphics), or its pool is protected.
     NoCompute,
     /// The application bound compute descriptors revz cannot bind again after its dispatch
-    /// (push descriptors, descriptor buffers, `vkCmdBindDescriptorSets2`).
+    /// (push descriptors, a bind whose layout is given in its `pNext` chain, more than 16
+    /// disjoint set ranges) or a compute shader object.
     ComputeBindings,
     /// The command or a region carries an extension structure revz does not know.
     Extended,
@@ -96,7 +97,8 @@ impl fmt::Display for Unconverted {
             }
             Unconverted::ComputeBindings => {
                 "compute descriptors were bound in a way revz cannot restore after its \
-                 dispatch (push descriptors, descriptor buffers or vkCmdBindDescriptorSets2)"
+                 dispatch (push descriptors, a layout given in a pNext chain, a compute shader \
+                 object)"
             }
             Unconverted::Extended => "it carries an extension structure revz does not know",
             Unconverted::Multisampled => {

@@ -80,8 +80,9 @@ pub struct GlRenderArgs {
     /// A compute shader (GL 4.3) writes a storage buffer before the scene draws and again
     /// before each post pass draws, in the same batch: Zink binds its compute descriptors
     /// (descriptor buffers on a driver with `VK_EXT_descriptor_buffer`) before revz converts
-    /// the depth for the post pass. The buffer is read back and checked
-    /// (`compute-first.u32`).
+    /// the depth for the post pass (which then runs in the scene's batch, before the scene is
+    /// read back). The buffer is read back after the frame, and the render fails unless every
+    /// dispatch's sums are in it.
     #[arg(long)]
     pub compute_first: bool,
 
