@@ -187,12 +187,13 @@ struct RenderArgs {
     vulkan: Option<String>,
 
     /// Bind the depth pyramid's compute pipeline and descriptors at the start of the
-    /// recording, with descriptor sets or a descriptor buffer (`VK_EXT_descriptor_buffer`,
-    /// Vulkan 1.3: lavapipe has it from Mesa 23.x on), so that its dispatch after the passes
-    /// binds nothing: what the layer's conversions in between disturb, it must bind again.
-    /// Only depth-reads builds a depth pyramid.
+    /// recording, with a descriptor set, a descriptor buffer (`VK_EXT_descriptor_buffer`,
+    /// Vulkan 1.3: lavapipe has it from Mesa 23.x on), or push descriptors (written, or
+    /// through an update template; `VK_KHR_push_descriptor`), so that its dispatch after the
+    /// passes binds nothing: what the layer's conversions in between disturb, it must bind
+    /// again. Only depth-reads builds a depth pyramid.
     #[arg(long, value_enum, value_name = "DESCRIPTORS")]
-    bind_tiles_first: Option<crate::plan::TileDescriptors>,
+    bind_tiles_first: Option<plan::TileDescriptors>,
 
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", required = true)]
@@ -378,9 +379,17 @@ fn run(cli: &RenderArgs) -> Result<u32> {
              `cargo xtask setup` extracts a newer lavapipe into target/lavapipe-backports)"
         ));
     }
+    let pushes_tiles = matches!(
+        needs.tile_descriptors,
+        Some(plan::TileDescriptors::Push | plan::TileDescriptors::PushTemplate)
+    );
+    if pushes_tiles && !gpu.enabled.push_descriptor {
+        bail!(lacks("VK_KHR_push_descriptor"));
+    }
     if needs.descriptor_buffer && !gpu.supported.descriptor_buffer {
         bail!(lacks(
-            "descriptorBuffer with bufferDeviceAddress (VK_EXT_descriptor_buffer on Vulkan 1.3:              `cargo xtask setup` extracts a newer lavapipe into target/lavapipe-backports)"
+            "descriptorBuffer with bufferDeviceAddress (VK_EXT_descriptor_buffer on Vulkan 1.3: \
+             `cargo xtask setup` extracts a newer lavapipe into target/lavapipe-backports)"
         ));
     }
     let features = gpu.enabled.names();

@@ -325,22 +325,24 @@ fn depth_reads_sample_standard_depth_through_the_twin() {
 /// of the recording (`--bind-tiles-first`), as a frame whose culling pass binds its compute
 /// state first: the dispatch after the passes binds nothing, so the compute state revz's
 /// refreshes disturb (their conversion is a dispatch) must be bound again after them. With
-/// descriptor sets, and with a descriptor buffer (`VK_EXT_descriptor_buffer`, on the newer
+/// descriptor sets; with a descriptor buffer (`VK_EXT_descriptor_buffer`, on the newer
 /// lavapipe: what vkd3d-proton binds for every dispatch, and Zink on drivers with the
-/// extension), whose view of the depth image `vkGetDescriptorEXT` makes the read twin's. In
+/// extension), whose view of the depth image `vkGetDescriptorEXT` makes the read twin's; and
+/// with push descriptors, written (`vkCmdPushDescriptorSetKHR`) or through an update template
+/// (`vkCmdPushDescriptorSetWithTemplateKHR`), which revz pushes again as the writes it sent. In
 /// every mode, D32 and D24S8 (promoted in the precise modes), with zero validation messages
 /// (synchronization validation included), no refresh or copy is left unconverted, the colors
 /// are those of `depth-reads` through revz, to the pixel, and so the native render's within
 /// `depth-reads`' bound, and the native render itself is `depth-reads`' (the early bind
 /// changes nothing without revz). Before session 36
-/// revz could not bind descriptor buffer offsets again and refused every conversion after
-/// them: D32 `infinite` 40,719 pixels wrong, the twin never refreshed (a layout error from
-/// validation), the depth read back reversed.
+/// revz could bind neither descriptor buffer offsets nor pushed descriptors again and refused
+/// every conversion after them: D32 `infinite` 40,719 pixels wrong with each, the twin never
+/// refreshed (a layout error from validation), the depth read back reversed.
 #[test]
 fn depth_reads_whose_compute_state_is_bound_first_keep_it_across_refreshes() {
     let harness = Harness::locate();
     let mut problems = Vec::new();
-    for descriptors in ["sets", "buffer"] {
+    for descriptors in ["sets", "buffer", "push", "push-template"] {
         for format in ["d32", "d24-s8"] {
             let render = |mode: Option<&str>, bind_first: bool| {
                 let name = format!(

@@ -24,13 +24,14 @@
 //! tested) and the recording of the sequence ([`record`]). The copy hooks themselves are in
 //! `crate::hooks::command::transfers`.
 
+pub mod compute_bindings;
 pub mod plan;
 pub mod record;
 pub mod scratch;
 pub mod twin;
 
 use std::sync::atomic::{AtomicU8, Ordering};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use ash::vk;
 
@@ -56,7 +57,10 @@ pub struct DeviceCopies {
     pool_families: crate::objects::Table<vk::CommandPool, u32>,
     /// Push-descriptor update templates of the compute bind point: pushing with one disturbs
     /// what revz would have to bind again.
-    compute_push_templates: crate::objects::Table<vk::DescriptorUpdateTemplate, ()>,
+    compute_push_templates: crate::objects::Table<
+        vk::DescriptorUpdateTemplate,
+        Arc<[vk::DescriptorUpdateTemplateEntry]>,
+    >,
     pipeline: OnceLock<Option<ConvertPipeline>>,
     /// The pipeline of each [`plan::Specialization`], created at its first conversion
     /// (`None`: the device refused it).
@@ -135,10 +139,16 @@ impl DeviceCopies {
         self.pool_families.remove(&pool);
     }
 
-    /// A descriptor update template was created; only compute push-descriptor ones matter.
-    pub fn note_template(&self, template: vk::DescriptorUpdateTemplate, compute_push: bool) {
-        if compute_push {
-            self.compute_push_templates.insert(template, ());
+    /// A descriptor update template was created; only compute push-descriptor ones matter
+    /// (`compute_push`: their entries, which a push with one is read through, to be pushed
+    /// again after a conversion's dispatch).
+    pub fn note_template(
+        &self,
+        template: vk::DescriptorUpdateTemplate,
+        compute_push: Option<&[vk::DescriptorUpdateTemplateEntry]>,
+    ) {
+        if let Some(entries) = compute_push {
+            self.compute_push_templates.insert(template, entries.into());
         }
     }
 
@@ -146,9 +156,12 @@ impl DeviceCopies {
         self.compute_push_templates.remove(&template);
     }
 
-    /// Whether pushing descriptors with `template` binds compute descriptors.
-    pub fn pushes_compute(&self, template: vk::DescriptorUpdateTemplate) -> bool {
-        self.compute_push_templates.get(&template).is_some()
+    /// The entries of `template` where pushing descriptors with it binds compute descriptors.
+    pub fn compute_push_entries(
+        &self,
+        template: vk::DescriptorUpdateTemplate,
+    ) -> Option<Arc<[vk::DescriptorUpdateTemplateEntry]>> {
+        self.compute_push_templates.get(&template)
     }
 
     /// Whether command buffers of `pool` can record a dispatch (unknown pools: no).

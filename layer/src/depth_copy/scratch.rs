@@ -1,5 +1,5 @@
 //! What one command buffer holds for converted copies: its scratch buffers, and the compute
-//! state the application bound (bound again after revz's dispatch).
+//! state the application bound (bound again after revz's dispatch: `super::compute_bindings`).
 //!
 //! Scratch buffers belong to the command buffer that recorded them. They are reused, in
 //! order, when it is recorded again (`vkBeginCommandBuffer` needs it not pending, so its last
@@ -22,230 +22,6 @@ pub struct Slot {
     capacity: u64,
 }
 
-/// What one of the application's compute descriptor binds binds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum BindKind {
-    /// `vkCmdBindDescriptorSets` (or `vkCmdBindDescriptorSets2`): `values` holds the sets'
-    /// handles, then the dynamic offsets.
-    Sets { dynamic_offsets: u32 },
-    /// `vkCmdSetDescriptorBufferOffsetsEXT` (or its `2` form): `values` holds the buffer
-    /// indices, then the offsets.
-    BufferOffsets,
-    /// `vkCmdBindDescriptorBufferEmbeddedSamplersEXT` (or its `2` form): one set, no values.
-    EmbeddedSamplers,
-}
-
-/// One of the application's compute descriptor binds, as revz replays it on the compute bind
-/// point (in the command's first form, whichever form the application called).
-#[derive(Clone, Debug, PartialEq, Eq)]
-struct ComputeBind {
-    kind: BindKind,
-    layout: vk::PipelineLayout,
-    first: u32,
-    /// Sets it binds from `first`.
-    count: u32,
-    /// The arrays of the call, widened to 64 bits, one after the other ([`BindKind`]).
-    values: Vec<u64>,
-}
-
-impl ComputeBind {
-    fn end(&self) -> u64 {
-        u64::from(self.first) + u64::from(self.count)
-    }
-
-    /// Whether this bind defines every set `other` defined: `other` no longer shapes the state.
-    fn covers(&self, other: &ComputeBind) -> bool {
-        self.first <= other.first && other.end() <= self.end()
-    }
-
-    /// Whether it sets offsets into the bound descriptor buffers (which binding other buffers
-    /// makes invalid).
-    fn uses_buffer_bindings(&self) -> bool {
-        self.kind == BindKind::BufferOffsets
-    }
-}
-
-/// The application's compute pipeline and descriptor bindings in one command buffer.
-#[derive(Debug, Default)]
-pub struct ComputeBindings {
-    pipeline: vk::Pipeline,
-    /// The binds that still define some set, in the order they were made: replaying them
-    /// rebuilds the same state, disturbances included.
-    binds: Vec<ComputeBind>,
-    /// Compute descriptors were bound a way revz cannot replay (push descriptors, a bind
-    /// without a layout handle or with a `pNext` chain, a compute shader object): revz cannot
-    /// restore them.
-    unrestorable: bool,
-}
-
-/// Binds kept before the command buffer's compute state counts as unrestorable (an
-/// application binding many disjoint set ranges without ever covering the earlier ones).
-const MAX_BINDS: usize = 16;
-
-impl ComputeBindings {
-    pub fn bind_pipeline(&mut self, pipeline: vk::Pipeline) {
-        self.pipeline = pipeline;
-    }
-
-    /// `vkCmdBindDescriptorSets` of the compute bind point.
-    pub fn bind_sets(
-        &mut self,
-        layout: vk::PipelineLayout,
-        first: u32,
-        sets: &[vk::DescriptorSet],
-        dynamic_offsets: &[u32],
-    ) {
-        let kind = BindKind::Sets {
-            dynamic_offsets: dynamic_offsets.len() as u32,
-        };
-        let values = sets
-            .iter()
-            .map(|&set| vk::Handle::as_raw(set))
-            .chain(dynamic_offsets.iter().map(|&o| u64::from(o)));
-        self.push(kind, layout, (first, sets.len() as u32), values);
-    }
-
-    /// `vkCmdSetDescriptorBufferOffsetsEXT` of the compute bind point: sets `first..` take
-    /// `offsets` into the descriptor buffers bound at `indices`.
-    pub fn set_buffer_offsets(
-        &mut self,
-        layout: vk::PipelineLayout,
-        first: u32,
-        indices: &[u32],
-        offsets: &[vk::DeviceSize],
-    ) {
-        if indices.len() != offsets.len() {
-            self.bound_otherwise();
-            return;
-        }
-        let values = indices
-            .iter()
-            .map(|&i| u64::from(i))
-            .chain(offsets.iter().copied());
-        let count = indices.len() as u32;
-        self.push(BindKind::BufferOffsets, layout, (first, count), values);
-    }
-
-    /// `vkCmdBindDescriptorBufferEmbeddedSamplersEXT` of the compute bind point.
-    pub fn bind_embedded_samplers(&mut self, layout: vk::PipelineLayout, set: u32) {
-        let none = std::iter::empty();
-        self.push(BindKind::EmbeddedSamplers, layout, (set, 1), none);
-    }
-
-    /// `vkCmdBindDescriptorBuffersEXT`: the offsets set into the buffers bound before are no
-    /// longer valid (the spec), so they are not replayed.
-    pub fn bind_descriptor_buffers(&mut self) {
-        self.binds.retain(|bind| !bind.uses_buffer_bindings());
-    }
-
-    /// Keeps a bind of `count` sets from `first`, dropping the earlier binds it covers. The
-    /// storage of one of those is reused: an application that binds the same sets at every
-    /// dispatch allocates nothing here after its first.
-    fn push(
-        &mut self,
-        kind: BindKind,
-        layout: vk::PipelineLayout,
-        (first, count): (u32, u32),
-        values: impl Iterator<Item = u64>,
-    ) {
-        let mut bind = ComputeBind {
-            kind,
-            layout,
-            first,
-            count,
-            values: Vec::new(),
-        };
-        let mut index = 0;
-        while index < self.binds.len() {
-            if bind.covers(&self.binds[index]) {
-                let earlier = self.binds.remove(index);
-                if bind.values.capacity() == 0 {
-                    bind.values = earlier.values;
-                }
-            } else {
-                index += 1;
-            }
-        }
-        bind.values.clear();
-        bind.values.extend(values);
-        self.binds.push(bind);
-        if self.binds.len() > MAX_BINDS {
-            self.binds.clear();
-            self.unrestorable = true;
-        }
-    }
-
-    /// Compute descriptors were bound in a way revz does not follow.
-    pub fn bound_otherwise(&mut self) {
-        self.unrestorable = true;
-    }
-
-    pub fn restorable(&self) -> bool {
-        !self.unrestorable
-    }
-
-    /// Binds the application's compute state again (after revz's dispatch).
-    ///
-    /// # Safety
-    /// `buffer` must be recording, on `device`.
-    pub unsafe fn restore(&self, device: &DeviceState, buffer: vk::CommandBuffer) {
-        let v = device.next.fp_v1_0();
-        let compute = vk::PipelineBindPoint::COMPUTE;
-        if self.pipeline != vk::Pipeline::null() {
-            // SAFETY: the application's pipeline, bound by it in this command buffer.
-            unsafe { (v.cmd_bind_pipeline)(buffer, compute, self.pipeline) };
-        }
-        for bind in &self.binds {
-            let (layout, first, count) = (bind.layout, bind.first, bind.count as usize);
-            let (head, tail) = bind.values.split_at(count.min(bind.values.len()));
-            match bind.kind {
-                BindKind::Sets { .. } => {
-                    let sets: Vec<vk::DescriptorSet> =
-                        head.iter().map(|&raw| vk::Handle::from_raw(raw)).collect();
-                    let offsets: Vec<u32> = tail.iter().map(|&o| o as u32).collect();
-                    // SAFETY: the application's own bind, replayed in order.
-                    unsafe {
-                        (v.cmd_bind_descriptor_sets)(
-                            buffer,
-                            compute,
-                            layout,
-                            first,
-                            sets.len() as u32,
-                            sets.as_ptr(),
-                            offsets.len() as u32,
-                            offsets.as_ptr(),
-                        )
-                    };
-                }
-                BindKind::BufferOffsets => {
-                    let indices: Vec<u32> = head.iter().map(|&i| i as u32).collect();
-                    if let Some(set_offsets) = device.commands.set_descriptor_buffer_offsets {
-                        // SAFETY: the application's own offsets, into the descriptor buffers
-                        // it bound (revz binds none), replayed in order.
-                        unsafe {
-                            set_offsets(
-                                buffer,
-                                compute,
-                                layout,
-                                first,
-                                indices.len() as u32,
-                                indices.as_ptr(),
-                                tail.as_ptr(),
-                            )
-                        };
-                    }
-                }
-                BindKind::EmbeddedSamplers => {
-                    if let Some(bind_samplers) = device.commands.bind_embedded_samplers {
-                        // SAFETY: the application's own bind, replayed in order.
-                        unsafe { bind_samplers(buffer, compute, layout, first) };
-                    }
-                }
-            }
-        }
-    }
-}
-
 /// A command buffer's scratch buffers and compute state.
 #[derive(Debug, Default)]
 pub struct CommandCopies {
@@ -254,7 +30,7 @@ pub struct CommandCopies {
     used: usize,
     /// Images converted blits read from, made by the current recording.
     staged: Vec<(vk::Image, vk::DeviceMemory)>,
-    pub compute: ComputeBindings,
+    pub compute: super::compute_bindings::ComputeBindings,
     /// Conditional rendering is active (begun here, or inherited by a secondary): it could
     /// discard revz's dispatch while the copies around it run.
     pub conditional: bool,
@@ -274,7 +50,7 @@ impl CommandCopies {
 
     fn reset_recording(&mut self) {
         self.used = 0;
-        self.compute = ComputeBindings::default();
+        self.compute = Default::default();
         self.conditional = false;
         self.ledger.forget();
     }
@@ -501,117 +277,12 @@ unsafe fn destroy_slot(device: &DeviceState, slot: &Slot) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ash::vk::Handle;
-
-    fn sets(raw: &[u64]) -> Vec<vk::DescriptorSet> {
-        raw.iter()
-            .map(|&r| vk::DescriptorSet::from_raw(r))
-            .collect()
-    }
 
     #[test]
-    fn binds_covered_by_a_later_one_are_dropped() {
-        let layout = vk::PipelineLayout::from_raw(9);
-        let mut compute = ComputeBindings::default();
-        compute.bind_sets(layout, 0, &sets(&[1, 2]), &[]);
-        compute.bind_sets(layout, 1, &sets(&[3]), &[16]);
-        assert_eq!(
-            compute.binds.len(),
-            2,
-            "set 0 of the first bind still stands"
-        );
-        compute.bind_sets(layout, 0, &sets(&[4, 5]), &[]);
-        assert_eq!(compute.binds.len(), 1);
-        assert_eq!(compute.binds[0].values, [4, 5]);
-        assert!(compute.restorable());
-    }
-
-    #[test]
-    fn descriptor_buffer_offsets_and_embedded_samplers_are_kept_beside_sets_in_order() {
-        let layout = vk::PipelineLayout::from_raw(9);
-        let mut compute = ComputeBindings::default();
-        compute.bind_sets(layout, 0, &sets(&[1]), &[32]);
-        compute.set_buffer_offsets(layout, 1, &[0, 1], &[256, 512]);
-        compute.bind_embedded_samplers(layout, 3);
-        let kinds: Vec<BindKind> = compute.binds.iter().map(|b| b.kind).collect();
-        assert_eq!(
-            kinds,
-            [
-                BindKind::Sets { dynamic_offsets: 1 },
-                BindKind::BufferOffsets,
-                BindKind::EmbeddedSamplers
-            ]
-        );
-        assert_eq!(compute.binds[0].values, [1, 32]);
-        assert_eq!(compute.binds[1].values, [0, 1, 256, 512]);
-        assert_eq!((compute.binds[2].first, compute.binds[2].count), (3, 1));
-        // Offsets over sets 0 to 2 replace the sets bound at 0 and the offsets at 1..3.
-        compute.set_buffer_offsets(layout, 0, &[0, 0, 0], &[0, 64, 128]);
-        let kept: Vec<(BindKind, u32)> = compute.binds.iter().map(|b| (b.kind, b.first)).collect();
-        assert_eq!(
-            kept,
-            [
-                (BindKind::EmbeddedSamplers, 3),
-                (BindKind::BufferOffsets, 0)
-            ]
-        );
-        assert!(compute.restorable());
-    }
-
-    #[test]
-    fn binding_descriptor_buffers_drops_the_offsets_into_the_earlier_ones() {
-        let layout = vk::PipelineLayout::from_raw(9);
-        let mut compute = ComputeBindings::default();
-        compute.set_buffer_offsets(layout, 0, &[0], &[64]);
-        compute.bind_embedded_samplers(layout, 1);
-        compute.bind_sets(layout, 2, &sets(&[7]), &[]);
-        compute.bind_descriptor_buffers();
-        let kinds: Vec<BindKind> = compute.binds.iter().map(|b| b.kind).collect();
-        assert_eq!(
-            kinds,
-            [
-                BindKind::EmbeddedSamplers,
-                BindKind::Sets { dynamic_offsets: 0 }
-            ]
-        );
-        assert!(compute.restorable());
-    }
-
-    #[test]
-    fn a_bind_that_covers_an_earlier_one_reuses_its_storage() {
-        let layout = vk::PipelineLayout::from_raw(9);
-        let mut compute = ComputeBindings::default();
-        compute.set_buffer_offsets(layout, 0, &[0, 1], &[64, 128]);
-        let storage = compute.binds[0].values.as_ptr();
-        compute.set_buffer_offsets(layout, 0, &[1, 0], &[0, 32]);
-        assert_eq!(compute.binds.len(), 1);
-        assert_eq!(compute.binds[0].values, [1, 0, 0, 32]);
-        assert_eq!(compute.binds[0].values.as_ptr(), storage, "reallocated");
-    }
-
-    #[test]
-    fn offsets_whose_arrays_differ_in_length_are_not_restorable() {
-        let layout = vk::PipelineLayout::from_raw(9);
-        let mut compute = ComputeBindings::default();
-        compute.set_buffer_offsets(layout, 0, &[0, 1], &[64]);
-        assert!(!compute.restorable());
-    }
-
-    #[test]
-    fn too_many_disjoint_binds_or_other_bindings_are_not_restorable() {
-        let layout = vk::PipelineLayout::from_raw(9);
-        let mut compute = ComputeBindings::default();
-        for set in 0..=MAX_BINDS as u32 {
-            compute.bind_sets(layout, set, &sets(&[1]), &[]);
-        }
-        assert!(!compute.restorable());
-        let mut other = ComputeBindings::default();
-        other.bound_otherwise();
-        assert!(!other.restorable());
-        let mut copies = CommandCopies {
-            compute: other,
-            ..Default::default()
-        };
+    fn a_new_recording_binds_no_compute_state_yet() {
+        let mut copies = CommandCopies::default();
+        copies.compute.bound_otherwise();
+        assert!(!copies.compute.restorable());
         copies.reset_recording();
         assert!(
             copies.compute.restorable(),

@@ -649,7 +649,6 @@ pub unsafe extern "system" fn create_descriptor_update_template(
             let compute_push = info.template_type
                 == vk::DescriptorUpdateTemplateType::PUSH_DESCRIPTORS_KHR
                 && info.pipeline_bind_point == vk::PipelineBindPoint::COMPUTE;
-            state.copies.note_template(template, compute_push);
             // SAFETY: `descriptorUpdateEntryCount` entries.
             let entries = unsafe {
                 slice(
@@ -657,6 +656,9 @@ pub unsafe extern "system" fn create_descriptor_update_template(
                     info.descriptor_update_entry_count,
                 )
             };
+            state
+                .copies
+                .note_template(template, compute_push.then_some(entries));
             let entries = super::descriptors::TemplateEntries::of(entries);
             if entries.writes_images() {
                 state.objects.templates.insert(template, Arc::new(entries));

@@ -71,8 +71,9 @@ pub enum Unconverted {
     /// dispatch, and copies into a depth aspect need graphics), or its pool is protected.
     NoCompute,
     /// The application bound compute descriptors revz cannot bind again after its dispatch
-    /// (push descriptors, a bind whose layout is given in its `pNext` chain, more than 16
-    /// disjoint set ranges) or a compute shader object.
+    /// (a bind whose layout is given in its `pNext` chain, pushed descriptors of a type revz
+    /// does not copy, more than 16 binds that do not replace each other:
+    /// `crate::depth_copy::compute_bindings`).
     ComputeBindings,
     /// The command or a region carries an extension structure revz does not know.
     Extended,
@@ -97,8 +98,8 @@ impl fmt::Display for Unconverted {
             }
             Unconverted::ComputeBindings => {
                 "compute descriptors were bound in a way revz cannot restore after its \
-                 dispatch (push descriptors, a layout given in a pNext chain, a compute shader \
-                 object)"
+                 dispatch (a layout given in a pNext chain, pushed descriptors of a type revz \
+                 does not copy, or too many binds)"
             }
             Unconverted::Extended => "it carries an extension structure revz does not know",
             Unconverted::Multisampled => {

@@ -417,6 +417,7 @@ impl Gpu {
     pub unsafe fn cmd_push_descriptor_set(
         &self,
         cmd: vk::CommandBuffer,
+        bind_point: vk::PipelineBindPoint,
         layout: vk::PipelineLayout,
         writes: &[vk::WriteDescriptorSet<'_>],
     ) -> bool {
@@ -424,9 +425,27 @@ impl Gpu {
             return false;
         };
         // SAFETY: the caller's contract; the extension is enabled where it is loaded.
-        unsafe {
-            khr.cmd_push_descriptor_set(cmd, vk::PipelineBindPoint::GRAPHICS, layout, 0, writes)
+        unsafe { khr.cmd_push_descriptor_set(cmd, bind_point, layout, 0, writes) };
+        true
+    }
+
+    /// `vkCmdPushDescriptorSetWithTemplateKHR` into set 0; `false` where
+    /// `VK_KHR_push_descriptor` is not enabled (nothing recorded).
+    ///
+    /// # Safety
+    /// As `vkCmdPushDescriptorSetWithTemplateKHR`.
+    pub unsafe fn cmd_push_descriptor_set_with_template(
+        &self,
+        cmd: vk::CommandBuffer,
+        template: vk::DescriptorUpdateTemplate,
+        layout: vk::PipelineLayout,
+        data: *const std::ffi::c_void,
+    ) -> bool {
+        let Some(khr) = &self.push_descriptor_khr else {
+            return false;
         };
+        // SAFETY: the caller's contract; the extension is enabled where it is loaded.
+        unsafe { khr.cmd_push_descriptor_set_with_template(cmd, template, layout, 0, data) };
         true
     }
 

@@ -1022,6 +1022,10 @@ pub enum TileDescriptors {
     /// `vkCmdBindDescriptorBuffersEXT` and `vkCmdSetDescriptorBufferOffsetsEXT`), as
     /// vkd3d-proton, and Zink on a driver with the extension, bind every descriptor.
     Buffer,
+    /// Push descriptors (`vkCmdPushDescriptorSetKHR` of the compute bind point).
+    Push,
+    /// Push descriptors through an update template (`vkCmdPushDescriptorSetWithTemplateKHR`).
+    PushTemplate,
 }
 
 /// What a plan needs from the device and the targets, derived from the plan itself.
@@ -1052,6 +1056,9 @@ pub struct Needs {
     /// `VK_EXT_descriptor_buffer` (the depth pyramid's descriptors in a descriptor buffer:
     /// [`TileDescriptors::Buffer`]).
     pub descriptor_buffer: bool,
+    /// How [`Step::BindDepthTiles`] binds the depth pyramid's compute descriptors (`None`:
+    /// no such step; its dispatches bind a descriptor set).
+    pub tile_descriptors: Option<TileDescriptors>,
     /// Number of secondary command buffers recorded on the main thread (from the main pool;
     /// threaded ones come from their threads' own pools).
     pub secondaries: usize,
@@ -1388,6 +1395,7 @@ impl Plan {
                 Step::BindDepthTiles(descriptors) => {
                     needs.depth_tiles = true;
                     needs.descriptor_buffer |= *descriptors == TileDescriptors::Buffer;
+                    needs.tile_descriptors = Some(*descriptors);
                 }
                 Step::DepthLevelLayout { level, .. } => {
                     let slices = &mut needs.depth_subresources;

@@ -678,15 +678,18 @@ impl Renderer<'_> {
 
 impl<'a> Renderer<'a> {
     /// Creates the depth pyramid's bindings ([`TileBindings`]), its compute pipeline and the
-    /// layout of [`Program::DepthTiles`] pipelines; with `descriptor_buffer`, the compute
-    /// pipeline takes its descriptors from a descriptor buffer ([`TileDescriptorBuffer`]).
-    /// Needs the depth-read bindings (their nearest sampler).
+    /// layout of [`Program::DepthTiles`] pipelines; the compute pipeline takes its
+    /// descriptors as `descriptors` says (`None`: the set), from a descriptor buffer
+    /// ([`TileDescriptorBuffer`]) or pushed. Needs the depth-read bindings (their nearest
+    /// sampler).
     pub(super) fn create_tile_bindings(
         &mut self,
         gpu: &'a Gpu,
         targets: &Targets<'_>,
-        descriptor_buffer: bool,
+        descriptors: Option<crate::plan::TileDescriptors>,
     ) -> Result<()> {
+        use crate::plan::TileDescriptors;
+        let descriptor_buffer = descriptors == Some(TileDescriptors::Buffer);
         let device = self.device;
         let nearest =
             self.depth_read.as_ref().map(|r| r.nearest).ok_or_else(|| {
@@ -708,7 +711,7 @@ impl<'a> Renderer<'a> {
             count,
             compute_layout: vk::PipelineLayout::null(),
             compute: vk::Pipeline::null(),
-            descriptor_buffer: None,
+            compute_descriptors: ComputeTileDescriptors::Set,
         });
         let stages = vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::FRAGMENT;
         let kinds = [
@@ -766,17 +769,41 @@ impl<'a> Renderer<'a> {
         unsafe { device.update_descriptor_sets(&writes, &[]) };
         let set_layouts = [tiles.set_layout];
         let mut compute_set_layouts = set_layouts;
-        if descriptor_buffer {
-            let buffer =
-                tile_descriptor_buffer(gpu, &bindings, (&image_info, nearest, &tiles.tiles))?;
-            compute_set_layouts = [buffer.set_layout];
-            tiles.descriptor_buffer = Some(buffer);
+        match descriptors {
+            None | Some(TileDescriptors::Sets) => {}
+            Some(TileDescriptors::Buffer) => {
+                let buffer =
+                    tile_descriptor_buffer(gpu, &bindings, (&image_info, nearest, &tiles.tiles))?;
+                compute_set_layouts = [buffer.set_layout];
+                tiles.compute_descriptors = ComputeTileDescriptors::Buffer(buffer);
+            }
+            Some(TileDescriptors::Push | TileDescriptors::PushTemplate) => {
+                let info = vk::DescriptorSetLayoutCreateInfo::default()
+                    .flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR)
+                    .bindings(&bindings);
+                // SAFETY: valid device and create info (VK_KHR_push_descriptor enabled).
+                let set_layout = unsafe { device.create_descriptor_set_layout(&info, None) }
+                    .context("vkCreateDescriptorSetLayout (depth tiles, pushed) failed")?;
+                compute_set_layouts = [set_layout];
+                tiles.compute_descriptors = ComputeTileDescriptors::Push {
+                    set_layout,
+                    template: None,
+                };
+            }
         }
         let compute_layout_info =
             vk::PipelineLayoutCreateInfo::default().set_layouts(&compute_set_layouts);
         // SAFETY: valid device and create info.
         tiles.compute_layout = unsafe { device.create_pipeline_layout(&compute_layout_info, None) }
             .context("vkCreatePipelineLayout (depth tiles) failed")?;
+        if descriptors == Some(TileDescriptors::PushTemplate) {
+            let template = push_tiles_template(device, tiles.compute_layout)?;
+            if let ComputeTileDescriptors::Push { template: kept, .. } =
+                &mut tiles.compute_descriptors
+            {
+                *kept = Some(template);
+            }
+        }
         let words = crate::shaders::DEPTH_TILES_COMP.words()?;
         let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
         // SAFETY: valid device and SPIR-V (checked by the shader tests).
@@ -813,6 +840,46 @@ impl<'a> Renderer<'a> {
             .context("vkCreatePipelineLayout (depth tiles shading) failed")?;
         Ok(())
     }
+}
+
+/// The depth pyramid's descriptors as a push template reads them (bindings 0 to 2).
+#[repr(C)]
+pub(super) struct TileTemplateData {
+    pub image: vk::DescriptorImageInfo,
+    pub sampler: vk::DescriptorImageInfo,
+    pub tiles: vk::DescriptorBufferInfo,
+}
+
+/// A push-descriptor update template of the compute bind point for set 0 of `layout`, reading
+/// [`TileTemplateData`].
+fn push_tiles_template(
+    device: &ash::Device,
+    layout: vk::PipelineLayout,
+) -> Result<vk::DescriptorUpdateTemplate> {
+    let image = std::mem::size_of::<vk::DescriptorImageInfo>();
+    let entry = |binding: u32, ty, offset| vk::DescriptorUpdateTemplateEntry {
+        dst_binding: binding,
+        dst_array_element: 0,
+        descriptor_count: 1,
+        descriptor_type: ty,
+        offset,
+        stride: 0,
+    };
+    let entries = [
+        entry(0, vk::DescriptorType::SAMPLED_IMAGE, 0),
+        entry(1, vk::DescriptorType::SAMPLER, image),
+        entry(2, vk::DescriptorType::STORAGE_BUFFER, 2 * image),
+    ];
+    let info = vk::DescriptorUpdateTemplateCreateInfo::default()
+        .descriptor_update_entries(&entries)
+        .template_type(vk::DescriptorUpdateTemplateType::PUSH_DESCRIPTORS_KHR)
+        .pipeline_bind_point(vk::PipelineBindPoint::COMPUTE)
+        .pipeline_layout(layout)
+        .set(0);
+    // SAFETY: valid device and create info (entries within `TileTemplateData`, of set 0's
+    // bindings and types; VK_KHR_push_descriptor enabled).
+    unsafe { device.create_descriptor_update_template(&info, None) }
+        .context("vkCreateDescriptorUpdateTemplate (depth tiles, pushed) failed")
 }
 
 /// The depth pyramid's compute descriptors in a descriptor buffer: a set layout of `bindings`

@@ -130,11 +130,25 @@ struct TileBindings<'a> {
     count: (u32, u32),
     compute_layout: vk::PipelineLayout,
     compute: vk::Pipeline,
-    /// Where the compute pass takes its descriptors from a descriptor buffer
-    /// ([`crate::plan::TileDescriptors::Buffer`]): `compute_layout` has its set layout, and
-    /// the compute pipeline is a descriptor buffer one (the fragment stage that reads the
+    /// Where the compute pass takes its descriptors from (the fragment stage that reads the
     /// tiles keeps `set`).
-    descriptor_buffer: Option<TileDescriptorBuffer<'a>>,
+    compute_descriptors: ComputeTileDescriptors<'a>,
+}
+
+/// Where the depth pyramid's compute pass takes its descriptors from
+/// ([`crate::plan::TileDescriptors`]).
+enum ComputeTileDescriptors<'a> {
+    /// [`TileBindings::set`].
+    Set,
+    /// A descriptor buffer: `compute_layout` has its set layout, and the compute pipeline is
+    /// a descriptor buffer one.
+    Buffer(TileDescriptorBuffer<'a>),
+    /// Pushed: `compute_layout` has `set_layout` (a push descriptor layout), and `template`
+    /// pushes them where there is one.
+    Push {
+        set_layout: vk::DescriptorSetLayout,
+        template: Option<vk::DescriptorUpdateTemplate>,
+    },
 }
 
 /// How the depth pyramid's descriptor buffer is made and bound: it holds sampler and resource
@@ -326,9 +340,22 @@ impl Drop for Renderer<'_> {
                 self.device.destroy_pipeline(tiles.compute, None);
                 self.device
                     .destroy_pipeline_layout(tiles.compute_layout, None);
-                if let Some(buffer) = &tiles.descriptor_buffer {
-                    self.device
-                        .destroy_descriptor_set_layout(buffer.set_layout, None);
+                match &tiles.compute_descriptors {
+                    ComputeTileDescriptors::Set => {}
+                    ComputeTileDescriptors::Buffer(buffer) => {
+                        self.device
+                            .destroy_descriptor_set_layout(buffer.set_layout, None);
+                    }
+                    ComputeTileDescriptors::Push {
+                        set_layout,
+                        template,
+                    } => {
+                        if let Some(template) = template {
+                            self.device
+                                .destroy_descriptor_update_template(*template, None);
+                        }
+                        self.device.destroy_descriptor_set_layout(*set_layout, None);
+                    }
                 }
                 self.device.destroy_descriptor_pool(tiles.pool, None);
                 self.device
@@ -610,7 +637,7 @@ impl<'a> Renderer<'a> {
             this.create_depth_read_bindings(gpu, targets)?;
         }
         if needs.depth_tiles {
-            this.create_tile_bindings(gpu, targets, needs.descriptor_buffer)?;
+            this.create_tile_bindings(gpu, targets, needs.tile_descriptors)?;
         }
         if needs.input_depth {
             this.create_input_bindings(targets)?;

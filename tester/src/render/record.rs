@@ -341,8 +341,8 @@ impl Recorder<'_> {
         };
     }
 
-    /// Binds the depth pyramid's compute pipeline and its descriptors: its descriptor set, or
-    /// its descriptor buffer and offset ([`crate::plan::TileDescriptors::Buffer`]).
+    /// Binds the depth pyramid's compute pipeline and its descriptors: its descriptor set, its
+    /// descriptor buffer and offset, or pushed ([`crate::plan::TileDescriptors`]).
     fn bind_depth_tiles(&self, cmd: vk::CommandBuffer) -> Result<()> {
         let tiles = self
             .renderer
@@ -355,8 +355,8 @@ impl Recorder<'_> {
         // are alive, the set or descriptor buffer matches the layout.
         unsafe {
             device.cmd_bind_pipeline(cmd, compute, tiles.compute);
-            match &tiles.descriptor_buffer {
-                None => device.cmd_bind_descriptor_sets(
+            match &tiles.compute_descriptors {
+                ComputeTileDescriptors::Set => device.cmd_bind_descriptor_sets(
                     cmd,
                     compute,
                     tiles.compute_layout,
@@ -364,7 +364,7 @@ impl Recorder<'_> {
                     &[tiles.set],
                     &[],
                 ),
-                Some(buffer) => {
+                ComputeTileDescriptors::Buffer(buffer) => {
                     let (commands, _) = self
                         .renderer
                         .gpu
@@ -384,9 +384,70 @@ impl Recorder<'_> {
                         &[0],
                     );
                 }
+                ComputeTileDescriptors::Push { template, .. } => {
+                    let data = bindings::TileTemplateData {
+                        image: vk::DescriptorImageInfo {
+                            sampler: vk::Sampler::null(),
+                            image_view: self.targets.depth.depth_view,
+                            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                        },
+                        sampler: vk::DescriptorImageInfo {
+                            sampler: self.tile_sampler()?,
+                            image_view: vk::ImageView::null(),
+                            image_layout: vk::ImageLayout::UNDEFINED,
+                        },
+                        tiles: vk::DescriptorBufferInfo {
+                            buffer: tiles.tiles.buffer,
+                            offset: 0,
+                            range: vk::WHOLE_SIZE,
+                        },
+                    };
+                    let gpu = self.renderer.gpu;
+                    let pushed = match template {
+                        Some(template) => gpu.cmd_push_descriptor_set_with_template(
+                            cmd,
+                            *template,
+                            tiles.compute_layout,
+                            (&data as *const bindings::TileTemplateData).cast(),
+                        ),
+                        None => {
+                            let kinds = [
+                                vk::DescriptorType::SAMPLED_IMAGE,
+                                vk::DescriptorType::SAMPLER,
+                            ];
+                            let images = [[data.image], [data.sampler]];
+                            let buffers = [data.tiles];
+                            let mut writes: Vec<vk::WriteDescriptorSet<'_>> = (0..2)
+                                .map(|i| {
+                                    vk::WriteDescriptorSet::default()
+                                        .dst_binding(i as u32)
+                                        .descriptor_type(kinds[i])
+                                        .image_info(&images[i])
+                                })
+                                .collect();
+                            writes.push(
+                                vk::WriteDescriptorSet::default()
+                                    .dst_binding(2)
+                                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                                    .buffer_info(&buffers),
+                            );
+                            gpu.cmd_push_descriptor_set(cmd, compute, tiles.compute_layout, &writes)
+                        }
+                    };
+                    anyhow::ensure!(pushed, "VK_KHR_push_descriptor is not enabled");
+                }
             }
         }
         Ok(())
+    }
+
+    /// The nearest sampler the depth pyramid reads with (the depth-read bindings').
+    fn tile_sampler(&self) -> Result<vk::Sampler> {
+        self.renderer
+            .depth_read
+            .as_ref()
+            .map(|r| r.nearest)
+            .ok_or_else(|| anyhow!("the depth tiles are built without a pass sampling depth"))
     }
 
     /// The depth pyramid's dispatch ([`Step::BuildDepthTiles`]), its state bound first unless
@@ -462,9 +523,12 @@ impl Recorder<'_> {
         // SAFETY: `cmd` is recording with the post pipeline (of the push-descriptor layout)
         // bound; the view and samplers are live, the infos match the binding types.
         unsafe {
-            self.renderer
-                .gpu
-                .cmd_push_descriptor_set(cmd, self.renderer.depth_push_layout, &writes)
+            self.renderer.gpu.cmd_push_descriptor_set(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.renderer.depth_push_layout,
+                &writes,
+            )
         };
     }
 

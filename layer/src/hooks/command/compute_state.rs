@@ -1,9 +1,9 @@
 //! The compute state a depth copy's conversion disturbs, followed so that it can be restored
-//! after revz's dispatch: compute descriptor set binds and descriptor buffer offsets and
-//! embedded samplers (kept to bind again, `crate::depth_copy::ComputeBindings`), push
-//! descriptors of the compute bind point and binds revz cannot replay (which refuse later
-//! conversions in the recording), and conditional rendering (no conversion inside it). The
-//! conversions themselves are in `copies.rs`.
+//! after revz's dispatch: compute descriptor set binds, descriptor buffer offsets and
+//! embedded samplers, and pushed descriptors (kept to bind again,
+//! `crate::depth_copy::compute_bindings`; binds revz cannot replay refuse later conversions
+//! in the recording), and conditional rendering (no conversion inside it). The conversions
+//! themselves are in `copies.rs`.
 
 #![allow(clippy::wildcard_imports)]
 
@@ -54,46 +54,101 @@ pub unsafe extern "system" fn cmd_bind_descriptor_sets(
     }
 }
 
+/// Where a push of descriptors goes, for the compute state revz binds again after its
+/// conversions.
+#[derive(Clone, Copy)]
+enum ComputePush {
+    /// Not to the compute bind point.
+    None,
+    /// To compute set `set` of `layout`: kept.
+    Kept(vk::PipelineLayout, u32),
+    /// To the compute bind point through a layout given in a `pNext` chain: revz cannot push
+    /// it again, and refuses later conversions of the recording.
+    Unrestorable,
+}
+
+impl ComputePush {
+    /// A push of an info (`vkCmdPushDescriptorSet2`, `...WithTemplate2`): its stages, layout,
+    /// set and chain.
+    fn of_info(
+        stages: vk::ShaderStageFlags,
+        layout: vk::PipelineLayout,
+        set: u32,
+        p_next: *const std::ffi::c_void,
+    ) -> ComputePush {
+        if !stages.contains(vk::ShaderStageFlags::COMPUTE) {
+            ComputePush::None
+        } else if layout == vk::PipelineLayout::null() || !p_next.is_null() {
+            ComputePush::Unrestorable
+        } else {
+            ComputePush::Kept(layout, set)
+        }
+    }
+}
+
 /// What the push-descriptor commands do with writes (`vkCmdPushDescriptorSet`, `...2`): a
-/// push to the compute bind point refuses later conversions in this recording (revz cannot
-/// push it again); writes naming views of images with a read twin name the twins' views.
+/// push to the compute bind point is kept, to be pushed again after a conversion's dispatch
+/// (as the writes went down); writes naming views of images with a read twin name the twins'
+/// views.
 ///
 /// # Safety
 /// `writes` are the application's valid writes.
 unsafe fn pushed_writes<'a>(
     entry: &CommandBufferEntry,
-    compute: bool,
+    compute: ComputePush,
     writes: &[vk::WriteDescriptorSet<'a>],
 ) -> Option<crate::hooks::descriptors::PatchedWrites<'a>> {
-    if compute {
-        entry.copies().compute.bound_otherwise();
+    let patched = if crate::hooks::descriptors::any_twin(&entry.device) {
+        // SAFETY: the caller's contract.
+        unsafe { crate::hooks::descriptors::patch_writes(&entry.device, writes) }
+    } else {
+        None
+    };
+    match compute {
+        ComputePush::None => {}
+        ComputePush::Unrestorable => entry.copies().compute.bound_otherwise(),
+        ComputePush::Kept(layout, set) => {
+            let sent = patched.as_ref().map_or(writes, |p| &p.writes[..]);
+            // SAFETY: the application's writes, or revz's patched copies of them.
+            unsafe { entry.copies().compute.push_writes(layout, set, sent) };
+        }
     }
-    if !crate::hooks::descriptors::any_twin(&entry.device) {
-        return None;
-    }
-    // SAFETY: the caller's contract.
-    unsafe { crate::hooks::descriptors::patch_writes(&entry.device, writes) }
+    patched
 }
 
 /// [`pushed_writes`] for the template push commands (`vkCmdPushDescriptorSetWithTemplate`,
-/// `...2`): the application's data, copied and patched where it names such views.
+/// `...2`): the application's data, copied and patched where it names such views; a push
+/// with a compute template is kept as the writes its entries read.
 ///
 /// # Safety
 /// `data` is the application's valid data for `template`.
 unsafe fn pushed_template_data(
     entry: &CommandBufferEntry,
     template: vk::DescriptorUpdateTemplate,
+    compute: ComputePush,
     data: *const std::ffi::c_void,
 ) -> Option<Vec<u64>> {
-    if entry.device.copies.pushes_compute(template) {
-        entry.copies().compute.bound_otherwise();
-    }
     // SAFETY: the caller's contract.
-    unsafe { crate::hooks::descriptors::patch_template_data(&entry.device, template, data) }
+    let patched =
+        unsafe { crate::hooks::descriptors::patch_template_data(&entry.device, template, data) };
+    if let Some(entries) = entry.device.copies.compute_push_entries(template) {
+        let mut copies = entry.copies();
+        match compute {
+            ComputePush::Kept(layout, set) => {
+                let sent = patched
+                    .as_ref()
+                    .map_or(data.cast::<u8>(), |copy| copy.as_ptr().cast());
+                // SAFETY: the application's data for the template, or revz's patched copy.
+                unsafe { copies.compute.push_template(layout, set, &entries, sent) };
+            }
+            ComputePush::None | ComputePush::Unrestorable => copies.compute.bound_otherwise(),
+        }
+    }
+    patched
 }
 
-/// `vkCmdPushDescriptorSetKHR`: compute push descriptors cannot be bound again by revz, so
-/// conversions in this recording are refused from here on.
+/// `vkCmdPushDescriptorSetKHR`: a compute push is kept, to be pushed again after a
+/// conversion's dispatch.
 pub unsafe extern "system" fn cmd_push_descriptor_set_khr(
     buffer: vk::CommandBuffer,
     bind_point: vk::PipelineBindPoint,
@@ -105,7 +160,11 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_khr(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetKHR");
     let mut patched = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
-        let compute = bind_point == vk::PipelineBindPoint::COMPUTE;
+        let compute = if bind_point == vk::PipelineBindPoint::COMPUTE {
+            ComputePush::Kept(layout, set)
+        } else {
+            ComputePush::None
+        };
         // SAFETY: `count` valid writes (the application's contract).
         patched = unsafe { pushed_writes(entry, compute, slice(p_writes, count)) };
     });
@@ -302,8 +361,8 @@ pub unsafe extern "system" fn cmd_bind_descriptor_buffers_ext(
     }
 }
 
-/// `vkCmdPushDescriptorSetWithTemplate(KHR)`: a push-descriptor template of the compute bind
-/// point refuses later conversions in this recording (revz cannot push them again).
+/// `vkCmdPushDescriptorSetWithTemplate(KHR)`: a push with a template of the compute bind
+/// point is kept as the writes it makes, to be pushed again after a conversion's dispatch.
 pub unsafe extern "system" fn cmd_push_descriptor_set_with_template(
     buffer: vk::CommandBuffer,
     template: vk::DescriptorUpdateTemplate,
@@ -314,8 +373,10 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_with_template(
     static ENTRY: EntryPoint = EntryPoint::new("vkCmdPushDescriptorSetWithTemplateKHR");
     let mut patched = None;
     let device = with_entry(buffer, &ENTRY, |entry| {
+        // The template names its bind point (compute or not); the command its layout and set.
+        let compute = ComputePush::Kept(layout, set);
         // SAFETY: the application's data for its template.
-        patched = unsafe { pushed_template_data(entry, template, p_data) };
+        patched = unsafe { pushed_template_data(entry, template, compute, p_data) };
     });
     let p_data = patched.as_ref().map_or(p_data, |copy| copy.as_ptr().cast());
     if let Some(next) = device.and_then(|d| d.commands.push_descriptor_set_with_template) {
@@ -336,7 +397,7 @@ pub unsafe extern "system" fn cmd_push_descriptor_set2(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid info (the application's contract).
         let info = unsafe { &*p_info };
-        let compute = info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE);
+        let compute = ComputePush::of_info(info.stage_flags, info.layout, info.set, info.p_next);
         // SAFETY: `descriptorWriteCount` valid writes (the application's contract).
         let writes = unsafe { slice(info.p_descriptor_writes, info.descriptor_write_count) };
         // SAFETY: as above.
@@ -373,9 +434,16 @@ pub unsafe extern "system" fn cmd_push_descriptor_set_with_template2(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid info (the application's contract).
         let info = unsafe { &*p_info };
+        // The template names its bind point; the info its layout and set (or a chain).
+        let compute = ComputePush::of_info(
+            vk::ShaderStageFlags::COMPUTE,
+            info.layout,
+            info.set,
+            info.p_next,
+        );
+        let template = info.descriptor_update_template;
         // SAFETY: the application's data for its template.
-        patched =
-            unsafe { pushed_template_data(entry, info.descriptor_update_template, info.p_data) };
+        patched = unsafe { pushed_template_data(entry, template, compute, info.p_data) };
     });
     let Some(next) = device.and_then(|d| d.commands.push_descriptor_set_with_template2) else {
         return;

@@ -970,10 +970,10 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
                 (shader, depth)
             })
         });
-        if stages.contains(&vk::ShaderStageFlags::COMPUTE) {
-            // A compute shader object: revz's dispatch would unbind it, and it does not bind
-            // shader objects again.
-            entry.copies().compute.bound_otherwise();
+        if let Some(shader) = bound_to(vk::ShaderStageFlags::COMPUTE) {
+            // A compute shader object (or none): bound again after revz's dispatch, which
+            // binds a compute pipeline in its place.
+            entry.copies().compute.bind_shader(shader);
         }
         // Only graphics stages replace the bound graphics pipeline.
         if stages.iter().any(|&s| s != vk::ShaderStageFlags::COMPUTE) {
