@@ -25,6 +25,8 @@ pub const EXTENDED_DYNAMIC_STATE: &CStr = c"VK_EXT_extended_dynamic_state";
 /// Depth outside [0, 1] in viewports, clears and float depth images
 /// (`crate::policy::DevicePolicy::depth_range_unrestricted`).
 pub const DEPTH_RANGE_UNRESTRICTED: &CStr = c"VK_EXT_depth_range_unrestricted";
+/// `VK_EXT_descriptor_heap`: descriptors revz does not follow (`DevicePolicy::descriptor_heap`).
+pub const DESCRIPTOR_HEAP: &CStr = c"VK_EXT_descriptor_heap";
 
 /// The extension names of a create info.
 ///

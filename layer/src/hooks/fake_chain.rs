@@ -2291,6 +2291,15 @@ pub(super) fn create_device(
     tables: Tables,
     gdpa: vk::PFN_vkGetDeviceProcAddr,
 ) -> (vk::PhysicalDevice, vk::Device, bool) {
+    create_device_with_extensions(tables, gdpa, &[])
+}
+
+/// [`create_device`], the application enabling the device extensions `extensions`.
+pub(super) fn create_device_with_extensions(
+    tables: Tables,
+    gdpa: vk::PFN_vkGetDeviceProcAddr,
+    extensions: &[&CStr],
+) -> (vk::PhysicalDevice, vk::Device, bool) {
     // The physical device shares the instance's dispatch table.
     let physical: vk::PhysicalDevice = dispatchable(key(tables.instance));
     let mut device_link = crate::ffi::LayerDeviceLink {
@@ -2304,8 +2313,11 @@ pub(super) fn create_device(
         function: crate::ffi::LAYER_LINK_INFO,
         p_layer_info: &mut device_link,
     };
+    let names: Vec<*const c_char> = extensions.iter().map(|name| name.as_ptr()).collect();
     let device_info = vk::DeviceCreateInfo {
         p_next: (&mut device_chain as *mut crate::ffi::LayerDeviceCreateInfo).cast(),
+        enabled_extension_count: names.len() as u32,
+        pp_enabled_extension_names: names.as_ptr(),
         ..Default::default()
     };
     let mut device = vk::Device::null();

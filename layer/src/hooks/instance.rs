@@ -663,13 +663,15 @@ pub unsafe extern "system" fn create_device(
             // SAFETY: a live physical device of this instance.
             let limits = unsafe { device_properties(&instance, physical_device) }.limits;
             // SAFETY: the application's extension names.
-            let depth_range_unrestricted = unsafe {
+            let enabled_extensions = unsafe {
                 extensions::names(
                     create_info.pp_enabled_extension_names,
                     create_info.enabled_extension_count,
                 )
-            }
-            .contains(&extensions::DEPTH_RANGE_UNRESTRICTED);
+            };
+            let depth_range_unrestricted =
+                enabled_extensions.contains(&extensions::DEPTH_RANGE_UNRESTRICTED);
+            let descriptor_heap = enabled_extensions.contains(&extensions::DESCRIPTOR_HEAP);
             // SAFETY: the application's create info (its features, or a valid pNext chain).
             let core_features = unsafe { enabled_core_features(create_info) };
             // SAFETY: a valid pNext chain (the application's contract).
@@ -682,6 +684,7 @@ pub unsafe extern "system" fn create_device(
             let policy = DevicePolicy::new(&instance.settings, dynamic_compare_op)
                 .with_push_constant_space(limits.max_push_constants_size)
                 .with_depth_range_unrestricted(depth_range_unrestricted)
+                .with_descriptor_heap(descriptor_heap)
                 .with_shader_stages(
                     core_features.geometry_shader == vk::TRUE,
                     core_features.tessellation_shader == vk::TRUE,
@@ -693,6 +696,14 @@ pub unsafe extern "system" fn create_device(
                     "device {device:?}: the application enabled VK_EXT_depth_range_unrestricted: \
                      infinite mode reverses depth as complementary mode does here (its n / w \
                      cannot follow clears, viewports and clamps beyond the far plane)"
+                );
+            }
+            if descriptor_heap && instance.settings.mode != Mode::Off {
+                log::info!(
+                    "device {device:?}: the application enabled VK_EXT_descriptor_heap, whose \
+                     descriptors revz does not follow: depth images that shaders read or copies \
+                     reach keep standard depth and their format; only depth attachments no \
+                     shader or copy reaches are reversed"
                 );
             }
             if enable_storage_multisample && !multisampled_twins.is_empty() {

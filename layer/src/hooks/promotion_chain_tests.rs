@@ -180,6 +180,15 @@ impl Fixture {
 
     /// A device of `settings` whose physical device refuses images of the formats `refused`.
     fn with(settings: &[(&'static CStr, &'static CStr)], refused: &[vk::Format]) -> Fixture {
+        Fixture::with_extensions(settings, refused, &[])
+    }
+
+    /// [`Fixture::with`], the application enabling the device extensions `extensions`.
+    fn with_extensions(
+        settings: &[(&'static CStr, &'static CStr)],
+        refused: &[vk::Format],
+        extensions: &[&CStr],
+    ) -> Fixture {
         let tables = Tables::fresh();
         fake_chain::record_details(tables.device);
         // Memory for read twins (every image here that shaders sample gets one).
@@ -188,8 +197,11 @@ impl Fixture {
             fake_chain::refuse_image_format(tables.instance, format);
         }
         let (instance, _) = fake_chain::create_instance(settings);
-        let (physical, device, _) =
-            fake_chain::create_device(tables, fake_chain::fake_get_device_proc_addr_with_pipelines);
+        let (physical, device, _) = fake_chain::create_device_with_extensions(
+            tables,
+            fake_chain::fake_get_device_proc_addr_with_pipelines,
+            extensions,
+        );
         // SAFETY: the fake's live device.
         let state = DEVICES
             .get(unsafe { DispatchKey::of(device) })
@@ -2647,6 +2659,34 @@ fn images_that_keep_their_format_and_mixed_framebuffers_are_logged() {
 /// twin in that format; descriptor writes of its views name the
 /// twin's view in `SHADER_READ_ONLY_OPTIMAL` (other views untouched); and the twin's view and
 /// image are destroyed with the application's.
+/// On a device whose application enabled `VK_EXT_descriptor_heap` (descriptors revz does not
+/// follow, heap state its own descriptor set binds would invalidate), a depth image that
+/// shaders sample or copies reach is created as the application asked (its format, its usage,
+/// no twin) and stays native; a depth attachment nothing else reaches is reversed and
+/// promoted as on any device.
+#[test]
+fn with_descriptor_heaps_a_sampled_or_copied_depth_image_is_left_as_it_is() {
+    let fx = Fixture::with_extensions(COMPLEMENTARY, &[], &[c"VK_EXT_descriptor_heap"]);
+    assert!(fx.state.policy.descriptor_heap);
+    for usage in [vk::ImageUsageFlags::SAMPLED, vk::ImageUsageFlags::TRANSFER_SRC] {
+        let info = fake_chain::depth_image_info(D24_S8, EXTENT, ATTACHMENT | usage, SINGLE);
+        let (image, seen) = fx.create_image(&info);
+        assert_eq!(seen.format, D24_S8, "{usage:?}: not promoted");
+        assert_eq!(seen.usage, ATTACHMENT | usage, "{usage:?}: no usage added");
+        let tracked = fx.state.objects.images.get(&image).unwrap();
+        assert_eq!(
+            tracked.depth,
+            crate::policy::ImageDepth::Native(crate::policy::NativeReason::DescriptorHeap)
+        );
+        assert!(tracked.twin.is_none(), "{usage:?}: no read twin");
+    }
+    let attachment = fake_chain::depth_image_info(D24_S8, EXTENT, ATTACHMENT, SINGLE);
+    let (image, seen) = fx.create_image(&attachment);
+    assert_eq!(seen.format, D32_S8, "promoted");
+    let tracked = fx.state.objects.images.get(&image).unwrap();
+    assert_eq!(tracked.depth, crate::policy::ImageDepth::Reversed);
+}
+
 #[test]
 fn a_sampled_depth_image_gets_a_read_twin_whose_views_descriptors_name() {
     let fx = Fixture::new();

@@ -43,7 +43,7 @@ struct ImageCreation<'a> {
 /// Logs once per reason why images keep their UNORM format.
 fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
     use crate::policy::KeptFormat;
-    static ONCE: [crate::logging::LogOnce; 9] = [const { crate::logging::LogOnce::new() }; 9];
+    static ONCE: [crate::logging::LogOnce; 10] = [const { crate::logging::LogOnce::new() }; 10];
     let index = match reason {
         KeptFormat::HostCopied => 0,
         KeptFormat::LaidOutOutside => 1,
@@ -54,6 +54,7 @@ fn log_kept_format(format: vk::Format, reason: crate::policy::KeptFormat) {
         KeptFormat::CopiedUnobserved => 6,
         KeptFormat::UnrestrictedDepthRange => 7,
         KeptFormat::NotAnAttachment => 8,
+        KeptFormat::DescriptorHeap => 9,
     };
     ONCE[index].log(|| {
         log::info!("depth images such as one in {format:?} keep their format, because {reason}")

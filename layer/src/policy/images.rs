@@ -43,6 +43,9 @@ pub enum NativeReason {
     /// the begin of an imageless or dynamic rendering instance), or when the destination is
     /// made native later.
     ResolvedIntoNative(vk::Image),
+    /// The application enabled `VK_EXT_descriptor_heap` and shaders read the image or copies
+    /// reach it (`crate::policy::DevicePolicy::descriptor_heap`).
+    DescriptorHeap,
     /// A render pass resolves a native depth image into it: it receives standard values. As
     /// above, also when the source is made native after the resolve was seen.
     ResolvedFromNative(vk::Image),
@@ -70,6 +73,10 @@ impl fmt::Display for NativeReason {
             NativeReason::HostCopied => {
                 f.write_str("host image copies read it (HOST_TRANSFER), which are not converted")
             }
+            NativeReason::DescriptorHeap => f.write_str(
+                "the application enabled VK_EXT_descriptor_heap, whose descriptors revz does not \
+                 follow, and shaders or copies reach it",
+            ),
             NativeReason::ResolvedIntoNative(destination) => {
                 write!(f, "it is resolved into native depth image {destination:?}")
             }
@@ -183,6 +190,10 @@ pub enum KeptFormat {
     /// The application enabled `VK_EXT_depth_range_unrestricted`: depth outside [0, 1], which
     /// its UNORM format clamps, would stay outside in a float one.
     UnrestrictedDepthRange,
+    /// The application enabled `VK_EXT_descriptor_heap` and shaders or copies reach the image:
+    /// its bytes would need converting, which revz does not do on such a device
+    /// (`crate::policy::DevicePolicy::descriptor_heap`).
+    DescriptorHeap,
 }
 
 impl fmt::Display for KeptFormat {
@@ -218,6 +229,10 @@ impl fmt::Display for KeptFormat {
             KeptFormat::UnrestrictedDepthRange => {
                 "the application enabled VK_EXT_depth_range_unrestricted: a float format would \
                  keep depth outside [0, 1] that its UNORM format clamps"
+            }
+            KeptFormat::DescriptorHeap => {
+                "the application enabled VK_EXT_descriptor_heap, whose descriptors revz does not \
+                 follow, and shaders or copies reach it: revz converts nothing on such a device"
             }
         })
     }
@@ -259,6 +274,14 @@ impl DevicePolicy {
         }
         if self.depth_range_unrestricted {
             return Err(KeptFormat::UnrestrictedDepthRange);
+        }
+        let reached = vk::ImageUsageFlags::TRANSFER_SRC
+            | vk::ImageUsageFlags::TRANSFER_DST
+            | vk::ImageUsageFlags::SAMPLED
+            | vk::ImageUsageFlags::STORAGE
+            | vk::ImageUsageFlags::INPUT_ATTACHMENT;
+        if self.descriptor_heap && facts.usage.intersects(reached) {
+            return Err(KeptFormat::DescriptorHeap);
         }
         // Copies and blits in command buffers are converted between the float storage and
         // the application's format (`crate::depth_copy`); host image copies are not.
@@ -393,6 +416,13 @@ impl DevicePolicy {
             && observable != Observable::All
         {
             return native(NativeReason::NotAnAttachment);
+        }
+        let transfers = vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+        if self.descriptor_heap
+            && (usage.intersects(transfers)
+                || (!shader_reads.is_empty() && observable != Observable::All))
+        {
+            return native(NativeReason::DescriptorHeap);
         }
         if !shader_reads.is_empty()
             && observable != Observable::All
@@ -818,6 +848,76 @@ mod tests {
             assert_eq!(
                 restricted.classify_image(d24, ATTACHMENT, OPTIMAL, ONE),
                 Some(ImageDepth::Reversed)
+            );
+        }
+    }
+
+    #[test]
+    fn with_descriptor_heaps_only_images_no_shader_or_copy_reaches_are_reversed_or_promoted() {
+        let d24 = vk::Format::D24_UNORM_S8_UINT;
+        let reached = [
+            vk::ImageUsageFlags::SAMPLED,
+            vk::ImageUsageFlags::INPUT_ATTACHMENT,
+            vk::ImageUsageFlags::TRANSFER_SRC,
+            vk::ImageUsageFlags::TRANSFER_DST,
+        ];
+        for mode in [Mode::Flip, Mode::Complementary, Mode::Infinite] {
+            let p = policy(mode, Observable::Copies).with_descriptor_heap(true);
+            assert_eq!(
+                p.classify_image(D32, ATTACHMENT, OPTIMAL, ONE),
+                Some(ImageDepth::Reversed),
+                "{mode:?}: a pure attachment"
+            );
+            for usage in reached {
+                assert_eq!(
+                    p.classify_image(D32, ATTACHMENT | usage, OPTIMAL, ONE),
+                    Some(ImageDepth::Native(NativeReason::DescriptorHeap)),
+                    "{mode:?} {usage:?}"
+                );
+                if p.promote {
+                    let facts = ImageFacts {
+                        usage: ATTACHMENT | usage,
+                        ..ATTACHMENT_IMAGE
+                    };
+                    assert_eq!(
+                        p.promoted_format(d24, facts, |_| true),
+                        Err(KeptFormat::DescriptorHeap),
+                        "{mode:?} {usage:?}"
+                    );
+                }
+            }
+            if p.promote {
+                assert_eq!(
+                    p.promoted_format(d24, ATTACHMENT_IMAGE, |_| true),
+                    Ok(Some(vk::Format::D32_SFLOAT_S8_UINT))
+                );
+            }
+            // The same images reversed without the extension.
+            let without = policy(mode, Observable::Copies);
+            assert_eq!(
+                without.classify_image(
+                    D32,
+                    ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+                    OPTIMAL,
+                    ONE
+                ),
+                Some(ImageDepth::Reversed)
+            );
+            // `reverse_observable = all` hands shaders the reversed values (no twin, nothing
+            // converted for them); copies would still convert.
+            let all = policy(mode, Observable::All).with_descriptor_heap(true);
+            assert_eq!(
+                all.classify_image(D32, ATTACHMENT | vk::ImageUsageFlags::SAMPLED, OPTIMAL, ONE),
+                Some(ImageDepth::Reversed)
+            );
+            assert_eq!(
+                all.classify_image(
+                    D32,
+                    ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+                    OPTIMAL,
+                    ONE
+                ),
+                Some(ImageDepth::Native(NativeReason::DescriptorHeap))
             );
         }
     }

@@ -216,6 +216,14 @@ pub struct DevicePolicy {
     /// their format ([`KeptFormat::UnrestrictedDepthRange`]); copies convert float values
     /// without clamping them to [0, 1].
     pub depth_range_unrestricted: bool,
+    /// The application enabled `VK_EXT_descriptor_heap`: shaders reach images through
+    /// descriptors written into heaps (`vkWriteResourceDescriptorsEXT`, which revz does not
+    /// follow: they would name the reversed image, not its read twin), and revz's own
+    /// descriptor set binds (a conversion's dispatch) would invalidate the heap state the
+    /// application bound. Depth images that shaders read or copies reach keep standard depth
+    /// and their format ([`NativeReason::DescriptorHeap`], [`KeptFormat::DescriptorHeap`]), so
+    /// that revz never converts: only pure depth attachments are reversed.
+    pub descriptor_heap: bool,
     /// The stages other than the vertex stage whose `Position` revz may rewrite on this
     /// device (tessellation evaluation, geometry and mesh, where the application enabled
     /// `tessellationShader`, `geometryShader` and `meshShader`): a carrier range revz adds to a
@@ -250,6 +258,7 @@ impl DevicePolicy {
             carrier_offset: None,
             promote: settings.promote_depth_formats.applies(settings.mode),
             depth_range_unrestricted: false,
+            descriptor_heap: false,
             carrier_later_stages: ash::vk::ShaderStageFlags::empty(),
             multisampled_twin_samples: ash::vk::SampleCountFlags::empty(),
         }
@@ -303,6 +312,15 @@ impl DevicePolicy {
         DevicePolicy {
             depth_range_unrestricted: enabled,
             mode,
+            ..self
+        }
+    }
+
+    /// The policy of a device whose application enabled `VK_EXT_descriptor_heap` (`enabled`):
+    /// [`Self::descriptor_heap`].
+    pub fn with_descriptor_heap(self, enabled: bool) -> DevicePolicy {
+        DevicePolicy {
+            descriptor_heap: enabled,
             ..self
         }
     }
@@ -393,6 +411,7 @@ mod tests {
             carrier_offset: None,
             promote: matches!(mode, Mode::Complementary | Mode::Infinite),
             depth_range_unrestricted: false,
+            descriptor_heap: false,
             carrier_later_stages: ash::vk::ShaderStageFlags::empty(),
             multisampled_twin_samples: ash::vk::SampleCountFlags::empty(),
         }
