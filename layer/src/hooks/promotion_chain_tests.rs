@@ -2668,7 +2668,10 @@ fn images_that_keep_their_format_and_mixed_framebuffers_are_logged() {
 fn with_descriptor_heaps_a_sampled_or_copied_depth_image_is_left_as_it_is() {
     let fx = Fixture::with_extensions(COMPLEMENTARY, &[], &[c"VK_EXT_descriptor_heap"]);
     assert!(fx.state.policy.descriptor_heap);
-    for usage in [vk::ImageUsageFlags::SAMPLED, vk::ImageUsageFlags::TRANSFER_SRC] {
+    for usage in [
+        vk::ImageUsageFlags::SAMPLED,
+        vk::ImageUsageFlags::TRANSFER_SRC,
+    ] {
         let info = fake_chain::depth_image_info(D24_S8, EXTENT, ATTACHMENT | usage, SINGLE);
         let (image, seen) = fx.create_image(&info);
         assert_eq!(seen.format, D24_S8, "{usage:?}: not promoted");

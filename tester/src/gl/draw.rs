@@ -674,24 +674,18 @@ impl ComputeWriter {
         }
     }
 
-    /// One dispatch; the program and buffer bound for it, the draw's program left to the
-    /// caller to bind again (`post_pass` binds its own after).
+    /// One dispatch. It leaves its program bound: callers bind their draw's program after it
+    /// (the program bound before may be one deleted since, which GL frees once unbound).
     ///
     /// # Safety
     /// The caller's context is current.
     unsafe fn dispatch(&self, gl: &glow::Context) {
         // SAFETY: the caller's contract; objects of this writer.
         unsafe {
-            let previous = gl.get_parameter_i32(glow::CURRENT_PROGRAM);
             gl.use_program(Some(self.program));
             gl.bind_buffer_base(glow::SHADER_STORAGE_BUFFER, 0, Some(self.buffer));
             gl.dispatch_compute(1, 1, 1);
             gl.memory_barrier(glow::SHADER_STORAGE_BARRIER_BIT | glow::BUFFER_UPDATE_BARRIER_BIT);
-            let previous = u32::try_from(previous)
-                .ok()
-                .and_then(std::num::NonZeroU32::new)
-                .map(glow::NativeProgram);
-            gl.use_program(previous);
         }
         self.dispatches.set(self.dispatches.get() + 1);
     }
