@@ -127,6 +127,18 @@ impl PushedWrite {
             && end(other) <= end(self)
     }
 
+    /// Names the descriptors this write sets, its arrays emptied (their storage kept).
+    fn reset(&mut self, (binding, array_element): (u32, u32), count: u32, ty: vk::DescriptorType) {
+        self.binding = binding;
+        self.array_element = array_element;
+        self.count = count;
+        self.ty = ty;
+        self.images.clear();
+        self.buffers.clear();
+        self.texel_views.clear();
+        self.inline.clear();
+    }
+
     /// Copies `write` into this one (reusing its arrays); `false` where revz cannot copy it: a
     /// type it does not know, or an extension structure other than an inline uniform block's.
     ///
@@ -141,14 +153,11 @@ impl PushedWrite {
             return false;
         }
         let count = write.descriptor_count;
-        self.binding = write.dst_binding;
-        self.array_element = write.dst_array_element;
-        self.count = count;
-        self.ty = write.descriptor_type;
-        self.images.clear();
-        self.buffers.clear();
-        self.texel_views.clear();
-        self.inline.clear();
+        self.reset(
+            (write.dst_binding, write.dst_array_element),
+            count,
+            write.descriptor_type,
+        );
         // SAFETY: the arrays the type names hold `count` elements (the caller's contract).
         unsafe {
             match payload {
@@ -196,14 +205,11 @@ impl PushedWrite {
             return false;
         };
         let count = entry.descriptor_count;
-        self.binding = entry.dst_binding;
-        self.array_element = entry.dst_array_element;
-        self.count = count;
-        self.ty = entry.descriptor_type;
-        self.images.clear();
-        self.buffers.clear();
-        self.texel_views.clear();
-        self.inline.clear();
+        self.reset(
+            (entry.dst_binding, entry.dst_array_element),
+            count,
+            entry.descriptor_type,
+        );
         // Element `i` of the entry: read unaligned, as the application may lay out its data
         // at any offset.
         // SAFETY: the template reads these bytes of `data` (the caller's contract).

@@ -76,14 +76,26 @@ impl ComputePush {
         set: u32,
         p_next: *const std::ffi::c_void,
     ) -> ComputePush {
-        if !stages.contains(vk::ShaderStageFlags::COMPUTE) {
-            ComputePush::None
-        } else if layout == vk::PipelineLayout::null() || !p_next.is_null() {
-            ComputePush::Unrestorable
-        } else {
-            ComputePush::Kept(layout, set)
+        match replayable_compute_info(stages, layout, p_next) {
+            None => ComputePush::None,
+            Some(false) => ComputePush::Unrestorable,
+            Some(true) => ComputePush::Kept(layout, set),
         }
     }
+}
+
+/// Whether a `*2` bind command's info (`VK_KHR_maintenance6`) binds compute descriptors
+/// (`None`: it does not), and whether revz can replay it as the command's first form: it
+/// names its layout and chains nothing (a layout given in the chain, `dynamicPipelineLayout`,
+/// cannot be replayed).
+fn replayable_compute_info(
+    stages: vk::ShaderStageFlags,
+    layout: vk::PipelineLayout,
+    p_next: *const std::ffi::c_void,
+) -> Option<bool> {
+    stages
+        .contains(vk::ShaderStageFlags::COMPUTE)
+        .then(|| layout != vk::PipelineLayout::null() && p_next.is_null())
 }
 
 /// What the push-descriptor commands do with writes (`vkCmdPushDescriptorSet`, `...2`): a
@@ -191,11 +203,12 @@ pub unsafe extern "system" fn cmd_bind_descriptor_sets2(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid info (the application's contract).
         let info = unsafe { &*p_info };
-        if !info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE) {
+        let Some(replayable) = replayable_compute_info(info.stage_flags, info.layout, info.p_next)
+        else {
             return;
-        }
+        };
         let mut copies = entry.copies();
-        if info.layout == vk::PipelineLayout::null() || !info.p_next.is_null() {
+        if !replayable {
             copies.compute.bound_otherwise();
             return;
         }
@@ -262,17 +275,14 @@ pub unsafe extern "system" fn cmd_set_descriptor_buffer_offsets2_ext(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid info (the application's contract).
         let info = unsafe { &*p_info };
-        if !info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE) {
+        let Some(replayable) = replayable_compute_info(info.stage_flags, info.layout, info.p_next)
+        else {
             return;
-        }
+        };
         let mut copies = entry.copies();
-        let replayable = info.layout != vk::PipelineLayout::null()
-            && info.p_next.is_null()
-            && entry
-                .device
-                .commands
-                .set_descriptor_buffer_offsets
-                .is_some();
+        // Replayed in the first form, which the device has where it has this one.
+        let commands = &entry.device.commands;
+        let replayable = replayable && commands.set_descriptor_buffer_offsets.is_some();
         if !replayable {
             copies.compute.bound_otherwise();
             return;
@@ -325,13 +335,13 @@ pub unsafe extern "system" fn cmd_bind_descriptor_buffer_embedded_samplers2_ext(
     let device = with_entry(buffer, &ENTRY, |entry| {
         // SAFETY: a valid info (the application's contract).
         let info = unsafe { &*p_info };
-        if !info.stage_flags.contains(vk::ShaderStageFlags::COMPUTE) {
+        let Some(replayable) = replayable_compute_info(info.stage_flags, info.layout, info.p_next)
+        else {
             return;
-        }
+        };
         let mut copies = entry.copies();
-        let replayable = info.layout != vk::PipelineLayout::null()
-            && info.p_next.is_null()
-            && entry.device.commands.bind_embedded_samplers.is_some();
+        // Replayed in the first form, which the device has where it has this one.
+        let replayable = replayable && entry.device.commands.bind_embedded_samplers.is_some();
         if replayable {
             copies.compute.bind_embedded_samplers(info.layout, info.set);
         } else {
