@@ -140,7 +140,8 @@ impl PushedWrite {
     }
 
     /// Copies `write` into this one (reusing its arrays); `false` where revz cannot copy it: a
-    /// type it does not know, or an extension structure other than an inline uniform block's.
+    /// type it does not know, an extension structure other than an inline uniform block's, or
+    /// a null array its type names.
     ///
     /// # Safety
     /// `write` is a valid write (the application's, or revz's patched copy of one).
@@ -158,6 +159,17 @@ impl PushedWrite {
             count,
             write.descriptor_type,
         );
+        // An array the type names left null (where the spec lets the driver ignore it, as for
+        // immutable samplers): replaying the write would hand the driver no array at all.
+        let array_missing = match payload {
+            Payload::Images => write.p_image_info.is_null(),
+            Payload::Buffers => write.p_buffer_info.is_null(),
+            Payload::TexelViews => write.p_texel_buffer_view.is_null(),
+            Payload::Inline => false,
+        };
+        if array_missing && count > 0 {
+            return false;
+        }
         // SAFETY: the arrays the type names hold `count` elements (the caller's contract).
         unsafe {
             match payload {
@@ -848,6 +860,20 @@ mod tests {
         unsafe {
             compute.push_template(layout, 0, &unknown, (&data as *const Data).cast());
         }
+        assert!(!compute.restorable());
+    }
+
+    #[test]
+    fn a_write_whose_array_is_null_is_not_restorable() {
+        let layout = vk::PipelineLayout::from_raw(9);
+        let write = vk::WriteDescriptorSet {
+            descriptor_count: 1,
+            descriptor_type: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            ..Default::default()
+        };
+        let mut compute = ComputeBindings::default();
+        // SAFETY: a write whose array is null (its chain and arrays are never followed).
+        unsafe { compute.push_writes(layout, 0, &[write]) };
         assert!(!compute.restorable());
     }
 
