@@ -188,10 +188,11 @@ struct RenderArgs {
 
     /// Bind the depth pyramid's compute pipeline and descriptors at the start of the
     /// recording, with a descriptor set, a descriptor buffer (`VK_EXT_descriptor_buffer`,
-    /// Vulkan 1.3: lavapipe has it from Mesa 23.x on), or push descriptors (written, or
-    /// through an update template; `VK_KHR_push_descriptor`), so that its dispatch after the
-    /// passes binds nothing: what the layer's conversions in between disturb, it must bind
-    /// again. Only depth-reads builds a depth pyramid.
+    /// Vulkan 1.3: lavapipe has it from Mesa 23.x on), push descriptors (written, or through
+    /// an update template; `VK_KHR_push_descriptor`), or the set with a compute shader object
+    /// in the pipeline's place (`VK_EXT_shader_object`), so that its dispatch after the passes
+    /// binds nothing: what the layer's conversions in between disturb, it must bind again.
+    /// Only depth-reads builds a depth pyramid.
     #[arg(long, value_enum, value_name = "DESCRIPTORS")]
     bind_tiles_first: Option<plan::TileDescriptors>,
 

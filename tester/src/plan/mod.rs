@@ -1026,6 +1026,9 @@ pub enum TileDescriptors {
     Push,
     /// Push descriptors through an update template (`vkCmdPushDescriptorSetWithTemplateKHR`).
     PushTemplate,
+    /// A descriptor set, the compute program a shader object (`VK_EXT_shader_object`,
+    /// `vkCmdBindShadersEXT`) instead of a pipeline.
+    ShaderObject,
 }
 
 /// What a plan needs from the device and the targets, derived from the plan itself.
@@ -1395,6 +1398,7 @@ impl Plan {
                 Step::BindDepthTiles(descriptors) => {
                     needs.depth_tiles = true;
                     needs.descriptor_buffer |= *descriptors == TileDescriptors::Buffer;
+                    needs.shader_object |= *descriptors == TileDescriptors::ShaderObject;
                     needs.tile_descriptors = Some(*descriptors);
                 }
                 Step::DepthLevelLayout { level, .. } => {

@@ -770,7 +770,7 @@ impl<'a> Renderer<'a> {
         let set_layouts = [tiles.set_layout];
         let mut compute_set_layouts = set_layouts;
         match descriptors {
-            None | Some(TileDescriptors::Sets) => {}
+            None | Some(TileDescriptors::Sets | TileDescriptors::ShaderObject) => {}
             Some(TileDescriptors::Buffer) => {
                 let buffer =
                     tile_descriptor_buffer(gpu, &bindings, (&image_info, nearest, &tiles.tiles))?;
@@ -796,6 +796,24 @@ impl<'a> Renderer<'a> {
         // SAFETY: valid device and create info.
         tiles.compute_layout = unsafe { device.create_pipeline_layout(&compute_layout_info, None) }
             .context("vkCreatePipelineLayout (depth tiles) failed")?;
+        if descriptors == Some(TileDescriptors::ShaderObject) {
+            let objects = gpu
+                .shader_object
+                .as_ref()
+                .ok_or_else(|| anyhow!("VK_EXT_shader_object is not enabled"))?;
+            let words = crate::shaders::DEPTH_TILES_COMP.words()?;
+            let info = vk::ShaderCreateInfoEXT::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .code_type(vk::ShaderCodeTypeEXT::SPIRV)
+                .code(super::shader_objects::bytes_of(&words))
+                .name(c"main")
+                .set_layouts(&compute_set_layouts);
+            // SAFETY: valid SPIR-V of the compute stage (checked by the shader tests), a live
+            // device with the extension enabled.
+            let shader = unsafe { objects.create_shaders(std::slice::from_ref(&info), None) }
+                .map_err(|(_, e)| anyhow!("vkCreateShadersEXT (depth tiles) failed: {e}"))?[0];
+            tiles.compute_descriptors = ComputeTileDescriptors::ShaderObject(shader);
+        }
         if descriptors == Some(TileDescriptors::PushTemplate) {
             let template = push_tiles_template(device, tiles.compute_layout)?;
             if let ComputeTileDescriptors::Push { template: kept, .. } =

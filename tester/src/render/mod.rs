@@ -149,6 +149,9 @@ enum ComputeTileDescriptors<'a> {
         set_layout: vk::DescriptorSetLayout,
         template: Option<vk::DescriptorUpdateTemplate>,
     },
+    /// [`TileBindings::set`], the compute program a shader object bound in the pipeline's
+    /// place.
+    ShaderObject(vk::ShaderEXT),
 }
 
 /// How the depth pyramid's descriptor buffer is made and bound: it holds sampler and resource
@@ -342,6 +345,11 @@ impl Drop for Renderer<'_> {
                     .destroy_pipeline_layout(tiles.compute_layout, None);
                 match &tiles.compute_descriptors {
                     ComputeTileDescriptors::Set => {}
+                    ComputeTileDescriptors::ShaderObject(shader) => {
+                        if let Some(objects) = &self.gpu.shader_object {
+                            objects.destroy_shader(*shader, None);
+                        }
+                    }
                     ComputeTileDescriptors::Buffer(buffer) => {
                         self.device
                             .destroy_descriptor_set_layout(buffer.set_layout, None);

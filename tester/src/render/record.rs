@@ -354,16 +354,22 @@ impl Recorder<'_> {
         // SAFETY: `cmd` is a recording primary outside any pass; the pipeline and its layout
         // are alive, the set or descriptor buffer matches the layout.
         unsafe {
-            device.cmd_bind_pipeline(cmd, compute, tiles.compute);
+            match (&tiles.compute_descriptors, &self.renderer.gpu.shader_object) {
+                (ComputeTileDescriptors::ShaderObject(shader), Some(objects)) => {
+                    objects.cmd_bind_shaders(cmd, &[vk::ShaderStageFlags::COMPUTE], &[*shader]);
+                }
+                _ => device.cmd_bind_pipeline(cmd, compute, tiles.compute),
+            }
             match &tiles.compute_descriptors {
-                ComputeTileDescriptors::Set => device.cmd_bind_descriptor_sets(
-                    cmd,
-                    compute,
-                    tiles.compute_layout,
-                    0,
-                    &[tiles.set],
-                    &[],
-                ),
+                ComputeTileDescriptors::Set | ComputeTileDescriptors::ShaderObject(_) => device
+                    .cmd_bind_descriptor_sets(
+                        cmd,
+                        compute,
+                        tiles.compute_layout,
+                        0,
+                        &[tiles.set],
+                        &[],
+                    ),
                 ComputeTileDescriptors::Buffer(buffer) => {
                     let (commands, _) = self
                         .renderer

@@ -377,7 +377,7 @@ unsafe fn set_stencil(device: &ash::Device, cmd: vk::CommandBuffer, test: Stenci
 }
 
 /// The bytes of SPIR-V words.
-fn bytes_of(words: &[u32]) -> &[u8] {
+pub(super) fn bytes_of(words: &[u32]) -> &[u8] {
     // SAFETY: any u32 is 4 initialized bytes; u8 has no alignment requirement.
     unsafe { std::slice::from_raw_parts(words.as_ptr().cast(), std::mem::size_of_val(words)) }
 }
