@@ -341,8 +341,9 @@ impl Recorder<'_> {
         };
     }
 
-    /// Binds the depth pyramid's compute pipeline and its descriptors: its descriptor set, its
-    /// descriptor buffer and offset, or pushed ([`crate::plan::TileDescriptors`]).
+    /// Binds the depth pyramid's compute program (its pipeline, or its shader object) and its
+    /// descriptors: its descriptor set, its descriptor buffer and offset, or pushed
+    /// ([`crate::plan::TileDescriptors`]).
     fn bind_depth_tiles(&self, cmd: vk::CommandBuffer) -> Result<()> {
         let tiles = self
             .renderer
