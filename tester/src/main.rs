@@ -189,10 +189,11 @@ struct RenderArgs {
     /// Bind the depth pyramid's compute pipeline and descriptors at the start of the
     /// recording, with a descriptor set, a descriptor buffer (`VK_EXT_descriptor_buffer`,
     /// Vulkan 1.3: lavapipe has it from Mesa 23.x on), push descriptors (written, or through
-    /// an update template; `VK_KHR_push_descriptor`), or the set with a compute shader object
-    /// in the pipeline's place (`VK_EXT_shader_object`), so that its dispatch after the passes
-    /// binds nothing: what the layer's conversions in between disturb, it must bind again.
-    /// Only depth-reads builds a depth pyramid.
+    /// an update template; `VK_KHR_push_descriptor`), the set with a compute shader object in
+    /// the pipeline's place (`VK_EXT_shader_object`), or the set or descriptor buffer offsets
+    /// bound by `VK_KHR_maintenance6`'s commands (`sets2`, `buffer2`), so that its dispatch
+    /// after the passes binds nothing: what the layer's conversions in between disturb, it
+    /// must bind again. Only depth-reads builds a depth pyramid.
     #[arg(long, value_enum, value_name = "DESCRIPTORS")]
     bind_tiles_first: Option<plan::TileDescriptors>,
 
@@ -319,6 +320,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             shader_object: needs.shader_object,
             mesh_shader: needs.mesh_shader,
             descriptor_buffer: needs.descriptor_buffer,
+            maintenance6: needs.maintenance6,
             // Optional: a post pass pushes its descriptors where the device can.
             push_descriptor: needs.sampled_depth,
         },
@@ -386,6 +388,9 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     );
     if pushes_tiles && !gpu.enabled.push_descriptor {
         bail!(lacks("VK_KHR_push_descriptor"));
+    }
+    if needs.maintenance6 && !gpu.supported.maintenance6 {
+        bail!(lacks("maintenance6 (VK_KHR_maintenance6 on Vulkan 1.3)"));
     }
     if needs.descriptor_buffer && !gpu.supported.descriptor_buffer {
         bail!(lacks(

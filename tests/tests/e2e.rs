@@ -330,8 +330,10 @@ fn depth_reads_sample_standard_depth_through_the_twin() {
 /// extension), whose view of the depth image `vkGetDescriptorEXT` makes the read twin's; and
 /// with push descriptors, written (`vkCmdPushDescriptorSetKHR`) or through an update template
 /// (`vkCmdPushDescriptorSetWithTemplateKHR`), which revz pushes again as the writes it sent;
-/// and with the set, the compute program a shader object (`vkCmdBindShadersEXT`, newer
-/// lavapipe; the installed validation layer predates the extension and is left out there). In
+/// with the set, the compute program a shader object (`vkCmdBindShadersEXT`, newer lavapipe);
+/// and with the set or the descriptor buffer's offsets bound by `VK_KHR_maintenance6`'s
+/// commands (`vkCmdBindDescriptorSets2KHR`, `vkCmdSetDescriptorBufferOffsets2EXT`; the
+/// installed validation layer predates these extensions and is left out for them). In
 /// every mode, D32 and D24S8 (promoted in the precise modes), with zero validation messages
 /// (synchronization validation included), no refresh or copy is left unconverted, the colors
 /// are those of `depth-reads` through revz, to the pixel, and so the native render's within
@@ -340,12 +342,23 @@ fn depth_reads_sample_standard_depth_through_the_twin() {
 /// revz could bind neither descriptor buffer offsets, pushed descriptors nor a compute shader
 /// object again and refused every conversion after them: D32 `infinite` 40,719 pixels wrong
 /// with each, the twin never refreshed (a layout error from validation), the depth read back
-/// reversed.
+/// reversed; and `vkCmdSetDescriptorBufferOffsets2EXT`, which revz did not hook, crashed the
+/// application (revz dispatched, the offsets it did not know of were left invalid, and the
+/// application's next dispatch read garbage: a segmentation fault in lavapipe).
 #[test]
 fn depth_reads_whose_compute_state_is_bound_first_keep_it_across_refreshes() {
     let harness = Harness::locate();
     let mut problems = Vec::new();
-    for descriptors in ["sets", "buffer", "push", "push-template", "shader-object"] {
+    let ways = [
+        "sets",
+        "buffer",
+        "push",
+        "push-template",
+        "shader-object",
+        "sets2",
+        "buffer2",
+    ];
+    for descriptors in ways {
         for format in ["d32", "d24-s8"] {
             let render = |mode: Option<&str>, bind_first: bool| {
                 let name = format!(
@@ -365,8 +378,11 @@ fn depth_reads_whose_compute_state_is_bound_first_keep_it_across_refreshes() {
                 if bind_first {
                     command.args(["--bind-tiles-first", descriptors]);
                 }
-                // Descriptor buffers and shader objects: lavapipe 22.3 has neither.
-                if matches!(descriptors, "buffer" | "shader-object") {
+                // Descriptor buffers, shader objects, maintenance6: lavapipe 22.3 has none.
+                if matches!(
+                    descriptors,
+                    "buffer" | "shader-object" | "sets2" | "buffer2"
+                ) {
                     harness.on_newer_lavapipe(&mut command);
                 }
                 if let Some(mode) = mode {

@@ -145,7 +145,33 @@ pub(super) fn supported_features(
                 && buffers.descriptor_buffer == vk::TRUE
                 && features12.buffer_device_address == vk::TRUE
         },
+        maintenance6: vulkan_1_3 && {
+            let mut maintenance = vk::PhysicalDeviceMaintenance6FeaturesKHR::default();
+            let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut maintenance);
+            // Chained only where the device has the extension.
+            has(ash::khr::maintenance6::NAME)
+                && instance.features2(physical_device, &mut features2)
+                && maintenance.maintenance6 == vk::TRUE
+        },
     }
+}
+
+/// The extensions `features` enable that an installed validation layer may predate, with the
+/// first layer version that knows each (the instance leaves an older layer out).
+fn newer_extensions(features: &Features) -> Vec<(&'static str, u32)> {
+    [
+        (
+            features.shader_object,
+            ("VK_EXT_shader_object", vk::make_api_version(0, 1, 3, 246)),
+        ),
+        (
+            features.maintenance6,
+            ("VK_KHR_maintenance6", vk::make_api_version(0, 1, 3, 280)),
+        ),
+    ]
+    .into_iter()
+    .filter_map(|(on, extension)| on.then_some(extension))
+    .collect()
 }
 
 impl Gpu {
@@ -166,7 +192,7 @@ impl Gpu {
             options.sync_validation,
             options.max_api_version,
             extension_features,
-            options.features.shader_object,
+            &newer_extensions(&options.features),
         )?;
 
         // SAFETY: valid instance.
@@ -300,6 +326,11 @@ impl Gpu {
         }
         let mut descriptor_buffer =
             vk::PhysicalDeviceDescriptorBufferFeaturesEXT::default().descriptor_buffer(true);
+        if enabled.maintenance6 {
+            extensions.push(ash::khr::maintenance6::NAME.as_ptr());
+        }
+        let mut maintenance6 =
+            vk::PhysicalDeviceMaintenance6FeaturesKHR::default().maintenance6(true);
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_features(&core_features)
@@ -336,6 +367,9 @@ impl Gpu {
         }
         if enabled.descriptor_buffer {
             device_create_info = device_create_info.push_next(&mut descriptor_buffer);
+        }
+        if enabled.maintenance6 {
+            device_create_info = device_create_info.push_next(&mut maintenance6);
         }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {
@@ -384,7 +418,11 @@ impl Gpu {
                 properties,
             )
         });
+        let maintenance6 = enabled
+            .maintenance6
+            .then(|| ash::khr::maintenance6::Device::new(&instance.instance, &device));
         Ok(Gpu {
+            maintenance6,
             descriptor_buffer,
             shader_object,
             mesh_shader,

@@ -33,17 +33,19 @@ pub(super) fn debug_messenger_info(
 
 impl InstanceCtx {
     /// `extension_features`: features of device extensions will be asked for (below Vulkan 1.1
-    /// their queries need `VK_KHR_get_physical_device_properties2`). `shader_object`: the
-    /// device will enable `VK_EXT_shader_object`; a validation layer older than the extension
-    /// (1.3.246) is then left out, and why is kept in `validation_skipped`: it rejects the
-    /// extension's feature structure and hides the dynamic state commands it brings, so it
-    /// could only count its own confusion.
+    /// their queries need `VK_KHR_get_physical_device_properties2`). `newer_extensions`: the
+    /// device extensions it will enable that a validation layer may predate, each with the
+    /// first layer version that knows it; a validation layer older than one is then left out,
+    /// and why is kept in `validation_skipped`: it rejects the extension's feature structure
+    /// and hides or breaks the commands it brings (1.3.239 hides `VK_EXT_shader_object`'s
+    /// dynamic state commands, and crashes on `VK_KHR_maintenance6`'s), so it could only count
+    /// its own confusion.
     pub(super) fn new(
         validation: bool,
         sync_validation: bool,
         max_api_version: Option<u32>,
         extension_features: bool,
-        shader_object: bool,
+        newer_extensions: &[(&str, u32)],
     ) -> Result<Self> {
         // SAFETY: loading libvulkan.so.1 runs its initialisers; the loader is a well-behaved
         // shared library and `Entry` keeps it loaded for as long as it lives.
@@ -79,15 +81,24 @@ impl InstanceCtx {
                      (apt-get install vulkan-validationlayers)"
                 );
             };
-            let shader_object_known = vk::make_api_version(0, 1, 3, 246);
-            if shader_object && found.spec_version < shader_object_known {
+            let version = |v: u32| {
+                format!(
+                    "{}.{}.{}",
+                    vk::api_version_major(v),
+                    vk::api_version_minor(v),
+                    vk::api_version_patch(v)
+                )
+            };
+            if let Some((name, known)) = newer_extensions
+                .iter()
+                .find(|(_, known)| found.spec_version < *known)
+            {
                 validation = false;
                 validation_skipped = Some(format!(
-                    "VK_LAYER_KHRONOS_validation {}.{}.{} predates VK_EXT_shader_object \
-                     (1.3.246): this render ran without it",
-                    vk::api_version_major(found.spec_version),
-                    vk::api_version_minor(found.spec_version),
-                    vk::api_version_patch(found.spec_version)
+                    "VK_LAYER_KHRONOS_validation {} predates {name} ({}): this render ran \
+                     without it",
+                    version(found.spec_version),
+                    version(*known)
                 ));
             }
         }

@@ -195,6 +195,9 @@ pub struct Features {
     /// ([`crate::plan::TileDescriptors::Buffer`]), as vkd3d-proton and Zink bind every
     /// descriptor where the driver has it.
     pub descriptor_buffer: bool,
+    /// `VK_KHR_maintenance6`'s `maintenance6` (Vulkan 1.3 only): the bind commands taking an
+    /// info (`vkCmdBindDescriptorSets2KHR`, `vkCmdSetDescriptorBufferOffsets2EXT`).
+    pub maintenance6: bool,
 }
 
 impl Features {
@@ -223,6 +226,7 @@ impl Features {
             (self.shader_object, "shaderObject"),
             (self.mesh_shader, "meshShader"),
             (self.descriptor_buffer, "descriptorBuffer"),
+            (self.maintenance6, "maintenance6"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -252,6 +256,7 @@ impl Features {
             shader_object: self.shader_object && other.shader_object,
             mesh_shader: self.mesh_shader && other.mesh_shader,
             descriptor_buffer: self.descriptor_buffer && other.descriptor_buffer,
+            maintenance6: self.maintenance6 && other.maintenance6,
         }
     }
 }
@@ -304,6 +309,8 @@ pub struct Gpu {
         ash::ext::descriptor_buffer::Device,
         vk::PhysicalDeviceDescriptorBufferPropertiesEXT<'static>,
     )>,
+    /// `VK_KHR_maintenance6`'s commands, where `enabled.maintenance6`.
+    pub maintenance6: Option<ash::khr::maintenance6::Device>,
     memory_properties: vk::PhysicalDeviceMemoryProperties,
     // Dropped after `Drop::drop` has destroyed the device.
     instance: InstanceCtx,
@@ -470,6 +477,7 @@ mod tests {
             shader_object: true,
             mesh_shader: true,
             descriptor_buffer: true,
+            maintenance6: true,
         };
         assert_eq!(
             all.names(),
@@ -489,7 +497,8 @@ mod tests {
                 "VK_KHR_push_descriptor",
                 "shaderObject",
                 "meshShader",
-                "descriptorBuffer"
+                "descriptorBuffer",
+                "maintenance6"
             ]
         );
         let some = Features {

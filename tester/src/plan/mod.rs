@@ -1029,6 +1029,11 @@ pub enum TileDescriptors {
     /// A descriptor set, the compute program a shader object (`VK_EXT_shader_object`,
     /// `vkCmdBindShadersEXT`) instead of a pipeline.
     ShaderObject,
+    /// A descriptor set bound with `vkCmdBindDescriptorSets2KHR` (`VK_KHR_maintenance6`).
+    Sets2,
+    /// A descriptor buffer whose offsets are set with `vkCmdSetDescriptorBufferOffsets2EXT`
+    /// (`VK_KHR_maintenance6` with `VK_EXT_descriptor_buffer`).
+    Buffer2,
 }
 
 /// What a plan needs from the device and the targets, derived from the plan itself.
@@ -1059,6 +1064,9 @@ pub struct Needs {
     /// `VK_EXT_descriptor_buffer` (the depth pyramid's descriptors in a descriptor buffer:
     /// [`TileDescriptors::Buffer`]).
     pub descriptor_buffer: bool,
+    /// `VK_KHR_maintenance6` (the depth pyramid's descriptors bound with a `2` command:
+    /// [`TileDescriptors::Sets2`], [`TileDescriptors::Buffer2`]).
+    pub maintenance6: bool,
     /// How [`Step::BindDepthTiles`] binds the depth pyramid's compute descriptors (`None`:
     /// no such step; its dispatches bind a descriptor set).
     pub tile_descriptors: Option<TileDescriptors>,
@@ -1397,7 +1405,14 @@ impl Plan {
                 Step::BuildDepthTiles => needs.depth_tiles = true,
                 Step::BindDepthTiles(descriptors) => {
                     needs.depth_tiles = true;
-                    needs.descriptor_buffer |= *descriptors == TileDescriptors::Buffer;
+                    needs.descriptor_buffer |= matches!(
+                        descriptors,
+                        TileDescriptors::Buffer | TileDescriptors::Buffer2
+                    );
+                    needs.maintenance6 |= matches!(
+                        descriptors,
+                        TileDescriptors::Sets2 | TileDescriptors::Buffer2
+                    );
                     needs.shader_object |= *descriptors == TileDescriptors::ShaderObject;
                     needs.tile_descriptors = Some(*descriptors);
                 }

@@ -689,7 +689,10 @@ impl<'a> Renderer<'a> {
         descriptors: Option<crate::plan::TileDescriptors>,
     ) -> Result<()> {
         use crate::plan::TileDescriptors;
-        let descriptor_buffer = descriptors == Some(TileDescriptors::Buffer);
+        let descriptor_buffer = matches!(
+            descriptors,
+            Some(TileDescriptors::Buffer | TileDescriptors::Buffer2)
+        );
         let device = self.device;
         let nearest =
             self.depth_read.as_ref().map(|r| r.nearest).ok_or_else(|| {
@@ -712,6 +715,10 @@ impl<'a> Renderer<'a> {
             compute_layout: vk::PipelineLayout::null(),
             compute: vk::Pipeline::null(),
             compute_descriptors: ComputeTileDescriptors::Set,
+            binds_with_infos: matches!(
+                descriptors,
+                Some(TileDescriptors::Sets2 | TileDescriptors::Buffer2)
+            ),
         });
         let stages = vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::FRAGMENT;
         let kinds = [
@@ -770,8 +777,11 @@ impl<'a> Renderer<'a> {
         let set_layouts = [tiles.set_layout];
         let mut compute_set_layouts = set_layouts;
         match descriptors {
-            None | Some(TileDescriptors::Sets | TileDescriptors::ShaderObject) => {}
-            Some(TileDescriptors::Buffer) => {
+            None
+            | Some(
+                TileDescriptors::Sets | TileDescriptors::ShaderObject | TileDescriptors::Sets2,
+            ) => {}
+            Some(TileDescriptors::Buffer | TileDescriptors::Buffer2) => {
                 let buffer =
                     tile_descriptor_buffer(gpu, &bindings, (&image_info, nearest, &tiles.tiles))?;
                 compute_set_layouts = [buffer.set_layout];

@@ -133,6 +133,9 @@ struct TileBindings<'a> {
     /// Where the compute pass takes its descriptors from (the fragment stage that reads the
     /// tiles keeps `set`).
     compute_descriptors: ComputeTileDescriptors<'a>,
+    /// The set or the descriptor buffer's offsets are bound with the `VK_KHR_maintenance6`
+    /// commands taking an info ([`crate::plan::TileDescriptors::Sets2`], `Buffer2`).
+    binds_with_infos: bool,
 }
 
 /// Where the depth pyramid's compute pass takes its descriptors from

@@ -361,7 +361,23 @@ impl Recorder<'_> {
                 }
                 _ => device.cmd_bind_pipeline(cmd, compute, tiles.compute),
             }
+            let maintenance6 = || {
+                self.renderer
+                    .gpu
+                    .maintenance6
+                    .as_ref()
+                    .ok_or_else(|| anyhow!("VK_KHR_maintenance6 is not enabled"))
+            };
             match &tiles.compute_descriptors {
+                ComputeTileDescriptors::Set if tiles.binds_with_infos => {
+                    let sets = [tiles.set];
+                    let info = vk::BindDescriptorSetsInfoKHR::default()
+                        .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                        .layout(tiles.compute_layout)
+                        .first_set(0)
+                        .descriptor_sets(&sets);
+                    maintenance6()?.cmd_bind_descriptor_sets2(cmd, &info);
+                }
                 ComputeTileDescriptors::Set | ComputeTileDescriptors::ShaderObject(_) => device
                     .cmd_bind_descriptor_sets(
                         cmd,
@@ -382,14 +398,24 @@ impl Recorder<'_> {
                         .address(buffer.descriptors.address())
                         .usage(TILE_DESCRIPTOR_BUFFER_USAGE);
                     commands.cmd_bind_descriptor_buffers(cmd, &[binding]);
-                    commands.cmd_set_descriptor_buffer_offsets(
-                        cmd,
-                        compute,
-                        tiles.compute_layout,
-                        0,
-                        &[0],
-                        &[0],
-                    );
+                    if tiles.binds_with_infos {
+                        let info = vk::SetDescriptorBufferOffsetsInfoEXT::default()
+                            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                            .layout(tiles.compute_layout)
+                            .first_set(0)
+                            .buffer_indices(&[0])
+                            .offsets(&[0]);
+                        maintenance6()?.cmd_set_descriptor_buffer_offsets2(cmd, &info);
+                    } else {
+                        commands.cmd_set_descriptor_buffer_offsets(
+                            cmd,
+                            compute,
+                            tiles.compute_layout,
+                            0,
+                            &[0],
+                            &[0],
+                        );
+                    }
                 }
                 ComputeTileDescriptors::Push { template, .. } => {
                     let data = bindings::TileTemplateData {
