@@ -9,8 +9,9 @@
 //! bound in the pipeline's place. Refused (the state counts as unrestorable, and later
 //! conversions of the recording go down unconverted, logged): binds whose layout is given in a
 //! `pNext` chain, pushed writes of types revz does not copy (acceleration structures, mutable
-//! descriptors) or with an extension structure other than an inline uniform block's, and more
-//! than [`MAX_BINDS`] binds that do not replace each other.
+//! descriptors), with an extension structure other than an inline uniform block's or with a
+//! null array their type names, and more than [`MAX_BINDS`] binds that do not replace each
+//! other.
 
 use ash::vk;
 
