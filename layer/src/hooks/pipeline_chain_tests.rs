@@ -21,6 +21,7 @@ use super::{device, pipeline};
 use crate::command_state::PipelineDepth;
 use crate::shader::derived_range::MatrixSource;
 use crate::shader::fragment_depth::reverse_fragment_depth;
+use crate::shader::input_depth::DepthInputs;
 use crate::shader::test_spirv::{
     self, fragment, refused_fragment, validate, FRAG_DEPTH, PLAIN, VERTEX,
 };
@@ -2269,20 +2270,21 @@ fn variants_then_app(events: &[Event]) -> (Vec<(Vec<u32>, vk::Pipeline)>, vk::Pi
 
 /// A deferred render pass (`Fixture::deferred_render_pass`) and a fragment module reading its
 /// depth as input attachment 0, with that module's code as revz converts it.
-struct DepthInputs {
+struct DeferredInputs {
     vertex: vk::ShaderModule,
     module: vk::ShaderModule,
     pass: vk::RenderPass,
     converted: Vec<u32>,
 }
 
-impl DepthInputs {
-    fn of(fx: &Fixture) -> DepthInputs {
+impl DeferredInputs {
+    fn of(fx: &Fixture) -> DeferredInputs {
         let words = test_spirv::depth_input_fragment();
-        let converted = crate::shader::input_depth::reverse_input_depth(&words, &[0])
-            .unwrap()
-            .unwrap();
-        DepthInputs {
+        let converted =
+            crate::shader::input_depth::reverse_input_depth(&words, &DepthInputs::Indices(vec![0]))
+                .unwrap()
+                .unwrap();
+        DeferredInputs {
             vertex: fx.vertex_module(),
             module: fx.module(&words),
             pass: fx.deferred_render_pass(),
@@ -2294,12 +2296,12 @@ impl DepthInputs {
 #[test]
 fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
     let fx = Fixture::new();
-    let DepthInputs {
+    let DeferredInputs {
         vertex,
         module,
         pass,
         converted,
-    } = DepthInputs::of(&fx);
+    } = DeferredInputs::of(&fx);
     validate(&converted);
     let mut app = AppPipeline::of_modules(vertex, module);
 
@@ -2337,12 +2339,12 @@ fn depth_read_through_an_input_attachment_gets_variants_that_convert_it() {
 #[test]
 fn a_fragment_shader_library_reading_depth_inputs_gets_an_input_variant_its_links_link() {
     let fx = Fixture::new();
-    let DepthInputs {
+    let DeferredInputs {
         vertex,
         module,
         pass,
         converted,
-    } = DepthInputs::of(&fx);
+    } = DeferredInputs::of(&fx);
     let mut app = AppPipeline::of_modules(vertex, module);
     // Subpass 1 reads depth as an input and has no depth attachment.
     app.subpass = Some((pass, 1));
@@ -2405,17 +2407,109 @@ fn check_input_link(
     assert_eq!(recorded.variant_for(false, false, false), None);
 }
 
+/// Creates `app` with dynamic rendering, its rendering info chaining `mapping` where given;
+/// it must succeed: the events it caused.
+fn created_rendering(
+    fx: &Fixture,
+    app: &AppPipeline,
+    mapping: Option<&vk::RenderingInputAttachmentIndexInfoKHR<'_>>,
+) -> Vec<Event> {
+    let mut built = app.build();
+    if let Some(mapping) = mapping {
+        built.rendering.p_next =
+            (mapping as *const vk::RenderingInputAttachmentIndexInfoKHR<'_>).cast();
+    }
+    let (result, _) = fx.create_pipelines(std::slice::from_ref(&built.info()), None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    fx.events()
+}
+
+#[test]
+fn dynamic_renderings_local_reads_of_depth_are_converted_in_the_reversed_variant() {
+    // VK_KHR_dynamic_rendering_local_read: input attachments read the rendering's own
+    // attachments; the depth attachment maps to undecorated inputs by default, or to the
+    // index the pipeline's VkRenderingInputAttachmentIndexInfo gives.
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let undecorated_words = test_spirv::undecorated_depth_input_fragment();
+    validate(&undecorated_words);
+    let undecorated = fx.module(&undecorated_words);
+    let decorated_words = test_spirv::depth_input_fragment();
+    let decorated = fx.module(&decorated_words);
+    let converted = |words: &[u32], inputs: DepthInputs| {
+        crate::shader::input_depth::reverse_input_depth(words, &inputs)
+            .unwrap()
+            .unwrap()
+    };
+    let only_reversed = |events: &[Event], code: &[u32]| {
+        let (variants, handle) = variants_then_app(events);
+        let [(variant_code, reversed)] = variants.as_slice() else {
+            panic!("one variant: {variants:?}");
+        };
+        assert_eq!(variant_code, code);
+        let recorded = fx.recorded(handle);
+        assert_eq!(recorded.reversed_variant, Some(*reversed));
+        // The reads are of the depth attachment: reversed exactly where it is.
+        assert_eq!(recorded.input_variant, None);
+        assert_eq!(recorded.variant_for(true, false, false), Some(*reversed));
+        assert_eq!(recorded.variant_for(false, false, false), None);
+    };
+
+    // The default mapping: the undecorated input reads depth.
+    let app = AppPipeline::of_modules(vertex, undecorated);
+    let expected = converted(&undecorated_words, DepthInputs::Undecorated);
+    validate(&expected);
+    only_reversed(&created_rendering(&fx, &app, None), &expected);
+    // The same, the mapping given with a null depth index.
+    let colors = [vk::ATTACHMENT_UNUSED];
+    let default_depth =
+        vk::RenderingInputAttachmentIndexInfoKHR::default().color_attachment_input_indices(&colors);
+    only_reversed(
+        &created_rendering(&fx, &app, Some(&default_depth)),
+        &expected,
+    );
+
+    // Depth mapped to index 0: the decorated input reads it.
+    let depth_index = 0;
+    let indexed = vk::RenderingInputAttachmentIndexInfoKHR {
+        p_depth_input_attachment_index: &depth_index,
+        ..default_depth
+    };
+    let app = AppPipeline::of_modules(vertex, decorated);
+    let expected = converted(&decorated_words, DepthInputs::Indices(vec![0]));
+    only_reversed(&created_rendering(&fx, &app, Some(&indexed)), &expected);
+    // Without the mapping, index 0 is the color attachment: nothing to convert (the depth
+    // test is dynamic state in flip mode).
+    let (_, handle) = only_app_creation(&created_rendering(&fx, &app, None));
+    assert_eq!(fx.recorded(handle).reversed_variant, None);
+    // Depth mapped to no input.
+    let unused = vk::ATTACHMENT_UNUSED;
+    let unmapped = vk::RenderingInputAttachmentIndexInfoKHR {
+        p_depth_input_attachment_index: &unused,
+        ..default_depth
+    };
+    let app = AppPipeline::of_modules(vertex, undecorated);
+    let (_, handle) = only_app_creation(&created_rendering(&fx, &app, Some(&unmapped)));
+    assert_eq!(fx.recorded(handle).reversed_variant, None);
+    // No depth attachment: no depth to read.
+    let mut app = AppPipeline::of_modules(vertex, undecorated);
+    app.depth_format = vk::Format::UNDEFINED;
+    let (_, handle) = only_app_creation(&created_rendering(&fx, &app, None));
+    assert_eq!(fx.recorded(handle).reversed_variant, None);
+    fx.finish();
+}
+
 #[test]
 fn input_reads_are_converted_in_infinite_mode_too() {
     // Infinite mode stores complementary depth in images read as input attachments: their
     // reads convert as in the other modes.
     let fx = Fixture::with_settings(&[(c"mode", c"infinite")]);
-    let DepthInputs {
+    let DeferredInputs {
         vertex,
         module,
         pass,
         converted,
-    } = DepthInputs::of(&fx);
+    } = DeferredInputs::of(&fx);
     assert!(fx.state.objects.input_modules.get(&module).is_some());
     let mut app = AppPipeline::of_modules(vertex, module);
     let (variants, handle) = variants_then_app(&created_in_subpass(&fx, &mut app, pass, 1));

@@ -181,6 +181,20 @@ fn plan(
             // SAFETY: `codeSize` bytes of SPIR-V, aligned to 4 bytes (the application's
             // contract).
             let words = unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) };
+            if state.policy.converts_input_reads()
+                && crate::shader::input_depth::reads_input_attachments(words)
+            {
+                // Which input attachment reads depth is command buffer state for shader
+                // objects (`vkCmdSetRenderingInputAttachmentIndices`), not known here.
+                static INPUTS: crate::logging::LogOnce = crate::logging::LogOnce::new();
+                INPUTS.log(|| {
+                    log::warn!(
+                        "a fragment shader object reads input attachments (dynamic \
+                         rendering's local reads): revz does not convert the depth it may \
+                         read there, which is reversed where the depth attachment is"
+                    )
+                });
+            }
             match fragment_depth::reverse_fragment_depth(words) {
                 Ok(None) => (FragmentStage::NoDepth, None),
                 Ok(Some(code)) => (FragmentStage::Rewritable, Some(code)),

@@ -296,11 +296,28 @@ pub struct VariantFacts {
     pub library_variants: bool,
     /// It draws into promoted attachments (`PromotionFacts::decide`).
     pub promotion: bool,
-    /// Its fragment stage reads depth through input attachments of its subpass, and
+    /// Its fragment stage reads depth through input attachments, and
     /// `crate::shader::input_depth` rewrote it to convert what it reads.
-    pub converts_inputs: bool,
+    pub converts_inputs: InputReads,
     /// Its subpass (or rendering) has a depth attachment: its draws may go to a reversed one.
     pub depth_attachment: bool,
+}
+
+/// Where a pipeline reads the depth it converts through input attachments
+/// ([`VariantFacts::converts_inputs`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InputReads {
+    /// It reads none (or none revz converts).
+    #[default]
+    None,
+    /// A render pass's subpass (or a link of a fragment shader library of one): the image it
+    /// reads may be reversed where its depth attachment is not (a subpass reading depth
+    /// without it attached), so it gets input variants beside its reversed ones.
+    Subpass,
+    /// Dynamic rendering's local reads (`VK_KHR_dynamic_rendering_local_read`): they read the
+    /// rendering's own depth attachment, reversed exactly where that attachment is, so its
+    /// reversed variants alone convert them (an input variant would never be bound).
+    Rendering,
 }
 
 /// Which variant of a pipeline to make: for reversed attachments, promoted ones, or both; or,
@@ -362,6 +379,9 @@ pub struct Variants {
     /// input attachments are as a rule) and in its input variants (for reversed input
     /// attachments beside a native or no depth attachment).
     pub converted_inputs: bool,
+    /// It gets input variants (its subpass's input attachments may be reversed where its
+    /// depth attachment is not: [`InputReads::Subpass`]).
+    pub input_variants: bool,
     /// Its subpass has a depth attachment (a reversed variant converting its input reads is
     /// needed only then).
     pub depth_attachment: bool,
@@ -418,7 +438,8 @@ impl VariantFacts {
             unreversed_fragment: fragment == Some(FragmentVariant::Unreversed)
                 || (libraries && !given),
             promotion_refused: self.promotion && !given,
-            converted_inputs: self.converts_inputs && given,
+            converted_inputs: self.converts_inputs != InputReads::None && given,
+            input_variants: self.converts_inputs == InputReads::Subpass && given,
             depth_attachment: self.depth_attachment,
             baked_vertex: false,
         }
@@ -458,7 +479,7 @@ impl Variants {
     pub fn kinds(&self) -> impl Iterator<Item = VariantKind> {
         let reversed = self.reversed();
         let promoted = self.promoted;
-        let inputs = self.converted_inputs;
+        let inputs = self.input_variants;
         [
             (reversed, VariantKind::REVERSED),
             (promoted, VariantKind::PROMOTED),
@@ -1242,7 +1263,7 @@ mod tests {
             compare_op_flips: true,
             library_variants: true,
             promotion: true,
-            converts_inputs: false,
+            converts_inputs: InputReads::None,
             depth_attachment: true,
         }
     }
@@ -1253,7 +1274,7 @@ mod tests {
             active: true,
             renders_depth: false,
             fragment: Some(FragmentStage::NoDepth),
-            converts_inputs: true,
+            converts_inputs: InputReads::Subpass,
             ..VariantFacts::default()
         };
         // No depth attachment: only the input variants (and their promoted form).
@@ -1298,12 +1319,54 @@ mod tests {
     }
 
     #[test]
+    fn dynamic_renderings_local_reads_are_converted_by_the_reversed_variants_alone() {
+        // They read the rendering's own depth attachment: reversed exactly where the
+        // reversed variant is bound, so no input variant (it would never be bound).
+        let reads = VariantFacts {
+            active: true,
+            renders_depth: false,
+            fragment: Some(FragmentStage::NoDepth),
+            converts_inputs: InputReads::Rendering,
+            depth_attachment: true,
+            ..VariantFacts::default()
+        };
+        let variants = reads.decide();
+        assert!(variants.converted_inputs && !variants.input_variants);
+        assert!(variants.reversed() && variants.reversed_changes_fragment());
+        assert_eq!(
+            variants.kinds().collect::<Vec<_>>(),
+            [VariantKind::REVERSED]
+        );
+        let promoted = VariantFacts {
+            promotion: true,
+            ..reads
+        }
+        .decide();
+        assert_eq!(
+            promoted.kinds().collect::<Vec<_>>(),
+            [
+                VariantKind::REVERSED,
+                VariantKind::PROMOTED,
+                VariantKind::PROMOTED_REVERSED
+            ]
+        );
+        // Code revz cannot see gets none.
+        let identified = VariantFacts {
+            identified: true,
+            ..reads
+        }
+        .decide();
+        assert!(!identified.converted_inputs);
+        assert_eq!(identified.kinds().count(), 0);
+    }
+
+    #[test]
     fn a_baked_stage_goes_only_where_the_reversed_variant_changes_nothing_else() {
         let none = VariantFacts {
             compare_op_flips: false,
             fragment: Some(FragmentStage::NoDepth),
             library_variants: false,
-            converts_inputs: false,
+            converts_inputs: InputReads::None,
             ..wanting_all()
         }
         .decide();
@@ -1352,6 +1415,7 @@ mod tests {
                 unreversed_fragment: false,
                 promotion_refused: false,
                 converted_inputs: false,
+                input_variants: false,
                 depth_attachment: true,
                 baked_vertex: false,
             }

@@ -2,16 +2,20 @@
 //! reversed attachments.
 //!
 //! Deferred renderers read the depth their geometry subpass wrote as an input attachment of a
-//! later subpass of the same render pass. No read twin can be refreshed inside a pass, so the
-//! read itself converts: [`reverse_input_depth`] rewrites every `OpImageRead` of a
-//! `SubpassData` image whose input attachment index names a depth attachment (the caller knows
-//! which, from the render pass) so that its first component, the depth read, becomes
-//! `1 - d`. The shader then computes with the standard depth it reads natively.
+//! later subpass of the same render pass, or, with dynamic rendering
+//! (`VK_KHR_dynamic_rendering_local_read`), later in the same rendering instance. No read twin
+//! can be refreshed inside a pass, so the read itself converts: [`reverse_input_depth`]
+//! rewrites every `OpImageRead` of a `SubpassData` image that reads the depth attachment (the
+//! caller knows which, [`DepthInputs`]: the input attachment indices of a render pass's
+//! subpass, or of a pipeline's `VkRenderingInputAttachmentIndexInfo`, or dynamic rendering's
+//! default mapping, input attachments without an `InputAttachmentIndex` decoration) so that
+//! its first component, the depth read, becomes `1 - d`. The shader then computes with the
+//! standard depth it reads natively.
 //!
 //! The map is the complementary one, exact in the flip and complementary modes (an attachment
 //! there holds `1 - D`). Infinite mode stores `n / w = 1 - (1 - n/f) D`, whose inverse needs the
-//! camera's n/f at draw time: images read as input attachments stay native in that mode
-//! (`crate::policy::images`).
+//! camera's n/f at draw time: images read as input attachments store complementary depth
+//! `1 - D` in that mode instead (`DevicePolicy::stores_complementary`), so the same map holds.
 //!
 //! Word manipulation only, no Vulkan and no full parse. What the rewrite does not recognise (an
 //! array of input attachments, a depth input attachment handed to a function or copied into a
@@ -45,17 +49,51 @@ pub fn reads_input_attachments(words: &[u32]) -> bool {
         .any(|i| i.opcode == OP_TYPE_IMAGE && i.operands.get(2) == Some(&DIM_SUBPASS_DATA))
 }
 
-/// The module with the depth read from every input attachment whose index is in
-/// `depth_indices` converted (d -> 1 - d); `None` when it reads none of them as floats (a
-/// stencil aspect is read as integers and stays as it is).
+/// Which input attachment variables of a fragment shader read the depth attachment.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DepthInputs {
+    /// Those whose `InputAttachmentIndex` is one of these: a render pass's subpass (its input
+    /// attachments that read a depth aspect), or dynamic rendering's depth attachment mapped
+    /// to an index (`VkRenderingInputAttachmentIndexInfo::pDepthInputAttachmentIndex`).
+    Indices(Vec<u32>),
+    /// Those without an `InputAttachmentIndex` decoration: dynamic rendering's depth
+    /// attachment where the pipeline maps it to no index (no
+    /// `VkRenderingInputAttachmentIndexInfo`, or a null `pDepthInputAttachmentIndex`). The
+    /// stencil attachment maps there too; it is read as integers.
+    Undecorated,
+}
+
+impl DepthInputs {
+    /// Whether a variable decorated with `index` (`None`: undecorated) reads depth, and
+    /// whether an array of them starting there may.
+    fn reads(&self, index: Option<u32>, array: bool) -> bool {
+        match (self, index) {
+            // Element i reads input attachment index + i.
+            (DepthInputs::Indices(depth), Some(index)) if array => {
+                depth.iter().any(|&depth| depth >= index)
+            }
+            (DepthInputs::Indices(depth), Some(index)) => depth.contains(&index),
+            (DepthInputs::Undecorated, None) => true,
+            (DepthInputs::Indices(_), None) | (DepthInputs::Undecorated, Some(_)) => false,
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        matches!(self, DepthInputs::Indices(depth) if depth.is_empty())
+    }
+}
+
+/// The module with the depth read from every input attachment `depth_inputs` names converted
+/// (d -> 1 - d); `None` when it reads none of them as floats (a stencil aspect is read as
+/// integers and stays as it is).
 pub fn reverse_input_depth(
     words: &[u32],
-    depth_indices: &[u32],
+    depth_inputs: &DepthInputs,
 ) -> Result<Option<Vec<u32>>, Unsupported> {
-    if depth_indices.is_empty() {
+    if depth_inputs.is_empty() {
         return Ok(None);
     }
-    let Some(module) = Module::read(words, depth_indices)? else {
+    let Some(module) = Module::read(words, depth_inputs)? else {
         return Ok(None);
     };
     module.rewrite(words)
@@ -76,7 +114,7 @@ struct Module {
 }
 
 impl Module {
-    fn read(words: &[u32], depth_indices: &[u32]) -> Result<Option<Module>, Unsupported> {
+    fn read(words: &[u32], depth_inputs: &DepthInputs) -> Result<Option<Module>, Unsupported> {
         let Some(instructions) = instructions(words) else {
             return Ok(None);
         };
@@ -117,13 +155,10 @@ impl Module {
                     let Some(&pointee) = pointers.get(&ty) else {
                         continue;
                     };
-                    let Some(&index) = indices.get(&id) else {
-                        continue;
-                    };
+                    let index = indices.get(&id).copied();
                     if arrays.contains(&pointee) {
-                        // Element i reads input attachment index + i; which element a read
-                        // takes may be known only at run time.
-                        if depth_indices.iter().any(|&depth| depth >= index) {
+                        // Which element a read takes may be known only at run time.
+                        if depth_inputs.reads(index, true) {
                             return Err(Unsupported(
                                 "an array of input attachments may hold depth",
                             ));
@@ -134,7 +169,7 @@ impl Module {
                         continue;
                     };
                     // A stencil aspect is read as integers: it stays as it is.
-                    if depth_indices.contains(&index) && module.floats.contains(&sampled) {
+                    if depth_inputs.reads(index, false) && module.floats.contains(&sampled) {
                         if module.float != 0 && module.float != sampled {
                             return Err(Unsupported("depth input attachments of two float types"));
                         }
@@ -253,6 +288,11 @@ mod tests {
     use super::*;
     use crate::shader::test_spirv;
 
+    /// The depth inputs of a render pass's subpass reading depth at `indices`.
+    fn at(indices: &[u32]) -> DepthInputs {
+        DepthInputs::Indices(indices.to_vec())
+    }
+
     /// A deferred lighting shader in SPIR-V assembly as glslang writes `subpassLoad`: a color
     /// input at index 0, depth at index 1, a stencil input (integers) at index 2, and the
     /// output's red from depth, green from color, blue from stencil.
@@ -309,7 +349,7 @@ mod tests {
     fn only_the_depth_index_is_converted() {
         let words = deferred(READS);
         assert!(reads_input_attachments(&words));
-        let out = reverse_input_depth(&words, &[1]).unwrap().unwrap();
+        let out = reverse_input_depth(&words, &at(&[1])).unwrap().unwrap();
         test_spirv::validate(&out);
         assert_eq!(converted_reads(&out), 1);
         // The converted read feeds what the read fed: the old id is the insert's result.
@@ -330,10 +370,10 @@ mod tests {
     fn modules_reading_no_depth_index_are_left_alone() {
         let words = deferred(READS);
         // Index 0 is a color, index 2 a stencil (integers): nothing to convert.
-        assert_eq!(reverse_input_depth(&words, &[]), Ok(None));
-        assert_eq!(reverse_input_depth(&words, &[5]), Ok(None));
-        assert_eq!(reverse_input_depth(&words, &[2]), Ok(None));
-        let both = reverse_input_depth(&words, &[0, 1]).unwrap().unwrap();
+        assert_eq!(reverse_input_depth(&words, &at(&[])), Ok(None));
+        assert_eq!(reverse_input_depth(&words, &at(&[5])), Ok(None));
+        assert_eq!(reverse_input_depth(&words, &at(&[2])), Ok(None));
+        let both = reverse_input_depth(&words, &at(&[0, 1])).unwrap().unwrap();
         test_spirv::validate(&both);
         assert_eq!(converted_reads(&both), 2);
         // A module without input attachments.
@@ -341,7 +381,7 @@ mod tests {
             "#version 450\nlayout(location = 0) out vec4 c;\nvoid main() { c = vec4(1.0); }",
         );
         assert!(!reads_input_attachments(&plain));
-        assert_eq!(reverse_input_depth(&plain, &[0]), Ok(None));
+        assert_eq!(reverse_input_depth(&plain, &at(&[0])), Ok(None));
         assert!(!reads_input_attachments(&[1, 2, 3]));
     }
 
@@ -353,7 +393,9 @@ mod tests {
              %dr2 = OpImageRead %v4 %d %origin
              %sum = OpFAdd %v4 %dr %dr2
              OpStore %out %sum";
-        let out = reverse_input_depth(&deferred(body), &[1]).unwrap().unwrap();
+        let out = reverse_input_depth(&deferred(body), &at(&[1]))
+            .unwrap()
+            .unwrap();
         test_spirv::validate(&out);
         assert_eq!(converted_reads(&out), 2);
     }
@@ -366,12 +408,12 @@ mod tests {
              %d = OpLoad %fimage %x
              %dr = OpImageRead %v4 %d %origin
              OpStore %out %dr";
-        assert!(reverse_input_depth(&text(copied), &[1]).is_err());
+        assert!(reverse_input_depth(&text(copied), &at(&[1])).is_err());
         // The image handed to a function.
         let called = "%d = OpLoad %fimage %depth
              %r = OpFunctionCall %v4 %main %d
              OpStore %out %r";
-        assert!(reverse_input_depth(&text(called), &[1]).is_err());
+        assert!(reverse_input_depth(&text(called), &at(&[1])).is_err());
     }
 
     #[test]
@@ -389,7 +431,80 @@ mod tests {
              %dr = OpImageRead %v4 %d %origin
              OpStore %out %dr",
         );
-        assert!(reverse_input_depth(&words, &[1]).is_err());
-        assert_eq!(reverse_input_depth(&words, &[]), Ok(None));
+        assert!(reverse_input_depth(&words, &at(&[1])).is_err());
+        assert_eq!(reverse_input_depth(&words, &at(&[])), Ok(None));
+    }
+
+    /// A lighting shader of dynamic rendering's default mapping: a color input at index 0
+    /// (the color attachment at location 0), and the depth and stencil attachments read
+    /// through input attachments without an `InputAttachmentIndex`; the output's red from
+    /// depth, green from color, blue from stencil.
+    fn local_read(body: &str) -> Vec<u32> {
+        test_spirv::input_attachment_fragment(
+            "OpDecorate %albedo InputAttachmentIndex 0
+             OpDecorate %albedo DescriptorSet 0
+             OpDecorate %albedo Binding 0
+             OpDecorate %depth DescriptorSet 0
+             OpDecorate %depth Binding 1
+             OpDecorate %stencil DescriptorSet 0
+             OpDecorate %stencil Binding 2",
+            "%uv4 = OpTypeVector %uint 4
+             %uimage = OpTypeImage %uint SubpassData 0 0 0 2 Unknown
+             %pu = OpTypePointer UniformConstant %uimage
+             %albedo = OpVariable %pf UniformConstant
+             %depth = OpVariable %pf UniformConstant
+             %stencil = OpVariable %pu UniformConstant",
+            body,
+        )
+    }
+
+    #[test]
+    fn undecorated_inputs_read_depth_under_dynamic_renderings_default_mapping() {
+        let words = local_read(READS);
+        test_spirv::validate(&words);
+        let out = reverse_input_depth(&words, &DepthInputs::Undecorated)
+            .unwrap()
+            .unwrap();
+        test_spirv::validate(&out);
+        // The depth read alone: the color input is decorated, the stencil one reads integers.
+        assert_eq!(converted_reads(&out), 1);
+        let code: Vec<_> = instructions(&out).unwrap().map(Result::unwrap).collect();
+        let insert = code
+            .iter()
+            .find(|i| i.opcode == OP_COMPOSITE_INSERT)
+            .unwrap();
+        let depth_read = code
+            .iter()
+            .filter(|i| i.opcode == OP_IMAGE_READ)
+            .nth(1)
+            .unwrap();
+        assert_eq!(insert.operands[3], depth_read.operands[1]);
+        // Mapped to an index (here the color's), the undecorated inputs read no depth.
+        assert_eq!(reverse_input_depth(&words, &at(&[3])), Ok(None));
+        let color = reverse_input_depth(&words, &at(&[0])).unwrap().unwrap();
+        assert_eq!(converted_reads(&color), 1);
+        // A render pass's shader, every input decorated: none reads the default mapping.
+        assert_eq!(
+            reverse_input_depth(&deferred(READS), &DepthInputs::Undecorated),
+            Ok(None)
+        );
+    }
+
+    #[test]
+    fn an_undecorated_array_of_inputs_is_refused_under_the_default_mapping() {
+        let words = test_spirv::input_attachment_fragment(
+            "OpDecorate %inputs DescriptorSet 0
+             OpDecorate %inputs Binding 0",
+            "%two = OpConstant %uint 2
+             %array = OpTypeArray %fimage %two
+             %pa = OpTypePointer UniformConstant %array
+             %inputs = OpVariable %pa UniformConstant",
+            "%p = OpAccessChain %pf %inputs %zero
+             %d = OpLoad %fimage %p
+             %dr = OpImageRead %v4 %d %origin
+             OpStore %out %dr",
+        );
+        assert!(reverse_input_depth(&words, &DepthInputs::Undecorated).is_err());
+        assert_eq!(reverse_input_depth(&words, &at(&[0])), Ok(None));
     }
 }

@@ -171,6 +171,20 @@ pub fn depth_input_fragment() -> Vec<u32> {
     )
 }
 
+/// [`depth_input_fragment`] with its input attachment undecorated: how a shader reads the
+/// depth attachment of a dynamic rendering instance under the default mapping
+/// (`VK_KHR_dynamic_rendering_local_read`).
+pub fn undecorated_depth_input_fragment() -> Vec<u32> {
+    input_attachment_fragment(
+        "OpDecorate %depth DescriptorSet 0
+        OpDecorate %depth Binding 0",
+        "%depth = OpVariable %pf UniformConstant",
+        "%d = OpLoad %fimage %depth
+        %r = OpImageRead %v4 %d %origin
+        OpStore %out %r",
+    )
+}
+
 /// spirv-val accepts `words` (Vulkan 1.1 environment).
 pub fn validate(words: &[u32]) {
     use spirv_tools::val::{self, Validator as _};

@@ -39,9 +39,9 @@ use crate::policy::libraries::{self, inherit_libraries, subset_states, Subsets};
 use crate::policy::pipelines::{
     baked_stage_conflict, examines_fragment, has_depth_attachment, profiles_pipeline,
     renders_depth, viewports_static, BiasVariantFacts, DepthAttachmentFacts, DepthBiasFacts,
-    DepthStencilFacts, FragmentStage, PipelinePath, PipelinePromotion, PromotionAttachments,
-    PromotionFacts, StaticStateFacts, StaticStatePlan, TakeBack, VariantCompile, VariantFacts,
-    VariantKind, Variants,
+    DepthStencilFacts, FragmentStage, InputReads, PipelinePath, PipelinePromotion,
+    PromotionAttachments, PromotionFacts, StaticStateFacts, StaticStatePlan, TakeBack,
+    VariantCompile, VariantFacts, VariantKind, Variants,
 };
 use crate::policy::vertex_stage::{
     self, precise_candidate, Missing, MissingFact, PositionStore, VertexStageFacts,
@@ -50,6 +50,7 @@ use crate::precise::{self, Carrier, ProjectionUse};
 use crate::shader::analysis;
 use crate::shader::derived_range::MatrixSource;
 use crate::shader::fragment_depth;
+use crate::shader::input_depth::DepthInputs;
 use crate::shader::position_store;
 use crate::state::DeviceState;
 use revz_math::{DepthConvention, Target as RewriteTarget};
@@ -265,7 +266,7 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         compare_op_flips: plan.static_state.compare_op_variant,
                         library_variants: false,
                         promotion: false,
-                        converts_inputs: false,
+                        converts_inputs: InputReads::None,
                         depth_attachment: context.has_depth_attachment,
                     };
                     if facts.warns_of_binaries() {
@@ -363,7 +364,16 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         Some(stage) => stage.convert(&stage.code).map(|code| (stage, code)),
                         None => None,
                     };
-                    facts.converts_inputs = inputs.is_some() || input_libraries.is_some();
+                    facts.converts_inputs = match (&inputs, &input_libraries) {
+                        // Dynamic rendering's local reads (a link's libraries made for a
+                        // render pass's subpass have input variants; one made for dynamic
+                        // rendering none).
+                        (Some(_), _) if info.render_pass == vk::RenderPass::null() => {
+                            InputReads::Rendering
+                        }
+                        (Some(_), _) | (None, Some(_)) => InputReads::Subpass,
+                        (None, None) => InputReads::None,
+                    };
                     if inputs.is_none() {
                         // Reads converted in a linked library only: the link's reversed
                         // variant is the one linking the libraries' reversed variants (which
@@ -411,7 +421,9 @@ pub unsafe extern "system" fn create_graphics_pipelines(
                         if let Some(reversed) = reversed {
                             plan.fragment = Some((stage.index, reversed));
                         }
-                        plan.input_fragment = Some((stage.index, code));
+                        if variants.input_variants {
+                            plan.input_fragment = Some((stage.index, code));
+                        }
                     }
                     if variants.linked_variants {
                         plan.libraries = libraries;

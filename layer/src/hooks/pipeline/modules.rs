@@ -30,29 +30,37 @@ pub(super) fn fragment_stage_rewrite(
     Some((index, rewrite))
 }
 
-/// The fragment stage of a pipeline whose subpass reads depth through input attachments
-/// (`RenderPassInfo::subpass_depth_inputs`) and whose code declares input attachments: its
-/// index, its code and the input attachment indices that read depth. `None` where the policy
-/// converts no input reads, the pipeline names no render pass (dynamic rendering reads input
-/// attachments only with `VK_KHR_dynamic_rendering_local_read`, which revz does not follow)
-/// or its subpass reads no depth.
+/// The fragment stage of a pipeline that may read depth through input attachments, and whose
+/// code declares input attachments: its index, its code and which input attachments read
+/// depth. Those are, for a render pass, its subpass's input attachments that read depth
+/// (`RenderPassInfo::subpass_depth_inputs`); with dynamic rendering
+/// (`VK_KHR_dynamic_rendering_local_read`, where input attachments read the rendering's own
+/// attachments), where the pipeline renders with a depth attachment, the index its
+/// `VkRenderingInputAttachmentIndexInfo` maps that attachment to, or the undecorated inputs
+/// where it maps it to none ([`rendering_depth_inputs`]). `None` where the policy converts no
+/// input reads or no input attachment reads depth.
 pub(super) fn depth_input_stage(
     state: &DeviceState,
     info: &vk::GraphicsPipelineCreateInfo<'_>,
 ) -> Option<DepthInputStage> {
-    if !state.policy.converts_input_reads() || info.render_pass == vk::RenderPass::null() {
+    if !state.policy.converts_input_reads() {
         return None;
     }
-    let pass = state.objects.render_passes.get(&info.render_pass)?;
-    let indices: Vec<u32> = pass
-        .subpass_depth_inputs
-        .get(info.subpass as usize)?
-        .iter()
-        .map(|input| input.index)
-        .collect();
-    if indices.is_empty() {
-        return None;
-    }
+    let inputs = if info.render_pass == vk::RenderPass::null() {
+        rendering_depth_inputs(info)?
+    } else {
+        let pass = state.objects.render_passes.get(&info.render_pass)?;
+        let indices: Vec<u32> = pass
+            .subpass_depth_inputs
+            .get(info.subpass as usize)?
+            .iter()
+            .map(|input| input.index)
+            .collect();
+        if indices.is_empty() {
+            return None;
+        }
+        DepthInputs::Indices(indices)
+    };
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
     let (index, stage) = stages
@@ -71,8 +79,32 @@ pub(super) fn depth_input_stage(
     Some(DepthInputStage {
         index,
         code,
-        indices,
+        inputs,
     })
+}
+
+/// Dynamic rendering: the input attachments that read the depth attachment of a pipeline
+/// rendering with one (`VkPipelineRenderingCreateInfo::depthAttachmentFormat`), as its
+/// `VkRenderingInputAttachmentIndexInfo` maps it: an index, none (`VK_ATTACHMENT_UNUSED`), or,
+/// where the structure or its depth index is absent, the inputs without an
+/// `InputAttachmentIndex` decoration (the spec's default). The command buffer's mapping
+/// (`vkCmdSetRenderingInputAttachmentIndices`) must match the bound pipeline's, so the
+/// pipeline's tells what its draws read.
+fn rendering_depth_inputs(info: &vk::GraphicsPipelineCreateInfo<'_>) -> Option<DepthInputs> {
+    // SAFETY: a valid chain (the application's contract).
+    let rendering = unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) }?;
+    if rendering.depth_attachment_format == vk::Format::UNDEFINED {
+        return None;
+    }
+    // SAFETY: as above.
+    let mapping =
+        unsafe { chain::find::<vk::RenderingInputAttachmentIndexInfoKHR<'_>>(info.p_next) };
+    // SAFETY: null or a valid index (the application's contract).
+    match mapping.and_then(|m| unsafe { m.p_depth_input_attachment_index.as_ref() }) {
+        None => Some(DepthInputs::Undecorated),
+        Some(&vk::ATTACHMENT_UNUSED) => None,
+        Some(&index) => Some(DepthInputs::Indices(vec![index])),
+    }
 }
 
 /// A fragment stage that may read depth through input attachments
@@ -80,15 +112,15 @@ pub(super) fn depth_input_stage(
 pub(super) struct DepthInputStage {
     pub index: usize,
     pub code: Arc<[u32]>,
-    /// The input attachment indices of its subpass that read depth.
-    pub indices: Vec<u32>,
+    /// Its input attachments that read depth.
+    pub inputs: DepthInputs,
 }
 
 impl DepthInputStage {
     /// `code` with the depth it reads through input attachments converted (`None`: it reads
     /// none). One that cannot be rewritten is logged once.
     pub fn convert(&self, code: &[u32]) -> Option<Arc<[u32]>> {
-        match crate::shader::input_depth::reverse_input_depth(code, &self.indices) {
+        match crate::shader::input_depth::reverse_input_depth(code, &self.inputs) {
             Ok(converted) => converted.map(Arc::from),
             Err(reason) => {
                 static REFUSED: crate::logging::LogOnce = crate::logging::LogOnce::new();
