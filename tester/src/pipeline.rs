@@ -745,7 +745,9 @@ pub fn create_pipeline(
             (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG))
         }
         Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
-        Program::UboPassthroughGeometry | Program::PassthroughGeometryShaderObjects => {
+        Program::UboPassthroughGeometry
+        | Program::PassthroughGeometryShaderObjects
+        | Program::UboInterpolatingTessellation => {
             (shaders::UBO_VERT, Some(shaders::FLAT_COLOR_FRAG))
         }
         Program::PushGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::SCENE_FRAG)),
@@ -768,6 +770,16 @@ pub fn create_pipeline(
             (
                 vk::ShaderStageFlags::TESSELLATION_EVALUATION,
                 shaders::UBO_TESE,
+            ),
+        ],
+        Program::UboInterpolatingTessellation => &[
+            (
+                vk::ShaderStageFlags::TESSELLATION_CONTROL,
+                shaders::POSITION_PASSTHROUGH_TESC,
+            ),
+            (
+                vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                shaders::INTERPOLATING_TESE,
             ),
         ],
         _ => &[],
@@ -809,10 +821,7 @@ pub fn create_pipeline(
         }))
         .chain(fragment_stage)
         .collect();
-    let tessellates = matches!(
-        spec.program,
-        Program::UboTessellation | Program::LinkedTessellationShaderObjects
-    );
+    let tessellates = spec.program.tessellates();
     // Each triangle of the index buffer is a patch of three control points.
     let tessellation = vk::PipelineTessellationStateCreateInfo::default().patch_control_points(3);
     let (bindings, attributes) = position_input();

@@ -122,6 +122,12 @@ pub const PASSTHROUGH_TESC: ShaderSource = glslang_shader!("passthrough.tesc");
 /// `ubo.tese` (glslang): the `ubo` delivery's product in a tessellation evaluation shader, at
 /// the patch's corners; passes the color on.
 pub const UBO_TESE: ShaderSource = glslang_shader!("ubo.tese");
+/// `position_passthrough.tesc` (glslang): after `ubo.vert`, one patch per triangle, the clip
+/// positions and colors copied as they are, every tessellation level 1.
+pub const POSITION_PASSTHROUGH_TESC: ShaderSource = glslang_shader!("position_passthrough.tesc");
+/// `interpolating.tese` (glslang): the patch's clip positions interpolated at the patch point
+/// with its barycentric coordinates (at level 1 a corner exactly).
+pub const INTERPOLATING_TESE: ShaderSource = glslang_shader!("interpolating.tese");
 
 /// `ssbo_rows.vert` (glslang): the `ssbo` delivery's matrix stored as its rows and applied as
 /// four dot products, `vec4(dot(r0, p), dot(r1, p), dot(r2, p), dot(r3, p))`; passes the
@@ -238,6 +244,8 @@ pub const ALL: &[ShaderSource] = &[
     PUSH_GEOM,
     PASSTHROUGH_TESC,
     UBO_TESE,
+    POSITION_PASSTHROUGH_TESC,
+    INTERPOLATING_TESE,
     SSBO_ROWS_VERT,
     SSBO_REGISTERS_VERT,
     SSBO_COLUMNS_VERT,
@@ -266,6 +274,8 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("push.geom", PUSH_GEOM),
     ("passthrough.tesc", PASSTHROUGH_TESC),
     ("ubo.tese", UBO_TESE),
+    ("position_passthrough.tesc", POSITION_PASSTHROUGH_TESC),
+    ("interpolating.tese", INTERPOLATING_TESE),
     ("ssbo_rows.vert", SSBO_ROWS_VERT),
     ("ssbo_registers.vert", SSBO_REGISTERS_VERT),
     ("ssbo_columns.vert", SSBO_COLUMNS_VERT),
@@ -523,6 +533,8 @@ mod tests {
             (UBO_GEOM, UNIFORM, 1),
             (PASSTHROUGH_GEOM, UNIFORM, 0),
             (PASSTHROUGH_TESC, UNIFORM, 0),
+            (POSITION_PASSTHROUGH_TESC, UNIFORM, 0),
+            (INTERPOLATING_TESE, UNIFORM, 0),
             (UBO_TESE, UNIFORM, 1),
             // glslang for Vulkan 1.0 (SPIR-V 1.0): a `BufferBlock` in the Uniform class.
             (SSBO_ROWS_VERT, UNIFORM, 1),

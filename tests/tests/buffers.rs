@@ -38,7 +38,11 @@
 //!   `ubo`'s rules. `ubo-passthrough-geometry` is `ubo` with a geometry shader that passes each
 //!   projected triangle through as it is (session 33: the vertex stage is the one revz
 //!   rewrites; the layer before took the flip path, 27.8% of `sloped-plane` and 3.2% of
-//!   `mars-patch` wrong in `infinite`), held to the same rules. `ssbo-rows` stores `ssbo`'s matrix as its rows and applies it as four dot
+//!   `mars-patch` wrong in `infinite`), held to the same rules, and so is
+//!   `ubo-interpolating-tessellation`: `ubo` with a tessellation control stage that copies the
+//!   clip positions and an evaluation stage that interpolates them with `gl_TessCoord`
+//!   (session 37: the vertex stage is the one rewritten; before, the flip path, 27% of
+//!   `sloped-plane` and 3.2% of `mars-patch` wrong in `infinite`). `ssbo-rows` stores `ssbo`'s matrix as its rows and applies it as four dot
 //!   products: the same terms summed in another order, which where standard depth cannot
 //!   resolve the scene fails more pixels (`mars-patch`: 1.0e-1 wrong against push's 3.1e-2);
 //!   its silhouettes and `overlap` are held to the rules above, its wrong-pixel fraction is
@@ -72,8 +76,10 @@ use revz_tests::{native_colors_problems, GroundTruth, Harness, Render, BACKGROUN
 /// `mul(v, M)`: a register reassigned by multiply-adds of the columns; `ssbo-vkd3d` as Wine's
 /// vkd3d-shader writes the same, with D3D's rasterizer state, the depth clamp on and clipping
 /// kept on: issues #41 and #44), and `ubo`'s blocks applied in the last pre-rasterization stage
-/// after it (issue #41): a geometry shader, a tessellation evaluation shader.
-const DELIVERIES: [&str; 13] = [
+/// after it (issue #41): a geometry shader, a tessellation evaluation shader; and `ubo` with
+/// stages after it that only carry its clip positions on (a geometry shader passing them
+/// through, tessellation stages copying and interpolating them).
+const DELIVERIES: [&str; 14] = [
     "push-split",
     "push-full",
     "push-geometry",
@@ -87,6 +93,7 @@ const DELIVERIES: [&str; 13] = [
     "ubo-geometry",
     "ubo-passthrough-geometry",
     "ubo-tessellation",
+    "ubo-interpolating-tessellation",
 ];
 
 /// The clear color of the tester's color attachment (25 / 255 grey), as RGBA8.

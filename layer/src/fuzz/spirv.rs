@@ -461,6 +461,10 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
     // that passes its positions through stores some).
     let w_one = crate::shader::position_store::stores_position_w_one(&words);
     let passes = crate::shader::position_store::passes_position_through(&words);
+    let carried = (
+        crate::shader::tessellation_positions::control_passes_positions_through(&words),
+        crate::shader::tessellation_positions::evaluation_interpolates_positions(&words),
+    );
     let entries_shape = match &entries {
         Ok(list) => list
             .iter()
@@ -478,6 +482,7 @@ fn check_vertex(bytes: &[u8]) -> Result<u64, String> {
         baked,
         w_one,
         passes,
+        carried,
     )))
 }
 

@@ -504,9 +504,13 @@ pub struct DeviceObjects {
     /// enabled a later stage: what a geometry or tessellation evaluation stage that projects
     /// `gl_in[i].gl_Position` needs of the stage before.
     pub position_w_one: Table<vk::ShaderModule, bool>,
-    /// Whether each geometry module only passes `gl_in[i].gl_Position` through
-    /// (`crate::shader::position_store::passes_position_through`), where the device enabled
-    /// geometry shaders: the stage before it is then the one the precise path rewrites.
+    /// Whether each geometry or tessellation module only carries `gl_in[i].gl_Position` on,
+    /// keeping the line the stage before stores on, where the device enabled those stages: a
+    /// geometry stage that passes the positions through
+    /// (`crate::shader::position_store::passes_position_through`), a tessellation control
+    /// stage that copies them, or an evaluation stage that interpolates them
+    /// (`crate::shader::tessellation_positions`). The stage before is then the one the precise
+    /// path rewrites.
     pub position_passthrough: Table<vk::ShaderModule, bool>,
     /// The code of each vertex module analyzed (precise modes only; shared with
     /// [`Self::vertex_codes`] where it keeps the code): a pipeline whose layout has no room

@@ -166,25 +166,36 @@ pub enum LastStage {
 
 impl LastStage {
     /// The stage whose `Position` store the precise path rewrites among a pipeline's `stages`:
-    /// the last pre-rasterization stage ([`Self::of`]), but the stage before a geometry stage
-    /// that only passes the positions it receives through (`geometry_passes_through`: it
-    /// stores `gl_in[i].gl_Position` as it is and reads no z of it otherwise). Its copies keep
-    /// the line `z = k w + B` the stage before stores on, so that stage's rewrite reaches the
-    /// rasterizer unchanged (a wireframe overlay, a layered pass).
+    /// the last pre-rasterization stage ([`Self::of`]), but the stage before stages that only
+    /// carry the positions they receive on (`carries_positions_on`, asked of a geometry stage,
+    /// then of the tessellation control and evaluation stages together): a geometry stage
+    /// that stores `gl_in[i].gl_Position` as it is and reads no z of it otherwise (a wireframe
+    /// overlay, a layered pass), tessellation stages that copy the positions and interpolate
+    /// them (affine combinations: `crate::shader::tessellation_positions`). Copies and affine
+    /// combinations keep the line `z = k w + B` the stage before stores on, so that stage's
+    /// rewrite reaches the rasterizer unchanged.
     #[must_use]
     pub fn rewritten(
         stages: &[vk::ShaderStageFlags],
-        geometry_passes_through: impl FnOnce() -> bool,
+        carries_positions_on: impl Fn(vk::ShaderStageFlags) -> bool,
     ) -> Option<LastStage> {
-        match LastStage::of(stages.iter().copied()) {
-            Some(LastStage::Geometry) if geometry_passes_through() => LastStage::of(
-                stages
-                    .iter()
-                    .copied()
-                    .filter(|&stage| stage != vk::ShaderStageFlags::GEOMETRY),
-            ),
-            last => last,
+        use vk::ShaderStageFlags as S;
+        let mut kept: Vec<vk::ShaderStageFlags> = stages.to_vec();
+        if LastStage::of(kept.iter().copied()) == Some(LastStage::Geometry)
+            && carries_positions_on(S::GEOMETRY)
+        {
+            kept.retain(|&stage| stage != S::GEOMETRY);
         }
+        if LastStage::of(kept.iter().copied()) == Some(LastStage::TessellationEvaluation)
+            && kept.contains(&S::TESSELLATION_CONTROL)
+            && carries_positions_on(S::TESSELLATION_CONTROL)
+            && carries_positions_on(S::TESSELLATION_EVALUATION)
+        {
+            kept.retain(|&stage| {
+                stage != S::TESSELLATION_CONTROL && stage != S::TESSELLATION_EVALUATION
+            });
+        }
+        LastStage::of(kept)
     }
 
     /// The last pre-rasterization stage among a pipeline's `stages` (geometry, else
@@ -832,7 +843,7 @@ mod tests {
     }
 
     #[test]
-    fn a_geometry_stage_passing_positions_through_hands_the_rewrite_to_the_stage_before() {
+    fn stages_carrying_positions_on_hand_the_rewrite_to_the_stage_before() {
         use vk::ShaderStageFlags as S;
         let geometry = [S::VERTEX, S::GEOMETRY, S::FRAGMENT];
         let tessellated = [
@@ -841,21 +852,48 @@ mod tests {
             S::TESSELLATION_EVALUATION,
             S::GEOMETRY,
         ];
+        let all = |_| true;
+        let none = |_| false;
+        let only = |carrying: &'static [S]| move |stage| carrying.contains(&stage);
         assert_eq!(
-            LastStage::rewritten(&geometry, || true),
+            LastStage::rewritten(&geometry, all),
             Some(LastStage::Vertex)
         );
         assert_eq!(
-            LastStage::rewritten(&tessellated, || true),
+            LastStage::rewritten(&geometry, none),
+            Some(LastStage::Geometry)
+        );
+        // Tessellation stages carry the positions on only both together.
+        assert_eq!(
+            LastStage::rewritten(&tessellated, all),
+            Some(LastStage::Vertex)
+        );
+        assert_eq!(
+            LastStage::rewritten(&tessellated, only(&[S::GEOMETRY])),
             Some(LastStage::TessellationEvaluation)
         );
         assert_eq!(
-            LastStage::rewritten(&geometry, || false),
+            LastStage::rewritten(
+                &tessellated,
+                only(&[S::GEOMETRY, S::TESSELLATION_EVALUATION])
+            ),
+            Some(LastStage::TessellationEvaluation)
+        );
+        // A geometry stage that computes keeps being the last, whatever comes before it.
+        assert_eq!(
+            LastStage::rewritten(
+                &tessellated,
+                only(&[S::TESSELLATION_CONTROL, S::TESSELLATION_EVALUATION])
+            ),
             Some(LastStage::Geometry)
         );
-        // Only a geometry stage is asked.
         assert_eq!(
-            LastStage::rewritten(&[S::VERTEX, S::FRAGMENT], || unreachable!()),
+            LastStage::rewritten(&tessellated[..3], all),
+            Some(LastStage::Vertex)
+        );
+        // Only geometry and tessellation stages are asked.
+        assert_eq!(
+            LastStage::rewritten(&[S::VERTEX, S::FRAGMENT], |_| unreachable!()),
             Some(LastStage::Vertex)
         );
     }

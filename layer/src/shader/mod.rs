@@ -9,6 +9,7 @@
 //! | [`derived_range`] | the in-shader fit of the range for projections in uniform or storage buffers |
 //! | [`fragment_depth`] | the rewrite of fragment shaders that compute with or write depth |
 //! | [`input_depth`] | the rewrite of fragment shaders that read depth as an input attachment |
+//! | [`tessellation_positions`] | whether tessellation stages only copy and interpolate the vertex stage's clip positions (it is then the one rewritten) |
 //!
 //! Which pipelines get which rewrite is decided in `crate::policy`; when modules are read and
 //! rewritten (once per module or distinct inline code) in `crate::hooks::pipeline`.
@@ -19,5 +20,6 @@ pub mod fragment_depth;
 pub mod input_depth;
 pub mod position_store;
 pub mod scan;
+pub mod tessellation_positions;
 #[cfg(test)]
 pub(crate) mod test_spirv;

@@ -42,6 +42,7 @@ pub fn instructions(words: &[u32]) -> Option<Instructions<'_>> {
 /// mesh shaders are not rewritten).
 pub mod model {
     pub const VERTEX: u32 = 0;
+    pub const TESSELLATION_CONTROL: u32 = 1;
     pub const TESSELLATION_EVALUATION: u32 = 2;
     pub const GEOMETRY: u32 = 3;
     /// `MeshEXT` (`VK_EXT_mesh_shader`).
@@ -59,6 +60,17 @@ pub fn declares_vertex_entry_point(words: &[u32]) -> bool {
 /// (what follows reads them and says so).
 pub fn declares_geometry_entry_point(words: &[u32]) -> bool {
     declares_entry_point(words, |m| m == model::GEOMETRY)
+}
+
+/// Whether `words` declare an entry point of a tessellation stage (control or evaluation).
+/// Malformed words answer `true` (what follows reads them and says so).
+pub fn declares_tessellation_entry_point(words: &[u32]) -> bool {
+    declares_entry_point(words, |m| {
+        matches!(
+            m,
+            model::TESSELLATION_CONTROL | model::TESSELLATION_EVALUATION
+        )
+    })
 }
 
 /// Whether `words` declare an entry point of a stage whose `Position` revz rewrites

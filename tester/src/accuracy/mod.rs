@@ -116,6 +116,8 @@ pub enum DeliveryChoice {
     UboPassthroughGeometry,
     /// The blocks of ubo, applied in a tessellation evaluation shader.
     UboTessellation,
+    /// ubo, its projected positions copied and interpolated by tessellation stages.
+    UboInterpolatingTessellation,
     /// The push constants of push, the flat program bound as vertex and fragment shader
     /// objects (needs VK_EXT_shader_object).
     ShaderObjects,
@@ -132,7 +134,8 @@ pub enum DeliveryChoice {
     /// VK_EXT_shader_object and geometryShader).
     PassthroughGeometryShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns, ssbo-vkd3d,
-    /// ubo-geometry, ubo-passthrough-geometry and ubo-tessellation (not shader-objects, mesh,
+    /// ubo-geometry, ubo-passthrough-geometry, ubo-tessellation and
+    /// ubo-interpolating-tessellation (not shader-objects, mesh,
     /// mesh-shader-objects, linked-shader-objects, linked-tessellation-shader-objects nor
     /// passthrough-geometry-shader-objects, which need extensions).
     All,
@@ -155,6 +158,9 @@ impl DeliveryChoice {
             DeliveryChoice::UboGeometry => &[Delivery::UboGeometry],
             DeliveryChoice::UboPassthroughGeometry => &[Delivery::UboPassthroughGeometry],
             DeliveryChoice::UboTessellation => &[Delivery::UboTessellation],
+            DeliveryChoice::UboInterpolatingTessellation => {
+                &[Delivery::UboInterpolatingTessellation]
+            }
             DeliveryChoice::ShaderObjects => &[Delivery::ShaderObjects],
             DeliveryChoice::Mesh => &[Delivery::Mesh],
             DeliveryChoice::MeshShaderObjects => &[Delivery::MeshShaderObjects],
@@ -270,7 +276,8 @@ pub struct Selection {
     /// Projection deliveries (comma-separated): push, push-split, push-full, push-geometry, ubo,
     /// ubo-dynamic, ssbo,
     /// ssbo-rows, ssbo-registers, ssbo-columns, ubo-geometry, ubo-passthrough-geometry,
-    /// ubo-tessellation, or all. The deliveries other than push are
+    /// ubo-tessellation, ubo-interpolating-tessellation, or all. The deliveries other than
+    /// push are
     /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.
     /// Default: push.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "DELIVERIES")]

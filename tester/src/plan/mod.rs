@@ -266,6 +266,12 @@ pub enum Program {
     /// `ubo-tessellation` [`Delivery`]): the buffers of [`Program::Ubo`], the product applied
     /// in a tessellation evaluation shader (patches of three points, every level 1).
     UboTessellation,
+    /// `ubo.vert` + `position_passthrough.tesc` + `interpolating.tese` + `flat_color.frag` (the
+    /// `ubo-interpolating-tessellation` [`Delivery`]): [`Program::Ubo`], its projected positions
+    /// copied by the control stage and interpolated at the patch point by the evaluation stage
+    /// (patches of three points, every level 1), as pipelines that tessellate only to
+    /// subdivide do.
+    UboInterpolatingTessellation,
     /// [`Program::UboTessellation`]'s four shaders as shader objects created linked in one
     /// call (the `linked-tessellation-shader-objects` [`Delivery`]; needs
     /// `VK_EXT_shader_object` and `tessellationShader`), every state set at the bind.
@@ -360,6 +366,9 @@ pub enum Delivery {
     /// The blocks of [`Delivery::Ubo`], applied in a tessellation evaluation shader
     /// ([`Program::UboTessellation`]).
     UboTessellation,
+    /// [`Delivery::Ubo`]'s projected positions interpolated by tessellation stages
+    /// ([`Program::UboInterpolatingTessellation`]).
+    UboInterpolatingTessellation,
     /// The push constants of [`Delivery::Push`], the flat program bound as shader objects
     /// ([`Program::ShaderObjects`]; needs `VK_EXT_shader_object`).
     ShaderObjects,
@@ -383,7 +392,7 @@ pub enum Delivery {
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 20] = [
+    pub const ALL: [Delivery; 21] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -398,6 +407,7 @@ impl Delivery {
         Delivery::UboGeometry,
         Delivery::UboPassthroughGeometry,
         Delivery::UboTessellation,
+        Delivery::UboInterpolatingTessellation,
         Delivery::ShaderObjects,
         Delivery::Mesh,
         Delivery::MeshShaderObjects,
@@ -431,6 +441,7 @@ impl Delivery {
             Delivery::UboGeometry => "ubo-geometry",
             Delivery::UboPassthroughGeometry => "ubo-passthrough-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
+            Delivery::UboInterpolatingTessellation => "ubo-interpolating-tessellation",
             Delivery::ShaderObjects => "shader-objects",
             Delivery::Mesh => "mesh",
             Delivery::MeshShaderObjects => "mesh-shader-objects",
@@ -458,6 +469,7 @@ impl Delivery {
             Delivery::UboGeometry => Some(Program::UboGeometry),
             Delivery::UboPassthroughGeometry => Some(Program::UboPassthroughGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
+            Delivery::UboInterpolatingTessellation => Some(Program::UboInterpolatingTessellation),
             Delivery::ShaderObjects => Some(Program::ShaderObjects),
             Delivery::Mesh => Some(Program::Mesh),
             Delivery::MeshShaderObjects => Some(Program::MeshShaderObjects),
@@ -507,6 +519,7 @@ impl Program {
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
+            | Program::UboInterpolatingTessellation
             | Program::LinkedTessellationShaderObjects
             | Program::PassthroughGeometryShaderObjects => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
@@ -527,6 +540,17 @@ impl Program {
             }
             _ => ash::vk::ShaderStageFlags::VERTEX,
         }
+    }
+
+    /// Whether the program's pipelines tessellate (patches of three control points; needs
+    /// `tessellationShader`).
+    pub fn tessellates(self) -> bool {
+        matches!(
+            self,
+            Program::UboTessellation
+                | Program::UboInterpolatingTessellation
+                | Program::LinkedTessellationShaderObjects
+        )
     }
 
     /// Whether the program samples the shadow map (needs a [`Target::Shadow`] pass before it,
@@ -551,6 +575,7 @@ impl Program {
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
+            | Program::UboInterpolatingTessellation
             | Program::LinkedTessellationShaderObjects
             | Program::PassthroughGeometryShaderObjects => 0,
             Program::MvpPair => 128,
@@ -1369,10 +1394,7 @@ impl Plan {
                     | Program::PushGeometry
                     | Program::PassthroughGeometryShaderObjects
             );
-            needs.tessellation_shader |= matches!(
-                pipeline.program,
-                Program::UboTessellation | Program::LinkedTessellationShaderObjects
-            );
+            needs.tessellation_shader |= pipeline.program.tessellates();
             needs.shader_object |= pipeline.program.binds_shader_objects();
             needs.mesh_shader |=
                 matches!(pipeline.program, Program::Mesh | Program::MeshShaderObjects);

@@ -790,6 +790,7 @@ impl<'a> Renderer<'a> {
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
+            | Program::UboInterpolatingTessellation
             | Program::LinkedTessellationShaderObjects
             | Program::PassthroughGeometryShaderObjects => {
                 (self.matrix_layout, vk::ShaderStageFlags::empty())

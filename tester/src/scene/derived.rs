@@ -244,6 +244,7 @@ impl Scene {
             | Program::UboGeometry
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
+            | Program::UboInterpolatingTessellation
             | Program::LinkedTessellationShaderObjects
             | Program::PassthroughGeometryShaderObjects => Vec::new(),
         };

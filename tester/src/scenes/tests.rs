@@ -1534,7 +1534,9 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                         needs.tessellation_shader,
                         matches!(
                             delivery,
-                            Delivery::UboTessellation | Delivery::LinkedTessellationShaderObjects
+                            Delivery::UboTessellation
+                                | Delivery::UboInterpolatingTessellation
+                                | Delivery::LinkedTessellationShaderObjects
                         )
                     );
                     assert_eq!(

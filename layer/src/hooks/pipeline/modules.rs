@@ -358,6 +358,19 @@ pub unsafe extern "system" fn create_shader_module(
                 }
                 state.objects.vertex_modules.insert(module, analysis);
             }
+            if state.policy.rewrite().is_some()
+                && state
+                    .policy
+                    .carrier_later_stages
+                    .contains(vk::ShaderStageFlags::TESSELLATION_EVALUATION)
+                && crate::shader::scan::declares_tessellation_entry_point(words)
+            {
+                use crate::shader::tessellation_positions as tessellation;
+                // One answer per module: its entry points are of one stage, or it answers no.
+                let carries = tessellation::control_passes_positions_through(words)
+                    || tessellation::evaluation_interpolates_positions(words);
+                state.objects.position_passthrough.insert(module, carries);
+            }
         });
     }
     result

@@ -137,11 +137,12 @@ pub(super) fn projection_of(
     // SAFETY: `stageCount` stages (the application's contract).
     let stages = unsafe { slice(info.p_stages, info.stage_count) };
     // The stage whose Position is rasterized: the vertex stage, or a tessellation evaluation
-    // or geometry stage after it, or a mesh stage; the stage before a geometry stage that only
-    // passes its positions through.
+    // or geometry stage after it, or a mesh stage; the stage before stages that only carry
+    // its positions on.
     let flags: Vec<vk::ShaderStageFlags> = stages.iter().map(|s| s.stage).collect();
-    let last_stage =
-        vertex_stage::LastStage::rewritten(&flags, || geometry_passes_through(state, stages));
+    let last_stage = vertex_stage::LastStage::rewritten(&flags, |flag| {
+        stage_carries_positions_on(state, stages, flag)
+    });
     let vertex_index =
         last_stage.and_then(|last| stages.iter().position(|s| s.stage == last.flag()));
     let vertex = vertex_index.map(|index| &stages[index]);
@@ -565,23 +566,30 @@ pub(super) fn context(
     }
 }
 
-/// Whether a pipeline's geometry stage only passes `gl_in[i].gl_Position` through
-/// (`DeviceObjects::position_passthrough`, or its inline code scanned now).
-fn geometry_passes_through(
+/// Whether a pipeline's geometry or tessellation stage `flag` only carries the positions it
+/// receives on (`DeviceObjects::position_passthrough`, or its inline code scanned now): a
+/// geometry stage passing them through, a tessellation control stage copying them, an
+/// evaluation stage interpolating them.
+fn stage_carries_positions_on(
     state: &DeviceState,
     stages: &[vk::PipelineShaderStageCreateInfo<'_>],
+    flag: vk::ShaderStageFlags,
 ) -> bool {
-    let Some(geometry) = stages
-        .iter()
-        .find(|s| s.stage == vk::ShaderStageFlags::GEOMETRY)
-    else {
+    use crate::shader::tessellation_positions as tessellation;
+    let Some(stage) = stages.iter().find(|s| s.stage == flag) else {
         return false;
     };
-    module_fact(
-        geometry,
-        &state.objects.position_passthrough,
-        crate::shader::position_store::passes_position_through,
-    )
+    let scan: fn(&[u32]) -> bool = match flag {
+        vk::ShaderStageFlags::GEOMETRY => crate::shader::position_store::passes_position_through,
+        vk::ShaderStageFlags::TESSELLATION_CONTROL => {
+            tessellation::control_passes_positions_through
+        }
+        vk::ShaderStageFlags::TESSELLATION_EVALUATION => {
+            tessellation::evaluation_interpolates_positions
+        }
+        _ => return false,
+    };
+    module_fact(stage, &state.objects.position_passthrough, scan)
 }
 
 /// What `scan` answers of `stage`'s code: for a module, as it was recorded at the module's
