@@ -321,6 +321,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             mesh_shader: needs.mesh_shader,
             descriptor_buffer: needs.descriptor_buffer,
             maintenance6: needs.maintenance6,
+            dynamic_rendering_local_read: needs.dynamic_rendering_local_read,
             // Optional: a post pass pushes its descriptors where the device can.
             push_descriptor: needs.sampled_depth,
         },
@@ -391,6 +392,13 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     }
     if needs.maintenance6 && !gpu.supported.maintenance6 {
         bail!(lacks("maintenance6 (VK_KHR_maintenance6 on Vulkan 1.3)"));
+    }
+    if needs.dynamic_rendering_local_read && !gpu.supported.dynamic_rendering_local_read {
+        bail!(lacks(
+            "dynamicRenderingLocalRead (VK_KHR_dynamic_rendering_local_read on Vulkan 1.3: \
+             Mesa 25.0's lavapipe has it, 22.3's does not; `cargo xtask setup` extracts a \
+             newer lavapipe into target/lavapipe-backports)"
+        ));
     }
     if needs.descriptor_buffer && !gpu.supported.descriptor_buffer {
         bail!(lacks(

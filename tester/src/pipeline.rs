@@ -134,7 +134,7 @@ pub struct MainFormats {
     pub input_aspects: bool,
 }
 
-/// Creates the render pass of `pass` (not for [`PassKind::DynamicRendering`]).
+/// Creates the render pass of `pass` (not for the dynamic-rendering kinds).
 ///
 /// Main target: attachment 0 color, attachment 1 depth(-stencil); the stencil is cleared or
 /// loaded with the depth. Every attachment is stored and ends in its attachment layout (the
@@ -728,6 +728,10 @@ pub fn create_pipeline(
         Program::DepthTiles => (shaders::SCENE_VERT, Some(shaders::DEPTH_TILES_POST_FRAG)),
         Program::StencilPost => (shaders::SCENE_VERT, Some(shaders::STENCIL_POST_FRAG)),
         Program::DepthInput => (shaders::SCENE_VERT, Some(shaders::DEPTH_INPUT_FRAG)),
+        Program::DepthInputUndecorated => (
+            shaders::SCENE_VERT,
+            Some(shaders::DEPTH_INPUT_UNDECORATED_FRAG),
+        ),
         Program::DepthMipsPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_MIPS_POST_FRAG)),
         Program::DepthLayersPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_LAYERS_POST_FRAG)),
         Program::DepthPostMs => (shaders::SCENE_VERT, Some(shaders::DEPTH_POST_MS_FRAG)),
@@ -1036,8 +1040,20 @@ pub fn create_pipeline(
     if tessellates {
         info = info.tessellation_state(&tessellation);
     }
-    if target.pass.kind == PassKind::DynamicRendering {
+    // A local-read rendering that maps the depth to an input attachment index gives every
+    // pipeline made for it that mapping (the command buffer sets the same one: they must
+    // match at each draw); the color attachment maps to no input attachment.
+    let color_input_indices = [vk::ATTACHMENT_UNUSED];
+    let mut input_indices = vk::RenderingInputAttachmentIndexInfoKHR::default()
+        .color_attachment_input_indices(&color_input_indices)
+        .depth_input_attachment_index(&DEPTH_INPUT_ATTACHMENT_INDEX);
+    if target.pass.kind.is_dynamic_rendering() {
+        // A local-read rendering keeps its depth attachment throughout: the format is named
+        // for the pipelines that read it as an input attachment too.
         info = info.push_next(&mut rendering);
+        if target.pass.kind == (PassKind::DynamicRenderingLocalRead { indexed: true }) {
+            info = info.push_next(&mut input_indices);
+        }
     } else {
         info = info.render_pass(target.render_pass).subpass(spec.subpass);
     }
@@ -1046,6 +1062,11 @@ pub fn create_pipeline(
         libraries: Vec::new(),
     })
 }
+
+/// The input attachment index a [`PassKind::DynamicRenderingLocalRead`] rendering that maps
+/// its depth explicitly maps it to (in its pipelines and in
+/// `vkCmdSetRenderingInputAttachmentIndicesKHR`): `depth_input.frag`'s `input_attachment_index`.
+pub const DEPTH_INPUT_ATTACHMENT_INDEX: u32 = 0;
 
 /// The viewport covering `extent` with depth range [min_depth, max_depth].
 pub fn full_viewport(extent: vk::Extent2D, min_depth: f32, max_depth: f32) -> vk::Viewport {

@@ -167,6 +167,13 @@ macro_rules! spvasm_shader {
 /// copied into `Position` with `OpCopyMemory`; passes the color on.
 pub const SSBO_VKD3D_VERT: ShaderSource = spvasm_shader!("ssbo_vkd3d.vert");
 
+/// `depth_input_undecorated.frag.spvasm`: `depth_input.frag` as glslang compiles it, less its
+/// `InputAttachmentIndex` decoration (GLSL cannot leave it out): the input attachment that
+/// dynamic rendering local read's default mapping gives the depth attachment (no
+/// `VkRenderingInputAttachmentIndexInfo` in the pipeline), shaded as `depth_input.frag` shades.
+pub const DEPTH_INPUT_UNDECORATED_FRAG: ShaderSource =
+    spvasm_shader!("depth_input_undecorated.frag");
+
 /// `mesh.mesh` (glslang, SPIR-V 1.5 for Vulkan 1.2: `VK_EXT_mesh_shader`): `scene.vert`'s push
 /// constants and product in a mesh shader, each workgroup 32 triangles of the draw fetched
 /// from the scene's index and position arrays in storage buffers (the `mesh` delivery).
@@ -355,7 +362,13 @@ mod tests {
     }
 
     /// The modules written as SPIR-V assembly (`shaders/spvasm/`), committed assembled.
-    const SPVASM: [(&str, ShaderSource); 1] = [("ssbo_vkd3d.vert.spvasm", SSBO_VKD3D_VERT)];
+    const SPVASM: [(&str, ShaderSource); 2] = [
+        ("ssbo_vkd3d.vert.spvasm", SSBO_VKD3D_VERT),
+        (
+            "depth_input_undecorated.frag.spvasm",
+            DEPTH_INPUT_UNDECORATED_FRAG,
+        ),
+    ];
 
     #[test]
     fn spvasm_outputs_are_current() {

@@ -48,13 +48,16 @@ const STRESS: [&str; 7] = [
 
 /// The scenes whose colors are shaded from the depth their shaders sample (`depth-reads`:
 /// soft particles' fades, a band of view distances).
-const SHADED_FROM_DEPTH: [&str; 10] = [
+const SHADED_FROM_DEPTH: [&str; 13] = [
     "depth-reads",
     "deferred-depth",
     "deferred-depth-tested",
     "deferred-depth-library",
     "deferred-depth-tested-library",
     "deferred-depth-secondaries",
+    "deferred-depth-local-read",
+    "deferred-depth-local-read-indexed",
+    "deferred-depth-local-read-tested",
     "depth-reads-msaa",
     "depth-mips",
     "depth-layers",

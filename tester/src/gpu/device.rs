@@ -153,6 +153,14 @@ pub(super) fn supported_features(
                 && instance.features2(physical_device, &mut features2)
                 && maintenance.maintenance6 == vk::TRUE
         },
+        dynamic_rendering_local_read: vulkan_1_3 && dynamic_rendering && {
+            let mut local_read = vk::PhysicalDeviceDynamicRenderingLocalReadFeaturesKHR::default();
+            let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut local_read);
+            // Chained only where the device has the extension.
+            has(ash::khr::dynamic_rendering_local_read::NAME)
+                && instance.features2(physical_device, &mut features2)
+                && local_read.dynamic_rendering_local_read == vk::TRUE
+        },
     }
 }
 
@@ -167,6 +175,14 @@ fn newer_extensions(features: &Features) -> Vec<(&'static str, u32)> {
         (
             features.maintenance6,
             ("VK_KHR_maintenance6", vk::make_api_version(0, 1, 3, 280)),
+        ),
+        // Released with the Vulkan 1.3.276 headers (January 2024).
+        (
+            features.dynamic_rendering_local_read,
+            (
+                "VK_KHR_dynamic_rendering_local_read",
+                vk::make_api_version(0, 1, 3, 276),
+            ),
         ),
     ]
     .into_iter()
@@ -250,8 +266,9 @@ impl Gpu {
         let supported =
             supported_features(&instance, physical_device, info.api_version, vulkan_1_3);
         let mut enabled = options.features.and(supported);
-        // Shader objects need dynamic rendering enabled (VK_EXT_shader_object's dependency).
-        enabled.dynamic_rendering |= enabled.shader_object;
+        // Shader objects and local reads need dynamic rendering enabled (their extensions'
+        // dependency).
+        enabled.dynamic_rendering |= enabled.shader_object || enabled.dynamic_rendering_local_read;
 
         let priorities = [1.0f32];
         let queue_infos = [vk::DeviceQueueCreateInfo::default()
@@ -331,6 +348,11 @@ impl Gpu {
         }
         let mut maintenance6 =
             vk::PhysicalDeviceMaintenance6FeaturesKHR::default().maintenance6(true);
+        if enabled.dynamic_rendering_local_read {
+            extensions.push(ash::khr::dynamic_rendering_local_read::NAME.as_ptr());
+        }
+        let mut local_read = vk::PhysicalDeviceDynamicRenderingLocalReadFeaturesKHR::default()
+            .dynamic_rendering_local_read(true);
         let mut device_create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_features(&core_features)
@@ -370,6 +392,9 @@ impl Gpu {
         }
         if enabled.maintenance6 {
             device_create_info = device_create_info.push_next(&mut maintenance6);
+        }
+        if enabled.dynamic_rendering_local_read {
+            device_create_info = device_create_info.push_next(&mut local_read);
         }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {
@@ -421,8 +446,12 @@ impl Gpu {
         let maintenance6 = enabled
             .maintenance6
             .then(|| ash::khr::maintenance6::Device::new(&instance.instance, &device));
+        let dynamic_rendering_local_read = enabled.dynamic_rendering_local_read.then(|| {
+            ash::khr::dynamic_rendering_local_read::Device::new(&instance.instance, &device)
+        });
         Ok(Gpu {
             maintenance6,
+            dynamic_rendering_local_read,
             descriptor_buffer,
             shader_object,
             mesh_shader,

@@ -198,6 +198,12 @@ pub struct Features {
     /// `VK_KHR_maintenance6`'s `maintenance6` (Vulkan 1.3 only): the bind commands taking an
     /// info (`vkCmdBindDescriptorSets2KHR`, `vkCmdSetDescriptorBufferOffsets2EXT`).
     pub maintenance6: bool,
+    /// `VK_KHR_dynamic_rendering_local_read`'s `dynamicRenderingLocalRead` (Vulkan 1.3 only:
+    /// the tester enables it with `dynamicRendering`, which the extension requires; core in
+    /// 1.4, which the tester does not ask for): input attachments, by-region barriers and the
+    /// `RENDERING_LOCAL_READ_KHR` layout inside `vkCmdBeginRendering`
+    /// ([`crate::plan::PassKind::DynamicRenderingLocalRead`]).
+    pub dynamic_rendering_local_read: bool,
 }
 
 impl Features {
@@ -227,6 +233,10 @@ impl Features {
             (self.mesh_shader, "meshShader"),
             (self.descriptor_buffer, "descriptorBuffer"),
             (self.maintenance6, "maintenance6"),
+            (
+                self.dynamic_rendering_local_read,
+                "dynamicRenderingLocalRead",
+            ),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -257,6 +267,8 @@ impl Features {
             mesh_shader: self.mesh_shader && other.mesh_shader,
             descriptor_buffer: self.descriptor_buffer && other.descriptor_buffer,
             maintenance6: self.maintenance6 && other.maintenance6,
+            dynamic_rendering_local_read: self.dynamic_rendering_local_read
+                && other.dynamic_rendering_local_read,
         }
     }
 }
@@ -311,6 +323,9 @@ pub struct Gpu {
     )>,
     /// `VK_KHR_maintenance6`'s commands, where `enabled.maintenance6`.
     pub maintenance6: Option<ash::khr::maintenance6::Device>,
+    /// `VK_KHR_dynamic_rendering_local_read`'s commands, where
+    /// `enabled.dynamic_rendering_local_read`.
+    pub dynamic_rendering_local_read: Option<ash::khr::dynamic_rendering_local_read::Device>,
     memory_properties: vk::PhysicalDeviceMemoryProperties,
     // Dropped after `Drop::drop` has destroyed the device.
     instance: InstanceCtx,
@@ -478,6 +493,7 @@ mod tests {
             mesh_shader: true,
             descriptor_buffer: true,
             maintenance6: true,
+            dynamic_rendering_local_read: true,
         };
         assert_eq!(
             all.names(),
@@ -498,7 +514,8 @@ mod tests {
                 "shaderObject",
                 "meshShader",
                 "descriptorBuffer",
-                "maintenance6"
+                "maintenance6",
+                "dynamicRenderingLocalRead"
             ]
         );
         let some = Features {

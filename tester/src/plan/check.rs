@@ -64,11 +64,21 @@ impl Plan {
                 ),
                 _ => {}
             }
+            // The input-attachment program the pass maps the depth to, where the pipeline's
+            // subpass reads it.
+            let input_program = pass
+                .kind
+                .depth_input_program()
+                .filter(|_| pass.reads_depth_input(pipeline.subpass));
             ensure!(
-                (pipeline.program == Program::DepthInput)
-                    == pass.reads_depth_input(pipeline.subpass),
-                "pipeline {name}: the depth-input program is for subpass 1 of a pass that \
-                 reads the depth as an input attachment, and that subpass draws with it alone"
+                match input_program {
+                    Some(program) => pipeline.program == program,
+                    None => !pipeline.program.reads_depth_input(),
+                },
+                "pipeline {name}: a depth-input program is for subpass 1 of a pass that reads \
+                 the depth as an input attachment (the decorated one where the depth is mapped \
+                 to index 0, the undecorated one where a rendering keeps the default mapping), \
+                 and that subpass draws with it alone"
             );
             if pass.reads_depth_input(pipeline.subpass) {
                 ensure!(
@@ -107,7 +117,7 @@ impl Plan {
                  buffer deliveries in one plan"
             );
             ensure!(
-                !pipeline.libraries || pass.kind != PassKind::DynamicRendering,
+                !pipeline.libraries || !pass.kind.is_dynamic_rendering(),
                 "pipeline {name}: library pipelines are built for render passes only (their \
                  libraries are given the render pass and subpass)"
             );
@@ -176,6 +186,19 @@ impl Plan {
             "a shadow pass in a scene without a light"
         );
 
+        // One input-attachment descriptor, written for one layout: the render pass's
+        // read-only one, or the local-read rendering's.
+        ensure!(
+            self.passes
+                .iter()
+                .filter(|p| p.kind.reads_depth_input())
+                .map(|p| p.kind.reads_locally())
+                .collect::<std::collections::BTreeSet<_>>()
+                .len()
+                <= 1,
+            "the depth is read as an input attachment both in a render pass and in a dynamic \
+             rendering (one descriptor, written for one layout)"
+        );
         for (n, pass) in self.passes.iter().enumerate() {
             ensure!(
                 !pass.kind.reads_depth_input()
@@ -358,6 +381,7 @@ impl Plan {
                         subpass + 1 < self.passes[n].kind.subpass_count(),
                         "step {index}: no next subpass"
                     );
+                    // A local-read rendering's "next subpass" is its by-region barrier.
                     ensure!(
                         self.passes[n].kind != PassKind::DynamicRendering,
                         "step {index}: dynamic rendering has no subpasses"
@@ -380,7 +404,7 @@ impl Plan {
                 Step::ExecuteSecondaries(lists, _) => {
                     let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
                     ensure!(
-                        self.passes[n].kind != PassKind::DynamicRendering,
+                        !self.passes[n].kind.is_dynamic_rendering(),
                         "step {index}: secondaries are only recorded inside render passes"
                     );
                     ensure!(

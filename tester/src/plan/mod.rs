@@ -298,9 +298,17 @@ pub enum Program {
     /// [`Target::Post`] pass (needs a depth format with stencil).
     StencilPost,
     /// `scene.vert` + `depth_input.frag` (glslang): the fragments drawn shaded by the main
-    /// depth's view distance, read as an input attachment (`subpassLoad`) in subpass 1 of a
-    /// [`PassKind::DepthInputSubpasses`] pass, where subpass 0 wrote it.
+    /// depth's view distance, read as an input attachment (`subpassLoad`, its variable
+    /// decorated `InputAttachmentIndex` 0) in subpass 1 of a [`PassKind::DepthInputSubpasses`]
+    /// pass, where subpass 0 wrote it, or after the by-region barrier of a
+    /// [`PassKind::DynamicRenderingLocalRead`] rendering that maps the depth to index 0.
     DepthInput,
+    /// `scene.vert` + `depth_input_undecorated.frag` (SPIR-V assembly: `depth_input.frag` less
+    /// its `InputAttachmentIndex` decoration, which GLSL cannot leave out): the shading of
+    /// [`Program::DepthInput`], the depth reaching the undecorated input attachment through
+    /// dynamic rendering local read's default mapping, after the by-region barrier of a
+    /// [`PassKind::DynamicRenderingLocalRead`] rendering that sets no mapping.
+    DepthInputUndecorated,
     /// `scene.vert` + `depth_mips_post.frag` (glslang): the bottom quarter of the image shaded
     /// by the view distance of mip level 1 of the main depth, the top quarter by that of level
     /// 2 (texel fetches through a view of the whole mip chain, which [`Step::BlitDepthLevel`]s
@@ -553,6 +561,12 @@ impl Program {
         )
     }
 
+    /// Whether the program reads the main depth as an input attachment (the input-attachment
+    /// bindings: [`Program::DepthInput`], [`Program::DepthInputUndecorated`]).
+    pub fn reads_depth_input(self) -> bool {
+        matches!(self, Program::DepthInput | Program::DepthInputUndecorated)
+    }
+
     /// Whether the program samples the shadow map (needs a [`Target::Shadow`] pass before it,
     /// and the shadow bindings).
     pub fn receives_shadow(self) -> bool {
@@ -599,6 +613,7 @@ impl Program {
             | Program::DepthTiles
             | Program::StencilPost
             | Program::DepthInput
+            | Program::DepthInputUndecorated
             | Program::DepthMipsPost
             | Program::DepthLayersPost
             | Program::DepthPostMs => 80,
@@ -744,20 +759,78 @@ pub enum PassKind {
     },
     /// `vkCmdBeginRendering` (Vulkan 1.3 `dynamicRendering`).
     DynamicRendering,
+    /// `vkCmdBeginRendering` (main target) that reads the depth it writes as an input
+    /// attachment within the same rendering, as deferred renderers on dynamic rendering do
+    /// (`VK_KHR_dynamic_rendering_local_read`, core in Vulkan 1.4): the twin of
+    /// [`PassKind::DepthInputSubpasses`], whose two subpasses it keeps as two phases of the
+    /// one rendering. "Subpass 0" draws into the color and the depth attachment;
+    /// [`Step::NextSubpass`] records, inside the rendering, the by-region barrier local reads
+    /// need (`vkCmdPipelineBarrier` with `VK_DEPENDENCY_BY_REGION_BIT`, a memory barrier from
+    /// the depth and color attachment writes to input attachment reads, depth tests and color
+    /// writes); "subpass 1" draws with pipelines that read the depth as an input attachment
+    /// ([`PassKind::depth_input_program`]). The depth stays attached throughout (a
+    /// rendering's attachments do not change: subpass 1's pipelines test it or not, never
+    /// write it), and the main depth image is in `RENDERING_LOCAL_READ_KHR` for the whole
+    /// rendering: the barrier before `vkCmdBeginRendering` puts it there, one after
+    /// `vkCmdEndRendering` puts it back into its attachment layout. The main depth image gets
+    /// INPUT_ATTACHMENT usage.
+    DynamicRenderingLocalRead {
+        /// The depth is mapped to input attachment index 0 explicitly: every pipeline made for
+        /// the pass chains `VkRenderingInputAttachmentIndexInfoKHR` (`pDepthInputAttachmentIndex`
+        /// pointing to 0, the color attachment `VK_ATTACHMENT_UNUSED`), and the command buffer
+        /// sets the same mapping with `vkCmdSetRenderingInputAttachmentIndicesKHR` right after
+        /// `vkCmdBeginRendering` (the two must match at each draw). `false`: neither, the
+        /// default mapping, in which the depth attachment maps to the input attachment
+        /// variable without an `InputAttachmentIndex` decoration.
+        indexed: bool,
+    },
 }
 
 impl PassKind {
     /// Number of subpasses.
     pub fn subpass_count(self) -> u32 {
         match self {
-            PassKind::DepthPrepassSubpasses | PassKind::DepthInputSubpasses { .. } => 2,
+            PassKind::DepthPrepassSubpasses
+            | PassKind::DepthInputSubpasses { .. }
+            | PassKind::DynamicRenderingLocalRead { .. } => 2,
             PassKind::RenderPass | PassKind::DynamicRendering => 1,
         }
     }
 
     /// Whether the pass reads the main depth as an input attachment in its subpass 1.
     pub fn reads_depth_input(self) -> bool {
-        matches!(self, PassKind::DepthInputSubpasses { .. })
+        self.depth_input_program().is_some()
+    }
+
+    /// The program that reads the depth as an input attachment in subpass 1 of the pass: the
+    /// one whose input attachment variable the depth is mapped to (decorated with index 0 in
+    /// a render pass and where a local-read rendering maps the depth to 0, undecorated where
+    /// it keeps the default mapping); `None` where the pass reads no input attachment.
+    pub fn depth_input_program(self) -> Option<Program> {
+        match self {
+            PassKind::DepthInputSubpasses { .. }
+            | PassKind::DynamicRenderingLocalRead { indexed: true } => Some(Program::DepthInput),
+            PassKind::DynamicRenderingLocalRead { indexed: false } => {
+                Some(Program::DepthInputUndecorated)
+            }
+            PassKind::RenderPass | PassKind::DepthPrepassSubpasses | PassKind::DynamicRendering => {
+                None
+            }
+        }
+    }
+
+    /// Whether the pass is begun with `vkCmdBeginRendering` (no render pass object).
+    pub fn is_dynamic_rendering(self) -> bool {
+        matches!(
+            self,
+            PassKind::DynamicRendering | PassKind::DynamicRenderingLocalRead { .. }
+        )
+    }
+
+    /// Whether the pass reads the depth it writes in the same dynamic rendering
+    /// (`VK_KHR_dynamic_rendering_local_read`).
+    pub fn reads_locally(self) -> bool {
+        matches!(self, PassKind::DynamicRenderingLocalRead { .. })
     }
 }
 
@@ -889,7 +962,9 @@ pub enum Step {
     },
     /// Begins pass `n`.
     BeginPass(usize),
-    /// `vkCmdNextSubpass`.
+    /// `vkCmdNextSubpass`; in a [`PassKind::DynamicRenderingLocalRead`] rendering, which has
+    /// no subpasses, the by-region barrier that makes what was drawn before it readable as an
+    /// input attachment after it (its "subpass 1").
     NextSubpass,
     /// Ends the current pass.
     EndPass,
@@ -1082,7 +1157,8 @@ pub struct Needs {
     /// The main depth image is sampled ([`Target::SoftParticles`], [`Target::Post`]).
     pub sampled_depth: bool,
     /// The main depth image is read as an input attachment
-    /// ([`PassKind::DepthInputSubpasses`]): INPUT_ATTACHMENT usage and a depth-aspect view.
+    /// ([`PassKind::DepthInputSubpasses`], [`PassKind::DynamicRenderingLocalRead`]):
+    /// INPUT_ATTACHMENT usage and a depth-aspect view.
     pub input_depth: bool,
     /// A compute pass builds depth tiles ([`Step::BuildDepthTiles`]).
     pub depth_tiles: bool,
@@ -1092,6 +1168,10 @@ pub struct Needs {
     /// `VK_KHR_maintenance6` (the depth pyramid's descriptors bound with a `2` command:
     /// [`TileDescriptors::Sets2`], [`TileDescriptors::Buffer2`]).
     pub maintenance6: bool,
+    /// `VK_KHR_dynamic_rendering_local_read`'s `dynamicRenderingLocalRead` (a
+    /// [`PassKind::DynamicRenderingLocalRead`] pass: input attachments, a barrier and the
+    /// `RENDERING_LOCAL_READ_KHR` layout inside `vkCmdBeginRendering`).
+    pub dynamic_rendering_local_read: bool,
     /// How [`Step::BindDepthTiles`] binds the depth pyramid's compute descriptors (`None`:
     /// no such step; its dispatches bind a descriptor set).
     pub tile_descriptors: Option<TileDescriptors>,
@@ -1372,9 +1452,10 @@ impl Plan {
                 slices.levels = slices.levels.max(level + 1);
                 slices.layers = slices.layers.max(layer + 1);
             }
-            if pass.kind == PassKind::DynamicRendering {
+            if pass.kind.is_dynamic_rendering() {
                 needs.dynamic_rendering = true;
             }
+            needs.dynamic_rendering_local_read |= pass.kind.reads_locally();
             if let DepthLoad::Clear(depth) = pass.depth {
                 needs.depth_range_unrestricted |= !(0.0..=1.0).contains(&depth);
             }
@@ -1803,6 +1884,61 @@ mod tests {
         assert!(plan.check(1, false).is_err());
         plan.pipelines[0].libraries = false;
         plan.check(1, false).unwrap();
+    }
+
+    #[test]
+    fn a_local_read_rendering_reads_its_depth_after_its_barrier() {
+        // The overlap plan, then a band reading the depth after the by-region barrier.
+        let mut plan = Plan::single_pass(2);
+        plan.passes[0].kind = PassKind::DynamicRenderingLocalRead { indexed: false };
+        plan.pipelines.push(PipelineSpec {
+            subpass: 1,
+            program: Program::DepthInputUndecorated,
+            depth_test: DepthTest::Off,
+            depth_write: false,
+            ..PipelineSpec::standard("band", 0)
+        });
+        let end = plan.steps.len() - 1;
+        plan.steps
+            .splice(end..end, [Step::NextSubpass, Step::Bind(1), Step::Draw(1)]);
+        plan.check(2, false).unwrap();
+        assert_eq!(
+            plan.needs(),
+            Needs {
+                dynamic_rendering: true,
+                dynamic_rendering_local_read: true,
+                input_depth: true,
+                ..Needs::default()
+            }
+        );
+        // Before the barrier, no input attachment is readable.
+        let mut early = plan.clone();
+        early.pipelines[1].subpass = 0;
+        assert!(early.check(2, false).is_err());
+        // Plain dynamic rendering has no barrier step, nor input attachments.
+        let mut plain = plan.clone();
+        plain.passes[0].kind = PassKind::DynamicRendering;
+        assert!(plain.check(2, false).is_err());
+        // The explicit mapping reads the decorated variable.
+        let mut indexed = plan.clone();
+        indexed.passes[0].kind = PassKind::DynamicRenderingLocalRead { indexed: true };
+        assert!(indexed.check(2, false).is_err());
+        indexed.pipelines[1].program = Program::DepthInput;
+        indexed.check(2, false).unwrap();
+        // No secondaries inside a rendering.
+        let mut secondaries = plan.clone();
+        secondaries.steps.splice(
+            1..4,
+            [Step::ExecuteSecondaries(
+                vec![vec![Step::Bind(0), Step::Draw(0), Step::Draw(1)]],
+                Recording::MainThread,
+            )],
+        );
+        let error = secondaries.check(2, false).unwrap_err();
+        assert!(
+            error.0.contains("only recorded inside render passes"),
+            "{error}"
+        );
     }
 
     #[test]

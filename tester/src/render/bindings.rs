@@ -537,10 +537,16 @@ impl Renderer<'_> {
 
 impl Renderer<'_> {
     /// Creates the input-attachment bindings ([`InputBindings`]: one `INPUT_ATTACHMENT`
-    /// descriptor for the fragment stage, the main depth's depth-aspect view in
-    /// `DEPTH_STENCIL_READ_ONLY_OPTIMAL`) and the layout of [`Program::DepthInput`] pipelines
-    /// (the set, and the 80-byte push constants).
-    pub(super) fn create_input_bindings(&mut self, targets: &Targets<'_>) -> Result<()> {
+    /// descriptor for the fragment stage, the main depth's depth-aspect view in `layout`, the
+    /// one its passes read it in: `DEPTH_STENCIL_READ_ONLY_OPTIMAL` in a render pass,
+    /// `RENDERING_LOCAL_READ_KHR` in a local-read rendering) and the layout of
+    /// [`Program::DepthInput`] and [`Program::DepthInputUndecorated`] pipelines (the set, and
+    /// the 80-byte push constants).
+    pub(super) fn create_input_bindings(
+        &mut self,
+        targets: &Targets<'_>,
+        layout: vk::ImageLayout,
+    ) -> Result<()> {
         let device = self.device;
         let view = targets.depth.depth_view;
         if view == vk::ImageView::null() {
@@ -566,7 +572,7 @@ impl Renderer<'_> {
         let image_info = [vk::DescriptorImageInfo {
             sampler: vk::Sampler::null(),
             image_view: view,
-            image_layout: vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+            image_layout: layout,
         }];
         let writes = [vk::WriteDescriptorSet::default()
             .dst_set(input.set)

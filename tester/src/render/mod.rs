@@ -109,9 +109,10 @@ struct MultisampledReadBindings {
     sampler: vk::Sampler,
 }
 
-/// What [`Program::DepthInput`] binds: the main depth's depth-aspect view as an input
-/// attachment in `DEPTH_STENCIL_READ_ONLY_OPTIMAL`, in one set written with
-/// `vkUpdateDescriptorSets`.
+/// What [`Program::DepthInput`] and [`Program::DepthInputUndecorated`] bind: the main depth's
+/// depth-aspect view as an input attachment in the layout its passes read it in
+/// (`DEPTH_STENCIL_READ_ONLY_OPTIMAL` in a render pass, `RENDERING_LOCAL_READ_KHR` in a
+/// local-read rendering), in one set written with `vkUpdateDescriptorSets`.
 struct InputBindings {
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
@@ -220,7 +221,8 @@ pub struct Renderer<'a> {
     /// has `VK_KHR_push_descriptor`; null otherwise).
     depth_push_layout: vk::PipelineLayout,
     depth_read: Option<DepthReadBindings>,
-    /// Push constants and the input-attachment set ([`Program::DepthInput`]; null without it).
+    /// Push constants and the input-attachment set ([`Program::DepthInput`],
+    /// [`Program::DepthInputUndecorated`]; null without it).
     input_layout: vk::PipelineLayout,
     depth_input: Option<InputBindings>,
     /// Push constants and the multisampled depth's set ([`Program::DepthPostMs`]; null without
@@ -537,7 +539,7 @@ impl<'a> Renderer<'a> {
             input_aspects: gpu.api_version() >= vk::API_VERSION_1_1,
         };
         for pass in &plan.passes {
-            if pass.kind == PassKind::DynamicRendering {
+            if pass.kind.is_dynamic_rendering() {
                 this.render_passes.push(vk::RenderPass::null());
                 this.framebuffers.push(vk::Framebuffer::null());
                 continue;
@@ -651,7 +653,13 @@ impl<'a> Renderer<'a> {
             this.create_tile_bindings(gpu, targets, needs.tile_descriptors)?;
         }
         if needs.input_depth {
-            this.create_input_bindings(targets)?;
+            // One layout for every pass reading it (plan check).
+            let layout = if needs.dynamic_rendering_local_read {
+                vk::ImageLayout::RENDERING_LOCAL_READ_KHR
+            } else {
+                vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+            };
+            this.create_input_bindings(targets, layout)?;
         }
         if plan
             .pipelines
@@ -822,7 +830,9 @@ impl<'a> Renderer<'a> {
             | Program::DepthMipsPost
             | Program::DepthLayersPost => (self.depth_read_layout, PLAIN_PUSH_STAGES),
             Program::DepthTiles => (self.tiles_layout, PLAIN_PUSH_STAGES),
-            Program::DepthInput => (self.input_layout, PLAIN_PUSH_STAGES),
+            Program::DepthInput | Program::DepthInputUndecorated => {
+                (self.input_layout, PLAIN_PUSH_STAGES)
+            }
             Program::DepthPostMs => (self.multisampled_read_layout, PLAIN_PUSH_STAGES),
         }
     }

@@ -79,8 +79,16 @@ impl Recorder<'_> {
                 Step::BeginPass(n) => self.begin_pass(cmd, *n, contents)?,
                 Step::NextSubpass => {
                     self.subpass += 1;
-                    // SAFETY: `cmd` is inside a render pass with another subpass (plan check).
-                    unsafe { self.device().cmd_next_subpass(cmd, contents) };
+                    let locally = self
+                        .pass
+                        .is_some_and(|n| self.plan.passes[n].kind.reads_locally());
+                    if locally {
+                        self.local_read_barrier(cmd);
+                    } else {
+                        // SAFETY: `cmd` is inside a render pass with another subpass (plan
+                        // check).
+                        unsafe { self.device().cmd_next_subpass(cmd, contents) };
+                    }
                 }
                 Step::EndPass => self.end_pass(cmd),
                 Step::Bind(n) => self.bind(cmd, *n),
@@ -590,7 +598,7 @@ impl Recorder<'_> {
                 float32: CLEAR_COLOR,
             },
         };
-        if pass.kind == PassKind::DynamicRendering {
+        if pass.kind.is_dynamic_rendering() {
             return self.begin_rendering(cmd, n, color_clear, depth_clear);
         }
         let clear_values = match (pass.target, pass.multisample) {
@@ -623,7 +631,12 @@ impl Recorder<'_> {
     /// in their attachment layouts (from nothing when cleared, keeping them when loaded) and
     /// orders earlier attachment writes before this rendering's load ops. A multisampled pass
     /// renders into the multisampled attachments (from nothing: they are transient) and
-    /// resolves them into the main images, whose previous contents do not matter either.
+    /// resolves them into the main images, whose previous contents do not matter either. A
+    /// local-read rendering ([`PassKind::DynamicRenderingLocalRead`]) has the depth in
+    /// `RENDERING_LOCAL_READ_KHR` instead (the barrier puts it there, [`Self::end_pass`] back)
+    /// and, where it maps the depth to an input attachment index, sets that mapping with
+    /// `vkCmdSetRenderingInputAttachmentIndicesKHR` right after `vkCmdBeginRendering`, as its
+    /// pipelines have it.
     fn begin_rendering(
         &self,
         cmd: vk::CommandBuffer,
@@ -643,7 +656,13 @@ impl Recorder<'_> {
         };
         let color_load = map_color_load(pass.load_color);
         let color_layout = vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL;
-        let depth_layout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+        // The main depth's layout between passes, and in this rendering.
+        let attachment_layout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+        let depth_layout = if pass.kind.reads_locally() {
+            vk::ImageLayout::RENDERING_LOCAL_READ_KHR
+        } else {
+            attachment_layout
+        };
         let old = |load, layout| {
             if load == vk::AttachmentLoadOp::LOAD {
                 layout
@@ -687,7 +706,7 @@ impl Recorder<'_> {
                 } else {
                     depth_access
                 },
-                old(depth_load, depth_layout),
+                old(depth_load, attachment_layout),
                 depth_layout,
             ),
         ];
@@ -706,7 +725,7 @@ impl Recorder<'_> {
                 vk::AccessFlags::empty(),
                 depth_access,
                 vk::ImageLayout::UNDEFINED,
-                depth_layout,
+                attachment_layout,
             ));
         }
         let stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
@@ -800,19 +819,104 @@ impl Recorder<'_> {
             );
             self.renderer.gpu.cmd_begin_rendering(cmd, &info);
         }
+        if pass.kind == (PassKind::DynamicRenderingLocalRead { indexed: true }) {
+            let local_read = self
+                .renderer
+                .gpu
+                .dynamic_rendering_local_read
+                .as_ref()
+                .ok_or_else(|| anyhow!("VK_KHR_dynamic_rendering_local_read is not enabled"))?;
+            let color_indices = [vk::ATTACHMENT_UNUSED];
+            let indices = vk::RenderingInputAttachmentIndexInfoKHR::default()
+                .color_attachment_input_indices(&color_indices)
+                .depth_input_attachment_index(&crate::pipeline::DEPTH_INPUT_ATTACHMENT_INDEX);
+            // SAFETY: `cmd` is inside the rendering just begun, with one color attachment; the
+            // extension is enabled (checked above).
+            unsafe { local_read.cmd_set_rendering_input_attachment_indices(cmd, &indices) };
+        }
         Ok(())
+    }
+
+    /// The by-region barrier a local-read rendering records between the draws that write its
+    /// attachments and those that read the depth as an input attachment (its
+    /// [`Step::NextSubpass`]), as a render pass's subpass dependency orders them in
+    /// [`PassKind::DepthInputSubpasses`]: a memory barrier (no image barrier: nothing changes
+    /// layout inside a rendering) from the depth and color attachment writes to the input
+    /// attachment reads, the depth tests and the color reads and writes of the same pixels.
+    fn local_read_barrier(&self, cmd: vk::CommandBuffer) {
+        let depth_stages = vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+            | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+        let barrier = vk::MemoryBarrier::default()
+            .src_access_mask(
+                vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE
+                    | vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+            )
+            .dst_access_mask(
+                vk::AccessFlags::INPUT_ATTACHMENT_READ
+                    | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+                    | vk::AccessFlags::COLOR_ATTACHMENT_READ
+                    | vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+            );
+        // SAFETY: `cmd` is inside a local-read rendering (plan check), on a device with
+        // dynamicRenderingLocalRead enabled (checked before rendering); BY_REGION, framebuffer
+        // stages and a memory barrier alone, as barriers inside a rendering must be.
+        unsafe {
+            self.device().cmd_pipeline_barrier(
+                cmd,
+                depth_stages | vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+                vk::PipelineStageFlags::FRAGMENT_SHADER
+                    | depth_stages
+                    | vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+                vk::DependencyFlags::BY_REGION,
+                &[barrier],
+                &[],
+                &[],
+            )
+        };
     }
 
     fn end_pass(&mut self, cmd: vk::CommandBuffer) {
         let Some(n) = self.pass.take() else { return };
         self.pipeline = None;
+        let kind = self.plan.passes[n].kind;
         // SAFETY: `cmd` is inside the pass begun by the matching BeginPass.
         unsafe {
-            if self.plan.passes[n].kind == PassKind::DynamicRendering {
+            if kind.is_dynamic_rendering() {
                 self.renderer.gpu.cmd_end_rendering(cmd);
             } else {
                 self.device().cmd_end_render_pass(cmd);
             }
+        }
+        if kind.reads_locally() {
+            // The depth back from RENDERING_LOCAL_READ_KHR into its attachment layout, after
+            // the rendering's tests, reads and store, before the next pass's tests and the
+            // read-back's copy.
+            let depth_stages = vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+                | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+            let depth_access = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+                | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
+            let barrier = vk::ImageMemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)
+                .dst_access_mask(depth_access | vk::AccessFlags::TRANSFER_READ)
+                .old_layout(vk::ImageLayout::RENDERING_LOCAL_READ_KHR)
+                .new_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(self.targets.depth.image)
+                .subresource_range(full_range(self.targets.depth_format.aspects()));
+            // SAFETY: `cmd` is a recording primary just outside the rendering, which left the
+            // whole main depth image in RENDERING_LOCAL_READ_KHR.
+            unsafe {
+                self.device().cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::FRAGMENT_SHADER | depth_stages,
+                    depth_stages | vk::PipelineStageFlags::TRANSFER,
+                    vk::DependencyFlags::empty(),
+                    &[],
+                    &[],
+                    &[barrier],
+                )
+            };
         }
     }
 
@@ -876,7 +980,9 @@ impl Recorder<'_> {
                 | Program::DepthMipsPost
                 | Program::DepthLayersPost => renderer.depth_read.as_ref().map(|r| r.sampled_set),
                 Program::DepthTiles => renderer.depth_tiles.as_ref().map(|t| t.set),
-                Program::DepthInput => renderer.depth_input.as_ref().map(|i| i.set),
+                Program::DepthInput | Program::DepthInputUndecorated => {
+                    renderer.depth_input.as_ref().map(|i| i.set)
+                }
                 Program::DepthPostMs => renderer.multisampled_read.as_ref().map(|r| r.set),
                 Program::Mesh => renderer.mesh.as_ref().map(|m| m.set),
                 // The storage buffer holds every object, indexed by the instance index; the

@@ -216,6 +216,7 @@ impl Scene {
             | Program::DepthTiles
             | Program::StencilPost
             | Program::DepthInput
+            | Program::DepthInputUndecorated
             | Program::DepthMipsPost
             | Program::DepthLayersPost
             | Program::DepthPostMs => {

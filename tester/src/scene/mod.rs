@@ -102,6 +102,16 @@ pub enum SceneId {
     /// `deferred-depth` with subpass 0's draws recorded into two secondaries on two threads,
     /// the second inheriting the render pass and subpass without the framebuffer.
     DeferredDepthSecondaries,
+    /// `deferred-depth` in one dynamic rendering: its depth read back as an input attachment
+    /// in the same rendering after a by-region barrier (`VK_KHR_dynamic_rendering_local_read`),
+    /// through the default mapping (an input attachment without `InputAttachmentIndex`).
+    DeferredDepthLocalRead,
+    /// `deferred-depth-local-read` with the depth mapped to input attachment index 0 in the
+    /// pipelines and on the command buffer (`vkCmdSetRenderingInputAttachmentIndicesKHR`).
+    DeferredDepthLocalReadIndexed,
+    /// `deferred-depth-tested` in one local-read dynamic rendering, as
+    /// `deferred-depth-local-read` renders `deferred-depth`.
+    DeferredDepthLocalReadTested,
     /// The overlap scene into mip level 0 of a depth image of 3 levels, levels 1 and 2 built
     /// from the level below by a fragment shader writing `gl_FragDepth` (each level sampled
     /// after a barrier of that level alone), then a post pass shading bands from levels 1

@@ -13,8 +13,8 @@
 //! or bound, with margins far above any format's resolution, so that no pixel sits on a tie)
 //! are checked in the unit tests (`tests.rs`). The builders live by concern: `state.rs`
 //! (compare ops, clears, bias, bounds, viewports, stencil), `passes.rs` (secondaries, subpasses,
-//! dynamic rendering, shadow map, resolves, fragment depth, libraries), `precise.rs` (the
-//! precise path's ways of handing over the projection).
+//! dynamic rendering and its local reads, shadow map, resolves, fragment depth, libraries),
+//! `precise.rs` (the precise path's ways of handing over the projection).
 //!
 //! Depths quoted below are for the `overlap` camera (eye (0, 2, 6) looking at the origin, near
 //! 0.1, far 100): a surface at view distance z gets depth 1.001 * (1 - 0.1 / z), so z = 3 ->
@@ -135,6 +135,21 @@ pub const CATALOG: &[Entry] = &[
         SceneId::DeferredDepthSecondaries,
         "deferred-depth-secondaries",
         deferred_depth_secondaries,
+    ),
+    entry_row(
+        SceneId::DeferredDepthLocalRead,
+        "deferred-depth-local-read",
+        deferred_depth_local_read,
+    ),
+    entry_row(
+        SceneId::DeferredDepthLocalReadIndexed,
+        "deferred-depth-local-read-indexed",
+        deferred_depth_local_read_indexed,
+    ),
+    entry_row(
+        SceneId::DeferredDepthLocalReadTested,
+        "deferred-depth-local-read-tested",
+        deferred_depth_local_read_tested,
     ),
     entry_row(SceneId::DepthMips, "depth-mips", depth_mips),
     entry_row(SceneId::DepthLayers, "depth-layers", depth_layers),

@@ -932,6 +932,95 @@ pub fn deferred_depth_library() -> Scene {
     )
 }
 
+/// The deferred-depth scene `scene` (one [`PassKind::DepthInputSubpasses`] render pass) named
+/// `name`, rendered in one [`PassKind::DynamicRenderingLocalRead`] rendering instead: the same
+/// objects, pipelines and steps, its subpass 1 the draws after the rendering's by-region
+/// barrier, its band's program the one the rendering maps the depth to (the decorated
+/// `depth_input.frag` where `indexed`, its undecorated twin otherwise). The images are the
+/// render pass scene's.
+fn in_local_read(mut scene: Scene, name: &'static str, indexed: bool) -> Scene {
+    scene.name = name;
+    let kind = PassKind::DynamicRenderingLocalRead { indexed };
+    for pass in &mut scene.plan.passes {
+        assert!(
+            pass.kind.reads_depth_input(),
+            "{name}: a deferred-depth scene"
+        );
+        pass.kind = kind;
+    }
+    for pipeline in &mut scene.plan.pipelines {
+        if pipeline.program.reads_depth_input() {
+            pipeline.program = kind
+                .depth_input_program()
+                .expect("a local-read rendering reads an input attachment");
+        }
+    }
+    scene
+}
+
+/// `deferred-depth-local-read` (needs `VK_KHR_dynamic_rendering_local_read`, core in Vulkan
+/// 1.4: lavapipe from Mesa 25.0, not 22.3): [`deferred_depth`] in one `vkCmdBeginRendering`
+/// (color cleared, depth cleared to 1.0 and kept attached throughout, the main depth image in
+/// `VK_IMAGE_LAYOUT_RENDERING_LOCAL_READ_KHR` for the whole rendering: a barrier into it before
+/// `vkCmdBeginRendering`, one back into its attachment layout after `vkCmdEndRendering`). The
+/// overlap objects are drawn as in `deferred-depth`; then, inside the same rendering, a
+/// `vkCmdPipelineBarrier` with `VK_DEPENDENCY_BY_REGION_BIT` (a memory barrier from the depth
+/// and color attachment writes to input attachment reads, depth tests and color writes) and
+/// the band over the bottom quarter, with depth test and writes off (its
+/// `VkPipelineRenderingCreateInfo` still names the depth format), whose fragment shader reads
+/// the depth with `subpassLoad` from an input attachment variable without an
+/// `InputAttachmentIndex` decoration (`depth_input_undecorated.frag`): with no
+/// `VkRenderingInputAttachmentIndexInfo` in the pipeline and none set on the command buffer,
+/// the depth attachment maps to exactly that variable. The descriptor (INPUT_ATTACHMENT)
+/// names the main depth's depth-aspect view in `RENDERING_LOCAL_READ_KHR`. The image is
+/// `deferred-depth`'s.
+///
+/// Layer item: depth read as an input attachment inside the dynamic rendering that writes it,
+/// where, as in a render pass, no read twin can be refreshed: the shader's reads must be
+/// converted, and the variable to convert is found through the rendering's mapping (here the
+/// default one: the undecorated input attachment). Reversed values read as they are shade the
+/// band wrong (view distances near the near plane instead of the scene's).
+pub fn deferred_depth_local_read() -> Scene {
+    in_local_read(deferred_depth(), "deferred-depth-local-read", false)
+}
+
+/// `deferred-depth-local-read-indexed` (needs `VK_KHR_dynamic_rendering_local_read`):
+/// [`deferred_depth_local_read`] with the depth mapped to input attachment index 0
+/// explicitly: every pipeline of the rendering chains `VkRenderingInputAttachmentIndexInfoKHR`
+/// (`pDepthInputAttachmentIndex` pointing to 0, the color attachment mapped to
+/// `VK_ATTACHMENT_UNUSED` through `pColorAttachmentInputIndices`), the command buffer sets the
+/// same mapping with `vkCmdSetRenderingInputAttachmentIndicesKHR` right after
+/// `vkCmdBeginRendering` (the two must match at each draw; until it is called the default
+/// mapping applies), and the band's shader is `deferred-depth`'s own `depth_input.frag`
+/// (`input_attachment_index = 0`). The image is `deferred-depth`'s.
+///
+/// Layer item: as `deferred-depth-local-read`, the depth's variable found through an explicit
+/// mapping, set in the pipeline and on the command buffer: the one decorated with index 0. A
+/// layer that converted only the undecorated variable (the default mapping's) would leave
+/// this band's reads reversed.
+pub fn deferred_depth_local_read_indexed() -> Scene {
+    in_local_read(deferred_depth(), "deferred-depth-local-read-indexed", true)
+}
+
+/// `deferred-depth-local-read-tested` (needs `VK_KHR_dynamic_rendering_local_read`):
+/// [`deferred_depth_tested`] in one local-read rendering, as [`deferred_depth_local_read`]
+/// renders `deferred-depth`: the band over the top quarter drawn at depth
+/// [`DEFERRED_BAND_DEPTH`] (a static viewport depth range [d, d]) with GREATER against the
+/// depth attachment (no writes) while its shader reads the same depth through the undecorated
+/// input attachment, the attachment in `RENDERING_LOCAL_READ_KHR` (not a read-only layout) the
+/// whole time. The image is `deferred-depth-tested`'s.
+///
+/// Layer item: as `deferred-depth-local-read`, and a depth test against the attachment the
+/// shader reads at once: the band's fixed depth and its compare op reversed with the
+/// attachment (left standard, the band would shade the background and leave the surfaces).
+pub fn deferred_depth_local_read_tested() -> Scene {
+    in_local_read(
+        deferred_depth_tested(),
+        "deferred-depth-local-read-tested",
+        false,
+    )
+}
+
 /// The depth of `deferred-depth-tested`'s band (its viewport's depth range, [d, d]): behind every surface of the overlap
 /// scene (the far end of the ground lies at depth 0.996) and in front of the cleared
 /// background (1.0), with margins far above every format's resolution (checked in the unit

@@ -512,6 +512,126 @@ fn deferred_depth_bands_read_the_depth_subpass_0_wrote() {
     }
 }
 
+/// The local-read scenes are their render pass twins in one dynamic rendering: the same
+/// objects, pipelines (but for the band's program: the one the rendering maps the depth to)
+/// and steps, the pass a [`PassKind::DynamicRenderingLocalRead`] whose "subpass 1" (after the
+/// by-region barrier) reads the depth it keeps attached; they need the local-read feature
+/// (with dynamic rendering) and an input attachment, nothing else.
+#[test]
+fn local_read_scenes_are_their_render_pass_twins_in_one_rendering() {
+    for (scene, twin, indexed) in [
+        (deferred_depth_local_read(), deferred_depth(), false),
+        (deferred_depth_local_read_indexed(), deferred_depth(), true),
+        (
+            deferred_depth_local_read_tested(),
+            deferred_depth_tested(),
+            false,
+        ),
+    ] {
+        let name = scene.name;
+        assert_eq!(scene.objects, twin.objects, "{name}");
+        assert_eq!(scene.camera, twin.camera, "{name}");
+        assert_eq!(scene.plan.steps, twin.plan.steps, "{name}");
+        let kind = PassKind::DynamicRenderingLocalRead { indexed };
+        assert_eq!(scene.plan.passes.len(), 1, "{name}");
+        let pass = &scene.plan.passes[0];
+        assert_eq!(
+            *pass,
+            PassSpec {
+                kind,
+                ..twin.plan.passes[0].clone()
+            },
+            "{name}"
+        );
+        assert!(kind.is_dynamic_rendering() && kind.reads_locally());
+        // The depth stays attached in both phases; subpass 1 reads it.
+        assert!(pass.has_depth(0) && pass.has_depth(1), "{name}");
+        assert!(!pass.reads_depth_input(0) && pass.reads_depth_input(1));
+        let program = if indexed {
+            Program::DepthInput
+        } else {
+            Program::DepthInputUndecorated
+        };
+        assert_eq!(kind.depth_input_program(), Some(program));
+        for (pipeline, theirs) in scene.plan.pipelines.iter().zip(&twin.plan.pipelines) {
+            let expected = if theirs.program == Program::DepthInput {
+                program
+            } else {
+                theirs.program
+            };
+            assert_eq!(
+                *pipeline,
+                PipelineSpec {
+                    program: expected,
+                    ..theirs.clone()
+                },
+                "{name}"
+            );
+        }
+        // Every draw is counted: the depth is attached throughout.
+        let census = scene.plan.draw_census();
+        assert_eq!(
+            census.iter().map(|c| c.3).sum::<usize>(),
+            scene.objects.len(),
+            "{name}"
+        );
+        assert_eq!(
+            scene.plan.needs(),
+            crate::plan::Needs {
+                input_depth: true,
+                dynamic_rendering: true,
+                dynamic_rendering_local_read: true,
+                ..crate::plan::Needs::default()
+            },
+            "{name}"
+        );
+        // The other mapping's program in the band is malformed: its variable is not the one
+        // the rendering maps the depth to.
+        let mut broken = scene.plan.clone();
+        broken.pipelines[1].program = if indexed {
+            Program::DepthInputUndecorated
+        } else {
+            Program::DepthInput
+        };
+        assert!(broken.check(scene.objects.len(), false).is_err(), "{name}");
+        // A band that writes the depth it reads is malformed.
+        let mut broken = scene.plan.clone();
+        broken.pipelines[1].depth_write = true;
+        assert!(broken.check(scene.objects.len(), false).is_err(), "{name}");
+        // Libraries are for render passes; a local read is not multisampled.
+        let mut broken = scene.plan.clone();
+        broken.pipelines[0].libraries = true;
+        assert!(broken.check(scene.objects.len(), false).is_err(), "{name}");
+        let mut broken = scene.plan.clone();
+        broken.passes[0].multisample = Some(Multisample {
+            samples: MSAA_SAMPLES,
+            depth_resolve: ResolveMode::SampleZero,
+            sampled_depth: false,
+        });
+        assert!(broken.check(scene.objects.len(), false).is_err(), "{name}");
+        // One input descriptor, one layout: a local read beside a render pass reading the
+        // depth as an input attachment is refused.
+        let mut mixed = scene.plan.clone();
+        mixed.passes.push(twin.plan.passes[0].clone());
+        let offset = mixed.pipelines.len();
+        mixed
+            .pipelines
+            .extend(twin.plan.pipelines.iter().map(|p| PipelineSpec {
+                pass: 1,
+                ..p.clone()
+            }));
+        mixed
+            .steps
+            .extend(twin.plan.steps.iter().map(|step| match step {
+                Step::BeginPass(_) => Step::BeginPass(1),
+                Step::Bind(n) => Step::Bind(n + offset),
+                other => other.clone(),
+            }));
+        let error = mixed.check(scene.objects.len(), false).unwrap_err();
+        assert!(error.0.contains("one descriptor"), "{name}: {error}");
+    }
+}
+
 #[test]
 fn clear_attachments_geometry_straddles_the_cleared_depth() {
     let scene = clear_attachments();
