@@ -321,6 +321,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             mesh_shader: needs.mesh_shader,
             descriptor_buffer: needs.descriptor_buffer,
             maintenance6: needs.maintenance6,
+            multiview: needs.views > 0,
             // Optional: a post pass pushes its descriptors where the device can.
             push_descriptor: needs.sampled_depth,
         },
@@ -389,6 +390,9 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     if pushes_tiles && !gpu.enabled.push_descriptor {
         bail!(lacks("VK_KHR_push_descriptor"));
     }
+    if needs.views > 0 && !gpu.supported.multiview {
+        bail!(lacks("multiview (Vulkan 1.1 or VK_KHR_multiview)"));
+    }
     if needs.maintenance6 && !gpu.supported.maintenance6 {
         bail!(lacks("maintenance6 (VK_KHR_maintenance6 on Vulkan 1.3)"));
     }
@@ -422,6 +426,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             multisample: needs.multisample,
             depth_subresources: needs.depth_subresources,
             depth_blits: needs.depth_blits,
+            views: needs.views,
         };
         let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;

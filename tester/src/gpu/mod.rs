@@ -198,6 +198,9 @@ pub struct Features {
     /// `VK_KHR_maintenance6`'s `maintenance6` (Vulkan 1.3 only): the bind commands taking an
     /// info (`vkCmdBindDescriptorSets2KHR`, `vkCmdSetDescriptorBufferOffsets2EXT`).
     pub maintenance6: bool,
+    /// `multiview` (Vulkan 1.1, or `VK_KHR_multiview` below it, enabled with it): passes that
+    /// render several views, one per array layer ([`crate::plan::PassSpec::view_mask`]).
+    pub multiview: bool,
 }
 
 impl Features {
@@ -227,6 +230,7 @@ impl Features {
             (self.mesh_shader, "meshShader"),
             (self.descriptor_buffer, "descriptorBuffer"),
             (self.maintenance6, "maintenance6"),
+            (self.multiview, "multiview"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -257,6 +261,7 @@ impl Features {
             mesh_shader: self.mesh_shader && other.mesh_shader,
             descriptor_buffer: self.descriptor_buffer && other.descriptor_buffer,
             maintenance6: self.maintenance6 && other.maintenance6,
+            multiview: self.multiview && other.multiview,
         }
     }
 }
@@ -478,6 +483,7 @@ mod tests {
             mesh_shader: true,
             descriptor_buffer: true,
             maintenance6: true,
+            multiview: true,
         };
         assert_eq!(
             all.names(),
@@ -498,7 +504,8 @@ mod tests {
                 "shaderObject",
                 "meshShader",
                 "descriptorBuffer",
-                "maintenance6"
+                "maintenance6",
+                "multiview"
             ]
         );
         let some = Features {
