@@ -322,6 +322,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             descriptor_buffer: needs.descriptor_buffer,
             maintenance6: needs.maintenance6,
             dynamic_rendering_local_read: needs.dynamic_rendering_local_read,
+            multiview: needs.views > 0,
             // Optional: a post pass pushes its descriptors where the device can.
             push_descriptor: needs.sampled_depth,
         },
@@ -390,6 +391,9 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     if pushes_tiles && !gpu.enabled.push_descriptor {
         bail!(lacks("VK_KHR_push_descriptor"));
     }
+    if needs.views > 0 && !gpu.supported.multiview {
+        bail!(lacks("multiview (Vulkan 1.1 or VK_KHR_multiview)"));
+    }
     if needs.maintenance6 && !gpu.supported.maintenance6 {
         bail!(lacks("maintenance6 (VK_KHR_maintenance6 on Vulkan 1.3)"));
     }
@@ -430,6 +434,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             multisample: needs.multisample,
             depth_subresources: needs.depth_subresources,
             depth_blits: needs.depth_blits,
+            views: needs.views,
         };
         let targets = Targets::new(&gpu, cli.width, cli.height, cli.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;

@@ -422,6 +422,15 @@ pub fn create_render_pass(
         .attachments(&attachments)
         .subpasses(&subpasses)
         .dependencies(&dependencies);
+    // A multiview pass renders each view of its mask into that layer of every attachment
+    // (the views correlated: rendered alike, as a stereo pair is).
+    let view_masks = [pass.view_mask];
+    let mut multiview_info = vk::RenderPassMultiviewCreateInfo::default()
+        .view_masks(&view_masks)
+        .correlation_masks(&view_masks);
+    if pass.view_mask != 0 {
+        info = info.push_next(&mut multiview_info);
+    }
     if pass.kind.reads_depth_input() {
         ensure!(
             main.input_aspects || !main.stencil,
@@ -734,6 +743,7 @@ pub fn create_pipeline(
         ),
         Program::DepthMipsPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_MIPS_POST_FRAG)),
         Program::DepthLayersPost => (shaders::SCENE_VERT, Some(shaders::DEPTH_LAYERS_POST_FRAG)),
+        Program::Multiview => (shaders::MULTIVIEW_VERT, Some(shaders::SCENE_FRAG)),
         Program::DepthPostMs => (shaders::SCENE_VERT, Some(shaders::DEPTH_POST_MS_FRAG)),
         Program::RowVector => (shaders::ROW_VECTOR_VERT, Some(shaders::SCENE_FRAG)),
         Program::MvpPair => (shaders::MVP_PAIR_VERT, Some(shaders::MVP_PAIR_FRAG)),
@@ -1015,6 +1025,7 @@ pub fn create_pipeline(
     let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
     let color_formats = [COLOR_FORMAT];
     let mut rendering = vk::PipelineRenderingCreateInfo::default()
+        .view_mask(target.pass.view_mask)
         .color_attachment_formats(&color_formats)
         .depth_attachment_format(target.main.depth)
         .stencil_attachment_format(if target.main.stencil {

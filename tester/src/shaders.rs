@@ -221,6 +221,12 @@ pub const DEPTH_LAYERS_POST_FRAG: ShaderSource = glslang_shader!("depth_layers_p
 /// (texel fetches of each sample of a `texture2DMS`).
 pub const DEPTH_POST_MS_FRAG: ShaderSource = glslang_shader!("depth_post_ms.frag");
 
+/// `multiview.vert` (glslang: naga's GLSL front end has no `GL_EXT_multiview`): `gl_Position =
+/// views.view_projection[gl_ViewIndex] * pc.model * vec4(position, 1.0)`, the views'
+/// view-projections in a uniform buffer indexed by the view, the model matrix pushed (and the
+/// color after it, which `scene.frag` reads).
+pub const MULTIVIEW_VERT: ShaderSource = glslang_shader!("multiview.vert");
+
 /// `stencil_post.frag`: a band across the middle of the image shaded by the main depth-stencil
 /// image's stencil value and depth (texel fetches of each aspect).
 pub const STENCIL_POST_FRAG: ShaderSource = shader!("stencil_post.frag");
@@ -268,6 +274,7 @@ pub const ALL: &[ShaderSource] = &[
     DEPTH_MIPS_POST_FRAG,
     DEPTH_LAYERS_POST_FRAG,
     DEPTH_POST_MS_FRAG,
+    MULTIVIEW_VERT,
     STENCIL_POST_FRAG,
 ];
 
@@ -296,6 +303,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("depth_mips_post.frag", DEPTH_MIPS_POST_FRAG),
     ("depth_layers_post.frag", DEPTH_LAYERS_POST_FRAG),
     ("depth_post_ms.frag", DEPTH_POST_MS_FRAG),
+    ("multiview.vert", MULTIVIEW_VERT),
 ];
 
 #[cfg(test)]

@@ -193,6 +193,7 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
             multisample: None,
             depth_subresources: Default::default(),
             depth_blits: false,
+            views: 0,
         };
         let targets = Targets::new(&gpu, args.size, args.size, args.depth_format, options)?;
         let buffers = SceneBuffers::upload(&gpu, &scene)?;

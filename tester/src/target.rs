@@ -147,6 +147,10 @@ pub struct Attachment<'a> {
     /// and layer (index `level * layers + layer`), each an attachment of its own
     /// ([`Self::slice_view`]); empty otherwise.
     slice_views: Vec<vk::ImageView>,
+    /// A 2D-array view of all its aspects, of mip level 0 and every array layer: the
+    /// attachment of a multiview pass, which renders view `i` into layer `i`
+    /// ([`Self::add_array_view`]; null until then).
+    pub array_view: vk::ImageView,
     /// Its mip levels and array layers.
     pub subresources: DepthSubresources,
     /// The image format.
@@ -281,6 +285,7 @@ impl Drop for Attachment<'_> {
             self.device.destroy_image_view(self.view, None);
             self.device.destroy_image_view(self.depth_view, None);
             self.device.destroy_image_view(self.stencil_view, None);
+            self.device.destroy_image_view(self.array_view, None);
             for &view in &self.slice_views {
                 self.device.destroy_image_view(view, None);
             }
@@ -411,6 +416,7 @@ impl<'a> Attachment<'a> {
             depth_view: vk::ImageView::null(),
             stencil_view: vk::ImageView::null(),
             slice_views: Vec::new(),
+            array_view: vk::ImageView::null(),
             subresources,
             format,
             usage,
@@ -485,6 +491,17 @@ impl Attachment<'_> {
             let stencil = self.range(vk::ImageAspectFlags::STENCIL);
             self.stencil_view = self.create_view(view_type, stencil)?;
         }
+        Ok(())
+    }
+
+    /// Creates [`Self::array_view`]: a 2D-array view of `aspects` (all of the format's, as an
+    /// attachment's view names them), mip level 0, every array layer.
+    pub fn add_array_view(&mut self, aspects: vk::ImageAspectFlags) -> Result<()> {
+        let range = vk::ImageSubresourceRange {
+            layer_count: self.subresources.layers,
+            ..full_range(aspects)
+        };
+        self.array_view = self.create_view(vk::ImageViewType::TYPE_2D_ARRAY, range)?;
         Ok(())
     }
 
@@ -588,6 +605,11 @@ pub struct TargetOptions {
     /// The depth image is blitted from level to level (TRANSFER_SRC and TRANSFER_DST usage,
     /// BLIT_SRC and BLIT_DST features).
     pub depth_blits: bool,
+    /// The views of a multiview pass (the plan's [`crate::plan::Needs::views`]; 0 without
+    /// one): the color image gets one array layer per view (the depth image's layers are in
+    /// `depth_subresources`), and both get a 2D-array view of them
+    /// ([`Attachment::array_view`]) for the pass's attachments.
+    pub views: u32,
 }
 
 /// `VkResolveModeFlagBits` of a [`ResolveMode`].
@@ -943,13 +965,26 @@ impl<'a> Targets<'a> {
             extent,
             options.depth_subresources,
         )?;
-        let color = Attachment::new(
-            gpu,
-            COLOR_FORMAT,
-            vk::ImageAspectFlags::COLOR,
-            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
-            extent,
-        )?;
+        let color_aspects = vk::ImageAspectFlags::COLOR;
+        let color_usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let color = if options.views > 1 {
+            let layers = DepthSubresources {
+                levels: 1,
+                layers: options.views,
+            };
+            let mut color = Attachment::with_subresources(
+                gpu,
+                COLOR_FORMAT,
+                color_aspects,
+                color_usage,
+                extent,
+                layers,
+            )?;
+            color.add_array_view(color_aspects)?;
+            color
+        } else {
+            Attachment::new(gpu, COLOR_FORMAT, color_aspects, color_usage, extent)?
+        };
         let mut depth = Attachment::with_subresources(
             gpu,
             depth_format.vk_format(),
@@ -960,6 +995,9 @@ impl<'a> Targets<'a> {
         )?;
         if options.sampled_depth || options.input_depth {
             depth.add_depth_view()?;
+        }
+        if options.views > 1 {
+            depth.add_array_view(depth_format.aspects())?;
         }
         let shadow = if let Some(format) = options.shadow_map {
             require_format(

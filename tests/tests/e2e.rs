@@ -1706,3 +1706,94 @@ fn depth_mips_and_layers_sample_standard_depth_through_the_twin() {
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+/// `multiview` and `multiview-dynamic` (`VK_KHR_multiview`): the overlap objects drawn once
+/// each into both views of a render pass (or rendering) with view mask 0b11, a 2-layer color
+/// and depth image, the views' view-projections in a uniform buffer indexed by
+/// `gl_ViewIndex`, then `depth-layers`' post pass shading a band from each layer's depth. With
+/// the layer, in every reversing mode and depth format: zero validation messages
+/// (synchronization validation included), the depth image reversed with a read twin refreshed
+/// once a frame over both layers (twice one layer's bytes), the colors the native render's of
+/// the same format within `depth-reads`' bounds (the second band is the second view's depth),
+/// layer 0's depth read back the native one reversed within the flip tolerance (where the
+/// ground truth sees one object), and in `complementary` and `infinite` every draw of the
+/// multiview pipeline precise (its projection is in a uniform buffer: the derived route).
+#[test]
+fn multiview_passes_reverse_every_view() {
+    let harness = Harness::locate();
+    let frames = "2";
+    let mut problems = Vec::new();
+    for scene in ["multiview", "multiview-dynamic"] {
+        for format in DEPTH_FORMATS {
+            let native_dir = harness.scratch_dir(&format!("{scene}-{format}-native"));
+            let mut command = harness.tester(format, &native_dir);
+            command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
+            let native = harness.render(command, &native_dir);
+            let (own, native_depth) = (native.color(), native.depth());
+            let truth = native.ground_truth();
+            for mode in ["flip", "complementary", "infinite"] {
+                let name = format!("{scene}-{format}-{mode}");
+                let (render, profile) = layered_reads(&harness, scene, format, mode, frames);
+                problems.extend(read_color_problems(
+                    &name,
+                    (format, mode),
+                    &own,
+                    &render.color(),
+                ));
+                let image = &profile["images"][0];
+                if image["depth"] != "reversed" || image["read_twin"] != true {
+                    problems.push(format!("{name}: not reversed with a read twin: {image}"));
+                }
+                let refreshes = image["refreshes_recorded"].as_u64();
+                if refreshes != Some(frames.parse().expect("frames")) {
+                    problems.push(format!("{name}: one refresh a frame expected: {image}"));
+                }
+                // Both layers, every frame: twice the bytes of one layer of the format the
+                // twin holds.
+                let bytes = image["bytes_refreshed"].as_u64().unwrap_or(0);
+                let texels = (truth.width * truth.height) as u64;
+                if bytes % (2 * 2 * texels) != 0 || bytes == 0 {
+                    problems.push(format!(
+                        "{name}: {bytes} bytes refreshed, not both layers of {texels} texels \
+                         in each of 2 frames"
+                    ));
+                }
+                // Layer 0 reversed: its read-back is the native depth reversed (the copy
+                // converts it back to standard under the default policy).
+                let layered = render.depth();
+                let worst = native_depth
+                    .iter()
+                    .zip(&layered)
+                    .zip(&truth.w)
+                    .filter(|(_, w)| w.is_finite())
+                    .map(|((n, l), _)| (n - l).abs())
+                    .fold(0.0f32, f32::max);
+                let bound = revz_tests::flip_tolerance(format).max(1e-3);
+                if worst > bound {
+                    problems.push(format!(
+                        "{name}: layer 0's depth is {worst:e} from the native render's \
+                         (bound {bound:e})"
+                    ));
+                }
+                if mode != "flip" {
+                    for pipeline in profile["pipelines"].as_array().into_iter().flatten() {
+                        let draws = &pipeline["draws"];
+                        let drawn = ["native", "flip", "precise"]
+                            .map(|k| draws[k].as_u64().unwrap_or(0))
+                            .iter()
+                            .sum::<u64>();
+                        if pipeline["path"] != "precise" || draws["precise"].as_u64() != Some(drawn)
+                        {
+                            problems.push(format!("{name}: a pipeline not precise: {pipeline}"));
+                        }
+                    }
+                    let reasons = &profile["totals"]["flip_reasons"];
+                    if reasons.as_array().is_some_and(|r| !r.is_empty()) {
+                        problems.push(format!("{name}: flip reasons {reasons}"));
+                    }
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}

@@ -100,7 +100,14 @@ pub(super) fn supported_features(
         separate_depth_stencil_layouts = instance.features2(physical_device, &mut features2)
             && features12.separate_depth_stencil_layouts == vk::TRUE;
     }
+    let multiview = (api >= vk::API_VERSION_1_1 || has(ash::khr::multiview::NAME)) && {
+        let mut views = vk::PhysicalDeviceMultiviewFeatures::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut views);
+        // Core in 1.1; below it chained only where the device has the extension.
+        instance.features2(physical_device, &mut features2) && views.multiview == vk::TRUE
+    };
     Features {
+        multiview,
         dynamic_rendering,
         dynamic_compare_op,
         depth_stencil_resolve,
@@ -202,7 +209,8 @@ impl Gpu {
             || f.dynamic_rendering
             || f.dynamic_compare_op
             || f.depth_stencil_resolve
-            || f.push_descriptor;
+            || f.push_descriptor
+            || f.multiview;
         let instance = InstanceCtx::new(
             options.validation,
             options.sync_validation,
@@ -346,6 +354,11 @@ impl Gpu {
         if enabled.maintenance6 {
             extensions.push(ash::khr::maintenance6::NAME.as_ptr());
         }
+        // Below 1.1 the extension (unless the resolves' extensions brought it already).
+        if enabled.multiview && api < vk::API_VERSION_1_1 && !resolve_extensions {
+            extensions.push(ash::khr::multiview::NAME.as_ptr());
+        }
+        let mut multiview = vk::PhysicalDeviceMultiviewFeatures::default().multiview(true);
         let mut maintenance6 =
             vk::PhysicalDeviceMaintenance6FeaturesKHR::default().maintenance6(true);
         if enabled.dynamic_rendering_local_read {
@@ -395,6 +408,9 @@ impl Gpu {
         }
         if enabled.dynamic_rendering_local_read {
             device_create_info = device_create_info.push_next(&mut local_read);
+        }
+        if enabled.multiview {
+            device_create_info = device_create_info.push_next(&mut multiview);
         }
         // SAFETY: valid physical device and create info referring to live locals.
         let device = unsafe {

@@ -204,6 +204,9 @@ pub struct Features {
     /// `RENDERING_LOCAL_READ_KHR` layout inside `vkCmdBeginRendering`
     /// ([`crate::plan::PassKind::DynamicRenderingLocalRead`]).
     pub dynamic_rendering_local_read: bool,
+    /// `multiview` (Vulkan 1.1, or `VK_KHR_multiview` below it, enabled with it): passes that
+    /// render several views, one per array layer ([`crate::plan::PassSpec::view_mask`]).
+    pub multiview: bool,
 }
 
 impl Features {
@@ -237,6 +240,7 @@ impl Features {
                 self.dynamic_rendering_local_read,
                 "dynamicRenderingLocalRead",
             ),
+            (self.multiview, "multiview"),
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
@@ -269,6 +273,7 @@ impl Features {
             maintenance6: self.maintenance6 && other.maintenance6,
             dynamic_rendering_local_read: self.dynamic_rendering_local_read
                 && other.dynamic_rendering_local_read,
+            multiview: self.multiview && other.multiview,
         }
     }
 }
@@ -494,6 +499,7 @@ mod tests {
             descriptor_buffer: true,
             maintenance6: true,
             dynamic_rendering_local_read: true,
+            multiview: true,
         };
         assert_eq!(
             all.names(),
@@ -515,7 +521,8 @@ mod tests {
                 "meshShader",
                 "descriptorBuffer",
                 "maintenance6",
-                "dynamicRenderingLocalRead"
+                "dynamicRenderingLocalRead",
+                "multiview"
             ]
         );
         let some = Features {

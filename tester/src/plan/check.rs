@@ -70,6 +70,17 @@ impl Plan {
                 .kind
                 .depth_input_program()
                 .filter(|_| pass.reads_depth_input(pipeline.subpass));
+            // Its buffer holds two views' matrices, which only a multiview pass renders.
+            ensure!(
+                (pipeline.program == Program::Multiview) == (pass.view_mask != 0),
+                "pipeline {name}: the multiview program draws in the multiview passes, and they \
+                 draw with it alone"
+            );
+            ensure!(
+                pass.view_mask == 0 || (pass.view_mask < 4 && !pipeline.libraries),
+                "pipeline {name}: multiview passes render at most two views (the views' buffer \
+                 holds two), with pipelines made in one call"
+            );
             ensure!(
                 match input_program {
                     Some(program) => pipeline.program == program,
@@ -205,6 +216,14 @@ impl Plan {
                     || (pass.target == Target::Main && pass.multisample.is_none()),
                 "pass {n}: the depth is read as an input attachment of the main target's \
                  single-sample pass"
+            );
+            // The renderer attaches 2D-array views of the main images' layers, single-sample.
+            ensure!(
+                pass.view_mask == 0
+                    || (pass.target == Target::Main
+                        && pass.multisample.is_none()
+                        && matches!(pass.kind, PassKind::RenderPass | PassKind::DynamicRendering)),
+                "pass {n}: a multiview pass renders the main target in one single-sample subpass"
             );
             if let Target::DepthSlice { .. } = pass.target {
                 ensure!(

@@ -324,6 +324,14 @@ pub enum Program {
     /// multisampled depth a [`Multisample::sampled_depth`] pass kept (texel fetches of each
     /// sample through a `texture2DMS`), in a [`Target::Post`] pass.
     DepthPostMs,
+    /// `multiview.vert` (glslang) + `scene.frag`: one draw renders every view of a
+    /// [`PassSpec::view_mask`] pass (`VK_KHR_multiview`), each into its own array layer of the
+    /// color and depth images. The views' view-projections ([`crate::scene::Scene::view_cameras`],
+    /// P * V in f64 rounded once to f32) are in a uniform buffer the shader indexes with
+    /// `gl_ViewIndex`; the object's model matrix and color are pushed (80 bytes, the layout of
+    /// [`Program::Flat`]'s push constants: `scene.frag` reads the color at 64):
+    /// `view_projection[gl_ViewIndex] * model * position`.
+    Multiview,
 }
 
 /// How a scene hands its matrices to the vertex shader (`--delivery`): push constants, as
@@ -616,7 +624,8 @@ impl Program {
             | Program::DepthInputUndecorated
             | Program::DepthMipsPost
             | Program::DepthLayersPost
-            | Program::DepthPostMs => 80,
+            | Program::DepthPostMs
+            | Program::Multiview => 80,
         }
     }
 
@@ -900,6 +909,13 @@ pub struct PassSpec {
     /// Multisampled with a resolve at the end (main target, one-subpass kinds, both
     /// attachments cleared), or single-sample (None).
     pub multisample: Option<Multisample>,
+    /// The views of a multiview pass (`VK_KHR_multiview`, Vulkan 1.1; main target,
+    /// single-sample, one subpass): bit `i` renders view `i` into array layer `i` of the color
+    /// and depth images, attached through 2D-array views of their layers
+    /// (`VkRenderPassMultiviewCreateInfo`'s view mask and correlation mask, or
+    /// `VkRenderingInfo::viewMask`; its pipelines are made with the same mask). 0: no
+    /// multiview (one layer, the usual views).
+    pub view_mask: u32,
 }
 
 impl PassSpec {
@@ -911,6 +927,7 @@ impl PassSpec {
             depth: DepthLoad::Clear(depth),
             load_color: false,
             multisample: None,
+            view_mask: 0,
         }
     }
 
@@ -942,6 +959,7 @@ impl PassSpec {
         self.target == other.target
             && self.kind == other.kind
             && self.multisample == other.multisample
+            && self.view_mask == other.view_mask
     }
 
     /// Samples per pixel of the pass's attachments (and its pipelines' rasterization).
@@ -1213,6 +1231,10 @@ pub struct Needs {
     /// The main depth image is blitted from level to level ([`Step::BlitDepthLevel`]):
     /// TRANSFER_SRC and TRANSFER_DST usage, BLIT_SRC and BLIT_DST features.
     pub depth_blits: bool,
+    /// The views of the plan's multiview passes (their [`PassSpec::view_mask`]s' highest bit
+    /// plus one; 0 without one): they need the `multiview` feature, and the main color and
+    /// depth images get one array layer per view (the depth's in `depth_subresources`).
+    pub views: u32,
 }
 
 /// The mip levels and array layers of the main depth image.
@@ -1456,6 +1478,12 @@ impl Plan {
                 needs.dynamic_rendering = true;
             }
             needs.dynamic_rendering_local_read |= pass.kind.reads_locally();
+            if pass.view_mask != 0 {
+                let views = 32 - pass.view_mask.leading_zeros();
+                needs.views = needs.views.max(views);
+                let slices = &mut needs.depth_subresources;
+                slices.layers = slices.layers.max(views);
+            }
             if let DepthLoad::Clear(depth) = pass.depth {
                 needs.depth_range_unrestricted |= !(0.0..=1.0).contains(&depth);
             }

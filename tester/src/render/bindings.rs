@@ -999,7 +999,7 @@ fn tile_descriptor_buffer<'a>(
 /// Creates a descriptor set layout of `bindings`, a pool with room for one set of it, and that
 /// set. Each handle is stored as soon as it exists (`set_layout`, `pool`), so that the owner's
 /// `Drop` destroys whatever was made when a later step fails.
-fn single_descriptor_set(
+pub(super) fn single_descriptor_set(
     device: &ash::Device,
     bindings: &[vk::DescriptorSetLayoutBinding<'_>],
     what: &str,

@@ -267,6 +267,8 @@ pub struct Renderer<'a> {
     mesh_shader_objects: Option<shader_objects::ShaderObjects>,
     /// What [`Program::Mesh`] binds (its layout among them); `None` without that program.
     mesh: Option<mesh::MeshBindings<'a>>,
+    /// What [`Program::Multiview`] binds (its layout among them); `None` without that program.
+    multiview: Option<multiview::MultiviewBindings<'a>>,
 }
 
 impl fmt::Debug for Renderer<'_> {
@@ -297,6 +299,9 @@ impl Drop for Renderer<'_> {
             }
             if let Some(mesh) = &self.mesh {
                 mesh.destroy(self.device);
+            }
+            if let Some(multiview) = &self.multiview {
+                multiview.destroy(self.device);
             }
             self.device
                 .destroy_pipeline_layout(self.shadow_layout, None);
@@ -528,6 +533,7 @@ impl<'a> Renderer<'a> {
             shader_objects: None,
             mesh_shader_objects: None,
             mesh: None,
+            multiview: None,
         };
         let main = MainFormats {
             depth: targets.depth.format,
@@ -566,6 +572,11 @@ impl<'a> Renderer<'a> {
                         targets.color.view,
                         targets.depth.view,
                     ],
+                    targets.extent,
+                ),
+                // A multiview pass renders view i into layer i of both.
+                (Target::Main, None) if pass.view_mask != 0 => (
+                    vec![targets.color.array_view, targets.depth.array_view],
                     targets.extent,
                 ),
                 (Target::Main, None) => {
@@ -680,6 +691,14 @@ impl<'a> Renderer<'a> {
             this.create_matrix_bindings(gpu, scene, program, aspect)?;
         }
 
+        if plan
+            .pipelines
+            .iter()
+            .any(|p| p.program == Program::Multiview)
+        {
+            let aspect = f64::from(targets.extent.width) / f64::from(targets.extent.height);
+            this.multiview = Some(multiview::MultiviewBindings::new(gpu, scene, aspect)?);
+        }
         if plan
             .pipelines
             .iter()
@@ -834,6 +853,12 @@ impl<'a> Renderer<'a> {
                 (self.input_layout, PLAIN_PUSH_STAGES)
             }
             Program::DepthPostMs => (self.multisampled_read_layout, PLAIN_PUSH_STAGES),
+            Program::Multiview => (
+                self.multiview
+                    .as_ref()
+                    .map_or(vk::PipelineLayout::null(), |m| m.layout),
+                PLAIN_PUSH_STAGES,
+            ),
         }
     }
 
@@ -986,5 +1011,6 @@ struct Recorder<'r> {
 
 mod bindings;
 mod mesh;
+mod multiview;
 mod record;
 mod shader_objects;

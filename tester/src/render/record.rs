@@ -624,6 +624,18 @@ impl Recorder<'_> {
         // SAFETY: `cmd` is a recording primary outside any pass; the framebuffer was made for
         // this render pass, with one clear value per attachment.
         unsafe { self.device().cmd_begin_render_pass(cmd, &begin, contents) };
+        // Where a render pass has multiview enabled, every state outside the render pass is
+        // undefined from its beginning on (the vertex and index buffers too, for the passes
+        // after it as well): they are bound again, as multiview applications do (pipelines,
+        // descriptor sets and push constants are given by each subpass's own steps).
+        let multiview = self
+            .plan
+            .passes
+            .iter()
+            .any(|p| p.view_mask != 0 && p.kind != PassKind::DynamicRendering);
+        if multiview && contents == vk::SubpassContents::INLINE {
+            self.bind_geometry(cmd);
+        }
         Ok(())
     }
 
@@ -674,6 +686,8 @@ impl Recorder<'_> {
             vk::AccessFlags::COLOR_ATTACHMENT_READ | vk::AccessFlags::COLOR_ATTACHMENT_WRITE;
         let depth_access = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
             | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
+        // Every layer a multiview rendering renders (the main images have one otherwise).
+        let layers = 32 - pass.view_mask.leading_zeros();
         let barrier = |image, aspects, src_access, dst_access, old_layout, new_layout| {
             vk::ImageMemoryBarrier::default()
                 .src_access_mask(src_access)
@@ -683,7 +697,10 @@ impl Recorder<'_> {
                 .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                 .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                 .image(image)
-                .subresource_range(full_range(aspects))
+                .subresource_range(vk::ImageSubresourceRange {
+                    layer_count: layers.max(1),
+                    ..full_range(aspects)
+                })
         };
         let depth_aspects = targets.depth_format.aspects();
         let mut barriers = vec![
@@ -731,14 +748,19 @@ impl Recorder<'_> {
         let stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
             | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
             | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+        let (color_view, depth_view) = if pass.view_mask != 0 {
+            (targets.color.array_view, targets.depth.array_view)
+        } else {
+            (targets.color.view, targets.depth.view)
+        };
         let color_attachment = vk::RenderingAttachmentInfo::default()
-            .image_view(targets.color.view)
+            .image_view(color_view)
             .image_layout(color_layout)
             .load_op(color_load)
             .store_op(vk::AttachmentStoreOp::STORE)
             .clear_value(color_clear);
         let depth_attachment = vk::RenderingAttachmentInfo::default()
-            .image_view(targets.depth.view)
+            .image_view(depth_view)
             .image_layout(depth_layout)
             .load_op(depth_load)
             .store_op(vk::AttachmentStoreOp::STORE)
@@ -798,6 +820,7 @@ impl Recorder<'_> {
                 extent: targets.extent,
             })
             .layer_count(1)
+            .view_mask(pass.view_mask)
             .color_attachments(&color_attachments)
             .depth_attachment(&depth_attachment);
         if has_stencil {
@@ -985,6 +1008,7 @@ impl Recorder<'_> {
                 }
                 Program::DepthPostMs => renderer.multisampled_read.as_ref().map(|r| r.set),
                 Program::Mesh => renderer.mesh.as_ref().map(|m| m.set),
+                Program::Multiview => renderer.multiview.as_ref().map(|m| m.set),
                 // The storage buffer holds every object, indexed by the instance index; the
                 // dynamic uniform buffers are bound at each draw with its offset.
                 Program::Ssbo

@@ -224,6 +224,13 @@ impl Scene {
                 v.extend(object.color);
                 v
             }
+            // The view-projections are in the views' buffer ([`Scene::views_block`]).
+            Program::Multiview => {
+                let (model, _) = self.model_split(view, object, aspect);
+                let mut v = model.as_mat4().to_cols_array().to_vec();
+                v.extend(object.color);
+                v
+            }
             Program::RowMajor | Program::RowVector => {
                 let mut v = mvp.as_mat4().transpose().to_cols_array().to_vec();
                 v.extend(object.color);
@@ -275,7 +282,7 @@ impl Scene {
         aspect: f64,
     ) -> Vec<DMat4> {
         match (program.buffers().unwrap_or(program), object.space) {
-            (Program::MvpPair | Program::UboDynamic, Space::World) => {
+            (Program::MvpPair | Program::UboDynamic | Program::Multiview, Space::World) => {
                 let (model, outer) = self.model_split(view, object, aspect);
                 vec![outer, model]
             }
@@ -294,13 +301,41 @@ impl Scene {
     /// [`Program::UboDynamic`], the whole clip transform otherwise.
     pub fn pushed_projection(&self, program: Program, object: &Object, aspect: f64) -> [f32; 16] {
         let outer = match program.buffers().unwrap_or(program) {
-            Program::MvpPair | Program::UboDynamic => {
+            Program::MvpPair | Program::UboDynamic | Program::Multiview => {
                 self.model_split(View::Camera, object, aspect).1
             }
             Program::Ubo => self.separate_matrices(object, aspect)[0],
             _ => self.mvp_in(View::Camera, object, aspect),
         };
         outer.as_mat4().to_cols_array()
+    }
+
+    /// The cameras of a multiview pass's views, view 0 first: the scene's camera, and a second
+    /// eye [`MULTIVIEW_EYE_SEPARATION`] to its right, looking the same way (its target moved
+    /// with it: parallel eyes, as stereo renderers place them), with the same projection.
+    pub fn view_cameras(&self) -> [Camera; 2] {
+        let camera = &self.camera;
+        let right = camera.forward().cross(camera.up).normalize() * MULTIVIEW_EYE_SEPARATION;
+        let second = Camera {
+            eye: camera.eye + right,
+            target: camera.target + right,
+            ..camera.clone()
+        };
+        [camera.clone(), second]
+    }
+
+    /// The uniform buffer [`Program::Multiview`] indexes with `gl_ViewIndex`: the P * V of each
+    /// of [`Scene::view_cameras`] in f64, rounded once to f32, column-major (128 bytes).
+    pub fn views_block(&self, aspect: f64) -> Vec<u8> {
+        self.view_cameras()
+            .iter()
+            .flat_map(|camera| {
+                (camera.projection(aspect) * camera.view())
+                    .as_mat4()
+                    .to_cols_array()
+            })
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
     }
 
     /// Every object's light MVP (f32, column-major), in object order: the uniform buffer

@@ -124,6 +124,11 @@ pub enum SceneId {
     /// `depth-layers` with layer 1 rendered twice, each time followed by a barrier of both
     /// layers into `SHADER_READ_ONLY_OPTIMAL`.
     DepthLayersStepwise,
+    /// The overlap scene drawn once into both views of a multiview render pass (two eyes, a
+    /// 2-layer color and depth image), then a post pass shading a band from each layer's depth.
+    Multiview,
+    /// `multiview` with dynamic rendering (`VkRenderingInfo::viewMask`).
+    MultiviewDynamic,
     /// The overlap scene at 4x MSAA in a `vkCreateRenderPass2` render pass, color and depth
     /// resolved into the main images (`--depth-resolve`).
     MsaaResolve,
@@ -305,6 +310,12 @@ impl Light {
         vulkan_y_flip() * projection * view::look_at_mat4(self.eye, self.target, self.up)
     }
 }
+
+/// How far a multiview pass's second eye sits to the right of the first
+/// ([`Scene::view_cameras`]): a wide interocular distance for the overlap scene's units (a
+/// meter-sized cube 4 to 8 away), so that the second view's image differs from the first by
+/// several pixels of disparity.
+pub const MULTIVIEW_EYE_SEPARATION: f64 = 0.2;
 
 /// Which view-projection a draw uses: the pass's target decides.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

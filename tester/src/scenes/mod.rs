@@ -158,6 +158,12 @@ pub const CATALOG: &[Entry] = &[
         "depth-layers-stepwise",
         depth_layers_stepwise,
     ),
+    entry_row(SceneId::Multiview, "multiview", multiview),
+    entry_row(
+        SceneId::MultiviewDynamic,
+        "multiview-dynamic",
+        multiview_dynamic,
+    ),
     entry_row(SceneId::MsaaResolve, "msaa-resolve", msaa_resolve),
     entry_row(
         SceneId::MsaaResolveDynamic,
@@ -314,10 +320,12 @@ fn compare_extras() -> [Object; 3] {
     ]
 }
 
+mod multiview;
 mod passes;
 mod precise;
 mod state;
 
+pub use multiview::*;
 pub use passes::*;
 pub use precise::*;
 pub use state::*;

@@ -99,6 +99,7 @@ pub fn dynamic_rendering() -> Scene {
         depth,
         load_color,
         multisample: None,
+        view_mask: 0,
     };
     let clear = b.pass(dynamic(DepthLoad::Clear(1.0), false));
     let load = b.pass(dynamic(DepthLoad::Load, true));

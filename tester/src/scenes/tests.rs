@@ -233,13 +233,22 @@ fn needs_follow_from_the_plans() {
                 | "depth-mips"
                 | "depth-layers"
                 | "depth-layers-stepwise"
+                | "multiview"
+                | "multiview-dynamic"
         ) {
             assert!(!needs.sampled_depth && !needs.depth_tiles, "{}", scene.name);
         }
+        // Two views, two layers of both images, the feature: only the multiview scenes.
+        let views = if scene.name.starts_with("multiview") {
+            2
+        } else {
+            0
+        };
+        assert_eq!(needs.views, views, "{}", scene.name);
         // One level and layer but where a scene names more; blits only between levels.
         let subresources = match scene.name {
             "depth-mips" => (DEPTH_MIP_LEVELS, 1),
-            "depth-layers" | "depth-layers-stepwise" => (1, 2),
+            "depth-layers" | "depth-layers-stepwise" | "multiview" | "multiview-dynamic" => (1, 2),
             _ => (1, 1),
         };
         let got = needs.depth_subresources;
@@ -1105,6 +1114,9 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
             "depth-mips",
             "depth-layers",
             "depth-layers-stepwise",
+            // Layer 0 is view 0 (the camera); the post pass writes no depth.
+            "multiview",
+            "multiview-dynamic",
             "projection-only",
             "view-projection",
             "model-view-projection-pair",

@@ -40,6 +40,7 @@ impl<'a> Bench<'a> {
                 multisample: None,
                 depth_subresources: Default::default(),
                 depth_blits: false,
+                views: 0,
             },
         )?;
         let mut vertices = HostBuffer::new(gpu, 36, vk::BufferUsageFlags::VERTEX_BUFFER)?;
