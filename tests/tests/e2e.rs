@@ -1475,7 +1475,8 @@ fn local_read_depth_reads_standard_depth_through_input_attachments() {
         ("deferred-depth-local-read-tested", "deferred-depth-tested"),
     ] {
         let native = |scene: &str, format: &str| {
-            let dir = harness.scratch_dir(&format!("{scene}-{format}-native"));
+            // Its own directory: the render pass twins render in other tests at the same time.
+            let dir = harness.scratch_dir(&format!("local-read-{scene}-{format}-native"));
             let mut command = harness.tester(format, &dir);
             command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
             harness.on_newer_lavapipe(&mut command);

@@ -128,6 +128,9 @@ impl Module {
         for instruction in instructions {
             let Instruction { opcode, operands } =
                 instruction.map_err(|_| Unsupported("a malformed instruction"))?;
+            // Advanced first: the arms below `continue`.
+            let here = at;
+            at += operands.len() + 1;
             match (opcode, operands) {
                 (OP_DECORATE, &[target, DECORATION_INPUT_ATTACHMENT_INDEX, index]) => {
                     indices.insert(target, index);
@@ -177,10 +180,9 @@ impl Module {
                         module.depth_inputs.insert(id);
                     }
                 }
-                (OP_FUNCTION, _) if module.functions_at == 0 => module.functions_at = at,
+                (OP_FUNCTION, _) if module.functions_at == 0 => module.functions_at = here,
                 _ => {}
             }
-            at += operands.len() + 1;
         }
         if module.depth_inputs.is_empty() || module.functions_at == 0 {
             return Ok(None);
@@ -506,5 +508,52 @@ mod tests {
         );
         assert!(reverse_input_depth(&words, &DepthInputs::Undecorated).is_err());
         assert_eq!(reverse_input_depth(&words, &at(&[0])), Ok(None));
+    }
+
+    #[test]
+    fn other_resources_declared_before_the_depth_input_leave_the_rewrite_whole() {
+        // A lighting shader with a texture declared first (a UniformConstant variable that is
+        // no input attachment). Until session 37 the declaration walk skipped counting its
+        // words, so the functions' start came early by them: the rewrite inserted its constant
+        // there, among the declarations or, where that fell inside an instruction, into it.
+        let words = test_spirv::input_attachment_fragment(
+            "OpDecorate %shadow DescriptorSet 0
+             OpDecorate %shadow Binding 1
+             OpDecorate %depth InputAttachmentIndex 0
+             OpDecorate %depth DescriptorSet 0
+             OpDecorate %depth Binding 0",
+            "%simage = OpTypeImage %float 2D 0 0 0 1 Unknown
+             %sampled = OpTypeSampledImage %simage
+             %ps = OpTypePointer UniformConstant %sampled
+             %shadow = OpVariable %ps UniformConstant
+             %depth = OpVariable %pf UniformConstant",
+            "%d = OpLoad %fimage %depth
+             %dr = OpImageRead %v4 %d %origin
+             OpStore %out %dr",
+        );
+        test_spirv::validate(&words);
+        let out = reverse_input_depth(&words, &at(&[0])).unwrap().unwrap();
+        test_spirv::validate(&out);
+        assert_eq!(converted_reads(&out), 1);
+        // The constant goes right before the first function, after every declaration.
+        let code: Vec<_> = instructions(&out).unwrap().map(Result::unwrap).collect();
+        let function = code.iter().position(|i| i.opcode == OP_FUNCTION).unwrap();
+        assert_eq!(code[function - 1].opcode, OP_CONSTANT);
+    }
+
+    #[test]
+    fn a_function_variable_whose_storage_class_is_the_inputs_id_is_no_use_of_it() {
+        // The tester's undecorated depth input (glslang's `depth_input.frag` without its
+        // `InputAttachmentIndex`): the input's id is 7, the storage class `Function` of its
+        // locals too. Until session 37 `scan::is_literal` took that operand for an id, and the
+        // module was refused ("used other than by a load").
+        let words = test_spirv::words(include_bytes!(
+            "../../../shaders/spvasm/depth_input_undecorated.frag.spv"
+        ));
+        let out = reverse_input_depth(&words, &DepthInputs::Undecorated)
+            .unwrap()
+            .unwrap();
+        test_spirv::validate(&out);
+        assert_eq!(converted_reads(&out), 1);
     }
 }

@@ -232,7 +232,7 @@ pub mod op {
 /// Whether operand `index` of an instruction in a function body is a literal rather than an
 /// id, for the instructions whose literals could otherwise be taken for a tracked id (a
 /// GLSL.std.450 instruction number, a composite index, a memory operand, a switch case, a
-/// constant's value). Others count every operand as a possible id: a false match refuses a
+/// constant's value, a storage class, a function control mask). Others count every operand as a possible id: a false match refuses a
 /// module, never rewrites it wrongly.
 pub fn is_literal(opcode: u32, index: usize) -> bool {
     use op::*;
@@ -247,6 +247,8 @@ pub fn is_literal(opcode: u32, index: usize) -> bool {
         // Selector, default, then (literal, label) pairs.
         OP_SWITCH => index >= 2 && index % 2 == 0,
         OP_CONSTANT => index >= 2,
+        // A variable's storage class; a function's control mask.
+        OP_VARIABLE | OP_FUNCTION => index == 2,
         _ => false,
     }
 }
