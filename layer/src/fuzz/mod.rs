@@ -546,6 +546,11 @@ fn fragment_rewrite() {
 }
 
 #[test]
+fn input_rewrite() {
+    spirv::run_input();
+}
+
+#[test]
 fn chain_splice() {
     chain::run();
 }

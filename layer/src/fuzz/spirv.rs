@@ -1,7 +1,8 @@
-//! The SPIR-V targets: the vertex-stage analysis (`crate::shader::analysis`) and the fragment depth
-//! rewrite (`fragment_depth`), on mutated real modules (glslang's, committed under
-//! `layer/fuzz-seeds/`; naga's, compiled from `shaders/` at test time) and, for the rewrite,
-//! fragment shaders generated as GLSL and compiled with naga.
+//! The SPIR-V targets: the vertex-stage analysis (`crate::shader::analysis`), the fragment depth
+//! rewrite (`fragment_depth`) and the input attachment rewrite (`input_depth`), on mutated
+//! real modules (glslang's, committed under `layer/fuzz-seeds/` and `shaders/`; naga's,
+//! compiled from `shaders/` at test time; assembled deferred lighting shapes) and, for the
+//! fragment depth rewrite, fragment shaders generated as GLSL and compiled with naga.
 
 use std::collections::HashMap;
 use std::panic::catch_unwind;
@@ -54,6 +55,12 @@ const LATER_STAGE_SEEDS: &[&[u8]] = &[
     include_bytes!("../shader/test_data/function_call.spv"),
     include_bytes!("../../../shaders/glslang/passthrough.geom.spv"),
     include_bytes!("../shader/test_data/geometry_wireframe.spv"),
+    // Tessellation stages that carry the positions on (`tessellation_positions`).
+    include_bytes!("../../../shaders/glslang/position_passthrough.tesc.spv"),
+    include_bytes!("../../../shaders/glslang/interpolating.tese.spv"),
+    include_bytes!("../shader/test_data/tessellation_quad_mix.spv"),
+    include_bytes!("../shader/test_data/tessellation_vector_weights.spv"),
+    include_bytes!("../shader/test_data/tessellation_lod_from_w.spv"),
 ];
 
 const FRAGMENT_SEEDS: &[&[u8]] = seed_files!(
@@ -560,38 +567,7 @@ fn check_fragment(bytes: &[u8]) -> Result<u64, String> {
         Ok(Some(out)) => out,
     };
     FRAGMENT_REWRITTEN.add();
-    if out.len() < words.len() || out[..3] != words[..3] || out[4] != words[4] || out[3] < words[3]
-    {
-        return Err(format!(
-            "the header changed or words were lost: {:x?} -> {:x?}, {} -> {} words",
-            &words[..5],
-            &out[..5.min(out.len())],
-            words.len(),
-            out.len()
-        ));
-    }
-    let walked: Result<Vec<_>, usize> = instructions(&out).expect("a header").collect();
-    let walked = walked.map_err(|at| format!("the rewrite is malformed at word {at}"))?;
-    let original: Vec<_> = instructions(&words)
-        .expect("a header")
-        .map_while(Result::ok)
-        .collect();
-    // Every original instruction, in order (the edited ones keep their opcode).
-    let mut rest = walked.iter();
-    for instruction in &original {
-        if !rest.any(|o| o.opcode == instruction.opcode) {
-            return Err(format!(
-                "the rewrite lost an instruction of opcode {}",
-                instruction.opcode
-            ));
-        }
-    }
-    if validates(&words).is_ok() {
-        if let Err(error) = validates(&out) {
-            return Err(format!(
-                "spirv-val accepts the module but rejects its rewrite: {error}"
-            ));
-        }
+    if rewrite_problem(&words, &out)?.is_some() {
         FRAGMENT_VALIDATED.add();
     }
     Ok(hash_of(&("rewritten", out.len() - words.len())))
@@ -706,6 +682,222 @@ pub fn fragment_target() -> Target {
         max_len: 64 << 10,
         counters: FRAGMENT_COUNTERS,
     }
+}
+
+/// The invariants of a word-level rewrite `out` of `words`: the header kept (but a larger
+/// bound), a whole instruction stream holding every instruction of the original in order,
+/// and spirv-val's acceptance wherever it accepts the original. `Ok(Some(()))` where the
+/// rewrite of a valid module was validated.
+fn rewrite_problem(words: &[u32], out: &[u32]) -> Result<Option<()>, String> {
+    if out.len() < words.len() || out[..3] != words[..3] || out[4] != words[4] || out[3] < words[3]
+    {
+        return Err(format!(
+            "the header changed or words were lost: {:x?} -> {:x?}, {} -> {} words",
+            &words[..5],
+            &out[..5.min(out.len())],
+            words.len(),
+            out.len()
+        ));
+    }
+    let walked: Result<Vec<_>, usize> = instructions(out).expect("a header").collect();
+    let walked = walked.map_err(|at| format!("the rewrite is malformed at word {at}"))?;
+    let original: Vec<_> = instructions(words)
+        .expect("a header")
+        .map_while(Result::ok)
+        .collect();
+    // Every original instruction, in order (the edited ones keep their opcode).
+    let mut rest = walked.iter();
+    for instruction in &original {
+        if !rest.any(|o| o.opcode == instruction.opcode) {
+            return Err(format!(
+                "the rewrite lost an instruction of opcode {}",
+                instruction.opcode
+            ));
+        }
+    }
+    if validates(words).is_err() {
+        return Ok(None);
+    }
+    validates(out)
+        .map(Some)
+        .map_err(|error| format!("spirv-val accepts the module but rejects its rewrite: {error}"))
+}
+
+/// Deferred lighting shaders that read depth as input attachments, assembled: a color input
+/// (index 0), depth (index 1, or undecorated as dynamic rendering's default mapping maps it),
+/// a stencil input read as integers, and a texture declared among them (a UniformConstant
+/// variable that is no input attachment), the reads through copies and a local variable.
+fn input_attachment_seeds() -> Vec<Vec<u8>> {
+    let shape = |depth_index: &str, texture_first: bool| {
+        let texture = "%simage = OpTypeImage %float 2D 0 0 0 1 Unknown
+             %sampled = OpTypeSampledImage %simage
+             %ps = OpTypePointer UniformConstant %sampled
+             %shadow = OpVariable %ps UniformConstant";
+        let inputs = "%uv4 = OpTypeVector %uint 4
+             %uimage = OpTypeImage %uint SubpassData 0 0 0 2 Unknown
+             %pu = OpTypePointer UniformConstant %uimage
+             %albedo = OpVariable %pf UniformConstant
+             %depth = OpVariable %pf UniformConstant
+             %stencil = OpVariable %pu UniformConstant
+             %pff = OpTypePointer Function %float";
+        let declarations = if texture_first {
+            format!("{texture}\n{inputs}")
+        } else {
+            format!("{inputs}\n{texture}")
+        };
+        let words = crate::shader::test_spirv::input_attachment_fragment(
+            &format!(
+                "OpDecorate %albedo InputAttachmentIndex 0
+                 OpDecorate %albedo DescriptorSet 0
+                 OpDecorate %albedo Binding 0
+                 {depth_index}
+                 OpDecorate %depth DescriptorSet 0
+                 OpDecorate %depth Binding 1
+                 OpDecorate %stencil InputAttachmentIndex 2
+                 OpDecorate %stencil DescriptorSet 0
+                 OpDecorate %stencil Binding 2
+                 OpDecorate %shadow DescriptorSet 0
+                 OpDecorate %shadow Binding 3"
+            ),
+            &declarations,
+            "%local = OpVariable %pff Function
+             %a = OpLoad %fimage %albedo
+             %ar = OpImageRead %v4 %a %origin
+             %d = OpLoad %fimage %depth
+             %e = OpCopyObject %fimage %d
+             %dr = OpImageRead %v4 %e %origin
+             %s = OpLoad %uimage %stencil
+             %sr = OpImageRead %uv4 %s %origin
+             %dx = OpCompositeExtract %float %dr 0
+             OpStore %local %dx
+             %l = OpLoad %float %local
+             %ag = OpCompositeExtract %float %ar 1
+             %sx = OpCompositeExtract %uint %sr 0
+             %sf = OpConvertUToF %float %sx
+             %c = OpCompositeConstruct %v4 %l %ag %sf %dx
+             OpStore %out %c",
+        );
+        to_bytes(&words)
+    };
+    // A texture declared last, right before a constant of another size than a variable's:
+    // a declaration walk that lost count of the skipped variable's words lands inside that
+    // constant (and, walking no function, converts nothing: a unit test of `input_depth`
+    // checks the reads are converted).
+    let misaligned = crate::shader::test_spirv::assemble(
+        "OpCapability Shader
+        OpCapability InputAttachment
+        OpMemoryModel Logical GLSL450
+        OpEntryPoint Fragment %main \"main\" %out
+        OpExecutionMode %main OriginUpperLeft
+        OpDecorate %out Location 0
+        OpDecorate %depth InputAttachmentIndex 0
+        OpDecorate %depth DescriptorSet 0
+        OpDecorate %depth Binding 0
+        OpDecorate %shadow DescriptorSet 0
+        OpDecorate %shadow Binding 1
+        %void = OpTypeVoid
+        %fn = OpTypeFunction %void
+        %float = OpTypeFloat 32
+        %int = OpTypeInt 32 1
+        %v4 = OpTypeVector %float 4
+        %v2i = OpTypeVector %int 2
+        %zero = OpConstant %int 0
+        %origin = OpConstantComposite %v2i %zero %zero
+        %fimage = OpTypeImage %float SubpassData 0 0 0 2 Unknown
+        %pf = OpTypePointer UniformConstant %fimage
+        %depth = OpVariable %pf UniformConstant
+        %pout = OpTypePointer Output %v4
+        %out = OpVariable %pout Output
+        %simage = OpTypeImage %float 2D 0 0 0 1 Unknown
+        %sampled = OpTypeSampledImage %simage
+        %ps = OpTypePointer UniformConstant %sampled
+        %shadow = OpVariable %ps UniformConstant
+        %half = OpConstant %float 0.5
+        %halves = OpConstantComposite %v4 %half %half %half %half
+        %main = OpFunction %void None %fn
+        %entry = OpLabel
+        %d = OpLoad %fimage %depth
+        %r = OpImageRead %v4 %d %origin
+        %m = OpFMul %v4 %r %halves
+        OpStore %out %m
+        OpReturn
+        OpFunctionEnd",
+    );
+    let mut seeds = vec![
+        to_bytes(&misaligned),
+        shape("OpDecorate %depth InputAttachmentIndex 1", false),
+        shape("OpDecorate %depth InputAttachmentIndex 1", true),
+        shape("", true),
+        include_bytes!("../../../shaders/glslang/depth_input.frag.spv").to_vec(),
+        include_bytes!("../../../shaders/spvasm/depth_input_undecorated.frag.spv").to_vec(),
+    ];
+    seeds.dedup();
+    seeds
+}
+
+pub static INPUT_REWRITTEN: Counter = Counter::new("rewritten");
+pub static INPUT_VALIDATED: Counter = Counter::new("rewrites of valid modules validated");
+pub static INPUT_REFUSED: Counter = Counter::new("refused");
+pub static INPUT_COUNTERS: &[&Counter] = &[&INPUT_REWRITTEN, &INPUT_VALIDATED, &INPUT_REFUSED];
+
+/// The input attachment rewrite never panics, and a module it returns keeps the invariants of
+/// [`rewrite_problem`], for every way a pipeline names the depth inputs (a render pass's
+/// indices, dynamic rendering's explicit index or its default mapping).
+fn check_input(bytes: &[u8]) -> Result<u64, String> {
+    use crate::shader::input_depth::{reverse_input_depth, DepthInputs};
+    let words = to_words(bytes);
+    let _ = crate::shader::input_depth::reads_input_attachments(&words);
+    let mut outcomes = Vec::new();
+    for inputs in [
+        DepthInputs::Indices(vec![0]),
+        DepthInputs::Indices(vec![1]),
+        DepthInputs::Indices(vec![0, 1, 2]),
+        DepthInputs::Undecorated,
+    ] {
+        let outcome = match reverse_input_depth(&words, &inputs) {
+            Ok(None) => "unchanged".to_owned(),
+            Err(reason) => {
+                INPUT_REFUSED.add();
+                reason.0.to_owned()
+            }
+            Ok(Some(out)) => {
+                INPUT_REWRITTEN.add();
+                if rewrite_problem(&words, &out)
+                    .map_err(|problem| format!("{inputs:?}: {problem}"))?
+                    .is_some()
+                {
+                    INPUT_VALIDATED.add();
+                }
+                format!("rewritten {}", out.len() - words.len())
+            }
+        };
+        outcomes.push(outcome);
+    }
+    Ok(hash_of(&outcomes))
+}
+
+pub fn input_target() -> Target {
+    Target {
+        name: "input_rewrite",
+        extension: "spv",
+        seeds: input_attachment_seeds(),
+        mutate: mutate_spirv,
+        check: check_input,
+        max_len: 64 << 10,
+        counters: INPUT_COUNTERS,
+    }
+}
+
+pub fn run_input() {
+    let report = super::run(input_target());
+    if report.replay {
+        return;
+    }
+    assert!(report.cases as usize >= input_attachment_seeds().len());
+    assert!(
+        INPUT_VALIDATED.get() > 0,
+        "no rewrite of a valid module was validated (is spirv-val, Debian spirv-tools, installed?)"
+    );
 }
 
 pub fn run_vertex() {

@@ -515,7 +515,8 @@ mod tests {
         // A lighting shader with a texture declared first (a UniformConstant variable that is
         // no input attachment). Until session 37 the declaration walk skipped counting its
         // words, so the functions' start came early by them: the rewrite inserted its constant
-        // there, among the declarations or, where that fell inside an instruction, into it.
+        // there, among the declarations, or, where that fell inside an instruction, walked no
+        // function and converted nothing (the reads saw reversed depth).
         let words = test_spirv::input_attachment_fragment(
             "OpDecorate %shadow DescriptorSet 0
              OpDecorate %shadow Binding 1
