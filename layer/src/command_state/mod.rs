@@ -245,6 +245,10 @@ pub struct CommandState {
     /// geometry and mesh stages ([`POSITION_STAGES`]; null: none), and what revz knows of them
     /// where they store `Position` (precise modes).
     position_shaders: [(vk::ShaderEXT, Option<PositionShader>); POSITION_STAGES.len()],
+    /// The tessellation control shader object bound copies the positions on
+    /// ([`PositionShader::PassesThrough`]): an evaluation shader that interpolates them then
+    /// leaves the rewrite to the stage before ([`Self::last_position_stage`]).
+    control_carries_positions: bool,
     /// The stage (index in [`POSITION_STAGES`]) whose application shader revz replaced by its
     /// baked variant, and that variant.
     position_variant_bound: Option<(usize, vk::ShaderEXT)>,
@@ -313,6 +317,7 @@ impl Default for CommandState {
             fragment_shader: (vk::ShaderEXT::null(), None),
             shader_variant_bound: false,
             position_shaders: std::array::from_fn(|_| (vk::ShaderEXT::null(), None)),
+            control_carries_positions: false,
             position_variant_bound: None,
             shader_objects: false,
             inherits_viewports: false,
@@ -572,17 +577,34 @@ impl CommandState {
     /// With shader objects bound: the last pre-rasterization stage bound (index in
     /// [`POSITION_STAGES`]) that stores the positions rasterized: a geometry shader that
     /// passes them through ([`PositionShader::PassesThrough`]) leaves it the stage bound
-    /// before it.
+    /// before it, and so does an evaluation shader that interpolates them after a control
+    /// shader that copies them.
     fn last_position_stage(&self) -> Option<usize> {
+        const EVALUATION: usize = 1;
+        debug_assert_eq!(
+            POSITION_STAGES[EVALUATION],
+            vk::ShaderStageFlags::TESSELLATION_EVALUATION
+        );
         let bound = |shaders: &[(vk::ShaderEXT, Option<PositionShader>)]| {
             shaders
                 .iter()
                 .rposition(|(shader, _)| *shader != vk::ShaderEXT::null())
         };
-        let last = bound(&self.position_shaders)?;
-        match self.position_shaders[last].1 {
-            Some(PositionShader::PassesThrough) => bound(&self.position_shaders[..last]),
-            _ => Some(last),
+        let mut last = bound(&self.position_shaders)?;
+        while self.position_shaders[last].1 == Some(PositionShader::PassesThrough)
+            && (last != EVALUATION || self.control_carries_positions)
+        {
+            last = bound(&self.position_shaders[..last])?;
+        }
+        Some(last)
+    }
+
+    /// `vkCmdBindShadersEXT` naming the tessellation control stage: whether the shader it
+    /// binds there (none: `false`) copies the positions on.
+    pub fn bind_control_shader(&mut self, carries_positions: bool) {
+        if self.control_carries_positions != carries_positions {
+            self.control_carries_positions = carries_positions;
+            self.dirty = true;
         }
     }
 
@@ -1045,6 +1067,7 @@ impl CommandState {
             self.fragment_shader = (vk::ShaderEXT::null(), None);
             self.shader_variant_bound = false;
             self.position_shaders = std::array::from_fn(|_| (vk::ShaderEXT::null(), None));
+            self.control_carries_positions = false;
             self.position_variant_bound = None;
         }
     }

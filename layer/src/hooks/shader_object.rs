@@ -172,6 +172,20 @@ fn plan(
     if rewriting && crate::command_state::POSITION_STAGES.contains(&info.stage) {
         return position_plan(state, device, info, ranges, reserved, linked);
     }
+    if rewriting && info.stage == vk::ShaderStageFlags::TESSELLATION_CONTROL {
+        // A control shader that copies the positions on: with an evaluation shader that
+        // interpolates them, the stage bound before is the one precise-path draws rewrite.
+        let copies = info.code_type == vk::ShaderCodeTypeEXT::SPIRV && {
+            // SAFETY: `codeSize` bytes of SPIR-V (the application's contract).
+            let words = unsafe { slice(info.p_code.cast::<u32>(), (info.code_size / 4) as u32) };
+            crate::shader::tessellation_positions::control_passes_positions_through(words)
+        };
+        return if copies {
+            Plan::PassesThrough
+        } else {
+            Plan::Nothing
+        };
+    }
     if info.stage != vk::ShaderStageFlags::FRAGMENT {
         return Plan::Nothing;
     }
@@ -294,10 +308,19 @@ fn position_plan(
             .as_ref()
             .map(|r| r.as_ref().map(|r| r.assumes_input_unit_w))
             .map_err(|reason| *reason),
-        // Asked only where no route of its own applies (the module is read once more).
-        passes_through: info.stage == vk::ShaderStageFlags::GEOMETRY
-            && rewrite.is_err()
-            && words.is_some_and(crate::shader::position_store::passes_position_through),
+        // Asked only where no route of its own applies (the module is read once more): a
+        // geometry shader passing the positions through, an evaluation shader interpolating
+        // them (which counts only after a control shader that copies them: `CommandState`).
+        passes_through: rewrite.is_err()
+            && words.is_some_and(|words| match info.stage {
+                vk::ShaderStageFlags::GEOMETRY => {
+                    crate::shader::position_store::passes_position_through(words)
+                }
+                vk::ShaderStageFlags::TESSELLATION_EVALUATION => {
+                    crate::shader::tessellation_positions::evaluation_interpolates_positions(words)
+                }
+                _ => false,
+            }),
     };
     match (facts.decide(), pushed, rewrite) {
         (ShaderObjectPlan::PassesThrough, ..) => Plan::PassesThrough,
@@ -694,9 +717,10 @@ pub unsafe extern "system" fn create_shaders_ext(
                                  for precise-path draws"
                             ),
                             PositionShader::PassesThrough => log::debug!(
-                                "geometry shader object {shader:?} passes the positions of the \
+                                "{:?} shader object {shader:?} passes the positions of the \
                                  stage before it through: that stage's variant stores the depth \
-                                 of precise-path draws"
+                                 of precise-path draws",
+                                infos[index].stage
                             ),
                             PositionShader::Flip => {}
                         }

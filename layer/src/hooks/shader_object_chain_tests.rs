@@ -1457,6 +1457,79 @@ fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_
     fx.finish();
 }
 
+#[test]
+fn tessellation_shader_objects_that_only_subdivide_leave_the_vertex_variant_bound() {
+    let fx = Fixture::with_settings(&[(c"mode", c"infinite"), (c"reverse_observable", c"none")]);
+    let projecting = crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, PROJECTING);
+    let plain = fragment(PLAIN);
+    let (handles, _, variant_handles, _) =
+        create_pair_with_variant(&fx, &projecting, &plain, false);
+    let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
+    let control = vk::ShaderStageFlags::TESSELLATION_CONTROL;
+    let evaluation = vk::ShaderStageFlags::TESSELLATION_EVALUATION;
+    let words = |bytes: &[u8]| crate::shader::test_spirv::words(bytes);
+    // glslang's control shader copying the clip positions, and evaluation shader
+    // interpolating them: no variant of their own, marked.
+    let copying = words(include_bytes!(
+        "../../../shaders/glslang/position_passthrough.tesc.spv"
+    ));
+    let interpolating = words(include_bytes!(
+        "../../../shaders/glslang/interpolating.tese.spv"
+    ));
+    let (result, created) = fx.create(&[
+        shader_info(control, evaluation, &copying),
+        shader_info(evaluation, FRAGMENT_STAGE, &interpolating),
+    ]);
+    assert_eq!(result, vk::Result::SUCCESS);
+    assert_eq!(fx.events().len(), 1, "the application's call alone");
+    let (tesc, tese) = (created[0], created[1]);
+    for shader in [tesc, tese] {
+        assert_eq!(
+            fx.state.objects.position_shaders.get(&shader),
+            Some(PositionShader::PassesThrough)
+        );
+    }
+    // A control shader computing its levels from the positions' z: nothing of its own.
+    let lod_from_z = words(include_bytes!(
+        "../shader/test_data/tessellation_lod_from_z.spv"
+    ));
+    let (_, refused) = fx.create(&[shader_info(control, evaluation, &lod_from_z)]);
+    fx.events();
+    assert_eq!(fx.state.objects.position_shaders.get(&refused[0]), None);
+    // Drawn with both after the vertex shader: the vertex shader's variant goes down for
+    // precise-path draws, the tessellation shaders stay the application's.
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let buffer = fx.command_buffer();
+    let all = [VERTEX_STAGE, control, evaluation, FRAGMENT_STAGE];
+    fx.bind(buffer, &all, &[vertex, tesc, tese, frag]);
+    fx.render(buffer, reversed, 1);
+    let bind = |stages: &[vk::ShaderStageFlags], shaders: &[vk::ShaderEXT]| Event::BindShaders {
+        stages: stages.to_vec(),
+        shaders: shaders.to_vec(),
+    };
+    assert_eq!(
+        fx.shader_binds(),
+        [
+            bind(&all, &[vertex, tesc, tese, frag]),
+            bind(&[VERTEX_STAGE], &[variant]),
+        ]
+    );
+    // The control shader that reads z in its place: the evaluation shader is the last stage
+    // again, with no route of its own (the flip path), and the application's vertex shader
+    // goes back.
+    fx.bind(buffer, &[control], &[refused[0]]);
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds(),
+        [
+            bind(&[control], &[refused[0]]),
+            bind(&[VERTEX_STAGE], &[vertex]),
+        ]
+    );
+    fx.free(buffer);
+    fx.finish();
+}
+
 /// Checks that a linked set's creation (`events`) went down as the application's call alone,
 /// every create info still linked, and that its last pre-rasterization shader (`last`) takes
 /// the flip path.

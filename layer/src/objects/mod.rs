@@ -608,9 +608,10 @@ pub enum PositionShader {
     /// No variant: its draws into reversed attachments take the flip path.
     Flip,
     /// A geometry shader that stores `gl_in[i].gl_Position` as it is into every vertex it
-    /// emits (`crate::shader::position_store::passes_position_through`): no variant of its
-    /// own; the stage bound before it is the one precise-path draws bind a variant of, whose
-    /// depth it copies.
+    /// emits (`crate::shader::position_store::passes_position_through`), a tessellation
+    /// control shader that copies the positions, or an evaluation shader that interpolates
+    /// them (`crate::shader::tessellation_positions`): no variant of its own; the stage bound
+    /// before it is the one precise-path draws bind a variant of, whose depth line it keeps.
     PassesThrough,
 }
 

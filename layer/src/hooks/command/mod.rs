@@ -32,7 +32,7 @@ use crate::boundary::{guarded, EntryPoint};
 use crate::chain;
 use crate::command_state::{CommandState, StateSink, Target, POSITION_STAGES};
 use crate::conv::{BiasRepresentation, DepthBias};
-use crate::objects::{self, CommandBufferEntry, PassScope, SecondaryPass};
+use crate::objects::{self, CommandBufferEntry, PassScope, PositionShader, SecondaryPass};
 use crate::precise::{FoldedPush, Outcome, PushSink, PUSH_CONSTANT_BYTES};
 use crate::state::{DeviceState, DispatchKey, DEVICES};
 
@@ -970,6 +970,11 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
                 (shader, depth)
             })
         });
+        // A control shader copying the positions on (`PositionShader::PassesThrough`).
+        let control = bound_to(vk::ShaderStageFlags::TESSELLATION_CONTROL).map(|shader| {
+            shader != vk::ShaderEXT::null()
+                && objects.position_shaders.get(&shader) == Some(PositionShader::PassesThrough)
+        });
         if let Some(shader) = bound_to(vk::ShaderStageFlags::COMPUTE) {
             // A compute shader object (or none): bound again after revz's dispatch, which
             // binds a compute pipeline in its place.
@@ -979,6 +984,9 @@ pub unsafe extern "system" fn cmd_bind_shaders_ext(
         if stages.iter().any(|&s| s != vk::ShaderStageFlags::COMPUTE) {
             let mut state = entry.state();
             state.bind_shaders(fragment, position);
+            if let Some(carries) = control {
+                state.bind_control_shader(carries);
+            }
             // The variant in the application's shader's place where the next draw takes the
             // precise path, instead of the application's shader and then the variant.
             let at = state
