@@ -2491,11 +2491,25 @@ fn dynamic_renderings_local_reads_of_depth_are_converted_in_the_reversed_variant
     let app = AppPipeline::of_modules(vertex, undecorated);
     let (_, handle) = only_app_creation(&created_rendering(&fx, &app, Some(&unmapped)));
     assert_eq!(fx.recorded(handle).reversed_variant, None);
-    // No depth attachment: no depth to read.
+    // No depth attachment: nothing reversed to read, no variant.
     let mut app = AppPipeline::of_modules(vertex, undecorated);
     app.depth_format = vk::Format::UNDEFINED;
     let (_, handle) = only_app_creation(&created_rendering(&fx, &app, None));
     assert_eq!(fx.recorded(handle).reversed_variant, None);
+    // A fragment shader library, which names no depth format (only a fragment output library
+    // does): its reversed variant converts the reads, as a whole pipeline's does.
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+    let (_, _) = fx.create_pipelines(&[libraries.fragment_info()], None);
+    let (variants, library) = variants_then_app(&fx.events());
+    let [(code, reversed)] = variants.as_slice() else {
+        panic!("one variant: {variants:?}");
+    };
+    assert_eq!(
+        *code,
+        converted(&undecorated_words, DepthInputs::Undecorated)
+    );
+    assert_eq!(fx.recorded(library).reversed_variant, Some(*reversed));
     fx.finish();
 }
 

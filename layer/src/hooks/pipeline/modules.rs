@@ -35,9 +35,9 @@ pub(super) fn fragment_stage_rewrite(
 /// depth. Those are, for a render pass, its subpass's input attachments that read depth
 /// (`RenderPassInfo::subpass_depth_inputs`); with dynamic rendering
 /// (`VK_KHR_dynamic_rendering_local_read`, where input attachments read the rendering's own
-/// attachments), where the pipeline renders with a depth attachment, the index its
-/// `VkRenderingInputAttachmentIndexInfo` maps that attachment to, or the undecorated inputs
-/// where it maps it to none ([`rendering_depth_inputs`]). `None` where the policy converts no
+/// attachments), the index its `VkRenderingInputAttachmentIndexInfo` maps the depth
+/// attachment to, or the undecorated inputs where it maps it to none
+/// ([`rendering_depth_inputs`]). `None` where the policy converts no
 /// input reads or no input attachment reads depth.
 pub(super) fn depth_input_stage(
     state: &DeviceState,
@@ -83,20 +83,18 @@ pub(super) fn depth_input_stage(
     })
 }
 
-/// Dynamic rendering: the input attachments that read the depth attachment of a pipeline
-/// rendering with one (`VkPipelineRenderingCreateInfo::depthAttachmentFormat`), as its
-/// `VkRenderingInputAttachmentIndexInfo` maps it: an index, none (`VK_ATTACHMENT_UNUSED`), or,
-/// where the structure or its depth index is absent, the inputs without an
-/// `InputAttachmentIndex` decoration (the spec's default). The command buffer's mapping
-/// (`vkCmdSetRenderingInputAttachmentIndices`) must match the bound pipeline's, so the
-/// pipeline's tells what its draws read.
+/// Dynamic rendering: the input attachments that read the rendering's depth attachment, as
+/// the pipeline's `VkRenderingInputAttachmentIndexInfo` maps it: an index, none
+/// (`VK_ATTACHMENT_UNUSED`), or, where the structure or its depth index is absent, the inputs
+/// without an `InputAttachmentIndex` decoration (the spec's default). The command buffer's
+/// mapping (`vkCmdSetRenderingInputAttachmentIndices`) must match the bound pipeline's, so
+/// the pipeline's tells what its draws read. Whether the rendering has a depth attachment is
+/// not asked here: a fragment shader library need not name the format (only a fragment output
+/// library does), and a shader reading an input no attachment maps reads nothing valid; the
+/// reversed variants that convert the reads are made only where the pipeline renders depth
+/// (`Variants::reversed`).
 fn rendering_depth_inputs(info: &vk::GraphicsPipelineCreateInfo<'_>) -> Option<DepthInputs> {
     // SAFETY: a valid chain (the application's contract).
-    let rendering = unsafe { chain::find::<vk::PipelineRenderingCreateInfo<'_>>(info.p_next) }?;
-    if rendering.depth_attachment_format == vk::Format::UNDEFINED {
-        return None;
-    }
-    // SAFETY: as above.
     let mapping =
         unsafe { chain::find::<vk::RenderingInputAttachmentIndexInfoKHR<'_>>(info.p_next) };
     // SAFETY: null or a valid index (the application's contract).
