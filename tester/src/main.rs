@@ -458,30 +458,15 @@ fn run(cli: &RenderArgs) -> Result<u32> {
             stencil_resolve: resolve_mode_name(ms.resolve.stencil),
         });
         let recorded = recorded(&scene, &renderer, &targets, cli.frames);
-        (readback.frame()?, multisample, recorded)
+        (readback.frames()?, multisample, recorded)
     };
-    let (frame, multisample, recorded) = frame;
+    let (frames, multisample, recorded) = frame;
     let clear_depth = scene.plan.main_clear_depth();
-    for path in readback::write_images(out, &frame, clear_depth)? {
-        print_wrote(&path);
-    }
-    // Pure computation, no Vulkan: scenes where something else than the nearest surface
-    // decides what shows have none.
-    let ground_truth = match ground_truth::compute(&scene, frame.width, frame.height) {
-        Ok((truth, report)) => {
-            for (name, bytes) in [
-                (ground_truth::W_FILE, truth.w_bytes()),
-                (ground_truth::ID_FILE, truth.id_bytes()),
-            ] {
-                let path = out.join(name);
-                std::fs::write(&path, bytes)
-                    .with_context(|| format!("cannot write {}", path.display()))?;
-                print_wrote(&path);
-            }
-            Some(report)
-        }
-        Err(_) => None,
-    };
+    let views = frames
+        .iter()
+        .enumerate()
+        .map(|(view, frame)| write_view(out, &scene, view, frame, clear_depth))
+        .collect::<Result<Vec<_>>>()?;
 
     // Destroy the device and the instance before counting, so that what validation reports
     // at vkDestroyDevice / vkDestroyInstance (leaks) is counted too.
@@ -489,10 +474,7 @@ fn run(cli: &RenderArgs) -> Result<u32> {
     drop(gpu);
     let messages = log.count();
 
-    let stats = frame
-        .depth
-        .as_ref()
-        .map(|depth| DepthStats::of(depth, clear_depth));
+    let frame = &frames[0];
     let report = RenderReport {
         device: device_info.name.clone(),
         driver: device_info.driver(),
@@ -501,21 +483,89 @@ fn run(cli: &RenderArgs) -> Result<u32> {
         delivery: cli.delivery.name(),
         width: frame.width,
         height: frame.height,
+        views: views.len(),
+        view: 0,
         validation_messages: messages,
         validation_skipped,
         features,
         depth_readback,
         stencil_readback: false,
         clear_depth,
-        depth_min: stats.and_then(|s| s.min),
-        depth_max: stats.and_then(|s| s.max),
-        covered_pixels: stats.map(|s| s.covered),
+        depth_min: None,
+        depth_max: None,
+        covered_pixels: None,
         multisample,
-        ground_truth,
+        ground_truth: None,
         recorded,
     };
-    print_wrote(&readback::write_report(out, &report)?);
+    for (view, written) in views.into_iter().enumerate() {
+        let report = RenderReport {
+            view,
+            depth_min: written.stats.and_then(|s| s.min),
+            depth_max: written.stats.and_then(|s| s.max),
+            covered_pixels: written.stats.map(|s| s.covered),
+            ground_truth: written.ground_truth,
+            ..report.clone()
+        };
+        print_wrote(&readback::write_report(&written.dir, &report)?);
+    }
     Ok(messages)
+}
+
+/// What [`write_view`] wrote of one view, for its `render.json`.
+struct ViewOutput {
+    /// The view's directory ([`readback::view_dir`]).
+    dir: PathBuf,
+    /// Its depth statistics (None if depth was not read back).
+    stats: Option<DepthStats>,
+    /// Its ground truth (None for scenes where something else than the nearest surface
+    /// decides what shows).
+    ground_truth: Option<ground_truth::GroundTruthReport>,
+}
+
+/// Writes view `view`'s images (`frame`, whose uncovered pixels hold `clear_depth`) and its
+/// ground truth, computed from the view's own camera ([`crate::scene::Scene::seen_from`]),
+/// into its directory ([`readback::view_dir`]).
+fn write_view(
+    out: &Path,
+    scene: &crate::scene::Scene,
+    view: usize,
+    frame: &readback::Frame,
+    clear_depth: f32,
+) -> Result<ViewOutput> {
+    let dir = readback::view_dir(out, view);
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("cannot create output directory {}", dir.display()))?;
+    for path in readback::write_images(&dir, frame, clear_depth)? {
+        print_wrote(&path);
+    }
+    // Pure computation, no Vulkan: scenes where something else than the nearest surface
+    // decides what shows have none.
+    let seen = scene.seen_from(view);
+    let ground_truth = match ground_truth::compute(&seen, frame.width, frame.height) {
+        Ok((truth, report)) => {
+            for (name, bytes) in [
+                (ground_truth::W_FILE, truth.w_bytes()),
+                (ground_truth::ID_FILE, truth.id_bytes()),
+            ] {
+                let path = dir.join(name);
+                std::fs::write(&path, bytes)
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+                print_wrote(&path);
+            }
+            Some(report)
+        }
+        Err(_) => None,
+    };
+    let stats = frame
+        .depth
+        .as_ref()
+        .map(|depth| DepthStats::of(depth, clear_depth));
+    Ok(ViewOutput {
+        dir,
+        stats,
+        ground_truth,
+    })
 }
 
 /// `render.json`'s `recorded`: the depth images and the draws of one frame of `plan`.

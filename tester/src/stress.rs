@@ -255,6 +255,8 @@ pub fn run(args: &StressArgs) -> Result<ExitCode> {
         delivery: crate::plan::Delivery::Push.name(),
         width: first.width,
         height: first.height,
+        views: 1,
+        view: 0,
         validation_messages: messages,
         validation_skipped: None,
         features: Vec::new(),

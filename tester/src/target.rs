@@ -1066,6 +1066,12 @@ impl<'a> Targets<'a> {
     pub fn pixel_count(&self) -> usize {
         self.extent.width as usize * self.extent.height as usize
     }
+
+    /// The views rendered: the color image's array layers (one per view of a multiview pass,
+    /// [`TargetOptions::views`]; 1 otherwise).
+    pub fn views(&self) -> u32 {
+        self.color.subresources.layers
+    }
 }
 
 #[cfg(test)]

@@ -297,6 +297,22 @@ impl Render {
             .to_rgba8()
     }
 
+    /// Every view of the render, view 0 (this directory) first: a multiview render's view n
+    /// is in `view<n>/`, with its layer's color and depth and the ground truth of its own
+    /// camera (`render.json`'s `views`).
+    pub fn views(&self) -> Vec<Render> {
+        let views = self.json()["views"].as_u64().expect("views");
+        (0..views)
+            .map(|view| Render {
+                dir: match view {
+                    0 => self.dir.clone(),
+                    n => self.dir.join(format!("view{n}")),
+                },
+                output: self.output.clone(),
+            })
+            .collect()
+    }
+
     /// The decoded depth values, exactly as the tester read them back.
     pub fn depth(&self) -> Vec<f32> {
         let bytes = std::fs::read(self.dir.join("depth.f32")).expect("depth.f32");

@@ -1716,9 +1716,13 @@ fn depth_mips_and_layers_sample_standard_depth_through_the_twin() {
 /// (synchronization validation included), the depth image reversed with a read twin refreshed
 /// once a frame over both layers (twice one layer's bytes), the colors the native render's of
 /// the same format within `depth-reads`' bounds (the second band is the second view's depth),
-/// layer 0's depth read back the native one reversed within the flip tolerance (where the
-/// ground truth sees one object), and in `complementary` and `infinite` every draw of the
-/// multiview pipeline precise (its projection is in a uniform buffer: the derived route).
+/// and in `complementary` and `infinite` every draw of the multiview pipeline precise (its
+/// projection is in a uniform buffer: the derived route). Each view's layer is read back
+/// (view 1's into `view1/`, with the ground truth of its own camera) and checked alike
+/// ([`view_problems`]): its colors the same view's of the native render within those bounds,
+/// its depth read back the native one within the flip tolerance (where the view's ground truth
+/// sees one object). `tests/tests/precise.rs::multiview_every_view_against_its_own_camera`
+/// checks each view's depth against its ground truth.
 #[test]
 fn multiview_passes_reverse_every_view() {
     let harness = Harness::locate();
@@ -1730,17 +1734,20 @@ fn multiview_passes_reverse_every_view() {
             let mut command = harness.tester(format, &native_dir);
             command.args(["--scene", scene, "--sync-validation", "--frames", frames]);
             let native = harness.render(command, &native_dir);
-            let (own, native_depth) = (native.color(), native.depth());
+            let native_views = native.views();
+            assert_eq!(native_views.len(), 2, "{scene}: two views read back");
             let truth = native.ground_truth();
             for mode in ["flip", "complementary", "infinite"] {
                 let name = format!("{scene}-{format}-{mode}");
                 let (render, profile) = layered_reads(&harness, scene, format, mode, frames);
-                problems.extend(read_color_problems(
-                    &name,
-                    (format, mode),
-                    &own,
-                    &render.color(),
-                ));
+                for (view, (own, layered)) in native_views.iter().zip(render.views()).enumerate() {
+                    problems.extend(view_problems(
+                        &format!("{name} view {view}"),
+                        (format, mode),
+                        own,
+                        &layered,
+                    ));
+                }
                 let image = &profile["images"][0];
                 if image["depth"] != "reversed" || image["read_twin"] != true {
                     problems.push(format!("{name}: not reversed with a read twin: {image}"));
@@ -1757,23 +1764,6 @@ fn multiview_passes_reverse_every_view() {
                     problems.push(format!(
                         "{name}: {bytes} bytes refreshed, not both layers of {texels} texels \
                          in each of 2 frames"
-                    ));
-                }
-                // Layer 0 reversed: its read-back is the native depth reversed (the copy
-                // converts it back to standard under the default policy).
-                let layered = render.depth();
-                let worst = native_depth
-                    .iter()
-                    .zip(&layered)
-                    .zip(&truth.w)
-                    .filter(|(_, w)| w.is_finite())
-                    .map(|((n, l), _)| (n - l).abs())
-                    .fold(0.0f32, f32::max);
-                let bound = revz_tests::flip_tolerance(format).max(1e-3);
-                if worst > bound {
-                    problems.push(format!(
-                        "{name}: layer 0's depth is {worst:e} from the native render's \
-                         (bound {bound:e})"
                     ));
                 }
                 if mode != "flip" {
@@ -1797,4 +1787,35 @@ fn multiview_passes_reverse_every_view() {
         }
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// What is wrong with one view of a multiview render through revz (`layered`, with the
+/// default policy: copies read back standard depth) against the same view of the native
+/// render (`native`): its colors beyond [`read_color_problems`]' bounds, or its depth read
+/// back off the native depth by more than the flip tolerance (at least 1e-3) where the view's
+/// ground truth sees one object.
+fn view_problems(
+    name: &str,
+    (format, mode): (&str, &str),
+    native: &revz_tests::Render,
+    layered: &revz_tests::Render,
+) -> Vec<String> {
+    let mut problems = read_color_problems(name, (format, mode), &native.color(), &layered.color());
+    let truth = native.ground_truth();
+    let worst = native
+        .depth()
+        .iter()
+        .zip(&layered.depth())
+        .zip(&truth.w)
+        .filter(|(_, w)| w.is_finite())
+        .map(|((n, l), _)| (n - l).abs())
+        .fold(0.0f32, f32::max);
+    let bound = revz_tests::flip_tolerance(format).max(1e-3);
+    eprintln!("{name}: depth at most {worst:e} from the native render's");
+    if worst > bound {
+        problems.push(format!(
+            "{name}: the depth read back is {worst:e} from the native render's (bound {bound:e})"
+        ));
+    }
+    problems
 }

@@ -1,7 +1,9 @@
 //! Getting the rendered images back and writing them out: the host-visible read-back buffers,
 //! the barriers and copies recorded after the render pass, decoding of the depth aspect to
 //! f32 for every depth format, and the output files (`color.png`, `depth.png`, `depth.f32`,
-//! `render.json`; the ground-truth files are written by `main.rs`). With `--no-depth-readback` only the color image is read back (the depth
+//! `render.json`; the ground-truth files are written by `main.rs`). A render of several views
+//! (multiview) reads back each view's array layer, and writes view n's files into `view<n>/`
+//! ([`view_dir`]). With `--no-depth-readback` only the color image is read back (the depth
 //! image then has no TRANSFER_SRC usage), and `depth.png` / `depth.f32` are not written. The
 //! stencil aspect is never read back.
 
@@ -130,12 +132,15 @@ pub struct DepthReadback {
 /// What the host buffer's row padding holds before and after the render.
 pub const PADDING_BYTE: u8 = 0xA5;
 
-/// Host-visible buffers receiving the color image and the depth aspect of the depth image.
+/// Host-visible buffers receiving the color image and the depth aspect of the depth image:
+/// of each view's array layer where a multiview pass rendered several
+/// ([`Targets::views`]; only the direct route reads those back).
 #[derive(Debug)]
 pub struct Readback<'a> {
-    color: HostBuffer<'a>,
-    /// None with `--no-depth-readback`.
-    depth: Option<HostBuffer<'a>>,
+    /// One per view, layer 0 first.
+    color: Vec<HostBuffer<'a>>,
+    /// One per view, layer 0 first; empty with `--no-depth-readback`.
+    depth: Vec<HostBuffer<'a>>,
     extent: vk::Extent2D,
     depth_format: DepthFormat,
     options: DepthReadback,
@@ -163,27 +168,42 @@ pub struct Frame {
 }
 
 impl<'a> Readback<'a> {
-    /// Creates the read-back buffers for `targets` (none for depth unless `depth`).
+    /// Creates the read-back buffers for `targets`, one set per view (none for depth unless
+    /// `depth`). The routes through other images copy one layer: a render of several views
+    /// takes the direct route.
     pub fn new(
         gpu: &'a Gpu,
         targets: &Targets<'_>,
         depth: bool,
         options: DepthReadback,
     ) -> Result<Self> {
+        let views = targets.views();
+        if depth && views > 1 && options.route != DepthRoute::Direct {
+            bail!(
+                "{views} views are read back by the direct depth route only, not {:?}",
+                options.route
+            );
+        }
         let pixels = targets.pixel_count();
-        let color = HostBuffer::new(gpu, pixels * 4, vk::BufferUsageFlags::TRANSFER_DST)
-            .context("color read-back buffer")?;
+        let color = (0..views)
+            .map(|_| {
+                HostBuffer::new(gpu, pixels * 4, vk::BufferUsageFlags::TRANSFER_DST)
+                    .context("color read-back buffer")
+            })
+            .collect::<Result<_>>()?;
         let texel = targets.depth_format.depth_copy_texel_size();
         let extent = targets.extent;
         let padded = (extent.width + options.row_padding) as usize * extent.height as usize;
-        let (mut depth_buffer, mut second, mut staging) = (None, None, None);
+        let (mut depth_buffers, mut second, mut staging) = (Vec::new(), None, None);
         let mut volumes = Vec::new();
         if depth {
-            let mut buffer =
-                HostBuffer::new(gpu, padded * texel, vk::BufferUsageFlags::TRANSFER_DST)
-                    .context("depth read-back buffer")?;
-            buffer.write(&vec![PADDING_BYTE; padded * texel]);
-            depth_buffer = Some(buffer);
+            for _ in 0..views {
+                let mut buffer =
+                    HostBuffer::new(gpu, padded * texel, vk::BufferUsageFlags::TRANSFER_DST)
+                        .context("depth read-back buffer")?;
+                buffer.write(&vec![PADDING_BYTE; padded * texel]);
+                depth_buffers.push(buffer);
+            }
             if let Some((usage, flags)) = options.route.second_image() {
                 let format = targets.depth_format;
                 second = Some(
@@ -215,7 +235,7 @@ impl<'a> Readback<'a> {
         }
         Ok(Readback {
             color,
-            depth: depth_buffer,
+            depth: depth_buffers,
             extent,
             depth_format: targets.depth_format,
             options,
@@ -227,9 +247,14 @@ impl<'a> Readback<'a> {
 
     /// Records, after the render pass: attachment layouts -> TRANSFER_SRC_OPTIMAL (waiting for
     /// the attachment writes, including the store ops and resolves), the copies of the color image and of
-    /// the DEPTH aspect (if read back), and a TRANSFER -> HOST barrier so the host can read the
-    /// buffers once the submission's fence has signalled.
+    /// the DEPTH aspect (if read back), each view's layer into its buffers, and a TRANSFER ->
+    /// HOST barrier so the host can read the buffers once the submission's fence has signalled.
     pub fn record(&self, device: &ash::Device, cmd: vk::CommandBuffer, targets: &Targets<'_>) {
+        // The layers read back: each view's.
+        let layers = |aspects| vk::ImageSubresourceRange {
+            layer_count: targets.views(),
+            ..full_range(aspects)
+        };
         let mut to_transfer = vec![vk::ImageMemoryBarrier::default()
             .src_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE)
             .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
@@ -238,8 +263,8 @@ impl<'a> Readback<'a> {
             .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
             .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
             .image(targets.color.image)
-            .subresource_range(full_range(vk::ImageAspectFlags::COLOR))];
-        if self.depth.is_some() {
+            .subresource_range(layers(vk::ImageAspectFlags::COLOR))];
+        if !self.depth.is_empty() {
             // Resolves write in the color attachment output stage with color attachment
             // writes, the depth resolve of a multisampled pass included.
             let mut written = vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE;
@@ -256,7 +281,7 @@ impl<'a> Readback<'a> {
                     .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                     .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                     .image(targets.depth.image)
-                    .subresource_range(full_range(targets.depth_format.aspects())),
+                    .subresource_range(layers(targets.depth_format.aspects())),
             );
         }
         // The route's second image and 3D images: written first, by a copy or a blit.
@@ -273,8 +298,10 @@ impl<'a> Readback<'a> {
                     .subresource_range(full_range(targets.depth_format.aspects())),
             );
         }
-        let to_host: Vec<vk::BufferMemoryBarrier<'_>> = std::iter::once(&self.color)
-            .chain(self.depth.as_ref())
+        let to_host: Vec<vk::BufferMemoryBarrier<'_>> = self
+            .color
+            .iter()
+            .chain(&self.depth)
             .map(|buffer| {
                 vk::BufferMemoryBarrier::default()
                     .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
@@ -302,16 +329,18 @@ impl<'a> Readback<'a> {
                 &[],
                 &to_transfer,
             );
-            device.cmd_copy_image_to_buffer(
-                cmd,
-                targets.color.image,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                self.color.buffer,
-                &[self.region(vk::ImageAspectFlags::COLOR, 0)],
-            );
+            for (layer, color) in (0..).zip(&self.color) {
+                device.cmd_copy_image_to_buffer(
+                    cmd,
+                    targets.color.image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    color.buffer,
+                    &[self.layer_region(vk::ImageAspectFlags::COLOR, 0, layer)],
+                );
+            }
         }
-        if let Some(depth) = &self.depth {
-            self.record_depth(device, cmd, targets.depth.image, depth.buffer);
+        for (layer, depth) in (0..).zip(&self.depth) {
+            self.record_depth(device, cmd, targets.depth.image, depth.buffer, layer);
         }
         // SAFETY: as above.
         unsafe {
@@ -330,6 +359,16 @@ impl<'a> Readback<'a> {
     /// A copy region of the whole image's `aspect`, with `row_length` texels per buffer row
     /// (0: tight).
     fn region(&self, aspect: vk::ImageAspectFlags, row_length: u32) -> vk::BufferImageCopy {
+        self.layer_region(aspect, row_length, 0)
+    }
+
+    /// [`Self::region`] of array layer `layer`.
+    fn layer_region(
+        &self,
+        aspect: vk::ImageAspectFlags,
+        row_length: u32,
+        layer: u32,
+    ) -> vk::BufferImageCopy {
         vk::BufferImageCopy {
             buffer_offset: 0,
             buffer_row_length: row_length,
@@ -337,7 +376,7 @@ impl<'a> Readback<'a> {
             image_subresource: vk::ImageSubresourceLayers {
                 aspect_mask: aspect,
                 mip_level: 0,
-                base_array_layer: 0,
+                base_array_layer: layer,
                 layer_count: 1,
             },
             image_offset: vk::Offset3D { x: 0, y: 0, z: 0 },
@@ -349,14 +388,17 @@ impl<'a> Readback<'a> {
         }
     }
 
-    /// The depth aspect's copies along the route, into `host` (the depth image is in
-    /// TRANSFER_SRC_OPTIMAL, the second image in TRANSFER_DST_OPTIMAL).
+    /// The depth aspect's copies of array layer `layer` along the route, into `host` (the
+    /// depth image is in TRANSFER_SRC_OPTIMAL, the second image in TRANSFER_DST_OPTIMAL; the
+    /// routes through other images copy layer 0, the only one read back where they are
+    /// taken).
     fn record_depth(
         &self,
         device: &ash::Device,
         cmd: vk::CommandBuffer,
         image: vk::Image,
         host: vk::Buffer,
+        layer: u32,
     ) {
         let depth = vk::ImageAspectFlags::DEPTH;
         let padded = match self.options.row_padding {
@@ -373,7 +415,7 @@ impl<'a> Readback<'a> {
             return;
         }
         let Some(second) = &self.second else {
-            copies.image_to_buffer(image, host, self.region(depth, padded));
+            copies.image_to_buffer(image, host, self.layer_region(depth, padded, layer));
             return;
         };
         let layers = self.region(depth, 0).image_subresource;
@@ -502,11 +544,22 @@ impl<'a> Readback<'a> {
         copies.image_to_buffer(last.image, host, region);
     }
 
-    /// The read-back contents (call only after the render's fence has signalled).
+    /// The read-back contents of view 0 (call only after the render's fence has signalled).
     pub fn frame(&self) -> Result<Frame> {
+        self.view_frame(0)
+    }
+
+    /// The read-back contents of every view, view 0 first (as [`Self::frame`]).
+    pub fn frames(&self) -> Result<Vec<Frame>> {
+        (0..self.color.len())
+            .map(|view| self.view_frame(view))
+            .collect()
+    }
+
+    fn view_frame(&self, view: usize) -> Result<Frame> {
         let pixels = self.extent.width as usize * self.extent.height as usize;
-        let rgba = self.color.contents()[..pixels * 4].to_vec();
-        let depth = match &self.depth {
+        let rgba = self.color[view].contents()[..pixels * 4].to_vec();
+        let depth = match self.depth.get(view) {
             Some(depth) => {
                 let packed = self.unpadded(depth.contents())?;
                 Some(decode_depth(self.depth_format, &packed, pixels)?)

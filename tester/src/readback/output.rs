@@ -107,6 +107,13 @@ pub struct RenderReport {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
+    /// The views rendered: 2 for the multiview scenes (each view into its own array layer of
+    /// the color and depth images), 1 otherwise. View n > 0 has its own directory, `view<n>`
+    /// ([`view_dir`]), with the same files for its layer, its ground truth seen from its own
+    /// camera, and a `render.json` of its own.
+    pub views: usize,
+    /// The view whose files are in this directory (0 in the output directory itself).
+    pub view: usize,
     /// Counted validation messages (0 without `--validation`).
     pub validation_messages: u32,
     /// Why `--validation` was left out of this render (a validation layer older than an
@@ -214,6 +221,15 @@ pub fn resolve_mode_name(mode: vk::ResolveModeFlags) -> &'static str {
         vk::ResolveModeFlags::MIN => "MIN",
         vk::ResolveModeFlags::MAX => "MAX",
         _ => "OTHER",
+    }
+}
+
+/// The directory of view `view`'s files: `out` itself for view 0, `out/view<n>` for view n
+/// (see [`RenderReport::views`]).
+pub fn view_dir(out: &Path, view: usize) -> PathBuf {
+    match view {
+        0 => out.to_path_buf(),
+        n => out.join(format!("view{n}")),
     }
 }
 

@@ -324,6 +324,15 @@ impl Scene {
         [camera.clone(), second]
     }
 
+    /// The scene seen from view `view` of a multiview pass ([`Scene::view_cameras`]; view 0
+    /// is the scene itself): what that view's layer shows, for its ground truth.
+    pub fn seen_from(&self, view: usize) -> Scene {
+        Scene {
+            camera: self.view_cameras()[view].clone(),
+            ..self.clone()
+        }
+    }
+
     /// The uniform buffer [`Program::Multiview`] indexes with `gl_ViewIndex`: the P * V of each
     /// of [`Scene::view_cameras`] in f64, rounded once to f32, column-major (128 bytes).
     pub fn views_block(&self, aspect: f64) -> Vec<u8> {

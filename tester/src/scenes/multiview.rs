@@ -10,10 +10,11 @@ pub const MULTIVIEW_MASK: u32 = 0b11;
 /// `multiview`: the overlap scene drawn once per object in one render pass made with
 /// `VkRenderPassMultiviewCreateInfo` (view mask and correlation mask 0b11) into a 2-layer
 /// color image and a 2-layer depth image (cleared to 1.0, LESS), attached through 2D-array
-/// views of both layers: view 0 is the overlap camera (layer 0 is what the tester reads back,
-/// with its ground truth), view 1 a second eye [`crate::scene::MULTIVIEW_EYE_SEPARATION`] to
-/// its right, looking the same way with the same projection
-/// ([`crate::scene::Scene::view_cameras`]). The vertex shader ([`Program::Multiview`]) takes
+/// views of both layers: view 0 is the overlap camera, view 1 a second eye
+/// [`crate::scene::MULTIVIEW_EYE_SEPARATION`] to its right, looking the same way with the same
+/// projection ([`crate::scene::Scene::view_cameras`]); the tester reads back both layers, each
+/// with the ground truth of its own view's camera ([`crate::scene::Scene::seen_from`]; view
+/// 1's files in `view1/`). The vertex shader ([`Program::Multiview`]) takes
 /// `view_projection[gl_ViewIndex] * model * position`: both views' P * V in a uniform buffer
 /// (the matrices a stereo renderer keeps per eye, which push constants could not hold per
 /// view), the object's model matrix and color pushed, as `model-view-projection-pair` pushes

@@ -1159,6 +1159,31 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
     }
 }
 
+/// View 1 of the multiview scenes, whose layer the tester reads back with its own ground
+/// truth: seen from the second eye, whose P * V is the views' buffer's second matrix (what
+/// the vertex stage applies to that layer, and what its ground truth reports as pushed); it
+/// sees every object, elsewhere than view 0 does, with as many interior pixels as the other
+/// scenes' truths. View 0 is the scene itself.
+#[test]
+fn the_second_view_is_seen_from_the_second_eye() {
+    let aspect = 96.0 / 64.0;
+    for scene in [multiview(), multiview_dynamic()] {
+        assert_eq!(scene.seen_from(0).camera, scene.camera);
+        let seen = scene.seen_from(1);
+        let second = seen.view_projection(aspect).as_mat4().to_cols_array();
+        let block: Vec<u8> = second.iter().flat_map(|v| v.to_le_bytes()).collect();
+        assert_eq!(scene.views_block(aspect)[64..], block[..], "{}", scene.name);
+        let (first, _) = crate::ground_truth::compute(&scene, 96, 64).unwrap();
+        let (truth, report) = crate::ground_truth::compute(&seen, 96, 64).unwrap();
+        assert_ne!(truth.ids, first.ids, "{}", scene.name);
+        assert!(truth.interior > 96 * 64 / 2, "{}", scene.name);
+        for object in &report.objects {
+            assert!(truth.ids.contains(&object.id), "{}", object.name);
+            assert_eq!(object.pushed_projection, second, "{}", object.name);
+        }
+    }
+}
+
 /// Replays a plan's push constants byte by byte (per command buffer, as Vulkan keeps them):
 /// at every draw without a push, the bytes there are exactly the drawn object's own.
 #[test]
