@@ -48,7 +48,7 @@ const STRESS: [&str; 7] = [
 
 /// The scenes whose colors are shaded from the depth their shaders sample (`depth-reads`:
 /// soft particles' fades, a band of view distances).
-const SHADED_FROM_DEPTH: [&str; 13] = [
+const SHADED_FROM_DEPTH: [&str; 15] = [
     "depth-reads",
     "deferred-depth",
     "deferred-depth-tested",
@@ -62,6 +62,16 @@ const SHADED_FROM_DEPTH: [&str; 13] = [
     "depth-mips",
     "depth-layers",
     "depth-layers-stepwise",
+    "multiview",
+    "multiview-dynamic",
+];
+
+/// Scenes rendered on the newer lavapipe where there is one ([`Harness::newer_lavapipe`]):
+/// Mesa 22.3's lacks `VK_KHR_dynamic_rendering_local_read`.
+const NEWER_LAVAPIPE: [&str; 3] = [
+    "deferred-depth-local-read",
+    "deferred-depth-local-read-indexed",
+    "deferred-depth-local-read-tested",
 ];
 
 const REVERSING_MODES: [&str; 3] = ["flip", "complementary", "infinite"];
@@ -146,6 +156,13 @@ fn tester(harness: &Harness, format: &str, dir: &std::path::Path, args: &[&str])
     command
         .args(["--sync-validation", "--frames", "2"])
         .args(args);
+    let scene = args
+        .iter()
+        .position(|&arg| arg == "--scene")
+        .and_then(|at| args.get(at + 1));
+    if scene.is_some_and(|scene| NEWER_LAVAPIPE.contains(scene)) {
+        harness.on_newer_lavapipe(&mut command);
+    }
     command
 }
 
