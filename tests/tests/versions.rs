@@ -9,8 +9,10 @@
 //! later core commands get them, as older applications do, from the extensions that gave them
 //! before (`VK_KHR_dynamic_rendering`, `VK_EXT_extended_dynamic_state`,
 //! `VK_KHR_create_renderpass2` with `VK_KHR_depth_stencil_resolve`), so every scene runs at
-//! every version; only `depth-bounds` is refused (lavapipe lacks the feature), and that is
-//! asserted, not skipped silently.
+//! every version; only `depth-bounds` is refused (lavapipe lacks the feature), and the
+//! local-read scenes below Vulkan 1.3 (the tester asks for
+//! `VK_KHR_dynamic_rendering_local_read` at 1.3 only; they render on the newer lavapipe), and
+//! that is asserted, not skipped silently.
 
 use std::path::Path;
 
@@ -41,18 +43,32 @@ fn scenes(harness: &Harness) -> Vec<String> {
     scenes
 }
 
-/// The scenes the tester refuses (at every version), and why (what its error says).
-fn refused(_version: &str, scene: &str) -> Option<&'static str> {
-    // lavapipe has no depthBounds.
-    (scene == "depth-bounds").then_some("device lacks depthBounds")
+/// The scenes the tester refuses, and why (what its error says).
+fn refused(version: &str, scene: &str) -> Option<&'static str> {
+    if scene == "depth-bounds" {
+        // lavapipe has no depthBounds.
+        return Some("device lacks depthBounds");
+    }
+    // The tester asks for `VK_KHR_dynamic_rendering_local_read` at Vulkan 1.3 only (with
+    // `dynamicRendering`, which it requires).
+    (LOCAL_READ_SCENES.contains(&scene) && version != "1.3")
+        .then_some("device lacks dynamicRenderingLocalRead")
 }
+
+/// Scenes that read depth locally in dynamic rendering: rendered on the newer lavapipe where
+/// there is one ([`Harness::newer_lavapipe`]; Mesa 22.3's lacks the extension).
+const LOCAL_READ_SCENES: [&str; 3] = [
+    "deferred-depth-local-read",
+    "deferred-depth-local-read-indexed",
+    "deferred-depth-local-read-tested",
+];
 
 /// The scenes whose device extensions (`VK_EXT_depth_clip_control`,
 /// `VK_EXT_graphics_pipeline_library`, `VK_KHR_push_descriptor`, and below their core versions the extensions of dynamic
 /// rendering, the dynamic compare op and depth resolves) make the tester, as a Vulkan 1.0
 /// application, enable `VK_KHR_get_physical_device_properties2` itself: revz then has nothing
 /// to add.
-const ENABLE_PROPERTIES2_THEMSELVES: [&str; 15] = [
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 17] = [
     "opengl-depth",
     "pipeline-library",
     "frag-depth-library",
@@ -71,6 +87,9 @@ const ENABLE_PROPERTIES2_THEMSELVES: [&str; 15] = [
     "depth-layers",
     "depth-layers-stepwise",
     "depth-reads-msaa",
+    // VK_KHR_multiview below 1.1.
+    "multiview",
+    "multiview-dynamic",
 ];
 
 /// The scenes that set the compare op dynamically: below 1.3 the tester enables
@@ -88,6 +107,9 @@ fn render(harness: &Harness, scene: &str, mode: &str, version: &str) -> Result<R
     let dir = harness.scratch_dir(&format!("versions-{scene}-{mode}-{version}"));
     let mut command = harness.tester(format, &dir);
     command.args(["--scene", scene, "--vulkan", version]);
+    if LOCAL_READ_SCENES.contains(&scene) {
+        harness.on_newer_lavapipe(&mut command);
+    }
     harness
         .with_layer(&mut command)
         .env("REVZ_MODE", mode)

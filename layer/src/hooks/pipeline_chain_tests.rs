@@ -2514,6 +2514,45 @@ fn dynamic_renderings_local_reads_of_depth_are_converted_in_the_reversed_variant
 }
 
 #[test]
+fn a_link_of_a_library_reading_depth_locally_links_its_converting_variant() {
+    // Dynamic rendering: the fragment shader library reads depth through the default
+    // mapping, with the depth test off (a lighting pass over the depth it reads): its
+    // reversed variant converts the reads, and the link's reversed variant links it.
+    let fx = Fixture::new();
+    let vertex = fx.vertex_module();
+    let words = test_spirv::undecorated_depth_input_fragment();
+    let module = fx.module(&words);
+    let mut app = AppPipeline::of_modules(vertex, module);
+    app.depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default();
+    let built = app.build();
+    let libraries = Libraries::of(&built);
+    let (_, pre) = fx.create_pipelines(&[libraries.pre_rasterization_info()], None);
+    fx.events();
+    let (_, fragment) = fx.create_pipelines(&[libraries.fragment_info()], None);
+    let (variants, library) = variants_then_app(&fx.events());
+    assert_eq!(fragment, [library]);
+    let [(code, reversed_library)] = variants.as_slice() else {
+        panic!("one variant: {variants:?}");
+    };
+    let converted =
+        crate::shader::input_depth::reverse_input_depth(&words, &DepthInputs::Undecorated)
+            .unwrap()
+            .unwrap();
+    assert_eq!(*code, converted);
+    let linked = [pre[0], library];
+    let links = vk::PipelineLibraryCreateInfoKHR::default().libraries(&linked);
+    let (result, handles) = fx.create_pipelines(&[link_info(&links)], None);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let (variant_info, variant, _, app_link) = variant_link_creation(&fx.events());
+    assert_eq!(handles, [app_link]);
+    assert_eq!(variant_info.libraries, [pre[0], *reversed_library]);
+    let recorded = fx.recorded(app_link);
+    assert_eq!(recorded.reversed_variant, Some(variant));
+    assert_eq!(recorded.input_variant, None);
+    fx.finish();
+}
+
+#[test]
 fn input_reads_are_converted_in_infinite_mode_too() {
     // Infinite mode stores complementary depth in images read as input attachments: their
     // reads convert as in the other modes.
