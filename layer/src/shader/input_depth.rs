@@ -197,7 +197,15 @@ impl Module {
         let all = || instructions_at(words, self.functions_at).map_while(Result::ok);
         let mut images: HashSet<u32> = HashSet::new();
         let mut reads = HashSet::new();
+        // Every image read's result: the rewrite converts the reads by result id, so one
+        // defined twice (malformed) would take more fresh ids than it reserves.
+        let mut read_results: HashSet<u32> = HashSet::new();
         for Instruction { opcode, operands } in all() {
+            if let (OP_IMAGE_READ, &[_, result, ..]) = (opcode, operands) {
+                if !read_results.insert(result) {
+                    return Err(Unsupported("a result id is defined twice"));
+                }
+            }
             let ids = || {
                 operands
                     .iter()
@@ -556,5 +564,39 @@ mod tests {
             .unwrap();
         test_spirv::validate(&out);
         assert_eq!(converted_reads(&out), 1);
+    }
+
+    #[test]
+    fn a_read_defined_twice_is_refused_not_counted_twice() {
+        // Malformed: the depth read's result id defined twice, and a bound that leaves room
+        // for exactly the ids one read takes. Until session 37 (found by the fuzzer) the
+        // rewrite reserved ids per distinct read and took them per instruction: past the
+        // bound, an id wrapped around.
+        let mut words = deferred(READS);
+        let code: Vec<(usize, Instruction<'_>)> = {
+            let mut at = HEADER_WORDS;
+            instructions(&words)
+                .unwrap()
+                .map(Result::unwrap)
+                .map(|i| {
+                    let here = at;
+                    at += i.operands.len() + 1;
+                    (here, i)
+                })
+                .collect()
+        };
+        let (start, len) = code
+            .iter()
+            .filter(|(_, i)| i.opcode == OP_IMAGE_READ)
+            .nth(1)
+            .map(|&(start, i)| (start, i.operands.len() + 1))
+            .unwrap();
+        let copy: Vec<u32> = words[start..start + len].to_vec();
+        words.splice(start..start, copy);
+        words[3] = u32::MAX - 4;
+        assert_eq!(
+            reverse_input_depth(&words, &at(&[1])),
+            Err(Unsupported("a result id is defined twice"))
+        );
     }
 }

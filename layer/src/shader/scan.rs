@@ -271,10 +271,14 @@ impl FreshIds {
             .map(|_| FreshIds { next: bound })
     }
 
-    /// The next id.
+    /// The next id. The new bound covers every id taken ([`Self::bound`]); past the largest
+    /// id (a rewriter that took more than it reserved, on a module whose bound is near it)
+    /// it panics, in release builds too (the panic is caught at the entry point and the
+    /// module is left as it is), rather than wrap around to an id the module defines.
     pub fn take(&mut self) -> u32 {
-        self.next += 1;
-        self.next - 1
+        let id = self.next;
+        self.next = id.checked_add(1).expect("the module's ids run out");
+        id
     }
 
     /// The module's bound with every id taken.
