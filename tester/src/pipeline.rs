@@ -758,7 +758,9 @@ pub fn create_pipeline(
         Program::SplitPush | Program::FullPush => {
             (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG))
         }
-        Program::UboGeometry => (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG)),
+        Program::UboGeometry | Program::UboProjectingTessellation => {
+            (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG))
+        }
         Program::UboPassthroughGeometry
         | Program::PassthroughGeometryShaderObjects
         | Program::UboInterpolatingTessellation => {
@@ -784,6 +786,16 @@ pub fn create_pipeline(
             (
                 vk::ShaderStageFlags::TESSELLATION_EVALUATION,
                 shaders::UBO_TESE,
+            ),
+        ],
+        Program::UboProjectingTessellation => &[
+            (
+                vk::ShaderStageFlags::TESSELLATION_CONTROL,
+                shaders::CORNER_POSITIONS_TESC,
+            ),
+            (
+                vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                shaders::PROJECTING_TESE,
             ),
         ],
         Program::UboInterpolatingTessellation => &[

@@ -128,6 +128,12 @@ pub const POSITION_PASSTHROUGH_TESC: ShaderSource = glslang_shader!("position_pa
 /// `interpolating.tese` (glslang): the patch's clip positions interpolated at the patch point
 /// with its barycentric coordinates (at level 1 a corner exactly).
 pub const INTERPOLATING_TESE: ShaderSource = glslang_shader!("interpolating.tese");
+/// `corner_positions.tesc` (glslang): after `ubo_position.vert`, one patch per triangle, the
+/// object-space positions copied as they are, every tessellation level 1.
+pub const CORNER_POSITIONS_TESC: ShaderSource = glslang_shader!("corner_positions.tesc");
+/// `projecting.tese` (glslang): the patch's positions interpolated at the patch point,
+/// displaced along y by a term 0 at the corners, and projected with the `ubo` block.
+pub const PROJECTING_TESE: ShaderSource = glslang_shader!("projecting.tese");
 
 /// `ssbo_rows.vert` (glslang): the `ssbo` delivery's matrix stored as its rows and applied as
 /// four dot products, `vec4(dot(r0, p), dot(r1, p), dot(r2, p), dot(r3, p))`; passes the
@@ -259,6 +265,8 @@ pub const ALL: &[ShaderSource] = &[
     UBO_TESE,
     POSITION_PASSTHROUGH_TESC,
     INTERPOLATING_TESE,
+    CORNER_POSITIONS_TESC,
+    PROJECTING_TESE,
     SSBO_ROWS_VERT,
     SSBO_REGISTERS_VERT,
     SSBO_COLUMNS_VERT,
@@ -290,6 +298,8 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("ubo.tese", UBO_TESE),
     ("position_passthrough.tesc", POSITION_PASSTHROUGH_TESC),
     ("interpolating.tese", INTERPOLATING_TESE),
+    ("corner_positions.tesc", CORNER_POSITIONS_TESC),
+    ("projecting.tese", PROJECTING_TESE),
     ("ssbo_rows.vert", SSBO_ROWS_VERT),
     ("ssbo_registers.vert", SSBO_REGISTERS_VERT),
     ("ssbo_columns.vert", SSBO_COLUMNS_VERT),
@@ -556,6 +566,8 @@ mod tests {
             (PASSTHROUGH_TESC, UNIFORM, 0),
             (POSITION_PASSTHROUGH_TESC, UNIFORM, 0),
             (INTERPOLATING_TESE, UNIFORM, 0),
+            (CORNER_POSITIONS_TESC, UNIFORM, 0),
+            (PROJECTING_TESE, UNIFORM, 1),
             (UBO_TESE, UNIFORM, 1),
             // glslang for Vulkan 1.0 (SPIR-V 1.0): a `BufferBlock` in the Uniform class.
             (SSBO_ROWS_VERT, UNIFORM, 1),

@@ -42,7 +42,12 @@
 //!   `ubo-interpolating-tessellation`: `ubo` with a tessellation control stage that copies the
 //!   clip positions and an evaluation stage that interpolates them with `gl_TessCoord`
 //!   (session 37: the vertex stage is the one rewritten; before, the flip path, 27% of
-//!   `sloped-plane` and 3.2% of `mars-patch` wrong in `infinite`). `ssbo-rows` stores `ssbo`'s matrix as its rows and applies it as four dot
+//!   `sloped-plane` and 3.2% of `mars-patch` wrong in `infinite`), and
+//!   `ubo-projecting-tessellation`: `ubo`'s blocks applied in the evaluation stage to the
+//!   patch's object-space positions (`gl_in[i].gl_Position`, w = 1 from the vertex stage,
+//!   copied by the control stage), interpolated and displaced along y first, as terrain
+//!   tessellation does (session 38: the evaluation stage fits its matrix; before, the flip
+//!   path). `ssbo-rows` stores `ssbo`'s matrix as its rows and applies it as four dot
 //!   products: the same terms summed in another order, which where standard depth cannot
 //!   resolve the scene fails more pixels (`mars-patch`: 1.0e-1 wrong against push's 3.1e-2);
 //!   its silhouettes and `overlap` are held to the rules above, its wrong-pixel fraction is
@@ -78,8 +83,9 @@ use revz_tests::{native_colors_problems, GroundTruth, Harness, Render, BACKGROUN
 /// kept on: issues #41 and #44), and `ubo`'s blocks applied in the last pre-rasterization stage
 /// after it (issue #41): a geometry shader, a tessellation evaluation shader; and `ubo` with
 /// stages after it that only carry its clip positions on (a geometry shader passing them
-/// through, tessellation stages copying and interpolating them).
-const DELIVERIES: [&str; 14] = [
+/// through, tessellation stages copying and interpolating them); and `ubo`'s blocks applied
+/// by a tessellation evaluation stage to the positions it interpolates.
+const DELIVERIES: [&str; 15] = [
     "push-split",
     "push-full",
     "push-geometry",
@@ -94,6 +100,7 @@ const DELIVERIES: [&str; 14] = [
     "ubo-passthrough-geometry",
     "ubo-tessellation",
     "ubo-interpolating-tessellation",
+    "ubo-projecting-tessellation",
 ];
 
 /// The clear color of the tester's color attachment (25 / 255 grey), as RGBA8.

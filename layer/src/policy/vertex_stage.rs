@@ -516,9 +516,16 @@ impl VertexStageFacts<'_> {
 
     fn unit_w_checked(&self, stage: LastStage) -> Result<(), String> {
         if self.input_unit_w == Some(false) {
+            let prior = match stage {
+                LastStage::TessellationEvaluation => {
+                    "which the control stage does not copy from a vertex stage storing \
+                     vec4(p, 1.0)"
+                }
+                _ => "which that stage does not store as vec4(p, 1.0)",
+            };
             return Err(format!(
                 "its {} stage projects the previous stage's Position (gl_in[i].gl_Position), \
-                 which that stage does not store as vec4(p, 1.0)",
+                 {prior}",
                 stage.name()
             ));
         }

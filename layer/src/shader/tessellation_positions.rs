@@ -25,8 +25,19 @@
 //! Refused (the answer is `false`, and the evaluation stage stays the last one): a store of
 //! anything else into `Position`, a component of it stored apart, z of an input position read
 //! for anything else (a level of detail computed from depth would change with the rewrite),
-//! an input position handed to a function or stored into a variable, and anything this walk
-//! does not know. Words only, never panics.
+//! an input position handed to a function or stored into a variable, a local holding one
+//! whose w (or a component not known) is stored apart, and anything this walk does not know.
+//! Words only, never panics.
+//!
+//! The same walk also serves an evaluation stage that projects the patch's positions itself
+//! (`gl_Position = P * V * M * mix(..)`, after a vertex stage that hands the object-space
+//! position on as `vec4(p, 1.0)` and a control stage that copies it): there the rewrite is
+//! the evaluation stage's own, and it needs the vector the projection multiplies to have
+//! w = 1, which an affine combination of points with w = 1 has (to the rounding of the
+//! weights' sum, as every other coordinate of the interpolated point). [`projected_affine_values`]
+//! gives the values that hold such combinations; nothing upstream is rewritten there, so z
+//! may be read and other components of a local holding one stored apart (terrain's
+//! `pos.y -= height`), its w not.
 
 use std::collections::{HashMap, HashSet};
 
@@ -60,6 +71,34 @@ pub fn control_passes_positions_through(words: &[u32]) -> bool {
 /// where it stores no `Position`, or is no tessellation evaluation module.
 pub fn evaluation_interpolates_positions(words: &[u32]) -> bool {
     Walk::read(words, MODEL_TESSELLATION_EVALUATION).is_some_and(|walk| walk.keeps_the_line(words))
+}
+
+/// The values of a tessellation evaluation module that hold affine combinations of the patch's
+/// input positions (module docs), as its projection may multiply them: loads of
+/// `gl_in[i].gl_Position` and of locals stored once with one (whose w is not stored apart),
+/// their copies, `FMix` of two, barycentric sums in a triangle domain. Empty where the module
+/// is no tessellation evaluation module or the words do not read.
+pub fn projected_affine_values(words: &[u32]) -> HashSet<u32> {
+    Walk::read(words, MODEL_TESSELLATION_EVALUATION)
+        .and_then(|walk| walk.follow(words, Purpose::Projected))
+        .map(|followed| {
+            followed
+                .into_iter()
+                .filter(|&(_, held)| held == Held::Affine)
+                .map(|(id, _)| id)
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// What a walk over the functions answers for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Purpose {
+    /// The stage only carries the previous stage's clip positions on (rewritten upstream):
+    /// every use of a followed value but x, y and w reads refused.
+    CarriedOn,
+    /// The stage projects the combinations itself: only which values hold them.
+    Projected,
 }
 
 /// What the walk knows of the module's declarations.
@@ -189,10 +228,15 @@ impl Walk {
     /// The function-local variables stored exactly once in the module and used only as the
     /// pointer of loads and stores, or as the base of an access chain of one index (a
     /// component of a vector).
+    /// A local whose w (or a component not known: a dynamic index) is stored apart through
+    /// such a chain is none of them: what it holds is not what its one whole store put there.
+    /// x, y and z stored apart keep w, and z is refused where the line must be kept.
     fn locals_stored_once(&self, words: &[u32]) -> HashSet<u32> {
         let mut locals: HashSet<u32> = HashSet::new();
         let mut store_counts: HashMap<u32, u32> = HashMap::new();
         let mut escaped: HashSet<u32> = HashSet::new();
+        // Chains of one index: chain -> (base, index).
+        let mut chains: HashMap<u32, (u32, u32)> = HashMap::new();
         for Instruction { opcode, operands } in
             instructions_at(words, self.functions_at).map_while(Result::ok)
         {
@@ -203,9 +247,16 @@ impl Walk {
                 (OP_STORE, &[pointer, value, ..]) => {
                     *store_counts.entry(pointer).or_default() += 1;
                     escaped.insert(value);
+                    if let Some(&(base, index)) = chains.get(&pointer) {
+                        if !matches!(self.int_constants.get(&index), Some(0..=2)) {
+                            escaped.insert(base);
+                        }
+                    }
                 }
                 (OP_LOAD, _) => {}
-                (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[_, _, _, _]) => {}
+                (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[_, id, base, index]) => {
+                    chains.insert(id, (base, index));
+                }
                 _ => escaped.extend(
                     operands
                         .iter()
@@ -219,8 +270,16 @@ impl Walk {
         locals
     }
 
-    /// The walk over the functions (module docs).
+    /// The walk over the functions (module docs), for a stage that carries the positions on.
     fn keeps_the_line(&self, words: &[u32]) -> bool {
+        self.follow(words, Purpose::CarriedOn).is_some()
+    }
+
+    /// The walk over the functions (module docs): the values followed, with what each holds;
+    /// `None` where `purpose` refuses the stage (for [`Purpose::CarriedOn`], also where it
+    /// stores no `Position`).
+    fn follow(&self, words: &[u32], purpose: Purpose) -> Option<HashMap<u32, Held>> {
+        let carried_on = purpose == Purpose::CarriedOn;
         // Pointers to an input vertex's whole Position, and to its x, y or w.
         let mut input_pointers: HashSet<u32> = HashSet::new();
         let mut input_whole: HashSet<u32> = HashSet::new();
@@ -241,7 +300,7 @@ impl Walk {
         let mut local_coord_vectors: HashSet<u32> = HashSet::new();
         for instruction in instructions_at(words, self.functions_at) {
             let Ok(Instruction { opcode, operands }) = instruction else {
-                return false;
+                return None;
             };
             match (opcode, operands) {
                 (OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN, &[_, id, base, ref indices @ ..]) => {
@@ -261,19 +320,28 @@ impl Walk {
                                 Some(&c) if c != 2 => {
                                     input_pointers.insert(id);
                                 }
-                                _ => return false,
+                                // z: read where the stage projects (nothing upstream is
+                                // rewritten), refused where the line is carried on.
+                                _ if !carried_on => {
+                                    input_pointers.insert(id);
+                                }
+                                _ => return None,
                             },
                             // Another member of a vertex.
                             n if n >= 2 && constant(1).is_some() => {}
-                            _ => return false,
+                            // Not followed: what its loads read is not taken for anything.
+                            _ if !carried_on => {}
+                            _ => return None,
                         }
+                        continue;
+                    }
+                    if !carried_on && self.output_positions.contains_key(&base) {
+                        // What a projecting stage stores is the rewrite's to follow.
                         continue;
                     }
                     if let Some(&member) = self.output_positions.get(&base) {
                         // A component of a Position variable stored apart.
-                        let Some(member) = member else {
-                            return false;
-                        };
+                        let member = member?;
                         // The control stage's outputs: [vertex, member, ..]; the evaluation
                         // stage's block: [member, ..].
                         let member_at = usize::from(self.control);
@@ -284,23 +352,25 @@ impl Walk {
                             Some(&m) if m == member => {
                                 // A component of Position stored apart: refused.
                                 if indices.len() != member_at + 1 {
-                                    return false;
+                                    return None;
                                 }
                                 output_pointers.insert(id);
                             }
                             // Another member (PointSize, ClipDistance).
                             Some(_) => {}
                             // The block whole, or a member index that is not constant.
-                            None => return false,
+                            None => return None,
                         }
                         continue;
                     }
                     if local_held.contains_key(&base) {
                         // A component of a local holding a position: x, y or w an ordinary
-                        // value; z refused.
+                        // value; z refused where the line is carried on (locals whose w is
+                        // stored apart are not followed: `locals_stored_once`).
                         match *indices {
                             [index] if self.int_constants.get(&index).is_some_and(|&c| c != 2) => {}
-                            _ => return false,
+                            _ if !carried_on => {}
+                            _ => return None,
                         }
                         continue;
                     }
@@ -310,9 +380,9 @@ impl Walk {
                                 Some(&c) if c < 3 => {
                                     coord_pointers.insert(id, c);
                                 }
-                                _ => return false,
+                                _ => return None,
                             },
-                            _ => return false,
+                            _ => return None,
                         }
                         continue;
                     }
@@ -346,9 +416,9 @@ impl Walk {
                 (OP_STORE, &[pointer, value, ..]) => {
                     let into_output = output_pointers.contains(&pointer)
                         || (self.output_positions.get(&pointer) == Some(&None));
-                    if into_output {
+                    if into_output && carried_on {
                         if held.get(&value) != Some(&Held::Affine) {
-                            return false;
+                            return None;
                         }
                         stores += 1;
                         continue;
@@ -380,9 +450,10 @@ impl Walk {
                 }
                 (OP_COMPOSITE_EXTRACT, &[_, id, composite, ref indices @ ..]) => {
                     if held.contains_key(&composite) {
-                        // x, y or w of a position: an ordinary value; z: refused.
-                        if !matches!(indices, [0 | 1 | 3]) {
-                            return false;
+                        // x, y or w of a position: an ordinary value; z: refused where the
+                        // line is carried on.
+                        if carried_on && !matches!(indices, [0 | 1 | 3]) {
+                            return None;
                         }
                         continue;
                     }
@@ -451,7 +522,11 @@ impl Walk {
                 _ => {}
             }
             // Any other use of a followed value or pointer, or of `gl_in` or the output
-            // Position itself: not only carried on.
+            // Position itself: not only carried on (a projecting stage uses them as it likes:
+            // the projection among them).
+            if !carried_on {
+                continue;
+            }
             let mut uses = operands
                 .iter()
                 .enumerate()
@@ -464,10 +539,10 @@ impl Walk {
                     || self.input_positions.contains_key(operand)
                     || self.output_positions.contains_key(operand)
             }) {
-                return false;
+                return None;
             }
         }
-        stores > 0
+        (stores > 0 || !carried_on).then_some(held)
     }
 }
 
@@ -531,6 +606,49 @@ mod tests {
         assert!(!evaluation_interpolates_positions(&data(
             "tessellation_quad_weights"
         )));
+        // A local holding the interpolation, its y then negated (a flip of the image keeps
+        // z = k w + B), or its w doubled (which does not: refused; the walk took the
+        // component's store for a read of it before).
+        assert!(evaluation_interpolates_positions(&data(
+            "tessellation_interpolated_y_written"
+        )));
+        assert!(!evaluation_interpolates_positions(&data(
+            "tessellation_interpolated_w_written"
+        )));
+    }
+
+    #[test]
+    fn projected_interpolations_are_the_values_holding_affine_combinations() {
+        // The vectors a module's matrices multiply.
+        let multiplied = |words: &[u32]| -> Vec<u32> {
+            instructions(words)
+                .unwrap()
+                .filter_map(Result::ok)
+                .filter(|i| i.opcode == 145) // OpMatrixTimesVector
+                .filter_map(|i| i.operands.get(3).copied())
+                .collect()
+        };
+        // projecting.tese: the load of the local the barycentric sum is stored in (its y
+        // displaced apart) is what the projection multiplies.
+        let projecting = words(include_bytes!(
+            "../../../shaders/glslang/projecting.tese.spv"
+        ));
+        let values = projected_affine_values(&projecting);
+        let vectors = multiplied(&projecting);
+        assert_eq!(vectors.len(), 1);
+        assert!(values.contains(&vectors[0]), "{values:?} {vectors:?}");
+        // A local whose w is written apart holds none (the sums stored into it still are).
+        let w_written = data("tessellation_projected_w_written");
+        let values = projected_affine_values(&w_written);
+        let vectors = multiplied(&w_written);
+        assert_eq!(vectors.len(), 1);
+        assert!(
+            !values.is_empty() && !values.contains(&vectors[0]),
+            "{values:?}"
+        );
+        // Other stages, and malformed words: none.
+        assert!(projected_affine_values(&words(PASSTHROUGH_TESC)).is_empty());
+        assert!(projected_affine_values(&[1, 2, 3]).is_empty());
     }
 
     #[test]

@@ -118,6 +118,9 @@ pub enum DeliveryChoice {
     UboTessellation,
     /// ubo, its projected positions copied and interpolated by tessellation stages.
     UboInterpolatingTessellation,
+    /// The blocks of ubo, applied in a tessellation evaluation shader to the patch's
+    /// interpolated positions.
+    UboProjectingTessellation,
     /// The push constants of push, the flat program bound as vertex and fragment shader
     /// objects (needs VK_EXT_shader_object).
     ShaderObjects,
@@ -134,8 +137,8 @@ pub enum DeliveryChoice {
     /// VK_EXT_shader_object and geometryShader).
     PassthroughGeometryShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns, ssbo-vkd3d,
-    /// ubo-geometry, ubo-passthrough-geometry, ubo-tessellation and
-    /// ubo-interpolating-tessellation (not shader-objects, mesh,
+    /// ubo-geometry, ubo-passthrough-geometry, ubo-tessellation,
+    /// ubo-interpolating-tessellation and ubo-projecting-tessellation (not shader-objects, mesh,
     /// mesh-shader-objects, linked-shader-objects, linked-tessellation-shader-objects nor
     /// passthrough-geometry-shader-objects, which need extensions).
     All,
@@ -161,6 +164,7 @@ impl DeliveryChoice {
             DeliveryChoice::UboInterpolatingTessellation => {
                 &[Delivery::UboInterpolatingTessellation]
             }
+            DeliveryChoice::UboProjectingTessellation => &[Delivery::UboProjectingTessellation],
             DeliveryChoice::ShaderObjects => &[Delivery::ShaderObjects],
             DeliveryChoice::Mesh => &[Delivery::Mesh],
             DeliveryChoice::MeshShaderObjects => &[Delivery::MeshShaderObjects],
@@ -276,7 +280,7 @@ pub struct Selection {
     /// Projection deliveries (comma-separated): push, push-split, push-full, push-geometry, ubo,
     /// ubo-dynamic, ssbo,
     /// ssbo-rows, ssbo-registers, ssbo-columns, ubo-geometry, ubo-passthrough-geometry,
-    /// ubo-tessellation, ubo-interpolating-tessellation, or all. The deliveries other than
+    /// ubo-tessellation, ubo-interpolating-tessellation, ubo-projecting-tessellation, or all. The deliveries other than
     /// push are
     /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.
     /// Default: push.

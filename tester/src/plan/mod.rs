@@ -272,6 +272,13 @@ pub enum Program {
     /// (patches of three points, every level 1), as pipelines that tessellate only to
     /// subdivide do.
     UboInterpolatingTessellation,
+    /// `ubo_position.vert` + `corner_positions.tesc` + `projecting.tese` + `flat_color.frag`
+    /// (the `ubo-projecting-tessellation` [`Delivery`]): the blocks of [`Program::Ubo`],
+    /// applied in the tessellation evaluation stage to the patch's object-space positions
+    /// (`gl_in[i].gl_Position`, w = 1), which it interpolates and displaces along y (by 0 at
+    /// the corners) first, as terrain tessellation does (patches of three points, every
+    /// level 1).
+    UboProjectingTessellation,
     /// [`Program::UboTessellation`]'s four shaders as shader objects created linked in one
     /// call (the `linked-tessellation-shader-objects` [`Delivery`]; needs
     /// `VK_EXT_shader_object` and `tessellationShader`), every state set at the bind.
@@ -385,6 +392,9 @@ pub enum Delivery {
     /// [`Delivery::Ubo`]'s projected positions interpolated by tessellation stages
     /// ([`Program::UboInterpolatingTessellation`]).
     UboInterpolatingTessellation,
+    /// The blocks of [`Delivery::Ubo`], applied in a tessellation evaluation shader to the
+    /// patch's interpolated positions ([`Program::UboProjectingTessellation`]).
+    UboProjectingTessellation,
     /// The push constants of [`Delivery::Push`], the flat program bound as shader objects
     /// ([`Program::ShaderObjects`]; needs `VK_EXT_shader_object`).
     ShaderObjects,
@@ -408,7 +418,7 @@ pub enum Delivery {
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 21] = [
+    pub const ALL: [Delivery; 22] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -424,6 +434,7 @@ impl Delivery {
         Delivery::UboPassthroughGeometry,
         Delivery::UboTessellation,
         Delivery::UboInterpolatingTessellation,
+        Delivery::UboProjectingTessellation,
         Delivery::ShaderObjects,
         Delivery::Mesh,
         Delivery::MeshShaderObjects,
@@ -458,6 +469,7 @@ impl Delivery {
             Delivery::UboPassthroughGeometry => "ubo-passthrough-geometry",
             Delivery::UboTessellation => "ubo-tessellation",
             Delivery::UboInterpolatingTessellation => "ubo-interpolating-tessellation",
+            Delivery::UboProjectingTessellation => "ubo-projecting-tessellation",
             Delivery::ShaderObjects => "shader-objects",
             Delivery::Mesh => "mesh",
             Delivery::MeshShaderObjects => "mesh-shader-objects",
@@ -486,6 +498,7 @@ impl Delivery {
             Delivery::UboPassthroughGeometry => Some(Program::UboPassthroughGeometry),
             Delivery::UboTessellation => Some(Program::UboTessellation),
             Delivery::UboInterpolatingTessellation => Some(Program::UboInterpolatingTessellation),
+            Delivery::UboProjectingTessellation => Some(Program::UboProjectingTessellation),
             Delivery::ShaderObjects => Some(Program::ShaderObjects),
             Delivery::Mesh => Some(Program::Mesh),
             Delivery::MeshShaderObjects => Some(Program::MeshShaderObjects),
@@ -536,6 +549,7 @@ impl Program {
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
             | Program::UboInterpolatingTessellation
+            | Program::UboProjectingTessellation
             | Program::LinkedTessellationShaderObjects
             | Program::PassthroughGeometryShaderObjects => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
@@ -551,7 +565,9 @@ impl Program {
     pub fn projecting_stage(self) -> ash::vk::ShaderStageFlags {
         match self {
             Program::UboGeometry | Program::PushGeometry => ash::vk::ShaderStageFlags::GEOMETRY,
-            Program::UboTessellation | Program::LinkedTessellationShaderObjects => {
+            Program::UboTessellation
+            | Program::UboProjectingTessellation
+            | Program::LinkedTessellationShaderObjects => {
                 ash::vk::ShaderStageFlags::TESSELLATION_EVALUATION
             }
             _ => ash::vk::ShaderStageFlags::VERTEX,
@@ -565,6 +581,7 @@ impl Program {
             self,
             Program::UboTessellation
                 | Program::UboInterpolatingTessellation
+                | Program::UboProjectingTessellation
                 | Program::LinkedTessellationShaderObjects
         )
     }
@@ -598,6 +615,7 @@ impl Program {
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
             | Program::UboInterpolatingTessellation
+            | Program::UboProjectingTessellation
             | Program::LinkedTessellationShaderObjects
             | Program::PassthroughGeometryShaderObjects => 0,
             Program::MvpPair => 128,

@@ -818,6 +818,7 @@ impl<'a> Renderer<'a> {
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
             | Program::UboInterpolatingTessellation
+            | Program::UboProjectingTessellation
             | Program::LinkedTessellationShaderObjects
             | Program::PassthroughGeometryShaderObjects => {
                 (self.matrix_layout, vk::ShaderStageFlags::empty())

@@ -253,6 +253,7 @@ impl Scene {
             | Program::UboPassthroughGeometry
             | Program::UboTessellation
             | Program::UboInterpolatingTessellation
+            | Program::UboProjectingTessellation
             | Program::LinkedTessellationShaderObjects
             | Program::PassthroughGeometryShaderObjects => Vec::new(),
         };

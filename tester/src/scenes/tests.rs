@@ -1693,6 +1693,7 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                             delivery,
                             Delivery::UboTessellation
                                 | Delivery::UboInterpolatingTessellation
+                                | Delivery::UboProjectingTessellation
                                 | Delivery::LinkedTessellationShaderObjects
                         )
                     );

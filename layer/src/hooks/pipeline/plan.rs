@@ -605,21 +605,31 @@ fn module_fact(
     inline_code(stage).is_some_and(scan)
 }
 
-/// Whether the stage before the last pre-rasterization stage `last` (a geometry stage's
-/// tessellation evaluation or vertex stage) stores `Position` with w = 1 exactly
-/// (`DeviceObjects::position_w_one`, or its inline code scanned now). A tessellation
-/// evaluation stage reads the tessellation control stage's output, which revz does not
-/// follow: `false`.
+/// Whether the positions the last pre-rasterization stage `last` reads from the stage before
+/// it have w = 1 exactly: for a geometry stage, its tessellation evaluation or vertex stage
+/// stores `Position` with w = 1 (`DeviceObjects::position_w_one`, or its inline code scanned
+/// now); for a tessellation evaluation stage, its control stage copies the vertex stage's
+/// positions as they are (`DeviceObjects::position_passthrough`) and the vertex stage stores
+/// them with w = 1.
 fn prior_stage_w_one(
     state: &DeviceState,
     stages: &[vk::PipelineShaderStageCreateInfo<'_>],
     last: Option<vertex_stage::LastStage>,
 ) -> bool {
+    let find = |flag| stages.iter().find(|s| s.stage == flag);
     let prior = match last {
         Some(vertex_stage::LastStage::Geometry) => {
-            let find = |flag| stages.iter().find(|s| s.stage == flag);
             find(vk::ShaderStageFlags::TESSELLATION_EVALUATION)
                 .or_else(|| find(vk::ShaderStageFlags::VERTEX))
+        }
+        Some(vertex_stage::LastStage::TessellationEvaluation)
+            if stage_carries_positions_on(
+                state,
+                stages,
+                vk::ShaderStageFlags::TESSELLATION_CONTROL,
+            ) =>
+        {
+            find(vk::ShaderStageFlags::VERTEX)
         }
         _ => None,
     };

@@ -48,6 +48,10 @@ struct Defs {
     int_constants: HashMap<u32, u32>,
     /// [`Defs::unit_w`] took a load of the previous stage's `Position` for w = 1.
     assumed_input_w: std::cell::Cell<bool>,
+    /// A tessellation evaluation stage's affine combinations of the patch's input positions
+    /// (`crate::shader::tessellation_positions::projected_affine_values`): w = 1 where the
+    /// positions have it, which the pipeline checks as for a load of one.
+    affine_inputs: HashSet<u32>,
     /// The `GLSL.std.450` import.
     glsl_std: Option<u32>,
     unit_vectors: HashSet<u32>,
@@ -126,6 +130,11 @@ impl Defs {
             input_positions: module.input_positions.clone(),
             int_constants: module.int_constants.clone(),
             assumed_input_w: std::cell::Cell::new(false),
+            affine_inputs: if module.input_positions.is_empty() {
+                HashSet::new()
+            } else {
+                crate::shader::tessellation_positions::projected_affine_values(words)
+            },
             glsl_std: module.glsl_std,
             unit_vectors: module.unit_vectors.clone(),
             returns: HashMap::new(),
@@ -348,6 +357,12 @@ impl Defs {
     fn unit_w_of(&self, vector: u32, depth: u32, through_products: bool) -> bool {
         if depth > 16 {
             return false;
+        }
+        // An interpolation of the patch's positions (a tessellation evaluation stage that
+        // projects them): w = 1 where theirs is, to the rounding of the weights' sum.
+        if through_products && self.affine_inputs.contains(&vector) {
+            self.assumed_input_w.set(true);
+            return true;
         }
         let vector = self.unwrapped(vector);
         if through_products {

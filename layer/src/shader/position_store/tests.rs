@@ -1338,3 +1338,36 @@ fn a_geometry_stage_passing_the_positions_through_is_told_from_one_that_computes
         0xffff_0001
     ]));
 }
+
+/// A tessellation evaluation stage that projects the patch's positions itself (glslang):
+/// `P * V * M * (u * p0 + v * p1 + w * p2)` with y displaced apart (`projecting.tese`, the
+/// tester's `ubo-projecting-tessellation`), and terrain's quads (`mix` of the four corners, y
+/// lowered by a height map, `projection * modelview`). Fitted in the stage on the condition
+/// that the patch's positions have w = 1 (the pipeline checks the stages before). A local
+/// whose w is written apart after its interpolation is no longer known to have w = 1.
+#[test]
+fn a_tessellation_evaluation_stage_projecting_its_interpolated_positions_is_fitted() {
+    for bytes in [
+        &include_bytes!("../../../../shaders/glslang/projecting.tese.spv")[..],
+        &include_bytes!("../test_data/tessellation_projected_quad_mix.spv")[..],
+    ] {
+        let words = binary(bytes);
+        let rewrite = derive_position_store(&words, 240)
+            .expect("rewritable")
+            .expect("has a Position");
+        assert!(rewrite.assumes_input_unit_w);
+        assert_eq!(rewrite.source, MatrixSource::UniformBuffer);
+        validate(&rewrite.code);
+    }
+    let w_written = binary(include_bytes!(
+        "../test_data/tessellation_projected_w_written.spv"
+    ));
+    assert_eq!(
+        rewrite_position_store_deriving(&w_written, 240)
+            .map(|r| r.map(|(_, s)| s))
+            .err(),
+        Some(Unsupported(
+            "the vector the projection multiplies may not have w = 1"
+        ))
+    );
+}
