@@ -118,9 +118,17 @@ pub fn applies(scene: &Scene) -> Result<Vec<(usize, Program, bool)>, String> {
     let mut main_passes = 0;
     let mut in_main = false;
     let mut pipeline = None;
+    let mut current = None;
     for step in plan.all_steps() {
         match step {
+            // A suspended rendering's "next subpass" resumes the same rendering: its draws go
+            // on as one rendering's.
+            Step::NextSubpass
+                if current.is_some_and(|n: usize| {
+                    plan.passes[n].kind == crate::plan::PassKind::DynamicRenderingSuspended
+                }) => {}
             Step::BeginPass(n) => {
+                current = Some(*n);
                 let pass = &plan.passes[*n];
                 in_main = pass.target == Target::Main;
                 if in_main && pass.multisample.is_some() {

@@ -192,6 +192,8 @@ flip_scene_tests! {
     flip_shadow_map_secondaries: "shadow-map-secondaries", DEPTH_FORMATS;
     flip_subpasses: "subpasses", DEPTH_FORMATS;
     flip_dynamic_rendering: "dynamic-rendering", DEPTH_FORMATS;
+    // One rendering recorded as a suspended and a resuming instance (session 38).
+    flip_dynamic_rendering_suspended: "dynamic-rendering-suspended", DEPTH_FORMATS;
     flip_frag_depth: "frag-depth", DEPTH_FORMATS;
     flip_pipeline_library: "pipeline-library", DEPTH_FORMATS;
     flip_frag_depth_library: "frag-depth-library", DEPTH_FORMATS;

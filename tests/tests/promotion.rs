@@ -317,6 +317,11 @@ fn promoted_dynamic_rendering() {
 }
 
 #[test]
+fn promoted_dynamic_rendering_suspended() {
+    promoted_scene("dynamic-rendering-suspended");
+}
+
+#[test]
 fn promoted_pipeline_library() {
     promoted_scene("pipeline-library");
 }

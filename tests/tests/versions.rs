@@ -68,7 +68,7 @@ const LOCAL_READ_SCENES: [&str; 3] = [
 /// rendering, the dynamic compare op and depth resolves) make the tester, as a Vulkan 1.0
 /// application, enable `VK_KHR_get_physical_device_properties2` itself: revz then has nothing
 /// to add.
-const ENABLE_PROPERTIES2_THEMSELVES: [&str; 17] = [
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 18] = [
     "opengl-depth",
     "pipeline-library",
     "frag-depth-library",
@@ -76,6 +76,7 @@ const ENABLE_PROPERTIES2_THEMSELVES: [&str; 17] = [
     "deferred-depth-tested-library",
     "compare-ops-dynamic",
     "dynamic-rendering",
+    "dynamic-rendering-suspended",
     "msaa-resolve",
     "msaa-resolve-dynamic",
     // VK_ATTACHMENT_STORE_OP_NONE for its read-only depth attachment, through

@@ -61,6 +61,10 @@ const LATER_STAGE_SEEDS: &[&[u8]] = &[
     include_bytes!("../shader/test_data/tessellation_quad_mix.spv"),
     include_bytes!("../shader/test_data/tessellation_vector_weights.spv"),
     include_bytes!("../shader/test_data/tessellation_lod_from_w.spv"),
+    // Evaluation stages projecting the patch's interpolated positions (session 38).
+    include_bytes!("../../../shaders/glslang/projecting.tese.spv"),
+    include_bytes!("../shader/test_data/tessellation_projected_quad_mix.spv"),
+    include_bytes!("../shader/test_data/tessellation_projected_w_written.spv"),
 ];
 
 const FRAGMENT_SEEDS: &[&[u8]] = seed_files!(

@@ -786,6 +786,14 @@ pub enum PassKind {
     },
     /// `vkCmdBeginRendering` (Vulkan 1.3 `dynamicRendering`).
     DynamicRendering,
+    /// `vkCmdBeginRendering` recorded as two render pass instances of one rendering, as
+    /// engines that split a rendering across recording jobs do: begun with
+    /// `VK_RENDERING_SUSPENDING_BIT`, its [`Step::NextSubpass`] ends that instance and begins
+    /// the same rendering info again with `VK_RENDERING_RESUMING_BIT` (nothing recorded in
+    /// between; the resumed instance loads and clears nothing), and its pipelines of "subpass
+    /// 1" draw in the resumed instance. Its images are those of one rendering of the same
+    /// draws.
+    DynamicRenderingSuspended,
     /// `vkCmdBeginRendering` (main target) that reads the depth it writes as an input
     /// attachment within the same rendering, as deferred renderers on dynamic rendering do
     /// (`VK_KHR_dynamic_rendering_local_read`, core in Vulkan 1.4): the twin of
@@ -819,7 +827,8 @@ impl PassKind {
         match self {
             PassKind::DepthPrepassSubpasses
             | PassKind::DepthInputSubpasses { .. }
-            | PassKind::DynamicRenderingLocalRead { .. } => 2,
+            | PassKind::DynamicRenderingLocalRead { .. }
+            | PassKind::DynamicRenderingSuspended => 2,
             PassKind::RenderPass | PassKind::DynamicRendering => 1,
         }
     }
@@ -840,9 +849,10 @@ impl PassKind {
             PassKind::DynamicRenderingLocalRead { indexed: false } => {
                 Some(Program::DepthInputUndecorated)
             }
-            PassKind::RenderPass | PassKind::DepthPrepassSubpasses | PassKind::DynamicRendering => {
-                None
-            }
+            PassKind::RenderPass
+            | PassKind::DepthPrepassSubpasses
+            | PassKind::DynamicRendering
+            | PassKind::DynamicRenderingSuspended => None,
         }
     }
 
@@ -850,7 +860,9 @@ impl PassKind {
     pub fn is_dynamic_rendering(self) -> bool {
         matches!(
             self,
-            PassKind::DynamicRendering | PassKind::DynamicRenderingLocalRead { .. }
+            PassKind::DynamicRendering
+                | PassKind::DynamicRenderingLocalRead { .. }
+                | PassKind::DynamicRenderingSuspended
         )
     }
 

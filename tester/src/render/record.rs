@@ -79,10 +79,14 @@ impl Recorder<'_> {
                 Step::BeginPass(n) => self.begin_pass(cmd, *n, contents)?,
                 Step::NextSubpass => {
                     self.subpass += 1;
-                    let locally = self
-                        .pass
-                        .is_some_and(|n| self.plan.passes[n].kind.reads_locally());
-                    if locally {
+                    let kind = self.pass.map(|n| (n, self.plan.passes[n].kind));
+                    if let Some((n, PassKind::DynamicRenderingSuspended)) = kind {
+                        // The suspended instance ends; the same rendering resumes at once.
+                        // SAFETY: `cmd` is inside the instance begun suspending.
+                        unsafe { self.renderer.gpu.cmd_end_rendering(cmd) };
+                        let (color_clear, depth_clear) = self.clear_values(n);
+                        self.begin_rendering(cmd, n, color_clear, depth_clear, true)?;
+                    } else if kind.is_some_and(|(_, kind)| kind.reads_locally()) {
                         self.local_read_barrier(cmd);
                     } else {
                         // SAFETY: `cmd` is inside a render pass with another subpass (plan
@@ -583,23 +587,9 @@ impl Recorder<'_> {
         self.subpass = 0;
         self.pipeline = None;
         let pass = &self.plan.passes[n];
-        let depth = match pass.depth {
-            DepthLoad::Clear(depth) => depth,
-            DepthLoad::Load => 1.0,
-        };
-        let depth_clear = vk::ClearValue {
-            depth_stencil: vk::ClearDepthStencilValue {
-                depth,
-                stencil: CLEAR_STENCIL,
-            },
-        };
-        let color_clear = vk::ClearValue {
-            color: vk::ClearColorValue {
-                float32: CLEAR_COLOR,
-            },
-        };
+        let (color_clear, depth_clear) = self.clear_values(n);
         if pass.kind.is_dynamic_rendering() {
-            return self.begin_rendering(cmd, n, color_clear, depth_clear);
+            return self.begin_rendering(cmd, n, color_clear, depth_clear, false);
         }
         let clear_values = match (pass.target, pass.multisample) {
             // The multisampled attachments are cleared; their resolve attachments are not (a
@@ -632,7 +622,7 @@ impl Recorder<'_> {
             .plan
             .passes
             .iter()
-            .any(|p| p.view_mask != 0 && p.kind != PassKind::DynamicRendering);
+            .any(|p| p.view_mask != 0 && !p.kind.is_dynamic_rendering());
         if multiview && contents == vk::SubpassContents::INLINE {
             self.bind_geometry(cmd);
         }
@@ -649,12 +639,18 @@ impl Recorder<'_> {
     /// and, where it maps the depth to an input attachment index, sets that mapping with
     /// `vkCmdSetRenderingInputAttachmentIndicesKHR` right after `vkCmdBeginRendering`, as its
     /// pipelines have it.
+    ///
+    /// `resuming`: the rendering of a [`PassKind::DynamicRenderingSuspended`] pass begun again
+    /// after its first instance (no barrier: nothing may be recorded between the two), with
+    /// `VK_RENDERING_RESUMING_BIT` and otherwise the same info; its first instance is begun
+    /// with `VK_RENDERING_SUSPENDING_BIT`.
     fn begin_rendering(
         &self,
         cmd: vk::CommandBuffer,
         n: usize,
         color_clear: vk::ClearValue,
         depth_clear: vk::ClearValue,
+        resuming: bool,
     ) -> Result<()> {
         let pass = &self.plan.passes[n];
         let targets = self.targets;
@@ -826,20 +822,28 @@ impl Recorder<'_> {
         if has_stencil {
             info = info.stencil_attachment(&stencil_attachment);
         }
+        info = info.flags(match (pass.kind, resuming) {
+            (_, true) => vk::RenderingFlags::RESUMING,
+            (PassKind::DynamicRenderingSuspended, false) => vk::RenderingFlags::SUSPENDING,
+            _ => vk::RenderingFlags::empty(),
+        });
         // SAFETY: `cmd` is a recording primary outside any pass; the device has
         // dynamicRendering enabled (checked before rendering); the views cover the images
         // transitioned by the barrier; multisampled views resolve into single-sample views of
-        // the same formats with modes the device supports (checked with the targets).
+        // the same formats with modes the device supports (checked with the targets). A
+        // resuming instance follows its suspended one with nothing in between.
         unsafe {
-            self.device().cmd_pipeline_barrier(
-                cmd,
-                stages,
-                stages,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &barriers,
-            );
+            if !resuming {
+                self.device().cmd_pipeline_barrier(
+                    cmd,
+                    stages,
+                    stages,
+                    vk::DependencyFlags::empty(),
+                    &[],
+                    &[],
+                    &barriers,
+                );
+            }
             self.renderer.gpu.cmd_begin_rendering(cmd, &info);
         }
         if pass.kind == (PassKind::DynamicRenderingLocalRead { indexed: true }) {
@@ -896,6 +900,27 @@ impl Recorder<'_> {
                 &[],
             )
         };
+    }
+
+    /// The clear values of pass `n`'s attachments: the color's, and the depth's (its
+    /// [`DepthLoad::Clear`] value, 1.0 where it loads) with the stencil's.
+    fn clear_values(&self, n: usize) -> (vk::ClearValue, vk::ClearValue) {
+        let depth = match self.plan.passes[n].depth {
+            DepthLoad::Clear(depth) => depth,
+            DepthLoad::Load => 1.0,
+        };
+        let depth_clear = vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth,
+                stencil: CLEAR_STENCIL,
+            },
+        };
+        let color_clear = vk::ClearValue {
+            color: vk::ClearColorValue {
+                float32: CLEAR_COLOR,
+            },
+        };
+        (color_clear, depth_clear)
     }
 
     fn end_pass(&mut self, cmd: vk::CommandBuffer) {

@@ -66,6 +66,9 @@ pub enum SceneId {
     Subpasses,
     /// The overlap scene with dynamic rendering, then a second loading pass drawing more.
     DynamicRendering,
+    /// `dynamic-rendering`'s draws in one rendering recorded as a suspended instance and the
+    /// instance resuming it.
+    DynamicRenderingSuspended,
     /// A shadow map (D32, sampled with a comparison sampler) darkening the ground.
     ShadowMap,
     /// `shadow-map` with both passes drawn from secondaries recorded on threads, half of them

@@ -91,6 +91,11 @@ pub const CATALOG: &[Entry] = &[
         "dynamic-rendering",
         dynamic_rendering,
     ),
+    entry_row(
+        SceneId::DynamicRenderingSuspended,
+        "dynamic-rendering-suspended",
+        dynamic_rendering_suspended,
+    ),
     entry_row(SceneId::ShadowMap, "shadow-map", shadow_map),
     entry_row(
         SceneId::ShadowMapSecondaries,

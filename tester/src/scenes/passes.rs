@@ -115,6 +115,56 @@ pub fn dynamic_rendering() -> Scene {
     b.finish("dynamic-rendering", camera, None)
 }
 
+/// `dynamic-rendering-suspended`: `dynamic-rendering`'s draws in one rendering (cleared to 1.0)
+/// recorded as two render pass instances, as engines that split a rendering across recording
+/// jobs do ([`PassKind::DynamicRenderingSuspended`]): the first begun with
+/// `VK_RENDERING_SUSPENDING_BIT` draws the overlap objects, the second, begun with the same
+/// info and `VK_RENDERING_RESUMING_BIT` right after the first ends, binds a pipeline of its own
+/// and draws the rest. Its images are `dynamic-rendering`'s.
+///
+/// Layer item: the resumed instance loads and clears nothing (its load ops are the first
+/// instance's, ignored), so a layer must not take it for a new rendering whose clear or
+/// depth state starts again, nor record anything between the two instances (no action or
+/// synchronization command may lie between them).
+pub fn dynamic_rendering_suspended() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let first = b.nearest_first(&camera, overlap_objects());
+    let second = b.nearest_first(
+        &camera,
+        vec![
+            grounded_cube("orange cube", 0.35, -0.2, 1.0, 0.7, rgb8(255, 140, 0)),
+            Object::world(
+                "pillar",
+                Mesh::cuboid(DVec3::new(0.18, 1.4, 0.18)),
+                DMat4::from_translation(DVec3::new(1.6, 1.35, -1.6)),
+                rgb8(0, 230, 230),
+            ),
+        ],
+    );
+    let pass = b.pass(PassSpec {
+        target: Target::Main,
+        kind: PassKind::DynamicRenderingSuspended,
+        depth: DepthLoad::Clear(1.0),
+        load_color: false,
+        multisample: None,
+        view_mask: 0,
+    });
+    let standard = b.pipeline(PipelineSpec::standard("standard", pass));
+    let resumed = b.pipeline(PipelineSpec {
+        subpass: 1,
+        ..PipelineSpec::standard("standard, resumed", pass)
+    });
+    b.step(Step::BeginPass(pass));
+    b.step(Step::Bind(standard));
+    b.draw(&first);
+    b.step(Step::NextSubpass);
+    b.step(Step::Bind(resumed));
+    b.draw(&second);
+    b.step(Step::EndPass);
+    b.finish("dynamic-rendering-suspended", camera, None)
+}
+
 /// The light of `shadow-map`: above the scene, behind it to the left, looking down at it
 /// (shadows fall toward the camera and to the right).
 pub fn shadow_light() -> Light {

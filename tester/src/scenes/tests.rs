@@ -1101,6 +1101,8 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
             "overlap",
             "secondary",
             "dynamic-rendering",
+            // One rendering, recorded as two instances.
+            "dynamic-rendering-suspended",
             "shadow-map",
             "shadow-map-secondaries",
             "shadow-map-raw",
