@@ -194,6 +194,8 @@ flip_scene_tests! {
     flip_dynamic_rendering: "dynamic-rendering", DEPTH_FORMATS;
     // One rendering recorded as a suspended and a resuming instance (session 38).
     flip_dynamic_rendering_suspended: "dynamic-rendering-suspended", DEPTH_FORMATS;
+    // Secondaries on threads inheriting only the rendering's formats (session 38).
+    flip_dynamic_rendering_secondaries: "dynamic-rendering-secondaries", DEPTH_FORMATS;
     flip_frag_depth: "frag-depth", DEPTH_FORMATS;
     flip_pipeline_library: "pipeline-library", DEPTH_FORMATS;
     flip_frag_depth_library: "frag-depth-library", DEPTH_FORMATS;

@@ -321,6 +321,13 @@ fn promoted_dynamic_rendering_suspended() {
     promoted_scene("dynamic-rendering-suspended");
 }
 
+/// The secondaries inherit the application's D16 or D24 format, which revz replaces with the
+/// promoted one the rendering's view has.
+#[test]
+fn promoted_dynamic_rendering_secondaries() {
+    promoted_scene("dynamic-rendering-secondaries");
+}
+
 #[test]
 fn promoted_pipeline_library() {
     promoted_scene("pipeline-library");

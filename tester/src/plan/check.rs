@@ -422,9 +422,14 @@ impl Plan {
                 }
                 Step::ExecuteSecondaries(lists, _) => {
                     let (n, subpass) = state.pass.ok_or_else(|| at("outside a pass".into()))?;
+                    // A plain single-sample rendering continues in secondaries too (its formats
+                    // inherited); its local-read and suspended kinds do not here.
                     ensure!(
-                        !self.passes[n].kind.is_dynamic_rendering(),
-                        "step {index}: secondaries are only recorded inside render passes"
+                        !self.passes[n].kind.is_dynamic_rendering()
+                            || (self.passes[n].kind == PassKind::DynamicRendering
+                                && self.passes[n].multisample.is_none()),
+                        "step {index}: secondaries are recorded inside render passes and plain \
+                         single-sample renderings"
                     );
                     ensure!(
                         state.secondary_subpass != Some(false),

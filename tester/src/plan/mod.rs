@@ -1983,7 +1983,7 @@ mod tests {
         assert!(indexed.check(2, false).is_err());
         indexed.pipelines[1].program = Program::DepthInput;
         indexed.check(2, false).unwrap();
-        // No secondaries inside a rendering.
+        // No secondaries inside a local-read rendering (a plain one takes them).
         let mut secondaries = plan.clone();
         secondaries.steps.splice(
             1..4,
@@ -1994,7 +1994,7 @@ mod tests {
         );
         let error = secondaries.check(2, false).unwrap_err();
         assert!(
-            error.0.contains("only recorded inside render passes"),
+            error.0.contains("plain single-sample renderings"),
             "{error}"
         );
     }

@@ -85,7 +85,7 @@ impl Recorder<'_> {
                         // SAFETY: `cmd` is inside the instance begun suspending.
                         unsafe { self.renderer.gpu.cmd_end_rendering(cmd) };
                         let (color_clear, depth_clear) = self.clear_values(n);
-                        self.begin_rendering(cmd, n, color_clear, depth_clear, true)?;
+                        self.begin_rendering(cmd, n, color_clear, depth_clear, true, false)?;
                     } else if kind.is_some_and(|(_, kind)| kind.reads_locally()) {
                         self.local_read_barrier(cmd);
                     } else {
@@ -589,7 +589,8 @@ impl Recorder<'_> {
         let pass = &self.plan.passes[n];
         let (color_clear, depth_clear) = self.clear_values(n);
         if pass.kind.is_dynamic_rendering() {
-            return self.begin_rendering(cmd, n, color_clear, depth_clear, false);
+            let secondaries = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
+            return self.begin_rendering(cmd, n, color_clear, depth_clear, false, secondaries);
         }
         let clear_values = match (pass.target, pass.multisample) {
             // The multisampled attachments are cleared; their resolve attachments are not (a
@@ -643,7 +644,8 @@ impl Recorder<'_> {
     /// `resuming`: the rendering of a [`PassKind::DynamicRenderingSuspended`] pass begun again
     /// after its first instance (no barrier: nothing may be recorded between the two), with
     /// `VK_RENDERING_RESUMING_BIT` and otherwise the same info; its first instance is begun
-    /// with `VK_RENDERING_SUSPENDING_BIT`.
+    /// with `VK_RENDERING_SUSPENDING_BIT`. `secondaries`: the rendering's draws are recorded
+    /// in secondary command buffers (`VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT`).
     fn begin_rendering(
         &self,
         cmd: vk::CommandBuffer,
@@ -651,6 +653,7 @@ impl Recorder<'_> {
         color_clear: vk::ClearValue,
         depth_clear: vk::ClearValue,
         resuming: bool,
+        secondaries: bool,
     ) -> Result<()> {
         let pass = &self.plan.passes[n];
         let targets = self.targets;
@@ -822,11 +825,19 @@ impl Recorder<'_> {
         if has_stencil {
             info = info.stencil_attachment(&stencil_attachment);
         }
-        info = info.flags(match (pass.kind, resuming) {
-            (_, true) => vk::RenderingFlags::RESUMING,
-            (PassKind::DynamicRenderingSuspended, false) => vk::RenderingFlags::SUSPENDING,
-            _ => vk::RenderingFlags::empty(),
-        });
+        let contents = if secondaries {
+            vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS
+        } else {
+            vk::RenderingFlags::empty()
+        };
+        info = info.flags(
+            contents
+                | match (pass.kind, resuming) {
+                    (_, true) => vk::RenderingFlags::RESUMING,
+                    (PassKind::DynamicRenderingSuspended, false) => vk::RenderingFlags::SUSPENDING,
+                    _ => vk::RenderingFlags::empty(),
+                },
+        );
         // SAFETY: `cmd` is a recording primary outside any pass; the device has
         // dynamicRendering enabled (checked before rendering); the views cover the images
         // transitioned by the barrier; multisampled views resolve into single-sample views of
@@ -1251,13 +1262,41 @@ impl Recorder<'_> {
     }
 
     /// Begins a fresh secondary command buffer that continues pass `n`, inheriting its render
-    /// pass, the current subpass and (if `framebuffer`) its framebuffer.
+    /// pass, the current subpass and (if `framebuffer`) its framebuffer; in a dynamic
+    /// rendering, the rendering's formats, view mask and sample count
+    /// (`VkCommandBufferInheritanceRenderingInfo`, no render pass).
     fn begin_secondary(
         &self,
         secondary: vk::CommandBuffer,
         n: usize,
         framebuffer: bool,
     ) -> VkResult<()> {
+        let pass = &self.plan.passes[n];
+        if pass.kind.is_dynamic_rendering() {
+            let color_formats = [crate::target::COLOR_FORMAT];
+            let depth = self.targets.depth_format.vk_format();
+            let stencil = if self.targets.depth_format.has_stencil() {
+                depth
+            } else {
+                vk::Format::UNDEFINED
+            };
+            let mut rendering = vk::CommandBufferInheritanceRenderingInfo::default()
+                .color_attachment_formats(&color_formats)
+                .depth_attachment_format(depth)
+                .stencil_attachment_format(stencil)
+                .view_mask(pass.view_mask)
+                .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+            let inheritance = vk::CommandBufferInheritanceInfo::default().push_next(&mut rendering);
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(
+                    vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
+                        | vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT,
+                )
+                .inheritance_info(&inheritance);
+            // SAFETY: a fresh secondary of one of this device's pools; the inheritance names
+            // the formats of the single-sample rendering it continues (plan check).
+            return unsafe { self.device().begin_command_buffer(secondary, &begin) };
+        }
         let framebuffer = if framebuffer {
             self.renderer.framebuffers[n]
         } else {

@@ -69,6 +69,9 @@ pub enum SceneId {
     /// `dynamic-rendering`'s draws in one rendering recorded as a suspended instance and the
     /// instance resuming it.
     DynamicRenderingSuspended,
+    /// `secondary` in a dynamic rendering, its secondaries recorded on threads inheriting
+    /// the rendering's formats.
+    DynamicRenderingSecondaries,
     /// A shadow map (D32, sampled with a comparison sampler) darkening the ground.
     ShadowMap,
     /// `shadow-map` with both passes drawn from secondaries recorded on threads, half of them

@@ -96,6 +96,11 @@ pub const CATALOG: &[Entry] = &[
         "dynamic-rendering-suspended",
         dynamic_rendering_suspended,
     ),
+    entry_row(
+        SceneId::DynamicRenderingSecondaries,
+        "dynamic-rendering-secondaries",
+        dynamic_rendering_secondaries,
+    ),
     entry_row(SceneId::ShadowMap, "shadow-map", shadow_map),
     entry_row(
         SceneId::ShadowMapSecondaries,

@@ -30,6 +30,28 @@ pub fn secondary() -> Scene {
     scene
 }
 
+/// `dynamic-rendering-secondaries`: `secondary` in a dynamic rendering
+/// (`VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT`), its two secondaries recorded at
+/// once on threads of their own, each inheriting the rendering's formats
+/// (`VkCommandBufferInheritanceRenderingInfo`: no render pass, no framebuffer), as
+/// multi-threaded engines on dynamic rendering record their draws.
+///
+/// Layer item: a secondary that inherits only formats says nothing of the image it draws
+/// into: a layer must take the depth target (and, for D16 and D24, the promoted format its
+/// pipelines and inheritance must name) from the format, or the secondary's draws keep
+/// standard depth state in a reversed attachment.
+pub fn dynamic_rendering_secondaries() -> Scene {
+    let mut scene = secondary();
+    scene.name = "dynamic-rendering-secondaries";
+    scene.plan.passes[0].kind = PassKind::DynamicRendering;
+    for step in &mut scene.plan.steps {
+        if let Step::ExecuteSecondaries(_, recording) = step {
+            *recording = Recording::ThreadPerSecondary;
+        }
+    }
+    scene
+}
+
 /// `subpasses`: the overlap objects in one render pass with two subpasses sharing the depth
 /// attachment: subpass 0 (no color attachment) is a depth-only pre-pass with LESS, subpass 1
 /// draws the same objects in color with EQUAL (depth read-write layout, writes off); a

@@ -1103,6 +1103,7 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
             "dynamic-rendering",
             // One rendering, recorded as two instances.
             "dynamic-rendering-suspended",
+            "dynamic-rendering-secondaries",
             "shadow-map",
             "shadow-map-secondaries",
             "shadow-map-raw",
