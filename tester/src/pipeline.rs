@@ -928,10 +928,31 @@ pub fn create_pipeline(
     let color_blend =
         vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
     let dynamic = dynamic_states(spec);
+    // A dynamic rendering's formats and view mask (no render pass).
+    let color_formats = [COLOR_FORMAT];
+    let mut rendering = vk::PipelineRenderingCreateInfo::default()
+        .view_mask(target.pass.view_mask)
+        .color_attachment_formats(&color_formats)
+        .depth_attachment_format(target.main.depth)
+        .stencil_attachment_format(if target.main.stencil {
+            target.main.depth
+        } else {
+            vk::Format::UNDEFINED
+        });
+    let dynamic_rendering = target.pass.kind.is_dynamic_rendering();
 
     if spec.libraries {
-        // Render passes only (`Plan::check`): every library that needs the render pass and
-        // subpass is given them, and no `VkPipelineRenderingCreateInfo` is chained.
+        // In a render pass, every library that needs the render pass and subpass is given
+        // them; in a plain dynamic rendering (`Plan::check`), each of those chains a
+        // `VkPipelineRenderingCreateInfo` instead (the view mask for the shader libraries, the
+        // attachment formats too for the fragment output interface).
+        // The shader libraries read the view mask alone: they name no formats (which the
+        // fragment output interface holds; the installed validation layer, 1.3.239, would
+        // otherwise ask them for color blend and depth-stencil state).
+        let shader_rendering =
+            vk::PipelineRenderingCreateInfo::default().view_mask(target.pass.view_mask);
+        let (mut rendering_pre, mut rendering_fragment, mut rendering_output) =
+            (shader_rendering, shader_rendering, rendering);
         let library = |flags: vk::GraphicsPipelineLibraryFlagsEXT| {
             vk::GraphicsPipelineLibraryCreateInfoEXT::default().flags(flags)
         };
@@ -973,9 +994,12 @@ pub fn create_pipeline(
             .viewport_state(&viewport_state)
             .rasterization_state(&rasterization)
             .layout(target.layout)
-            .render_pass(target.render_pass)
-            .subpass(spec.subpass)
             .push_next(&mut subset);
+        info = if dynamic_rendering {
+            info.push_next(&mut rendering_pre)
+        } else {
+            info.render_pass(target.render_pass).subpass(spec.subpass)
+        };
         if !pre_rasterization_dynamic.is_empty() {
             info = info.dynamic_state(&pre_rasterization_dynamic_state);
         }
@@ -991,9 +1015,12 @@ pub fn create_pipeline(
             .depth_stencil_state(&depth_stencil)
             .multisample_state(&multisample)
             .layout(target.layout)
-            .render_pass(target.render_pass)
-            .subpass(spec.subpass)
             .push_next(&mut subset);
+        info = if dynamic_rendering {
+            info.push_next(&mut rendering_fragment)
+        } else {
+            info.render_pass(target.render_pass).subpass(spec.subpass)
+        };
         if !fragment_dynamic.is_empty() {
             info = info.dynamic_state(&fragment_dynamic_state);
         }
@@ -1002,12 +1029,15 @@ pub fn create_pipeline(
 
         // Fragment output interface: color blending and the multisample state.
         let mut subset = library(vk::GraphicsPipelineLibraryFlagsEXT::FRAGMENT_OUTPUT_INTERFACE);
-        let info = base
+        let mut info = base
             .color_blend_state(&color_blend)
             .multisample_state(&multisample)
-            .render_pass(target.render_pass)
-            .subpass(spec.subpass)
             .push_next(&mut subset);
+        info = if dynamic_rendering {
+            info.push_next(&mut rendering_output)
+        } else {
+            info.render_pass(target.render_pass).subpass(spec.subpass)
+        };
         let what = format!("{}: fragment output interface library", spec.name);
         guard.pipelines.push(create_one(device, &info, &what)?);
 
@@ -1035,16 +1065,6 @@ pub fn create_pipeline(
     }
 
     let dynamic_state = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
-    let color_formats = [COLOR_FORMAT];
-    let mut rendering = vk::PipelineRenderingCreateInfo::default()
-        .view_mask(target.pass.view_mask)
-        .color_attachment_formats(&color_formats)
-        .depth_attachment_format(target.main.depth)
-        .stencil_attachment_format(if target.main.stencil {
-            target.main.depth
-        } else {
-            vk::Format::UNDEFINED
-        });
     let mut info = vk::GraphicsPipelineCreateInfo::default()
         .stages(&stages)
         .viewport_state(&viewport_state)
@@ -1070,7 +1090,7 @@ pub fn create_pipeline(
     let mut input_indices = vk::RenderingInputAttachmentIndexInfoKHR::default()
         .color_attachment_input_indices(&color_input_indices)
         .depth_input_attachment_index(&DEPTH_INPUT_ATTACHMENT_INDEX);
-    if target.pass.kind.is_dynamic_rendering() {
+    if dynamic_rendering {
         // A local-read rendering keeps its depth attachment throughout: the format is named
         // for the pipelines that read it as an input attachment too.
         info = info.push_next(&mut rendering);

@@ -199,6 +199,9 @@ flip_scene_tests! {
     flip_frag_depth: "frag-depth", DEPTH_FORMATS;
     flip_pipeline_library: "pipeline-library", DEPTH_FORMATS;
     flip_frag_depth_library: "frag-depth-library", DEPTH_FORMATS;
+    // The same libraries in a dynamic rendering, as DXVK makes them (session 38).
+    flip_pipeline_library_dynamic: "pipeline-library-dynamic", DEPTH_FORMATS;
+    flip_frag_depth_library_dynamic: "frag-depth-library-dynamic", DEPTH_FORMATS;
 }
 
 /// The shadow map is sampled: it is reversed all the same (its clear, compare op, depth bias
@@ -1137,6 +1140,13 @@ fn precise_modes_rewrite_frag_depth() {
         let tolerance = Tolerance::flip_plus(format, 4.0 * f32::EPSILON);
         flip_scene_within("frag-depth", format, &[], &settings, tolerance);
         flip_scene_within("frag-depth-library", format, &[], &settings, tolerance);
+        flip_scene_within(
+            "frag-depth-library-dynamic",
+            format,
+            &[],
+            &settings,
+            tolerance,
+        );
         let settings = [("REVZ_MODE", "infinite")];
         let tolerance = Tolerance::flip_plus(format, 1e-3);
         flip_scene_within("frag-depth", format, &[], &settings, tolerance);
@@ -1158,17 +1168,13 @@ fn precise_modes_with_pipeline_libraries() {
             color_pixels: 2,
             ..Tolerance::flip_plus(format, extra)
         };
-        let settings = [("REVZ_MODE", "complementary"), ("REVZ_LOG", "debug")];
-        let log = flip_scene_within(
-            "pipeline-library",
-            format,
-            &[],
-            &settings,
-            lines(4.0 * f32::EPSILON),
-        );
-        assert!(log.contains("precise path"), "{format}: {log}");
-        let settings = [("REVZ_MODE", "infinite")];
-        flip_scene_within("pipeline-library", format, &[], &settings, lines(1e-3));
+        for scene in ["pipeline-library", "pipeline-library-dynamic"] {
+            let settings = [("REVZ_MODE", "complementary"), ("REVZ_LOG", "debug")];
+            let log = flip_scene_within(scene, format, &[], &settings, lines(4.0 * f32::EPSILON));
+            assert!(log.contains("precise path"), "{scene} {format}: {log}");
+            let settings = [("REVZ_MODE", "infinite")];
+            flip_scene_within(scene, format, &[], &settings, lines(1e-3));
+        }
     }
 }
 

@@ -14,7 +14,7 @@
 //!
 //! - `promoted_stencil`, `promoted_decal_bias`, `promoted_depth_bias`,
 //!   `promoted_msaa_resolve`, `promoted_secondary`, `promoted_dynamic_rendering`,
-//!   `promoted_pipeline_library`: the scene in every format revz promotes that it supports
+//!   `promoted_pipeline_library` (and their dynamic-rendering twins): the scene in every format revz promotes that it supports
 //!   (`stencil`: D24_S8 only; the others D16, X8_D24 and D24_S8), in `complementary` and
 //!   `infinite`, with the default setting: zero validation messages (the layer changes the
 //!   image's format, so its views, render passes, framebuffers, dynamic rendering and pipeline
@@ -331,6 +331,13 @@ fn promoted_dynamic_rendering_secondaries() {
 #[test]
 fn promoted_pipeline_library() {
     promoted_scene("pipeline-library");
+}
+
+/// The same libraries in a dynamic rendering: the formats revz promotes are named by the
+/// fragment output interface library alone.
+#[test]
+fn promoted_pipeline_library_dynamic() {
+    promoted_scene("pipeline-library-dynamic");
 }
 
 #[test]

@@ -68,10 +68,12 @@ const LOCAL_READ_SCENES: [&str; 3] = [
 /// rendering, the dynamic compare op and depth resolves) make the tester, as a Vulkan 1.0
 /// application, enable `VK_KHR_get_physical_device_properties2` itself: revz then has nothing
 /// to add.
-const ENABLE_PROPERTIES2_THEMSELVES: [&str; 19] = [
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 21] = [
     "opengl-depth",
     "pipeline-library",
     "frag-depth-library",
+    "pipeline-library-dynamic",
+    "frag-depth-library-dynamic",
     "deferred-depth-library",
     "deferred-depth-tested-library",
     "compare-ops-dynamic",

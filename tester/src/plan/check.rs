@@ -128,9 +128,11 @@ impl Plan {
                  buffer deliveries in one plan"
             );
             ensure!(
-                !pipeline.libraries || !pass.kind.is_dynamic_rendering(),
-                "pipeline {name}: library pipelines are built for render passes only (their \
-                 libraries are given the render pass and subpass)"
+                !pipeline.libraries
+                    || !pass.kind.is_dynamic_rendering()
+                    || pass.kind == PassKind::DynamicRendering,
+                "pipeline {name}: library pipelines are built for render passes and plain \
+                 dynamic renderings"
             );
             ensure!(
                 pass.target == Target::Main || pipeline.stencil.is_none(),

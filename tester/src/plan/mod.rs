@@ -1926,7 +1926,7 @@ mod tests {
     }
 
     #[test]
-    fn library_pipelines_need_the_extension_and_a_render_pass() {
+    fn library_pipelines_need_the_extension_and_a_render_pass_or_plain_rendering() {
         let mut plan = Plan::single_pass(1);
         plan.pipelines[0].libraries = true;
         plan.check(1, false).unwrap();
@@ -1937,11 +1937,13 @@ mod tests {
                 ..Needs::default()
             }
         );
-        // Dynamic rendering: no render pass to give the libraries.
+        // A plain dynamic rendering: the libraries chain its rendering info.
         plan.passes[0].kind = PassKind::DynamicRendering;
-        assert!(plan.check(1, false).is_err());
-        plan.pipelines[0].libraries = false;
         plan.check(1, false).unwrap();
+        // A local-read one: not built here.
+        plan.passes[0].kind = PassKind::DynamicRenderingLocalRead { indexed: false };
+        let error = plan.check(1, false).unwrap_err();
+        assert!(error.0.contains("library pipelines"), "{error}");
     }
 
     #[test]

@@ -148,9 +148,13 @@ pub enum SceneId {
     FragDepth,
     /// `frag-depth` with every pipeline built from graphics pipeline libraries.
     FragDepthLibrary,
+    /// `frag-depth-library` in a dynamic rendering.
+    FragDepthLibraryDynamic,
     /// The overlap scene, decals with a static depth bias and a sky at viewport depth [1, 1],
     /// every pipeline linked from `VK_EXT_graphics_pipeline_library` libraries.
     PipelineLibrary,
+    /// `pipeline-library` in a dynamic rendering.
+    PipelineLibraryDynamic,
     /// Push constants hold only the projection P; vertices are in view space.
     ProjectionOnly,
     /// Push constants hold P * V; vertices are in world space (a far-reaching scene).

@@ -192,9 +192,19 @@ pub const CATALOG: &[Entry] = &[
         frag_depth_library,
     ),
     entry_row(
+        SceneId::FragDepthLibraryDynamic,
+        "frag-depth-library-dynamic",
+        frag_depth_library_dynamic,
+    ),
+    entry_row(
         SceneId::PipelineLibrary,
         "pipeline-library",
         pipeline_library,
+    ),
+    entry_row(
+        SceneId::PipelineLibraryDynamic,
+        "pipeline-library-dynamic",
+        pipeline_library_dynamic,
     ),
     entry_row(SceneId::ProjectionOnly, "projection-only", projection_only),
     entry_row(SceneId::ViewProjection, "view-projection", view_projection),

@@ -559,6 +559,17 @@ pub fn frag_depth_library() -> Scene {
     frag_depth_built("frag-depth-library", true)
 }
 
+/// `frag-depth-library-dynamic`: `frag-depth-library` in a dynamic rendering (its libraries
+/// chain `VkPipelineRenderingCreateInfo`, the formats in the fragment output interface alone):
+/// the fragment shader library that writes `FragDepth` is rewritten without a render pass.
+pub fn frag_depth_library_dynamic() -> Scene {
+    let mut scene = frag_depth_built("frag-depth-library-dynamic", true);
+    for pass in &mut scene.plan.passes {
+        pass.kind = PassKind::DynamicRendering;
+    }
+    scene
+}
+
 /// The `frag-depth` scene named `name`, its pipelines built from libraries or not.
 fn frag_depth_built(name: &'static str, libraries: bool) -> Scene {
     let camera = overlap_camera();
@@ -628,6 +639,23 @@ fn face_decal(
 pub(super) const NEAR_CUBE_HALF: f64 = 0.5;
 /// See [`NEAR_CUBE_HALF`].
 pub(super) const MIDDLE_CUBE_HALF: f64 = 0.75;
+
+/// `pipeline-library-dynamic`: `pipeline-library` in a dynamic rendering, as DXVK draws: its
+/// libraries chain the rendering's `VkPipelineRenderingCreateInfo` (the view mask for the
+/// shader libraries, the attachment formats for the fragment output interface) instead of a
+/// render pass.
+///
+/// Layer item: the formats a promoted attachment's pipelines must name are in the fragment
+/// output interface library alone, the compare op and bias in the fragment shader and
+/// pre-rasterization libraries, and the link names none of them.
+pub fn pipeline_library_dynamic() -> Scene {
+    let mut scene = pipeline_library();
+    scene.name = "pipeline-library-dynamic";
+    for pass in &mut scene.plan.passes {
+        pass.kind = PassKind::DynamicRendering;
+    }
+    scene
+}
 
 /// `pipeline-library` (needs `VK_EXT_graphics_pipeline_library`): every pipeline is built
 /// from four libraries (vertex input interface, pre-rasterization shaders, fragment shader,

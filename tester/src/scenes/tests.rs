@@ -778,6 +778,8 @@ fn pipeline_library_builds_every_pipeline_from_static_libraries() {
             [
                 "pipeline-library",
                 "frag-depth-library",
+                "pipeline-library-dynamic",
+                "frag-depth-library-dynamic",
                 "deferred-depth-library",
                 "deferred-depth-tested-library"
             ]
