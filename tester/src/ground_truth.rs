@@ -125,7 +125,10 @@ pub fn applies(scene: &Scene) -> Result<Vec<(usize, Program, bool)>, String> {
             // on as one rendering's.
             Step::NextSubpass
                 if current.is_some_and(|n: usize| {
-                    plan.passes[n].kind == crate::plan::PassKind::DynamicRenderingSuspended
+                    matches!(
+                        plan.passes[n].kind,
+                        crate::plan::PassKind::DynamicRenderingSuspended { .. }
+                    )
                 }) => {}
             Step::BeginPass(n) => {
                 current = Some(*n);

@@ -194,6 +194,8 @@ flip_scene_tests! {
     flip_dynamic_rendering: "dynamic-rendering", DEPTH_FORMATS;
     // One rendering recorded as a suspended and a resuming instance (session 38).
     flip_dynamic_rendering_suspended: "dynamic-rendering-suspended", DEPTH_FORMATS;
+    // Resumed in a second primary command buffer of the same batch.
+    flip_dynamic_rendering_suspended_across: "dynamic-rendering-suspended-across", DEPTH_FORMATS;
     // Secondaries on threads inheriting only the rendering's formats (session 38).
     flip_dynamic_rendering_secondaries: "dynamic-rendering-secondaries", DEPTH_FORMATS;
     flip_frag_depth: "frag-depth", DEPTH_FORMATS;
@@ -1828,4 +1830,36 @@ fn view_problems(
         ));
     }
     problems
+}
+
+/// A rendering suspended in one primary command buffer and resumed in the next of the same
+/// batch (`dynamic-rendering-suspended-across`) reverses as one rendering: from its second
+/// frame on (each recording's draws get the best camera line the device knows, which in the
+/// first frame is the one seen in that recording: one float32 step apart at some pixels), its
+/// colors and depth are `dynamic-rendering`'s bit for bit in the precise modes, with no
+/// validation message (synchronization validation included).
+#[test]
+fn a_rendering_resumed_in_another_command_buffer_reverses_as_one() {
+    let harness = Harness::locate();
+    for mode in ["complementary", "infinite"] {
+        let render = |scene: &str| {
+            let dir = harness.scratch_dir(&format!("resumed-{scene}-{mode}"));
+            let mut command = harness.tester("d32", &dir);
+            command.args(["--scene", scene, "--sync-validation", "--frames", "2"]);
+            harness.with_layer(&mut command).env("REVZ_MODE", mode);
+            harness.render(command, &dir)
+        };
+        let (one, resumed) = (
+            render("dynamic-rendering"),
+            render("dynamic-rendering-suspended-across"),
+        );
+        assert!(one.color() == resumed.color(), "{mode}: colors differ");
+        let (a, b) = (one.depth(), resumed.depth());
+        let differing = a
+            .iter()
+            .zip(&b)
+            .filter(|(x, y)| x.to_bits() != y.to_bits())
+            .count();
+        assert_eq!(differing, 0, "{mode}: depth differs at {differing} pixels");
+    }
 }

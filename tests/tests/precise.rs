@@ -576,6 +576,7 @@ scene_tests! {
     secondary: "secondary";
     dynamic_rendering: "dynamic-rendering";
     dynamic_rendering_suspended: "dynamic-rendering-suspended";
+    dynamic_rendering_suspended_across: "dynamic-rendering-suspended-across";
     dynamic_rendering_secondaries: "dynamic-rendering-secondaries";
     shadow_map: "shadow-map";
     // A spot light: the shadow casters take the precise path with the light's projection, a

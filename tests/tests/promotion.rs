@@ -319,6 +319,7 @@ fn promoted_dynamic_rendering() {
 #[test]
 fn promoted_dynamic_rendering_suspended() {
     promoted_scene("dynamic-rendering-suspended");
+    promoted_scene("dynamic-rendering-suspended-across");
 }
 
 /// The secondaries inherit the application's D16 or D24 format, which revz replaces with the

@@ -68,7 +68,7 @@ const LOCAL_READ_SCENES: [&str; 3] = [
 /// rendering, the dynamic compare op and depth resolves) make the tester, as a Vulkan 1.0
 /// application, enable `VK_KHR_get_physical_device_properties2` itself: revz then has nothing
 /// to add.
-const ENABLE_PROPERTIES2_THEMSELVES: [&str; 21] = [
+const ENABLE_PROPERTIES2_THEMSELVES: [&str; 22] = [
     "opengl-depth",
     "pipeline-library",
     "frag-depth-library",
@@ -79,6 +79,7 @@ const ENABLE_PROPERTIES2_THEMSELVES: [&str; 21] = [
     "compare-ops-dynamic",
     "dynamic-rendering",
     "dynamic-rendering-suspended",
+    "dynamic-rendering-suspended-across",
     "dynamic-rendering-secondaries",
     "msaa-resolve",
     "msaa-resolve-dynamic",

@@ -24,6 +24,24 @@ impl Plan {
     /// Checks every rule the renderer relies on; `objects` is the scene's object count and
     /// `has_light` whether it has a light (needed by shadow passes).
     pub fn check(&self, objects: usize, has_light: bool) -> Result<(), PlanError> {
+        // The renderer has one second primary to resume a rendering in, begun once.
+        let across = self
+            .steps
+            .iter()
+            .filter(|step| match step {
+                Step::BeginPass(n) => self.passes.get(*n).is_some_and(|p| {
+                    p.kind
+                        == PassKind::DynamicRenderingSuspended {
+                            across_command_buffers: true,
+                        }
+                }),
+                _ => false,
+            })
+            .count();
+        ensure!(
+            across <= 1,
+            "{across} renderings resume in a second primary command buffer (at most one)"
+        );
         for (i, pipeline) in self.pipelines.iter().enumerate() {
             let name = pipeline.name;
             let pass = self.passes.get(pipeline.pass).ok_or_else(|| {

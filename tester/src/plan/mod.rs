@@ -793,7 +793,12 @@ pub enum PassKind {
     /// between; the resumed instance loads and clears nothing), and its pipelines of "subpass
     /// 1" draw in the resumed instance. Its images are those of one rendering of the same
     /// draws.
-    DynamicRenderingSuspended,
+    DynamicRenderingSuspended {
+        /// The resumed instance is recorded in a second primary command buffer, submitted
+        /// right after the first in the same batch (the first ends with the suspended
+        /// instance; the rest of the frame, read-back included, goes into the second).
+        across_command_buffers: bool,
+    },
     /// `vkCmdBeginRendering` (main target) that reads the depth it writes as an input
     /// attachment within the same rendering, as deferred renderers on dynamic rendering do
     /// (`VK_KHR_dynamic_rendering_local_read`, core in Vulkan 1.4): the twin of
@@ -828,7 +833,7 @@ impl PassKind {
             PassKind::DepthPrepassSubpasses
             | PassKind::DepthInputSubpasses { .. }
             | PassKind::DynamicRenderingLocalRead { .. }
-            | PassKind::DynamicRenderingSuspended => 2,
+            | PassKind::DynamicRenderingSuspended { .. } => 2,
             PassKind::RenderPass | PassKind::DynamicRendering => 1,
         }
     }
@@ -852,7 +857,7 @@ impl PassKind {
             PassKind::RenderPass
             | PassKind::DepthPrepassSubpasses
             | PassKind::DynamicRendering
-            | PassKind::DynamicRenderingSuspended => None,
+            | PassKind::DynamicRenderingSuspended { .. } => None,
         }
     }
 
@@ -862,7 +867,7 @@ impl PassKind {
             self,
             PassKind::DynamicRendering
                 | PassKind::DynamicRenderingLocalRead { .. }
-                | PassKind::DynamicRenderingSuspended
+                | PassKind::DynamicRenderingSuspended { .. }
         )
     }
 

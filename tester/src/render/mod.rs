@@ -254,6 +254,9 @@ pub struct Renderer<'a> {
     /// The queue family of the command pools (recording threads create their own).
     queue_family: u32,
     command_buffer: vk::CommandBuffer,
+    /// A second primary, where a suspended rendering resumes across command buffers
+    /// ([`crate::plan::PassKind::DynamicRenderingSuspended`]).
+    continuation: vk::CommandBuffer,
     secondaries: Vec<vk::CommandBuffer>,
     fence: vk::Fence,
     extent: vk::Extent2D,
@@ -526,6 +529,7 @@ impl<'a> Renderer<'a> {
             command_pool: vk::CommandPool::null(),
             queue_family: gpu.queue_family,
             command_buffer: vk::CommandBuffer::null(),
+            continuation: vk::CommandBuffer::null(),
             secondaries: Vec::new(),
             fence: vk::Fence::null(),
             extent: targets.extent,
@@ -785,10 +789,14 @@ impl<'a> Renderer<'a> {
             unsafe { device.allocate_command_buffers(&info) }
                 .context("vkAllocateCommandBuffers failed")
         };
-        this.command_buffer = allocate(vk::CommandBufferLevel::PRIMARY, 1)?
-            .into_iter()
-            .next()
-            .ok_or_else(|| anyhow!("vkAllocateCommandBuffers returned no command buffer"))?;
+        let primaries = allocate(vk::CommandBufferLevel::PRIMARY, 2)?;
+        let [first, second] = primaries[..] else {
+            bail!(
+                "vkAllocateCommandBuffers returned {} command buffers",
+                primaries.len()
+            );
+        };
+        (this.command_buffer, this.continuation) = (first, second);
         if needs.secondaries > 0 {
             let count = u32::try_from(needs.secondaries).context("secondary count")?;
             this.secondaries = allocate(vk::CommandBufferLevel::SECONDARY, count)?;
@@ -928,17 +936,20 @@ impl<'a> Renderer<'a> {
             next_secondary: 0,
             tiles_bound: false,
             thread_pools: Vec::new(),
+            continuation: Some(self.continuation),
         };
         recorder.bind_geometry(cmd);
-        recorder.record(cmd, &scene.plan.steps)?;
+        let last = recorder.record(cmd, &scene.plan.steps)?;
 
-        readback.record(device, cmd, targets);
+        readback.record(device, last, targets);
 
         // SAFETY: the command buffer is recording.
-        unsafe { device.end_command_buffer(cmd) }.context("vkEndCommandBuffer failed")?;
+        unsafe { device.end_command_buffer(last) }.context("vkEndCommandBuffer failed")?;
 
-        let command_buffers = [cmd];
-        let submit = vk::SubmitInfo::default().command_buffers(&command_buffers);
+        // A rendering suspended in the first resumes in the second, next in the same batch.
+        let both = [cmd, last];
+        let command_buffers = if last == cmd { &both[..1] } else { &both[..] };
+        let submit = vk::SubmitInfo::default().command_buffers(command_buffers);
         // SAFETY: executable command buffer, unsignalled fence, queue of this device; the
         // host wrote the vertex/index/uniform buffers before the submit (implicitly visible).
         unsafe { device.queue_submit(gpu.queue, &[submit], self.fence) }
@@ -1008,6 +1019,9 @@ struct Recorder<'r> {
     /// which [`Renderer::render`] does only after the submission's fence (or on an error path,
     /// after waiting for the device to be idle).
     thread_pools: Vec<vk::CommandPool>,
+    /// The primary a suspended rendering resumes in, where it does so across command buffers
+    /// (taken once; `None` for secondaries).
+    continuation: Option<vk::CommandBuffer>,
 }
 
 mod bindings;

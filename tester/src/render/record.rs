@@ -40,8 +40,13 @@ impl Recorder<'_> {
         }
     }
 
-    /// Records `steps` into `cmd`.
-    pub(super) fn record(&mut self, cmd: vk::CommandBuffer, steps: &[Step]) -> Result<()> {
+    /// Records `steps` into `cmd`; returns the command buffer recording goes on in: `cmd`, or
+    /// the renderer's second primary where a suspended rendering resumes there.
+    pub(super) fn record(
+        &mut self,
+        mut cmd: vk::CommandBuffer,
+        steps: &[Step],
+    ) -> Result<vk::CommandBuffer> {
         for (index, step) in steps.iter().enumerate() {
             // A subpass recorded in secondaries is begun with SECONDARY_COMMAND_BUFFERS
             // contents (the plan check makes that its only kind of step).
@@ -80,10 +85,20 @@ impl Recorder<'_> {
                 Step::NextSubpass => {
                     self.subpass += 1;
                     let kind = self.pass.map(|n| (n, self.plan.passes[n].kind));
-                    if let Some((n, PassKind::DynamicRenderingSuspended)) = kind {
-                        // The suspended instance ends; the same rendering resumes at once.
+                    if let Some((
+                        n,
+                        PassKind::DynamicRenderingSuspended {
+                            across_command_buffers: across,
+                        },
+                    )) = kind
+                    {
+                        // The suspended instance ends; the same rendering resumes at once,
+                        // here or first in the next primary.
                         // SAFETY: `cmd` is inside the instance begun suspending.
                         unsafe { self.renderer.gpu.cmd_end_rendering(cmd) };
+                        if across {
+                            cmd = self.continue_in_next_primary(cmd)?;
+                        }
                         let (color_clear, depth_clear) = self.clear_values(n);
                         self.begin_rendering(cmd, n, color_clear, depth_clear, true, false)?;
                     } else if kind.is_some_and(|(_, kind)| kind.reads_locally()) {
@@ -147,7 +162,7 @@ impl Recorder<'_> {
                 }
             }
         }
-        Ok(())
+        Ok(cmd)
     }
 
     fn current_extent(&self) -> vk::Extent2D {
@@ -834,7 +849,9 @@ impl Recorder<'_> {
             contents
                 | match (pass.kind, resuming) {
                     (_, true) => vk::RenderingFlags::RESUMING,
-                    (PassKind::DynamicRenderingSuspended, false) => vk::RenderingFlags::SUSPENDING,
+                    (PassKind::DynamicRenderingSuspended { .. }, false) => {
+                        vk::RenderingFlags::SUSPENDING
+                    }
                     _ => vk::RenderingFlags::empty(),
                 },
         );
@@ -911,6 +928,31 @@ impl Recorder<'_> {
                 &[],
             )
         };
+    }
+
+    /// Ends `cmd` (a suspended rendering's first instance just ended in it) and begins the
+    /// renderer's second primary, which the frame goes on in (its geometry bound again: a
+    /// command buffer inherits nothing); returns it. Once per frame (the plan check).
+    fn continue_in_next_primary(&mut self, cmd: vk::CommandBuffer) -> Result<vk::CommandBuffer> {
+        let next = self
+            .continuation
+            .take()
+            .ok_or_else(|| anyhow!("no second primary command buffer to resume in"))?;
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: `cmd` is a recording primary outside any render pass instance; `next` is a
+        // primary of the same pool, reset with it and not in use.
+        unsafe {
+            self.device()
+                .end_command_buffer(cmd)
+                .context("vkEndCommandBuffer (suspending primary) failed")?;
+            self.device()
+                .begin_command_buffer(next, &begin)
+                .context("vkBeginCommandBuffer (resuming primary) failed")?;
+        }
+        self.pipeline = None;
+        self.bind_geometry(next);
+        Ok(next)
     }
 
     /// The clear values of pass `n`'s attachments: the color's, and the depth's (its
@@ -1385,6 +1427,7 @@ impl Recorder<'_> {
                             next_secondary: 0,
                             tiles_bound: false,
                             thread_pools: Vec::new(),
+                            continuation: None,
                         };
                         scope.spawn(move || recorder.record_on_own_pool(list, framebuffer))
                     })

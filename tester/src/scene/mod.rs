@@ -69,6 +69,8 @@ pub enum SceneId {
     /// `dynamic-rendering`'s draws in one rendering recorded as a suspended instance and the
     /// instance resuming it.
     DynamicRenderingSuspended,
+    /// The same with the resumed instance in a second primary command buffer.
+    DynamicRenderingSuspendedAcross,
     /// `secondary` in a dynamic rendering, its secondaries recorded on threads inheriting
     /// the rendering's formats.
     DynamicRenderingSecondaries,

@@ -97,6 +97,11 @@ pub const CATALOG: &[Entry] = &[
         dynamic_rendering_suspended,
     ),
     entry_row(
+        SceneId::DynamicRenderingSuspendedAcross,
+        "dynamic-rendering-suspended-across",
+        dynamic_rendering_suspended_across,
+    ),
+    entry_row(
         SceneId::DynamicRenderingSecondaries,
         "dynamic-rendering-secondaries",
         dynamic_rendering_secondaries,

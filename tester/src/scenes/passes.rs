@@ -149,6 +149,22 @@ pub fn dynamic_rendering() -> Scene {
 /// depth state starts again, nor record anything between the two instances (no action or
 /// synchronization command may lie between them).
 pub fn dynamic_rendering_suspended() -> Scene {
+    suspended_built("dynamic-rendering-suspended", false)
+}
+
+/// `dynamic-rendering-suspended-across`: `dynamic-rendering-suspended` with the resumed
+/// instance in a second primary command buffer, submitted right after the first in the same
+/// batch: the first ends with the suspended instance, the second begins by resuming it (and
+/// holds the rest of the frame), as a rendering split across recording jobs into command
+/// buffers of their own is.
+///
+/// Layer item: the second command buffer knows the rendering only from its resuming begin
+/// (no clear, no load), and its draws must get the reversed state all the same.
+pub fn dynamic_rendering_suspended_across() -> Scene {
+    suspended_built("dynamic-rendering-suspended-across", true)
+}
+
+fn suspended_built(name: &'static str, across_command_buffers: bool) -> Scene {
     let camera = overlap_camera();
     let mut b = Builder::default();
     let first = b.nearest_first(&camera, overlap_objects());
@@ -166,7 +182,9 @@ pub fn dynamic_rendering_suspended() -> Scene {
     );
     let pass = b.pass(PassSpec {
         target: Target::Main,
-        kind: PassKind::DynamicRenderingSuspended,
+        kind: PassKind::DynamicRenderingSuspended {
+            across_command_buffers,
+        },
         depth: DepthLoad::Clear(1.0),
         load_color: false,
         multisample: None,
@@ -184,7 +202,7 @@ pub fn dynamic_rendering_suspended() -> Scene {
     b.step(Step::Bind(resumed));
     b.draw(&second);
     b.step(Step::EndPass);
-    b.finish("dynamic-rendering-suspended", camera, None)
+    b.finish(name, camera, None)
 }
 
 /// The light of `shadow-map`: above the scene, behind it to the left, looking down at it

@@ -1105,6 +1105,7 @@ fn ground_truth_applies_where_the_nearest_surface_wins() {
             "dynamic-rendering",
             // One rendering, recorded as two instances.
             "dynamic-rendering-suspended",
+            "dynamic-rendering-suspended-across",
             "dynamic-rendering-secondaries",
             "shadow-map",
             "shadow-map-secondaries",
