@@ -964,10 +964,15 @@ mod tests {
                 ..facts
             };
             assert!(projects_input(true).decide().is_ok());
-            assert!(projects_input(false)
-                .decide()
-                .unwrap_err()
-                .contains("projects the previous stage's Position"));
+            let refused = projects_input(false).decide().unwrap_err();
+            assert!(refused.contains("projects the previous stage's Position"));
+            // An evaluation stage reads the control stage's copies of the vertex stage's
+            // positions (session 38): the reason names both.
+            assert_eq!(
+                refused.contains("the control stage does not copy from a vertex stage"),
+                stage == LastStage::TessellationEvaluation,
+                "{refused}"
+            );
             let unreached = VertexStageFacts {
                 carrier_reaches_stage: false,
                 ..facts
