@@ -619,12 +619,13 @@ mod tests {
 
     #[test]
     fn projected_interpolations_are_the_values_holding_affine_combinations() {
+        const OP_MATRIX_TIMES_VECTOR: u32 = 145;
         // The vectors a module's matrices multiply.
         let multiplied = |words: &[u32]| -> Vec<u32> {
             instructions(words)
                 .unwrap()
                 .filter_map(Result::ok)
-                .filter(|i| i.opcode == 145) // OpMatrixTimesVector
+                .filter(|i| i.opcode == OP_MATRIX_TIMES_VECTOR)
                 .filter_map(|i| i.operands.get(3).copied())
                 .collect()
         };

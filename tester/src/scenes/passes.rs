@@ -92,19 +92,12 @@ pub fn subpasses() -> Scene {
     b.finish("subpasses", camera, None)
 }
 
-/// `dynamic-rendering`: the overlap scene drawn with `vkCmdBeginRendering` (depth cleared to
-/// 1.0 through `VkRenderingAttachmentInfo`, pipelines made with `VkPipelineRenderingCreateInfo`),
-/// then a second `vkCmdBeginRendering` that loads color and depth and draws an orange cube
-/// partly hidden by the near cube and a cyan pillar partly hidden by the slab.
-///
-/// Layer item: the clear value of dynamic rendering's attachment info. Unflipped, the first
-/// rendering's reversed test passes nowhere: nothing draws in either rendering.
-pub fn dynamic_rendering() -> Scene {
-    let camera = overlap_camera();
-    let mut b = Builder::default();
-    let first = b.nearest_first(&camera, overlap_objects());
+/// The objects of `dynamic-rendering`, nearest first: the overlap objects (drawn first) and
+/// the two it draws after them (an orange cube and a pillar), each list's indices.
+fn dynamic_rendering_objects(b: &mut Builder, camera: &Camera) -> (Vec<usize>, Vec<usize>) {
+    let first = b.nearest_first(camera, overlap_objects());
     let second = b.nearest_first(
-        &camera,
+        camera,
         vec![
             grounded_cube("orange cube", 0.35, -0.2, 1.0, 0.7, rgb8(255, 140, 0)),
             Object::world(
@@ -115,6 +108,20 @@ pub fn dynamic_rendering() -> Scene {
             ),
         ],
     );
+    (first, second)
+}
+
+/// `dynamic-rendering`: the overlap scene drawn with `vkCmdBeginRendering` (depth cleared to
+/// 1.0 through `VkRenderingAttachmentInfo`, pipelines made with `VkPipelineRenderingCreateInfo`),
+/// then a second `vkCmdBeginRendering` that loads color and depth and draws an orange cube
+/// partly hidden by the near cube and a cyan pillar partly hidden by the slab.
+///
+/// Layer item: the clear value of dynamic rendering's attachment info. Unflipped, the first
+/// rendering's reversed test passes nowhere: nothing draws in either rendering.
+pub fn dynamic_rendering() -> Scene {
+    let camera = overlap_camera();
+    let mut b = Builder::default();
+    let (first, second) = dynamic_rendering_objects(&mut b, &camera);
     let dynamic = |depth, load_color| PassSpec {
         target: Target::Main,
         kind: PassKind::DynamicRendering,
@@ -167,19 +174,7 @@ pub fn dynamic_rendering_suspended_across() -> Scene {
 fn suspended_built(name: &'static str, across_command_buffers: bool) -> Scene {
     let camera = overlap_camera();
     let mut b = Builder::default();
-    let first = b.nearest_first(&camera, overlap_objects());
-    let second = b.nearest_first(
-        &camera,
-        vec![
-            grounded_cube("orange cube", 0.35, -0.2, 1.0, 0.7, rgb8(255, 140, 0)),
-            Object::world(
-                "pillar",
-                Mesh::cuboid(DVec3::new(0.18, 1.4, 0.18)),
-                DMat4::from_translation(DVec3::new(1.6, 1.35, -1.6)),
-                rgb8(0, 230, 230),
-            ),
-        ],
-    );
+    let (first, second) = dynamic_rendering_objects(&mut b, &camera);
     let pass = b.pass(PassSpec {
         target: Target::Main,
         kind: PassKind::DynamicRenderingSuspended {
