@@ -15,8 +15,8 @@
 //! functions (definitions come before their uses in a module, `OpPhi` aside, which is not
 //! followed):
 //! - a load of an input vertex's whole `Position`, and copies of it;
-//! - `FMix(a, b, t)` of two affine combinations, whatever `t` (GLSL's `mix`, quads and
-//!   isolines interpolate with it);
+//! - `FMix(a, b, t)` of two affine combinations, `t` a component of `gl_TessCoord` or its
+//!   splat (GLSL's `mix`, quads and isolines interpolate with it);
 //! - in a triangle domain (`Triangles`, declared by the evaluation stage), the sum of the
 //!   three products of affine combinations by the three components of `gl_TessCoord`, each
 //!   once (`OpVectorTimesScalar`, or `OpFMul` by a splat), in any order of the additions:
@@ -230,9 +230,14 @@ impl Walk {
     /// component of a vector).
     /// A local whose w (or a component not known: a dynamic index) is stored apart through
     /// such a chain is none of them: what it holds is not what its one whole store put there.
-    /// x, y and z stored apart keep w, and z is refused where the line must be kept.
-    fn locals_stored_once(&self, words: &[u32]) -> HashSet<u32> {
+    /// x, y and z stored apart keep w, and z is refused where the line must be kept. Neither
+    /// is a local with an initializer (a second value, on the paths that skip the store), nor
+    /// one whose component chain is used other than as the pointer of a load or a store (an
+    /// out-parameter: `modf(x, p.w)` writes through it). Also returns the locals with any
+    /// component stored apart: none of those holds `gl_TessCoord` as it was loaded.
+    fn locals_stored_once(&self, words: &[u32]) -> (HashSet<u32>, HashSet<u32>) {
         let mut locals: HashSet<u32> = HashSet::new();
+        let mut component_stored: HashSet<u32> = HashSet::new();
         let mut store_counts: HashMap<u32, u32> = HashMap::new();
         let mut escaped: HashSet<u32> = HashSet::new();
         // Chains of one index: chain -> (base, index).
@@ -241,13 +246,14 @@ impl Walk {
             instructions_at(words, self.functions_at).map_while(Result::ok)
         {
             match (opcode, operands) {
-                (OP_VARIABLE, &[_, id, STORAGE_FUNCTION, ..]) => {
+                (OP_VARIABLE, &[_, id, STORAGE_FUNCTION]) => {
                     locals.insert(id);
                 }
                 (OP_STORE, &[pointer, value, ..]) => {
                     *store_counts.entry(pointer).or_default() += 1;
                     escaped.insert(value);
                     if let Some(&(base, index)) = chains.get(&pointer) {
+                        component_stored.insert(base);
                         if !matches!(self.int_constants.get(&index), Some(0..=2)) {
                             escaped.insert(base);
                         }
@@ -266,8 +272,15 @@ impl Walk {
                 ),
             }
         }
+        // A chain that escaped takes its variable with it.
+        let escaped_bases: Vec<u32> = chains
+            .iter()
+            .filter(|(chain, _)| escaped.contains(chain))
+            .map(|(_, &(base, _))| base)
+            .collect();
+        escaped.extend(escaped_bases);
         locals.retain(|l| store_counts.get(l) == Some(&1) && !escaped.contains(l));
-        locals
+        (locals, component_stored)
     }
 
     /// The walk over the functions (module docs), for a stage that carries the positions on.
@@ -294,7 +307,7 @@ impl Walk {
         let mut stores = 0;
         // Function-local variables stored once (glslang keeps each GLSL local in one): what
         // their one store holds, read back by their loads and their component chains.
-        let locals = self.locals_stored_once(words);
+        let (locals, component_stored) = self.locals_stored_once(words);
         let mut local_held: HashMap<u32, Held> = HashMap::new();
         let mut local_coords: HashMap<u32, u32> = HashMap::new();
         let mut local_coord_vectors: HashSet<u32> = HashSet::new();
@@ -432,7 +445,7 @@ impl Walk {
                             local_coords.insert(pointer, c);
                             continue;
                         }
-                        if coord_vectors.contains(&value) {
+                        if coord_vectors.contains(&value) && !component_stored.contains(&pointer) {
                             local_coord_vectors.insert(pointer);
                             continue;
                         }
@@ -510,11 +523,14 @@ impl Walk {
                         }
                     }
                 }
+                // The weight a component of `gl_TessCoord` (or its splat), in [0, 1]: the
+                // weights (1 - t) and t then sum to 1 to an ulp (far outside [0, 1] their sum
+                // rounds away from 1).
                 (OP_EXT_INST, &[_, id, set, GLSL_STD_FMIX, a, b, t])
                     if Some(set) == self.glsl_std
                         && held.get(&a) == Some(&Held::Affine)
                         && held.get(&b) == Some(&Held::Affine)
-                        && !held.contains_key(&t) =>
+                        && (coords.contains_key(&t) || splats.contains_key(&t)) =>
                 {
                     held.insert(id, Held::Affine);
                     continue;
@@ -615,6 +631,42 @@ mod tests {
         assert!(!evaluation_interpolates_positions(&data(
             "tessellation_interpolated_w_written"
         )));
+    }
+
+    /// Found in review (session 38): three ways a local or a weight stops being what the walk
+    /// took it for. Each is refused in both purposes: the stage is not taken to carry the
+    /// positions on, and what its projection multiplies is not taken for w = 1.
+    #[test]
+    fn locals_changed_through_out_parameters_initializers_or_coordinates_are_not_followed() {
+        const OP_MATRIX_TIMES_VECTOR: u32 = 145;
+        let projected_is_affine = |words: &[u32]| {
+            let values = projected_affine_values(words);
+            instructions(words)
+                .unwrap()
+                .filter_map(Result::ok)
+                .filter(|i| i.opcode == OP_MATRIX_TIMES_VECTOR)
+                .filter_map(|i| i.operands.get(3).copied())
+                .any(|vector| values.contains(&vector))
+        };
+        // `modf(7.5, p.w)`: w written through an out-parameter (the chain handed to an
+        // instruction), which the walk took for nothing before.
+        assert!(!evaluation_interpolates_positions(&data(
+            "tessellation_interpolated_modf_w"
+        )));
+        assert!(!projected_is_affine(&data("tessellation_projected_modf_w")));
+        // `vec3 tc = gl_TessCoord; tc.x = 0.9;`: the weights no longer sum to 1.
+        assert!(!evaluation_interpolates_positions(&data(
+            "tessellation_interpolated_coord_written"
+        )));
+        assert!(!projected_is_affine(&data(
+            "tessellation_projected_coord_written"
+        )));
+        // A local with an initializer (w = 0) stored in one branch only: the other path
+        // projects the initializer.
+        let initialized = crate::shader::test_spirv::assemble(include_str!(
+            "test_data/tessellation_projected_initialized_local.spvasm"
+        ));
+        assert!(!projected_is_affine(&initialized));
     }
 
     #[test]
