@@ -99,8 +99,7 @@ impl Recorder<'_> {
                         if across {
                             cmd = self.continue_in_next_primary(cmd)?;
                         }
-                        let (color_clear, depth_clear) = self.clear_values(n);
-                        self.begin_rendering(cmd, n, color_clear, depth_clear, true, false)?;
+                        self.begin_rendering(cmd, n, true, false)?;
                     } else if kind.is_some_and(|(_, kind)| kind.reads_locally()) {
                         self.local_read_barrier(cmd);
                     } else {
@@ -602,11 +601,11 @@ impl Recorder<'_> {
         self.subpass = 0;
         self.pipeline = None;
         let pass = &self.plan.passes[n];
-        let (color_clear, depth_clear) = self.clear_values(n);
         if pass.kind.is_dynamic_rendering() {
             let secondaries = contents == vk::SubpassContents::SECONDARY_COMMAND_BUFFERS;
-            return self.begin_rendering(cmd, n, color_clear, depth_clear, false, secondaries);
+            return self.begin_rendering(cmd, n, false, secondaries);
         }
+        let (color_clear, depth_clear) = self.clear_values(n);
         let clear_values = match (pass.target, pass.multisample) {
             // The multisampled attachments are cleared; their resolve attachments are not (a
             // kept depth has none).
@@ -665,12 +664,11 @@ impl Recorder<'_> {
         &self,
         cmd: vk::CommandBuffer,
         n: usize,
-        color_clear: vk::ClearValue,
-        depth_clear: vk::ClearValue,
         resuming: bool,
         secondaries: bool,
     ) -> Result<()> {
         let pass = &self.plan.passes[n];
+        let (color_clear, depth_clear) = self.clear_values(n);
         let targets = self.targets;
         let multisampled = match pass.multisample {
             Some(_) => Some(multisampled_targets(targets)?),
@@ -1314,40 +1312,32 @@ impl Recorder<'_> {
         framebuffer: bool,
     ) -> VkResult<()> {
         let pass = &self.plan.passes[n];
-        if pass.kind.is_dynamic_rendering() {
-            let color_formats = [crate::target::COLOR_FORMAT];
-            let depth = self.targets.depth_format.vk_format();
-            let stencil = if self.targets.depth_format.has_stencil() {
-                depth
-            } else {
-                vk::Format::UNDEFINED
-            };
-            let mut rendering = vk::CommandBufferInheritanceRenderingInfo::default()
-                .color_attachment_formats(&color_formats)
-                .depth_attachment_format(depth)
-                .stencil_attachment_format(stencil)
-                .view_mask(pass.view_mask)
-                .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-            let inheritance = vk::CommandBufferInheritanceInfo::default().push_next(&mut rendering);
-            let begin = vk::CommandBufferBeginInfo::default()
-                .flags(
-                    vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
-                        | vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT,
-                )
-                .inheritance_info(&inheritance);
-            // SAFETY: a fresh secondary of one of this device's pools; the inheritance names
-            // the formats of the single-sample rendering it continues (plan check).
-            return unsafe { self.device().begin_command_buffer(secondary, &begin) };
-        }
-        let framebuffer = if framebuffer {
-            self.renderer.framebuffers[n]
+        let color_formats = [crate::target::COLOR_FORMAT];
+        let depth = self.targets.depth_format.vk_format();
+        let stencil = if self.targets.depth_format.has_stencil() {
+            depth
         } else {
-            vk::Framebuffer::null()
+            vk::Format::UNDEFINED
         };
-        let inheritance = vk::CommandBufferInheritanceInfo::default()
-            .render_pass(self.renderer.render_passes[n])
-            .subpass(self.subpass)
-            .framebuffer(framebuffer);
+        let mut rendering = vk::CommandBufferInheritanceRenderingInfo::default()
+            .color_attachment_formats(&color_formats)
+            .depth_attachment_format(depth)
+            .stencil_attachment_format(stencil)
+            .view_mask(pass.view_mask)
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let inheritance = if pass.kind.is_dynamic_rendering() {
+            vk::CommandBufferInheritanceInfo::default().push_next(&mut rendering)
+        } else {
+            let framebuffer = if framebuffer {
+                self.renderer.framebuffers[n]
+            } else {
+                vk::Framebuffer::null()
+            };
+            vk::CommandBufferInheritanceInfo::default()
+                .render_pass(self.renderer.render_passes[n])
+                .subpass(self.subpass)
+                .framebuffer(framebuffer)
+        };
         let begin = vk::CommandBufferBeginInfo::default()
             .flags(
                 vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE
@@ -1355,7 +1345,8 @@ impl Recorder<'_> {
             )
             .inheritance_info(&inheritance);
         // SAFETY: a fresh secondary of one of this device's pools; the inheritance names the
-        // current render pass, subpass and framebuffer.
+        // current render pass, subpass and framebuffer, or the formats of the single-sample
+        // rendering it continues (plan check).
         unsafe { self.device().begin_command_buffer(secondary, &begin) }
     }
 
