@@ -614,16 +614,63 @@ impl CommandState {
         Some(self.position_shaders[self.last_position_stage()?].0)
     }
 
-    /// With shader objects bound: the last pre-rasterization stage's (index in
-    /// [`POSITION_STAGES`]), the application's shader there, and its variant with the
-    /// carrier baked in, where it has one.
-    fn baked_shader(&self) -> Option<(usize, vk::ShaderEXT, vk::ShaderEXT)> {
+    /// With shader objects bound: the last pre-rasterization stage (index in
+    /// [`POSITION_STAGES`]), the application's shader there and what revz knows of it, where
+    /// precise-path draws may bind its variant: one that projects the previous stage's
+    /// `Position` only where the shaders bound before it give w = 1
+    /// ([`Self::input_unit_w`]; a pipeline checks this at its creation).
+    fn rewritten_stage(&self) -> Option<(usize, vk::ShaderEXT, &PositionShader)> {
         if !self.shader_objects {
             return None;
         }
         let last = self.last_position_stage()?;
-        match &self.position_shaders[last] {
-            (shader, Some(PositionShader::Baked(variant))) => Some((last, *shader, *variant)),
+        let (shader, position) = &self.position_shaders[last];
+        let position = position.as_ref()?;
+        if position.projects_input() && !self.input_unit_w(last) {
+            return None;
+        }
+        Some((last, *shader, position))
+    }
+
+    /// With shader objects bound: whether the positions the shader of stage `at` (index in
+    /// [`POSITION_STAGES`]) reads from the stage before it have w = 1, as
+    /// `hooks::pipeline::plan`'s `prior_stage_w_one` decides for a pipeline: a geometry
+    /// shader's come from the evaluation shader bound (else the vertex shader), which stores
+    /// `vec4(p, 1.0)` itself or, interpolating the patch's positions
+    /// ([`PositionShader::PassesThrough`]), has a control shader that copies them from a
+    /// vertex shader storing them so; an evaluation shader's come through the control shader,
+    /// which must copy them from such a vertex shader.
+    fn input_unit_w(&self, at: usize) -> bool {
+        const VERTEX: usize = 0;
+        const EVALUATION: usize = 1;
+        const GEOMETRY: usize = 2;
+        debug_assert_eq!(POSITION_STAGES[GEOMETRY], vk::ShaderStageFlags::GEOMETRY);
+        let stores_unit_w = |stage: usize| {
+            self.position_shaders[stage]
+                .1
+                .as_ref()
+                .is_some_and(PositionShader::stores_unit_w)
+        };
+        let interpolated_unit_w = || self.control_carries_positions && stores_unit_w(VERTEX);
+        let evaluation_bound = self.position_shaders[EVALUATION].0 != vk::ShaderEXT::null();
+        match at {
+            GEOMETRY if evaluation_bound => {
+                stores_unit_w(EVALUATION)
+                    || (self.position_shaders[EVALUATION].1 == Some(PositionShader::PassesThrough)
+                        && interpolated_unit_w())
+            }
+            GEOMETRY => stores_unit_w(VERTEX),
+            EVALUATION => interpolated_unit_w(),
+            _ => false,
+        }
+    }
+
+    /// With shader objects bound: the last pre-rasterization stage's (index in
+    /// [`POSITION_STAGES`]), the application's shader there, and its variant with the
+    /// carrier baked in, where it has one.
+    fn baked_shader(&self) -> Option<(usize, vk::ShaderEXT, vk::ShaderEXT)> {
+        match self.rewritten_stage()? {
+            (last, shader, PositionShader::Baked { variant, .. }) => Some((last, shader, *variant)),
             _ => None,
         }
     }
@@ -632,12 +679,8 @@ impl CommandState {
     /// [`POSITION_STAGES`]) and revz's variant of its shader, baked or reading the pushed
     /// carrier, where it has one: what precise-path draws bind there.
     fn position_variant(&self) -> Option<(usize, vk::ShaderEXT)> {
-        if !self.shader_objects {
-            return None;
-        }
-        let last = self.last_position_stage()?;
-        let variant = self.position_shaders[last].1.as_ref()?.variant()?;
-        Some((last, variant))
+        let (last, _, position) = self.rewritten_stage()?;
+        Some((last, position.variant()?))
     }
 
     /// What the precise path reads of the last pre-rasterization stage (its projection, the
@@ -659,11 +702,8 @@ impl CommandState {
     #[cold]
     #[inline(never)]
     fn shader_facts(&self) -> Option<&std::sync::Arc<PipelineDepth>> {
-        if !self.shader_objects {
-            return None;
-        }
-        match &self.position_shaders[self.last_position_stage()?] {
-            (_, Some(PositionShader::Pushed { depth, .. })) => Some(depth),
+        match self.rewritten_stage()? {
+            (_, _, PositionShader::Pushed { depth, .. }) => Some(depth),
             _ => None,
         }
     }

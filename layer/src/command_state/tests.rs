@@ -301,7 +301,13 @@ fn a_fragment_shader_objects_variant_is_bound_for_reversed_draws_and_the_app_sha
 fn a_baked_vertex_shader_object_takes_the_precise_path_where_it_is_the_last_stage() {
     let vertex = vk::ShaderEXT::from_raw(40);
     let variant = vk::ShaderEXT::from_raw(41);
-    let baked = Some((vertex, Some(PositionShader::Baked(variant))));
+    let baked = Some((
+        vertex,
+        Some(PositionShader::Baked {
+            variant,
+            projects_input: false,
+        }),
+    ));
     let stage = vk::ShaderStageFlags::VERTEX;
     for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
         let mut state = precise(target);
@@ -385,7 +391,13 @@ fn a_baked_vertex_shader_object_takes_the_precise_path_where_it_is_the_last_stag
                 None,
                 None,
                 None,
-                Some((mesh, Some(PositionShader::Baked(mesh_variant)))),
+                Some((
+                    mesh,
+                    Some(PositionShader::Baked {
+                        variant: mesh_variant,
+                        projects_input: false,
+                    }),
+                )),
             ],
         );
         state.before_draw(&mut sink);
@@ -1741,6 +1753,7 @@ fn an_infinite_mode_draw_that_clamps_depth_and_clips_it_keeps_the_precise_path()
                 app_dynamic: States::ALL,
                 ..(*derived_pipeline()).clone()
             }),
+            projects_input: false,
         }),
     ));
     let mut state = begun_infinite();
@@ -2162,7 +2175,15 @@ fn a_mesh_shader_bound_over_a_vertex_shaders_variant_gets_the_vertex_shader_put_
     let mut state = precise(RewriteTarget::Complementary);
     let reversal = state.reversal();
     state.begin(Target::Reversed, reversal, Default::default());
-    let baked = |shader, variant| Some((shader, Some(PositionShader::Baked(variant))));
+    let baked = |shader, variant| {
+        Some((
+            shader,
+            Some(PositionShader::Baked {
+                variant,
+                projects_input: false,
+            }),
+        ))
+    };
     state.bind_shaders(None, [baked(vertex, vertex_variant), None, None, None]);
     let mut sink = Recorded::default();
     state.before_draw(&mut sink);
@@ -2209,6 +2230,7 @@ fn pushed_shader(variant: vk::ShaderEXT, own: vk::PipelineLayout) -> PositionSha
             layout: own,
             ..(*projection_pipeline()).clone()
         }),
+        projects_input: false,
     }
 }
 
@@ -2315,4 +2337,133 @@ fn a_pushed_vertex_shader_object_classifies_its_projection_and_binds_its_variant
     state.before_draw(&mut sink);
     assert_eq!(state.path(), DrawPath::Flip);
     assert!(sink.position_shader_binds.is_empty());
+}
+
+#[test]
+fn a_shader_object_projecting_gl_in_is_precise_only_after_a_stage_storing_w_one() {
+    // Shader objects pair only at draw time: a geometry or evaluation shader whose variant
+    // projects the previous stage's Position (assuming its w = 1) is bound only where the
+    // shaders bound before it give w = 1, as a pipeline checks at its creation.
+    let vertex_unit_w = vk::ShaderEXT::from_raw(50);
+    let vertex_projecting = vk::ShaderEXT::from_raw(51);
+    let (evaluation, evaluation_variant) =
+        (vk::ShaderEXT::from_raw(52), vk::ShaderEXT::from_raw(53));
+    let interpolating = vk::ShaderEXT::from_raw(54);
+    let (geometry, geometry_variant) = (vk::ShaderEXT::from_raw(55), vk::ShaderEXT::from_raw(56));
+    let flip = |shader, stores_unit_w| Some((shader, Some(PositionShader::Flip { stores_unit_w })));
+    let projecting = |shader, variant| {
+        Some((
+            shader,
+            Some(PositionShader::Baked {
+                variant,
+                projects_input: true,
+            }),
+        ))
+    };
+    let unbound = Some((vk::ShaderEXT::null(), None));
+    let geometry_stage = vk::ShaderStageFlags::GEOMETRY;
+    let evaluation_stage = vk::ShaderStageFlags::TESSELLATION_EVALUATION;
+    let mut state = precise(RewriteTarget::Infinite);
+    let reversal = state.reversal();
+    state.begin(Target::Reversed, reversal, Default::default());
+    let mut sink = Recorded::default();
+
+    // Geometry after a vertex shader storing vec4(p, 1.0): its variant, the precise path.
+    state.bind_shaders(
+        None,
+        [
+            flip(vertex_unit_w, true),
+            unbound.clone(),
+            projecting(geometry, geometry_variant),
+            unbound.clone(),
+        ],
+    );
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(
+        sink.position_shader_binds,
+        [(geometry_stage, geometry_variant)]
+    );
+    // A vertex shader whose w is not shown to be 1: the flip path, the application's shader.
+    state.bind_shaders(None, [flip(vertex_projecting, false), None, None, None]);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Flip);
+    assert_eq!(
+        sink.position_shader_binds.last(),
+        Some(&(geometry_stage, geometry))
+    );
+    assert_eq!(state.position_shader_to_bind(), None);
+    // Back to one storing w = 1.
+    state.bind_shaders(None, [flip(vertex_unit_w, true), None, None, None]);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(
+        sink.position_shader_binds.last(),
+        Some(&(geometry_stage, geometry_variant))
+    );
+
+    // Geometry after an evaluation shader interpolating the patch: w = 1 only with a control
+    // shader copying the positions of a vertex shader storing w = 1.
+    state.bind_shaders(
+        None,
+        [
+            None,
+            Some((interpolating, Some(PositionShader::PassesThrough))),
+            None,
+            None,
+        ],
+    );
+    state.before_draw(&mut sink);
+    assert_eq!(
+        state.path(),
+        DrawPath::Flip,
+        "no control shader copying the positions"
+    );
+    state.bind_control_shader(true);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(
+        sink.position_shader_binds.last(),
+        Some(&(geometry_stage, geometry_variant))
+    );
+    state.bind_shaders(None, [flip(vertex_projecting, false), None, None, None]);
+    state.before_draw(&mut sink);
+    assert_eq!(
+        state.path(),
+        DrawPath::Flip,
+        "the vertex shader's w not shown"
+    );
+    // An evaluation shader storing w = 1 itself, whatever came before it.
+    state.bind_shaders(None, [None, flip(interpolating, true), None, None]);
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+
+    // An evaluation shader projecting the patch's positions, the last stage: the control
+    // shader must copy a vertex shader's vec4(p, 1.0).
+    state.bind_shaders(
+        None,
+        [
+            flip(vertex_unit_w, true),
+            projecting(evaluation, evaluation_variant),
+            unbound.clone(),
+            None,
+        ],
+    );
+    state.before_draw(&mut sink);
+    assert_eq!(state.path(), DrawPath::Precise);
+    assert_eq!(
+        sink.position_shader_binds.last(),
+        Some(&(evaluation_stage, evaluation_variant))
+    );
+    state.bind_control_shader(false);
+    state.before_draw(&mut sink);
+    assert_eq!(
+        state.path(),
+        DrawPath::Flip,
+        "a control shader changing the positions"
+    );
+    assert_eq!(
+        sink.position_shader_binds.last(),
+        Some(&(evaluation_stage, evaluation))
+    );
 }

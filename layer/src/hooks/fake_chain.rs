@@ -2300,6 +2300,22 @@ pub(super) fn create_device_with_extensions(
     gdpa: vk::PFN_vkGetDeviceProcAddr,
     extensions: &[&CStr],
 ) -> (vk::PhysicalDevice, vk::Device, bool) {
+    create_device_with(
+        tables,
+        gdpa,
+        extensions,
+        vk::PhysicalDeviceFeatures::default(),
+    )
+}
+
+/// [`create_device`], the application enabling the device extensions `extensions` and the
+/// core `features`.
+pub(super) fn create_device_with(
+    tables: Tables,
+    gdpa: vk::PFN_vkGetDeviceProcAddr,
+    extensions: &[&CStr],
+    features: vk::PhysicalDeviceFeatures,
+) -> (vk::PhysicalDevice, vk::Device, bool) {
     // The physical device shares the instance's dispatch table.
     let physical: vk::PhysicalDevice = dispatchable(key(tables.instance));
     let mut device_link = crate::ffi::LayerDeviceLink {
@@ -2318,6 +2334,7 @@ pub(super) fn create_device_with_extensions(
         p_next: (&mut device_chain as *mut crate::ffi::LayerDeviceCreateInfo).cast(),
         enabled_extension_count: names.len() as u32,
         pp_enabled_extension_names: names.as_ptr(),
+        p_enabled_features: &features,
         ..Default::default()
     };
     let mut device = vk::Device::null();

@@ -77,13 +77,16 @@ enum Plan {
     /// A fragment shader that computes with depth (or may, binary code) but gets no variant.
     Unreversed,
     /// A pre-rasterization shader's variant of its code storing `Position` through the pushed
-    /// carrier, and what draws need of it (`PositionShader::Pushed`).
-    Pushed(Arc<[u32]>, Box<PipelineDepth>),
+    /// carrier, what draws need of it, and whether it projects the previous stage's
+    /// `Position` (`PositionShader::Pushed`).
+    Pushed(Arc<[u32]>, Box<PipelineDepth>, bool),
     /// A vertex, tessellation evaluation, geometry or mesh shader's variant of its code with
-    /// the carrier baked in (`PositionShader::Baked`).
-    Baked(Arc<[u32]>),
-    /// Such a shader whose draws take the flip path.
-    PositionFlip,
+    /// the carrier baked in, and whether it projects the previous stage's `Position`
+    /// (`PositionShader::Baked`).
+    Baked(Arc<[u32]>, bool),
+    /// Such a shader whose draws take the flip path, and whether it stores w = 1
+    /// (`PositionShader::Flip`).
+    PositionFlip { stores_unit_w: bool },
     /// A geometry shader passing the positions through (`PositionShader::PassesThrough`).
     PassesThrough,
 }
@@ -91,7 +94,7 @@ enum Plan {
 impl Plan {
     /// Whether the plan makes a variant of the shader.
     fn makes_variant(&self) -> bool {
-        matches!(self, Plan::Variant(_) | Plan::Pushed(..) | Plan::Baked(_))
+        matches!(self, Plan::Variant(_) | Plan::Pushed(..) | Plan::Baked(..))
     }
 }
 
@@ -324,10 +327,12 @@ fn position_plan(
     };
     match (facts.decide(), pushed, rewrite) {
         (ShaderObjectPlan::PassesThrough, ..) => Plan::PassesThrough,
-        (ShaderObjectPlan::Pushed, Some(Ok((code, depth))), _) => {
-            Plan::Pushed(code, Box::new(depth))
+        (ShaderObjectPlan::Pushed, Some(Ok((code, depth, projects_input))), _) => {
+            Plan::Pushed(code, Box::new(depth), projects_input)
         }
-        (ShaderObjectPlan::Baked, _, Ok(Some(rewrite))) => Plan::Baked(rewrite.code),
+        (ShaderObjectPlan::Baked, _, Ok(Some(rewrite))) => {
+            Plan::Baked(rewrite.code, rewrite.assumes_input_unit_w)
+        }
         (ShaderObjectPlan::Flip(reason), pushed, _) => {
             let first = words.is_none_or(|w| first_inline_report(Report::Analysis, w));
             if first {
@@ -341,7 +346,16 @@ fn position_plan(
                     info.stage
                 );
             }
-            Plan::PositionFlip
+            // A later stage projecting its positions relies on their w = 1 (asked only of
+            // stages another can follow, on devices that enabled such stages).
+            let before_another = matches!(
+                info.stage,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::TESSELLATION_EVALUATION
+            );
+            let stores_unit_w = before_another
+                && !state.policy.carrier_later_stages.is_empty()
+                && words.is_some_and(crate::shader::position_store::stores_position_w_one);
+            Plan::PositionFlip { stores_unit_w }
         }
         _ => Plan::Nothing,
     }
@@ -357,8 +371,9 @@ fn position_plan(
 /// goes down with where the application pushes nothing. The clip depth is taken as [0, 1]:
 /// draws the application sets to [-1, 1] take the flip path where the CPU classifies the
 /// projection (`crate::command_state`). A stage that projects the previous stage's
-/// `Position` is refused (that stage's w = 1 cannot be checked across separately bound
-/// shaders). `Err`: why the route does not apply.
+/// `Position` is taken as if that stage stored w = 1 (the third value returned): its variant
+/// is bound only after a shader storing w = 1, which draws check. `Err`: why the route does
+/// not apply.
 fn pushed_route(
     state: &DeviceState,
     device: vk::Device,
@@ -366,11 +381,12 @@ fn pushed_route(
     words: &[u32],
     ranges: &[vk::PushConstantRange],
     (reserved_ranges, carrier): &Reserved,
-) -> Result<(Arc<[u32]>, PipelineDepth), String> {
+) -> Result<(Arc<[u32]>, PipelineDepth, bool), String> {
     let (analysis, rewrite) = super::pipeline::vertex_code(state, vk::ShaderModule::null(), words);
     let rewrite = rewrite
         .ok_or(Missing::NotMade(MissingFact::InlineWithoutRewrite.reason()))
         .and_then(|r| r.map_err(Missing::Unsupported));
+    let projects_input = rewrite.as_ref().is_ok_and(|r| r.needs_input_unit_w);
     // SAFETY: a NUL-terminated entry point name (the application's contract).
     let name = unsafe { crate::ffi::c_str(info.p_name) };
     let last_stage = LastStage::of([info.stage]);
@@ -385,11 +401,9 @@ fn pushed_route(
         baked: None,
         rewrite: rewrite.as_ref().map(|r| r.derived).map_err(|m| *m),
         derived_slot: rewrite.as_ref().ok().and_then(|r| r.push_slot),
-        // The previous stage's Position, where the stage projects it: not known here.
-        input_unit_w: rewrite
-            .as_ref()
-            .is_ok_and(|r| r.needs_input_unit_w)
-            .then_some(false),
+        // The previous stage's Position, where the stage projects it: not known here, taken
+        // as w = 1 and checked by draws against the shaders bound before it.
+        input_unit_w: projects_input.then_some(true),
     };
     let range = facts.decide()?;
     let code = rewrite
@@ -408,7 +422,18 @@ fn pushed_route(
             layout,
             ..PipelineDepth::default()
         },
+        projects_input,
     ))
+}
+
+/// What the log adds of a variant projecting the previous stage's `Position`.
+fn after_unit_w(projects_input: bool) -> &'static str {
+    if projects_input {
+        " where the stage bound before it stores w = 1 (it projects gl_in[i].gl_Position; \
+         other draws take the flip path)"
+    } else {
+        ""
+    }
 }
 
 /// Creates a variant of a shader object: its create info with the code replaced by `code`,
@@ -584,7 +609,7 @@ pub unsafe extern "system" fn create_shaders_ext(
                         )
                         .map_or(FragmentShader::Unreversed, FragmentShader::Reversed),
                     )),
-                    Plan::Pushed(code, depth) => Some(Made::Position(
+                    Plan::Pushed(code, depth, projects_input) => Some(Made::Position(
                         create_variant(
                             device,
                             next,
@@ -593,14 +618,18 @@ pub unsafe extern "system" fn create_shaders_ext(
                             &POSITION_FAILED,
                             "its draws into reversed attachments take the flip path",
                         )
-                        .map_or(PositionShader::Flip, |variant| {
-                            PositionShader::Pushed {
+                        .map_or(
+                            PositionShader::Flip {
+                                stores_unit_w: false,
+                            },
+                            |variant| PositionShader::Pushed {
                                 variant,
                                 depth: Arc::new(*depth),
-                            }
-                        }),
+                                projects_input,
+                            },
+                        ),
                     )),
-                    Plan::Baked(code) => Some(Made::Position(
+                    Plan::Baked(code, projects_input) => Some(Made::Position(
                         create_variant(
                             device,
                             next,
@@ -609,9 +638,19 @@ pub unsafe extern "system" fn create_shaders_ext(
                             &POSITION_FAILED,
                             "its draws into reversed attachments take the flip path",
                         )
-                        .map_or(PositionShader::Flip, PositionShader::Baked),
+                        .map_or(
+                            PositionShader::Flip {
+                                stores_unit_w: false,
+                            },
+                            |variant| PositionShader::Baked {
+                                variant,
+                                projects_input,
+                            },
+                        ),
                     )),
-                    Plan::PositionFlip => Some(Made::Position(PositionShader::Flip)),
+                    Plan::PositionFlip { stores_unit_w } => {
+                        Some(Made::Position(PositionShader::Flip { stores_unit_w }))
+                    }
                     Plan::PassesThrough => Some(Made::Position(PositionShader::PassesThrough)),
                 };
                 made.borrow_mut().push(one);
@@ -652,7 +691,7 @@ pub unsafe extern "system" fn create_shaders_ext(
                             PipelinePath::of(depth.projection, depth.derived_range, false, None)
                                 .to_string()
                         }
-                        Some(PositionShader::Baked(_)) => {
+                        Some(PositionShader::Baked { .. }) => {
                             "fitted by the shader, the carrier baked into its variant".to_owned()
                         }
                         Some(PositionShader::PassesThrough) => {
@@ -700,21 +739,30 @@ pub unsafe extern "system" fn create_shaders_ext(
                     }
                     Made::Position(position) => {
                         match &position {
-                            PositionShader::Pushed { variant, depth } => log::debug!(
+                            PositionShader::Pushed {
+                                variant,
+                                depth,
+                                projects_input,
+                            } => log::debug!(
                                 "shader object {shader:?}: {variant:?}, its code storing \
                                  Position through revz's pushed carrier, stores its depth for \
-                                 precise-path draws ({})",
+                                 precise-path draws ({}){}",
                                 PipelinePath::of(
                                     depth.projection,
                                     depth.derived_range,
                                     false,
                                     None
-                                )
+                                ),
+                                after_unit_w(*projects_input)
                             ),
-                            PositionShader::Baked(variant) => log::debug!(
+                            PositionShader::Baked {
+                                variant,
+                                projects_input,
+                            } => log::debug!(
                                 "shader object {shader:?}: {variant:?}, its code fitting the \
                                  matrix it loads with the carrier baked in, stores its depth \
-                                 for precise-path draws"
+                                 for precise-path draws{}",
+                                after_unit_w(*projects_input)
                             ),
                             PositionShader::PassesThrough => log::debug!(
                                 "{:?} shader object {shader:?} passes the positions of the \
@@ -722,7 +770,7 @@ pub unsafe extern "system" fn create_shaders_ext(
                                  of precise-path draws",
                                 infos[index].stage
                             ),
-                            PositionShader::Flip => {}
+                            PositionShader::Flip { .. } => {}
                         }
                         state.objects.position_shaders.insert(shader, position);
                     }

@@ -69,11 +69,21 @@ impl Fixture {
     }
 
     fn with_settings(settings: &[(&'static CStr, &'static CStr)]) -> Fixture {
+        Fixture::with_features(settings, vk::PhysicalDeviceFeatures::default())
+    }
+
+    /// A fixture whose device the application created with the core `features`.
+    fn with_features(
+        settings: &[(&'static CStr, &'static CStr)],
+        features: vk::PhysicalDeviceFeatures,
+    ) -> Fixture {
         let tables = Tables::fresh();
         let (instance, _) = fake_chain::create_instance(settings);
-        let (physical, device, _) = fake_chain::create_device(
+        let (physical, device, _) = fake_chain::create_device_with(
             tables,
             fake_chain::fake_get_device_proc_addr_with_shader_objects,
+            &[],
+            features,
         );
         // SAFETY: the fake's live device.
         let state = DEVICES
@@ -751,7 +761,10 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
     assert_eq!(
         fx.state.objects.position_shaders.get(&vertex),
-        Some(PositionShader::Baked(variant))
+        Some(PositionShader::Baked {
+            variant,
+            projects_input: false
+        })
     );
     assert_eq!(fx.recorded(frag), None);
 
@@ -845,7 +858,10 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     let (vertex, frag, variant) = (handles[0], handles[1], variant_handles[0]);
     assert_eq!(
         fx.state.objects.position_shaders.get(&vertex),
-        Some(PositionShader::Baked(variant))
+        Some(PositionShader::Baked {
+            variant,
+            projects_input: false
+        })
     );
     let buffer = fx.command_buffer();
     fx.bind(buffer, &[VERTEX_STAGE, FRAGMENT_STAGE], &[vertex, frag]);
@@ -871,7 +887,9 @@ fn a_vertex_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_prec
     assert_eq!(fx.events().len(), 1);
     assert_eq!(
         fx.state.objects.position_shaders.get(&handles[0]),
-        Some(PositionShader::Flip)
+        Some(PositionShader::Flip {
+            stores_unit_w: false
+        })
     );
     fx.finish();
 }
@@ -913,6 +931,7 @@ fn a_vertex_shader_object_with_push_constant_ranges_takes_the_pipelines_per_came
         Some(PositionShader::Pushed {
             variant: recorded,
             depth,
+            projects_input: false,
         }) => {
             assert_eq!(recorded, variant);
             assert_eq!(depth.projection.map(|p| p.offset), Some(0));
@@ -1189,7 +1208,10 @@ fn a_mesh_shader_object_gets_its_code_with_the_carrier_baked_in_bound_for_precis
     let (mesh, frag, variant) = (handles[0], handles[1], variant_handles[0]);
     assert_eq!(
         fx.state.objects.position_shaders.get(&mesh),
-        Some(PositionShader::Baked(variant))
+        Some(PositionShader::Baked {
+            variant,
+            projects_input: false
+        })
     );
     let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
     let buffer = fx.command_buffer();
@@ -1285,6 +1307,7 @@ fn a_mesh_shader_object_with_the_carrier_in_its_mesh_range_takes_the_pipelines_r
         Some(PositionShader::Pushed {
             variant: recorded,
             depth,
+            projects_input: false,
         }) => {
             assert_eq!(recorded, variant);
             // Its matrix located for the CPU (`pc.mvp`), and fitted in the stage otherwise.
@@ -1417,7 +1440,9 @@ fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_
     fx.events();
     assert_eq!(
         fx.state.objects.position_shaders.get(&refused[0]),
-        Some(PositionShader::Flip)
+        Some(PositionShader::Flip {
+            stores_unit_w: false
+        })
     );
     // Drawn with the pass-through shader after the vertex shader: the vertex shader's
     // variant goes down for precise-path draws, the geometry shader stays the application's.
@@ -1451,6 +1476,102 @@ fn a_geometry_shader_object_passing_positions_through_leaves_the_vertex_variant_
         [
             bind(&[geometry], &[refused[0]]),
             bind(&[VERTEX_STAGE], &[vertex]),
+        ]
+    );
+    fx.free(buffer);
+    fx.finish();
+}
+
+/// A vertex shader handing its attribute on with w = 1, for a later stage to project.
+const UNIT_W: &str = "#version 450
+    layout(location = 0) in vec3 position;
+    void main() { gl_Position = vec4(position, 1.0); }";
+
+#[test]
+fn a_geometry_shader_object_projecting_gl_in_is_bound_only_after_a_vertex_shader_storing_w_one() {
+    // Shader objects pair at draw time, so the variant of a geometry shader projecting the
+    // previous stage's Position is made at creation, assuming w = 1, and bound only after a
+    // vertex shader storing vec4(p, 1.0) (before session 39: the flip path always).
+    let features = vk::PhysicalDeviceFeatures {
+        geometry_shader: vk::TRUE,
+        ..Default::default()
+    };
+    let fx = Fixture::with_features(
+        &[(c"mode", c"infinite"), (c"reverse_observable", c"none")],
+        features,
+    );
+    let geometry = vk::ShaderStageFlags::GEOMETRY;
+    let compile =
+        |source| crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, source);
+    let (unit_w, projecting) = (compile(UNIT_W), compile(PROJECTING));
+    let (_, vertices) = fx.create(&[
+        shader_info(VERTEX_STAGE, geometry, &unit_w),
+        shader_info(VERTEX_STAGE, geometry, &projecting),
+    ]);
+    fx.events();
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&vertices[0]),
+        Some(PositionShader::Flip {
+            stores_unit_w: true
+        }),
+        "a vertex shader storing vec4(p, 1.0): no variant, marked"
+    );
+    assert!(!fx
+        .state
+        .objects
+        .position_shaders
+        .get(&vertices[1])
+        .is_some_and(|p| p.stores_unit_w()));
+    // glslang's geometry shader projecting gl_in[i].gl_Position with a matrix per invocation.
+    let clip_input = crate::shader::test_spirv::words(include_bytes!(
+        "../shader/test_data/geometry_clip_input.spv"
+    ));
+    let (handles, _) =
+        create_with_one_variant(&fx, &[shader_info(geometry, FRAGMENT_STAGE, &clip_input)]);
+    let projecting_geometry = handles[0];
+    let geometry_variant = match fx.state.objects.position_shaders.get(&projecting_geometry) {
+        Some(PositionShader::Baked {
+            variant,
+            projects_input: true,
+        }) => variant,
+        other => panic!("a variant projecting gl_in: {other:?}"),
+    };
+    let (_, frag) = fx.create(&[shader_info(
+        FRAGMENT_STAGE,
+        vk::ShaderStageFlags::empty(),
+        &fragment(PLAIN),
+    )]);
+    fx.events();
+    let reversed = fx.depth_view(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+    let buffer = fx.command_buffer();
+    let bind = |stages: &[vk::ShaderStageFlags], shaders: &[vk::ShaderEXT]| Event::BindShaders {
+        stages: stages.to_vec(),
+        shaders: shaders.to_vec(),
+    };
+    fx.bind(
+        buffer,
+        &[VERTEX_STAGE, geometry, FRAGMENT_STAGE],
+        &[vertices[0], projecting_geometry, frag[0]],
+    );
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds(),
+        [
+            bind(
+                &[VERTEX_STAGE, geometry, FRAGMENT_STAGE],
+                &[vertices[0], projecting_geometry, frag[0]]
+            ),
+            bind(&[geometry], &[geometry_variant]),
+        ]
+    );
+    // A vertex shader whose w is not shown to be 1: the application's geometry shader back.
+    fx.bind(buffer, &[VERTEX_STAGE], &[vertices[1]]);
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds(),
+        [
+            bind(&[VERTEX_STAGE], &[vertices[1]]),
+            bind(&[geometry], &[projecting_geometry]),
         ]
     );
     fx.free(buffer);
@@ -1541,7 +1662,9 @@ fn assert_link_kept_on_the_flip_path(fx: &Fixture, events: &[Event], last: vk::S
         .all(|info| info.flags == vk::ShaderCreateFlagsEXT::LINK_STAGE));
     assert_eq!(
         fx.state.objects.position_shaders.get(&last),
-        Some(PositionShader::Flip)
+        Some(PositionShader::Flip {
+            stores_unit_w: false
+        })
     );
 }
 
@@ -1667,7 +1790,7 @@ fn a_linked_tessellation_set_whose_evaluation_shader_stands_alone_goes_down_unli
     assert!(variants.iter().any(|info| info.stage == evaluation_stage));
     assert!(matches!(
         fx.state.objects.position_shaders.get(&handles[2]),
-        Some(PositionShader::Baked(_))
+        Some(PositionShader::Baked { .. })
     ));
 
     // The spacing declared by the control shader alone: the link stays, the flip path.

@@ -597,16 +597,28 @@ pub enum PositionShader {
     /// (revz's own), is bound in its place for precise-path draws, and `depth` says for the
     /// state machine what a pipeline's facts say of its last stage (where its projection
     /// is, the carrier, the layout revz pushes it with), so that its draws take the pipelines'
-    /// per-camera path.
+    /// per-camera path. `projects_input`: as for [`PositionShader::Baked`].
     Pushed {
         variant: vk::ShaderEXT,
         depth: std::sync::Arc<crate::command_state::PipelineDepth>,
+        projects_input: bool,
     },
     /// The shader object of its code with the carrier baked in (revz's own), bound in its
     /// place for precise-path draws: it stores complementary depth of the range it fits.
-    Baked(vk::ShaderEXT),
-    /// No variant: its draws into reversed attachments take the flip path.
-    Flip,
+    /// `projects_input`: the matrix multiplies the previous stage's `Position`
+    /// (`gl_in[i].gl_Position`), whose w = 1 the variant assumes: it is bound only after a
+    /// stage bound before it that stores w = 1 (`crate::command_state::CommandState`; a
+    /// pipeline checks this at its creation, shader objects are paired only at draw time).
+    Baked {
+        variant: vk::ShaderEXT,
+        projects_input: bool,
+    },
+    /// No variant: its draws into reversed attachments take the flip path. `stores_unit_w`:
+    /// every `Position` it stores is `vec4(p, 1.0)`
+    /// (`crate::shader::position_store::stores_position_w_one`), which a later stage that
+    /// projects it needs (asked of vertex and tessellation evaluation shaders on devices with
+    /// geometry or tessellation shaders).
+    Flip { stores_unit_w: bool },
     /// A geometry shader that stores `gl_in[i].gl_Position` as it is into every vertex it
     /// emits (`crate::shader::position_store::passes_position_through`), a tessellation
     /// control shader that copies the positions, or an evaluation shader that interpolates
@@ -620,15 +632,38 @@ impl PartialEq for PositionShader {
     fn eq(&self, other: &Self) -> bool {
         match (self, other) {
             (
-                PositionShader::Pushed { variant, depth },
+                PositionShader::Pushed {
+                    variant,
+                    depth,
+                    projects_input,
+                },
                 PositionShader::Pushed {
                     variant: other_variant,
                     depth: other_depth,
+                    projects_input: other_projects_input,
                 },
-            ) => variant == other_variant && std::sync::Arc::ptr_eq(depth, other_depth),
-            (PositionShader::Baked(a), PositionShader::Baked(b)) => a == b,
-            (PositionShader::Flip, PositionShader::Flip)
-            | (PositionShader::PassesThrough, PositionShader::PassesThrough) => true,
+            ) => {
+                variant == other_variant
+                    && std::sync::Arc::ptr_eq(depth, other_depth)
+                    && projects_input == other_projects_input
+            }
+            (
+                PositionShader::Baked {
+                    variant,
+                    projects_input,
+                },
+                PositionShader::Baked {
+                    variant: other_variant,
+                    projects_input: other_projects_input,
+                },
+            ) => variant == other_variant && projects_input == other_projects_input,
+            (
+                PositionShader::Flip { stores_unit_w },
+                PositionShader::Flip {
+                    stores_unit_w: other,
+                },
+            ) => stores_unit_w == other,
+            (PositionShader::PassesThrough, PositionShader::PassesThrough) => true,
             _ => false,
         }
     }
@@ -638,11 +673,30 @@ impl PositionShader {
     /// The variant, if there is one.
     pub fn variant(&self) -> Option<vk::ShaderEXT> {
         match self {
-            PositionShader::Pushed { variant, .. } | PositionShader::Baked(variant) => {
+            PositionShader::Pushed { variant, .. } | PositionShader::Baked { variant, .. } => {
                 Some(*variant)
             }
-            PositionShader::Flip | PositionShader::PassesThrough => None,
+            PositionShader::Flip { .. } | PositionShader::PassesThrough => None,
         }
+    }
+
+    /// Whether its variant projects the previous stage's `Position`, assuming its w = 1.
+    pub fn projects_input(&self) -> bool {
+        match self {
+            PositionShader::Pushed { projects_input, .. }
+            | PositionShader::Baked { projects_input, .. } => *projects_input,
+            PositionShader::Flip { .. } | PositionShader::PassesThrough => false,
+        }
+    }
+
+    /// Whether it stores every `Position` as `vec4(p, 1.0)` itself.
+    pub fn stores_unit_w(&self) -> bool {
+        matches!(
+            self,
+            PositionShader::Flip {
+                stores_unit_w: true
+            }
+        )
     }
 }
 

@@ -823,7 +823,8 @@ pub struct ShaderObjectPosition<'a> {
     pub pushed: Option<Result<(), &'a str>>,
     /// The baked rewrite of its code: `Ok(None)` where it stores no `Position`, `Ok(Some(w))`
     /// where it does, `w` whether it projects the previous stage's `Position` (whose w = 1
-    /// revz cannot check across separately bound shaders); or why it cannot be rewritten.
+    /// draws check against the shaders bound before it: `crate::command_state`); or why it
+    /// cannot be rewritten.
     pub rewrite: Result<Option<bool>, &'a str>,
     /// A geometry shader that stores `gl_in[i].gl_Position` as it is into every vertex it
     /// emits (`crate::shader::position_store::passes_position_through`).
@@ -867,12 +868,9 @@ impl ShaderObjectPosition<'_> {
         }
         match self.rewrite {
             Ok(None) => ShaderObjectPlan::Nothing,
-            Ok(Some(false)) => ShaderObjectPlan::Baked,
-            Ok(Some(true)) => ShaderObjectPlan::Flip(
-                "it projects the previous stage's Position (gl_in[i].gl_Position), whose w = 1 \
-                 revz cannot check across shader objects"
-                    .into(),
-            ),
+            // Projecting the previous stage's Position too: its variant is bound only after a
+            // stage storing w = 1, which only draws can see (shader objects pair there).
+            Ok(Some(_)) => ShaderObjectPlan::Baked,
             // It computes no position of its own: the stage before it stores them.
             Err(_) if self.passes_through => ShaderObjectPlan::PassesThrough,
             Err(reason) => ShaderObjectPlan::Flip(format!("it cannot derive its range ({reason})")),
@@ -1854,11 +1852,16 @@ mod tests {
             ..unlinked
         })
         .contains("linked set"));
-        assert!(decide(ShaderObjectPosition {
-            rewrite: Ok(Some(true)),
-            ..unlinked
-        })
-        .contains("gl_in"));
+        // Projecting gl_in's Position: a variant, bound only after a stage storing w = 1
+        // (the draw's check, `command_state`).
+        assert_eq!(
+            ShaderObjectPosition {
+                rewrite: Ok(Some(true)),
+                ..unlinked
+            }
+            .decide(),
+            ShaderObjectPlan::Baked
+        );
         assert_eq!(
             decide(ShaderObjectPosition {
                 rewrite: Err("two stores"),

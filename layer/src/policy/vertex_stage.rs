@@ -521,7 +521,11 @@ impl VertexStageFacts<'_> {
                     "which the control stage does not copy from a vertex stage storing \
                      vec4(p, 1.0)"
                 }
-                _ => "which that stage does not store as vec4(p, 1.0)",
+                _ => {
+                    "which that stage does not store as vec4(p, 1.0) (nor, an evaluation \
+                     stage, interpolate from a control stage copying a vertex stage's \
+                     vec4(p, 1.0))"
+                }
             };
             return Err(format!(
                 "its {} stage projects the previous stage's Position (gl_in[i].gl_Position), \

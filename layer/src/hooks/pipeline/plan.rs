@@ -608,38 +608,47 @@ fn module_fact(
 /// Whether the positions the last pre-rasterization stage `last` reads from the stage before
 /// it have w = 1 exactly: for a geometry stage, its tessellation evaluation or vertex stage
 /// stores `Position` with w = 1 (`DeviceObjects::position_w_one`, or its inline code scanned
-/// now); for a tessellation evaluation stage, its control stage copies the vertex stage's
-/// positions as they are (`DeviceObjects::position_passthrough`) and the vertex stage stores
-/// them with w = 1.
+/// now), or its evaluation stage interpolates the patch's positions (an affine combination of
+/// points with w = 1 has w = 1) as the next case holds; for a tessellation evaluation stage,
+/// its control stage copies the vertex stage's positions as they are
+/// (`DeviceObjects::position_passthrough`) and the vertex stage stores them with w = 1.
 fn prior_stage_w_one(
     state: &DeviceState,
     stages: &[vk::PipelineShaderStageCreateInfo<'_>],
     last: Option<vertex_stage::LastStage>,
 ) -> bool {
     let find = |flag| stages.iter().find(|s| s.stage == flag);
-    let prior = match last {
-        Some(vertex_stage::LastStage::Geometry) => {
-            find(vk::ShaderStageFlags::TESSELLATION_EVALUATION)
-                .or_else(|| find(vk::ShaderStageFlags::VERTEX))
-        }
-        Some(vertex_stage::LastStage::TessellationEvaluation)
-            if stage_carries_positions_on(
-                state,
-                stages,
-                vk::ShaderStageFlags::TESSELLATION_CONTROL,
-            ) =>
-        {
-            find(vk::ShaderStageFlags::VERTEX)
-        }
-        _ => None,
+    let stores_w_one = |stage: Option<&vk::PipelineShaderStageCreateInfo<'_>>| {
+        stage.is_some_and(|stage| {
+            module_fact(
+                stage,
+                &state.objects.position_w_one,
+                crate::shader::position_store::stores_position_w_one,
+            )
+        })
     };
-    prior.is_some_and(|prior| {
-        module_fact(
-            prior,
-            &state.objects.position_w_one,
-            crate::shader::position_store::stores_position_w_one,
-        )
-    })
+    // The patch's positions reach the evaluation stage with w = 1.
+    let patch_w_one = || {
+        stage_carries_positions_on(state, stages, vk::ShaderStageFlags::TESSELLATION_CONTROL)
+            && stores_w_one(find(vk::ShaderStageFlags::VERTEX))
+    };
+    match last {
+        Some(vertex_stage::LastStage::Geometry) => {
+            match find(vk::ShaderStageFlags::TESSELLATION_EVALUATION) {
+                Some(evaluation) => {
+                    stores_w_one(Some(evaluation))
+                        || (stage_carries_positions_on(
+                            state,
+                            stages,
+                            vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                        ) && patch_w_one())
+                }
+                None => stores_w_one(find(vk::ShaderStageFlags::VERTEX)),
+            }
+        }
+        Some(vertex_stage::LastStage::TessellationEvaluation) => patch_w_one(),
+        _ => false,
+    }
 }
 
 /// Whether `info`'s pipeline clamps depth without clipping it: its rasterization state's
