@@ -758,7 +758,10 @@ pub fn create_pipeline(
         Program::SplitPush | Program::FullPush => {
             (shaders::SPLIT_MVP_VERT, Some(shaders::SPLIT_COLOR_FRAG))
         }
-        Program::UboGeometry | Program::UboProjectingTessellation => {
+        Program::UboGeometry
+        | Program::ProjectingGeometryShaderObjects
+        | Program::UboTessellatedGeometry
+        | Program::UboProjectingTessellation => {
             (shaders::UBO_POSITION_VERT, Some(shaders::FLAT_COLOR_FRAG))
         }
         Program::UboPassthroughGeometry
@@ -773,7 +776,9 @@ pub fn create_pipeline(
     };
     // The stages between the vertex and fragment stages, where the program projects there.
     let later: &[(vk::ShaderStageFlags, shaders::ShaderSource)] = match spec.program {
-        Program::UboGeometry => &[(vk::ShaderStageFlags::GEOMETRY, shaders::UBO_GEOM)],
+        Program::UboGeometry | Program::ProjectingGeometryShaderObjects => {
+            &[(vk::ShaderStageFlags::GEOMETRY, shaders::UBO_GEOM)]
+        }
         Program::UboPassthroughGeometry | Program::PassthroughGeometryShaderObjects => {
             &[(vk::ShaderStageFlags::GEOMETRY, shaders::PASSTHROUGH_GEOM)]
         }
@@ -787,6 +792,17 @@ pub fn create_pipeline(
                 vk::ShaderStageFlags::TESSELLATION_EVALUATION,
                 shaders::UBO_TESE,
             ),
+        ],
+        Program::UboTessellatedGeometry => &[
+            (
+                vk::ShaderStageFlags::TESSELLATION_CONTROL,
+                shaders::CORNER_POSITIONS_TESC,
+            ),
+            (
+                vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                shaders::CORNER_INTERPOLATING_TESE,
+            ),
+            (vk::ShaderStageFlags::GEOMETRY, shaders::UBO_GEOM),
         ],
         Program::UboProjectingTessellation => &[
             (

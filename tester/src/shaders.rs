@@ -131,6 +131,10 @@ pub const INTERPOLATING_TESE: ShaderSource = glslang_shader!("interpolating.tese
 /// `corner_positions.tesc` (glslang): after `ubo_position.vert`, one patch per triangle, the
 /// object-space positions copied as they are, every tessellation level 1.
 pub const CORNER_POSITIONS_TESC: ShaderSource = glslang_shader!("corner_positions.tesc");
+/// `corner_interpolating.tese` (glslang): after `corner_positions.tesc`, the patch's
+/// object-space positions interpolated at the patch point (w = 1 kept), for `ubo.geom` to
+/// project.
+pub const CORNER_INTERPOLATING_TESE: ShaderSource = glslang_shader!("corner_interpolating.tese");
 /// `projecting.tese` (glslang): the patch's positions interpolated at the patch point,
 /// displaced along y by a term 0 at the corners, and projected with the `ubo` block.
 pub const PROJECTING_TESE: ShaderSource = glslang_shader!("projecting.tese");
@@ -266,6 +270,7 @@ pub const ALL: &[ShaderSource] = &[
     POSITION_PASSTHROUGH_TESC,
     INTERPOLATING_TESE,
     CORNER_POSITIONS_TESC,
+    CORNER_INTERPOLATING_TESE,
     PROJECTING_TESE,
     SSBO_ROWS_VERT,
     SSBO_REGISTERS_VERT,
@@ -299,6 +304,7 @@ pub const GLSLANG: &[(&str, ShaderSource)] = &[
     ("position_passthrough.tesc", POSITION_PASSTHROUGH_TESC),
     ("interpolating.tese", INTERPOLATING_TESE),
     ("corner_positions.tesc", CORNER_POSITIONS_TESC),
+    ("corner_interpolating.tese", CORNER_INTERPOLATING_TESE),
     ("projecting.tese", PROJECTING_TESE),
     ("ssbo_rows.vert", SSBO_ROWS_VERT),
     ("ssbo_registers.vert", SSBO_REGISTERS_VERT),
@@ -567,6 +573,7 @@ mod tests {
             (POSITION_PASSTHROUGH_TESC, UNIFORM, 0),
             (INTERPOLATING_TESE, UNIFORM, 0),
             (CORNER_POSITIONS_TESC, UNIFORM, 0),
+            (CORNER_INTERPOLATING_TESE, UNIFORM, 0),
             (PROJECTING_TESE, UNIFORM, 1),
             (UBO_TESE, UNIFORM, 1),
             // glslang for Vulkan 1.0 (SPIR-V 1.0): a `BufferBlock` in the Uniform class.

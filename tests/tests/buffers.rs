@@ -47,7 +47,9 @@
 //!   patch's object-space positions (`gl_in[i].gl_Position`, w = 1 from the vertex stage,
 //!   copied by the control stage), interpolated and displaced along y first, as terrain
 //!   tessellation does (session 38: the evaluation stage fits its matrix; before, the flip
-//!   path). `ssbo-rows` stores `ssbo`'s matrix as its rows and applies it as four dot
+//!   path), and `ubo-tessellated-geometry`: those positions interpolated by the evaluation
+//!   stage (no displacement) and projected by `ubo.geom` (session 39: the geometry stage fits
+//!   its matrix, w = 1 followed through the interpolation; before, the flip path). `ssbo-rows` stores `ssbo`'s matrix as its rows and applies it as four dot
 //!   products: the same terms summed in another order, which where standard depth cannot
 //!   resolve the scene fails more pixels (`mars-patch`: 1.0e-1 wrong against push's 3.1e-2);
 //!   its silhouettes and `overlap` are held to the rules above, its wrong-pixel fraction is
@@ -84,8 +86,9 @@ use revz_tests::{native_colors_problems, GroundTruth, Harness, Render, BACKGROUN
 /// after it (issue #41): a geometry shader, a tessellation evaluation shader; and `ubo` with
 /// stages after it that only carry its clip positions on (a geometry shader passing them
 /// through, tessellation stages copying and interpolating them); and `ubo`'s blocks applied
-/// by a tessellation evaluation stage to the positions it interpolates.
-const DELIVERIES: [&str; 15] = [
+/// by a tessellation evaluation stage to the positions it interpolates, or by a geometry stage
+/// to the positions such a stage interpolated.
+const DELIVERIES: [&str; 16] = [
     "push-split",
     "push-full",
     "push-geometry",
@@ -101,6 +104,7 @@ const DELIVERIES: [&str; 15] = [
     "ubo-tessellation",
     "ubo-interpolating-tessellation",
     "ubo-projecting-tessellation",
+    "ubo-tessellated-geometry",
 ];
 
 /// The clear color of the tester's color attachment (25 / 255 grey), as RGBA8.

@@ -32,6 +32,13 @@
 //!   positions through, so revz leaves it as it is and binds the vertex shader's variant for
 //!   precise-path draws (session 34, rendered since session 35). Its images are the
 //!   `ubo-passthrough-geometry` pipelines', without revz and in every mode.
+//! - `--delivery projecting-geometry-shader-objects` binds `ubo-geometry`'s three shaders as
+//!   unlinked shader objects: the vertex shader hands `vec4(p, 1.0)` on and the geometry
+//!   shader projects `gl_in[i].gl_Position` with the uniform buffer's matrices. Shader objects
+//!   pair only at draw time, so revz makes the geometry shader's variant assuming w = 1 and
+//!   binds it only after a vertex shader storing w = 1 (session 39; before, such a shader took
+//!   the flip path). Its images are the `ubo-geometry` pipelines', without revz and in every
+//!   mode.
 //!
 //! These render on the newer lavapipe `cargo xtask setup` extracts beside the system's on
 //! Debian 12 (Mesa 25.0 from bookworm-backports, [`Harness::newer_lavapipe`]), or on the
@@ -71,7 +78,7 @@ use std::path::Path;
 use revz_tests::{differing_pixels, native_colors_problems, Harness, Render};
 
 /// The deliveries, and the debug log line that says a precise-path stage was made for each.
-const DELIVERIES: [(&str, &str); 6] = [
+const DELIVERIES: [(&str, &str); 7] = [
     ("shader-objects", "stores its depth for precise-path draws"),
     (
         "linked-shader-objects",
@@ -93,6 +100,10 @@ const DELIVERIES: [(&str, &str); 6] = [
         "passthrough-geometry-shader-objects",
         "passes the positions of the stage before it through",
     ),
+    (
+        "projecting-geometry-shader-objects",
+        "where the stage bound before it stores w = 1",
+    ),
 ];
 
 /// Whether `delivery` binds shader objects (rendered without the installed validation layer,
@@ -109,6 +120,7 @@ fn pipeline_twin(delivery: &str) -> Option<&'static str> {
         "mesh-shader-objects" => Some("mesh"),
         "linked-tessellation-shader-objects" => Some("ubo-tessellation"),
         "passthrough-geometry-shader-objects" => Some("ubo-passthrough-geometry"),
+        "projecting-geometry-shader-objects" => Some("ubo-geometry"),
         _ => None,
     }
 }
@@ -120,6 +132,7 @@ fn reference_pipelines(delivery: &str) -> &'static str {
     match delivery {
         "linked-tessellation-shader-objects" => "ubo-tessellation",
         "passthrough-geometry-shader-objects" => "ubo-passthrough-geometry",
+        "projecting-geometry-shader-objects" => "ubo-geometry",
         _ => "push",
     }
 }
@@ -185,11 +198,15 @@ fn assert_validation_accounted(delivery: &str, skipped: &serde_json::Value, what
 fn without_the_layer_the_extension_deliveries_render_the_pipelines_image() {
     let harness = Harness::locate();
     for scene in ["sloped-plane", "plane-stack", "overlap"] {
-        let references: Vec<(&str, Render)> =
-            ["push", "ubo-tessellation", "ubo-passthrough-geometry"]
-                .into_iter()
-                .map(|pipelines| (pipelines, render(&harness, scene, pipelines, None)))
-                .collect();
+        let references: Vec<(&str, Render)> = [
+            "push",
+            "ubo-tessellation",
+            "ubo-passthrough-geometry",
+            "ubo-geometry",
+        ]
+        .into_iter()
+        .map(|pipelines| (pipelines, render(&harness, scene, pipelines, None)))
+        .collect();
         for (delivery, _) in DELIVERIES {
             let pipelines = references
                 .iter()
@@ -245,7 +262,7 @@ fn report(harness: &Harness, out: &Path) -> serde_json::Value {
         "--deliveries",
         "push,shader-objects,linked-shader-objects,mesh,mesh-shader-objects,ubo-tessellation,\
          linked-tessellation-shader-objects,ubo-passthrough-geometry,\
-         passthrough-geometry-shader-objects",
+         passthrough-geometry-shader-objects,ubo-geometry,projecting-geometry-shader-objects",
     ];
     harness.report(out, &args, true)
 }

@@ -121,6 +121,9 @@ pub enum DeliveryChoice {
     /// The blocks of ubo, applied in a tessellation evaluation shader to the patch's
     /// interpolated positions.
     UboProjectingTessellation,
+    /// ubo's blocks applied in a geometry shader to positions a tessellation evaluation
+    /// shader interpolated.
+    UboTessellatedGeometry,
     /// The push constants of push, the flat program bound as vertex and fragment shader
     /// objects (needs VK_EXT_shader_object).
     ShaderObjects,
@@ -136,11 +139,16 @@ pub enum DeliveryChoice {
     /// ubo-passthrough-geometry's shaders as unlinked shader objects (needs
     /// VK_EXT_shader_object and geometryShader).
     PassthroughGeometryShaderObjects,
+    /// ubo-geometry's shaders as unlinked shader objects, the geometry shader projecting
+    /// gl_in (needs VK_EXT_shader_object and geometryShader).
+    ProjectingGeometryShaderObjects,
     /// push, push-split, push-full, push-geometry, ubo, ubo-dynamic, ssbo, ssbo-rows, ssbo-registers, ssbo-columns, ssbo-vkd3d,
     /// ubo-geometry, ubo-passthrough-geometry, ubo-tessellation,
-    /// ubo-interpolating-tessellation and ubo-projecting-tessellation (not shader-objects, mesh,
+    /// ubo-interpolating-tessellation, ubo-projecting-tessellation and ubo-tessellated-geometry
+    /// (not shader-objects, mesh,
     /// mesh-shader-objects, linked-shader-objects, linked-tessellation-shader-objects nor
-    /// passthrough-geometry-shader-objects, which need extensions).
+    /// passthrough-geometry-shader-objects nor projecting-geometry-shader-objects, which need
+    /// extensions).
     All,
 }
 
@@ -165,6 +173,7 @@ impl DeliveryChoice {
                 &[Delivery::UboInterpolatingTessellation]
             }
             DeliveryChoice::UboProjectingTessellation => &[Delivery::UboProjectingTessellation],
+            DeliveryChoice::UboTessellatedGeometry => &[Delivery::UboTessellatedGeometry],
             DeliveryChoice::ShaderObjects => &[Delivery::ShaderObjects],
             DeliveryChoice::Mesh => &[Delivery::Mesh],
             DeliveryChoice::MeshShaderObjects => &[Delivery::MeshShaderObjects],
@@ -174,6 +183,9 @@ impl DeliveryChoice {
             }
             DeliveryChoice::PassthroughGeometryShaderObjects => {
                 &[Delivery::PassthroughGeometryShaderObjects]
+            }
+            DeliveryChoice::ProjectingGeometryShaderObjects => {
+                &[Delivery::ProjectingGeometryShaderObjects]
             }
             DeliveryChoice::All => Delivery::PORTABLE,
         }
@@ -280,7 +292,8 @@ pub struct Selection {
     /// Projection deliveries (comma-separated): push, push-split, push-full, push-geometry, ubo,
     /// ubo-dynamic, ssbo,
     /// ssbo-rows, ssbo-registers, ssbo-columns, ubo-geometry, ubo-passthrough-geometry,
-    /// ubo-tessellation, ubo-interpolating-tessellation, ubo-projecting-tessellation, or all. The deliveries other than
+    /// ubo-tessellation, ubo-interpolating-tessellation, ubo-projecting-tessellation,
+    /// ubo-tessellated-geometry, or all. The deliveries other than
     /// push are
     /// rendered for sloped-plane, mars-patch, plane-stack, deep-range and far-objects.
     /// Default: push.

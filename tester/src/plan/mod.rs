@@ -279,6 +279,12 @@ pub enum Program {
     /// the corners) first, as terrain tessellation does (patches of three points, every
     /// level 1).
     UboProjectingTessellation,
+    /// `ubo_position.vert` + `corner_positions.tesc` + `corner_interpolating.tese` +
+    /// `ubo.geom` + `flat_color.frag` (the `ubo-tessellated-geometry` [`Delivery`]): the
+    /// patch's object-space positions (w = 1) copied and interpolated by the tessellation
+    /// stages, then projected by the geometry stage with the blocks of [`Program::Ubo`]
+    /// (patches of three points, every level 1).
+    UboTessellatedGeometry,
     /// [`Program::UboTessellation`]'s four shaders as shader objects created linked in one
     /// call (the `linked-tessellation-shader-objects` [`Delivery`]; needs
     /// `VK_EXT_shader_object` and `tessellationShader`), every state set at the bind.
@@ -287,6 +293,11 @@ pub enum Program {
     /// `passthrough-geometry-shader-objects` [`Delivery`]; needs `VK_EXT_shader_object` and
     /// `geometryShader`), every state set at the bind.
     PassthroughGeometryShaderObjects,
+    /// [`Program::UboGeometry`]'s three shaders as unlinked shader objects: the geometry
+    /// shader projects the vertex shader's `vec4(p, 1.0)` (the
+    /// `projecting-geometry-shader-objects` [`Delivery`]; needs `VK_EXT_shader_object` and
+    /// `geometryShader`), every state set at the bind.
+    ProjectingGeometryShaderObjects,
     /// `soft_particle.vert|frag`: the push constants of [`Program::Flat`], the flat color faded
     /// where the scene's depth, read from the main depth image with a texel fetch, lies close
     /// behind the fragment (needs a [`Target::SoftParticles`] pass: the depth attached
@@ -395,6 +406,9 @@ pub enum Delivery {
     /// The blocks of [`Delivery::Ubo`], applied in a tessellation evaluation shader to the
     /// patch's interpolated positions ([`Program::UboProjectingTessellation`]).
     UboProjectingTessellation,
+    /// The blocks of [`Delivery::Ubo`], applied in a geometry shader to the positions a
+    /// tessellation evaluation shader interpolated ([`Program::UboTessellatedGeometry`]).
+    UboTessellatedGeometry,
     /// The push constants of [`Delivery::Push`], the flat program bound as shader objects
     /// ([`Program::ShaderObjects`]; needs `VK_EXT_shader_object`).
     ShaderObjects,
@@ -413,12 +427,15 @@ pub enum Delivery {
     /// [`Delivery::UboPassthroughGeometry`]'s shaders as unlinked shader objects
     /// ([`Program::PassthroughGeometryShaderObjects`]; needs `VK_EXT_shader_object`).
     PassthroughGeometryShaderObjects,
+    /// [`Delivery::UboGeometry`]'s shaders as unlinked shader objects
+    /// ([`Program::ProjectingGeometryShaderObjects`]; needs `VK_EXT_shader_object`).
+    ProjectingGeometryShaderObjects,
 }
 
 impl Delivery {
     /// Every delivery, push first, and the ones that need an extension lavapipe 22.3 lacks
     /// ([`Delivery::ShaderObjects`], [`Delivery::Mesh`]) last.
-    pub const ALL: [Delivery; 22] = [
+    pub const ALL: [Delivery; 24] = [
         Delivery::Push,
         Delivery::PushSplit,
         Delivery::PushFull,
@@ -435,18 +452,20 @@ impl Delivery {
         Delivery::UboTessellation,
         Delivery::UboInterpolatingTessellation,
         Delivery::UboProjectingTessellation,
+        Delivery::UboTessellatedGeometry,
         Delivery::ShaderObjects,
         Delivery::Mesh,
         Delivery::MeshShaderObjects,
         Delivery::LinkedShaderObjects,
         Delivery::LinkedTessellationShaderObjects,
         Delivery::PassthroughGeometryShaderObjects,
+        Delivery::ProjectingGeometryShaderObjects,
     ];
 
     /// The deliveries a Vulkan 1.0 device with the core features renders (`ssbo-vkd3d` also
     /// needs `VK_EXT_depth_clip_enable`, which lavapipe has from Mesa 22.3 on): all but the
     /// last six of [`Delivery::ALL`].
-    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<6>() {
+    pub const PORTABLE: &'static [Delivery] = match Delivery::ALL.split_last_chunk::<7>() {
         Some((portable, _)) => portable,
         None => &[],
     };
@@ -470,12 +489,14 @@ impl Delivery {
             Delivery::UboTessellation => "ubo-tessellation",
             Delivery::UboInterpolatingTessellation => "ubo-interpolating-tessellation",
             Delivery::UboProjectingTessellation => "ubo-projecting-tessellation",
+            Delivery::UboTessellatedGeometry => "ubo-tessellated-geometry",
             Delivery::ShaderObjects => "shader-objects",
             Delivery::Mesh => "mesh",
             Delivery::MeshShaderObjects => "mesh-shader-objects",
             Delivery::LinkedShaderObjects => "linked-shader-objects",
             Delivery::LinkedTessellationShaderObjects => "linked-tessellation-shader-objects",
             Delivery::PassthroughGeometryShaderObjects => "passthrough-geometry-shader-objects",
+            Delivery::ProjectingGeometryShaderObjects => "projecting-geometry-shader-objects",
         }
     }
 
@@ -499,6 +520,7 @@ impl Delivery {
             Delivery::UboTessellation => Some(Program::UboTessellation),
             Delivery::UboInterpolatingTessellation => Some(Program::UboInterpolatingTessellation),
             Delivery::UboProjectingTessellation => Some(Program::UboProjectingTessellation),
+            Delivery::UboTessellatedGeometry => Some(Program::UboTessellatedGeometry),
             Delivery::ShaderObjects => Some(Program::ShaderObjects),
             Delivery::Mesh => Some(Program::Mesh),
             Delivery::MeshShaderObjects => Some(Program::MeshShaderObjects),
@@ -508,6 +530,9 @@ impl Delivery {
             }
             Delivery::PassthroughGeometryShaderObjects => {
                 Some(Program::PassthroughGeometryShaderObjects)
+            }
+            Delivery::ProjectingGeometryShaderObjects => {
+                Some(Program::ProjectingGeometryShaderObjects)
             }
         }
     }
@@ -524,6 +549,7 @@ impl Program {
                 | Program::MeshShaderObjects
                 | Program::LinkedTessellationShaderObjects
                 | Program::PassthroughGeometryShaderObjects
+                | Program::ProjectingGeometryShaderObjects
         )
     }
 
@@ -550,8 +576,10 @@ impl Program {
             | Program::UboTessellation
             | Program::UboInterpolatingTessellation
             | Program::UboProjectingTessellation
+            | Program::UboTessellatedGeometry
             | Program::LinkedTessellationShaderObjects
-            | Program::PassthroughGeometryShaderObjects => Some(Program::Ubo),
+            | Program::PassthroughGeometryShaderObjects
+            | Program::ProjectingGeometryShaderObjects => Some(Program::Ubo),
             Program::UboDynamic | Program::Ssbo => Some(self),
             Program::SsboRows
             | Program::SsboRegisters
@@ -564,7 +592,10 @@ impl Program {
     /// The stage that applies the program's matrices (where its buffers are bound).
     pub fn projecting_stage(self) -> ash::vk::ShaderStageFlags {
         match self {
-            Program::UboGeometry | Program::PushGeometry => ash::vk::ShaderStageFlags::GEOMETRY,
+            Program::UboGeometry
+            | Program::PushGeometry
+            | Program::UboTessellatedGeometry
+            | Program::ProjectingGeometryShaderObjects => ash::vk::ShaderStageFlags::GEOMETRY,
             Program::UboTessellation
             | Program::UboProjectingTessellation
             | Program::LinkedTessellationShaderObjects => {
@@ -582,6 +613,7 @@ impl Program {
             Program::UboTessellation
                 | Program::UboInterpolatingTessellation
                 | Program::UboProjectingTessellation
+                | Program::UboTessellatedGeometry
                 | Program::LinkedTessellationShaderObjects
         )
     }
@@ -616,8 +648,10 @@ impl Program {
             | Program::UboTessellation
             | Program::UboInterpolatingTessellation
             | Program::UboProjectingTessellation
+            | Program::UboTessellatedGeometry
             | Program::LinkedTessellationShaderObjects
-            | Program::PassthroughGeometryShaderObjects => 0,
+            | Program::PassthroughGeometryShaderObjects
+            | Program::ProjectingGeometryShaderObjects => 0,
             Program::MvpPair => 128,
             Program::Flat
             | Program::DepthOnly
@@ -1375,6 +1409,7 @@ impl Plan {
                         | Program::MeshShaderObjects
                         | Program::LinkedTessellationShaderObjects
                         | Program::PassthroughGeometryShaderObjects
+                        | Program::ProjectingGeometryShaderObjects
                 ) || (pipeline.viewport != Viewport::Dynamic && !pipeline.libraries),
                 "pipeline {} has a dynamic viewport or is built from libraries; the {name} \
                  delivery sets every state at its bind",
@@ -1535,8 +1570,10 @@ impl Plan {
                 pipeline.program,
                 Program::UboGeometry
                     | Program::UboPassthroughGeometry
+                    | Program::UboTessellatedGeometry
                     | Program::PushGeometry
                     | Program::PassthroughGeometryShaderObjects
+                    | Program::ProjectingGeometryShaderObjects
             );
             needs.tessellation_shader |= pipeline.program.tessellates();
             needs.shader_object |= pipeline.program.binds_shader_objects();

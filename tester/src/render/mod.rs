@@ -730,6 +730,7 @@ impl<'a> Renderer<'a> {
                     | Program::LinkedShaderObjects
                     | Program::LinkedTessellationShaderObjects
                     | Program::PassthroughGeometryShaderObjects
+                    | Program::ProjectingGeometryShaderObjects
             )
         }) {
             // The buffer delivery's shaders read its blocks, without push constants.
@@ -827,8 +828,10 @@ impl<'a> Renderer<'a> {
             | Program::UboTessellation
             | Program::UboInterpolatingTessellation
             | Program::UboProjectingTessellation
+            | Program::UboTessellatedGeometry
             | Program::LinkedTessellationShaderObjects
-            | Program::PassthroughGeometryShaderObjects => {
+            | Program::PassthroughGeometryShaderObjects
+            | Program::ProjectingGeometryShaderObjects => {
                 (self.matrix_layout, vk::ShaderStageFlags::empty())
             }
             Program::Flat

@@ -1027,7 +1027,8 @@ impl Recorder<'_> {
             Program::ShaderObjects
             | Program::LinkedShaderObjects
             | Program::LinkedTessellationShaderObjects
-            | Program::PassthroughGeometryShaderObjects => renderer.shader_objects.as_ref(),
+            | Program::PassthroughGeometryShaderObjects
+            | Program::ProjectingGeometryShaderObjects => renderer.shader_objects.as_ref(),
             Program::MeshShaderObjects => renderer.mesh_shader_objects.as_ref(),
             _ => None,
         };

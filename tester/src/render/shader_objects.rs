@@ -3,7 +3,8 @@
 //! created linked in one call, [`Program::MeshShaderObjects`]: the mesh
 //! program's as mesh and fragment ones, and [`Program::LinkedTessellationShaderObjects`]:
 //! `ubo-tessellation`'s four created linked in one call, and
-//! [`Program::PassthroughGeometryShaderObjects`]: `ubo-passthrough-geometry`'s three unlinked;
+//! [`Program::PassthroughGeometryShaderObjects`]: `ubo-passthrough-geometry`'s three unlinked,
+//! and [`Program::ProjectingGeometryShaderObjects`]: `ubo-geometry`'s three unlinked;
 //! and their "pipeline" bind: the shaders bound
 //! (every other graphics stage the device has bound to null), then every state a
 //! [`PipelineSpec`] bakes into a pipeline set with the dynamic state commands, as an engine
@@ -81,6 +82,11 @@ fn program_shaders(program: Program) -> Vec<(vk::ShaderStageFlags, shaders::Shad
         Program::PassthroughGeometryShaderObjects => vec![
             (vk::ShaderStageFlags::VERTEX, shaders::UBO_VERT),
             (vk::ShaderStageFlags::GEOMETRY, shaders::PASSTHROUGH_GEOM),
+            (fragment, shaders::FLAT_COLOR_FRAG),
+        ],
+        Program::ProjectingGeometryShaderObjects => vec![
+            (vk::ShaderStageFlags::VERTEX, shaders::UBO_POSITION_VERT),
+            (vk::ShaderStageFlags::GEOMETRY, shaders::UBO_GEOM),
             (fragment, shaders::FLAT_COLOR_FRAG),
         ],
         _ => vec![

@@ -254,8 +254,10 @@ impl Scene {
             | Program::UboTessellation
             | Program::UboInterpolatingTessellation
             | Program::UboProjectingTessellation
+            | Program::UboTessellatedGeometry
             | Program::LinkedTessellationShaderObjects
-            | Program::PassthroughGeometryShaderObjects => Vec::new(),
+            | Program::PassthroughGeometryShaderObjects
+            | Program::ProjectingGeometryShaderObjects => Vec::new(),
         };
         debug_assert_eq!(values.len() * 4, program.push_constant_size() as usize);
         values.iter().flat_map(|v| v.to_le_bytes()).collect()

@@ -1689,7 +1689,9 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                             delivery,
                             Delivery::UboGeometry
                                 | Delivery::UboPassthroughGeometry
+                                | Delivery::UboTessellatedGeometry
                                 | Delivery::PassthroughGeometryShaderObjects
+                                | Delivery::ProjectingGeometryShaderObjects
                                 | Delivery::PushGeometry
                         )
                     );
@@ -1700,6 +1702,7 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                             Delivery::UboTessellation
                                 | Delivery::UboInterpolatingTessellation
                                 | Delivery::UboProjectingTessellation
+                                | Delivery::UboTessellatedGeometry
                                 | Delivery::LinkedTessellationShaderObjects
                         )
                     );
@@ -1712,6 +1715,7 @@ fn buffer_deliveries_take_the_flat_scenes_and_refuse_special_programs() {
                                 | Delivery::LinkedShaderObjects
                                 | Delivery::LinkedTessellationShaderObjects
                                 | Delivery::PassthroughGeometryShaderObjects
+                                | Delivery::ProjectingGeometryShaderObjects
                         )
                     );
                     assert_eq!(
