@@ -527,7 +527,8 @@ impl Default for PushConstants {
             last: None,
             last_values: [0.0; 16],
             same_camera: None,
-            cameras: Cameras::default(),
+            // A recording's cameras keep their first trusted range ([`Cameras::pinning_ranges`]).
+            cameras: Cameras::default().pinning_ranges(),
             generation: 0,
             changed: false,
             matches: [0; revz_math::MAX_CAMERAS],
@@ -636,7 +637,7 @@ impl PushConstants {
     /// A recording that starts knowing `cameras`.
     pub fn with_cameras(cameras: Cameras) -> PushConstants {
         PushConstants {
-            cameras,
+            cameras: cameras.pinning_ranges(),
             ..PushConstants::default()
         }
     }
@@ -1025,7 +1026,8 @@ mod tests {
         let use_ = column_major_at(0);
         for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
             let mut push = PushConstants::default();
-            let mut reference = Cameras::default();
+            // A recording's table pins its cameras' ranges.
+            let mut reference = Cameras::default().pinning_ranges();
             let mut state = 0x2545_f491_4f6c_dd1du64;
             for step in 0..3000 {
                 state ^= state << 13;

@@ -349,7 +349,8 @@ pub enum CameraMatch {
         /// Whether the camera renders standard or reversed depth.
         direction: DepthDirection,
         /// True when this observation created the camera (possibly in an evicted slot) or
-        /// improved its line: state derived from the camera's range is stale.
+        /// improved its line: state derived from the camera's range may be stale (a pinning
+        /// table, [`Cameras::pinning_ranges`], keeps a trusted range as it was).
         changed: bool,
     },
     /// A perspective depth line that matches no camera and cannot be trusted alone.
@@ -375,6 +376,8 @@ struct Entry {
 pub struct Cameras {
     entries: [Option<Entry>; MAX_CAMERAS],
     clock: u64,
+    /// A camera keeps the range of the first trusted line it had ([`Cameras::pinning_ranges`]).
+    pins_ranges: bool,
 }
 
 impl Cameras {
@@ -382,6 +385,23 @@ impl Cameras {
     #[must_use]
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// This table with ranges pinned: a camera whose line is trusted keeps its range when a
+    /// better line of it is seen (the line, which matching and [`Cameras::merge`] read, still
+    /// becomes the better one). A recording's table: every draw of one camera in a command
+    /// buffer then stores depth on one line, so a depth pre-pass drawn in any order and the
+    /// `EQUAL` (or `LESS_OR_EQUAL`) pass after it agree to the bit; the better range reaches
+    /// the recordings begun after the next submission, through the device's table (which does
+    /// not pin) merging this one. The price: until then, the camera's near plane is within its
+    /// first trusted line's error bound of the true one (relative `1.4e-6 d / n` for a first
+    /// object at distance `d`: `TRUSTED_B_ERROR`'s notes).
+    #[must_use]
+    pub fn pinning_ranges(self) -> Self {
+        Self {
+            pins_ranges: true,
+            ..self
+        }
     }
 
     /// Finds the camera of `m` under the pipeline's `convention`, learning from it: a matching
@@ -406,7 +426,7 @@ impl Cameras {
                 .then_some((direction, range))
         };
         if let Some(index) = self.matching(&line, convention) {
-            let clock = self.clock;
+            let (clock, pins_ranges) = (self.clock, self.pins_ranges);
             let Some(entry) = self.entries.get_mut(index).and_then(Option::as_mut) else {
                 return CameraMatch::Untrusted;
             };
@@ -414,9 +434,13 @@ impl Cameras {
             let mut changed = false;
             if line.relative_b_error() < entry.line.relative_b_error() {
                 if let Some((direction, range)) = storable(&line) {
+                    // A provisional (untrusted) range is replaced even in a pinning table: it
+                    // may be off by more than the trusted bound (module docs, "Trust").
+                    if !(pins_ranges && entry.line.is_trusted()) {
+                        entry.range = range;
+                        entry.direction = direction;
+                    }
                     entry.line = line;
-                    entry.range = range;
-                    entry.direction = direction;
                     changed = true;
                 }
             }

@@ -173,6 +173,7 @@ const STENCIL_FORMATS: [&str; 2] = ["d24-s8", "d32-s8"];
 flip_scene_tests! {
     flip_compare_ops: "compare-ops", DEPTH_FORMATS;
     flip_compare_ops_dynamic: "compare-ops-dynamic", DEPTH_FORMATS;
+    flip_compare_ops_unsorted: "compare-ops-unsorted", DEPTH_FORMATS;
     flip_clear_render_pass: "clear-render-pass", DEPTH_FORMATS;
     flip_clear_attachments: "clear-attachments", DEPTH_FORMATS;
     flip_clear_image: "clear-image", DEPTH_FORMATS;
@@ -1178,6 +1179,59 @@ fn precise_modes_with_pipeline_libraries() {
             flip_scene_within(scene, format, &[], &settings, lines(1e-3));
         }
     }
+}
+
+/// A depth pre-pass drawn farthest first (`compare-ops-unsorted`), then the EQUAL color pass:
+/// in the precise modes every draw of one camera in a recording must store depth on one line,
+/// or the EQUAL pass fails wherever the pre-pass drew before the camera's best matrix. Its
+/// images, native and through revz, must be those of `compare-ops` (the pre-pass drawn
+/// nearest first) bit for bit, with the precise path taken. Session 38's layer, whose camera
+/// range improved mid-recording: 29,966 of 65,536 pixels differed in every format, in the
+/// first frame (and every frame of a projection that changes each frame).
+#[test]
+fn a_depth_pre_pass_in_any_order_agrees_with_the_equal_pass_after_it() {
+    let harness = Harness::locate();
+    let render = |scene: &str, format: &str, mode: Option<&str>| {
+        let dir = harness.scratch_dir(&format!(
+            "prepass-order-{scene}-{format}-{}",
+            mode.unwrap_or("native")
+        ));
+        let mut command = harness.tester(format, &dir);
+        command.args(["--scene", scene]);
+        if let Some(mode) = mode {
+            harness
+                .with_layer(&mut command)
+                .env("REVZ_MODE", mode)
+                .env("REVZ_LOG", "debug");
+        }
+        harness.render(command, &dir)
+    };
+    let mut problems = Vec::new();
+    for format in DEPTH_FORMATS {
+        let native = render("compare-ops", format, None);
+        let unsorted = render("compare-ops-unsorted", format, None);
+        assert_eq!(
+            differing_pixels(&native.color(), &unsorted.color()),
+            0,
+            "{format}: the pre-pass order changes the native image"
+        );
+        for mode in ["complementary", "infinite"] {
+            let sorted = render("compare-ops", format, Some(mode));
+            let unsorted = render("compare-ops-unsorted", format, Some(mode));
+            assert!(
+                unsorted.stderr().contains("precise path"),
+                "{format} {mode}: no precise path\n{}",
+                unsorted.stderr()
+            );
+            let differing = differing_pixels(&sorted.color(), &unsorted.color());
+            if differing != 0 {
+                problems.push(format!(
+                    "{format} {mode}: {differing} pixels differ from compare-ops' image"
+                ));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
 /// `lit-mvp` (issue #14): the vertex shader uses the pushed MVP for lighting too (the clip

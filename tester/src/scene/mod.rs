@@ -35,6 +35,8 @@ pub enum SceneId {
     CompareOps,
     /// The same with `vkCmdSetDepthCompareOp` between draws of one pipeline.
     CompareOpsDynamic,
+    /// `compare-ops` with its depth pre-pass drawn farthest first.
+    CompareOpsUnsorted,
     /// Depth cleared to 0.985 by the render pass.
     ClearRenderPass,
     /// `vkCmdClearAttachments` of a depth rectangle to 0.98 between draws.

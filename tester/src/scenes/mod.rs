@@ -54,6 +54,11 @@ pub const CATALOG: &[Entry] = &[
         compare_ops_dynamic,
     ),
     entry_row(
+        SceneId::CompareOpsUnsorted,
+        "compare-ops-unsorted",
+        compare_ops_unsorted,
+    ),
+    entry_row(
         SceneId::ClearRenderPass,
         "clear-render-pass",
         clear_render_pass,

@@ -31,7 +31,25 @@ pub fn compare_ops_dynamic() -> Scene {
     compare_ops_scene("compare-ops-dynamic", true)
 }
 
+/// `compare-ops-unsorted`: the `compare-ops` image with its depth pre-pass drawn farthest first
+/// (engines that pre-pass by material or occluder list, not front to back), so that in a
+/// frame's first recording the camera's later matrices are better conditioned than its first.
+///
+/// Layer item: every draw of one camera in a recording stores depth on one line. Before session
+/// 39 the camera's range improved mid-recording: the pre-pass stored each far object's depth on
+/// a worse line than the EQUAL pass after it, and 46% of the image (every object drawn before
+/// the nearest in the pre-pass) lost its color in the first frame, and in every frame of a
+/// projection that changes each frame (an animated field of view).
+pub fn compare_ops_unsorted() -> Scene {
+    compare_ops_scene_drawn("compare-ops-unsorted", false, true)
+}
+
 fn compare_ops_scene(name: &'static str, dynamic: bool) -> Scene {
+    compare_ops_scene_drawn(name, dynamic, false)
+}
+
+/// The compare-ops scenes; `far_first`: the pre-pass draws its objects farthest first.
+fn compare_ops_scene_drawn(name: &'static str, dynamic: bool, far_first: bool) -> Scene {
     let camera = overlap_camera();
     let mut b = Builder::default();
     let (objects, checker) = tiled_overlap_objects();
@@ -55,7 +73,12 @@ fn compare_ops_scene(name: &'static str, dynamic: bool) -> Scene {
     if dynamic {
         b.step(Step::SetDepthCompareOp(Compare::Less));
     }
-    b.draw(&opaque);
+    if far_first {
+        let far_first: Vec<usize> = opaque.iter().rev().copied().collect();
+        b.draw(&far_first);
+    } else {
+        b.draw(&opaque);
+    }
 
     // Farthest first: where surfaces tie, the one the LESS pre-pass kept (the nearest-first
     // draw order's first) is drawn last, as a single LESS pass would show it.

@@ -385,7 +385,7 @@ fn depth_reads_msaa_samples_the_kept_multisampled_depth() {
 
 #[test]
 fn compare_ops_overlay_tiles_are_ground_tiles() {
-    for scene in [compare_ops(), compare_ops_dynamic()] {
+    for scene in [compare_ops(), compare_ops_dynamic(), compare_ops_unsorted()] {
         let ground = &scene.objects[find(&scene, "ground")];
         let checker = &scene.objects[find(&scene, "checker overlay")];
         assert_eq!(ground.model, checker.model);
