@@ -353,7 +353,9 @@ fn position_plan(
                 vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::TESSELLATION_EVALUATION
             );
             let stores_unit_w = before_another
-                && !state.policy.carrier_later_stages.is_empty()
+                && state.policy.carrier_later_stages.intersects(
+                    vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::TESSELLATION_EVALUATION,
+                )
                 && words.is_some_and(crate::shader::position_store::stores_position_w_one);
             Plan::PositionFlip { stores_unit_w }
         }
@@ -424,6 +426,82 @@ fn pushed_route(
         },
         projects_input,
     ))
+}
+
+/// Whether a plan's variant projects the previous stage's `Position` (assuming its w = 1).
+fn projects_input(plan: &Plan) -> bool {
+    matches!(plan, Plan::Pushed(_, _, true) | Plan::Baked(_, true))
+}
+
+/// `plans` of a call's create infos `infos`, where a linked set holds the stages before a
+/// shader whose variant projects the previous stage's `Position`: the set is bound whole, so
+/// whether those stages give w = 1 is known now (the rule draws apply to separately bound
+/// shaders, `CommandState::input_unit_w`); where they do not, the variant could never be
+/// bound, and would only send the set down unlinked, so the shader takes the flip path.
+/// Sets without those stages, and unlinked shaders, keep their plans.
+fn without_unusable_input_variants(
+    mut plans: Vec<Plan>,
+    infos: &[vk::ShaderCreateInfoEXT<'_>],
+) -> Vec<Plan> {
+    let unusable: Vec<bool> = {
+        let linked = |stage: vk::ShaderStageFlags| {
+            infos
+                .iter()
+                .zip(&plans)
+                .find(|(info, _)| is_linked(info) && info.stage == stage)
+                .map(|(_, plan)| plan)
+        };
+        let stores_unit_w = |plan: &Plan| {
+            matches!(
+                plan,
+                Plan::PositionFlip {
+                    stores_unit_w: true
+                }
+            )
+        };
+        let vertex = linked(vk::ShaderStageFlags::VERTEX);
+        let control = linked(vk::ShaderStageFlags::TESSELLATION_CONTROL);
+        let evaluation = linked(vk::ShaderStageFlags::TESSELLATION_EVALUATION);
+        // Whether the set's control and vertex stages give the evaluation stage w = 1
+        // (`None`: one of them is not in the set).
+        let patch_unit_w = control.zip(vertex).map(|(control, vertex)| {
+            matches!(control, Plan::PassesThrough) && stores_unit_w(vertex)
+        });
+        infos
+            .iter()
+            .zip(&plans)
+            .map(|(info, plan)| {
+                if !(is_linked(info) && projects_input(plan)) {
+                    return false;
+                }
+                let gives_unit_w = match info.stage {
+                    vk::ShaderStageFlags::GEOMETRY => match evaluation {
+                        Some(evaluation) if stores_unit_w(evaluation) => Some(true),
+                        Some(Plan::PassesThrough) => patch_unit_w,
+                        Some(_) => Some(false),
+                        None => vertex.map(stores_unit_w),
+                    },
+                    vk::ShaderStageFlags::TESSELLATION_EVALUATION => patch_unit_w,
+                    _ => None,
+                };
+                gives_unit_w == Some(false)
+            })
+            .collect()
+    };
+    for (plan, unusable) in plans.iter_mut().zip(unusable) {
+        if unusable {
+            log::debug!(
+                "a linked shader object projecting the previous stage's Position \
+                 (gl_in[i].gl_Position) follows stages of its set that do not give w = 1: it \
+                 takes the flip path (its set keeps its link unless another of its shaders \
+                 gets a variant)"
+            );
+            *plan = Plan::PositionFlip {
+                stores_unit_w: false,
+            };
+        }
+    }
+    plans
 }
 
 /// What the log adds of a variant projecting the previous stage's `Position`.
@@ -563,6 +641,7 @@ pub unsafe extern "system" fn create_shaders_ext(
         },
         Vec::new,
     );
+    let plans = without_unusable_input_variants(plans, &modified);
     let unlink = linked_set.unlinks(plans.iter().any(Plan::makes_variant));
     if unlink {
         static UNLINKED: crate::logging::LogOnce = crate::logging::LogOnce::new();

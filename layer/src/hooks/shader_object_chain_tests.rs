@@ -1487,6 +1487,12 @@ const UNIT_W: &str = "#version 450
     layout(location = 0) in vec3 position;
     void main() { gl_Position = vec4(position, 1.0); }";
 
+/// A vertex shader handing its attribute on with w = 0.5: no projection of its own (no
+/// variant), and a later stage projecting its positions would not store the camera's line.
+const HALF_W: &str = "#version 450
+    layout(location = 0) in vec3 position;
+    void main() { gl_Position = vec4(position, 0.5); }";
+
 #[test]
 fn a_geometry_shader_object_projecting_gl_in_is_bound_only_after_a_vertex_shader_storing_w_one() {
     // Shader objects pair at draw time, so the variant of a geometry shader projecting the
@@ -1503,10 +1509,11 @@ fn a_geometry_shader_object_projecting_gl_in_is_bound_only_after_a_vertex_shader
     let geometry = vk::ShaderStageFlags::GEOMETRY;
     let compile =
         |source| crate::shader::test_spirv::compile_glsl(naga::ShaderStage::Vertex, source);
-    let (unit_w, projecting) = (compile(UNIT_W), compile(PROJECTING));
+    let (unit_w, projecting, half_w) = (compile(UNIT_W), compile(PROJECTING), compile(HALF_W));
     let (_, vertices) = fx.create(&[
         shader_info(VERTEX_STAGE, geometry, &unit_w),
         shader_info(VERTEX_STAGE, geometry, &projecting),
+        shader_info(VERTEX_STAGE, geometry, &half_w),
     ]);
     fx.events();
     assert_eq!(
@@ -1522,6 +1529,13 @@ fn a_geometry_shader_object_projecting_gl_in_is_bound_only_after_a_vertex_shader
         .position_shaders
         .get(&vertices[1])
         .is_some_and(|p| p.stores_unit_w()));
+    assert_eq!(
+        fx.state.objects.position_shaders.get(&vertices[2]),
+        Some(PositionShader::Flip {
+            stores_unit_w: false
+        }),
+        "a vertex shader storing vec4(p, 0.5): no variant, not marked"
+    );
     // glslang's geometry shader projecting gl_in[i].gl_Position with a matrix per invocation.
     let clip_input = crate::shader::test_spirv::words(include_bytes!(
         "../shader/test_data/geometry_clip_input.spv"
@@ -1574,8 +1588,90 @@ fn a_geometry_shader_object_projecting_gl_in_is_bound_only_after_a_vertex_shader
             bind(&[geometry], &[projecting_geometry]),
         ]
     );
+    // One storing w = 0.5 (no variant of its own): the same.
+    fx.bind(buffer, &[VERTEX_STAGE], &[vertices[0]]);
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds().last(),
+        Some(&bind(&[geometry], &[geometry_variant]))
+    );
+    fx.bind(buffer, &[VERTEX_STAGE], &[vertices[2]]);
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds(),
+        [
+            bind(&[VERTEX_STAGE], &[vertices[2]]),
+            bind(&[geometry], &[projecting_geometry]),
+        ]
+    );
+
+    // The pushed route (the carrier in its ranges, glslang's `ubo.geom` of the tester: the
+    // matrix in a uniform buffer) assumes w = 1 the same way.
+    let ubo_geometry =
+        crate::shader::test_spirv::words(include_bytes!("../../../shaders/glslang/ubo.geom.spv"));
+    // Its calls: revz's layout of the ranges (for pushing the carrier), the variant's, the
+    // application's.
+    let (result, handles) = fx.create(&[shader_info(geometry, FRAGMENT_STAGE, &ubo_geometry)]);
+    assert_eq!(result, vk::Result::SUCCESS);
+    let events = fx.events();
+    assert_eq!(events.len(), 3, "{events:#?}");
+    let own = match events[0] {
+        Event::CreatePipelineLayout { handle, .. } => handle,
+        ref other => panic!("revz's layout first: {other:?}"),
+    };
+    let pushed_variant = match fx.state.objects.position_shaders.get(&handles[0]) {
+        Some(PositionShader::Pushed {
+            variant,
+            projects_input: true,
+            ..
+        }) => variant,
+        other => panic!("a pushed variant projecting gl_in: {other:?}"),
+    };
+    fx.bind(
+        buffer,
+        &[VERTEX_STAGE, geometry],
+        &[vertices[0], handles[0]],
+    );
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds().last(),
+        Some(&bind(&[geometry], &[pushed_variant]))
+    );
+    fx.bind(buffer, &[VERTEX_STAGE], &[vertices[2]]);
+    fx.render(buffer, reversed, 1);
+    assert_eq!(
+        fx.shader_binds().last(),
+        Some(&bind(&[geometry], &[handles[0]]))
+    );
+
+    // Linked with the vertex shader before it, the pairing is known at creation: after one
+    // storing w = 0.5 the variant could never be bound, so none is made and the set keeps its
+    // link; after one storing w = 1 the set goes down unlinked with the variant.
+    for (vertex, variant) in [(&half_w, false), (&unit_w, true)] {
+        let infos = [
+            link(shader_info(VERTEX_STAGE, geometry, vertex)),
+            link(shader_info(geometry, FRAGMENT_STAGE, &clip_input)),
+        ];
+        let (result, handles) = fx.create(&infos);
+        assert_eq!(result, vk::Result::SUCCESS);
+        let events = fx.events();
+        assert_eq!(events.len(), if variant { 2 } else { 1 }, "{events:#?}");
+        let (_, app_infos, _, _) = app_creation(events.last().expect("the application's call"));
+        let linked = app_infos
+            .iter()
+            .all(|seen| seen.flags.contains(vk::ShaderCreateFlagsEXT::LINK_STAGE));
+        assert_eq!(linked, !variant, "the link kept where no variant is made");
+        assert_eq!(
+            fx.state
+                .objects
+                .position_shaders
+                .get(&handles[1])
+                .is_some_and(|p| p.variant().is_some()),
+            variant
+        );
+    }
     fx.free(buffer);
-    fx.finish();
+    fx.finish_with(&[Event::DestroyPipelineLayout { handle: own }]);
 }
 
 #[test]
