@@ -80,7 +80,8 @@
 //! A line is trusted alone when `b_error / |B| <= TRUSTED_B_ERROR` (see the constant). A line
 //! matching no camera starts one when its computed range is valid and either it is trusted or
 //! its direction is standard; a matching line becomes the camera's line when its relative error
-//! is smaller. Any line (a far object, B lost to rounding, even B = 0) is matched against the
+//! is smaller (in a table that pins ranges, [`Cameras::pinning_ranges`], a trusted camera keeps
+//! its range while its line improves). Any line (a far object, B lost to rounding, even B = 0) is matched against the
 //! known cameras first: the true (k, B) lies within the error bounds of both lines, so a line of
 //! the camera agrees with the camera's best line however large its own error.
 //!
