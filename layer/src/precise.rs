@@ -27,6 +27,7 @@
 //! Pure logic, no Vulkan calls: what must be pushed goes through a [`PushSink`].
 
 use std::mem::MaybeUninit;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use ash::vk;
 use revz_math::{
@@ -481,6 +482,51 @@ pub trait PushSink {
     );
 }
 
+/// The cameras recordings met since the device's last submission that their own tables (the
+/// device's cameras at their begin) did not hold, each with the range of the first trusted
+/// matrix any recording met of it: recordings of one frame on several threads (a depth
+/// pre-pass in one command buffer, the `EQUAL` pass in another) then pin the same range for a
+/// camera new in that frame, whichever order each meets its matrices in. Cleared at each
+/// submission, when the device's table learns the cameras' best lines (`hooks::cameras`). One
+/// lock per camera a recording meets first, for at most [`FIRST_SEEN_LOOKUPS`] cameras per
+/// recording.
+#[derive(Debug)]
+pub struct FirstSeen {
+    cameras: Mutex<Cameras>,
+}
+
+/// How many cameras a recording looks up in [`FirstSeen`]: a frame's cameras (a main view,
+/// shadow and reflection views) are far fewer; a recording meeting more (a new projection per
+/// draw) classifies the rest on its own, as before session 39, without a lock per push.
+pub const FIRST_SEEN_LOOKUPS: u8 = revz_math::MAX_CAMERAS as u8;
+
+impl Default for FirstSeen {
+    fn default() -> Self {
+        FirstSeen {
+            cameras: Mutex::new(Cameras::default().pinning_ranges()),
+        }
+    }
+}
+
+impl FirstSeen {
+    /// `cameras` (a recording's, which has no camera `line` agrees with) meets `line`: it takes
+    /// the camera another recording met first, or this line becomes the one later recordings
+    /// take. Where the shared camera's range is provisional (untrusted) and `line` is
+    /// trusted, `line`'s range replaces it for both.
+    fn meet(&self, cameras: &mut Cameras, line: DepthLine, convention: DepthConvention) {
+        let mut shared = self.cameras.lock().unwrap_or_else(PoisonError::into_inner);
+        if let CameraMatch::Camera { index, .. } = shared.observe_line(line, convention) {
+            cameras.adopt(&shared, index);
+        }
+    }
+
+    /// A submission: the device's table now holds what recordings met.
+    pub fn clear(&self) {
+        *self.cameras.lock().unwrap_or_else(PoisonError::into_inner) =
+            Cameras::default().pinning_ranges();
+    }
+}
+
 /// The push-constant state of one command buffer while it records: a shadow copy of the
 /// application's values (which go down untouched), and the cameras its projections belong to.
 #[derive(Clone, Debug)]
@@ -516,6 +562,9 @@ pub struct PushConstants {
     /// [`Self::keeps`] found no answer for the current values: the next
     /// [`Self::outcome`] (the full path of the same push) searches at once.
     search_next: bool,
+    /// The device's cameras first met since its last submission, where the recording shares
+    /// them ([`PushConstants::share_first_seen`]), and how many more it may look up.
+    first_seen: Option<(Arc<FirstSeen>, u8)>,
 }
 
 impl Default for PushConstants {
@@ -534,6 +583,7 @@ impl Default for PushConstants {
             matches: [0; revz_math::MAX_CAMERAS],
             search_next: false,
             uncounted: 0,
+            first_seen: None,
         }
     }
 }
@@ -642,6 +692,12 @@ impl PushConstants {
         }
     }
 
+    /// A camera this recording's table does not hold is looked up in `first_seen` first
+    /// ([`FirstSeen`]).
+    pub fn share_first_seen(&mut self, first_seen: Arc<FirstSeen>) {
+        self.first_seen = Some((first_seen, FIRST_SEEN_LOOKUPS));
+    }
+
     /// The cameras seen so far.
     pub fn cameras(&self) -> &Cameras {
         &self.cameras
@@ -701,6 +757,15 @@ impl PushConstants {
         let (outcome, camera) = match matched {
             Some(matched) => matched,
             None => {
+                if let (Some((first_seen, left)), Some(line)) = (&mut self.first_seen, line) {
+                    if *left > 0 && self.cameras.find(&line, use_.convention).is_none() {
+                        *left -= 1;
+                        first_seen.meet(&mut self.cameras, line, use_.convention);
+                        // The device learns it from this recording too.
+                        self.generation += 1;
+                        self.changed = true;
+                    }
+                }
                 let (outcome, changed, camera) =
                     classify_line(line, use_.convention, target, &mut self.cameras);
                 if changed.is_some() {
@@ -1057,6 +1122,75 @@ mod tests {
                     assert_eq!(ranges(push.cameras()), ranges(&reference), "step {step}");
                 }
             }
+        }
+    }
+
+    /// Two recordings of one frame meet a camera new to the device in opposite orders (a
+    /// pre-pass farthest first, a color pass nearest first): sharing [`FirstSeen`], both pin
+    /// the range of the first one's first matrix; alone, each pins its own, and they disagree.
+    #[test]
+    fn recordings_sharing_first_seen_pin_one_range_for_a_new_camera() {
+        let mvp = |camera: usize, distance: f64| -> [f32; 16] {
+            let view = look_at_mat4(DVec3::new(1.0, 2.0, 3.0), DVec3::ZERO, DVec3::Y);
+            let near = [0.1, 0.5][camera];
+            (vulkan::perspective(1.0, 1.5, near, 1000.0)
+                * view
+                * DMat4::from_translation(DVec3::new(0.3, -0.2, -distance)))
+            .as_mat4()
+            .to_cols_array()
+        };
+        let use_ = column_major_at(0);
+        let far_first = [400.0, 60.0, 3.0, 0.5];
+        let near_first = [0.5, 3.0, 60.0, 400.0];
+        for target in [RewriteTarget::Complementary, RewriteTarget::Infinite] {
+            let run = |matrices: &[[f32; 16]], shared: Option<&Arc<FirstSeen>>| -> Vec<Outcome> {
+                let mut push = PushConstants::default();
+                if let Some(shared) = shared {
+                    push.share_first_seen(Arc::clone(shared));
+                }
+                matrices
+                    .iter()
+                    .map(|values| {
+                        push.push(layout(), 0, &bytes_of(values));
+                        push.outcome(&use_, target).expect("classified")
+                    })
+                    .collect()
+            };
+            let of = |distances: &[f64]| -> Vec<[f32; 16]> {
+                distances.iter().map(|&d| mvp(0, d)).collect()
+            };
+            let same = |outcomes: &[Outcome]| outcomes.iter().all(|o| *o == outcomes[0]);
+            let alone = (run(&of(&far_first), None), run(&of(&near_first), None));
+            assert!(same(&alone.0) && same(&alone.1), "one range per recording");
+            assert_ne!(alone.0[0], alone.1[0], "each its own first matrix's");
+            let shared = Arc::new(FirstSeen::default());
+            let a = run(&of(&far_first), Some(&shared));
+            let b = run(&of(&near_first), Some(&shared));
+            assert_eq!(a[0], alone.0[0]);
+            assert!(a.iter().chain(&b).all(|o| *o == a[0]), "{a:?} {b:?}");
+            // After a submission the device's table holds the camera: a recording meeting it
+            // afresh pins its own first again.
+            shared.clear();
+            assert_eq!(run(&of(&near_first), Some(&shared))[0], alone.1[0]);
+            // A recording looks up at most FIRST_SEEN_LOOKUPS cameras: one meeting more (a
+            // new projection per draw) classifies the rest alone. Here the second camera comes
+            // after the lookups are spent, so the later recording does not take its range.
+            shared.clear();
+            let mut many: Vec<[f32; 16]> = Vec::new();
+            for index in 0..FIRST_SEEN_LOOKUPS {
+                let near = 0.01 * f64::from(index + 1);
+                let view = look_at_mat4(DVec3::new(1.0, 2.0, 3.0), DVec3::ZERO, DVec3::Y);
+                many.push(
+                    (vulkan::perspective(0.3, 1.0, near, 7.0) * view)
+                        .as_mat4()
+                        .to_cols_array(),
+                );
+            }
+            many.push(mvp(1, 400.0));
+            let spent = run(&many, Some(&shared));
+            let later = run(&[mvp(1, 0.5)], Some(&shared));
+            assert_eq!(later[0], run(&[mvp(1, 0.5)], None)[0]);
+            assert_ne!(later[0], spent[spent.len() - 1]);
         }
     }
 

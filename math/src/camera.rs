@@ -473,6 +473,24 @@ impl Cameras {
         }
     }
 
+    /// Takes camera `index` of `from` (its line, range and direction) into this table as its
+    /// most recently used camera, in place of the camera of this table its line agrees with
+    /// or in a free (else the least recently used) slot; returns the slot. `None` where
+    /// `from` has no such camera. Never allocates.
+    pub fn adopt(&mut self, from: &Cameras, index: usize) -> Option<usize> {
+        let entry = (*from.entries.get(index)?)?;
+        let slot = self
+            .matching(&entry.line, entry.convention)
+            .unwrap_or_else(|| self.free_slot());
+        self.clock = self.clock.wrapping_add(1);
+        let place = self.entries.get_mut(slot)?;
+        *place = Some(Entry {
+            last_used: self.clock,
+            ..entry
+        });
+        Some(slot)
+    }
+
     /// Marks camera `index` used now (as a match by [`Cameras::observe_line`] does), for a
     /// caller that knows a line matches it without searching.
     pub fn touch(&mut self, index: usize) {

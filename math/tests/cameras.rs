@@ -916,6 +916,83 @@ fn plain_matrix(lens: &Lens, distance: f64) -> DMat4 {
     )
 }
 
+/// A recording's table (`Cameras::pinning_ranges`): every matrix of a camera gets the range of
+/// the camera's first trusted line, whichever order the objects come in, while the table's line
+/// becomes the best one, which a merge into the device's (plain) table hands on with its range.
+#[test]
+fn a_pinning_table_keeps_the_first_trusted_range_and_learns_the_best_line() {
+    let lens = vulkan_lens(0.1, 1000.0);
+    let distances = [400.0, 3.0, 60.0, 0.5, 900.0];
+    let matrices: Vec<DMat4> = distances.iter().map(|&d| plain_matrix(&lens, d)).collect();
+    let mut pinned = Cameras::new().pinning_ranges();
+    let mut plain = Cameras::new();
+    let ranges: Vec<_> = matrices
+        .iter()
+        .map(|m| {
+            plain.observe(m, ZERO_TO_ONE);
+            match pinned.observe(m, ZERO_TO_ONE) {
+                CameraMatch::Camera { range, .. } => range,
+                other => panic!("a camera: {other:?}"),
+            }
+        })
+        .collect();
+    let first = DepthLine::of(&matrices[0]).expect("a line");
+    assert!(first.is_trusted());
+    assert!(ranges.iter().all(|r| *r == ranges[0]), "{ranges:?}");
+    // The range of the first line, not the best one.
+    let best = plain.camera(0).expect("a camera");
+    assert_ne!(ranges[0], best.0, "the first line is not the best here");
+    assert_eq!(
+        pinned.camera(0).expect("a camera").3,
+        best.3,
+        "the best line"
+    );
+    // The device's table, merging the recording's, gets the best range.
+    let mut device = Cameras::new();
+    assert!(device.merge(&pinned));
+    assert_eq!(device.camera(0).expect("a camera").0, best.0);
+    // A recording adopting the camera another met first gets that one's range, and keeps it.
+    let mut other = Cameras::new().pinning_ranges();
+    let slot = other.adopt(&pinned, 0).expect("adopted");
+    let CameraMatch::Camera { index, range, .. } = other.observe(&matrices[3], ZERO_TO_ONE) else {
+        panic!("a camera");
+    };
+    assert_eq!((index, range), (slot, ranges[0]));
+    assert_eq!(other.adopt(&pinned, MAX_CAMERAS), None);
+}
+
+/// An untrusted first line (B lost to rounding) is provisional even in a pinning table: the
+/// first trusted line replaces its range, and pins it from then on.
+#[test]
+fn a_pinning_table_replaces_a_provisional_range() {
+    let lens = vulkan_lens(0.01, 1.0e7);
+    let far = plain_matrix(&lens, 1.0e6 * 0.01 * 50.0);
+    let far_line = DepthLine::of(&far).expect("a line");
+    assert!(!far_line.is_trusted(), "{}", far_line.relative_b_error());
+    let mut pinned = Cameras::new().pinning_ranges();
+    let CameraMatch::Camera {
+        range: provisional, ..
+    } = pinned.observe(&far, ZERO_TO_ONE)
+    else {
+        panic!("a provisional camera");
+    };
+    let (near, nearer) = (plain_matrix(&lens, 5.0), plain_matrix(&lens, 0.1));
+    let CameraMatch::Camera { range: trusted, .. } = pinned.observe(&near, ZERO_TO_ONE) else {
+        panic!("the camera");
+    };
+    assert_ne!(provisional, trusted);
+    let CameraMatch::Camera {
+        range: kept,
+        changed,
+        ..
+    } = pinned.observe(&nearer, ZERO_TO_ONE)
+    else {
+        panic!("the camera");
+    };
+    assert!(changed, "a better line");
+    assert_eq!(kept, trusted, "pinned at the first trusted line");
+}
+
 #[test]
 fn merge_keeps_the_better_line_and_adds_unknown_cameras() {
     let lens = vulkan_lens(0.1, 1000.0);

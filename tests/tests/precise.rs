@@ -350,13 +350,14 @@ fn compare(
     })
 }
 
-/// [`compare`] for a scene recorded on several threads at once (`threads`): each recording
-/// starts a camera from its own first matrix of it and takes a better line from the device
-/// when another recording has shared one, so which of the camera's lines an object's draw got
-/// depends on timing. Each pixel is checked against the mapping of every range the layer can
-/// have used there (each trusted line's own, and the camera's in draw order) and passes when
-/// one holds.
-fn compare_any_camera_line(
+/// [`compare`] for a scene recorded on several threads at once (`threads`): the recordings of
+/// a frame share the range each camera new to the device was first met with
+/// (`revz::precise::FirstSeen`, session 39), so every draw stores depth on one line, but which
+/// object's matrix was met first depends on timing. The render holds where one of the ranges
+/// the layer can have pinned (each trusted line's own, and the camera's in draw order) holds
+/// at every interior pixel; the comparison of the range that fits best. (Before session 39
+/// each pixel was allowed its own: each recording pinned, or improved, the camera on its own.)
+fn compare_one_camera_line(
     render: &Render,
     truth: &GroundTruth,
     format: &str,
@@ -374,53 +375,15 @@ fn compare_any_camera_line(
     } else {
         Kind::Complementary
     };
-    let depth = render.depth();
-    let mut best = DepthComparison::default();
-    for (at, (&stored, &w)) in depth.iter().zip(&truth.w).enumerate() {
-        if !w.is_finite() {
-            continue;
-        }
-        let object = truth.object(truth.ids[at]);
-        let (ratio, reference, bound) = ranges
-            .iter()
-            .map(|&(near, far)| {
-                let mapping = Mapping::new(kind, near, far);
-                let reference = mapping.at(w);
-                let bound = depth_floor(
-                    mapping,
-                    reference,
-                    w,
-                    object.w_condition,
-                    format,
-                    truth.negative_one_to_one,
-                );
-                (
-                    (f64::from(stored) - reference).abs() / bound,
-                    reference,
-                    bound,
-                )
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .expect("at least the camera's range");
-        best.checked += 1;
-        // NaN (no number stored, or none to compare with) counts as a failure.
-        if ratio.is_nan() || ratio > 1.0 {
-            best.failures += 1;
-        }
-        let error = (f64::from(stored) - reference).abs();
-        best.worst_relative = best.worst_relative.max(error / reference.abs());
-        if ratio > best.worst_ratio || ratio.is_nan() {
-            best.worst_ratio = ratio;
-            best.worst = format!(
-                "pixel ({}, {}) on {}: w {w:.6}, depth {stored:e}, nearest reference \
-                 {reference:e}, bound {bound:.3e}",
-                at % truth.width,
-                at / truth.width,
-                object.name
-            );
-        }
-    }
-    best
+    ranges
+        .iter()
+        .map(|&(near, far)| compare(render, truth, format, |_| Mapping::new(kind, near, far)))
+        .min_by(|a, b| {
+            (a.failures, a.worst_ratio)
+                .partial_cmp(&(b.failures, b.worst_ratio))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .expect("at least the camera's range")
 }
 
 fn describe(what: &str, comparison: &DepthComparison) -> String {
@@ -508,7 +471,7 @@ fn precise_path(scene: &str, format: &str, cases: &[Case]) {
             ));
         }
         let comparison = if scene == "threads" {
-            compare_any_camera_line(&layered, &truth, format, case)
+            compare_one_camera_line(&layered, &truth, format, case)
         } else {
             compare(&layered, &truth, format, |o| case.mapping(o, &truth))
         };

@@ -360,6 +360,12 @@ impl CommandState {
         };
     }
 
+    /// The cameras this recording meets that the device's table lacks are looked up in
+    /// `first_seen`, which the device's other recordings share (`crate::precise::FirstSeen`).
+    pub fn share_first_seen(&mut self, first_seen: std::sync::Arc<crate::precise::FirstSeen>) {
+        self.push.share_first_seen(first_seen);
+    }
+
     /// The cameras this recording found or improved, if it did (the device learns them at
     /// the recording's end, for the recordings begun after it).
     pub fn take_changed_cameras(&mut self) -> Option<Cameras> {

@@ -26,6 +26,9 @@ pub struct DeviceCameras {
     learned: Mutex<Cameras>,
     pending: Mutex<Cameras>,
     has_pending: AtomicBool,
+    /// The cameras recordings met since the last submission that `learned` lacks, with the
+    /// range each was first met with (`crate::precise::FirstSeen`).
+    first_seen: std::sync::Arc<crate::precise::FirstSeen>,
 }
 
 impl DeviceCameras {
@@ -35,6 +38,11 @@ impl DeviceCameras {
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
             .clone()
+    }
+
+    /// What recordings share of the cameras they meet before the next submission.
+    pub fn first_seen(&self) -> std::sync::Arc<crate::precise::FirstSeen> {
+        std::sync::Arc::clone(&self.first_seen)
     }
 
     /// A recording ended having found or improved `cameras`.
@@ -57,6 +65,9 @@ impl DeviceCameras {
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
             .merge(&pending);
+        // The recordings begun from now on find those cameras in `learned`, with their best
+        // lines' ranges.
+        self.first_seen.clear();
     }
 }
 

@@ -100,6 +100,10 @@ pub unsafe extern "system" fn begin_command_buffer(
             None => revz_math::Cameras::default(),
         };
         state.begin(target, entry.device.reversing().reversal, cameras);
+        if entry.device.policy.rewrite().is_some() {
+            // Recordings of one frame pin one range for a camera new to the device.
+            state.share_first_seen(entry.device.cameras.first_seen());
+        }
         // Infinite mode: a secondary continuing a pass into an image whose camera revz
         // remembers starts from it (its flip-path state and clears), as the pass did.
         if let Some(image) = inheritance
