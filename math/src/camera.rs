@@ -81,9 +81,10 @@
 //! matching no camera starts one when its computed range is valid and either it is trusted or
 //! its direction is standard; a matching line becomes the camera's line when its relative error
 //! is smaller (in a table that pins ranges, [`Cameras::pinning_ranges`], a trusted camera keeps
-//! its range while its line improves). Any line (a far object, B lost to rounding, even B = 0) is matched against the
-//! known cameras first: the true (k, B) lies within the error bounds of both lines, so a line of
-//! the camera agrees with the camera's best line however large its own error.
+//! its range while its line improves). Any line (a far object, B lost to rounding, even B = 0)
+//! is matched against the known cameras first: the true (k, B) lies within the error bounds of
+//! both lines, so a line of the camera agrees with the camera's best line however large its own
+//! error.
 //!
 //! Why untrusted standard lines start (provisional) cameras: some applications push no matrix
 //! from which n can be had at all. `mars-patch` pushes one P * V built around a world origin
