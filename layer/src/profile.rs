@@ -701,7 +701,8 @@ struct FlipReason<'a> {
 
 /// What precise pipelines' draws that took the flip path have in common.
 const PER_DRAW_FLIPS: &str = "draws of precise pipelines sent to the flip path (a matrix \
-    revz cannot trust, a depth clamp enabled, viewports a secondary inherits)";
+    revz cannot trust, a depth clamp enabled, viewports a secondary inherits, a shader object \
+    projecting gl_in bound after one whose w = 1 is not shown)";
 
 /// The flip path's draws by reason, most draws first (the profile's `flip_reasons` and the
 /// summary's shares: what would help most). A reason whose pipelines drew nothing is kept,
