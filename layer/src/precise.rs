@@ -509,14 +509,23 @@ impl Default for FirstSeen {
 }
 
 impl FirstSeen {
-    /// `cameras` (a recording's, which has no camera `line` agrees with) meets `line`: it takes
-    /// the camera another recording met first, or this line becomes the one later recordings
-    /// take. Where the shared camera's range is provisional (untrusted) and `line` is
-    /// trusted, `line`'s range replaces it for both.
-    fn meet(&self, cameras: &mut Cameras, line: DepthLine, convention: DepthConvention) {
+    /// `cameras` (a recording's, which has no camera `line` agrees with, or only a provisional
+    /// one, in slot `provisional`) meets the trusted `line`: it takes the camera another
+    /// recording met first, or this line becomes the one later recordings take (a provisional
+    /// range there is replaced by it, as in any table). Whether `cameras` took one.
+    fn meet(
+        &self,
+        cameras: &mut Cameras,
+        provisional: Option<usize>,
+        line: DepthLine,
+        convention: DepthConvention,
+    ) -> bool {
         let mut shared = self.cameras.lock().unwrap_or_else(PoisonError::into_inner);
-        if let CameraMatch::Camera { index, .. } = shared.observe_line(line, convention) {
-            cameras.adopt(&shared, index);
+        match shared.observe_line(line, convention) {
+            CameraMatch::Camera { index, .. } => {
+                cameras.adopt(&shared, index, provisional).is_some()
+            }
+            _ => false,
         }
     }
 
@@ -757,13 +766,30 @@ impl PushConstants {
         let (outcome, camera) = match matched {
             Some(matched) => matched,
             None => {
+                // A trusted line of a camera this recording does not know, or knows only
+                // provisionally (untrusted lines pin nothing): the frame's recordings share the
+                // range it is first met with.
                 if let (Some((first_seen, left)), Some(line)) = (&mut self.first_seen, line) {
-                    if *left > 0 && self.cameras.find(&line, use_.convention).is_none() {
-                        *left -= 1;
-                        first_seen.meet(&mut self.cameras, line, use_.convention);
-                        // The device learns it from this recording too.
-                        self.generation += 1;
-                        self.changed = true;
+                    if *left > 0 && line.is_trusted() {
+                        let known = self.cameras.find(&line, use_.convention);
+                        let provisional = known.filter(|&index| {
+                            self.cameras
+                                .camera(index)
+                                .is_some_and(|(.., camera_line)| !camera_line.is_trusted())
+                        });
+                        if (known.is_none() || provisional.is_some())
+                            && first_seen.meet(
+                                &mut self.cameras,
+                                provisional,
+                                line,
+                                use_.convention,
+                            )
+                        {
+                            *left -= 1;
+                            // The device learns it from this recording too.
+                            self.generation += 1;
+                            self.changed = true;
+                        }
                     }
                 }
                 let (outcome, changed, camera) =
@@ -1020,6 +1046,9 @@ impl PushConstants {
             generation: self.generation,
             changed: self.changed,
             matches: self.matches,
+            // Still one of the device's recordings (found in review: a primary that executed a
+            // secondary classified the cameras it met after alone).
+            first_seen: self.first_seen.take(),
             ..PushConstants::with_cameras(std::mem::take(&mut self.cameras))
         };
     }
@@ -1192,6 +1221,124 @@ mod tests {
             assert_eq!(later[0], run(&[mvp(1, 0.5)], None)[0]);
             assert_ne!(later[0], spent[spent.len() - 1]);
         }
+    }
+
+    /// A matrix of (near, far), its object at `distance` and `x`.
+    fn object_mvp(near: f64, far: f64, distance: f64, x: f64) -> [f32; 16] {
+        let view = look_at_mat4(DVec3::new(1.0, 2.0, 3.0), DVec3::ZERO, DVec3::Y);
+        (vulkan::perspective(1.0, 1.5, near, far)
+            * view
+            * DMat4::from_translation(DVec3::new(x, -0.2, -distance)))
+        .as_mat4()
+        .to_cols_array()
+    }
+
+    /// The outcomes of `push` classifying each matrix in turn (complementary).
+    fn classified(push: &mut PushConstants, matrices: &[[f32; 16]]) -> Vec<Outcome> {
+        matrices
+            .iter()
+            .map(|values| {
+                push.push(layout(), 0, &bytes_of(values));
+                push.outcome(&column_major_at(0), RewriteTarget::Complementary)
+                    .expect("classified")
+            })
+            .collect()
+    }
+
+    fn sharing(first_seen: &Arc<FirstSeen>) -> PushConstants {
+        let mut push = PushConstants::default();
+        push.share_first_seen(Arc::clone(first_seen));
+        push
+    }
+
+    /// Found in review: a camera a recording first met through an untrusted line (B lost to
+    /// rounding) kept the first trusted range it met to itself, and the other recordings pinned
+    /// their own. Now a trusted line of a camera known only provisionally is shared too.
+    #[test]
+    fn a_camera_first_met_untrusted_shares_its_first_trusted_range() {
+        let (near, far) = (0.01, 1.0e7);
+        let provisional = (0..200)
+            .map(|i| 4.0e3 * 1.05f64.powi(i))
+            .find(|&d| {
+                let line =
+                    DepthLine::of_stored(&object_mvp(near, far, d, 0.3), Storage::ColumnMajor)
+                        .expect("a line");
+                !line.is_trusted()
+                    && matches!(
+                        Cameras::new().observe_line(line, DepthConvention::ZeroToOne),
+                        CameraMatch::Camera { .. }
+                    )
+            })
+            .expect("a distance with a provisional line");
+        let far_first: Vec<[f32; 16]> = [provisional, 3000.0, 30.0, 0.5]
+            .iter()
+            .map(|&d| object_mvp(near, far, d, 0.3))
+            .collect();
+        let near_first: Vec<[f32; 16]> = far_first.iter().rev().copied().collect();
+        let shared = Arc::new(FirstSeen::default());
+        let a = classified(&mut sharing(&shared), &far_first);
+        let b = classified(&mut sharing(&shared), &near_first);
+        // The object at 3000: A's first trusted line, which B takes.
+        assert_eq!(a[1], b[2], "{a:?} {b:?}");
+        assert!(
+            a[1..].iter().all(|o| *o == a[1]),
+            "one line once trusted: {a:?}"
+        );
+    }
+
+    /// Found in review: lines that give no range (B lost entirely) spent the lookups, so a
+    /// far-to-near pre-pass with eight such objects first classified its camera alone.
+    #[test]
+    fn untrusted_lines_spend_no_lookups() {
+        let (near, far) = (0.001, 1.0e7);
+        let lost: Vec<[f32; 16]> = (0..400)
+            .map(|i| {
+                object_mvp(
+                    near,
+                    far,
+                    100.0 * 1.03f64.powi(i),
+                    0.3 + f64::from(i) * 1e-3,
+                )
+            })
+            .filter(|m| {
+                let line = DepthLine::of_stored(m, Storage::ColumnMajor).expect("a line");
+                matches!(
+                    Cameras::new().observe_line(line, DepthConvention::ZeroToOne),
+                    CameraMatch::Untrusted
+                )
+            })
+            .take(usize::from(FIRST_SEEN_LOOKUPS))
+            .collect();
+        assert_eq!(lost.len(), usize::from(FIRST_SEEN_LOOKUPS));
+        let shared = Arc::new(FirstSeen::default());
+        let mut a = sharing(&shared);
+        classified(&mut a, &lost);
+        let a = classified(&mut a, &[object_mvp(near, far, 50.0, 0.3)]);
+        let b = classified(
+            &mut sharing(&shared),
+            &[
+                object_mvp(near, far, 0.5, 0.3),
+                object_mvp(near, far, 50.0, 0.3),
+            ],
+        );
+        assert_eq!(a[0], b[1]);
+    }
+
+    /// Found in review: `vkCmdExecuteCommands` (which invalidates the push constants) dropped
+    /// the shared table, so a primary classified the cameras it met after it alone.
+    #[test]
+    fn a_primary_keeps_sharing_after_executing_secondaries() {
+        let (near, far) = (0.1, 1000.0);
+        let far_first: Vec<[f32; 16]> = [400.0, 60.0, 0.5]
+            .iter()
+            .map(|&d| object_mvp(near, far, d, 0.3))
+            .collect();
+        let shared = Arc::new(FirstSeen::default());
+        let a = classified(&mut sharing(&shared), &far_first);
+        let mut b = sharing(&shared);
+        b.invalidate();
+        let b = classified(&mut b, &far_first[2..]);
+        assert_eq!(a[2], b[0]);
     }
 
     #[test]

@@ -475,14 +475,12 @@ impl Cameras {
     }
 
     /// Takes camera `index` of `from` (its line, range and direction) into this table as its
-    /// most recently used camera, in place of the camera of this table its line agrees with
-    /// or in a free (else the least recently used) slot; returns the slot. `None` where
-    /// `from` has no such camera. Never allocates.
-    pub fn adopt(&mut self, from: &Cameras, index: usize) -> Option<usize> {
+    /// most recently used camera, in slot `into` (a camera of this table it replaces) or in a
+    /// free (else the least recently used) slot; returns the slot. `None` where `from` has no
+    /// such camera or `into` is no slot. Never allocates.
+    pub fn adopt(&mut self, from: &Cameras, index: usize, into: Option<usize>) -> Option<usize> {
         let entry = (*from.entries.get(index)?)?;
-        let slot = self
-            .matching(&entry.line, entry.convention)
-            .unwrap_or_else(|| self.free_slot());
+        let slot = into.unwrap_or_else(|| self.free_slot());
         self.clock = self.clock.wrapping_add(1);
         let place = self.entries.get_mut(slot)?;
         *place = Some(Entry {

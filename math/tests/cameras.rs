@@ -953,12 +953,13 @@ fn a_pinning_table_keeps_the_first_trusted_range_and_learns_the_best_line() {
     assert_eq!(device.camera(0).expect("a camera").0, best.0);
     // A recording adopting the camera another met first gets that one's range, and keeps it.
     let mut other = Cameras::new().pinning_ranges();
-    let slot = other.adopt(&pinned, 0).expect("adopted");
+    let slot = other.adopt(&pinned, 0, None).expect("adopted");
     let CameraMatch::Camera { index, range, .. } = other.observe(&matrices[3], ZERO_TO_ONE) else {
         panic!("a camera");
     };
     assert_eq!((index, range), (slot, ranges[0]));
-    assert_eq!(other.adopt(&pinned, MAX_CAMERAS), None);
+    assert_eq!(other.adopt(&pinned, MAX_CAMERAS, None), None);
+    assert_eq!(other.adopt(&pinned, 0, Some(MAX_CAMERAS)), None);
 }
 
 /// An untrusted first line (B lost to rounding) is provisional even in a pinning table: the

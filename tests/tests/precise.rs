@@ -778,6 +778,29 @@ fn stores_the_cameras_n_over_w(scene: &str, decades: &[f64]) {
         truth.near
     );
     let last = ranges.last().expect("objects").0;
+    // The pinned n is the camera's first trusted line's: within that line's bound of B's
+    // relative error (and so of n's, to 8u) of the scene's.
+    let first_trusted = truth
+        .objects
+        .iter()
+        .filter_map(|object| {
+            let m = read_clip_transform(&object.pushed_projection, Storage::ColumnMajor);
+            DepthLine::of(&m).filter(DepthLine::is_trusted)
+        })
+        .next()
+        .expect("a trusted line");
+    let pinned_error = (last / truth.near - 1.0).abs();
+    assert!(
+        pinned_error <= first_trusted.relative_b_error() + 1e-6,
+        "{scene}: the pinned n {last} is {pinned_error:e} off the scene's {}, beyond its first \
+         trusted line's bound {:e}",
+        truth.near,
+        first_trusted.relative_b_error()
+    );
+    eprintln!(
+        "{scene}: pinned n {pinned_error:.2e} off the scene's (bound {:.2e})",
+        first_trusted.relative_b_error()
+    );
     let spread = ranges
         .iter()
         .map(|&(n, _)| (n / last - 1.0).abs())
